@@ -1,0 +1,139 @@
+/* photongi estimators: the one interface every density-estimation method
+ * implements (DESIGN.md §4), and the data they read.
+ *
+ * An estimator turns a photon map (pgi_photons) into indirect radiance at every
+ * view sample (pgi_view_samples). Lifecycle:
+ *
+ *   pgi_estimator *e;
+ *   pgi_estimator_create("hashgrid", &(pgi_estimator_desc){.radius = 0.05f}, &e);
+ *   pgi_estimate_args a = {.photons = &ph, .samples = &vs, .camera = &cam, .out_rgb = buf};
+ *   pgi_estimator_build(e, &a);      // per frame: acceleration structures
+ *   pgi_estimator_estimate(e, &a);   // writes 3 floats per view sample
+ *   pgi_estimator_stats st; pgi_estimator_get_stats(e, &st);
+ *   pgi_estimator_destroy(e);
+ *
+ * The arrays in pgi_photons / pgi_view_samples are borrowed for the duration
+ * of build + estimate. All exact estimators agree with "brute" up to float
+ * summation order (constant kernel, fixed radius).
+ */
+#ifndef PHOTONGI_ESTIMATOR_H
+#define PHOTONGI_ESTIMATOR_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "photongi/status.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Photon map, structure of arrays. Direction (dx,dy,dz) is the unit vector
+ * pointing back the way the photon came (ω_p, away from the surface). */
+typedef struct pgi_photons {
+    size_t count, capacity;
+    float *px, *py, *pz;     /* position */
+    float *dx, *dy, *dz;     /* incoming direction, pointing away from the surface */
+    float *fr, *fg, *fb;     /* flux (W), already divided by the paths emitted */
+    float *nx, *ny, *nz;     /* geometric normal where it was stored */
+    uint64_t emitted;        /* light paths emitted to produce them */
+} pgi_photons;
+
+/* Pinhole camera, world space. */
+typedef struct pgi_camera {
+    float eye[3];
+    float forward[3], right[3], up[3];  /* orthonormal, right-handed view basis */
+    float tan_half_fov_y;               /* tan(fov_y/2) */
+    float aspect;                       /* width / height */
+    int width, height;
+} pgi_camera;
+
+enum {
+    PGI_VS_VALID = 1,      /* hit a non-specular surface (else: sky or lost) */
+    PGI_VS_PRIMARY = 2,    /* reached directly by the primary ray (no mirror/glass on the way) */
+    PGI_VS_LAMBERT = 4     /* material is purely Lambertian (ks = 0) */
+};
+
+/* View samples (G-buffer): one per pixel, index y*width + x, one plane per
+ * attribute (3 floats a sample for the vector ones). */
+typedef struct pgi_view_samples {
+    int width, height;
+    size_t count;            /* width * height */
+    float *pos;              /* world position of the first non-specular eye hit */
+    float *nrm;              /* shading normal, on the side the eye path arrives from */
+    float *wo;               /* unit direction towards where the eye path came from */
+    float *kd;               /* diffuse albedo (texture applied), linear RGB */
+    float *ks;               /* Blinn-Phong F0; 0 for Lambertian */
+    float *shininess;        /* Blinn-Phong exponent s */
+    float *weight;           /* throughput of the specular chain from the eye (1 if primary) */
+    float *depth;            /* view-space depth (along camera forward) of the primary hit */
+    uint8_t *flags;          /* PGI_VS_* */
+} pgi_view_samples;
+
+typedef struct pgi_estimator_desc {
+    float radius;        /* fixed photon radius (> 0) */
+    int tile_size;       /* "tiled": tile edge in pixels; default 32 */
+    float cell_size;     /* "hashgrid": cell edge; default 2 * radius */
+    int threads;         /* 0 = OpenMP default */
+} pgi_estimator_desc;
+
+typedef struct pgi_estimate_args {
+    const pgi_photons *photons;
+    const pgi_view_samples *samples;
+    const pgi_camera *camera;
+    float *out_rgb;      /* estimate: 3 floats a view sample, indirect radiance (weight not applied) */
+} pgi_estimate_args;
+
+#define PGI_EST_MAX_ENTRIES 8
+
+typedef struct pgi_estimator_stats {
+    double build_ms, estimate_ms;
+    const char *pass_names[PGI_EST_MAX_ENTRIES];
+    double pass_ms[PGI_EST_MAX_ENTRIES];
+    int pass_count;
+    const char *memory_names[PGI_EST_MAX_ENTRIES];
+    size_t memory_bytes[PGI_EST_MAX_ENTRIES];
+    int memory_count;
+    uint64_t reads, contributing, nodes_visited;
+} pgi_estimator_stats;
+
+/* One method: a const table of function pointers, dispatched once per pass. */
+typedef struct pgi_estimator_vtbl {
+    const char *name;
+    const char *summary;
+    int exact;   /* equals brute for a constant kernel and fixed radius */
+    pgi_status (*create)(const pgi_estimator_desc *desc, void **state);
+    pgi_status (*build)(void *state, const pgi_estimate_args *args);
+    pgi_status (*estimate)(void *state, const pgi_estimate_args *args);
+    void (*stats)(const void *state, pgi_estimator_stats *out);
+    void (*destroy)(void *state);
+} pgi_estimator_vtbl;
+
+size_t pgi_estimator_count(void);
+const pgi_estimator_vtbl *pgi_estimator_at(size_t i);
+/* NULL if no estimator has that name. */
+const pgi_estimator_vtbl *pgi_estimator_find(const char *name);
+
+typedef struct pgi_estimator pgi_estimator;
+/* Unknown name: PGI_ERR_INVALID_ARG. radius <= 0 or not finite: PGI_ERR_INVALID_ARG. */
+pgi_status pgi_estimator_create(const char *name, const pgi_estimator_desc *desc, pgi_estimator **out);
+pgi_status pgi_estimator_build(pgi_estimator *e, const pgi_estimate_args *args);
+pgi_status pgi_estimator_estimate(pgi_estimator *e, const pgi_estimate_args *args);
+void pgi_estimator_get_stats(const pgi_estimator *e, pgi_estimator_stats *out);
+const char *pgi_estimator_name(const pgi_estimator *e);
+void pgi_estimator_destroy(pgi_estimator *e);
+
+/* Photon and view-sample buffers owned by the caller of these helpers. */
+pgi_status pgi_photons_alloc(pgi_photons *ph, size_t capacity);
+void pgi_photons_free(pgi_photons *ph);
+pgi_status pgi_view_samples_alloc(pgi_view_samples *vs, int width, int height);
+void pgi_view_samples_free(pgi_view_samples *vs);
+/* Builds a pinhole camera from a look-at description. */
+void pgi_camera_look_at(pgi_camera *cam, const float eye[3], const float look_at[3],
+                        const float up[3], float fov_y_deg, int width, int height);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif

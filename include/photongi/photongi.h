@@ -1,0 +1,167 @@
+/* photongi: interactive global illumination by photon mapping.
+ *
+ * One frame: primary rays give view samples (a G-buffer); photons are traced
+ * from the lights (Russian roulette, stored from the second hit on); an
+ * estimator turns photons into indirect radiance at every view sample; direct
+ * light comes from shadow rays; the sum is tone-mapped and written.
+ *
+ *   pgi_scene *scene;
+ *   if (pgi_scene_load("cornell", &scene) != PGI_OK) puts(pgi_last_error());
+ *   pgi_render_desc d = {.estimator = "tiled", .photons = 200000};
+ *   pgi_image img = {0};
+ *   pgi_frame_stats st;
+ *   pgi_render(scene, &d, &img, &st);
+ *   pgi_image_write(&img, "out.png", 1.0f);
+ *   pgi_image_free(&img);
+ *   pgi_scene_destroy(scene);
+ *
+ * Errors: every fallible call returns a pgi_status; the detailed message of
+ * the last failure on the calling thread is pgi_last_error(). The library
+ * never exits the process. Whoever creates an object destroys it.
+ */
+#ifndef PHOTONGI_H
+#define PHOTONGI_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "photongi/status.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define PGI_VERSION_STRING "0.1.0"
+
+const char *pgi_version(void);
+
+/* ------------------------------------------------------------------ scene */
+
+typedef struct pgi_scene pgi_scene;
+
+typedef struct pgi_camera_def {
+    float eye[3], look_at[3], up[3];
+    float fov_y_deg;                 /* vertical field of view, degrees */
+} pgi_camera_def;
+
+/* Defaults a scene description suggests for rendering it (0 = none given). */
+typedef struct pgi_scene_defaults {
+    uint32_t photons;
+    float radius;
+    int bounces;
+    int width, height;
+    float exposure;
+} pgi_scene_defaults;
+
+typedef struct pgi_scene_info {
+    const char *name;     /* "cornell", or the description/mesh file name */
+    const char *source;   /* "built-in" or the file that was loaded */
+    size_t triangles, vertices, materials, textures;
+    size_t lights;        /* all emitters; emissive triangles count one each */
+    size_t point_lights, spot_lights, sun_lights, area_triangles;
+    float bounds_min[3], bounds_max[3];
+    size_t cameras;
+    pgi_camera_def camera; /* camera 0 */
+    pgi_scene_defaults defaults;
+} pgi_scene_info;
+
+/* Loads a scene. `spec` is a built-in name ("cornell", "giref",
+ * "sphere-and-plane"), a scene description (.json), a scene name with a
+ * description in ./scenes/<name>.json, or a mesh file Assimp reads (OBJ/MTL,
+ * glTF, PLY). Mesh paths in a description resolve against the description's
+ * folder, then against $PHOTONGI_SCENES (default ../shared/scenes). */
+pgi_status pgi_scene_load(const char *spec, pgi_scene **out);
+void pgi_scene_destroy(pgi_scene *scene);
+void pgi_scene_get_info(const pgi_scene *scene, pgi_scene_info *out);
+size_t pgi_builtin_scene_count(void);
+const char *pgi_builtin_scene_name(size_t i);
+
+/* ----------------------------------------------------------------- render */
+
+typedef enum pgi_output {
+    PGI_OUTPUT_ALL = 0,       /* emission + direct + indirect */
+    PGI_OUTPUT_INDIRECT = 1,  /* the estimator's indirect radiance only */
+    PGI_OUTPUT_DIRECT = 2     /* emission + direct only */
+} pgi_output;
+
+/* Zero means "default" for every field. */
+typedef struct pgi_render_desc {
+    const char *estimator;   /* registered name; default "tiled" */
+    uint32_t photons;        /* photons to store; default scene's or 200000 */
+    float radius;            /* photon radius in scene units; default scene's or 2% of the diagonal */
+    int width, height;       /* default scene's or 640x480 */
+    int bounces;             /* max photon bounces; default 4 */
+    uint64_t seed;           /* default 1 */
+    int threads;             /* OpenMP threads; 0 = all */
+    int camera;              /* index into the scene's cameras */
+    int tile_size;           /* tiled estimator tile edge in pixels; default 32 */
+    int direct_samples;      /* shadow samples per pixel for area lights; default 8 */
+    pgi_output output;
+    int radius_set;          /* non-zero: `radius` was given explicitly (0 or less is then an error) */
+    int photons_set;         /* non-zero: `photons` was given explicitly (0 is then an error) */
+} pgi_render_desc;
+
+/* Linear RGB radiance, row-major from the top-left, 3 floats a pixel. */
+typedef struct pgi_image {
+    int width, height;
+    float *rgb;
+} pgi_image;
+
+#define PGI_MAX_STAT_ENTRIES 8
+
+typedef struct pgi_named_value {
+    const char *name;
+    double value;
+} pgi_named_value;
+
+typedef struct pgi_frame_stats {
+    const char *estimator;
+    int width, height, threads;
+    uint64_t photons_emitted;        /* light paths emitted */
+    uint64_t photons_stored;
+    uint64_t photon_rays;            /* rays cast while tracing photons */
+    uint64_t primary_rays, shadow_rays;
+    float radius;
+    /* wall-clock milliseconds */
+    double view_ms, trace_ms, build_ms, estimate_ms, direct_ms, total_ms;
+    /* estimator sub-passes (e.g. tiled: bounds, count, scan, copy, gather) */
+    pgi_named_value passes_ms[PGI_MAX_STAT_ENTRIES];
+    int pass_count;
+    /* bytes per structure (photons, view samples, estimator structures) */
+    pgi_named_value memory_bytes[PGI_MAX_STAT_ENTRIES];
+    int memory_count;
+    uint64_t reads;          /* photon reads by the estimator */
+    uint64_t contributing;   /* reads that passed the sphere + hemisphere test */
+    uint64_t nodes_visited;  /* cells / tiles / nodes touched */
+} pgi_frame_stats;
+
+/* Renders one frame. `out` receives a new image (free with pgi_image_free);
+ * `stats` may be NULL. */
+pgi_status pgi_render(const pgi_scene *scene, const pgi_render_desc *desc,
+                      pgi_image *out, pgi_frame_stats *stats);
+
+typedef struct pgi_renderer pgi_renderer;
+/* A renderer keeps the ray-tracing scene and per-frame buffers between frames
+ * (the viewer and the benchmark render many frames). The scene is borrowed
+ * and must outlive the renderer. */
+pgi_status pgi_renderer_create(const pgi_scene *scene, pgi_renderer **out);
+pgi_status pgi_renderer_render(pgi_renderer *r, const pgi_render_desc *desc,
+                               pgi_image *out, pgi_frame_stats *stats);
+void pgi_renderer_destroy(pgi_renderer *r);
+
+void pgi_image_free(pgi_image *img);
+/* Writes PNG (tone-mapped: exposure, then sRGB) or EXR (linear float),
+ * chosen by the file extension. */
+pgi_status pgi_image_write(const pgi_image *img, const char *path, float exposure);
+/* Tone maps to 8-bit sRGB (3 bytes a pixel, caller-owned buffer). */
+void pgi_tonemap_srgb8(const pgi_image *img, float exposure, unsigned char *out);
+/* Writes the frame statistics as JSON. */
+pgi_status pgi_stats_write_json(const pgi_frame_stats *stats, const char *path);
+
+#ifdef __cplusplus
+}
+#endif
+
+#include "photongi/estimator.h"
+
+#endif

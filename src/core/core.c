@@ -1,0 +1,54 @@
+#include "core.h"
+
+#include <stdarg.h>
+#include <stdio.h>
+#include <string.h>
+#include <time.h>
+
+static _Thread_local char g_last_error[1024];
+
+pgi_status pgi__fail(pgi_status s, const char *fmt, ...) {
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(g_last_error, sizeof g_last_error, fmt, ap);
+    va_end(ap);
+    return s;
+}
+
+void pgi__clear_error(void) { g_last_error[0] = 0; }
+
+const char *pgi_last_error(void) { return g_last_error; }
+
+const char *pgi_status_string(pgi_status s) {
+    switch (s) {
+    case PGI_OK: return "ok";
+    case PGI_ERR_INVALID_ARG: return "invalid argument";
+    case PGI_ERR_IO: return "i/o error";
+    case PGI_ERR_PARSE: return "parse error";
+    case PGI_ERR_OOM: return "out of memory";
+    case PGI_ERR_UNSUPPORTED: return "unsupported";
+    case PGI_ERR_INTERNAL: return "internal error";
+    }
+    return "unknown status";
+}
+
+const char *pgi_version(void) { return PGI_VERSION_STRING; }
+
+void pgi__assert_fail(const char *expr, const char *file, int line) {
+    fprintf(stderr, "photongi: internal invariant failed: %s (%s:%d)\n", expr, file, line);
+    abort();
+}
+
+double pgi__now_ms(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6;
+}
+
+void *pgi__aalloc(size_t bytes) {
+    if (bytes == 0) bytes = 64;
+    bytes = (bytes + 63) & ~(size_t)63;
+    return aligned_alloc(64, bytes);
+}
+
+void pgi__afree(void *p) { free(p); }

@@ -1,0 +1,121 @@
+/* Internal core: status + last error, small vector math, RNG, timers.
+ * Every module includes this; nothing here is public API. */
+#ifndef PGI_CORE_H
+#define PGI_CORE_H
+
+#include <math.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdlib.h>
+
+#include "photongi/photongi.h"
+
+#define PGI_PI 3.14159265358979323846f
+#define PGI_INV_PI 0.31830988618379067154f
+
+/* Records a formatted message as this thread's last error and returns `s`,
+ * so that `return pgi__fail(PGI_ERR_IO, "%s: cannot open", path);` reads well. */
+pgi_status pgi__fail(pgi_status s, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 2, 3)))
+#endif
+    ;
+void pgi__clear_error(void);
+
+/* Always-on invariant check (never for user input). */
+#define PGI_ASSERT(c)                                                          \
+    do {                                                                       \
+        if (!(c)) pgi__assert_fail(#c, __FILE__, __LINE__);                    \
+    } while (0)
+void pgi__assert_fail(const char *expr, const char *file, int line);
+
+double pgi__now_ms(void);
+
+/* Aligned allocation for hot arrays (64 bytes); free with pgi__afree. */
+void *pgi__aalloc(size_t bytes);
+void pgi__afree(void *p);
+
+/* ---------------------------------------------------------------- vectors */
+typedef struct { float x, y, z; } pgi_v3;
+
+static inline pgi_v3 v3(float x, float y, float z) { pgi_v3 r = {x, y, z}; return r; }
+static inline pgi_v3 v3_load(const float *p) { return v3(p[0], p[1], p[2]); }
+static inline void v3_store(float *p, pgi_v3 a) { p[0] = a.x; p[1] = a.y; p[2] = a.z; }
+static inline pgi_v3 v3_add(pgi_v3 a, pgi_v3 b) { return v3(a.x + b.x, a.y + b.y, a.z + b.z); }
+static inline pgi_v3 v3_sub(pgi_v3 a, pgi_v3 b) { return v3(a.x - b.x, a.y - b.y, a.z - b.z); }
+static inline pgi_v3 v3_mul(pgi_v3 a, pgi_v3 b) { return v3(a.x * b.x, a.y * b.y, a.z * b.z); }
+static inline pgi_v3 v3_scale(pgi_v3 a, float s) { return v3(a.x * s, a.y * s, a.z * s); }
+static inline pgi_v3 v3_madd(pgi_v3 a, pgi_v3 b, float s) { return v3(a.x + b.x * s, a.y + b.y * s, a.z + b.z * s); }
+static inline float v3_dot(pgi_v3 a, pgi_v3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+static inline pgi_v3 v3_cross(pgi_v3 a, pgi_v3 b) {
+    return v3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+}
+static inline float v3_len(pgi_v3 a) { return sqrtf(v3_dot(a, a)); }
+static inline pgi_v3 v3_norm(pgi_v3 a) {
+    float l = v3_len(a);
+    return l > 0.f ? v3_scale(a, 1.f / l) : v3(0.f, 0.f, 1.f);
+}
+static inline pgi_v3 v3_neg(pgi_v3 a) { return v3(-a.x, -a.y, -a.z); }
+static inline float v3_maxc(pgi_v3 a) { return fmaxf(a.x, fmaxf(a.y, a.z)); }
+static inline float v3_lum(pgi_v3 a) { return 0.2126f * a.x + 0.7152f * a.y + 0.0722f * a.z; }
+static inline pgi_v3 v3_min(pgi_v3 a, pgi_v3 b) { return v3(fminf(a.x, b.x), fminf(a.y, b.y), fminf(a.z, b.z)); }
+static inline pgi_v3 v3_max(pgi_v3 a, pgi_v3 b) { return v3(fmaxf(a.x, b.x), fmaxf(a.y, b.y), fmaxf(a.z, b.z)); }
+static inline int v3_finite(pgi_v3 a) { return isfinite(a.x) && isfinite(a.y) && isfinite(a.z); }
+
+/* Orthonormal basis around unit n (Duff et al. 2017). */
+static inline void v3_basis(pgi_v3 n, pgi_v3 *t, pgi_v3 *b) {
+    float sign = copysignf(1.f, n.z);
+    float a = -1.f / (sign + n.z);
+    float bb = n.x * n.y * a;
+    *t = v3(1.f + sign * n.x * n.x * a, sign * bb, -sign * n.x);
+    *b = v3(bb, sign + n.y * n.y * a, -n.y);
+}
+
+/* -------------------------------------------------------------------- RNG */
+/* PCG32 (O'Neill). One stream per photon path / pixel: seeded from
+ * (seed, index) so results do not depend on the thread count. */
+typedef struct { uint64_t state, inc; } pgi_rng;
+
+static inline uint64_t pgi__mix64(uint64_t z) {
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+    return z ^ (z >> 31);
+}
+static inline uint32_t pgi_rng_u32(pgi_rng *r) {
+    uint64_t old = r->state;
+    r->state = old * 6364136223846793005ULL + r->inc;
+    uint32_t xs = (uint32_t)(((old >> 18u) ^ old) >> 27u);
+    uint32_t rot = (uint32_t)(old >> 59u);
+    return (xs >> rot) | (xs << ((-rot) & 31));
+}
+static inline void pgi_rng_seed(pgi_rng *r, uint64_t seed, uint64_t stream) {
+    r->state = 0u;
+    r->inc = (pgi__mix64(stream ^ 0x9e3779b97f4a7c15ULL) << 1u) | 1u;
+    pgi_rng_u32(r);
+    r->state += pgi__mix64(seed + 0x632be59bd9b4e019ULL);
+    pgi_rng_u32(r);
+}
+/* Uniform in [0, 1). */
+static inline float pgi_rng_f(pgi_rng *r) { return (float)(pgi_rng_u32(r) >> 8) * (1.f / 16777216.f); }
+
+/* --------------------------------------------------------------- sampling */
+static inline pgi_v3 pgi_sample_cosine(float u1, float u2) {
+    float r = sqrtf(u1), phi = 2.f * PGI_PI * u2;
+    return v3(r * cosf(phi), r * sinf(phi), sqrtf(fmaxf(0.f, 1.f - u1)));
+}
+static inline pgi_v3 pgi_sample_sphere(float u1, float u2) {
+    float z = 1.f - 2.f * u1, r = sqrtf(fmaxf(0.f, 1.f - z * z)), phi = 2.f * PGI_PI * u2;
+    return v3(r * cosf(phi), r * sinf(phi), z);
+}
+/* Uniform direction in the cone around +z with cos(theta) >= cos_max. */
+static inline pgi_v3 pgi_sample_cone(float u1, float u2, float cos_max) {
+    float z = 1.f - u1 * (1.f - cos_max), r = sqrtf(fmaxf(0.f, 1.f - z * z)), phi = 2.f * PGI_PI * u2;
+    return v3(r * cosf(phi), r * sinf(phi), z);
+}
+static inline pgi_v3 pgi_to_world(pgi_v3 l, pgi_v3 n) {
+    pgi_v3 t, b;
+    v3_basis(n, &t, &b);
+    return v3_add(v3_add(v3_scale(t, l.x), v3_scale(b, l.y)), v3_scale(n, l.z));
+}
+
+#endif

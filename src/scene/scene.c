@@ -1,0 +1,243 @@
+/* Scene model: creation, validation, light set-up, loading dispatch. */
+#include "scene_internal.h"
+
+#include <stdio.h>
+#include <string.h>
+#include <strings.h>
+#include <sys/stat.h>
+
+pgi_status pgi__scene_new(const char *name, pgi_scene **out) {
+    pgi_scene *s = calloc(1, sizeof *s);
+    if (!s) return pgi__fail(PGI_ERR_OOM, "out of memory allocating a scene");
+    snprintf(s->name, sizeof s->name, "%s", name ? name : "scene");
+    snprintf(s->source, sizeof s->source, "built-in");
+    *out = s;
+    return PGI_OK;
+}
+
+void pgi_scene_destroy(pgi_scene *s) {
+    if (!s) return;
+    free(s->pos);
+    free(s->nrm);
+    free(s->uv);
+    free(s->tri);
+    free(s->tri_mat);
+    free(s->mats);
+    for (size_t i = 0; i < s->ntexs; i++) free(s->texs[i].rgba);
+    free(s->texs);
+    free(s->lights);
+    free(s->cams);
+    free(s);
+}
+
+static int finite3(const float *p) { return isfinite(p[0]) && isfinite(p[1]) && isfinite(p[2]); }
+
+pgi_status pgi__scene_finalize(pgi_scene *s, const char *what) {
+    if (s->ntris == 0) return pgi__fail(PGI_ERR_PARSE, "%s: the scene has no triangles", what);
+    float bmin[3] = {INFINITY, INFINITY, INFINITY}, bmax[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t v = 0; v < s->nverts; v++) {
+        const float *p = s->pos + 3 * v;
+        if (!finite3(p))
+            return pgi__fail(PGI_ERR_PARSE, "%s: vertex %zu has a non-finite coordinate (NaN or Inf)", what, v);
+        if (s->nrm && !finite3(s->nrm + 3 * v))
+            return pgi__fail(PGI_ERR_PARSE, "%s: normal of vertex %zu is not finite", what, v);
+        for (int k = 0; k < 3; k++) {
+            bmin[k] = fminf(bmin[k], p[k]);
+            bmax[k] = fmaxf(bmax[k], p[k]);
+        }
+    }
+    memcpy(s->bmin, bmin, sizeof bmin);
+    memcpy(s->bmax, bmax, sizeof bmax);
+    for (size_t t = 0; t < s->ntris; t++) {
+        for (int k = 0; k < 3; k++)
+            if (s->tri[3 * t + k] >= s->nverts)
+                return pgi__fail(PGI_ERR_PARSE, "%s: triangle %zu refers to vertex %u of %zu", what, t,
+                                 s->tri[3 * t + k], s->nverts);
+        if (s->tri_mat[t] >= s->nmats)
+            return pgi__fail(PGI_ERR_PARSE, "%s: triangle %zu has material %u of %zu", what, t, s->tri_mat[t],
+                             s->nmats);
+    }
+    for (size_t m = 0; m < s->nmats; m++) {
+        pgi_material *mt = &s->mats[m];
+        if (!finite3(mt->kd) || !finite3(mt->ks) || !finite3(mt->ke) || !isfinite(mt->shininess) ||
+            !isfinite(mt->ior))
+            return pgi__fail(PGI_ERR_PARSE, "%s: material '%s' has a non-finite value", what, mt->name);
+        if (mt->tex_kd >= (int)s->ntexs)
+            return pgi__fail(PGI_ERR_PARSE, "%s: material '%s' refers to a missing texture", what, mt->name);
+    }
+
+    /* One area light per emissive triangle. */
+    size_t narea = 0;
+    for (size_t t = 0; t < s->ntris; t++) {
+        const float *ke = s->mats[s->tri_mat[t]].ke;
+        if (ke[0] > 0.f || ke[1] > 0.f || ke[2] > 0.f) narea++;
+    }
+    size_t nexplicit = 0;
+    for (size_t i = 0; i < s->nlights; i++)
+        if (s->lights[i].type != PGI_LIGHT_AREA) s->lights[nexplicit++] = s->lights[i];
+    if (narea) {
+        pgi_light *L = realloc(s->lights, (nexplicit + narea) * sizeof *L);
+        if (!L) return pgi__fail(PGI_ERR_OOM, "%s: out of memory for %zu area lights", what, narea);
+        s->lights = L;
+    }
+    s->nlights = nexplicit;
+    for (size_t t = 0; t < s->ntris && narea; t++) {
+        const float *ke = s->mats[s->tri_mat[t]].ke;
+        if (!(ke[0] > 0.f || ke[1] > 0.f || ke[2] > 0.f)) continue;
+        pgi_v3 a = pgi__scene_vertex(s, s->tri[3 * t]), b = pgi__scene_vertex(s, s->tri[3 * t + 1]),
+               c = pgi__scene_vertex(s, s->tri[3 * t + 2]);
+        pgi_v3 n = v3_cross(v3_sub(b, a), v3_sub(c, a));
+        float area = 0.5f * v3_len(n);
+        if (!(area > 0.f)) continue;   /* degenerate triangles emit nothing */
+        pgi_light *l = &s->lights[s->nlights++];
+        memset(l, 0, sizeof *l);
+        l->type = PGI_LIGHT_AREA;
+        l->tri = (uint32_t)t;
+        l->area = area;
+        v3_store(l->normal, v3_norm(n));
+        memcpy(l->color, ke, sizeof l->color);
+    }
+
+    float diag = v3_len(v3_sub(v3_load(bmax), v3_load(bmin)));
+    for (size_t i = 0; i < s->nlights; i++) {
+        pgi_light *l = &s->lights[i];
+        if (!finite3(l->color) || l->color[0] < 0.f || l->color[1] < 0.f || l->color[2] < 0.f)
+            return pgi__fail(PGI_ERR_PARSE, "%s: light %zu has a negative or non-finite colour", what, i);
+        if (!finite3(l->pos) || !finite3(l->dir))
+            return pgi__fail(PGI_ERR_PARSE, "%s: light %zu has a non-finite position or direction", what, i);
+        float k = 0.f;
+        switch (l->type) {
+        case PGI_LIGHT_POINT: k = 4.f * PGI_PI; break;
+        case PGI_LIGHT_SPOT:
+            if (!(l->cos_cutoff > -1.f && l->cos_cutoff < 1.f))
+                return pgi__fail(PGI_ERR_PARSE, "%s: spot light %zu needs a cut-off angle in (0, 180) degrees",
+                                 what, i);
+            if (!(v3_len(v3_load(l->dir)) > 0.f))
+                return pgi__fail(PGI_ERR_PARSE, "%s: spot light %zu has a zero direction", what, i);
+            v3_store(l->dir, v3_norm(v3_load(l->dir)));
+            k = 2.f * PGI_PI * (1.f - l->cos_cutoff);
+            break;
+        case PGI_LIGHT_SUN: {
+            if (!(v3_len(v3_load(l->dir)) > 0.f))
+                return pgi__fail(PGI_ERR_PARSE, "%s: sun light %zu has a zero direction", what, i);
+            v3_store(l->dir, v3_norm(v3_load(l->dir)));
+            float R = 0.5f * diag;   /* photons leave a disk covering the scene's bounding sphere */
+            k = PGI_PI * R * R;
+            break;
+        }
+        case PGI_LIGHT_AREA: k = PGI_PI * l->area; break;
+        }
+        for (int c = 0; c < 3; c++) l->power[c] = l->color[c] * k;
+    }
+
+    if (s->ncams == 0) {
+        /* Default view: from +z outside the bounds towards the centre. */
+        s->cams = calloc(1, sizeof *s->cams);
+        if (!s->cams) return pgi__fail(PGI_ERR_OOM, "%s: out of memory", what);
+        s->ncams = 1;
+        pgi_v3 c = v3_scale(v3_add(v3_load(bmin), v3_load(bmax)), 0.5f);
+        pgi_v3 e = v3(c.x, c.y, bmax[2] + 1.2f * fmaxf(bmax[0] - bmin[0], bmax[1] - bmin[1]));
+        v3_store(s->cams[0].eye, e);
+        v3_store(s->cams[0].look_at, c);
+        v3_store(s->cams[0].up, v3(0.f, 1.f, 0.f));
+        s->cams[0].fov_y_deg = 50.f;
+    }
+    for (size_t i = 0; i < s->ncams; i++) {
+        pgi_camera_def *cd = &s->cams[i];
+        if (!finite3(cd->eye) || !finite3(cd->look_at) || !finite3(cd->up) ||
+            !(v3_len(v3_sub(v3_load(cd->look_at), v3_load(cd->eye))) > 0.f) ||
+            !(v3_len(v3_cross(v3_sub(v3_load(cd->look_at), v3_load(cd->eye)), v3_load(cd->up))) > 0.f))
+            return pgi__fail(PGI_ERR_PARSE, "%s: camera %zu is degenerate (eye = look-at, or up parallel to the view)",
+                             what, i);
+        if (!(cd->fov_y_deg > 0.f && cd->fov_y_deg < 180.f))
+            return pgi__fail(PGI_ERR_PARSE, "%s: camera %zu field of view %g is outside (0, 180) degrees", what, i,
+                             cd->fov_y_deg);
+    }
+    return PGI_OK;
+}
+
+static int file_exists(const char *p) {
+    struct stat st;
+    return stat(p, &st) == 0 && S_ISREG(st.st_mode);
+}
+
+static int ends_with(const char *s, const char *suffix) {
+    size_t n = strlen(s), m = strlen(suffix);
+    return n >= m && strcasecmp(s + n - m, suffix) == 0;
+}
+
+pgi_status pgi_scene_load(const char *spec, pgi_scene **out) {
+    if (!out) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_scene_load: out is NULL");
+    *out = NULL;
+    if (!spec || !*spec) return pgi__fail(PGI_ERR_INVALID_ARG, "no scene given");
+    pgi__clear_error();
+    for (int i = 0; pgi__builtin_names[i]; i++)
+        if (strcmp(spec, pgi__builtin_names[i]) == 0) return pgi__scene_builtin(spec, out);
+    if (ends_with(spec, ".json")) return pgi__scene_load_json(spec, out);
+    if (!strchr(spec, '/') && !strchr(spec, '.')) {
+        /* A bare name: a description shipped in ./scenes/<name>.json. */
+        char path[1024];
+        snprintf(path, sizeof path, "scenes/%s.json", spec);
+        if (file_exists(path)) return pgi__scene_load_json(path, out);
+        char names[256] = "";
+        for (int i = 0; pgi__builtin_names[i]; i++) {
+            strncat(names, i ? ", " : "", sizeof names - strlen(names) - 1);
+            strncat(names, pgi__builtin_names[i], sizeof names - strlen(names) - 1);
+        }
+        return pgi__fail(PGI_ERR_INVALID_ARG,
+                         "unknown scene '%s': not a built-in scene (%s) and no file %s (run from the repository root, "
+                         "or give a path to a .json description or a mesh)",
+                         spec, names, path);
+    }
+    if (!file_exists(spec)) return pgi__fail(PGI_ERR_IO, "%s: no such file", spec);
+    const char *base = strrchr(spec, '/');
+    pgi_scene *s;
+    pgi_status st = pgi__scene_new(base ? base + 1 : spec, &s);
+    if (st) return st;
+    snprintf(s->source, sizeof s->source, "%s", spec);
+    st = pgi__scene_import_mesh(s, spec);
+    if (!st) st = pgi__scene_finalize(s, spec);
+    if (!st && s->nlights == 0)
+        st = pgi__fail(PGI_ERR_PARSE,
+                       "%s: the mesh has no emissive material (MTL Ke) and a bare mesh cannot name lights; "
+                       "write a .json scene description with a \"lights\" list",
+                       spec);
+    if (st) {
+        pgi_scene_destroy(s);
+        return st;
+    }
+    *out = s;
+    return PGI_OK;
+}
+
+void pgi_scene_get_info(const pgi_scene *s, pgi_scene_info *o) {
+    memset(o, 0, sizeof *o);
+    o->name = s->name;
+    o->source = s->source;
+    o->triangles = s->ntris;
+    o->vertices = s->nverts;
+    o->materials = s->nmats;
+    o->textures = s->ntexs;
+    o->lights = s->nlights;
+    for (size_t i = 0; i < s->nlights; i++) {
+        switch (s->lights[i].type) {
+        case PGI_LIGHT_POINT: o->point_lights++; break;
+        case PGI_LIGHT_SPOT: o->spot_lights++; break;
+        case PGI_LIGHT_SUN: o->sun_lights++; break;
+        case PGI_LIGHT_AREA: o->area_triangles++; break;
+        }
+    }
+    memcpy(o->bounds_min, s->bmin, sizeof o->bounds_min);
+    memcpy(o->bounds_max, s->bmax, sizeof o->bounds_max);
+    o->cameras = s->ncams;
+    if (s->ncams) o->camera = s->cams[0];
+    o->defaults = s->defaults;
+}
+
+size_t pgi_builtin_scene_count(void) {
+    size_t n = 0;
+    while (pgi__builtin_names[n]) n++;
+    return n;
+}
+
+const char *pgi_builtin_scene_name(size_t i) { return i < pgi_builtin_scene_count() ? pgi__builtin_names[i] : NULL; }
