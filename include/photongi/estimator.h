@@ -61,6 +61,7 @@ typedef struct pgi_view_samples {
     size_t count;            /* width * height */
     float *pos;              /* world position of the first non-specular eye hit */
     float *nrm;              /* shading normal, on the side the eye path arrives from */
+    float *ngeo;             /* geometric normal, same side */
     float *wo;               /* unit direction towards where the eye path came from */
     float *kd;               /* diffuse albedo (texture applied), linear RGB */
     float *ks;               /* Blinn-Phong F0; 0 for Lambertian */

@@ -191,7 +191,7 @@ pgi_status pgi_scene_load(const char *spec, pgi_scene **out) {
     }
     if (!file_exists(spec)) return pgi__fail(PGI_ERR_IO, "%s: no such file", spec);
     const char *base = strrchr(spec, '/');
-    pgi_scene *s;
+    pgi_scene *s = NULL;
     pgi_status st = pgi__scene_new(base ? base + 1 : spec, &s);
     if (st) return st;
     snprintf(s->source, sizeof s->source, "%s", spec);

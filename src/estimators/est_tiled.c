@@ -1,0 +1,295 @@
+/* tiled: screen-space tiles gather from their own copy of the photons that
+ * can reach them (tiled paper §2.3.1, Listings 5-6).
+ *
+ * Per frame: (1) tile bounds: the view-space box of each tile's view samples
+ * (its min/max depth, and x/y for samples seen through mirrors); (2) count:
+ * every photon's sphere is projected to a screen rectangle, and each tile in
+ * it is tested against the sphere (tile frustum planes + depth/box bounds);
+ * (3) prefix sum; (4) copy the photon into every tile it overlaps; (5)
+ * gather: each view sample reads only its tile's photons.
+ *
+ * Determinism: photons are processed in fixed chunks (independent of the
+ * thread count) and each tile lists them in photon order, so summation order
+ * and therefore the image are the same for any number of threads.
+ *
+ * View samples reached through mirrors/glass lie outside their tile's
+ * frustum; such tiles drop the frustum test, keep the box test, and are
+ * tested by every photon (they are listed apart). */
+#include "estimator_internal.h"
+
+typedef struct {
+    float lo[3], hi[3];   /* view-space box of the tile's samples */
+    int valid;            /* has at least one valid sample */
+    int primary;          /* all valid samples came from primary rays */
+} tile_bounds;
+
+typedef struct {
+    pgi__est_common c;
+    int T, ntx, nty, ntiles;
+    tile_bounds *bounds;
+    size_t bounds_cap;
+    uint32_t *secondary;      /* tiles holding samples seen through specular bounces */
+    size_t secondary_cap;
+    int nsecondary;
+    uint32_t *counts;         /* [chunk][tile] */
+    size_t counts_cap;
+    uint32_t *tile_start;     /* ntiles + 1 */
+    size_t tile_start_cap;
+    pgi__packed_photon *tile_photons;
+    size_t tile_photons_cap;
+    size_t copies;
+} tiled_state;
+
+typedef struct {
+    pgi_v3 eye, right, up, fwd;
+    float sx, sy;   /* tan(fov/2) * aspect, tan(fov/2) */
+    int W, H;
+} view_xf;
+
+static inline pgi_v3 to_view(const view_xf *x, float px, float py, float pz) {
+    pgi_v3 d = v3_sub(v3(px, py, pz), x->eye);
+    return v3(v3_dot(d, x->right), v3_dot(d, x->up), v3_dot(d, x->fwd));
+}
+
+static pgi_status tiled_create(const pgi_estimator_desc *d, void **state) {
+    tiled_state *s = calloc(1, sizeof *s);
+    if (!s) return pgi__fail(PGI_ERR_OOM, "out of memory");
+    s->c.desc = *d;
+    s->T = d->tile_size > 0 ? d->tile_size : 32;
+    *state = s;
+    return PGI_OK;
+}
+
+/* Tangent slopes u = x/z of the lines through the eye that touch the circle
+ * (a, z, r), z > r: roots of u^2 (z^2 - r^2) - 2 a z u + a^2 - r^2 = 0. */
+static inline void silhouette(float a, float z, float r, float *u0, float *u1) {
+    float den = z * z - r * r;
+    float disc = sqrtf(fmaxf(0.f, a * a + den));
+    *u0 = (a * z - r * disc) / den;
+    *u1 = (a * z + r * disc) / den;
+}
+
+/* Sphere vs tile: box distance, then the four side planes of the tile's
+ * frustum (through the eye and the tile's pixel edges) for primary tiles. */
+static inline int overlaps(const tiled_state *s, const view_xf *x, int t, pgi_v3 c, float r) {
+    const tile_bounds *b = &s->bounds[t];
+    if (!b->valid) return 0;
+    float slack = 1e-4f * r + 1e-6f * (fabsf(c.x) + fabsf(c.y) + fabsf(c.z));
+    float rr = r + slack;
+    float d2 = 0.f, cc[3] = {c.x, c.y, c.z};
+    for (int k = 0; k < 3; k++) {
+        float e = fmaxf(0.f, fmaxf(b->lo[k] - cc[k], cc[k] - b->hi[k]));
+        d2 += e * e;
+    }
+    if (d2 > rr * rr) return 0;
+    if (!b->primary) return 1;
+    int tx = t % s->ntx, ty = t / s->ntx;
+    float u0 = (2.f * (float)(tx * s->T) / (float)x->W - 1.f) * x->sx;
+    float u1 = (2.f * (float)((tx + 1) * s->T) / (float)x->W - 1.f) * x->sx;
+    float v0 = (1.f - 2.f * (float)(ty * s->T) / (float)x->H) * x->sy;         /* top edge */
+    float v1 = (1.f - 2.f * (float)((ty + 1) * s->T) / (float)x->H) * x->sy;   /* bottom edge */
+    /* inside: u0 <= x/z <= u1, v1 <= y/z <= v0 */
+    if ((c.x - u0 * c.z) / sqrtf(1.f + u0 * u0) < -rr) return 0;
+    if ((u1 * c.z - c.x) / sqrtf(1.f + u1 * u1) < -rr) return 0;
+    if ((c.y - v1 * c.z) / sqrtf(1.f + v1 * v1) < -rr) return 0;
+    if ((v0 * c.z - c.y) / sqrtf(1.f + v0 * v0) < -rr) return 0;
+    return 1;
+}
+
+/* Calls emit(t) for every tile the photon sphere (view-space centre c) may
+ * reach, in increasing tile order for the screen rectangle, then the
+ * secondary tiles outside it. */
+#define FOR_EACH_TILE(S_, XF_, C_, R_, BODY)                                                                 \
+    do {                                                                                              \
+        int tx0 = 0, tx1 = (S_)->ntx - 1, ty0 = 0, ty1 = (S_)->nty - 1;                                 \
+        if ((C_).z - (R_) > 1e-6f * fabsf((C_).z)) {                                                     \
+            float u0, u1, w0, w1;                                                                     \
+            silhouette((C_).x, (C_).z, (R_), &u0, &u1);                                                  \
+            silhouette((C_).y, (C_).z, (R_), &w0, &w1);                                                  \
+            float px0 = (u0 / (XF_)->sx + 1.f) * 0.5f * (float)(XF_)->W - 1.f;                            \
+            float px1 = (u1 / (XF_)->sx + 1.f) * 0.5f * (float)(XF_)->W + 1.f;                            \
+            float py0 = (1.f - w1 / (XF_)->sy) * 0.5f * (float)(XF_)->H - 1.f;                            \
+            float py1 = (1.f - w0 / (XF_)->sy) * 0.5f * (float)(XF_)->H + 1.f;                            \
+            float fT = (float)(S_)->T;                                                                 \
+            tx0 = px0 <= 0.f ? 0 : (px0 >= (float)(XF_)->W ? (S_)->ntx : (int)(px0 / fT));               \
+            tx1 = px1 < 0.f ? -1 : (px1 >= (float)(XF_)->W ? (S_)->ntx - 1 : (int)(px1 / fT));           \
+            ty0 = py0 <= 0.f ? 0 : (py0 >= (float)(XF_)->H ? (S_)->nty : (int)(py0 / fT));               \
+            ty1 = py1 < 0.f ? -1 : (py1 >= (float)(XF_)->H ? (S_)->nty - 1 : (int)(py1 / fT));           \
+        }                                                                                             \
+        for (int ty_ = ty0; ty_ <= ty1; ty_++)                                                        \
+            for (int tx_ = tx0; tx_ <= tx1; tx_++) {                                                  \
+                int t = ty_ * (S_)->ntx + tx_;                                                         \
+                if ((S_)->bounds[t].primary && overlaps((S_), (XF_), t, (C_), (R_))) { BODY; }              \
+            }                                                                                         \
+        for (int k_ = 0; k_ < (S_)->nsecondary; k_++) {                                                \
+            int t = (int)(S_)->secondary[k_];                                                          \
+            if (overlaps((S_), (XF_), t, (C_), (R_))) { BODY; }                                            \
+        }                                                                                             \
+    } while (0)
+
+static pgi_status tiled_build(void *state, const pgi_estimate_args *a) {
+    tiled_state *s = state;
+    memset(&s->c.st, 0, sizeof s->c.st);
+    const pgi_view_samples *vs = a->samples;
+    const pgi_photons *ph = a->photons;
+    const pgi_camera *cam = a->camera;
+    const float r = s->c.desc.radius;
+    const int W = vs->width, H = vs->height, T = s->T;
+    s->ntx = (W + T - 1) / T;
+    s->nty = (H + T - 1) / T;
+    s->ntiles = s->ntx * s->nty;
+    const size_t n = ph->count;
+    /* Fixed chunking, independent of the thread count: at most 64 chunks. */
+    size_t chunk = n / 64 + 1;
+    if (chunk < 8192) chunk = 8192;
+    const size_t nchunks = (n + chunk - 1) / chunk;
+    pgi_status st;
+    if ((st = pgi__ensure((void **)&s->bounds, &s->bounds_cap, (size_t)s->ntiles, sizeof(tile_bounds))) ||
+        (st = pgi__ensure((void **)&s->secondary, &s->secondary_cap, (size_t)s->ntiles, sizeof(uint32_t))) ||
+        (st = pgi__ensure((void **)&s->tile_start, &s->tile_start_cap, (size_t)s->ntiles + 1, sizeof(uint32_t))) ||
+        (st = pgi__ensure((void **)&s->counts, &s->counts_cap, (nchunks + 1) * (size_t)s->ntiles, sizeof(uint32_t))))
+        return st;
+    view_xf x = {v3_load(cam->eye), v3_load(cam->right), v3_load(cam->up), v3_load(cam->forward),
+                 cam->tan_half_fov_y * cam->aspect, cam->tan_half_fov_y, W, H};
+
+    double t0 = pgi__now_ms();
+#pragma omp parallel for schedule(dynamic, 4)
+    for (int t = 0; t < s->ntiles; t++) {
+        tile_bounds *b = &s->bounds[t];
+        b->valid = 0;
+        b->primary = 1;
+        for (int k = 0; k < 3; k++) {
+            b->lo[k] = INFINITY;
+            b->hi[k] = -INFINITY;
+        }
+        int tx = t % s->ntx, ty = t / s->ntx;
+        for (int py = ty * T; py < (ty + 1) * T && py < H; py++)
+            for (int px = tx * T; px < (tx + 1) * T && px < W; px++) {
+                size_t i = (size_t)py * W + (size_t)px;
+                if (!(vs->flags[i] & PGI_VS_VALID)) continue;
+                const float *p = vs->pos + 3 * i;
+                pgi_v3 q = to_view(&x, p[0], p[1], p[2]);
+                float qq[3] = {q.x, q.y, q.z};
+                for (int k = 0; k < 3; k++) {
+                    b->lo[k] = fminf(b->lo[k], qq[k]);
+                    b->hi[k] = fmaxf(b->hi[k], qq[k]);
+                }
+                b->valid = 1;
+                if (!(vs->flags[i] & PGI_VS_PRIMARY)) b->primary = 0;
+            }
+    }
+    s->nsecondary = 0;
+    for (int t = 0; t < s->ntiles; t++)
+        if (s->bounds[t].valid && !s->bounds[t].primary) s->secondary[s->nsecondary++] = (uint32_t)t;
+    double t1 = pgi__now_ms();
+
+    const int ntiles = s->ntiles;
+    uint64_t tested = 0;
+#pragma omp parallel for schedule(dynamic, 1) reduction(+ : tested)
+    for (long long cidx = 0; cidx < (long long)nchunks; cidx++) {
+        uint32_t *cnt = s->counts + (size_t)cidx * ntiles;
+        memset(cnt, 0, (size_t)ntiles * sizeof *cnt);
+        size_t j1 = ((size_t)cidx + 1) * chunk < n ? ((size_t)cidx + 1) * chunk : n;
+        for (size_t j = (size_t)cidx * chunk; j < j1; j++) {
+            pgi_v3 c = to_view(&x, ph->px[j], ph->py[j], ph->pz[j]);
+            FOR_EACH_TILE(s, &x, c, r, cnt[t]++; tested++);
+        }
+    }
+    double t2 = pgi__now_ms();
+    /* Prefix sum, tile-major then chunk: counts become write offsets. */
+    uint64_t sum = 0;
+    for (int t = 0; t < ntiles; t++) {
+        s->tile_start[t] = (uint32_t)sum;
+        for (size_t cidx = 0; cidx < nchunks; cidx++) {
+            uint32_t *cnt = s->counts + cidx * ntiles + t;
+            uint32_t c = *cnt;
+            *cnt = (uint32_t)sum;
+            sum += c;
+        }
+    }
+    s->tile_start[ntiles] = (uint32_t)sum;
+    if (sum > UINT32_MAX)
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "tiled: %llu photon copies exceed the 32-bit index; use a smaller radius",
+                         (unsigned long long)sum);
+    if ((st = pgi__ensure((void **)&s->tile_photons, &s->tile_photons_cap, (size_t)sum + 1, sizeof(pgi__packed_photon))))
+        return st;
+    s->copies = (size_t)sum;
+    double t3 = pgi__now_ms();
+#pragma omp parallel for schedule(dynamic, 1)
+    for (long long cidx = 0; cidx < (long long)nchunks; cidx++) {
+        uint32_t *off = s->counts + (size_t)cidx * ntiles;
+        size_t j1 = ((size_t)cidx + 1) * chunk < n ? ((size_t)cidx + 1) * chunk : n;
+        for (size_t j = (size_t)cidx * chunk; j < j1; j++) {
+            pgi_v3 c = to_view(&x, ph->px[j], ph->py[j], ph->pz[j]);
+            FOR_EACH_TILE(s, &x, c, r, pgi__pack_photon(ph, j, &s->tile_photons[off[t]++]));
+        }
+    }
+    double t4 = pgi__now_ms();
+    pgi__stats_pass(&s->c.st, "bounds", t1 - t0);
+    pgi__stats_pass(&s->c.st, "count", t2 - t1);
+    pgi__stats_pass(&s->c.st, "scan", t3 - t2);
+    pgi__stats_pass(&s->c.st, "copy", t4 - t3);
+    s->c.st.build_ms = t4 - t0;
+    s->c.st.nodes_visited = tested;
+    return PGI_OK;
+}
+
+static pgi_status tiled_estimate(void *state, const pgi_estimate_args *a) {
+    tiled_state *s = state;
+    double t0 = pgi__now_ms();
+    const pgi_view_samples *vs = a->samples;
+    const int W = vs->width, H = vs->height, T = s->T;
+    if (W != a->camera->width || s->ntx != (W + T - 1) / T || s->nty != (H + T - 1) / T)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "tiled: estimate called with a frame size other than build's");
+    const float r2 = s->c.desc.radius * s->c.desc.radius;
+    uint64_t reads = 0, contrib = 0;
+#pragma omp parallel for schedule(dynamic, 1) reduction(+ : reads, contrib)
+    for (int t = 0; t < s->ntiles; t++) {
+        int tx = t % s->ntx, ty = t / s->ntx;
+        const pgi__packed_photon *q = s->tile_photons + s->tile_start[t];
+        const uint32_t nq = s->tile_start[t + 1] - s->tile_start[t];
+        for (int py = ty * T; py < (ty + 1) * T && py < H; py++)
+            for (int px = tx * T; px < (tx + 1) * T && px < W; px++) {
+                size_t i = (size_t)py * W + (size_t)px;
+                float *out = a->out_rgb + 3 * i;
+                if (!(vs->flags[i] & PGI_VS_VALID)) {
+                    out[0] = out[1] = out[2] = 0.f;
+                    continue;
+                }
+                pgi__vs v;
+                pgi__vs_load(vs, i, &v);
+                pgi__acc acc = {0};
+                for (uint32_t k = 0; k < nq; k++) pgi__gather_packed(&v, r2, q + k, &acc);
+                pgi__acc_finish(&v, &acc, r2, out);
+                reads += nq;
+                contrib += acc.contributing;
+            }
+    }
+    s->c.st.estimate_ms = pgi__now_ms() - t0;
+    pgi__stats_pass(&s->c.st, "gather", s->c.st.estimate_ms);
+    s->c.st.reads = reads;
+    s->c.st.contributing = contrib;
+    s->c.st.memory_count = 0;
+    pgi__stats_mem(&s->c.st, "tile_photons", s->copies * sizeof(pgi__packed_photon));
+    pgi__stats_mem(&s->c.st, "tile_bounds", (size_t)s->ntiles * sizeof(tile_bounds));
+    pgi__stats_mem(&s->c.st, "tile_offsets", s->counts_cap * sizeof(uint32_t) + ((size_t)s->ntiles + 1) * 4);
+    return PGI_OK;
+}
+
+static void tiled_stats(const void *state, pgi_estimator_stats *out) { *out = ((const tiled_state *)state)->c.st; }
+
+static void tiled_destroy(void *state) {
+    tiled_state *s = state;
+    if (!s) return;
+    pgi__afree(s->bounds);
+    pgi__afree(s->secondary);
+    pgi__afree(s->counts);
+    pgi__afree(s->tile_start);
+    pgi__afree(s->tile_photons);
+    free(s);
+}
+
+const pgi_estimator_vtbl pgi__est_tiled = {
+    "tiled", "screen tiles with depth bounds; per-tile photon copies (Mara et al. 2013 §2.3.1)", 1,
+    tiled_create, tiled_build, tiled_estimate, tiled_stats, tiled_destroy,
+};

@@ -1,0 +1,165 @@
+/* Estimator interface: registry, lifecycle wrappers, buffers. */
+#include <stdio.h>
+
+#include "estimator_internal.h"
+
+static const pgi_estimator_vtbl *const k_estimators[] = {
+    &pgi__est_brute,
+    &pgi__est_hashgrid,
+    &pgi__est_tiled,
+};
+#define N_EST (sizeof k_estimators / sizeof k_estimators[0])
+
+struct pgi_estimator {
+    const pgi_estimator_vtbl *vt;
+    void *state;
+};
+
+size_t pgi_estimator_count(void) { return N_EST; }
+
+const pgi_estimator_vtbl *pgi_estimator_at(size_t i) { return i < N_EST ? k_estimators[i] : NULL; }
+
+const pgi_estimator_vtbl *pgi_estimator_find(const char *name) {
+    if (!name) return NULL;
+    for (size_t i = 0; i < N_EST; i++)
+        if (strcmp(k_estimators[i]->name, name) == 0) return k_estimators[i];
+    return NULL;
+}
+
+pgi_status pgi_estimator_create(const char *name, const pgi_estimator_desc *desc, pgi_estimator **out) {
+    *out = NULL;
+    const pgi_estimator_vtbl *vt = pgi_estimator_find(name);
+    if (!vt) {
+        char names[256] = "";
+        for (size_t i = 0; i < N_EST; i++) {
+            strncat(names, i ? ", " : "", sizeof names - strlen(names) - 1);
+            strncat(names, k_estimators[i]->name, sizeof names - strlen(names) - 1);
+        }
+        return pgi__fail(PGI_ERR_INVALID_ARG, "unknown estimator '%s' (registered: %s)", name ? name : "(null)", names);
+    }
+    if (!(desc->radius > 0.f) || !isfinite(desc->radius))
+        return pgi__fail(PGI_ERR_INVALID_ARG, "photon radius must be a positive finite number, got %g",
+                         (double)desc->radius);
+    if (desc->tile_size < 0 || desc->tile_size > 4096)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "tile size %d is out of range (1..4096)", desc->tile_size);
+    if (desc->cell_size < 0.f || !isfinite(desc->cell_size))
+        return pgi__fail(PGI_ERR_INVALID_ARG, "cell size must be positive, got %g", (double)desc->cell_size);
+    pgi_estimator *e = calloc(1, sizeof *e);
+    if (!e) return pgi__fail(PGI_ERR_OOM, "out of memory creating estimator '%s'", name);
+    e->vt = vt;
+    pgi_status st = vt->create(desc, &e->state);
+    if (st) {
+        free(e);
+        return st;
+    }
+    *out = e;
+    return PGI_OK;
+}
+
+static pgi_status check_args(const pgi_estimate_args *a) {
+    if (!a || !a->photons || !a->samples || !a->camera)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "estimator arguments need photons, view samples and a camera");
+    return PGI_OK;
+}
+
+pgi_status pgi_estimator_build(pgi_estimator *e, const pgi_estimate_args *a) {
+    pgi_status st = check_args(a);
+    return st ? st : e->vt->build(e->state, a);
+}
+
+pgi_status pgi_estimator_estimate(pgi_estimator *e, const pgi_estimate_args *a) {
+    pgi_status st = check_args(a);
+    if (st) return st;
+    if (!a->out_rgb) return pgi__fail(PGI_ERR_INVALID_ARG, "estimate needs an output buffer");
+    return e->vt->estimate(e->state, a);
+}
+
+void pgi_estimator_get_stats(const pgi_estimator *e, pgi_estimator_stats *out) {
+    memset(out, 0, sizeof *out);
+    e->vt->stats(e->state, out);
+}
+
+const char *pgi_estimator_name(const pgi_estimator *e) { return e->vt->name; }
+
+void pgi_estimator_destroy(pgi_estimator *e) {
+    if (!e) return;
+    e->vt->destroy(e->state);
+    free(e);
+}
+
+pgi_status pgi__ensure(void **p, size_t *cap, size_t n, size_t size) {
+    if (n <= *cap && *p) return PGI_OK;
+    size_t want = n + n / 4 + 16;
+    void *q = pgi__aalloc(want * size);
+    if (!q) return pgi__fail(PGI_ERR_OOM, "out of memory (%zu bytes)", want * size);
+    pgi__afree(*p);
+    *p = q;
+    *cap = want;
+    return PGI_OK;
+}
+
+/* ------------------------------------------------------------ buffers */
+
+pgi_status pgi_photons_alloc(pgi_photons *ph, size_t capacity) {
+    memset(ph, 0, sizeof *ph);
+    size_t n = capacity ? capacity : 1;
+    float **arrs[] = {&ph->px, &ph->py, &ph->pz, &ph->dx, &ph->dy, &ph->dz,
+                      &ph->fr, &ph->fg, &ph->fb, &ph->nx, &ph->ny, &ph->nz};
+    for (size_t k = 0; k < sizeof arrs / sizeof arrs[0]; k++) {
+        *arrs[k] = pgi__aalloc(n * sizeof(float));
+        if (!*arrs[k]) {
+            pgi_photons_free(ph);
+            return pgi__fail(PGI_ERR_OOM, "out of memory for %zu photons", capacity);
+        }
+    }
+    ph->capacity = capacity;
+    return PGI_OK;
+}
+
+void pgi_photons_free(pgi_photons *ph) {
+    float *arrs[] = {ph->px, ph->py, ph->pz, ph->dx, ph->dy, ph->dz, ph->fr, ph->fg, ph->fb, ph->nx, ph->ny, ph->nz};
+    for (size_t k = 0; k < sizeof arrs / sizeof arrs[0]; k++) pgi__afree(arrs[k]);
+    memset(ph, 0, sizeof *ph);
+}
+
+pgi_status pgi_view_samples_alloc(pgi_view_samples *vs, int width, int height) {
+    memset(vs, 0, sizeof *vs);
+    if (width <= 0 || height <= 0) return pgi__fail(PGI_ERR_INVALID_ARG, "view samples need a positive size");
+    size_t n = (size_t)width * (size_t)height;
+    float **v3s[] = {&vs->pos, &vs->nrm, &vs->ngeo, &vs->wo, &vs->kd, &vs->ks, &vs->weight};
+    int ok = 1;
+    for (size_t k = 0; k < sizeof v3s / sizeof v3s[0]; k++) ok &= (*v3s[k] = pgi__aalloc(3 * n * sizeof(float))) != NULL;
+    ok &= (vs->shininess = pgi__aalloc(n * sizeof(float))) != NULL;
+    ok &= (vs->depth = pgi__aalloc(n * sizeof(float))) != NULL;
+    ok &= (vs->flags = pgi__aalloc(n)) != NULL;
+    if (!ok) {
+        pgi_view_samples_free(vs);
+        return pgi__fail(PGI_ERR_OOM, "out of memory for %dx%d view samples", width, height);
+    }
+    memset(vs->flags, 0, n);
+    vs->width = width;
+    vs->height = height;
+    vs->count = n;
+    return PGI_OK;
+}
+
+void pgi_view_samples_free(pgi_view_samples *vs) {
+    void *arrs[] = {vs->pos, vs->nrm, vs->ngeo, vs->wo, vs->kd, vs->ks, vs->weight, vs->shininess, vs->depth, vs->flags};
+    for (size_t k = 0; k < sizeof arrs / sizeof arrs[0]; k++) pgi__afree(arrs[k]);
+    memset(vs, 0, sizeof *vs);
+}
+
+void pgi_camera_look_at(pgi_camera *c, const float eye[3], const float look_at[3], const float up[3], float fov_y_deg,
+                        int width, int height) {
+    pgi_v3 e = v3_load(eye), f = v3_norm(v3_sub(v3_load(look_at), e));
+    pgi_v3 r = v3_norm(v3_cross(f, v3_load(up)));
+    pgi_v3 u = v3_cross(r, f);
+    v3_store(c->eye, e);
+    v3_store(c->forward, f);
+    v3_store(c->right, r);
+    v3_store(c->up, u);
+    c->tan_half_fov_y = tanf(0.5f * fov_y_deg * PGI_PI / 180.f);
+    c->width = width;
+    c->height = height;
+    c->aspect = height > 0 ? (float)width / (float)height : 1.f;
+}

@@ -1,0 +1,20 @@
+/* Internal I/O helpers shared by the compare tool, the CLI, the benchmark and tests. */
+#ifndef PGI_IO_INTERNAL_H
+#define PGI_IO_INTERNAL_H
+
+#include "photongi/photongi.h"
+
+/* Reads an image into linear RGB floats (`out` receives a new image; free with
+ * pgi_image_free). The format comes from the file's content, not its name:
+ * OpenEXR (scanline, R,G,B channels of any pixel type) and Radiance HDR give
+ * linear values as stored (*is_hdr = 1); PNG and other 8/16-bit formats stb
+ * reads are decoded from sRGB to linear (*is_hdr = 0), so that tone mapping an
+ * 8-bit PNG with exposure 1 gives back its bytes exactly. `is_hdr` may be NULL.
+ * Missing/unopenable file: PGI_ERR_IO; unreadable content: PGI_ERR_PARSE. */
+pgi_status pgi__image_read(const char *path, pgi_image *out, int *is_hdr);
+
+/* The frame statistics as a JSON document (the format pgi_stats_write_json
+ * writes). Returns a malloc'd string the caller frees, or NULL when out of memory. */
+char *pgi__stats_to_json(const pgi_frame_stats *st);
+
+#endif

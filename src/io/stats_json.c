@@ -1,0 +1,131 @@
+/* Frame statistics as JSON (cJSON). Counters are written as JSON numbers
+ * (doubles): exact up to 2^53, far beyond any photon or ray count we make. */
+#include "core/core.h"
+#include "io/io_internal.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#include <cjson/cJSON.h>
+
+/* Deletes a partly written output. Only regular files: the path may name a
+ * device or a symlink (writing to /dev/full must not delete /dev/full). */
+static void remove_partial(const char *path) {
+    struct stat sb;
+    if (lstat(path, &sb) == 0 && S_ISREG(sb.st_mode)) remove(path);
+}
+
+static int clamp_count(int n) {
+    return n < 0 ? 0 : n > PGI_MAX_STAT_ENTRIES ? PGI_MAX_STAT_ENTRIES : n;
+}
+
+/* Adds `name: value`; NULL from cJSON means out of memory. */
+static int add_num(cJSON *o, const char *name, double v) {
+    /* JSON has no NaN/inf; cJSON would print them as null anyway. */
+    return cJSON_AddNumberToObject(o, name, isfinite(v) ? v : 0.0) != NULL;
+}
+
+/* A float as the shortest decimal that reads back as the same float, so that
+ * a radius of 0.05f is written 0.05 rather than 0.05000000074505806. */
+static double float_as_double(float f) {
+    if (!isfinite(f)) return 0.0;
+    char buf[32];
+    for (int prec = 6; prec <= 9; ++prec) {
+        snprintf(buf, sizeof buf, "%.*g", prec, (double)f);
+        double d = strtod(buf, NULL);
+        if ((float)d == f) return d;
+    }
+    return (double)f;
+}
+
+static cJSON *build(const pgi_frame_stats *st) {
+    cJSON *root = cJSON_CreateObject(), *o;
+    if (!root) return NULL;
+    int ok = 1;
+    ok &= (st->estimator ? cJSON_AddStringToObject(root, "estimator", st->estimator)
+                         : cJSON_AddNullToObject(root, "estimator")) != NULL;
+    ok &= add_num(root, "width", st->width);
+    ok &= add_num(root, "height", st->height);
+    ok &= add_num(root, "threads", st->threads);
+    ok &= add_num(root, "radius", float_as_double(st->radius));
+
+    ok &= (o = cJSON_AddObjectToObject(root, "photons")) != NULL;
+    if (o) {
+        ok &= add_num(o, "emitted", (double)st->photons_emitted);
+        ok &= add_num(o, "stored", (double)st->photons_stored);
+        ok &= add_num(o, "rays", (double)st->photon_rays);
+    }
+    ok &= (o = cJSON_AddObjectToObject(root, "rays")) != NULL;
+    if (o) {
+        ok &= add_num(o, "primary", (double)st->primary_rays);
+        ok &= add_num(o, "shadow", (double)st->shadow_rays);
+    }
+    ok &= (o = cJSON_AddObjectToObject(root, "times_ms")) != NULL;
+    if (o) {
+        ok &= add_num(o, "view", st->view_ms);
+        ok &= add_num(o, "trace", st->trace_ms);
+        ok &= add_num(o, "build", st->build_ms);
+        ok &= add_num(o, "estimate", st->estimate_ms);
+        ok &= add_num(o, "direct", st->direct_ms);
+        ok &= add_num(o, "total", st->total_ms);
+    }
+    ok &= (o = cJSON_AddObjectToObject(root, "passes_ms")) != NULL;
+    if (o)
+        for (int i = 0, n = clamp_count(st->pass_count); i < n; ++i)
+            ok &= add_num(o, st->passes_ms[i].name ? st->passes_ms[i].name : "?", st->passes_ms[i].value);
+    ok &= (o = cJSON_AddObjectToObject(root, "memory_bytes")) != NULL;
+    if (o) {
+        double total = 0.0;
+        for (int i = 0, n = clamp_count(st->memory_count); i < n; ++i) {
+            ok &= add_num(o, st->memory_bytes[i].name ? st->memory_bytes[i].name : "?", st->memory_bytes[i].value);
+            total += st->memory_bytes[i].value;
+        }
+        ok &= add_num(o, "total", total);
+    }
+    ok &= add_num(root, "reads", (double)st->reads);
+    ok &= add_num(root, "contributing", (double)st->contributing);
+    ok &= add_num(root, "contributing_ratio", st->reads ? (double)st->contributing / (double)st->reads : 0.0);
+    ok &= add_num(root, "nodes_visited", (double)st->nodes_visited);
+    if (!ok) {
+        cJSON_Delete(root);
+        return NULL;
+    }
+    return root;
+}
+
+char *pgi__stats_to_json(const pgi_frame_stats *st) {
+    if (!st) return NULL;
+    cJSON *root = build(st);
+    if (!root) return NULL;
+    /* cJSON allocates with malloc unless cJSON_InitHooks says otherwise (we never do). */
+    char *text = cJSON_Print(root);
+    cJSON_Delete(root);
+    return text;
+}
+
+pgi_status pgi_stats_write_json(const pgi_frame_stats *st, const char *path) {
+    if (!path || !path[0]) return pgi__fail(PGI_ERR_INVALID_ARG, "stats: no output path");
+    if (!st) return pgi__fail(PGI_ERR_INVALID_ARG, "%s: no statistics to write", path);
+    char *text = pgi__stats_to_json(st);
+    if (!text) return pgi__fail(PGI_ERR_OOM, "%s: out of memory formatting statistics", path);
+
+    errno = 0;
+    FILE *f = fopen(path, "w");
+    if (!f) {
+        int e = errno;
+        free(text);
+        return pgi__fail(PGI_ERR_IO, "%s: cannot write: %s", path, strerror(e));
+    }
+    size_t n = strlen(text);
+    int err = 0;
+    if (fwrite(text, 1, n, f) != n || fputc('\n', f) == EOF) err = errno ? errno : -1;
+    free(text);
+    if (fclose(f) != 0 && !err) err = errno ? errno : -1;
+    if (err) {
+        remove_partial(path);
+        return pgi__fail(PGI_ERR_IO, "%s: cannot write: %s", path, err > 0 ? strerror(err) : "write error");
+    }
+    return PGI_OK;
+}

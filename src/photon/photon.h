@@ -1,0 +1,25 @@
+/* Photon tracing (DESIGN.md §3). */
+#ifndef PGI_PHOTON_H
+#define PGI_PHOTON_H
+
+#include "rt/rt.h"
+
+typedef struct pgi_trace_desc {
+    uint32_t photons;   /* photons to store */
+    int bounces;        /* maximum scattering events of a path */
+    uint64_t seed;
+} pgi_trace_desc;
+
+/* Fills `ph` (capacity >= photons) with exactly `photons` photons, unless the
+ * scene loses nearly all light (then fewer: after 64 paths per requested
+ * photon the tracer stops). ph->emitted is the number of light paths, and the
+ * flux of every photon is already divided by it. `rays` counts rays cast.
+ * The result is identical for any thread count: path i uses RNG stream i and
+ * paths are appended in index order. */
+pgi_status pgi__photons_trace(const pgi_scene *s, const pgi_rt *rt, const pgi_trace_desc *d, pgi_photons *ph,
+                              uint64_t *rays);
+
+/* Ray offset used to leave a surface without hitting it again. */
+float pgi__scene_epsilon(const pgi_scene *s);
+
+#endif

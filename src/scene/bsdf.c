@@ -1,0 +1,88 @@
+/* Surface interaction and BSDF sampling. */
+#include "bsdf.h"
+
+void pgi__scene_surface(const pgi_scene *s, uint32_t prim, float bu, float bv, pgi_v3 p, pgi_surface *o) {
+    const uint32_t *t = s->tri + 3 * (size_t)prim;
+    pgi_v3 a = pgi__scene_vertex(s, t[0]), b = pgi__scene_vertex(s, t[1]), c = pgi__scene_vertex(s, t[2]);
+    float bw = 1.f - bu - bv;
+    o->p = p;
+    o->ng = v3_norm(v3_cross(v3_sub(b, a), v3_sub(c, a)));
+    o->ns = o->ng;
+    if (s->nrm) {
+        pgi_v3 n = v3_add(v3_add(v3_scale(v3_load(s->nrm + 3 * (size_t)t[0]), bw),
+                                 v3_scale(v3_load(s->nrm + 3 * (size_t)t[1]), bu)),
+                          v3_scale(v3_load(s->nrm + 3 * (size_t)t[2]), bv));
+        float l = v3_len(n);
+        if (l > 0.f && isfinite(l)) {
+            n = v3_scale(n, 1.f / l);
+            o->ns = v3_dot(n, o->ng) < 0.f ? v3_neg(n) : n;
+        }
+    }
+    o->u = o->v = 0.f;
+    if (s->uv) {
+        const float *ua = s->uv + 2 * (size_t)t[0], *ub = s->uv + 2 * (size_t)t[1], *uc = s->uv + 2 * (size_t)t[2];
+        o->u = bw * ua[0] + bu * ub[0] + bv * uc[0];
+        o->v = bw * ua[1] + bu * ub[1] + bv * uc[1];
+    }
+    o->mat = &s->mats[s->tri_mat[prim]];
+    o->kd = v3_load(o->mat->kd);
+    if (o->mat->tex_kd >= 0) o->kd = v3_mul(o->kd, pgi__texture_lookup(&s->texs[o->mat->tex_kd], o->u, o->v));
+}
+
+int pgi__bsdf_sample(const pgi_surface *sf, pgi_v3 wi, float u1, float u2, float u3, pgi_v3 *wo, pgi_v3 *weight) {
+    const pgi_material *m = sf->mat;
+    float side = v3_dot(wi, sf->ng) >= 0.f ? 1.f : -1.f;
+    pgi_v3 ng = v3_scale(sf->ng, side), ns = v3_scale(sf->ns, side);
+    switch (m->type) {
+    case PGI_MAT_MIRROR:
+        *wo = pgi__reflect(wi, ns);
+        *weight = v3_load(m->ks);
+        return v3_dot(*wo, ng) > 0.f;
+    case PGI_MAT_GLASS: {
+        /* side > 0: arriving from outside (the side the normal points to). */
+        float eta_i = side > 0.f ? 1.f : m->ior, eta_t = side > 0.f ? m->ior : 1.f;
+        float ci = fminf(1.f, fmaxf(0.f, v3_dot(wi, ns)));
+        float F = pgi__fresnel_dielectric(ci, eta_i, eta_t);
+        if (u1 < F) {
+            *wo = pgi__reflect(wi, ns);
+            *weight = v3(1.f, 1.f, 1.f);
+            return v3_dot(*wo, ng) > 0.f;
+        }
+        float eta = eta_i / eta_t;
+        float st2 = eta * eta * (1.f - ci * ci);
+        float ct = sqrtf(fmaxf(0.f, 1.f - st2));
+        *wo = v3_norm(v3_sub(v3_scale(v3_neg(wi), eta), v3_scale(ns, ct - eta * ci)));
+        *weight = v3_load(m->ks);
+        return v3_dot(*wo, ng) < 0.f;
+    }
+    case PGI_MAT_PHONG: {
+        pgi_v3 ks = v3_load(m->ks);
+        float wd = v3_lum(sf->kd), wsp = v3_lum(ks);
+        float ps = wd + wsp > 0.f ? wsp / (wd + wsp) : 0.f;
+        float s = m->shininess;
+        if (u3 < ps) {
+            /* Half vector from the normalised Blinn distribution (s+1)/(2pi) cos^s. */
+            float ct = powf(u1, 1.f / (s + 1.f)), st = sqrtf(fmaxf(0.f, 1.f - ct * ct)), phi = 2.f * PGI_PI * u2;
+            pgi_v3 h = pgi_to_world(v3(st * cosf(phi), st * sinf(phi), ct), ns);
+            *wo = pgi__reflect(wi, h);
+        } else {
+            *wo = pgi_to_world(pgi_sample_cosine(u1, u2), ns);
+        }
+        float cg = v3_dot(*wo, ng), cs = v3_dot(*wo, ns);
+        if (!(cg > 0.f) || !(cs > 0.f)) return 0;
+        pgi_v3 h = v3_norm(v3_add(wi, *wo));
+        float hn = fmaxf(0.f, v3_dot(h, ns)), hw = fabsf(v3_dot(h, *wo));
+        float pdf_s = hw > 0.f ? (s + 1.f) / (2.f * PGI_PI) * powf(hn, s) / (4.f * hw) : 0.f;
+        float pdf = ps * pdf_s + (1.f - ps) * cs * PGI_INV_PI;
+        if (!(pdf > 0.f)) return 0;
+        pgi_v3 f = pgi__brdf_eval(sf->kd, ks, s, ns, wi, *wo);
+        *weight = v3_scale(f, cs / pdf);
+        return 1;
+    }
+    case PGI_MAT_LAMBERT:
+    default:
+        *wo = pgi_to_world(pgi_sample_cosine(u1, u2), ns);
+        *weight = sf->kd;
+        return v3_dot(*wo, ng) > 0.f;
+    }
+}

@@ -1,0 +1,74 @@
+/* Materials as BSDFs: evaluation (shared by direct light and every
+ * estimator, so that all of them compute the same numbers) and sampling
+ * (photon tracing and eye paths). Directions point away from the surface. */
+#ifndef PGI_BSDF_H
+#define PGI_BSDF_H
+
+#include "scene_internal.h"
+
+/* Energy-conserving Blinn-Phong specular lobe of the tiled paper, eqs. 6-8:
+ * (8+s)/(8 pi) * F * max(0, h.n)^s with Schlick's F = F0 + (1-F0)(1 - max(0, h.wi))^5.
+ * Returns the lobe without F0 applied in `fs` and the (1-F) factor base, so the
+ * caller combines per channel: spec_c = k * (F0_c + (1 - F0_c) * fr). */
+static inline void pgi__phong_lobe(pgi_v3 n, pgi_v3 wi, pgi_v3 wo, float s, float *k, float *fr) {
+    pgi_v3 h = v3_add(wi, wo);
+    float hl = v3_len(h);
+    if (!(hl > 0.f)) {
+        *k = 0.f;
+        *fr = 0.f;
+        return;
+    }
+    h = v3_scale(h, 1.f / hl);
+    float hn = fmaxf(0.f, v3_dot(h, n));
+    float hi = fmaxf(0.f, v3_dot(h, wi));
+    float m = 1.f - hi, m2 = m * m;
+    *fr = m2 * m2 * m;
+    *k = (8.f + s) * (1.f / (8.f * PGI_PI)) * powf(hn, s);
+}
+
+/* f(wi, wo) for a non-specular surface: kd/pi + Blinn-Phong (ks = F0).
+ * Lambertian when ks is zero. No cosine. */
+static inline pgi_v3 pgi__brdf_eval(pgi_v3 kd, pgi_v3 ks, float s, pgi_v3 n, pgi_v3 wi, pgi_v3 wo) {
+    pgi_v3 f = v3_scale(kd, PGI_INV_PI);
+    if (ks.x > 0.f || ks.y > 0.f || ks.z > 0.f) {
+        float k, fr;
+        pgi__phong_lobe(n, wi, wo, s, &k, &fr);
+        f.x += k * (ks.x + (1.f - ks.x) * fr);
+        f.y += k * (ks.y + (1.f - ks.y) * fr);
+        f.z += k * (ks.z + (1.f - ks.z) * fr);
+    }
+    return f;
+}
+
+static inline pgi_v3 pgi__reflect(pgi_v3 w, pgi_v3 n) { return v3_sub(v3_scale(n, 2.f * v3_dot(w, n)), w); }
+
+/* Unpolarised Fresnel reflectance of a dielectric; cos_i > 0 on the incident side. */
+static inline float pgi__fresnel_dielectric(float cos_i, float eta_i, float eta_t) {
+    float sin_t = eta_i / eta_t * sqrtf(fmaxf(0.f, 1.f - cos_i * cos_i));
+    if (sin_t >= 1.f) return 1.f;
+    float cos_t = sqrtf(fmaxf(0.f, 1.f - sin_t * sin_t));
+    float rs = (eta_i * cos_i - eta_t * cos_t) / (eta_i * cos_i + eta_t * cos_t);
+    float rp = (eta_t * cos_i - eta_i * cos_t) / (eta_t * cos_i + eta_i * cos_t);
+    return 0.5f * (rs * rs + rp * rp);
+}
+
+/* Surface point from a hit. */
+typedef struct pgi_surface {
+    pgi_v3 p;
+    pgi_v3 ng;          /* unit geometric normal (winding order) */
+    pgi_v3 ns;          /* unit shading normal, same side as ng */
+    float u, v;         /* texture coordinates */
+    const pgi_material *mat;
+    pgi_v3 kd;          /* albedo with the texture applied */
+} pgi_surface;
+
+void pgi__scene_surface(const pgi_scene *s, uint32_t prim, float bu, float bv, pgi_v3 p, pgi_surface *out);
+
+static inline int pgi__mat_specular(const pgi_material *m) { return m->type == PGI_MAT_MIRROR || m->type == PGI_MAT_GLASS; }
+
+/* Samples the continuation of a path arriving from `wi` (pointing away from
+ * the surface) at `sf`. Writes the new direction and the weight f*cos/pdf.
+ * Returns 0 when the path ends (absorbed, or sampled under the surface). */
+int pgi__bsdf_sample(const pgi_surface *sf, pgi_v3 wi, float u1, float u2, float u3, pgi_v3 *wo, pgi_v3 *weight);
+
+#endif

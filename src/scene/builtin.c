@@ -1,0 +1,226 @@
+/* Built-in scenes that need no files: the Cornell box (default), the
+ * GIRefScene and sphere_and_plane of the Cal Poly project (papers/004). */
+#include <stdio.h>
+#include <string.h>
+
+#include "scene_internal.h"
+
+const char *const pgi__builtin_names[] = {"cornell", "giref", "sphere-and-plane", NULL};
+
+typedef struct {
+    pgi_scene *s;
+    size_t vcap, tcap;
+    pgi_status st;
+} builder;
+
+static int grow(builder *b, size_t nv, size_t nt) {
+    if (b->st) return 0;
+    pgi_scene *s = b->s;
+    if (s->nverts + nv > b->vcap) {
+        size_t cap = (s->nverts + nv) * 2;
+        float *p = realloc(s->pos, cap * 3 * sizeof *p), *n = p ? realloc(s->nrm, cap * 3 * sizeof *n) : NULL;
+        if (p) s->pos = p;
+        if (n) s->nrm = n;
+        if (!p || !n) {
+            b->st = pgi__fail(PGI_ERR_OOM, "out of memory building a scene");
+            return 0;
+        }
+        b->vcap = cap;
+    }
+    if (s->ntris + nt > b->tcap) {
+        size_t cap = (s->ntris + nt) * 2;
+        uint32_t *t = realloc(s->tri, cap * 3 * sizeof *t), *m = t ? realloc(s->tri_mat, cap * sizeof *m) : NULL;
+        if (t) s->tri = t;
+        if (m) s->tri_mat = m;
+        if (!t || !m) {
+            b->st = pgi__fail(PGI_ERR_OOM, "out of memory building a scene");
+            return 0;
+        }
+        b->tcap = cap;
+    }
+    return 1;
+}
+
+static uint32_t add_vertex(builder *b, pgi_v3 p, pgi_v3 n) {
+    pgi_scene *s = b->s;
+    v3_store(s->pos + 3 * s->nverts, p);
+    v3_store(s->nrm + 3 * s->nverts, n);
+    return (uint32_t)s->nverts++;
+}
+
+static void add_tri(builder *b, uint32_t a, uint32_t c, uint32_t d, uint32_t mat) {
+    pgi_scene *s = b->s;
+    s->tri[3 * s->ntris] = a;
+    s->tri[3 * s->ntris + 1] = c;
+    s->tri[3 * s->ntris + 2] = d;
+    s->tri_mat[s->ntris++] = mat;
+}
+
+/* Quad a-b-c-d (counter-clockwise seen from the side the normal points to). */
+static void add_quad(builder *b, pgi_v3 a, pgi_v3 c1, pgi_v3 c2, pgi_v3 d, uint32_t mat) {
+    if (!grow(b, 4, 2)) return;
+    pgi_v3 n = v3_norm(v3_cross(v3_sub(c1, a), v3_sub(d, a)));
+    uint32_t i0 = add_vertex(b, a, n), i1 = add_vertex(b, c1, n), i2 = add_vertex(b, c2, n), i3 = add_vertex(b, d, n);
+    add_tri(b, i0, i1, i2, mat);
+    add_tri(b, i0, i2, i3, mat);
+}
+
+/* Axis-aligned box of half extents h, rotated by `deg` about y, resting on y = y0. */
+static void add_box(builder *b, float cx, float y0, float cz, pgi_v3 h, float deg, uint32_t mat) {
+    float a = deg * PGI_PI / 180.f, ca = cosf(a), sa = sinf(a);
+    pgi_v3 P[8];
+    for (int i = 0; i < 8; i++) {
+        float x = (i & 1) ? h.x : -h.x, y = (i & 2) ? 2.f * h.y : 0.f, z = (i & 4) ? h.z : -h.z;
+        P[i] = v3(cx + ca * x + sa * z, y0 + y, cz - sa * x + ca * z);
+    }
+    add_quad(b, P[0], P[4], P[6], P[2], mat); /* -x */
+    add_quad(b, P[1], P[3], P[7], P[5], mat); /* +x */
+    add_quad(b, P[0], P[1], P[5], P[4], mat); /* -y */
+    add_quad(b, P[2], P[6], P[7], P[3], mat); /* +y */
+    add_quad(b, P[0], P[2], P[3], P[1], mat); /* -z */
+    add_quad(b, P[4], P[5], P[7], P[6], mat); /* +z */
+}
+
+static void add_sphere(builder *b, pgi_v3 c, float r, int slices, int stacks, uint32_t mat) {
+    if (!grow(b, (size_t)(slices + 1) * (stacks + 1), (size_t)slices * stacks * 2)) return;
+    uint32_t base = (uint32_t)b->s->nverts;
+    for (int i = 0; i <= stacks; i++) {
+        float th = PGI_PI * (float)i / (float)stacks;
+        for (int j = 0; j <= slices; j++) {
+            float ph = 2.f * PGI_PI * (float)j / (float)slices;
+            pgi_v3 n = v3(sinf(th) * cosf(ph), cosf(th), sinf(th) * sinf(ph));
+            add_vertex(b, v3_madd(c, n, r), n);
+        }
+    }
+    for (int i = 0; i < stacks; i++)
+        for (int j = 0; j < slices; j++) {
+            uint32_t a = base + (uint32_t)(i * (slices + 1) + j), d = a + (uint32_t)(slices + 1);
+            if (i > 0) add_tri(b, a, a + 1, d, mat);
+            if (i < stacks - 1) add_tri(b, a + 1, d + 1, d, mat);
+        }
+}
+
+static uint32_t add_mat(builder *b, const char *name, pgi_material_type type, pgi_v3 kd) {
+    if (b->st) return 0;
+    pgi_scene *s = b->s;
+    pgi_material *m = realloc(s->mats, (s->nmats + 1) * sizeof *m);
+    if (!m) {
+        b->st = pgi__fail(PGI_ERR_OOM, "out of memory building a scene");
+        return 0;
+    }
+    s->mats = m;
+    m = &s->mats[s->nmats];
+    memset(m, 0, sizeof *m);
+    snprintf(m->name, sizeof m->name, "%s", name);
+    m->type = type;
+    v3_store(m->kd, kd);
+    m->ior = 1.5f;
+    m->tex_kd = -1;
+    return (uint32_t)s->nmats++;
+}
+
+static void add_light(builder *b, pgi_light_type type, pgi_v3 pos, pgi_v3 color) {
+    if (b->st) return;
+    pgi_scene *s = b->s;
+    pgi_light *l = realloc(s->lights, (s->nlights + 1) * sizeof *l);
+    if (!l) {
+        b->st = pgi__fail(PGI_ERR_OOM, "out of memory building a scene");
+        return;
+    }
+    s->lights = l;
+    l = &s->lights[s->nlights++];
+    memset(l, 0, sizeof *l);
+    l->type = type;
+    v3_store(l->pos, pos);
+    v3_store(l->color, color);
+}
+
+static void set_camera(builder *b, pgi_v3 eye, pgi_v3 at, float fov) {
+    if (b->st) return;
+    pgi_camera_def *c = calloc(1, sizeof *c);
+    if (!c) {
+        b->st = pgi__fail(PGI_ERR_OOM, "out of memory building a scene");
+        return;
+    }
+    v3_store(c->eye, eye);
+    v3_store(c->look_at, at);
+    v3_store(c->up, v3(0.f, 1.f, 0.f));
+    c->fov_y_deg = fov;
+    b->s->cams = c;
+    b->s->ncams = 1;
+}
+
+/* The classic box (McGuire's CornellBox-Original proportions and colours):
+ * x in [-1, 1], y in [0, 2], z in [-1, 1], open towards +z, area light
+ * (Ke 17 12 4) just under the ceiling. */
+static void build_cornell(builder *b) {
+    pgi_v3 white = v3(0.725f, 0.71f, 0.68f);
+    uint32_t mw = add_mat(b, "white", PGI_MAT_LAMBERT, white);
+    uint32_t mr = add_mat(b, "red", PGI_MAT_LAMBERT, v3(0.63f, 0.065f, 0.05f));
+    uint32_t mg = add_mat(b, "green", PGI_MAT_LAMBERT, v3(0.14f, 0.45f, 0.091f));
+    uint32_t ml = add_mat(b, "light", PGI_MAT_LAMBERT, v3(0.78f, 0.78f, 0.78f));
+    if (!b->st) v3_store(b->s->mats[ml].ke, v3(17.f, 12.f, 4.f));
+    add_quad(b, v3(-1, 0, -1), v3(-1, 0, 1), v3(1, 0, 1), v3(1, 0, -1), mw);     /* floor */
+    add_quad(b, v3(-1, 2, -1), v3(1, 2, -1), v3(1, 2, 1), v3(-1, 2, 1), mw);     /* ceiling */
+    add_quad(b, v3(-1, 0, -1), v3(1, 0, -1), v3(1, 2, -1), v3(-1, 2, -1), mw);   /* back */
+    add_quad(b, v3(-1, 0, -1), v3(-1, 2, -1), v3(-1, 2, 1), v3(-1, 0, 1), mr);   /* left */
+    add_quad(b, v3(1, 0, -1), v3(1, 0, 1), v3(1, 2, 1), v3(1, 2, -1), mg);       /* right */
+    add_quad(b, v3(-0.24f, 1.98f, -0.22f), v3(0.23f, 1.98f, -0.22f), v3(0.23f, 1.98f, 0.16f),
+             v3(-0.24f, 1.98f, 0.16f), ml);                                        /* light, facing down */
+    add_box(b, 0.33f, 0.f, 0.37f, v3(0.3f, 0.3f, 0.3f), -17.f, mw);               /* short block */
+    add_box(b, -0.34f, 0.f, -0.28f, v3(0.3f, 0.6f, 0.3f), 17.f, mw);              /* tall block */
+    set_camera(b, v3(0.f, 1.f, 3.9f), v3(0.f, 1.f, 0.f), 39.f);
+    b->s->defaults = (pgi_scene_defaults){200000, 0.05f, 4, 512, 512, 1.f};
+}
+
+/* GIRefScene: a closed box of six planes, grey except the coloured left and
+ * right walls, two spheres, a point light under the ceiling. */
+static void build_giref(builder *b) {
+    uint32_t mg = add_mat(b, "grey", PGI_MAT_LAMBERT, v3(0.7f, 0.7f, 0.7f));
+    uint32_t mr = add_mat(b, "red", PGI_MAT_LAMBERT, v3(0.75f, 0.15f, 0.15f));
+    uint32_t mb = add_mat(b, "blue", PGI_MAT_LAMBERT, v3(0.15f, 0.2f, 0.75f));
+    uint32_t ms = add_mat(b, "sphere", PGI_MAT_LAMBERT, v3(0.8f, 0.8f, 0.8f));
+    add_quad(b, v3(-5, 0, -5), v3(-5, 0, 5), v3(5, 0, 5), v3(5, 0, -5), mg);
+    add_quad(b, v3(-5, 10, -5), v3(5, 10, -5), v3(5, 10, 5), v3(-5, 10, 5), mg);
+    add_quad(b, v3(-5, 0, -5), v3(5, 0, -5), v3(5, 10, -5), v3(-5, 10, -5), mg);
+    add_quad(b, v3(-5, 0, 5), v3(-5, 10, 5), v3(5, 10, 5), v3(5, 0, 5), mg);
+    add_quad(b, v3(-5, 0, -5), v3(-5, 10, -5), v3(-5, 10, 5), v3(-5, 0, 5), mr);
+    add_quad(b, v3(5, 0, -5), v3(5, 0, 5), v3(5, 10, 5), v3(5, 10, -5), mb);
+    add_sphere(b, v3(-2.f, 2.f, -1.5f), 2.f, 64, 32, ms);
+    add_sphere(b, v3(2.5f, 1.5f, 1.f), 1.5f, 64, 32, ms);
+    add_light(b, PGI_LIGHT_POINT, v3(0.f, 9.5f, 0.f), v3(60.f, 60.f, 60.f));
+    set_camera(b, v3(0.f, 5.f, 4.9f), v3(0.f, 4.f, 0.f), 65.f);
+    b->s->defaults = (pgi_scene_defaults){200000, 0.25f, 4, 640, 480, 1.f};
+}
+
+/* sphere_and_plane: a point light, a sphere, a ground plane; half the view is
+ * empty sky. */
+static void build_sphere_and_plane(builder *b) {
+    uint32_t mp = add_mat(b, "plane", PGI_MAT_LAMBERT, v3(0.7f, 0.7f, 0.7f));
+    uint32_t ms = add_mat(b, "sphere", PGI_MAT_LAMBERT, v3(0.8f, 0.3f, 0.2f));
+    add_quad(b, v3(-20, 0, -20), v3(-20, 0, 20), v3(20, 0, 20), v3(20, 0, -20), mp);
+    add_sphere(b, v3(0.f, 1.f, 0.f), 1.f, 64, 32, ms);
+    add_light(b, PGI_LIGHT_POINT, v3(2.f, 4.f, 2.f), v3(40.f, 40.f, 40.f));
+    set_camera(b, v3(0.f, 2.5f, 7.f), v3(0.f, 0.8f, 0.f), 50.f);
+    b->s->defaults = (pgi_scene_defaults){200000, 0.1f, 4, 640, 480, 1.f};
+}
+
+pgi_status pgi__scene_builtin(const char *name, pgi_scene **out) {
+    *out = NULL;
+    void (*fn)(builder *) = NULL;
+    if (strcmp(name, "cornell") == 0) fn = build_cornell;
+    else if (strcmp(name, "giref") == 0) fn = build_giref;
+    else if (strcmp(name, "sphere-and-plane") == 0) fn = build_sphere_and_plane;
+    if (!fn) return pgi__fail(PGI_ERR_INVALID_ARG, "no built-in scene named '%s'", name);
+    builder b = {0};
+    pgi_status st = pgi__scene_new(name, &b.s);
+    if (st) return st;
+    fn(&b);
+    st = b.st ? b.st : pgi__scene_finalize(b.s, name);
+    if (st) {
+        pgi_scene_destroy(b.s);
+        return st;
+    }
+    *out = b.s;
+    return PGI_OK;
+}

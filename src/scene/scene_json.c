@@ -1,0 +1,394 @@
+/* JSON scene description (see docs/scene-format.md).
+ *
+ *   {
+ *     "name": "sibenik",                       optional; default: file name without .json
+ *     "mesh": "sibenik/sibenik.obj",           required; any file Assimp reads
+ *     "cameras": [                             optional ("camera": {...} for one)
+ *       {"eye": [-18, -13.5, 0], "look_at": [10, -12, 0], "up": [0, 1, 0], "fov_y": 60}
+ *     ],
+ *     "lights": [                              optional when the mesh has emissive (Ke) materials
+ *       {"type": "point", "position": [0, -3, 0], "intensity": [300, 300, 300]},
+ *       {"type": "spot", "position": [..], "direction": [..], "angle": 30, "intensity": [..]},
+ *       {"type": "sun", "direction": [0.195, -0.976, 0.098], "irradiance": [5, 5, 5]}
+ *     ],
+ *     "render": {"photons": 200000, "radius": 0.25, "bounces": 4,
+ *                "width": 1280, "height": 720, "exposure": 1.0}     all optional
+ *   }
+ *
+ * Units: positions in the mesh's units; intensity I in W/sr (point, spot),
+ * irradiance E in W/m^2 (sun; "direction" is the way the light travels);
+ * "angle" is the spot's half-angle cut-off in degrees, in (0, 180); "up"
+ * defaults to [0, 1, 0] and "fov_y" (vertical, degrees) to 60.
+ *
+ * Mesh paths: an absolute path is used as is; a relative one is looked up
+ * first in the JSON file's folder, then in $PHOTONGI_SCENES (default
+ * ../shared/scenes, relative to the working directory).
+ *
+ * Unknown keys are errors (they are usually typos), except keys starting
+ * with '_' and "comment", "description", "credit", "license", "source",
+ * which are ignored. Every error message names the JSON file and the key. */
+#include "scene_internal.h"
+
+#include <cJSON.h>
+#include <errno.h>
+#include <stdio.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#define DEFAULT_SCENES_DIR "../shared/scenes"
+
+static int regular_file(const char *p) {
+    struct stat st;
+    return stat(p, &st) == 0 && S_ISREG(st.st_mode);
+}
+
+/* Reads a whole file, NUL-terminated. */
+static pgi_status read_file(const char *path, char **out, size_t *len) {
+    FILE *f = fopen(path, "rb");
+    if (!f) return pgi__fail(PGI_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+    size_t cap = 4096, n = 0;
+    char *buf = malloc(cap);
+    if (!buf) {
+        fclose(f);
+        return pgi__fail(PGI_ERR_OOM, "%s: out of memory", path);
+    }
+    for (;;) {
+        if (n + 1 >= cap) {
+            char *nb = realloc(buf, cap * 2);
+            if (!nb) {
+                free(buf);
+                fclose(f);
+                return pgi__fail(PGI_ERR_OOM, "%s: out of memory", path);
+            }
+            buf = nb;
+            cap *= 2;
+        }
+        size_t r = fread(buf + n, 1, cap - 1 - n, f);
+        n += r;
+        if (r == 0) break;
+    }
+    int err = ferror(f);
+    fclose(f);
+    if (err) {
+        free(buf);
+        return pgi__fail(PGI_ERR_IO, "%s: read error", path);
+    }
+    buf[n] = 0;
+    *out = buf;
+    *len = n;
+    return PGI_OK;
+}
+
+/* ------------------------------------------------------------ validation */
+
+static int ignored_key(const char *k) {
+    static const char *const ok[] = {"comment", "description", "credit", "license", "source", NULL};
+    if (k[0] == '_') return 1;
+    for (int i = 0; ok[i]; i++)
+        if (strcmp(k, ok[i]) == 0) return 1;
+    return 0;
+}
+
+/* Rejects keys of `obj` not in the NULL-terminated `allowed` list. `where` is "" or "lights[2]". */
+static pgi_status check_keys(const char *path, const cJSON *obj, const char *where, const char *const *allowed) {
+    for (const cJSON *it = obj->child; it; it = it->next) {
+        const char *k = it->string ? it->string : "";
+        int found = ignored_key(k);
+        for (int i = 0; !found && allowed[i]; i++) found = strcmp(k, allowed[i]) == 0;
+        if (found) continue;
+        char list[256] = "";
+        for (int i = 0; allowed[i]; i++) {
+            strncat(list, i ? ", " : "", sizeof list - strlen(list) - 1);
+            strncat(list, allowed[i], sizeof list - strlen(list) - 1);
+        }
+        return pgi__fail(PGI_ERR_PARSE, "%s: unknown key '%s%s%s' (expected one of: %s)", path, where,
+                         *where ? "." : "", k, list);
+    }
+    return PGI_OK;
+}
+
+enum { ANY = 0, NONNEG = 1 };
+
+/* Reads a 3-vector. Absent: returns 0 (and *present = 0) when optional, error otherwise. */
+static pgi_status get_vec3(const char *path, const cJSON *obj, const char *where, const char *key, int sign,
+                           int required, float out[3], int *present) {
+    const cJSON *a = cJSON_GetObjectItemCaseSensitive(obj, key);
+    if (present) *present = a != NULL;
+    const char *what = sign == NONNEG ? "non-negative numbers" : "numbers";
+    if (!a) {
+        if (!required) return PGI_OK;
+        return pgi__fail(PGI_ERR_PARSE, "%s: %s%s%s is missing (an array of 3 %s)", path, where, *where ? "." : "",
+                         key, what);
+    }
+    int ok = cJSON_IsArray(a) && cJSON_GetArraySize(a) == 3;
+    for (int i = 0; ok && i < 3; i++) {
+        const cJSON *e = cJSON_GetArrayItem(a, i);
+        if (!cJSON_IsNumber(e) || !isfinite(e->valuedouble) || fabs(e->valuedouble) > 3.0e38 ||
+            (sign == NONNEG && e->valuedouble < 0.0))
+            ok = 0;
+        else
+            out[i] = (float)e->valuedouble;
+    }
+    if (!ok)
+        return pgi__fail(PGI_ERR_PARSE, "%s: %s%s%s must be an array of 3 %s", path, where, *where ? "." : "", key,
+                         what);
+    return PGI_OK;
+}
+
+/* Reads a finite number; `lo_excl`: must be > lo, else >= lo. */
+static pgi_status get_number(const char *path, const cJSON *obj, const char *where, const char *key, int required,
+                             double lo, int lo_excl, double hi, double *out, int *present) {
+    const cJSON *n = cJSON_GetObjectItemCaseSensitive(obj, key);
+    if (present) *present = n != NULL;
+    if (!n) {
+        if (!required) return PGI_OK;
+        return pgi__fail(PGI_ERR_PARSE, "%s: %s%s%s is missing", path, where, *where ? "." : "", key);
+    }
+    double v = cJSON_IsNumber(n) ? n->valuedouble : NAN;
+    if (!isfinite(v) || (lo_excl ? !(v > lo) : !(v >= lo)) || !(v <= hi))
+        return pgi__fail(PGI_ERR_PARSE, "%s: %s%s%s must be a number %s %g and at most %g", path, where,
+                         *where ? "." : "", key, lo_excl ? "greater than" : "of at least", lo, hi);
+    *out = v;
+    return PGI_OK;
+}
+
+static pgi_status get_count(const char *path, const cJSON *obj, const char *key, double hi, double *out) {
+    const cJSON *n = cJSON_GetObjectItemCaseSensitive(obj, key);
+    if (!n) return PGI_OK;
+    double v = cJSON_IsNumber(n) ? n->valuedouble : NAN;
+    if (!isfinite(v) || v < 0.0 || v > hi || v != floor(v))
+        return pgi__fail(PGI_ERR_PARSE, "%s: render.%s must be a non-negative whole number (at most %.0f)", path, key,
+                         hi);
+    *out = v;
+    return PGI_OK;
+}
+
+static pgi_status parse_camera(const char *path, const cJSON *c, const char *where, pgi_camera_def *cd) {
+    static const char *const keys[] = {"eye", "look_at", "up", "fov_y", NULL};
+    if (!cJSON_IsObject(c))
+        return pgi__fail(PGI_ERR_PARSE, "%s: %s must be an object with eye, look_at, up, fov_y", path, where);
+    pgi_status st = check_keys(path, c, where, keys);
+    if (st) return st;
+    float up[3] = {0.f, 1.f, 0.f};
+    double fov = 60.0;
+    if ((st = get_vec3(path, c, where, "eye", ANY, 1, cd->eye, NULL))) return st;
+    if ((st = get_vec3(path, c, where, "look_at", ANY, 1, cd->look_at, NULL))) return st;
+    if ((st = get_vec3(path, c, where, "up", ANY, 0, up, NULL))) return st;
+    if ((st = get_number(path, c, where, "fov_y", 0, 0.0, 1, 179.9, &fov, NULL))) return st;
+    memcpy(cd->up, up, sizeof up);
+    cd->fov_y_deg = (float)fov;
+    pgi_v3 d = v3_sub(v3_load(cd->look_at), v3_load(cd->eye));
+    if (!(v3_len(d) > 0.f))
+        return pgi__fail(PGI_ERR_PARSE, "%s: %s: eye and look_at are the same point", path, where);
+    if (!(v3_len(v3_cross(d, v3_load(cd->up))) > 0.f))
+        return pgi__fail(PGI_ERR_PARSE, "%s: %s: up is zero or parallel to the view direction", path, where);
+    return PGI_OK;
+}
+
+static pgi_status parse_light(const char *path, const cJSON *l, const char *where, pgi_light *L) {
+    memset(L, 0, sizeof *L);
+    if (!cJSON_IsObject(l)) return pgi__fail(PGI_ERR_PARSE, "%s: %s must be an object", path, where);
+    const cJSON *t = cJSON_GetObjectItemCaseSensitive(l, "type");
+    if (!t) return pgi__fail(PGI_ERR_PARSE, "%s: %s.type is missing (\"point\", \"spot\" or \"sun\")", path, where);
+    if (!cJSON_IsString(t))
+        return pgi__fail(PGI_ERR_PARSE, "%s: %s.type must be a string (\"point\", \"spot\" or \"sun\")", path, where);
+    pgi_status st;
+    if (strcmp(t->valuestring, "point") == 0) {
+        static const char *const keys[] = {"type", "position", "intensity", NULL};
+        L->type = PGI_LIGHT_POINT;
+        if ((st = check_keys(path, l, where, keys))) return st;
+        if ((st = get_vec3(path, l, where, "position", ANY, 1, L->pos, NULL))) return st;
+        if ((st = get_vec3(path, l, where, "intensity", NONNEG, 1, L->color, NULL))) return st;
+    } else if (strcmp(t->valuestring, "spot") == 0) {
+        static const char *const keys[] = {"type", "position", "direction", "angle", "intensity", NULL};
+        L->type = PGI_LIGHT_SPOT;
+        double angle = 0.0;
+        if ((st = check_keys(path, l, where, keys))) return st;
+        if ((st = get_vec3(path, l, where, "position", ANY, 1, L->pos, NULL))) return st;
+        if ((st = get_vec3(path, l, where, "direction", ANY, 1, L->dir, NULL))) return st;
+        if ((st = get_number(path, l, where, "angle", 1, 0.0, 1, 179.9, &angle, NULL))) return st;
+        if ((st = get_vec3(path, l, where, "intensity", NONNEG, 1, L->color, NULL))) return st;
+        if (!(v3_len(v3_load(L->dir)) > 0.f))
+            return pgi__fail(PGI_ERR_PARSE, "%s: %s.direction must not be zero", path, where);
+        L->cos_cutoff = (float)cos(angle * (3.14159265358979323846 / 180.0));
+    } else if (strcmp(t->valuestring, "sun") == 0) {
+        static const char *const keys[] = {"type", "direction", "irradiance", NULL};
+        L->type = PGI_LIGHT_SUN;
+        if ((st = check_keys(path, l, where, keys))) return st;
+        if ((st = get_vec3(path, l, where, "direction", ANY, 1, L->dir, NULL))) return st;
+        if ((st = get_vec3(path, l, where, "irradiance", NONNEG, 1, L->color, NULL))) return st;
+        if (!(v3_len(v3_load(L->dir)) > 0.f))
+            return pgi__fail(PGI_ERR_PARSE, "%s: %s.direction must not be zero", path, where);
+    } else {
+        return pgi__fail(PGI_ERR_PARSE, "%s: %s.type '%s' is unknown (expected \"point\", \"spot\" or \"sun\")", path,
+                         where, t->valuestring);
+    }
+    return PGI_OK;
+}
+
+static pgi_status parse_render(const char *path, const cJSON *r, pgi_scene_defaults *d) {
+    static const char *const keys[] = {"photons", "radius", "bounces", "width", "height", "exposure", NULL};
+    if (!cJSON_IsObject(r)) return pgi__fail(PGI_ERR_PARSE, "%s: render must be an object", path);
+    pgi_status st = check_keys(path, r, "render", keys);
+    if (st) return st;
+    double photons = 0, bounces = 0, width = 0, height = 0, radius = 0, exposure = 0;
+    if ((st = get_count(path, r, "photons", 4294967295.0, &photons))) return st;
+    if ((st = get_count(path, r, "bounces", 1000.0, &bounces))) return st;
+    if ((st = get_count(path, r, "width", 65536.0, &width))) return st;
+    if ((st = get_count(path, r, "height", 65536.0, &height))) return st;
+    if ((st = get_number(path, r, "render", "radius", 0, 0.0, 0, 3.0e38, &radius, NULL))) return st;
+    if ((st = get_number(path, r, "render", "exposure", 0, 0.0, 0, 3.0e38, &exposure, NULL))) return st;
+    d->photons = (uint32_t)photons;
+    d->bounces = (int)bounces;
+    d->width = (int)width;
+    d->height = (int)height;
+    d->radius = (float)radius;
+    d->exposure = (float)exposure;
+    return PGI_OK;
+}
+
+/* ------------------------------------------------------------ mesh path */
+
+static pgi_status resolve_mesh(const char *path, const char *mesh, char *out, size_t n) {
+    if (mesh[0] == '/') {
+        if (!regular_file(mesh)) return pgi__fail(PGI_ERR_IO, "%s: mesh '%s' not found", path, mesh);
+        snprintf(out, n, "%s", mesh);
+        return PGI_OK;
+    }
+    char dir1[1024];
+    const char *slash = strrchr(path, '/');
+    if (slash)
+        snprintf(dir1, sizeof dir1, "%.*s", (int)(slash - path) > 0 ? (int)(slash - path) : 1, path);
+    else
+        snprintf(dir1, sizeof dir1, ".");
+    const char *env = getenv("PHOTONGI_SCENES");
+    const char *dir2 = env && *env ? env : DEFAULT_SCENES_DIR;
+    const char *dirs[2] = {dir1, dir2};
+    for (int i = 0; i < 2; i++) {
+        size_t dl = strlen(dirs[i]);
+        int len = snprintf(out, n, "%s%s%s", dirs[i], dl && dirs[i][dl - 1] == '/' ? "" : "/", mesh);
+        if (len > 0 && (size_t)len < n && regular_file(out)) return PGI_OK;
+    }
+    return pgi__fail(PGI_ERR_IO,
+                     "%s: mesh '%s' not found (looked in %s and %s; set PHOTONGI_SCENES to the folder that holds "
+                     "the scenes)",
+                     path, mesh, dir1, dir2);
+}
+
+/* ------------------------------------------------------------ loading */
+
+static pgi_status load(const char *path, const cJSON *root, pgi_scene **out) {
+    static const char *const keys[] = {"name", "mesh", "camera", "cameras", "lights", "render", NULL};
+    if (!cJSON_IsObject(root)) return pgi__fail(PGI_ERR_PARSE, "%s: the top level must be a JSON object", path);
+    pgi_status st = check_keys(path, root, "", keys);
+    if (st) return st;
+
+    const cJSON *jname = cJSON_GetObjectItemCaseSensitive(root, "name");
+    char name[128];
+    if (jname) {
+        if (!cJSON_IsString(jname) || !jname->valuestring[0])
+            return pgi__fail(PGI_ERR_PARSE, "%s: name must be a non-empty string", path);
+        snprintf(name, sizeof name, "%.127s", jname->valuestring);
+    } else {
+        const char *b = strrchr(path, '/');
+        b = b ? b + 1 : path;
+        size_t l = strlen(b);
+        if (l > 5 && strcmp(b + l - 5, ".json") == 0) l -= 5;
+        if (l > sizeof name - 1) l = sizeof name - 1;
+        memcpy(name, b, l);
+        name[l] = 0;
+    }
+
+    const cJSON *jmesh = cJSON_GetObjectItemCaseSensitive(root, "mesh");
+    if (!jmesh) return pgi__fail(PGI_ERR_PARSE, "%s: mesh is missing (the path of an OBJ/glTF/PLY file)", path);
+    if (!cJSON_IsString(jmesh) || !jmesh->valuestring[0])
+        return pgi__fail(PGI_ERR_PARSE, "%s: mesh must be a non-empty string (a file path)", path);
+
+    /* Cameras and lights are parsed before the (slow) mesh import so that errors come fast. */
+    const cJSON *jcam = cJSON_GetObjectItemCaseSensitive(root, "camera");
+    const cJSON *jcams = cJSON_GetObjectItemCaseSensitive(root, "cameras");
+    if (jcam && jcams) return pgi__fail(PGI_ERR_PARSE, "%s: give either camera or cameras, not both", path);
+    if (jcams && !cJSON_IsArray(jcams)) return pgi__fail(PGI_ERR_PARSE, "%s: cameras must be an array", path);
+    const cJSON *jlights = cJSON_GetObjectItemCaseSensitive(root, "lights");
+    if (jlights && !cJSON_IsArray(jlights)) return pgi__fail(PGI_ERR_PARSE, "%s: lights must be an array", path);
+    const cJSON *jrender = cJSON_GetObjectItemCaseSensitive(root, "render");
+
+    char mesh[1024];
+    if ((st = resolve_mesh(path, jmesh->valuestring, mesh, sizeof mesh))) return st;
+
+    pgi_scene *s;
+    if ((st = pgi__scene_new(name, &s))) return st;
+    snprintf(s->source, sizeof s->source, "%s", path);
+
+    size_t ncam = jcam ? 1 : (jcams ? (size_t)cJSON_GetArraySize(jcams) : 0);
+    size_t nl = jlights ? (size_t)cJSON_GetArraySize(jlights) : 0;
+    if (ncam) {
+        s->cams = calloc(ncam, sizeof *s->cams);
+        if (!s->cams) st = pgi__fail(PGI_ERR_OOM, "%s: out of memory", path);
+    }
+    if (!st && nl) {
+        s->lights = calloc(nl, sizeof *s->lights);
+        if (!s->lights) st = pgi__fail(PGI_ERR_OOM, "%s: out of memory", path);
+    }
+    char where[64];
+    if (!st && jcam) {
+        st = parse_camera(path, jcam, "camera", &s->cams[0]);
+        if (!st) s->ncams = 1;
+    }
+    for (size_t i = 0; !st && jcams && i < ncam; i++) {
+        snprintf(where, sizeof where, "cameras[%zu]", i);
+        st = parse_camera(path, cJSON_GetArrayItem(jcams, (int)i), where, &s->cams[i]);
+        if (!st) s->ncams = i + 1;
+    }
+    for (size_t i = 0; !st && i < nl; i++) {
+        snprintf(where, sizeof where, "lights[%zu]", i);
+        st = parse_light(path, cJSON_GetArrayItem(jlights, (int)i), where, &s->lights[i]);
+        if (!st) s->nlights = i + 1;
+    }
+    if (!st && jrender) st = parse_render(path, jrender, &s->defaults);
+    if (!st) st = pgi__scene_import_mesh(s, mesh);
+    if (!st) st = pgi__scene_finalize(s, path);
+    if (!st && s->nlights == 0)
+        st = pgi__fail(PGI_ERR_PARSE,
+                       "%s: the scene has no lights: add a \"lights\" list, or use a mesh with emissive (Ke) "
+                       "materials",
+                       path);
+    if (st) {
+        pgi_scene_destroy(s);
+        return st;
+    }
+    *out = s;
+    return PGI_OK;
+}
+
+pgi_status pgi__scene_load_json(const char *path, pgi_scene **out) {
+    if (!path || !out) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi__scene_load_json: NULL argument");
+    *out = NULL;
+    char *text = NULL;
+    size_t len = 0;
+    pgi_status st = read_file(path, &text, &len);
+    if (st) return st;
+    if (memchr(text, 0, len)) {
+        free(text);
+        return pgi__fail(PGI_ERR_PARSE, "%s: not a JSON text (contains NUL bytes)", path);
+    }
+    const char *end = NULL;
+    /* The length includes the terminating NUL, as cJSON_ParseWithOpts does: with
+     * require_null_terminated, cJSON checks that the parse stops at a NUL inside the buffer. */
+    cJSON *root = cJSON_ParseWithLengthOpts(text, len + 1, &end, 1);
+    if (!root) {
+        /* cJSON reports where it stopped; count the lines up to there (thread-safe, unlike cJSON_GetErrorPtr). */
+        size_t off = end && end >= text && end <= text + len ? (size_t)(end - text) : len;
+        size_t line = 1, col = 1;
+        for (size_t i = 0; i < off; i++) {
+            if (text[i] == '\n') line++, col = 1;
+            else col++;
+        }
+        free(text);
+        return pgi__fail(PGI_ERR_PARSE, "%s: invalid JSON near line %zu, column %zu", path, line, col);
+    }
+    free(text);
+    st = load(path, root, out);
+    cJSON_Delete(root);
+    return st;
+}

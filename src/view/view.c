@@ -1,0 +1,213 @@
+/* View samples and direct light. */
+#include "view.h"
+
+#include <string.h>
+
+#include "photon/photon.h"
+#include "scene/bsdf.h"
+
+#define PGI_MAX_SPECULAR_DEPTH 8
+
+static pgi_v3 camera_dir(const pgi_camera *c, int x, int y) {
+    float u = (2.f * ((float)x + 0.5f) / (float)c->width - 1.f) * c->tan_half_fov_y * c->aspect;
+    float v = (1.f - 2.f * ((float)y + 0.5f) / (float)c->height) * c->tan_half_fov_y;
+    pgi_v3 d = v3_add(v3_load(c->forward), v3_add(v3_scale(v3_load(c->right), u), v3_scale(v3_load(c->up), v)));
+    return v3_norm(d);
+}
+
+static void clear_sample(pgi_view_samples *vs, size_t i) {
+    memset(vs->pos + 3 * i, 0, 3 * sizeof(float));
+    memset(vs->nrm + 3 * i, 0, 3 * sizeof(float));
+    memset(vs->ngeo + 3 * i, 0, 3 * sizeof(float));
+    memset(vs->wo + 3 * i, 0, 3 * sizeof(float));
+    memset(vs->kd + 3 * i, 0, 3 * sizeof(float));
+    memset(vs->ks + 3 * i, 0, 3 * sizeof(float));
+    memset(vs->weight + 3 * i, 0, 3 * sizeof(float));
+    vs->shininess[i] = 0.f;
+    vs->depth[i] = 0.f;
+    vs->flags[i] = 0;
+}
+
+/* Continues the eye path of pixel i from its primary hit. */
+static void shade_eye_path(const pgi_scene *s, const pgi_rt *rt, const pgi_camera *cam, uint64_t seed, size_t i,
+                           pgi_v3 o, pgi_v3 d, pgi_hit h, pgi_view_samples *vs, float *emit, uint64_t *rays) {
+    clear_sample(vs, i);
+    v3_store(emit + 3 * i, v3(0.f, 0.f, 0.f));
+    if (h.prim == UINT32_MAX) return;
+    const float eps = pgi__scene_epsilon(s);
+    pgi_v3 weight = v3(1.f, 1.f, 1.f), e = v3(0.f, 0.f, 0.f);
+    pgi_rng rng;
+    int rng_ready = 0;
+    for (int depth = 0;; depth++) {
+        pgi_v3 p = v3_madd(o, d, h.t);
+        if (depth == 0) vs->depth[i] = v3_dot(v3_sub(p, v3_load(cam->eye)), v3_load(cam->forward));
+        pgi_surface sf;
+        pgi__scene_surface(s, h.prim, h.u, h.v, p, &sf);
+        pgi_v3 wo = v3_neg(d);
+        float side = v3_dot(wo, sf.ng) >= 0.f ? 1.f : -1.f;
+        pgi_v3 ke = v3_load(sf.mat->ke);
+        if (side > 0.f) e = v3_add(e, v3_mul(weight, ke));   /* one-sided emitters */
+        if (!pgi__mat_specular(sf.mat)) {
+            pgi_v3 ng = v3_scale(sf.ng, side), ns = v3_scale(sf.ns, side);
+            v3_store(vs->pos + 3 * i, p);
+            v3_store(vs->nrm + 3 * i, ns);
+            v3_store(vs->ngeo + 3 * i, ng);
+            v3_store(vs->wo + 3 * i, wo);
+            v3_store(vs->kd + 3 * i, sf.kd);
+            int phong = sf.mat->type == PGI_MAT_PHONG;
+            v3_store(vs->ks + 3 * i, phong ? v3_load(sf.mat->ks) : v3(0.f, 0.f, 0.f));
+            vs->shininess[i] = phong ? sf.mat->shininess : 0.f;
+            v3_store(vs->weight + 3 * i, weight);
+            vs->flags[i] = PGI_VS_VALID | (depth == 0 ? PGI_VS_PRIMARY : 0) | (phong ? 0 : PGI_VS_LAMBERT);
+            break;
+        }
+        if (depth + 1 >= PGI_MAX_SPECULAR_DEPTH) break;
+        if (!rng_ready) {
+            pgi_rng_seed(&rng, seed ^ 0x5eed0f1e11e5ULL, (uint64_t)i);
+            rng_ready = 1;
+        }
+        pgi_v3 nd, w;
+        if (!pgi__bsdf_sample(&sf, wo, pgi_rng_f(&rng), pgi_rng_f(&rng), pgi_rng_f(&rng), &nd, &w)) break;
+        weight = v3_mul(weight, w);
+        pgi_v3 ng = v3_dot(nd, sf.ng) >= 0.f ? sf.ng : v3_neg(sf.ng);
+        o = v3_madd(p, ng, eps);
+        d = nd;
+        (*rays)++;
+        if (!pgi__rt_intersect(rt, o, d, 0.f, INFINITY, &h)) break;
+    }
+    v3_store(emit + 3 * i, e);
+}
+
+pgi_status pgi__view_build(const pgi_scene *s, const pgi_rt *rt, const pgi_camera *cam, uint64_t seed,
+                           pgi_view_samples *vs, float *emit, uint64_t *rays_out) {
+    const int W = cam->width, H = cam->height;
+    if (vs->width != W || vs->height != H)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "view-sample buffer is %dx%d, camera %dx%d", vs->width, vs->height, W, H);
+    uint64_t rays = 0;
+    const pgi_v3 eye = v3_load(cam->eye);
+#pragma omp parallel for schedule(dynamic, 1) reduction(+ : rays)
+    for (int y = 0; y < H; y++) {
+        for (int x0 = 0; x0 < W; x0 += 8) {
+            int valid[8];
+            pgi_v3 dirs[8];
+            pgi_hit hits[8];
+            for (int k = 0; k < 8; k++) {
+                valid[k] = x0 + k < W;
+                dirs[k] = camera_dir(cam, valid[k] ? x0 + k : x0, y);
+            }
+            pgi__rt_intersect8(rt, valid, eye, dirs, INFINITY, hits);
+            for (int k = 0; k < 8 && x0 + k < W; k++) {
+                rays++;
+                size_t i = (size_t)y * W + (size_t)(x0 + k);
+                shade_eye_path(s, rt, cam, seed, i, eye, dirs[k], hits[k], vs, emit, &rays);
+            }
+        }
+    }
+    *rays_out = rays;
+    return PGI_OK;
+}
+
+pgi_status pgi__direct(const pgi_scene *s, const pgi_rt *rt, const pgi_view_samples *vs, int area_samples,
+                       uint64_t seed, float *out, uint64_t *rays_out) {
+    /* Area lights get their own CDF by power (luminance). */
+    size_t narea = 0;
+    for (size_t l = 0; l < s->nlights; l++) narea += s->lights[l].type == PGI_LIGHT_AREA;
+    float *cdf = NULL;
+    size_t *idx = NULL;
+    if (narea) {
+        cdf = malloc(narea * sizeof *cdf);
+        idx = malloc(narea * sizeof *idx);
+        if (!cdf || !idx) {
+            free(cdf);
+            free(idx);
+            return pgi__fail(PGI_ERR_OOM, "out of memory for the area-light table");
+        }
+        double tot = 0.0;
+        size_t k = 0;
+        for (size_t l = 0; l < s->nlights; l++) {
+            if (s->lights[l].type != PGI_LIGHT_AREA) continue;
+            tot += v3_lum(v3_load(s->lights[l].power));
+            cdf[k] = (float)tot;
+            idx[k++] = l;
+        }
+        for (k = 0; k < narea; k++) cdf[k] = tot > 0.0 ? (float)(cdf[k] / tot) : (float)(k + 1) / (float)narea;
+        cdf[narea - 1] = 1.f;
+    }
+    const float eps = pgi__scene_epsilon(s);
+    uint64_t rays = 0;
+    const long long n = (long long)vs->count;
+#pragma omp parallel for schedule(dynamic, 1024) reduction(+ : rays)
+    for (long long ii = 0; ii < n; ii++) {
+        size_t i = (size_t)ii;
+        pgi_v3 L = v3(0.f, 0.f, 0.f);
+        if (!(vs->flags[i] & PGI_VS_VALID)) {
+            v3_store(out + 3 * i, L);
+            continue;
+        }
+        pgi_v3 p = v3_load(vs->pos + 3 * i), ns = v3_load(vs->nrm + 3 * i), ng = v3_load(vs->ngeo + 3 * i);
+        pgi_v3 wo = v3_load(vs->wo + 3 * i), kd = v3_load(vs->kd + 3 * i), ks = v3_load(vs->ks + 3 * i);
+        float sh = vs->shininess[i];
+        pgi_v3 x = v3_madd(p, ng, eps);
+        for (size_t l = 0; l < s->nlights; l++) {
+            const pgi_light *lt = &s->lights[l];
+            pgi_v3 wi, Li;
+            float dist;
+            if (lt->type == PGI_LIGHT_AREA) continue;
+            if (lt->type == PGI_LIGHT_SUN) {
+                wi = v3_neg(v3_load(lt->dir));
+                dist = INFINITY;
+                Li = v3_load(lt->color);
+            } else {
+                pgi_v3 dv = v3_sub(v3_load(lt->pos), x);
+                float d2 = v3_dot(dv, dv);
+                if (!(d2 > 0.f)) continue;
+                dist = sqrtf(d2);
+                wi = v3_scale(dv, 1.f / dist);
+                if (lt->type == PGI_LIGHT_SPOT && -v3_dot(wi, v3_load(lt->dir)) < lt->cos_cutoff) continue;
+                Li = v3_scale(v3_load(lt->color), 1.f / d2);
+            }
+            float cs = v3_dot(ns, wi);
+            if (!(cs > 0.f) || !(v3_dot(ng, wi) > 0.f)) continue;
+            rays++;
+            if (pgi__rt_occluded(rt, x, wi, 0.f, dist == INFINITY ? INFINITY : dist * (1.f - 1e-4f))) continue;
+            L = v3_add(L, v3_scale(v3_mul(pgi__brdf_eval(kd, ks, sh, ns, wi, wo), Li), cs));
+        }
+        if (narea && area_samples > 0) {
+            pgi_rng rng;
+            pgi_rng_seed(&rng, seed ^ 0xd15ec7ULL, (uint64_t)i);
+            pgi_v3 La = v3(0.f, 0.f, 0.f);
+            for (int k = 0; k < area_samples; k++) {
+                float u = ((float)k + pgi_rng_f(&rng)) / (float)area_samples;   /* stratified light pick */
+                size_t lo = 0, hi = narea - 1;
+                while (lo < hi) {
+                    size_t mid = (lo + hi) / 2;
+                    if (u < cdf[mid]) hi = mid;
+                    else lo = mid + 1;
+                }
+                const pgi_light *lt = &s->lights[idx[lo]];
+                float pl = cdf[lo] - (lo ? cdf[lo - 1] : 0.f);
+                const uint32_t *t = s->tri + 3 * (size_t)lt->tri;
+                float su = sqrtf(pgi_rng_f(&rng)), b1 = 1.f - su, b2 = pgi_rng_f(&rng) * su;
+                pgi_v3 a = pgi__scene_vertex(s, t[0]), b = pgi__scene_vertex(s, t[1]), c = pgi__scene_vertex(s, t[2]);
+                pgi_v3 y = v3_add(v3_add(v3_scale(a, 1.f - b1 - b2), v3_scale(b, b1)), v3_scale(c, b2));
+                pgi_v3 dv = v3_sub(y, x);
+                float d2 = v3_dot(dv, dv);
+                if (!(d2 > 0.f) || !(pl > 0.f)) continue;
+                float dist = sqrtf(d2);
+                pgi_v3 wi = v3_scale(dv, 1.f / dist);
+                float cl = -v3_dot(wi, v3_load(lt->normal)), cs = v3_dot(ns, wi);
+                if (!(cl > 0.f) || !(cs > 0.f) || !(v3_dot(ng, wi) > 0.f)) continue;
+                rays++;
+                if (pgi__rt_occluded(rt, x, wi, 0.f, dist * (1.f - 1e-3f))) continue;
+                float g = cs * cl / d2 * lt->area / pl;
+                La = v3_add(La, v3_scale(v3_mul(pgi__brdf_eval(kd, ks, sh, ns, wi, wo), v3_load(lt->color)), g));
+            }
+            L = v3_add(L, v3_scale(La, 1.f / (float)area_samples));
+        }
+        v3_store(out + 3 * i, v3_mul(L, v3_load(vs->weight + 3 * i)));
+    }
+    free(cdf);
+    free(idx);
+    *rays_out = rays;
+    return PGI_OK;
+}
