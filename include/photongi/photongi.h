@@ -95,7 +95,7 @@ typedef struct pgi_render_desc {
     int threads;             /* OpenMP threads; 0 = all */
     int camera;              /* index into the scene's cameras */
     int tile_size;           /* tiled estimator tile edge in pixels; default 32 */
-    int direct_samples;      /* shadow samples per pixel for area lights; default 8 */
+    int direct_samples;      /* shadow samples per pixel for area lights; default 16 */
     pgi_output output;
     int radius_set;          /* non-zero: `radius` was given explicitly (0 or less is then an error) */
     int photons_set;         /* non-zero: `photons` was given explicitly (0 is then an error) */
