@@ -135,8 +135,9 @@ typedef struct pgi_frame_stats {
     uint64_t nodes_visited;  /* cells / tiles / nodes touched */
 } pgi_frame_stats;
 
-/* Renders one frame. `out` receives a new image (free with pgi_image_free);
- * `stats` may be NULL. */
+/* Renders one frame into `out` (free with pgi_image_free). Pass a zeroed
+ * image the first time; an image of the right size is reused, any other is
+ * freed and replaced. `stats` may be NULL. */
 pgi_status pgi_render(const pgi_scene *scene, const pgi_render_desc *desc,
                       pgi_image *out, pgi_frame_stats *stats);
 

@@ -36,6 +36,11 @@ void *pgi__aalloc(size_t bytes);
 void pgi__afree(void *p);
 
 /* ---------------------------------------------------------------- vectors */
+/* Branch-free min/max that compile to one instruction (fmaxf is a libm call
+ * unless -ffinite-math-only). Unlike fmaxf they pass a NaN in `b` through. */
+static inline float pgi_maxf(float a, float b) { return a > b ? a : b; }
+static inline float pgi_minf(float a, float b) { return a < b ? a : b; }
+
 typedef struct { float x, y, z; } pgi_v3;
 
 static inline pgi_v3 v3(float x, float y, float z) { pgi_v3 r = {x, y, z}; return r; }
@@ -56,10 +61,10 @@ static inline pgi_v3 v3_norm(pgi_v3 a) {
     return l > 0.f ? v3_scale(a, 1.f / l) : v3(0.f, 0.f, 1.f);
 }
 static inline pgi_v3 v3_neg(pgi_v3 a) { return v3(-a.x, -a.y, -a.z); }
-static inline float v3_maxc(pgi_v3 a) { return fmaxf(a.x, fmaxf(a.y, a.z)); }
+static inline float v3_maxc(pgi_v3 a) { return pgi_maxf(a.x, pgi_maxf(a.y, a.z)); }
 static inline float v3_lum(pgi_v3 a) { return 0.2126f * a.x + 0.7152f * a.y + 0.0722f * a.z; }
-static inline pgi_v3 v3_min(pgi_v3 a, pgi_v3 b) { return v3(fminf(a.x, b.x), fminf(a.y, b.y), fminf(a.z, b.z)); }
-static inline pgi_v3 v3_max(pgi_v3 a, pgi_v3 b) { return v3(fmaxf(a.x, b.x), fmaxf(a.y, b.y), fmaxf(a.z, b.z)); }
+static inline pgi_v3 v3_min(pgi_v3 a, pgi_v3 b) { return v3(pgi_minf(a.x, b.x), pgi_minf(a.y, b.y), pgi_minf(a.z, b.z)); }
+static inline pgi_v3 v3_max(pgi_v3 a, pgi_v3 b) { return v3(pgi_maxf(a.x, b.x), pgi_maxf(a.y, b.y), pgi_maxf(a.z, b.z)); }
 static inline int v3_finite(pgi_v3 a) { return isfinite(a.x) && isfinite(a.y) && isfinite(a.z); }
 
 /* Orthonormal basis around unit n (Duff et al. 2017). */

@@ -31,6 +31,7 @@ typedef struct {
     uint32_t *secondary;      /* tiles holding samples seen through specular bounces */
     size_t secondary_cap;
     int nsecondary;
+    float frame_lo[3], frame_hi[3];   /* box of all tiles' boxes */
     uint32_t *counts;         /* [chunk][tile] */
     size_t counts_cap;
     uint32_t *tile_start;     /* ntiles + 1 */
@@ -78,8 +79,9 @@ static inline int overlaps(const tiled_state *s, const view_xf *x, int t, pgi_v3
     float rr = r + slack;
     float d2 = 0.f, cc[3] = {c.x, c.y, c.z};
     for (int k = 0; k < 3; k++) {
-        float e = fmaxf(0.f, fmaxf(b->lo[k] - cc[k], cc[k] - b->hi[k]));
-        d2 += e * e;
+        float lo = b->lo[k] - cc[k], hi = cc[k] - b->hi[k];
+        float e = lo > hi ? lo : hi;
+        if (e > 0.f) d2 += e * e;
     }
     if (d2 > rr * rr) return 0;
     if (!b->primary) return 1;
@@ -96,12 +98,26 @@ static inline int overlaps(const tiled_state *s, const view_xf *x, int t, pgi_v3
     return 1;
 }
 
+/* Early reject against the view-space box of all view samples: photons
+ * behind the camera or beyond the farthest sample touch no tile. */
+static inline int frame_overlaps(const tiled_state *s, pgi_v3 c, float r) {
+    float rr = r + 1e-4f * r + 1e-6f * (fabsf(c.x) + fabsf(c.y) + fabsf(c.z));
+    float cc[3] = {c.x, c.y, c.z}, d2 = 0.f;
+    for (int k = 0; k < 3; k++) {
+        float lo = s->frame_lo[k] - cc[k], hi = cc[k] - s->frame_hi[k];
+        float e = lo > hi ? lo : hi;
+        if (e > 0.f) d2 += e * e;
+    }
+    return d2 <= rr * rr;
+}
+
 /* Calls emit(t) for every tile the photon sphere (view-space centre c) may
  * reach, in increasing tile order for the screen rectangle, then the
  * secondary tiles outside it. */
 #define FOR_EACH_TILE(S_, XF_, C_, R_, BODY)                                                                 \
     do {                                                                                              \
         int tx0 = 0, tx1 = (S_)->ntx - 1, ty0 = 0, ty1 = (S_)->nty - 1;                                 \
+        if (!frame_overlaps((S_), (C_), (R_))) break;                                                 \
         if ((C_).z - (R_) > 1e-6f * fabsf((C_).z)) {                                                     \
             float u0, u1, w0, w1;                                                                     \
             silhouette((C_).x, (C_).z, (R_), &u0, &u1);                                                  \
@@ -179,6 +195,16 @@ static pgi_status tiled_build(void *state, const pgi_estimate_args *a) {
             }
     }
     s->nsecondary = 0;
+    for (int k = 0; k < 3; k++) {
+        s->frame_lo[k] = INFINITY;
+        s->frame_hi[k] = -INFINITY;
+    }
+    for (int t = 0; t < s->ntiles; t++)
+        if (s->bounds[t].valid)
+            for (int k = 0; k < 3; k++) {
+                s->frame_lo[k] = fminf(s->frame_lo[k], s->bounds[t].lo[k]);
+                s->frame_hi[k] = fmaxf(s->frame_hi[k], s->bounds[t].hi[k]);
+            }
     for (int t = 0; t < s->ntiles; t++)
         if (s->bounds[t].valid && !s->bounds[t].primary) s->secondary[s->nsecondary++] = (uint32_t)t;
     double t1 = pgi__now_ms();

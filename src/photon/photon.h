@@ -16,8 +16,18 @@ typedef struct pgi_trace_desc {
  * flux of every photon is already divided by it. `rays` counts rays cast.
  * The result is identical for any thread count: path i uses RNG stream i and
  * paths are appended in index order. */
+/* Per-batch path buffers, kept between frames so that steady-state frames
+ * allocate nothing. Zero-initialise; free with pgi__trace_scratch_free. */
+typedef struct pgi_trace_scratch {
+    void *paths;
+    int *counts;
+    size_t cap;      /* paths */
+    int bounces;     /* photons a path slot holds */
+} pgi_trace_scratch;
+void pgi__trace_scratch_free(pgi_trace_scratch *sc);
+
 pgi_status pgi__photons_trace(const pgi_scene *s, const pgi_rt *rt, const pgi_trace_desc *d, pgi_photons *ph,
-                              uint64_t *rays);
+                              pgi_trace_scratch *scratch, uint64_t *rays);
 
 /* Ray offset used to leave a surface without hitting it again. */
 float pgi__scene_epsilon(const pgi_scene *s);

@@ -115,8 +115,14 @@ static int trace_path(const tracer *T, uint64_t index, stored_photon *out, uint6
     return stored;
 }
 
+void pgi__trace_scratch_free(pgi_trace_scratch *sc) {
+    free(sc->paths);
+    free(sc->counts);
+    memset(sc, 0, sizeof *sc);
+}
+
 pgi_status pgi__photons_trace(const pgi_scene *s, const pgi_rt *rt, const pgi_trace_desc *d, pgi_photons *ph,
-                              uint64_t *rays_out) {
+                              pgi_trace_scratch *sc, uint64_t *rays_out) {
     ph->count = 0;
     ph->emitted = 0;
     *rays_out = 0;
@@ -141,9 +147,8 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi_rt *rt, const pgi_tr
                 v3_scale(v3_add(v3_load(s->bmin), v3_load(s->bmax)), 0.5f),
                 0.5f * v3_len(v3_sub(v3_load(s->bmax), v3_load(s->bmin)))};
     const int B = d->bounces;
-    size_t batch_cap = 0;
-    stored_photon *buf = NULL;
-    int *cnt = NULL;
+    if (sc->bounces != B) pgi__trace_scratch_free(sc);
+    sc->bounces = B;
     uint64_t path = 0, rays = 0;
     const uint64_t max_paths = 64ull * d->photons + (1u << 20);
     size_t want = d->photons;
@@ -154,17 +159,20 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi_rt *rt, const pgi_tr
         size_t batch = (size_t)(remaining / yield * 1.05) + 1024;
         if (batch > (1u << 18)) batch = 1u << 18;
         if (batch > max_paths - path) batch = (size_t)(max_paths - path);
-        if (batch > batch_cap) {
-            free(buf);
-            free(cnt);
-            buf = malloc(batch * (size_t)B * sizeof *buf);
-            cnt = malloc(batch * sizeof *cnt);
-            batch_cap = batch;
-            if (!buf || !cnt) {
+        if (batch > sc->cap) {
+            pgi__trace_scratch_free(sc);
+            sc->bounces = B;
+            sc->paths = malloc(batch * (size_t)B * sizeof(stored_photon));
+            sc->counts = malloc(batch * sizeof(int));
+            if (!sc->paths || !sc->counts) {
+                pgi__trace_scratch_free(sc);
                 st = pgi__fail(PGI_ERR_OOM, "out of memory tracing photons (%zu paths a batch)", batch);
                 break;
             }
+            sc->cap = batch;
         }
+        stored_photon *buf = sc->paths;
+        int *cnt = sc->counts;
         uint64_t batch_rays = 0;
 #pragma omp parallel for schedule(dynamic, 256) reduction(+ : batch_rays)
         for (long long i = 0; i < (long long)batch; i++) {
@@ -190,8 +198,6 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi_rt *rt, const pgi_tr
         yield = produced > 0 ? (double)produced / (double)i : yield * 0.25;
         if (yield < 1e-4) yield = 1e-4;
     }
-    free(buf);
-    free(cnt);
     free(cdf);
     *rays_out = rays;
     if (st) return st;

@@ -16,6 +16,7 @@ struct pgi_renderer {
     const pgi_scene *scene;
     pgi_rt *rt;
     pgi_photons ph;
+    pgi_trace_scratch trace_scratch;
     pgi_view_samples vs;
     float *emit, *direct, *indirect;
     size_t pix_cap;
@@ -43,6 +44,7 @@ void pgi_renderer_destroy(pgi_renderer *r) {
     if (!r) return;
     pgi__rt_destroy(r->rt);
     pgi_photons_free(&r->ph);
+    pgi__trace_scratch_free(&r->trace_scratch);
     pgi_view_samples_free(&r->vs);
     pgi__afree(r->emit);
     pgi__afree(r->direct);
@@ -165,7 +167,7 @@ pgi_status pgi_renderer_render(pgi_renderer *r, const pgi_render_desc *in, pgi_i
     if ((st = pgi__view_build(s, r->rt, &cam, d.seed, &r->vs, r->emit, &fs.primary_rays))) return st;
     double t1 = pgi__now_ms();
     pgi_trace_desc td = {d.photons, d.bounces, d.seed};
-    if ((st = pgi__photons_trace(s, r->rt, &td, &r->ph, &fs.photon_rays))) return st;
+    if ((st = pgi__photons_trace(s, r->rt, &td, &r->ph, &r->trace_scratch, &fs.photon_rays))) return st;
     double t2 = pgi__now_ms();
     pgi_estimate_args ea = {&r->ph, &r->vs, &cam, r->indirect};
     if ((st = pgi_estimator_build(r->est, &ea))) return st;
@@ -176,8 +178,14 @@ pgi_status pgi_renderer_render(pgi_renderer *r, const pgi_render_desc *in, pgi_i
     double t5 = pgi__now_ms();
 
     size_t n = (size_t)d.width * d.height;
-    pgi_image img = {d.width, d.height, malloc(3 * n * sizeof(float))};
-    if (!img.rgb) return pgi__fail(PGI_ERR_OOM, "out of memory for the output image");
+    /* Reuse the caller's image when it already has this size (steady-state
+     * frames then allocate nothing). */
+    pgi_image img = *out;
+    if (!img.rgb || img.width != d.width || img.height != d.height) {
+        img = (pgi_image){d.width, d.height, malloc(3 * n * sizeof(float))};
+        if (!img.rgb) return pgi__fail(PGI_ERR_OOM, "out of memory for the output image");
+        pgi_image_free(out);
+    }
     const float *w = r->vs.weight;
     for (size_t i = 0; i < 3 * n; i++) {
         float ind = w[i] * r->indirect[i];

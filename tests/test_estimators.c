@@ -1,0 +1,286 @@
+/* Every exact estimator equals "brute" (DESIGN.md §6.1): same radiance per
+ * view sample up to float summation order (relative 1e-4) and exactly the
+ * same number of contributing photon reads. */
+#include "test_util.h"
+
+#define W 48
+#define H 40
+
+/* The photon box is [-0.5, 0.5]^3; the camera sees it from about 2.6 units
+ * with a narrow field of view, so that parts of the box (and of the photon
+ * spheres) fall outside the view frustum. */
+static const float k_eye[3] = {0.3f, 0.4f, 2.5f}, k_at[3] = {0.f, 0.f, 0.f}, k_up[3] = {0.f, 1.f, 0.f};
+#define FOV 25.f
+
+static void make_photons(pgi_photons *ph, size_t n, uint64_t seed) {
+    TU_CHECK_OK(pgi_photons_alloc(ph, n));
+    tu_rng r = tu_rng_make(seed);
+    for (size_t j = 0; j < n; j++) {
+        float d[3], nn[3];
+        ph->px[j] = tu_range(&r, -0.5f, 0.5f);
+        ph->py[j] = tu_range(&r, -0.5f, 0.5f);
+        ph->pz[j] = tu_range(&r, -0.5f, 0.5f);
+        tu_unit_vec(&r, d);
+        tu_unit_vec(&r, nn);
+        ph->dx[j] = d[0], ph->dy[j] = d[1], ph->dz[j] = d[2];
+        ph->nx[j] = nn[0], ph->ny[j] = nn[1], ph->nz[j] = nn[2];
+        ph->fr[j] = tu_range(&r, 0.01f, 1.f);
+        ph->fg[j] = tu_range(&r, 0.01f, 1.f);
+        ph->fb[j] = tu_range(&r, 0.01f, 1.f);
+    }
+    ph->count = n;
+    ph->emitted = n;
+}
+
+/* View samples on the camera ray through each pixel centre at a random depth.
+ * About 10% invalid, 10% Blinn-Phong; `secondary` of the valid ones are
+ * mirror-reflected samples (no PGI_VS_PRIMARY) anywhere in the box. */
+static void make_samples(pgi_view_samples *vs, pgi_camera *cam, uint64_t seed, float secondary) {
+    TU_CHECK_OK(pgi_view_samples_alloc(vs, W, H));
+    pgi_camera_look_at(cam, k_eye, k_at, k_up, FOV, W, H);
+    tu_rng r = tu_rng_make(seed);
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            size_t i = (size_t)y * W + (size_t)x;
+            float dir[3], pos[3], n[3], wo[3], kd[3];
+            tu_pixel_dir(cam, x, y, dir);
+            float t = tu_range(&r, 2.0f, 3.1f);
+            for (int k = 0; k < 3; k++) pos[k] = cam->eye[k] + t * dir[k];
+            float kind = tu_unif(&r);
+            uint8_t flags = PGI_VS_VALID | PGI_VS_PRIMARY | PGI_VS_LAMBERT;
+            float ks = 0.f, shin = 0.f;
+            if (kind < 0.1f) flags = 0;
+            else if (kind < 0.2f) {
+                flags = PGI_VS_VALID | PGI_VS_PRIMARY;
+                ks = tu_range(&r, 0.04f, 0.5f);
+                shin = 20.f;
+            }
+            if (flags && tu_unif(&r) < secondary) {
+                /* Seen through a mirror: anywhere in the box, from anywhere. */
+                flags = (uint8_t)(flags & ~PGI_VS_PRIMARY);
+                for (int k = 0; k < 3; k++) pos[k] = tu_range(&r, -0.5f, 0.5f);
+                tu_unit_vec(&r, wo);
+            } else {
+                for (int k = 0; k < 3; k++) wo[k] = cam->eye[k] - pos[k];
+                tu_normalize(wo);
+            }
+            tu_unit_vec(&r, n);
+            if (tu_dot(n, wo) < 0.f) n[0] = -n[0], n[1] = -n[1], n[2] = -n[2];
+            for (int k = 0; k < 3; k++) kd[k] = tu_range(&r, 0.1f, 0.9f);
+            tu_set_sample(vs, i, pos, n, wo, kd, ks, shin, t, flags);
+        }
+}
+
+/* Compares every exact estimator with brute on (ph, vs, cam). */
+static void compare_all(const pgi_photons *ph, const pgi_view_samples *vs, const pgi_camera *cam, float radius,
+                        float cell_size, const char *label) {
+    size_t nf = 3 * vs->count;
+    float *ref = malloc(nf * sizeof *ref), *got = malloc(nf * sizeof *got);
+    assert_non_null(ref);
+    assert_non_null(got);
+    pgi_estimator_desc d = {.radius = radius, .cell_size = cell_size};
+    pgi_estimator_stats rs, gs;
+    TU_CHECK_OK(tu_run_estimator("brute", &d, ph, vs, cam, ref, &rs));
+    int compared = 0;
+    const int tiles[] = {1, 7, 32};
+    for (size_t e = 0; e < pgi_estimator_count(); e++) {
+        const pgi_estimator_vtbl *vt = pgi_estimator_at(e);
+        assert_non_null(vt);
+        if (!vt->exact || strcmp(vt->name, "brute") == 0) continue;
+        for (size_t t = 0; t < sizeof tiles / sizeof tiles[0]; t++) {
+            d.tile_size = tiles[t];
+            for (size_t i = 0; i < nf; i++) got[i] = NAN;   /* every value must be written */
+            TU_CHECK_OK(tu_run_estimator(vt->name, &d, ph, vs, cam, got, &gs));
+            char what[160];
+            snprintf(what, sizeof what, "%s vs brute, %s, r=%g, tile %d, cell %g", vt->name, label, (double)radius,
+                     tiles[t], (double)cell_size);
+            size_t bad = tu_compare(got, ref, nf, 1e-4, what);
+            if (gs.contributing != rs.contributing)
+                fprintf(stderr, "  %s: contributing %llu, brute %llu\n", what, (unsigned long long)gs.contributing,
+                        (unsigned long long)rs.contributing);
+            assert_int_equal(bad, 0);
+            assert_int_equal(gs.contributing, rs.contributing);
+            compared++;
+        }
+    }
+    assert_true(compared > 0);
+    free(ref);
+    free(got);
+}
+
+typedef struct {
+    float radius;
+    size_t photons;
+} radius_case;
+
+/* A tiny radius (most samples see nothing), medium ones, and one larger than
+ * the whole box (every photon reaches every sample; the sphere holds the eye).
+ * Fewer photons for the large radii keep the tiled copies small at tile size 1. */
+static const radius_case k_cases[] = {{0.015f, 20000}, {0.07f, 8000}, {0.25f, 3000}, {3.0f, 800}};
+
+static void run_random(float secondary, const char *label, uint64_t seed) {
+    pgi_view_samples vs;
+    pgi_camera cam;
+    make_samples(&vs, &cam, seed, secondary);
+    size_t nprimary = 0, nsecondary = 0;
+    for (size_t i = 0; i < vs.count; i++)
+        if (vs.flags[i] & PGI_VS_VALID) (vs.flags[i] & PGI_VS_PRIMARY) ? nprimary++ : nsecondary++;
+    assert_true(nprimary > 0);
+    if (secondary > 0.f) assert_true(nsecondary > 0);
+    for (size_t c = 0; c < sizeof k_cases / sizeof k_cases[0]; c++) {
+        pgi_photons ph;
+        make_photons(&ph, k_cases[c].photons, seed * 31 + c);
+        /* The reference must see something, or the comparison proves little. */
+        float *ref = malloc(3 * vs.count * sizeof *ref);
+        pgi_estimator_stats st;
+        TU_CHECK_OK(tu_run_estimator("brute", &(pgi_estimator_desc){.radius = k_cases[c].radius}, &ph, &vs, &cam,
+                                     ref, &st));
+        assert_true(st.contributing > 0);
+        assert_true(tu_max_abs(ref, 3 * vs.count) > 0.0);
+        free(ref);
+        compare_all(&ph, &vs, &cam, k_cases[c].radius, 0.f, label);
+        pgi_photons_free(&ph);
+    }
+    pgi_view_samples_free(&vs);
+}
+
+static void test_random_primary(void **state) { run_random(0.f, "primary samples", 11); }
+
+static void test_random_with_mirror_samples(void **state) { run_random(0.15f, "15% mirror samples", 12); }
+
+/* Hash grid cells much smaller (and larger) than the radius: same answer. */
+static void test_hashgrid_cell_sizes(void **state) {
+    pgi_view_samples vs;
+    pgi_camera cam;
+    make_samples(&vs, &cam, 13, 0.1f);
+    pgi_photons ph;
+    make_photons(&ph, 8000, 14);
+    const float r = 0.08f;
+    const float cells[] = {r / 8.f, r / 3.f, r, 5.f * r};
+    float *ref = malloc(3 * vs.count * sizeof *ref), *got = malloc(3 * vs.count * sizeof *got);
+    pgi_estimator_stats rs, gs;
+    TU_CHECK_OK(tu_run_estimator("brute", &(pgi_estimator_desc){.radius = r}, &ph, &vs, &cam, ref, &rs));
+    assert_true(rs.contributing > 0);
+    for (size_t k = 0; k < sizeof cells / sizeof cells[0]; k++) {
+        pgi_estimator_desc d = {.radius = r, .cell_size = cells[k]};
+        for (size_t i = 0; i < 3 * vs.count; i++) got[i] = NAN;
+        TU_CHECK_OK(tu_run_estimator("hashgrid", &d, &ph, &vs, &cam, got, &gs));
+        char what[96];
+        snprintf(what, sizeof what, "hashgrid cell %g, r %g", (double)cells[k], (double)r);
+        assert_int_equal(tu_compare(got, ref, 3 * vs.count, 1e-4, what), 0);
+        assert_int_equal(gs.contributing, rs.contributing);
+    }
+    free(ref);
+    free(got);
+    pgi_photons_free(&ph);
+    pgi_view_samples_free(&vs);
+}
+
+/* No photons: every estimator writes a zero image and counts nothing. */
+static void test_zero_photons(void **state) {
+    pgi_view_samples vs;
+    pgi_camera cam;
+    make_samples(&vs, &cam, 15, 0.1f);
+    pgi_photons ph;
+    TU_CHECK_OK(pgi_photons_alloc(&ph, 0));
+    ph.count = 0;
+    float *out = malloc(3 * vs.count * sizeof *out);
+    for (size_t e = 0; e < pgi_estimator_count(); e++) {
+        const pgi_estimator_vtbl *vt = pgi_estimator_at(e);
+        for (size_t i = 0; i < 3 * vs.count; i++) out[i] = NAN;
+        pgi_estimator_stats st;
+        TU_CHECK_OK(tu_run_estimator(vt->name, &(pgi_estimator_desc){.radius = 0.1f}, &ph, &vs, &cam, out, &st));
+        for (size_t i = 0; i < 3 * vs.count; i++) {
+            if (out[i] != 0.f) fail_msg("%s: value %zu is %g with no photons", vt->name, i, (double)out[i]);
+        }
+        assert_int_equal(st.contributing, 0);
+    }
+    free(out);
+    pgi_photons_free(&ph);
+    pgi_view_samples_free(&vs);
+}
+
+/* Bad estimator arguments are refused, not crashed on. */
+static void test_create_errors(void **state) {
+    pgi_estimator *e = (pgi_estimator *)1;
+    assert_int_equal(pgi_estimator_create("no-such-estimator", &(pgi_estimator_desc){.radius = 0.1f}, &e),
+                     PGI_ERR_INVALID_ARG);
+    assert_null(e);
+    assert_non_null(strstr(pgi_last_error(), "no-such-estimator"));
+    assert_null(pgi_estimator_find("no-such-estimator"));
+    const float bad[] = {0.f, -1.f, NAN, INFINITY};
+    for (size_t e2 = 0; e2 < pgi_estimator_count(); e2++)
+        for (size_t k = 0; k < sizeof bad / sizeof bad[0]; k++) {
+            pgi_estimator *x = NULL;
+            assert_int_equal(
+                pgi_estimator_create(pgi_estimator_at(e2)->name, &(pgi_estimator_desc){.radius = bad[k]}, &x),
+                PGI_ERR_INVALID_ARG);
+            assert_null(x);
+        }
+    assert_non_null(pgi_estimator_find("brute"));
+    assert_non_null(pgi_estimator_find("hashgrid"));
+    assert_non_null(pgi_estimator_find("tiled"));
+}
+
+/* ----------------------------------------------------- full pipeline */
+
+static void pipeline_compare(const char *scene_name, int w, int h, uint32_t photons, float radius) {
+    pgi_scene *scene = NULL;
+    TU_CHECK_OK(pgi_scene_load(scene_name, &scene));
+    pgi_renderer *r = NULL;
+    TU_CHECK_OK(pgi_renderer_create(scene, &r));
+    const char *names[] = {"brute", "hashgrid", "tiled"};
+    pgi_image img[3] = {{0}};
+    pgi_frame_stats fs[3];
+    for (int k = 0; k < 3; k++) {
+        pgi_render_desc d = {.estimator = names[k], .photons = photons, .photons_set = 1, .width = w, .height = h,
+                             .output = PGI_OUTPUT_INDIRECT, .seed = 5};
+        if (radius > 0.f) d.radius = radius, d.radius_set = 1;
+        TU_CHECK_OK(pgi_renderer_render(r, &d, &img[k], &fs[k]));
+        assert_int_equal(img[k].width, w);
+        assert_int_equal(img[k].height, h);
+        assert_string_equal(fs[k].estimator, names[k]);
+    }
+    assert_true(fs[0].photons_stored == photons);
+    assert_true(fs[0].contributing > 0);
+    assert_true(tu_max_abs(img[0].rgb, 3 * (size_t)w * h) > 0.0);
+    for (int k = 1; k < 3; k++) {
+        char what[96];
+        snprintf(what, sizeof what, "%s: %s vs brute", scene_name, names[k]);
+        assert_int_equal(fs[k].photons_stored, fs[0].photons_stored);
+        assert_int_equal(tu_compare(img[k].rgb, img[0].rgb, 3 * (size_t)w * h, 1e-4, what), 0);
+        if (fs[k].contributing != fs[0].contributing)
+            fprintf(stderr, "  %s: contributing %llu, brute %llu\n", what, (unsigned long long)fs[k].contributing,
+                    (unsigned long long)fs[0].contributing);
+        assert_int_equal(fs[k].contributing, fs[0].contributing);
+    }
+    for (int k = 0; k < 3; k++) pgi_image_free(&img[k]);
+    pgi_renderer_destroy(r);
+    pgi_scene_destroy(scene);
+}
+
+static void test_cornell_pipeline(void **state) { pipeline_compare("cornell", 96, 96, 20000, 0.08f); }
+
+static void test_sibenik_pipeline(void **state) {
+    char mesh[1024];
+    snprintf(mesh, sizeof mesh, "%s/sibenik/sibenik.obj", tu_scenes_dir());
+    if (!tu_file_exists("scenes/sibenik.json") || !tu_file_exists(mesh)) {
+        fprintf(stderr, "skipping: scenes/sibenik.json or %s not found (set PHOTONGI_SCENES, run from the repo root)\n",
+                mesh);
+        skip();
+    }
+    pipeline_compare("sibenik", 80, 45, 10000, 0.f);   /* the scene's default radius */
+}
+
+int main(void) {
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_create_errors),
+        cmocka_unit_test(test_zero_photons),
+        cmocka_unit_test(test_random_primary),
+        cmocka_unit_test(test_random_with_mirror_samples),
+        cmocka_unit_test(test_hashgrid_cell_sizes),
+        cmocka_unit_test(test_cornell_pipeline),
+        cmocka_unit_test(test_sibenik_pipeline),
+    };
+    return cmocka_run_group_tests_name("estimators", tests, NULL, NULL);
+}

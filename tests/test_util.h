@@ -1,0 +1,185 @@
+/* Small helpers shared by the photongi tests (static inline, header only):
+ * a deterministic RNG, image comparison, temporary files, scene paths and a
+ * one-call estimator run. Include after <cmocka.h>'s prerequisites. */
+#ifndef PGI_TEST_UTIL_H
+#define PGI_TEST_UTIL_H
+
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "photongi/photongi.h"
+
+/* ------------------------------------------------------------------ RNG */
+
+typedef struct tu_rng {
+    uint64_t s;
+} tu_rng;
+
+static inline tu_rng tu_rng_make(uint64_t seed) {
+    tu_rng r = {seed * 0x9E3779B97F4A7C15ull + 0x632BE59BD9B4E019ull};
+    return r;
+}
+
+/* splitmix64 */
+static inline uint64_t tu_next(tu_rng *r) {
+    uint64_t z = (r->s += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+}
+
+/* Uniform in [0, 1). */
+static inline float tu_unif(tu_rng *r) { return (float)(tu_next(r) >> 40) * (1.0f / 16777216.0f); }
+static inline double tu_unifd(tu_rng *r) { return (double)(tu_next(r) >> 11) * (1.0 / 9007199254740992.0); }
+static inline float tu_range(tu_rng *r, float lo, float hi) { return lo + (hi - lo) * tu_unif(r); }
+
+/* Uniform unit vector. */
+static inline void tu_unit_vec(tu_rng *r, float out[3]) {
+    float z = 2.f * tu_unif(r) - 1.f, phi = 6.28318530718f * tu_unif(r);
+    float s = sqrtf(fmaxf(0.f, 1.f - z * z));
+    out[0] = s * cosf(phi);
+    out[1] = s * sinf(phi);
+    out[2] = z;
+}
+
+/* ------------------------------------------------------------ vectors */
+
+static inline float tu_dot(const float *a, const float *b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+static inline void tu_normalize(float *a) {
+    float l = sqrtf(tu_dot(a, a));
+    if (l > 0.f) a[0] /= l, a[1] /= l, a[2] /= l;
+}
+
+/* ------------------------------------------------------- image compare */
+
+/* Largest |value| of n floats. */
+static inline double tu_max_abs(const float *a, size_t n) {
+    double m = 0.0;
+    for (size_t i = 0; i < n; i++)
+        if (fabs((double)a[i]) > m) m = fabs((double)a[i]);
+    return m;
+}
+
+/* Counts the floats of `got` that differ from `ref` by more than
+ * rel * max(|ref|, 1e-6 * max|ref|); non-finite values always count.
+ * Prints the first few mismatches (index as pixel, channel). */
+static inline size_t tu_compare(const float *got, const float *ref, size_t nfloats, double rel, const char *what) {
+    double floor_ = 1e-6 * tu_max_abs(ref, nfloats);
+    size_t bad = 0;
+    for (size_t i = 0; i < nfloats; i++) {
+        double a = got[i], b = ref[i];
+        double tol = rel * fmax(fabs(b), floor_);
+        if (!isfinite(a) || !(fabs(a - b) <= tol)) {
+            if (bad < 5)
+                fprintf(stderr, "  %s: pixel %zu channel %zu: got %.9g, expected %.9g (tolerance %.3g)\n", what,
+                        i / 3, i % 3, a, b, tol);
+            bad++;
+        }
+    }
+    if (bad) fprintf(stderr, "  %s: %zu of %zu values differ\n", what, bad, nfloats);
+    return bad;
+}
+
+/* ------------------------------------------------------------- files */
+
+static inline int tu_file_exists(const char *p) {
+    struct stat st;
+    return stat(p, &st) == 0 && S_ISREG(st.st_mode);
+}
+
+/* Writes `text` to `path`; returns 0 on success. */
+static inline int tu_write_file(const char *path, const char *text) {
+    FILE *f = fopen(path, "wb");
+    if (!f) return -1;
+    size_t n = strlen(text);
+    int ok = fwrite(text, 1, n, f) == n;
+    return (fclose(f) == 0 && ok) ? 0 : -1;
+}
+
+/* Creates a fresh temporary folder (buf receives its path). */
+static inline void tu_make_tmpdir(char *buf, size_t n) {
+    const char *base = getenv("TMPDIR");
+    snprintf(buf, n, "%s/pgi-test-XXXXXX", base && *base ? base : "/tmp");
+    if (!mkdtemp(buf)) {
+        fprintf(stderr, "cannot create a temporary folder %s\n", buf);
+        abort();
+    }
+}
+
+/* Removes a folder made by tu_make_tmpdir (only paths under a pgi-test- folder). */
+static inline void tu_rm_tmpdir(const char *dir) {
+    if (!strstr(dir, "/pgi-test-")) return;
+    char cmd[1200];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
+    if (system(cmd) != 0) fprintf(stderr, "could not remove %s\n", dir);
+}
+
+/* Folder with the large scenes: $PHOTONGI_SCENES, else ../shared/scenes. */
+static inline const char *tu_scenes_dir(void) {
+    const char *e = getenv("PHOTONGI_SCENES");
+    return e && *e ? e : "../shared/scenes";
+}
+
+/* ---------------------------------------------------------- estimators */
+
+/* create + build + estimate + stats in one call; returns the first failure. */
+static inline pgi_status tu_run_estimator(const char *name, const pgi_estimator_desc *desc,
+                                          const pgi_photons *ph, const pgi_view_samples *vs,
+                                          const pgi_camera *cam, float *out, pgi_estimator_stats *st) {
+    pgi_estimator *e = NULL;
+    pgi_status s = pgi_estimator_create(name, desc, &e);
+    if (s) return s;
+    pgi_estimate_args a = {ph, vs, cam, out};
+    s = pgi_estimator_build(e, &a);
+    if (!s) s = pgi_estimator_estimate(e, &a);
+    if (!s && st) pgi_estimator_get_stats(e, st);
+    pgi_estimator_destroy(e);
+    return s;
+}
+
+/* Fails the test with the library's message when `expr` is not PGI_OK. */
+#define TU_CHECK_OK(expr)                                                                          \
+    do {                                                                                           \
+        pgi_status tu_st_ = (expr);                                                                \
+        if (tu_st_ != PGI_OK)                                                                      \
+            fail_msg("%s failed: %s (%s)", #expr, pgi_status_string(tu_st_), pgi_last_error());    \
+    } while (0)
+
+/* Direction through the centre of pixel (x, y) (not normalised; its
+ * component along cam->forward is 1, so eye + t * dir has view depth t). */
+static inline void tu_pixel_dir(const pgi_camera *cam, int x, int y, float dir[3]) {
+    float u = (2.f * ((float)x + 0.5f) / (float)cam->width - 1.f) * cam->tan_half_fov_y * cam->aspect;
+    float v = (1.f - 2.f * ((float)y + 0.5f) / (float)cam->height) * cam->tan_half_fov_y;
+    for (int k = 0; k < 3; k++) dir[k] = cam->forward[k] + u * cam->right[k] + v * cam->up[k];
+}
+
+/* Sets view sample i as a Lambertian (or Phong when ks > 0) sample. */
+static inline void tu_set_sample(pgi_view_samples *vs, size_t i, const float pos[3], const float nrm[3],
+                                 const float wo[3], const float kd[3], float ks, float shininess, float depth,
+                                 uint8_t flags) {
+    for (int k = 0; k < 3; k++) {
+        vs->pos[3 * i + k] = pos[k];
+        vs->nrm[3 * i + k] = nrm[k];
+        vs->ngeo[3 * i + k] = nrm[k];
+        vs->wo[3 * i + k] = wo[k];
+        vs->kd[3 * i + k] = kd[k];
+        vs->ks[3 * i + k] = ks;
+        vs->weight[3 * i + k] = 1.f;
+    }
+    vs->shininess[i] = shininess;
+    vs->depth[i] = depth;
+    vs->flags[i] = flags;
+}
+
+#endif
