@@ -257,6 +257,11 @@ static int cmd_render(int argc, char **argv) {
         st = pgi_stats_write_json(&fs, stats_path);
         if (st) return fail("cannot write stats", st);
     }
+    if (fs.photons_stored < (d.photons ? d.photons : info.defaults.photons ? info.defaults.photons : 200000))
+        fprintf(stderr,
+                "photongi: warning: only %" PRIu64 " photons were stored from %" PRIu64
+                " paths: most light leaves the scene (the tracer stops after 64 paths per requested photon)\n",
+                fs.photons_stored, fs.photons_emitted);
     if (!quiet) {
         fprintf(stderr,
                 "%s: %s %dx%d, %s, %" PRIu64 " photons stored from %" PRIu64 " paths, r=%g\n"
