@@ -34,6 +34,10 @@ static void plane_samples(pgi_view_samples *vs, pgi_camera *cam, int w, int h, f
 #define PLANE_R 0.1f
 #define PLANE_FLUX 2.5e-5f   /* per photon: N * flux / A = 1.25 W/m^2 */
 
+/* dz > 0: every photon arrives straight from above, (0, 0, 1). dz < 0: from
+ * below the surface: a third straight up from under it (0, 0, -1), a third
+ * from random directions of the lower hemisphere (many nearly grazing), and
+ * a third exactly tangent (dz = 0: dot(n, w_p) = 0, which must not count). */
 static void plane_photons(pgi_photons *ph, float dz) {
     TU_CHECK_OK(pgi_photons_alloc(ph, PLANE_N));
     tu_rng r = tu_rng_make(2024);
@@ -41,7 +45,15 @@ static void plane_photons(pgi_photons *ph, float dz) {
         ph->px[j] = tu_range(&r, -0.5f * PLANE_L, 0.5f * PLANE_L);
         ph->py[j] = tu_range(&r, -0.5f * PLANE_L, 0.5f * PLANE_L);
         ph->pz[j] = 0.f;
-        ph->dx[j] = 0.f, ph->dy[j] = 0.f, ph->dz[j] = dz;
+        float d[3] = {0.f, 0.f, dz};
+        if (dz < 0.f && j % 3 == 1) {
+            tu_unit_vec(&r, d);
+            d[2] = -fabsf(d[2]);
+        } else if (dz < 0.f && j % 3 == 2) {
+            float a = tu_range(&r, 0.f, 6.2831853f);
+            d[0] = cosf(a), d[1] = sinf(a), d[2] = 0.f;
+        }
+        ph->dx[j] = d[0], ph->dy[j] = d[1], ph->dz[j] = d[2];
         ph->nx[j] = 0.f, ph->ny[j] = 0.f, ph->nz[j] = 1.f;
         ph->fr[j] = ph->fg[j] = ph->fb[j] = PLANE_FLUX;
     }
@@ -95,7 +107,7 @@ static void test_uniform_plane(void **state) {
     pgi_view_samples_free(&vs);
 }
 
-/* Photons arriving from below the surface (direction (0,0,-1)) do not count. */
+/* Photons arriving from below the surface or exactly along it do not count. */
 static void test_plane_from_below(void **state) {
     const float kd[3] = {0.7f, 0.5f, 0.3f};
     pgi_view_samples vs;

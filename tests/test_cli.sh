@@ -1,0 +1,167 @@
+#!/usr/bin/env bash
+# Command-line tests of the photongi binary: bad input gets a clear message
+# naming the problem and exit status 1 or 2 (never a crash: no status >= 128,
+# no sanitizer report); good input works.
+#   usage: tests/test_cli.sh path/to/photongi     (run from the repository root)
+set -u
+
+BIN=${1:?usage: test_cli.sh path/to/photongi}
+case $BIN in /*) ;; */*) BIN=$PWD/$BIN ;; esac
+TMP=$(mktemp -d "${TMPDIR:-/tmp}/pgi-test-cli-XXXXXX")
+trap 'rm -rf "$TMP"' EXIT
+pass=0
+fail=0
+
+ok() { pass=$((pass + 1)); }
+bad() {
+    fail=$((fail + 1))
+    echo "FAIL: $*"
+}
+
+# run ARGS...: runs the binary, sets $rc, $out (stdout), $err (stderr).
+run() {
+    "$BIN" "$@" >"$TMP/out" 2>"$TMP/err"
+    rc=$?
+    out=$(cat "$TMP/out")
+    err=$(cat "$TMP/err")
+}
+
+# expect_error NEEDLE ARGS...: exit 1 or 2, stderr contains NEEDLE (fixed string,
+# case-insensitive), no sanitizer report.
+expect_error() {
+    local needle=$1
+    shift
+    run "$@"
+    local what="photongi $*"
+    if [ "$rc" -ne 1 ] && [ "$rc" -ne 2 ]; then
+        bad "$what: exit status $rc (expected 1 or 2)"
+        printf '%s\n' "$err" | head -5 | sed 's/^/    /'
+        return
+    fi
+    if ! grep -qiF -- "$needle" "$TMP/err"; then
+        bad "$what: stderr does not mention '$needle':"
+        printf '%s\n' "$err" | head -5 | sed 's/^/    /'
+        return
+    fi
+    if grep -qE 'AddressSanitizer|runtime error:|LeakSanitizer' "$TMP/err"; then
+        bad "$what: sanitizer report"
+        return
+    fi
+    ok
+}
+
+# expect_ok ARGS...: exit 0.
+expect_ok() {
+    run "$@"
+    if [ "$rc" -ne 0 ]; then
+        bad "photongi $*: exit status $rc (expected 0)"
+        printf '%s\n' "$err" | head -5 | sed 's/^/    /'
+        return 1
+    fi
+    ok
+    return 0
+}
+
+R=(render --size 32x32 --photons 1000 -q)
+
+# ------------------------------------------------------------ bad input
+expect_error "/nonexistent/x.obj" "${R[@]}" --scene /nonexistent/x.obj -o "$TMP/a.png"
+
+printf 'garbage \x01\x02\nf a b c\nv 1\n' >"$TMP/broken.obj"
+expect_error "broken.obj" "${R[@]}" --scene "$TMP/broken.obj" -o "$TMP/a.png"
+
+printf '{\n  "mesh": "x.obj",\n  "lights": [ {"type": "point" ,, ]\n' >"$TMP/syntax.json"
+expect_error "syntax.json" "${R[@]}" --scene "$TMP/syntax.json" -o "$TMP/a.png"
+run "${R[@]}" --scene "$TMP/syntax.json" -o "$TMP/a.png"
+grep -qi "line" "$TMP/err" && ok || bad "syntax error message gives no line: $err"
+
+cat >"$TMP/nomesh.json" <<'EOF'
+{"mesh": "not/there/missing-mesh.obj",
+ "lights": [{"type": "point", "position": [0, 0, 0], "intensity": [1, 1, 1]}]}
+EOF
+expect_error "missing-mesh.obj" "${R[@]}" --scene "$TMP/nomesh.json" -o "$TMP/a.png"
+
+expect_error "no-such-estimator" "${R[@]}" --estimator no-such-estimator -o "$TMP/a.png"
+expect_error "radius" "${R[@]}" --radius 0 -o "$TMP/a.png"
+expect_error "radius" "${R[@]}" --radius -1 -o "$TMP/a.png"
+expect_error "radius" "${R[@]}" --radius nan -o "$TMP/a.png"
+expect_error "radius" "${R[@]}" --radius inf -o "$TMP/a.png"
+expect_error "radius" "${R[@]}" --radius 0.1x -o "$TMP/a.png"
+expect_error "photon" "${R[@]}" --photons 0 -o "$TMP/a.png"
+expect_error "photon" "${R[@]}" --photons 10000000000 -o "$TMP/a.png"
+expect_error "photon" "${R[@]}" --photons -5 -o "$TMP/a.png"
+expect_error "size" "${R[@]}" --size 0x10 -o "$TMP/a.png"
+expect_error "size" "${R[@]}" --size 100000x100000 -o "$TMP/a.png"
+expect_error "size" "${R[@]}" --size abc -o "$TMP/a.png"
+expect_error "size" "${R[@]}" --size 64x64x64 -o "$TMP/a.png"
+expect_error "--frobnicate" "${R[@]}" --frobnicate 3 -o "$TMP/a.png"
+expect_error "-o" "${R[@]}"
+expect_error ".bmp" "${R[@]}" -o "$TMP/x.bmp"
+expect_error "/nonexistent/dir/x.png" "${R[@]}" -o /nonexistent/dir/x.png
+expect_error "camera" "${R[@]}" --camera 99 -o "$TMP/a.png"
+expect_error "bounces" "${R[@]}" --bounces 0 -o "$TMP/a.png"
+expect_error "threads" "${R[@]}" --threads 0 -o "$TMP/a.png"
+expect_error "--radius" "${R[@]}" -o "$TMP/a.png" --radius
+expect_error "no-such-command" no-such-command
+expect_error "no-such-scene" info --scene no-such-scene
+expect_error "/nonexistent/dir/s.json" "${R[@]}" -o "$TMP/a.png" --stats /nonexistent/dir/s.json
+# Failed renders must not leave an image behind.
+[ ! -e "$TMP/x.bmp" ] && ok || bad "an image was written for -o x.bmp"
+
+# ------------------------------------------------------------ good input
+if expect_ok estimators; then
+    names=$(printf '%s\n' "$out")
+    for n in brute hashgrid tiled; do
+        printf '%s\n' "$names" | grep -qx "$n" && ok || bad "'photongi estimators' does not list $n"
+    done
+    # Only names, one a line: every line is a single word.
+    if printf '%s\n' "$names" | grep -qvE '^[a-z0-9_-]+$'; then bad "'photongi estimators' prints more than names: $names"; else ok; fi
+fi
+
+if expect_ok info --scene cornell; then
+    tri=$(printf '%s\n' "$out" | sed -n 's/^triangles:[[:space:]]*\([0-9][0-9]*\)$/\1/p')
+    [ -n "$tri" ] && [ "$tri" -gt 0 ] && ok || bad "info --scene cornell: no positive 'triangles:' line in: $out"
+fi
+
+if expect_ok render --help; then
+    printf '%s\n' "$out" | grep -q -- "--photons" && ok || bad "render --help does not describe --photons"
+fi
+
+if expect_ok render --scene cornell --size 64x48 --photons 5000 -o "$TMP/img.png" --stats "$TMP/stats.json" -q; then
+    if [ -s "$TMP/img.png" ]; then
+        # PNG signature, then the IHDR chunk: width and height as big-endian 32-bit numbers at bytes 16..23.
+        sig=$(head -c 8 "$TMP/img.png" | od -An -tx1 | tr -d ' \n')
+        [ "$sig" = "89504e470d0a1a0a" ] && ok || bad "img.png: not a PNG signature ($sig)"
+        dims=$(od -An -tx1 -j16 -N8 "$TMP/img.png" | tr -d ' \n')
+        [ "$dims" = "0000004000000030" ] && ok || bad "img.png: IHDR size bytes $dims, expected 64x48 (0000004000000030)"
+    else
+        bad "render did not write img.png"
+    fi
+    if [ -s "$TMP/stats.json" ]; then
+        for key in '"contributing"' '"times_ms"'; do
+            grep -qF "$key" "$TMP/stats.json" && ok || bad "stats.json has no $key"
+        done
+        if command -v python3 >/dev/null 2>&1; then
+            python3 -c 'import json,sys; json.load(open(sys.argv[1]))' "$TMP/stats.json" && ok || bad "stats.json is not valid JSON"
+        fi
+    else
+        bad "render did not write stats.json"
+    fi
+fi
+
+# '--stats -' is documented ("'-' = stdout"): the JSON goes to stdout, no file named '-'.
+mkdir -p "$TMP/cwd"
+if (cd "$TMP/cwd" && "$BIN" render --scene cornell --size 32x24 --photons 2000 -q -o img.png --stats - \
+        >"$TMP/out" 2>"$TMP/err"); then
+    grep -qF '"contributing"' "$TMP/out" && ok || bad "render --stats -: no statistics on stdout"
+    [ ! -e "$TMP/cwd/-" ] && ok || bad "render --stats -: wrote a file named '-' instead of stdout"
+else
+    bad "render --stats -: exit status $?: $(head -c 300 "$TMP/err")"
+fi
+
+if expect_ok render --scene cornell --size 40x30 --photons 2000 --output indirect -o "$TMP/img.exr" -q; then
+    [ -s "$TMP/img.exr" ] && ok || bad "render did not write img.exr"
+fi
+
+echo "$pass passed, $fail failed"
+[ "$fail" -eq 0 ]

@@ -3,14 +3,23 @@
  * same number of contributing photon reads. */
 #include "test_util.h"
 
+#include "scene/scene_internal.h"
+#include "view/view.h"
+
 #define W 48
 #define H 40
 
 /* The photon box is [-0.5, 0.5]^3; the camera sees it from about 2.6 units
  * with a narrow field of view, so that parts of the box (and of the photon
  * spheres) fall outside the view frustum. */
-static const float k_eye[3] = {0.3f, 0.4f, 2.5f}, k_at[3] = {0.f, 0.f, 0.f}, k_up[3] = {0.f, 1.f, 0.f};
-#define FOV 25.f
+typedef struct {
+    float eye[3], at[3], up[3], fov, tmin, tmax;
+} view_setup;
+static const view_setup k_outside = {{0.3f, 0.4f, 2.5f}, {0.f, 0.f, 0.f}, {0.f, 1.f, 0.f}, 25.f, 2.0f, 3.1f};
+/* The eye inside the photon cloud: photons behind it, beside it, and photon
+ * spheres that contain the eye or cross the eye plane. */
+static const view_setup k_inside = {{0.1f, -0.05f, 0.2f}, {0.f, 0.f, -1.f}, {0.f, 1.f, 0.f}, 70.f, 0.02f, 0.7f};
+static const view_setup *g_view = &k_outside;
 
 static void make_photons(pgi_photons *ph, size_t n, uint64_t seed) {
     TU_CHECK_OK(pgi_photons_alloc(ph, n));
@@ -37,14 +46,14 @@ static void make_photons(pgi_photons *ph, size_t n, uint64_t seed) {
  * mirror-reflected samples (no PGI_VS_PRIMARY) anywhere in the box. */
 static void make_samples(pgi_view_samples *vs, pgi_camera *cam, uint64_t seed, float secondary) {
     TU_CHECK_OK(pgi_view_samples_alloc(vs, W, H));
-    pgi_camera_look_at(cam, k_eye, k_at, k_up, FOV, W, H);
+    pgi_camera_look_at(cam, g_view->eye, g_view->at, g_view->up, g_view->fov, W, H);
     tu_rng r = tu_rng_make(seed);
     for (int y = 0; y < H; y++)
         for (int x = 0; x < W; x++) {
             size_t i = (size_t)y * W + (size_t)x;
             float dir[3], pos[3], n[3], wo[3], kd[3];
             tu_pixel_dir(cam, x, y, dir);
-            float t = tu_range(&r, 2.0f, 3.1f);
+            float t = tu_range(&r, g_view->tmin, g_view->tmax);
             for (int k = 0; k < 3; k++) pos[k] = cam->eye[k] + t * dir[k];
             float kind = tu_unif(&r);
             uint8_t flags = PGI_VS_VALID | PGI_VS_PRIMARY | PGI_VS_LAMBERT;
@@ -82,7 +91,7 @@ static void compare_all(const pgi_photons *ph, const pgi_view_samples *vs, const
     pgi_estimator_stats rs, gs;
     TU_CHECK_OK(tu_run_estimator("brute", &d, ph, vs, cam, ref, &rs));
     int compared = 0;
-    const int tiles[] = {1, 7, 32};
+    const int tiles[] = {1, 7, 32, 64};   /* 64: one tile larger than the image */
     for (size_t e = 0; e < pgi_estimator_count(); e++) {
         const pgi_estimator_vtbl *vt = pgi_estimator_at(e);
         assert_non_null(vt);
@@ -147,6 +156,13 @@ static void run_random(float secondary, const char *label, uint64_t seed) {
 static void test_random_primary(void **state) { run_random(0.f, "primary samples", 11); }
 
 static void test_random_with_mirror_samples(void **state) { run_random(0.15f, "15% mirror samples", 12); }
+
+static void test_eye_inside_photons(void **state) {
+    g_view = &k_inside;
+    run_random(0.f, "eye inside the photons", 16);
+    run_random(0.1f, "eye inside the photons, mirror samples", 17);
+    g_view = &k_outside;
+}
 
 /* Hash grid cells much smaller (and larger) than the radius: same answer. */
 static void test_hashgrid_cell_sizes(void **state) {
@@ -272,14 +288,88 @@ static void test_sibenik_pipeline(void **state) {
     pipeline_compare("sibenik", 80, 45, 10000, 0.f);   /* the scene's default radius */
 }
 
+/* A room with a mirror back wall, a glass block, a Blinn-Phong floor and an
+ * emissive ceiling quad (written to a temporary folder): view samples seen
+ * through the mirror and the glass (not primary), Phong samples, all from
+ * the real view pass. */
+static void test_mirror_glass_pipeline(void **state) {
+    char dir[512], path[700];
+    tu_make_tmpdir(dir, sizeof dir);
+    snprintf(path, sizeof path, "%s/room.mtl", dir);
+    assert_int_equal(tu_write_file(path,
+                                   "newmtl white\nKd 0.7 0.7 0.7\nillum 1\n"
+                                   "newmtl red\nKd 0.7 0.1 0.1\nillum 1\n"
+                                   "newmtl floor\nKd 0.5 0.5 0.4\nKs 0.3 0.3 0.3\nNs 30\nillum 2\n"
+                                   "newmtl mirror\nKd 0 0 0\nKs 0.9 0.9 0.9\nillum 3\n"
+                                   "newmtl glass\nKd 0 0 0\nKs 1 1 1\nNi 1.5\nillum 7\n"
+                                   "newmtl lamp\nKd 0.8 0.8 0.8\nKe 20 20 20\nillum 1\n"),
+                     0);
+    snprintf(path, sizeof path, "%s/room.obj", dir);
+    assert_int_equal(
+        tu_write_file(path,
+                      "mtllib room.mtl\n"
+                      "v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\n"          /* 1-4 floor */
+                      "v -1 2 -1\nv 1 2 -1\nv 1 2 1\nv -1 2 1\n"          /* 5-8 ceiling */
+                      "v -0.3 1.98 -0.3\nv 0.3 1.98 -0.3\nv 0.3 1.98 0.3\nv -0.3 1.98 0.3\n" /* 9-12 lamp */
+                      "v 0.1 0 0.1\nv 0.6 0 0.1\nv 0.6 0 0.6\nv 0.1 0 0.6\n"  /* 13-16 glass bottom */
+                      "v 0.1 0.6 0.1\nv 0.6 0.6 0.1\nv 0.6 0.6 0.6\nv 0.1 0.6 0.6\n" /* 17-20 glass top */
+                      "usemtl floor\nf 1 4 3 2\n"
+                      "usemtl white\nf 5 6 7 8\nf 2 3 7 6\n"
+                      "usemtl red\nf 1 5 8 4\n"
+                      "usemtl mirror\nf 1 2 6 5\n"
+                      "usemtl lamp\nf 9 10 11 12\n"
+                      "usemtl glass\nf 13 14 15 16\nf 17 20 19 18\nf 13 17 18 14\nf 14 18 19 15\n"
+                      "f 15 19 20 16\nf 16 20 17 13\n"),
+        0);
+    char json[1600], jpath[700];
+    snprintf(json, sizeof json,
+             "{\"mesh\": \"%s\", \"camera\": {\"eye\": [-0.3, 1.1, 3.2], \"look_at\": [0.1, 0.8, -1], "
+             "\"fov_y\": 50}}\n",
+             path);
+    snprintf(jpath, sizeof jpath, "%s/room.json", dir);
+    assert_int_equal(tu_write_file(jpath, json), 0);
+    /* The view really holds samples seen through the mirror/glass, and Phong samples. */
+    {
+        pgi_scene *sc = NULL;
+        TU_CHECK_OK(pgi_scene_load(jpath, &sc));
+        pgi_rt *rt = NULL;
+        TU_CHECK_OK(pgi__rt_create(sc, &rt));
+        pgi_view_samples vs;
+        TU_CHECK_OK(pgi_view_samples_alloc(&vs, 72, 56));
+        float *emit = malloc(3 * vs.count * sizeof *emit);
+        pgi_camera cam;
+        const pgi_camera_def *cd = &sc->cams[0];
+        pgi_camera_look_at(&cam, cd->eye, cd->look_at, cd->up, cd->fov_y_deg, 72, 56);
+        uint64_t rays = 0;
+        TU_CHECK_OK(pgi__view_build(sc, rt, &cam, 1, &vs, emit, &rays));
+        size_t secondary = 0, phong = 0;
+        for (size_t i = 0; i < vs.count; i++) {
+            if (!(vs.flags[i] & PGI_VS_VALID)) continue;
+            if (!(vs.flags[i] & PGI_VS_PRIMARY)) secondary++;
+            if (!(vs.flags[i] & PGI_VS_LAMBERT)) phong++;
+        }
+        fprintf(stderr, "  room: %zu samples through mirror/glass, %zu Phong, of %zu\n", secondary, phong, vs.count);
+        assert_true(secondary > vs.count / 20);
+        assert_true(phong > vs.count / 20);
+        free(emit);
+        pgi_view_samples_free(&vs);
+        pgi__rt_destroy(rt);
+        pgi_scene_destroy(sc);
+    }
+    pipeline_compare(jpath, 72, 56, 15000, 0.1f);
+    tu_rm_tmpdir(dir);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_create_errors),
         cmocka_unit_test(test_zero_photons),
         cmocka_unit_test(test_random_primary),
         cmocka_unit_test(test_random_with_mirror_samples),
+        cmocka_unit_test(test_eye_inside_photons),
         cmocka_unit_test(test_hashgrid_cell_sizes),
         cmocka_unit_test(test_cornell_pipeline),
+        cmocka_unit_test(test_mirror_glass_pipeline),
         cmocka_unit_test(test_sibenik_pipeline),
     };
     return cmocka_run_group_tests_name("estimators", tests, NULL, NULL);

@@ -74,7 +74,7 @@ typedef struct pgi_view_samples {
 typedef struct pgi_estimator_desc {
     float radius;        /* fixed photon radius (> 0) */
     int tile_size;       /* "tiled": tile edge in pixels; default 32 */
-    float cell_size;     /* "hashgrid": cell edge; default 2 * radius */
+    float cell_size;     /* "hashgrid": cell edge (>= radius/64); default 2 * radius */
     int threads;         /* 0 = OpenMP default */
 } pgi_estimator_desc;
 

@@ -156,7 +156,7 @@ void pgi_image_free(pgi_image *img);
 pgi_status pgi_image_write(const pgi_image *img, const char *path, float exposure);
 /* Tone maps to 8-bit sRGB (3 bytes a pixel, caller-owned buffer). */
 void pgi_tonemap_srgb8(const pgi_image *img, float exposure, unsigned char *out);
-/* Writes the frame statistics as JSON. */
+/* Writes the frame statistics as JSON to `path` ("-" = standard output). */
 pgi_status pgi_stats_write_json(const pgi_frame_stats *stats, const char *path);
 
 #ifdef __cplusplus

@@ -42,8 +42,11 @@ pgi_status pgi_estimator_create(const char *name, const pgi_estimator_desc *desc
                          (double)desc->radius);
     if (desc->tile_size < 0 || desc->tile_size > 4096)
         return pgi__fail(PGI_ERR_INVALID_ARG, "tile size %d is out of range (1..4096)", desc->tile_size);
-    if (desc->cell_size < 0.f || !isfinite(desc->cell_size))
-        return pgi__fail(PGI_ERR_INVALID_ARG, "cell size must be positive, got %g", (double)desc->cell_size);
+    /* Below r/64 a query would visit over 2 million cells: reject rather than hang. */
+    if (desc->cell_size < 0.f || !isfinite(desc->cell_size) ||
+        (desc->cell_size > 0.f && desc->cell_size < desc->radius / 64.f))
+        return pgi__fail(PGI_ERR_INVALID_ARG, "cell size must be 0 (default: 2r) or at least r/64 = %g, got %g",
+                         (double)(desc->radius / 64.f), (double)desc->cell_size);
     pgi_estimator *e = calloc(1, sizeof *e);
     if (!e) return pgi__fail(PGI_ERR_OOM, "out of memory creating estimator '%s'", name);
     e->vt = vt;

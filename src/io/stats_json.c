@@ -111,6 +111,11 @@ pgi_status pgi_stats_write_json(const pgi_frame_stats *st, const char *path) {
     char *text = pgi__stats_to_json(st);
     if (!text) return pgi__fail(PGI_ERR_OOM, "%s: out of memory formatting statistics", path);
 
+    if (strcmp(path, "-") == 0) {   /* standard output */
+        int bad = fputs(text, stdout) == EOF || fputc('\n', stdout) == EOF || fflush(stdout) != 0;
+        free(text);
+        return bad ? pgi__fail(PGI_ERR_IO, "stats: cannot write to standard output") : PGI_OK;
+    }
     errno = 0;
     FILE *f = fopen(path, "w");
     if (!f) {

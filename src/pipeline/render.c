@@ -8,7 +8,7 @@
 #include "view/view.h"
 
 #define PGI_MAX_SIDE 16384
-#define PGI_MAX_PIXELS (64u * 1024u * 1024u)
+#define PGI_MAX_PIXELS (36u * 1024u * 1024u)   /* 8K UHD fits; buffers take about 140 bytes a pixel */
 #define PGI_MAX_PHOTONS 100000000u
 #define PGI_MAX_BOUNCES 64
 
