@@ -33,12 +33,8 @@ static pgi_status brute_estimate(void *state, const pgi_estimate_args *a) {
     for (long long ii = 0; ii < (long long)vs->count; ii++) {
         size_t i = (size_t)ii;
         float *out = a->out_rgb + 3 * i;
-        if (!(vs->flags[i] & PGI_VS_VALID)) {
-            out[0] = out[1] = out[2] = 0.f;
-            continue;
-        }
         pgi__vs v;
-        pgi__vs_load(vs, i, &v);
+        if (!pgi__vs_begin(vs, i, out, &v)) continue;
         pgi__acc acc = {0};
         for (size_t j = 0; j < n; j++)
             pgi__gather(&v, r2, ph->px[j], ph->py[j], ph->pz[j], ph->dx[j], ph->dy[j], ph->dz[j], ph->fr[j],
@@ -47,10 +43,7 @@ static pgi_status brute_estimate(void *state, const pgi_estimate_args *a) {
         reads += n;
         contrib += acc.contributing;
     }
-    s->c.st.estimate_ms = pgi__now_ms() - t0;
-    pgi__stats_pass(&s->c.st, "gather", s->c.st.estimate_ms);
-    s->c.st.reads = reads;
-    s->c.st.contributing = contrib;
+    pgi__stats_estimated(&s->c.st, t0, reads, contrib);
     return PGI_OK;
 }
 

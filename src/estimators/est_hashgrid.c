@@ -152,12 +152,8 @@ static pgi_status hg_estimate(void *state, const pgi_estimate_args *a) {
     for (long long ii = 0; ii < (long long)vs->count; ii++) {
         size_t i = (size_t)ii;
         float *out = a->out_rgb + 3 * i;
-        if (!(vs->flags[i] & PGI_VS_VALID)) {
-            out[0] = out[1] = out[2] = 0.f;
-            continue;
-        }
         pgi__vs v;
-        pgi__vs_load(vs, i, &v);
+        if (!pgi__vs_begin(vs, i, out, &v)) continue;
         pgi__acc acc = {0};
         int32_t x0 = cell_coord(v.px - r, inv), x1 = cell_coord(v.px + r, inv);
         int32_t y0 = cell_coord(v.py - r, inv), y1 = cell_coord(v.py + r, inv);
@@ -177,10 +173,7 @@ static pgi_status hg_estimate(void *state, const pgi_estimate_args *a) {
         contrib += acc.contributing;
         visited += probes;
     }
-    s->c.st.estimate_ms = pgi__now_ms() - t0;
-    pgi__stats_pass(&s->c.st, "gather", s->c.st.estimate_ms);
-    s->c.st.reads = reads;
-    s->c.st.contributing = contrib;
+    pgi__stats_estimated(&s->c.st, t0, reads, contrib);
     s->c.st.nodes_visited = visited;
     s->c.st.memory_count = 0;
     pgi__stats_mem(&s->c.st, "hash_table", s->nslots * sizeof(slot));

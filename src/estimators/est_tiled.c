@@ -278,12 +278,8 @@ static pgi_status tiled_estimate(void *state, const pgi_estimate_args *a) {
             for (int px = tx * T; px < (tx + 1) * T && px < W; px++) {
                 size_t i = (size_t)py * W + (size_t)px;
                 float *out = a->out_rgb + 3 * i;
-                if (!(vs->flags[i] & PGI_VS_VALID)) {
-                    out[0] = out[1] = out[2] = 0.f;
-                    continue;
-                }
                 pgi__vs v;
-                pgi__vs_load(vs, i, &v);
+                if (!pgi__vs_begin(vs, i, out, &v)) continue;
                 pgi__acc acc = {0};
                 for (uint32_t k = 0; k < nq; k++) pgi__gather_packed(&v, r2, q + k, &acc);
                 pgi__acc_finish(&v, &acc, r2, out);
@@ -291,10 +287,7 @@ static pgi_status tiled_estimate(void *state, const pgi_estimate_args *a) {
                 contrib += acc.contributing;
             }
     }
-    s->c.st.estimate_ms = pgi__now_ms() - t0;
-    pgi__stats_pass(&s->c.st, "gather", s->c.st.estimate_ms);
-    s->c.st.reads = reads;
-    s->c.st.contributing = contrib;
+    pgi__stats_estimated(&s->c.st, t0, reads, contrib);
     s->c.st.memory_count = 0;
     pgi__stats_mem(&s->c.st, "tile_photons", s->copies * sizeof(pgi__packed_photon));
     pgi__stats_mem(&s->c.st, "tile_bounds", (size_t)s->ntiles * sizeof(tile_bounds));

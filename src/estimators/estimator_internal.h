@@ -36,6 +36,17 @@ static inline void pgi__vs_load(const pgi_view_samples *vs, size_t i, pgi__vs *v
     v->lambert = (vs->flags[i] & PGI_VS_LAMBERT) != 0;
 }
 
+/* Starts the gather of sample i: an invalid sample (sky, lost eye path)
+ * gets zero radiance and 0 is returned; otherwise the sample is loaded. */
+static inline int pgi__vs_begin(const pgi_view_samples *vs, size_t i, float *out, pgi__vs *v) {
+    if (!(vs->flags[i] & PGI_VS_VALID)) {
+        out[0] = out[1] = out[2] = 0.f;
+        return 0;
+    }
+    pgi__vs_load(vs, i, v);
+    return 1;
+}
+
 /* Constant kernel: a photon contributes when it lies strictly inside the
  * sphere of radius r around the sample and arrives from the sample's
  * hemisphere (dot(n, w_p) > 0). */
@@ -98,6 +109,14 @@ static inline void pgi__stats_mem(pgi_estimator_stats *st, const char *name, siz
         st->memory_names[st->memory_count] = name;
         st->memory_bytes[st->memory_count++] = bytes;
     }
+}
+
+/* Records the gather pass: its time since t0 and the read counters. */
+static inline void pgi__stats_estimated(pgi_estimator_stats *st, double t0, uint64_t reads, uint64_t contributing) {
+    st->estimate_ms = pgi__now_ms() - t0;
+    pgi__stats_pass(st, "gather", st->estimate_ms);
+    st->reads = reads;
+    st->contributing = contributing;
 }
 
 /* Grows *p to hold n elements of `size` bytes (64-byte aligned); keeps the
