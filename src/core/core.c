@@ -45,6 +45,11 @@ double pgi__now_ms(void) {
     return (double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6;
 }
 
+void pgi__list_append(char *buf, size_t cap, const char *name) {
+    size_t n = strlen(buf);
+    snprintf(buf + n, cap > n ? cap - n : 0, "%s%s", n ? ", " : "", name);
+}
+
 void *pgi__aalloc(size_t bytes) {
     if (bytes == 0) bytes = 64;
     bytes = (bytes + 63) & ~(size_t)63;

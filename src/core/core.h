@@ -31,6 +31,12 @@ void pgi__assert_fail(const char *expr, const char *file, int line);
 
 double pgi__now_ms(void);
 
+/* PGI_ERR_INVALID_ARG naming `name` and the registered estimators (estimator.c). */
+pgi_status pgi__fail_unknown_estimator(const char *name);
+
+/* Appends `name` to the comma-separated list in buf (for "registered: a, b" messages). */
+void pgi__list_append(char *buf, size_t cap, const char *name);
+
 /* Aligned allocation for hot arrays (64 bytes); free with pgi__afree. */
 void *pgi__aalloc(size_t bytes);
 void pgi__afree(void *p);

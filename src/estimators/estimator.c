@@ -17,6 +17,12 @@ struct pgi_estimator {
 
 size_t pgi_estimator_count(void) { return N_EST; }
 
+pgi_status pgi__fail_unknown_estimator(const char *name) {
+    char names[256] = "";
+    for (size_t i = 0; i < N_EST; i++) pgi__list_append(names, sizeof names, k_estimators[i]->name);
+    return pgi__fail(PGI_ERR_INVALID_ARG, "unknown estimator '%s' (registered: %s)", name ? name : "(null)", names);
+}
+
 const pgi_estimator_vtbl *pgi_estimator_at(size_t i) { return i < N_EST ? k_estimators[i] : NULL; }
 
 const pgi_estimator_vtbl *pgi_estimator_find(const char *name) {
@@ -29,14 +35,7 @@ const pgi_estimator_vtbl *pgi_estimator_find(const char *name) {
 pgi_status pgi_estimator_create(const char *name, const pgi_estimator_desc *desc, pgi_estimator **out) {
     *out = NULL;
     const pgi_estimator_vtbl *vt = pgi_estimator_find(name);
-    if (!vt) {
-        char names[256] = "";
-        for (size_t i = 0; i < N_EST; i++) {
-            strncat(names, i ? ", " : "", sizeof names - strlen(names) - 1);
-            strncat(names, k_estimators[i]->name, sizeof names - strlen(names) - 1);
-        }
-        return pgi__fail(PGI_ERR_INVALID_ARG, "unknown estimator '%s' (registered: %s)", name ? name : "(null)", names);
-    }
+    if (!vt) return pgi__fail_unknown_estimator(name);
     if (!(desc->radius > 0.f) || !isfinite(desc->radius))
         return pgi__fail(PGI_ERR_INVALID_ARG, "photon radius must be a positive finite number, got %g",
                          (double)desc->radius);

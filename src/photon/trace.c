@@ -31,25 +31,14 @@ typedef struct {
     float radius;         /* bounding-sphere radius, for the sun's disk */
 } tracer;
 
-static size_t pick_light(const float *cdf, size_t n, float u) {
-    size_t lo = 0, hi = n - 1;
-    while (lo < hi) {
-        size_t mid = (lo + hi) / 2;
-        if (u < cdf[mid]) hi = mid;
-        else lo = mid + 1;
-    }
-    return lo;
-}
-
 /* Traces path `index`; writes at most `bounces` photons to `out` and returns
  * how many. Flux is power / pick probability (divided by paths later). */
 static int trace_path(const tracer *T, uint64_t index, stored_photon *out, uint64_t *rays) {
     pgi_rng rng;
     pgi_rng_seed(&rng, T->seed, index);
     float ul = pgi_rng_f(&rng);
-    size_t li = pick_light(T->cdf, T->nl, ul);
-    const pgi_light *L = &T->s->lights[li];
-    float pl = T->cdf[li] - (li ? T->cdf[li - 1] : 0.f);
+    float pl;
+    const pgi_light *L = &T->s->lights[pgi__cdf_pick(T->cdf, T->nl, ul, &pl)];
     if (!(pl > 0.f)) return 0;
     pgi_v3 flux = v3_scale(v3_load(L->power), 1.f / pl);
     pgi_v3 o, d;
@@ -72,12 +61,8 @@ static int trace_path(const tracer *T, uint64_t index, stored_photon *out, uint6
     }
     case PGI_LIGHT_AREA:
     default: {
-        const uint32_t *t = T->s->tri + 3 * (size_t)L->tri;
-        float su = sqrtf(u1), b1 = 1.f - su, b2 = u2 * su;
-        pgi_v3 a = pgi__scene_vertex(T->s, t[0]), b = pgi__scene_vertex(T->s, t[1]), c = pgi__scene_vertex(T->s, t[2]);
         pgi_v3 n = v3_load(L->normal);
-        o = v3_add(v3_add(v3_scale(a, 1.f - b1 - b2), v3_scale(b, b1)), v3_scale(c, b2));
-        o = v3_madd(o, n, T->eps);
+        o = v3_madd(pgi__triangle_sample(T->s, L->tri, u1, u2), n, T->eps);
         d = pgi_to_world(pgi_sample_cosine(pgi_rng_f(&rng), pgi_rng_f(&rng)), n);
         break;
     }

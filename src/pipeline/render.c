@@ -58,14 +58,7 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
     *d = *in;
     const pgi_scene_defaults *sd = &s->defaults;
     if (!d->estimator || !*d->estimator) d->estimator = "tiled";
-    if (!pgi_estimator_find(d->estimator)) {
-        char names[256] = "";
-        for (size_t i = 0; i < pgi_estimator_count(); i++) {
-            strncat(names, i ? ", " : "", sizeof names - strlen(names) - 1);
-            strncat(names, pgi_estimator_at(i)->name, sizeof names - strlen(names) - 1);
-        }
-        return pgi__fail(PGI_ERR_INVALID_ARG, "unknown estimator '%s' (registered: %s)", d->estimator, names);
-    }
+    if (!pgi_estimator_find(d->estimator)) return pgi__fail_unknown_estimator(d->estimator);
     if (d->width == 0 && d->height == 0) {
         d->width = sd->width > 0 ? sd->width : 640;
         d->height = sd->height > 0 ? sd->height : 480;
@@ -207,7 +200,9 @@ pgi_status pgi_renderer_render(pgi_renderer *r, const pgi_render_desc *in, pgi_i
     for (int k = 0; k < es.pass_count && k < PGI_MAX_STAT_ENTRIES; k++)
         fs.passes_ms[fs.pass_count++] = (pgi_named_value){es.pass_names[k], es.pass_ms[k]};
     fs.memory_bytes[fs.memory_count++] = (pgi_named_value){"photons", (double)(r->ph.count * 12 * sizeof(float))};
-    fs.memory_bytes[fs.memory_count++] = (pgi_named_value){"view_samples", (double)(n * (22 * sizeof(float) + 1))};
+    /* 7 vector planes (pos, nrm, ngeo, wo, kd, ks, weight), shininess, depth, flags. */
+    fs.memory_bytes[fs.memory_count++] =
+        (pgi_named_value){"view_samples", (double)(n * ((7 * 3 + 2) * sizeof(float) + sizeof(uint8_t)))};
     for (int k = 0; k < es.memory_count && fs.memory_count < PGI_MAX_STAT_ENTRIES; k++)
         fs.memory_bytes[fs.memory_count++] = (pgi_named_value){es.memory_names[k], (double)es.memory_bytes[k]};
     fs.reads = es.reads;

@@ -180,10 +180,7 @@ pgi_status pgi_scene_load(const char *spec, pgi_scene **out) {
         snprintf(path, sizeof path, "scenes/%s.json", spec);
         if (file_exists(path)) return pgi__scene_load_json(path, out);
         char names[256] = "";
-        for (int i = 0; pgi__builtin_names[i]; i++) {
-            strncat(names, i ? ", " : "", sizeof names - strlen(names) - 1);
-            strncat(names, pgi__builtin_names[i], sizeof names - strlen(names) - 1);
-        }
+        for (int i = 0; pgi__builtin_names[i]; i++) pgi__list_append(names, sizeof names, pgi__builtin_names[i]);
         return pgi__fail(PGI_ERR_INVALID_ARG,
                          "unknown scene '%s': not a built-in scene (%s) and no file %s (run from the repository root, "
                          "or give a path to a .json description or a mesh)",

@@ -96,4 +96,25 @@ pgi_v3 pgi__texture_lookup(const pgi_texture *t, float u, float v);
 /* Geometry helpers used by rt/ and view/. */
 static inline pgi_v3 pgi__scene_vertex(const pgi_scene *s, uint32_t v) { return v3_load(s->pos + 3 * (size_t)v); }
 
+/* Uniform point on triangle `tri` from two uniform numbers. */
+static inline pgi_v3 pgi__triangle_sample(const pgi_scene *s, uint32_t tri, float u1, float u2) {
+    const uint32_t *t = s->tri + 3 * (size_t)tri;
+    float su = sqrtf(u1), b1 = 1.f - su, b2 = u2 * su;
+    pgi_v3 a = pgi__scene_vertex(s, t[0]), b = pgi__scene_vertex(s, t[1]), c = pgi__scene_vertex(s, t[2]);
+    return v3_add(v3_add(v3_scale(a, 1.f - b1 - b2), v3_scale(b, b1)), v3_scale(c, b2));
+}
+
+/* Index i of a normalised CDF (cdf[n-1] = 1) with cdf[i-1] <= u < cdf[i];
+ * *p receives that entry's probability. Used to pick lights by power. */
+static inline size_t pgi__cdf_pick(const float *cdf, size_t n, float u, float *p) {
+    size_t lo = 0, hi = n - 1;
+    while (lo < hi) {
+        size_t mid = (lo + hi) / 2;
+        if (u < cdf[mid]) hi = mid;
+        else lo = mid + 1;
+    }
+    *p = cdf[lo] - (lo ? cdf[lo - 1] : 0.f);
+    return lo;
+}
+
 #endif

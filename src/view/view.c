@@ -29,12 +29,11 @@ static void clear_sample(pgi_view_samples *vs, size_t i) {
 }
 
 /* Continues the eye path of pixel i from its primary hit. */
-static void shade_eye_path(const pgi_scene *s, const pgi_rt *rt, const pgi_camera *cam, uint64_t seed, size_t i,
-                           pgi_v3 o, pgi_v3 d, pgi_hit h, pgi_view_samples *vs, float *emit, uint64_t *rays) {
+static void shade_eye_path(const pgi_scene *s, const pgi_rt *rt, const pgi_camera *cam, uint64_t seed, float eps,
+                           size_t i, pgi_v3 o, pgi_v3 d, pgi_hit h, pgi_view_samples *vs, float *emit, uint64_t *rays) {
     clear_sample(vs, i);
     v3_store(emit + 3 * i, v3(0.f, 0.f, 0.f));
     if (h.prim == UINT32_MAX) return;
-    const float eps = pgi__scene_epsilon(s);
     pgi_v3 weight = v3(1.f, 1.f, 1.f), e = v3(0.f, 0.f, 0.f);
     pgi_rng rng;
     int rng_ready = 0;
@@ -85,6 +84,7 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi_rt *rt, const pgi_camer
         return pgi__fail(PGI_ERR_INVALID_ARG, "view-sample buffer is %dx%d, camera %dx%d", vs->width, vs->height, W, H);
     uint64_t rays = 0;
     const pgi_v3 eye = v3_load(cam->eye);
+    const float eps = pgi__scene_epsilon(s);
 #pragma omp parallel for schedule(dynamic, 1) reduction(+ : rays)
     for (int y = 0; y < H; y++) {
         for (int x0 = 0; x0 < W; x0 += 8) {
@@ -99,7 +99,7 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi_rt *rt, const pgi_camer
             for (int k = 0; k < 8 && x0 + k < W; k++) {
                 rays++;
                 size_t i = (size_t)y * W + (size_t)(x0 + k);
-                shade_eye_path(s, rt, cam, seed, i, eye, dirs[k], hits[k], vs, emit, &rays);
+                shade_eye_path(s, rt, cam, seed, eps, i, eye, dirs[k], hits[k], vs, emit, &rays);
             }
         }
     }
@@ -178,18 +178,10 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi_rt *rt, const pgi_view_samp
             pgi_v3 La = v3(0.f, 0.f, 0.f);
             for (int k = 0; k < area_samples; k++) {
                 float u = ((float)k + pgi_rng_f(&rng)) / (float)area_samples;   /* stratified light pick */
-                size_t lo = 0, hi = narea - 1;
-                while (lo < hi) {
-                    size_t mid = (lo + hi) / 2;
-                    if (u < cdf[mid]) hi = mid;
-                    else lo = mid + 1;
-                }
-                const pgi_light *lt = &s->lights[idx[lo]];
-                float pl = cdf[lo] - (lo ? cdf[lo - 1] : 0.f);
-                const uint32_t *t = s->tri + 3 * (size_t)lt->tri;
-                float su = sqrtf(pgi_rng_f(&rng)), b1 = 1.f - su, b2 = pgi_rng_f(&rng) * su;
-                pgi_v3 a = pgi__scene_vertex(s, t[0]), b = pgi__scene_vertex(s, t[1]), c = pgi__scene_vertex(s, t[2]);
-                pgi_v3 y = v3_add(v3_add(v3_scale(a, 1.f - b1 - b2), v3_scale(b, b1)), v3_scale(c, b2));
+                float pl;
+                const pgi_light *lt = &s->lights[idx[pgi__cdf_pick(cdf, narea, u, &pl)]];
+                float u1 = pgi_rng_f(&rng), u2 = pgi_rng_f(&rng);
+                pgi_v3 y = pgi__triangle_sample(s, lt->tri, u1, u2);
                 pgi_v3 dv = v3_sub(y, x);
                 float d2 = v3_dot(dv, dv);
                 if (!(d2 > 0.f) || !(pl > 0.f)) continue;
