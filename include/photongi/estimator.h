@@ -36,6 +36,9 @@ typedef struct pgi_photons {
     float *dx, *dy, *dz;     /* incoming direction, pointing away from the surface */
     float *fr, *fg, *fb;     /* flux (W), already divided by the paths emitted */
     float *nx, *ny, *nz;     /* geometric normal where it was stored */
+    float *radius;           /* optional per-photon footprint radius (radius policies); NULL: the
+                                estimator's fixed radius. Only estimators with PGI_EST_CAP_PHOTON_RADIUS
+                                accept it. Not allocated by pgi_photons_alloc. */
     uint64_t emitted;        /* light paths emitted to produce them */
 } pgi_photons;
 
@@ -71,8 +74,19 @@ typedef struct pgi_view_samples {
     uint8_t *flags;          /* PGI_VS_* */
 } pgi_view_samples;
 
+/* Density-estimation kernels (tiled paper §2.2); each is normalised to
+ * integrate to 1 over its disk of radius r. */
+typedef enum pgi_kernel {
+    PGI_KERNEL_CONSTANT = 0,    /* 1/(pi r^2) */
+    PGI_KERNEL_CONE,            /* 3/(pi r^2) (1 - d/r) */
+    PGI_KERNEL_EPANECHNIKOV,    /* 2/(pi r^2) (1 - d^2/r^2) */
+    PGI_KERNEL_COUNT_
+} pgi_kernel;
+
 typedef struct pgi_estimator_desc {
     float radius;        /* fixed photon radius (> 0) */
+    pgi_kernel kernel;   /* default constant; others need PGI_EST_CAP_KERNELS */
+    int subsample;       /* stochastic subsampling factor k (0 or 1: off); needs PGI_EST_CAP_SUBSAMPLE */
     int tile_size;       /* "tiled": tile edge in pixels; default 32 */
     float cell_size;     /* "hashgrid": cell edge (>= radius/64); default 2 * radius */
     int threads;         /* 0 = OpenMP default */
@@ -108,7 +122,14 @@ typedef struct pgi_estimator_vtbl {
     pgi_status (*estimate)(void *state, const pgi_estimate_args *args);
     void (*stats)(const void *state, pgi_estimator_stats *out);
     void (*destroy)(void *state);
+    unsigned caps;   /* PGI_EST_CAP_* this method supports beyond the constant-kernel fixed-radius case */
 } pgi_estimator_vtbl;
+
+enum {
+    PGI_EST_CAP_KERNELS = 1,        /* honours desc.kernel */
+    PGI_EST_CAP_SUBSAMPLE = 2,      /* honours desc.subsample */
+    PGI_EST_CAP_PHOTON_RADIUS = 4   /* honours pgi_photons.radius (per-photon footprints) */
+};
 
 size_t pgi_estimator_count(void);
 const pgi_estimator_vtbl *pgi_estimator_at(size_t i);

@@ -53,5 +53,5 @@ static void brute_destroy(void *state) { free(state); }
 
 const pgi_estimator_vtbl pgi__est_brute = {
     "brute", "every photon for every view sample (the test oracle)", 1,
-    brute_create, brute_build, brute_estimate, brute_stats, brute_destroy,
+    brute_create, brute_build, brute_estimate, brute_stats, brute_destroy, 0,
 };

@@ -195,5 +195,5 @@ static void hg_destroy(void *state) {
 
 const pgi_estimator_vtbl pgi__est_hashgrid = {
     "hashgrid", "3D hash grid of photon cells, pixel-major gather (Mara et al. 2013 §2.3.1)", 1,
-    hg_create, hg_build, hg_estimate, hg_stats, hg_destroy,
+    hg_create, hg_build, hg_estimate, hg_stats, hg_destroy, 0,
 };

@@ -310,5 +310,5 @@ static void tiled_destroy(void *state) {
 
 const pgi_estimator_vtbl pgi__est_tiled = {
     "tiled", "screen tiles with depth bounds; per-tile photon copies (Mara et al. 2013 §2.3.1)", 1,
-    tiled_create, tiled_build, tiled_estimate, tiled_stats, tiled_destroy,
+    tiled_create, tiled_build, tiled_estimate, tiled_stats, tiled_destroy, 0,
 };

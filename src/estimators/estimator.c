@@ -46,6 +46,14 @@ pgi_status pgi_estimator_create(const char *name, const pgi_estimator_desc *desc
         (desc->cell_size > 0.f && desc->cell_size < desc->radius / 64.f))
         return pgi__fail(PGI_ERR_INVALID_ARG, "cell size must be 0 (default: 2r) or at least r/64 = %g, got %g",
                          (double)(desc->radius / 64.f), (double)desc->cell_size);
+    if ((unsigned)desc->kernel >= PGI_KERNEL_COUNT_)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "unknown kernel %d", (int)desc->kernel);
+    if (desc->kernel != PGI_KERNEL_CONSTANT && !(vt->caps & PGI_EST_CAP_KERNELS))
+        return pgi__fail(PGI_ERR_INVALID_ARG, "estimator '%s' supports only the constant kernel", name);
+    if (desc->subsample < 0 || desc->subsample > 64)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "subsampling factor %d is out of range (0..64)", desc->subsample);
+    if (desc->subsample > 1 && !(vt->caps & PGI_EST_CAP_SUBSAMPLE))
+        return pgi__fail(PGI_ERR_INVALID_ARG, "estimator '%s' does not support stochastic subsampling", name);
     pgi_estimator *e = calloc(1, sizeof *e);
     if (!e) return pgi__fail(PGI_ERR_OOM, "out of memory creating estimator '%s'", name);
     e->vt = vt;
@@ -66,7 +74,11 @@ static pgi_status check_args(const pgi_estimate_args *a) {
 
 pgi_status pgi_estimator_build(pgi_estimator *e, const pgi_estimate_args *a) {
     pgi_status st = check_args(a);
-    return st ? st : e->vt->build(e->state, a);
+    if (st) return st;
+    if (a->photons->radius && !(e->vt->caps & PGI_EST_CAP_PHOTON_RADIUS))
+        return pgi__fail(PGI_ERR_INVALID_ARG, "estimator '%s' needs one fixed radius; it cannot use per-photon radii",
+                         e->vt->name);
+    return e->vt->build(e->state, a);
 }
 
 pgi_status pgi_estimator_estimate(pgi_estimator *e, const pgi_estimate_args *a) {
