@@ -63,6 +63,8 @@ typedef struct pgi_scene_info {
     size_t cameras;
     pgi_camera_def camera; /* camera 0 */
     pgi_scene_defaults defaults;
+    size_t animated_objects;  /* objects with a motion (see pgi_scene_set_time) */
+    double anim_duration;     /* last keyframe time over all motions, seconds (0 if none) */
 } pgi_scene_info;
 
 /* Loads a scene. `spec` is a built-in name ("cornell", "giref",
@@ -81,7 +83,9 @@ const char *pgi_builtin_scene_name(size_t i);
 typedef enum pgi_output {
     PGI_OUTPUT_ALL = 0,       /* emission + direct + indirect */
     PGI_OUTPUT_INDIRECT = 1,  /* the estimator's indirect radiance only */
-    PGI_OUTPUT_DIRECT = 2     /* emission + direct only */
+    PGI_OUTPUT_DIRECT = 2,    /* emission + direct only */
+    PGI_OUTPUT_PHOTON_COUNT = 3 /* photons that contributed at each pixel (all three channels); needs a
+                                   second build + estimate pass over unit-flux photons */
 } pgi_output;
 
 /* Zero means "default" for every field. */
@@ -99,6 +103,10 @@ typedef struct pgi_render_desc {
     pgi_output output;
     int radius_set;          /* non-zero: `radius` was given explicitly (0 or less is then an error) */
     int photons_set;         /* non-zero: `photons` was given explicitly (0 is then an error) */
+    const pgi_camera_def *view; /* non-NULL: render from this camera instead of the scene's `camera`
+                                   (borrowed for the call; the viewer's free camera) */
+    int progressive;         /* > 1: pgi_renderer_render averages this many frames with fresh photons
+                                and a shrinking radius (Knaus & Zwicker 2011); 0 or 1: one frame */
 } pgi_render_desc;
 
 /* Linear RGB radiance, row-major from the top-left, 3 floats a pixel. */
@@ -133,6 +141,8 @@ typedef struct pgi_frame_stats {
     uint64_t reads;          /* photon reads by the estimator */
     uint64_t contributing;   /* reads that passed the sphere + hemisphere test */
     uint64_t nodes_visited;  /* cells / tiles / nodes touched */
+    int frames;              /* frames averaged into the image (progressive); 1 for a single frame */
+    double rt_update_ms;     /* updating the ray-tracing scene after geometry moved (0 if nothing moved) */
 } pgi_frame_stats;
 
 /* Renders one frame into `out` (free with pgi_image_free). Pass a zeroed
@@ -158,6 +168,52 @@ pgi_status pgi_image_write(const pgi_image *img, const char *path, float exposur
 void pgi_tonemap_srgb8(const pgi_image *img, float exposure, unsigned char *out);
 /* Writes the frame statistics as JSON to `path` ("-" = standard output). */
 pgi_status pgi_stats_write_json(const pgi_frame_stats *stats, const char *path);
+
+/* ------------------------------------------------ dynamic scenes (issue 6) */
+
+/* Moves every animated object of a scene description ("motion" keyframes,
+ * docs/scene-format.md) to time t (seconds). A renderer using the scene
+ * updates its ray-tracing scene on its next frame. Not thread-safe with a
+ * render in progress on the same scene. */
+pgi_status pgi_scene_set_time(pgi_scene *scene, double t);
+
+/* Lights a user can move. Group i < (point, spot and sun lights) is that
+ * light; after them comes one group per emissive material (all its
+ * triangles, moved together). */
+typedef enum pgi_light_kind {
+    PGI_LIGHT_KIND_POINT = 0,
+    PGI_LIGHT_KIND_SPOT = 1,
+    PGI_LIGHT_KIND_SUN = 2,
+    PGI_LIGHT_KIND_AREA = 3
+} pgi_light_kind;
+
+typedef struct pgi_light_group {
+    pgi_light_kind kind;
+    const char *name;      /* "point 0", or the emissive material's name; valid while the scene lives */
+    float position[3];     /* point/spot: position; area: area-weighted centroid; sun: 0 */
+    size_t triangles;      /* area: emissive triangles in the group */
+} pgi_light_group;
+
+size_t pgi_scene_light_group_count(const pgi_scene *scene);
+pgi_status pgi_scene_get_light_group(const pgi_scene *scene, size_t i, pgi_light_group *out);
+/* Moves light group i so that its position becomes `pos` (area groups: a
+ * translation of their triangles). Sun: PGI_ERR_UNSUPPORTED. */
+pgi_status pgi_scene_set_light_position(pgi_scene *scene, size_t i, const float pos[3]);
+
+/* Progressive accumulation for interactive use: renders one more frame
+ * into the renderer's running average and writes the average to `out`.
+ * The average restarts by itself when anything that changes the picture
+ * differs from the previous call (desc fields, view camera, scene time,
+ * geometry or light positions); frame k (0-based) uses seed stream k and
+ * radius r_k with r_0 = desc radius, r_{k+1}^2 = r_k^2 (k+1+alpha)/(k+2),
+ * alpha = 2/3 (Knaus & Zwicker 2011). Needs an exact estimator for k > 0
+ * (an approximate one restarts every frame). stats->frames is the count. */
+pgi_status pgi_renderer_accumulate(pgi_renderer *r, const pgi_render_desc *desc, pgi_image *out,
+                                   pgi_frame_stats *stats);
+/* Forgets the running average. */
+void pgi_renderer_reset_accumulation(pgi_renderer *r);
+/* Radius of progressive frame k (0-based) for a first radius r0. */
+float pgi_progressive_radius(float r0, int k);
 
 #ifdef __cplusplus
 }

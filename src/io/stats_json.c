@@ -88,6 +88,8 @@ static cJSON *build(const pgi_frame_stats *st) {
     ok &= add_num(root, "contributing", (double)st->contributing);
     ok &= add_num(root, "contributing_ratio", st->reads ? (double)st->contributing / (double)st->reads : 0.0);
     ok &= add_num(root, "nodes_visited", (double)st->nodes_visited);
+    ok &= add_num(root, "frames", (double)st->frames);
+    ok &= add_num(root, "rt_update_ms", st->rt_update_ms);
     if (!ok) {
         cJSON_Delete(root);
         return NULL;

@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "photon/photon.h"
+#include "pipeline/pipeline.h"
 #include "view/view.h"
 
 #define PGI_MAX_SIDE 16384
@@ -23,7 +24,11 @@ struct pgi_renderer {
     pgi_estimator *est;
     char est_name[64];
     pgi_estimator_desc est_desc;
+    pgi__accum *acc;         /* progressive running average (progressive.c); NULL until used */
 };
+
+pgi__accum **pgi__renderer_accum(pgi_renderer *r) { return &r->acc; }
+const pgi_scene *pgi__renderer_scene(const pgi_renderer *r) { return r->scene; }
 
 pgi_status pgi_renderer_create(const pgi_scene *scene, pgi_renderer **out) {
     *out = NULL;
@@ -50,11 +55,13 @@ void pgi_renderer_destroy(pgi_renderer *r) {
     pgi__afree(r->direct);
     pgi__afree(r->indirect);
     pgi_estimator_destroy(r->est);
+    pgi__accum_free(r->acc);
     free(r);
 }
 
 /* Fills defaults and rejects what cannot be rendered. */
 static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pgi_render_desc *d) {
+    pgi_status st;
     *d = *in;
     const pgi_scene_defaults *sd = &s->defaults;
     if (!d->estimator || !*d->estimator) d->estimator = "tiled";
@@ -92,8 +99,9 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
     if (d->direct_samples == 0) d->direct_samples = 16;
     if (d->direct_samples < 0 || d->direct_samples > 4096)
         return pgi__fail(PGI_ERR_INVALID_ARG, "direct samples %d out of range (1..4096)", d->direct_samples);
-    if (d->output < PGI_OUTPUT_ALL || d->output > PGI_OUTPUT_DIRECT)
+    if (d->output < PGI_OUTPUT_ALL || d->output > PGI_OUTPUT_PHOTON_COUNT)
         return pgi__fail(PGI_ERR_INVALID_ARG, "unknown output mode %d", (int)d->output);
+    if (d->view && (st = pgi__check_view(d->view))) return st;
     return PGI_OK;
 }
 
@@ -136,6 +144,7 @@ static pgi_status ensure_buffers(pgi_renderer *r, const pgi_render_desc *d) {
 
 pgi_status pgi_renderer_render(pgi_renderer *r, const pgi_render_desc *in, pgi_image *out, pgi_frame_stats *stats) {
     if (!r || !in || !out) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_renderer_render: NULL argument");
+    if (in->progressive > 1) return pgi__render_progressive(r, in, out, stats);
     pgi__clear_error();
     pgi_render_desc d;
     pgi_status st = resolve_desc(r->scene, in, &d);
@@ -144,7 +153,7 @@ pgi_status pgi_renderer_render(pgi_renderer *r, const pgi_render_desc *in, pgi_i
     double t_start = pgi__now_ms();
     if ((st = ensure_buffers(r, &d))) return st;
     const pgi_scene *s = r->scene;
-    const pgi_camera_def *cd = &s->cams[d.camera];
+    const pgi_camera_def *cd = d.view ? d.view : &s->cams[d.camera];
     pgi_camera cam;
     pgi_camera_look_at(&cam, cd->eye, cd->look_at, cd->up, cd->fov_y_deg, d.width, d.height);
 
@@ -155,6 +164,13 @@ pgi_status pgi_renderer_render(pgi_renderer *r, const pgi_render_desc *in, pgi_i
     fs.height = d.height;
     fs.threads = d.threads > 0 ? d.threads : omp_get_max_threads();
     fs.radius = d.radius;
+    fs.frames = 1;
+    if (pgi__rt_needs_update(r->rt, s)) {
+        /* Animated objects or a moved area light: update the BVH before any ray. */
+        double tu = pgi__now_ms();
+        if ((st = pgi__rt_update(r->rt, s))) return st;
+        fs.rt_update_ms = pgi__now_ms() - tu;
+    }
 
     double t0 = pgi__now_ms();
     if ((st = pgi__view_build(s, r->rt, &cam, d.seed, &r->vs, r->emit, &fs.primary_rays))) return st;
@@ -189,6 +205,10 @@ pgi_status pgi_renderer_render(pgi_renderer *r, const pgi_render_desc *in, pgi_i
 
     pgi_estimator_stats es;
     pgi_estimator_get_stats(r->est, &es);
+    if (d.output == PGI_OUTPUT_PHOTON_COUNT && (st = pgi__photon_counts(r->est, &ea, d.radius, img.rgb))) {
+        if (img.rgb != out->rgb) free(img.rgb);
+        return st;
+    }
     fs.photons_emitted = r->ph.emitted;
     fs.photons_stored = r->ph.count;
     fs.view_ms = t1 - t0;

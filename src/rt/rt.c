@@ -9,6 +9,17 @@
 struct pgi_rt {
     RTCDevice device;
     RTCScene scene;
+    /* Scenes with animated objects get two geometries: 0 holds the static
+     * triangles (built once, high quality), 1 the animated ones (refitted
+     * each time they move); Embree then builds a two-level BVH and only the
+     * moved geometry is redone. map[g][prim] is the scene triangle
+     * (NULL: identity, the single-geometry case). */
+    RTCGeometry geom[2];
+    int ngeom;
+    uint32_t *map[2];
+    uint32_t *dyn_verts;     /* scene vertex of each vertex of the animated geometry; NULL: not split */
+    size_t ndyn_verts;
+    uint64_t static_version, dynamic_version;
 };
 
 static _Thread_local char g_rt_error[256];
@@ -16,6 +27,36 @@ static _Thread_local char g_rt_error[256];
 static void on_error(void *user, enum RTCError code, const char *str) {
     (void)user;
     snprintf(g_rt_error, sizeof g_rt_error, "Embree error %d: %s", (int)code, str ? str : "");
+}
+
+/* A triangle geometry over `ntri` triangles of the scene (tris[i], or i when
+ * tris is NULL); vertices are all scene vertices, or the `nv` listed in
+ * `verts`, with `remap` giving each scene vertex its local index. */
+static RTCGeometry make_geometry(pgi_rt *rt, const pgi_scene *s, const uint32_t *tris, size_t ntri,
+                                 const uint32_t *verts, size_t nv, const uint32_t *remap, enum RTCBuildQuality q) {
+    RTCGeometry g = rtcNewGeometry(rt->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    if (!g) return NULL;
+    size_t nvb = verts ? nv : s->nverts;
+    float *vb = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), nvb);
+    unsigned *ib = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), ntri);
+    if (!vb || !ib) {
+        rtcReleaseGeometry(g);
+        return NULL;
+    }
+    if (verts)
+        for (size_t i = 0; i < nv; i++) memcpy(vb + 3 * i, s->pos + 3 * (size_t)verts[i], 3 * sizeof(float));
+    else
+        memcpy(vb, s->pos, s->nverts * 3 * sizeof(float));
+    for (size_t i = 0; i < ntri; i++) {
+        size_t t = tris ? tris[i] : i;
+        for (int k = 0; k < 3; k++) {
+            uint32_t v = s->tri[3 * t + k];
+            ib[3 * i + k] = remap ? remap[v] : v;
+        }
+    }
+    rtcSetGeometryBuildQuality(g, q);
+    rtcCommitGeometry(g);
+    return g;
 }
 
 pgi_status pgi__rt_create(const pgi_scene *s, pgi_rt **out) {
@@ -30,20 +71,67 @@ pgi_status pgi__rt_create(const pgi_scene *s, pgi_rt **out) {
     }
     rtcSetDeviceErrorFunction(rt->device, on_error, NULL);
     rt->scene = rtcNewScene(rt->device);
-    rtcSetSceneBuildQuality(rt->scene, RTC_BUILD_QUALITY_HIGH);
-    RTCGeometry g = rtcNewGeometry(rt->device, RTC_GEOMETRY_TYPE_TRIANGLE);
-    float *vb = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), s->nverts);
-    unsigned *ib = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned), s->ntris);
-    if (!vb || !ib) {
-        rtcReleaseGeometry(g);
-        pgi__rt_destroy(rt);
-        return pgi__fail(PGI_ERR_OOM, "Embree could not allocate geometry buffers for %zu triangles", s->ntris);
+    rt->static_version = s->static_version;
+    rt->dynamic_version = s->dynamic_version;
+    size_t ndyn = 0;
+    for (size_t t = 0; s->tri_dynamic && t < s->ntris; t++) ndyn += s->tri_dynamic[t] != 0;
+    if (ndyn == 0) {
+        rtcSetSceneBuildQuality(rt->scene, RTC_BUILD_QUALITY_HIGH);
+        rt->geom[0] = make_geometry(rt, s, NULL, s->ntris, NULL, 0, NULL, RTC_BUILD_QUALITY_HIGH);
+        rt->ngeom = 1;
+    } else {
+        /* LOW scene quality + DYNAMIC selects Embree's two-level builder, which
+         * honours each geometry's own quality: HIGH for the static part, REFIT
+         * for the animated part (rigid motions keep the topology, so a refit
+         * keeps the tree's quality). */
+        rtcSetSceneFlags(rt->scene, RTC_SCENE_FLAG_DYNAMIC);
+        rtcSetSceneBuildQuality(rt->scene, RTC_BUILD_QUALITY_LOW);
+        size_t nstat = s->ntris - ndyn;
+        uint32_t *stat = malloc((nstat ? nstat : 1) * sizeof(uint32_t));
+        uint32_t *dyn = malloc(ndyn * sizeof(uint32_t));
+        uint32_t *remap = malloc((s->nverts ? s->nverts : 1) * sizeof(uint32_t));
+        rt->dyn_verts = malloc((s->nverts ? s->nverts : 1) * sizeof(uint32_t));
+        if (!stat || !dyn || !remap || !rt->dyn_verts) {
+            free(stat);
+            free(dyn);
+            free(remap);
+            pgi__rt_destroy(rt);
+            return pgi__fail(PGI_ERR_OOM, "out of memory splitting %zu animated triangles", ndyn);
+        }
+        size_t a = 0, b = 0;
+        for (size_t t = 0; t < s->ntris; t++) {
+            if (s->tri_dynamic[t]) dyn[b++] = (uint32_t)t;
+            else stat[a++] = (uint32_t)t;
+        }
+        for (size_t v = 0; v < s->nverts; v++) remap[v] = UINT32_MAX;
+        for (size_t i = 0; i < ndyn; i++)
+            for (int k = 0; k < 3; k++) {
+                uint32_t v = s->tri[3 * (size_t)dyn[i] + k];
+                if (remap[v] == UINT32_MAX) {
+                    remap[v] = (uint32_t)rt->ndyn_verts;
+                    rt->dyn_verts[rt->ndyn_verts++] = v;
+                }
+            }
+        if (nstat) {
+            rt->map[0] = stat;
+            rt->geom[0] = make_geometry(rt, s, stat, nstat, NULL, 0, NULL, RTC_BUILD_QUALITY_HIGH);
+            rt->ngeom = 1;
+        } else {
+            free(stat);   /* everything moves: the animated geometry is geometry 0 */
+        }
+        rt->map[rt->ngeom] = dyn;
+        rt->geom[rt->ngeom] = make_geometry(rt, s, dyn, ndyn, rt->dyn_verts, rt->ndyn_verts, remap,
+                                            RTC_BUILD_QUALITY_REFIT);
+        rt->ngeom++;
+        free(remap);
     }
-    memcpy(vb, s->pos, s->nverts * 3 * sizeof(float));
-    memcpy(ib, s->tri, s->ntris * 3 * sizeof(unsigned));
-    rtcCommitGeometry(g);
-    rtcAttachGeometry(rt->scene, g);
-    rtcReleaseGeometry(g);
+    for (int g = 0; g < rt->ngeom; g++) {
+        if (!rt->geom[g]) {
+            pgi__rt_destroy(rt);
+            return pgi__fail(PGI_ERR_OOM, "Embree could not allocate geometry buffers for %zu triangles", s->ntris);
+        }
+        rtcAttachGeometryByID(rt->scene, rt->geom[g], (unsigned)g);
+    }
     rtcCommitScene(rt->scene);
     if (rtcGetDeviceError(rt->device) != RTC_ERROR_NONE || g_rt_error[0]) {
         pgi_status st = pgi__fail(PGI_ERR_INTERNAL, "building the ray-tracing BVH failed: %s", g_rt_error);
@@ -54,11 +142,52 @@ pgi_status pgi__rt_create(const pgi_scene *s, pgi_rt **out) {
     return PGI_OK;
 }
 
+int pgi__rt_needs_update(const pgi_rt *rt, const pgi_scene *s) {
+    return rt->static_version != s->static_version || rt->dynamic_version != s->dynamic_version;
+}
+
+pgi_status pgi__rt_update(pgi_rt *rt, const pgi_scene *s) {
+    if (!pgi__rt_needs_update(rt, s)) return PGI_OK;
+    g_rt_error[0] = 0;
+    const int split = rt->dyn_verts != NULL, gdyn = rt->ngeom - 1;
+    const int stat_moved = rt->static_version != s->static_version;
+    const int dyn_moved = rt->dynamic_version != s->dynamic_version;
+    for (int g = 0; g < rt->ngeom; g++) {
+        int is_dyn = split && g == gdyn;
+        if (!(is_dyn ? dyn_moved : (stat_moved || (!split && dyn_moved)))) continue;
+        float *vb = rtcGetGeometryBufferData(rt->geom[g], RTC_BUFFER_TYPE_VERTEX, 0);
+        if (!vb) return pgi__fail(PGI_ERR_INTERNAL, "Embree vertex buffer is missing");
+        if (is_dyn)
+            for (size_t i = 0; i < rt->ndyn_verts; i++)
+                memcpy(vb + 3 * i, s->pos + 3 * (size_t)rt->dyn_verts[i], 3 * sizeof(float));
+        else
+            memcpy(vb, s->pos, s->nverts * 3 * sizeof(float));
+        rtcUpdateGeometryBuffer(rt->geom[g], RTC_BUFFER_TYPE_VERTEX, 0);
+        rtcCommitGeometry(rt->geom[g]);
+    }
+    rtcCommitScene(rt->scene);
+    rt->static_version = s->static_version;
+    rt->dynamic_version = s->dynamic_version;
+    if (rtcGetDeviceError(rt->device) != RTC_ERROR_NONE || g_rt_error[0])
+        return pgi__fail(PGI_ERR_INTERNAL, "updating the ray-tracing BVH failed: %s", g_rt_error);
+    return PGI_OK;
+}
+
 void pgi__rt_destroy(pgi_rt *rt) {
     if (!rt) return;
+    for (int g = 0; g < 2; g++)
+        if (rt->geom[g]) rtcReleaseGeometry(rt->geom[g]);
     if (rt->scene) rtcReleaseScene(rt->scene);
     if (rt->device) rtcReleaseDevice(rt->device);
+    free(rt->map[0]);
+    free(rt->map[1]);
+    free(rt->dyn_verts);
     free(rt);
+}
+
+static inline uint32_t global_prim(const pgi_rt *rt, unsigned geom, unsigned prim) {
+    const uint32_t *m = rt->map[geom & 1];
+    return m ? m[prim] : prim;
 }
 
 int pgi__rt_intersect(const pgi_rt *rt, pgi_v3 o, pgi_v3 d, float tnear, float tfar, pgi_hit *h) {
@@ -83,7 +212,7 @@ int pgi__rt_intersect(const pgi_rt *rt, pgi_v3 o, pgi_v3 d, float tnear, float t
     h->t = rh.ray.tfar;
     h->u = rh.hit.u;
     h->v = rh.hit.v;
-    h->prim = rh.hit.primID;
+    h->prim = global_prim(rt, rh.hit.geomID, rh.hit.primID);
     return 1;
 }
 
@@ -132,6 +261,6 @@ void pgi__rt_intersect8(const pgi_rt *rt, const int valid[8], pgi_v3 o, const pg
         hits[i].t = rh.ray.tfar[i];
         hits[i].u = rh.hit.u[i];
         hits[i].v = rh.hit.v[i];
-        hits[i].prim = rh.hit.primID[i];
+        hits[i].prim = global_prim(rt, rh.hit.geomID[i], rh.hit.primID[i]);
     }
 }

@@ -16,6 +16,12 @@ typedef struct pgi_hit {
 /* Builds the BVH over the scene's triangles. The scene is borrowed. */
 pgi_status pgi__rt_create(const pgi_scene *s, pgi_rt **out);
 void pgi__rt_destroy(pgi_rt *rt);
+/* 1 when the scene's geometry moved since the BVH was built or updated. */
+int pgi__rt_needs_update(const pgi_rt *rt, const pgi_scene *s);
+/* Brings the BVH in line with the scene's current vertex positions
+ * (animated objects: refit of their own geometry; anything else: rebuild).
+ * Not thread-safe with queries in flight. */
+pgi_status pgi__rt_update(pgi_rt *rt, const pgi_scene *s);
 /* Closest hit in (tnear, tfar); returns 1 on a hit. Thread-safe. */
 int pgi__rt_intersect(const pgi_rt *rt, pgi_v3 o, pgi_v3 d, float tnear, float tfar, pgi_hit *h);
 /* 1 if anything lies on the segment (tnear, tfar). */

@@ -27,6 +27,7 @@ void pgi_scene_destroy(pgi_scene *s) {
     free(s->texs);
     free(s->lights);
     free(s->cams);
+    pgi__scene_free_anims(s);
     free(s);
 }
 
@@ -229,6 +230,11 @@ void pgi_scene_get_info(const pgi_scene *s, pgi_scene_info *o) {
     o->cameras = s->ncams;
     if (s->ncams) o->camera = s->cams[0];
     o->defaults = s->defaults;
+    o->animated_objects = s->nanims;
+    for (size_t i = 0; i < s->nanims; i++) {
+        const pgi_anim *a = &s->anims[i];
+        if (a->nkeys && a->keys[a->nkeys - 1].t > o->anim_duration) o->anim_duration = a->keys[a->nkeys - 1].t;
+    }
 }
 
 size_t pgi_builtin_scene_count(void) {

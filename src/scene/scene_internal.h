@@ -69,7 +69,56 @@ struct pgi_scene {
     size_t ncams;
     pgi_scene_defaults defaults;
     float bmin[3], bmax[3];
+    /* Dynamic geometry (animate.c): objects whose vertices move with the
+     * scene time, and counters the renderer compares to know when to update
+     * its ray-tracing scene. */
+    struct pgi_anim *anims;
+    size_t nanims;
+    uint8_t *tri_dynamic;      /* per triangle: 1 if an animation moves it; NULL when nothing is animated */
+    double time;               /* seconds, set by pgi_scene_set_time */
+    uint64_t static_version;   /* bumped when triangles outside tri_dynamic move (a moved area light) */
+    uint64_t dynamic_version;  /* bumped when animated triangles move */
 };
+
+/* ------------------------------------------------------------ animation */
+
+/* One keyframe of a rigid motion about the object's pivot:
+ * p' = pivot + translate + Rz Ry Rx (scale * (p - pivot)). */
+typedef struct pgi_keyframe {
+    float t;
+    float translate[3];
+    float rotate[3];     /* Euler angles, degrees, applied about x, then y, then z */
+    float scale;
+} pgi_keyframe;
+
+typedef enum pgi_loop { PGI_LOOP_CLAMP = 0, PGI_LOOP_REPEAT = 1, PGI_LOOP_PINGPONG = 2 } pgi_loop;
+
+typedef struct pgi_anim {
+    char name[64];
+    uint32_t *verts;       /* vertices the motion moves (each once) */
+    size_t nverts;
+    float *rest_pos;       /* 3 per moved vertex, at rest */
+    float *rest_nrm;       /* 3 per moved vertex, or NULL (flat-shaded scene) */
+    float pivot[3];
+    pgi_keyframe *keys;    /* sorted by t, at least one */
+    size_t nkeys;
+    pgi_loop loop;
+} pgi_anim;
+
+/* Adds an animation moving the vertices of the triangles tris[0..ntris) (the
+ * caller keeps tris). Takes ownership of keys (malloc'd). Marks the
+ * triangles dynamic. pivot NULL: the centre of their bounding box. */
+pgi_status pgi__scene_add_anim(pgi_scene *s, const char *name, const uint32_t *tris, size_t ntris,
+                               const float *pivot, pgi_keyframe *keys, size_t nkeys, pgi_loop loop);
+/* Appends a UV sphere / an axis-aligned box with material `mat`; the new
+ * triangles are [*first, s->ntris). */
+pgi_status pgi__scene_add_sphere(pgi_scene *s, const float c[3], float r, uint32_t mat, size_t *first);
+pgi_status pgi__scene_add_box(pgi_scene *s, const float c[3], const float size[3], uint32_t mat, size_t *first);
+/* Recomputes what depends on vertex positions: bounds, area-light
+ * triangles' area and normal, light powers (the sun's disk follows the
+ * bounds). */
+void pgi__scene_refresh(pgi_scene *s);
+void pgi__scene_free_anims(pgi_scene *s);
 
 /* Allocates an empty scene (all zero, name set). */
 pgi_status pgi__scene_new(const char *name, pgi_scene **out);

@@ -275,10 +275,218 @@ static pgi_status resolve_mesh(const char *path, const char *mesh, char *out, si
                      path, mesh, dir1, dir2);
 }
 
+
+/* ------------------------------------------------------------ dynamic objects */
+
+/* "motion": {"keyframes": [{"t", "translate", "rotate", "scale"}, ...], "loop": "clamp"|"repeat"|"pingpong"} */
+static pgi_status parse_motion(const char *path, const cJSON *m, const char *where, pgi_keyframe **keys_out,
+                               size_t *nkeys, pgi_loop *loop) {
+    static const char *const keys[] = {"keyframes", "loop", NULL};
+    static const char *const kkeys[] = {"t", "translate", "rotate", "scale", NULL};
+    char w[128];
+    snprintf(w, sizeof w, "%s.motion", where);
+    if (!cJSON_IsObject(m)) return pgi__fail(PGI_ERR_PARSE, "%s: %s must be an object with keyframes", path, w);
+    pgi_status st = check_keys(path, m, w, keys);
+    if (st) return st;
+    *loop = PGI_LOOP_CLAMP;
+    const cJSON *jl = cJSON_GetObjectItemCaseSensitive(m, "loop");
+    if (jl) {
+        if (cJSON_IsString(jl) && strcmp(jl->valuestring, "clamp") == 0) *loop = PGI_LOOP_CLAMP;
+        else if (cJSON_IsString(jl) && strcmp(jl->valuestring, "repeat") == 0) *loop = PGI_LOOP_REPEAT;
+        else if (cJSON_IsString(jl) && strcmp(jl->valuestring, "pingpong") == 0) *loop = PGI_LOOP_PINGPONG;
+        else
+            return pgi__fail(PGI_ERR_PARSE, "%s: %s.loop must be \"clamp\", \"repeat\" or \"pingpong\"", path, w);
+    }
+    const cJSON *jk = cJSON_GetObjectItemCaseSensitive(m, "keyframes");
+    if (!cJSON_IsArray(jk) || cJSON_GetArraySize(jk) < 1 || cJSON_GetArraySize(jk) > 100000)
+        return pgi__fail(PGI_ERR_PARSE, "%s: %s.keyframes must be a non-empty array of keyframes", path, w);
+    size_t n = (size_t)cJSON_GetArraySize(jk);
+    pgi_keyframe *k = calloc(n, sizeof *k);
+    if (!k) return pgi__fail(PGI_ERR_OOM, "%s: out of memory", path);
+    for (size_t i = 0; i < n && !st; i++) {
+        char wk[160];
+        snprintf(wk, sizeof wk, "%s.keyframes[%zu]", w, i);
+        const cJSON *e = cJSON_GetArrayItem(jk, (int)i);
+        if (!cJSON_IsObject(e)) {
+            st = pgi__fail(PGI_ERR_PARSE, "%s: %s must be an object", path, wk);
+            break;
+        }
+        double t = 0.0, sc = 1.0;
+        k[i].scale = 1.f;
+        if (!st) st = check_keys(path, e, wk, kkeys);
+        if (!st) st = get_number(path, e, wk, "t", 1, -1e9, 0, 1e9, &t, NULL);
+        if (!st) st = get_vec3(path, e, wk, "translate", ANY, 0, k[i].translate, NULL);
+        if (!st) st = get_vec3(path, e, wk, "rotate", ANY, 0, k[i].rotate, NULL);
+        if (!st) st = get_number(path, e, wk, "scale", 0, 0.0, 1, 1e6, &sc, NULL);
+        k[i].t = (float)t;
+        k[i].scale = (float)sc;
+        if (!st && i > 0 && !(k[i].t > k[i - 1].t))
+            st = pgi__fail(PGI_ERR_PARSE, "%s: %s.t must be greater than the previous keyframe's t", path, wk);
+    }
+    if (st) {
+        free(k);
+        return st;
+    }
+    *keys_out = k;
+    *nkeys = n;
+    return PGI_OK;
+}
+
+/* "material": {"name", "type": lambert|phong|mirror|glass, "kd", "ks", "shininess", "ior", "emission"};
+ * appends it to the scene and returns its index. */
+static pgi_status parse_material(const char *path, pgi_scene *s, const cJSON *j, const char *where,
+                                 const char *defname, uint32_t *out) {
+    static const char *const keys[] = {"name", "type", "kd", "ks", "shininess", "ior", "emission", NULL};
+    char w[128];
+    snprintf(w, sizeof w, "%s.material", where);
+    pgi_material m;
+    memset(&m, 0, sizeof m);
+    snprintf(m.name, sizeof m.name, "%s", defname);
+    m.type = PGI_MAT_LAMBERT;
+    m.kd[0] = m.kd[1] = m.kd[2] = 0.8f;
+    m.ior = 1.5f;
+    m.tex_kd = -1;
+    pgi_status st = PGI_OK;
+    if (j) {
+        if (!cJSON_IsObject(j)) return pgi__fail(PGI_ERR_PARSE, "%s: %s must be an object", path, w);
+        if ((st = check_keys(path, j, w, keys))) return st;
+        const cJSON *jn = cJSON_GetObjectItemCaseSensitive(j, "name");
+        if (jn) {
+            if (!cJSON_IsString(jn) || !jn->valuestring[0])
+                return pgi__fail(PGI_ERR_PARSE, "%s: %s.name must be a non-empty string", path, w);
+            snprintf(m.name, sizeof m.name, "%s", jn->valuestring);
+        }
+        const cJSON *jt = cJSON_GetObjectItemCaseSensitive(j, "type");
+        if (jt) {
+            const char *t = cJSON_IsString(jt) ? jt->valuestring : "";
+            if (strcmp(t, "lambert") == 0) m.type = PGI_MAT_LAMBERT;
+            else if (strcmp(t, "phong") == 0) m.type = PGI_MAT_PHONG;
+            else if (strcmp(t, "mirror") == 0) m.type = PGI_MAT_MIRROR;
+            else if (strcmp(t, "glass") == 0) m.type = PGI_MAT_GLASS;
+            else
+                return pgi__fail(PGI_ERR_PARSE, "%s: %s.type must be \"lambert\", \"phong\", \"mirror\" or \"glass\"",
+                                 path, w);
+        }
+        if (m.type == PGI_MAT_MIRROR || m.type == PGI_MAT_GLASS) {
+            m.kd[0] = m.kd[1] = m.kd[2] = 0.f;
+            m.ks[0] = m.ks[1] = m.ks[2] = 1.f;
+        } else if (m.type == PGI_MAT_PHONG) {
+            m.ks[0] = m.ks[1] = m.ks[2] = 0.04f;
+            m.shininess = 64.f;
+        }
+        double sh = m.shininess, ior = m.ior;
+        if ((st = get_vec3(path, j, w, "kd", NONNEG, 0, m.kd, NULL))) return st;
+        if ((st = get_vec3(path, j, w, "ks", NONNEG, 0, m.ks, NULL))) return st;
+        if ((st = get_vec3(path, j, w, "emission", NONNEG, 0, m.ke, NULL))) return st;
+        if ((st = get_number(path, j, w, "shininess", 0, 1.0, 0, 10000.0, &sh, NULL))) return st;
+        if ((st = get_number(path, j, w, "ior", 0, 1.0, 1, 10.0, &ior, NULL))) return st;
+        m.shininess = (float)sh;
+        m.ior = (float)ior;
+        for (int c = 0; c < 3; c++) {
+            if (m.kd[c] > 1.f || m.ks[c] > 1.f)
+                return pgi__fail(PGI_ERR_PARSE, "%s: %s.kd and ks must be at most 1 (they are reflectances)", path, w);
+        }
+        if (m.type == PGI_MAT_PHONG)
+            for (int c = 0; c < 3; c++)
+                if (m.kd[c] + m.ks[c] > 1.f) m.kd[c] = 1.f - m.ks[c];   /* energy conservation, as for MTL */
+    }
+    pgi_material *nm = realloc(s->mats, (s->nmats + 1) * sizeof *nm);
+    if (!nm) return pgi__fail(PGI_ERR_OOM, "%s: out of memory", path);
+    s->mats = nm;
+    s->mats[s->nmats] = m;
+    *out = (uint32_t)s->nmats++;
+    return PGI_OK;
+}
+
+static pgi_status add_motion(const char *path, pgi_scene *s, const cJSON *jm, const char *where, const char *name,
+                             const uint32_t *tris, size_t ntris, const float *pivot) {
+    pgi_keyframe *keys = NULL;
+    size_t nk = 0;
+    pgi_loop loop;
+    pgi_status st = parse_motion(path, jm, where, &keys, &nk, &loop);
+    if (st) return st;
+    return pgi__scene_add_anim(s, name, tris, ntris, pivot, keys, nk, loop);
+}
+
+/* "objects": [{"name", "shape": "sphere"|"box", "center", "radius" | "size", "material", "motion"}] */
+static pgi_status parse_object(const char *path, pgi_scene *s, const cJSON *o, const char *where) {
+    static const char *const keys[] = {"name", "shape", "center", "radius", "size", "material", "motion", NULL};
+    if (!cJSON_IsObject(o)) return pgi__fail(PGI_ERR_PARSE, "%s: %s must be an object", path, where);
+    pgi_status st = check_keys(path, o, where, keys);
+    if (st) return st;
+    char name[64];
+    snprintf(name, sizeof name, "%s", where);
+    const cJSON *jn = cJSON_GetObjectItemCaseSensitive(o, "name");
+    if (jn) {
+        if (!cJSON_IsString(jn) || !jn->valuestring[0])
+            return pgi__fail(PGI_ERR_PARSE, "%s: %s.name must be a non-empty string", path, where);
+        snprintf(name, sizeof name, "%s", jn->valuestring);
+    }
+    const cJSON *js = cJSON_GetObjectItemCaseSensitive(o, "shape");
+    const char *shape = cJSON_IsString(js) ? js->valuestring : "";
+    if (strcmp(shape, "sphere") != 0 && strcmp(shape, "box") != 0)
+        return pgi__fail(PGI_ERR_PARSE, "%s: %s.shape must be \"sphere\" or \"box\"", path, where);
+    float c[3], size[3] = {1.f, 1.f, 1.f};
+    double radius = 0.0;
+    if ((st = get_vec3(path, o, where, "center", ANY, 1, c, NULL))) return st;
+    if (shape[0] == 's') {
+        if (cJSON_GetObjectItemCaseSensitive(o, "size"))
+            return pgi__fail(PGI_ERR_PARSE, "%s: %s: a sphere has a radius, not a size", path, where);
+        if ((st = get_number(path, o, where, "radius", 1, 0.0, 1, 1e30, &radius, NULL))) return st;
+    } else {
+        if (cJSON_GetObjectItemCaseSensitive(o, "radius"))
+            return pgi__fail(PGI_ERR_PARSE, "%s: %s: a box has a size, not a radius", path, where);
+        if ((st = get_vec3(path, o, where, "size", NONNEG, 1, size, NULL))) return st;
+        if (!(size[0] > 0.f && size[1] > 0.f && size[2] > 0.f))
+            return pgi__fail(PGI_ERR_PARSE, "%s: %s.size must be 3 positive numbers", path, where);
+    }
+    uint32_t mat = 0;
+    if ((st = parse_material(path, s, cJSON_GetObjectItemCaseSensitive(o, "material"), where, name, &mat))) return st;
+    size_t first;
+    if (shape[0] == 's') st = pgi__scene_add_sphere(s, c, (float)radius, mat, &first);
+    else st = pgi__scene_add_box(s, c, size, mat, &first);
+    if (st) return st;
+    const cJSON *jm = cJSON_GetObjectItemCaseSensitive(o, "motion");
+    if (!jm) return PGI_OK;
+    size_t nt = s->ntris - first;
+    uint32_t *tris = malloc(nt * sizeof *tris);
+    if (!tris) return pgi__fail(PGI_ERR_OOM, "%s: out of memory", path);
+    for (size_t i = 0; i < nt; i++) tris[i] = (uint32_t)(first + i);
+    st = add_motion(path, s, jm, where, name, tris, nt, c);
+    free(tris);
+    return st;
+}
+
+/* "animate": [{"material": "name", "motion": {...}}]: moves the mesh triangles of a material. */
+static pgi_status parse_animate(const char *path, pgi_scene *s, const cJSON *a, const char *where) {
+    static const char *const keys[] = {"material", "motion", NULL};
+    if (!cJSON_IsObject(a)) return pgi__fail(PGI_ERR_PARSE, "%s: %s must be an object", path, where);
+    pgi_status st = check_keys(path, a, where, keys);
+    if (st) return st;
+    const cJSON *jm = cJSON_GetObjectItemCaseSensitive(a, "material");
+    if (!cJSON_IsString(jm))
+        return pgi__fail(PGI_ERR_PARSE, "%s: %s.material must be the name of a mesh material", path, where);
+    if (!cJSON_GetObjectItemCaseSensitive(a, "motion"))
+        return pgi__fail(PGI_ERR_PARSE, "%s: %s.motion is missing", path, where);
+    size_t m = 0;
+    while (m < s->nmats && strcmp(s->mats[m].name, jm->valuestring) != 0) m++;
+    if (m == s->nmats) return pgi__fail(PGI_ERR_PARSE, "%s: %s.material '%s' is not a material of the mesh", path,
+                                        where, jm->valuestring);
+    uint32_t *tris = malloc((s->ntris ? s->ntris : 1) * sizeof *tris);
+    if (!tris) return pgi__fail(PGI_ERR_OOM, "%s: out of memory", path);
+    size_t nt = 0;
+    for (size_t t = 0; t < s->ntris; t++)
+        if (s->tri_mat[t] == m) tris[nt++] = (uint32_t)t;
+    st = add_motion(path, s, cJSON_GetObjectItemCaseSensitive(a, "motion"), where, jm->valuestring, tris, nt, NULL);
+    free(tris);
+    return st;
+}
+
 /* ------------------------------------------------------------ loading */
 
 static pgi_status load(const char *path, const cJSON *root, pgi_scene **out) {
-    static const char *const keys[] = {"name", "mesh", "camera", "cameras", "lights", "render", NULL};
+    static const char *const keys[] = {"name", "mesh", "camera", "cameras", "lights", "render",
+                                       "builtin", "objects", "animate", NULL};
     if (!cJSON_IsObject(root)) return pgi__fail(PGI_ERR_PARSE, "%s: the top level must be a JSON object", path);
     pgi_status st = check_keys(path, root, "", keys);
     if (st) return st;
@@ -300,9 +508,27 @@ static pgi_status load(const char *path, const cJSON *root, pgi_scene **out) {
     }
 
     const cJSON *jmesh = cJSON_GetObjectItemCaseSensitive(root, "mesh");
-    if (!jmesh) return pgi__fail(PGI_ERR_PARSE, "%s: mesh is missing (the path of an OBJ/glTF/PLY file)", path);
-    if (!cJSON_IsString(jmesh) || !jmesh->valuestring[0])
-        return pgi__fail(PGI_ERR_PARSE, "%s: mesh must be a non-empty string (a file path)", path);
+    const cJSON *jbuiltin = cJSON_GetObjectItemCaseSensitive(root, "builtin");
+    if (jmesh && jbuiltin) return pgi__fail(PGI_ERR_PARSE, "%s: give either mesh or builtin, not both", path);
+    if (jbuiltin) {
+        int known = 0;
+        for (int i = 0; cJSON_IsString(jbuiltin) && pgi__builtin_names[i]; i++)
+            known |= strcmp(jbuiltin->valuestring, pgi__builtin_names[i]) == 0;
+        if (!known) {
+            char names[256] = "";
+            for (int i = 0; pgi__builtin_names[i]; i++) pgi__list_append(names, sizeof names, pgi__builtin_names[i]);
+            return pgi__fail(PGI_ERR_PARSE, "%s: builtin must name a built-in scene (%s)", path, names);
+        }
+    } else {
+        if (!jmesh)
+            return pgi__fail(PGI_ERR_PARSE, "%s: mesh is missing (the path of an OBJ/glTF/PLY file; or builtin)", path);
+        if (!cJSON_IsString(jmesh) || !jmesh->valuestring[0])
+            return pgi__fail(PGI_ERR_PARSE, "%s: mesh must be a non-empty string (a file path)", path);
+    }
+    const cJSON *jobjs = cJSON_GetObjectItemCaseSensitive(root, "objects");
+    if (jobjs && !cJSON_IsArray(jobjs)) return pgi__fail(PGI_ERR_PARSE, "%s: objects must be an array", path);
+    const cJSON *janim = cJSON_GetObjectItemCaseSensitive(root, "animate");
+    if (janim && !cJSON_IsArray(janim)) return pgi__fail(PGI_ERR_PARSE, "%s: animate must be an array", path);
 
     /* Cameras and lights are parsed before the (slow) mesh import so that errors come fast. */
     const cJSON *jcam = cJSON_GetObjectItemCaseSensitive(root, "camera");
@@ -314,21 +540,41 @@ static pgi_status load(const char *path, const cJSON *root, pgi_scene **out) {
     const cJSON *jrender = cJSON_GetObjectItemCaseSensitive(root, "render");
 
     char mesh[1024];
-    if ((st = resolve_mesh(path, jmesh->valuestring, mesh, sizeof mesh))) return st;
+    if (jmesh && (st = resolve_mesh(path, jmesh->valuestring, mesh, sizeof mesh))) return st;
 
     pgi_scene *s;
-    if ((st = pgi__scene_new(name, &s))) return st;
+    size_t nbase = 0;   /* lights of the built-in base scene kept before the description's */
+    pgi_scene_defaults base_defaults = {0};
+    if (jbuiltin) {
+        if ((st = pgi__scene_builtin(jbuiltin->valuestring, &s))) return st;
+        snprintf(s->name, sizeof s->name, "%s", name);
+        base_defaults = s->defaults;
+    } else if ((st = pgi__scene_new(name, &s))) {
+        return st;
+    }
     snprintf(s->source, sizeof s->source, "%s", path);
 
     size_t ncam = jcam ? 1 : (jcams ? (size_t)cJSON_GetArraySize(jcams) : 0);
     size_t nl = jlights ? (size_t)cJSON_GetArraySize(jlights) : 0;
+    if (jbuiltin) {
+        /* Keep the base's explicit lights (area lights are re-derived by finalize). */
+        for (size_t i = 0; i < s->nlights; i++)
+            if (s->lights[i].type != PGI_LIGHT_AREA) s->lights[nbase++] = s->lights[i];
+        s->nlights = nbase;
+        if (ncam) {
+            free(s->cams);
+            s->cams = NULL;
+            s->ncams = 0;
+        }
+    }
     if (ncam) {
         s->cams = calloc(ncam, sizeof *s->cams);
         if (!s->cams) st = pgi__fail(PGI_ERR_OOM, "%s: out of memory", path);
     }
     if (!st && nl) {
-        s->lights = calloc(nl, sizeof *s->lights);
-        if (!s->lights) st = pgi__fail(PGI_ERR_OOM, "%s: out of memory", path);
+        pgi_light *L = realloc(s->lights, (nbase + nl) * sizeof *L);
+        if (!L) st = pgi__fail(PGI_ERR_OOM, "%s: out of memory", path);
+        else s->lights = L;
     }
     char where[64];
     if (!st && jcam) {
@@ -342,12 +588,34 @@ static pgi_status load(const char *path, const cJSON *root, pgi_scene **out) {
     }
     for (size_t i = 0; !st && i < nl; i++) {
         snprintf(where, sizeof where, "lights[%zu]", i);
-        st = parse_light(path, cJSON_GetArrayItem(jlights, (int)i), where, &s->lights[i]);
-        if (!st) s->nlights = i + 1;
+        st = parse_light(path, cJSON_GetArrayItem(jlights, (int)i), where, &s->lights[nbase + i]);
+        if (!st) s->nlights = nbase + i + 1;
     }
     if (!st && jrender) st = parse_render(path, jrender, &s->defaults);
-    if (!st) st = pgi__scene_import_mesh(s, mesh);
+    if (!st && jbuiltin) {
+        /* Settings the description leaves out come from the built-in scene. */
+        pgi_scene_defaults *d = &s->defaults;
+        if (!d->photons) d->photons = base_defaults.photons;
+        if (!(d->radius > 0.f)) d->radius = base_defaults.radius;
+        if (!d->bounces) d->bounces = base_defaults.bounces;
+        if (!d->width && !d->height) d->width = base_defaults.width, d->height = base_defaults.height;
+        if (!(d->exposure > 0.f)) d->exposure = base_defaults.exposure;
+    }
+    if (!st && jmesh) st = pgi__scene_import_mesh(s, mesh);
+    for (size_t i = 0; !st && jobjs && i < (size_t)cJSON_GetArraySize(jobjs); i++) {
+        snprintf(where, sizeof where, "objects[%zu]", i);
+        st = parse_object(path, s, cJSON_GetArrayItem(jobjs, (int)i), where);
+    }
+    for (size_t i = 0; !st && janim && i < (size_t)cJSON_GetArraySize(janim); i++) {
+        snprintf(where, sizeof where, "animate[%zu]", i);
+        st = parse_animate(path, s, cJSON_GetArrayItem(janim, (int)i), where);
+    }
     if (!st) st = pgi__scene_finalize(s, path);
+    if (!st && s->nanims) {
+        s->time = NAN;   /* force: keyframe 0 need not be the rest pose */
+        st = pgi_scene_set_time(s, 0.0);
+        s->dynamic_version = 0;
+    }
     if (!st && s->nlights == 0)
         st = pgi__fail(PGI_ERR_PARSE,
                        "%s: the scene has no lights: add a \"lights\" list, or use a mesh with emissive (Ke) "
