@@ -5,6 +5,7 @@ set -euo pipefail
 
 PKGS=(build-essential cmake pkg-config libembree-dev libassimp-dev libstb-dev libopenexr-dev
       libcjson-dev libcmocka-dev)
+PKGS+=(libsdl2-dev)   # photongi-view (optional for the library and CLI)
 
 missing=()
 for p in "${PKGS[@]}"; do

@@ -194,6 +194,9 @@ typedef struct pgi_light_group {
     size_t triangles;      /* area: emissive triangles in the group */
 } pgi_light_group;
 
+/* Camera i of the scene (the viewer starts from it). */
+pgi_status pgi_scene_get_camera(const pgi_scene *scene, size_t i, pgi_camera_def *out);
+
 size_t pgi_scene_light_group_count(const pgi_scene *scene);
 pgi_status pgi_scene_get_light_group(const pgi_scene *scene, size_t i, pgi_light_group *out);
 /* Moves light group i so that its position becomes `pos` (area groups: a

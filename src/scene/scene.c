@@ -244,3 +244,10 @@ size_t pgi_builtin_scene_count(void) {
 }
 
 const char *pgi_builtin_scene_name(size_t i) { return i < pgi_builtin_scene_count() ? pgi__builtin_names[i] : NULL; }
+
+pgi_status pgi_scene_get_camera(const pgi_scene *s, size_t i, pgi_camera_def *out) {
+    if (!s || !out) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_scene_get_camera: NULL argument");
+    if (i >= s->ncams) return pgi__fail(PGI_ERR_INVALID_ARG, "camera %zu does not exist (the scene has %zu)", i, s->ncams);
+    *out = s->cams[i];
+    return PGI_OK;
+}

@@ -1,0 +1,578 @@
+/* photongi-view: interactive viewer. Renders continuously through the public
+ * pgi_renderer API (every frame: view samples, photons, estimator build +
+ * estimate, direct light), accumulates progressively while nothing changes,
+ * and draws an overlay with a built-in bitmap font. With --frames N it runs
+ * headless (no window, no display needed) and can save a screenshot. */
+#include <SDL.h>
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "font5x7.h"
+#include "photongi/photongi.h"
+
+static const char *k_help =
+    "usage: photongi-view [--scene S] [options]\n"
+    "\n"
+    "Interactive photon-mapping viewer. Every frame traces fresh photons, rebuilds the view\n"
+    "samples and the estimator's structures, and shows emission + direct + indirect light.\n"
+    "While nothing changes it averages frames progressively (fresh photons, shrinking radius,\n"
+    "Knaus & Zwicker 2011), so the picture converges.\n"
+    "\n"
+    "  --scene S          as 'photongi render --scene' (default cornell; scenes/cornell-moving.json\n"
+    "                     has animated objects)\n"
+    "  --estimator E      density estimator (default tiled; Tab switches live)\n"
+    "  --photons N        photons to store (default: the scene's, else 200000)\n"
+    "  --radius R         photon radius (default: the scene's, else 2%% of the diagonal)\n"
+    "  --size WxH         window / full render size (default: the scene's, else 1280x720)\n"
+    "  --scale F          render at F times the window size (0 < F <= 1; default 1)\n"
+    "  --seed K           random seed (default 1)\n"
+    "  --threads T        worker threads (default: all cores)\n"
+    "  --camera I         scene camera to start from (default 0)\n"
+    "  --exposure X       exposure before the sRGB tone map (default: the scene's, else 1)\n"
+    "  --output all|direct|indirect|counts   what to show (counts: false-colour photons per pixel)\n"
+    "  --time T           scene time in seconds to start at (default 0)\n"
+    "  --animate          advance the scene time (real time in a window, 1/30 s a frame headless)\n"
+    "  --no-accumulate    never average frames (every frame is a fresh single frame)\n"
+    "  --frames N         render N frames and exit; without --window no window is opened\n"
+    "  --window           open a window even with --frames (e.g. SDL_VIDEODRIVER=offscreen)\n"
+    "  --screenshot FILE  after the last frame, save the image as PNG (no overlay)\n"
+    "  --stats FILE.json  write the last frame's statistics ('-' = stdout)\n"
+    "  -q, --quiet        print nothing but errors\n"
+    "\n"
+    "keys: mouse drag (left button) look | W A S D move, Q E down/up, Shift faster\n"
+    "      L next light, arrows move it (camera-relative), PgUp/PgDn raise/lower it\n"
+    "      Tab / Shift+Tab next/previous estimator, 1-9 pick estimator\n"
+    "      + / - photons x2 / /2, ] / [ radius x1.25 / /1.25, . / , exposure\n"
+    "      O output all/direct/indirect, C photons-per-pixel false colour, P progressive on/off\n"
+    "      R resolution scale 100/50/25%%, Space pause animation, H overlay, F12 screenshot, Esc quit\n";
+
+#define MAX_FRAMES_TIMED 100000
+
+typedef struct viewer {
+    pgi_scene *scene;
+    pgi_renderer *r;
+    pgi_scene_info info;
+    pgi_render_desc desc;
+    pgi_camera_def cam;
+    int cam_moved;           /* 0: still exactly the scene's camera */
+    float yaw, pitch, diag;
+    size_t est_index;
+    int out_mode;            /* pgi_output */
+    int accumulate, animate, overlay, quiet;
+    float scale, exposure;
+    double time;
+    size_t light;            /* selected light group */
+    int win_w, win_h;
+    pgi_image img;
+    pgi_frame_stats fs;
+    unsigned char *rgb8;     /* render resolution, tone-mapped */
+    unsigned char *disp;     /* window resolution, with overlay */
+    double frame_ms, fps;
+    int screenshot_count;
+} viewer;
+
+static int parse_long(const char *s, long long lo, long long hi, long long *out) {
+    char *end;
+    errno = 0;
+    long long v = strtoll(s, &end, 10);
+    if (errno || end == s || *end || v < lo || v > hi) return 0;
+    *out = v;
+    return 1;
+}
+
+static int parse_float(const char *s, float *out) {
+    char *end;
+    errno = 0;
+    float v = strtof(s, &end);
+    if (errno || end == s || *end || !isfinite(v)) return 0;
+    *out = v;
+    return 1;
+}
+
+static int usage(const char *fmt, const char *arg) {
+    fprintf(stderr, "photongi-view: ");
+    fprintf(stderr, fmt, arg);
+    fprintf(stderr, "\nTry 'photongi-view --help'.\n");
+    return 2;
+}
+
+static int fail(const char *what, pgi_status st) {
+    const char *msg = pgi_last_error();
+    fprintf(stderr, "photongi-view: %s: %s\n", what, *msg ? msg : pgi_status_string(st));
+    return st == PGI_ERR_INVALID_ARG ? 2 : 1;
+}
+
+/* ------------------------------------------------------------ camera */
+
+static void v_sub(const float *a, const float *b, float *o) { o[0] = a[0] - b[0], o[1] = a[1] - b[1], o[2] = a[2] - b[2]; }
+static void v_cross(const float *a, const float *b, float *o) {
+    o[0] = a[1] * b[2] - a[2] * b[1];
+    o[1] = a[2] * b[0] - a[0] * b[2];
+    o[2] = a[0] * b[1] - a[1] * b[0];
+}
+static void v_norm(float *a) {
+    float l = sqrtf(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+    if (l > 0.f) a[0] /= l, a[1] /= l, a[2] /= l;
+}
+
+static void cam_forward(const viewer *v, float f[3]) {
+    f[0] = cosf(v->pitch) * sinf(v->yaw);
+    f[1] = sinf(v->pitch);
+    f[2] = -cosf(v->pitch) * cosf(v->yaw);
+}
+
+static void cam_init_angles(viewer *v) {
+    float f[3];
+    v_sub(v->cam.look_at, v->cam.eye, f);
+    v_norm(f);
+    v->yaw = atan2f(f[0], -f[2]);
+    v->pitch = asinf(fmaxf(-1.f, fminf(1.f, f[1])));
+}
+
+/* Look-at from yaw/pitch; the scene's own camera is kept bit-exact until the user moves. */
+static void cam_update(viewer *v) {
+    float f[3];
+    cam_forward(v, f);
+    for (int k = 0; k < 3; k++) v->cam.look_at[k] = v->cam.eye[k] + f[k];
+    v->cam.up[0] = 0.f, v->cam.up[1] = 1.f, v->cam.up[2] = 0.f;
+    v->cam_moved = 1;
+}
+
+static void cam_move(viewer *v, float fwd, float side, float upd) {
+    float f[3], r[3], up[3] = {0.f, 1.f, 0.f};
+    cam_forward(v, f);
+    v_cross(f, up, r);
+    v_norm(r);
+    for (int k = 0; k < 3; k++) v->cam.eye[k] += f[k] * fwd + r[k] * side + up[k] * upd;
+    cam_update(v);
+}
+
+static void light_move(viewer *v, float fwd, float side, float upd) {
+    size_t n = pgi_scene_light_group_count(v->scene);
+    if (n == 0) return;
+    pgi_light_group g;
+    if (pgi_scene_get_light_group(v->scene, v->light % n, &g) != PGI_OK || g.kind == PGI_LIGHT_KIND_SUN) return;
+    float f[3], r[3], up[3] = {0.f, 1.f, 0.f};
+    cam_forward(v, f);
+    f[1] = 0.f;   /* arrows move in the horizontal plane */
+    v_norm(f);
+    v_cross(f, up, r);
+    v_norm(r);
+    for (int k = 0; k < 3; k++) g.position[k] += f[k] * fwd + r[k] * side + up[k] * upd;
+    pgi_status st = pgi_scene_set_light_position(v->scene, v->light % n, g.position);
+    if (st && !v->quiet) fprintf(stderr, "photongi-view: cannot move the light: %s\n", pgi_last_error());
+}
+
+/* ------------------------------------------------------------ drawing */
+
+static void draw_text(unsigned char *img, int w, int h, int x0, int y0, int scale, const char *s, const unsigned char rgb[3]) {
+    for (int pass = 0; pass < 2; pass++) {   /* black shadow, then the text */
+        int ox = pass ? 0 : 1, oy = pass ? 0 : 1;
+        static const unsigned char black[3] = {0, 0, 0};
+        const unsigned char *c = pass ? rgb : black;
+        int x = x0;
+        for (const char *p = s; *p; p++, x += 6 * scale) {
+            unsigned ch = (unsigned char)*p;
+            if (ch < 32 || ch > 126) ch = '?';
+            const unsigned char *g = k_font5x7[ch - 32];
+            for (int col = 0; col < 5; col++)
+                for (int row = 0; row < 8; row++) {
+                    if (!(g[col] >> row & 1)) continue;
+                    for (int sy = 0; sy < scale; sy++)
+                        for (int sx = 0; sx < scale; sx++) {
+                            int px = x + col * scale + sx + ox * scale, py = y0 + row * scale + sy + oy * scale;
+                            if (px < 0 || py < 0 || px >= w || py >= h) continue;
+                            memcpy(img + 3 * ((size_t)py * w + px), c, 3);
+                        }
+                }
+        }
+    }
+}
+
+/* Photons per pixel as false colour: 0 black, then blue -> green -> yellow -> red on a log scale. */
+static void false_colour(const pgi_image *img, unsigned char *out) {
+    size_t n = (size_t)img->width * img->height;
+    float mx = 1.f;
+    for (size_t i = 0; i < n; i++) mx = fmaxf(mx, img->rgb[3 * i]);
+    float lm = logf(1.f + mx);
+    for (size_t i = 0; i < n; i++) {
+        float c = img->rgb[3 * i];
+        unsigned char *o = out + 3 * i;
+        if (!(c > 0.f)) {
+            o[0] = o[1] = o[2] = 0;
+            continue;
+        }
+        float t = logf(1.f + c) / lm, r, g, b;
+        if (t < 0.33f) r = 0.f, g = t / 0.33f, b = 1.f - t / 0.33f;
+        else if (t < 0.66f) r = (t - 0.33f) / 0.33f, g = 1.f, b = 0.f;
+        else r = 1.f, g = 1.f - (t - 0.66f) / 0.34f, b = 0.f;
+        o[0] = (unsigned char)(255.f * r + 0.5f);
+        o[1] = (unsigned char)(255.f * g + 0.5f);
+        o[2] = (unsigned char)(255.f * b + 0.5f);
+    }
+}
+
+static const char *output_name(int m) {
+    static const char *const names[] = {"all", "indirect", "direct", "photons/pixel"};
+    return m >= 0 && m <= 3 ? names[m] : "?";
+}
+
+static void compose(viewer *v) {
+    const int W = v->win_w, H = v->win_h, w = v->img.width, h = v->img.height;
+    for (int y = 0; y < H; y++) {
+        int sy = (int)((long long)y * h / H);
+        for (int x = 0; x < W; x++) {
+            int sx = (int)((long long)x * w / W);
+            memcpy(v->disp + 3 * ((size_t)y * W + x), v->rgb8 + 3 * ((size_t)sy * w + sx), 3);
+        }
+    }
+    if (!v->overlay) return;
+    const pgi_frame_stats *f = &v->fs;
+    char line[6][256];
+    size_t ne = pgi_estimator_count();
+    snprintf(line[0], sizeof line[0], "%s | %s (%zu/%zu) | %.1f FPS, %.0f ms a frame", v->info.name, f->estimator,
+             v->est_index + 1, ne, v->fps, v->frame_ms);
+    snprintf(line[1], sizeof line[1], "view %.1f  trace %.1f  build %.1f  estimate %.1f  direct %.1f  rt %.1f ms",
+             f->view_ms, f->trace_ms, f->build_ms, f->estimate_ms, f->direct_ms, f->rt_update_ms);
+    int o = 0;
+    o += snprintf(line[2] + o, sizeof line[2] - (size_t)o, "passes:");
+    for (int i = 0; i < f->pass_count && o < (int)sizeof line[2] - 40; i++)
+        o += snprintf(line[2] + o, sizeof line[2] - (size_t)o, " %s %.1f", f->passes_ms[i].name, f->passes_ms[i].value);
+    snprintf(line[3], sizeof line[3], "photons %llu stored / %llu paths, r %.4g, contributing %.1f%% of %llu reads",
+             (unsigned long long)f->photons_stored, (unsigned long long)f->photons_emitted, (double)f->radius,
+             f->reads ? 100.0 * (double)f->contributing / (double)f->reads : 0.0, (unsigned long long)f->reads);
+    pgi_light_group g = {0};
+    size_t nl = pgi_scene_light_group_count(v->scene);
+    if (nl) pgi_scene_get_light_group(v->scene, v->light % nl, &g);
+    snprintf(line[4], sizeof line[4], "%dx%d (%.0f%%) | %s | frames %d%s | t %.2f s%s | light %zu/%zu %s",
+             f->width, f->height, 100.0 * v->scale, output_name(v->out_mode), f->frames,
+             v->accumulate ? "" : " (no accumulation)", v->time, v->animate ? "" : " (paused)",
+             nl ? v->light % nl + 1 : 0, nl, nl ? g.name : "-");
+    snprintf(line[5], sizeof line[5], "H hides this; see photongi-view --help for keys");
+    static const unsigned char white[3] = {255, 255, 255}, grey[3] = {190, 190, 190};
+    int sc = W >= 1000 ? 2 : 1;
+    for (int i = 0; i < 6; i++) draw_text(v->disp, W, H, 6, 6 + i * 10 * sc, sc, line[i], i == 5 ? grey : white);
+}
+
+/* ------------------------------------------------------------ frames */
+
+static pgi_status render_frame(viewer *v) {
+    pgi_render_desc d = v->desc;
+    d.estimator = pgi_estimator_at(v->est_index)->name;
+    d.width = (int)lroundf((float)v->win_w * v->scale);
+    d.height = (int)lroundf((float)v->win_h * v->scale);
+    if (d.width < 1) d.width = 1;
+    if (d.height < 1) d.height = 1;
+    d.view = v->cam_moved ? &v->cam : NULL;
+    d.output = (pgi_output)v->out_mode;
+    pgi_status st = pgi_scene_set_time(v->scene, v->time);
+    if (st) return st;
+    if (v->accumulate && v->out_mode != PGI_OUTPUT_PHOTON_COUNT) st = pgi_renderer_accumulate(v->r, &d, &v->img, &v->fs);
+    else st = pgi_renderer_render(v->r, &d, &v->img, &v->fs);
+    if (st) return st;
+    size_t n = (size_t)v->img.width * v->img.height;
+    unsigned char *nb = realloc(v->rgb8, 3 * n);
+    if (!nb) return PGI_ERR_OOM;
+    v->rgb8 = nb;
+    if (v->out_mode == PGI_OUTPUT_PHOTON_COUNT) false_colour(&v->img, v->rgb8);
+    else pgi_tonemap_srgb8(&v->img, v->exposure, v->rgb8);
+    compose(v);
+    return PGI_OK;
+}
+
+/* The rendered image without overlay; false colour is written through the
+ * inverse sRGB curve so that the PNG holds the colours shown. */
+static pgi_status save_screenshot(viewer *v, const char *path) {
+    if (v->out_mode != PGI_OUTPUT_PHOTON_COUNT) return pgi_image_write(&v->img, path, v->exposure);
+    size_t n = (size_t)v->img.width * v->img.height;
+    pgi_image lin = {v->img.width, v->img.height, malloc(3 * n * sizeof(float))};
+    if (!lin.rgb) return PGI_ERR_OOM;
+    for (size_t i = 0; i < 3 * n; i++) {
+        float c = v->rgb8[i] / 255.f;
+        lin.rgb[i] = c <= 0.04045f ? c / 12.92f : powf((c + 0.055f) / 1.055f, 2.4f);
+    }
+    pgi_status st = pgi_image_write(&lin, path, 1.f);
+    pgi_image_free(&lin);
+    return st;
+}
+
+static int cmp_double(const void *a, const void *b) {
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+static void cycle_estimator(viewer *v, int step) {
+    size_t n = pgi_estimator_count();
+    v->est_index = (v->est_index + n + (size_t)(step % (int)n + (int)n)) % n;
+}
+
+static void change_radius(viewer *v, float f) {
+    v->desc.radius = v->fs.radius * f;
+    v->desc.radius_set = 1;
+}
+
+static void change_photons(viewer *v, double f) {
+    double p = (v->desc.photons ? v->desc.photons : (v->info.defaults.photons ? v->info.defaults.photons : 200000)) * f;
+    if (p < 1000) p = 1000;
+    if (p > 50e6) p = 50e6;
+    v->desc.photons = (uint32_t)p;
+    v->desc.photons_set = 1;
+}
+
+/* ------------------------------------------------------------ main */
+
+int main(int argc, char **argv) {
+    viewer v;
+    memset(&v, 0, sizeof v);
+    const char *scene_spec = "cornell", *shot = NULL, *stats_path = NULL, *est = "tiled";
+    long long frames = 0, cam_index = 0;
+    int want_window = 0, size_set = 0;
+    v.accumulate = 1;
+    v.overlay = 1;
+    v.scale = 1.f;
+    float t0 = 0.f;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
+            fputs(k_help, stdout);
+            return 0;
+        }
+        if (strcmp(a, "-q") == 0 || strcmp(a, "--quiet") == 0) { v.quiet = 1; continue; }
+        if (strcmp(a, "--animate") == 0) { v.animate = 1; continue; }
+        if (strcmp(a, "--no-accumulate") == 0) { v.accumulate = 0; continue; }
+        if (strcmp(a, "--window") == 0) { want_window = 1; continue; }
+        if (a[0] != '-') return usage("unexpected argument '%s'", a);
+        if (i + 1 >= argc) return usage("%s needs a value", a);
+        const char *val = argv[++i];
+        long long n;
+        if (strcmp(a, "--scene") == 0) scene_spec = val;
+        else if (strcmp(a, "--estimator") == 0) est = val;
+        else if (strcmp(a, "--screenshot") == 0) shot = val;
+        else if (strcmp(a, "--stats") == 0) stats_path = val;
+        else if (strcmp(a, "--photons") == 0) {
+            if (!parse_long(val, 1, 100000000, &n)) return usage("--photons needs a number in 1..100000000, got '%s'", val);
+            v.desc.photons = (uint32_t)n;
+            v.desc.photons_set = 1;
+        } else if (strcmp(a, "--radius") == 0) {
+            if (!parse_float(val, &v.desc.radius) || !(v.desc.radius > 0.f))
+                return usage("--radius needs a positive number, got '%s'", val);
+            v.desc.radius_set = 1;
+        } else if (strcmp(a, "--size") == 0) {
+            char extra;
+            if (sscanf(val, "%dx%d%c", &v.win_w, &v.win_h, &extra) != 2 || v.win_w <= 0 || v.win_h <= 0 ||
+                v.win_w > 16384 || v.win_h > 16384)
+                return usage("--size needs WIDTHxHEIGHT, e.g. 1280x720, got '%s'", val);
+            size_set = 1;
+        } else if (strcmp(a, "--scale") == 0) {
+            if (!parse_float(val, &v.scale) || !(v.scale > 0.f && v.scale <= 1.f))
+                return usage("--scale needs a number in (0, 1], got '%s'", val);
+        } else if (strcmp(a, "--seed") == 0) {
+            if (!parse_long(val, 0, 0x7fffffffffffffffLL, &n)) return usage("--seed needs a non-negative integer, got '%s'", val);
+            v.desc.seed = (uint64_t)n;
+        } else if (strcmp(a, "--threads") == 0) {
+            if (!parse_long(val, 1, 1024, &n)) return usage("--threads needs a number in 1..1024, got '%s'", val);
+            v.desc.threads = (int)n;
+        } else if (strcmp(a, "--camera") == 0) {
+            if (!parse_long(val, 0, 1000000, &cam_index)) return usage("--camera needs an index, got '%s'", val);
+        } else if (strcmp(a, "--exposure") == 0) {
+            if (!parse_float(val, &v.exposure) || !(v.exposure > 0.f))
+                return usage("--exposure needs a positive number, got '%s'", val);
+        } else if (strcmp(a, "--time") == 0) {
+            if (!parse_float(val, &t0)) return usage("--time needs a number of seconds, got '%s'", val);
+        } else if (strcmp(a, "--frames") == 0) {
+            if (!parse_long(val, 1, MAX_FRAMES_TIMED, &frames)) return usage("--frames needs a number in 1..100000, got '%s'", val);
+        } else if (strcmp(a, "--output") == 0) {
+            if (strcmp(val, "all") == 0) v.out_mode = PGI_OUTPUT_ALL;
+            else if (strcmp(val, "direct") == 0) v.out_mode = PGI_OUTPUT_DIRECT;
+            else if (strcmp(val, "indirect") == 0) v.out_mode = PGI_OUTPUT_INDIRECT;
+            else if (strcmp(val, "counts") == 0) v.out_mode = PGI_OUTPUT_PHOTON_COUNT;
+            else return usage("--output must be all, direct, indirect or counts, got '%s'", val);
+        } else return usage("unknown option '%s'", a);
+    }
+    if (shot && !frames) return usage("%s", "--screenshot needs --frames N (the frame after which to save)");
+    const pgi_estimator_vtbl *vt = pgi_estimator_find(est);
+    if (!vt) {
+        fprintf(stderr, "photongi-view: unknown estimator '%s'; registered:", est);
+        for (size_t i = 0; i < pgi_estimator_count(); i++) fprintf(stderr, " %s", pgi_estimator_at(i)->name);
+        fprintf(stderr, "\n");
+        return 2;
+    }
+    for (size_t i = 0; i < pgi_estimator_count(); i++)
+        if (pgi_estimator_at(i) == vt) v.est_index = i;
+
+    pgi_status st = pgi_scene_load(scene_spec, &v.scene);
+    if (st) return fail("cannot load scene", st);
+    pgi_scene_get_info(v.scene, &v.info);
+    if ((size_t)cam_index >= v.info.cameras) {
+        fprintf(stderr, "photongi-view: camera %lld does not exist (the scene has %zu)\n", cam_index, v.info.cameras);
+        pgi_scene_destroy(v.scene);
+        return 2;
+    }
+    v.desc.camera = (int)cam_index;
+    pgi_scene_get_camera(v.scene, (size_t)cam_index, &v.cam);
+    cam_init_angles(&v);
+    float ext[3];
+    v_sub(v.info.bounds_max, v.info.bounds_min, ext);
+    v.diag = sqrtf(ext[0] * ext[0] + ext[1] * ext[1] + ext[2] * ext[2]);
+    if (!size_set) {
+        v.win_w = v.info.defaults.width > 0 ? v.info.defaults.width : 1280;
+        v.win_h = v.info.defaults.height > 0 ? v.info.defaults.height : 720;
+    }
+    if (v.exposure == 0.f) v.exposure = v.info.defaults.exposure > 0.f ? v.info.defaults.exposure : 1.f;
+    v.time = t0;
+    v.disp = malloc((size_t)v.win_w * v.win_h * 3);
+    if (!v.disp) {
+        pgi_scene_destroy(v.scene);
+        fprintf(stderr, "photongi-view: out of memory\n");
+        return 1;
+    }
+    if ((st = pgi_renderer_create(v.scene, &v.r))) {
+        pgi_scene_destroy(v.scene);
+        return fail("cannot create the renderer", st);
+    }
+
+    const int headless = frames > 0 && !want_window;
+    SDL_Window *win = NULL;
+    SDL_Renderer *ren = NULL;
+    SDL_Texture *tex = NULL;
+    if (!headless) {
+        if (SDL_Init(SDL_INIT_VIDEO) != 0) {
+            fprintf(stderr, "photongi-view: cannot open a window: %s (run headless with --frames N)\n", SDL_GetError());
+            pgi_renderer_destroy(v.r);
+            pgi_scene_destroy(v.scene);
+            return 1;
+        }
+        win = SDL_CreateWindow("photongi-view", SDL_WINDOWPOS_CENTERED, SDL_WINDOWPOS_CENTERED, v.win_w, v.win_h, 0);
+        ren = win ? SDL_CreateRenderer(win, -1, 0) : NULL;
+        if (!ren && win) ren = SDL_CreateRenderer(win, -1, SDL_RENDERER_SOFTWARE);
+        tex = ren ? SDL_CreateTexture(ren, SDL_PIXELFORMAT_RGB24, SDL_TEXTUREACCESS_STREAMING, v.win_w, v.win_h) : NULL;
+        if (!tex) {
+            fprintf(stderr, "photongi-view: cannot create the window: %s\n", SDL_GetError());
+            if (ren) SDL_DestroyRenderer(ren);
+            if (win) SDL_DestroyWindow(win);
+            SDL_Quit();
+            pgi_renderer_destroy(v.r);
+            pgi_scene_destroy(v.scene);
+            return 1;
+        }
+    }
+
+    double *times = frames ? malloc((size_t)frames * sizeof *times) : NULL;
+    long long done = 0;
+    int running = 1, rc = 0, dragging = 0;
+    double last = SDL_GetPerformanceCounter() / (double)SDL_GetPerformanceFrequency();
+    const double speed = 0.25 * v.diag;   /* scene diagonals per second / 4 */
+    while (running) {
+        double now = SDL_GetPerformanceCounter() / (double)SDL_GetPerformanceFrequency();
+        double dt = now - last;
+        last = now;
+        if (!headless) {
+            SDL_Event e;
+            while (SDL_PollEvent(&e)) {
+                if (e.type == SDL_QUIT) running = 0;
+                else if (e.type == SDL_MOUSEBUTTONDOWN && e.button.button == SDL_BUTTON_LEFT) dragging = 1;
+                else if (e.type == SDL_MOUSEBUTTONUP && e.button.button == SDL_BUTTON_LEFT) dragging = 0;
+                else if (e.type == SDL_MOUSEMOTION && dragging) {
+                    v.yaw += 0.005f * (float)e.motion.xrel;
+                    v.pitch -= 0.005f * (float)e.motion.yrel;
+                    v.pitch = fmaxf(-1.55f, fminf(1.55f, v.pitch));
+                    cam_update(&v);
+                } else if (e.type == SDL_KEYDOWN) {
+                    SDL_Keycode k = e.key.keysym.sym;
+                    int shift = (e.key.keysym.mod & KMOD_SHIFT) != 0;
+                    if (k == SDLK_ESCAPE) running = 0;
+                    else if (k == SDLK_TAB) cycle_estimator(&v, shift ? -1 : 1);
+                    else if (k >= SDLK_1 && k <= SDLK_9 && (size_t)(k - SDLK_1) < pgi_estimator_count())
+                        v.est_index = (size_t)(k - SDLK_1);
+                    else if (k == SDLK_EQUALS || k == SDLK_PLUS || k == SDLK_KP_PLUS) change_photons(&v, 2.0);
+                    else if (k == SDLK_MINUS || k == SDLK_KP_MINUS) change_photons(&v, 0.5);
+                    else if (k == SDLK_RIGHTBRACKET) change_radius(&v, 1.25f);
+                    else if (k == SDLK_LEFTBRACKET) change_radius(&v, 1.f / 1.25f);
+                    else if (k == SDLK_PERIOD) v.exposure *= 1.25f;
+                    else if (k == SDLK_COMMA) v.exposure /= 1.25f;
+                    else if (k == SDLK_o)
+                        v.out_mode = v.out_mode == PGI_OUTPUT_ALL ? PGI_OUTPUT_DIRECT
+                                     : v.out_mode == PGI_OUTPUT_DIRECT ? PGI_OUTPUT_INDIRECT : PGI_OUTPUT_ALL;
+                    else if (k == SDLK_c)
+                        v.out_mode = v.out_mode == PGI_OUTPUT_PHOTON_COUNT ? PGI_OUTPUT_ALL : PGI_OUTPUT_PHOTON_COUNT;
+                    else if (k == SDLK_p) v.accumulate = !v.accumulate;
+                    else if (k == SDLK_r) v.scale = v.scale > 0.75f ? 0.5f : v.scale > 0.375f ? 0.25f : 1.f;
+                    else if (k == SDLK_SPACE) v.animate = !v.animate;
+                    else if (k == SDLK_h) v.overlay = !v.overlay;
+                    else if (k == SDLK_l) v.light++;
+                    else if (k == SDLK_F12) {
+                        char name[64];
+                        snprintf(name, sizeof name, "photongi-view-%03d.png", v.screenshot_count++);
+                        if (save_screenshot(&v, name)) fprintf(stderr, "photongi-view: %s\n", pgi_last_error());
+                        else if (!v.quiet) fprintf(stderr, "photongi-view: wrote %s\n", name);
+                    }
+                }
+            }
+            const Uint8 *ks = SDL_GetKeyboardState(NULL);
+            float sp = (float)(speed * dt) * ((ks[SDL_SCANCODE_LSHIFT] || ks[SDL_SCANCODE_RSHIFT]) ? 4.f : 1.f);
+            float fw = (float)(ks[SDL_SCANCODE_W] - ks[SDL_SCANCODE_S]), sd = (float)(ks[SDL_SCANCODE_D] - ks[SDL_SCANCODE_A]),
+                  ud = (float)(ks[SDL_SCANCODE_E] - ks[SDL_SCANCODE_Q]);
+            if (fw != 0.f || sd != 0.f || ud != 0.f) cam_move(&v, fw * sp, sd * sp, ud * sp);
+            float lf = (float)(ks[SDL_SCANCODE_UP] - ks[SDL_SCANCODE_DOWN]),
+                  ls = (float)(ks[SDL_SCANCODE_RIGHT] - ks[SDL_SCANCODE_LEFT]),
+                  lu = (float)(ks[SDL_SCANCODE_PAGEUP] - ks[SDL_SCANCODE_PAGEDOWN]);
+            if (lf != 0.f || ls != 0.f || lu != 0.f) light_move(&v, lf * sp * 0.5f, ls * sp * 0.5f, lu * sp * 0.5f);
+            if (v.animate) v.time += dt;
+        } else if (v.animate && done > 0) {
+            v.time += 1.0 / 30.0;
+        }
+        if (!running) break;
+        double f0 = SDL_GetPerformanceCounter() / (double)SDL_GetPerformanceFrequency();
+        if ((st = render_frame(&v))) {
+            rc = fail("render failed", st);
+            break;
+        }
+        if (tex) {
+            SDL_UpdateTexture(tex, NULL, v.disp, v.win_w * 3);
+            SDL_RenderClear(ren);
+            SDL_RenderCopy(ren, tex, NULL, NULL);
+            SDL_RenderPresent(ren);
+            char title[256];
+            snprintf(title, sizeof title, "photongi-view - %s - %s - %.1f FPS - %d frames", v.info.name, v.fs.estimator,
+                     v.fps, v.fs.frames);
+            SDL_SetWindowTitle(win, title);
+        }
+        double f1 = SDL_GetPerformanceCounter() / (double)SDL_GetPerformanceFrequency();
+        v.frame_ms = 1000.0 * (f1 - f0);
+        v.fps = v.frame_ms > 0.0 ? 1000.0 / v.frame_ms : 0.0;
+        if (times) times[done] = v.frame_ms;
+        done++;
+        if (frames && done >= frames) running = 0;
+    }
+    if (!rc && shot && done == frames) {
+        if ((st = save_screenshot(&v, shot))) rc = fail("cannot write the screenshot", st);
+    }
+    if (!rc && stats_path && done > 0) {
+        if ((st = pgi_stats_write_json(&v.fs, stats_path))) rc = fail("cannot write stats", st);
+    }
+    if (!rc && frames && !v.quiet && done > 0) {
+        double first = times[0];
+        qsort(times, (size_t)done, sizeof *times, cmp_double);
+        double med = times[done / 2];
+        fprintf(stderr,
+                "photongi-view: %s %dx%d, %s, %lld frames: median %.1f ms a frame (%.2f FPS), first %.1f ms, "
+                "last frame: view %.1f trace %.1f build %.1f estimate %.1f direct %.1f rt %.1f ms, %d averaged\n",
+                v.info.name, v.fs.width, v.fs.height, v.fs.estimator, done, med, med > 0 ? 1000.0 / med : 0.0, first,
+                v.fs.view_ms, v.fs.trace_ms, v.fs.build_ms, v.fs.estimate_ms, v.fs.direct_ms, v.fs.rt_update_ms,
+                v.fs.frames);
+    }
+    free(times);
+    if (tex) SDL_DestroyTexture(tex);
+    if (ren) SDL_DestroyRenderer(ren);
+    if (win) SDL_DestroyWindow(win);
+    if (!headless) SDL_Quit();
+    pgi_image_free(&v.img);
+    free(v.rgb8);
+    free(v.disp);
+    pgi_renderer_destroy(v.r);
+    pgi_scene_destroy(v.scene);
+    return rc;
+}
