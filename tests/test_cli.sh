@@ -163,5 +163,17 @@ if expect_ok render --scene cornell --size 40x30 --photons 2000 --output indirec
     [ -s "$TMP/img.exr" ] && ok || bad "render did not write img.exr"
 fi
 
+# Progressive mode and scene time (issue 6).
+expect_error "--progressive needs" render --progressive 0 -o "$TMP/x.png"
+expect_error "--progressive needs" render --progressive many -o "$TMP/x.png"
+expect_error "--time needs" render --time soon -o "$TMP/x.png"
+expect_error "--output must be" render --output everything -o "$TMP/x.png"
+if expect_ok render --scene cornell --size 32x24 --photons 2000 --progressive 3 -o "$TMP/prog.png" --stats "$TMP/prog.json" -q; then
+    grep -qE '"frames":[[:space:]]*3,' "$TMP/prog.json" && ok || bad "render --progressive 3: stats do not say 3 frames"
+fi
+if expect_ok render --scene scenes/cornell-moving.json --time 2.5 --size 32x24 --photons 2000 --output counts -o "$TMP/c.exr" -q; then
+    [ -s "$TMP/c.exr" ] && ok || bad "render --output counts did not write c.exr"
+fi
+
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]

@@ -345,6 +345,12 @@ int main(int argc, char **argv) {
         if (strcmp(a, "--no-accumulate") == 0) { v.accumulate = 0; continue; }
         if (strcmp(a, "--window") == 0) { want_window = 1; continue; }
         if (a[0] != '-') return usage("unexpected argument '%s'", a);
+        static const char *const valued[] = {"--scene", "--estimator", "--screenshot", "--stats", "--photons",
+                                             "--radius", "--size", "--scale", "--seed", "--threads", "--camera",
+                                             "--exposure", "--time", "--frames", "--output", NULL};
+        int known = 0;
+        for (int k = 0; valued[k]; k++) known |= strcmp(a, valued[k]) == 0;
+        if (!known) return usage("unknown option '%s'", a);
         if (i + 1 >= argc) return usage("%s needs a value", a);
         const char *val = argv[++i];
         long long n;

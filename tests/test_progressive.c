@@ -1,0 +1,248 @@
+/* Progressive mode (Knaus & Zwicker 2011): frame 0 is the plain render, the
+ * radius follows r_{k+1}^2 = r_k^2 (k+1+alpha)/(k+2), the average restarts
+ * when the picture changes, every exact estimator gives the same average,
+ * and the error against a high-sample reference falls as frames accumulate.
+ *
+ * Reference: until the path tracer and image metrics of the other branch are
+ * merged, the reference is a long progressive render with independent seeds
+ * and 4x the photons per frame, and PSNR is the small helper below. */
+#include "test_util.h"
+
+static pgi_scene *load(const char *spec) {
+    pgi_scene *s = NULL;
+    TU_CHECK_OK(pgi_scene_load(spec, &s));
+    return s;
+}
+
+/* PSNR in dB of linear RGB clamped to [0, 1] (peak 1). */
+static double psnr(const pgi_image *a, const pgi_image *ref) {
+    size_t n = 3 * (size_t)ref->width * ref->height;
+    double se = 0.0;
+    for (size_t i = 0; i < n; i++) {
+        double x = fmin(1.0, fmax(0.0, a->rgb[i])), y = fmin(1.0, fmax(0.0, ref->rgb[i]));
+        se += (x - y) * (x - y);
+    }
+    double mse = se / (double)n;
+    return mse > 0.0 ? 10.0 * log10(1.0 / mse) : INFINITY;
+}
+
+static void test_first_frame_is_plain_render(void **state) {
+    (void)state;
+    pgi_scene *s = load("cornell");
+    pgi_render_desc d = {.estimator = "hashgrid", .photons = 5000, .photons_set = 1, .width = 40, .height = 32,
+                         .direct_samples = 2, .seed = 7};
+    pgi_image a = {0}, b = {0}, c = {0};
+    TU_CHECK_OK(pgi_render(s, &d, &a, NULL));
+    d.progressive = 1;
+    TU_CHECK_OK(pgi_render(s, &d, &b, NULL));
+    pgi_renderer *r;
+    TU_CHECK_OK(pgi_renderer_create(s, &r));
+    pgi_frame_stats fs;
+    d.progressive = 0;
+    TU_CHECK_OK(pgi_renderer_accumulate(r, &d, &c, &fs));
+    assert_int_equal(fs.frames, 1);
+    size_t n = 3 * 40 * 32;
+    assert_memory_equal(a.rgb, b.rgb, n * sizeof(float));
+    assert_memory_equal(a.rgb, c.rgb, n * sizeof(float));
+    pgi_renderer_destroy(r);
+    pgi_image_free(&a);
+    pgi_image_free(&b);
+    pgi_image_free(&c);
+    pgi_scene_destroy(s);
+}
+
+static void test_radius_sequence(void **state) {
+    (void)state;
+    const double alpha = 2.0 / 3.0;
+    double r2 = 0.3 * 0.3;
+    assert_float_equal(pgi_progressive_radius(0.3f, 0), 0.3f, 1e-7f);
+    for (int k = 0; k < 200; k++) {
+        r2 *= (k + 1 + alpha) / (k + 2);
+        float got = pgi_progressive_radius(0.3f, k + 1);
+        assert_true(fabs(got - sqrt(r2)) <= 1e-6 * sqrt(r2));
+        assert_true(got < pgi_progressive_radius(0.3f, k));
+    }
+    /* r^2 ~ k^(alpha-1): after 200 frames r2 / r0^2 is about 200^(-1/3) up to a constant. */
+    assert_true(r2 / 0.09 < 0.4 && r2 / 0.09 > 0.1);
+    /* The stats report the radius of the last frame. */
+    pgi_scene *s = load("cornell");
+    pgi_render_desc d = {.estimator = "hashgrid", .photons = 2000, .photons_set = 1, .width = 16, .height = 16,
+                         .direct_samples = 1, .radius = 0.1f, .radius_set = 1, .progressive = 5};
+    pgi_image img = {0};
+    pgi_frame_stats fs;
+    TU_CHECK_OK(pgi_render(s, &d, &img, &fs));
+    assert_int_equal(fs.frames, 5);
+    assert_float_equal(fs.radius, pgi_progressive_radius(0.1f, 4), 1e-7f);
+    pgi_image_free(&img);
+    pgi_scene_destroy(s);
+}
+
+/* pgi_renderer_render(progressive = N) == N calls of pgi_renderer_accumulate; deterministic. */
+static void test_progressive_equals_accumulate(void **state) {
+    (void)state;
+    pgi_scene *s = load("cornell");
+    pgi_render_desc d = {.estimator = "tiled", .photons = 4000, .photons_set = 1, .width = 32, .height = 24,
+                         .direct_samples = 2, .seed = 3};
+    pgi_renderer *r;
+    TU_CHECK_OK(pgi_renderer_create(s, &r));
+    pgi_image acc = {0}, prog = {0}, prog2 = {0}, one = {0};
+    pgi_frame_stats fs;
+    for (int k = 0; k < 6; k++) {
+        TU_CHECK_OK(pgi_renderer_accumulate(r, &d, &acc, &fs));
+        assert_int_equal(fs.frames, k + 1);
+    }
+    pgi_render_desc dp = d;
+    dp.progressive = 6;
+    TU_CHECK_OK(pgi_render(s, &dp, &prog, NULL));
+    dp.threads = 1;
+    TU_CHECK_OK(pgi_render(s, &dp, &prog2, NULL));
+    size_t n = 3 * 32 * 24;
+    assert_memory_equal(acc.rgb, prog.rgb, n * sizeof(float));
+    assert_memory_equal(prog.rgb, prog2.rgb, n * sizeof(float));
+    /* The average differs from frame 0 alone (fresh photons were used). */
+    TU_CHECK_OK(pgi_render(s, &d, &one, NULL));
+    assert_true(memcmp(one.rgb, acc.rgb, n * sizeof(float)) != 0);
+    pgi_renderer_destroy(r);
+    pgi_image_free(&acc);
+    pgi_image_free(&prog);
+    pgi_image_free(&prog2);
+    pgi_image_free(&one);
+    pgi_scene_destroy(s);
+}
+
+/* The running average restarts when the camera, a light, the time or a setting changes. */
+static void test_accumulation_restarts(void **state) {
+    (void)state;
+    pgi_scene *s = load("sphere-and-plane");
+    pgi_render_desc d = {.estimator = "hashgrid", .photons = 2000, .photons_set = 1, .width = 16, .height = 16};
+    pgi_renderer *r;
+    TU_CHECK_OK(pgi_renderer_create(s, &r));
+    pgi_image img = {0};
+    pgi_frame_stats fs;
+    TU_CHECK_OK(pgi_renderer_accumulate(r, &d, &img, &fs));
+    TU_CHECK_OK(pgi_renderer_accumulate(r, &d, &img, &fs));
+    assert_int_equal(fs.frames, 2);
+    pgi_camera_def view;
+    TU_CHECK_OK(pgi_scene_get_camera(s, 0, &view));
+    d.view = &view;   /* same camera as the scene's but given as a view: a different desc */
+    TU_CHECK_OK(pgi_renderer_accumulate(r, &d, &img, &fs));
+    assert_int_equal(fs.frames, 1);
+    TU_CHECK_OK(pgi_renderer_accumulate(r, &d, &img, &fs));
+    assert_int_equal(fs.frames, 2);
+    view.eye[0] += 0.1f;
+    TU_CHECK_OK(pgi_renderer_accumulate(r, &d, &img, &fs));
+    assert_int_equal(fs.frames, 1);
+    TU_CHECK_OK(pgi_renderer_accumulate(r, &d, &img, &fs));
+    assert_int_equal(fs.frames, 2);
+    pgi_light_group g;
+    TU_CHECK_OK(pgi_scene_get_light_group(s, 0, &g));
+    g.position[1] += 0.5f;
+    TU_CHECK_OK(pgi_scene_set_light_position(s, 0, g.position));
+    TU_CHECK_OK(pgi_renderer_accumulate(r, &d, &img, &fs));
+    assert_int_equal(fs.frames, 1);
+    d.photons = 3000;
+    TU_CHECK_OK(pgi_renderer_accumulate(r, &d, &img, &fs));
+    assert_int_equal(fs.frames, 1);
+    d.threads = 1;   /* the thread count does not change the picture */
+    TU_CHECK_OK(pgi_renderer_accumulate(r, &d, &img, &fs));
+    assert_int_equal(fs.frames, 2);
+    pgi_renderer_reset_accumulation(r);
+    TU_CHECK_OK(pgi_renderer_accumulate(r, &d, &img, &fs));
+    assert_int_equal(fs.frames, 1);
+    pgi_renderer_destroy(r);
+    pgi_image_free(&img);
+    pgi_scene_destroy(s);
+}
+
+/* Every exact estimator averages to the same image as brute. */
+static void test_every_exact_estimator(void **state) {
+    (void)state;
+    pgi_scene *s = load("cornell");
+    pgi_render_desc d = {.estimator = "brute", .photons = 3000, .photons_set = 1, .width = 24, .height = 24,
+                         .direct_samples = 1, .progressive = 3, .output = PGI_OUTPUT_INDIRECT};
+    pgi_image ref = {0};
+    TU_CHECK_OK(pgi_render(s, &d, &ref, NULL));
+    assert_true(tu_max_abs(ref.rgb, 3 * 24 * 24) > 0.0);
+    int tested = 0;
+    for (size_t i = 0; i < pgi_estimator_count(); i++) {
+        const pgi_estimator_vtbl *vt = pgi_estimator_at(i);
+        pgi_image img = {0};
+        d.estimator = vt->name;
+        pgi_status st = pgi_render(s, &d, &img, NULL);
+        if (!vt->exact) {
+            assert_int_equal(st, PGI_ERR_INVALID_ARG);   /* an approximate estimator's bias never vanishes */
+            continue;
+        }
+        TU_CHECK_OK(st);
+        assert_int_equal(tu_compare(img.rgb, ref.rgb, 3 * 24 * 24, 1e-4, vt->name), 0);
+        pgi_image_free(&img);
+        tested++;
+    }
+    assert_true(tested >= 3);
+    pgi_image_free(&ref);
+    pgi_scene_destroy(s);
+}
+
+static void test_bad_progressive_requests(void **state) {
+    (void)state;
+    pgi_scene *s = load("cornell");
+    pgi_image img = {0};
+    pgi_render_desc d = {.photons = 1000, .photons_set = 1, .width = 8, .height = 8, .progressive = 2000000};
+    assert_int_equal(pgi_render(s, &d, &img, NULL), PGI_ERR_INVALID_ARG);
+    d.progressive = 2;
+    d.output = PGI_OUTPUT_PHOTON_COUNT;
+    assert_int_equal(pgi_render(s, &d, &img, NULL), PGI_ERR_INVALID_ARG);
+    assert_non_null(strstr(pgi_last_error(), "photon counts"));
+    d.output = PGI_OUTPUT_ALL;
+    d.estimator = "no-such";
+    assert_int_equal(pgi_render(s, &d, &img, NULL), PGI_ERR_INVALID_ARG);
+    pgi_camera_def bad = {{0, 1, 3}, {0, 1, 3}, {0, 1, 0}, 40.f};
+    d.estimator = NULL;
+    d.view = &bad;
+    assert_int_equal(pgi_render(s, &d, &img, NULL), PGI_ERR_INVALID_ARG);
+    pgi_image_free(&img);
+    pgi_scene_destroy(s);
+}
+
+/* Error against a high-sample reference falls as frames accumulate (Cornell box). */
+static void test_error_falls(void **state) {
+    (void)state;
+    pgi_scene *s = load("cornell");
+    const int W = 48, H = 48;
+    pgi_render_desc d = {.estimator = "hashgrid", .photons = 10000, .photons_set = 1, .width = W, .height = H,
+                         .direct_samples = 4, .seed = 11};
+    pgi_render_desc dr = d;
+    dr.seed = 987654321;   /* independent of the images under test */
+    dr.photons = 40000;
+    dr.progressive = 128;
+    pgi_image ref = {0}, img = {0};
+    TU_CHECK_OK(pgi_render(s, &dr, &ref, NULL));
+    pgi_renderer *r;
+    TU_CHECK_OK(pgi_renderer_create(s, &r));
+    const int marks[4] = {1, 4, 16, 64};
+    double p[4];
+    pgi_frame_stats fs;
+    for (int k = 1, m = 0; k <= 64; k++) {
+        TU_CHECK_OK(pgi_renderer_accumulate(r, &d, &img, &fs));
+        if (k == marks[m]) p[m++] = psnr(&img, &ref);
+    }
+    fprintf(stderr, "  PSNR vs reference at 1, 4, 16, 64 frames: %.2f %.2f %.2f %.2f dB\n", p[0], p[1], p[2], p[3]);
+    for (int m = 1; m < 4; m++) assert_true(p[m] > p[m - 1] + 0.5);
+    pgi_renderer_destroy(r);
+    pgi_image_free(&ref);
+    pgi_image_free(&img);
+    pgi_scene_destroy(s);
+}
+
+int main(void) {
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_first_frame_is_plain_render),
+        cmocka_unit_test(test_radius_sequence),
+        cmocka_unit_test(test_progressive_equals_accumulate),
+        cmocka_unit_test(test_accumulation_restarts),
+        cmocka_unit_test(test_every_exact_estimator),
+        cmocka_unit_test(test_bad_progressive_requests),
+        cmocka_unit_test(test_error_falls),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -1,0 +1,96 @@
+#!/usr/bin/env bash
+# Headless tests of photongi-view: its screenshot equals 'photongi render' of
+# the same view, estimator and seed (same float image, same tone map: the PNG
+# files are byte-identical), progressive accumulation equals
+# 'render --progressive', animated scenes match 'render --time', a window
+# opens under SDL's dummy/offscreen video driver, and bad options fail cleanly.
+#   usage: tests/test_viewer.sh path/to/photongi-view path/to/photongi   (from the repository root)
+set -u
+VIEW=${1:?usage: test_viewer.sh photongi-view photongi}
+CLI=${2:?usage: test_viewer.sh photongi-view photongi}
+TMP=$(mktemp -d "${TMPDIR:-/tmp}/pgi-test-view-XXXXXX")
+trap 'rm -rf "$TMP"' EXIT
+pass=0
+fail=0
+ok() { pass=$((pass + 1)); }
+bad() {
+    fail=$((fail + 1))
+    echo "FAIL: $*"
+}
+
+# same NAME VIEW_ARGS -- RENDER_ARGS: both must succeed and write identical PNGs.
+same() {
+    local name=$1
+    shift
+    local va=() ra=()
+    while [ "$1" != "--" ]; do va+=("$1"); shift; done
+    shift
+    ra=("$@")
+    if ! "$VIEW" "${va[@]}" --screenshot "$TMP/$name-view.png" -q 2>"$TMP/err"; then
+        bad "$name: photongi-view ${va[*]} failed: $(head -c 300 "$TMP/err")"
+        return
+    fi
+    if ! "$CLI" render "${ra[@]}" -o "$TMP/$name-cli.png" -q 2>"$TMP/err"; then
+        bad "$name: photongi render ${ra[*]} failed: $(head -c 300 "$TMP/err")"
+        return
+    fi
+    if cmp -s "$TMP/$name-view.png" "$TMP/$name-cli.png"; then ok; else bad "$name: screenshot differs from render"; fi
+}
+
+COMMON=(--size 64x48 --photons 5000 --seed 9)
+same single --frames 1 "${COMMON[@]}" --estimator hashgrid -- "${COMMON[@]}" --estimator hashgrid
+same tiled --frames 1 "${COMMON[@]}" --estimator tiled --exposure 1.5 -- "${COMMON[@]}" --estimator tiled --exposure 1.5
+same progressive --frames 5 "${COMMON[@]}" -- "${COMMON[@]}" --progressive 5
+same no-accumulate --frames 3 --no-accumulate "${COMMON[@]}" -- "${COMMON[@]}"
+same indirect --frames 1 "${COMMON[@]}" --output indirect -- "${COMMON[@]}" --output indirect
+same animated --frames 1 --scene scenes/cornell-moving.json --time 1.5 "${COMMON[@]}" -- \
+    --scene scenes/cornell-moving.json --time 1.5 "${COMMON[@]}"
+same camera1 --frames 1 --scene giref --camera 0 "${COMMON[@]}" -- --scene giref --camera 0 "${COMMON[@]}"
+
+# The screenshot must really depend on the frame count (guards against a no-op 'same').
+"$VIEW" --frames 2 "${COMMON[@]}" --screenshot "$TMP/two.png" -q 2>/dev/null
+cmp -s "$TMP/two.png" "$TMP/single-view.png" && bad "2 accumulated frames equal 1 frame" || ok
+
+# Animation advances 1/30 s a frame headless; the ball must move.
+"$VIEW" --frames 1 --scene scenes/cornell-moving.json "${COMMON[@]}" --screenshot "$TMP/a1.png" -q &&
+    "$VIEW" --frames 8 --animate --scene scenes/cornell-moving.json "${COMMON[@]}" --screenshot "$TMP/a8.png" -q &&
+    ! cmp -s "$TMP/a1.png" "$TMP/a8.png" && ok || bad "--animate: the scene did not change"
+
+# Photon-count view, statistics file.
+if "$VIEW" --frames 1 "${COMMON[@]}" --output counts --screenshot "$TMP/counts.png" --stats "$TMP/s.json" -q 2>"$TMP/err"; then
+    [ -s "$TMP/counts.png" ] && grep -q '"contributing"' "$TMP/s.json" && ok || bad "counts: no screenshot or stats"
+else
+    bad "--output counts failed: $(head -c 300 "$TMP/err")"
+fi
+
+# A window under SDL's dummy driver (no display needed).
+if SDL_VIDEODRIVER=dummy "$VIEW" --window --frames 2 "${COMMON[@]}" --screenshot "$TMP/win.png" -q 2>"$TMP/err"; then
+    cmp -s "$TMP/win.png" "$TMP/two.png" && ok || bad "windowed screenshot differs from the headless one"
+else
+    bad "--window with SDL_VIDEODRIVER=dummy failed: $(head -c 300 "$TMP/err")"
+fi
+
+# --help documents the keys.
+"$VIEW" --help | grep -q "F12" && ok || bad "--help does not list the keys"
+
+# Bad options: exit 2 (1 for a missing scene), a message, no crash.
+expect_fail() {
+    local want=$1 needle=$2
+    shift 2
+    "$VIEW" "$@" >/dev/null 2>"$TMP/err"
+    local rc=$?
+    if [ "$rc" -ne "$want" ] || ! grep -qiF -- "$needle" "$TMP/err"; then
+        bad "photongi-view $*: exit $rc (expected $want) or message without '$needle': $(head -c 200 "$TMP/err")"
+    else ok; fi
+}
+expect_fail 2 "unknown option" --bogus
+expect_fail 2 "--screenshot needs --frames" --screenshot x.png
+expect_fail 2 "unknown estimator" --frames 1 --estimator nope
+expect_fail 2 "--scale" --frames 1 --scale 0
+expect_fail 2 "--frames" --frames 0
+expect_fail 2 "camera" --frames 1 --camera 7
+expect_fail 1 "cannot load scene" --frames 1 --scene /nonexistent/scene.json
+expect_fail 1 "cannot write the screenshot" --frames 1 --size 8x8 --photons 100 --screenshot /nonexistent/dir/x.png
+
+echo "$pass passed, $fail failed"
+[ "$fail" -eq 0 ]
