@@ -29,6 +29,8 @@ static const char *k_help =
     "  --size WxH         window / full render size (default: the scene's, else 1280x720)\n"
     "  --scale F          render at F times the window size (0 < F <= 1; default 1)\n"
     "  --seed K           random seed (default 1)\n"
+    "  --bounces B        maximum photon bounces (default 4)\n"
+    "  --direct-samples K shadow samples per pixel for area lights (default 16)\n"
     "  --threads T        worker threads (default: all cores)\n"
     "  --camera I         scene camera to start from (default 0)\n"
     "  --exposure X       exposure before the sRGB tone map (default: the scene's, else 1)\n"
@@ -347,7 +349,8 @@ int main(int argc, char **argv) {
         if (a[0] != '-') return usage("unexpected argument '%s'", a);
         static const char *const valued[] = {"--scene", "--estimator", "--screenshot", "--stats", "--photons",
                                              "--radius", "--size", "--scale", "--seed", "--threads", "--camera",
-                                             "--exposure", "--time", "--frames", "--output", NULL};
+                                             "--exposure", "--time", "--frames", "--output", "--direct-samples",
+                                             "--bounces", NULL};
         int known = 0;
         for (int k = 0; valued[k]; k++) known |= strcmp(a, valued[k]) == 0;
         if (!known) return usage("unknown option '%s'", a);
@@ -381,6 +384,12 @@ int main(int argc, char **argv) {
         } else if (strcmp(a, "--threads") == 0) {
             if (!parse_long(val, 1, 1024, &n)) return usage("--threads needs a number in 1..1024, got '%s'", val);
             v.desc.threads = (int)n;
+        } else if (strcmp(a, "--direct-samples") == 0) {
+            if (!parse_long(val, 1, 4096, &n)) return usage("--direct-samples needs a number in 1..4096, got '%s'", val);
+            v.desc.direct_samples = (int)n;
+        } else if (strcmp(a, "--bounces") == 0) {
+            if (!parse_long(val, 1, 64, &n)) return usage("--bounces needs a number in 1..64, got '%s'", val);
+            v.desc.bounces = (int)n;
         } else if (strcmp(a, "--camera") == 0) {
             if (!parse_long(val, 0, 1000000, &cam_index)) return usage("--camera needs an index, got '%s'", val);
         } else if (strcmp(a, "--exposure") == 0) {
@@ -466,7 +475,7 @@ int main(int argc, char **argv) {
         }
     }
 
-    double *times = frames ? malloc((size_t)frames * sizeof *times) : NULL;
+    double *times = frames ? malloc(2 * (size_t)frames * sizeof *times) : NULL;   /* frame, viewer overhead */
     long long done = 0;
     int running = 1, rc = 0, dragging = 0;
     double last = SDL_GetPerformanceCounter() / (double)SDL_GetPerformanceFrequency();
@@ -549,7 +558,7 @@ int main(int argc, char **argv) {
         double f1 = SDL_GetPerformanceCounter() / (double)SDL_GetPerformanceFrequency();
         v.frame_ms = 1000.0 * (f1 - f0);
         v.fps = v.frame_ms > 0.0 ? 1000.0 / v.frame_ms : 0.0;
-        if (times) times[done] = v.frame_ms;
+        if (times) times[done] = v.frame_ms, times[frames + done] = v.frame_ms - v.fs.total_ms;
         done++;
         if (frames && done >= frames) running = 0;
     }
@@ -562,11 +571,14 @@ int main(int argc, char **argv) {
     if (!rc && frames && !v.quiet && done > 0) {
         double first = times[0];
         qsort(times, (size_t)done, sizeof *times, cmp_double);
-        double med = times[done / 2];
+        qsort(times + frames, (size_t)done, sizeof *times, cmp_double);
+        double med = times[done / 2], over = times[frames + done / 2];
         fprintf(stderr,
                 "photongi-view: %s %dx%d, %s, %lld frames: median %.1f ms a frame (%.2f FPS), first %.1f ms, "
+                "viewer overhead (tone map, overlay%s) %.1f ms; "
                 "last frame: view %.1f trace %.1f build %.1f estimate %.1f direct %.1f rt %.1f ms, %d averaged\n",
                 v.info.name, v.fs.width, v.fs.height, v.fs.estimator, done, med, med > 0 ? 1000.0 / med : 0.0, first,
+                tex ? ", display" : "", over,
                 v.fs.view_ms, v.fs.trace_ms, v.fs.build_ms, v.fs.estimate_ms, v.fs.direct_ms, v.fs.rt_update_ms,
                 v.fs.frames);
     }
