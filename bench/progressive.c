@@ -16,11 +16,19 @@
 
 #include "photongi/photongi.h"
 
-static double psnr(const pgi_image *a, const pgi_image *ref) {
+static double srgb(double c) {
+    c = fmin(1.0, fmax(0.0, c));
+    return c <= 0.0031308 ? 12.92 * c : 1.055 * pow(c, 1.0 / 2.4) - 0.055;
+}
+
+/* PSNR (peak 1) of linear RGB clamped to [0, 1], or of the sRGB-encoded
+ * values a PNG would hold (exposure 1): dark regions weigh more there. */
+static double psnr(const pgi_image *a, const pgi_image *ref, int encoded) {
     size_t n = 3 * (size_t)ref->width * ref->height;
     double se = 0.0;
     for (size_t i = 0; i < n; i++) {
         double x = fmin(1.0, fmax(0.0, a->rgb[i])), y = fmin(1.0, fmax(0.0, ref->rgb[i]));
+        if (encoded) x = srgb(x), y = srgb(y);
         se += (x - y) * (x - y);
     }
     return se > 0.0 ? 10.0 * log10((double)n / se) : INFINITY;
@@ -79,22 +87,24 @@ int main(int argc, char **argv) {
     printf("# %s %dx%d %s, %u photons/frame, r0 %g; reference: %d frames x %u photons (%.1f s)\n", info.name, w, h,
            est, photons, (double)fs.radius / (double)pgi_progressive_radius(1.f, ref_frames - 1),
            ref_frames, ref_photons, fs.total_ms / 1000.0);
-    printf("frames,radius,psnr_db,ms_per_frame\n");
+    printf("frames,radius,psnr_linear_db,psnr_srgb_db,ms_per_frame\n");
     pgi_renderer *r;
     if (pgi_renderer_create(s, &r)) return 1;
-    int reached = 0;
+    int reached = 0, reached_srgb = 0;
     for (int k = 1; k <= frames; k++) {
         if (pgi_renderer_accumulate(r, &d, &img, &fs)) {
             fprintf(stderr, "photongi-bench-progressive: %s\n", pgi_last_error());
             return 1;
         }
-        double p = psnr(&img, &ref);
+        double p = psnr(&img, &ref, 0), ps = psnr(&img, &ref, 1);
         if (!reached && p >= target) reached = k;
-        if ((k & (k - 1)) == 0 || k == frames || k == reached)
-            printf("%d,%g,%.2f,%.1f\n", k, (double)fs.radius, p, fs.total_ms);
+        if (!reached_srgb && ps >= target) reached_srgb = k;
+        if ((k & (k - 1)) == 0 || k == frames || k == reached || k == reached_srgb)
+            printf("%d,%g,%.2f,%.2f,%.1f\n", k, (double)fs.radius, p, ps, fs.total_ms);
     }
-    if (reached) printf("# %.1f dB reached after %d frames\n", target, reached);
-    else printf("# %.1f dB not reached in %d frames\n", target, frames);
+    printf("# %.1f dB (linear) %s %d frames; %.1f dB (sRGB) %s %d frames\n", target,
+           reached ? "reached after" : "not reached in", reached ? reached : frames, target,
+           reached_srgb ? "reached after" : "not reached in", reached_srgb ? reached_srgb : frames);
     pgi_renderer_destroy(r);
     pgi_image_free(&ref);
     pgi_image_free(&img);

@@ -478,6 +478,10 @@ int main(int argc, char **argv) {
     double *times = frames ? malloc(2 * (size_t)frames * sizeof *times) : NULL;   /* frame, viewer overhead */
     long long done = 0;
     int running = 1, rc = 0, dragging = 0;
+    int good_valid = 0, good_out = 0;   /* the last settings that rendered */
+    size_t good_est = v.est_index;
+    pgi_render_desc good_desc = v.desc;
+    float good_scale = v.scale;
     double last = SDL_GetPerformanceCounter() / (double)SDL_GetPerformanceFrequency();
     const double speed = 0.25 * v.diag;   /* scene diagonals per second / 4 */
     while (running) {
@@ -542,9 +546,26 @@ int main(int argc, char **argv) {
         if (!running) break;
         double f0 = SDL_GetPerformanceCounter() / (double)SDL_GetPerformanceFrequency();
         if ((st = render_frame(&v))) {
-            rc = fail("render failed", st);
-            break;
+            /* Interactive: a setting the estimator rejects (say, a radius too small for its
+             * grid) is reported and undone; headless, or when even the last good settings
+             * fail, it ends the program. */
+            if (headless || !good_valid) {
+                rc = fail("render failed", st);
+                break;
+            }
+            fprintf(stderr, "photongi-view: %s; going back to the previous settings\n", pgi_last_error());
+            v.est_index = good_est;
+            v.desc = good_desc;
+            v.scale = good_scale;
+            v.out_mode = good_out;
+            good_valid = 0;
+            continue;
         }
+        good_valid = 1;
+        good_est = v.est_index;
+        good_desc = v.desc;
+        good_scale = v.scale;
+        good_out = v.out_mode;
         if (tex) {
             SDL_UpdateTexture(tex, NULL, v.disp, v.win_w * 3);
             SDL_RenderClear(ren);
