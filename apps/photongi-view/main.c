@@ -36,7 +36,8 @@ static const char *k_help =
     "  --exposure X       exposure before the sRGB tone map (default: the scene's, else 1)\n"
     "  --output all|direct|indirect|counts   what to show (counts: false-colour photons per pixel)\n"
     "  --time T           scene time in seconds to start at (default 0)\n"
-    "  --animate          advance the scene time (real time in a window, 1/30 s a frame headless)\n"
+    "  --animate          advance the scene time (real time in a window, 1/30 s a frame headless;\n"
+    "                     on by default in a window when the scene has animated objects)\n"
     "  --no-accumulate    never average frames (every frame is a fresh single frame)\n"
     "  --frames N         render N frames and exit; without --window no window is opened\n"
     "  --window           open a window even with --frames (e.g. SDL_VIDEODRIVER=offscreen)\n"
@@ -450,6 +451,7 @@ int main(int argc, char **argv) {
     }
 
     const int headless = frames > 0 && !want_window;
+    if (!frames && v.info.animated_objects > 0) v.animate = 1;   /* interactive: play animations (Space pauses) */
     SDL_Window *win = NULL;
     SDL_Renderer *ren = NULL;
     SDL_Texture *tex = NULL;
