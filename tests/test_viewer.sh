@@ -70,6 +70,18 @@ else
     bad "--window with SDL_VIDEODRIVER=dummy failed: $(head -c 300 "$TMP/err")"
 fi
 
+# Scripted keys drive every handler (estimator, counts, scale, photons, radius, output,
+# camera, light, look); the result must differ from the unmoved view and the run must succeed.
+if "$VIEW" --frames 17 --scene giref "${COMMON[@]}" --keys "tab,c,c,r,+,-,],[,o,o,o,w,d,up,pageup,k,shift+tab" \
+        --screenshot "$TMP/keys.png" -q 2>"$TMP/err"; then
+    "$VIEW" --frames 17 --scene giref "${COMMON[@]}" --screenshot "$TMP/nokeys.png" -q 2>/dev/null
+    ! cmp -s "$TMP/keys.png" "$TMP/nokeys.png" && ok || bad "--keys: camera/light moves changed nothing"
+else
+    bad "--keys run failed: $(head -c 300 "$TMP/err")"
+fi
+expect_fail_keys() { "$VIEW" --frames 2 --size 8x8 --photons 100 --keys "$1" >/dev/null 2>"$TMP/err"; [ $? -eq 2 ] && grep -q "unknown key" "$TMP/err" && ok || bad "--keys $1 accepted"; }
+expect_fail_keys "nosuchkey"
+
 # --help documents the keys.
 "$VIEW" --help | grep -q "F12" && ok || bad "--help does not list the keys"
 

@@ -43,6 +43,9 @@ static const char *k_help =
     "  --window           open a window even with --frames (e.g. SDL_VIDEODRIVER=offscreen)\n"
     "  --screenshot FILE  after the last frame, save the image as PNG (no overlay)\n"
     "  --stats FILE.json  write the last frame's statistics ('-' = stdout)\n"
+    "  --keys K1,K2,...   press these keys, one before each frame (scripted demos and tests): a\n"
+    "                     character, or tab, shift+tab, space, up, down, left, right, pageup,\n"
+    "                     pagedown, f12, escape, comma; movement keys take one step; j/k turn\n"
     "  -q, --quiet        print nothing but errors\n"
     "\n"
     "keys: mouse drag (left button) look | W A S D move, Q E down/up, Shift faster\n"
@@ -325,12 +328,75 @@ static void change_photons(viewer *v, double f) {
     v->desc.photons_set = 1;
 }
 
+/* Handles one key press; returns 0 to quit. `step` > 0 (scripted keys): the
+ * movement keys move the camera or the light by that distance once (held
+ * keys in a window move continuously instead, see the main loop). */
+static int press_key(viewer *v, SDL_Keycode k, int shift, float step) {
+    if (k == SDLK_ESCAPE) return 0;
+    if (k == SDLK_TAB) cycle_estimator(v, shift ? -1 : 1);
+    else if (k >= SDLK_1 && k <= SDLK_9 && (size_t)(k - SDLK_1) < pgi_estimator_count()) v->est_index = (size_t)(k - SDLK_1);
+    else if (k == SDLK_EQUALS || k == SDLK_PLUS || k == SDLK_KP_PLUS) change_photons(v, 2.0);
+    else if (k == SDLK_MINUS || k == SDLK_KP_MINUS) change_photons(v, 0.5);
+    else if (k == SDLK_RIGHTBRACKET) change_radius(v, 1.25f);
+    else if (k == SDLK_LEFTBRACKET) change_radius(v, 1.f / 1.25f);
+    else if (k == SDLK_PERIOD) v->exposure *= 1.25f;
+    else if (k == SDLK_COMMA) v->exposure /= 1.25f;
+    else if (k == SDLK_o)
+        v->out_mode = v->out_mode == PGI_OUTPUT_ALL      ? PGI_OUTPUT_DIRECT
+                      : v->out_mode == PGI_OUTPUT_DIRECT ? PGI_OUTPUT_INDIRECT
+                                                         : PGI_OUTPUT_ALL;
+    else if (k == SDLK_c) v->out_mode = v->out_mode == PGI_OUTPUT_PHOTON_COUNT ? PGI_OUTPUT_ALL : PGI_OUTPUT_PHOTON_COUNT;
+    else if (k == SDLK_p) v->accumulate = !v->accumulate;
+    else if (k == SDLK_r) v->scale = v->scale > 0.75f ? 0.5f : v->scale > 0.375f ? 0.25f : 1.f;
+    else if (k == SDLK_SPACE) v->animate = !v->animate;
+    else if (k == SDLK_h) v->overlay = !v->overlay;
+    else if (k == SDLK_l) v->light++;
+    else if (k == SDLK_F12) {
+        char name[64];
+        snprintf(name, sizeof name, "photongi-view-%03d.png", v->screenshot_count++);
+        if (save_screenshot(v, name)) fprintf(stderr, "photongi-view: %s\n", pgi_last_error());
+        else if (!v->quiet) fprintf(stderr, "photongi-view: wrote %s\n", name);
+    } else if (step > 0.f) {
+        if (k == SDLK_w) cam_move(v, step, 0.f, 0.f);
+        else if (k == SDLK_s) cam_move(v, -step, 0.f, 0.f);
+        else if (k == SDLK_d) cam_move(v, 0.f, step, 0.f);
+        else if (k == SDLK_a) cam_move(v, 0.f, -step, 0.f);
+        else if (k == SDLK_e) cam_move(v, 0.f, 0.f, step);
+        else if (k == SDLK_q) cam_move(v, 0.f, 0.f, -step);
+        else if (k == SDLK_UP) light_move(v, step, 0.f, 0.f);
+        else if (k == SDLK_DOWN) light_move(v, -step, 0.f, 0.f);
+        else if (k == SDLK_RIGHT) light_move(v, 0.f, step, 0.f);
+        else if (k == SDLK_LEFT) light_move(v, 0.f, -step, 0.f);
+        else if (k == SDLK_PAGEUP) light_move(v, 0.f, 0.f, step);
+        else if (k == SDLK_PAGEDOWN) light_move(v, 0.f, 0.f, -step);
+        else if (k == SDLK_j || k == SDLK_k) {   /* scripted mouse look: yaw left / right */
+            v->yaw += k == SDLK_k ? 0.1f : -0.1f;
+            cam_update(v);
+        }
+    }
+    return 1;
+}
+
+/* Key names for --keys: a printable character, or tab, space, up, down,
+ * left, right, pageup, pagedown, f12, escape. */
+static SDL_Keycode key_from_name(const char *n) {
+    static const struct { const char *name; SDL_Keycode key; } words[] = {
+        {"tab", SDLK_TAB},     {"space", SDLK_SPACE},   {"up", SDLK_UP},          {"down", SDLK_DOWN},
+        {"left", SDLK_LEFT},   {"right", SDLK_RIGHT},   {"pageup", SDLK_PAGEUP},  {"pagedown", SDLK_PAGEDOWN},
+        {"f12", SDLK_F12},     {"escape", SDLK_ESCAPE}, {"comma", SDLK_COMMA},
+    };
+    for (size_t i = 0; i < sizeof words / sizeof words[0]; i++)
+        if (strcmp(n, words[i].name) == 0) return words[i].key;
+    if (n[0] > ' ' && n[0] < 127 && n[1] == 0) return (SDL_Keycode)(n[0] >= 'A' && n[0] <= 'Z' ? n[0] + 32 : n[0]);
+    return SDLK_UNKNOWN;
+}
+
 /* ------------------------------------------------------------ main */
 
 int main(int argc, char **argv) {
     viewer v;
     memset(&v, 0, sizeof v);
-    const char *scene_spec = "cornell", *shot = NULL, *stats_path = NULL, *est = "tiled";
+    const char *scene_spec = "cornell", *shot = NULL, *stats_path = NULL, *est = "tiled", *script = NULL;
     long long frames = 0, cam_index = 0;
     int want_window = 0, size_set = 0;
     v.accumulate = 1;
@@ -351,7 +417,7 @@ int main(int argc, char **argv) {
         static const char *const valued[] = {"--scene", "--estimator", "--screenshot", "--stats", "--photons",
                                              "--radius", "--size", "--scale", "--seed", "--threads", "--camera",
                                              "--exposure", "--time", "--frames", "--output", "--direct-samples",
-                                             "--bounces", NULL};
+                                             "--bounces", "--keys", NULL};
         int known = 0;
         for (int k = 0; valued[k]; k++) known |= strcmp(a, valued[k]) == 0;
         if (!known) return usage("unknown option '%s'", a);
@@ -359,6 +425,7 @@ int main(int argc, char **argv) {
         const char *val = argv[++i];
         long long n;
         if (strcmp(a, "--scene") == 0) scene_spec = val;
+        else if (strcmp(a, "--keys") == 0) script = val;
         else if (strcmp(a, "--estimator") == 0) est = val;
         else if (strcmp(a, "--screenshot") == 0) shot = val;
         else if (strcmp(a, "--stats") == 0) stats_path = val;
@@ -502,34 +569,7 @@ int main(int argc, char **argv) {
                     v.pitch = fmaxf(-1.55f, fminf(1.55f, v.pitch));
                     cam_update(&v);
                 } else if (e.type == SDL_KEYDOWN) {
-                    SDL_Keycode k = e.key.keysym.sym;
-                    int shift = (e.key.keysym.mod & KMOD_SHIFT) != 0;
-                    if (k == SDLK_ESCAPE) running = 0;
-                    else if (k == SDLK_TAB) cycle_estimator(&v, shift ? -1 : 1);
-                    else if (k >= SDLK_1 && k <= SDLK_9 && (size_t)(k - SDLK_1) < pgi_estimator_count())
-                        v.est_index = (size_t)(k - SDLK_1);
-                    else if (k == SDLK_EQUALS || k == SDLK_PLUS || k == SDLK_KP_PLUS) change_photons(&v, 2.0);
-                    else if (k == SDLK_MINUS || k == SDLK_KP_MINUS) change_photons(&v, 0.5);
-                    else if (k == SDLK_RIGHTBRACKET) change_radius(&v, 1.25f);
-                    else if (k == SDLK_LEFTBRACKET) change_radius(&v, 1.f / 1.25f);
-                    else if (k == SDLK_PERIOD) v.exposure *= 1.25f;
-                    else if (k == SDLK_COMMA) v.exposure /= 1.25f;
-                    else if (k == SDLK_o)
-                        v.out_mode = v.out_mode == PGI_OUTPUT_ALL ? PGI_OUTPUT_DIRECT
-                                     : v.out_mode == PGI_OUTPUT_DIRECT ? PGI_OUTPUT_INDIRECT : PGI_OUTPUT_ALL;
-                    else if (k == SDLK_c)
-                        v.out_mode = v.out_mode == PGI_OUTPUT_PHOTON_COUNT ? PGI_OUTPUT_ALL : PGI_OUTPUT_PHOTON_COUNT;
-                    else if (k == SDLK_p) v.accumulate = !v.accumulate;
-                    else if (k == SDLK_r) v.scale = v.scale > 0.75f ? 0.5f : v.scale > 0.375f ? 0.25f : 1.f;
-                    else if (k == SDLK_SPACE) v.animate = !v.animate;
-                    else if (k == SDLK_h) v.overlay = !v.overlay;
-                    else if (k == SDLK_l) v.light++;
-                    else if (k == SDLK_F12) {
-                        char name[64];
-                        snprintf(name, sizeof name, "photongi-view-%03d.png", v.screenshot_count++);
-                        if (save_screenshot(&v, name)) fprintf(stderr, "photongi-view: %s\n", pgi_last_error());
-                        else if (!v.quiet) fprintf(stderr, "photongi-view: wrote %s\n", name);
-                    }
+                    if (!press_key(&v, e.key.keysym.sym, (e.key.keysym.mod & KMOD_SHIFT) != 0, 0.f)) running = 0;
                 }
             }
             const Uint8 *ks = SDL_GetKeyboardState(NULL);
@@ -544,6 +584,20 @@ int main(int argc, char **argv) {
             if (v.animate) v.time += dt;
         } else if (v.animate && done > 0) {
             v.time += 1.0 / 30.0;
+        }
+        if (script && *script) {
+            /* --keys: one scripted key a frame (movement keys take a fixed step). */
+            char name[32];
+            size_t len = strcspn(script, ",");
+            snprintf(name, sizeof name, "%.*s", (int)(len < 31 ? len : 31), script);
+            script += len + (script[len] == ',');
+            int shift = strncmp(name, "shift+", 6) == 0;
+            SDL_Keycode k = key_from_name(shift ? name + 6 : name);
+            if (k == SDLK_UNKNOWN) {
+                rc = usage("--keys: unknown key '%s'", name);
+                break;
+            }
+            if (!press_key(&v, k, shift, (float)(0.02 * v.diag))) running = 0;
         }
         if (!running) break;
         double f0 = SDL_GetPerformanceCounter() / (double)SDL_GetPerformanceFrequency();
