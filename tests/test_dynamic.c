@@ -158,6 +158,8 @@ static void test_light_groups(void **state) {
     assert_memory_equal(a.rgb, b.rgb, NF * sizeof(float));
     float bad[3] = {NAN, 0.f, 0.f};
     assert_int_equal(pgi_scene_set_light_position(s, 0, bad), PGI_ERR_INVALID_ARG);
+    pgi_image_free(&a);
+    pgi_image_free(&b);
     pgi_renderer_destroy(r);
     pgi_scene_destroy(s2);
     pgi_scene_destroy(s);
