@@ -49,7 +49,7 @@ static const char *k_help =
     "  -q, --quiet        print nothing but errors\n"
     "\n"
     "keys: mouse drag (left button) look | W A S D move, Q E down/up, Shift faster\n"
-    "      L next light, arrows move it (camera-relative), PgUp/PgDn raise/lower it\n"
+    "      L next light, arrows or Ctrl+drag move it (camera-relative), PgUp/PgDn raise/lower it\n"
     "      Tab / Shift+Tab next/previous estimator, 1-9 pick estimator\n"
     "      + / - photons x2 / /2, ] / [ radius x1.25 / /1.25, . / , exposure\n"
     "      O output all/direct/indirect, C photons-per-pixel false colour, P progressive on/off\n"
@@ -563,7 +563,11 @@ int main(int argc, char **argv) {
                 if (e.type == SDL_QUIT) running = 0;
                 else if (e.type == SDL_MOUSEBUTTONDOWN && e.button.button == SDL_BUTTON_LEFT) dragging = 1;
                 else if (e.type == SDL_MOUSEBUTTONUP && e.button.button == SDL_BUTTON_LEFT) dragging = 0;
-                else if (e.type == SDL_MOUSEMOTION && dragging) {
+                else if (e.type == SDL_MOUSEMOTION && dragging && (SDL_GetModState() & KMOD_CTRL)) {
+                    /* Ctrl + drag: move the selected light in the horizontal plane. */
+                    float k = 0.002f * v.diag;
+                    light_move(&v, -k * (float)e.motion.yrel, k * (float)e.motion.xrel, 0.f);
+                } else if (e.type == SDL_MOUSEMOTION && dragging) {
                     v.yaw += 0.005f * (float)e.motion.xrel;
                     v.pitch -= 0.005f * (float)e.motion.yrel;
                     v.pitch = fmaxf(-1.55f, fminf(1.55f, v.pitch));
