@@ -258,7 +258,27 @@ static void compose(viewer *v) {
              v->accumulate ? "" : " (no accumulation)", v->time, v->animate ? "" : " (paused)",
              nl ? v->light % nl + 1 : 0, nl, nl ? g.name : "-");
     snprintf(line[5], sizeof line[5], "H hides this; see photongi-view --help for keys");
-    static const unsigned char white[3] = {255, 255, 255}, grey[3] = {190, 190, 190};
+    static const unsigned char white[3] = {255, 255, 255}, grey[3] = {190, 190, 190}, yellow[3] = {255, 220, 0};
+    /* Marker on the selected light (point lights are invisible otherwise). */
+    if (nl && g.kind != PGI_LIGHT_KIND_SUN) {
+        float f[3], r[3], u[3], d[3];
+        v_sub(v->cam.look_at, v->cam.eye, f);
+        v_norm(f);
+        v_cross(f, v->cam.up, r);
+        v_norm(r);
+        v_cross(r, f, u);
+        v_sub(g.position, v->cam.eye, d);
+        float z = d[0] * f[0] + d[1] * f[1] + d[2] * f[2], th = tanf(0.5f * v->cam.fov_y_deg * 3.14159265f / 180.f);
+        if (z > 0.f) {
+            float x = (d[0] * r[0] + d[1] * r[1] + d[2] * r[2]) / (z * th * ((float)W / (float)H));
+            float y = (d[0] * u[0] + d[1] * u[1] + d[2] * u[2]) / (z * th);
+            int px = (int)((x + 1.f) * 0.5f * (float)W), py = (int)((1.f - y) * 0.5f * (float)H);
+            for (int k = -8; k <= 8; k++) {
+                if (px + k >= 0 && px + k < W && py >= 0 && py < H) memcpy(v->disp + 3 * ((size_t)py * W + px + k), yellow, 3);
+                if (py + k >= 0 && py + k < H && px >= 0 && px < W) memcpy(v->disp + 3 * ((size_t)(py + k) * W + px), yellow, 3);
+            }
+        }
+    }
     int sc = W >= 1000 ? 2 : 1;
     for (int i = 0; i < 6; i++) draw_text(v->disp, W, H, 6, 6 + i * 10 * sc, sc, line[i], i == 5 ? grey : white);
 }
