@@ -1,0 +1,1046 @@
+/* cluster, cluster-cone, cluster-trivial, directional: photon splatting into a
+ * view-sample cluster hierarchy (Moreau et al., HPG 2016, §4.1-4.7; the
+ * hierarchy of Sintorn et al. 2014). One implementation, four variants:
+ *
+ *   cluster          §4.1-4.4: photons go into the list of every node they
+ *                    enclose and of every leaf they intersect; each view sample
+ *                    reads the lists of the nodes that contain it.
+ *   cluster-cone     §4.5: + a normal cone per node; a photon arriving from
+ *                    below every surface in a node is dropped there.
+ *   cluster-trivial  §4.6: + a photon that encloses an all-Lambertian node and
+ *                    arrives from above every surface in it adds its flux to the
+ *                    node's accumulator instead of its list.
+ *   directional      §4.7: traversal stops at a fixed level; flux goes into 8
+ *                    view-space octant buckets of that node; shading weights each
+ *                    bucket by 2 max(0, cos); irradiance is blurred (depth- and
+ *                    normal-aware) and multiplied by kd/pi. Approximate.
+ *
+ * Hierarchy (rebuilt each frame, §4.1): a cluster is a screen tile of T x T
+ * pixels (default 8) x a view-depth slice k = floor(log(z/near) /
+ * log(1 + 2 tan(fov_y/2) / tiles_y)) (Olsson et al. 2012), so clusters are
+ * roughly cubical. Samples seen through mirrors/glass (no PGI_VS_PRIMARY) get
+ * one extra top key bit: they form their own subtree, so their far-away
+ * positions do not inflate the boxes of the primary clusters. The key bits of
+ * tile x, tile y and slice are interleaved (the dimension with the most bits
+ * left first), and the key is cut into 5-bit digits: 32 children a node, a
+ * 32-bit child mask, key >> 5 = parent key. Unlike the paper's dense GPU
+ * arrays, the tree is sparse: the valid samples are radix-sorted by key, the
+ * leaves are the runs of equal keys, and every level is the run list of the
+ * key prefixes, stored breadth first; a node's children are contiguous (first
+ * child index + mask), and every node covers one contiguous range of the
+ * sorted samples. Boxes are view-space AABBs of the ACTUAL sample positions
+ * (so mirror samples anywhere are bounded), cones bound the actual shading
+ * normals; both are propagated bottom-up.
+ *
+ * Splatting (§4.3): a photon sphere traverses from the root with a small
+ * stack of child masks. A node it cannot touch is skipped; an enclosed node or
+ * an intersected leaf records the photon and stops. Load balance: a top pass
+ * walks the photons (fixed chunks) down to the job level J (the first level
+ * with >= 256 nodes) and emits (photon, node) jobs grouped by node; the
+ * subtree passes then run one task per level-J node over its jobs. Lists are
+ * arrays: count pass, prefix sum, fill pass. Every list is in photon-index
+ * order and every accumulator is summed in a fixed order (top pass: per chunk,
+ * then chunks in order; subtree pass: by the single task owning the subtree),
+ * so the image is the same bytes for any thread count.
+ *
+ * Exactness: the radiance pass applies pgi__gather (d^2 < r^2, dot(n, w) > 0)
+ * to every (photon, sample) pair it reads, so the culling tests only have to
+ * be conservative: a node is skipped only when the sphere misses its box by a
+ * margin covering float rounding, and a cone rejects only with an angular
+ * margin. Trivial accept needs the opposite guarantee (every sample provably
+ * passes both tests in float): the farthest box corner must lie inside r minus
+ * the margin, the photon direction inside pi/2 - alpha - margin of the axis,
+ * and every sample in the node Lambertian (the constant kernel is the only one
+ * accepted, so the flux sum times kd/pi is exactly what gather computes). A
+ * node with a non-Lambertian sample falls back to its list.
+ *
+ * Counters: reads = photon records read by the radiance pass (list entries x
+ * samples); contributing = (photon, sample) pairs that contribute, including
+ * the trivially accepted ones (they are never read per sample, so contributing
+ * may exceed reads, as in the paper's Fig. 7); nodes_visited = node tests in
+ * the traversals. directional: reads = contributing = bucket deposits. */
+#include <omp.h>
+
+#include "estimator_internal.h"
+
+enum { V_CONE = 1, V_TRIVIAL = 2, V_DIR = 4 };
+enum { OP_TOPC, OP_TOPF, OP_SUBC, OP_SUBF };
+
+#define MAX_LEVELS 12
+#define RADIX_BITS 11
+#define RADIX (1u << RADIX_BITS)
+#define NCHUNK_MAX 64
+#define JOB_LEVEL_NODES 256
+
+typedef struct cnode {
+    float lo[3], hi[3];   /* view-space AABB of the samples */
+    float ax, ay, az;     /* normal-cone axis (world space, unit up to rounding) */
+    float rej, acc;       /* dot(axis, w_p) < rej: below every normal; > acc: above every normal */
+    uint32_t mask;        /* child occupancy: bit i = child with key digit i */
+    uint32_t first;       /* index of the first child; children are contiguous in digit order */
+    uint32_t lambert;     /* every sample in the node is Lambertian */
+    uint32_t parent;
+    float alpha;          /* normal-cone half-angle (radians, rounded up); > pi: open cone */
+} cnode;
+
+typedef struct {
+    pgi_v3 eye, right, up, fwd;
+} view_xf;
+
+typedef struct {
+    pgi__est_common c;
+    int variant, T, dir_up, blur;
+    /* frame */
+    int W, H, ntx, nty, L, J, D;
+    view_xf x;
+    float r;
+    size_t nvalid, nnodes, nchunks, chunk;
+    uint32_t lvl_off[MAX_LEVELS + 2];
+    /* sort */
+    uint64_t *keys, *keys2, *spread;
+    uint32_t *order, *order2, *hist, *pix_cnt;
+    size_t keys_cap, keys2_cap, spread_cap, order_cap, order2_cap, hist_cap, pix_cnt_cap;
+    /* hierarchy */
+    cnode *nodes;
+    uint32_t *sbeg;   /* nnodes + 1: node sample ranges [sbeg[i], send[i]) */
+    uint32_t *send;
+    uint64_t *nkey;
+    size_t nodes_cap, sbeg_cap, send_cap, nkey_cap;
+    /* splat */
+    uint32_t *top_cnt, *top_tcnt, *job_start, *jobs, *top_ids, *node_cnt, *node_start, *node_tcnt, *cursor;
+    float *top_flux, *node_flux, *buckets;
+    size_t top_cnt_cap, top_tcnt_cap, job_start_cap, jobs_cap, top_ids_cap, node_cnt_cap, node_start_cap,
+        node_tcnt_cap, cursor_cap, top_flux_cap, node_flux_cap, buckets_cap;
+    pgi__packed_photon *lists;
+    size_t lists_cap;
+    size_t njobs, nlist, ntop_list;
+    /* radiance */
+    float *cum_flux, *irr, *irr2;
+    uint32_t *cum_cnt;
+    size_t cum_flux_cap, cum_cnt_cap, irr_cap, irr2_cap;
+    uint64_t deposits;
+    int splatted;   /* this frame has nodes and photons (lists/buckets are valid) */
+} cl_state;
+
+static inline pgi_v3 to_view(const view_xf *x, float px, float py, float pz) {
+    pgi_v3 d = v3_sub(v3(px, py, pz), x->eye);
+    return v3(v3_dot(d, x->right), v3_dot(d, x->up), v3_dot(d, x->fwd));
+}
+
+static pgi_status cl_create_variant(const pgi_estimator_desc *d, void **state, int variant, const char *name) {
+    if (d->cluster_tile < 0 || d->cluster_tile > 256)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "%s: cluster tile %d is out of range (1..256, 0 = default 8)", name,
+                         d->cluster_tile);
+    if (d->directional_level < -1 || d->directional_level > 16)
+        return pgi__fail(PGI_ERR_INVALID_ARG,
+                         "%s: directional level %d is out of range (1..16 levels above the leaves, 0 = default 1, "
+                         "-1 = leaves)",
+                         name, d->directional_level);
+    if (d->directional_blur < -1 || d->directional_blur > 64)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "%s: directional blur %d is out of range (1..64, 0 = default 4, -1 = off)",
+                         name, d->directional_blur);
+    cl_state *s = calloc(1, sizeof *s);
+    if (!s) return pgi__fail(PGI_ERR_OOM, "out of memory");
+    s->c.desc = *d;
+    s->variant = variant;
+    s->T = d->cluster_tile > 0 ? d->cluster_tile : 8;
+    s->dir_up = d->directional_level == 0 ? 1 : d->directional_level < 0 ? 0 : d->directional_level;
+    s->blur = d->directional_blur == 0 ? 4 : d->directional_blur < 0 ? 0 : d->directional_blur;
+    *state = s;
+    return PGI_OK;
+}
+
+static pgi_status cluster_create(const pgi_estimator_desc *d, void **st) { return cl_create_variant(d, st, 0, "cluster"); }
+static pgi_status cone_create(const pgi_estimator_desc *d, void **st) {
+    return cl_create_variant(d, st, V_CONE, "cluster-cone");
+}
+static pgi_status trivial_create(const pgi_estimator_desc *d, void **st) {
+    return cl_create_variant(d, st, V_CONE | V_TRIVIAL, "cluster-trivial");
+}
+static pgi_status dir_create(const pgi_estimator_desc *d, void **st) {
+    return cl_create_variant(d, st, V_DIR, "directional");
+}
+
+#define ENSURE(field, n, type) pgi__ensure((void **)&s->field, &s->field##_cap, (n), sizeof(type))
+
+/* ------------------------------------------------------------ build */
+
+/* A monotone, continuous stand-in for log2 (exact at powers of two): slices
+ * only need to be roughly cubical, and a libm log per pixel costs more than
+ * the rest of the key. */
+static inline float fast_log2(float x) {
+    union { float f; uint32_t u; } v = {x};
+    float e = (float)((int)((v.u >> 23) & 255) - 127);
+    v.u = (v.u & 0x007fffffu) | 0x3f800000u;   /* mantissa in [1, 2) */
+    float m = v.f - 1.f;
+    return e + m * (1.3465f - 0.3465f * m);
+}
+
+static int bits_for(uint32_t n) {
+    int b = 0;
+    while (b < 31 && (1u << b) < n) b++;
+    return b;
+}
+
+/* LSD radix sort of (key, value) pairs on the low `bits` bits, stable, over
+ * fixed chunks (the result does not depend on the thread count). Returns 1
+ * when the sorted data ended up in the second buffers. */
+static int radix_sort(uint64_t *k0, uint32_t *v0, uint64_t *k1, uint32_t *v1, size_t n, int bits, uint32_t *hist) {
+    const size_t nch = NCHUNK_MAX, chunk = (n + nch - 1) / nch + 1;
+    int swapped = 0;
+    for (int shift = 0; shift < bits; shift += RADIX_BITS) {
+#pragma omp parallel for schedule(static)
+        for (long long ci = 0; ci < (long long)nch; ci++) {
+            uint32_t *h = hist + (size_t)ci * RADIX;
+            memset(h, 0, RADIX * sizeof *h);
+            size_t a = (size_t)ci * chunk, b = a + chunk < n ? a + chunk : n;
+            for (size_t i = a; i < b; i++) h[(k0[i] >> shift) & (RADIX - 1)]++;
+        }
+        uint32_t sum = 0;
+        for (uint32_t d = 0; d < RADIX; d++)
+            for (size_t ci = 0; ci < nch; ci++) {
+                uint32_t c = hist[ci * RADIX + d];
+                hist[ci * RADIX + d] = sum;
+                sum += c;
+            }
+#pragma omp parallel for schedule(static)
+        for (long long ci = 0; ci < (long long)nch; ci++) {
+            uint32_t *h = hist + (size_t)ci * RADIX;
+            size_t a = (size_t)ci * chunk, b = a + chunk < n ? a + chunk : n;
+            for (size_t i = a; i < b; i++) {
+                uint32_t o = h[(k0[i] >> shift) & (RADIX - 1)]++;
+                k1[o] = k0[i];
+                v1[o] = v0[i];
+            }
+        }
+        uint64_t *tk = k0; k0 = k1; k1 = tk;
+        uint32_t *tv = v0; v0 = v1; v1 = tv;
+        swapped ^= 1;
+    }
+    return swapped;
+}
+
+/* Cone thresholds for axis a and half-angle alpha (radians, already bounding
+ * the normals): the margin m keeps every decision on the safe side of float
+ * rounding (the dot products of unit vectors are off by < 1e-6). */
+static void cone_thresholds(cnode *nd, double alpha) {
+    const double m = 1e-4, eps = 1e-6;
+    nd->alpha = nextafterf((float)alpha, INFINITY);
+    if (alpha + m < 0.5 * 3.14159265358979323846) {
+        double s = sin(alpha + m);
+        nd->rej = (float)(-s - eps);
+        nd->acc = (float)(s + eps);
+    } else {
+        nd->rej = -2.f;   /* never: the cone reaches past the tangent plane */
+        nd->acc = 2.f;
+    }
+}
+
+static inline double angle_to(double ax, double ay, double az, double bx, double by, double bz) {
+    double la = sqrt(ax * ax + ay * ay + az * az), lb = sqrt(bx * bx + by * by + bz * bz);
+    if (!(la > 0.0) || !(lb > 0.0)) return 3.14159265358979323846;
+    double c = (ax * bx + ay * by + az * bz) / (la * lb);
+    c = c > 1.0 ? 1.0 : c < -1.0 ? -1.0 : c;
+    return acos(c);
+}
+
+/* Sets the axis to the normalised sum (sx, sy, sz); a vanishing sum gives an
+ * open cone. Returns 0 when the cone is open. */
+static int cone_axis(cnode *nd, double sx, double sy, double sz, double count) {
+    double l = sqrt(sx * sx + sy * sy + sz * sz);
+    if (!(l > 1e-6 * count)) {
+        nd->ax = 0.f, nd->ay = 0.f, nd->az = 1.f;
+        nd->rej = -2.f, nd->acc = 2.f, nd->alpha = 4.f;
+        return 0;
+    }
+    nd->ax = (float)(sx / l), nd->ay = (float)(sy / l), nd->az = (float)(sz / l);
+    return 1;
+}
+
+static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, const pgi_camera *cam, double *t_sort) {
+    const int W = vs->width, H = vs->height, T = s->T;
+    const size_t npix = vs->count;
+    pgi_status st;
+    s->ntx = (W + T - 1) / T;
+    s->nty = (H + T - 1) / T;
+    /* Pixel chunks (rows) for compaction: fixed, at most 64. */
+    const int rows_per = (H + NCHUNK_MAX - 1) / NCHUNK_MAX;
+    const int npc = (H + rows_per - 1) / rows_per;
+    if ((st = ENSURE(pix_cnt, (size_t)npc + 1, uint32_t)) || (st = ENSURE(order2, npix, uint32_t)) ||
+        (st = ENSURE(hist, (size_t)NCHUNK_MAX * RADIX, uint32_t)))
+        return st;
+    /* near plane: the smallest positive primary depth of a valid sample */
+    float near = INFINITY;
+    int nslices_m1 = 0, any_secondary = 0;
+#pragma omp parallel for schedule(static) reduction(min : near) reduction(| : any_secondary)
+    for (long long ii = 0; ii < (long long)npix; ii++) {
+        uint8_t f = vs->flags[ii];
+        if (!(f & PGI_VS_VALID)) continue;
+        float z = vs->depth[ii];
+        if (z > 0.f && z < near) near = z;
+        if (!(f & PGI_VS_PRIMARY)) any_secondary = 1;
+    }
+    if (!(near < INFINITY)) near = 1.f;
+    const float log_near = fast_log2(near);
+    const float inv_step = (float)(1.0 / log2(1.0 + 2.0 * (double)cam->tan_half_fov_y / (double)s->nty));
+    /* slice per valid pixel (kept in order2 for the key pass) */
+#pragma omp parallel for schedule(static) reduction(max : nslices_m1)
+    for (int c = 0; c < npc; c++) {
+        uint32_t cnt = 0;
+        for (int y = c * rows_per; y < (c + 1) * rows_per && y < H; y++)
+            for (int x = 0; x < W; x++) {
+                size_t i = (size_t)y * W + (size_t)x;
+                if (!(vs->flags[i] & PGI_VS_VALID)) continue;
+                float z = vs->depth[i];
+                float k = z > near ? (fast_log2(z) - log_near) * inv_step : 0.f;
+                int sl = k < 65535.f ? (int)k : 65535;   /* NaN and huge depths land in the last slice */
+                if (!(k >= 0.f)) sl = k < 0.f ? 0 : 65535;
+                s->order2[i] = (uint32_t)sl;
+                if (sl > nslices_m1) nslices_m1 = sl;
+                cnt++;
+            }
+        s->pix_cnt[c] = cnt;
+    }
+    size_t nvalid = 0;
+    for (int c = 0; c < npc; c++) {
+        uint32_t v = s->pix_cnt[c];
+        s->pix_cnt[c] = (uint32_t)nvalid;
+        nvalid += v;
+    }
+    s->nvalid = nvalid;
+    /* Key layout: interleave (the dimension with the most bits left first). */
+    int bd[3] = {bits_for((uint32_t)s->ntx), bits_for((uint32_t)s->nty), bits_for((uint32_t)nslices_m1 + 1)};
+    int btot = bd[0] + bd[1] + bd[2];
+    size_t dimn[3] = {(size_t)1 << bd[0], (size_t)1 << bd[1], (size_t)1 << bd[2]};
+    if ((st = ENSURE(spread, dimn[0] + dimn[1] + dimn[2], uint64_t))) return st;
+    uint64_t *sp[3] = {s->spread, s->spread + dimn[0], s->spread + dimn[0] + dimn[1]};
+    {
+        int left[3] = {bd[0], bd[1], bd[2]};
+        int pos_of[3][32];
+        for (int p = btot - 1; p >= 0; p--) {
+            int d = 0;
+            for (int k = 1; k < 3; k++)
+                if (left[k] > left[d]) d = k;
+            pos_of[d][--left[d]] = p;
+        }
+        for (int d = 0; d < 3; d++)
+            for (size_t v = 0; v < dimn[d]; v++) {
+                uint64_t kk = 0;
+                for (int b = 0; b < bd[d]; b++)
+                    if (v >> b & 1) kk |= (uint64_t)1 << pos_of[d][b];
+                sp[d][v] = kk;
+            }
+    }
+    const int bits = btot + (any_secondary ? 1 : 0);
+    const uint64_t sec_bit = (uint64_t)1 << btot;
+    int L = (bits + 4) / 5;
+    if (L > MAX_LEVELS) return pgi__fail(PGI_ERR_UNSUPPORTED, "cluster: %d key bits exceed the hierarchy depth", bits);
+    s->L = L;
+    if ((st = ENSURE(keys, nvalid + 1, uint64_t)) || (st = ENSURE(keys2, nvalid + 1, uint64_t)) ||
+        (st = ENSURE(order, nvalid + 1, uint32_t)))
+        return st;
+    uint32_t *tmpv = s->order2;   /* holds slices until the compaction below */
+#pragma omp parallel for schedule(static)
+    for (int c = 0; c < npc; c++) {
+        size_t o = s->pix_cnt[c];
+        for (int y = c * rows_per; y < (c + 1) * rows_per && y < H; y++)
+            for (int x = 0; x < W; x++) {
+                size_t i = (size_t)y * W + (size_t)x;
+                uint8_t f = vs->flags[i];
+                if (!(f & PGI_VS_VALID)) continue;
+                uint64_t k = sp[0][x / T] | sp[1][y / T] | sp[2][tmpv[i]];
+                if (!(f & PGI_VS_PRIMARY)) k |= sec_bit;
+                s->keys[o] = k;
+                s->order[o] = (uint32_t)i;
+                o++;
+            }
+    }
+    if ((st = ENSURE(order2, nvalid + 1, uint32_t))) return st;
+    if (radix_sort(s->keys, s->order, s->keys2, s->order2, nvalid, bits, s->hist)) {
+        uint64_t *tk = s->keys; s->keys = s->keys2; s->keys2 = tk;
+        size_t tc = s->keys_cap; s->keys_cap = s->keys2_cap; s->keys2_cap = tc;
+        uint32_t *tv = s->order; s->order = s->order2; s->order2 = tv;
+        tc = s->order_cap; s->order_cap = s->order2_cap; s->order2_cap = tc;
+    }
+    *t_sort = pgi__now_ms();
+
+    /* Levels: count the distinct key prefixes per level (one scan), then fill. */
+    size_t cnt[MAX_LEVELS + 1] = {0};
+    const uint64_t *K = s->keys;
+    for (size_t i = 0; i < nvalid; i++) {
+        if (i > 0 && K[i] == K[i - 1]) continue;
+        for (int l = 0; l <= L; l++) {
+            int sh = 5 * (L - l);
+            if (i == 0 || (K[i] >> sh) != (K[i - 1] >> sh)) cnt[l]++;
+        }
+    }
+    size_t nn = 0;
+    for (int l = 0; l <= L; l++) {
+        s->lvl_off[l] = (uint32_t)nn;
+        nn += cnt[l];
+    }
+    s->lvl_off[L + 1] = (uint32_t)nn;
+    s->nnodes = nn;
+    if (nn > UINT32_MAX / 2) return pgi__fail(PGI_ERR_UNSUPPORTED, "cluster: too many nodes");
+    if ((st = ENSURE(nodes, nn + 1, cnode)) || (st = ENSURE(sbeg, nn + 1, uint32_t)) ||
+        (st = ENSURE(send, nn + 1, uint32_t)) || (st = ENSURE(nkey, nn + 1, uint64_t)))
+        return st;
+    {
+        size_t cur[MAX_LEVELS + 1];
+        for (int l = 0; l <= L; l++) cur[l] = s->lvl_off[l];
+        for (size_t i = 0; i < nvalid; i++) {
+            if (i > 0 && K[i] == K[i - 1]) continue;
+            int l0 = 0;
+            if (i > 0) {
+                while (l0 <= L && (K[i] >> 5 * (L - l0)) == (K[i - 1] >> 5 * (L - l0))) l0++;
+            }
+            for (int l = l0; l <= L; l++) {
+                size_t idx = cur[l]++;
+                cnode *nd = &s->nodes[idx];
+                memset(nd, 0, sizeof *nd);
+                s->nkey[idx] = K[i] >> 5 * (L - l);
+                s->sbeg[idx] = (uint32_t)i;
+                nd->parent = UINT32_MAX;
+                if (l > 0) {
+                    size_t p = cur[l - 1] - 1;
+                    cnode *pn = &s->nodes[p];
+                    if (!pn->mask) pn->first = (uint32_t)idx;
+                    pn->mask |= 1u << (s->nkey[idx] & 31);
+                    nd->parent = (uint32_t)p;
+                }
+            }
+        }
+        for (int l = 0; l <= L; l++)
+            for (size_t idx = s->lvl_off[l]; idx < s->lvl_off[l + 1]; idx++)
+                s->send[idx] = idx + 1 < s->lvl_off[l + 1] ? s->sbeg[idx + 1] : (uint32_t)nvalid;
+    }
+    /* Leaf boxes, cones, Lambert flags from the samples. */
+    const uint32_t leaf0 = s->lvl_off[L], leaf1 = s->lvl_off[L + 1];
+#pragma omp parallel for schedule(dynamic, 64)
+    for (long long li = leaf0; li < (long long)leaf1; li++) {
+        cnode *nd = &s->nodes[li];
+        float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+        double sx = 0, sy = 0, sz = 0;
+        uint32_t lam = 1;
+        for (uint32_t k = s->sbeg[li]; k < s->send[li]; k++) {
+            uint32_t i = s->order[k];
+            const float *p = vs->pos + 3 * (size_t)i, *n = vs->nrm + 3 * (size_t)i;
+            pgi_v3 q = to_view(&s->x, p[0], p[1], p[2]);
+            float qq[3] = {q.x, q.y, q.z};
+            for (int d = 0; d < 3; d++) {
+                lo[d] = pgi_minf(lo[d], qq[d]);
+                hi[d] = pgi_maxf(hi[d], qq[d]);
+            }
+            sx += n[0], sy += n[1], sz += n[2];
+            if (!(vs->flags[i] & PGI_VS_LAMBERT)) lam = 0;
+        }
+        memcpy(nd->lo, lo, sizeof lo);
+        memcpy(nd->hi, hi, sizeof hi);
+        nd->lambert = lam;
+        nd->rej = -2.f, nd->acc = 2.f, nd->alpha = 4.f;   /* open unless the variant uses cones */
+        if ((s->variant & V_CONE) && cone_axis(nd, sx, sy, sz, (double)(s->send[li] - s->sbeg[li]))) {
+            double alpha = 0.0;
+            for (uint32_t k = s->sbeg[li]; k < s->send[li]; k++) {
+                const float *n = vs->nrm + 3 * (size_t)s->order[k];
+                double a = angle_to(nd->ax, nd->ay, nd->az, n[0], n[1], n[2]);
+                if (a > alpha) alpha = a;
+            }
+            cone_thresholds(nd, alpha + 1e-5);
+        }
+    }
+    /* Inner levels bottom-up: union of child boxes; cone = mean child axis,
+     * half-angle = max(angle to child axis + child half-angle) (§4.5). Open
+     * child cones (alpha > pi) make the parent open. */
+    for (int l = L - 1; l >= 0; l--) {
+#pragma omp parallel for schedule(dynamic, 64)
+        for (long long ni = s->lvl_off[l]; ni < (long long)s->lvl_off[l + 1]; ni++) {
+            cnode *nd = &s->nodes[ni];
+            int nch = __builtin_popcount(nd->mask);
+            float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+            double sx = 0, sy = 0, sz = 0;
+            uint32_t lam = 1;
+            int open = 0;
+            for (int k = 0; k < nch; k++) {
+                const cnode *ch = &s->nodes[nd->first + k];
+                for (int d = 0; d < 3; d++) {
+                    lo[d] = pgi_minf(lo[d], ch->lo[d]);
+                    hi[d] = pgi_maxf(hi[d], ch->hi[d]);
+                }
+                lam &= ch->lambert;
+                if (ch->alpha > 3.2f) open = 1;
+                sx += ch->ax, sy += ch->ay, sz += ch->az;
+            }
+            memcpy(nd->lo, lo, sizeof lo);
+            memcpy(nd->hi, hi, sizeof hi);
+            nd->lambert = lam;
+            if ((s->variant & V_CONE) && !open && cone_axis(nd, sx, sy, sz, (double)nch)) {
+                double alpha = 0.0;
+                for (int k = 0; k < nch; k++) {
+                    const cnode *ch = &s->nodes[nd->first + k];
+                    double a = angle_to(nd->ax, nd->ay, nd->az, ch->ax, ch->ay, ch->az) + (double)ch->alpha;
+                    if (a > alpha) alpha = a;
+                }
+                cone_thresholds(nd, alpha + 1e-5);
+            } else {
+                nd->rej = -2.f, nd->acc = 2.f, nd->alpha = 4.f;
+            }
+        }
+    }
+    return PGI_OK;
+}
+
+/* ------------------------------------------------------------ splat */
+
+typedef struct {
+    uint32_t *cnt;               /* TOPC: this chunk's counts; SUBC: node_cnt */
+    uint32_t *off;               /* TOPF: this chunk's write offsets; SUBF: cursor */
+    float *flux;                 /* TOPC: this chunk's trivial flux; SUBC: node_flux */
+    uint32_t *tcnt;              /* trivial counts, same indexing as flux */
+    uint32_t *jobs, *top_ids;
+    pgi__packed_photon *lists;
+    float *buckets;
+    const pgi_photons *ph;
+    uint64_t visited, deposits;
+} sink;
+
+typedef struct {
+    pgi_v3 c;      /* view-space centre */
+    float wx, wy, wz, fr, fg, fb;
+    float rr2, re2;  /* (r + slack)^2: may touch; (r - slack)^2: encloses */
+    int oct;
+    uint32_t j;
+} photon_q;
+
+static inline void load_photon(const cl_state *s, const pgi_photons *ph, size_t j, photon_q *q) {
+    const float r = s->r;
+    q->c = to_view(&s->x, ph->px[j], ph->py[j], ph->pz[j]);
+    q->wx = ph->dx[j], q->wy = ph->dy[j], q->wz = ph->dz[j];
+    q->fr = ph->fr[j], q->fg = ph->fg[j], q->fb = ph->fb[j];
+    /* The slack covers the rounding of the view transform of photon and samples
+     * (relative to their distance from the eye) and of gather's d^2 < r^2. */
+    float slack = 1e-4f * r + 1e-5f * (fabsf(q->c.x) + fabsf(q->c.y) + fabsf(q->c.z) + r);
+    q->rr2 = (r + slack) * (r + slack);
+    float re = r - slack;
+    q->re2 = re > 0.f ? re * re : -1.f;
+    q->oct = 0;
+    if (s->variant & V_DIR) {
+        pgi_v3 w = v3(q->wx, q->wy, q->wz);
+        float vx = v3_dot(w, s->x.right), vy = v3_dot(w, s->x.up), vz = v3_dot(w, s->x.fwd);
+        q->oct = (vx < 0.f) | (vy < 0.f) << 1 | (vz < 0.f) << 2;
+    }
+    q->j = (uint32_t)j;
+}
+
+/* One node test. Returns 1 when the traversal must descend into its children. */
+static inline __attribute__((always_inline)) int visit(const cl_state *s, const int variant, const int op,
+                                                       uint32_t ni, int level, const photon_q *q, sink *k) {
+    const cnode *nd = &s->nodes[ni];
+    k->visited++;
+    float d2 = 0.f;
+    {
+        float e;
+        e = pgi_maxf(pgi_maxf(nd->lo[0] - q->c.x, q->c.x - nd->hi[0]), 0.f); d2 += e * e;
+        e = pgi_maxf(pgi_maxf(nd->lo[1] - q->c.y, q->c.y - nd->hi[1]), 0.f); d2 += e * e;
+        e = pgi_maxf(pgi_maxf(nd->lo[2] - q->c.z, q->c.z - nd->hi[2]), 0.f); d2 += e * e;
+    }
+    if (d2 > q->rr2) return 0;
+    float dw = 0.f;
+    if (variant & V_CONE) {
+        dw = nd->ax * q->wx + nd->ay * q->wy + nd->az * q->wz;
+        if (dw < nd->rej) return 0;   /* below every surface in the node (§4.5) */
+    }
+    const int top = op == OP_TOPC || op == OP_TOPF;
+    if (variant & V_DIR) {
+        if (level == s->D) {
+            if (op == OP_SUBC) {
+                float *b = k->buckets + ((size_t)(ni - s->lvl_off[s->D]) * 8 + (size_t)q->oct) * 3;
+                b[0] += q->fr, b[1] += q->fg, b[2] += q->fb;
+                k->deposits++;
+            } else if (op == OP_TOPC) k->cnt[ni]++;
+            else if (op == OP_TOPF) k->jobs[k->off[ni]++] = q->j;
+            return 0;
+        }
+        if (top && level == s->J) goto job;
+        return 1;
+    }
+    if (top && level == s->J) goto job;
+    {
+        float f2 = 0.f, e;
+        e = pgi_maxf(q->c.x - nd->lo[0], nd->hi[0] - q->c.x); f2 += e * e;
+        e = pgi_maxf(q->c.y - nd->lo[1], nd->hi[1] - q->c.y); f2 += e * e;
+        e = pgi_maxf(q->c.z - nd->lo[2], nd->hi[2] - q->c.z); f2 += e * e;
+        if (f2 < q->re2) {
+            if ((variant & V_TRIVIAL) && nd->lambert && dw > nd->acc) {
+                /* encloses the node and above every surface in it (§4.6) */
+                if (op == OP_TOPC || op == OP_SUBC) {
+                    float *f = k->flux + 3 * (size_t)ni;
+                    f[0] += q->fr, f[1] += q->fg, f[2] += q->fb;
+                    k->tcnt[ni]++;
+                }
+                return 0;
+            }
+            goto list;
+        }
+    }
+    if (level == s->L) goto list;
+    return 1;
+list:
+    if (op == OP_TOPC || op == OP_SUBC) k->cnt[ni]++;
+    else if (op == OP_TOPF) k->top_ids[k->off[ni]++] = q->j;
+    else pgi__pack_photon(k->ph, q->j, &k->lists[k->off[ni]++]);
+    return 0;
+job:
+    if (op == OP_TOPC) k->cnt[ni]++;
+    else k->jobs[k->off[ni]++] = q->j;
+    return 0;
+}
+
+/* Traversal from node `start` (at `start_level`) with a stack of child masks
+ * (§4.3): the top entry's lowest set bit is the next child to test; children
+ * are stored contiguously in digit order, so its index is a running counter. */
+static inline __attribute__((always_inline)) void walk(const cl_state *s, const int variant, const int op,
+                                                      uint32_t start, int start_level, const photon_q *q, sink *k) {
+    if (!visit(s, variant, op, start, start_level, q, k)) return;
+    struct {
+        uint32_t mask, next;
+    } stk[MAX_LEVELS + 2];
+    int sp = 0;
+    stk[0].mask = s->nodes[start].mask;
+    stk[0].next = s->nodes[start].first;
+    sp = 1;
+    while (sp > 0) {
+        uint32_t m = stk[sp - 1].mask;
+        if (!m) {
+            sp--;
+            continue;
+        }
+        stk[sp - 1].mask = m & (m - 1);
+        uint32_t ch = stk[sp - 1].next++;
+        if (visit(s, variant, op, ch, start_level + sp, q, k)) {
+            stk[sp].mask = s->nodes[ch].mask;
+            stk[sp].next = s->nodes[ch].first;
+            sp++;
+        }
+    }
+}
+
+static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, const pgi_photons *ph,
+                                                                   const int variant, double *tm) {
+    const size_t n = ph->count;
+    size_t chunk = n / NCHUNK_MAX + 1;
+    if (chunk < 8192) chunk = 8192;
+    const size_t nch = (n + chunk - 1) / chunk;
+    const uint32_t nabove = s->lvl_off[s->J], ntop = s->lvl_off[s->J + 1], nJ = ntop - nabove;
+    const size_t nn = s->nnodes;
+    pgi_status st;
+    if ((st = ENSURE(top_cnt, nch * ntop + 1, uint32_t)) || (st = ENSURE(top_flux, nch * nabove * 3 + 1, float)) ||
+        (st = ENSURE(top_tcnt, nch * nabove + 1, uint32_t)) || (st = ENSURE(job_start, (size_t)nJ + 1, uint32_t)) ||
+        (st = ENSURE(node_start, nn + 1, uint32_t)) || (st = ENSURE(node_cnt, nn + 1, uint32_t)) ||
+        (st = ENSURE(node_flux, 3 * nn + 1, float)) || (st = ENSURE(node_tcnt, nn + 1, uint32_t)) ||
+        (st = ENSURE(cursor, nn + 1, uint32_t)))
+        return st;
+    const size_t nD = (variant & V_DIR) ? s->lvl_off[s->D + 1] - s->lvl_off[s->D] : 0;
+    if ((variant & V_DIR) && (st = ENSURE(buckets, nD * 24 + 1, float))) return st;
+    uint64_t visited = 0, deposits = 0;
+    /* Top pass, count: lists of nodes above J, jobs at J, trivial flux above J. */
+#pragma omp parallel for schedule(dynamic, 1) reduction(+ : visited)
+    for (long long ci = 0; ci < (long long)nch; ci++) {
+        sink k = {0};
+        k.ph = ph;
+        k.cnt = s->top_cnt + (size_t)ci * ntop;
+        k.flux = s->top_flux + (size_t)ci * nabove * 3;
+        k.tcnt = s->top_tcnt + (size_t)ci * nabove;
+        memset(k.cnt, 0, ntop * sizeof *k.cnt);
+        memset(k.flux, 0, (size_t)nabove * 3 * sizeof *k.flux);
+        memset(k.tcnt, 0, (size_t)nabove * sizeof *k.tcnt);
+        size_t j1 = ((size_t)ci + 1) * chunk < n ? ((size_t)ci + 1) * chunk : n;
+        for (size_t j = (size_t)ci * chunk; j < j1; j++) {
+            photon_q q;
+            load_photon(s, ph, j, &q);
+            walk(s, variant, OP_TOPC, 0, 0, &q, &k);
+        }
+        visited += k.visited;
+    }
+    /* Prefix sums, node-major then chunk: photon order within every list. */
+    size_t sum = 0;
+    for (uint32_t nd = 0; nd < nabove; nd++) {
+        s->node_start[nd] = (uint32_t)sum;
+        for (size_t ci = 0; ci < nch; ci++) {
+            uint32_t *c = s->top_cnt + ci * ntop + nd, v = *c;
+            *c = (uint32_t)sum;
+            sum += v;
+        }
+        s->node_cnt[nd] = (uint32_t)(sum - s->node_start[nd]);
+    }
+    s->ntop_list = sum;
+    size_t js = 0;
+    for (uint32_t t = 0; t < nJ; t++) {
+        s->job_start[t] = (uint32_t)js;
+        for (size_t ci = 0; ci < nch; ci++) {
+            uint32_t *c = s->top_cnt + ci * ntop + nabove + t, v = *c;
+            *c = (uint32_t)js;
+            js += v;
+        }
+    }
+    s->job_start[nJ] = (uint32_t)js;
+    s->njobs = js;
+    if (sum > UINT32_MAX / 2 || js > UINT32_MAX / 2)
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "cluster: too many photon list entries; use a smaller radius");
+    if ((st = ENSURE(jobs, js + 1, uint32_t)) || (st = ENSURE(top_ids, sum + 1, uint32_t))) return st;
+#pragma omp parallel for schedule(dynamic, 1)
+    for (long long ci = 0; ci < (long long)nch; ci++) {
+        sink k = {0};
+        k.ph = ph;
+        k.off = s->top_cnt + (size_t)ci * ntop;
+        k.jobs = s->jobs;
+        k.top_ids = s->top_ids;
+        size_t j1 = ((size_t)ci + 1) * chunk < n ? ((size_t)ci + 1) * chunk : n;
+        for (size_t j = (size_t)ci * chunk; j < j1; j++) {
+            photon_q q;
+            load_photon(s, ph, j, &q);
+            walk(s, variant, OP_TOPF, 0, 0, &q, &k);
+        }
+    }
+    /* Trivial flux above J: chunks summed in chunk order. */
+#pragma omp parallel for schedule(static)
+    for (long long nd = 0; nd < (long long)nabove; nd++) {
+        float f[3] = {0.f, 0.f, 0.f};
+        uint32_t c = 0;
+        for (size_t ci = 0; ci < nch; ci++) {
+            const float *g = s->top_flux + (ci * nabove + (size_t)nd) * 3;
+            f[0] += g[0], f[1] += g[1], f[2] += g[2];
+            c += s->top_tcnt[ci * nabove + (size_t)nd];
+        }
+        memcpy(s->node_flux + 3 * nd, f, sizeof f);
+        s->node_tcnt[nd] = c;
+    }
+    memset(s->node_cnt + nabove, 0, (nn - nabove) * sizeof(uint32_t));
+    memset(s->node_flux + 3 * (size_t)nabove, 0, (nn - nabove) * 3 * sizeof(float));
+    memset(s->node_tcnt + nabove, 0, (nn - nabove) * sizeof(uint32_t));
+    if (variant & V_DIR) memset(s->buckets, 0, nD * 24 * sizeof(float));
+    tm[0] = pgi__now_ms();
+    /* Subtree pass, count: one task per job-level node owns its whole subtree,
+     * so counts and accumulators need no atomics and sum in job order. */
+#pragma omp parallel for schedule(dynamic, 1) reduction(+ : visited, deposits)
+    for (long long t = 0; t < (long long)nJ; t++) {
+        sink k = {0};
+        k.ph = ph;
+        k.cnt = s->node_cnt;
+        k.flux = s->node_flux;
+        k.tcnt = s->node_tcnt;
+        k.buckets = s->buckets;
+        for (uint32_t u = s->job_start[t]; u < s->job_start[t + 1]; u++) {
+            photon_q q;
+            load_photon(s, ph, s->jobs[u], &q);
+            walk(s, variant, OP_SUBC, nabove + (uint32_t)t, s->J, &q, &k);
+        }
+        visited += k.visited;
+        deposits += k.deposits;
+    }
+    s->c.st.nodes_visited = visited;
+    s->deposits = deposits;
+    tm[1] = pgi__now_ms();
+    if (variant & V_DIR) {
+        s->nlist = 0;
+        s->node_start[nn] = 0;
+        tm[2] = tm[1];
+        return PGI_OK;
+    }
+    for (size_t nd = nabove; nd < nn; nd++) {
+        s->node_start[nd] = (uint32_t)sum;
+        sum += s->node_cnt[nd];
+    }
+    s->node_start[nn] = (uint32_t)sum;
+    if (sum > UINT32_MAX / 2)
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "cluster: too many photon list entries; use a smaller radius");
+    s->nlist = sum;
+    if ((st = ENSURE(lists, sum + 1, pgi__packed_photon))) return st;
+#pragma omp parallel for schedule(static)
+    for (long long u = 0; u < (long long)s->ntop_list; u++) pgi__pack_photon(ph, s->top_ids[u], &s->lists[u]);
+    for (size_t nd = nabove; nd < nn; nd++) s->cursor[nd] = s->node_start[nd];
+#pragma omp parallel for schedule(dynamic, 1)
+    for (long long t = 0; t < (long long)nJ; t++) {
+        sink k = {0};
+        k.ph = ph;
+        k.off = s->cursor;
+        k.lists = s->lists;
+        for (uint32_t u = s->job_start[t]; u < s->job_start[t + 1]; u++) {
+            photon_q q;
+            load_photon(s, ph, s->jobs[u], &q);
+            walk(s, variant, OP_SUBF, nabove + (uint32_t)t, s->J, &q, &k);
+        }
+    }
+    tm[2] = pgi__now_ms();
+    return PGI_OK;
+}
+
+static pgi_status splat(cl_state *s, const pgi_photons *ph, double *tm) {
+    switch (s->variant) {
+    case 0: return splat_impl(s, ph, 0, tm);
+    case V_CONE: return splat_impl(s, ph, V_CONE, tm);
+    case V_CONE | V_TRIVIAL: return splat_impl(s, ph, V_CONE | V_TRIVIAL, tm);
+    default: return splat_impl(s, ph, V_DIR, tm);
+    }
+}
+
+static pgi_status cl_build(void *state, const pgi_estimate_args *a) {
+    cl_state *s = state;
+    memset(&s->c.st, 0, sizeof s->c.st);
+    const pgi_view_samples *vs = a->samples;
+    const pgi_camera *cam = a->camera;
+    if (vs->width != cam->width || vs->height != cam->height)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "%s: view samples are %dx%d but the camera is %dx%d",
+                         s->variant & V_DIR ? "directional" : "cluster", vs->width, vs->height, cam->width,
+                         cam->height);
+    s->W = vs->width;
+    s->H = vs->height;
+    s->r = s->c.desc.radius;
+    s->x = (view_xf){v3_load(cam->eye), v3_load(cam->right), v3_load(cam->up), v3_load(cam->forward)};
+    double t0 = pgi__now_ms(), t_sort = t0;
+    pgi_status st = cl_build_hierarchy(s, vs, cam, &t_sort);
+    if (st) return st;
+    double t1 = pgi__now_ms();
+    s->nlist = s->njobs = s->ntop_list = 0;
+    s->deposits = 0;
+    s->splatted = 0;
+    double tm[3] = {t1, t1, t1};
+    if (s->nnodes > 0 && a->photons->count > 0) {
+        /* Job level: the first level with enough nodes to balance the subtree tasks. */
+        int J = s->L;
+        for (int l = 0; l <= s->L; l++)
+            if (s->lvl_off[l + 1] - s->lvl_off[l] >= JOB_LEVEL_NODES) {
+                J = l;
+                break;
+            }
+        s->D = s->L - s->dir_up < 0 ? 0 : s->L - s->dir_up;
+        if ((s->variant & V_DIR) && J > s->D) J = s->D;
+        s->J = J;
+        if ((st = splat(s, a->photons, tm))) return st;
+        s->splatted = 1;
+    } else {
+        s->D = s->J = 0;
+    }
+    pgi__stats_pass(&s->c.st, "sort", t_sort - t0);
+    pgi__stats_pass(&s->c.st, "hierarchy", t1 - t_sort);
+    pgi__stats_pass(&s->c.st, "top", tm[0] - t1);
+    pgi__stats_pass(&s->c.st, (s->variant & V_DIR) ? "splat" : "count", tm[1] - tm[0]);
+    if (!(s->variant & V_DIR)) pgi__stats_pass(&s->c.st, "fill", tm[2] - tm[1]);
+    s->c.st.build_ms = pgi__now_ms() - t0;
+    return PGI_OK;
+}
+
+/* ------------------------------------------------------------ radiance */
+
+/* Depth- and normal-aware blur along one axis (§4.7): tent weights in
+ * pixels, times a depth weight falling to 0 at a 5% relative depth step and
+ * a normal weight max(0, n.n')^8. Invalid samples neither give nor receive. */
+static void blur_pass(const pgi_view_samples *vs, const float *in, float *out, int R, int dx, int dy) {
+    const int W = vs->width, H = vs->height;
+#pragma omp parallel for schedule(static)
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            size_t i = (size_t)y * W + (size_t)x;
+            if (!(vs->flags[i] & PGI_VS_VALID)) {
+                out[3 * i] = out[3 * i + 1] = out[3 * i + 2] = 0.f;
+                continue;
+            }
+            const float z0 = vs->depth[i], *n0 = vs->nrm + 3 * i;
+            const float inv_dz = 1.f / (0.05f * fabsf(z0) + 1e-12f);
+            float sr = in[3 * i], sg = in[3 * i + 1], sb = in[3 * i + 2], ws = 1.f;
+            for (int k = -R; k <= R; k++) {
+                if (!k) continue;
+                int xx = x + k * dx, yy = y + k * dy;
+                if (xx < 0 || yy < 0 || xx >= W || yy >= H) continue;
+                size_t j = (size_t)yy * W + (size_t)xx;
+                if (!(vs->flags[j] & PGI_VS_VALID)) continue;
+                float wz = 1.f - fabsf(vs->depth[j] - z0) * inv_dz;
+                if (!(wz > 0.f)) continue;
+                const float *n1 = vs->nrm + 3 * j;
+                float c = n0[0] * n1[0] + n0[1] * n1[1] + n0[2] * n1[2];
+                if (!(c > 0.f)) continue;
+                c *= c, c *= c, c *= c;
+                float w = (1.f - (float)abs(k) / (float)(R + 1)) * wz * c;
+                sr += w * in[3 * j], sg += w * in[3 * j + 1], sb += w * in[3 * j + 2];
+                ws += w;
+            }
+            float inv = 1.f / ws;
+            out[3 * i] = sr * inv, out[3 * i + 1] = sg * inv, out[3 * i + 2] = sb * inv;
+        }
+}
+
+static pgi_status dir_radiance(cl_state *s, const pgi_estimate_args *a, double *t_blur) {
+    const pgi_view_samples *vs = a->samples;
+    const size_t npix = vs->count;
+    pgi_status st;
+    if ((st = ENSURE(irr, 3 * npix, float)) || (st = ENSURE(irr2, 3 * npix, float))) return st;
+    memset(s->irr, 0, 3 * npix * sizeof(float));
+    const float inv_area = 1.f / (PGI_PI * s->r * s->r);
+    const float c3 = 0.57735026919f;
+    if (s->splatted) {
+        const uint32_t leaf0 = s->lvl_off[s->L], leaf1 = s->lvl_off[s->L + 1];
+#pragma omp parallel for schedule(dynamic, 16)
+        for (long long li = leaf0; li < (long long)leaf1; li++) {
+            uint32_t u = (uint32_t)li;
+            for (int l = s->L; l > s->D; l--) u = s->nodes[u].parent;
+            const float *b = s->buckets + (size_t)(u - s->lvl_off[s->D]) * 24;
+            for (uint32_t k = s->sbeg[li]; k < s->send[li]; k++) {
+                size_t i = s->order[k];
+                pgi_v3 n = v3_load(vs->nrm + 3 * i);
+                float nx = v3_dot(n, s->x.right), ny = v3_dot(n, s->x.up), nz = v3_dot(n, s->x.fwd);
+                float e[3] = {0.f, 0.f, 0.f};
+                for (int o = 0; o < 8; o++) {
+                    /* bucket direction: the octant's diagonal */
+                    float c = ((o & 1) ? -nx : nx) + ((o & 2) ? -ny : ny) + ((o & 4) ? -nz : nz);
+                    float w = 2.f * c3 * c;
+                    if (!(w > 0.f)) continue;
+                    e[0] += w * b[3 * o], e[1] += w * b[3 * o + 1], e[2] += w * b[3 * o + 2];
+                }
+                for (int d = 0; d < 3; d++) s->irr[3 * i + d] = e[d] * inv_area;
+            }
+        }
+    }
+    *t_blur = pgi__now_ms();
+    const float *E = s->irr;
+    if (s->blur > 0 && s->splatted) {
+        blur_pass(vs, s->irr, s->irr2, s->blur, 1, 0);
+        blur_pass(vs, s->irr2, s->irr, s->blur, 0, 1);
+    }
+#pragma omp parallel for schedule(static)
+    for (long long ii = 0; ii < (long long)npix; ii++) {
+        float *out = a->out_rgb + 3 * ii;
+        if (!(vs->flags[ii] & PGI_VS_VALID)) {
+            out[0] = out[1] = out[2] = 0.f;
+            continue;
+        }
+        const float *kd = vs->kd + 3 * ii;
+        for (int d = 0; d < 3; d++) out[d] = kd[d] * PGI_INV_PI * E[3 * ii + d];
+    }
+    return PGI_OK;
+}
+
+static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
+    cl_state *s = state;
+    double t0 = pgi__now_ms();
+    const pgi_view_samples *vs = a->samples;
+    if (vs->width != s->W || vs->height != s->H)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "%s: estimate called with a frame size other than build's",
+                         s->variant & V_DIR ? "directional" : "cluster");
+    const size_t npix = vs->count;
+    uint64_t reads = 0, contrib = 0;
+    pgi_status st;
+    if (s->variant & V_DIR) {
+        double tb = t0;
+        if ((st = dir_radiance(s, a, &tb))) return st;
+        double t1 = pgi__now_ms();
+        s->c.st.estimate_ms = t1 - t0;
+        pgi__stats_pass(&s->c.st, "radiance", tb - t0);
+        pgi__stats_pass(&s->c.st, "blur", t1 - tb);
+        reads = contrib = s->deposits;
+    } else {
+#pragma omp parallel for schedule(static)
+        for (long long ii = 0; ii < (long long)npix; ii++)
+            if (!(vs->flags[ii] & PGI_VS_VALID)) a->out_rgb[3 * ii] = a->out_rgb[3 * ii + 1] = a->out_rgb[3 * ii + 2] = 0.f;
+        const size_t nn = s->nnodes;
+        if (!s->splatted) {
+            /* no photons: every valid sample gets zero */
+#pragma omp parallel for schedule(static)
+            for (long long ii = 0; ii < (long long)npix; ii++)
+                a->out_rgb[3 * ii] = a->out_rgb[3 * ii + 1] = a->out_rgb[3 * ii + 2] = 0.f;
+        } else {
+            if ((st = ENSURE(cum_flux, 3 * nn + 1, float)) || (st = ENSURE(cum_cnt, nn + 1, uint32_t))) return st;
+            /* trivially accepted flux of a node and all its ancestors, top-down */
+            for (int l = 0; l <= s->L; l++) {
+#pragma omp parallel for schedule(static)
+                for (long long ni = s->lvl_off[l]; ni < (long long)s->lvl_off[l + 1]; ni++) {
+                    uint32_t p = s->nodes[ni].parent;
+                    for (int d = 0; d < 3; d++)
+                        s->cum_flux[3 * ni + d] = s->node_flux[3 * ni + d] + (l ? s->cum_flux[3 * (size_t)p + d] : 0.f);
+                    s->cum_cnt[ni] = s->node_tcnt[ni] + (l ? s->cum_cnt[p] : 0u);
+                }
+            }
+            const float r2 = s->r * s->r;
+            const uint32_t leaf0 = s->lvl_off[s->L], leaf1 = s->lvl_off[s->L + 1];
+#pragma omp parallel for schedule(dynamic, 8) reduction(+ : reads, contrib)
+            for (long long li = leaf0; li < (long long)leaf1; li++) {
+                uint32_t path[MAX_LEVELS + 2];
+                int np = 0;
+                uint64_t total = 0;
+                for (uint32_t u = (uint32_t)li; u != UINT32_MAX; u = s->nodes[u].parent) {
+                    if (s->node_start[u + 1] > s->node_start[u]) path[np++] = u;
+                    total += s->node_start[u + 1] - s->node_start[u];
+                }
+                const float *cf = s->cum_flux + 3 * li;
+                const uint32_t cc = s->cum_cnt[li];
+                for (uint32_t k = s->sbeg[li]; k < s->send[li]; k++) {
+                    size_t i = s->order[k];
+                    pgi__vs v;
+                    pgi__vs_load(vs, i, &v);
+                    pgi__acc acc = {0};
+                    for (int p = np - 1; p >= 0; p--) {
+                        const pgi__packed_photon *q = s->lists + s->node_start[path[p]];
+                        const uint32_t m = s->node_start[path[p] + 1] - s->node_start[path[p]];
+                        for (uint32_t e = 0; e < m; e++) pgi__gather_packed(&v, r2, q + e, &acc);
+                    }
+                    acc.fr += cf[0], acc.fg += cf[1], acc.fb += cf[2];
+                    acc.contributing += cc;
+                    pgi__acc_finish(&v, &acc, r2, a->out_rgb + 3 * i);
+                    reads += total;
+                    contrib += acc.contributing;
+                }
+            }
+        }
+        s->c.st.estimate_ms = pgi__now_ms() - t0;
+        pgi__stats_pass(&s->c.st, "radiance", s->c.st.estimate_ms);
+    }
+    s->c.st.reads = reads;
+    s->c.st.contributing = contrib;
+    /* bytes per structure (the paper's Table 1) */
+    const size_t nn = s->nnodes;
+    s->c.st.memory_count = 0;
+    pgi__stats_mem(&s->c.st, "hierarchy", nn * (4 * sizeof(uint32_t) + 2 * sizeof(uint32_t) + sizeof(uint64_t)) +
+                                              s->nvalid * (sizeof(uint32_t) + sizeof(uint64_t)));
+    pgi__stats_mem(&s->c.st, "bounds", nn * 6 * sizeof(float));
+    if (s->variant & V_CONE) pgi__stats_mem(&s->c.st, "normal_cones", nn * 6 * sizeof(float));
+    if (s->variant & V_TRIVIAL) pgi__stats_mem(&s->c.st, "node_flux", nn * (3 * sizeof(float) + sizeof(uint32_t)));
+    if (s->variant & V_DIR) {
+        size_t nD = s->splatted ? s->lvl_off[s->D + 1] - s->lvl_off[s->D] : 0;
+        pgi__stats_mem(&s->c.st, "node_flux", nD * 24 * sizeof(float));
+        pgi__stats_mem(&s->c.st, "irradiance", 2 * 3 * npix * sizeof(float));
+    }
+    pgi__stats_mem(&s->c.st, "jobs", s->njobs * sizeof(uint32_t) + (s->J < s->L + 1 ? 0 : 0));
+    if (!(s->variant & V_DIR))
+        pgi__stats_mem(&s->c.st, "photon_lists", s->nlist * sizeof(pgi__packed_photon) + (nn + 1) * sizeof(uint32_t));
+    return PGI_OK;
+}
+
+static void cl_stats(const void *state, pgi_estimator_stats *out) { *out = ((const cl_state *)state)->c.st; }
+
+static void cl_destroy(void *state) {
+    cl_state *s = state;
+    if (!s) return;
+    void *p[] = {s->keys, s->keys2, s->spread, s->order, s->order2, s->hist, s->pix_cnt, s->nodes, s->sbeg,
+                 s->send, s->nkey, s->top_cnt, s->top_tcnt, s->job_start, s->jobs, s->top_ids, s->node_cnt,
+                 s->node_start, s->node_tcnt, s->cursor, s->top_flux, s->node_flux, s->buckets, s->lists,
+                 s->cum_flux, s->irr, s->irr2, s->cum_cnt};
+    for (size_t k = 0; k < sizeof p / sizeof p[0]; k++) pgi__afree(p[k]);
+    free(s);
+}
+
+const pgi_estimator_vtbl pgi__est_cluster = {
+    "cluster", "view-sample cluster hierarchy; photons splatted into node lists (Moreau et al. 2016 §4.1-4.4)", 1,
+    cluster_create, cl_build, cl_estimate, cl_stats, cl_destroy, 0,
+};
+const pgi_estimator_vtbl pgi__est_cluster_cone = {
+    "cluster-cone", "cluster + normal-cone rejection of photons from below a node's surfaces (§4.5)", 1,
+    cone_create, cl_build, cl_estimate, cl_stats, cl_destroy, 0,
+};
+const pgi_estimator_vtbl pgi__est_cluster_trivial = {
+    "cluster-trivial",
+    "cluster-cone + trivial accept: enclosed all-Lambertian nodes accumulate flux, no list (§4.6)", 1,
+    trivial_create, cl_build, cl_estimate, cl_stats, cl_destroy, 0,
+};
+const pgi_estimator_vtbl pgi__est_directional = {
+    "directional",
+    "cluster hierarchy, flux in 8 octant buckets per node at a fixed level, blurred irradiance (§4.7)", 0,
+    dir_create, cl_build, cl_estimate, cl_stats, cl_destroy, 0,
+};
