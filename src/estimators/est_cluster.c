@@ -60,11 +60,11 @@
  * may exceed reads, as in the paper's Fig. 7); nodes_visited = node tests in
  * the traversals. directional: reads = contributing = bucket deposits. */
 #include <omp.h>
+#include <stdio.h>
 
 #include "estimator_internal.h"
 
 enum { V_CONE = 1, V_TRIVIAL = 2, V_DIR = 4 };
-enum { OP_TOPC, OP_TOPF, OP_SUBC, OP_SUBF };
 
 #define MAX_LEVELS 12
 #define RADIX_BITS 11
@@ -119,6 +119,13 @@ typedef struct {
     uint32_t *cum_cnt;
     size_t cum_flux_cap, cum_cnt_cap, irr_cap, irr2_cap;
     uint64_t deposits;
+    struct sink *outs;   /* traversal records: one per top chunk / per thread */
+    int nouts;
+    uint32_t *task_rec;  /* per job-level node: thread, first and end record */
+    size_t task_rec_cap;
+    float *sx0, *sy0, *sz0, *sx1, *sy1, *sz1, *cax, *cay, *caz, *crej;   /* SoA copies for child_hits */
+    float *soa;
+    size_t soa_cap;
     int splatted;   /* this frame has nodes and photons (lists/buckets are valid) */
 } cl_state;
 
@@ -439,13 +446,20 @@ static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, co
         nd->lambert = lam;
         nd->rej = -2.f, nd->acc = 2.f, nd->alpha = 4.f;   /* open unless the variant uses cones */
         if ((s->variant & V_CONE) && cone_axis(nd, sx, sy, sz, (double)(s->send[li] - s->sbeg[li]))) {
-            double alpha = 0.0;
+            /* the largest angle is the smallest cosine: one acos a leaf */
+            const double ax = nd->ax, ay = nd->ay, az = nd->az, la = sqrt(ax * ax + ay * ay + az * az);
+            double cmin = 1.0;
+            int bad = 0;
             for (uint32_t k = s->sbeg[li]; k < s->send[li]; k++) {
                 const float *n = vs->nrm + 3 * (size_t)s->order[k];
-                double a = angle_to(nd->ax, nd->ay, nd->az, n[0], n[1], n[2]);
-                if (a > alpha) alpha = a;
+                double nx = n[0], ny = n[1], nz = n[2];
+                double c = (ax * nx + ay * ny + az * nz) / (la * sqrt(nx * nx + ny * ny + nz * nz));
+                if (c != c) bad = 1;   /* a zero or NaN normal opens the cone */
+                else if (c < cmin) cmin = c;
             }
-            cone_thresholds(nd, alpha + 1e-5);
+            cmin = cmin < -1.0 ? -1.0 : cmin;
+            if (!bad) cone_thresholds(nd, acos(cmin) + 1e-5);
+            else nd->rej = -2.f, nd->acc = 2.f, nd->alpha = 4.f;
         }
     }
     /* Inner levels bottom-up: union of child boxes; cone = mean child axis,
@@ -486,21 +500,32 @@ static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, co
             }
         }
     }
+    /* Structure-of-arrays copies of boxes and cones for the child tests. */
+    const size_t stride = nn + 16;
+    if ((st = ENSURE(soa, 10 * stride, float))) return st;
+    float **arr[10] = {&s->sx0, &s->sy0, &s->sz0, &s->sx1, &s->sy1, &s->sz1, &s->cax, &s->cay, &s->caz, &s->crej};
+    for (int k = 0; k < 10; k++) *arr[k] = s->soa + (size_t)k * stride;
+#pragma omp parallel for schedule(static)
+    for (long long ni = 0; ni < (long long)nn; ni++) {
+        const cnode *nd = &s->nodes[ni];
+        s->sx0[ni] = nd->lo[0], s->sy0[ni] = nd->lo[1], s->sz0[ni] = nd->lo[2];
+        s->sx1[ni] = nd->hi[0], s->sy1[ni] = nd->hi[1], s->sz1[ni] = nd->hi[2];
+        s->cax[ni] = nd->ax, s->cay[ni] = nd->ay, s->caz[ni] = nd->az, s->crej[ni] = nd->rej;
+    }
     return PGI_OK;
 }
 
 /* ------------------------------------------------------------ splat */
 
-typedef struct {
-    uint32_t *cnt;               /* TOPC: this chunk's counts; SUBC: node_cnt */
-    uint32_t *off;               /* TOPF: this chunk's write offsets; SUBF: cursor */
-    float *flux;                 /* TOPC: this chunk's trivial flux; SUBC: node_flux */
+typedef struct sink {
+    uint32_t *cnt;               /* per-node output counts (top: this chunk's row) */
+    float *flux;                 /* trivial flux (top: this chunk's row; subtree: node_flux) */
     uint32_t *tcnt;              /* trivial counts, same indexing as flux */
-    uint32_t *jobs, *top_ids;
-    pgi__packed_photon *lists;
     float *buckets;
-    const pgi_photons *ph;
+    uint32_t *out;               /* recorded outputs: (node, photon) pairs */
+    size_t nout, capout;
     uint64_t visited, deposits;
+    int oom;
 } sink;
 
 typedef struct {
@@ -531,33 +556,55 @@ static inline void load_photon(const cl_state *s, const pgi_photons *ph, size_t 
     q->j = (uint32_t)j;
 }
 
-/* One node test. Returns 1 when the traversal must descend into its children. */
-static inline __attribute__((always_inline)) int visit(const cl_state *s, const int variant, const int op,
-                                                       uint32_t ni, int level, const photon_q *q, sink *k) {
-    const cnode *nd = &s->nodes[ni];
-    k->visited++;
-    float d2 = 0.f;
-    {
-        float e;
-        e = pgi_maxf(pgi_maxf(nd->lo[0] - q->c.x, q->c.x - nd->hi[0]), 0.f); d2 += e * e;
-        e = pgi_maxf(pgi_maxf(nd->lo[1] - q->c.y, q->c.y - nd->hi[1]), 0.f); d2 += e * e;
-        e = pgi_maxf(pgi_maxf(nd->lo[2] - q->c.z, q->c.z - nd->hi[2]), 0.f); d2 += e * e;
+/* Culling test of the children [f, f + nc) of one node, branch-free over
+ * structure-of-arrays boxes and cones (the compiler vectorises it): bit k of
+ * the result is set when child f + k may hold a sample the photon reaches. */
+static inline __attribute__((always_inline)) uint32_t child_hits(const cl_state *s, const int variant, uint32_t f,
+                                                                 int nc, const photon_q *q) {
+    const float *x0 = s->sx0 + f, *y0 = s->sy0 + f, *z0 = s->sz0 + f, *x1 = s->sx1 + f, *y1 = s->sy1 + f,
+                *z1 = s->sz1 + f;
+    const float cx = q->c.x, cy = q->c.y, cz = q->c.z, rr2 = q->rr2;
+    uint32_t m = 0;
+    for (int k = 0; k < nc; k++) {
+        float ex = pgi_maxf(pgi_maxf(x0[k] - cx, cx - x1[k]), 0.f);
+        float ey = pgi_maxf(pgi_maxf(y0[k] - cy, cy - y1[k]), 0.f);
+        float ez = pgi_maxf(pgi_maxf(z0[k] - cz, cz - z1[k]), 0.f);
+        uint32_t hit = ex * ex + ey * ey + ez * ez <= rr2;
+        if (variant & V_CONE) {
+            float dw = s->cax[f + k] * q->wx + s->cay[f + k] * q->wy + s->caz[f + k] * q->wz;
+            hit &= dw >= s->crej[f + k];   /* else below every surface in the child (§4.5) */
+        }
+        m |= hit << k;
     }
-    if (d2 > q->rr2) return 0;
-    float dw = 0.f;
-    if (variant & V_CONE) {
-        dw = nd->ax * q->wx + nd->ay * q->wy + nd->az * q->wz;
-        if (dw < nd->rej) return 0;   /* below every surface in the node (§4.5) */
+    return m;
+}
+
+/* Records one traversal output (node, photon) in the sink's growable array. */
+static inline void emit(sink *k, uint32_t node, uint32_t j) {
+    if (k->nout == k->capout) {
+        size_t nc = k->capout ? 2 * k->capout : 4096;
+        uint32_t *p = realloc(k->out, 2 * nc * sizeof *p);
+        if (!p) {
+            k->oom = 1;
+            return;
+        }
+        k->out = p;
+        k->capout = nc;
     }
-    const int top = op == OP_TOPC || op == OP_TOPF;
+    k->out[2 * k->nout] = node;
+    k->out[2 * k->nout + 1] = j;
+    k->nout++;
+}
+
+/* What to do with a node that passed the culling test. Returns 1 when the
+ * traversal must descend into its children. */
+static inline __attribute__((always_inline)) int decide(const cl_state *s, const int variant, const int top,
+                                                        uint32_t ni, int level, const photon_q *q, sink *k) {
     if (variant & V_DIR) {
-        if (level == s->D) {
-            if (op == OP_SUBC) {
-                float *b = k->buckets + ((size_t)(ni - s->lvl_off[s->D]) * 8 + (size_t)q->oct) * 3;
-                b[0] += q->fr, b[1] += q->fg, b[2] += q->fb;
-                k->deposits++;
-            } else if (op == OP_TOPC) k->cnt[ni]++;
-            else if (op == OP_TOPF) k->jobs[k->off[ni]++] = q->j;
+        if (level == s->D && !top) {
+            float *b = k->buckets + ((size_t)(ni - s->lvl_off[s->D]) * 8 + (size_t)q->oct) * 3;
+            b[0] += q->fr, b[1] += q->fg, b[2] += q->fb;
+            k->deposits++;
             return 0;
         }
         if (top && level == s->J) goto job;
@@ -565,18 +612,18 @@ static inline __attribute__((always_inline)) int visit(const cl_state *s, const 
     }
     if (top && level == s->J) goto job;
     {
+        const cnode *nd = &s->nodes[ni];
         float f2 = 0.f, e;
         e = pgi_maxf(q->c.x - nd->lo[0], nd->hi[0] - q->c.x); f2 += e * e;
         e = pgi_maxf(q->c.y - nd->lo[1], nd->hi[1] - q->c.y); f2 += e * e;
         e = pgi_maxf(q->c.z - nd->lo[2], nd->hi[2] - q->c.z); f2 += e * e;
         if (f2 < q->re2) {
-            if ((variant & V_TRIVIAL) && nd->lambert && dw > nd->acc) {
+            if ((variant & V_TRIVIAL) && nd->lambert &&
+                nd->ax * q->wx + nd->ay * q->wy + nd->az * q->wz > nd->acc) {
                 /* encloses the node and above every surface in it (§4.6) */
-                if (op == OP_TOPC || op == OP_SUBC) {
-                    float *f = k->flux + 3 * (size_t)ni;
-                    f[0] += q->fr, f[1] += q->fg, f[2] += q->fb;
-                    k->tcnt[ni]++;
-                }
+                float *f = k->flux + 3 * (size_t)ni;
+                f[0] += q->fr, f[1] += q->fg, f[2] += q->fb;
+                k->tcnt[ni]++;
                 return 0;
             }
             goto list;
@@ -585,29 +632,34 @@ static inline __attribute__((always_inline)) int visit(const cl_state *s, const 
     if (level == s->L) goto list;
     return 1;
 list:
-    if (op == OP_TOPC || op == OP_SUBC) k->cnt[ni]++;
-    else if (op == OP_TOPF) k->top_ids[k->off[ni]++] = q->j;
-    else pgi__pack_photon(k->ph, q->j, &k->lists[k->off[ni]++]);
+    k->cnt[ni]++;
+    emit(k, ni, q->j);
     return 0;
 job:
-    if (op == OP_TOPC) k->cnt[ni]++;
-    else k->jobs[k->off[ni]++] = q->j;
+    k->cnt[ni]++;
+    emit(k, ni, q->j);
     return 0;
 }
 
-/* Traversal from node `start` (at `start_level`) with a stack of child masks
- * (§4.3): the top entry's lowest set bit is the next child to test; children
- * are stored contiguously in digit order, so its index is a running counter. */
-static inline __attribute__((always_inline)) void walk(const cl_state *s, const int variant, const int op,
+/* Traversal from node `start` (at `start_level`, already known to pass the
+ * culling test) with a small stack of child masks (§4.3): the lowest set bit
+ * of the top mask is the next child (__builtin_ctz); children are contiguous,
+ * so its index is first + bit. */
+static inline __attribute__((always_inline)) void walk(const cl_state *s, const int variant, const int top,
                                                       uint32_t start, int start_level, const photon_q *q, sink *k) {
-    if (!visit(s, variant, op, start, start_level, q, k)) return;
+    if (!decide(s, variant, top, start, start_level, q, k)) return;
     struct {
-        uint32_t mask, next;
+        uint32_t mask, first;
     } stk[MAX_LEVELS + 2];
     int sp = 0;
-    stk[0].mask = s->nodes[start].mask;
-    stk[0].next = s->nodes[start].first;
-    sp = 1;
+    {
+        const cnode *nd = &s->nodes[start];
+        int nc = __builtin_popcount(nd->mask);
+        k->visited += (uint64_t)nc;
+        stk[0].mask = child_hits(s, variant, nd->first, nc, q);
+        stk[0].first = nd->first;
+        sp = 1;
+    }
     while (sp > 0) {
         uint32_t m = stk[sp - 1].mask;
         if (!m) {
@@ -615,13 +667,27 @@ static inline __attribute__((always_inline)) void walk(const cl_state *s, const 
             continue;
         }
         stk[sp - 1].mask = m & (m - 1);
-        uint32_t ch = stk[sp - 1].next++;
-        if (visit(s, variant, op, ch, start_level + sp, q, k)) {
-            stk[sp].mask = s->nodes[ch].mask;
-            stk[sp].next = s->nodes[ch].first;
+        uint32_t ch = stk[sp - 1].first + (uint32_t)__builtin_ctz(m);
+        if (decide(s, variant, top, ch, start_level + sp, q, k)) {
+            const cnode *nd = &s->nodes[ch];
+            int nc = __builtin_popcount(nd->mask);
+            k->visited += (uint64_t)nc;
+            stk[sp].mask = child_hits(s, variant, nd->first, nc, q);
+            stk[sp].first = nd->first;
             sp++;
         }
     }
+}
+
+/* Per-thread (and per top chunk) output records kept between frames. */
+static pgi_status grow_outs(cl_state *s, int n) {
+    if (n <= s->nouts) return PGI_OK;
+    sink *o = realloc(s->outs, (size_t)n * sizeof *o);
+    if (!o) return pgi__fail(PGI_ERR_OOM, "out of memory");
+    for (int i = s->nouts; i < n; i++) memset(&o[i], 0, sizeof o[i]);
+    s->outs = o;
+    s->nouts = n;
+    return PGI_OK;
 }
 
 static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, const pgi_photons *ph,
@@ -632,35 +698,46 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
     const size_t nch = (n + chunk - 1) / chunk;
     const uint32_t nabove = s->lvl_off[s->J], ntop = s->lvl_off[s->J + 1], nJ = ntop - nabove;
     const size_t nn = s->nnodes;
+    const int nthr = omp_get_max_threads();
     pgi_status st;
     if ((st = ENSURE(top_cnt, nch * ntop + 1, uint32_t)) || (st = ENSURE(top_flux, nch * nabove * 3 + 1, float)) ||
         (st = ENSURE(top_tcnt, nch * nabove + 1, uint32_t)) || (st = ENSURE(job_start, (size_t)nJ + 1, uint32_t)) ||
         (st = ENSURE(node_start, nn + 1, uint32_t)) || (st = ENSURE(node_cnt, nn + 1, uint32_t)) ||
         (st = ENSURE(node_flux, 3 * nn + 1, float)) || (st = ENSURE(node_tcnt, nn + 1, uint32_t)) ||
-        (st = ENSURE(cursor, nn + 1, uint32_t)))
+        (st = ENSURE(cursor, nn + 1, uint32_t)) || (st = ENSURE(task_rec, 3 * (size_t)nJ + 1, uint32_t)) ||
+        (st = grow_outs(s, (int)nch > nthr ? (int)nch : nthr)))
         return st;
     const size_t nD = (variant & V_DIR) ? s->lvl_off[s->D + 1] - s->lvl_off[s->D] : 0;
     if ((variant & V_DIR) && (st = ENSURE(buckets, nD * 24 + 1, float))) return st;
     uint64_t visited = 0, deposits = 0;
-    /* Top pass, count: lists of nodes above J, jobs at J, trivial flux above J. */
-#pragma omp parallel for schedule(dynamic, 1) reduction(+ : visited)
+    int oom = 0;
+    /* Top pass, counting traversal: lists of nodes above J, jobs at J, trivial
+     * flux above J, per fixed photon chunk; the outputs are recorded so that
+     * the fill pass replays them instead of traversing again. */
+#pragma omp parallel for schedule(dynamic, 1) reduction(+ : visited) reduction(| : oom)
     for (long long ci = 0; ci < (long long)nch; ci++) {
-        sink k = {0};
-        k.ph = ph;
-        k.cnt = s->top_cnt + (size_t)ci * ntop;
-        k.flux = s->top_flux + (size_t)ci * nabove * 3;
-        k.tcnt = s->top_tcnt + (size_t)ci * nabove;
-        memset(k.cnt, 0, ntop * sizeof *k.cnt);
-        memset(k.flux, 0, (size_t)nabove * 3 * sizeof *k.flux);
-        memset(k.tcnt, 0, (size_t)nabove * sizeof *k.tcnt);
+        sink *k = &s->outs[ci];
+        k->nout = 0;
+        k->oom = 0;
+        k->visited = 0;
+        k->cnt = s->top_cnt + (size_t)ci * ntop;
+        k->flux = s->top_flux + (size_t)ci * nabove * 3;
+        k->tcnt = s->top_tcnt + (size_t)ci * nabove;
+        memset(k->cnt, 0, ntop * sizeof *k->cnt);
+        memset(k->flux, 0, (size_t)nabove * 3 * sizeof *k->flux);
+        memset(k->tcnt, 0, (size_t)nabove * sizeof *k->tcnt);
         size_t j1 = ((size_t)ci + 1) * chunk < n ? ((size_t)ci + 1) * chunk : n;
         for (size_t j = (size_t)ci * chunk; j < j1; j++) {
             photon_q q;
             load_photon(s, ph, j, &q);
-            walk(s, variant, OP_TOPC, 0, 0, &q, &k);
+            k->visited++;
+            if (!(child_hits(s, variant, 0, 1, &q) & 1u)) continue;   /* the root */
+            walk(s, variant, 1, 0, 0, &q, k);
         }
-        visited += k.visited;
+        visited += k->visited;
+        oom |= k->oom;
     }
+    if (oom) return pgi__fail(PGI_ERR_OOM, "cluster: out of memory for the traversal records");
     /* Prefix sums, node-major then chunk: photon order within every list. */
     size_t sum = 0;
     for (uint32_t nd = 0; nd < nabove; nd++) {
@@ -687,18 +764,15 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
     if (sum > UINT32_MAX / 2 || js > UINT32_MAX / 2)
         return pgi__fail(PGI_ERR_UNSUPPORTED, "cluster: too many photon list entries; use a smaller radius");
     if ((st = ENSURE(jobs, js + 1, uint32_t)) || (st = ENSURE(top_ids, sum + 1, uint32_t))) return st;
+    /* Top fill: replay the records (jobs grouped by node, photon order). */
 #pragma omp parallel for schedule(dynamic, 1)
     for (long long ci = 0; ci < (long long)nch; ci++) {
-        sink k = {0};
-        k.ph = ph;
-        k.off = s->top_cnt + (size_t)ci * ntop;
-        k.jobs = s->jobs;
-        k.top_ids = s->top_ids;
-        size_t j1 = ((size_t)ci + 1) * chunk < n ? ((size_t)ci + 1) * chunk : n;
-        for (size_t j = (size_t)ci * chunk; j < j1; j++) {
-            photon_q q;
-            load_photon(s, ph, j, &q);
-            walk(s, variant, OP_TOPF, 0, 0, &q, &k);
+        const sink *k = &s->outs[ci];
+        uint32_t *off = s->top_cnt + (size_t)ci * ntop;
+        for (size_t u = 0; u < k->nout; u++) {
+            uint32_t nd = k->out[2 * u], j = k->out[2 * u + 1];
+            if (nd < nabove) s->top_ids[off[nd]++] = j;
+            else s->jobs[off[nd]++] = j;
         }
     }
     /* Trivial flux above J: chunks summed in chunk order. */
@@ -719,24 +793,36 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
     memset(s->node_tcnt + nabove, 0, (nn - nabove) * sizeof(uint32_t));
     if (variant & V_DIR) memset(s->buckets, 0, nD * 24 * sizeof(float));
     tm[0] = pgi__now_ms();
-    /* Subtree pass, count: one task per job-level node owns its whole subtree,
-     * so counts and accumulators need no atomics and sum in job order. */
-#pragma omp parallel for schedule(dynamic, 1) reduction(+ : visited, deposits)
-    for (long long t = 0; t < (long long)nJ; t++) {
-        sink k = {0};
-        k.ph = ph;
-        k.cnt = s->node_cnt;
-        k.flux = s->node_flux;
-        k.tcnt = s->node_tcnt;
-        k.buckets = s->buckets;
-        for (uint32_t u = s->job_start[t]; u < s->job_start[t + 1]; u++) {
-            photon_q q;
-            load_photon(s, ph, s->jobs[u], &q);
-            walk(s, variant, OP_SUBC, nabove + (uint32_t)t, s->J, &q, &k);
+    /* Subtree pass, counting traversal: one task per job-level node owns its
+     * whole subtree, so counts and accumulators need no atomics and sum in job
+     * (photon) order. Each thread records its tasks' outputs in its own array. */
+#pragma omp parallel reduction(+ : visited, deposits) reduction(| : oom)
+    {
+        sink *k = &s->outs[omp_get_thread_num()];
+        k->nout = 0;
+        k->oom = 0;
+        k->visited = 0;
+        k->deposits = 0;
+        k->cnt = s->node_cnt;
+        k->flux = s->node_flux;
+        k->tcnt = s->node_tcnt;
+        k->buckets = s->buckets;
+#pragma omp for schedule(dynamic, 1)
+        for (long long t = 0; t < (long long)nJ; t++) {
+            s->task_rec[3 * t] = (uint32_t)omp_get_thread_num();
+            s->task_rec[3 * t + 1] = (uint32_t)k->nout;
+            for (uint32_t u = s->job_start[t]; u < s->job_start[t + 1]; u++) {
+                photon_q q;
+                load_photon(s, ph, s->jobs[u], &q);
+                walk(s, variant, 0, nabove + (uint32_t)t, s->J, &q, k);
+            }
+            s->task_rec[3 * t + 2] = (uint32_t)k->nout;
         }
-        visited += k.visited;
-        deposits += k.deposits;
+        visited += k->visited;
+        deposits += k->deposits;
+        oom |= k->oom;
     }
+    if (oom) return pgi__fail(PGI_ERR_OOM, "cluster: out of memory for the traversal records");
     s->c.st.nodes_visited = visited;
     s->deposits = deposits;
     tm[1] = pgi__now_ms();
@@ -758,17 +844,12 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
 #pragma omp parallel for schedule(static)
     for (long long u = 0; u < (long long)s->ntop_list; u++) pgi__pack_photon(ph, s->top_ids[u], &s->lists[u]);
     for (size_t nd = nabove; nd < nn; nd++) s->cursor[nd] = s->node_start[nd];
-#pragma omp parallel for schedule(dynamic, 1)
+    /* Subtree fill: replay each task's records into its own nodes' lists. */
+#pragma omp parallel for schedule(dynamic, 4)
     for (long long t = 0; t < (long long)nJ; t++) {
-        sink k = {0};
-        k.ph = ph;
-        k.off = s->cursor;
-        k.lists = s->lists;
-        for (uint32_t u = s->job_start[t]; u < s->job_start[t + 1]; u++) {
-            photon_q q;
-            load_photon(s, ph, s->jobs[u], &q);
-            walk(s, variant, OP_SUBF, nabove + (uint32_t)t, s->J, &q, &k);
-        }
+        const sink *k = &s->outs[s->task_rec[3 * t]];
+        for (uint32_t u = s->task_rec[3 * t + 1]; u < s->task_rec[3 * t + 2]; u++)
+            pgi__pack_photon(ph, k->out[2 * u + 1], &s->lists[s->cursor[k->out[2 * u]]++]);
     }
     tm[2] = pgi__now_ms();
     return PGI_OK;
@@ -817,6 +898,12 @@ static pgi_status cl_build(void *state, const pgi_estimate_args *a) {
         s->J = J;
         if ((st = splat(s, a->photons, tm))) return st;
         s->splatted = 1;
+        if (getenv("PGI_CLUSTER_DEBUG")) {
+            fprintf(stderr, "cluster: %zu valid, L=%d J=%d D=%d nodes/level:", s->nvalid, s->L, s->J, s->D);
+            for (int l = 0; l <= s->L; l++) fprintf(stderr, " %u", s->lvl_off[l + 1] - s->lvl_off[l]);
+            fprintf(stderr, "; jobs %zu, top list %zu, lists %zu, visited %llu\n", s->njobs, s->ntop_list, s->nlist,
+                    (unsigned long long)s->c.st.nodes_visited);
+        }
     } else {
         s->D = s->J = 0;
     }
@@ -1023,6 +1110,10 @@ static void cl_destroy(void *state) {
                  s->node_start, s->node_tcnt, s->cursor, s->top_flux, s->node_flux, s->buckets, s->lists,
                  s->cum_flux, s->irr, s->irr2, s->cum_cnt};
     for (size_t k = 0; k < sizeof p / sizeof p[0]; k++) pgi__afree(p[k]);
+    pgi__afree(s->task_rec);
+    pgi__afree(s->soa);
+    for (int i = 0; i < s->nouts; i++) free(s->outs[i].out);
+    free(s->outs);
     free(s);
 }
 
