@@ -1058,21 +1058,64 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
                 }
                 const float *cf = s->cum_flux + 3 * li;
                 const uint32_t cc = s->cum_cnt[li];
-                for (uint32_t k = s->sbeg[li]; k < s->send[li]; k++) {
-                    size_t i = s->order[k];
-                    pgi__vs v;
-                    pgi__vs_load(vs, i, &v);
-                    pgi__acc acc = {0};
+                /* Photon-major over blocks of samples held as local arrays: the
+                 * inner loop over samples is branch-free and vectorises. It makes
+                 * exactly pgi__gather's decisions (same expressions, same order;
+                 * no FMA contraction) and sums each sample's flux in the same
+                 * order (root to leaf, photon order). Non-Lambertian samples are
+                 * masked out (NaN position) and gathered with pgi__gather. */
+                enum { B = 64 };
+                float bx[B], by[B], bz[B], bnx[B], bny[B], bnz[B], ar[B], ag[B], ab[B];
+                uint32_t an[B];
+                for (uint32_t k0 = s->sbeg[li]; k0 < s->send[li]; k0 += B) {
+                    const int nb = (int)(s->send[li] - k0 < B ? s->send[li] - k0 : B);
+                    int nphong = 0;
+                    for (int t = 0; t < nb; t++) {
+                        size_t i = s->order[k0 + t];
+                        const float *p = vs->pos + 3 * i, *nn = vs->nrm + 3 * i;
+                        int lam = (vs->flags[i] & PGI_VS_LAMBERT) != 0;
+                        bx[t] = lam ? p[0] : NAN, by[t] = p[1], bz[t] = p[2];
+                        bnx[t] = nn[0], bny[t] = nn[1], bnz[t] = nn[2];
+                        ar[t] = ag[t] = ab[t] = 0.f;
+                        an[t] = 0;
+                        nphong += !lam;
+                    }
                     for (int p = np - 1; p >= 0; p--) {
                         const pgi__packed_photon *q = s->lists + s->node_start[path[p]];
                         const uint32_t m = s->node_start[path[p] + 1] - s->node_start[path[p]];
-                        for (uint32_t e = 0; e < m; e++) pgi__gather_packed(&v, r2, q + e, &acc);
+                        for (uint32_t e = 0; e < m; e++) {
+                            const float px = q[e].px, py = q[e].py, pz = q[e].pz, dx = q[e].dx, dy = q[e].dy,
+                                        dz = q[e].dz, fr = q[e].fr, fg = q[e].fg, fb = q[e].fb;
+                            for (int t = 0; t < nb; t++) {
+                                float ex = px - bx[t], ey = py - by[t], ez = pz - bz[t];
+                                float d2 = ex * ex + ey * ey + ez * ez;
+                                float c = bnx[t] * dx + bny[t] * dy + bnz[t] * dz;
+                                int ok = (d2 < r2) & (c > 0.f);
+                                ar[t] += ok ? fr : 0.f;
+                                ag[t] += ok ? fg : 0.f;
+                                ab[t] += ok ? fb : 0.f;
+                                an[t] += (uint32_t)ok;
+                            }
+                        }
                     }
-                    acc.fr += cf[0], acc.fg += cf[1], acc.fb += cf[2];
-                    acc.contributing += cc;
-                    pgi__acc_finish(&v, &acc, r2, a->out_rgb + 3 * i);
-                    reads += total;
-                    contrib += acc.contributing;
+                    for (int t = 0; t < nb; t++) {
+                        size_t i = s->order[k0 + t];
+                        pgi__vs v;
+                        pgi__vs_load(vs, i, &v);
+                        pgi__acc acc = {ar[t], ag[t], ab[t], 0.f, 0.f, 0.f, an[t]};
+                        if (nphong && !v.lambert) {
+                            for (int p = np - 1; p >= 0; p--) {
+                                const pgi__packed_photon *q = s->lists + s->node_start[path[p]];
+                                const uint32_t m = s->node_start[path[p] + 1] - s->node_start[path[p]];
+                                for (uint32_t e = 0; e < m; e++) pgi__gather_packed(&v, r2, q + e, &acc);
+                            }
+                        }
+                        acc.fr += cf[0], acc.fg += cf[1], acc.fb += cf[2];
+                        acc.contributing += cc;
+                        pgi__acc_finish(&v, &acc, r2, a->out_rgb + 3 * i);
+                        reads += total;
+                        contrib += acc.contributing;
+                    }
                 }
             }
         }
