@@ -61,6 +61,9 @@
  * the traversals. directional: reads = contributing = bucket deposits. */
 #include <omp.h>
 #include <stdio.h>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 
 #include "estimator_internal.h"
 
@@ -446,19 +449,21 @@ static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, co
         nd->lambert = lam;
         nd->rej = -2.f, nd->acc = 2.f, nd->alpha = 4.f;   /* open unless the variant uses cones */
         if ((s->variant & V_CONE) && cone_axis(nd, sx, sy, sz, (double)(s->send[li] - s->sbeg[li]))) {
-            /* the largest angle is the smallest cosine: one acos a leaf */
-            const double ax = nd->ax, ay = nd->ay, az = nd->az, la = sqrt(ax * ax + ay * ay + az * az);
-            double cmin = 1.0;
+            /* The largest angle is the smallest cosine: one acos a leaf. The
+             * float dot products of near-unit vectors are off by < 1e-6, so
+             * acos(cmin - 1e-6) bounds every normal's angle from above. */
+            const float ax = nd->ax, ay = nd->ay, az = nd->az;
+            float cmin = 1.f;
             int bad = 0;
             for (uint32_t k = s->sbeg[li]; k < s->send[li]; k++) {
                 const float *n = vs->nrm + 3 * (size_t)s->order[k];
-                double nx = n[0], ny = n[1], nz = n[2];
-                double c = (ax * nx + ay * ny + az * nz) / (la * sqrt(nx * nx + ny * ny + nz * nz));
-                if (c != c) bad = 1;   /* a zero or NaN normal opens the cone */
-                else if (c < cmin) cmin = c;
+                float c = ax * n[0] + ay * n[1] + az * n[2];
+                bad |= !(c == c);   /* a NaN normal opens the cone */
+                cmin = pgi_minf(cmin, c);
             }
-            cmin = cmin < -1.0 ? -1.0 : cmin;
-            if (!bad) cone_thresholds(nd, acos(cmin) + 1e-5);
+            double cm = (double)cmin - 1e-6;
+            cm = cm < -1.0 ? -1.0 : cm;
+            if (!bad) cone_thresholds(nd, acos(cm) + 1e-5);
             else nd->rej = -2.f, nd->acc = 2.f, nd->alpha = 4.f;
         }
     }
@@ -563,8 +568,29 @@ static inline __attribute__((always_inline)) uint32_t child_hits(const cl_state 
                                                                  int nc, const photon_q *q) {
     const float *x0 = s->sx0 + f, *y0 = s->sy0 + f, *z0 = s->sz0 + f, *x1 = s->sx1 + f, *y1 = s->sy1 + f,
                 *z1 = s->sz1 + f;
-    const float cx = q->c.x, cy = q->c.y, cz = q->c.z, rr2 = q->rr2;
     uint32_t m = 0;
+#ifdef __SSE2__
+    /* 4 children a step; the SoA arrays are padded, extra lanes are masked off. */
+    const __m128 cx = _mm_set1_ps(q->c.x), cy = _mm_set1_ps(q->c.y), cz = _mm_set1_ps(q->c.z);
+    const __m128 rr2 = _mm_set1_ps(q->rr2), zero = _mm_setzero_ps();
+    const __m128 wx = _mm_set1_ps(q->wx), wy = _mm_set1_ps(q->wy), wz = _mm_set1_ps(q->wz);
+    for (int k = 0; k < nc; k += 4) {
+        __m128 ex = _mm_max_ps(_mm_max_ps(_mm_sub_ps(_mm_loadu_ps(x0 + k), cx), _mm_sub_ps(cx, _mm_loadu_ps(x1 + k))), zero);
+        __m128 ey = _mm_max_ps(_mm_max_ps(_mm_sub_ps(_mm_loadu_ps(y0 + k), cy), _mm_sub_ps(cy, _mm_loadu_ps(y1 + k))), zero);
+        __m128 ez = _mm_max_ps(_mm_max_ps(_mm_sub_ps(_mm_loadu_ps(z0 + k), cz), _mm_sub_ps(cz, _mm_loadu_ps(z1 + k))), zero);
+        __m128 d2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(ex, ex), _mm_mul_ps(ey, ey)), _mm_mul_ps(ez, ez));
+        __m128 hit = _mm_cmple_ps(d2, rr2);
+        if (variant & V_CONE) {
+            __m128 dw = _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_loadu_ps(s->cax + f + k), wx),
+                                              _mm_mul_ps(_mm_loadu_ps(s->cay + f + k), wy)),
+                                   _mm_mul_ps(_mm_loadu_ps(s->caz + f + k), wz));
+            hit = _mm_and_ps(hit, _mm_cmpge_ps(dw, _mm_loadu_ps(s->crej + f + k)));   /* §4.5 */
+        }
+        m |= (uint32_t)_mm_movemask_ps(hit) << k;
+    }
+    if (nc < 32) m &= (1u << nc) - 1u;
+#else
+    const float cx = q->c.x, cy = q->c.y, cz = q->c.z, rr2 = q->rr2;
     for (int k = 0; k < nc; k++) {
         float ex = pgi_maxf(pgi_maxf(x0[k] - cx, cx - x1[k]), 0.f);
         float ey = pgi_maxf(pgi_maxf(y0[k] - cy, cy - y1[k]), 0.f);
@@ -576,6 +602,7 @@ static inline __attribute__((always_inline)) uint32_t child_hits(const cl_state 
         }
         m |= hit << k;
     }
+#endif
     return m;
 }
 
