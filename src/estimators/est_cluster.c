@@ -945,49 +945,81 @@ static pgi_status cl_build(void *state, const pgi_estimate_args *a) {
 
 /* ------------------------------------------------------------ radiance */
 
-/* Depth- and normal-aware blur along one axis (§4.7): tent weights in
- * pixels, times a depth weight falling to 0 at a 5% relative depth step and
- * a normal weight max(0, n.n')^8. Invalid samples neither give nor receive. */
-static void blur_pass(const pgi_view_samples *vs, const float *in, float *out, int R, int dx, int dy) {
-    const int W = vs->width, H = vs->height;
+/* Depth- and normal-aware blur along one axis (§4.7) on planes: tent weights
+ * in pixels, times a depth weight falling to 0 at a 5% relative depth step
+ * and a normal weight max(0, n.n')^8. Invalid samples have depth 1e30 and a
+ * zero normal, so they neither give nor receive. For a fixed tap offset the
+ * loop runs over consecutive pixels of a row and vectorises. */
+typedef struct {
+    float *z, *iz, *nx, *ny, *nz, *e[3], *o[3], *w;
+} blur_planes;
+
+static void blur_pass(const blur_planes *P, int W, int H, int R, int vertical) {
 #pragma omp parallel for schedule(static)
-    for (int y = 0; y < H; y++)
+    for (int y = 0; y < H; y++) {
+        const size_t row = (size_t)y * W;
+        float *o0 = P->o[0] + row, *o1 = P->o[1] + row, *o2 = P->o[2] + row, *ws = P->w + row;
+        const float *z = P->z + row, *iz = P->iz + row, *nx = P->nx + row, *ny = P->ny + row, *nz = P->nz + row;
         for (int x = 0; x < W; x++) {
-            size_t i = (size_t)y * W + (size_t)x;
-            if (!(vs->flags[i] & PGI_VS_VALID)) {
-                out[3 * i] = out[3 * i + 1] = out[3 * i + 2] = 0.f;
-                continue;
-            }
-            const float z0 = vs->depth[i], *n0 = vs->nrm + 3 * i;
-            const float inv_dz = 1.f / (0.05f * fabsf(z0) + 1e-12f);
-            float sr = in[3 * i], sg = in[3 * i + 1], sb = in[3 * i + 2], ws = 1.f;
-            for (int k = -R; k <= R; k++) {
-                if (!k) continue;
-                int xx = x + k * dx, yy = y + k * dy;
-                if (xx < 0 || yy < 0 || xx >= W || yy >= H) continue;
-                size_t j = (size_t)yy * W + (size_t)xx;
-                if (!(vs->flags[j] & PGI_VS_VALID)) continue;
-                float wz = 1.f - fabsf(vs->depth[j] - z0) * inv_dz;
-                if (!(wz > 0.f)) continue;
-                const float *n1 = vs->nrm + 3 * j;
-                float c = n0[0] * n1[0] + n0[1] * n1[1] + n0[2] * n1[2];
-                if (!(c > 0.f)) continue;
-                c *= c, c *= c, c *= c;
-                float w = (1.f - (float)abs(k) / (float)(R + 1)) * wz * c;
-                sr += w * in[3 * j], sg += w * in[3 * j + 1], sb += w * in[3 * j + 2];
-                ws += w;
-            }
-            float inv = 1.f / ws;
-            out[3 * i] = sr * inv, out[3 * i + 1] = sg * inv, out[3 * i + 2] = sb * inv;
+            o0[x] = P->e[0][row + x], o1[x] = P->e[1][row + x], o2[x] = P->e[2][row + x];
+            ws[x] = 1.f;
         }
+        for (int k = -R; k <= R; k++) {
+            if (!k) continue;
+            const float tent = 1.f - (float)abs(k) / (float)(R + 1);
+            int x0 = 0, x1 = W;
+            ptrdiff_t d;   /* offset of the neighbour in the planes */
+            if (vertical) {
+                if (y + k < 0 || y + k >= H) continue;
+                d = (ptrdiff_t)k * W;
+            } else {
+                d = k;
+                if (k < 0) x0 = -k;
+                else x1 = W - k;
+            }
+            const float *zj = z + d, *nxj = nx + d, *nyj = ny + d, *nzj = nz + d;
+            const float *e0 = P->e[0] + row + d, *e1 = P->e[1] + row + d, *e2 = P->e[2] + row + d;
+            for (int x = x0; x < x1; x++) {
+                float wz = 1.f - fabsf(zj[x] - z[x]) * iz[x];
+                wz = wz > 0.f ? wz : 0.f;
+                float c = nx[x] * nxj[x] + ny[x] * nyj[x] + nz[x] * nzj[x];
+                c = c > 0.f ? c : 0.f;
+                c *= c, c *= c, c *= c;
+                float w = tent * wz * c;
+                o0[x] += w * e0[x], o1[x] += w * e1[x], o2[x] += w * e2[x];
+                ws[x] += w;
+            }
+        }
+        for (int x = 0; x < W; x++) {
+            float inv = 1.f / ws[x];
+            o0[x] *= inv, o1[x] *= inv, o2[x] *= inv;
+        }
+    }
 }
 
 static pgi_status dir_radiance(cl_state *s, const pgi_estimate_args *a, double *t_blur) {
     const pgi_view_samples *vs = a->samples;
     const size_t npix = vs->count;
     pgi_status st;
-    if ((st = ENSURE(irr, 3 * npix, float)) || (st = ENSURE(irr2, 3 * npix, float))) return st;
-    memset(s->irr, 0, 3 * npix * sizeof(float));
+    /* planes: 3 irradiance + 3 blurred + weight sum, depth, 1/depth step, normal */
+    if ((st = ENSURE(irr, 13 * npix, float))) return st;
+    blur_planes P;
+    float *pl = s->irr;
+    P.e[0] = pl, P.e[1] = pl + npix, P.e[2] = pl + 2 * npix;
+    P.o[0] = pl + 3 * npix, P.o[1] = pl + 4 * npix, P.o[2] = pl + 5 * npix;
+    P.w = pl + 6 * npix, P.z = pl + 7 * npix, P.iz = pl + 8 * npix;
+    P.nx = pl + 9 * npix, P.ny = pl + 10 * npix, P.nz = pl + 11 * npix;
+#pragma omp parallel for schedule(static)
+    for (long long i = 0; i < (long long)npix; i++) {
+        int ok = (vs->flags[i] & PGI_VS_VALID) != 0;
+        float z = ok ? vs->depth[i] : 1e30f;
+        P.z[i] = z;
+        P.iz[i] = 1.f / (0.05f * fabsf(z) + 1e-12f);
+        P.nx[i] = ok ? vs->nrm[3 * i] : 0.f;
+        P.ny[i] = ok ? vs->nrm[3 * i + 1] : 0.f;
+        P.nz[i] = ok ? vs->nrm[3 * i + 2] : 0.f;
+        P.e[0][i] = P.e[1][i] = P.e[2][i] = 0.f;
+    }
     const float inv_area = 1.f / (PGI_PI * s->r * s->r);
     const float c3 = 0.57735026919f;
     if (s->splatted) {
@@ -1003,21 +1035,23 @@ static pgi_status dir_radiance(cl_state *s, const pgi_estimate_args *a, double *
                 float nx = v3_dot(n, s->x.right), ny = v3_dot(n, s->x.up), nz = v3_dot(n, s->x.fwd);
                 float e[3] = {0.f, 0.f, 0.f};
                 for (int o = 0; o < 8; o++) {
-                    /* bucket direction: the octant's diagonal */
+                    /* bucket direction: the octant's diagonal; weight 2 max(0, cos) */
                     float c = ((o & 1) ? -nx : nx) + ((o & 2) ? -ny : ny) + ((o & 4) ? -nz : nz);
                     float w = 2.f * c3 * c;
                     if (!(w > 0.f)) continue;
                     e[0] += w * b[3 * o], e[1] += w * b[3 * o + 1], e[2] += w * b[3 * o + 2];
                 }
-                for (int d = 0; d < 3; d++) s->irr[3 * i + d] = e[d] * inv_area;
+                for (int d = 0; d < 3; d++) P.e[d][i] = e[d] * inv_area;
             }
         }
     }
     *t_blur = pgi__now_ms();
-    const float *E = s->irr;
+    const float *E[3] = {P.e[0], P.e[1], P.e[2]};
     if (s->blur > 0 && s->splatted) {
-        blur_pass(vs, s->irr, s->irr2, s->blur, 1, 0);
-        blur_pass(vs, s->irr2, s->irr, s->blur, 0, 1);
+        blur_pass(&P, vs->width, vs->height, s->blur, 0);   /* e -> o */
+        blur_planes Q = P;
+        for (int d = 0; d < 3; d++) Q.e[d] = P.o[d], Q.o[d] = P.e[d];
+        blur_pass(&Q, vs->width, vs->height, s->blur, 1);   /* o -> e */
     }
 #pragma omp parallel for schedule(static)
     for (long long ii = 0; ii < (long long)npix; ii++) {
@@ -1027,7 +1061,7 @@ static pgi_status dir_radiance(cl_state *s, const pgi_estimate_args *a, double *
             continue;
         }
         const float *kd = vs->kd + 3 * ii;
-        for (int d = 0; d < 3; d++) out[d] = kd[d] * PGI_INV_PI * E[3 * ii + d];
+        for (int d = 0; d < 3; d++) out[d] = kd[d] * PGI_INV_PI * E[d][ii];
     }
     return PGI_OK;
 }
@@ -1162,7 +1196,7 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
     if (s->variant & V_DIR) {
         size_t nD = s->splatted ? s->lvl_off[s->D + 1] - s->lvl_off[s->D] : 0;
         pgi__stats_mem(&s->c.st, "node_flux", nD * 24 * sizeof(float));
-        pgi__stats_mem(&s->c.st, "irradiance", 2 * 3 * npix * sizeof(float));
+        pgi__stats_mem(&s->c.st, "irradiance", 13 * npix * sizeof(float));
     }
     pgi__stats_mem(&s->c.st, "jobs", s->njobs * sizeof(uint32_t) + (s->J < s->L + 1 ? 0 : 0));
     if (!(s->variant & V_DIR))
