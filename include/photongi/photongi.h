@@ -99,6 +99,9 @@ typedef struct pgi_render_desc {
     pgi_output output;
     int radius_set;          /* non-zero: `radius` was given explicitly (0 or less is then an error) */
     int photons_set;         /* non-zero: `photons` was given explicitly (0 is then an error) */
+    int cluster_tile;        /* cluster estimators: cluster edge in pixels; default 8 */
+    int directional_level;   /* directional: buckets this many levels above the leaves; 0 = 1, -1 = leaves */
+    int directional_blur;    /* directional: irradiance blur radius in pixels; 0 = 4, -1 = off */
 } pgi_render_desc;
 
 /* Linear RGB radiance, row-major from the top-left, 3 floats a pixel. */

@@ -627,17 +627,36 @@ static inline void emit(sink *k, uint32_t node, uint32_t j) {
  * traversal must descend into its children. */
 static inline __attribute__((always_inline)) int decide(const cl_state *s, const int variant, const int top,
                                                         uint32_t ni, int level, const photon_q *q, sink *k) {
-    if (variant & V_DIR) {
-        if (level == s->D && !top) {
-            float *b = k->buckets + ((size_t)(ni - s->lvl_off[s->D]) * 8 + (size_t)q->oct) * 3;
-            b[0] += q->fr, b[1] += q->fg, b[2] += q->fb;
-            k->deposits++;
-            return 0;
-        }
-        if (top && level == s->J) goto job;
-        return 1;
-    }
     if (top && level == s->J) goto job;
+    if (variant & V_DIR) {
+        /* §4.7: from level D down, an enclosed node or an intersected leaf
+         * takes the photon's flux into the bucket of its direction octant. */
+        int dep = 0;
+        if (level >= s->D) {
+            const cnode *nd = &s->nodes[ni];
+            float f2 = 0.f, e;
+            e = pgi_maxf(q->c.x - nd->lo[0], nd->hi[0] - q->c.x); f2 += e * e;
+            e = pgi_maxf(q->c.y - nd->lo[1], nd->hi[1] - q->c.y); f2 += e * e;
+            e = pgi_maxf(q->c.z - nd->lo[2], nd->hi[2] - q->c.z); f2 += e * e;
+            dep = f2 < q->re2;
+            if (!dep && level == s->L) {
+                /* An intersected, not enclosed leaf takes the photon when the
+                 * centre of its box lies in the sphere. (The paper adds it to
+                 * every intersected leaf, which inflates the irradiance by about
+                 * ((r + leaf/2) / r)^2: 1.4x for 8-pixel leaves at 1080p in
+                 * Sibenik with r = 0.2.) */
+                float mx = 0.5f * (nd->lo[0] + nd->hi[0]) - q->c.x, my = 0.5f * (nd->lo[1] + nd->hi[1]) - q->c.y,
+                      mz = 0.5f * (nd->lo[2] + nd->hi[2]) - q->c.z;
+                if (!(mx * mx + my * my + mz * mz < s->r * s->r)) return 0;
+                dep = 1;
+            }
+        }
+        if (!dep) return 1;
+        float *b = k->buckets + ((size_t)(ni - s->lvl_off[s->D]) * 8 + (size_t)q->oct) * 3;
+        b[0] += q->fr, b[1] += q->fg, b[2] += q->fb;
+        k->deposits++;
+        return 0;
+    }
     {
         const cnode *nd = &s->nodes[ni];
         float f2 = 0.f, e;
@@ -734,7 +753,7 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
         (st = ENSURE(cursor, nn + 1, uint32_t)) || (st = ENSURE(task_rec, 3 * (size_t)nJ + 1, uint32_t)) ||
         (st = grow_outs(s, (int)nch > nthr ? (int)nch : nthr)))
         return st;
-    const size_t nD = (variant & V_DIR) ? s->lvl_off[s->D + 1] - s->lvl_off[s->D] : 0;
+    const size_t nD = (variant & V_DIR) ? nn - s->lvl_off[s->D] : 0;   /* nodes with buckets */
     if ((variant & V_DIR) && (st = ENSURE(buckets, nD * 24 + 1, float))) return st;
     uint64_t visited = 0, deposits = 0;
     int oom = 0;
@@ -1026,9 +1045,17 @@ static pgi_status dir_radiance(cl_state *s, const pgi_estimate_args *a, double *
         const uint32_t leaf0 = s->lvl_off[s->L], leaf1 = s->lvl_off[s->L + 1];
 #pragma omp parallel for schedule(dynamic, 16)
         for (long long li = leaf0; li < (long long)leaf1; li++) {
+            /* the leaf's buckets plus those of its ancestors down from level D */
+            float b[24];
+            memset(b, 0, sizeof b);
+            uint32_t path[MAX_LEVELS + 2];
+            int np = 0;
             uint32_t u = (uint32_t)li;
-            for (int l = s->L; l > s->D; l--) u = s->nodes[u].parent;
-            const float *b = s->buckets + (size_t)(u - s->lvl_off[s->D]) * 24;
+            for (int l = s->L; l >= s->D; l--, u = s->nodes[u].parent) path[np++] = u;
+            for (int p = np - 1; p >= 0; p--) {
+                const float *bb = s->buckets + (size_t)(path[p] - s->lvl_off[s->D]) * 24;
+                for (int c = 0; c < 24; c++) b[c] += bb[c];
+            }
             for (uint32_t k = s->sbeg[li]; k < s->send[li]; k++) {
                 size_t i = s->order[k];
                 pgi_v3 n = v3_load(vs->nrm + 3 * i);
@@ -1194,7 +1221,7 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
     if (s->variant & V_CONE) pgi__stats_mem(&s->c.st, "normal_cones", nn * 6 * sizeof(float));
     if (s->variant & V_TRIVIAL) pgi__stats_mem(&s->c.st, "node_flux", nn * (3 * sizeof(float) + sizeof(uint32_t)));
     if (s->variant & V_DIR) {
-        size_t nD = s->splatted ? s->lvl_off[s->D + 1] - s->lvl_off[s->D] : 0;
+        size_t nD = s->splatted ? nn - s->lvl_off[s->D] : 0;
         pgi__stats_mem(&s->c.st, "node_flux", nD * 24 * sizeof(float));
         pgi__stats_mem(&s->c.st, "irradiance", 13 * npix * sizeof(float));
     }
