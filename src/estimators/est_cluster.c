@@ -70,8 +70,9 @@
 enum { V_CONE = 1, V_TRIVIAL = 2, V_DIR = 4 };
 
 #define MAX_LEVELS 12
-#define RADIX_BITS 11
+#define RADIX_BITS 13   /* at most; 2 passes up to 26 key bits (1080p with 8-pixel tiles) */
 #define RADIX (1u << RADIX_BITS)
+#define RADIX_CHUNKS 32
 #define NCHUNK_MAX 64
 #define JOB_LEVEL_NODES 256
 
@@ -186,6 +187,14 @@ static inline float fast_log2(float x) {
     return e + m * (1.3465f - 0.3465f * m);
 }
 
+/* View-depth slice (Olsson et al. 2012), monotone in z; NaN and huge depths
+ * land in the last slice. */
+static inline int slice_of(float z, float near, float log_near, float inv_step) {
+    float k = z > near ? (fast_log2(z) - log_near) * inv_step : 0.f;
+    if (!(k >= 0.f)) return k < 0.f ? 0 : 65535;
+    return k < 65535.f ? (int)k : 65535;
+}
+
 static int bits_for(uint32_t n) {
     int b = 0;
     while (b < 31 && (1u << b) < n) b++;
@@ -196,29 +205,34 @@ static int bits_for(uint32_t n) {
  * fixed chunks (the result does not depend on the thread count). Returns 1
  * when the sorted data ended up in the second buffers. */
 static int radix_sort(uint64_t *k0, uint32_t *v0, uint64_t *k1, uint32_t *v1, size_t n, int bits, uint32_t *hist) {
-    const size_t nch = NCHUNK_MAX, chunk = (n + nch - 1) / nch + 1;
+    const size_t nch = RADIX_CHUNKS, chunk = (n + nch - 1) / nch + 1;
+    const int passes = (bits + RADIX_BITS - 1) / RADIX_BITS;
+    const int digit = passes ? (bits + passes - 1) / passes : 0;   /* <= RADIX_BITS, balanced */
+    const uint64_t dm = ((uint64_t)1 << digit) - 1;
+    const uint32_t nb = (uint32_t)1 << digit;
     int swapped = 0;
-    for (int shift = 0; shift < bits; shift += RADIX_BITS) {
+    for (int pass = 0; pass < passes; pass++) {
+        const int shift = pass * digit;
 #pragma omp parallel for schedule(static)
         for (long long ci = 0; ci < (long long)nch; ci++) {
-            uint32_t *h = hist + (size_t)ci * RADIX;
-            memset(h, 0, RADIX * sizeof *h);
+            uint32_t *h = hist + (size_t)ci * nb;
+            memset(h, 0, nb * sizeof *h);
             size_t a = (size_t)ci * chunk, b = a + chunk < n ? a + chunk : n;
-            for (size_t i = a; i < b; i++) h[(k0[i] >> shift) & (RADIX - 1)]++;
+            for (size_t i = a; i < b; i++) h[(k0[i] >> shift) & dm]++;
         }
         uint32_t sum = 0;
-        for (uint32_t d = 0; d < RADIX; d++)
+        for (uint32_t d = 0; d < nb; d++)
             for (size_t ci = 0; ci < nch; ci++) {
-                uint32_t c = hist[ci * RADIX + d];
-                hist[ci * RADIX + d] = sum;
+                uint32_t c = hist[ci * nb + d];
+                hist[ci * nb + d] = sum;
                 sum += c;
             }
 #pragma omp parallel for schedule(static)
         for (long long ci = 0; ci < (long long)nch; ci++) {
-            uint32_t *h = hist + (size_t)ci * RADIX;
+            uint32_t *h = hist + (size_t)ci * nb;
             size_t a = (size_t)ci * chunk, b = a + chunk < n ? a + chunk : n;
             for (size_t i = a; i < b; i++) {
-                uint32_t o = h[(k0[i] >> shift) & (RADIX - 1)]++;
+                uint32_t o = h[(k0[i] >> shift) & dm]++;
                 k1[o] = k0[i];
                 v1[o] = v0[i];
             }
@@ -267,6 +281,12 @@ static int cone_axis(cnode *nd, double sx, double sy, double sz, double count) {
     return 1;
 }
 
+static inline void soa_store(cl_state *s, size_t ni, const cnode *nd) {
+    s->sx0[ni] = nd->lo[0], s->sy0[ni] = nd->lo[1], s->sz0[ni] = nd->lo[2];
+    s->sx1[ni] = nd->hi[0], s->sy1[ni] = nd->hi[1], s->sz1[ni] = nd->hi[2];
+    s->cax[ni] = nd->ax, s->cay[ni] = nd->ay, s->caz[ni] = nd->az, s->crej[ni] = nd->rej;
+}
+
 static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, const pgi_camera *cam, double *t_sort) {
     const int W = vs->width, H = vs->height, T = s->T;
     const size_t npix = vs->count;
@@ -277,40 +297,34 @@ static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, co
     const int rows_per = (H + NCHUNK_MAX - 1) / NCHUNK_MAX;
     const int npc = (H + rows_per - 1) / rows_per;
     if ((st = ENSURE(pix_cnt, (size_t)npc + 1, uint32_t)) || (st = ENSURE(order2, npix, uint32_t)) ||
-        (st = ENSURE(hist, (size_t)NCHUNK_MAX * RADIX, uint32_t)))
+        (st = ENSURE(hist, (size_t)RADIX_CHUNKS * RADIX, uint32_t)))
         return st;
-    /* near plane: the smallest positive primary depth of a valid sample */
-    float near = INFINITY;
-    int nslices_m1 = 0, any_secondary = 0;
-#pragma omp parallel for schedule(static) reduction(min : near) reduction(| : any_secondary)
-    for (long long ii = 0; ii < (long long)npix; ii++) {
-        uint8_t f = vs->flags[ii];
-        if (!(f & PGI_VS_VALID)) continue;
-        float z = vs->depth[ii];
-        if (z > 0.f && z < near) near = z;
-        if (!(f & PGI_VS_PRIMARY)) any_secondary = 1;
-    }
-    if (!(near < INFINITY)) near = 1.f;
-    const float log_near = fast_log2(near);
-    const float inv_step = (float)(1.0 / log2(1.0 + 2.0 * (double)cam->tan_half_fov_y / (double)s->nty));
-    /* slice per valid pixel (kept in order2 for the key pass) */
-#pragma omp parallel for schedule(static) reduction(max : nslices_m1)
+    /* One pass: valid counts per row chunk, near = smallest positive depth,
+     * the largest depth (slices are monotone in depth, so it gives the slice
+     * count), and whether any sample was seen through a mirror/glass. */
+    float near = INFINITY, zmax = 0.f;
+    int any_secondary = 0, any_nan = 0;
+#pragma omp parallel for schedule(static) reduction(min : near) reduction(max : zmax) reduction(| : any_secondary, any_nan)
     for (int c = 0; c < npc; c++) {
         uint32_t cnt = 0;
         for (int y = c * rows_per; y < (c + 1) * rows_per && y < H; y++)
             for (int x = 0; x < W; x++) {
                 size_t i = (size_t)y * W + (size_t)x;
-                if (!(vs->flags[i] & PGI_VS_VALID)) continue;
+                uint8_t f = vs->flags[i];
+                if (!(f & PGI_VS_VALID)) continue;
                 float z = vs->depth[i];
-                float k = z > near ? (fast_log2(z) - log_near) * inv_step : 0.f;
-                int sl = k < 65535.f ? (int)k : 65535;   /* NaN and huge depths land in the last slice */
-                if (!(k >= 0.f)) sl = k < 0.f ? 0 : 65535;
-                s->order2[i] = (uint32_t)sl;
-                if (sl > nslices_m1) nslices_m1 = sl;
+                if (z > 0.f && z < near) near = z;
+                if (z > zmax) zmax = z;
+                any_nan |= !(z == z);
+                any_secondary |= !(f & PGI_VS_PRIMARY);
                 cnt++;
             }
         s->pix_cnt[c] = cnt;
     }
+    if (!(near < INFINITY)) near = 1.f;
+    const float log_near = fast_log2(near);
+    const float inv_step = (float)(1.0 / log2(1.0 + 2.0 * (double)cam->tan_half_fov_y / (double)s->nty));
+    const int nslices_m1 = any_nan ? 65535 : slice_of(zmax, near, log_near, inv_step);
     size_t nvalid = 0;
     for (int c = 0; c < npc; c++) {
         uint32_t v = s->pix_cnt[c];
@@ -349,7 +363,6 @@ static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, co
     if ((st = ENSURE(keys, nvalid + 1, uint64_t)) || (st = ENSURE(keys2, nvalid + 1, uint64_t)) ||
         (st = ENSURE(order, nvalid + 1, uint32_t)))
         return st;
-    uint32_t *tmpv = s->order2;   /* holds slices until the compaction below */
 #pragma omp parallel for schedule(static)
     for (int c = 0; c < npc; c++) {
         size_t o = s->pix_cnt[c];
@@ -358,7 +371,7 @@ static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, co
                 size_t i = (size_t)y * W + (size_t)x;
                 uint8_t f = vs->flags[i];
                 if (!(f & PGI_VS_VALID)) continue;
-                uint64_t k = sp[0][x / T] | sp[1][y / T] | sp[2][tmpv[i]];
+                uint64_t k = sp[0][x / T] | sp[1][y / T] | sp[2][slice_of(vs->depth[i], near, log_near, inv_step)];
                 if (!(f & PGI_VS_PRIMARY)) k |= sec_bit;
                 s->keys[o] = k;
                 s->order[o] = (uint32_t)i;
@@ -424,6 +437,11 @@ static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, co
             for (size_t idx = s->lvl_off[l]; idx < s->lvl_off[l + 1]; idx++)
                 s->send[idx] = idx + 1 < s->lvl_off[l + 1] ? s->sbeg[idx + 1] : (uint32_t)nvalid;
     }
+    /* Structure-of-arrays copies of boxes and cones for the child tests. */
+    const size_t stride = nn + 16;
+    if ((st = ENSURE(soa, 10 * stride, float))) return st;
+    float **arr[10] = {&s->sx0, &s->sy0, &s->sz0, &s->sx1, &s->sy1, &s->sz1, &s->cax, &s->cay, &s->caz, &s->crej};
+    for (int k = 0; k < 10; k++) *arr[k] = s->soa + (size_t)k * stride;
     /* Leaf boxes, cones, Lambert flags from the samples. */
     const uint32_t leaf0 = s->lvl_off[L], leaf1 = s->lvl_off[L + 1];
 #pragma omp parallel for schedule(dynamic, 64)
@@ -466,12 +484,12 @@ static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, co
             if (!bad) cone_thresholds(nd, acos(cm) + 1e-5);
             else nd->rej = -2.f, nd->acc = 2.f, nd->alpha = 4.f;
         }
+        soa_store(s, (size_t)li, nd);
     }
     /* Inner levels bottom-up: union of child boxes; cone = mean child axis,
      * half-angle = max(angle to child axis + child half-angle) (§4.5). Open
      * child cones (alpha > pi) make the parent open. */
-    for (int l = L - 1; l >= 0; l--) {
-#pragma omp parallel for schedule(dynamic, 64)
+    for (int l = L - 1; l >= 0; l--) {   /* few nodes: serial */
         for (long long ni = s->lvl_off[l]; ni < (long long)s->lvl_off[l + 1]; ni++) {
             cnode *nd = &s->nodes[ni];
             int nch = __builtin_popcount(nd->mask);
@@ -503,19 +521,8 @@ static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, co
             } else {
                 nd->rej = -2.f, nd->acc = 2.f, nd->alpha = 4.f;
             }
+            soa_store(s, (size_t)ni, nd);
         }
-    }
-    /* Structure-of-arrays copies of boxes and cones for the child tests. */
-    const size_t stride = nn + 16;
-    if ((st = ENSURE(soa, 10 * stride, float))) return st;
-    float **arr[10] = {&s->sx0, &s->sy0, &s->sz0, &s->sx1, &s->sy1, &s->sz1, &s->cax, &s->cay, &s->caz, &s->crej};
-    for (int k = 0; k < 10; k++) *arr[k] = s->soa + (size_t)k * stride;
-#pragma omp parallel for schedule(static)
-    for (long long ni = 0; ni < (long long)nn; ni++) {
-        const cnode *nd = &s->nodes[ni];
-        s->sx0[ni] = nd->lo[0], s->sy0[ni] = nd->lo[1], s->sz0[ni] = nd->lo[2];
-        s->sx1[ni] = nd->hi[0], s->sy1[ni] = nd->hi[1], s->sz1[ni] = nd->hi[2];
-        s->cax[ni] = nd->ax, s->cay[ni] = nd->ay, s->caz[ni] = nd->az, s->crej[ni] = nd->rej;
     }
     return PGI_OK;
 }
