@@ -1270,6 +1270,6 @@ const pgi_estimator_vtbl pgi__est_cluster_trivial = {
 };
 const pgi_estimator_vtbl pgi__est_directional = {
     "directional",
-    "cluster hierarchy, flux in 8 octant buckets per node at a fixed level, blurred irradiance (§4.7)", 0,
+    "cluster hierarchy, flux in 8 octant buckets per node from a fixed level down, blurred irradiance (§4.7)", 0,
     dir_create, cl_build, cl_estimate, cl_stats, cl_destroy, 0,
 };
