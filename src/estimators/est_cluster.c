@@ -1193,8 +1193,20 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
                             }
                         }
                     }
+                    const float w = 1.f / (PGI_PI * r2);
                     for (int t = 0; t < nb; t++) {
                         size_t i = s->order[k0 + t];
+                        if (bx[t] == bx[t]) {
+                            /* Lambertian: pgi__acc_finish with no specular sum, reading only kd */
+                            const float *kd = vs->kd + 3 * i;
+                            float *o = a->out_rgb + 3 * i;
+                            o[0] = (kd[0] * PGI_INV_PI * (ar[t] + cf[0])) * w;
+                            o[1] = (kd[1] * PGI_INV_PI * (ag[t] + cf[1])) * w;
+                            o[2] = (kd[2] * PGI_INV_PI * (ab[t] + cf[2])) * w;
+                            reads += total;
+                            contrib += an[t] + cc;
+                            continue;
+                        }
                         pgi__vs v;
                         pgi__vs_load(vs, i, &v);
                         pgi__acc acc = {ar[t], ag[t], ab[t], 0.f, 0.f, 0.f, an[t]};
