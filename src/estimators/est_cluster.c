@@ -101,7 +101,9 @@ typedef struct {
     size_t nvalid, nnodes, nchunks, chunk;
     uint32_t lvl_off[MAX_LEVELS + 2];
     /* sort */
-    uint64_t *keys, *keys2, *spread;
+    uint64_t *keys, *keys2, *spread, *ck2;   /* keys: sorted cluster keys; keys2: per-tile sorted samples */
+    uint32_t *tcl, *tn, *ci, *ci2, *cb, *cn, *cs;   /* per tile: cluster base, count; per cluster: index, begin, size, start */
+    size_t ck2_cap, tcl_cap, tn_cap, ci_cap, ci2_cap, cb_cap, cn_cap, cs_cap;
     uint32_t *order, *order2, *hist, *pix_cnt;
     size_t keys_cap, keys2_cap, spread_cap, order_cap, order2_cap, hist_cap, pix_cnt_cap;
     /* hierarchy */
@@ -193,6 +195,11 @@ static inline int slice_of(float z, float near, float log_near, float inv_step) 
     float k = z > near ? (fast_log2(z) - log_near) * inv_step : 0.f;
     if (!(k >= 0.f)) return k < 0.f ? 0 : 65535;
     return k < 65535.f ? (int)k : 65535;
+}
+
+static int cmp_u64(const void *a, const void *b) {
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return x < y ? -1 : x > y;
 }
 
 static int bits_for(uint32_t n) {
@@ -289,14 +296,13 @@ static inline void soa_store(cl_state *s, size_t ni, const cnode *nd) {
 
 static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, const pgi_camera *cam, double *t_sort) {
     const int W = vs->width, H = vs->height, T = s->T;
-    const size_t npix = vs->count;
     pgi_status st;
     s->ntx = (W + T - 1) / T;
     s->nty = (H + T - 1) / T;
     /* Pixel chunks (rows) for compaction: fixed, at most 64. */
     const int rows_per = (H + NCHUNK_MAX - 1) / NCHUNK_MAX;
     const int npc = (H + rows_per - 1) / rows_per;
-    if ((st = ENSURE(pix_cnt, (size_t)npc + 1, uint32_t)) || (st = ENSURE(order2, npix, uint32_t)) ||
+    if ((st = ENSURE(pix_cnt, (size_t)npc + 1, uint32_t)) ||
         (st = ENSURE(hist, (size_t)RADIX_CHUNKS * RADIX, uint32_t)))
         return st;
     /* One pass: valid counts per row chunk, near = smallest positive depth,
@@ -360,37 +366,106 @@ static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, co
     int L = (bits + 4) / 5;
     if (L > MAX_LEVELS) return pgi__fail(PGI_ERR_UNSUPPORTED, "cluster: %d key bits exceed the hierarchy depth", bits);
     s->L = L;
-    if ((st = ENSURE(keys, nvalid + 1, uint64_t)) || (st = ENSURE(keys2, nvalid + 1, uint64_t)) ||
+    /* Per tile: its valid samples sorted by (mirror bit, slice), the part of
+     * the key that varies inside a tile (the spread tables are monotone, so
+     * this is key order); the runs are the tile's clusters. Then only the
+     * clusters are radix-sorted by key, and the samples are copied into
+     * cluster order: sorting 2M samples is replaced by ~64-sample local sorts. */
+    const int ntiles = s->ntx * s->nty;
+    const size_t tsz = (size_t)T * (size_t)T;
+    if ((st = ENSURE(keys2, (size_t)ntiles * tsz + 1, uint64_t)) || (st = ENSURE(tcl, (size_t)ntiles + 1, uint32_t)) || (st = ENSURE(tn, (size_t)ntiles + 1, uint32_t)) ||
         (st = ENSURE(order, nvalid + 1, uint32_t)))
         return st;
-#pragma omp parallel for schedule(static)
-    for (int c = 0; c < npc; c++) {
-        size_t o = s->pix_cnt[c];
-        for (int y = c * rows_per; y < (c + 1) * rows_per && y < H; y++)
-            for (int x = 0; x < W; x++) {
+#pragma omp parallel for schedule(dynamic, 16)
+    for (int t = 0; t < ntiles; t++) {
+        const int tx = t % s->ntx, ty = t / s->ntx;
+        uint64_t *v = s->keys2 + (size_t)t * tsz;
+        uint32_t n = 0;
+        for (int y = ty * T; y < (ty + 1) * T && y < H; y++)
+            for (int x = tx * T; x < (tx + 1) * T && x < W; x++) {
                 size_t i = (size_t)y * W + (size_t)x;
                 uint8_t f = vs->flags[i];
                 if (!(f & PGI_VS_VALID)) continue;
-                uint64_t k = sp[0][x / T] | sp[1][y / T] | sp[2][slice_of(vs->depth[i], near, log_near, inv_step)];
-                if (!(f & PGI_VS_PRIMARY)) k |= sec_bit;
-                s->keys[o] = k;
-                s->order[o] = (uint32_t)i;
-                o++;
+                uint64_t sl = (uint64_t)slice_of(vs->depth[i], near, log_near, inv_step);
+                uint64_t sec = (f & PGI_VS_PRIMARY) ? 0u : 1u;
+                uint64_t j = (uint64_t)((y - ty * T) * T + (x - tx * T));
+                v[n++] = sec << 40 | sl << 20 | j;
             }
+        if (n <= 256) {
+            for (uint32_t k = 1; k < n; k++) {   /* insertion sort: tiles are small */
+                uint64_t e = v[k];
+                uint32_t m = k;
+                while (m > 0 && v[m - 1] > e) v[m] = v[m - 1], m--;
+                v[m] = e;
+            }
+        } else {
+            qsort(v, n, sizeof *v, cmp_u64);
+        }
+        uint32_t nc = 0;
+        for (uint32_t k = 0; k < n; k++) nc += k == 0 || (v[k] >> 20) != (v[k - 1] >> 20);
+        s->tcl[t] = nc;
+        s->tn[t] = n;
     }
-    if ((st = ENSURE(order2, nvalid + 1, uint32_t))) return st;
-    if (radix_sort(s->keys, s->order, s->keys2, s->order2, nvalid, bits, s->hist)) {
-        uint64_t *tk = s->keys; s->keys = s->keys2; s->keys2 = tk;
-        size_t tc = s->keys_cap; s->keys_cap = s->keys2_cap; s->keys2_cap = tc;
-        uint32_t *tv = s->order; s->order = s->order2; s->order2 = tv;
-        tc = s->order_cap; s->order_cap = s->order2_cap; s->order2_cap = tc;
+    size_t nclus = 0;
+    for (int t = 0; t < ntiles; t++) {
+        uint32_t c = s->tcl[t];
+        s->tcl[t] = (uint32_t)nclus;
+        nclus += c;
+    }
+    s->tcl[ntiles] = (uint32_t)nclus;
+    if ((st = ENSURE(keys, nclus + 1, uint64_t)) || (st = ENSURE(ck2, nclus + 1, uint64_t)) ||
+        (st = ENSURE(ci, nclus + 1, uint32_t)) || (st = ENSURE(ci2, nclus + 1, uint32_t)) ||
+        (st = ENSURE(cb, nclus + 1, uint32_t)) || (st = ENSURE(cn, nclus + 1, uint32_t)) ||
+        (st = ENSURE(cs, nclus + 1, uint32_t)))
+        return st;
+#pragma omp parallel for schedule(dynamic, 16)
+    for (int t = 0; t < ntiles; t++) {
+        const int tx = t % s->ntx, ty = t / s->ntx;
+        const uint64_t *v = s->keys2 + (size_t)t * tsz;
+        const uint32_t n = s->tn[t];
+        uint32_t c = s->tcl[t];
+        for (uint32_t k = 0; k < n;) {
+            const uint32_t k0 = k;
+            while (k < n && (v[k] >> 20) == (v[k0] >> 20)) k++;
+            const uint64_t sec = v[k0] >> 40, sl = (v[k0] >> 20) & 0xFFFFFu;
+            s->keys[c] = sp[0][tx] | sp[1][ty] | sp[2][sl] | (sec ? sec_bit : 0);
+            s->ci[c] = c;
+            s->cb[c] = (uint32_t)((size_t)t * tsz + k0);
+            s->cn[c] = k - k0;
+            c++;
+        }
+    }
+    if (radix_sort(s->keys, s->ci, s->ck2, s->ci2, nclus, bits, s->hist)) {
+        uint64_t *tk = s->keys; s->keys = s->ck2; s->ck2 = tk;
+        size_t tc = s->keys_cap; s->keys_cap = s->ck2_cap; s->ck2_cap = tc;
+        uint32_t *tv = s->ci; s->ci = s->ci2; s->ci2 = tv;
+        tc = s->ci_cap; s->ci_cap = s->ci2_cap; s->ci2_cap = tc;
+    }
+    {
+        size_t acc = 0;
+        for (size_t i = 0; i < nclus; i++) {
+            s->cs[i] = (uint32_t)acc;
+            acc += s->cn[s->ci[i]];
+        }
+        s->cs[nclus] = (uint32_t)acc;
+        PGI_ASSERT(acc == nvalid);
+    }
+#pragma omp parallel for schedule(dynamic, 256)
+    for (long long i = 0; i < (long long)nclus; i++) {
+        const uint32_t c = s->ci[i], t = (uint32_t)(s->cb[c] / tsz);
+        const int tx = (int)(t % (uint32_t)s->ntx), ty = (int)(t / (uint32_t)s->ntx);
+        for (uint32_t j = 0; j < s->cn[c]; j++) {
+            uint32_t lj = (uint32_t)(s->keys2[s->cb[c] + j] & 0xFFFFFu);
+            s->order[s->cs[i] + j] = (uint32_t)((size_t)(ty * T + (int)(lj / (uint32_t)T)) * W + (size_t)(tx * T) +
+                                                lj % (uint32_t)T);
+        }
     }
     *t_sort = pgi__now_ms();
 
     /* Levels: count the distinct key prefixes per level (one scan), then fill. */
     size_t cnt[MAX_LEVELS + 1] = {0};
-    const uint64_t *K = s->keys;
-    for (size_t i = 0; i < nvalid; i++) {
+    const uint64_t *K = s->keys;   /* sorted cluster keys, all distinct: one leaf each */
+    for (size_t i = 0; i < nclus; i++) {
         if (i > 0 && K[i] == K[i - 1]) continue;
         for (int l = 0; l <= L; l++) {
             int sh = 5 * (L - l);
@@ -411,7 +486,7 @@ static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, co
     {
         size_t cur[MAX_LEVELS + 1];
         for (int l = 0; l <= L; l++) cur[l] = s->lvl_off[l];
-        for (size_t i = 0; i < nvalid; i++) {
+        for (size_t i = 0; i < nclus; i++) {
             if (i > 0 && K[i] == K[i - 1]) continue;
             int l0 = 0;
             if (i > 0) {
@@ -422,7 +497,7 @@ static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, co
                 cnode *nd = &s->nodes[idx];
                 memset(nd, 0, sizeof *nd);
                 s->nkey[idx] = K[i] >> 5 * (L - l);
-                s->sbeg[idx] = (uint32_t)i;
+                s->sbeg[idx] = s->cs[i];
                 nd->parent = UINT32_MAX;
                 if (l > 0) {
                     size_t p = cur[l - 1] - 1;
@@ -1261,6 +1336,8 @@ static void cl_destroy(void *state) {
                  s->cum_flux, s->irr, s->irr2, s->cum_cnt};
     for (size_t k = 0; k < sizeof p / sizeof p[0]; k++) pgi__afree(p[k]);
     pgi__afree(s->task_rec);
+    void *q[] = {s->ck2, s->tcl, s->tn, s->ci, s->ci2, s->cb, s->cn, s->cs};
+    for (size_t k = 0; k < sizeof q / sizeof q[0]; k++) pgi__afree(q[k]);
     pgi__afree(s->soa);
     for (int i = 0; i < s->nouts; i++) free(s->outs[i].out);
     free(s->outs);
