@@ -24,8 +24,9 @@
  * tile x, tile y and slice are interleaved (the dimension with the most bits
  * left first), and the key is cut into 5-bit digits: 32 children a node, a
  * 32-bit child mask, key >> 5 = parent key. Unlike the paper's dense GPU
- * arrays, the tree is sparse: the valid samples are radix-sorted by key, the
- * leaves are the runs of equal keys, and every level is the run list of the
+ * arrays, the tree is sparse: each tile's samples are sorted locally by
+ * (mirror bit, slice), the resulting clusters are radix-sorted by key, the
+ * leaves are the clusters in key order, and every level is the run list of the
  * key prefixes, stored breadth first; a node's children are contiguous (first
  * child index + mask), and every node covers one contiguous range of the
  * sorted samples. Boxes are view-space AABBs of the ACTUAL sample positions
