@@ -1027,12 +1027,6 @@ static pgi_status cl_build(void *state, const pgi_estimate_args *a) {
         s->J = J;
         if ((st = splat(s, a->photons, tm))) return st;
         s->splatted = 1;
-        if (getenv("PGI_CLUSTER_DEBUG")) {
-            fprintf(stderr, "cluster: %zu valid, L=%d J=%d D=%d nodes/level:", s->nvalid, s->L, s->J, s->D);
-            for (int l = 0; l <= s->L; l++) fprintf(stderr, " %u", s->lvl_off[l + 1] - s->lvl_off[l]);
-            fprintf(stderr, "; jobs %zu, top list %zu, lists %zu, visited %llu\n", s->njobs, s->ntop_list, s->nlist,
-                    (unsigned long long)s->c.st.nodes_visited);
-        }
     } else {
         s->D = s->J = 0;
     }
