@@ -118,6 +118,7 @@ static void test_plane_from_below(void **state) {
     float *out = malloc(3 * vs.count * sizeof *out);
     for (size_t e = 0; e < pgi_estimator_count(); e++) {
         const pgi_estimator_vtbl *vt = pgi_estimator_at(e);
+        if (!vt->exact) continue;   /* approximate ones (directional) have their own bounds */
         for (size_t i = 0; i < 3 * vs.count; i++) out[i] = NAN;
         pgi_estimator_stats st;
         TU_CHECK_OK(tu_run_estimator(vt->name, &(pgi_estimator_desc){.radius = PLANE_R}, &ph, &vs, &cam, out, &st));
@@ -157,6 +158,7 @@ static void test_kernel_normalisation(void **state) {
     float *out = malloc(3 * vs.count * sizeof *out);
     for (size_t e = 0; e < pgi_estimator_count(); e++) {
         const pgi_estimator_vtbl *vt = pgi_estimator_at(e);
+        if (!vt->exact) continue;   /* approximate ones (directional) have their own bounds */
         pgi_estimator_stats st;
         TU_CHECK_OK(tu_run_estimator(vt->name, &(pgi_estimator_desc){.radius = r}, &ph, &vs, &cam, out, &st));
         for (int c = 0; c < 3; c++) {

@@ -174,6 +174,18 @@ fi
 if expect_ok render --scene scenes/cornell-moving.json --time 2.5 --size 32x24 --photons 2000 --output counts -o "$TMP/c.exr" -q; then
     [ -s "$TMP/c.exr" ] && ok || bad "render --output counts did not write c.exr"
 fi
+# Cluster estimators and their options.
+expect_error "--cluster-tile" render --scene cornell --estimator cluster --cluster-tile 0 -o "$TMP/c.png"
+expect_error "--directional-level" render --scene cornell --estimator directional --directional-level 17 -o "$TMP/c.png"
+expect_error "--directional-blur" render --scene cornell --estimator directional --directional-blur x -o "$TMP/c.png"
+for est in cluster cluster-cone cluster-trivial directional; do
+    if expect_ok render --scene cornell --estimator "$est" --cluster-tile 4 --size 40x30 --photons 2000 -q \
+            -o "$TMP/$est.png"; then
+        [ -s "$TMP/$est.png" ] && ok || bad "render --estimator $est did not write an image"
+    fi
+done
+expect_ok render --scene cornell --estimator directional --directional-level 0 --directional-blur 0 --size 40x30 \
+    --photons 2000 -q -o "$TMP/d.png"
 
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]

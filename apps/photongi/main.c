@@ -51,6 +51,11 @@ static const char *k_render_help =
     "  --stats FILE.json  write timings, memory, photon reads/contributing as JSON ('-' = stdout)\n"
     "  -o, --out FILE     output image (.png or .exr); required\n"
     "  -q, --quiet        print nothing but errors\n"
+    "  --cluster-tile T   cluster edge in pixels for cluster, cluster-cone, cluster-trivial,\n"
+    "                     directional (1..256, default 8)\n"
+    "  --directional-level N  directional: flux buckets N levels above the leaves (1..16,\n"
+    "                     default 1; 0 = at the leaves)\n"
+    "  --directional-blur R   directional: irradiance blur radius in pixels (1..64, default 4; 0 = off)\n"
     "\n"
     "Scene files: mesh paths resolve against the .json file, then $PHOTONGI_SCENES\n"
     "(default ../shared/scenes).\n";
@@ -239,6 +244,18 @@ static int cmd_render(int argc, char **argv) {
         } else if (strcmp(a, "--time") == 0) {
             if (!parse_float(v, &scene_time) || !isfinite(scene_time))
                 return usage_error("render", "--time needs a number of seconds, got '%s'", v);
+        } else if (strcmp(a, "--cluster-tile") == 0) {
+            if (!parse_long(v, 1, 256, &n))
+                return usage_error("render", "--cluster-tile needs a number in 1..256, got '%s'", v);
+            d.cluster_tile = (int)n;
+        } else if (strcmp(a, "--directional-level") == 0) {
+            if (!parse_long(v, 0, 16, &n))
+                return usage_error("render", "--directional-level needs a number in 0..16, got '%s'", v);
+            d.directional_level = n == 0 ? -1 : (int)n;
+        } else if (strcmp(a, "--directional-blur") == 0) {
+            if (!parse_long(v, 0, 64, &n))
+                return usage_error("render", "--directional-blur needs a number in 0..64, got '%s'", v);
+            d.directional_blur = n == 0 ? -1 : (int)n;
         } else return usage_error("render", "unknown option '%s'", a);
     }
     if (!out) return usage_error("render", "%s", "no output file: give -o OUT.png or -o OUT.exr");

@@ -90,6 +90,10 @@ typedef struct pgi_estimator_desc {
     int tile_size;       /* "tiled": tile edge in pixels; default 32 */
     float cell_size;     /* "hashgrid": cell edge (>= radius/64); default 2 * radius */
     int threads;         /* 0 = OpenMP default */
+    int cluster_tile;        /* "cluster*", "directional": cluster edge in pixels (1..256); default 8 */
+    int directional_level;   /* "directional": flux buckets this many levels above the leaves (1..16);
+                                0 = default 1; -1 = at the leaves */
+    int directional_blur;    /* "directional": irradiance blur radius in pixels (1..64); 0 = default 4; -1 = off */
 } pgi_estimator_desc;
 
 typedef struct pgi_estimate_args {

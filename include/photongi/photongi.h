@@ -107,6 +107,9 @@ typedef struct pgi_render_desc {
                                    (borrowed for the call; the viewer's free camera) */
     int progressive;         /* > 1: pgi_renderer_render averages this many frames with fresh photons
                                 and a shrinking radius (Knaus & Zwicker 2011); 0 or 1: one frame */
+    int cluster_tile;        /* cluster estimators: cluster edge in pixels; default 8 */
+    int directional_level;   /* directional: buckets this many levels above the leaves; 0 = 1, -1 = leaves */
+    int directional_blur;    /* directional: irradiance blur radius in pixels; 0 = 4, -1 = off */
 } pgi_render_desc;
 
 /* Linear RGB radiance, row-major from the top-left, 3 floats a pixel. */

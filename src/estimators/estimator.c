@@ -7,6 +7,10 @@ static const pgi_estimator_vtbl *const k_estimators[] = {
     &pgi__est_brute,
     &pgi__est_hashgrid,
     &pgi__est_tiled,
+    &pgi__est_cluster,
+    &pgi__est_cluster_cone,
+    &pgi__est_cluster_trivial,
+    &pgi__est_directional,
 };
 #define N_EST (sizeof k_estimators / sizeof k_estimators[0])
 

@@ -124,5 +124,7 @@ static inline void pgi__stats_estimated(pgi_estimator_stats *st, double t0, uint
 pgi_status pgi__ensure(void **p, size_t *cap, size_t n, size_t size);
 
 extern const pgi_estimator_vtbl pgi__est_brute, pgi__est_hashgrid, pgi__est_tiled;
+extern const pgi_estimator_vtbl pgi__est_cluster, pgi__est_cluster_cone, pgi__est_cluster_trivial,
+    pgi__est_directional;
 
 #endif

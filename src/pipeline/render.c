@@ -131,6 +131,9 @@ static pgi_status ensure_buffers(pgi_renderer *r, const pgi_render_desc *d) {
         }
     }
     pgi_estimator_desc ed = {.radius = d->radius, .tile_size = d->tile_size, .threads = d->threads};
+    ed.cluster_tile = d->cluster_tile;
+    ed.directional_level = d->directional_level;
+    ed.directional_blur = d->directional_blur;
     if (!r->est || strcmp(r->est_name, d->estimator) != 0 || memcmp(&ed, &r->est_desc, sizeof ed) != 0) {
         pgi_estimator_destroy(r->est);
         r->est = NULL;
