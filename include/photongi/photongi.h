@@ -99,7 +99,25 @@ typedef struct pgi_render_desc {
     pgi_output output;
     int radius_set;          /* non-zero: `radius` was given explicitly (0 or less is then an error) */
     int photons_set;         /* non-zero: `photons` was given explicitly (0 is then an error) */
+    /* Per-photon footprints (radius policies; need an estimator with PGI_EST_CAP_PHOTON_RADIUS). */
+    int radius_policy;       /* PGI_RADIUS_FIXED (default), PGI_RADIUS_PATH, PGI_RADIUS_DIFFERENTIALS */
+    float r_min, r_max;      /* path: radius range (default r_max = radius, r_min = r_max/8);
+                                differentials: r_max clamps the footprint radius (default: radius) */
+    float smoothing;         /* differentials: smoothing factor s (> 0); 0 = automatic (docs/bvh.md) */
+    int bvh_build;           /* "bvh": PGI_BVH_LINEAR (default) or PGI_BVH_VVH */
+    int leaf_size;           /* "bvh": leaf-size threshold; 0 = T_auto */
 } pgi_render_desc;
+
+typedef enum pgi_radius_policy {
+    PGI_RADIUS_FIXED = 0,         /* one radius for every photon */
+    PGI_RADIUS_PATH,              /* tiled paper eqs. 4-5: r_min + (r_max - r_min) sqrt(1 - path probability) */
+    PGI_RADIUS_DIFFERENTIALS,     /* BVH paper §4: skewed ellipsoids from photon differentials */
+    PGI_RADIUS_POLICY_COUNT_
+} pgi_radius_policy;
+
+/* Footprint radius histogram (BVH paper Table 3): bin k counts radii in
+ * [k, k+1) * r_max/14 before the clamp, the last bin everything above. */
+#define PGI_FOOTPRINT_BINS 21
 
 /* Linear RGB radiance, row-major from the top-left, 3 floats a pixel. */
 typedef struct pgi_image {
@@ -133,6 +151,10 @@ typedef struct pgi_frame_stats {
     uint64_t reads;          /* photon reads by the estimator */
     uint64_t contributing;   /* reads that passed the sphere + hemisphere test */
     uint64_t nodes_visited;  /* cells / tiles / nodes touched */
+    int radius_policy;       /* pgi_radius_policy used */
+    int leaf_size;           /* "bvh": leaf-size threshold used */
+    float footprint_bin_width;                     /* 0: no per-photon footprints */
+    uint64_t footprint_hist[PGI_FOOTPRINT_BINS];   /* see PGI_FOOTPRINT_BINS */
 } pgi_frame_stats;
 
 /* Renders one frame into `out` (free with pgi_image_free). Pass a zeroed
