@@ -121,6 +121,35 @@ static void test_refraction(void **state) {
     assert_true(fabsf(pd.dd[0].z) < 1e-6f);
 }
 
+/* Oblique incidence: the analytic differential of the refracted direction (Igehy) equals the
+ * derivative of Snell's law by central differences in the incidence angle. */
+static void refract_dir(double a, double eta, double out[3]) {
+    double d[3] = {sin(a), 0.0, -cos(a)}, ci = cos(a);
+    double ct = sqrt(1.0 - eta * eta * (1.0 - ci * ci));
+    for (int k = 0; k < 3; k++) out[k] = eta * d[k] + (eta * ci - ct) * (k == 2 ? 1.0 : 0.0);
+}
+
+static void test_refraction_oblique(void **state) {
+    (void)state;
+    const double eta = 1.0 / 1.5;
+    for (double a = 0.2; a < 1.3; a += 0.3) {
+        pgi__pdiff pd = {0};
+        pd.dd[0] = v3((float)cos(a), 0.f, (float)sin(a));   /* d(d)/d(alpha) */
+        pd.dd[1] = v3(0.f, 1.f, 0.f);
+        double t[3], tp[3], tm[3], h = 1e-5;
+        refract_dir(a, eta, t);
+        refract_dir(a + h, eta, tp);
+        refract_dir(a - h, eta, tm);
+        pgi_v3 d = v3((float)sin(a), 0.f, (float)-cos(a)), n = v3(0.f, 0.f, 1.f);
+        pgi_v3 dn[2] = {v3(0.f, 0.f, 0.f), v3(0.f, 0.f, 0.f)};
+        pgi__pd_refract(&pd, d, n, dn, (float)eta, v3((float)t[0], (float)t[1], (float)t[2]));
+        double fd[3];
+        for (int k = 0; k < 3; k++) fd[k] = (tp[k] - tm[k]) / (2 * h);
+        double err = fabs(pd.dd[0].x - fd[0]) + fabs(pd.dd[0].y - fd[1]) + fabs(pd.dd[0].z - fd[2]);
+        if (!(err < 1e-3 * sqrt(fd[0] * fd[0] + fd[2] * fd[2]))) fail_msg("alpha %g: refraction differential off by %g", a, err);
+    }
+}
+
 static void test_roulette(void **state) {
     (void)state;
     pgi__pdiff pd = {0};
@@ -129,6 +158,14 @@ static void test_roulette(void **state) {
     float a0 = v3_len(v3_cross(pd.dp[0], pd.dp[1]));
     pgi__pd_roulette(&pd, 0.25f);
     assert_close(v3_len(v3_cross(pd.dp[0], pd.dp[1])), a0 / 0.25, 1e-6, "area times 1/p");
+    /* the tracer hook: only for the differentials policy */
+    pgi__fp_params p;
+    pgi__fp_params_init(&p, PGI_RADIUS_PATH, 0.1f, 1.f, 1.f, 100, 1.f);
+    pgi__fp_roulette(&pd, &p, 0.25f);
+    assert_close(v3_len(v3_cross(pd.dp[0], pd.dp[1])), a0 / 0.25, 1e-6, "path policy: no change");
+    p.policy = PGI_RADIUS_DIFFERENTIALS;
+    pgi__fp_roulette(&pd, &p, 0.5f);
+    assert_close(v3_len(v3_cross(pd.dp[0], pd.dp[1])), a0 / 0.125, 1e-6, "hook scales");
 }
 
 /* The interpolated normals of the built-in tessellated unit sphere: dn = dp / R (outward). */
@@ -261,6 +298,7 @@ int main(void) {
         cmocka_unit_test(test_diffuse_bounce_expands),
         cmocka_unit_test(test_curved_mirrors),
         cmocka_unit_test(test_refraction),
+        cmocka_unit_test(test_refraction_oblique),
         cmocka_unit_test(test_roulette),
         cmocka_unit_test(test_sphere_normal_derivative),
         cmocka_unit_test(test_frame_footprints),
