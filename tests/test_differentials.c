@@ -7,6 +7,7 @@
 #include "test_util.h"
 
 #include "photon/differentials.h"
+#include "photon/photon.h"
 #include "scene/scene_internal.h"
 
 static float fp_radius(const pgi__pdiff *pd, float delta) {
@@ -199,6 +200,111 @@ static void test_sphere_normal_derivative(void **state) {
     pgi_scene_destroy(s);
 }
 
+/* End to end through the tracer: a spot light 2 above a small mirror cap (curvature radius 4,
+ * concave, flat or convex, smooth vertex normals), the reflected caustic caught by a black ceiling
+ * 3 above the mirror. Paraxial optics: the beam's linear size at the ceiling is 2 (concave: source
+ * at the focus, parallel beam), 5 (flat: virtual source 2 behind) and 8 (convex: virtual source 1
+ * behind) units of the spread at 1 from the source; the footprint radii follow. */
+static double caustic_median_radius(const char *dir, int curvature) {
+    char path[700], json[1400], jpath[700];
+    snprintf(path, sizeof path, "%s/mirror.mtl", dir);
+    assert_int_equal(tu_write_file(path, "newmtl mirror\nKd 0 0 0\nKs 1 1 1\nillum 3\n"
+                                         "newmtl black\nKd 0 0 0\nillum 1\n"),
+                     0);
+    enum { G = 24 };
+    size_t cap = 200000, len = 0;
+    char *obj = malloc(cap);
+    assert_non_null(obj);
+    len += (size_t)snprintf(obj + len, cap - len, "mtllib mirror.mtl\n");
+    const double R = 4.0;
+    for (int i = 0; i <= G; i++)
+        for (int j = 0; j <= G; j++) {
+            double x = -0.5 + (double)i / G, z = -0.5 + (double)j / G, y = 0.0, nx = 0.0, ny = 1.0, nz = 0.0;
+            if (curvature) {
+                /* concave: centre (0, R, 0), normal towards it; convex: centre (0, -R, 0), outward */
+                double cy = curvature < 0 ? R : -R, h = sqrt(R * R - x * x - z * z);
+                y = curvature < 0 ? cy - h : cy + h;
+                nx = (curvature < 0 ? -x : x) / R, ny = (curvature < 0 ? cy - y : y - cy) / R,
+                nz = (curvature < 0 ? -z : z) / R;
+            }
+            len += (size_t)snprintf(obj + len, cap - len, "v %.7f %.7f %.7f\nvn %.7f %.7f %.7f\n", x, y, z, nx, ny, nz);
+        }
+    len += (size_t)snprintf(obj + len, cap - len, "usemtl mirror\n");
+    for (int i = 0; i < G; i++)
+        for (int j = 0; j < G; j++) {
+            int a = i * (G + 1) + j + 1, b = a + 1, c = a + G + 2, d = a + G + 1;
+            len += (size_t)snprintf(obj + len, cap - len, "f %d//%d %d//%d %d//%d %d//%d\n", a, a, b, b, c, c, d, d);
+        }
+    int base = (G + 1) * (G + 1);
+    len += (size_t)snprintf(obj + len, cap - len,
+                            "v -20 3 -20\nv 20 3 -20\nv 20 3 20\nv -20 3 20\nusemtl black\nf %d %d %d %d\n",
+                            base + 1, base + 2, base + 3, base + 4);
+    snprintf(path, sizeof path, "%s/mirror%d.obj", dir, curvature + 1);
+    assert_int_equal(tu_write_file(path, obj), 0);
+    free(obj);
+    snprintf(json, sizeof json,
+             "{\"mesh\": \"%s\", \"camera\": {\"eye\": [0, 1, 5], \"look_at\": [0, 1, 0]},\n"
+             " \"lights\": [{\"type\": \"spot\", \"position\": [0, 2, 0], \"direction\": [0, -1, 0], "
+             "\"angle\": 10, \"intensity\": [10, 10, 10]}]}\n",
+             path);
+    snprintf(jpath, sizeof jpath, "%s/mirror%d.json", dir, curvature + 1);
+    assert_int_equal(tu_write_file(jpath, json), 0);
+    pgi_scene *sc = NULL;
+    TU_CHECK_OK(pgi_scene_load(jpath, &sc));
+    pgi_rt *rt = NULL;
+    TU_CHECK_OK(pgi__rt_create(sc, &rt));
+    const uint32_t n = 3000;
+    pgi_photons ph;
+    TU_CHECK_OK(pgi_photons_alloc(&ph, n));
+    float *buf = malloc(7 * n * sizeof(float));
+    assert_non_null(buf);
+    ph.radius = buf;
+    float **ax[] = {&ph.sax, &ph.say, &ph.saz, &ph.sbx, &ph.sby, &ph.sbz};
+    for (int k = 0; k < 6; k++) *ax[k] = buf + (size_t)(k + 1) * n;
+    uint64_t hist[PGI_FOOTPRINT_BINS] = {0}, rays = 0;
+    pgi_trace_desc td = {.photons = n, .bounces = 3, .seed = 9, .radius_policy = PGI_RADIUS_DIFFERENTIALS,
+                         .r_min = 1.f, .r_max = 100.f, .smoothing = 1.f, .footprint_hist = hist};
+    pgi_trace_scratch scr = {0};
+    TU_CHECK_OK(pgi__photons_trace(sc, rt, &td, &ph, &scr, &rays));
+    assert_int_equal(ph.count, n);
+    float *r = malloc(n * sizeof *r);
+    assert_non_null(r);
+    for (size_t j = 0; j < n; j++) {
+        assert_true(fabsf(ph.py[j] - 3.f) < 1e-3f);   /* every photon is a caustic on the ceiling */
+        r[j] = ph.radius[j];
+    }
+    /* median by partial selection sort on a copy (n is small) */
+    for (size_t i = 0; i <= n / 2; i++)
+        for (size_t j = i + 1; j < n; j++)
+            if (r[j] < r[i]) {
+                float t = r[i];
+                r[i] = r[j];
+                r[j] = t;
+            }
+    double med = r[n / 2];
+    free(r);
+    free(buf);
+    ph.radius = NULL;
+    for (int k = 0; k < 6; k++) *ax[k] = NULL;
+    pgi_photons_free(&ph);
+    pgi__trace_scratch_free(&scr);
+    pgi__rt_destroy(rt);
+    pgi_scene_destroy(sc);
+    return med;
+}
+
+static void test_mirror_scenes(void **state) {
+    (void)state;
+    char dir[512];
+    tu_make_tmpdir(dir, sizeof dir);
+    double cc = caustic_median_radius(dir, -1), fl = caustic_median_radius(dir, 0), cv = caustic_median_radius(dir, 1);
+    fprintf(stderr, "  caustic footprint medians: concave %g, flat %g, convex %g\n", cc, fl, cv);
+    assert_true(cc < fl && fl < cv);
+    assert_close(cc / fl, 2.0 / 5.0, 0.1, "concave / flat");
+    assert_close(cv / fl, 8.0 / 5.0, 0.1, "convex / flat");
+    tu_rm_tmpdir(dir);
+}
+
 /* A whole frame: every footprint positive, finite, at most r_max; the histogram counts every
  * photon; path radii within [r_min, r_max]. */
 static void test_frame_footprints(void **state) {
@@ -301,6 +407,7 @@ int main(void) {
         cmocka_unit_test(test_refraction_oblique),
         cmocka_unit_test(test_roulette),
         cmocka_unit_test(test_sphere_normal_derivative),
+        cmocka_unit_test(test_mirror_scenes),
         cmocka_unit_test(test_frame_footprints),
         cmocka_unit_test(test_t_auto_grows),
         cmocka_unit_test(test_bad_settings),
