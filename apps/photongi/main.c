@@ -246,7 +246,7 @@ static int cmd_render(int argc, char **argv) {
                 return 2;
             }
             if (a[2] == 's') d.smoothing = f;
-            else if (a[4] == 'i') d.r_min = f;
+            else if (strcmp(a, "--r-min") == 0) d.r_min = f;
             else d.r_max = f;
         } else if (strcmp(a, "--bvh-build") == 0) {
             if (strcmp(v, "linear") == 0) d.bvh_build = PGI_BVH_LINEAR;
