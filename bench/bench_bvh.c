@@ -108,6 +108,12 @@ int main(int argc, char **argv) {
         pgi_v3 p0 = pgi__scene_vertex(s, v[0]), p1 = pgi__scene_vertex(s, v[1]), p2 = pgi__scene_vertex(s, v[2]);
         area += 0.5 * (double)v3_len(v3_cross(v3_sub(p1, p0), v3_sub(p2, p0)));
     }
+    double fp_area = 0.0;
+    for (size_t j = 0; j < ph.count; j++) {
+        double r = diff ? ph.radius[j] : radius;
+        fp_area += 3.14159265358979 * r * r;
+    }
+    printf("footprint area / scene area = %.3f\n", fp_area / area);
     printf("scene %s, %dx%d, %zu photons (%s footprints, r%s = %g), scene area %.1f, %d threads, %d frames, "
            "trace %.0f ms\n",
            scene_name, width, height, ph.count, policy, diff ? "_max" : "", (double)radius, area,

@@ -233,7 +233,7 @@ static void test_ellipsoids(void **state) {
     pgi_view_samples_free(&vs);
 }
 
-/* T_auto = round(total footprint area / scene area), at least 1: grows with the photon count. */
+/* T_auto = round(8 * total footprint area / scene area), at least 1: grows with the photon count. */
 static void test_t_auto(void **state) {
     (void)state;
     pgi_view_samples vs;
@@ -249,7 +249,7 @@ static void test_t_auto(void **state) {
         pgi_estimator_desc d = {.radius = 0.1f, .scene_area = 6.f};
         pgi_estimator_stats st;
         TU_CHECK_OK(tu_run_estimator("bvh", &d, &ph, &vs, &cam, out, &st));
-        int expect = (int)((double)counts[c] * 3.14159265358979 * 0.01 / 6.0 + 0.5);
+        int expect = (int)(8.0 * (double)counts[c] * 3.14159265358979 * 0.01 / 6.0 + 0.5);
         assert_int_equal(st.leaf_size, expect < 1 ? 1 : expect);
         assert_true(st.leaf_size > prev);
         prev = st.leaf_size;
@@ -363,6 +363,31 @@ static void test_sibenik(void **state) {
     pipeline("sibenik", 48, 27, 6000, PGI_RADIUS_DIFFERENTIALS);
 }
 
+/* Same seed, same bytes for 1, 2 and 8 threads (both builders, differentials footprints). */
+static void test_determinism(void **state) {
+    (void)state;
+    pgi_scene *scene = NULL;
+    TU_CHECK_OK(pgi_scene_load("cornell", &scene));
+    for (int b = 0; b < 2; b++) {
+        pgi_image ref = {0};
+        const int threads[] = {1, 2, 8};
+        for (int k = 0; k < 3; k++) {
+            pgi_render_desc d = {.estimator = "bvh", .width = 40, .height = 40, .photons = 6000, .photons_set = 1,
+                                 .threads = threads[k], .seed = 7, .bvh_build = b,
+                                 .radius_policy = PGI_RADIUS_DIFFERENTIALS, .output = PGI_OUTPUT_INDIRECT};
+            pgi_image img = {0};
+            TU_CHECK_OK(pgi_render(scene, &d, &img, NULL));
+            if (k == 0) ref = img;
+            else {
+                assert_memory_equal(img.rgb, ref.rgb, 3 * 40 * 40 * sizeof(float));
+                pgi_image_free(&img);
+            }
+        }
+        pgi_image_free(&ref);
+    }
+    pgi_scene_destroy(scene);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_errors),
@@ -374,6 +399,7 @@ int main(void) {
         cmocka_unit_test(test_cornell),
         cmocka_unit_test(test_cornell_policies),
         cmocka_unit_test(test_sibenik),
+        cmocka_unit_test(test_determinism),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

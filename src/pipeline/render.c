@@ -108,7 +108,7 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
                                               "default), got %g, %g, %g",
                          (double)d->r_min, (double)d->r_max, (double)d->smoothing);
     if (d->r_max == 0.f) d->r_max = d->radius;
-    if (d->r_min == 0.f) d->r_min = fminf(d->r_max, d->radius) / 8.f;
+    if (d->r_min == 0.f) d->r_min = d->r_max / 8.f;
     if (!(d->r_min <= d->r_max))
         return pgi__fail(PGI_ERR_INVALID_ARG, "r_min (%g) must not exceed r_max (%g)", (double)d->r_min,
                          (double)d->r_max);
