@@ -233,7 +233,7 @@ static void test_ellipsoids(void **state) {
     pgi_view_samples_free(&vs);
 }
 
-/* T_auto = round(8 * total footprint area / scene area), at least 1: grows with the photon count. */
+/* T_auto = round(16 + 6 * total footprint area / scene area): grows with the photon count. */
 static void test_t_auto(void **state) {
     (void)state;
     pgi_view_samples vs;
@@ -249,14 +249,14 @@ static void test_t_auto(void **state) {
         pgi_estimator_desc d = {.radius = 0.1f, .scene_area = 6.f};
         pgi_estimator_stats st;
         TU_CHECK_OK(tu_run_estimator("bvh", &d, &ph, &vs, &cam, out, &st));
-        int expect = (int)(8.0 * (double)counts[c] * 3.14159265358979 * 0.01 / 6.0 + 0.5);
+        int expect = (int)(16.0 + 6.0 * (double)counts[c] * 3.14159265358979 * 0.01 / 6.0 + 0.5);
         assert_int_equal(st.leaf_size, expect < 1 ? 1 : expect);
         assert_true(st.leaf_size > prev);
         prev = st.leaf_size;
         /* scene_area 0: the surface of the photons' bounding box (about 6 here) */
         d.scene_area = 0.f;
         TU_CHECK_OK(tu_run_estimator("bvh", &d, &ph, &vs, &cam, out, &st));
-        assert_true(abs(st.leaf_size - expect) <= expect / 10 + 1);
+        assert_true(abs(st.leaf_size - expect) <= (expect - 16) / 10 + 1);
         free_photons(&ph);
     }
     free(out);

@@ -15,18 +15,21 @@
  *  - vvh (§5.1): top-down, minimising C = V_L N_L + V_R N_R over the 3N plane
  *    sweeps (photons presorted by centroid along each axis, stable partition
  *    per split), stopping at T photons.
- * Leaf threshold T (desc.leaf_size): given, or T_auto (§5.3) = TAUTO_SCALE *
- * total footprint area / scene surface area, rounded, at least 1.
+ * Leaf threshold T (desc.leaf_size): given, or T_auto (§5.3) = TAUTO_BASE +
+ * TAUTO_SCALE * total footprint area / scene surface area, rounded.
  *
  * Everything is deterministic: the build is serial except for independent
  * per-photon work, and each sample sums in tree order. */
 #include "estimator_internal.h"
 
 enum { MODE_FIXED, MODE_SPHERE, MODE_ELLIPSOID };
-/* T_auto = TAUTO_SCALE * footprint area / scene area. The paper gives only proportionality; on
- * our CPU traversal a node costs about as much as several photon tests, and the best fixed
- * threshold sat near 8x the expected contributing count (docs/bvh.md, photongi-bench-bvh). */
-#define TAUTO_SCALE 8.0
+/* T_auto = TAUTO_BASE + TAUTO_SCALE * footprint area / scene area. The paper's term is the
+ * proportional one (it gives no constant). On our CPU a node visit costs as much as many photon
+ * tests (photons are packed contiguously), so the best fixed threshold had a floor of about 16-32
+ * even at low photon density and grew with density above it (photongi-bench-bvh on Sibenik and
+ * Crytek Sponza, docs/bvh.md); the constant base models that floor. */
+#define TAUTO_BASE 16.0
+#define TAUTO_SCALE 6.0
 #define MAX_DEPTH 60
 #define STACK_SIZE 128
 
@@ -289,7 +292,7 @@ static pgi_status bvh_build(void *state, const pgi_estimate_args *a) {
     s->scene_area = sa;
     if (s->c.desc.leaf_size > 0) s->leaf = s->c.desc.leaf_size;
     else {
-        double t = sa > 0.0 ? TAUTO_SCALE * area / sa : 1.0;
+        double t = TAUTO_BASE + (sa > 0.0 ? TAUTO_SCALE * area / sa : 0.0);
         s->leaf = !(t < 65536.0) ? 65536 : t < 1.0 ? 1 : (int)(t + 0.5);
     }
     double t1 = pgi__now_ms();
