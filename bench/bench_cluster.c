@@ -133,7 +133,7 @@ int main(int argc, char **argv) {
             }
             pgi_photons ph;
             pgi_trace_scratch scratch = {0};
-            pgi_trace_desc td = {(uint32_t)np, 4, 1};
+            pgi_trace_desc td = {.photons = (uint32_t)np, .bounces = 4, .seed = 1};
             if (pgi_photons_alloc(&ph, np) != PGI_OK ||
                 pgi__photons_trace(scene, rt, &td, &ph, &scratch, &rays) != PGI_OK) {
                 fprintf(stderr, "photongi-bench-cluster: %s: photons failed: %s\n", sc, pgi_last_error());

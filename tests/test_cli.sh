@@ -186,6 +186,29 @@ for est in cluster cluster-cone cluster-trivial directional; do
 done
 expect_ok render --scene cornell --estimator directional --directional-level 0 --directional-blur 0 --size 40x30 \
     --photons 2000 -q -o "$TMP/d.png"
+# bvh estimator and radius policies (issue 5b)
+expect_error "--radius-policy must be" render --radius-policy wide -o "$TMP/x.png"
+expect_error "--r-min needs a positive number" render --radius-policy path --r-min -1 -o "$TMP/x.png"
+expect_error "--r-max needs a positive number" render --radius-policy path --r-max nan -o "$TMP/x.png"
+expect_error "--r-max needs a positive number" render --radius-policy path --r-max inf -o "$TMP/x.png"
+expect_error "--smoothing needs a positive number" render --radius-policy differentials --smoothing 0 -o "$TMP/x.png"
+expect_error "must not exceed r_max" render --estimator bvh --radius-policy path --r-min 2 --r-max 1 --size 8x8 \
+    --photons 100 -o "$TMP/x.png"
+expect_error "per-photon" render --estimator hashgrid --radius-policy differentials --size 8x8 --photons 100 \
+    -o "$TMP/x.png"
+expect_error "--bvh-build must be" render --estimator bvh --bvh-build sah -o "$TMP/x.png"
+expect_error "--leaf-size needs" render --estimator bvh --leaf-size -2 -o "$TMP/x.png"
+expect_error "--leaf-size needs" render --estimator bvh --leaf-size 100000 -o "$TMP/x.png"
+run render --help
+printf '%s' "$out" | grep -qF -- "--radius-policy" && ok || bad "render --help does not mention --radius-policy"
+run estimators
+printf '%s' "$out" | grep -qx "bvh" && ok || bad "'photongi estimators' does not list bvh"
+if expect_ok render --scene cornell --estimator bvh --bvh-build vvh --leaf-size 4 --radius-policy differentials \
+        --size 32x24 --photons 3000 -q -o "$TMP/bvh.png" --stats "$TMP/bvh.json"; then
+    for key in '"footprint_histogram"' '"bvh_leaf_size"' '"differentials"'; do
+        grep -qF "$key" "$TMP/bvh.json" && ok || bad "bvh stats have no $key"
+    done
+fi
 
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]

@@ -3,6 +3,7 @@
 #include <errno.h>
 #include <math.h>
 #include <inttypes.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -56,6 +57,13 @@ static const char *k_render_help =
     "  --directional-level N  directional: flux buckets N levels above the leaves (1..16,\n"
     "                     default 1; 0 = at the leaves)\n"
     "  --directional-blur R   directional: irradiance blur radius in pixels (1..64, default 4; 0 = off)\n"
+    "  --radius-policy fixed|path|differentials   per-photon footprints (default fixed; others\n"
+    "                     need an estimator that honours them: brute, bvh)\n"
+    "  --r-min R, --r-max R   path: radius range (default r_max = radius, r_min = r_max/8);\n"
+    "                     differentials: r_max clamps the footprint radius\n"
+    "  --smoothing S      differentials: smoothing factor s (default: automatic)\n"
+    "  --bvh-build linear|vvh   'bvh' builder (default linear)\n"
+    "  --leaf-size T      'bvh' leaf-size threshold (default 0 = T_auto)\n"
     "\n"
     "Scene files: mesh paths resolve against the .json file, then $PHOTONGI_SCENES\n"
     "(default ../shared/scenes).\n";
@@ -256,6 +264,29 @@ static int cmd_render(int argc, char **argv) {
             if (!parse_long(v, 0, 64, &n))
                 return usage_error("render", "--directional-blur needs a number in 0..64, got '%s'", v);
             d.directional_blur = n == 0 ? -1 : (int)n;
+        } else if (strcmp(a, "--radius-policy") == 0) {
+            if (strcmp(v, "fixed") == 0) d.radius_policy = PGI_RADIUS_FIXED;
+            else if (strcmp(v, "path") == 0) d.radius_policy = PGI_RADIUS_PATH;
+            else if (strcmp(v, "differentials") == 0) d.radius_policy = PGI_RADIUS_DIFFERENTIALS;
+            else return usage_error("render", "--radius-policy must be fixed, path or differentials, got '%s'", v);
+        } else if (strcmp(a, "--r-min") == 0 || strcmp(a, "--r-max") == 0 || strcmp(a, "--smoothing") == 0) {
+            float f;
+            if (!parse_float(v, &f) || !(f > 0.f) || !isfinite(f)) {
+                fprintf(stderr, "photongi render: %s needs a positive number, got '%s'\nTry 'photongi render --help'.\n",
+                        a, v);
+                return 2;
+            }
+            if (a[2] == 's') d.smoothing = f;
+            else if (strcmp(a, "--r-min") == 0) d.r_min = f;
+            else d.r_max = f;
+        } else if (strcmp(a, "--bvh-build") == 0) {
+            if (strcmp(v, "linear") == 0) d.bvh_build = PGI_BVH_LINEAR;
+            else if (strcmp(v, "vvh") == 0) d.bvh_build = PGI_BVH_VVH;
+            else return usage_error("render", "--bvh-build must be linear or vvh, got '%s'", v);
+        } else if (strcmp(a, "--leaf-size") == 0) {
+            if (!parse_long(v, 0, 65536, &n))
+                return usage_error("render", "--leaf-size needs 0 (T_auto) or a number in 1..65536, got '%s'", v);
+            d.leaf_size = (int)n;
         } else return usage_error("render", "unknown option '%s'", a);
     }
     if (!out) return usage_error("render", "%s", "no output file: give -o OUT.png or -o OUT.exr");
@@ -308,6 +339,17 @@ static int cmd_render(int argc, char **argv) {
         if (fs.frames > 1)
             fprintf(stderr, "  progressive: %d frames averaged (times and counts summed), last radius %g\n", fs.frames,
                     (double)fs.radius);
+        if (fs.leaf_size > 0) fprintf(stderr, "  bvh leaf-size threshold %d\n", fs.leaf_size);
+        if (fs.footprint_bin_width > 0.f) {
+            fprintf(stderr, "  footprint radii (before the r_max clamp):\n");
+            for (int k = 0; k < PGI_FOOTPRINT_BINS; k++) {
+                double lo = k * (double)fs.footprint_bin_width;
+                if (k < PGI_FOOTPRINT_BINS - 1)
+                    fprintf(stderr, "    %8.4g - %-8.4g %10" PRIu64 "\n", lo, lo + fs.footprint_bin_width,
+                            fs.footprint_hist[k]);
+                else fprintf(stderr, "    > %-17.4g %10" PRIu64 "\n", lo, fs.footprint_hist[k]);
+            }
+        }
     }
     return 0;
 }

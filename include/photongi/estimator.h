@@ -40,6 +40,12 @@ typedef struct pgi_photons {
                                 estimator's fixed radius. Only estimators with PGI_EST_CAP_PHOTON_RADIUS
                                 accept it. Not allocated by pgi_photons_alloc. */
     uint64_t emitted;        /* light paths emitted to produce them */
+    /* Optional skewed-ellipsoid footprints (photon differentials, BVH paper §3.2/§4); NULL: spheres.
+       Photon i's ellipsoid is {p + u*a + v*b + w*radius[i]*n : u^2 + v^2 + w^2 < 1} with the semi-axes
+       a = (sax,say,saz)[i], b = (sbx,sby,sbz)[i] in its tangent plane and n = (nx,ny,nz)[i]; radius[i]
+       must then hold the equivalent radius sqrt(|a x b|) (its footprint area is pi |a x b|). Not
+       allocated by pgi_photons_alloc. */
+    float *sax, *say, *saz, *sbx, *sby, *sbz;
 } pgi_photons;
 
 /* Pinhole camera, world space. */
@@ -94,7 +100,13 @@ typedef struct pgi_estimator_desc {
     int directional_level;   /* "directional": flux buckets this many levels above the leaves (1..16);
                                 0 = default 1; -1 = at the leaves */
     int directional_blur;    /* "directional": irradiance blur radius in pixels (1..64); 0 = default 4; -1 = off */
+    int bvh_build;       /* "bvh": PGI_BVH_LINEAR (default) or PGI_BVH_VVH */
+    int leaf_size;       /* "bvh": leaf-size threshold (1..65536); 0 = T_auto */
+    float scene_area;    /* "bvh": scene surface area for T_auto; 0 = the surface of the photons' bounding box */
 } pgi_estimator_desc;
+
+/* BVH photon map builders (BVH paper §5). */
+enum { PGI_BVH_LINEAR = 0, PGI_BVH_VVH = 1 };
 
 typedef struct pgi_estimate_args {
     const pgi_photons *photons;
@@ -114,6 +126,7 @@ typedef struct pgi_estimator_stats {
     size_t memory_bytes[PGI_EST_MAX_ENTRIES];
     int memory_count;
     uint64_t reads, contributing, nodes_visited;
+    int leaf_size;       /* "bvh": the leaf-size threshold used (T_auto or given) */
 } pgi_estimator_stats;
 
 /* One method: a const table of function pointers, dispatched once per pass. */

@@ -110,7 +110,25 @@ typedef struct pgi_render_desc {
     int cluster_tile;        /* cluster estimators: cluster edge in pixels; default 8 */
     int directional_level;   /* directional: buckets this many levels above the leaves; 0 = 1, -1 = leaves */
     int directional_blur;    /* directional: irradiance blur radius in pixels; 0 = 4, -1 = off */
+    /* Per-photon footprints (radius policies; need an estimator with PGI_EST_CAP_PHOTON_RADIUS). */
+    int radius_policy;       /* PGI_RADIUS_FIXED (default), PGI_RADIUS_PATH, PGI_RADIUS_DIFFERENTIALS */
+    float r_min, r_max;      /* path: radius range (default r_max = radius, r_min = r_max/8);
+                                differentials: r_max clamps the footprint radius (default: radius) */
+    float smoothing;         /* differentials: smoothing factor s (> 0); 0 = automatic (docs/bvh.md) */
+    int bvh_build;           /* "bvh": PGI_BVH_LINEAR (default) or PGI_BVH_VVH */
+    int leaf_size;           /* "bvh": leaf-size threshold; 0 = T_auto */
 } pgi_render_desc;
+
+typedef enum pgi_radius_policy {
+    PGI_RADIUS_FIXED = 0,         /* one radius for every photon */
+    PGI_RADIUS_PATH,              /* tiled paper eqs. 4-5: r_min + (r_max - r_min) sqrt(1 - path probability) */
+    PGI_RADIUS_DIFFERENTIALS,     /* BVH paper §4: skewed ellipsoids from photon differentials */
+    PGI_RADIUS_POLICY_COUNT_
+} pgi_radius_policy;
+
+/* Footprint radius histogram (BVH paper Table 3): bin k counts radii in
+ * [k, k+1) * r_max/14 before the clamp, the last bin everything above. */
+#define PGI_FOOTPRINT_BINS 21
 
 /* Linear RGB radiance, row-major from the top-left, 3 floats a pixel. */
 typedef struct pgi_image {
@@ -146,6 +164,10 @@ typedef struct pgi_frame_stats {
     uint64_t nodes_visited;  /* cells / tiles / nodes touched */
     int frames;              /* frames averaged into the image (progressive); 1 for a single frame */
     double rt_update_ms;     /* updating the ray-tracing scene after geometry moved (0 if nothing moved) */
+    int radius_policy;       /* pgi_radius_policy used */
+    int leaf_size;           /* "bvh": leaf-size threshold used */
+    float footprint_bin_width;                     /* 0: no per-photon footprints */
+    uint64_t footprint_hist[PGI_FOOTPRINT_BINS];   /* see PGI_FOOTPRINT_BINS */
 } pgi_frame_stats;
 
 /* Renders one frame into `out` (free with pgi_image_free). Pass a zeroed

@@ -21,8 +21,47 @@ static pgi_status brute_build(void *state, const pgi_estimate_args *a) {
     return PGI_OK;
 }
 
+/* Per-photon footprints (spheres of radius[j], or ellipsoids when sax is set): the oracle for
+ * every estimator with PGI_EST_CAP_PHOTON_RADIUS. Constant kernel, weight 1/(pi r_j^2). */
+static pgi_status brute_estimate_footprints(brute_state *s, const pgi_estimate_args *a) {
+    double t0 = pgi__now_ms();
+    const pgi_photons *ph = a->photons;
+    const pgi_view_samples *vs = a->samples;
+    if (s->c.desc.kernel != PGI_KERNEL_CONSTANT)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "brute: per-photon footprints use the constant kernel only");
+    const size_t n = ph->count;
+    const int ell = ph->sax != NULL;
+    uint64_t reads = 0, contrib = 0;
+#pragma omp parallel for schedule(dynamic, 64) reduction(+ : reads, contrib)
+    for (long long ii = 0; ii < (long long)vs->count; ii++) {
+        size_t i = (size_t)ii;
+        float *out = a->out_rgb + 3 * i;
+        pgi__vs v;
+        if (!pgi__vs_begin(vs, i, out, &v)) continue;
+        pgi__acc acc = {0};
+        for (size_t j = 0; j < n; j++) {
+            float r = ph->radius[j], w = pgi__footprint_weight(r);
+            if (ell) {
+                float inv[9];
+                pgi__photon_ellipsoid_inverse(ph, j, inv);
+                pgi__gather_ellipsoid(&v, inv, ph->px[j], ph->py[j], ph->pz[j], ph->dx[j], ph->dy[j], ph->dz[j],
+                                      ph->fr[j] * w, ph->fg[j] * w, ph->fb[j] * w, &acc);
+            } else {
+                pgi__gather(&v, r * r, ph->px[j], ph->py[j], ph->pz[j], ph->dx[j], ph->dy[j], ph->dz[j],
+                            ph->fr[j] * w, ph->fg[j] * w, ph->fb[j] * w, &acc);
+            }
+        }
+        pgi__acc_finish_w(&v, &acc, 1.f, out);
+        reads += n;
+        contrib += acc.contributing;
+    }
+    pgi__stats_estimated(&s->c.st, t0, reads, contrib);
+    return PGI_OK;
+}
+
 static pgi_status brute_estimate(void *state, const pgi_estimate_args *a) {
     brute_state *s = state;
+    if (a->photons->radius) return brute_estimate_footprints(s, a);
     double t0 = pgi__now_ms();
     const pgi_photons *ph = a->photons;
     const pgi_view_samples *vs = a->samples;
@@ -53,5 +92,5 @@ static void brute_destroy(void *state) { free(state); }
 
 const pgi_estimator_vtbl pgi__est_brute = {
     "brute", "every photon for every view sample (the test oracle)", 1,
-    brute_create, brute_build, brute_estimate, brute_stats, brute_destroy, 0,
+    brute_create, brute_build, brute_estimate, brute_stats, brute_destroy, PGI_EST_CAP_PHOTON_RADIUS,
 };

@@ -11,6 +11,7 @@ static const pgi_estimator_vtbl *const k_estimators[] = {
     &pgi__est_cluster_cone,
     &pgi__est_cluster_trivial,
     &pgi__est_directional,
+    &pgi__est_bvh,
 };
 #define N_EST (sizeof k_estimators / sizeof k_estimators[0])
 
@@ -58,6 +59,13 @@ pgi_status pgi_estimator_create(const char *name, const pgi_estimator_desc *desc
         return pgi__fail(PGI_ERR_INVALID_ARG, "subsampling factor %d is out of range (0..64)", desc->subsample);
     if (desc->subsample > 1 && !(vt->caps & PGI_EST_CAP_SUBSAMPLE))
         return pgi__fail(PGI_ERR_INVALID_ARG, "estimator '%s' does not support stochastic subsampling", name);
+    if (desc->bvh_build != PGI_BVH_LINEAR && desc->bvh_build != PGI_BVH_VVH)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "unknown BVH build %d (0 linear, 1 vvh)", desc->bvh_build);
+    if (desc->leaf_size < 0 || desc->leaf_size > 65536)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "BVH leaf size %d is out of range (0 = T_auto, 1..65536)", desc->leaf_size);
+    if (desc->scene_area < 0.f || !isfinite(desc->scene_area))
+        return pgi__fail(PGI_ERR_INVALID_ARG, "scene area must be 0 (unknown) or a positive finite number, got %g",
+                         (double)desc->scene_area);
     pgi_estimator *e = calloc(1, sizeof *e);
     if (!e) return pgi__fail(PGI_ERR_OOM, "out of memory creating estimator '%s'", name);
     e->vt = vt;
@@ -82,6 +90,8 @@ pgi_status pgi_estimator_build(pgi_estimator *e, const pgi_estimate_args *a) {
     if (a->photons->radius && !(e->vt->caps & PGI_EST_CAP_PHOTON_RADIUS))
         return pgi__fail(PGI_ERR_INVALID_ARG, "estimator '%s' needs one fixed radius; it cannot use per-photon radii",
                          e->vt->name);
+    if (a->photons->sax && !a->photons->radius)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "ellipsoid footprints need the per-photon radius array as well");
     return e->vt->build(e->state, a);
 }
 

@@ -90,6 +90,24 @@ static cJSON *build(const pgi_frame_stats *st) {
     ok &= add_num(root, "nodes_visited", (double)st->nodes_visited);
     ok &= add_num(root, "frames", (double)st->frames);
     ok &= add_num(root, "rt_update_ms", st->rt_update_ms);
+    static const char *const policies[] = {"fixed", "path", "differentials"};
+    ok &= cJSON_AddStringToObject(root, "radius_policy",
+                                  st->radius_policy >= 0 && st->radius_policy < 3 ? policies[st->radius_policy]
+                                                                                   : "?") != NULL;
+    if (st->leaf_size > 0) ok &= add_num(root, "bvh_leaf_size", (double)st->leaf_size);
+    if (st->footprint_bin_width > 0.f) {
+        /* BVH paper Table 3: counts of footprint radii in [k, k+1) * bin_width, the last bin open */
+        ok &= (o = cJSON_AddObjectToObject(root, "footprint_histogram")) != NULL;
+        if (o) {
+            ok &= add_num(o, "bin_width", (double)st->footprint_bin_width);
+            cJSON *arr = cJSON_AddArrayToObject(o, "counts");
+            ok &= arr != NULL;
+            for (int k = 0; arr && k < PGI_FOOTPRINT_BINS; k++) {
+                cJSON *x = cJSON_CreateNumber((double)st->footprint_hist[k]);
+                ok &= x != NULL && cJSON_AddItemToArray(arr, x);
+            }
+        }
+    }
     if (!ok) {
         cJSON_Delete(root);
         return NULL;

@@ -8,6 +8,11 @@ typedef struct pgi_trace_desc {
     uint32_t photons;   /* photons to store */
     int bounces;        /* maximum scattering events of a path */
     uint64_t seed;
+    /* radius policies (differentials.h): per-photon footprints go to ph->radius (and the ellipsoid
+       axes ph->sax.. for differentials) when those arrays are set */
+    int radius_policy;
+    float r_min, r_max, smoothing;
+    uint64_t *footprint_hist;   /* optional out: PGI_FOOTPRINT_BINS counts of the radius before the clamp */
 } pgi_trace_desc;
 
 /* Fills `ph` (capacity >= photons) with exactly `photons` photons, unless the

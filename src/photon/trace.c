@@ -8,6 +8,7 @@
 #include <omp.h>
 #include <string.h>
 
+#include "differentials.h"
 #include "scene/bsdf.h"
 
 float pgi__scene_epsilon(const pgi_scene *s) {
@@ -17,6 +18,7 @@ float pgi__scene_epsilon(const pgi_scene *s) {
 
 typedef struct {
     float p[3], d[3], f[3], n[3];
+    pgi__footprint fp;   /* radius policies */
 } stored_photon;
 
 typedef struct {
@@ -29,6 +31,7 @@ typedef struct {
     float eps;
     pgi_v3 centre;
     float radius;         /* bounding-sphere radius, for the sun's disk */
+    pgi__fp_params fp;    /* radius policy */
 } tracer;
 
 /* Traces path `index`; writes at most `bounces` photons to `out` and returns
@@ -67,6 +70,8 @@ static int trace_path(const tracer *T, uint64_t index, stored_photon *out, uint6
         break;
     }
     }
+    pgi__pdiff pd;
+    pgi__fp_emit(&pd, &T->fp, T->s, L, pl, d, T->radius);
     int stored = 0;
     for (int b = 0;; b++) {
         pgi_hit h;
@@ -77,8 +82,10 @@ static int trace_path(const tracer *T, uint64_t index, stored_photon *out, uint6
         pgi__scene_surface(T->s, h.prim, h.u, h.v, p, &sf);
         pgi_v3 wi = v3_neg(d);
         pgi_v3 ng = v3_dot(wi, sf.ng) >= 0.f ? sf.ng : v3_neg(sf.ng);
+        pgi__fp_hit(&pd, &T->fp, d, h.t, ng);
         if (b >= 1 && !pgi__mat_specular(sf.mat)) {
             stored_photon *sp = &out[stored++];
+            pgi__fp_store(&pd, &T->fp, ng, &sp->fp);
             v3_store(sp->p, p);
             v3_store(sp->d, wi);
             v3_store(sp->f, flux);
@@ -88,12 +95,14 @@ static int trace_path(const tracer *T, uint64_t index, stored_photon *out, uint6
         pgi_v3 wo, w;
         float r1 = pgi_rng_f(&rng), r2 = pgi_rng_f(&rng), r3 = pgi_rng_f(&rng);
         if (!pgi__bsdf_sample(&sf, wi, r1, r2, r3, &wo, &w)) break;
+        pgi__fp_scatter(&pd, &T->fp, T->s, h.prim, h.u, h.v, &sf, wi, wo, w);
         pgi_v3 nf = v3_mul(flux, w);
         float mf = v3_maxc(flux);
         float R = mf > 0.f ? fminf(1.f, v3_maxc(nf) / mf) : 0.f;
         if (!(pgi_rng_f(&rng) < R)) break;
         flux = v3_scale(nf, 1.f / R);
         if (!v3_finite(flux)) break;
+        pgi__fp_roulette(&pd, &T->fp, R);
         o = v3_madd(p, v3_dot(wo, ng) >= 0.f ? ng : v3_neg(ng), T->eps);
         d = wo;
     }
@@ -130,7 +139,10 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi_rt *rt, const pgi_tr
 
     tracer T = {s, rt, cdf, s->nlights, d->bounces, d->seed, pgi__scene_epsilon(s),
                 v3_scale(v3_add(v3_load(s->bmin), v3_load(s->bmax)), 0.5f),
-                0.5f * v3_len(v3_sub(v3_load(s->bmax), v3_load(s->bmin)))};
+                0.5f * v3_len(v3_sub(v3_load(s->bmax), v3_load(s->bmin))), {0}};
+    pgi__fp_params_init(&T.fp, d->radius_policy, d->r_min, d->r_max, d->smoothing, d->photons, 2.f * T.radius);
+    const int fp_on = d->radius_policy != PGI_RADIUS_FIXED && ph->radius;
+    const float bin_w = d->r_max / 14.f;
     const int B = d->bounces;
     if (sc->bounces != B) pgi__trace_scratch_free(sc);
     sc->bounces = B;
@@ -176,6 +188,18 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi_rt *rt, const pgi_tr
                 ph->dx[j] = sp->d[0]; ph->dy[j] = sp->d[1]; ph->dz[j] = sp->d[2];
                 ph->fr[j] = sp->f[0]; ph->fg[j] = sp->f[1]; ph->fb[j] = sp->f[2];
                 ph->nx[j] = sp->n[0]; ph->ny[j] = sp->n[1]; ph->nz[j] = sp->n[2];
+                if (fp_on) {
+                    ph->radius[j] = sp->fp.r;
+                    if (ph->sax) {
+                        ph->sax[j] = sp->fp.a[0]; ph->say[j] = sp->fp.a[1]; ph->saz[j] = sp->fp.a[2];
+                        ph->sbx[j] = sp->fp.b[0]; ph->sby[j] = sp->fp.b[1]; ph->sbz[j] = sp->fp.b[2];
+                    }
+                    if (d->footprint_hist) {
+                        float q = sp->fp.r_raw / bin_w;
+                        int bin = q < (float)(PGI_FOOTPRINT_BINS - 1) ? (int)q : PGI_FOOTPRINT_BINS - 1;
+                        d->footprint_hist[bin < 0 ? 0 : bin]++;
+                    }
+                }
             }
             produced += (size_t)cnt[i];
         }

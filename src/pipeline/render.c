@@ -25,6 +25,10 @@ struct pgi_renderer {
     char est_name[64];
     pgi_estimator_desc est_desc;
     pgi__accum *acc;         /* progressive running average (progressive.c); NULL until used */
+    /* radius policies: per-photon footprint arrays (radius, then 6 ellipsoid axis planes) */
+    float *fp_buf;
+    size_t fp_cap;
+    double scene_area;   /* total triangle area, for the bvh's T_auto */
 };
 
 pgi__accum **pgi__renderer_accum(pgi_renderer *r) { return &r->acc; }
@@ -56,6 +60,7 @@ void pgi_renderer_destroy(pgi_renderer *r) {
     pgi__afree(r->indirect);
     pgi_estimator_destroy(r->est);
     pgi__accum_free(r->acc);
+    pgi__afree(r->fp_buf);
     free(r);
 }
 
@@ -102,7 +107,60 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
     if (d->output < PGI_OUTPUT_ALL || d->output > PGI_OUTPUT_PHOTON_COUNT)
         return pgi__fail(PGI_ERR_INVALID_ARG, "unknown output mode %d", (int)d->output);
     if (d->view && (st = pgi__check_view(d->view))) return st;
+    /* radius policies */
+    if (d->radius_policy < PGI_RADIUS_FIXED || d->radius_policy >= PGI_RADIUS_POLICY_COUNT_)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "unknown radius policy %d", d->radius_policy);
+    if (d->r_min < 0.f || !isfinite(d->r_min) || d->r_max < 0.f || !isfinite(d->r_max) || d->smoothing < 0.f ||
+        !isfinite(d->smoothing))
+        return pgi__fail(PGI_ERR_INVALID_ARG, "r_min, r_max and smoothing must be positive finite numbers (or 0: "
+                                              "default), got %g, %g, %g",
+                         (double)d->r_min, (double)d->r_max, (double)d->smoothing);
+    if (d->r_max == 0.f) d->r_max = d->radius;
+    if (d->r_min == 0.f) d->r_min = d->r_max / 8.f;
+    if (!(d->r_min <= d->r_max))
+        return pgi__fail(PGI_ERR_INVALID_ARG, "r_min (%g) must not exceed r_max (%g)", (double)d->r_min,
+                         (double)d->r_max);
+    if (d->radius_policy != PGI_RADIUS_FIXED &&
+        !(pgi_estimator_find(d->estimator)->caps & PGI_EST_CAP_PHOTON_RADIUS))
+        return pgi__fail(PGI_ERR_INVALID_ARG,
+                         "radius policy %s needs an estimator with per-photon footprints (brute, bvh); '%s' has one "
+                         "fixed radius",
+                         d->radius_policy == PGI_RADIUS_PATH ? "path" : "differentials", d->estimator);
+    if (d->bvh_build != PGI_BVH_LINEAR && d->bvh_build != PGI_BVH_VVH)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "unknown BVH build %d (0 linear, 1 vvh)", d->bvh_build);
+    if (d->leaf_size < 0 || d->leaf_size > 65536)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "BVH leaf size %d is out of range (0 = T_auto, 1..65536)", d->leaf_size);
     return PGI_OK;
+}
+
+/* Points the photon buffer at the footprint arrays the policy needs (NULL for fixed). */
+static pgi_status ensure_footprints(pgi_renderer *r, const pgi_render_desc *d) {
+    pgi_photons *ph = &r->ph;
+    ph->radius = ph->sax = ph->say = ph->saz = ph->sbx = ph->sby = ph->sbz = NULL;
+    if (d->radius_policy == PGI_RADIUS_FIXED) return PGI_OK;
+    size_t n = d->photons ? d->photons : 1, planes = d->radius_policy == PGI_RADIUS_DIFFERENTIALS ? 7 : 1;
+    if (r->fp_cap < n * planes) {
+        pgi__afree(r->fp_buf);
+        r->fp_buf = pgi__aalloc(n * planes * sizeof(float));
+        r->fp_cap = r->fp_buf ? n * planes : 0;
+        if (!r->fp_buf) return pgi__fail(PGI_ERR_OOM, "out of memory for %zu photon footprints", n);
+    }
+    ph->radius = r->fp_buf;
+    if (planes == 7) {
+        float **a[] = {&ph->sax, &ph->say, &ph->saz, &ph->sbx, &ph->sby, &ph->sbz};
+        for (int k = 0; k < 6; k++) *a[k] = r->fp_buf + (size_t)(k + 1) * n;
+    }
+    return PGI_OK;
+}
+
+static double scene_area(const pgi_scene *s) {
+    double a = 0.0;
+    for (size_t t = 0; t < s->ntris; t++) {
+        const uint32_t *v = s->tri + 3 * t;
+        pgi_v3 p0 = pgi__scene_vertex(s, v[0]), p1 = pgi__scene_vertex(s, v[1]), p2 = pgi__scene_vertex(s, v[2]);
+        a += 0.5 * (double)v3_len(v3_cross(v3_sub(p1, p0), v3_sub(p2, p0)));
+    }
+    return a;
 }
 
 static pgi_status ensure_buffers(pgi_renderer *r, const pgi_render_desc *d) {
@@ -134,6 +192,10 @@ static pgi_status ensure_buffers(pgi_renderer *r, const pgi_render_desc *d) {
     ed.cluster_tile = d->cluster_tile;
     ed.directional_level = d->directional_level;
     ed.directional_blur = d->directional_blur;
+    if (r->scene_area == 0.0) r->scene_area = scene_area(r->scene);
+    ed.bvh_build = d->bvh_build;
+    ed.leaf_size = d->leaf_size;
+    ed.scene_area = (float)r->scene_area;
     if (!r->est || strcmp(r->est_name, d->estimator) != 0 || memcmp(&ed, &r->est_desc, sizeof ed) != 0) {
         pgi_estimator_destroy(r->est);
         r->est = NULL;
@@ -178,7 +240,14 @@ pgi_status pgi_renderer_render(pgi_renderer *r, const pgi_render_desc *in, pgi_i
     double t0 = pgi__now_ms();
     if ((st = pgi__view_build(s, r->rt, &cam, d.seed, &r->vs, r->emit, &fs.primary_rays))) return st;
     double t1 = pgi__now_ms();
-    pgi_trace_desc td = {d.photons, d.bounces, d.seed};
+    pgi_trace_desc td = {.photons = d.photons, .bounces = d.bounces, .seed = d.seed};
+    uint64_t hist[PGI_FOOTPRINT_BINS] = {0};
+    if ((st = ensure_footprints(r, &d))) return st;
+    td.radius_policy = d.radius_policy;
+    td.r_min = d.r_min;
+    td.r_max = d.r_max;
+    td.smoothing = d.smoothing;
+    td.footprint_hist = hist;
     if ((st = pgi__photons_trace(s, r->rt, &td, &r->ph, &r->trace_scratch, &fs.photon_rays))) return st;
     double t2 = pgi__now_ms();
     pgi_estimate_args ea = {&r->ph, &r->vs, &cam, r->indirect};
@@ -231,6 +300,15 @@ pgi_status pgi_renderer_render(pgi_renderer *r, const pgi_render_desc *in, pgi_i
     fs.reads = es.reads;
     fs.contributing = es.contributing;
     fs.nodes_visited = es.nodes_visited;
+    fs.radius_policy = d.radius_policy;
+    fs.leaf_size = es.leaf_size;
+    if (d.radius_policy != PGI_RADIUS_FIXED) {
+        fs.footprint_bin_width = d.r_max / 14.f;
+        memcpy(fs.footprint_hist, hist, sizeof hist);
+        if (fs.memory_count < PGI_MAX_STAT_ENTRIES)
+            fs.memory_bytes[fs.memory_count++] =
+                (pgi_named_value){"footprints", (double)(r->ph.count * (r->ph.sax ? 7 : 1) * sizeof(float))};
+    }
     if (stats) *stats = fs;
     *out = img;
     return PGI_OK;
