@@ -119,10 +119,10 @@ int pgi_cmd_compare(int argc, char **argv) {
     pgi_image_free(&img[1]);
     char psnr[32];
     if (isinf(m.psnr)) snprintf(psnr, sizeof psnr, json ? "null" : "inf");
-    else snprintf(psnr, sizeof psnr, "%.6f", m.psnr);
+    else snprintf(psnr, sizeof psnr, "%.8f", m.psnr);
     if (json) {
-        printf("{\"width\": %d, \"height\": %d, \"psnr\": %s, \"mse\": %.9g, \"ssim\": %.6f, \"ssim_rgb\": %.6f, "
-               "\"ssim_r\": %.6f, \"ssim_g\": %.6f, \"ssim_b\": %.6f, \"max_abs\": %.6f}\n",
+        printf("{\"width\": %d, \"height\": %d, \"psnr\": %s, \"mse\": %.9g, \"ssim\": %.8f, \"ssim_rgb\": %.8f, "
+               "\"ssim_r\": %.8f, \"ssim_g\": %.8f, \"ssim_b\": %.8f, \"max_abs\": %.6f}\n",
                m.width, m.height, psnr, m.mse, m.ssim, m.ssim_rgb, m.ssim_channel[0], m.ssim_channel[1],
                m.ssim_channel[2], m.max_abs);
     } else {
