@@ -59,7 +59,7 @@ pgi_status pgi_reference_meta_read(const char *path, pgi_reference_meta *m) {
     fclose(f);
     buf[len] = 0;
     cJSON *o = cJSON_Parse(buf);
-    if (!o) return pgi__fail(PGI_ERR_PARSE, "%s: not JSON", path);
+    if (!o) return pgi__fail(PGI_ERR_PARSE, "%s: not JSON (the reference's metadata file)", path);
     const cJSON *fmt = cJSON_GetObjectItemCaseSensitive(o, "format");
     const cJSON *sc = cJSON_GetObjectItemCaseSensitive(o, "scene");
     int ok = cJSON_IsString(fmt) && strcmp(fmt->valuestring, "photongi-reference-1") == 0 && cJSON_IsString(sc) &&
