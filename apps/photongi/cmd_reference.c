@@ -71,11 +71,14 @@ static int num_d(const char *s, double *out) {
 }
 
 typedef struct {
-    uint64_t base;
+    double time_limit_s;   /* --time, 0 if none */
+    double last_ms;        /* last redraw: at most 10 a second */
 } progress_state;
 
 static int progress_bar(void *user, uint64_t done, uint64_t total, double elapsed_ms) {
-    (void)user;
+    progress_state *ps = user;
+    if (done != total && elapsed_ms - ps->last_ms < 100.0) return 0;
+    ps->last_ms = elapsed_ms;
     const int width = 30;
     double frac = total ? (double)done / (double)total : 1.0;
     int fill = (int)(frac * width);
@@ -92,7 +95,10 @@ static int progress_bar(void *user, uint64_t done, uint64_t total, double elapse
 
 /* With --time and no --spp the total is unknown: show samples and time only. */
 static int progress_time(void *user, uint64_t done, uint64_t total, double elapsed_ms) {
-    double limit = *(double *)user;
+    progress_state *ps = user;
+    double limit = ps->time_limit_s;
+    if (done != total && elapsed_ms < 1000.0 * limit && elapsed_ms - ps->last_ms < 100.0) return 0;
+    ps->last_ms = elapsed_ms;
     double frac = fmin(1.0, elapsed_ms / 1000.0 / limit);
     const int width = 30;
     int fill = (int)(frac * width);
@@ -217,9 +223,10 @@ int pgi_cmd_reference(int argc, char **argv) {
     }
     if (d.bounces == 0) d.bounces = info.defaults.bounces > 0 ? info.defaults.bounces : 4;
     if (d.seed == 0) d.seed = 1;
+    progress_state ps = {time_s, -1e9};
     if (!quiet && isatty(2)) {
         d.progress = spp || time_s <= 0.0 ? progress_bar : progress_time;
-        d.progress_user = &time_s;
+        d.progress_user = &ps;
     }
     char scene_name[128];
     snprintf(scene_name, sizeof scene_name, "%s", info.name);
