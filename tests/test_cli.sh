@@ -210,5 +210,32 @@ if expect_ok render --scene cornell --estimator bvh --bvh-build vvh --leaf-size 
     done
 fi
 
+# ---- reference and compare (issue 3)
+expect_error "--spp" reference --scene cornell --spp 0 -o "$TMP/r.exr"
+expect_error ".exr" reference --scene cornell --spp 1 -o "$TMP/r.png"
+expect_error "no output" reference --scene cornell --spp 1
+expect_error "--time" reference --scene cornell --time -3 -o "$TMP/r.exr"
+expect_error "cannot continue" reference --continue "$TMP/none.exr" --spp 1
+expect_error "do not give them" reference --continue "$TMP/none.exr" --scene cornell
+if expect_ok reference --scene cornell --size 24x16 --spp 2 -q -o "$TMP/r.exr" --png "$TMP/r.png"; then
+    grep -q '"spp":[[:space:]]*"2"' "$TMP/r.exr.json" && ok || bad "reference: r.exr.json lacks spp 2"
+    [ -s "$TMP/r.png" ] && ok || bad "reference did not write --png"
+    if expect_ok reference --continue "$TMP/r.exr" --spp 3 -q; then
+        grep -q '"spp":[[:space:]]*"5"' "$TMP/r.exr.json" && ok || bad "reference --continue: spp is not 5"
+    fi
+    expect_ok render --scene cornell --size 24x16 --photons 2000 -q -o "$TMP/p.png"
+    if expect_ok compare "$TMP/p.png" "$TMP/r.exr" --json --diff "$TMP/heat.png"; then
+        case $out in *'"ssim"'*'"psnr"'*|*'"psnr"'*'"ssim"'*) ok ;; *) bad "compare --json: no ssim/psnr: $out" ;; esac
+        [ -s "$TMP/heat.png" ] && ok || bad "compare did not write the heat map"
+    fi
+    expect_ok render --scene cornell --size 32x16 --photons 2000 -q -o "$TMP/q.png"
+    expect_error "sizes differ" compare "$TMP/q.png" "$TMP/r.exr"
+    expect_error "missing.png" compare "$TMP/p.png" "$TMP/missing.png"
+    expect_error "two images" compare "$TMP/p.png"
+    expect_error "unknown option" compare "$TMP/p.png" "$TMP/r.exr" --frobnicate
+    printf 'not json' >"$TMP/r.exr.json"
+    expect_error "metadata" reference --continue "$TMP/r.exr" --spp 1
+fi
+
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]

@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include "photongi/photongi.h"
+#include "cmd.h"
 
 static const char *k_main_help =
     "photongi " PGI_VERSION_STRING " - global illumination by photon mapping at interactive rates\n"
@@ -20,6 +21,8 @@ static const char *k_main_help =
     "  render       render one frame of a scene to PNG or EXR\n"
     "  estimators   list the registered density estimators\n"
     "  info         print what a scene holds (triangles, materials, lights, bounds, camera)\n"
+    "  reference    path-trace a reference image (EXR), resumable with --continue\n"
+    "  compare      PSNR and SSIM of an image against a reference, error heat map\n"
     "\n"
     "Run 'photongi <command> --help' for the options of a command.\n";
 
@@ -367,6 +370,8 @@ int main(int argc, char **argv) {
     if (strcmp(cmd, "render") == 0) return cmd_render(argc - 2, argv + 2);
     if (strcmp(cmd, "estimators") == 0) return cmd_estimators(argc - 2, argv + 2);
     if (strcmp(cmd, "info") == 0) return cmd_info(argc - 2, argv + 2);
+    if (strcmp(cmd, "reference") == 0) return pgi_cmd_reference(argc - 2, argv + 2);
+    if (strcmp(cmd, "compare") == 0) return pgi_cmd_compare(argc - 2, argv + 2);
     fprintf(stderr, "photongi: unknown command '%s'\n\n%s", cmd, k_main_help);
     return 2;
 }

@@ -86,3 +86,22 @@ int pgi__bsdf_sample(const pgi_surface *sf, pgi_v3 wi, float u1, float u2, float
         return v3_dot(*wo, ng) > 0.f;
     }
 }
+
+float pgi__bsdf_pdf(const pgi_surface *sf, pgi_v3 wi, pgi_v3 wo) {
+    const pgi_material *m = sf->mat;
+    if (pgi__mat_specular(m)) return 0.f;
+    float side = v3_dot(wi, sf->ng) >= 0.f ? 1.f : -1.f;
+    pgi_v3 ng = v3_scale(sf->ng, side), ns = v3_scale(sf->ns, side);
+    float cg = v3_dot(wo, ng), cs = v3_dot(wo, ns);
+    if (!(cg > 0.f) || !(cs > 0.f)) return 0.f;
+    if (m->type != PGI_MAT_PHONG) return cs * PGI_INV_PI;
+    /* Same lobe mixture as pgi__bsdf_sample. */
+    pgi_v3 ks = v3_load(m->ks);
+    float wd = v3_lum(sf->kd), wsp = v3_lum(ks);
+    float ps = wd + wsp > 0.f ? wsp / (wd + wsp) : 0.f;
+    float s = m->shininess;
+    pgi_v3 h = v3_norm(v3_add(wi, wo));
+    float hn = fmaxf(0.f, v3_dot(h, ns)), hw = fabsf(v3_dot(h, wo));
+    float pdf_s = hw > 0.f ? (s + 1.f) / (2.f * PGI_PI) * powf(hn, s) / (4.f * hw) : 0.f;
+    return ps * pdf_s + (1.f - ps) * cs * PGI_INV_PI;
+}

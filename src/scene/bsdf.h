@@ -71,4 +71,9 @@ static inline int pgi__mat_specular(const pgi_material *m) { return m->type == P
  * Returns 0 when the path ends (absorbed, or sampled under the surface). */
 int pgi__bsdf_sample(const pgi_surface *sf, pgi_v3 wi, float u1, float u2, float u3, pgi_v3 *wo, pgi_v3 *weight);
 
+/* Solid-angle density with which pgi__bsdf_sample picks `wo` at a non-specular
+ * surface, arriving from `wi` (both pointing away). 0 for mirror and glass
+ * (delta lobes) and below the surface. Used for multiple importance sampling. */
+float pgi__bsdf_pdf(const pgi_surface *sf, pgi_v3 wi, pgi_v3 wo);
+
 #endif

@@ -1,0 +1,66 @@
+/* Path-traced reference with the photon pipeline's light-transport convention
+ * (docs/design.md "Reference path tracer"): emission seen along the eye path,
+ * direct light at the first non-specular hit (NEE, MIS for area lights) and
+ * indirect light of light paths with 1..bounces scattering events before that
+ * point. Progressive: each call adds samples to a running mean.
+ *
+ *   pgi_reference_desc d = {.spp = 64};
+ *   pgi_image mean = {0};
+ *   uint64_t spp = 0;
+ *   pgi_reference_render(scene, &d, &mean, &spp);   // spp == 64 now
+ *   d.spp = 64;
+ *   pgi_reference_render(scene, &d, &mean, &spp);   // samples 64..127 added, spp == 128
+ */
+#ifndef PHOTONGI_REFERENCE_H
+#define PHOTONGI_REFERENCE_H
+
+#include "photongi/photongi.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Called after every pass (one sample per pixel). done/total are samples per
+ * pixel of this call; elapsed_ms since the call started. Return non-zero to
+ * stop after this pass (the image stays a valid mean of the samples done). */
+typedef int (*pgi_reference_progress_fn)(void *user, uint64_t done, uint64_t total, double elapsed_ms);
+
+/* Zero means "default" for every field. */
+typedef struct pgi_reference_desc {
+    int width, height;        /* default scene's or 640x480 */
+    int bounces;              /* scattering events before the visible point; default scene's or 4 */
+    uint64_t seed;            /* default 1 */
+    int threads;              /* OpenMP threads; 0 = all */
+    int camera;               /* index into the scene's cameras */
+    uint64_t spp;             /* samples per pixel to add; required (>= 1) */
+    double time_limit_s;      /* > 0: stop after the pass that reaches this wall time */
+    pgi_reference_progress_fn progress;   /* may be NULL */
+    void *progress_user;
+} pgi_reference_desc;
+
+/* Adds desc->spp samples (sample indices *spp .. *spp + desc->spp - 1 of the
+ * stream of `seed`) to `mean`, which holds the mean of the first *spp samples
+ * (*spp = 0: `mean` may be a zeroed image; it is (re)allocated). On return
+ * *spp counts the samples in `mean`. The samples of pixel i are summed in
+ * sample order, so the result does not depend on the thread count; continuing
+ * from a saved mean matches one long run up to float rounding of the mean. */
+pgi_status pgi_reference_render(const pgi_scene *scene, const pgi_reference_desc *desc, pgi_image *mean,
+                                uint64_t *spp);
+
+/* What a reference image needs to be extended later (sidecar "<image>.json"). */
+typedef struct pgi_reference_meta {
+    char scene[256];          /* scene spec as given on the command line */
+    int width, height, bounces, camera;
+    uint64_t seed, spp;
+} pgi_reference_meta;
+
+/* Writes/reads the sidecar JSON file `path`. Reading a missing file is
+ * PGI_ERR_IO; a file without the fields is PGI_ERR_PARSE. */
+pgi_status pgi_reference_meta_write(const pgi_reference_meta *m, const char *path);
+pgi_status pgi_reference_meta_read(const char *path, pgi_reference_meta *m);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif

@@ -1,0 +1,311 @@
+/* Path-traced reference (docs/design.md "Reference path tracer").
+ *
+ * The estimate of pixel i is the photon pipeline's image in expectation:
+ *   emission along the eye path (specular chain, up to 8 hits, one-sided),
+ * + W * direct light at the first non-specular hit x0 (0 scattering events),
+ * + W * indirect light at x0: light paths with 1..B scattering events before
+ *   x0, whatever those events are (specular ones count, as in photon tracing).
+ * A path x0, x1, ... extended by BSDF sampling; at a non-specular vertex x_k
+ * next-event estimation represents light paths with k scattering events
+ * (x_k .. x_1), and an emitter hit at x_{k+1} from x_k also k events; both are
+ * combined by the power heuristic for area lights. Vertices are extended while
+ * k < B. Point, spot and sun lights are delta lights, reached by NEE only:
+ * a path tracer cannot find light -> mirror -> x0 from them (photon tracing
+ * stores it as a caustic), so for such scenes the reference lacks those
+ * caustics; area lights have no such gap. See
+ * docs/design.md. */
+#include "photongi/reference.h"
+
+#include <omp.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "photon/photon.h"
+#include "rt/rt.h"
+#include "scene/bsdf.h"
+
+#define PGI_MAX_SPECULAR_DEPTH 8   /* as src/view/view.c */
+#define PGI_REF_MAX_SIDE 16384
+#define PGI_REF_MAX_BOUNCES 64
+
+typedef struct {
+    const pgi_scene *s;
+    const pgi_rt *rt;
+    pgi_camera cam;
+    int bounces;
+    uint64_t seed;
+    float eps;
+    size_t narea;
+    float *cdf;        /* area lights by luminance of power (as pgi__direct) */
+    size_t *idx;       /* cdf entry -> light index */
+    float *tri_pick;   /* triangle -> pick probability of its area light (0: none) */
+} pt_ctx;
+
+/* Same formula as view.c's camera_dir: through the pixel centre. */
+static pgi_v3 camera_dir(const pgi_camera *c, int x, int y) {
+    float u = (2.f * ((float)x + 0.5f) / (float)c->width - 1.f) * c->tan_half_fov_y * c->aspect;
+    float v = (1.f - 2.f * ((float)y + 0.5f) / (float)c->height) * c->tan_half_fov_y;
+    pgi_v3 d = v3_add(v3_load(c->forward), v3_add(v3_scale(v3_load(c->right), u), v3_scale(v3_load(c->up), v)));
+    return v3_norm(d);
+}
+
+static inline pgi_v3 mat_ks(const pgi_surface *sf) {
+    return sf->mat->type == PGI_MAT_PHONG ? v3_load(sf->mat->ks) : v3(0.f, 0.f, 0.f);
+}
+
+/* Next-event estimation at a non-specular vertex: every delta light once (as
+ * pgi__direct), one area-light sample picked by power, MIS-weighted against
+ * BSDF sampling. `wo` points back along the path. */
+static pgi_v3 nee(const pt_ctx *C, const pgi_surface *sf, pgi_v3 wo, pgi_rng *rng) {
+    const pgi_scene *s = C->s;
+    float side = v3_dot(wo, sf->ng) >= 0.f ? 1.f : -1.f;
+    pgi_v3 ng = v3_scale(sf->ng, side), ns = v3_scale(sf->ns, side);
+    pgi_v3 kd = sf->kd, ks = mat_ks(sf);
+    float sh = sf->mat->shininess;
+    pgi_v3 x = v3_madd(sf->p, ng, C->eps);
+    pgi_v3 L = v3(0.f, 0.f, 0.f);
+    for (size_t l = 0; l < s->nlights; l++) {
+        const pgi_light *lt = &s->lights[l];
+        pgi_v3 wi, Li;
+        float dist;
+        if (lt->type == PGI_LIGHT_AREA) continue;
+        if (lt->type == PGI_LIGHT_SUN) {
+            wi = v3_neg(v3_load(lt->dir));
+            dist = INFINITY;
+            Li = v3_load(lt->color);
+        } else {
+            pgi_v3 dv = v3_sub(v3_load(lt->pos), x);
+            float d2 = v3_dot(dv, dv);
+            if (!(d2 > 0.f)) continue;
+            dist = sqrtf(d2);
+            wi = v3_scale(dv, 1.f / dist);
+            if (lt->type == PGI_LIGHT_SPOT && -v3_dot(wi, v3_load(lt->dir)) < lt->cos_cutoff) continue;
+            Li = v3_scale(v3_load(lt->color), 1.f / d2);
+        }
+        float cs = v3_dot(ns, wi);
+        if (!(cs > 0.f) || !(v3_dot(ng, wi) > 0.f)) continue;
+        if (pgi__rt_occluded(C->rt, x, wi, 0.f, dist == INFINITY ? INFINITY : dist * (1.f - 1e-4f))) continue;
+        L = v3_add(L, v3_scale(v3_mul(pgi__brdf_eval(kd, ks, sh, ns, wi, wo), Li), cs));
+    }
+    if (C->narea) {
+        float ul = pgi_rng_f(rng), u1 = pgi_rng_f(rng), u2 = pgi_rng_f(rng);
+        float pl;
+        const pgi_light *lt = &s->lights[C->idx[pgi__cdf_pick(C->cdf, C->narea, ul, &pl)]];
+        pgi_v3 y = pgi__triangle_sample(s, lt->tri, u1, u2);
+        pgi_v3 dv = v3_sub(y, x);
+        float d2 = v3_dot(dv, dv);
+        if (d2 > 0.f && pl > 0.f) {
+            float dist = sqrtf(d2);
+            pgi_v3 wi = v3_scale(dv, 1.f / dist);
+            float cl = -v3_dot(wi, v3_load(lt->normal)), cs = v3_dot(ns, wi);
+            if (cl > 0.f && cs > 0.f && v3_dot(ng, wi) > 0.f &&
+                !pgi__rt_occluded(C->rt, x, wi, 0.f, dist * (1.f - 1e-3f))) {
+                float pdf_l = pl * d2 / (cl * lt->area);
+                float pdf_b = pgi__bsdf_pdf(sf, wo, wi);
+                float mis = pdf_l * pdf_l / (pdf_l * pdf_l + pdf_b * pdf_b);
+                pgi_v3 f = pgi__brdf_eval(kd, ks, sh, ns, wi, wo);
+                L = v3_add(L, v3_scale(v3_mul(f, v3_load(lt->color)), cs / pdf_l * mis));
+            }
+        }
+    }
+    return L;
+}
+
+/* One sample of pixel (x, y). */
+static pgi_v3 trace_sample(const pt_ctx *C, int px, int py, pgi_rng *rng) {
+    const pgi_scene *s = C->s;
+    pgi_v3 o = v3_load(C->cam.eye), d = camera_dir(&C->cam, px, py);
+    pgi_v3 L = v3(0.f, 0.f, 0.f), W = v3(1.f, 1.f, 1.f);
+    pgi_hit h;
+    pgi_surface sf;
+    /* Eye path: the specular chain to the first non-specular hit x0, as view.c. */
+    for (int depth = 0;; depth++) {
+        if (!pgi__rt_intersect(C->rt, o, d, 0.f, INFINITY, &h)) return L;
+        pgi_v3 p = v3_madd(o, d, h.t);
+        pgi__scene_surface(s, h.prim, h.u, h.v, p, &sf);
+        pgi_v3 wo = v3_neg(d);
+        if (v3_dot(wo, sf.ng) >= 0.f) L = v3_add(L, v3_mul(W, v3_load(sf.mat->ke)));
+        if (!pgi__mat_specular(sf.mat)) break;
+        if (depth + 1 >= PGI_MAX_SPECULAR_DEPTH) return L;
+        pgi_v3 nd, w;
+        float u1 = pgi_rng_f(rng), u2 = pgi_rng_f(rng), u3 = pgi_rng_f(rng);
+        if (!pgi__bsdf_sample(&sf, wo, u1, u2, u3, &nd, &w)) return L;
+        W = v3_mul(W, w);
+        o = v3_madd(p, v3_dot(nd, sf.ng) >= 0.f ? sf.ng : v3_neg(sf.ng), C->eps);
+        d = nd;
+    }
+    /* x0 = sf. Vertex k of the light path (k scattering events before x0). */
+    const float w0 = v3_maxc(W);
+    if (!(w0 > 0.f)) return L;
+    pgi_v3 T = W;
+    for (int k = 0;; k++) {
+        pgi_v3 wo = v3_neg(d);
+        int diffuse = !pgi__mat_specular(sf.mat);
+        if (diffuse) L = v3_add(L, v3_mul(T, nee(C, &sf, wo, rng)));
+        pgi_v3 wi, w;
+        float u1 = pgi_rng_f(rng), u2 = pgi_rng_f(rng), u3 = pgi_rng_f(rng);
+        if (!pgi__bsdf_sample(&sf, wo, u1, u2, u3, &wi, &w)) break;
+        float pdf_b = diffuse ? pgi__bsdf_pdf(&sf, wo, wi) : 0.f;
+        T = v3_mul(T, w);
+        if (!v3_finite(T) || !(v3_maxc(T) > 0.f)) break;
+        pgi_v3 p = sf.p;
+        o = v3_madd(p, v3_dot(wi, sf.ng) >= 0.f ? sf.ng : v3_neg(sf.ng), C->eps);
+        d = wi;
+        if (!pgi__rt_intersect(C->rt, o, d, 0.f, INFINITY, &h)) break;
+        pgi_v3 q = v3_madd(o, d, h.t);
+        pgi__scene_surface(s, h.prim, h.u, h.v, q, &sf);
+        /* Emitter hit at x_{k+1}: a light path with k scattering events. */
+        pgi_v3 ke = v3_load(sf.mat->ke);
+        float cl = -v3_dot(d, sf.ng);
+        if (cl > 0.f && (ke.x > 0.f || ke.y > 0.f || ke.z > 0.f)) {
+            float mis = 1.f;
+            float pl = C->tri_pick ? C->tri_pick[h.prim] : 0.f;
+            if (diffuse && pl > 0.f) {
+                const uint32_t *t = s->tri + 3 * (size_t)h.prim;
+                pgi_v3 a = pgi__scene_vertex(s, t[0]), b = pgi__scene_vertex(s, t[1]), c = pgi__scene_vertex(s, t[2]);
+                float area = 0.5f * v3_len(v3_cross(v3_sub(b, a), v3_sub(c, a)));
+                float pdf_l = pl * h.t * h.t / (cl * area);
+                mis = pdf_b * pdf_b / (pdf_b * pdf_b + pdf_l * pdf_l);
+            }
+            L = v3_add(L, v3_scale(v3_mul(T, ke), mis));
+        }
+        if (k + 1 > C->bounces) break;
+        /* Russian roulette on the throughput relative to the eye chain's. */
+        if (k + 1 >= 2) {
+            float q = fminf(0.95f, v3_maxc(T) / w0);
+            if (!(pgi_rng_f(rng) < q)) break;
+            T = v3_scale(T, 1.f / q);
+        }
+    }
+    return L;
+}
+
+static void ctx_free(pt_ctx *C) {
+    free(C->cdf);
+    free(C->idx);
+    free(C->tri_pick);
+}
+
+static pgi_status ctx_lights(pt_ctx *C) {
+    const pgi_scene *s = C->s;
+    for (size_t l = 0; l < s->nlights; l++) C->narea += s->lights[l].type == PGI_LIGHT_AREA;
+    if (!C->narea) return PGI_OK;
+    C->cdf = malloc(C->narea * sizeof *C->cdf);
+    C->idx = malloc(C->narea * sizeof *C->idx);
+    C->tri_pick = calloc(s->ntris ? s->ntris : 1, sizeof *C->tri_pick);
+    if (!C->cdf || !C->idx || !C->tri_pick) return pgi__fail(PGI_ERR_OOM, "out of memory for the area-light table");
+    double tot = 0.0;
+    size_t k = 0;
+    for (size_t l = 0; l < s->nlights; l++) {
+        if (s->lights[l].type != PGI_LIGHT_AREA) continue;
+        tot += v3_lum(v3_load(s->lights[l].power));
+        C->cdf[k] = (float)tot;
+        C->idx[k++] = l;
+    }
+    for (k = 0; k < C->narea; k++)
+        C->cdf[k] = tot > 0.0 ? (float)(C->cdf[k] / tot) : (float)(k + 1) / (float)C->narea;
+    C->cdf[C->narea - 1] = 1.f;
+    for (k = 0; k < C->narea; k++) {
+        uint32_t t = s->lights[C->idx[k]].tri;
+        if (t < s->ntris) C->tri_pick[t] = C->cdf[k] - (k ? C->cdf[k - 1] : 0.f);
+    }
+    return PGI_OK;
+}
+
+pgi_status pgi_reference_render(const pgi_scene *s, const pgi_reference_desc *in, pgi_image *mean, uint64_t *spp) {
+    if (!s || !in || !mean || !spp) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_reference_render: NULL argument");
+    pgi__clear_error();
+    pgi_reference_desc d = *in;
+    const pgi_scene_defaults *sd = &s->defaults;
+    if (d.width == 0 && d.height == 0) {
+        d.width = sd->width > 0 ? sd->width : 640;
+        d.height = sd->height > 0 ? sd->height : 480;
+    }
+    if (d.width <= 0 || d.height <= 0 || d.width > PGI_REF_MAX_SIDE || d.height > PGI_REF_MAX_SIDE)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "image size %dx%d is out of range (1..%d a side)", d.width, d.height,
+                         PGI_REF_MAX_SIDE);
+    if (d.bounces == 0) d.bounces = sd->bounces > 0 ? sd->bounces : 4;
+    if (d.bounces < 1 || d.bounces > PGI_REF_MAX_BOUNCES)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "bounces must be in 1..%d, got %d", PGI_REF_MAX_BOUNCES, d.bounces);
+    if (d.seed == 0) d.seed = 1;
+    if (d.spp < 1) return pgi__fail(PGI_ERR_INVALID_ARG, "samples per pixel must be at least 1");
+    if (d.threads < 0) return pgi__fail(PGI_ERR_INVALID_ARG, "threads must be 0 (all) or positive, got %d", d.threads);
+    if (d.camera < 0 || (size_t)d.camera >= s->ncams)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "camera %d does not exist (the scene has %zu)", d.camera, s->ncams);
+    if (*spp > 0 && (!mean->rgb || mean->width != d.width || mean->height != d.height))
+        return pgi__fail(PGI_ERR_INVALID_ARG, "the image to continue is %dx%d, the reference is %dx%d", mean->width,
+                         mean->height, d.width, d.height);
+    if (d.threads > 0) omp_set_num_threads(d.threads);
+
+    pt_ctx C;
+    memset(&C, 0, sizeof C);
+    C.s = s;
+    C.bounces = d.bounces;
+    C.seed = d.seed;
+    C.eps = pgi__scene_epsilon(s);
+    const pgi_camera_def *cd = &s->cams[d.camera];
+    pgi_camera_look_at(&C.cam, cd->eye, cd->look_at, cd->up, cd->fov_y_deg, d.width, d.height);
+    pgi_status st = ctx_lights(&C);
+    if (st) {
+        ctx_free(&C);
+        return st;
+    }
+    pgi_rt *rt = NULL;
+    if ((st = pgi__rt_create(s, &rt))) {
+        ctx_free(&C);
+        return st;
+    }
+    C.rt = rt;
+    const size_t n = (size_t)d.width * (size_t)d.height;
+    double *sum = malloc(3 * n * sizeof *sum);
+    float *img = *spp > 0 ? mean->rgb : malloc(3 * n * sizeof(float));
+    if (!sum || !img) {
+        free(sum);
+        if (img != mean->rgb) free(img);
+        pgi__rt_destroy(rt);
+        ctx_free(&C);
+        return pgi__fail(PGI_ERR_OOM, "out of memory for a %dx%d accumulation buffer", d.width, d.height);
+    }
+    const uint64_t n0 = *spp;
+    for (size_t i = 0; i < 3 * n; i++) sum[i] = n0 > 0 ? (double)img[i] * (double)n0 : 0.0;
+    const uint64_t rng_seed = pgi__mix64(d.seed ^ 0x7265666572656e63ULL);
+    const double t0 = pgi__now_ms();
+    uint64_t done = 0;
+    const int W = d.width, H = d.height;
+    while (done < d.spp) {
+        const uint64_t sidx = n0 + done;
+#pragma omp parallel for schedule(dynamic, 1)
+        for (int y = 0; y < H; y++) {
+            for (int x = 0; x < W; x++) {
+                size_t i = (size_t)y * W + (size_t)x;
+                pgi_rng rng;
+                /* Stream per pixel, sequence per sample: independent of threads and passes. */
+                pgi_rng_seed(&rng, rng_seed + sidx, (uint64_t)i);
+                pgi_v3 c = trace_sample(&C, x, y, &rng);
+                if (!v3_finite(c)) c = v3(0.f, 0.f, 0.f);
+                sum[3 * i] += c.x;
+                sum[3 * i + 1] += c.y;
+                sum[3 * i + 2] += c.z;
+            }
+        }
+        done++;
+        double el = pgi__now_ms() - t0;
+        int stop = 0;
+        if (d.progress) stop = d.progress(d.progress_user, done, d.spp, el);
+        if (d.time_limit_s > 0.0 && el >= 1000.0 * d.time_limit_s) stop = 1;
+        if (stop) break;
+    }
+    const double inv = 1.0 / (double)(n0 + done);
+    for (size_t i = 0; i < 3 * n; i++) img[i] = (float)(sum[i] * inv);
+    free(sum);
+    pgi__rt_destroy(rt);
+    ctx_free(&C);
+    if (img != mean->rgb) {
+        pgi_image_free(mean);
+        mean->rgb = img;
+    }
+    mean->width = W;
+    mean->height = H;
+    *spp = n0 + done;
+    return PGI_OK;
+}
