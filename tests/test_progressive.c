@@ -1,29 +1,17 @@
 /* Progressive mode (Knaus & Zwicker 2011): frame 0 is the plain render, the
  * radius follows r_{k+1}^2 = r_k^2 (k+1+alpha)/(k+2), the average restarts
  * when the picture changes, every exact estimator gives the same average,
- * and the error against a high-sample reference falls as frames accumulate.
- *
- * Reference: until the path tracer and image metrics of the other branch are
- * merged, the reference is a long progressive render with independent seeds
- * and 4x the photons per frame, and PSNR is the small helper below. */
+ * and the error against a path-traced reference (pgi_reference_render, same
+ * pixel centres and bounce limit) falls as frames accumulate, measured with
+ * the PSNR of `photongi compare` (pgi_metrics_compute). */
+#include "photongi/metrics.h"
+#include "photongi/reference.h"
 #include "test_util.h"
 
 static pgi_scene *load(const char *spec) {
     pgi_scene *s = NULL;
     TU_CHECK_OK(pgi_scene_load(spec, &s));
     return s;
-}
-
-/* PSNR in dB of linear RGB clamped to [0, 1] (peak 1). */
-static double psnr(const pgi_image *a, const pgi_image *ref) {
-    size_t n = 3 * (size_t)ref->width * ref->height;
-    double se = 0.0;
-    for (size_t i = 0; i < n; i++) {
-        double x = fmin(1.0, fmax(0.0, a->rgb[i])), y = fmin(1.0, fmax(0.0, ref->rgb[i]));
-        se += (x - y) * (x - y);
-    }
-    double mse = se / (double)n;
-    return mse > 0.0 ? 10.0 * log10(1.0 / mse) : INFINITY;
 }
 
 static void test_first_frame_is_plain_render(void **state) {
@@ -211,12 +199,12 @@ static void test_error_falls(void **state) {
     const int W = 48, H = 48;
     pgi_render_desc d = {.estimator = "hashgrid", .photons = 10000, .photons_set = 1, .width = W, .height = H,
                          .direct_samples = 4, .seed = 11};
-    pgi_render_desc dr = d;
-    dr.seed = 987654321;   /* independent of the images under test */
-    dr.photons = 40000;
-    dr.progressive = 128;
+    /* Path-traced reference: 48x48 at 1024 samples a pixel (about 1 s). */
+    pgi_reference_desc rd = {.width = W, .height = H, .seed = 987654321, .spp = 1024};
     pgi_image ref = {0}, img = {0};
-    TU_CHECK_OK(pgi_render(s, &dr, &ref, NULL));
+    uint64_t spp = 0;
+    TU_CHECK_OK(pgi_reference_render(s, &rd, &ref, &spp));
+    assert_int_equal(spp, 1024);
     pgi_renderer *r;
     TU_CHECK_OK(pgi_renderer_create(s, &r));
     const int marks[4] = {1, 4, 16, 64};
@@ -224,7 +212,11 @@ static void test_error_falls(void **state) {
     pgi_frame_stats fs;
     for (int k = 1, m = 0; k <= 64; k++) {
         TU_CHECK_OK(pgi_renderer_accumulate(r, &d, &img, &fs));
-        if (k == marks[m]) p[m++] = psnr(&img, &ref);
+        if (k == marks[m]) {
+            pgi_metrics mt;
+            TU_CHECK_OK(pgi_metrics_compute(&img, &ref, 1.f, &mt));
+            p[m++] = mt.psnr;
+        }
     }
     fprintf(stderr, "  PSNR vs reference at 1, 4, 16, 64 frames: %.2f %.2f %.2f %.2f dB\n", p[0], p[1], p[2], p[3]);
     for (int m = 1; m < 4; m++) assert_true(p[m] > p[m - 1] + 0.5);
