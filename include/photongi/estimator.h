@@ -90,6 +90,10 @@ typedef struct pgi_estimator_desc {
     int tile_size;       /* "tiled": tile edge in pixels; default 32 */
     float cell_size;     /* "hashgrid": cell edge (>= radius/64); default 2 * radius */
     int threads;         /* 0 = OpenMP default */
+    int knn;             /* "kdtree": k nearest photons within `radius` (k-NN mode); 0 = fixed-radius range mode */
+    int polygon_vertices;/* "bounds25d": vertices of the screen polygon around a projected sphere (even, 4..64);
+                            0 = default 8 */
+    uint64_t seed;       /* stochastic subsampling: per-pixel random streams from (seed, pixel index) */
 } pgi_estimator_desc;
 
 typedef struct pgi_estimate_args {

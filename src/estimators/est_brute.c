@@ -21,8 +21,36 @@ static pgi_status brute_build(void *state, const pgi_estimate_args *a) {
     return PGI_OK;
 }
 
+/* Non-constant kernels (issue 5): same loop with pgi__gather_k. */
+static pgi_status brute_estimate_kernel(brute_state *s, const pgi_estimate_args *a) {
+    double t0 = pgi__now_ms();
+    const pgi_photons *ph = a->photons;
+    const pgi_view_samples *vs = a->samples;
+    const float r2 = s->c.desc.radius * s->c.desc.radius;
+    const pgi_kernel kern = s->c.desc.kernel;
+    const size_t n = ph->count;
+    uint64_t reads = 0, contrib = 0;
+#pragma omp parallel for schedule(dynamic, 64) reduction(+ : reads, contrib)
+    for (long long ii = 0; ii < (long long)vs->count; ii++) {
+        size_t i = (size_t)ii;
+        float *out = a->out_rgb + 3 * i;
+        pgi__vs v;
+        if (!pgi__vs_begin(vs, i, out, &v)) continue;
+        pgi__acc acc = {0};
+        for (size_t j = 0; j < n; j++)
+            pgi__gather_k(&v, r2, kern, ph->px[j], ph->py[j], ph->pz[j], ph->dx[j], ph->dy[j], ph->dz[j], ph->fr[j],
+                          ph->fg[j], ph->fb[j], &acc);
+        pgi__acc_finish_k(&v, &acc, r2, kern, 1.f, out);
+        reads += n;
+        contrib += acc.contributing;
+    }
+    pgi__stats_estimated(&s->c.st, t0, reads, contrib);
+    return PGI_OK;
+}
+
 static pgi_status brute_estimate(void *state, const pgi_estimate_args *a) {
     brute_state *s = state;
+    if (s->c.desc.kernel != PGI_KERNEL_CONSTANT) return brute_estimate_kernel(s, a);
     double t0 = pgi__now_ms();
     const pgi_photons *ph = a->photons;
     const pgi_view_samples *vs = a->samples;
@@ -53,5 +81,5 @@ static void brute_destroy(void *state) { free(state); }
 
 const pgi_estimator_vtbl pgi__est_brute = {
     "brute", "every photon for every view sample (the test oracle)", 1,
-    brute_create, brute_build, brute_estimate, brute_stats, brute_destroy, 0,
+    brute_create, brute_build, brute_estimate, brute_stats, brute_destroy, PGI_EST_CAP_KERNELS,
 };
