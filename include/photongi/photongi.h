@@ -99,6 +99,11 @@ typedef struct pgi_render_desc {
     pgi_output output;
     int radius_set;          /* non-zero: `radius` was given explicitly (0 or less is then an error) */
     int photons_set;         /* non-zero: `photons` was given explicitly (0 is then an error) */
+    int kernel;              /* pgi_kernel: 0 constant (default), 1 cone, 2 Epanechnikov */
+    int subsample;           /* stochastic subsampling factor k (0/1 off; hashgrid, tiled, kdtree range) */
+    int filter;              /* bilateral reconstruction filter radius in pixels on the indirect light (0 off) */
+    int knn;                 /* kdtree: k nearest photons within the radius (0 = fixed-radius range mode) */
+    int polygon_vertices;    /* bounds25d: vertices of the screen polygon (even, 4..64); default 8 */
 } pgi_render_desc;
 
 /* Linear RGB radiance, row-major from the top-left, 3 floats a pixel. */
