@@ -422,7 +422,7 @@ static pgi_status b_estimate(void *state, const pgi_estimate_args *a) {
     nthreads = omp_get_max_threads();
 #endif
     /* per thread: samples, view depth, kind (0 none, 1 primary, 2 secondary), sums, secondary list */
-    const size_t per = TT * (sizeof(pgi__vs) + sizeof(float) + 1 + sizeof(pgi__acc) + sizeof(uint32_t)) + 64;
+    const size_t per = (TT * (sizeof(pgi__vs) + sizeof(float) + 1 + sizeof(pgi__acc) + sizeof(uint32_t)) + 127) & ~(size_t)63;
     char *scratch = malloc((size_t)nthreads * per);
     if (!scratch) return pgi__fail(PGI_ERR_OOM, "out of memory for %d tile buffers", nthreads);
     uint64_t reads = 0, contrib = 0, covered = 0;
