@@ -25,7 +25,9 @@
  *
  * Conservative cases. Spheres that reach the eye plane (the icosahedron's
  * vertices or the sphere not strictly in front of the eye) cannot be
- * projected: their bound is the whole screen (2.5D keeps the depth range).
+ * projected whole: clipped_shape bounds them slice by slice (2.5D keeps the
+ * depth range; 3D uses the icosahedron's circumsphere); a sphere holding the
+ * eye covers the whole screen.
  * Samples seen through mirrors (no PGI_VS_PRIMARY) are not where the pixel
  * ray says, so projection cannot find them: a photon is also binned to every
  * tile whose box of such samples its sphere overlaps, and tests them all.
@@ -128,6 +130,55 @@ static inline float cross2(const float *o, const float *a, const float *b) {
     return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]);
 }
 
+/* Bound of a sphere (view-space centre c, radius ri) that reaches the eye
+ * plane, by slices (the clipped case of Mara & McGuire 2013): for each image
+ * direction theta_k the sphere, seen along the perpendicular image direction,
+ * is a circle (a, z, ri) in the plane through the eye. When the eye lies
+ * outside that circle, its points in front of the eye (z > 0) project to
+ * x' = tan(psi) with psi within the circle's wedge of directions
+ * [psi_c - alpha, psi_c + alpha] (alpha = asin(ri/d)) intersected with
+ * (-pi/2, pi/2): a bound on one or both sides. A wedge entirely behind the eye
+ * means the sphere has no point in front: 0 is returned. Directions where the
+ * eye is inside the circle give no bound. Double precision plus an angular
+ * margin of 1e-6 keep it conservative. */
+static int clipped_shape(const bxf *x, pgi_v3 c, float ri, int m, shape *sh) {
+    const double HALF = 0.5 * 3.14159265358979323846, TWO_PI = 2.0 * 3.14159265358979323846;
+    const float ax = 2.f * x->sx / (float)x->W, bx = x->sx * (1.f / (float)x->W - 1.f);
+    const float ay = -2.f * x->sy / (float)x->H, by = x->sy * (1.f - 1.f / (float)x->H);
+    sh->n = 0;
+    sh->x0 = -1.f;
+    sh->y0 = -1.f;
+    sh->x1 = (float)x->W;
+    sh->y1 = (float)x->H;
+    for (int k = 0; k < m; k++) {
+        double th = 3.14159265358979323846 * (double)k / (double)m, cs = cos(th), sn = sin(th);
+        double a = (double)c.x * cs + (double)c.y * sn, z = c.z, r = ri;
+        double d2 = a * a + z * z;
+        if (!(d2 > r * r * (1.0 + 1e-6))) continue;   /* eye inside the circle: no bound */
+        double alpha = asin(r / sqrt(d2)) + 1e-6, pc = atan2(a, z);
+        double lo = pc - alpha, hi = pc + alpha;
+        /* the representation of the wedge that meets (-pi/2, pi/2), if any */
+        if (hi <= -HALF) lo += TWO_PI, hi += TWO_PI;
+        else if (lo >= HALF) lo -= TWO_PI, hi -= TWO_PI;
+        if (hi <= -HALF || lo >= HALF) return 0;   /* nothing in front of the eye */
+        int has_lo = lo > -HALF + 1e-6, has_hi = hi < HALF - 1e-6;
+        float tlo = has_lo ? (float)tan(lo) : 0.f, thi = has_hi ? (float)tan(hi) : 0.f;
+        float C0 = (float)cs * bx + (float)sn * by;
+        if (k == 0) {
+            if (has_lo) sh->x0 = fmaxf(sh->x0, px_of(x, tlo));
+            if (has_hi) sh->x1 = fminf(sh->x1, px_of(x, thi));
+        } else if (2 * k == m) {
+            if (has_hi) sh->y0 = fmaxf(sh->y0, py_of(x, thi));
+            if (has_lo) sh->y1 = fminf(sh->y1, py_of(x, tlo));
+        } else {
+            float A = (float)cs * ax, B = (float)sn * ay;
+            if (has_hi) add_edge(sh, A, B, thi - C0);
+            if (has_lo) add_edge(sh, -A, -B, C0 - tlo);
+        }
+    }
+    return 1;
+}
+
 /* Bound of a photon sphere (view-space centre c, radius r). Returns 0 when
  * no primary sample can be inside the sphere (it lies behind the eye, or its
  * bound misses the screen). */
@@ -210,12 +261,11 @@ static int make_shape(const bounds_state *s, const bxf *x, pgi_v3 c, float r, sh
         }
     } else fallback = 1;
     if (fallback) {
-        sh->n = 0;
-        sh->x0 = -1.f;
-        sh->y0 = -1.f;
-        sh->x1 = (float)x->W;
-        sh->y1 = (float)x->H;
-        return 1;
+        /* 3D: the icosahedron's circumsphere, by the two axis slices; 2.5D: the sphere, N/2 slices */
+        if (s->mode3d) {
+            if (!clipped_shape(x, c, ri * (1.9021130f / ICO_INRADIUS) * 1.00001f, 2, sh)) return 0;
+        } else if (!clipped_shape(x, c, ri, s->nverts / 2, sh))
+            return 0;
     }
     sh->x0 -= PIX_MARGIN;
     sh->y0 -= PIX_MARGIN;
