@@ -38,8 +38,8 @@ typedef struct {
     size_t orig_cap;
     uint8_t *axis;             /* split axis of the node whose median sits at that slot */
     size_t axis_cap;
-    uint32_t *perm;            /* build scratch */
-    size_t perm_cap;
+    struct kitem_ *items;      /* build scratch */
+    size_t items_cap;
     size_t n;
 } kdtree_state;
 
@@ -51,69 +51,69 @@ static pgi_status kd_create(const pgi_estimator_desc *d, void **state) {
     return PGI_OK;
 }
 
-static inline float coord(const pgi_photons *ph, uint32_t j, int a) {
-    return a == 0 ? ph->px[j] : a == 1 ? ph->py[j] : ph->pz[j];
+/* Build item: position and photon index together (16 bytes), so that the
+ * selection and the boxes read memory in order. */
+typedef struct kitem_ {
+    float p[3];
+    uint32_t idx;
+} kitem;
+
+/* Strict total order on (coordinate, photon index). */
+static inline int less(int a, const kitem *x, const kitem *y) {
+    return x->p[a] < y->p[a] || (x->p[a] == y->p[a] && x->idx < y->idx);
 }
 
-/* Strict total order on (coordinate, photon index). NaN coordinates sort as
- * +inf would not be total; photons are finite (the tracer stores hits). */
-static inline int less(const pgi_photons *ph, int a, uint32_t i, uint32_t j) {
-    float x = coord(ph, i, a), y = coord(ph, j, a);
-    return x < y || (x == y && i < j);
-}
-
-/* Puts the element of rank k of perm[lo, hi) at k, smaller ones before it. */
-static void select_kth(const pgi_photons *ph, int a, uint32_t *perm, size_t lo, size_t hi, size_t k) {
+/* Puts the element of rank k of it[lo, hi) at k, smaller ones before it. */
+static void select_kth(int a, kitem *it, size_t lo, size_t hi, size_t k) {
     while (hi - lo > 1) {
         size_t m = lo + (hi - lo) / 2;
-        /* median of three to perm[m] */
-        if (less(ph, a, perm[m], perm[lo])) { uint32_t t = perm[m]; perm[m] = perm[lo]; perm[lo] = t; }
-        if (less(ph, a, perm[hi - 1], perm[lo])) { uint32_t t = perm[hi - 1]; perm[hi - 1] = perm[lo]; perm[lo] = t; }
-        if (less(ph, a, perm[hi - 1], perm[m])) { uint32_t t = perm[hi - 1]; perm[hi - 1] = perm[m]; perm[m] = t; }
+        kitem t;
+        /* median of three to it[m] */
+        if (less(a, &it[m], &it[lo])) t = it[m], it[m] = it[lo], it[lo] = t;
+        if (less(a, &it[hi - 1], &it[lo])) t = it[hi - 1], it[hi - 1] = it[lo], it[lo] = t;
+        if (less(a, &it[hi - 1], &it[m])) t = it[hi - 1], it[hi - 1] = it[m], it[m] = t;
         /* Lomuto partition around the pivot, moved to the end (keys are distinct). */
-        uint32_t pivot = perm[m];
-        perm[m] = perm[hi - 1];
-        perm[hi - 1] = pivot;
+        kitem pivot = it[m];
+        it[m] = it[hi - 1];
+        it[hi - 1] = pivot;
         size_t store = lo;
         for (size_t i = lo; i + 1 < hi; i++)
-            if (less(ph, a, perm[i], pivot)) {
-                uint32_t t = perm[i]; perm[i] = perm[store]; perm[store] = t;
+            if (less(a, &it[i], &pivot)) {
+                t = it[i], it[i] = it[store], it[store] = t;
                 store++;
             }
-        perm[hi - 1] = perm[store];
-        perm[store] = pivot;
+        it[hi - 1] = it[store];
+        it[store] = pivot;
         if (k == store) return;
         if (k < store) hi = store;
         else lo = store + 1;
     }
 }
 
-static void build_range(kdtree_state *s, const pgi_photons *ph, size_t lo, size_t hi) {
+static void build_range(kdtree_state *s, size_t lo, size_t hi) {
     if (hi - lo <= LEAF) return;
+    kitem *it = s->items;
     float bmin[3] = {INFINITY, INFINITY, INFINITY}, bmax[3] = {-INFINITY, -INFINITY, -INFINITY};
-    for (size_t i = lo; i < hi; i++) {
-        uint32_t j = s->perm[i];
-        float p[3] = {ph->px[j], ph->py[j], ph->pz[j]};
+    for (size_t i = lo; i < hi; i++)
         for (int k = 0; k < 3; k++) {
-            bmin[k] = fminf(bmin[k], p[k]);
-            bmax[k] = fmaxf(bmax[k], p[k]);
+            bmin[k] = fminf(bmin[k], it[i].p[k]);
+            bmax[k] = fmaxf(bmax[k], it[i].p[k]);
         }
-    }
     int a = 0;
     for (int k = 1; k < 3; k++)
         if (bmax[k] - bmin[k] > bmax[a] - bmin[a]) a = k;
     size_t mid = lo + (hi - lo) / 2;
-    select_kth(ph, a, s->perm, lo, hi, mid);
+    select_kth(a, it, lo, hi, mid);
     s->axis[mid] = (uint8_t)a;
     if (hi - lo > 32768) {
 #pragma omp task default(shared) firstprivate(lo, mid)
-        build_range(s, ph, lo, mid);
+        build_range(s, lo, mid);
 #pragma omp task default(shared) firstprivate(mid, hi)
-        build_range(s, ph, mid + 1, hi);
+        build_range(s, mid + 1, hi);
 #pragma omp taskwait
     } else {
-        build_range(s, ph, lo, mid);
-        build_range(s, ph, mid + 1, hi);
+        build_range(s, lo, mid);
+        build_range(s, mid + 1, hi);
     }
 }
 
@@ -127,19 +127,21 @@ static pgi_status kd_build(void *state, const pgi_estimate_args *a) {
     if ((st = pgi__ensure((void **)&s->pts, &s->pts_cap, n + 1, sizeof(pgi__packed_photon))) ||
         (st = pgi__ensure((void **)&s->orig, &s->orig_cap, n + 1, sizeof(uint32_t))) ||
         (st = pgi__ensure((void **)&s->axis, &s->axis_cap, n + 1, 1)) ||
-        (st = pgi__ensure((void **)&s->perm, &s->perm_cap, n + 1, sizeof(uint32_t))))
+        (st = pgi__ensure((void **)&s->items, &s->items_cap, n + 1, sizeof(kitem))))
         return st;
     double t0 = pgi__now_ms();
-    for (size_t j = 0; j < n; j++) s->perm[j] = (uint32_t)j;
+#pragma omp parallel for schedule(static)
+    for (long long j = 0; j < (long long)n; j++)
+        s->items[j] = (kitem){{ph->px[j], ph->py[j], ph->pz[j]}, (uint32_t)j};
     memset(s->axis, 0, n + 1);
 #pragma omp parallel
 #pragma omp single
-    build_range(s, ph, 0, n);
+    build_range(s, 0, n);
     double t1 = pgi__now_ms();
 #pragma omp parallel for schedule(static)
     for (long long i = 0; i < (long long)n; i++) {
-        s->orig[i] = s->perm[i];
-        pgi__pack_photon(ph, s->perm[i], &s->pts[i]);
+        s->orig[i] = s->items[i].idx;
+        pgi__pack_photon(ph, s->items[i].idx, &s->pts[i]);
     }
     double t2 = pgi__now_ms();
     s->n = n;
@@ -331,7 +333,7 @@ static void kd_destroy(void *state) {
     pgi__afree(s->pts);
     pgi__afree(s->orig);
     pgi__afree(s->axis);
-    pgi__afree(s->perm);
+    pgi__afree(s->items);
     free(s);
 }
 
