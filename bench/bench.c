@@ -8,6 +8,9 @@
  *   photongi-bench [--scenes sibenik,crytek-sponza] [--estimators a,b] [--frames 5]
  *                  [--photons 200000] [--size 1920x1080] [--radius R] [--threads T]
  *                  [--csv bench/results/bench.csv] [--include-brute]
+ *   photongi-bench --table1 [--knn K] [...]   issue 5a: the tiled paper's Table 1 protocol
+ *                  (estimate time, tests vs contributing of every gather/scatter method and
+ *                  bounds25d with 4/8/16 vertices) to bench/results/table1.csv
  */
 #include <omp.h>
 #include <stdio.h>
@@ -42,19 +45,113 @@ static int in_list(const char *list, const char *name) {
     return 0;
 }
 
+/* Issue 5a: the tiled paper's Table 1 protocol (--table1): estimate time of
+ * every gather/scatter method on this branch, and photon/pixel tests vs
+ * contributing ones (wasted tests of the 3D vs 2.5D bounds). Medians of
+ * `frames` frames after a warm-up, one run. */
+typedef struct {
+    const char *label, *estimator;
+    int knn, polygon;
+} t1_config;
+
+static int run_table1(const char *scenes, int frames, unsigned photons, int width, int height, float radius,
+                      int threads, int knn, const char *csv_path) {
+    const t1_config cfg[] = {
+        {"hashgrid", "hashgrid", 0, 0},     {"tiled", "tiled", 0, 0},
+        {"kdtree-range", "kdtree", 0, 0},   {"kdtree-knn", "kdtree", knn, 0},
+        {"bounds3d", "bounds3d", 0, 0},     {"bounds25d-4", "bounds25d", 0, 4},
+        {"bounds25d-8", "bounds25d", 0, 8}, {"bounds25d-16", "bounds25d", 0, 16},
+    };
+    mkdir("bench/results", 0755);
+    FILE *csv = fopen(csv_path, "w");
+    if (!csv) {
+        fprintf(stderr, "photongi-bench: cannot write %s\n", csv_path);
+        return 1;
+    }
+    fprintf(csv, "scene,method,width,height,threads,photons,radius,frames,build_ms,estimate_ms,tests,contributing,"
+                 "wasted_ratio,covered_or_nodes,passes\n");
+    printf("%-14s %-13s %9s %9s %13s %12s %7s %13s\n", "scene", "method", "build", "estimate", "tests", "contrib",
+           "wasted", "covered/nodes");
+    char buf[4096];
+    snprintf(buf, sizeof buf, "%s", scenes);
+    for (char *sc = strtok(buf, ","); sc; sc = strtok(NULL, ",")) {
+        pgi_scene *scene;
+        if (pgi_scene_load(sc, &scene) != PGI_OK) {
+            fprintf(stderr, "photongi-bench: skipping scene %s: %s\n", sc, pgi_last_error());
+            continue;
+        }
+        pgi_renderer *r;
+        if (pgi_renderer_create(scene, &r) != PGI_OK) {
+            pgi_scene_destroy(scene);
+            continue;
+        }
+        for (size_t c = 0; c < sizeof cfg / sizeof cfg[0]; c++) {
+            pgi_render_desc d = {.estimator = cfg[c].estimator, .photons = photons, .width = width, .height = height,
+                                 .threads = threads, .seed = 1, .radius = radius, .radius_set = radius > 0.f,
+                                 .knn = cfg[c].knn, .polygon_vertices = cfg[c].polygon, .direct_samples = 1};
+            double tb[MAXF], te[MAXF];
+            pgi_frame_stats fs;
+            pgi_image img = {0};
+            int ok = 1;
+            for (int f = -1; f < frames; f++) {
+                if (pgi_renderer_render(r, &d, &img, &fs) != PGI_OK) {
+                    fprintf(stderr, "photongi-bench: %s/%s: %s\n", sc, cfg[c].label, pgi_last_error());
+                    ok = 0;
+                    break;
+                }
+                if (f >= 0) tb[f] = fs.build_ms, te[f] = fs.estimate_ms;
+            }
+            pgi_image_free(&img);
+            if (!ok) continue;
+            double mb = median(tb, frames), me = median(te, frames);
+            double wasted = fs.reads ? 1.0 - (double)fs.contributing / (double)fs.reads : 0.0;
+            printf("%-14s %-13s %9.1f %9.1f %13llu %12llu %6.1f%% %13llu\n", sc, cfg[c].label, mb, me,
+                   (unsigned long long)fs.reads, (unsigned long long)fs.contributing, 100.0 * wasted,
+                   (unsigned long long)fs.nodes_visited);
+            fprintf(csv, "%s,%s,%d,%d,%d,%llu,%g,%d,%.3f,%.3f,%llu,%llu,%.6f,%llu,", sc, cfg[c].label, fs.width,
+                    fs.height, fs.threads, (unsigned long long)fs.photons_stored, (double)fs.radius, frames, mb, me,
+                    (unsigned long long)fs.reads, (unsigned long long)fs.contributing, wasted,
+                    (unsigned long long)fs.nodes_visited);
+            for (int k = 0; k < fs.pass_count; k++)
+                fprintf(csv, "%s%s=%.3f", k ? ";" : "", fs.passes_ms[k].name, fs.passes_ms[k].value);
+            fprintf(csv, "\n");
+            fflush(stdout);
+        }
+        pgi_renderer_destroy(r);
+        pgi_scene_destroy(scene);
+    }
+    fclose(csv);
+    printf("(medians of %d frames after a warm-up, ms; tests = photon/pixel tests (reads), wasted = 1 - contributing/"
+           "tests; covered = pixels inside a bound (bounds*), nodes visited (kdtree), probes (hashgrid), tile tests "
+           "(tiled); CSV: %s)\n",
+           frames, csv_path);
+    return 0;
+}
+
 int main(int argc, char **argv) {
     const char *scenes = "sibenik,crytek-sponza", *ests = NULL, *csv_path = "bench/results/bench.csv";
     int frames = 5, width = 1920, height = 1080, threads = 0, brute = 0;
     unsigned photons = 200000;
     float radius = 0.f;
+    int table1 = 0, knn = 50;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
             printf("usage: photongi-bench [--scenes a,b] [--estimators a,b] [--frames N] [--photons N]\n"
                    "                      [--size WxH] [--radius R] [--threads T] [--csv FILE] [--include-brute]\n"
                    "Median of N frames after a warm-up; per-pass ms, reads vs contributing, Mrays/s.\n"
-                   "brute is skipped unless --include-brute (O(photons x pixels)).\n");
+                   "brute is skipped unless --include-brute (O(photons x pixels)).\n"
+                   "--table1 [--knn K]: Table 1 protocol of the tiled paper (estimate time, tests vs\n"
+                   "contributing) for hashgrid, tiled, kdtree range/k-NN, bounds3d, bounds25d 4/8/16.\n");
             return 0;
+        }
+        if (strcmp(a, "--table1") == 0) {   /* issue 5a */
+            table1 = 1;
+            continue;
+        }
+        if (strcmp(a, "--knn") == 0 && v) {
+            knn = atoi(argv[++i]);
+            continue;
         }
         if (strcmp(a, "--include-brute") == 0) {
             brute = 1;
@@ -86,6 +183,9 @@ int main(int argc, char **argv) {
         fprintf(stderr, "photongi-bench: --frames must be 1..%d\n", MAXF);
         return 2;
     }
+    if (table1)
+        return run_table1(scenes, frames, photons, width, height, radius, threads, knn,
+                          strcmp(csv_path, "bench/results/bench.csv") == 0 ? "bench/results/table1.csv" : csv_path);
     mkdir("bench/results", 0755);
     FILE *csv = fopen(csv_path, "w");
     if (!csv) {

@@ -236,6 +236,34 @@ if expect_ok reference --scene cornell --size 24x16 --spp 2 -q -o "$TMP/r.exr" -
     printf 'not json' >"$TMP/r.exr.json"
     expect_error "metadata" reference --continue "$TMP/r.exr" --spp 1
 fi
+# issue 5a: kernels, subsampling, filter, k-NN, polygon bounds
+expect_error "--knn" render --estimator kdtree --knn 0 -o "$TMP/x.png"
+expect_error "--knn" render --estimator kdtree --knn -3 -o "$TMP/x.png"
+expect_error "--knn" render --estimator kdtree --knn many -o "$TMP/x.png"
+expect_error "kdtree" render --estimator tiled --knn 8 --size 32x24 --photons 1000 -o "$TMP/x.png"
+expect_error "kernel" render --kernel gaussian -o "$TMP/x.png"
+expect_error "--subsample" render --subsample 0 -o "$TMP/x.png"
+expect_error "--subsample" render --subsample 65 -o "$TMP/x.png"
+expect_error "subsampling" render --estimator bounds3d --subsample 2 --size 32x24 --photons 1000 -o "$TMP/x.png"
+expect_error "subsampling" render --estimator kdtree --knn 4 --subsample 2 --size 32x24 --photons 1000 -o "$TMP/x.png"
+expect_error "--filter" render --filter 17 -o "$TMP/x.png"
+expect_error "--filter" render --filter -1 -o "$TMP/x.png"
+expect_error "--polygon" render --estimator bounds25d --polygon 7 -o "$TMP/x.png"
+expect_error "--polygon" render --estimator bounds25d --polygon 2 -o "$TMP/x.png"
+for e in kdtree bounds3d bounds25d; do
+    run estimators
+    printf '%s\n' "$out" | grep -qx "$e" && ok || bad "estimators does not list $e"
+done
+expect_ok render --scene cornell --size 40x30 --photons 2000 --estimator kdtree --knn 16 --kernel cone -o "$TMP/k.png" -q &&
+    { [ -s "$TMP/k.png" ] && ok || bad "kdtree --knn did not write k.png"; }
+expect_ok render --scene cornell --size 40x30 --photons 2000 --estimator bounds25d --polygon 12 --kernel epanechnikov \
+    -o "$TMP/b.png" -q && { [ -s "$TMP/b.png" ] && ok || bad "bounds25d did not write b.png"; }
+expect_ok render --scene cornell --size 40x30 --photons 2000 --estimator hashgrid --subsample 3 --filter 2 \
+    -o "$TMP/s.png" -q && { [ -s "$TMP/s.png" ] && ok || bad "subsample+filter did not write s.png"; }
+run render --help
+for f in --kernel --subsample --filter --knn --polygon; do
+    printf '%s\n' "$out" | grep -qF -- "$f" && ok || bad "render --help does not mention $f"
+done
 
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]

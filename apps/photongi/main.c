@@ -67,6 +67,15 @@ static const char *k_render_help =
     "  --smoothing S      differentials: smoothing factor s (default: automatic)\n"
     "  --bvh-build linear|vvh   'bvh' builder (default linear)\n"
     "  --leaf-size T      'bvh' leaf-size threshold (default 0 = T_auto)\n"
+    "  --kernel K         density kernel: constant (default), cone, epanechnikov\n"
+    "                     (brute, hashgrid, tiled, kdtree, bounds3d, bounds25d)\n"
+    "  --subsample K      stochastic subsampling: visit about 1/K^2 of the eligible photons per\n"
+    "                     pixel, scaled by eligible/visited (hashgrid, tiled, kdtree; 1..64, 1 = off)\n"
+    "  --filter R         depth/normal-aware bilateral filter of the indirect light, radius R\n"
+    "                     pixels (0..16, default 0 = off)\n"
+    "  --knn K            kdtree: k nearest photons within the radius, normalised by the disk\n"
+    "                     through the k-th (1..4096; default: fixed-radius range mode)\n"
+    "  --polygon N        bounds25d: vertices of the screen polygon (even, 4..64; default 8)\n"
     "\n"
     "Scene files: mesh paths resolve against the .json file, then $PHOTONGI_SCENES\n"
     "(default ../shared/scenes).\n";
@@ -290,6 +299,24 @@ static int cmd_render(int argc, char **argv) {
             if (!parse_long(v, 0, 65536, &n))
                 return usage_error("render", "--leaf-size needs 0 (T_auto) or a number in 1..65536, got '%s'", v);
             d.leaf_size = (int)n;
+        } else if (strcmp(a, "--kernel") == 0) {
+            if (strcmp(v, "constant") == 0) d.kernel = PGI_KERNEL_CONSTANT;
+            else if (strcmp(v, "cone") == 0) d.kernel = PGI_KERNEL_CONE;
+            else if (strcmp(v, "epanechnikov") == 0) d.kernel = PGI_KERNEL_EPANECHNIKOV;
+            else return usage_error("render", "--kernel must be constant, cone or epanechnikov, got '%s'", v);
+        } else if (strcmp(a, "--subsample") == 0) {
+            if (!parse_long(v, 1, 64, &n)) return usage_error("render", "--subsample needs a number in 1..64, got '%s'", v);
+            d.subsample = (int)n;
+        } else if (strcmp(a, "--filter") == 0) {
+            if (!parse_long(v, 0, 16, &n)) return usage_error("render", "--filter needs a radius in 0..16 pixels, got '%s'", v);
+            d.filter = (int)n;
+        } else if (strcmp(a, "--knn") == 0) {
+            if (!parse_long(v, 1, 4096, &n)) return usage_error("render", "--knn needs a number in 1..4096, got '%s'", v);
+            d.knn = (int)n;
+        } else if (strcmp(a, "--polygon") == 0) {
+            if (!parse_long(v, 4, 64, &n) || n % 2)
+                return usage_error("render", "--polygon needs an even number in 4..64, got '%s'", v);
+            d.polygon_vertices = (int)n;
         } else return usage_error("render", "unknown option '%s'", a);
     }
     if (!out) return usage_error("render", "%s", "no output file: give -o OUT.png or -o OUT.exr");

@@ -103,6 +103,10 @@ typedef struct pgi_estimator_desc {
     int bvh_build;       /* "bvh": PGI_BVH_LINEAR (default) or PGI_BVH_VVH */
     int leaf_size;       /* "bvh": leaf-size threshold (1..65536); 0 = T_auto */
     float scene_area;    /* "bvh": scene surface area for T_auto; 0 = the surface of the photons' bounding box */
+    int knn;             /* "kdtree": k nearest photons within `radius` (k-NN mode); 0 = fixed-radius range mode */
+    int polygon_vertices;/* "bounds25d": vertices of the screen polygon around a projected sphere (even, 4..64);
+                            0 = default 8 */
+    uint64_t seed;       /* stochastic subsampling: per-pixel random streams from (seed, pixel index) */
 } pgi_estimator_desc;
 
 /* BVH photon map builders (BVH paper §5). */

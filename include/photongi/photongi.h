@@ -117,6 +117,11 @@ typedef struct pgi_render_desc {
     float smoothing;         /* differentials: smoothing factor s (> 0); 0 = automatic (docs/bvh.md) */
     int bvh_build;           /* "bvh": PGI_BVH_LINEAR (default) or PGI_BVH_VVH */
     int leaf_size;           /* "bvh": leaf-size threshold; 0 = T_auto */
+    int kernel;              /* pgi_kernel: 0 constant (default), 1 cone, 2 Epanechnikov */
+    int subsample;           /* stochastic subsampling factor k (0/1 off; hashgrid, tiled, kdtree range) */
+    int filter;              /* bilateral reconstruction filter radius in pixels on the indirect light (0 off) */
+    int knn;                 /* kdtree: k nearest photons within the radius (0 = fixed-radius range mode) */
+    int polygon_vertices;    /* bounds25d: vertices of the screen polygon (even, 4..64); default 8 */
 } pgi_render_desc;
 
 typedef enum pgi_radius_policy {

@@ -21,16 +21,20 @@ static pgi_status brute_build(void *state, const pgi_estimate_args *a) {
     return PGI_OK;
 }
 
-/* Per-photon footprints (spheres of radius[j], or ellipsoids when sax is set): the oracle for
- * every estimator with PGI_EST_CAP_PHOTON_RADIUS. Constant kernel, weight 1/(pi r_j^2). */
-static pgi_status brute_estimate_footprints(brute_state *s, const pgi_estimate_args *a) {
+/* The oracle beyond the fixed-radius constant-kernel case: non-constant
+ * kernels (pgi__gather_k, fixed radius), or per-photon footprints (spheres of
+ * radius[j], or ellipsoids when sax is set; constant kernel, weight
+ * 1/(pi r_j^2)) for every estimator with PGI_EST_CAP_PHOTON_RADIUS. */
+static pgi_status brute_estimate_general(brute_state *s, const pgi_estimate_args *a) {
     double t0 = pgi__now_ms();
     const pgi_photons *ph = a->photons;
     const pgi_view_samples *vs = a->samples;
-    if (s->c.desc.kernel != PGI_KERNEL_CONSTANT)
+    const pgi_kernel kern = s->c.desc.kernel;
+    const int footprints = ph->radius != NULL, ell = ph->sax != NULL;
+    if (footprints && kern != PGI_KERNEL_CONSTANT)
         return pgi__fail(PGI_ERR_INVALID_ARG, "brute: per-photon footprints use the constant kernel only");
+    const float r2 = s->c.desc.radius * s->c.desc.radius;
     const size_t n = ph->count;
-    const int ell = ph->sax != NULL;
     uint64_t reads = 0, contrib = 0;
 #pragma omp parallel for schedule(dynamic, 64) reduction(+ : reads, contrib)
     for (long long ii = 0; ii < (long long)vs->count; ii++) {
@@ -39,19 +43,26 @@ static pgi_status brute_estimate_footprints(brute_state *s, const pgi_estimate_a
         pgi__vs v;
         if (!pgi__vs_begin(vs, i, out, &v)) continue;
         pgi__acc acc = {0};
-        for (size_t j = 0; j < n; j++) {
-            float r = ph->radius[j], w = pgi__footprint_weight(r);
-            if (ell) {
-                float inv[9];
-                pgi__photon_ellipsoid_inverse(ph, j, inv);
-                pgi__gather_ellipsoid(&v, inv, ph->px[j], ph->py[j], ph->pz[j], ph->dx[j], ph->dy[j], ph->dz[j],
-                                      ph->fr[j] * w, ph->fg[j] * w, ph->fb[j] * w, &acc);
-            } else {
-                pgi__gather(&v, r * r, ph->px[j], ph->py[j], ph->pz[j], ph->dx[j], ph->dy[j], ph->dz[j],
-                            ph->fr[j] * w, ph->fg[j] * w, ph->fb[j] * w, &acc);
+        if (!footprints) {
+            for (size_t j = 0; j < n; j++)
+                pgi__gather_k(&v, r2, kern, ph->px[j], ph->py[j], ph->pz[j], ph->dx[j], ph->dy[j], ph->dz[j],
+                              ph->fr[j], ph->fg[j], ph->fb[j], &acc);
+            pgi__acc_finish_k(&v, &acc, r2, kern, 1.f, out);
+        } else {
+            for (size_t j = 0; j < n; j++) {
+                float r = ph->radius[j], w = pgi__footprint_weight(r);
+                if (ell) {
+                    float inv[9];
+                    pgi__photon_ellipsoid_inverse(ph, j, inv);
+                    pgi__gather_ellipsoid(&v, inv, ph->px[j], ph->py[j], ph->pz[j], ph->dx[j], ph->dy[j], ph->dz[j],
+                                          ph->fr[j] * w, ph->fg[j] * w, ph->fb[j] * w, &acc);
+                } else {
+                    pgi__gather(&v, r * r, ph->px[j], ph->py[j], ph->pz[j], ph->dx[j], ph->dy[j], ph->dz[j],
+                                ph->fr[j] * w, ph->fg[j] * w, ph->fb[j] * w, &acc);
+                }
             }
+            pgi__acc_finish_w(&v, &acc, 1.f, out);
         }
-        pgi__acc_finish_w(&v, &acc, 1.f, out);
         reads += n;
         contrib += acc.contributing;
     }
@@ -61,7 +72,7 @@ static pgi_status brute_estimate_footprints(brute_state *s, const pgi_estimate_a
 
 static pgi_status brute_estimate(void *state, const pgi_estimate_args *a) {
     brute_state *s = state;
-    if (a->photons->radius) return brute_estimate_footprints(s, a);
+    if (a->photons->radius || s->c.desc.kernel != PGI_KERNEL_CONSTANT) return brute_estimate_general(s, a);
     double t0 = pgi__now_ms();
     const pgi_photons *ph = a->photons;
     const pgi_view_samples *vs = a->samples;
@@ -92,5 +103,5 @@ static void brute_destroy(void *state) { free(state); }
 
 const pgi_estimator_vtbl pgi__est_brute = {
     "brute", "every photon for every view sample (the test oracle)", 1,
-    brute_create, brute_build, brute_estimate, brute_stats, brute_destroy, PGI_EST_CAP_PHOTON_RADIUS,
+    brute_create, brute_build, brute_estimate, brute_stats, brute_destroy, PGI_EST_CAP_PHOTON_RADIUS | PGI_EST_CAP_KERNELS,
 };

@@ -147,6 +147,9 @@ static pgi_status hg_estimate(void *state, const pgi_estimate_args *a) {
     double t0 = pgi__now_ms();
     const pgi_view_samples *vs = a->samples;
     const float r = s->c.desc.radius, r2 = r * r, inv = s->inv_cell;
+    const pgi_kernel kern = s->c.desc.kernel;
+    const int sub = s->c.desc.subsample;
+    const uint64_t seed = s->c.desc.seed;
     uint64_t reads = 0, contrib = 0, visited = 0;
 #pragma omp parallel for schedule(dynamic, 64) reduction(+ : reads, contrib, visited)
     for (long long ii = 0; ii < (long long)vs->count; ii++) {
@@ -155,6 +158,8 @@ static pgi_status hg_estimate(void *state, const pgi_estimate_args *a) {
         pgi__vs v;
         if (!pgi__vs_begin(vs, i, out, &v)) continue;
         pgi__acc acc = {0};
+        pgi__sub ss;
+        pgi__sub_init(&ss, sub, seed, i);
         int32_t x0 = cell_coord(v.px - r, inv), x1 = cell_coord(v.px + r, inv);
         int32_t y0 = cell_coord(v.py - r, inv), y1 = cell_coord(v.py + r, inv);
         int32_t z0 = cell_coord(v.pz - r, inv), z1 = cell_coord(v.pz + r, inv);
@@ -166,10 +171,10 @@ static pgi_status hg_estimate(void *state, const pgi_estimate_args *a) {
                     const slot *sl = &s->slots[b];
                     if (sl->key == EMPTY_KEY) continue;
                     const pgi__packed_photon *q = s->sorted + sl->start;
-                    for (uint32_t k = 0; k < sl->count; k++) pgi__gather_packed(&v, r2, q + k, &acc);
-                    reads += sl->count;
+                    pgi__gather_list(&v, r2, kern, &ss, q, sl->count, &acc);
                 }
-        pgi__acc_finish(&v, &acc, r2, out);
+        pgi__acc_finish_k(&v, &acc, r2, kern, pgi__sub_scale(&ss), out);
+        reads += ss.visited;
         contrib += acc.contributing;
         visited += probes;
     }
@@ -195,5 +200,5 @@ static void hg_destroy(void *state) {
 
 const pgi_estimator_vtbl pgi__est_hashgrid = {
     "hashgrid", "3D hash grid of photon cells, pixel-major gather (Mara et al. 2013 §2.3.1)", 1,
-    hg_create, hg_build, hg_estimate, hg_stats, hg_destroy, 0,
+    hg_create, hg_build, hg_estimate, hg_stats, hg_destroy, PGI_EST_CAP_KERNELS | PGI_EST_CAP_SUBSAMPLE,
 };

@@ -268,6 +268,9 @@ static pgi_status tiled_estimate(void *state, const pgi_estimate_args *a) {
     if (W != a->camera->width || s->ntx != (W + T - 1) / T || s->nty != (H + T - 1) / T)
         return pgi__fail(PGI_ERR_INVALID_ARG, "tiled: estimate called with a frame size other than build's");
     const float r2 = s->c.desc.radius * s->c.desc.radius;
+    const pgi_kernel kern = s->c.desc.kernel;
+    const int sub = s->c.desc.subsample;
+    const uint64_t seed = s->c.desc.seed;
     uint64_t reads = 0, contrib = 0;
 #pragma omp parallel for schedule(dynamic, 1) reduction(+ : reads, contrib)
     for (int t = 0; t < s->ntiles; t++) {
@@ -281,9 +284,11 @@ static pgi_status tiled_estimate(void *state, const pgi_estimate_args *a) {
                 pgi__vs v;
                 if (!pgi__vs_begin(vs, i, out, &v)) continue;
                 pgi__acc acc = {0};
-                for (uint32_t k = 0; k < nq; k++) pgi__gather_packed(&v, r2, q + k, &acc);
-                pgi__acc_finish(&v, &acc, r2, out);
-                reads += nq;
+                pgi__sub ss;
+                pgi__sub_init(&ss, sub, seed, i);
+                pgi__gather_list(&v, r2, kern, &ss, q, nq, &acc);
+                pgi__acc_finish_k(&v, &acc, r2, kern, pgi__sub_scale(&ss), out);
+                reads += ss.visited;
                 contrib += acc.contributing;
             }
     }
@@ -310,5 +315,5 @@ static void tiled_destroy(void *state) {
 
 const pgi_estimator_vtbl pgi__est_tiled = {
     "tiled", "screen tiles with depth bounds; per-tile photon copies (Mara et al. 2013 §2.3.1)", 1,
-    tiled_create, tiled_build, tiled_estimate, tiled_stats, tiled_destroy, 0,
+    tiled_create, tiled_build, tiled_estimate, tiled_stats, tiled_destroy, PGI_EST_CAP_KERNELS | PGI_EST_CAP_SUBSAMPLE,
 };

@@ -12,6 +12,9 @@ static const pgi_estimator_vtbl *const k_estimators[] = {
     &pgi__est_cluster_trivial,
     &pgi__est_directional,
     &pgi__est_bvh,
+    &pgi__est_kdtree,
+    &pgi__est_bounds3d,
+    &pgi__est_bounds25d,
 };
 #define N_EST (sizeof k_estimators / sizeof k_estimators[0])
 
@@ -66,6 +69,17 @@ pgi_status pgi_estimator_create(const char *name, const pgi_estimator_desc *desc
     if (desc->scene_area < 0.f || !isfinite(desc->scene_area))
         return pgi__fail(PGI_ERR_INVALID_ARG, "scene area must be 0 (unknown) or a positive finite number, got %g",
                          (double)desc->scene_area);
+    if (desc->knn < 0 || desc->knn > 4096)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "k-NN count %d is out of range (0 = range mode, 1..4096)", desc->knn);
+    if (desc->knn > 0 && strcmp(vt->name, "kdtree") != 0)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "k-NN mode (knn %d) needs the kdtree estimator, not '%s'", desc->knn,
+                         name);
+    if (desc->knn > 0 && desc->subsample > 1)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "kdtree: stochastic subsampling works in range mode only (knn 0)");
+    if (desc->polygon_vertices != 0 &&
+        (desc->polygon_vertices < 4 || desc->polygon_vertices > 64 || desc->polygon_vertices % 2))
+        return pgi__fail(PGI_ERR_INVALID_ARG, "polygon vertices must be an even number in 4..64, got %d",
+                         desc->polygon_vertices);
     pgi_estimator *e = calloc(1, sizeof *e);
     if (!e) return pgi__fail(PGI_ERR_OOM, "out of memory creating estimator '%s'", name);
     e->vt = vt;

@@ -7,6 +7,7 @@
 #include "photon/photon.h"
 #include "pipeline/pipeline.h"
 #include "view/view.h"
+#include "pipeline/filter.h"
 
 #define PGI_MAX_SIDE 16384
 #define PGI_MAX_PIXELS (36u * 1024u * 1024u)   /* 8K UHD fits; buffers take about 140 bytes a pixel */
@@ -130,6 +131,21 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
         return pgi__fail(PGI_ERR_INVALID_ARG, "unknown BVH build %d (0 linear, 1 vvh)", d->bvh_build);
     if (d->leaf_size < 0 || d->leaf_size > 65536)
         return pgi__fail(PGI_ERR_INVALID_ARG, "BVH leaf size %d is out of range (0 = T_auto, 1..65536)", d->leaf_size);
+    /* issue 5: kernels, subsampling, reconstruction filter, k-NN, polygon bounds */
+    if (d->kernel < 0 || d->kernel >= PGI_KERNEL_COUNT_)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "unknown kernel %d (0 constant, 1 cone, 2 epanechnikov)", d->kernel);
+    if (d->subsample < 0 || d->subsample > 64)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "subsampling factor %d is out of range (1..64)", d->subsample);
+    if (d->filter < 0 || d->filter > 16)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "filter radius %d is out of range (0..16 pixels)", d->filter);
+    if (d->knn < 0 || d->knn > 4096)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "k-NN count %d is out of range (1..4096)", d->knn);
+    if (d->knn > 0 && strcmp(pgi_estimator_find(d->estimator)->name, "kdtree") != 0)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "k-NN (knn %d) needs the kdtree estimator, not '%s'", d->knn,
+                         d->estimator);
+    if (d->polygon_vertices != 0 && (d->polygon_vertices < 4 || d->polygon_vertices > 64 || d->polygon_vertices % 2))
+        return pgi__fail(PGI_ERR_INVALID_ARG, "polygon vertices must be an even number in 4..64, got %d",
+                         d->polygon_vertices);
     return PGI_OK;
 }
 
@@ -196,6 +212,11 @@ static pgi_status ensure_buffers(pgi_renderer *r, const pgi_render_desc *d) {
     ed.bvh_build = d->bvh_build;
     ed.leaf_size = d->leaf_size;
     ed.scene_area = (float)r->scene_area;
+    ed.kernel = (pgi_kernel)d->kernel;
+    ed.subsample = d->subsample;
+    ed.knn = d->knn;
+    ed.polygon_vertices = d->polygon_vertices;
+    ed.seed = d->subsample > 1 ? d->seed : 0;
     if (!r->est || strcmp(r->est_name, d->estimator) != 0 || memcmp(&ed, &r->est_desc, sizeof ed) != 0) {
         pgi_estimator_destroy(r->est);
         r->est = NULL;
@@ -254,6 +275,7 @@ pgi_status pgi_renderer_render(pgi_renderer *r, const pgi_render_desc *in, pgi_i
     if ((st = pgi_estimator_build(r->est, &ea))) return st;
     double t3 = pgi__now_ms();
     if ((st = pgi_estimator_estimate(r->est, &ea))) return st;
+    if (d.filter > 0 && (st = pgi__bilateral_filter(&r->vs, d.filter, r->indirect))) return st;
     double t4 = pgi__now_ms();
     if ((st = pgi__direct(s, r->rt, &r->vs, d.direct_samples, d.seed, r->direct, &fs.shadow_rays))) return st;
     double t5 = pgi__now_ms();

@@ -1,0 +1,590 @@
+/* bounds3d / bounds25d: photon-major scattering (tiled paper §2.2): every
+ * photon's sphere of effect is bounded on the screen and every pixel inside
+ * the bound is tested against the sphere (the same per-photon decision as
+ * brute, pgi__gather).
+ *
+ *  - bounds3d: an icosahedron circumscribing the sphere (McGuire & Luebke
+ *    2009), its 12 vertices projected; the bound is their convex hull. No
+ *    depth test: every covered pixel is tested (what a rasterizer without a
+ *    two-sided depth test launches).
+ *  - bounds25d: the tightest N-gon around the sphere's projected silhouette
+ *    (Mara & McGuire 2013): for N/2 directions theta_k = k pi/(N/2) in the
+ *    image plane, the two planes through the eye tangent to the sphere that
+ *    contain the image direction perpendicular to theta_k give two exact
+ *    supporting lines of the projected ellipse; N = 4 is the axis-aligned
+ *    box. Plus the sphere's depth range [z - r, z + r]: a covered pixel whose
+ *    view sample lies outside it is rejected before the sphere test.
+ *
+ * Race-free, deterministic scattering on the CPU: (1) tile flags and the
+ * view-space box of the samples seen through mirrors/glass per tile; (2)
+ * count, (3) scan, (4) fill: every photon index goes into the bin of every
+ * screen tile its bound's rectangle touches (fixed photon chunks, as in
+ * "tiled"); (5) scatter: tiles in parallel, each applies its photons in
+ * photon-index order to its own pixels' sums, so every pixel sums photons in
+ * the same order as brute, whatever the thread count.
+ *
+ * Conservative cases. Spheres that reach the eye plane (the icosahedron's
+ * vertices or the sphere not strictly in front of the eye) cannot be
+ * projected whole: clipped_shape bounds them slice by slice (2.5D keeps the
+ * depth range; 3D uses the icosahedron's circumsphere); a sphere holding the
+ * eye covers the whole screen.
+ * Samples seen through mirrors (no PGI_VS_PRIMARY) are not where the pixel
+ * ray says, so projection cannot find them: a photon is also binned to every
+ * tile whose box of such samples its sphere overlaps, and tests them all.
+ * The sphere is inflated by a relative 1e-4 (plus float slack) and the
+ * polygon by 0.05 pixel, so rounding never drops a pixel the test accepts;
+ * the extra pixels only cost tests.
+ *
+ * Stats: reads = sphere tests (pixel, photon), contributing = the accepted
+ * ones, nodes_visited = covered pixels with a valid primary sample (before
+ * the 2.5D depth test). Wasted tests = reads - contributing. */
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+#include "estimator_internal.h"
+
+#define MAXE 64            /* half-planes of a bound */
+#define PIX_MARGIN 0.05f   /* pixels */
+
+typedef struct {
+    uint8_t primary, secondary;   /* has valid samples of that kind */
+    float lo[3], hi[3];           /* view-space box of the secondary samples */
+} btile;
+
+typedef struct {
+    pgi__est_common c;
+    int mode3d, nverts;
+    int T, ntx, nty, ntiles, W, H;
+    btile *tiles;
+    size_t tiles_cap;
+    uint32_t *sec;                /* tiles with secondary samples */
+    size_t sec_cap;
+    int nsec;
+    float *cview;                 /* photon centres in view space, 3 a photon */
+    size_t cview_cap;
+    uint32_t *counts;             /* [chunk][tile] */
+    size_t counts_cap;
+    uint32_t *tile_start;
+    size_t tile_start_cap;
+    uint32_t *bins;               /* photon indices, per tile in photon order */
+    size_t bins_cap;
+    size_t nbinned;
+    size_t nphotons;
+} bounds_state;
+
+typedef struct {
+    pgi_v3 eye, right, up, fwd;
+    float sx, sy;
+    int W, H;
+} bxf;
+
+static inline pgi_v3 to_view(const bxf *x, float px, float py, float pz) {
+    pgi_v3 d = v3_sub(v3(px, py, pz), x->eye);
+    return v3(v3_dot(d, x->right), v3_dot(d, x->up), v3_dot(d, x->fwd));
+}
+
+/* A screen bound: pixel rectangle (pixel centres at integers), half-planes
+ * a X + b Y <= c with (a, b) unit, and (2.5D) a depth range. */
+typedef struct {
+    float x0, x1, y0, y1;
+    int n;
+    float a[MAXE], b[MAXE], c[MAXE];
+    float zlo, zhi;
+    int use_depth;
+} shape;
+
+static inline float inflate(pgi_v3 c, float r) {
+    return r + 1e-4f * r + 1e-6f * (fabsf(c.x) + fabsf(c.y) + fabsf(c.z));
+}
+
+/* Tangent slopes u of the planes x' = u z through the eye that touch the
+ * circle (a, z, r), z > r (as in est_tiled.c). */
+static inline void silhouette(float a, float z, float r, float *u0, float *u1) {
+    float den = (z - r) * (z + r);
+    float disc = sqrtf(fmaxf(0.f, a * a + den));
+    *u0 = (a * z - r * disc) / den;
+    *u1 = (a * z + r * disc) / den;
+}
+
+static inline void add_edge(shape *sh, float a, float b, float c) {
+    float l = sqrtf(a * a + b * b);
+    if (!(l > 0.f) || sh->n >= MAXE) return;
+    sh->a[sh->n] = a / l;
+    sh->b[sh->n] = b / l;
+    sh->c[sh->n] = c / l + PIX_MARGIN;
+    sh->n++;
+}
+
+static inline float px_of(const bxf *x, float xi) { return (xi / x->sx + 1.f) * 0.5f * (float)x->W - 0.5f; }
+static inline float py_of(const bxf *x, float yi) { return (1.f - yi / x->sy) * 0.5f * (float)x->H - 0.5f; }
+
+static const float k_ico[12][3] = {
+    {0, 1, 1.6180340f}, {0, -1, 1.6180340f}, {0, 1, -1.6180340f}, {0, -1, -1.6180340f},
+    {1, 1.6180340f, 0}, {-1, 1.6180340f, 0}, {1, -1.6180340f, 0}, {-1, -1.6180340f, 0},
+    {1.6180340f, 0, 1}, {-1.6180340f, 0, 1}, {1.6180340f, 0, -1}, {-1.6180340f, 0, -1},
+};
+#define ICO_INRADIUS 1.5115226f   /* of the icosahedron above: phi^2 / sqrt(3) */
+
+static inline float cross2(const float *o, const float *a, const float *b) {
+    return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]);
+}
+
+/* Bound of a sphere (view-space centre c, radius ri) that reaches the eye
+ * plane, by slices (the clipped case of Mara & McGuire 2013): for each image
+ * direction theta_k the sphere, seen along the perpendicular image direction,
+ * is a circle (a, z, ri) in the plane through the eye. When the eye lies
+ * outside that circle, its points in front of the eye (z > 0) project to
+ * x' = tan(psi) with psi within the circle's wedge of directions
+ * [psi_c - alpha, psi_c + alpha] (alpha = asin(ri/d)) intersected with
+ * (-pi/2, pi/2): a bound on one or both sides. A wedge entirely behind the eye
+ * means the sphere has no point in front: 0 is returned. Directions where the
+ * eye is inside the circle give no bound. Double precision plus an angular
+ * margin of 1e-6 keep it conservative. */
+static int clipped_shape(const bxf *x, pgi_v3 c, float ri, int m, shape *sh) {
+    const double HALF = 0.5 * 3.14159265358979323846, TWO_PI = 2.0 * 3.14159265358979323846;
+    const float ax = 2.f * x->sx / (float)x->W, bx = x->sx * (1.f / (float)x->W - 1.f);
+    const float ay = -2.f * x->sy / (float)x->H, by = x->sy * (1.f - 1.f / (float)x->H);
+    sh->n = 0;
+    sh->x0 = -1.f;
+    sh->y0 = -1.f;
+    sh->x1 = (float)x->W;
+    sh->y1 = (float)x->H;
+    for (int k = 0; k < m; k++) {
+        double th = 3.14159265358979323846 * (double)k / (double)m, cs = cos(th), sn = sin(th);
+        double a = (double)c.x * cs + (double)c.y * sn, z = c.z, r = ri;
+        double d2 = a * a + z * z;
+        if (!(d2 > r * r * (1.0 + 1e-6))) continue;   /* eye inside the circle: no bound */
+        double alpha = asin(r / sqrt(d2)) + 1e-6, pc = atan2(a, z);
+        double lo = pc - alpha, hi = pc + alpha;
+        /* the representation of the wedge that meets (-pi/2, pi/2), if any */
+        if (hi <= -HALF) lo += TWO_PI, hi += TWO_PI;
+        else if (lo >= HALF) lo -= TWO_PI, hi -= TWO_PI;
+        if (hi <= -HALF || lo >= HALF) return 0;   /* nothing in front of the eye */
+        int has_lo = lo > -HALF + 1e-6, has_hi = hi < HALF - 1e-6;
+        float tlo = has_lo ? (float)tan(lo) : 0.f, thi = has_hi ? (float)tan(hi) : 0.f;
+        float C0 = (float)cs * bx + (float)sn * by;
+        if (k == 0) {
+            if (has_lo) sh->x0 = fmaxf(sh->x0, px_of(x, tlo));
+            if (has_hi) sh->x1 = fminf(sh->x1, px_of(x, thi));
+        } else if (2 * k == m) {
+            if (has_hi) sh->y0 = fmaxf(sh->y0, py_of(x, thi));
+            if (has_lo) sh->y1 = fminf(sh->y1, py_of(x, tlo));
+        } else {
+            float A = (float)cs * ax, B = (float)sn * ay;
+            if (has_hi) add_edge(sh, A, B, thi - C0);
+            if (has_lo) add_edge(sh, -A, -B, C0 - tlo);
+        }
+    }
+    return 1;
+}
+
+/* Bound of a photon sphere (view-space centre c, radius r). Returns 0 when
+ * no primary sample can be inside the sphere (it lies behind the eye, or its
+ * bound misses the screen). */
+static int make_shape(const bounds_state *s, const bxf *x, pgi_v3 c, float r, shape *sh) {
+    float ri = inflate(c, r);
+    sh->n = 0;
+    sh->zlo = c.z - ri;
+    sh->zhi = c.z + ri;
+    sh->use_depth = !s->mode3d;
+    if (!(sh->zhi > 0.f)) return 0;   /* primary samples have positive depth */
+    int fallback = 0;
+    if (s->mode3d) {
+        float scale = ri / ICO_INRADIUS * 1.00001f;
+        float p[12][2];
+        int idx[12];
+        for (int k = 0; k < 12; k++) {
+            float vx = c.x + scale * k_ico[k][0], vy = c.y + scale * k_ico[k][1], vz = c.z + scale * k_ico[k][2];
+            if (!(vz > 1e-3f * ri)) {
+                fallback = 1;
+                break;
+            }
+            p[k][0] = px_of(x, vx / vz);
+            p[k][1] = py_of(x, vy / vz);
+            idx[k] = k;
+        }
+        if (!fallback) {
+            /* Andrew's monotone chain on 12 points (insertion sort by x, y). */
+            for (int i = 1; i < 12; i++) {
+                int t = idx[i], j = i - 1;
+                while (j >= 0 && (p[idx[j]][0] > p[t][0] || (p[idx[j]][0] == p[t][0] && p[idx[j]][1] > p[t][1]))) {
+                    idx[j + 1] = idx[j];
+                    j--;
+                }
+                idx[j + 1] = t;
+            }
+            int hull[25], h = 0;
+            for (int i = 0; i < 12; i++) {
+                while (h >= 2 && cross2(p[hull[h - 2]], p[hull[h - 1]], p[idx[i]]) <= 0.f) h--;
+                hull[h++] = idx[i];
+            }
+            for (int i = 10, lo = h + 1; i >= 0; i--) {
+                while (h >= lo && cross2(p[hull[h - 2]], p[hull[h - 1]], p[idx[i]]) <= 0.f) h--;
+                hull[h++] = idx[i];
+            }
+            h--;   /* last point repeats the first */
+            /* counter-clockwise in (X, Y): the interior is on the left of each edge */
+            sh->x0 = sh->y0 = INFINITY;
+            sh->x1 = sh->y1 = -INFINITY;
+            for (int i = 0; i < h; i++) {
+                const float *a = p[hull[i]], *b = p[hull[(i + 1) % h]];
+                float dx = b[0] - a[0], dy = b[1] - a[1];
+                add_edge(sh, dy, -dx, dy * a[0] - dx * a[1]);
+                sh->x0 = fminf(sh->x0, a[0]);
+                sh->x1 = fmaxf(sh->x1, a[0]);
+                sh->y0 = fminf(sh->y0, a[1]);
+                sh->y1 = fmaxf(sh->y1, a[1]);
+            }
+        }
+    } else if (c.z - ri > 1e-3f * ri) {
+        float u0, u1, w0, w1;
+        silhouette(c.x, c.z, ri, &u0, &u1);
+        silhouette(c.y, c.z, ri, &w0, &w1);
+        sh->x0 = px_of(x, u0);
+        sh->x1 = px_of(x, u1);
+        sh->y0 = py_of(x, w1);
+        sh->y1 = py_of(x, w0);
+        /* image-plane coordinates from pixel coordinates: xi = ax X + bx, yi = ay Y + by */
+        const float ax = 2.f * x->sx / (float)x->W, bx = x->sx * (1.f / (float)x->W - 1.f);
+        const float ay = -2.f * x->sy / (float)x->H, by = x->sy * (1.f - 1.f / (float)x->H);
+        const int m = s->nverts / 2;
+        for (int k = 0; k < m; k++) {
+            /* axis directions (k = 0 and, for even m, k = m/2) are the rectangle */
+            if (k == 0 || 2 * k == m) continue;
+            float th = PGI_PI * (float)k / (float)m, cs = cosf(th), sn = sinf(th);
+            float t0, t1;
+            silhouette(c.x * cs + c.y * sn, c.z, ri, &t0, &t1);
+            float A = cs * ax, B = sn * ay, C0 = cs * bx + sn * by;
+            add_edge(sh, A, B, t1 - C0);
+            add_edge(sh, -A, -B, C0 - t0);
+        }
+    } else fallback = 1;
+    if (fallback) {
+        /* 3D: the icosahedron's circumsphere, by the two axis slices; 2.5D: the sphere, N/2 slices */
+        if (s->mode3d) {
+            if (!clipped_shape(x, c, ri * (1.9021130f / ICO_INRADIUS) * 1.00001f, 2, sh)) return 0;
+        } else if (!clipped_shape(x, c, ri, s->nverts / 2, sh))
+            return 0;
+    }
+    sh->x0 -= PIX_MARGIN;
+    sh->y0 -= PIX_MARGIN;
+    sh->x1 += PIX_MARGIN;
+    sh->y1 += PIX_MARGIN;
+    if (!(sh->x1 >= 0.f && sh->x0 <= (float)(x->W - 1) && sh->y1 >= 0.f && sh->y0 <= (float)(x->H - 1))) return 0;
+    return 1;
+}
+
+/* Pixel rows/columns of the rectangle, clipped to [lo, hi]. */
+static inline int clip_lo(float v, int lo) { return v <= (float)lo ? lo : (int)ceilf(v); }
+static inline int clip_hi(float v, int hi) { return v >= (float)hi ? hi : (int)floorf(v); }
+
+/* Columns [*xa, *xb] of row Y inside the shape (empty: *xa > *xb). */
+static inline void row_span(const shape *sh, float Y, int W, int *xa, int *xb) {
+    float xl = sh->x0, xr = sh->x1;
+    for (int e = 0; e < sh->n; e++) {
+        float t = sh->c[e] - sh->b[e] * Y, a = sh->a[e];
+        if (a > 1e-6f) xr = fminf(xr, t / a);
+        else if (a < -1e-6f) xl = fmaxf(xl, t / a);
+        else if (t < 0.f) {
+            *xa = 1, *xb = 0;
+            return;
+        }
+    }
+    if (!(xl <= xr) || xl > (float)(W - 1) || xr < 0.f) {
+        *xa = 1, *xb = 0;
+        return;
+    }
+    *xa = clip_lo(xl, 0);
+    *xb = clip_hi(xr, W - 1);
+}
+
+static inline int sphere_box(const btile *b, pgi_v3 c, float r) {
+    float rr = inflate(c, r), cc[3] = {c.x, c.y, c.z}, d2 = 0.f;
+    for (int k = 0; k < 3; k++) {
+        float lo = b->lo[k] - cc[k], hi = cc[k] - b->hi[k];
+        float e = lo > hi ? lo : hi;
+        if (e > 0.f) d2 += e * e;
+    }
+    return d2 <= rr * rr;
+}
+
+/* Calls BODY with t for every tile photon j is binned to, in increasing
+ * tile order for the rectangle, then the secondary tiles outside it. */
+#define FOR_EACH_BIN(S_, XF_, J_, BODY)                                                                    \
+    do {                                                                                                   \
+        pgi_v3 c_ = v3((S_)->cview[3 * (J_)], (S_)->cview[3 * (J_) + 1], (S_)->cview[3 * (J_) + 2]);       \
+        shape sh_;                                                                                         \
+        int tx0 = 1, tx1 = 0, ty0 = 1, ty1 = 0;                                                            \
+        if (make_shape((S_), (XF_), c_, r, &sh_)) {                                                        \
+            tx0 = clip_lo(sh_.x0, 0) / (S_)->T;                                                            \
+            tx1 = clip_hi(sh_.x1, (S_)->W - 1) / (S_)->T;                                                  \
+            ty0 = clip_lo(sh_.y0, 0) / (S_)->T;                                                            \
+            ty1 = clip_hi(sh_.y1, (S_)->H - 1) / (S_)->T;                                                  \
+            for (int ty_ = ty0; ty_ <= ty1; ty_++)                                                         \
+                for (int tx_ = tx0; tx_ <= tx1; tx_++) {                                                   \
+                    int t = ty_ * (S_)->ntx + tx_;                                                         \
+                    const btile *b_ = &(S_)->tiles[t];                                                     \
+                    if (b_->primary || (b_->secondary && sphere_box(b_, c_, r))) { BODY; }                 \
+                }                                                                                          \
+        }                                                                                                  \
+        for (int k_ = 0; k_ < (S_)->nsec; k_++) {                                                          \
+            int t = (int)(S_)->sec[k_], tx_ = t % (S_)->ntx, ty_ = t / (S_)->ntx;                          \
+            if (tx_ >= tx0 && tx_ <= tx1 && ty_ >= ty0 && ty_ <= ty1) continue;                            \
+            if (sphere_box(&(S_)->tiles[t], c_, r)) { BODY; }                                              \
+        }                                                                                                  \
+    } while (0)
+
+static pgi_status b_create_common(const pgi_estimator_desc *d, void **state, int mode3d) {
+    bounds_state *s = calloc(1, sizeof *s);
+    if (!s) return pgi__fail(PGI_ERR_OOM, "out of memory");
+    s->c.desc = *d;
+    s->mode3d = mode3d;
+    s->nverts = d->polygon_vertices > 0 ? d->polygon_vertices : 8;
+    s->T = d->tile_size > 0 ? d->tile_size : 32;
+    *state = s;
+    return PGI_OK;
+}
+static pgi_status b3_create(const pgi_estimator_desc *d, void **state) { return b_create_common(d, state, 1); }
+static pgi_status b25_create(const pgi_estimator_desc *d, void **state) { return b_create_common(d, state, 0); }
+
+static bxf make_xf(const pgi_camera *cam, int W, int H) {
+    bxf x = {v3_load(cam->eye), v3_load(cam->right), v3_load(cam->up), v3_load(cam->forward),
+             cam->tan_half_fov_y * cam->aspect, cam->tan_half_fov_y, W, H};
+    return x;
+}
+
+static pgi_status b_build(void *state, const pgi_estimate_args *a) {
+    bounds_state *s = state;
+    memset(&s->c.st, 0, sizeof s->c.st);
+    const pgi_view_samples *vs = a->samples;
+    const pgi_photons *ph = a->photons;
+    const float r = s->c.desc.radius;
+    const int W = vs->width, H = vs->height, T = s->T;
+    s->W = W;
+    s->H = H;
+    s->ntx = (W + T - 1) / T;
+    s->nty = (H + T - 1) / T;
+    s->ntiles = s->ntx * s->nty;
+    const size_t n = ph->count;
+    size_t chunk = n / 64 + 1;
+    if (chunk < 8192) chunk = 8192;
+    const size_t nchunks = (n + chunk - 1) / chunk;
+    pgi_status st;
+    if ((st = pgi__ensure((void **)&s->tiles, &s->tiles_cap, (size_t)s->ntiles, sizeof(btile))) ||
+        (st = pgi__ensure((void **)&s->sec, &s->sec_cap, (size_t)s->ntiles, sizeof(uint32_t))) ||
+        (st = pgi__ensure((void **)&s->tile_start, &s->tile_start_cap, (size_t)s->ntiles + 1, sizeof(uint32_t))) ||
+        (st = pgi__ensure((void **)&s->counts, &s->counts_cap, (nchunks + 1) * (size_t)s->ntiles, sizeof(uint32_t))) ||
+        (st = pgi__ensure((void **)&s->cview, &s->cview_cap, 3 * n + 3, sizeof(float))))
+        return st;
+    const bxf x = make_xf(a->camera, W, H);
+    double t0 = pgi__now_ms();
+#pragma omp parallel for schedule(dynamic, 4)
+    for (int t = 0; t < s->ntiles; t++) {
+        btile *b = &s->tiles[t];
+        b->primary = b->secondary = 0;
+        for (int k = 0; k < 3; k++) b->lo[k] = INFINITY, b->hi[k] = -INFINITY;
+        int tx = t % s->ntx, ty = t / s->ntx;
+        for (int py = ty * T; py < (ty + 1) * T && py < H; py++)
+            for (int px = tx * T; px < (tx + 1) * T && px < W; px++) {
+                size_t i = (size_t)py * W + (size_t)px;
+                if (!(vs->flags[i] & PGI_VS_VALID)) continue;
+                if (vs->flags[i] & PGI_VS_PRIMARY) {
+                    b->primary = 1;
+                    continue;
+                }
+                b->secondary = 1;
+                const float *p = vs->pos + 3 * i;
+                pgi_v3 q = to_view(&x, p[0], p[1], p[2]);
+                float qq[3] = {q.x, q.y, q.z};
+                for (int k = 0; k < 3; k++) {
+                    b->lo[k] = fminf(b->lo[k], qq[k]);
+                    b->hi[k] = fmaxf(b->hi[k], qq[k]);
+                }
+            }
+    }
+    s->nsec = 0;
+    for (int t = 0; t < s->ntiles; t++)
+        if (s->tiles[t].secondary) s->sec[s->nsec++] = (uint32_t)t;
+#pragma omp parallel for schedule(static)
+    for (long long j = 0; j < (long long)n; j++) {
+        pgi_v3 c = to_view(&x, ph->px[j], ph->py[j], ph->pz[j]);
+        s->cview[3 * j] = c.x, s->cview[3 * j + 1] = c.y, s->cview[3 * j + 2] = c.z;
+    }
+    double t1 = pgi__now_ms();
+    const int ntiles = s->ntiles;
+#pragma omp parallel for schedule(dynamic, 1)
+    for (long long cidx = 0; cidx < (long long)nchunks; cidx++) {
+        uint32_t *cnt = s->counts + (size_t)cidx * ntiles;
+        memset(cnt, 0, (size_t)ntiles * sizeof *cnt);
+        size_t j1 = ((size_t)cidx + 1) * chunk < n ? ((size_t)cidx + 1) * chunk : n;
+        for (size_t j = (size_t)cidx * chunk; j < j1; j++) FOR_EACH_BIN(s, &x, j, cnt[t]++);
+    }
+    double t2 = pgi__now_ms();
+    uint64_t sum = 0;
+    for (int t = 0; t < ntiles; t++) {
+        s->tile_start[t] = (uint32_t)sum;
+        for (size_t cidx = 0; cidx < nchunks; cidx++) {
+            uint32_t *cnt = s->counts + cidx * ntiles + t;
+            uint32_t c = *cnt;
+            *cnt = (uint32_t)sum;
+            sum += c;
+        }
+    }
+    s->tile_start[ntiles] = (uint32_t)sum;
+    if (sum > UINT32_MAX)
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "%s: %llu binned photons exceed the 32-bit index; use a smaller radius",
+                         s->mode3d ? "bounds3d" : "bounds25d", (unsigned long long)sum);
+    if ((st = pgi__ensure((void **)&s->bins, &s->bins_cap, (size_t)sum + 1, sizeof(uint32_t)))) return st;
+    s->nbinned = (size_t)sum;
+    double t3 = pgi__now_ms();
+#pragma omp parallel for schedule(dynamic, 1)
+    for (long long cidx = 0; cidx < (long long)nchunks; cidx++) {
+        uint32_t *off = s->counts + (size_t)cidx * ntiles;
+        size_t j1 = ((size_t)cidx + 1) * chunk < n ? ((size_t)cidx + 1) * chunk : n;
+        for (size_t j = (size_t)cidx * chunk; j < j1; j++) FOR_EACH_BIN(s, &x, j, s->bins[off[t]++] = (uint32_t)j);
+    }
+    double t4 = pgi__now_ms();
+    s->nphotons = n;
+    pgi__stats_pass(&s->c.st, "tiles+project", t1 - t0);
+    pgi__stats_pass(&s->c.st, "count", t2 - t1);
+    pgi__stats_pass(&s->c.st, "scan", t3 - t2);
+    pgi__stats_pass(&s->c.st, "bin", t4 - t3);
+    s->c.st.build_ms = t4 - t0;
+    return PGI_OK;
+}
+
+static pgi_status b_estimate(void *state, const pgi_estimate_args *a) {
+    bounds_state *s = state;
+    double t0 = pgi__now_ms();
+    const pgi_view_samples *vs = a->samples;
+    const pgi_photons *ph = a->photons;
+    const int W = vs->width, H = vs->height, T = s->T;
+    if (W != s->W || H != s->H || ph->count != s->nphotons)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "%s: estimate called with other inputs than build's",
+                         s->mode3d ? "bounds3d" : "bounds25d");
+    const float r = s->c.desc.radius, r2 = r * r;
+    const pgi_kernel kern = s->c.desc.kernel;
+    const bxf x = make_xf(a->camera, W, H);
+    const size_t TT = (size_t)T * (size_t)T;
+    int nthreads = 1;
+#ifdef _OPENMP
+    nthreads = omp_get_max_threads();
+#endif
+    /* per thread: samples, view depth, kind (0 none, 1 primary, 2 secondary), sums, secondary list */
+    const size_t per = (TT * (sizeof(pgi__vs) + sizeof(float) + 1 + sizeof(pgi__acc) + sizeof(uint32_t)) + 127) & ~(size_t)63;
+    char *scratch = malloc((size_t)nthreads * per);
+    if (!scratch) return pgi__fail(PGI_ERR_OOM, "out of memory for %d tile buffers", nthreads);
+    uint64_t reads = 0, contrib = 0, covered = 0;
+#pragma omp parallel reduction(+ : reads, contrib, covered)
+    {
+        int tid = 0;
+#ifdef _OPENMP
+        tid = omp_get_thread_num();
+#endif
+        char *base = scratch + (size_t)tid * per;
+        pgi__vs *lv = (pgi__vs *)base;
+        pgi__acc *acc = (pgi__acc *)(lv + TT);
+        float *lz = (float *)(acc + TT);
+        uint32_t *secl = (uint32_t *)(lz + TT);
+        uint8_t *kind = (uint8_t *)(secl + TT);
+#pragma omp for schedule(dynamic, 1)
+        for (int t = 0; t < s->ntiles; t++) {
+            const int tx = t % s->ntx, ty = t / s->ntx;
+            const int X0 = tx * T, Y0 = ty * T;
+            const int X1 = X0 + T < W ? X0 + T : W, Y1 = Y0 + T < H ? Y0 + T : H;   /* exclusive */
+            const int tw = X1 - X0;
+            uint32_t nsecl = 0;
+            for (int py = Y0; py < Y1; py++)
+                for (int px = X0; px < X1; px++) {
+                    size_t i = (size_t)py * W + (size_t)px, l = (size_t)(py - Y0) * tw + (size_t)(px - X0);
+                    kind[l] = 0;
+                    if (!(vs->flags[i] & PGI_VS_VALID)) continue;
+                    pgi__vs_load(vs, i, &lv[l]);
+                    memset(&acc[l], 0, sizeof acc[l]);
+                    if (vs->flags[i] & PGI_VS_PRIMARY) {
+                        kind[l] = 1;
+                        lz[l] = to_view(&x, lv[l].px, lv[l].py, lv[l].pz).z;
+                    } else {
+                        kind[l] = 2;
+                        secl[nsecl++] = (uint32_t)l;
+                    }
+                }
+            const btile *bt = &s->tiles[t];
+            for (uint32_t k = s->tile_start[t]; k < s->tile_start[t + 1]; k++) {
+                const uint32_t j = s->bins[k];
+                const float ppx = ph->px[j], ppy = ph->py[j], ppz = ph->pz[j];
+                const float pdx = ph->dx[j], pdy = ph->dy[j], pdz = ph->dz[j];
+                const float pfr = ph->fr[j], pfg = ph->fg[j], pfb = ph->fb[j];
+                pgi_v3 c = v3(s->cview[3 * j], s->cview[3 * j + 1], s->cview[3 * j + 2]);
+                shape sh;
+                if (bt->primary && make_shape(s, &x, c, r, &sh)) {
+                    int ya = clip_lo(sh.y0, Y0), yb = clip_hi(sh.y1, Y1 - 1);
+                    for (int py = ya; py <= yb; py++) {
+                        int xa, xb;
+                        row_span(&sh, (float)py, W, &xa, &xb);
+                        if (xa < X0) xa = X0;
+                        if (xb > X1 - 1) xb = X1 - 1;
+                        for (int px = xa; px <= xb; px++) {
+                            size_t l = (size_t)(py - Y0) * tw + (size_t)(px - X0);
+                            if (kind[l] != 1) continue;
+                            covered++;
+                            if (sh.use_depth && !(lz[l] >= sh.zlo && lz[l] <= sh.zhi)) continue;
+                            reads++;
+                            pgi__gather_k(&lv[l], r2, kern, ppx, ppy, ppz, pdx, pdy, pdz, pfr, pfg, pfb, &acc[l]);
+                        }
+                    }
+                }
+                if (nsecl && sphere_box(bt, c, r)) {
+                    for (uint32_t q = 0; q < nsecl; q++)
+                        pgi__gather_k(&lv[secl[q]], r2, kern, ppx, ppy, ppz, pdx, pdy, pdz, pfr, pfg, pfb,
+                                      &acc[secl[q]]);
+                    reads += nsecl;
+                }
+            }
+            for (int py = Y0; py < Y1; py++)
+                for (int px = X0; px < X1; px++) {
+                    size_t i = (size_t)py * W + (size_t)px, l = (size_t)(py - Y0) * tw + (size_t)(px - X0);
+                    float *out = a->out_rgb + 3 * i;
+                    if (!kind[l]) {
+                        out[0] = out[1] = out[2] = 0.f;
+                        continue;
+                    }
+                    pgi__acc_finish_k(&lv[l], &acc[l], r2, kern, 1.f, out);
+                    contrib += acc[l].contributing;
+                }
+        }
+    }
+    free(scratch);
+    pgi__stats_estimated(&s->c.st, t0, reads, contrib);
+    s->c.st.nodes_visited = covered;
+    s->c.st.memory_count = 0;
+    pgi__stats_mem(&s->c.st, "tile_bins", s->nbinned * sizeof(uint32_t));
+    pgi__stats_mem(&s->c.st, "photon_view_pos", s->nphotons * 3 * sizeof(float));
+    pgi__stats_mem(&s->c.st, "tile_offsets", s->counts_cap * sizeof(uint32_t) + ((size_t)s->ntiles + 1) * 4);
+    return PGI_OK;
+}
+
+static void b_stats(const void *state, pgi_estimator_stats *out) { *out = ((const bounds_state *)state)->c.st; }
+
+static void b_destroy(void *state) {
+    bounds_state *s = state;
+    if (!s) return;
+    pgi__afree(s->tiles);
+    pgi__afree(s->sec);
+    pgi__afree(s->cview);
+    pgi__afree(s->counts);
+    pgi__afree(s->tile_start);
+    pgi__afree(s->bins);
+    free(s);
+}
+
+const pgi_estimator_vtbl pgi__est_bounds3d = {
+    "bounds3d", "photon-major scatter, icosahedron bounds projected to the screen (Mara et al. 2013 §2.2)", 1,
+    b3_create, b_build, b_estimate, b_stats, b_destroy, PGI_EST_CAP_KERNELS,
+};
+
+const pgi_estimator_vtbl pgi__est_bounds25d = {
+    "bounds25d", "photon-major scatter, tight screen polygon + depth range per sphere (Mara & McGuire 2013)", 1,
+    b25_create, b_build, b_estimate, b_stats, b_destroy, PGI_EST_CAP_KERNELS,
+};
