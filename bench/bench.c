@@ -20,17 +20,9 @@
 
 #include "photongi/photongi.h"
 
+#include "bench_common.h"
+
 #define MAXF 64
-
-static int cmp_double(const void *a, const void *b) {
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
-
-static double median(double *v, int n) {
-    qsort(v, (size_t)n, sizeof *v, cmp_double);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
 
 static int in_list(const char *list, const char *name) {
     if (!list) return 1;

@@ -23,18 +23,10 @@
 #include "scene/scene_internal.h"
 #include "view/view.h"
 
+#include "bench_common.h"
+
 #define MAXF 32
 #define MAXE 16
-
-static int cmp_double(const void *a, const void *b) {
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
-
-static double median(double *v, int n) {
-    qsort(v, (size_t)n, sizeof *v, cmp_double);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
 
 typedef struct {
     const char *name;

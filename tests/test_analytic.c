@@ -2,6 +2,7 @@
  * furnace (closed Lambertian sphere around a point light), and the
  * normalisation of the constant kernel. */
 #include "test_util.h"
+#include "test_scenes.h"
 
 #define PI_D 3.14159265358979323846
 
@@ -178,56 +179,7 @@ static void test_kernel_normalisation(void **state) {
 
 /* ------------------------------------------------ furnace */
 
-#define FURNACE_RHO 0.5
-#define FURNACE_I 2.0   /* W/sr; R = 1, so E0 = I / R^2 = 2 W/m^2 */
-
-static char g_dir[512];
-static char g_json[600];
-
-/* A 128x64 UV sphere of radius 1 around the origin (flat faces), Lambertian
- * albedo 0.5, a point light at the centre, the camera at the centre looking
- * along +x. */
-static int furnace_setup(void **state) {
-    tu_make_tmpdir(g_dir, sizeof g_dir);
-    char path[700];
-    snprintf(path, sizeof path, "%s/sphere.mtl", g_dir);
-    if (tu_write_file(path, "newmtl white\nKa 0 0 0\nKd 0.5 0.5 0.5\nKs 0 0 0\nNs 0\nillum 1\n")) return -1;
-    const int nu = 128, nv = 64;
-    size_t cap = 64u * (size_t)(nu * (nv + 1) + 2 * nu * nv) + 256;
-    char *obj = malloc(cap);
-    size_t len = (size_t)snprintf(obj, cap, "mtllib sphere.mtl\no sphere\nusemtl white\n");
-    for (int j = 0; j <= nv; j++) {
-        double th = PI_D * j / nv;
-        for (int i = 0; i < nu; i++) {
-            double ph = 2.0 * PI_D * i / nu;
-            len += (size_t)snprintf(obj + len, cap - len, "v %.9f %.9f %.9f\n", sin(th) * cos(ph), sin(th) * sin(ph),
-                                    cos(th));
-        }
-    }
-    for (int j = 0; j < nv; j++)
-        for (int i = 0; i < nu; i++) {
-            int a = j * nu + i + 1, b = j * nu + (i + 1) % nu + 1, c = a + nu, d = b + nu;
-            if (j > 0) len += (size_t)snprintf(obj + len, cap - len, "f %d %d %d\n", a, b, d);
-            if (j < nv - 1) len += (size_t)snprintf(obj + len, cap - len, "f %d %d %d\n", a, d, c);
-        }
-    snprintf(path, sizeof path, "%s/sphere.obj", g_dir);
-    int rc = tu_write_file(path, obj);
-    free(obj);
-    if (rc) return -1;
-    char json[2048];
-    snprintf(json, sizeof json,
-             "{\n  \"name\": \"furnace\",\n  \"mesh\": \"%s\",\n"
-             "  \"camera\": {\"eye\": [0, 0, 0], \"look_at\": [1, 0, 0], \"up\": [0, 0, 1], \"fov_y\": 60},\n"
-             "  \"lights\": [{\"type\": \"point\", \"position\": [0, 0, 0], \"intensity\": [%g, %g, %g]}]\n}\n",
-             path, FURNACE_I, FURNACE_I, FURNACE_I);
-    snprintf(g_json, sizeof g_json, "%s/furnace.json", g_dir);
-    return tu_write_file(g_json, json);
-}
-
-static int furnace_teardown(void **state) {
-    tu_rm_tmpdir(g_dir);
-    return 0;
-}
+/* The furnace scene: tests/test_scenes.h. */
 
 /* Mean and worst relative deviation of all pixels (all channels) from `expect`. */
 static void image_vs(const pgi_image *img, double expect, double *mean_rel, double *worst_rel) {
@@ -244,7 +196,7 @@ static void image_vs(const pgi_image *img, double expect, double *mean_rel, doub
 
 static void furnace_render(int bounces, pgi_output output, pgi_image *img) {
     pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load(g_json, &s));
+    TU_CHECK_OK(pgi_scene_load(tu_furnace_json, &s));
     pgi_scene_info info;
     pgi_scene_get_info(s, &info);
     assert_int_equal(info.point_lights, 1);
@@ -310,6 +262,6 @@ int main(void) {
         cmocka_unit_test(test_furnace_indirect_1),
     };
     int fails = cmocka_run_group_tests_name("analytic: plane and kernel", plane, NULL, NULL);
-    fails += cmocka_run_group_tests_name("analytic: furnace", furnace, furnace_setup, furnace_teardown);
+    fails += cmocka_run_group_tests_name("analytic: furnace", furnace, tu_furnace_setup, tu_furnace_teardown);
     return fails;
 }

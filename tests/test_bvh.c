@@ -24,17 +24,8 @@ static void make_photons(pgi_photons *ph, size_t n, uint64_t seed, int footprint
         for (int k = 0; k < 6; k++) assert_non_null(*a[k] = malloc(n * sizeof(float)));
     }
     for (size_t j = 0; j < n; j++) {
-        float d[3], nn[3];
-        ph->px[j] = tu_range(&r, -0.5f, 0.5f);
-        ph->py[j] = tu_range(&r, -0.5f, 0.5f);
-        ph->pz[j] = tu_range(&r, -0.5f, 0.5f);
-        tu_unit_vec(&r, d);
-        tu_unit_vec(&r, nn);
-        ph->dx[j] = d[0], ph->dy[j] = d[1], ph->dz[j] = d[2];
-        ph->nx[j] = nn[0], ph->ny[j] = nn[1], ph->nz[j] = nn[2];
-        ph->fr[j] = tu_range(&r, 0.01f, 1.f);
-        ph->fg[j] = tu_range(&r, 0.01f, 1.f);
-        ph->fb[j] = tu_range(&r, 0.01f, 1.f);
+        float nn[3];
+        tu_random_photon(ph, j, &r, nn);
         if (footprint == 1) ph->radius[j] = tu_range(&r, 0.02f, rmax);
         if (footprint == 2) {
             /* two skewed (non-orthogonal) axes in the tangent plane of n */
@@ -115,12 +106,7 @@ static void compare_bvh(const pgi_photons *ph, const pgi_view_samples *vs, const
             char what[160];
             snprintf(what, sizeof what, "bvh %s leaf %d (used %d) vs brute, %s", b ? "vvh" : "linear", k_leaves[l],
                      gs.leaf_size, label);
-            size_t bad = tu_compare(got, ref, nf, 1e-4, what);
-            if (gs.contributing != rs.contributing)
-                fprintf(stderr, "  %s: contributing %llu, brute %llu\n", what, (unsigned long long)gs.contributing,
-                        (unsigned long long)rs.contributing);
-            assert_int_equal(bad, 0);
-            assert_int_equal(gs.contributing, rs.contributing);
+            tu_expect_same(what, got, ref, nf, gs.contributing, rs.contributing);
             assert_true(gs.leaf_size >= 1);
             if (k_leaves[l]) assert_int_equal(gs.leaf_size, k_leaves[l]);
             /* the tree prunes: far fewer reads than brute for small footprints */
@@ -327,11 +313,7 @@ static void pipeline(const char *scene_name, int w, int h, uint32_t photons, int
             char what[160];
             snprintf(what, sizeof what, "%s policy %d: bvh %s leaf %d (used %d) vs brute", scene_name, policy,
                      b ? "vvh" : "linear", leaves[l], fs.leaf_size);
-            assert_int_equal(tu_compare(img.rgb, ref.rgb, 3 * (size_t)w * h, 1e-4, what), 0);
-            if (fs.contributing != rs.contributing)
-                fprintf(stderr, "  %s: contributing %llu, brute %llu\n", what, (unsigned long long)fs.contributing,
-                        (unsigned long long)rs.contributing);
-            assert_int_equal(fs.contributing, rs.contributing);
+            tu_expect_same(what, img.rgb, ref.rgb, 3 * (size_t)w * h, fs.contributing, rs.contributing);
             assert_true(fs.leaf_size >= 1);
         }
     pgi_image_free(&ref);

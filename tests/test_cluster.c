@@ -103,12 +103,7 @@ static pgi_estimator_stats expect_equal(const char *name, const pgi_estimator_de
     char what[200];
     snprintf(what, sizeof what, "%s vs brute, %s, r=%g, cluster tile %d", name, label, (double)d->radius,
              d->cluster_tile);
-    size_t bad = tu_compare(got, ref, nf, 1e-4, what);
-    if (gs.contributing != rs.contributing)
-        fprintf(stderr, "  %s: contributing %llu, brute %llu\n", what, (unsigned long long)gs.contributing,
-                (unsigned long long)rs.contributing);
-    assert_int_equal(bad, 0);
-    assert_int_equal(gs.contributing, rs.contributing);
+    tu_expect_same(what, got, ref, nf, gs.contributing, rs.contributing);
     free(ref);
     free(got);
     return gs;
@@ -293,29 +288,8 @@ static void test_create_errors(void **state) {
 /* ----------------------------------------------------- full pipeline */
 
 static void pipeline_vs_brute(const char *scene_name, int w, int h, uint32_t photons, float radius) {
-    pgi_scene *scene = NULL;
-    TU_CHECK_OK(pgi_scene_load(scene_name, &scene));
-    pgi_renderer *r = NULL;
-    TU_CHECK_OK(pgi_renderer_create(scene, &r));
     const char *names[] = {"brute", "cluster", "cluster-cone", "cluster-trivial"};
-    pgi_image img[4] = {{0}};
-    pgi_frame_stats fs[4];
-    for (int k = 0; k < 4; k++) {
-        pgi_render_desc d = {.estimator = names[k], .photons = photons, .photons_set = 1, .width = w, .height = h,
-                             .output = PGI_OUTPUT_INDIRECT, .seed = 5};
-        if (radius > 0.f) d.radius = radius, d.radius_set = 1;
-        TU_CHECK_OK(pgi_renderer_render(r, &d, &img[k], &fs[k]));
-    }
-    assert_true(fs[0].contributing > 0);
-    for (int k = 1; k < 4; k++) {
-        char what[96];
-        snprintf(what, sizeof what, "%s: %s vs brute", scene_name, names[k]);
-        assert_int_equal(tu_compare(img[k].rgb, img[0].rgb, 3 * (size_t)w * h, 1e-4, what), 0);
-        assert_int_equal(fs[k].contributing, fs[0].contributing);
-    }
-    for (int k = 0; k < 4; k++) pgi_image_free(&img[k]);
-    pgi_renderer_destroy(r);
-    pgi_scene_destroy(scene);
+    tu_pipeline_vs_brute(scene_name, w, h, photons, radius, names, 4);
 }
 
 static void test_cornell_pipeline(void **state) {

@@ -24,19 +24,7 @@ static const view_setup *g_view = &k_outside;
 static void make_photons(pgi_photons *ph, size_t n, uint64_t seed) {
     TU_CHECK_OK(pgi_photons_alloc(ph, n));
     tu_rng r = tu_rng_make(seed);
-    for (size_t j = 0; j < n; j++) {
-        float d[3], nn[3];
-        ph->px[j] = tu_range(&r, -0.5f, 0.5f);
-        ph->py[j] = tu_range(&r, -0.5f, 0.5f);
-        ph->pz[j] = tu_range(&r, -0.5f, 0.5f);
-        tu_unit_vec(&r, d);
-        tu_unit_vec(&r, nn);
-        ph->dx[j] = d[0], ph->dy[j] = d[1], ph->dz[j] = d[2];
-        ph->nx[j] = nn[0], ph->ny[j] = nn[1], ph->nz[j] = nn[2];
-        ph->fr[j] = tu_range(&r, 0.01f, 1.f);
-        ph->fg[j] = tu_range(&r, 0.01f, 1.f);
-        ph->fb[j] = tu_range(&r, 0.01f, 1.f);
-    }
+    for (size_t j = 0; j < n; j++) tu_random_photon(ph, j, &r, NULL);
     ph->count = n;
     ph->emitted = n;
 }
@@ -103,12 +91,7 @@ static void compare_all(const pgi_photons *ph, const pgi_view_samples *vs, const
             char what[160];
             snprintf(what, sizeof what, "%s vs brute, %s, r=%g, tile %d, cell %g", vt->name, label, (double)radius,
                      tiles[t], (double)cell_size);
-            size_t bad = tu_compare(got, ref, nf, 1e-4, what);
-            if (gs.contributing != rs.contributing)
-                fprintf(stderr, "  %s: contributing %llu, brute %llu\n", what, (unsigned long long)gs.contributing,
-                        (unsigned long long)rs.contributing);
-            assert_int_equal(bad, 0);
-            assert_int_equal(gs.contributing, rs.contributing);
+            tu_expect_same(what, got, ref, nf, gs.contributing, rs.contributing);
             compared++;
         }
     }
@@ -241,38 +224,8 @@ static void test_create_errors(void **state) {
 /* ----------------------------------------------------- full pipeline */
 
 static void pipeline_compare(const char *scene_name, int w, int h, uint32_t photons, float radius) {
-    pgi_scene *scene = NULL;
-    TU_CHECK_OK(pgi_scene_load(scene_name, &scene));
-    pgi_renderer *r = NULL;
-    TU_CHECK_OK(pgi_renderer_create(scene, &r));
     const char *names[] = {"brute", "hashgrid", "tiled"};
-    pgi_image img[3] = {{0}};
-    pgi_frame_stats fs[3];
-    for (int k = 0; k < 3; k++) {
-        pgi_render_desc d = {.estimator = names[k], .photons = photons, .photons_set = 1, .width = w, .height = h,
-                             .output = PGI_OUTPUT_INDIRECT, .seed = 5};
-        if (radius > 0.f) d.radius = radius, d.radius_set = 1;
-        TU_CHECK_OK(pgi_renderer_render(r, &d, &img[k], &fs[k]));
-        assert_int_equal(img[k].width, w);
-        assert_int_equal(img[k].height, h);
-        assert_string_equal(fs[k].estimator, names[k]);
-    }
-    assert_true(fs[0].photons_stored == photons);
-    assert_true(fs[0].contributing > 0);
-    assert_true(tu_max_abs(img[0].rgb, 3 * (size_t)w * h) > 0.0);
-    for (int k = 1; k < 3; k++) {
-        char what[96];
-        snprintf(what, sizeof what, "%s: %s vs brute", scene_name, names[k]);
-        assert_int_equal(fs[k].photons_stored, fs[0].photons_stored);
-        assert_int_equal(tu_compare(img[k].rgb, img[0].rgb, 3 * (size_t)w * h, 1e-4, what), 0);
-        if (fs[k].contributing != fs[0].contributing)
-            fprintf(stderr, "  %s: contributing %llu, brute %llu\n", what, (unsigned long long)fs[k].contributing,
-                    (unsigned long long)fs[0].contributing);
-        assert_int_equal(fs[k].contributing, fs[0].contributing);
-    }
-    for (int k = 0; k < 3; k++) pgi_image_free(&img[k]);
-    pgi_renderer_destroy(r);
-    pgi_scene_destroy(scene);
+    tu_pipeline_vs_brute(scene_name, w, h, photons, radius, names, 3);
 }
 
 static void test_cornell_pipeline(void **state) { pipeline_compare("cornell", 96, 96, 20000, 0.08f); }

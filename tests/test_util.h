@@ -131,6 +131,26 @@ static inline const char *tu_scenes_dir(void) {
     return e && *e ? e : "../shared/scenes";
 }
 
+/* ------------------------------------------------------------ photons */
+
+/* Random photon j: position uniform in [-0.5, 0.5]^3, uniform unit direction
+ * and normal, flux in [0.01, 1) per channel (drawn from r in this order).
+ * `nrm` (may be NULL) receives the normal. */
+static inline void tu_random_photon(pgi_photons *ph, size_t j, tu_rng *r, float nrm[3]) {
+    float d[3], nn[3];
+    ph->px[j] = tu_range(r, -0.5f, 0.5f);
+    ph->py[j] = tu_range(r, -0.5f, 0.5f);
+    ph->pz[j] = tu_range(r, -0.5f, 0.5f);
+    tu_unit_vec(r, d);
+    tu_unit_vec(r, nn);
+    ph->dx[j] = d[0], ph->dy[j] = d[1], ph->dz[j] = d[2];
+    ph->nx[j] = nn[0], ph->ny[j] = nn[1], ph->nz[j] = nn[2];
+    ph->fr[j] = tu_range(r, 0.01f, 1.f);
+    ph->fg[j] = tu_range(r, 0.01f, 1.f);
+    ph->fb[j] = tu_range(r, 0.01f, 1.f);
+    if (nrm) nrm[0] = nn[0], nrm[1] = nn[1], nrm[2] = nn[2];
+}
+
 /* ---------------------------------------------------------- estimators */
 
 /* create + build + estimate + stats in one call; returns the first failure. */
@@ -155,6 +175,55 @@ static inline pgi_status tu_run_estimator(const char *name, const pgi_estimator_
         if (tu_st_ != PGI_OK)                                                                      \
             fail_msg("%s failed: %s (%s)", #expr, pgi_status_string(tu_st_), pgi_last_error());    \
     } while (0)
+
+/* Requires `got` to equal the oracle's `ref` (nf floats, relative 1e-4, see
+ * tu_compare) with the same number of contributing photon reads; prints both
+ * counts when they differ. `what` names the comparison in messages. */
+static inline void tu_expect_same(const char *what, const float *got, const float *ref, size_t nf,
+                                  uint64_t got_contributing, uint64_t ref_contributing) {
+    size_t bad = tu_compare(got, ref, nf, 1e-4, what);
+    if (got_contributing != ref_contributing)
+        fprintf(stderr, "  %s: contributing %llu, brute %llu\n", what, (unsigned long long)got_contributing,
+                (unsigned long long)ref_contributing);
+    assert_int_equal(bad, 0);
+    assert_int_equal(got_contributing, ref_contributing);
+}
+
+/* The whole pipeline on a scene: renders it (indirect light, seed 5) with each
+ * of names[0..n) (names[0] the oracle, "brute"; n <= 8) and requires
+ * every other estimator to equal it: radiance within 1e-4 relative and the
+ * same number of contributing photon reads. radius <= 0: the scene's default. */
+static inline void tu_pipeline_vs_brute(const char *scene_name, int w, int h, uint32_t photons, float radius,
+                                        const char *const *names, int n) {
+    assert_true(n >= 2 && n <= 8);
+    pgi_scene *scene = NULL;
+    TU_CHECK_OK(pgi_scene_load(scene_name, &scene));
+    pgi_renderer *r = NULL;
+    TU_CHECK_OK(pgi_renderer_create(scene, &r));
+    pgi_image img[8] = {{0}};
+    pgi_frame_stats fs[8];
+    for (int k = 0; k < n; k++) {
+        pgi_render_desc d = {.estimator = names[k], .photons = photons, .photons_set = 1, .width = w, .height = h,
+                             .output = PGI_OUTPUT_INDIRECT, .seed = 5};
+        if (radius > 0.f) d.radius = radius, d.radius_set = 1;
+        TU_CHECK_OK(pgi_renderer_render(r, &d, &img[k], &fs[k]));
+        assert_int_equal(img[k].width, w);
+        assert_int_equal(img[k].height, h);
+        assert_string_equal(fs[k].estimator, names[k]);
+    }
+    assert_true(fs[0].photons_stored == photons);
+    assert_true(fs[0].contributing > 0);
+    assert_true(tu_max_abs(img[0].rgb, 3 * (size_t)w * h) > 0.0);
+    for (int k = 1; k < n; k++) {
+        char what[1024];   /* scene_name may be a long temporary path */
+        snprintf(what, sizeof what, "%s: %s vs %s", scene_name, names[k], names[0]);
+        assert_int_equal(fs[k].photons_stored, fs[0].photons_stored);
+        tu_expect_same(what, img[k].rgb, img[0].rgb, 3 * (size_t)w * h, fs[k].contributing, fs[0].contributing);
+    }
+    for (int k = 0; k < n; k++) pgi_image_free(&img[k]);
+    pgi_renderer_destroy(r);
+    pgi_scene_destroy(scene);
+}
 
 /* Direction through the centre of pixel (x, y) (not normalised; its
  * component along cam->forward is 1, so eye + t * dir has view depth t). */

@@ -12,6 +12,7 @@
 
 #include "font5x7.h"
 #include "photongi/photongi.h"
+#include "parse.h"
 
 static const char *k_help =
     "usage: photongi-view [--scene S] [options]\n"
@@ -79,24 +80,6 @@ typedef struct viewer {
     double frame_ms, fps;
     int screenshot_count;
 } viewer;
-
-static int parse_long(const char *s, long long lo, long long hi, long long *out) {
-    char *end;
-    errno = 0;
-    long long v = strtoll(s, &end, 10);
-    if (errno || end == s || *end || v < lo || v > hi) return 0;
-    *out = v;
-    return 1;
-}
-
-static int parse_float(const char *s, float *out) {
-    char *end;
-    errno = 0;
-    float v = strtof(s, &end);
-    if (errno || end == s || *end || !isfinite(v)) return 0;
-    *out = v;
-    return 1;
-}
 
 static int usage(const char *fmt, const char *arg) {
     fprintf(stderr, "photongi-view: ");
@@ -454,7 +437,7 @@ int main(int argc, char **argv) {
             v.desc.photons = (uint32_t)n;
             v.desc.photons_set = 1;
         } else if (strcmp(a, "--radius") == 0) {
-            if (!parse_float(val, &v.desc.radius) || !(v.desc.radius > 0.f))
+            if (!parse_finite_float(val, &v.desc.radius) || !(v.desc.radius > 0.f))
                 return usage("--radius needs a positive number, got '%s'", val);
             v.desc.radius_set = 1;
         } else if (strcmp(a, "--size") == 0) {
@@ -464,7 +447,7 @@ int main(int argc, char **argv) {
                 return usage("--size needs WIDTHxHEIGHT, e.g. 1280x720, got '%s'", val);
             size_set = 1;
         } else if (strcmp(a, "--scale") == 0) {
-            if (!parse_float(val, &v.scale) || !(v.scale > 0.f && v.scale <= 1.f))
+            if (!parse_finite_float(val, &v.scale) || !(v.scale > 0.f && v.scale <= 1.f))
                 return usage("--scale needs a number in (0, 1], got '%s'", val);
         } else if (strcmp(a, "--seed") == 0) {
             if (!parse_long(val, 0, 0x7fffffffffffffffLL, &n)) return usage("--seed needs a non-negative integer, got '%s'", val);
@@ -481,10 +464,10 @@ int main(int argc, char **argv) {
         } else if (strcmp(a, "--camera") == 0) {
             if (!parse_long(val, 0, 1000000, &cam_index)) return usage("--camera needs an index, got '%s'", val);
         } else if (strcmp(a, "--exposure") == 0) {
-            if (!parse_float(val, &v.exposure) || !(v.exposure > 0.f))
+            if (!parse_finite_float(val, &v.exposure) || !(v.exposure > 0.f))
                 return usage("--exposure needs a positive number, got '%s'", val);
         } else if (strcmp(a, "--time") == 0) {
-            if (!parse_float(val, &t0)) return usage("--time needs a number of seconds, got '%s'", val);
+            if (!parse_finite_float(val, &t0)) return usage("--time needs a number of seconds, got '%s'", val);
         } else if (strcmp(a, "--frames") == 0) {
             if (!parse_long(val, 1, MAX_FRAMES_TIMED, &frames)) return usage("--frames needs a number in 1..100000, got '%s'", val);
         } else if (strcmp(a, "--output") == 0) {

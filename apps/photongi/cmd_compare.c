@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "cmd.h"
+#include "parse.h"
 #include "photongi/metrics.h"
 
 static const char *k_compare_help =
@@ -38,15 +39,6 @@ static int cmp_fail(const char *what, const char *path, pgi_status st) {
     fprintf(stderr, "photongi compare: %s%s%s: %s\n", what, path ? " " : "", path ? path : "",
             *msg ? msg : pgi_status_string(st));
     return st == PGI_ERR_INVALID_ARG ? 2 : 1;
-}
-
-static int parse_pos_float(const char *s, float *out) {
-    char *end;
-    errno = 0;
-    float v = strtof(s, &end);
-    if (errno || end == s || *end || !(v > 0.f) || !isfinite(v)) return 0;
-    *out = v;
-    return 1;
 }
 
 static float srgb_to_linear(float c) { return c <= 0.04045f ? c / 12.92f : powf((c + 0.055f) / 1.055f, 2.4f); }

@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include "cmd.h"
+#include "parse.h"
 #include "photongi/metrics.h"
 #include "photongi/reference.h"
 
@@ -50,24 +51,6 @@ static int ref_fail(const char *what, pgi_status st) {
     const char *msg = pgi_last_error();
     fprintf(stderr, "photongi reference: %s: %s\n", what, *msg ? msg : pgi_status_string(st));
     return st == PGI_ERR_INVALID_ARG ? 2 : 1;
-}
-
-static int num_ll(const char *s, long long lo, long long hi, long long *out) {
-    char *end;
-    errno = 0;
-    long long v = strtoll(s, &end, 10);
-    if (errno || end == s || *end || v < lo || v > hi) return 0;
-    *out = v;
-    return 1;
-}
-
-static int num_d(const char *s, double *out) {
-    char *end;
-    errno = 0;
-    double v = strtod(s, &end);
-    if (errno || end == s || *end || !(v > 0.0) || !isfinite(v)) return 0;
-    *out = v;
-    return 1;
 }
 
 typedef struct {
@@ -138,22 +121,22 @@ int pgi_cmd_reference(int argc, char **argv) {
         else if (strcmp(a, "--png") == 0) png = v;
         else if (strcmp(a, "--continue") == 0) cont = v;
         else if (strcmp(a, "--spp") == 0) {
-            if (!num_ll(v, 1, 1LL << 40, &spp)) return ref_usage("--spp needs a positive whole number, got '%s'", v);
+            if (!parse_long(v, 1, 1LL << 40, &spp)) return ref_usage("--spp needs a positive whole number, got '%s'", v);
         } else if (strcmp(a, "--time") == 0) {
-            if (!num_d(v, &time_s)) return ref_usage("--time needs a positive number of seconds, got '%s'", v);
+            if (!parse_pos_double(v, &time_s)) return ref_usage("--time needs a positive number of seconds, got '%s'", v);
         } else if (strcmp(a, "--bounces") == 0) {
-            if (!num_ll(v, 1, 64, &n)) return ref_usage("--bounces needs a number in 1..64, got '%s'", v);
+            if (!parse_long(v, 1, 64, &n)) return ref_usage("--bounces needs a number in 1..64, got '%s'", v);
             d.bounces = (int)n;
             bounces_set = 1;
         } else if (strcmp(a, "--seed") == 0) {
-            if (!num_ll(v, 0, INT64_MAX, &n)) return ref_usage("--seed needs a non-negative integer, got '%s'", v);
+            if (!parse_long(v, 0, INT64_MAX, &n)) return ref_usage("--seed needs a non-negative integer, got '%s'", v);
             d.seed = (uint64_t)n;
             seed_set = 1;
         } else if (strcmp(a, "--threads") == 0) {
-            if (!num_ll(v, 1, 1024, &n)) return ref_usage("--threads needs a number in 1..1024, got '%s'", v);
+            if (!parse_long(v, 1, 1024, &n)) return ref_usage("--threads needs a number in 1..1024, got '%s'", v);
             d.threads = (int)n;
         } else if (strcmp(a, "--camera") == 0) {
-            if (!num_ll(v, 0, 1000000, &n)) return ref_usage("--camera needs an index, got '%s'", v);
+            if (!parse_long(v, 0, 1000000, &n)) return ref_usage("--camera needs an index, got '%s'", v);
             d.camera = (int)n;
             camera_set = 1;
         } else if (strcmp(a, "--size") == 0) {
@@ -166,7 +149,7 @@ int pgi_cmd_reference(int argc, char **argv) {
             size_set = 1;
         } else if (strcmp(a, "--exposure") == 0) {
             double x;
-            if (!num_d(v, &x)) return ref_usage("--exposure needs a positive number, got '%s'", v);
+            if (!parse_pos_double(v, &x)) return ref_usage("--exposure needs a positive number, got '%s'", v);
             exposure = (float)x;
         } else return ref_usage("unknown option '%s'", a);
     }

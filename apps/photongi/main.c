@@ -11,6 +11,7 @@
 
 #include "photongi/photongi.h"
 #include "cmd.h"
+#include "parse.h"
 
 static const char *k_main_help =
     "photongi " PGI_VERSION_STRING " - global illumination by photon mapping at interactive rates\n"
@@ -105,35 +106,6 @@ static int usage_error(const char *cmd, const char *fmt, const char *arg) {
 }
 
 static int is_help(const char *a) { return strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0; }
-
-/* Strict number parsing: the whole string must be a number. */
-static int parse_long(const char *s, long long lo, long long hi, long long *out) {
-    char *end;
-    errno = 0;
-    long long v = strtoll(s, &end, 10);
-    if (errno || end == s || *end || v < lo || v > hi) return 0;
-    *out = v;
-    return 1;
-}
-
-static int parse_u64(const char *s, uint64_t *out) {
-    char *end;
-    errno = 0;
-    if (*s == '-') return 0;
-    unsigned long long v = strtoull(s, &end, 10);
-    if (errno || end == s || *end) return 0;
-    *out = v;
-    return 1;
-}
-
-static int parse_float(const char *s, float *out) {
-    char *end;
-    errno = 0;
-    float v = strtof(s, &end);
-    if (errno || end == s || *end) return 0;
-    *out = v;
-    return 1;
-}
 
 static int cmd_estimators(int argc, char **argv) {
     int verbose = 0;

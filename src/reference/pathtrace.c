@@ -23,6 +23,7 @@
 #include "photon/photon.h"
 #include "rt/rt.h"
 #include "scene/bsdf.h"
+#include "view/view.h"
 
 #define PGI_MAX_SPECULAR_DEPTH 8   /* as src/view/view.c */
 #define PGI_REF_MAX_SIDE 16384
@@ -41,14 +42,6 @@ typedef struct {
     float *tri_pick;   /* triangle -> pick probability of its area light (0: none) */
 } pt_ctx;
 
-/* Same formula as view.c's camera_dir: through the pixel centre. */
-static pgi_v3 camera_dir(const pgi_camera *c, int x, int y) {
-    float u = (2.f * ((float)x + 0.5f) / (float)c->width - 1.f) * c->tan_half_fov_y * c->aspect;
-    float v = (1.f - 2.f * ((float)y + 0.5f) / (float)c->height) * c->tan_half_fov_y;
-    pgi_v3 d = v3_add(v3_load(c->forward), v3_add(v3_scale(v3_load(c->right), u), v3_scale(v3_load(c->up), v)));
-    return v3_norm(d);
-}
-
 static inline pgi_v3 mat_ks(const pgi_surface *sf) {
     return sf->mat->type == PGI_MAT_PHONG ? v3_load(sf->mat->ks) : v3(0.f, 0.f, 0.f);
 }
@@ -65,26 +58,10 @@ static pgi_v3 nee(const pt_ctx *C, const pgi_surface *sf, pgi_v3 wo, pgi_rng *rn
     pgi_v3 x = v3_madd(sf->p, ng, C->eps);
     pgi_v3 L = v3(0.f, 0.f, 0.f);
     for (size_t l = 0; l < s->nlights; l++) {
-        const pgi_light *lt = &s->lights[l];
         pgi_v3 wi, Li;
-        float dist;
-        if (lt->type == PGI_LIGHT_AREA) continue;
-        if (lt->type == PGI_LIGHT_SUN) {
-            wi = v3_neg(v3_load(lt->dir));
-            dist = INFINITY;
-            Li = v3_load(lt->color);
-        } else {
-            pgi_v3 dv = v3_sub(v3_load(lt->pos), x);
-            float d2 = v3_dot(dv, dv);
-            if (!(d2 > 0.f)) continue;
-            dist = sqrtf(d2);
-            wi = v3_scale(dv, 1.f / dist);
-            if (lt->type == PGI_LIGHT_SPOT && -v3_dot(wi, v3_load(lt->dir)) < lt->cos_cutoff) continue;
-            Li = v3_scale(v3_load(lt->color), 1.f / d2);
-        }
-        float cs = v3_dot(ns, wi);
-        if (!(cs > 0.f) || !(v3_dot(ng, wi) > 0.f)) continue;
-        if (pgi__rt_occluded(C->rt, x, wi, 0.f, dist == INFINITY ? INFINITY : dist * (1.f - 1e-4f))) continue;
+        float cs, tmax;
+        if (!pgi__delta_light(&s->lights[l], x, ns, ng, &wi, &Li, &cs, &tmax)) continue;
+        if (pgi__rt_occluded(C->rt, x, wi, 0.f, tmax)) continue;
         L = v3_add(L, v3_scale(v3_mul(pgi__brdf_eval(kd, ks, sh, ns, wi, wo), Li), cs));
     }
     if (C->narea) {
@@ -114,7 +91,7 @@ static pgi_v3 nee(const pt_ctx *C, const pgi_surface *sf, pgi_v3 wo, pgi_rng *rn
 /* One sample of pixel (x, y). */
 static pgi_v3 trace_sample(const pt_ctx *C, int px, int py, pgi_rng *rng) {
     const pgi_scene *s = C->s;
-    pgi_v3 o = v3_load(C->cam.eye), d = camera_dir(&C->cam, px, py);
+    pgi_v3 o = v3_load(C->cam.eye), d = pgi__camera_dir(&C->cam, px, py);
     pgi_v3 L = v3(0.f, 0.f, 0.f), W = v3(1.f, 1.f, 1.f);
     pgi_hit h;
     pgi_surface sf;

@@ -8,13 +8,6 @@
 
 #define PGI_MAX_SPECULAR_DEPTH 8
 
-static pgi_v3 camera_dir(const pgi_camera *c, int x, int y) {
-    float u = (2.f * ((float)x + 0.5f) / (float)c->width - 1.f) * c->tan_half_fov_y * c->aspect;
-    float v = (1.f - 2.f * ((float)y + 0.5f) / (float)c->height) * c->tan_half_fov_y;
-    pgi_v3 d = v3_add(v3_load(c->forward), v3_add(v3_scale(v3_load(c->right), u), v3_scale(v3_load(c->up), v)));
-    return v3_norm(d);
-}
-
 static void clear_sample(pgi_view_samples *vs, size_t i) {
     memset(vs->pos + 3 * i, 0, 3 * sizeof(float));
     memset(vs->nrm + 3 * i, 0, 3 * sizeof(float));
@@ -93,7 +86,7 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi_rt *rt, const pgi_camer
             pgi_hit hits[8];
             for (int k = 0; k < 8; k++) {
                 valid[k] = x0 + k < W;
-                dirs[k] = camera_dir(cam, valid[k] ? x0 + k : x0, y);
+                dirs[k] = pgi__camera_dir(cam, valid[k] ? x0 + k : x0, y);
             }
             pgi__rt_intersect8(rt, valid, eye, dirs, INFINITY, hits);
             for (int k = 0; k < 8 && x0 + k < W; k++) {
@@ -149,27 +142,11 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi_rt *rt, const pgi_view_samp
         float sh = vs->shininess[i];
         pgi_v3 x = v3_madd(p, ng, eps);
         for (size_t l = 0; l < s->nlights; l++) {
-            const pgi_light *lt = &s->lights[l];
             pgi_v3 wi, Li;
-            float dist;
-            if (lt->type == PGI_LIGHT_AREA) continue;
-            if (lt->type == PGI_LIGHT_SUN) {
-                wi = v3_neg(v3_load(lt->dir));
-                dist = INFINITY;
-                Li = v3_load(lt->color);
-            } else {
-                pgi_v3 dv = v3_sub(v3_load(lt->pos), x);
-                float d2 = v3_dot(dv, dv);
-                if (!(d2 > 0.f)) continue;
-                dist = sqrtf(d2);
-                wi = v3_scale(dv, 1.f / dist);
-                if (lt->type == PGI_LIGHT_SPOT && -v3_dot(wi, v3_load(lt->dir)) < lt->cos_cutoff) continue;
-                Li = v3_scale(v3_load(lt->color), 1.f / d2);
-            }
-            float cs = v3_dot(ns, wi);
-            if (!(cs > 0.f) || !(v3_dot(ng, wi) > 0.f)) continue;
+            float cs, tmax;
+            if (!pgi__delta_light(&s->lights[l], x, ns, ng, &wi, &Li, &cs, &tmax)) continue;
             rays++;
-            if (pgi__rt_occluded(rt, x, wi, 0.f, dist == INFINITY ? INFINITY : dist * (1.f - 1e-4f))) continue;
+            if (pgi__rt_occluded(rt, x, wi, 0.f, tmax)) continue;
             L = v3_add(L, v3_scale(v3_mul(pgi__brdf_eval(kd, ks, sh, ns, wi, wo), Li), cs));
         }
         if (narea && area_samples > 0) {
