@@ -4,14 +4,14 @@
 # For every scene, photon count (with the paper's radius, scaled to the scene's
 # units) and registered estimator except brute: render with `photongi render`,
 # compare with a path-traced reference (`photongi compare`: SSIM on luma, PSNR
-# on tone-mapped sRGB) and record the estimate time from --stats JSON.
+# on tone-mapped sRGB) and record the density-estimation time (estimator build + estimate) from --stats JSON.
 # The reference is rendered once per scene/size/spp and cached outside the
 # repository in $PHOTONGI_CACHE (default ~/.cache/photongi); a cached one with
 # fewer samples is extended with `reference --continue`.
 #
 # Outputs in --out DIR (default bench/out/quality): quality.csv, quality.md
 # (laid out like the paper's Table 2), quality_<scene>.png plots (SSIM, PSNR
-# and estimate time against photons; needs gnuplot, scripts/install-deps.sh),
+# and build + estimate time against photons; needs gnuplot, scripts/install-deps.sh),
 # the rendered PNGs and the error heat maps.
 #
 # Usage: bench/quality.sh [--size WxH] [--spp N] [--scenes "sibenik crytek-sponza"]
@@ -19,7 +19,7 @@
 #          [--repeat R] [--bin PATH] [--out DIR]
 # Defaults: 1920x1080, reference 1024 spp, both scenes, the paper's five counts
 # (50M is optional: --photons "... 50M"), every estimator `photongi estimators`
-# lists except brute, 1 run (--repeat R: median estimate time of R runs).
+# lists except brute, 1 run (--repeat R: median time of R runs).
 #
 # Radii: the paper's Table 2 values are in metres (Sibenik in McGuire's archive
 # is in metres, 40 m long, and Sponza's radii only make sense in metres for its
@@ -94,7 +94,7 @@ print("null" if v is None else v)' "$1" "$2"
 ref_spp() { python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["spp"])' "$1"; }
 
 CSV="$OUT/quality.csv"
-echo "scene,photons,radius,estimator,ssim,ssim_rgb,psnr,estimate_ms,build_ms,total_ms,ref_spp,width,height" > "$CSV"
+echo "scene,photons,radius,estimator,ssim,ssim_rgb,psnr,density_ms,estimate_ms,build_ms,total_ms,ref_spp,width,height" > "$CSV"
 W=${SIZE%x*}; H=${SIZE#*x}
 for scene in $SCENES; do
   ref="$CACHE/ref_${scene}_${SIZE}_b4_cam0_s1.exr"
@@ -121,16 +121,18 @@ for scene in $SCENES; do
       for rep in $(seq "$REPEAT"); do
         "$BIN" render --scene "$scene" --size "$SIZE" --estimator "$est" --photons "$n" --radius "$r" \
           --bounces 4 --seed 1 --stats "$OUT/stats.json" -o "$img" -q
-        times+=("$(json_get "$OUT/stats.json" times_ms.estimate) $(json_get "$OUT/stats.json" times_ms.build) $(json_get "$OUT/stats.json" times_ms.total)")
+        e_ms=$(json_get "$OUT/stats.json" times_ms.estimate); b_ms=$(json_get "$OUT/stats.json" times_ms.build)
+        times+=("$(python3 -c "print($e_ms + $b_ms)") $e_ms $b_ms $(json_get "$OUT/stats.json" times_ms.total)")
       done
-      # The run with the median estimate time (its build and total times with it).
-      read -r est_ms build_ms total_ms < <(printf '%s\n' "${times[@]}" | sort -g | awk '{a[NR]=$0} END {print a[int((NR+1)/2)]}')
+      # The run with the median density-estimation time (build + estimate: the splatting
+      # methods do their photon work in build, the gather methods in estimate).
+      read -r dens_ms est_ms build_ms total_ms < <(printf '%s\n' "${times[@]}" | sort -g | awk '{a[NR]=$0} END {print a[int((NR+1)/2)]}')
       "$BIN" compare "$img" "$ref" --json --diff "$OUT/img/${scene}_${est}_${label}_diff.png" > "$OUT/cmp.json"
       ssim=$(json_get "$OUT/cmp.json" ssim); ssim_rgb=$(json_get "$OUT/cmp.json" ssim_rgb)
       psnr=$(json_get "$OUT/cmp.json" psnr)
-      echo "$scene,$label,$r,$est,$ssim,$ssim_rgb,$psnr,$est_ms,$build_ms,$total_ms,$have,$W,$H" >> "$CSV"
-      printf 'quality: %-14s %5s r=%-6s %-10s SSIM %.4f PSNR %6.2f dB  estimate %8.1f ms\n' \
-        "$scene" "$label" "$r" "$est" "$ssim" "$psnr" "$est_ms" >&2
+      echo "$scene,$label,$r,$est,$ssim,$ssim_rgb,$psnr,$dens_ms,$est_ms,$build_ms,$total_ms,$have,$W,$H" >> "$CSV"
+      printf 'quality: %-14s %5s r=%-6s %-10s SSIM %.4f PSNR %6.2f dB  build+estimate %8.1f ms\n' \
+        "$scene" "$label" "$r" "$est" "$ssim" "$psnr" "$dens_ms" >&2
     done
   done
 done
@@ -146,7 +148,7 @@ for r in rows:
 out = open(sys.argv[2], "w")
 if rows:
     out.write("Quality against a path-traced reference (%sx%s, reference %s spp): SSIM on luma in %%, PSNR in dB,\n"
-              "estimate time in ms (median of runs). Radii in scene units (paper's metres scaled).\n\n"
+              "density-estimation time (estimator build + estimate) in ms (median of runs). Radii in scene units (paper's metres scaled).\n\n"
               % (rows[0]["width"], rows[0]["height"], rows[0]["ref_spp"]))
 out.write("| Scene | Photons | Radius | " + " | ".join("%s SSIM | %s PSNR | %s ms" % (e, e, e) for e in ests) + " |\n")
 out.write("|---|---|---|" + "---|---|---|" * len(ests) + "\n")
@@ -162,7 +164,7 @@ for k in keys:
         if m:
             r = m[0]
             psnr = "inf" if r["psnr"] == "null" else "%.1f" % float(r["psnr"])
-            cells += ["%.1f" % (100 * float(r["ssim"])), psnr, "%.1f" % float(r["estimate_ms"])]
+            cells += ["%.1f" % (100 * float(r["ssim"])), psnr, "%.1f" % float(r["density_ms"])]
         else:
             cells += ["", "", ""]
     out.write("| %s | %s | %s | %s |\n" % (k[0] if k[0] != last else "", k[1], k[2], " | ".join(cells)))
@@ -170,7 +172,7 @@ for k in keys:
 out.close()
 EOF
 
-# Plots: SSIM, PSNR and estimate time against photons, one file per scene.
+# Plots: SSIM, PSNR and build + estimate time against photons, one file per scene.
 if command -v gnuplot >/dev/null 2>&1; then
   for scene in $SCENES; do
     dat="$OUT/quality_${scene}.dat"
@@ -194,7 +196,7 @@ set ylabel "SSIM (%)"
 plot for [i=0:$((nblocks - 1))] "$dat" index i using 1:2 with linespoints title columnheader(1)
 set ylabel "PSNR (dB)"
 plot for [i=0:$((nblocks - 1))] "$dat" index i using 1:3 with linespoints title columnheader(1)
-set ylabel "estimate time (ms)"
+set ylabel "build + estimate (ms)"
 set logscale y
 set key top left
 plot for [i=0:$((nblocks - 1))] "$dat" index i using 1:4 with linespoints title columnheader(1)
