@@ -177,6 +177,21 @@ static pgi_status dir_create(const pgi_estimator_desc *d, void **st) {
 
 #define ENSURE(field, n, type) pgi__ensure((void **)&s->field, &s->field##_cap, (n), sizeof(type))
 
+/* The branch-free inner loops (blur taps, radiance blocks) vectorise over
+ * consecutive pixels / samples. GCC's -O3 unroll-and-jam would fuse two outer
+ * iterations and leave the fused loop scalar, so it is turned off for them;
+ * on x86-64 an AVX2 clone is picked at load time (no FMA: -ffp-contract=off
+ * still holds, lanes are independent, so the results are bit-identical). */
+#if defined(__GNUC__) && !defined(__clang__)
+#if defined(__x86_64__) && !defined(__SANITIZE_ADDRESS__)
+#define PGI__HOT_LOOP __attribute__((optimize("no-loop-unroll-and-jam"), target_clones("avx2", "default")))
+#else
+#define PGI__HOT_LOOP __attribute__((optimize("no-loop-unroll-and-jam")))
+#endif
+#else
+#define PGI__HOT_LOOP
+#endif
+
 /* ------------------------------------------------------------ build */
 
 /* A monotone, continuous stand-in for log2 (exact at powers of two): slices
@@ -1044,51 +1059,95 @@ static pgi_status cl_build(void *state, const pgi_estimate_args *a) {
 /* Depth- and normal-aware blur along one axis (§4.7) on planes: tent weights
  * in pixels, times a depth weight falling to 0 at a 5% relative depth step
  * and a normal weight max(0, n.n')^8. Invalid samples have depth 1e30 and a
- * zero normal, so they neither give nor receive. For a fixed tap offset the
- * loop runs over consecutive pixels of a row and vectorises. */
+ * zero normal, so they neither give nor receive. Pixels are processed in spans
+ * of up to BLUR_SPAN consecutive pixels of one row whose taps are all inside
+ * the image: the centre values and the accumulators live in local arrays, and
+ * for each tap offset the loop over the span is branch-free and vectorises
+ * (restrict pointers, no aliasing checks); border pixels of the horizontal
+ * pass take the same expressions with a bounds test. Taps are added in the
+ * order -R..R for every pixel, so the result does not depend on the span cut. */
 typedef struct {
-    float *z, *iz, *nx, *ny, *nz, *e[3], *o[3], *w;
+    const float *z, *nx, *ny, *nz, *e[3];
+    float *o[3];
 } blur_planes;
+
+#define BLUR_SPAN 256
+
+static inline float blur_w(float tent, float z, float iz, float nx, float ny, float nz, float zj, float nxj, float nyj,
+                           float nzj) {
+    float wz = 1.f - fabsf(zj - z) * iz;
+    wz = 0.5f * (wz + fabsf(wz));   /* max(wz, 0), exact and branch-free */
+    float c = nx * nxj + ny * nyj + nz * nzj;
+    c = 0.5f * (c + fabsf(c));
+    c *= c, c *= c, c *= c;
+    return tent * wz * c;
+}
+
+/* Pixels [c, c + n) with the taps at offsets off[0..nt) (weights tent[]). */
+PGI__HOT_LOOP
+static void blur_span(const float *restrict Z, const float *restrict NX, const float *restrict NY,
+                      const float *restrict NZ, const float *restrict E0, const float *restrict E1,
+                      const float *restrict E2, float *restrict O0, float *restrict O1, float *restrict O2, size_t c,
+                      int n, const ptrdiff_t *off, const float *tent, int nt) {
+    float cz[BLUR_SPAN], ciz[BLUR_SPAN], cnx[BLUR_SPAN], cny[BLUR_SPAN], cnz[BLUR_SPAN];
+    float a0[BLUR_SPAN], a1[BLUR_SPAN], a2[BLUR_SPAN], ws[BLUR_SPAN];
+    for (int t = 0; t < n; t++) {
+        cz[t] = Z[c + t];
+        ciz[t] = 1.f / (0.05f * fabsf(cz[t]) + 1e-12f);
+        cnx[t] = NX[c + t], cny[t] = NY[c + t], cnz[t] = NZ[c + t];
+        a0[t] = E0[c + t], a1[t] = E1[c + t], a2[t] = E2[c + t];
+        ws[t] = 1.f;
+    }
+    for (int k = 0; k < nt; k++) {
+        const size_t j = (size_t)((ptrdiff_t)c + off[k]);
+        const float tk = tent[k];
+        const float *restrict zj = Z + j, *restrict xj = NX + j, *restrict yj = NY + j, *restrict wj = NZ + j;
+        const float *restrict e0 = E0 + j, *restrict e1 = E1 + j, *restrict e2 = E2 + j;
+        for (int t = 0; t < n; t++) {
+            float w = blur_w(tk, cz[t], ciz[t], cnx[t], cny[t], cnz[t], zj[t], xj[t], yj[t], wj[t]);
+            a0[t] += w * e0[t], a1[t] += w * e1[t], a2[t] += w * e2[t];
+            ws[t] += w;
+        }
+    }
+    for (int t = 0; t < n; t++) {
+        float inv = 1.f / ws[t];
+        O0[c + t] = a0[t] * inv, O1[c + t] = a1[t] * inv, O2[c + t] = a2[t] * inv;
+    }
+}
 
 static void blur_pass(const blur_planes *P, int W, int H, int R, int vertical) {
 #pragma omp parallel for schedule(static)
     for (int y = 0; y < H; y++) {
         const size_t row = (size_t)y * W;
-        float *o0 = P->o[0] + row, *o1 = P->o[1] + row, *o2 = P->o[2] + row, *ws = P->w + row;
-        const float *z = P->z + row, *iz = P->iz + row, *nx = P->nx + row, *ny = P->ny + row, *nz = P->nz + row;
-        for (int x = 0; x < W; x++) {
-            o0[x] = P->e[0][row + x], o1[x] = P->e[1][row + x], o2[x] = P->e[2][row + x];
-            ws[x] = 1.f;
-        }
+        ptrdiff_t off[2 * 64];
+        float tent[2 * 64];
+        int nt = 0;
         for (int k = -R; k <= R; k++) {
             if (!k) continue;
-            const float tent = 1.f - (float)abs(k) / (float)(R + 1);
-            int x0 = 0, x1 = W;
-            ptrdiff_t d;   /* offset of the neighbour in the planes */
-            if (vertical) {
-                if (y + k < 0 || y + k >= H) continue;
-                d = (ptrdiff_t)k * W;
-            } else {
-                d = k;
-                if (k < 0) x0 = -k;
-                else x1 = W - k;
-            }
-            const float *zj = z + d, *nxj = nx + d, *nyj = ny + d, *nzj = nz + d;
-            const float *e0 = P->e[0] + row + d, *e1 = P->e[1] + row + d, *e2 = P->e[2] + row + d;
-            for (int x = x0; x < x1; x++) {
-                float wz = 1.f - fabsf(zj[x] - z[x]) * iz[x];
-                wz = wz > 0.f ? wz : 0.f;
-                float c = nx[x] * nxj[x] + ny[x] * nyj[x] + nz[x] * nzj[x];
-                c = c > 0.f ? c : 0.f;
-                c *= c, c *= c, c *= c;
-                float w = tent * wz * c;
-                o0[x] += w * e0[x], o1[x] += w * e1[x], o2[x] += w * e2[x];
-                ws[x] += w;
-            }
+            if (vertical && (y + k < 0 || y + k >= H)) continue;
+            off[nt] = vertical ? (ptrdiff_t)k * W : k;
+            tent[nt++] = 1.f - (float)abs(k) / (float)(R + 1);
         }
-        for (int x = 0; x < W; x++) {
-            float inv = 1.f / ws[x];
-            o0[x] *= inv, o1[x] *= inv, o2[x] *= inv;
+        int x0 = vertical ? 0 : (R < W ? R : W), x1 = vertical ? W : (W - R > x0 ? W - R : x0);
+        for (int x = x0; x < x1; x += BLUR_SPAN) {
+            int n = x1 - x < BLUR_SPAN ? x1 - x : BLUR_SPAN;
+            blur_span(P->z, P->nx, P->ny, P->nz, P->e[0], P->e[1], P->e[2], P->o[0], P->o[1], P->o[2], row + (size_t)x,
+                      n, off, tent, nt);
+        }
+        if (vertical) continue;
+        for (int x = 0; x < W; x++) {   /* horizontal borders: taps inside the row only */
+            if (x >= x0 && x < x1) continue;
+            const size_t i = row + (size_t)x;
+            const float z = P->z[i], iz = 1.f / (0.05f * fabsf(z) + 1e-12f);
+            float a[3] = {P->e[0][i], P->e[1][i], P->e[2][i]}, ws = 1.f;
+            for (int k = 0; k < nt; k++) {
+                if (x + off[k] < 0 || x + off[k] >= W) continue;
+                const size_t j = (size_t)((ptrdiff_t)i + off[k]);
+                float w = blur_w(tent[k], z, iz, P->nx[i], P->ny[i], P->nz[i], P->z[j], P->nx[j], P->ny[j], P->nz[j]);
+                for (int d = 0; d < 3; d++) a[d] += w * P->e[d][j];
+                ws += w;
+            }
+            for (int d = 0; d < 3; d++) P->o[d][i] = a[d] * (1.f / ws);
         }
     }
 }
@@ -1097,24 +1156,22 @@ static pgi_status dir_radiance(cl_state *s, const pgi_estimate_args *a, double *
     const pgi_view_samples *vs = a->samples;
     const size_t npix = vs->count;
     pgi_status st;
-    /* planes: 3 irradiance + 3 blurred + weight sum, depth, 1/depth step, normal */
-    if ((st = ENSURE(irr, 13 * npix, float))) return st;
+    /* planes: 3 irradiance + 3 blurred, depth, normal (40 bytes a pixel) */
+    if ((st = ENSURE(irr, 10 * npix, float))) return st;
     blur_planes P;
     float *pl = s->irr;
-    P.e[0] = pl, P.e[1] = pl + npix, P.e[2] = pl + 2 * npix;
-    P.o[0] = pl + 3 * npix, P.o[1] = pl + 4 * npix, P.o[2] = pl + 5 * npix;
-    P.w = pl + 6 * npix, P.z = pl + 7 * npix, P.iz = pl + 8 * npix;
-    P.nx = pl + 9 * npix, P.ny = pl + 10 * npix, P.nz = pl + 11 * npix;
+    float *ep[3] = {pl, pl + npix, pl + 2 * npix}, *op[3] = {pl + 3 * npix, pl + 4 * npix, pl + 5 * npix};
+    float *pz = pl + 6 * npix, *pnx = pl + 7 * npix, *pny = pl + 8 * npix, *pnz = pl + 9 * npix;
+    for (int d = 0; d < 3; d++) P.e[d] = ep[d], P.o[d] = op[d];
+    P.z = pz, P.nx = pnx, P.ny = pny, P.nz = pnz;
 #pragma omp parallel for schedule(static)
     for (long long i = 0; i < (long long)npix; i++) {
         int ok = (vs->flags[i] & PGI_VS_VALID) != 0;
-        float z = ok ? vs->depth[i] : 1e30f;
-        P.z[i] = z;
-        P.iz[i] = 1.f / (0.05f * fabsf(z) + 1e-12f);
-        P.nx[i] = ok ? vs->nrm[3 * i] : 0.f;
-        P.ny[i] = ok ? vs->nrm[3 * i + 1] : 0.f;
-        P.nz[i] = ok ? vs->nrm[3 * i + 2] : 0.f;
-        P.e[0][i] = P.e[1][i] = P.e[2][i] = 0.f;
+        pz[i] = ok ? vs->depth[i] : 1e30f;
+        pnx[i] = ok ? vs->nrm[3 * i] : 0.f;
+        pny[i] = ok ? vs->nrm[3 * i + 1] : 0.f;
+        pnz[i] = ok ? vs->nrm[3 * i + 2] : 0.f;
+        ep[0][i] = ep[1][i] = ep[2][i] = 0.f;
     }
     const float inv_area = 1.f / (PGI_PI * s->r * s->r);
     const float c3 = 0.57735026919f;
@@ -1145,7 +1202,7 @@ static pgi_status dir_radiance(cl_state *s, const pgi_estimate_args *a, double *
                     if (!(w > 0.f)) continue;
                     e[0] += w * b[3 * o], e[1] += w * b[3 * o + 1], e[2] += w * b[3 * o + 2];
                 }
-                for (int d = 0; d < 3; d++) P.e[d][i] = e[d] * inv_area;
+                for (int d = 0; d < 3; d++) ep[d][i] = e[d] * inv_area;
             }
         }
     }
@@ -1154,7 +1211,7 @@ static pgi_status dir_radiance(cl_state *s, const pgi_estimate_args *a, double *
     if (s->blur > 0 && s->splatted) {
         blur_pass(&P, vs->width, vs->height, s->blur, 0);   /* e -> o */
         blur_planes Q = P;
-        for (int d = 0; d < 3; d++) Q.e[d] = P.o[d], Q.o[d] = P.e[d];
+        for (int d = 0; d < 3; d++) Q.e[d] = op[d], Q.o[d] = ep[d];
         blur_pass(&Q, vs->width, vs->height, s->blur, 1);   /* o -> e */
     }
 #pragma omp parallel for schedule(static)
@@ -1168,6 +1225,33 @@ static pgi_status dir_radiance(cl_state *s, const pgi_estimate_args *a, double *
         for (int d = 0; d < 3; d++) out[d] = kd[d] * PGI_INV_PI * E[d][ii];
     }
     return PGI_OK;
+}
+
+/* One block of nb samples (local arrays) against m list photons, photon-major:
+ * the inner loop over the samples is branch-free and vectorises. It makes
+ * exactly pgi__gather's decisions (same expressions; no FMA contraction) and
+ * adds each contributing photon's flux in list order; a rejected photon adds
+ * 0 * flux (flux is finite), so the sums are those of gather. */
+PGI__HOT_LOOP
+static void rad_block(const pgi__packed_photon *restrict q, uint32_t m, int nb, const float *restrict bx,
+                      const float *restrict by, const float *restrict bz, const float *restrict bnx,
+                      const float *restrict bny, const float *restrict bnz, float *restrict ar, float *restrict ag,
+                      float *restrict ab, uint32_t *restrict an, float r2) {
+    for (uint32_t e = 0; e < m; e++) {
+        const float px = q[e].px, py = q[e].py, pz = q[e].pz, dx = q[e].dx, dy = q[e].dy, dz = q[e].dz, fr = q[e].fr,
+                    fg = q[e].fg, fb = q[e].fb;
+        for (int t = 0; t < nb; t++) {
+            float ex = px - bx[t], ey = py - by[t], ez = pz - bz[t];
+            float d2 = ex * ex + ey * ey + ez * ez;
+            float c = bnx[t] * dx + bny[t] * dy + bnz[t] * dz;
+            int ok = (d2 < r2) & (c > 0.f);
+            float okf = (float)ok;   /* int, not unsigned: SSE2 has the conversion */
+            ar[t] += okf * fr;
+            ag[t] += okf * fg;
+            ab[t] += okf * fb;
+            an[t] += (uint32_t)ok;
+        }
+    }
 }
 
 static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
@@ -1248,20 +1332,7 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
                     for (int p = np - 1; p >= 0; p--) {
                         const pgi__packed_photon *q = s->lists + s->node_start[path[p]];
                         const uint32_t m = s->node_start[path[p] + 1] - s->node_start[path[p]];
-                        for (uint32_t e = 0; e < m; e++) {
-                            const float px = q[e].px, py = q[e].py, pz = q[e].pz, dx = q[e].dx, dy = q[e].dy,
-                                        dz = q[e].dz, fr = q[e].fr, fg = q[e].fg, fb = q[e].fb;
-                            for (int t = 0; t < nb; t++) {
-                                float ex = px - bx[t], ey = py - by[t], ez = pz - bz[t];
-                                float d2 = ex * ex + ey * ey + ez * ez;
-                                float c = bnx[t] * dx + bny[t] * dy + bnz[t] * dz;
-                                int ok = (d2 < r2) & (c > 0.f);
-                                ar[t] += ok ? fr : 0.f;
-                                ag[t] += ok ? fg : 0.f;
-                                ab[t] += ok ? fb : 0.f;
-                                an[t] += (uint32_t)ok;
-                            }
-                        }
+                        rad_block(q, m, nb, bx, by, bz, bnx, bny, bnz, ar, ag, ab, an, r2);
                     }
                     const float w = 1.f / (PGI_PI * r2);
                     for (int t = 0; t < nb; t++) {
@@ -1312,7 +1383,7 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
     if (s->variant & V_DIR) {
         size_t nD = s->splatted ? nn - s->lvl_off[s->D] : 0;
         pgi__stats_mem(&s->c.st, "node_flux", nD * 24 * sizeof(float));
-        pgi__stats_mem(&s->c.st, "irradiance", 13 * npix * sizeof(float));
+        pgi__stats_mem(&s->c.st, "irradiance", 10 * npix * sizeof(float));
     }
     pgi__stats_mem(&s->c.st, "jobs", s->njobs * sizeof(uint32_t) + (s->J < s->L + 1 ? 0 : 0));
     if (!(s->variant & V_DIR))
