@@ -118,8 +118,8 @@ typedef struct {
     float *top_flux, *node_flux, *buckets;
     size_t top_cnt_cap, top_tcnt_cap, job_start_cap, jobs_cap, top_ids_cap, node_cnt_cap, node_start_cap,
         node_tcnt_cap, cursor_cap, top_flux_cap, node_flux_cap, buckets_cap;
-    pgi__packed_photon *lists;
-    size_t lists_cap;
+    pgi__packed_photon *lists, *pk;   /* pk: every photon packed (one record, not 9 arrays) */
+    size_t lists_cap, pk_cap;
     size_t njobs, nlist, ntop_list;
     /* radiance */
     float *cum_flux, *irr, *irr2;
@@ -133,6 +133,8 @@ typedef struct {
     float *sx0, *sy0, *sz0, *sx1, *sy1, *sz1, *cax, *cay, *caz, *crej;   /* SoA copies for child_hits */
     float *soa;
     size_t soa_cap;
+    float *sam;   /* 6 x nvalid: sorted samples' world position (x NaN: not Lambertian) and normal */
+    size_t sam_cap;
     int splatted;   /* this frame has nodes and photons (lists/buckets are valid) */
 } cl_state;
 
@@ -533,8 +535,13 @@ static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, co
     if ((st = ENSURE(soa, 10 * stride, float))) return st;
     float **arr[10] = {&s->sx0, &s->sy0, &s->sz0, &s->sx1, &s->sy1, &s->sz1, &s->cax, &s->cay, &s->caz, &s->crej};
     for (int k = 0; k < 10; k++) *arr[k] = s->soa + (size_t)k * stride;
-    /* Leaf boxes, cones, Lambert flags from the samples. */
+    /* Leaf boxes, cones, Lambert flags from the samples; the samples' position
+     * and normal are copied in sorted order (SoA) for the radiance pass, which
+     * then reads them sequentially instead of gathering tile rows again. */
     const uint32_t leaf0 = s->lvl_off[L], leaf1 = s->lvl_off[L + 1];
+    if ((st = ENSURE(sam, 6 * nvalid + 6, float))) return st;
+    float *const S0 = s->sam, *const S1 = S0 + nvalid, *const S2 = S1 + nvalid, *const S3 = S2 + nvalid,
+                 *const S4 = S3 + nvalid, *const S5 = S4 + nvalid;
 #pragma omp parallel for schedule(dynamic, 64)
     for (long long li = leaf0; li < (long long)leaf1; li++) {
         cnode *nd = &s->nodes[li];
@@ -551,7 +558,10 @@ static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, co
                 hi[d] = pgi_maxf(hi[d], qq[d]);
             }
             sx += n[0], sy += n[1], sz += n[2];
-            if (!(vs->flags[i] & PGI_VS_LAMBERT)) lam = 0;
+            const int lk = (vs->flags[i] & PGI_VS_LAMBERT) != 0;
+            lam &= (uint32_t)lk;
+            S0[k] = lk ? p[0] : NAN, S1[k] = p[1], S2[k] = p[2];
+            S3[k] = n[0], S4[k] = n[1], S5[k] = n[2];
         }
         memcpy(nd->lo, lo, sizeof lo);
         memcpy(nd->hi, hi, sizeof hi);
@@ -639,11 +649,11 @@ typedef struct {
     uint32_t j;
 } photon_q;
 
-static inline void load_photon(const cl_state *s, const pgi_photons *ph, size_t j, photon_q *q) {
+static inline void load_photon(const cl_state *s, const pgi__packed_photon *p, size_t j, photon_q *q) {
     const float r = s->r;
-    q->c = to_view(&s->x, ph->px[j], ph->py[j], ph->pz[j]);
-    q->wx = ph->dx[j], q->wy = ph->dy[j], q->wz = ph->dz[j];
-    q->fr = ph->fr[j], q->fg = ph->fg[j], q->fb = ph->fb[j];
+    q->c = to_view(&s->x, p->px, p->py, p->pz);
+    q->wx = p->dx, q->wy = p->dy, q->wz = p->dz;
+    q->fr = p->fr, q->fg = p->fg, q->fb = p->fb;
     /* The slack covers the rounding of the view transform of photon and samples
      * (relative to their distance from the eye) and of gather's d^2 < r^2. */
     float slack = 1e-4f * r + 1e-5f * (fabsf(q->c.x) + fabsf(q->c.y) + fabsf(q->c.z) + r);
@@ -853,6 +863,7 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
         return st;
     const size_t nD = (variant & V_DIR) ? nn - s->lvl_off[s->D] : 0;   /* nodes with buckets */
     if ((variant & V_DIR) && (st = ENSURE(buckets, nD * 24 + 1, float))) return st;
+    if ((st = ENSURE(pk, n + 1, pgi__packed_photon))) return st;
     uint64_t visited = 0, deposits = 0;
     int oom = 0;
     /* Top pass, counting traversal: lists of nodes above J, jobs at J, trivial
@@ -873,7 +884,8 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
         size_t j1 = ((size_t)ci + 1) * chunk < n ? ((size_t)ci + 1) * chunk : n;
         for (size_t j = (size_t)ci * chunk; j < j1; j++) {
             photon_q q;
-            load_photon(s, ph, j, &q);
+            pgi__pack_photon(ph, j, &s->pk[j]);   /* sequential here; the later passes read pk */
+            load_photon(s, &s->pk[j], j, &q);
             k->visited++;
             if (!(child_hits(s, variant, 0, 1, &q) & 1u)) continue;   /* the root */
             walk(s, variant, 1, 0, 0, &q, k);
@@ -957,7 +969,7 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
             s->task_rec[3 * t + 1] = (uint32_t)k->nout;
             for (uint32_t u = s->job_start[t]; u < s->job_start[t + 1]; u++) {
                 photon_q q;
-                load_photon(s, ph, s->jobs[u], &q);
+                load_photon(s, &s->pk[s->jobs[u]], s->jobs[u], &q);
                 walk(s, variant, 0, nabove + (uint32_t)t, s->J, &q, k);
             }
             s->task_rec[3 * t + 2] = (uint32_t)k->nout;
@@ -986,14 +998,14 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
     s->nlist = sum;
     if ((st = ENSURE(lists, sum + 1, pgi__packed_photon))) return st;
 #pragma omp parallel for schedule(static)
-    for (long long u = 0; u < (long long)s->ntop_list; u++) pgi__pack_photon(ph, s->top_ids[u], &s->lists[u]);
+    for (long long u = 0; u < (long long)s->ntop_list; u++) s->lists[u] = s->pk[s->top_ids[u]];
     for (size_t nd = nabove; nd < nn; nd++) s->cursor[nd] = s->node_start[nd];
     /* Subtree fill: replay each task's records into its own nodes' lists. */
 #pragma omp parallel for schedule(dynamic, 4)
     for (long long t = 0; t < (long long)nJ; t++) {
         const sink *k = &s->outs[s->task_rec[3 * t]];
         for (uint32_t u = s->task_rec[3 * t + 1]; u < s->task_rec[3 * t + 2]; u++)
-            pgi__pack_photon(ph, k->out[2 * u + 1], &s->lists[s->cursor[k->out[2 * u]]++]);
+            s->lists[s->cursor[k->out[2 * u]]++] = s->pk[k->out[2 * u + 1]];
     }
     tm[2] = pgi__now_ms();
     return PGI_OK;
@@ -1314,30 +1326,23 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
                  * order (root to leaf, photon order). Non-Lambertian samples are
                  * masked out (NaN position) and gathered with pgi__gather. */
                 enum { B = 64 };
-                float bx[B], by[B], bz[B], bnx[B], bny[B], bnz[B], ar[B], ag[B], ab[B];
+                float ar[B], ag[B], ab[B];
                 uint32_t an[B];
+                const size_t nv = s->nvalid;
+                const float *const bx = s->sam, *const by = bx + nv, *const bz = by + nv, *const bnx = bz + nv,
+                            *const bny = bnx + nv, *const bnz = bny + nv;
                 for (uint32_t k0 = s->sbeg[li]; k0 < s->send[li]; k0 += B) {
                     const int nb = (int)(s->send[li] - k0 < B ? s->send[li] - k0 : B);
-                    int nphong = 0;
-                    for (int t = 0; t < nb; t++) {
-                        size_t i = s->order[k0 + t];
-                        const float *p = vs->pos + 3 * i, *nn = vs->nrm + 3 * i;
-                        int lam = (vs->flags[i] & PGI_VS_LAMBERT) != 0;
-                        bx[t] = lam ? p[0] : NAN, by[t] = p[1], bz[t] = p[2];
-                        bnx[t] = nn[0], bny[t] = nn[1], bnz[t] = nn[2];
-                        ar[t] = ag[t] = ab[t] = 0.f;
-                        an[t] = 0;
-                        nphong += !lam;
-                    }
+                    for (int t = 0; t < nb; t++) ar[t] = ag[t] = ab[t] = 0.f, an[t] = 0;
                     for (int p = np - 1; p >= 0; p--) {
                         const pgi__packed_photon *q = s->lists + s->node_start[path[p]];
                         const uint32_t m = s->node_start[path[p] + 1] - s->node_start[path[p]];
-                        rad_block(q, m, nb, bx, by, bz, bnx, bny, bnz, ar, ag, ab, an, r2);
+                        rad_block(q, m, nb, bx + k0, by + k0, bz + k0, bnx + k0, bny + k0, bnz + k0, ar, ag, ab, an, r2);
                     }
                     const float w = 1.f / (PGI_PI * r2);
                     for (int t = 0; t < nb; t++) {
                         size_t i = s->order[k0 + t];
-                        if (bx[t] == bx[t]) {
+                        if (bx[k0 + t] == bx[k0 + t]) {
                             /* Lambertian: pgi__acc_finish with no specular sum, reading only kd */
                             const float *kd = vs->kd + 3 * i;
                             float *o = a->out_rgb + 3 * i;
@@ -1351,7 +1356,7 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
                         pgi__vs v;
                         pgi__vs_load(vs, i, &v);
                         pgi__acc acc = {ar[t], ag[t], ab[t], 0.f, 0.f, 0.f, an[t]};
-                        if (nphong && !v.lambert) {
+                        if (!v.lambert) {
                             for (int p = np - 1; p >= 0; p--) {
                                 const pgi__packed_photon *q = s->lists + s->node_start[path[p]];
                                 const uint32_t m = s->node_start[path[p] + 1] - s->node_start[path[p]];
@@ -1378,6 +1383,7 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
     pgi__stats_mem(&s->c.st, "hierarchy", nn * (4 * sizeof(uint32_t) + 2 * sizeof(uint32_t) + sizeof(uint64_t)) +
                                               s->nvalid * (sizeof(uint32_t) + sizeof(uint64_t)));
     pgi__stats_mem(&s->c.st, "bounds", nn * 6 * sizeof(float));
+    pgi__stats_mem(&s->c.st, "sorted_samples", s->nvalid * 6 * sizeof(float));
     if (s->variant & V_CONE) pgi__stats_mem(&s->c.st, "normal_cones", nn * 6 * sizeof(float));
     if (s->variant & V_TRIVIAL) pgi__stats_mem(&s->c.st, "node_flux", nn * (3 * sizeof(float) + sizeof(uint32_t)));
     if (s->variant & V_DIR) {
@@ -1402,9 +1408,10 @@ static void cl_destroy(void *state) {
                  s->cum_flux, s->irr, s->irr2, s->cum_cnt};
     for (size_t k = 0; k < sizeof p / sizeof p[0]; k++) pgi__afree(p[k]);
     pgi__afree(s->task_rec);
-    void *q[] = {s->ck2, s->tcl, s->tn, s->ci, s->ci2, s->cb, s->cn, s->cs};
+    void *q[] = {s->ck2, s->tcl, s->tn, s->ci, s->ci2, s->cb, s->cn, s->cs, s->pk};
     for (size_t k = 0; k < sizeof q / sizeof q[0]; k++) pgi__afree(q[k]);
     pgi__afree(s->soa);
+    pgi__afree(s->sam);
     for (int i = 0; i < s->nouts; i++) free(s->outs[i].out);
     free(s->outs);
     free(s);
