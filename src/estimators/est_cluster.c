@@ -118,8 +118,8 @@ typedef struct {
     float *top_flux, *node_flux, *buckets;
     size_t top_cnt_cap, top_tcnt_cap, job_start_cap, jobs_cap, top_ids_cap, node_cnt_cap, node_start_cap,
         node_tcnt_cap, cursor_cap, top_flux_cap, node_flux_cap, buckets_cap;
-    pgi__packed_photon *lists, *pk;   /* pk: every photon packed (one record, not 9 arrays) */
-    size_t lists_cap, pk_cap;
+    pgi__packed_photon *lists, *pk, *jobq;   /* pk: every photon packed; jobq: the jobs' photons */
+    size_t lists_cap, pk_cap, jobq_cap;
     size_t njobs, nlist, ntop_list;
     /* radiance */
     float *cum_flux, *irr, *irr2;
@@ -919,7 +919,9 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
     s->njobs = js;
     if (sum > UINT32_MAX / 2 || js > UINT32_MAX / 2)
         return pgi__fail(PGI_ERR_UNSUPPORTED, "cluster: too many photon list entries; use a smaller radius");
-    if ((st = ENSURE(jobs, js + 1, uint32_t)) || (st = ENSURE(top_ids, sum + 1, uint32_t))) return st;
+    if ((st = ENSURE(jobs, js + 1, uint32_t)) || (st = ENSURE(jobq, js + 1, pgi__packed_photon)) ||
+        (st = ENSURE(top_ids, sum + 1, uint32_t)))
+        return st;
     /* Top fill: replay the records (jobs grouped by node, photon order). */
 #pragma omp parallel for schedule(dynamic, 1)
     for (long long ci = 0; ci < (long long)nch; ci++) {
@@ -927,8 +929,12 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
         uint32_t *off = s->top_cnt + (size_t)ci * ntop;
         for (size_t u = 0; u < k->nout; u++) {
             uint32_t nd = k->out[2 * u], j = k->out[2 * u + 1];
-            if (nd < nabove) s->top_ids[off[nd]++] = j;
-            else s->jobs[off[nd]++] = j;
+            if (nd < nabove) {
+                s->top_ids[off[nd]++] = j;
+            } else {   /* the photon record too: the subtree pass then reads it sequentially */
+                s->jobq[off[nd]] = s->pk[j];
+                s->jobs[off[nd]++] = j;
+            }
         }
     }
     /* Trivial flux above J: chunks summed in chunk order. */
@@ -969,7 +975,7 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
             s->task_rec[3 * t + 1] = (uint32_t)k->nout;
             for (uint32_t u = s->job_start[t]; u < s->job_start[t + 1]; u++) {
                 photon_q q;
-                load_photon(s, &s->pk[s->jobs[u]], s->jobs[u], &q);
+                load_photon(s, &s->jobq[u], s->jobs[u], &q);
                 walk(s, variant, 0, nabove + (uint32_t)t, s->J, &q, k);
             }
             s->task_rec[3 * t + 2] = (uint32_t)k->nout;
@@ -1391,7 +1397,7 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
         pgi__stats_mem(&s->c.st, "node_flux", nD * 24 * sizeof(float));
         pgi__stats_mem(&s->c.st, "irradiance", 10 * npix * sizeof(float));
     }
-    pgi__stats_mem(&s->c.st, "jobs", s->njobs * sizeof(uint32_t) + (s->J < s->L + 1 ? 0 : 0));
+    pgi__stats_mem(&s->c.st, "jobs", s->njobs * (sizeof(uint32_t) + sizeof(pgi__packed_photon)));
     if (!(s->variant & V_DIR))
         pgi__stats_mem(&s->c.st, "photon_lists", s->nlist * sizeof(pgi__packed_photon) + (nn + 1) * sizeof(uint32_t));
     return PGI_OK;
@@ -1408,7 +1414,7 @@ static void cl_destroy(void *state) {
                  s->cum_flux, s->irr, s->irr2, s->cum_cnt};
     for (size_t k = 0; k < sizeof p / sizeof p[0]; k++) pgi__afree(p[k]);
     pgi__afree(s->task_rec);
-    void *q[] = {s->ck2, s->tcl, s->tn, s->ci, s->ci2, s->cb, s->cn, s->cs, s->pk};
+    void *q[] = {s->ck2, s->tcl, s->tn, s->ci, s->ci2, s->cb, s->cn, s->cs, s->pk, s->jobq};
     for (size_t k = 0; k < sizeof q / sizeof q[0]; k++) pgi__afree(q[k]);
     pgi__afree(s->soa);
     pgi__afree(s->sam);
