@@ -567,6 +567,11 @@ static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, co
                  *const S4 = S3 + nvalid, *const S5 = S4 + nvalid;
 #pragma omp parallel for schedule(dynamic, 64)
     for (long long li = leaf0; li < (long long)leaf1; li++) {
+        if (li + 1 < (long long)leaf1)   /* the next leaf's tile rows: gathers, not streams */
+            for (uint32_t k = s->sbeg[li + 1]; k < s->send[li + 1]; k += 4) {
+                __builtin_prefetch(vs->pos + 3 * (size_t)s->order[k]);
+                __builtin_prefetch(vs->nrm + 3 * (size_t)s->order[k]);
+            }
         cnode *nd = &s->nodes[li];
         float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
         double sx = 0, sy = 0, sz = 0;
@@ -598,8 +603,7 @@ static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, co
             float cmin = 1.f;
             int bad = 0;
             for (uint32_t k = s->sbeg[li]; k < s->send[li]; k++) {
-                const float *n = vs->nrm + 3 * (size_t)s->order[k];
-                float c = ax * n[0] + ay * n[1] + az * n[2];
+                float c = ax * S3[k] + ay * S4[k] + az * S5[k];
                 bad |= !(c == c);   /* a NaN normal opens the cone */
                 cmin = pgi_minf(cmin, c);
             }
@@ -1231,9 +1235,11 @@ static pgi_status dir_radiance(cl_state *s, const pgi_estimate_args *a, double *
                 const float *bb = s->buckets + (size_t)(path[p] - s->lvl_off[s->D]) * 24;
                 for (int c = 0; c < 24; c++) b[c] += bb[c];
             }
+            const size_t nv = s->nvalid;
+            const float *snx = s->sam + 3 * nv, *sny = snx + nv, *snz = sny + nv;   /* sorted normals */
             for (uint32_t k = s->sbeg[li]; k < s->send[li]; k++) {
                 size_t i = s->order[k];
-                pgi_v3 n = v3_load(vs->nrm + 3 * i);
+                pgi_v3 n = v3(snx[k], sny[k], snz[k]);
                 float nx = v3_dot(n, s->x.right), ny = v3_dot(n, s->x.up), nz = v3_dot(n, s->x.fwd);
                 float e[3] = {0.f, 0.f, 0.f};
                 for (int o = 0; o < 8; o++) {
@@ -1339,6 +1345,11 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
             const uint32_t leaf0 = s->lvl_off[s->L], leaf1 = s->lvl_off[s->L + 1];
 #pragma omp parallel for schedule(dynamic, 8) reduction(+ : reads, contrib)
             for (long long li = leaf0; li < (long long)leaf1; li++) {
+                if (li + 1 < (long long)leaf1)   /* the next leaf's kd and output rows */
+                    for (uint32_t k = s->sbeg[li + 1]; k < s->send[li + 1]; k += 4) {
+                        __builtin_prefetch(vs->kd + 3 * (size_t)s->order[k]);
+                        __builtin_prefetch(a->out_rgb + 3 * (size_t)s->order[k], 1);
+                    }
                 uint32_t path[MAX_LEVELS + 2];
                 int np = 0;
                 uint64_t total = 0;
