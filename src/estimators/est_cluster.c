@@ -73,7 +73,7 @@ enum { V_CONE = 1, V_TRIVIAL = 2, V_DIR = 4 };
 #define MAX_LEVELS 12
 #define RADIX_BITS 13   /* at most; 2 passes up to 26 key bits (1080p with 8-pixel tiles) */
 #define RADIX (1u << RADIX_BITS)
-#define RADIX_CHUNKS 32
+#define RADIX_CHUNKS 8   /* fixed (thread-count independent); few: the digit prefix sum walks chunks x digits */
 #define NCHUNK_MAX 64
 #define JOB_LEVEL_NODES 256
 
@@ -617,8 +617,10 @@ static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, co
     /* Inner levels bottom-up: union of child boxes; cone = mean child axis,
      * half-angle = max(angle to child axis + child half-angle) (§4.5). Open
      * child cones (alpha > pi) make the parent open. */
-    for (int l = L - 1; l >= 0; l--) {   /* few nodes: serial */
-        for (long long ni = s->lvl_off[l]; ni < (long long)s->lvl_off[l + 1]; ni++) {
+    for (int l = L - 1; l >= 0; l--) {   /* nodes of one level are independent */
+        const long long n0 = s->lvl_off[l], n1 = s->lvl_off[l + 1];
+#pragma omp parallel for schedule(dynamic, 32) if (n1 - n0 >= 512)
+        for (long long ni = n0; ni < n1; ni++) {
             cnode *nd = &s->nodes[ni];
             int nch = __builtin_popcount(nd->mask);
             float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
