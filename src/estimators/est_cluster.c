@@ -1199,6 +1199,35 @@ static void blur_pass(const blur_planes *P, int W, int H, int R, int vertical) {
     }
 }
 
+/* Octant-bucket shading of nb sorted samples (world normals n*), vectorised
+ * over the samples: for each bucket o (direction: the octant's diagonal) the
+ * weight is 2 max(0, cos(n, d_o)), a select instead of a branch; buckets are
+ * added in octant order. */
+PGI__HOT_LOOP
+static void dir_block(const float *restrict snx, const float *restrict sny, const float *restrict snz, int nb,
+                      const view_xf *x, const float *restrict b, float *restrict e0, float *restrict e1,
+                      float *restrict e2) {
+    const float c3 = 0.57735026919f;
+    const float rx = x->right.x, ry = x->right.y, rz = x->right.z, ux = x->up.x, uy = x->up.y, uz = x->up.z,
+                fx = x->fwd.x, fy = x->fwd.y, fz = x->fwd.z;
+    float vx[64], vy[64], vz[64];
+    for (int t = 0; t < nb; t++) {
+        vx[t] = snx[t] * rx + sny[t] * ry + snz[t] * rz;
+        vy[t] = snx[t] * ux + sny[t] * uy + snz[t] * uz;
+        vz[t] = snx[t] * fx + sny[t] * fy + snz[t] * fz;
+        e0[t] = e1[t] = e2[t] = 0.f;
+    }
+    for (int o = 0; o < 8; o++) {
+        const float sx = (o & 1) ? -1.f : 1.f, sy = (o & 2) ? -1.f : 1.f, sz = (o & 4) ? -1.f : 1.f;
+        const float b0 = b[3 * o], b1 = b[3 * o + 1], b2 = b[3 * o + 2];
+        for (int t = 0; t < nb; t++) {
+            float w = 2.f * c3 * (sx * vx[t] + sy * vy[t] + sz * vz[t]);
+            w = 0.5f * (w + fabsf(w));   /* max(w, 0) */
+            e0[t] += w * b0, e1[t] += w * b1, e2[t] += w * b2;
+        }
+    }
+}
+
 static pgi_status dir_radiance(cl_state *s, const pgi_estimate_args *a, double *t_blur) {
     const pgi_view_samples *vs = a->samples;
     const size_t npix = vs->count;
@@ -1221,7 +1250,6 @@ static pgi_status dir_radiance(cl_state *s, const pgi_estimate_args *a, double *
         ep[0][i] = ep[1][i] = ep[2][i] = 0.f;
     }
     const float inv_area = 1.f / (PGI_PI * s->r * s->r);
-    const float c3 = 0.57735026919f;
     if (s->splatted) {
         const uint32_t leaf0 = s->lvl_off[s->L], leaf1 = s->lvl_off[s->L + 1];
 #pragma omp parallel for schedule(dynamic, 16)
@@ -1239,19 +1267,18 @@ static pgi_status dir_radiance(cl_state *s, const pgi_estimate_args *a, double *
             }
             const size_t nv = s->nvalid;
             const float *snx = s->sam + 3 * nv, *sny = snx + nv, *snz = sny + nv;   /* sorted normals */
-            for (uint32_t k = s->sbeg[li]; k < s->send[li]; k++) {
-                size_t i = s->order[k];
-                pgi_v3 n = v3(snx[k], sny[k], snz[k]);
-                float nx = v3_dot(n, s->x.right), ny = v3_dot(n, s->x.up), nz = v3_dot(n, s->x.fwd);
-                float e[3] = {0.f, 0.f, 0.f};
-                for (int o = 0; o < 8; o++) {
-                    /* bucket direction: the octant's diagonal; weight 2 max(0, cos) */
-                    float c = ((o & 1) ? -nx : nx) + ((o & 2) ? -ny : ny) + ((o & 4) ? -nz : nz);
-                    float w = 2.f * c3 * c;
-                    if (!(w > 0.f)) continue;
-                    e[0] += w * b[3 * o], e[1] += w * b[3 * o + 1], e[2] += w * b[3 * o + 2];
+            if (li + 1 < (long long)leaf1)   /* the next leaf's irradiance rows (written) */
+                for (uint32_t k = s->sbeg[li + 1]; k < s->send[li + 1]; k += 8)
+                    for (int d = 0; d < 3; d++) __builtin_prefetch(ep[d] + s->order[k], 1);
+            enum { B = 64 };
+            float e0[B], e1[B], e2[B];
+            for (uint32_t k0 = s->sbeg[li]; k0 < s->send[li]; k0 += B) {
+                const int nb = (int)(s->send[li] - k0 < B ? s->send[li] - k0 : B);
+                dir_block(snx + k0, sny + k0, snz + k0, nb, &s->x, b, e0, e1, e2);
+                for (int t = 0; t < nb; t++) {
+                    const size_t i = s->order[k0 + t];
+                    ep[0][i] = e0[t] * inv_area, ep[1][i] = e1[t] * inv_area, ep[2][i] = e2[t] * inv_area;
                 }
-                for (int d = 0; d < 3; d++) ep[d][i] = e[d] * inv_area;
             }
         }
     }
