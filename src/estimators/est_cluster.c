@@ -397,7 +397,9 @@ static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, co
 #pragma omp parallel for schedule(dynamic, 16)
     for (int t = 0; t < ntiles; t++) {
         const int tx = t % s->ntx, ty = t / s->ntx;
-        uint64_t *v = s->keys2 + (size_t)t * tsz;
+        uint64_t *const out = s->keys2 + (size_t)t * tsz;
+        uint64_t tmp[4096];   /* the keys in pixel order (tiles up to 64 x 64 pixels) */
+        uint64_t *v = tsz <= 4096 ? tmp : out;
         uint32_t n = 0, smin = UINT32_MAX, smax = 0;
         for (int y = ty * T; y < (ty + 1) * T && y < H; y++)
             for (int x = tx * T; x < (tx + 1) * T && x < W; x++) {
@@ -415,32 +417,36 @@ static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, co
          * so a stable counting sort over the tile's few slices gives the
          * sorted order; wide slice ranges (rare) use a comparison sort. */
         const uint32_t range = n ? smax - smin + 1 : 0;
-        if (n > 1 && range > 1 && range <= 64 && n <= 4096) {
+        int sorted = n < 2;
+        if (v == tmp && n > 1 && range > 1 && range <= 64) {
+            sorted = 1;
             uint32_t cnt[129];
-            uint64_t tmp[4096];
             memset(cnt, 0, sizeof cnt);
             for (uint32_t k = 0; k < n; k++)
                 cnt[1 + (uint32_t)(v[k] >> 40) * range + ((uint32_t)(v[k] >> 20 & 0xFFFFFu) - smin)]++;
             for (uint32_t b = 1; b <= 2 * range; b++) cnt[b] += cnt[b - 1];
             for (uint32_t k = 0; k < n; k++)
-                tmp[cnt[(uint32_t)(v[k] >> 40) * range + ((uint32_t)(v[k] >> 20 & 0xFFFFFu) - smin)]++] = v[k];
-            memcpy(v, tmp, n * sizeof *v);
-        } else if (n > 1 && range > 1) {
-            if (n <= 256) {
-                for (uint32_t k = 1; k < n; k++) {   /* insertion sort: tiles are small */
-                    uint64_t e = v[k];
-                    uint32_t m = k;
-                    while (m > 0 && v[m - 1] > e) v[m] = v[m - 1], m--;
-                    v[m] = e;
-                }
-            } else {
-                qsort(v, n, sizeof *v, cmp_u64);
-            }
-        } else if (n > 1) {
+                out[cnt[(uint32_t)(v[k] >> 40) * range + ((uint32_t)(v[k] >> 20 & 0xFFFFFu) - smin)]++] = v[k];
+            v = out;
+        }
+        if (v != out) {
+            for (uint32_t k = 0; k < n; k++) out[k] = v[k];
+            v = out;
+        }
+        if (!sorted && range == 1) {
             /* one slice: only the mirror bit can reorder */
             int any_sec = 0;
             for (uint32_t k = 0; k < n; k++) any_sec |= (int)(v[k] >> 40);
             if (any_sec) qsort(v, n, sizeof *v, cmp_u64);
+        } else if (!sorted && n <= 256) {
+            for (uint32_t k = 1; k < n; k++) {   /* insertion sort: tiles are small */
+                uint64_t e = v[k];
+                uint32_t m = k;
+                while (m > 0 && v[m - 1] > e) v[m] = v[m - 1], m--;
+                v[m] = e;
+            }
+        } else if (!sorted) {
+            qsort(v, n, sizeof *v, cmp_u64);
         }
         uint32_t nc = 0;
         for (uint32_t k = 0; k < n; k++) nc += k == 0 || (v[k] >> 20) != (v[k - 1] >> 20);
