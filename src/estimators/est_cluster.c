@@ -238,7 +238,7 @@ static int radix_sort(uint64_t *k0, uint32_t *v0, uint64_t *k1, uint32_t *v1, si
     int swapped = 0;
     for (int pass = 0; pass < passes; pass++) {
         const int shift = pass * digit;
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n >= 262144)
         for (long long ci = 0; ci < (long long)nch; ci++) {
             uint32_t *h = hist + (size_t)ci * nb;
             memset(h, 0, nb * sizeof *h);
@@ -252,7 +252,7 @@ static int radix_sort(uint64_t *k0, uint32_t *v0, uint64_t *k1, uint32_t *v1, si
                 hist[ci * nb + d] = sum;
                 sum += c;
             }
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n >= 262144)
         for (long long ci = 0; ci < (long long)nch; ci++) {
             uint32_t *h = hist + (size_t)ci * nb;
             size_t a = (size_t)ci * chunk, b = a + chunk < n ? a + chunk : n;
@@ -573,10 +573,11 @@ static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, co
                  *const S4 = S3 + nvalid, *const S5 = S4 + nvalid;
 #pragma omp parallel for schedule(dynamic, 64)
     for (long long li = leaf0; li < (long long)leaf1; li++) {
-        if (li + 1 < (long long)leaf1)   /* the next leaf's tile rows: gathers, not streams */
-            for (uint32_t k = s->sbeg[li + 1]; k < s->send[li + 1]; k += 4) {
+        if (li + 2 < (long long)leaf1)   /* tile rows two leaves ahead: gathers, not streams */
+            for (uint32_t k = s->sbeg[li + 2]; k < s->send[li + 2]; k += 4) {
                 __builtin_prefetch(vs->pos + 3 * (size_t)s->order[k]);
                 __builtin_prefetch(vs->nrm + 3 * (size_t)s->order[k]);
+                __builtin_prefetch(vs->flags + s->order[k]);
             }
         cnode *nd = &s->nodes[li];
         float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
@@ -1367,8 +1368,8 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
         } else {
             if ((st = ENSURE(cum_flux, 3 * nn + 1, float)) || (st = ENSURE(cum_cnt, nn + 1, uint32_t))) return st;
             /* trivially accepted flux of a node and all its ancestors, top-down */
-            for (int l = 0; l <= s->L; l++) {
-#pragma omp parallel for schedule(static)
+            for (int l = 0; l <= s->L; l++) {   /* small levels: no fork/join (barriers cost on a busy machine) */
+#pragma omp parallel for schedule(static) if (s->lvl_off[l + 1] - s->lvl_off[l] >= 65536)
                 for (long long ni = s->lvl_off[l]; ni < (long long)s->lvl_off[l + 1]; ni++) {
                     uint32_t p = s->nodes[ni].parent;
                     for (int d = 0; d < 3; d++)
