@@ -499,12 +499,22 @@ static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, co
     }
 #pragma omp parallel for schedule(dynamic, 256)
     for (long long i = 0; i < (long long)nclus; i++) {
+        const int tsh = (T & (T - 1)) == 0 ? __builtin_ctz((unsigned)T) : -1;
         const uint32_t c = s->ci[i], t = (uint32_t)(s->cb[c] / tsz);
         const int tx = (int)(t % (uint32_t)s->ntx), ty = (int)(t / (uint32_t)s->ntx);
-        for (uint32_t j = 0; j < s->cn[c]; j++) {
-            uint32_t lj = (uint32_t)(s->keys2[s->cb[c] + j] & 0xFFFFFu);
-            s->order[s->cs[i] + j] = (uint32_t)((size_t)(ty * T + (int)(lj / (uint32_t)T)) * W + (size_t)(tx * T) +
-                                                lj % (uint32_t)T);
+        const size_t base = (size_t)(ty * T) * W + (size_t)(tx * T);
+        const uint64_t *kv = s->keys2 + s->cb[c];
+        uint32_t *o = s->order + s->cs[i];
+        if (tsh >= 0) {   /* power-of-two tiles (the default 8): no divisions */
+            for (uint32_t j = 0; j < s->cn[c]; j++) {
+                uint32_t lj = (uint32_t)(kv[j] & 0xFFFFFu);
+                o[j] = (uint32_t)(base + (size_t)(lj >> tsh) * W + (lj & (uint32_t)(T - 1)));
+            }
+        } else {
+            for (uint32_t j = 0; j < s->cn[c]; j++) {
+                uint32_t lj = (uint32_t)(kv[j] & 0xFFFFFu);
+                o[j] = (uint32_t)(base + (size_t)(lj / (uint32_t)T) * W + lj % (uint32_t)T);
+            }
         }
     }
     *t_sort = pgi__now_ms();
