@@ -605,7 +605,7 @@ static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, co
             sx += n[0], sy += n[1], sz += n[2];
             const int lk = (vs->flags[i] & PGI_VS_LAMBERT) != 0;
             lam &= (uint32_t)lk;
-            S0[k] = lk ? p[0] : NAN, S1[k] = p[1], S2[k] = p[2];
+            if (!(s->variant & V_DIR)) S0[k] = lk ? p[0] : NAN, S1[k] = p[1], S2[k] = p[2];   /* directional: normals only */
             S3[k] = n[0], S4[k] = n[1], S5[k] = n[2];
         }
         memcpy(nd->lo, lo, sizeof lo);
@@ -1264,7 +1264,7 @@ static pgi_status dir_radiance(cl_state *s, const pgi_estimate_args *a, double *
         pnx[i] = ok ? vs->nrm[3 * i] : 0.f;
         pny[i] = ok ? vs->nrm[3 * i + 1] : 0.f;
         pnz[i] = ok ? vs->nrm[3 * i + 2] : 0.f;
-        ep[0][i] = ep[1][i] = ep[2][i] = 0.f;
+        if (!ok || !s->splatted) ep[0][i] = ep[1][i] = ep[2][i] = 0.f;   /* valid samples are shaded below */
     }
     const float inv_area = 1.f / (PGI_PI * s->r * s->r);
     if (s->splatted) {
