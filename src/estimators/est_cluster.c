@@ -578,7 +578,8 @@ static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, co
      * and normal are copied in sorted order (SoA) for the radiance pass, which
      * then reads them sequentially instead of gathering tile rows again. */
     const uint32_t leaf0 = s->lvl_off[L], leaf1 = s->lvl_off[L + 1];
-    if ((st = ENSURE(sam, 6 * nvalid + 6, float))) return st;
+    if ((st = ENSURE(sam, 6 * nvalid + 16, float))) return st;
+    memset(s->sam + 6 * nvalid, 0, 16 * sizeof(float));   /* padding read by the last radiance block */
     float *const S0 = s->sam, *const S1 = S0 + nvalid, *const S2 = S1 + nvalid, *const S3 = S2 + nvalid,
                  *const S4 = S3 + nvalid, *const S5 = S4 + nvalid;
 #pragma omp parallel for schedule(dynamic, 64)
@@ -1419,11 +1420,14 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
                             *const bny = bnx + nv, *const bnz = bny + nv;
                 for (uint32_t k0 = s->sbeg[li]; k0 < s->send[li]; k0 += B) {
                     const int nb = (int)(s->send[li] - k0 < B ? s->send[li] - k0 : B);
-                    for (int t = 0; t < nb; t++) ar[t] = ag[t] = ab[t] = 0.f, an[t] = 0;
+                    /* whole vectors: lanes past nb read the next samples (or the zero
+                     * padding) and are ignored; each lane is independent */
+                    const int nbv = (nb + 7) & ~7;
+                    for (int t = 0; t < nbv; t++) ar[t] = ag[t] = ab[t] = 0.f, an[t] = 0;
                     for (int p = np - 1; p >= 0; p--) {
                         const pgi__packed_photon *q = s->lists + s->node_start[path[p]];
                         const uint32_t m = s->node_start[path[p] + 1] - s->node_start[path[p]];
-                        rad_block(q, m, nb, bx + k0, by + k0, bz + k0, bnx + k0, bny + k0, bnz + k0, ar, ag, ab, an, r2);
+                        rad_block(q, m, nbv, bx + k0, by + k0, bz + k0, bnx + k0, bny + k0, bnz + k0, ar, ag, ab, an, r2);
                     }
                     const float w = 1.f / (PGI_PI * r2);
                     for (int t = 0; t < nb; t++) {
