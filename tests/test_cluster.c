@@ -116,7 +116,7 @@ static void plane_case(const plane_setup *ps, size_t nphotons, float radius, flo
     make_plane_samples(&vs, &cam, ps, seed);
     pgi_photons ph;
     make_plane_photons(&ph, nphotons, seed + 1, spread);
-    const int tiles[] = {0, 1, 3, 64};
+    const int tiles[] = {0, 1, 3, 64, 100};   /* 100: tiles over 4096 samples (comparison sort path) */
     for (size_t t = 0; t < sizeof tiles / sizeof tiles[0]; t++) {
         pgi_estimator_stats st[NEXACT];
         for (int e = 0; e < NEXACT; e++) {

@@ -73,7 +73,7 @@ enum { V_CONE = 1, V_TRIVIAL = 2, V_DIR = 4 };
 #define MAX_LEVELS 12
 #define RADIX_BITS 13   /* at most; 2 passes up to 26 key bits (1080p with 8-pixel tiles) */
 #define RADIX (1u << RADIX_BITS)
-#define RADIX_CHUNKS 32
+#define RADIX_CHUNKS 8   /* fixed (thread-count independent); few: the digit prefix sum walks chunks x digits */
 #define NCHUNK_MAX 64
 #define JOB_LEVEL_NODES 256
 
@@ -118,8 +118,8 @@ typedef struct {
     float *top_flux, *node_flux, *buckets;
     size_t top_cnt_cap, top_tcnt_cap, job_start_cap, jobs_cap, top_ids_cap, node_cnt_cap, node_start_cap,
         node_tcnt_cap, cursor_cap, top_flux_cap, node_flux_cap, buckets_cap;
-    pgi__packed_photon *lists;
-    size_t lists_cap;
+    pgi__packed_photon *lists, *pk, *jobq;   /* pk: every photon packed; jobq: the jobs' photons */
+    size_t lists_cap, pk_cap, jobq_cap;
     size_t njobs, nlist, ntop_list;
     /* radiance */
     float *cum_flux, *irr, *irr2;
@@ -133,6 +133,8 @@ typedef struct {
     float *sx0, *sy0, *sz0, *sx1, *sy1, *sz1, *cax, *cay, *caz, *crej;   /* SoA copies for child_hits */
     float *soa;
     size_t soa_cap;
+    float *sam;   /* 6 x nvalid: sorted samples' world position (x NaN: not Lambertian) and normal */
+    size_t sam_cap;
     int splatted;   /* this frame has nodes and photons (lists/buckets are valid) */
 } cl_state;
 
@@ -176,6 +178,21 @@ static pgi_status dir_create(const pgi_estimator_desc *d, void **st) {
 }
 
 #define ENSURE(field, n, type) pgi__ensure((void **)&s->field, &s->field##_cap, (n), sizeof(type))
+
+/* The branch-free inner loops (blur taps, radiance blocks) vectorise over
+ * consecutive pixels / samples. GCC's -O3 unroll-and-jam would fuse two outer
+ * iterations and leave the fused loop scalar, so it is turned off for them;
+ * on x86-64 an AVX2 clone is picked at load time (no FMA: -ffp-contract=off
+ * still holds, lanes are independent, so the results are bit-identical). */
+#if defined(__GNUC__) && !defined(__clang__)
+#if defined(__x86_64__) && !defined(__SANITIZE_ADDRESS__)
+#define PGI__HOT_LOOP __attribute__((optimize("no-loop-unroll-and-jam"), target_clones("avx2", "default")))
+#else
+#define PGI__HOT_LOOP __attribute__((optimize("no-loop-unroll-and-jam")))
+#endif
+#else
+#define PGI__HOT_LOOP
+#endif
 
 /* ------------------------------------------------------------ build */
 
@@ -221,7 +238,7 @@ static int radix_sort(uint64_t *k0, uint32_t *v0, uint64_t *k1, uint32_t *v1, si
     int swapped = 0;
     for (int pass = 0; pass < passes; pass++) {
         const int shift = pass * digit;
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n >= 262144)
         for (long long ci = 0; ci < (long long)nch; ci++) {
             uint32_t *h = hist + (size_t)ci * nb;
             memset(h, 0, nb * sizeof *h);
@@ -235,7 +252,7 @@ static int radix_sort(uint64_t *k0, uint32_t *v0, uint64_t *k1, uint32_t *v1, si
                 hist[ci * nb + d] = sum;
                 sum += c;
             }
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n >= 262144)
         for (long long ci = 0; ci < (long long)nch; ci++) {
             uint32_t *h = hist + (size_t)ci * nb;
             size_t a = (size_t)ci * chunk, b = a + chunk < n ? a + chunk : n;
@@ -380,8 +397,10 @@ static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, co
 #pragma omp parallel for schedule(dynamic, 16)
     for (int t = 0; t < ntiles; t++) {
         const int tx = t % s->ntx, ty = t / s->ntx;
-        uint64_t *v = s->keys2 + (size_t)t * tsz;
-        uint32_t n = 0;
+        uint64_t *const out = s->keys2 + (size_t)t * tsz;
+        uint64_t tmp[4096];   /* the keys in pixel order (tiles up to 64 x 64 pixels) */
+        uint64_t *v = tsz <= 4096 ? tmp : out;
+        uint32_t n = 0, smin = UINT32_MAX, smax = 0;
         for (int y = ty * T; y < (ty + 1) * T && y < H; y++)
             for (int x = tx * T; x < (tx + 1) * T && x < W; x++) {
                 size_t i = (size_t)y * W + (size_t)x;
@@ -391,15 +410,42 @@ static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, co
                 uint64_t sec = (f & PGI_VS_PRIMARY) ? 0u : 1u;
                 uint64_t j = (uint64_t)((y - ty * T) * T + (x - tx * T));
                 v[n++] = sec << 40 | sl << 20 | j;
+                smin = (uint32_t)sl < smin ? (uint32_t)sl : smin;
+                smax = (uint32_t)sl > smax ? (uint32_t)sl : smax;
             }
-        if (n <= 256) {
+        /* Sort by (mirror bit, slice, pixel): the pixels come in increasing j,
+         * so a stable counting sort over the tile's few slices gives the
+         * sorted order; wide slice ranges (rare) use a comparison sort. */
+        const uint32_t range = n ? smax - smin + 1 : 0;
+        int sorted = n < 2;
+        if (v == tmp && n > 1 && range > 1 && range <= 64) {
+            sorted = 1;
+            uint32_t cnt[129];
+            memset(cnt, 0, sizeof cnt);
+            for (uint32_t k = 0; k < n; k++)
+                cnt[1 + (uint32_t)(v[k] >> 40) * range + ((uint32_t)(v[k] >> 20 & 0xFFFFFu) - smin)]++;
+            for (uint32_t b = 1; b <= 2 * range; b++) cnt[b] += cnt[b - 1];
+            for (uint32_t k = 0; k < n; k++)
+                out[cnt[(uint32_t)(v[k] >> 40) * range + ((uint32_t)(v[k] >> 20 & 0xFFFFFu) - smin)]++] = v[k];
+            v = out;
+        }
+        if (v != out) {
+            for (uint32_t k = 0; k < n; k++) out[k] = v[k];
+            v = out;
+        }
+        if (!sorted && range == 1) {
+            /* one slice: only the mirror bit can reorder */
+            int any_sec = 0;
+            for (uint32_t k = 0; k < n; k++) any_sec |= (int)(v[k] >> 40);
+            if (any_sec) qsort(v, n, sizeof *v, cmp_u64);
+        } else if (!sorted && n <= 256) {
             for (uint32_t k = 1; k < n; k++) {   /* insertion sort: tiles are small */
                 uint64_t e = v[k];
                 uint32_t m = k;
                 while (m > 0 && v[m - 1] > e) v[m] = v[m - 1], m--;
                 v[m] = e;
             }
-        } else {
+        } else if (!sorted) {
             qsort(v, n, sizeof *v, cmp_u64);
         }
         uint32_t nc = 0;
@@ -453,12 +499,22 @@ static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, co
     }
 #pragma omp parallel for schedule(dynamic, 256)
     for (long long i = 0; i < (long long)nclus; i++) {
+        const int tsh = (T & (T - 1)) == 0 ? __builtin_ctz((unsigned)T) : -1;
         const uint32_t c = s->ci[i], t = (uint32_t)(s->cb[c] / tsz);
         const int tx = (int)(t % (uint32_t)s->ntx), ty = (int)(t / (uint32_t)s->ntx);
-        for (uint32_t j = 0; j < s->cn[c]; j++) {
-            uint32_t lj = (uint32_t)(s->keys2[s->cb[c] + j] & 0xFFFFFu);
-            s->order[s->cs[i] + j] = (uint32_t)((size_t)(ty * T + (int)(lj / (uint32_t)T)) * W + (size_t)(tx * T) +
-                                                lj % (uint32_t)T);
+        const size_t base = (size_t)(ty * T) * W + (size_t)(tx * T);
+        const uint64_t *kv = s->keys2 + s->cb[c];
+        uint32_t *o = s->order + s->cs[i];
+        if (tsh >= 0) {   /* power-of-two tiles (the default 8): no divisions */
+            for (uint32_t j = 0; j < s->cn[c]; j++) {
+                uint32_t lj = (uint32_t)(kv[j] & 0xFFFFFu);
+                o[j] = (uint32_t)(base + (size_t)(lj >> tsh) * W + (lj & (uint32_t)(T - 1)));
+            }
+        } else {
+            for (uint32_t j = 0; j < s->cn[c]; j++) {
+                uint32_t lj = (uint32_t)(kv[j] & 0xFFFFFu);
+                o[j] = (uint32_t)(base + (size_t)(lj / (uint32_t)T) * W + lj % (uint32_t)T);
+            }
         }
     }
     *t_sort = pgi__now_ms();
@@ -518,10 +574,22 @@ static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, co
     if ((st = ENSURE(soa, 10 * stride, float))) return st;
     float **arr[10] = {&s->sx0, &s->sy0, &s->sz0, &s->sx1, &s->sy1, &s->sz1, &s->cax, &s->cay, &s->caz, &s->crej};
     for (int k = 0; k < 10; k++) *arr[k] = s->soa + (size_t)k * stride;
-    /* Leaf boxes, cones, Lambert flags from the samples. */
+    /* Leaf boxes, cones, Lambert flags from the samples; the samples' position
+     * and normal are copied in sorted order (SoA) for the radiance pass, which
+     * then reads them sequentially instead of gathering tile rows again. */
     const uint32_t leaf0 = s->lvl_off[L], leaf1 = s->lvl_off[L + 1];
+    if ((st = ENSURE(sam, 6 * nvalid + 16, float))) return st;
+    memset(s->sam + 6 * nvalid, 0, 16 * sizeof(float));   /* padding read by the last radiance block */
+    float *const S0 = s->sam, *const S1 = S0 + nvalid, *const S2 = S1 + nvalid, *const S3 = S2 + nvalid,
+                 *const S4 = S3 + nvalid, *const S5 = S4 + nvalid;
 #pragma omp parallel for schedule(dynamic, 64)
     for (long long li = leaf0; li < (long long)leaf1; li++) {
+        if (li + 2 < (long long)leaf1)   /* tile rows two leaves ahead: gathers, not streams */
+            for (uint32_t k = s->sbeg[li + 2]; k < s->send[li + 2]; k += 4) {
+                __builtin_prefetch(vs->pos + 3 * (size_t)s->order[k]);
+                __builtin_prefetch(vs->nrm + 3 * (size_t)s->order[k]);
+                __builtin_prefetch(vs->flags + s->order[k]);
+            }
         cnode *nd = &s->nodes[li];
         float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
         double sx = 0, sy = 0, sz = 0;
@@ -536,7 +604,10 @@ static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, co
                 hi[d] = pgi_maxf(hi[d], qq[d]);
             }
             sx += n[0], sy += n[1], sz += n[2];
-            if (!(vs->flags[i] & PGI_VS_LAMBERT)) lam = 0;
+            const int lk = (vs->flags[i] & PGI_VS_LAMBERT) != 0;
+            lam &= (uint32_t)lk;
+            if (!(s->variant & V_DIR)) S0[k] = lk ? p[0] : NAN, S1[k] = p[1], S2[k] = p[2];   /* directional: normals only */
+            S3[k] = n[0], S4[k] = n[1], S5[k] = n[2];
         }
         memcpy(nd->lo, lo, sizeof lo);
         memcpy(nd->hi, hi, sizeof hi);
@@ -550,8 +621,7 @@ static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, co
             float cmin = 1.f;
             int bad = 0;
             for (uint32_t k = s->sbeg[li]; k < s->send[li]; k++) {
-                const float *n = vs->nrm + 3 * (size_t)s->order[k];
-                float c = ax * n[0] + ay * n[1] + az * n[2];
+                float c = ax * S3[k] + ay * S4[k] + az * S5[k];
                 bad |= !(c == c);   /* a NaN normal opens the cone */
                 cmin = pgi_minf(cmin, c);
             }
@@ -565,8 +635,10 @@ static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, co
     /* Inner levels bottom-up: union of child boxes; cone = mean child axis,
      * half-angle = max(angle to child axis + child half-angle) (§4.5). Open
      * child cones (alpha > pi) make the parent open. */
-    for (int l = L - 1; l >= 0; l--) {   /* few nodes: serial */
-        for (long long ni = s->lvl_off[l]; ni < (long long)s->lvl_off[l + 1]; ni++) {
+    for (int l = L - 1; l >= 0; l--) {   /* nodes of one level are independent */
+        const long long n0 = s->lvl_off[l], n1 = s->lvl_off[l + 1];
+#pragma omp parallel for schedule(dynamic, 32) if (n1 - n0 >= 512)
+        for (long long ni = n0; ni < n1; ni++) {
             cnode *nd = &s->nodes[ni];
             int nch = __builtin_popcount(nd->mask);
             float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
@@ -624,11 +696,11 @@ typedef struct {
     uint32_t j;
 } photon_q;
 
-static inline void load_photon(const cl_state *s, const pgi_photons *ph, size_t j, photon_q *q) {
+static inline void load_photon(const cl_state *s, const pgi__packed_photon *p, size_t j, photon_q *q) {
     const float r = s->r;
-    q->c = to_view(&s->x, ph->px[j], ph->py[j], ph->pz[j]);
-    q->wx = ph->dx[j], q->wy = ph->dy[j], q->wz = ph->dz[j];
-    q->fr = ph->fr[j], q->fg = ph->fg[j], q->fb = ph->fb[j];
+    q->c = to_view(&s->x, p->px, p->py, p->pz);
+    q->wx = p->dx, q->wy = p->dy, q->wz = p->dz;
+    q->fr = p->fr, q->fg = p->fg, q->fb = p->fb;
     /* The slack covers the rounding of the view transform of photon and samples
      * (relative to their distance from the eye) and of gather's d^2 < r^2. */
     float slack = 1e-4f * r + 1e-5f * (fabsf(q->c.x) + fabsf(q->c.y) + fabsf(q->c.z) + r);
@@ -838,6 +910,7 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
         return st;
     const size_t nD = (variant & V_DIR) ? nn - s->lvl_off[s->D] : 0;   /* nodes with buckets */
     if ((variant & V_DIR) && (st = ENSURE(buckets, nD * 24 + 1, float))) return st;
+    if ((st = ENSURE(pk, n + 1, pgi__packed_photon))) return st;
     uint64_t visited = 0, deposits = 0;
     int oom = 0;
     /* Top pass, counting traversal: lists of nodes above J, jobs at J, trivial
@@ -858,7 +931,8 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
         size_t j1 = ((size_t)ci + 1) * chunk < n ? ((size_t)ci + 1) * chunk : n;
         for (size_t j = (size_t)ci * chunk; j < j1; j++) {
             photon_q q;
-            load_photon(s, ph, j, &q);
+            pgi__pack_photon(ph, j, &s->pk[j]);   /* sequential here; the later passes read pk */
+            load_photon(s, &s->pk[j], j, &q);
             k->visited++;
             if (!(child_hits(s, variant, 0, 1, &q) & 1u)) continue;   /* the root */
             walk(s, variant, 1, 0, 0, &q, k);
@@ -892,7 +966,9 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
     s->njobs = js;
     if (sum > UINT32_MAX / 2 || js > UINT32_MAX / 2)
         return pgi__fail(PGI_ERR_UNSUPPORTED, "cluster: too many photon list entries; use a smaller radius");
-    if ((st = ENSURE(jobs, js + 1, uint32_t)) || (st = ENSURE(top_ids, sum + 1, uint32_t))) return st;
+    if ((st = ENSURE(jobs, js + 1, uint32_t)) || (st = ENSURE(jobq, js + 1, pgi__packed_photon)) ||
+        (st = ENSURE(top_ids, sum + 1, uint32_t)))
+        return st;
     /* Top fill: replay the records (jobs grouped by node, photon order). */
 #pragma omp parallel for schedule(dynamic, 1)
     for (long long ci = 0; ci < (long long)nch; ci++) {
@@ -900,8 +976,12 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
         uint32_t *off = s->top_cnt + (size_t)ci * ntop;
         for (size_t u = 0; u < k->nout; u++) {
             uint32_t nd = k->out[2 * u], j = k->out[2 * u + 1];
-            if (nd < nabove) s->top_ids[off[nd]++] = j;
-            else s->jobs[off[nd]++] = j;
+            if (nd < nabove) {
+                s->top_ids[off[nd]++] = j;
+            } else {   /* the photon record too: the subtree pass then reads it sequentially */
+                s->jobq[off[nd]] = s->pk[j];
+                s->jobs[off[nd]++] = j;
+            }
         }
     }
     /* Trivial flux above J: chunks summed in chunk order. */
@@ -942,7 +1022,7 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
             s->task_rec[3 * t + 1] = (uint32_t)k->nout;
             for (uint32_t u = s->job_start[t]; u < s->job_start[t + 1]; u++) {
                 photon_q q;
-                load_photon(s, ph, s->jobs[u], &q);
+                load_photon(s, &s->jobq[u], s->jobs[u], &q);
                 walk(s, variant, 0, nabove + (uint32_t)t, s->J, &q, k);
             }
             s->task_rec[3 * t + 2] = (uint32_t)k->nout;
@@ -971,14 +1051,14 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
     s->nlist = sum;
     if ((st = ENSURE(lists, sum + 1, pgi__packed_photon))) return st;
 #pragma omp parallel for schedule(static)
-    for (long long u = 0; u < (long long)s->ntop_list; u++) pgi__pack_photon(ph, s->top_ids[u], &s->lists[u]);
+    for (long long u = 0; u < (long long)s->ntop_list; u++) s->lists[u] = s->pk[s->top_ids[u]];
     for (size_t nd = nabove; nd < nn; nd++) s->cursor[nd] = s->node_start[nd];
     /* Subtree fill: replay each task's records into its own nodes' lists. */
 #pragma omp parallel for schedule(dynamic, 4)
     for (long long t = 0; t < (long long)nJ; t++) {
         const sink *k = &s->outs[s->task_rec[3 * t]];
         for (uint32_t u = s->task_rec[3 * t + 1]; u < s->task_rec[3 * t + 2]; u++)
-            pgi__pack_photon(ph, k->out[2 * u + 1], &s->lists[s->cursor[k->out[2 * u]]++]);
+            s->lists[s->cursor[k->out[2 * u]]++] = s->pk[k->out[2 * u + 1]];
     }
     tm[2] = pgi__now_ms();
     return PGI_OK;
@@ -1044,51 +1124,124 @@ static pgi_status cl_build(void *state, const pgi_estimate_args *a) {
 /* Depth- and normal-aware blur along one axis (§4.7) on planes: tent weights
  * in pixels, times a depth weight falling to 0 at a 5% relative depth step
  * and a normal weight max(0, n.n')^8. Invalid samples have depth 1e30 and a
- * zero normal, so they neither give nor receive. For a fixed tap offset the
- * loop runs over consecutive pixels of a row and vectorises. */
+ * zero normal, so they neither give nor receive. Pixels are processed in spans
+ * of up to BLUR_SPAN consecutive pixels of one row whose taps are all inside
+ * the image: the centre values and the accumulators live in local arrays, and
+ * for each tap offset the loop over the span is branch-free and vectorises
+ * (restrict pointers, no aliasing checks); border pixels of the horizontal
+ * pass take the same expressions with a bounds test. Taps are added in the
+ * order -R..R for every pixel, so the result does not depend on the span cut. */
 typedef struct {
-    float *z, *iz, *nx, *ny, *nz, *e[3], *o[3], *w;
+    const float *z, *nx, *ny, *nz, *e[3];
+    float *o[3];
 } blur_planes;
+
+#define BLUR_SPAN 256
+
+static inline float blur_w(float tent, float z, float iz, float nx, float ny, float nz, float zj, float nxj, float nyj,
+                           float nzj) {
+    float wz = 1.f - fabsf(zj - z) * iz;
+    wz = 0.5f * (wz + fabsf(wz));   /* max(wz, 0), exact and branch-free */
+    float c = nx * nxj + ny * nyj + nz * nzj;
+    c = 0.5f * (c + fabsf(c));
+    c *= c, c *= c, c *= c;
+    return tent * wz * c;
+}
+
+/* Pixels [c, c + n) with the taps at offsets off[0..nt) (weights tent[]). */
+PGI__HOT_LOOP
+static void blur_span(const float *restrict Z, const float *restrict NX, const float *restrict NY,
+                      const float *restrict NZ, const float *restrict E0, const float *restrict E1,
+                      const float *restrict E2, float *restrict O0, float *restrict O1, float *restrict O2, size_t c,
+                      int n, const ptrdiff_t *off, const float *tent, int nt) {
+    float cz[BLUR_SPAN], ciz[BLUR_SPAN], cnx[BLUR_SPAN], cny[BLUR_SPAN], cnz[BLUR_SPAN];
+    float a0[BLUR_SPAN], a1[BLUR_SPAN], a2[BLUR_SPAN], ws[BLUR_SPAN];
+    for (int t = 0; t < n; t++) {
+        cz[t] = Z[c + t];
+        ciz[t] = 1.f / (0.05f * fabsf(cz[t]) + 1e-12f);
+        cnx[t] = NX[c + t], cny[t] = NY[c + t], cnz[t] = NZ[c + t];
+        a0[t] = E0[c + t], a1[t] = E1[c + t], a2[t] = E2[c + t];
+        ws[t] = 1.f;
+    }
+    for (int k = 0; k < nt; k++) {
+        const size_t j = (size_t)((ptrdiff_t)c + off[k]);
+        const float tk = tent[k];
+        const float *restrict zj = Z + j, *restrict xj = NX + j, *restrict yj = NY + j, *restrict wj = NZ + j;
+        const float *restrict e0 = E0 + j, *restrict e1 = E1 + j, *restrict e2 = E2 + j;
+        for (int t = 0; t < n; t++) {
+            float w = blur_w(tk, cz[t], ciz[t], cnx[t], cny[t], cnz[t], zj[t], xj[t], yj[t], wj[t]);
+            a0[t] += w * e0[t], a1[t] += w * e1[t], a2[t] += w * e2[t];
+            ws[t] += w;
+        }
+    }
+    for (int t = 0; t < n; t++) {
+        float inv = 1.f / ws[t];
+        O0[c + t] = a0[t] * inv, O1[c + t] = a1[t] * inv, O2[c + t] = a2[t] * inv;
+    }
+}
 
 static void blur_pass(const blur_planes *P, int W, int H, int R, int vertical) {
 #pragma omp parallel for schedule(static)
     for (int y = 0; y < H; y++) {
         const size_t row = (size_t)y * W;
-        float *o0 = P->o[0] + row, *o1 = P->o[1] + row, *o2 = P->o[2] + row, *ws = P->w + row;
-        const float *z = P->z + row, *iz = P->iz + row, *nx = P->nx + row, *ny = P->ny + row, *nz = P->nz + row;
-        for (int x = 0; x < W; x++) {
-            o0[x] = P->e[0][row + x], o1[x] = P->e[1][row + x], o2[x] = P->e[2][row + x];
-            ws[x] = 1.f;
-        }
+        ptrdiff_t off[2 * 64];
+        float tent[2 * 64];
+        int nt = 0;
         for (int k = -R; k <= R; k++) {
             if (!k) continue;
-            const float tent = 1.f - (float)abs(k) / (float)(R + 1);
-            int x0 = 0, x1 = W;
-            ptrdiff_t d;   /* offset of the neighbour in the planes */
-            if (vertical) {
-                if (y + k < 0 || y + k >= H) continue;
-                d = (ptrdiff_t)k * W;
-            } else {
-                d = k;
-                if (k < 0) x0 = -k;
-                else x1 = W - k;
-            }
-            const float *zj = z + d, *nxj = nx + d, *nyj = ny + d, *nzj = nz + d;
-            const float *e0 = P->e[0] + row + d, *e1 = P->e[1] + row + d, *e2 = P->e[2] + row + d;
-            for (int x = x0; x < x1; x++) {
-                float wz = 1.f - fabsf(zj[x] - z[x]) * iz[x];
-                wz = wz > 0.f ? wz : 0.f;
-                float c = nx[x] * nxj[x] + ny[x] * nyj[x] + nz[x] * nzj[x];
-                c = c > 0.f ? c : 0.f;
-                c *= c, c *= c, c *= c;
-                float w = tent * wz * c;
-                o0[x] += w * e0[x], o1[x] += w * e1[x], o2[x] += w * e2[x];
-                ws[x] += w;
-            }
+            if (vertical && (y + k < 0 || y + k >= H)) continue;
+            off[nt] = vertical ? (ptrdiff_t)k * W : k;
+            tent[nt++] = 1.f - (float)abs(k) / (float)(R + 1);
         }
-        for (int x = 0; x < W; x++) {
-            float inv = 1.f / ws[x];
-            o0[x] *= inv, o1[x] *= inv, o2[x] *= inv;
+        int x0 = vertical ? 0 : (R < W ? R : W), x1 = vertical ? W : (W - R > x0 ? W - R : x0);
+        for (int x = x0; x < x1; x += BLUR_SPAN) {
+            int n = x1 - x < BLUR_SPAN ? x1 - x : BLUR_SPAN;
+            blur_span(P->z, P->nx, P->ny, P->nz, P->e[0], P->e[1], P->e[2], P->o[0], P->o[1], P->o[2], row + (size_t)x,
+                      n, off, tent, nt);
+        }
+        if (vertical) continue;
+        for (int x = 0; x < W; x++) {   /* horizontal borders: taps inside the row only */
+            if (x >= x0 && x < x1) continue;
+            const size_t i = row + (size_t)x;
+            const float z = P->z[i], iz = 1.f / (0.05f * fabsf(z) + 1e-12f);
+            float a[3] = {P->e[0][i], P->e[1][i], P->e[2][i]}, ws = 1.f;
+            for (int k = 0; k < nt; k++) {
+                if (x + off[k] < 0 || x + off[k] >= W) continue;
+                const size_t j = (size_t)((ptrdiff_t)i + off[k]);
+                float w = blur_w(tent[k], z, iz, P->nx[i], P->ny[i], P->nz[i], P->z[j], P->nx[j], P->ny[j], P->nz[j]);
+                for (int d = 0; d < 3; d++) a[d] += w * P->e[d][j];
+                ws += w;
+            }
+            for (int d = 0; d < 3; d++) P->o[d][i] = a[d] * (1.f / ws);
+        }
+    }
+}
+
+/* Octant-bucket shading of nb sorted samples (world normals n*), vectorised
+ * over the samples: for each bucket o (direction: the octant's diagonal) the
+ * weight is 2 max(0, cos(n, d_o)), a select instead of a branch; buckets are
+ * added in octant order. */
+PGI__HOT_LOOP
+static void dir_block(const float *restrict snx, const float *restrict sny, const float *restrict snz, int nb,
+                      const view_xf *x, const float *restrict b, float *restrict e0, float *restrict e1,
+                      float *restrict e2) {
+    const float c3 = 0.57735026919f;
+    const float rx = x->right.x, ry = x->right.y, rz = x->right.z, ux = x->up.x, uy = x->up.y, uz = x->up.z,
+                fx = x->fwd.x, fy = x->fwd.y, fz = x->fwd.z;
+    float vx[64], vy[64], vz[64];
+    for (int t = 0; t < nb; t++) {
+        vx[t] = snx[t] * rx + sny[t] * ry + snz[t] * rz;
+        vy[t] = snx[t] * ux + sny[t] * uy + snz[t] * uz;
+        vz[t] = snx[t] * fx + sny[t] * fy + snz[t] * fz;
+        e0[t] = e1[t] = e2[t] = 0.f;
+    }
+    for (int o = 0; o < 8; o++) {
+        const float sx = (o & 1) ? -1.f : 1.f, sy = (o & 2) ? -1.f : 1.f, sz = (o & 4) ? -1.f : 1.f;
+        const float b0 = b[3 * o], b1 = b[3 * o + 1], b2 = b[3 * o + 2];
+        for (int t = 0; t < nb; t++) {
+            float w = 2.f * c3 * (sx * vx[t] + sy * vy[t] + sz * vz[t]);
+            w = 0.5f * (w + fabsf(w));   /* max(w, 0) */
+            e0[t] += w * b0, e1[t] += w * b1, e2[t] += w * b2;
         }
     }
 }
@@ -1097,27 +1250,24 @@ static pgi_status dir_radiance(cl_state *s, const pgi_estimate_args *a, double *
     const pgi_view_samples *vs = a->samples;
     const size_t npix = vs->count;
     pgi_status st;
-    /* planes: 3 irradiance + 3 blurred + weight sum, depth, 1/depth step, normal */
-    if ((st = ENSURE(irr, 13 * npix, float))) return st;
+    /* planes: 3 irradiance + 3 blurred, depth, normal (40 bytes a pixel) */
+    if ((st = ENSURE(irr, 10 * npix, float))) return st;
     blur_planes P;
     float *pl = s->irr;
-    P.e[0] = pl, P.e[1] = pl + npix, P.e[2] = pl + 2 * npix;
-    P.o[0] = pl + 3 * npix, P.o[1] = pl + 4 * npix, P.o[2] = pl + 5 * npix;
-    P.w = pl + 6 * npix, P.z = pl + 7 * npix, P.iz = pl + 8 * npix;
-    P.nx = pl + 9 * npix, P.ny = pl + 10 * npix, P.nz = pl + 11 * npix;
+    float *ep[3] = {pl, pl + npix, pl + 2 * npix}, *op[3] = {pl + 3 * npix, pl + 4 * npix, pl + 5 * npix};
+    float *pz = pl + 6 * npix, *pnx = pl + 7 * npix, *pny = pl + 8 * npix, *pnz = pl + 9 * npix;
+    for (int d = 0; d < 3; d++) P.e[d] = ep[d], P.o[d] = op[d];
+    P.z = pz, P.nx = pnx, P.ny = pny, P.nz = pnz;
 #pragma omp parallel for schedule(static)
     for (long long i = 0; i < (long long)npix; i++) {
         int ok = (vs->flags[i] & PGI_VS_VALID) != 0;
-        float z = ok ? vs->depth[i] : 1e30f;
-        P.z[i] = z;
-        P.iz[i] = 1.f / (0.05f * fabsf(z) + 1e-12f);
-        P.nx[i] = ok ? vs->nrm[3 * i] : 0.f;
-        P.ny[i] = ok ? vs->nrm[3 * i + 1] : 0.f;
-        P.nz[i] = ok ? vs->nrm[3 * i + 2] : 0.f;
-        P.e[0][i] = P.e[1][i] = P.e[2][i] = 0.f;
+        pz[i] = ok ? vs->depth[i] : 1e30f;
+        pnx[i] = ok ? vs->nrm[3 * i] : 0.f;
+        pny[i] = ok ? vs->nrm[3 * i + 1] : 0.f;
+        pnz[i] = ok ? vs->nrm[3 * i + 2] : 0.f;
+        if (!ok || !s->splatted) ep[0][i] = ep[1][i] = ep[2][i] = 0.f;   /* valid samples are shaded below */
     }
     const float inv_area = 1.f / (PGI_PI * s->r * s->r);
-    const float c3 = 0.57735026919f;
     if (s->splatted) {
         const uint32_t leaf0 = s->lvl_off[s->L], leaf1 = s->lvl_off[s->L + 1];
 #pragma omp parallel for schedule(dynamic, 16)
@@ -1133,19 +1283,20 @@ static pgi_status dir_radiance(cl_state *s, const pgi_estimate_args *a, double *
                 const float *bb = s->buckets + (size_t)(path[p] - s->lvl_off[s->D]) * 24;
                 for (int c = 0; c < 24; c++) b[c] += bb[c];
             }
-            for (uint32_t k = s->sbeg[li]; k < s->send[li]; k++) {
-                size_t i = s->order[k];
-                pgi_v3 n = v3_load(vs->nrm + 3 * i);
-                float nx = v3_dot(n, s->x.right), ny = v3_dot(n, s->x.up), nz = v3_dot(n, s->x.fwd);
-                float e[3] = {0.f, 0.f, 0.f};
-                for (int o = 0; o < 8; o++) {
-                    /* bucket direction: the octant's diagonal; weight 2 max(0, cos) */
-                    float c = ((o & 1) ? -nx : nx) + ((o & 2) ? -ny : ny) + ((o & 4) ? -nz : nz);
-                    float w = 2.f * c3 * c;
-                    if (!(w > 0.f)) continue;
-                    e[0] += w * b[3 * o], e[1] += w * b[3 * o + 1], e[2] += w * b[3 * o + 2];
+            const size_t nv = s->nvalid;
+            const float *snx = s->sam + 3 * nv, *sny = snx + nv, *snz = sny + nv;   /* sorted normals */
+            if (li + 1 < (long long)leaf1)   /* the next leaf's irradiance rows (written) */
+                for (uint32_t k = s->sbeg[li + 1]; k < s->send[li + 1]; k += 8)
+                    for (int d = 0; d < 3; d++) __builtin_prefetch(ep[d] + s->order[k], 1);
+            enum { B = 64 };
+            float e0[B], e1[B], e2[B];
+            for (uint32_t k0 = s->sbeg[li]; k0 < s->send[li]; k0 += B) {
+                const int nb = (int)(s->send[li] - k0 < B ? s->send[li] - k0 : B);
+                dir_block(snx + k0, sny + k0, snz + k0, nb, &s->x, b, e0, e1, e2);
+                for (int t = 0; t < nb; t++) {
+                    const size_t i = s->order[k0 + t];
+                    ep[0][i] = e0[t] * inv_area, ep[1][i] = e1[t] * inv_area, ep[2][i] = e2[t] * inv_area;
                 }
-                for (int d = 0; d < 3; d++) P.e[d][i] = e[d] * inv_area;
             }
         }
     }
@@ -1154,7 +1305,7 @@ static pgi_status dir_radiance(cl_state *s, const pgi_estimate_args *a, double *
     if (s->blur > 0 && s->splatted) {
         blur_pass(&P, vs->width, vs->height, s->blur, 0);   /* e -> o */
         blur_planes Q = P;
-        for (int d = 0; d < 3; d++) Q.e[d] = P.o[d], Q.o[d] = P.e[d];
+        for (int d = 0; d < 3; d++) Q.e[d] = op[d], Q.o[d] = ep[d];
         blur_pass(&Q, vs->width, vs->height, s->blur, 1);   /* o -> e */
     }
 #pragma omp parallel for schedule(static)
@@ -1168,6 +1319,33 @@ static pgi_status dir_radiance(cl_state *s, const pgi_estimate_args *a, double *
         for (int d = 0; d < 3; d++) out[d] = kd[d] * PGI_INV_PI * E[d][ii];
     }
     return PGI_OK;
+}
+
+/* One block of nb samples (local arrays) against m list photons, photon-major:
+ * the inner loop over the samples is branch-free and vectorises. It makes
+ * exactly pgi__gather's decisions (same expressions; no FMA contraction) and
+ * adds each contributing photon's flux in list order; a rejected photon adds
+ * 0 * flux (flux is finite), so the sums are those of gather. */
+PGI__HOT_LOOP
+static void rad_block(const pgi__packed_photon *restrict q, uint32_t m, int nb, const float *restrict bx,
+                      const float *restrict by, const float *restrict bz, const float *restrict bnx,
+                      const float *restrict bny, const float *restrict bnz, float *restrict ar, float *restrict ag,
+                      float *restrict ab, uint32_t *restrict an, float r2) {
+    for (uint32_t e = 0; e < m; e++) {
+        const float px = q[e].px, py = q[e].py, pz = q[e].pz, dx = q[e].dx, dy = q[e].dy, dz = q[e].dz, fr = q[e].fr,
+                    fg = q[e].fg, fb = q[e].fb;
+        for (int t = 0; t < nb; t++) {
+            float ex = px - bx[t], ey = py - by[t], ez = pz - bz[t];
+            float d2 = ex * ex + ey * ey + ez * ez;
+            float c = bnx[t] * dx + bny[t] * dy + bnz[t] * dz;
+            int ok = (d2 < r2) & (c > 0.f);
+            float okf = (float)ok;   /* int, not unsigned: SSE2 has the conversion */
+            ar[t] += okf * fr;
+            ag[t] += okf * fg;
+            ab[t] += okf * fb;
+            an[t] += (uint32_t)ok;
+        }
+    }
 }
 
 static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
@@ -1201,8 +1379,8 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
         } else {
             if ((st = ENSURE(cum_flux, 3 * nn + 1, float)) || (st = ENSURE(cum_cnt, nn + 1, uint32_t))) return st;
             /* trivially accepted flux of a node and all its ancestors, top-down */
-            for (int l = 0; l <= s->L; l++) {
-#pragma omp parallel for schedule(static)
+            for (int l = 0; l <= s->L; l++) {   /* small levels: no fork/join (barriers cost on a busy machine) */
+#pragma omp parallel for schedule(static) if (s->lvl_off[l + 1] - s->lvl_off[l] >= 65536)
                 for (long long ni = s->lvl_off[l]; ni < (long long)s->lvl_off[l + 1]; ni++) {
                     uint32_t p = s->nodes[ni].parent;
                     for (int d = 0; d < 3; d++)
@@ -1214,6 +1392,11 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
             const uint32_t leaf0 = s->lvl_off[s->L], leaf1 = s->lvl_off[s->L + 1];
 #pragma omp parallel for schedule(dynamic, 8) reduction(+ : reads, contrib)
             for (long long li = leaf0; li < (long long)leaf1; li++) {
+                if (li + 1 < (long long)leaf1)   /* the next leaf's kd and output rows */
+                    for (uint32_t k = s->sbeg[li + 1]; k < s->send[li + 1]; k += 4) {
+                        __builtin_prefetch(vs->kd + 3 * (size_t)s->order[k]);
+                        __builtin_prefetch(a->out_rgb + 3 * (size_t)s->order[k], 1);
+                    }
                 uint32_t path[MAX_LEVELS + 2];
                 int np = 0;
                 uint64_t total = 0;
@@ -1230,43 +1413,26 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
                  * order (root to leaf, photon order). Non-Lambertian samples are
                  * masked out (NaN position) and gathered with pgi__gather. */
                 enum { B = 64 };
-                float bx[B], by[B], bz[B], bnx[B], bny[B], bnz[B], ar[B], ag[B], ab[B];
+                float ar[B], ag[B], ab[B];
                 uint32_t an[B];
+                const size_t nv = s->nvalid;
+                const float *const bx = s->sam, *const by = bx + nv, *const bz = by + nv, *const bnx = bz + nv,
+                            *const bny = bnx + nv, *const bnz = bny + nv;
                 for (uint32_t k0 = s->sbeg[li]; k0 < s->send[li]; k0 += B) {
                     const int nb = (int)(s->send[li] - k0 < B ? s->send[li] - k0 : B);
-                    int nphong = 0;
-                    for (int t = 0; t < nb; t++) {
-                        size_t i = s->order[k0 + t];
-                        const float *p = vs->pos + 3 * i, *nn = vs->nrm + 3 * i;
-                        int lam = (vs->flags[i] & PGI_VS_LAMBERT) != 0;
-                        bx[t] = lam ? p[0] : NAN, by[t] = p[1], bz[t] = p[2];
-                        bnx[t] = nn[0], bny[t] = nn[1], bnz[t] = nn[2];
-                        ar[t] = ag[t] = ab[t] = 0.f;
-                        an[t] = 0;
-                        nphong += !lam;
-                    }
+                    /* whole vectors: lanes past nb read the next samples (or the zero
+                     * padding) and are ignored; each lane is independent */
+                    const int nbv = (nb + 7) & ~7;
+                    for (int t = 0; t < nbv; t++) ar[t] = ag[t] = ab[t] = 0.f, an[t] = 0;
                     for (int p = np - 1; p >= 0; p--) {
                         const pgi__packed_photon *q = s->lists + s->node_start[path[p]];
                         const uint32_t m = s->node_start[path[p] + 1] - s->node_start[path[p]];
-                        for (uint32_t e = 0; e < m; e++) {
-                            const float px = q[e].px, py = q[e].py, pz = q[e].pz, dx = q[e].dx, dy = q[e].dy,
-                                        dz = q[e].dz, fr = q[e].fr, fg = q[e].fg, fb = q[e].fb;
-                            for (int t = 0; t < nb; t++) {
-                                float ex = px - bx[t], ey = py - by[t], ez = pz - bz[t];
-                                float d2 = ex * ex + ey * ey + ez * ez;
-                                float c = bnx[t] * dx + bny[t] * dy + bnz[t] * dz;
-                                int ok = (d2 < r2) & (c > 0.f);
-                                ar[t] += ok ? fr : 0.f;
-                                ag[t] += ok ? fg : 0.f;
-                                ab[t] += ok ? fb : 0.f;
-                                an[t] += (uint32_t)ok;
-                            }
-                        }
+                        rad_block(q, m, nbv, bx + k0, by + k0, bz + k0, bnx + k0, bny + k0, bnz + k0, ar, ag, ab, an, r2);
                     }
                     const float w = 1.f / (PGI_PI * r2);
                     for (int t = 0; t < nb; t++) {
                         size_t i = s->order[k0 + t];
-                        if (bx[t] == bx[t]) {
+                        if (bx[k0 + t] == bx[k0 + t]) {
                             /* Lambertian: pgi__acc_finish with no specular sum, reading only kd */
                             const float *kd = vs->kd + 3 * i;
                             float *o = a->out_rgb + 3 * i;
@@ -1280,7 +1446,7 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
                         pgi__vs v;
                         pgi__vs_load(vs, i, &v);
                         pgi__acc acc = {ar[t], ag[t], ab[t], 0.f, 0.f, 0.f, an[t]};
-                        if (nphong && !v.lambert) {
+                        if (!v.lambert) {
                             for (int p = np - 1; p >= 0; p--) {
                                 const pgi__packed_photon *q = s->lists + s->node_start[path[p]];
                                 const uint32_t m = s->node_start[path[p] + 1] - s->node_start[path[p]];
@@ -1307,14 +1473,15 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
     pgi__stats_mem(&s->c.st, "hierarchy", nn * (4 * sizeof(uint32_t) + 2 * sizeof(uint32_t) + sizeof(uint64_t)) +
                                               s->nvalid * (sizeof(uint32_t) + sizeof(uint64_t)));
     pgi__stats_mem(&s->c.st, "bounds", nn * 6 * sizeof(float));
+    pgi__stats_mem(&s->c.st, "sorted_samples", s->nvalid * 6 * sizeof(float));
     if (s->variant & V_CONE) pgi__stats_mem(&s->c.st, "normal_cones", nn * 6 * sizeof(float));
     if (s->variant & V_TRIVIAL) pgi__stats_mem(&s->c.st, "node_flux", nn * (3 * sizeof(float) + sizeof(uint32_t)));
     if (s->variant & V_DIR) {
         size_t nD = s->splatted ? nn - s->lvl_off[s->D] : 0;
         pgi__stats_mem(&s->c.st, "node_flux", nD * 24 * sizeof(float));
-        pgi__stats_mem(&s->c.st, "irradiance", 13 * npix * sizeof(float));
+        pgi__stats_mem(&s->c.st, "irradiance", 10 * npix * sizeof(float));
     }
-    pgi__stats_mem(&s->c.st, "jobs", s->njobs * sizeof(uint32_t) + (s->J < s->L + 1 ? 0 : 0));
+    pgi__stats_mem(&s->c.st, "jobs", s->njobs * (sizeof(uint32_t) + sizeof(pgi__packed_photon)));
     if (!(s->variant & V_DIR))
         pgi__stats_mem(&s->c.st, "photon_lists", s->nlist * sizeof(pgi__packed_photon) + (nn + 1) * sizeof(uint32_t));
     return PGI_OK;
@@ -1331,9 +1498,10 @@ static void cl_destroy(void *state) {
                  s->cum_flux, s->irr, s->irr2, s->cum_cnt};
     for (size_t k = 0; k < sizeof p / sizeof p[0]; k++) pgi__afree(p[k]);
     pgi__afree(s->task_rec);
-    void *q[] = {s->ck2, s->tcl, s->tn, s->ci, s->ci2, s->cb, s->cn, s->cs};
+    void *q[] = {s->ck2, s->tcl, s->tn, s->ci, s->ci2, s->cb, s->cn, s->cs, s->pk, s->jobq};
     for (size_t k = 0; k < sizeof q / sizeof q[0]; k++) pgi__afree(q[k]);
     pgi__afree(s->soa);
+    pgi__afree(s->sam);
     for (int i = 0; i < s->nouts; i++) free(s->outs[i].out);
     free(s->outs);
     free(s);
