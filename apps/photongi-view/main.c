@@ -26,7 +26,7 @@ static const char *k_help =
     "                     has animated objects)\n"
     "  --estimator E      density estimator (default tiled; Tab switches live)\n"
     "  --photons N        photons to store (default: the scene's, else 200000)\n"
-    "  --radius R         photon radius (default: the scene's, else 2%% of the diagonal)\n"
+    "  --radius R         photon radius (default: the scene's, else 2% of the diagonal)\n"
     "  --size WxH         window / full render size (default: the scene's, else 1280x720)\n"
     "  --scale F          render at F times the window size (0 < F <= 1; default 1)\n"
     "  --seed K           random seed (default 1)\n"

@@ -39,7 +39,7 @@ static const char *k_render_help =
     "  --estimator E      density estimator (see 'photongi estimators'); default tiled\n"
     "  --photons N        photons to store (flux is normalised by the paths emitted);\n"
     "                     default: the scene's, else 200000\n"
-    "  --radius R         photon radius in scene units; default: the scene's, else 2%% of its diagonal\n"
+    "  --radius R         photon radius in scene units; default: the scene's, else 2% of its diagonal\n"
     "  --size WxH         image size; default: the scene's, else 640x480\n"
     "  --bounces B        maximum photon bounces (default 4)\n"
     "  --seed K           random seed (default 1); same seed, same image, any thread count\n"
