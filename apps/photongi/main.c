@@ -3,7 +3,6 @@
 #include <errno.h>
 #include <math.h>
 #include <inttypes.h>
-#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -90,7 +89,8 @@ static const char *k_info_help =
 static const char *k_est_help =
     "usage: photongi estimators [-v]\n"
     "\n"
-    "Lists the registered density estimators, one name a line (-v: with a summary).\n";
+    "Lists the registered density estimators, one name a line (-v: with a summary, whether\n"
+    "it is approximate, and which of --kernel, --subsample, --radius-policy it supports).\n";
 
 static int fail(const char *what, pgi_status st) {
     const char *msg = pgi_last_error();
@@ -107,6 +107,12 @@ static int usage_error(const char *cmd, const char *fmt, const char *arg) {
 
 static int is_help(const char *a) { return strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0; }
 
+/* Appends ", item" (or "item" to an empty list), truncating at cap. */
+static void list_append(char *list, size_t cap, const char *item) {
+    size_t n = strlen(list);
+    snprintf(list + n, cap - n, "%s%s", n ? ", " : "", item);
+}
+
 static int cmd_estimators(int argc, char **argv) {
     int verbose = 0;
     for (int i = 0; i < argc; i++) {
@@ -117,10 +123,23 @@ static int cmd_estimators(int argc, char **argv) {
         if (strcmp(argv[i], "-v") == 0) verbose = 1;
         else return usage_error("estimators", "unknown option '%s'", argv[i]);
     }
+    int width = 0;
+    for (size_t i = 0; i < pgi_estimator_count(); i++) {
+        int n = (int)strlen(pgi_estimator_at(i)->name);
+        if (n > width) width = n;
+    }
     for (size_t i = 0; i < pgi_estimator_count(); i++) {
         const pgi_estimator_vtbl *vt = pgi_estimator_at(i);
-        if (verbose) printf("%-12s %s%s\n", vt->name, vt->summary, vt->exact ? "" : " [approximate]");
-        else printf("%s\n", vt->name);
+        if (!verbose) {
+            printf("%s\n", vt->name);
+            continue;
+        }
+        printf("%-*s  %s%s\n", width, vt->name, vt->summary, vt->exact ? "" : " [approximate]");
+        char also[128] = "";
+        if (vt->caps & PGI_EST_CAP_KERNELS) list_append(also, sizeof also, "--kernel");
+        if (vt->caps & PGI_EST_CAP_SUBSAMPLE) list_append(also, sizeof also, "--subsample");
+        if (vt->caps & PGI_EST_CAP_PHOTON_RADIUS) list_append(also, sizeof also, "--radius-policy path|differentials");
+        if (also[0]) printf("%-*s  also: %s\n", width, "", also);
     }
     return 0;
 }
