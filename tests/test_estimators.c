@@ -1,7 +1,7 @@
 /* Every exact estimator equals "brute" (DESIGN.md §6.1): same radiance per
  * view sample up to float summation order (relative 1e-4) and exactly the
  * same number of contributing photon reads. */
-#include "test_util.h"
+#include "test_random.h"
 
 #include "scene/scene_internal.h"
 #include "view/view.h"
@@ -9,64 +9,9 @@
 #define W 48
 #define H 40
 
-/* The photon box is [-0.5, 0.5]^3; the camera sees it from about 2.6 units
- * with a narrow field of view, so that parts of the box (and of the photon
- * spheres) fall outside the view frustum. */
-typedef struct {
-    float eye[3], at[3], up[3], fov, tmin, tmax;
-} view_setup;
-static const view_setup k_outside = {{0.3f, 0.4f, 2.5f}, {0.f, 0.f, 0.f}, {0.f, 1.f, 0.f}, 25.f, 2.0f, 3.1f};
-/* The eye inside the photon cloud: photons behind it, beside it, and photon
- * spheres that contain the eye or cross the eye plane. */
-static const view_setup k_inside = {{0.1f, -0.05f, 0.2f}, {0.f, 0.f, -1.f}, {0.f, 1.f, 0.f}, 70.f, 0.02f, 0.7f};
-static const view_setup *g_view = &k_outside;
+static const tu_view_setup *g_view = &k_outside;
 
-static void make_photons(pgi_photons *ph, size_t n, uint64_t seed) {
-    TU_CHECK_OK(pgi_photons_alloc(ph, n));
-    tu_rng r = tu_rng_make(seed);
-    for (size_t j = 0; j < n; j++) tu_random_photon(ph, j, &r, NULL);
-    ph->count = n;
-    ph->emitted = n;
-}
 
-/* View samples on the camera ray through each pixel centre at a random depth.
- * About 10% invalid, 10% Blinn-Phong; `secondary` of the valid ones are
- * mirror-reflected samples (no PGI_VS_PRIMARY) anywhere in the box. */
-static void make_samples(pgi_view_samples *vs, pgi_camera *cam, uint64_t seed, float secondary) {
-    TU_CHECK_OK(pgi_view_samples_alloc(vs, W, H));
-    pgi_camera_look_at(cam, g_view->eye, g_view->at, g_view->up, g_view->fov, W, H);
-    tu_rng r = tu_rng_make(seed);
-    for (int y = 0; y < H; y++)
-        for (int x = 0; x < W; x++) {
-            size_t i = (size_t)y * W + (size_t)x;
-            float dir[3], pos[3], n[3], wo[3], kd[3];
-            tu_pixel_dir(cam, x, y, dir);
-            float t = tu_range(&r, g_view->tmin, g_view->tmax);
-            for (int k = 0; k < 3; k++) pos[k] = cam->eye[k] + t * dir[k];
-            float kind = tu_unif(&r);
-            uint8_t flags = PGI_VS_VALID | PGI_VS_PRIMARY | PGI_VS_LAMBERT;
-            float ks = 0.f, shin = 0.f;
-            if (kind < 0.1f) flags = 0;
-            else if (kind < 0.2f) {
-                flags = PGI_VS_VALID | PGI_VS_PRIMARY;
-                ks = tu_range(&r, 0.04f, 0.5f);
-                shin = 20.f;
-            }
-            if (flags && tu_unif(&r) < secondary) {
-                /* Seen through a mirror: anywhere in the box, from anywhere. */
-                flags = (uint8_t)(flags & ~PGI_VS_PRIMARY);
-                for (int k = 0; k < 3; k++) pos[k] = tu_range(&r, -0.5f, 0.5f);
-                tu_unit_vec(&r, wo);
-            } else {
-                for (int k = 0; k < 3; k++) wo[k] = cam->eye[k] - pos[k];
-                tu_normalize(wo);
-            }
-            tu_unit_vec(&r, n);
-            if (tu_dot(n, wo) < 0.f) n[0] = -n[0], n[1] = -n[1], n[2] = -n[2];
-            for (int k = 0; k < 3; k++) kd[k] = tu_range(&r, 0.1f, 0.9f);
-            tu_set_sample(vs, i, pos, n, wo, kd, ks, shin, t, flags);
-        }
-}
 
 /* Compares every exact estimator with brute on (ph, vs, cam). */
 static void compare_all(const pgi_photons *ph, const pgi_view_samples *vs, const pgi_camera *cam, float radius,
@@ -113,7 +58,7 @@ static const radius_case k_cases[] = {{0.015f, 20000}, {0.07f, 8000}, {0.25f, 30
 static void run_random(float secondary, const char *label, uint64_t seed) {
     pgi_view_samples vs;
     pgi_camera cam;
-    make_samples(&vs, &cam, seed, secondary);
+    tu_make_samples(&vs, &cam, g_view, W, H, seed, secondary);
     size_t nprimary = 0, nsecondary = 0;
     for (size_t i = 0; i < vs.count; i++)
         if (vs.flags[i] & PGI_VS_VALID) (vs.flags[i] & PGI_VS_PRIMARY) ? nprimary++ : nsecondary++;
@@ -121,7 +66,7 @@ static void run_random(float secondary, const char *label, uint64_t seed) {
     if (secondary > 0.f) assert_true(nsecondary > 0);
     for (size_t c = 0; c < sizeof k_cases / sizeof k_cases[0]; c++) {
         pgi_photons ph;
-        make_photons(&ph, k_cases[c].photons, seed * 31 + c);
+        tu_make_photons(&ph, k_cases[c].photons, seed * 31 + c);
         /* The reference must see something, or the comparison proves little. */
         float *ref = malloc(3 * vs.count * sizeof *ref);
         pgi_estimator_stats st;
@@ -151,9 +96,9 @@ static void test_eye_inside_photons(void **state) {
 static void test_hashgrid_cell_sizes(void **state) {
     pgi_view_samples vs;
     pgi_camera cam;
-    make_samples(&vs, &cam, 13, 0.1f);
+    tu_make_samples(&vs, &cam, g_view, W, H, 13, 0.1f);
     pgi_photons ph;
-    make_photons(&ph, 8000, 14);
+    tu_make_photons(&ph, 8000, 14);
     const float r = 0.08f;
     const float cells[] = {r / 8.f, r / 3.f, r, 5.f * r};
     float *ref = malloc(3 * vs.count * sizeof *ref), *got = malloc(3 * vs.count * sizeof *got);
@@ -179,7 +124,7 @@ static void test_hashgrid_cell_sizes(void **state) {
 static void test_zero_photons(void **state) {
     pgi_view_samples vs;
     pgi_camera cam;
-    make_samples(&vs, &cam, 15, 0.1f);
+    tu_make_samples(&vs, &cam, g_view, W, H, 15, 0.1f);
     pgi_photons ph;
     TU_CHECK_OK(pgi_photons_alloc(&ph, 0));
     ph.count = 0;

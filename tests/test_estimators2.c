@@ -9,7 +9,7 @@
  *  - subsampling: k = 1 is bit-identical to no subsampling, the estimate is
  *    unbiased on a uniform plane, and independent of the thread count;
  *  - the filter keeps constants, removes noise, keeps edges. */
-#include "test_util.h"
+#include "test_random.h"
 
 #include <float.h>
 #include <omp.h>
@@ -19,70 +19,6 @@
 
 #define W 48
 #define H 40
-
-typedef struct {
-    float eye[3], at[3], up[3], fov, tmin, tmax;
-} view_setup;
-static const view_setup k_outside = {{0.3f, 0.4f, 2.5f}, {0.f, 0.f, 0.f}, {0.f, 1.f, 0.f}, 25.f, 2.0f, 3.1f};
-/* the eye inside the photon cloud: spheres behind it, crossing the eye plane, holding the eye */
-static const view_setup k_inside = {{0.1f, -0.05f, 0.2f}, {0.f, 0.f, -1.f}, {0.f, 1.f, 0.f}, 70.f, 0.02f, 0.7f};
-
-static void make_photons(pgi_photons *ph, size_t n, uint64_t seed) {
-    TU_CHECK_OK(pgi_photons_alloc(ph, n));
-    tu_rng r = tu_rng_make(seed);
-    for (size_t j = 0; j < n; j++) {
-        float d[3], nn[3];
-        ph->px[j] = tu_range(&r, -0.5f, 0.5f);
-        ph->py[j] = tu_range(&r, -0.5f, 0.5f);
-        ph->pz[j] = tu_range(&r, -0.5f, 0.5f);
-        tu_unit_vec(&r, d);
-        tu_unit_vec(&r, nn);
-        ph->dx[j] = d[0], ph->dy[j] = d[1], ph->dz[j] = d[2];
-        ph->nx[j] = nn[0], ph->ny[j] = nn[1], ph->nz[j] = nn[2];
-        ph->fr[j] = tu_range(&r, 0.01f, 1.f);
-        ph->fg[j] = tu_range(&r, 0.01f, 1.f);
-        ph->fb[j] = tu_range(&r, 0.01f, 1.f);
-    }
-    ph->count = n;
-    ph->emitted = n;
-}
-
-/* Samples on the pixel-centre rays (primary), a fraction `secondary` moved
- * anywhere in the box as if seen through a mirror; 10% invalid, 10% Phong. */
-static void make_samples(pgi_view_samples *vs, pgi_camera *cam, const view_setup *g, uint64_t seed, float secondary) {
-    TU_CHECK_OK(pgi_view_samples_alloc(vs, W, H));
-    pgi_camera_look_at(cam, g->eye, g->at, g->up, g->fov, W, H);
-    tu_rng r = tu_rng_make(seed);
-    for (int y = 0; y < H; y++)
-        for (int x = 0; x < W; x++) {
-            size_t i = (size_t)y * W + (size_t)x;
-            float dir[3], pos[3], n[3], wo[3], kd[3];
-            tu_pixel_dir(cam, x, y, dir);
-            float t = tu_range(&r, g->tmin, g->tmax);
-            for (int k = 0; k < 3; k++) pos[k] = cam->eye[k] + t * dir[k];
-            float kind = tu_unif(&r);
-            uint8_t flags = PGI_VS_VALID | PGI_VS_PRIMARY | PGI_VS_LAMBERT;
-            float ks = 0.f, shin = 0.f;
-            if (kind < 0.1f) flags = 0;
-            else if (kind < 0.2f) {
-                flags = PGI_VS_VALID | PGI_VS_PRIMARY;
-                ks = tu_range(&r, 0.04f, 0.5f);
-                shin = 20.f;
-            }
-            if (flags && tu_unif(&r) < secondary) {
-                flags = (uint8_t)(flags & ~PGI_VS_PRIMARY);
-                for (int k = 0; k < 3; k++) pos[k] = tu_range(&r, -0.5f, 0.5f);
-                tu_unit_vec(&r, wo);
-            } else {
-                for (int k = 0; k < 3; k++) wo[k] = cam->eye[k] - pos[k];
-                tu_normalize(wo);
-            }
-            tu_unit_vec(&r, n);
-            if (tu_dot(n, wo) < 0.f) n[0] = -n[0], n[1] = -n[1], n[2] = -n[2];
-            for (int k = 0; k < 3; k++) kd[k] = tu_range(&r, 0.1f, 0.9f);
-            tu_set_sample(vs, i, pos, n, wo, kd, ks, shin, t, flags);
-        }
-}
 
 static float *fbuf(size_t n) {
     float *p = malloc(n * sizeof *p);
@@ -147,13 +83,13 @@ typedef struct {
 /* tiny, medium, and larger than the whole box (every sphere holds the eye) */
 static const radius_case k_cases[] = {{0.015f, 12000}, {0.07f, 6000}, {0.25f, 2000}, {3.0f, 500}};
 
-static void run_case(const view_setup *g, float secondary, uint64_t seed, const char *label) {
+static void run_case(const tu_view_setup *g, float secondary, uint64_t seed, const char *label) {
     pgi_view_samples vs;
     pgi_camera cam;
-    make_samples(&vs, &cam, g, seed, secondary);
+    tu_make_samples(&vs, &cam, g, W, H, seed, secondary);
     for (size_t c = 0; c < sizeof k_cases / sizeof k_cases[0]; c++) {
         pgi_photons ph;
-        make_photons(&ph, k_cases[c].photons, seed * 7 + c);
+        tu_make_photons(&ph, k_cases[c].photons, seed * 7 + c);
         const float r = k_cases[c].radius;
         expect_equal_brute("kdtree", &(pgi_estimator_desc){.radius = r}, &ph, &vs, &cam, label);
         const int tiles[] = {1, 8, 32, 64};
@@ -193,9 +129,9 @@ static void test_exact_eye_inside(void **state) {
 static void test_exact_near_plane(void **state) {
     pgi_view_samples vs;
     pgi_camera cam;
-    make_samples(&vs, &cam, &k_inside, 25, 0.05f);
+    tu_make_samples(&vs, &cam, &k_inside, W, H, 25, 0.05f);
     pgi_photons ph;
-    make_photons(&ph, 4000, 26);
+    tu_make_photons(&ph, 4000, 26);
     tu_rng r = tu_rng_make(27);
     for (size_t j = 0; j < ph.count; j++) {   /* within 0.1 of the eye plane z = 0.2 */
         ph.pz[j] = 0.2f + tu_range(&r, -0.1f, 0.1f);
@@ -222,9 +158,9 @@ static void test_exact_near_plane(void **state) {
 static void test_thread_independent(void **state) {
     pgi_view_samples vs;
     pgi_camera cam;
-    make_samples(&vs, &cam, &k_outside, 28, 0.1f);
+    tu_make_samples(&vs, &cam, &k_outside, W, H, 28, 0.1f);
     pgi_photons ph;
-    make_photons(&ph, 30000, 29);
+    tu_make_photons(&ph, 30000, 29);
     const char *names[] = {"kdtree", "bounds3d", "bounds25d", "hashgrid", "tiled"};
     size_t nf = 3 * vs.count;
     int saved = omp_get_max_threads();
@@ -295,9 +231,9 @@ static void brute_knn(const pgi_photons *ph, const pgi_view_samples *vs, float r
 static void test_knn_equals_brute_selection(void **state) {
     pgi_view_samples vs;
     pgi_camera cam;
-    make_samples(&vs, &cam, &k_outside, 31, 0.1f);
+    tu_make_samples(&vs, &cam, &k_outside, W, H, 31, 0.1f);
     pgi_photons ph;
-    make_photons(&ph, 8000, 32);
+    tu_make_photons(&ph, 8000, 32);
     /* duplicate some photons exactly: ties in distance break by index */
     for (size_t j = 0; j < 800; j++) {
         size_t s = j * 7 + 1, t = j * 7 + 3;
@@ -413,9 +349,9 @@ static void test_kernels_uniform_plane(void **state) {
 static void test_subsample_k1_is_off(void **state) {
     pgi_view_samples vs;
     pgi_camera cam;
-    make_samples(&vs, &cam, &k_outside, 51, 0.1f);
+    tu_make_samples(&vs, &cam, &k_outside, W, H, 51, 0.1f);
     pgi_photons ph;
-    make_photons(&ph, 20000, 52);
+    tu_make_photons(&ph, 20000, 52);
     const char *names[] = {"hashgrid", "tiled", "kdtree"};
     size_t nf = 3 * vs.count;
     for (int e = 0; e < 3; e++) {
@@ -561,9 +497,9 @@ static void test_errors(void **state) {
 static void test_bounds_wasted_tests(void **state) {
     pgi_view_samples vs;
     pgi_camera cam;
-    make_samples(&vs, &cam, &k_outside, 81, 0.f);
+    tu_make_samples(&vs, &cam, &k_outside, W, H, 81, 0.f);
     pgi_photons ph;
-    make_photons(&ph, 20000, 82);
+    tu_make_photons(&ph, 20000, 82);
     float *out = fbuf(3 * vs.count);
     pgi_estimator_stats s3, s4, s8, s32;
     TU_CHECK_OK(tu_run_estimator("bounds3d", &(pgi_estimator_desc){.radius = 0.1f}, &ph, &vs, &cam, out, &s3));
