@@ -24,6 +24,20 @@
 
 #define MAXF 64
 
+/* Loads a scene and a renderer for it; on failure says why and returns 0 (the scene is skipped). */
+static int open_scene(const char *sc, pgi_scene **scene, pgi_renderer **r) {
+    if (pgi_scene_load(sc, scene) != PGI_OK) {
+        fprintf(stderr, "photongi-bench: skipping scene %s: %s\n", sc, pgi_last_error());
+        return 0;
+    }
+    if (pgi_renderer_create(*scene, r) != PGI_OK) {
+        fprintf(stderr, "photongi-bench: skipping scene %s: %s\n", sc, pgi_last_error());
+        pgi_scene_destroy(*scene);
+        return 0;
+    }
+    return 1;
+}
+
 static int in_list(const char *list, const char *name) {
     if (!list) return 1;
     size_t n = strlen(name);
@@ -68,15 +82,8 @@ static int run_table1(const char *scenes, int frames, unsigned photons, int widt
     snprintf(buf, sizeof buf, "%s", scenes);
     for (char *sc = strtok(buf, ","); sc; sc = strtok(NULL, ",")) {
         pgi_scene *scene;
-        if (pgi_scene_load(sc, &scene) != PGI_OK) {
-            fprintf(stderr, "photongi-bench: skipping scene %s: %s\n", sc, pgi_last_error());
-            continue;
-        }
         pgi_renderer *r;
-        if (pgi_renderer_create(scene, &r) != PGI_OK) {
-            pgi_scene_destroy(scene);
-            continue;
-        }
+        if (!open_scene(sc, &scene, &r)) continue;
         for (size_t c = 0; c < sizeof cfg / sizeof cfg[0]; c++) {
             pgi_render_desc d = {.estimator = cfg[c].estimator, .photons = photons, .width = width, .height = height,
                                  .threads = threads, .seed = 1, .radius = radius, .radius_set = radius > 0.f,
@@ -193,16 +200,8 @@ int main(int argc, char **argv) {
     snprintf(buf, sizeof buf, "%s", scenes);
     for (char *sc = strtok(buf, ","); sc; sc = strtok(NULL, ",")) {
         pgi_scene *scene;
-        if (pgi_scene_load(sc, &scene) != PGI_OK) {
-            fprintf(stderr, "photongi-bench: skipping scene %s: %s\n", sc, pgi_last_error());
-            continue;
-        }
         pgi_renderer *r;
-        if (pgi_renderer_create(scene, &r) != PGI_OK) {
-            fprintf(stderr, "photongi-bench: %s: %s\n", sc, pgi_last_error());
-            pgi_scene_destroy(scene);
-            continue;
-        }
+        if (!open_scene(sc, &scene, &r)) continue;
         for (size_t e = 0; e < pgi_estimator_count(); e++) {
             const pgi_estimator_vtbl *vt = pgi_estimator_at(e);
             if (!in_list(ests, vt->name)) continue;
