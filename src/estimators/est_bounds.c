@@ -73,17 +73,6 @@ typedef struct {
     size_t nphotons;
 } bounds_state;
 
-typedef struct {
-    pgi_v3 eye, right, up, fwd;
-    float sx, sy;
-    int W, H;
-} bxf;
-
-static inline pgi_v3 to_view(const bxf *x, float px, float py, float pz) {
-    pgi_v3 d = v3_sub(v3(px, py, pz), x->eye);
-    return v3(v3_dot(d, x->right), v3_dot(d, x->up), v3_dot(d, x->fwd));
-}
-
 /* A screen bound: pixel rectangle (pixel centres at integers), half-planes
  * a X + b Y <= c with (a, b) unit, and (2.5D) a depth range. */
 typedef struct {
@@ -116,8 +105,8 @@ static inline void add_edge(shape *sh, float a, float b, float c) {
     sh->n++;
 }
 
-static inline float px_of(const bxf *x, float xi) { return (xi / x->sx + 1.f) * 0.5f * (float)x->W - 0.5f; }
-static inline float py_of(const bxf *x, float yi) { return (1.f - yi / x->sy) * 0.5f * (float)x->H - 0.5f; }
+static inline float px_of(const pgi__view_xf *x, float xi) { return (xi / x->sx + 1.f) * 0.5f * (float)x->W - 0.5f; }
+static inline float py_of(const pgi__view_xf *x, float yi) { return (1.f - yi / x->sy) * 0.5f * (float)x->H - 0.5f; }
 
 static const float k_ico[12][3] = {
     {0, 1, 1.6180340f}, {0, -1, 1.6180340f}, {0, 1, -1.6180340f}, {0, -1, -1.6180340f},
@@ -141,7 +130,7 @@ static inline float cross2(const float *o, const float *a, const float *b) {
  * means the sphere has no point in front: 0 is returned. Directions where the
  * eye is inside the circle give no bound. Double precision plus an angular
  * margin of 1e-6 keep it conservative. */
-static int clipped_shape(const bxf *x, pgi_v3 c, float ri, int m, shape *sh) {
+static int clipped_shape(const pgi__view_xf *x, pgi_v3 c, float ri, int m, shape *sh) {
     const double HALF = 0.5 * 3.14159265358979323846, TWO_PI = 2.0 * 3.14159265358979323846;
     const float ax = 2.f * x->sx / (float)x->W, bx = x->sx * (1.f / (float)x->W - 1.f);
     const float ay = -2.f * x->sy / (float)x->H, by = x->sy * (1.f - 1.f / (float)x->H);
@@ -182,7 +171,7 @@ static int clipped_shape(const bxf *x, pgi_v3 c, float ri, int m, shape *sh) {
 /* Bound of a photon sphere (view-space centre c, radius r). Returns 0 when
  * no primary sample can be inside the sphere (it lies behind the eye, or its
  * bound misses the screen). */
-static int make_shape(const bounds_state *s, const bxf *x, pgi_v3 c, float r, shape *sh) {
+static int make_shape(const bounds_state *s, const pgi__view_xf *x, pgi_v3 c, float r, shape *sh) {
     float ri = inflate(c, r);
     sh->n = 0;
     sh->zlo = c.z - ri;
@@ -348,12 +337,6 @@ static pgi_status b_create_common(const pgi_estimator_desc *d, void **state, int
 static pgi_status b3_create(const pgi_estimator_desc *d, void **state) { return b_create_common(d, state, 1); }
 static pgi_status b25_create(const pgi_estimator_desc *d, void **state) { return b_create_common(d, state, 0); }
 
-static bxf make_xf(const pgi_camera *cam, int W, int H) {
-    bxf x = {v3_load(cam->eye), v3_load(cam->right), v3_load(cam->up), v3_load(cam->forward),
-             cam->tan_half_fov_y * cam->aspect, cam->tan_half_fov_y, W, H};
-    return x;
-}
-
 static pgi_status b_build(void *state, const pgi_estimate_args *a) {
     bounds_state *s = state;
     memset(&s->c.st, 0, sizeof s->c.st);
@@ -377,7 +360,7 @@ static pgi_status b_build(void *state, const pgi_estimate_args *a) {
         (st = pgi__ensure((void **)&s->counts, &s->counts_cap, (nchunks + 1) * (size_t)s->ntiles, sizeof(uint32_t))) ||
         (st = pgi__ensure((void **)&s->cview, &s->cview_cap, 3 * n + 3, sizeof(float))))
         return st;
-    const bxf x = make_xf(a->camera, W, H);
+    const pgi__view_xf x = pgi__view_xf_make(a->camera, W, H);
     double t0 = pgi__now_ms();
 #pragma omp parallel for schedule(dynamic, 4)
     for (int t = 0; t < s->ntiles; t++) {
@@ -395,7 +378,7 @@ static pgi_status b_build(void *state, const pgi_estimate_args *a) {
                 }
                 b->secondary = 1;
                 const float *p = vs->pos + 3 * i;
-                pgi_v3 q = to_view(&x, p[0], p[1], p[2]);
+                pgi_v3 q = pgi__to_view(&x, p[0], p[1], p[2]);
                 float qq[3] = {q.x, q.y, q.z};
                 for (int k = 0; k < 3; k++) {
                     b->lo[k] = fminf(b->lo[k], qq[k]);
@@ -408,7 +391,7 @@ static pgi_status b_build(void *state, const pgi_estimate_args *a) {
         if (s->tiles[t].secondary) s->sec[s->nsec++] = (uint32_t)t;
 #pragma omp parallel for schedule(static)
     for (long long j = 0; j < (long long)n; j++) {
-        pgi_v3 c = to_view(&x, ph->px[j], ph->py[j], ph->pz[j]);
+        pgi_v3 c = pgi__to_view(&x, ph->px[j], ph->py[j], ph->pz[j]);
         s->cview[3 * j] = c.x, s->cview[3 * j + 1] = c.y, s->cview[3 * j + 2] = c.z;
     }
     double t1 = pgi__now_ms();
@@ -465,7 +448,7 @@ static pgi_status b_estimate(void *state, const pgi_estimate_args *a) {
                          s->mode3d ? "bounds3d" : "bounds25d");
     const float r = s->c.desc.radius, r2 = r * r;
     const pgi_kernel kern = s->c.desc.kernel;
-    const bxf x = make_xf(a->camera, W, H);
+    const pgi__view_xf x = pgi__view_xf_make(a->camera, W, H);
     const size_t TT = (size_t)T * (size_t)T;
     int nthreads = 1;
 #ifdef _OPENMP
@@ -504,7 +487,7 @@ static pgi_status b_estimate(void *state, const pgi_estimate_args *a) {
                     memset(&acc[l], 0, sizeof acc[l]);
                     if (vs->flags[i] & PGI_VS_PRIMARY) {
                         kind[l] = 1;
-                        lz[l] = to_view(&x, lv[l].px, lv[l].py, lv[l].pz).z;
+                        lz[l] = pgi__to_view(&x, lv[l].px, lv[l].py, lv[l].pz).z;
                     } else {
                         kind[l] = 2;
                         secl[nsecl++] = (uint32_t)l;

@@ -89,15 +89,11 @@ typedef struct cnode {
 } cnode;
 
 typedef struct {
-    pgi_v3 eye, right, up, fwd;
-} view_xf;
-
-typedef struct {
     pgi__est_common c;
     int variant, T, dir_up, blur;
     /* frame */
     int W, H, ntx, nty, L, J, D;
-    view_xf x;
+    pgi__view_xf x;
     float r;
     size_t nvalid, nnodes, nchunks, chunk;
     uint32_t lvl_off[MAX_LEVELS + 2];
@@ -137,11 +133,6 @@ typedef struct {
     size_t sam_cap;
     int splatted;   /* this frame has nodes and photons (lists/buckets are valid) */
 } cl_state;
-
-static inline pgi_v3 to_view(const view_xf *x, float px, float py, float pz) {
-    pgi_v3 d = v3_sub(v3(px, py, pz), x->eye);
-    return v3(v3_dot(d, x->right), v3_dot(d, x->up), v3_dot(d, x->fwd));
-}
 
 static pgi_status cl_create_variant(const pgi_estimator_desc *d, void **state, int variant, const char *name) {
     if (d->cluster_tile < 0 || d->cluster_tile > 256)
@@ -597,7 +588,7 @@ static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, co
         for (uint32_t k = s->sbeg[li]; k < s->send[li]; k++) {
             uint32_t i = s->order[k];
             const float *p = vs->pos + 3 * (size_t)i, *n = vs->nrm + 3 * (size_t)i;
-            pgi_v3 q = to_view(&s->x, p[0], p[1], p[2]);
+            pgi_v3 q = pgi__to_view(&s->x, p[0], p[1], p[2]);
             float qq[3] = {q.x, q.y, q.z};
             for (int d = 0; d < 3; d++) {
                 lo[d] = pgi_minf(lo[d], qq[d]);
@@ -698,7 +689,7 @@ typedef struct {
 
 static inline void load_photon(const cl_state *s, const pgi__packed_photon *p, size_t j, photon_q *q) {
     const float r = s->r;
-    q->c = to_view(&s->x, p->px, p->py, p->pz);
+    q->c = pgi__to_view(&s->x, p->px, p->py, p->pz);
     q->wx = p->dx, q->wy = p->dy, q->wz = p->dz;
     q->fr = p->fr, q->fg = p->fg, q->fb = p->fb;
     /* The slack covers the rounding of the view transform of photon and samples
@@ -1085,7 +1076,7 @@ static pgi_status cl_build(void *state, const pgi_estimate_args *a) {
     s->W = vs->width;
     s->H = vs->height;
     s->r = s->c.desc.radius;
-    s->x = (view_xf){v3_load(cam->eye), v3_load(cam->right), v3_load(cam->up), v3_load(cam->forward)};
+    s->x = pgi__view_xf_make(cam, s->W, s->H);
     double t0 = pgi__now_ms(), t_sort = t0;
     pgi_status st = cl_build_hierarchy(s, vs, cam, &t_sort);
     if (st) return st;
@@ -1223,7 +1214,7 @@ static void blur_pass(const blur_planes *P, int W, int H, int R, int vertical) {
  * added in octant order. */
 PGI__HOT_LOOP
 static void dir_block(const float *restrict snx, const float *restrict sny, const float *restrict snz, int nb,
-                      const view_xf *x, const float *restrict b, float *restrict e0, float *restrict e1,
+                      const pgi__view_xf *x, const float *restrict b, float *restrict e0, float *restrict e1,
                       float *restrict e2) {
     const float c3 = 0.57735026919f;
     const float rx = x->right.x, ry = x->right.y, rz = x->right.z, ux = x->up.x, uy = x->up.y, uz = x->up.z,

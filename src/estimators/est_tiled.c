@@ -41,17 +41,6 @@ typedef struct {
     size_t copies;
 } tiled_state;
 
-typedef struct {
-    pgi_v3 eye, right, up, fwd;
-    float sx, sy;   /* tan(fov/2) * aspect, tan(fov/2) */
-    int W, H;
-} view_xf;
-
-static inline pgi_v3 to_view(const view_xf *x, float px, float py, float pz) {
-    pgi_v3 d = v3_sub(v3(px, py, pz), x->eye);
-    return v3(v3_dot(d, x->right), v3_dot(d, x->up), v3_dot(d, x->fwd));
-}
-
 static pgi_status tiled_create(const pgi_estimator_desc *d, void **state) {
     tiled_state *s = calloc(1, sizeof *s);
     if (!s) return pgi__fail(PGI_ERR_OOM, "out of memory");
@@ -72,7 +61,7 @@ static inline void silhouette(float a, float z, float r, float *u0, float *u1) {
 
 /* Sphere vs tile: box distance, then the four side planes of the tile's
  * frustum (through the eye and the tile's pixel edges) for primary tiles. */
-static inline int overlaps(const tiled_state *s, const view_xf *x, int t, pgi_v3 c, float r) {
+static inline int overlaps(const tiled_state *s, const pgi__view_xf *x, int t, pgi_v3 c, float r) {
     const tile_bounds *b = &s->bounds[t];
     if (!b->valid) return 0;
     float slack = 1e-4f * r + 1e-6f * (fabsf(c.x) + fabsf(c.y) + fabsf(c.z));
@@ -165,8 +154,7 @@ static pgi_status tiled_build(void *state, const pgi_estimate_args *a) {
         (st = pgi__ensure((void **)&s->tile_start, &s->tile_start_cap, (size_t)s->ntiles + 1, sizeof(uint32_t))) ||
         (st = pgi__ensure((void **)&s->counts, &s->counts_cap, (nchunks + 1) * (size_t)s->ntiles, sizeof(uint32_t))))
         return st;
-    view_xf x = {v3_load(cam->eye), v3_load(cam->right), v3_load(cam->up), v3_load(cam->forward),
-                 cam->tan_half_fov_y * cam->aspect, cam->tan_half_fov_y, W, H};
+    pgi__view_xf x = pgi__view_xf_make(cam, W, H);
 
     double t0 = pgi__now_ms();
 #pragma omp parallel for schedule(dynamic, 4)
@@ -184,7 +172,7 @@ static pgi_status tiled_build(void *state, const pgi_estimate_args *a) {
                 size_t i = (size_t)py * W + (size_t)px;
                 if (!(vs->flags[i] & PGI_VS_VALID)) continue;
                 const float *p = vs->pos + 3 * i;
-                pgi_v3 q = to_view(&x, p[0], p[1], p[2]);
+                pgi_v3 q = pgi__to_view(&x, p[0], p[1], p[2]);
                 float qq[3] = {q.x, q.y, q.z};
                 for (int k = 0; k < 3; k++) {
                     b->lo[k] = fminf(b->lo[k], qq[k]);
@@ -217,7 +205,7 @@ static pgi_status tiled_build(void *state, const pgi_estimate_args *a) {
         memset(cnt, 0, (size_t)ntiles * sizeof *cnt);
         size_t j1 = ((size_t)cidx + 1) * chunk < n ? ((size_t)cidx + 1) * chunk : n;
         for (size_t j = (size_t)cidx * chunk; j < j1; j++) {
-            pgi_v3 c = to_view(&x, ph->px[j], ph->py[j], ph->pz[j]);
+            pgi_v3 c = pgi__to_view(&x, ph->px[j], ph->py[j], ph->pz[j]);
             FOR_EACH_TILE(s, &x, c, r, cnt[t]++; tested++);
         }
     }
@@ -246,7 +234,7 @@ static pgi_status tiled_build(void *state, const pgi_estimate_args *a) {
         uint32_t *off = s->counts + (size_t)cidx * ntiles;
         size_t j1 = ((size_t)cidx + 1) * chunk < n ? ((size_t)cidx + 1) * chunk : n;
         for (size_t j = (size_t)cidx * chunk; j < j1; j++) {
-            pgi_v3 c = to_view(&x, ph->px[j], ph->py[j], ph->pz[j]);
+            pgi_v3 c = pgi__to_view(&x, ph->px[j], ph->py[j], ph->pz[j]);
             FOR_EACH_TILE(s, &x, c, r, pgi__pack_photon(ph, j, &s->tile_photons[off[t]++]));
         }
     }
