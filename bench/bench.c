@@ -86,8 +86,8 @@ static int run_table1(const char *scenes, int frames, unsigned photons, int widt
         if (!open_scene(sc, &scene, &r)) continue;
         for (size_t c = 0; c < sizeof cfg / sizeof cfg[0]; c++) {
             pgi_render_desc d = {.estimator = cfg[c].estimator, .photons = photons, .width = width, .height = height,
-                                 .threads = threads, .seed = 1, .radius = radius, .radius_set = radius > 0.f,
-                                 .knn = cfg[c].knn, .polygon_vertices = cfg[c].polygon, .direct_samples = 1};
+                                 .threads = threads, .seed = 1, .radius = radius, .direct_samples = 1,
+                                 .est = {.kdtree.knn = cfg[c].knn, .bounds.polygon = cfg[c].polygon}};
             double tb[MAXF], te[MAXF];
             pgi_frame_stats fs;
             pgi_image img = {0};
@@ -205,12 +205,12 @@ int main(int argc, char **argv) {
         for (size_t e = 0; e < pgi_estimator_count(); e++) {
             const pgi_estimator_vtbl *vt = pgi_estimator_at(e);
             if (!in_list(ests, vt->name)) continue;
-            if (strcmp(vt->name, "brute") == 0 && !brute) {
+            if (vt->oracle && !brute) {
                 printf("%-14s %-10s skipped: O(photons x pixels) oracle (--include-brute)\n", sc, vt->name);
                 continue;
             }
             pgi_render_desc d = {.estimator = vt->name, .photons = photons, .width = width, .height = height,
-                                 .threads = threads, .seed = 1, .radius = radius, .radius_set = radius > 0.f};
+                                 .threads = threads, .seed = 1, .radius = radius};
             double t[6][MAXF], prim[MAXF], phot[MAXF];
             pgi_frame_stats fs;
             pgi_image img = {0};

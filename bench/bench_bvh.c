@@ -15,9 +15,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "photon/photon.h"
-#include "scene/scene_internal.h"
-#include "view/view.h"
+#include "photongi/photongi.h"
 
 #include "bench_common.h"
 
@@ -58,48 +56,26 @@ int main(int argc, char **argv) {
     }
     if (frames < 1 || frames > MAXF || photons < 1 || width < 1 || height < 1) return 2;
     int diff = strcmp(policy, "differentials") == 0;
-    if (threads > 0) omp_set_num_threads(threads);
 
     pgi_scene *s;
     if (pgi_scene_load(scene_name, &s)) return die("cannot load scene");
-    if (!(radius > 0.f)) radius = s->defaults.radius > 0.f ? s->defaults.radius : 0.02f * v3_len(v3_sub(v3_load(s->bmax), v3_load(s->bmin)));
-    pgi_rt *rt;
-    if (pgi__rt_create(s, &rt)) return die("ray tracing scene");
-    pgi_camera cam;
-    const pgi_camera_def *cd = &s->cams[0];
-    pgi_camera_look_at(&cam, cd->eye, cd->look_at, cd->up, cd->fov_y_deg, width, height);
-    pgi_view_samples vs;
-    if (pgi_view_samples_alloc(&vs, width, height)) return die("view samples");
-    float *emit = malloc(3 * vs.count * sizeof(float)), *out = malloc(3 * vs.count * sizeof(float));
-    uint64_t rays;
-    if (!emit || !out || pgi__view_build(s, rt, &cam, 1, &vs, emit, &rays)) return die("view");
-    pgi_photons ph;
-    if (pgi_photons_alloc(&ph, photons)) return die("photons");
-    float *fp = NULL;
-    uint64_t hist[PGI_FOOTPRINT_BINS] = {0};
-    pgi_trace_desc td = {.photons = photons, .bounces = s->defaults.bounces > 0 ? s->defaults.bounces : 4, .seed = 1};
-    if (diff) {
-        fp = malloc(7 * (size_t)photons * sizeof(float));
-        if (!fp) return 1;
-        ph.radius = fp;
-        float **ax[] = {&ph.sax, &ph.say, &ph.saz, &ph.sbx, &ph.sby, &ph.sbz};
-        for (int k = 0; k < 6; k++) *ax[k] = fp + (size_t)(k + 1) * photons;
-        td.radius_policy = PGI_RADIUS_DIFFERENTIALS;
-        td.r_max = radius;
-        td.r_min = radius / 8.f;
-        td.smoothing = smoothing;
-        td.footprint_hist = hist;
-    }
-    pgi_trace_scratch scr = {0};
-    double t0 = pgi__now_ms();
-    if (pgi__photons_trace(s, rt, &td, &ph, &scr, &rays)) return die("trace");
-    double trace_ms = pgi__now_ms() - t0;
-    double area = 0.0;
-    for (size_t t = 0; t < s->ntris; t++) {
-        const uint32_t *v = s->tri + 3 * t;
-        pgi_v3 p0 = pgi__scene_vertex(s, v[0]), p1 = pgi__scene_vertex(s, v[1]), p2 = pgi__scene_vertex(s, v[2]);
-        area += 0.5 * (double)v3_len(v3_cross(v3_sub(p1, p0), v3_sub(p2, p0)));
-    }
+    pgi_renderer *r;
+    if (pgi_renderer_create(s, &r)) return die("renderer");
+    /* View samples and one photon map, as a frame makes them. */
+    pgi_render_desc rd = {.photons = photons, .radius = radius, .width = width, .height = height, .seed = 1,
+                          .threads = threads, .smoothing = smoothing,
+                          .radius_policy = diff ? PGI_RADIUS_DIFFERENTIALS : PGI_RADIUS_FIXED};
+    rd.estimator = diff ? "bvh" : NULL;
+    pgi_frame_inputs in;
+    pgi_frame_stats fs;
+    if (pgi_renderer_prepare(r, &rd, &in, &fs)) return die("view samples / photons");
+    radius = in.radius;
+    const pgi_photons ph = *in.photons;
+    const pgi_view_samples vs = *in.samples;
+    const double area = in.scene_area, trace_ms = fs.trace_ms;
+    const uint64_t *hist = fs.footprint_hist;
+    float *out = malloc(3 * vs.count * sizeof(float));
+    if (!out) return die("output buffer");
     double fp_area = 0.0;
     for (size_t j = 0; j < ph.count; j++) {
         double r = diff ? ph.radius[j] : radius;
@@ -109,7 +85,7 @@ int main(int argc, char **argv) {
     printf("scene %s, %dx%d, %zu photons (%s footprints, r%s = %g), scene area %.1f, %d threads, %d frames, "
            "trace %.0f ms\n",
            scene_name, width, height, ph.count, policy, diff ? "_max" : "", (double)radius, area,
-           omp_get_max_threads(), frames, trace_ms);
+           threads > 0 ? threads : omp_get_max_threads(), frames, trace_ms);
 
     static const int leaves[NL] = {1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 0};
     static double bms[2][NL][MAXF], ems[2][NL][MAXF];
@@ -118,11 +94,11 @@ int main(int argc, char **argv) {
     for (int f = 0; f < frames; f++)
         for (int b = 0; b < 2; b++)
             for (int l = 0; l < NL; l++) {
-                pgi_estimator_desc d = {.radius = radius, .bvh_build = b, .leaf_size = leaves[l],
-                                        .scene_area = (float)area};
+                pgi_estimator_desc d = {.bvh = {.build = (pgi_bvh_build)b, .leaf_size = leaves[l]}};
                 pgi_estimator *e;
                 if (pgi_estimator_create("bvh", &d, &e)) return die("create");
-                pgi_estimate_args a = {&ph, &vs, &cam, out};
+                pgi_estimate_args a = {.photons = &ph, .samples = &vs, .camera = &in.camera, .out_rgb = out,
+                                       .radius = radius, .seed = 1, .threads = threads, .scene_area = (float)area};
                 if (pgi_estimator_build(e, &a) || pgi_estimator_estimate(e, &a)) return die("bvh");
                 pgi_estimator_stats st;
                 pgi_estimator_get_stats(e, &st);
@@ -164,13 +140,8 @@ int main(int argc, char **argv) {
             else printf("  > %-15.4f %9llu\n", lo, (unsigned long long)hist[k]);
         }
     }
-    free(fp);
-    pgi_photons_free(&ph);
-    pgi__trace_scratch_free(&scr);
-    pgi_view_samples_free(&vs);
-    free(emit);
     free(out);
-    pgi__rt_destroy(rt);
+    pgi_renderer_destroy(r);
     pgi_scene_destroy(s);
     return 0;
 }

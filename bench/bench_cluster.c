@@ -19,9 +19,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "photon/photon.h"
-#include "scene/scene_internal.h"
-#include "view/view.h"
+#include "photongi/photongi.h"
 
 #include "bench_common.h"
 
@@ -72,7 +70,6 @@ int main(int argc, char **argv) {
         fprintf(stderr, "photongi-bench-cluster: --frames must be 1..%d\n", MAXF);
         return 2;
     }
-    if (threads > 0) omp_set_num_threads(threads);
     FILE *csv = csv_path ? fopen(csv_path, "w") : NULL;
     if (csv_path && !csv) {
         fprintf(stderr, "photongi-bench-cluster: cannot write %s\n", csv_path);
@@ -83,6 +80,11 @@ int main(int argc, char **argv) {
                      "contributing,nodes_visited,passes,memory\n");
     printf("threads %d, %dx%d, medians of %d frames after a warm-up (ms)\n", threads > 0 ? threads : omp_get_max_threads(),
            width, height, frames);
+    float *out = malloc(3 * (size_t)width * (size_t)height * sizeof *out);
+    if (!out) {
+        fprintf(stderr, "photongi-bench-cluster: out of memory\n");
+        return 1;
+    }
     char sbuf[1024];
     snprintf(sbuf, sizeof sbuf, "%s", scenes);
     char *ssave = NULL;
@@ -92,25 +94,15 @@ int main(int argc, char **argv) {
             fprintf(stderr, "photongi-bench-cluster: skipping %s: %s\n", sc, pgi_last_error());
             continue;
         }
-        pgi_rt *rt = NULL;
-        if (pgi__rt_create(scene, &rt) != PGI_OK) {
+        pgi_renderer *r = NULL;
+        if (pgi_renderer_create(scene, &r) != PGI_OK) {
             fprintf(stderr, "photongi-bench-cluster: %s: %s\n", sc, pgi_last_error());
             pgi_scene_destroy(scene);
             continue;
         }
-        pgi_camera cam;
-        const pgi_camera_def *cd = &scene->cams[0];
-        pgi_camera_look_at(&cam, cd->eye, cd->look_at, cd->up, cd->fov_y_deg, width, height);
-        pgi_view_samples vs;
-        float *emit = NULL, *out = NULL;
-        uint64_t rays = 0;
-        if (pgi_view_samples_alloc(&vs, width, height) != PGI_OK ||
-            !(emit = malloc(3 * vs.count * sizeof *emit)) || !(out = malloc(3 * vs.count * sizeof *out)) ||
-            pgi__view_build(scene, rt, &cam, 1, &vs, emit, &rays) != PGI_OK) {
-            fprintf(stderr, "photongi-bench-cluster: %s: view samples failed: %s\n", sc, pgi_last_error());
-            return 1;
-        }
-        float r0 = scene->defaults.radius > 0.f ? scene->defaults.radius : 1.f;
+        pgi_scene_info info;
+        pgi_scene_get_info(scene, &info);
+        float r0 = info.defaults.radius > 0.f ? info.defaults.radius : 1.f;
         char cbuf[1024];
         snprintf(cbuf, sizeof cbuf, "%s", cases);
         char *csave = NULL;
@@ -123,14 +115,15 @@ int main(int argc, char **argv) {
                 fprintf(stderr, "photongi-bench-cluster: bad case '%s'\n", cs);
                 return 2;
             }
-            pgi_photons ph;
-            pgi_trace_scratch scratch = {0};
-            pgi_trace_desc td = {.photons = (uint32_t)np, .bounces = 4, .seed = 1};
-            if (pgi_photons_alloc(&ph, np) != PGI_OK ||
-                pgi__photons_trace(scene, rt, &td, &ph, &scratch, &rays) != PGI_OK) {
-                fprintf(stderr, "photongi-bench-cluster: %s: photons failed: %s\n", sc, pgi_last_error());
+            /* View samples and photons once per case, as a frame makes them. */
+            pgi_frame_inputs in;
+            pgi_render_desc rd = {.photons = (uint32_t)np, .radius = radius, .width = width, .height = height,
+                                  .bounces = 4, .seed = 1, .threads = threads};
+            if (pgi_renderer_prepare(r, &rd, &in, NULL) != PGI_OK) {
+                fprintf(stderr, "photongi-bench-cluster: %s: view samples / photons failed: %s\n", sc, pgi_last_error());
                 return 1;
             }
+            const pgi_photons ph = *in.photons;
             printf("\n== %s  %zu photons  r = %g\n", sc, ph.count, (double)radius);
             printf("%-16s %9s %9s %9s | %12s %12s %7s | passes (ms) | memory (MiB)\n", "estimator", "build", "estimate",
                    "total", "reads", "contrib", "reject");
@@ -141,12 +134,13 @@ int main(int argc, char **argv) {
             char *esave = NULL;
             for (char *en = strtok_r(ebuf, ",", &esave); en && nres < MAXE; en = strtok_r(NULL, ",", &esave)) {
                 pgi_estimator *e = NULL;
-                pgi_estimator_desc d = {.radius = radius, .threads = threads};
-                if (pgi_estimator_create(en, &d, &e) != PGI_OK) {
+                if (pgi_estimator_create(en, &(pgi_estimator_desc){0}, &e) != PGI_OK) {
                     fprintf(stderr, "photongi-bench-cluster: %s: %s\n", en, pgi_last_error());
                     continue;
                 }
-                pgi_estimate_args a = {&ph, &vs, &cam, out};
+                pgi_estimate_args a = {.photons = in.photons, .samples = in.samples, .camera = &in.camera,
+                                       .out_rgb = out, .radius = radius, .seed = 1, .threads = threads,
+                                       .scene_area = in.scene_area};
                 double tb[MAXF], te[MAXF], tp[PGI_EST_MAX_ENTRIES][MAXF];
                 pgi_estimator_stats st = {0};
                 int ok = 1;
@@ -194,15 +188,11 @@ int main(int argc, char **argv) {
             }
             if (t_tiled > 0 && t_triv > 0) printf("ratio tiled / cluster-trivial       = %.2f\n", t_tiled / t_triv);
             if (t_triv > 0 && t_dir > 0) printf("ratio cluster-trivial / directional = %.2f\n", t_triv / t_dir);
-            pgi__trace_scratch_free(&scratch);
-            pgi_photons_free(&ph);
         }
-        free(emit);
-        free(out);
-        pgi_view_samples_free(&vs);
-        pgi__rt_destroy(rt);
+        pgi_renderer_destroy(r);
         pgi_scene_destroy(scene);
     }
+    free(out);
     if (csv) fclose(csv);
     return 0;
 }

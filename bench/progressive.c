@@ -54,7 +54,7 @@ int main(int argc, char **argv) {
     pgi_scene_info info;
     pgi_scene_get_info(s, &info);
     if (!photons) photons = info.defaults.photons ? info.defaults.photons : 200000;
-    pgi_render_desc d = {.estimator = est, .photons = photons, .photons_set = 1, .width = w, .height = h, .seed = 1};
+    pgi_render_desc d = {.estimator = est, .photons = photons, .width = w, .height = h, .seed = 1};
     pgi_reference_desc rd = {.width = w, .height = h, .seed = 0x5eed5eedULL, .spp = ref_spp};
     pgi_image ref = {0}, img = {0};
     pgi_frame_stats fs;
@@ -68,10 +68,12 @@ int main(int argc, char **argv) {
            photons, (unsigned long long)spp_done, (double)clock() / CLOCKS_PER_SEC - t0);
     printf("frames,radius,psnr_db,ssim,ms_per_frame\n");
     pgi_renderer *r;
+    pgi_progressive *prog;
     if (pgi_renderer_create(s, &r)) return 1;
+    if (pgi_progressive_create(r, &prog)) return 1;
     int reached = 0;
     for (int k = 1; k <= frames; k++) {
-        if (pgi_renderer_accumulate(r, &d, &img, &fs)) {
+        if (pgi_progressive_step(prog, &d, &img, &fs)) {
             fprintf(stderr, "photongi-bench-progressive: %s\n", pgi_last_error());
             return 1;
         }
@@ -86,6 +88,7 @@ int main(int argc, char **argv) {
     }
     printf("# %.1f dB %s %d frames\n", target, reached ? "reached after" : "not reached in",
            reached ? reached : frames);
+    pgi_progressive_destroy(prog);
     pgi_renderer_destroy(r);
     pgi_image_free(&ref);
     pgi_image_free(&img);

@@ -83,7 +83,7 @@ static void test_uniform_plane(void **state) {
         const pgi_estimator_vtbl *vt = pgi_estimator_at(e);
         if (!vt->exact) continue;
         pgi_estimator_stats st;
-        TU_CHECK_OK(tu_run_estimator(vt->name, &(pgi_estimator_desc){.radius = PLANE_R}, &ph, &vs, &cam, out, &st));
+        TU_CHECK_OK(tu_run_estimator(vt->name, &(tu_est){.radius = PLANE_R}, &ph, &vs, &cam, out, &st));
         for (int c = 0; c < 3; c++) {
             const double expect = kd[c] / PI_D * E;
             double sum = 0.0, worst = 0.0;
@@ -122,7 +122,7 @@ static void test_plane_from_below(void **state) {
         if (!vt->exact) continue;   /* approximate ones (directional) have their own bounds */
         for (size_t i = 0; i < 3 * vs.count; i++) out[i] = NAN;
         pgi_estimator_stats st;
-        TU_CHECK_OK(tu_run_estimator(vt->name, &(pgi_estimator_desc){.radius = PLANE_R}, &ph, &vs, &cam, out, &st));
+        TU_CHECK_OK(tu_run_estimator(vt->name, &(tu_est){.radius = PLANE_R}, &ph, &vs, &cam, out, &st));
         for (size_t i = 0; i < 3 * vs.count; i++)
             if (out[i] != 0.f) fail_msg("%s: value %zu is %g for photons from below", vt->name, i, (double)out[i]);
         assert_int_equal(st.contributing, 0);
@@ -161,7 +161,7 @@ static void test_kernel_normalisation(void **state) {
         const pgi_estimator_vtbl *vt = pgi_estimator_at(e);
         if (!vt->exact) continue;   /* approximate ones (directional) have their own bounds */
         pgi_estimator_stats st;
-        TU_CHECK_OK(tu_run_estimator(vt->name, &(pgi_estimator_desc){.radius = r}, &ph, &vs, &cam, out, &st));
+        TU_CHECK_OK(tu_run_estimator(vt->name, &(tu_est){.radius = r}, &ph, &vs, &cam, out, &st));
         for (int c = 0; c < 3; c++) {
             double integral = 0.0;
             for (size_t i = 0; i < vs.count; i++) integral += out[3 * i + c] * cell;
@@ -202,7 +202,7 @@ static void furnace_render(int bounces, pgi_output output, pgi_image *img) {
     assert_int_equal(info.point_lights, 1);
     assert_true(info.triangles > 10000);
     pgi_render_desc d = {.estimator = "hashgrid", .width = 64, .height = 48, .bounces = bounces,
-                         .photons = 400000, .photons_set = 1, .radius = 0.1f, .radius_set = 1,
+                         .photons = 400000, .radius = 0.1f,
                          .output = output, .seed = 3};
     pgi_frame_stats fs;
     TU_CHECK_OK(pgi_render(s, &d, img, &fs));

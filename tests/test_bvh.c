@@ -93,14 +93,14 @@ static void compare_bvh(const pgi_photons *ph, const pgi_view_samples *vs, const
     float *ref = malloc(nf * sizeof *ref), *got = malloc(nf * sizeof *got);
     assert_non_null(ref);
     assert_non_null(got);
-    pgi_estimator_desc d = {.radius = radius};
+    tu_est d = {.radius = radius};
     pgi_estimator_stats rs, gs;
     TU_CHECK_OK(tu_run_estimator("brute", &d, ph, vs, cam, ref, &rs));
     assert_true(rs.contributing > 0);
     for (int b = 0; b < 2; b++)
         for (size_t l = 0; l < NLEAVES; l++) {
-            d.bvh_build = b;
-            d.leaf_size = k_leaves[l];
+            d.d.bvh.build = b;
+            d.d.bvh.leaf_size = k_leaves[l];
             for (size_t i = 0; i < nf; i++) got[i] = NAN;
             TU_CHECK_OK(tu_run_estimator("bvh", &d, ph, vs, cam, got, &gs));
             char what[160];
@@ -204,7 +204,7 @@ static void test_ellipsoids(void **state) {
     uint64_t rc;
     ellipsoid_reference(&ph, &vs, ref, &rc);
     assert_true(rc > 100);
-    pgi_estimator_desc d = {.radius = 1.f};
+    tu_est d = {.radius = 1.f};
     pgi_estimator_stats st;
     TU_CHECK_OK(tu_run_estimator("brute", &d, &ph, &vs, &cam, got, &st));
     assert_int_equal(tu_compare(got, ref, nf, 1e-4, "brute ellipsoids vs double-precision reference"), 0);
@@ -232,7 +232,7 @@ static void test_t_auto(void **state) {
     for (int c = 0; c < 3; c++) {
         pgi_photons ph;
         make_photons(&ph, counts[c], 72, 0, 0.f);
-        pgi_estimator_desc d = {.radius = 0.1f, .scene_area = 6.f};
+        tu_est d = {.radius = 0.1f, .scene_area = 6.f};
         pgi_estimator_stats st;
         TU_CHECK_OK(tu_run_estimator("bvh", &d, &ph, &vs, &cam, out, &st));
         int expect = (int)(16.0 + 6.0 * (double)counts[c] * 3.14159265358979 * 0.01 / 6.0 + 0.5);
@@ -252,16 +252,16 @@ static void test_t_auto(void **state) {
 static void test_errors(void **state) {
     (void)state;
     pgi_estimator *e = NULL;
-    pgi_estimator_desc d = {.radius = 0.1f, .bvh_build = 2};
-    assert_int_equal(pgi_estimator_create("bvh", &d, &e), PGI_ERR_INVALID_ARG);
+    tu_est d = {.radius = 0.1f, .d.bvh.build = 2};
+    assert_int_equal(tu_create("bvh", &d, &e), PGI_ERR_INVALID_ARG);
     assert_non_null(strstr(pgi_last_error(), "BVH build"));
-    d.bvh_build = 0;
-    d.leaf_size = -1;
-    assert_int_equal(pgi_estimator_create("bvh", &d, &e), PGI_ERR_INVALID_ARG);
+    d.d.bvh.build = 0;
+    d.d.bvh.leaf_size = -1;
+    assert_int_equal(tu_create("bvh", &d, &e), PGI_ERR_INVALID_ARG);
     assert_non_null(strstr(pgi_last_error(), "leaf size"));
-    d.leaf_size = 0;
+    d.d.bvh.leaf_size = 0;
     d.scene_area = -1.f;
-    assert_int_equal(pgi_estimator_create("bvh", &d, &e), PGI_ERR_INVALID_ARG);
+    assert_int_equal(tu_create("bvh", &d, &e), PGI_ERR_INVALID_ARG);
     d.scene_area = 0.f;
     /* per-photon footprints need PGI_EST_CAP_PHOTON_RADIUS: hashgrid refuses them */
     pgi_photons ph;
@@ -296,7 +296,7 @@ static void pipeline(const char *scene_name, int w, int h, uint32_t photons, int
     TU_CHECK_OK(pgi_scene_load(scene_name, &scene));
     pgi_renderer *r = NULL;
     TU_CHECK_OK(pgi_renderer_create(scene, &r));
-    pgi_render_desc d = {.estimator = "brute", .photons = photons, .photons_set = 1, .width = w, .height = h,
+    pgi_render_desc d = {.estimator = "brute", .photons = photons, .width = w, .height = h,
                          .output = PGI_OUTPUT_INDIRECT, .seed = 3, .radius_policy = policy};
     pgi_image ref = {0}, img = {0};
     pgi_frame_stats rs, fs;
@@ -307,8 +307,8 @@ static void pipeline(const char *scene_name, int w, int h, uint32_t photons, int
     d.estimator = "bvh";
     for (int b = 0; b < 2; b++)
         for (int l = 0; l < 4; l++) {
-            d.bvh_build = b;
-            d.leaf_size = leaves[l];
+            d.est.bvh.build = b;
+            d.est.bvh.leaf_size = leaves[l];
             TU_CHECK_OK(pgi_renderer_render(r, &d, &img, &fs));
             char what[160];
             snprintf(what, sizeof what, "%s policy %d: bvh %s leaf %d (used %d) vs brute", scene_name, policy,
@@ -354,8 +354,8 @@ static void test_determinism(void **state) {
         pgi_image ref = {0};
         const int threads[] = {1, 2, 8};
         for (int k = 0; k < 3; k++) {
-            pgi_render_desc d = {.estimator = "bvh", .width = 40, .height = 40, .photons = 6000, .photons_set = 1,
-                                 .threads = threads[k], .seed = 7, .bvh_build = b,
+            pgi_render_desc d = {.estimator = "bvh", .width = 40, .height = 40, .photons = 6000,
+                                 .threads = threads[k], .seed = 7, .est.bvh.build = b,
                                  .radius_policy = PGI_RADIUS_DIFFERENTIALS, .output = PGI_OUTPUT_INDIRECT};
             pgi_image img = {0};
             TU_CHECK_OK(pgi_render(scene, &d, &img, NULL));

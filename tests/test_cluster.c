@@ -89,20 +89,20 @@ static void make_plane_photons(pgi_photons *ph, size_t n, uint64_t seed, float s
 
 /* Runs `name` and brute and requires equal images and contributing counts;
  * returns the estimator's stats. */
-static pgi_estimator_stats expect_equal(const char *name, const pgi_estimator_desc *d, const pgi_photons *ph,
+static pgi_estimator_stats expect_equal(const char *name, const tu_est *d, const pgi_photons *ph,
                                         const pgi_view_samples *vs, const pgi_camera *cam, const char *label) {
     size_t nf = 3 * vs->count;
     float *ref = malloc(nf * sizeof *ref), *got = malloc(nf * sizeof *got);
     assert_non_null(ref);
     assert_non_null(got);
     pgi_estimator_stats rs, gs;
-    pgi_estimator_desc bd = {.radius = d->radius};
+    tu_est bd = {.radius = d->radius};
     TU_CHECK_OK(tu_run_estimator("brute", &bd, ph, vs, cam, ref, &rs));
     for (size_t i = 0; i < nf; i++) got[i] = NAN;
     TU_CHECK_OK(tu_run_estimator(name, d, ph, vs, cam, got, &gs));
     char what[200];
     snprintf(what, sizeof what, "%s vs brute, %s, r=%g, cluster tile %d", name, label, (double)d->radius,
-             d->cluster_tile);
+             d->d.cluster.tile);
     tu_expect_same(what, got, ref, nf, gs.contributing, rs.contributing);
     free(ref);
     free(got);
@@ -120,7 +120,7 @@ static void plane_case(const plane_setup *ps, size_t nphotons, float radius, flo
     for (size_t t = 0; t < sizeof tiles / sizeof tiles[0]; t++) {
         pgi_estimator_stats st[NEXACT];
         for (int e = 0; e < NEXACT; e++) {
-            pgi_estimator_desc d = {.radius = radius, .cluster_tile = tiles[t]};
+            tu_est d = {.radius = radius, .d.cluster.tile = tiles[t]};
             st[e] = expect_equal(k_exact[e], &d, &ph, &vs, &cam, label);
         }
         assert_true(st[0].contributing > 0);
@@ -169,7 +169,7 @@ static void run_all_zero_ok(const pgi_photons *ph, const pgi_view_samples *vs, c
     for (int e = 0; e < 4; e++) {
         for (size_t i = 0; i < 3 * vs->count; i++) out[i] = NAN;
         pgi_estimator_stats st;
-        TU_CHECK_OK(tu_run_estimator(names[e], &(pgi_estimator_desc){.radius = radius}, ph, vs, cam, out, &st));
+        TU_CHECK_OK(tu_run_estimator(names[e], &(tu_est){.radius = radius}, ph, vs, cam, out, &st));
         for (size_t i = 0; i < 3 * vs->count; i++) {
             if (!isfinite(out[i])) fail_msg("%s: value %zu not written or not finite", names[e], i);
             if (expect_zero && out[i] != 0.f) fail_msg("%s: value %zu is %g, expected 0", names[e], i, (double)out[i]);
@@ -200,7 +200,7 @@ static void test_one_sample(void **state) {
     pgi_photons ph;
     make_plane_photons(&ph, 3000, 34, 0.5f);
     for (int e = 0; e < NEXACT; e++) {
-        pgi_estimator_desc d = {.radius = 0.3f};
+        tu_est d = {.radius = 0.3f};
         pgi_estimator_stats st = expect_equal(k_exact[e], &d, &ph, &vs, &cam, "1x1 frame");
         assert_true(st.contributing > 0);
     }
@@ -210,7 +210,7 @@ static void test_one_sample(void **state) {
     for (size_t i = 0; i < vs.count; i++)
         if (i != 817) vs.flags[i] = 0;
     for (int e = 0; e < NEXACT; e++) {
-        pgi_estimator_desc d = {.radius = 0.3f, .cluster_tile = 4};
+        tu_est d = {.radius = 0.3f, .d.cluster.tile = 4};
         pgi_estimator_stats st = expect_equal(k_exact[e], &d, &ph, &vs, &cam, "one valid sample");
         assert_true(st.contributing > 0);
     }
@@ -240,7 +240,7 @@ static void test_radius_larger_than_scene(void **state) {
     pgi_photons ph;
     make_plane_photons(&ph, 400, 39, 1.f);
     for (int e = 0; e < NEXACT; e++) {
-        pgi_estimator_desc d = {.radius = 50.f};
+        tu_est d = {.radius = 50.f};
         pgi_estimator_stats st = expect_equal(k_exact[e], &d, &ph, &vs, &cam, "radius 50 (whole scene)");
         assert_true(st.contributing > 0);
     }
@@ -252,22 +252,22 @@ static void test_create_errors(void **state) {
     const char *names[] = {"cluster", "cluster-cone", "cluster-trivial", "directional"};
     for (int e = 0; e < 4; e++) {
         pgi_estimator *x = NULL;
-        pgi_estimator_desc bad[] = {{.radius = 0.1f, .cluster_tile = -1}, {.radius = 0.1f, .cluster_tile = 257},
-                                    {.radius = 0.1f, .directional_level = -2},
-                                    {.radius = 0.1f, .directional_level = 17},
-                                    {.radius = 0.1f, .directional_blur = 65}};
+        tu_est bad[] = {{.radius = 0.1f, .d.cluster.tile = -1}, {.radius = 0.1f, .d.cluster.tile = 257},
+                                    {.radius = 0.1f, .d.directional.level = -2},
+                                    {.radius = 0.1f, .d.directional.level = 17},
+                                    {.radius = 0.1f, .d.directional.blur = 65}};
         for (size_t k = 0; k < sizeof bad / sizeof bad[0]; k++) {
-            assert_int_equal(pgi_estimator_create(names[e], &bad[k], &x), PGI_ERR_INVALID_ARG);
+            assert_int_equal(tu_create(names[e], &bad[k], &x), PGI_ERR_INVALID_ARG);
             assert_null(x);
             assert_non_null(strstr(pgi_last_error(), names[e]));
         }
-        TU_CHECK_OK(pgi_estimator_create(names[e], &(pgi_estimator_desc){.radius = 0.1f, .cluster_tile = 256}, &x));
+        TU_CHECK_OK(tu_create(names[e], &(tu_est){.radius = 0.1f, .d.cluster.tile = 256}, &x));
         pgi_estimator_destroy(x);
     }
     /* only the constant kernel */
     pgi_estimator *x = NULL;
     assert_int_equal(
-        pgi_estimator_create("cluster-trivial", &(pgi_estimator_desc){.radius = 0.1f, .kernel = PGI_KERNEL_CONE}, &x),
+        tu_create("cluster-trivial", &(tu_est){.radius = 0.1f, .d.kernel = PGI_KERNEL_CONE}, &x),
         PGI_ERR_INVALID_ARG);
     /* build/estimate with a camera of another size */
     plane_setup ps = {20, 10, 0.f, 0.f, 0, 0.f};
@@ -278,7 +278,7 @@ static void test_create_errors(void **state) {
     make_plane_photons(&ph, 10, 41, 1.f);
     cam.width = 21;
     float *out = malloc(3 * vs.count * sizeof *out);
-    assert_int_equal(tu_run_estimator("cluster", &(pgi_estimator_desc){.radius = 0.1f}, &ph, &vs, &cam, out, NULL),
+    assert_int_equal(tu_run_estimator("cluster", &(tu_est){.radius = 0.1f}, &ph, &vs, &cam, out, NULL),
                      PGI_ERR_INVALID_ARG);
     free(out);
     pgi_photons_free(&ph);
@@ -327,8 +327,8 @@ static void test_thread_counts(void **state) {
         for (int t = 0; t < 3; t++) {
             pgi_image img = {0};
             pgi_frame_stats fs;
-            pgi_render_desc d = {.estimator = names[e], .width = S, .height = S, .photons = 20000, .photons_set = 1,
-                                 .radius = 0.1f, .radius_set = 1, .threads = threads[t], .seed = 7};
+            pgi_render_desc d = {.estimator = names[e], .width = S, .height = S, .photons = 20000,
+                                 .radius = 0.1f, .threads = threads[t], .seed = 7};
             TU_CHECK_OK(pgi_render(scene, &d, t ? &img : &ref, t ? &fs : &rs));
             if (!t) continue;
             if (memcmp(img.rgb, ref.rgb, bytes) != 0)
@@ -369,9 +369,9 @@ static void test_directional_close_to_cluster(void **state) {
     TU_CHECK_OK(pgi_renderer_create(scene, &r));
     const int S = 128;
     pgi_image ref = {0}, dir = {0};
-    pgi_render_desc d = {.estimator = "cluster", .width = S, .height = S, .photons = 100000, .photons_set = 1,
-                         .radius = 0.12f, .radius_set = 1, .output = PGI_OUTPUT_INDIRECT, .seed = 3,
-                         .cluster_tile = 2};
+    pgi_render_desc d = {.estimator = "cluster", .width = S, .height = S, .photons = 100000,
+                         .radius = 0.12f, .output = PGI_OUTPUT_INDIRECT, .seed = 3,
+                         .est.cluster.tile = 2};
     TU_CHECK_OK(pgi_renderer_render(r, &d, &ref, NULL));
     d.estimator = "directional";
     TU_CHECK_OK(pgi_renderer_render(r, &d, &dir, NULL));
@@ -382,7 +382,7 @@ static void test_directional_close_to_cluster(void **state) {
             S, S, e, sa / sb);
     assert_true(e < 0.25);
     assert_true(e > 1e-4);
-    d.directional_blur = -1;
+    d.est.directional.blur = PGI_DIRECTIONAL_NO_BLUR;
     pgi_image nob = {0};
     TU_CHECK_OK(pgi_renderer_render(r, &d, &nob, NULL));
     double e2 = rel_l1(nob.rgb, ref.rgb, 3 * (size_t)S * S);

@@ -316,7 +316,7 @@ static void test_frame_footprints(void **state) {
     pgi_image img = {0};
     pgi_frame_stats fs;
     for (int policy = PGI_RADIUS_PATH; policy <= PGI_RADIUS_DIFFERENTIALS; policy++) {
-        pgi_render_desc d = {.estimator = "bvh", .photons = 5000, .photons_set = 1, .width = 32, .height = 32,
+        pgi_render_desc d = {.estimator = "bvh", .photons = 5000, .width = 32, .height = 32,
                              .radius_policy = policy, .r_max = 0.1f, .r_min = 0.02f, .output = PGI_OUTPUT_INDIRECT};
         TU_CHECK_OK(pgi_renderer_render(r, &d, &img, &fs));
         assert_int_equal(fs.radius_policy, policy);
@@ -335,7 +335,7 @@ static void test_frame_footprints(void **state) {
         assert_true(tu_max_abs(img.rgb, 3 * 32 * 32) > 0.0);
     }
     /* the fixed policy reports no histogram */
-    pgi_render_desc d = {.estimator = "bvh", .photons = 2000, .photons_set = 1, .width = 16, .height = 16};
+    pgi_render_desc d = {.estimator = "bvh", .photons = 2000, .width = 16, .height = 16};
     TU_CHECK_OK(pgi_renderer_render(r, &d, &img, &fs));
     assert_true(fs.footprint_bin_width == 0.f);
     pgi_image_free(&img);
@@ -355,7 +355,7 @@ static void test_t_auto_grows(void **state) {
     int prev = 0;
     const uint32_t counts[] = {5000, 20000, 80000};
     for (int k = 0; k < 3; k++) {
-        pgi_render_desc d = {.estimator = "bvh", .photons = counts[k], .photons_set = 1, .width = 16, .height = 16};
+        pgi_render_desc d = {.estimator = "bvh", .photons = counts[k], .width = 16, .height = 16};
         TU_CHECK_OK(pgi_renderer_render(r, &d, &img, &fs));
         assert_true(fs.leaf_size > prev);
         prev = fs.leaf_size;
@@ -388,11 +388,11 @@ static void test_bad_settings(void **state) {
     d.radius_policy = PGI_RADIUS_DIFFERENTIALS, d.estimator = "hashgrid";
     assert_int_equal(pgi_render(scene, &d, &img, NULL), PGI_ERR_INVALID_ARG);
     assert_non_null(strstr(pgi_last_error(), "per-photon"));
-    d.estimator = "bvh", d.leaf_size = -3;
+    d.estimator = "bvh", d.est.bvh.leaf_size = -3;
     assert_int_equal(pgi_render(scene, &d, &img, NULL), PGI_ERR_INVALID_ARG);
-    d.leaf_size = 0, d.bvh_build = 5;
+    d.est.bvh.leaf_size = 0, d.est.bvh.build = 5;
     assert_int_equal(pgi_render(scene, &d, &img, NULL), PGI_ERR_INVALID_ARG);
-    d.bvh_build = PGI_BVH_VVH;
+    d.est.bvh.build = PGI_BVH_VVH;
     TU_CHECK_OK(pgi_render(scene, &d, &img, NULL));
     pgi_image_free(&img);
     pgi_scene_destroy(scene);

@@ -38,7 +38,7 @@ static pgi_status load_json(const char *name, const char *json, pgi_scene **s) {
     "{\"builtin\": \"cornell\", \"objects\": [{\"name\": \"ball\", \"shape\": \"sphere\","          \
     " \"center\": [0.0, 0.55, 0.3], \"radius\": 0.25, \"material\": {\"kd\": [0.9, 0.9, 0.9]}}]}"
 
-static const pgi_render_desc k_desc = {.estimator = "hashgrid", .photons = 20000, .photons_set = 1, .width = 48,
+static const pgi_render_desc k_desc = {.estimator = "hashgrid", .photons = 20000, .width = 48,
                                        .height = 48, .direct_samples = 4, .seed = 5};
 #define NF (3 * 48 * 48)
 
@@ -280,7 +280,7 @@ static void test_example_scene(void **state) {
     pgi_scene_info in;
     pgi_scene_get_info(s, &in);
     assert_true(in.animated_objects >= 1);
-    pgi_render_desc d = {.photons = 2000, .photons_set = 1, .width = 16, .height = 16, .direct_samples = 1};
+    pgi_render_desc d = {.photons = 2000, .width = 16, .height = 16, .direct_samples = 1};
     pgi_renderer *r;
     TU_CHECK_OK(pgi_renderer_create(s, &r));
     pgi_image img = {0};

@@ -20,7 +20,7 @@ static void compare_all(const pgi_photons *ph, const pgi_view_samples *vs, const
     float *ref = malloc(nf * sizeof *ref), *got = malloc(nf * sizeof *got);
     assert_non_null(ref);
     assert_non_null(got);
-    pgi_estimator_desc d = {.radius = radius, .cell_size = cell_size};
+    tu_est d = {.radius = radius, .d.hashgrid.cell_size = cell_size};
     pgi_estimator_stats rs, gs;
     TU_CHECK_OK(tu_run_estimator("brute", &d, ph, vs, cam, ref, &rs));
     int compared = 0;
@@ -30,7 +30,7 @@ static void compare_all(const pgi_photons *ph, const pgi_view_samples *vs, const
         assert_non_null(vt);
         if (!vt->exact || strcmp(vt->name, "brute") == 0) continue;
         for (size_t t = 0; t < sizeof tiles / sizeof tiles[0]; t++) {
-            d.tile_size = tiles[t];
+            d.d.tiled.tile_size = tiles[t];
             for (size_t i = 0; i < nf; i++) got[i] = NAN;   /* every value must be written */
             TU_CHECK_OK(tu_run_estimator(vt->name, &d, ph, vs, cam, got, &gs));
             char what[160];
@@ -70,7 +70,7 @@ static void run_random(float secondary, const char *label, uint64_t seed) {
         /* The reference must see something, or the comparison proves little. */
         float *ref = malloc(3 * vs.count * sizeof *ref);
         pgi_estimator_stats st;
-        TU_CHECK_OK(tu_run_estimator("brute", &(pgi_estimator_desc){.radius = k_cases[c].radius}, &ph, &vs, &cam,
+        TU_CHECK_OK(tu_run_estimator("brute", &(tu_est){.radius = k_cases[c].radius}, &ph, &vs, &cam,
                                      ref, &st));
         assert_true(st.contributing > 0);
         assert_true(tu_max_abs(ref, 3 * vs.count) > 0.0);
@@ -103,10 +103,10 @@ static void test_hashgrid_cell_sizes(void **state) {
     const float cells[] = {r / 8.f, r / 3.f, r, 5.f * r};
     float *ref = malloc(3 * vs.count * sizeof *ref), *got = malloc(3 * vs.count * sizeof *got);
     pgi_estimator_stats rs, gs;
-    TU_CHECK_OK(tu_run_estimator("brute", &(pgi_estimator_desc){.radius = r}, &ph, &vs, &cam, ref, &rs));
+    TU_CHECK_OK(tu_run_estimator("brute", &(tu_est){.radius = r}, &ph, &vs, &cam, ref, &rs));
     assert_true(rs.contributing > 0);
     for (size_t k = 0; k < sizeof cells / sizeof cells[0]; k++) {
-        pgi_estimator_desc d = {.radius = r, .cell_size = cells[k]};
+        tu_est d = {.radius = r, .d.hashgrid.cell_size = cells[k]};
         for (size_t i = 0; i < 3 * vs.count; i++) got[i] = NAN;
         TU_CHECK_OK(tu_run_estimator("hashgrid", &d, &ph, &vs, &cam, got, &gs));
         char what[96];
@@ -133,7 +133,7 @@ static void test_zero_photons(void **state) {
         const pgi_estimator_vtbl *vt = pgi_estimator_at(e);
         for (size_t i = 0; i < 3 * vs.count; i++) out[i] = NAN;
         pgi_estimator_stats st;
-        TU_CHECK_OK(tu_run_estimator(vt->name, &(pgi_estimator_desc){.radius = 0.1f}, &ph, &vs, &cam, out, &st));
+        TU_CHECK_OK(tu_run_estimator(vt->name, &(tu_est){.radius = 0.1f}, &ph, &vs, &cam, out, &st));
         for (size_t i = 0; i < 3 * vs.count; i++) {
             if (out[i] != 0.f) fail_msg("%s: value %zu is %g with no photons", vt->name, i, (double)out[i]);
         }
@@ -147,7 +147,7 @@ static void test_zero_photons(void **state) {
 /* Bad estimator arguments are refused, not crashed on. */
 static void test_create_errors(void **state) {
     pgi_estimator *e = (pgi_estimator *)1;
-    assert_int_equal(pgi_estimator_create("no-such-estimator", &(pgi_estimator_desc){.radius = 0.1f}, &e),
+    assert_int_equal(tu_create("no-such-estimator", &(tu_est){.radius = 0.1f}, &e),
                      PGI_ERR_INVALID_ARG);
     assert_null(e);
     assert_non_null(strstr(pgi_last_error(), "no-such-estimator"));
@@ -157,7 +157,7 @@ static void test_create_errors(void **state) {
         for (size_t k = 0; k < sizeof bad / sizeof bad[0]; k++) {
             pgi_estimator *x = NULL;
             assert_int_equal(
-                pgi_estimator_create(pgi_estimator_at(e2)->name, &(pgi_estimator_desc){.radius = bad[k]}, &x),
+                tu_create(pgi_estimator_at(e2)->name, &(tu_est){.radius = bad[k]}, &x),
                 PGI_ERR_INVALID_ARG);
             assert_null(x);
         }
@@ -239,7 +239,7 @@ static void test_mirror_glass_pipeline(void **state) {
         const pgi_camera_def *cd = &sc->cams[0];
         pgi_camera_look_at(&cam, cd->eye, cd->look_at, cd->up, cd->fov_y_deg, 72, 56);
         uint64_t rays = 0;
-        TU_CHECK_OK(pgi__view_build(sc, rt, &cam, 1, &vs, emit, &rays));
+        TU_CHECK_OK(pgi__view_build(sc, rt, &cam, 1, 0, &vs, emit, &rays));
         size_t secondary = 0, phong = 0;
         for (size_t i = 0; i < vs.count; i++) {
             if (!(vs.flags[i] & PGI_VS_VALID)) continue;

@@ -44,7 +44,7 @@ static const float *brute_ref(const pgi_photons *ph, const pgi_view_samples *vs,
         free(g_ref.ref);
         g_ref.ref = fbuf(3 * vs->count);
         g_ref.ph = ph, g_ref.vs = vs, g_ref.radius = radius, g_ref.kernel = kernel;
-        TU_CHECK_OK(tu_run_estimator("brute", &(pgi_estimator_desc){.radius = radius, .kernel = kernel}, ph, vs, cam,
+        TU_CHECK_OK(tu_run_estimator("brute", &(tu_est){.radius = radius, .d.kernel = kernel}, ph, vs, cam,
                                      g_ref.ref, &g_ref.st));
     }
     *st = g_ref.st;
@@ -56,16 +56,16 @@ static void brute_ref_forget(void) {
 }
 
 /* name with desc vs brute with the same radius and kernel. */
-static void expect_equal_brute(const char *name, const pgi_estimator_desc *d, const pgi_photons *ph,
+static void expect_equal_brute(const char *name, const tu_est *d, const pgi_photons *ph,
                                const pgi_view_samples *vs, const pgi_camera *cam, const char *label) {
     size_t nf = 3 * vs->count;
     float *got = fbuf(nf);
     pgi_estimator_stats rs, gs;
-    const float *ref = brute_ref(ph, vs, cam, d->radius, d->kernel, &rs);
+    const float *ref = brute_ref(ph, vs, cam, d->radius, d->d.kernel, &rs);
     TU_CHECK_OK(tu_run_estimator(name, d, ph, vs, cam, got, &gs));
     char what[200];
     snprintf(what, sizeof what, "%s vs brute, %s, r=%g, kernel %d, tile %d, polygon %d", name, label,
-             (double)d->radius, (int)d->kernel, d->tile_size, d->polygon_vertices);
+             (double)d->radius, (int)d->d.kernel, d->d.tiled.tile_size, d->d.bounds.polygon);
     size_t bad = tu_compare(got, ref, nf, 1e-4, what);
     if (gs.contributing != rs.contributing)
         fprintf(stderr, "  %s: contributing %llu, brute %llu\n", what, (unsigned long long)gs.contributing,
@@ -91,21 +91,21 @@ static void run_case(const tu_view_setup *g, float secondary, uint64_t seed, con
         pgi_photons ph;
         tu_make_photons(&ph, k_cases[c].photons, seed * 7 + c);
         const float r = k_cases[c].radius;
-        expect_equal_brute("kdtree", &(pgi_estimator_desc){.radius = r}, &ph, &vs, &cam, label);
+        expect_equal_brute("kdtree", &(tu_est){.radius = r}, &ph, &vs, &cam, label);
         const int tiles[] = {1, 8, 32, 64};
         for (size_t t = 0; t < 4; t++) {
-            expect_equal_brute("bounds3d", &(pgi_estimator_desc){.radius = r, .tile_size = tiles[t]}, &ph, &vs, &cam,
+            expect_equal_brute("bounds3d", &(tu_est){.radius = r, .d.tiled.tile_size = tiles[t]}, &ph, &vs, &cam,
                                label);
             const int polys[] = {4, 6, 8, 32};
             expect_equal_brute("bounds25d",
-                               &(pgi_estimator_desc){.radius = r, .tile_size = tiles[t], .polygon_vertices = polys[t]},
+                               &(tu_est){.radius = r, .d.tiled.tile_size = tiles[t], .d.bounds.polygon = polys[t]},
                                &ph, &vs, &cam, label);
         }
         /* kernels: every kernel-capable method vs brute with the same kernel */
         for (int k = PGI_KERNEL_CONE; k < PGI_KERNEL_COUNT_; k++) {
             const char *names[] = {"kdtree", "bounds3d", "bounds25d", "hashgrid", "tiled"};
             for (size_t e = 0; e < 5; e++)
-                expect_equal_brute(names[e], &(pgi_estimator_desc){.radius = r, .kernel = (pgi_kernel)k, .tile_size = 16},
+                expect_equal_brute(names[e], &(tu_est){.radius = r, .d.kernel = (pgi_kernel)k, .d.tiled.tile_size = 16},
                                    &ph, &vs, &cam, label);
         }
         brute_ref_forget();
@@ -140,14 +140,14 @@ static void test_exact_near_plane(void **state) {
     for (int k = 0; k < 3; k++) {
         pgi_estimator_stats st;
         float *ref = fbuf(3 * vs.count);
-        TU_CHECK_OK(tu_run_estimator("brute", &(pgi_estimator_desc){.radius = radii[k]}, &ph, &vs, &cam, ref, &st));
+        TU_CHECK_OK(tu_run_estimator("brute", &(tu_est){.radius = radii[k]}, &ph, &vs, &cam, ref, &st));
         assert_true(st.contributing > 0);
         free(ref);
-        expect_equal_brute("bounds3d", &(pgi_estimator_desc){.radius = radii[k], .tile_size = 8}, &ph, &vs, &cam,
+        expect_equal_brute("bounds3d", &(tu_est){.radius = radii[k], .d.tiled.tile_size = 8}, &ph, &vs, &cam,
                            "near plane");
-        expect_equal_brute("bounds25d", &(pgi_estimator_desc){.radius = radii[k], .tile_size = 8}, &ph, &vs, &cam,
+        expect_equal_brute("bounds25d", &(tu_est){.radius = radii[k], .d.tiled.tile_size = 8}, &ph, &vs, &cam,
                            "near plane");
-        expect_equal_brute("kdtree", &(pgi_estimator_desc){.radius = radii[k]}, &ph, &vs, &cam, "near plane");
+        expect_equal_brute("kdtree", &(tu_est){.radius = radii[k]}, &ph, &vs, &cam, "near plane");
     }
     brute_ref_forget();
     pgi_photons_free(&ph);
@@ -163,21 +163,19 @@ static void test_thread_independent(void **state) {
     tu_make_photons(&ph, 30000, 29);
     const char *names[] = {"kdtree", "bounds3d", "bounds25d", "hashgrid", "tiled"};
     size_t nf = 3 * vs.count;
-    int saved = omp_get_max_threads();
     for (size_t e = 0; e < 5; e++)
         for (int sub = 1; sub <= 3; sub += 2) {
             if (sub > 1 && strstr(names[e], "bounds")) continue;
-            pgi_estimator_desc d = {.radius = 0.08f, .subsample = sub, .seed = 3, .kernel = PGI_KERNEL_CONE};
+            tu_est d = {.radius = 0.08f, .d.subsample = sub, .seed = 3, .d.kernel = PGI_KERNEL_CONE};
             float *a = fbuf(nf), *b = fbuf(nf);
-            omp_set_num_threads(1);
+            d.threads = 1;
             TU_CHECK_OK(tu_run_estimator(names[e], &d, &ph, &vs, &cam, a, NULL));
-            omp_set_num_threads(3);
+            d.threads = 3;
             TU_CHECK_OK(tu_run_estimator(names[e], &d, &ph, &vs, &cam, b, NULL));
             if (memcmp(a, b, nf * sizeof *a) != 0) fail_msg("%s subsample %d: depends on the thread count", names[e], sub);
             free(a);
             free(b);
         }
-    omp_set_num_threads(saved);
     pgi_photons_free(&ph);
     pgi_view_samples_free(&vs);
 }
@@ -249,7 +247,7 @@ static void test_knn_equals_brute_selection(void **state) {
                 uint64_t rc;
                 brute_knn(&ph, &vs, rmax[b], ks[a], (pgi_kernel)kern, ref, &rc);
                 pgi_estimator_stats st;
-                pgi_estimator_desc d = {.radius = rmax[b], .knn = ks[a], .kernel = (pgi_kernel)kern};
+                tu_est d = {.radius = rmax[b], .d.kdtree.knn = ks[a], .d.kernel = (pgi_kernel)kern};
                 TU_CHECK_OK(tu_run_estimator("kdtree", &d, &ph, &vs, &cam, got, &st));
                 char what[96];
                 snprintf(what, sizeof what, "kdtree knn %d rmax %g kernel %d", ks[a], (double)rmax[b], kern);
@@ -332,7 +330,7 @@ static void test_kernels_uniform_plane(void **state) {
     float *out = fbuf(3 * vs.count);
     const double expect = 0.5 / PGI_PI * 1.0;   /* kd/pi * E */
     for (int k = 0; k < PGI_KERNEL_COUNT_; k++) {
-        TU_CHECK_OK(tu_run_estimator("kdtree", &(pgi_estimator_desc){.radius = 0.1f, .kernel = (pgi_kernel)k}, &ph,
+        TU_CHECK_OK(tu_run_estimator("kdtree", &(tu_est){.radius = 0.1f, .d.kernel = (pgi_kernel)k}, &ph,
                                      &vs, &cam, out, NULL));
         double mean = 0.0;
         for (size_t i = 0; i < vs.count; i++) mean += out[3 * i];
@@ -357,15 +355,15 @@ static void test_subsample_k1_is_off(void **state) {
     for (int e = 0; e < 3; e++) {
         float *a = fbuf(nf), *b = fbuf(nf), *c = fbuf(nf);
         pgi_estimator_stats sa, sb;
-        TU_CHECK_OK(tu_run_estimator(names[e], &(pgi_estimator_desc){.radius = 0.1f}, &ph, &vs, &cam, a, &sa));
+        TU_CHECK_OK(tu_run_estimator(names[e], &(tu_est){.radius = 0.1f}, &ph, &vs, &cam, a, &sa));
         TU_CHECK_OK(
-            tu_run_estimator(names[e], &(pgi_estimator_desc){.radius = 0.1f, .subsample = 1, .seed = 9}, &ph, &vs, &cam, b, &sb));
+            tu_run_estimator(names[e], &(tu_est){.radius = 0.1f, .d.subsample = 1, .seed = 9}, &ph, &vs, &cam, b, &sb));
         if (memcmp(a, b, nf * sizeof *a) != 0) fail_msg("%s: subsample 1 differs from no subsampling", names[e]);
         assert_int_equal(sa.reads, sb.reads);
         /* k = 2 visits about a quarter and does change the image */
         pgi_estimator_stats sc;
         TU_CHECK_OK(
-            tu_run_estimator(names[e], &(pgi_estimator_desc){.radius = 0.1f, .subsample = 2, .seed = 9}, &ph, &vs, &cam, c, &sc));
+            tu_run_estimator(names[e], &(tu_est){.radius = 0.1f, .d.subsample = 2, .seed = 9}, &ph, &vs, &cam, c, &sc));
         assert_true(memcmp(a, c, nf * sizeof *a) != 0);
         double ratio = (double)sc.reads / (double)sa.reads;
         fprintf(stderr, "  %s: subsample 2 reads %.3f of the full gather's\n", names[e], ratio);
@@ -394,10 +392,10 @@ static void test_subsample_unbiased(void **state) {
     const int seeds = 48;
     for (int e = 0; e < 3; e++) {
         const float r = 0.12f;   /* about 450 photons in a disk */
-        TU_CHECK_OK(tu_run_estimator(names[e], &(pgi_estimator_desc){.radius = r}, &ph, &vs, &cam, full, NULL));
+        TU_CHECK_OK(tu_run_estimator(names[e], &(tu_est){.radius = r}, &ph, &vs, &cam, full, NULL));
         memset(mean, 0, nf * sizeof *mean);
         for (int s = 0; s < seeds; s++) {
-            TU_CHECK_OK(tu_run_estimator(names[e], &(pgi_estimator_desc){.radius = r, .subsample = 3, .seed = 100 + (uint64_t)s},
+            TU_CHECK_OK(tu_run_estimator(names[e], &(tu_est){.radius = r, .d.subsample = 3, .seed = 100 + (uint64_t)s},
                                          &ph, &vs, &cam, one, NULL));
             for (size_t i = 0; i < nf; i++) mean[i] += one[i] / seeds;
         }
@@ -438,7 +436,7 @@ static void test_filter(void **state) {
         for (int c = 0; c < 3; c++) rgb[3 * i + c] = base * (1.f + noise);
         var0 += noise * noise;
     }
-    TU_CHECK_OK(pgi__bilateral_filter(&vs, 3, rgb));
+    TU_CHECK_OK(pgi__bilateral_filter(&vs, 3, 0, rgb));
     double var1 = 0.0;
     for (size_t i = 0; i < n; i++) {
         float base = (i % 32) >= 16 ? 10.f : 1.f;
@@ -451,7 +449,7 @@ static void test_filter(void **state) {
     assert_true(var1 < 0.25 * var0);
     /* a constant stays constant */
     for (size_t i = 0; i < 3 * n; i++) rgb[i] = 2.5f;
-    TU_CHECK_OK(pgi__bilateral_filter(&vs, 2, rgb));
+    TU_CHECK_OK(pgi__bilateral_filter(&vs, 2, 0, rgb));
     for (size_t i = 0; i < 3 * n; i++) assert_true(fabsf(rgb[i] - 2.5f) < 1e-5f);
     free(rgb);
     pgi_view_samples_free(&vs);
@@ -461,18 +459,18 @@ static void test_filter(void **state) {
 
 static void test_errors(void **state) {
     pgi_estimator *e = NULL;
-    assert_int_equal(pgi_estimator_create("kdtree", &(pgi_estimator_desc){.radius = 0.1f, .knn = -1}, &e),
+    assert_int_equal(tu_create("kdtree", &(tu_est){.radius = 0.1f, .d.kdtree.knn = -1}, &e),
                      PGI_ERR_INVALID_ARG);
-    assert_int_equal(pgi_estimator_create("tiled", &(pgi_estimator_desc){.radius = 0.1f, .knn = 4}, &e),
+    assert_int_equal(tu_create("tiled", &(tu_est){.radius = 0.1f, .d.kdtree.knn = 4}, &e),
                      PGI_ERR_INVALID_ARG);
     assert_non_null(strstr(pgi_last_error(), "kdtree"));
-    assert_int_equal(pgi_estimator_create("kdtree", &(pgi_estimator_desc){.radius = 0.1f, .knn = 4, .subsample = 2}, &e),
+    assert_int_equal(tu_create("kdtree", &(tu_est){.radius = 0.1f, .d.kdtree.knn = 4, .d.subsample = 2}, &e),
                      PGI_ERR_INVALID_ARG);
-    assert_int_equal(pgi_estimator_create("bounds25d", &(pgi_estimator_desc){.radius = 0.1f, .polygon_vertices = 5}, &e),
+    assert_int_equal(tu_create("bounds25d", &(tu_est){.radius = 0.1f, .d.bounds.polygon = 5}, &e),
                      PGI_ERR_INVALID_ARG);
-    assert_int_equal(pgi_estimator_create("bounds3d", &(pgi_estimator_desc){.radius = 0.1f, .subsample = 2}, &e),
+    assert_int_equal(tu_create("bounds3d", &(tu_est){.radius = 0.1f, .d.subsample = 2}, &e),
                      PGI_ERR_INVALID_ARG);
-    assert_int_equal(pgi_estimator_create("kdtree", &(pgi_estimator_desc){.radius = 0.1f, .kernel = 7}, &e),
+    assert_int_equal(tu_create("kdtree", &(tu_est){.radius = 0.1f, .d.kernel = 7}, &e),
                      PGI_ERR_INVALID_ARG);
     assert_null(e);
     /* the render description is validated too */
@@ -480,12 +478,12 @@ static void test_errors(void **state) {
     TU_CHECK_OK(pgi_scene_load("cornell", &scene));
     pgi_image img = {0};
     const pgi_render_desc bad[] = {
-        {.estimator = "kdtree", .knn = -2, .width = 8, .height = 8},
-        {.estimator = "hashgrid", .knn = 3, .width = 8, .height = 8},
-        {.estimator = "tiled", .kernel = 3, .width = 8, .height = 8},
-        {.estimator = "tiled", .subsample = 65, .width = 8, .height = 8},
+        {.estimator = "kdtree", .est.kdtree.knn = -2, .width = 8, .height = 8},
+        {.estimator = "hashgrid", .est.kdtree.knn = 3, .width = 8, .height = 8},
+        {.estimator = "tiled", .est.kernel = 3, .width = 8, .height = 8},
+        {.estimator = "tiled", .est.subsample = 65, .width = 8, .height = 8},
         {.estimator = "tiled", .filter = 17, .width = 8, .height = 8},
-        {.estimator = "bounds25d", .polygon_vertices = 3, .width = 8, .height = 8},
+        {.estimator = "bounds25d", .est.bounds.polygon = 3, .width = 8, .height = 8},
     };
     for (size_t k = 0; k < sizeof bad / sizeof bad[0]; k++)
         assert_int_equal(pgi_render(scene, &bad[k], &img, NULL), PGI_ERR_INVALID_ARG);
@@ -502,12 +500,12 @@ static void test_bounds_wasted_tests(void **state) {
     tu_make_photons(&ph, 20000, 82);
     float *out = fbuf(3 * vs.count);
     pgi_estimator_stats s3, s4, s8, s32;
-    TU_CHECK_OK(tu_run_estimator("bounds3d", &(pgi_estimator_desc){.radius = 0.1f}, &ph, &vs, &cam, out, &s3));
-    TU_CHECK_OK(tu_run_estimator("bounds25d", &(pgi_estimator_desc){.radius = 0.1f, .polygon_vertices = 4}, &ph, &vs,
+    TU_CHECK_OK(tu_run_estimator("bounds3d", &(tu_est){.radius = 0.1f}, &ph, &vs, &cam, out, &s3));
+    TU_CHECK_OK(tu_run_estimator("bounds25d", &(tu_est){.radius = 0.1f, .d.bounds.polygon = 4}, &ph, &vs,
                                  &cam, out, &s4));
-    TU_CHECK_OK(tu_run_estimator("bounds25d", &(pgi_estimator_desc){.radius = 0.1f, .polygon_vertices = 8}, &ph, &vs,
+    TU_CHECK_OK(tu_run_estimator("bounds25d", &(tu_est){.radius = 0.1f, .d.bounds.polygon = 8}, &ph, &vs,
                                  &cam, out, &s8));
-    TU_CHECK_OK(tu_run_estimator("bounds25d", &(pgi_estimator_desc){.radius = 0.1f, .polygon_vertices = 32}, &ph, &vs,
+    TU_CHECK_OK(tu_run_estimator("bounds25d", &(tu_est){.radius = 0.1f, .d.bounds.polygon = 32}, &ph, &vs,
                                  &cam, out, &s32));
     fprintf(stderr, "  tests (covered): 3D %llu (%llu), 2.5D/4 %llu (%llu), /8 %llu (%llu), /32 %llu (%llu); contributing %llu\n",
             (unsigned long long)s3.reads, (unsigned long long)s3.nodes_visited, (unsigned long long)s4.reads,
@@ -535,9 +533,9 @@ static void pipeline_compare(const char *scene_name, int w, int h, uint32_t phot
     pgi_frame_stats fs[4];
     for (int kern = 0; kern < 2; kern++) {
         for (int k = 0; k < 4; k++) {
-            pgi_render_desc d = {.estimator = names[k], .photons = photons, .photons_set = 1, .width = w,
-                                 .height = h, .output = PGI_OUTPUT_INDIRECT, .seed = 5, .kernel = kern * 2};
-            if (radius > 0.f) d.radius = radius, d.radius_set = 1;
+            pgi_render_desc d = {.estimator = names[k], .photons = photons, .width = w,
+                                 .height = h, .output = PGI_OUTPUT_INDIRECT, .seed = 5, .est.kernel = kern * 2};
+            if (radius > 0.f) d.radius = radius;
             TU_CHECK_OK(pgi_renderer_render(r, &d, &img[k], &fs[k]));
         }
         assert_true(fs[0].contributing > 0);

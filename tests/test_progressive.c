@@ -14,24 +14,36 @@ static pgi_scene *load(const char *spec) {
     return s;
 }
 
+/* pgi_render_progressive on a renderer of its own. */
+static pgi_status progressive(const pgi_scene *s, const pgi_render_desc *d, int frames, pgi_image *img,
+                              pgi_frame_stats *fs) {
+    pgi_renderer *r;
+    pgi_status st = pgi_renderer_create(s, &r);
+    if (st) return st;
+    st = pgi_render_progressive(r, d, frames, img, fs);
+    pgi_renderer_destroy(r);
+    return st;
+}
+
 static void test_first_frame_is_plain_render(void **state) {
     (void)state;
     pgi_scene *s = load("cornell");
-    pgi_render_desc d = {.estimator = "hashgrid", .photons = 5000, .photons_set = 1, .width = 40, .height = 32,
+    pgi_render_desc d = {.estimator = "hashgrid", .photons = 5000, .width = 40, .height = 32,
                          .direct_samples = 2, .seed = 7};
     pgi_image a = {0}, b = {0}, c = {0};
     TU_CHECK_OK(pgi_render(s, &d, &a, NULL));
-    d.progressive = 1;
-    TU_CHECK_OK(pgi_render(s, &d, &b, NULL));
+    TU_CHECK_OK(progressive(s, &d, 1, &b, NULL));
     pgi_renderer *r;
     TU_CHECK_OK(pgi_renderer_create(s, &r));
+    pgi_progressive *p;
+    TU_CHECK_OK(pgi_progressive_create(r, &p));
     pgi_frame_stats fs;
-    d.progressive = 0;
-    TU_CHECK_OK(pgi_renderer_accumulate(r, &d, &c, &fs));
+    TU_CHECK_OK(pgi_progressive_step(p, &d, &c, &fs));
     assert_int_equal(fs.frames, 1);
     size_t n = 3 * 40 * 32;
     assert_memory_equal(a.rgb, b.rgb, n * sizeof(float));
     assert_memory_equal(a.rgb, c.rgb, n * sizeof(float));
+    pgi_progressive_destroy(p);
     pgi_renderer_destroy(r);
     pgi_image_free(&a);
     pgi_image_free(&b);
@@ -54,42 +66,44 @@ static void test_radius_sequence(void **state) {
     assert_true(r2 / 0.09 < 0.4 && r2 / 0.09 > 0.1);
     /* The stats report the radius of the last frame. */
     pgi_scene *s = load("cornell");
-    pgi_render_desc d = {.estimator = "hashgrid", .photons = 2000, .photons_set = 1, .width = 16, .height = 16,
-                         .direct_samples = 1, .radius = 0.1f, .radius_set = 1, .progressive = 5};
+    pgi_render_desc d = {.estimator = "hashgrid", .photons = 2000, .width = 16, .height = 16,
+                         .direct_samples = 1, .radius = 0.1f};
     pgi_image img = {0};
     pgi_frame_stats fs;
-    TU_CHECK_OK(pgi_render(s, &d, &img, &fs));
+    TU_CHECK_OK(progressive(s, &d, 5, &img, &fs));
     assert_int_equal(fs.frames, 5);
     assert_float_equal(fs.radius, pgi_progressive_radius(0.1f, 4), 1e-7f);
     pgi_image_free(&img);
     pgi_scene_destroy(s);
 }
 
-/* pgi_renderer_render(progressive = N) == N calls of pgi_renderer_accumulate; deterministic. */
+/* pgi_render_progressive(N) == N calls of pgi_progressive_step; deterministic. */
 static void test_progressive_equals_accumulate(void **state) {
     (void)state;
     pgi_scene *s = load("cornell");
-    pgi_render_desc d = {.estimator = "tiled", .photons = 4000, .photons_set = 1, .width = 32, .height = 24,
+    pgi_render_desc d = {.estimator = "tiled", .photons = 4000, .width = 32, .height = 24,
                          .direct_samples = 2, .seed = 3};
     pgi_renderer *r;
     TU_CHECK_OK(pgi_renderer_create(s, &r));
+    pgi_progressive *p;
+    TU_CHECK_OK(pgi_progressive_create(r, &p));
     pgi_image acc = {0}, prog = {0}, prog2 = {0}, one = {0};
     pgi_frame_stats fs;
     for (int k = 0; k < 6; k++) {
-        TU_CHECK_OK(pgi_renderer_accumulate(r, &d, &acc, &fs));
+        TU_CHECK_OK(pgi_progressive_step(p, &d, &acc, &fs));
         assert_int_equal(fs.frames, k + 1);
     }
     pgi_render_desc dp = d;
-    dp.progressive = 6;
-    TU_CHECK_OK(pgi_render(s, &dp, &prog, NULL));
+    TU_CHECK_OK(progressive(s, &dp, 6, &prog, NULL));
     dp.threads = 1;
-    TU_CHECK_OK(pgi_render(s, &dp, &prog2, NULL));
+    TU_CHECK_OK(progressive(s, &dp, 6, &prog2, NULL));
     size_t n = 3 * 32 * 24;
     assert_memory_equal(acc.rgb, prog.rgb, n * sizeof(float));
     assert_memory_equal(prog.rgb, prog2.rgb, n * sizeof(float));
     /* The average differs from frame 0 alone (fresh photons were used). */
     TU_CHECK_OK(pgi_render(s, &d, &one, NULL));
     assert_true(memcmp(one.rgb, acc.rgb, n * sizeof(float)) != 0);
+    pgi_progressive_destroy(p);
     pgi_renderer_destroy(r);
     pgi_image_free(&acc);
     pgi_image_free(&prog);
@@ -102,41 +116,44 @@ static void test_progressive_equals_accumulate(void **state) {
 static void test_accumulation_restarts(void **state) {
     (void)state;
     pgi_scene *s = load("sphere-and-plane");
-    pgi_render_desc d = {.estimator = "hashgrid", .photons = 2000, .photons_set = 1, .width = 16, .height = 16};
+    pgi_render_desc d = {.estimator = "hashgrid", .photons = 2000, .width = 16, .height = 16};
     pgi_renderer *r;
     TU_CHECK_OK(pgi_renderer_create(s, &r));
+    pgi_progressive *p;
+    TU_CHECK_OK(pgi_progressive_create(r, &p));
     pgi_image img = {0};
     pgi_frame_stats fs;
-    TU_CHECK_OK(pgi_renderer_accumulate(r, &d, &img, &fs));
-    TU_CHECK_OK(pgi_renderer_accumulate(r, &d, &img, &fs));
+    TU_CHECK_OK(pgi_progressive_step(p, &d, &img, &fs));
+    TU_CHECK_OK(pgi_progressive_step(p, &d, &img, &fs));
     assert_int_equal(fs.frames, 2);
     pgi_camera_def view;
     TU_CHECK_OK(pgi_scene_get_camera(s, 0, &view));
     d.view = &view;   /* same camera as the scene's but given as a view: a different desc */
-    TU_CHECK_OK(pgi_renderer_accumulate(r, &d, &img, &fs));
+    TU_CHECK_OK(pgi_progressive_step(p, &d, &img, &fs));
     assert_int_equal(fs.frames, 1);
-    TU_CHECK_OK(pgi_renderer_accumulate(r, &d, &img, &fs));
+    TU_CHECK_OK(pgi_progressive_step(p, &d, &img, &fs));
     assert_int_equal(fs.frames, 2);
     view.eye[0] += 0.1f;
-    TU_CHECK_OK(pgi_renderer_accumulate(r, &d, &img, &fs));
+    TU_CHECK_OK(pgi_progressive_step(p, &d, &img, &fs));
     assert_int_equal(fs.frames, 1);
-    TU_CHECK_OK(pgi_renderer_accumulate(r, &d, &img, &fs));
+    TU_CHECK_OK(pgi_progressive_step(p, &d, &img, &fs));
     assert_int_equal(fs.frames, 2);
     pgi_light_group g;
     TU_CHECK_OK(pgi_scene_get_light_group(s, 0, &g));
     g.position[1] += 0.5f;
     TU_CHECK_OK(pgi_scene_set_light_position(s, 0, g.position));
-    TU_CHECK_OK(pgi_renderer_accumulate(r, &d, &img, &fs));
+    TU_CHECK_OK(pgi_progressive_step(p, &d, &img, &fs));
     assert_int_equal(fs.frames, 1);
     d.photons = 3000;
-    TU_CHECK_OK(pgi_renderer_accumulate(r, &d, &img, &fs));
+    TU_CHECK_OK(pgi_progressive_step(p, &d, &img, &fs));
     assert_int_equal(fs.frames, 1);
     d.threads = 1;   /* the thread count does not change the picture */
-    TU_CHECK_OK(pgi_renderer_accumulate(r, &d, &img, &fs));
+    TU_CHECK_OK(pgi_progressive_step(p, &d, &img, &fs));
     assert_int_equal(fs.frames, 2);
-    pgi_renderer_reset_accumulation(r);
-    TU_CHECK_OK(pgi_renderer_accumulate(r, &d, &img, &fs));
+    pgi_progressive_reset(p);
+    TU_CHECK_OK(pgi_progressive_step(p, &d, &img, &fs));
     assert_int_equal(fs.frames, 1);
+    pgi_progressive_destroy(p);
     pgi_renderer_destroy(r);
     pgi_image_free(&img);
     pgi_scene_destroy(s);
@@ -146,17 +163,17 @@ static void test_accumulation_restarts(void **state) {
 static void test_every_exact_estimator(void **state) {
     (void)state;
     pgi_scene *s = load("cornell");
-    pgi_render_desc d = {.estimator = "brute", .photons = 3000, .photons_set = 1, .width = 24, .height = 24,
-                         .direct_samples = 1, .progressive = 3, .output = PGI_OUTPUT_INDIRECT};
+    pgi_render_desc d = {.estimator = "brute", .photons = 3000, .width = 24, .height = 24,
+                         .direct_samples = 1, .output = PGI_OUTPUT_INDIRECT};
     pgi_image ref = {0};
-    TU_CHECK_OK(pgi_render(s, &d, &ref, NULL));
+    TU_CHECK_OK(progressive(s, &d, 3, &ref, NULL));
     assert_true(tu_max_abs(ref.rgb, 3 * 24 * 24) > 0.0);
     int tested = 0;
     for (size_t i = 0; i < pgi_estimator_count(); i++) {
         const pgi_estimator_vtbl *vt = pgi_estimator_at(i);
         pgi_image img = {0};
         d.estimator = vt->name;
-        pgi_status st = pgi_render(s, &d, &img, NULL);
+        pgi_status st = progressive(s, &d, 3, &img, NULL);
         if (!vt->exact) {
             assert_int_equal(st, PGI_ERR_INVALID_ARG);   /* an approximate estimator's bias never vanishes */
             continue;
@@ -175,19 +192,18 @@ static void test_bad_progressive_requests(void **state) {
     (void)state;
     pgi_scene *s = load("cornell");
     pgi_image img = {0};
-    pgi_render_desc d = {.photons = 1000, .photons_set = 1, .width = 8, .height = 8, .progressive = 2000000};
-    assert_int_equal(pgi_render(s, &d, &img, NULL), PGI_ERR_INVALID_ARG);
-    d.progressive = 2;
+    pgi_render_desc d = {.photons = 1000, .width = 8, .height = 8};
+    assert_int_equal(progressive(s, &d, 2000000, &img, NULL), PGI_ERR_INVALID_ARG);
     d.output = PGI_OUTPUT_PHOTON_COUNT;
-    assert_int_equal(pgi_render(s, &d, &img, NULL), PGI_ERR_INVALID_ARG);
+    assert_int_equal(progressive(s, &d, 2, &img, NULL), PGI_ERR_INVALID_ARG);
     assert_non_null(strstr(pgi_last_error(), "photon counts"));
     d.output = PGI_OUTPUT_ALL;
     d.estimator = "no-such";
-    assert_int_equal(pgi_render(s, &d, &img, NULL), PGI_ERR_INVALID_ARG);
+    assert_int_equal(progressive(s, &d, 2, &img, NULL), PGI_ERR_INVALID_ARG);
     pgi_camera_def bad = {{0, 1, 3}, {0, 1, 3}, {0, 1, 0}, 40.f};
     d.estimator = NULL;
     d.view = &bad;
-    assert_int_equal(pgi_render(s, &d, &img, NULL), PGI_ERR_INVALID_ARG);
+    assert_int_equal(progressive(s, &d, 2, &img, NULL), PGI_ERR_INVALID_ARG);
     pgi_image_free(&img);
     pgi_scene_destroy(s);
 }
@@ -197,7 +213,7 @@ static void test_error_falls(void **state) {
     (void)state;
     pgi_scene *s = load("cornell");
     const int W = 48, H = 48;
-    pgi_render_desc d = {.estimator = "hashgrid", .photons = 10000, .photons_set = 1, .width = W, .height = H,
+    pgi_render_desc d = {.estimator = "hashgrid", .photons = 10000, .width = W, .height = H,
                          .direct_samples = 4, .seed = 11};
     /* Path-traced reference: 48x48 at 1024 samples a pixel (about 1 s). */
     pgi_reference_desc rd = {.width = W, .height = H, .seed = 987654321, .spp = 1024};
@@ -207,11 +223,13 @@ static void test_error_falls(void **state) {
     assert_int_equal(spp, 1024);
     pgi_renderer *r;
     TU_CHECK_OK(pgi_renderer_create(s, &r));
+    pgi_progressive *pr;
+    TU_CHECK_OK(pgi_progressive_create(r, &pr));
     const int marks[4] = {1, 4, 16, 64};
     double p[4];
     pgi_frame_stats fs;
     for (int k = 1, m = 0; k <= 64; k++) {
-        TU_CHECK_OK(pgi_renderer_accumulate(r, &d, &img, &fs));
+        TU_CHECK_OK(pgi_progressive_step(pr, &d, &img, &fs));
         if (k == marks[m]) {
             pgi_metrics mt;
             TU_CHECK_OK(pgi_metrics_compute(&img, &ref, 1.f, &mt));
@@ -220,8 +238,38 @@ static void test_error_falls(void **state) {
     }
     fprintf(stderr, "  PSNR vs reference at 1, 4, 16, 64 frames: %.2f %.2f %.2f %.2f dB\n", p[0], p[1], p[2], p[3]);
     for (int m = 1; m < 4; m++) assert_true(p[m] > p[m - 1] + 0.5);
+    pgi_progressive_destroy(pr);
     pgi_renderer_destroy(r);
     pgi_image_free(&ref);
+    pgi_image_free(&img);
+    pgi_scene_destroy(s);
+}
+
+/* A progressive render creates its estimator once: the radius changes every
+ * frame, but it is a per-frame argument, not an option of the estimator. */
+static void test_estimator_created_once(void **state) {
+    (void)state;
+    pgi_scene *s = load("cornell");
+    pgi_render_desc d = {.estimator = "tiled", .photons = 2000, .width = 16, .height = 16, .direct_samples = 1};
+    pgi_renderer *r;
+    TU_CHECK_OK(pgi_renderer_create(s, &r));
+    pgi_image img = {0};
+    pgi_frame_stats fs;
+    TU_CHECK_OK(pgi_render_progressive(r, &d, 8, &img, &fs));
+    assert_int_equal(fs.frames, 8);
+    assert_int_equal(fs.estimators_created, 1);
+    /* the same renderer keeps it for the next render; other options make a new one */
+    TU_CHECK_OK(pgi_render_progressive(r, &d, 2, &img, &fs));
+    assert_int_equal(fs.estimators_created, 0);
+    d.est.tiled.tile_size = 16;
+    TU_CHECK_OK(pgi_renderer_render(r, &d, &img, &fs));
+    assert_int_equal(fs.estimators_created, 1);
+    assert_int_equal(fs.settings.est.tiled.tile_size, 16);
+    d.est.tiled.tile_size = 0;   /* the default, resolved in the stats */
+    TU_CHECK_OK(pgi_renderer_render(r, &d, &img, &fs));
+    assert_int_equal(fs.settings.est.tiled.tile_size, 32);
+    assert_true(fs.settings.photons == 2000 && fs.settings.seed == 1 && fs.settings.bounces == 4);
+    pgi_renderer_destroy(r);
     pgi_image_free(&img);
     pgi_scene_destroy(s);
 }
@@ -232,6 +280,7 @@ int main(void) {
         cmocka_unit_test(test_radius_sequence),
         cmocka_unit_test(test_progressive_equals_accumulate),
         cmocka_unit_test(test_accumulation_restarts),
+        cmocka_unit_test(test_estimator_created_once),
         cmocka_unit_test(test_every_exact_estimator),
         cmocka_unit_test(test_bad_progressive_requests),
         cmocka_unit_test(test_error_falls),

@@ -85,7 +85,7 @@ static void agreement(const pgi_scene *s, const char *what) {
     uint64_t spp = 0;
     TU_CHECK_OK(pgi_reference_render(s, &rd, &ref, &spp));
     pgi_render_desc pd = {.estimator = "hashgrid", .width = CB_W, .height = CB_H, .bounces = 4,
-                          .photons = 2000000, .photons_set = 1, .radius = 0.02f, .radius_set = 1,
+                          .photons = 2000000, .radius = 0.02f,
                           .direct_samples = 64, .seed = 7};
     pgi_image pm = {0};
     TU_CHECK_OK(pgi_render(s, &pd, &pm, NULL));

@@ -153,14 +153,52 @@ static inline void tu_random_photon(pgi_photons *ph, size_t j, tu_rng *r, float 
 
 /* ---------------------------------------------------------- estimators */
 
-/* create + build + estimate + stats in one call; returns the first failure. */
-static inline pgi_status tu_run_estimator(const char *name, const pgi_estimator_desc *desc,
-                                          const pgi_photons *ph, const pgi_view_samples *vs,
-                                          const pgi_camera *cam, float *out, pgi_estimator_stats *st) {
-    pgi_estimator *e = NULL;
-    pgi_status s = pgi_estimator_create(name, desc, &e);
+/* An estimator's creation options (d) plus the per-frame arguments the tests vary. */
+typedef struct tu_est {
+    float radius;
+    uint64_t seed;
+    int threads;
+    float scene_area;
+    pgi_estimator_desc d;
+} tu_est;
+
+static inline pgi_estimate_args tu_args(const tu_est *t, const pgi_photons *ph, const pgi_view_samples *vs,
+                                        const pgi_camera *cam, float *out) {
+    pgi_estimate_args a = {.photons = ph, .samples = vs, .camera = cam, .out_rgb = out, .radius = t->radius,
+                           .seed = t->seed, .threads = t->threads, .scene_area = t->scene_area};
+    return a;
+}
+
+/* Creates estimator `name` and checks that it accepts the per-frame values of t (a build over
+ * an empty frame); on failure *out is NULL and the status is the library's. */
+static inline pgi_status tu_create(const char *name, const tu_est *t, pgi_estimator **out) {
+    pgi_status s = pgi_estimator_create(name, &t->d, out);
     if (s) return s;
-    pgi_estimate_args a = {ph, vs, cam, out};
+    pgi_photons ph = {0};
+    pgi_view_samples vs = {0};
+    pgi_camera cam;
+    const float eye[3] = {0, 0, 0}, at[3] = {0, 0, 1}, up[3] = {0, 1, 0};
+    pgi_camera_look_at(&cam, eye, at, up, 60.f, 1, 1);
+    if ((s = pgi_view_samples_alloc(&vs, 1, 1)) == PGI_OK) {
+        pgi_estimate_args a = tu_args(t, &ph, &vs, &cam, NULL);
+        s = pgi_estimator_build(*out, &a);
+        pgi_view_samples_free(&vs);
+    }
+    if (s) {
+        pgi_estimator_destroy(*out);
+        *out = NULL;
+    }
+    return s;
+}
+
+/* create + build + estimate + stats in one call; returns the first failure. */
+static inline pgi_status tu_run_estimator(const char *name, const tu_est *t, const pgi_photons *ph,
+                                          const pgi_view_samples *vs, const pgi_camera *cam, float *out,
+                                          pgi_estimator_stats *st) {
+    pgi_estimator *e = NULL;
+    pgi_status s = pgi_estimator_create(name, &t->d, &e);
+    if (s) return s;
+    pgi_estimate_args a = tu_args(t, ph, vs, cam, out);
     s = pgi_estimator_build(e, &a);
     if (!s) s = pgi_estimator_estimate(e, &a);
     if (!s && st) pgi_estimator_get_stats(e, st);
@@ -203,9 +241,9 @@ static inline void tu_pipeline_vs_brute(const char *scene_name, int w, int h, ui
     pgi_image img[8] = {{0}};
     pgi_frame_stats fs[8];
     for (int k = 0; k < n; k++) {
-        pgi_render_desc d = {.estimator = names[k], .photons = photons, .photons_set = 1, .width = w, .height = h,
+        pgi_render_desc d = {.estimator = names[k], .photons = photons, .width = w, .height = h,
                              .output = PGI_OUTPUT_INDIRECT, .seed = 5};
-        if (radius > 0.f) d.radius = radius, d.radius_set = 1;
+        if (radius > 0.f) d.radius = radius;
         TU_CHECK_OK(pgi_renderer_render(r, &d, &img[k], &fs[k]));
         assert_int_equal(img[k].width, w);
         assert_int_equal(img[k].height, h);

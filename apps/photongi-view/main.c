@@ -12,6 +12,7 @@
 
 #include "font5x7.h"
 #include "photongi/photongi.h"
+#include "options.h"
 #include "parse.h"
 
 static const char *k_help =
@@ -54,13 +55,15 @@ static const char *k_help =
     "      Tab / Shift+Tab next/previous estimator, 1-9 pick estimator\n"
     "      + / - photons x2 / /2, ] / [ radius x1.25 / /1.25, . / , exposure\n"
     "      O output all/direct/indirect, C photons-per-pixel false colour, P progressive on/off\n"
-    "      R resolution scale 100/50/25%%, Space pause animation, H overlay, F12 screenshot, Esc quit\n";
+    "      R resolution scale 100/50/25%, Space pause animation, H overlay, F12 screenshot, Esc quit\n"
+    "\n";
 
 #define MAX_FRAMES_TIMED 100000
 
 typedef struct viewer {
     pgi_scene *scene;
     pgi_renderer *r;
+    pgi_progressive *prog;   /* running average while nothing changes */
     pgi_scene_info info;
     pgi_render_desc desc;
     pgi_camera_def cam;
@@ -279,7 +282,7 @@ static pgi_status render_frame(viewer *v) {
     d.output = (pgi_output)v->out_mode;
     pgi_status st = pgi_scene_set_time(v->scene, v->time);
     if (st) return st;
-    if (v->accumulate && v->out_mode != PGI_OUTPUT_PHOTON_COUNT) st = pgi_renderer_accumulate(v->r, &d, &v->img, &v->fs);
+    if (v->accumulate && v->out_mode != PGI_OUTPUT_PHOTON_COUNT) st = pgi_progressive_step(v->prog, &d, &v->img, &v->fs);
     else st = pgi_renderer_render(v->r, &d, &v->img, &v->fs);
     if (st) return st;
     size_t n = (size_t)v->img.width * v->img.height;
@@ -320,15 +323,13 @@ static void cycle_estimator(viewer *v, int step) {
 
 static void change_radius(viewer *v, float f) {
     v->desc.radius = v->fs.radius * f;
-    v->desc.radius_set = 1;
 }
 
 static void change_photons(viewer *v, double f) {
-    double p = (v->desc.photons ? v->desc.photons : (v->info.defaults.photons ? v->info.defaults.photons : 200000)) * f;
+    double p = (double)v->fs.settings.photons * f;   /* what the last frame used, defaults resolved */
     if (p < 1000) p = 1000;
     if (p > 50e6) p = 50e6;
     v->desc.photons = (uint32_t)p;
-    v->desc.photons_set = 1;
 }
 
 /* Handles one key press; returns 0 to quit. `step` > 0 (scripted keys): the
@@ -410,6 +411,7 @@ int main(int argc, char **argv) {
         const char *a = argv[i];
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
             fputs(k_help, stdout);
+            app_print_estimator_options(stdout);
             return 0;
         }
         if (strcmp(a, "-q") == 0 || strcmp(a, "--quiet") == 0) { v.quiet = 1; continue; }
@@ -417,6 +419,11 @@ int main(int argc, char **argv) {
         if (strcmp(a, "--no-accumulate") == 0) { v.accumulate = 0; continue; }
         if (strcmp(a, "--window") == 0) { want_window = 1; continue; }
         if (a[0] != '-') return usage("unexpected argument '%s'", a);
+        if (pgi_option_find(a + 2) && strncmp(a, "--", 2) == 0) {
+            if (i + 1 >= argc) return usage("%s needs a value", a);
+            if (app_estimator_option("photongi-view", a, argv[++i], &v.desc.est, NULL) < 0) return 2;
+            continue;
+        }
         static const char *const valued[] = {"--scene", "--estimator", "--screenshot", "--stats", "--photons",
                                              "--radius", "--size", "--scale", "--seed", "--threads", "--camera",
                                              "--exposure", "--time", "--frames", "--output", "--direct-samples",
@@ -435,11 +442,9 @@ int main(int argc, char **argv) {
         else if (strcmp(a, "--photons") == 0) {
             if (!parse_long(val, 1, 100000000, &n)) return usage("--photons needs a number in 1..100000000, got '%s'", val);
             v.desc.photons = (uint32_t)n;
-            v.desc.photons_set = 1;
         } else if (strcmp(a, "--radius") == 0) {
             if (!parse_finite_float(val, &v.desc.radius) || !(v.desc.radius > 0.f))
                 return usage("--radius needs a positive number, got '%s'", val);
-            v.desc.radius_set = 1;
         } else if (strcmp(a, "--size") == 0) {
             char extra;
             if (sscanf(val, "%dx%d%c", &v.win_w, &v.win_h, &extra) != 2 || v.win_w <= 0 || v.win_h <= 0 ||
@@ -515,7 +520,8 @@ int main(int argc, char **argv) {
         fprintf(stderr, "photongi-view: out of memory\n");
         return 1;
     }
-    if ((st = pgi_renderer_create(v.scene, &v.r))) {
+    if ((st = pgi_renderer_create(v.scene, &v.r)) || (st = pgi_progressive_create(v.r, &v.prog))) {
+        pgi_renderer_destroy(v.r);
         pgi_scene_destroy(v.scene);
         return fail("cannot create the renderer", st);
     }
@@ -528,6 +534,7 @@ int main(int argc, char **argv) {
     if (!headless) {
         if (SDL_Init(SDL_INIT_VIDEO) != 0) {
             fprintf(stderr, "photongi-view: cannot open a window: %s (run headless with --frames N)\n", SDL_GetError());
+            pgi_progressive_destroy(v.prog);
             pgi_renderer_destroy(v.r);
             pgi_scene_destroy(v.scene);
             return 1;
@@ -541,6 +548,7 @@ int main(int argc, char **argv) {
             if (ren) SDL_DestroyRenderer(ren);
             if (win) SDL_DestroyWindow(win);
             SDL_Quit();
+            pgi_progressive_destroy(v.prog);
             pgi_renderer_destroy(v.r);
             pgi_scene_destroy(v.scene);
             return 1;
@@ -674,6 +682,7 @@ int main(int argc, char **argv) {
     pgi_image_free(&v.img);
     free(v.rgb8);
     free(v.disp);
+    pgi_progressive_destroy(v.prog);
     pgi_renderer_destroy(v.r);
     pgi_scene_destroy(v.scene);
     return rc;

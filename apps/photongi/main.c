@@ -10,6 +10,7 @@
 
 #include "photongi/photongi.h"
 #include "cmd.h"
+#include "options.h"
 #include "parse.h"
 
 static const char *k_main_help =
@@ -44,7 +45,6 @@ static const char *k_render_help =
     "  --seed K           random seed (default 1); same seed, same image, any thread count\n"
     "  --threads T        worker threads (default: all cores)\n"
     "  --camera I         camera index of the scene (default 0)\n"
-    "  --tile T           tile edge in pixels for 'tiled' (default 32)\n"
     "  --direct-samples K shadow samples per pixel for area lights (default 16)\n"
     "  --exposure X       multiply radiance by X before tone mapping (default: the scene's, else 1)\n"
     "  --output all|direct|indirect|counts   what to put in the image (default all; counts:\n"
@@ -55,30 +55,17 @@ static const char *k_render_help =
     "  --stats FILE.json  write timings, memory, photon reads/contributing as JSON ('-' = stdout)\n"
     "  -o, --out FILE     output image (.png or .exr); required\n"
     "  -q, --quiet        print nothing but errors\n"
-    "  --cluster-tile T   cluster edge in pixels for cluster, cluster-cone, cluster-trivial,\n"
-    "                     directional (1..256, default 8)\n"
-    "  --directional-level N  directional: flux buckets N levels above the leaves (1..16,\n"
-    "                     default 1; 0 = at the leaves)\n"
-    "  --directional-blur R   directional: irradiance blur radius in pixels (1..64, default 4; 0 = off)\n"
     "  --radius-policy fixed|path|differentials   per-photon footprints (default fixed; others\n"
-    "                     need an estimator that honours them: brute, bvh)\n"
+    "                     need an estimator that honours them: see 'photongi estimators -v')\n"
     "  --r-min R, --r-max R   path: radius range (default r_max = radius, r_min = r_max/8);\n"
     "                     differentials: r_max clamps the footprint radius\n"
     "  --smoothing S      differentials: smoothing factor s (default: automatic)\n"
-    "  --bvh-build linear|vvh   'bvh' builder (default linear)\n"
-    "  --leaf-size T      'bvh' leaf-size threshold (default 0 = T_auto)\n"
-    "  --kernel K         density kernel: constant (default), cone, epanechnikov\n"
-    "                     (brute, hashgrid, tiled, kdtree, bounds3d, bounds25d)\n"
-    "  --subsample K      stochastic subsampling: visit about 1/K^2 of the eligible photons per\n"
-    "                     pixel, scaled by eligible/visited (hashgrid, tiled, kdtree; 1..64, 1 = off)\n"
     "  --filter R         depth/normal-aware bilateral filter of the indirect light, radius R\n"
     "                     pixels (0..16, default 0 = off)\n"
-    "  --knn K            kdtree: k nearest photons within the radius, normalised by the disk\n"
-    "                     through the k-th (1..4096; default: fixed-radius range mode)\n"
-    "  --polygon N        bounds25d: vertices of the screen polygon (even, 4..64; default 8)\n"
     "\n"
     "Scene files: mesh paths resolve against the .json file, then $PHOTONGI_SCENES\n"
-    "(default ../shared/scenes).\n";
+    "(default ../shared/scenes).\n"
+    "\n";
 
 static const char *k_info_help =
     "usage: photongi info [--scene S]\n"
@@ -135,9 +122,14 @@ static int cmd_estimators(int argc, char **argv) {
             continue;
         }
         printf("%-*s  %s%s\n", width, vt->name, vt->summary, vt->exact ? "" : " [approximate]");
-        char also[128] = "";
-        if (vt->caps & PGI_EST_CAP_KERNELS) list_append(also, sizeof also, "--kernel");
-        if (vt->caps & PGI_EST_CAP_SUBSAMPLE) list_append(also, sizeof also, "--subsample");
+        char also[256] = "";
+        const pgi_option *all[64];
+        for (size_t k = 0, n = app_options(all, 64); k < n; k++) {
+            if (!pgi_estimator_takes(vt, all[k])) continue;
+            char flag[64];
+            snprintf(flag, sizeof flag, "--%s", all[k]->name);
+            list_append(also, sizeof also, flag);
+        }
         if (vt->caps & PGI_EST_CAP_PHOTON_RADIUS) list_append(also, sizeof also, "--radius-policy path|differentials");
         if (also[0]) printf("%-*s  also: %s\n", width, "", also);
     }
@@ -184,6 +176,8 @@ static int cmd_info(int argc, char **argv) {
 
 static int cmd_render(int argc, char **argv) {
     pgi_render_desc d = {0};
+    app_given_options given = {0};
+    long long progressive = 1;
     const char *scene_spec = "cornell", *out = NULL, *stats_path = NULL;
     float exposure = 0.f, scene_time = 0.f;
     int quiet = 0;
@@ -191,6 +185,7 @@ static int cmd_render(int argc, char **argv) {
         const char *a = argv[i];
         if (is_help(a)) {
             fputs(k_render_help, stdout);
+            app_print_estimator_options(stdout);
             return 0;
         }
         if (strcmp(a, "-q") == 0 || strcmp(a, "--quiet") == 0) {
@@ -201,18 +196,23 @@ static int cmd_render(int argc, char **argv) {
         if (i + 1 >= argc) return usage_error("render", "%s needs a value", a);
         const char *v = argv[++i];
         long long n;
+        int eo = app_estimator_option("photongi render", a, v, &d.est, &given);
+        if (eo < 0) {
+            fprintf(stderr, "Try 'photongi render --help'.\n");
+            return 2;
+        }
+        if (eo > 0) continue;
         if (strcmp(a, "--scene") == 0) scene_spec = v;
         else if (strcmp(a, "--estimator") == 0) d.estimator = v;
         else if (strcmp(a, "-o") == 0 || strcmp(a, "--out") == 0) out = v;
         else if (strcmp(a, "--stats") == 0) stats_path = v;
         else if (strcmp(a, "--photons") == 0) {
-            if (!parse_long(v, 0, 4000000000LL, &n))
-                return usage_error("render", "--photons needs a whole number of photons, got '%s'", v);
+            if (!parse_long(v, 1, 4000000000LL, &n))
+                return usage_error("render", "--photons needs a positive whole number of photons, got '%s'", v);
             d.photons = (uint32_t)n;
-            d.photons_set = 1;
         } else if (strcmp(a, "--radius") == 0) {
-            if (!parse_float(v, &d.radius)) return usage_error("render", "--radius needs a number, got '%s'", v);
-            d.radius_set = 1;
+            if (!parse_pos_float(v, &d.radius))
+                return usage_error("render", "--radius needs a positive number (scene units), got '%s'", v);
         } else if (strcmp(a, "--size") == 0) {
             int w, h;
             char extra;
@@ -232,9 +232,6 @@ static int cmd_render(int argc, char **argv) {
         } else if (strcmp(a, "--camera") == 0) {
             if (!parse_long(v, 0, 1000000, &n)) return usage_error("render", "--camera needs an index, got '%s'", v);
             d.camera = (int)n;
-        } else if (strcmp(a, "--tile") == 0) {
-            if (!parse_long(v, 1, 4096, &n)) return usage_error("render", "--tile needs a number in 1..4096, got '%s'", v);
-            d.tile_size = (int)n;
         } else if (strcmp(a, "--direct-samples") == 0) {
             if (!parse_long(v, 1, 4096, &n))
                 return usage_error("render", "--direct-samples needs a number in 1..4096, got '%s'", v);
@@ -251,22 +248,10 @@ static int cmd_render(int argc, char **argv) {
         } else if (strcmp(a, "--progressive") == 0) {
             if (!parse_long(v, 1, 1000000, &n))
                 return usage_error("render", "--progressive needs a frame count in 1..1000000, got '%s'", v);
-            d.progressive = (int)n;
+            progressive = n;
         } else if (strcmp(a, "--time") == 0) {
             if (!parse_float(v, &scene_time) || !isfinite(scene_time))
                 return usage_error("render", "--time needs a number of seconds, got '%s'", v);
-        } else if (strcmp(a, "--cluster-tile") == 0) {
-            if (!parse_long(v, 1, 256, &n))
-                return usage_error("render", "--cluster-tile needs a number in 1..256, got '%s'", v);
-            d.cluster_tile = (int)n;
-        } else if (strcmp(a, "--directional-level") == 0) {
-            if (!parse_long(v, 0, 16, &n))
-                return usage_error("render", "--directional-level needs a number in 0..16, got '%s'", v);
-            d.directional_level = n == 0 ? -1 : (int)n;
-        } else if (strcmp(a, "--directional-blur") == 0) {
-            if (!parse_long(v, 0, 64, &n))
-                return usage_error("render", "--directional-blur needs a number in 0..64, got '%s'", v);
-            d.directional_blur = n == 0 ? -1 : (int)n;
         } else if (strcmp(a, "--radius-policy") == 0) {
             if (strcmp(v, "fixed") == 0) d.radius_policy = PGI_RADIUS_FIXED;
             else if (strcmp(v, "path") == 0) d.radius_policy = PGI_RADIUS_PATH;
@@ -282,32 +267,9 @@ static int cmd_render(int argc, char **argv) {
             if (a[2] == 's') d.smoothing = f;
             else if (strcmp(a, "--r-min") == 0) d.r_min = f;
             else d.r_max = f;
-        } else if (strcmp(a, "--bvh-build") == 0) {
-            if (strcmp(v, "linear") == 0) d.bvh_build = PGI_BVH_LINEAR;
-            else if (strcmp(v, "vvh") == 0) d.bvh_build = PGI_BVH_VVH;
-            else return usage_error("render", "--bvh-build must be linear or vvh, got '%s'", v);
-        } else if (strcmp(a, "--leaf-size") == 0) {
-            if (!parse_long(v, 0, 65536, &n))
-                return usage_error("render", "--leaf-size needs 0 (T_auto) or a number in 1..65536, got '%s'", v);
-            d.leaf_size = (int)n;
-        } else if (strcmp(a, "--kernel") == 0) {
-            if (strcmp(v, "constant") == 0) d.kernel = PGI_KERNEL_CONSTANT;
-            else if (strcmp(v, "cone") == 0) d.kernel = PGI_KERNEL_CONE;
-            else if (strcmp(v, "epanechnikov") == 0) d.kernel = PGI_KERNEL_EPANECHNIKOV;
-            else return usage_error("render", "--kernel must be constant, cone or epanechnikov, got '%s'", v);
-        } else if (strcmp(a, "--subsample") == 0) {
-            if (!parse_long(v, 1, 64, &n)) return usage_error("render", "--subsample needs a number in 1..64, got '%s'", v);
-            d.subsample = (int)n;
         } else if (strcmp(a, "--filter") == 0) {
             if (!parse_long(v, 0, 16, &n)) return usage_error("render", "--filter needs a radius in 0..16 pixels, got '%s'", v);
             d.filter = (int)n;
-        } else if (strcmp(a, "--knn") == 0) {
-            if (!parse_long(v, 1, 4096, &n)) return usage_error("render", "--knn needs a number in 1..4096, got '%s'", v);
-            d.knn = (int)n;
-        } else if (strcmp(a, "--polygon") == 0) {
-            if (!parse_long(v, 4, 64, &n) || n % 2)
-                return usage_error("render", "--polygon needs an even number in 4..64, got '%s'", v);
-            d.polygon_vertices = (int)n;
         } else return usage_error("render", "unknown option '%s'", a);
     }
     if (!out) return usage_error("render", "%s", "no output file: give -o OUT.png or -o OUT.exr");
@@ -317,6 +279,7 @@ static int cmd_render(int argc, char **argv) {
         fprintf(stderr, "\n");
         return 2;
     }
+    if (!quiet) app_note_ignored_options("photongi render", d.estimator, &given);
     pgi_scene *scene;
     pgi_status st = pgi_scene_load(scene_spec, &scene);
     if (st) return fail("cannot load scene", st);
@@ -331,8 +294,16 @@ static int cmd_render(int argc, char **argv) {
     if (exposure == 0.f) exposure = info.defaults.exposure > 0.f ? info.defaults.exposure : 1.f;
     pgi_image img = {0};
     pgi_frame_stats fs;
-    st = pgi_render(scene, &d, &img, &fs);
+    pgi_renderer *r;
+    if ((st = pgi_renderer_create(scene, &r))) {
+        pgi_scene_destroy(scene);
+        return fail("cannot create a renderer", st);
+    }
+    st = progressive > 1 ? pgi_render_progressive(r, &d, (int)progressive, &img, &fs)
+                         : pgi_renderer_render(r, &d, &img, &fs);
+    pgi_renderer_destroy(r);
     if (st) {
+        pgi_image_free(&img);
         pgi_scene_destroy(scene);
         return fail("render failed", st);
     }
@@ -344,7 +315,7 @@ static int cmd_render(int argc, char **argv) {
         st = pgi_stats_write_json(&fs, stats_path);
         if (st) return fail("cannot write stats", st);
     }
-    if (fs.photons_stored < (d.photons ? d.photons : info.defaults.photons ? info.defaults.photons : 200000))
+    if (fs.photons_stored < (uint64_t)fs.settings.photons * (uint64_t)fs.frames)
         fprintf(stderr,
                 "photongi: warning: only %" PRIu64 " photons were stored from %" PRIu64
                 " paths: most light leaves the scene (the tracer stops after 64 paths per requested photon)\n",

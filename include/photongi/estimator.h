@@ -5,8 +5,9 @@
  * view sample (pgi_view_samples). Lifecycle:
  *
  *   pgi_estimator *e;
- *   pgi_estimator_create("hashgrid", &(pgi_estimator_desc){.radius = 0.05f}, &e);
- *   pgi_estimate_args a = {.photons = &ph, .samples = &vs, .camera = &cam, .out_rgb = buf};
+ *   pgi_estimator_create("hashgrid", &(pgi_estimator_desc){0}, &e);  // once
+ *   pgi_estimate_args a = {.photons = &ph, .samples = &vs, .camera = &cam, .out_rgb = buf,
+ *                          .radius = 0.05f};
  *   pgi_estimator_build(e, &a);      // per frame: acceleration structures
  *   pgi_estimator_estimate(e, &a);   // writes 3 floats per view sample
  *   pgi_estimator_stats st; pgi_estimator_get_stats(e, &st);
@@ -89,35 +90,92 @@ typedef enum pgi_kernel {
     PGI_KERNEL_COUNT_
 } pgi_kernel;
 
+/* BVH photon map builders (BVH paper §5). */
+typedef enum pgi_bvh_build { PGI_BVH_LINEAR = 0, PGI_BVH_VVH = 1 } pgi_bvh_build;
+
+/* Named values of the directional options where the option's own zero would
+ * mean "default" (zero means default in every desc). */
+enum {
+    PGI_DIRECTIONAL_LEAVES = -1,  /* directional.level: flux buckets at the leaves */
+    PGI_DIRECTIONAL_NO_BLUR = -1  /* directional.blur: no irradiance blur */
+};
+
+/* Creation options of an estimator. Zero means default for every field;
+ * pgi_estimator_create fills in the defaults and checks every range (the
+ * option tables below hold both). Each method reads only its own
+ * sub-struct, so one desc can create every estimator. Per-frame values
+ * (radius, seed, threads) are arguments of build/estimate instead: an
+ * estimator is created once per configuration and reused across frames. */
 typedef struct pgi_estimator_desc {
-    float radius;        /* fixed photon radius (> 0) */
     pgi_kernel kernel;   /* default constant; others need PGI_EST_CAP_KERNELS */
-    int subsample;       /* stochastic subsampling factor k (0 or 1: off); needs PGI_EST_CAP_SUBSAMPLE */
-    int tile_size;       /* "tiled": tile edge in pixels; default 32 */
-    float cell_size;     /* "hashgrid": cell edge (>= radius/64); default 2 * radius */
-    int threads;         /* 0 = OpenMP default */
-    int cluster_tile;        /* "cluster*", "directional": cluster edge in pixels (1..256); default 8 */
-    int directional_level;   /* "directional": flux buckets this many levels above the leaves (1..16);
-                                0 = default 1; -1 = at the leaves */
-    int directional_blur;    /* "directional": irradiance blur radius in pixels (1..64); 0 = default 4; -1 = off */
-    int bvh_build;       /* "bvh": PGI_BVH_LINEAR (default) or PGI_BVH_VVH */
-    int leaf_size;       /* "bvh": leaf-size threshold (1..65536); 0 = T_auto */
-    float scene_area;    /* "bvh": scene surface area for T_auto; 0 = the surface of the photons' bounding box */
-    int knn;             /* "kdtree": k nearest photons within `radius` (k-NN mode); 0 = fixed-radius range mode */
-    int polygon_vertices;/* "bounds25d": vertices of the screen polygon around a projected sphere (even, 4..64);
-                            0 = default 8 */
-    uint64_t seed;       /* stochastic subsampling: per-pixel random streams from (seed, pixel index) */
+    int subsample;       /* stochastic subsampling factor k (0 or 1: off, up to 64); needs PGI_EST_CAP_SUBSAMPLE */
+    struct {
+        int tile_size;   /* "tiled", "bounds3d", "bounds25d": tile edge in pixels (1..4096); default 32 */
+    } tiled;
+    struct {
+        float cell_size; /* "hashgrid": cell edge (at least radius/64); 0 = 2 x the frame's radius */
+    } hashgrid;
+    struct {
+        int tile;        /* "cluster*", "directional": cluster edge in pixels (1..256); default 8 */
+    } cluster;
+    struct {
+        int level;       /* flux buckets this many levels above the leaves (1..16); default 1;
+                            PGI_DIRECTIONAL_LEAVES: at the leaves */
+        int blur;        /* irradiance blur radius in pixels (1..64); default 4; PGI_DIRECTIONAL_NO_BLUR: off */
+    } directional;
+    struct {
+        pgi_bvh_build build; /* default PGI_BVH_LINEAR */
+        int leaf_size;   /* leaf-size threshold (1..65536); 0 = T_auto */
+    } bvh;
+    struct {
+        int knn;         /* k nearest photons within the radius (1..4096); 0 = fixed-radius range mode */
+    } kdtree;
+    struct {
+        int polygon;     /* "bounds25d": vertices of the screen polygon around a projected sphere
+                            (even, 4..64); default 8 */
+    } bounds;
 } pgi_estimator_desc;
 
-/* BVH photon map builders (BVH paper §5). */
-enum { PGI_BVH_LINEAR = 0, PGI_BVH_VVH = 1 };
-
+/* Per-frame arguments: build and the estimate that follows it take the same. */
 typedef struct pgi_estimate_args {
     const pgi_photons *photons;
     const pgi_view_samples *samples;
     const pgi_camera *camera;
     float *out_rgb;      /* estimate: 3 floats a view sample, indirect radiance (weight not applied) */
+    float radius;        /* this frame's photon radius (> 0, finite); per-photon radii take its place */
+    uint64_t seed;       /* stochastic subsampling: per-pixel random streams from (seed, pixel index) */
+    int threads;         /* OpenMP threads of this call's parallel regions; 0 = OpenMP's default */
+    float scene_area;    /* scene surface area ("bvh" T_auto); 0 = the surface of the photons' bounding box */
 } pgi_estimate_args;
+
+/* ---- Options: one table row per setting holds its name, range, default
+ * and help. The CLI and the viewer parse and document estimator options
+ * from these tables; pgi_estimator_create checks a desc against them. */
+typedef enum pgi_option_type {
+    PGI_OPTION_INT = 1,     /* int field */
+    PGI_OPTION_FLOAT = 2,   /* float field */
+    PGI_OPTION_CHOICE = 3   /* enum field: one of `choices` ("a|b|c"), stored as its index */
+} pgi_option_type;
+
+typedef struct pgi_option {
+    const char *name;       /* "cluster-tile": the CLI flag without "--", and the key of pgi_estimator_desc_set */
+    pgi_option_type type;
+    size_t offset;          /* of the field in pgi_estimator_desc */
+    double min, max;        /* INT: range a user may write; FLOAT: (min, max], min exclusive */
+    int step;               /* INT: the value must be a multiple of step (0: any) */
+    int zero;               /* INT with min 0: the field value a user's 0 stands for (PGI_DIRECTIONAL_LEAVES) */
+    int def;                /* INT: the value a zero field resolves to (0: zero is itself the default mode) */
+    const char *choices;    /* CHOICE: "constant|cone|epanechnikov" */
+    unsigned caps;          /* shared options: the PGI_EST_CAP_* an estimator needs to take it; 0 otherwise */
+    unsigned flags;         /* PGI_OPTION_STRICT */
+    const char *help;       /* one line, with the range and the default */
+} pgi_option;
+
+/* Setting a strict option for an estimator that does not take it is an error
+ * (it changes what is computed); other options of other estimators are
+ * ignored, so one desc can serve every estimator. Shared options (caps) are
+ * always strict. */
+#define PGI_OPTION_STRICT 1u
 
 #define PGI_EST_MAX_ENTRIES 8
 
@@ -138,12 +196,14 @@ typedef struct pgi_estimator_vtbl {
     const char *name;
     const char *summary;
     int exact;   /* equals brute for a constant kernel and fixed radius */
+    int oracle;  /* the O(photons x pixels) reference every exact method is tested against */
     pgi_status (*create)(const pgi_estimator_desc *desc, void **state);
     pgi_status (*build)(void *state, const pgi_estimate_args *args);
     pgi_status (*estimate)(void *state, const pgi_estimate_args *args);
     void (*stats)(const void *state, pgi_estimator_stats *out);
     void (*destroy)(void *state);
     unsigned caps;   /* PGI_EST_CAP_* this method supports beyond the constant-kernel fixed-radius case */
+    const pgi_option *const *options; /* its own options (NULL-terminated; NULL: none) */
 } pgi_estimator_vtbl;
 
 enum {
@@ -157,13 +217,33 @@ const pgi_estimator_vtbl *pgi_estimator_at(size_t i);
 /* NULL if no estimator has that name. */
 const pgi_estimator_vtbl *pgi_estimator_find(const char *name);
 
+/* Options every estimator with the matching capability takes ("kernel",
+ * "subsample"); NULL-terminated. */
+const pgi_option *const *pgi_estimator_shared_options(void);
+/* 1 if estimator `vt` takes option `o` (its own, or a shared one it has the capability for). */
+int pgi_estimator_takes(const pgi_estimator_vtbl *vt, const pgi_option *o);
+/* The option called `name` (without "--") among every estimator's and the shared ones; NULL if none. */
+const pgi_option *pgi_option_find(const char *name);
+/* Parses `value` as a user writes it (the CLI's spelling: 0 = leaves, "vvh", ...) into its field of
+ * `desc`. Unknown name or bad value: PGI_ERR_INVALID_ARG, with a message naming "--name". */
+pgi_status pgi_estimator_desc_set(pgi_estimator_desc *desc, const char *name, const char *value);
+/* Writes the option's value in `desc` as a user would write it ("8", "vvh", "0" for the leaves). */
+void pgi_option_format(const pgi_option *o, const pgi_estimator_desc *desc, char *buf, size_t size);
+/* The desc estimator `vt` would be created with: defaults filled in, every range checked (one
+ * message per setting, from the option tables), options of other estimators cleared. */
+pgi_status pgi_estimator_desc_resolve(const pgi_estimator_vtbl *vt, const pgi_estimator_desc *in,
+                                      pgi_estimator_desc *out);
+
 typedef struct pgi_estimator pgi_estimator;
-/* Unknown name: PGI_ERR_INVALID_ARG. radius <= 0 or not finite: PGI_ERR_INVALID_ARG. */
+/* Unknown name or an option out of range: PGI_ERR_INVALID_ARG. */
 pgi_status pgi_estimator_create(const char *name, const pgi_estimator_desc *desc, pgi_estimator **out);
+/* Per frame: build, then estimate with the same args (radius <= 0 or not finite: PGI_ERR_INVALID_ARG). */
 pgi_status pgi_estimator_build(pgi_estimator *e, const pgi_estimate_args *args);
 pgi_status pgi_estimator_estimate(pgi_estimator *e, const pgi_estimate_args *args);
 void pgi_estimator_get_stats(const pgi_estimator *e, pgi_estimator_stats *out);
 const char *pgi_estimator_name(const pgi_estimator *e);
+/* The resolved desc the estimator was created with. */
+void pgi_estimator_get_desc(const pgi_estimator *e, pgi_estimator_desc *out);
 void pgi_estimator_destroy(pgi_estimator *e);
 
 /* Photon and view-sample buffers owned by the caller of these helpers. */

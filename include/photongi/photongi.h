@@ -25,6 +25,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "photongi/estimator.h"
 #include "photongi/status.h"
 
 #ifdef __cplusplus
@@ -63,6 +64,7 @@ typedef struct pgi_scene_info {
     size_t cameras;
     pgi_camera_def camera; /* camera 0 */
     pgi_scene_defaults defaults;
+    double surface_area;      /* total triangle area, scene units squared */
     size_t animated_objects;  /* objects with a motion (see pgi_scene_set_time) */
     double anim_duration;     /* last keyframe time over all motions, seconds (0 if none) */
 } pgi_scene_info;
@@ -88,40 +90,28 @@ typedef enum pgi_output {
                                    second build + estimate pass over unit-flux photons */
 } pgi_output;
 
-/* Zero means "default" for every field. */
+/* Zero means "default" for every field, nested estimator options included. */
 typedef struct pgi_render_desc {
     const char *estimator;   /* registered name; default "tiled" */
-    uint32_t photons;        /* photons to store; default scene's or 200000 */
-    float radius;            /* photon radius in scene units; default scene's or 2% of the diagonal */
+    pgi_estimator_desc est;  /* the estimator's options (include/photongi/estimator.h); options of other
+                                estimators are ignored, so one desc serves every estimator */
+    uint32_t photons;        /* photons to store (at least 1); default scene's or 200000 */
+    float radius;            /* photon radius in scene units (> 0); default scene's or 2% of the diagonal */
     int width, height;       /* default scene's or 640x480 */
-    int bounces;             /* max photon bounces; default 4 */
+    int bounces;             /* max photon bounces (1..64); default scene's or 4 */
     uint64_t seed;           /* default 1 */
-    int threads;             /* OpenMP threads; 0 = all */
+    int threads;             /* OpenMP threads of the library's parallel regions; 0 = OpenMP's default */
     int camera;              /* index into the scene's cameras */
-    int tile_size;           /* tiled estimator tile edge in pixels; default 32 */
-    int direct_samples;      /* shadow samples per pixel for area lights; default 16 */
+    int direct_samples;      /* shadow samples per pixel for area lights (1..4096); default 16 */
     pgi_output output;
-    int radius_set;          /* non-zero: `radius` was given explicitly (0 or less is then an error) */
-    int photons_set;         /* non-zero: `photons` was given explicitly (0 is then an error) */
     const pgi_camera_def *view; /* non-NULL: render from this camera instead of the scene's `camera`
                                    (borrowed for the call; the viewer's free camera) */
-    int progressive;         /* > 1: pgi_renderer_render averages this many frames with fresh photons
-                                and a shrinking radius (Knaus & Zwicker 2011); 0 or 1: one frame */
-    int cluster_tile;        /* cluster estimators: cluster edge in pixels; default 8 */
-    int directional_level;   /* directional: buckets this many levels above the leaves; 0 = 1, -1 = leaves */
-    int directional_blur;    /* directional: irradiance blur radius in pixels; 0 = 4, -1 = off */
     /* Per-photon footprints (radius policies; need an estimator with PGI_EST_CAP_PHOTON_RADIUS). */
     int radius_policy;       /* PGI_RADIUS_FIXED (default), PGI_RADIUS_PATH, PGI_RADIUS_DIFFERENTIALS */
     float r_min, r_max;      /* path: radius range (default r_max = radius, r_min = r_max/8);
                                 differentials: r_max clamps the footprint radius (default: radius) */
     float smoothing;         /* differentials: smoothing factor s (> 0); 0 = automatic (docs/bvh.md) */
-    int bvh_build;           /* "bvh": PGI_BVH_LINEAR (default) or PGI_BVH_VVH */
-    int leaf_size;           /* "bvh": leaf-size threshold; 0 = T_auto */
-    int kernel;              /* pgi_kernel: 0 constant (default), 1 cone, 2 Epanechnikov */
-    int subsample;           /* stochastic subsampling factor k (0/1 off; hashgrid, tiled, kdtree range) */
     int filter;              /* bilateral reconstruction filter radius in pixels on the indirect light (0 off) */
-    int knn;                 /* kdtree: k nearest photons within the radius (0 = fixed-radius range mode) */
-    int polygon_vertices;    /* bounds25d: vertices of the screen polygon (even, 4..64); default 8 */
 } pgi_render_desc;
 
 typedef enum pgi_radius_policy {
@@ -168,6 +158,9 @@ typedef struct pgi_frame_stats {
     uint64_t contributing;   /* reads that passed the sphere + hemisphere test */
     uint64_t nodes_visited;  /* cells / tiles / nodes touched */
     int frames;              /* frames averaged into the image (progressive); 1 for a single frame */
+    int estimators_created;  /* estimators this call created (0 when the renderer reused its estimator) */
+    pgi_render_desc settings;  /* what was rendered: every default filled in (estimator options too; `view`
+                                  is NULL; `radius` is the first frame's) */
     double rt_update_ms;     /* updating the ray-tracing scene after geometry moved (0 if nothing moved) */
     int radius_policy;       /* pgi_radius_policy used */
     int leaf_size;           /* "bvh": leaf-size threshold used */
@@ -186,9 +179,29 @@ typedef struct pgi_renderer pgi_renderer;
  * (the viewer and the benchmark render many frames). The scene is borrowed
  * and must outlive the renderer. */
 pgi_status pgi_renderer_create(const pgi_scene *scene, pgi_renderer **out);
+/* One frame. The renderer creates its estimator once per estimator name and
+ * options and reuses it while they stay the same (radius, seed, threads and
+ * the camera are per-frame values). */
 pgi_status pgi_renderer_render(pgi_renderer *r, const pgi_render_desc *desc,
                                pgi_image *out, pgi_frame_stats *stats);
 void pgi_renderer_destroy(pgi_renderer *r);
+const pgi_scene *pgi_renderer_scene(const pgi_renderer *r);
+
+/* What density estimation reads in one frame: the view samples and photons
+ * of `desc` (traced as pgi_renderer_render traces them), so that a tool can
+ * run estimators (its own included) on the renderer's inputs. */
+typedef struct pgi_frame_inputs {
+    const pgi_photons *photons;      /* borrowed: valid until the renderer's next call */
+    const pgi_view_samples *samples; /* borrowed: likewise */
+    pgi_camera camera;
+    float radius;                    /* the resolved photon radius */
+    float scene_area;                /* total triangle area of the scene */
+    uint64_t seed;
+} pgi_frame_inputs;
+/* Casts the view samples and traces the photons of one frame; stats (may be
+ * NULL) gets the view and trace passes. */
+pgi_status pgi_renderer_prepare(pgi_renderer *r, const pgi_render_desc *desc, pgi_frame_inputs *out,
+                                pgi_frame_stats *stats);
 
 void pgi_image_free(pgi_image *img);
 /* Writes PNG (tone-mapped: exposure, then sRGB) or EXR (linear float),
@@ -199,7 +212,7 @@ void pgi_tonemap_srgb8(const pgi_image *img, float exposure, unsigned char *out)
 /* Writes the frame statistics as JSON to `path` ("-" = standard output). */
 pgi_status pgi_stats_write_json(const pgi_frame_stats *stats, const char *path);
 
-/* ------------------------------------------------ dynamic scenes (issue 6) */
+/* ------------------------------------------------------ dynamic scenes */
 
 /* Moves every animated object of a scene description ("motion" keyframes,
  * docs/scene-format.md) to time t (seconds). A renderer using the scene
@@ -233,25 +246,33 @@ pgi_status pgi_scene_get_light_group(const pgi_scene *scene, size_t i, pgi_light
  * translation of their triangles). Sun: PGI_ERR_UNSUPPORTED. */
 pgi_status pgi_scene_set_light_position(pgi_scene *scene, size_t i, const float pos[3]);
 
-/* Progressive accumulation for interactive use: renders one more frame
- * into the renderer's running average and writes the average to `out`.
- * The average restarts by itself when anything that changes the picture
- * differs from the previous call (desc fields, view camera, scene time,
- * geometry or light positions); frame k (0-based) uses seed stream k and
- * radius r_k with r_0 = desc radius, r_{k+1}^2 = r_k^2 (k+1+alpha)/(k+2),
- * alpha = 2/3 (Knaus & Zwicker 2011). Needs an exact estimator for k > 0
- * (an approximate one restarts every frame). stats->frames is the count. */
-pgi_status pgi_renderer_accumulate(pgi_renderer *r, const pgi_render_desc *desc, pgi_image *out,
-                                   pgi_frame_stats *stats);
+/* ---------------------------------------------------------- progressive */
+
+/* Progressive photon mapping (Knaus & Zwicker 2011) on top of a renderer:
+ * each step renders one more frame into a running average and writes the
+ * average to `out`. Frame k (0-based) uses seed stream k and radius r_k with
+ * r_0 = desc radius, r_{k+1}^2 = r_k^2 (k+1+alpha)/(k+2), alpha = 2/3. The
+ * average restarts by itself when anything that changes the picture differs
+ * from the previous step (desc fields, view camera, scene time, geometry or
+ * light positions). Needs an exact estimator for k > 0 (an approximate one
+ * restarts every step). stats->frames is the count. The renderer is
+ * borrowed and must outlive the accumulator. */
+typedef struct pgi_progressive pgi_progressive;
+pgi_status pgi_progressive_create(pgi_renderer *r, pgi_progressive **out);
+pgi_status pgi_progressive_step(pgi_progressive *p, const pgi_render_desc *desc, pgi_image *out,
+                                pgi_frame_stats *stats);
 /* Forgets the running average. */
-void pgi_renderer_reset_accumulation(pgi_renderer *r);
+void pgi_progressive_reset(pgi_progressive *p);
+void pgi_progressive_destroy(pgi_progressive *p);
+/* Averages `frames` (1..1000000) progressive frames from a fresh start; stats
+ * gets the times and counters summed over the frames, the rest from the last. */
+pgi_status pgi_render_progressive(pgi_renderer *r, const pgi_render_desc *desc, int frames, pgi_image *out,
+                                  pgi_frame_stats *stats);
 /* Radius of progressive frame k (0-based) for a first radius r0. */
 float pgi_progressive_radius(float r0, int k);
 
 #ifdef __cplusplus
 }
 #endif
-
-#include "photongi/estimator.h"
 
 #endif

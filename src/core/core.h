@@ -31,6 +31,16 @@ void pgi__assert_fail(const char *expr, const char *file, int line);
 
 double pgi__now_ms(void);
 
+/* Threads for a parallel region: the caller's count, or OpenMP's default for
+ * 0. The library passes it to every region (num_threads) and never changes
+ * the process's OpenMP settings. */
+#ifdef _OPENMP
+#include <omp.h>
+static inline int pgi__threads(int requested) { return requested > 0 ? requested : omp_get_max_threads(); }
+#else
+static inline int pgi__threads(int requested) { return requested > 0 ? requested : 1; }
+#endif
+
 /* PGI_ERR_INVALID_ARG naming `name` and the registered estimators (estimator.c). */
 pgi_status pgi__fail_unknown_estimator(const char *name);
 

@@ -324,13 +324,19 @@ static inline int sphere_box(const btile *b, pgi_v3 c, float r) {
         }                                                                                                  \
     } while (0)
 
+static const pgi_option k_opt_polygon = {
+    .name = "polygon", .type = PGI_OPTION_INT, .offset = offsetof(pgi_estimator_desc, bounds.polygon), .min = 4,
+    .max = 64, .step = 2, .def = 8, .help = "bounds25d: vertices of the screen polygon (even, 4..64, default 8)"};
+static const pgi_option *const k_options3d[] = {&pgi__opt_tile, NULL};
+static const pgi_option *const k_options25d[] = {&pgi__opt_tile, &k_opt_polygon, NULL};
+
 static pgi_status b_create_common(const pgi_estimator_desc *d, void **state, int mode3d) {
     bounds_state *s = calloc(1, sizeof *s);
     if (!s) return pgi__fail(PGI_ERR_OOM, "out of memory");
     s->c.desc = *d;
     s->mode3d = mode3d;
-    s->nverts = d->polygon_vertices > 0 ? d->polygon_vertices : 8;
-    s->T = d->tile_size > 0 ? d->tile_size : 32;
+    s->nverts = d->bounds.polygon;
+    s->T = d->tiled.tile_size;
     *state = s;
     return PGI_OK;
 }
@@ -339,10 +345,11 @@ static pgi_status b25_create(const pgi_estimator_desc *d, void **state) { return
 
 static pgi_status b_build(void *state, const pgi_estimate_args *a) {
     bounds_state *s = state;
+    pgi__est_frame(&s->c, a);
     memset(&s->c.st, 0, sizeof s->c.st);
     const pgi_view_samples *vs = a->samples;
     const pgi_photons *ph = a->photons;
-    const float r = s->c.desc.radius;
+    const float r = s->c.radius;
     const int W = vs->width, H = vs->height, T = s->T;
     s->W = W;
     s->H = H;
@@ -362,7 +369,7 @@ static pgi_status b_build(void *state, const pgi_estimate_args *a) {
         return st;
     const pgi__view_xf x = pgi__view_xf_make(a->camera, W, H);
     double t0 = pgi__now_ms();
-#pragma omp parallel for schedule(dynamic, 4)
+#pragma omp parallel for schedule(dynamic, 4) num_threads(s->c.threads)
     for (int t = 0; t < s->ntiles; t++) {
         btile *b = &s->tiles[t];
         b->primary = b->secondary = 0;
@@ -389,14 +396,14 @@ static pgi_status b_build(void *state, const pgi_estimate_args *a) {
     s->nsec = 0;
     for (int t = 0; t < s->ntiles; t++)
         if (s->tiles[t].secondary) s->sec[s->nsec++] = (uint32_t)t;
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) num_threads(s->c.threads)
     for (long long j = 0; j < (long long)n; j++) {
         pgi_v3 c = pgi__to_view(&x, ph->px[j], ph->py[j], ph->pz[j]);
         s->cview[3 * j] = c.x, s->cview[3 * j + 1] = c.y, s->cview[3 * j + 2] = c.z;
     }
     double t1 = pgi__now_ms();
     const int ntiles = s->ntiles;
-#pragma omp parallel for schedule(dynamic, 1)
+#pragma omp parallel for schedule(dynamic, 1) num_threads(s->c.threads)
     for (long long cidx = 0; cidx < (long long)nchunks; cidx++) {
         uint32_t *cnt = s->counts + (size_t)cidx * ntiles;
         memset(cnt, 0, (size_t)ntiles * sizeof *cnt);
@@ -421,7 +428,7 @@ static pgi_status b_build(void *state, const pgi_estimate_args *a) {
     if ((st = pgi__ensure((void **)&s->bins, &s->bins_cap, (size_t)sum + 1, sizeof(uint32_t)))) return st;
     s->nbinned = (size_t)sum;
     double t3 = pgi__now_ms();
-#pragma omp parallel for schedule(dynamic, 1)
+#pragma omp parallel for schedule(dynamic, 1) num_threads(s->c.threads)
     for (long long cidx = 0; cidx < (long long)nchunks; cidx++) {
         uint32_t *off = s->counts + (size_t)cidx * ntiles;
         size_t j1 = ((size_t)cidx + 1) * chunk < n ? ((size_t)cidx + 1) * chunk : n;
@@ -439,6 +446,7 @@ static pgi_status b_build(void *state, const pgi_estimate_args *a) {
 
 static pgi_status b_estimate(void *state, const pgi_estimate_args *a) {
     bounds_state *s = state;
+    pgi__est_frame(&s->c, a);
     double t0 = pgi__now_ms();
     const pgi_view_samples *vs = a->samples;
     const pgi_photons *ph = a->photons;
@@ -446,20 +454,20 @@ static pgi_status b_estimate(void *state, const pgi_estimate_args *a) {
     if (W != s->W || H != s->H || ph->count != s->nphotons)
         return pgi__fail(PGI_ERR_INVALID_ARG, "%s: estimate called with other inputs than build's",
                          s->mode3d ? "bounds3d" : "bounds25d");
-    const float r = s->c.desc.radius, r2 = r * r;
+    const float r = s->c.radius, r2 = r * r;
     const pgi_kernel kern = s->c.desc.kernel;
     const pgi__view_xf x = pgi__view_xf_make(a->camera, W, H);
     const size_t TT = (size_t)T * (size_t)T;
     int nthreads = 1;
 #ifdef _OPENMP
-    nthreads = omp_get_max_threads();
+    nthreads = s->c.threads;
 #endif
     /* per thread: samples, view depth, kind (0 none, 1 primary, 2 secondary), sums, secondary list */
     const size_t per = (TT * (sizeof(pgi__vs) + sizeof(float) + 1 + sizeof(pgi__acc) + sizeof(uint32_t)) + 127) & ~(size_t)63;
     char *scratch = malloc((size_t)nthreads * per);
     if (!scratch) return pgi__fail(PGI_ERR_OOM, "out of memory for %d tile buffers", nthreads);
     uint64_t reads = 0, contrib = 0, covered = 0;
-#pragma omp parallel reduction(+ : reads, contrib, covered)
+#pragma omp parallel reduction(+ : reads, contrib, covered) num_threads(s->c.threads)
     {
         int tid = 0;
 #ifdef _OPENMP
@@ -563,11 +571,27 @@ static void b_destroy(void *state) {
 }
 
 const pgi_estimator_vtbl pgi__est_bounds3d = {
-    "bounds3d", "photon-major scatter, icosahedron bounds projected to the screen (Mara et al. 2013 §2.2)", 1,
-    b3_create, b_build, b_estimate, b_stats, b_destroy, PGI_EST_CAP_KERNELS,
+    .name = "bounds3d",
+    .summary = "photon-major scatter, icosahedron bounds projected to the screen (Mara et al. 2013 §2.2)",
+    .exact = 1,
+    .create = b3_create,
+    .build = b_build,
+    .estimate = b_estimate,
+    .stats = b_stats,
+    .destroy = b_destroy,
+    .caps = PGI_EST_CAP_KERNELS,
+    .options = k_options3d,
 };
 
 const pgi_estimator_vtbl pgi__est_bounds25d = {
-    "bounds25d", "photon-major scatter, tight screen polygon + depth range per sphere (Mara & McGuire 2013)", 1,
-    b25_create, b_build, b_estimate, b_stats, b_destroy, PGI_EST_CAP_KERNELS,
+    .name = "bounds25d",
+    .summary = "photon-major scatter, tight screen polygon + depth range per sphere (Mara & McGuire 2013)",
+    .exact = 1,
+    .create = b25_create,
+    .build = b_build,
+    .estimate = b_estimate,
+    .stats = b_stats,
+    .destroy = b_destroy,
+    .caps = PGI_EST_CAP_KERNELS,
+    .options = k_options25d,
 };

@@ -16,6 +16,7 @@ static pgi_status brute_create(const pgi_estimator_desc *d, void **state) {
 
 static pgi_status brute_build(void *state, const pgi_estimate_args *a) {
     brute_state *s = state;
+    pgi__est_frame(&s->c, a);
     memset(&s->c.st, 0, sizeof s->c.st);
     pgi__stats_pass(&s->c.st, "build", 0.0);
     return PGI_OK;
@@ -33,10 +34,10 @@ static pgi_status brute_estimate_general(brute_state *s, const pgi_estimate_args
     const int footprints = ph->radius != NULL, ell = ph->sax != NULL;
     if (footprints && kern != PGI_KERNEL_CONSTANT)
         return pgi__fail(PGI_ERR_INVALID_ARG, "brute: per-photon footprints use the constant kernel only");
-    const float r2 = s->c.desc.radius * s->c.desc.radius;
+    const float r2 = s->c.radius * s->c.radius;
     const size_t n = ph->count;
     uint64_t reads = 0, contrib = 0;
-#pragma omp parallel for schedule(dynamic, 64) reduction(+ : reads, contrib)
+#pragma omp parallel for schedule(dynamic, 64) reduction(+ : reads, contrib) num_threads(s->c.threads)
     for (long long ii = 0; ii < (long long)vs->count; ii++) {
         size_t i = (size_t)ii;
         float *out = a->out_rgb + 3 * i;
@@ -72,14 +73,15 @@ static pgi_status brute_estimate_general(brute_state *s, const pgi_estimate_args
 
 static pgi_status brute_estimate(void *state, const pgi_estimate_args *a) {
     brute_state *s = state;
+    pgi__est_frame(&s->c, a);
     if (a->photons->radius || s->c.desc.kernel != PGI_KERNEL_CONSTANT) return brute_estimate_general(s, a);
     double t0 = pgi__now_ms();
     const pgi_photons *ph = a->photons;
     const pgi_view_samples *vs = a->samples;
-    const float r2 = s->c.desc.radius * s->c.desc.radius;
+    const float r2 = s->c.radius * s->c.radius;
     const size_t n = ph->count;
     uint64_t reads = 0, contrib = 0;
-#pragma omp parallel for schedule(dynamic, 64) reduction(+ : reads, contrib)
+#pragma omp parallel for schedule(dynamic, 64) reduction(+ : reads, contrib) num_threads(s->c.threads)
     for (long long ii = 0; ii < (long long)vs->count; ii++) {
         size_t i = (size_t)ii;
         float *out = a->out_rgb + 3 * i;
@@ -102,6 +104,14 @@ static void brute_stats(const void *state, pgi_estimator_stats *out) { *out = ((
 static void brute_destroy(void *state) { free(state); }
 
 const pgi_estimator_vtbl pgi__est_brute = {
-    "brute", "every photon for every view sample (the test oracle)", 1,
-    brute_create, brute_build, brute_estimate, brute_stats, brute_destroy, PGI_EST_CAP_PHOTON_RADIUS | PGI_EST_CAP_KERNELS,
+    .name = "brute",
+    .summary = "every photon for every view sample (the test oracle)",
+    .exact = 1,
+    .oracle = 1,
+    .create = brute_create,
+    .build = brute_build,
+    .estimate = brute_estimate,
+    .stats = brute_stats,
+    .destroy = brute_destroy,
+    .caps = PGI_EST_CAP_PHOTON_RADIUS | PGI_EST_CAP_KERNELS,
 };

@@ -61,6 +61,14 @@ typedef struct {
     int max_depth;
 } bvh_state;
 
+static const pgi_option k_opt_build = {
+    .name = "bvh-build", .type = PGI_OPTION_CHOICE, .offset = offsetof(pgi_estimator_desc, bvh.build),
+    .choices = "linear|vvh", .help = "BVH builder: linear (Morton) or vvh (default linear)"};
+static const pgi_option k_opt_leaf = {
+    .name = "leaf-size", .type = PGI_OPTION_INT, .offset = offsetof(pgi_estimator_desc, bvh.leaf_size), .min = 0,
+    .max = 65536, .help = "BVH leaf size threshold (1..65536; 0 = T_auto, the default)"};
+static const pgi_option *const k_options[] = {&k_opt_build, &k_opt_leaf, NULL};
+
 static pgi_status bvh_create(const pgi_estimator_desc *d, void **state) {
     bvh_state *s = calloc(1, sizeof *s);
     if (!s) return pgi__fail(PGI_ERR_OOM, "out of memory");
@@ -228,6 +236,7 @@ static void build_vvh(bvh_state *s, uint32_t ni, uint32_t start, uint32_t cnt, i
 
 static pgi_status bvh_build(void *state, const pgi_estimate_args *a) {
     bvh_state *s = state;
+    pgi__est_frame(&s->c, a);
     memset(&s->c.st, 0, sizeof s->c.st);
     double t0 = pgi__now_ms();
     const pgi_photons *ph = a->photons;
@@ -235,7 +244,7 @@ static pgi_status bvh_build(void *state, const pgi_estimate_args *a) {
     if (n >= (size_t)UINT32_MAX / 4) return pgi__fail(PGI_ERR_INVALID_ARG, "bvh: too many photons (%zu)", n);
     s->n = n;
     s->mode = !ph->radius ? MODE_FIXED : ph->sax ? MODE_ELLIPSOID : MODE_SPHERE;
-    const int vvh = s->c.desc.bvh_build == PGI_BVH_VVH;
+    const int vvh = s->c.desc.bvh.build == PGI_BVH_VVH;
     pgi_status st;
     size_t m = n + 1;
     if ((st = pgi__ensure((void **)&s->box, &s->box_cap, 6 * m, sizeof(float))) ||
@@ -255,11 +264,11 @@ static pgi_status bvh_build(void *state, const pgi_estimate_args *a) {
         return st;
 
     /* Footprint boxes and the footprint area (T_auto). */
-    const float rf = s->c.desc.radius;
+    const float rf = s->c.radius;
     const int mode = s->mode;
     double area = 0.0;
     float plo[3] = {INFINITY, INFINITY, INFINITY}, phi[3] = {-INFINITY, -INFINITY, -INFINITY};
-#pragma omp parallel for schedule(static) reduction(+ : area)
+#pragma omp parallel for schedule(static) reduction(+ : area) num_threads(s->c.threads)
     for (long long jj = 0; jj < (long long)n; jj++) {
         size_t j = (size_t)jj;
         float p[3] = {ph->px[j], ph->py[j], ph->pz[j]}, h[3];
@@ -284,13 +293,13 @@ static pgi_status bvh_build(void *state, const pgi_estimate_args *a) {
         }
     }
     s->footprint_area = area;
-    double sa = s->c.desc.scene_area;
+    double sa = s->c.scene_area;
     if (!(sa > 0.0) && n > 0) {
         double ex = phi[0] - plo[0], ey = phi[1] - plo[1], ez = phi[2] - plo[2];
         sa = 2.0 * (ex * ey + ey * ez + ez * ex);
     }
     s->scene_area = sa;
-    if (s->c.desc.leaf_size > 0) s->leaf = s->c.desc.leaf_size;
+    if (s->c.desc.bvh.leaf_size > 0) s->leaf = s->c.desc.bvh.leaf_size;
     else {
         double t = TAUTO_BASE + (sa > 0.0 ? TAUTO_SCALE * area / sa : 0.0);
         s->leaf = !(t < 65536.0) ? 65536 : t < 1.0 ? 1 : (int)(t + 0.5);
@@ -307,7 +316,7 @@ static pgi_status bvh_build(void *state, const pgi_estimate_args *a) {
                 float e = phi[k] - plo[k];
                 scale[k] = e > 0.f ? 1024.f / e : 0.f;
             }
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) num_threads(s->c.threads)
             for (long long jj = 0; jj < (long long)n; jj++) {
                 size_t j = (size_t)jj;
                 s->keys[j] = (expand_bits(quant10(ph->px[j], plo[0], scale[0])) << 2) |
@@ -346,7 +355,7 @@ static pgi_status bvh_build(void *state, const pgi_estimate_args *a) {
     }
     double t2 = pgi__now_ms();
     /* Photons in leaf order, with what the query needs. */
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) num_threads(s->c.threads)
     for (long long kk = 0; kk < (long long)n; kk++) {
         size_t k = (size_t)kk, j = s->idx[k];
         pgi__packed_photon *q = &s->pk[k];
@@ -373,14 +382,15 @@ static inline int in_box(const bnode *b, float x, float y, float z) {
 
 static pgi_status bvh_estimate(void *state, const pgi_estimate_args *a) {
     bvh_state *s = state;
+    pgi__est_frame(&s->c, a);
     double t0 = pgi__now_ms();
     const pgi_view_samples *vs = a->samples;
-    const float r2f = s->c.desc.radius * s->c.desc.radius;
+    const float r2f = s->c.radius * s->c.radius;
     const int mode = s->mode;
     const bnode *nodes = s->nodes;
     const int have = s->nnodes > 0;
     uint64_t reads = 0, contrib = 0, visited = 0;
-#pragma omp parallel for schedule(dynamic, 64) reduction(+ : reads, contrib, visited)
+#pragma omp parallel for schedule(dynamic, 64) reduction(+ : reads, contrib, visited) num_threads(s->c.threads)
     for (long long ii = 0; ii < (long long)vs->count; ii++) {
         size_t i = (size_t)ii;
         float *out = a->out_rgb + 3 * i;
@@ -426,7 +436,7 @@ static pgi_status bvh_estimate(void *state, const pgi_estimate_args *a) {
                            (mode == MODE_ELLIPSOID ? 9 * sizeof(float) : 0)));
     pgi__stats_mem(&s->c.st, "bvh_build_scratch",
                    s->n * (6 * sizeof(float) + 4 * sizeof(uint32_t)) +
-                       (s->c.desc.bvh_build == PGI_BVH_VVH ? s->n * (4 * sizeof(uint32_t) + sizeof(float)) : 0));
+                       (s->c.desc.bvh.build == PGI_BVH_VVH ? s->n * (4 * sizeof(uint32_t) + sizeof(float)) : 0));
     return PGI_OK;
 }
 
@@ -441,6 +451,14 @@ static void bvh_destroy(void *state) {
 }
 
 const pgi_estimator_vtbl pgi__est_bvh = {
-    "bvh", "BVH over photon footprints, linear or VVH build, T_auto leaves (Fabianowski & Dingliana 2009)", 1,
-    bvh_create, bvh_build, bvh_estimate, bvh_stats, bvh_destroy, PGI_EST_CAP_PHOTON_RADIUS,
+    .name = "bvh",
+    .summary = "BVH over photon footprints, linear or VVH build, T_auto leaves (Fabianowski & Dingliana 2009)",
+    .exact = 1,
+    .create = bvh_create,
+    .build = bvh_build,
+    .estimate = bvh_estimate,
+    .stats = bvh_stats,
+    .destroy = bvh_destroy,
+    .caps = PGI_EST_CAP_PHOTON_RADIUS,
+    .options = k_options,
 };

@@ -134,25 +134,29 @@ typedef struct {
     int splatted;   /* this frame has nodes and photons (lists/buckets are valid) */
 } cl_state;
 
+static const pgi_option k_opt_cluster_tile = {
+    .name = "cluster-tile", .type = PGI_OPTION_INT, .offset = offsetof(pgi_estimator_desc, cluster.tile), .min = 1,
+    .max = 256, .def = 8, .help = "cluster edge in pixels (1..256, default 8)"};
+static const pgi_option k_opt_dir_level = {
+    .name = "directional-level", .type = PGI_OPTION_INT, .offset = offsetof(pgi_estimator_desc, directional.level),
+    .min = 0, .max = 16, .zero = PGI_DIRECTIONAL_LEAVES, .def = 1,
+    .help = "flux buckets N levels above the leaves (0..16, default 1; 0 = at the leaves)"};
+static const pgi_option k_opt_dir_blur = {
+    .name = "directional-blur", .type = PGI_OPTION_INT, .offset = offsetof(pgi_estimator_desc, directional.blur),
+    .min = 0, .max = 64, .zero = PGI_DIRECTIONAL_NO_BLUR, .def = 4,
+    .help = "irradiance blur radius in pixels (0..64, default 4; 0 = off)"};
+static const pgi_option *const k_options[] = {&k_opt_cluster_tile, NULL};
+static const pgi_option *const k_options_dir[] = {&k_opt_cluster_tile, &k_opt_dir_level, &k_opt_dir_blur, NULL};
+
 static pgi_status cl_create_variant(const pgi_estimator_desc *d, void **state, int variant, const char *name) {
-    if (d->cluster_tile < 0 || d->cluster_tile > 256)
-        return pgi__fail(PGI_ERR_INVALID_ARG, "%s: cluster tile %d is out of range (1..256, 0 = default 8)", name,
-                         d->cluster_tile);
-    if (d->directional_level < -1 || d->directional_level > 16)
-        return pgi__fail(PGI_ERR_INVALID_ARG,
-                         "%s: directional level %d is out of range (1..16 levels above the leaves, 0 = default 1, "
-                         "-1 = leaves)",
-                         name, d->directional_level);
-    if (d->directional_blur < -1 || d->directional_blur > 64)
-        return pgi__fail(PGI_ERR_INVALID_ARG, "%s: directional blur %d is out of range (1..64, 0 = default 4, -1 = off)",
-                         name, d->directional_blur);
+    (void)name;
     cl_state *s = calloc(1, sizeof *s);
     if (!s) return pgi__fail(PGI_ERR_OOM, "out of memory");
     s->c.desc = *d;
     s->variant = variant;
-    s->T = d->cluster_tile > 0 ? d->cluster_tile : 8;
-    s->dir_up = d->directional_level == 0 ? 1 : d->directional_level < 0 ? 0 : d->directional_level;
-    s->blur = d->directional_blur == 0 ? 4 : d->directional_blur < 0 ? 0 : d->directional_blur;
+    s->T = d->cluster.tile;
+    s->dir_up = d->directional.level == PGI_DIRECTIONAL_LEAVES ? 0 : d->directional.level;
+    s->blur = d->directional.blur == PGI_DIRECTIONAL_NO_BLUR ? 0 : d->directional.blur;
     *state = s;
     return PGI_OK;
 }
@@ -1066,6 +1070,7 @@ static pgi_status splat(cl_state *s, const pgi_photons *ph, double *tm) {
 
 static pgi_status cl_build(void *state, const pgi_estimate_args *a) {
     cl_state *s = state;
+    pgi__est_frame(&s->c, a);
     memset(&s->c.st, 0, sizeof s->c.st);
     const pgi_view_samples *vs = a->samples;
     const pgi_camera *cam = a->camera;
@@ -1075,7 +1080,7 @@ static pgi_status cl_build(void *state, const pgi_estimate_args *a) {
                          cam->height);
     s->W = vs->width;
     s->H = vs->height;
-    s->r = s->c.desc.radius;
+    s->r = s->c.radius;
     s->x = pgi__view_xf_make(cam, s->W, s->H);
     double t0 = pgi__now_ms(), t_sort = t0;
     pgi_status st = cl_build_hierarchy(s, vs, cam, &t_sort);
@@ -1341,6 +1346,7 @@ static void rad_block(const pgi__packed_photon *restrict q, uint32_t m, int nb, 
 
 static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
     cl_state *s = state;
+    pgi__est_frame(&s->c, a);
     double t0 = pgi__now_ms();
     const pgi_view_samples *vs = a->samples;
     if (vs->width != s->W || vs->height != s->H)
@@ -1499,20 +1505,46 @@ static void cl_destroy(void *state) {
 }
 
 const pgi_estimator_vtbl pgi__est_cluster = {
-    "cluster", "view-sample cluster hierarchy; photons splatted into node lists (Moreau et al. 2016 §4.1-4.4)", 1,
-    cluster_create, cl_build, cl_estimate, cl_stats, cl_destroy, 0,
+    .name = "cluster",
+    .summary = "view-sample cluster hierarchy; photons splatted into node lists (Moreau et al. 2016 §4.1-4.4)",
+    .exact = 1,
+    .create = cluster_create,
+    .build = cl_build,
+    .estimate = cl_estimate,
+    .stats = cl_stats,
+    .destroy = cl_destroy,
+    .options = k_options,
 };
 const pgi_estimator_vtbl pgi__est_cluster_cone = {
-    "cluster-cone", "cluster + normal-cone rejection of photons from below a node's surfaces (§4.5)", 1,
-    cone_create, cl_build, cl_estimate, cl_stats, cl_destroy, 0,
+    .name = "cluster-cone",
+    .summary = "cluster + normal-cone rejection of photons from below a node's surfaces (§4.5)",
+    .exact = 1,
+    .create = cone_create,
+    .build = cl_build,
+    .estimate = cl_estimate,
+    .stats = cl_stats,
+    .destroy = cl_destroy,
+    .options = k_options,
 };
 const pgi_estimator_vtbl pgi__est_cluster_trivial = {
-    "cluster-trivial",
-    "cluster-cone + trivial accept: enclosed all-Lambertian nodes accumulate flux, no list (§4.6)", 1,
-    trivial_create, cl_build, cl_estimate, cl_stats, cl_destroy, 0,
+    .name = "cluster-trivial",
+    .summary = "cluster-cone + trivial accept: enclosed all-Lambertian nodes accumulate flux, no list (§4.6)",
+    .exact = 1,
+    .create = trivial_create,
+    .build = cl_build,
+    .estimate = cl_estimate,
+    .stats = cl_stats,
+    .destroy = cl_destroy,
+    .options = k_options,
 };
 const pgi_estimator_vtbl pgi__est_directional = {
-    "directional",
-    "cluster hierarchy, flux in 8 octant buckets per node from a fixed level down, blurred irradiance (§4.7)", 0,
-    dir_create, cl_build, cl_estimate, cl_stats, cl_destroy, 0,
+    .name = "directional",
+    .summary = "cluster hierarchy, flux in 8 octant buckets per node from a fixed level down, blurred irradiance (§4.7)",
+    .exact = 0,
+    .create = dir_create,
+    .build = cl_build,
+    .estimate = cl_estimate,
+    .stats = cl_stats,
+    .destroy = cl_destroy,
+    .options = k_options_dir,
 };

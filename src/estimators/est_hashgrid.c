@@ -71,20 +71,31 @@ static inline uint32_t probe(const hashgrid_state *s, uint64_t key, uint32_t *pr
     return b;
 }
 
+static const pgi_option k_opt_cell_size = {
+    .name = "cell-size", .type = PGI_OPTION_FLOAT, .offset = offsetof(pgi_estimator_desc, hashgrid.cell_size),
+    .help = "hashgrid cell edge in scene units (at least radius/64; default 2 x radius)"};
+static const pgi_option *const k_options[] = {&k_opt_cell_size, NULL};
+
 static pgi_status hg_create(const pgi_estimator_desc *d, void **state) {
     hashgrid_state *s = calloc(1, sizeof *s);
     if (!s) return pgi__fail(PGI_ERR_OOM, "out of memory");
     s->c.desc = *d;
-    /* Cell edge 2r: a query sphere then overlaps at most 2x2x2 cells. */
-    s->cell = d->cell_size > 0.f ? d->cell_size : 2.f * d->radius;
-    s->inv_cell = 1.f / s->cell;
     *state = s;
     return PGI_OK;
 }
 
 static pgi_status hg_build(void *state, const pgi_estimate_args *a) {
     hashgrid_state *s = state;
+    pgi__est_frame(&s->c, a);
     memset(&s->c.st, 0, sizeof s->c.st);
+    /* Cell edge 2r: a query sphere then overlaps at most 2x2x2 cells. Below r/64 a query would
+     * visit over 2 million cells: reject rather than hang. */
+    const float cell = s->c.desc.hashgrid.cell_size;
+    if (cell > 0.f && cell < s->c.radius / 64.f)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "hashgrid: --cell-size must be 0 (default: 2r) or at least r/64 = %g, got %g",
+                         (double)(s->c.radius / 64.f), (double)cell);
+    s->cell = cell > 0.f ? cell : 2.f * s->c.radius;
+    s->inv_cell = 1.f / s->cell;
     double t0 = pgi__now_ms();
     const pgi_photons *ph = a->photons;
     const size_t n = ph->count;
@@ -99,7 +110,7 @@ static pgi_status hg_build(void *state, const pgi_estimate_args *a) {
     s->nslots = nslots;
     s->mask = (uint32_t)(nslots - 1);
     const float inv = s->inv_cell;
-#pragma omp parallel
+#pragma omp parallel num_threads(s->c.threads)
     {
 #pragma omp for schedule(static)
         for (long long k = 0; k < (long long)nslots; k++) {
@@ -144,14 +155,15 @@ static pgi_status hg_build(void *state, const pgi_estimate_args *a) {
 
 static pgi_status hg_estimate(void *state, const pgi_estimate_args *a) {
     hashgrid_state *s = state;
+    pgi__est_frame(&s->c, a);
     double t0 = pgi__now_ms();
     const pgi_view_samples *vs = a->samples;
-    const float r = s->c.desc.radius, r2 = r * r, inv = s->inv_cell;
+    const float r = s->c.radius, r2 = r * r, inv = s->inv_cell;
     const pgi_kernel kern = s->c.desc.kernel;
     const int sub = s->c.desc.subsample;
-    const uint64_t seed = s->c.desc.seed;
+    const uint64_t seed = s->c.seed;
     uint64_t reads = 0, contrib = 0, visited = 0;
-#pragma omp parallel for schedule(dynamic, 64) reduction(+ : reads, contrib, visited)
+#pragma omp parallel for schedule(dynamic, 64) reduction(+ : reads, contrib, visited) num_threads(s->c.threads)
     for (long long ii = 0; ii < (long long)vs->count; ii++) {
         size_t i = (size_t)ii;
         float *out = a->out_rgb + 3 * i;
@@ -199,6 +211,14 @@ static void hg_destroy(void *state) {
 }
 
 const pgi_estimator_vtbl pgi__est_hashgrid = {
-    "hashgrid", "3D hash grid of photon cells, pixel-major gather (Mara et al. 2013 §2.3.1)", 1,
-    hg_create, hg_build, hg_estimate, hg_stats, hg_destroy, PGI_EST_CAP_KERNELS | PGI_EST_CAP_SUBSAMPLE,
+    .name = "hashgrid",
+    .summary = "3D hash grid of photon cells, pixel-major gather (Mara et al. 2013 §2.3.1)",
+    .exact = 1,
+    .create = hg_create,
+    .build = hg_build,
+    .estimate = hg_estimate,
+    .stats = hg_stats,
+    .destroy = hg_destroy,
+    .caps = PGI_EST_CAP_KERNELS | PGI_EST_CAP_SUBSAMPLE,
+    .options = k_options,
 };

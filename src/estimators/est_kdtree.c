@@ -43,7 +43,16 @@ typedef struct {
     size_t n;
 } kdtree_state;
 
+static const pgi_option k_opt_knn = {
+    .name = "knn", .type = PGI_OPTION_INT, .offset = offsetof(pgi_estimator_desc, kdtree.knn), .min = 1, .max = 4096,
+    .flags = PGI_OPTION_STRICT,
+    .help = "k nearest photons within the radius, normalised by the disk through the k-th (1..4096; default: "
+            "fixed-radius range mode)"};
+static const pgi_option *const k_options[] = {&k_opt_knn, NULL};
+
 static pgi_status kd_create(const pgi_estimator_desc *d, void **state) {
+    if (d->kdtree.knn > 0 && d->subsample > 1)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "kdtree: stochastic subsampling works in range mode only (knn 0)");
     kdtree_state *s = calloc(1, sizeof *s);
     if (!s) return pgi__fail(PGI_ERR_OOM, "out of memory");
     s->c.desc = *d;
@@ -119,6 +128,7 @@ static void build_range(kdtree_state *s, size_t lo, size_t hi) {
 
 static pgi_status kd_build(void *state, const pgi_estimate_args *a) {
     kdtree_state *s = state;
+    pgi__est_frame(&s->c, a);
     memset(&s->c.st, 0, sizeof s->c.st);
     const pgi_photons *ph = a->photons;
     const size_t n = ph->count;
@@ -130,15 +140,15 @@ static pgi_status kd_build(void *state, const pgi_estimate_args *a) {
         (st = pgi__ensure((void **)&s->items, &s->items_cap, n + 1, sizeof(kitem))))
         return st;
     double t0 = pgi__now_ms();
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) num_threads(s->c.threads)
     for (long long j = 0; j < (long long)n; j++)
         s->items[j] = (kitem){{ph->px[j], ph->py[j], ph->pz[j]}, (uint32_t)j};
     memset(s->axis, 0, n + 1);
-#pragma omp parallel
+#pragma omp parallel num_threads(s->c.threads)
 #pragma omp single
     build_range(s, 0, n);
     double t1 = pgi__now_ms();
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) num_threads(s->c.threads)
     for (long long i = 0; i < (long long)n; i++) {
         s->orig[i] = s->items[i].idx;
         pgi__pack_photon(ph, s->items[i].idx, &s->pts[i]);
@@ -272,25 +282,26 @@ static float knn_query(const kdtree_state *s, const pgi__vs *v, float rmax, int 
 
 static pgi_status kd_estimate(void *state, const pgi_estimate_args *a) {
     kdtree_state *s = state;
+    pgi__est_frame(&s->c, a);
     double t0 = pgi__now_ms();
     const pgi_view_samples *vs = a->samples;
     if (s->n != a->photons->count)
         return pgi__fail(PGI_ERR_INVALID_ARG, "kdtree: estimate called with other photons than build's");
-    const float r = s->c.desc.radius, r2 = r * r;
+    const float r = s->c.radius, r2 = r * r;
     const pgi_kernel kern = s->c.desc.kernel;
-    const int k = s->c.desc.knn, sub = s->c.desc.subsample;
-    const uint64_t seed = s->c.desc.seed;
+    const int k = s->c.desc.kdtree.knn, sub = s->c.desc.subsample;
+    const uint64_t seed = s->c.seed;
     cand *heaps = NULL;
     int nthreads = 1;
 #ifdef _OPENMP
-    nthreads = omp_get_max_threads();
+    nthreads = s->c.threads;
 #endif
     if (k > 0) {
         heaps = malloc((size_t)nthreads * (size_t)k * sizeof *heaps);
         if (!heaps) return pgi__fail(PGI_ERR_OOM, "kdtree: out of memory for k-NN heaps");
     }
     uint64_t reads = 0, contrib = 0, nodes = 0;
-#pragma omp parallel reduction(+ : reads, contrib, nodes)
+#pragma omp parallel reduction(+ : reads, contrib, nodes) num_threads(s->c.threads)
     {
         int tid = 0;
 #ifdef _OPENMP
@@ -338,6 +349,14 @@ static void kd_destroy(void *state) {
 }
 
 const pgi_estimator_vtbl pgi__est_kdtree = {
-    "kdtree", "balanced kd-tree photon map; fixed-radius range gather or k nearest (Jensen)", 1,
-    kd_create, kd_build, kd_estimate, kd_stats, kd_destroy, PGI_EST_CAP_KERNELS | PGI_EST_CAP_SUBSAMPLE,
+    .name = "kdtree",
+    .summary = "balanced kd-tree photon map; fixed-radius range gather or k nearest (Jensen)",
+    .exact = 1,
+    .create = kd_create,
+    .build = kd_build,
+    .estimate = kd_estimate,
+    .stats = kd_stats,
+    .destroy = kd_destroy,
+    .caps = PGI_EST_CAP_KERNELS | PGI_EST_CAP_SUBSAMPLE,
+    .options = k_options,
 };

@@ -41,11 +41,16 @@ typedef struct {
     size_t copies;
 } tiled_state;
 
+const pgi_option pgi__opt_tile = {
+    .name = "tile", .type = PGI_OPTION_INT, .offset = offsetof(pgi_estimator_desc, tiled.tile_size), .min = 1,
+    .max = 4096, .def = 32, .help = "screen tile edge in pixels (1..4096, default 32)"};
+static const pgi_option *const k_options[] = {&pgi__opt_tile, NULL};
+
 static pgi_status tiled_create(const pgi_estimator_desc *d, void **state) {
     tiled_state *s = calloc(1, sizeof *s);
     if (!s) return pgi__fail(PGI_ERR_OOM, "out of memory");
     s->c.desc = *d;
-    s->T = d->tile_size > 0 ? d->tile_size : 32;
+    s->T = d->tiled.tile_size;
     *state = s;
     return PGI_OK;
 }
@@ -134,11 +139,12 @@ static inline int frame_overlaps(const tiled_state *s, pgi_v3 c, float r) {
 
 static pgi_status tiled_build(void *state, const pgi_estimate_args *a) {
     tiled_state *s = state;
+    pgi__est_frame(&s->c, a);
     memset(&s->c.st, 0, sizeof s->c.st);
     const pgi_view_samples *vs = a->samples;
     const pgi_photons *ph = a->photons;
     const pgi_camera *cam = a->camera;
-    const float r = s->c.desc.radius;
+    const float r = s->c.radius;
     const int W = vs->width, H = vs->height, T = s->T;
     s->ntx = (W + T - 1) / T;
     s->nty = (H + T - 1) / T;
@@ -157,7 +163,7 @@ static pgi_status tiled_build(void *state, const pgi_estimate_args *a) {
     pgi__view_xf x = pgi__view_xf_make(cam, W, H);
 
     double t0 = pgi__now_ms();
-#pragma omp parallel for schedule(dynamic, 4)
+#pragma omp parallel for schedule(dynamic, 4) num_threads(s->c.threads)
     for (int t = 0; t < s->ntiles; t++) {
         tile_bounds *b = &s->bounds[t];
         b->valid = 0;
@@ -199,7 +205,7 @@ static pgi_status tiled_build(void *state, const pgi_estimate_args *a) {
 
     const int ntiles = s->ntiles;
     uint64_t tested = 0;
-#pragma omp parallel for schedule(dynamic, 1) reduction(+ : tested)
+#pragma omp parallel for schedule(dynamic, 1) reduction(+ : tested) num_threads(s->c.threads)
     for (long long cidx = 0; cidx < (long long)nchunks; cidx++) {
         uint32_t *cnt = s->counts + (size_t)cidx * ntiles;
         memset(cnt, 0, (size_t)ntiles * sizeof *cnt);
@@ -229,7 +235,7 @@ static pgi_status tiled_build(void *state, const pgi_estimate_args *a) {
         return st;
     s->copies = (size_t)sum;
     double t3 = pgi__now_ms();
-#pragma omp parallel for schedule(dynamic, 1)
+#pragma omp parallel for schedule(dynamic, 1) num_threads(s->c.threads)
     for (long long cidx = 0; cidx < (long long)nchunks; cidx++) {
         uint32_t *off = s->counts + (size_t)cidx * ntiles;
         size_t j1 = ((size_t)cidx + 1) * chunk < n ? ((size_t)cidx + 1) * chunk : n;
@@ -250,17 +256,18 @@ static pgi_status tiled_build(void *state, const pgi_estimate_args *a) {
 
 static pgi_status tiled_estimate(void *state, const pgi_estimate_args *a) {
     tiled_state *s = state;
+    pgi__est_frame(&s->c, a);
     double t0 = pgi__now_ms();
     const pgi_view_samples *vs = a->samples;
     const int W = vs->width, H = vs->height, T = s->T;
     if (W != a->camera->width || s->ntx != (W + T - 1) / T || s->nty != (H + T - 1) / T)
         return pgi__fail(PGI_ERR_INVALID_ARG, "tiled: estimate called with a frame size other than build's");
-    const float r2 = s->c.desc.radius * s->c.desc.radius;
+    const float r2 = s->c.radius * s->c.radius;
     const pgi_kernel kern = s->c.desc.kernel;
     const int sub = s->c.desc.subsample;
-    const uint64_t seed = s->c.desc.seed;
+    const uint64_t seed = s->c.seed;
     uint64_t reads = 0, contrib = 0;
-#pragma omp parallel for schedule(dynamic, 1) reduction(+ : reads, contrib)
+#pragma omp parallel for schedule(dynamic, 1) reduction(+ : reads, contrib) num_threads(s->c.threads)
     for (int t = 0; t < s->ntiles; t++) {
         int tx = t % s->ntx, ty = t / s->ntx;
         const pgi__packed_photon *q = s->tile_photons + s->tile_start[t];
@@ -302,6 +309,14 @@ static void tiled_destroy(void *state) {
 }
 
 const pgi_estimator_vtbl pgi__est_tiled = {
-    "tiled", "screen tiles with depth bounds; per-tile photon copies (Mara et al. 2013 §2.3.1)", 1,
-    tiled_create, tiled_build, tiled_estimate, tiled_stats, tiled_destroy, PGI_EST_CAP_KERNELS | PGI_EST_CAP_SUBSAMPLE,
+    .name = "tiled",
+    .summary = "screen tiles with depth bounds; per-tile photon copies (Mara et al. 2013 §2.3.1)",
+    .exact = 1,
+    .create = tiled_create,
+    .build = tiled_build,
+    .estimate = tiled_estimate,
+    .stats = tiled_stats,
+    .destroy = tiled_destroy,
+    .caps = PGI_EST_CAP_KERNELS | PGI_EST_CAP_SUBSAMPLE,
+    .options = k_options,
 };

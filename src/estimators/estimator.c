@@ -1,4 +1,6 @@
 /* Estimator interface: registry, lifecycle wrappers, buffers. */
+#include <errno.h>
+#include <stddef.h>
 #include <stdio.h>
 
 #include "estimator_internal.h"
@@ -21,6 +23,9 @@ static const pgi_estimator_vtbl *const k_estimators[] = {
 struct pgi_estimator {
     const pgi_estimator_vtbl *vt;
     void *state;
+    pgi_estimator_desc desc;   /* resolved */
+    int built;                 /* the last build succeeded */
+    float built_radius;
 };
 
 size_t pgi_estimator_count(void) { return N_EST; }
@@ -40,50 +45,199 @@ const pgi_estimator_vtbl *pgi_estimator_find(const char *name) {
     return NULL;
 }
 
+/* ------------------------------------------------------------ options */
+
+static const pgi_option k_opt_kernel = {
+    .name = "kernel", .type = PGI_OPTION_CHOICE, .offset = offsetof(pgi_estimator_desc, kernel),
+    .choices = "constant|cone|epanechnikov", .caps = PGI_EST_CAP_KERNELS, .flags = PGI_OPTION_STRICT,
+    .help = "density-estimation kernel (default constant)"};
+static const pgi_option k_opt_subsample = {
+    .name = "subsample", .type = PGI_OPTION_INT, .offset = offsetof(pgi_estimator_desc, subsample), .min = 1,
+    .max = 64, .caps = PGI_EST_CAP_SUBSAMPLE, .flags = PGI_OPTION_STRICT,
+    .help = "stochastic subsampling: about 1/K^2 of the eligible photons per pixel (1..64; default off)"};
+static const pgi_option *const k_shared_options[] = {&k_opt_kernel, &k_opt_subsample, NULL};
+
+const pgi_option *const *pgi_estimator_shared_options(void) { return k_shared_options; }
+
+static int has_option(const pgi_option *const *list, const pgi_option *o) {
+    for (; list && *list; list++)
+        if (*list == o) return 1;
+    return 0;
+}
+
+int pgi_estimator_takes(const pgi_estimator_vtbl *vt, const pgi_option *o) {
+    if (o->caps) return (vt->caps & o->caps) != 0 && has_option(k_shared_options, o);
+    return has_option(vt->options, o);
+}
+
+#define MAX_OPTIONS 64
+
+/* Every distinct option: the shared ones, then each estimator's own in registry order. */
+static size_t all_options(const pgi_option *out[MAX_OPTIONS]) {
+    size_t n = 0;
+    for (const pgi_option *const *l = k_shared_options; *l; l++) out[n++] = *l;
+    for (size_t e = 0; e < N_EST; e++)
+        for (const pgi_option *const *l = k_estimators[e]->options; l && *l; l++) {
+            size_t k = 0;
+            while (k < n && out[k] != *l) k++;
+            if (k == n && n < MAX_OPTIONS) out[n++] = *l;
+        }
+    return n;
+}
+
+const pgi_option *pgi_option_find(const char *name) {
+    if (!name) return NULL;
+    const pgi_option *all[MAX_OPTIONS];
+    for (size_t i = 0, n = all_options(all); i < n; i++)
+        if (strcmp(all[i]->name, name) == 0) return all[i];
+    return NULL;
+}
+
+static int *int_field(const pgi_option *o, pgi_estimator_desc *d) { return (int *)(void *)((char *)d + o->offset); }
+static float *float_field(const pgi_option *o, pgi_estimator_desc *d) {
+    return (float *)(void *)((char *)d + o->offset);
+}
+
+/* The k-th choice of "a|b|c" into buf; 0 if there is none. */
+static int choice_at(const char *choices, int k, char *buf, size_t size) {
+    const char *p = choices;
+    for (int i = 0; i < k && p; i++) p = (p = strchr(p, '|')) ? p + 1 : NULL;
+    if (!p || k < 0) return 0;
+    const char *e = strchr(p, '|');
+    size_t n = e ? (size_t)(e - p) : strlen(p);
+    snprintf(buf, size, "%.*s", (int)n, p);
+    return 1;
+}
+
+/* "an even number in 4..64", "a number in 0..16", "one of constant|cone": what a user may write. */
+static void describe(const pgi_option *o, char *buf, size_t size) {
+    if (o->type == PGI_OPTION_CHOICE) {
+        snprintf(buf, size, "one of %s", o->choices);
+        return;
+    }
+    if (o->type == PGI_OPTION_FLOAT) {
+        snprintf(buf, size, "a number above %g", o->min);
+        return;
+    }
+    snprintf(buf, size, "%s in %g..%g", o->step == 2 ? "an even number" : o->step > 1 ? "a multiple" : "a number",
+             o->min, o->max);
+}
+
+static int int_in_range(const pgi_option *o, long long v) {
+    return v >= (long long)o->min && v <= (long long)o->max && (o->step <= 1 || v % o->step == 0);
+}
+
+pgi_status pgi_estimator_desc_set(pgi_estimator_desc *d, const char *name, const char *value) {
+    const pgi_option *o = pgi_option_find(name);
+    if (!o) return pgi__fail(PGI_ERR_INVALID_ARG, "unknown estimator option '--%s'", name ? name : "(null)");
+    char what[96];
+    describe(o, what, sizeof what);
+    const char *v = value ? value : "";
+    if (o->type == PGI_OPTION_CHOICE) {
+        char c[64];
+        for (int k = 0; choice_at(o->choices, k, c, sizeof c); k++)
+            if (strcmp(c, v) == 0) {
+                *int_field(o, d) = k;
+                return PGI_OK;
+            }
+        return pgi__fail(PGI_ERR_INVALID_ARG, "--%s must be %s, got '%s'", o->name, what, v);
+    }
+    char *end;
+    errno = 0;
+    if (o->type == PGI_OPTION_FLOAT) {
+        float f = strtof(v, &end);
+        if (errno || end == v || *end || !isfinite(f) || !(f > (float)o->min) || (o->max > 0 && f > (float)o->max))
+            return pgi__fail(PGI_ERR_INVALID_ARG, "--%s needs %s, got '%s'", o->name, what, v);
+        *float_field(o, d) = f;
+        return PGI_OK;
+    }
+    long long n = strtoll(v, &end, 10);
+    if (errno || end == v || *end || !int_in_range(o, n))
+        return pgi__fail(PGI_ERR_INVALID_ARG, "--%s needs %s, got '%s'", o->name, what, v);
+    *int_field(o, d) = n == 0 ? o->zero : (int)n;
+    return PGI_OK;
+}
+
+void pgi_option_format(const pgi_option *o, const pgi_estimator_desc *d, char *buf, size_t size) {
+    pgi_estimator_desc c = *d;
+    if (o->type == PGI_OPTION_FLOAT) {
+        snprintf(buf, size, "%g", (double)*float_field(o, &c));
+        return;
+    }
+    int v = *int_field(o, &c);
+    if (o->type == PGI_OPTION_CHOICE) {
+        if (!choice_at(o->choices, v, buf, size)) snprintf(buf, size, "%d", v);
+        return;
+    }
+    snprintf(buf, size, "%d", v == o->zero && o->zero != 0 ? 0 : v);
+}
+
+/* Names of the estimators that take option o, for messages. */
+static void takers(const pgi_option *o, char *buf, size_t size) {
+    buf[0] = 0;
+    for (size_t i = 0; i < N_EST; i++)
+        if (pgi_estimator_takes(k_estimators[i], o)) pgi__list_append(buf, size, k_estimators[i]->name);
+}
+
+pgi_status pgi_estimator_desc_resolve(const pgi_estimator_vtbl *vt, const pgi_estimator_desc *in,
+                                      pgi_estimator_desc *out) {
+    pgi_estimator_desc r = *in;
+    pgi_estimator_desc d;
+    memset(&d, 0, sizeof d);
+    const pgi_option *all[MAX_OPTIONS];
+    for (size_t i = 0, n = all_options(all); i < n; i++) {
+        const pgi_option *o = all[i];
+        char what[96], names[256];
+        const int takes = pgi_estimator_takes(vt, o);
+        describe(o, what, sizeof what);
+        /* An invalid value is an error for every estimator, also one that would ignore the option. */
+        if (o->type == PGI_OPTION_FLOAT) {
+            float f = *float_field(o, &r);
+            if (f == 0.f) continue;
+            if (!isfinite(f) || !(f > (float)o->min) || (o->max > 0 && f > (float)o->max))
+                return pgi__fail(PGI_ERR_INVALID_ARG, "%s: --%s needs %s, got %g: %s", vt->name, o->name, what,
+                                 (double)f, o->help);
+        } else {
+            int v = *int_field(o, &r);
+            if (v == 0) {
+                if (takes) *int_field(o, &d) = o->type == PGI_OPTION_INT ? o->def : 0;
+                continue;
+            }
+            char c[64];
+            if (o->type == PGI_OPTION_CHOICE ? !choice_at(o->choices, v, c, sizeof c)
+                                             : !(o->zero != 0 && v == o->zero) && !int_in_range(o, v))
+                return pgi__fail(PGI_ERR_INVALID_ARG, "%s: --%s needs %s, got %d: %s", vt->name, o->name, what, v,
+                                 o->help);
+        }
+        if (!takes) {
+            if (!(o->flags & PGI_OPTION_STRICT)) continue;
+            if (o->caps) {
+                if (o->type == PGI_OPTION_INT && *int_field(o, &r) == 1) continue;   /* subsample 1 is off */
+                return pgi__fail(PGI_ERR_INVALID_ARG, "estimator '%s' does not support --%s (%s)", vt->name, o->name,
+                                 o->help);
+            }
+            takers(o, names, sizeof names);
+            return pgi__fail(PGI_ERR_INVALID_ARG, "--%s is an option of %s, not of '%s'", o->name, names, vt->name);
+        }
+        if (o->type == PGI_OPTION_FLOAT) *float_field(o, &d) = *float_field(o, &r);
+        else *int_field(o, &d) = *int_field(o, &r);
+    }
+    *out = d;
+    return PGI_OK;
+}
+
 pgi_status pgi_estimator_create(const char *name, const pgi_estimator_desc *desc, pgi_estimator **out) {
     *out = NULL;
     const pgi_estimator_vtbl *vt = pgi_estimator_find(name);
     if (!vt) return pgi__fail_unknown_estimator(name);
-    if (!(desc->radius > 0.f) || !isfinite(desc->radius))
-        return pgi__fail(PGI_ERR_INVALID_ARG, "photon radius must be a positive finite number, got %g",
-                         (double)desc->radius);
-    if (desc->tile_size < 0 || desc->tile_size > 4096)
-        return pgi__fail(PGI_ERR_INVALID_ARG, "tile size %d is out of range (1..4096)", desc->tile_size);
-    /* Below r/64 a query would visit over 2 million cells: reject rather than hang. */
-    if (desc->cell_size < 0.f || !isfinite(desc->cell_size) ||
-        (desc->cell_size > 0.f && desc->cell_size < desc->radius / 64.f))
-        return pgi__fail(PGI_ERR_INVALID_ARG, "cell size must be 0 (default: 2r) or at least r/64 = %g, got %g",
-                         (double)(desc->radius / 64.f), (double)desc->cell_size);
-    if ((unsigned)desc->kernel >= PGI_KERNEL_COUNT_)
-        return pgi__fail(PGI_ERR_INVALID_ARG, "unknown kernel %d", (int)desc->kernel);
-    if (desc->kernel != PGI_KERNEL_CONSTANT && !(vt->caps & PGI_EST_CAP_KERNELS))
-        return pgi__fail(PGI_ERR_INVALID_ARG, "estimator '%s' supports only the constant kernel", name);
-    if (desc->subsample < 0 || desc->subsample > 64)
-        return pgi__fail(PGI_ERR_INVALID_ARG, "subsampling factor %d is out of range (0..64)", desc->subsample);
-    if (desc->subsample > 1 && !(vt->caps & PGI_EST_CAP_SUBSAMPLE))
-        return pgi__fail(PGI_ERR_INVALID_ARG, "estimator '%s' does not support stochastic subsampling", name);
-    if (desc->bvh_build != PGI_BVH_LINEAR && desc->bvh_build != PGI_BVH_VVH)
-        return pgi__fail(PGI_ERR_INVALID_ARG, "unknown BVH build %d (0 linear, 1 vvh)", desc->bvh_build);
-    if (desc->leaf_size < 0 || desc->leaf_size > 65536)
-        return pgi__fail(PGI_ERR_INVALID_ARG, "BVH leaf size %d is out of range (0 = T_auto, 1..65536)", desc->leaf_size);
-    if (desc->scene_area < 0.f || !isfinite(desc->scene_area))
-        return pgi__fail(PGI_ERR_INVALID_ARG, "scene area must be 0 (unknown) or a positive finite number, got %g",
-                         (double)desc->scene_area);
-    if (desc->knn < 0 || desc->knn > 4096)
-        return pgi__fail(PGI_ERR_INVALID_ARG, "k-NN count %d is out of range (0 = range mode, 1..4096)", desc->knn);
-    if (desc->knn > 0 && strcmp(vt->name, "kdtree") != 0)
-        return pgi__fail(PGI_ERR_INVALID_ARG, "k-NN mode (knn %d) needs the kdtree estimator, not '%s'", desc->knn,
-                         name);
-    if (desc->knn > 0 && desc->subsample > 1)
-        return pgi__fail(PGI_ERR_INVALID_ARG, "kdtree: stochastic subsampling works in range mode only (knn 0)");
-    if (desc->polygon_vertices != 0 &&
-        (desc->polygon_vertices < 4 || desc->polygon_vertices > 64 || desc->polygon_vertices % 2))
-        return pgi__fail(PGI_ERR_INVALID_ARG, "polygon vertices must be an even number in 4..64, got %d",
-                         desc->polygon_vertices);
+    pgi_estimator_desc d;
+    pgi_status st = pgi_estimator_desc_resolve(vt, desc ? desc : &(pgi_estimator_desc){0}, &d);
+    if (st) return st;
     pgi_estimator *e = calloc(1, sizeof *e);
     if (!e) return pgi__fail(PGI_ERR_OOM, "out of memory creating estimator '%s'", name);
     e->vt = vt;
-    pgi_status st = vt->create(desc, &e->state);
+    e->desc = d;
+    st = vt->create(&d, &e->state);
     if (st) {
         free(e);
         return st;
@@ -92,27 +246,43 @@ pgi_status pgi_estimator_create(const char *name, const pgi_estimator_desc *desc
     return PGI_OK;
 }
 
-static pgi_status check_args(const pgi_estimate_args *a) {
+static pgi_status check_args(const pgi_estimator *e, const pgi_estimate_args *a) {
     if (!a || !a->photons || !a->samples || !a->camera)
         return pgi__fail(PGI_ERR_INVALID_ARG, "estimator arguments need photons, view samples and a camera");
+    if (!(a->radius > 0.f) || !isfinite(a->radius))
+        return pgi__fail(PGI_ERR_INVALID_ARG, "%s: photon radius must be a positive finite number, got %g",
+                         e->vt->name, (double)a->radius);
+    if (a->threads < 0)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "threads must be 0 (all) or positive, got %d", a->threads);
+    if (a->scene_area < 0.f || !isfinite(a->scene_area))
+        return pgi__fail(PGI_ERR_INVALID_ARG, "scene area must be 0 (unknown) or a positive finite number, got %g",
+                         (double)a->scene_area);
     return PGI_OK;
 }
 
 pgi_status pgi_estimator_build(pgi_estimator *e, const pgi_estimate_args *a) {
-    pgi_status st = check_args(a);
+    pgi_status st = check_args(e, a);
     if (st) return st;
     if (a->photons->radius && !(e->vt->caps & PGI_EST_CAP_PHOTON_RADIUS))
         return pgi__fail(PGI_ERR_INVALID_ARG, "estimator '%s' needs one fixed radius; it cannot use per-photon radii",
                          e->vt->name);
     if (a->photons->sax && !a->photons->radius)
         return pgi__fail(PGI_ERR_INVALID_ARG, "ellipsoid footprints need the per-photon radius array as well");
-    return e->vt->build(e->state, a);
+    e->built = 0;
+    if ((st = e->vt->build(e->state, a))) return st;
+    e->built = 1;
+    e->built_radius = a->radius;
+    return PGI_OK;
 }
 
 pgi_status pgi_estimator_estimate(pgi_estimator *e, const pgi_estimate_args *a) {
-    pgi_status st = check_args(a);
+    pgi_status st = check_args(e, a);
     if (st) return st;
     if (!a->out_rgb) return pgi__fail(PGI_ERR_INVALID_ARG, "estimate needs an output buffer");
+    if (!e->built) return pgi__fail(PGI_ERR_INVALID_ARG, "%s: estimate before a successful build", e->vt->name);
+    if (a->radius != e->built_radius)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "%s: estimate with radius %g after a build with radius %g", e->vt->name,
+                         (double)a->radius, (double)e->built_radius);
     return e->vt->estimate(e->state, a);
 }
 
@@ -122,6 +292,8 @@ void pgi_estimator_get_stats(const pgi_estimator *e, pgi_estimator_stats *out) {
 }
 
 const char *pgi_estimator_name(const pgi_estimator *e) { return e->vt->name; }
+
+void pgi_estimator_get_desc(const pgi_estimator *e, pgi_estimator_desc *out) { *out = e->desc; }
 
 void pgi_estimator_destroy(pgi_estimator *e) {
     if (!e) return;

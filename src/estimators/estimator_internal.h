@@ -345,9 +345,22 @@ static inline pgi_v3 pgi__to_view(const pgi__view_xf *x, float px, float py, flo
 
 /* Stats helpers for the per-method state. */
 typedef struct pgi__est_common {
-    pgi_estimator_desc desc;
+    pgi_estimator_desc desc;   /* resolved: defaults filled in, ranges checked */
     pgi_estimator_stats st;
+    /* this frame's arguments (pgi__est_frame) */
+    float radius;
+    uint64_t seed;
+    int threads;               /* for num_threads(): never 0 */
+    float scene_area;
 } pgi__est_common;
+
+/* Takes the per-frame values of build/estimate into the state. */
+static inline void pgi__est_frame(pgi__est_common *c, const pgi_estimate_args *a) {
+    c->radius = a->radius;
+    c->seed = a->seed;
+    c->threads = pgi__threads(a->threads);
+    c->scene_area = a->scene_area;
+}
 
 static inline void pgi__stats_pass(pgi_estimator_stats *st, const char *name, double ms) {
     if (st->pass_count < PGI_EST_MAX_ENTRIES) {
@@ -375,6 +388,8 @@ static inline void pgi__stats_estimated(pgi_estimator_stats *st, double t0, uint
 pgi_status pgi__ensure(void **p, size_t *cap, size_t n, size_t size);
 
 extern const pgi_estimator_vtbl pgi__est_brute, pgi__est_hashgrid, pgi__est_tiled;
+/* The tile-edge option of tiled, bounds3d and bounds25d (est_tiled.c). */
+extern const pgi_option pgi__opt_tile;
 extern const pgi_estimator_vtbl pgi__est_cluster, pgi__est_cluster_cone, pgi__est_cluster_trivial,
     pgi__est_directional;
 extern const pgi_estimator_vtbl pgi__est_bvh;

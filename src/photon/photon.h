@@ -8,6 +8,7 @@ typedef struct pgi_trace_desc {
     uint32_t photons;   /* photons to store */
     int bounces;        /* maximum scattering events of a path */
     uint64_t seed;
+    int threads;        /* 0 = OpenMP's default */
     /* radius policies (differentials.h): per-photon footprints go to ph->radius (and the ellipsoid
        axes ph->sax.. for differentials) when those arrays are set */
     int radius_policy;

@@ -171,7 +171,7 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi_rt *rt, const pgi_tr
         stored_photon *buf = sc->paths;
         int *cnt = sc->counts;
         uint64_t batch_rays = 0;
-#pragma omp parallel for schedule(dynamic, 256) reduction(+ : batch_rays)
+#pragma omp parallel for schedule(dynamic, 256) reduction(+ : batch_rays) num_threads(pgi__threads(d->threads))
         for (long long i = 0; i < (long long)batch; i++) {
             uint64_t r = 0;
             cnt[i] = trace_path(&T, path + (uint64_t)i, buf + (size_t)i * B, &r);

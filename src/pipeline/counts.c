@@ -11,7 +11,7 @@
 
 #include "pipeline/pipeline.h"
 
-pgi_status pgi__photon_counts(pgi_estimator *e, const pgi_estimate_args *a, float radius, float *out_rgb) {
+pgi_status pgi__photon_counts(pgi_estimator *e, const pgi_estimate_args *a, float *out_rgb) {
     const pgi_photons *ph = a->photons;
     const pgi_view_samples *vs = a->samples;
     size_t np = ph->count, n = vs->count;
@@ -32,10 +32,13 @@ pgi_status pgi__photon_counts(pgi_estimator *e, const pgi_estimate_args *a, floa
     uvs.kd = kd;
     uvs.ks = ks;
     uvs.flags = flags;
-    pgi_estimate_args ua = {&uph, &uvs, a->camera, out_rgb};
+    pgi_estimate_args ua = *a;
+    ua.photons = &uph;
+    ua.samples = &uvs;
+    ua.out_rgb = out_rgb;
     if ((st = pgi_estimator_build(e, &ua))) goto done;
     if ((st = pgi_estimator_estimate(e, &ua))) goto done;
-    const float area = PGI_PI * radius * radius;
+    const float area = PGI_PI * a->radius * a->radius;
     for (size_t i = 0; i < n; i++) {
         float c = rintf(out_rgb[3 * i] * area);
         out_rgb[3 * i] = out_rgb[3 * i + 1] = out_rgb[3 * i + 2] = c > 0.f ? c : 0.f;

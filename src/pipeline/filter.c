@@ -4,7 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-pgi_status pgi__bilateral_filter(const pgi_view_samples *vs, int radius, float *rgb) {
+pgi_status pgi__bilateral_filter(const pgi_view_samples *vs, int radius, int threads, float *rgb) {
     if (radius <= 0) return PGI_OK;
     const int W = vs->width, H = vs->height;
     const size_t n = vs->count;
@@ -18,7 +18,7 @@ pgi_status pgi__bilateral_filter(const pgi_view_samples *vs, int radius, float *
     /* scale for the plane-distance term: the primary hit's view depth */
     for (size_t i = 0; i < n; i++) dist[i] = vs->depth[i] > 0.f ? vs->depth[i] : 1.f;
     const float inv2s2 = 1.f / (2.f * (0.5f * (float)radius) * (0.5f * (float)radius));
-#pragma omp parallel for schedule(dynamic, 4)
+#pragma omp parallel for schedule(dynamic, 4) num_threads(pgi__threads(threads))
     for (int y = 0; y < H; y++)
         for (int x = 0; x < W; x++) {
             size_t i = (size_t)y * W + (size_t)x;

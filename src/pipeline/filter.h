@@ -13,6 +13,6 @@
  * p's tangent plane and z_p p's view depth (depth and geometry edges), times
  * max(0, n_p . n_q)^16 (normal edges). Only valid samples take part; invalid ones keep
  * their value. Deterministic (no summation races). */
-pgi_status pgi__bilateral_filter(const pgi_view_samples *vs, int radius, float *rgb);
+pgi_status pgi__bilateral_filter(const pgi_view_samples *vs, int radius, int threads, float *rgb);
 
 #endif

@@ -10,12 +10,13 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "pipeline/pipeline.h"
+#include "core/core.h"
 #include "scene/scene_internal.h"
 
 #define PGI_ALPHA (2.0 / 3.0)
 
-struct pgi__accum {
+struct pgi_progressive {
+    pgi_renderer *r;
     double *sum;            /* 3 per pixel */
     size_t cap;             /* pixels */
     int frames, width, height;
@@ -31,7 +32,17 @@ struct pgi__accum {
     double time;
 };
 
-void pgi__accum_free(pgi__accum *a) {
+pgi_status pgi_progressive_create(pgi_renderer *r, pgi_progressive **out) {
+    *out = NULL;
+    if (!r) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_progressive_create: no renderer");
+    pgi_progressive *p = calloc(1, sizeof *p);
+    if (!p) return pgi__fail(PGI_ERR_OOM, "out of memory for the progressive accumulator");
+    p->r = r;
+    *out = p;
+    return PGI_OK;
+}
+
+void pgi_progressive_destroy(pgi_progressive *a) {
     if (!a) return;
     free(a->sum);
     pgi_image_free(&a->frame);
@@ -44,19 +55,6 @@ float pgi_progressive_radius(float r0, int k) {
     return (float)sqrt(r2);
 }
 
-pgi_status pgi__check_view(const pgi_camera_def *v) {
-    for (int k = 0; k < 3; k++)
-        if (!isfinite(v->eye[k]) || !isfinite(v->look_at[k]) || !isfinite(v->up[k]))
-            return pgi__fail(PGI_ERR_INVALID_ARG, "view camera has a non-finite eye, look-at or up");
-    pgi_v3 d = v3_sub(v3_load(v->look_at), v3_load(v->eye));
-    if (!(v3_len(d) > 0.f) || !(v3_len(v3_cross(d, v3_load(v->up))) > 0.f))
-        return pgi__fail(PGI_ERR_INVALID_ARG, "view camera is degenerate (eye = look-at, or up parallel to the view)");
-    if (!(v->fov_y_deg > 0.f && v->fov_y_deg < 180.f))
-        return pgi__fail(PGI_ERR_INVALID_ARG, "view camera field of view %g is outside (0, 180) degrees",
-                         (double)v->fov_y_deg);
-    return PGI_OK;
-}
-
 /* FNV-1a over the lights (point/spot positions move without touching geometry). */
 static uint64_t lights_hash(const pgi_scene *s) {
     uint64_t h = 1469598103934665603ULL;
@@ -65,18 +63,15 @@ static uint64_t lights_hash(const pgi_scene *s) {
     return h;
 }
 
-void pgi_renderer_reset_accumulation(pgi_renderer *r) {
-    if (!r) return;
-    pgi__accum *a = *pgi__renderer_accum(r);
-    if (a) a->frames = 0;
+void pgi_progressive_reset(pgi_progressive *p) {
+    if (p) p->frames = 0;
 }
 
 /* 1 if the average in `a` was made from the same picture as `d` would give. */
-static int same_picture(const pgi__accum *a, const pgi_render_desc *d, const pgi_scene *s) {
+static int same_picture(const pgi_progressive *a, const pgi_render_desc *d, const pgi_scene *s) {
     pgi_render_desc k = *d;
     k.estimator = NULL;
     k.view = NULL;
-    k.progressive = 0;
     k.threads = 0;   /* the image does not depend on the thread count */
     const char *est = d->estimator ? d->estimator : "";
     if (memcmp(&k, &a->key, sizeof k) != 0 || strcmp(est, a->est) != 0) return 0;
@@ -85,12 +80,11 @@ static int same_picture(const pgi__accum *a, const pgi_render_desc *d, const pgi
            a->time == s->time && a->lights_hash == lights_hash(s);
 }
 
-static void remember(pgi__accum *a, const pgi_render_desc *d, const pgi_scene *s) {
+static void remember(pgi_progressive *a, const pgi_render_desc *d, const pgi_scene *s) {
     memset(&a->key, 0, sizeof a->key);
     a->key = *d;
     a->key.estimator = NULL;
     a->key.view = NULL;
-    a->key.progressive = 0;
     a->key.threads = 0;
     snprintf(a->est, sizeof a->est, "%s", d->estimator ? d->estimator : "");
     a->has_view = d->view != NULL;
@@ -101,32 +95,24 @@ static void remember(pgi__accum *a, const pgi_render_desc *d, const pgi_scene *s
     a->lights_hash = lights_hash(s);
 }
 
-pgi_status pgi_renderer_accumulate(pgi_renderer *r, const pgi_render_desc *in, pgi_image *out,
-                                   pgi_frame_stats *stats) {
-    if (!r || !in || !out) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_renderer_accumulate: NULL argument");
-    pgi__accum **slot = pgi__renderer_accum(r);
-    if (!*slot) {
-        *slot = calloc(1, sizeof **slot);
-        if (!*slot) return pgi__fail(PGI_ERR_OOM, "out of memory for the progressive accumulator");
-    }
-    pgi__accum *a = *slot;
-    const pgi_scene *s = pgi__renderer_scene(r);
+pgi_status pgi_progressive_step(pgi_progressive *a, const pgi_render_desc *in, pgi_image *out,
+                                pgi_frame_stats *stats) {
+    if (!a || !in || !out) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_progressive_step: NULL argument");
+    const pgi_scene *s = pgi_renderer_scene(a->r);
     const pgi_estimator_vtbl *vt = pgi_estimator_find(in->estimator && *in->estimator ? in->estimator : "tiled");
     if (!vt) return pgi__fail_unknown_estimator(in->estimator);
     if (a->frames > 0 && (!vt->exact || !same_picture(a, in, s))) a->frames = 0;
 
     pgi_render_desc d = *in;
-    d.progressive = 0;
     const int k = a->frames;
     if (k > 0) {
         /* Fresh, deterministic photons and direct-light samples for frame k. */
         d.seed = pgi__mix64(a->seed0 ^ (0x9e3779b97f4a7c15ULL * (uint64_t)k));
         if (d.seed == 0) d.seed = 1;
         d.radius = pgi_progressive_radius(a->r0, k);
-        d.radius_set = 1;
     }
     pgi_frame_stats fs;
-    pgi_status st = pgi_renderer_render(r, &d, &a->frame, &fs);
+    pgi_status st = pgi_renderer_render(a->r, &d, &a->frame, &fs);
     if (st) {
         a->frames = 0;
         return st;
@@ -160,50 +146,50 @@ pgi_status pgi_renderer_accumulate(pgi_renderer *r, const pgi_render_desc *in, p
     const double inv = 1.0 / (double)a->frames;
     for (size_t i = 0; i < 3 * n; i++) out->rgb[i] = (float)(a->sum[i] * inv);
     fs.frames = a->frames;
+    if (k > 0) fs.settings.radius = a->r0;
     if (stats) *stats = fs;
     return PGI_OK;
 }
 
-pgi_status pgi__render_progressive(pgi_renderer *r, const pgi_render_desc *in, pgi_image *out,
-                                   pgi_frame_stats *stats) {
+/* Times and counters add up over the frames; the rest is the last frame's. */
+static void stats_add(pgi_frame_stats *sum, const pgi_frame_stats *fs) {
+    pgi_frame_stats t = *fs;
+    t.view_ms += sum->view_ms, t.trace_ms += sum->trace_ms, t.build_ms += sum->build_ms;
+    t.estimate_ms += sum->estimate_ms, t.direct_ms += sum->direct_ms, t.total_ms += sum->total_ms;
+    t.rt_update_ms += sum->rt_update_ms;
+    t.photons_emitted += sum->photons_emitted, t.photons_stored += sum->photons_stored;
+    t.photon_rays += sum->photon_rays, t.primary_rays += sum->primary_rays, t.shadow_rays += sum->shadow_rays;
+    t.reads += sum->reads, t.contributing += sum->contributing, t.nodes_visited += sum->nodes_visited;
+    t.estimators_created += sum->estimators_created;
+    for (int i = 0; i < t.pass_count && i < sum->pass_count; i++) t.passes_ms[i].value += sum->passes_ms[i].value;
+    *sum = t;
+}
+
+pgi_status pgi_render_progressive(pgi_renderer *r, const pgi_render_desc *in, int frames, pgi_image *out,
+                                  pgi_frame_stats *stats) {
+    if (!r || !in || !out) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_render_progressive: NULL argument");
     const pgi_estimator_vtbl *vt = pgi_estimator_find(in->estimator && *in->estimator ? in->estimator : "tiled");
     if (!vt) return pgi__fail_unknown_estimator(in->estimator);
-    if (!vt->exact)
+    if (frames > 1 && !vt->exact)
         return pgi__fail(PGI_ERR_INVALID_ARG,
                          "progressive mode needs an exact estimator; '%s' is approximate (its bias does not vanish)",
                          vt->name);
-    if (in->progressive > 1000000)
-        return pgi__fail(PGI_ERR_INVALID_ARG, "progressive frame count %d is too large (at most 1000000)",
-                         in->progressive);
-    if (in->output == PGI_OUTPUT_PHOTON_COUNT)
+    if (frames < 1 || frames > 1000000)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "progressive frame count %d is out of range (1..1000000)", frames);
+    if (frames > 1 && in->output == PGI_OUTPUT_PHOTON_COUNT)
         return pgi__fail(PGI_ERR_INVALID_ARG, "progressive mode cannot average photon counts");
-    pgi_render_desc d = *in;
-    d.progressive = 0;
-    pgi_renderer_reset_accumulation(r);
+    pgi_progressive *p;
+    pgi_status st = pgi_progressive_create(r, &p);
+    if (st) return st;
     pgi_frame_stats sum;
     memset(&sum, 0, sizeof sum);
-    for (int k = 0; k < in->progressive; k++) {
+    for (int k = 0; k < frames && !st; k++) {
         pgi_frame_stats fs;
-        pgi_status st = pgi_renderer_accumulate(r, &d, out, &fs);
-        if (st) return st;
+        if ((st = pgi_progressive_step(p, in, out, &fs))) break;
         if (k == 0) sum = fs;
-        else {
-            /* Times and counters add up over the frames; the rest is the last frame's. */
-            double v = sum.view_ms + fs.view_ms, t = sum.trace_ms + fs.trace_ms, b = sum.build_ms + fs.build_ms,
-                   e = sum.estimate_ms + fs.estimate_ms, di = sum.direct_ms + fs.direct_ms,
-                   to = sum.total_ms + fs.total_ms, ru = sum.rt_update_ms + fs.rt_update_ms;
-            uint64_t pe = sum.photons_emitted + fs.photons_emitted, ps = sum.photons_stored + fs.photons_stored,
-                     pr = sum.photon_rays + fs.photon_rays, pri = sum.primary_rays + fs.primary_rays,
-                     sr = sum.shadow_rays + fs.shadow_rays, rd = sum.reads + fs.reads,
-                     co = sum.contributing + fs.contributing, nv = sum.nodes_visited + fs.nodes_visited;
-            for (int i = 0; i < fs.pass_count && i < sum.pass_count; i++) fs.passes_ms[i].value += sum.passes_ms[i].value;
-            sum = fs;
-            sum.view_ms = v, sum.trace_ms = t, sum.build_ms = b, sum.estimate_ms = e, sum.direct_ms = di;
-            sum.total_ms = to, sum.rt_update_ms = ru;
-            sum.photons_emitted = pe, sum.photons_stored = ps, sum.photon_rays = pr, sum.primary_rays = pri;
-            sum.shadow_rays = sr, sum.reads = rd, sum.contributing = co, sum.nodes_visited = nv;
-        }
+        else stats_add(&sum, &fs);
     }
-    if (stats) *stats = sum;
-    return PGI_OK;
+    pgi_progressive_destroy(p);
+    if (!st && stats) *stats = sum;
+    return st;
 }

@@ -212,7 +212,6 @@ pgi_status pgi_reference_render(const pgi_scene *s, const pgi_reference_desc *in
     if (*spp > 0 && (!mean->rgb || mean->width != d.width || mean->height != d.height))
         return pgi__fail(PGI_ERR_INVALID_ARG, "the image to continue is %dx%d, the reference is %dx%d", mean->width,
                          mean->height, d.width, d.height);
-    if (d.threads > 0) omp_set_num_threads(d.threads);
 
     pt_ctx C;
     memset(&C, 0, sizeof C);
@@ -251,7 +250,7 @@ pgi_status pgi_reference_render(const pgi_scene *s, const pgi_reference_desc *in
     const int W = d.width, H = d.height;
     while (done < d.spp) {
         const uint64_t sidx = n0 + done;
-#pragma omp parallel for schedule(dynamic, 1)
+#pragma omp parallel for schedule(dynamic, 1) num_threads(pgi__threads(d.threads))
         for (int y = 0; y < H; y++) {
             for (int x = 0; x < W; x++) {
                 size_t i = (size_t)y * W + (size_t)x;

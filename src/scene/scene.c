@@ -230,6 +230,7 @@ void pgi_scene_get_info(const pgi_scene *s, pgi_scene_info *o) {
     o->cameras = s->ncams;
     if (s->ncams) o->camera = s->cams[0];
     o->defaults = s->defaults;
+    o->surface_area = pgi__scene_area(s);
     o->animated_objects = s->nanims;
     for (size_t i = 0; i < s->nanims; i++) {
         const pgi_anim *a = &s->anims[i];
@@ -250,4 +251,14 @@ pgi_status pgi_scene_get_camera(const pgi_scene *s, size_t i, pgi_camera_def *ou
     if (i >= s->ncams) return pgi__fail(PGI_ERR_INVALID_ARG, "camera %zu does not exist (the scene has %zu)", i, s->ncams);
     *out = s->cams[i];
     return PGI_OK;
+}
+
+double pgi__scene_area(const pgi_scene *s) {
+    double a = 0.0;
+    for (size_t t = 0; t < s->ntris; t++) {
+        const uint32_t *v = s->tri + 3 * t;
+        pgi_v3 p0 = pgi__scene_vertex(s, v[0]), p1 = pgi__scene_vertex(s, v[1]), p2 = pgi__scene_vertex(s, v[2]);
+        a += 0.5 * (double)v3_len(v3_cross(v3_sub(p1, p0), v3_sub(p2, p0)));
+    }
+    return a;
 }

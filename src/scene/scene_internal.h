@@ -144,6 +144,8 @@ pgi_v3 pgi__texture_lookup(const pgi_texture *t, float u, float v);
 
 /* Geometry helpers used by rt/ and view/. */
 static inline pgi_v3 pgi__scene_vertex(const pgi_scene *s, uint32_t v) { return v3_load(s->pos + 3 * (size_t)v); }
+/* Total triangle area (scene.c). */
+double pgi__scene_area(const pgi_scene *s);
 
 /* Uniform point on triangle `tri` from two uniform numbers. */
 static inline pgi_v3 pgi__triangle_sample(const pgi_scene *s, uint32_t tri, float u1, float u2) {

@@ -70,7 +70,7 @@ static void shade_eye_path(const pgi_scene *s, const pgi_rt *rt, const pgi_camer
     v3_store(emit + 3 * i, e);
 }
 
-pgi_status pgi__view_build(const pgi_scene *s, const pgi_rt *rt, const pgi_camera *cam, uint64_t seed,
+pgi_status pgi__view_build(const pgi_scene *s, const pgi_rt *rt, const pgi_camera *cam, uint64_t seed, int threads,
                            pgi_view_samples *vs, float *emit, uint64_t *rays_out) {
     const int W = cam->width, H = cam->height;
     if (vs->width != W || vs->height != H)
@@ -78,7 +78,7 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi_rt *rt, const pgi_camer
     uint64_t rays = 0;
     const pgi_v3 eye = v3_load(cam->eye);
     const float eps = pgi__scene_epsilon(s);
-#pragma omp parallel for schedule(dynamic, 1) reduction(+ : rays)
+#pragma omp parallel for schedule(dynamic, 1) reduction(+ : rays) num_threads(pgi__threads(threads))
     for (int y = 0; y < H; y++) {
         for (int x0 = 0; x0 < W; x0 += 8) {
             int valid[8];
@@ -101,7 +101,7 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi_rt *rt, const pgi_camer
 }
 
 pgi_status pgi__direct(const pgi_scene *s, const pgi_rt *rt, const pgi_view_samples *vs, int area_samples,
-                       uint64_t seed, float *out, uint64_t *rays_out) {
+                       uint64_t seed, int threads, float *out, uint64_t *rays_out) {
     /* Area lights get their own CDF by power (luminance). */
     size_t narea = 0;
     for (size_t l = 0; l < s->nlights; l++) narea += s->lights[l].type == PGI_LIGHT_AREA;
@@ -129,7 +129,7 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi_rt *rt, const pgi_view_samp
     const float eps = pgi__scene_epsilon(s);
     uint64_t rays = 0;
     const long long n = (long long)vs->count;
-#pragma omp parallel for schedule(dynamic, 1024) reduction(+ : rays)
+#pragma omp parallel for schedule(dynamic, 1024) reduction(+ : rays) num_threads(pgi__threads(threads))
     for (long long ii = 0; ii < n; ii++) {
         size_t i = (size_t)ii;
         pgi_v3 L = v3(0.f, 0.f, 0.f);

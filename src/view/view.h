@@ -9,14 +9,14 @@
  * or refraction by Fresnel with a per-pixel RNG) to the first non-specular
  * hit, and fills `vs`. `emit` (3 floats a pixel) receives emitted radiance
  * seen along the eye path. */
-pgi_status pgi__view_build(const pgi_scene *s, const pgi_rt *rt, const pgi_camera *cam, uint64_t seed,
+pgi_status pgi__view_build(const pgi_scene *s, const pgi_rt *rt, const pgi_camera *cam, uint64_t seed, int threads,
                            pgi_view_samples *vs, float *emit, uint64_t *rays);
 
 /* Direct light at every valid view sample with shadow rays (point, spot, sun:
  * one ray each; emissive triangles: `area_samples` samples picked by power).
  * Writes weight-multiplied radiance (3 floats a pixel). */
 pgi_status pgi__direct(const pgi_scene *s, const pgi_rt *rt, const pgi_view_samples *vs, int area_samples,
-                       uint64_t seed, float *out, uint64_t *rays);
+                       uint64_t seed, int threads, float *out, uint64_t *rays);
 
 /* Unit direction through the centre of pixel (x, y); shared by the view pass
  * and the reference path tracer so that their pixels match. */
