@@ -7,7 +7,7 @@
 #include "photon/photon.h"
 #include "pipeline/pipeline.h"
 #include "view/view.h"
-#include "pipeline/filter.h"
+#include "filter/bilateral.h"
 
 #define PGI_MAX_SIDE 16384
 #define PGI_MAX_PIXELS (36u * 1024u * 1024u)   /* 8K UHD fits; buffers take about 140 bytes a pixel */
