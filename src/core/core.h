@@ -31,6 +31,12 @@ void pgi__assert_fail(const char *expr, const char *file, int line);
 
 double pgi__now_ms(void);
 
+/* sRGB -> linear (srgb.c): the exact sRGB EOTF of c in [0, 1], in double; and
+ * the 8-bit table the texture lookup uses (equal to (float) of the formula at
+ * i / 255 except for three entries one ulp below; see srgb.c). */
+double pgi__srgb_to_linear(double c);
+extern const float pgi__srgb8_texture_lut[256];
+
 /* PGI_ERR_INVALID_ARG naming `name` and the registered estimators (estimator.c). */
 pgi_status pgi__fail_unknown_estimator(const char *name);
 
