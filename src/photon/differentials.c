@@ -1,22 +1,9 @@
-/* Radius policies: path-probability radii and photon differentials (see differentials.h and
- * docs/bvh.md for the equations and the choices made where the papers leave them open). */
+/* Photon differentials, the differentials radius policy (see differentials.h and docs/bvh.md for
+ * the equations and the choices made where the papers leave them open; the hooks that call these
+ * are in radius.c). */
 #include "differentials.h"
 
 #include "photongi/photongi.h"
-
-void pgi__fp_params_init(pgi__fp_params *p, int policy, float r_min, float r_max, float smoothing, uint32_t n,
-                         float diag) {
-    p->policy = policy;
-    p->r_min = r_min;
-    p->r_max = r_max;
-    p->photons = (float)(n ? n : 1);
-    p->delta = sqrtf(4.f * PGI_PI / p->photons);
-    /* Automatic s: a photon re-emitted a quarter of the scene diagonal away gets r_max / 2
-     * (semi-axis Delta * s * ||dp||^(1/4) with ||dp|| = that distance). */
-    if (!(smoothing > 0.f)) smoothing = 0.5f * r_max / (p->delta * powf(fmaxf(0.25f * diag, 1e-6f), 0.25f));
-    p->smoothing = smoothing;
-    p->smoothing_caustic = 5.f;
-}
 
 void pgi__pd_emit_dir(pgi__pdiff *pd, pgi_v3 d, pgi_v3 axis, float scale) {
     pgi_v3 t, b;
@@ -141,14 +128,9 @@ void pgi__pd_normal_derivative(const pgi_scene *s, uint32_t prim, float bu, floa
     }
 }
 
-/* ------------------------------------------------------------------ hooks */
+/* ------------------------------------------- per-policy parts of the hooks */
 
-void pgi__fp_emit(pgi__pdiff *pd, const pgi__fp_params *p, const pgi_scene *s, const pgi_light *L, float pl, pgi_v3 d,
-                  float sun_radius) {
-    pd->rho = 1.f;
-    pd->diffuse = 0;
-    if (p->policy != PGI_RADIUS_DIFFERENTIALS) return;
-    (void)s;
+void pgi__pd_emit(pgi__pdiff *pd, const pgi_light *L, float pl, pgi_v3 d, float sun_radius) {
     pl = fmaxf(pl, 1e-12f);
     /* Photons of this light: n * pl. Scale the unit differentials so that the global Delta gives
      * each photon its share of the light's solid angle (or area): |Delta dd|^2 = Omega / (n pl). */
@@ -188,37 +170,9 @@ void pgi__fp_emit(pgi__pdiff *pd, const pgi__fp_params *p, const pgi_scene *s, c
     }
 }
 
-void pgi__fp_hit(pgi__pdiff *pd, const pgi__fp_params *p, pgi_v3 d, float t, pgi_v3 ng) {
-    if (p->policy == PGI_RADIUS_DIFFERENTIALS) pgi__pd_transfer(pd, d, t, ng);
-}
-
-void pgi__fp_store(const pgi__pdiff *pd, const pgi__fp_params *p, pgi_v3 ng, pgi__footprint *o) {
-    if (p->policy == PGI_RADIUS_DIFFERENTIALS) {
-        pgi__pd_footprint(pd, p, ng, o);
-    } else if (p->policy == PGI_RADIUS_PATH) {
-        float rho = fminf(fmaxf(pd->rho, 0.f), 1.f);
-        o->r = o->r_raw = p->r_min + (p->r_max - p->r_min) * sqrtf(1.f - rho);
-    }
-}
-
-void pgi__fp_scatter(pgi__pdiff *pd, const pgi__fp_params *p, const pgi_scene *s, uint32_t prim, float bu, float bv,
-                     const pgi_surface *sf, pgi_v3 wi, pgi_v3 wo, pgi_v3 w) {
-    if (p->policy == PGI_RADIUS_FIXED) return;
+void pgi__pd_scatter(pgi__pdiff *pd, const pgi_scene *s, uint32_t prim, float bu, float bv, const pgi_surface *sf,
+                     pgi_v3 wi, pgi_v3 wo) {
     const int spec = pgi__mat_specular(sf->mat);
-    if (p->policy == PGI_RADIUS_PATH) {
-        /* a priori probability of scattering into ||Gamma|| = 1e-3 sr around wo: the whole
-         * reflectance for a delta lobe, f cos ||Gamma|| otherwise (eq. 5) */
-        float pb;
-        if (spec) pb = v3_lum(w);
-        else {
-            float side = v3_dot(wi, sf->ng) >= 0.f ? 1.f : -1.f;
-            pgi_v3 ns = v3_scale(sf->ns, side);
-            pgi_v3 f = pgi__brdf_eval(sf->kd, v3_load(sf->mat->ks), sf->mat->shininess, ns, wi, wo);
-            pb = v3_lum(f) * fmaxf(0.f, v3_dot(wo, ns)) * 1e-3f;
-        }
-        pd->rho *= fminf(fmaxf(pb, 0.f), 1.f);
-        return;
-    }
     if (!spec) {
         float side = v3_dot(wo, sf->ng) >= 0.f ? 1.f : -1.f;
         pgi__pd_reemit(pd, wo, v3_scale(sf->ns, side));
@@ -238,6 +192,3 @@ void pgi__fp_scatter(pgi__pdiff *pd, const pgi__fp_params *p, const pgi_scene *s
     }
 }
 
-void pgi__fp_roulette(pgi__pdiff *pd, const pgi__fp_params *p, float survive) {
-    if (p->policy == PGI_RADIUS_DIFFERENTIALS) pgi__pd_roulette(pd, survive);
-}

@@ -8,7 +8,7 @@ typedef struct pgi_trace_desc {
     uint32_t photons;   /* photons to store */
     int bounces;        /* maximum scattering events of a path */
     uint64_t seed;
-    /* radius policies (differentials.h): per-photon footprints go to ph->radius (and the ellipsoid
+    /* radius policies (radius.h): per-photon footprints go to ph->radius (and the ellipsoid
        axes ph->sax.. for differentials) when those arrays are set */
     int radius_policy;
     float r_min, r_max, smoothing;
@@ -33,8 +33,5 @@ void pgi__trace_scratch_free(pgi_trace_scratch *sc);
 
 pgi_status pgi__photons_trace(const pgi_scene *s, const pgi_rt *rt, const pgi_trace_desc *d, pgi_photons *ph,
                               pgi_trace_scratch *scratch, uint64_t *rays);
-
-/* Ray offset used to leave a surface without hitting it again. */
-float pgi__scene_epsilon(const pgi_scene *s);
 
 #endif

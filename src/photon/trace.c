@@ -8,13 +8,8 @@
 #include <omp.h>
 #include <string.h>
 
-#include "differentials.h"
+#include "radius.h"
 #include "scene/bsdf.h"
-
-float pgi__scene_epsilon(const pgi_scene *s) {
-    float diag = v3_len(v3_sub(v3_load(s->bmax), v3_load(s->bmin)));
-    return fmaxf(1e-5f, 1e-5f * diag);
-}
 
 typedef struct {
     float p[3], d[3], f[3], n[3];
