@@ -63,7 +63,7 @@ int main(int argc, char **argv) {
     pgi_scene *s;
     if (pgi_scene_load(scene_name, &s)) return die("cannot load scene");
     if (!(radius > 0.f)) radius = s->defaults.radius > 0.f ? s->defaults.radius : 0.02f * v3_len(v3_sub(v3_load(s->bmax), v3_load(s->bmin)));
-    pgi_rt *rt;
+    pgi__rt *rt;
     if (pgi__rt_create(s, &rt)) return die("ray tracing scene");
     pgi_camera cam;
     const pgi_camera_def *cd = &s->cams[0];
@@ -77,7 +77,7 @@ int main(int argc, char **argv) {
     if (pgi_photons_alloc(&ph, photons)) return die("photons");
     float *fp = NULL;
     uint64_t hist[PGI_FOOTPRINT_BINS] = {0};
-    pgi_trace_desc td = {.photons = photons, .bounces = s->defaults.bounces > 0 ? s->defaults.bounces : 4, .seed = 1};
+    pgi__trace_desc td = {.photons = photons, .bounces = s->defaults.bounces > 0 ? s->defaults.bounces : 4, .seed = 1};
     if (diff) {
         fp = malloc(7 * (size_t)photons * sizeof(float));
         if (!fp) return 1;
@@ -90,14 +90,14 @@ int main(int argc, char **argv) {
         td.smoothing = smoothing;
         td.footprint_hist = hist;
     }
-    pgi_trace_scratch scr = {0};
+    pgi__trace_scratch scr = {0};
     double t0 = pgi__now_ms();
     if (pgi__photons_trace(s, rt, &td, &ph, &scr, &rays)) return die("trace");
     double trace_ms = pgi__now_ms() - t0;
     double area = 0.0;
     for (size_t t = 0; t < s->ntris; t++) {
         const uint32_t *v = s->tri + 3 * t;
-        pgi_v3 p0 = pgi__scene_vertex(s, v[0]), p1 = pgi__scene_vertex(s, v[1]), p2 = pgi__scene_vertex(s, v[2]);
+        pgi__v3 p0 = pgi__scene_vertex(s, v[0]), p1 = pgi__scene_vertex(s, v[1]), p2 = pgi__scene_vertex(s, v[2]);
         area += 0.5 * (double)v3_len(v3_cross(v3_sub(p1, p0), v3_sub(p2, p0)));
     }
     double fp_area = 0.0;

@@ -92,7 +92,7 @@ int main(int argc, char **argv) {
             fprintf(stderr, "photongi-bench-cluster: skipping %s: %s\n", sc, pgi_last_error());
             continue;
         }
-        pgi_rt *rt = NULL;
+        pgi__rt *rt = NULL;
         if (pgi__rt_create(scene, &rt) != PGI_OK) {
             fprintf(stderr, "photongi-bench-cluster: %s: %s\n", sc, pgi_last_error());
             pgi_scene_destroy(scene);
@@ -124,8 +124,8 @@ int main(int argc, char **argv) {
                 return 2;
             }
             pgi_photons ph;
-            pgi_trace_scratch scratch = {0};
-            pgi_trace_desc td = {.photons = (uint32_t)np, .bounces = 4, .seed = 1};
+            pgi__trace_scratch scratch = {0};
+            pgi__trace_desc td = {.photons = (uint32_t)np, .bounces = 4, .seed = 1};
             if (pgi_photons_alloc(&ph, np) != PGI_OK ||
                 pgi__photons_trace(scene, rt, &td, &ph, &scratch, &rays) != PGI_OK) {
                 fprintf(stderr, "photongi-bench-cluster: %s: photons failed: %s\n", sc, pgi_last_error());

@@ -22,7 +22,7 @@ void pgi__fp_params_init(pgi__fp_params *p, int policy, float r_min, float r_max
 
 /* ------------------------------------------------------------------ hooks */
 
-void pgi__fp_emit(pgi__pdiff *pd, const pgi__fp_params *p, const pgi_scene *s, const pgi_light *L, float pl, pgi_v3 d,
+void pgi__fp_emit(pgi__pdiff *pd, const pgi__fp_params *p, const pgi_scene *s, const pgi__light *L, float pl, pgi__v3 d,
                   float sun_radius) {
     pd->rho = 1.f;
     pd->diffuse = 0;
@@ -30,11 +30,11 @@ void pgi__fp_emit(pgi__pdiff *pd, const pgi__fp_params *p, const pgi_scene *s, c
     pgi__pd_emit(pd, L, pl, d, sun_radius);
 }
 
-void pgi__fp_hit(pgi__pdiff *pd, const pgi__fp_params *p, pgi_v3 d, float t, pgi_v3 ng) {
+void pgi__fp_hit(pgi__pdiff *pd, const pgi__fp_params *p, pgi__v3 d, float t, pgi__v3 ng) {
     if (p->policy == PGI_RADIUS_DIFFERENTIALS) pgi__pd_transfer(pd, d, t, ng);
 }
 
-void pgi__fp_store(const pgi__pdiff *pd, const pgi__fp_params *p, pgi_v3 ng, pgi__footprint *o) {
+void pgi__fp_store(const pgi__pdiff *pd, const pgi__fp_params *p, pgi__v3 ng, pgi__footprint *o) {
     if (p->policy == PGI_RADIUS_DIFFERENTIALS) {
         pgi__pd_footprint(pd, p, ng, o);
     } else if (p->policy == PGI_RADIUS_PATH) {
@@ -44,7 +44,7 @@ void pgi__fp_store(const pgi__pdiff *pd, const pgi__fp_params *p, pgi_v3 ng, pgi
 }
 
 void pgi__fp_scatter(pgi__pdiff *pd, const pgi__fp_params *p, const pgi_scene *s, uint32_t prim, float bu, float bv,
-                     const pgi_surface *sf, pgi_v3 wi, pgi_v3 wo, pgi_v3 w) {
+                     const pgi__surface *sf, pgi__v3 wi, pgi__v3 wo, pgi__v3 w) {
     if (p->policy == PGI_RADIUS_FIXED) return;
     const int spec = pgi__mat_specular(sf->mat);
     if (p->policy == PGI_RADIUS_PATH) {
@@ -54,8 +54,8 @@ void pgi__fp_scatter(pgi__pdiff *pd, const pgi__fp_params *p, const pgi_scene *s
         if (spec) pb = v3_lum(w);
         else {
             float side = v3_dot(wi, sf->ng) >= 0.f ? 1.f : -1.f;
-            pgi_v3 ns = v3_scale(sf->ns, side);
-            pgi_v3 f = pgi__brdf_eval(sf->kd, v3_load(sf->mat->ks), sf->mat->shininess, ns, wi, wo);
+            pgi__v3 ns = v3_scale(sf->ns, side);
+            pgi__v3 f = pgi__brdf_eval(sf->kd, v3_load(sf->mat->ks), sf->mat->shininess, ns, wi, wo);
             pb = v3_lum(f) * fmaxf(0.f, v3_dot(wo, ns)) * 1e-3f;
         }
         pd->rho *= fminf(fmaxf(pb, 0.f), 1.f);

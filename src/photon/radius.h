@@ -21,7 +21,7 @@ typedef struct pgi__fp_params {
 } pgi__fp_params;
 
 typedef struct pgi__pdiff {
-    pgi_v3 dp[2], dd[2];    /* positional / directional differentials */
+    pgi__v3 dp[2], dd[2];    /* positional / directional differentials */
     float rho;              /* path probability (path policy) */
     int diffuse;            /* at least one diffuse re-emission */
 } pgi__pdiff;
@@ -38,13 +38,13 @@ void pgi__fp_params_init(pgi__fp_params *p, int policy, float r_min, float r_max
                          float scene_diagonal);
 
 /* ---- tracer hooks (no-ops for PGI_RADIUS_FIXED) ---- */
-void pgi__fp_emit(pgi__pdiff *pd, const pgi__fp_params *p, const pgi_scene *s, const pgi_light *L, float pick_prob,
-                  pgi_v3 d, float sun_radius);
-void pgi__fp_hit(pgi__pdiff *pd, const pgi__fp_params *p, pgi_v3 d, float t, pgi_v3 ng);
-void pgi__fp_store(const pgi__pdiff *pd, const pgi__fp_params *p, pgi_v3 ng, pgi__footprint *out);
+void pgi__fp_emit(pgi__pdiff *pd, const pgi__fp_params *p, const pgi_scene *s, const pgi__light *L, float pick_prob,
+                  pgi__v3 d, float sun_radius);
+void pgi__fp_hit(pgi__pdiff *pd, const pgi__fp_params *p, pgi__v3 d, float t, pgi__v3 ng);
+void pgi__fp_store(const pgi__pdiff *pd, const pgi__fp_params *p, pgi__v3 ng, pgi__footprint *out);
 /* After the BSDF sampled wo from wi (both away from the surface) with weight w. */
 void pgi__fp_scatter(pgi__pdiff *pd, const pgi__fp_params *p, const pgi_scene *s, uint32_t prim, float bu, float bv,
-                     const pgi_surface *sf, pgi_v3 wi, pgi_v3 wo, pgi_v3 w);
+                     const pgi__surface *sf, pgi__v3 wi, pgi__v3 wo, pgi__v3 w);
 void pgi__fp_roulette(pgi__pdiff *pd, const pgi__fp_params *p, float survive);
 
 #endif

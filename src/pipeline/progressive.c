@@ -48,7 +48,7 @@ pgi_status pgi__check_view(const pgi_camera_def *v) {
     for (int k = 0; k < 3; k++)
         if (!isfinite(v->eye[k]) || !isfinite(v->look_at[k]) || !isfinite(v->up[k]))
             return pgi__fail(PGI_ERR_INVALID_ARG, "view camera has a non-finite eye, look-at or up");
-    pgi_v3 d = v3_sub(v3_load(v->look_at), v3_load(v->eye));
+    pgi__v3 d = v3_sub(v3_load(v->look_at), v3_load(v->eye));
     if (!(v3_len(d) > 0.f) || !(v3_len(v3_cross(d, v3_load(v->up))) > 0.f))
         return pgi__fail(PGI_ERR_INVALID_ARG, "view camera is degenerate (eye = look-at, or up parallel to the view)");
     if (!(v->fov_y_deg > 0.f && v->fov_y_deg < 180.f))

@@ -16,9 +16,9 @@
 
 struct pgi_renderer {
     const pgi_scene *scene;
-    pgi_rt *rt;
+    pgi__rt *rt;
     pgi_photons ph;
-    pgi_trace_scratch trace_scratch;
+    pgi__trace_scratch trace_scratch;
     pgi_view_samples vs;
     float *emit, *direct, *indirect;
     size_t pix_cap;
@@ -173,7 +173,7 @@ static double scene_area(const pgi_scene *s) {
     double a = 0.0;
     for (size_t t = 0; t < s->ntris; t++) {
         const uint32_t *v = s->tri + 3 * t;
-        pgi_v3 p0 = pgi__scene_vertex(s, v[0]), p1 = pgi__scene_vertex(s, v[1]), p2 = pgi__scene_vertex(s, v[2]);
+        pgi__v3 p0 = pgi__scene_vertex(s, v[0]), p1 = pgi__scene_vertex(s, v[1]), p2 = pgi__scene_vertex(s, v[2]);
         a += 0.5 * (double)v3_len(v3_cross(v3_sub(p1, p0), v3_sub(p2, p0)));
     }
     return a;
@@ -261,7 +261,7 @@ pgi_status pgi_renderer_render(pgi_renderer *r, const pgi_render_desc *in, pgi_i
     double t0 = pgi__now_ms();
     if ((st = pgi__view_build(s, r->rt, &cam, d.seed, &r->vs, r->emit, &fs.primary_rays))) return st;
     double t1 = pgi__now_ms();
-    pgi_trace_desc td = {.photons = d.photons, .bounces = d.bounces, .seed = d.seed};
+    pgi__trace_desc td = {.photons = d.photons, .bounces = d.bounces, .seed = d.seed};
     uint64_t hist[PGI_FOOTPRINT_BINS] = {0};
     if ((st = ensure_footprints(r, &d))) return st;
     td.radius_policy = d.radius_policy;

@@ -12,12 +12,12 @@ static inline int wrap_index(long i, int n) {
     return (int)(r < 0 ? r + n : r);
 }
 
-static inline pgi_v3 texel(const pgi_texture *t, int x, int y) {
+static inline pgi__v3 texel(const pgi__texture *t, int x, int y) {
     const unsigned char *p = t->rgba + 4 * ((size_t)y * (size_t)t->width + (size_t)x);
     return v3(pgi__srgb8_texture_lut[p[0]], pgi__srgb8_texture_lut[p[1]], pgi__srgb8_texture_lut[p[2]]);
 }
 
-pgi_v3 pgi__texture_lookup(const pgi_texture *t, float u, float v) {
+pgi__v3 pgi__texture_lookup(const pgi__texture *t, float u, float v) {
     if (!t || !t->rgba || t->width <= 0 || t->height <= 0) return v3(1.f, 1.f, 1.f);
     /* NaN / Inf coordinates (degenerate UVs) read texel (0, 0)'s neighbourhood instead of crashing. */
     if (!isfinite(u)) u = 0.f;
@@ -31,8 +31,8 @@ pgi_v3 pgi__texture_lookup(const pgi_texture *t, float u, float v) {
     float tx = x - x0f, ty = y - y0f;
     int x0 = wrap_index((long)x0f, t->width), x1 = wrap_index((long)x0f + 1, t->width);
     int y0 = wrap_index((long)y0f, t->height), y1 = wrap_index((long)y0f + 1, t->height);
-    pgi_v3 a = texel(t, x0, y0), b = texel(t, x1, y0), c = texel(t, x0, y1), d = texel(t, x1, y1);
-    pgi_v3 top = v3_add(v3_scale(a, 1.f - tx), v3_scale(b, tx));
-    pgi_v3 bot = v3_add(v3_scale(c, 1.f - tx), v3_scale(d, tx));
+    pgi__v3 a = texel(t, x0, y0), b = texel(t, x1, y0), c = texel(t, x0, y1), d = texel(t, x1, y1);
+    pgi__v3 top = v3_add(v3_scale(a, 1.f - tx), v3_scale(b, tx));
+    pgi__v3 bot = v3_add(v3_scale(c, 1.f - tx), v3_scale(d, tx));
     return v3_add(v3_scale(top, 1.f - ty), v3_scale(bot, ty));
 }
