@@ -11,7 +11,7 @@
 #include "scene/scene_internal.h"
 
 static float fp_radius(const pgi__pdiff *pd, float delta) {
-    pgi_v3 c = v3_cross(v3_scale(pd->dp[0], delta), v3_scale(pd->dp[1], delta));
+    pgi__v3 c = v3_cross(v3_scale(pd->dp[0], delta), v3_scale(pd->dp[1], delta));
     return sqrtf(v3_len(c));
 }
 
@@ -28,7 +28,7 @@ static void test_point_light_spreads(void **state) {
     float prev = 0.f;
     for (float h = 0.5f; h < 8.f; h *= 2.f) {
         pgi__pdiff pd;
-        pgi_v3 d = v3_norm(v3(0.3f, -1.f, 0.2f));
+        pgi__v3 d = v3_norm(v3(0.3f, -1.f, 0.2f));
         pgi__pd_emit_dir(&pd, d, v3(0.f, 0.f, 1.f), 1.f);
         assert_close(v3_len(pd.dd[0]), 1.0, 1e-5, "|d_cos d| (eq. 8)");
         assert_close(v3_len(pd.dd[1]), 1.0, 1e-5, "|d_phi d| (eq. 8)");
@@ -52,9 +52,9 @@ static void test_diffuse_bounce_expands(void **state) {
     pgi__pdiff pd = {0};
     pd.dp[0] = v3(0.4f, 0.f, 0.1f);
     pd.dp[1] = v3(-0.1f, 0.f, 0.7f);
-    pgi_v3 n = v3(0.f, 1.f, 0.f);
+    pgi__v3 n = v3(0.f, 1.f, 0.f);
     float r0 = fp_radius(&pd, delta);
-    pgi_v3 dout = v3(0.f, 1.f, 0.f);
+    pgi__v3 dout = v3(0.f, 1.f, 0.f);
     pgi__pd_reemit(&pd, dout, n);
     assert_true(pd.diffuse);
     assert_close(fp_radius(&pd, delta), r0, 1e-5, "area kept on re-emission (eq. 13)");
@@ -88,8 +88,8 @@ static float mirror_scale(float k, float L) {
     pgi__pdiff pd = {0};
     pd.dp[0] = v3(1.f, 0.f, 0.f);
     pd.dp[1] = v3(0.f, 1.f, 0.f);
-    pgi_v3 d = v3(0.f, 0.f, -1.f), n = v3(0.f, 0.f, 1.f);
-    pgi_v3 dn[2] = {v3_scale(pd.dp[0], k), v3_scale(pd.dp[1], k)};
+    pgi__v3 d = v3(0.f, 0.f, -1.f), n = v3(0.f, 0.f, 1.f);
+    pgi__v3 dn[2] = {v3_scale(pd.dp[0], k), v3_scale(pd.dp[1], k)};
     pgi__pd_reflect(&pd, d, n, dn);
     pgi__pd_transfer(&pd, v3(0.f, 0.f, 1.f), L, v3(0.f, 0.f, -1.f));
     return fp_radius(&pd, 1.f);
@@ -114,7 +114,7 @@ static void test_refraction(void **state) {
     pgi__pdiff pd = {0};
     pd.dd[0] = v3(1.f, 0.f, 0.f);
     pd.dd[1] = v3(0.f, 1.f, 0.f);
-    pgi_v3 d = v3(0.f, 0.f, -1.f), n = v3(0.f, 0.f, 1.f), dn[2] = {v3(0.f, 0.f, 0.f), v3(0.f, 0.f, 0.f)};
+    pgi__v3 d = v3(0.f, 0.f, -1.f), n = v3(0.f, 0.f, 1.f), dn[2] = {v3(0.f, 0.f, 0.f), v3(0.f, 0.f, 0.f)};
     float eta = 1.f / 1.5f;
     pgi__pd_refract(&pd, d, n, dn, eta, d);
     assert_close(pd.dd[0].x, eta, 1e-6, "refracted d_cos");
@@ -141,8 +141,8 @@ static void test_refraction_oblique(void **state) {
         refract_dir(a, eta, t);
         refract_dir(a + h, eta, tp);
         refract_dir(a - h, eta, tm);
-        pgi_v3 d = v3((float)sin(a), 0.f, (float)-cos(a)), n = v3(0.f, 0.f, 1.f);
-        pgi_v3 dn[2] = {v3(0.f, 0.f, 0.f), v3(0.f, 0.f, 0.f)};
+        pgi__v3 d = v3((float)sin(a), 0.f, (float)-cos(a)), n = v3(0.f, 0.f, 1.f);
+        pgi__v3 dn[2] = {v3(0.f, 0.f, 0.f), v3(0.f, 0.f, 0.f)};
         pgi__pd_refract(&pd, d, n, dn, (float)eta, v3((float)t[0], (float)t[1], (float)t[2]));
         double fd[3];
         for (int k = 0; k < 3; k++) fd[k] = (tp[k] - tm[k]) / (2 * h);
@@ -174,17 +174,17 @@ static void test_sphere_normal_derivative(void **state) {
     (void)state;
     pgi_scene *s = NULL;
     TU_CHECK_OK(pgi_scene_load("sphere-and-plane", &s));
-    const pgi_v3 c = v3(0.f, 1.f, 0.f);
+    const pgi__v3 c = v3(0.f, 1.f, 0.f);
     int checked = 0;
     for (size_t t = 0; t < s->ntris && checked < 50; t += 97) {
         const uint32_t *v = s->tri + 3 * t;
-        pgi_v3 a = pgi__scene_vertex(s, v[0]), b = pgi__scene_vertex(s, v[1]), cc = pgi__scene_vertex(s, v[2]);
-        pgi_v3 p = v3_scale(v3_add(v3_add(a, b), cc), 1.f / 3.f);
+        pgi__v3 a = pgi__scene_vertex(s, v[0]), b = pgi__scene_vertex(s, v[1]), cc = pgi__scene_vertex(s, v[2]);
+        pgi__v3 p = v3_scale(v3_add(v3_add(a, b), cc), 1.f / 3.f);
         float rr = v3_len(v3_sub(p, c));
         if (fabsf(rr - 1.f) > 0.02f) continue;   /* not the sphere */
-        pgi_v3 nrm = v3_norm(v3_sub(p, c)), t1, t2;
+        pgi__v3 nrm = v3_norm(v3_sub(p, c)), t1, t2;
         v3_basis(nrm, &t1, &t2);
-        pgi_v3 dp[2] = {v3_scale(t1, 0.01f), v3_scale(t2, 0.01f)}, dn[2];
+        pgi__v3 dp[2] = {v3_scale(t1, 0.01f), v3_scale(t2, 0.01f)}, dn[2];
         pgi__pd_normal_derivative(s, (uint32_t)t, 1.f / 3.f, 1.f / 3.f, dp, nrm, dn);
         for (int k = 0; k < 2; k++) {
             float err = v3_len(v3_sub(dn[k], dp[k])) / v3_len(dp[k]);
@@ -251,7 +251,7 @@ static double caustic_median_radius(const char *dir, int curvature) {
     assert_int_equal(tu_write_file(jpath, json), 0);
     pgi_scene *sc = NULL;
     TU_CHECK_OK(pgi_scene_load(jpath, &sc));
-    pgi_rt *rt = NULL;
+    pgi__rt *rt = NULL;
     TU_CHECK_OK(pgi__rt_create(sc, &rt));
     const uint32_t n = 3000;
     pgi_photons ph;
@@ -262,9 +262,9 @@ static double caustic_median_radius(const char *dir, int curvature) {
     float **ax[] = {&ph.sax, &ph.say, &ph.saz, &ph.sbx, &ph.sby, &ph.sbz};
     for (int k = 0; k < 6; k++) *ax[k] = buf + (size_t)(k + 1) * n;
     uint64_t hist[PGI_FOOTPRINT_BINS] = {0}, rays = 0;
-    pgi_trace_desc td = {.photons = n, .bounces = 3, .seed = 9, .radius_policy = PGI_RADIUS_DIFFERENTIALS,
+    pgi__trace_desc td = {.photons = n, .bounces = 3, .seed = 9, .radius_policy = PGI_RADIUS_DIFFERENTIALS,
                          .r_min = 1.f, .r_max = 100.f, .smoothing = 1.f, .footprint_hist = hist};
-    pgi_trace_scratch scr = {0};
+    pgi__trace_scratch scr = {0};
     TU_CHECK_OK(pgi__photons_trace(sc, rt, &td, &ph, &scr, &rays));
     assert_int_equal(ph.count, n);
     float *r = malloc(n * sizeof *r);

@@ -230,7 +230,7 @@ static void test_mirror_glass_pipeline(void **state) {
     {
         pgi_scene *sc = NULL;
         TU_CHECK_OK(pgi_scene_load(jpath, &sc));
-        pgi_rt *rt = NULL;
+        pgi__rt *rt = NULL;
         TU_CHECK_OK(pgi__rt_create(sc, &rt));
         pgi_view_samples vs;
         TU_CHECK_OK(pgi_view_samples_alloc(&vs, 72, 56));

@@ -15,7 +15,7 @@
 #include <omp.h>
 
 #include "estimators/estimator_internal.h"
-#include "pipeline/filter.h"
+#include "filter/bilateral.h"
 
 #define W 48
 #define H 40

@@ -41,6 +41,9 @@ static int cmp_fail(const char *what, const char *path, pgi_status st) {
     return st == PGI_ERR_INVALID_ARG ? 2 : 1;
 }
 
+/* sRGB EOTF in float, as the viewer's screenshot has it (apps use the public API only, so not the
+ * library's internal pgi__srgb_to_linear, which is in double). The two differ by a few float ulps for
+ * most bytes: a PNG heat map gets the same bytes either way, an EXR one would not. */
 static float srgb_to_linear(float c) { return c <= 0.04045f ? c / 12.92f : powf((c + 0.055f) / 1.055f, 2.4f); }
 
 int pgi_cmd_compare(int argc, char **argv) {

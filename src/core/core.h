@@ -41,6 +41,12 @@ static inline int pgi__threads(int requested) { return requested > 0 ? requested
 static inline int pgi__threads(int requested) { return requested > 0 ? requested : 1; }
 #endif
 
+/* sRGB -> linear (srgb.c): the exact sRGB EOTF of c in [0, 1], in double; and
+ * the 8-bit table the texture lookup uses (equal to (float) of the formula at
+ * i / 255 except for three entries one ulp below; see srgb.c). */
+double pgi__srgb_to_linear(double c);
+extern const float pgi__srgb8_texture_lut[256];
+
 /* PGI_ERR_INVALID_ARG naming `name` and the registered estimators (estimator.c). */
 pgi_status pgi__fail_unknown_estimator(const char *name);
 
@@ -57,34 +63,34 @@ void pgi__afree(void *p);
 static inline float pgi_maxf(float a, float b) { return a > b ? a : b; }
 static inline float pgi_minf(float a, float b) { return a < b ? a : b; }
 
-typedef struct { float x, y, z; } pgi_v3;
+typedef struct { float x, y, z; } pgi__v3;
 
-static inline pgi_v3 v3(float x, float y, float z) { pgi_v3 r = {x, y, z}; return r; }
-static inline pgi_v3 v3_load(const float *p) { return v3(p[0], p[1], p[2]); }
-static inline void v3_store(float *p, pgi_v3 a) { p[0] = a.x; p[1] = a.y; p[2] = a.z; }
-static inline pgi_v3 v3_add(pgi_v3 a, pgi_v3 b) { return v3(a.x + b.x, a.y + b.y, a.z + b.z); }
-static inline pgi_v3 v3_sub(pgi_v3 a, pgi_v3 b) { return v3(a.x - b.x, a.y - b.y, a.z - b.z); }
-static inline pgi_v3 v3_mul(pgi_v3 a, pgi_v3 b) { return v3(a.x * b.x, a.y * b.y, a.z * b.z); }
-static inline pgi_v3 v3_scale(pgi_v3 a, float s) { return v3(a.x * s, a.y * s, a.z * s); }
-static inline pgi_v3 v3_madd(pgi_v3 a, pgi_v3 b, float s) { return v3(a.x + b.x * s, a.y + b.y * s, a.z + b.z * s); }
-static inline float v3_dot(pgi_v3 a, pgi_v3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-static inline pgi_v3 v3_cross(pgi_v3 a, pgi_v3 b) {
+static inline pgi__v3 v3(float x, float y, float z) { pgi__v3 r = {x, y, z}; return r; }
+static inline pgi__v3 v3_load(const float *p) { return v3(p[0], p[1], p[2]); }
+static inline void v3_store(float *p, pgi__v3 a) { p[0] = a.x; p[1] = a.y; p[2] = a.z; }
+static inline pgi__v3 v3_add(pgi__v3 a, pgi__v3 b) { return v3(a.x + b.x, a.y + b.y, a.z + b.z); }
+static inline pgi__v3 v3_sub(pgi__v3 a, pgi__v3 b) { return v3(a.x - b.x, a.y - b.y, a.z - b.z); }
+static inline pgi__v3 v3_mul(pgi__v3 a, pgi__v3 b) { return v3(a.x * b.x, a.y * b.y, a.z * b.z); }
+static inline pgi__v3 v3_scale(pgi__v3 a, float s) { return v3(a.x * s, a.y * s, a.z * s); }
+static inline pgi__v3 v3_madd(pgi__v3 a, pgi__v3 b, float s) { return v3(a.x + b.x * s, a.y + b.y * s, a.z + b.z * s); }
+static inline float v3_dot(pgi__v3 a, pgi__v3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+static inline pgi__v3 v3_cross(pgi__v3 a, pgi__v3 b) {
     return v3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
 }
-static inline float v3_len(pgi_v3 a) { return sqrtf(v3_dot(a, a)); }
-static inline pgi_v3 v3_norm(pgi_v3 a) {
+static inline float v3_len(pgi__v3 a) { return sqrtf(v3_dot(a, a)); }
+static inline pgi__v3 v3_norm(pgi__v3 a) {
     float l = v3_len(a);
     return l > 0.f ? v3_scale(a, 1.f / l) : v3(0.f, 0.f, 1.f);
 }
-static inline pgi_v3 v3_neg(pgi_v3 a) { return v3(-a.x, -a.y, -a.z); }
-static inline float v3_maxc(pgi_v3 a) { return pgi_maxf(a.x, pgi_maxf(a.y, a.z)); }
-static inline float v3_lum(pgi_v3 a) { return 0.2126f * a.x + 0.7152f * a.y + 0.0722f * a.z; }
-static inline pgi_v3 v3_min(pgi_v3 a, pgi_v3 b) { return v3(pgi_minf(a.x, b.x), pgi_minf(a.y, b.y), pgi_minf(a.z, b.z)); }
-static inline pgi_v3 v3_max(pgi_v3 a, pgi_v3 b) { return v3(pgi_maxf(a.x, b.x), pgi_maxf(a.y, b.y), pgi_maxf(a.z, b.z)); }
-static inline int v3_finite(pgi_v3 a) { return isfinite(a.x) && isfinite(a.y) && isfinite(a.z); }
+static inline pgi__v3 v3_neg(pgi__v3 a) { return v3(-a.x, -a.y, -a.z); }
+static inline float v3_maxc(pgi__v3 a) { return pgi_maxf(a.x, pgi_maxf(a.y, a.z)); }
+static inline float v3_lum(pgi__v3 a) { return 0.2126f * a.x + 0.7152f * a.y + 0.0722f * a.z; }
+static inline pgi__v3 v3_min(pgi__v3 a, pgi__v3 b) { return v3(pgi_minf(a.x, b.x), pgi_minf(a.y, b.y), pgi_minf(a.z, b.z)); }
+static inline pgi__v3 v3_max(pgi__v3 a, pgi__v3 b) { return v3(pgi_maxf(a.x, b.x), pgi_maxf(a.y, b.y), pgi_maxf(a.z, b.z)); }
+static inline int v3_finite(pgi__v3 a) { return isfinite(a.x) && isfinite(a.y) && isfinite(a.z); }
 
 /* Orthonormal basis around unit n (Duff et al. 2017). */
-static inline void v3_basis(pgi_v3 n, pgi_v3 *t, pgi_v3 *b) {
+static inline void v3_basis(pgi__v3 n, pgi__v3 *t, pgi__v3 *b) {
     float sign = copysignf(1.f, n.z);
     float a = -1.f / (sign + n.z);
     float bb = n.x * n.y * a;
@@ -95,21 +101,21 @@ static inline void v3_basis(pgi_v3 n, pgi_v3 *t, pgi_v3 *b) {
 /* -------------------------------------------------------------------- RNG */
 /* PCG32 (O'Neill). One stream per photon path / pixel: seeded from
  * (seed, index) so results do not depend on the thread count. */
-typedef struct { uint64_t state, inc; } pgi_rng;
+typedef struct { uint64_t state, inc; } pgi__rng;
 
 static inline uint64_t pgi__mix64(uint64_t z) {
     z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
     z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
     return z ^ (z >> 31);
 }
-static inline uint32_t pgi_rng_u32(pgi_rng *r) {
+static inline uint32_t pgi_rng_u32(pgi__rng *r) {
     uint64_t old = r->state;
     r->state = old * 6364136223846793005ULL + r->inc;
     uint32_t xs = (uint32_t)(((old >> 18u) ^ old) >> 27u);
     uint32_t rot = (uint32_t)(old >> 59u);
     return (xs >> rot) | (xs << ((-rot) & 31));
 }
-static inline void pgi_rng_seed(pgi_rng *r, uint64_t seed, uint64_t stream) {
+static inline void pgi_rng_seed(pgi__rng *r, uint64_t seed, uint64_t stream) {
     r->state = 0u;
     r->inc = (pgi__mix64(stream ^ 0x9e3779b97f4a7c15ULL) << 1u) | 1u;
     pgi_rng_u32(r);
@@ -117,24 +123,24 @@ static inline void pgi_rng_seed(pgi_rng *r, uint64_t seed, uint64_t stream) {
     pgi_rng_u32(r);
 }
 /* Uniform in [0, 1). */
-static inline float pgi_rng_f(pgi_rng *r) { return (float)(pgi_rng_u32(r) >> 8) * (1.f / 16777216.f); }
+static inline float pgi_rng_f(pgi__rng *r) { return (float)(pgi_rng_u32(r) >> 8) * (1.f / 16777216.f); }
 
 /* --------------------------------------------------------------- sampling */
-static inline pgi_v3 pgi_sample_cosine(float u1, float u2) {
+static inline pgi__v3 pgi_sample_cosine(float u1, float u2) {
     float r = sqrtf(u1), phi = 2.f * PGI_PI * u2;
     return v3(r * cosf(phi), r * sinf(phi), sqrtf(fmaxf(0.f, 1.f - u1)));
 }
-static inline pgi_v3 pgi_sample_sphere(float u1, float u2) {
+static inline pgi__v3 pgi_sample_sphere(float u1, float u2) {
     float z = 1.f - 2.f * u1, r = sqrtf(fmaxf(0.f, 1.f - z * z)), phi = 2.f * PGI_PI * u2;
     return v3(r * cosf(phi), r * sinf(phi), z);
 }
 /* Uniform direction in the cone around +z with cos(theta) >= cos_max. */
-static inline pgi_v3 pgi_sample_cone(float u1, float u2, float cos_max) {
+static inline pgi__v3 pgi_sample_cone(float u1, float u2, float cos_max) {
     float z = 1.f - u1 * (1.f - cos_max), r = sqrtf(fmaxf(0.f, 1.f - z * z)), phi = 2.f * PGI_PI * u2;
     return v3(r * cosf(phi), r * sinf(phi), z);
 }
-static inline pgi_v3 pgi_to_world(pgi_v3 l, pgi_v3 n) {
-    pgi_v3 t, b;
+static inline pgi__v3 pgi_to_world(pgi__v3 l, pgi__v3 n) {
+    pgi__v3 t, b;
     v3_basis(n, &t, &b);
     return v3_add(v3_add(v3_scale(t, l.x), v3_scale(b, l.y)), v3_scale(n, l.z));
 }

@@ -83,7 +83,7 @@ typedef struct {
     int use_depth;
 } shape;
 
-static inline float inflate(pgi_v3 c, float r) {
+static inline float inflate(pgi__v3 c, float r) {
     return r + 1e-4f * r + 1e-6f * (fabsf(c.x) + fabsf(c.y) + fabsf(c.z));
 }
 
@@ -130,7 +130,7 @@ static inline float cross2(const float *o, const float *a, const float *b) {
  * means the sphere has no point in front: 0 is returned. Directions where the
  * eye is inside the circle give no bound. Double precision plus an angular
  * margin of 1e-6 keep it conservative. */
-static int clipped_shape(const pgi__view_xf *x, pgi_v3 c, float ri, int m, shape *sh) {
+static int clipped_shape(const pgi__view_xf *x, pgi__v3 c, float ri, int m, shape *sh) {
     const double HALF = 0.5 * 3.14159265358979323846, TWO_PI = 2.0 * 3.14159265358979323846;
     const float ax = 2.f * x->sx / (float)x->W, bx = x->sx * (1.f / (float)x->W - 1.f);
     const float ay = -2.f * x->sy / (float)x->H, by = x->sy * (1.f - 1.f / (float)x->H);
@@ -171,7 +171,7 @@ static int clipped_shape(const pgi__view_xf *x, pgi_v3 c, float ri, int m, shape
 /* Bound of a photon sphere (view-space centre c, radius r). Returns 0 when
  * no primary sample can be inside the sphere (it lies behind the eye, or its
  * bound misses the screen). */
-static int make_shape(const bounds_state *s, const pgi__view_xf *x, pgi_v3 c, float r, shape *sh) {
+static int make_shape(const bounds_state *s, const pgi__view_xf *x, pgi__v3 c, float r, shape *sh) {
     float ri = inflate(c, r);
     sh->n = 0;
     sh->zlo = c.z - ri;
@@ -288,7 +288,7 @@ static inline void row_span(const shape *sh, float Y, int W, int *xa, int *xb) {
     *xb = clip_hi(xr, W - 1);
 }
 
-static inline int sphere_box(const btile *b, pgi_v3 c, float r) {
+static inline int sphere_box(const btile *b, pgi__v3 c, float r) {
     float rr = inflate(c, r), cc[3] = {c.x, c.y, c.z}, d2 = 0.f;
     for (int k = 0; k < 3; k++) {
         float lo = b->lo[k] - cc[k], hi = cc[k] - b->hi[k];
@@ -302,7 +302,7 @@ static inline int sphere_box(const btile *b, pgi_v3 c, float r) {
  * tile order for the rectangle, then the secondary tiles outside it. */
 #define FOR_EACH_BIN(S_, XF_, J_, BODY)                                                                    \
     do {                                                                                                   \
-        pgi_v3 c_ = v3((S_)->cview[3 * (J_)], (S_)->cview[3 * (J_) + 1], (S_)->cview[3 * (J_) + 2]);       \
+        pgi__v3 c_ = v3((S_)->cview[3 * (J_)], (S_)->cview[3 * (J_) + 1], (S_)->cview[3 * (J_) + 2]);       \
         shape sh_;                                                                                         \
         int tx0 = 1, tx1 = 0, ty0 = 1, ty1 = 0;                                                            \
         if (make_shape((S_), (XF_), c_, r, &sh_)) {                                                        \
@@ -385,7 +385,7 @@ static pgi_status b_build(void *state, const pgi_estimate_args *a) {
                 }
                 b->secondary = 1;
                 const float *p = vs->pos + 3 * i;
-                pgi_v3 q = pgi__to_view(&x, p[0], p[1], p[2]);
+                pgi__v3 q = pgi__to_view(&x, p[0], p[1], p[2]);
                 float qq[3] = {q.x, q.y, q.z};
                 for (int k = 0; k < 3; k++) {
                     b->lo[k] = fminf(b->lo[k], qq[k]);
@@ -398,7 +398,7 @@ static pgi_status b_build(void *state, const pgi_estimate_args *a) {
         if (s->tiles[t].secondary) s->sec[s->nsec++] = (uint32_t)t;
 #pragma omp parallel for schedule(static) num_threads(s->c.threads)
     for (long long j = 0; j < (long long)n; j++) {
-        pgi_v3 c = pgi__to_view(&x, ph->px[j], ph->py[j], ph->pz[j]);
+        pgi__v3 c = pgi__to_view(&x, ph->px[j], ph->py[j], ph->pz[j]);
         s->cview[3 * j] = c.x, s->cview[3 * j + 1] = c.y, s->cview[3 * j + 2] = c.z;
     }
     double t1 = pgi__now_ms();
@@ -507,7 +507,7 @@ static pgi_status b_estimate(void *state, const pgi_estimate_args *a) {
                 const float ppx = ph->px[j], ppy = ph->py[j], ppz = ph->pz[j];
                 const float pdx = ph->dx[j], pdy = ph->dy[j], pdz = ph->dz[j];
                 const float pfr = ph->fr[j], pfg = ph->fg[j], pfb = ph->fb[j];
-                pgi_v3 c = v3(s->cview[3 * j], s->cview[3 * j + 1], s->cview[3 * j + 2]);
+                pgi__v3 c = v3(s->cview[3 * j], s->cview[3 * j + 1], s->cview[3 * j + 2]);
                 shape sh;
                 if (bt->primary && make_shape(s, &x, c, r, &sh)) {
                     int ya = clip_lo(sh.y0, Y0), yb = clip_hi(sh.y1, Y1 - 1);

@@ -592,7 +592,7 @@ static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, co
         for (uint32_t k = s->sbeg[li]; k < s->send[li]; k++) {
             uint32_t i = s->order[k];
             const float *p = vs->pos + 3 * (size_t)i, *n = vs->nrm + 3 * (size_t)i;
-            pgi_v3 q = pgi__to_view(&s->x, p[0], p[1], p[2]);
+            pgi__v3 q = pgi__to_view(&s->x, p[0], p[1], p[2]);
             float qq[3] = {q.x, q.y, q.z};
             for (int d = 0; d < 3; d++) {
                 lo[d] = pgi_minf(lo[d], qq[d]);
@@ -684,7 +684,7 @@ typedef struct sink {
 } sink;
 
 typedef struct {
-    pgi_v3 c;      /* view-space centre */
+    pgi__v3 c;      /* view-space centre */
     float wx, wy, wz, fr, fg, fb;
     float rr2, re2;  /* (r + slack)^2: may touch; (r - slack)^2: encloses */
     int oct;
@@ -704,7 +704,7 @@ static inline void load_photon(const cl_state *s, const pgi__packed_photon *p, s
     q->re2 = re > 0.f ? re * re : -1.f;
     q->oct = 0;
     if (s->variant & V_DIR) {
-        pgi_v3 w = v3(q->wx, q->wy, q->wz);
+        pgi__v3 w = v3(q->wx, q->wy, q->wz);
         float vx = v3_dot(w, s->x.right), vy = v3_dot(w, s->x.up), vz = v3_dot(w, s->x.fwd);
         q->oct = (vx < 0.f) | (vy < 0.f) << 1 | (vz < 0.f) << 2;
     }

@@ -66,7 +66,7 @@ static inline void silhouette(float a, float z, float r, float *u0, float *u1) {
 
 /* Sphere vs tile: box distance, then the four side planes of the tile's
  * frustum (through the eye and the tile's pixel edges) for primary tiles. */
-static inline int overlaps(const tiled_state *s, const pgi__view_xf *x, int t, pgi_v3 c, float r) {
+static inline int overlaps(const tiled_state *s, const pgi__view_xf *x, int t, pgi__v3 c, float r) {
     const tile_bounds *b = &s->bounds[t];
     if (!b->valid) return 0;
     float slack = 1e-4f * r + 1e-6f * (fabsf(c.x) + fabsf(c.y) + fabsf(c.z));
@@ -94,7 +94,7 @@ static inline int overlaps(const tiled_state *s, const pgi__view_xf *x, int t, p
 
 /* Early reject against the view-space box of all view samples: photons
  * behind the camera or beyond the farthest sample touch no tile. */
-static inline int frame_overlaps(const tiled_state *s, pgi_v3 c, float r) {
+static inline int frame_overlaps(const tiled_state *s, pgi__v3 c, float r) {
     float rr = r + 1e-4f * r + 1e-6f * (fabsf(c.x) + fabsf(c.y) + fabsf(c.z));
     float cc[3] = {c.x, c.y, c.z}, d2 = 0.f;
     for (int k = 0; k < 3; k++) {
@@ -178,7 +178,7 @@ static pgi_status tiled_build(void *state, const pgi_estimate_args *a) {
                 size_t i = (size_t)py * W + (size_t)px;
                 if (!(vs->flags[i] & PGI_VS_VALID)) continue;
                 const float *p = vs->pos + 3 * i;
-                pgi_v3 q = pgi__to_view(&x, p[0], p[1], p[2]);
+                pgi__v3 q = pgi__to_view(&x, p[0], p[1], p[2]);
                 float qq[3] = {q.x, q.y, q.z};
                 for (int k = 0; k < 3; k++) {
                     b->lo[k] = fminf(b->lo[k], qq[k]);
@@ -211,7 +211,7 @@ static pgi_status tiled_build(void *state, const pgi_estimate_args *a) {
         memset(cnt, 0, (size_t)ntiles * sizeof *cnt);
         size_t j1 = ((size_t)cidx + 1) * chunk < n ? ((size_t)cidx + 1) * chunk : n;
         for (size_t j = (size_t)cidx * chunk; j < j1; j++) {
-            pgi_v3 c = pgi__to_view(&x, ph->px[j], ph->py[j], ph->pz[j]);
+            pgi__v3 c = pgi__to_view(&x, ph->px[j], ph->py[j], ph->pz[j]);
             FOR_EACH_TILE(s, &x, c, r, cnt[t]++; tested++);
         }
     }
@@ -240,7 +240,7 @@ static pgi_status tiled_build(void *state, const pgi_estimate_args *a) {
         uint32_t *off = s->counts + (size_t)cidx * ntiles;
         size_t j1 = ((size_t)cidx + 1) * chunk < n ? ((size_t)cidx + 1) * chunk : n;
         for (size_t j = (size_t)cidx * chunk; j < j1; j++) {
-            pgi_v3 c = pgi__to_view(&x, ph->px[j], ph->py[j], ph->pz[j]);
+            pgi__v3 c = pgi__to_view(&x, ph->px[j], ph->py[j], ph->pz[j]);
             FOR_EACH_TILE(s, &x, c, r, pgi__pack_photon(ph, j, &s->tile_photons[off[t]++]));
         }
     }

@@ -365,9 +365,9 @@ void pgi_view_samples_free(pgi_view_samples *vs) {
 
 void pgi_camera_look_at(pgi_camera *c, const float eye[3], const float look_at[3], const float up[3], float fov_y_deg,
                         int width, int height) {
-    pgi_v3 e = v3_load(eye), f = v3_norm(v3_sub(v3_load(look_at), e));
-    pgi_v3 r = v3_norm(v3_cross(f, v3_load(up)));
-    pgi_v3 u = v3_cross(r, f);
+    pgi__v3 e = v3_load(eye), f = v3_norm(v3_sub(v3_load(look_at), e));
+    pgi__v3 r = v3_norm(v3_cross(f, v3_load(up)));
+    pgi__v3 u = v3_cross(r, f);
     v3_store(c->eye, e);
     v3_store(c->forward, f);
     v3_store(c->right, r);

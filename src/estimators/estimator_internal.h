@@ -12,7 +12,7 @@
 /* A view sample loaded once per gather. */
 typedef struct pgi__vs {
     float px, py, pz, nx, ny, nz;
-    pgi_v3 wo, kd, ks;
+    pgi__v3 wo, kd, ks;
     float shininess;
     int lambert;
 } pgi__vs;
@@ -229,7 +229,7 @@ static inline void pgi__acc_finish_k(const pgi__vs *v, const pgi__acc *a, float 
  * Random stream: (seed, pixel index), so the result does not depend on the
  * thread count. k <= 1: off (every photon visited, scale 1). */
 typedef struct pgi__sub {
-    pgi_rng rng;
+    pgi__rng rng;
     float inv_log1mp;      /* 1 / log2(1 - 1/k^2) */
     uint64_t skip;         /* eligible photons to pass over before the next visit */
     uint64_t eligible, visited;
@@ -327,7 +327,7 @@ static inline void pgi__gather_list(const pgi__vs *v, float r2, pgi_kernel kern,
  * the screen scale: view (x, y, z) projects to x / (z sx), y / (z sy) in
  * [-1, 1]. Shared by the screen-space methods (tiled, bounds). */
 typedef struct pgi__view_xf {
-    pgi_v3 eye, right, up, fwd;
+    pgi__v3 eye, right, up, fwd;
     float sx, sy;   /* tan(fov/2) * aspect, tan(fov/2) */
     int W, H;
 } pgi__view_xf;
@@ -338,8 +338,8 @@ static inline pgi__view_xf pgi__view_xf_make(const pgi_camera *cam, int W, int H
     return x;
 }
 
-static inline pgi_v3 pgi__to_view(const pgi__view_xf *x, float px, float py, float pz) {
-    pgi_v3 d = v3_sub(v3(px, py, pz), x->eye);
+static inline pgi__v3 pgi__to_view(const pgi__view_xf *x, float px, float py, float pz) {
+    pgi__v3 d = v3_sub(v3(px, py, pz), x->eye);
     return v3(v3_dot(d, x->right), v3_dot(d, x->up), v3_dot(d, x->fwd));
 }
 

@@ -1,7 +1,8 @@
 /* Image output (PNG via stb, EXR via OpenEXRCore) and the internal reader.
  *
- * PNG is display-referred: exposure, clamp to [0,1], the exact sRGB OETF, and
- * rounding to nearest. The reader inverts that exactly (byte -> sRGB EOTF),
+ * PNG is display-referred: tone mapped by pgi_tonemap_srgb8 (src/filter/tonemap.c:
+ * exposure, clamp to [0,1], the exact sRGB OETF, and rounding to nearest).
+ * The reader inverts that exactly (byte -> sRGB EOTF, pgi__srgb_to_linear in double),
  * so reading a PNG and tone mapping it at exposure 1 returns the same bytes.
  * EXR is scene-referred: 32-bit float R,G,B, scanline, ZIP (16 lines a chunk). */
 #include "core/core.h"
@@ -22,32 +23,6 @@ void pgi_image_free(pgi_image *img) {
     free(img->rgb);
     img->rgb = NULL;
     img->width = img->height = 0;
-}
-
-/* ------------------------------------------------------------ tone mapping */
-
-/* Exact piecewise sRGB transfer functions (IEC 61966-2-1), in double so the
- * 8-bit round trip below is not at the mercy of float rounding. */
-static double srgb_oetf(double v) {
-    return v <= 0.0031308 ? 12.92 * v : 1.055 * pow(v, 1.0 / 2.4) - 0.055;
-}
-static double srgb_eotf(double c) {
-    return c <= 0.04045 ? c / 12.92 : pow((c + 0.055) / 1.055, 2.4);
-}
-
-static unsigned char tonemap1(float value, float exposure) {
-    float v = value * exposure;
-    if (!(v > 0.f)) return 0; /* negatives and NaN */
-    if (v >= 1.f) return 255; /* includes +inf */
-    double s = srgb_oetf((double)v) * 255.0 + 0.5;
-    int b = (int)s;
-    return (unsigned char)(b > 255 ? 255 : b);
-}
-
-void pgi_tonemap_srgb8(const pgi_image *img, float exposure, unsigned char *out) {
-    if (!img || !img->rgb || !out || img->width <= 0 || img->height <= 0) return;
-    size_t n = (size_t)img->width * (size_t)img->height * 3;
-    for (size_t i = 0; i < n; ++i) out[i] = tonemap1(img->rgb[i], exposure);
 }
 
 /* ----------------------------------------------------------------- helpers */
@@ -340,14 +315,14 @@ static pgi_status read_stb(const char *path, FILE *f, pgi_image *out, int *is_hd
         size_t n = (size_t)w * (size_t)h * 3;
         rgb = malloc(n * sizeof(float));
         if (rgb)
-            for (size_t i = 0; i < n; ++i) rgb[i] = (float)srgb_eotf(px[i] / 65535.0);
+            for (size_t i = 0; i < n; ++i) rgb[i] = (float)pgi__srgb_to_linear(px[i] / 65535.0);
         stbi_image_free(px);
         if (is_hdr) *is_hdr = 0;
     } else {
         stbi_uc *px = stbi_load_from_file(f, &w, &h, &comp, 3);
         if (!px) return pgi__fail(PGI_ERR_PARSE, "%s: unreadable image: %s", path, stbi_failure_reason());
         float lut[256];
-        for (int i = 0; i < 256; ++i) lut[i] = (float)srgb_eotf(i / 255.0);
+        for (int i = 0; i < 256; ++i) lut[i] = (float)pgi__srgb_to_linear(i / 255.0);
         size_t n = (size_t)w * (size_t)h * 3;
         rgb = malloc(n * sizeof(float));
         if (rgb)

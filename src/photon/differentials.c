@@ -1,47 +1,34 @@
-/* Radius policies: path-probability radii and photon differentials (see differentials.h and
- * docs/bvh.md for the equations and the choices made where the papers leave them open). */
+/* Photon differentials, the differentials radius policy (see differentials.h and docs/bvh.md for
+ * the equations and the choices made where the papers leave them open; the hooks that call these
+ * are in radius.c). */
 #include "differentials.h"
 
 #include "photongi/photongi.h"
 
-void pgi__fp_params_init(pgi__fp_params *p, int policy, float r_min, float r_max, float smoothing, uint32_t n,
-                         float diag) {
-    p->policy = policy;
-    p->r_min = r_min;
-    p->r_max = r_max;
-    p->photons = (float)(n ? n : 1);
-    p->delta = sqrtf(4.f * PGI_PI / p->photons);
-    /* Automatic s: a photon re-emitted a quarter of the scene diagonal away gets r_max / 2
-     * (semi-axis Delta * s * ||dp||^(1/4) with ||dp|| = that distance). */
-    if (!(smoothing > 0.f)) smoothing = 0.5f * r_max / (p->delta * powf(fmaxf(0.25f * diag, 1e-6f), 0.25f));
-    p->smoothing = smoothing;
-    p->smoothing_caustic = 5.f;
-}
-
-void pgi__pd_emit_dir(pgi__pdiff *pd, pgi_v3 d, pgi_v3 axis, float scale) {
-    pgi_v3 t, b;
+void pgi__pd_emit_dir(pgi__pdiff *pd, pgi__v3 d, pgi__v3 axis, float scale) {
+    pgi__v3 t, b;
     v3_basis(axis, &t, &b);
     float ct = v3_dot(d, axis), st = sqrtf(fmaxf(0.f, 1.f - ct * ct));
     float x = v3_dot(d, t), y = v3_dot(d, b), l = sqrtf(x * x + y * y);
     float cp = l > 0.f ? x / l : 1.f, sp = l > 0.f ? y / l : 0.f;
     /* eq. 8: d_cos = (-cos phi cos theta, -sin phi cos theta, sin theta), d_phi = (-sin phi, cos phi, 0) */
-    pgi_v3 d1 = v3_add(v3_scale(v3_add(v3_scale(t, cp), v3_scale(b, sp)), -ct), v3_scale(axis, st));
-    pgi_v3 d2 = v3_add(v3_scale(t, -sp), v3_scale(b, cp));
+    pgi__v3 d1 = v3_add(v3_scale(v3_add(v3_scale(t, cp), v3_scale(b, sp)), -ct), v3_scale(axis, st));
+    pgi__v3 d2 = v3_add(v3_scale(t, -sp), v3_scale(b, cp));
     pd->dd[0] = v3_scale(d1, scale);
     pd->dd[1] = v3_scale(d2, scale);
     pd->dp[0] = pd->dp[1] = v3(0.f, 0.f, 0.f);
 }
 
-void pgi__pd_transfer(pgi__pdiff *pd, pgi_v3 d, float t, pgi_v3 n) {
+void pgi__pd_transfer(pgi__pdiff *pd, pgi__v3 d, float t, pgi__v3 n) {
     float dn = v3_dot(d, n);
     for (int k = 0; k < 2; k++) {
-        pgi_v3 q = v3_madd(pd->dp[k], pd->dd[k], t);
+        pgi__v3 q = v3_madd(pd->dp[k], pd->dd[k], t);
         float dt = fabsf(dn) > 1e-6f ? -v3_dot(q, n) / dn : 0.f;
         pd->dp[k] = v3_madd(q, d, dt);
     }
 }
 
-void pgi__pd_reflect(pgi__pdiff *pd, pgi_v3 d, pgi_v3 n, const pgi_v3 dn[2]) {
+void pgi__pd_reflect(pgi__pdiff *pd, pgi__v3 d, pgi__v3 n, const pgi__v3 dn[2]) {
     float dN = v3_dot(d, n);
     for (int k = 0; k < 2; k++) {
         float ddN = v3_dot(pd->dd[k], n) + v3_dot(d, dn[k]);
@@ -49,7 +36,7 @@ void pgi__pd_reflect(pgi__pdiff *pd, pgi_v3 d, pgi_v3 n, const pgi_v3 dn[2]) {
     }
 }
 
-void pgi__pd_refract(pgi__pdiff *pd, pgi_v3 d, pgi_v3 n, const pgi_v3 dn[2], float eta, pgi_v3 t) {
+void pgi__pd_refract(pgi__pdiff *pd, pgi__v3 d, pgi__v3 n, const pgi__v3 dn[2], float eta, pgi__v3 t) {
     float dN = v3_dot(d, n), tN = v3_dot(t, n);
     float mu = eta * dN - tN;
     float dmu_f = fabsf(tN) > 1e-6f ? eta - eta * eta * dN / tN : eta;
@@ -69,7 +56,7 @@ void pgi__pd_roulette(pgi__pdiff *pd, float p) {
     }
 }
 
-void pgi__pd_reemit(pgi__pdiff *pd, pgi_v3 d_out, pgi_v3 n) {
+void pgi__pd_reemit(pgi__pdiff *pd, pgi__v3 d_out, pgi__v3 n) {
     float A = v3_len(v3_cross(pd->dp[0], pd->dp[1]));   /* |dp1 x dp2|; Delta^2 cancels in eq. 13 */
     pgi__pd_emit_dir(pd, d_out, n, 1.f);
     float B = v3_len(v3_cross(pd->dd[0], pd->dd[1]));
@@ -79,10 +66,10 @@ void pgi__pd_reemit(pgi__pdiff *pd, pgi_v3 d_out, pgi_v3 n) {
     pd->diffuse = 1;
 }
 
-void pgi__pd_footprint(const pgi__pdiff *pd, const pgi__fp_params *p, pgi_v3 n, pgi__footprint *o) {
-    pgi_v3 ax[2];
+void pgi__pd_footprint(const pgi__pdiff *pd, const pgi__fp_params *p, pgi__v3 n, pgi__footprint *o) {
+    pgi__v3 ax[2];
     for (int k = 0; k < 2; k++) {
-        pgi_v3 q = v3_sub(pd->dp[k], v3_scale(n, v3_dot(pd->dp[k], n)));   /* in the tangent plane */
+        pgi__v3 q = v3_sub(pd->dp[k], v3_scale(n, v3_dot(pd->dp[k], n)));   /* in the tangent plane */
         float l = v3_len(q);
         float f = pd->diffuse ? p->smoothing * (l > 0.f ? powf(l, -0.75f) : 0.f) : p->smoothing_caustic;
         ax[k] = v3_scale(q, p->delta * f);
@@ -94,7 +81,7 @@ void pgi__pd_footprint(const pgi__pdiff *pd, const pgi__fp_params *p, pgi_v3 n, 
         /* degenerate (collinear or vanishing axes): a circle of the longer axis' length */
         float l = fmaxf(v3_len(ax[0]), v3_len(ax[1]));
         l = isfinite(l) ? fminf(fmaxf(l, 1e-2f * rmax), rmax) : rmax;
-        pgi_v3 t, b;
+        pgi__v3 t, b;
         v3_basis(n, &t, &b);
         ax[0] = v3_scale(t, l);
         ax[1] = v3_scale(b, l);
@@ -117,38 +104,33 @@ void pgi__pd_footprint(const pgi__pdiff *pd, const pgi__fp_params *p, pgi_v3 n, 
     v3_store(o->b, ax[1]);
 }
 
-void pgi__pd_normal_derivative(const pgi_scene *s, uint32_t prim, float bu, float bv, const pgi_v3 dp[2], pgi_v3 ref,
-                               pgi_v3 dn[2]) {
+void pgi__pd_normal_derivative(const pgi_scene *s, uint32_t prim, float bu, float bv, const pgi__v3 dp[2], pgi__v3 ref,
+                               pgi__v3 dn[2]) {
     dn[0] = dn[1] = v3(0.f, 0.f, 0.f);
     if (!s->nrm) return;
     const uint32_t *t = s->tri + 3 * (size_t)prim;
-    pgi_v3 a = pgi__scene_vertex(s, t[0]), b = pgi__scene_vertex(s, t[1]), c = pgi__scene_vertex(s, t[2]);
-    pgi_v3 n0 = v3_load(s->nrm + 3 * (size_t)t[0]), n1 = v3_load(s->nrm + 3 * (size_t)t[1]),
+    pgi__v3 a = pgi__scene_vertex(s, t[0]), b = pgi__scene_vertex(s, t[1]), c = pgi__scene_vertex(s, t[2]);
+    pgi__v3 n0 = v3_load(s->nrm + 3 * (size_t)t[0]), n1 = v3_load(s->nrm + 3 * (size_t)t[1]),
            n2 = v3_load(s->nrm + 3 * (size_t)t[2]);
-    pgi_v3 e1 = v3_sub(b, a), e2 = v3_sub(c, a);
+    pgi__v3 e1 = v3_sub(b, a), e2 = v3_sub(c, a);
     float g11 = v3_dot(e1, e1), g12 = v3_dot(e1, e2), g22 = v3_dot(e2, e2), det = g11 * g22 - g12 * g12;
     if (!(fabsf(det) > 0.f)) return;
-    pgi_v3 N = v3_add(v3_add(v3_scale(n0, 1.f - bu - bv), v3_scale(n1, bu)), v3_scale(n2, bv));
+    pgi__v3 N = v3_add(v3_add(v3_scale(n0, 1.f - bu - bv), v3_scale(n1, bu)), v3_scale(n2, bv));
     float L = v3_len(N);
     if (!(L > 0.f)) return;
-    pgi_v3 nh = v3_scale(N, 1.f / L);
+    pgi__v3 nh = v3_scale(N, 1.f / L);
     float sign = v3_dot(nh, ref) >= 0.f ? 1.f : -1.f;
     for (int k = 0; k < 2; k++) {
         float r1 = v3_dot(dp[k], e1), r2 = v3_dot(dp[k], e2);
         float du = (g22 * r1 - g12 * r2) / det, dv = (g11 * r2 - g12 * r1) / det;
-        pgi_v3 dN = v3_add(v3_scale(v3_sub(n1, n0), du), v3_scale(v3_sub(n2, n0), dv));
+        pgi__v3 dN = v3_add(v3_scale(v3_sub(n1, n0), du), v3_scale(v3_sub(n2, n0), dv));
         dn[k] = v3_scale(v3_sub(dN, v3_scale(nh, v3_dot(dN, nh))), sign / L);
     }
 }
 
-/* ------------------------------------------------------------------ hooks */
+/* ------------------------------------------- per-policy parts of the hooks */
 
-void pgi__fp_emit(pgi__pdiff *pd, const pgi__fp_params *p, const pgi_scene *s, const pgi_light *L, float pl, pgi_v3 d,
-                  float sun_radius) {
-    pd->rho = 1.f;
-    pd->diffuse = 0;
-    if (p->policy != PGI_RADIUS_DIFFERENTIALS) return;
-    (void)s;
+void pgi__pd_emit(pgi__pdiff *pd, const pgi__light *L, float pl, pgi__v3 d, float sun_radius) {
     pl = fmaxf(pl, 1e-12f);
     /* Photons of this light: n * pl. Scale the unit differentials so that the global Delta gives
      * each photon its share of the light's solid angle (or area): |Delta dd|^2 = Omega / (n pl). */
@@ -163,7 +145,7 @@ void pgi__fp_emit(pgi__pdiff *pd, const pgi__fp_params *p, const pgi_scene *s, c
     }
     case PGI_LIGHT_SUN: {
         /* parallel light over a disk of radius R: positional differentials only */
-        pgi_v3 t, b;
+        pgi__v3 t, b;
         v3_basis(d, &t, &b);
         float f = sqrtf(PGI_PI * sun_radius * sun_radius / (4.f * PGI_PI * pl));
         pd->dp[0] = v3_scale(t, f);
@@ -175,7 +157,7 @@ void pgi__fp_emit(pgi__pdiff *pd, const pgi__fp_params *p, const pgi_scene *s, c
     default: {
         /* cosine-weighted directions: solid angle per photon pi / (n pl cos theta); then the
          * origin is offset back (eq. 13) so that the footprint at the light is its area share */
-        pgi_v3 n = v3_load(L->normal);
+        pgi__v3 n = v3_load(L->normal);
         float ct = fmaxf(v3_dot(d, n), 0.05f);
         pgi__pd_emit_dir(pd, d, n, sqrtf(1.f / (4.f * pl * ct)));
         float B = v3_len(v3_cross(pd->dd[0], pd->dd[1]));
@@ -188,46 +170,18 @@ void pgi__fp_emit(pgi__pdiff *pd, const pgi__fp_params *p, const pgi_scene *s, c
     }
 }
 
-void pgi__fp_hit(pgi__pdiff *pd, const pgi__fp_params *p, pgi_v3 d, float t, pgi_v3 ng) {
-    if (p->policy == PGI_RADIUS_DIFFERENTIALS) pgi__pd_transfer(pd, d, t, ng);
-}
-
-void pgi__fp_store(const pgi__pdiff *pd, const pgi__fp_params *p, pgi_v3 ng, pgi__footprint *o) {
-    if (p->policy == PGI_RADIUS_DIFFERENTIALS) {
-        pgi__pd_footprint(pd, p, ng, o);
-    } else if (p->policy == PGI_RADIUS_PATH) {
-        float rho = fminf(fmaxf(pd->rho, 0.f), 1.f);
-        o->r = o->r_raw = p->r_min + (p->r_max - p->r_min) * sqrtf(1.f - rho);
-    }
-}
-
-void pgi__fp_scatter(pgi__pdiff *pd, const pgi__fp_params *p, const pgi_scene *s, uint32_t prim, float bu, float bv,
-                     const pgi_surface *sf, pgi_v3 wi, pgi_v3 wo, pgi_v3 w) {
-    if (p->policy == PGI_RADIUS_FIXED) return;
+void pgi__pd_scatter(pgi__pdiff *pd, const pgi_scene *s, uint32_t prim, float bu, float bv, const pgi__surface *sf,
+                     pgi__v3 wi, pgi__v3 wo) {
     const int spec = pgi__mat_specular(sf->mat);
-    if (p->policy == PGI_RADIUS_PATH) {
-        /* a priori probability of scattering into ||Gamma|| = 1e-3 sr around wo: the whole
-         * reflectance for a delta lobe, f cos ||Gamma|| otherwise (eq. 5) */
-        float pb;
-        if (spec) pb = v3_lum(w);
-        else {
-            float side = v3_dot(wi, sf->ng) >= 0.f ? 1.f : -1.f;
-            pgi_v3 ns = v3_scale(sf->ns, side);
-            pgi_v3 f = pgi__brdf_eval(sf->kd, v3_load(sf->mat->ks), sf->mat->shininess, ns, wi, wo);
-            pb = v3_lum(f) * fmaxf(0.f, v3_dot(wo, ns)) * 1e-3f;
-        }
-        pd->rho *= fminf(fmaxf(pb, 0.f), 1.f);
-        return;
-    }
     if (!spec) {
         float side = v3_dot(wo, sf->ng) >= 0.f ? 1.f : -1.f;
         pgi__pd_reemit(pd, wo, v3_scale(sf->ns, side));
         return;
     }
-    pgi_v3 d = v3_neg(wi);
+    pgi__v3 d = v3_neg(wi);
     float side = v3_dot(wi, sf->ng) >= 0.f ? 1.f : -1.f;   /* +1: arriving on the normal's side */
-    pgi_v3 n = v3_scale(sf->ns, side);                      /* facing the incoming photon: d.n < 0 */
-    pgi_v3 dn[2];
+    pgi__v3 n = v3_scale(sf->ns, side);                      /* facing the incoming photon: d.n < 0 */
+    pgi__v3 dn[2];
     pgi__pd_normal_derivative(s, prim, bu, bv, pd->dp, n, dn);
     if (v3_dot(wo, sf->ng) * side >= 0.f) {
         pgi__pd_reflect(pd, d, n, dn);
@@ -238,6 +192,3 @@ void pgi__fp_scatter(pgi__pdiff *pd, const pgi__fp_params *p, const pgi_scene *s
     }
 }
 
-void pgi__fp_roulette(pgi__pdiff *pd, const pgi__fp_params *p, float survive) {
-    if (p->policy == PGI_RADIUS_DIFFERENTIALS) pgi__pd_roulette(pd, survive);
-}

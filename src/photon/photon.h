@@ -4,17 +4,17 @@
 
 #include "rt/rt.h"
 
-typedef struct pgi_trace_desc {
+typedef struct pgi__trace_desc {
     uint32_t photons;   /* photons to store */
     int bounces;        /* maximum scattering events of a path */
     uint64_t seed;
     int threads;        /* 0 = OpenMP's default */
-    /* radius policies (differentials.h): per-photon footprints go to ph->radius (and the ellipsoid
+    /* radius policies (radius.h): per-photon footprints go to ph->radius (and the ellipsoid
        axes ph->sax.. for differentials) when those arrays are set */
     int radius_policy;
     float r_min, r_max, smoothing;
     uint64_t *footprint_hist;   /* optional out: PGI_FOOTPRINT_BINS counts of the radius before the clamp */
-} pgi_trace_desc;
+} pgi__trace_desc;
 
 /* Fills `ph` (capacity >= photons) with exactly `photons` photons, unless the
  * scene loses nearly all light (then fewer: after 64 paths per requested
@@ -24,18 +24,15 @@ typedef struct pgi_trace_desc {
  * paths are appended in index order. */
 /* Per-batch path buffers, kept between frames so that steady-state frames
  * allocate nothing. Zero-initialise; free with pgi__trace_scratch_free. */
-typedef struct pgi_trace_scratch {
+typedef struct pgi__trace_scratch {
     void *paths;
     int *counts;
     size_t cap;      /* paths */
     int bounces;     /* photons a path slot holds */
-} pgi_trace_scratch;
-void pgi__trace_scratch_free(pgi_trace_scratch *sc);
+} pgi__trace_scratch;
+void pgi__trace_scratch_free(pgi__trace_scratch *sc);
 
-pgi_status pgi__photons_trace(const pgi_scene *s, const pgi_rt *rt, const pgi_trace_desc *d, pgi_photons *ph,
-                              pgi_trace_scratch *scratch, uint64_t *rays);
-
-/* Ray offset used to leave a surface without hitting it again. */
-float pgi__scene_epsilon(const pgi_scene *s);
+pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__trace_desc *d, pgi_photons *ph,
+                              pgi__trace_scratch *scratch, uint64_t *rays);
 
 #endif

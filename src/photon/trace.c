@@ -8,13 +8,8 @@
 #include <omp.h>
 #include <string.h>
 
-#include "differentials.h"
+#include "radius.h"
 #include "scene/bsdf.h"
-
-float pgi__scene_epsilon(const pgi_scene *s) {
-    float diag = v3_len(v3_sub(v3_load(s->bmax), v3_load(s->bmin)));
-    return fmaxf(1e-5f, 1e-5f * diag);
-}
 
 typedef struct {
     float p[3], d[3], f[3], n[3];
@@ -23,13 +18,13 @@ typedef struct {
 
 typedef struct {
     const pgi_scene *s;
-    const pgi_rt *rt;
+    const pgi__rt *rt;
     const float *cdf;     /* light CDF by luminance of power */
     size_t nl;
     int bounces;
     uint64_t seed;
     float eps;
-    pgi_v3 centre;
+    pgi__v3 centre;
     float radius;         /* bounding-sphere radius, for the sun's disk */
     pgi__fp_params fp;    /* radius policy */
 } tracer;
@@ -37,14 +32,14 @@ typedef struct {
 /* Traces path `index`; writes at most `bounces` photons to `out` and returns
  * how many. Flux is power / pick probability (divided by paths later). */
 static int trace_path(const tracer *T, uint64_t index, stored_photon *out, uint64_t *rays) {
-    pgi_rng rng;
+    pgi__rng rng;
     pgi_rng_seed(&rng, T->seed, index);
     float ul = pgi_rng_f(&rng);
     float pl;
-    const pgi_light *L = &T->s->lights[pgi__cdf_pick(T->cdf, T->nl, ul, &pl)];
+    const pgi__light *L = &T->s->lights[pgi__cdf_pick(T->cdf, T->nl, ul, &pl)];
     if (!(pl > 0.f)) return 0;
-    pgi_v3 flux = v3_scale(v3_load(L->power), 1.f / pl);
-    pgi_v3 o, d;
+    pgi__v3 flux = v3_scale(v3_load(L->power), 1.f / pl);
+    pgi__v3 o, d;
     float u1 = pgi_rng_f(&rng), u2 = pgi_rng_f(&rng);
     switch (L->type) {
     case PGI_LIGHT_POINT:
@@ -58,13 +53,13 @@ static int trace_path(const tracer *T, uint64_t index, stored_photon *out, uint6
     case PGI_LIGHT_SUN: {
         d = v3_load(L->dir);
         float r = T->radius * sqrtf(u1), phi = 2.f * PGI_PI * u2;
-        pgi_v3 disk = pgi_to_world(v3(r * cosf(phi), r * sinf(phi), 0.f), d);
+        pgi__v3 disk = pgi_to_world(v3(r * cosf(phi), r * sinf(phi), 0.f), d);
         o = v3_add(v3_sub(T->centre, v3_scale(d, 1.01f * T->radius)), disk);
         break;
     }
     case PGI_LIGHT_AREA:
     default: {
-        pgi_v3 n = v3_load(L->normal);
+        pgi__v3 n = v3_load(L->normal);
         o = v3_madd(pgi__triangle_sample(T->s, L->tri, u1, u2), n, T->eps);
         d = pgi_to_world(pgi_sample_cosine(pgi_rng_f(&rng), pgi_rng_f(&rng)), n);
         break;
@@ -74,14 +69,14 @@ static int trace_path(const tracer *T, uint64_t index, stored_photon *out, uint6
     pgi__fp_emit(&pd, &T->fp, T->s, L, pl, d, T->radius);
     int stored = 0;
     for (int b = 0;; b++) {
-        pgi_hit h;
+        pgi__hit h;
         (*rays)++;
         if (!pgi__rt_intersect(T->rt, o, d, 0.f, INFINITY, &h)) break;
-        pgi_surface sf;
-        pgi_v3 p = v3_madd(o, d, h.t);
+        pgi__surface sf;
+        pgi__v3 p = v3_madd(o, d, h.t);
         pgi__scene_surface(T->s, h.prim, h.u, h.v, p, &sf);
-        pgi_v3 wi = v3_neg(d);
-        pgi_v3 ng = v3_dot(wi, sf.ng) >= 0.f ? sf.ng : v3_neg(sf.ng);
+        pgi__v3 wi = v3_neg(d);
+        pgi__v3 ng = v3_dot(wi, sf.ng) >= 0.f ? sf.ng : v3_neg(sf.ng);
         pgi__fp_hit(&pd, &T->fp, d, h.t, ng);
         if (b >= 1 && !pgi__mat_specular(sf.mat)) {
             stored_photon *sp = &out[stored++];
@@ -92,11 +87,11 @@ static int trace_path(const tracer *T, uint64_t index, stored_photon *out, uint6
             v3_store(sp->n, ng);
         }
         if (b >= T->bounces) break;
-        pgi_v3 wo, w;
+        pgi__v3 wo, w;
         float r1 = pgi_rng_f(&rng), r2 = pgi_rng_f(&rng), r3 = pgi_rng_f(&rng);
         if (!pgi__bsdf_sample(&sf, wi, r1, r2, r3, &wo, &w)) break;
         pgi__fp_scatter(&pd, &T->fp, T->s, h.prim, h.u, h.v, &sf, wi, wo, w);
-        pgi_v3 nf = v3_mul(flux, w);
+        pgi__v3 nf = v3_mul(flux, w);
         float mf = v3_maxc(flux);
         float R = mf > 0.f ? fminf(1.f, v3_maxc(nf) / mf) : 0.f;
         if (!(pgi_rng_f(&rng) < R)) break;
@@ -109,14 +104,14 @@ static int trace_path(const tracer *T, uint64_t index, stored_photon *out, uint6
     return stored;
 }
 
-void pgi__trace_scratch_free(pgi_trace_scratch *sc) {
+void pgi__trace_scratch_free(pgi__trace_scratch *sc) {
     free(sc->paths);
     free(sc->counts);
     memset(sc, 0, sizeof *sc);
 }
 
-pgi_status pgi__photons_trace(const pgi_scene *s, const pgi_rt *rt, const pgi_trace_desc *d, pgi_photons *ph,
-                              pgi_trace_scratch *sc, uint64_t *rays_out) {
+pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__trace_desc *d, pgi_photons *ph,
+                              pgi__trace_scratch *sc, uint64_t *rays_out) {
     ph->count = 0;
     ph->emitted = 0;
     *rays_out = 0;

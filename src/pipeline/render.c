@@ -6,7 +6,7 @@
 #include "photon/photon.h"
 #include "pipeline/pipeline.h"
 #include "view/view.h"
-#include "pipeline/filter.h"
+#include "filter/bilateral.h"
 
 #define PGI_MAX_SIDE 16384
 #define PGI_MAX_PIXELS (36u * 1024u * 1024u)   /* 8K UHD fits; buffers take about 140 bytes a pixel */
@@ -15,9 +15,9 @@
 
 struct pgi_renderer {
     const pgi_scene *scene;
-    pgi_rt *rt;
+    pgi__rt *rt;
     pgi_photons ph;
-    pgi_trace_scratch trace_scratch;
+    pgi__trace_scratch trace_scratch;
     pgi_view_samples vs;
     float *emit, *direct, *indirect;
     size_t pix_cap;
@@ -66,7 +66,7 @@ pgi_status pgi__check_view(const pgi_camera_def *v) {
     for (int k = 0; k < 3; k++)
         if (!isfinite(v->eye[k]) || !isfinite(v->look_at[k]) || !isfinite(v->up[k]))
             return pgi__fail(PGI_ERR_INVALID_ARG, "view camera has a non-finite eye, look-at or up");
-    pgi_v3 d = v3_sub(v3_load(v->look_at), v3_load(v->eye));
+    pgi__v3 d = v3_sub(v3_load(v->look_at), v3_load(v->eye));
     if (!(v3_len(d) > 0.f) || !(v3_len(v3_cross(d, v3_load(v->up))) > 0.f))
         return pgi__fail(PGI_ERR_INVALID_ARG, "view camera is degenerate (eye = look-at, or up parallel to the view)");
     if (!(v->fov_y_deg > 0.f && v->fov_y_deg < 180.f))
@@ -225,7 +225,7 @@ static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, pgi_frame_s
     if ((st = pgi__view_build(s, r->rt, &r->cam, d->seed, d->threads, &r->vs, r->emit, &fs->primary_rays)))
         return st;
     double t1 = pgi__now_ms();
-    pgi_trace_desc td = {.photons = d->photons, .bounces = d->bounces, .seed = d->seed, .threads = d->threads};
+    pgi__trace_desc td = {.photons = d->photons, .bounces = d->bounces, .seed = d->seed, .threads = d->threads};
     if ((st = ensure_footprints(r, d))) return st;
     td.radius_policy = d->radius_policy;
     td.r_min = d->r_min;

@@ -31,7 +31,7 @@
 
 typedef struct {
     const pgi_scene *s;
-    const pgi_rt *rt;
+    const pgi__rt *rt;
     pgi_camera cam;
     int bounces;
     uint64_t seed;
@@ -42,23 +42,23 @@ typedef struct {
     float *tri_pick;   /* triangle -> pick probability of its area light (0: none) */
 } pt_ctx;
 
-static inline pgi_v3 mat_ks(const pgi_surface *sf) {
+static inline pgi__v3 mat_ks(const pgi__surface *sf) {
     return sf->mat->type == PGI_MAT_PHONG ? v3_load(sf->mat->ks) : v3(0.f, 0.f, 0.f);
 }
 
 /* Next-event estimation at a non-specular vertex: every delta light once (as
  * pgi__direct), one area-light sample picked by power, MIS-weighted against
  * BSDF sampling. `wo` points back along the path. */
-static pgi_v3 nee(const pt_ctx *C, const pgi_surface *sf, pgi_v3 wo, pgi_rng *rng) {
+static pgi__v3 nee(const pt_ctx *C, const pgi__surface *sf, pgi__v3 wo, pgi__rng *rng) {
     const pgi_scene *s = C->s;
     float side = v3_dot(wo, sf->ng) >= 0.f ? 1.f : -1.f;
-    pgi_v3 ng = v3_scale(sf->ng, side), ns = v3_scale(sf->ns, side);
-    pgi_v3 kd = sf->kd, ks = mat_ks(sf);
+    pgi__v3 ng = v3_scale(sf->ng, side), ns = v3_scale(sf->ns, side);
+    pgi__v3 kd = sf->kd, ks = mat_ks(sf);
     float sh = sf->mat->shininess;
-    pgi_v3 x = v3_madd(sf->p, ng, C->eps);
-    pgi_v3 L = v3(0.f, 0.f, 0.f);
+    pgi__v3 x = v3_madd(sf->p, ng, C->eps);
+    pgi__v3 L = v3(0.f, 0.f, 0.f);
     for (size_t l = 0; l < s->nlights; l++) {
-        pgi_v3 wi, Li;
+        pgi__v3 wi, Li;
         float cs, tmax;
         if (!pgi__delta_light(&s->lights[l], x, ns, ng, &wi, &Li, &cs, &tmax)) continue;
         if (pgi__rt_occluded(C->rt, x, wi, 0.f, tmax)) continue;
@@ -67,20 +67,20 @@ static pgi_v3 nee(const pt_ctx *C, const pgi_surface *sf, pgi_v3 wo, pgi_rng *rn
     if (C->narea) {
         float ul = pgi_rng_f(rng), u1 = pgi_rng_f(rng), u2 = pgi_rng_f(rng);
         float pl;
-        const pgi_light *lt = &s->lights[C->idx[pgi__cdf_pick(C->cdf, C->narea, ul, &pl)]];
-        pgi_v3 y = pgi__triangle_sample(s, lt->tri, u1, u2);
-        pgi_v3 dv = v3_sub(y, x);
+        const pgi__light *lt = &s->lights[C->idx[pgi__cdf_pick(C->cdf, C->narea, ul, &pl)]];
+        pgi__v3 y = pgi__triangle_sample(s, lt->tri, u1, u2);
+        pgi__v3 dv = v3_sub(y, x);
         float d2 = v3_dot(dv, dv);
         if (d2 > 0.f && pl > 0.f) {
             float dist = sqrtf(d2);
-            pgi_v3 wi = v3_scale(dv, 1.f / dist);
+            pgi__v3 wi = v3_scale(dv, 1.f / dist);
             float cl = -v3_dot(wi, v3_load(lt->normal)), cs = v3_dot(ns, wi);
             if (cl > 0.f && cs > 0.f && v3_dot(ng, wi) > 0.f &&
                 !pgi__rt_occluded(C->rt, x, wi, 0.f, dist * (1.f - 1e-3f))) {
                 float pdf_l = pl * d2 / (cl * lt->area);
                 float pdf_b = pgi__bsdf_pdf(sf, wo, wi);
                 float mis = pdf_l * pdf_l / (pdf_l * pdf_l + pdf_b * pdf_b);
-                pgi_v3 f = pgi__brdf_eval(kd, ks, sh, ns, wi, wo);
+                pgi__v3 f = pgi__brdf_eval(kd, ks, sh, ns, wi, wo);
                 L = v3_add(L, v3_scale(v3_mul(f, v3_load(lt->color)), cs / pdf_l * mis));
             }
         }
@@ -89,22 +89,22 @@ static pgi_v3 nee(const pt_ctx *C, const pgi_surface *sf, pgi_v3 wo, pgi_rng *rn
 }
 
 /* One sample of pixel (x, y). */
-static pgi_v3 trace_sample(const pt_ctx *C, int px, int py, pgi_rng *rng) {
+static pgi__v3 trace_sample(const pt_ctx *C, int px, int py, pgi__rng *rng) {
     const pgi_scene *s = C->s;
-    pgi_v3 o = v3_load(C->cam.eye), d = pgi__camera_dir(&C->cam, px, py);
-    pgi_v3 L = v3(0.f, 0.f, 0.f), W = v3(1.f, 1.f, 1.f);
-    pgi_hit h;
-    pgi_surface sf;
+    pgi__v3 o = v3_load(C->cam.eye), d = pgi__camera_dir(&C->cam, px, py);
+    pgi__v3 L = v3(0.f, 0.f, 0.f), W = v3(1.f, 1.f, 1.f);
+    pgi__hit h;
+    pgi__surface sf;
     /* Eye path: the specular chain to the first non-specular hit x0, as view.c. */
     for (int depth = 0;; depth++) {
         if (!pgi__rt_intersect(C->rt, o, d, 0.f, INFINITY, &h)) return L;
-        pgi_v3 p = v3_madd(o, d, h.t);
+        pgi__v3 p = v3_madd(o, d, h.t);
         pgi__scene_surface(s, h.prim, h.u, h.v, p, &sf);
-        pgi_v3 wo = v3_neg(d);
+        pgi__v3 wo = v3_neg(d);
         if (v3_dot(wo, sf.ng) >= 0.f) L = v3_add(L, v3_mul(W, v3_load(sf.mat->ke)));
         if (!pgi__mat_specular(sf.mat)) break;
         if (depth + 1 >= PGI_MAX_SPECULAR_DEPTH) return L;
-        pgi_v3 nd, w;
+        pgi__v3 nd, w;
         float u1 = pgi_rng_f(rng), u2 = pgi_rng_f(rng), u3 = pgi_rng_f(rng);
         if (!pgi__bsdf_sample(&sf, wo, u1, u2, u3, &nd, &w)) return L;
         W = v3_mul(W, w);
@@ -114,32 +114,32 @@ static pgi_v3 trace_sample(const pt_ctx *C, int px, int py, pgi_rng *rng) {
     /* x0 = sf. Vertex k of the light path (k scattering events before x0). */
     const float w0 = v3_maxc(W);
     if (!(w0 > 0.f)) return L;
-    pgi_v3 T = W;
+    pgi__v3 T = W;
     for (int k = 0;; k++) {
-        pgi_v3 wo = v3_neg(d);
+        pgi__v3 wo = v3_neg(d);
         int diffuse = !pgi__mat_specular(sf.mat);
         if (diffuse) L = v3_add(L, v3_mul(T, nee(C, &sf, wo, rng)));
-        pgi_v3 wi, w;
+        pgi__v3 wi, w;
         float u1 = pgi_rng_f(rng), u2 = pgi_rng_f(rng), u3 = pgi_rng_f(rng);
         if (!pgi__bsdf_sample(&sf, wo, u1, u2, u3, &wi, &w)) break;
         float pdf_b = diffuse ? pgi__bsdf_pdf(&sf, wo, wi) : 0.f;
         T = v3_mul(T, w);
         if (!v3_finite(T) || !(v3_maxc(T) > 0.f)) break;
-        pgi_v3 p = sf.p;
+        pgi__v3 p = sf.p;
         o = v3_madd(p, v3_dot(wi, sf.ng) >= 0.f ? sf.ng : v3_neg(sf.ng), C->eps);
         d = wi;
         if (!pgi__rt_intersect(C->rt, o, d, 0.f, INFINITY, &h)) break;
-        pgi_v3 q = v3_madd(o, d, h.t);
+        pgi__v3 q = v3_madd(o, d, h.t);
         pgi__scene_surface(s, h.prim, h.u, h.v, q, &sf);
         /* Emitter hit at x_{k+1}: a light path with k scattering events. */
-        pgi_v3 ke = v3_load(sf.mat->ke);
+        pgi__v3 ke = v3_load(sf.mat->ke);
         float cl = -v3_dot(d, sf.ng);
         if (cl > 0.f && (ke.x > 0.f || ke.y > 0.f || ke.z > 0.f)) {
             float mis = 1.f;
             float pl = C->tri_pick ? C->tri_pick[h.prim] : 0.f;
             if (diffuse && pl > 0.f) {
                 const uint32_t *t = s->tri + 3 * (size_t)h.prim;
-                pgi_v3 a = pgi__scene_vertex(s, t[0]), b = pgi__scene_vertex(s, t[1]), c = pgi__scene_vertex(s, t[2]);
+                pgi__v3 a = pgi__scene_vertex(s, t[0]), b = pgi__scene_vertex(s, t[1]), c = pgi__scene_vertex(s, t[2]);
                 float area = 0.5f * v3_len(v3_cross(v3_sub(b, a), v3_sub(c, a)));
                 float pdf_l = pl * h.t * h.t / (cl * area);
                 mis = pdf_b * pdf_b / (pdf_b * pdf_b + pdf_l * pdf_l);
@@ -226,7 +226,7 @@ pgi_status pgi_reference_render(const pgi_scene *s, const pgi_reference_desc *in
         ctx_free(&C);
         return st;
     }
-    pgi_rt *rt = NULL;
+    pgi__rt *rt = NULL;
     if ((st = pgi__rt_create(s, &rt))) {
         ctx_free(&C);
         return st;
@@ -254,10 +254,10 @@ pgi_status pgi_reference_render(const pgi_scene *s, const pgi_reference_desc *in
         for (int y = 0; y < H; y++) {
             for (int x = 0; x < W; x++) {
                 size_t i = (size_t)y * W + (size_t)x;
-                pgi_rng rng;
+                pgi__rng rng;
                 /* Stream per pixel, sequence per sample: independent of threads and passes. */
                 pgi_rng_seed(&rng, rng_seed + sidx, (uint64_t)i);
-                pgi_v3 c = trace_sample(&C, x, y, &rng);
+                pgi__v3 c = trace_sample(&C, x, y, &rng);
                 if (!v3_finite(c)) c = v3(0.f, 0.f, 0.f);
                 sum[3 * i] += c.x;
                 sum[3 * i + 1] += c.y;

@@ -6,7 +6,7 @@
 #include <stdio.h>
 #include <string.h>
 
-struct pgi_rt {
+struct pgi__rt {
     RTCDevice device;
     RTCScene scene;
     /* Scenes with animated objects get two geometries: 0 holds the static
@@ -32,7 +32,7 @@ static void on_error(void *user, enum RTCError code, const char *str) {
 /* A triangle geometry over `ntri` triangles of the scene (tris[i], or i when
  * tris is NULL); vertices are all scene vertices, or the `nv` listed in
  * `verts`, with `remap` giving each scene vertex its local index. */
-static RTCGeometry make_geometry(pgi_rt *rt, const pgi_scene *s, const uint32_t *tris, size_t ntri,
+static RTCGeometry make_geometry(pgi__rt *rt, const pgi_scene *s, const uint32_t *tris, size_t ntri,
                                  const uint32_t *verts, size_t nv, const uint32_t *remap, enum RTCBuildQuality q) {
     RTCGeometry g = rtcNewGeometry(rt->device, RTC_GEOMETRY_TYPE_TRIANGLE);
     if (!g) return NULL;
@@ -59,10 +59,10 @@ static RTCGeometry make_geometry(pgi_rt *rt, const pgi_scene *s, const uint32_t 
     return g;
 }
 
-pgi_status pgi__rt_create(const pgi_scene *s, pgi_rt **out) {
+pgi_status pgi__rt_create(const pgi_scene *s, pgi__rt **out) {
     *out = NULL;
     g_rt_error[0] = 0;
-    pgi_rt *rt = calloc(1, sizeof *rt);
+    pgi__rt *rt = calloc(1, sizeof *rt);
     if (!rt) return pgi__fail(PGI_ERR_OOM, "out of memory creating the ray tracer");
     rt->device = rtcNewDevice(NULL);
     if (!rt->device) {
@@ -142,11 +142,11 @@ pgi_status pgi__rt_create(const pgi_scene *s, pgi_rt **out) {
     return PGI_OK;
 }
 
-int pgi__rt_needs_update(const pgi_rt *rt, const pgi_scene *s) {
+int pgi__rt_needs_update(const pgi__rt *rt, const pgi_scene *s) {
     return rt->static_version != s->static_version || rt->dynamic_version != s->dynamic_version;
 }
 
-pgi_status pgi__rt_update(pgi_rt *rt, const pgi_scene *s) {
+pgi_status pgi__rt_update(pgi__rt *rt, const pgi_scene *s) {
     if (!pgi__rt_needs_update(rt, s)) return PGI_OK;
     g_rt_error[0] = 0;
     const int split = rt->dyn_verts != NULL, gdyn = rt->ngeom - 1;
@@ -173,7 +173,7 @@ pgi_status pgi__rt_update(pgi_rt *rt, const pgi_scene *s) {
     return PGI_OK;
 }
 
-void pgi__rt_destroy(pgi_rt *rt) {
+void pgi__rt_destroy(pgi__rt *rt) {
     if (!rt) return;
     for (int g = 0; g < 2; g++)
         if (rt->geom[g]) rtcReleaseGeometry(rt->geom[g]);
@@ -185,12 +185,12 @@ void pgi__rt_destroy(pgi_rt *rt) {
     free(rt);
 }
 
-static inline uint32_t global_prim(const pgi_rt *rt, unsigned geom, unsigned prim) {
+static inline uint32_t global_prim(const pgi__rt *rt, unsigned geom, unsigned prim) {
     const uint32_t *m = rt->map[geom & 1];
     return m ? m[prim] : prim;
 }
 
-int pgi__rt_intersect(const pgi_rt *rt, pgi_v3 o, pgi_v3 d, float tnear, float tfar, pgi_hit *h) {
+int pgi__rt_intersect(const pgi__rt *rt, pgi__v3 o, pgi__v3 d, float tnear, float tfar, pgi__hit *h) {
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     struct RTCRayHit rh;
@@ -216,7 +216,7 @@ int pgi__rt_intersect(const pgi_rt *rt, pgi_v3 o, pgi_v3 d, float tnear, float t
     return 1;
 }
 
-int pgi__rt_occluded(const pgi_rt *rt, pgi_v3 o, pgi_v3 d, float tnear, float tfar) {
+int pgi__rt_occluded(const pgi__rt *rt, pgi__v3 o, pgi__v3 d, float tnear, float tfar) {
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     struct RTCRay r;
@@ -232,8 +232,8 @@ int pgi__rt_occluded(const pgi_rt *rt, pgi_v3 o, pgi_v3 d, float tnear, float tf
     return r.tfar < 0.f;   /* Embree sets tfar to -inf when occluded */
 }
 
-void pgi__rt_intersect8(const pgi_rt *rt, const int valid[8], pgi_v3 o, const pgi_v3 dirs[8], float tfar,
-                        pgi_hit hits[8]) {
+void pgi__rt_intersect8(const pgi__rt *rt, const int valid[8], pgi__v3 o, const pgi__v3 dirs[8], float tfar,
+                        pgi__hit hits[8]) {
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;

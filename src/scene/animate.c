@@ -58,7 +58,7 @@ static pgi_status grow_arrays(pgi_scene *s, size_t nv, size_t nt) {
     return PGI_OK;
 }
 
-static uint32_t put_vertex(pgi_scene *s, pgi_v3 p, pgi_v3 n) {
+static uint32_t put_vertex(pgi_scene *s, pgi__v3 p, pgi__v3 n) {
     v3_store(s->pos + 3 * s->nverts, p);
     if (s->nrm) v3_store(s->nrm + 3 * s->nverts, n);
     return (uint32_t)s->nverts++;
@@ -80,12 +80,12 @@ pgi_status pgi__scene_add_sphere(pgi_scene *s, const float c[3], float r, uint32
     if (e) return e;
     *first = s->ntris;
     uint32_t base = (uint32_t)s->nverts;
-    pgi_v3 cc = v3_load(c);
+    pgi__v3 cc = v3_load(c);
     for (int i = 0; i <= st; i++) {
         float th = PGI_PI * (float)i / (float)st;
         for (int j = 0; j <= sl; j++) {
             float ph = 2.f * PGI_PI * (float)j / (float)sl;
-            pgi_v3 n = v3(sinf(th) * cosf(ph), cosf(th), sinf(th) * sinf(ph));
+            pgi__v3 n = v3(sinf(th) * cosf(ph), cosf(th), sinf(th) * sinf(ph));
             put_vertex(s, v3_madd(cc, n, r), n);
         }
     }
@@ -102,7 +102,7 @@ pgi_status pgi__scene_add_box(pgi_scene *s, const float c[3], const float size[3
     pgi_status e = grow_arrays(s, 24, 12);
     if (e) return e;
     *first = s->ntris;
-    pgi_v3 h = v3_scale(v3_load(size), 0.5f), cc = v3_load(c);
+    pgi__v3 h = v3_scale(v3_load(size), 0.5f), cc = v3_load(c);
     /* Each face: normal axis a, sign sg; corners counter-clockwise seen from outside. */
     for (int a = 0; a < 3; a++)
         for (int sg = -1; sg <= 1; sg += 2) {
@@ -127,7 +127,7 @@ pgi_status pgi__scene_add_box(pgi_scene *s, const float c[3], const float size[3
 /* ------------------------------------------------------------ motions */
 
 pgi_status pgi__scene_add_anim(pgi_scene *s, const char *name, const uint32_t *tris, size_t ntris,
-                               const float *pivot, pgi_keyframe *keys, size_t nkeys, pgi_loop loop) {
+                               const float *pivot, pgi__keyframe *keys, size_t nkeys, pgi__loop loop) {
     if (!s->tri_dynamic) {
         s->tri_dynamic = calloc(s->ntris ? s->ntris : 1, 1);
         if (!s->tri_dynamic) {
@@ -135,13 +135,13 @@ pgi_status pgi__scene_add_anim(pgi_scene *s, const char *name, const uint32_t *t
             return pgi__fail(PGI_ERR_OOM, "out of memory for an animation");
         }
     }
-    pgi_anim *na = realloc(s->anims, (s->nanims + 1) * sizeof *na);
+    pgi__anim *na = realloc(s->anims, (s->nanims + 1) * sizeof *na);
     if (!na) {
         free(keys);
         return pgi__fail(PGI_ERR_OOM, "out of memory for an animation");
     }
     s->anims = na;
-    pgi_anim *a = &s->anims[s->nanims];
+    pgi__anim *a = &s->anims[s->nanims];
     memset(a, 0, sizeof *a);
     snprintf(a->name, sizeof a->name, "%s", name ? name : "object");
     a->keys = keys;
@@ -173,9 +173,9 @@ pgi_status pgi__scene_add_anim(pgi_scene *s, const char *name, const uint32_t *t
     a->rest_pos = malloc((a->nverts ? a->nverts : 1) * 3 * sizeof(float));
     if (s->nrm) a->rest_nrm = malloc((a->nverts ? a->nverts : 1) * 3 * sizeof(float));
     if (!a->rest_pos || (s->nrm && !a->rest_nrm)) return pgi__fail(PGI_ERR_OOM, "out of memory for an animation");
-    pgi_v3 lo = v3(INFINITY, INFINITY, INFINITY), hi = v3(-INFINITY, -INFINITY, -INFINITY);
+    pgi__v3 lo = v3(INFINITY, INFINITY, INFINITY), hi = v3(-INFINITY, -INFINITY, -INFINITY);
     for (size_t i = 0; i < a->nverts; i++) {
-        pgi_v3 p = pgi__scene_vertex(s, a->verts[i]);
+        pgi__v3 p = pgi__scene_vertex(s, a->verts[i]);
         v3_store(a->rest_pos + 3 * i, p);
         if (a->rest_nrm) memcpy(a->rest_nrm + 3 * i, s->nrm + 3 * (size_t)a->verts[i], 3 * sizeof(float));
         lo = v3_min(lo, p);
@@ -187,8 +187,8 @@ pgi_status pgi__scene_add_anim(pgi_scene *s, const char *name, const uint32_t *t
 }
 
 /* Keyframe values at time t (piecewise linear; loop mode outside the range). */
-static void anim_eval(const pgi_anim *a, double t, pgi_keyframe *out) {
-    const pgi_keyframe *k = a->keys;
+static void anim_eval(const pgi__anim *a, double t, pgi__keyframe *out) {
+    const pgi__keyframe *k = a->keys;
     size_t n = a->nkeys;
     double t0 = k[0].t, t1 = k[n - 1].t, D = t1 - t0;
     if (n == 1 || !(D > 0.0)) {
@@ -230,28 +230,28 @@ static void euler_matrix(const float deg[3], float m[9]) {
     m[6] = -sy;     m[7] = cy * sx;                m[8] = cy * cx;
 }
 
-static pgi_v3 mat_mul(const float m[9], pgi_v3 v) {
+static pgi__v3 mat_mul(const float m[9], pgi__v3 v) {
     return v3(m[0] * v.x + m[1] * v.y + m[2] * v.z, m[3] * v.x + m[4] * v.y + m[5] * v.z,
               m[6] * v.x + m[7] * v.y + m[8] * v.z);
 }
 
-static void anim_apply(pgi_scene *s, const pgi_anim *a, double t) {
-    pgi_keyframe k;
+static void anim_apply(pgi_scene *s, const pgi__anim *a, double t) {
+    pgi__keyframe k;
     anim_eval(a, t, &k);
     float m[9];
     euler_matrix(k.rotate, m);
-    pgi_v3 pv = v3_load(a->pivot), tr = v3_load(k.translate);
+    pgi__v3 pv = v3_load(a->pivot), tr = v3_load(k.translate);
     for (size_t i = 0; i < a->nverts; i++) {
-        pgi_v3 p = v3_scale(v3_sub(v3_load(a->rest_pos + 3 * i), pv), k.scale);
+        pgi__v3 p = v3_scale(v3_sub(v3_load(a->rest_pos + 3 * i), pv), k.scale);
         v3_store(s->pos + 3 * (size_t)a->verts[i], v3_add(v3_add(pv, tr), mat_mul(m, p)));
         if (a->rest_nrm) v3_store(s->nrm + 3 * (size_t)a->verts[i], mat_mul(m, v3_load(a->rest_nrm + 3 * i)));
     }
 }
 
 void pgi__scene_refresh(pgi_scene *s) {
-    pgi_v3 lo = v3(INFINITY, INFINITY, INFINITY), hi = v3(-INFINITY, -INFINITY, -INFINITY);
+    pgi__v3 lo = v3(INFINITY, INFINITY, INFINITY), hi = v3(-INFINITY, -INFINITY, -INFINITY);
     for (size_t v = 0; v < s->nverts; v++) {
-        pgi_v3 p = pgi__scene_vertex(s, (uint32_t)v);
+        pgi__v3 p = pgi__scene_vertex(s, (uint32_t)v);
         lo = v3_min(lo, p);
         hi = v3_max(hi, p);
     }
@@ -260,7 +260,7 @@ void pgi__scene_refresh(pgi_scene *s) {
     float diag = v3_len(v3_sub(hi, lo));
     /* Same formulas as pgi__scene_finalize. */
     for (size_t i = 0; i < s->nlights; i++) {
-        pgi_light *l = &s->lights[i];
+        pgi__light *l = &s->lights[i];
         float k = 0.f;
         switch (l->type) {
         case PGI_LIGHT_POINT: k = 4.f * PGI_PI; break;
@@ -272,8 +272,8 @@ void pgi__scene_refresh(pgi_scene *s) {
         }
         case PGI_LIGHT_AREA: {
             const uint32_t *t = s->tri + 3 * (size_t)l->tri;
-            pgi_v3 a = pgi__scene_vertex(s, t[0]), b = pgi__scene_vertex(s, t[1]), c = pgi__scene_vertex(s, t[2]);
-            pgi_v3 n = v3_cross(v3_sub(b, a), v3_sub(c, a));
+            pgi__v3 a = pgi__scene_vertex(s, t[0]), b = pgi__scene_vertex(s, t[1]), c = pgi__scene_vertex(s, t[2]);
+            pgi__v3 n = v3_cross(v3_sub(b, a), v3_sub(c, a));
             l->area = 0.5f * v3_len(n);
             v3_store(l->normal, v3_norm(n));
             k = PGI_PI * l->area;
@@ -331,7 +331,7 @@ pgi_status pgi_scene_get_light_group(const pgi_scene *s, size_t i, pgi_light_gro
     if (i < ne) {
         size_t k = 0;
         for (size_t j = 0; j < s->nlights; j++) {
-            const pgi_light *l = &s->lights[j];
+            const pgi__light *l = &s->lights[j];
             if (l->type == PGI_LIGHT_AREA || k++ != i) continue;
             static const char *const names[] = {"point", "spot", "sun"};
             out->kind = (pgi_light_kind)l->type;
@@ -346,13 +346,13 @@ pgi_status pgi_scene_get_light_group(const pgi_scene *s, size_t i, pgi_light_gro
                          pgi_scene_light_group_count(s));
     out->kind = PGI_LIGHT_KIND_AREA;
     out->name = s->mats[m].name;
-    pgi_v3 c = v3(0.f, 0.f, 0.f);
+    pgi__v3 c = v3(0.f, 0.f, 0.f);
     double area = 0.0;
     for (size_t j = 0; j < s->nlights; j++) {
-        const pgi_light *l = &s->lights[j];
+        const pgi__light *l = &s->lights[j];
         if (l->type != PGI_LIGHT_AREA || s->tri_mat[l->tri] != m) continue;
         const uint32_t *t = s->tri + 3 * (size_t)l->tri;
-        pgi_v3 ctr = v3_scale(v3_add(v3_add(pgi__scene_vertex(s, t[0]), pgi__scene_vertex(s, t[1])),
+        pgi__v3 ctr = v3_scale(v3_add(v3_add(pgi__scene_vertex(s, t[0]), pgi__scene_vertex(s, t[1])),
                                      pgi__scene_vertex(s, t[2])), 1.f / 3.f);
         c = v3_madd(c, ctr, l->area);
         area += l->area;
@@ -379,7 +379,7 @@ pgi_status pgi_scene_set_light_position(pgi_scene *s, size_t i, const float pos[
         return PGI_OK;
     }
     size_t m = area_group_material(s, i - ne);
-    pgi_v3 delta = v3_sub(v3_load(pos), v3_load(g.position));
+    pgi__v3 delta = v3_sub(v3_load(pos), v3_load(g.position));
     uint8_t *mark = calloc(s->nverts ? s->nverts : 1, 1);
     if (!mark) return pgi__fail(PGI_ERR_OOM, "out of memory moving a light");
     for (size_t t = 0; t < s->ntris; t++) {

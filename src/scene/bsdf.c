@@ -1,15 +1,15 @@
 /* Surface interaction and BSDF sampling. */
 #include "bsdf.h"
 
-void pgi__scene_surface(const pgi_scene *s, uint32_t prim, float bu, float bv, pgi_v3 p, pgi_surface *o) {
+void pgi__scene_surface(const pgi_scene *s, uint32_t prim, float bu, float bv, pgi__v3 p, pgi__surface *o) {
     const uint32_t *t = s->tri + 3 * (size_t)prim;
-    pgi_v3 a = pgi__scene_vertex(s, t[0]), b = pgi__scene_vertex(s, t[1]), c = pgi__scene_vertex(s, t[2]);
+    pgi__v3 a = pgi__scene_vertex(s, t[0]), b = pgi__scene_vertex(s, t[1]), c = pgi__scene_vertex(s, t[2]);
     float bw = 1.f - bu - bv;
     o->p = p;
     o->ng = v3_norm(v3_cross(v3_sub(b, a), v3_sub(c, a)));
     o->ns = o->ng;
     if (s->nrm) {
-        pgi_v3 n = v3_add(v3_add(v3_scale(v3_load(s->nrm + 3 * (size_t)t[0]), bw),
+        pgi__v3 n = v3_add(v3_add(v3_scale(v3_load(s->nrm + 3 * (size_t)t[0]), bw),
                                  v3_scale(v3_load(s->nrm + 3 * (size_t)t[1]), bu)),
                           v3_scale(v3_load(s->nrm + 3 * (size_t)t[2]), bv));
         float l = v3_len(n);
@@ -29,10 +29,10 @@ void pgi__scene_surface(const pgi_scene *s, uint32_t prim, float bu, float bv, p
     if (o->mat->tex_kd >= 0) o->kd = v3_mul(o->kd, pgi__texture_lookup(&s->texs[o->mat->tex_kd], o->u, o->v));
 }
 
-int pgi__bsdf_sample(const pgi_surface *sf, pgi_v3 wi, float u1, float u2, float u3, pgi_v3 *wo, pgi_v3 *weight) {
-    const pgi_material *m = sf->mat;
+int pgi__bsdf_sample(const pgi__surface *sf, pgi__v3 wi, float u1, float u2, float u3, pgi__v3 *wo, pgi__v3 *weight) {
+    const pgi__material *m = sf->mat;
     float side = v3_dot(wi, sf->ng) >= 0.f ? 1.f : -1.f;
-    pgi_v3 ng = v3_scale(sf->ng, side), ns = v3_scale(sf->ns, side);
+    pgi__v3 ng = v3_scale(sf->ng, side), ns = v3_scale(sf->ns, side);
     switch (m->type) {
     case PGI_MAT_MIRROR:
         *wo = pgi__reflect(wi, ns);
@@ -56,26 +56,26 @@ int pgi__bsdf_sample(const pgi_surface *sf, pgi_v3 wi, float u1, float u2, float
         return v3_dot(*wo, ng) < 0.f;
     }
     case PGI_MAT_PHONG: {
-        pgi_v3 ks = v3_load(m->ks);
+        pgi__v3 ks = v3_load(m->ks);
         float wd = v3_lum(sf->kd), wsp = v3_lum(ks);
         float ps = wd + wsp > 0.f ? wsp / (wd + wsp) : 0.f;
         float s = m->shininess;
         if (u3 < ps) {
             /* Half vector from the normalised Blinn distribution (s+1)/(2pi) cos^s. */
             float ct = powf(u1, 1.f / (s + 1.f)), st = sqrtf(fmaxf(0.f, 1.f - ct * ct)), phi = 2.f * PGI_PI * u2;
-            pgi_v3 h = pgi_to_world(v3(st * cosf(phi), st * sinf(phi), ct), ns);
+            pgi__v3 h = pgi_to_world(v3(st * cosf(phi), st * sinf(phi), ct), ns);
             *wo = pgi__reflect(wi, h);
         } else {
             *wo = pgi_to_world(pgi_sample_cosine(u1, u2), ns);
         }
         float cg = v3_dot(*wo, ng), cs = v3_dot(*wo, ns);
         if (!(cg > 0.f) || !(cs > 0.f)) return 0;
-        pgi_v3 h = v3_norm(v3_add(wi, *wo));
+        pgi__v3 h = v3_norm(v3_add(wi, *wo));
         float hn = fmaxf(0.f, v3_dot(h, ns)), hw = fabsf(v3_dot(h, *wo));
         float pdf_s = hw > 0.f ? (s + 1.f) / (2.f * PGI_PI) * powf(hn, s) / (4.f * hw) : 0.f;
         float pdf = ps * pdf_s + (1.f - ps) * cs * PGI_INV_PI;
         if (!(pdf > 0.f)) return 0;
-        pgi_v3 f = pgi__brdf_eval(sf->kd, ks, s, ns, wi, *wo);
+        pgi__v3 f = pgi__brdf_eval(sf->kd, ks, s, ns, wi, *wo);
         *weight = v3_scale(f, cs / pdf);
         return 1;
     }
@@ -87,20 +87,20 @@ int pgi__bsdf_sample(const pgi_surface *sf, pgi_v3 wi, float u1, float u2, float
     }
 }
 
-float pgi__bsdf_pdf(const pgi_surface *sf, pgi_v3 wi, pgi_v3 wo) {
-    const pgi_material *m = sf->mat;
+float pgi__bsdf_pdf(const pgi__surface *sf, pgi__v3 wi, pgi__v3 wo) {
+    const pgi__material *m = sf->mat;
     if (pgi__mat_specular(m)) return 0.f;
     float side = v3_dot(wi, sf->ng) >= 0.f ? 1.f : -1.f;
-    pgi_v3 ng = v3_scale(sf->ng, side), ns = v3_scale(sf->ns, side);
+    pgi__v3 ng = v3_scale(sf->ng, side), ns = v3_scale(sf->ns, side);
     float cg = v3_dot(wo, ng), cs = v3_dot(wo, ns);
     if (!(cg > 0.f) || !(cs > 0.f)) return 0.f;
     if (m->type != PGI_MAT_PHONG) return cs * PGI_INV_PI;
     /* Same lobe mixture as pgi__bsdf_sample. */
-    pgi_v3 ks = v3_load(m->ks);
+    pgi__v3 ks = v3_load(m->ks);
     float wd = v3_lum(sf->kd), wsp = v3_lum(ks);
     float ps = wd + wsp > 0.f ? wsp / (wd + wsp) : 0.f;
     float s = m->shininess;
-    pgi_v3 h = v3_norm(v3_add(wi, wo));
+    pgi__v3 h = v3_norm(v3_add(wi, wo));
     float hn = fmaxf(0.f, v3_dot(h, ns)), hw = fabsf(v3_dot(h, wo));
     float pdf_s = hw > 0.f ? (s + 1.f) / (2.f * PGI_PI) * powf(hn, s) / (4.f * hw) : 0.f;
     return ps * pdf_s + (1.f - ps) * cs * PGI_INV_PI;

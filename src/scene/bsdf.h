@@ -10,8 +10,8 @@
  * (8+s)/(8 pi) * F * max(0, h.n)^s with Schlick's F = F0 + (1-F0)(1 - max(0, h.wi))^5.
  * Returns the lobe without F0 applied in `fs` and the (1-F) factor base, so the
  * caller combines per channel: spec_c = k * (F0_c + (1 - F0_c) * fr). */
-static inline void pgi__phong_lobe(pgi_v3 n, pgi_v3 wi, pgi_v3 wo, float s, float *k, float *fr) {
-    pgi_v3 h = v3_add(wi, wo);
+static inline void pgi__phong_lobe(pgi__v3 n, pgi__v3 wi, pgi__v3 wo, float s, float *k, float *fr) {
+    pgi__v3 h = v3_add(wi, wo);
     float hl = v3_len(h);
     if (!(hl > 0.f)) {
         *k = 0.f;
@@ -28,8 +28,8 @@ static inline void pgi__phong_lobe(pgi_v3 n, pgi_v3 wi, pgi_v3 wo, float s, floa
 
 /* f(wi, wo) for a non-specular surface: kd/pi + Blinn-Phong (ks = F0).
  * Lambertian when ks is zero. No cosine. */
-static inline pgi_v3 pgi__brdf_eval(pgi_v3 kd, pgi_v3 ks, float s, pgi_v3 n, pgi_v3 wi, pgi_v3 wo) {
-    pgi_v3 f = v3_scale(kd, PGI_INV_PI);
+static inline pgi__v3 pgi__brdf_eval(pgi__v3 kd, pgi__v3 ks, float s, pgi__v3 n, pgi__v3 wi, pgi__v3 wo) {
+    pgi__v3 f = v3_scale(kd, PGI_INV_PI);
     if (ks.x > 0.f || ks.y > 0.f || ks.z > 0.f) {
         float k, fr;
         pgi__phong_lobe(n, wi, wo, s, &k, &fr);
@@ -40,7 +40,7 @@ static inline pgi_v3 pgi__brdf_eval(pgi_v3 kd, pgi_v3 ks, float s, pgi_v3 n, pgi
     return f;
 }
 
-static inline pgi_v3 pgi__reflect(pgi_v3 w, pgi_v3 n) { return v3_sub(v3_scale(n, 2.f * v3_dot(w, n)), w); }
+static inline pgi__v3 pgi__reflect(pgi__v3 w, pgi__v3 n) { return v3_sub(v3_scale(n, 2.f * v3_dot(w, n)), w); }
 
 /* Unpolarised Fresnel reflectance of a dielectric; cos_i > 0 on the incident side. */
 static inline float pgi__fresnel_dielectric(float cos_i, float eta_i, float eta_t) {
@@ -53,27 +53,27 @@ static inline float pgi__fresnel_dielectric(float cos_i, float eta_i, float eta_
 }
 
 /* Surface point from a hit. */
-typedef struct pgi_surface {
-    pgi_v3 p;
-    pgi_v3 ng;          /* unit geometric normal (winding order) */
-    pgi_v3 ns;          /* unit shading normal, same side as ng */
+typedef struct pgi__surface {
+    pgi__v3 p;
+    pgi__v3 ng;          /* unit geometric normal (winding order) */
+    pgi__v3 ns;          /* unit shading normal, same side as ng */
     float u, v;         /* texture coordinates */
-    const pgi_material *mat;
-    pgi_v3 kd;          /* albedo with the texture applied */
-} pgi_surface;
+    const pgi__material *mat;
+    pgi__v3 kd;          /* albedo with the texture applied */
+} pgi__surface;
 
-void pgi__scene_surface(const pgi_scene *s, uint32_t prim, float bu, float bv, pgi_v3 p, pgi_surface *out);
+void pgi__scene_surface(const pgi_scene *s, uint32_t prim, float bu, float bv, pgi__v3 p, pgi__surface *out);
 
-static inline int pgi__mat_specular(const pgi_material *m) { return m->type == PGI_MAT_MIRROR || m->type == PGI_MAT_GLASS; }
+static inline int pgi__mat_specular(const pgi__material *m) { return m->type == PGI_MAT_MIRROR || m->type == PGI_MAT_GLASS; }
 
 /* Samples the continuation of a path arriving from `wi` (pointing away from
  * the surface) at `sf`. Writes the new direction and the weight f*cos/pdf.
  * Returns 0 when the path ends (absorbed, or sampled under the surface). */
-int pgi__bsdf_sample(const pgi_surface *sf, pgi_v3 wi, float u1, float u2, float u3, pgi_v3 *wo, pgi_v3 *weight);
+int pgi__bsdf_sample(const pgi__surface *sf, pgi__v3 wi, float u1, float u2, float u3, pgi__v3 *wo, pgi__v3 *weight);
 
 /* Solid-angle density with which pgi__bsdf_sample picks `wo` at a non-specular
  * surface, arriving from `wi` (both pointing away). 0 for mirror and glass
  * (delta lobes) and below the surface. Used for multiple importance sampling. */
-float pgi__bsdf_pdf(const pgi_surface *sf, pgi_v3 wi, pgi_v3 wo);
+float pgi__bsdf_pdf(const pgi__surface *sf, pgi__v3 wi, pgi__v3 wo);
 
 #endif

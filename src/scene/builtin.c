@@ -41,7 +41,7 @@ static int grow(builder *b, size_t nv, size_t nt) {
     return 1;
 }
 
-static uint32_t add_vertex(builder *b, pgi_v3 p, pgi_v3 n) {
+static uint32_t add_vertex(builder *b, pgi__v3 p, pgi__v3 n) {
     pgi_scene *s = b->s;
     v3_store(s->pos + 3 * s->nverts, p);
     v3_store(s->nrm + 3 * s->nverts, n);
@@ -57,18 +57,18 @@ static void add_tri(builder *b, uint32_t a, uint32_t c, uint32_t d, uint32_t mat
 }
 
 /* Quad a-b-c-d (counter-clockwise seen from the side the normal points to). */
-static void add_quad(builder *b, pgi_v3 a, pgi_v3 c1, pgi_v3 c2, pgi_v3 d, uint32_t mat) {
+static void add_quad(builder *b, pgi__v3 a, pgi__v3 c1, pgi__v3 c2, pgi__v3 d, uint32_t mat) {
     if (!grow(b, 4, 2)) return;
-    pgi_v3 n = v3_norm(v3_cross(v3_sub(c1, a), v3_sub(d, a)));
+    pgi__v3 n = v3_norm(v3_cross(v3_sub(c1, a), v3_sub(d, a)));
     uint32_t i0 = add_vertex(b, a, n), i1 = add_vertex(b, c1, n), i2 = add_vertex(b, c2, n), i3 = add_vertex(b, d, n);
     add_tri(b, i0, i1, i2, mat);
     add_tri(b, i0, i2, i3, mat);
 }
 
 /* Axis-aligned box of half extents h, rotated by `deg` about y, resting on y = y0. */
-static void add_box(builder *b, float cx, float y0, float cz, pgi_v3 h, float deg, uint32_t mat) {
+static void add_box(builder *b, float cx, float y0, float cz, pgi__v3 h, float deg, uint32_t mat) {
     float a = deg * PGI_PI / 180.f, ca = cosf(a), sa = sinf(a);
-    pgi_v3 P[8];
+    pgi__v3 P[8];
     for (int i = 0; i < 8; i++) {
         float x = (i & 1) ? h.x : -h.x, y = (i & 2) ? 2.f * h.y : 0.f, z = (i & 4) ? h.z : -h.z;
         P[i] = v3(cx + ca * x + sa * z, y0 + y, cz - sa * x + ca * z);
@@ -81,14 +81,14 @@ static void add_box(builder *b, float cx, float y0, float cz, pgi_v3 h, float de
     add_quad(b, P[4], P[5], P[7], P[6], mat); /* +z */
 }
 
-static void add_sphere(builder *b, pgi_v3 c, float r, int slices, int stacks, uint32_t mat) {
+static void add_sphere(builder *b, pgi__v3 c, float r, int slices, int stacks, uint32_t mat) {
     if (!grow(b, (size_t)(slices + 1) * (stacks + 1), (size_t)slices * stacks * 2)) return;
     uint32_t base = (uint32_t)b->s->nverts;
     for (int i = 0; i <= stacks; i++) {
         float th = PGI_PI * (float)i / (float)stacks;
         for (int j = 0; j <= slices; j++) {
             float ph = 2.f * PGI_PI * (float)j / (float)slices;
-            pgi_v3 n = v3(sinf(th) * cosf(ph), cosf(th), sinf(th) * sinf(ph));
+            pgi__v3 n = v3(sinf(th) * cosf(ph), cosf(th), sinf(th) * sinf(ph));
             add_vertex(b, v3_madd(c, n, r), n);
         }
     }
@@ -100,10 +100,10 @@ static void add_sphere(builder *b, pgi_v3 c, float r, int slices, int stacks, ui
         }
 }
 
-static uint32_t add_mat(builder *b, const char *name, pgi_material_type type, pgi_v3 kd) {
+static uint32_t add_mat(builder *b, const char *name, pgi__material_type type, pgi__v3 kd) {
     if (b->st) return 0;
     pgi_scene *s = b->s;
-    pgi_material *m = realloc(s->mats, (s->nmats + 1) * sizeof *m);
+    pgi__material *m = realloc(s->mats, (s->nmats + 1) * sizeof *m);
     if (!m) {
         b->st = pgi__fail(PGI_ERR_OOM, "out of memory building a scene");
         return 0;
@@ -119,10 +119,10 @@ static uint32_t add_mat(builder *b, const char *name, pgi_material_type type, pg
     return (uint32_t)s->nmats++;
 }
 
-static void add_light(builder *b, pgi_light_type type, pgi_v3 pos, pgi_v3 color) {
+static void add_light(builder *b, pgi__light_type type, pgi__v3 pos, pgi__v3 color) {
     if (b->st) return;
     pgi_scene *s = b->s;
-    pgi_light *l = realloc(s->lights, (s->nlights + 1) * sizeof *l);
+    pgi__light *l = realloc(s->lights, (s->nlights + 1) * sizeof *l);
     if (!l) {
         b->st = pgi__fail(PGI_ERR_OOM, "out of memory building a scene");
         return;
@@ -135,7 +135,7 @@ static void add_light(builder *b, pgi_light_type type, pgi_v3 pos, pgi_v3 color)
     v3_store(l->color, color);
 }
 
-static void set_camera(builder *b, pgi_v3 eye, pgi_v3 at, float fov) {
+static void set_camera(builder *b, pgi__v3 eye, pgi__v3 at, float fov) {
     if (b->st) return;
     pgi_camera_def *c = calloc(1, sizeof *c);
     if (!c) {
@@ -154,7 +154,7 @@ static void set_camera(builder *b, pgi_v3 eye, pgi_v3 at, float fov) {
  * x in [-1, 1], y in [0, 2], z in [-1, 1], open towards +z, area light
  * (Ke 17 12 4) just under the ceiling. */
 static void build_cornell(builder *b) {
-    pgi_v3 white = v3(0.725f, 0.71f, 0.68f);
+    pgi__v3 white = v3(0.725f, 0.71f, 0.68f);
     uint32_t mw = add_mat(b, "white", PGI_MAT_LAMBERT, white);
     uint32_t mr = add_mat(b, "red", PGI_MAT_LAMBERT, v3(0.63f, 0.065f, 0.05f));
     uint32_t mg = add_mat(b, "green", PGI_MAT_LAMBERT, v3(0.14f, 0.45f, 0.091f));

@@ -79,13 +79,13 @@ typedef struct tex_cache {
 } tex_cache;
 
 static pgi_status push_texture(pgi_scene *s, int w, int h, unsigned char *rgba, const char *path, int *index) {
-    pgi_texture *t = realloc(s->texs, (s->ntexs + 1) * sizeof *t);
+    pgi__texture *t = realloc(s->texs, (s->ntexs + 1) * sizeof *t);
     if (!t) {
         stbi_image_free(rgba);
         return pgi__fail(PGI_ERR_OOM, "out of memory for texture '%s'", path);
     }
     s->texs = t;
-    pgi_texture *nt = &s->texs[s->ntexs];
+    pgi__texture *nt = &s->texs[s->ntexs];
     memset(nt, 0, sizeof *nt);
     nt->width = w;
     nt->height = h;
@@ -97,7 +97,7 @@ static pgi_status push_texture(pgi_scene *s, int w, int h, unsigned char *rgba, 
 
 static pgi_status load_texture(pgi_scene *s, tex_cache *tc, const struct aiScene *sc, const char *mat_name,
                                const char *file, int *index) {
-    char resolved[sizeof ((pgi_texture *)0)->path];   /* same size as the stored path, so deduplication compares whole paths */
+    char resolved[sizeof ((pgi__texture *)0)->path];   /* same size as the stored path, so deduplication compares whole paths */
     /* Embedded texture ("*N", glTF/GLB): decode from memory. */
     if (file[0] == '*') {
         char *end;
@@ -160,7 +160,7 @@ static pgi_status load_texture(pgi_scene *s, tex_cache *tc, const struct aiScene
 }
 
 static pgi_status convert_material(pgi_scene *s, tex_cache *tc, const struct aiScene *sc,
-                                   const struct aiMaterial *am, pgi_material *m) {
+                                   const struct aiMaterial *am, pgi__material *m) {
     memset(m, 0, sizeof *m);
     m->tex_kd = -1;
     struct aiString name;
@@ -280,7 +280,7 @@ pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path) {
     int want_uv = any_uv || had_uv;
 
     if (!grow(&s->pos, nv * 3, sizeof(float)) || !grow(&s->tri, nt * 3, sizeof(uint32_t)) ||
-        !grow(&s->tri_mat, nt, sizeof(uint32_t)) || !grow(&s->mats, nm, sizeof(pgi_material)) ||
+        !grow(&s->tri_mat, nt, sizeof(uint32_t)) || !grow(&s->mats, nm, sizeof(pgi__material)) ||
         (keep_nrm && !grow(&s->nrm, nv * 3, sizeof(float))) || (want_uv && !grow(&s->uv, nv * 2, sizeof(float)))) {
         aiReleaseImport(sc);
         return pgi__fail(PGI_ERR_OOM, "%s: out of memory for %zu vertices and %zu triangles", path, nv, nt);
@@ -322,7 +322,7 @@ pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path) {
             p[2] = (float)me->mVertices[k].z;
             if (keep_nrm) {
                 float *n = s->nrm + 3 * (vb + k);
-                pgi_v3 nn = v3((float)me->mNormals[k].x, (float)me->mNormals[k].y, (float)me->mNormals[k].z);
+                pgi__v3 nn = v3((float)me->mNormals[k].x, (float)me->mNormals[k].y, (float)me->mNormals[k].z);
                 /* Degenerate faces give zero or NaN normals: keep them finite (finalize rejects NaN). */
                 if (!v3_finite(nn) || !(v3_len(nn) > 0.f)) nn = v3(0.f, 0.f, 0.f);
                 else nn = v3_norm(nn);
@@ -361,7 +361,7 @@ pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path) {
         /* Vertices whose normal Assimp left zero (degenerate input) take the face normal of a triangle using them. */
         for (size_t t = t0; t < tb; t++) {
             const uint32_t *ix = s->tri + 3 * t;
-            pgi_v3 fn = v3_cross(v3_sub(pgi__scene_vertex(s, ix[1]), pgi__scene_vertex(s, ix[0])),
+            pgi__v3 fn = v3_cross(v3_sub(pgi__scene_vertex(s, ix[1]), pgi__scene_vertex(s, ix[0])),
                                  v3_sub(pgi__scene_vertex(s, ix[2]), pgi__scene_vertex(s, ix[0])));
             for (int c = 0; c < 3; c++) {
                 float *n = s->nrm + 3 * (size_t)ix[c];

@@ -59,7 +59,7 @@ pgi_status pgi__scene_finalize(pgi_scene *s, const char *what) {
                              s->nmats);
     }
     for (size_t m = 0; m < s->nmats; m++) {
-        pgi_material *mt = &s->mats[m];
+        pgi__material *mt = &s->mats[m];
         if (!finite3(mt->kd) || !finite3(mt->ks) || !finite3(mt->ke) || !isfinite(mt->shininess) ||
             !isfinite(mt->ior))
             return pgi__fail(PGI_ERR_PARSE, "%s: material '%s' has a non-finite value", what, mt->name);
@@ -77,7 +77,7 @@ pgi_status pgi__scene_finalize(pgi_scene *s, const char *what) {
     for (size_t i = 0; i < s->nlights; i++)
         if (s->lights[i].type != PGI_LIGHT_AREA) s->lights[nexplicit++] = s->lights[i];
     if (narea) {
-        pgi_light *L = realloc(s->lights, (nexplicit + narea) * sizeof *L);
+        pgi__light *L = realloc(s->lights, (nexplicit + narea) * sizeof *L);
         if (!L) return pgi__fail(PGI_ERR_OOM, "%s: out of memory for %zu area lights", what, narea);
         s->lights = L;
     }
@@ -85,12 +85,12 @@ pgi_status pgi__scene_finalize(pgi_scene *s, const char *what) {
     for (size_t t = 0; t < s->ntris && narea; t++) {
         const float *ke = s->mats[s->tri_mat[t]].ke;
         if (!(ke[0] > 0.f || ke[1] > 0.f || ke[2] > 0.f)) continue;
-        pgi_v3 a = pgi__scene_vertex(s, s->tri[3 * t]), b = pgi__scene_vertex(s, s->tri[3 * t + 1]),
+        pgi__v3 a = pgi__scene_vertex(s, s->tri[3 * t]), b = pgi__scene_vertex(s, s->tri[3 * t + 1]),
                c = pgi__scene_vertex(s, s->tri[3 * t + 2]);
-        pgi_v3 n = v3_cross(v3_sub(b, a), v3_sub(c, a));
+        pgi__v3 n = v3_cross(v3_sub(b, a), v3_sub(c, a));
         float area = 0.5f * v3_len(n);
         if (!(area > 0.f)) continue;   /* degenerate triangles emit nothing */
-        pgi_light *l = &s->lights[s->nlights++];
+        pgi__light *l = &s->lights[s->nlights++];
         memset(l, 0, sizeof *l);
         l->type = PGI_LIGHT_AREA;
         l->tri = (uint32_t)t;
@@ -101,7 +101,7 @@ pgi_status pgi__scene_finalize(pgi_scene *s, const char *what) {
 
     float diag = v3_len(v3_sub(v3_load(bmax), v3_load(bmin)));
     for (size_t i = 0; i < s->nlights; i++) {
-        pgi_light *l = &s->lights[i];
+        pgi__light *l = &s->lights[i];
         if (!finite3(l->color) || l->color[0] < 0.f || l->color[1] < 0.f || l->color[2] < 0.f)
             return pgi__fail(PGI_ERR_PARSE, "%s: light %zu has a negative or non-finite colour", what, i);
         if (!finite3(l->pos) || !finite3(l->dir))
@@ -136,8 +136,8 @@ pgi_status pgi__scene_finalize(pgi_scene *s, const char *what) {
         s->cams = calloc(1, sizeof *s->cams);
         if (!s->cams) return pgi__fail(PGI_ERR_OOM, "%s: out of memory", what);
         s->ncams = 1;
-        pgi_v3 c = v3_scale(v3_add(v3_load(bmin), v3_load(bmax)), 0.5f);
-        pgi_v3 e = v3(c.x, c.y, bmax[2] + 1.2f * fmaxf(bmax[0] - bmin[0], bmax[1] - bmin[1]));
+        pgi__v3 c = v3_scale(v3_add(v3_load(bmin), v3_load(bmax)), 0.5f);
+        pgi__v3 e = v3(c.x, c.y, bmax[2] + 1.2f * fmaxf(bmax[0] - bmin[0], bmax[1] - bmin[1]));
         v3_store(s->cams[0].eye, e);
         v3_store(s->cams[0].look_at, c);
         v3_store(s->cams[0].up, v3(0.f, 1.f, 0.f));
@@ -155,6 +155,11 @@ pgi_status pgi__scene_finalize(pgi_scene *s, const char *what) {
                              cd->fov_y_deg);
     }
     return PGI_OK;
+}
+
+float pgi__scene_epsilon(const pgi_scene *s) {
+    float diag = v3_len(v3_sub(v3_load(s->bmax), v3_load(s->bmin)));
+    return fmaxf(1e-5f, 1e-5f * diag);
 }
 
 static int file_exists(const char *p) {
@@ -233,7 +238,7 @@ void pgi_scene_get_info(const pgi_scene *s, pgi_scene_info *o) {
     o->surface_area = pgi__scene_area(s);
     o->animated_objects = s->nanims;
     for (size_t i = 0; i < s->nanims; i++) {
-        const pgi_anim *a = &s->anims[i];
+        const pgi__anim *a = &s->anims[i];
         if (a->nkeys && a->keys[a->nkeys - 1].t > o->anim_duration) o->anim_duration = a->keys[a->nkeys - 1].t;
     }
 }
@@ -257,7 +262,7 @@ double pgi__scene_area(const pgi_scene *s) {
     double a = 0.0;
     for (size_t t = 0; t < s->ntris; t++) {
         const uint32_t *v = s->tri + 3 * t;
-        pgi_v3 p0 = pgi__scene_vertex(s, v[0]), p1 = pgi__scene_vertex(s, v[1]), p2 = pgi__scene_vertex(s, v[2]);
+        pgi__v3 p0 = pgi__scene_vertex(s, v[0]), p1 = pgi__scene_vertex(s, v[1]), p2 = pgi__scene_vertex(s, v[2]);
         a += 0.5 * (double)v3_len(v3_cross(v3_sub(p1, p0), v3_sub(p2, p0)));
     }
     return a;

@@ -6,40 +6,40 @@
 
 #include "core/core.h"
 
-typedef enum pgi_material_type {
+typedef enum pgi__material_type {
     PGI_MAT_LAMBERT = 0,   /* kd / pi */
     PGI_MAT_PHONG = 1,     /* energy-conserving Blinn-Phong, tiled paper eqs. 6-8 */
     PGI_MAT_MIRROR = 2,    /* perfect mirror, reflectance ks */
     PGI_MAT_GLASS = 3      /* dielectric with Fresnel, index ior, tint ks */
-} pgi_material_type;
+} pgi__material_type;
 
-typedef struct pgi_material {
+typedef struct pgi__material {
     char name[64];
-    pgi_material_type type;
+    pgi__material_type type;
     float kd[3];         /* diffuse albedo (multiplied by the texture if any) */
     float ks[3];         /* Phong: F0; mirror: reflectance; glass: transmission tint */
     float shininess;     /* Phong exponent s (MTL Ns) */
     float ior;           /* glass: MTL Ni */
     float ke[3];         /* emitted radiance (MTL Ke); non-zero makes the triangles area lights */
     int tex_kd;          /* index into scene textures, -1 if none */
-} pgi_material;
+} pgi__material;
 
 /* 8-bit sRGB texture; lookups return linear RGB. */
-typedef struct pgi_texture {
+typedef struct pgi__texture {
     int width, height;
     unsigned char *rgba;   /* 4 bytes a texel, row 0 is the top of the image */
     char path[512];
-} pgi_texture;
+} pgi__texture;
 
-typedef enum pgi_light_type {
+typedef enum pgi__light_type {
     PGI_LIGHT_POINT = 0,   /* intensity I (W/sr), power 4 pi I */
     PGI_LIGHT_SPOT = 1,    /* intensity I inside the cone cos(theta) >= cos_cutoff */
     PGI_LIGHT_SUN = 2,     /* irradiance E (W/m^2) on surfaces facing -dir */
     PGI_LIGHT_AREA = 3     /* one emissive triangle, one-sided Lambertian, radiance Le */
-} pgi_light_type;
+} pgi__light_type;
 
-typedef struct pgi_light {
-    pgi_light_type type;
+typedef struct pgi__light {
+    pgi__light_type type;
     float pos[3];          /* point/spot */
     float dir[3];          /* spot: axis; sun: direction light travels (unit) */
     float color[3];        /* I (point/spot), E (sun), Le (area) */
@@ -48,7 +48,7 @@ typedef struct pgi_light {
     float area;            /* area: triangle area */
     float normal[3];       /* area: unit emitting normal */
     float power[3];        /* computed by pgi__scene_finalize */
-} pgi_light;
+} pgi__light;
 
 struct pgi_scene {
     char name[128];
@@ -59,11 +59,11 @@ struct pgi_scene {
     float *uv;             /* 2 per vertex, or NULL */
     uint32_t *tri;         /* 3 vertex indices per triangle */
     uint32_t *tri_mat;     /* material per triangle */
-    pgi_material *mats;
+    pgi__material *mats;
     size_t nmats;
-    pgi_texture *texs;
+    pgi__texture *texs;
     size_t ntexs;
-    pgi_light *lights;
+    pgi__light *lights;
     size_t nlights;
     pgi_camera_def *cams;
     size_t ncams;
@@ -72,7 +72,7 @@ struct pgi_scene {
     /* Dynamic geometry (animate.c): objects whose vertices move with the
      * scene time, and counters the renderer compares to know when to update
      * its ray-tracing scene. */
-    struct pgi_anim *anims;
+    struct pgi__anim *anims;
     size_t nanims;
     uint8_t *tri_dynamic;      /* per triangle: 1 if an animation moves it; NULL when nothing is animated */
     double time;               /* seconds, set by pgi_scene_set_time */
@@ -84,32 +84,32 @@ struct pgi_scene {
 
 /* One keyframe of a rigid motion about the object's pivot:
  * p' = pivot + translate + Rz Ry Rx (scale * (p - pivot)). */
-typedef struct pgi_keyframe {
+typedef struct pgi__keyframe {
     float t;
     float translate[3];
     float rotate[3];     /* Euler angles, degrees, applied about x, then y, then z */
     float scale;
-} pgi_keyframe;
+} pgi__keyframe;
 
-typedef enum pgi_loop { PGI_LOOP_CLAMP = 0, PGI_LOOP_REPEAT = 1, PGI_LOOP_PINGPONG = 2 } pgi_loop;
+typedef enum pgi__loop { PGI_LOOP_CLAMP = 0, PGI_LOOP_REPEAT = 1, PGI_LOOP_PINGPONG = 2 } pgi__loop;
 
-typedef struct pgi_anim {
+typedef struct pgi__anim {
     char name[64];
     uint32_t *verts;       /* vertices the motion moves (each once) */
     size_t nverts;
     float *rest_pos;       /* 3 per moved vertex, at rest */
     float *rest_nrm;       /* 3 per moved vertex, or NULL (flat-shaded scene) */
     float pivot[3];
-    pgi_keyframe *keys;    /* sorted by t, at least one */
+    pgi__keyframe *keys;    /* sorted by t, at least one */
     size_t nkeys;
-    pgi_loop loop;
-} pgi_anim;
+    pgi__loop loop;
+} pgi__anim;
 
 /* Adds an animation moving the vertices of the triangles tris[0..ntris) (the
  * caller keeps tris). Takes ownership of keys (malloc'd). Marks the
  * triangles dynamic. pivot NULL: the centre of their bounding box. */
 pgi_status pgi__scene_add_anim(pgi_scene *s, const char *name, const uint32_t *tris, size_t ntris,
-                               const float *pivot, pgi_keyframe *keys, size_t nkeys, pgi_loop loop);
+                               const float *pivot, pgi__keyframe *keys, size_t nkeys, pgi__loop loop);
 /* Appends a UV sphere / an axis-aligned box with material `mat`; the new
  * triangles are [*first, s->ntris). */
 pgi_status pgi__scene_add_sphere(pgi_scene *s, const float c[3], float r, uint32_t mat, size_t *first);
@@ -127,6 +127,9 @@ pgi_status pgi__scene_new(const char *name, pgi_scene **out);
  * emissive triangle, computes light powers, adds a default camera when none
  * was given. Returns PGI_ERR_PARSE with a message naming `what` on bad data. */
 pgi_status pgi__scene_finalize(pgi_scene *s, const char *what);
+/* Ray offset used to leave a surface without hitting it again (from the
+ * bounds: 1e-5 of the diagonal, at least 1e-5). */
+float pgi__scene_epsilon(const pgi_scene *s);
 
 /* Built-in scenes (builtin.c). NULL-terminated list of names. */
 extern const char *const pgi__builtin_names[];
@@ -140,18 +143,18 @@ pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path);
 pgi_status pgi__scene_load_json(const char *path, pgi_scene **out);
 
 /* Texture lookup, bilinear, wrapping; returns linear RGB. */
-pgi_v3 pgi__texture_lookup(const pgi_texture *t, float u, float v);
+pgi__v3 pgi__texture_lookup(const pgi__texture *t, float u, float v);
 
 /* Geometry helpers used by rt/ and view/. */
-static inline pgi_v3 pgi__scene_vertex(const pgi_scene *s, uint32_t v) { return v3_load(s->pos + 3 * (size_t)v); }
+static inline pgi__v3 pgi__scene_vertex(const pgi_scene *s, uint32_t v) { return v3_load(s->pos + 3 * (size_t)v); }
 /* Total triangle area (scene.c). */
 double pgi__scene_area(const pgi_scene *s);
 
 /* Uniform point on triangle `tri` from two uniform numbers. */
-static inline pgi_v3 pgi__triangle_sample(const pgi_scene *s, uint32_t tri, float u1, float u2) {
+static inline pgi__v3 pgi__triangle_sample(const pgi_scene *s, uint32_t tri, float u1, float u2) {
     const uint32_t *t = s->tri + 3 * (size_t)tri;
     float su = sqrtf(u1), b1 = 1.f - su, b2 = u2 * su;
-    pgi_v3 a = pgi__scene_vertex(s, t[0]), b = pgi__scene_vertex(s, t[1]), c = pgi__scene_vertex(s, t[2]);
+    pgi__v3 a = pgi__scene_vertex(s, t[0]), b = pgi__scene_vertex(s, t[1]), c = pgi__scene_vertex(s, t[2]);
     return v3_add(v3_add(v3_scale(a, 1.f - b1 - b2), v3_scale(b, b1)), v3_scale(c, b2));
 }
 

@@ -177,7 +177,7 @@ static pgi_status parse_camera(const char *path, const cJSON *c, const char *whe
     if ((st = get_number(path, c, where, "fov_y", 0, 0.0, 1, 179.9, &fov, NULL))) return st;
     memcpy(cd->up, up, sizeof up);
     cd->fov_y_deg = (float)fov;
-    pgi_v3 d = v3_sub(v3_load(cd->look_at), v3_load(cd->eye));
+    pgi__v3 d = v3_sub(v3_load(cd->look_at), v3_load(cd->eye));
     if (!(v3_len(d) > 0.f))
         return pgi__fail(PGI_ERR_PARSE, "%s: %s: eye and look_at are the same point", path, where);
     if (!(v3_len(v3_cross(d, v3_load(cd->up))) > 0.f))
@@ -185,7 +185,7 @@ static pgi_status parse_camera(const char *path, const cJSON *c, const char *whe
     return PGI_OK;
 }
 
-static pgi_status parse_light(const char *path, const cJSON *l, const char *where, pgi_light *L) {
+static pgi_status parse_light(const char *path, const cJSON *l, const char *where, pgi__light *L) {
     memset(L, 0, sizeof *L);
     if (!cJSON_IsObject(l)) return pgi__fail(PGI_ERR_PARSE, "%s: %s must be an object", path, where);
     const cJSON *t = cJSON_GetObjectItemCaseSensitive(l, "type");
@@ -279,8 +279,8 @@ static pgi_status resolve_mesh(const char *path, const char *mesh, char *out, si
 /* ------------------------------------------------------------ dynamic objects */
 
 /* "motion": {"keyframes": [{"t", "translate", "rotate", "scale"}, ...], "loop": "clamp"|"repeat"|"pingpong"} */
-static pgi_status parse_motion(const char *path, const cJSON *m, const char *where, pgi_keyframe **keys_out,
-                               size_t *nkeys, pgi_loop *loop) {
+static pgi_status parse_motion(const char *path, const cJSON *m, const char *where, pgi__keyframe **keys_out,
+                               size_t *nkeys, pgi__loop *loop) {
     static const char *const keys[] = {"keyframes", "loop", NULL};
     static const char *const kkeys[] = {"t", "translate", "rotate", "scale", NULL};
     char w[128];
@@ -301,7 +301,7 @@ static pgi_status parse_motion(const char *path, const cJSON *m, const char *whe
     if (!cJSON_IsArray(jk) || cJSON_GetArraySize(jk) < 1 || cJSON_GetArraySize(jk) > 100000)
         return pgi__fail(PGI_ERR_PARSE, "%s: %s.keyframes must be a non-empty array of keyframes", path, w);
     size_t n = (size_t)cJSON_GetArraySize(jk);
-    pgi_keyframe *k = calloc(n, sizeof *k);
+    pgi__keyframe *k = calloc(n, sizeof *k);
     if (!k) return pgi__fail(PGI_ERR_OOM, "%s: out of memory", path);
     for (size_t i = 0; i < n && !st; i++) {
         char wk[160];
@@ -339,7 +339,7 @@ static pgi_status parse_material(const char *path, pgi_scene *s, const cJSON *j,
     static const char *const keys[] = {"name", "type", "kd", "ks", "shininess", "ior", "emission", NULL};
     char w[128];
     snprintf(w, sizeof w, "%s.material", where);
-    pgi_material m;
+    pgi__material m;
     memset(&m, 0, sizeof m);
     snprintf(m.name, sizeof m.name, "%s", defname);
     m.type = PGI_MAT_LAMBERT;
@@ -390,7 +390,7 @@ static pgi_status parse_material(const char *path, pgi_scene *s, const cJSON *j,
             for (int c = 0; c < 3; c++)
                 if (m.kd[c] + m.ks[c] > 1.f) m.kd[c] = 1.f - m.ks[c];   /* energy conservation, as for MTL */
     }
-    pgi_material *nm = realloc(s->mats, (s->nmats + 1) * sizeof *nm);
+    pgi__material *nm = realloc(s->mats, (s->nmats + 1) * sizeof *nm);
     if (!nm) return pgi__fail(PGI_ERR_OOM, "%s: out of memory", path);
     s->mats = nm;
     s->mats[s->nmats] = m;
@@ -400,9 +400,9 @@ static pgi_status parse_material(const char *path, pgi_scene *s, const cJSON *j,
 
 static pgi_status add_motion(const char *path, pgi_scene *s, const cJSON *jm, const char *where, const char *name,
                              const uint32_t *tris, size_t ntris, const float *pivot) {
-    pgi_keyframe *keys = NULL;
+    pgi__keyframe *keys = NULL;
     size_t nk = 0;
-    pgi_loop loop;
+    pgi__loop loop;
     pgi_status st = parse_motion(path, jm, where, &keys, &nk, &loop);
     if (st) return st;
     return pgi__scene_add_anim(s, name, tris, ntris, pivot, keys, nk, loop);
@@ -572,7 +572,7 @@ static pgi_status load(const char *path, const cJSON *root, pgi_scene **out) {
         if (!s->cams) st = pgi__fail(PGI_ERR_OOM, "%s: out of memory", path);
     }
     if (!st && nl) {
-        pgi_light *L = realloc(s->lights, (nbase + nl) * sizeof *L);
+        pgi__light *L = realloc(s->lights, (nbase + nl) * sizeof *L);
         if (!L) st = pgi__fail(PGI_ERR_OOM, "%s: out of memory", path);
         else s->lights = L;
     }

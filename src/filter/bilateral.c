@@ -1,5 +1,5 @@
-/* Bilateral reconstruction filter (see filter.h). */
-#include "pipeline/filter.h"
+/* Bilateral reconstruction filter (see bilateral.h). */
+#include "filter/bilateral.h"
 
 #include <stdlib.h>
 #include <string.h>
