@@ -1,0 +1,41 @@
+/* What every estimator's state and vtbl share: the desc and stats block,
+ * the stats helpers, the registry's vtbl declarations. */
+#ifndef PGI_EST_COMMON_H
+#define PGI_EST_COMMON_H
+
+#include "core/core.h"
+
+/* Stats helpers for the per-method state. */
+typedef struct pgi__est_common {
+    pgi_estimator_desc desc;
+    pgi_estimator_stats st;
+} pgi__est_common;
+
+static inline void pgi__stats_pass(pgi_estimator_stats *st, const char *name, double ms) {
+    if (st->pass_count < PGI_EST_MAX_ENTRIES) {
+        st->pass_names[st->pass_count] = name;
+        st->pass_ms[st->pass_count++] = ms;
+    }
+}
+static inline void pgi__stats_mem(pgi_estimator_stats *st, const char *name, size_t bytes) {
+    if (st->memory_count < PGI_EST_MAX_ENTRIES) {
+        st->memory_names[st->memory_count] = name;
+        st->memory_bytes[st->memory_count++] = bytes;
+    }
+}
+
+/* Records the gather pass: its time since t0 and the read counters. */
+static inline void pgi__stats_estimated(pgi_estimator_stats *st, double t0, uint64_t reads, uint64_t contributing) {
+    st->estimate_ms = pgi__now_ms() - t0;
+    pgi__stats_pass(st, "gather", st->estimate_ms);
+    st->reads = reads;
+    st->contributing = contributing;
+}
+
+extern const pgi_estimator_vtbl pgi__est_brute, pgi__est_hashgrid, pgi__est_tiled;
+extern const pgi_estimator_vtbl pgi__est_cluster, pgi__est_cluster_cone, pgi__est_cluster_trivial,
+    pgi__est_directional;
+extern const pgi_estimator_vtbl pgi__est_bvh;
+extern const pgi_estimator_vtbl pgi__est_kdtree, pgi__est_bounds3d, pgi__est_bounds25d;
+
+#endif
