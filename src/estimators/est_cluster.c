@@ -98,39 +98,53 @@ typedef struct {
     size_t nvalid, nnodes, nchunks, chunk;
     uint32_t lvl_off[MAX_LEVELS + 2];
     /* sort */
-    uint64_t *keys, *keys2, *spread, *ck2;   /* keys: sorted cluster keys; keys2: per-tile sorted samples */
-    uint32_t *tcl, *tn, *ci, *ci2, *cb, *cn, *cs;   /* per tile: cluster base, count; per cluster: index, begin, size, start */
-    size_t ck2_cap, tcl_cap, tn_cap, ci_cap, ci2_cap, cb_cap, cn_cap, cs_cap;
-    uint32_t *order, *order2, *hist, *pix_cnt;
-    size_t keys_cap, keys2_cap, spread_cap, order_cap, order2_cap, hist_cap, pix_cnt_cap;
+    PGI__BUF(uint64_t, keys);     /* sorted cluster keys */
+    PGI__BUF(uint64_t, keys2);    /* per-tile sorted samples */
+    PGI__BUF(uint64_t, spread);
+    PGI__BUF(uint64_t, ck2);
+    PGI__BUF(uint32_t, tcl);      /* per tile: cluster base */
+    PGI__BUF(uint32_t, tn);       /* per tile: count */
+    PGI__BUF(uint32_t, ci);       /* per cluster: index */
+    PGI__BUF(uint32_t, ci2);
+    PGI__BUF(uint32_t, cb);       /* per cluster: begin */
+    PGI__BUF(uint32_t, cn);       /* per cluster: size */
+    PGI__BUF(uint32_t, cs);       /* per cluster: start */
+    PGI__BUF(uint32_t, order);
+    PGI__BUF(uint32_t, hist);
+    PGI__BUF(uint32_t, pix_cnt);
     /* hierarchy */
-    cnode *nodes;
-    uint32_t *sbeg;   /* nnodes + 1: node sample ranges [sbeg[i], send[i]) */
-    uint32_t *send;
-    uint64_t *nkey;
-    size_t nodes_cap, sbeg_cap, send_cap, nkey_cap;
+    PGI__BUF(cnode, nodes);
+    PGI__BUF(uint32_t, sbeg);     /* nnodes + 1: node sample ranges [sbeg[i], send[i]) */
+    PGI__BUF(uint32_t, send);
+    PGI__BUF(uint64_t, nkey);
     /* splat */
-    uint32_t *top_cnt, *top_tcnt, *job_start, *jobs, *top_ids, *node_cnt, *node_start, *node_tcnt, *cursor;
-    float *top_flux, *node_flux, *buckets;
-    size_t top_cnt_cap, top_tcnt_cap, job_start_cap, jobs_cap, top_ids_cap, node_cnt_cap, node_start_cap,
-        node_tcnt_cap, cursor_cap, top_flux_cap, node_flux_cap, buckets_cap;
-    pgi__packed_photon *lists, *pk, *jobq;   /* pk: every photon packed; jobq: the jobs' photons */
-    size_t lists_cap, pk_cap, jobq_cap;
+    PGI__BUF(uint32_t, top_cnt);
+    PGI__BUF(uint32_t, top_tcnt);
+    PGI__BUF(uint32_t, job_start);
+    PGI__BUF(uint32_t, jobs);
+    PGI__BUF(uint32_t, top_ids);
+    PGI__BUF(uint32_t, node_cnt);
+    PGI__BUF(uint32_t, node_start);
+    PGI__BUF(uint32_t, node_tcnt);
+    PGI__BUF(uint32_t, cursor);
+    PGI__BUF(float, top_flux);
+    PGI__BUF(float, node_flux);
+    PGI__BUF(float, buckets);
+    PGI__BUF(pgi__packed_photon, lists);
+    PGI__BUF(pgi__packed_photon, pk);     /* every photon packed */
+    PGI__BUF(pgi__packed_photon, jobq);   /* the jobs' photons */
     size_t njobs, nlist, ntop_list;
     /* radiance */
-    float *cum_flux, *irr, *irr2;
-    uint32_t *cum_cnt;
-    size_t cum_flux_cap, cum_cnt_cap, irr_cap, irr2_cap;
+    PGI__BUF(float, cum_flux);
+    PGI__BUF(float, irr);
+    PGI__BUF(uint32_t, cum_cnt);
     uint64_t deposits;
     struct sink *outs;   /* traversal records: one per top chunk / per thread */
     int nouts;
-    uint32_t *task_rec;  /* per job-level node: thread, first and end record */
-    size_t task_rec_cap;
-    float *sx0, *sy0, *sz0, *sx1, *sy1, *sz1, *cax, *cay, *caz, *crej;   /* SoA copies for child_hits */
-    float *soa;
-    size_t soa_cap;
-    float *sam;   /* 6 x nvalid: sorted samples' world position (x NaN: not Lambertian) and normal */
-    size_t sam_cap;
+    PGI__BUF(uint32_t, task_rec);   /* per job-level node: thread, first and end record */
+    float *sx0, *sy0, *sz0, *sx1, *sy1, *sz1, *cax, *cay, *caz, *crej;   /* SoA copies for child_hits (in soa) */
+    PGI__BUF(float, soa);
+    PGI__BUF(float, sam);   /* 6 x nvalid: sorted samples' world position (x NaN: not Lambertian) and normal */
     int splatted;   /* this frame has nodes and photons (lists/buckets are valid) */
 } cl_state;
 
@@ -168,7 +182,7 @@ static pgi_status dir_create(const pgi_estimator_desc *d, void **st) {
     return cl_create_variant(d, st, V_DIR, "directional");
 }
 
-#define ENSURE(field, n, type) pgi__ensure((void **)&s->field, &s->field##_cap, (n), sizeof(type))
+#define ENSURE(field, n, type) pgi__buf_reserve(&s->field##_buf, (n), sizeof(type))
 
 /* The branch-free inner loops (blur taps, radiance blocks) vectorise over
  * consecutive pixels / samples. GCC's -O3 unroll-and-jam would fuse two outer
@@ -474,10 +488,8 @@ static pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, co
         }
     }
     if (radix_sort(s->keys, s->ci, s->ck2, s->ci2, nclus, bits, s->hist)) {
-        uint64_t *tk = s->keys; s->keys = s->ck2; s->ck2 = tk;
-        size_t tc = s->keys_cap; s->keys_cap = s->ck2_cap; s->ck2_cap = tc;
-        uint32_t *tv = s->ci; s->ci = s->ci2; s->ci2 = tv;
-        tc = s->ci_cap; s->ci_cap = s->ci2_cap; s->ci2_cap = tc;
+        pgi__buf tk = s->keys_buf; s->keys_buf = s->ck2_buf; s->ck2_buf = tk;
+        pgi__buf tv = s->ci_buf; s->ci_buf = s->ci2_buf; s->ci2_buf = tv;
     }
     {
         size_t acc = 0;
@@ -1483,16 +1495,14 @@ static void cl_stats(const void *state, pgi_estimator_stats *out) { *out = ((con
 static void cl_destroy(void *state) {
     cl_state *s = state;
     if (!s) return;
-    void *p[] = {s->keys, s->keys2, s->spread, s->order, s->order2, s->hist, s->pix_cnt, s->nodes, s->sbeg,
-                 s->send, s->nkey, s->top_cnt, s->top_tcnt, s->job_start, s->jobs, s->top_ids, s->node_cnt,
-                 s->node_start, s->node_tcnt, s->cursor, s->top_flux, s->node_flux, s->buckets, s->lists,
-                 s->cum_flux, s->irr, s->irr2, s->cum_cnt};
-    for (size_t k = 0; k < sizeof p / sizeof p[0]; k++) pgi__afree(p[k]);
-    pgi__afree(s->task_rec);
-    void *q[] = {s->ck2, s->tcl, s->tn, s->ci, s->ci2, s->cb, s->cn, s->cs, s->pk, s->jobq};
-    for (size_t k = 0; k < sizeof q / sizeof q[0]; k++) pgi__afree(q[k]);
-    pgi__afree(s->soa);
-    pgi__afree(s->sam);
+    pgi__buf *b[] = {&s->keys_buf, &s->keys2_buf, &s->spread_buf, &s->ck2_buf, &s->tcl_buf, &s->tn_buf,
+                     &s->ci_buf, &s->ci2_buf, &s->cb_buf, &s->cn_buf, &s->cs_buf, &s->order_buf,
+                     &s->hist_buf, &s->pix_cnt_buf, &s->nodes_buf, &s->sbeg_buf, &s->send_buf, &s->nkey_buf,
+                     &s->top_cnt_buf, &s->top_tcnt_buf, &s->job_start_buf, &s->jobs_buf, &s->top_ids_buf,
+                     &s->node_cnt_buf, &s->node_start_buf, &s->node_tcnt_buf, &s->cursor_buf, &s->top_flux_buf,
+                     &s->node_flux_buf, &s->buckets_buf, &s->lists_buf, &s->pk_buf, &s->jobq_buf,
+                     &s->cum_flux_buf, &s->irr_buf, &s->cum_cnt_buf, &s->task_rec_buf, &s->soa_buf, &s->sam_buf};
+    for (size_t k = 0; k < sizeof b / sizeof b[0]; k++) pgi__buf_free(b[k]);
     for (int i = 0; i < s->nouts; i++) free(s->outs[i].out);
     free(s->outs);
     free(s);
