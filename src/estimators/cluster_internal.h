@@ -107,6 +107,8 @@ typedef struct {
 pgi_status cl_create_variant(const pgi_estimator_desc *d, void **state, int variant, const char *name);
 pgi_status cl_build(void *state, const pgi_estimate_args *a);
 void cl_destroy(void *state);
+/* Bytes per structure of the frame (the paper's Table 1), after the radiance pass. */
+void cl_stats_memory(cl_state *s, size_t npix);
 
 /* cluster_build.c: the view-sample hierarchy of one frame; *t_sort gets the
  * time the sort ended. */

@@ -32,6 +32,9 @@ static inline void pgi__stats_estimated(pgi_estimator_stats *st, double t0, uint
     st->contributing = contributing;
 }
 
+/* The stats hook of a state that starts with its pgi__est_common. */
+void pgi__est_default_stats(const void *state, pgi_estimator_stats *out);
+
 extern const pgi_estimator_vtbl pgi__est_brute, pgi__est_hashgrid, pgi__est_tiled;
 extern const pgi_estimator_vtbl pgi__est_cluster, pgi__est_cluster_cone, pgi__est_cluster_trivial,
     pgi__est_directional;
