@@ -16,7 +16,9 @@ typedef struct pgi__buf {
 
 /* Makes b hold n elements of `elem` bytes: pgi__ensure's growth policy and
  * alignment. The contents are not kept when it grows. */
-static inline pgi_status pgi__buf_reserve(pgi__buf *b, size_t n, size_t elem) { return pgi__ensure(&b->p, &b->cap, n, elem); }
+static inline pgi_status pgi__buf_reserve(pgi__buf *b, size_t n, size_t elem) {
+    return pgi__ensure(&b->p, &b->cap, n, elem);
+}
 
 static inline void pgi__buf_free(pgi__buf *b) {
     pgi__afree(b->p);

@@ -707,15 +707,35 @@ void cl_destroy(void *state) {
 }
 
 const pgi_estimator_vtbl pgi__est_cluster = {
-    "cluster", "view-sample cluster hierarchy; photons splatted into node lists (Moreau et al. 2016 §4.1-4.4)", 1,
-    cluster_create, cl_build, cl_estimate, pgi__est_default_stats, cl_destroy, 0,
+    .name = "cluster",
+    .summary = "view-sample cluster hierarchy; photons splatted into node lists (Moreau et al. 2016 §4.1-4.4)",
+    .exact = 1,
+    .create = cluster_create,
+    .build = cl_build,
+    .estimate = cl_estimate,
+    .stats = pgi__est_default_stats,
+    .destroy = cl_destroy,
+    .caps = 0,
 };
 const pgi_estimator_vtbl pgi__est_cluster_cone = {
-    "cluster-cone", "cluster + normal-cone rejection of photons from below a node's surfaces (§4.5)", 1,
-    cone_create, cl_build, cl_estimate, pgi__est_default_stats, cl_destroy, 0,
+    .name = "cluster-cone",
+    .summary = "cluster + normal-cone rejection of photons from below a node's surfaces (§4.5)",
+    .exact = 1,
+    .create = cone_create,
+    .build = cl_build,
+    .estimate = cl_estimate,
+    .stats = pgi__est_default_stats,
+    .destroy = cl_destroy,
+    .caps = 0,
 };
 const pgi_estimator_vtbl pgi__est_cluster_trivial = {
-    "cluster-trivial",
-    "cluster-cone + trivial accept: enclosed all-Lambertian nodes accumulate flux, no list (§4.6)", 1,
-    trivial_create, cl_build, cl_estimate, pgi__est_default_stats, cl_destroy, 0,
+    .name = "cluster-trivial",
+    .summary = "cluster-cone + trivial accept: enclosed all-Lambertian nodes accumulate flux, no list (§4.6)",
+    .exact = 1,
+    .create = trivial_create,
+    .build = cl_build,
+    .estimate = cl_estimate,
+    .stats = pgi__est_default_stats,
+    .destroy = cl_destroy,
+    .caps = 0,
 };

@@ -231,7 +231,14 @@ static pgi_status dir_estimate(void *state, const pgi_estimate_args *a) {
 }
 
 const pgi_estimator_vtbl pgi__est_directional = {
-    "directional",
-    "cluster hierarchy, flux in 8 octant buckets per node from a fixed level down, blurred irradiance (§4.7)", 0,
-    dir_create, cl_build, dir_estimate, pgi__est_default_stats, cl_destroy, 0,
+    .name = "directional",
+    .summary = "cluster hierarchy, flux in 8 octant buckets per node from a fixed level down, "
+               "blurred irradiance (§4.7)",
+    .exact = 0,
+    .create = dir_create,
+    .build = cl_build,
+    .estimate = dir_estimate,
+    .stats = pgi__est_default_stats,
+    .destroy = cl_destroy,
+    .caps = 0,
 };
