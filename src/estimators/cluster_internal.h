@@ -86,6 +86,7 @@ typedef struct {
     int splatted;   /* this frame has nodes and photons (lists/buckets are valid) */
 } cl_state;
 
+/* Grows the PGI__BUF field s->field to n elements of `type`. */
 #define ENSURE(field, n, type) pgi__buf_reserve(&s->field##_buf, (n), sizeof(type))
 
 /* The branch-free inner loops (blur taps, radiance blocks) vectorise over
@@ -102,6 +103,8 @@ typedef struct {
 #else
 #define PGI__HOT_LOOP
 #endif
+
+/* Shared across the family's files (cl_: the cluster family, internal). */
 
 /* est_cluster.c: the family's create, build (hierarchy + splat), destroy. */
 pgi_status cl_create_variant(const pgi_estimator_desc *d, void **state, int variant, const char *name);

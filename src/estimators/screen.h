@@ -5,7 +5,8 @@
 
 /* World to view space of a pinhole camera (x right, y up, z forward) and
  * the screen scale: view (x, y, z) projects to x / (z sx), y / (z sy) in
- * [-1, 1]. Shared by the screen-space methods (tiled, bounds). */
+ * [-1, 1]. Shared by the screen-space methods (tiled, bounds) and the cluster
+ * family. */
 typedef struct pgi__view_xf {
     pgi_v3 eye, right, up, fwd;
     float sx, sy;   /* tan(fov/2) * aspect, tan(fov/2) */
