@@ -1,0 +1,132 @@
+/* The per-photon contribution test and sum shared by every estimator
+ * (DESIGN.md §3), so that all exact methods make identical decisions and
+ * differ only in summation order; the kernel-weighted variants. */
+#ifndef PGI_EST_GATHER_H
+#define PGI_EST_GATHER_H
+
+#include "core/core.h"
+#include "scene/bsdf.h"
+
+/* A view sample loaded once per gather. */
+typedef struct pgi__vs {
+    float px, py, pz, nx, ny, nz;
+    pgi__v3 wo, kd, ks;
+    float shininess;
+    int lambert;
+} pgi__vs;
+
+/* Running sums of one gather: Lambertian part as a flux sum (kd/pi applied
+ * once at the end), Blinn-Phong part as f*flux. */
+typedef struct pgi__acc {
+    float fr, fg, fb;    /* sum of flux */
+    float sr, sg, sb;    /* sum of specular f * flux */
+    uint32_t contributing;
+} pgi__acc;
+
+static inline void pgi__vs_load(const pgi_view_samples *vs, size_t i, pgi__vs *v) {
+    const float *p = vs->pos + 3 * i, *n = vs->nrm + 3 * i;
+    v->px = p[0]; v->py = p[1]; v->pz = p[2];
+    v->nx = n[0]; v->ny = n[1]; v->nz = n[2];
+    v->wo = v3_load(vs->wo + 3 * i);
+    v->kd = v3_load(vs->kd + 3 * i);
+    v->ks = v3_load(vs->ks + 3 * i);
+    v->shininess = vs->shininess[i];
+    v->lambert = (vs->flags[i] & PGI_VS_LAMBERT) != 0;
+}
+
+/* Starts the gather of sample i: an invalid sample (sky, lost eye path)
+ * gets zero radiance and 0 is returned; otherwise the sample is loaded. */
+static inline int pgi__vs_begin(const pgi_view_samples *vs, size_t i, float *out, pgi__vs *v) {
+    if (!(vs->flags[i] & PGI_VS_VALID)) {
+        out[0] = out[1] = out[2] = 0.f;
+        return 0;
+    }
+    pgi__vs_load(vs, i, v);
+    return 1;
+}
+
+/* Constant kernel: a photon contributes when it lies strictly inside the
+ * sphere of radius r around the sample and arrives from the sample's
+ * hemisphere (dot(n, w_p) > 0). */
+static inline void pgi__gather(const pgi__vs *v, float r2, float px, float py, float pz, float dx, float dy, float dz,
+                               float fr, float fg, float fb, pgi__acc *a) {
+    float ex = px - v->px, ey = py - v->py, ez = pz - v->pz;
+    float d2 = ex * ex + ey * ey + ez * ez;
+    if (!(d2 < r2)) return;
+    float c = v->nx * dx + v->ny * dy + v->nz * dz;
+    if (!(c > 0.f)) return;
+    a->contributing++;
+    a->fr += fr; a->fg += fg; a->fb += fb;
+    if (!v->lambert) {
+        float k, fres;
+        pgi__phong_lobe(v3(v->nx, v->ny, v->nz), v3(dx, dy, dz), v->wo, v->shininess, &k, &fres);
+        a->sr += k * (v->ks.x + (1.f - v->ks.x) * fres) * fr;
+        a->sg += k * (v->ks.y + (1.f - v->ks.y) * fres) * fg;
+        a->sb += k * (v->ks.z + (1.f - v->ks.z) * fres) * fb;
+    }
+}
+
+/* Radiance from the sums: (kd/pi * flux + spec) / (pi r^2). */
+static inline void pgi__acc_finish(const pgi__vs *v, const pgi__acc *a, float r2, float *out) {
+    float w = 1.f / (PGI_PI * r2);
+    out[0] = (v->kd.x * PGI_INV_PI * a->fr + a->sr) * w;
+    out[1] = (v->kd.y * PGI_INV_PI * a->fg + a->sg) * w;
+    out[2] = (v->kd.z * PGI_INV_PI * a->fb + a->sb) * w;
+}
+
+/* ---------------------------------------------------------------- kernels
+ * Kernel-weighted variants of pgi__gather (same per-photon decision: d^2 < r^2
+ * strictly, dot(n, w_p) > 0). The weight w(d) is the kernel without its
+ * normalisation; pgi__acc_finish_k applies norm / (pi r^2):
+ *   constant     1                     norm 1
+ *   cone         1 - d/r               norm 3
+ *   Epanechnikov 1 - d^2/r^2           norm 2
+ * so that each kernel integrates to 1 over its disk (tests check this). */
+static inline float pgi__kernel_weight(pgi_kernel k, float d2, float r2) {
+    if (k == PGI_KERNEL_CONE) return 1.f - sqrtf(d2 / r2);
+    if (k == PGI_KERNEL_EPANECHNIKOV) return 1.f - d2 / r2;
+    return 1.f;
+}
+static inline float pgi__kernel_norm(pgi_kernel k) {
+    return k == PGI_KERNEL_CONE ? 3.f : k == PGI_KERNEL_EPANECHNIKOV ? 2.f : 1.f;
+}
+
+/* Adds one photon with weight w, unconditionally (k-NN uses it for the
+ * photons it selected). */
+static inline void pgi__acc_add(const pgi__vs *v, float w, float dx, float dy, float dz, float fr, float fg, float fb,
+                                pgi__acc *a) {
+    a->contributing++;
+    a->fr += w * fr; a->fg += w * fg; a->fb += w * fb;
+    if (!v->lambert) {
+        float k, fres;
+        pgi__phong_lobe(v3(v->nx, v->ny, v->nz), v3(dx, dy, dz), v->wo, v->shininess, &k, &fres);
+        a->sr += k * (v->ks.x + (1.f - v->ks.x) * fres) * (w * fr);
+        a->sg += k * (v->ks.y + (1.f - v->ks.y) * fres) * (w * fg);
+        a->sb += k * (v->ks.z + (1.f - v->ks.z) * fres) * (w * fb);
+    }
+}
+
+/* pgi__gather with a kernel; the constant kernel takes pgi__gather itself. */
+static inline void pgi__gather_k(const pgi__vs *v, float r2, pgi_kernel kern, float px, float py, float pz, float dx,
+                                 float dy, float dz, float fr, float fg, float fb, pgi__acc *a) {
+    if (kern == PGI_KERNEL_CONSTANT) {
+        pgi__gather(v, r2, px, py, pz, dx, dy, dz, fr, fg, fb, a);
+        return;
+    }
+    float ex = px - v->px, ey = py - v->py, ez = pz - v->pz;
+    float d2 = ex * ex + ey * ey + ez * ez;
+    if (!(d2 < r2)) return;
+    float c = v->nx * dx + v->ny * dy + v->nz * dz;
+    if (!(c > 0.f)) return;
+    pgi__acc_add(v, pgi__kernel_weight(kern, d2, r2), dx, dy, dz, fr, fg, fb, a);
+}
+
+/* pgi__acc_finish times the kernel normalisation and `scale` (subsampling). */
+static inline void pgi__acc_finish_k(const pgi__vs *v, const pgi__acc *a, float r2, pgi_kernel kern, float scale,
+                                     float *out) {
+    pgi__acc_finish(v, a, r2, out);
+    float m = pgi__kernel_norm(kern) * scale;
+    if (m != 1.f) out[0] *= m, out[1] *= m, out[2] *= m;
+}
+
+#endif

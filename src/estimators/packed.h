@@ -1,0 +1,27 @@
+#ifndef PGI_EST_PACKED_H
+#define PGI_EST_PACKED_H
+
+#include "gather.h"
+
+/* A photon copied into an estimator's own structure (hash-grid cell order,
+ * tile lists): position, incoming direction, flux; 36 bytes. */
+typedef struct pgi__packed_photon {
+    float px, py, pz, dx, dy, dz, fr, fg, fb;
+} pgi__packed_photon;
+
+static inline void pgi__pack_photon(const pgi_photons *ph, size_t j, pgi__packed_photon *o) {
+    o->px = ph->px[j]; o->py = ph->py[j]; o->pz = ph->pz[j];
+    o->dx = ph->dx[j]; o->dy = ph->dy[j]; o->dz = ph->dz[j];
+    o->fr = ph->fr[j]; o->fg = ph->fg[j]; o->fb = ph->fb[j];
+}
+
+static inline void pgi__gather_packed(const pgi__vs *v, float r2, const pgi__packed_photon *q, pgi__acc *a) {
+    pgi__gather(v, r2, q->px, q->py, q->pz, q->dx, q->dy, q->dz, q->fr, q->fg, q->fb, a);
+}
+
+static inline void pgi__gather_packed_k(const pgi__vs *v, float r2, pgi_kernel kern, const pgi__packed_photon *q,
+                                        pgi__acc *a) {
+    pgi__gather_k(v, r2, kern, q->px, q->py, q->pz, q->dx, q->dy, q->dz, q->fr, q->fg, q->fb, a);
+}
+
+#endif

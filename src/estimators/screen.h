@@ -1,0 +1,27 @@
+#ifndef PGI_EST_SCREEN_H
+#define PGI_EST_SCREEN_H
+
+#include "core/core.h"
+
+/* World to view space of a pinhole camera (x right, y up, z forward) and
+ * the screen scale: view (x, y, z) projects to x / (z sx), y / (z sy) in
+ * [-1, 1]. Shared by the screen-space methods (tiled, bounds) and the cluster
+ * family. */
+typedef struct pgi__view_xf {
+    pgi__v3 eye, right, up, fwd;
+    float sx, sy;   /* tan(fov/2) * aspect, tan(fov/2) */
+    int W, H;
+} pgi__view_xf;
+
+static inline pgi__view_xf pgi__view_xf_make(const pgi_camera *cam, int W, int H) {
+    pgi__view_xf x = {v3_load(cam->eye), v3_load(cam->right), v3_load(cam->up), v3_load(cam->forward),
+                      cam->tan_half_fov_y * cam->aspect, cam->tan_half_fov_y, W, H};
+    return x;
+}
+
+static inline pgi__v3 pgi__to_view(const pgi__view_xf *x, float px, float py, float pz) {
+    pgi__v3 d = v3_sub(v3(px, py, pz), x->eye);
+    return v3(v3_dot(d, x->right), v3_dot(d, x->up), v3_dot(d, x->fwd));
+}
+
+#endif
