@@ -9,6 +9,8 @@ PKGS+=(libsdl2-dev)   # photongi-view (optional for the library and CLI)
 # Issue 3: scikit-image validates compare's SSIM/PSNR (test_metrics_skimage);
 # gnuplot draws the quality benchmark's plots (bench/quality.sh).
 PKGS+=(python3-skimage python3-numpy gnuplot-nox)
+# clang-format 14 formats and checks the C sources (scripts/format.sh, .clang-format).
+PKGS+=(clang-format)
 
 missing=()
 for p in "${PKGS[@]}"; do
