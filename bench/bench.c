@@ -8,7 +8,7 @@
  *   photongi-bench [--scenes sibenik,crytek-sponza] [--estimators a,b] [--frames 5]
  *                  [--photons 200000] [--size 1920x1080] [--radius R] [--threads T]
  *                  [--csv bench/results/bench.csv] [--include-brute]
- *   photongi-bench --table1 [--knn K] [...]   issue 5a: the tiled paper's Table 1 protocol
+ *   photongi-bench --table1 [--knn K] [...]   the tiled paper's Table 1 protocol
  *                  (estimate time, tests vs contributing of every gather/scatter method and
  *                  bounds25d with 4/8/16 vertices) to bench/results/table1.csv
  */
@@ -51,7 +51,7 @@ static int in_list(const char *list, const char *name) {
     return 0;
 }
 
-/* Issue 5a: the tiled paper's Table 1 protocol (--table1): estimate time of
+/* The tiled paper's Table 1 protocol (--table1): estimate time of
  * every gather/scatter method on this branch, and photon/pixel tests vs
  * contributing ones (wasted tests of the 3D vs 2.5D bounds). Medians of
  * `frames` frames after a warm-up, one run. */
@@ -144,7 +144,7 @@ int main(int argc, char **argv) {
                    "contributing) for hashgrid, tiled, kdtree range/k-NN, bounds3d, bounds25d 4/8/16.\n");
             return 0;
         }
-        if (strcmp(a, "--table1") == 0) {   /* issue 5a */
+        if (strcmp(a, "--table1") == 0) {
             table1 = 1;
             continue;
         }

@@ -78,8 +78,8 @@ int main(int argc, char **argv) {
     if (!out) return die("output buffer");
     double fp_area = 0.0;
     for (size_t j = 0; j < ph.count; j++) {
-        double r = diff ? ph.radius[j] : radius;
-        fp_area += 3.14159265358979 * r * r;
+        double rj = diff ? ph.radius[j] : radius;
+        fp_area += 3.14159265358979 * rj * rj;
     }
     printf("footprint area / scene area = %.3f\n", fp_area / area);
     printf("scene %s, %dx%d, %zu photons (%s footprints, r%s = %g), scene area %.1f, %d threads, %d frames, "

@@ -163,7 +163,7 @@ if expect_ok render --scene cornell --size 40x30 --photons 2000 --output indirec
     [ -s "$TMP/img.exr" ] && ok || bad "render did not write img.exr"
 fi
 
-# Progressive mode and scene time (issue 6).
+# Progressive mode and scene time.
 expect_error "--progressive needs" render --progressive 0 -o "$TMP/x.png"
 expect_error "--progressive needs" render --progressive many -o "$TMP/x.png"
 expect_error "--time needs" render --time soon -o "$TMP/x.png"
@@ -186,7 +186,7 @@ for est in cluster cluster-cone cluster-trivial directional; do
 done
 expect_ok render --scene cornell --estimator directional --directional-level 0 --directional-blur 0 --size 40x30 \
     --photons 2000 -q -o "$TMP/d.png"
-# bvh estimator and radius policies (issue 5b)
+# bvh estimator and radius policies
 expect_error "--radius-policy must be" render --radius-policy wide -o "$TMP/x.png"
 expect_error "--r-min needs a positive number" render --radius-policy path --r-min -1 -o "$TMP/x.png"
 expect_error "--r-max needs a positive number" render --radius-policy path --r-max nan -o "$TMP/x.png"
@@ -210,7 +210,7 @@ if expect_ok render --scene cornell --estimator bvh --bvh-build vvh --leaf-size 
     done
 fi
 
-# ---- reference and compare (issue 3)
+# ---- reference and compare
 expect_error "--spp" reference --scene cornell --spp 0 -o "$TMP/r.exr"
 expect_error ".exr" reference --scene cornell --spp 1 -o "$TMP/r.png"
 expect_error "no output" reference --scene cornell --spp 1
@@ -236,7 +236,7 @@ if expect_ok reference --scene cornell --size 24x16 --spp 2 -q -o "$TMP/r.exr" -
     printf 'not json' >"$TMP/r.exr.json"
     expect_error "metadata" reference --continue "$TMP/r.exr" --spp 1
 fi
-# issue 5a: kernels, subsampling, filter, k-NN, polygon bounds
+# kernels, subsampling, filter, k-NN, polygon bounds
 expect_error "--knn" render --estimator kdtree --knn 0 -o "$TMP/x.png"
 expect_error "--knn" render --estimator kdtree --knn -3 -o "$TMP/x.png"
 expect_error "--knn" render --estimator kdtree --knn many -o "$TMP/x.png"

@@ -1,5 +1,5 @@
 /* Random photons and view samples shared by the estimator-equality tests
- * (test_estimators.c, test_estimators2.c). */
+ * (test_estimators.c, test_kdtree_bounds_kernels.c). */
 #ifndef PGI_TEST_RANDOM_H
 #define PGI_TEST_RANDOM_H
 

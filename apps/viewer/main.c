@@ -222,25 +222,25 @@ static void compose(viewer *v) {
         }
     }
     if (!v->overlay) return;
-    const pgi_frame_stats *f = &v->fs;
+    const pgi_frame_stats *fst = &v->fs;
     char line[6][256];
     size_t ne = pgi_estimator_count();
-    snprintf(line[0], sizeof line[0], "%s | %s (%zu/%zu) | %.1f FPS, %.0f ms a frame", v->info.name, f->estimator,
+    snprintf(line[0], sizeof line[0], "%s | %s (%zu/%zu) | %.1f FPS, %.0f ms a frame", v->info.name, fst->estimator,
              v->est_index + 1, ne, v->fps, v->frame_ms);
     snprintf(line[1], sizeof line[1], "view %.1f  trace %.1f  build %.1f  estimate %.1f  direct %.1f  rt %.1f ms",
-             f->view_ms, f->trace_ms, f->build_ms, f->estimate_ms, f->direct_ms, f->rt_update_ms);
+             fst->view_ms, fst->trace_ms, fst->build_ms, fst->estimate_ms, fst->direct_ms, fst->rt_update_ms);
     int o = 0;
     o += snprintf(line[2] + o, sizeof line[2] - (size_t)o, "passes:");
-    for (int i = 0; i < f->pass_count && o < (int)sizeof line[2] - 40; i++)
-        o += snprintf(line[2] + o, sizeof line[2] - (size_t)o, " %s %.1f", f->passes_ms[i].name, f->passes_ms[i].value);
+    for (int i = 0; i < fst->pass_count && o < (int)sizeof line[2] - 40; i++)
+        o += snprintf(line[2] + o, sizeof line[2] - (size_t)o, " %s %.1f", fst->passes_ms[i].name, fst->passes_ms[i].value);
     snprintf(line[3], sizeof line[3], "photons %llu stored / %llu paths, r %.4g, contributing %.1f%% of %llu reads",
-             (unsigned long long)f->photons_stored, (unsigned long long)f->photons_emitted, (double)f->radius,
-             f->reads ? 100.0 * (double)f->contributing / (double)f->reads : 0.0, (unsigned long long)f->reads);
+             (unsigned long long)fst->photons_stored, (unsigned long long)fst->photons_emitted, (double)fst->radius,
+             fst->reads ? 100.0 * (double)fst->contributing / (double)fst->reads : 0.0, (unsigned long long)fst->reads);
     pgi_light_group g = {0};
     size_t nl = pgi_scene_light_group_count(v->scene);
     if (nl) pgi_scene_get_light_group(v->scene, v->light % nl, &g);
     snprintf(line[4], sizeof line[4], "%dx%d (%.0f%%) | %s | frames %d%s | t %.2f s%s | light %zu/%zu %s",
-             f->width, f->height, 100.0 * v->scale, output_name(v->out_mode), f->frames,
+             fst->width, fst->height, 100.0 * v->scale, output_name(v->out_mode), fst->frames,
              v->accumulate ? "" : " (no accumulation)", v->time, v->animate ? "" : " (paused)",
              nl ? v->light % nl + 1 : 0, nl, nl ? g.name : "-");
     snprintf(line[5], sizeof line[5], "H hides this; see photongi-view --help for keys");

@@ -79,8 +79,8 @@ static void blur_span(const float *restrict Z, const float *restrict NX, const f
     }
 }
 
-static void blur_pass(const blur_planes *P, int W, int H, int R, int vertical, int nt) {
-#pragma omp parallel for schedule(static) num_threads(nt)
+static void blur_pass(const blur_planes *P, int W, int H, int R, int vertical, int threads) {
+#pragma omp parallel for schedule(static) num_threads(threads)
     for (int y = 0; y < H; y++) {
         const size_t row = (size_t)y * W;
         ptrdiff_t off[2 * 64];

@@ -149,9 +149,9 @@ static pgi__v3 trace_sample(const pt_ctx *C, int px, int py, pgi__rng *rng) {
         if (k + 1 > C->bounces) break;
         /* Russian roulette on the throughput relative to the eye chain's. */
         if (k + 1 >= 2) {
-            float q = fminf(0.95f, v3_maxc(T) / w0);
-            if (!(pgi_rng_f(rng) < q)) break;
-            T = v3_scale(T, 1.f / q);
+            float qrr = fminf(0.95f, v3_maxc(T) / w0);
+            if (!(pgi_rng_f(rng) < qrr)) break;
+            T = v3_scale(T, 1.f / qrr);
         }
     }
     return L;

@@ -1,4 +1,4 @@
-/* Issue 5a: kdtree (range and k-NN), bounds3d, bounds25d, kernels,
+/* kdtree (range and k-NN), bounds3d, bounds25d, kernels,
  * stochastic subsampling and the reconstruction filter.
  *  - the exact methods equal brute (relative 1e-4 per value, identical
  *    contributing count) on random photons/samples (mirror samples, spheres
@@ -609,5 +609,5 @@ int main(void) {
         cmocka_unit_test(test_mirror_pipeline),
         cmocka_unit_test(test_sibenik_pipeline),
     };
-    return cmocka_run_group_tests_name("estimators2", tests, NULL, NULL);
+    return cmocka_run_group_tests_name("kdtree_bounds_kernels", tests, NULL, NULL);
 }
