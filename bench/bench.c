@@ -85,8 +85,14 @@ static int run_table1(const char *scenes, int frames, unsigned photons, int widt
         pgi_renderer *r;
         if (!open_scene(sc, &scene, &r)) continue;
         for (size_t c = 0; c < sizeof cfg / sizeof cfg[0]; c++) {
-            pgi_render_desc d = {.estimator = cfg[c].estimator, .photons = photons, .width = width, .height = height,
-                                 .threads = threads, .seed = 1, .radius = radius, .direct_samples = 1,
+            pgi_render_desc d = {.estimator = cfg[c].estimator,
+                                 .photons = photons,
+                                 .width = width,
+                                 .height = height,
+                                 .threads = threads,
+                                 .seed = 1,
+                                 .radius = radius,
+                                 .direct_samples = 1,
                                  .est = {.kdtree.knn = cfg[c].knn, .bounds.polygon = cfg[c].polygon}};
             double tb[MAXF], te[MAXF];
             pgi_frame_stats fs;
@@ -209,8 +215,13 @@ int main(int argc, char **argv) {
                 printf("%-14s %-10s skipped: O(photons x pixels) oracle (--include-brute)\n", sc, vt->name);
                 continue;
             }
-            pgi_render_desc d = {.estimator = vt->name, .photons = photons, .width = width, .height = height,
-                                 .threads = threads, .seed = 1, .radius = radius};
+            pgi_render_desc d = {.estimator = vt->name,
+                                 .photons = photons,
+                                 .width = width,
+                                 .height = height,
+                                 .threads = threads,
+                                 .seed = 1,
+                                 .radius = radius};
             double t[6][MAXF], prim[MAXF], phot[MAXF];
             pgi_frame_stats fs;
             pgi_image img = {0};
@@ -221,7 +232,7 @@ int main(int argc, char **argv) {
                     ok = 0;
                     break;
                 }
-                if (f < 0) continue;   /* warm-up */
+                if (f < 0) continue; /* warm-up */
                 t[0][f] = fs.view_ms;
                 t[1][f] = fs.trace_ms;
                 t[2][f] = fs.build_ms;
@@ -255,7 +266,8 @@ int main(int argc, char **argv) {
         pgi_scene_destroy(scene);
     }
     fclose(csv);
-    printf("(medians of %d frames after a warm-up, milliseconds; CSV: %s; per-pass times of the last frame in the CSV)\n",
+    printf("(medians of %d frames after a warm-up, milliseconds; CSV: %s; per-pass times of the last frame in the "
+           "CSV)\n",
            frames, csv_path);
     return 0;
 }

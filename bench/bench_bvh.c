@@ -62,8 +62,13 @@ int main(int argc, char **argv) {
     pgi_renderer *r;
     if (pgi_renderer_create(s, &r)) return die("renderer");
     /* View samples and one photon map, as a frame makes them. */
-    pgi_render_desc rd = {.photons = photons, .radius = radius, .width = width, .height = height, .seed = 1,
-                          .threads = threads, .smoothing = smoothing,
+    pgi_render_desc rd = {.photons = photons,
+                          .radius = radius,
+                          .width = width,
+                          .height = height,
+                          .seed = 1,
+                          .threads = threads,
+                          .smoothing = smoothing,
                           .radius_policy = diff ? PGI_RADIUS_DIFFERENTIALS : PGI_RADIUS_FIXED};
     rd.estimator = diff ? "bvh" : NULL;
     pgi_frame_inputs in;
@@ -97,8 +102,14 @@ int main(int argc, char **argv) {
                 pgi_estimator_desc d = {.bvh = {.build = (pgi_bvh_build)b, .leaf_size = leaves[l]}};
                 pgi_estimator *e;
                 if (pgi_estimator_create("bvh", &d, &e)) return die("create");
-                pgi_estimate_args a = {.photons = &ph, .samples = &vs, .camera = &in.camera, .out_rgb = out,
-                                       .radius = radius, .seed = 1, .threads = threads, .scene_area = (float)area};
+                pgi_estimate_args a = {.photons = &ph,
+                                       .samples = &vs,
+                                       .camera = &in.camera,
+                                       .out_rgb = out,
+                                       .radius = radius,
+                                       .seed = 1,
+                                       .threads = threads,
+                                       .scene_area = (float)area};
                 if (pgi_estimator_build(e, &a) || pgi_estimator_estimate(e, &a)) return die("bvh");
                 pgi_estimator_stats st;
                 pgi_estimator_get_stats(e, &st);
@@ -136,7 +147,8 @@ int main(int argc, char **argv) {
                (double)(radius / 14.f));
         for (int k = 0; k < PGI_FOOTPRINT_BINS; k++) {
             double lo = k * (double)radius / 14.0;
-            if (k < PGI_FOOTPRINT_BINS - 1) printf("  %7.4f - %7.4f %9llu\n", lo, lo + radius / 14.0, (unsigned long long)hist[k]);
+            if (k < PGI_FOOTPRINT_BINS - 1)
+                printf("  %7.4f - %7.4f %9llu\n", lo, lo + radius / 14.0, (unsigned long long)hist[k]);
             else printf("  > %-15.4f %9llu\n", lo, (unsigned long long)hist[k]);
         }
     }

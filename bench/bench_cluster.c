@@ -28,7 +28,7 @@
 
 typedef struct {
     const char *name;
-    double total;   /* median build + estimate, ms */
+    double total; /* median build + estimate, ms */
 } result;
 
 int main(int argc, char **argv) {
@@ -78,8 +78,8 @@ int main(int argc, char **argv) {
     if (csv)
         fprintf(csv, "scene,width,height,threads,photons,radius,estimator,build_ms,estimate_ms,total_ms,reads,"
                      "contributing,nodes_visited,passes,memory\n");
-    printf("threads %d, %dx%d, medians of %d frames after a warm-up (ms)\n", threads > 0 ? threads : omp_get_max_threads(),
-           width, height, frames);
+    printf("threads %d, %dx%d, medians of %d frames after a warm-up (ms)\n",
+           threads > 0 ? threads : omp_get_max_threads(), width, height, frames);
     float *out = malloc(3 * (size_t)width * (size_t)height * sizeof *out);
     if (!out) {
         fprintf(stderr, "photongi-bench-cluster: out of memory\n");
@@ -117,10 +117,16 @@ int main(int argc, char **argv) {
             }
             /* View samples and photons once per case, as a frame makes them. */
             pgi_frame_inputs in;
-            pgi_render_desc rd = {.photons = (uint32_t)np, .radius = radius, .width = width, .height = height,
-                                  .bounces = 4, .seed = 1, .threads = threads};
+            pgi_render_desc rd = {.photons = (uint32_t)np,
+                                  .radius = radius,
+                                  .width = width,
+                                  .height = height,
+                                  .bounces = 4,
+                                  .seed = 1,
+                                  .threads = threads};
             if (pgi_renderer_prepare(r, &rd, &in, NULL) != PGI_OK) {
-                fprintf(stderr, "photongi-bench-cluster: %s: view samples / photons failed: %s\n", sc, pgi_last_error());
+                fprintf(stderr, "photongi-bench-cluster: %s: view samples / photons failed: %s\n", sc,
+                        pgi_last_error());
                 return 1;
             }
             const pgi_photons ph = *in.photons;
@@ -138,8 +144,13 @@ int main(int argc, char **argv) {
                     fprintf(stderr, "photongi-bench-cluster: %s: %s\n", en, pgi_last_error());
                     continue;
                 }
-                pgi_estimate_args a = {.photons = in.photons, .samples = in.samples, .camera = &in.camera,
-                                       .out_rgb = out, .radius = radius, .seed = 1, .threads = threads,
+                pgi_estimate_args a = {.photons = in.photons,
+                                       .samples = in.samples,
+                                       .camera = &in.camera,
+                                       .out_rgb = out,
+                                       .radius = radius,
+                                       .seed = 1,
+                                       .threads = threads,
                                        .scene_area = in.scene_area};
                 double tb[MAXF], te[MAXF], tp[PGI_EST_MAX_ENTRIES][MAXF];
                 pgi_estimator_stats st = {0};
@@ -165,8 +176,8 @@ int main(int argc, char **argv) {
                         pl += (size_t)snprintf(passes + pl, sizeof passes - pl, "%s%s=%.1f", k ? " " : "",
                                                st.pass_names[k], median(tp[k], frames));
                     for (int k = 0; k < st.memory_count; k++)
-                        ml += (size_t)snprintf(mem + ml, sizeof mem - ml, "%s%s=%.2f", k ? " " : "",
-                                               st.memory_names[k], (double)st.memory_bytes[k] / 1048576.0);
+                        ml += (size_t)snprintf(mem + ml, sizeof mem - ml, "%s%s=%.2f", k ? " " : "", st.memory_names[k],
+                                               (double)st.memory_bytes[k] / 1048576.0);
                     printf("%-16s %9.1f %9.1f %9.1f | %12llu %12llu %6.1f%% | %s | %s\n", en, mb, me, mb + me,
                            (unsigned long long)st.reads, (unsigned long long)st.contributing, rej, passes, mem);
                     if (csv)

@@ -36,11 +36,11 @@ int main(int argc, char **argv) {
         i++;
         if (strcmp(a, "--scene") == 0) scene_spec = v;
         else if (strcmp(a, "--estimator") == 0) est = v;
-        else if (strcmp(a, "--size") == 0 && sscanf(v, "%dx%d", &w, &h) == 2 && w > 0 && h > 0) {}
-        else if (strcmp(a, "--photons") == 0 && (photons = (unsigned)strtoul(v, NULL, 10)) > 0) {}
-        else if (strcmp(a, "--frames") == 0 && (frames = atoi(v)) > 0) {}
-        else if (strcmp(a, "--ref-spp") == 0 && (ref_spp = strtoul(v, NULL, 10)) > 0) {}
-        else if (strcmp(a, "--target") == 0) target = atof(v);
+        else if (strcmp(a, "--size") == 0 && sscanf(v, "%dx%d", &w, &h) == 2 && w > 0 && h > 0) {
+        } else if (strcmp(a, "--photons") == 0 && (photons = (unsigned)strtoul(v, NULL, 10)) > 0) {
+        } else if (strcmp(a, "--frames") == 0 && (frames = atoi(v)) > 0) {
+        } else if (strcmp(a, "--ref-spp") == 0 && (ref_spp = strtoul(v, NULL, 10)) > 0) {
+        } else if (strcmp(a, "--target") == 0) target = atof(v);
         else {
             fprintf(stderr, "photongi-bench-progressive: bad option %s %s\n", a, v);
             return 2;

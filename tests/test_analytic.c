@@ -18,7 +18,7 @@ static void plane_samples(pgi_view_samples *vs, pgi_camera *cam, int w, int h, f
         for (int x = 0; x < w; x++) {
             float dir[3], pos[3], wo[3];
             tu_pixel_dir(cam, x, y, dir);
-            float t = -eye[2] / dir[2];   /* = 3: forward is -z */
+            float t = -eye[2] / dir[2]; /* = 3: forward is -z */
             for (int k = 0; k < 3; k++) pos[k] = eye[k] + t * dir[k];
             pos[2] = 0.f;
             for (int k = 0; k < 3; k++) wo[k] = eye[k] - pos[k];
@@ -30,10 +30,10 @@ static void plane_samples(pgi_view_samples *vs, pgi_camera *cam, int w, int h, f
 
 /* ------------------------------------------------ uniform photons on a plane */
 
-#define PLANE_L 2.f          /* photons on [-1, 1]^2, area A = 4 */
+#define PLANE_L 2.f /* photons on [-1, 1]^2, area A = 4 */
 #define PLANE_N 200000
 #define PLANE_R 0.1f
-#define PLANE_FLUX 2.5e-5f   /* per photon: N * flux / A = 1.25 W/m^2 */
+#define PLANE_FLUX 2.5e-5f /* per photon: N * flux / A = 1.25 W/m^2 */
 
 /* dz > 0: every photon arrives straight from above, (0, 0, 1). dz < 0: from
  * below the surface: a third straight up from under it (0, 0, -1), a third
@@ -119,7 +119,7 @@ static void test_plane_from_below(void **state) {
     float *out = malloc(3 * vs.count * sizeof *out);
     for (size_t e = 0; e < pgi_estimator_count(); e++) {
         const pgi_estimator_vtbl *vt = pgi_estimator_at(e);
-        if (!vt->exact) continue;   /* approximate ones (directional) have their own bounds */
+        if (!vt->exact) continue; /* approximate ones (directional) have their own bounds */
         for (size_t i = 0; i < 3 * vs.count; i++) out[i] = NAN;
         pgi_estimator_stats st;
         TU_CHECK_OK(tu_run_estimator(vt->name, &(tu_est){.radius = PLANE_R}, &ph, &vs, &cam, out, &st));
@@ -159,7 +159,7 @@ static void test_kernel_normalisation(void **state) {
     float *out = malloc(3 * vs.count * sizeof *out);
     for (size_t e = 0; e < pgi_estimator_count(); e++) {
         const pgi_estimator_vtbl *vt = pgi_estimator_at(e);
-        if (!vt->exact) continue;   /* approximate ones (directional) have their own bounds */
+        if (!vt->exact) continue; /* approximate ones (directional) have their own bounds */
         pgi_estimator_stats st;
         TU_CHECK_OK(tu_run_estimator(vt->name, &(tu_est){.radius = r}, &ph, &vs, &cam, out, &st));
         for (int c = 0; c < 3; c++) {
@@ -201,9 +201,14 @@ static void furnace_render(int bounces, pgi_output output, pgi_image *img) {
     pgi_scene_get_info(s, &info);
     assert_int_equal(info.point_lights, 1);
     assert_true(info.triangles > 10000);
-    pgi_render_desc d = {.estimator = "hashgrid", .width = 64, .height = 48, .bounces = bounces,
-                         .photons = 400000, .radius = 0.1f,
-                         .output = output, .seed = 3};
+    pgi_render_desc d = {.estimator = "hashgrid",
+                         .width = 64,
+                         .height = 48,
+                         .bounces = bounces,
+                         .photons = 400000,
+                         .radius = 0.1f,
+                         .output = output,
+                         .seed = 3};
     pgi_frame_stats fs;
     TU_CHECK_OK(pgi_render(s, &d, img, &fs));
     assert_int_equal(fs.photons_stored, 400000);

@@ -173,8 +173,8 @@ static void ellipsoid_reference(const pgi_photons *ph, const pgi_view_samples *v
             double A[3] = {ph->sax[j], ph->say[j], ph->saz[j]}, B[3] = {ph->sbx[j], ph->sby[j], ph->sbz[j]};
             double C[3] = {r * ph->nx[j], r * ph->ny[j], r * ph->nz[j]};
             double e[3] = {x[0] - ph->px[j], x[1] - ph->py[j], x[2] - ph->pz[j]};
-#define DET(a, b, c)                                                                                               \
-    ((a)[0] * ((b)[1] * (c)[2] - (b)[2] * (c)[1]) - (a)[1] * ((b)[0] * (c)[2] - (b)[2] * (c)[0]) +                 \
+#define DET(a, b, c)                                                                                                   \
+    ((a)[0] * ((b)[1] * (c)[2] - (b)[2] * (c)[1]) - (a)[1] * ((b)[0] * (c)[2] - (b)[2] * (c)[0]) +                     \
      (a)[2] * ((b)[0] * (c)[1] - (b)[1] * (c)[0]))
             double det = DET(A, B, C);
             double u = DET(e, B, C) / det, v = DET(A, e, C) / det, w = DET(A, B, e) / det;
@@ -296,8 +296,13 @@ static void pipeline(const char *scene_name, int w, int h, uint32_t photons, int
     TU_CHECK_OK(pgi_scene_load(scene_name, &scene));
     pgi_renderer *r = NULL;
     TU_CHECK_OK(pgi_renderer_create(scene, &r));
-    pgi_render_desc d = {.estimator = "brute", .photons = photons, .width = w, .height = h,
-                         .output = PGI_OUTPUT_INDIRECT, .seed = 3, .radius_policy = policy};
+    pgi_render_desc d = {.estimator = "brute",
+                         .photons = photons,
+                         .width = w,
+                         .height = h,
+                         .output = PGI_OUTPUT_INDIRECT,
+                         .seed = 3,
+                         .radius_policy = policy};
     pgi_image ref = {0}, img = {0};
     pgi_frame_stats rs, fs;
     TU_CHECK_OK(pgi_renderer_render(r, &d, &ref, &rs));
@@ -354,9 +359,15 @@ static void test_determinism(void **state) {
         pgi_image ref = {0};
         const int threads[] = {1, 2, 8};
         for (int k = 0; k < 3; k++) {
-            pgi_render_desc d = {.estimator = "bvh", .width = 40, .height = 40, .photons = 6000,
-                                 .threads = threads[k], .seed = 7, .est.bvh.build = b,
-                                 .radius_policy = PGI_RADIUS_DIFFERENTIALS, .output = PGI_OUTPUT_INDIRECT};
+            pgi_render_desc d = {.estimator = "bvh",
+                                 .width = 40,
+                                 .height = 40,
+                                 .photons = 6000,
+                                 .threads = threads[k],
+                                 .seed = 7,
+                                 .est.bvh.build = b,
+                                 .radius_policy = PGI_RADIUS_DIFFERENTIALS,
+                                 .output = PGI_OUTPUT_INDIRECT};
             pgi_image img = {0};
             TU_CHECK_OK(pgi_render(scene, &d, &img, NULL));
             if (k == 0) ref = img;
@@ -372,16 +383,11 @@ static void test_determinism(void **state) {
 
 int main(void) {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_errors),
-        cmocka_unit_test(test_fixed_radius_random),
-        cmocka_unit_test(test_duplicates),
-        cmocka_unit_test(test_per_photon_spheres),
-        cmocka_unit_test(test_ellipsoids),
-        cmocka_unit_test(test_t_auto),
-        cmocka_unit_test(test_cornell),
-        cmocka_unit_test(test_cornell_policies),
-        cmocka_unit_test(test_sibenik),
-        cmocka_unit_test(test_determinism),
+        cmocka_unit_test(test_errors),     cmocka_unit_test(test_fixed_radius_random),
+        cmocka_unit_test(test_duplicates), cmocka_unit_test(test_per_photon_spheres),
+        cmocka_unit_test(test_ellipsoids), cmocka_unit_test(test_t_auto),
+        cmocka_unit_test(test_cornell),    cmocka_unit_test(test_cornell_policies),
+        cmocka_unit_test(test_sibenik),    cmocka_unit_test(test_determinism),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

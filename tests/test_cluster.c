@@ -15,10 +15,10 @@ static const char *const k_exact[] = {"cluster", "cluster-cone", "cluster-trivia
 
 typedef struct {
     int w, h;
-    float phong;       /* fraction of Blinn-Phong samples */
-    float secondary;   /* fraction seen through a mirror (anywhere in the box, any normal) */
-    int stripes;       /* 1: alternate rows of 3-pixel bands between a near and a far plane */
-    float invalid;     /* fraction of sky samples */
+    float phong;     /* fraction of Blinn-Phong samples */
+    float secondary; /* fraction seen through a mirror (anywhere in the box, any normal) */
+    int stripes;     /* 1: alternate rows of 3-pixel bands between a near and a far plane */
+    float invalid;   /* fraction of sky samples */
 } plane_setup;
 
 /* A camera at z = 3 looking down -z at a floor-like plane tilted towards it
@@ -116,7 +116,7 @@ static void plane_case(const plane_setup *ps, size_t nphotons, float radius, flo
     make_plane_samples(&vs, &cam, ps, seed);
     pgi_photons ph;
     make_plane_photons(&ph, nphotons, seed + 1, spread);
-    const int tiles[] = {0, 1, 3, 64, 100};   /* 100: tiles over 4096 samples (comparison sort path) */
+    const int tiles[] = {0, 1, 3, 64, 100}; /* 100: tiles over 4096 samples (comparison sort path) */
     for (size_t t = 0; t < sizeof tiles / sizeof tiles[0]; t++) {
         pgi_estimator_stats st[NEXACT];
         for (int e = 0; e < NEXACT; e++) {
@@ -128,12 +128,12 @@ static void plane_case(const plane_setup *ps, size_t nphotons, float radius, flo
             /* The cones drop photons from below, and trivial accept replaces
              * reads: on coherent Lambertian planes both must actually happen. */
             fprintf(stderr, "  %s: reads cluster %llu, cone %llu, trivial %llu; contributing %llu\n", label,
-                    (unsigned long long)st[0].reads, (unsigned long long)st[1].reads,
-                    (unsigned long long)st[2].reads, (unsigned long long)st[0].contributing);
+                    (unsigned long long)st[0].reads, (unsigned long long)st[1].reads, (unsigned long long)st[2].reads,
+                    (unsigned long long)st[0].contributing);
             assert_true(st[1].reads < st[0].reads);
             if (check_culling > 1) {
                 assert_true(st[2].reads < st[1].reads);
-                assert_true(st[2].contributing > st[2].reads);   /* trivially accepted ones are not read */
+                assert_true(st[2].contributing > st[2].reads); /* trivially accepted ones are not read */
             }
         }
     }
@@ -180,7 +180,7 @@ static void run_all_zero_ok(const pgi_photons *ph, const pgi_view_samples *vs, c
 }
 
 static void test_sky_only(void **state) {
-    plane_setup ps = {40, 30, 0.f, 0.f, 0, 1.01f};   /* every sample invalid */
+    plane_setup ps = {40, 30, 0.f, 0.f, 0, 1.01f}; /* every sample invalid */
     pgi_view_samples vs;
     pgi_camera cam;
     make_plane_samples(&vs, &cam, &ps, 31);
@@ -226,7 +226,7 @@ static void test_photons_outside_frustum(void **state) {
     make_plane_samples(&vs, &cam, &ps, 36);
     pgi_photons ph;
     make_plane_photons(&ph, 3000, 37, 1.f);
-    for (size_t j = 0; j < ph.count; j++) ph.pz[j] = 3.5f + (float)j * 1e-4f;   /* behind the eye (z = 3) */
+    for (size_t j = 0; j < ph.count; j++) ph.pz[j] = 3.5f + (float)j * 1e-4f; /* behind the eye (z = 3) */
     run_all_zero_ok(&ph, &vs, &cam, 0.3f, 1);
     pgi_photons_free(&ph);
     pgi_view_samples_free(&vs);
@@ -252,10 +252,11 @@ static void test_create_errors(void **state) {
     const char *names[] = {"cluster", "cluster-cone", "cluster-trivial", "directional"};
     for (int e = 0; e < 4; e++) {
         pgi_estimator *x = NULL;
-        tu_est bad[] = {{.radius = 0.1f, .d.cluster.tile = -1}, {.radius = 0.1f, .d.cluster.tile = 257},
-                                    {.radius = 0.1f, .d.directional.level = -2},
-                                    {.radius = 0.1f, .d.directional.level = 17},
-                                    {.radius = 0.1f, .d.directional.blur = 65}};
+        tu_est bad[] = {{.radius = 0.1f, .d.cluster.tile = -1},
+                        {.radius = 0.1f, .d.cluster.tile = 257},
+                        {.radius = 0.1f, .d.directional.level = -2},
+                        {.radius = 0.1f, .d.directional.level = 17},
+                        {.radius = 0.1f, .d.directional.blur = 65}};
         for (size_t k = 0; k < sizeof bad / sizeof bad[0]; k++) {
             assert_int_equal(tu_create(names[e], &bad[k], &x), PGI_ERR_INVALID_ARG);
             assert_null(x);
@@ -266,9 +267,8 @@ static void test_create_errors(void **state) {
     }
     /* only the constant kernel */
     pgi_estimator *x = NULL;
-    assert_int_equal(
-        tu_create("cluster-trivial", &(tu_est){.radius = 0.1f, .d.kernel = PGI_KERNEL_CONE}, &x),
-        PGI_ERR_INVALID_ARG);
+    assert_int_equal(tu_create("cluster-trivial", &(tu_est){.radius = 0.1f, .d.kernel = PGI_KERNEL_CONE}, &x),
+                     PGI_ERR_INVALID_ARG);
     /* build/estimate with a camera of another size */
     plane_setup ps = {20, 10, 0.f, 0.f, 0, 0.f};
     pgi_view_samples vs;
@@ -294,7 +294,7 @@ static void pipeline_vs_brute(const char *scene_name, int w, int h, uint32_t pho
 
 static void test_cornell_pipeline(void **state) {
     pipeline_vs_brute("cornell", 96, 96, 20000, 0.08f);
-    pipeline_vs_brute("cornell", 64, 48, 3000, 0.6f);   /* photons larger than subtrees */
+    pipeline_vs_brute("cornell", 64, 48, 3000, 0.6f); /* photons larger than subtrees */
 }
 
 static int have_sibenik(void) {
@@ -309,7 +309,7 @@ static int have_sibenik(void) {
 
 static void test_sibenik_pipeline(void **state) {
     if (!have_sibenik()) skip();
-    pipeline_vs_brute("sibenik", 80, 45, 10000, 0.f);   /* the scene's default radius, deep views */
+    pipeline_vs_brute("sibenik", 80, 45, 10000, 0.f); /* the scene's default radius, deep views */
 }
 
 /* ------------------------------------------------------- determinism */
@@ -327,8 +327,13 @@ static void test_thread_counts(void **state) {
         for (int t = 0; t < 3; t++) {
             pgi_image img = {0};
             pgi_frame_stats fs;
-            pgi_render_desc d = {.estimator = names[e], .width = S, .height = S, .photons = 20000,
-                                 .radius = 0.1f, .threads = threads[t], .seed = 7};
+            pgi_render_desc d = {.estimator = names[e],
+                                 .width = S,
+                                 .height = S,
+                                 .photons = 20000,
+                                 .radius = 0.1f,
+                                 .threads = threads[t],
+                                 .seed = 7};
             TU_CHECK_OK(pgi_render(scene, &d, t ? &img : &ref, t ? &fs : &rs));
             if (!t) continue;
             if (memcmp(img.rgb, ref.rgb, bytes) != 0)
@@ -369,8 +374,13 @@ static void test_directional_close_to_cluster(void **state) {
     TU_CHECK_OK(pgi_renderer_create(scene, &r));
     const int S = 128;
     pgi_image ref = {0}, dir = {0};
-    pgi_render_desc d = {.estimator = "cluster", .width = S, .height = S, .photons = 100000,
-                         .radius = 0.12f, .output = PGI_OUTPUT_INDIRECT, .seed = 3,
+    pgi_render_desc d = {.estimator = "cluster",
+                         .width = S,
+                         .height = S,
+                         .photons = 100000,
+                         .radius = 0.12f,
+                         .output = PGI_OUTPUT_INDIRECT,
+                         .seed = 3,
                          .est.cluster.tile = 2};
     TU_CHECK_OK(pgi_renderer_render(r, &d, &ref, NULL));
     d.estimator = "directional";
@@ -378,8 +388,9 @@ static void test_directional_close_to_cluster(void **state) {
     double e = rel_l1(dir.rgb, ref.rgb, 3 * (size_t)S * S);
     double sa = 0, sb = 0;
     for (size_t i = 0; i < 3 * (size_t)S * S; i++) sa += dir.rgb[i], sb += ref.rgb[i];
-    fprintf(stderr, "  directional vs cluster, Cornell %dx%d, 100k photons, r 0.12: relative L1 %.4f, mean ratio %.4f\n",
-            S, S, e, sa / sb);
+    fprintf(stderr,
+            "  directional vs cluster, Cornell %dx%d, 100k photons, r 0.12: relative L1 %.4f, mean ratio %.4f\n", S, S,
+            e, sa / sb);
     assert_true(e < 0.25);
     assert_true(e > 1e-4);
     d.est.directional.blur = PGI_DIRECTIONAL_NO_BLUR;

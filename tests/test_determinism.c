@@ -19,8 +19,13 @@ static int teardown(void **state) {
 
 static void render(const char *est, int size, uint32_t photons, int threads, uint64_t seed, pgi_image *img,
                    pgi_frame_stats *fs) {
-    pgi_render_desc d = {.estimator = est, .width = size, .height = size, .photons = photons,
-                         .radius = 0.08f, .threads = threads, .seed = seed};
+    pgi_render_desc d = {.estimator = est,
+                         .width = size,
+                         .height = size,
+                         .photons = photons,
+                         .radius = 0.08f,
+                         .threads = threads,
+                         .seed = seed};
     TU_CHECK_OK(pgi_render(g_scene, &d, img, fs));
     assert_int_equal(img->width, size);
     assert_int_equal(img->height, size);
@@ -70,8 +75,8 @@ static void test_brute(void **state) { same_bytes("brute", 32, 4000); }
 static void test_renderer_reuse(void **state) {
     pgi_renderer *r;
     TU_CHECK_OK(pgi_renderer_create(g_scene, &r));
-    pgi_render_desc big = {.estimator = "tiled", .width = 64, .height = 64, .photons = 20000,
-                           .radius = 0.08f, .seed = 9};
+    pgi_render_desc big =
+        {.estimator = "tiled", .width = 64, .height = 64, .photons = 20000, .radius = 0.08f, .seed = 9};
     pgi_render_desc small = big;
     small.width = 40, small.height = 24, small.photons = 5000, small.estimator = "hashgrid";
     pgi_image a = {0}, b = {0}, c = {0}, fresh = {0};

@@ -35,7 +35,7 @@ static void test_point_light_spreads(void **state) {
         assert_true(fabsf(v3_dot(pd.dd[0], d)) < 1e-5f && fabsf(v3_dot(pd.dd[1], d)) < 1e-5f);
         float t = h / -d.y;
         pgi__pd_transfer(&pd, d, t, v3(0.f, 1.f, 0.f));
-        assert_true(fabsf(pd.dp[0].y) < 1e-5f && fabsf(pd.dp[1].y) < 1e-5f);   /* on the plane */
+        assert_true(fabsf(pd.dp[0].y) < 1e-5f && fabsf(pd.dp[1].y) < 1e-5f); /* on the plane */
         /* ellipse area on the plane = pi Delta^2 t^2 / cos(theta) */
         float r = fp_radius(&pd, p.delta);
         assert_close((double)r * r, (double)p.delta * p.delta * t * t / -d.y, 1e-4, "area after transfer");
@@ -62,7 +62,7 @@ static void test_diffuse_bounce_expands(void **state) {
     float prev = r0;
     for (float L = 0.5f; L < 10.f; L *= 2.f) {
         pgi__pdiff q = pd;
-        pgi__pd_transfer(&q, dout, L, v3(0.f, -1.f, 0.f));   /* a parallel ceiling at distance L */
+        pgi__pd_transfer(&q, dout, L, v3(0.f, -1.f, 0.f)); /* a parallel ceiling at distance L */
         float r = fp_radius(&q, delta);
         assert_close(r, delta * (v + L), 1e-4, "footprint radius Delta (v + L)");
         assert_true(r > prev);
@@ -105,7 +105,7 @@ static void test_curved_mirrors(void **state) {
         assert_close(cc, 1.0 - 2.0 * L / R, 1e-5, "concave mirror contracts");
         assert_true(cv > 1.f && cc < 1.f);
     }
-    assert_true(mirror_scale(-1.f / R, R / 2.f) < 1e-3f);   /* the focus */
+    assert_true(mirror_scale(-1.f / R, R / 2.f) < 1e-3f); /* the focus */
 }
 
 /* Normal incidence into glass (eta = 1/1.5): the tangential spread of the directions scales by eta. */
@@ -135,7 +135,7 @@ static void test_refraction_oblique(void **state) {
     const double eta = 1.0 / 1.5;
     for (double a = 0.2; a < 1.3; a += 0.3) {
         pgi__pdiff pd = {0};
-        pd.dd[0] = v3((float)cos(a), 0.f, (float)sin(a));   /* d(d)/d(alpha) */
+        pd.dd[0] = v3((float)cos(a), 0.f, (float)sin(a)); /* d(d)/d(alpha) */
         pd.dd[1] = v3(0.f, 1.f, 0.f);
         double t[3], tp[3], tm[3], h = 1e-5;
         refract_dir(a, eta, t);
@@ -147,7 +147,8 @@ static void test_refraction_oblique(void **state) {
         double fd[3];
         for (int k = 0; k < 3; k++) fd[k] = (tp[k] - tm[k]) / (2 * h);
         double err = fabs(pd.dd[0].x - fd[0]) + fabs(pd.dd[0].y - fd[1]) + fabs(pd.dd[0].z - fd[2]);
-        if (!(err < 1e-3 * sqrt(fd[0] * fd[0] + fd[2] * fd[2]))) fail_msg("alpha %g: refraction differential off by %g", a, err);
+        if (!(err < 1e-3 * sqrt(fd[0] * fd[0] + fd[2] * fd[2])))
+            fail_msg("alpha %g: refraction differential off by %g", a, err);
     }
 }
 
@@ -181,7 +182,7 @@ static void test_sphere_normal_derivative(void **state) {
         pgi__v3 a = pgi__scene_vertex(s, v[0]), b = pgi__scene_vertex(s, v[1]), cc = pgi__scene_vertex(s, v[2]);
         pgi__v3 p = v3_scale(v3_add(v3_add(a, b), cc), 1.f / 3.f);
         float rr = v3_len(v3_sub(p, c));
-        if (fabsf(rr - 1.f) > 0.02f) continue;   /* not the sphere */
+        if (fabsf(rr - 1.f) > 0.02f) continue; /* not the sphere */
         pgi__v3 nrm = v3_norm(v3_sub(p, c)), t1, t2;
         v3_basis(nrm, &t1, &t2);
         pgi__v3 dp[2] = {v3_scale(t1, 0.01f), v3_scale(t2, 0.01f)}, dn[2];
@@ -237,8 +238,8 @@ static double caustic_median_radius(const char *dir, int curvature) {
         }
     int base = (G + 1) * (G + 1);
     len += (size_t)snprintf(obj + len, cap - len,
-                            "v -20 3 -20\nv 20 3 -20\nv 20 3 20\nv -20 3 20\nusemtl black\nf %d %d %d %d\n",
-                            base + 1, base + 2, base + 3, base + 4);
+                            "v -20 3 -20\nv 20 3 -20\nv 20 3 20\nv -20 3 20\nusemtl black\nf %d %d %d %d\n", base + 1,
+                            base + 2, base + 3, base + 4);
     snprintf(path, sizeof path, "%s/mirror%d.obj", dir, curvature + 1);
     assert_int_equal(tu_write_file(path, obj), 0);
     free(obj);
@@ -262,15 +263,21 @@ static double caustic_median_radius(const char *dir, int curvature) {
     float **ax[] = {&ph.sax, &ph.say, &ph.saz, &ph.sbx, &ph.sby, &ph.sbz};
     for (int k = 0; k < 6; k++) *ax[k] = buf + (size_t)(k + 1) * n;
     uint64_t hist[PGI_FOOTPRINT_BINS] = {0}, rays = 0;
-    pgi__trace_desc td = {.photons = n, .bounces = 3, .seed = 9, .radius_policy = PGI_RADIUS_DIFFERENTIALS,
-                         .r_min = 1.f, .r_max = 100.f, .smoothing = 1.f, .footprint_hist = hist};
+    pgi__trace_desc td = {.photons = n,
+                          .bounces = 3,
+                          .seed = 9,
+                          .radius_policy = PGI_RADIUS_DIFFERENTIALS,
+                          .r_min = 1.f,
+                          .r_max = 100.f,
+                          .smoothing = 1.f,
+                          .footprint_hist = hist};
     pgi__trace_scratch scr = {0};
     TU_CHECK_OK(pgi__photons_trace(sc, rt, &td, &ph, &scr, &rays));
     assert_int_equal(ph.count, n);
     float *r = malloc(n * sizeof *r);
     assert_non_null(r);
     for (size_t j = 0; j < n; j++) {
-        assert_true(fabsf(ph.py[j] - 3.f) < 1e-3f);   /* every photon is a caustic on the ceiling */
+        assert_true(fabsf(ph.py[j] - 3.f) < 1e-3f); /* every photon is a caustic on the ceiling */
         r[j] = ph.radius[j];
     }
     /* median by partial selection sort on a copy (n is small) */
@@ -316,8 +323,14 @@ static void test_frame_footprints(void **state) {
     pgi_image img = {0};
     pgi_frame_stats fs;
     for (int policy = PGI_RADIUS_PATH; policy <= PGI_RADIUS_DIFFERENTIALS; policy++) {
-        pgi_render_desc d = {.estimator = "bvh", .photons = 5000, .width = 32, .height = 32,
-                             .radius_policy = policy, .r_max = 0.1f, .r_min = 0.02f, .output = PGI_OUTPUT_INDIRECT};
+        pgi_render_desc d = {.estimator = "bvh",
+                             .photons = 5000,
+                             .width = 32,
+                             .height = 32,
+                             .radius_policy = policy,
+                             .r_max = 0.1f,
+                             .r_min = 0.02f,
+                             .output = PGI_OUTPUT_INDIRECT};
         TU_CHECK_OK(pgi_renderer_render(r, &d, &img, &fs));
         assert_int_equal(fs.radius_policy, policy);
         assert_close(fs.footprint_bin_width, 0.1 / 14.0, 1e-6, "bin width r_max/14");
@@ -330,7 +343,7 @@ static void test_frame_footprints(void **state) {
         } else {
             int used = 0;
             for (int k = 0; k < PGI_FOOTPRINT_BINS; k++) used += fs.footprint_hist[k] > 0;
-            assert_true(used >= 5);   /* a spread of sizes, not one */
+            assert_true(used >= 5); /* a spread of sizes, not one */
         }
         assert_true(tu_max_abs(img.rgb, 3 * 32 * 32) > 0.0);
     }
@@ -370,8 +383,7 @@ static void test_bad_settings(void **state) {
     pgi_scene *scene = NULL;
     TU_CHECK_OK(pgi_scene_load("cornell", &scene));
     pgi_image img = {0};
-    pgi_render_desc d = {.estimator = "bvh", .photons = 100, .width = 8, .height = 8,
-                         .radius_policy = PGI_RADIUS_PATH};
+    pgi_render_desc d = {.estimator = "bvh", .photons = 100, .width = 8, .height = 8, .radius_policy = PGI_RADIUS_PATH};
     d.r_min = 0.2f, d.r_max = 0.1f;
     assert_int_equal(pgi_render(scene, &d, &img, NULL), PGI_ERR_INVALID_ARG);
     assert_non_null(strstr(pgi_last_error(), "r_min"));

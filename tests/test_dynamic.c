@@ -24,22 +24,22 @@ static pgi_status load_json(const char *name, const char *json, pgi_scene **s) {
     return pgi_scene_load(path, s);
 }
 
-#define BALL_MOVING                                                                                   \
-    "{\"builtin\": \"cornell\", \"objects\": [{\"name\": \"ball\", \"shape\": \"sphere\","          \
-    " \"center\": [-0.4, 0.3, 0.3], \"radius\": 0.25, \"material\": {\"kd\": [0.9, 0.9, 0.9]},"    \
+#define BALL_MOVING                                                                                                    \
+    "{\"builtin\": \"cornell\", \"objects\": [{\"name\": \"ball\", \"shape\": \"sphere\","                             \
+    " \"center\": [-0.4, 0.3, 0.3], \"radius\": 0.25, \"material\": {\"kd\": [0.9, 0.9, 0.9]},"                        \
     " \"motion\": {\"keyframes\": [{\"t\": 0}, {\"t\": 2, \"translate\": [0.8, 0.5, 0]}]}}]}"
 /* The same object held by a one-keyframe motion at the pose of t = 1 ... */
-#define BALL_HELD                                                                                     \
-    "{\"builtin\": \"cornell\", \"objects\": [{\"name\": \"ball\", \"shape\": \"sphere\","          \
-    " \"center\": [-0.4, 0.3, 0.3], \"radius\": 0.25, \"material\": {\"kd\": [0.9, 0.9, 0.9]},"    \
+#define BALL_HELD                                                                                                      \
+    "{\"builtin\": \"cornell\", \"objects\": [{\"name\": \"ball\", \"shape\": \"sphere\","                             \
+    " \"center\": [-0.4, 0.3, 0.3], \"radius\": 0.25, \"material\": {\"kd\": [0.9, 0.9, 0.9]},"                        \
     " \"motion\": {\"keyframes\": [{\"t\": 0, \"translate\": [0.4, 0.25, 0]}]}}]}"
 /* ... and a static sphere built at that place. */
-#define BALL_STATIC                                                                                   \
-    "{\"builtin\": \"cornell\", \"objects\": [{\"name\": \"ball\", \"shape\": \"sphere\","          \
+#define BALL_STATIC                                                                                                    \
+    "{\"builtin\": \"cornell\", \"objects\": [{\"name\": \"ball\", \"shape\": \"sphere\","                             \
     " \"center\": [0.0, 0.55, 0.3], \"radius\": 0.25, \"material\": {\"kd\": [0.9, 0.9, 0.9]}}]}"
 
-static const pgi_render_desc k_desc = {.estimator = "hashgrid", .photons = 20000, .width = 48,
-                                       .height = 48, .direct_samples = 4, .seed = 5};
+static const pgi_render_desc k_desc =
+    {.estimator = "hashgrid", .photons = 20000, .width = 48, .height = 48, .direct_samples = 4, .seed = 5};
 #define NF (3 * 48 * 48)
 
 /* A frame at time t equals a static render with the object placed at t. */
@@ -96,7 +96,9 @@ static void test_motion_modes(void **state) {
     static const char *const loops[3] = {"clamp", "repeat", "pingpong"};
     /* translate x: 0 at t=1, 10 at t=3 */
     static const double t[5] = {0.0, 2.0, 3.5, 4.0, 6.0};
-    static const double want[3][5] = {{0, 5, 10, 10, 10}, {5, 5, 2.5, 5, 5}, {5, 5, 7.5, 5, 5}};   /* periodic modes also before t0 */
+    static const double want[3][5] = {{0, 5, 10, 10, 10},
+                                      {5, 5, 2.5, 5, 5},
+                                      {5, 5, 7.5, 5, 5}}; /* periodic modes also before t0 */
     for (int l = 0; l < 3; l++) {
         char json[1024];
         snprintf(json, sizeof json,
@@ -111,17 +113,19 @@ static void test_motion_modes(void **state) {
             pgi_scene_info in;
             pgi_scene_get_info(s, &in);
             double got = in.bounds_max[0] - 101.0;
-            if (fabs(got - want[l][k]) > 1e-4) fail_msg("%s at t=%g: x offset %g, expected %g", loops[l], t[k], got, want[l][k]);
+            if (fabs(got - want[l][k]) > 1e-4)
+                fail_msg("%s at t=%g: x offset %g, expected %g", loops[l], t[k], got, want[l][k]);
         }
         pgi_scene_destroy(s);
     }
     /* Rotation by 90 degrees about z and scale 2: a 2x4x2 box becomes 8 wide in x. */
     pgi_scene *s;
-    TU_CHECK_OK(load_json("rot",
-                          "{\"builtin\": \"sphere-and-plane\", \"objects\": [{\"shape\": \"box\", \"center\": [100, 5, 0],"
-                          " \"size\": [2, 4, 2], \"motion\": {\"keyframes\": [{\"t\": 0},"
-                          " {\"t\": 1, \"rotate\": [0, 0, 90], \"scale\": 2}]}}]}",
-                          &s));
+    TU_CHECK_OK(
+        load_json("rot",
+                  "{\"builtin\": \"sphere-and-plane\", \"objects\": [{\"shape\": \"box\", \"center\": [100, 5, 0],"
+                  " \"size\": [2, 4, 2], \"motion\": {\"keyframes\": [{\"t\": 0},"
+                  " {\"t\": 1, \"rotate\": [0, 0, 90], \"scale\": 2}]}}]}",
+                  &s));
     TU_CHECK_OK(pgi_scene_set_time(s, 1.0));
     pgi_scene_info in;
     pgi_scene_get_info(s, &in);
@@ -151,10 +155,10 @@ static void test_light_groups(void **state) {
     TU_CHECK_OK(pgi_scene_set_light_position(s, 0, p));
     TU_CHECK_OK(pgi_scene_get_light_group(s, 0, &g));
     for (int k = 0; k < 3; k++) assert_float_equal(g.position[k], p[k], 1e-5f);
-    TU_CHECK_OK(pgi_renderer_render(r, &k_desc, &a, NULL));   /* BVH updated inside */
+    TU_CHECK_OK(pgi_renderer_render(r, &k_desc, &a, NULL)); /* BVH updated inside */
     TU_CHECK_OK(pgi_scene_load("cornell", &s2));
     TU_CHECK_OK(pgi_scene_set_light_position(s2, 0, p));
-    TU_CHECK_OK(pgi_render(s2, &k_desc, &b, NULL));            /* fresh BVH */
+    TU_CHECK_OK(pgi_render(s2, &k_desc, &b, NULL)); /* fresh BVH */
     assert_memory_equal(a.rgb, b.rgb, NF * sizeof(float));
     float bad[3] = {NAN, 0.f, 0.f};
     assert_int_equal(pgi_scene_set_light_position(s, 0, bad), PGI_ERR_INVALID_ARG);
@@ -165,8 +169,9 @@ static void test_light_groups(void **state) {
     pgi_scene_destroy(s);
 
     /* Point and sun lights. */
-    TU_CHECK_OK(load_json("sun", "{\"builtin\": \"sphere-and-plane\", \"lights\": [{\"type\": \"sun\","
-                                 " \"direction\": [0, -1, 0], \"irradiance\": [1, 1, 1]}]}",
+    TU_CHECK_OK(load_json("sun",
+                          "{\"builtin\": \"sphere-and-plane\", \"lights\": [{\"type\": \"sun\","
+                          " \"direction\": [0, -1, 0], \"irradiance\": [1, 1, 1]}]}",
                           &s));
     assert_int_equal(pgi_scene_light_group_count(s), 2);
     TU_CHECK_OK(pgi_scene_get_light_group(s, 0, &g));
@@ -259,8 +264,9 @@ static void test_format_errors(void **state) {
     expect_parse_error("{\"builtin\": \"cornell\", \"animate\": [{\"material\": \"white\"}]}", "motion is missing");
     /* A mesh material can be animated (the built-in's "light" quad here). */
     pgi_scene *s;
-    TU_CHECK_OK(load_json("anim-mat", "{\"builtin\": \"cornell\", \"animate\": [{\"material\": \"light\", \"motion\":"
-                                      " {\"keyframes\": [{\"t\": 0}, {\"t\": 1, \"translate\": [0.3, 0, 0]}]}}]}",
+    TU_CHECK_OK(load_json("anim-mat",
+                          "{\"builtin\": \"cornell\", \"animate\": [{\"material\": \"light\", \"motion\":"
+                          " {\"keyframes\": [{\"t\": 0}, {\"t\": 1, \"translate\": [0.3, 0, 0]}]}}]}",
                           &s));
     pgi_light_group g0, g1;
     TU_CHECK_OK(pgi_scene_get_light_group(s, 0, &g0));

@@ -12,7 +12,6 @@
 static const tu_view_setup *g_view = &k_outside;
 
 
-
 /* Compares every exact estimator with brute on (ph, vs, cam). */
 static void compare_all(const pgi_photons *ph, const pgi_view_samples *vs, const pgi_camera *cam, float radius,
                         float cell_size, const char *label) {
@@ -24,14 +23,14 @@ static void compare_all(const pgi_photons *ph, const pgi_view_samples *vs, const
     pgi_estimator_stats rs, gs;
     TU_CHECK_OK(tu_run_estimator("brute", &d, ph, vs, cam, ref, &rs));
     int compared = 0;
-    const int tiles[] = {1, 7, 32, 64};   /* 64: one tile larger than the image */
+    const int tiles[] = {1, 7, 32, 64}; /* 64: one tile larger than the image */
     for (size_t e = 0; e < pgi_estimator_count(); e++) {
         const pgi_estimator_vtbl *vt = pgi_estimator_at(e);
         assert_non_null(vt);
         if (!vt->exact || strcmp(vt->name, "brute") == 0) continue;
         for (size_t t = 0; t < sizeof tiles / sizeof tiles[0]; t++) {
             d.d.tiled.tile_size = tiles[t];
-            for (size_t i = 0; i < nf; i++) got[i] = NAN;   /* every value must be written */
+            for (size_t i = 0; i < nf; i++) got[i] = NAN; /* every value must be written */
             TU_CHECK_OK(tu_run_estimator(vt->name, &d, ph, vs, cam, got, &gs));
             char what[160];
             snprintf(what, sizeof what, "%s vs brute, %s, r=%g, tile %d, cell %g", vt->name, label, (double)radius,
@@ -70,8 +69,7 @@ static void run_random(float secondary, const char *label, uint64_t seed) {
         /* The reference must see something, or the comparison proves little. */
         float *ref = malloc(3 * vs.count * sizeof *ref);
         pgi_estimator_stats st;
-        TU_CHECK_OK(tu_run_estimator("brute", &(tu_est){.radius = k_cases[c].radius}, &ph, &vs, &cam,
-                                     ref, &st));
+        TU_CHECK_OK(tu_run_estimator("brute", &(tu_est){.radius = k_cases[c].radius}, &ph, &vs, &cam, ref, &st));
         assert_true(st.contributing > 0);
         assert_true(tu_max_abs(ref, 3 * vs.count) > 0.0);
         free(ref);
@@ -147,8 +145,7 @@ static void test_zero_photons(void **state) {
 /* Bad estimator arguments are refused, not crashed on. */
 static void test_create_errors(void **state) {
     pgi_estimator *e = (pgi_estimator *)1;
-    assert_int_equal(tu_create("no-such-estimator", &(tu_est){.radius = 0.1f}, &e),
-                     PGI_ERR_INVALID_ARG);
+    assert_int_equal(tu_create("no-such-estimator", &(tu_est){.radius = 0.1f}, &e), PGI_ERR_INVALID_ARG);
     assert_null(e);
     assert_non_null(strstr(pgi_last_error(), "no-such-estimator"));
     assert_null(pgi_estimator_find("no-such-estimator"));
@@ -156,9 +153,8 @@ static void test_create_errors(void **state) {
     for (size_t e2 = 0; e2 < pgi_estimator_count(); e2++)
         for (size_t k = 0; k < sizeof bad / sizeof bad[0]; k++) {
             pgi_estimator *x = NULL;
-            assert_int_equal(
-                tu_create(pgi_estimator_at(e2)->name, &(tu_est){.radius = bad[k]}, &x),
-                PGI_ERR_INVALID_ARG);
+            assert_int_equal(tu_create(pgi_estimator_at(e2)->name, &(tu_est){.radius = bad[k]}, &x),
+                             PGI_ERR_INVALID_ARG);
             assert_null(x);
         }
     assert_non_null(pgi_estimator_find("brute"));
@@ -183,7 +179,7 @@ static void test_sibenik_pipeline(void **state) {
                 mesh);
         skip();
     }
-    pipeline_compare("sibenik", 80, 45, 10000, 0.f);   /* the scene's default radius */
+    pipeline_compare("sibenik", 80, 45, 10000, 0.f); /* the scene's default radius */
 }
 
 /* A room with a mirror back wall, a glass block, a Blinn-Phong floor and an
@@ -194,30 +190,28 @@ static void test_mirror_glass_pipeline(void **state) {
     char dir[512], path[700];
     tu_make_tmpdir(dir, sizeof dir);
     snprintf(path, sizeof path, "%s/room.mtl", dir);
-    assert_int_equal(tu_write_file(path,
-                                   "newmtl white\nKd 0.7 0.7 0.7\nillum 1\n"
-                                   "newmtl red\nKd 0.7 0.1 0.1\nillum 1\n"
-                                   "newmtl floor\nKd 0.5 0.5 0.4\nKs 0.3 0.3 0.3\nNs 30\nillum 2\n"
-                                   "newmtl mirror\nKd 0 0 0\nKs 0.9 0.9 0.9\nillum 3\n"
-                                   "newmtl glass\nKd 0 0 0\nKs 1 1 1\nNi 1.5\nillum 7\n"
-                                   "newmtl lamp\nKd 0.8 0.8 0.8\nKe 20 20 20\nillum 1\n"),
+    assert_int_equal(tu_write_file(path, "newmtl white\nKd 0.7 0.7 0.7\nillum 1\n"
+                                         "newmtl red\nKd 0.7 0.1 0.1\nillum 1\n"
+                                         "newmtl floor\nKd 0.5 0.5 0.4\nKs 0.3 0.3 0.3\nNs 30\nillum 2\n"
+                                         "newmtl mirror\nKd 0 0 0\nKs 0.9 0.9 0.9\nillum 3\n"
+                                         "newmtl glass\nKd 0 0 0\nKs 1 1 1\nNi 1.5\nillum 7\n"
+                                         "newmtl lamp\nKd 0.8 0.8 0.8\nKe 20 20 20\nillum 1\n"),
                      0);
     snprintf(path, sizeof path, "%s/room.obj", dir);
     assert_int_equal(
-        tu_write_file(path,
-                      "mtllib room.mtl\n"
-                      "v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\n"          /* 1-4 floor */
-                      "v -1 2 -1\nv 1 2 -1\nv 1 2 1\nv -1 2 1\n"          /* 5-8 ceiling */
-                      "v -0.3 1.98 -0.3\nv 0.3 1.98 -0.3\nv 0.3 1.98 0.3\nv -0.3 1.98 0.3\n" /* 9-12 lamp */
-                      "v 0.1 0 0.1\nv 0.6 0 0.1\nv 0.6 0 0.6\nv 0.1 0 0.6\n"  /* 13-16 glass bottom */
-                      "v 0.1 0.6 0.1\nv 0.6 0.6 0.1\nv 0.6 0.6 0.6\nv 0.1 0.6 0.6\n" /* 17-20 glass top */
-                      "usemtl floor\nf 1 4 3 2\n"
-                      "usemtl white\nf 5 6 7 8\nf 2 3 7 6\n"
-                      "usemtl red\nf 1 5 8 4\n"
-                      "usemtl mirror\nf 1 2 6 5\n"
-                      "usemtl lamp\nf 9 10 11 12\n"
-                      "usemtl glass\nf 13 14 15 16\nf 17 20 19 18\nf 13 17 18 14\nf 14 18 19 15\n"
-                      "f 15 19 20 16\nf 16 20 17 13\n"),
+        tu_write_file(path, "mtllib room.mtl\n"
+                            "v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\n"                             /* 1-4 floor */
+                            "v -1 2 -1\nv 1 2 -1\nv 1 2 1\nv -1 2 1\n"                             /* 5-8 ceiling */
+                            "v -0.3 1.98 -0.3\nv 0.3 1.98 -0.3\nv 0.3 1.98 0.3\nv -0.3 1.98 0.3\n" /* 9-12 lamp */
+                            "v 0.1 0 0.1\nv 0.6 0 0.1\nv 0.6 0 0.6\nv 0.1 0 0.6\n"         /* 13-16 glass bottom */
+                            "v 0.1 0.6 0.1\nv 0.6 0.6 0.1\nv 0.6 0.6 0.6\nv 0.1 0.6 0.6\n" /* 17-20 glass top */
+                            "usemtl floor\nf 1 4 3 2\n"
+                            "usemtl white\nf 5 6 7 8\nf 2 3 7 6\n"
+                            "usemtl red\nf 1 5 8 4\n"
+                            "usemtl mirror\nf 1 2 6 5\n"
+                            "usemtl lamp\nf 9 10 11 12\n"
+                            "usemtl glass\nf 13 14 15 16\nf 17 20 19 18\nf 13 17 18 14\nf 14 18 19 15\n"
+                            "f 15 19 20 16\nf 16 20 17 13\n"),
         0);
     char json[1600], jpath[700];
     snprintf(json, sizeof json,
@@ -260,14 +254,10 @@ static void test_mirror_glass_pipeline(void **state) {
 
 int main(void) {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_create_errors),
-        cmocka_unit_test(test_zero_photons),
-        cmocka_unit_test(test_random_primary),
-        cmocka_unit_test(test_random_with_mirror_samples),
-        cmocka_unit_test(test_eye_inside_photons),
-        cmocka_unit_test(test_hashgrid_cell_sizes),
-        cmocka_unit_test(test_cornell_pipeline),
-        cmocka_unit_test(test_mirror_glass_pipeline),
+        cmocka_unit_test(test_create_errors),      cmocka_unit_test(test_zero_photons),
+        cmocka_unit_test(test_random_primary),     cmocka_unit_test(test_random_with_mirror_samples),
+        cmocka_unit_test(test_eye_inside_photons), cmocka_unit_test(test_hashgrid_cell_sizes),
+        cmocka_unit_test(test_cornell_pipeline),   cmocka_unit_test(test_mirror_glass_pipeline),
         cmocka_unit_test(test_sibenik_pipeline),
     };
     return cmocka_run_group_tests_name("estimators", tests, NULL, NULL);

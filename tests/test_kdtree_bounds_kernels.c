@@ -23,7 +23,7 @@
 static float *fbuf(size_t n) {
     float *p = malloc(n * sizeof *p);
     assert_non_null(p);
-    for (size_t i = 0; i < n; i++) p[i] = NAN;   /* every value must be written */
+    for (size_t i = 0; i < n; i++) p[i] = NAN; /* every value must be written */
     return p;
 }
 
@@ -44,8 +44,8 @@ static const float *brute_ref(const pgi_photons *ph, const pgi_view_samples *vs,
         free(g_ref.ref);
         g_ref.ref = fbuf(3 * vs->count);
         g_ref.ph = ph, g_ref.vs = vs, g_ref.radius = radius, g_ref.kernel = kernel;
-        TU_CHECK_OK(tu_run_estimator("brute", &(tu_est){.radius = radius, .d.kernel = kernel}, ph, vs, cam,
-                                     g_ref.ref, &g_ref.st));
+        TU_CHECK_OK(tu_run_estimator("brute", &(tu_est){.radius = radius, .d.kernel = kernel}, ph, vs, cam, g_ref.ref,
+                                     &g_ref.st));
     }
     *st = g_ref.st;
     return g_ref.ref;
@@ -56,16 +56,16 @@ static void brute_ref_forget(void) {
 }
 
 /* name with desc vs brute with the same radius and kernel. */
-static void expect_equal_brute(const char *name, const tu_est *d, const pgi_photons *ph,
-                               const pgi_view_samples *vs, const pgi_camera *cam, const char *label) {
+static void expect_equal_brute(const char *name, const tu_est *d, const pgi_photons *ph, const pgi_view_samples *vs,
+                               const pgi_camera *cam, const char *label) {
     size_t nf = 3 * vs->count;
     float *got = fbuf(nf);
     pgi_estimator_stats rs, gs;
     const float *ref = brute_ref(ph, vs, cam, d->radius, d->d.kernel, &rs);
     TU_CHECK_OK(tu_run_estimator(name, d, ph, vs, cam, got, &gs));
     char what[200];
-    snprintf(what, sizeof what, "%s vs brute, %s, r=%g, kernel %d, tile %d, polygon %d", name, label,
-             (double)d->radius, (int)d->d.kernel, d->d.tiled.tile_size, d->d.bounds.polygon);
+    snprintf(what, sizeof what, "%s vs brute, %s, r=%g, kernel %d, tile %d, polygon %d", name, label, (double)d->radius,
+             (int)d->d.kernel, d->d.tiled.tile_size, d->d.bounds.polygon);
     size_t bad = tu_compare(got, ref, nf, 1e-4, what);
     if (gs.contributing != rs.contributing)
         fprintf(stderr, "  %s: contributing %llu, brute %llu\n", what, (unsigned long long)gs.contributing,
@@ -98,8 +98,8 @@ static void run_case(const tu_view_setup *g, float secondary, uint64_t seed, con
                                label);
             const int polys[] = {4, 6, 8, 32};
             expect_equal_brute("bounds25d",
-                               &(tu_est){.radius = r, .d.tiled.tile_size = tiles[t], .d.bounds.polygon = polys[t]},
-                               &ph, &vs, &cam, label);
+                               &(tu_est){.radius = r, .d.tiled.tile_size = tiles[t], .d.bounds.polygon = polys[t]}, &ph,
+                               &vs, &cam, label);
         }
         /* kernels: every kernel-capable method vs brute with the same kernel */
         for (int k = PGI_KERNEL_CONE; k < PGI_KERNEL_COUNT_; k++) {
@@ -133,7 +133,7 @@ static void test_exact_near_plane(void **state) {
     pgi_photons ph;
     tu_make_photons(&ph, 4000, 26);
     tu_rng r = tu_rng_make(27);
-    for (size_t j = 0; j < ph.count; j++) {   /* within 0.1 of the eye plane z = 0.2 */
+    for (size_t j = 0; j < ph.count; j++) { /* within 0.1 of the eye plane z = 0.2 */
         ph.pz[j] = 0.2f + tu_range(&r, -0.1f, 0.1f);
     }
     const float radii[] = {0.05f, 0.12f, 0.4f};
@@ -172,7 +172,8 @@ static void test_thread_independent(void **state) {
             TU_CHECK_OK(tu_run_estimator(names[e], &d, &ph, &vs, &cam, a, NULL));
             d.threads = 3;
             TU_CHECK_OK(tu_run_estimator(names[e], &d, &ph, &vs, &cam, b, NULL));
-            if (memcmp(a, b, nf * sizeof *a) != 0) fail_msg("%s subsample %d: depends on the thread count", names[e], sub);
+            if (memcmp(a, b, nf * sizeof *a) != 0)
+                fail_msg("%s subsample %d: depends on the thread count", names[e], sub);
             free(a);
             free(b);
         }
@@ -213,7 +214,7 @@ static void brute_knn(const pgi_photons *ph, const pgi_view_samples *vs, float r
         qsort(c, m, sizeof *c, knn_cmp);
         size_t take = m < (size_t)k ? m : (size_t)k;
         float r2 = m >= (size_t)k ? c[k - 1].d2 : rmax * rmax;
-        if (!(r2 > 0.f)) r2 = fmaxf(1e-12f * rmax * rmax, FLT_MIN);   /* documented: k photons at the sample */
+        if (!(r2 > 0.f)) r2 = fmaxf(1e-12f * rmax * rmax, FLT_MIN); /* documented: k photons at the sample */
         pgi__acc acc = {0};
         for (size_t q = 0; q < take; q++) {
             uint32_t j = c[q].j;
@@ -290,7 +291,7 @@ static void test_kernel_normalisation(void **state) {
 static void make_plane(pgi_photons *ph, size_t n, uint64_t seed, float flux_total) {
     TU_CHECK_OK(pgi_photons_alloc(ph, n));
     tu_rng r = tu_rng_make(seed);
-    for (size_t j = 0; j < n; j++) {   /* stratified jitter: low-noise uniform density on [-1,1]^2 */
+    for (size_t j = 0; j < n; j++) { /* stratified jitter: low-noise uniform density on [-1,1]^2 */
         size_t g = (size_t)sqrt((double)n), gx = j % g, gy = j / g;
         ph->px[j] = -1.f + 2.f * ((float)gx + tu_unif(&r)) / (float)g;
         ph->pz[j] = -1.f + 2.f * ((float)(gy % g) + tu_unif(&r)) / (float)g;
@@ -323,15 +324,15 @@ static void make_plane_samples(pgi_view_samples *vs, pgi_camera *cam, int w, int
 
 static void test_kernels_uniform_plane(void **state) {
     pgi_photons ph;
-    make_plane(&ph, 160000, 41, 4.f);   /* 1 W per unit area */
+    make_plane(&ph, 160000, 41, 4.f); /* 1 W per unit area */
     pgi_view_samples vs;
     pgi_camera cam;
     make_plane_samples(&vs, &cam, 24, 24);
     float *out = fbuf(3 * vs.count);
-    const double expect = 0.5 / PGI_PI * 1.0;   /* kd/pi * E */
+    const double expect = 0.5 / PGI_PI * 1.0; /* kd/pi * E */
     for (int k = 0; k < PGI_KERNEL_COUNT_; k++) {
-        TU_CHECK_OK(tu_run_estimator("kdtree", &(tu_est){.radius = 0.1f, .d.kernel = (pgi_kernel)k}, &ph,
-                                     &vs, &cam, out, NULL));
+        TU_CHECK_OK(tu_run_estimator("kdtree", &(tu_est){.radius = 0.1f, .d.kernel = (pgi_kernel)k}, &ph, &vs, &cam,
+                                     out, NULL));
         double mean = 0.0;
         for (size_t i = 0; i < vs.count; i++) mean += out[3 * i];
         mean /= (double)vs.count;
@@ -391,7 +392,7 @@ static void test_subsample_unbiased(void **state) {
     const char *names[] = {"hashgrid", "tiled", "kdtree"};
     const int seeds = 48;
     for (int e = 0; e < 3; e++) {
-        const float r = 0.12f;   /* about 450 photons in a disk */
+        const float r = 0.12f; /* about 450 photons in a disk */
         TU_CHECK_OK(tu_run_estimator(names[e], &(tu_est){.radius = r}, &ph, &vs, &cam, full, NULL));
         memset(mean, 0, nf * sizeof *mean);
         for (int s = 0; s < seeds; s++) {
@@ -459,19 +460,14 @@ static void test_filter(void **state) {
 
 static void test_errors(void **state) {
     pgi_estimator *e = NULL;
-    assert_int_equal(tu_create("kdtree", &(tu_est){.radius = 0.1f, .d.kdtree.knn = -1}, &e),
-                     PGI_ERR_INVALID_ARG);
-    assert_int_equal(tu_create("tiled", &(tu_est){.radius = 0.1f, .d.kdtree.knn = 4}, &e),
-                     PGI_ERR_INVALID_ARG);
+    assert_int_equal(tu_create("kdtree", &(tu_est){.radius = 0.1f, .d.kdtree.knn = -1}, &e), PGI_ERR_INVALID_ARG);
+    assert_int_equal(tu_create("tiled", &(tu_est){.radius = 0.1f, .d.kdtree.knn = 4}, &e), PGI_ERR_INVALID_ARG);
     assert_non_null(strstr(pgi_last_error(), "kdtree"));
     assert_int_equal(tu_create("kdtree", &(tu_est){.radius = 0.1f, .d.kdtree.knn = 4, .d.subsample = 2}, &e),
                      PGI_ERR_INVALID_ARG);
-    assert_int_equal(tu_create("bounds25d", &(tu_est){.radius = 0.1f, .d.bounds.polygon = 5}, &e),
-                     PGI_ERR_INVALID_ARG);
-    assert_int_equal(tu_create("bounds3d", &(tu_est){.radius = 0.1f, .d.subsample = 2}, &e),
-                     PGI_ERR_INVALID_ARG);
-    assert_int_equal(tu_create("kdtree", &(tu_est){.radius = 0.1f, .d.kernel = 7}, &e),
-                     PGI_ERR_INVALID_ARG);
+    assert_int_equal(tu_create("bounds25d", &(tu_est){.radius = 0.1f, .d.bounds.polygon = 5}, &e), PGI_ERR_INVALID_ARG);
+    assert_int_equal(tu_create("bounds3d", &(tu_est){.radius = 0.1f, .d.subsample = 2}, &e), PGI_ERR_INVALID_ARG);
+    assert_int_equal(tu_create("kdtree", &(tu_est){.radius = 0.1f, .d.kernel = 7}, &e), PGI_ERR_INVALID_ARG);
     assert_null(e);
     /* the render description is validated too */
     pgi_scene *scene = NULL;
@@ -501,13 +497,15 @@ static void test_bounds_wasted_tests(void **state) {
     float *out = fbuf(3 * vs.count);
     pgi_estimator_stats s3, s4, s8, s32;
     TU_CHECK_OK(tu_run_estimator("bounds3d", &(tu_est){.radius = 0.1f}, &ph, &vs, &cam, out, &s3));
-    TU_CHECK_OK(tu_run_estimator("bounds25d", &(tu_est){.radius = 0.1f, .d.bounds.polygon = 4}, &ph, &vs,
-                                 &cam, out, &s4));
-    TU_CHECK_OK(tu_run_estimator("bounds25d", &(tu_est){.radius = 0.1f, .d.bounds.polygon = 8}, &ph, &vs,
-                                 &cam, out, &s8));
-    TU_CHECK_OK(tu_run_estimator("bounds25d", &(tu_est){.radius = 0.1f, .d.bounds.polygon = 32}, &ph, &vs,
-                                 &cam, out, &s32));
-    fprintf(stderr, "  tests (covered): 3D %llu (%llu), 2.5D/4 %llu (%llu), /8 %llu (%llu), /32 %llu (%llu); contributing %llu\n",
+    TU_CHECK_OK(
+        tu_run_estimator("bounds25d", &(tu_est){.radius = 0.1f, .d.bounds.polygon = 4}, &ph, &vs, &cam, out, &s4));
+    TU_CHECK_OK(
+        tu_run_estimator("bounds25d", &(tu_est){.radius = 0.1f, .d.bounds.polygon = 8}, &ph, &vs, &cam, out, &s8));
+    TU_CHECK_OK(
+        tu_run_estimator("bounds25d", &(tu_est){.radius = 0.1f, .d.bounds.polygon = 32}, &ph, &vs, &cam, out, &s32));
+    fprintf(stderr,
+            "  tests (covered): 3D %llu (%llu), 2.5D/4 %llu (%llu), /8 %llu (%llu), /32 %llu (%llu); contributing "
+            "%llu\n",
             (unsigned long long)s3.reads, (unsigned long long)s3.nodes_visited, (unsigned long long)s4.reads,
             (unsigned long long)s4.nodes_visited, (unsigned long long)s8.reads, (unsigned long long)s8.nodes_visited,
             (unsigned long long)s32.reads, (unsigned long long)s32.nodes_visited, (unsigned long long)s3.contributing);
@@ -533,8 +531,13 @@ static void pipeline_compare(const char *scene_name, int w, int h, uint32_t phot
     pgi_frame_stats fs[4];
     for (int kern = 0; kern < 2; kern++) {
         for (int k = 0; k < 4; k++) {
-            pgi_render_desc d = {.estimator = names[k], .photons = photons, .width = w,
-                                 .height = h, .output = PGI_OUTPUT_INDIRECT, .seed = 5, .est.kernel = kern * 2};
+            pgi_render_desc d = {.estimator = names[k],
+                                 .photons = photons,
+                                 .width = w,
+                                 .height = h,
+                                 .output = PGI_OUTPUT_INDIRECT,
+                                 .seed = 5,
+                                 .est.kernel = kern * 2};
             if (radius > 0.f) d.radius = radius;
             TU_CHECK_OK(pgi_renderer_render(r, &d, &img[k], &fs[k]));
         }
@@ -583,7 +586,8 @@ static void test_mirror_pipeline(void **state) {
                      0);
     char json[1400], jpath[700];
     snprintf(json, sizeof json,
-             "{\"mesh\": \"%s\", \"camera\": {\"eye\": [-0.3, 1.1, 3.2], \"look_at\": [0.1, 0.8, -1], \"fov_y\": 50}}\n",
+             "{\"mesh\": \"%s\", \"camera\": {\"eye\": [-0.3, 1.1, 3.2], \"look_at\": [0.1, 0.8, -1], \"fov_y\": "
+             "50}}\n",
              path);
     snprintf(jpath, sizeof jpath, "%s/room.json", dir);
     assert_int_equal(tu_write_file(jpath, json), 0);

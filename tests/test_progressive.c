@@ -28,8 +28,8 @@ static pgi_status progressive(const pgi_scene *s, const pgi_render_desc *d, int 
 static void test_first_frame_is_plain_render(void **state) {
     (void)state;
     pgi_scene *s = load("cornell");
-    pgi_render_desc d = {.estimator = "hashgrid", .photons = 5000, .width = 40, .height = 32,
-                         .direct_samples = 2, .seed = 7};
+    pgi_render_desc d =
+        {.estimator = "hashgrid", .photons = 5000, .width = 40, .height = 32, .direct_samples = 2, .seed = 7};
     pgi_image a = {0}, b = {0}, c = {0};
     TU_CHECK_OK(pgi_render(s, &d, &a, NULL));
     TU_CHECK_OK(progressive(s, &d, 1, &b, NULL));
@@ -66,8 +66,8 @@ static void test_radius_sequence(void **state) {
     assert_true(r2 / 0.09 < 0.4 && r2 / 0.09 > 0.1);
     /* The stats report the radius of the last frame. */
     pgi_scene *s = load("cornell");
-    pgi_render_desc d = {.estimator = "hashgrid", .photons = 2000, .width = 16, .height = 16,
-                         .direct_samples = 1, .radius = 0.1f};
+    pgi_render_desc d =
+        {.estimator = "hashgrid", .photons = 2000, .width = 16, .height = 16, .direct_samples = 1, .radius = 0.1f};
     pgi_image img = {0};
     pgi_frame_stats fs;
     TU_CHECK_OK(progressive(s, &d, 5, &img, &fs));
@@ -81,8 +81,8 @@ static void test_radius_sequence(void **state) {
 static void test_progressive_equals_accumulate(void **state) {
     (void)state;
     pgi_scene *s = load("cornell");
-    pgi_render_desc d = {.estimator = "tiled", .photons = 4000, .width = 32, .height = 24,
-                         .direct_samples = 2, .seed = 3};
+    pgi_render_desc d =
+        {.estimator = "tiled", .photons = 4000, .width = 32, .height = 24, .direct_samples = 2, .seed = 3};
     pgi_renderer *r;
     TU_CHECK_OK(pgi_renderer_create(s, &r));
     pgi_progressive *p;
@@ -128,7 +128,7 @@ static void test_accumulation_restarts(void **state) {
     assert_int_equal(fs.frames, 2);
     pgi_camera_def view;
     TU_CHECK_OK(pgi_scene_get_camera(s, 0, &view));
-    d.view = &view;   /* same camera as the scene's but given as a view: a different desc */
+    d.view = &view; /* same camera as the scene's but given as a view: a different desc */
     TU_CHECK_OK(pgi_progressive_step(p, &d, &img, &fs));
     assert_int_equal(fs.frames, 1);
     TU_CHECK_OK(pgi_progressive_step(p, &d, &img, &fs));
@@ -147,7 +147,7 @@ static void test_accumulation_restarts(void **state) {
     d.photons = 3000;
     TU_CHECK_OK(pgi_progressive_step(p, &d, &img, &fs));
     assert_int_equal(fs.frames, 1);
-    d.threads = 1;   /* the thread count does not change the picture */
+    d.threads = 1; /* the thread count does not change the picture */
     TU_CHECK_OK(pgi_progressive_step(p, &d, &img, &fs));
     assert_int_equal(fs.frames, 2);
     pgi_progressive_reset(p);
@@ -163,8 +163,12 @@ static void test_accumulation_restarts(void **state) {
 static void test_every_exact_estimator(void **state) {
     (void)state;
     pgi_scene *s = load("cornell");
-    pgi_render_desc d = {.estimator = "brute", .photons = 3000, .width = 24, .height = 24,
-                         .direct_samples = 1, .output = PGI_OUTPUT_INDIRECT};
+    pgi_render_desc d = {.estimator = "brute",
+                         .photons = 3000,
+                         .width = 24,
+                         .height = 24,
+                         .direct_samples = 1,
+                         .output = PGI_OUTPUT_INDIRECT};
     pgi_image ref = {0};
     TU_CHECK_OK(progressive(s, &d, 3, &ref, NULL));
     assert_true(tu_max_abs(ref.rgb, 3 * 24 * 24) > 0.0);
@@ -175,7 +179,7 @@ static void test_every_exact_estimator(void **state) {
         d.estimator = vt->name;
         pgi_status st = progressive(s, &d, 3, &img, NULL);
         if (!vt->exact) {
-            assert_int_equal(st, PGI_ERR_INVALID_ARG);   /* an approximate estimator's bias never vanishes */
+            assert_int_equal(st, PGI_ERR_INVALID_ARG); /* an approximate estimator's bias never vanishes */
             continue;
         }
         TU_CHECK_OK(st);
@@ -213,8 +217,8 @@ static void test_error_falls(void **state) {
     (void)state;
     pgi_scene *s = load("cornell");
     const int W = 48, H = 48;
-    pgi_render_desc d = {.estimator = "hashgrid", .photons = 10000, .width = W, .height = H,
-                         .direct_samples = 4, .seed = 11};
+    pgi_render_desc d =
+        {.estimator = "hashgrid", .photons = 10000, .width = W, .height = H, .direct_samples = 4, .seed = 11};
     /* Path-traced reference: 48x48 at 1024 samples a pixel (about 1 s). */
     pgi_reference_desc rd = {.width = W, .height = H, .seed = 987654321, .spp = 1024};
     pgi_image ref = {0}, img = {0};
@@ -265,7 +269,7 @@ static void test_estimator_created_once(void **state) {
     TU_CHECK_OK(pgi_renderer_render(r, &d, &img, &fs));
     assert_int_equal(fs.estimators_created, 1);
     assert_int_equal(fs.settings.est.tiled.tile_size, 16);
-    d.est.tiled.tile_size = 0;   /* the default, resolved in the stats */
+    d.est.tiled.tile_size = 0; /* the default, resolved in the stats */
     TU_CHECK_OK(pgi_renderer_render(r, &d, &img, &fs));
     assert_int_equal(fs.settings.est.tiled.tile_size, 32);
     assert_true(fs.settings.photons == 2000 && fs.settings.seed == 1 && fs.settings.bounces == 4);
@@ -276,14 +280,10 @@ static void test_estimator_created_once(void **state) {
 
 int main(void) {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_first_frame_is_plain_render),
-        cmocka_unit_test(test_radius_sequence),
-        cmocka_unit_test(test_progressive_equals_accumulate),
-        cmocka_unit_test(test_accumulation_restarts),
-        cmocka_unit_test(test_estimator_created_once),
-        cmocka_unit_test(test_every_exact_estimator),
-        cmocka_unit_test(test_bad_progressive_requests),
-        cmocka_unit_test(test_error_falls),
+        cmocka_unit_test(test_first_frame_is_plain_render),   cmocka_unit_test(test_radius_sequence),
+        cmocka_unit_test(test_progressive_equals_accumulate), cmocka_unit_test(test_accumulation_restarts),
+        cmocka_unit_test(test_estimator_created_once),        cmocka_unit_test(test_every_exact_estimator),
+        cmocka_unit_test(test_bad_progressive_requests),      cmocka_unit_test(test_error_falls),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

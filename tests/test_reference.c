@@ -38,8 +38,10 @@ static void furnace_pt(int bounces) {
     const double rho = FURNACE_RHO, E0 = FURNACE_I;
     double expect = rho * E0 / PI_D * (1.0 - pow(rho, bounces + 1)) / (1.0 - rho);
     double mean = image_mean(&img), rel = mean / expect - 1.0;
-    fprintf(stderr, "  path-traced furnace B=%d: expected %.5f, got %.5f (%+.3f%%)\n", bounces, expect, mean, 100 * rel);
-    if (fabs(rel) > 0.005) fail_msg("furnace, %d bounces: expected %g, mean %g (%+.3f%%)", bounces, expect, mean, 100 * rel);
+    fprintf(stderr, "  path-traced furnace B=%d: expected %.5f, got %.5f (%+.3f%%)\n", bounces, expect, mean,
+            100 * rel);
+    if (fabs(rel) > 0.005)
+        fail_msg("furnace, %d bounces: expected %g, mean %g (%+.3f%%)", bounces, expect, mean, 100 * rel);
     pgi_image_free(&img);
     pgi_scene_destroy(s);
 }
@@ -84,9 +86,14 @@ static void agreement(const pgi_scene *s, const char *what) {
     pgi_image ref = {0};
     uint64_t spp = 0;
     TU_CHECK_OK(pgi_reference_render(s, &rd, &ref, &spp));
-    pgi_render_desc pd = {.estimator = "hashgrid", .width = CB_W, .height = CB_H, .bounces = 4,
-                          .photons = 2000000, .radius = 0.02f,
-                          .direct_samples = 64, .seed = 7};
+    pgi_render_desc pd = {.estimator = "hashgrid",
+                          .width = CB_W,
+                          .height = CB_H,
+                          .bounces = 4,
+                          .photons = 2000000,
+                          .radius = 0.02f,
+                          .direct_samples = 64,
+                          .seed = 7};
     pgi_image pm = {0};
     TU_CHECK_OK(pgi_render(s, &pd, &pm, NULL));
     const int nb = (CB_W / CB_BLOCK) * (CB_H / CB_BLOCK);
@@ -128,17 +135,21 @@ static const char k_box_mtl[] =
     "newmtl mirror\nKd 0 0 0\nKs 0.9 0.9 0.9\nillum 3\nnewmtl glass\nKd 0 0 0\nKs 1 1 1\nNi 1.5\nillum 7\n";
 
 static void box_quad(char *obj, size_t cap, size_t *len, int *nv, const float q[4][3], const char *m) {
-    for (int k = 0; k < 4; k++) *len += (size_t)snprintf(obj + *len, cap - *len, "v %g %g %g\n", q[k][0], q[k][1], q[k][2]);
-    *len += (size_t)snprintf(obj + *len, cap - *len, "usemtl %s\nf %d %d %d %d\n", m, *nv + 1, *nv + 2, *nv + 3, *nv + 4);
+    for (int k = 0; k < 4; k++)
+        *len += (size_t)snprintf(obj + *len, cap - *len, "v %g %g %g\n", q[k][0], q[k][1], q[k][2]);
+    *len +=
+        (size_t)snprintf(obj + *len, cap - *len, "usemtl %s\nf %d %d %d %d\n", m, *nv + 1, *nv + 2, *nv + 3, *nv + 4);
     *nv += 4;
 }
 
 static void box_cube(char *obj, size_t cap, size_t *len, int *nv, float x0, float y0, float z0, float x1, float y1,
                      float z1, const char *m) {
-    const float f[6][4][3] = {
-        {{x0, y0, z1}, {x1, y0, z1}, {x1, y1, z1}, {x0, y1, z1}}, {{x1, y0, z0}, {x0, y0, z0}, {x0, y1, z0}, {x1, y1, z0}},
-        {{x0, y0, z0}, {x0, y0, z1}, {x0, y1, z1}, {x0, y1, z0}}, {{x1, y0, z1}, {x1, y0, z0}, {x1, y1, z0}, {x1, y1, z1}},
-        {{x0, y1, z1}, {x1, y1, z1}, {x1, y1, z0}, {x0, y1, z0}}, {{x0, y0, z0}, {x1, y0, z0}, {x1, y0, z1}, {x0, y0, z1}}};
+    const float f[6][4][3] = {{{x0, y0, z1}, {x1, y0, z1}, {x1, y1, z1}, {x0, y1, z1}},
+                              {{x1, y0, z0}, {x0, y0, z0}, {x0, y1, z0}, {x1, y1, z0}},
+                              {{x0, y0, z0}, {x0, y0, z1}, {x0, y1, z1}, {x0, y1, z0}},
+                              {{x1, y0, z1}, {x1, y0, z0}, {x1, y1, z0}, {x1, y1, z1}},
+                              {{x0, y1, z1}, {x1, y1, z1}, {x1, y1, z0}, {x0, y1, z0}},
+                              {{x0, y0, z0}, {x1, y0, z0}, {x1, y0, z1}, {x0, y0, z1}}};
     for (int k = 0; k < 6; k++) box_quad(obj, cap, len, nv, f[k], m);
 }
 
@@ -150,10 +161,13 @@ static void test_materials_agreement(void **state) {
     char obj[8192];
     size_t len = (size_t)snprintf(obj, sizeof obj, "mtllib box.mtl\n");
     int nv = 0;
-    const float walls[6][4][3] = {
-        {{-1, 0, -1}, {-1, 0, 1}, {1, 0, 1}, {1, 0, -1}},   {{-1, 2, -1}, {1, 2, -1}, {1, 2, 1}, {-1, 2, 1}},
-        {{-1, 0, -1}, {1, 0, -1}, {1, 2, -1}, {-1, 2, -1}}, {{-1, 0, -1}, {-1, 2, -1}, {-1, 2, 1}, {-1, 0, 1}},
-        {{1, 0, -1}, {1, 0, 1}, {1, 2, 1}, {1, 2, -1}},     {{-0.5f, 1.99f, -0.5f}, {0.5f, 1.99f, -0.5f}, {0.5f, 1.99f, 0.5f}, {-0.5f, 1.99f, 0.5f}}};
+    const float walls[6][4][3] =
+        {{{-1, 0, -1}, {-1, 0, 1}, {1, 0, 1}, {1, 0, -1}},
+         {{-1, 2, -1}, {1, 2, -1}, {1, 2, 1}, {-1, 2, 1}},
+         {{-1, 0, -1}, {1, 0, -1}, {1, 2, -1}, {-1, 2, -1}},
+         {{-1, 0, -1}, {-1, 2, -1}, {-1, 2, 1}, {-1, 0, 1}},
+         {{1, 0, -1}, {1, 0, 1}, {1, 2, 1}, {1, 2, -1}},
+         {{-0.5f, 1.99f, -0.5f}, {0.5f, 1.99f, -0.5f}, {0.5f, 1.99f, 0.5f}, {-0.5f, 1.99f, 0.5f}}};
     const char *wm[6] = {"white", "white", "white", "red", "green", "light"};
     for (int k = 0; k < 6; k++) box_quad(obj, sizeof obj, &len, &nv, walls[k], wm[k]);
     box_cube(obj, sizeof obj, &len, &nv, 0.1f, 0.f, 0.f, 0.6f, 0.6f, 0.5f, "glossy");
@@ -198,7 +212,8 @@ static void test_threads_and_continue(void **state) {
     assert_int_equal(nc, 8);
     for (size_t i = 0; i < 3 * 40 * 30; i++) {
         double diff = fabs((double)c.rgb[i] - (double)a.rgb[i]);
-        if (diff > 1e-5 * fmax(1.0, fabs((double)a.rgb[i]))) fail_msg("continued pixel %zu: %g vs %g", i, c.rgb[i], a.rgb[i]);
+        if (diff > 1e-5 * fmax(1.0, fabs((double)a.rgb[i])))
+            fail_msg("continued pixel %zu: %g vs %g", i, c.rgb[i], a.rgb[i]);
     }
     /* Another seed gives another image. */
     d.seed = 4;
@@ -229,7 +244,7 @@ static void test_bad_input(void **state) {
     assert_int_equal(pgi_reference_render(s, &d, &img, &spp), PGI_ERR_INVALID_ARG);
     assert_non_null(strstr(pgi_last_error(), "camera"));
     d.camera = 0;
-    spp = 5;   /* continuing an empty image */
+    spp = 5; /* continuing an empty image */
     assert_int_equal(pgi_reference_render(s, &d, &img, &spp), PGI_ERR_INVALID_ARG);
     pgi_reference_meta m;
     assert_int_equal(pgi_reference_meta_read("/nonexistent/ref.exr.json", &m), PGI_ERR_IO);

@@ -23,7 +23,7 @@ static const char *put(const char *name, const char *text, char *buf, size_t n) 
 
 /* Loads `path`, expects failure with one of the two codes, and the message to contain `needle`. */
 static void expect_error(const char *path, pgi_status code1, pgi_status code2, const char *needle) {
-    pgi_scene *s = (pgi_scene *)&g_dir;   /* must be reset to NULL */
+    pgi_scene *s = (pgi_scene *)&g_dir; /* must be reset to NULL */
     pgi_status st = pgi_scene_load(path, &s);
     if (st == PGI_OK) {
         pgi_scene_destroy(s);
@@ -115,8 +115,7 @@ static void test_nonfinite_vertex(void **state) {
 static void test_missing_texture(void **state) {
     char p[700], m[700];
     put("tex.mtl", "newmtl lamp\nKd 0.5 0.5 0.5\nKe 1 1 1\nmap_Kd textures/not-there.png\n", m, sizeof m);
-    put("tex.obj",
-        "mtllib tex.mtl\nusemtl lamp\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n", p,
+    put("tex.obj", "mtllib tex.mtl\nusemtl lamp\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n", p,
         sizeof p);
     expect_error(p, PGI_ERR_IO, PGI_ERR_PARSE, "not-there.png");
 }
@@ -146,8 +145,8 @@ static void test_json_errors(void **state) {
     assert_int_equal(in.triangles, 1);
     pgi_scene_destroy(s);
 
-    json_scene("neg.json", mesh_line, "[{\"type\": \"point\", \"position\": [0, 0, 1], \"intensity\": [1, -1, 1]}]",
-               p, sizeof p);
+    json_scene("neg.json", mesh_line, "[{\"type\": \"point\", \"position\": [0, 0, 1], \"intensity\": [1, -1, 1]}]", p,
+               sizeof p);
     expect_error(p, PGI_ERR_PARSE, PGI_ERR_PARSE, "intensity");
     expect_error(p, PGI_ERR_PARSE, PGI_ERR_PARSE, "neg.json");
 
@@ -160,12 +159,12 @@ static void test_json_errors(void **state) {
     json_scene("nomeshkey.json", "", ok_light, p, sizeof p);
     expect_error(p, PGI_ERR_PARSE, PGI_ERR_PARSE, "mesh");
 
-    json_scene("typo.json", mesh_line, "[{\"type\": \"point\", \"positon\": [0, 0, 1], \"intensity\": [1, 1, 1]}]",
-               p, sizeof p);
+    json_scene("typo.json", mesh_line, "[{\"type\": \"point\", \"positon\": [0, 0, 1], \"intensity\": [1, 1, 1]}]", p,
+               sizeof p);
     expect_error(p, PGI_ERR_PARSE, PGI_ERR_PARSE, "positon");
 
-    json_scene("ltype.json", mesh_line, "[{\"type\": \"laser\", \"position\": [0, 0, 1], \"intensity\": [1, 1, 1]}]",
-               p, sizeof p);
+    json_scene("ltype.json", mesh_line, "[{\"type\": \"laser\", \"position\": [0, 0, 1], \"intensity\": [1, 1, 1]}]", p,
+               sizeof p);
     expect_error(p, PGI_ERR_PARSE, PGI_ERR_PARSE, "laser");
 
     json_scene("nolights.json", mesh_line, "[]", p, sizeof p);
@@ -209,10 +208,10 @@ static void test_builtins(void **state) {
 
 int main(void) {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_missing_file),   cmocka_unit_test(test_unknown_name),
-        cmocka_unit_test(test_malformed_obj),  cmocka_unit_test(test_obj_without_lights),
+        cmocka_unit_test(test_missing_file),       cmocka_unit_test(test_unknown_name),
+        cmocka_unit_test(test_malformed_obj),      cmocka_unit_test(test_obj_without_lights),
         cmocka_unit_test(test_emissive_obj_loads), cmocka_unit_test(test_nonfinite_vertex),
-        cmocka_unit_test(test_missing_texture), cmocka_unit_test(test_json_errors),
+        cmocka_unit_test(test_missing_texture),    cmocka_unit_test(test_json_errors),
         cmocka_unit_test(test_builtins),
     };
     return cmocka_run_group_tests_name("scene", tests, setup, teardown);

@@ -12,7 +12,7 @@
 #include "test_util.h"
 
 #define FURNACE_RHO 0.5
-#define FURNACE_I 2.0   /* W/sr; R = 1, so E0 = I / R^2 = 2 W/m^2 */
+#define FURNACE_I 2.0 /* W/sr; R = 1, so E0 = I / R^2 = 2 W/m^2 */
 
 static char tu_furnace_dir[512];
 static char tu_furnace_json[600];

@@ -82,8 +82,8 @@ static inline size_t tu_compare(const float *got, const float *ref, size_t nfloa
         double tol = rel * fmax(fabs(b), floor_);
         if (!isfinite(a) || !(fabs(a - b) <= tol)) {
             if (bad < 5)
-                fprintf(stderr, "  %s: pixel %zu channel %zu: got %.9g, expected %.9g (tolerance %.3g)\n", what,
-                        i / 3, i % 3, a, b, tol);
+                fprintf(stderr, "  %s: pixel %zu channel %zu: got %.9g, expected %.9g (tolerance %.3g)\n", what, i / 3,
+                        i % 3, a, b, tol);
             bad++;
         }
     }
@@ -164,8 +164,14 @@ typedef struct tu_est {
 
 static inline pgi_estimate_args tu_args(const tu_est *t, const pgi_photons *ph, const pgi_view_samples *vs,
                                         const pgi_camera *cam, float *out) {
-    pgi_estimate_args a = {.photons = ph, .samples = vs, .camera = cam, .out_rgb = out, .radius = t->radius,
-                           .seed = t->seed, .threads = t->threads, .scene_area = t->scene_area};
+    pgi_estimate_args a = {.photons = ph,
+                           .samples = vs,
+                           .camera = cam,
+                           .out_rgb = out,
+                           .radius = t->radius,
+                           .seed = t->seed,
+                           .threads = t->threads,
+                           .scene_area = t->scene_area};
     return a;
 }
 
@@ -207,11 +213,10 @@ static inline pgi_status tu_run_estimator(const char *name, const tu_est *t, con
 }
 
 /* Fails the test with the library's message when `expr` is not PGI_OK. */
-#define TU_CHECK_OK(expr)                                                                          \
-    do {                                                                                           \
-        pgi_status tu_st_ = (expr);                                                                \
-        if (tu_st_ != PGI_OK)                                                                      \
-            fail_msg("%s failed: %s (%s)", #expr, pgi_status_string(tu_st_), pgi_last_error());    \
+#define TU_CHECK_OK(expr)                                                                                              \
+    do {                                                                                                               \
+        pgi_status tu_st_ = (expr);                                                                                    \
+        if (tu_st_ != PGI_OK) fail_msg("%s failed: %s (%s)", #expr, pgi_status_string(tu_st_), pgi_last_error());      \
     } while (0)
 
 /* Requires `got` to equal the oracle's `ref` (nf floats, relative 1e-4, see
@@ -241,8 +246,12 @@ static inline void tu_pipeline_vs_brute(const char *scene_name, int w, int h, ui
     pgi_image img[8] = {{0}};
     pgi_frame_stats fs[8];
     for (int k = 0; k < n; k++) {
-        pgi_render_desc d = {.estimator = names[k], .photons = photons, .width = w, .height = h,
-                             .output = PGI_OUTPUT_INDIRECT, .seed = 5};
+        pgi_render_desc d = {.estimator = names[k],
+                             .photons = photons,
+                             .width = w,
+                             .height = h,
+                             .output = PGI_OUTPUT_INDIRECT,
+                             .seed = 5};
         if (radius > 0.f) d.radius = radius;
         TU_CHECK_OK(pgi_renderer_render(r, &d, &img[k], &fs[k]));
         assert_int_equal(img[k].width, w);
@@ -253,7 +262,7 @@ static inline void tu_pipeline_vs_brute(const char *scene_name, int w, int h, ui
     assert_true(fs[0].contributing > 0);
     assert_true(tu_max_abs(img[0].rgb, 3 * (size_t)w * h) > 0.0);
     for (int k = 1; k < n; k++) {
-        char what[1024];   /* scene_name may be a long temporary path */
+        char what[1024]; /* scene_name may be a long temporary path */
         snprintf(what, sizeof what, "%s: %s vs %s", scene_name, names[k], names[0]);
         assert_int_equal(fs[k].photons_stored, fs[0].photons_stored);
         tu_expect_same(what, img[k].rgb, img[0].rgb, 3 * (size_t)w * h, fs[k].contributing, fs[0].contributing);

@@ -54,8 +54,8 @@ static int ref_fail(const char *what, pgi_status st) {
 }
 
 typedef struct {
-    double time_limit_s;   /* --time, 0 if none */
-    double last_ms;        /* last redraw: at most 10 a second */
+    double time_limit_s; /* --time, 0 if none */
+    double last_ms;      /* last redraw: at most 10 a second */
 } progress_state;
 
 static int progress_bar(void *user, uint64_t done, uint64_t total, double elapsed_ms) {
@@ -121,9 +121,11 @@ int pgi_cmd_reference(int argc, char **argv) {
         else if (strcmp(a, "--png") == 0) png = v;
         else if (strcmp(a, "--continue") == 0) cont = v;
         else if (strcmp(a, "--spp") == 0) {
-            if (!parse_long(v, 1, 1LL << 40, &spp)) return ref_usage("--spp needs a positive whole number, got '%s'", v);
+            if (!parse_long(v, 1, 1LL << 40, &spp))
+                return ref_usage("--spp needs a positive whole number, got '%s'", v);
         } else if (strcmp(a, "--time") == 0) {
-            if (!parse_pos_double(v, &time_s)) return ref_usage("--time needs a positive number of seconds, got '%s'", v);
+            if (!parse_pos_double(v, &time_s))
+                return ref_usage("--time needs a positive number of seconds, got '%s'", v);
         } else if (strcmp(a, "--bounces") == 0) {
             if (!parse_long(v, 1, 64, &n)) return ref_usage("--bounces needs a number in 1..64, got '%s'", v);
             d.bounces = (int)n;

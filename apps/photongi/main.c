@@ -67,11 +67,10 @@ static const char *k_render_help =
     "(default ../shared/scenes).\n"
     "\n";
 
-static const char *k_info_help =
-    "usage: photongi info [--scene S]\n"
-    "\n"
-    "Loads a scene (same forms as 'render --scene') and prints its triangles, vertices,\n"
-    "materials, textures, lights, bounds, camera and suggested render settings.\n";
+static const char *k_info_help = "usage: photongi info [--scene S]\n"
+                                 "\n"
+                                 "Loads a scene (same forms as 'render --scene') and prints its triangles, vertices,\n"
+                                 "materials, textures, lights, bounds, camera and suggested render settings.\n";
 
 static const char *k_est_help =
     "usage: photongi estimators [-v]\n"
@@ -222,12 +221,15 @@ static int cmd_render(int argc, char **argv) {
             d.width = w;
             d.height = h;
         } else if (strcmp(a, "--bounces") == 0) {
-            if (!parse_long(v, 1, 64, &n)) return usage_error("render", "--bounces needs a number in 1..64, got '%s'", v);
+            if (!parse_long(v, 1, 64, &n))
+                return usage_error("render", "--bounces needs a number in 1..64, got '%s'", v);
             d.bounces = (int)n;
         } else if (strcmp(a, "--seed") == 0) {
-            if (!parse_u64(v, &d.seed)) return usage_error("render", "--seed needs a non-negative integer, got '%s'", v);
+            if (!parse_u64(v, &d.seed))
+                return usage_error("render", "--seed needs a non-negative integer, got '%s'", v);
         } else if (strcmp(a, "--threads") == 0) {
-            if (!parse_long(v, 1, 1024, &n)) return usage_error("render", "--threads needs a number in 1..1024, got '%s'", v);
+            if (!parse_long(v, 1, 1024, &n))
+                return usage_error("render", "--threads needs a number in 1..1024, got '%s'", v);
             d.threads = (int)n;
         } else if (strcmp(a, "--camera") == 0) {
             if (!parse_long(v, 0, 1000000, &n)) return usage_error("render", "--camera needs an index, got '%s'", v);
@@ -260,15 +262,16 @@ static int cmd_render(int argc, char **argv) {
         } else if (strcmp(a, "--r-min") == 0 || strcmp(a, "--r-max") == 0 || strcmp(a, "--smoothing") == 0) {
             float f;
             if (!parse_float(v, &f) || !(f > 0.f) || !isfinite(f)) {
-                fprintf(stderr, "photongi render: %s needs a positive number, got '%s'\nTry 'photongi render --help'.\n",
-                        a, v);
+                fprintf(stderr,
+                        "photongi render: %s needs a positive number, got '%s'\nTry 'photongi render --help'.\n", a, v);
                 return 2;
             }
             if (a[2] == 's') d.smoothing = f;
             else if (strcmp(a, "--r-min") == 0) d.r_min = f;
             else d.r_max = f;
         } else if (strcmp(a, "--filter") == 0) {
-            if (!parse_long(v, 0, 16, &n)) return usage_error("render", "--filter needs a radius in 0..16 pixels, got '%s'", v);
+            if (!parse_long(v, 0, 16, &n))
+                return usage_error("render", "--filter needs a radius in 0..16 pixels, got '%s'", v);
             d.filter = (int)n;
         } else return usage_error("render", "unknown option '%s'", a);
     }

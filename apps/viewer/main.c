@@ -63,23 +63,23 @@ static const char *k_help =
 typedef struct viewer {
     pgi_scene *scene;
     pgi_renderer *r;
-    pgi_progressive *prog;   /* running average while nothing changes */
+    pgi_progressive *prog; /* running average while nothing changes */
     pgi_scene_info info;
     pgi_render_desc desc;
     pgi_camera_def cam;
-    int cam_moved;           /* 0: still exactly the scene's camera */
+    int cam_moved; /* 0: still exactly the scene's camera */
     float yaw, pitch, diag;
     size_t est_index;
-    int out_mode;            /* pgi_output */
+    int out_mode; /* pgi_output */
     int accumulate, animate, overlay, quiet;
     float scale, exposure;
     double time;
-    size_t light;            /* selected light group */
+    size_t light; /* selected light group */
     int win_w, win_h;
     pgi_image img;
     pgi_frame_stats fs;
-    unsigned char *rgb8;     /* render resolution, tone-mapped */
-    unsigned char *disp;     /* window resolution, with overlay */
+    unsigned char *rgb8; /* render resolution, tone-mapped */
+    unsigned char *disp; /* window resolution, with overlay */
     double frame_ms, fps;
     int screenshot_count;
 } viewer;
@@ -99,7 +99,9 @@ static int fail(const char *what, pgi_status st) {
 
 /* ------------------------------------------------------------ camera */
 
-static void v_sub(const float *a, const float *b, float *o) { o[0] = a[0] - b[0], o[1] = a[1] - b[1], o[2] = a[2] - b[2]; }
+static void v_sub(const float *a, const float *b, float *o) {
+    o[0] = a[0] - b[0], o[1] = a[1] - b[1], o[2] = a[2] - b[2];
+}
 static void v_cross(const float *a, const float *b, float *o) {
     o[0] = a[1] * b[2] - a[2] * b[1];
     o[1] = a[2] * b[0] - a[0] * b[2];
@@ -149,7 +151,7 @@ static void light_move(viewer *v, float fwd, float side, float upd) {
     if (pgi_scene_get_light_group(v->scene, v->light % n, &g) != PGI_OK || g.kind == PGI_LIGHT_KIND_SUN) return;
     float f[3], r[3], up[3] = {0.f, 1.f, 0.f};
     cam_forward(v, f);
-    f[1] = 0.f;   /* arrows move in the horizontal plane */
+    f[1] = 0.f; /* arrows move in the horizontal plane */
     v_norm(f);
     v_cross(f, up, r);
     v_norm(r);
@@ -160,8 +162,9 @@ static void light_move(viewer *v, float fwd, float side, float upd) {
 
 /* ------------------------------------------------------------ drawing */
 
-static void draw_text(unsigned char *img, int w, int h, int x0, int y0, int scale, const char *s, const unsigned char rgb[3]) {
-    for (int pass = 0; pass < 2; pass++) {   /* black shadow, then the text */
+static void draw_text(unsigned char *img, int w, int h, int x0, int y0, int scale, const char *s,
+                      const unsigned char rgb[3]) {
+    for (int pass = 0; pass < 2; pass++) { /* black shadow, then the text */
         int ox = pass ? 0 : 1, oy = pass ? 0 : 1;
         static const unsigned char black[3] = {0, 0, 0};
         const unsigned char *c = pass ? rgb : black;
@@ -232,15 +235,16 @@ static void compose(viewer *v) {
     int o = 0;
     o += snprintf(line[2] + o, sizeof line[2] - (size_t)o, "passes:");
     for (int i = 0; i < fst->pass_count && o < (int)sizeof line[2] - 40; i++)
-        o += snprintf(line[2] + o, sizeof line[2] - (size_t)o, " %s %.1f", fst->passes_ms[i].name, fst->passes_ms[i].value);
+        o += snprintf(line[2] + o, sizeof line[2] - (size_t)o, " %s %.1f", fst->passes_ms[i].name,
+                      fst->passes_ms[i].value);
     snprintf(line[3], sizeof line[3], "photons %llu stored / %llu paths, r %.4g, contributing %.1f%% of %llu reads",
              (unsigned long long)fst->photons_stored, (unsigned long long)fst->photons_emitted, (double)fst->radius,
              fst->reads ? 100.0 * (double)fst->contributing / (double)fst->reads : 0.0, (unsigned long long)fst->reads);
     pgi_light_group g = {0};
     size_t nl = pgi_scene_light_group_count(v->scene);
     if (nl) pgi_scene_get_light_group(v->scene, v->light % nl, &g);
-    snprintf(line[4], sizeof line[4], "%dx%d (%.0f%%) | %s | frames %d%s | t %.2f s%s | light %zu/%zu %s",
-             fst->width, fst->height, 100.0 * v->scale, output_name(v->out_mode), fst->frames,
+    snprintf(line[4], sizeof line[4], "%dx%d (%.0f%%) | %s | frames %d%s | t %.2f s%s | light %zu/%zu %s", fst->width,
+             fst->height, 100.0 * v->scale, output_name(v->out_mode), fst->frames,
              v->accumulate ? "" : " (no accumulation)", v->time, v->animate ? "" : " (paused)",
              nl ? v->light % nl + 1 : 0, nl, nl ? g.name : "-");
     snprintf(line[5], sizeof line[5], "H hides this; see photongi-view --help for keys");
@@ -260,8 +264,10 @@ static void compose(viewer *v) {
             float y = (d[0] * u[0] + d[1] * u[1] + d[2] * u[2]) / (z * th);
             int px = (int)((x + 1.f) * 0.5f * (float)W), py = (int)((1.f - y) * 0.5f * (float)H);
             for (int k = -8; k <= 8; k++) {
-                if (px + k >= 0 && px + k < W && py >= 0 && py < H) memcpy(v->disp + 3 * ((size_t)py * W + px + k), yellow, 3);
-                if (py + k >= 0 && py + k < H && px >= 0 && px < W) memcpy(v->disp + 3 * ((size_t)(py + k) * W + px), yellow, 3);
+                if (px + k >= 0 && px + k < W && py >= 0 && py < H)
+                    memcpy(v->disp + 3 * ((size_t)py * W + px + k), yellow, 3);
+                if (py + k >= 0 && py + k < H && px >= 0 && px < W)
+                    memcpy(v->disp + 3 * ((size_t)(py + k) * W + px), yellow, 3);
             }
         }
     }
@@ -282,7 +288,8 @@ static pgi_status render_frame(viewer *v) {
     d.output = (pgi_output)v->out_mode;
     pgi_status st = pgi_scene_set_time(v->scene, v->time);
     if (st) return st;
-    if (v->accumulate && v->out_mode != PGI_OUTPUT_PHOTON_COUNT) st = pgi_progressive_step(v->prog, &d, &v->img, &v->fs);
+    if (v->accumulate && v->out_mode != PGI_OUTPUT_PHOTON_COUNT)
+        st = pgi_progressive_step(v->prog, &d, &v->img, &v->fs);
     else st = pgi_renderer_render(v->r, &d, &v->img, &v->fs);
     if (st) return st;
     size_t n = (size_t)v->img.width * v->img.height;
@@ -321,12 +328,10 @@ static void cycle_estimator(viewer *v, int step) {
     v->est_index = (v->est_index + n + (size_t)(step % (int)n + (int)n)) % n;
 }
 
-static void change_radius(viewer *v, float f) {
-    v->desc.radius = v->fs.radius * f;
-}
+static void change_radius(viewer *v, float f) { v->desc.radius = v->fs.radius * f; }
 
 static void change_photons(viewer *v, double f) {
-    double p = (double)v->fs.settings.photons * f;   /* what the last frame used, defaults resolved */
+    double p = (double)v->fs.settings.photons * f; /* what the last frame used, defaults resolved */
     if (p < 1000) p = 1000;
     if (p > 50e6) p = 50e6;
     v->desc.photons = (uint32_t)p;
@@ -338,7 +343,8 @@ static void change_photons(viewer *v, double f) {
 static int press_key(viewer *v, SDL_Keycode k, int shift, float step) {
     if (k == SDLK_ESCAPE) return 0;
     if (k == SDLK_TAB) cycle_estimator(v, shift ? -1 : 1);
-    else if (k >= SDLK_1 && k <= SDLK_9 && (size_t)(k - SDLK_1) < pgi_estimator_count()) v->est_index = (size_t)(k - SDLK_1);
+    else if (k >= SDLK_1 && k <= SDLK_9 && (size_t)(k - SDLK_1) < pgi_estimator_count())
+        v->est_index = (size_t)(k - SDLK_1);
     else if (k == SDLK_EQUALS || k == SDLK_PLUS || k == SDLK_KP_PLUS) change_photons(v, 2.0);
     else if (k == SDLK_MINUS || k == SDLK_KP_MINUS) change_photons(v, 0.5);
     else if (k == SDLK_RIGHTBRACKET) change_radius(v, 1.25f);
@@ -349,7 +355,8 @@ static int press_key(viewer *v, SDL_Keycode k, int shift, float step) {
         v->out_mode = v->out_mode == PGI_OUTPUT_ALL      ? PGI_OUTPUT_DIRECT
                       : v->out_mode == PGI_OUTPUT_DIRECT ? PGI_OUTPUT_INDIRECT
                                                          : PGI_OUTPUT_ALL;
-    else if (k == SDLK_c) v->out_mode = v->out_mode == PGI_OUTPUT_PHOTON_COUNT ? PGI_OUTPUT_ALL : PGI_OUTPUT_PHOTON_COUNT;
+    else if (k == SDLK_c)
+        v->out_mode = v->out_mode == PGI_OUTPUT_PHOTON_COUNT ? PGI_OUTPUT_ALL : PGI_OUTPUT_PHOTON_COUNT;
     else if (k == SDLK_p) v->accumulate = !v->accumulate;
     else if (k == SDLK_r) v->scale = v->scale > 0.75f ? 0.5f : v->scale > 0.375f ? 0.25f : 1.f;
     else if (k == SDLK_SPACE) v->animate = !v->animate;
@@ -373,7 +380,7 @@ static int press_key(viewer *v, SDL_Keycode k, int shift, float step) {
         else if (k == SDLK_LEFT) light_move(v, 0.f, -step, 0.f);
         else if (k == SDLK_PAGEUP) light_move(v, 0.f, 0.f, step);
         else if (k == SDLK_PAGEDOWN) light_move(v, 0.f, 0.f, -step);
-        else if (k == SDLK_j || k == SDLK_k) {   /* scripted mouse look: yaw left / right */
+        else if (k == SDLK_j || k == SDLK_k) { /* scripted mouse look: yaw left / right */
             v->yaw += k == SDLK_k ? 0.1f : -0.1f;
             cam_update(v);
         }
@@ -384,10 +391,13 @@ static int press_key(viewer *v, SDL_Keycode k, int shift, float step) {
 /* Key names for --keys: a printable character, or tab, space, up, down,
  * left, right, pageup, pagedown, f12, escape. */
 static SDL_Keycode key_from_name(const char *n) {
-    static const struct { const char *name; SDL_Keycode key; } words[] = {
-        {"tab", SDLK_TAB},     {"space", SDLK_SPACE},   {"up", SDLK_UP},          {"down", SDLK_DOWN},
-        {"left", SDLK_LEFT},   {"right", SDLK_RIGHT},   {"pageup", SDLK_PAGEUP},  {"pagedown", SDLK_PAGEDOWN},
-        {"f12", SDLK_F12},     {"escape", SDLK_ESCAPE}, {"comma", SDLK_COMMA},
+    static const struct {
+        const char *name;
+        SDL_Keycode key;
+    } words[] = {
+        {"tab", SDLK_TAB},   {"space", SDLK_SPACE},   {"up", SDLK_UP},         {"down", SDLK_DOWN},
+        {"left", SDLK_LEFT}, {"right", SDLK_RIGHT},   {"pageup", SDLK_PAGEUP}, {"pagedown", SDLK_PAGEDOWN},
+        {"f12", SDLK_F12},   {"escape", SDLK_ESCAPE}, {"comma", SDLK_COMMA},
     };
     for (size_t i = 0; i < sizeof words / sizeof words[0]; i++)
         if (strcmp(n, words[i].name) == 0) return words[i].key;
@@ -414,20 +424,32 @@ int main(int argc, char **argv) {
             app_print_estimator_options(stdout);
             return 0;
         }
-        if (strcmp(a, "-q") == 0 || strcmp(a, "--quiet") == 0) { v.quiet = 1; continue; }
-        if (strcmp(a, "--animate") == 0) { v.animate = 1; continue; }
-        if (strcmp(a, "--no-accumulate") == 0) { v.accumulate = 0; continue; }
-        if (strcmp(a, "--window") == 0) { want_window = 1; continue; }
+        if (strcmp(a, "-q") == 0 || strcmp(a, "--quiet") == 0) {
+            v.quiet = 1;
+            continue;
+        }
+        if (strcmp(a, "--animate") == 0) {
+            v.animate = 1;
+            continue;
+        }
+        if (strcmp(a, "--no-accumulate") == 0) {
+            v.accumulate = 0;
+            continue;
+        }
+        if (strcmp(a, "--window") == 0) {
+            want_window = 1;
+            continue;
+        }
         if (a[0] != '-') return usage("unexpected argument '%s'", a);
         if (pgi_option_find(a + 2) && strncmp(a, "--", 2) == 0) {
             if (i + 1 >= argc) return usage("%s needs a value", a);
             if (app_estimator_option("photongi-view", a, argv[++i], &v.desc.est, NULL) < 0) return 2;
             continue;
         }
-        static const char *const valued[] = {"--scene", "--estimator", "--screenshot", "--stats", "--photons",
-                                             "--radius", "--size", "--scale", "--seed", "--threads", "--camera",
-                                             "--exposure", "--time", "--frames", "--output", "--direct-samples",
-                                             "--bounces", "--keys", NULL};
+        static const char *const valued[] = {"--scene",          "--estimator", "--screenshot", "--stats",  "--photons",
+                                             "--radius",         "--size",      "--scale",      "--seed",   "--threads",
+                                             "--camera",         "--exposure",  "--time",       "--frames", "--output",
+                                             "--direct-samples", "--bounces",   "--keys",       NULL};
         int known = 0;
         for (int k = 0; valued[k]; k++) known |= strcmp(a, valued[k]) == 0;
         if (!known) return usage("unknown option '%s'", a);
@@ -440,7 +462,8 @@ int main(int argc, char **argv) {
         else if (strcmp(a, "--screenshot") == 0) shot = val;
         else if (strcmp(a, "--stats") == 0) stats_path = val;
         else if (strcmp(a, "--photons") == 0) {
-            if (!parse_long(val, 1, 100000000, &n)) return usage("--photons needs a number in 1..100000000, got '%s'", val);
+            if (!parse_long(val, 1, 100000000, &n))
+                return usage("--photons needs a number in 1..100000000, got '%s'", val);
             v.desc.photons = (uint32_t)n;
         } else if (strcmp(a, "--radius") == 0) {
             if (!parse_finite_float(val, &v.desc.radius) || !(v.desc.radius > 0.f))
@@ -455,13 +478,15 @@ int main(int argc, char **argv) {
             if (!parse_finite_float(val, &v.scale) || !(v.scale > 0.f && v.scale <= 1.f))
                 return usage("--scale needs a number in (0, 1], got '%s'", val);
         } else if (strcmp(a, "--seed") == 0) {
-            if (!parse_long(val, 0, 0x7fffffffffffffffLL, &n)) return usage("--seed needs a non-negative integer, got '%s'", val);
+            if (!parse_long(val, 0, 0x7fffffffffffffffLL, &n))
+                return usage("--seed needs a non-negative integer, got '%s'", val);
             v.desc.seed = (uint64_t)n;
         } else if (strcmp(a, "--threads") == 0) {
             if (!parse_long(val, 1, 1024, &n)) return usage("--threads needs a number in 1..1024, got '%s'", val);
             v.desc.threads = (int)n;
         } else if (strcmp(a, "--direct-samples") == 0) {
-            if (!parse_long(val, 1, 4096, &n)) return usage("--direct-samples needs a number in 1..4096, got '%s'", val);
+            if (!parse_long(val, 1, 4096, &n))
+                return usage("--direct-samples needs a number in 1..4096, got '%s'", val);
             v.desc.direct_samples = (int)n;
         } else if (strcmp(a, "--bounces") == 0) {
             if (!parse_long(val, 1, 64, &n)) return usage("--bounces needs a number in 1..64, got '%s'", val);
@@ -474,7 +499,8 @@ int main(int argc, char **argv) {
         } else if (strcmp(a, "--time") == 0) {
             if (!parse_finite_float(val, &t0)) return usage("--time needs a number of seconds, got '%s'", val);
         } else if (strcmp(a, "--frames") == 0) {
-            if (!parse_long(val, 1, MAX_FRAMES_TIMED, &frames)) return usage("--frames needs a number in 1..100000, got '%s'", val);
+            if (!parse_long(val, 1, MAX_FRAMES_TIMED, &frames))
+                return usage("--frames needs a number in 1..100000, got '%s'", val);
         } else if (strcmp(a, "--output") == 0) {
             if (strcmp(val, "all") == 0) v.out_mode = PGI_OUTPUT_ALL;
             else if (strcmp(val, "direct") == 0) v.out_mode = PGI_OUTPUT_DIRECT;
@@ -527,7 +553,7 @@ int main(int argc, char **argv) {
     }
 
     const int headless = frames > 0 && !want_window;
-    if (!frames && v.info.animated_objects > 0) v.animate = 1;   /* interactive: play animations (Space pauses) */
+    if (!frames && v.info.animated_objects > 0) v.animate = 1; /* interactive: play animations (Space pauses) */
     SDL_Window *win = NULL;
     SDL_Renderer *ren = NULL;
     SDL_Texture *tex = NULL;
@@ -555,15 +581,15 @@ int main(int argc, char **argv) {
         }
     }
 
-    double *times = frames ? malloc(2 * (size_t)frames * sizeof *times) : NULL;   /* frame, viewer overhead */
+    double *times = frames ? malloc(2 * (size_t)frames * sizeof *times) : NULL; /* frame, viewer overhead */
     long long done = 0;
     int running = 1, rc = 0, dragging = 0;
-    int good_valid = 0, good_out = 0;   /* the last settings that rendered */
+    int good_valid = 0, good_out = 0; /* the last settings that rendered */
     size_t good_est = v.est_index;
     pgi_render_desc good_desc = v.desc;
     float good_scale = v.scale;
     double last = SDL_GetPerformanceCounter() / (double)SDL_GetPerformanceFrequency();
-    const double speed = 0.25 * v.diag;   /* scene diagonals per second / 4 */
+    const double speed = 0.25 * v.diag; /* scene diagonals per second / 4 */
     while (running) {
         double now = SDL_GetPerformanceCounter() / (double)SDL_GetPerformanceFrequency();
         double dt = now - last;
@@ -589,7 +615,8 @@ int main(int argc, char **argv) {
             }
             const Uint8 *ks = SDL_GetKeyboardState(NULL);
             float sp = (float)(speed * dt) * ((ks[SDL_SCANCODE_LSHIFT] || ks[SDL_SCANCODE_RSHIFT]) ? 4.f : 1.f);
-            float fw = (float)(ks[SDL_SCANCODE_W] - ks[SDL_SCANCODE_S]), sd = (float)(ks[SDL_SCANCODE_D] - ks[SDL_SCANCODE_A]),
+            float fw = (float)(ks[SDL_SCANCODE_W] - ks[SDL_SCANCODE_S]),
+                  sd = (float)(ks[SDL_SCANCODE_D] - ks[SDL_SCANCODE_A]),
                   ud = (float)(ks[SDL_SCANCODE_E] - ks[SDL_SCANCODE_Q]);
             if (fw != 0.f || sd != 0.f || ud != 0.f) cam_move(&v, fw * sp, sd * sp, ud * sp);
             float lf = (float)(ks[SDL_SCANCODE_UP] - ks[SDL_SCANCODE_DOWN]),
@@ -670,9 +697,8 @@ int main(int argc, char **argv) {
                 "viewer overhead (tone map, overlay%s) %.1f ms; "
                 "last frame: view %.1f trace %.1f build %.1f estimate %.1f direct %.1f rt %.1f ms, %d averaged\n",
                 v.info.name, v.fs.width, v.fs.height, v.fs.estimator, done, med, med > 0 ? 1000.0 / med : 0.0, first,
-                tex ? ", display" : "", over,
-                v.fs.view_ms, v.fs.trace_ms, v.fs.build_ms, v.fs.estimate_ms, v.fs.direct_ms, v.fs.rt_update_ms,
-                v.fs.frames);
+                tex ? ", display" : "", over, v.fs.view_ms, v.fs.trace_ms, v.fs.build_ms, v.fs.estimate_ms,
+                v.fs.direct_ms, v.fs.rt_update_ms, v.fs.frames);
     }
     free(times);
     if (tex) SDL_DestroyTexture(tex);

@@ -33,14 +33,14 @@ extern "C" {
  * pointing back the way the photon came (ω_p, away from the surface). */
 typedef struct pgi_photons {
     size_t count, capacity;
-    float *px, *py, *pz;     /* position */
-    float *dx, *dy, *dz;     /* incoming direction, pointing away from the surface */
-    float *fr, *fg, *fb;     /* flux (W), already divided by the paths emitted */
-    float *nx, *ny, *nz;     /* geometric normal where it was stored */
-    float *radius;           /* optional per-photon footprint radius (radius policies); NULL: the
+    float *px, *py, *pz; /* position */
+    float *dx, *dy, *dz; /* incoming direction, pointing away from the surface */
+    float *fr, *fg, *fb; /* flux (W), already divided by the paths emitted */
+    float *nx, *ny, *nz; /* geometric normal where it was stored */
+    float *radius;       /* optional per-photon footprint radius (radius policies); NULL: the
                                 estimator's fixed radius. Only estimators with PGI_EST_CAP_PHOTON_RADIUS
                                 accept it. Not allocated by pgi_photons_alloc. */
-    uint64_t emitted;        /* light paths emitted to produce them */
+    uint64_t emitted;    /* light paths emitted to produce them */
     /* Optional skewed-ellipsoid footprints (photon differentials, BVH paper §3.2/§4); NULL: spheres.
        Photon i's ellipsoid is {p + u*a + v*b + w*radius[i]*n : u^2 + v^2 + w^2 < 1} with the semi-axes
        a = (sax,say,saz)[i], b = (sbx,sby,sbz)[i] in its tangent plane and n = (nx,ny,nz)[i]; radius[i]
@@ -52,41 +52,41 @@ typedef struct pgi_photons {
 /* Pinhole camera, world space. */
 typedef struct pgi_camera {
     float eye[3];
-    float forward[3], right[3], up[3];  /* orthonormal, right-handed view basis */
-    float tan_half_fov_y;               /* tan(fov_y/2) */
-    float aspect;                       /* width / height */
+    float forward[3], right[3], up[3]; /* orthonormal, right-handed view basis */
+    float tan_half_fov_y;              /* tan(fov_y/2) */
+    float aspect;                      /* width / height */
     int width, height;
 } pgi_camera;
 
 enum {
-    PGI_VS_VALID = 1,      /* hit a non-specular surface (else: sky or lost) */
-    PGI_VS_PRIMARY = 2,    /* reached directly by the primary ray (no mirror/glass on the way) */
-    PGI_VS_LAMBERT = 4     /* material is purely Lambertian (ks = 0) */
+    PGI_VS_VALID = 1,   /* hit a non-specular surface (else: sky or lost) */
+    PGI_VS_PRIMARY = 2, /* reached directly by the primary ray (no mirror/glass on the way) */
+    PGI_VS_LAMBERT = 4  /* material is purely Lambertian (ks = 0) */
 };
 
 /* View samples (G-buffer): one per pixel, index y*width + x, one plane per
  * attribute (3 floats a sample for the vector ones). */
 typedef struct pgi_view_samples {
     int width, height;
-    size_t count;            /* width * height */
-    float *pos;              /* world position of the first non-specular eye hit */
-    float *nrm;              /* shading normal, on the side the eye path arrives from */
-    float *ngeo;             /* geometric normal, same side */
-    float *wo;               /* unit direction towards where the eye path came from */
-    float *kd;               /* diffuse albedo (texture applied), linear RGB */
-    float *ks;               /* Blinn-Phong F0; 0 for Lambertian */
-    float *shininess;        /* Blinn-Phong exponent s */
-    float *weight;           /* throughput of the specular chain from the eye (1 if primary) */
-    float *depth;            /* view-space depth (along camera forward) of the primary hit */
-    uint8_t *flags;          /* PGI_VS_* */
+    size_t count;     /* width * height */
+    float *pos;       /* world position of the first non-specular eye hit */
+    float *nrm;       /* shading normal, on the side the eye path arrives from */
+    float *ngeo;      /* geometric normal, same side */
+    float *wo;        /* unit direction towards where the eye path came from */
+    float *kd;        /* diffuse albedo (texture applied), linear RGB */
+    float *ks;        /* Blinn-Phong F0; 0 for Lambertian */
+    float *shininess; /* Blinn-Phong exponent s */
+    float *weight;    /* throughput of the specular chain from the eye (1 if primary) */
+    float *depth;     /* view-space depth (along camera forward) of the primary hit */
+    uint8_t *flags;   /* PGI_VS_* */
 } pgi_view_samples;
 
 /* Density-estimation kernels (tiled paper §2.2); each is normalised to
  * integrate to 1 over its disk of radius r. */
 typedef enum pgi_kernel {
-    PGI_KERNEL_CONSTANT = 0,    /* 1/(pi r^2) */
-    PGI_KERNEL_CONE,            /* 3/(pi r^2) (1 - d/r) */
-    PGI_KERNEL_EPANECHNIKOV,    /* 2/(pi r^2) (1 - d^2/r^2) */
+    PGI_KERNEL_CONSTANT = 0, /* 1/(pi r^2) */
+    PGI_KERNEL_CONE,         /* 3/(pi r^2) (1 - d/r) */
+    PGI_KERNEL_EPANECHNIKOV, /* 2/(pi r^2) (1 - d^2/r^2) */
     PGI_KERNEL_COUNT_
 } pgi_kernel;
 
@@ -96,8 +96,8 @@ typedef enum pgi_bvh_build { PGI_BVH_LINEAR = 0, PGI_BVH_VVH = 1 } pgi_bvh_build
 /* Named values of the directional options where the option's own zero would
  * mean "default" (zero means default in every desc). */
 enum {
-    PGI_DIRECTIONAL_LEAVES = -1,  /* directional.level: flux buckets at the leaves */
-    PGI_DIRECTIONAL_NO_BLUR = -1  /* directional.blur: no irradiance blur */
+    PGI_DIRECTIONAL_LEAVES = -1, /* directional.level: flux buckets at the leaves */
+    PGI_DIRECTIONAL_NO_BLUR = -1 /* directional.blur: no irradiance blur */
 };
 
 /* Creation options of an estimator. Zero means default for every field;
@@ -107,31 +107,31 @@ enum {
  * (radius, seed, threads) are arguments of build/estimate instead: an
  * estimator is created once per configuration and reused across frames. */
 typedef struct pgi_estimator_desc {
-    pgi_kernel kernel;   /* default constant; others need PGI_EST_CAP_KERNELS */
-    int subsample;       /* stochastic subsampling factor k (0 or 1: off, up to 64); needs PGI_EST_CAP_SUBSAMPLE */
+    pgi_kernel kernel; /* default constant; others need PGI_EST_CAP_KERNELS */
+    int subsample;     /* stochastic subsampling factor k (0 or 1: off, up to 64); needs PGI_EST_CAP_SUBSAMPLE */
     struct {
-        int tile_size;   /* "tiled", "bounds3d", "bounds25d": tile edge in pixels (1..4096); default 32 */
+        int tile_size; /* "tiled", "bounds3d", "bounds25d": tile edge in pixels (1..4096); default 32 */
     } tiled;
     struct {
         float cell_size; /* "hashgrid": cell edge (at least radius/64); 0 = 2 x the frame's radius */
     } hashgrid;
     struct {
-        int tile;        /* "cluster*", "directional": cluster edge in pixels (1..256); default 8 */
+        int tile; /* "cluster*", "directional": cluster edge in pixels (1..256); default 8 */
     } cluster;
     struct {
-        int level;       /* flux buckets this many levels above the leaves (1..16); default 1;
+        int level; /* flux buckets this many levels above the leaves (1..16); default 1;
                             PGI_DIRECTIONAL_LEAVES: at the leaves */
-        int blur;        /* irradiance blur radius in pixels (1..64); default 4; PGI_DIRECTIONAL_NO_BLUR: off */
+        int blur;  /* irradiance blur radius in pixels (1..64); default 4; PGI_DIRECTIONAL_NO_BLUR: off */
     } directional;
     struct {
         pgi_bvh_build build; /* default PGI_BVH_LINEAR */
-        int leaf_size;   /* leaf-size threshold (1..65536); 0 = T_auto */
+        int leaf_size;       /* leaf-size threshold (1..65536); 0 = T_auto */
     } bvh;
     struct {
-        int knn;         /* k nearest photons within the radius (1..4096); 0 = fixed-radius range mode */
+        int knn; /* k nearest photons within the radius (1..4096); 0 = fixed-radius range mode */
     } kdtree;
     struct {
-        int polygon;     /* "bounds25d": vertices of the screen polygon around a projected sphere
+        int polygon; /* "bounds25d": vertices of the screen polygon around a projected sphere
                             (even, 4..64); default 8 */
     } bounds;
 } pgi_estimator_desc;
@@ -141,34 +141,34 @@ typedef struct pgi_estimate_args {
     const pgi_photons *photons;
     const pgi_view_samples *samples;
     const pgi_camera *camera;
-    float *out_rgb;      /* estimate: 3 floats a view sample, indirect radiance (weight not applied) */
-    float radius;        /* this frame's photon radius (> 0, finite); per-photon radii take its place */
-    uint64_t seed;       /* stochastic subsampling: per-pixel random streams from (seed, pixel index) */
-    int threads;         /* OpenMP threads of this call's parallel regions; 0 = OpenMP's default */
-    float scene_area;    /* scene surface area ("bvh" T_auto); 0 = the surface of the photons' bounding box */
+    float *out_rgb;   /* estimate: 3 floats a view sample, indirect radiance (weight not applied) */
+    float radius;     /* this frame's photon radius (> 0, finite); per-photon radii take its place */
+    uint64_t seed;    /* stochastic subsampling: per-pixel random streams from (seed, pixel index) */
+    int threads;      /* OpenMP threads of this call's parallel regions; 0 = OpenMP's default */
+    float scene_area; /* scene surface area ("bvh" T_auto); 0 = the surface of the photons' bounding box */
 } pgi_estimate_args;
 
 /* ---- Options: one table row per setting holds its name, range, default
  * and help. The CLI and the viewer parse and document estimator options
  * from these tables; pgi_estimator_create checks a desc against them. */
 typedef enum pgi_option_type {
-    PGI_OPTION_INT = 1,     /* int field */
-    PGI_OPTION_FLOAT = 2,   /* float field */
-    PGI_OPTION_CHOICE = 3   /* enum field: one of `choices` ("a|b|c"), stored as its index */
+    PGI_OPTION_INT = 1,   /* int field */
+    PGI_OPTION_FLOAT = 2, /* float field */
+    PGI_OPTION_CHOICE = 3 /* enum field: one of `choices` ("a|b|c"), stored as its index */
 } pgi_option_type;
 
 typedef struct pgi_option {
-    const char *name;       /* "cluster-tile": the CLI flag without "--", and the key of pgi_estimator_desc_set */
+    const char *name; /* "cluster-tile": the CLI flag without "--", and the key of pgi_estimator_desc_set */
     pgi_option_type type;
-    size_t offset;          /* of the field in pgi_estimator_desc */
-    double min, max;        /* INT: range a user may write; FLOAT: (min, max], min exclusive */
-    int step;               /* INT: the value must be a multiple of step (0: any) */
-    int zero;               /* INT with min 0: the field value a user's 0 stands for (PGI_DIRECTIONAL_LEAVES) */
-    int def;                /* INT: the value a zero field resolves to (0: zero is itself the default mode) */
-    const char *choices;    /* CHOICE: "constant|cone|epanechnikov" */
-    unsigned caps;          /* shared options: the PGI_EST_CAP_* an estimator needs to take it; 0 otherwise */
-    unsigned flags;         /* PGI_OPTION_STRICT */
-    const char *help;       /* one line, with the range and the default */
+    size_t offset;       /* of the field in pgi_estimator_desc */
+    double min, max;     /* INT: range a user may write; FLOAT: (min, max], min exclusive */
+    int step;            /* INT: the value must be a multiple of step (0: any) */
+    int zero;            /* INT with min 0: the field value a user's 0 stands for (PGI_DIRECTIONAL_LEAVES) */
+    int def;             /* INT: the value a zero field resolves to (0: zero is itself the default mode) */
+    const char *choices; /* CHOICE: "constant|cone|epanechnikov" */
+    unsigned caps;       /* shared options: the PGI_EST_CAP_* an estimator needs to take it; 0 otherwise */
+    unsigned flags;      /* PGI_OPTION_STRICT */
+    const char *help;    /* one line, with the range and the default */
 } pgi_option;
 
 /* Setting a strict option for an estimator that does not take it is an error
@@ -188,28 +188,28 @@ typedef struct pgi_estimator_stats {
     size_t memory_bytes[PGI_EST_MAX_ENTRIES];
     int memory_count;
     uint64_t reads, contributing, nodes_visited;
-    int leaf_size;       /* "bvh": the leaf-size threshold used (T_auto or given) */
+    int leaf_size; /* "bvh": the leaf-size threshold used (T_auto or given) */
 } pgi_estimator_stats;
 
 /* One method: a const table of function pointers, dispatched once per pass. */
 typedef struct pgi_estimator_vtbl {
     const char *name;
     const char *summary;
-    int exact;   /* equals brute for a constant kernel and fixed radius */
-    int oracle;  /* the O(photons x pixels) reference every exact method is tested against */
+    int exact;  /* equals brute for a constant kernel and fixed radius */
+    int oracle; /* the O(photons x pixels) reference every exact method is tested against */
     pgi_status (*create)(const pgi_estimator_desc *desc, void **state);
     pgi_status (*build)(void *state, const pgi_estimate_args *args);
     pgi_status (*estimate)(void *state, const pgi_estimate_args *args);
     void (*stats)(const void *state, pgi_estimator_stats *out);
     void (*destroy)(void *state);
-    unsigned caps;   /* PGI_EST_CAP_* this method supports beyond the constant-kernel fixed-radius case */
+    unsigned caps; /* PGI_EST_CAP_* this method supports beyond the constant-kernel fixed-radius case */
     const pgi_option *const *options; /* its own options (NULL-terminated; NULL: none) */
 } pgi_estimator_vtbl;
 
 enum {
-    PGI_EST_CAP_KERNELS = 1,        /* honours desc.kernel */
-    PGI_EST_CAP_SUBSAMPLE = 2,      /* honours desc.subsample */
-    PGI_EST_CAP_PHOTON_RADIUS = 4   /* honours pgi_photons.radius (per-photon footprints) */
+    PGI_EST_CAP_KERNELS = 1,      /* honours desc.kernel */
+    PGI_EST_CAP_SUBSAMPLE = 2,    /* honours desc.subsample */
+    PGI_EST_CAP_PHOTON_RADIUS = 4 /* honours pgi_photons.radius (per-photon footprints) */
 };
 
 size_t pgi_estimator_count(void);
@@ -252,8 +252,8 @@ void pgi_photons_free(pgi_photons *ph);
 pgi_status pgi_view_samples_alloc(pgi_view_samples *vs, int width, int height);
 void pgi_view_samples_free(pgi_view_samples *vs);
 /* Builds a pinhole camera from a look-at description. */
-void pgi_camera_look_at(pgi_camera *cam, const float eye[3], const float look_at[3],
-                        const float up[3], float fov_y_deg, int width, int height);
+void pgi_camera_look_at(pgi_camera *cam, const float eye[3], const float look_at[3], const float up[3], float fov_y_deg,
+                        int width, int height);
 
 #ifdef __cplusplus
 }

@@ -22,12 +22,12 @@ extern "C" {
 
 typedef struct pgi_metrics {
     int width, height;
-    double mse;            /* on [0,1] sRGB values, all channels */
-    double psnr;           /* dB; INFINITY when the images are identical */
-    double ssim;           /* on luma */
-    double ssim_rgb;       /* mean of ssim_channel */
+    double mse;      /* on [0,1] sRGB values, all channels */
+    double psnr;     /* dB; INFINITY when the images are identical */
+    double ssim;     /* on luma */
+    double ssim_rgb; /* mean of ssim_channel */
     double ssim_channel[3];
-    double max_abs;        /* largest absolute channel difference */
+    double max_abs; /* largest absolute channel difference */
 } pgi_metrics;
 
 /* Compares `a` (test) with `b` (reference). Sizes must match and be at least

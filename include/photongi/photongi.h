@@ -42,7 +42,7 @@ typedef struct pgi_scene pgi_scene;
 
 typedef struct pgi_camera_def {
     float eye[3], look_at[3], up[3];
-    float fov_y_deg;                 /* vertical field of view, degrees */
+    float fov_y_deg; /* vertical field of view, degrees */
 } pgi_camera_def;
 
 /* Defaults a scene description suggests for rendering it (0 = none given). */
@@ -55,18 +55,18 @@ typedef struct pgi_scene_defaults {
 } pgi_scene_defaults;
 
 typedef struct pgi_scene_info {
-    const char *name;     /* "cornell", or the description/mesh file name */
-    const char *source;   /* "built-in" or the file that was loaded */
+    const char *name;   /* "cornell", or the description/mesh file name */
+    const char *source; /* "built-in" or the file that was loaded */
     size_t triangles, vertices, materials, textures;
-    size_t lights;        /* all emitters; emissive triangles count one each */
+    size_t lights; /* all emitters; emissive triangles count one each */
     size_t point_lights, spot_lights, sun_lights, area_triangles;
     float bounds_min[3], bounds_max[3];
     size_t cameras;
     pgi_camera_def camera; /* camera 0 */
     pgi_scene_defaults defaults;
-    double surface_area;      /* total triangle area, scene units squared */
-    size_t animated_objects;  /* objects with a motion (see pgi_scene_set_time) */
-    double anim_duration;     /* last keyframe time over all motions, seconds (0 if none) */
+    double surface_area;     /* total triangle area, scene units squared */
+    size_t animated_objects; /* objects with a motion (see pgi_scene_set_time) */
+    double anim_duration;    /* last keyframe time over all motions, seconds (0 if none) */
 } pgi_scene_info;
 
 /* Loads a scene. `spec` is a built-in name ("cornell", "giref",
@@ -83,41 +83,41 @@ const char *pgi_builtin_scene_name(size_t i);
 /* ----------------------------------------------------------------- render */
 
 typedef enum pgi_output {
-    PGI_OUTPUT_ALL = 0,       /* emission + direct + indirect */
-    PGI_OUTPUT_INDIRECT = 1,  /* the estimator's indirect radiance only */
-    PGI_OUTPUT_DIRECT = 2,    /* emission + direct only */
+    PGI_OUTPUT_ALL = 0,         /* emission + direct + indirect */
+    PGI_OUTPUT_INDIRECT = 1,    /* the estimator's indirect radiance only */
+    PGI_OUTPUT_DIRECT = 2,      /* emission + direct only */
     PGI_OUTPUT_PHOTON_COUNT = 3 /* photons that contributed at each pixel (all three channels); needs a
                                    second build + estimate pass over unit-flux photons */
 } pgi_output;
 
 /* Zero means "default" for every field, nested estimator options included. */
 typedef struct pgi_render_desc {
-    const char *estimator;   /* registered name; default "tiled" */
-    pgi_estimator_desc est;  /* the estimator's options (include/photongi/estimator.h); options of other
+    const char *estimator;  /* registered name; default "tiled" */
+    pgi_estimator_desc est; /* the estimator's options (include/photongi/estimator.h); options of other
                                 estimators are ignored, so one desc serves every estimator */
-    uint32_t photons;        /* photons to store (at least 1); default scene's or 200000 */
-    float radius;            /* photon radius in scene units (> 0); default scene's or 2% of the diagonal */
-    int width, height;       /* default scene's or 640x480 */
-    int bounces;             /* max photon bounces (1..64); default scene's or 4 */
-    uint64_t seed;           /* default 1 */
-    int threads;             /* OpenMP threads of the library's parallel regions; 0 = OpenMP's default */
-    int camera;              /* index into the scene's cameras */
-    int direct_samples;      /* shadow samples per pixel for area lights (1..4096); default 16 */
+    uint32_t photons;       /* photons to store (at least 1); default scene's or 200000 */
+    float radius;           /* photon radius in scene units (> 0); default scene's or 2% of the diagonal */
+    int width, height;      /* default scene's or 640x480 */
+    int bounces;            /* max photon bounces (1..64); default scene's or 4 */
+    uint64_t seed;          /* default 1 */
+    int threads;            /* OpenMP threads of the library's parallel regions; 0 = OpenMP's default */
+    int camera;             /* index into the scene's cameras */
+    int direct_samples;     /* shadow samples per pixel for area lights (1..4096); default 16 */
     pgi_output output;
     const pgi_camera_def *view; /* non-NULL: render from this camera instead of the scene's `camera`
                                    (borrowed for the call; the viewer's free camera) */
     /* Per-photon footprints (radius policies; need an estimator with PGI_EST_CAP_PHOTON_RADIUS). */
-    int radius_policy;       /* PGI_RADIUS_FIXED (default), PGI_RADIUS_PATH, PGI_RADIUS_DIFFERENTIALS */
-    float r_min, r_max;      /* path: radius range (default r_max = radius, r_min = r_max/8);
+    int radius_policy;  /* PGI_RADIUS_FIXED (default), PGI_RADIUS_PATH, PGI_RADIUS_DIFFERENTIALS */
+    float r_min, r_max; /* path: radius range (default r_max = radius, r_min = r_max/8);
                                 differentials: r_max clamps the footprint radius (default: radius) */
-    float smoothing;         /* differentials: smoothing factor s (> 0); 0 = automatic (docs/bvh.md) */
-    int filter;              /* bilateral reconstruction filter radius in pixels on the indirect light (0 off) */
+    float smoothing;    /* differentials: smoothing factor s (> 0); 0 = automatic (docs/bvh.md) */
+    int filter;         /* bilateral reconstruction filter radius in pixels on the indirect light (0 off) */
 } pgi_render_desc;
 
 typedef enum pgi_radius_policy {
-    PGI_RADIUS_FIXED = 0,         /* one radius for every photon */
-    PGI_RADIUS_PATH,              /* tiled paper eqs. 4-5: r_min + (r_max - r_min) sqrt(1 - path probability) */
-    PGI_RADIUS_DIFFERENTIALS,     /* BVH paper §4: skewed ellipsoids from photon differentials */
+    PGI_RADIUS_FIXED = 0,     /* one radius for every photon */
+    PGI_RADIUS_PATH,          /* tiled paper eqs. 4-5: r_min + (r_max - r_min) sqrt(1 - path probability) */
+    PGI_RADIUS_DIFFERENTIALS, /* BVH paper §4: skewed ellipsoids from photon differentials */
     PGI_RADIUS_POLICY_COUNT_
 } pgi_radius_policy;
 
@@ -141,9 +141,9 @@ typedef struct pgi_named_value {
 typedef struct pgi_frame_stats {
     const char *estimator;
     int width, height, threads;
-    uint64_t photons_emitted;        /* light paths emitted */
+    uint64_t photons_emitted; /* light paths emitted */
     uint64_t photons_stored;
-    uint64_t photon_rays;            /* rays cast while tracing photons */
+    uint64_t photon_rays; /* rays cast while tracing photons */
     uint64_t primary_rays, shadow_rays;
     float radius;
     /* wall-clock milliseconds */
@@ -154,25 +154,24 @@ typedef struct pgi_frame_stats {
     /* bytes per structure (photons, view samples, estimator structures) */
     pgi_named_value memory_bytes[PGI_MAX_STAT_ENTRIES];
     int memory_count;
-    uint64_t reads;          /* photon reads by the estimator */
-    uint64_t contributing;   /* reads that passed the sphere + hemisphere test */
-    uint64_t nodes_visited;  /* cells / tiles / nodes touched */
-    int frames;              /* frames averaged into the image (progressive); 1 for a single frame */
-    int estimators_created;  /* estimators this call created (0 when the renderer reused its estimator) */
+    uint64_t reads;            /* photon reads by the estimator */
+    uint64_t contributing;     /* reads that passed the sphere + hemisphere test */
+    uint64_t nodes_visited;    /* cells / tiles / nodes touched */
+    int frames;                /* frames averaged into the image (progressive); 1 for a single frame */
+    int estimators_created;    /* estimators this call created (0 when the renderer reused its estimator) */
     pgi_render_desc settings;  /* what was rendered: every default filled in (estimator options too; `view`
                                   is NULL; `radius` is the first frame's) */
-    double rt_update_ms;     /* updating the ray-tracing scene after geometry moved (0 if nothing moved) */
-    int radius_policy;       /* pgi_radius_policy used */
-    int leaf_size;           /* "bvh": leaf-size threshold used */
-    float footprint_bin_width;                     /* 0: no per-photon footprints */
-    uint64_t footprint_hist[PGI_FOOTPRINT_BINS];   /* see PGI_FOOTPRINT_BINS */
+    double rt_update_ms;       /* updating the ray-tracing scene after geometry moved (0 if nothing moved) */
+    int radius_policy;         /* pgi_radius_policy used */
+    int leaf_size;             /* "bvh": leaf-size threshold used */
+    float footprint_bin_width; /* 0: no per-photon footprints */
+    uint64_t footprint_hist[PGI_FOOTPRINT_BINS]; /* see PGI_FOOTPRINT_BINS */
 } pgi_frame_stats;
 
 /* Renders one frame into `out` (free with pgi_image_free). Pass a zeroed
  * image the first time; an image of the right size is reused, any other is
  * freed and replaced. `stats` may be NULL. */
-pgi_status pgi_render(const pgi_scene *scene, const pgi_render_desc *desc,
-                      pgi_image *out, pgi_frame_stats *stats);
+pgi_status pgi_render(const pgi_scene *scene, const pgi_render_desc *desc, pgi_image *out, pgi_frame_stats *stats);
 
 typedef struct pgi_renderer pgi_renderer;
 /* A renderer keeps the ray-tracing scene and per-frame buffers between frames
@@ -182,8 +181,7 @@ pgi_status pgi_renderer_create(const pgi_scene *scene, pgi_renderer **out);
 /* One frame. The renderer creates its estimator once per estimator name and
  * options and reuses it while they stay the same (radius, seed, threads and
  * the camera are per-frame values). */
-pgi_status pgi_renderer_render(pgi_renderer *r, const pgi_render_desc *desc,
-                               pgi_image *out, pgi_frame_stats *stats);
+pgi_status pgi_renderer_render(pgi_renderer *r, const pgi_render_desc *desc, pgi_image *out, pgi_frame_stats *stats);
 void pgi_renderer_destroy(pgi_renderer *r);
 const pgi_scene *pgi_renderer_scene(const pgi_renderer *r);
 
@@ -194,8 +192,8 @@ typedef struct pgi_frame_inputs {
     const pgi_photons *photons;      /* borrowed: valid until the renderer's next call */
     const pgi_view_samples *samples; /* borrowed: likewise */
     pgi_camera camera;
-    float radius;                    /* the resolved photon radius */
-    float scene_area;                /* total triangle area of the scene */
+    float radius;     /* the resolved photon radius */
+    float scene_area; /* total triangle area of the scene */
     uint64_t seed;
 } pgi_frame_inputs;
 /* Casts the view samples and traces the photons of one frame; stats (may be
@@ -232,9 +230,9 @@ typedef enum pgi_light_kind {
 
 typedef struct pgi_light_group {
     pgi_light_kind kind;
-    const char *name;      /* "point 0", or the emissive material's name; valid while the scene lives */
-    float position[3];     /* point/spot: position; area: area-weighted centroid; sun: 0 */
-    size_t triangles;      /* area: emissive triangles in the group */
+    const char *name;  /* "point 0", or the emissive material's name; valid while the scene lives */
+    float position[3]; /* point/spot: position; area: area-weighted centroid; sun: 0 */
+    size_t triangles;  /* area: emissive triangles in the group */
 } pgi_light_group;
 
 /* Camera i of the scene (the viewer starts from it). */

@@ -27,14 +27,14 @@ typedef int (*pgi_reference_progress_fn)(void *user, uint64_t done, uint64_t tot
 
 /* Zero means "default" for every field. */
 typedef struct pgi_reference_desc {
-    int width, height;        /* default scene's or 640x480 */
-    int bounces;              /* scattering events before the visible point; default scene's or 4 */
-    uint64_t seed;            /* default 1 */
-    int threads;              /* OpenMP threads; 0 = all */
-    int camera;               /* index into the scene's cameras */
-    uint64_t spp;             /* samples per pixel to add; required (>= 1) */
-    double time_limit_s;      /* > 0: stop after the pass that reaches this wall time */
-    pgi_reference_progress_fn progress;   /* may be NULL */
+    int width, height;                  /* default scene's or 640x480 */
+    int bounces;                        /* scattering events before the visible point; default scene's or 4 */
+    uint64_t seed;                      /* default 1 */
+    int threads;                        /* OpenMP threads; 0 = all */
+    int camera;                         /* index into the scene's cameras */
+    uint64_t spp;                       /* samples per pixel to add; required (>= 1) */
+    double time_limit_s;                /* > 0: stop after the pass that reaches this wall time */
+    pgi_reference_progress_fn progress; /* may be NULL */
     void *progress_user;
 } pgi_reference_desc;
 
@@ -44,12 +44,11 @@ typedef struct pgi_reference_desc {
  * *spp counts the samples in `mean`. The samples of pixel i are summed in
  * sample order, so the result does not depend on the thread count; continuing
  * from a saved mean matches one long run up to float rounding of the mean. */
-pgi_status pgi_reference_render(const pgi_scene *scene, const pgi_reference_desc *desc, pgi_image *mean,
-                                uint64_t *spp);
+pgi_status pgi_reference_render(const pgi_scene *scene, const pgi_reference_desc *desc, pgi_image *mean, uint64_t *spp);
 
 /* What a reference image needs to be extended later (sidecar "<image>.json"). */
 typedef struct pgi_reference_meta {
-    char scene[256];          /* scene spec as given on the command line */
+    char scene[256]; /* scene spec as given on the command line */
     int width, height, bounces, camera;
     uint64_t seed, spp;
 } pgi_reference_meta;

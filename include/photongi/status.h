@@ -8,12 +8,12 @@ extern "C" {
 
 typedef enum pgi_status {
     PGI_OK = 0,
-    PGI_ERR_INVALID_ARG = 1,  /* a parameter is out of range or unknown */
-    PGI_ERR_IO = 2,           /* a file could not be read or written */
-    PGI_ERR_PARSE = 3,        /* a file was read but its content is malformed */
-    PGI_ERR_OOM = 4,          /* out of memory */
-    PGI_ERR_UNSUPPORTED = 5,  /* valid request this build cannot do */
-    PGI_ERR_INTERNAL = 6      /* a library (Embree, Assimp) failed */
+    PGI_ERR_INVALID_ARG = 1, /* a parameter is out of range or unknown */
+    PGI_ERR_IO = 2,          /* a file could not be read or written */
+    PGI_ERR_PARSE = 3,       /* a file was read but its content is malformed */
+    PGI_ERR_OOM = 4,         /* out of memory */
+    PGI_ERR_UNSUPPORTED = 5, /* valid request this build cannot do */
+    PGI_ERR_INTERNAL = 6     /* a library (Embree, Assimp) failed */
 } pgi_status;
 
 /* Short name of a status code ("invalid argument"). Never NULL. */

@@ -23,9 +23,9 @@ pgi_status pgi__fail(pgi_status s, const char *fmt, ...)
 void pgi__clear_error(void);
 
 /* Always-on invariant check (never for user input). */
-#define PGI_ASSERT(c)                                                          \
-    do {                                                                       \
-        if (!(c)) pgi__assert_fail(#c, __FILE__, __LINE__);                    \
+#define PGI_ASSERT(c)                                                                                                  \
+    do {                                                                                                               \
+        if (!(c)) pgi__assert_fail(#c, __FILE__, __LINE__);                                                            \
     } while (0)
 void pgi__assert_fail(const char *expr, const char *file, int line);
 
@@ -63,11 +63,20 @@ void pgi__afree(void *p);
 static inline float pgi_maxf(float a, float b) { return a > b ? a : b; }
 static inline float pgi_minf(float a, float b) { return a < b ? a : b; }
 
-typedef struct { float x, y, z; } pgi__v3;
+typedef struct {
+    float x, y, z;
+} pgi__v3;
 
-static inline pgi__v3 v3(float x, float y, float z) { pgi__v3 r = {x, y, z}; return r; }
+static inline pgi__v3 v3(float x, float y, float z) {
+    pgi__v3 r = {x, y, z};
+    return r;
+}
 static inline pgi__v3 v3_load(const float *p) { return v3(p[0], p[1], p[2]); }
-static inline void v3_store(float *p, pgi__v3 a) { p[0] = a.x; p[1] = a.y; p[2] = a.z; }
+static inline void v3_store(float *p, pgi__v3 a) {
+    p[0] = a.x;
+    p[1] = a.y;
+    p[2] = a.z;
+}
 static inline pgi__v3 v3_add(pgi__v3 a, pgi__v3 b) { return v3(a.x + b.x, a.y + b.y, a.z + b.z); }
 static inline pgi__v3 v3_sub(pgi__v3 a, pgi__v3 b) { return v3(a.x - b.x, a.y - b.y, a.z - b.z); }
 static inline pgi__v3 v3_mul(pgi__v3 a, pgi__v3 b) { return v3(a.x * b.x, a.y * b.y, a.z * b.z); }
@@ -85,8 +94,12 @@ static inline pgi__v3 v3_norm(pgi__v3 a) {
 static inline pgi__v3 v3_neg(pgi__v3 a) { return v3(-a.x, -a.y, -a.z); }
 static inline float v3_maxc(pgi__v3 a) { return pgi_maxf(a.x, pgi_maxf(a.y, a.z)); }
 static inline float v3_lum(pgi__v3 a) { return 0.2126f * a.x + 0.7152f * a.y + 0.0722f * a.z; }
-static inline pgi__v3 v3_min(pgi__v3 a, pgi__v3 b) { return v3(pgi_minf(a.x, b.x), pgi_minf(a.y, b.y), pgi_minf(a.z, b.z)); }
-static inline pgi__v3 v3_max(pgi__v3 a, pgi__v3 b) { return v3(pgi_maxf(a.x, b.x), pgi_maxf(a.y, b.y), pgi_maxf(a.z, b.z)); }
+static inline pgi__v3 v3_min(pgi__v3 a, pgi__v3 b) {
+    return v3(pgi_minf(a.x, b.x), pgi_minf(a.y, b.y), pgi_minf(a.z, b.z));
+}
+static inline pgi__v3 v3_max(pgi__v3 a, pgi__v3 b) {
+    return v3(pgi_maxf(a.x, b.x), pgi_maxf(a.y, b.y), pgi_maxf(a.z, b.z));
+}
 static inline int v3_finite(pgi__v3 a) { return isfinite(a.x) && isfinite(a.y) && isfinite(a.z); }
 
 /* Orthonormal basis around unit n (Duff et al. 2017). */
@@ -101,7 +114,9 @@ static inline void v3_basis(pgi__v3 n, pgi__v3 *t, pgi__v3 *b) {
 /* -------------------------------------------------------------------- RNG */
 /* PCG32 (O'Neill). One stream per photon path / pixel: seeded from
  * (seed, index) so results do not depend on the thread count. */
-typedef struct { uint64_t state, inc; } pgi__rng;
+typedef struct {
+    uint64_t state, inc;
+} pgi__rng;
 
 static inline uint64_t pgi__mix64(uint64_t z) {
     z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;

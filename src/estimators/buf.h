@@ -29,10 +29,10 @@ static inline void pgi__buf_free(pgi__buf *b) {
 /* A pgi__buf field with a typed view of its pointer: PGI__BUF(float, irr)
  * declares `float *irr` and `pgi__buf irr_buf` sharing storage (anonymous
  * union), so code indexes s->irr and grows s->irr_buf. */
-#define PGI__BUF(type, name) \
-    union {                  \
-        pgi__buf name##_buf; \
-        type *name;          \
+#define PGI__BUF(type, name)                                                                                           \
+    union {                                                                                                            \
+        pgi__buf name##_buf;                                                                                           \
+        type *name;                                                                                                    \
     }
 
 #endif

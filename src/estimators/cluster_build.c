@@ -29,17 +29,20 @@
 
 #include "cluster_internal.h"
 
-#define RADIX_BITS 13   /* at most; 2 passes up to 26 key bits (1080p with 8-pixel tiles) */
+#define RADIX_BITS 13 /* at most; 2 passes up to 26 key bits (1080p with 8-pixel tiles) */
 #define RADIX (1u << RADIX_BITS)
-#define RADIX_CHUNKS 8   /* fixed (thread-count independent); few: the digit prefix sum walks chunks x digits */
+#define RADIX_CHUNKS 8 /* fixed (thread-count independent); few: the digit prefix sum walks chunks x digits */
 
 /* A monotone, continuous stand-in for log2 (exact at powers of two): slices
  * only need to be roughly cubical, and a libm log per pixel costs more than
  * the rest of the key. */
 static inline float fast_log2(float x) {
-    union { float f; uint32_t u; } v = {x};
+    union {
+        float f;
+        uint32_t u;
+    } v = {x};
     float e = (float)((int)((v.u >> 23) & 255) - 127);
-    v.u = (v.u & 0x007fffffu) | 0x3f800000u;   /* mantissa in [1, 2) */
+    v.u = (v.u & 0x007fffffu) | 0x3f800000u; /* mantissa in [1, 2) */
     float m = v.f - 1.f;
     return e + m * (1.3465f - 0.3465f * m);
 }
@@ -70,7 +73,7 @@ static int radix_sort(uint64_t *k0, uint32_t *v0, uint64_t *k1, uint32_t *v1, si
                       int nt) {
     const size_t nch = RADIX_CHUNKS, chunk = (n + nch - 1) / nch + 1;
     const int passes = (bits + RADIX_BITS - 1) / RADIX_BITS;
-    const int digit = passes ? (bits + passes - 1) / passes : 0;   /* <= RADIX_BITS, balanced */
+    const int digit = passes ? (bits + passes - 1) / passes : 0; /* <= RADIX_BITS, balanced */
     const uint64_t dm = ((uint64_t)1 << digit) - 1;
     const uint32_t nb = (uint32_t)1 << digit;
     int swapped = 0;
@@ -100,8 +103,12 @@ static int radix_sort(uint64_t *k0, uint32_t *v0, uint64_t *k1, uint32_t *v1, si
                 v1[o] = v0[i];
             }
         }
-        uint64_t *tk = k0; k0 = k1; k1 = tk;
-        uint32_t *tv = v0; v0 = v1; v1 = tv;
+        uint64_t *tk = k0;
+        k0 = k1;
+        k1 = tk;
+        uint32_t *tv = v0;
+        v0 = v1;
+        v1 = tv;
         swapped ^= 1;
     }
     return swapped;
@@ -118,7 +125,7 @@ static void cone_thresholds(cnode *nd, double alpha) {
         nd->rej = (float)(-s - eps);
         nd->acc = (float)(s + eps);
     } else {
-        nd->rej = -2.f;   /* never: the cone reaches past the tangent plane */
+        nd->rej = -2.f; /* never: the cone reaches past the tangent plane */
         nd->acc = 2.f;
     }
 }
@@ -152,12 +159,12 @@ static inline void soa_store(cl_state *s, size_t ni, const cnode *nd) {
 
 /* What one phase of the build hands to the next. */
 typedef struct {
-    float near, log_near, inv_step;   /* depth slices */
+    float near, log_near, inv_step; /* depth slices */
     int nslices_m1, any_secondary;
-    uint64_t *sp[3];                  /* spread tables: tile x, tile y, slice -> key bits */
-    uint64_t sec_bit;                 /* top key bit of the mirror/glass subtree */
-    int bits;                         /* key bits */
-    size_t nclus;                     /* clusters (= leaves) */
+    uint64_t *sp[3];  /* spread tables: tile x, tile y, slice -> key bits */
+    uint64_t sec_bit; /* top key bit of the mirror/glass subtree */
+    int bits;         /* key bits */
+    size_t nclus;     /* clusters (= leaves) */
 } build_ctx;
 
 static pgi_status scan_samples(cl_state *s, const pgi_view_samples *vs, const pgi_camera *cam, build_ctx *bc) {
@@ -174,7 +181,11 @@ static pgi_status scan_samples(cl_state *s, const pgi_view_samples *vs, const pg
      * count), and whether any sample was seen through a mirror/glass. */
     float near = INFINITY, zmax = 0.f;
     int any_secondary = 0, any_nan = 0;
-#pragma omp parallel for schedule(static) reduction(min : near) reduction(max : zmax) reduction(| : any_secondary, any_nan) num_threads(s->c.threads)
+#pragma omp parallel for schedule(static) reduction(min                                                                \
+                                                    : near) reduction(max                                              \
+                                                                      : zmax) reduction(|                              \
+                                                                                        : any_secondary, any_nan)      \
+    num_threads(s->c.threads)
     for (int c = 0; c < npc; c++) {
         uint32_t cnt = 0;
         for (int y = c * rows_per; y < (c + 1) * rows_per && y < H; y++)
@@ -255,14 +266,14 @@ static pgi_status sort_tiles(cl_state *s, const pgi_view_samples *vs, build_ctx 
      * cluster order: sorting 2M samples is replaced by ~64-sample local sorts. */
     const int ntiles = s->ntx * s->nty;
     const size_t tsz = (size_t)T * (size_t)T;
-    if ((st = ENSURE(keys2, (size_t)ntiles * tsz + 1, uint64_t)) || (st = ENSURE(tcl, (size_t)ntiles + 1, uint32_t)) || (st = ENSURE(tn, (size_t)ntiles + 1, uint32_t)) ||
-        (st = ENSURE(order, nvalid + 1, uint32_t)))
+    if ((st = ENSURE(keys2, (size_t)ntiles * tsz + 1, uint64_t)) || (st = ENSURE(tcl, (size_t)ntiles + 1, uint32_t)) ||
+        (st = ENSURE(tn, (size_t)ntiles + 1, uint32_t)) || (st = ENSURE(order, nvalid + 1, uint32_t)))
         return st;
 #pragma omp parallel for schedule(dynamic, 16) num_threads(s->c.threads)
     for (int t = 0; t < ntiles; t++) {
         const int tx = t % s->ntx, ty = t / s->ntx;
         uint64_t *const out = s->keys2 + (size_t)t * tsz;
-        uint64_t tmp[4096];   /* the keys in pixel order (tiles up to 64 x 64 pixels) */
+        uint64_t tmp[4096]; /* the keys in pixel order (tiles up to 64 x 64 pixels) */
         uint64_t *v = tsz <= 4096 ? tmp : out;
         uint32_t n = 0, smin = UINT32_MAX, smax = 0;
         for (int y = ty * T; y < (ty + 1) * T && y < H; y++)
@@ -303,7 +314,7 @@ static pgi_status sort_tiles(cl_state *s, const pgi_view_samples *vs, build_ctx 
             for (uint32_t k = 0; k < n; k++) any_sec |= (int)(v[k] >> 40);
             if (any_sec) qsort(v, n, sizeof *v, cmp_u64);
         } else if (!sorted && n <= 256) {
-            for (uint32_t k = 1; k < n; k++) {   /* insertion sort: tiles are small */
+            for (uint32_t k = 1; k < n; k++) { /* insertion sort: tiles are small */
                 uint64_t e = v[k];
                 uint32_t m = k;
                 while (m > 0 && v[m - 1] > e) v[m] = v[m - 1], m--;
@@ -359,8 +370,12 @@ static pgi_status sort_clusters(cl_state *s, const pgi_view_samples *vs, const b
         }
     }
     if (radix_sort(s->keys, s->ci, s->ck2, s->ci2, nclus, bits, s->hist, s->c.threads)) {
-        pgi__buf tk = s->keys_buf; s->keys_buf = s->ck2_buf; s->ck2_buf = tk;
-        pgi__buf tv = s->ci_buf; s->ci_buf = s->ci2_buf; s->ci2_buf = tv;
+        pgi__buf tk = s->keys_buf;
+        s->keys_buf = s->ck2_buf;
+        s->ck2_buf = tk;
+        pgi__buf tv = s->ci_buf;
+        s->ci_buf = s->ci2_buf;
+        s->ci2_buf = tv;
     }
     {
         size_t acc = 0;
@@ -379,7 +394,7 @@ static pgi_status sort_clusters(cl_state *s, const pgi_view_samples *vs, const b
         const size_t base = (size_t)(ty * T) * W + (size_t)(tx * T);
         const uint64_t *kv = s->keys2 + s->cb[c];
         uint32_t *o = s->order + s->cs[i];
-        if (tsh >= 0) {   /* power-of-two tiles (the default 8): no divisions */
+        if (tsh >= 0) { /* power-of-two tiles (the default 8): no divisions */
             for (uint32_t j = 0; j < s->cn[c]; j++) {
                 uint32_t lj = (uint32_t)(kv[j] & 0xFFFFFu);
                 o[j] = (uint32_t)(base + (size_t)(lj >> tsh) * W + (lj & (uint32_t)(T - 1)));
@@ -400,7 +415,7 @@ static pgi_status link_levels(cl_state *s, const build_ctx *bc) {
     pgi_status st;
     /* Levels: count the distinct key prefixes per level (one scan), then fill. */
     size_t cnt[MAX_LEVELS + 1] = {0};
-    const uint64_t *K = s->keys;   /* sorted cluster keys, all distinct: one leaf each */
+    const uint64_t *K = s->keys; /* sorted cluster keys, all distinct: one leaf each */
     for (size_t i = 0; i < nclus; i++) {
         if (i > 0 && K[i] == K[i - 1]) continue;
         for (int l = 0; l <= L; l++) {
@@ -465,12 +480,12 @@ static pgi_status leaf_bounds(cl_state *s, const pgi_view_samples *vs) {
      * then reads them sequentially instead of gathering tile rows again. */
     const uint32_t leaf0 = s->lvl_off[L], leaf1 = s->lvl_off[L + 1];
     if ((st = ENSURE(sam, 6 * nvalid + 16, float))) return st;
-    memset(s->sam + 6 * nvalid, 0, 16 * sizeof(float));   /* padding read by the last radiance block */
+    memset(s->sam + 6 * nvalid, 0, 16 * sizeof(float)); /* padding read by the last radiance block */
     float *const S0 = s->sam, *const S1 = S0 + nvalid, *const S2 = S1 + nvalid, *const S3 = S2 + nvalid,
                  *const S4 = S3 + nvalid, *const S5 = S4 + nvalid;
 #pragma omp parallel for schedule(dynamic, 64) num_threads(s->c.threads)
     for (long long li = leaf0; li < (long long)leaf1; li++) {
-        if (li + 2 < (long long)leaf1)   /* tile rows two leaves ahead: gathers, not streams */
+        if (li + 2 < (long long)leaf1) /* tile rows two leaves ahead: gathers, not streams */
             for (uint32_t k = s->sbeg[li + 2]; k < s->send[li + 2]; k += 4) {
                 __builtin_prefetch(vs->pos + 3 * (size_t)s->order[k]);
                 __builtin_prefetch(vs->nrm + 3 * (size_t)s->order[k]);
@@ -492,13 +507,14 @@ static pgi_status leaf_bounds(cl_state *s, const pgi_view_samples *vs) {
             sx += n[0], sy += n[1], sz += n[2];
             const int lk = (vs->flags[i] & PGI_VS_LAMBERT) != 0;
             lam &= (uint32_t)lk;
-            if (!(s->variant & V_DIR)) S0[k] = lk ? p[0] : NAN, S1[k] = p[1], S2[k] = p[2];   /* directional: normals only */
+            if (!(s->variant & V_DIR))
+                S0[k] = lk ? p[0] : NAN, S1[k] = p[1], S2[k] = p[2]; /* directional: normals only */
             S3[k] = n[0], S4[k] = n[1], S5[k] = n[2];
         }
         memcpy(nd->lo, lo, sizeof lo);
         memcpy(nd->hi, hi, sizeof hi);
         nd->lambert = lam;
-        nd->rej = -2.f, nd->acc = 2.f, nd->alpha = 4.f;   /* open unless the variant uses cones */
+        nd->rej = -2.f, nd->acc = 2.f, nd->alpha = 4.f; /* open unless the variant uses cones */
         if ((s->variant & V_CONE) && cone_axis(nd, sx, sy, sz, (double)(s->send[li] - s->sbeg[li]))) {
             /* The largest angle is the smallest cosine: one acos a leaf. The
              * float dot products of near-unit vectors are off by < 1e-6, so
@@ -508,7 +524,7 @@ static pgi_status leaf_bounds(cl_state *s, const pgi_view_samples *vs) {
             int bad = 0;
             for (uint32_t k = s->sbeg[li]; k < s->send[li]; k++) {
                 float c = ax * S3[k] + ay * S4[k] + az * S5[k];
-                bad |= !(c == c);   /* a NaN normal opens the cone */
+                bad |= !(c == c); /* a NaN normal opens the cone */
                 cmin = pgi_minf(cmin, c);
             }
             double cm = (double)cmin - 1e-6;
@@ -526,7 +542,7 @@ static pgi_status leaf_bounds(cl_state *s, const pgi_view_samples *vs) {
  * child cones (alpha > pi) make the parent open. */
 static void inner_bounds(cl_state *s) {
     const int L = s->L;
-    for (int l = L - 1; l >= 0; l--) {   /* nodes of one level are independent */
+    for (int l = L - 1; l >= 0; l--) { /* nodes of one level are independent */
         const long long n0 = s->lvl_off[l], n1 = s->lvl_off[l + 1];
 #pragma omp parallel for schedule(dynamic, 32) if (n1 - n0 >= 512) num_threads(s->c.threads)
         for (long long ni = n0; ni < n1; ni++) {

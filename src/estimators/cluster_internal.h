@@ -16,14 +16,14 @@ enum { V_CONE = 1, V_TRIVIAL = 2, V_DIR = 4 };
 #define JOB_LEVEL_NODES 256
 
 typedef struct cnode {
-    float lo[3], hi[3];   /* view-space AABB of the samples */
-    float ax, ay, az;     /* normal-cone axis (world space, unit up to rounding) */
-    float rej, acc;       /* dot(axis, w_p) < rej: below every normal; > acc: above every normal */
-    uint32_t mask;        /* child occupancy: bit i = child with key digit i */
-    uint32_t first;       /* index of the first child; children are contiguous in digit order */
-    uint32_t lambert;     /* every sample in the node is Lambertian */
+    float lo[3], hi[3]; /* view-space AABB of the samples */
+    float ax, ay, az;   /* normal-cone axis (world space, unit up to rounding) */
+    float rej, acc;     /* dot(axis, w_p) < rej: below every normal; > acc: above every normal */
+    uint32_t mask;      /* child occupancy: bit i = child with key digit i */
+    uint32_t first;     /* index of the first child; children are contiguous in digit order */
+    uint32_t lambert;   /* every sample in the node is Lambertian */
     uint32_t parent;
-    float alpha;          /* normal-cone half-angle (radians, rounded up); > pi: open cone */
+    float alpha; /* normal-cone half-angle (radians, rounded up); > pi: open cone */
 } cnode;
 
 typedef struct {
@@ -36,23 +36,23 @@ typedef struct {
     size_t nvalid, nnodes, nchunks, chunk;
     uint32_t lvl_off[MAX_LEVELS + 2];
     /* sort */
-    PGI__BUF(uint64_t, keys);     /* sorted cluster keys */
-    PGI__BUF(uint64_t, keys2);    /* per-tile sorted samples */
+    PGI__BUF(uint64_t, keys);  /* sorted cluster keys */
+    PGI__BUF(uint64_t, keys2); /* per-tile sorted samples */
     PGI__BUF(uint64_t, spread);
     PGI__BUF(uint64_t, ck2);
-    PGI__BUF(uint32_t, tcl);      /* per tile: cluster base */
-    PGI__BUF(uint32_t, tn);       /* per tile: count */
-    PGI__BUF(uint32_t, ci);       /* per cluster: index */
+    PGI__BUF(uint32_t, tcl); /* per tile: cluster base */
+    PGI__BUF(uint32_t, tn);  /* per tile: count */
+    PGI__BUF(uint32_t, ci);  /* per cluster: index */
     PGI__BUF(uint32_t, ci2);
-    PGI__BUF(uint32_t, cb);       /* per cluster: begin */
-    PGI__BUF(uint32_t, cn);       /* per cluster: size */
-    PGI__BUF(uint32_t, cs);       /* per cluster: start */
+    PGI__BUF(uint32_t, cb); /* per cluster: begin */
+    PGI__BUF(uint32_t, cn); /* per cluster: size */
+    PGI__BUF(uint32_t, cs); /* per cluster: start */
     PGI__BUF(uint32_t, order);
     PGI__BUF(uint32_t, hist);
     PGI__BUF(uint32_t, pix_cnt);
     /* hierarchy */
     PGI__BUF(cnode, nodes);
-    PGI__BUF(uint32_t, sbeg);     /* nnodes + 1: node sample ranges [sbeg[i], send[i]) */
+    PGI__BUF(uint32_t, sbeg); /* nnodes + 1: node sample ranges [sbeg[i], send[i]) */
     PGI__BUF(uint32_t, send);
     PGI__BUF(uint64_t, nkey);
     /* splat */
@@ -69,21 +69,21 @@ typedef struct {
     PGI__BUF(float, node_flux);
     PGI__BUF(float, buckets);
     PGI__BUF(pgi__packed_photon, lists);
-    PGI__BUF(pgi__packed_photon, pk);     /* every photon packed */
-    PGI__BUF(pgi__packed_photon, jobq);   /* the jobs' photons */
+    PGI__BUF(pgi__packed_photon, pk);   /* every photon packed */
+    PGI__BUF(pgi__packed_photon, jobq); /* the jobs' photons */
     size_t njobs, nlist, ntop_list;
     /* radiance */
     PGI__BUF(float, cum_flux);
     PGI__BUF(float, irr);
     PGI__BUF(uint32_t, cum_cnt);
     uint64_t deposits;
-    struct sink *outs;   /* traversal records: one per top chunk / per thread */
+    struct sink *outs; /* traversal records: one per top chunk / per thread */
     int nouts;
-    PGI__BUF(uint32_t, task_rec);   /* per job-level node: thread, first and end record */
-    float *sx0, *sy0, *sz0, *sx1, *sy1, *sz1, *cax, *cay, *caz, *crej;   /* SoA copies for child_hits (in soa) */
+    PGI__BUF(uint32_t, task_rec); /* per job-level node: thread, first and end record */
+    float *sx0, *sy0, *sz0, *sx1, *sy1, *sz1, *cax, *cay, *caz, *crej; /* SoA copies for child_hits (in soa) */
     PGI__BUF(float, soa);
-    PGI__BUF(float, sam);   /* 6 x nvalid: sorted samples' world position (x NaN: not Lambertian) and normal */
-    int splatted;   /* this frame has nodes and photons (lists/buckets are valid) */
+    PGI__BUF(float, sam); /* 6 x nvalid: sorted samples' world position (x NaN: not Lambertian) and normal */
+    int splatted;         /* this frame has nodes and photons (lists/buckets are valid) */
 } cl_state;
 
 /* Grows the PGI__BUF field s->field to n elements of `type`. */

@@ -44,12 +44,12 @@
 
 #include "estimator_internal.h"
 
-#define MAXE 64            /* half-planes of a bound */
-#define PIX_MARGIN 0.05f   /* pixels */
+#define MAXE 64          /* half-planes of a bound */
+#define PIX_MARGIN 0.05f /* pixels */
 
 typedef struct {
-    uint8_t primary, secondary;   /* has valid samples of that kind */
-    float lo[3], hi[3];           /* view-space box of the secondary samples */
+    uint8_t primary, secondary; /* has valid samples of that kind */
+    float lo[3], hi[3];         /* view-space box of the secondary samples */
 } btile;
 
 typedef struct {
@@ -58,16 +58,16 @@ typedef struct {
     int T, ntx, nty, ntiles, W, H;
     btile *tiles;
     size_t tiles_cap;
-    uint32_t *sec;                /* tiles with secondary samples */
+    uint32_t *sec; /* tiles with secondary samples */
     size_t sec_cap;
     int nsec;
-    float *cview;                 /* photon centres in view space, 3 a photon */
+    float *cview; /* photon centres in view space, 3 a photon */
     size_t cview_cap;
-    uint32_t *counts;             /* [chunk][tile] */
+    uint32_t *counts; /* [chunk][tile] */
     size_t counts_cap;
     uint32_t *tile_start;
     size_t tile_start_cap;
-    uint32_t *bins;               /* photon indices, per tile in photon order */
+    uint32_t *bins; /* photon indices, per tile in photon order */
     size_t bins_cap;
     size_t nbinned;
     size_t nphotons;
@@ -113,7 +113,7 @@ static const float k_ico[12][3] = {
     {1, 1.6180340f, 0}, {-1, 1.6180340f, 0}, {1, -1.6180340f, 0}, {-1, -1.6180340f, 0},
     {1.6180340f, 0, 1}, {-1.6180340f, 0, 1}, {1.6180340f, 0, -1}, {-1.6180340f, 0, -1},
 };
-#define ICO_INRADIUS 1.5115226f   /* of the icosahedron above: phi^2 / sqrt(3) */
+#define ICO_INRADIUS 1.5115226f /* of the icosahedron above: phi^2 / sqrt(3) */
 
 static inline float cross2(const float *o, const float *a, const float *b) {
     return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]);
@@ -143,13 +143,13 @@ static int clipped_shape(const pgi__view_xf *x, pgi__v3 c, float ri, int m, shap
         double th = 3.14159265358979323846 * (double)k / (double)m, cs = cos(th), sn = sin(th);
         double a = (double)c.x * cs + (double)c.y * sn, z = c.z, r = ri;
         double d2 = a * a + z * z;
-        if (!(d2 > r * r * (1.0 + 1e-6))) continue;   /* eye inside the circle: no bound */
+        if (!(d2 > r * r * (1.0 + 1e-6))) continue; /* eye inside the circle: no bound */
         double alpha = asin(r / sqrt(d2)) + 1e-6, pc = atan2(a, z);
         double lo = pc - alpha, hi = pc + alpha;
         /* the representation of the wedge that meets (-pi/2, pi/2), if any */
         if (hi <= -HALF) lo += TWO_PI, hi += TWO_PI;
         else if (lo >= HALF) lo -= TWO_PI, hi -= TWO_PI;
-        if (hi <= -HALF || lo >= HALF) return 0;   /* nothing in front of the eye */
+        if (hi <= -HALF || lo >= HALF) return 0; /* nothing in front of the eye */
         int has_lo = lo > -HALF + 1e-6, has_hi = hi < HALF - 1e-6;
         float tlo = has_lo ? (float)tan(lo) : 0.f, thi = has_hi ? (float)tan(hi) : 0.f;
         float C0 = (float)cs * bx + (float)sn * by;
@@ -177,7 +177,7 @@ static int make_shape(const bounds_state *s, const pgi__view_xf *x, pgi__v3 c, f
     sh->zlo = c.z - ri;
     sh->zhi = c.z + ri;
     sh->use_depth = !s->mode3d;
-    if (!(sh->zhi > 0.f)) return 0;   /* primary samples have positive depth */
+    if (!(sh->zhi > 0.f)) return 0; /* primary samples have positive depth */
     int fallback = 0;
     if (s->mode3d) {
         float scale = ri / ICO_INRADIUS * 1.00001f;
@@ -212,7 +212,7 @@ static int make_shape(const bounds_state *s, const pgi__view_xf *x, pgi__v3 c, f
                 while (h >= lo && cross2(p[hull[h - 2]], p[hull[h - 1]], p[idx[i]]) <= 0.f) h--;
                 hull[h++] = idx[i];
             }
-            h--;   /* last point repeats the first */
+            h--; /* last point repeats the first */
             /* counter-clockwise in (X, Y): the interior is on the left of each edge */
             sh->x0 = sh->y0 = INFINITY;
             sh->x1 = sh->y1 = -INFINITY;
@@ -253,8 +253,7 @@ static int make_shape(const bounds_state *s, const pgi__view_xf *x, pgi__v3 c, f
         /* 3D: the icosahedron's circumsphere, by the two axis slices; 2.5D: the sphere, N/2 slices */
         if (s->mode3d) {
             if (!clipped_shape(x, c, ri * (1.9021130f / ICO_INRADIUS) * 1.00001f, 2, sh)) return 0;
-        } else if (!clipped_shape(x, c, ri, s->nverts / 2, sh))
-            return 0;
+        } else if (!clipped_shape(x, c, ri, s->nverts / 2, sh)) return 0;
     }
     sh->x0 -= PIX_MARGIN;
     sh->y0 -= PIX_MARGIN;
@@ -300,33 +299,38 @@ static inline int sphere_box(const btile *b, pgi__v3 c, float r) {
 
 /* Calls BODY with t for every tile photon j is binned to, in increasing
  * tile order for the rectangle, then the secondary tiles outside it. */
-#define FOR_EACH_BIN(S_, XF_, J_, BODY)                                                                    \
-    do {                                                                                                   \
-        pgi__v3 c_ = v3((S_)->cview[3 * (J_)], (S_)->cview[3 * (J_) + 1], (S_)->cview[3 * (J_) + 2]);       \
-        shape sh_;                                                                                         \
-        int tx0 = 1, tx1 = 0, ty0 = 1, ty1 = 0;                                                            \
-        if (make_shape((S_), (XF_), c_, r, &sh_)) {                                                        \
-            tx0 = clip_lo(sh_.x0, 0) / (S_)->T;                                                            \
-            tx1 = clip_hi(sh_.x1, (S_)->W - 1) / (S_)->T;                                                  \
-            ty0 = clip_lo(sh_.y0, 0) / (S_)->T;                                                            \
-            ty1 = clip_hi(sh_.y1, (S_)->H - 1) / (S_)->T;                                                  \
-            for (int ty_ = ty0; ty_ <= ty1; ty_++)                                                         \
-                for (int tx_ = tx0; tx_ <= tx1; tx_++) {                                                   \
-                    int t = ty_ * (S_)->ntx + tx_;                                                         \
-                    const btile *b_ = &(S_)->tiles[t];                                                     \
-                    if (b_->primary || (b_->secondary && sphere_box(b_, c_, r))) { BODY; }                 \
-                }                                                                                          \
-        }                                                                                                  \
-        for (int k_ = 0; k_ < (S_)->nsec; k_++) {                                                          \
-            int t = (int)(S_)->sec[k_], tx_ = t % (S_)->ntx, ty_ = t / (S_)->ntx;                          \
-            if (tx_ >= tx0 && tx_ <= tx1 && ty_ >= ty0 && ty_ <= ty1) continue;                            \
-            if (sphere_box(&(S_)->tiles[t], c_, r)) { BODY; }                                              \
-        }                                                                                                  \
+#define FOR_EACH_BIN(S_, XF_, J_, BODY)                                                                                \
+    do {                                                                                                               \
+        pgi__v3 c_ = v3((S_)->cview[3 * (J_)], (S_)->cview[3 * (J_) + 1], (S_)->cview[3 * (J_) + 2]);                  \
+        shape sh_;                                                                                                     \
+        int tx0 = 1, tx1 = 0, ty0 = 1, ty1 = 0;                                                                        \
+        if (make_shape((S_), (XF_), c_, r, &sh_)) {                                                                    \
+            tx0 = clip_lo(sh_.x0, 0) / (S_)->T;                                                                        \
+            tx1 = clip_hi(sh_.x1, (S_)->W - 1) / (S_)->T;                                                              \
+            ty0 = clip_lo(sh_.y0, 0) / (S_)->T;                                                                        \
+            ty1 = clip_hi(sh_.y1, (S_)->H - 1) / (S_)->T;                                                              \
+            for (int ty_ = ty0; ty_ <= ty1; ty_++)                                                                     \
+                for (int tx_ = tx0; tx_ <= tx1; tx_++) {                                                               \
+                    int t = ty_ * (S_)->ntx + tx_;                                                                     \
+                    const btile *b_ = &(S_)->tiles[t];                                                                 \
+                    if (b_->primary || (b_->secondary && sphere_box(b_, c_, r))) { BODY; }                             \
+                }                                                                                                      \
+        }                                                                                                              \
+        for (int k_ = 0; k_ < (S_)->nsec; k_++) {                                                                      \
+            int t = (int)(S_)->sec[k_], tx_ = t % (S_)->ntx, ty_ = t / (S_)->ntx;                                      \
+            if (tx_ >= tx0 && tx_ <= tx1 && ty_ >= ty0 && ty_ <= ty1) continue;                                        \
+            if (sphere_box(&(S_)->tiles[t], c_, r)) { BODY; }                                                          \
+        }                                                                                                              \
     } while (0)
 
-static const pgi_option k_opt_polygon = {
-    .name = "polygon", .type = PGI_OPTION_INT, .offset = offsetof(pgi_estimator_desc, bounds.polygon), .min = 4,
-    .max = 64, .step = 2, .def = 8, .help = "bounds25d: vertices of the screen polygon (even, 4..64, default 8)"};
+static const pgi_option k_opt_polygon = {.name = "polygon",
+                                         .type = PGI_OPTION_INT,
+                                         .offset = offsetof(pgi_estimator_desc, bounds.polygon),
+                                         .min = 4,
+                                         .max = 64,
+                                         .step = 2,
+                                         .def = 8,
+                                         .help = "bounds25d: vertices of the screen polygon (even, 4..64, default 8)"};
 static const pgi_option *const k_options3d[] = {&pgi__opt_tile, NULL};
 static const pgi_option *const k_options25d[] = {&pgi__opt_tile, &k_opt_polygon, NULL};
 
@@ -463,7 +467,8 @@ static pgi_status b_estimate(void *state, const pgi_estimate_args *a) {
     nthreads = s->c.threads;
 #endif
     /* per thread: samples, view depth, kind (0 none, 1 primary, 2 secondary), sums, secondary list */
-    const size_t per = (TT * (sizeof(pgi__vs) + sizeof(float) + 1 + sizeof(pgi__acc) + sizeof(uint32_t)) + 127) & ~(size_t)63;
+    const size_t per =
+        (TT * (sizeof(pgi__vs) + sizeof(float) + 1 + sizeof(pgi__acc) + sizeof(uint32_t)) + 127) & ~(size_t)63;
     char *scratch = malloc((size_t)nthreads * per);
     if (!scratch) return pgi__fail(PGI_ERR_OOM, "out of memory for %d tile buffers", nthreads);
     uint64_t reads = 0, contrib = 0, covered = 0;
@@ -483,7 +488,7 @@ static pgi_status b_estimate(void *state, const pgi_estimate_args *a) {
         for (int t = 0; t < s->ntiles; t++) {
             const int tx = t % s->ntx, ty = t / s->ntx;
             const int X0 = tx * T, Y0 = ty * T;
-            const int X1 = X0 + T < W ? X0 + T : W, Y1 = Y0 + T < H ? Y0 + T : H;   /* exclusive */
+            const int X1 = X0 + T < W ? X0 + T : W, Y1 = Y0 + T < H ? Y0 + T : H; /* exclusive */
             const int tw = X1 - X0;
             uint32_t nsecl = 0;
             for (int py = Y0; py < Y1; py++)

@@ -46,8 +46,8 @@ static pgi_status brute_estimate_general(brute_state *s, const pgi_estimate_args
         pgi__acc acc = {0};
         if (!footprints) {
             for (size_t j = 0; j < n; j++)
-                pgi__gather_k(&v, r2, kern, ph->px[j], ph->py[j], ph->pz[j], ph->dx[j], ph->dy[j], ph->dz[j],
-                              ph->fr[j], ph->fg[j], ph->fb[j], &acc);
+                pgi__gather_k(&v, r2, kern, ph->px[j], ph->py[j], ph->pz[j], ph->dx[j], ph->dy[j], ph->dz[j], ph->fr[j],
+                              ph->fg[j], ph->fb[j], &acc);
             pgi__acc_finish_k(&v, &acc, r2, kern, 1.f, out);
         } else {
             for (size_t j = 0; j < n; j++) {
@@ -89,8 +89,8 @@ static pgi_status brute_estimate(void *state, const pgi_estimate_args *a) {
         if (!pgi__vs_begin(vs, i, out, &v)) continue;
         pgi__acc acc = {0};
         for (size_t j = 0; j < n; j++)
-            pgi__gather(&v, r2, ph->px[j], ph->py[j], ph->pz[j], ph->dx[j], ph->dy[j], ph->dz[j], ph->fr[j],
-                        ph->fg[j], ph->fb[j], &acc);
+            pgi__gather(&v, r2, ph->px[j], ph->py[j], ph->pz[j], ph->dx[j], ph->dy[j], ph->dz[j], ph->fr[j], ph->fg[j],
+                        ph->fb[j], &acc);
         pgi__acc_finish(&v, &acc, r2, out);
         reads += n;
         contrib += acc.contributing;

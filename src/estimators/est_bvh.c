@@ -35,8 +35,8 @@ enum { MODE_FIXED, MODE_SPHERE, MODE_ELLIPSOID };
 
 typedef struct {
     float lo[3], hi[3];
-    uint32_t a;   /* leaf: first photon (in packed order); inner: left child (right = a + 1) */
-    uint32_t n;   /* leaf: photon count (> 0); inner: 0 */
+    uint32_t a; /* leaf: first photon (in packed order); inner: left child (right = a + 1) */
+    uint32_t n; /* leaf: photon count (> 0); inner: 0 */
 } bnode;
 
 typedef struct {
@@ -44,29 +44,34 @@ typedef struct {
     int mode, leaf;
     size_t n;
     double footprint_area, scene_area;
-    float *box;      /* 6 per photon: lo xyz, hi xyz (photon index order) */
+    float *box; /* 6 per photon: lo xyz, hi xyz (photon index order) */
     size_t box_cap;
-    uint32_t *keys, *keys2, *idx, *idx2, *vvh_idx, *flag;   /* build scratch */
+    uint32_t *keys, *keys2, *idx, *idx2, *vvh_idx, *flag; /* build scratch */
     size_t keys_cap, keys2_cap, idx_cap, idx2_cap, vvh_cap, flag_cap;
     float *sweep;
     size_t sweep_cap;
     bnode *nodes;
     size_t nnodes, node_cap;
-    pgi__packed_photon *pk;   /* photons in leaf order; flux premultiplied by 1/(pi r_p^2) unless fixed */
+    pgi__packed_photon *pk; /* photons in leaf order; flux premultiplied by 1/(pi r_p^2) unless fixed */
     size_t pk_cap;
-    float *r2;                /* MODE_SPHERE: r_p^2 in leaf order */
+    float *r2; /* MODE_SPHERE: r_p^2 in leaf order */
     size_t r2_cap;
-    float *inv;               /* MODE_ELLIPSOID: 9 per photon, pgi__photon_ellipsoid_inverse */
+    float *inv; /* MODE_ELLIPSOID: 9 per photon, pgi__photon_ellipsoid_inverse */
     size_t inv_cap;
     int max_depth;
 } bvh_state;
 
-static const pgi_option k_opt_build = {
-    .name = "bvh-build", .type = PGI_OPTION_CHOICE, .offset = offsetof(pgi_estimator_desc, bvh.build),
-    .choices = "linear|vvh", .help = "BVH builder: linear (Morton) or vvh (default linear)"};
-static const pgi_option k_opt_leaf = {
-    .name = "leaf-size", .type = PGI_OPTION_INT, .offset = offsetof(pgi_estimator_desc, bvh.leaf_size), .min = 0,
-    .max = 65536, .help = "BVH leaf size threshold (1..65536; 0 = T_auto, the default)"};
+static const pgi_option k_opt_build = {.name = "bvh-build",
+                                       .type = PGI_OPTION_CHOICE,
+                                       .offset = offsetof(pgi_estimator_desc, bvh.build),
+                                       .choices = "linear|vvh",
+                                       .help = "BVH builder: linear (Morton) or vvh (default linear)"};
+static const pgi_option k_opt_leaf = {.name = "leaf-size",
+                                      .type = PGI_OPTION_INT,
+                                      .offset = offsetof(pgi_estimator_desc, bvh.leaf_size),
+                                      .min = 0,
+                                      .max = 65536,
+                                      .help = "BVH leaf size threshold (1..65536; 0 = T_auto, the default)"};
 static const pgi_option *const k_options[] = {&k_opt_build, &k_opt_leaf, NULL};
 
 static pgi_status bvh_create(const pgi_estimator_desc *d, void **state) {
@@ -105,7 +110,7 @@ static inline uint32_t expand_bits(uint32_t x) {
 
 static inline uint32_t quant10(float x, float lo, float scale) {
     float q = (x - lo) * scale;
-    if (!(q > 0.f)) return 0;   /* also NaN */
+    if (!(q > 0.f)) return 0; /* also NaN */
     if (q > 1023.f) return 1023;
     return (uint32_t)q;
 }
@@ -180,7 +185,7 @@ static void build_vvh(bvh_state *s, uint32_t ni, uint32_t start, uint32_t cnt, i
     float best = INFINITY;
     int best_axis = -1;
     uint32_t best_i = 0;
-    float *right = s->sweep;   /* right[i]: volume of items i..cnt-1 */
+    float *right = s->sweep; /* right[i]: volume of items i..cnt-1 */
     for (int ax = 0; ax < 3; ax++) {
         const uint32_t *ids = s->vvh_idx + (size_t)ax * n + start;
         float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
@@ -208,7 +213,7 @@ static void build_vvh(bvh_state *s, uint32_t ni, uint32_t start, uint32_t cnt, i
             }
         }
     }
-    if (best_axis < 0) {   /* non-finite volumes: split the x order in the middle */
+    if (best_axis < 0) { /* non-finite volumes: split the x order in the middle */
         best_axis = 0;
         best_i = cnt / 2;
     }
@@ -256,8 +261,7 @@ static pgi_status bvh_build(void *state, const pgi_estimate_args *a) {
         (st = pgi__ensure((void **)&s->pk, &s->pk_cap, m, sizeof(pgi__packed_photon))))
         return st;
     if (s->mode == MODE_SPHERE && (st = pgi__ensure((void **)&s->r2, &s->r2_cap, m, sizeof(float)))) return st;
-    if (s->mode == MODE_ELLIPSOID && (st = pgi__ensure((void **)&s->inv, &s->inv_cap, 9 * m, sizeof(float))))
-        return st;
+    if (s->mode == MODE_ELLIPSOID && (st = pgi__ensure((void **)&s->inv, &s->inv_cap, 9 * m, sizeof(float)))) return st;
     if (vvh && ((st = pgi__ensure((void **)&s->vvh_idx, &s->vvh_cap, 3 * m, sizeof(uint32_t))) ||
                 (st = pgi__ensure((void **)&s->flag, &s->flag_cap, m, sizeof(uint32_t))) ||
                 (st = pgi__ensure((void **)&s->sweep, &s->sweep_cap, m, sizeof(float)))))
@@ -338,9 +342,9 @@ static pgi_status bvh_build(void *state, const pgi_estimate_args *a) {
                 uint32_t *ids = s->vvh_idx + (size_t)ax * n;
                 for (size_t j = 0; j < n; j++) {
                     uint32_t u;
-                    float f = c[j] + 0.f;   /* -0 -> +0 */
+                    float f = c[j] + 0.f; /* -0 -> +0 */
                     memcpy(&u, &f, sizeof u);
-                    s->keys[j] = (u & 0x80000000u) ? ~u : (u | 0x80000000u);   /* order-preserving */
+                    s->keys[j] = (u & 0x80000000u) ? ~u : (u | 0x80000000u); /* order-preserving */
                     ids[j] = (uint32_t)j;
                 }
                 radix_sort(s->keys, ids, s->keys2, s->idx2, n, 32);
@@ -445,7 +449,8 @@ static void bvh_stats(const void *state, pgi_estimator_stats *out) { *out = ((co
 static void bvh_destroy(void *state) {
     bvh_state *s = state;
     if (!s) return;
-    void *p[] = {s->box, s->keys, s->keys2, s->idx, s->idx2, s->vvh_idx, s->flag, s->sweep, s->nodes, s->pk, s->r2, s->inv};
+    void *p[] = {s->box,  s->keys,  s->keys2, s->idx, s->idx2, s->vvh_idx,
+                 s->flag, s->sweep, s->nodes, s->pk,  s->r2,   s->inv};
     for (size_t k = 0; k < sizeof p / sizeof p[0]; k++) pgi__afree(p[k]);
     free(s);
 }

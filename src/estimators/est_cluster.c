@@ -54,9 +54,13 @@
 
 #include "cluster_internal.h"
 
-const pgi_option pgi__opt_cluster_tile = {
-    .name = "cluster-tile", .type = PGI_OPTION_INT, .offset = offsetof(pgi_estimator_desc, cluster.tile), .min = 1,
-    .max = 256, .def = 8, .help = "cluster edge in pixels (1..256, default 8)"};
+const pgi_option pgi__opt_cluster_tile = {.name = "cluster-tile",
+                                          .type = PGI_OPTION_INT,
+                                          .offset = offsetof(pgi_estimator_desc, cluster.tile),
+                                          .min = 1,
+                                          .max = 256,
+                                          .def = 8,
+                                          .help = "cluster edge in pixels (1..256, default 8)"};
 static const pgi_option *const k_options[] = {&pgi__opt_cluster_tile, NULL};
 
 /* d is resolved: defaults filled in, ranges checked (pgi_estimator_desc_resolve). */
@@ -73,9 +77,7 @@ pgi_status cl_create_variant(const pgi_estimator_desc *d, void **state, int vari
 }
 
 static pgi_status cluster_create(const pgi_estimator_desc *d, void **st) { return cl_create_variant(d, st, 0); }
-static pgi_status cone_create(const pgi_estimator_desc *d, void **st) {
-    return cl_create_variant(d, st, V_CONE);
-}
+static pgi_status cone_create(const pgi_estimator_desc *d, void **st) { return cl_create_variant(d, st, V_CONE); }
 static pgi_status trivial_create(const pgi_estimator_desc *d, void **st) {
     return cl_create_variant(d, st, V_CONE | V_TRIVIAL);
 }
@@ -83,20 +85,20 @@ static pgi_status trivial_create(const pgi_estimator_desc *d, void **st) {
 /* ------------------------------------------------------------ splat */
 
 typedef struct sink {
-    uint32_t *cnt;               /* per-node output counts (top: this chunk's row) */
-    float *flux;                 /* trivial flux (top: this chunk's row; subtree: node_flux) */
-    uint32_t *tcnt;              /* trivial counts, same indexing as flux */
+    uint32_t *cnt;  /* per-node output counts (top: this chunk's row) */
+    float *flux;    /* trivial flux (top: this chunk's row; subtree: node_flux) */
+    uint32_t *tcnt; /* trivial counts, same indexing as flux */
     float *buckets;
-    uint32_t *out;               /* recorded outputs: (node, photon) pairs */
+    uint32_t *out; /* recorded outputs: (node, photon) pairs */
     size_t nout, capout;
     uint64_t visited, deposits;
     int oom;
 } sink;
 
 typedef struct {
-    pgi__v3 c;      /* view-space centre */
+    pgi__v3 c; /* view-space centre */
     float wx, wy, wz, fr, fg, fb;
-    float rr2, re2;  /* (r + slack)^2: may touch; (r - slack)^2: encloses */
+    float rr2, re2; /* (r + slack)^2: may touch; (r - slack)^2: encloses */
     int oct;
     uint32_t j;
 } photon_q;
@@ -135,16 +137,19 @@ static inline __attribute__((always_inline)) uint32_t child_hits(const cl_state 
     const __m128 rr2 = _mm_set1_ps(q->rr2), zero = _mm_setzero_ps();
     const __m128 wx = _mm_set1_ps(q->wx), wy = _mm_set1_ps(q->wy), wz = _mm_set1_ps(q->wz);
     for (int k = 0; k < nc; k += 4) {
-        __m128 ex = _mm_max_ps(_mm_max_ps(_mm_sub_ps(_mm_loadu_ps(x0 + k), cx), _mm_sub_ps(cx, _mm_loadu_ps(x1 + k))), zero);
-        __m128 ey = _mm_max_ps(_mm_max_ps(_mm_sub_ps(_mm_loadu_ps(y0 + k), cy), _mm_sub_ps(cy, _mm_loadu_ps(y1 + k))), zero);
-        __m128 ez = _mm_max_ps(_mm_max_ps(_mm_sub_ps(_mm_loadu_ps(z0 + k), cz), _mm_sub_ps(cz, _mm_loadu_ps(z1 + k))), zero);
+        __m128 ex =
+            _mm_max_ps(_mm_max_ps(_mm_sub_ps(_mm_loadu_ps(x0 + k), cx), _mm_sub_ps(cx, _mm_loadu_ps(x1 + k))), zero);
+        __m128 ey =
+            _mm_max_ps(_mm_max_ps(_mm_sub_ps(_mm_loadu_ps(y0 + k), cy), _mm_sub_ps(cy, _mm_loadu_ps(y1 + k))), zero);
+        __m128 ez =
+            _mm_max_ps(_mm_max_ps(_mm_sub_ps(_mm_loadu_ps(z0 + k), cz), _mm_sub_ps(cz, _mm_loadu_ps(z1 + k))), zero);
         __m128 d2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(ex, ex), _mm_mul_ps(ey, ey)), _mm_mul_ps(ez, ez));
         __m128 hit = _mm_cmple_ps(d2, rr2);
         if (variant & V_CONE) {
             __m128 dw = _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_loadu_ps(s->cax + f + k), wx),
                                               _mm_mul_ps(_mm_loadu_ps(s->cay + f + k), wy)),
                                    _mm_mul_ps(_mm_loadu_ps(s->caz + f + k), wz));
-            hit = _mm_and_ps(hit, _mm_cmpge_ps(dw, _mm_loadu_ps(s->crej + f + k)));   /* §4.5 */
+            hit = _mm_and_ps(hit, _mm_cmpge_ps(dw, _mm_loadu_ps(s->crej + f + k))); /* §4.5 */
         }
         m |= (uint32_t)_mm_movemask_ps(hit) << k;
     }
@@ -158,7 +163,7 @@ static inline __attribute__((always_inline)) uint32_t child_hits(const cl_state 
         uint32_t hit = ex * ex + ey * ey + ez * ez <= rr2;
         if (variant & V_CONE) {
             float dw = s->cax[f + k] * q->wx + s->cay[f + k] * q->wy + s->caz[f + k] * q->wz;
-            hit &= dw >= s->crej[f + k];   /* else below every surface in the child (§4.5) */
+            hit &= dw >= s->crej[f + k]; /* else below every surface in the child (§4.5) */
         }
         m |= hit << k;
     }
@@ -195,9 +200,12 @@ static inline __attribute__((always_inline)) int decide(const cl_state *s, const
         if (level >= s->D) {
             const cnode *nd = &s->nodes[ni];
             float f2 = 0.f, e;
-            e = pgi_maxf(q->c.x - nd->lo[0], nd->hi[0] - q->c.x); f2 += e * e;
-            e = pgi_maxf(q->c.y - nd->lo[1], nd->hi[1] - q->c.y); f2 += e * e;
-            e = pgi_maxf(q->c.z - nd->lo[2], nd->hi[2] - q->c.z); f2 += e * e;
+            e = pgi_maxf(q->c.x - nd->lo[0], nd->hi[0] - q->c.x);
+            f2 += e * e;
+            e = pgi_maxf(q->c.y - nd->lo[1], nd->hi[1] - q->c.y);
+            f2 += e * e;
+            e = pgi_maxf(q->c.z - nd->lo[2], nd->hi[2] - q->c.z);
+            f2 += e * e;
             dep = f2 < q->re2;
             if (!dep && level == s->L) {
                 /* An intersected, not enclosed leaf takes the photon when the
@@ -220,12 +228,14 @@ static inline __attribute__((always_inline)) int decide(const cl_state *s, const
     {
         const cnode *nd = &s->nodes[ni];
         float f2 = 0.f, e;
-        e = pgi_maxf(q->c.x - nd->lo[0], nd->hi[0] - q->c.x); f2 += e * e;
-        e = pgi_maxf(q->c.y - nd->lo[1], nd->hi[1] - q->c.y); f2 += e * e;
-        e = pgi_maxf(q->c.z - nd->lo[2], nd->hi[2] - q->c.z); f2 += e * e;
+        e = pgi_maxf(q->c.x - nd->lo[0], nd->hi[0] - q->c.x);
+        f2 += e * e;
+        e = pgi_maxf(q->c.y - nd->lo[1], nd->hi[1] - q->c.y);
+        f2 += e * e;
+        e = pgi_maxf(q->c.z - nd->lo[2], nd->hi[2] - q->c.z);
+        f2 += e * e;
         if (f2 < q->re2) {
-            if ((variant & V_TRIVIAL) && nd->lambert &&
-                nd->ax * q->wx + nd->ay * q->wy + nd->az * q->wz > nd->acc) {
+            if ((variant & V_TRIVIAL) && nd->lambert && nd->ax * q->wx + nd->ay * q->wy + nd->az * q->wz > nd->acc) {
                 /* encloses the node and above every surface in it (§4.6) */
                 float *f = k->flux + 3 * (size_t)ni;
                 f[0] += q->fr, f[1] += q->fg, f[2] += q->fb;
@@ -252,7 +262,7 @@ job:
  * of the top mask is the next child (__builtin_ctz); children are contiguous,
  * so its index is first + bit. */
 static inline __attribute__((always_inline)) void walk(const cl_state *s, const int variant, const int top,
-                                                      uint32_t start, int start_level, const photon_q *q, sink *k) {
+                                                       uint32_t start, int start_level, const photon_q *q, sink *k) {
     if (!decide(s, variant, top, start, start_level, q, k)) return;
     struct {
         uint32_t mask, first;
@@ -313,7 +323,7 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
         (st = ENSURE(cursor, nn + 1, uint32_t)) || (st = ENSURE(task_rec, 3 * (size_t)nJ + 1, uint32_t)) ||
         (st = grow_outs(s, (int)nch > nthr ? (int)nch : nthr)))
         return st;
-    const size_t nD = (variant & V_DIR) ? nn - s->lvl_off[s->D] : 0;   /* nodes with buckets */
+    const size_t nD = (variant & V_DIR) ? nn - s->lvl_off[s->D] : 0; /* nodes with buckets */
     if ((variant & V_DIR) && (st = ENSURE(buckets, nD * 24 + 1, float))) return st;
     if ((st = ENSURE(pk, n + 1, pgi__packed_photon))) return st;
     uint64_t visited = 0, deposits = 0;
@@ -336,10 +346,10 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
         size_t j1 = ((size_t)ci + 1) * chunk < n ? ((size_t)ci + 1) * chunk : n;
         for (size_t j = (size_t)ci * chunk; j < j1; j++) {
             photon_q q;
-            pgi__pack_photon(ph, j, &s->pk[j]);   /* sequential here; the later passes read pk */
+            pgi__pack_photon(ph, j, &s->pk[j]); /* sequential here; the later passes read pk */
             load_photon(s, &s->pk[j], j, &q);
             k->visited++;
-            if (!(child_hits(s, variant, 0, 1, &q) & 1u)) continue;   /* the root */
+            if (!(child_hits(s, variant, 0, 1, &q) & 1u)) continue; /* the root */
             walk(s, variant, 1, 0, 0, &q, k);
         }
         visited += k->visited;
@@ -374,7 +384,7 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
     if ((st = ENSURE(jobs, js + 1, uint32_t)) || (st = ENSURE(jobq, js + 1, pgi__packed_photon)) ||
         (st = ENSURE(top_ids, sum + 1, uint32_t)))
         return st;
-    /* Top fill: replay the records (jobs grouped by node, photon order). */
+        /* Top fill: replay the records (jobs grouped by node, photon order). */
 #pragma omp parallel for schedule(dynamic, 1) num_threads(s->c.threads)
     for (long long ci = 0; ci < (long long)nch; ci++) {
         const sink *k = &s->outs[ci];
@@ -383,7 +393,7 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
             uint32_t nd = k->out[2 * u], j = k->out[2 * u + 1];
             if (nd < nabove) {
                 s->top_ids[off[nd]++] = j;
-            } else {   /* the photon record too: the subtree pass then reads it sequentially */
+            } else { /* the photon record too: the subtree pass then reads it sequentially */
                 s->jobq[off[nd]] = s->pk[j];
                 s->jobs[off[nd]++] = j;
             }
@@ -458,7 +468,7 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
 #pragma omp parallel for schedule(static) num_threads(s->c.threads)
     for (long long u = 0; u < (long long)s->ntop_list; u++) s->lists[u] = s->pk[s->top_ids[u]];
     for (size_t nd = nabove; nd < nn; nd++) s->cursor[nd] = s->node_start[nd];
-    /* Subtree fill: replay each task's records into its own nodes' lists. */
+        /* Subtree fill: replay each task's records into its own nodes' lists. */
 #pragma omp parallel for schedule(dynamic, 4) num_threads(s->c.threads)
     for (long long t = 0; t < (long long)nJ; t++) {
         const sink *k = &s->outs[s->task_rec[3 * t]];
@@ -545,7 +555,7 @@ static void rad_block(const pgi__packed_photon *restrict q, uint32_t m, int nb, 
             float d2 = ex * ex + ey * ey + ez * ez;
             float c = bnx[t] * dx + bny[t] * dy + bnz[t] * dz;
             int ok = (d2 < r2) & (c > 0.f);
-            float okf = (float)ok;   /* int, not unsigned: SSE2 has the conversion */
+            float okf = (float)ok; /* int, not unsigned: SSE2 has the conversion */
             ar[t] += okf * fr;
             ag[t] += okf * fg;
             ab[t] += okf * fb;
@@ -576,7 +586,7 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
     } else {
         if ((st = ENSURE(cum_flux, 3 * nn + 1, float)) || (st = ENSURE(cum_cnt, nn + 1, uint32_t))) return st;
         /* trivially accepted flux of a node and all its ancestors, top-down */
-        for (int l = 0; l <= s->L; l++) {   /* small levels: no fork/join (barriers cost on a busy machine) */
+        for (int l = 0; l <= s->L; l++) { /* small levels: no fork/join (barriers cost on a busy machine) */
 #pragma omp parallel for schedule(static) if (s->lvl_off[l + 1] - s->lvl_off[l] >= 65536) num_threads(s->c.threads)
             for (long long ni = s->lvl_off[l]; ni < (long long)s->lvl_off[l + 1]; ni++) {
                 uint32_t p = s->nodes[ni].parent;
@@ -589,7 +599,7 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
         const uint32_t leaf0 = s->lvl_off[s->L], leaf1 = s->lvl_off[s->L + 1];
 #pragma omp parallel for schedule(dynamic, 8) reduction(+ : reads, contrib) num_threads(s->c.threads)
         for (long long li = leaf0; li < (long long)leaf1; li++) {
-            if (li + 1 < (long long)leaf1)   /* the next leaf's kd and output rows */
+            if (li + 1 < (long long)leaf1) /* the next leaf's kd and output rows */
                 for (uint32_t k = s->sbeg[li + 1]; k < s->send[li + 1]; k += 4) {
                     __builtin_prefetch(vs->kd + 3 * (size_t)s->order[k]);
                     __builtin_prefetch(a->out_rgb + 3 * (size_t)s->order[k], 1);
@@ -614,7 +624,7 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
             uint32_t an[B];
             const size_t nv = s->nvalid;
             const float *const bx = s->sam, *const by = bx + nv, *const bz = by + nv, *const bnx = bz + nv,
-                        *const bny = bnx + nv, *const bnz = bny + nv;
+                               *const bny = bnx + nv, *const bnz = bny + nv;
             for (uint32_t k0 = s->sbeg[li]; k0 < s->send[li]; k0 += B) {
                 const int nb = (int)(s->send[li] - k0 < B ? s->send[li] - k0 : B);
                 /* whole vectors: lanes past nb read the next samples (or the zero
@@ -671,8 +681,9 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
 void cl_stats_memory(cl_state *s, size_t npix) {
     const size_t nn = s->nnodes;
     s->c.st.memory_count = 0;
-    pgi__stats_mem(&s->c.st, "hierarchy", nn * (4 * sizeof(uint32_t) + 2 * sizeof(uint32_t) + sizeof(uint64_t)) +
-                                              s->nvalid * (sizeof(uint32_t) + sizeof(uint64_t)));
+    pgi__stats_mem(&s->c.st, "hierarchy",
+                   nn * (4 * sizeof(uint32_t) + 2 * sizeof(uint32_t) + sizeof(uint64_t)) +
+                       s->nvalid * (sizeof(uint32_t) + sizeof(uint64_t)));
     pgi__stats_mem(&s->c.st, "bounds", nn * 6 * sizeof(float));
     pgi__stats_mem(&s->c.st, "sorted_samples", s->nvalid * 6 * sizeof(float));
     if (s->variant & V_CONE) pgi__stats_mem(&s->c.st, "normal_cones", nn * 6 * sizeof(float));
@@ -690,13 +701,14 @@ void cl_stats_memory(cl_state *s, size_t npix) {
 void cl_destroy(void *state) {
     cl_state *s = state;
     if (!s) return;
-    pgi__buf *b[] = {&s->keys_buf, &s->keys2_buf, &s->spread_buf, &s->ck2_buf, &s->tcl_buf, &s->tn_buf,
-                     &s->ci_buf, &s->ci2_buf, &s->cb_buf, &s->cn_buf, &s->cs_buf, &s->order_buf,
-                     &s->hist_buf, &s->pix_cnt_buf, &s->nodes_buf, &s->sbeg_buf, &s->send_buf, &s->nkey_buf,
-                     &s->top_cnt_buf, &s->top_tcnt_buf, &s->job_start_buf, &s->jobs_buf, &s->top_ids_buf,
-                     &s->node_cnt_buf, &s->node_start_buf, &s->node_tcnt_buf, &s->cursor_buf, &s->top_flux_buf,
-                     &s->node_flux_buf, &s->buckets_buf, &s->lists_buf, &s->pk_buf, &s->jobq_buf,
-                     &s->cum_flux_buf, &s->irr_buf, &s->cum_cnt_buf, &s->task_rec_buf, &s->soa_buf, &s->sam_buf};
+    pgi__buf *b[] = {&s->keys_buf,      &s->keys2_buf,    &s->spread_buf,   &s->ck2_buf,       &s->tcl_buf,
+                     &s->tn_buf,        &s->ci_buf,       &s->ci2_buf,      &s->cb_buf,        &s->cn_buf,
+                     &s->cs_buf,        &s->order_buf,    &s->hist_buf,     &s->pix_cnt_buf,   &s->nodes_buf,
+                     &s->sbeg_buf,      &s->send_buf,     &s->nkey_buf,     &s->top_cnt_buf,   &s->top_tcnt_buf,
+                     &s->job_start_buf, &s->jobs_buf,     &s->top_ids_buf,  &s->node_cnt_buf,  &s->node_start_buf,
+                     &s->node_tcnt_buf, &s->cursor_buf,   &s->top_flux_buf, &s->node_flux_buf, &s->buckets_buf,
+                     &s->lists_buf,     &s->pk_buf,       &s->jobq_buf,     &s->cum_flux_buf,  &s->irr_buf,
+                     &s->cum_cnt_buf,   &s->task_rec_buf, &s->soa_buf,      &s->sam_buf};
     for (size_t k = 0; k < sizeof b / sizeof b[0]; k++) pgi__buf_free(b[k]);
     for (int i = 0; i < s->nouts; i++) free(s->outs[i].out);
     free(s->outs);

@@ -7,12 +7,12 @@
 
 /* Stats helpers for the per-method state. */
 typedef struct pgi__est_common {
-    pgi_estimator_desc desc;   /* resolved: defaults filled in, ranges checked */
+    pgi_estimator_desc desc; /* resolved: defaults filled in, ranges checked */
     pgi_estimator_stats st;
     /* this frame's arguments (pgi__est_frame) */
     float radius;
     uint64_t seed;
-    int threads;               /* for num_threads(): never 0 */
+    int threads; /* for num_threads(): never 0 */
     float scene_area;
 } pgi__est_common;
 
@@ -51,8 +51,7 @@ void pgi__est_default_stats(const void *state, pgi_estimator_stats *out);
 extern const pgi_estimator_vtbl pgi__est_brute, pgi__est_hashgrid, pgi__est_tiled;
 /* The tile-edge option of tiled, bounds3d and bounds25d (est_tiled.c). */
 extern const pgi_option pgi__opt_tile;
-extern const pgi_estimator_vtbl pgi__est_cluster, pgi__est_cluster_cone, pgi__est_cluster_trivial,
-    pgi__est_directional;
+extern const pgi_estimator_vtbl pgi__est_cluster, pgi__est_cluster_cone, pgi__est_cluster_trivial, pgi__est_directional;
 extern const pgi_estimator_vtbl pgi__est_bvh;
 extern const pgi_estimator_vtbl pgi__est_kdtree, pgi__est_bounds3d, pgi__est_bounds25d;
 

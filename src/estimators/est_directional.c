@@ -8,14 +8,23 @@
 
 #include "cluster_internal.h"
 
-static const pgi_option k_opt_dir_level = {
-    .name = "directional-level", .type = PGI_OPTION_INT, .offset = offsetof(pgi_estimator_desc, directional.level),
-    .min = 0, .max = 16, .zero = PGI_DIRECTIONAL_LEAVES, .def = 1,
-    .help = "flux buckets N levels above the leaves (0..16, default 1; 0 = at the leaves)"};
-static const pgi_option k_opt_dir_blur = {
-    .name = "directional-blur", .type = PGI_OPTION_INT, .offset = offsetof(pgi_estimator_desc, directional.blur),
-    .min = 0, .max = 64, .zero = PGI_DIRECTIONAL_NO_BLUR, .def = 4,
-    .help = "irradiance blur radius in pixels (0..64, default 4; 0 = off)"};
+static const pgi_option k_opt_dir_level =
+    {.name = "directional-level",
+     .type = PGI_OPTION_INT,
+     .offset = offsetof(pgi_estimator_desc, directional.level),
+     .min = 0,
+     .max = 16,
+     .zero = PGI_DIRECTIONAL_LEAVES,
+     .def = 1,
+     .help = "flux buckets N levels above the leaves (0..16, default 1; 0 = at the leaves)"};
+static const pgi_option k_opt_dir_blur = {.name = "directional-blur",
+                                          .type = PGI_OPTION_INT,
+                                          .offset = offsetof(pgi_estimator_desc, directional.blur),
+                                          .min = 0,
+                                          .max = 64,
+                                          .zero = PGI_DIRECTIONAL_NO_BLUR,
+                                          .def = 4,
+                                          .help = "irradiance blur radius in pixels (0..64, default 4; 0 = off)"};
 static const pgi_option *const k_options[] = {&pgi__opt_cluster_tile, &k_opt_dir_level, &k_opt_dir_blur, NULL};
 
 static pgi_status dir_create(const pgi_estimator_desc *d, void **st) { return cl_create_variant(d, st, V_DIR); }
@@ -40,7 +49,7 @@ typedef struct {
 static inline float blur_w(float tent, float z, float iz, float nx, float ny, float nz, float zj, float nxj, float nyj,
                            float nzj) {
     float wz = 1.f - fabsf(zj - z) * iz;
-    wz = 0.5f * (wz + fabsf(wz));   /* max(wz, 0), exact and branch-free */
+    wz = 0.5f * (wz + fabsf(wz)); /* max(wz, 0), exact and branch-free */
     float c = nx * nxj + ny * nyj + nz * nzj;
     c = 0.5f * (c + fabsf(c));
     c *= c, c *= c, c *= c;
@@ -99,7 +108,7 @@ static void blur_pass(const blur_planes *P, int W, int H, int R, int vertical, i
                       n, off, tent, nt);
         }
         if (vertical) continue;
-        for (int x = 0; x < W; x++) {   /* horizontal borders: taps inside the row only */
+        for (int x = 0; x < W; x++) { /* horizontal borders: taps inside the row only */
             if (x >= x0 && x < x1) continue;
             const size_t i = row + (size_t)x;
             const float z = P->z[i], iz = 1.f / (0.05f * fabsf(z) + 1e-12f);
@@ -139,7 +148,7 @@ static void dir_block(const float *restrict snx, const float *restrict sny, cons
         const float b0 = b[3 * o], b1 = b[3 * o + 1], b2 = b[3 * o + 2];
         for (int t = 0; t < nb; t++) {
             float w = 2.f * c3 * (sx * vx[t] + sy * vy[t] + sz * vz[t]);
-            w = 0.5f * (w + fabsf(w));   /* max(w, 0) */
+            w = 0.5f * (w + fabsf(w)); /* max(w, 0) */
             e0[t] += w * b0, e1[t] += w * b1, e2[t] += w * b2;
         }
     }
@@ -164,7 +173,7 @@ static pgi_status dir_radiance(cl_state *s, const pgi_estimate_args *a, double *
         pnx[i] = ok ? vs->nrm[3 * i] : 0.f;
         pny[i] = ok ? vs->nrm[3 * i + 1] : 0.f;
         pnz[i] = ok ? vs->nrm[3 * i + 2] : 0.f;
-        if (!ok || !s->splatted) ep[0][i] = ep[1][i] = ep[2][i] = 0.f;   /* valid samples are shaded below */
+        if (!ok || !s->splatted) ep[0][i] = ep[1][i] = ep[2][i] = 0.f; /* valid samples are shaded below */
     }
     const float inv_area = 1.f / (PGI_PI * s->r * s->r);
     if (s->splatted) {
@@ -183,8 +192,8 @@ static pgi_status dir_radiance(cl_state *s, const pgi_estimate_args *a, double *
                 for (int c = 0; c < 24; c++) b[c] += bb[c];
             }
             const size_t nv = s->nvalid;
-            const float *snx = s->sam + 3 * nv, *sny = snx + nv, *snz = sny + nv;   /* sorted normals */
-            if (li + 1 < (long long)leaf1)   /* the next leaf's irradiance rows (written) */
+            const float *snx = s->sam + 3 * nv, *sny = snx + nv, *snz = sny + nv; /* sorted normals */
+            if (li + 1 < (long long)leaf1) /* the next leaf's irradiance rows (written) */
                 for (uint32_t k = s->sbeg[li + 1]; k < s->send[li + 1]; k += 8)
                     for (int d = 0; d < 3; d++) __builtin_prefetch(ep[d] + s->order[k], 1);
             enum { B = 64 };
@@ -202,10 +211,10 @@ static pgi_status dir_radiance(cl_state *s, const pgi_estimate_args *a, double *
     *t_blur = pgi__now_ms();
     const float *E[3] = {P.e[0], P.e[1], P.e[2]};
     if (s->blur > 0 && s->splatted) {
-        blur_pass(&P, vs->width, vs->height, s->blur, 0, s->c.threads);   /* e -> o */
+        blur_pass(&P, vs->width, vs->height, s->blur, 0, s->c.threads); /* e -> o */
         blur_planes Q = P;
         for (int d = 0; d < 3; d++) Q.e[d] = op[d], Q.o[d] = ep[d];
-        blur_pass(&Q, vs->width, vs->height, s->blur, 1, s->c.threads);   /* o -> e */
+        blur_pass(&Q, vs->width, vs->height, s->blur, 1, s->c.threads); /* o -> e */
     }
 #pragma omp parallel for schedule(static) num_threads(s->c.threads)
     for (long long ii = 0; ii < (long long)npix; ii++) {

@@ -48,7 +48,7 @@ static inline uint32_t hash6432shift(uint64_t key) {
  * time: every photon is still tested against the sphere. */
 static inline int32_t cell_coord(float x, float inv) {
     float c = floorf(x * inv);
-    if (!(c > (float)-FIELD_BIAS)) c = (float)-FIELD_BIAS;   /* also catches NaN */
+    if (!(c > (float)-FIELD_BIAS)) c = (float)-FIELD_BIAS; /* also catches NaN */
     if (c > (float)(FIELD_BIAS - 1)) c = (float)(FIELD_BIAS - 1);
     return (int32_t)c;
 }
@@ -71,9 +71,11 @@ static inline uint32_t probe(const hashgrid_state *s, uint64_t key, uint32_t *pr
     return b;
 }
 
-static const pgi_option k_opt_cell_size = {
-    .name = "cell-size", .type = PGI_OPTION_FLOAT, .offset = offsetof(pgi_estimator_desc, hashgrid.cell_size),
-    .help = "hashgrid cell edge in scene units (at least radius/64; default 2 x radius)"};
+static const pgi_option k_opt_cell_size =
+    {.name = "cell-size",
+     .type = PGI_OPTION_FLOAT,
+     .offset = offsetof(pgi_estimator_desc, hashgrid.cell_size),
+     .help = "hashgrid cell edge in scene units (at least radius/64; default 2 x radius)"};
 static const pgi_option *const k_options[] = {&k_opt_cell_size, NULL};
 
 static pgi_status hg_create(const pgi_estimator_desc *d, void **state) {
@@ -92,7 +94,8 @@ static pgi_status hg_build(void *state, const pgi_estimate_args *a) {
      * visit over 2 million cells: reject rather than hang. */
     const float cell = s->c.desc.hashgrid.cell_size;
     if (cell > 0.f && cell < s->c.radius / 64.f)
-        return pgi__fail(PGI_ERR_INVALID_ARG, "hashgrid: --cell-size must be 0 (default: 2r) or at least r/64 = %g, got %g",
+        return pgi__fail(PGI_ERR_INVALID_ARG,
+                         "hashgrid: --cell-size must be 0 (default: 2r) or at least r/64 = %g, got %g",
                          (double)(s->c.radius / 64.f), (double)cell);
     s->cell = cell > 0.f ? cell : 2.f * s->c.radius;
     s->inv_cell = 1.f / s->cell;
@@ -100,7 +103,7 @@ static pgi_status hg_build(void *state, const pgi_estimate_args *a) {
     const pgi_photons *ph = a->photons;
     const size_t n = ph->count;
     size_t nslots = 16;
-    while (nslots < 2 * n) nslots <<= 1;   /* load factor <= 1/2 */
+    while (nslots < 2 * n) nslots <<= 1; /* load factor <= 1/2 */
     pgi_status st;
     if ((st = pgi__ensure((void **)&s->slots, &s->slot_cap, nslots, sizeof(slot))) ||
         (st = pgi__ensure((void **)&s->sorted, &s->sorted_cap, n + 1, sizeof(pgi__packed_photon))) ||
@@ -139,7 +142,7 @@ static pgi_status hg_build(void *state, const pgi_estimate_args *a) {
     for (size_t b = 0; b < nslots; b++) {
         s->slots[b].start = sum;
         sum += s->slots[b].count;
-        s->slots[b].count = 0;   /* reused as the fill cursor */
+        s->slots[b].count = 0; /* reused as the fill cursor */
     }
     for (size_t j = 0; j < n; j++) {
         slot *sl = &s->slots[s->slot_of[j]];

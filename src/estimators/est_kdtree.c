@@ -32,22 +32,26 @@
 
 typedef struct {
     pgi__est_common c;
-    pgi__packed_photon *pts;   /* tree order */
+    pgi__packed_photon *pts; /* tree order */
     size_t pts_cap;
-    uint32_t *orig;            /* photon index of each tree slot */
+    uint32_t *orig; /* photon index of each tree slot */
     size_t orig_cap;
-    uint8_t *axis;             /* split axis of the node whose median sits at that slot */
+    uint8_t *axis; /* split axis of the node whose median sits at that slot */
     size_t axis_cap;
-    struct kitem_ *items;      /* build scratch */
+    struct kitem_ *items; /* build scratch */
     size_t items_cap;
     size_t n;
 } kdtree_state;
 
-static const pgi_option k_opt_knn = {
-    .name = "knn", .type = PGI_OPTION_INT, .offset = offsetof(pgi_estimator_desc, kdtree.knn), .min = 1, .max = 4096,
-    .flags = PGI_OPTION_STRICT,
-    .help = "k nearest photons within the radius, normalised by the disk through the k-th (1..4096; default: "
-            "fixed-radius range mode)"};
+static const pgi_option k_opt_knn =
+    {.name = "knn",
+     .type = PGI_OPTION_INT,
+     .offset = offsetof(pgi_estimator_desc, kdtree.knn),
+     .min = 1,
+     .max = 4096,
+     .flags = PGI_OPTION_STRICT,
+     .help = "k nearest photons within the radius, normalised by the disk through the k-th (1..4096; default: "
+             "fixed-radius range mode)"};
 static const pgi_option *const k_options[] = {&k_opt_knn, NULL};
 
 static pgi_status kd_create(const pgi_estimator_desc *d, void **state) {
@@ -141,8 +145,7 @@ static pgi_status kd_build(void *state, const pgi_estimate_args *a) {
         return st;
     double t0 = pgi__now_ms();
 #pragma omp parallel for schedule(static) num_threads(s->c.threads)
-    for (long long j = 0; j < (long long)n; j++)
-        s->items[j] = (kitem){{ph->px[j], ph->py[j], ph->pz[j]}, (uint32_t)j};
+    for (long long j = 0; j < (long long)n; j++) s->items[j] = (kitem){{ph->px[j], ph->py[j], ph->pz[j]}, (uint32_t)j};
     memset(s->axis, 0, n + 1);
 #pragma omp parallel num_threads(s->c.threads)
 #pragma omp single
@@ -166,7 +169,7 @@ static inline float pc(const pgi__packed_photon *q, int a) { return a == 0 ? q->
 /* Range query: every photon the walk cannot rule out is passed to visit. */
 static void range_query(const kdtree_state *s, const pgi__vs *v, float r, float r2, pgi_kernel kern, pgi__sub *ss,
                         pgi__acc *acc, uint64_t *nodes) {
-    const float rr = r * 1.0001f + 1e-7f;   /* pruning margin: never drops a photon the test would accept */
+    const float rr = r * 1.0001f + 1e-7f; /* pruning margin: never drops a photon the test would accept */
     const float q[3] = {v->px, v->py, v->pz};
     size_t stk_lo[MAX_STACK], stk_hi[MAX_STACK];
     int sp = 0;
@@ -195,7 +198,9 @@ typedef struct {
     uint32_t orig, slot;
 } cand;
 
-static inline int cand_less(const cand *x, const cand *y) { return x->d2 < y->d2 || (x->d2 == y->d2 && x->orig < y->orig); }
+static inline int cand_less(const cand *x, const cand *y) {
+    return x->d2 < y->d2 || (x->d2 == y->d2 && x->orig < y->orig);
+}
 
 /* Max-heap of the best k candidates by (d2, photon index). */
 static inline void heap_push(cand *h, int *n, cand c) {
@@ -271,7 +276,7 @@ static float knn_query(const kdtree_state *s, const pgi__vs *v, float rmax, int 
     /* the far side was pushed with the radius known then; re-checking is not
        needed for correctness (a wider search only costs time) */
     float r2 = hn == k ? h[0].d2 : rmax2;
-    if (!(r2 > 0.f)) r2 = fmaxf(1e-12f * rmax2, FLT_MIN);   /* k coincident photons: avoid 1/0 */
+    if (!(r2 > 0.f)) r2 = fmaxf(1e-12f * rmax2, FLT_MIN); /* k coincident photons: avoid 1/0 */
     for (int i = 0; i < hn; i++) {
         const pgi__packed_photon *p = &s->pts[h[i].slot];
         float w = kern == PGI_KERNEL_CONSTANT ? 1.f : pgi__kernel_weight(kern, fminf(h[i].d2, r2), r2);

@@ -18,9 +18,9 @@
 #include "estimator_internal.h"
 
 typedef struct {
-    float lo[3], hi[3];   /* view-space box of the tile's samples */
-    int valid;            /* has at least one valid sample */
-    int primary;          /* all valid samples came from primary rays */
+    float lo[3], hi[3]; /* view-space box of the tile's samples */
+    int valid;          /* has at least one valid sample */
+    int primary;        /* all valid samples came from primary rays */
 } tile_bounds;
 
 typedef struct {
@@ -28,22 +28,26 @@ typedef struct {
     int T, ntx, nty, ntiles;
     tile_bounds *bounds;
     size_t bounds_cap;
-    uint32_t *secondary;      /* tiles holding samples seen through specular bounces */
+    uint32_t *secondary; /* tiles holding samples seen through specular bounces */
     size_t secondary_cap;
     int nsecondary;
-    float frame_lo[3], frame_hi[3];   /* box of all tiles' boxes */
-    uint32_t *counts;         /* [chunk][tile] */
+    float frame_lo[3], frame_hi[3]; /* box of all tiles' boxes */
+    uint32_t *counts;               /* [chunk][tile] */
     size_t counts_cap;
-    uint32_t *tile_start;     /* ntiles + 1 */
+    uint32_t *tile_start; /* ntiles + 1 */
     size_t tile_start_cap;
     pgi__packed_photon *tile_photons;
     size_t tile_photons_cap;
     size_t copies;
 } tiled_state;
 
-const pgi_option pgi__opt_tile = {
-    .name = "tile", .type = PGI_OPTION_INT, .offset = offsetof(pgi_estimator_desc, tiled.tile_size), .min = 1,
-    .max = 4096, .def = 32, .help = "screen tile edge in pixels (1..4096, default 32)"};
+const pgi_option pgi__opt_tile = {.name = "tile",
+                                  .type = PGI_OPTION_INT,
+                                  .offset = offsetof(pgi_estimator_desc, tiled.tile_size),
+                                  .min = 1,
+                                  .max = 4096,
+                                  .def = 32,
+                                  .help = "screen tile edge in pixels (1..4096, default 32)"};
 static const pgi_option *const k_options[] = {&pgi__opt_tile, NULL};
 
 static pgi_status tiled_create(const pgi_estimator_desc *d, void **state) {
@@ -82,8 +86,8 @@ static inline int overlaps(const tiled_state *s, const pgi__view_xf *x, int t, p
     int tx = t % s->ntx, ty = t / s->ntx;
     float u0 = (2.f * (float)(tx * s->T) / (float)x->W - 1.f) * x->sx;
     float u1 = (2.f * (float)((tx + 1) * s->T) / (float)x->W - 1.f) * x->sx;
-    float v0 = (1.f - 2.f * (float)(ty * s->T) / (float)x->H) * x->sy;         /* top edge */
-    float v1 = (1.f - 2.f * (float)((ty + 1) * s->T) / (float)x->H) * x->sy;   /* bottom edge */
+    float v0 = (1.f - 2.f * (float)(ty * s->T) / (float)x->H) * x->sy;       /* top edge */
+    float v1 = (1.f - 2.f * (float)((ty + 1) * s->T) / (float)x->H) * x->sy; /* bottom edge */
     /* inside: u0 <= x/z <= u1, v1 <= y/z <= v0 */
     if ((c.x - u0 * c.z) / sqrtf(1.f + u0 * u0) < -rr) return 0;
     if ((u1 * c.z - c.x) / sqrtf(1.f + u1 * u1) < -rr) return 0;
@@ -108,33 +112,33 @@ static inline int frame_overlaps(const tiled_state *s, pgi__v3 c, float r) {
 /* Calls emit(t) for every tile the photon sphere (view-space centre c) may
  * reach, in increasing tile order for the screen rectangle, then the
  * secondary tiles outside it. */
-#define FOR_EACH_TILE(S_, XF_, C_, R_, BODY)                                                                 \
-    do {                                                                                              \
-        int tx0 = 0, tx1 = (S_)->ntx - 1, ty0 = 0, ty1 = (S_)->nty - 1;                                 \
-        if (!frame_overlaps((S_), (C_), (R_))) break;                                                 \
-        if ((C_).z - (R_) > 1e-6f * fabsf((C_).z)) {                                                     \
-            float u0, u1, w0, w1;                                                                     \
-            silhouette((C_).x, (C_).z, (R_), &u0, &u1);                                                  \
-            silhouette((C_).y, (C_).z, (R_), &w0, &w1);                                                  \
-            float px0 = (u0 / (XF_)->sx + 1.f) * 0.5f * (float)(XF_)->W - 1.f;                            \
-            float px1 = (u1 / (XF_)->sx + 1.f) * 0.5f * (float)(XF_)->W + 1.f;                            \
-            float py0 = (1.f - w1 / (XF_)->sy) * 0.5f * (float)(XF_)->H - 1.f;                            \
-            float py1 = (1.f - w0 / (XF_)->sy) * 0.5f * (float)(XF_)->H + 1.f;                            \
-            float fT = (float)(S_)->T;                                                                 \
-            tx0 = px0 <= 0.f ? 0 : (px0 >= (float)(XF_)->W ? (S_)->ntx : (int)(px0 / fT));               \
-            tx1 = px1 < 0.f ? -1 : (px1 >= (float)(XF_)->W ? (S_)->ntx - 1 : (int)(px1 / fT));           \
-            ty0 = py0 <= 0.f ? 0 : (py0 >= (float)(XF_)->H ? (S_)->nty : (int)(py0 / fT));               \
-            ty1 = py1 < 0.f ? -1 : (py1 >= (float)(XF_)->H ? (S_)->nty - 1 : (int)(py1 / fT));           \
-        }                                                                                             \
-        for (int ty_ = ty0; ty_ <= ty1; ty_++)                                                        \
-            for (int tx_ = tx0; tx_ <= tx1; tx_++) {                                                  \
-                int t = ty_ * (S_)->ntx + tx_;                                                         \
-                if ((S_)->bounds[t].primary && overlaps((S_), (XF_), t, (C_), (R_))) { BODY; }              \
-            }                                                                                         \
-        for (int k_ = 0; k_ < (S_)->nsecondary; k_++) {                                                \
-            int t = (int)(S_)->secondary[k_];                                                          \
-            if (overlaps((S_), (XF_), t, (C_), (R_))) { BODY; }                                            \
-        }                                                                                             \
+#define FOR_EACH_TILE(S_, XF_, C_, R_, BODY)                                                                           \
+    do {                                                                                                               \
+        int tx0 = 0, tx1 = (S_)->ntx - 1, ty0 = 0, ty1 = (S_)->nty - 1;                                                \
+        if (!frame_overlaps((S_), (C_), (R_))) break;                                                                  \
+        if ((C_).z - (R_) > 1e-6f * fabsf((C_).z)) {                                                                   \
+            float u0, u1, w0, w1;                                                                                      \
+            silhouette((C_).x, (C_).z, (R_), &u0, &u1);                                                                \
+            silhouette((C_).y, (C_).z, (R_), &w0, &w1);                                                                \
+            float px0 = (u0 / (XF_)->sx + 1.f) * 0.5f * (float)(XF_)->W - 1.f;                                         \
+            float px1 = (u1 / (XF_)->sx + 1.f) * 0.5f * (float)(XF_)->W + 1.f;                                         \
+            float py0 = (1.f - w1 / (XF_)->sy) * 0.5f * (float)(XF_)->H - 1.f;                                         \
+            float py1 = (1.f - w0 / (XF_)->sy) * 0.5f * (float)(XF_)->H + 1.f;                                         \
+            float fT = (float)(S_)->T;                                                                                 \
+            tx0 = px0 <= 0.f ? 0 : (px0 >= (float)(XF_)->W ? (S_)->ntx : (int)(px0 / fT));                             \
+            tx1 = px1 < 0.f ? -1 : (px1 >= (float)(XF_)->W ? (S_)->ntx - 1 : (int)(px1 / fT));                         \
+            ty0 = py0 <= 0.f ? 0 : (py0 >= (float)(XF_)->H ? (S_)->nty : (int)(py0 / fT));                             \
+            ty1 = py1 < 0.f ? -1 : (py1 >= (float)(XF_)->H ? (S_)->nty - 1 : (int)(py1 / fT));                         \
+        }                                                                                                              \
+        for (int ty_ = ty0; ty_ <= ty1; ty_++)                                                                         \
+            for (int tx_ = tx0; tx_ <= tx1; tx_++) {                                                                   \
+                int t = ty_ * (S_)->ntx + tx_;                                                                         \
+                if ((S_)->bounds[t].primary && overlaps((S_), (XF_), t, (C_), (R_))) { BODY; }                         \
+            }                                                                                                          \
+        for (int k_ = 0; k_ < (S_)->nsecondary; k_++) {                                                                \
+            int t = (int)(S_)->secondary[k_];                                                                          \
+            if (overlaps((S_), (XF_), t, (C_), (R_))) { BODY; }                                                        \
+        }                                                                                                              \
     } while (0)
 
 static pgi_status tiled_build(void *state, const pgi_estimate_args *a) {
@@ -231,7 +235,8 @@ static pgi_status tiled_build(void *state, const pgi_estimate_args *a) {
     if (sum > UINT32_MAX)
         return pgi__fail(PGI_ERR_UNSUPPORTED, "tiled: %llu photon copies exceed the 32-bit index; use a smaller radius",
                          (unsigned long long)sum);
-    if ((st = pgi__ensure((void **)&s->tile_photons, &s->tile_photons_cap, (size_t)sum + 1, sizeof(pgi__packed_photon))))
+    if ((st =
+             pgi__ensure((void **)&s->tile_photons, &s->tile_photons_cap, (size_t)sum + 1, sizeof(pgi__packed_photon))))
         return st;
     s->copies = (size_t)sum;
     double t3 = pgi__now_ms();

@@ -6,25 +6,17 @@
 #include "estimator_internal.h"
 
 static const pgi_estimator_vtbl *const k_estimators[] = {
-    &pgi__est_brute,
-    &pgi__est_hashgrid,
-    &pgi__est_tiled,
-    &pgi__est_cluster,
-    &pgi__est_cluster_cone,
-    &pgi__est_cluster_trivial,
-    &pgi__est_directional,
-    &pgi__est_bvh,
-    &pgi__est_kdtree,
-    &pgi__est_bounds3d,
-    &pgi__est_bounds25d,
+    &pgi__est_brute,        &pgi__est_hashgrid,        &pgi__est_tiled,       &pgi__est_cluster,
+    &pgi__est_cluster_cone, &pgi__est_cluster_trivial, &pgi__est_directional, &pgi__est_bvh,
+    &pgi__est_kdtree,       &pgi__est_bounds3d,        &pgi__est_bounds25d,
 };
 #define N_EST (sizeof k_estimators / sizeof k_estimators[0])
 
 struct pgi_estimator {
     const pgi_estimator_vtbl *vt;
     void *state;
-    pgi_estimator_desc desc;   /* resolved */
-    int built;                 /* the last build succeeded */
+    pgi_estimator_desc desc; /* resolved */
+    int built;               /* the last build succeeded */
     float built_radius;
 };
 
@@ -47,14 +39,22 @@ const pgi_estimator_vtbl *pgi_estimator_find(const char *name) {
 
 /* ------------------------------------------------------------ options */
 
-static const pgi_option k_opt_kernel = {
-    .name = "kernel", .type = PGI_OPTION_CHOICE, .offset = offsetof(pgi_estimator_desc, kernel),
-    .choices = "constant|cone|epanechnikov", .caps = PGI_EST_CAP_KERNELS, .flags = PGI_OPTION_STRICT,
-    .help = "density-estimation kernel (default constant)"};
-static const pgi_option k_opt_subsample = {
-    .name = "subsample", .type = PGI_OPTION_INT, .offset = offsetof(pgi_estimator_desc, subsample), .min = 1,
-    .max = 64, .caps = PGI_EST_CAP_SUBSAMPLE, .flags = PGI_OPTION_STRICT,
-    .help = "stochastic subsampling: about 1/K^2 of the eligible photons per pixel (1..64; default off)"};
+static const pgi_option k_opt_kernel = {.name = "kernel",
+                                        .type = PGI_OPTION_CHOICE,
+                                        .offset = offsetof(pgi_estimator_desc, kernel),
+                                        .choices = "constant|cone|epanechnikov",
+                                        .caps = PGI_EST_CAP_KERNELS,
+                                        .flags = PGI_OPTION_STRICT,
+                                        .help = "density-estimation kernel (default constant)"};
+static const pgi_option k_opt_subsample =
+    {.name = "subsample",
+     .type = PGI_OPTION_INT,
+     .offset = offsetof(pgi_estimator_desc, subsample),
+     .min = 1,
+     .max = 64,
+     .caps = PGI_EST_CAP_SUBSAMPLE,
+     .flags = PGI_OPTION_STRICT,
+     .help = "stochastic subsampling: about 1/K^2 of the eligible photons per pixel (1..64; default off)"};
 static const pgi_option *const k_shared_options[] = {&k_opt_kernel, &k_opt_subsample, NULL};
 
 const pgi_option *const *pgi_estimator_shared_options(void) { return k_shared_options; }
@@ -119,7 +119,10 @@ static void describe(const pgi_option *o, char *buf, size_t size) {
         snprintf(buf, size, "a number above %g", o->min);
         return;
     }
-    snprintf(buf, size, "%s in %g..%g", o->step == 2 ? "an even number" : o->step > 1 ? "a multiple" : "a number",
+    snprintf(buf, size, "%s in %g..%g",
+             o->step == 2  ? "an even number"
+             : o->step > 1 ? "a multiple"
+                           : "a number",
              o->min, o->max);
 }
 
@@ -212,7 +215,7 @@ pgi_status pgi_estimator_desc_resolve(const pgi_estimator_vtbl *vt, const pgi_es
         if (!takes) {
             if (!(o->flags & PGI_OPTION_STRICT)) continue;
             if (o->caps) {
-                if (o->type == PGI_OPTION_INT && *int_field(o, &r) == 1) continue;   /* subsample 1 is off */
+                if (o->type == PGI_OPTION_INT && *int_field(o, &r) == 1) continue; /* subsample 1 is off */
                 return pgi__fail(PGI_ERR_INVALID_ARG, "estimator '%s' does not support --%s (%s)", vt->name, o->name,
                                  o->help);
             }
@@ -250,8 +253,8 @@ static pgi_status check_args(const pgi_estimator *e, const pgi_estimate_args *a)
     if (!a || !a->photons || !a->samples || !a->camera)
         return pgi__fail(PGI_ERR_INVALID_ARG, "estimator arguments need photons, view samples and a camera");
     if (!(a->radius > 0.f) || !isfinite(a->radius))
-        return pgi__fail(PGI_ERR_INVALID_ARG, "%s: photon radius must be a positive finite number, got %g",
-                         e->vt->name, (double)a->radius);
+        return pgi__fail(PGI_ERR_INVALID_ARG, "%s: photon radius must be a positive finite number, got %g", e->vt->name,
+                         (double)a->radius);
     if (a->threads < 0)
         return pgi__fail(PGI_ERR_INVALID_ARG, "threads must be 0 (all) or positive, got %d", a->threads);
     if (a->scene_area < 0.f || !isfinite(a->scene_area))
@@ -342,7 +345,8 @@ pgi_status pgi_view_samples_alloc(pgi_view_samples *vs, int width, int height) {
     size_t n = (size_t)width * (size_t)height;
     float **v3s[] = {&vs->pos, &vs->nrm, &vs->ngeo, &vs->wo, &vs->kd, &vs->ks, &vs->weight};
     int ok = 1;
-    for (size_t k = 0; k < sizeof v3s / sizeof v3s[0]; k++) ok &= (*v3s[k] = pgi__aalloc(3 * n * sizeof(float))) != NULL;
+    for (size_t k = 0; k < sizeof v3s / sizeof v3s[0]; k++)
+        ok &= (*v3s[k] = pgi__aalloc(3 * n * sizeof(float))) != NULL;
     ok &= (vs->shininess = pgi__aalloc(n * sizeof(float))) != NULL;
     ok &= (vs->depth = pgi__aalloc(n * sizeof(float))) != NULL;
     ok &= (vs->flags = pgi__aalloc(n)) != NULL;
@@ -358,7 +362,8 @@ pgi_status pgi_view_samples_alloc(pgi_view_samples *vs, int width, int height) {
 }
 
 void pgi_view_samples_free(pgi_view_samples *vs) {
-    void *arrs[] = {vs->pos, vs->nrm, vs->ngeo, vs->wo, vs->kd, vs->ks, vs->weight, vs->shininess, vs->depth, vs->flags};
+    void *arrs[] = {vs->pos, vs->nrm,    vs->ngeo,      vs->wo,    vs->kd,
+                    vs->ks,  vs->weight, vs->shininess, vs->depth, vs->flags};
     for (size_t k = 0; k < sizeof arrs / sizeof arrs[0]; k++) pgi__afree(arrs[k]);
     memset(vs, 0, sizeof *vs);
 }

@@ -21,8 +21,8 @@ static inline void pgi__acc_finish_w(const pgi__vs *v, const pgi__acc *a, float 
 /* Inverse (row-major, 9 floats) of the ellipsoid frame M = [a | b | c*n]: u = inv * (x - p) are the
  * ellipsoid coordinates of x. Returns 0 (and a zero matrix: nothing is inside) when degenerate.
  * Every estimator computes inv with this function, so all of them take the same decisions. */
-static inline int pgi__ellipsoid_inverse(float ax, float ay, float az, float bx, float by, float bz, float cx,
-                                         float cy, float cz, float inv[9]) {
+static inline int pgi__ellipsoid_inverse(float ax, float ay, float az, float bx, float by, float bz, float cx, float cy,
+                                         float cz, float inv[9]) {
     /* rows of M^-1 are (b x c, c x a, a x b) / det */
     float r0x = by * cz - bz * cy, r0y = bz * cx - bx * cz, r0z = bx * cy - by * cx;
     float r1x = cy * az - cz * ay, r1y = cz * ax - cx * az, r1z = cx * ay - cy * ax;
@@ -33,9 +33,15 @@ static inline int pgi__ellipsoid_inverse(float ax, float ay, float az, float bx,
         return 0;
     }
     float id = 1.f / det;
-    inv[0] = r0x * id; inv[1] = r0y * id; inv[2] = r0z * id;
-    inv[3] = r1x * id; inv[4] = r1y * id; inv[5] = r1z * id;
-    inv[6] = r2x * id; inv[7] = r2y * id; inv[8] = r2z * id;
+    inv[0] = r0x * id;
+    inv[1] = r0y * id;
+    inv[2] = r0z * id;
+    inv[3] = r1x * id;
+    inv[4] = r1y * id;
+    inv[5] = r1z * id;
+    inv[6] = r2x * id;
+    inv[7] = r2y * id;
+    inv[8] = r2z * id;
     return 1;
 }
 
@@ -67,8 +73,8 @@ static inline void pgi__ellipsoid_extent(const pgi_photons *ph, size_t j, float 
 /* pgi__ellipsoid_inverse for photon j. */
 static inline int pgi__photon_ellipsoid_inverse(const pgi_photons *ph, size_t j, float inv[9]) {
     float r = ph->radius[j];
-    return pgi__ellipsoid_inverse(ph->sax[j], ph->say[j], ph->saz[j], ph->sbx[j], ph->sby[j], ph->sbz[j],
-                                  r * ph->nx[j], r * ph->ny[j], r * ph->nz[j], inv);
+    return pgi__ellipsoid_inverse(ph->sax[j], ph->say[j], ph->saz[j], ph->sbx[j], ph->sby[j], ph->sbz[j], r * ph->nx[j],
+                                  r * ph->ny[j], r * ph->nz[j], inv);
 }
 
 #endif

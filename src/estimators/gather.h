@@ -18,15 +18,19 @@ typedef struct pgi__vs {
 /* Running sums of one gather: Lambertian part as a flux sum (kd/pi applied
  * once at the end), Blinn-Phong part as f*flux. */
 typedef struct pgi__acc {
-    float fr, fg, fb;    /* sum of flux */
-    float sr, sg, sb;    /* sum of specular f * flux */
+    float fr, fg, fb; /* sum of flux */
+    float sr, sg, sb; /* sum of specular f * flux */
     uint32_t contributing;
 } pgi__acc;
 
 static inline void pgi__vs_load(const pgi_view_samples *vs, size_t i, pgi__vs *v) {
     const float *p = vs->pos + 3 * i, *n = vs->nrm + 3 * i;
-    v->px = p[0]; v->py = p[1]; v->pz = p[2];
-    v->nx = n[0]; v->ny = n[1]; v->nz = n[2];
+    v->px = p[0];
+    v->py = p[1];
+    v->pz = p[2];
+    v->nx = n[0];
+    v->ny = n[1];
+    v->nz = n[2];
     v->wo = v3_load(vs->wo + 3 * i);
     v->kd = v3_load(vs->kd + 3 * i);
     v->ks = v3_load(vs->ks + 3 * i);
@@ -56,7 +60,9 @@ static inline void pgi__gather(const pgi__vs *v, float r2, float px, float py, f
     float c = v->nx * dx + v->ny * dy + v->nz * dz;
     if (!(c > 0.f)) return;
     a->contributing++;
-    a->fr += fr; a->fg += fg; a->fb += fb;
+    a->fr += fr;
+    a->fg += fg;
+    a->fb += fb;
     if (!v->lambert) {
         float k, fres;
         pgi__phong_lobe(v3(v->nx, v->ny, v->nz), v3(dx, dy, dz), v->wo, v->shininess, &k, &fres);
@@ -96,7 +102,9 @@ static inline float pgi__kernel_norm(pgi_kernel k) {
 static inline void pgi__acc_add(const pgi__vs *v, float w, float dx, float dy, float dz, float fr, float fg, float fb,
                                 pgi__acc *a) {
     a->contributing++;
-    a->fr += w * fr; a->fg += w * fg; a->fb += w * fb;
+    a->fr += w * fr;
+    a->fg += w * fg;
+    a->fb += w * fb;
     if (!v->lambert) {
         float k, fres;
         pgi__phong_lobe(v3(v->nx, v->ny, v->nz), v3(dx, dy, dz), v->wo, v->shininess, &k, &fres);

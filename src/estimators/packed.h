@@ -10,9 +10,15 @@ typedef struct pgi__packed_photon {
 } pgi__packed_photon;
 
 static inline void pgi__pack_photon(const pgi_photons *ph, size_t j, pgi__packed_photon *o) {
-    o->px = ph->px[j]; o->py = ph->py[j]; o->pz = ph->pz[j];
-    o->dx = ph->dx[j]; o->dy = ph->dy[j]; o->dz = ph->dz[j];
-    o->fr = ph->fr[j]; o->fg = ph->fg[j]; o->fb = ph->fb[j];
+    o->px = ph->px[j];
+    o->py = ph->py[j];
+    o->pz = ph->pz[j];
+    o->dx = ph->dx[j];
+    o->dy = ph->dy[j];
+    o->dz = ph->dz[j];
+    o->fr = ph->fr[j];
+    o->fg = ph->fg[j];
+    o->fb = ph->fb[j];
 }
 
 static inline void pgi__gather_packed(const pgi__vs *v, float r2, const pgi__packed_photon *q, pgi__acc *a) {

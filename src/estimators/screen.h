@@ -9,13 +9,19 @@
  * family. */
 typedef struct pgi__view_xf {
     pgi__v3 eye, right, up, fwd;
-    float sx, sy;   /* tan(fov/2) * aspect, tan(fov/2) */
+    float sx, sy; /* tan(fov/2) * aspect, tan(fov/2) */
     int W, H;
 } pgi__view_xf;
 
 static inline pgi__view_xf pgi__view_xf_make(const pgi_camera *cam, int W, int H) {
-    pgi__view_xf x = {v3_load(cam->eye), v3_load(cam->right), v3_load(cam->up), v3_load(cam->forward),
-                      cam->tan_half_fov_y * cam->aspect, cam->tan_half_fov_y, W, H};
+    pgi__view_xf x = {v3_load(cam->eye),
+                      v3_load(cam->right),
+                      v3_load(cam->up),
+                      v3_load(cam->forward),
+                      cam->tan_half_fov_y * cam->aspect,
+                      cam->tan_half_fov_y,
+                      W,
+                      H};
     return x;
 }
 

@@ -15,8 +15,8 @@
  * thread count. k <= 1: off (every photon visited, scale 1). */
 typedef struct pgi__sub {
     pgi__rng rng;
-    float inv_log1mp;      /* 1 / log2(1 - 1/k^2) */
-    uint64_t skip;         /* eligible photons to pass over before the next visit */
+    float inv_log1mp; /* 1 / log2(1 - 1/k^2) */
+    uint64_t skip;    /* eligible photons to pass over before the next visit */
     uint64_t eligible, visited;
     int on;
 } pgi__sub;
@@ -30,13 +30,13 @@ static inline float pgi__sub_log2(float x) {
         uint32_t i;
     } v = {x};
     float e = (float)((int)(v.i >> 23) - 127);
-    v.i = (v.i & 0x7fffffu) | 0x3f800000u;   /* mantissa in [1, 2) */
+    v.i = (v.i & 0x7fffffu) | 0x3f800000u; /* mantissa in [1, 2) */
     float t = (v.f - 1.f) / (v.f + 1.f), t2 = t * t;
     return e + 2.8853900817779268f * t * (1.f + t2 * (1.f / 3.f + t2 * (0.2f + t2 * (1.f / 7.f + t2 * (1.f / 9.f)))));
 }
 
 static inline uint64_t pgi__sub_step(pgi__sub *s) {
-    float u = (float)((pgi_rng_u32(&s->rng) >> 8) + 1u) * (1.f / 16777216.f);   /* (0, 1] */
+    float u = (float)((pgi_rng_u32(&s->rng) >> 8) + 1u) * (1.f / 16777216.f); /* (0, 1] */
     float g = floorf(pgi__sub_log2(u) * s->inv_log1mp);
     return 1u + (g < 1e9f ? (uint64_t)g : 1000000000u);
 }
@@ -105,7 +105,8 @@ static inline void pgi__gather_list(const pgi__vs *v, float r2, pgi_kernel kern,
             for (uint32_t k = 0; k < n; k++) pgi__gather_packed_k(v, r2, kern, q + k, a);
         return;
     }
-    for (uint32_t k = pgi__sub_begin(ss, n); k < n; k = pgi__sub_next(ss, k, n)) pgi__gather_packed_k(v, r2, kern, q + k, a);
+    for (uint32_t k = pgi__sub_begin(ss, n); k < n; k = pgi__sub_next(ss, k, n))
+        pgi__gather_packed_k(v, r2, kern, q + k, a);
 }
 
 #endif

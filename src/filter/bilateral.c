@@ -40,7 +40,7 @@ pgi_status pgi__bilateral_filter(const pgi_view_samples *vs, int radius, int thr
                     float c2 = c * c, c4 = c2 * c2, c8 = c4 * c4, wn = c8 * c8;
                     /* world distance between the samples relative to the depth */
                     float ex = pj[0] - pi[0], ey = pj[1] - pi[1], ez = pj[2] - pi[2];
-                    float pd = (ex * ni[0] + ey * ni[1] + ez * ni[2]) / (0.05f * zi);   /* off the tangent plane */
+                    float pd = (ex * ni[0] + ey * ni[1] + ez * ni[2]) / (0.05f * zi); /* off the tangent plane */
                     float w = expf(-(float)(dx * dx + dy * dy) * inv2s2 - pd * pd) * wn;
                     const float *v = src + 3 * j;
                     sr += w * v[0];

@@ -7,9 +7,7 @@
 
 /* Exact piecewise sRGB OETF (IEC 61966-2-1), in double so the 8-bit round
  * trip below is not at the mercy of float rounding. */
-static double srgb_oetf(double v) {
-    return v <= 0.0031308 ? 12.92 * v : 1.055 * pow(v, 1.0 / 2.4) - 0.055;
-}
+static double srgb_oetf(double v) { return v <= 0.0031308 ? 12.92 * v : 1.055 * pow(v, 1.0 / 2.4) - 0.055; }
 
 static unsigned char tonemap1(float value, float exposure) {
     float v = value * exposure;

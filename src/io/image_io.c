@@ -36,9 +36,7 @@ static int has_ext(const char *path, const char *ext) {
     return 1;
 }
 
-static int image_valid(const pgi_image *img) {
-    return img && img->rgb && img->width > 0 && img->height > 0;
-}
+static int image_valid(const pgi_image *img) { return img && img->rgb && img->width > 0 && img->height > 0; }
 
 /* Deletes a partly written output. Only regular files: the path may name a
  * device or a symlink (writing to /dev/full must not delete /dev/full). */
@@ -102,9 +100,7 @@ static void exr_error_cb(exr_const_context_t ctxt, exr_result_t code, const char
     snprintf(g_exr_msg, sizeof g_exr_msg, "%s", msg ? msg : exr_get_default_error_message(code));
 }
 
-static const char *exr_reason(exr_result_t rv) {
-    return g_exr_msg[0] ? g_exr_msg : exr_get_default_error_message(rv);
-}
+static const char *exr_reason(exr_result_t rv) { return g_exr_msg[0] ? g_exr_msg : exr_get_default_error_message(rv); }
 
 static int rgb_offset(const char *name) {
     if (!name) return -1;
@@ -130,12 +126,14 @@ static pgi_status write_exr(const pgi_image *img, const char *path) {
         return s;
     }
     rv = exr_add_part(ctxt, "", EXR_STORAGE_SCANLINE, &part);
-    if (rv == EXR_ERR_SUCCESS)
-        rv = exr_initialize_required_attr_simple(ctxt, part, w, h, EXR_COMPRESSION_ZIP);
+    if (rv == EXR_ERR_SUCCESS) rv = exr_initialize_required_attr_simple(ctxt, part, w, h, EXR_COMPRESSION_ZIP);
     /* Added in any order; the library keeps the list sorted (B, G, R). */
-    if (rv == EXR_ERR_SUCCESS) rv = exr_add_channel(ctxt, part, "R", EXR_PIXEL_FLOAT, EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
-    if (rv == EXR_ERR_SUCCESS) rv = exr_add_channel(ctxt, part, "G", EXR_PIXEL_FLOAT, EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
-    if (rv == EXR_ERR_SUCCESS) rv = exr_add_channel(ctxt, part, "B", EXR_PIXEL_FLOAT, EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
+    if (rv == EXR_ERR_SUCCESS)
+        rv = exr_add_channel(ctxt, part, "R", EXR_PIXEL_FLOAT, EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
+    if (rv == EXR_ERR_SUCCESS)
+        rv = exr_add_channel(ctxt, part, "G", EXR_PIXEL_FLOAT, EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
+    if (rv == EXR_ERR_SUCCESS)
+        rv = exr_add_channel(ctxt, part, "B", EXR_PIXEL_FLOAT, EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
     if (rv == EXR_ERR_SUCCESS) rv = exr_write_header(ctxt);
     if (rv == EXR_ERR_SUCCESS) rv = exr_get_scanlines_per_chunk(ctxt, part, &spc);
     if (rv == EXR_ERR_SUCCESS && spc < 1) rv = EXR_ERR_INVALID_ARGUMENT;
@@ -167,12 +165,10 @@ static pgi_status write_exr(const pgi_image *img, const char *path) {
     }
 
     pgi_status s = PGI_OK;
-    if (rv != EXR_ERR_SUCCESS)
-        s = pgi__fail(PGI_ERR_IO, "%s: cannot write: %s", path, exr_reason(rv));
+    if (rv != EXR_ERR_SUCCESS) s = pgi__fail(PGI_ERR_IO, "%s: cannot write: %s", path, exr_reason(rv));
     if (enc_init) exr_encoding_destroy(ctxt, &enc);
     exr_result_t frv = exr_finish(&ctxt);
-    if (s == PGI_OK && frv != EXR_ERR_SUCCESS)
-        s = pgi__fail(PGI_ERR_IO, "%s: cannot write: %s", path, exr_reason(frv));
+    if (s == PGI_OK && frv != EXR_ERR_SUCCESS) s = pgi__fail(PGI_ERR_IO, "%s: cannot write: %s", path, exr_reason(frv));
     if (s != PGI_OK) remove_partial(path); /* never leave a truncated file behind */
     return s;
 }
@@ -197,8 +193,7 @@ static pgi_status read_exr(const char *path, pgi_image *out) {
     exr_attr_box2i_t dw;
     const exr_attr_chlist_t *chl = NULL;
     if (exr_get_count(ctxt, &nparts) != EXR_ERR_SUCCESS || nparts < 1 ||
-        exr_get_storage(ctxt, 0, &storage) != EXR_ERR_SUCCESS ||
-        exr_get_data_window(ctxt, 0, &dw) != EXR_ERR_SUCCESS ||
+        exr_get_storage(ctxt, 0, &storage) != EXR_ERR_SUCCESS || exr_get_data_window(ctxt, 0, &dw) != EXR_ERR_SUCCESS ||
         exr_get_channels(ctxt, 0, &chl) != EXR_ERR_SUCCESS || !chl) {
         s = pgi__fail(PGI_ERR_PARSE, "%s: malformed EXR header", path);
         goto done;

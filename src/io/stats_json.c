@@ -17,9 +17,7 @@ static void remove_partial(const char *path) {
     if (lstat(path, &sb) == 0 && S_ISREG(sb.st_mode)) remove(path);
 }
 
-static int clamp_count(int n) {
-    return n < 0 ? 0 : n > PGI_MAX_STAT_ENTRIES ? PGI_MAX_STAT_ENTRIES : n;
-}
+static int clamp_count(int n) { return n < 0 ? 0 : n > PGI_MAX_STAT_ENTRIES ? PGI_MAX_STAT_ENTRIES : n; }
 
 /* Adds `name: value`; NULL from cJSON means out of memory. */
 static int add_num(cJSON *o, const char *name, double v) {
@@ -93,7 +91,7 @@ static cJSON *build(const pgi_frame_stats *st) {
     static const char *const policies[] = {"fixed", "path", "differentials"};
     ok &= cJSON_AddStringToObject(root, "radius_policy",
                                   st->radius_policy >= 0 && st->radius_policy < 3 ? policies[st->radius_policy]
-                                                                                   : "?") != NULL;
+                                                                                  : "?") != NULL;
     if (st->leaf_size > 0) ok &= add_num(root, "bvh_leaf_size", (double)st->leaf_size);
     if (st->footprint_bin_width > 0.f) {
         /* BVH paper Table 3: counts of footprint radii in [k, k+1) * bin_width, the last bin open */
@@ -131,7 +129,7 @@ pgi_status pgi_stats_write_json(const pgi_frame_stats *st, const char *path) {
     char *text = pgi__stats_to_json(st);
     if (!text) return pgi__fail(PGI_ERR_OOM, "%s: out of memory formatting statistics", path);
 
-    if (strcmp(path, "-") == 0) {   /* standard output */
+    if (strcmp(path, "-") == 0) { /* standard output */
         int bad = fputs(text, stdout) == EOF || fputc('\n', stdout) == EOF || fflush(stdout) != 0;
         free(text);
         return bad ? pgi__fail(PGI_ERR_IO, "stats: cannot write to standard output") : PGI_OK;

@@ -7,7 +7,7 @@
 #include "core/core.h"
 #include "io/io_internal.h"
 
-#define SSIM_RADIUS 5   /* int(3.5 * 1.5 + 0.5): skimage's truncate=3.5, sigma=1.5 */
+#define SSIM_RADIUS 5 /* int(3.5 * 1.5 + 0.5): skimage's truncate=3.5, sigma=1.5 */
 #define SSIM_SIGMA 1.5
 
 pgi_status pgi_image_read(const char *path, pgi_image *out, int *is_hdr) { return pgi__image_read(path, out, is_hdr); }
@@ -24,13 +24,15 @@ static void gauss(const double *src, double *tmp, double *dst, int w, int h, con
     for (int y = 0; y < h; y++)
         for (int x = 0; x < w; x++) {
             double s = 0.0;
-            for (int j = -SSIM_RADIUS; j <= SSIM_RADIUS; j++) s += k[j + SSIM_RADIUS] * src[(size_t)y * w + reflect(x + j, w)];
+            for (int j = -SSIM_RADIUS; j <= SSIM_RADIUS; j++)
+                s += k[j + SSIM_RADIUS] * src[(size_t)y * w + reflect(x + j, w)];
             tmp[(size_t)y * w + x] = s;
         }
     for (int y = 0; y < h; y++)
         for (int x = 0; x < w; x++) {
             double s = 0.0;
-            for (int j = -SSIM_RADIUS; j <= SSIM_RADIUS; j++) s += k[j + SSIM_RADIUS] * tmp[(size_t)reflect(y + j, h) * w + x];
+            for (int j = -SSIM_RADIUS; j <= SSIM_RADIUS; j++)
+                s += k[j + SSIM_RADIUS] * tmp[(size_t)reflect(y + j, h) * w + x];
             dst[(size_t)y * w + x] = s;
         }
 }
@@ -39,7 +41,8 @@ double pgi_ssim_plane(const double *x, const double *y, int w, int h, double dat
     const int win = 2 * SSIM_RADIUS + 1;
     if (w < win || h < win) return NAN;
     double k[2 * SSIM_RADIUS + 1], ks = 0.0;
-    for (int j = -SSIM_RADIUS; j <= SSIM_RADIUS; j++) ks += k[j + SSIM_RADIUS] = exp(-0.5 * j * j / (SSIM_SIGMA * SSIM_SIGMA));
+    for (int j = -SSIM_RADIUS; j <= SSIM_RADIUS; j++)
+        ks += k[j + SSIM_RADIUS] = exp(-0.5 * j * j / (SSIM_SIGMA * SSIM_SIGMA));
     for (int j = 0; j < win; j++) k[j] /= ks;
     const size_t n = (size_t)w * h;
     double *buf = malloc(8 * n * sizeof *buf);

@@ -57,11 +57,11 @@ void pgi__pd_roulette(pgi__pdiff *pd, float p) {
 }
 
 void pgi__pd_reemit(pgi__pdiff *pd, pgi__v3 d_out, pgi__v3 n) {
-    float A = v3_len(v3_cross(pd->dp[0], pd->dp[1]));   /* |dp1 x dp2|; Delta^2 cancels in eq. 13 */
+    float A = v3_len(v3_cross(pd->dp[0], pd->dp[1])); /* |dp1 x dp2|; Delta^2 cancels in eq. 13 */
     pgi__pd_emit_dir(pd, d_out, n, 1.f);
     float B = v3_len(v3_cross(pd->dd[0], pd->dd[1]));
     float v = B > 0.f ? sqrtf(A / B) : 0.f;
-    pd->dp[0] = v3_scale(pd->dd[0], v);   /* eq. 11 at the re-emission point */
+    pd->dp[0] = v3_scale(pd->dd[0], v); /* eq. 11 at the re-emission point */
     pd->dp[1] = v3_scale(pd->dd[1], v);
     pd->diffuse = 1;
 }
@@ -69,7 +69,7 @@ void pgi__pd_reemit(pgi__pdiff *pd, pgi__v3 d_out, pgi__v3 n) {
 void pgi__pd_footprint(const pgi__pdiff *pd, const pgi__fp_params *p, pgi__v3 n, pgi__footprint *o) {
     pgi__v3 ax[2];
     for (int k = 0; k < 2; k++) {
-        pgi__v3 q = v3_sub(pd->dp[k], v3_scale(n, v3_dot(pd->dp[k], n)));   /* in the tangent plane */
+        pgi__v3 q = v3_sub(pd->dp[k], v3_scale(n, v3_dot(pd->dp[k], n))); /* in the tangent plane */
         float l = v3_len(q);
         float f = pd->diffuse ? p->smoothing * (l > 0.f ? powf(l, -0.75f) : 0.f) : p->smoothing_caustic;
         ax[k] = v3_scale(q, p->delta * f);
@@ -111,7 +111,7 @@ void pgi__pd_normal_derivative(const pgi_scene *s, uint32_t prim, float bu, floa
     const uint32_t *t = s->tri + 3 * (size_t)prim;
     pgi__v3 a = pgi__scene_vertex(s, t[0]), b = pgi__scene_vertex(s, t[1]), c = pgi__scene_vertex(s, t[2]);
     pgi__v3 n0 = v3_load(s->nrm + 3 * (size_t)t[0]), n1 = v3_load(s->nrm + 3 * (size_t)t[1]),
-           n2 = v3_load(s->nrm + 3 * (size_t)t[2]);
+            n2 = v3_load(s->nrm + 3 * (size_t)t[2]);
     pgi__v3 e1 = v3_sub(b, a), e2 = v3_sub(c, a);
     float g11 = v3_dot(e1, e1), g12 = v3_dot(e1, e2), g22 = v3_dot(e2, e2), det = g11 * g22 - g12 * g12;
     if (!(fabsf(det) > 0.f)) return;
@@ -135,9 +135,7 @@ void pgi__pd_emit(pgi__pdiff *pd, const pgi__light *L, float pl, pgi__v3 d, floa
     /* Photons of this light: n * pl. Scale the unit differentials so that the global Delta gives
      * each photon its share of the light's solid angle (or area): |Delta dd|^2 = Omega / (n pl). */
     switch (L->type) {
-    case PGI_LIGHT_POINT:
-        pgi__pd_emit_dir(pd, d, v3(0.f, 0.f, 1.f), sqrtf(1.f / pl));
-        break;
+    case PGI_LIGHT_POINT: pgi__pd_emit_dir(pd, d, v3(0.f, 0.f, 1.f), sqrtf(1.f / pl)); break;
     case PGI_LIGHT_SPOT: {
         float omega = 2.f * PGI_PI * (1.f - L->cos_cutoff);
         pgi__pd_emit_dir(pd, d, v3_load(L->dir), sqrtf(omega / (4.f * PGI_PI * pl)));
@@ -161,7 +159,7 @@ void pgi__pd_emit(pgi__pdiff *pd, const pgi__light *L, float pl, pgi__v3 d, floa
         float ct = fmaxf(v3_dot(d, n), 0.05f);
         pgi__pd_emit_dir(pd, d, n, sqrtf(1.f / (4.f * pl * ct)));
         float B = v3_len(v3_cross(pd->dd[0], pd->dd[1]));
-        float A = L->area / (4.f * PGI_PI * pl);   /* |dp1 x dp2| with Delta^2 |dp1 x dp2| = area / (n pl) */
+        float A = L->area / (4.f * PGI_PI * pl); /* |dp1 x dp2| with Delta^2 |dp1 x dp2| = area / (n pl) */
         float v = B > 0.f ? sqrtf(A / B) : 0.f;
         pd->dp[0] = v3_scale(pd->dd[0], v);
         pd->dp[1] = v3_scale(pd->dd[1], v);
@@ -179,8 +177,8 @@ void pgi__pd_scatter(pgi__pdiff *pd, const pgi_scene *s, uint32_t prim, float bu
         return;
     }
     pgi__v3 d = v3_neg(wi);
-    float side = v3_dot(wi, sf->ng) >= 0.f ? 1.f : -1.f;   /* +1: arriving on the normal's side */
-    pgi__v3 n = v3_scale(sf->ns, side);                      /* facing the incoming photon: d.n < 0 */
+    float side = v3_dot(wi, sf->ng) >= 0.f ? 1.f : -1.f; /* +1: arriving on the normal's side */
+    pgi__v3 n = v3_scale(sf->ns, side);                  /* facing the incoming photon: d.n < 0 */
     pgi__v3 dn[2];
     pgi__pd_normal_derivative(s, prim, bu, bv, pd->dp, n, dn);
     if (v3_dot(wo, sf->ng) * side >= 0.f) {
@@ -191,4 +189,3 @@ void pgi__pd_scatter(pgi__pdiff *pd, const pgi_scene *s, uint32_t prim, float bu
         pgi__pd_refract(pd, d, n, dn, eta, wo);
     }
 }
-

@@ -5,15 +5,15 @@
 #include "rt/rt.h"
 
 typedef struct pgi__trace_desc {
-    uint32_t photons;   /* photons to store */
-    int bounces;        /* maximum scattering events of a path */
+    uint32_t photons; /* photons to store */
+    int bounces;      /* maximum scattering events of a path */
     uint64_t seed;
-    int threads;        /* 0 = OpenMP's default */
+    int threads; /* 0 = OpenMP's default */
     /* radius policies (radius.h): per-photon footprints go to ph->radius (and the ellipsoid
        axes ph->sax.. for differentials) when those arrays are set */
     int radius_policy;
     float r_min, r_max, smoothing;
-    uint64_t *footprint_hist;   /* optional out: PGI_FOOTPRINT_BINS counts of the radius before the clamp */
+    uint64_t *footprint_hist; /* optional out: PGI_FOOTPRINT_BINS counts of the radius before the clamp */
 } pgi__trace_desc;
 
 /* Fills `ph` (capacity >= photons) with exactly `photons` photons, unless the
@@ -27,8 +27,8 @@ typedef struct pgi__trace_desc {
 typedef struct pgi__trace_scratch {
     void *paths;
     int *counts;
-    size_t cap;      /* paths */
-    int bounces;     /* photons a path slot holds */
+    size_t cap;  /* paths */
+    int bounces; /* photons a path slot holds */
 } pgi__trace_scratch;
 void pgi__trace_scratch_free(pgi__trace_scratch *sc);
 

@@ -12,18 +12,18 @@
 #include "scene/bsdf.h"
 
 typedef struct pgi__fp_params {
-    int policy;             /* pgi_radius_policy */
+    int policy; /* pgi_radius_policy */
     float r_min, r_max;
-    float smoothing;        /* s for diffusely reflected photons (> 0) */
-    float smoothing_caustic;/* s for photons with only specular bounces (paper: 5) */
-    float delta;            /* global spacing sqrt(4 pi / n) */
-    float photons;          /* n */
+    float smoothing;         /* s for diffusely reflected photons (> 0) */
+    float smoothing_caustic; /* s for photons with only specular bounces (paper: 5) */
+    float delta;             /* global spacing sqrt(4 pi / n) */
+    float photons;           /* n */
 } pgi__fp_params;
 
 typedef struct pgi__pdiff {
-    pgi__v3 dp[2], dd[2];    /* positional / directional differentials */
-    float rho;              /* path probability (path policy) */
-    int diffuse;            /* at least one diffuse re-emission */
+    pgi__v3 dp[2], dd[2]; /* positional / directional differentials */
+    float rho;            /* path probability (path policy) */
+    int diffuse;          /* at least one diffuse re-emission */
 } pgi__pdiff;
 
 /* A stored footprint: equivalent radius (clamped), semi-axes, and the radius before the clamp

@@ -13,20 +13,20 @@
 
 typedef struct {
     float p[3], d[3], f[3], n[3];
-    pgi__footprint fp;   /* radius policies */
+    pgi__footprint fp; /* radius policies */
 } stored_photon;
 
 typedef struct {
     const pgi_scene *s;
     const pgi__rt *rt;
-    const float *cdf;     /* light CDF by luminance of power */
+    const float *cdf; /* light CDF by luminance of power */
     size_t nl;
     int bounces;
     uint64_t seed;
     float eps;
     pgi__v3 centre;
-    float radius;         /* bounding-sphere radius, for the sun's disk */
-    pgi__fp_params fp;    /* radius policy */
+    float radius;      /* bounding-sphere radius, for the sun's disk */
+    pgi__fp_params fp; /* radius policy */
 } tracer;
 
 /* Traces path `index`; writes at most `bounces` photons to `out` and returns
@@ -116,7 +116,8 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
     ph->emitted = 0;
     *rays_out = 0;
     if (d->photons > ph->capacity)
-        return pgi__fail(PGI_ERR_INVALID_ARG, "photon buffer holds %zu photons, %u requested", ph->capacity, d->photons);
+        return pgi__fail(PGI_ERR_INVALID_ARG, "photon buffer holds %zu photons, %u requested", ph->capacity,
+                         d->photons);
     if (d->bounces < 1) return PGI_OK;
     float *cdf = malloc((s->nlights ? s->nlights : 1) * sizeof *cdf);
     if (!cdf) return pgi__fail(PGI_ERR_OOM, "out of memory for the light table");
@@ -127,14 +128,21 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
     }
     if (!(total > 0.0)) {
         free(cdf);
-        return PGI_OK;   /* no light: no photons; the image is black but valid */
+        return PGI_OK; /* no light: no photons; the image is black but valid */
     }
     for (size_t i = 0; i < s->nlights; i++) cdf[i] = (float)(cdf[i] / total);
     cdf[s->nlights - 1] = 1.f;
 
-    tracer T = {s, rt, cdf, s->nlights, d->bounces, d->seed, pgi__scene_epsilon(s),
+    tracer T = {s,
+                rt,
+                cdf,
+                s->nlights,
+                d->bounces,
+                d->seed,
+                pgi__scene_epsilon(s),
                 v3_scale(v3_add(v3_load(s->bmin), v3_load(s->bmax)), 0.5f),
-                0.5f * v3_len(v3_sub(v3_load(s->bmax), v3_load(s->bmin))), {0}};
+                0.5f * v3_len(v3_sub(v3_load(s->bmax), v3_load(s->bmin))),
+                {0}};
     pgi__fp_params_init(&T.fp, d->radius_policy, d->r_min, d->r_max, d->smoothing, d->photons, 2.f * T.radius);
     const int fp_on = d->radius_policy != PGI_RADIUS_FIXED && ph->radius;
     const float bin_w = d->r_max / 14.f;
@@ -145,7 +153,7 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
     const uint64_t max_paths = 64ull * d->photons + (1u << 20);
     size_t want = d->photons;
     pgi_status st = PGI_OK;
-    double yield = 0.5;   /* photons per path, updated after each batch */
+    double yield = 0.5; /* photons per path, updated after each batch */
     while (ph->count < want && path < max_paths) {
         size_t remaining = want - ph->count;
         size_t batch = (size_t)(remaining / yield * 1.05) + 1024;
@@ -179,15 +187,27 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
             for (int k = 0; k < cnt[i] && ph->count < want; k++) {
                 const stored_photon *sp = &buf[i * B + k];
                 size_t j = ph->count++;
-                ph->px[j] = sp->p[0]; ph->py[j] = sp->p[1]; ph->pz[j] = sp->p[2];
-                ph->dx[j] = sp->d[0]; ph->dy[j] = sp->d[1]; ph->dz[j] = sp->d[2];
-                ph->fr[j] = sp->f[0]; ph->fg[j] = sp->f[1]; ph->fb[j] = sp->f[2];
-                ph->nx[j] = sp->n[0]; ph->ny[j] = sp->n[1]; ph->nz[j] = sp->n[2];
+                ph->px[j] = sp->p[0];
+                ph->py[j] = sp->p[1];
+                ph->pz[j] = sp->p[2];
+                ph->dx[j] = sp->d[0];
+                ph->dy[j] = sp->d[1];
+                ph->dz[j] = sp->d[2];
+                ph->fr[j] = sp->f[0];
+                ph->fg[j] = sp->f[1];
+                ph->fb[j] = sp->f[2];
+                ph->nx[j] = sp->n[0];
+                ph->ny[j] = sp->n[1];
+                ph->nz[j] = sp->n[2];
                 if (fp_on) {
                     ph->radius[j] = sp->fp.r;
                     if (ph->sax) {
-                        ph->sax[j] = sp->fp.a[0]; ph->say[j] = sp->fp.a[1]; ph->saz[j] = sp->fp.a[2];
-                        ph->sbx[j] = sp->fp.b[0]; ph->sby[j] = sp->fp.b[1]; ph->sbz[j] = sp->fp.b[2];
+                        ph->sax[j] = sp->fp.a[0];
+                        ph->say[j] = sp->fp.a[1];
+                        ph->saz[j] = sp->fp.a[2];
+                        ph->sbx[j] = sp->fp.b[0];
+                        ph->sby[j] = sp->fp.b[1];
+                        ph->sbz[j] = sp->fp.b[2];
                     }
                     if (d->footprint_hist) {
                         float q = sp->fp.r_raw / bin_w;

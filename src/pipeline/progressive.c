@@ -17,12 +17,12 @@
 
 struct pgi_progressive {
     pgi_renderer *r;
-    double *sum;            /* 3 per pixel */
-    size_t cap;             /* pixels */
+    double *sum; /* 3 per pixel */
+    size_t cap;  /* pixels */
     int frames, width, height;
-    float r0;               /* resolved radius of frame 0 */
+    float r0; /* resolved radius of frame 0 */
     uint64_t seed0;
-    pgi_image frame;        /* scratch for one frame */
+    pgi_image frame; /* scratch for one frame */
     /* What the average was made of; any change restarts it. */
     pgi_render_desc key;
     char est[64];
@@ -72,12 +72,12 @@ static int same_picture(const pgi_progressive *a, const pgi_render_desc *d, cons
     pgi_render_desc k = *d;
     k.estimator = NULL;
     k.view = NULL;
-    k.threads = 0;   /* the image does not depend on the thread count */
+    k.threads = 0; /* the image does not depend on the thread count */
     const char *est = d->estimator ? d->estimator : "";
     if (memcmp(&k, &a->key, sizeof k) != 0 || strcmp(est, a->est) != 0) return 0;
     if ((d->view != NULL) != a->has_view || (d->view && memcmp(d->view, &a->view, sizeof a->view) != 0)) return 0;
-    return a->static_version == s->static_version && a->dynamic_version == s->dynamic_version &&
-           a->time == s->time && a->lights_hash == lights_hash(s);
+    return a->static_version == s->static_version && a->dynamic_version == s->dynamic_version && a->time == s->time &&
+           a->lights_hash == lights_hash(s);
 }
 
 static void remember(pgi_progressive *a, const pgi_render_desc *d, const pgi_scene *s) {
@@ -95,8 +95,7 @@ static void remember(pgi_progressive *a, const pgi_render_desc *d, const pgi_sce
     a->lights_hash = lights_hash(s);
 }
 
-pgi_status pgi_progressive_step(pgi_progressive *a, const pgi_render_desc *in, pgi_image *out,
-                                pgi_frame_stats *stats) {
+pgi_status pgi_progressive_step(pgi_progressive *a, const pgi_render_desc *in, pgi_image *out, pgi_frame_stats *stats) {
     if (!a || !in || !out) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_progressive_step: NULL argument");
     const pgi_scene *s = pgi_renderer_scene(a->r);
     const pgi_estimator_vtbl *vt = pgi_estimator_find(in->estimator && *in->estimator ? in->estimator : "tiled");
@@ -123,8 +122,8 @@ pgi_status pgi_progressive_step(pgi_progressive *a, const pgi_render_desc *in, p
             free(a->sum);
             a->sum = malloc(3 * n * sizeof *a->sum);
             a->cap = a->sum ? n : 0;
-            if (!a->sum) return pgi__fail(PGI_ERR_OOM, "out of memory for a %dx%d accumulation buffer", fs.width,
-                                          fs.height);
+            if (!a->sum)
+                return pgi__fail(PGI_ERR_OOM, "out of memory for a %dx%d accumulation buffer", fs.width, fs.height);
         }
         memset(a->sum, 0, 3 * n * sizeof *a->sum);
         a->r0 = fs.radius;

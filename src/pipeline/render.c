@@ -9,7 +9,7 @@
 #include "filter/bilateral.h"
 
 #define PGI_MAX_SIDE 16384
-#define PGI_MAX_PIXELS (36u * 1024u * 1024u)   /* 8K UHD fits; buffers take about 140 bytes a pixel */
+#define PGI_MAX_PIXELS (36u * 1024u * 1024u) /* 8K UHD fits; buffers take about 140 bytes a pixel */
 #define PGI_MAX_PHOTONS 100000000u
 #define PGI_MAX_BOUNCES 64
 
@@ -21,14 +21,14 @@ struct pgi_renderer {
     pgi_view_samples vs;
     float *emit, *direct, *indirect;
     size_t pix_cap;
-    pgi_estimator *est;      /* created once per estimator name + resolved options */
+    pgi_estimator *est; /* created once per estimator name + resolved options */
     const pgi_estimator_vtbl *est_vt;
     pgi_estimator_desc est_desc;
-    pgi_camera cam;          /* this frame's */
+    pgi_camera cam; /* this frame's */
     /* radius policies: per-photon footprint arrays (radius, then 6 ellipsoid axis planes) */
     float *fp_buf;
     size_t fp_cap;
-    double scene_area;   /* total triangle area, for the bvh's T_auto */
+    double scene_area; /* total triangle area, for the bvh's T_auto */
 };
 
 const pgi_scene *pgi_renderer_scene(const pgi_renderer *r) { return r ? r->scene : NULL; }
@@ -108,7 +108,8 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
     if (d->bounces < 1 || d->bounces > PGI_MAX_BOUNCES)
         return pgi__fail(PGI_ERR_INVALID_ARG, "bounces must be in 1..%d, got %d", PGI_MAX_BOUNCES, d->bounces);
     if (d->seed == 0) d->seed = 1;
-    if (d->threads < 0) return pgi__fail(PGI_ERR_INVALID_ARG, "threads must be 0 (all) or positive, got %d", d->threads);
+    if (d->threads < 0)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "threads must be 0 (all) or positive, got %d", d->threads);
     if (d->camera < 0 || (size_t)d->camera >= s->ncams)
         return pgi__fail(PGI_ERR_INVALID_ARG, "camera %d does not exist (the scene has %zu)", d->camera, s->ncams);
     if (d->direct_samples == 0) d->direct_samples = 16;
@@ -122,8 +123,9 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
         return pgi__fail(PGI_ERR_INVALID_ARG, "unknown radius policy %d", d->radius_policy);
     if (d->r_min < 0.f || !isfinite(d->r_min) || d->r_max < 0.f || !isfinite(d->r_max) || d->smoothing < 0.f ||
         !isfinite(d->smoothing))
-        return pgi__fail(PGI_ERR_INVALID_ARG, "r_min, r_max and smoothing must be positive finite numbers (or 0: "
-                                              "default), got %g, %g, %g",
+        return pgi__fail(PGI_ERR_INVALID_ARG,
+                         "r_min, r_max and smoothing must be positive finite numbers (or 0: "
+                         "default), got %g, %g, %g",
                          (double)d->r_min, (double)d->r_max, (double)d->smoothing);
     if (d->r_max == 0.f) d->r_max = d->radius;
     if (d->r_min == 0.f) d->r_min = d->r_max / 8.f;
@@ -222,8 +224,7 @@ static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, pgi_frame_s
         fs->rt_update_ms = pgi__now_ms() - tu;
     }
     double t0 = pgi__now_ms();
-    if ((st = pgi__view_build(s, r->rt, &r->cam, d->seed, d->threads, &r->vs, r->emit, &fs->primary_rays)))
-        return st;
+    if ((st = pgi__view_build(s, r->rt, &r->cam, d->seed, d->threads, &r->vs, r->emit, &fs->primary_rays))) return st;
     double t1 = pgi__now_ms();
     pgi__trace_desc td = {.photons = d->photons, .bounces = d->bounces, .seed = d->seed, .threads = d->threads};
     if ((st = ensure_footprints(r, d))) return st;
@@ -267,8 +268,12 @@ pgi_status pgi_renderer_prepare(pgi_renderer *r, const pgi_render_desc *in, pgi_
     double t0 = pgi__now_ms();
     if ((st = prepare(r, &d, &fs))) return st;
     fs.total_ms = pgi__now_ms() - t0;
-    *out = (pgi_frame_inputs){.photons = &r->ph, .samples = &r->vs, .camera = r->cam, .radius = d.radius,
-                              .scene_area = (float)r->scene_area, .seed = d.seed};
+    *out = (pgi_frame_inputs){.photons = &r->ph,
+                              .samples = &r->vs,
+                              .camera = r->cam,
+                              .radius = d.radius,
+                              .scene_area = (float)r->scene_area,
+                              .seed = d.seed};
     if (stats) *stats = fs;
     return PGI_OK;
 }
@@ -286,8 +291,13 @@ pgi_status pgi_renderer_render(pgi_renderer *r, const pgi_render_desc *in, pgi_i
     if ((st = prepare(r, &d, &fs))) return st;
     const pgi_scene *s = r->scene;
     double t2 = pgi__now_ms();
-    pgi_estimate_args ea = {.photons = &r->ph, .samples = &r->vs, .camera = &r->cam, .out_rgb = r->indirect,
-                            .radius = d.radius, .seed = d.seed, .threads = d.threads,
+    pgi_estimate_args ea = {.photons = &r->ph,
+                            .samples = &r->vs,
+                            .camera = &r->cam,
+                            .out_rgb = r->indirect,
+                            .radius = d.radius,
+                            .seed = d.seed,
+                            .threads = d.threads,
                             .scene_area = (float)r->scene_area};
     if ((st = pgi_estimator_build(r->est, &ea))) return st;
     double t3 = pgi__now_ms();

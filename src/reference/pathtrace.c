@@ -25,7 +25,7 @@
 #include "scene/bsdf.h"
 #include "view/view.h"
 
-#define PGI_MAX_SPECULAR_DEPTH 8   /* as src/view/view.c */
+#define PGI_MAX_SPECULAR_DEPTH 8 /* as src/view/view.c */
 #define PGI_REF_MAX_SIDE 16384
 #define PGI_REF_MAX_BOUNCES 64
 
@@ -37,9 +37,9 @@ typedef struct {
     uint64_t seed;
     float eps;
     size_t narea;
-    float *cdf;        /* area lights by luminance of power (as pgi__direct) */
-    size_t *idx;       /* cdf entry -> light index */
-    float *tri_pick;   /* triangle -> pick probability of its area light (0: none) */
+    float *cdf;      /* area lights by luminance of power (as pgi__direct) */
+    size_t *idx;     /* cdf entry -> light index */
+    float *tri_pick; /* triangle -> pick probability of its area light (0: none) */
 } pt_ctx;
 
 static inline pgi__v3 mat_ks(const pgi__surface *sf) {
@@ -179,8 +179,7 @@ static pgi_status ctx_lights(pt_ctx *C) {
         C->cdf[k] = (float)tot;
         C->idx[k++] = l;
     }
-    for (k = 0; k < C->narea; k++)
-        C->cdf[k] = tot > 0.0 ? (float)(C->cdf[k] / tot) : (float)(k + 1) / (float)C->narea;
+    for (k = 0; k < C->narea; k++) C->cdf[k] = tot > 0.0 ? (float)(C->cdf[k] / tot) : (float)(k + 1) / (float)C->narea;
     C->cdf[C->narea - 1] = 1.f;
     for (k = 0; k < C->narea; k++) {
         uint32_t t = s->lights[C->idx[k]].tri;

@@ -63,13 +63,14 @@ pgi_status pgi_reference_meta_read(const char *path, pgi_reference_meta *m) {
     const cJSON *fmt = cJSON_GetObjectItemCaseSensitive(o, "format");
     const cJSON *sc = cJSON_GetObjectItemCaseSensitive(o, "scene");
     int ok = cJSON_IsString(fmt) && strcmp(fmt->valuestring, "photongi-reference-1") == 0 && cJSON_IsString(sc) &&
-             get_int(o, "width", &m->width) && get_int(o, "height", &m->height) &&
-             get_int(o, "bounces", &m->bounces) && get_int(o, "camera", &m->camera) && get_u64(o, "seed", &m->seed) &&
-             get_u64(o, "spp", &m->spp);
+             get_int(o, "width", &m->width) && get_int(o, "height", &m->height) && get_int(o, "bounces", &m->bounces) &&
+             get_int(o, "camera", &m->camera) && get_u64(o, "seed", &m->seed) && get_u64(o, "spp", &m->spp);
     if (ok) snprintf(m->scene, sizeof m->scene, "%s", sc->valuestring);
     cJSON_Delete(o);
     if (!ok)
-        return pgi__fail(PGI_ERR_PARSE, "%s: not a photongi reference metadata file (needs format, scene, width, "
-                                        "height, bounces, camera, seed, spp)", path);
+        return pgi__fail(PGI_ERR_PARSE,
+                         "%s: not a photongi reference metadata file (needs format, scene, width, "
+                         "height, bounces, camera, seed, spp)",
+                         path);
     return PGI_OK;
 }

@@ -17,7 +17,7 @@ struct pgi__rt {
     RTCGeometry geom[2];
     int ngeom;
     uint32_t *map[2];
-    uint32_t *dyn_verts;     /* scene vertex of each vertex of the animated geometry; NULL: not split */
+    uint32_t *dyn_verts; /* scene vertex of each vertex of the animated geometry; NULL: not split */
     size_t ndyn_verts;
     uint64_t static_version, dynamic_version;
 };
@@ -45,8 +45,7 @@ static RTCGeometry make_geometry(pgi__rt *rt, const pgi_scene *s, const uint32_t
     }
     if (verts)
         for (size_t i = 0; i < nv; i++) memcpy(vb + 3 * i, s->pos + 3 * (size_t)verts[i], 3 * sizeof(float));
-    else
-        memcpy(vb, s->pos, s->nverts * 3 * sizeof(float));
+    else memcpy(vb, s->pos, s->nverts * 3 * sizeof(float));
     for (size_t i = 0; i < ntri; i++) {
         size_t t = tris ? tris[i] : i;
         for (int k = 0; k < 3; k++) {
@@ -117,11 +116,11 @@ pgi_status pgi__rt_create(const pgi_scene *s, pgi__rt **out) {
             rt->geom[0] = make_geometry(rt, s, stat, nstat, NULL, 0, NULL, RTC_BUILD_QUALITY_HIGH);
             rt->ngeom = 1;
         } else {
-            free(stat);   /* everything moves: the animated geometry is geometry 0 */
+            free(stat); /* everything moves: the animated geometry is geometry 0 */
         }
         rt->map[rt->ngeom] = dyn;
-        rt->geom[rt->ngeom] = make_geometry(rt, s, dyn, ndyn, rt->dyn_verts, rt->ndyn_verts, remap,
-                                            RTC_BUILD_QUALITY_REFIT);
+        rt->geom[rt->ngeom] =
+            make_geometry(rt, s, dyn, ndyn, rt->dyn_verts, rt->ndyn_verts, remap, RTC_BUILD_QUALITY_REFIT);
         rt->ngeom++;
         free(remap);
     }
@@ -160,8 +159,7 @@ pgi_status pgi__rt_update(pgi__rt *rt, const pgi_scene *s) {
         if (is_dyn)
             for (size_t i = 0; i < rt->ndyn_verts; i++)
                 memcpy(vb + 3 * i, s->pos + 3 * (size_t)rt->dyn_verts[i], 3 * sizeof(float));
-        else
-            memcpy(vb, s->pos, s->nverts * 3 * sizeof(float));
+        else memcpy(vb, s->pos, s->nverts * 3 * sizeof(float));
         rtcUpdateGeometryBuffer(rt->geom[g], RTC_BUFFER_TYPE_VERTEX, 0);
         rtcCommitGeometry(rt->geom[g]);
     }
@@ -194,8 +192,12 @@ int pgi__rt_intersect(const pgi__rt *rt, pgi__v3 o, pgi__v3 d, float tnear, floa
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     struct RTCRayHit rh;
-    rh.ray.org_x = o.x; rh.ray.org_y = o.y; rh.ray.org_z = o.z;
-    rh.ray.dir_x = d.x; rh.ray.dir_y = d.y; rh.ray.dir_z = d.z;
+    rh.ray.org_x = o.x;
+    rh.ray.org_y = o.y;
+    rh.ray.org_z = o.z;
+    rh.ray.dir_x = d.x;
+    rh.ray.dir_y = d.y;
+    rh.ray.dir_z = d.z;
     rh.ray.tnear = tnear;
     rh.ray.tfar = tfar;
     rh.ray.time = 0.f;
@@ -220,8 +222,12 @@ int pgi__rt_occluded(const pgi__rt *rt, pgi__v3 o, pgi__v3 d, float tnear, float
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     struct RTCRay r;
-    r.org_x = o.x; r.org_y = o.y; r.org_z = o.z;
-    r.dir_x = d.x; r.dir_y = d.y; r.dir_z = d.z;
+    r.org_x = o.x;
+    r.org_y = o.y;
+    r.org_z = o.z;
+    r.dir_x = d.x;
+    r.dir_y = d.y;
+    r.dir_z = d.z;
     r.tnear = tnear;
     r.tfar = tfar;
     r.time = 0.f;
@@ -229,7 +235,7 @@ int pgi__rt_occluded(const pgi__rt *rt, pgi__v3 o, pgi__v3 d, float tnear, float
     r.id = 0;
     r.flags = 0;
     rtcOccluded1(rt->scene, &ctx, &r);
-    return r.tfar < 0.f;   /* Embree sets tfar to -inf when occluded */
+    return r.tfar < 0.f; /* Embree sets tfar to -inf when occluded */
 }
 
 void pgi__rt_intersect8(const pgi__rt *rt, const int valid[8], pgi__v3 o, const pgi__v3 dirs[8], float tfar,
@@ -241,8 +247,12 @@ void pgi__rt_intersect8(const pgi__rt *rt, const int valid[8], pgi__v3 o, const 
     RTC_ALIGN(32) int vmask[8];
     for (int i = 0; i < 8; i++) {
         vmask[i] = valid[i] ? -1 : 0;
-        rh.ray.org_x[i] = o.x; rh.ray.org_y[i] = o.y; rh.ray.org_z[i] = o.z;
-        rh.ray.dir_x[i] = dirs[i].x; rh.ray.dir_y[i] = dirs[i].y; rh.ray.dir_z[i] = dirs[i].z;
+        rh.ray.org_x[i] = o.x;
+        rh.ray.org_y[i] = o.y;
+        rh.ray.org_z[i] = o.z;
+        rh.ray.dir_x[i] = dirs[i].x;
+        rh.ray.dir_y[i] = dirs[i].y;
+        rh.ray.dir_z[i] = dirs[i].z;
         rh.ray.tnear[i] = 0.f;
         rh.ray.tfar[i] = tfar;
         rh.ray.time[i] = 0.f;

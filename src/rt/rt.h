@@ -9,8 +9,8 @@ typedef struct pgi__rt pgi__rt;
 
 typedef struct pgi__hit {
     float t;
-    float u, v;          /* barycentrics of vertices 1 and 2 */
-    uint32_t prim;       /* triangle index, UINT32_MAX for a miss */
+    float u, v;    /* barycentrics of vertices 1 and 2 */
+    uint32_t prim; /* triangle index, UINT32_MAX for a miss */
 } pgi__hit;
 
 /* Builds the BVH over the scene's triangles. The scene is borrowed. */

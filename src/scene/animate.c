@@ -126,8 +126,8 @@ pgi_status pgi__scene_add_box(pgi_scene *s, const float c[3], const float size[3
 
 /* ------------------------------------------------------------ motions */
 
-pgi_status pgi__scene_add_anim(pgi_scene *s, const char *name, const uint32_t *tris, size_t ntris,
-                               const float *pivot, pgi__keyframe *keys, size_t nkeys, pgi__loop loop) {
+pgi_status pgi__scene_add_anim(pgi_scene *s, const char *name, const uint32_t *tris, size_t ntris, const float *pivot,
+                               pgi__keyframe *keys, size_t nkeys, pgi__loop loop) {
     if (!s->tri_dynamic) {
         s->tri_dynamic = calloc(s->ntris ? s->ntris : 1, 1);
         if (!s->tri_dynamic) {
@@ -158,8 +158,7 @@ pgi_status pgi__scene_add_anim(pgi_scene *s, const char *name, const uint32_t *t
     for (size_t i = 0; i < ntris; i++) {
         uint32_t t = tris[i];
         if (s->tri_dynamic[t])
-            return free(mark), pgi__fail(PGI_ERR_PARSE, "animation '%s': triangle %u already has a motion",
-                                         a->name, t);
+            return free(mark), pgi__fail(PGI_ERR_PARSE, "animation '%s': triangle %u already has a motion", a->name, t);
         s->tri_dynamic[t] = 1;
         for (int k = 0; k < 3; k++) {
             uint32_t v = s->tri[3 * (size_t)t + k];
@@ -225,9 +224,15 @@ static void anim_eval(const pgi__anim *a, double t, pgi__keyframe *out) {
 static void euler_matrix(const float deg[3], float m[9]) {
     float ax = deg[0] * (PGI_PI / 180.f), ay = deg[1] * (PGI_PI / 180.f), az = deg[2] * (PGI_PI / 180.f);
     float cx = cosf(ax), sx = sinf(ax), cy = cosf(ay), sy = sinf(ay), cz = cosf(az), sz = sinf(az);
-    m[0] = cz * cy; m[1] = cz * sy * sx - sz * cx; m[2] = cz * sy * cx + sz * sx;
-    m[3] = sz * cy; m[4] = sz * sy * sx + cz * cx; m[5] = sz * sy * cx - cz * sx;
-    m[6] = -sy;     m[7] = cy * sx;                m[8] = cy * cx;
+    m[0] = cz * cy;
+    m[1] = cz * sy * sx - sz * cx;
+    m[2] = cz * sy * cx + sz * sx;
+    m[3] = sz * cy;
+    m[4] = sz * sy * sx + cz * cx;
+    m[5] = sz * sy * cx - cz * sx;
+    m[6] = -sy;
+    m[7] = cy * sx;
+    m[8] = cy * cx;
 }
 
 static pgi__v3 mat_mul(const float m[9], pgi__v3 v) {
@@ -352,8 +357,9 @@ pgi_status pgi_scene_get_light_group(const pgi_scene *s, size_t i, pgi_light_gro
         const pgi__light *l = &s->lights[j];
         if (l->type != PGI_LIGHT_AREA || s->tri_mat[l->tri] != m) continue;
         const uint32_t *t = s->tri + 3 * (size_t)l->tri;
-        pgi__v3 ctr = v3_scale(v3_add(v3_add(pgi__scene_vertex(s, t[0]), pgi__scene_vertex(s, t[1])),
-                                     pgi__scene_vertex(s, t[2])), 1.f / 3.f);
+        pgi__v3 ctr =
+            v3_scale(v3_add(v3_add(pgi__scene_vertex(s, t[0]), pgi__scene_vertex(s, t[1])), pgi__scene_vertex(s, t[2])),
+                     1.f / 3.f);
         c = v3_madd(c, ctr, l->area);
         area += l->area;
         out->triangles++;

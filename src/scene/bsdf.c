@@ -10,8 +10,8 @@ void pgi__scene_surface(const pgi_scene *s, uint32_t prim, float bu, float bv, p
     o->ns = o->ng;
     if (s->nrm) {
         pgi__v3 n = v3_add(v3_add(v3_scale(v3_load(s->nrm + 3 * (size_t)t[0]), bw),
-                                 v3_scale(v3_load(s->nrm + 3 * (size_t)t[1]), bu)),
-                          v3_scale(v3_load(s->nrm + 3 * (size_t)t[2]), bv));
+                                  v3_scale(v3_load(s->nrm + 3 * (size_t)t[1]), bu)),
+                           v3_scale(v3_load(s->nrm + 3 * (size_t)t[2]), bv));
         float l = v3_len(n);
         if (l > 0.f && isfinite(l)) {
             n = v3_scale(n, 1.f / l);

@@ -55,16 +55,18 @@ static inline float pgi__fresnel_dielectric(float cos_i, float eta_i, float eta_
 /* Surface point from a hit. */
 typedef struct pgi__surface {
     pgi__v3 p;
-    pgi__v3 ng;          /* unit geometric normal (winding order) */
-    pgi__v3 ns;          /* unit shading normal, same side as ng */
-    float u, v;         /* texture coordinates */
+    pgi__v3 ng; /* unit geometric normal (winding order) */
+    pgi__v3 ns; /* unit shading normal, same side as ng */
+    float u, v; /* texture coordinates */
     const pgi__material *mat;
-    pgi__v3 kd;          /* albedo with the texture applied */
+    pgi__v3 kd; /* albedo with the texture applied */
 } pgi__surface;
 
 void pgi__scene_surface(const pgi_scene *s, uint32_t prim, float bu, float bv, pgi__v3 p, pgi__surface *out);
 
-static inline int pgi__mat_specular(const pgi__material *m) { return m->type == PGI_MAT_MIRROR || m->type == PGI_MAT_GLASS; }
+static inline int pgi__mat_specular(const pgi__material *m) {
+    return m->type == PGI_MAT_MIRROR || m->type == PGI_MAT_GLASS;
+}
 
 /* Samples the continuation of a path arriving from `wi` (pointing away from
  * the surface) at `sf`. Writes the new direction and the weight f*cos/pdf.

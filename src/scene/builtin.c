@@ -160,15 +160,15 @@ static void build_cornell(builder *b) {
     uint32_t mg = add_mat(b, "green", PGI_MAT_LAMBERT, v3(0.14f, 0.45f, 0.091f));
     uint32_t ml = add_mat(b, "light", PGI_MAT_LAMBERT, v3(0.78f, 0.78f, 0.78f));
     if (!b->st) v3_store(b->s->mats[ml].ke, v3(17.f, 12.f, 4.f));
-    add_quad(b, v3(-1, 0, -1), v3(-1, 0, 1), v3(1, 0, 1), v3(1, 0, -1), mw);     /* floor */
-    add_quad(b, v3(-1, 2, -1), v3(1, 2, -1), v3(1, 2, 1), v3(-1, 2, 1), mw);     /* ceiling */
-    add_quad(b, v3(-1, 0, -1), v3(1, 0, -1), v3(1, 2, -1), v3(-1, 2, -1), mw);   /* back */
-    add_quad(b, v3(-1, 0, -1), v3(-1, 2, -1), v3(-1, 2, 1), v3(-1, 0, 1), mr);   /* left */
-    add_quad(b, v3(1, 0, -1), v3(1, 0, 1), v3(1, 2, 1), v3(1, 2, -1), mg);       /* right */
-    add_quad(b, v3(-0.24f, 1.98f, -0.22f), v3(0.23f, 1.98f, -0.22f), v3(0.23f, 1.98f, 0.16f),
-             v3(-0.24f, 1.98f, 0.16f), ml);                                        /* light, facing down */
-    add_box(b, 0.33f, 0.f, 0.37f, v3(0.3f, 0.3f, 0.3f), -17.f, mw);               /* short block */
-    add_box(b, -0.34f, 0.f, -0.28f, v3(0.3f, 0.6f, 0.3f), 17.f, mw);              /* tall block */
+    add_quad(b, v3(-1, 0, -1), v3(-1, 0, 1), v3(1, 0, 1), v3(1, 0, -1), mw);   /* floor */
+    add_quad(b, v3(-1, 2, -1), v3(1, 2, -1), v3(1, 2, 1), v3(-1, 2, 1), mw);   /* ceiling */
+    add_quad(b, v3(-1, 0, -1), v3(1, 0, -1), v3(1, 2, -1), v3(-1, 2, -1), mw); /* back */
+    add_quad(b, v3(-1, 0, -1), v3(-1, 2, -1), v3(-1, 2, 1), v3(-1, 0, 1), mr); /* left */
+    add_quad(b, v3(1, 0, -1), v3(1, 0, 1), v3(1, 2, 1), v3(1, 2, -1), mg);     /* right */
+    add_quad(b, v3(-0.24f, 1.98f, -0.22f), v3(0.23f, 1.98f, -0.22f), v3(0.23f, 1.98f, 0.16f), v3(-0.24f, 1.98f, 0.16f),
+             ml);                                                    /* light, facing down */
+    add_box(b, 0.33f, 0.f, 0.37f, v3(0.3f, 0.3f, 0.3f), -17.f, mw);  /* short block */
+    add_box(b, -0.34f, 0.f, -0.28f, v3(0.3f, 0.6f, 0.3f), 17.f, mw); /* tall block */
     set_camera(b, v3(0.f, 1.f, 3.9f), v3(0.f, 1.f, 0.f), 39.f);
     b->s->defaults = (pgi_scene_defaults){200000, 0.05f, 4, 512, 512, 1.f};
 }

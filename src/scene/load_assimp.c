@@ -43,7 +43,7 @@ static void copy_str(char *dst, size_t n, const char *src) {
     dst[k] = 0;
 }
 
-static float clamp01(float x) { return x > 0.f ? (x < 1.f ? x : 1.f) : 0.f; }   /* NaN -> 0 */
+static float clamp01(float x) { return x > 0.f ? (x < 1.f ? x : 1.f) : 0.f; } /* NaN -> 0 */
 static float max3(const float *c) { return fmaxf(c[0], fmaxf(c[1], c[2])); }
 
 static int get_color(const struct aiMaterial *m, const char *key, unsigned type, unsigned idx, float out[3]) {
@@ -74,8 +74,8 @@ static int get_int(const struct aiMaterial *m, const char *key, unsigned type, u
 /* Texture bookkeeping for one import: resolved path -> scene texture index. */
 typedef struct tex_cache {
     const char *mesh_path;
-    char dir[1024];   /* the mesh file's folder with a trailing '/', or "" */
-    size_t first;     /* scene textures added by this import start here */
+    char dir[1024]; /* the mesh file's folder with a trailing '/', or "" */
+    size_t first;   /* scene textures added by this import start here */
 } tex_cache;
 
 static pgi_status push_texture(pgi_scene *s, int w, int h, unsigned char *rgba, const char *path, int *index) {
@@ -89,7 +89,7 @@ static pgi_status push_texture(pgi_scene *s, int w, int h, unsigned char *rgba, 
     memset(nt, 0, sizeof *nt);
     nt->width = w;
     nt->height = h;
-    nt->rgba = rgba;   /* stbi allocates with malloc: pgi_scene_destroy frees it with free() */
+    nt->rgba = rgba; /* stbi allocates with malloc: pgi_scene_destroy frees it with free() */
     copy_str(nt->path, sizeof nt->path, path);
     *index = (int)s->ntexs++;
     return PGI_OK;
@@ -97,7 +97,8 @@ static pgi_status push_texture(pgi_scene *s, int w, int h, unsigned char *rgba, 
 
 static pgi_status load_texture(pgi_scene *s, tex_cache *tc, const struct aiScene *sc, const char *mat_name,
                                const char *file, int *index) {
-    char resolved[sizeof ((pgi__texture *)0)->path];   /* same size as the stored path, so deduplication compares whole paths */
+    char resolved[sizeof((pgi__texture *)0)
+                      ->path]; /* same size as the stored path, so deduplication compares whole paths */
     /* Embedded texture ("*N", glTF/GLB): decode from memory. */
     if (file[0] == '*') {
         char *end;
@@ -116,8 +117,8 @@ static pgi_status load_texture(pgi_scene *s, tex_cache *tc, const struct aiScene
         if (at->mHeight == 0) {
             rgba = stbi_load_from_memory((const unsigned char *)at->pcData, (int)at->mWidth, &w, &h, &n, 4);
             if (!rgba)
-                return pgi__fail(PGI_ERR_IO, "%s: material '%s': cannot read texture '%s': %s", tc->mesh_path,
-                                 mat_name, resolved, stbi_failure_reason());
+                return pgi__fail(PGI_ERR_IO, "%s: material '%s': cannot read texture '%s': %s", tc->mesh_path, mat_name,
+                                 resolved, stbi_failure_reason());
         } else {
             w = (int)at->mWidth;
             h = (int)at->mHeight;
@@ -159,15 +160,13 @@ static pgi_status load_texture(pgi_scene *s, tex_cache *tc, const struct aiScene
     return push_texture(s, w, h, rgba, resolved, index);
 }
 
-static pgi_status convert_material(pgi_scene *s, tex_cache *tc, const struct aiScene *sc,
-                                   const struct aiMaterial *am, pgi__material *m) {
+static pgi_status convert_material(pgi_scene *s, tex_cache *tc, const struct aiScene *sc, const struct aiMaterial *am,
+                                   pgi__material *m) {
     memset(m, 0, sizeof *m);
     m->tex_kd = -1;
     struct aiString name;
-    if (aiGetMaterialString(am, AI_MATKEY_NAME, &name) == AI_SUCCESS)
-        copy_str(m->name, sizeof m->name, name.data);
-    else
-        snprintf(m->name, sizeof m->name, "unnamed");
+    if (aiGetMaterialString(am, AI_MATKEY_NAME, &name) == AI_SUCCESS) copy_str(m->name, sizeof m->name, name.data);
+    else snprintf(m->name, sizeof m->name, "unnamed");
 
     float kd[3] = {0.f, 0.f, 0.f}, ks[3] = {0.f, 0.f, 0.f}, ke[3] = {0.f, 0.f, 0.f};
     int has_kd = get_color(am, AI_MATKEY_COLOR_DIFFUSE, kd);
@@ -188,7 +187,7 @@ static pgi_status convert_material(pgi_scene *s, tex_cache *tc, const struct aiS
     for (int c = 0; c < 3; c++) {
         m->kd[c] = clamp01(kd[c]);
         ks[c] = isnan(ks[c]) ? 0.f : ks[c];
-        m->ke[c] = ke[c] > 0.f ? ke[c] : (isfinite(ke[c]) ? 0.f : ke[c]);   /* Inf stays, finalize rejects it */
+        m->ke[c] = ke[c] > 0.f ? ke[c] : (isfinite(ke[c]) ? 0.f : ke[c]); /* Inf stays, finalize rejects it */
     }
 
     if (illum == 4 || illum == 6 || illum == 7 || illum == 9 || opacity < 1.f) {
@@ -212,8 +211,7 @@ static pgi_status convert_material(pgi_scene *s, tex_cache *tc, const struct aiS
 
     struct aiString tpath;
     if (aiGetMaterialTextureCount(am, aiTextureType_DIFFUSE) > 0 &&
-        aiGetMaterialTexture(am, aiTextureType_DIFFUSE, 0, &tpath, NULL, NULL, NULL, NULL, NULL, NULL) ==
-            AI_SUCCESS &&
+        aiGetMaterialTexture(am, aiTextureType_DIFFUSE, 0, &tpath, NULL, NULL, NULL, NULL, NULL, NULL) == AI_SUCCESS &&
         tpath.length > 0) {
         pgi_status st = load_texture(s, tc, sc, m->name, tpath.data, &m->tex_kd);
         if (st) return st;
@@ -286,10 +284,10 @@ pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path) {
         return pgi__fail(PGI_ERR_OOM, "%s: out of memory for %zu vertices and %zu triangles", path, nv, nt);
     }
     if (!keep_nrm && s->nrm) {
-        free(s->nrm);   /* mixing smooth and flat-shaded inputs: shade everything flat */
+        free(s->nrm); /* mixing smooth and flat-shaded inputs: shade everything flat */
         s->nrm = NULL;
     }
-    if (want_uv && !had_uv && v0 > 0) memset(s->uv, 0, v0 * 2 * sizeof(float));   /* earlier geometry had no UVs */
+    if (want_uv && !had_uv && v0 > 0) memset(s->uv, 0, v0 * 2 * sizeof(float)); /* earlier geometry had no UVs */
 
     /* Materials (appended first so that textures and indices are known). */
     tex_cache tc;
@@ -362,7 +360,7 @@ pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path) {
         for (size_t t = t0; t < tb; t++) {
             const uint32_t *ix = s->tri + 3 * t;
             pgi__v3 fn = v3_cross(v3_sub(pgi__scene_vertex(s, ix[1]), pgi__scene_vertex(s, ix[0])),
-                                 v3_sub(pgi__scene_vertex(s, ix[2]), pgi__scene_vertex(s, ix[0])));
+                                  v3_sub(pgi__scene_vertex(s, ix[2]), pgi__scene_vertex(s, ix[0])));
             for (int c = 0; c < 3; c++) {
                 float *n = s->nrm + 3 * (size_t)ix[c];
                 if (n[0] == 0.f && n[1] == 0.f && n[2] == 0.f) v3_store(n, v3_norm(fn));

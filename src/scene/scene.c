@@ -60,8 +60,7 @@ pgi_status pgi__scene_finalize(pgi_scene *s, const char *what) {
     }
     for (size_t m = 0; m < s->nmats; m++) {
         pgi__material *mt = &s->mats[m];
-        if (!finite3(mt->kd) || !finite3(mt->ks) || !finite3(mt->ke) || !isfinite(mt->shininess) ||
-            !isfinite(mt->ior))
+        if (!finite3(mt->kd) || !finite3(mt->ks) || !finite3(mt->ke) || !isfinite(mt->shininess) || !isfinite(mt->ior))
             return pgi__fail(PGI_ERR_PARSE, "%s: material '%s' has a non-finite value", what, mt->name);
         if (mt->tex_kd >= (int)s->ntexs)
             return pgi__fail(PGI_ERR_PARSE, "%s: material '%s' refers to a missing texture", what, mt->name);
@@ -86,10 +85,10 @@ pgi_status pgi__scene_finalize(pgi_scene *s, const char *what) {
         const float *ke = s->mats[s->tri_mat[t]].ke;
         if (!(ke[0] > 0.f || ke[1] > 0.f || ke[2] > 0.f)) continue;
         pgi__v3 a = pgi__scene_vertex(s, s->tri[3 * t]), b = pgi__scene_vertex(s, s->tri[3 * t + 1]),
-               c = pgi__scene_vertex(s, s->tri[3 * t + 2]);
+                c = pgi__scene_vertex(s, s->tri[3 * t + 2]);
         pgi__v3 n = v3_cross(v3_sub(b, a), v3_sub(c, a));
         float area = 0.5f * v3_len(n);
-        if (!(area > 0.f)) continue;   /* degenerate triangles emit nothing */
+        if (!(area > 0.f)) continue; /* degenerate triangles emit nothing */
         pgi__light *l = &s->lights[s->nlights++];
         memset(l, 0, sizeof *l);
         l->type = PGI_LIGHT_AREA;
@@ -111,8 +110,8 @@ pgi_status pgi__scene_finalize(pgi_scene *s, const char *what) {
         case PGI_LIGHT_POINT: k = 4.f * PGI_PI; break;
         case PGI_LIGHT_SPOT:
             if (!(l->cos_cutoff > -1.f && l->cos_cutoff < 1.f))
-                return pgi__fail(PGI_ERR_PARSE, "%s: spot light %zu needs a cut-off angle in (0, 180) degrees",
-                                 what, i);
+                return pgi__fail(PGI_ERR_PARSE, "%s: spot light %zu needs a cut-off angle in (0, 180) degrees", what,
+                                 i);
             if (!(v3_len(v3_load(l->dir)) > 0.f))
                 return pgi__fail(PGI_ERR_PARSE, "%s: spot light %zu has a zero direction", what, i);
             v3_store(l->dir, v3_norm(v3_load(l->dir)));
@@ -122,7 +121,7 @@ pgi_status pgi__scene_finalize(pgi_scene *s, const char *what) {
             if (!(v3_len(v3_load(l->dir)) > 0.f))
                 return pgi__fail(PGI_ERR_PARSE, "%s: sun light %zu has a zero direction", what, i);
             v3_store(l->dir, v3_norm(v3_load(l->dir)));
-            float R = 0.5f * diag;   /* photons leave a disk covering the scene's bounding sphere */
+            float R = 0.5f * diag; /* photons leave a disk covering the scene's bounding sphere */
             k = PGI_PI * R * R;
             break;
         }
@@ -253,7 +252,8 @@ const char *pgi_builtin_scene_name(size_t i) { return i < pgi_builtin_scene_coun
 
 pgi_status pgi_scene_get_camera(const pgi_scene *s, size_t i, pgi_camera_def *out) {
     if (!s || !out) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_scene_get_camera: NULL argument");
-    if (i >= s->ncams) return pgi__fail(PGI_ERR_INVALID_ARG, "camera %zu does not exist (the scene has %zu)", i, s->ncams);
+    if (i >= s->ncams)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "camera %zu does not exist (the scene has %zu)", i, s->ncams);
     *out = s->cams[i];
     return PGI_OK;
 }

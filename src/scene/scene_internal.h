@@ -7,58 +7,58 @@
 #include "core/core.h"
 
 typedef enum pgi__material_type {
-    PGI_MAT_LAMBERT = 0,   /* kd / pi */
-    PGI_MAT_PHONG = 1,     /* energy-conserving Blinn-Phong, tiled paper eqs. 6-8 */
-    PGI_MAT_MIRROR = 2,    /* perfect mirror, reflectance ks */
-    PGI_MAT_GLASS = 3      /* dielectric with Fresnel, index ior, tint ks */
+    PGI_MAT_LAMBERT = 0, /* kd / pi */
+    PGI_MAT_PHONG = 1,   /* energy-conserving Blinn-Phong, tiled paper eqs. 6-8 */
+    PGI_MAT_MIRROR = 2,  /* perfect mirror, reflectance ks */
+    PGI_MAT_GLASS = 3    /* dielectric with Fresnel, index ior, tint ks */
 } pgi__material_type;
 
 typedef struct pgi__material {
     char name[64];
     pgi__material_type type;
-    float kd[3];         /* diffuse albedo (multiplied by the texture if any) */
-    float ks[3];         /* Phong: F0; mirror: reflectance; glass: transmission tint */
-    float shininess;     /* Phong exponent s (MTL Ns) */
-    float ior;           /* glass: MTL Ni */
-    float ke[3];         /* emitted radiance (MTL Ke); non-zero makes the triangles area lights */
-    int tex_kd;          /* index into scene textures, -1 if none */
+    float kd[3];     /* diffuse albedo (multiplied by the texture if any) */
+    float ks[3];     /* Phong: F0; mirror: reflectance; glass: transmission tint */
+    float shininess; /* Phong exponent s (MTL Ns) */
+    float ior;       /* glass: MTL Ni */
+    float ke[3];     /* emitted radiance (MTL Ke); non-zero makes the triangles area lights */
+    int tex_kd;      /* index into scene textures, -1 if none */
 } pgi__material;
 
 /* 8-bit sRGB texture; lookups return linear RGB. */
 typedef struct pgi__texture {
     int width, height;
-    unsigned char *rgba;   /* 4 bytes a texel, row 0 is the top of the image */
+    unsigned char *rgba; /* 4 bytes a texel, row 0 is the top of the image */
     char path[512];
 } pgi__texture;
 
 typedef enum pgi__light_type {
-    PGI_LIGHT_POINT = 0,   /* intensity I (W/sr), power 4 pi I */
-    PGI_LIGHT_SPOT = 1,    /* intensity I inside the cone cos(theta) >= cos_cutoff */
-    PGI_LIGHT_SUN = 2,     /* irradiance E (W/m^2) on surfaces facing -dir */
-    PGI_LIGHT_AREA = 3     /* one emissive triangle, one-sided Lambertian, radiance Le */
+    PGI_LIGHT_POINT = 0, /* intensity I (W/sr), power 4 pi I */
+    PGI_LIGHT_SPOT = 1,  /* intensity I inside the cone cos(theta) >= cos_cutoff */
+    PGI_LIGHT_SUN = 2,   /* irradiance E (W/m^2) on surfaces facing -dir */
+    PGI_LIGHT_AREA = 3   /* one emissive triangle, one-sided Lambertian, radiance Le */
 } pgi__light_type;
 
 typedef struct pgi__light {
     pgi__light_type type;
-    float pos[3];          /* point/spot */
-    float dir[3];          /* spot: axis; sun: direction light travels (unit) */
-    float color[3];        /* I (point/spot), E (sun), Le (area) */
-    float cos_cutoff;      /* spot */
-    uint32_t tri;          /* area: triangle index */
-    float area;            /* area: triangle area */
-    float normal[3];       /* area: unit emitting normal */
-    float power[3];        /* computed by pgi__scene_finalize */
+    float pos[3];     /* point/spot */
+    float dir[3];     /* spot: axis; sun: direction light travels (unit) */
+    float color[3];   /* I (point/spot), E (sun), Le (area) */
+    float cos_cutoff; /* spot */
+    uint32_t tri;     /* area: triangle index */
+    float area;       /* area: triangle area */
+    float normal[3];  /* area: unit emitting normal */
+    float power[3];   /* computed by pgi__scene_finalize */
 } pgi__light;
 
 struct pgi_scene {
     char name[128];
     char source[1024];
     size_t nverts, ntris;
-    float *pos;            /* 3 per vertex */
-    float *nrm;            /* 3 per vertex, or NULL (flat shading) */
-    float *uv;             /* 2 per vertex, or NULL */
-    uint32_t *tri;         /* 3 vertex indices per triangle */
-    uint32_t *tri_mat;     /* material per triangle */
+    float *pos;        /* 3 per vertex */
+    float *nrm;        /* 3 per vertex, or NULL (flat shading) */
+    float *uv;         /* 2 per vertex, or NULL */
+    uint32_t *tri;     /* 3 vertex indices per triangle */
+    uint32_t *tri_mat; /* material per triangle */
     pgi__material *mats;
     size_t nmats;
     pgi__texture *texs;
@@ -74,10 +74,10 @@ struct pgi_scene {
      * its ray-tracing scene. */
     struct pgi__anim *anims;
     size_t nanims;
-    uint8_t *tri_dynamic;      /* per triangle: 1 if an animation moves it; NULL when nothing is animated */
-    double time;               /* seconds, set by pgi_scene_set_time */
-    uint64_t static_version;   /* bumped when triangles outside tri_dynamic move (a moved area light) */
-    uint64_t dynamic_version;  /* bumped when animated triangles move */
+    uint8_t *tri_dynamic;     /* per triangle: 1 if an animation moves it; NULL when nothing is animated */
+    double time;              /* seconds, set by pgi_scene_set_time */
+    uint64_t static_version;  /* bumped when triangles outside tri_dynamic move (a moved area light) */
+    uint64_t dynamic_version; /* bumped when animated triangles move */
 };
 
 /* ------------------------------------------------------------ animation */
@@ -87,7 +87,7 @@ struct pgi_scene {
 typedef struct pgi__keyframe {
     float t;
     float translate[3];
-    float rotate[3];     /* Euler angles, degrees, applied about x, then y, then z */
+    float rotate[3]; /* Euler angles, degrees, applied about x, then y, then z */
     float scale;
 } pgi__keyframe;
 
@@ -95,12 +95,12 @@ typedef enum pgi__loop { PGI_LOOP_CLAMP = 0, PGI_LOOP_REPEAT = 1, PGI_LOOP_PINGP
 
 typedef struct pgi__anim {
     char name[64];
-    uint32_t *verts;       /* vertices the motion moves (each once) */
+    uint32_t *verts; /* vertices the motion moves (each once) */
     size_t nverts;
-    float *rest_pos;       /* 3 per moved vertex, at rest */
-    float *rest_nrm;       /* 3 per moved vertex, or NULL (flat-shaded scene) */
+    float *rest_pos; /* 3 per moved vertex, at rest */
+    float *rest_nrm; /* 3 per moved vertex, or NULL (flat-shaded scene) */
     float pivot[3];
-    pgi__keyframe *keys;    /* sorted by t, at least one */
+    pgi__keyframe *keys; /* sorted by t, at least one */
     size_t nkeys;
     pgi__loop loop;
 } pgi__anim;
@@ -108,8 +108,8 @@ typedef struct pgi__anim {
 /* Adds an animation moving the vertices of the triangles tris[0..ntris) (the
  * caller keeps tris). Takes ownership of keys (malloc'd). Marks the
  * triangles dynamic. pivot NULL: the centre of their bounding box. */
-pgi_status pgi__scene_add_anim(pgi_scene *s, const char *name, const uint32_t *tris, size_t ntris,
-                               const float *pivot, pgi__keyframe *keys, size_t nkeys, pgi__loop loop);
+pgi_status pgi__scene_add_anim(pgi_scene *s, const char *name, const uint32_t *tris, size_t ntris, const float *pivot,
+                               pgi__keyframe *keys, size_t nkeys, pgi__loop loop);
 /* Appends a UV sphere / an axis-aligned box with material `mat`; the new
  * triangles are [*first, s->ntris). */
 pgi_status pgi__scene_add_sphere(pgi_scene *s, const float c[3], float r, uint32_t mat, size_t *first);
@@ -133,7 +133,7 @@ float pgi__scene_epsilon(const pgi_scene *s);
 
 /* Built-in scenes (builtin.c). NULL-terminated list of names. */
 extern const char *const pgi__builtin_names[];
-pgi_status pgi__scene_builtin(const char *name, pgi_scene **out);   /* PGI_ERR_INVALID_ARG if unknown */
+pgi_status pgi__scene_builtin(const char *name, pgi_scene **out); /* PGI_ERR_INVALID_ARG if unknown */
 
 /* Mesh import through Assimp (load_assimp.c): appends geometry, materials
  * and textures of `path` to `s`. Textures resolve against the mesh folder. */

@@ -117,8 +117,8 @@ static pgi_status get_vec3(const char *path, const cJSON *obj, const char *where
     const char *what = sign == NONNEG ? "non-negative numbers" : "numbers";
     if (!a) {
         if (!required) return PGI_OK;
-        return pgi__fail(PGI_ERR_PARSE, "%s: %s%s%s is missing (an array of 3 %s)", path, where, *where ? "." : "",
-                         key, what);
+        return pgi__fail(PGI_ERR_PARSE, "%s: %s%s%s is missing (an array of 3 %s)", path, where, *where ? "." : "", key,
+                         what);
     }
     int ok = cJSON_IsArray(a) && cJSON_GetArraySize(a) == 3;
     for (int i = 0; ok && i < 3; i++) {
@@ -126,8 +126,7 @@ static pgi_status get_vec3(const char *path, const cJSON *obj, const char *where
         if (!cJSON_IsNumber(e) || !isfinite(e->valuedouble) || fabs(e->valuedouble) > 3.0e38 ||
             (sign == NONNEG && e->valuedouble < 0.0))
             ok = 0;
-        else
-            out[i] = (float)e->valuedouble;
+        else out[i] = (float)e->valuedouble;
     }
     if (!ok)
         return pgi__fail(PGI_ERR_PARSE, "%s: %s%s%s must be an array of 3 %s", path, where, *where ? "." : "", key,
@@ -178,8 +177,7 @@ static pgi_status parse_camera(const char *path, const cJSON *c, const char *whe
     memcpy(cd->up, up, sizeof up);
     cd->fov_y_deg = (float)fov;
     pgi__v3 d = v3_sub(v3_load(cd->look_at), v3_load(cd->eye));
-    if (!(v3_len(d) > 0.f))
-        return pgi__fail(PGI_ERR_PARSE, "%s: %s: eye and look_at are the same point", path, where);
+    if (!(v3_len(d) > 0.f)) return pgi__fail(PGI_ERR_PARSE, "%s: %s: eye and look_at are the same point", path, where);
     if (!(v3_len(v3_cross(d, v3_load(cd->up))) > 0.f))
         return pgi__fail(PGI_ERR_PARSE, "%s: %s: up is zero or parallel to the view direction", path, where);
     return PGI_OK;
@@ -257,10 +255,8 @@ static pgi_status resolve_mesh(const char *path, const char *mesh, char *out, si
     }
     char dir1[1024];
     const char *slash = strrchr(path, '/');
-    if (slash)
-        snprintf(dir1, sizeof dir1, "%.*s", (int)(slash - path) > 0 ? (int)(slash - path) : 1, path);
-    else
-        snprintf(dir1, sizeof dir1, ".");
+    if (slash) snprintf(dir1, sizeof dir1, "%.*s", (int)(slash - path) > 0 ? (int)(slash - path) : 1, path);
+    else snprintf(dir1, sizeof dir1, ".");
     const char *env = getenv("PHOTONGI_SCENES");
     const char *dir2 = env && *env ? env : DEFAULT_SCENES_DIR;
     const char *dirs[2] = {dir1, dir2};
@@ -294,8 +290,7 @@ static pgi_status parse_motion(const char *path, const cJSON *m, const char *whe
         if (cJSON_IsString(jl) && strcmp(jl->valuestring, "clamp") == 0) *loop = PGI_LOOP_CLAMP;
         else if (cJSON_IsString(jl) && strcmp(jl->valuestring, "repeat") == 0) *loop = PGI_LOOP_REPEAT;
         else if (cJSON_IsString(jl) && strcmp(jl->valuestring, "pingpong") == 0) *loop = PGI_LOOP_PINGPONG;
-        else
-            return pgi__fail(PGI_ERR_PARSE, "%s: %s.loop must be \"clamp\", \"repeat\" or \"pingpong\"", path, w);
+        else return pgi__fail(PGI_ERR_PARSE, "%s: %s.loop must be \"clamp\", \"repeat\" or \"pingpong\"", path, w);
     }
     const cJSON *jk = cJSON_GetObjectItemCaseSensitive(m, "keyframes");
     if (!cJSON_IsArray(jk) || cJSON_GetArraySize(jk) < 1 || cJSON_GetArraySize(jk) > 100000)
@@ -334,8 +329,8 @@ static pgi_status parse_motion(const char *path, const cJSON *m, const char *whe
 
 /* "material": {"name", "type": lambert|phong|mirror|glass, "kd", "ks", "shininess", "ior", "emission"};
  * appends it to the scene and returns its index. */
-static pgi_status parse_material(const char *path, pgi_scene *s, const cJSON *j, const char *where,
-                                 const char *defname, uint32_t *out) {
+static pgi_status parse_material(const char *path, pgi_scene *s, const cJSON *j, const char *where, const char *defname,
+                                 uint32_t *out) {
     static const char *const keys[] = {"name", "type", "kd", "ks", "shininess", "ior", "emission", NULL};
     char w[128];
     snprintf(w, sizeof w, "%s.material", where);
@@ -388,7 +383,7 @@ static pgi_status parse_material(const char *path, pgi_scene *s, const cJSON *j,
         }
         if (m.type == PGI_MAT_PHONG)
             for (int c = 0; c < 3; c++)
-                if (m.kd[c] + m.ks[c] > 1.f) m.kd[c] = 1.f - m.ks[c];   /* energy conservation, as for MTL */
+                if (m.kd[c] + m.ks[c] > 1.f) m.kd[c] = 1.f - m.ks[c]; /* energy conservation, as for MTL */
     }
     pgi__material *nm = realloc(s->mats, (s->nmats + 1) * sizeof *nm);
     if (!nm) return pgi__fail(PGI_ERR_OOM, "%s: out of memory", path);
@@ -470,8 +465,9 @@ static pgi_status parse_animate(const char *path, pgi_scene *s, const cJSON *a, 
         return pgi__fail(PGI_ERR_PARSE, "%s: %s.motion is missing", path, where);
     size_t m = 0;
     while (m < s->nmats && strcmp(s->mats[m].name, jm->valuestring) != 0) m++;
-    if (m == s->nmats) return pgi__fail(PGI_ERR_PARSE, "%s: %s.material '%s' is not a material of the mesh", path,
-                                        where, jm->valuestring);
+    if (m == s->nmats)
+        return pgi__fail(PGI_ERR_PARSE, "%s: %s.material '%s' is not a material of the mesh", path, where,
+                         jm->valuestring);
     uint32_t *tris = malloc((s->ntris ? s->ntris : 1) * sizeof *tris);
     if (!tris) return pgi__fail(PGI_ERR_OOM, "%s: out of memory", path);
     size_t nt = 0;
@@ -485,8 +481,8 @@ static pgi_status parse_animate(const char *path, pgi_scene *s, const cJSON *a, 
 /* ------------------------------------------------------------ loading */
 
 static pgi_status load(const char *path, const cJSON *root, pgi_scene **out) {
-    static const char *const keys[] = {"name", "mesh", "camera", "cameras", "lights", "render",
-                                       "builtin", "objects", "animate", NULL};
+    static const char *const keys[] = {"name",   "mesh",    "camera",  "cameras", "lights",
+                                       "render", "builtin", "objects", "animate", NULL};
     if (!cJSON_IsObject(root)) return pgi__fail(PGI_ERR_PARSE, "%s: the top level must be a JSON object", path);
     pgi_status st = check_keys(path, root, "", keys);
     if (st) return st;
@@ -543,7 +539,7 @@ static pgi_status load(const char *path, const cJSON *root, pgi_scene **out) {
     if (jmesh && (st = resolve_mesh(path, jmesh->valuestring, mesh, sizeof mesh))) return st;
 
     pgi_scene *s;
-    size_t nbase = 0;   /* lights of the built-in base scene kept before the description's */
+    size_t nbase = 0; /* lights of the built-in base scene kept before the description's */
     pgi_scene_defaults base_defaults = {0};
     if (jbuiltin) {
         if ((st = pgi__scene_builtin(jbuiltin->valuestring, &s))) return st;
@@ -612,7 +608,7 @@ static pgi_status load(const char *path, const cJSON *root, pgi_scene **out) {
     }
     if (!st) st = pgi__scene_finalize(s, path);
     if (!st && s->nanims) {
-        s->time = NAN;   /* force: keyframe 0 need not be the rest pose */
+        s->time = NAN; /* force: keyframe 0 need not be the rest pose */
         st = pgi_scene_set_time(s, 0.0);
         s->dynamic_version = 0;
     }

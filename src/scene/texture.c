@@ -26,7 +26,7 @@ pgi__v3 pgi__texture_lookup(const pgi__texture *t, float u, float v) {
     float fu = u - floorf(u);
     float fv = v - floorf(v);
     float x = fu * (float)t->width - 0.5f;
-    float y = (1.f - fv) * (float)t->height - 0.5f;   /* v = 0 is the bottom row */
+    float y = (1.f - fv) * (float)t->height - 0.5f; /* v = 0 is the bottom row */
     float x0f = floorf(x), y0f = floorf(y);
     float tx = x - x0f, ty = y - y0f;
     int x0 = wrap_index((long)x0f, t->width), x1 = wrap_index((long)x0f + 1, t->width);

@@ -23,7 +23,8 @@ static void clear_sample(pgi_view_samples *vs, size_t i) {
 
 /* Continues the eye path of pixel i from its primary hit. */
 static void shade_eye_path(const pgi_scene *s, const pgi__rt *rt, const pgi_camera *cam, uint64_t seed, float eps,
-                           size_t i, pgi__v3 o, pgi__v3 d, pgi__hit h, pgi_view_samples *vs, float *emit, uint64_t *rays) {
+                           size_t i, pgi__v3 o, pgi__v3 d, pgi__hit h, pgi_view_samples *vs, float *emit,
+                           uint64_t *rays) {
     clear_sample(vs, i);
     v3_store(emit + 3 * i, v3(0.f, 0.f, 0.f));
     if (h.prim == UINT32_MAX) return;
@@ -38,7 +39,7 @@ static void shade_eye_path(const pgi_scene *s, const pgi__rt *rt, const pgi_came
         pgi__v3 wo = v3_neg(d);
         float side = v3_dot(wo, sf.ng) >= 0.f ? 1.f : -1.f;
         pgi__v3 ke = v3_load(sf.mat->ke);
-        if (side > 0.f) e = v3_add(e, v3_mul(weight, ke));   /* one-sided emitters */
+        if (side > 0.f) e = v3_add(e, v3_mul(weight, ke)); /* one-sided emitters */
         if (!pgi__mat_specular(sf.mat)) {
             pgi__v3 ng = v3_scale(sf.ng, side), ns = v3_scale(sf.ns, side);
             v3_store(vs->pos + 3 * i, p);
@@ -154,7 +155,7 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
             pgi_rng_seed(&rng, seed ^ 0xd15ec7ULL, (uint64_t)i);
             pgi__v3 La = v3(0.f, 0.f, 0.f);
             for (int k = 0; k < area_samples; k++) {
-                float u = ((float)k + pgi_rng_f(&rng)) / (float)area_samples;   /* stratified light pick */
+                float u = ((float)k + pgi_rng_f(&rng)) / (float)area_samples; /* stratified light pick */
                 float pl;
                 const pgi__light *lt = &s->lights[idx[pgi__cdf_pick(cdf, narea, u, &pl)]];
                 float u1 = pgi_rng_f(&rng), u2 = pgi_rng_f(&rng);
