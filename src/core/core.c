@@ -57,3 +57,10 @@ void *pgi__aalloc(size_t bytes) {
 }
 
 void pgi__afree(void *p) { free(p); }
+
+pgi_status pgi__check_image_size(const char *what, int64_t w, int64_t h) {
+    if (w >= 1 && h >= 1 && w <= PGI__MAX_SIDE && h <= PGI__MAX_SIDE && (uint64_t)(w * h) <= PGI__MAX_PIXELS)
+        return PGI_OK;
+    return pgi__fail(PGI_ERR_UNSUPPORTED, "%s: image of %lldx%lld is out of range (1..%d a side, at most %u pixels)",
+                     what, (long long)w, (long long)h, PGI__MAX_SIDE, PGI__MAX_PIXELS);
+}

@@ -31,6 +31,15 @@ void pgi__assert_fail(const char *expr, const char *file, int line);
 
 double pgi__now_ms(void);
 
+/* Largest image the library allocates, rendered or read (a header that
+ * declares more is refused before any pixel is allocated): 8K UHD fits. */
+#define PGI__MAX_SIDE 16384
+#define PGI__MAX_PIXELS (36u * 1024u * 1024u)
+
+/* PGI_ERR_UNSUPPORTED naming `what` (a file, or "image size") when w x h is
+ * outside 1..PGI__MAX_SIDE a side or above PGI__MAX_PIXELS. */
+pgi_status pgi__check_image_size(const char *what, int64_t w, int64_t h);
+
 /* Threads for a parallel region: the caller's count, or OpenMP's default for
  * 0. The library passes it to every region (num_threads) and never changes
  * the process's OpenMP settings. */

@@ -222,6 +222,7 @@ static pgi_status read_exr(const char *path, pgi_image *out) {
         s = pgi__fail(PGI_ERR_PARSE, "%s: bad EXR data window", path);
         goto done;
     }
+    if ((s = pgi__check_image_size(path, w64, h64))) goto done;
     const int w = (int)w64, h = (int)h64;
     rgb = calloc((size_t)w * (size_t)h * 3, sizeof(float));
     if (!rgb) {
@@ -293,9 +294,14 @@ pgi_status pgi_image_write(const pgi_image *img, const char *path, float exposur
 
 /* --------------------------------------------------------------------- read */
 
-static pgi_status read_stb(const char *path, FILE *f, pgi_image *out, int *is_hdr) {
+static pgi_status read_stb(const char *path, FILE *f, int png, pgi_image *out, int *is_hdr) {
     int w = 0, h = 0, comp = 0;
     float *rgb = NULL;
+    /* The header's size first: a few bytes can declare gigabytes of pixels. */
+    if (!stbi_info_from_file(f, &w, &h, &comp))
+        return pgi__fail(PGI_ERR_PARSE, "%s: unreadable image: %s", path, stbi_failure_reason());
+    pgi_status st = pgi__check_image_size(path, w, h);
+    if (st) return st;
     if (stbi_is_hdr_from_file(f)) {
         float *px = stbi_loadf_from_file(f, &w, &h, &comp, 3);
         if (!px) return pgi__fail(PGI_ERR_PARSE, "%s: unreadable image: %s", path, stbi_failure_reason());
@@ -305,6 +311,8 @@ static pgi_status read_stb(const char *path, FILE *f, pgi_image *out, int *is_hd
         stbi_image_free(px);
         if (is_hdr) *is_hdr = 1;
     } else if (stbi_is_16_bit_from_file(f)) {
+        /* Debian's stb (2.27) says 16 bits for a 16-bit PNM but loads 8: only PNG is read as 16-bit. */
+        if (!png) return pgi__fail(PGI_ERR_UNSUPPORTED, "%s: 16-bit images other than PNG are not supported", path);
         stbi_us *px = stbi_load_from_file_16(f, &w, &h, &comp, 3);
         if (!px) return pgi__fail(PGI_ERR_PARSE, "%s: unreadable image: %s", path, stbi_failure_reason());
         size_t n = (size_t)w * (size_t)h * 3;
@@ -358,7 +366,8 @@ pgi_status pgi__image_read(const char *path, pgi_image *out, int *is_hdr) {
         return s;
     }
     rewind(f);
-    pgi_status s = read_stb(path, f, out, is_hdr);
+    const int png = got == 4 && magic[0] == 0x89 && magic[1] == 'P' && magic[2] == 'N' && magic[3] == 'G';
+    pgi_status s = read_stb(path, f, png, out, is_hdr);
     fclose(f);
     return s;
 }

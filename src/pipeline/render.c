@@ -8,8 +8,6 @@
 #include "view/view.h"
 #include "filter/bilateral.h"
 
-#define PGI_MAX_SIDE 16384
-#define PGI_MAX_PIXELS (36u * 1024u * 1024u) /* 8K UHD fits; buffers take about 140 bytes a pixel */
 #define PGI_MAX_PHOTONS 100000000u
 #define PGI_MAX_BOUNCES 64
 
@@ -90,10 +88,10 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
         d->width = sd->width > 0 ? sd->width : 640;
         d->height = sd->height > 0 ? sd->height : 480;
     }
-    if (d->width <= 0 || d->height <= 0 || d->width > PGI_MAX_SIDE || d->height > PGI_MAX_SIDE ||
-        (uint64_t)d->width * (uint64_t)d->height > PGI_MAX_PIXELS)
+    if (d->width <= 0 || d->height <= 0 || d->width > PGI__MAX_SIDE || d->height > PGI__MAX_SIDE ||
+        (uint64_t)d->width * (uint64_t)d->height > PGI__MAX_PIXELS)
         return pgi__fail(PGI_ERR_INVALID_ARG, "image size %dx%d is out of range (1..%d a side, at most %u pixels)",
-                         d->width, d->height, PGI_MAX_SIDE, PGI_MAX_PIXELS);
+                         d->width, d->height, PGI__MAX_SIDE, PGI__MAX_PIXELS);
     if (d->photons == 0) d->photons = sd->photons ? sd->photons : 200000;
     if (d->photons > PGI_MAX_PHOTONS)
         return pgi__fail(PGI_ERR_INVALID_ARG, "photon count %u is too large (at most %u)", d->photons, PGI_MAX_PHOTONS);

@@ -115,11 +115,19 @@ static pgi_status load_texture(pgi_scene *s, tex_cache *tc, const struct aiScene
         int w, h, n;
         unsigned char *rgba;
         if (at->mHeight == 0) {
+            /* The header's size first: a few bytes can declare gigabytes of pixels. */
+            if (!stbi_info_from_memory((const unsigned char *)at->pcData, (int)at->mWidth, &w, &h, &n))
+                return pgi__fail(PGI_ERR_IO, "%s: material '%s': cannot read texture '%s': %s", tc->mesh_path, mat_name,
+                                 resolved, stbi_failure_reason());
+            pgi_status st = pgi__check_image_size(resolved, w, h);
+            if (st) return st;
             rgba = stbi_load_from_memory((const unsigned char *)at->pcData, (int)at->mWidth, &w, &h, &n, 4);
             if (!rgba)
                 return pgi__fail(PGI_ERR_IO, "%s: material '%s': cannot read texture '%s': %s", tc->mesh_path, mat_name,
                                  resolved, stbi_failure_reason());
         } else {
+            pgi_status st = pgi__check_image_size(resolved, at->mWidth, at->mHeight);
+            if (st) return st;
             w = (int)at->mWidth;
             h = (int)at->mHeight;
             rgba = malloc((size_t)w * (size_t)h * 4);
@@ -153,6 +161,11 @@ static pgi_status load_texture(pgi_scene *s, tex_cache *tc, const struct aiScene
     for (size_t i = tc->first; i < s->ntexs; i++)
         if (strcmp(s->texs[i].path, resolved) == 0) return *index = (int)i, PGI_OK;
     int w, h, n;
+    if (!stbi_info(resolved, &w, &h, &n))
+        return pgi__fail(PGI_ERR_IO, "%s: material '%s': cannot read texture '%s': %s", tc->mesh_path, mat_name,
+                         resolved, stbi_failure_reason());
+    pgi_status st = pgi__check_image_size(resolved, w, h);
+    if (st) return st;
     unsigned char *rgba = stbi_load(resolved, &w, &h, &n, 4);
     if (!rgba)
         return pgi__fail(PGI_ERR_IO, "%s: material '%s': cannot read texture '%s': %s", tc->mesh_path, mat_name,
