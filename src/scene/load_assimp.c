@@ -250,6 +250,8 @@ static int grow(void *pp, size_t n, size_t size) {
 pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path) {
     if (!s || !path) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi__scene_import_mesh: NULL argument");
     if (!regular_file(path)) return pgi__fail(PGI_ERR_IO, "%s: no such file", path);
+    pgi_status pre = pgi__mesh_precheck(path);
+    if (pre) return pre;
 
     const unsigned int flags = aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_SortByPType |
                                aiProcess_PreTransformVertices | aiProcess_GenNormals;

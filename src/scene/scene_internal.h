@@ -147,6 +147,8 @@ pgi__v3 pgi__texture_lookup(const pgi__texture *t, float u, float v);
 
 /* Geometry helpers used by rt/ and view/. */
 static inline pgi__v3 pgi__scene_vertex(const pgi_scene *s, uint32_t v) { return v3_load(s->pos + 3 * (size_t)v); }
+/* Refuses mesh files that make Assimp crash or hang (mesh_check.c). */
+pgi_status pgi__mesh_precheck(const char *path);
 /* Total triangle area (scene.c). */
 double pgi__scene_area(const pgi_scene *s);
 
