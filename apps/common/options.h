@@ -9,47 +9,23 @@
 
 #include "photongi/photongi.h"
 
-/* Every option (shared ones first, each once) in the order of the registry. */
-static inline size_t app_options(const pgi_option **out, size_t cap) {
-    size_t n = 0;
-    for (const pgi_option *const *l = pgi_estimator_shared_options(); *l && n < cap; l++) out[n++] = *l;
-    for (size_t e = 0; e < pgi_estimator_count(); e++)
-        for (const pgi_option *const *l = pgi_estimator_at(e)->options; l && *l && n < cap; l++) {
-            size_t k = 0;
-            while (k < n && out[k] != *l) k++;
-            if (k == n) out[n++] = *l;
-        }
-    return n;
-}
-
-/* "tiled, bounds3d, bounds25d": the estimators that take option o. */
-static inline void app_option_takers(const pgi_option *o, char *buf, size_t cap) {
-    buf[0] = 0;
-    for (size_t e = 0; e < pgi_estimator_count(); e++) {
-        const pgi_estimator_vtbl *vt = pgi_estimator_at(e);
-        if (!pgi_estimator_takes(vt, o)) continue;
-        size_t n = strlen(buf);
-        snprintf(buf + n, cap - n, "%s%s", n ? ", " : "", vt->name);
-    }
-}
-
 /* The help section for the estimator options. */
 static inline void app_print_estimator_options(FILE *f) {
-    const pgi_option *all[64];
-    size_t n = app_options(all, 64);
-    fprintf(f, "Estimator options (an estimator ignores the options of others):\n");
-    for (size_t i = 0; i < n; i++) {
+    fprintf(f, "Estimator options (in [] the estimators that take one; the others ignore it, except a\n"
+               "strict option, which they refuse):\n");
+    for (size_t i = 0; i < pgi_option_count(); i++) {
+        const pgi_option *o = pgi_option_at(i);
         char arg[80], takers[256];
-        if (all[i]->type == PGI_OPTION_CHOICE) snprintf(arg, sizeof arg, "--%s %s", all[i]->name, all[i]->choices);
-        else snprintf(arg, sizeof arg, "--%s %s", all[i]->name, all[i]->type == PGI_OPTION_FLOAT ? "X" : "N");
-        app_option_takers(all[i], takers, sizeof takers);
-        if (strlen(arg) > 20) fprintf(f, "  %s\n  %-20s %s\n", arg, "", all[i]->help);
-        else fprintf(f, "  %-20s %s\n", arg, all[i]->help);
-        fprintf(f, "  %-20s [%s]\n", "", takers);
+        if (o->type == PGI_OPTION_CHOICE) snprintf(arg, sizeof arg, "--%s %s", o->name, o->choices);
+        else snprintf(arg, sizeof arg, "--%s %s", o->name, o->type == PGI_OPTION_FLOAT ? "X" : "N");
+        pgi_option_takers(o, takers, sizeof takers);
+        if (strlen(arg) > 20) fprintf(f, "  %s\n  %-20s %s\n", arg, "", o->help);
+        else fprintf(f, "  %-20s %s\n", arg, o->help);
+        fprintf(f, "  %-20s [%s]%s\n", "", takers, (o->flags & PGI_OPTION_STRICT) ? " strict" : "");
     }
 }
 
-/* Options given on the command line, for app_check_estimator_options. */
+/* Options given on the command line, for app_note_ignored_options. */
 typedef struct app_given_options {
     const pgi_option *given[64];
     int count;
@@ -80,7 +56,7 @@ static inline void app_note_ignored_options(const char *prog, const char *est, c
         const pgi_option *o = g->given[i];
         if (pgi_estimator_takes(vt, o) || (o->flags & PGI_OPTION_STRICT)) continue;
         char takers[256];
-        app_option_takers(o, takers, sizeof takers);
+        pgi_option_takers(o, takers, sizeof takers);
         fprintf(stderr, "%s: note: --%s is an option of %s, not of '%s'; ignored\n", prog, o->name, takers, vt->name);
     }
 }

@@ -122,11 +122,11 @@ static int cmd_estimators(int argc, char **argv) {
         }
         printf("%-*s  %s%s\n", width, vt->name, vt->summary, vt->exact ? "" : " [approximate]");
         char also[256] = "";
-        const pgi_option *all[64];
-        for (size_t k = 0, n = app_options(all, 64); k < n; k++) {
-            if (!pgi_estimator_takes(vt, all[k])) continue;
+        for (size_t k = 0; k < pgi_option_count(); k++) {
+            const pgi_option *o = pgi_option_at(k);
+            if (!pgi_estimator_takes(vt, o)) continue;
             char flag[64];
-            snprintf(flag, sizeof flag, "--%s", all[k]->name);
+            snprintf(flag, sizeof flag, "--%s", o->name);
             list_append(also, sizeof also, flag);
         }
         if (vt->caps & PGI_EST_CAP_PHOTON_RADIUS) list_append(also, sizeof also, "--radius-policy path|differentials");

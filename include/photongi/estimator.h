@@ -217,9 +217,13 @@ const pgi_estimator_vtbl *pgi_estimator_at(size_t i);
 /* NULL if no estimator has that name. */
 const pgi_estimator_vtbl *pgi_estimator_find(const char *name);
 
-/* Options every estimator with the matching capability takes ("kernel",
- * "subsample"); NULL-terminated. */
-const pgi_option *const *pgi_estimator_shared_options(void);
+/* Every estimator option, each once: the shared ones ("kernel", "subsample":
+ * every estimator with the matching capability takes them), then each
+ * estimator's own in registry order. */
+size_t pgi_option_count(void);
+const pgi_option *pgi_option_at(size_t i); /* NULL past the end */
+/* "tiled, bounds3d, bounds25d": the estimators that take option o, into buf. */
+void pgi_option_takers(const pgi_option *o, char *buf, size_t size);
 /* 1 if estimator `vt` takes option `o` (its own, or a shared one it has the capability for). */
 int pgi_estimator_takes(const pgi_estimator_vtbl *vt, const pgi_option *o);
 /* The option called `name` (without "--") among every estimator's and the shared ones; NULL if none. */

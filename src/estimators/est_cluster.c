@@ -188,6 +188,19 @@ static inline void emit(sink *k, uint32_t node, uint32_t j) {
     k->nout++;
 }
 
+/* Squared distance from c to the farthest corner of a node's box: the node
+ * lies inside a sphere around c when this is below its radius squared. */
+static inline float far2(const cnode *nd, pgi__v3 c) {
+    float f2 = 0.f, e;
+    e = pgi_maxf(c.x - nd->lo[0], nd->hi[0] - c.x);
+    f2 += e * e;
+    e = pgi_maxf(c.y - nd->lo[1], nd->hi[1] - c.y);
+    f2 += e * e;
+    e = pgi_maxf(c.z - nd->lo[2], nd->hi[2] - c.z);
+    f2 += e * e;
+    return f2;
+}
+
 /* What to do with a node that passed the culling test. Returns 1 when the
  * traversal must descend into its children. */
 static inline __attribute__((always_inline)) int decide(const cl_state *s, const int variant, const int top,
@@ -199,14 +212,7 @@ static inline __attribute__((always_inline)) int decide(const cl_state *s, const
         int dep = 0;
         if (level >= s->D) {
             const cnode *nd = &s->nodes[ni];
-            float f2 = 0.f, e;
-            e = pgi_maxf(q->c.x - nd->lo[0], nd->hi[0] - q->c.x);
-            f2 += e * e;
-            e = pgi_maxf(q->c.y - nd->lo[1], nd->hi[1] - q->c.y);
-            f2 += e * e;
-            e = pgi_maxf(q->c.z - nd->lo[2], nd->hi[2] - q->c.z);
-            f2 += e * e;
-            dep = f2 < q->re2;
+            dep = far2(nd, q->c) < q->re2;
             if (!dep && level == s->L) {
                 /* An intersected, not enclosed leaf takes the photon when the
                  * centre of its box lies in the sphere. (The paper adds it to
@@ -227,14 +233,7 @@ static inline __attribute__((always_inline)) int decide(const cl_state *s, const
     }
     {
         const cnode *nd = &s->nodes[ni];
-        float f2 = 0.f, e;
-        e = pgi_maxf(q->c.x - nd->lo[0], nd->hi[0] - q->c.x);
-        f2 += e * e;
-        e = pgi_maxf(q->c.y - nd->lo[1], nd->hi[1] - q->c.y);
-        f2 += e * e;
-        e = pgi_maxf(q->c.z - nd->lo[2], nd->hi[2] - q->c.z);
-        f2 += e * e;
-        if (f2 < q->re2) {
+        if (far2(nd, q->c) < q->re2) {
             if ((variant & V_TRIVIAL) && nd->lambert && nd->ax * q->wx + nd->ay * q->wy + nd->az * q->wz > nd->acc) {
                 /* encloses the node and above every surface in it (§4.6) */
                 float *f = k->flux + 3 * (size_t)ni;

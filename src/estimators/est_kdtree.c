@@ -50,8 +50,8 @@ static const pgi_option k_opt_knn =
      .min = 1,
      .max = 4096,
      .flags = PGI_OPTION_STRICT,
-     .help = "k nearest photons within the radius, normalised by the disk through the k-th (1..4096; default: "
-             "fixed-radius range mode)"};
+     .help = "the N nearest photons within the radius, over the disk through the N-th (1..4096; default: "
+             "range mode)"};
 static const pgi_option *const k_options[] = {&k_opt_knn, NULL};
 
 static pgi_status kd_create(const pgi_estimator_desc *d, void **state) {

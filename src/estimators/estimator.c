@@ -54,10 +54,9 @@ static const pgi_option k_opt_subsample =
      .max = 64,
      .caps = PGI_EST_CAP_SUBSAMPLE,
      .flags = PGI_OPTION_STRICT,
-     .help = "stochastic subsampling: about 1/K^2 of the eligible photons per pixel (1..64; default off)"};
+     .help = "stochastic subsampling: about 1/N^2 of the eligible photons per pixel (1..64; default off)"};
 static const pgi_option *const k_shared_options[] = {&k_opt_kernel, &k_opt_subsample, NULL};
 
-const pgi_option *const *pgi_estimator_shared_options(void) { return k_shared_options; }
 
 static int has_option(const pgi_option *const *list, const pgi_option *o) {
     for (; list && *list; list++)
@@ -83,6 +82,16 @@ static size_t all_options(const pgi_option *out[MAX_OPTIONS]) {
             if (k == n && n < MAX_OPTIONS) out[n++] = *l;
         }
     return n;
+}
+
+size_t pgi_option_count(void) {
+    const pgi_option *all[MAX_OPTIONS];
+    return all_options(all);
+}
+
+const pgi_option *pgi_option_at(size_t i) {
+    const pgi_option *all[MAX_OPTIONS];
+    return i < all_options(all) ? all[i] : NULL;
 }
 
 const pgi_option *pgi_option_find(const char *name) {
@@ -126,6 +135,11 @@ static void describe(const pgi_option *o, char *buf, size_t size) {
              o->min, o->max);
 }
 
+/* FLOAT options: finite, above min, at most max (max 0: no upper bound). */
+static int float_in_range(const pgi_option *o, float f) {
+    return isfinite(f) && f > (float)o->min && !(o->max > 0 && f > (float)o->max);
+}
+
 static int int_in_range(const pgi_option *o, long long v) {
     return v >= (long long)o->min && v <= (long long)o->max && (o->step <= 1 || v % o->step == 0);
 }
@@ -149,7 +163,7 @@ pgi_status pgi_estimator_desc_set(pgi_estimator_desc *d, const char *name, const
     errno = 0;
     if (o->type == PGI_OPTION_FLOAT) {
         float f = strtof(v, &end);
-        if (errno || end == v || *end || !isfinite(f) || !(f > (float)o->min) || (o->max > 0 && f > (float)o->max))
+        if (errno || end == v || *end || !float_in_range(o, f))
             return pgi__fail(PGI_ERR_INVALID_ARG, "--%s needs %s, got '%s'", o->name, what, v);
         *float_field(o, d) = f;
         return PGI_OK;
@@ -175,8 +189,8 @@ void pgi_option_format(const pgi_option *o, const pgi_estimator_desc *d, char *b
     snprintf(buf, size, "%d", v == o->zero && o->zero != 0 ? 0 : v);
 }
 
-/* Names of the estimators that take option o, for messages. */
-static void takers(const pgi_option *o, char *buf, size_t size) {
+void pgi_option_takers(const pgi_option *o, char *buf, size_t size) {
+    if (!size) return;
     buf[0] = 0;
     for (size_t i = 0; i < N_EST; i++)
         if (pgi_estimator_takes(k_estimators[i], o)) pgi__list_append(buf, size, k_estimators[i]->name);
@@ -197,7 +211,7 @@ pgi_status pgi_estimator_desc_resolve(const pgi_estimator_vtbl *vt, const pgi_es
         if (o->type == PGI_OPTION_FLOAT) {
             float f = *float_field(o, &r);
             if (f == 0.f) continue;
-            if (!isfinite(f) || !(f > (float)o->min) || (o->max > 0 && f > (float)o->max))
+            if (!float_in_range(o, f))
                 return pgi__fail(PGI_ERR_INVALID_ARG, "%s: --%s needs %s, got %g: %s", vt->name, o->name, what,
                                  (double)f, o->help);
         } else {
@@ -219,7 +233,7 @@ pgi_status pgi_estimator_desc_resolve(const pgi_estimator_vtbl *vt, const pgi_es
                 return pgi__fail(PGI_ERR_INVALID_ARG, "estimator '%s' does not support --%s (%s)", vt->name, o->name,
                                  o->help);
             }
-            takers(o, names, sizeof names);
+            pgi_option_takers(o, names, sizeof names);
             return pgi__fail(PGI_ERR_INVALID_ARG, "--%s is an option of %s, not of '%s'", o->name, names, vt->name);
         }
         if (o->type == PGI_OPTION_FLOAT) *float_field(o, &d) = *float_field(o, &r);

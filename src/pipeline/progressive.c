@@ -15,6 +15,18 @@
 
 #define PGI_ALPHA (2.0 / 3.0)
 
+/* Everything that changes the picture: the desc (less the estimator name,
+ * view pointer and thread count), the estimator, the view camera and the
+ * scene's state. Built zeroed, so that two of them compare with memcmp. */
+typedef struct picture {
+    pgi_render_desc key;
+    char est[64];
+    pgi_camera_def view;
+    int has_view;
+    uint64_t static_version, dynamic_version, lights_hash;
+    double time;
+} picture;
+
 struct pgi_progressive {
     pgi_renderer *r;
     double *sum; /* 3 per pixel */
@@ -23,13 +35,7 @@ struct pgi_progressive {
     float r0; /* resolved radius of frame 0 */
     uint64_t seed0;
     pgi_image frame; /* scratch for one frame */
-    /* What the average was made of; any change restarts it. */
-    pgi_render_desc key;
-    char est[64];
-    pgi_camera_def view;
-    int has_view;
-    uint64_t static_version, dynamic_version, lights_hash;
-    double time;
+    picture made_of; /* what the average was made of; any change restarts it */
 };
 
 pgi_status pgi_progressive_create(pgi_renderer *r, pgi_progressive **out) {
@@ -67,32 +73,19 @@ void pgi_progressive_reset(pgi_progressive *p) {
     if (p) p->frames = 0;
 }
 
-/* 1 if the average in `a` was made from the same picture as `d` would give. */
-static int same_picture(const pgi_progressive *a, const pgi_render_desc *d, const pgi_scene *s) {
-    pgi_render_desc k = *d;
-    k.estimator = NULL;
-    k.view = NULL;
-    k.threads = 0; /* the image does not depend on the thread count */
-    const char *est = d->estimator ? d->estimator : "";
-    if (memcmp(&k, &a->key, sizeof k) != 0 || strcmp(est, a->est) != 0) return 0;
-    if ((d->view != NULL) != a->has_view || (d->view && memcmp(d->view, &a->view, sizeof a->view) != 0)) return 0;
-    return a->static_version == s->static_version && a->dynamic_version == s->dynamic_version && a->time == s->time &&
-           a->lights_hash == lights_hash(s);
-}
-
-static void remember(pgi_progressive *a, const pgi_render_desc *d, const pgi_scene *s) {
-    memset(&a->key, 0, sizeof a->key);
-    a->key = *d;
-    a->key.estimator = NULL;
-    a->key.view = NULL;
-    a->key.threads = 0;
-    snprintf(a->est, sizeof a->est, "%s", d->estimator ? d->estimator : "");
-    a->has_view = d->view != NULL;
-    if (d->view) a->view = *d->view;
-    a->static_version = s->static_version;
-    a->dynamic_version = s->dynamic_version;
-    a->time = s->time;
-    a->lights_hash = lights_hash(s);
+static void picture_of(const pgi_render_desc *d, const pgi_scene *s, picture *p) {
+    memset(p, 0, sizeof *p);
+    p->key = *d;
+    p->key.estimator = NULL;
+    p->key.view = NULL;
+    p->key.threads = 0; /* the image does not depend on the thread count */
+    snprintf(p->est, sizeof p->est, "%s", d->estimator ? d->estimator : "");
+    p->has_view = d->view != NULL;
+    if (d->view) p->view = *d->view;
+    p->static_version = s->static_version;
+    p->dynamic_version = s->dynamic_version;
+    p->time = s->time;
+    p->lights_hash = lights_hash(s);
 }
 
 pgi_status pgi_progressive_step(pgi_progressive *a, const pgi_render_desc *in, pgi_image *out, pgi_frame_stats *stats) {
@@ -100,7 +93,9 @@ pgi_status pgi_progressive_step(pgi_progressive *a, const pgi_render_desc *in, p
     const pgi_scene *s = pgi_renderer_scene(a->r);
     const pgi_estimator_vtbl *vt = pgi_estimator_find(in->estimator && *in->estimator ? in->estimator : "tiled");
     if (!vt) return pgi__fail_unknown_estimator(in->estimator);
-    if (a->frames > 0 && (!vt->exact || !same_picture(a, in, s))) a->frames = 0;
+    picture now;
+    picture_of(in, s, &now);
+    if (a->frames > 0 && (!vt->exact || memcmp(&now, &a->made_of, sizeof now) != 0)) a->frames = 0;
 
     pgi_render_desc d = *in;
     const int k = a->frames;
@@ -130,7 +125,7 @@ pgi_status pgi_progressive_step(pgi_progressive *a, const pgi_render_desc *in, p
         a->seed0 = in->seed ? in->seed : 1;
         a->width = fs.width;
         a->height = fs.height;
-        remember(a, in, s);
+        a->made_of = now;
     }
     const float *f = a->frame.rgb;
     for (size_t i = 0; i < 3 * n; i++) a->sum[i] += f[i];

@@ -10,8 +10,8 @@
 
 #include "scene/scene_internal.h"
 
-#define MAX_FACE_INDICES 65536   /* per f/l/p line */
-#define MAX_PLY_HEADER 65536     /* bytes */
+#define MAX_FACE_INDICES 65536 /* per f/l/p line */
+#define MAX_PLY_HEADER 65536   /* bytes */
 
 static int has_ext(const char *path, const char *ext) {
     size_t n = strlen(path), e = strlen(ext);
@@ -60,7 +60,7 @@ static const char *first_token(const char *s, char *tok, size_t n) {
 
 static pgi_status check_mtl(const char *path) {
     FILE *f = fopen(path, "rb");
-    if (!f) return PGI_OK;   /* a missing material library is Assimp's to report */
+    if (!f) return PGI_OK; /* a missing material library is Assimp's to report */
     line_reader r = {.f = f};
     pgi_status st = PGI_OK;
     int in_material = 0;
@@ -108,8 +108,8 @@ static pgi_status check_obj(const char *path) {
 }
 
 static int ply_type(const char *t) {
-    static const char *const k[] = {"char",  "uchar",  "short", "ushort", "int",    "uint",    "float",   "double",
-                                    "int8",  "uint8",  "int16", "uint16", "int32",  "uint32",  "float32", "float64"};
+    static const char *const k[] = {"char", "uchar", "short", "ushort", "int",   "uint",   "float",   "double",
+                                    "int8", "uint8", "int16", "uint16", "int32", "uint32", "float32", "float64"};
     for (size_t i = 0; i < sizeof k / sizeof k[0]; i++)
         if (strcmp(t, k[i]) == 0) return 1;
     return 0;
