@@ -22,13 +22,20 @@ typedef struct pgi__trace_desc {
  * flux of every photon is already divided by it. `rays` counts rays cast.
  * The result is identical for any thread count: path i uses RNG stream i and
  * paths are appended in index order. */
-/* Per-batch path buffers, kept between frames so that steady-state frames
- * allocate nothing. Zero-initialise; free with pgi__trace_scratch_free. */
+/* Tracing buffers kept between frames, so that steady-state frames allocate nothing: each
+ * thread's photons (about the photons stored, whatever --bounces), a byte a path of the
+ * current batch, and the yield seen in the last frame. Zero-initialise; free with
+ * pgi__trace_scratch_free. */
+struct pgi__trace_tbuf;
+struct chunk_info;
 typedef struct pgi__trace_scratch {
-    void *paths;
-    int *counts;
-    size_t cap;  /* paths */
-    int bounces; /* photons a path slot holds */
+    struct pgi__trace_tbuf *tbuf;
+    int nthreads;
+    uint8_t *counts;            /* photons of each path of the batch */
+    struct chunk_info *chunks;  /* where each chunk's photons are */
+    size_t cap;                 /* paths */
+    double prior_paths, prior_photons; /* the last frame's traced paths and their photons */
+    uint64_t paths_traced;      /* out: paths traced by the last call (emitted + discarded) */
 } pgi__trace_scratch;
 void pgi__trace_scratch_free(pgi__trace_scratch *sc);
 

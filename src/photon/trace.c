@@ -11,12 +11,36 @@
 #include "radius.h"
 #include "scene/bsdf.h"
 
-typedef struct {
+#include <stdint.h>
+
+/* Paths one thread carries at once: the rays of a wave are cast back to back and the
+ * texels of its hits are prefetched before any is shaded, so that their cache misses overlap
+ * instead of following one another (photon rays are incoherent: each hit is a miss). */
+#define WAVE 16
+/* Paths a scheduling unit: a thread traces a chunk's paths and sorts their photons into path
+ * order, so that the result is the same whatever the thread count. */
+#define CHUNK 1024
+
+typedef struct stored_photon {
     float p[3], d[3], f[3], n[3];
-    pgi__footprint fp; /* radius policies */
 } stored_photon;
 
-typedef struct {
+/* A thread's photons: `rec` (+ `rec_fp`, `rec_path`) collect the current chunk in the order
+ * the wave produced them; `out` (+ `out_fp`) holds the thread's chunks in path order. */
+typedef struct pgi__trace_tbuf {
+    stored_photon *rec, *out;
+    pgi__footprint *rec_fp, *out_fp;
+    uint16_t *rec_path;
+    size_t nrec, rec_cap, nout, out_cap;
+} pgi__trace_tbuf;
+
+typedef struct chunk_info {
+    int tid;       /* thread whose `out` holds the chunk */
+    size_t off;    /* its first photon there */
+    size_t count;  /* photons of the chunk */
+} chunk_info;
+
+typedef struct tracer {
     const pgi_scene *s;
     const pgi__rt *rt;
     const float *cdf; /* light CDF by luminance of power */
@@ -27,87 +51,236 @@ typedef struct {
     pgi__v3 centre;
     float radius;      /* bounding-sphere radius, for the sun's disk */
     pgi__fp_params fp; /* radius policy */
+    int fp_on;         /* footprints are stored */
 } tracer;
 
-/* Traces path `index`; writes at most `bounces` photons to `out` and returns
- * how many. Flux is power / pick probability (divided by paths later). */
-static int trace_path(const tracer *T, uint64_t index, stored_photon *out, uint64_t *rays) {
+typedef struct lane {
     pgi__rng rng;
-    pgi_rng_seed(&rng, T->seed, index);
-    float ul = pgi_rng_f(&rng);
+    pgi__v3 o, d, flux;
+    pgi__pdiff pd;
+    pgi__hit h;
+    int b;    /* bounce: the hit of this ray is the path's (b+1)-th */
+    int path; /* path within the chunk; -1: idle */
+} lane;
+
+/* Starts path `index` in `l` (emission from a light picked by power). Flux is power / pick
+ * probability (divided by the paths later). Returns 0 when the path carries nothing. */
+static int start_path(const tracer *T, uint64_t index, lane *l) {
+    pgi_rng_seed(&l->rng, T->seed, index);
+    float ul = pgi_rng_f(&l->rng);
     float pl;
     const pgi__light *L = &T->s->lights[pgi__cdf_pick(T->cdf, T->nl, ul, &pl)];
     if (!(pl > 0.f)) return 0;
-    pgi__v3 flux = v3_scale(v3_load(L->power), 1.f / pl);
-    pgi__v3 o, d;
-    float u1 = pgi_rng_f(&rng), u2 = pgi_rng_f(&rng);
+    l->flux = v3_scale(v3_load(L->power), 1.f / pl);
+    float u1 = pgi_rng_f(&l->rng), u2 = pgi_rng_f(&l->rng);
     switch (L->type) {
     case PGI_LIGHT_POINT:
-        o = v3_load(L->pos);
-        d = pgi_sample_sphere(u1, u2);
+        l->o = v3_load(L->pos);
+        l->d = pgi_sample_sphere(u1, u2);
         break;
     case PGI_LIGHT_SPOT:
-        o = v3_load(L->pos);
-        d = pgi_to_world(pgi_sample_cone(u1, u2, L->cos_cutoff), v3_load(L->dir));
+        l->o = v3_load(L->pos);
+        l->d = pgi_to_world(pgi_sample_cone(u1, u2, L->cos_cutoff), v3_load(L->dir));
         break;
     case PGI_LIGHT_SUN: {
-        d = v3_load(L->dir);
+        l->d = v3_load(L->dir);
         float r = T->radius * sqrtf(u1), phi = 2.f * PGI_PI * u2;
-        pgi__v3 disk = pgi_to_world(v3(r * cosf(phi), r * sinf(phi), 0.f), d);
-        o = v3_add(v3_sub(T->centre, v3_scale(d, 1.01f * T->radius)), disk);
+        pgi__v3 disk = pgi_to_world(v3(r * cosf(phi), r * sinf(phi), 0.f), l->d);
+        l->o = v3_add(v3_sub(T->centre, v3_scale(l->d, 1.01f * T->radius)), disk);
         break;
     }
     case PGI_LIGHT_AREA:
     default: {
         pgi__v3 n = v3_load(L->normal);
-        o = v3_madd(pgi__triangle_sample(T->s, L->tri, u1, u2), n, T->eps);
-        d = pgi_to_world(pgi_sample_cosine(pgi_rng_f(&rng), pgi_rng_f(&rng)), n);
+        l->o = v3_madd(pgi__triangle_sample(T->s, L->tri, u1, u2), n, T->eps);
+        /* The azimuth is drawn first (the order gcc gave the two draws when they were
+         * arguments of one call; explicit now, so that every compiler draws the same). */
+        float u4 = pgi_rng_f(&l->rng), u3 = pgi_rng_f(&l->rng);
+        l->d = pgi_to_world(pgi_sample_cosine(u3, u4), n);
         break;
     }
     }
-    pgi__pdiff pd;
-    pgi__fp_emit(&pd, &T->fp, T->s, L, pl, d, T->radius);
-    int stored = 0;
-    for (int b = 0;; b++) {
-        pgi__hit h;
-        (*rays)++;
-        if (!pgi__rt_intersect(T->rt, o, d, 0.f, INFINITY, &h)) break;
-        pgi__surface sf;
-        pgi__v3 p = v3_madd(o, d, h.t);
-        pgi__scene_surface(T->s, h.prim, h.u, h.v, p, &sf);
-        pgi__v3 wi = v3_neg(d);
-        pgi__v3 ng = v3_dot(wi, sf.ng) >= 0.f ? sf.ng : v3_neg(sf.ng);
-        pgi__fp_hit(&pd, &T->fp, d, h.t, ng);
-        if (b >= 1 && !pgi__mat_specular(sf.mat)) {
-            stored_photon *sp = &out[stored++];
-            pgi__fp_store(&pd, &T->fp, ng, &sp->fp);
-            v3_store(sp->p, p);
-            v3_store(sp->d, wi);
-            v3_store(sp->f, flux);
-            v3_store(sp->n, ng);
-        }
-        if (b >= T->bounces) break;
-        pgi__v3 wo, w;
-        float r1 = pgi_rng_f(&rng), r2 = pgi_rng_f(&rng), r3 = pgi_rng_f(&rng);
-        if (!pgi__bsdf_sample(&sf, wi, r1, r2, r3, &wo, &w)) break;
-        pgi__fp_scatter(&pd, &T->fp, T->s, h.prim, h.u, h.v, &sf, wi, wo, w);
-        pgi__v3 nf = v3_mul(flux, w);
-        float mf = v3_maxc(flux);
-        float R = mf > 0.f ? fminf(1.f, v3_maxc(nf) / mf) : 0.f;
-        if (!(pgi_rng_f(&rng) < R)) break;
-        flux = v3_scale(nf, 1.f / R);
-        if (!v3_finite(flux)) break;
-        pgi__fp_roulette(&pd, &T->fp, R);
-        o = v3_madd(p, v3_dot(wo, ng) >= 0.f ? ng : v3_neg(ng), T->eps);
-        d = wo;
+    pgi__fp_emit(&l->pd, &T->fp, T->s, L, pl, l->d, T->radius);
+    l->b = 0;
+    return 1;
+}
+
+/* Appends one photon of chunk path `path` to the thread's record. */
+static int record(pgi__trace_tbuf *tb, int fp_on, int path, pgi__v3 p, pgi__v3 wi, pgi__v3 flux, pgi__v3 ng,
+                  const pgi__footprint *fp) {
+    if (tb->nrec == tb->rec_cap) {
+        size_t cap = tb->rec_cap ? 2 * tb->rec_cap : 4096;
+        stored_photon *r = realloc(tb->rec, cap * sizeof *r);
+        if (r) tb->rec = r;
+        uint16_t *rp = realloc(tb->rec_path, cap * sizeof *rp);
+        if (rp) tb->rec_path = rp;
+        pgi__footprint *rf = fp_on ? realloc(tb->rec_fp, cap * sizeof *rf) : tb->rec_fp;
+        if (rf) tb->rec_fp = rf;
+        if (!r || !rp || (fp_on && !rf)) return 0;
+        tb->rec_cap = cap;
     }
-    return stored;
+    size_t j = tb->nrec++;
+    stored_photon *sp = &tb->rec[j];
+    v3_store(sp->p, p);
+    v3_store(sp->d, wi);
+    v3_store(sp->f, flux);
+    v3_store(sp->n, ng);
+    if (fp_on) tb->rec_fp[j] = *fp;
+    tb->rec_path[j] = (uint16_t)path;
+    return 1;
+}
+
+/* Traces paths [p0, p1) of the frame (one chunk) a wave at a time; their photons go to
+ * tb->out in path order, cnt[i - p0] gets path i's count. Returns 0 when out of memory. */
+static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbuf *tb, uint8_t *cnt,
+                       uint64_t *rays) {
+    const pgi_scene *s = T->s;
+    const int n = (int)(p1 - p0);
+    memset(cnt, 0, (size_t)n);
+    tb->nrec = 0;
+    lane L[WAVE];
+    int next = 0, active = 0, ok = 1;
+    for (int k = 0; k < WAVE; k++) L[k].path = -1;
+    for (;;) {
+        /* Fill idle lanes with the chunk's next paths. */
+        for (int k = 0; k < WAVE && next < n; k++) {
+            if (L[k].path >= 0) continue;
+            while (next < n) {
+                int pi = next++;
+                if (start_path(T, p0 + (uint64_t)pi, &L[k])) {
+                    L[k].path = pi;
+                    active++;
+                    break;
+                }
+            }
+        }
+        if (active == 0) break;
+        /* Cast the wave's rays. */
+        for (int k = 0; k < WAVE; k++) {
+            if (L[k].path < 0) continue;
+            (*rays)++;
+            pgi__rt_intersect(T->rt, L[k].o, L[k].d, 0.f, INFINITY, &L[k].h);
+        }
+        /* Prefetch the texels of the hits whose path goes on (the albedo weighs the scattered flux). */
+        for (int k = 0; k < WAVE; k++) {
+            const lane *l = &L[k];
+            if (l->path < 0 || l->h.prim == UINT32_MAX || l->b >= T->bounces || !s->uv) continue;
+            const pgi__material *m = &s->mats[s->tri_mat[l->h.prim]];
+            if (m->tex_kd < 0) continue;
+            const uint32_t *t = s->tri + 3 * (size_t)l->h.prim;
+            const float *ua = s->uv + 2 * (size_t)t[0], *ub = s->uv + 2 * (size_t)t[1], *uc = s->uv + 2 * (size_t)t[2];
+            float bw = 1.f - l->h.u - l->h.v;
+            pgi__texture_prefetch(&s->texs[m->tex_kd], bw * ua[0] + l->h.u * ub[0] + l->h.v * uc[0],
+                                  bw * ua[1] + l->h.u * ub[1] + l->h.v * uc[1]);
+        }
+        /* Shade: store, scatter, roulette. */
+        for (int k = 0; k < WAVE; k++) {
+            lane *l = &L[k];
+            if (l->path < 0) continue;
+            int alive = 0;
+            if (l->h.prim != UINT32_MAX) {
+                pgi__surface sf;
+                pgi__v3 p = v3_madd(l->o, l->d, l->h.t);
+                pgi__scene_surface_untextured(s, l->h.prim, l->h.u, l->h.v, p, &sf);
+                pgi__v3 wi = v3_neg(l->d);
+                pgi__v3 ng = v3_dot(wi, sf.ng) >= 0.f ? sf.ng : v3_neg(sf.ng);
+                pgi__fp_hit(&l->pd, &T->fp, l->d, l->h.t, ng);
+                if (l->b >= 1 && !pgi__mat_specular(sf.mat)) {
+                    pgi__footprint fp;
+                    if (T->fp_on) pgi__fp_store(&l->pd, &T->fp, ng, &fp);
+                    if (!record(tb, T->fp_on, l->path, p, wi, l->flux, ng, &fp)) ok = 0;
+                    cnt[l->path]++;
+                }
+                if (l->b < T->bounces && ok) {
+                    pgi__surface_texture(s, &sf);
+                    pgi__v3 wo, w;
+                    float r1 = pgi_rng_f(&l->rng), r2 = pgi_rng_f(&l->rng), r3 = pgi_rng_f(&l->rng);
+                    if (pgi__bsdf_sample(&sf, wi, r1, r2, r3, &wo, &w)) {
+                        pgi__fp_scatter(&l->pd, &T->fp, s, l->h.prim, l->h.u, l->h.v, &sf, wi, wo, w);
+                        pgi__v3 nf = v3_mul(l->flux, w);
+                        float mf = v3_maxc(l->flux);
+                        float R = mf > 0.f ? fminf(1.f, v3_maxc(nf) / mf) : 0.f;
+                        if (pgi_rng_f(&l->rng) < R) {
+                            l->flux = v3_scale(nf, 1.f / R);
+                            if (v3_finite(l->flux)) {
+                                pgi__fp_roulette(&l->pd, &T->fp, R);
+                                l->o = v3_madd(p, v3_dot(wo, ng) >= 0.f ? ng : v3_neg(ng), T->eps);
+                                l->d = wo;
+                                l->b++;
+                                alive = 1;
+                            }
+                        }
+                    }
+                }
+            }
+            if (!alive) {
+                l->path = -1;
+                active--;
+            }
+        }
+        if (!ok) return 0;
+    }
+    /* Counting sort of the chunk's photons into path order, appended to tb->out. */
+    size_t need = tb->nout + tb->nrec;
+    if (need > tb->out_cap) {
+        size_t cap = tb->out_cap ? tb->out_cap : 4096;
+        while (cap < need) cap *= 2;
+        stored_photon *o = realloc(tb->out, cap * sizeof *o);
+        if (o) tb->out = o;
+        pgi__footprint *of = T->fp_on ? realloc(tb->out_fp, cap * sizeof *of) : tb->out_fp;
+        if (of) tb->out_fp = of;
+        if (!o || (T->fp_on && !of)) return 0;
+        tb->out_cap = cap;
+    }
+    size_t start[CHUNK];
+    size_t acc = tb->nout;
+    for (int i = 0; i < n; i++) {
+        start[i] = acc;
+        acc += cnt[i];
+    }
+    for (size_t j = 0; j < tb->nrec; j++) {
+        size_t dst = start[tb->rec_path[j]]++;
+        tb->out[dst] = tb->rec[j];
+        if (T->fp_on) tb->out_fp[dst] = tb->rec_fp[j];
+    }
+    tb->nout = need;
+    return 1;
 }
 
 void pgi__trace_scratch_free(pgi__trace_scratch *sc) {
-    free(sc->paths);
+    pgi__trace_tbuf *tb = sc->tbuf;
+    for (int t = 0; t < sc->nthreads; t++) {
+        free(tb[t].rec);
+        free(tb[t].out);
+        free(tb[t].rec_fp);
+        free(tb[t].out_fp);
+        free(tb[t].rec_path);
+    }
+    free(sc->tbuf);
     free(sc->counts);
+    free(sc->chunks);
     memset(sc, 0, sizeof *sc);
+}
+
+/* Scratch for a batch of `paths` paths on `nt` threads. */
+static pgi_status scratch_reserve(pgi__trace_scratch *sc, size_t paths, int nt) {
+    if (sc->nthreads < nt) {
+        pgi__trace_tbuf *tb = realloc(sc->tbuf, (size_t)nt * sizeof *tb);
+        if (!tb) return pgi__fail(PGI_ERR_OOM, "out of memory for %d photon-tracing threads", nt);
+        memset(tb + sc->nthreads, 0, (size_t)(nt - sc->nthreads) * sizeof *tb);
+        sc->tbuf = tb;
+        sc->nthreads = nt;
+    }
+    if (paths > sc->cap) {
+        size_t nch = (paths + CHUNK - 1) / CHUNK;
+        uint8_t *c = realloc(sc->counts, nch * CHUNK);
+        if (c) sc->counts = c;
+        chunk_info *ci = realloc(sc->chunks, nch * sizeof *ci);
+        if (ci) sc->chunks = ci;
+        if (!c || !ci) return pgi__fail(PGI_ERR_OOM, "out of memory tracing photons (%zu paths a batch)", paths);
+        sc->cap = nch * CHUNK;
+    }
+    return PGI_OK;
 }
 
 pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__trace_desc *d, pgi_photons *ph,
@@ -115,10 +288,12 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
     ph->count = 0;
     ph->emitted = 0;
     *rays_out = 0;
+    sc->paths_traced = 0;
     if (d->photons > ph->capacity)
         return pgi__fail(PGI_ERR_INVALID_ARG, "photon buffer holds %zu photons, %u requested", ph->capacity,
                          d->photons);
     if (d->bounces < 1) return PGI_OK;
+    if (d->bounces > 255) return pgi__fail(PGI_ERR_INVALID_ARG, "photon bounces %d exceed 255", d->bounces);
     float *cdf = malloc((s->nlights ? s->nlights : 1) * sizeof *cdf);
     if (!cdf) return pgi__fail(PGI_ERR_OOM, "out of memory for the light table");
     double total = 0.0;
@@ -142,51 +317,105 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
                 pgi__scene_epsilon(s),
                 v3_scale(v3_add(v3_load(s->bmin), v3_load(s->bmax)), 0.5f),
                 0.5f * v3_len(v3_sub(v3_load(s->bmax), v3_load(s->bmin))),
-                {0}};
+                {0},
+                0};
     pgi__fp_params_init(&T.fp, d->radius_policy, d->r_min, d->r_max, d->smoothing, d->photons, 2.f * T.radius);
-    const int fp_on = d->radius_policy != PGI_RADIUS_FIXED && ph->radius;
+    T.fp_on = d->radius_policy != PGI_RADIUS_FIXED && ph->radius;
     const float bin_w = d->r_max / 14.f;
-    const int B = d->bounces;
-    if (sc->bounces != B) pgi__trace_scratch_free(sc);
-    sc->bounces = B;
-    uint64_t path = 0, rays = 0;
+    const int nt = pgi__threads(d->threads);
+    uint64_t path = 0, traced = 0, rays = 0;
     const uint64_t max_paths = 64ull * d->photons + (1u << 20);
-    size_t want = d->photons;
+    const size_t want = d->photons;
+    /* Photons per path, observed: the last frame's counts seed this frame's, so that each
+     * batch traces about the paths still needed and few are thrown away. */
+    double seen_paths = sc->prior_paths, seen_photons = sc->prior_photons;
     pgi_status st = PGI_OK;
-    double yield = 0.5; /* photons per path, updated after each batch */
     while (ph->count < want && path < max_paths) {
         size_t remaining = want - ph->count;
-        size_t batch = (size_t)(remaining / yield * 1.05) + 1024;
-        if (batch > (1u << 18)) batch = 1u << 18;
-        if (batch > max_paths - path) batch = (size_t)(max_paths - path);
-        if (batch > sc->cap) {
-            pgi__trace_scratch_free(sc);
-            sc->bounces = B;
-            sc->paths = malloc(batch * (size_t)B * sizeof(stored_photon));
-            sc->counts = malloc(batch * sizeof(int));
-            if (!sc->paths || !sc->counts) {
-                pgi__trace_scratch_free(sc);
-                st = pgi__fail(PGI_ERR_OOM, "out of memory tracing photons (%zu paths a batch)", batch);
-                break;
-            }
-            sc->cap = batch;
+        size_t batch;
+        if (seen_photons < 64.0) {
+            batch = remaining / 4 + 64; /* no estimate yet: a pilot batch */
+            if (batch > 4 * CHUNK) batch = 4 * CHUNK;
+        } else {
+            /* An upper bound of the yield (3 sigma of the photon count) sizes the batch from
+             * below: an extra small batch costs less than paths traced for nothing. */
+            double y = seen_photons / seen_paths * (1.0 + 3.0 / sqrt(seen_photons));
+            batch = (size_t)((double)remaining / y) + 1;
         }
-        stored_photon *buf = sc->paths;
-        int *cnt = sc->counts;
+        if (batch < 64) batch = 64;
+        if (batch > (1u << 20)) batch = 1u << 20;
+        if (batch > max_paths - path) batch = (size_t)(max_paths - path);
+        if ((st = scratch_reserve(sc, batch, nt))) break;
+        const long long nch = (long long)((batch + CHUNK - 1) / CHUNK);
+        for (int t = 0; t < nt; t++) sc->tbuf[t].nout = 0;
         uint64_t batch_rays = 0;
-#pragma omp parallel for schedule(dynamic, 256) reduction(+ : batch_rays) num_threads(pgi__threads(d->threads))
-        for (long long i = 0; i < (long long)batch; i++) {
+        int failed = 0;
+#pragma omp parallel for schedule(dynamic, 1) reduction(+ : batch_rays) num_threads(nt)
+        for (long long c = 0; c < nch; c++) {
+            int tid = omp_get_thread_num();
+            pgi__trace_tbuf *tb = &sc->tbuf[tid];
+            uint64_t p0 = path + (uint64_t)c * CHUNK, p1 = p0 + CHUNK;
+            if (p1 > path + batch) p1 = path + batch;
+            chunk_info *ci = &sc->chunks[c];
+            ci->tid = tid;
+            ci->off = tb->nout;
             uint64_t r = 0;
-            cnt[i] = trace_path(&T, path + (uint64_t)i, buf + (size_t)i * B, &r);
+            int ok = 0;
+            int f;
+#pragma omp atomic read
+            f = failed;
+            if (!f) ok = trace_chunk(&T, p0, p1, tb, sc->counts + (size_t)c * CHUNK, &r);
+            if (!ok) {
+#pragma omp atomic write
+                failed = 1;
+            }
+            ci->count = ok ? tb->nout - ci->off : 0;
             batch_rays += r;
         }
         rays += batch_rays;
-        size_t produced = 0;
-        size_t i = 0;
-        for (; i < batch && ph->count < want; i++) {
-            for (int k = 0; k < cnt[i] && ph->count < want; k++) {
-                const stored_photon *sp = &buf[i * B + k];
-                size_t j = ph->count++;
+        traced += batch;
+        if (failed) {
+            st = pgi__fail(PGI_ERR_OOM, "out of memory storing traced photons");
+            break;
+        }
+        /* Take whole chunks while they fit; cut the last one after the path that fills the buffer. */
+        size_t produced = 0, used_paths = 0;
+        long long c = 0;
+        for (; c < nch && ph->count + produced < want; c++) {
+            chunk_info *ci = &sc->chunks[c];
+            size_t np = (size_t)((c + 1) * CHUNK <= (long long)batch ? CHUNK : batch - (size_t)c * CHUNK);
+            if (ph->count + produced + ci->count <= want) {
+                produced += ci->count;
+                used_paths += np;
+                continue;
+            }
+            size_t take = 0, i = 0;
+            const uint8_t *cn = sc->counts + (size_t)c * CHUNK;
+            while (ph->count + produced + take < want) take += cn[i++];
+            ci->count = want - ph->count - produced;
+            produced += ci->count;
+            used_paths += i;
+            c++;
+            break;
+        }
+        const long long used_chunks = c;
+        size_t *dst = malloc((size_t)(used_chunks ? used_chunks : 1) * sizeof *dst);
+        if (!dst) {
+            st = pgi__fail(PGI_ERR_OOM, "out of memory gathering photons");
+            break;
+        }
+        size_t acc = ph->count;
+        for (long long k = 0; k < used_chunks; k++) {
+            dst[k] = acc;
+            acc += sc->chunks[k].count;
+        }
+#pragma omp parallel for schedule(dynamic, 4) num_threads(nt)
+        for (long long k = 0; k < used_chunks; k++) {
+            const chunk_info *ci = &sc->chunks[k];
+            const pgi__trace_tbuf *tb = &sc->tbuf[ci->tid];
+            for (size_t q = 0; q < ci->count; q++) {
+                const stored_photon *sp = &tb->out[ci->off + q];
+                size_t j = dst[k] + q;
                 ph->px[j] = sp->p[0];
                 ph->py[j] = sp->p[1];
                 ph->pz[j] = sp->p[2];
@@ -199,32 +428,47 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
                 ph->nx[j] = sp->n[0];
                 ph->ny[j] = sp->n[1];
                 ph->nz[j] = sp->n[2];
-                if (fp_on) {
-                    ph->radius[j] = sp->fp.r;
+                if (T.fp_on) {
+                    const pgi__footprint *fp = &tb->out_fp[ci->off + q];
+                    ph->radius[j] = fp->r;
                     if (ph->sax) {
-                        ph->sax[j] = sp->fp.a[0];
-                        ph->say[j] = sp->fp.a[1];
-                        ph->saz[j] = sp->fp.a[2];
-                        ph->sbx[j] = sp->fp.b[0];
-                        ph->sby[j] = sp->fp.b[1];
-                        ph->sbz[j] = sp->fp.b[2];
-                    }
-                    if (d->footprint_hist) {
-                        float q = sp->fp.r_raw / bin_w;
-                        int bin = q < (float)(PGI_FOOTPRINT_BINS - 1) ? (int)q : PGI_FOOTPRINT_BINS - 1;
-                        d->footprint_hist[bin < 0 ? 0 : bin]++;
+                        ph->sax[j] = fp->a[0];
+                        ph->say[j] = fp->a[1];
+                        ph->saz[j] = fp->a[2];
+                        ph->sbx[j] = fp->b[0];
+                        ph->sby[j] = fp->b[1];
+                        ph->sbz[j] = fp->b[2];
                     }
                 }
             }
-            produced += (size_t)cnt[i];
         }
-        path += i;
-        yield = produced > 0 ? (double)produced / (double)i : yield * 0.25;
-        if (yield < 1e-4) yield = 1e-4;
+        if (T.fp_on && d->footprint_hist)
+            for (long long k = 0; k < used_chunks; k++) {
+                const chunk_info *ci = &sc->chunks[k];
+                const pgi__trace_tbuf *tb = &sc->tbuf[ci->tid];
+                for (size_t q = 0; q < ci->count; q++) {
+                    float qb = tb->out_fp[ci->off + q].r_raw / bin_w;
+                    int bin = qb < (float)(PGI_FOOTPRINT_BINS - 1) ? (int)qb : PGI_FOOTPRINT_BINS - 1;
+                    d->footprint_hist[bin < 0 ? 0 : bin]++;
+                }
+            }
+        free(dst);
+        /* The batch's full yield (all its paths and photons) informs the next batch. */
+        size_t batch_photons = 0;
+        for (size_t i = 0; i < batch; i++) batch_photons += sc->counts[i];
+        seen_paths += (double)batch;
+        seen_photons += (double)batch_photons;
+        ph->count += produced;
+        path += used_paths;
     }
     free(cdf);
     *rays_out = rays;
+    sc->paths_traced = traced;
     if (st) return st;
+    /* This frame's counts seed the next frame's batches (a moved light changes the yield: a
+     * frame's worth of evidence is enough to forget the older ones). */
+    sc->prior_paths = seen_paths - sc->prior_paths;
+    sc->prior_photons = seen_photons - sc->prior_photons;
     ph->emitted = path;
     if (path > 0) {
         const float inv = (float)(1.0 / (double)path);

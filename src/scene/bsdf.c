@@ -1,7 +1,8 @@
 /* Surface interaction and BSDF sampling. */
 #include "bsdf.h"
 
-void pgi__scene_surface(const pgi_scene *s, uint32_t prim, float bu, float bv, pgi__v3 p, pgi__surface *o) {
+void pgi__scene_surface_untextured(const pgi_scene *s, uint32_t prim, float bu, float bv, pgi__v3 p,
+                                   pgi__surface *o) {
     const uint32_t *t = s->tri + 3 * (size_t)prim;
     pgi__v3 a = pgi__scene_vertex(s, t[0]), b = pgi__scene_vertex(s, t[1]), c = pgi__scene_vertex(s, t[2]);
     float bw = 1.f - bu - bv;
@@ -26,7 +27,11 @@ void pgi__scene_surface(const pgi_scene *s, uint32_t prim, float bu, float bv, p
     }
     o->mat = &s->mats[s->tri_mat[prim]];
     o->kd = v3_load(o->mat->kd);
-    if (o->mat->tex_kd >= 0) o->kd = v3_mul(o->kd, pgi__texture_lookup(&s->texs[o->mat->tex_kd], o->u, o->v));
+}
+
+void pgi__scene_surface(const pgi_scene *s, uint32_t prim, float bu, float bv, pgi__v3 p, pgi__surface *o) {
+    pgi__scene_surface_untextured(s, prim, bu, bv, p, o);
+    pgi__surface_texture(s, o);
 }
 
 int pgi__bsdf_sample(const pgi__surface *sf, pgi__v3 wi, float u1, float u2, float u3, pgi__v3 *wo, pgi__v3 *weight) {

@@ -144,6 +144,9 @@ pgi_status pgi__scene_load_json(const char *path, pgi_scene **out);
 
 /* Texture lookup, bilinear, wrapping; returns linear RGB. */
 pgi__v3 pgi__texture_lookup(const pgi__texture *t, float u, float v);
+/* Asks the cache for the texels pgi__texture_lookup(t, u, v) will read (the photon tracer
+ * issues these for a wave of hits before shading them, so that their misses overlap). */
+void pgi__texture_prefetch(const pgi__texture *t, float u, float v);
 
 /* Geometry helpers used by rt/ and view/. */
 static inline pgi__v3 pgi__scene_vertex(const pgi_scene *s, uint32_t v) { return v3_load(s->pos + 3 * (size_t)v); }

@@ -6,15 +6,22 @@
  * Texels are decoded with the sRGB table pgi__srgb8_texture_lut (src/core/srgb.c). */
 #include "scene_internal.h"
 
-/* Wraps an integer texel index into [0, n). */
-static inline int wrap_index(long i, int n) {
-    long r = i % n;
-    return (int)(r < 0 ? r + n : r);
-}
+/* Wraps a texel index of [-1, n] into [0, n) (coordinates are reduced to [0, 1] first, so
+ * nothing farther out occurs; no division on this hot path). */
+static inline int wrap_index(long i, int n) { return i < 0 ? (int)(i + n) : i >= n ? (int)(i - n) : (int)i; }
 
 static inline pgi__v3 texel(const pgi__texture *t, int x, int y) {
     const unsigned char *p = t->rgba + 4 * ((size_t)y * (size_t)t->width + (size_t)x);
     return v3(pgi__srgb8_texture_lut[p[0]], pgi__srgb8_texture_lut[p[1]], pgi__srgb8_texture_lut[p[2]]);
+}
+
+void pgi__texture_prefetch(const pgi__texture *t, float u, float v) {
+    if (!t || !t->rgba || t->width <= 0 || t->height <= 0 || !isfinite(u) || !isfinite(v)) return;
+    float x = (u - floorf(u)) * (float)t->width - 0.5f, y = (1.f - (v - floorf(v))) * (float)t->height - 0.5f;
+    int x0 = wrap_index((long)floorf(x), t->width);
+    int y0 = wrap_index((long)floorf(y), t->height), y1 = wrap_index((long)floorf(y) + 1, t->height);
+    __builtin_prefetch(t->rgba + 4 * ((size_t)y0 * (size_t)t->width + (size_t)x0));
+    __builtin_prefetch(t->rgba + 4 * ((size_t)y1 * (size_t)t->width + (size_t)x0));
 }
 
 pgi__v3 pgi__texture_lookup(const pgi__texture *t, float u, float v) {
