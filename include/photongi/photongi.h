@@ -131,7 +131,7 @@ typedef struct pgi_image {
     float *rgb;
 } pgi_image;
 
-#define PGI_MAX_STAT_ENTRIES 8
+#define PGI_MAX_STAT_ENTRIES 12
 
 typedef struct pgi_named_value {
     const char *name;
@@ -143,7 +143,8 @@ typedef struct pgi_frame_stats {
     int width, height, threads;
     uint64_t photons_emitted; /* light paths emitted */
     uint64_t photons_stored;
-    uint64_t photon_rays; /* rays cast while tracing photons */
+    uint64_t photon_rays;            /* rays cast while tracing photons */
+    uint64_t photon_paths_discarded; /* light paths traced beyond the photons asked for (thrown away) */
     uint64_t primary_rays, shadow_rays;
     float radius;
     /* wall-clock milliseconds */

@@ -54,6 +54,7 @@ static cJSON *build(const pgi_frame_stats *st) {
         ok &= add_num(o, "emitted", (double)st->photons_emitted);
         ok &= add_num(o, "stored", (double)st->photons_stored);
         ok &= add_num(o, "rays", (double)st->photon_rays);
+        ok &= add_num(o, "discarded_paths", (double)st->photon_paths_discarded);
     }
     ok &= (o = cJSON_AddObjectToObject(root, "rays")) != NULL;
     if (o) {

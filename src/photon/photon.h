@@ -31,13 +31,15 @@ struct chunk_info;
 typedef struct pgi__trace_scratch {
     struct pgi__trace_tbuf *tbuf;
     int nthreads;
-    uint8_t *counts;            /* photons of each path of the batch */
-    struct chunk_info *chunks;  /* where each chunk's photons are */
-    size_t cap;                 /* paths */
+    uint8_t *counts;                   /* photons of each path of the batch */
+    struct chunk_info *chunks;         /* where each chunk's photons are */
+    size_t cap;                        /* paths */
     double prior_paths, prior_photons; /* the last frame's traced paths and their photons */
-    uint64_t paths_traced;      /* out: paths traced by the last call (emitted + discarded) */
+    uint64_t paths_traced;             /* out: paths traced by the last call (emitted + discarded) */
 } pgi__trace_scratch;
 void pgi__trace_scratch_free(pgi__trace_scratch *sc);
+/* Bytes the scratch holds. */
+size_t pgi__trace_scratch_bytes(const pgi__trace_scratch *sc);
 
 pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__trace_desc *d, pgi_photons *ph,
                               pgi__trace_scratch *scratch, uint64_t *rays);

@@ -35,9 +35,9 @@ typedef struct pgi__trace_tbuf {
 } pgi__trace_tbuf;
 
 typedef struct chunk_info {
-    int tid;       /* thread whose `out` holds the chunk */
-    size_t off;    /* its first photon there */
-    size_t count;  /* photons of the chunk */
+    int tid;      /* thread whose `out` holds the chunk */
+    size_t off;   /* its first photon there */
+    size_t count; /* photons of the chunk */
 } chunk_info;
 
 typedef struct tracer {
@@ -132,8 +132,7 @@ static int record(pgi__trace_tbuf *tb, int fp_on, int path, pgi__v3 p, pgi__v3 w
 
 /* Traces paths [p0, p1) of the frame (one chunk) a wave at a time; their photons go to
  * tb->out in path order, cnt[i - p0] gets path i's count. Returns 0 when out of memory. */
-static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbuf *tb, uint8_t *cnt,
-                       uint64_t *rays) {
+static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbuf *tb, uint8_t *cnt, uint64_t *rays) {
     const pgi_scene *s = T->s;
     const int n = (int)(p1 - p0);
     memset(cnt, 0, (size_t)n);
@@ -155,13 +154,42 @@ static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbu
             }
         }
         if (active == 0) break;
-        /* Cast the wave's rays. */
-        for (int k = 0; k < WAVE; k++) {
-            if (L[k].path < 0) continue;
-            (*rays)++;
-            pgi__rt_intersect(T->rt, L[k].o, L[k].d, 0.f, INFINITY, &L[k].h);
+        /* Cast the wave's rays, 8-wide (measured a little faster than single rays here); each
+         * hit's triangle record is fetched while the next packet runs. */
+        for (int k0 = 0; k0 < WAVE; k0 += 8) {
+            int valid[8];
+            pgi__v3 org[8], dir[8];
+            pgi__hit hh[8];
+            for (int k = 0; k < 8; k++) {
+                valid[k] = L[k0 + k].path >= 0;
+                org[k] = L[k0 + k].o;
+                dir[k] = L[k0 + k].d;
+                *rays += (uint64_t)valid[k];
+            }
+            pgi__rt_intersect8_any(T->rt, valid, org, dir, hh);
+            for (int k = 0; k < 8; k++) {
+                if (!valid[k]) continue;
+                L[k0 + k].h = hh[k];
+                if (hh[k].prim != UINT32_MAX) {
+                    __builtin_prefetch(s->tri + 3 * (size_t)hh[k].prim);
+                    __builtin_prefetch(s->tri_mat + hh[k].prim);
+                }
+            }
         }
-        /* Prefetch the texels of the hits whose path goes on (the albedo weighs the scattered flux). */
+        /* Then the vertices and materials of the hits, then the texels of those whose path goes
+         * on (the albedo weighs the scattered flux): each stage's loads are in cache when the
+         * next stage needs them. */
+        for (int k = 0; k < WAVE; k++) {
+            const lane *l = &L[k];
+            if (l->path < 0 || l->h.prim == UINT32_MAX) continue;
+            const uint32_t *t = s->tri + 3 * (size_t)l->h.prim;
+            __builtin_prefetch(&s->mats[s->tri_mat[l->h.prim]]);
+            for (int j = 0; j < 3; j++) {
+                __builtin_prefetch(s->pos + 3 * (size_t)t[j]);
+                if (s->nrm) __builtin_prefetch(s->nrm + 3 * (size_t)t[j]);
+                if (s->uv) __builtin_prefetch(s->uv + 2 * (size_t)t[j]);
+            }
+        }
         for (int k = 0; k < WAVE; k++) {
             const lane *l = &L[k];
             if (l->path < 0 || l->h.prim == UINT32_MAX || l->b >= T->bounces || !s->uv) continue;
@@ -260,6 +288,16 @@ void pgi__trace_scratch_free(pgi__trace_scratch *sc) {
     free(sc->counts);
     free(sc->chunks);
     memset(sc, 0, sizeof *sc);
+}
+
+size_t pgi__trace_scratch_bytes(const pgi__trace_scratch *sc) {
+    size_t b = sc->cap * (sizeof(uint8_t) + sizeof(chunk_info) / CHUNK) + (size_t)sc->nthreads * sizeof *sc->tbuf;
+    for (int t = 0; t < sc->nthreads; t++) {
+        const pgi__trace_tbuf *tb = &sc->tbuf[t];
+        b += tb->rec_cap * (sizeof(stored_photon) + sizeof(uint16_t) + (tb->rec_fp ? sizeof(pgi__footprint) : 0));
+        b += tb->out_cap * (sizeof(stored_photon) + (tb->out_fp ? sizeof(pgi__footprint) : 0));
+    }
+    return b;
 }
 
 /* Scratch for a batch of `paths` paths on `nt` threads. */

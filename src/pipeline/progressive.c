@@ -152,7 +152,8 @@ static void stats_add(pgi_frame_stats *sum, const pgi_frame_stats *fs) {
     t.estimate_ms += sum->estimate_ms, t.direct_ms += sum->direct_ms, t.total_ms += sum->total_ms;
     t.rt_update_ms += sum->rt_update_ms;
     t.photons_emitted += sum->photons_emitted, t.photons_stored += sum->photons_stored;
-    t.photon_rays += sum->photon_rays, t.primary_rays += sum->primary_rays, t.shadow_rays += sum->shadow_rays;
+    t.photon_rays += sum->photon_rays, t.photon_paths_discarded += sum->photon_paths_discarded,
+        t.primary_rays += sum->primary_rays, t.shadow_rays += sum->shadow_rays;
     t.reads += sum->reads, t.contributing += sum->contributing, t.nodes_visited += sum->nodes_visited;
     t.estimators_created += sum->estimators_created;
     for (int i = 0; i < t.pass_count && i < sum->pass_count; i++) t.passes_ms[i].value += sum->passes_ms[i].value;

@@ -236,6 +236,7 @@ static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, pgi_frame_s
     fs->trace_ms = pgi__now_ms() - t1;
     fs->photons_emitted = r->ph.emitted;
     fs->photons_stored = r->ph.count;
+    fs->photon_paths_discarded = r->trace_scratch.paths_traced - r->ph.emitted;
     if (d->radius_policy != PGI_RADIUS_FIXED) fs->footprint_bin_width = d->r_max / 14.f;
     return PGI_OK;
 }
@@ -339,6 +340,8 @@ pgi_status pgi_renderer_render(pgi_renderer *r, const pgi_render_desc *in, pgi_i
     /* 7 vector planes (pos, nrm, ngeo, wo, kd, ks, weight), shininess, depth, flags. */
     fs.memory_bytes[fs.memory_count++] =
         (pgi_named_value){"view_samples", (double)(n * ((7 * 3 + 2) * sizeof(float) + sizeof(uint8_t)))};
+    fs.memory_bytes[fs.memory_count++] =
+        (pgi_named_value){"trace_scratch", (double)pgi__trace_scratch_bytes(&r->trace_scratch)};
     for (int k = 0; k < es.memory_count && fs.memory_count < PGI_MAX_STAT_ENTRIES; k++)
         fs.memory_bytes[fs.memory_count++] = (pgi_named_value){es.memory_names[k], (double)es.memory_bytes[k]};
     fs.reads = es.reads;

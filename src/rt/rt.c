@@ -274,3 +274,40 @@ void pgi__rt_intersect8(const pgi__rt *rt, const int valid[8], pgi__v3 o, const 
         hits[i].prim = global_prim(rt, rh.hit.geomID[i], rh.hit.primID[i]);
     }
 }
+
+void pgi__rt_intersect8_any(const pgi__rt *rt, const int valid[8], const pgi__v3 org[8], const pgi__v3 dirs[8],
+                            pgi__hit hits[8]) {
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+    RTC_ALIGN(32) struct RTCRayHit8 rh;
+    RTC_ALIGN(32) int vmask[8];
+    for (int i = 0; i < 8; i++) {
+        vmask[i] = valid[i] ? -1 : 0;
+        rh.ray.org_x[i] = org[i].x;
+        rh.ray.org_y[i] = org[i].y;
+        rh.ray.org_z[i] = org[i].z;
+        rh.ray.dir_x[i] = dirs[i].x;
+        rh.ray.dir_y[i] = dirs[i].y;
+        rh.ray.dir_z[i] = dirs[i].z;
+        rh.ray.tnear[i] = 0.f;
+        rh.ray.tfar[i] = INFINITY;
+        rh.ray.time[i] = 0.f;
+        rh.ray.mask[i] = (unsigned)-1;
+        rh.ray.id[i] = (unsigned)i;
+        rh.ray.flags[i] = 0;
+        rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
+        rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
+    }
+    rtcIntersect8(vmask, rt->scene, &ctx, &rh);
+    for (int i = 0; i < 8; i++) {
+        if (!valid[i] || rh.hit.geomID[i] == RTC_INVALID_GEOMETRY_ID) {
+            hits[i].prim = UINT32_MAX;
+            continue;
+        }
+        hits[i].t = rh.ray.tfar[i];
+        hits[i].u = rh.hit.u[i];
+        hits[i].v = rh.hit.v[i];
+        hits[i].prim = global_prim(rt, rh.hit.geomID[i], rh.hit.primID[i]);
+    }
+}

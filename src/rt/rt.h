@@ -31,4 +31,8 @@ int pgi__rt_occluded(const pgi__rt *rt, pgi__v3 o, pgi__v3 d, float tnear, float
 void pgi__rt_intersect8(const pgi__rt *rt, const int valid[8], pgi__v3 o, const pgi__v3 dirs[8], float tfar,
                         pgi__hit hits[8]);
 
+/* 8 rays with their own origins (tnear 0, tfar infinity), flagged incoherent. */
+void pgi__rt_intersect8_any(const pgi__rt *rt, const int valid[8], const pgi__v3 org[8], const pgi__v3 dirs[8],
+                            pgi__hit hits[8]);
+
 #endif

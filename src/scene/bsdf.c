@@ -1,8 +1,7 @@
 /* Surface interaction and BSDF sampling. */
 #include "bsdf.h"
 
-void pgi__scene_surface_untextured(const pgi_scene *s, uint32_t prim, float bu, float bv, pgi__v3 p,
-                                   pgi__surface *o) {
+void pgi__scene_surface_untextured(const pgi_scene *s, uint32_t prim, float bu, float bv, pgi__v3 p, pgi__surface *o) {
     const uint32_t *t = s->tri + 3 * (size_t)prim;
     pgi__v3 a = pgi__scene_vertex(s, t[0]), b = pgi__scene_vertex(s, t[1]), c = pgi__scene_vertex(s, t[2]);
     float bw = 1.f - bu - bv;

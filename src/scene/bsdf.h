@@ -65,8 +65,7 @@ typedef struct pgi__surface {
 void pgi__scene_surface(const pgi_scene *s, uint32_t prim, float bu, float bv, pgi__v3 p, pgi__surface *out);
 /* The same without the texture fetch (kd is the material's); pgi__surface_texture applies it
  * later, only where a path needs the albedo. */
-void pgi__scene_surface_untextured(const pgi_scene *s, uint32_t prim, float bu, float bv, pgi__v3 p,
-                                   pgi__surface *out);
+void pgi__scene_surface_untextured(const pgi_scene *s, uint32_t prim, float bu, float bv, pgi__v3 p, pgi__surface *out);
 static inline void pgi__surface_texture(const pgi_scene *s, pgi__surface *sf) {
     if (sf->mat->tex_kd >= 0) sf->kd = v3_mul(sf->kd, pgi__texture_lookup(&s->texs[sf->mat->tex_kd], sf->u, sf->v));
 }
