@@ -311,3 +311,29 @@ void pgi__rt_intersect8_any(const pgi__rt *rt, const int valid[8], const pgi__v3
         hits[i].prim = global_prim(rt, rh.hit.geomID[i], rh.hit.primID[i]);
     }
 }
+
+void pgi__rt_occluded8(const pgi__rt *rt, const int valid[8], const pgi__v3 org[8], const pgi__v3 dirs[8],
+                       const float tfar[8], int occluded[8]) {
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    RTC_ALIGN(32) struct RTCRay8 r;
+    RTC_ALIGN(32) int vmask[8];
+    for (int i = 0; i < 8; i++) {
+        vmask[i] = valid[i] ? -1 : 0;
+        r.org_x[i] = org[i].x;
+        r.org_y[i] = org[i].y;
+        r.org_z[i] = org[i].z;
+        r.dir_x[i] = dirs[i].x;
+        r.dir_y[i] = dirs[i].y;
+        r.dir_z[i] = dirs[i].z;
+        r.tnear[i] = 0.f;
+        r.tfar[i] = valid[i] ? tfar[i] : 0.f;
+        r.time[i] = 0.f;
+        r.mask[i] = (unsigned)-1;
+        r.id[i] = (unsigned)i;
+        r.flags[i] = 0;
+    }
+    rtcOccluded8(vmask, rt->scene, &ctx, &r);
+    for (int i = 0; i < 8; i++) occluded[i] = valid[i] && r.tfar[i] < 0.f;
+}

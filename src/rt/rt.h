@@ -35,4 +35,9 @@ void pgi__rt_intersect8(const pgi__rt *rt, const int valid[8], pgi__v3 o, const 
 void pgi__rt_intersect8_any(const pgi__rt *rt, const int valid[8], const pgi__v3 org[8], const pgi__v3 dirs[8],
                             pgi__hit hits[8]);
 
+/* 8 shadow rays from their own origins over (0, tfar[i]), flagged coherent (rays of one screen
+ * tile towards one light): occluded[i] is 1 when lane i is valid and blocked. */
+void pgi__rt_occluded8(const pgi__rt *rt, const int valid[8], const pgi__v3 org[8], const pgi__v3 dirs[8],
+                       const float tfar[8], int occluded[8]);
+
 #endif

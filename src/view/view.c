@@ -129,52 +129,102 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
     }
     const float eps = pgi__scene_epsilon(s);
     uint64_t rays = 0;
-    const long long n = (long long)vs->count;
-#pragma omp parallel for schedule(dynamic, 1024) reduction(+ : rays) num_threads(pgi__threads(threads))
-    for (long long ii = 0; ii < n; ii++) {
-        size_t i = (size_t)ii;
-        pgi__v3 L = v3(0.f, 0.f, 0.f);
-        if (!(vs->flags[i] & PGI_VS_VALID)) {
-            v3_store(out + 3 * i, L);
-            continue;
-        }
-        pgi__v3 p = v3_load(vs->pos + 3 * i), ns = v3_load(vs->nrm + 3 * i), ng = v3_load(vs->ngeo + 3 * i);
-        pgi__v3 wo = v3_load(vs->wo + 3 * i), kd = v3_load(vs->kd + 3 * i), ks = v3_load(vs->ks + 3 * i);
-        float sh = vs->shininess[i];
-        pgi__v3 x = v3_madd(p, ng, eps);
-        for (size_t l = 0; l < s->nlights; l++) {
-            pgi__v3 wi, Li;
-            float cs, tmax;
-            if (!pgi__delta_light(&s->lights[l], x, ns, ng, &wi, &Li, &cs, &tmax)) continue;
-            rays++;
-            if (pgi__rt_occluded(rt, x, wi, 0.f, tmax)) continue;
-            L = v3_add(L, v3_scale(v3_mul(pgi__brdf_eval(kd, ks, sh, ns, wi, wo), Li), cs));
-        }
-        if (narea && area_samples > 0) {
-            pgi__rng rng;
-            pgi_rng_seed(&rng, seed ^ 0xd15ec7ULL, (uint64_t)i);
-            pgi__v3 La = v3(0.f, 0.f, 0.f);
-            for (int k = 0; k < area_samples; k++) {
-                float u = ((float)k + pgi_rng_f(&rng)) / (float)area_samples; /* stratified light pick */
-                float pl;
-                const pgi__light *lt = &s->lights[idx[pgi__cdf_pick(cdf, narea, u, &pl)]];
-                float u1 = pgi_rng_f(&rng), u2 = pgi_rng_f(&rng);
-                pgi__v3 y = pgi__triangle_sample(s, lt->tri, u1, u2);
-                pgi__v3 dv = v3_sub(y, x);
-                float d2 = v3_dot(dv, dv);
-                if (!(d2 > 0.f) || !(pl > 0.f)) continue;
-                float dist = sqrtf(d2);
-                pgi__v3 wi = v3_scale(dv, 1.f / dist);
-                float cl = -v3_dot(wi, v3_load(lt->normal)), cs = v3_dot(ns, wi);
-                if (!(cl > 0.f) || !(cs > 0.f) || !(v3_dot(ng, wi) > 0.f)) continue;
-                rays++;
-                if (pgi__rt_occluded(rt, x, wi, 0.f, dist * (1.f - 1e-3f))) continue;
-                float g = cs * cl / d2 * lt->area / pl;
-                La = v3_add(La, v3_scale(v3_mul(pgi__brdf_eval(kd, ks, sh, ns, wi, wo), v3_load(lt->color)), g));
+    const int W = vs->width, H = vs->height;
+    /* 4x2-pixel tiles: the shadow rays of a tile towards one light (or one area sample each)
+     * go to Embree as one coherent 8-wide packet. Every pixel keeps its own RNG stream and
+     * its sums run in the order of the lights and samples, as a pixel-by-pixel loop would. */
+    const int tiles_x = (W + 3) / 4, tiles_y = (H + 1) / 2;
+#pragma omp parallel for schedule(dynamic, 1) reduction(+ : rays) num_threads(pgi__threads(threads))
+    for (int ty = 0; ty < tiles_y; ty++) {
+        for (int tx = 0; tx < tiles_x; tx++) {
+            size_t pix[8];
+            int on[8];
+            pgi__v3 x[8], ns[8], ng[8], wo[8], kd[8], ks[8], L[8], La[8];
+            float sh[8];
+            int any = 0;
+            for (int k = 0; k < 8; k++) {
+                int px = 4 * tx + (k & 3), py = 2 * ty + (k >> 2);
+                on[k] = px < W && py < H;
+                pix[k] = on[k] ? (size_t)py * (size_t)W + (size_t)px : 0;
+                L[k] = La[k] = v3(0.f, 0.f, 0.f);
+                if (on[k] && !(vs->flags[pix[k]] & PGI_VS_VALID)) {
+                    v3_store(out + 3 * pix[k], L[k]);
+                    on[k] = 0;
+                }
+                if (!on[k]) continue;
+                size_t i = pix[k];
+                pgi__v3 p = v3_load(vs->pos + 3 * i);
+                ns[k] = v3_load(vs->nrm + 3 * i);
+                ng[k] = v3_load(vs->ngeo + 3 * i);
+                wo[k] = v3_load(vs->wo + 3 * i);
+                kd[k] = v3_load(vs->kd + 3 * i);
+                ks[k] = v3_load(vs->ks + 3 * i);
+                sh[k] = vs->shininess[i];
+                x[k] = v3_madd(p, ng[k], eps);
+                any = 1;
             }
-            L = v3_add(L, v3_scale(La, 1.f / (float)area_samples));
+            if (!any) continue;
+            int valid[8], occ[8];
+            pgi__v3 wi[8], Li[8];
+            float cs[8], tmax[8];
+            for (size_t l = 0; l < s->nlights; l++) {
+                if (s->lights[l].type == PGI_LIGHT_AREA) continue;
+                int nv = 0;
+                for (int k = 0; k < 8; k++) {
+                    valid[k] = on[k] && pgi__delta_light(&s->lights[l], x[k], ns[k], ng[k], &wi[k], &Li[k], &cs[k], &tmax[k]);
+                    nv += valid[k];
+                }
+                if (!nv) continue;
+                rays += (uint64_t)nv;
+                pgi__rt_occluded8(rt, valid, x, wi, tmax, occ);
+                for (int k = 0; k < 8; k++)
+                    if (valid[k] && !occ[k])
+                        L[k] = v3_add(L[k], v3_scale(v3_mul(pgi__brdf_eval(kd[k], ks[k], sh[k], ns[k], wi[k], wo[k]), Li[k]), cs[k]));
+            }
+            if (narea && area_samples > 0) {
+                pgi__rng rng[8];
+                for (int k = 0; k < 8; k++)
+                    if (on[k]) pgi_rng_seed(&rng[k], seed ^ 0xd15ec7ULL, (uint64_t)pix[k]);
+                float g[8];
+                const pgi__light *lts[8];
+                for (int j = 0; j < area_samples; j++) {
+                    int nv = 0;
+                    for (int k = 0; k < 8; k++) {
+                        valid[k] = 0;
+                        if (!on[k]) continue;
+                        float u = ((float)j + pgi_rng_f(&rng[k])) / (float)area_samples; /* stratified light pick */
+                        float pl;
+                        const pgi__light *lt = &s->lights[idx[pgi__cdf_pick(cdf, narea, u, &pl)]];
+                        float u1 = pgi_rng_f(&rng[k]), u2 = pgi_rng_f(&rng[k]);
+                        pgi__v3 y = pgi__triangle_sample(s, lt->tri, u1, u2);
+                        pgi__v3 dv = v3_sub(y, x[k]);
+                        float d2 = v3_dot(dv, dv);
+                        if (!(d2 > 0.f) || !(pl > 0.f)) continue;
+                        float dist = sqrtf(d2);
+                        wi[k] = v3_scale(dv, 1.f / dist);
+                        float cl = -v3_dot(wi[k], v3_load(lt->normal)), c = v3_dot(ns[k], wi[k]);
+                        if (!(cl > 0.f) || !(c > 0.f) || !(v3_dot(ng[k], wi[k]) > 0.f)) continue;
+                        tmax[k] = dist * (1.f - 1e-3f);
+                        g[k] = c * cl / d2 * lt->area / pl;
+                        lts[k] = lt;
+                        valid[k] = 1;
+                        nv++;
+                    }
+                    if (!nv) continue;
+                    rays += (uint64_t)nv;
+                    pgi__rt_occluded8(rt, valid, x, wi, tmax, occ);
+                    for (int k = 0; k < 8; k++)
+                        if (valid[k] && !occ[k])
+                            La[k] = v3_add(La[k], v3_scale(v3_mul(pgi__brdf_eval(kd[k], ks[k], sh[k], ns[k], wi[k], wo[k]),
+                                                                  v3_load(lts[k]->color)),
+                                                           g[k]));
+                }
+                for (int k = 0; k < 8; k++)
+                    if (on[k]) L[k] = v3_add(L[k], v3_scale(La[k], 1.f / (float)area_samples));
+            }
+            for (int k = 0; k < 8; k++)
+                if (on[k]) v3_store(out + 3 * pix[k], v3_mul(L[k], v3_load(vs->weight + 3 * pix[k])));
         }
-        v3_store(out + 3 * i, v3_mul(L, v3_load(vs->weight + 3 * i)));
     }
     free(cdf);
     free(idx);
