@@ -190,17 +190,9 @@ static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbu
                 if (s->uv) __builtin_prefetch(s->uv + 2 * (size_t)t[j]);
             }
         }
-        for (int k = 0; k < WAVE; k++) {
-            const lane *l = &L[k];
-            if (l->path < 0 || l->h.prim == UINT32_MAX || l->b >= T->bounces || !s->uv) continue;
-            const pgi__material *m = &s->mats[s->tri_mat[l->h.prim]];
-            if (m->tex_kd < 0) continue;
-            const uint32_t *t = s->tri + 3 * (size_t)l->h.prim;
-            const float *ua = s->uv + 2 * (size_t)t[0], *ub = s->uv + 2 * (size_t)t[1], *uc = s->uv + 2 * (size_t)t[2];
-            float bw = 1.f - l->h.u - l->h.v;
-            pgi__texture_prefetch(&s->texs[m->tex_kd], bw * ua[0] + l->h.u * ub[0] + l->h.v * uc[0],
-                                  bw * ua[1] + l->h.u * ub[1] + l->h.v * uc[1]);
-        }
+        for (int k = 0; k < WAVE; k++)
+            if (L[k].path >= 0 && L[k].h.prim != UINT32_MAX && L[k].b < T->bounces)
+                pgi__surface_prefetch_texels(s, L[k].h.prim, L[k].h.u, L[k].h.v);
         /* Shade: store, scatter, roulette. */
         for (int k = 0; k < WAVE; k++) {
             lane *l = &L[k];
