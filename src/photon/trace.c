@@ -51,6 +51,7 @@ typedef struct tracer {
     pgi__v3 centre;
     float radius;      /* bounding-sphere radius, for the sun's disk */
     pgi__fp_params fp; /* radius policy */
+    int fp_track;      /* a radius policy follows the paths (the hooks are no-ops otherwise) */
     int fp_on;         /* footprints are stored */
 } tracer;
 
@@ -100,7 +101,7 @@ static int start_path(const tracer *T, uint64_t index, lane *l) {
         break;
     }
     }
-    pgi__fp_emit(&l->pd, &T->fp, T->s, L, pl, l->d, T->radius);
+    if (T->fp_track) pgi__fp_emit(&l->pd, &T->fp, T->s, L, pl, l->d, T->radius);
     l->b = 0;
     return 1;
 }
@@ -204,7 +205,7 @@ static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbu
                 pgi__scene_surface_untextured(s, l->h.prim, l->h.u, l->h.v, p, &sf);
                 pgi__v3 wi = v3_neg(l->d);
                 pgi__v3 ng = v3_dot(wi, sf.ng) >= 0.f ? sf.ng : v3_neg(sf.ng);
-                pgi__fp_hit(&l->pd, &T->fp, l->d, l->h.t, ng);
+                if (T->fp_track) pgi__fp_hit(&l->pd, &T->fp, l->d, l->h.t, ng);
                 if (l->b >= 1 && !pgi__mat_specular(sf.mat)) {
                     pgi__footprint fp;
                     if (T->fp_on) pgi__fp_store(&l->pd, &T->fp, ng, &fp);
@@ -216,14 +217,14 @@ static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbu
                     pgi__v3 wo, w;
                     float r1 = pgi_rng_f(&l->rng), r2 = pgi_rng_f(&l->rng), r3 = pgi_rng_f(&l->rng);
                     if (pgi__bsdf_sample(&sf, wi, r1, r2, r3, &wo, &w)) {
-                        pgi__fp_scatter(&l->pd, &T->fp, s, l->h.prim, l->h.u, l->h.v, &sf, wi, wo, w);
+                        if (T->fp_track) pgi__fp_scatter(&l->pd, &T->fp, s, l->h.prim, l->h.u, l->h.v, &sf, wi, wo, w);
                         pgi__v3 nf = v3_mul(l->flux, w);
                         float mf = v3_maxc(l->flux);
                         float R = mf > 0.f ? fminf(1.f, v3_maxc(nf) / mf) : 0.f;
                         if (pgi_rng_f(&l->rng) < R) {
                             l->flux = v3_scale(nf, 1.f / R);
                             if (v3_finite(l->flux)) {
-                                pgi__fp_roulette(&l->pd, &T->fp, R);
+                                if (T->fp_track) pgi__fp_roulette(&l->pd, &T->fp, R);
                                 l->o = v3_madd(p, v3_dot(wo, ng) >= 0.f ? ng : v3_neg(ng), T->eps);
                                 l->d = wo;
                                 l->b++;
@@ -348,9 +349,11 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
                 v3_scale(v3_add(v3_load(s->bmin), v3_load(s->bmax)), 0.5f),
                 0.5f * v3_len(v3_sub(v3_load(s->bmax), v3_load(s->bmin))),
                 {0},
+                0,
                 0};
     pgi__fp_params_init(&T.fp, d->radius_policy, d->r_min, d->r_max, d->smoothing, d->photons, 2.f * T.radius);
-    T.fp_on = d->radius_policy != PGI_RADIUS_FIXED && ph->radius;
+    T.fp_track = d->radius_policy != PGI_RADIUS_FIXED;
+    T.fp_on = T.fp_track && ph->radius;
     const float bin_w = d->r_max / 14.f;
     const int nt = pgi__threads(d->threads);
     uint64_t path = 0, traced = 0, rays = 0;

@@ -74,7 +74,8 @@ static inline void pgi__surface_prefetch_texels(const pgi_scene *s, uint32_t pri
     const uint32_t *t = s->tri + 3 * (size_t)prim;
     const float *ua = s->uv + 2 * (size_t)t[0], *ub = s->uv + 2 * (size_t)t[1], *uc = s->uv + 2 * (size_t)t[2];
     float bw = 1.f - bu - bv;
-    pgi__texture_prefetch(&s->texs[m->tex_kd], bw * ua[0] + bu * ub[0] + bv * uc[0], bw * ua[1] + bu * ub[1] + bv * uc[1]);
+    pgi__texture_prefetch(&s->texs[m->tex_kd], bw * ua[0] + bu * ub[0] + bv * uc[0],
+                          bw * ua[1] + bu * ub[1] + bv * uc[1]);
 }
 
 static inline void pgi__surface_texture(const pgi_scene *s, pgi__surface *sf) {

@@ -184,7 +184,8 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
                 if (s->lights[l].type == PGI_LIGHT_AREA) continue;
                 int nv = 0;
                 for (int k = 0; k < 8; k++) {
-                    valid[k] = on[k] && pgi__delta_light(&s->lights[l], x[k], ns[k], ng[k], &wi[k], &Li[k], &cs[k], &tmax[k]);
+                    valid[k] =
+                        on[k] && pgi__delta_light(&s->lights[l], x[k], ns[k], ng[k], &wi[k], &Li[k], &cs[k], &tmax[k]);
                     nv += valid[k];
                 }
                 if (!nv) continue;
@@ -192,7 +193,9 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
                 pgi__rt_occluded8(rt, valid, x, wi, tmax, occ);
                 for (int k = 0; k < 8; k++)
                     if (valid[k] && !occ[k])
-                        L[k] = v3_add(L[k], v3_scale(v3_mul(pgi__brdf_eval(kd[k], ks[k], sh[k], ns[k], wi[k], wo[k]), Li[k]), cs[k]));
+                        L[k] = v3_add(L[k],
+                                      v3_scale(v3_mul(pgi__brdf_eval(kd[k], ks[k], sh[k], ns[k], wi[k], wo[k]), Li[k]),
+                                               cs[k]));
             }
             if (narea && area_samples > 0) {
                 pgi__rng rng[8];
@@ -228,9 +231,10 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
                     pgi__rt_occluded8(rt, valid, x, wi, tmax, occ);
                     for (int k = 0; k < 8; k++)
                         if (valid[k] && !occ[k])
-                            La[k] = v3_add(La[k], v3_scale(v3_mul(pgi__brdf_eval(kd[k], ks[k], sh[k], ns[k], wi[k], wo[k]),
-                                                                  v3_load(lts[k]->color)),
-                                                           g[k]));
+                            La[k] =
+                                v3_add(La[k], v3_scale(v3_mul(pgi__brdf_eval(kd[k], ks[k], sh[k], ns[k], wi[k], wo[k]),
+                                                              v3_load(lts[k]->color)),
+                                                       g[k]));
                 }
                 for (int k = 0; k < 8; k++)
                     if (on[k]) L[k] = v3_add(L[k], v3_scale(La[k], 1.f / (float)area_samples));
