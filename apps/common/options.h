@@ -50,7 +50,7 @@ static inline int app_estimator_option(const char *prog, const char *flag, const
 /* Notes options given for estimators other than `est` (the library ignores
  * them; strict ones it rejects with its own message). */
 static inline void app_note_ignored_options(const char *prog, const char *est, const app_given_options *g) {
-    const pgi_estimator_vtbl *vt = pgi_estimator_find(est && *est ? est : "tiled");
+    const pgi_estimator_vtbl *vt = pgi_estimator_find(est && *est ? est : PGI_DEFAULT_ESTIMATOR);
     if (!vt) return;
     for (int i = 0; i < g->count; i++) {
         const pgi_option *o = g->given[i];

@@ -36,7 +36,7 @@ static const char *k_render_help =
     "  --scene S          built-in (cornell [default], giref, sphere-and-plane), a name with a\n"
     "                     description in scenes/S.json (sibenik, crytek-sponza, conference,\n"
     "                     fireplace-room, cornell-box), a .json description, or a mesh file\n"
-    "  --estimator E      density estimator (see 'photongi estimators'); default tiled\n"
+    "  --estimator E      density estimator (see 'photongi estimators'); default " PGI_DEFAULT_ESTIMATOR "\n"
     "  --photons N        photons to store (flux is normalised by the paths emitted);\n"
     "                     default: the scene's, else 200000\n"
     "  --radius R         photon radius in scene units; default: the scene's, else 2% of its diagonal\n"

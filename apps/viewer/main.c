@@ -25,7 +25,7 @@ static const char *k_help =
     "\n"
     "  --scene S          as 'photongi render --scene' (default cornell; scenes/cornell-moving.json\n"
     "                     has animated objects)\n"
-    "  --estimator E      density estimator (default tiled; Tab switches live)\n"
+    "  --estimator E      density estimator (default " PGI_DEFAULT_ESTIMATOR "; Tab switches live)\n"
     "  --photons N        photons to store (default: the scene's, else 200000)\n"
     "  --radius R         photon radius (default: the scene's, else 2% of the diagonal)\n"
     "  --size WxH         window / full render size (default: the scene's, else 1280x720)\n"
@@ -410,7 +410,7 @@ static SDL_Keycode key_from_name(const char *n) {
 int main(int argc, char **argv) {
     viewer v;
     memset(&v, 0, sizeof v);
-    const char *scene_spec = "cornell", *shot = NULL, *stats_path = NULL, *est = "tiled", *script = NULL;
+    const char *scene_spec = "cornell", *shot = NULL, *stats_path = NULL, *est = PGI_DEFAULT_ESTIMATOR, *script = NULL;
     long long frames = 0, cam_index = 0;
     int want_window = 0, size_set = 0;
     v.accumulate = 1;

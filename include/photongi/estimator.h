@@ -216,6 +216,9 @@ size_t pgi_estimator_count(void);
 const pgi_estimator_vtbl *pgi_estimator_at(size_t i);
 /* NULL if no estimator has that name. */
 const pgi_estimator_vtbl *pgi_estimator_find(const char *name);
+/* The estimator a desc without one gets: the fastest exact one on the shipped scenes at their
+ * defaults that stays fast with mirrors and glass in view (README, "Choosing an estimator"). */
+#define PGI_DEFAULT_ESTIMATOR "hashgrid"
 
 /* Every estimator option, each once: the shared ones ("kernel", "subsample":
  * every estimator with the matching capability takes them), then each

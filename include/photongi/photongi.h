@@ -92,7 +92,7 @@ typedef enum pgi_output {
 
 /* Zero means "default" for every field, nested estimator options included. */
 typedef struct pgi_render_desc {
-    const char *estimator;  /* registered name; default "tiled" */
+    const char *estimator;  /* registered name; default PGI_DEFAULT_ESTIMATOR */
     pgi_estimator_desc est; /* the estimator's options (include/photongi/estimator.h); options of other
                                 estimators are ignored, so one desc serves every estimator */
     uint32_t photons;       /* photons to store (at least 1); default scene's or 200000 */

@@ -91,7 +91,8 @@ static void picture_of(const pgi_render_desc *d, const pgi_scene *s, picture *p)
 pgi_status pgi_progressive_step(pgi_progressive *a, const pgi_render_desc *in, pgi_image *out, pgi_frame_stats *stats) {
     if (!a || !in || !out) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_progressive_step: NULL argument");
     const pgi_scene *s = pgi_renderer_scene(a->r);
-    const pgi_estimator_vtbl *vt = pgi_estimator_find(in->estimator && *in->estimator ? in->estimator : "tiled");
+    const pgi_estimator_vtbl *vt =
+        pgi_estimator_find(in->estimator && *in->estimator ? in->estimator : PGI_DEFAULT_ESTIMATOR);
     if (!vt) return pgi__fail_unknown_estimator(in->estimator);
     picture now;
     picture_of(in, s, &now);
@@ -163,7 +164,8 @@ static void stats_add(pgi_frame_stats *sum, const pgi_frame_stats *fs) {
 pgi_status pgi_render_progressive(pgi_renderer *r, const pgi_render_desc *in, int frames, pgi_image *out,
                                   pgi_frame_stats *stats) {
     if (!r || !in || !out) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_render_progressive: NULL argument");
-    const pgi_estimator_vtbl *vt = pgi_estimator_find(in->estimator && *in->estimator ? in->estimator : "tiled");
+    const pgi_estimator_vtbl *vt =
+        pgi_estimator_find(in->estimator && *in->estimator ? in->estimator : PGI_DEFAULT_ESTIMATOR);
     if (!vt) return pgi__fail_unknown_estimator(in->estimator);
     if (frames > 1 && !vt->exact)
         return pgi__fail(PGI_ERR_INVALID_ARG,

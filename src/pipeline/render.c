@@ -79,7 +79,7 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
     pgi_status st;
     *d = *in;
     const pgi_scene_defaults *sd = &s->defaults;
-    if (!d->estimator || !*d->estimator) d->estimator = "tiled";
+    if (!d->estimator || !*d->estimator) d->estimator = PGI_DEFAULT_ESTIMATOR;
     const pgi_estimator_vtbl *vt = pgi_estimator_find(d->estimator);
     if (!vt) return pgi__fail_unknown_estimator(d->estimator);
     d->estimator = vt->name;
