@@ -1,6 +1,7 @@
 /* Embree 3 back end. Pitfalls: ray.mask must be -1 (all bits) or every
  * geometry is skipped; 8-wide packets are native on AVX2 CPUs. */
 #include "rt.h"
+#include "ray_log.h"
 
 #include <embree3/rtcore.h>
 #include <stdio.h>
@@ -20,7 +21,11 @@ struct pgi__rt {
     uint32_t *dyn_verts; /* scene vertex of each vertex of the animated geometry; NULL: not split */
     size_t ndyn_verts;
     uint64_t static_version, dynamic_version;
+    pgi__ray_log *capture; /* NULL: off (pgi__rt_capture_set) */
 };
+
+/* Capture hook condition, after each Embree query (ray_log.h). */
+#define CAPTURING(rt) __builtin_expect((rt)->capture != NULL, 0)
 
 static _Thread_local char g_rt_error[256];
 
@@ -207,6 +212,10 @@ int pgi__rt_intersect(const pgi__rt *rt, pgi__v3 o, pgi__v3 d, float tnear, floa
     rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
     rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
     rtcIntersect1(rt->scene, &ctx, &rh);
+    if (CAPTURING(rt)) {
+        pgi__ray_rec *c = pgi__ray_log_reserve(rt->capture, PGI__RAY_INTERSECT1, 1, 0);
+        if (c) pgi__ray_rec_set(c, o, d, tnear, tfar, 1, rh.hit.geomID, rh.hit.primID);
+    }
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) {
         h->prim = UINT32_MAX;
         return 0;
@@ -235,6 +244,10 @@ int pgi__rt_occluded(const pgi__rt *rt, pgi__v3 o, pgi__v3 d, float tnear, float
     r.id = 0;
     r.flags = 0;
     rtcOccluded1(rt->scene, &ctx, &r);
+    if (CAPTURING(rt)) {
+        pgi__ray_rec *c = pgi__ray_log_reserve(rt->capture, PGI__RAY_OCCLUDED1, 1, 0);
+        if (c) pgi__ray_rec_set(c, o, d, tnear, tfar, 1, r.tfar < 0.f ? 0u : RTC_INVALID_GEOMETRY_ID, 0u);
+    }
     return r.tfar < 0.f; /* Embree sets tfar to -inf when occluded */
 }
 
@@ -263,6 +276,11 @@ void pgi__rt_intersect8(const pgi__rt *rt, const int valid[8], pgi__v3 o, const 
         rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
     }
     rtcIntersect8(vmask, rt->scene, &ctx, &rh);
+    if (CAPTURING(rt)) {
+        pgi__ray_rec *c = pgi__ray_log_reserve(rt->capture, PGI__RAY_INTERSECT8, 8, PGI__RAY_COHERENT);
+        for (int i = 0; c && i < 8; i++)
+            pgi__ray_rec_set(c + i, o, dirs[i], 0.f, tfar, valid[i], rh.hit.geomID[i], rh.hit.primID[i]);
+    }
     for (int i = 0; i < 8; i++) {
         if (!valid[i] || rh.hit.geomID[i] == RTC_INVALID_GEOMETRY_ID) {
             hits[i].prim = UINT32_MAX;
@@ -273,4 +291,14 @@ void pgi__rt_intersect8(const pgi__rt *rt, const int valid[8], pgi__v3 o, const 
         hits[i].v = rh.hit.v[i];
         hits[i].prim = global_prim(rt, rh.hit.geomID[i], rh.hit.primID[i]);
     }
+}
+
+void pgi__rt_capture_set(pgi__rt *rt, pgi__ray_log *log) { rt->capture = log; }
+
+void pgi__rt_capture_pass(const pgi__rt *rt, pgi__pass pass) {
+    if (rt->capture) pgi__ray_log_set_pass(rt->capture, pass);
+}
+
+struct RTCSceneTy *pgi__rt_embree_scene(const pgi__rt *rt) {
+    return rt->scene;
 }

@@ -31,4 +31,17 @@ int pgi__rt_occluded(const pgi__rt *rt, pgi__v3 o, pgi__v3 d, float tnear, float
 void pgi__rt_intersect8(const pgi__rt *rt, const int valid[8], pgi__v3 o, const pgi__v3 dirs[8], float tfar,
                         pgi__hit hits[8]);
 
+/* Ray capture (src/rt/ray_log.h, photongi-bench --limits). While a log is
+ * set, every query above appends its rays and answers to it, tagged with the
+ * pass last given to pgi__rt_capture_pass; NULL turns capture off (the
+ * default: the queries then pay one load and a not-taken branch). Set and
+ * unset it between frames, never with queries in flight. */
+typedef struct pgi__ray_log pgi__ray_log;
+typedef enum pgi__pass { PGI__PASS_NONE, PGI__PASS_VIEW, PGI__PASS_TRACE, PGI__PASS_DIRECT, PGI__PASS_COUNT } pgi__pass;
+void pgi__rt_capture_set(pgi__rt *rt, pgi__ray_log *log);
+/* Tags the rays captured from now on (a no-op while capture is off). */
+void pgi__rt_capture_pass(const pgi__rt *rt, pgi__pass pass);
+/* The Embree scene, for the replay in ray_log.c (an RTCScene). */
+struct RTCSceneTy *pgi__rt_embree_scene(const pgi__rt *rt);
+
 #endif
