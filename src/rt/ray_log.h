@@ -105,7 +105,9 @@ typedef enum pgi__replay_method {
     PGI__REPLAY_METHOD_COUNT
 } pgi__replay_method;
 
+#ifndef PGI__REPLAY_STREAM
 #define PGI__REPLAY_STREAM 256 /* rays per stream call, and per unit of work */
+#endif
 
 /* Short name ("cast", "1", "8", "8i", "16", "16i", "1M", "1Mc") and the
  * Embree call it makes for an intersect or occluded group. */
