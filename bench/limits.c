@@ -14,11 +14,11 @@
  * camera's primary rays in ideal layouts (4x2 tiles for 8-wide packets, 8x2
  * and 4x4 tiles for 16-wide, 16x16 blocks for coherent streams). CSV: one row
  * per pass, per (group, style) and per layout. */
-#include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <time.h>
 
 #include "photongi/photongi.h"
 #include "pipeline/pipeline.h"
@@ -297,6 +297,23 @@ fail:
     return ok;
 }
 
+/* Fraction of the machine's CPU time that was not idle over 300 ms (Linux /proc/stat; 0 elsewhere). */
+static double cpu_busy(void) {
+    unsigned long long a[2][8] = {{0}};
+    for (int k = 0; k < 2; k++) {
+        FILE *f = fopen("/proc/stat", "r");
+        if (!f) return 0.0;
+        int n = fscanf(f, "cpu %llu %llu %llu %llu %llu %llu %llu %llu", &a[k][0], &a[k][1], &a[k][2], &a[k][3],
+                       &a[k][4], &a[k][5], &a[k][6], &a[k][7]);
+        fclose(f);
+        if (n != 8) return 0.0;
+        if (k == 0) nanosleep(&(struct timespec){0, 300000000}, NULL);
+    }
+    unsigned long long total = 0, idle = (a[1][3] - a[0][3]) + (a[1][4] - a[0][4]);
+    for (int i = 0; i < 8; i++) total += a[1][i] - a[0][i];
+    return total ? 1.0 - (double)idle / (double)total : 0.0;
+}
+
 int pgi_bench_limits(const char *scenes, const char *estimator, int frames, unsigned photons, int width, int height,
                      float radius, int threads, const char *csv_path) {
     if (frames > MAXF) frames = MAXF;
@@ -317,14 +334,12 @@ int pgi_bench_limits(const char *scenes, const char *estimator, int frames, unsi
                          .radius = radius};
     /* Other processes on the cores make every parallel region wait for a time slice (times in multiples
      * of a few ms): say so. */
-    FILE *la = fopen("/proc/loadavg", "r");
-    double load = 0.0;
-    if (la && fscanf(la, "%lf", &load) == 1 && load > 0.5 * omp_get_num_procs())
+    double busy = cpu_busy();
+    if (busy > 0.2)
         fprintf(stderr,
-                "photongi-bench: load average %.2f on %d cores before starting: other processes will distort the "
+                "photongi-bench: the CPUs were %.0f%% busy before starting: other processes will distort the "
                 "times\n",
-                load, omp_get_num_procs());
-    if (la) fclose(la);
+                100.0 * busy);
     char buf[4096];
     snprintf(buf, sizeof buf, "%s", scenes);
     int failed = 0;

@@ -253,9 +253,10 @@ static inline void check(const pgi__ray_rec *r, int occluded, unsigned geom, uns
     else t->mism += r->geom != PGI__RAY_NO_GEOM;
 }
 
-static void cast1(RTCScene sc, const pgi__ray_rec *R, size_t n, int occluded, tally *t) {
+static void cast1(RTCScene sc, const pgi__ray_rec *R, size_t n, int occluded, int coherent, tally *t) {
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
+    if (coherent) ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
     for (size_t i = 0; i < n; i++) {
         const pgi__ray_rec *r = &R[i];
         if (!(r->flags & PGI__RAY_VALID)) continue;
@@ -415,9 +416,9 @@ pgi_status pgi__rt_replay(const pgi__rt *rt, const pgi__ray_log *log, pgi__pass 
             else if (width == 0) {
                 for (size_t s = 0; s < len; s += PGI__REPLAY_STREAM)
                     cast1M(sc, U + s, len - s < PGI__REPLAY_STREAM ? len - s : PGI__REPLAY_STREAM, occl, coh, &t);
-            } else cast1(sc, U, len, occl, &t);
+            } else cast1(sc, U, len, occl, coh, &t);
             break;
-        case PGI__REPLAY_1: cast1(sc, U, len, occl, &t); break;
+        case PGI__REPLAY_1: cast1(sc, U, len, occl, 0, &t); break;
         case PGI__REPLAY_8: cast8(sc, U, len, occl, 1, 0, &t); break;
         case PGI__REPLAY_8I: cast8(sc, U, len, occl, 0, 0, &t); break;
         case PGI__REPLAY_16: cast16(sc, U, len, occl, 1, 0, &t); break;
