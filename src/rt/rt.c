@@ -24,8 +24,34 @@ struct pgi__rt {
     pgi__ray_log *capture; /* NULL: off (pgi__rt_capture_set) */
 };
 
-/* Capture hook condition, after each Embree query (ray_log.h). */
+/* Ray capture (ray_log.h): each query ends with `if (CAPTURING(rt)) capture...(...)`. The
+ * capture functions are out of line and read the ray back from Embree's structure (Embree
+ * leaves origin, direction and tnear as they were; tfar is passed, Embree overwrites it), so
+ * that while capture is off a query pays one load and a not-taken branch, and keeps nothing
+ * else alive across the Embree call. */
 #define CAPTURING(rt) __builtin_expect((rt)->capture != NULL, 0)
+#if defined(__GNUC__)
+#define PGI__COLD __attribute__((noinline, cold))
+#else
+#define PGI__COLD
+#endif
+
+static PGI__COLD void capture1(pgi__ray_log *log, pgi__ray_kind kind, const struct RTCRay *r, float tfar, unsigned geom,
+                               unsigned prim) {
+    pgi__ray_rec *c = pgi__ray_log_reserve(log, kind, 1, 0);
+    if (c)
+        pgi__ray_rec_set(c, v3(r->org_x, r->org_y, r->org_z), v3(r->dir_x, r->dir_y, r->dir_z), r->tnear, tfar, 1, geom,
+                         prim);
+}
+
+static PGI__COLD void capture8(pgi__ray_log *log, pgi__ray_kind kind, unsigned flags, const int *vmask,
+                               const struct RTCRayHit8 *rh, float tfar) {
+    pgi__ray_rec *c = pgi__ray_log_reserve(log, kind, 8, flags);
+    for (int i = 0; c && i < 8; i++)
+        pgi__ray_rec_set(c + i, v3(rh->ray.org_x[i], rh->ray.org_y[i], rh->ray.org_z[i]),
+                         v3(rh->ray.dir_x[i], rh->ray.dir_y[i], rh->ray.dir_z[i]), rh->ray.tnear[i], tfar,
+                         vmask[i] != 0, rh->hit.geomID[i], rh->hit.primID[i]);
+}
 
 static _Thread_local char g_rt_error[256];
 
@@ -212,10 +238,7 @@ int pgi__rt_intersect(const pgi__rt *rt, pgi__v3 o, pgi__v3 d, float tnear, floa
     rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
     rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
     rtcIntersect1(rt->scene, &ctx, &rh);
-    if (CAPTURING(rt)) {
-        pgi__ray_rec *c = pgi__ray_log_reserve(rt->capture, PGI__RAY_INTERSECT1, 1, 0);
-        if (c) pgi__ray_rec_set(c, o, d, tnear, tfar, 1, rh.hit.geomID, rh.hit.primID);
-    }
+    if (CAPTURING(rt)) capture1(rt->capture, PGI__RAY_INTERSECT1, &rh.ray, tfar, rh.hit.geomID, rh.hit.primID);
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) {
         h->prim = UINT32_MAX;
         return 0;
@@ -244,10 +267,8 @@ int pgi__rt_occluded(const pgi__rt *rt, pgi__v3 o, pgi__v3 d, float tnear, float
     r.id = 0;
     r.flags = 0;
     rtcOccluded1(rt->scene, &ctx, &r);
-    if (CAPTURING(rt)) {
-        pgi__ray_rec *c = pgi__ray_log_reserve(rt->capture, PGI__RAY_OCCLUDED1, 1, 0);
-        if (c) pgi__ray_rec_set(c, o, d, tnear, tfar, 1, r.tfar < 0.f ? 0u : RTC_INVALID_GEOMETRY_ID, 0u);
-    }
+    if (CAPTURING(rt))
+        capture1(rt->capture, PGI__RAY_OCCLUDED1, &r, tfar, r.tfar < 0.f ? 0u : RTC_INVALID_GEOMETRY_ID, 0u);
     return r.tfar < 0.f; /* Embree sets tfar to -inf when occluded */
 }
 
@@ -276,11 +297,7 @@ void pgi__rt_intersect8(const pgi__rt *rt, const int valid[8], pgi__v3 o, const 
         rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
     }
     rtcIntersect8(vmask, rt->scene, &ctx, &rh);
-    if (CAPTURING(rt)) {
-        pgi__ray_rec *c = pgi__ray_log_reserve(rt->capture, PGI__RAY_INTERSECT8, 8, PGI__RAY_COHERENT);
-        for (int i = 0; c && i < 8; i++)
-            pgi__ray_rec_set(c + i, o, dirs[i], 0.f, tfar, valid[i], rh.hit.geomID[i], rh.hit.primID[i]);
-    }
+    if (CAPTURING(rt)) capture8(rt->capture, PGI__RAY_INTERSECT8, PGI__RAY_COHERENT, vmask, &rh, tfar);
     for (int i = 0; i < 8; i++) {
         if (!valid[i] || rh.hit.geomID[i] == RTC_INVALID_GEOMETRY_ID) {
             hits[i].prim = UINT32_MAX;
