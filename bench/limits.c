@@ -1,19 +1,20 @@
 /* photongi-bench --limits: each ray pass of a frame next to the time Embree
- * alone takes for the same rays.
+ * alone takes for the same rays (docs/limits.md).
  *
- * Per scene: one warm-up frame, then N frames give the median view, trace
- * and direct pass times. One more frame (same seed: the same rays) is
- * captured (src/rt/ray_log.h): every ray each pass casts, with its call style
- * and packet. Each (pass, call style) group is then replayed with raw Embree
- * calls in every style (as captured, single rays, 8/16-wide packets with a
- * coherent or incoherent context, 1M streams of 256), one warm-up and N
- * timed replays each, over the render's thread count, every answer checked
- * against the captured one. The table shows per pass the pass time, the
- * fastest raw style (per group, summed over the pass's groups), their ratio
- * and throughputs; a second table every style per group; a third the view
- * camera's primary rays in ideal layouts (4x2 tiles for 8-wide packets, 8x2
- * and 4x4 tiles for 16-wide, 16x16 blocks for coherent streams). CSV: one row
- * per pass, per (group, style) and per layout. */
+ * Per scene: a warm-up frame, then one frame with ray capture on
+ * (src/rt/ray_log.h): every ray each pass casts, with its call style, packet
+ * and answer; the frames use one seed, so all cast these rays. The view
+ * camera's primary rays are also cast in ideal layouts (4x2 tiles for 8-wide
+ * packets, 8x2 and 4x4 tiles for 16-wide, 16x16 blocks for streams). Then a
+ * warm-up round and N rounds, each one frame (the view, trace and direct pass
+ * times) and one replay of every (pass, call) group in every style (as
+ * captured, single rays, 8/16-wide packets with a coherent or incoherent
+ * context, 1M streams of 256) and of every layout, with raw Embree calls over
+ * the render's thread count, every answer checked against the captured one.
+ * Medians over the rounds. Tables: per pass the pass time, the fastest raw
+ * style (per group, summed over the pass's groups), their ratio and
+ * throughputs; every style per group; the layouts. CSV: one row per pass, per
+ * (group, style) and per layout. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
