@@ -11,6 +11,9 @@
  *   photongi-bench --table1 [--knn K] [...]   the tiled paper's Table 1 protocol
  *                  (estimate time, tests vs contributing of every gather/scatter method and
  *                  bounds25d with 4/8/16 vertices) to bench/results/table1.csv
+ *   photongi-bench --limits [...]   each ray pass (view, trace, direct) next to raw Embree
+ *                  on the same captured rays, every call style (bench/limits.c); default
+ *                  sibenik, 1280x720, to bench/results/limits.csv
  */
 #include <omp.h>
 #include <stdio.h>
@@ -21,6 +24,7 @@
 #include "photongi/photongi.h"
 
 #include "bench_common.h"
+#include "limits.h"
 
 #define MAXF 64
 
@@ -138,7 +142,7 @@ int main(int argc, char **argv) {
     int frames = 5, width = 1920, height = 1080, threads = 0, brute = 0;
     unsigned photons = 200000;
     float radius = 0.f;
-    int table1 = 0, knn = 50;
+    int table1 = 0, knn = 50, limits = 0, scenes_set = 0, size_set = 0;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
@@ -147,8 +151,16 @@ int main(int argc, char **argv) {
                    "Median of N frames after a warm-up; per-pass ms, reads vs contributing, Mrays/s.\n"
                    "brute is skipped unless --include-brute (O(photons x pixels)).\n"
                    "--table1 [--knn K]: Table 1 protocol of the tiled paper (estimate time, tests vs\n"
-                   "contributing) for hashgrid, tiled, kdtree range/k-NN, bounds3d, bounds25d 4/8/16.\n");
+                   "contributing) for hashgrid, tiled, kdtree range/k-NN, bounds3d, bounds25d 4/8/16.\n"
+                   "--limits: each ray pass (view, trace, direct) next to raw Embree on the same rays\n"
+                   "(captured from one frame, replayed in every call style); default --scenes sibenik\n"
+                   "--size 1280x720, the first of --estimators (default: the renderer's), CSV\n"
+                   "bench/results/limits.csv.\n");
             return 0;
+        }
+        if (strcmp(a, "--limits") == 0) {
+            limits = 1;
+            continue;
         }
         if (strcmp(a, "--table1") == 0) {
             table1 = 1;
@@ -167,7 +179,7 @@ int main(int argc, char **argv) {
             return 2;
         }
         i++;
-        if (strcmp(a, "--scenes") == 0) scenes = v;
+        if (strcmp(a, "--scenes") == 0) scenes = v, scenes_set = 1;
         else if (strcmp(a, "--estimators") == 0) ests = v;
         else if (strcmp(a, "--frames") == 0) frames = atoi(v);
         else if (strcmp(a, "--photons") == 0) photons = (unsigned)strtoul(v, NULL, 10);
@@ -176,6 +188,7 @@ int main(int argc, char **argv) {
                 fprintf(stderr, "photongi-bench: --size needs WxH\n");
                 return 2;
             }
+            size_set = 1;
         } else if (strcmp(a, "--radius") == 0) radius = strtof(v, NULL);
         else if (strcmp(a, "--threads") == 0) threads = atoi(v);
         else if (strcmp(a, "--csv") == 0) csv_path = v;
@@ -187,6 +200,14 @@ int main(int argc, char **argv) {
     if (frames < 1 || frames > MAXF) {
         fprintf(stderr, "photongi-bench: --frames must be 1..%d\n", MAXF);
         return 2;
+    }
+    if (limits) {
+        char est[64] = "";
+        if (ests) snprintf(est, sizeof est, "%.*s", (int)strcspn(ests, ","), ests);
+        return pgi_bench_limits(scenes_set ? scenes : "sibenik", est[0] ? est : NULL, frames, photons,
+                                size_set ? width : 1280, size_set ? height : 720, radius, threads,
+                                strcmp(csv_path, "bench/results/bench.csv") == 0 ? "bench/results/limits.csv"
+                                                                                 : csv_path);
     }
     if (table1)
         return run_table1(scenes, frames, photons, width, height, radius, threads, knn,

@@ -16,7 +16,7 @@
 /* Paths one thread carries at once: the rays of a wave are cast back to back and the
  * texels of its hits are prefetched before any is shaded, so that their cache misses overlap
  * instead of following one another (photon rays are incoherent: each hit is a miss). */
-#define WAVE 16
+#define WAVE 16 /* = the packet width of pgi__rt_intersect16 */
 /* Paths a scheduling unit: a thread traces a chunk's paths and sorts their photons into path
  * order, so that the result is the same whatever the thread count. */
 #define CHUNK 1024
@@ -155,22 +155,23 @@ static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbu
             }
         }
         if (active == 0) break;
-        /* Cast the wave's rays, 8-wide (measured a little faster than single rays here); each
-         * hit's triangle record is fetched while the next packet runs. */
-        for (int k0 = 0; k0 < WAVE; k0 += 8) {
-            int valid[8];
-            pgi__v3 org[8], dir[8];
-            pgi__hit hh[8];
-            for (int k = 0; k < 8; k++) {
-                valid[k] = L[k0 + k].path >= 0;
-                org[k] = L[k0 + k].o;
-                dir[k] = L[k0 + k].d;
+        /* Cast the wave's rays as one 16-wide incoherent packet (single rays, 8- and 16-wide
+         * packets and streams are within noise of each other for these rays: photongi-bench
+         * --limits); each hit's triangle record is fetched while the rest of the wave is shaded. */
+        {
+            int valid[WAVE];
+            pgi__v3 org[WAVE], dir[WAVE];
+            pgi__hit hh[WAVE];
+            for (int k = 0; k < WAVE; k++) {
+                valid[k] = L[k].path >= 0;
+                org[k] = L[k].o;
+                dir[k] = L[k].d;
                 *rays += (uint64_t)valid[k];
             }
-            pgi__rt_intersect8_any(T->rt, valid, org, dir, hh);
-            for (int k = 0; k < 8; k++) {
+            pgi__rt_intersect16(T->rt, valid, org, 1, dir, 0, hh);
+            for (int k = 0; k < WAVE; k++) {
                 if (!valid[k]) continue;
-                L[k0 + k].h = hh[k];
+                L[k].h = hh[k];
                 if (hh[k].prim != UINT32_MAX) {
                     __builtin_prefetch(s->tri + 3 * (size_t)hh[k].prim);
                     __builtin_prefetch(s->tri_mat + hh[k].prim);

@@ -31,6 +31,8 @@ struct pgi_renderer {
 
 const pgi_scene *pgi_renderer_scene(const pgi_renderer *r) { return r ? r->scene : NULL; }
 
+pgi__rt *pgi__renderer_rt(pgi_renderer *r) { return r ? r->rt : NULL; }
+
 pgi_status pgi_renderer_create(const pgi_scene *scene, pgi_renderer **out) {
     *out = NULL;
     if (!scene) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_renderer_create: no scene");
@@ -222,6 +224,7 @@ static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, pgi_frame_s
         fs->rt_update_ms = pgi__now_ms() - tu;
     }
     double t0 = pgi__now_ms();
+    pgi__rt_capture_pass(r->rt, PGI__PASS_VIEW); /* ray capture tags (a no-op unless a bench captures) */
     if ((st = pgi__view_build(s, r->rt, &r->cam, d->seed, d->threads, &r->vs, r->emit, &fs->primary_rays))) return st;
     double t1 = pgi__now_ms();
     pgi__trace_desc td = {.photons = d->photons, .bounces = d->bounces, .seed = d->seed, .threads = d->threads};
@@ -231,7 +234,10 @@ static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, pgi_frame_s
     td.r_max = d->r_max;
     td.smoothing = d->smoothing;
     td.footprint_hist = fs->footprint_hist;
-    if ((st = pgi__photons_trace(s, r->rt, &td, &r->ph, &r->trace_scratch, &fs->photon_rays))) return st;
+    pgi__rt_capture_pass(r->rt, PGI__PASS_TRACE);
+    st = pgi__photons_trace(s, r->rt, &td, &r->ph, &r->trace_scratch, &fs->photon_rays);
+    pgi__rt_capture_pass(r->rt, PGI__PASS_NONE);
+    if (st) return st;
     fs->view_ms = t1 - t0;
     fs->trace_ms = pgi__now_ms() - t1;
     fs->photons_emitted = r->ph.emitted;
@@ -303,8 +309,10 @@ pgi_status pgi_renderer_render(pgi_renderer *r, const pgi_render_desc *in, pgi_i
     if ((st = pgi_estimator_estimate(r->est, &ea))) return st;
     if (d.filter > 0 && (st = pgi__bilateral_filter(&r->vs, d.filter, d.threads, r->indirect))) return st;
     double t4 = pgi__now_ms();
-    if ((st = pgi__direct(s, r->rt, &r->vs, d.direct_samples, d.seed, d.threads, r->direct, &fs.shadow_rays)))
-        return st;
+    pgi__rt_capture_pass(r->rt, PGI__PASS_DIRECT);
+    st = pgi__direct(s, r->rt, &r->vs, d.direct_samples, d.seed, d.threads, r->direct, &fs.shadow_rays);
+    pgi__rt_capture_pass(r->rt, PGI__PASS_NONE);
+    if (st) return st;
     double t5 = pgi__now_ms();
 
     size_t n = (size_t)d.width * d.height;

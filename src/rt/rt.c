@@ -1,6 +1,7 @@
 /* Embree 3 back end. Pitfalls: ray.mask must be -1 (all bits) or every
  * geometry is skipped; 8-wide packets are native on AVX2 CPUs. */
 #include "rt.h"
+#include "ray_log.h"
 
 #include <embree3/rtcore.h>
 #include <stdio.h>
@@ -20,7 +21,47 @@ struct pgi__rt {
     uint32_t *dyn_verts; /* scene vertex of each vertex of the animated geometry; NULL: not split */
     size_t ndyn_verts;
     uint64_t static_version, dynamic_version;
+    pgi__ray_log *capture; /* NULL: off (pgi__rt_capture_set) */
 };
+
+/* Ray capture (ray_log.h): each query ends with `if (CAPTURING(rt)) capture...(...)`. The
+ * capture functions are out of line and read the ray back from Embree's structure (Embree
+ * leaves origin, direction and tnear as they were; tfar is passed, Embree overwrites it), so
+ * that while capture is off a query pays one load and a not-taken branch, and keeps nothing
+ * else alive across the Embree call. */
+#define CAPTURING(rt) __builtin_expect((rt)->capture != NULL, 0)
+#if defined(__GNUC__)
+#define PGI__COLD __attribute__((noinline, cold))
+#else
+#define PGI__COLD
+#endif
+
+static PGI__COLD void capture1(pgi__ray_log *log, pgi__ray_kind kind, const struct RTCRay *r, float tfar, unsigned geom,
+                               unsigned prim) {
+    pgi__ray_rec *c = pgi__ray_log_reserve(log, kind, 1, 0);
+    if (c)
+        pgi__ray_rec_set(c, v3(r->org_x, r->org_y, r->org_z), v3(r->dir_x, r->dir_y, r->dir_z), r->tnear, tfar, 1, geom,
+                         prim);
+}
+
+static PGI__COLD void capture8(pgi__ray_log *log, pgi__ray_kind kind, unsigned flags, const int *vmask,
+                               const struct RTCRayHit8 *rh, float tfar) {
+    pgi__ray_rec *c = pgi__ray_log_reserve(log, kind, 8, flags);
+    for (int i = 0; c && i < 8; i++)
+        pgi__ray_rec_set(c + i, v3(rh->ray.org_x[i], rh->ray.org_y[i], rh->ray.org_z[i]),
+                         v3(rh->ray.dir_x[i], rh->ray.dir_y[i], rh->ray.dir_z[i]), rh->ray.tnear[i], tfar,
+                         vmask[i] != 0, rh->hit.geomID[i], rh->hit.primID[i]);
+}
+
+/* 16 lanes of a packet (the rays as cast: tfar before the query). */
+static PGI__COLD void capture16(pgi__ray_log *log, pgi__ray_kind kind, int coherent, const int *vmask,
+                                const struct RTCRay16 *r, const unsigned *geom, const unsigned *prim) {
+    pgi__ray_rec *c = pgi__ray_log_reserve(log, kind, 16, coherent ? PGI__RAY_COHERENT : 0);
+    for (int i = 0; c && i < 16; i++)
+        pgi__ray_rec_set(c + i, v3(r->org_x[i], r->org_y[i], r->org_z[i]), v3(r->dir_x[i], r->dir_y[i], r->dir_z[i]),
+                         r->tnear[i], kind == PGI__RAY_INTERSECT16 ? INFINITY : r->tfar[i], vmask[i] != 0, geom[i],
+                         prim[i]);
+}
 
 static _Thread_local char g_rt_error[256];
 
@@ -207,6 +248,7 @@ int pgi__rt_intersect(const pgi__rt *rt, pgi__v3 o, pgi__v3 d, float tnear, floa
     rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
     rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
     rtcIntersect1(rt->scene, &ctx, &rh);
+    if (CAPTURING(rt)) capture1(rt->capture, PGI__RAY_INTERSECT1, &rh.ray, tfar, rh.hit.geomID, rh.hit.primID);
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) {
         h->prim = UINT32_MAX;
         return 0;
@@ -235,6 +277,8 @@ int pgi__rt_occluded(const pgi__rt *rt, pgi__v3 o, pgi__v3 d, float tnear, float
     r.id = 0;
     r.flags = 0;
     rtcOccluded1(rt->scene, &ctx, &r);
+    if (CAPTURING(rt))
+        capture1(rt->capture, PGI__RAY_OCCLUDED1, &r, tfar, r.tfar < 0.f ? 0u : RTC_INVALID_GEOMETRY_ID, 0u);
     return r.tfar < 0.f; /* Embree sets tfar to -inf when occluded */
 }
 
@@ -263,6 +307,7 @@ void pgi__rt_intersect8(const pgi__rt *rt, const int valid[8], pgi__v3 o, const 
         rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
     }
     rtcIntersect8(vmask, rt->scene, &ctx, &rh);
+    if (CAPTURING(rt)) capture8(rt->capture, PGI__RAY_INTERSECT8, PGI__RAY_COHERENT, vmask, &rh, tfar);
     for (int i = 0; i < 8; i++) {
         if (!valid[i] || rh.hit.geomID[i] == RTC_INVALID_GEOMETRY_ID) {
             hits[i].prim = UINT32_MAX;
@@ -275,18 +320,19 @@ void pgi__rt_intersect8(const pgi__rt *rt, const int valid[8], pgi__v3 o, const 
     }
 }
 
-void pgi__rt_intersect8_any(const pgi__rt *rt, const int valid[8], const pgi__v3 org[8], const pgi__v3 dirs[8],
-                            pgi__hit hits[8]) {
+void pgi__rt_intersect16(const pgi__rt *rt, const int valid[16], const pgi__v3 *org, size_t org_step,
+                         const pgi__v3 dirs[16], int coherent, pgi__hit hits[16]) {
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
-    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
-    RTC_ALIGN(32) struct RTCRayHit8 rh;
-    RTC_ALIGN(32) int vmask[8];
-    for (int i = 0; i < 8; i++) {
+    ctx.flags = coherent ? RTC_INTERSECT_CONTEXT_FLAG_COHERENT : RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+    RTC_ALIGN(64) struct RTCRayHit16 rh;
+    RTC_ALIGN(64) int vmask[16];
+    for (int i = 0; i < 16; i++) {
+        pgi__v3 o = org[(size_t)i * org_step];
         vmask[i] = valid[i] ? -1 : 0;
-        rh.ray.org_x[i] = org[i].x;
-        rh.ray.org_y[i] = org[i].y;
-        rh.ray.org_z[i] = org[i].z;
+        rh.ray.org_x[i] = o.x;
+        rh.ray.org_y[i] = o.y;
+        rh.ray.org_z[i] = o.z;
         rh.ray.dir_x[i] = dirs[i].x;
         rh.ray.dir_y[i] = dirs[i].y;
         rh.ray.dir_z[i] = dirs[i].z;
@@ -299,8 +345,10 @@ void pgi__rt_intersect8_any(const pgi__rt *rt, const int valid[8], const pgi__v3
         rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
         rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
     }
-    rtcIntersect8(vmask, rt->scene, &ctx, &rh);
-    for (int i = 0; i < 8; i++) {
+    rtcIntersect16(vmask, rt->scene, &ctx, &rh);
+    if (CAPTURING(rt))
+        capture16(rt->capture, PGI__RAY_INTERSECT16, coherent, vmask, &rh.ray, rh.hit.geomID, rh.hit.primID);
+    for (int i = 0; i < 16; i++) {
         if (!valid[i] || rh.hit.geomID[i] == RTC_INVALID_GEOMETRY_ID) {
             hits[i].prim = UINT32_MAX;
             continue;
@@ -312,14 +360,14 @@ void pgi__rt_intersect8_any(const pgi__rt *rt, const int valid[8], const pgi__v3
     }
 }
 
-void pgi__rt_occluded8(const pgi__rt *rt, const int valid[8], const pgi__v3 org[8], const pgi__v3 dirs[8],
-                       const float tfar[8], int occluded[8]) {
+void pgi__rt_occluded16(const pgi__rt *rt, const int valid[16], const pgi__v3 org[16], const pgi__v3 dirs[16],
+                        const float tfar[16], int occluded[16]) {
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-    RTC_ALIGN(32) struct RTCRay8 r;
-    RTC_ALIGN(32) int vmask[8];
-    for (int i = 0; i < 8; i++) {
+    RTC_ALIGN(64) struct RTCRay16 r;
+    RTC_ALIGN(64) int vmask[16];
+    for (int i = 0; i < 16; i++) {
         vmask[i] = valid[i] ? -1 : 0;
         r.org_x[i] = org[i].x;
         r.org_y[i] = org[i].y;
@@ -334,6 +382,24 @@ void pgi__rt_occluded8(const pgi__rt *rt, const int valid[8], const pgi__v3 org[
         r.id[i] = (unsigned)i;
         r.flags[i] = 0;
     }
-    rtcOccluded8(vmask, rt->scene, &ctx, &r);
-    for (int i = 0; i < 8; i++) occluded[i] = valid[i] && r.tfar[i] < 0.f;
+    RTC_ALIGN(64) float tf[16];
+    if (CAPTURING(rt)) memcpy(tf, r.tfar, sizeof tf);
+    rtcOccluded16(vmask, rt->scene, &ctx, &r);
+    for (int i = 0; i < 16; i++) occluded[i] = valid[i] && r.tfar[i] < 0.f;
+    if (CAPTURING(rt)) {
+        unsigned g[16], p[16] = {0};
+        for (int i = 0; i < 16; i++) g[i] = occluded[i] ? 0u : RTC_INVALID_GEOMETRY_ID;
+        memcpy(r.tfar, tf, sizeof tf);
+        capture16(rt->capture, PGI__RAY_OCCLUDED16, 1, vmask, &r, g, p);
+    }
+}
+
+void pgi__rt_capture_set(pgi__rt *rt, pgi__ray_log *log) { rt->capture = log; }
+
+void pgi__rt_capture_pass(const pgi__rt *rt, pgi__pass pass) {
+    if (rt->capture) pgi__ray_log_set_pass(rt->capture, pass);
+}
+
+struct RTCSceneTy *pgi__rt_embree_scene(const pgi__rt *rt) {
+    return rt->scene;
 }

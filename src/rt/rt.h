@@ -31,13 +31,28 @@ int pgi__rt_occluded(const pgi__rt *rt, pgi__v3 o, pgi__v3 d, float tnear, float
 void pgi__rt_intersect8(const pgi__rt *rt, const int valid[8], pgi__v3 o, const pgi__v3 dirs[8], float tfar,
                         pgi__hit hits[8]);
 
-/* 8 rays with their own origins (tnear 0, tfar infinity), flagged incoherent. */
-void pgi__rt_intersect8_any(const pgi__rt *rt, const int valid[8], const pgi__v3 org[8], const pgi__v3 dirs[8],
-                            pgi__hit hits[8]);
+/* 16-wide packets (on AVX2, Embree runs them as two 8-wide halves with one traversal; measured
+ * the fastest call style for primary and shadow rays by photongi-bench --limits).
+ * intersect16: ray i starts at org[i * org_step] (org_step 0: one shared origin) and runs over
+ * (0, infinity); `coherent` picks Embree's coherent or incoherent traversal context.
+ * occluded16: rays over (0, tfar[i]), coherent; occluded[i] is 1 when lane i is valid and
+ * blocked. */
+void pgi__rt_intersect16(const pgi__rt *rt, const int valid[16], const pgi__v3 *org, size_t org_step,
+                         const pgi__v3 dirs[16], int coherent, pgi__hit hits[16]);
+void pgi__rt_occluded16(const pgi__rt *rt, const int valid[16], const pgi__v3 org[16], const pgi__v3 dirs[16],
+                        const float tfar[16], int occluded[16]);
 
-/* 8 shadow rays from their own origins over (0, tfar[i]), flagged coherent (rays of one screen
- * tile towards one light): occluded[i] is 1 when lane i is valid and blocked. */
-void pgi__rt_occluded8(const pgi__rt *rt, const int valid[8], const pgi__v3 org[8], const pgi__v3 dirs[8],
-                       const float tfar[8], int occluded[8]);
+/* Ray capture (src/rt/ray_log.h, photongi-bench --limits). While a log is
+ * set, every query above appends its rays and answers to it, tagged with the
+ * pass last given to pgi__rt_capture_pass; NULL turns capture off (the
+ * default: the queries then pay one load and a not-taken branch). Set and
+ * unset it between frames, never with queries in flight. */
+typedef struct pgi__ray_log pgi__ray_log;
+typedef enum pgi__pass { PGI__PASS_NONE, PGI__PASS_VIEW, PGI__PASS_TRACE, PGI__PASS_DIRECT, PGI__PASS_COUNT } pgi__pass;
+void pgi__rt_capture_set(pgi__rt *rt, pgi__ray_log *log);
+/* Tags the rays captured from now on (a no-op while capture is off). */
+void pgi__rt_capture_pass(const pgi__rt *rt, pgi__pass pass);
+/* The Embree scene, for the replay in ray_log.c (an RTCScene). */
+struct RTCSceneTy *pgi__rt_embree_scene(const pgi__rt *rt);
 
 #endif

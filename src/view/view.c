@@ -77,35 +77,36 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, const pgi_came
     uint64_t rays = 0;
     const pgi__v3 eye = v3_load(cam->eye);
     const float eps = pgi__scene_epsilon(s);
-    /* 4x2-pixel tiles: square packets are the most coherent 8 rays. The tiles of a row are
+    /* 4x4-pixel tiles, one coherent 16-wide packet each (the fastest layout of primary rays:
+     * photongi-bench --limits). The tiles of a row are
      * software-pipelined: a tile's texels are prefetched, then the next tile's packet is cast
      * while they arrive, then the tile is shaded (minified textures make nearly every texel
      * fetch a cache miss). */
-    const int tiles_x = (W + 3) / 4, tiles_y = (H + 1) / 2;
+    const int tiles_x = (W + 3) / 4, tiles_y = (H + 3) / 4;
 #pragma omp parallel for schedule(dynamic, 1) reduction(+ : rays) num_threads(pgi__threads(threads))
     for (int ty = 0; ty < tiles_y; ty++) {
-        int valid[2][8];
-        pgi__v3 dirs[2][8];
-        pgi__hit hits[2][8];
+        int valid[2][16];
+        pgi__v3 dirs[2][16];
+        pgi__hit hits[2][16];
         for (int tx = 0; tx <= tiles_x; tx++) {
             int cur = tx & 1, prev = cur ^ 1;
             if (tx < tiles_x) {
-                for (int k = 0; k < 8; k++) {
-                    int px = 4 * tx + (k & 3), py = 2 * ty + (k >> 2);
+                for (int k = 0; k < 16; k++) {
+                    int px = 4 * tx + (k & 3), py = 4 * ty + (k >> 2);
                     valid[cur][k] = px < W && py < H;
                     dirs[cur][k] = pgi__camera_dir(cam, valid[cur][k] ? px : 0, valid[cur][k] ? py : 0);
                 }
-                pgi__rt_intersect8(rt, valid[cur], eye, dirs[cur], INFINITY, hits[cur]);
-                for (int k = 0; k < 8; k++)
+                pgi__rt_intersect16(rt, valid[cur], &eye, 0, dirs[cur], 1, hits[cur]);
+                for (int k = 0; k < 16; k++)
                     if (valid[cur][k] && hits[cur][k].prim != UINT32_MAX)
                         pgi__surface_prefetch_texels(s, hits[cur][k].prim, hits[cur][k].u, hits[cur][k].v);
             }
             if (tx == 0) continue;
             const int sx = tx - 1;
-            for (int k = 0; k < 8; k++) {
+            for (int k = 0; k < 16; k++) {
                 if (!valid[prev][k]) continue;
                 rays++;
-                size_t i = (size_t)(2 * ty + (k >> 2)) * W + (size_t)(4 * sx + (k & 3));
+                size_t i = (size_t)(4 * ty + (k >> 2)) * W + (size_t)(4 * sx + (k & 3));
                 shade_eye_path(s, rt, cam, seed, eps, i, eye, dirs[prev][k], hits[prev][k], vs, emit, &rays);
             }
         }
@@ -143,20 +144,20 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
     const float eps = pgi__scene_epsilon(s);
     uint64_t rays = 0;
     const int W = vs->width, H = vs->height;
-    /* 4x2-pixel tiles: the shadow rays of a tile towards one light (or one area sample each)
-     * go to Embree as one coherent 8-wide packet. Every pixel keeps its own RNG stream and
+    /* 4x4-pixel tiles: the shadow rays of a tile towards one light (or one area sample each)
+     * go to Embree as one coherent 16-wide packet (the fastest style: photongi-bench --limits). Every pixel keeps its own RNG stream and
      * its sums run in the order of the lights and samples, as a pixel-by-pixel loop would. */
-    const int tiles_x = (W + 3) / 4, tiles_y = (H + 1) / 2;
+    const int tiles_x = (W + 3) / 4, tiles_y = (H + 3) / 4;
 #pragma omp parallel for schedule(dynamic, 1) reduction(+ : rays) num_threads(pgi__threads(threads))
     for (int ty = 0; ty < tiles_y; ty++) {
         for (int tx = 0; tx < tiles_x; tx++) {
-            size_t pix[8];
-            int on[8];
-            pgi__v3 x[8], ns[8], ng[8], wo[8], kd[8], ks[8], L[8], La[8];
-            float sh[8];
+            size_t pix[16];
+            int on[16];
+            pgi__v3 x[16], ns[16], ng[16], wo[16], kd[16], ks[16], L[16], La[16];
+            float sh[16];
             int any = 0;
-            for (int k = 0; k < 8; k++) {
-                int px = 4 * tx + (k & 3), py = 2 * ty + (k >> 2);
+            for (int k = 0; k < 16; k++) {
+                int px = 4 * tx + (k & 3), py = 4 * ty + (k >> 2);
                 on[k] = px < W && py < H;
                 pix[k] = on[k] ? (size_t)py * (size_t)W + (size_t)px : 0;
                 L[k] = La[k] = v3(0.f, 0.f, 0.f);
@@ -177,35 +178,35 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
                 any = 1;
             }
             if (!any) continue;
-            int valid[8], occ[8];
-            pgi__v3 wi[8], Li[8];
-            float cs[8], tmax[8];
+            int valid[16], occ[16];
+            pgi__v3 wi[16], Li[16];
+            float cs[16], tmax[16];
             for (size_t l = 0; l < s->nlights; l++) {
                 if (s->lights[l].type == PGI_LIGHT_AREA) continue;
                 int nv = 0;
-                for (int k = 0; k < 8; k++) {
+                for (int k = 0; k < 16; k++) {
                     valid[k] =
                         on[k] && pgi__delta_light(&s->lights[l], x[k], ns[k], ng[k], &wi[k], &Li[k], &cs[k], &tmax[k]);
                     nv += valid[k];
                 }
                 if (!nv) continue;
                 rays += (uint64_t)nv;
-                pgi__rt_occluded8(rt, valid, x, wi, tmax, occ);
-                for (int k = 0; k < 8; k++)
+                pgi__rt_occluded16(rt, valid, x, wi, tmax, occ);
+                for (int k = 0; k < 16; k++)
                     if (valid[k] && !occ[k])
                         L[k] = v3_add(L[k],
                                       v3_scale(v3_mul(pgi__brdf_eval(kd[k], ks[k], sh[k], ns[k], wi[k], wo[k]), Li[k]),
                                                cs[k]));
             }
             if (narea && area_samples > 0) {
-                pgi__rng rng[8];
-                for (int k = 0; k < 8; k++)
+                pgi__rng rng[16];
+                for (int k = 0; k < 16; k++)
                     if (on[k]) pgi_rng_seed(&rng[k], seed ^ 0xd15ec7ULL, (uint64_t)pix[k]);
-                float g[8];
-                const pgi__light *lts[8];
+                float g[16];
+                const pgi__light *lts[16];
                 for (int j = 0; j < area_samples; j++) {
                     int nv = 0;
-                    for (int k = 0; k < 8; k++) {
+                    for (int k = 0; k < 16; k++) {
                         valid[k] = 0;
                         if (!on[k]) continue;
                         float u = ((float)j + pgi_rng_f(&rng[k])) / (float)area_samples; /* stratified light pick */
@@ -228,18 +229,18 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
                     }
                     if (!nv) continue;
                     rays += (uint64_t)nv;
-                    pgi__rt_occluded8(rt, valid, x, wi, tmax, occ);
-                    for (int k = 0; k < 8; k++)
+                    pgi__rt_occluded16(rt, valid, x, wi, tmax, occ);
+                    for (int k = 0; k < 16; k++)
                         if (valid[k] && !occ[k])
                             La[k] =
                                 v3_add(La[k], v3_scale(v3_mul(pgi__brdf_eval(kd[k], ks[k], sh[k], ns[k], wi[k], wo[k]),
                                                               v3_load(lts[k]->color)),
                                                        g[k]));
                 }
-                for (int k = 0; k < 8; k++)
+                for (int k = 0; k < 16; k++)
                     if (on[k]) L[k] = v3_add(L[k], v3_scale(La[k], 1.f / (float)area_samples));
             }
-            for (int k = 0; k < 8; k++)
+            for (int k = 0; k < 16; k++)
                 if (on[k]) v3_store(out + 3 * pix[k], v3_mul(L[k], v3_load(vs->weight + 3 * pix[k])));
         }
     }
