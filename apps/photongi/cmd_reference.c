@@ -226,7 +226,8 @@ int pgi_cmd_reference(int argc, char **argv) {
     if (!st && png) st = pgi_image_write(&img, png, exposure);
     pgi_image_free(&img);
     if (st) return ref_fail("cannot write image", st);
-    snprintf(meta.scene, sizeof meta.scene, "%s", scene_spec);
+    if (scene_spec != meta.scene) /* --continue: already there (copying it onto itself is undefined) */
+        snprintf(meta.scene, sizeof meta.scene, "%s", scene_spec);
     meta.width = d.width;
     meta.height = d.height;
     meta.bounces = d.bounces;
