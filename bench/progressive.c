@@ -1,7 +1,7 @@
 /* Progressive-mode convergence: PSNR and SSIM (the metrics of `photongi
  * compare`: tone-mapped 8-bit sRGB) of the running average after 1, 2, 4, ...
  * frames against a path-traced reference (pgi_reference_render, --ref-spp
- * samples a pixel, same pixel centres, bounces and scene), and the first frame
+ * samples a pixel over the whole pixel, same bounces and scene), and the first frame
  * count reaching a target PSNR.
  *
  *   photongi-bench-progressive [--scene S] [--estimator E] [--size WxH] [--photons N]

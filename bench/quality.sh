@@ -106,7 +106,9 @@ for scene in $SCENES; do
     fi
   else
     echo "quality: rendering the reference $ref ($SPP spp; cached for later runs)" >&2
-    nice -n 10 "$BIN" reference --scene "$scene" --size "$SIZE" --bounces 4 --seed 1 --spp "$SPP" -o "$ref"
+    # --jitter off: pixel centres, as the single frames compared with it (the estimators' error
+    # only, not the aliasing every single frame shares)
+    nice -n 10 "$BIN" reference --scene "$scene" --size "$SIZE" --bounces 4 --seed 1 --jitter off --spp "$SPP" -o "$ref"
   fi
   have=$(ref_spp "$ref.json")
   scale=$(scene_scale "$scene")

@@ -170,6 +170,16 @@ expect_error "--time needs" render --time soon -o "$TMP/x.png"
 expect_error "--output must be" render --output everything -o "$TMP/x.png"
 if expect_ok render --scene cornell --size 32x24 --photons 2000 --progressive 3 -o "$TMP/prog.png" --stats "$TMP/prog.json" -q; then
     grep -qE '"frames":[[:space:]]*3,' "$TMP/prog.json" && ok || bad "render --progressive 3: stats do not say 3 frames"
+    grep -qE '"jitter":[[:space:]]*"auto"' "$TMP/prog.json" && ok || bad "render --progressive 3: stats lack jitter auto"
+fi
+# Pixel sampling: one frame at pixel centres by default, --jitter on/off.
+expect_error "--jitter must be" render --jitter sometimes -o "$TMP/x.png"
+if expect_ok render --scene cornell --size 32x24 --photons 2000 -o "$TMP/j0.png" --stats "$TMP/j0.json" -q; then
+    grep -qE '"jitter":[[:space:]]*"off"' "$TMP/j0.json" && ok || bad "render: one frame's stats lack jitter off"
+fi
+if expect_ok render --scene cornell --size 32x24 --photons 2000 --jitter on -o "$TMP/j1.png" --stats "$TMP/j1.json" -q; then
+    grep -qE '"jitter":[[:space:]]*"on"' "$TMP/j1.json" && ok || bad "render --jitter on: stats lack jitter on"
+    cmp -s "$TMP/j0.png" "$TMP/j1.png" && bad "render --jitter on: same image as pixel centres" || ok
 fi
 if expect_ok render --scene scenes/cornell-moving.json --time 2.5 --size 32x24 --photons 2000 --output counts -o "$TMP/c.exr" -q; then
     [ -s "$TMP/c.exr" ] && ok || bad "render --output counts did not write c.exr"
@@ -222,6 +232,7 @@ if expect_ok reference --scene cornell --size 24x16 --spp 2 -q -o "$TMP/r.exr" -
     [ -s "$TMP/r.png" ] && ok || bad "reference did not write --png"
     if expect_ok reference --continue "$TMP/r.exr" --spp 3 -q; then
         grep -q '"spp":[[:space:]]*"5"' "$TMP/r.exr.json" && ok || bad "reference --continue: spp is not 5"
+        grep -q '"scene":[[:space:]]*"cornell"' "$TMP/r.exr.json" && ok || bad "reference --continue lost the scene"
     fi
     expect_ok render --scene cornell --size 24x16 --photons 2000 -q -o "$TMP/p.png"
     if expect_ok compare "$TMP/p.png" "$TMP/r.exr" --json --diff "$TMP/heat.png"; then
@@ -233,8 +244,25 @@ if expect_ok reference --scene cornell --size 24x16 --spp 2 -q -o "$TMP/r.exr" -
     expect_error "missing.png" compare "$TMP/p.png" "$TMP/missing.png"
     expect_error "two images" compare "$TMP/p.png"
     expect_error "unknown option" compare "$TMP/p.png" "$TMP/r.exr" --frobnicate
+    grep -qE '"jitter":[[:space:]]*true' "$TMP/r.exr.json" && ok || bad "reference: r.exr.json lacks jitter true"
     printf 'not json' >"$TMP/r.exr.json"
     expect_error "metadata" reference --continue "$TMP/r.exr" --spp 1
+fi
+# Reference at pixel centres: kept by --continue; a format-1 sidecar (an older photongi) continues
+# as centres; --continue takes the jitter from the sidecar.
+expect_error "--jitter must be" reference --scene cornell --spp 1 --jitter maybe -o "$TMP/c.exr"
+if expect_ok reference --scene cornell --size 24x16 --spp 2 --jitter off -q -o "$TMP/c.exr"; then
+    grep -qE '"jitter":[[:space:]]*false' "$TMP/c.exr.json" && ok || bad "reference --jitter off: no jitter false"
+    expect_error "do not give them" reference --continue "$TMP/c.exr" --jitter on --spp 1
+    if expect_ok reference --continue "$TMP/c.exr" --spp 1 -q; then
+        grep -qE '"jitter":[[:space:]]*false' "$TMP/c.exr.json" && ok || bad "reference --continue lost jitter false"
+    fi
+    sed -e 's/photongi-reference-2/photongi-reference-1/' -e '/"jitter"/d' -e 's/"spp":[[:space:]]*"3",/"spp": "3"/' \
+        "$TMP/c.exr.json" >"$TMP/c1.json" && mv "$TMP/c1.json" "$TMP/c.exr.json"
+    if expect_ok reference --continue "$TMP/c.exr" --spp 1 -q; then
+        grep -qE '"jitter":[[:space:]]*false' "$TMP/c.exr.json" && ok || bad "format-1 reference did not continue at centres"
+        grep -q '"spp":[[:space:]]*"4"' "$TMP/c.exr.json" && ok || bad "format-1 reference --continue: spp is not 4"
+    fi
 fi
 # kernels, subsampling, filter, k-NN, polygon bounds
 expect_error "--knn" render --estimator kdtree --knn 0 -o "$TMP/x.png"

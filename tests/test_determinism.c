@@ -3,6 +3,7 @@
 #include "test_util.h"
 
 static pgi_scene *g_scene;
+static pgi_jitter g_jitter; /* sub-pixel positions of the frames rendered */
 
 static int setup(void **state) {
     if (pgi_scene_load("cornell", &g_scene) != PGI_OK) {
@@ -25,7 +26,8 @@ static void render(const char *est, int size, uint32_t photons, int threads, uin
                          .photons = photons,
                          .radius = 0.08f,
                          .threads = threads,
-                         .seed = seed};
+                         .seed = seed,
+                         .jitter = g_jitter};
     TU_CHECK_OK(pgi_render(g_scene, &d, img, fs));
     assert_int_equal(img->width, size);
     assert_int_equal(img->height, size);
@@ -70,6 +72,23 @@ static void test_tiled(void **state) { same_bytes("tiled", 64, 20000); }
 static void test_hashgrid(void **state) { same_bytes("hashgrid", 64, 20000); }
 static void test_brute(void **state) { same_bytes("brute", 32, 4000); }
 
+/* Jittered view samples (a point per pixel from the seed): still the same
+ * bytes at any thread count, and not the image of pixel centres. bounds25d
+ * finds the samples by projecting photon bounds onto the screen. */
+static void test_jittered(void **state) {
+    g_jitter = PGI_JITTER_ON;
+    same_bytes("tiled", 64, 20000);
+    same_bytes("bounds25d", 48, 10000);
+    pgi_image on = {0}, off = {0};
+    pgi_frame_stats fs;
+    render("tiled", 48, 5000, 2, 42, &on, &fs);
+    g_jitter = PGI_JITTER_AUTO;
+    render("tiled", 48, 5000, 2, 42, &off, &fs);
+    assert_true(memcmp(on.rgb, off.rgb, 3 * 48 * 48 * sizeof(float)) != 0);
+    pgi_image_free(&on);
+    pgi_image_free(&off);
+}
+
 /* The renderer keeps buffers between frames: a second frame with the same
  * settings is the same image as the first, and as a fresh renderer's. */
 static void test_renderer_reuse(void **state) {
@@ -96,10 +115,8 @@ static void test_renderer_reuse(void **state) {
 
 int main(void) {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_tiled),
-        cmocka_unit_test(test_hashgrid),
-        cmocka_unit_test(test_brute),
-        cmocka_unit_test(test_renderer_reuse),
+        cmocka_unit_test(test_tiled),    cmocka_unit_test(test_hashgrid),       cmocka_unit_test(test_brute),
+        cmocka_unit_test(test_jittered), cmocka_unit_test(test_renderer_reuse),
     };
     return cmocka_run_group_tests_name("determinism", tests, setup, teardown);
 }

@@ -54,10 +54,10 @@ typedef struct {
  * Fewer photons for the large radii keep the tiled copies small at tile size 1. */
 static const radius_case k_cases[] = {{0.015f, 20000}, {0.07f, 8000}, {0.25f, 3000}, {3.0f, 800}};
 
-static void run_random(float secondary, const char *label, uint64_t seed) {
+static void run_random_j(float secondary, const char *label, uint64_t seed, int jitter) {
     pgi_view_samples vs;
     pgi_camera cam;
-    tu_make_samples(&vs, &cam, g_view, W, H, seed, secondary);
+    tu_make_samples_j(&vs, &cam, g_view, W, H, seed, secondary, jitter);
     size_t nprimary = 0, nsecondary = 0;
     for (size_t i = 0; i < vs.count; i++)
         if (vs.flags[i] & PGI_VS_VALID) (vs.flags[i] & PGI_VS_PRIMARY) ? nprimary++ : nsecondary++;
@@ -79,7 +79,19 @@ static void run_random(float secondary, const char *label, uint64_t seed) {
     pgi_view_samples_free(&vs);
 }
 
+static void run_random(float secondary, const char *label, uint64_t seed) { run_random_j(secondary, label, seed, 0); }
+
 static void test_random_primary(void **state) { run_random(0.f, "primary samples", 11); }
+
+/* Primary samples anywhere in their pixel (jittered frames; vs.jitter = 0.5),
+ * a quarter of them on pixel edges: the screen-space methods (tiled frusta,
+ * bounds polygons, cluster tiles) must still find every one. */
+static void test_random_jittered(void **state) {
+    run_random_j(0.1f, "jittered samples, 10% mirror samples", 14, 1);
+    g_view = &k_inside;
+    run_random_j(0.f, "jittered, eye inside the photons", 18, 1);
+    g_view = &k_outside;
+}
 
 static void test_random_with_mirror_samples(void **state) { run_random(0.15f, "15% mirror samples", 12); }
 
@@ -233,7 +245,7 @@ static void test_mirror_glass_pipeline(void **state) {
         const pgi_camera_def *cd = &sc->cams[0];
         pgi_camera_look_at(&cam, cd->eye, cd->look_at, cd->up, cd->fov_y_deg, 72, 56);
         uint64_t rays = 0;
-        TU_CHECK_OK(pgi__view_build(sc, rt, &cam, 1, 0, &vs, emit, &rays));
+        TU_CHECK_OK(pgi__view_build(sc, rt, &cam, 1, 0, 0, &vs, emit, &rays));
         size_t secondary = 0, phong = 0;
         for (size_t i = 0; i < vs.count; i++) {
             if (!(vs.flags[i] & PGI_VS_VALID)) continue;
@@ -254,11 +266,11 @@ static void test_mirror_glass_pipeline(void **state) {
 
 int main(void) {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_create_errors),      cmocka_unit_test(test_zero_photons),
-        cmocka_unit_test(test_random_primary),     cmocka_unit_test(test_random_with_mirror_samples),
-        cmocka_unit_test(test_eye_inside_photons), cmocka_unit_test(test_hashgrid_cell_sizes),
-        cmocka_unit_test(test_cornell_pipeline),   cmocka_unit_test(test_mirror_glass_pipeline),
-        cmocka_unit_test(test_sibenik_pipeline),
+        cmocka_unit_test(test_create_errors),         cmocka_unit_test(test_zero_photons),
+        cmocka_unit_test(test_random_primary),        cmocka_unit_test(test_random_with_mirror_samples),
+        cmocka_unit_test(test_random_jittered),       cmocka_unit_test(test_eye_inside_photons),
+        cmocka_unit_test(test_hashgrid_cell_sizes),   cmocka_unit_test(test_cornell_pipeline),
+        cmocka_unit_test(test_mirror_glass_pipeline), cmocka_unit_test(test_sibenik_pipeline),
     };
     return cmocka_run_group_tests_name("estimators", tests, NULL, NULL);
 }

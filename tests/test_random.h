@@ -24,19 +24,31 @@ static inline void tu_make_photons(pgi_photons *ph, size_t n, uint64_t seed) {
     ph->emitted = n;
 }
 
-/* View samples on the camera ray through each pixel centre at a random depth.
+/* View samples on a camera ray through each pixel at a random depth: through
+ * the pixel centre, or with `jitter` through a random point of the pixel
+ * (vs->jitter = 0.5, as the renderer's jittered frames; a quarter of them on
+ * the pixel's edges and corners, the worst case for screen-space bounds).
  * About 10% invalid, 10% Blinn-Phong; `secondary` of the valid ones are
  * mirror-reflected samples (no PGI_VS_PRIMARY) anywhere in the box. */
-static inline void tu_make_samples(pgi_view_samples *vs, pgi_camera *cam, const tu_view_setup *g_view, int W, int H,
-                                   uint64_t seed, float secondary) {
+static inline void tu_make_samples_j(pgi_view_samples *vs, pgi_camera *cam, const tu_view_setup *g_view, int W, int H,
+                                     uint64_t seed, float secondary, int jitter) {
     TU_CHECK_OK(pgi_view_samples_alloc(vs, W, H));
     pgi_camera_look_at(cam, g_view->eye, g_view->at, g_view->up, g_view->fov, W, H);
+    vs->jitter = jitter ? 0.5f : 0.f;
     tu_rng r = tu_rng_make(seed);
     for (int y = 0; y < H; y++)
         for (int x = 0; x < W; x++) {
             size_t i = (size_t)y * W + (size_t)x;
             float dir[3], pos[3], n[3], wo[3], kd[3];
-            tu_pixel_dir(cam, x, y, dir);
+            float jx = 0.5f, jy = 0.5f;
+            if (jitter) {
+                jx = tu_unif(&r), jy = tu_unif(&r);
+                if (tu_unif(&r) < 0.25f) { /* on an edge or a corner of the pixel */
+                    jx = jx < 0.5f ? 0.f : 1.f;
+                    if (tu_unif(&r) < 0.5f) jy = jy < 0.5f ? 0.f : 1.f;
+                }
+            }
+            tu_pixel_dir_at(cam, x, y, jx, jy, dir);
             float t = tu_range(&r, g_view->tmin, g_view->tmax);
             for (int k = 0; k < 3; k++) pos[k] = cam->eye[k] + t * dir[k];
             float kind = tu_unif(&r);
@@ -62,6 +74,12 @@ static inline void tu_make_samples(pgi_view_samples *vs, pgi_camera *cam, const 
             for (int k = 0; k < 3; k++) kd[k] = tu_range(&r, 0.1f, 0.9f);
             tu_set_sample(vs, i, pos, n, wo, kd, ks, shin, t, flags);
         }
+}
+
+/* View samples through pixel centres (tu_make_samples_j without jitter). */
+static inline void tu_make_samples(pgi_view_samples *vs, pgi_camera *cam, const tu_view_setup *g_view, int W, int H,
+                                   uint64_t seed, float secondary) {
+    tu_make_samples_j(vs, cam, g_view, W, H, seed, secondary, 0);
 }
 
 #endif

@@ -82,7 +82,9 @@ static void block_means(const pgi_image *img, double *out) {
  * (measured: about 0.3% and 2.5%). A factor pi, a cosine dropped or taken
  * twice, or a bounce too many or too few moves whole blocks by 10% or more. */
 static void agreement(const pgi_scene *s, const char *what) {
-    pgi_reference_desc rd = {.width = CB_W, .height = CB_H, .bounces = 4, .spp = 512, .seed = 7};
+    /* Pixel centres, as the single frame it is compared with: light transport only, no aliasing. */
+    pgi_reference_desc rd =
+        {.width = CB_W, .height = CB_H, .bounces = 4, .spp = 512, .seed = 7, .jitter = PGI_JITTER_OFF};
     pgi_image ref = {0};
     uint64_t spp = 0;
     TU_CHECK_OK(pgi_reference_render(s, &rd, &ref, &spp));

@@ -272,12 +272,18 @@ static inline void tu_pipeline_vs_brute(const char *scene_name, int w, int h, ui
     pgi_scene_destroy(scene);
 }
 
-/* Direction through the centre of pixel (x, y) (not normalised; its
- * component along cam->forward is 1, so eye + t * dir has view depth t). */
-static inline void tu_pixel_dir(const pgi_camera *cam, int x, int y, float dir[3]) {
-    float u = (2.f * ((float)x + 0.5f) / (float)cam->width - 1.f) * cam->tan_half_fov_y * cam->aspect;
-    float v = (1.f - 2.f * ((float)y + 0.5f) / (float)cam->height) * cam->tan_half_fov_y;
+/* Direction through the point (x + jx, y + jy) of the image, (jx, jy) in
+ * [0, 1]^2 inside pixel (x, y) (not normalised; its component along
+ * cam->forward is 1, so eye + t * dir has view depth t). */
+static inline void tu_pixel_dir_at(const pgi_camera *cam, int x, int y, float jx, float jy, float dir[3]) {
+    float u = (2.f * ((float)x + jx) / (float)cam->width - 1.f) * cam->tan_half_fov_y * cam->aspect;
+    float v = (1.f - 2.f * ((float)y + jy) / (float)cam->height) * cam->tan_half_fov_y;
     for (int k = 0; k < 3; k++) dir[k] = cam->forward[k] + u * cam->right[k] + v * cam->up[k];
+}
+
+/* Direction through the centre of pixel (x, y) (as tu_pixel_dir_at). */
+static inline void tu_pixel_dir(const pgi_camera *cam, int x, int y, float dir[3]) {
+    tu_pixel_dir_at(cam, x, y, 0.5f, 0.5f, dir);
 }
 
 /* Sets view sample i as a Lambertian (or Phong when ks > 0) sample. */

@@ -21,9 +21,11 @@ static const char *k_reference_help =
     "Path-traces a reference with the photon pipeline's light transport: emission seen along\n"
     "the eye path, direct light at the first non-specular hit (next-event estimation, MIS for\n"
     "area lights) and indirect light of light paths with 1..B scattering events, Russian\n"
-    "roulette. Pixel centres as 'render', so images compare pixel for pixel. Deterministic for\n"
-    "a seed whatever the thread count. Writes linear EXR and REF.exr.json (scene, size,\n"
-    "bounces, camera, seed, samples), so that --continue can add samples later.\n"
+    "roulette. Each sample looks through its own uniform point of the pixel, so the image\n"
+    "converges to the box-filtered pixel integral, as 'render --progressive' does (--jitter off:\n"
+    "pixel centres, the point samples of one 'render' frame). Deterministic for a seed whatever\n"
+    "the thread count. Writes linear EXR and REF.exr.json (scene, size, bounces, camera, seed,\n"
+    "jitter, samples), so that --continue can add samples later.\n"
     "\n"
     "  --scene S          scene, as for 'render' (default cornell)\n"
     "  --spp N            samples per pixel to add (default 64; with --time: an upper bound)\n"
@@ -34,6 +36,7 @@ static const char *k_reference_help =
     "  --seed K           random seed (default 1)\n"
     "  --threads T        worker threads (default: all cores)\n"
     "  --camera I         camera index (default 0)\n"
+    "  --jitter on|off    samples over the whole pixel (on, default) or through its centre\n"
     "  --continue REF.exr add samples to REF.exr (settings from REF.exr.json; -o defaults to it)\n"
     "  --png FILE         also write a tone-mapped PNG\n"
     "  --exposure X       exposure for --png (default: the scene's, else 1)\n"
@@ -101,7 +104,7 @@ int pgi_cmd_reference(int argc, char **argv) {
     long long spp = 0;
     double time_s = 0.0;
     float exposure = 0.f;
-    int quiet = 0, size_set = 0, bounces_set = 0, seed_set = 0, camera_set = 0;
+    int quiet = 0, size_set = 0, bounces_set = 0, seed_set = 0, camera_set = 0, jitter_set = 0;
     for (int i = 0; i < argc; i++) {
         const char *a = argv[i];
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
@@ -141,6 +144,11 @@ int pgi_cmd_reference(int argc, char **argv) {
             if (!parse_long(v, 0, 1000000, &n)) return ref_usage("--camera needs an index, got '%s'", v);
             d.camera = (int)n;
             camera_set = 1;
+        } else if (strcmp(a, "--jitter") == 0) {
+            if (strcmp(v, "on") == 0) d.jitter = PGI_JITTER_ON;
+            else if (strcmp(v, "off") == 0) d.jitter = PGI_JITTER_OFF;
+            else return ref_usage("--jitter must be on or off, got '%s'", v);
+            jitter_set = 1;
         } else if (strcmp(a, "--size") == 0) {
             int w, h;
             char c;
@@ -161,9 +169,9 @@ int pgi_cmd_reference(int argc, char **argv) {
     memset(&meta, 0, sizeof meta);
     char meta_path[4096];
     if (cont) {
-        if (scene_spec || size_set || bounces_set || seed_set || camera_set)
-            return ref_usage("%s", "--continue takes the scene, size, bounces, seed and camera from the reference's "
-                                   ".json file; do not give them");
+        if (scene_spec || size_set || bounces_set || seed_set || camera_set || jitter_set)
+            return ref_usage("%s", "--continue takes the scene, size, bounces, seed, camera and jitter from the "
+                                   "reference's .json file; do not give them");
         snprintf(meta_path, sizeof meta_path, "%s.json", cont);
         pgi_status st = pgi_reference_meta_read(meta_path, &meta);
         if (st) return ref_fail("cannot continue", st);
@@ -182,6 +190,7 @@ int pgi_cmd_reference(int argc, char **argv) {
         d.bounces = meta.bounces;
         d.camera = meta.camera;
         d.seed = meta.seed;
+        d.jitter = meta.jitter;
         have = meta.spp;
         if (!out) out = cont;
     }
@@ -208,6 +217,7 @@ int pgi_cmd_reference(int argc, char **argv) {
     }
     if (d.bounces == 0) d.bounces = info.defaults.bounces > 0 ? info.defaults.bounces : 4;
     if (d.seed == 0) d.seed = 1;
+    if (d.jitter == PGI_JITTER_AUTO) d.jitter = PGI_JITTER_ON;
     progress_state ps = {time_s, -1e9};
     if (!quiet && isatty(2)) {
         d.progress = spp || time_s <= 0.0 ? progress_bar : progress_time;
@@ -226,13 +236,15 @@ int pgi_cmd_reference(int argc, char **argv) {
     if (!st && png) st = pgi_image_write(&img, png, exposure);
     pgi_image_free(&img);
     if (st) return ref_fail("cannot write image", st);
-    snprintf(meta.scene, sizeof meta.scene, "%s", scene_spec);
+    if (scene_spec != meta.scene) /* --continue: already there (copying it onto itself is undefined) */
+        snprintf(meta.scene, sizeof meta.scene, "%s", scene_spec);
     meta.width = d.width;
     meta.height = d.height;
     meta.bounces = d.bounces;
     meta.camera = d.camera;
     meta.seed = d.seed;
     meta.spp = have;
+    meta.jitter = d.jitter;
     snprintf(meta_path, sizeof meta_path, "%s.json", out);
     st = pgi_reference_meta_write(&meta, meta_path);
     if (st) return ref_fail("cannot write metadata", st);

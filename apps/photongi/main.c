@@ -51,6 +51,12 @@ static const char *k_render_help =
     "                     photons that contributed at each pixel, best written as .exr)\n"
     "  --progressive N    average N frames with fresh photons and a shrinking radius\n"
     "                     (Knaus & Zwicker 2011; exact estimators); converges as N grows\n"
+    "                     to the pixel integral, as 'photongi reference' (see --jitter)\n"
+    "  --jitter auto|on|off   where in its pixel each view sample looks: auto (default) =\n"
+    "                     the pixel centre for one frame, and for every frame after the first\n"
+    "                     of --progressive a uniform point of the pixel drawn from the frame's\n"
+    "                     seed (a box filter); on = that point for every frame; off = centres\n"
+    "                     always (a progressive average then converges to point samples)\n"
     "  --time T           scene time in seconds for animated objects (default 0)\n"
     "  --stats FILE.json  write timings, memory, photon reads/contributing as JSON ('-' = stdout)\n"
     "  -o, --out FILE     output image (.png or .exr); required\n"
@@ -269,6 +275,11 @@ static int cmd_render(int argc, char **argv) {
             if (a[2] == 's') d.smoothing = f;
             else if (strcmp(a, "--r-min") == 0) d.r_min = f;
             else d.r_max = f;
+        } else if (strcmp(a, "--jitter") == 0) {
+            if (strcmp(v, "auto") == 0) d.jitter = PGI_JITTER_AUTO;
+            else if (strcmp(v, "on") == 0) d.jitter = PGI_JITTER_ON;
+            else if (strcmp(v, "off") == 0) d.jitter = PGI_JITTER_OFF;
+            else return usage_error("render", "--jitter must be auto, on or off, got '%s'", v);
         } else if (strcmp(a, "--filter") == 0) {
             if (!parse_long(v, 0, 16, &n))
                 return usage_error("render", "--filter needs a radius in 0..16 pixels, got '%s'", v);

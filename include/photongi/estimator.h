@@ -79,6 +79,11 @@ typedef struct pgi_view_samples {
     float *weight;    /* throughput of the specular chain from the eye (1 if primary) */
     float *depth;     /* view-space depth (along camera forward) of the primary hit */
     uint8_t *flags;   /* PGI_VS_* */
+    float jitter;     /* how far (in pixels, along x and along y) a PGI_VS_PRIMARY sample's primary ray may
+                         pass from its pixel's centre: 0 = through the centre (pgi_view_samples_alloc's
+                         value), 0.5 = anywhere in the pixel (the renderer's jittered frames). Estimators
+                         that find samples by projecting onto the screen (bounds3d, bounds25d) widen their
+                         bounds by it, so that they stay exact. */
 } pgi_view_samples;
 
 /* Density-estimation kernels (tiled paper §2.2); each is normalised to

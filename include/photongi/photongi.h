@@ -90,6 +90,17 @@ typedef enum pgi_output {
                                    second build + estimate pass over unit-flux photons */
 } pgi_output;
 
+/* Where in its pixel each view sample of a frame looks (pgi_render_desc.jitter). The image of one
+ * frame is a point sample per pixel; an average of frames converges to the box-filtered pixel
+ * integral (what `pgi_reference_render` computes) only when the points are spread over the pixel. */
+typedef enum pgi_jitter {
+    PGI_JITTER_AUTO = 0, /* default: a single frame samples pixel centres (the crispest single image);
+                            progressive mode jitters every frame after the first */
+    PGI_JITTER_OFF,      /* pixel centres, every frame (a progressive average converges to point samples) */
+    PGI_JITTER_ON        /* every frame: a uniform point in each pixel, drawn from (seed, pixel index), the
+                            same for every pass of the frame and any thread count (a box filter) */
+} pgi_jitter;
+
 /* Zero means "default" for every field, nested estimator options included. */
 typedef struct pgi_render_desc {
     const char *estimator;  /* registered name; default PGI_DEFAULT_ESTIMATOR */
@@ -112,6 +123,8 @@ typedef struct pgi_render_desc {
                                 differentials: r_max clamps the footprint radius (default: radius) */
     float smoothing;    /* differentials: smoothing factor s (> 0); 0 = automatic (docs/bvh.md) */
     int filter;         /* bilateral reconstruction filter radius in pixels on the indirect light (0 off) */
+    pgi_jitter jitter;  /* sub-pixel position of the view samples; default PGI_JITTER_AUTO (resolved: a single
+                           frame reports OFF, a progressive average the caller's value) */
 } pgi_render_desc;
 
 typedef enum pgi_radius_policy {

@@ -36,6 +36,10 @@ typedef struct pgi_reference_desc {
     double time_limit_s;                /* > 0: stop after the pass that reaches this wall time */
     pgi_reference_progress_fn progress; /* may be NULL */
     void *progress_user;
+    pgi_jitter jitter; /* AUTO (default) or ON: every sample through its own uniform point of the pixel, so
+                          the mean converges to the box-filtered pixel integral (the limit of a progressive
+                          render); OFF: through pixel centres (point samples, as one frame of `render`; the
+                          random numbers of a sample are then those of references made before jitter) */
 } pgi_reference_desc;
 
 /* Adds desc->spp samples (sample indices *spp .. *spp + desc->spp - 1 of the
@@ -51,10 +55,13 @@ typedef struct pgi_reference_meta {
     char scene[256]; /* scene spec as given on the command line */
     int width, height, bounces, camera;
     uint64_t seed, spp;
+    pgi_jitter jitter; /* PGI_JITTER_ON or PGI_JITTER_OFF (what the samples so far used) */
 } pgi_reference_meta;
 
-/* Writes/reads the sidecar JSON file `path`. Reading a missing file is
- * PGI_ERR_IO; a file without the fields is PGI_ERR_PARSE. */
+/* Writes/reads the sidecar JSON file `path` (format "photongi-reference-2";
+ * "photongi-reference-1", written before references were jittered, reads as
+ * PGI_JITTER_OFF). Reading a missing file is PGI_ERR_IO; a file without the
+ * fields is PGI_ERR_PARSE. */
 pgi_status pgi_reference_meta_write(const pgi_reference_meta *m, const char *path);
 pgi_status pgi_reference_meta_read(const char *path, pgi_reference_meta *m);
 

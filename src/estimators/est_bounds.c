@@ -33,7 +33,12 @@
  * tile whose box of such samples its sphere overlaps, and tests them all.
  * The sphere is inflated by a relative 1e-4 (plus float slack) and the
  * polygon by 0.05 pixel, so rounding never drops a pixel the test accepts;
- * the extra pixels only cost tests.
+ * the extra pixels only cost tests. A primary sample lies on a ray through
+ * its pixel's centre only when the frame is not jittered: in general its
+ * projection is within vs->jitter pixels (along x and y) of the centre, so
+ * the bound is widened by that much (0.5 for jittered frames: every side
+ * moves out by jitter (|a| + |b|) for a unit normal (a, b)) and tested at
+ * pixel centres as before.
  *
  * Stats: reads = sphere tests (pixel, photon), contributing = the accepted
  * ones, nodes_visited = covered pixels with a valid primary sample (before
@@ -56,6 +61,7 @@ typedef struct {
     pgi__est_common c;
     int mode3d, nverts;
     int T, ntx, nty, ntiles, W, H;
+    float jitter; /* the view samples' (pgi_view_samples.jitter) */
     btile *tiles;
     size_t tiles_cap;
     uint32_t *sec; /* tiles with secondary samples */
@@ -77,6 +83,7 @@ typedef struct {
  * a X + b Y <= c with (a, b) unit, and (2.5D) a depth range. */
 typedef struct {
     float x0, x1, y0, y1;
+    float pad; /* vs->jitter: how far a primary sample projects from its pixel centre */
     int n;
     float a[MAXE], b[MAXE], c[MAXE];
     float zlo, zhi;
@@ -101,7 +108,7 @@ static inline void add_edge(shape *sh, float a, float b, float c) {
     if (!(l > 0.f) || sh->n >= MAXE) return;
     sh->a[sh->n] = a / l;
     sh->b[sh->n] = b / l;
-    sh->c[sh->n] = c / l + PIX_MARGIN;
+    sh->c[sh->n] = c / l + PIX_MARGIN + sh->pad * (fabsf(a) + fabsf(b)) / l;
     sh->n++;
 }
 
@@ -174,6 +181,7 @@ static int clipped_shape(const pgi__view_xf *x, pgi__v3 c, float ri, int m, shap
 static int make_shape(const bounds_state *s, const pgi__view_xf *x, pgi__v3 c, float r, shape *sh) {
     float ri = inflate(c, r);
     sh->n = 0;
+    sh->pad = s->jitter;
     sh->zlo = c.z - ri;
     sh->zhi = c.z + ri;
     sh->use_depth = !s->mode3d;
@@ -255,10 +263,10 @@ static int make_shape(const bounds_state *s, const pgi__view_xf *x, pgi__v3 c, f
             if (!clipped_shape(x, c, ri * (1.9021130f / ICO_INRADIUS) * 1.00001f, 2, sh)) return 0;
         } else if (!clipped_shape(x, c, ri, s->nverts / 2, sh)) return 0;
     }
-    sh->x0 -= PIX_MARGIN;
-    sh->y0 -= PIX_MARGIN;
-    sh->x1 += PIX_MARGIN;
-    sh->y1 += PIX_MARGIN;
+    sh->x0 -= PIX_MARGIN + sh->pad;
+    sh->y0 -= PIX_MARGIN + sh->pad;
+    sh->x1 += PIX_MARGIN + sh->pad;
+    sh->y1 += PIX_MARGIN + sh->pad;
     if (!(sh->x1 >= 0.f && sh->x0 <= (float)(x->W - 1) && sh->y1 >= 0.f && sh->y0 <= (float)(x->H - 1))) return 0;
     return 1;
 }
@@ -357,6 +365,7 @@ static pgi_status b_build(void *state, const pgi_estimate_args *a) {
     const int W = vs->width, H = vs->height, T = s->T;
     s->W = W;
     s->H = H;
+    s->jitter = vs->jitter;
     s->ntx = (W + T - 1) / T;
     s->nty = (H + T - 1) / T;
     s->ntiles = s->ntx * s->nty;
@@ -455,7 +464,7 @@ static pgi_status b_estimate(void *state, const pgi_estimate_args *a) {
     const pgi_view_samples *vs = a->samples;
     const pgi_photons *ph = a->photons;
     const int W = vs->width, H = vs->height, T = s->T;
-    if (W != s->W || H != s->H || ph->count != s->nphotons)
+    if (W != s->W || H != s->H || ph->count != s->nphotons || vs->jitter != s->jitter)
         return pgi__fail(PGI_ERR_INVALID_ARG, "%s: estimate called with other inputs than build's",
                          s->mode3d ? "bounds3d" : "bounds25d");
     const float r = s->c.radius, r2 = r * r;

@@ -274,6 +274,9 @@ static pgi_status check_args(const pgi_estimator *e, const pgi_estimate_args *a)
     if (a->scene_area < 0.f || !isfinite(a->scene_area))
         return pgi__fail(PGI_ERR_INVALID_ARG, "scene area must be 0 (unknown) or a positive finite number, got %g",
                          (double)a->scene_area);
+    if (!(a->samples->jitter >= 0.f && a->samples->jitter <= 0.5f))
+        return pgi__fail(PGI_ERR_INVALID_ARG, "view-sample jitter must be in [0, 0.5] pixels, got %g",
+                         (double)a->samples->jitter);
     return PGI_OK;
 }
 

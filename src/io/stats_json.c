@@ -93,6 +93,10 @@ static cJSON *build(const pgi_frame_stats *st) {
     ok &= cJSON_AddStringToObject(root, "radius_policy",
                                   st->radius_policy >= 0 && st->radius_policy < 3 ? policies[st->radius_policy]
                                                                                   : "?") != NULL;
+    static const char *const jitters[] = {"auto", "off", "on"};
+    ok &= cJSON_AddStringToObject(root, "jitter",
+                                  st->settings.jitter >= 0 && st->settings.jitter < 3 ? jitters[st->settings.jitter]
+                                                                                      : "?") != NULL;
     if (st->leaf_size > 0) ok &= add_num(root, "bvh_leaf_size", (double)st->leaf_size);
     if (st->footprint_bin_width > 0.f) {
         /* BVH paper Table 3: counts of footprint radii in [k, k+1) * bin_width, the last bin open */

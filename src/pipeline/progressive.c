@@ -105,6 +105,8 @@ pgi_status pgi_progressive_step(pgi_progressive *a, const pgi_render_desc *in, p
         d.seed = pgi__mix64(a->seed0 ^ (0x9e3779b97f4a7c15ULL * (uint64_t)k));
         if (d.seed == 0) d.seed = 1;
         d.radius = pgi_progressive_radius(a->r0, k);
+        /* ... and view samples anywhere in their pixel, so the average converges to the pixel integral. */
+        if (d.jitter == PGI_JITTER_AUTO) d.jitter = PGI_JITTER_ON;
     }
     pgi_frame_stats fs;
     pgi_status st = pgi_renderer_render(a->r, &d, &a->frame, &fs);
@@ -141,7 +143,10 @@ pgi_status pgi_progressive_step(pgi_progressive *a, const pgi_render_desc *in, p
     const double inv = 1.0 / (double)a->frames;
     for (size_t i = 0; i < 3 * n; i++) out->rgb[i] = (float)(a->sum[i] * inv);
     fs.frames = a->frames;
-    if (k > 0) fs.settings.radius = a->r0;
+    if (k > 0) {
+        fs.settings.radius = a->r0;
+        fs.settings.jitter = in->jitter; /* AUTO: frame 0 at pixel centres, the others jittered */
+    }
     if (stats) *stats = fs;
     return PGI_OK;
 }

@@ -142,6 +142,9 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
                          "fixed radius",
                          d->radius_policy == PGI_RADIUS_PATH ? "path" : "differentials", names, d->estimator);
     }
+    if (d->jitter < PGI_JITTER_AUTO || d->jitter > PGI_JITTER_ON)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "unknown jitter mode %d", (int)d->jitter);
+    if (d->jitter == PGI_JITTER_AUTO) d->jitter = PGI_JITTER_OFF; /* one frame: pixel centres */
     if (d->filter < 0 || d->filter > 16)
         return pgi__fail(PGI_ERR_INVALID_ARG, "filter radius %d is out of range (0..16 pixels)", d->filter);
     return PGI_OK;
@@ -225,7 +228,9 @@ static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, pgi_frame_s
     }
     double t0 = pgi__now_ms();
     pgi__rt_capture_pass(r->rt, PGI__PASS_VIEW); /* ray capture tags (a no-op unless a bench captures) */
-    if ((st = pgi__view_build(s, r->rt, &r->cam, d->seed, d->threads, &r->vs, r->emit, &fs->primary_rays))) return st;
+    if ((st = pgi__view_build(s, r->rt, &r->cam, d->seed, d->jitter == PGI_JITTER_ON, d->threads, &r->vs, r->emit,
+                              &fs->primary_rays)))
+        return st;
     double t1 = pgi__now_ms();
     pgi__trace_desc td = {.photons = d->photons, .bounces = d->bounces, .seed = d->seed, .threads = d->threads};
     if ((st = ensure_footprints(r, d))) return st;

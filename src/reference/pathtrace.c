@@ -34,6 +34,7 @@ typedef struct {
     const pgi__rt *rt;
     pgi_camera cam;
     int bounces;
+    int jitter; /* samples through uniform points of the pixel (else its centre) */
     uint64_t seed;
     float eps;
     size_t narea;
@@ -88,10 +89,17 @@ static pgi__v3 nee(const pt_ctx *C, const pgi__surface *sf, pgi__v3 wo, pgi__rng
     return L;
 }
 
-/* One sample of pixel (x, y). */
+/* One sample of pixel (x, y): with C->jitter through a uniform point of the
+ * pixel (the sample's first two random numbers), so that the mean is the
+ * box-filtered pixel integral; else through its centre. */
 static pgi__v3 trace_sample(const pt_ctx *C, int px, int py, pgi__rng *rng) {
     const pgi_scene *s = C->s;
-    pgi__v3 o = v3_load(C->cam.eye), d = pgi__camera_dir(&C->cam, px, py);
+    float jx = 0.5f, jy = 0.5f;
+    if (C->jitter) {
+        jx = pgi_rng_f(rng);
+        jy = pgi_rng_f(rng);
+    }
+    pgi__v3 o = v3_load(C->cam.eye), d = pgi__camera_dir_at(&C->cam, px, py, jx, jy);
     pgi__v3 L = v3(0.f, 0.f, 0.f), W = v3(1.f, 1.f, 1.f);
     pgi__hit h;
     pgi__surface sf;
@@ -206,6 +214,8 @@ pgi_status pgi_reference_render(const pgi_scene *s, const pgi_reference_desc *in
     if (d.seed == 0) d.seed = 1;
     if (d.spp < 1) return pgi__fail(PGI_ERR_INVALID_ARG, "samples per pixel must be at least 1");
     if (d.threads < 0) return pgi__fail(PGI_ERR_INVALID_ARG, "threads must be 0 (all) or positive, got %d", d.threads);
+    if (d.jitter < PGI_JITTER_AUTO || d.jitter > PGI_JITTER_ON)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "unknown jitter mode %d", (int)d.jitter);
     if (d.camera < 0 || (size_t)d.camera >= s->ncams)
         return pgi__fail(PGI_ERR_INVALID_ARG, "camera %d does not exist (the scene has %zu)", d.camera, s->ncams);
     if (*spp > 0 && (!mean->rgb || mean->width != d.width || mean->height != d.height))
@@ -216,6 +226,7 @@ pgi_status pgi_reference_render(const pgi_scene *s, const pgi_reference_desc *in
     memset(&C, 0, sizeof C);
     C.s = s;
     C.bounces = d.bounces;
+    C.jitter = d.jitter != PGI_JITTER_OFF;
     C.seed = d.seed;
     C.eps = pgi__scene_epsilon(s);
     const pgi_camera_def *cd = &s->cams[d.camera];

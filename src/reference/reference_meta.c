@@ -1,5 +1,7 @@
 /* Sidecar metadata of a reference image (<image>.json), so that
- * `photongi reference --continue` adds samples with the same settings. */
+ * `photongi reference --continue` adds samples with the same settings.
+ * Format 2 adds "jitter" (true: samples spread over the pixel); format 1
+ * files were made through pixel centres and continue that way. */
 #include <stdio.h>
 #include <string.h>
 
@@ -14,11 +16,11 @@ pgi_status pgi_reference_meta_write(const pgi_reference_meta *m, const char *pat
     char seed[32], spp[32];
     snprintf(seed, sizeof seed, "%llu", (unsigned long long)m->seed);
     snprintf(spp, sizeof spp, "%llu", (unsigned long long)m->spp);
-    int ok = cJSON_AddStringToObject(o, "format", "photongi-reference-1") &&
+    int ok = cJSON_AddStringToObject(o, "format", "photongi-reference-2") &&
              cJSON_AddStringToObject(o, "scene", m->scene) && cJSON_AddNumberToObject(o, "width", m->width) &&
              cJSON_AddNumberToObject(o, "height", m->height) && cJSON_AddNumberToObject(o, "bounces", m->bounces) &&
              cJSON_AddNumberToObject(o, "camera", m->camera) && cJSON_AddStringToObject(o, "seed", seed) &&
-             cJSON_AddStringToObject(o, "spp", spp);
+             cJSON_AddStringToObject(o, "spp", spp) && cJSON_AddBoolToObject(o, "jitter", m->jitter != PGI_JITTER_OFF);
     char *txt = ok ? cJSON_Print(o) : NULL;
     cJSON_Delete(o);
     if (!txt) return pgi__fail(PGI_ERR_OOM, "out of memory writing %s", path);
@@ -62,15 +64,19 @@ pgi_status pgi_reference_meta_read(const char *path, pgi_reference_meta *m) {
     if (!o) return pgi__fail(PGI_ERR_PARSE, "%s: not JSON (the reference's metadata file)", path);
     const cJSON *fmt = cJSON_GetObjectItemCaseSensitive(o, "format");
     const cJSON *sc = cJSON_GetObjectItemCaseSensitive(o, "scene");
-    int ok = cJSON_IsString(fmt) && strcmp(fmt->valuestring, "photongi-reference-1") == 0 && cJSON_IsString(sc) &&
-             get_int(o, "width", &m->width) && get_int(o, "height", &m->height) && get_int(o, "bounces", &m->bounces) &&
+    const int v1 = cJSON_IsString(fmt) && strcmp(fmt->valuestring, "photongi-reference-1") == 0;
+    const int v2 = cJSON_IsString(fmt) && strcmp(fmt->valuestring, "photongi-reference-2") == 0;
+    const cJSON *jit = cJSON_GetObjectItemCaseSensitive(o, "jitter");
+    int ok = (v1 || (v2 && cJSON_IsBool(jit))) && cJSON_IsString(sc) && get_int(o, "width", &m->width) &&
+             get_int(o, "height", &m->height) && get_int(o, "bounces", &m->bounces) &&
              get_int(o, "camera", &m->camera) && get_u64(o, "seed", &m->seed) && get_u64(o, "spp", &m->spp);
+    m->jitter = v2 && cJSON_IsTrue(jit) ? PGI_JITTER_ON : PGI_JITTER_OFF;
     if (ok) snprintf(m->scene, sizeof m->scene, "%s", sc->valuestring);
     cJSON_Delete(o);
     if (!ok)
         return pgi__fail(PGI_ERR_PARSE,
                          "%s: not a photongi reference metadata file (needs format, scene, width, "
-                         "height, bounces, camera, seed, spp)",
+                         "height, bounces, camera, seed, spp, jitter)",
                          path);
     return PGI_OK;
 }
