@@ -79,36 +79,27 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, const pgi_came
     const pgi__v3 eye = v3_load(cam->eye);
     const float eps = pgi__scene_epsilon(s);
     /* 4x4-pixel tiles, one coherent 16-wide packet each (the fastest layout of primary rays:
-     * photongi-bench --limits). The tiles of a row are
-     * software-pipelined: a tile's texels are prefetched, then the next tile's packet is cast
-     * while they arrive, then the tile is shaded (minified textures make nearly every texel
-     * fetch a cache miss). */
+     * photongi-bench --limits). Prefetching a tile's texels while the next tile's packet runs
+     * was measured and gained nothing here (primary hits are coherent), so tiles are simply
+     * cast and shaded in turn. */
     const int tiles_x = (W + 3) / 4, tiles_y = (H + 3) / 4;
 #pragma omp parallel for schedule(dynamic, 1) reduction(+ : rays) num_threads(pgi__threads(threads))
     for (int ty = 0; ty < tiles_y; ty++) {
-        int valid[2][16];
-        pgi__v3 dirs[2][16];
-        pgi__hit hits[2][16];
-        for (int tx = 0; tx <= tiles_x; tx++) {
-            int cur = tx & 1, prev = cur ^ 1;
-            if (tx < tiles_x) {
-                for (int k = 0; k < 16; k++) {
-                    int px = 4 * tx + (k & 3), py = 4 * ty + (k >> 2);
-                    valid[cur][k] = px < W && py < H;
-                    dirs[cur][k] = pgi__view_dir(cam, jitter, seed, valid[cur][k] ? px : 0, valid[cur][k] ? py : 0);
-                }
-                pgi__rt_intersect16(rt, valid[cur], &eye, 0, dirs[cur], 1, hits[cur]);
-                for (int k = 0; k < 16; k++)
-                    if (valid[cur][k] && hits[cur][k].prim != UINT32_MAX)
-                        pgi__surface_prefetch_texels(s, hits[cur][k].prim, hits[cur][k].u, hits[cur][k].v);
-            }
-            if (tx == 0) continue;
-            const int sx = tx - 1;
+        for (int tx = 0; tx < tiles_x; tx++) {
+            int valid[16];
+            pgi__v3 dirs[16];
+            pgi__hit hits[16];
             for (int k = 0; k < 16; k++) {
-                if (!valid[prev][k]) continue;
+                int px = 4 * tx + (k & 3), py = 4 * ty + (k >> 2);
+                valid[k] = px < W && py < H;
+                dirs[k] = pgi__view_dir(cam, jitter, seed, valid[k] ? px : 0, valid[k] ? py : 0);
+            }
+            pgi__rt_intersect16(rt, valid, &eye, 0, dirs, 1, hits);
+            for (int k = 0; k < 16; k++) {
+                if (!valid[k]) continue;
                 rays++;
-                size_t i = (size_t)(4 * ty + (k >> 2)) * W + (size_t)(4 * sx + (k & 3));
-                shade_eye_path(s, rt, cam, seed, eps, i, eye, dirs[prev][k], hits[prev][k], vs, emit, &rays);
+                size_t i = (size_t)(4 * ty + (k >> 2)) * W + (size_t)(4 * tx + (k & 3));
+                shade_eye_path(s, rt, cam, seed, eps, i, eye, dirs[k], hits[k], vs, emit, &rays);
             }
         }
     }
