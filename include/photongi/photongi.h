@@ -98,7 +98,8 @@ typedef enum pgi_jitter {
                             progressive mode jitters every frame after the first */
     PGI_JITTER_OFF,      /* pixel centres, every frame (a progressive average converges to point samples) */
     PGI_JITTER_ON        /* every frame: a uniform point in each pixel, drawn from (seed, pixel index), the
-                            same for every pass of the frame and any thread count (a box filter) */
+                            same for every pass of the frame and any thread count (a box filter);
+                            progressive frame k takes point k of one stratified sequence per pixel */
 } pgi_jitter;
 
 /* Zero means "default" for every field, nested estimator options included. */

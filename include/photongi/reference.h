@@ -36,10 +36,10 @@ typedef struct pgi_reference_desc {
     double time_limit_s;                /* > 0: stop after the pass that reaches this wall time */
     pgi_reference_progress_fn progress; /* may be NULL */
     void *progress_user;
-    pgi_jitter jitter; /* AUTO (default) or ON: every sample through its own uniform point of the pixel, so
-                          the mean converges to the box-filtered pixel integral (the limit of a progressive
-                          render); OFF: through pixel centres (point samples, as one frame of `render`; the
-                          random numbers of a sample are then those of references made before jitter) */
+    pgi_jitter jitter; /* AUTO (default) or ON: every sample through its own uniform point of the pixel (one
+                          stratified sequence a pixel), so the mean converges to the box-filtered pixel
+                          integral (the limit of a progressive render); OFF: through pixel centres (point
+                          samples, as one frame of `render`, and the images of references made before) */
 } pgi_reference_desc;
 
 /* Adds desc->spp samples (sample indices *spp .. *spp + desc->spp - 1 of the

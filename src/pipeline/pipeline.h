@@ -1,11 +1,19 @@
-/* Pipeline internals shared by render.c and counts.c. progressive.c sits
- * above the renderer and uses only the public API plus the scene's change
- * counters. */
+/* Pipeline internals shared by render.c, counts.c and progressive.c.
+ * progressive.c sits above the renderer: the public API, the scene's change
+ * counters and pgi__renderer_render_frame. */
 #ifndef PGI_PIPELINE_H
 #define PGI_PIPELINE_H
 
 #include "core/core.h"
 #include "rt/rt.h"
+
+/* pgi_renderer_render with the view samples' sub-pixel positions (when
+ * jittered) taken from point `index` of the sequence of `seq_seed`
+ * (pgi__pixel_jitter; seq_seed 0: the frame's own seed): progressive frame k
+ * passes (frame 0's seed, k), so that the positions of frames 0..N-1 cover
+ * each pixel evenly. pgi_renderer_render is (0, 0). */
+pgi_status pgi__renderer_render_frame(pgi_renderer *r, const pgi_render_desc *desc, uint64_t seq_seed, uint32_t index,
+                                      pgi_image *out, pgi_frame_stats *stats);
 
 /* Rejects a view camera that is not finite or degenerate (render.c). */
 pgi_status pgi__check_view(const pgi_camera_def *v);

@@ -11,6 +11,7 @@
 #include <string.h>
 
 #include "core/core.h"
+#include "pipeline/pipeline.h"
 #include "scene/scene_internal.h"
 
 #define PGI_ALPHA (2.0 / 3.0)
@@ -109,7 +110,10 @@ pgi_status pgi_progressive_step(pgi_progressive *a, const pgi_render_desc *in, p
         if (d.jitter == PGI_JITTER_AUTO) d.jitter = PGI_JITTER_ON;
     }
     pgi_frame_stats fs;
-    pgi_status st = pgi_renderer_render(a->r, &d, &a->frame, &fs);
+    /* Jittered view samples: point k of one sequence per pixel (seed of frame 0), which covers the
+       pixel more evenly over the frames than independent points would. */
+    const uint64_t seq_seed = k > 0 ? a->seed0 : 0;
+    pgi_status st = pgi__renderer_render_frame(a->r, &d, seq_seed, (uint32_t)k, &a->frame, &fs);
     if (st) {
         a->frames = 0;
         return st;

@@ -213,8 +213,10 @@ static pgi_status ensure_estimator(pgi_renderer *r, const pgi_render_desc *d, in
     return PGI_OK;
 }
 
-/* View samples and photons of one frame (d resolved); fs gets the view and trace passes. */
-static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, pgi_frame_stats *fs) {
+/* View samples and photons of one frame (d resolved; jittered view samples take point `index` of
+ * the sub-pixel sequence of `seq_seed`); fs gets the view and trace passes. */
+static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, uint64_t seq_seed, uint32_t index,
+                          pgi_frame_stats *fs) {
     pgi_status st;
     if ((st = ensure_buffers(r, d))) return st;
     const pgi_scene *s = r->scene;
@@ -228,8 +230,8 @@ static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, pgi_frame_s
     }
     double t0 = pgi__now_ms();
     pgi__rt_capture_pass(r->rt, PGI__PASS_VIEW); /* ray capture tags (a no-op unless a bench captures) */
-    if ((st = pgi__view_build(s, r->rt, &r->cam, d->seed, d->jitter == PGI_JITTER_ON, d->threads, &r->vs, r->emit,
-                              &fs->primary_rays)))
+    const pgi__subpixel sp = {.jitter = d->jitter == PGI_JITTER_ON, .seed = seq_seed, .index = index};
+    if ((st = pgi__view_build(s, r->rt, &r->cam, d->seed, &sp, d->threads, &r->vs, r->emit, &fs->primary_rays)))
         return st;
     double t1 = pgi__now_ms();
     pgi__trace_desc td = {.photons = d->photons, .bounces = d->bounces, .seed = d->seed, .threads = d->threads};
@@ -276,7 +278,7 @@ pgi_status pgi_renderer_prepare(pgi_renderer *r, const pgi_render_desc *in, pgi_
     pgi_frame_stats fs;
     stats_begin(&fs, &d);
     double t0 = pgi__now_ms();
-    if ((st = prepare(r, &d, &fs))) return st;
+    if ((st = prepare(r, &d, d.seed, 0, &fs))) return st;
     fs.total_ms = pgi__now_ms() - t0;
     *out = (pgi_frame_inputs){.photons = &r->ph,
                               .samples = &r->vs,
@@ -289,16 +291,22 @@ pgi_status pgi_renderer_prepare(pgi_renderer *r, const pgi_render_desc *in, pgi_
 }
 
 pgi_status pgi_renderer_render(pgi_renderer *r, const pgi_render_desc *in, pgi_image *out, pgi_frame_stats *stats) {
+    return pgi__renderer_render_frame(r, in, 0, 0, out, stats);
+}
+
+pgi_status pgi__renderer_render_frame(pgi_renderer *r, const pgi_render_desc *in, uint64_t seq_seed, uint32_t index,
+                                      pgi_image *out, pgi_frame_stats *stats) {
     if (!r || !in || !out) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_renderer_render: NULL argument");
     pgi__clear_error();
     pgi_render_desc d;
     pgi_status st = resolve_desc(r->scene, in, &d);
     if (st) return st;
+    if (seq_seed == 0) seq_seed = d.seed; /* a lone frame: the sequence of its own seed */
     double t_start = pgi__now_ms();
     pgi_frame_stats fs;
     stats_begin(&fs, &d);
     if ((st = ensure_estimator(r, &d, &fs.estimators_created))) return st;
-    if ((st = prepare(r, &d, &fs))) return st;
+    if ((st = prepare(r, &d, seq_seed, index, &fs))) return st;
     const pgi_scene *s = r->scene;
     double t2 = pgi__now_ms();
     pgi_estimate_args ea = {.photons = &r->ph,

@@ -89,16 +89,9 @@ static pgi__v3 nee(const pt_ctx *C, const pgi__surface *sf, pgi__v3 wo, pgi__rng
     return L;
 }
 
-/* One sample of pixel (x, y): with C->jitter through a uniform point of the
- * pixel (the sample's first two random numbers), so that the mean is the
- * box-filtered pixel integral; else through its centre. */
-static pgi__v3 trace_sample(const pt_ctx *C, int px, int py, pgi__rng *rng) {
+/* One sample of pixel (x, y), through the point (x + jx, y + jy) of the image. */
+static pgi__v3 trace_sample(const pt_ctx *C, int px, int py, float jx, float jy, pgi__rng *rng) {
     const pgi_scene *s = C->s;
-    float jx = 0.5f, jy = 0.5f;
-    if (C->jitter) {
-        jx = pgi_rng_f(rng);
-        jy = pgi_rng_f(rng);
-    }
     pgi__v3 o = v3_load(C->cam.eye), d = pgi__camera_dir_at(&C->cam, px, py, jx, jy);
     pgi__v3 L = v3(0.f, 0.f, 0.f), W = v3(1.f, 1.f, 1.f);
     pgi__hit h;
@@ -260,6 +253,10 @@ pgi_status pgi_reference_render(const pgi_scene *s, const pgi_reference_desc *in
     const int W = d.width, H = d.height;
     while (done < d.spp) {
         const uint64_t sidx = n0 + done;
+        /* Sample sidx of a pixel looks through point sidx of the pixel's sub-pixel sequence (the view
+           pass's, pgi__pixel_jitter): uniform over the pixel, and the samples so far cover it evenly,
+           so the mean converges to the box-filtered pixel integral; without jitter, the centre. */
+        const pgi__subpixel sp = {.jitter = C.jitter, .seed = rng_seed, .index = (uint32_t)sidx};
 #pragma omp parallel for schedule(dynamic, 1) num_threads(pgi__threads(d.threads))
         for (int y = 0; y < H; y++) {
             for (int x = 0; x < W; x++) {
@@ -267,7 +264,9 @@ pgi_status pgi_reference_render(const pgi_scene *s, const pgi_reference_desc *in
                 pgi__rng rng;
                 /* Stream per pixel, sequence per sample: independent of threads and passes. */
                 pgi_rng_seed(&rng, rng_seed + sidx, (uint64_t)i);
-                pgi__v3 c = trace_sample(&C, x, y, &rng);
+                float jx, jy;
+                pgi__pixel_jitter(&sp, i, &jx, &jy);
+                pgi__v3 c = trace_sample(&C, x, y, jx, jy, &rng);
                 if (!v3_finite(c)) c = v3(0.f, 0.f, 0.f);
                 sum[3 * i] += c.x;
                 sum[3 * i + 1] += c.y;

@@ -69,12 +69,13 @@ static void shade_eye_path(const pgi_scene *s, const pgi__rt *rt, const pgi_came
     v3_store(emit + 3 * i, e);
 }
 
-pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, const pgi_camera *cam, uint64_t seed, int jitter,
-                           int threads, pgi_view_samples *vs, float *emit, uint64_t *rays_out) {
+pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, const pgi_camera *cam, uint64_t seed,
+                           const pgi__subpixel *sp, int threads, pgi_view_samples *vs, float *emit,
+                           uint64_t *rays_out) {
     const int W = cam->width, H = cam->height;
     if (vs->width != W || vs->height != H)
         return pgi__fail(PGI_ERR_INVALID_ARG, "view-sample buffer is %dx%d, camera %dx%d", vs->width, vs->height, W, H);
-    vs->jitter = jitter ? 0.5f : 0.f;
+    vs->jitter = sp->jitter ? 0.5f : 0.f;
     uint64_t rays = 0;
     const pgi__v3 eye = v3_load(cam->eye);
     const float eps = pgi__scene_epsilon(s);
@@ -92,7 +93,7 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, const pgi_came
             for (int k = 0; k < 16; k++) {
                 int px = 4 * tx + (k & 3), py = 4 * ty + (k >> 2);
                 valid[k] = px < W && py < H;
-                dirs[k] = pgi__view_dir(cam, jitter, seed, valid[k] ? px : 0, valid[k] ? py : 0);
+                dirs[k] = pgi__view_dir(cam, sp, valid[k] ? px : 0, valid[k] ? py : 0);
             }
             pgi__rt_intersect16(rt, valid, &eye, 0, dirs, 1, hits);
             for (int k = 0; k < 16; k++) {

@@ -4,15 +4,22 @@
 
 #include "rt/rt.h"
 
+/* Where the view samples of a frame look in their pixels (pgi__pixel_jitter). */
+typedef struct pgi__subpixel {
+    int jitter;     /* 0: pixel centres */
+    uint64_t seed;  /* the sequence's seed: the frame's own, or frame 0's in a progressive run */
+    uint32_t index; /* the frame's place in the sequence: 0 for a lone frame, k for progressive frame k */
+} pgi__subpixel;
+
 /* Casts primary rays in 8-wide packets, one a pixel through its centre or,
- * with `jitter`, through a point of the pixel drawn from the seed
- * (pgi__view_dir; vs->jitter says which), follows
+ * with sp->jitter, through the point pgi__pixel_jitter gives (pgi__view_dir;
+ * vs->jitter says which), follows
  * perfect mirrors and glass (up to 8 specular bounces; glass picks reflection
  * or refraction by Fresnel with a per-pixel RNG) to the first non-specular
  * hit, and fills `vs`. `emit` (3 floats a pixel) receives emitted radiance
  * seen along the eye path. */
-pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, const pgi_camera *cam, uint64_t seed, int jitter,
-                           int threads, pgi_view_samples *vs, float *emit, uint64_t *rays);
+pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, const pgi_camera *cam, uint64_t seed,
+                           const pgi__subpixel *sp, int threads, pgi_view_samples *vs, float *emit, uint64_t *rays);
 
 /* Direct light at every valid view sample with shadow rays (point, spot, sun:
  * one ray each; emissive triangles: `area_samples` samples picked by power).
@@ -43,26 +50,33 @@ static inline pgi__v3 pgi__camera_dir(const pgi_camera *c, int x, int y) {
     return pgi__camera_dir_at(c, x, y, 0.5f, 0.5f);
 }
 
-/* Position (*jx, *jy) in [0, 1)^2 of the view sample of pixel i (= y * width
- * + x) in a frame with seed `seed`: the centre (0.5, 0.5) without `jitter`,
- * else uniform over the pixel, from a hash of (seed, i) alone (SplitMix64 of
- * a per-seed key stepped i times; 24 bits a coordinate): every pass of the
- * frame sees the same point, whatever the thread count or the loop order,
- * and frames with other seeds see independent points. */
-static inline void pgi__pixel_jitter(int jitter, uint64_t seed, size_t i, float *jx, float *jy) {
-    if (!jitter) {
+/* Position (*jx, *jy) in [0, 1)^2 of pixel i's (= y * width + x) sample: the
+ * centre (0.5, 0.5) without sp->jitter, else point sp->index of a per-pixel
+ * R2 sequence (Roberts 2018: steps 1/g, 1/g^2 of the plastic number g, in
+ * 32-bit fixed point, so the wrap-around is the fractional part) rotated by a
+ * uniform offset hashed from (sp->seed, i) (SplitMix64 of a per-seed key
+ * stepped i + 1 times). Each point is uniform over the pixel and independent
+ * of other pixels' (the rotation), and the points of indices 0..N-1 cover the
+ * pixel evenly (error O(log N / N) instead of O(1/sqrt N) for independent
+ * points, which matters at high-contrast edges). A function of (seed, index,
+ * i) alone: every pass of a frame sees the same point, whatever the thread
+ * count or the loop order. */
+static inline void pgi__pixel_jitter(const pgi__subpixel *sp, size_t i, float *jx, float *jy) {
+    if (!sp->jitter) {
         *jx = *jy = 0.5f;
         return;
     }
-    uint64_t h = pgi__mix64(pgi__mix64(seed ^ 0x6a6974746572ULL) + 0x9e3779b97f4a7c15ULL * ((uint64_t)i + 1u));
-    *jx = (float)(h >> 40) * (1.f / 16777216.f);
-    *jy = (float)((h >> 16) & 0xffffffu) * (1.f / 16777216.f);
+    uint64_t h = pgi__mix64(pgi__mix64(sp->seed ^ 0x6a6974746572ULL) + 0x9e3779b97f4a7c15ULL * ((uint64_t)i + 1u));
+    uint32_t ux = (uint32_t)(h >> 32) + sp->index * 0xc13fa9a9u; /* 2^32 / g */
+    uint32_t uy = (uint32_t)h + sp->index * 0x91e10da6u;         /* 2^32 / g^2 */
+    *jx = (float)(ux >> 8) * (1.f / 16777216.f);
+    *jy = (float)(uy >> 8) * (1.f / 16777216.f);
 }
 
 /* Unit direction of the view sample of pixel (x, y) (see pgi__pixel_jitter). */
-static inline pgi__v3 pgi__view_dir(const pgi_camera *c, int jitter, uint64_t seed, int x, int y) {
+static inline pgi__v3 pgi__view_dir(const pgi_camera *c, const pgi__subpixel *sp, int x, int y) {
     float jx, jy;
-    pgi__pixel_jitter(jitter, seed, (size_t)y * (size_t)c->width + (size_t)x, &jx, &jy);
+    pgi__pixel_jitter(sp, (size_t)y * (size_t)c->width + (size_t)x, &jx, &jy);
     return pgi__camera_dir_at(c, x, y, jx, jy);
 }
 
