@@ -69,18 +69,19 @@ static int method_applies(const pgi__rt *rt, pgi__ray_kind kind, pgi__replay_met
  * in the tile; 4x2 or 8x1), tiles ordered so that consecutive packets form
  * bigger tiles: two packets stack into 8x2 (8x1) or 4x4 (4x2), and 4x4 tiles
  * go row-major through 16x16 blocks. */
-static void cast_layout(pgi__rt *rt, pgi__ray_log *log, const pgi_camera *cam, int tw) {
+static void cast_layout(pgi__rt *rt, pgi__ray_log *log, const pgi_camera *cam, int tw, int rows) {
     const int W = cam->width, H = cam->height, th = 8 / tw;
     const pgi__v3 eye = v3_load(cam->eye);
     pgi__rt_capture_set(rt, log);
     pgi__ray_log_set_pass(log, PGI__PASS_VIEW);
     /* block (16x16, or one row pair of 8-wide tiles for 8x1) -> pair of packets stacked vertically */
-    const int bw = tw == 4 ? 16 : 8, bh = tw == 4 ? 16 : 2;
+    /* rows: plain 8x1 rows, left to right, top to bottom (one "block" a row) */
+    const int bw = rows ? W : tw == 4 ? 16 : 8, bh = rows ? 1 : tw == 4 ? 16 : 2;
     for (int by = 0; by < H; by += bh)
         for (int bx = 0; bx < W; bx += bw)
-            for (int ty = by; ty < by + bh; ty += 2 * th)
+            for (int ty = by; ty < by + bh; ty += rows ? 1 : 2 * th)
                 for (int tx = bx; tx < bx + bw; tx += tw)
-                    for (int half = 0; half < 2; half++) {
+                    for (int half = 0; half < (rows ? 1 : 2); half++) {
                         int valid[8];
                         pgi__v3 dirs[8];
                         pgi__hit hits[8];
@@ -96,7 +97,7 @@ static void cast_layout(pgi__rt *rt, pgi__ray_log *log, const pgi_camera *cam, i
 
 typedef struct {
     const char *layout, *label;
-    int log; /* 0: captured view pass (8x1 rows), 1: 4x2 tiles, 2: 8x1 in 8x2 pairs */
+    int log; /* 0: 8x1 rows, 1: 4x2 tiles, 2: 8x1 in 8x2 pairs */
     pgi__replay_method m;
 } ideal_case;
 
@@ -113,7 +114,7 @@ static int run_scene(const char *sc, const pgi_render_desc *d, int frames, FILE 
         return 0;
     }
     pgi__rt *rt = pgi__renderer_rt(r);
-    pgi__ray_log *log = NULL, *tiles = NULL, *pairs = NULL;
+    pgi__ray_log *log = NULL, *tiles = NULL, *pairs = NULL, *rowlog = NULL;
     pgi_image img = {0};
     pgi_frame_stats fs;
     int ok = 0;
@@ -122,7 +123,9 @@ static int run_scene(const char *sc, const pgi_render_desc *d, int frames, FILE 
 
     /* Capture one frame after a warm-up (the same seed, so the same rays as the timed frames). */
     if (pgi_renderer_render(r, d, &img, &fs) != PGI_OK) goto fail;
-    if (pgi__ray_log_create(&log) || pgi__ray_log_create(&tiles) || pgi__ray_log_create(&pairs)) goto fail;
+    if (pgi__ray_log_create(&log) || pgi__ray_log_create(&tiles) || pgi__ray_log_create(&pairs) ||
+        pgi__ray_log_create(&rowlog))
+        goto fail;
     pgi__rt_capture_set(rt, log);
     pgi_status st = pgi_renderer_render(r, d, &img, &fs);
     pgi__rt_capture_set(rt, NULL);
@@ -136,9 +139,10 @@ static int run_scene(const char *sc, const pgi_render_desc *d, int frames, FILE 
     /* Ideal primary-ray layouts over the view camera. */
     pgi_frame_inputs in;
     if (pgi_renderer_prepare(r, d, &in, NULL)) goto fail;
-    cast_layout(rt, tiles, &in.camera, 4);
-    cast_layout(rt, pairs, &in.camera, 8);
-    if (pgi__ray_log_merge(tiles) || pgi__ray_log_merge(pairs)) goto fail;
+    cast_layout(rt, tiles, &in.camera, 4, 0);
+    cast_layout(rt, pairs, &in.camera, 8, 0);
+    cast_layout(rt, rowlog, &in.camera, 8, 1);
+    if (pgi__ray_log_merge(tiles) || pgi__ray_log_merge(pairs) || pgi__ray_log_merge(rowlog)) goto fail;
     const ideal_case ideal[] = {
         {"8x1 rows", "rtcIntersect8 coherent", 0, PGI__REPLAY_CAST},
         {"4x2 tiles", "rtcIntersect8 coherent", 1, PGI__REPLAY_CAST},
@@ -152,7 +156,7 @@ static int run_scene(const char *sc, const pgi_render_desc *d, int frames, FILE 
         {"16x16 blocks", "rtcIntersect1M incoherent", 1, PGI__REPLAY_1M},
     };
     enum { NIDEAL = sizeof ideal / sizeof ideal[0] };
-    const pgi__ray_log *ideal_log[3] = {log, tiles, pairs};
+    const pgi__ray_log *ideal_log[3] = {rowlog, tiles, pairs};
     const uint64_t ideal_rays = pgi__ray_log_rays(tiles, PGI__PASS_VIEW, PGI__RAY_INTERSECT8);
 
     /* Replay items: every (group, method), then the ideal layouts. */
@@ -292,6 +296,7 @@ fail:
     pgi__ray_log_destroy(log);
     pgi__ray_log_destroy(tiles);
     pgi__ray_log_destroy(pairs);
+    pgi__ray_log_destroy(rowlog);
     pgi_image_free(&img);
     pgi_renderer_destroy(r);
     pgi_scene_destroy(scene);
