@@ -11,7 +11,7 @@ typedef struct pgi__subpixel {
     uint32_t index; /* the frame's place in the sequence: 0 for a lone frame, k for progressive frame k */
 } pgi__subpixel;
 
-/* Casts primary rays in 8-wide packets, one a pixel through its centre or,
+/* Casts primary rays in 16-wide packets of 4x4 pixels, one a pixel through its centre or,
  * with sp->jitter, through the point pgi__pixel_jitter gives (pgi__view_dir;
  * vs->jitter says which), follows
  * perfect mirrors and glass (up to 8 specular bounces; glass picks reflection
