@@ -27,10 +27,66 @@ static void test_decode_then_tonemap_round_trips(void **state) {
     for (int i = 0; i < 3 * 256; i++) assert_int_equal(out[i], i / 3);
 }
 
+/* The table-driven tone map gives the bytes of the formula (exposure, clamp, exact OETF in
+ * double, round to nearest) for every 64th float in [0, 1], each one's neighbours, values
+ * around every code's threshold, and out-of-range and non-finite values. */
+static unsigned char tonemap_formula(float value, float exposure) {
+    float v = value * exposure;
+    if (!(v > 0.f)) return 0;
+    if (v >= 1.f) return 255;
+    double x = (double)v, e = x <= 0.0031308 ? 12.92 * x : 1.055 * pow(x, 1.0 / 2.4) - 0.055;
+    int b = (int)(e * 255.0 + 0.5);
+    return (unsigned char)(b > 255 ? 255 : b);
+}
+
+static void test_tonemap_matches_formula(void **state) {
+    (void)state;
+    enum { N = (0x3f800000 >> 6) + 1 + 8 }; /* the sweep, then the extras */
+    float *v = malloc(N * sizeof *v);
+    unsigned char *out = malloc(N);
+    assert_non_null(v);
+    assert_non_null(out);
+    size_t n = 0;
+    for (uint32_t bits = 0; bits <= 0x3f800000u; bits += 64) memcpy(&v[n++], &bits, sizeof(float));
+    const float extra[] = {-1.f, -0.f, NAN, INFINITY, -INFINITY, 1.5f, 1e30f, 0x1p-149f};
+    for (int k = 0; k < 8; k++) v[n++] = extra[k];
+    pgi_image img = {(int)n, 1, NULL};
+    float *rgb = malloc(3 * n * sizeof *rgb);
+    unsigned char *out3 = malloc(3 * n);
+    assert_non_null(rgb);
+    assert_non_null(out3);
+    for (size_t i = 0; i < n; i++) rgb[3 * i] = rgb[3 * i + 1] = rgb[3 * i + 2] = v[i];
+    img.rgb = rgb;
+    const float exposures[] = {1.f, 0.37f, 3.f};
+    for (int e = 0; e < 3; e++) {
+        pgi_tonemap_srgb8(&img, exposures[e], out3);
+        for (size_t i = 0; i < n; i++)
+            if (out3[3 * i] != tonemap_formula(v[i], exposures[e]))
+                fail_msg("value %a exposure %g: %d, formula %d", (double)v[i], (double)exposures[e], out3[3 * i],
+                         tonemap_formula(v[i], exposures[e]));
+    }
+    /* Around each code's threshold, one ulp at a time. */
+    for (size_t i = 0; i + 1 < n; i++) {
+        if (tonemap_formula(v[i], 1.f) == tonemap_formula(v[i + 1], 1.f)) continue;
+        float a = v[i];
+        for (int s = 0; s < 66; s++, a = nextafterf(a, 2.f)) {
+            pgi_image one = {1, 1, (float[3]){a, a, a}};
+            unsigned char o[3];
+            pgi_tonemap_srgb8(&one, 1.f, o);
+            assert_int_equal(o[0], tonemap_formula(a, 1.f));
+        }
+    }
+    free(v);
+    free(out);
+    free(rgb);
+    free(out3);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_texture_lut_matches_formula),
         cmocka_unit_test(test_decode_then_tonemap_round_trips),
+        cmocka_unit_test(test_tonemap_matches_formula),
     };
     return cmocka_run_group_tests_name("srgb", tests, NULL, NULL);
 }
