@@ -71,8 +71,11 @@ static void scratch_does_not_grow_with_bounces(void **state) {
     trace_cornell(50000, 4, 2, 1, &b4);
     trace_cornell(50000, 63, 2, 1, &b63);
     print_message("trace scratch: %zu bytes at 4 bounces, %zu at 63\n", b4.scratch, b63.scratch);
-    assert_true(b63.scratch <= b4.scratch + b4.scratch / 4);
-    assert_true(b4.scratch <= 200u * 50000u);    /* a few photon records each, whatever the paths */
+    /* A few photon records each, whatever the paths and bounces (the per-thread buffers double
+     * as they grow, and how the chunks fall to threads varies, so the bound is per photon, not a
+     * ratio of two runs; before: 1700 bytes a photon at 4 bounces, 16x that at 63). */
+    assert_true(b4.scratch <= 200u * 50000u);
+    assert_true(b63.scratch <= 200u * 50000u);
     assert_true(b63.ph.emitted < b4.ph.emitted); /* longer paths store more photons each */
     pgi_photons_free(&b4.ph);
     pgi_photons_free(&b63.ph);
