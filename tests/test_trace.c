@@ -64,6 +64,52 @@ static void few_paths_discarded(void **state) {
         }
 }
 
+/* The photons and the paths they count as emitted depend on nothing but the request: not on
+ * the batches (which follow the yield a scratch remembers), so a fresh scratch and one that
+ * traced another frame first agree, for every photon count, also where a chunk of paths fills
+ * the buffer exactly (emitted stops at the path that filled it). Smaller requests are prefixes. */
+static void same_photons_whatever_the_history(void **state) {
+    (void)state;
+    pgi_scene *sc = NULL;
+    TU_CHECK_OK(pgi_scene_load("cornell", &sc));
+    pgi__rt *rt = NULL;
+    TU_CHECK_OK(pgi__rt_create(sc, &rt));
+    const uint32_t max = 1500;
+    pgi_photons a, b, full;
+    TU_CHECK_OK(pgi_photons_alloc(&a, max));
+    TU_CHECK_OK(pgi_photons_alloc(&b, max));
+    TU_CHECK_OK(pgi_photons_alloc(&full, max));
+    pgi__trace_scratch warm = {0};
+    uint64_t rays;
+    pgi__trace_desc td = {.photons = max, .bounces = 4, .seed = 5, .threads = 1};
+    TU_CHECK_OK(pgi__photons_trace(sc, rt, &td, &full, &warm, &rays));
+    uint64_t last_emitted = 0;
+    for (uint32_t n = 1; n <= max; n += (n < 300 ? 1 : 7)) {
+        td.photons = n;
+        pgi__trace_scratch fresh = {0};
+        TU_CHECK_OK(pgi__photons_trace(sc, rt, &td, &a, &fresh, &rays));
+        pgi__trace_scratch_free(&fresh);
+        TU_CHECK_OK(pgi__photons_trace(sc, rt, &td, &b, &warm, &rays));
+        assert_int_equal(a.count, n);
+        if (a.emitted != b.emitted)
+            fail_msg("%u photons: %llu paths emitted with a fresh scratch, %llu with a used one", n,
+                     (unsigned long long)a.emitted, (unsigned long long)b.emitted);
+        assert_true(a.emitted >= last_emitted && a.emitted <= full.emitted);
+        last_emitted = a.emitted;
+        const float *pa[] = {a.px, a.py, a.pz, a.nx, a.ny, a.nz, a.fr};
+        const float *pb[] = {b.px, b.py, b.pz, b.nx, b.ny, b.nz, b.fr};
+        const float *pf[] = {full.px, full.py, full.pz, full.nx, full.ny, full.nz};
+        for (int k = 0; k < 7; k++) assert_memory_equal(pa[k], pb[k], n * sizeof(float));
+        for (int k = 0; k < 6; k++) assert_memory_equal(pa[k], pf[k], n * sizeof(float));
+    }
+    pgi__trace_scratch_free(&warm);
+    pgi_photons_free(&a);
+    pgi_photons_free(&b);
+    pgi_photons_free(&full);
+    pgi__rt_destroy(rt);
+    pgi_scene_destroy(sc);
+}
+
 /* More bounces add rays, not scratch memory. */
 static void scratch_does_not_grow_with_bounces(void **state) {
     (void)state;
@@ -84,6 +130,7 @@ static void scratch_does_not_grow_with_bounces(void **state) {
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(same_photons_any_thread_count),
+        cmocka_unit_test(same_photons_whatever_the_history),
         cmocka_unit_test(few_paths_discarded),
         cmocka_unit_test(scratch_does_not_grow_with_bounces),
     };

@@ -139,6 +139,7 @@ static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbu
     memset(cnt, 0, (size_t)n);
     tb->nrec = 0;
     lane L[WAVE];
+    memset(L, 0, sizeof L); /* lanes without a path still go to Embree (masked): no garbage */
     int next = 0, active = 0, ok = 1;
     for (int k = 0; k < WAVE; k++) L[k].path = -1;
     for (;;) {
@@ -285,7 +286,8 @@ void pgi__trace_scratch_free(pgi__trace_scratch *sc) {
 }
 
 size_t pgi__trace_scratch_bytes(const pgi__trace_scratch *sc) {
-    size_t b = sc->cap * (sizeof(uint8_t) + sizeof(chunk_info) / CHUNK) + (size_t)sc->nthreads * sizeof *sc->tbuf;
+    size_t b =
+        sc->cap * sizeof(uint8_t) + sc->cap / CHUNK * sizeof(chunk_info) + (size_t)sc->nthreads * sizeof *sc->tbuf;
     for (int t = 0; t < sc->nthreads; t++) {
         const pgi__trace_tbuf *tb = &sc->tbuf[t];
         b += tb->rec_cap * (sizeof(stored_photon) + sizeof(uint16_t) + (tb->rec_fp ? sizeof(pgi__footprint) : 0));
@@ -418,7 +420,7 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
         for (; c < nch && ph->count + produced < want; c++) {
             chunk_info *ci = &sc->chunks[c];
             size_t np = (size_t)((c + 1) * CHUNK <= (long long)batch ? CHUNK : batch - (size_t)c * CHUNK);
-            if (ph->count + produced + ci->count <= want) {
+            if (ph->count + produced + ci->count < want) { /* an exact fill is cut after its filling path */
                 produced += ci->count;
                 used_paths += np;
                 continue;

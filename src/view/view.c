@@ -146,7 +146,7 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
         for (int tx = 0; tx < tiles_x; tx++) {
             size_t pix[16];
             int on[16];
-            pgi__v3 x[16], ns[16], ng[16], wo[16], kd[16], ks[16], L[16], La[16];
+            pgi__v3 x[16] = {{0}}, ns[16], ng[16], wo[16], kd[16], ks[16], L[16], La[16];
             float sh[16];
             int any = 0;
             for (int k = 0; k < 16; k++) {
@@ -172,7 +172,7 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
             }
             if (!any) continue;
             int valid[16], occ[16];
-            pgi__v3 wi[16], Li[16];
+            pgi__v3 wi[16] = {{0}}, Li[16]; /* off lanes reach Embree masked: zeros, not garbage */
             float cs[16], tmax[16];
             for (size_t l = 0; l < s->nlights; l++) {
                 if (s->lights[l].type == PGI_LIGHT_AREA) continue;
