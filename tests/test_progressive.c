@@ -279,11 +279,14 @@ static void test_estimator_created_once(void **state) {
     /* the same renderer keeps it for the next render; other options make a new one */
     TU_CHECK_OK(pgi_render_progressive(r, &d, 2, &img, &fs));
     assert_int_equal(fs.estimators_created, 0);
-    d.est.tiled.tile_size = 16;
+    d.est.tiled.tile_size = 32;
     TU_CHECK_OK(pgi_renderer_render(r, &d, &img, &fs));
     assert_int_equal(fs.estimators_created, 1);
+    assert_int_equal(fs.settings.est.tiled.tile_size, 32);
+    d.est.tiled.tile_size = 0; /* the default, resolved in the stats: tiled's own */
+    TU_CHECK_OK(pgi_renderer_render(r, &d, &img, &fs));
     assert_int_equal(fs.settings.est.tiled.tile_size, 16);
-    d.est.tiled.tile_size = 0; /* the default, resolved in the stats */
+    d.estimator = "bounds25d"; /* the row's default for the others that share it */
     TU_CHECK_OK(pgi_renderer_render(r, &d, &img, &fs));
     assert_int_equal(fs.settings.est.tiled.tile_size, 32);
     assert_true(fs.settings.photons == 2000 && fs.settings.seed == 1 && fs.settings.bounces == 4);

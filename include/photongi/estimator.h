@@ -115,7 +115,7 @@ typedef struct pgi_estimator_desc {
     pgi_kernel kernel; /* default constant; others need PGI_EST_CAP_KERNELS */
     int subsample;     /* stochastic subsampling factor k (0 or 1: off, up to 64); needs PGI_EST_CAP_SUBSAMPLE */
     struct {
-        int tile_size; /* "tiled", "bounds3d", "bounds25d": tile edge in pixels (1..4096); default 32 */
+        int tile_size; /* "tiled", "bounds3d", "bounds25d": tile edge in pixels (1..4096); default 16 for tiled, 32 for the bounds methods */
     } tiled;
     struct {
         float cell_size; /* "hashgrid": cell edge (at least radius/64); 0 = 2 x the frame's radius */
@@ -209,7 +209,17 @@ typedef struct pgi_estimator_vtbl {
     void (*destroy)(void *state);
     unsigned caps; /* PGI_EST_CAP_* this method supports beyond the constant-kernel fixed-radius case */
     const pgi_option *const *options; /* its own options (NULL-terminated; NULL: none) */
+    /* Its own defaults for options it shares with others (NULL-terminated by .option; NULL:
+     * the rows' defaults), e.g. tiled's 16-pixel tiles on the --tile row that bounds3d/25d
+     * default to 32. */
+    const struct pgi_option_default *defaults;
 } pgi_estimator_vtbl;
+
+/* An estimator's default for a shared option row. */
+typedef struct pgi_option_default {
+    const pgi_option *option;
+    int value;
+} pgi_option_default;
 
 enum {
     PGI_EST_CAP_KERNELS = 1,      /* honours desc.kernel */

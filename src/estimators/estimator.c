@@ -196,6 +196,13 @@ void pgi_option_takers(const pgi_option *o, char *buf, size_t size) {
         if (pgi_estimator_takes(k_estimators[i], o)) pgi__list_append(buf, size, k_estimators[i]->name);
 }
 
+/* The value a zero field of row `o` resolves to for `vt`: its own default, else the row's. */
+static int option_default(const pgi_estimator_vtbl *vt, const pgi_option *o) {
+    for (const pgi_option_default *d = vt->defaults; d && d->option; d++)
+        if (d->option == o) return d->value;
+    return o->def;
+}
+
 pgi_status pgi_estimator_desc_resolve(const pgi_estimator_vtbl *vt, const pgi_estimator_desc *in,
                                       pgi_estimator_desc *out) {
     pgi_estimator_desc r = *in;
@@ -217,7 +224,7 @@ pgi_status pgi_estimator_desc_resolve(const pgi_estimator_vtbl *vt, const pgi_es
         } else {
             int v = *int_field(o, &r);
             if (v == 0) {
-                if (takes) *int_field(o, &d) = o->type == PGI_OPTION_INT ? o->def : 0;
+                if (takes) *int_field(o, &d) = o->type == PGI_OPTION_INT ? option_default(vt, o) : 0;
                 continue;
             }
             char c[64];
