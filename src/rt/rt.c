@@ -44,23 +44,49 @@ static PGI__COLD void capture1(pgi__ray_log *log, pgi__ray_kind kind, const stru
                          prim);
 }
 
-static PGI__COLD void capture8(pgi__ray_log *log, pgi__ray_kind kind, unsigned flags, const int *vmask,
-                               const struct RTCRayHit8 *rh, float tfar) {
-    pgi__ray_rec *c = pgi__ray_log_reserve(log, kind, 8, flags);
-    for (int i = 0; c && i < 8; i++)
-        pgi__ray_rec_set(c + i, v3(rh->ray.org_x[i], rh->ray.org_y[i], rh->ray.org_z[i]),
-                         v3(rh->ray.dir_x[i], rh->ray.dir_y[i], rh->ray.dir_z[i]), rh->ray.tnear[i], tfar,
-                         vmask[i] != 0, rh->hit.geomID[i], rh->hit.primID[i]);
+/* The lanes of an Embree packet, whatever its width (RTCRay8 and RTCRay16 differ only in the
+ * length of their arrays): the 8- and 16-wide queries below fill, read and capture packets
+ * through this one view. The hit arrays are NULL for occlusion rays. */
+typedef struct packet_view {
+    int n;
+    float *ox, *oy, *oz, *dx, *dy, *dz, *tnear, *tfar, *time;
+    unsigned *mask, *id, *flags;
+    unsigned *geom, *prim, *inst;
+    float *u, *v;
+} packet_view;
+#define PACKET_RAYS(N, r)                                                                                              \
+    .n = N, .ox = (r).org_x, .oy = (r).org_y, .oz = (r).org_z, .dx = (r).dir_x, .dy = (r).dir_y, .dz = (r).dir_z,      \
+    .tnear = (r).tnear, .tfar = (r).tfar, .time = (r).time, .mask = (r).mask, .id = (r).id, .flags = (r).flags
+#define PACKET_HITS(h) .geom = (h).geomID, .prim = (h).primID, .inst = (h).instID[0], .u = (h).u, .v = (h).v
+
+/* Lane i: the ray o + t d over (0, tfar), enabled or not in vmask. */
+static inline void packet_set(const packet_view *p, int *vmask, int i, int valid, pgi__v3 o, pgi__v3 d, float tfar) {
+    vmask[i] = valid ? -1 : 0;
+    p->ox[i] = o.x;
+    p->oy[i] = o.y;
+    p->oz[i] = o.z;
+    p->dx[i] = d.x;
+    p->dy[i] = d.y;
+    p->dz[i] = d.z;
+    p->tnear[i] = 0.f;
+    p->tfar[i] = tfar;
+    p->time[i] = 0.f;
+    p->mask[i] = (unsigned)-1;
+    p->id[i] = (unsigned)i;
+    p->flags[i] = 0;
+    if (p->geom) p->geom[i] = p->inst[i] = RTC_INVALID_GEOMETRY_ID;
 }
 
-/* 16 lanes of a packet (the rays as cast: tfar before the query). */
-static PGI__COLD void capture16(pgi__ray_log *log, pgi__ray_kind kind, int coherent, const int *vmask,
-                                const struct RTCRay16 *r, const unsigned *geom, const unsigned *prim) {
-    pgi__ray_rec *c = pgi__ray_log_reserve(log, kind, 16, coherent ? PGI__RAY_COHERENT : 0);
-    for (int i = 0; c && i < 16; i++)
-        pgi__ray_rec_set(c + i, v3(r->org_x[i], r->org_y[i], r->org_z[i]), v3(r->dir_x[i], r->dir_y[i], r->dir_z[i]),
-                         r->tnear[i], kind == PGI__RAY_INTERSECT16 ? INFINITY : r->tfar[i], vmask[i] != 0, geom[i],
-                         prim[i]);
+/* A packet's lanes as cast: `tfars` the lanes' tfar before the query (NULL: `tfar` for all);
+ * `occluded` the answers of an occlusion query (NULL: the packet's hits). */
+static PGI__COLD void capture_packet(pgi__ray_log *log, pgi__ray_kind kind, unsigned flags, const packet_view *p,
+                                     const int *vmask, float tfar, const float *tfars, const int *occluded) {
+    pgi__ray_rec *c = pgi__ray_log_reserve(log, kind, (size_t)p->n, flags);
+    for (int i = 0; c && i < p->n; i++)
+        pgi__ray_rec_set(c + i, v3(p->ox[i], p->oy[i], p->oz[i]), v3(p->dx[i], p->dy[i], p->dz[i]), p->tnear[i],
+                         tfars ? tfars[i] : tfar, vmask[i] != 0,
+                         occluded ? (occluded[i] ? 0u : RTC_INVALID_GEOMETRY_ID) : p->geom[i],
+                         occluded ? 0u : p->prim[i]);
 }
 
 static _Thread_local char g_rt_error[256];
@@ -282,6 +308,20 @@ int pgi__rt_occluded(const pgi__rt *rt, pgi__v3 o, pgi__v3 d, float tnear, float
     return r.tfar < 0.f; /* Embree sets tfar to -inf when occluded */
 }
 
+/* The hits of an intersected packet (disabled lanes and misses: prim UINT32_MAX). */
+static inline void packet_hits(const pgi__rt *rt, const packet_view *p, const int *valid, pgi__hit *hits) {
+    for (int i = 0; i < p->n; i++) {
+        if (!valid[i] || p->geom[i] == RTC_INVALID_GEOMETRY_ID) {
+            hits[i].prim = UINT32_MAX;
+            continue;
+        }
+        hits[i].t = p->tfar[i];
+        hits[i].u = p->u[i];
+        hits[i].v = p->v[i];
+        hits[i].prim = global_prim(rt, p->geom[i], p->prim[i]);
+    }
+}
+
 void pgi__rt_intersect8(const pgi__rt *rt, const int valid[8], pgi__v3 o, const pgi__v3 dirs[8], float tfar,
                         pgi__hit hits[8]) {
     struct RTCIntersectContext ctx;
@@ -289,35 +329,11 @@ void pgi__rt_intersect8(const pgi__rt *rt, const int valid[8], pgi__v3 o, const 
     ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
     RTC_ALIGN(32) struct RTCRayHit8 rh;
     RTC_ALIGN(32) int vmask[8];
-    for (int i = 0; i < 8; i++) {
-        vmask[i] = valid[i] ? -1 : 0;
-        rh.ray.org_x[i] = o.x;
-        rh.ray.org_y[i] = o.y;
-        rh.ray.org_z[i] = o.z;
-        rh.ray.dir_x[i] = dirs[i].x;
-        rh.ray.dir_y[i] = dirs[i].y;
-        rh.ray.dir_z[i] = dirs[i].z;
-        rh.ray.tnear[i] = 0.f;
-        rh.ray.tfar[i] = tfar;
-        rh.ray.time[i] = 0.f;
-        rh.ray.mask[i] = (unsigned)-1;
-        rh.ray.id[i] = (unsigned)i;
-        rh.ray.flags[i] = 0;
-        rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
-        rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
-    }
+    const packet_view p = {PACKET_RAYS(8, rh.ray), PACKET_HITS(rh.hit)};
+    for (int i = 0; i < 8; i++) packet_set(&p, vmask, i, valid[i], o, dirs[i], tfar);
     rtcIntersect8(vmask, rt->scene, &ctx, &rh);
-    if (CAPTURING(rt)) capture8(rt->capture, PGI__RAY_INTERSECT8, PGI__RAY_COHERENT, vmask, &rh, tfar);
-    for (int i = 0; i < 8; i++) {
-        if (!valid[i] || rh.hit.geomID[i] == RTC_INVALID_GEOMETRY_ID) {
-            hits[i].prim = UINT32_MAX;
-            continue;
-        }
-        hits[i].t = rh.ray.tfar[i];
-        hits[i].u = rh.hit.u[i];
-        hits[i].v = rh.hit.v[i];
-        hits[i].prim = global_prim(rt, rh.hit.geomID[i], rh.hit.primID[i]);
-    }
+    if (CAPTURING(rt)) capture_packet(rt->capture, PGI__RAY_INTERSECT8, PGI__RAY_COHERENT, &p, vmask, tfar, NULL, NULL);
+    packet_hits(rt, &p, valid, hits);
 }
 
 void pgi__rt_intersect16(const pgi__rt *rt, const int valid[16], const pgi__v3 *org, size_t org_step,
@@ -327,37 +343,13 @@ void pgi__rt_intersect16(const pgi__rt *rt, const int valid[16], const pgi__v3 *
     ctx.flags = coherent ? RTC_INTERSECT_CONTEXT_FLAG_COHERENT : RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
     RTC_ALIGN(64) struct RTCRayHit16 rh;
     RTC_ALIGN(64) int vmask[16];
-    for (int i = 0; i < 16; i++) {
-        pgi__v3 o = org[(size_t)i * org_step];
-        vmask[i] = valid[i] ? -1 : 0;
-        rh.ray.org_x[i] = o.x;
-        rh.ray.org_y[i] = o.y;
-        rh.ray.org_z[i] = o.z;
-        rh.ray.dir_x[i] = dirs[i].x;
-        rh.ray.dir_y[i] = dirs[i].y;
-        rh.ray.dir_z[i] = dirs[i].z;
-        rh.ray.tnear[i] = 0.f;
-        rh.ray.tfar[i] = INFINITY;
-        rh.ray.time[i] = 0.f;
-        rh.ray.mask[i] = (unsigned)-1;
-        rh.ray.id[i] = (unsigned)i;
-        rh.ray.flags[i] = 0;
-        rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
-        rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
-    }
+    const packet_view p = {PACKET_RAYS(16, rh.ray), PACKET_HITS(rh.hit)};
+    for (int i = 0; i < 16; i++) packet_set(&p, vmask, i, valid[i], org[(size_t)i * org_step], dirs[i], INFINITY);
     rtcIntersect16(vmask, rt->scene, &ctx, &rh);
     if (CAPTURING(rt))
-        capture16(rt->capture, PGI__RAY_INTERSECT16, coherent, vmask, &rh.ray, rh.hit.geomID, rh.hit.primID);
-    for (int i = 0; i < 16; i++) {
-        if (!valid[i] || rh.hit.geomID[i] == RTC_INVALID_GEOMETRY_ID) {
-            hits[i].prim = UINT32_MAX;
-            continue;
-        }
-        hits[i].t = rh.ray.tfar[i];
-        hits[i].u = rh.hit.u[i];
-        hits[i].v = rh.hit.v[i];
-        hits[i].prim = global_prim(rt, rh.hit.geomID[i], rh.hit.primID[i]);
-    }
+        capture_packet(rt->capture, PGI__RAY_INTERSECT16, coherent ? PGI__RAY_COHERENT : 0, &p, vmask, INFINITY, NULL,
+                       NULL);
+    packet_hits(rt, &p, valid, hits);
 }
 
 void pgi__rt_occluded16(const pgi__rt *rt, const int valid[16], const pgi__v3 org[16], const pgi__v3 dirs[16],
@@ -367,30 +359,15 @@ void pgi__rt_occluded16(const pgi__rt *rt, const int valid[16], const pgi__v3 or
     ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
     RTC_ALIGN(64) struct RTCRay16 r;
     RTC_ALIGN(64) int vmask[16];
-    for (int i = 0; i < 16; i++) {
-        vmask[i] = valid[i] ? -1 : 0;
-        r.org_x[i] = org[i].x;
-        r.org_y[i] = org[i].y;
-        r.org_z[i] = org[i].z;
-        r.dir_x[i] = dirs[i].x;
-        r.dir_y[i] = dirs[i].y;
-        r.dir_z[i] = dirs[i].z;
-        r.tnear[i] = 0.f;
-        r.tfar[i] = valid[i] ? tfar[i] : 0.f;
-        r.time[i] = 0.f;
-        r.mask[i] = (unsigned)-1;
-        r.id[i] = (unsigned)i;
-        r.flags[i] = 0;
-    }
-    RTC_ALIGN(64) float tf[16];
-    if (CAPTURING(rt)) memcpy(tf, r.tfar, sizeof tf);
+    const packet_view p = {PACKET_RAYS(16, r)};
+    for (int i = 0; i < 16; i++) packet_set(&p, vmask, i, valid[i], org[i], dirs[i], valid[i] ? tfar[i] : 0.f);
     rtcOccluded16(vmask, rt->scene, &ctx, &r);
     for (int i = 0; i < 16; i++) occluded[i] = valid[i] && r.tfar[i] < 0.f;
     if (CAPTURING(rt)) {
-        unsigned g[16], p[16] = {0};
-        for (int i = 0; i < 16; i++) g[i] = occluded[i] ? 0u : RTC_INVALID_GEOMETRY_ID;
-        memcpy(r.tfar, tf, sizeof tf);
-        capture16(rt->capture, PGI__RAY_OCCLUDED16, 1, vmask, &r, g, p);
+        /* As cast: the query overwrote tfar, and capture_packet reads the lanes' own. */
+        float tf[16];
+        for (int i = 0; i < 16; i++) tf[i] = valid[i] ? tfar[i] : 0.f;
+        capture_packet(rt->capture, PGI__RAY_OCCLUDED16, PGI__RAY_COHERENT, &p, vmask, 0.f, tf, occluded);
     }
 }
 

@@ -69,6 +69,14 @@ static void shade_eye_path(const pgi_scene *s, const pgi__rt *rt, const pgi_came
     v3_store(emit + 3 * i, e);
 }
 
+/* Both passes go over the image in 4x4-pixel tiles, one 16-wide packet each: lane k of tile
+ * (tx, ty) is pixel (4 tx + k % 4, 4 ty + k / 4). Returns 0 for a lane outside the image. */
+static inline int tile_lane(int tx, int ty, int k, int W, int H, int *px, int *py) {
+    *px = 4 * tx + (k & 3);
+    *py = 4 * ty + (k >> 2);
+    return *px < W && *py < H;
+}
+
 pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, const pgi_camera *cam, uint64_t seed,
                            const pgi__subpixel *sp, int threads, pgi_view_samples *vs, float *emit,
                            uint64_t *rays_out) {
@@ -88,19 +96,20 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, const pgi_came
     for (int ty = 0; ty < tiles_y; ty++) {
         for (int tx = 0; tx < tiles_x; tx++) {
             int valid[16];
+            size_t pix[16];
             pgi__v3 dirs[16];
             pgi__hit hits[16];
             for (int k = 0; k < 16; k++) {
-                int px = 4 * tx + (k & 3), py = 4 * ty + (k >> 2);
-                valid[k] = px < W && py < H;
+                int px, py;
+                valid[k] = tile_lane(tx, ty, k, W, H, &px, &py);
+                pix[k] = valid[k] ? (size_t)py * (size_t)W + (size_t)px : 0;
                 dirs[k] = pgi__view_dir(cam, sp, valid[k] ? px : 0, valid[k] ? py : 0);
             }
             pgi__rt_intersect16(rt, valid, &eye, 0, dirs, 1, hits);
             for (int k = 0; k < 16; k++) {
                 if (!valid[k]) continue;
                 rays++;
-                size_t i = (size_t)(4 * ty + (k >> 2)) * W + (size_t)(4 * tx + (k & 3));
-                shade_eye_path(s, rt, cam, seed, eps, i, eye, dirs[k], hits[k], vs, emit, &rays);
+                shade_eye_path(s, rt, cam, seed, eps, pix[k], eye, dirs[k], hits[k], vs, emit, &rays);
             }
         }
     }
@@ -137,9 +146,10 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
     const float eps = pgi__scene_epsilon(s);
     uint64_t rays = 0;
     const int W = vs->width, H = vs->height;
-    /* 4x4-pixel tiles: the shadow rays of a tile towards one light (or one area sample each)
-     * go to Embree as one coherent 16-wide packet (the fastest style: photongi-bench --limits). Every pixel keeps its own RNG stream and
-     * its sums run in the order of the lights and samples, as a pixel-by-pixel loop would. */
+    /* 4x4-pixel tiles (tile_lane): the shadow rays of a tile towards one light (or one area
+     * sample each) go to Embree as one coherent 16-wide packet (the fastest style:
+     * photongi-bench --limits). Every pixel keeps its own RNG stream and its sums run in the
+     * order of the lights and samples, as a pixel-by-pixel loop would. */
     const int tiles_x = (W + 3) / 4, tiles_y = (H + 3) / 4;
 #pragma omp parallel for schedule(dynamic, 1) reduction(+ : rays) num_threads(pgi__threads(threads))
     for (int ty = 0; ty < tiles_y; ty++) {
@@ -150,8 +160,8 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
             float sh[16];
             int any = 0;
             for (int k = 0; k < 16; k++) {
-                int px = 4 * tx + (k & 3), py = 4 * ty + (k >> 2);
-                on[k] = px < W && py < H;
+                int px, py;
+                on[k] = tile_lane(tx, ty, k, W, H, &px, &py);
                 pix[k] = on[k] ? (size_t)py * (size_t)W + (size_t)px : 0;
                 L[k] = La[k] = v3(0.f, 0.f, 0.f);
                 if (on[k] && !(vs->flags[pix[k]] & PGI_VS_VALID)) {
