@@ -28,20 +28,6 @@
 
 #define MAXF 64
 
-/* Loads a scene and a renderer for it; on failure says why and returns 0 (the scene is skipped). */
-static int open_scene(const char *sc, pgi_scene **scene, pgi_renderer **r) {
-    if (pgi_scene_load(sc, scene) != PGI_OK) {
-        fprintf(stderr, "photongi-bench: skipping scene %s: %s\n", sc, pgi_last_error());
-        return 0;
-    }
-    if (pgi_renderer_create(*scene, r) != PGI_OK) {
-        fprintf(stderr, "photongi-bench: skipping scene %s: %s\n", sc, pgi_last_error());
-        pgi_scene_destroy(*scene);
-        return 0;
-    }
-    return 1;
-}
-
 static int in_list(const char *list, const char *name) {
     if (!list) return 1;
     size_t n = strlen(name);
@@ -72,12 +58,8 @@ static int run_table1(const char *scenes, int frames, unsigned photons, int widt
         {"bounds3d", "bounds3d", 0, 0},     {"bounds25d-4", "bounds25d", 0, 4},
         {"bounds25d-8", "bounds25d", 0, 8}, {"bounds25d-16", "bounds25d", 0, 16},
     };
-    mkdir("bench/results", 0755);
-    FILE *csv = fopen(csv_path, "w");
-    if (!csv) {
-        fprintf(stderr, "photongi-bench: cannot write %s\n", csv_path);
-        return 1;
-    }
+    FILE *csv = open_csv(csv_path);
+    if (!csv) return 1;
     fprintf(csv, "scene,method,width,height,threads,photons,radius,frames,build_ms,estimate_ms,tests,contributing,"
                  "wasted_ratio,covered_or_nodes,passes\n");
     printf("%-14s %-13s %9s %9s %13s %12s %7s %13s\n", "scene", "method", "build", "estimate", "tests", "contrib",
@@ -212,12 +194,8 @@ int main(int argc, char **argv) {
     if (table1)
         return run_table1(scenes, frames, photons, width, height, radius, threads, knn,
                           strcmp(csv_path, "bench/results/bench.csv") == 0 ? "bench/results/table1.csv" : csv_path);
-    mkdir("bench/results", 0755);
-    FILE *csv = fopen(csv_path, "w");
-    if (!csv) {
-        fprintf(stderr, "photongi-bench: cannot write %s\n", csv_path);
-        return 1;
-    }
+    FILE *csv = open_csv(csv_path);
+    if (!csv) return 1;
     fprintf(csv, "scene,estimator,width,height,threads,photons,emitted,radius,frames,view_ms,trace_ms,build_ms,"
                  "estimate_ms,direct_ms,total_ms,primary_mrays_s,photon_mrays_s,reads,contributing,"
                  "contributing_ratio,estimator_bytes,passes\n");

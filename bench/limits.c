@@ -104,15 +104,7 @@ typedef struct {
 static int run_scene(const char *sc, const pgi_render_desc *d, int frames, FILE *csv) {
     pgi_scene *scene;
     pgi_renderer *r;
-    if (pgi_scene_load(sc, &scene) != PGI_OK) {
-        fprintf(stderr, "photongi-bench: skipping scene %s: %s\n", sc, pgi_last_error());
-        return 0;
-    }
-    if (pgi_renderer_create(scene, &r) != PGI_OK) {
-        fprintf(stderr, "photongi-bench: skipping scene %s: %s\n", sc, pgi_last_error());
-        pgi_scene_destroy(scene);
-        return 0;
-    }
+    if (!open_scene(sc, &scene, &r)) return 0;
     pgi__rt *rt = pgi__renderer_rt(r);
     pgi__ray_log *log = NULL, *tiles = NULL, *pairs = NULL, *rowlog = NULL;
     pgi_image img = {0};
@@ -323,12 +315,8 @@ static double cpu_busy(void) {
 int pgi_bench_limits(const char *scenes, const char *estimator, int frames, unsigned photons, int width, int height,
                      float radius, int threads, const char *csv_path) {
     if (frames > MAXF) frames = MAXF;
-    mkdir("bench/results", 0755);
-    FILE *csv = fopen(csv_path, "w");
-    if (!csv) {
-        fprintf(stderr, "photongi-bench: cannot write %s\n", csv_path);
-        return 1;
-    }
+    FILE *csv = open_csv(csv_path);
+    if (!csv) return 1;
     fprintf(csv, "scene,width,height,threads,photons,estimator,frames,section,pass,group,method,call,rays,pass_ms,"
                  "raw_ms,ratio,pass_mrays_s,raw_mrays_s,best,mismatches,pass_min_ms,raw_min_ms\n");
     pgi_render_desc d = {.estimator = estimator,
