@@ -17,6 +17,7 @@
  * texels of its hits are prefetched before any is shaded, so that their cache misses overlap
  * instead of following one another (photon rays are incoherent: each hit is a miss). */
 #define WAVE 16 /* = the packet width of pgi__rt_intersect16 */
+_Static_assert(WAVE == 16, "a wave is one pgi__rt_intersect16 packet");
 /* Paths a scheduling unit: a thread traces a chunk's paths and sorts their photons into path
  * order, so that the result is the same whatever the thread count. */
 #define CHUNK 1024
@@ -158,7 +159,7 @@ static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbu
         if (active == 0) break;
         /* Cast the wave's rays as one 16-wide incoherent packet (single rays, 8- and 16-wide
          * packets and streams are within noise of each other for these rays: photongi-bench
-         * --limits); each hit's triangle record is fetched while the rest of the wave is shaded. */
+         * --limits); the triangle records of all the hits are requested together. */
         {
             int valid[WAVE];
             pgi__v3 org[WAVE], dir[WAVE];

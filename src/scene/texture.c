@@ -10,23 +10,24 @@
  * nothing farther out occurs; no division on this hot path). */
 static inline int wrap_index(long i, int n) { return i < 0 ? (int)(i + n) : i >= n ? (int)(i - n) : (int)i; }
 
+static inline const unsigned char *texel_at(const pgi__texture *t, int x, int y) {
+    return t->rgba + 4 * ((size_t)y * (size_t)t->width + (size_t)x);
+}
+
 static inline pgi__v3 texel(const pgi__texture *t, int x, int y) {
-    const unsigned char *p = t->rgba + 4 * ((size_t)y * (size_t)t->width + (size_t)x);
+    const unsigned char *p = texel_at(t, x, y);
     return v3(pgi__srgb8_texture_lut[p[0]], pgi__srgb8_texture_lut[p[1]], pgi__srgb8_texture_lut[p[2]]);
 }
 
-void pgi__texture_prefetch(const pgi__texture *t, float u, float v) {
-    if (!t || !t->rgba || t->width <= 0 || t->height <= 0 || !isfinite(u) || !isfinite(v)) return;
-    float x = (u - floorf(u)) * (float)t->width - 0.5f, y = (1.f - (v - floorf(v))) * (float)t->height - 0.5f;
-    int x0 = wrap_index((long)floorf(x), t->width);
-    int y0 = wrap_index((long)floorf(y), t->height), y1 = wrap_index((long)floorf(y) + 1, t->height);
-    __builtin_prefetch(t->rgba + 4 * ((size_t)y0 * (size_t)t->width + (size_t)x0));
-    __builtin_prefetch(t->rgba + 4 * ((size_t)y1 * (size_t)t->width + (size_t)x0));
-}
+/* The 2x2 texels of a bilinear lookup at (u, v): columns x0, x1, rows y0, y1, and the weights
+ * (tx, ty) of x1 and y1. NaN / Inf coordinates (degenerate UVs) read texel (0, 0)'s
+ * neighbourhood instead of crashing. */
+typedef struct footprint2x2 {
+    int x0, x1, y0, y1;
+    float tx, ty;
+} footprint2x2;
 
-pgi__v3 pgi__texture_lookup(const pgi__texture *t, float u, float v) {
-    if (!t || !t->rgba || t->width <= 0 || t->height <= 0) return v3(1.f, 1.f, 1.f);
-    /* NaN / Inf coordinates (degenerate UVs) read texel (0, 0)'s neighbourhood instead of crashing. */
+static inline footprint2x2 bilinear_footprint(const pgi__texture *t, float u, float v) {
     if (!isfinite(u)) u = 0.f;
     if (!isfinite(v)) v = 0.f;
     /* Reduce to [0, 1) first so that huge tiling factors keep their precision in the fraction. */
@@ -35,11 +36,28 @@ pgi__v3 pgi__texture_lookup(const pgi__texture *t, float u, float v) {
     float x = fu * (float)t->width - 0.5f;
     float y = (1.f - fv) * (float)t->height - 0.5f; /* v = 0 is the bottom row */
     float x0f = floorf(x), y0f = floorf(y);
-    float tx = x - x0f, ty = y - y0f;
-    int x0 = wrap_index((long)x0f, t->width), x1 = wrap_index((long)x0f + 1, t->width);
-    int y0 = wrap_index((long)y0f, t->height), y1 = wrap_index((long)y0f + 1, t->height);
-    pgi__v3 a = texel(t, x0, y0), b = texel(t, x1, y0), c = texel(t, x0, y1), d = texel(t, x1, y1);
-    pgi__v3 top = v3_add(v3_scale(a, 1.f - tx), v3_scale(b, tx));
-    pgi__v3 bot = v3_add(v3_scale(c, 1.f - tx), v3_scale(d, tx));
-    return v3_add(v3_scale(top, 1.f - ty), v3_scale(bot, ty));
+    footprint2x2 f;
+    f.tx = x - x0f;
+    f.ty = y - y0f;
+    f.x0 = wrap_index((long)x0f, t->width);
+    f.x1 = wrap_index((long)x0f + 1, t->width);
+    f.y0 = wrap_index((long)y0f, t->height);
+    f.y1 = wrap_index((long)y0f + 1, t->height);
+    return f;
+}
+
+void pgi__texture_prefetch(const pgi__texture *t, float u, float v) {
+    if (!t || !t->rgba || t->width <= 0 || t->height <= 0) return;
+    footprint2x2 f = bilinear_footprint(t, u, v);
+    __builtin_prefetch(texel_at(t, f.x0, f.y0));
+    __builtin_prefetch(texel_at(t, f.x0, f.y1));
+}
+
+pgi__v3 pgi__texture_lookup(const pgi__texture *t, float u, float v) {
+    if (!t || !t->rgba || t->width <= 0 || t->height <= 0) return v3(1.f, 1.f, 1.f);
+    footprint2x2 f = bilinear_footprint(t, u, v);
+    pgi__v3 a = texel(t, f.x0, f.y0), b = texel(t, f.x1, f.y0), c = texel(t, f.x0, f.y1), d = texel(t, f.x1, f.y1);
+    pgi__v3 top = v3_add(v3_scale(a, 1.f - f.tx), v3_scale(b, f.tx));
+    pgi__v3 bot = v3_add(v3_scale(c, 1.f - f.tx), v3_scale(d, f.tx));
+    return v3_add(v3_scale(top, 1.f - f.ty), v3_scale(bot, f.ty));
 }
