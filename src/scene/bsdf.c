@@ -19,11 +19,7 @@ void pgi__scene_surface_untextured(const pgi_scene *s, uint32_t prim, float bu, 
         }
     }
     o->u = o->v = 0.f;
-    if (s->uv) {
-        const float *ua = s->uv + 2 * (size_t)t[0], *ub = s->uv + 2 * (size_t)t[1], *uc = s->uv + 2 * (size_t)t[2];
-        o->u = bw * ua[0] + bu * ub[0] + bv * uc[0];
-        o->v = bw * ua[1] + bu * ub[1] + bv * uc[1];
-    }
+    if (s->uv) pgi__scene_uv(s, prim, bu, bv, &o->u, &o->v);
     o->mat = &s->mats[s->tri_mat[prim]];
     o->kd = v3_load(o->mat->kd);
 }
