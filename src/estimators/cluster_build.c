@@ -5,14 +5,22 @@
  * Hierarchy (rebuilt each frame, §4.1): a cluster is a screen tile of T x T
  * pixels (default 8) x a view-depth slice k = floor(log(z/near) /
  * log(1 + 2 tan(fov_y/2) / tiles_y)) (Olsson et al. 2012), so clusters are
- * roughly cubical. Samples seen through mirrors/glass (no PGI_VS_PRIMARY) get
- * one extra top key bit: they form their own subtree, so their far-away
- * positions do not inflate the boxes of the primary clusters. The key bits of
- * tile x, tile y and slice are interleaved (the dimension with the most bits
- * left first), and the key is cut into 5-bit digits: 32 children a node, a
- * 32-bit child mask, key >> 5 = parent key. Unlike the paper's dense GPU
- * arrays, the tree is sparse: each tile's samples are sorted locally by
- * (mirror bit, slice), the resulting clusters are radix-sorted by key, the
+ * roughly cubical. The key bits of tile x, tile y and slice are interleaved
+ * (the dimension with the most bits left first), and the key is cut into
+ * 5-bit digits: 32 children a node, a 32-bit child mask, key >> 5 = parent
+ * key.
+ *
+ * Samples seen through mirrors/glass (no PGI_VS_PRIMARY) lie anywhere in the
+ * reflected scene, so a tile and a depth slice would group far-apart points
+ * (a curved mirror shows the whole scene in a few pixels) and the boxes of
+ * those clusters would catch nearly every photon. They get one extra top key
+ * bit, their own subtree, and under it a key by position instead: the Morton
+ * code of a uniform grid over their view-space box (3 x floor(bits / 3) bits),
+ * so each of their clusters is one occupied grid cell.
+ *
+ * Unlike the paper's dense GPU arrays, the tree is sparse: each tile's
+ * primary samples are sorted locally by slice, the mirror-seen samples by
+ * their cell (one radix sort), the resulting clusters are radix-sorted by key, the
  * leaves are the clusters in key order, and every level is the run list of the
  * key prefixes, stored breadth first; a node's children are contiguous (first
  * child index + mask), and every node covers one contiguous range of the
@@ -22,6 +30,7 @@
  *
  * The build runs in phases: scan_samples (valid counts, depth range),
  * key_layout (interleaved key bits), sort_tiles (per-tile local sorts),
+ * sort_secondary (the mirror-seen samples by cell),
  * sort_clusters (radix sort of the clusters, samples in cluster order),
  * link_levels (nodes of every level, parent/child links, sample ranges),
  * leaf_bounds and inner_bounds (boxes, cones, Lambert flags). */
@@ -161,10 +170,13 @@ static inline void soa_store(cl_state *s, size_t ni, const cnode *nd) {
 typedef struct {
     float near, log_near, inv_step; /* depth slices */
     int nslices_m1, any_secondary;
-    uint64_t *sp[3];  /* spread tables: tile x, tile y, slice -> key bits */
-    uint64_t sec_bit; /* top key bit of the mirror/glass subtree */
-    int bits;         /* key bits */
-    size_t nclus;     /* clusters (= leaves) */
+    uint64_t *sp[3];    /* spread tables: tile x, tile y, slice -> key bits */
+    uint64_t sec_bit;   /* top key bit of the mirror/glass subtree */
+    int bits;           /* key bits */
+    size_t nclus;       /* clusters (= leaves) */
+    size_t nclus_tiles; /* of which from tiles (primary samples); the rest are cells of mirror-seen samples */
+    size_t nsec;        /* mirror-seen samples */
+    size_t sec_base;    /* their (cell key << 32 | pixel) entries start at keys2[sec_base] */
 } build_ctx;
 
 static pgi_status scan_samples(cl_state *s, const pgi_view_samples *vs, const pgi_camera *cam, build_ctx *bc) {
@@ -180,11 +192,12 @@ static pgi_status scan_samples(cl_state *s, const pgi_view_samples *vs, const pg
      * the largest depth (slices are monotone in depth, so it gives the slice
      * count), and whether any sample was seen through a mirror/glass. */
     float near = INFINITY, zmax = 0.f;
-    int any_secondary = 0, any_nan = 0;
+    int any_nan = 0;
+    size_t nsec = 0;
 #pragma omp parallel for schedule(static) reduction(min                                                                \
                                                     : near) reduction(max                                              \
                                                                       : zmax) reduction(|                              \
-                                                                                        : any_secondary, any_nan)      \
+                                                                                        : any_nan) reduction(+ : nsec) \
     num_threads(s->c.threads)
     for (int c = 0; c < npc; c++) {
         uint32_t cnt = 0;
@@ -193,12 +206,15 @@ static pgi_status scan_samples(cl_state *s, const pgi_view_samples *vs, const pg
                 size_t i = (size_t)y * W + (size_t)x;
                 uint8_t f = vs->flags[i];
                 if (!(f & PGI_VS_VALID)) continue;
+                cnt++;
+                if (!(f & PGI_VS_PRIMARY)) {
+                    nsec++;
+                    continue;
+                }
                 float z = vs->depth[i];
                 if (z > 0.f && z < near) near = z;
                 if (z > zmax) zmax = z;
                 any_nan |= !(z == z);
-                any_secondary |= !(f & PGI_VS_PRIMARY);
-                cnt++;
             }
         s->pix_cnt[c] = cnt;
     }
@@ -214,7 +230,8 @@ static pgi_status scan_samples(cl_state *s, const pgi_view_samples *vs, const pg
     }
     s->nvalid = nvalid;
     bc->near = near, bc->log_near = log_near, bc->inv_step = inv_step;
-    bc->nslices_m1 = nslices_m1, bc->any_secondary = any_secondary;
+    bc->nslices_m1 = nslices_m1, bc->any_secondary = nsec > 0;
+    bc->nsec = nsec;
     return PGI_OK;
 }
 
@@ -259,15 +276,17 @@ static pgi_status sort_tiles(cl_state *s, const pgi_view_samples *vs, build_ctx 
     const float near = bc->near, log_near = bc->log_near, inv_step = bc->inv_step;
     const size_t nvalid = s->nvalid;
     pgi_status st;
-    /* Per tile: its valid samples sorted by (mirror bit, slice), the part of
-     * the key that varies inside a tile (the spread tables are monotone, so
-     * this is key order); the runs are the tile's clusters. Then only the
+    /* Per tile: its valid primary samples sorted by slice, the part of the
+     * key that varies inside a tile (the spread tables are monotone, so this
+     * is key order); the runs are the tile's clusters. Then only the
      * clusters are radix-sorted by key, and the samples are copied into
      * cluster order: sorting 2M samples is replaced by ~64-sample local sorts. */
     const int ntiles = s->ntx * s->nty;
     const size_t tsz = (size_t)T * (size_t)T;
-    if ((st = ENSURE(keys2, (size_t)ntiles * tsz + 1, uint64_t)) || (st = ENSURE(tcl, (size_t)ntiles + 1, uint32_t)) ||
-        (st = ENSURE(tn, (size_t)ntiles + 1, uint32_t)) || (st = ENSURE(order, nvalid + 1, uint32_t)))
+    bc->sec_base = (size_t)ntiles * tsz;
+    if ((st = ENSURE(keys2, (size_t)ntiles * tsz + bc->nsec + 1, uint64_t)) ||
+        (st = ENSURE(tcl, (size_t)ntiles + 1, uint32_t)) || (st = ENSURE(tn, (size_t)ntiles + 1, uint32_t)) ||
+        (st = ENSURE(order, nvalid + 1, uint32_t)))
         return st;
 #pragma omp parallel for schedule(dynamic, 16) num_threads(s->c.threads)
     for (int t = 0; t < ntiles; t++) {
@@ -279,29 +298,25 @@ static pgi_status sort_tiles(cl_state *s, const pgi_view_samples *vs, build_ctx 
         for (int y = ty * T; y < (ty + 1) * T && y < H; y++)
             for (int x = tx * T; x < (tx + 1) * T && x < W; x++) {
                 size_t i = (size_t)y * W + (size_t)x;
-                uint8_t f = vs->flags[i];
-                if (!(f & PGI_VS_VALID)) continue;
+                if ((vs->flags[i] & (PGI_VS_VALID | PGI_VS_PRIMARY)) != (PGI_VS_VALID | PGI_VS_PRIMARY)) continue;
                 uint64_t sl = (uint64_t)slice_of(vs->depth[i], near, log_near, inv_step);
-                uint64_t sec = (f & PGI_VS_PRIMARY) ? 0u : 1u;
                 uint64_t j = (uint64_t)((y - ty * T) * T + (x - tx * T));
-                v[n++] = sec << 40 | sl << 20 | j;
+                v[n++] = sl << 20 | j;
                 smin = (uint32_t)sl < smin ? (uint32_t)sl : smin;
                 smax = (uint32_t)sl > smax ? (uint32_t)sl : smax;
             }
-        /* Sort by (mirror bit, slice, pixel): the pixels come in increasing j,
+        /* Sort by (slice, pixel): the pixels come in increasing j,
          * so a stable counting sort over the tile's few slices gives the
          * sorted order; wide slice ranges (rare) use a comparison sort. */
         const uint32_t range = n ? smax - smin + 1 : 0;
         int sorted = n < 2;
         if (v == tmp && n > 1 && range > 1 && range <= 64) {
             sorted = 1;
-            uint32_t cnt[129];
+            uint32_t cnt[65];
             memset(cnt, 0, sizeof cnt);
-            for (uint32_t k = 0; k < n; k++)
-                cnt[1 + (uint32_t)(v[k] >> 40) * range + ((uint32_t)(v[k] >> 20 & 0xFFFFFu) - smin)]++;
-            for (uint32_t b = 1; b <= 2 * range; b++) cnt[b] += cnt[b - 1];
-            for (uint32_t k = 0; k < n; k++)
-                out[cnt[(uint32_t)(v[k] >> 40) * range + ((uint32_t)(v[k] >> 20 & 0xFFFFFu) - smin)]++] = v[k];
+            for (uint32_t k = 0; k < n; k++) cnt[1 + ((uint32_t)(v[k] >> 20) - smin)]++;
+            for (uint32_t b = 1; b <= range; b++) cnt[b] += cnt[b - 1];
+            for (uint32_t k = 0; k < n; k++) out[cnt[(uint32_t)(v[k] >> 20) - smin]++] = v[k];
             v = out;
         }
         if (v != out) {
@@ -309,10 +324,7 @@ static pgi_status sort_tiles(cl_state *s, const pgi_view_samples *vs, build_ctx 
             v = out;
         }
         if (!sorted && range == 1) {
-            /* one slice: only the mirror bit can reorder */
-            int any_sec = 0;
-            for (uint32_t k = 0; k < n; k++) any_sec |= (int)(v[k] >> 40);
-            if (any_sec) qsort(v, n, sizeof *v, cmp_u64);
+            /* one slice: already in order */
         } else if (!sorted && n <= 256) {
             for (uint32_t k = 1; k < n; k++) { /* insertion sort: tiles are small */
                 uint64_t e = v[k];
@@ -335,7 +347,72 @@ static pgi_status sort_tiles(cl_state *s, const pgi_view_samples *vs, build_ctx 
         nclus += c;
     }
     s->tcl[ntiles] = (uint32_t)nclus;
-    bc->nclus = nclus;
+    bc->nclus = bc->nclus_tiles = nclus;
+    return PGI_OK;
+}
+
+/* Spreads the low 21 bits of v to every third bit. */
+static inline uint64_t spread3(uint64_t v) {
+    v &= 0x1fffff;
+    v = (v | v << 32) & 0x1f00000000ffffull;
+    v = (v | v << 16) & 0x1f0000ff0000ffull;
+    v = (v | v << 8) & 0x100f00f00f00f00full;
+    v = (v | v << 4) & 0x10c30c30c30c30c3ull;
+    v = (v | v << 2) & 0x1249249249249249ull;
+    return v;
+}
+
+/* The mirror-seen samples: keyed by the Morton code of their cell in a uniform
+ * grid over their view-space box, sorted by it (stable: pixel order inside a
+ * cell), stored as (cell key << 32 | pixel) at keys2[sec_base]; each run of
+ * one cell is a cluster. */
+static pgi_status sort_secondary(cl_state *s, const pgi_view_samples *vs, build_ctx *bc) {
+    const size_t nsec = bc->nsec, np = (size_t)vs->width * (size_t)vs->height;
+    if (!nsec) return PGI_OK;
+    pgi_status st;
+    if ((st = ENSURE(sec_key, 2 * nsec + 1, uint64_t)) || (st = ENSURE(sec_pix, 2 * nsec + 1, uint32_t)) ||
+        (st = ENSURE(sec_pos, 3 * nsec + 1, float)))
+        return st;
+    size_t m = 0;
+    for (size_t i = 0; i < np; i++)
+        if ((vs->flags[i] & (PGI_VS_VALID | PGI_VS_PRIMARY)) == PGI_VS_VALID) s->sec_pix[m++] = (uint32_t)i;
+    PGI_ASSERT(m == nsec);
+    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t k = 0; k < nsec; k++) {
+        const float *p = vs->pos + 3 * (size_t)s->sec_pix[k];
+        pgi__v3 q = pgi__to_view(&s->x, p[0], p[1], p[2]);
+        float qq[3] = {q.x, q.y, q.z};
+        for (int d = 0; d < 3; d++) {
+            s->sec_pos[3 * k + d] = qq[d];
+            lo[d] = pgi_minf(lo[d], qq[d]);
+            hi[d] = pgi_maxf(hi[d], qq[d]);
+        }
+    }
+    /* as many bits a side as the primary key has per dimension on average (at most 21) */
+    int b = (bc->bits - 1) / 3;
+    b = b > 21 ? 21 : b;
+    float ext = 0.f;
+    for (int d = 0; d < 3; d++) ext = pgi_maxf(ext, hi[d] - lo[d]);
+    const float cells = (float)(1u << b), inv = ext > 0.f && isfinite(ext) ? cells / ext : 0.f;
+    for (size_t k = 0; k < nsec; k++) {
+        uint64_t key = 0;
+        for (int d = 0; d < 3; d++) {
+            float f = (s->sec_pos[3 * k + d] - lo[d]) * inv;
+            uint64_t c = f >= 1.f ? (f < cells ? (uint64_t)f : (uint64_t)cells - 1) : 0; /* NaN: cell 0 */
+            key |= spread3(c) << (2 - d);
+        }
+        s->sec_key[k] = key;
+    }
+    uint64_t *k0 = s->sec_key, *k1 = s->sec_key + nsec;
+    uint32_t *v0 = s->sec_pix, *v1 = s->sec_pix + nsec;
+    if (radix_sort(k0, v0, k1, v1, nsec, 3 * b, s->hist, s->c.threads)) k0 = k1, v0 = v1;
+    uint64_t *out = s->keys2 + bc->sec_base;
+    size_t runs = 0;
+    for (size_t k = 0; k < nsec; k++) {
+        out[k] = k0[k] << 32 | v0[k];
+        runs += k == 0 || k0[k] != k0[k - 1];
+    }
+    bc->nclus = bc->nclus_tiles + runs;
     return PGI_OK;
 }
 
@@ -345,6 +422,7 @@ static pgi_status sort_clusters(cl_state *s, const pgi_view_samples *vs, const b
     const size_t tsz = (size_t)T * (size_t)T, nclus = bc->nclus, nvalid = s->nvalid;
     uint64_t *const *const sp = bc->sp;
     const uint64_t sec_bit = bc->sec_bit;
+    const size_t sec_base = bc->sec_base;
     const int bits = bc->bits;
     pgi_status st;
     if ((st = ENSURE(keys, nclus + 1, uint64_t)) || (st = ENSURE(ck2, nclus + 1, uint64_t)) ||
@@ -361,13 +439,27 @@ static pgi_status sort_clusters(cl_state *s, const pgi_view_samples *vs, const b
         for (uint32_t k = 0; k < n;) {
             const uint32_t k0 = k;
             while (k < n && (v[k] >> 20) == (v[k0] >> 20)) k++;
-            const uint64_t sec = v[k0] >> 40, sl = (v[k0] >> 20) & 0xFFFFFu;
-            s->keys[c] = sp[0][tx] | sp[1][ty] | sp[2][sl] | (sec ? sec_bit : 0);
+            const uint64_t sl = (v[k0] >> 20) & 0xFFFFFu;
+            s->keys[c] = sp[0][tx] | sp[1][ty] | sp[2][sl];
             s->ci[c] = c;
             s->cb[c] = (uint32_t)((size_t)t * tsz + k0);
             s->cn[c] = k - k0;
             c++;
         }
+    }
+    {
+        const uint64_t *v = s->keys2 + bc->sec_base;
+        size_t c = bc->nclus_tiles;
+        for (size_t k = 0; k < bc->nsec;) {
+            const size_t k0 = k;
+            while (k < bc->nsec && (v[k] >> 32) == (v[k0] >> 32)) k++;
+            s->keys[c] = sec_bit | v[k0] >> 32;
+            s->ci[c] = (uint32_t)c;
+            s->cb[c] = (uint32_t)(bc->sec_base + k0);
+            s->cn[c] = (uint32_t)(k - k0);
+            c++;
+        }
+        PGI_ASSERT(c == nclus);
     }
     if (radix_sort(s->keys, s->ci, s->ck2, s->ci2, nclus, bits, s->hist, s->c.threads)) {
         pgi__buf tk = s->keys_buf;
@@ -394,7 +486,9 @@ static pgi_status sort_clusters(cl_state *s, const pgi_view_samples *vs, const b
         const size_t base = (size_t)(ty * T) * W + (size_t)(tx * T);
         const uint64_t *kv = s->keys2 + s->cb[c];
         uint32_t *o = s->order + s->cs[i];
-        if (tsh >= 0) { /* power-of-two tiles (the default 8): no divisions */
+        if (s->cb[c] >= sec_base) { /* a cell of mirror-seen samples: pixel indices */
+            for (uint32_t j = 0; j < s->cn[c]; j++) o[j] = (uint32_t)kv[j];
+        } else if (tsh >= 0) { /* power-of-two tiles (the default 8): no divisions */
             for (uint32_t j = 0; j < s->cn[c]; j++) {
                 uint32_t lj = (uint32_t)(kv[j] & 0xFFFFFu);
                 o[j] = (uint32_t)(base + (size_t)(lj >> tsh) * W + (lj & (uint32_t)(T - 1)));
@@ -589,7 +683,7 @@ pgi_status cl_build_hierarchy(cl_state *s, const pgi_view_samples *vs, const pgi
     s->ntx = (W + T - 1) / T;
     s->nty = (H + T - 1) / T;
     if ((st = scan_samples(s, vs, cam, &bc)) || (st = key_layout(s, &bc)) || (st = sort_tiles(s, vs, &bc)) ||
-        (st = sort_clusters(s, vs, &bc)))
+        (st = sort_secondary(s, vs, &bc)) || (st = sort_clusters(s, vs, &bc)))
         return st;
     *t_sort = pgi__now_ms();
     if ((st = link_levels(s, &bc)) || (st = leaf_bounds(s, vs))) return st;

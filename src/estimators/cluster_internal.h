@@ -50,6 +50,9 @@ typedef struct {
     PGI__BUF(uint32_t, order);
     PGI__BUF(uint32_t, hist);
     PGI__BUF(uint32_t, pix_cnt);
+    PGI__BUF(uint64_t, sec_key); /* mirror-seen samples: cell keys (two halves: radix ping-pong) */
+    PGI__BUF(uint32_t, sec_pix); /* their pixels (the same) */
+    PGI__BUF(float, sec_pos);    /* their view-space positions */
     /* hierarchy */
     PGI__BUF(cnode, nodes);
     PGI__BUF(uint32_t, sbeg); /* nnodes + 1: node sample ranges [sbeg[i], send[i]) */

@@ -707,7 +707,8 @@ void cl_destroy(void *state) {
                      &s->job_start_buf, &s->jobs_buf,     &s->top_ids_buf,  &s->node_cnt_buf,  &s->node_start_buf,
                      &s->node_tcnt_buf, &s->cursor_buf,   &s->top_flux_buf, &s->node_flux_buf, &s->buckets_buf,
                      &s->lists_buf,     &s->pk_buf,       &s->jobq_buf,     &s->cum_flux_buf,  &s->irr_buf,
-                     &s->cum_cnt_buf,   &s->task_rec_buf, &s->soa_buf,      &s->sam_buf};
+                     &s->cum_cnt_buf,   &s->task_rec_buf, &s->soa_buf,      &s->sam_buf,       &s->sec_key_buf,
+                     &s->sec_pix_buf,   &s->sec_pos_buf};
     for (size_t k = 0; k < sizeof b / sizeof b[0]; k++) pgi__buf_free(b[k]);
     for (int i = 0; i < s->nouts; i++) free(s->outs[i].out);
     free(s->outs);

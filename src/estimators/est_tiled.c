@@ -13,14 +13,16 @@
  * and therefore the image are the same for any number of threads.
  *
  * View samples reached through mirrors/glass lie outside their tile's
- * frustum; such tiles drop the frustum test, keep the box test, and are
- * tested by every photon (they are listed apart). */
+ * frustum, anywhere in the reflected scene. They are left out of the tiles
+ * and grouped by position instead (spec_cells.h): cells of edge >= 2r in view
+ * space, each with the tight box of its samples, one more photon list per
+ * cell after the tiles' lists. A photon reaches only the cells near it. */
 #include "estimator_internal.h"
+#include "spec_cells.h"
 
 typedef struct {
-    float lo[3], hi[3]; /* view-space box of the tile's samples */
-    int valid;          /* has at least one valid sample */
-    int primary;        /* all valid samples came from primary rays */
+    float lo[3], hi[3]; /* view-space box of the tile's primary samples */
+    int valid;          /* has at least one valid primary sample */
 } tile_bounds;
 
 typedef struct {
@@ -28,13 +30,12 @@ typedef struct {
     int T, ntx, nty, ntiles;
     tile_bounds *bounds;
     size_t bounds_cap;
-    uint32_t *secondary; /* tiles holding samples seen through specular bounces */
-    size_t secondary_cap;
-    int nsecondary;
-    float frame_lo[3], frame_hi[3]; /* box of all tiles' boxes */
-    uint32_t *counts;               /* [chunk][tile] */
+    pgi__spec_cells cells;          /* samples seen through mirrors/glass: lists ntiles .. nlists - 1 */
+    int nlists;                     /* ntiles + cells.n */
+    float frame_lo[3], frame_hi[3]; /* box of all tiles' boxes and the cells' */
+    uint32_t *counts;               /* [chunk][list] */
     size_t counts_cap;
-    uint32_t *tile_start; /* ntiles + 1 */
+    uint32_t *tile_start; /* nlists + 1 */
     size_t tile_start_cap;
     pgi__packed_photon *tile_photons;
     size_t tile_photons_cap;
@@ -74,7 +75,7 @@ static inline void silhouette(float a, float z, float r, float *u0, float *u1) {
 }
 
 /* Sphere vs tile: box distance, then the four side planes of the tile's
- * frustum (through the eye and the tile's pixel edges) for primary tiles. */
+ * frustum (through the eye and the tile's pixel edges). */
 static inline int overlaps(const tiled_state *s, const pgi__view_xf *x, int t, pgi__v3 c, float r) {
     const tile_bounds *b = &s->bounds[t];
     if (!b->valid) return 0;
@@ -87,7 +88,6 @@ static inline int overlaps(const tiled_state *s, const pgi__view_xf *x, int t, p
         if (e > 0.f) d2 += e * e;
     }
     if (d2 > rr * rr) return 0;
-    if (!b->primary) return 1;
     int tx = t % s->ntx, ty = t / s->ntx;
     float u0 = (2.f * (float)(tx * s->T) / (float)x->W - 1.f) * x->sx;
     float u1 = (2.f * (float)((tx + 1) * s->T) / (float)x->W - 1.f) * x->sx;
@@ -114,9 +114,9 @@ static inline int frame_overlaps(const tiled_state *s, pgi__v3 c, float r) {
     return d2 <= rr * rr;
 }
 
-/* Calls emit(t) for every tile the photon sphere (view-space centre c) may
- * reach, in increasing tile order for the screen rectangle, then the
- * secondary tiles outside it. */
+/* Runs BODY with `t` every photon list the sphere (view-space centre c) may
+ * reach: the tiles of its screen rectangle, then the cells of the samples seen
+ * through mirrors/glass near it. */
 #define FOR_EACH_TILE(S_, XF_, C_, R_, BODY)                                                                           \
     do {                                                                                                               \
         int tx0 = 0, tx1 = (S_)->ntx - 1, ty0 = 0, ty1 = (S_)->nty - 1;                                                \
@@ -138,12 +138,10 @@ static inline int frame_overlaps(const tiled_state *s, pgi__v3 c, float r) {
         for (int ty_ = ty0; ty_ <= ty1; ty_++)                                                                         \
             for (int tx_ = tx0; tx_ <= tx1; tx_++) {                                                                   \
                 int t = ty_ * (S_)->ntx + tx_;                                                                         \
-                if ((S_)->bounds[t].primary && overlaps((S_), (XF_), t, (C_), (R_))) { BODY; }                         \
+                if (overlaps((S_), (XF_), t, (C_), (R_))) { BODY; }                                                    \
             }                                                                                                          \
-        for (int k_ = 0; k_ < (S_)->nsecondary; k_++) {                                                                \
-            int t = (int)(S_)->secondary[k_];                                                                          \
-            if (overlaps((S_), (XF_), t, (C_), (R_))) { BODY; }                                                        \
-        }                                                                                                              \
+        const float rr_ = (R_) + 1e-4f * (R_) + 1e-6f * (fabsf((C_).x) + fabsf((C_).y) + fabsf((C_).z));               \
+        PGI__FOR_EACH_SPEC_CELL(&(S_)->cells, (C_), rr_, int t = (S_)->ntiles + (int)k_; BODY);                        \
     } while (0)
 
 static pgi_status tiled_build(void *state, const pgi_estimate_args *a) {
@@ -164,19 +162,21 @@ static pgi_status tiled_build(void *state, const pgi_estimate_args *a) {
     if (chunk < 8192) chunk = 8192;
     const size_t nchunks = (n + chunk - 1) / chunk;
     pgi_status st;
-    if ((st = pgi__ensure((void **)&s->bounds, &s->bounds_cap, (size_t)s->ntiles, sizeof(tile_bounds))) ||
-        (st = pgi__ensure((void **)&s->secondary, &s->secondary_cap, (size_t)s->ntiles, sizeof(uint32_t))) ||
-        (st = pgi__ensure((void **)&s->tile_start, &s->tile_start_cap, (size_t)s->ntiles + 1, sizeof(uint32_t))) ||
-        (st = pgi__ensure((void **)&s->counts, &s->counts_cap, (nchunks + 1) * (size_t)s->ntiles, sizeof(uint32_t))))
-        return st;
+    if ((st = pgi__ensure((void **)&s->bounds, &s->bounds_cap, (size_t)s->ntiles, sizeof(tile_bounds)))) return st;
     pgi__view_xf x = pgi__view_xf_make(cam, W, H);
 
     double t0 = pgi__now_ms();
+    /* At most as many cells as tiles (and 256): the per-chunk counters stay within twice the tiles'. */
+    if ((st = pgi__spec_cells_build(&s->cells, vs, &x, r, (uint32_t)(s->ntiles > 256 ? s->ntiles : 256), s->c.threads)))
+        return st;
+    s->nlists = s->ntiles + (int)s->cells.n;
+    if ((st = pgi__ensure((void **)&s->tile_start, &s->tile_start_cap, (size_t)s->nlists + 1, sizeof(uint32_t))) ||
+        (st = pgi__ensure((void **)&s->counts, &s->counts_cap, (nchunks + 1) * (size_t)s->nlists, sizeof(uint32_t))))
+        return st;
 #pragma omp parallel for schedule(dynamic, 4) num_threads(s->c.threads)
     for (int t = 0; t < s->ntiles; t++) {
         tile_bounds *b = &s->bounds[t];
         b->valid = 0;
-        b->primary = 1;
         for (int k = 0; k < 3; k++) {
             b->lo[k] = INFINITY;
             b->hi[k] = -INFINITY;
@@ -185,7 +185,7 @@ static pgi_status tiled_build(void *state, const pgi_estimate_args *a) {
         for (int py = ty * T; py < (ty + 1) * T && py < H; py++)
             for (int px = tx * T; px < (tx + 1) * T && px < W; px++) {
                 size_t i = (size_t)py * W + (size_t)px;
-                if (!(vs->flags[i] & PGI_VS_VALID)) continue;
+                if ((vs->flags[i] & (PGI_VS_VALID | PGI_VS_PRIMARY)) != (PGI_VS_VALID | PGI_VS_PRIMARY)) continue;
                 const float *p = vs->pos + 3 * i;
                 pgi__v3 q = pgi__to_view(&x, p[0], p[1], p[2]);
                 float qq[3] = {q.x, q.y, q.z};
@@ -194,13 +194,11 @@ static pgi_status tiled_build(void *state, const pgi_estimate_args *a) {
                     b->hi[k] = fmaxf(b->hi[k], qq[k]);
                 }
                 b->valid = 1;
-                if (!(vs->flags[i] & PGI_VS_PRIMARY)) b->primary = 0;
             }
     }
-    s->nsecondary = 0;
     for (int k = 0; k < 3; k++) {
-        s->frame_lo[k] = INFINITY;
-        s->frame_hi[k] = -INFINITY;
+        s->frame_lo[k] = s->cells.lo[k]; /* +-INFINITY without cells */
+        s->frame_hi[k] = s->cells.hi[k];
     }
     for (int t = 0; t < s->ntiles; t++)
         if (s->bounds[t].valid)
@@ -208,16 +206,14 @@ static pgi_status tiled_build(void *state, const pgi_estimate_args *a) {
                 s->frame_lo[k] = fminf(s->frame_lo[k], s->bounds[t].lo[k]);
                 s->frame_hi[k] = fmaxf(s->frame_hi[k], s->bounds[t].hi[k]);
             }
-    for (int t = 0; t < s->ntiles; t++)
-        if (s->bounds[t].valid && !s->bounds[t].primary) s->secondary[s->nsecondary++] = (uint32_t)t;
     double t1 = pgi__now_ms();
 
-    const int ntiles = s->ntiles;
+    const int nlists = s->nlists; /* tiles, then cells */
     uint64_t tested = 0;
 #pragma omp parallel for schedule(dynamic, 1) reduction(+ : tested) num_threads(s->c.threads)
     for (long long cidx = 0; cidx < (long long)nchunks; cidx++) {
-        uint32_t *cnt = s->counts + (size_t)cidx * ntiles;
-        memset(cnt, 0, (size_t)ntiles * sizeof *cnt);
+        uint32_t *cnt = s->counts + (size_t)cidx * nlists;
+        memset(cnt, 0, (size_t)nlists * sizeof *cnt);
         size_t j1 = ((size_t)cidx + 1) * chunk < n ? ((size_t)cidx + 1) * chunk : n;
         for (size_t j = (size_t)cidx * chunk; j < j1; j++) {
             pgi__v3 c = pgi__to_view(&x, ph->px[j], ph->py[j], ph->pz[j]);
@@ -227,16 +223,16 @@ static pgi_status tiled_build(void *state, const pgi_estimate_args *a) {
     double t2 = pgi__now_ms();
     /* Prefix sum, tile-major then chunk: counts become write offsets. */
     uint64_t sum = 0;
-    for (int t = 0; t < ntiles; t++) {
+    for (int t = 0; t < nlists; t++) {
         s->tile_start[t] = (uint32_t)sum;
         for (size_t cidx = 0; cidx < nchunks; cidx++) {
-            uint32_t *cnt = s->counts + cidx * ntiles + t;
+            uint32_t *cnt = s->counts + cidx * nlists + t;
             uint32_t c = *cnt;
             *cnt = (uint32_t)sum;
             sum += c;
         }
     }
-    s->tile_start[ntiles] = (uint32_t)sum;
+    s->tile_start[nlists] = (uint32_t)sum;
     if (sum > UINT32_MAX)
         return pgi__fail(PGI_ERR_UNSUPPORTED, "tiled: %llu photon copies exceed the 32-bit index; use a smaller radius",
                          (unsigned long long)sum);
@@ -247,7 +243,7 @@ static pgi_status tiled_build(void *state, const pgi_estimate_args *a) {
     double t3 = pgi__now_ms();
 #pragma omp parallel for schedule(dynamic, 1) num_threads(s->c.threads)
     for (long long cidx = 0; cidx < (long long)nchunks; cidx++) {
-        uint32_t *off = s->counts + (size_t)cidx * ntiles;
+        uint32_t *off = s->counts + (size_t)cidx * nlists;
         size_t j1 = ((size_t)cidx + 1) * chunk < n ? ((size_t)cidx + 1) * chunk : n;
         for (size_t j = (size_t)cidx * chunk; j < j1; j++) {
             pgi__v3 c = pgi__to_view(&x, ph->px[j], ph->py[j], ph->pz[j]);
@@ -264,6 +260,21 @@ static pgi_status tiled_build(void *state, const pgi_estimate_args *a) {
     return PGI_OK;
 }
 
+/* Gathers view sample i from the photon list q[0 .. nq). */
+static inline void gather_one(const pgi_estimate_args *a, size_t i, float r2, pgi_kernel kern, int sub, uint64_t seed,
+                              const pgi__packed_photon *q, uint32_t nq, uint64_t *reads, uint64_t *contrib) {
+    float *out = a->out_rgb + 3 * i;
+    pgi__vs v;
+    if (!pgi__vs_begin(a->samples, i, out, &v)) return;
+    pgi__acc acc = {0};
+    pgi__sub ss;
+    pgi__sub_init(&ss, sub, seed, i);
+    pgi__gather_list(&v, r2, kern, &ss, q, nq, &acc);
+    pgi__acc_finish_k(&v, &acc, r2, kern, pgi__sub_scale(&ss), out);
+    *reads += ss.visited;
+    *contrib += acc.contributing;
+}
+
 static pgi_status tiled_estimate(void *state, const pgi_estimate_args *a) {
     tiled_state *s = state;
     pgi__est_frame(&s->c, a);
@@ -278,30 +289,30 @@ static pgi_status tiled_estimate(void *state, const pgi_estimate_args *a) {
     const uint64_t seed = s->c.seed;
     uint64_t reads = 0, contrib = 0;
 #pragma omp parallel for schedule(dynamic, 1) reduction(+ : reads, contrib) num_threads(s->c.threads)
-    for (int t = 0; t < s->ntiles; t++) {
-        int tx = t % s->ntx, ty = t / s->ntx;
+    for (int t = 0; t < s->nlists; t++) {
         const pgi__packed_photon *q = s->tile_photons + s->tile_start[t];
         const uint32_t nq = s->tile_start[t + 1] - s->tile_start[t];
-        for (int py = ty * T; py < (ty + 1) * T && py < H; py++)
-            for (int px = tx * T; px < (tx + 1) * T && px < W; px++) {
-                size_t i = (size_t)py * W + (size_t)px;
-                float *out = a->out_rgb + 3 * i;
-                pgi__vs v;
-                if (!pgi__vs_begin(vs, i, out, &v)) continue;
-                pgi__acc acc = {0};
-                pgi__sub ss;
-                pgi__sub_init(&ss, sub, seed, i);
-                pgi__gather_list(&v, r2, kern, &ss, q, nq, &acc);
-                pgi__acc_finish_k(&v, &acc, r2, kern, pgi__sub_scale(&ss), out);
-                reads += ss.visited;
-                contrib += acc.contributing;
-            }
+        if (t < s->ntiles) {
+            int tx = t % s->ntx, ty = t / s->ntx;
+            for (int py = ty * T; py < (ty + 1) * T && py < H; py++)
+                for (int px = tx * T; px < (tx + 1) * T && px < W; px++) {
+                    size_t i = (size_t)py * W + (size_t)px;
+                    if ((vs->flags[i] & (PGI_VS_VALID | PGI_VS_PRIMARY)) == PGI_VS_VALID) continue;
+                    gather_one(a, i, r2, kern, sub, seed, q, nq, &reads, &contrib);
+                }
+        } else {
+            const pgi__spec_cells *c = &s->cells;
+            const uint32_t k = (uint32_t)(t - s->ntiles);
+            for (uint32_t m = c->start[k]; m < c->start[k + 1]; m++)
+                gather_one(a, c->sample[m], r2, kern, sub, seed, q, nq, &reads, &contrib);
+        }
     }
     pgi__stats_estimated(&s->c.st, t0, reads, contrib);
     s->c.st.memory_count = 0;
     pgi__stats_mem(&s->c.st, "tile_photons", s->copies * sizeof(pgi__packed_photon));
     pgi__stats_mem(&s->c.st, "tile_bounds", (size_t)s->ntiles * sizeof(tile_bounds));
-    pgi__stats_mem(&s->c.st, "tile_offsets", s->counts_cap * sizeof(uint32_t) + ((size_t)s->ntiles + 1) * 4);
+    pgi__stats_mem(&s->c.st, "tile_offsets", s->counts_cap * sizeof(uint32_t) + ((size_t)s->nlists + 1) * 4);
+    pgi__stats_mem(&s->c.st, "specular_cells", pgi__spec_cells_bytes(&s->cells));
     return PGI_OK;
 }
 
@@ -311,7 +322,7 @@ static void tiled_destroy(void *state) {
     tiled_state *s = state;
     if (!s) return;
     pgi__afree(s->bounds);
-    pgi__afree(s->secondary);
+    pgi__spec_cells_free(&s->cells);
     pgi__afree(s->counts);
     pgi__afree(s->tile_start);
     pgi__afree(s->tile_photons);

@@ -1,11 +1,12 @@
-/* Built-in scenes that need no files: the Cornell box (default), the
- * GIRefScene and sphere_and_plane of the Cal Poly project (papers/004). */
+/* Built-in scenes that need no files: the Cornell box (default), the Cornell
+ * box with mirrors and glass, the GIRefScene and sphere_and_plane of the Cal
+ * Poly project (papers/004). */
 #include <stdio.h>
 #include <string.h>
 
 #include "scene_internal.h"
 
-const char *const pgi__builtin_names[] = {"cornell", "giref", "sphere-and-plane", NULL};
+const char *const pgi__builtin_names[] = {"cornell", "cornell-mirrors", "giref", "sphere-and-plane", NULL};
 
 typedef struct {
     pgi_scene *s;
@@ -173,6 +174,28 @@ static void build_cornell(builder *b) {
     b->s->defaults = (pgi_scene_defaults){200000, 0.05f, 4, 512, 512, 1.f};
 }
 
+/* The Cornell box with specular surfaces in view: a mirror over most of the
+ * left wall, a mirror sphere in place of the tall block and a glass sphere on
+ * the short block. About a third of the view samples are seen through them,
+ * and the two spheres show the whole box in a few pixels: the case that
+ * defeats screen-space bounds (estimator exactness tests, bench --scenes). */
+static void build_cornell_mirrors(builder *b) {
+    build_cornell(b);
+    if (b->st) return;
+    /* drop the tall block (the last box: 12 triangles) */
+    b->s->ntris -= 12;
+    b->s->nverts -= 24;
+    uint32_t mm = add_mat(b, "mirror", PGI_MAT_MIRROR, v3(0.f, 0.f, 0.f));
+    uint32_t mglass = add_mat(b, "glass", PGI_MAT_GLASS, v3(0.f, 0.f, 0.f));
+    if (b->st) return;
+    v3_store(b->s->mats[mm].ks, v3(0.9f, 0.9f, 0.9f));
+    v3_store(b->s->mats[mglass].ks, v3(1.f, 1.f, 1.f));
+    add_quad(b, v3(-0.99f, 0.1f, -0.95f), v3(-0.99f, 1.9f, -0.95f), v3(-0.99f, 1.9f, 0.95f), v3(-0.99f, 0.1f, 0.95f),
+             mm);                                                  /* mirror over the left wall */
+    add_sphere(b, v3(-0.3f, 0.45f, -0.35f), 0.45f, 64, 32, mm);    /* mirror sphere */
+    add_sphere(b, v3(0.33f, 0.88f, 0.37f), 0.28f, 64, 32, mglass); /* glass sphere on the short block */
+}
+
 /* GIRefScene: a closed box of six planes, grey except the coloured left and
  * right walls, two spheres, a point light under the ceiling. */
 static void build_giref(builder *b) {
@@ -209,6 +232,7 @@ pgi_status pgi__scene_builtin(const char *name, pgi_scene **out) {
     *out = NULL;
     void (*fn)(builder *) = NULL;
     if (strcmp(name, "cornell") == 0) fn = build_cornell;
+    else if (strcmp(name, "cornell-mirrors") == 0) fn = build_cornell_mirrors;
     else if (strcmp(name, "giref") == 0) fn = build_giref;
     else if (strcmp(name, "sphere-and-plane") == 0) fn = build_sphere_and_plane;
     if (!fn) return pgi__fail(PGI_ERR_INVALID_ARG, "no built-in scene named '%s'", name);
