@@ -295,6 +295,9 @@ static void pipeline_vs_brute(const char *scene_name, int w, int h, uint32_t pho
 static void test_cornell_pipeline(void **state) {
     pipeline_vs_brute("cornell", 96, 96, 20000, 0.08f);
     pipeline_vs_brute("cornell", 64, 48, 3000, 0.6f); /* photons larger than subtrees */
+    /* mirrors and glass in view: the mirror-seen samples' own subtree keyed by position */
+    pipeline_vs_brute("cornell-mirrors", 96, 96, 20000, 0.06f);
+    pipeline_vs_brute("cornell-mirrors", 64, 48, 3000, 0.6f);
 }
 
 static int have_sibenik(void) {

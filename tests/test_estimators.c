@@ -183,6 +183,27 @@ static void pipeline_compare(const char *scene_name, int w, int h, uint32_t phot
 
 static void test_cornell_pipeline(void **state) { pipeline_compare("cornell", 96, 96, 20000, 0.08f); }
 
+/* The built-in mirror scene (a mirror wall, a mirror sphere, a glass sphere:
+ * a third of the view seen through them, the spheres showing the whole box in
+ * a few pixels): every exact estimator equals brute on the real view pass,
+ * at a small and a large radius (the random-sample tests vary the tile sizes). */
+static void test_cornell_mirrors_pipeline(void **state) {
+    const char *exact[32];
+    int ne = 0;
+    for (size_t e = 0; e < pgi_estimator_count() && ne < 32; e++) {
+        const pgi_estimator_vtbl *vt = pgi_estimator_at(e);
+        if (vt->exact && !vt->oracle) exact[ne++] = vt->name;
+    }
+    assert_true(ne >= 3);
+    for (int k = 0; k < ne; k += 7) { /* brute and up to 7 more a call */
+        const char *names[8] = {"brute"};
+        int n = 1;
+        for (int j = k; j < ne && n < 8; j++) names[n++] = exact[j];
+        tu_pipeline_vs_brute("cornell-mirrors", 80, 64, 15000, 0.05f, names, n);
+        tu_pipeline_vs_brute("cornell-mirrors", 48, 40, 2000, 0.5f, names, n);
+    }
+}
+
 static void test_sibenik_pipeline(void **state) {
     char mesh[1024];
     snprintf(mesh, sizeof mesh, "%s/sibenik/sibenik.obj", tu_scenes_dir());
@@ -271,7 +292,8 @@ int main(void) {
         cmocka_unit_test(test_random_primary),        cmocka_unit_test(test_random_with_mirror_samples),
         cmocka_unit_test(test_random_jittered),       cmocka_unit_test(test_eye_inside_photons),
         cmocka_unit_test(test_hashgrid_cell_sizes),   cmocka_unit_test(test_cornell_pipeline),
-        cmocka_unit_test(test_mirror_glass_pipeline), cmocka_unit_test(test_sibenik_pipeline),
+        cmocka_unit_test(test_mirror_glass_pipeline), cmocka_unit_test(test_cornell_mirrors_pipeline),
+        cmocka_unit_test(test_sibenik_pipeline),
     };
     return cmocka_run_group_tests_name("estimators", tests, NULL, NULL);
 }
