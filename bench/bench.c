@@ -14,6 +14,8 @@
  *   photongi-bench --limits [...]   each ray pass (view, trace, direct) next to raw Embree
  *                  on the same captured rays, every call style (bench/limits.c); default
  *                  sibenik, 1280x720, to bench/results/limits.csv
+ *   photongi-bench --mirrors [...]  build + estimate time and memory of each estimator on the
+ *                  built-in cornell-mirrors scene with and without its mirrors (bench/mirrors.c)
  */
 #include <omp.h>
 #include <stdio.h>
@@ -25,6 +27,7 @@
 
 #include "bench_common.h"
 #include "limits.h"
+#include "mirrors.h"
 
 #define MAXF 64
 
@@ -124,7 +127,9 @@ int main(int argc, char **argv) {
     int frames = 5, width = 1920, height = 1080, threads = 0, brute = 0;
     unsigned photons = 200000;
     float radius = 0.f;
-    int table1 = 0, knn = 50, limits = 0, scenes_set = 0, size_set = 0;
+    int frames_set = 0;
+    int table1 = 0, knn = 50, limits = 0, mirrors = 0, scenes_set = 0, size_set = 0, photons_set = 0;
+    const char *photons_arg = NULL;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
@@ -137,11 +142,21 @@ int main(int argc, char **argv) {
                    "--limits: each ray pass (view, trace, direct) next to raw Embree on the same rays\n"
                    "(captured from one frame, replayed in every call style); default --scenes sibenik\n"
                    "--size 1280x720, the first of --estimators (default: the renderer's), CSV\n"
-                   "bench/results/limits.csv.\n");
+                   "bench/results/limits.csv.\n"
+                   "--mirrors: the built-in cornell-mirrors scene as it is and with its mirrors and\n"
+                   "glass made Lambertian: build + estimate time and estimator memory next to\n"
+                   "hashgrid's; --photons takes a list (default 1000000,5000000), the radius shrinks\n"
+                   "as 1/sqrt(photons) from the scene's 0.05 at 200k unless --radius; default\n"
+                   "--estimators hashgrid,tiled,cluster-trivial, --size 512x512, --frames 3, CSV\n"
+                   "bench/results/mirrors.csv.\n");
             return 0;
         }
         if (strcmp(a, "--limits") == 0) {
             limits = 1;
+            continue;
+        }
+        if (strcmp(a, "--mirrors") == 0) {
+            mirrors = 1;
             continue;
         }
         if (strcmp(a, "--table1") == 0) {
@@ -163,9 +178,12 @@ int main(int argc, char **argv) {
         i++;
         if (strcmp(a, "--scenes") == 0) scenes = v, scenes_set = 1;
         else if (strcmp(a, "--estimators") == 0) ests = v;
-        else if (strcmp(a, "--frames") == 0) frames = atoi(v);
-        else if (strcmp(a, "--photons") == 0) photons = (unsigned)strtoul(v, NULL, 10);
-        else if (strcmp(a, "--size") == 0) {
+        else if (strcmp(a, "--frames") == 0) frames = atoi(v), frames_set = 1;
+        else if (strcmp(a, "--photons") == 0) {
+            photons = (unsigned)strtoul(v, NULL, 10);
+            photons_arg = v;
+            photons_set = 1;
+        } else if (strcmp(a, "--size") == 0) {
             if (sscanf(v, "%dx%d", &width, &height) != 2) {
                 fprintf(stderr, "photongi-bench: --size needs WxH\n");
                 return 2;
@@ -183,6 +201,12 @@ int main(int argc, char **argv) {
         fprintf(stderr, "photongi-bench: --frames must be 1..%d\n", MAXF);
         return 2;
     }
+    if (mirrors)
+        return pgi_bench_mirrors(photons_set ? photons_arg : "1000000,5000000",
+                                 ests ? ests : "hashgrid,tiled,cluster-trivial", frames_set ? frames : 3,
+                                 size_set ? width : 512, size_set ? height : 512, radius, threads,
+                                 strcmp(csv_path, "bench/results/bench.csv") == 0 ? "bench/results/mirrors.csv"
+                                                                                  : csv_path);
     if (limits) {
         char est[64] = "";
         if (ests) snprintf(est, sizeof est, "%.*s", (int)strcspn(ests, ","), ests);
@@ -247,8 +271,7 @@ int main(int argc, char **argv) {
             for (int k = 0; k < 6; k++) m[k] = median(t[k], frames);
             double mp = median(prim, frames), mt = median(phot, frames);
             double ratio = fs.reads ? (double)fs.contributing / (double)fs.reads : 0.0;
-            double est_bytes = 0.0;
-            for (int k = 2; k < fs.memory_count; k++) est_bytes += fs.memory_bytes[k].value;
+            double est_bytes = estimator_bytes(&fs);
             printf("%-14s %-10s %8.1f %8.1f %8.1f %9.1f %8.1f %8.1f | %8.1f %8.1f | %12llu %11llu %5.1f%%\n", sc,
                    vt->name, m[0], m[1], m[2], m[3], m[4], m[5], mp, mt, (unsigned long long)fs.reads,
                    (unsigned long long)fs.contributing, 100.0 * ratio);

@@ -4,6 +4,7 @@
 
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <sys/stat.h>
 
 #include "photongi/photongi.h"
@@ -39,6 +40,16 @@ static inline FILE *open_csv(const char *path) {
     FILE *f = fopen(path, "w");
     if (!f) fprintf(stderr, "photongi-bench: cannot write %s\n", path);
     return f;
+}
+
+/* Bytes the estimator itself holds in a frame: the renderer lists its photons,
+ * view samples and tracer scratch first (src/pipeline/render.c), then the
+ * estimator's entries, then (adaptive radius) the footprints. */
+static inline double estimator_bytes(const pgi_frame_stats *fs) {
+    double b = 0.0;
+    for (int k = 3; k < fs->memory_count; k++)
+        if (strcmp(fs->memory_bytes[k].name, "footprints") != 0) b += fs->memory_bytes[k].value;
+    return b;
 }
 
 #endif
