@@ -1,16 +1,20 @@
 /* photongi-view: interactive viewer. Renders continuously through the public
  * pgi_renderer API (every frame: view samples, photons, estimator build +
  * estimate, direct light), accumulates progressively while nothing changes,
- * and draws an overlay with a built-in bitmap font. With --frames N it runs
- * headless (no window, no display needed) and can save a screenshot. */
+ * and draws an overlay (overlay.h: a built-in bitmap font over a dimmed
+ * box). With --frames N it runs headless (no window, no display needed) and
+ * can save a screenshot. */
 #include <SDL.h>
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
-#include "font5x7.h"
+#include "overlay.h"
 #include "photongi/photongi.h"
 #include "options.h"
 #include "parse.h"
@@ -162,31 +166,6 @@ static void light_move(viewer *v, float fwd, float side, float upd) {
 
 /* ------------------------------------------------------------ drawing */
 
-static void draw_text(unsigned char *img, int w, int h, int x0, int y0, int scale, const char *s,
-                      const unsigned char rgb[3]) {
-    for (int pass = 0; pass < 2; pass++) { /* black shadow, then the text */
-        int ox = pass ? 0 : 1, oy = pass ? 0 : 1;
-        static const unsigned char black[3] = {0, 0, 0};
-        const unsigned char *c = pass ? rgb : black;
-        int x = x0;
-        for (const char *p = s; *p; p++, x += 6 * scale) {
-            unsigned ch = (unsigned char)*p;
-            if (ch < 32 || ch > 126) ch = '?';
-            const unsigned char *g = k_font5x7[ch - 32];
-            for (int col = 0; col < 5; col++)
-                for (int row = 0; row < 8; row++) {
-                    if (!(g[col] >> row & 1)) continue;
-                    for (int sy = 0; sy < scale; sy++)
-                        for (int sx = 0; sx < scale; sx++) {
-                            int px = x + col * scale + sx + ox * scale, py = y0 + row * scale + sy + oy * scale;
-                            if (px < 0 || py < 0 || px >= w || py >= h) continue;
-                            memcpy(img + 3 * ((size_t)py * w + px), c, 3);
-                        }
-                }
-        }
-    }
-}
-
 /* Photons per pixel as false colour: 0 black, then blue -> green -> yellow -> red on a log scale. */
 static void false_colour(const pgi_image *img, unsigned char *out) {
     size_t n = (size_t)img->width * img->height;
@@ -248,7 +227,7 @@ static void compose(viewer *v) {
              v->accumulate ? "" : " (no accumulation)", v->time, v->animate ? "" : " (paused)",
              nl ? v->light % nl + 1 : 0, nl, nl ? g.name : "-");
     snprintf(line[5], sizeof line[5], "H hides this; see photongi-view --help for keys");
-    static const unsigned char white[3] = {255, 255, 255}, grey[3] = {190, 190, 190}, yellow[3] = {255, 220, 0};
+    static const unsigned char yellow[3] = {255, 220, 0};
     /* Marker on the selected light (point lights are invisible otherwise). */
     if (nl && g.kind != PGI_LIGHT_KIND_SUN) {
         float f[3], r[3], u[3], d[3];
@@ -272,7 +251,10 @@ static void compose(viewer *v) {
         }
     }
     int sc = W >= 1000 ? 2 : 1;
-    for (int i = 0; i < 6; i++) draw_text(v->disp, W, H, 6, 6 + i * 10 * sc, sc, line[i], i == 5 ? grey : white);
+    const char *const lines[6] = {line[0], line[1], line[2], line[3], line[4], line[5]};
+    const unsigned char colours[6][3] = {{255, 255, 255}, {255, 255, 255}, {255, 255, 255},
+                                         {255, 255, 255}, {255, 255, 255}, {190, 190, 190}};
+    overlay_lines(v->disp, W, H, 6 * sc, 6 * sc, sc, lines, 6, colours, NULL);
 }
 
 /* ------------------------------------------------------------ frames */
