@@ -414,6 +414,8 @@ static pgi_status prepare_mesh(const char *path, unsigned mi, const struct aiMes
     memset(o, 0, sizeof *o);
     for (unsigned f = 0; f < me->mNumFaces; f++) o->nt += me->mFaces[f].mNumIndices == 3;
     if (!o->nt) return PGI_OK;
+    if (o->nt > UINT32_MAX / 3)
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "%s: mesh %u has too many triangles (%zu)", path, mi, o->nt);
     o->idx = malloc(3 * o->nt * sizeof *o->idx);
     if (!o->idx) return pgi__fail(PGI_ERR_OOM, "%s: out of memory for mesh %u", path, mi);
     size_t t = 0;
