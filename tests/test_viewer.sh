@@ -3,7 +3,9 @@
 # the same view, estimator and seed (same float image, same tone map: the PNG
 # files are byte-identical), progressive accumulation equals
 # 'render --progressive', animated scenes match 'render --time', a window
-# opens under SDL's dummy/offscreen video driver, and bad options fail cleanly.
+# opens under SDL's dummy/offscreen video driver when asked for, no display
+# without --frames is an error (not an invisible window), output paths are
+# checked before rendering, and bad options fail cleanly.
 #   usage: tests/test_viewer.sh path/to/photongi-view path/to/photongi   (from the repository root)
 set -u
 VIEW=${1:?usage: test_viewer.sh photongi-view photongi}
@@ -82,8 +84,36 @@ fi
 expect_fail_keys() { "$VIEW" --frames 2 --size 8x8 --photons 100 --keys "$1" >/dev/null 2>"$TMP/err"; [ $? -eq 2 ] && grep -q "unknown key" "$TMP/err" && ok || bad "--keys $1 accepted"; }
 expect_fail_keys "nosuchkey"
 
-# --help documents the keys.
+# --help documents the keys, and prints percent signs as such (not printf's '%%').
 "$VIEW" --help | grep -q "F12" && ok || bad "--help does not list the keys"
+"$VIEW" --help >"$TMP/help" 2>&1
+grep -q '%%' "$TMP/help" && bad "--help prints '%%': $(grep '%%' "$TMP/help" | head -2)" || ok
+grep -q '25%' "$TMP/help" && ok || bad "--help lost its '25%'"
+
+# No display and no SDL_VIDEODRIVER: SDL would fall back to an invisible offscreen window and
+# the session would run until killed; the viewer must say so and exit non-zero at once.
+start=$(date +%s)
+env -u DISPLAY -u WAYLAND_DISPLAY -u XDG_RUNTIME_DIR -u SDL_VIDEODRIVER timeout 20 "$VIEW" --size 64x48 --photons 1000 \
+    >/dev/null 2>"$TMP/err"
+rc=$?
+secs=$(($(date +%s) - start))
+if [ "$rc" -eq 124 ]; then
+    bad "no display: still running after 20 s (SDL's offscreen fallback)"
+elif [ "$rc" -eq 0 ] || ! grep -q "no display available" "$TMP/err" || [ "$secs" -gt 10 ]; then
+    bad "no display: exit $rc after ${secs} s, message: $(head -c 300 "$TMP/err")"
+else ok; fi
+
+# Output paths are checked before any frame is rendered: 100000 frames would take minutes.
+start=$(date +%s)
+timeout 20 "$VIEW" --frames 100000 --size 64x48 --photons 1000 --screenshot /nonexistent/dir/x.png >/dev/null 2>"$TMP/err"
+rc=$?
+secs=$(($(date +%s) - start))
+[ "$rc" -eq 1 ] && [ "$secs" -le 10 ] && grep -q "cannot write the screenshot" "$TMP/err" && ok ||
+    bad "--screenshot into a missing folder: exit $rc after ${secs} s: $(head -c 300 "$TMP/err")"
+timeout 20 "$VIEW" --frames 100000 --size 64x48 --photons 1000 --stats /nonexistent/dir/s.json >/dev/null 2>"$TMP/err"
+rc=$?
+[ "$rc" -eq 1 ] && grep -q "cannot write the stats" "$TMP/err" && ok ||
+    bad "--stats into a missing folder: exit $rc: $(head -c 300 "$TMP/err")"
 
 # Bad options: exit 2 (1 for a missing scene), a message, no crash.
 expect_fail() {
@@ -103,6 +133,9 @@ expect_fail 2 "--frames" --frames 0
 expect_fail 2 "camera" --frames 1 --camera 7
 expect_fail 1 "cannot load scene" --frames 1 --scene /nonexistent/scene.json
 expect_fail 1 "cannot write the screenshot" --frames 1 --size 8x8 --photons 100 --screenshot /nonexistent/dir/x.png
+expect_fail 1 "not a folder" --frames 1 --size 8x8 --photons 100 --screenshot "$TMP/single-view.png/x.png"
+expect_fail 2 ".png or .exr" --frames 1 --size 8x8 --photons 100 --screenshot "$TMP/shot.jpg"
+[ -e "$TMP/shot.jpg" ] && bad "--screenshot shot.jpg wrote a file" || ok
 
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]

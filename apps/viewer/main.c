@@ -1,16 +1,20 @@
 /* photongi-view: interactive viewer. Renders continuously through the public
  * pgi_renderer API (every frame: view samples, photons, estimator build +
  * estimate, direct light), accumulates progressively while nothing changes,
- * and draws an overlay with a built-in bitmap font. With --frames N it runs
- * headless (no window, no display needed) and can save a screenshot. */
+ * and draws an overlay (overlay.h: a built-in bitmap font over a dimmed
+ * box). With --frames N it runs headless (no window, no display needed) and
+ * can save a screenshot. */
 #include <SDL.h>
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
-#include "font5x7.h"
+#include "overlay.h"
 #include "photongi/photongi.h"
 #include "options.h"
 #include "parse.h"
@@ -43,12 +47,16 @@ static const char *k_help =
     "  --no-accumulate    never average frames (every frame is a fresh single frame)\n"
     "  --frames N         render N frames and exit; without --window no window is opened\n"
     "  --window           open a window even with --frames (e.g. SDL_VIDEODRIVER=offscreen)\n"
-    "  --screenshot FILE  after the last frame, save the image as PNG (no overlay)\n"
+    "  --screenshot FILE  after the last frame, save the image, no overlay (.png, or .exr: linear)\n"
     "  --stats FILE.json  write the last frame's statistics ('-' = stdout)\n"
+    "                     (both paths are checked before the scene loads)\n"
     "  --keys K1,K2,...   press these keys, one before each frame (scripted demos and tests): a\n"
     "                     character, or tab, shift+tab, space, up, down, left, right, pageup,\n"
     "                     pagedown, f12, escape, comma; movement keys take one step; j/k turn\n"
     "  -q, --quiet        print nothing but errors\n"
+    "\n"
+    "Without a display (DISPLAY, WAYLAND_DISPLAY) and without --frames it stops with a message\n"
+    "rather than run in SDL's invisible offscreen window (SDL_VIDEODRIVER=offscreen asks for that).\n"
     "\n"
     "keys: mouse drag (left button) look | W A S D move, Q E down/up, Shift faster\n"
     "      L next light, arrows or Ctrl+drag move it (camera-relative), PgUp/PgDn raise/lower it\n"
@@ -162,31 +170,6 @@ static void light_move(viewer *v, float fwd, float side, float upd) {
 
 /* ------------------------------------------------------------ drawing */
 
-static void draw_text(unsigned char *img, int w, int h, int x0, int y0, int scale, const char *s,
-                      const unsigned char rgb[3]) {
-    for (int pass = 0; pass < 2; pass++) { /* black shadow, then the text */
-        int ox = pass ? 0 : 1, oy = pass ? 0 : 1;
-        static const unsigned char black[3] = {0, 0, 0};
-        const unsigned char *c = pass ? rgb : black;
-        int x = x0;
-        for (const char *p = s; *p; p++, x += 6 * scale) {
-            unsigned ch = (unsigned char)*p;
-            if (ch < 32 || ch > 126) ch = '?';
-            const unsigned char *g = k_font5x7[ch - 32];
-            for (int col = 0; col < 5; col++)
-                for (int row = 0; row < 8; row++) {
-                    if (!(g[col] >> row & 1)) continue;
-                    for (int sy = 0; sy < scale; sy++)
-                        for (int sx = 0; sx < scale; sx++) {
-                            int px = x + col * scale + sx + ox * scale, py = y0 + row * scale + sy + oy * scale;
-                            if (px < 0 || py < 0 || px >= w || py >= h) continue;
-                            memcpy(img + 3 * ((size_t)py * w + px), c, 3);
-                        }
-                }
-        }
-    }
-}
-
 /* Photons per pixel as false colour: 0 black, then blue -> green -> yellow -> red on a log scale. */
 static void false_colour(const pgi_image *img, unsigned char *out) {
     size_t n = (size_t)img->width * img->height;
@@ -248,7 +231,7 @@ static void compose(viewer *v) {
              v->accumulate ? "" : " (no accumulation)", v->time, v->animate ? "" : " (paused)",
              nl ? v->light % nl + 1 : 0, nl, nl ? g.name : "-");
     snprintf(line[5], sizeof line[5], "H hides this; see photongi-view --help for keys");
-    static const unsigned char white[3] = {255, 255, 255}, grey[3] = {190, 190, 190}, yellow[3] = {255, 220, 0};
+    static const unsigned char yellow[3] = {255, 220, 0};
     /* Marker on the selected light (point lights are invisible otherwise). */
     if (nl && g.kind != PGI_LIGHT_KIND_SUN) {
         float f[3], r[3], u[3], d[3];
@@ -272,7 +255,10 @@ static void compose(viewer *v) {
         }
     }
     int sc = W >= 1000 ? 2 : 1;
-    for (int i = 0; i < 6; i++) draw_text(v->disp, W, H, 6, 6 + i * 10 * sc, sc, line[i], i == 5 ? grey : white);
+    const char *const lines[6] = {line[0], line[1], line[2], line[3], line[4], line[5]};
+    const unsigned char colours[6][3] = {{255, 255, 255}, {255, 255, 255}, {255, 255, 255},
+                                         {255, 255, 255}, {255, 255, 255}, {190, 190, 190}};
+    overlay_lines(v->disp, W, H, 6 * sc, 6 * sc, sc, lines, 6, colours, NULL);
 }
 
 /* ------------------------------------------------------------ frames */
@@ -405,6 +391,56 @@ static SDL_Keycode key_from_name(const char *n) {
     return SDLK_UNKNOWN;
 }
 
+/* ------------------------------------------------------------ startup checks */
+
+/* An output file (`what`: screenshot or stats) must be writable before any
+ * frame is rendered: it names a file, not a folder, in a folder that exists
+ * and is writable, and (`image`) its extension is one pgi_image_write knows.
+ * Prints the message; returns 0 (ok), 1 (cannot write there) or 2 (name). */
+static int check_output(const char *what, const char *path, int image) {
+    size_t n = strlen(path);
+    if (image && !(n > 4 && (strcasecmp(path + n - 4, ".png") == 0 || strcasecmp(path + n - 4, ".exr") == 0)))
+        return usage("--screenshot needs a .png or .exr file name, got '%s'", path);
+    char dir[4096];
+    const char *slash = strrchr(path, '/');
+    if (!slash) snprintf(dir, sizeof dir, ".");
+    else if (slash == path) snprintf(dir, sizeof dir, "/");
+    else snprintf(dir, sizeof dir, "%.*s", (int)(slash - path), path);
+    struct stat st;
+    char why[4200];
+    why[0] = 0;
+    if (n == 0 || path[n - 1] == '/' || (stat(path, &st) == 0 && S_ISDIR(st.st_mode)))
+        snprintf(why, sizeof why, "that is a folder, not a file name");
+    else if (stat(dir, &st) != 0) snprintf(why, sizeof why, "folder '%s': %s", dir, strerror(errno));
+    else if (!S_ISDIR(st.st_mode)) snprintf(why, sizeof why, "'%s' is not a folder", dir);
+    else if (access(dir, W_OK) != 0) snprintf(why, sizeof why, "folder '%s': %s", dir, strerror(errno));
+    if (!why[0]) return 0;
+    fprintf(stderr, "photongi-view: cannot write the %s '%s': %s\n", what, path, why);
+    return 1;
+}
+
+/* Starts SDL's video. With no display SDL 2 falls back to its offscreen (or
+ * dummy) driver: the window then exists but nobody sees it, and an
+ * interactive session would run until killed. Those drivers are taken only
+ * when asked for (SDL_VIDEODRIVER) or when the run ends by itself (--frames).
+ * Returns 1 when video is up (SDL_Quit to undo), 0 after a message. */
+static int start_video(int interactive) {
+    if (SDL_Init(SDL_INIT_VIDEO) != 0) {
+        fprintf(stderr, "photongi-view: cannot open a window: %s (run headless with --frames N)\n", SDL_GetError());
+        return 0;
+    }
+    const char *drv = SDL_GetCurrentVideoDriver(), *asked = getenv("SDL_VIDEODRIVER");
+    if (interactive && drv && (strcmp(drv, "offscreen") == 0 || strcmp(drv, "dummy") == 0) && !(asked && *asked)) {
+        fprintf(stderr,
+                "photongi-view: no display available (SDL video driver '%s'); set DISPLAY or WAYLAND_DISPLAY, "
+                "or render headless with --frames N [--screenshot FILE.png]\n",
+                drv);
+        SDL_Quit();
+        return 0;
+    }
+    return 1;
+}
+
 /* ------------------------------------------------------------ main */
 
 int main(int argc, char **argv) {
@@ -510,6 +546,10 @@ int main(int argc, char **argv) {
         } else return usage("unknown option '%s'", a);
     }
     if (shot && !frames) return usage("%s", "--screenshot needs --frames N (the frame after which to save)");
+    /* Output paths are checked before the scene loads and any frame renders. */
+    int bad_out = shot ? check_output("screenshot", shot, 1) : 0;
+    if (!bad_out && stats_path && strcmp(stats_path, "-") != 0) bad_out = check_output("stats", stats_path, 0);
+    if (bad_out) return bad_out;
     const pgi_estimator_vtbl *vt = pgi_estimator_find(est);
     if (!vt) {
         fprintf(stderr, "photongi-view: unknown estimator '%s'; registered:", est);
@@ -520,12 +560,20 @@ int main(int argc, char **argv) {
     for (size_t i = 0; i < pgi_estimator_count(); i++)
         if (pgi_estimator_at(i) == vt) v.est_index = i;
 
+    /* The display next: without one, loading the scene would be wasted. */
+    const int headless = frames > 0 && !want_window;
+    if (!headless && !start_video(frames == 0)) return 1;
+
     pgi_status st = pgi_scene_load(scene_spec, &v.scene);
-    if (st) return fail("cannot load scene", st);
+    if (st) {
+        if (!headless) SDL_Quit();
+        return fail("cannot load scene", st);
+    }
     pgi_scene_get_info(v.scene, &v.info);
     if ((size_t)cam_index >= v.info.cameras) {
         fprintf(stderr, "photongi-view: camera %lld does not exist (the scene has %zu)\n", cam_index, v.info.cameras);
         pgi_scene_destroy(v.scene);
+        if (!headless) SDL_Quit();
         return 2;
     }
     v.desc.camera = (int)cam_index;
@@ -543,28 +591,23 @@ int main(int argc, char **argv) {
     v.disp = malloc((size_t)v.win_w * v.win_h * 3);
     if (!v.disp) {
         pgi_scene_destroy(v.scene);
+        if (!headless) SDL_Quit();
         fprintf(stderr, "photongi-view: out of memory\n");
         return 1;
     }
     if ((st = pgi_renderer_create(v.scene, &v.r)) || (st = pgi_progressive_create(v.r, &v.prog))) {
         pgi_renderer_destroy(v.r);
         pgi_scene_destroy(v.scene);
+        free(v.disp);
+        if (!headless) SDL_Quit();
         return fail("cannot create the renderer", st);
     }
 
-    const int headless = frames > 0 && !want_window;
     if (!frames && v.info.animated_objects > 0) v.animate = 1; /* interactive: play animations (Space pauses) */
     SDL_Window *win = NULL;
     SDL_Renderer *ren = NULL;
     SDL_Texture *tex = NULL;
     if (!headless) {
-        if (SDL_Init(SDL_INIT_VIDEO) != 0) {
-            fprintf(stderr, "photongi-view: cannot open a window: %s (run headless with --frames N)\n", SDL_GetError());
-            pgi_progressive_destroy(v.prog);
-            pgi_renderer_destroy(v.r);
-            pgi_scene_destroy(v.scene);
-            return 1;
-        }
         win = SDL_CreateWindow("photongi-view", SDL_WINDOWPOS_CENTERED, SDL_WINDOWPOS_CENTERED, v.win_w, v.win_h, 0);
         ren = win ? SDL_CreateRenderer(win, -1, 0) : NULL;
         if (!ren && win) ren = SDL_CreateRenderer(win, -1, SDL_RENDERER_SOFTWARE);
@@ -577,6 +620,7 @@ int main(int argc, char **argv) {
             pgi_progressive_destroy(v.prog);
             pgi_renderer_destroy(v.r);
             pgi_scene_destroy(v.scene);
+            free(v.disp);
             return 1;
         }
     }

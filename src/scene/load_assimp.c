@@ -1,11 +1,27 @@
 /* Mesh import through Assimp's C API (OBJ/MTL, glTF, PLY, ...).
  *
  * The file is imported with Triangulate | JoinIdenticalVertices |
- * SortByPType | PreTransformVertices | GenNormals: every mesh ends up in
- * world space, point and line primitives land in meshes of their own (and
- * are skipped here), and meshes without normals get flat face normals
- * (Assimp computes them before joining vertices, so flat faces keep their
- * own vertices). Geometry, materials and textures are appended to the scene.
+ * SortByPType | PreTransformVertices: every mesh ends up in world space, and
+ * point and line primitives land in meshes of their own (and are skipped
+ * here). Geometry, materials and textures are appended to the scene.
+ *
+ * Normals: a mesh's own normals are kept. A mesh without them gets normals
+ * here, never from Assimp: its GenNormals and GenSmoothNormals (5.2) store
+ * each triangle's normal into the triangle's vertices, so a vertex shared by
+ * several triangles, as PLY and glTF files store them, keeps the normal of
+ * the last one (10.8 degrees off on an icosphere), while an OBJ, whose
+ * corners the importer keeps apart, comes out flat. Here, per corner:
+ *   glTF (.gltf, .glb)                      -> flat: the face normal (the glTF
+ *                                              spec's rule for missing normals)
+ *   OBJ whose `s` statements are all off    -> flat
+ *   otherwise (PLY, OBJ with `s 1` or none) -> smooth: the mean of the face
+ *     normals around the vertex, weighted by the triangles' corner angles
+ *     there (independent of how the surface is triangulated), over the
+ *     triangles whose normal is within k_smooth_max_deg of this corner's
+ *     triangle (a cube stays a cube). Vertices at the same position count as
+ *     one (UV seams do not crease); corners of one vertex that end up with
+ *     different normals get vertices of their own.
+ * The OBJ and the PLY of one normal-less mesh therefore get the same normals.
  *
  * Material mapping (Wavefront MTL names; Assimp 5.2 keeps the raw MTL
  * `illum` number as the integer property "$mat.illum", and a derived
@@ -28,6 +44,7 @@
 
 #include <stdio.h>
 #include <string.h>
+#include <strings.h>
 #include <sys/stat.h>
 
 static int regular_file(const char *p) {
@@ -76,6 +93,7 @@ typedef struct tex_cache {
     const char *mesh_path;
     char dir[1024]; /* the mesh file's folder with a trailing '/', or "" */
     size_t first;   /* scene textures added by this import start here */
+    int ply;        /* a PLY file (no materials of its own) */
 } tex_cache;
 
 static pgi_status push_texture(pgi_scene *s, int w, int h, unsigned char *rgba, const char *path, int *index) {
@@ -178,8 +196,20 @@ static pgi_status convert_material(pgi_scene *s, tex_cache *tc, const struct aiS
     memset(m, 0, sizeof *m);
     m->tex_kd = -1;
     struct aiString name;
-    if (aiGetMaterialString(am, AI_MATKEY_NAME, &name) == AI_SUCCESS) copy_str(m->name, sizeof m->name, name.data);
-    else snprintf(m->name, sizeof m->name, "unnamed");
+    if (aiGetMaterialString(am, AI_MATKEY_NAME, &name) == AI_SUCCESS) {
+        copy_str(m->name, sizeof m->name, name.data);
+    } else if (tc->ply) {
+        /* PLY has no materials; Assimp makes one up (kd = ks = 1). Give it what OBJ faces
+         * without `usemtl` get (Assimp's DefaultMaterial, Lambert kd 0.6), so that one mesh
+         * renders alike from both formats. */
+        snprintf(m->name, sizeof m->name, "DefaultMaterial");
+        m->type = PGI_MAT_LAMBERT;
+        m->kd[0] = m->kd[1] = m->kd[2] = 0.6f;
+        m->ior = 1.f;
+        return PGI_OK;
+    } else {
+        snprintf(m->name, sizeof m->name, "unnamed");
+    }
 
     float kd[3] = {0.f, 0.f, 0.f}, ks[3] = {0.f, 0.f, 0.f}, ke[3] = {0.f, 0.f, 0.f};
     int has_kd = get_color(am, AI_MATKEY_COLOR_DIFFUSE, kd);
@@ -247,14 +277,188 @@ static int grow(void *pp, size_t n, size_t size) {
     return 1;
 }
 
+/* Creases: neighbouring triangles whose normals differ by less than this are
+ * smoothed together. Above the 45 degrees between the sides of an octagonal
+ * prism and the 41.8 of an icosahedron, below the 60 of a hexagonal prism and
+ * the 90 of a box; not a divisor of 360, so that regular prisms are not
+ * decided by rounding. */
+static const float k_smooth_max_deg = 50.f;
+
+typedef enum normal_mode { NORMALS_SMOOTH = 0, NORMALS_FLAT = 1 } normal_mode;
+
+/* One mesh as appended to the scene: output vertex i copies aiMesh vertex
+ * src[i] (position, UV) with normal nrm[i]; src and nrm are NULL when the
+ * mesh has its own normals (the vertices are then copied as they are). */
+typedef struct mesh_out {
+    size_t nv, nt;
+    uint32_t *idx; /* 3 output vertices per triangle */
+    uint32_t *src;
+    float *nrm; /* 3 per output vertex */
+} mesh_out;
+
+static void mesh_out_free(mesh_out *o) {
+    free(o->idx);
+    free(o->src);
+    free(o->nrm);
+    memset(o, 0, sizeof *o);
+}
+
+/* Position key for welding: the bits of x, y, z (-0 made +0), sorted as integers, so
+ * that equal positions are adjacent whatever the floats (NaN included) hold. */
+typedef struct weld_key {
+    uint32_t k[3], v;
+} weld_key;
+
+static int cmp_weld(const void *pa, const void *pb) {
+    const weld_key *a = pa, *b = pb;
+    for (int c = 0; c < 3; c++)
+        if (a->k[c] != b->k[c]) return a->k[c] < b->k[c] ? -1 : 1;
+    return a->v < b->v ? -1 : a->v > b->v;
+}
+
+/* Normals for a mesh without them (see the top of the file); fills o->src, o->nrm,
+ * o->nv and rewrites o->idx to the output vertices. */
+static pgi_status generate_normals(const struct aiMesh *me, normal_mode mode, mesh_out *o) {
+    const size_t nv = me->mNumVertices, nt = o->nt, nc = 3 * nt;
+    const float cos_max = cosf(k_smooth_max_deg * 3.14159265f / 180.f);
+    weld_key *wk = malloc((nv ? nv : 1) * sizeof *wk);
+    uint32_t *weld = malloc((nv ? nv : 1) * sizeof *weld), *head = malloc((nv ? nv : 1) * sizeof *head);
+    pgi__v3 *fn = malloc((nt ? nt : 1) * sizeof *fn);
+    float *angle = malloc((nc ? nc : 1) * sizeof *angle);
+    uint32_t *start = calloc(nv + 1, sizeof *start), *list = malloc((nc ? nc : 1) * sizeof *list);
+    uint32_t *next = malloc((nc ? nc : 1) * sizeof *next);
+    o->src = malloc((nc ? nc : 1) * sizeof *o->src);
+    o->nrm = malloc((nc ? nc : 1) * 3 * sizeof *o->nrm);
+    pgi_status st = PGI_OK;
+    if (!wk || !weld || !head || !fn || !angle || !start || !list || !next || !o->src || !o->nrm) {
+        st = PGI_ERR_OOM;
+        goto done;
+    }
+    /* Weld: vertices at the same position share one group. */
+    for (size_t v = 0; v < nv; v++) {
+        float p[3] = {(float)me->mVertices[v].x + 0.f, (float)me->mVertices[v].y + 0.f,
+                      (float)me->mVertices[v].z + 0.f};
+        memcpy(wk[v].k, p, sizeof p);
+        wk[v].v = (uint32_t)v;
+    }
+    qsort(wk, nv, sizeof *wk, cmp_weld);
+    uint32_t groups = 0;
+    for (size_t i = 0; i < nv; i++) {
+        if (i > 0 && memcmp(wk[i].k, wk[i - 1].k, sizeof wk[i].k) != 0) groups++;
+        weld[wk[i].v] = groups;
+    }
+    /* Unit face normals (zero for degenerate triangles) and corner angles. */
+    for (size_t t = 0; t < nt; t++) {
+        pgi__v3 p[3];
+        for (int c = 0; c < 3; c++) {
+            const struct aiVector3D *a = &me->mVertices[o->idx[3 * t + c]];
+            p[c] = v3((float)a->x, (float)a->y, (float)a->z);
+        }
+        pgi__v3 n = v3_cross(v3_sub(p[1], p[0]), v3_sub(p[2], p[0]));
+        float l = v3_len(n);
+        fn[t] = isfinite(l) && l > 0.f ? v3_scale(n, 1.f / l) : v3(0.f, 0.f, 0.f);
+        for (int c = 0; c < 3; c++) {
+            pgi__v3 e1 = v3_sub(p[(c + 1) % 3], p[c]), e2 = v3_sub(p[(c + 2) % 3], p[c]);
+            float a = atan2f(v3_len(v3_cross(e1, e2)), v3_dot(e1, e2));
+            angle[3 * t + c] = isfinite(a) ? a : 0.f;
+        }
+    }
+    /* Corners around each welded position, in triangle order. */
+    for (size_t c = 0; c < nc; c++) start[weld[o->idx[c]] + 1]++;
+    for (size_t g = 0; g < nv; g++) start[g + 1] += start[g];
+    for (size_t c = 0; c < nc; c++) list[start[weld[o->idx[c]]]++] = (uint32_t)c;
+    for (size_t g = nv; g > 0; g--) start[g] = start[g - 1];
+    start[0] = 0;
+    /* Per corner: its normal, then an output vertex (one per aiMesh vertex and normal). */
+    for (size_t v = 0; v < nv; v++) head[v] = UINT32_MAX;
+    o->nv = 0;
+    for (size_t c = 0; c < nc; c++) {
+        const size_t t = c / 3;
+        const uint32_t v = o->idx[c], g = weld[v];
+        const int degenerate = fn[t].x == 0.f && fn[t].y == 0.f && fn[t].z == 0.f;
+        pgi__v3 n = fn[t];
+        if (mode == NORMALS_SMOOTH || degenerate) {
+            n = v3(0.f, 0.f, 0.f);
+            for (uint32_t k = start[g]; k < start[g + 1]; k++) {
+                const uint32_t c2 = list[k];
+                if (degenerate || v3_dot(fn[t], fn[c2 / 3]) >= cos_max) n = v3_madd(n, fn[c2 / 3], angle[c2]);
+            }
+            float l = v3_len(n);
+            n = l > 0.f ? v3_scale(n, 1.f / l) : fn[t];
+        }
+        uint32_t out = head[v];
+        while (out != UINT32_MAX && memcmp(o->nrm + 3 * (size_t)out, &n, 3 * sizeof(float)) != 0) out = next[out];
+        if (out == UINT32_MAX) {
+            out = (uint32_t)o->nv++;
+            o->src[out] = v;
+            v3_store(o->nrm + 3 * (size_t)out, n);
+            next[out] = head[v];
+            head[v] = out;
+        }
+        o->idx[c] = out;
+    }
+done:
+    free(wk);
+    free(weld);
+    free(head);
+    free(fn);
+    free(angle);
+    free(start);
+    free(list);
+    free(next);
+    return st;
+}
+
+/* The triangles of mesh `mi` (indices checked), with generated normals when it has none. */
+static pgi_status prepare_mesh(const char *path, unsigned mi, const struct aiMesh *me, normal_mode mode, mesh_out *o) {
+    memset(o, 0, sizeof *o);
+    for (unsigned f = 0; f < me->mNumFaces; f++) o->nt += me->mFaces[f].mNumIndices == 3;
+    if (!o->nt) return PGI_OK;
+    if (o->nt > UINT32_MAX / 3)
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "%s: mesh %u has too many triangles (%zu)", path, mi, o->nt);
+    o->idx = malloc(3 * o->nt * sizeof *o->idx);
+    if (!o->idx) return pgi__fail(PGI_ERR_OOM, "%s: out of memory for mesh %u", path, mi);
+    size_t t = 0;
+    for (unsigned f = 0; f < me->mNumFaces; f++) {
+        const struct aiFace *fc = &me->mFaces[f];
+        if (fc->mNumIndices != 3) continue;
+        for (int c = 0; c < 3; c++) {
+            unsigned idx = fc->mIndices[c];
+            if (idx >= me->mNumVertices)
+                return pgi__fail(PGI_ERR_PARSE, "%s: mesh %u face %u refers to vertex %u of %u", path, mi, f, idx,
+                                 me->mNumVertices);
+            o->idx[3 * t + c] = idx;
+        }
+        t++;
+    }
+    if (me->mNormals) {
+        o->nv = me->mNumVertices;
+        return PGI_OK;
+    }
+    if (generate_normals(me, mode, o))
+        return pgi__fail(PGI_ERR_OOM, "%s: out of memory for the normals of mesh %u (%u vertices)", path, mi,
+                         me->mNumVertices);
+    return PGI_OK;
+}
+
+static int has_ext(const char *path, const char *ext) {
+    size_t n = strlen(path), e = strlen(ext);
+    return n > e && strcasecmp(path + n - e, ext) == 0;
+}
+
 pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path) {
     if (!s || !path) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi__scene_import_mesh: NULL argument");
     if (!regular_file(path)) return pgi__fail(PGI_ERR_IO, "%s: no such file", path);
-    pgi_status pre = pgi__mesh_precheck(path);
+    pgi__mesh_hints hints;
+    pgi_status pre = pgi__mesh_precheck(path, &hints);
     if (pre) return pre;
+    const normal_mode mode =
+        has_ext(path, ".gltf") || has_ext(path, ".glb") || (hints.smooth_off > 0 && hints.smooth_on == 0)
+            ? NORMALS_FLAT
+            : NORMALS_SMOOTH;
 
     const unsigned int flags = aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_SortByPType |
-                               aiProcess_PreTransformVertices | aiProcess_GenNormals;
+                               aiProcess_PreTransformVertices;
     const struct aiScene *sc = aiImportFile(path, flags);
     if (!sc) {
         const char *e = aiGetErrorString();
@@ -262,46 +466,41 @@ pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path) {
     }
 
     pgi_status st = PGI_OK;
-    /* Count what will be appended. */
+    /* Triangles and output vertices of each mesh, then what will be appended. */
+    mesh_out *outs = calloc(sc->mNumMeshes ? sc->mNumMeshes : 1, sizeof *outs);
+    if (!outs) {
+        aiReleaseImport(sc);
+        return pgi__fail(PGI_ERR_OOM, "%s: out of memory", path);
+    }
     size_t add_v = 0, add_t = 0;
-    int any_uv = 0, all_nrm = 1;
-    for (unsigned i = 0; i < sc->mNumMeshes; i++) {
+    int any_uv = 0;
+    for (unsigned i = 0; i < sc->mNumMeshes && !st; i++) {
         const struct aiMesh *me = sc->mMeshes[i];
         if (!(me->mPrimitiveTypes & aiPrimitiveType_TRIANGLE) || me->mNumVertices == 0) continue;
-        size_t nt = 0;
-        for (unsigned f = 0; f < me->mNumFaces; f++) nt += me->mFaces[f].mNumIndices == 3;
-        if (!nt) continue;
-        add_v += me->mNumVertices;
-        add_t += nt;
+        st = prepare_mesh(path, i, me, mode, &outs[i]);
+        if (st || !outs[i].nt) continue;
+        add_v += outs[i].nv;
+        add_t += outs[i].nt;
         if (me->mTextureCoords[0]) any_uv = 1;
-        if (!me->mNormals) all_nrm = 0;
     }
-    if (add_t == 0 || sc->mNumMaterials == 0) {
-        aiReleaseImport(sc);
-        return pgi__fail(PGI_ERR_PARSE, "%s: no triangles found (not a mesh file, or a malformed one)", path);
-    }
+    if (!st && (add_t == 0 || sc->mNumMaterials == 0))
+        st = pgi__fail(PGI_ERR_PARSE, "%s: no triangles found (not a mesh file, or a malformed one)", path);
     const size_t v0 = s->nverts, t0 = s->ntris, m0 = s->nmats;
-    if (v0 + add_v > (size_t)UINT32_MAX || t0 + add_t > (size_t)UINT32_MAX / 3) {
-        aiReleaseImport(sc);
-        return pgi__fail(PGI_ERR_UNSUPPORTED, "%s: too many vertices or triangles (%zu, %zu)", path, v0 + add_v,
-                         t0 + add_t);
-    }
+    if (!st && (v0 + add_v > (size_t)UINT32_MAX || t0 + add_t > (size_t)UINT32_MAX / 3))
+        st = pgi__fail(PGI_ERR_UNSUPPORTED, "%s: too many vertices or triangles (%zu, %zu)", path, v0 + add_v,
+                       t0 + add_t);
     const size_t nv = v0 + add_v, nt = t0 + add_t, nm = m0 + sc->mNumMaterials;
-    /* Normals: per-vertex if the scene so far has them (or is empty) and every new mesh has them. */
-    int keep_nrm = all_nrm && (v0 == 0 || s->nrm != NULL);
+    /* Every mesh now has normals; they are dropped only when earlier geometry is flat-shaded (no nrm). */
+    int keep_nrm = v0 == 0 || s->nrm != NULL;
     int had_uv = s->uv != NULL;
     int want_uv = any_uv || had_uv;
 
-    if (!grow(&s->pos, nv * 3, sizeof(float)) || !grow(&s->tri, nt * 3, sizeof(uint32_t)) ||
-        !grow(&s->tri_mat, nt, sizeof(uint32_t)) || !grow(&s->mats, nm, sizeof(pgi__material)) ||
-        (keep_nrm && !grow(&s->nrm, nv * 3, sizeof(float))) || (want_uv && !grow(&s->uv, nv * 2, sizeof(float)))) {
-        aiReleaseImport(sc);
-        return pgi__fail(PGI_ERR_OOM, "%s: out of memory for %zu vertices and %zu triangles", path, nv, nt);
-    }
-    if (!keep_nrm && s->nrm) {
-        free(s->nrm); /* mixing smooth and flat-shaded inputs: shade everything flat */
-        s->nrm = NULL;
-    }
+    if (!st &&
+        (!grow(&s->pos, nv * 3, sizeof(float)) || !grow(&s->tri, nt * 3, sizeof(uint32_t)) ||
+         !grow(&s->tri_mat, nt, sizeof(uint32_t)) || !grow(&s->mats, nm, sizeof(pgi__material)) ||
+         (keep_nrm && !grow(&s->nrm, nv * 3, sizeof(float))) || (want_uv && !grow(&s->uv, nv * 2, sizeof(float)))))
+        st = pgi__fail(PGI_ERR_OOM, "%s: out of memory for %zu vertices and %zu triangles", path, nv, nt);
+    if (st) goto done;
     if (want_uv && !had_uv && v0 > 0) memset(s->uv, 0, v0 * 2 * sizeof(float)); /* earlier geometry had no UVs */
 
     /* Materials (appended first so that textures and indices are known). */
@@ -309,33 +508,32 @@ pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path) {
     tc.mesh_path = path;
     tc.first = s->ntexs;
     tc.dir[0] = 0;
+    tc.ply = has_ext(path, ".ply");
     const char *slash = strrchr(path, '/');
     if (slash) snprintf(tc.dir, sizeof tc.dir, "%.*s/", (int)(slash - path), path);
     for (unsigned i = 0; i < sc->mNumMaterials && !st; i++) {
         st = convert_material(s, &tc, sc, sc->mMaterials[i], &s->mats[m0 + i]);
         if (!st) s->nmats = m0 + i + 1;
     }
-    if (st) {
-        aiReleaseImport(sc);
-        return st;
-    }
+    if (st) goto done;
 
     /* Geometry. */
     size_t vb = v0, tb = t0;
     for (unsigned i = 0; i < sc->mNumMeshes; i++) {
         const struct aiMesh *me = sc->mMeshes[i];
-        if (!(me->mPrimitiveTypes & aiPrimitiveType_TRIANGLE) || me->mNumVertices == 0) continue;
-        size_t ntm = 0;
-        for (unsigned f = 0; f < me->mNumFaces; f++) ntm += me->mFaces[f].mNumIndices == 3;
-        if (!ntm) continue;
-        for (unsigned k = 0; k < me->mNumVertices; k++) {
+        const mesh_out *o = &outs[i];
+        if (!o->nt) continue;
+        for (size_t k = 0; k < o->nv; k++) {
+            const size_t from = o->src ? o->src[k] : k;
             float *p = s->pos + 3 * (vb + k);
-            p[0] = (float)me->mVertices[k].x;
-            p[1] = (float)me->mVertices[k].y;
-            p[2] = (float)me->mVertices[k].z;
+            p[0] = (float)me->mVertices[from].x;
+            p[1] = (float)me->mVertices[from].y;
+            p[2] = (float)me->mVertices[from].z;
             if (keep_nrm) {
                 float *n = s->nrm + 3 * (vb + k);
-                pgi__v3 nn = v3((float)me->mNormals[k].x, (float)me->mNormals[k].y, (float)me->mNormals[k].z);
+                pgi__v3 nn =
+                    o->nrm ? v3_load(o->nrm + 3 * k)
+                           : v3((float)me->mNormals[from].x, (float)me->mNormals[from].y, (float)me->mNormals[from].z);
                 /* Degenerate faces give zero or NaN normals: keep them finite (finalize rejects NaN). */
                 if (!v3_finite(nn) || !(v3_len(nn) > 0.f)) nn = v3(0.f, 0.f, 0.f);
                 else nn = v3_norm(nn);
@@ -344,34 +542,23 @@ pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path) {
             if (want_uv) {
                 float *t = s->uv + 2 * (vb + k);
                 if (me->mTextureCoords[0]) {
-                    t[0] = (float)me->mTextureCoords[0][k].x;
-                    t[1] = (float)me->mTextureCoords[0][k].y;
+                    t[0] = (float)me->mTextureCoords[0][from].x;
+                    t[1] = (float)me->mTextureCoords[0][from].y;
                 } else {
                     t[0] = t[1] = 0.f;
                 }
             }
         }
         uint32_t mat = (uint32_t)(m0 + (me->mMaterialIndex < sc->mNumMaterials ? me->mMaterialIndex : 0));
-        for (unsigned f = 0; f < me->mNumFaces; f++) {
-            const struct aiFace *fc = &me->mFaces[f];
-            if (fc->mNumIndices != 3) continue;
-            for (int c = 0; c < 3; c++) {
-                unsigned idx = fc->mIndices[c];
-                if (idx >= me->mNumVertices) {
-                    aiReleaseImport(sc);
-                    return pgi__fail(PGI_ERR_PARSE, "%s: mesh %u face %u refers to vertex %u of %u", path, i, f, idx,
-                                     me->mNumVertices);
-                }
-                s->tri[3 * tb + c] = (uint32_t)(vb + idx);
-            }
+        for (size_t f = 0; f < o->nt; f++) {
+            for (int c = 0; c < 3; c++) s->tri[3 * tb + c] = (uint32_t)(vb + o->idx[3 * f + c]);
             s->tri_mat[tb] = mat;
             tb++;
         }
-        vb += me->mNumVertices;
+        vb += o->nv;
     }
-    aiReleaseImport(sc);
     if (keep_nrm) {
-        /* Vertices whose normal Assimp left zero (degenerate input) take the face normal of a triangle using them. */
+        /* Vertices whose normal is zero (degenerate input) take the face normal of a triangle using them. */
         for (size_t t = t0; t < tb; t++) {
             const uint32_t *ix = s->tri + 3 * t;
             pgi__v3 fn = v3_cross(v3_sub(pgi__scene_vertex(s, ix[1]), pgi__scene_vertex(s, ix[0])),
@@ -384,5 +571,9 @@ pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path) {
     }
     s->nverts = vb;
     s->ntris = tb;
-    return PGI_OK;
+done:
+    for (unsigned i = 0; i < sc->mNumMeshes; i++) mesh_out_free(&outs[i]);
+    free(outs);
+    aiReleaseImport(sc);
+    return st;
 }

@@ -2,7 +2,9 @@
  * runs for minutes on some malformed files (../shared/bad-inputs): an MTL
  * statement before any `newmtl` (segfault in the OBJ importer), a face line
  * with millions of indices, a PLY header that never ends. These are refused
- * here with the file and line; everything else is left to Assimp. */
+ * here with the file and line; everything else is left to Assimp. On the
+ * way it counts OBJ smoothing statements, which Assimp ignores
+ * (pgi__mesh_hints). */
 #include <ctype.h>
 #include <stdio.h>
 #include <string.h>
@@ -77,7 +79,7 @@ static pgi_status check_mtl(const char *path) {
     return st;
 }
 
-static pgi_status check_obj(const char *path) {
+static pgi_status check_obj(const char *path, pgi__mesh_hints *hints) {
     FILE *f = fopen(path, "rb");
     if (!f) return PGI_OK;
     line_reader r = {.f = f};
@@ -91,7 +93,12 @@ static pgi_status check_obj(const char *path) {
             r.tokens - 1 > MAX_FACE_INDICES)
             st = pgi__fail(PGI_ERR_UNSUPPORTED, "%s:%d: a face of %zu vertices (at most %d)", path, r.line,
                            r.tokens - 1, MAX_FACE_INDICES);
-        else if (strcmp(tok, "mtllib") == 0 && *rest) {
+        else if (strcmp(tok, "s") == 0) {
+            char arg[16];
+            first_token(rest, arg, sizeof arg);
+            if (strcmp(arg, "off") == 0 || strcmp(arg, "0") == 0) hints->smooth_off++;
+            else if (arg[0]) hints->smooth_on++;
+        } else if (strcmp(tok, "mtllib") == 0 && *rest) {
             /* Importers differ on names with spaces: check the whole rest of the line and each word. */
             char lib[2048], name[1024];
             snprintf(name, sizeof name, "%s", rest);
@@ -157,8 +164,11 @@ static pgi_status check_ply(const char *path) {
     return st;
 }
 
-pgi_status pgi__mesh_precheck(const char *path) {
-    if (has_ext(path, ".obj")) return check_obj(path);
+pgi_status pgi__mesh_precheck(const char *path, pgi__mesh_hints *hints) {
+    pgi__mesh_hints unused;
+    if (!hints) hints = &unused;
+    memset(hints, 0, sizeof *hints);
+    if (has_ext(path, ".obj")) return check_obj(path, hints);
     if (has_ext(path, ".ply")) return check_ply(path);
     return PGI_OK;
 }

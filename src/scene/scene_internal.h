@@ -150,8 +150,15 @@ void pgi__texture_prefetch(const pgi__texture *t, float u, float v);
 
 /* Geometry helpers used by rt/ and view/. */
 static inline pgi__v3 pgi__scene_vertex(const pgi_scene *s, uint32_t v) { return v3_load(s->pos + 3 * (size_t)v); }
-/* Refuses mesh files that make Assimp crash or hang (mesh_check.c). */
-pgi_status pgi__mesh_precheck(const char *path);
+/* What the mesh check learns on the way that Assimp does not report: OBJ
+ * smoothing-group statements (Assimp 5.2 skips `s` lines). */
+typedef struct pgi__mesh_hints {
+    size_t smooth_on;  /* OBJ `s N` with N > 0 */
+    size_t smooth_off; /* OBJ `s off` or `s 0` */
+} pgi__mesh_hints;
+/* Refuses mesh files that make Assimp crash or hang (mesh_check.c); fills
+ * *hints (may be NULL). */
+pgi_status pgi__mesh_precheck(const char *path, pgi__mesh_hints *hints);
 /* Total triangle area (scene.c). */
 double pgi__scene_area(const pgi_scene *s);
 
