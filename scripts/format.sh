@@ -1,14 +1,14 @@
 #!/usr/bin/env bash
 # Formats the C sources with the repository's .clang-format (clang-format 14, Debian's
 # `clang-format` package; scripts/install-deps.sh installs it).
-#   scripts/format.sh            rewrite src include apps bench tests (*.c, *.h) in place
+#   scripts/format.sh            rewrite src include apps bench tests examples (*.c, *.h) in place
 #   scripts/format.sh --check    change nothing; list violations, exit 1 if there are any
 # CLANG_FORMAT=/path/to/clang-format overrides the binary.
 set -euo pipefail
 
 cd "$(dirname "$0")/.."
 CF=${CLANG_FORMAT:-clang-format}
-DIRS=(src include apps bench tests)
+DIRS=(src include apps bench tests examples)
 
 mode=fix
 case "${1:-}" in

@@ -27,13 +27,13 @@
 
 #include "photongi/estimator.h"
 #include "photongi/status.h"
+#include "photongi/version.h" /* generated: PGI_VERSION_STRING, _MAJOR, _MINOR, _PATCH */
 
 #ifdef __cplusplus
 extern "C" {
 #endif
 
-#define PGI_VERSION_STRING "0.1.0"
-
+/* The version of the library linked (PGI_VERSION_STRING is that of the headers). */
 const char *pgi_version(void);
 
 /* ------------------------------------------------------------------ scene */
