@@ -72,9 +72,8 @@ typedef struct {
     PGI__BUF(float, node_flux);
     PGI__BUF(float, buckets);
     PGI__BUF(pgi__packed_photon, lists);
-    PGI__BUF(pgi__packed_photon, pk);   /* every photon packed */
-    PGI__BUF(pgi__packed_photon, jobq); /* the jobs' photons */
-    size_t njobs, nlist, ntop_list;
+    PGI__BUF(pgi__packed_photon, pk); /* every photon packed */
+    size_t njobs, nlist, ntop_list, npacked;
     /* radiance */
     PGI__BUF(float, cum_flux);
     PGI__BUF(float, irr);

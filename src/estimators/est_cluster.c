@@ -325,6 +325,7 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
     const size_t nD = (variant & V_DIR) ? nn - s->lvl_off[s->D] : 0; /* nodes with buckets */
     if ((variant & V_DIR) && (st = ENSURE(buckets, nD * 24 + 1, float))) return st;
     if ((st = ENSURE(pk, n + 1, pgi__packed_photon))) return st;
+    s->npacked = n;
     uint64_t visited = 0, deposits = 0;
     int oom = 0;
     /* Top pass, counting traversal: lists of nodes above J, jobs at J, trivial
@@ -380,9 +381,7 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
     s->njobs = js;
     if (sum > UINT32_MAX / 2 || js > UINT32_MAX / 2)
         return pgi__fail(PGI_ERR_UNSUPPORTED, "cluster: too many photon list entries; use a smaller radius");
-    if ((st = ENSURE(jobs, js + 1, uint32_t)) || (st = ENSURE(jobq, js + 1, pgi__packed_photon)) ||
-        (st = ENSURE(top_ids, sum + 1, uint32_t)))
-        return st;
+    if ((st = ENSURE(jobs, js + 1, uint32_t)) || (st = ENSURE(top_ids, sum + 1, uint32_t))) return st;
         /* Top fill: replay the records (jobs grouped by node, photon order). */
 #pragma omp parallel for schedule(dynamic, 1) num_threads(s->c.threads)
     for (long long ci = 0; ci < (long long)nch; ci++) {
@@ -392,8 +391,8 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
             uint32_t nd = k->out[2 * u], j = k->out[2 * u + 1];
             if (nd < nabove) {
                 s->top_ids[off[nd]++] = j;
-            } else { /* the photon record too: the subtree pass then reads it sequentially */
-                s->jobq[off[nd]] = s->pk[j];
+            } else { /* the subtree pass reads pk[j] in increasing j within a job: no copy of the
+                      * record (it cost 36 of the 40 bytes a job entry took: 90 MB at 1M photons) */
                 s->jobs[off[nd]++] = j;
             }
         }
@@ -436,7 +435,7 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
             s->task_rec[3 * t + 1] = (uint32_t)k->nout;
             for (uint32_t u = s->job_start[t]; u < s->job_start[t + 1]; u++) {
                 photon_q q;
-                load_photon(s, &s->jobq[u], s->jobs[u], &q);
+                load_photon(s, &s->pk[s->jobs[u]], s->jobs[u], &q);
                 walk(s, variant, 0, nabove + (uint32_t)t, s->J, &q, k);
             }
             s->task_rec[3 * t + 2] = (uint32_t)k->nout;
@@ -692,7 +691,8 @@ void cl_stats_memory(cl_state *s, size_t npix) {
         pgi__stats_mem(&s->c.st, "node_flux", nD * 24 * sizeof(float));
         pgi__stats_mem(&s->c.st, "irradiance", 10 * npix * sizeof(float));
     }
-    pgi__stats_mem(&s->c.st, "jobs", s->njobs * (sizeof(uint32_t) + sizeof(pgi__packed_photon)));
+    pgi__stats_mem(&s->c.st, "jobs", s->njobs * sizeof(uint32_t));
+    pgi__stats_mem(&s->c.st, "packed_photons", s->npacked * sizeof(pgi__packed_photon));
     if (!(s->variant & V_DIR))
         pgi__stats_mem(&s->c.st, "photon_lists", s->nlist * sizeof(pgi__packed_photon) + (nn + 1) * sizeof(uint32_t));
 }
@@ -700,15 +700,15 @@ void cl_stats_memory(cl_state *s, size_t npix) {
 void cl_destroy(void *state) {
     cl_state *s = state;
     if (!s) return;
-    pgi__buf *b[] = {&s->keys_buf,      &s->keys2_buf,    &s->spread_buf,   &s->ck2_buf,       &s->tcl_buf,
-                     &s->tn_buf,        &s->ci_buf,       &s->ci2_buf,      &s->cb_buf,        &s->cn_buf,
-                     &s->cs_buf,        &s->order_buf,    &s->hist_buf,     &s->pix_cnt_buf,   &s->nodes_buf,
-                     &s->sbeg_buf,      &s->send_buf,     &s->nkey_buf,     &s->top_cnt_buf,   &s->top_tcnt_buf,
-                     &s->job_start_buf, &s->jobs_buf,     &s->top_ids_buf,  &s->node_cnt_buf,  &s->node_start_buf,
-                     &s->node_tcnt_buf, &s->cursor_buf,   &s->top_flux_buf, &s->node_flux_buf, &s->buckets_buf,
-                     &s->lists_buf,     &s->pk_buf,       &s->jobq_buf,     &s->cum_flux_buf,  &s->irr_buf,
-                     &s->cum_cnt_buf,   &s->task_rec_buf, &s->soa_buf,      &s->sam_buf,       &s->sec_key_buf,
-                     &s->sec_pix_buf,   &s->sec_pos_buf};
+    pgi__buf *b[] = {&s->keys_buf,      &s->keys2_buf,  &s->spread_buf,   &s->ck2_buf,       &s->tcl_buf,
+                     &s->tn_buf,        &s->ci_buf,     &s->ci2_buf,      &s->cb_buf,        &s->cn_buf,
+                     &s->cs_buf,        &s->order_buf,  &s->hist_buf,     &s->pix_cnt_buf,   &s->nodes_buf,
+                     &s->sbeg_buf,      &s->send_buf,   &s->nkey_buf,     &s->top_cnt_buf,   &s->top_tcnt_buf,
+                     &s->job_start_buf, &s->jobs_buf,   &s->top_ids_buf,  &s->node_cnt_buf,  &s->node_start_buf,
+                     &s->node_tcnt_buf, &s->cursor_buf, &s->top_flux_buf, &s->node_flux_buf, &s->buckets_buf,
+                     &s->lists_buf,     &s->pk_buf,     &s->cum_flux_buf, &s->irr_buf,       &s->cum_cnt_buf,
+                     &s->task_rec_buf,  &s->soa_buf,    &s->sam_buf,      &s->sec_key_buf,   &s->sec_pix_buf,
+                     &s->sec_pos_buf};
     for (size_t k = 0; k < sizeof b / sizeof b[0]; k++) pgi__buf_free(b[k]);
     for (int i = 0; i < s->nouts; i++) free(s->outs[i].out);
     free(s->outs);
