@@ -127,6 +127,18 @@ if expect_ok render --help; then
     printf '%s\n' "$out" | grep -q -- "--photons" && ok || bad "render --help does not describe --photons"
 fi
 
+# Every built-in scene renders at its own defaults (photons included) without a warning: all the
+# photons asked for are stored (sphere-and-plane's light once lost too many paths for 200000).
+for s in cornell giref sphere-and-plane; do
+    if expect_ok render --scene "$s" --size 32x24 -o "$TMP/def.png" --stats "$TMP/def.json"; then
+        grep -qi "warning" "$TMP/err" && bad "render --scene $s at its defaults warns: $err" || ok
+        if command -v python3 >/dev/null 2>&1; then
+            python3 -c 'import json,sys; sys.exit(json.load(open(sys.argv[1]))["photons"]["stored"] != 200000)' \
+                "$TMP/def.json" && ok || bad "render --scene $s: fewer than its default 200000 photons stored"
+        fi
+    fi
+done
+
 if expect_ok render --scene cornell --size 64x48 --photons 5000 -o "$TMP/img.png" --stats "$TMP/stats.json" -q; then
     if [ -s "$TMP/img.png" ]; then
         # PNG signature, then the IHDR chunk: width and height as big-endian 32-bit numbers at bytes 16..23.
