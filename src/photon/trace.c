@@ -368,6 +368,7 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
     double seen_paths = sc->prior_paths, seen_photons = sc->prior_photons;
     pgi_status st = PGI_OK;
     while (ph->count < want && path < max_paths) {
+        if (d->progress) d->progress(d->progress_ctx, ph->count, want);
         size_t remaining = want - ph->count;
         size_t batch;
         if (seen_photons < 64.0) {
@@ -502,6 +503,7 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
     *rays_out = rays;
     sc->paths_traced = traced;
     if (st) return st;
+    if (d->progress) d->progress(d->progress_ctx, ph->count, want);
     /* This frame's counts seed the next frame's batches (a moved light changes the yield: a
      * frame's worth of evidence is enough to forget the older ones). */
     sc->prior_paths = seen_paths - sc->prior_paths;
