@@ -171,6 +171,35 @@ else
     bad "render --stats -: exit status $?: $(head -c 300 "$TMP/err")"
 fi
 
+# Named scenes (scenes/NAME.json) from any directory: the source tree's scenes/ is searched after
+# ./scenes, and the meshes are found in $PHOTONGI_SCENES, or without it next to the source tree.
+SRC=$PWD
+mkdir -p "$TMP/elsewhere"
+if [ -f "$SRC/../shared/scenes/cornell-box/CornellBox-Original.obj" ]; then
+    for scenes_env in "PHOTONGI_SCENES=$SRC/../shared/scenes" "-u PHOTONGI_SCENES"; do
+        # shellcheck disable=SC2086
+        if (cd "$TMP/elsewhere" && env $scenes_env "$BIN" render --scene cornell-box --size 16x16 --photons 1000 -q \
+                -o named.png >"$TMP/out" 2>"$TMP/err"); then
+            [ -s "$TMP/elsewhere/named.png" ] && ok || bad "render --scene cornell-box from $TMP/elsewhere wrote no image"
+        else
+            bad "render --scene cornell-box from another directory ($scenes_env) failed: $(head -c 300 "$TMP/err")"
+        fi
+        rm -f "$TMP/elsewhere/named.png"
+    done
+    (cd "$TMP/elsewhere" && "$BIN" info --scene cornell-box >"$TMP/out" 2>"$TMP/err") &&
+        grep -q "^source: *$SRC/scenes/cornell-box.json$" "$TMP/out" && ok ||
+        bad "info --scene cornell-box from another directory: not the source tree's description: $(cat "$TMP/out" "$TMP/err")"
+else
+    echo "note: $SRC/../shared/scenes/cornell-box missing; named scenes from another directory not tested"
+fi
+# ... and ./scenes comes first.
+mkdir -p "$TMP/elsewhere/scenes"
+printf '{"builtin": "giref", "name": "local-one"}\n' >"$TMP/elsewhere/scenes/cornell-box.json"
+(cd "$TMP/elsewhere" && "$BIN" info --scene cornell-box >"$TMP/out" 2>"$TMP/err") && grep -q "^scene: *local-one$" "$TMP/out" &&
+    ok || bad "info --scene cornell-box did not take ./scenes/cornell-box.json first: $(cat "$TMP/out" "$TMP/err")"
+rm -rf "$TMP/elsewhere/scenes"
+expect_error "cornell-box" info --scene no-such-scene
+
 if expect_ok render --scene cornell --size 40x30 --photons 2000 --output indirect -o "$TMP/img.exr" -q; then
     [ -s "$TMP/img.exr" ] && ok || bad "render did not write img.exr"
 fi

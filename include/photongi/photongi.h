@@ -71,9 +71,14 @@ typedef struct pgi_scene_info {
 
 /* Loads a scene. `spec` is a built-in name ("cornell", "giref",
  * "sphere-and-plane"), a scene description (.json), a scene name with a
- * description in ./scenes/<name>.json, or a mesh file Assimp reads (OBJ/MTL,
- * glTF, PLY). Mesh paths in a description resolve against the description's
- * folder, then against $PHOTONGI_SCENES (default ../shared/scenes). */
+ * description <name>.json in ./scenes, in the source tree's scenes/ (a build
+ * run from any directory) or in the installed share/photongi/scenes (looked up
+ * in that order), or a mesh file Assimp reads (OBJ/MTL, glTF, PLY). Mesh paths
+ * in a description resolve against the description's folder, then against
+ * $PHOTONGI_SCENES, or when that is not set the source tree's ../shared/scenes
+ * and then ../shared/scenes from the working directory. An unknown name is
+ * PGI_ERR_INVALID_ARG (the message lists the names there are), a missing file
+ * PGI_ERR_IO. */
 pgi_status pgi_scene_load(const char *spec, pgi_scene **out);
 void pgi_scene_destroy(pgi_scene *scene);
 void pgi_scene_get_info(const pgi_scene *scene, pgi_scene_info *out);
