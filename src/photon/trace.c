@@ -374,6 +374,9 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
         if (seen_photons < 64.0) {
             batch = remaining / 4 + 64; /* no estimate yet: a pilot batch */
             if (batch > 4 * CHUNK) batch = 4 * CHUNK;
+            /* ... as many paths as all the pilots before it: a scene that stores (almost) nothing
+             * reaches max_paths in a few dozen batches, not in a million-path crawl of 64 at a time */
+            if ((double)batch < seen_paths) batch = (size_t)seen_paths;
         } else {
             /* An upper bound of the yield (3 sigma of the photon count) sizes the batch from
              * below: an extra small batch costs less than paths traced for nothing. */
