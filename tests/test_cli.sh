@@ -63,7 +63,7 @@ expect_ok() {
 }
 
 # expect_status CODE NEEDLE ARGS...: exit status CODE exactly (the convention of 'photongi --help':
-# 2 usage error, 1 failure), stderr contains NEEDLE.
+# 2 usage error, 1 failure), stderr contains NEEDLE, no sanitizer report.
 expect_status() {
     local code=$1 needle=$2
     shift 2
@@ -74,6 +74,8 @@ expect_status() {
     elif ! grep -qiF -- "$needle" "$TMP/err"; then
         bad "photongi $*: stderr does not mention '$needle':"
         printf '%s\n' "$err" | head -3 | sed 's/^/    /'
+    elif grep -qE 'AddressSanitizer|runtime error:|LeakSanitizer' "$TMP/err"; then
+        bad "photongi $*: sanitizer report"
     else
         ok
     fi
