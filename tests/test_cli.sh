@@ -62,6 +62,39 @@ expect_ok() {
     return 0
 }
 
+# expect_status CODE NEEDLE ARGS...: exit status CODE exactly (the convention of 'photongi --help':
+# 2 usage error, 1 failure), stderr contains NEEDLE, no sanitizer report.
+expect_status() {
+    local code=$1 needle=$2
+    shift 2
+    run "$@"
+    if [ "$rc" -ne "$code" ]; then
+        bad "photongi $*: exit status $rc, expected $code"
+        printf '%s\n' "$err" | head -3 | sed 's/^/    /'
+    elif ! grep -qiF -- "$needle" "$TMP/err"; then
+        bad "photongi $*: stderr does not mention '$needle':"
+        printf '%s\n' "$err" | head -3 | sed 's/^/    /'
+    elif grep -qE 'AddressSanitizer|runtime error:|LeakSanitizer' "$TMP/err"; then
+        bad "photongi $*: sanitizer report"
+    else
+        ok
+    fi
+}
+
+# on_tty ARGS...: runs the binary with a terminal as stdin, stdout and stderr (util-linux
+# script); what it printed goes to $TMP/tty, its status to $rc. Returns 1 when no terminal
+# can be had.
+have_tty=0
+if command -v script >/dev/null 2>&1 && script -qec true /dev/null </dev/null >/dev/null 2>&1; then have_tty=1; fi
+on_tty() {
+    [ "$have_tty" = 1 ] || return 1
+    local cmd
+    cmd=$(printf '%q ' "$BIN" "$@")
+    script -qec "$cmd" /dev/null </dev/null >"$TMP/tty" 2>&1
+    rc=$?
+    return 0
+}
+
 R=(render --size 32x32 --photons 1000 -q)
 
 # ------------------------------------------------------------ bad input
@@ -108,6 +141,141 @@ expect_error "/nonexistent/dir/s.json" "${R[@]}" -o "$TMP/a.png" --stats /nonexi
 # Failed renders must not leave an image behind.
 [ ! -e "$TMP/x.bmp" ] && ok || bad "an image was written for -o x.bmp"
 
+# ------------------------------------------------------------ outputs checked before any work
+# A bad output fails at once, naming the path and the problem, before the scene is read: with a
+# broken scene the message is still about the output, and on a terminal no progress line appears.
+expect_status 1 "/nonexistent/dir/x.png" render --scene "$TMP/broken.obj" -o /nonexistent/dir/x.png
+grep -qi "broken.obj" "$TMP/err" && bad "render -o /nonexistent/dir/x.png read the scene first: $err" || ok
+grep -qi "does not exist" "$TMP/err" && ok || bad "render -o /nonexistent/dir/x.png: no 'does not exist': $err"
+expect_status 2 "x.jpg" render --scene "$TMP/broken.obj" -o "$TMP/x.jpg"
+grep -qiF ".png or .exr" "$TMP/err" && ok || bad "render -o x.jpg does not name the formats: $err"
+expect_status 2 "no file extension" render --scene "$TMP/broken.obj" -o "$TMP/noext"
+expect_status 1 "/nonexistent/dir/s.json" render --scene "$TMP/broken.obj" -o "$TMP/a.png" --stats /nonexistent/dir/s.json
+mkdir -p "$TMP/adir" "$TMP/adir.png"
+expect_status 1 "is a folder" render --scene "$TMP/broken.obj" -o "$TMP/adir.png"
+expect_status 1 "is a folder" render --scene "$TMP/broken.obj" -o "$TMP/a.png" --stats "$TMP/adir"
+expect_status 1 "/nonexistent/dir/r.exr" reference --scene "$TMP/broken.obj" -o /nonexistent/dir/r.exr
+expect_status 2 "r.jpg" reference --scene "$TMP/broken.obj" -o "$TMP/r.exr" --png "$TMP/r.jpg"
+expect_status 1 "/nonexistent/dir/r.png" reference --scene "$TMP/broken.obj" -o "$TMP/r.exr" --png /nonexistent/dir/r.png
+mkdir -p "$TMP/side.exr.json"
+expect_status 1 "side.exr.json" reference --scene "$TMP/broken.obj" -o "$TMP/side.exr"
+expect_status 1 "/nonexistent/dir/h.png" compare "$TMP/missing-a.png" "$TMP/missing-b.png" --diff /nonexistent/dir/h.png
+expect_status 2 "h.jpg" compare "$TMP/missing-a.png" "$TMP/missing-b.png" --diff "$TMP/h.jpg"
+if [ "$(id -u)" != 0 ]; then
+    mkdir -p "$TMP/ro" && chmod 555 "$TMP/ro"
+    expect_status 1 "$TMP/ro" render --scene "$TMP/broken.obj" -o "$TMP/ro/x.png"
+    chmod 755 "$TMP/ro"
+fi
+# Nothing is created or truncated early: a render that fails later keeps the existing file.
+printf 'keep me' >"$TMP/keep.png"
+expect_status 1 "broken.obj" render --scene "$TMP/broken.obj" -o "$TMP/keep.png"
+[ "$(cat "$TMP/keep.png")" = "keep me" ] && ok || bad "a failed render changed the existing output file"
+# The issue's case: 2M photons into a missing folder fail before any tracing.
+if on_tty render --scene cornell --photons 2000000 -o /nonexistent/dir/x.png; then
+    [ "$rc" = 1 ] && ok || bad "render -o /nonexistent/dir/x.png on a terminal: exit status $rc"
+    grep -qi "tracing" "$TMP/tty" && bad "render -o /nonexistent/dir/x.png traced photons first" || ok
+fi
+
+# ------------------------------------------------------------ exit status convention
+# 2: the command line alone is wrong; 1: it is well formed but a file or the work is not.
+expect_status 2 "--frobnicate" render --frobnicate 3 -o "$TMP/a.png"
+expect_status 2 "--photons" render --photons 0 -o "$TMP/a.png"
+expect_status 2 "no-such-command" no-such-command
+expect_status 2 "no-such-estimator" render --estimator no-such-estimator -o "$TMP/a.png"
+expect_status 2 ".jpg" render -o "$TMP/a.jpg"
+expect_status 2 "kdtree" render --estimator tiled --knn 8 -o "$TMP/a.png"
+expect_status 2 "exact" render --estimator directional --progressive 2 -o "$TMP/a.png"
+expect_status 2 "do not give them" reference --continue "$TMP/none.exr" --scene cornell
+expect_status 1 "/nonexistent/x.obj" render --scene /nonexistent/x.obj -o "$TMP/a.png"
+expect_status 1 "missing-mesh.obj" "${R[@]}" --scene "$TMP/nomesh.json" -o "$TMP/a.png"
+expect_status 1 "broken.obj" "${R[@]}" --scene "$TMP/broken.obj" -o "$TMP/a.png"
+expect_status 1 "no-such-scene" render --scene no-such-scene -o "$TMP/a.png"
+expect_status 1 "no-such-scene" info --scene no-such-scene
+expect_status 1 "/nonexistent/dir/x.png" render -o /nonexistent/dir/x.png
+expect_status 1 "camera" "${R[@]}" --camera 99 -o "$TMP/a.png"
+expect_status 1 "cannot continue" reference --continue "$TMP/none.exr" --spp 1
+expect_status 1 "missing-a.png" compare "$TMP/missing-a.png" "$TMP/missing-b.png"
+run --help
+printf '%s\n' "$out" | grep -q "usage error" && ok || bad "photongi --help does not explain the exit status"
+
+# ------------------------------------------------------------ help
+if expect_ok help; then
+    main_help=$out
+    run --help
+    [ "$out" = "$main_help" ] && ok || bad "'photongi help' differs from 'photongi --help'"
+fi
+for c in render estimators info reference compare; do
+    if expect_ok help "$c"; then
+        topic=$out
+        run "$c" --help
+        [ "$rc" = 0 ] && [ "$out" = "$topic" ] && ok || bad "'photongi help $c' differs from 'photongi $c --help'"
+    fi
+done
+expect_status 2 "nope" help nope
+expect_status 2 "one command" help render info
+
+# ------------------------------------------------------------ limits in the messages
+expect_status 2 "1..100000000" render --photons 1e12 -o "$TMP/a.png"
+expect_status 2 "1..100000000" render --photons 200000000 -o "$TMP/a.png"
+expect_status 2 "1..16384" render --size 20000x10 -o "$TMP/a.png"
+expect_status 2 "37748736" render --size 16000x16000 -o "$TMP/a.png"
+expect_status 2 "1..64" render --bounces 65 -o "$TMP/a.png"
+expect_status 2 "1..1024" render --threads 0 -o "$TMP/a.png"
+expect_status 2 "1..4096" render --direct-samples 0 -o "$TMP/a.png"
+expect_status 2 "0..16" render --filter 17 -o "$TMP/a.png"
+expect_status 2 "1..1000000" render --progressive 0 -o "$TMP/a.png"
+expect_status 2 "0..18446744073709551615" render --seed -1 -o "$TMP/a.png"
+expect_status 2 "4..64" render --estimator bounds25d --polygon 7 -o "$TMP/a.png"
+expect_status 2 "finite number above 0" render --cell-size 1e39 -o "$TMP/a.png"
+expect_status 2 "1..1099511627776" reference --spp 0 -o "$TMP/r.exr"
+expect_status 2 "1..64" reference --bounces 0 -o "$TMP/r.exr"
+expect_status 2 "1..16384" reference --size 0x5 -o "$TMP/r.exr"
+expect_status 2 "--diff-max" compare "$TMP/a.png" "$TMP/b.png" --diff-max -1
+# A count may be written in exponent form.
+if expect_ok render --scene cornell --size 16x12 --photons 2e3 -q -o "$TMP/e.png" --stats "$TMP/e.json"; then
+    grep -qE '"stored":[[:space:]]*2000,' "$TMP/e.json" && ok || bad "render --photons 2e3 did not store 2000 photons"
+fi
+
+# ------------------------------------------------------------ -q: errors only
+# A scene that stores no photon (one triangle: no photon has a second hit) warns ...
+printf 'v -1 0 -1\nv 1 0 -1\nv 0 0 1\nf 1 3 2\n' >"$TMP/tri.obj"
+printf '{"mesh": "tri.obj", "lights": [{"type": "point", "position": [0, 1, 0], "intensity": [1, 1, 1]}],
+ "cameras": [{"eye": [0, 2, 3], "look_at": [0, 0, 0]}]}\n' >"$TMP/lost.json"
+if expect_ok render --scene "$TMP/lost.json" --size 8x8 --photons 10 -o "$TMP/lost.png"; then
+    grep -q "warning" "$TMP/err" && ok || bad "render of a scene that stores no photon did not warn: $err"
+fi
+# ... but not with -q, which also drops notes; errors still print.
+expect_ok render --scene "$TMP/lost.json" --size 8x8 --photons 10 -q -o "$TMP/lost.png" &&
+    { [ -z "$err" ] && ok || bad "render -q printed on stderr: $err"; }
+expect_ok render --scene cornell --size 8x8 --photons 100 --tile 8 -q -o "$TMP/n.png" &&
+    { [ -z "$err" ] && ok || bad "render -q printed a note: $err"; }
+expect_status 1 "/nonexistent/x.obj" render -q --scene /nonexistent/x.obj -o "$TMP/a.png"
+
+# ------------------------------------------------------------ progress line on a terminal only
+# Not when stderr is a file ...
+if expect_ok render --scene cornell --size 16x12 --photons 2000 --progressive 2 -o "$TMP/pr.png"; then
+    grep -q "tracing" "$TMP/err" && bad "render printed progress to a file: $err" || ok
+    grep -q $'\r' "$TMP/err" && bad "render printed a carriage return to a file" || ok
+fi
+# ... on a terminal a line redrawn as passes and frames go (at most 10 times a second: the first
+# report, frame 1's view samples, is the one always drawn), erased before the summary ...
+if on_tty render --scene cornell --size 16x12 --photons 2000 --progressive 2 -o "$TMP/pr.png"; then
+    [ "$rc" = 0 ] && ok || bad "render on a terminal: exit status $rc"
+    grep -qF $'\r[' "$TMP/tty" && grep -qF "frame 1/2: view samples" "$TMP/tty" && ok ||
+        bad "render --progressive 2 on a terminal shows no progress: $(head -c 300 "$TMP/tty")"
+    grep -qF $'\r\033[K' "$TMP/tty" && ok || bad "render on a terminal does not erase its progress line"
+    grep -q "pr.png: cornell" "$TMP/tty" && ok || bad "render on a terminal: no summary"
+    on_tty render --scene cornell --size 16x12 --photons 2000 -o "$TMP/pr.png"
+    grep -qF "view samples" "$TMP/tty" && ok || bad "render on a terminal shows no progress: $(head -c 300 "$TMP/tty")"
+    # ... and with -q nothing at all.
+    on_tty render --scene cornell --size 16x12 --photons 2000 -q -o "$TMP/pr.png"
+    [ "$rc" = 0 ] && [ ! -s "$TMP/tty" ] && ok || bad "render -q on a terminal printed: $(head -c 300 "$TMP/tty")"
+    on_tty reference --scene cornell --size 8x8 --spp 2 -o "$TMP/prr.exr"
+    grep -q "2/2 spp" "$TMP/tty" && ok || bad "reference on a terminal shows no progress bar"
+else
+    echo "note: no terminal (util-linux script); the progress line is not tested"
+fi
+
 # ------------------------------------------------------------ good input
 if expect_ok estimators; then
     names=$(printf '%s\n' "$out")
@@ -126,6 +294,18 @@ fi
 if expect_ok render --help; then
     printf '%s\n' "$out" | grep -q -- "--photons" && ok || bad "render --help does not describe --photons"
 fi
+
+# Every built-in scene renders at its own defaults (photons included) without a warning: all the
+# photons asked for are stored (sphere-and-plane's light once lost too many paths for 200000).
+for s in cornell giref sphere-and-plane; do
+    if expect_ok render --scene "$s" --size 32x24 -o "$TMP/def.png" --stats "$TMP/def.json"; then
+        grep -qi "warning" "$TMP/err" && bad "render --scene $s at its defaults warns: $err" || ok
+        if command -v python3 >/dev/null 2>&1; then
+            python3 -c 'import json,sys; sys.exit(json.load(open(sys.argv[1]))["photons"]["stored"] != 200000)' \
+                "$TMP/def.json" && ok || bad "render --scene $s: fewer than its default 200000 photons stored"
+        fi
+    fi
+done
 
 if expect_ok render --scene cornell --size 64x48 --photons 5000 -o "$TMP/img.png" --stats "$TMP/stats.json" -q; then
     if [ -s "$TMP/img.png" ]; then
@@ -158,6 +338,35 @@ if (cd "$TMP/cwd" && "$BIN" render --scene cornell --size 32x24 --photons 2000 -
 else
     bad "render --stats -: exit status $?: $(head -c 300 "$TMP/err")"
 fi
+
+# Named scenes (scenes/NAME.json) from any directory: the source tree's scenes/ is searched after
+# ./scenes, and the meshes are found in $PHOTONGI_SCENES, or without it next to the source tree.
+SRC=$PWD
+mkdir -p "$TMP/elsewhere"
+if [ -f "$SRC/../shared/scenes/cornell-box/CornellBox-Original.obj" ]; then
+    for scenes_env in "PHOTONGI_SCENES=$SRC/../shared/scenes" "-u PHOTONGI_SCENES"; do
+        # shellcheck disable=SC2086
+        if (cd "$TMP/elsewhere" && env $scenes_env "$BIN" render --scene cornell-box --size 16x16 --photons 1000 -q \
+                -o named.png >"$TMP/out" 2>"$TMP/err"); then
+            [ -s "$TMP/elsewhere/named.png" ] && ok || bad "render --scene cornell-box from $TMP/elsewhere wrote no image"
+        else
+            bad "render --scene cornell-box from another directory ($scenes_env) failed: $(head -c 300 "$TMP/err")"
+        fi
+        rm -f "$TMP/elsewhere/named.png"
+    done
+    (cd "$TMP/elsewhere" && "$BIN" info --scene cornell-box >"$TMP/out" 2>"$TMP/err") &&
+        grep -q "^source: *$SRC/scenes/cornell-box.json$" "$TMP/out" && ok ||
+        bad "info --scene cornell-box from another directory: not the source tree's description: $(cat "$TMP/out" "$TMP/err")"
+else
+    echo "note: $SRC/../shared/scenes/cornell-box missing; named scenes from another directory not tested"
+fi
+# ... and ./scenes comes first.
+mkdir -p "$TMP/elsewhere/scenes"
+printf '{"builtin": "giref", "name": "local-one"}\n' >"$TMP/elsewhere/scenes/cornell-box.json"
+(cd "$TMP/elsewhere" && "$BIN" info --scene cornell-box >"$TMP/out" 2>"$TMP/err") && grep -q "^scene: *local-one$" "$TMP/out" &&
+    ok || bad "info --scene cornell-box did not take ./scenes/cornell-box.json first: $(cat "$TMP/out" "$TMP/err")"
+rm -rf "$TMP/elsewhere/scenes"
+expect_error "cornell-box" info --scene no-such-scene
 
 if expect_ok render --scene cornell --size 40x30 --photons 2000 --output indirect -o "$TMP/img.exr" -q; then
     [ -s "$TMP/img.exr" ] && ok || bad "render did not write img.exr"
@@ -202,7 +411,7 @@ expect_error "--r-min needs a positive number" render --radius-policy path --r-m
 expect_error "--r-max needs a positive number" render --radius-policy path --r-max nan -o "$TMP/x.png"
 expect_error "--r-max needs a positive number" render --radius-policy path --r-max inf -o "$TMP/x.png"
 expect_error "--smoothing needs a positive number" render --radius-policy differentials --smoothing 0 -o "$TMP/x.png"
-expect_error "must not exceed r_max" render --estimator bvh --radius-policy path --r-min 2 --r-max 1 --size 8x8 \
+expect_status 2 "must not exceed --r-max" render --estimator bvh --radius-policy path --r-min 2 --r-max 1 --size 8x8 \
     --photons 100 -o "$TMP/x.png"
 expect_error "per-photon" render --estimator hashgrid --radius-policy differentials --size 8x8 --photons 100 \
     -o "$TMP/x.png"
@@ -240,13 +449,24 @@ if expect_ok reference --scene cornell --size 24x16 --spp 2 -q -o "$TMP/r.exr" -
         [ -s "$TMP/heat.png" ] && ok || bad "compare did not write the heat map"
     fi
     expect_ok render --scene cornell --size 32x16 --photons 2000 -q -o "$TMP/q.png"
-    expect_error "sizes differ" compare "$TMP/q.png" "$TMP/r.exr"
+    expect_status 1 "sizes differ" compare "$TMP/q.png" "$TMP/r.exr"
     expect_error "missing.png" compare "$TMP/p.png" "$TMP/missing.png"
     expect_error "two images" compare "$TMP/p.png"
     expect_error "unknown option" compare "$TMP/p.png" "$TMP/r.exr" --frobnicate
     grep -qE '"jitter":[[:space:]]*true' "$TMP/r.exr.json" && ok || bad "reference: r.exr.json lacks jitter true"
     printf 'not json' >"$TMP/r.exr.json"
     expect_error "metadata" reference --continue "$TMP/r.exr" --spp 1
+fi
+# --continue twice in a row keeps the scene (giref: not the default, so a lost name would show)
+# and adds up the samples.
+if expect_ok reference --scene giref --size 8x8 --spp 1 -q -o "$TMP/g.exr"; then
+    for n in 2 3; do
+        if expect_ok reference --continue "$TMP/g.exr" --spp 1 -q; then
+            grep -q "\"spp\":[[:space:]]*\"$n\"" "$TMP/g.exr.json" && ok || bad "reference --continue (to $n spp): wrong spp"
+            grep -q '"scene":[[:space:]]*"giref"' "$TMP/g.exr.json" && ok ||
+                bad "reference --continue (to $n spp) lost the scene: $(cat "$TMP/g.exr.json")"
+        fi
+    done
 fi
 # Reference at pixel centres: kept by --continue; a format-1 sidecar (an older photongi) continues
 # as centres; --continue takes the jitter from the sidecar.

@@ -295,12 +295,114 @@ static void test_estimator_created_once(void **state) {
     pgi_scene_destroy(s);
 }
 
+/* Progress reports (pgi_render_desc.progress): every pass in order on the calling thread, the
+ * tracer's photons up to the total, the frame of a progressive render; the image does not change,
+ * and a different callback or user pointer does not restart a running average. */
+typedef struct progress_log {
+    int n;
+    char pass[512][12];
+    uint64_t done[512], total[512];
+    int frame[512], frames[512];
+    double elapsed[512];
+} progress_log;
+
+static void log_progress(void *user, const pgi_progress *p) {
+    progress_log *l = user;
+    if (l->n >= 512) return;
+    snprintf(l->pass[l->n], sizeof l->pass[0], "%s", p->pass);
+    l->done[l->n] = p->done;
+    l->total[l->n] = p->total;
+    l->frame[l->n] = p->frame;
+    l->frames[l->n] = p->frames;
+    l->elapsed[l->n] = p->elapsed_ms;
+    l->n++;
+}
+
+/* Checks the log of `frames` frames of `photons` photons: each frame reports view, trace (0 of
+ * photons first, photons of photons last, never falling), build, estimate, direct. */
+static void check_progress_log(const progress_log *l, int frames, uint64_t photons) {
+    static const char *const order[] = {"view", "trace", "build", "estimate", "direct"};
+    int i = 0;
+    for (int k = 0; k < frames; k++) {
+        int at = 0;
+        uint64_t last = 0;
+        int first_trace = -1, last_trace = -1;
+        for (; i < l->n && l->frame[i] == k; i++) {
+            assert_int_equal(l->frames[i], frames);
+            if (i > 0) assert_true(l->elapsed[i] >= l->elapsed[i - 1]);
+            while (at < 5 && strcmp(l->pass[i], order[at]) != 0) at++;
+            if (at == 5) fail_msg("frame %d: pass '%s' out of order", k, l->pass[i]);
+            if (at == 1) {
+                assert_int_equal(l->total[i], photons);
+                assert_true(l->done[i] >= last && l->done[i] <= photons);
+                last = l->done[i];
+                if (first_trace < 0) first_trace = i;
+                last_trace = i;
+            }
+        }
+        if (at != 4) fail_msg("frame %d: the passes end at '%s', not 'direct'", k, at < 5 ? order[at] : "?");
+        assert_true(first_trace >= 0);
+        assert_int_equal(l->done[first_trace], 0);
+        assert_int_equal(l->done[last_trace], photons);
+    }
+    assert_int_equal(i, l->n);
+}
+
+static void test_progress_callback(void **state) {
+    (void)state;
+    pgi_scene *s = load("cornell");
+    pgi_render_desc d = {.estimator = "hashgrid", .photons = 20000, .width = 24, .height = 16, .direct_samples = 1};
+    pgi_image plain = {0}, reported = {0};
+    progress_log *l = calloc(1, sizeof *l);
+    assert_non_null(l);
+    TU_CHECK_OK(pgi_render(s, &d, &plain, NULL));
+    pgi_render_desc dp = d;
+    dp.progress = log_progress;
+    dp.progress_user = l;
+    pgi_frame_stats fs;
+    TU_CHECK_OK(pgi_render(s, &dp, &reported, &fs));
+    assert_memory_equal(plain.rgb, reported.rgb, 3 * sizeof(float) * 24 * 16);
+    assert_null(fs.settings.progress);
+    assert_null(fs.settings.progress_user);
+    check_progress_log(l, 1, 20000);
+
+    /* pgi_render_progressive: frame k of 3 */
+    memset(l, 0, sizeof *l);
+    TU_CHECK_OK(progressive(s, &d, 3, &plain, NULL));
+    TU_CHECK_OK(progressive(s, &dp, 3, &reported, &fs));
+    assert_memory_equal(plain.rgb, reported.rgb, 3 * sizeof(float) * 24 * 16);
+    assert_int_equal(fs.frames, 3);
+    check_progress_log(l, 3, 20000);
+
+    /* stepping: another user pointer is the same picture */
+    pgi_renderer *r;
+    TU_CHECK_OK(pgi_renderer_create(s, &r));
+    pgi_progressive *p;
+    TU_CHECK_OK(pgi_progressive_create(r, &p));
+    TU_CHECK_OK(pgi_progressive_step(p, &d, &reported, &fs));
+    memset(l, 0, sizeof *l);
+    TU_CHECK_OK(pgi_progressive_step(p, &dp, &reported, &fs));
+    assert_int_equal(fs.frames, 2);
+    assert_true(l->n > 0 && l->frame[0] == 0 && l->frames[0] == 1);
+    pgi_progressive_destroy(p);
+    pgi_renderer_destroy(r);
+    free(l);
+    pgi_image_free(&plain);
+    pgi_image_free(&reported);
+    pgi_scene_destroy(s);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_first_frame_is_plain_render),   cmocka_unit_test(test_radius_sequence),
-        cmocka_unit_test(test_progressive_equals_accumulate), cmocka_unit_test(test_accumulation_restarts),
-        cmocka_unit_test(test_estimator_created_once),        cmocka_unit_test(test_every_exact_estimator),
-        cmocka_unit_test(test_bad_progressive_requests),      cmocka_unit_test(test_error_falls),
+        cmocka_unit_test(test_first_frame_is_plain_render),
+        cmocka_unit_test(test_radius_sequence),
+        cmocka_unit_test(test_progressive_equals_accumulate),
+        cmocka_unit_test(test_accumulation_restarts),
+        cmocka_unit_test(test_estimator_created_once),
+        cmocka_unit_test(test_every_exact_estimator),
+        cmocka_unit_test(test_bad_progressive_requests),
+        cmocka_unit_test(test_error_falls),
+        cmocka_unit_test(test_progress_callback),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -7,6 +7,7 @@
 #include <errno.h>
 #include <math.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 
 /* Integer in [lo, hi]. */
@@ -16,6 +17,31 @@ static inline int parse_long(const char *s, long long lo, long long hi, long lon
     long long v = strtoll(s, &end, 10);
     if (errno || end == s || *end || v < lo || v > hi) return 0;
     *out = v;
+    return 1;
+}
+
+/* A count: a whole number in [lo, hi], written as digits or in exponent form ("2e6", "1.5e5";
+ * whole numbers only). Callers name the range in their message, so that "1e12 photons" is told
+ * the limit rather than a format. */
+static inline int parse_whole(const char *s, long long lo, long long hi, long long *out) {
+    if (parse_long(s, lo, hi, out)) return 1;
+    char *end;
+    errno = 0;
+    double v = strtod(s, &end);
+    if (errno || end == s || *end || !isfinite(v) || v != floor(v) || v < (double)lo || v > (double)hi) return 0;
+    *out = (long long)v;
+    return 1;
+}
+
+/* Image size "WIDTHxHEIGHT": each side in 1..max_side, at most max_pixels in all. */
+static inline int parse_size(const char *s, long long max_side, long long max_pixels, int *w, int *h) {
+    char ws[32], hs[32], extra;
+    long long x, y;
+    if (sscanf(s, "%31[0-9]x%31[0-9]%c", ws, hs, &extra) != 2 || !parse_long(ws, 1, max_side, &x) ||
+        !parse_long(hs, 1, max_side, &y) || x * y > max_pixels)
+        return 0;
+    *w = (int)x;
+    *h = (int)y;
     return 1;
 }
 

@@ -1,5 +1,5 @@
 /* Commands implemented outside main.c (one file each). Each returns the
- * process exit status: 0 success, 2 invalid arguments, 1 other failures. */
+ * process exit status (cli.h): 0 success, 2 usage error, 1 failure. */
 #ifndef PGI_CLI_CMD_H
 #define PGI_CLI_CMD_H
 

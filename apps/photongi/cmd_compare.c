@@ -6,7 +6,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "cli.h"
 #include "cmd.h"
+#include "output.h"
 #include "parse.h"
 #include "photongi/metrics.h"
 
@@ -25,21 +27,10 @@ static const char *k_compare_help =
     "  --diff FILE     write a heat map PNG of the largest channel difference per pixel\n"
     "                  (black 0 -> red -> yellow -> white at --diff-max)\n"
     "  --diff-max E    difference shown as white, in [0,1] units (default 0.1)\n"
-    "  --exposure X    multiply EXR radiance by X before tone mapping (default 1)\n";
-
-static int cmp_usage(const char *fmt, const char *arg) {
-    fprintf(stderr, "photongi compare: ");
-    fprintf(stderr, fmt, arg);
-    fprintf(stderr, "\nTry 'photongi compare --help'.\n");
-    return 2;
-}
-
-static int cmp_fail(const char *what, const char *path, pgi_status st) {
-    const char *msg = pgi_last_error();
-    fprintf(stderr, "photongi compare: %s%s%s: %s\n", what, path ? " " : "", path ? path : "",
-            *msg ? msg : pgi_status_string(st));
-    return st == PGI_ERR_INVALID_ARG ? 2 : 1;
-}
+    "  --exposure X    multiply EXR radiance by X before tone mapping (default 1)\n"
+    "\n"
+    "Exit status: 0 success, 2 usage error, 1 failure (an image missing, unreadable, or not\n"
+    "comparable with the other; see 'photongi --help').\n";
 
 /* sRGB EOTF in float, as the viewer's screenshot has it (apps use the public API only, so not the
  * library's internal pgi__srgb_to_linear, which is in double). The two differ by a few float ulps for
@@ -58,25 +49,28 @@ int pgi_cmd_compare(int argc, char **argv) {
         } else if (strcmp(a, "--json") == 0) {
             json = 1;
         } else if (strcmp(a, "--diff") == 0 || strcmp(a, "--diff-max") == 0 || strcmp(a, "--exposure") == 0) {
-            if (i + 1 >= argc) return cmp_usage("%s needs a value", a);
+            if (i + 1 >= argc) return cli_usage("compare", "%s needs a value", a);
             const char *v = argv[++i];
             if (strcmp(a, "--diff") == 0) diff = v;
             else if (!parse_pos_float(v, strcmp(a, "--exposure") == 0 ? &exposure : &diff_max))
-                return cmp_usage("needs a positive number, got '%s'", v);
+                return cli_usage("compare", "%s needs a positive number, got '%s'", a, v);
         } else if (a[0] == '-' && a[1]) {
-            return cmp_usage("unknown option '%s'", a);
+            return cli_usage("compare", "unknown option '%s'", a);
         } else {
-            if (nfiles == 2) return cmp_usage("unexpected argument '%s' (give two images)", a);
+            if (nfiles == 2) return cli_usage("compare", "unexpected argument '%s' (give two images)", a);
             files[nfiles++] = a;
         }
     }
-    if (nfiles != 2) return cmp_usage("%s", "give two images: photongi compare TEST REFERENCE");
+    if (nfiles != 2) return cli_usage("compare", "%s", "give two images: photongi compare TEST REFERENCE");
+    static const char *const k_png[] = {".png", NULL};
+    int rc = diff ? app_check_output("photongi compare", "--diff", diff, k_png) : 0;
+    if (rc) return rc;
     pgi_image img[2] = {{0}, {0}};
     for (int k = 0; k < 2; k++) {
         pgi_status st = pgi_image_read(files[k], &img[k], NULL);
         if (st) {
             pgi_image_free(&img[0]);
-            return cmp_fail("cannot read", NULL, st);
+            return cli_input_fail("compare", "cannot read", st);
         }
     }
     pgi_metrics m;
@@ -84,7 +78,10 @@ int pgi_cmd_compare(int argc, char **argv) {
     if (st) {
         pgi_image_free(&img[0]);
         pgi_image_free(&img[1]);
-        return cmp_fail(files[0], NULL, st);
+        /* sizes differ, smaller than the SSIM window: the images are at fault, not the command line */
+        const char *msg = pgi_last_error();
+        if (strncmp(msg, "compare: ", 9) == 0) msg += 9;
+        return cli_failure("compare", "%s vs %s: %s", files[0], files[1], *msg ? msg : pgi_status_string(st));
     }
     if (diff) {
         size_t n = (size_t)img[0].width * img[0].height;
@@ -95,8 +92,7 @@ int pgi_cmd_compare(int argc, char **argv) {
             pgi_image_free(&hi);
             pgi_image_free(&img[0]);
             pgi_image_free(&img[1]);
-            fprintf(stderr, "photongi compare: out of memory for the heat map\n");
-            return 1;
+            return cli_failure("compare", "%s", "out of memory for the heat map");
         }
         st = pgi_metrics_heatmap(&img[0], &img[1], exposure, diff_max, heat);
         /* Bytes -> linear, so that the PNG writer's sRGB tone map gives them back. */
@@ -107,7 +103,7 @@ int pgi_cmd_compare(int argc, char **argv) {
         if (st) {
             pgi_image_free(&img[0]);
             pgi_image_free(&img[1]);
-            return cmp_fail("cannot write", diff, st);
+            return cli_fail("compare", "cannot write the heat map", st);
         }
     }
     pgi_image_free(&img[0]);

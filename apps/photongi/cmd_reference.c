@@ -9,10 +9,13 @@
 #include <strings.h>
 #include <unistd.h>
 
+#include "cli.h"
 #include "cmd.h"
+#include "output.h"
 #include "parse.h"
 #include "photongi/metrics.h"
 #include "photongi/reference.h"
+#include "progress.h"
 
 static const char *k_reference_help =
     "usage: photongi reference [--scene S] [--spp N | --time SECONDS] [options] -o REF.exr\n"
@@ -28,75 +31,51 @@ static const char *k_reference_help =
     "jitter, samples), so that --continue can add samples later.\n"
     "\n"
     "  --scene S          scene, as for 'render' (default cornell)\n"
-    "  --spp N            samples per pixel to add (default 64; with --time: an upper bound)\n"
+    "  --spp N            samples per pixel to add, 1..2^40 (default 64; with --time: an upper bound)\n"
     "  --time SECONDS     stop after the pass that reaches this wall time\n"
     "  --bounces B        scattering events before the visible point, as 'render' (default:\n"
     "                     the scene's, else 4)\n"
-    "  --size WxH         image size (default: the scene's, else 640x480)\n"
-    "  --seed K           random seed (default 1)\n"
-    "  --threads T        worker threads (default: all cores)\n"
-    "  --camera I         camera index (default 0)\n"
+    "  --size WxH         image size, 1..16384 a side and at most 37748736 pixels (default: the\n"
+    "                     scene's, else 640x480)\n"
+    "  --seed K           random seed, 0..2^64-1 (default 1; 0 is 1)\n"
+    "  --threads T        worker threads, 1..1024 (default: all cores)\n"
+    "  --camera I         camera index, from 0 (default 0)\n"
     "  --jitter on|off    samples over the whole pixel (on, default) or through its centre\n"
     "  --continue REF.exr add samples to REF.exr (settings from REF.exr.json; -o defaults to it)\n"
     "  --png FILE         also write a tone-mapped PNG\n"
     "  --exposure X       exposure for --png (default: the scene's, else 1)\n"
-    "  -o, --out FILE     output EXR (required unless --continue)\n"
-    "  -q, --quiet        no progress bar or summary (the bar is shown only on a terminal)\n";
+    "  -o, --out FILE     output EXR (required unless --continue); its folder must exist\n"
+    "  -q, --quiet        print nothing but errors: no progress bar (shown only on a terminal),\n"
+    "                     summary or warnings\n"
+    "\n"
+    "The outputs (EXR, its .json, --png) are checked before the scene is loaded.\n"
+    "Exit status: 0 success, 2 usage error, 1 failure (see 'photongi --help').\n";
 
-static int ref_usage(const char *fmt, const char *arg) {
-    fprintf(stderr, "photongi reference: ");
-    fprintf(stderr, fmt, arg);
-    fprintf(stderr, "\nTry 'photongi reference --help'.\n");
-    return 2;
-}
-
-static int ref_fail(const char *what, pgi_status st) {
-    const char *msg = pgi_last_error();
-    fprintf(stderr, "photongi reference: %s: %s\n", what, *msg ? msg : pgi_status_string(st));
-    return st == PGI_ERR_INVALID_ARG ? 2 : 1;
-}
-
-typedef struct {
+/* The progress line (progress.h): samples per pixel done of this call's total, or with --time
+ * and no --spp (the total unknown) the samples and the time against the limit. */
+typedef struct ref_progress {
+    app_progress bar;
     double time_limit_s; /* --time, 0 if none */
-    double last_ms;      /* last redraw: at most 10 a second */
-} progress_state;
+    int by_time;         /* the bar follows the time, not the samples */
+} ref_progress;
 
-static int progress_bar(void *user, uint64_t done, uint64_t total, double elapsed_ms) {
-    progress_state *ps = user;
-    if (done != total && elapsed_ms - ps->last_ms < 100.0) return 0;
-    ps->last_ms = elapsed_ms;
-    const int width = 30;
-    double frac = total ? (double)done / (double)total : 1.0;
-    int fill = (int)(frac * width);
-    double left_s = done ? elapsed_ms / 1000.0 * (double)(total - done) / (double)done : 0.0;
-    char bar[64];
-    for (int i = 0; i < width; i++) bar[i] = i < fill ? '#' : '.';
-    bar[width] = 0;
-    fprintf(stderr, "\r[%s] %" PRIu64 "/%" PRIu64 " spp  %.0f s elapsed, %.0f s left   ", bar, done, total,
-            elapsed_ms / 1000.0, left_s);
-    if (done == total) fputc('\n', stderr);
-    fflush(stderr);
+static int progress_cb(void *user, uint64_t done, uint64_t total, double elapsed_ms) {
+    ref_progress *rp = user;
+    const double s = elapsed_ms / 1000.0;
+    if (rp->by_time) {
+        double limit = rp->time_limit_s, frac = fmin(1.0, s / limit);
+        app_progress_draw(&rp->bar, frac, elapsed_ms, frac >= 1.0 || done == total,
+                          "%" PRIu64 " spp  %.0f s elapsed, %.0f s left", done, s, fmax(0.0, limit - s));
+    } else {
+        double frac = total ? (double)done / (double)total : 1.0;
+        double left_s = done ? s * (double)(total - done) / (double)done : 0.0;
+        app_progress_draw(&rp->bar, frac, elapsed_ms, done == total,
+                          "%" PRIu64 "/%" PRIu64 " spp  %.0f s elapsed, %.0f s left", done, total, s, left_s);
+    }
     return 0;
 }
 
-/* With --time and no --spp the total is unknown: show samples and time only. */
-static int progress_time(void *user, uint64_t done, uint64_t total, double elapsed_ms) {
-    progress_state *ps = user;
-    double limit = ps->time_limit_s;
-    if (done != total && elapsed_ms < 1000.0 * limit && elapsed_ms - ps->last_ms < 100.0) return 0;
-    ps->last_ms = elapsed_ms;
-    double frac = fmin(1.0, elapsed_ms / 1000.0 / limit);
-    const int width = 30;
-    int fill = (int)(frac * width);
-    char bar[64];
-    for (int i = 0; i < width; i++) bar[i] = i < fill ? '#' : '.';
-    bar[width] = 0;
-    fprintf(stderr, "\r[%s] %" PRIu64 " spp  %.0f s elapsed, %.0f s left   ", bar, done, elapsed_ms / 1000.0,
-            fmax(0.0, limit - elapsed_ms / 1000.0));
-    if (frac >= 1.0 || done == total) fputc('\n', stderr);
-    fflush(stderr);
-    return 0;
-}
+static const char *const k_exr[] = {".exr", NULL}, *const k_png[] = {".png", NULL};
 
 int pgi_cmd_reference(int argc, char **argv) {
     const char *scene_spec = NULL, *out = NULL, *png = NULL, *cont = NULL;
@@ -115,74 +94,89 @@ int pgi_cmd_reference(int argc, char **argv) {
             quiet = 1;
             continue;
         }
-        if (a[0] != '-') return ref_usage("unexpected argument '%s'", a);
-        if (i + 1 >= argc) return ref_usage("%s needs a value", a);
+        if (a[0] != '-') return cli_usage("reference", "unexpected argument '%s'", a);
+        if (i + 1 >= argc) return cli_usage("reference", "%s needs a value", a);
         const char *v = argv[++i];
         long long n;
-        if (strcmp(a, "--scene") == 0) scene_spec = v;
-        else if (strcmp(a, "-o") == 0 || strcmp(a, "--out") == 0) out = v;
+        if (strcmp(a, "--scene") == 0) {
+            if (!*v) return cli_usage("reference", "%s", "--scene needs a scene");
+            scene_spec = v;
+        } else if (strcmp(a, "-o") == 0 || strcmp(a, "--out") == 0) out = v;
         else if (strcmp(a, "--png") == 0) png = v;
         else if (strcmp(a, "--continue") == 0) cont = v;
         else if (strcmp(a, "--spp") == 0) {
-            if (!parse_long(v, 1, 1LL << 40, &spp))
-                return ref_usage("--spp needs a positive whole number, got '%s'", v);
+            if (!parse_whole(v, 1, 1LL << 40, &spp))
+                return cli_usage("reference", "--spp needs a whole number in 1..%lld (2^40), got '%s'", 1LL << 40, v);
         } else if (strcmp(a, "--time") == 0) {
             if (!parse_pos_double(v, &time_s))
-                return ref_usage("--time needs a positive number of seconds, got '%s'", v);
+                return cli_usage("reference", "--time needs a positive number of seconds, got '%s'", v);
         } else if (strcmp(a, "--bounces") == 0) {
-            if (!parse_long(v, 1, 64, &n)) return ref_usage("--bounces needs a number in 1..64, got '%s'", v);
+            if (!parse_whole(v, 1, 64, &n))
+                return cli_usage("reference", "--bounces needs a whole number in 1..64, got '%s'", v);
             d.bounces = (int)n;
             bounces_set = 1;
         } else if (strcmp(a, "--seed") == 0) {
-            if (!parse_long(v, 0, INT64_MAX, &n)) return ref_usage("--seed needs a non-negative integer, got '%s'", v);
-            d.seed = (uint64_t)n;
+            if (!parse_u64(v, &d.seed))
+                return cli_usage("reference", "--seed needs a whole number in 0..%" PRIu64 ", got '%s'", UINT64_MAX, v);
             seed_set = 1;
         } else if (strcmp(a, "--threads") == 0) {
-            if (!parse_long(v, 1, 1024, &n)) return ref_usage("--threads needs a number in 1..1024, got '%s'", v);
+            if (!parse_whole(v, 1, 1024, &n))
+                return cli_usage("reference", "--threads needs a whole number in 1..1024, got '%s'", v);
             d.threads = (int)n;
         } else if (strcmp(a, "--camera") == 0) {
-            if (!parse_long(v, 0, 1000000, &n)) return ref_usage("--camera needs an index, got '%s'", v);
+            if (!parse_whole(v, 0, 1000000, &n))
+                return cli_usage("reference", "--camera needs a camera index, a whole number from 0, got '%s'", v);
             d.camera = (int)n;
             camera_set = 1;
         } else if (strcmp(a, "--jitter") == 0) {
             if (strcmp(v, "on") == 0) d.jitter = PGI_JITTER_ON;
             else if (strcmp(v, "off") == 0) d.jitter = PGI_JITTER_OFF;
-            else return ref_usage("--jitter must be on or off, got '%s'", v);
+            else return cli_usage("reference", "--jitter must be on or off, got '%s'", v);
             jitter_set = 1;
         } else if (strcmp(a, "--size") == 0) {
-            int w, h;
-            char c;
-            if (sscanf(v, "%dx%d%c", &w, &h, &c) != 2 || w <= 0 || h <= 0)
-                return ref_usage("--size needs WIDTHxHEIGHT with positive numbers, e.g. 640x480, got '%s'", v);
-            d.width = w;
-            d.height = h;
+            if (!parse_size(v, PGI_MAX_IMAGE_SIDE, PGI_MAX_IMAGE_PIXELS, &d.width, &d.height))
+                return cli_usage("reference",
+                                 "--size needs WIDTHxHEIGHT, e.g. 640x480, each side in 1..%d and at most %u pixels, "
+                                 "got '%s'",
+                                 PGI_MAX_IMAGE_SIDE, PGI_MAX_IMAGE_PIXELS, v);
             size_set = 1;
         } else if (strcmp(a, "--exposure") == 0) {
             double x;
-            if (!parse_pos_double(v, &x)) return ref_usage("--exposure needs a positive number, got '%s'", v);
+            if (!parse_pos_double(v, &x))
+                return cli_usage("reference", "--exposure needs a positive number, got '%s'", v);
             exposure = (float)x;
-        } else return ref_usage("unknown option '%s'", a);
+        } else return cli_usage("reference", "unknown option '%s'", a);
     }
+    /* Everything the command line alone decides, then the outputs, before any file is read. */
+    if (cont && (scene_spec || size_set || bounces_set || seed_set || camera_set || jitter_set))
+        return cli_usage("reference", "%s",
+                         "--continue takes the scene, size, bounces, seed, camera and jitter from the reference's "
+                         ".json file; do not give them");
+    if (!out) out = cont;
+    if (!out) return cli_usage("reference", "%s", "no output file: give -o REF.exr");
+    char meta_path[4096];
+    snprintf(meta_path, sizeof meta_path, "%s.json", out);
+    int rc = app_check_output("photongi reference", "-o", out, k_exr);
+    if (!rc) rc = app_check_output("photongi reference", "-o (its sidecar)", meta_path, NULL);
+    if (!rc && png) rc = app_check_output("photongi reference", "--png", png, k_png);
+    if (rc) return rc;
+
     pgi_image img = {0};
     uint64_t have = 0;
     pgi_reference_meta meta;
     memset(&meta, 0, sizeof meta);
-    char meta_path[4096];
     if (cont) {
-        if (scene_spec || size_set || bounces_set || seed_set || camera_set || jitter_set)
-            return ref_usage("%s", "--continue takes the scene, size, bounces, seed, camera and jitter from the "
-                                   "reference's .json file; do not give them");
-        snprintf(meta_path, sizeof meta_path, "%s.json", cont);
-        pgi_status st = pgi_reference_meta_read(meta_path, &meta);
-        if (st) return ref_fail("cannot continue", st);
+        char cont_meta[4096];
+        snprintf(cont_meta, sizeof cont_meta, "%s.json", cont);
+        pgi_status st = pgi_reference_meta_read(cont_meta, &meta);
+        if (st) return cli_input_fail("reference", "cannot continue", st);
         int hdr = 0;
         st = pgi_image_read(cont, &img, &hdr);
-        if (st) return ref_fail("cannot continue", st);
+        if (st) return cli_input_fail("reference", "cannot continue", st);
         if (!hdr || img.width != meta.width || img.height != meta.height) {
             pgi_image_free(&img);
-            fprintf(stderr, "photongi reference: cannot continue: %s is not the %dx%d EXR its .json describes\n", cont,
-                    meta.width, meta.height);
-            return 1;
+            return cli_failure("reference", "cannot continue: %s is not the %dx%d EXR its .json describes", cont,
+                               meta.width, meta.height);
         }
         scene_spec = meta.scene;
         d.width = meta.width;
@@ -192,12 +186,7 @@ int pgi_cmd_reference(int argc, char **argv) {
         d.seed = meta.seed;
         d.jitter = meta.jitter;
         have = meta.spp;
-        if (!out) out = cont;
     }
-    if (!out) return ref_usage("%s", "no output file: give -o REF.exr");
-    size_t ol = strlen(out);
-    if (ol < 4 || strcasecmp(out + ol - 4, ".exr") != 0)
-        return ref_usage("the output must be an .exr file (linear radiance), got '%s'", out);
     if (!scene_spec) scene_spec = "cornell";
     d.spp = spp ? (uint64_t)spp : time_s > 0.0 ? (uint64_t)1 << 40 : 64;
     d.time_limit_s = time_s;
@@ -205,10 +194,18 @@ int pgi_cmd_reference(int argc, char **argv) {
     pgi_status st = pgi_scene_load(scene_spec, &scene);
     if (st) {
         pgi_image_free(&img);
-        return ref_fail("cannot load scene", st);
+        return cli_input_fail("reference", "cannot load scene", st);
     }
     pgi_scene_info info;
     pgi_scene_get_info(scene, &info);
+    char scene_name[128];
+    snprintf(scene_name, sizeof scene_name, "%s", info.name);
+    if ((size_t)d.camera >= info.cameras) {
+        pgi_image_free(&img);
+        pgi_scene_destroy(scene);
+        return cli_failure("reference", "--camera %d: scene %s has %zu camera%s (0..%zu)", d.camera, scene_name,
+                           info.cameras, info.cameras == 1 ? "" : "s", info.cameras - 1);
+    }
     if (exposure == 0.f) exposure = info.defaults.exposure > 0.f ? info.defaults.exposure : 1.f;
     /* Resolve defaults here too, for the metadata. */
     if (d.width == 0 && d.height == 0) {
@@ -218,24 +215,24 @@ int pgi_cmd_reference(int argc, char **argv) {
     if (d.bounces == 0) d.bounces = info.defaults.bounces > 0 ? info.defaults.bounces : 4;
     if (d.seed == 0) d.seed = 1;
     if (d.jitter == PGI_JITTER_AUTO) d.jitter = PGI_JITTER_ON;
-    progress_state ps = {time_s, -1e9};
-    if (!quiet && isatty(2)) {
-        d.progress = spp || time_s <= 0.0 ? progress_bar : progress_time;
-        d.progress_user = &ps;
+    ref_progress rp = {.time_limit_s = time_s, .by_time = !spp && time_s > 0.0};
+    app_progress_init(&rp.bar, quiet);
+    if (rp.bar.on) {
+        d.progress = progress_cb;
+        d.progress_user = &rp;
     }
-    char scene_name[128];
-    snprintf(scene_name, sizeof scene_name, "%s", info.name);
     uint64_t before = have;
     st = pgi_reference_render(scene, &d, &img, &have);
+    app_progress_end(&rp.bar, 1);
     pgi_scene_destroy(scene);
     if (st) {
         pgi_image_free(&img);
-        return ref_fail("render failed", st);
+        return cli_fail("reference", "render failed", st);
     }
     st = pgi_image_write(&img, out, 1.f);
     if (!st && png) st = pgi_image_write(&img, png, exposure);
     pgi_image_free(&img);
-    if (st) return ref_fail("cannot write image", st);
+    if (st) return cli_fail("reference", "cannot write image", st);
     if (scene_spec != meta.scene) /* --continue: already there (copying it onto itself is undefined) */
         snprintf(meta.scene, sizeof meta.scene, "%s", scene_spec);
     meta.width = d.width;
@@ -245,9 +242,8 @@ int pgi_cmd_reference(int argc, char **argv) {
     meta.seed = d.seed;
     meta.spp = have;
     meta.jitter = d.jitter;
-    snprintf(meta_path, sizeof meta_path, "%s.json", out);
     st = pgi_reference_meta_write(&meta, meta_path);
-    if (st) return ref_fail("cannot write metadata", st);
+    if (st) return cli_fail("reference", "cannot write metadata", st);
     if (!quiet)
         fprintf(stderr, "%s: %s %dx%d, %" PRIu64 " spp (%" PRIu64 " added), bounces %d, seed %" PRIu64 "\n", out,
                 scene_name, d.width, d.height, have, have - before, d.bounces, d.seed);

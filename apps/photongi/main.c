@@ -1,5 +1,5 @@
-/* photongi command line: render, estimators, info. A thin layer over the
- * public API; only this file decides to exit. */
+/* photongi command line: render, estimators, info, help (reference and compare
+ * in their own files). A thin layer over the public API; only main() exits. */
 #include <errno.h>
 #include <math.h>
 #include <inttypes.h>
@@ -9,9 +9,12 @@
 #include <unistd.h>
 
 #include "photongi/photongi.h"
+#include "cli.h"
 #include "cmd.h"
 #include "options.h"
+#include "output.h"
 #include "parse.h"
+#include "progress.h"
 
 static const char *k_main_help =
     "photongi " PGI_VERSION_STRING " - global illumination by photon mapping at interactive rates\n"
@@ -24,8 +27,22 @@ static const char *k_main_help =
     "  info         print what a scene holds (triangles, materials, lights, bounds, camera)\n"
     "  reference    path-trace a reference image (EXR), resumable with --continue\n"
     "  compare      PSNR and SSIM of an image against a reference, error heat map\n"
+    "  help [CMD]   this text, or the options of a command (as 'photongi CMD --help')\n"
     "\n"
-    "Run 'photongi <command> --help' for the options of a command.\n";
+    "Run 'photongi <command> --help' for the options of a command. Long renders show a\n"
+    "progress line on a terminal (not with -q, nor when standard error is not a terminal).\n"
+    "\n"
+    "Exit status, every command:\n"
+    "  0  success\n"
+    "  2  usage error: the command line alone is wrong, whatever the files hold (an unknown\n"
+    "     command, option or help topic; a missing, malformed or out-of-range value; options\n"
+    "     that do not go together; an output format photongi does not write); found before\n"
+    "     any file is read or any work is done\n"
+    "  1  failure: the command line is well formed, but what it names or the work is not (a\n"
+    "     scene, mesh, image or sidecar missing, unreadable or malformed; a scene name with\n"
+    "     no built-in scene and no NAME.json; a camera the scene does not have; an output\n"
+    "     folder that does not exist or cannot be written; a failed render)\n"
+    "  Output paths are checked before the scene is loaded; nothing is written before the end.\n";
 
 static const char *k_render_help =
     "usage: photongi render [--scene S] [options] -o OUT.png|OUT.exr\n"
@@ -34,22 +51,24 @@ static const char *k_render_help =
     "direct light with shadow rays, tone mapping (PNG) or linear radiance (EXR).\n"
     "\n"
     "  --scene S          built-in (cornell [default], giref, sphere-and-plane), a name with a\n"
-    "                     description in scenes/S.json (sibenik, crytek-sponza, conference,\n"
-    "                     fireplace-room, cornell-box), a .json description, or a mesh file\n"
+    "                     description S.json (sibenik, crytek-sponza, conference, fireplace-room,\n"
+    "                     cornell-box; see 'Scene files' below), a .json description, or a mesh\n"
     "  --estimator E      density estimator (see 'photongi estimators'); default " PGI_DEFAULT_ESTIMATOR "\n"
-    "  --photons N        photons to store (flux is normalised by the paths emitted);\n"
-    "                     default: the scene's, else 200000\n"
+    "  --photons N        photons to store, 1..100000000 (2e6 is fine too; flux is normalised by\n"
+    "                     the paths emitted); default: the scene's, else 200000\n"
     "  --radius R         photon radius in scene units; default: the scene's, else 2% of its diagonal\n"
-    "  --size WxH         image size; default: the scene's, else 640x480\n"
-    "  --bounces B        maximum photon bounces (default 4)\n"
-    "  --seed K           random seed (default 1); same seed, same image, any thread count\n"
-    "  --threads T        worker threads (default: all cores)\n"
-    "  --camera I         camera index of the scene (default 0)\n"
-    "  --direct-samples K shadow samples per pixel for area lights (default 16)\n"
+    "  --size WxH         image size, 1..16384 a side and at most 37748736 pixels (36 Mi);\n"
+    "                     default: the scene's, else 640x480\n"
+    "  --bounces B        maximum photon bounces, 1..64 (default 4)\n"
+    "  --seed K           random seed, 0..2^64-1 (default 1; 0 is 1); same seed, same image,\n"
+    "                     any thread count\n"
+    "  --threads T        worker threads, 1..1024 (default: all cores)\n"
+    "  --camera I         camera index of the scene, from 0 (default 0)\n"
+    "  --direct-samples K shadow samples per pixel for area lights, 1..4096 (default 16)\n"
     "  --exposure X       multiply radiance by X before tone mapping (default: the scene's, else 1)\n"
     "  --output all|direct|indirect|counts   what to put in the image (default all; counts:\n"
     "                     photons that contributed at each pixel, best written as .exr)\n"
-    "  --progressive N    average N frames with fresh photons and a shrinking radius\n"
+    "  --progressive N    average N frames (1..1000000) with fresh photons and a shrinking radius\n"
     "                     (Knaus & Zwicker 2011; exact estimators); converges as N grows\n"
     "                     to the pixel integral, as 'photongi reference' (see --jitter)\n"
     "  --jitter auto|on|off   where in its pixel each view sample looks: auto (default) =\n"
@@ -60,8 +79,9 @@ static const char *k_render_help =
     "                     progressive average then converges to point samples)\n"
     "  --time T           scene time in seconds for animated objects (default 0)\n"
     "  --stats FILE.json  write timings, memory, photon reads/contributing as JSON ('-' = stdout)\n"
-    "  -o, --out FILE     output image (.png or .exr); required\n"
-    "  -q, --quiet        print nothing but errors\n"
+    "  -o, --out FILE     output image (.png or .exr); required; its folder must exist\n"
+    "  -q, --quiet        print nothing but errors: no progress line (shown only on a terminal),\n"
+    "                     summary, notes or warnings\n"
     "  --radius-policy fixed|path|differentials   per-photon footprints (default fixed; others\n"
     "                     need an estimator that honours them: see 'photongi estimators -v')\n"
     "  --r-min R, --r-max R   path: radius range (default r_max = radius, r_min = r_max/8);\n"
@@ -70,33 +90,27 @@ static const char *k_render_help =
     "  --filter R         depth/normal-aware bilateral filter of the indirect light, radius R\n"
     "                     pixels (0..16, default 0 = off)\n"
     "\n"
-    "Scene files: mesh paths resolve against the .json file, then $PHOTONGI_SCENES\n"
-    "(default ../shared/scenes).\n"
+    "Scene files: a name S is looked up as S.json in ./scenes, then in the scenes/ folder of the\n"
+    "source tree photongi was built from (so a build works from any directory), then in the\n"
+    "installed share/photongi/scenes. Mesh paths in a description resolve against its folder,\n"
+    "then $PHOTONGI_SCENES, or when that is not set the source tree's ../shared/scenes, then\n"
+    "../shared/scenes from the working directory.\n"
+    "Output files are checked (extension, folder) before the scene is loaded.\n"
+    "Exit status: 0 success, 2 usage error, 1 failure (see 'photongi --help').\n"
     "\n";
 
 static const char *k_info_help = "usage: photongi info [--scene S]\n"
                                  "\n"
                                  "Loads a scene (same forms as 'render --scene') and prints its triangles, vertices,\n"
-                                 "materials, textures, lights, bounds, camera and suggested render settings.\n";
+                                 "materials, textures, lights, bounds, camera and suggested render settings.\n"
+                                 "Exit status: 0 success, 2 usage error, 1 failure (see 'photongi --help').\n";
 
 static const char *k_est_help =
     "usage: photongi estimators [-v]\n"
     "\n"
     "Lists the registered density estimators, one name a line (-v: with a summary, whether\n"
-    "it is approximate, and which of --kernel, --subsample, --radius-policy it supports).\n";
-
-static int fail(const char *what, pgi_status st) {
-    const char *msg = pgi_last_error();
-    fprintf(stderr, "photongi: %s: %s\n", what, *msg ? msg : pgi_status_string(st));
-    return st == PGI_ERR_INVALID_ARG ? 2 : 1;
-}
-
-static int usage_error(const char *cmd, const char *fmt, const char *arg) {
-    fprintf(stderr, "photongi %s: ", cmd);
-    fprintf(stderr, fmt, arg);
-    fprintf(stderr, "\nTry 'photongi %s --help'.\n", cmd);
-    return 2;
-}
+    "it is approximate, and which of --kernel, --subsample, --radius-policy it supports).\n"
+    "Exit status: 0 success, 2 usage error (see 'photongi --help').\n";
 
 static int is_help(const char *a) { return strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0; }
 
@@ -114,7 +128,7 @@ static int cmd_estimators(int argc, char **argv) {
             return 0;
         }
         if (strcmp(argv[i], "-v") == 0) verbose = 1;
-        else return usage_error("estimators", "unknown option '%s'", argv[i]);
+        else return cli_usage("estimators", "unknown option '%s'", argv[i]);
     }
     int width = 0;
     for (size_t i = 0; i < pgi_estimator_count(); i++) {
@@ -149,13 +163,13 @@ static int cmd_info(int argc, char **argv) {
             fputs(k_info_help, stdout);
             return 0;
         } else if (strcmp(argv[i], "--scene") == 0) {
-            if (i + 1 >= argc) return usage_error("info", "%s needs a value", argv[i]);
+            if (i + 1 >= argc || !*argv[i + 1]) return cli_usage("info", "%s needs a scene", argv[i]);
             scene_spec = argv[++i];
-        } else return usage_error("info", "unknown option '%s'", argv[i]);
+        } else return cli_usage("info", "unknown option '%s'", argv[i]);
     }
     pgi_scene *scene;
     pgi_status st = pgi_scene_load(scene_spec, &scene);
-    if (st) return fail("cannot load scene", st);
+    if (st) return cli_input_fail("info", "cannot load scene", st);
     pgi_scene_info in;
     pgi_scene_get_info(scene, &in);
     printf("scene:      %s\n", in.name);
@@ -180,6 +194,42 @@ static int cmd_info(int argc, char **argv) {
     return 0;
 }
 
+/* The progress line of a render (only on a terminal, see progress.h): the pass, the photons
+ * traced, the frame of --progressive. The bar splits a frame between the passes roughly as they
+ * take time (tracing the most). */
+static void render_progress(void *user, const pgi_progress *p) {
+    static const struct {
+        const char *pass, *label;
+        double from, to;
+    } k_passes[] = {{"view", "view samples", 0.0, 0.1},
+                    {"trace", "tracing photons", 0.1, 0.6},
+                    {"build", "building the estimator", 0.6, 0.7},
+                    {"estimate", "estimating indirect light", 0.7, 0.9},
+                    {"direct", "direct light", 0.9, 1.0}};
+    app_progress *bar = user;
+    const char *label = p->pass;
+    double within = 0.0;
+    for (size_t i = 0; i < sizeof k_passes / sizeof k_passes[0]; i++)
+        if (strcmp(p->pass, k_passes[i].pass) == 0) {
+            label = k_passes[i].label;
+            within = k_passes[i].from;
+            if (p->total) within += (k_passes[i].to - k_passes[i].from) * (double)p->done / (double)p->total;
+        }
+    const int frames = p->frames > 0 ? p->frames : 1;
+    const double frac = (p->frame + within) / frames, s = p->elapsed_ms / 1000.0;
+    char what[96];
+    if (p->total) snprintf(what, sizeof what, "%s %" PRIu64 "/%" PRIu64, label, p->done, p->total);
+    else snprintf(what, sizeof what, "%s", label);
+    if (frames == 1) app_progress_draw(bar, frac, p->elapsed_ms, 0, "%s  %.1f s", what, s);
+    else if (p->frame == 0)
+        app_progress_draw(bar, frac, p->elapsed_ms, 0, "frame %d/%d: %s  %.0f s", p->frame + 1, frames, what, s);
+    else
+        app_progress_draw(bar, frac, p->elapsed_ms, 0, "frame %d/%d: %s  %.0f s elapsed, %.0f s left", p->frame + 1,
+                          frames, what, s, s / frac * (1.0 - frac));
+}
+
+static const char *const k_image_exts[] = {".png", ".exr", NULL};
+
 static int cmd_render(int argc, char **argv) {
     pgi_render_desc d = {0};
     app_given_options given = {0};
@@ -198,81 +248,79 @@ static int cmd_render(int argc, char **argv) {
             quiet = 1;
             continue;
         }
-        if (a[0] != '-') return usage_error("render", "unexpected argument '%s'", a);
-        if (i + 1 >= argc) return usage_error("render", "%s needs a value", a);
+        if (a[0] != '-') return cli_usage("render", "unexpected argument '%s'", a);
+        if (i + 1 >= argc) return cli_usage("render", "%s needs a value", a);
         const char *v = argv[++i];
         long long n;
         int eo = app_estimator_option("photongi render", a, v, &d.est, &given);
         if (eo < 0) {
             fprintf(stderr, "Try 'photongi render --help'.\n");
-            return 2;
+            return CLI_EXIT_USAGE;
         }
         if (eo > 0) continue;
-        if (strcmp(a, "--scene") == 0) scene_spec = v;
-        else if (strcmp(a, "--estimator") == 0) d.estimator = v;
+        if (strcmp(a, "--scene") == 0) {
+            if (!*v) return cli_usage("render", "%s", "--scene needs a scene");
+            scene_spec = v;
+        } else if (strcmp(a, "--estimator") == 0) d.estimator = v;
         else if (strcmp(a, "-o") == 0 || strcmp(a, "--out") == 0) out = v;
         else if (strcmp(a, "--stats") == 0) stats_path = v;
         else if (strcmp(a, "--photons") == 0) {
-            if (!parse_long(v, 1, 4000000000LL, &n))
-                return usage_error("render", "--photons needs a positive whole number of photons, got '%s'", v);
+            if (!parse_whole(v, 1, PGI_MAX_PHOTONS, &n))
+                return cli_usage("render", "--photons needs a whole number in 1..%u, got '%s'", PGI_MAX_PHOTONS, v);
             d.photons = (uint32_t)n;
         } else if (strcmp(a, "--radius") == 0) {
             if (!parse_pos_float(v, &d.radius))
-                return usage_error("render", "--radius needs a positive number (scene units), got '%s'", v);
+                return cli_usage("render", "--radius needs a positive number (scene units), got '%s'", v);
         } else if (strcmp(a, "--size") == 0) {
-            int w, h;
-            char extra;
-            if (sscanf(v, "%dx%d%c", &w, &h, &extra) != 2)
-                return usage_error("render", "--size needs WIDTHxHEIGHT, e.g. 1280x720, got '%s'", v);
-            if (w <= 0 || h <= 0) return usage_error("render", "--size must be positive, got '%s'", v);
-            d.width = w;
-            d.height = h;
+            if (!parse_size(v, PGI_MAX_IMAGE_SIDE, PGI_MAX_IMAGE_PIXELS, &d.width, &d.height))
+                return cli_usage("render",
+                                 "--size needs WIDTHxHEIGHT, e.g. 1280x720, each side in 1..%d and at most %u pixels, "
+                                 "got '%s'",
+                                 PGI_MAX_IMAGE_SIDE, PGI_MAX_IMAGE_PIXELS, v);
         } else if (strcmp(a, "--bounces") == 0) {
-            if (!parse_long(v, 1, 64, &n))
-                return usage_error("render", "--bounces needs a number in 1..64, got '%s'", v);
+            if (!parse_whole(v, 1, 64, &n))
+                return cli_usage("render", "--bounces needs a whole number in 1..64, got '%s'", v);
             d.bounces = (int)n;
         } else if (strcmp(a, "--seed") == 0) {
             if (!parse_u64(v, &d.seed))
-                return usage_error("render", "--seed needs a non-negative integer, got '%s'", v);
+                return cli_usage("render", "--seed needs a whole number in 0..%" PRIu64 ", got '%s'", UINT64_MAX, v);
         } else if (strcmp(a, "--threads") == 0) {
-            if (!parse_long(v, 1, 1024, &n))
-                return usage_error("render", "--threads needs a number in 1..1024, got '%s'", v);
+            if (!parse_whole(v, 1, 1024, &n))
+                return cli_usage("render", "--threads needs a whole number in 1..1024, got '%s'", v);
             d.threads = (int)n;
         } else if (strcmp(a, "--camera") == 0) {
-            if (!parse_long(v, 0, 1000000, &n)) return usage_error("render", "--camera needs an index, got '%s'", v);
+            if (!parse_whole(v, 0, 1000000, &n))
+                return cli_usage("render", "--camera needs a camera index, a whole number from 0, got '%s'", v);
             d.camera = (int)n;
         } else if (strcmp(a, "--direct-samples") == 0) {
-            if (!parse_long(v, 1, 4096, &n))
-                return usage_error("render", "--direct-samples needs a number in 1..4096, got '%s'", v);
+            if (!parse_whole(v, 1, 4096, &n))
+                return cli_usage("render", "--direct-samples needs a whole number in 1..4096, got '%s'", v);
             d.direct_samples = (int)n;
         } else if (strcmp(a, "--exposure") == 0) {
-            if (!parse_float(v, &exposure) || !(exposure > 0.f))
-                return usage_error("render", "--exposure needs a positive number, got '%s'", v);
+            if (!parse_pos_float(v, &exposure))
+                return cli_usage("render", "--exposure needs a positive number, got '%s'", v);
         } else if (strcmp(a, "--output") == 0) {
             if (strcmp(v, "all") == 0) d.output = PGI_OUTPUT_ALL;
             else if (strcmp(v, "direct") == 0) d.output = PGI_OUTPUT_DIRECT;
             else if (strcmp(v, "indirect") == 0) d.output = PGI_OUTPUT_INDIRECT;
             else if (strcmp(v, "counts") == 0) d.output = PGI_OUTPUT_PHOTON_COUNT;
-            else return usage_error("render", "--output must be all, direct, indirect or counts, got '%s'", v);
+            else return cli_usage("render", "--output must be all, direct, indirect or counts, got '%s'", v);
         } else if (strcmp(a, "--progressive") == 0) {
-            if (!parse_long(v, 1, 1000000, &n))
-                return usage_error("render", "--progressive needs a frame count in 1..1000000, got '%s'", v);
+            if (!parse_whole(v, 1, PGI_MAX_PROGRESSIVE_FRAMES, &n))
+                return cli_usage("render", "--progressive needs a frame count, a whole number in 1..%d, got '%s'",
+                                 PGI_MAX_PROGRESSIVE_FRAMES, v);
             progressive = n;
         } else if (strcmp(a, "--time") == 0) {
-            if (!parse_float(v, &scene_time) || !isfinite(scene_time))
-                return usage_error("render", "--time needs a number of seconds, got '%s'", v);
+            if (!parse_finite_float(v, &scene_time))
+                return cli_usage("render", "--time needs a number of seconds, got '%s'", v);
         } else if (strcmp(a, "--radius-policy") == 0) {
             if (strcmp(v, "fixed") == 0) d.radius_policy = PGI_RADIUS_FIXED;
             else if (strcmp(v, "path") == 0) d.radius_policy = PGI_RADIUS_PATH;
             else if (strcmp(v, "differentials") == 0) d.radius_policy = PGI_RADIUS_DIFFERENTIALS;
-            else return usage_error("render", "--radius-policy must be fixed, path or differentials, got '%s'", v);
+            else return cli_usage("render", "--radius-policy must be fixed, path or differentials, got '%s'", v);
         } else if (strcmp(a, "--r-min") == 0 || strcmp(a, "--r-max") == 0 || strcmp(a, "--smoothing") == 0) {
             float f;
-            if (!parse_float(v, &f) || !(f > 0.f) || !isfinite(f)) {
-                fprintf(stderr,
-                        "photongi render: %s needs a positive number, got '%s'\nTry 'photongi render --help'.\n", a, v);
-                return 2;
-            }
+            if (!parse_pos_float(v, &f)) return cli_usage("render", "%s needs a positive number, got '%s'", a, v);
             if (a[2] == 's') d.smoothing = f;
             else if (strcmp(a, "--r-min") == 0) d.r_min = f;
             else d.r_max = f;
@@ -280,61 +328,95 @@ static int cmd_render(int argc, char **argv) {
             if (strcmp(v, "auto") == 0) d.jitter = PGI_JITTER_AUTO;
             else if (strcmp(v, "on") == 0) d.jitter = PGI_JITTER_ON;
             else if (strcmp(v, "off") == 0) d.jitter = PGI_JITTER_OFF;
-            else return usage_error("render", "--jitter must be auto, on or off, got '%s'", v);
+            else return cli_usage("render", "--jitter must be auto, on or off, got '%s'", v);
         } else if (strcmp(a, "--filter") == 0) {
-            if (!parse_long(v, 0, 16, &n))
-                return usage_error("render", "--filter needs a radius in 0..16 pixels, got '%s'", v);
+            if (!parse_whole(v, 0, 16, &n))
+                return cli_usage("render", "--filter needs a radius in pixels, a whole number in 0..16, got '%s'", v);
             d.filter = (int)n;
-        } else return usage_error("render", "unknown option '%s'", a);
+        } else return cli_usage("render", "unknown option '%s'", a);
     }
-    if (!out) return usage_error("render", "%s", "no output file: give -o OUT.png or -o OUT.exr");
-    if (d.estimator && !pgi_estimator_find(d.estimator)) {
+    /* Everything the command line alone decides, before any file is read. */
+    if (!out) return cli_usage("render", "%s", "no output file: give -o OUT.png or -o OUT.exr");
+    int rc = app_check_output("photongi render", "-o", out, k_image_exts);
+    if (rc) return rc;
+    if (stats_path && strcmp(stats_path, "-") != 0 &&
+        (rc = app_check_output("photongi render", "--stats", stats_path, NULL)))
+        return rc;
+    const pgi_estimator_vtbl *vt = pgi_estimator_find(d.estimator ? d.estimator : PGI_DEFAULT_ESTIMATOR);
+    if (!vt) {
         fprintf(stderr, "photongi render: unknown estimator '%s'; registered:", d.estimator);
         for (size_t i = 0; i < pgi_estimator_count(); i++) fprintf(stderr, " %s", pgi_estimator_at(i)->name);
-        fprintf(stderr, "\n");
-        return 2;
+        fprintf(stderr, "\nTry 'photongi estimators -v'.\n");
+        return CLI_EXIT_USAGE;
     }
+    pgi_estimator_desc resolved;
+    if (pgi_estimator_desc_resolve(vt, &d.est, &resolved) != PGI_OK)
+        return cli_usage("render", "%s", pgi_last_error()); /* a strict option the estimator refuses */
+    if (progressive > 1 && !vt->exact)
+        return cli_usage("render", "--progressive needs an exact estimator; '%s' is approximate", vt->name);
+    if (progressive > 1 && d.output == PGI_OUTPUT_PHOTON_COUNT)
+        return cli_usage("render", "%s", "--progressive cannot average --output counts");
+    if (d.radius_policy != PGI_RADIUS_FIXED && !(vt->caps & PGI_EST_CAP_PHOTON_RADIUS))
+        return cli_usage("render",
+                         "--radius-policy %s needs an estimator with per-photon footprints (see 'photongi "
+                         "estimators -v'); '%s' has one fixed radius",
+                         d.radius_policy == PGI_RADIUS_PATH ? "path" : "differentials", vt->name);
+    if (d.r_min > 0.f && d.r_max > 0.f && d.r_min > d.r_max)
+        return cli_usage("render", "--r-min (%g) must not exceed --r-max (%g)", (double)d.r_min, (double)d.r_max);
     if (!quiet) app_note_ignored_options("photongi render", d.estimator, &given);
+
     pgi_scene *scene;
     pgi_status st = pgi_scene_load(scene_spec, &scene);
-    if (st) return fail("cannot load scene", st);
+    if (st) return cli_input_fail("render", "cannot load scene", st);
     if ((st = pgi_scene_set_time(scene, scene_time))) {
         pgi_scene_destroy(scene);
-        return fail("cannot set the scene time", st);
+        return cli_fail("render", "cannot set the scene time", st);
     }
     pgi_scene_info info;
     pgi_scene_get_info(scene, &info);
     char scene_name[128];
     snprintf(scene_name, sizeof scene_name, "%s", info.name);
+    if ((size_t)d.camera >= info.cameras) {
+        pgi_scene_destroy(scene);
+        return cli_failure("render", "--camera %d: scene %s has %zu camera%s (0..%zu)", d.camera, scene_name,
+                           info.cameras, info.cameras == 1 ? "" : "s", info.cameras - 1);
+    }
     if (exposure == 0.f) exposure = info.defaults.exposure > 0.f ? info.defaults.exposure : 1.f;
     pgi_image img = {0};
     pgi_frame_stats fs;
     pgi_renderer *r;
     if ((st = pgi_renderer_create(scene, &r))) {
         pgi_scene_destroy(scene);
-        return fail("cannot create a renderer", st);
+        return cli_fail("render", "cannot create a renderer", st);
+    }
+    app_progress bar;
+    app_progress_init(&bar, quiet);
+    if (bar.on) {
+        d.progress = render_progress;
+        d.progress_user = &bar;
     }
     st = progressive > 1 ? pgi_render_progressive(r, &d, (int)progressive, &img, &fs)
                          : pgi_renderer_render(r, &d, &img, &fs);
+    app_progress_end(&bar, 0);
     pgi_renderer_destroy(r);
     if (st) {
         pgi_image_free(&img);
         pgi_scene_destroy(scene);
-        return fail("render failed", st);
+        return cli_fail("render", "render failed", st);
     }
     st = pgi_image_write(&img, out, exposure);
     pgi_image_free(&img);
     pgi_scene_destroy(scene);
-    if (st) return fail("cannot write image", st);
+    if (st) return cli_fail("render", "cannot write image", st);
     if (stats_path) {
         st = pgi_stats_write_json(&fs, stats_path);
-        if (st) return fail("cannot write stats", st);
+        if (st) return cli_fail("render", "cannot write stats", st);
     }
     if (fs.photons_stored < (uint64_t)fs.settings.photons * (uint64_t)fs.frames)
-        fprintf(stderr,
-                "photongi: warning: only %" PRIu64 " photons were stored from %" PRIu64
-                " paths: most light leaves the scene (the tracer stops after 64 paths per requested photon)\n",
-                fs.photons_stored, fs.photons_emitted);
+        cli_warn(quiet, "render",
+                 "only %" PRIu64 " photons were stored from %" PRIu64
+                 " paths: most light leaves the scene (the tracer stops after 64 paths per requested photon)",
+                 fs.photons_stored, fs.photons_emitted);
     if (!quiet) {
         fprintf(stderr,
                 "%s: %s %dx%d, %s, %" PRIu64 " photons stored from %" PRIu64 " paths, r=%g\n"
@@ -361,21 +443,58 @@ static int cmd_render(int argc, char **argv) {
     return 0;
 }
 
+typedef struct command {
+    const char *name;
+    int (*run)(int argc, char **argv);
+} command;
+
+static const command k_commands[] = {{"render", cmd_render},
+                                     {"estimators", cmd_estimators},
+                                     {"info", cmd_info},
+                                     {"reference", pgi_cmd_reference},
+                                     {"compare", pgi_cmd_compare}};
+
+static const command *find_command(const char *name) {
+    for (size_t i = 0; i < sizeof k_commands / sizeof k_commands[0]; i++)
+        if (strcmp(name, k_commands[i].name) == 0) return &k_commands[i];
+    return NULL;
+}
+
+/* photongi help [COMMAND]: the main help, or the command's own --help. */
+static int cmd_help(int argc, char **argv) {
+    if (argc == 0) {
+        fputs(k_main_help, stdout);
+        return 0;
+    }
+    const command *c = find_command(argv[0]);
+    if (argc > 1 || !c) {
+        char names[128] = "";
+        for (size_t i = 0; i < sizeof k_commands / sizeof k_commands[0]; i++)
+            list_append(names, sizeof names, k_commands[i].name);
+        if (argc > 1) fprintf(stderr, "photongi help: takes one command at most (%s)\n", names);
+        else
+            fprintf(stderr, "photongi help: unknown help topic '%s'; the topics are the commands: %s\n", argv[0],
+                    names);
+        fprintf(stderr, "Try 'photongi --help'.\n");
+        return CLI_EXIT_USAGE;
+    }
+    char help[] = "--help";
+    char *args[] = {help, NULL};
+    return c->run(1, args);
+}
+
 int main(int argc, char **argv) {
     if (argc < 2 || is_help(argv[1])) {
         fputs(k_main_help, argc < 2 ? stderr : stdout);
-        return argc < 2 ? 2 : 0;
+        return argc < 2 ? CLI_EXIT_USAGE : 0;
     }
     if (strcmp(argv[1], "--version") == 0) {
         printf("photongi %s\n", pgi_version());
         return 0;
     }
-    const char *cmd = argv[1];
-    if (strcmp(cmd, "render") == 0) return cmd_render(argc - 2, argv + 2);
-    if (strcmp(cmd, "estimators") == 0) return cmd_estimators(argc - 2, argv + 2);
-    if (strcmp(cmd, "info") == 0) return cmd_info(argc - 2, argv + 2);
-    if (strcmp(cmd, "reference") == 0) return pgi_cmd_reference(argc - 2, argv + 2);
-    if (strcmp(cmd, "compare") == 0) return pgi_cmd_compare(argc - 2, argv + 2);
-    fprintf(stderr, "photongi: unknown command '%s'\n\n%s", cmd, k_main_help);
-    return 2;
+    if (strcmp(argv[1], "help") == 0) return cmd_help(argc - 2, argv + 2);
+    const command *c = find_command(argv[1]);
+    if (c) return c->run(argc - 2, argv + 2);
+    fprintf(stderr, "photongi: unknown command '%s'\n\n%s", argv[1], k_main_help);
+    return CLI_EXIT_USAGE;
 }

@@ -71,9 +71,14 @@ typedef struct pgi_scene_info {
 
 /* Loads a scene. `spec` is a built-in name ("cornell", "giref",
  * "sphere-and-plane"), a scene description (.json), a scene name with a
- * description in ./scenes/<name>.json, or a mesh file Assimp reads (OBJ/MTL,
- * glTF, PLY). Mesh paths in a description resolve against the description's
- * folder, then against $PHOTONGI_SCENES (default ../shared/scenes). */
+ * description <name>.json in ./scenes, in the source tree's scenes/ (a build
+ * run from any directory) or in the installed share/photongi/scenes (looked up
+ * in that order), or a mesh file Assimp reads (OBJ/MTL, glTF, PLY). Mesh paths
+ * in a description resolve against the description's folder, then against
+ * $PHOTONGI_SCENES, or when that is not set the source tree's ../shared/scenes
+ * and then ../shared/scenes from the working directory. An unknown name is
+ * PGI_ERR_INVALID_ARG (the message lists the names there are), a missing file
+ * PGI_ERR_IO. */
 pgi_status pgi_scene_load(const char *spec, pgi_scene **out);
 void pgi_scene_destroy(pgi_scene *scene);
 void pgi_scene_get_info(const pgi_scene *scene, pgi_scene_info *out);
@@ -102,6 +107,24 @@ typedef enum pgi_jitter {
                             progressive frame k takes point k of one stratified sequence per pixel */
 } pgi_jitter;
 
+/* Limits of a render (pgi_render_desc): photons to store, image size (also the largest image
+ * pgi_image_read accepts), frames of pgi_render_progressive. */
+#define PGI_MAX_PHOTONS 100000000u
+#define PGI_MAX_IMAGE_SIDE 16384
+#define PGI_MAX_IMAGE_PIXELS (36u * 1024u * 1024u)
+#define PGI_MAX_PROGRESSIVE_FRAMES 1000000
+
+/* Progress of a render, for a progress bar (pgi_render_desc.progress). */
+typedef struct pgi_progress {
+    const char *pass;     /* the pass now running: "view", "trace", "build", "estimate", "direct" */
+    uint64_t done, total; /* "trace": photons stored so far, of `total`; other passes: 0 of 0 */
+    int frame, frames;    /* pgi_render_progressive: this frame (0-based) of `frames`; else 0 of 1 */
+    double elapsed_ms;    /* since the call started (pgi_render_progressive: since its start) */
+} pgi_progress;
+/* Called on the thread that called the render, as each pass starts and between batches of
+ * photon paths, never from inside a parallel region: it cannot change the image. */
+typedef void (*pgi_progress_fn)(void *user, const pgi_progress *progress);
+
 /* Zero means "default" for every field, nested estimator options included. */
 typedef struct pgi_render_desc {
     const char *estimator;  /* registered name; default PGI_DEFAULT_ESTIMATOR */
@@ -119,13 +142,15 @@ typedef struct pgi_render_desc {
     const pgi_camera_def *view; /* non-NULL: render from this camera instead of the scene's `camera`
                                    (borrowed for the call; the viewer's free camera) */
     /* Per-photon footprints (radius policies; need an estimator with PGI_EST_CAP_PHOTON_RADIUS). */
-    int radius_policy;  /* PGI_RADIUS_FIXED (default), PGI_RADIUS_PATH, PGI_RADIUS_DIFFERENTIALS */
-    float r_min, r_max; /* path: radius range (default r_max = radius, r_min = r_max/8);
+    int radius_policy;        /* PGI_RADIUS_FIXED (default), PGI_RADIUS_PATH, PGI_RADIUS_DIFFERENTIALS */
+    float r_min, r_max;       /* path: radius range (default r_max = radius, r_min = r_max/8);
                                 differentials: r_max clamps the footprint radius (default: radius) */
-    float smoothing;    /* differentials: smoothing factor s (> 0); 0 = automatic (docs/bvh.md) */
-    int filter;         /* bilateral reconstruction filter radius in pixels on the indirect light (0 off) */
-    pgi_jitter jitter;  /* sub-pixel position of the view samples; default PGI_JITTER_AUTO (resolved: a single
+    float smoothing;          /* differentials: smoothing factor s (> 0); 0 = automatic (docs/bvh.md) */
+    int filter;               /* bilateral reconstruction filter radius in pixels on the indirect light (0 off) */
+    pgi_jitter jitter;        /* sub-pixel position of the view samples; default PGI_JITTER_AUTO (resolved: a single
                            frame reports OFF, a progressive average the caller's value) */
+    pgi_progress_fn progress; /* may be NULL; not part of the picture (progressive mode does not restart) */
+    void *progress_user;      /* passed to `progress` */
 } pgi_render_desc;
 
 typedef enum pgi_radius_policy {
@@ -174,8 +199,8 @@ typedef struct pgi_frame_stats {
     uint64_t nodes_visited;    /* cells / tiles / nodes touched */
     int frames;                /* frames averaged into the image (progressive); 1 for a single frame */
     int estimators_created;    /* estimators this call created (0 when the renderer reused its estimator) */
-    pgi_render_desc settings;  /* what was rendered: every default filled in (estimator options too; `view`
-                                  is NULL; `radius` is the first frame's) */
+    pgi_render_desc settings;  /* what was rendered: every default filled in (estimator options too; `view`,
+                                  `progress` and `progress_user` are NULL; `radius` is the first frame's) */
     double rt_update_ms;       /* updating the ray-tracing scene after geometry moved (0 if nothing moved) */
     int radius_policy;         /* pgi_radius_policy used */
     int leaf_size;             /* "bvh": leaf-size threshold used */
@@ -277,7 +302,7 @@ pgi_status pgi_progressive_step(pgi_progressive *p, const pgi_render_desc *desc,
 /* Forgets the running average. */
 void pgi_progressive_reset(pgi_progressive *p);
 void pgi_progressive_destroy(pgi_progressive *p);
-/* Averages `frames` (1..1000000) progressive frames from a fresh start; stats
+/* Averages `frames` (1..PGI_MAX_PROGRESSIVE_FRAMES) progressive frames from a fresh start; stats
  * gets the times and counters summed over the frames, the rest from the last. */
 pgi_status pgi_render_progressive(pgi_renderer *r, const pgi_render_desc *desc, int frames, pgi_image *out,
                                   pgi_frame_stats *stats);

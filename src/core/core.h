@@ -33,8 +33,8 @@ double pgi__now_ms(void);
 
 /* Largest image the library allocates, rendered or read (a header that
  * declares more is refused before any pixel is allocated): 8K UHD fits. */
-#define PGI__MAX_SIDE 16384
-#define PGI__MAX_PIXELS (36u * 1024u * 1024u)
+#define PGI__MAX_SIDE PGI_MAX_IMAGE_SIDE
+#define PGI__MAX_PIXELS PGI_MAX_IMAGE_PIXELS
 
 /* PGI_ERR_UNSUPPORTED naming `what` (a file, or "image size") when w x h is
  * outside 1..PGI__MAX_SIDE a side or above PGI__MAX_PIXELS. */

@@ -125,14 +125,12 @@ static void describe(const pgi_option *o, char *buf, size_t size) {
         return;
     }
     if (o->type == PGI_OPTION_FLOAT) {
-        snprintf(buf, size, "a number above %g", o->min);
+        if (o->max > 0) snprintf(buf, size, "a number above %g and at most %g", o->min, o->max);
+        else snprintf(buf, size, "a finite number above %g", o->min);
         return;
     }
-    snprintf(buf, size, "%s in %g..%g",
-             o->step == 2  ? "an even number"
-             : o->step > 1 ? "a multiple"
-                           : "a number",
-             o->min, o->max);
+    if (o->step > 2) snprintf(buf, size, "a multiple of %d in %g..%g", o->step, o->min, o->max);
+    else snprintf(buf, size, "%s in %g..%g", o->step == 2 ? "an even number" : "a number", o->min, o->max);
 }
 
 /* FLOAT options: finite, above min, at most max (max 0: no upper bound). */

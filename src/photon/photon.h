@@ -14,6 +14,10 @@ typedef struct pgi__trace_desc {
     int radius_policy;
     float r_min, r_max, smoothing;
     uint64_t *footprint_hist; /* optional out: PGI_FOOTPRINT_BINS counts of the radius before the clamp */
+    /* optional: called with the photons stored so far and the photons wanted, before the first
+       batch and after each one, on the calling thread (outside the parallel regions) */
+    void (*progress)(void *ctx, uint64_t stored, uint64_t wanted);
+    void *progress_ctx;
 } pgi__trace_desc;
 
 /* Fills `ph` (capacity >= photons) with exactly `photons` photons, unless the

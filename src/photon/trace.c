@@ -368,11 +368,15 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
     double seen_paths = sc->prior_paths, seen_photons = sc->prior_photons;
     pgi_status st = PGI_OK;
     while (ph->count < want && path < max_paths) {
+        if (d->progress) d->progress(d->progress_ctx, ph->count, want);
         size_t remaining = want - ph->count;
         size_t batch;
         if (seen_photons < 64.0) {
             batch = remaining / 4 + 64; /* no estimate yet: a pilot batch */
             if (batch > 4 * CHUNK) batch = 4 * CHUNK;
+            /* ... as many paths as all the pilots before it: a scene that stores (almost) nothing
+             * reaches max_paths in a few dozen batches, not in a million-path crawl of 64 at a time */
+            if ((double)batch < seen_paths) batch = (size_t)seen_paths;
         } else {
             /* An upper bound of the yield (3 sigma of the photon count) sizes the batch from
              * below: an extra small batch costs less than paths traced for nothing. */
@@ -502,6 +506,7 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
     *rays_out = rays;
     sc->paths_traced = traced;
     if (st) return st;
+    if (d->progress) d->progress(d->progress_ctx, ph->count, want);
     /* This frame's counts seed the next frame's batches (a moved light changes the yield: a
      * frame's worth of evidence is enough to forget the older ones). */
     sc->prior_paths = seen_paths - sc->prior_paths;

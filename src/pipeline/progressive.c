@@ -80,6 +80,8 @@ static void picture_of(const pgi_render_desc *d, const pgi_scene *s, picture *p)
     p->key.estimator = NULL;
     p->key.view = NULL;
     p->key.threads = 0; /* the image does not depend on the thread count */
+    p->key.progress = NULL;
+    p->key.progress_user = NULL;
     snprintf(p->est, sizeof p->est, "%s", d->estimator ? d->estimator : "");
     p->has_view = d->view != NULL;
     if (d->view) p->view = *d->view;
@@ -155,6 +157,23 @@ pgi_status pgi_progressive_step(pgi_progressive *a, const pgi_render_desc *in, p
     return PGI_OK;
 }
 
+/* The caller's progress callback, told which frame of how many and the time since the start. */
+typedef struct frame_progress {
+    pgi_progress_fn fn;
+    void *user;
+    int frame, frames;
+    double t_start;
+} frame_progress;
+
+static void report_frame(void *user, const pgi_progress *in) {
+    const frame_progress *fp = user;
+    pgi_progress p = *in;
+    p.frame = fp->frame;
+    p.frames = fp->frames;
+    p.elapsed_ms = pgi__now_ms() - fp->t_start;
+    fp->fn(fp->user, &p);
+}
+
 /* Times and counters add up over the frames; the rest is the last frame's. */
 static void stats_add(pgi_frame_stats *sum, const pgi_frame_stats *fs) {
     pgi_frame_stats t = *fs;
@@ -180,8 +199,9 @@ pgi_status pgi_render_progressive(pgi_renderer *r, const pgi_render_desc *in, in
         return pgi__fail(PGI_ERR_INVALID_ARG,
                          "progressive mode needs an exact estimator; '%s' is approximate (its bias does not vanish)",
                          vt->name);
-    if (frames < 1 || frames > 1000000)
-        return pgi__fail(PGI_ERR_INVALID_ARG, "progressive frame count %d is out of range (1..1000000)", frames);
+    if (frames < 1 || frames > PGI_MAX_PROGRESSIVE_FRAMES)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "progressive frame count %d is out of range (1..%d)", frames,
+                         PGI_MAX_PROGRESSIVE_FRAMES);
     if (frames > 1 && in->output == PGI_OUTPUT_PHOTON_COUNT)
         return pgi__fail(PGI_ERR_INVALID_ARG, "progressive mode cannot average photon counts");
     pgi_progressive *p;
@@ -189,9 +209,16 @@ pgi_status pgi_render_progressive(pgi_renderer *r, const pgi_render_desc *in, in
     if (st) return st;
     pgi_frame_stats sum;
     memset(&sum, 0, sizeof sum);
+    frame_progress fp = {in->progress, in->progress_user, 0, frames, pgi__now_ms()};
+    pgi_render_desc d = *in;
+    if (in->progress) {
+        d.progress = report_frame;
+        d.progress_user = &fp;
+    }
     for (int k = 0; k < frames && !st; k++) {
         pgi_frame_stats fs;
-        if ((st = pgi_progressive_step(p, in, out, &fs))) break;
+        fp.frame = k;
+        if ((st = pgi_progressive_step(p, &d, out, &fs))) break;
         if (k == 0) sum = fs;
         else stats_add(&sum, &fs);
     }

@@ -8,7 +8,6 @@
 #include "view/view.h"
 #include "filter/bilateral.h"
 
-#define PGI_MAX_PHOTONS 100000000u
 #define PGI_MAX_BOUNCES 64
 
 struct pgi_renderer {
@@ -150,6 +149,26 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
     return PGI_OK;
 }
 
+/* Progress reports (pgi_render_desc.progress): on the calling thread, between passes and
+ * between the tracer's batches, never inside a parallel region. */
+typedef struct progress_ctx {
+    const pgi_render_desc *d;
+    double t_start;
+} progress_ctx;
+
+static void report(const progress_ctx *pc, const char *pass, uint64_t done, uint64_t total) {
+    if (!pc->d->progress) return;
+    pgi_progress p = {.pass = pass,
+                      .done = done,
+                      .total = total,
+                      .frame = 0,
+                      .frames = 1,
+                      .elapsed_ms = pgi__now_ms() - pc->t_start};
+    pc->d->progress(pc->d->progress_user, &p);
+}
+
+static void report_trace(void *ctx, uint64_t stored, uint64_t total) { report(ctx, "trace", stored, total); }
+
 /* Points the photon buffer at the footprint arrays the policy needs (NULL for fixed). */
 static pgi_status ensure_footprints(pgi_renderer *r, const pgi_render_desc *d) {
     pgi_photons *ph = &r->ph;
@@ -216,7 +235,7 @@ static pgi_status ensure_estimator(pgi_renderer *r, const pgi_render_desc *d, in
 /* View samples and photons of one frame (d resolved; jittered view samples take point `index` of
  * the sub-pixel sequence of `seq_seed`); fs gets the view and trace passes. */
 static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, uint64_t seq_seed, uint32_t index,
-                          pgi_frame_stats *fs) {
+                          const progress_ctx *pc, pgi_frame_stats *fs) {
     pgi_status st;
     if ((st = ensure_buffers(r, d))) return st;
     const pgi_scene *s = r->scene;
@@ -228,6 +247,7 @@ static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, uint64_t se
         if ((st = pgi__rt_update(r->rt, s))) return st;
         fs->rt_update_ms = pgi__now_ms() - tu;
     }
+    report(pc, "view", 0, 0);
     double t0 = pgi__now_ms();
     pgi__rt_capture_pass(r->rt, PGI__PASS_VIEW); /* ray capture tags (a no-op unless a bench captures) */
     const pgi__subpixel sp = {.jitter = d->jitter == PGI_JITTER_ON, .seed = seq_seed, .index = index};
@@ -241,6 +261,10 @@ static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, uint64_t se
     td.r_max = d->r_max;
     td.smoothing = d->smoothing;
     td.footprint_hist = fs->footprint_hist;
+    if (d->progress) {
+        td.progress = report_trace;
+        td.progress_ctx = (void *)pc;
+    }
     pgi__rt_capture_pass(r->rt, PGI__PASS_TRACE);
     st = pgi__photons_trace(s, r->rt, &td, &r->ph, &r->trace_scratch, &fs->photon_rays);
     pgi__rt_capture_pass(r->rt, PGI__PASS_NONE);
@@ -259,6 +283,8 @@ static void stats_begin(pgi_frame_stats *fs, const pgi_render_desc *d) {
     memset(fs, 0, sizeof *fs);
     fs->settings = *d;
     fs->settings.view = NULL;
+    fs->settings.progress = NULL;
+    fs->settings.progress_user = NULL;
     fs->estimator = d->estimator;
     fs->width = d->width;
     fs->height = d->height;
@@ -278,7 +304,8 @@ pgi_status pgi_renderer_prepare(pgi_renderer *r, const pgi_render_desc *in, pgi_
     pgi_frame_stats fs;
     stats_begin(&fs, &d);
     double t0 = pgi__now_ms();
-    if ((st = prepare(r, &d, d.seed, 0, &fs))) return st;
+    const progress_ctx pc = {&d, t0};
+    if ((st = prepare(r, &d, d.seed, 0, &pc, &fs))) return st;
     fs.total_ms = pgi__now_ms() - t0;
     *out = (pgi_frame_inputs){.photons = &r->ph,
                               .samples = &r->vs,
@@ -306,7 +333,8 @@ pgi_status pgi__renderer_render_frame(pgi_renderer *r, const pgi_render_desc *in
     pgi_frame_stats fs;
     stats_begin(&fs, &d);
     if ((st = ensure_estimator(r, &d, &fs.estimators_created))) return st;
-    if ((st = prepare(r, &d, seq_seed, index, &fs))) return st;
+    const progress_ctx pc = {&d, t_start};
+    if ((st = prepare(r, &d, seq_seed, index, &pc, &fs))) return st;
     const pgi_scene *s = r->scene;
     double t2 = pgi__now_ms();
     pgi_estimate_args ea = {.photons = &r->ph,
@@ -317,11 +345,14 @@ pgi_status pgi__renderer_render_frame(pgi_renderer *r, const pgi_render_desc *in
                             .seed = d.seed,
                             .threads = d.threads,
                             .scene_area = (float)r->scene_area};
+    report(&pc, "build", 0, 0);
     if ((st = pgi_estimator_build(r->est, &ea))) return st;
     double t3 = pgi__now_ms();
+    report(&pc, "estimate", 0, 0);
     if ((st = pgi_estimator_estimate(r->est, &ea))) return st;
     if (d.filter > 0 && (st = pgi__bilateral_filter(&r->vs, d.filter, d.threads, r->indirect))) return st;
     double t4 = pgi__now_ms();
+    report(&pc, "direct", 0, 0);
     pgi__rt_capture_pass(r->rt, PGI__PASS_DIRECT);
     st = pgi__direct(s, r->rt, &r->vs, d.direct_samples, d.seed, d.threads, r->direct, &fs.shadow_rays);
     pgi__rt_capture_pass(r->rt, PGI__PASS_NONE);

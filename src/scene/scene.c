@@ -1,6 +1,7 @@
 /* Scene model: creation, validation, light set-up, loading dispatch. */
 #include "scene_internal.h"
 
+#include <dirent.h>
 #include <stdio.h>
 #include <string.h>
 #include <strings.h>
@@ -171,6 +172,40 @@ static int ends_with(const char *s, const char *suffix) {
     return n >= m && strcasecmp(s + n - m, suffix) == 0;
 }
 
+/* Folders a bare scene name is looked up in, as <folder>/<name>.json: the working directory's
+ * scenes/ (a local description wins), the source tree's (PGI_SOURCE_DIR: a build run from
+ * anywhere), the installed one (PGI_DATADIR, e.g. /usr/local/share/photongi). */
+static const char *const k_scene_dirs[] = {"scenes",
+#ifdef PGI_SOURCE_DIR
+                                           PGI_SOURCE_DIR "/scenes",
+#endif
+#ifdef PGI_DATADIR
+                                           PGI_DATADIR "/scenes",
+#endif
+                                           NULL};
+
+/* The named scenes of the scene folders (x.json -> x), sorted, each once, after the built-ins. */
+typedef char scene_name[64];
+static int cmp_names(const void *a, const void *b) { return strcmp(a, b); }
+static void list_scene_names(char *names, size_t cap) {
+    scene_name found[64];
+    size_t n = 0;
+    for (int i = 0; k_scene_dirs[i]; i++) {
+        DIR *d = opendir(k_scene_dirs[i]);
+        if (!d) continue;
+        for (struct dirent *e; n < 64 && (e = readdir(d));) {
+            size_t l = strlen(e->d_name);
+            if (l > 5 && l - 5 < sizeof found[0] && strcmp(e->d_name + l - 5, ".json") == 0)
+                snprintf(found[n++], sizeof found[0], "%.*s", (int)(l - 5), e->d_name);
+        }
+        closedir(d);
+    }
+    qsort(found, n, sizeof found[0], cmp_names);
+    for (int i = 0; pgi__builtin_names[i]; i++) pgi__list_append(names, cap, pgi__builtin_names[i]);
+    for (size_t i = 0; i < n; i++)
+        if (i == 0 || strcmp(found[i], found[i - 1]) != 0) pgi__list_append(names, cap, found[i]);
+}
+
 pgi_status pgi_scene_load(const char *spec, pgi_scene **out) {
     if (!out) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_scene_load: out is NULL");
     *out = NULL;
@@ -180,16 +215,18 @@ pgi_status pgi_scene_load(const char *spec, pgi_scene **out) {
         if (strcmp(spec, pgi__builtin_names[i]) == 0) return pgi__scene_builtin(spec, out);
     if (ends_with(spec, ".json")) return pgi__scene_load_json(spec, out);
     if (!strchr(spec, '/') && !strchr(spec, '.')) {
-        /* A bare name: a description shipped in ./scenes/<name>.json. */
-        char path[1024];
-        snprintf(path, sizeof path, "scenes/%s.json", spec);
-        if (file_exists(path)) return pgi__scene_load_json(path, out);
-        char names[256] = "";
-        for (int i = 0; pgi__builtin_names[i]; i++) pgi__list_append(names, sizeof names, pgi__builtin_names[i]);
+        /* A bare name: a description <dir>/<name>.json of a scene folder (k_scene_dirs). */
+        char path[4096], dirs[1024] = "", names[512] = "";
+        for (int i = 0; k_scene_dirs[i]; i++) {
+            snprintf(path, sizeof path, "%s/%s.json", k_scene_dirs[i], spec);
+            if (file_exists(path)) return pgi__scene_load_json(path, out);
+            pgi__list_append(dirs, sizeof dirs, k_scene_dirs[i]);
+        }
+        list_scene_names(names, sizeof names);
         return pgi__fail(PGI_ERR_INVALID_ARG,
-                         "unknown scene '%s': not a built-in scene (%s) and no file %s (run from the repository root, "
-                         "or give a path to a .json description or a mesh)",
-                         spec, names, path);
+                         "unknown scene '%s': not a built-in scene and no %s.json in %s (scenes: %s; or give a path "
+                         "to a .json description or a mesh)",
+                         spec, spec, dirs, names);
     }
     if (!file_exists(spec)) return pgi__fail(PGI_ERR_IO, "%s: no such file", spec);
     const char *base = strrchr(spec, '/');

@@ -21,8 +21,10 @@
  * defaults to [0, 1, 0] and "fov_y" (vertical, degrees) to 60.
  *
  * Mesh paths: an absolute path is used as is; a relative one is looked up
- * first in the JSON file's folder, then in $PHOTONGI_SCENES (default
- * ../shared/scenes, relative to the working directory).
+ * first in the JSON file's folder, then in $PHOTONGI_SCENES, or when that is
+ * not set in the source tree's ../shared/scenes (PGI_SOURCE_DIR/../shared/scenes,
+ * so a build finds them from any directory), then in ../shared/scenes
+ * relative to the working directory.
  *
  * Unknown keys are errors (they are usually typos), except keys starting
  * with '_' and "comment", "description", "credit", "license", "source",
@@ -36,6 +38,9 @@
 #include <sys/stat.h>
 
 #define DEFAULT_SCENES_DIR "../shared/scenes"
+#ifdef PGI_SOURCE_DIR
+#define SOURCE_SCENES_DIR PGI_SOURCE_DIR "/../shared/scenes"
+#endif
 
 static int regular_file(const char *p) {
     struct stat st;
@@ -258,17 +263,26 @@ static pgi_status resolve_mesh(const char *path, const char *mesh, char *out, si
     if (slash) snprintf(dir1, sizeof dir1, "%.*s", (int)(slash - path) > 0 ? (int)(slash - path) : 1, path);
     else snprintf(dir1, sizeof dir1, ".");
     const char *env = getenv("PHOTONGI_SCENES");
-    const char *dir2 = env && *env ? env : DEFAULT_SCENES_DIR;
-    const char *dirs[2] = {dir1, dir2};
-    for (int i = 0; i < 2; i++) {
+    const char *dirs[4] = {dir1};
+    int nd = 1;
+    if (env && *env) dirs[nd++] = env;
+    else {
+#ifdef SOURCE_SCENES_DIR
+        dirs[nd++] = SOURCE_SCENES_DIR;
+#endif
+        dirs[nd++] = DEFAULT_SCENES_DIR;
+    }
+    char looked[2048] = "";
+    for (int i = 0; i < nd; i++) {
         size_t dl = strlen(dirs[i]);
         int len = snprintf(out, n, "%s%s%s", dirs[i], dl && dirs[i][dl - 1] == '/' ? "" : "/", mesh);
         if (len > 0 && (size_t)len < n && regular_file(out)) return PGI_OK;
+        pgi__list_append(looked, sizeof looked, dirs[i]);
     }
     return pgi__fail(PGI_ERR_IO,
-                     "%s: mesh '%s' not found (looked in %s and %s; set PHOTONGI_SCENES to the folder that holds "
+                     "%s: mesh '%s' not found (looked in %s; set PHOTONGI_SCENES to the folder that holds "
                      "the scenes)",
-                     path, mesh, dir1, dir2);
+                     path, mesh, looked);
 }
 
 
