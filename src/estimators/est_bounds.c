@@ -15,13 +15,16 @@
  *    box. Plus the sphere's depth range [z - r, z + r]: a covered pixel whose
  *    view sample lies outside it is rejected before the sphere test.
  *
- * Race-free, deterministic scattering on the CPU: (1) tile flags and the
- * view-space box of the samples seen through mirrors/glass per tile; (2)
- * count, (3) scan, (4) fill: every photon index goes into the bin of every
- * screen tile its bound's rectangle touches (fixed photon chunks, as in
- * "tiled"); (5) scatter: tiles in parallel, each applies its photons in
- * photon-index order to its own pixels' sums, so every pixel sums photons in
- * the same order as brute, whatever the thread count.
+ * Race-free, deterministic scattering on the CPU: (1) per tile, whether it
+ * has valid primary samples; the samples seen through mirrors/glass grouped
+ * in view-space cells (spec_cells.h); (2) count, (3) scan, (4) fill: every
+ * photon index goes into the bin of every primary tile its bound's rectangle
+ * touches and of every cell its sphere may reach (bins 0 .. ntiles - 1 are
+ * the tiles, then one per cell; fixed photon chunks, as in "tiled"); (5)
+ * scatter: bins in parallel, each applies its photons in photon-index order
+ * to its own samples' sums, so every sample sums photons in the same order as
+ * brute, whatever the thread count. A tile writes its primary and invalid
+ * pixels, a cell its samples: every pixel is written once.
  *
  * Conservative cases. Spheres that reach the eye plane (the icosahedron's
  * vertices or the sphere not strictly in front of the eye) cannot be
@@ -29,8 +32,10 @@
  * depth range; 3D uses the icosahedron's circumsphere); a sphere holding the
  * eye covers the whole screen.
  * Samples seen through mirrors (no PGI_VS_PRIMARY) are not where the pixel
- * ray says, so projection cannot find them: a photon is also binned to every
- * tile whose box of such samples its sphere overlaps, and tests them all.
+ * ray says, so projection cannot find them: they are left out of the tiles
+ * and grouped by position instead, in hashed cells of edge >= 2r in view
+ * space (as in "tiled"); a photon is also binned to every cell whose box of
+ * samples its sphere overlaps, and tests all of that cell's samples.
  * The sphere is inflated by a relative 1e-4 (plus float slack) and the
  * polygon by 0.05 pixel, so rounding never drops a pixel the test accepts;
  * the extra pixels only cost tests. A primary sample lies on a ray through
@@ -48,32 +53,27 @@
 #endif
 
 #include "estimator_internal.h"
+#include "spec_cells.h"
 
 #define MAXE 64          /* half-planes of a bound */
 #define PIX_MARGIN 0.05f /* pixels */
 
 typedef struct {
-    uint8_t primary, secondary; /* has valid samples of that kind */
-    float lo[3], hi[3];         /* view-space box of the secondary samples */
-} btile;
-
-typedef struct {
     pgi__est_common c;
     int mode3d, nverts;
     int T, ntx, nty, ntiles, W, H;
-    float jitter; /* the view samples' (pgi_view_samples.jitter) */
-    btile *tiles;
-    size_t tiles_cap;
-    uint32_t *sec; /* tiles with secondary samples */
-    size_t sec_cap;
-    int nsec;
-    float *cview; /* photon centres in view space, 3 a photon */
+    float jitter;     /* the view samples' (pgi_view_samples.jitter) */
+    uint8_t *primary; /* per tile: has valid primary samples */
+    size_t primary_cap;
+    pgi__spec_cells cells; /* samples seen through mirrors/glass: bins ntiles .. nbins - 1 */
+    int nbins;             /* ntiles + cells.n */
+    float *cview;          /* photon centres in view space, 3 a photon */
     size_t cview_cap;
-    uint32_t *counts; /* [chunk][tile] */
+    uint32_t *counts; /* [chunk][bin] */
     size_t counts_cap;
-    uint32_t *tile_start;
+    uint32_t *tile_start; /* nbins + 1 */
     size_t tile_start_cap;
-    uint32_t *bins; /* photon indices, per tile in photon order */
+    uint32_t *bins; /* photon indices, per bin in photon order */
     size_t bins_cap;
     size_t nbinned;
     size_t nphotons;
@@ -295,40 +295,24 @@ static inline void row_span(const shape *sh, float Y, int W, int *xa, int *xb) {
     *xb = clip_hi(xr, W - 1);
 }
 
-static inline int sphere_box(const btile *b, pgi__v3 c, float r) {
-    float rr = inflate(c, r), cc[3] = {c.x, c.y, c.z}, d2 = 0.f;
-    for (int k = 0; k < 3; k++) {
-        float lo = b->lo[k] - cc[k], hi = cc[k] - b->hi[k];
-        float e = lo > hi ? lo : hi;
-        if (e > 0.f) d2 += e * e;
-    }
-    return d2 <= rr * rr;
-}
-
-/* Calls BODY with t for every tile photon j is binned to, in increasing
- * tile order for the rectangle, then the secondary tiles outside it. */
+/* Calls BODY with t for every bin photon j goes to: the primary tiles of its
+ * bound's rectangle in increasing order, then the cells of mirror-seen samples
+ * its sphere (padded by inflate, as the bounds) may reach (t = ntiles + cell). */
 #define FOR_EACH_BIN(S_, XF_, J_, BODY)                                                                                \
     do {                                                                                                               \
         pgi__v3 c_ = v3((S_)->cview[3 * (J_)], (S_)->cview[3 * (J_) + 1], (S_)->cview[3 * (J_) + 2]);                  \
         shape sh_;                                                                                                     \
-        int tx0 = 1, tx1 = 0, ty0 = 1, ty1 = 0;                                                                        \
         if (make_shape((S_), (XF_), c_, r, &sh_)) {                                                                    \
-            tx0 = clip_lo(sh_.x0, 0) / (S_)->T;                                                                        \
-            tx1 = clip_hi(sh_.x1, (S_)->W - 1) / (S_)->T;                                                              \
-            ty0 = clip_lo(sh_.y0, 0) / (S_)->T;                                                                        \
-            ty1 = clip_hi(sh_.y1, (S_)->H - 1) / (S_)->T;                                                              \
+            const int tx0 = clip_lo(sh_.x0, 0) / (S_)->T, tx1 = clip_hi(sh_.x1, (S_)->W - 1) / (S_)->T;                \
+            const int ty0 = clip_lo(sh_.y0, 0) / (S_)->T, ty1 = clip_hi(sh_.y1, (S_)->H - 1) / (S_)->T;                \
             for (int ty_ = ty0; ty_ <= ty1; ty_++)                                                                     \
                 for (int tx_ = tx0; tx_ <= tx1; tx_++) {                                                               \
                     int t = ty_ * (S_)->ntx + tx_;                                                                     \
-                    const btile *b_ = &(S_)->tiles[t];                                                                 \
-                    if (b_->primary || (b_->secondary && sphere_box(b_, c_, r))) { BODY; }                             \
+                    if ((S_)->primary[t]) { BODY; }                                                                    \
                 }                                                                                                      \
         }                                                                                                              \
-        for (int k_ = 0; k_ < (S_)->nsec; k_++) {                                                                      \
-            int t = (int)(S_)->sec[k_], tx_ = t % (S_)->ntx, ty_ = t / (S_)->ntx;                                      \
-            if (tx_ >= tx0 && tx_ <= tx1 && ty_ >= ty0 && ty_ <= ty1) continue;                                        \
-            if (sphere_box(&(S_)->tiles[t], c_, r)) { BODY; }                                                          \
-        }                                                                                                              \
+        const float rr_ = inflate(c_, r);                                                                              \
+        PGI__FOR_EACH_SPEC_CELL(&(S_)->cells, c_, rr_, int t = (S_)->ntiles + (int)k_; BODY);                          \
     } while (0)
 
 static const pgi_option k_opt_polygon = {.name = "polygon",
@@ -374,67 +358,59 @@ static pgi_status b_build(void *state, const pgi_estimate_args *a) {
     if (chunk < 8192) chunk = 8192;
     const size_t nchunks = (n + chunk - 1) / chunk;
     pgi_status st;
-    if ((st = pgi__ensure((void **)&s->tiles, &s->tiles_cap, (size_t)s->ntiles, sizeof(btile))) ||
-        (st = pgi__ensure((void **)&s->sec, &s->sec_cap, (size_t)s->ntiles, sizeof(uint32_t))) ||
-        (st = pgi__ensure((void **)&s->tile_start, &s->tile_start_cap, (size_t)s->ntiles + 1, sizeof(uint32_t))) ||
-        (st = pgi__ensure((void **)&s->counts, &s->counts_cap, (nchunks + 1) * (size_t)s->ntiles, sizeof(uint32_t))) ||
+    if ((st = pgi__ensure((void **)&s->primary, &s->primary_cap, (size_t)s->ntiles, 1)) ||
         (st = pgi__ensure((void **)&s->cview, &s->cview_cap, 3 * n + 3, sizeof(float))))
         return st;
     const pgi__view_xf x = pgi__view_xf_make(a->camera, W, H);
     double t0 = pgi__now_ms();
+    /* At most max(ntiles, 8192) cells, as in "tiled". */
+    if ((st = pgi__spec_cells_build(&s->cells, vs, &x, r, (uint32_t)(s->ntiles > 8192 ? s->ntiles : 8192),
+                                    s->c.threads)))
+        return st;
+    s->nbins = s->ntiles + (int)s->cells.n;
+    if ((st = pgi__ensure((void **)&s->tile_start, &s->tile_start_cap, (size_t)s->nbins + 1, sizeof(uint32_t))) ||
+        (st = pgi__ensure((void **)&s->counts, &s->counts_cap, (nchunks + 1) * (size_t)s->nbins, sizeof(uint32_t))))
+        return st;
 #pragma omp parallel for schedule(dynamic, 4) num_threads(s->c.threads)
     for (int t = 0; t < s->ntiles; t++) {
-        btile *b = &s->tiles[t];
-        b->primary = b->secondary = 0;
-        for (int k = 0; k < 3; k++) b->lo[k] = INFINITY, b->hi[k] = -INFINITY;
+        uint8_t prim = 0;
         int tx = t % s->ntx, ty = t / s->ntx;
-        for (int py = ty * T; py < (ty + 1) * T && py < H; py++)
+        for (int py = ty * T; py < (ty + 1) * T && py < H && !prim; py++)
             for (int px = tx * T; px < (tx + 1) * T && px < W; px++) {
                 size_t i = (size_t)py * W + (size_t)px;
-                if (!(vs->flags[i] & PGI_VS_VALID)) continue;
-                if (vs->flags[i] & PGI_VS_PRIMARY) {
-                    b->primary = 1;
-                    continue;
-                }
-                b->secondary = 1;
-                const float *p = vs->pos + 3 * i;
-                pgi__v3 q = pgi__to_view(&x, p[0], p[1], p[2]);
-                float qq[3] = {q.x, q.y, q.z};
-                for (int k = 0; k < 3; k++) {
-                    b->lo[k] = fminf(b->lo[k], qq[k]);
-                    b->hi[k] = fmaxf(b->hi[k], qq[k]);
+                if ((vs->flags[i] & (PGI_VS_VALID | PGI_VS_PRIMARY)) == (PGI_VS_VALID | PGI_VS_PRIMARY)) {
+                    prim = 1;
+                    break;
                 }
             }
+        s->primary[t] = prim;
     }
-    s->nsec = 0;
-    for (int t = 0; t < s->ntiles; t++)
-        if (s->tiles[t].secondary) s->sec[s->nsec++] = (uint32_t)t;
 #pragma omp parallel for schedule(static) num_threads(s->c.threads)
     for (long long j = 0; j < (long long)n; j++) {
         pgi__v3 c = pgi__to_view(&x, ph->px[j], ph->py[j], ph->pz[j]);
         s->cview[3 * j] = c.x, s->cview[3 * j + 1] = c.y, s->cview[3 * j + 2] = c.z;
     }
     double t1 = pgi__now_ms();
-    const int ntiles = s->ntiles;
+    const int nbins = s->nbins; /* tiles, then cells */
 #pragma omp parallel for schedule(dynamic, 1) num_threads(s->c.threads)
     for (long long cidx = 0; cidx < (long long)nchunks; cidx++) {
-        uint32_t *cnt = s->counts + (size_t)cidx * ntiles;
-        memset(cnt, 0, (size_t)ntiles * sizeof *cnt);
+        uint32_t *cnt = s->counts + (size_t)cidx * nbins;
+        memset(cnt, 0, (size_t)nbins * sizeof *cnt);
         size_t j1 = ((size_t)cidx + 1) * chunk < n ? ((size_t)cidx + 1) * chunk : n;
         for (size_t j = (size_t)cidx * chunk; j < j1; j++) FOR_EACH_BIN(s, &x, j, cnt[t]++);
     }
     double t2 = pgi__now_ms();
     uint64_t sum = 0;
-    for (int t = 0; t < ntiles; t++) {
+    for (int t = 0; t < nbins; t++) {
         s->tile_start[t] = (uint32_t)sum;
         for (size_t cidx = 0; cidx < nchunks; cidx++) {
-            uint32_t *cnt = s->counts + cidx * ntiles + t;
+            uint32_t *cnt = s->counts + cidx * nbins + t;
             uint32_t c = *cnt;
             *cnt = (uint32_t)sum;
             sum += c;
         }
     }
-    s->tile_start[ntiles] = (uint32_t)sum;
+    s->tile_start[nbins] = (uint32_t)sum;
     if (sum > UINT32_MAX)
         return pgi__fail(PGI_ERR_UNSUPPORTED, "%s: %llu binned photons exceed the 32-bit index; use a smaller radius",
                          s->mode3d ? "bounds3d" : "bounds25d", (unsigned long long)sum);
@@ -443,7 +419,7 @@ static pgi_status b_build(void *state, const pgi_estimate_args *a) {
     double t3 = pgi__now_ms();
 #pragma omp parallel for schedule(dynamic, 1) num_threads(s->c.threads)
     for (long long cidx = 0; cidx < (long long)nchunks; cidx++) {
-        uint32_t *off = s->counts + (size_t)cidx * ntiles;
+        uint32_t *off = s->counts + (size_t)cidx * nbins;
         size_t j1 = ((size_t)cidx + 1) * chunk < n ? ((size_t)cidx + 1) * chunk : n;
         for (size_t j = (size_t)cidx * chunk; j < j1; j++) FOR_EACH_BIN(s, &x, j, s->bins[off[t]++] = (uint32_t)j);
     }
@@ -475,9 +451,8 @@ static pgi_status b_estimate(void *state, const pgi_estimate_args *a) {
 #ifdef _OPENMP
     nthreads = s->c.threads;
 #endif
-    /* per thread: samples, view depth, kind (0 none, 1 primary, 2 secondary), sums, secondary list */
-    const size_t per =
-        (TT * (sizeof(pgi__vs) + sizeof(float) + 1 + sizeof(pgi__acc) + sizeof(uint32_t)) + 127) & ~(size_t)63;
+    /* per thread: samples, sums, view depth, kind (0 invalid, 1 primary, 2 seen through a mirror: its cell writes it) */
+    const size_t per = (TT * (sizeof(pgi__vs) + sizeof(pgi__acc) + sizeof(float) + 1) + 127) & ~(size_t)63;
     char *scratch = malloc((size_t)nthreads * per);
     if (!scratch) return pgi__fail(PGI_ERR_OOM, "out of memory for %d tile buffers", nthreads);
     uint64_t reads = 0, contrib = 0, covered = 0;
@@ -491,66 +466,82 @@ static pgi_status b_estimate(void *state, const pgi_estimate_args *a) {
         pgi__vs *lv = (pgi__vs *)base;
         pgi__acc *acc = (pgi__acc *)(lv + TT);
         float *lz = (float *)(acc + TT);
-        uint32_t *secl = (uint32_t *)(lz + TT);
-        uint8_t *kind = (uint8_t *)(secl + TT);
+        uint8_t *kind = (uint8_t *)(lz + TT);
 #pragma omp for schedule(dynamic, 1)
-        for (int t = 0; t < s->ntiles; t++) {
+        for (int t = 0; t < s->nbins; t++) {
+            const uint32_t b0 = s->tile_start[t], b1 = s->tile_start[t + 1];
+            if (t >= s->ntiles) {
+                /* A cell of mirror-seen samples: every binned photon against every sample, TT samples at a time. */
+                const pgi__spec_cells *cl = &s->cells;
+                const uint32_t k = (uint32_t)(t - s->ntiles), m1 = cl->start[k + 1];
+                for (uint32_t m0 = cl->start[k]; m0 < m1; m0 += (uint32_t)TT) {
+                    const uint32_t nb = m1 - m0 < TT ? m1 - m0 : (uint32_t)TT;
+                    for (uint32_t q = 0; q < nb; q++) {
+                        pgi__vs_load(vs, cl->sample[m0 + q], &lv[q]);
+                        memset(&acc[q], 0, sizeof acc[q]);
+                    }
+                    for (uint32_t kb = b0; kb < b1; kb++) {
+                        const uint32_t j = s->bins[kb];
+                        const float ppx = ph->px[j], ppy = ph->py[j], ppz = ph->pz[j];
+                        const float pdx = ph->dx[j], pdy = ph->dy[j], pdz = ph->dz[j];
+                        const float pfr = ph->fr[j], pfg = ph->fg[j], pfb = ph->fb[j];
+                        for (uint32_t q = 0; q < nb; q++)
+                            pgi__gather_k(&lv[q], r2, kern, ppx, ppy, ppz, pdx, pdy, pdz, pfr, pfg, pfb, &acc[q]);
+                    }
+                    reads += (uint64_t)nb * (b1 - b0);
+                    for (uint32_t q = 0; q < nb; q++) {
+                        pgi__acc_finish_k(&lv[q], &acc[q], r2, kern, 1.f, a->out_rgb + 3 * (size_t)cl->sample[m0 + q]);
+                        contrib += acc[q].contributing;
+                    }
+                }
+                continue;
+            }
             const int tx = t % s->ntx, ty = t / s->ntx;
             const int X0 = tx * T, Y0 = ty * T;
             const int X1 = X0 + T < W ? X0 + T : W, Y1 = Y0 + T < H ? Y0 + T : H; /* exclusive */
             const int tw = X1 - X0;
-            uint32_t nsecl = 0;
             for (int py = Y0; py < Y1; py++)
                 for (int px = X0; px < X1; px++) {
                     size_t i = (size_t)py * W + (size_t)px, l = (size_t)(py - Y0) * tw + (size_t)(px - X0);
-                    kind[l] = 0;
-                    if (!(vs->flags[i] & PGI_VS_VALID)) continue;
+                    const uint8_t f = vs->flags[i];
+                    if ((f & (PGI_VS_VALID | PGI_VS_PRIMARY)) != (PGI_VS_VALID | PGI_VS_PRIMARY)) {
+                        kind[l] = (f & PGI_VS_VALID) ? 2 : 0;
+                        continue;
+                    }
+                    kind[l] = 1;
                     pgi__vs_load(vs, i, &lv[l]);
                     memset(&acc[l], 0, sizeof acc[l]);
-                    if (vs->flags[i] & PGI_VS_PRIMARY) {
-                        kind[l] = 1;
-                        lz[l] = pgi__to_view(&x, lv[l].px, lv[l].py, lv[l].pz).z;
-                    } else {
-                        kind[l] = 2;
-                        secl[nsecl++] = (uint32_t)l;
-                    }
+                    lz[l] = pgi__to_view(&x, lv[l].px, lv[l].py, lv[l].pz).z;
                 }
-            const btile *bt = &s->tiles[t];
-            for (uint32_t k = s->tile_start[t]; k < s->tile_start[t + 1]; k++) {
-                const uint32_t j = s->bins[k];
+            for (uint32_t kb = b0; kb < b1; kb++) {
+                const uint32_t j = s->bins[kb];
+                pgi__v3 c = v3(s->cview[3 * j], s->cview[3 * j + 1], s->cview[3 * j + 2]);
+                shape sh;
+                if (!make_shape(s, &x, c, r, &sh)) continue;
                 const float ppx = ph->px[j], ppy = ph->py[j], ppz = ph->pz[j];
                 const float pdx = ph->dx[j], pdy = ph->dy[j], pdz = ph->dz[j];
                 const float pfr = ph->fr[j], pfg = ph->fg[j], pfb = ph->fb[j];
-                pgi__v3 c = v3(s->cview[3 * j], s->cview[3 * j + 1], s->cview[3 * j + 2]);
-                shape sh;
-                if (bt->primary && make_shape(s, &x, c, r, &sh)) {
-                    int ya = clip_lo(sh.y0, Y0), yb = clip_hi(sh.y1, Y1 - 1);
-                    for (int py = ya; py <= yb; py++) {
-                        int xa, xb;
-                        row_span(&sh, (float)py, W, &xa, &xb);
-                        if (xa < X0) xa = X0;
-                        if (xb > X1 - 1) xb = X1 - 1;
-                        for (int px = xa; px <= xb; px++) {
-                            size_t l = (size_t)(py - Y0) * tw + (size_t)(px - X0);
-                            if (kind[l] != 1) continue;
-                            covered++;
-                            if (sh.use_depth && !(lz[l] >= sh.zlo && lz[l] <= sh.zhi)) continue;
-                            reads++;
-                            pgi__gather_k(&lv[l], r2, kern, ppx, ppy, ppz, pdx, pdy, pdz, pfr, pfg, pfb, &acc[l]);
-                        }
+                int ya = clip_lo(sh.y0, Y0), yb = clip_hi(sh.y1, Y1 - 1);
+                for (int py = ya; py <= yb; py++) {
+                    int xa, xb;
+                    row_span(&sh, (float)py, W, &xa, &xb);
+                    if (xa < X0) xa = X0;
+                    if (xb > X1 - 1) xb = X1 - 1;
+                    for (int px = xa; px <= xb; px++) {
+                        size_t l = (size_t)(py - Y0) * tw + (size_t)(px - X0);
+                        if (kind[l] != 1) continue;
+                        covered++;
+                        if (sh.use_depth && !(lz[l] >= sh.zlo && lz[l] <= sh.zhi)) continue;
+                        reads++;
+                        pgi__gather_k(&lv[l], r2, kern, ppx, ppy, ppz, pdx, pdy, pdz, pfr, pfg, pfb, &acc[l]);
                     }
-                }
-                if (nsecl && sphere_box(bt, c, r)) {
-                    for (uint32_t q = 0; q < nsecl; q++)
-                        pgi__gather_k(&lv[secl[q]], r2, kern, ppx, ppy, ppz, pdx, pdy, pdz, pfr, pfg, pfb,
-                                      &acc[secl[q]]);
-                    reads += nsecl;
                 }
             }
             for (int py = Y0; py < Y1; py++)
                 for (int px = X0; px < X1; px++) {
                     size_t i = (size_t)py * W + (size_t)px, l = (size_t)(py - Y0) * tw + (size_t)(px - X0);
                     float *out = a->out_rgb + 3 * i;
+                    if (kind[l] == 2) continue; /* its cell writes it */
                     if (!kind[l]) {
                         out[0] = out[1] = out[2] = 0.f;
                         continue;
@@ -566,7 +557,8 @@ static pgi_status b_estimate(void *state, const pgi_estimate_args *a) {
     s->c.st.memory_count = 0;
     pgi__stats_mem(&s->c.st, "tile_bins", s->nbinned * sizeof(uint32_t));
     pgi__stats_mem(&s->c.st, "photon_view_pos", s->nphotons * 3 * sizeof(float));
-    pgi__stats_mem(&s->c.st, "tile_offsets", s->counts_cap * sizeof(uint32_t) + ((size_t)s->ntiles + 1) * 4);
+    pgi__stats_mem(&s->c.st, "tile_offsets", s->counts_cap * sizeof(uint32_t) + ((size_t)s->nbins + 1) * 4);
+    pgi__stats_mem(&s->c.st, "specular_cells", pgi__spec_cells_bytes(&s->cells));
     return PGI_OK;
 }
 
@@ -575,8 +567,8 @@ static void b_stats(const void *state, pgi_estimator_stats *out) { *out = ((cons
 static void b_destroy(void *state) {
     bounds_state *s = state;
     if (!s) return;
-    pgi__afree(s->tiles);
-    pgi__afree(s->sec);
+    pgi__afree(s->primary);
+    pgi__spec_cells_free(&s->cells);
     pgi__afree(s->cview);
     pgi__afree(s->counts);
     pgi__afree(s->tile_start);
