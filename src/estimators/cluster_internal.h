@@ -71,7 +71,7 @@ typedef struct {
     PGI__BUF(float, top_flux);
     PGI__BUF(float, node_flux);
     PGI__BUF(float, buckets);
-    PGI__BUF(pgi__packed_photon, lists);
+    PGI__BUF(uint32_t, lists);        /* node photon lists: indices into pk, photon order */
     PGI__BUF(pgi__packed_photon, pk); /* every photon packed */
     size_t njobs, nlist, ntop_list, npacked;
     /* radiance */

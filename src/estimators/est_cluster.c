@@ -462,16 +462,15 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
     if (sum > UINT32_MAX / 2)
         return pgi__fail(PGI_ERR_UNSUPPORTED, "cluster: too many photon list entries; use a smaller radius");
     s->nlist = sum;
-    if ((st = ENSURE(lists, sum + 1, pgi__packed_photon))) return st;
-#pragma omp parallel for schedule(static) num_threads(s->c.threads)
-    for (long long u = 0; u < (long long)s->ntop_list; u++) s->lists[u] = s->pk[s->top_ids[u]];
+    if ((st = ENSURE(lists, sum + 1, uint32_t))) return st;
+    memcpy(s->lists, s->top_ids, s->ntop_list * sizeof(uint32_t));
     for (size_t nd = nabove; nd < nn; nd++) s->cursor[nd] = s->node_start[nd];
         /* Subtree fill: replay each task's records into its own nodes' lists. */
 #pragma omp parallel for schedule(dynamic, 4) num_threads(s->c.threads)
     for (long long t = 0; t < (long long)nJ; t++) {
         const sink *k = &s->outs[s->task_rec[3 * t]];
         for (uint32_t u = s->task_rec[3 * t + 1]; u < s->task_rec[3 * t + 2]; u++)
-            s->lists[s->cursor[k->out[2 * u]]++] = s->pk[k->out[2 * u + 1]];
+            s->lists[s->cursor[k->out[2 * u]]++] = k->out[2 * u + 1];
     }
     tm[2] = pgi__now_ms();
     return PGI_OK;
@@ -541,13 +540,15 @@ pgi_status cl_build(void *state, const pgi_estimate_args *a) {
  * adds each contributing photon's flux in list order; a rejected photon adds
  * 0 * flux (flux is finite), so the sums are those of gather. */
 PGI__HOT_LOOP
-static void rad_block(const pgi__packed_photon *restrict q, uint32_t m, int nb, const float *restrict bx,
-                      const float *restrict by, const float *restrict bz, const float *restrict bnx,
-                      const float *restrict bny, const float *restrict bnz, float *restrict ar, float *restrict ag,
-                      float *restrict ab, uint32_t *restrict an, float r2) {
+static void rad_block(const pgi__packed_photon *restrict pk, const uint32_t *restrict li, uint32_t m, int nb,
+                      const float *restrict bx, const float *restrict by, const float *restrict bz,
+                      const float *restrict bnx, const float *restrict bny, const float *restrict bnz,
+                      float *restrict ar, float *restrict ag, float *restrict ab, uint32_t *restrict an, float r2) {
     for (uint32_t e = 0; e < m; e++) {
-        const float px = q[e].px, py = q[e].py, pz = q[e].pz, dx = q[e].dx, dy = q[e].dy, dz = q[e].dz, fr = q[e].fr,
-                    fg = q[e].fg, fb = q[e].fb;
+        if (e + 8 < m) __builtin_prefetch(pk + li[e + 8]);
+        const pgi__packed_photon *q = pk + li[e];
+        const float px = q->px, py = q->py, pz = q->pz, dx = q->dx, dy = q->dy, dz = q->dz, fr = q->fr, fg = q->fg,
+                    fb = q->fb;
         for (int t = 0; t < nb; t++) {
             float ex = px - bx[t], ey = py - by[t], ez = pz - bz[t];
             float d2 = ex * ex + ey * ey + ez * ez;
@@ -630,9 +631,10 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
                 const int nbv = (nb + 7) & ~7;
                 for (int t = 0; t < nbv; t++) ar[t] = ag[t] = ab[t] = 0.f, an[t] = 0;
                 for (int p = np - 1; p >= 0; p--) {
-                    const pgi__packed_photon *q = s->lists + s->node_start[path[p]];
+                    const uint32_t *q = s->lists + s->node_start[path[p]];
                     const uint32_t m = s->node_start[path[p] + 1] - s->node_start[path[p]];
-                    rad_block(q, m, nbv, bx + k0, by + k0, bz + k0, bnx + k0, bny + k0, bnz + k0, ar, ag, ab, an, r2);
+                    rad_block(s->pk, q, m, nbv, bx + k0, by + k0, bz + k0, bnx + k0, bny + k0, bnz + k0, ar, ag, ab, an,
+                              r2);
                 }
                 const float w = 1.f / (PGI_PI * r2);
                 for (int t = 0; t < nb; t++) {
@@ -653,9 +655,9 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
                     pgi__acc acc = {ar[t], ag[t], ab[t], 0.f, 0.f, 0.f, an[t]};
                     if (!v.lambert) {
                         for (int p = np - 1; p >= 0; p--) {
-                            const pgi__packed_photon *q = s->lists + s->node_start[path[p]];
+                            const uint32_t *q = s->lists + s->node_start[path[p]];
                             const uint32_t m = s->node_start[path[p] + 1] - s->node_start[path[p]];
-                            for (uint32_t e = 0; e < m; e++) pgi__gather_packed(&v, r2, q + e, &acc);
+                            for (uint32_t e = 0; e < m; e++) pgi__gather_packed(&v, r2, s->pk + q[e], &acc);
                         }
                     }
                     acc.fr += cf[0], acc.fg += cf[1], acc.fb += cf[2];
@@ -694,7 +696,7 @@ void cl_stats_memory(cl_state *s, size_t npix) {
     pgi__stats_mem(&s->c.st, "jobs", s->njobs * sizeof(uint32_t));
     pgi__stats_mem(&s->c.st, "packed_photons", s->npacked * sizeof(pgi__packed_photon));
     if (!(s->variant & V_DIR))
-        pgi__stats_mem(&s->c.st, "photon_lists", s->nlist * sizeof(pgi__packed_photon) + (nn + 1) * sizeof(uint32_t));
+        pgi__stats_mem(&s->c.st, "photon_lists", s->nlist * sizeof(uint32_t) + (nn + 1) * sizeof(uint32_t));
 }
 
 void cl_destroy(void *state) {
