@@ -22,17 +22,24 @@
 
 enum { CLI_EXIT_OK = 0, CLI_EXIT_FAILURE = 1, CLI_EXIT_USAGE = 2 };
 
+/* "photongi CMD: <message>" and the tail (a newline, or the usage hint). */
+static inline void cli_vreport(const char *cmd, const char *tail, const char *fmt, va_list ap) {
+    fprintf(stderr, "photongi %s: ", cmd);
+    vfprintf(stderr, fmt, ap);
+    fputs(tail, stderr);
+}
+
 /* "photongi CMD: <message>\nTry 'photongi CMD --help'.": returns CLI_EXIT_USAGE. */
 #if defined(__GNUC__)
 __attribute__((format(printf, 2, 3)))
 #endif
 static inline int
 cli_usage(const char *cmd, const char *fmt, ...) {
+    char tail[96];
+    snprintf(tail, sizeof tail, "\nTry 'photongi %s --help'.\n", cmd);
     va_list ap;
     va_start(ap, fmt);
-    fprintf(stderr, "photongi %s: ", cmd);
-    vfprintf(stderr, fmt, ap);
-    fprintf(stderr, "\nTry 'photongi %s --help'.\n", cmd);
+    cli_vreport(cmd, tail, fmt, ap);
     va_end(ap);
     return CLI_EXIT_USAGE;
 }
@@ -45,9 +52,7 @@ static inline int
 cli_failure(const char *cmd, const char *fmt, ...) {
     va_list ap;
     va_start(ap, fmt);
-    fprintf(stderr, "photongi %s: ", cmd);
-    vfprintf(stderr, fmt, ap);
-    fputc('\n', stderr);
+    cli_vreport(cmd, "\n", fmt, ap);
     va_end(ap);
     return CLI_EXIT_FAILURE;
 }

@@ -363,10 +363,7 @@ static pgi_status b_build(void *state, const pgi_estimate_args *a) {
         return st;
     const pgi__view_xf x = pgi__view_xf_make(a->camera, W, H);
     double t0 = pgi__now_ms();
-    /* At most max(ntiles, 8192) cells, as in "tiled". */
-    if ((st = pgi__spec_cells_build(&s->cells, vs, &x, r, (uint32_t)(s->ntiles > 8192 ? s->ntiles : 8192),
-                                    s->c.threads)))
-        return st;
+    if ((st = pgi__spec_cells_build(&s->cells, vs, &x, r, pgi__spec_cells_cap(s->ntiles), s->c.threads))) return st;
     s->nbins = s->ntiles + (int)s->cells.n;
     if ((st = pgi__ensure((void **)&s->tile_start, &s->tile_start_cap, (size_t)s->nbins + 1, sizeof(uint32_t))) ||
         (st = pgi__ensure((void **)&s->counts, &s->counts_cap, (nchunks + 1) * (size_t)s->nbins, sizeof(uint32_t))))

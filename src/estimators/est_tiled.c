@@ -171,11 +171,7 @@ static pgi_status tiled_build(void *state, const pgi_estimate_args *a) {
     pgi__view_xf x = pgi__view_xf_make(cam, W, H);
 
     double t0 = pgi__now_ms();
-    /* At most 8192 cells (or as many as tiles): 256 bytes of per-chunk counters each. At 5M photons
-     * on cornell-mirrors, 1024 cells read 1.45x the photons of 8192; unbounded cells cost 4 GB. */
-    if ((st = pgi__spec_cells_build(&s->cells, vs, &x, r, (uint32_t)(s->ntiles > 8192 ? s->ntiles : 8192),
-                                    s->c.threads)))
-        return st;
+    if ((st = pgi__spec_cells_build(&s->cells, vs, &x, r, pgi__spec_cells_cap(s->ntiles), s->c.threads))) return st;
     s->nlists = s->ntiles + (int)s->cells.n;
     if ((st = pgi__ensure((void **)&s->tile_start, &s->tile_start_cap, (size_t)s->nlists + 1, sizeof(uint32_t))) ||
         (st = pgi__ensure((void **)&s->counts, &s->counts_cap, (nchunks + 1) * (size_t)s->nlists, sizeof(uint32_t))))
