@@ -312,7 +312,9 @@ static pgi_status tiled_estimate(void *state, const pgi_estimate_args *a) {
     }
     pgi__stats_estimated(&s->c.st, t0, reads, contrib);
     s->c.st.memory_count = 0;
-    pgi__stats_mem(&s->c.st, "tile_photons", s->copies * sizeof(pgi__packed_photon));
+    const size_t in_tiles = s->nlists ? s->tile_start[s->ntiles] : 0; /* the cells' copies follow */
+    pgi__stats_mem(&s->c.st, "tile_photons", in_tiles * sizeof(pgi__packed_photon));
+    pgi__stats_mem(&s->c.st, "cell_photons", (s->copies - in_tiles) * sizeof(pgi__packed_photon));
     pgi__stats_mem(&s->c.st, "tile_bounds", (size_t)s->ntiles * sizeof(tile_bounds));
     pgi__stats_mem(&s->c.st, "tile_offsets", s->counts_cap * sizeof(uint32_t) + ((size_t)s->nlists + 1) * 4);
     pgi__stats_mem(&s->c.st, "specular_cells", pgi__spec_cells_bytes(&s->cells));
