@@ -37,8 +37,10 @@ typedef struct {
     size_t counts_cap;
     uint32_t *tile_start; /* nlists + 1 */
     size_t tile_start_cap;
-    pgi__packed_photon *tile_photons;
+    pgi__packed_photon *tile_photons; /* the tiles' lists: packed copies */
     size_t tile_photons_cap;
+    uint32_t *cell_ids; /* the cells' lists: photon indices (packed per cell when gathered) */
+    size_t cell_ids_cap;
     size_t copies;
 } tiled_state;
 
@@ -239,10 +241,15 @@ static pgi_status tiled_build(void *state, const pgi_estimate_args *a) {
     if (sum > UINT32_MAX)
         return pgi__fail(PGI_ERR_UNSUPPORTED, "tiled: %llu photon copies exceed the 32-bit index; use a smaller radius",
                          (unsigned long long)sum);
-    if ((st =
-             pgi__ensure((void **)&s->tile_photons, &s->tile_photons_cap, (size_t)sum + 1, sizeof(pgi__packed_photon))))
+    /* The tiles' lists are read by every sample of the tile: packed copies. A cell's list is
+     * packed into a scratch buffer when the cell is gathered, so it is kept as indices (4 bytes,
+     * not 36: on cornell-mirrors at 1M photons 64.8 MB of cell copies become 7.2 MB). */
+    const size_t in_tiles = s->tile_start[s->ntiles];
+    if ((st = pgi__ensure((void **)&s->tile_photons, &s->tile_photons_cap, in_tiles + 1, sizeof(pgi__packed_photon))) ||
+        (st = pgi__ensure((void **)&s->cell_ids, &s->cell_ids_cap, (size_t)sum - in_tiles + 1, sizeof(uint32_t))))
         return st;
     s->copies = (size_t)sum;
+    const int ntl = s->ntiles;
     double t3 = pgi__now_ms();
 #pragma omp parallel for schedule(dynamic, 1) num_threads(s->c.threads)
     for (long long cidx = 0; cidx < (long long)nchunks; cidx++) {
@@ -250,7 +257,11 @@ static pgi_status tiled_build(void *state, const pgi_estimate_args *a) {
         size_t j1 = ((size_t)cidx + 1) * chunk < n ? ((size_t)cidx + 1) * chunk : n;
         for (size_t j = (size_t)cidx * chunk; j < j1; j++) {
             pgi__v3 c = pgi__to_view(&x, ph->px[j], ph->py[j], ph->pz[j]);
-            FOR_EACH_TILE(s, &x, c, r, pgi__pack_photon(ph, j, &s->tile_photons[off[t]++]));
+            FOR_EACH_TILE(s, &x, c, r, {
+                uint32_t o_ = off[t]++;
+                if (t < ntl) pgi__pack_photon(ph, j, &s->tile_photons[o_]);
+                else s->cell_ids[o_ - in_tiles] = (uint32_t)j;
+            });
         }
     }
     double t4 = pgi__now_ms();
@@ -291,11 +302,13 @@ static pgi_status tiled_estimate(void *state, const pgi_estimate_args *a) {
     const int sub = s->c.desc.subsample;
     const uint64_t seed = s->c.seed;
     uint64_t reads = 0, contrib = 0;
-#pragma omp parallel for schedule(dynamic, 1) reduction(+ : reads, contrib) num_threads(s->c.threads)
+    int oom = 0;
+    const size_t in_tiles = s->tile_start[s->ntiles];
+#pragma omp parallel for schedule(dynamic, 1) reduction(+ : reads, contrib) reduction(| : oom) num_threads(s->c.threads)
     for (int t = 0; t < s->nlists; t++) {
-        const pgi__packed_photon *q = s->tile_photons + s->tile_start[t];
         const uint32_t nq = s->tile_start[t + 1] - s->tile_start[t];
         if (t < s->ntiles) {
+            const pgi__packed_photon *q = s->tile_photons + s->tile_start[t];
             int tx = t % s->ntx, ty = t / s->ntx;
             for (int py = ty * T; py < (ty + 1) * T && py < H; py++)
                 for (int px = tx * T; px < (tx + 1) * T && px < W; px++) {
@@ -306,15 +319,28 @@ static pgi_status tiled_estimate(void *state, const pgi_estimate_args *a) {
         } else {
             const pgi__spec_cells *c = &s->cells;
             const uint32_t k = (uint32_t)(t - s->ntiles);
+            const uint32_t *ids = s->cell_ids + (s->tile_start[t] - in_tiles);
+            pgi__packed_photon *q = malloc(((size_t)nq + 1) * sizeof *q);
+            if (!q) {
+                oom = 1;
+                continue;
+            }
+            for (uint32_t e = 0; e < nq; e++) pgi__pack_photon(a->photons, ids[e], &q[e]);
             for (uint32_t m = c->start[k]; m < c->start[k + 1]; m++)
                 gather_one(a, c->sample[m], r2, kern, sub, seed, q, nq, &reads, &contrib);
+            free(q);
         }
     }
+    if (oom) return pgi__fail(PGI_ERR_OOM, "tiled: out of memory packing a mirror cell's photons");
     pgi__stats_estimated(&s->c.st, t0, reads, contrib);
     s->c.st.memory_count = 0;
-    const size_t in_tiles = s->nlists ? s->tile_start[s->ntiles] : 0; /* the cells' copies follow */
     pgi__stats_mem(&s->c.st, "tile_photons", in_tiles * sizeof(pgi__packed_photon));
-    pgi__stats_mem(&s->c.st, "cell_photons", (s->copies - in_tiles) * sizeof(pgi__packed_photon));
+    size_t longest = 0; /* a cell's list packed while it is gathered: one at a time a thread */
+    for (int t = s->ntiles; t < s->nlists; t++)
+        if (s->tile_start[t + 1] - s->tile_start[t] > longest) longest = s->tile_start[t + 1] - s->tile_start[t];
+    pgi__stats_mem(&s->c.st, "cell_photons",
+                   (s->copies - in_tiles) * sizeof(uint32_t) +
+                       (size_t)s->c.threads * longest * sizeof(pgi__packed_photon));
     pgi__stats_mem(&s->c.st, "tile_bounds", (size_t)s->ntiles * sizeof(tile_bounds));
     pgi__stats_mem(&s->c.st, "tile_offsets", s->counts_cap * sizeof(uint32_t) + ((size_t)s->nlists + 1) * 4);
     pgi__stats_mem(&s->c.st, "specular_cells", pgi__spec_cells_bytes(&s->cells));
@@ -331,6 +357,7 @@ static void tiled_destroy(void *state) {
     pgi__afree(s->counts);
     pgi__afree(s->tile_start);
     pgi__afree(s->tile_photons);
+    pgi__afree(s->cell_ids);
     free(s);
 }
 
