@@ -37,6 +37,7 @@
 #include <string.h>
 
 #include "cluster_internal.h"
+#include "spec_cells.h"
 
 #define RADIX_BITS 13 /* at most; 2 passes up to 26 key bits (1080p with 8-pixel tiles) */
 #define RADIX (1u << RADIX_BITS)
@@ -367,27 +368,16 @@ static inline uint64_t spread3(uint64_t v) {
  * cell), stored as (cell key << 32 | pixel) at keys2[sec_base]; each run of
  * one cell is a cluster. */
 static pgi_status sort_secondary(cl_state *s, const pgi_view_samples *vs, build_ctx *bc) {
-    const size_t nsec = bc->nsec, np = (size_t)vs->width * (size_t)vs->height;
+    const size_t nsec = bc->nsec;
     if (!nsec) return PGI_OK;
     pgi_status st;
     if ((st = ENSURE(sec_key, 2 * nsec + 1, uint64_t)) || (st = ENSURE(sec_pix, 2 * nsec + 1, uint32_t)) ||
         (st = ENSURE(sec_pos, 3 * nsec + 1, float)))
         return st;
-    size_t m = 0;
-    for (size_t i = 0; i < np; i++)
-        if ((vs->flags[i] & (PGI_VS_VALID | PGI_VS_PRIMARY)) == PGI_VS_VALID) s->sec_pix[m++] = (uint32_t)i;
+    float lo[3], hi[3];
+    const size_t m = pgi__spec_samples(vs, &s->x, s->sec_pix, s->sec_pos, lo, hi, s->c.threads);
     PGI_ASSERT(m == nsec);
-    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    for (size_t k = 0; k < nsec; k++) {
-        const float *p = vs->pos + 3 * (size_t)s->sec_pix[k];
-        pgi__v3 q = pgi__to_view(&s->x, p[0], p[1], p[2]);
-        float qq[3] = {q.x, q.y, q.z};
-        for (int d = 0; d < 3; d++) {
-            s->sec_pos[3 * k + d] = qq[d];
-            lo[d] = pgi_minf(lo[d], qq[d]);
-            hi[d] = pgi_maxf(hi[d], qq[d]);
-        }
-    }
+    (void)m;
     /* as many bits a side as the primary key has per dimension on average (at most 21) */
     int b = (bc->bits - 1) / 3;
     b = b > 21 ? 21 : b;

@@ -90,10 +90,6 @@ typedef struct {
     int use_depth;
 } shape;
 
-static inline float inflate(pgi__v3 c, float r) {
-    return r + 1e-4f * r + 1e-6f * (fabsf(c.x) + fabsf(c.y) + fabsf(c.z));
-}
-
 /* Tangent slopes u of the planes x' = u z through the eye that touch the
  * circle (a, z, r), z > r (as in est_tiled.c). */
 static inline void silhouette(float a, float z, float r, float *u0, float *u1) {
@@ -179,7 +175,7 @@ static int clipped_shape(const pgi__view_xf *x, pgi__v3 c, float ri, int m, shap
  * no primary sample can be inside the sphere (it lies behind the eye, or its
  * bound misses the screen). */
 static int make_shape(const bounds_state *s, const pgi__view_xf *x, pgi__v3 c, float r, shape *sh) {
-    float ri = inflate(c, r);
+    float ri = pgi__pad_radius(c, r);
     sh->n = 0;
     sh->pad = s->jitter;
     sh->zlo = c.z - ri;
@@ -297,7 +293,7 @@ static inline void row_span(const shape *sh, float Y, int W, int *xa, int *xb) {
 
 /* Calls BODY with t for every bin photon j goes to: the primary tiles of its
  * bound's rectangle in increasing order, then the cells of mirror-seen samples
- * its sphere (padded by inflate, as the bounds) may reach (t = ntiles + cell). */
+ * its sphere (padded by pgi__pad_radius, as the bounds) may reach (t = ntiles + cell). */
 #define FOR_EACH_BIN(S_, XF_, J_, BODY)                                                                                \
     do {                                                                                                               \
         pgi__v3 c_ = v3((S_)->cview[3 * (J_)], (S_)->cview[3 * (J_) + 1], (S_)->cview[3 * (J_) + 2]);                  \
@@ -311,7 +307,7 @@ static inline void row_span(const shape *sh, float Y, int W, int *xa, int *xb) {
                     if ((S_)->primary[t]) { BODY; }                                                                    \
                 }                                                                                                      \
         }                                                                                                              \
-        const float rr_ = inflate(c_, r);                                                                              \
+        const float rr_ = pgi__pad_radius(c_, r);                                                                      \
         PGI__FOR_EACH_SPEC_CELL(&(S_)->cells, c_, rr_, int t = (S_)->ntiles + (int)k_; BODY);                          \
     } while (0)
 

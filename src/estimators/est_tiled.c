@@ -76,20 +76,12 @@ static inline void silhouette(float a, float z, float r, float *u0, float *u1) {
     *u1 = (a * z + r * disc) / den;
 }
 
-/* Sphere vs tile: box distance, then the four side planes of the tile's
- * frustum (through the eye and the tile's pixel edges). */
-static inline int overlaps(const tiled_state *s, const pgi__view_xf *x, int t, pgi__v3 c, float r) {
+/* Sphere vs tile (view-space centre c, padded radius rr): box distance, then
+ * the four side planes of the tile's frustum (through the eye and the tile's
+ * pixel edges). */
+static inline int overlaps(const tiled_state *s, const pgi__view_xf *x, int t, pgi__v3 c, float rr) {
     const tile_bounds *b = &s->bounds[t];
-    if (!b->valid) return 0;
-    float slack = 1e-4f * r + 1e-6f * (fabsf(c.x) + fabsf(c.y) + fabsf(c.z));
-    float rr = r + slack;
-    float d2 = 0.f, cc[3] = {c.x, c.y, c.z};
-    for (int k = 0; k < 3; k++) {
-        float lo = b->lo[k] - cc[k], hi = cc[k] - b->hi[k];
-        float e = lo > hi ? lo : hi;
-        if (e > 0.f) d2 += e * e;
-    }
-    if (d2 > rr * rr) return 0;
+    if (!b->valid || pgi__box_d2(b->lo, b->hi, c) > rr * rr) return 0;
     int tx = t % s->ntx, ty = t / s->ntx;
     float u0 = (2.f * (float)(tx * s->T) / (float)x->W - 1.f) * x->sx;
     float u1 = (2.f * (float)((tx + 1) * s->T) / (float)x->W - 1.f) * x->sx;
@@ -109,15 +101,8 @@ static inline int overlaps(const tiled_state *s, const pgi__view_xf *x, int t, p
  * with them in this box, every photon behind the camera would go through the
  * whole-screen branch below and test every tile: 2 s of a 1M-photon build on
  * fireplace-room.) */
-static inline int frame_overlaps(const tiled_state *s, pgi__v3 c, float r) {
-    float rr = r + 1e-4f * r + 1e-6f * (fabsf(c.x) + fabsf(c.y) + fabsf(c.z));
-    float cc[3] = {c.x, c.y, c.z}, d2 = 0.f;
-    for (int k = 0; k < 3; k++) {
-        float lo = s->frame_lo[k] - cc[k], hi = cc[k] - s->frame_hi[k];
-        float e = lo > hi ? lo : hi;
-        if (e > 0.f) d2 += e * e;
-    }
-    return d2 <= rr * rr;
+static inline int frame_overlaps(const tiled_state *s, pgi__v3 c, float rr) {
+    return pgi__box_d2(s->frame_lo, s->frame_hi, c) <= rr * rr;
 }
 
 /* Runs BODY with `t` every photon list the sphere (view-space centre c) may
@@ -125,7 +110,8 @@ static inline int frame_overlaps(const tiled_state *s, pgi__v3 c, float r) {
  * through mirrors/glass near it. */
 #define FOR_EACH_TILE(S_, XF_, C_, R_, BODY)                                                                           \
     do {                                                                                                               \
-        if (frame_overlaps((S_), (C_), (R_))) {                                                                        \
+        const float rr_ = pgi__pad_radius((C_), (R_));                                                                 \
+        if (frame_overlaps((S_), (C_), rr_)) {                                                                         \
             int tx0 = 0, tx1 = (S_)->ntx - 1, ty0 = 0, ty1 = (S_)->nty - 1;                                            \
             if ((C_).z - (R_) > 1e-6f * fabsf((C_).z)) {                                                               \
                 float u0, u1, w0, w1;                                                                                  \
@@ -144,10 +130,9 @@ static inline int frame_overlaps(const tiled_state *s, pgi__v3 c, float r) {
             for (int ty_ = ty0; ty_ <= ty1; ty_++)                                                                     \
                 for (int tx_ = tx0; tx_ <= tx1; tx_++) {                                                               \
                     int t = ty_ * (S_)->ntx + tx_;                                                                     \
-                    if (overlaps((S_), (XF_), t, (C_), (R_))) { BODY; }                                                \
+                    if (overlaps((S_), (XF_), t, (C_), rr_)) { BODY; }                                                 \
                 }                                                                                                      \
         }                                                                                                              \
-        const float rr_ = (R_) + 1e-4f * (R_) + 1e-6f * (fabsf((C_).x) + fabsf((C_).y) + fabsf((C_).z));               \
         PGI__FOR_EACH_SPEC_CELL(&(S_)->cells, (C_), rr_, int t = (S_)->ntiles + (int)k_; BODY);                        \
     } while (0)
 

@@ -5,9 +5,25 @@
 
 #define CELL_BITS 21 /* per axis, in the packed key */
 
-static inline int cell_of(float v, float o, float inv_h, int dim) {
-    float f = floorf((v - o) * inv_h);
-    return f < 0.f ? 0 : (f > (float)(dim - 1) ? dim - 1 : (int)f);
+size_t pgi__spec_samples(const pgi_view_samples *vs, const pgi__view_xf *x, uint32_t *pix, float *q, float lo[3],
+                         float hi[3], int threads) {
+    const size_t np = vs->count;
+    size_t n = 0;
+    for (size_t i = 0; i < np; i++)
+        if ((vs->flags[i] & (PGI_VS_VALID | PGI_VS_PRIMARY)) == PGI_VS_VALID) pix[n++] = (uint32_t)i;
+#pragma omp parallel for schedule(static) num_threads(threads)
+    for (long long k = 0; k < (long long)n; k++) {
+        const float *p = vs->pos + 3 * (size_t)pix[k];
+        pgi__v3 v = pgi__to_view(x, p[0], p[1], p[2]);
+        q[3 * k] = v.x, q[3 * k + 1] = v.y, q[3 * k + 2] = v.z;
+    }
+    for (int a = 0; a < 3; a++) lo[a] = INFINITY, hi[a] = -INFINITY;
+    for (size_t k = 0; k < n; k++)
+        for (int a = 0; a < 3; a++) {
+            lo[a] = fminf(lo[a], q[3 * k + a]);
+            hi[a] = fmaxf(hi[a], q[3 * k + a]);
+        }
+    return n;
 }
 
 pgi_status pgi__spec_cells_build(pgi__spec_cells *sc, const pgi_view_samples *vs, const pgi__view_xf *x, float r,
@@ -27,21 +43,7 @@ pgi_status pgi__spec_cells_build(pgi__spec_cells *sc, const pgi_view_samples *vs
         (st = pgi__buf_reserve(&sc->scell_buf, ns, sizeof(uint32_t))) ||
         (st = pgi__buf_reserve(&sc->sample_buf, ns, sizeof(uint32_t))))
         return st;
-    size_t j = 0;
-    for (size_t i = 0; i < np; i++)
-        if ((vs->flags[i] & (PGI_VS_VALID | PGI_VS_PRIMARY)) == PGI_VS_VALID) sc->pix[j++] = (uint32_t)i;
-    sc->nsamples = (uint32_t)ns;
-#pragma omp parallel for schedule(static) num_threads(threads)
-    for (long long k = 0; k < (long long)ns; k++) {
-        const float *p = vs->pos + 3 * (size_t)sc->pix[k];
-        pgi__v3 q = pgi__to_view(x, p[0], p[1], p[2]);
-        sc->q[3 * k] = q.x, sc->q[3 * k + 1] = q.y, sc->q[3 * k + 2] = q.z;
-    }
-    for (size_t k = 0; k < ns; k++)
-        for (int a = 0; a < 3; a++) {
-            sc->lo[a] = fminf(sc->lo[a], sc->q[3 * k + a]);
-            sc->hi[a] = fmaxf(sc->hi[a], sc->q[3 * k + a]);
-        }
+    sc->nsamples = (uint32_t)pgi__spec_samples(vs, x, sc->pix, sc->q, sc->lo, sc->hi, threads);
     for (int a = 0; a < 3; a++)
         if (!(sc->lo[a] <= sc->hi[a]) || !isfinite(sc->lo[a]) || !isfinite(sc->hi[a]))
             return pgi__fail(PGI_ERR_INVALID_ARG, "view samples seen through mirrors have non-finite positions");
@@ -70,9 +72,8 @@ pgi_status pgi__spec_cells_build(pgi__spec_cells *sc, const pgi_view_samples *vs
         int full = 0;
         for (size_t k = 0; k < ns && !full; k++) {
             const float *q = sc->q + 3 * k;
-            uint64_t key = pgi__spec_cell_key(cell_of(q[0], sc->o[0], sc->inv_h, sc->dim[0]),
-                                              cell_of(q[1], sc->o[1], sc->inv_h, sc->dim[1]),
-                                              cell_of(q[2], sc->o[2], sc->inv_h, sc->dim[2]));
+            uint64_t key = pgi__spec_cell_key(pgi__spec_cell_coord(sc, q[0], 0), pgi__spec_cell_coord(sc, q[1], 1),
+                                              pgi__spec_cell_coord(sc, q[2], 2));
             uint32_t hsh = (uint32_t)((key * 0x9E3779B97F4A7C15ull) >> 32) & sc->hmask;
             while (sc->hkey[hsh] != 0 && sc->hkey[hsh] != key) hsh = (hsh + 1) & sc->hmask;
             if (sc->hkey[hsh] == 0) {

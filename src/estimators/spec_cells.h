@@ -43,6 +43,12 @@ typedef struct pgi__spec_cells {
  * unbounded cells cost 4 GB. */
 static inline uint32_t pgi__spec_cells_cap(int ntiles) { return (uint32_t)(ntiles > 8192 ? ntiles : 8192); }
 
+/* Lists the valid samples of vs without PGI_VS_PRIMARY in pixel order (pix,
+ * room for all of them) with their view-space positions (q, 3 a sample) and
+ * box [lo, hi]; returns how many. Shared with the cluster family's build. */
+size_t pgi__spec_samples(const pgi_view_samples *vs, const pgi__view_xf *x, uint32_t *pix, float *q, float lo[3],
+                         float hi[3], int threads);
+
 /* Groups the valid samples without PGI_VS_PRIMARY of vs; r is the gather
  * radius. */
 pgi_status pgi__spec_cells_build(pgi__spec_cells *sc, const pgi_view_samples *vs, const pgi__view_xf *x, float r,
@@ -50,6 +56,12 @@ pgi_status pgi__spec_cells_build(pgi__spec_cells *sc, const pgi_view_samples *vs
 void pgi__spec_cells_free(pgi__spec_cells *sc);
 /* Bytes held (for the stats). */
 size_t pgi__spec_cells_bytes(const pgi__spec_cells *sc);
+
+/* The cell coordinate along axis a of view-space value v, clamped to the grid. */
+static inline int pgi__spec_cell_coord(const pgi__spec_cells *sc, float v, int a) {
+    float f = floorf((v - sc->o[a]) * sc->inv_h);
+    return f < 0.f ? 0 : (f > (float)(sc->dim[a] - 1) ? sc->dim[a] - 1 : (int)f);
+}
 
 static inline uint64_t pgi__spec_cell_key(int ix, int iy, int iz) {
     return ((uint64_t)ix << 42 | (uint64_t)iy << 21 | (uint64_t)iz) + 1;
@@ -65,16 +77,10 @@ static inline uint32_t pgi__spec_cell_find(const pgi__spec_cells *sc, uint64_t k
     }
 }
 
-/* Squared distance from c to the box of cell k, against rr^2. */
+/* Whether the sphere (c, padded radius rr) reaches the box of cell k. */
 static inline int pgi__spec_cell_near(const pgi__spec_cells *sc, uint32_t k, pgi__v3 c, float rr) {
     const float *b = sc->box + 6 * (size_t)k;
-    float cc[3] = {c.x, c.y, c.z}, d2 = 0.f;
-    for (int a = 0; a < 3; a++) {
-        float lo = b[a] - cc[a], hi = cc[a] - b[3 + a];
-        float e = lo > hi ? lo : hi;
-        if (e > 0.f) d2 += e * e;
-    }
-    return d2 <= rr * rr;
+    return pgi__box_d2(b, b + 3, c) <= rr * rr;
 }
 
 /* The cells the sphere (view-space centre C_, radius RR_, already padded for
@@ -88,10 +94,8 @@ static inline int pgi__spec_cell_near(const pgi__spec_cells *sc, uint32_t k, pgi
         int i0_[3], i1_[3], out_ = 0;                                                                                  \
         for (int a_ = 0; a_ < 3; a_++) {                                                                               \
             if (cc_[a_] + (RR_) < sc_->lo[a_] || cc_[a_] - (RR_) > sc_->hi[a_]) out_ = 1;                              \
-            float f0_ = floorf((cc_[a_] - (RR_)-sc_->o[a_]) * sc_->inv_h);                                             \
-            float f1_ = floorf((cc_[a_] + (RR_)-sc_->o[a_]) * sc_->inv_h);                                             \
-            i0_[a_] = f0_ < 0.f ? 0 : (f0_ > (float)(sc_->dim[a_] - 1) ? sc_->dim[a_] - 1 : (int)f0_);                 \
-            i1_[a_] = f1_ < 0.f ? 0 : (f1_ > (float)(sc_->dim[a_] - 1) ? sc_->dim[a_] - 1 : (int)f1_);                 \
+            i0_[a_] = pgi__spec_cell_coord(sc_, cc_[a_] - (RR_), a_);                                                  \
+            i1_[a_] = pgi__spec_cell_coord(sc_, cc_[a_] + (RR_), a_);                                                  \
         }                                                                                                              \
         if (out_) break;                                                                                               \
         for (int ix_ = i0_[0]; ix_ <= i1_[0]; ix_++)                                                                   \
