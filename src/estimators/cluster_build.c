@@ -170,7 +170,7 @@ static inline void soa_store(cl_state *s, size_t ni, const cnode *nd) {
 /* What one phase of the build hands to the next. */
 typedef struct {
     float near, log_near, inv_step; /* depth slices */
-    int nslices_m1, any_secondary;
+    int nslices_m1;
     uint64_t *sp[3];    /* spread tables: tile x, tile y, slice -> key bits */
     uint64_t sec_bit;   /* top key bit of the mirror/glass subtree */
     int bits;           /* key bits */
@@ -231,13 +231,13 @@ static pgi_status scan_samples(cl_state *s, const pgi_view_samples *vs, const pg
     }
     s->nvalid = nvalid;
     bc->near = near, bc->log_near = log_near, bc->inv_step = inv_step;
-    bc->nslices_m1 = nslices_m1, bc->any_secondary = nsec > 0;
+    bc->nslices_m1 = nslices_m1;
     bc->nsec = nsec;
     return PGI_OK;
 }
 
 static pgi_status key_layout(cl_state *s, build_ctx *bc) {
-    const int nslices_m1 = bc->nslices_m1, any_secondary = bc->any_secondary;
+    const int nslices_m1 = bc->nslices_m1;
     pgi_status st;
     /* Key layout: interleave (the dimension with the most bits left first). */
     int bd[3] = {bits_for((uint32_t)s->ntx), bits_for((uint32_t)s->nty), bits_for((uint32_t)nslices_m1 + 1)};
@@ -263,7 +263,7 @@ static pgi_status key_layout(cl_state *s, build_ctx *bc) {
                 sp[d][v] = kk;
             }
     }
-    const int bits = btot + (any_secondary ? 1 : 0);
+    const int bits = btot + (bc->nsec > 0 ? 1 : 0);
     const uint64_t sec_bit = (uint64_t)1 << btot;
     int L = (bits + 4) / 5;
     if (L > MAX_LEVELS) return pgi__fail(PGI_ERR_UNSUPPORTED, "cluster: %d key bits exceed the hierarchy depth", bits);
