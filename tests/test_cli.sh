@@ -447,7 +447,15 @@ if expect_ok reference --scene cornell --size 24x16 --spp 2 -q -o "$TMP/r.exr" -
     if expect_ok compare "$TMP/p.png" "$TMP/r.exr" --json --diff "$TMP/heat.png"; then
         case $out in *'"ssim"'*'"psnr"'*|*'"psnr"'*'"ssim"'*) ok ;; *) bad "compare --json: no ssim/psnr: $out" ;; esac
         [ -s "$TMP/heat.png" ] && ok || bad "compare did not write the heat map"
+        case $out in *'"flip": 0.'[0-9]*'"flip_weighted_median"'*) ok ;; *) bad "compare --json: no flip: $out" ;; esac
     fi
+    # FLIP: an image against itself is 0; the FLIP map is written; a bad --ppd is a usage error
+    if expect_ok compare "$TMP/p.png" "$TMP/p.png" --flip-map "$TMP/flip.png"; then
+        case $out in *'FLIP 0.000000 '*) ok ;; *) bad "compare of an image with itself: FLIP not 0: $out" ;; esac
+        [ -s "$TMP/flip.png" ] && ok || bad "compare did not write the FLIP map"
+    fi
+    expect_status 2 "--ppd" compare "$TMP/p.png" "$TMP/r.exr" --ppd 0
+    expect_status 2 "--flip-map" compare "$TMP/p.png" "$TMP/r.exr" --flip-map "$TMP/flip.jpg"
     expect_ok render --scene cornell --size 32x16 --photons 2000 -q -o "$TMP/q.png"
     expect_status 1 "sizes differ" compare "$TMP/q.png" "$TMP/r.exr"
     expect_error "missing.png" compare "$TMP/p.png" "$TMP/missing.png"

@@ -1,4 +1,4 @@
-/* photongi compare A B [--json] [--diff heat.png]: PSNR and SSIM of A against
+/* photongi compare A B [--json] [--diff heat.png] [--flip-map F.png]: PSNR, SSIM and FLIP of A against
  * the reference B on the tone-mapped images (include/photongi/metrics.h). */
 #include <errno.h>
 #include <math.h>
@@ -13,7 +13,8 @@
 #include "photongi/metrics.h"
 
 static const char *k_compare_help =
-    "usage: photongi compare A B [--json] [--diff HEAT.png] [--diff-max E] [--exposure X]\n"
+    "usage: photongi compare A B [--json] [--diff HEAT.png] [--diff-max E] [--flip-map FLIP.png]\n"
+    "                            [--ppd P] [--exposure X]\n"
     "\n"
     "Compares image A with the reference B (PNG or EXR, same size, at least 11x11). Both are\n"
     "tone-mapped as 'render' writes PNG (exposure, sRGB, 8 bits; a PNG compares by its bytes).\n"
@@ -22,11 +23,17 @@ static const char *k_compare_help =
     "  SSIM      Wang et al. 2004 as scikit-image: 11x11 Gaussian window, sigma 1.5, K1 0.01,\n"
     "            K2 0.03, data range 1, mean over the map without its 5-pixel border;\n"
     "            on luma (0.2126 R' + 0.7152 G' + 0.0722 B'), and the mean of R, G, B\n"
+    "  FLIP      LDR-FLIP (Andersson et al. 2020) as NVlabs' reference tool computes it: per-pixel\n"
+    "            error in [0,1] at P pixels per degree; its mean, and the weighted median and\n"
+    "            quartiles (each value weighted by itself)\n"
     "\n"
     "  --json          print the result as one JSON object on standard output\n"
     "  --diff FILE     write a heat map PNG of the largest channel difference per pixel\n"
     "                  (black 0 -> red -> yellow -> white at --diff-max)\n"
     "  --diff-max E    difference shown as white, in [0,1] units (default 0.1)\n"
+    "  --flip-map FILE write FLIP's error map PNG (magma colour map: black 0 -> yellow-white 1)\n"
+    "  --ppd P         FLIP's pixels per degree, 1..1000 (default 67.02: 0.7 m from a 0.7 m wide\n"
+    "                  3840-pixel monitor; halve it for a monitor of 1920 pixels)\n"
     "  --exposure X    multiply EXR radiance by X before tone mapping (default 1)\n"
     "\n"
     "Exit status: 0 success, 2 usage error, 1 failure (an image missing, unreadable, or not\n"
@@ -37,10 +44,22 @@ static const char *k_compare_help =
  * most bytes: a PNG heat map gets the same bytes either way, an EXR one would not. */
 static float srgb_to_linear(float c) { return c <= 0.04045f ? c / 12.92f : powf((c + 0.055f) / 1.055f, 2.4f); }
 
+/* Writes 8-bit sRGB bytes as a PNG through the library's writer: bytes -> linear, so that its sRGB tone
+ * map gives them back. */
+static pgi_status write_rgb8(const unsigned char *rgb8, int w, int h, const char *path) {
+    size_t n3 = (size_t)w * h * 3;
+    pgi_image img = {w, h, malloc(n3 * sizeof(float))};
+    if (!img.rgb) return PGI_ERR_OOM;
+    for (size_t i = 0; i < n3; i++) img.rgb[i] = srgb_to_linear((float)rgb8[i] / 255.f);
+    pgi_status st = pgi_image_write(&img, path, 1.f);
+    pgi_image_free(&img);
+    return st;
+}
+
 int pgi_cmd_compare(int argc, char **argv) {
-    const char *files[2] = {NULL, NULL}, *diff = NULL;
+    const char *files[2] = {NULL, NULL}, *diff = NULL, *flip_map = NULL;
     int nfiles = 0, json = 0;
-    float exposure = 1.f, diff_max = 0.1f;
+    float exposure = 1.f, diff_max = 0.1f, ppd = PGI_FLIP_DEFAULT_PPD;
     for (int i = 0; i < argc; i++) {
         const char *a = argv[i];
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
@@ -48,11 +67,16 @@ int pgi_cmd_compare(int argc, char **argv) {
             return 0;
         } else if (strcmp(a, "--json") == 0) {
             json = 1;
-        } else if (strcmp(a, "--diff") == 0 || strcmp(a, "--diff-max") == 0 || strcmp(a, "--exposure") == 0) {
+        } else if (strcmp(a, "--diff") == 0 || strcmp(a, "--diff-max") == 0 || strcmp(a, "--exposure") == 0 ||
+                   strcmp(a, "--flip-map") == 0 || strcmp(a, "--ppd") == 0) {
             if (i + 1 >= argc) return cli_usage("compare", "%s needs a value", a);
             const char *v = argv[++i];
             if (strcmp(a, "--diff") == 0) diff = v;
-            else if (!parse_pos_float(v, strcmp(a, "--exposure") == 0 ? &exposure : &diff_max))
+            else if (strcmp(a, "--flip-map") == 0) flip_map = v;
+            else if (strcmp(a, "--ppd") == 0) {
+                if (!parse_pos_float(v, &ppd) || ppd < 1.f || ppd > 1000.f)
+                    return cli_usage("compare", "--ppd needs a number in [1, 1000], got '%s'", v);
+            } else if (!parse_pos_float(v, strcmp(a, "--exposure") == 0 ? &exposure : &diff_max))
                 return cli_usage("compare", "%s needs a positive number, got '%s'", a, v);
         } else if (a[0] == '-' && a[1]) {
             return cli_usage("compare", "unknown option '%s'", a);
@@ -64,6 +88,7 @@ int pgi_cmd_compare(int argc, char **argv) {
     if (nfiles != 2) return cli_usage("compare", "%s", "give two images: photongi compare TEST REFERENCE");
     static const char *const k_png[] = {".png", NULL};
     int rc = diff ? app_check_output("photongi compare", "--diff", diff, k_png) : 0;
+    if (!rc && flip_map) rc = app_check_output("photongi compare", "--flip-map", flip_map, k_png);
     if (rc) return rc;
     pgi_image img[2] = {{0}, {0}};
     for (int k = 0; k < 2; k++) {
@@ -83,28 +108,36 @@ int pgi_cmd_compare(int argc, char **argv) {
         if (strncmp(msg, "compare: ", 9) == 0) msg += 9;
         return cli_failure("compare", "%s vs %s: %s", files[0], files[1], *msg ? msg : pgi_status_string(st));
     }
-    if (diff) {
-        size_t n = (size_t)img[0].width * img[0].height;
-        unsigned char *heat = malloc(3 * n);
-        pgi_image hi = {img[0].width, img[0].height, malloc(3 * n * sizeof(float))};
-        if (!heat || !hi.rgb) {
-            free(heat);
-            pgi_image_free(&hi);
-            pgi_image_free(&img[0]);
-            pgi_image_free(&img[1]);
-            return cli_failure("compare", "%s", "out of memory for the heat map");
+    const int w = img[0].width, h = img[0].height;
+    const size_t n = (size_t)w * h;
+    unsigned char *rgb8 = (diff || flip_map) ? malloc(3 * n) : NULL;
+    float *fmap = flip_map ? malloc(n * sizeof *fmap) : NULL;
+    const char *what = NULL;
+    if ((diff || flip_map) && (!rgb8 || (flip_map && !fmap))) {
+        what = "out of memory for the maps";
+        st = PGI_ERR_OOM;
+    }
+    if (!st && diff) {
+        what = "cannot write the heat map";
+        st = pgi_metrics_heatmap(&img[0], &img[1], exposure, diff_max, rgb8);
+        if (!st) st = write_rgb8(rgb8, w, h, diff);
+    }
+    /* FLIP at another viewing distance, or its map: computed again with the map kept. */
+    if (!st && (flip_map || ppd != PGI_FLIP_DEFAULT_PPD)) {
+        what = "cannot compute FLIP";
+        st = pgi_metrics_flip(&img[0], &img[1], exposure, ppd, fmap, &m.flip);
+        if (!st && flip_map) {
+            what = "cannot write the FLIP map";
+            pgi_flip_colorize(fmap, n, rgb8);
+            st = write_rgb8(rgb8, w, h, flip_map);
         }
-        st = pgi_metrics_heatmap(&img[0], &img[1], exposure, diff_max, heat);
-        /* Bytes -> linear, so that the PNG writer's sRGB tone map gives them back. */
-        for (size_t i = 0; i < 3 * n; i++) hi.rgb[i] = srgb_to_linear((float)heat[i] / 255.f);
-        if (!st) st = pgi_image_write(&hi, diff, 1.f);
-        free(heat);
-        pgi_image_free(&hi);
-        if (st) {
-            pgi_image_free(&img[0]);
-            pgi_image_free(&img[1]);
-            return cli_fail("compare", "cannot write the heat map", st);
-        }
+    }
+    free(rgb8);
+    free(fmap);
+    if (st) {
+        pgi_image_free(&img[0]);
+        pgi_image_free(&img[1]);
+        return cli_fail("compare", what, st);
     }
     pgi_image_free(&img[0]);
     pgi_image_free(&img[1]);
@@ -113,12 +146,17 @@ int pgi_cmd_compare(int argc, char **argv) {
     else snprintf(psnr, sizeof psnr, "%.8f", m.psnr);
     if (json) {
         printf("{\"width\": %d, \"height\": %d, \"psnr\": %s, \"mse\": %.9g, \"ssim\": %.8f, \"ssim_rgb\": %.8f, "
-               "\"ssim_r\": %.8f, \"ssim_g\": %.8f, \"ssim_b\": %.8f, \"max_abs\": %.6f}\n",
+               "\"ssim_r\": %.8f, \"ssim_g\": %.8f, \"ssim_b\": %.8f, \"max_abs\": %.6f, \"flip\": %.8f, "
+               "\"flip_weighted_median\": %.8f, \"flip_weighted_q1\": %.8f, \"flip_weighted_q3\": %.8f, "
+               "\"flip_max\": %.8f, \"flip_ppd\": %.6f}\n",
                m.width, m.height, psnr, m.mse, m.ssim, m.ssim_rgb, m.ssim_channel[0], m.ssim_channel[1],
-               m.ssim_channel[2], m.max_abs);
+               m.ssim_channel[2], m.max_abs, m.flip.mean, m.flip.weighted_median, m.flip.weighted_q1,
+               m.flip.weighted_q3, m.flip.max, (double)m.flip.ppd);
     } else {
         printf("PSNR %s dB  SSIM %.4f (luma)  %.4f (RGB mean: %.4f %.4f %.4f)  max diff %.4f  %dx%d\n", psnr, m.ssim,
                m.ssim_rgb, m.ssim_channel[0], m.ssim_channel[1], m.ssim_channel[2], m.max_abs, m.width, m.height);
+        printf("FLIP %.6f (weighted median %.6f, quartiles %.6f %.6f, max %.6f; %.2f pixels per degree)\n", m.flip.mean,
+               m.flip.weighted_median, m.flip.weighted_q1, m.flip.weighted_q3, m.flip.max, (double)m.flip.ppd);
     }
     return 0;
 }

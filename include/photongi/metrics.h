@@ -10,6 +10,11 @@
  *   K2=0.03, mean of the SSIM map without the 5-pixel border.
  *   `ssim` is on luma Y = 0.2126 R' + 0.7152 G' + 0.0722 B' of the sRGB
  *   values; `ssim_rgb` the mean of the three per-channel SSIMs.
+ *   LDR-FLIP after Andersson et al. 2020 (HPG), as the NVlabs reference tool
+ *   computes it for 8-bit images: per-pixel error in [0,1] at a viewing
+ *   distance given in pixels per degree (default PGI_FLIP_DEFAULT_PPD: 0.7 m
+ *   from a 0.7 m wide 3840-pixel monitor), pooled as the mean, the weighted
+ *   median and quartiles (each value weighted by itself), min and max.
  */
 #ifndef PHOTONGI_METRICS_H
 #define PHOTONGI_METRICS_H
@@ -20,6 +25,19 @@
 extern "C" {
 #endif
 
+/* Pooled LDR-FLIP values of an error map. */
+typedef struct pgi_flip_stats {
+    double mean;            /* mean over the pixels (summed in double) */
+    double weighted_median; /* the tool's weighted percentiles: the first value, in ascending order, */
+    double weighted_q1;     /* at which the running sum exceeds 50 % (25 %, 75 %) of the total */
+    double weighted_q3;
+    double min, max;
+    float ppd; /* the pixels per degree it was computed at */
+} pgi_flip_stats;
+
+/* 67.020645: 0.7 m from a 0.7 m wide monitor of 3840 pixels, FLIP's default. */
+#define PGI_FLIP_DEFAULT_PPD 67.020645f
+
 typedef struct pgi_metrics {
     int width, height;
     double mse;      /* on [0,1] sRGB values, all channels */
@@ -27,12 +45,29 @@ typedef struct pgi_metrics {
     double ssim;     /* on luma */
     double ssim_rgb; /* mean of ssim_channel */
     double ssim_channel[3];
-    double max_abs; /* largest absolute channel difference */
+    double max_abs;      /* largest absolute channel difference */
+    pgi_flip_stats flip; /* LDR-FLIP at PGI_FLIP_DEFAULT_PPD */
 } pgi_metrics;
 
 /* Compares `a` (test) with `b` (reference). Sizes must match and be at least
  * 11x11 (the SSIM window): otherwise PGI_ERR_INVALID_ARG naming both sizes. */
 pgi_status pgi_metrics_compute(const pgi_image *a, const pgi_image *b, float exposure, pgi_metrics *out);
+
+/* FLIP of `a` (test) against `b` (reference), tone-mapped as above, at `ppd` pixels per degree
+ * (pgi_flip_ppd; PGI_FLIP_DEFAULT_PPD). Writes the per-pixel error map to `map` (width x height
+ * floats, row-major; may be NULL) and the pooled values to `out`. Sizes must match. */
+pgi_status pgi_metrics_flip(const pgi_image *a, const pgi_image *b, float exposure, float ppd, float *map,
+                            pgi_flip_stats *out);
+
+/* LDR-FLIP error map of two 8-bit sRGB RGB images (3 bytes a pixel, row-major; `ref` is the
+ * reference) at `ppd` pixels per degree, in [1, 1000]; `map` gets w x h floats in [0,1]. */
+pgi_status pgi_flip_map_srgb8(const unsigned char *ref, const unsigned char *test, int w, int h, float ppd, float *map);
+/* Pooled values of an error map of n values. */
+pgi_status pgi_flip_pool(const float *map, size_t n, pgi_flip_stats *out);
+/* Pixels per degree for an observer `distance_m` from a monitor `width_m` wide of `width_px` pixels. */
+float pgi_flip_ppd(float distance_m, float width_px, float width_m);
+/* FLIP's colour-mapped error map: each value through matplotlib's magma map, 3 bytes a pixel. */
+void pgi_flip_colorize(const float *map, size_t n, unsigned char *rgb8);
 
 /* SSIM (mean over the map, border cropped as above) of two planes of
  * `w` x `h` doubles in [0, data_range]. Returns NAN if smaller than 11x11. */

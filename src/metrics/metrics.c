@@ -99,6 +99,19 @@ static pgi_status tonemap_pair(const pgi_image *a, const pgi_image *b, float exp
     return PGI_OK;
 }
 
+/* FLIP of the tone-mapped test `ta` against the reference `tb`; map may be NULL. */
+static pgi_status flip_tonemapped(const unsigned char *ta, const unsigned char *tb, int w, int h, float ppd, float *map,
+                                  pgi_flip_stats *out) {
+    const size_t n = (size_t)w * h;
+    float *m = map ? map : malloc(n * sizeof *m);
+    if (!m) return pgi__fail(PGI_ERR_OOM, "compare: out of memory for the FLIP map of %dx%d images", w, h);
+    pgi_status st = pgi_flip_map_srgb8(tb, ta, w, h, ppd, m);
+    if (!st) st = pgi_flip_pool(m, n, out);
+    out->ppd = ppd;
+    if (m != map) free(m);
+    return st;
+}
+
 pgi_status pgi_metrics_compute(const pgi_image *a, const pgi_image *b, float exposure, pgi_metrics *out) {
     memset(out, 0, sizeof *out);
     pgi_status st = check_pair(a, b);
@@ -141,10 +154,28 @@ pgi_status pgi_metrics_compute(const pgi_image *a, const pgi_image *b, float exp
     }
     out->ssim = pgi_ssim_plane(pa, pb, w, h, 1.0);
     free(pa);
+    if (isnan(out->ssim) || isnan(out->ssim_rgb)) {
+        free(ta);
+        free(tb);
+        return pgi__fail(PGI_ERR_OOM, "compare: out of memory for SSIM");
+    }
+    st = flip_tonemapped(ta, tb, w, h, PGI_FLIP_DEFAULT_PPD, NULL, &out->flip);
     free(ta);
     free(tb);
-    if (isnan(out->ssim) || isnan(out->ssim_rgb)) return pgi__fail(PGI_ERR_OOM, "compare: out of memory for SSIM");
-    return PGI_OK;
+    return st;
+}
+
+pgi_status pgi_metrics_flip(const pgi_image *a, const pgi_image *b, float exposure, float ppd, float *map,
+                            pgi_flip_stats *out) {
+    memset(out, 0, sizeof *out);
+    pgi_status st = check_pair(a, b);
+    if (st) return st;
+    unsigned char *ta, *tb;
+    if ((st = tonemap_pair(a, b, exposure, &ta, &tb))) return st;
+    st = flip_tonemapped(ta, tb, a->width, a->height, ppd, map, out);
+    free(ta);
+    free(tb);
+    return st;
 }
 
 pgi_status pgi_metrics_heatmap(const pgi_image *a, const pgi_image *b, float exposure, float max_err,
