@@ -4,14 +4,14 @@
 # For every scene, photon count (with the paper's radius, scaled to the scene's
 # units) and registered estimator except brute: render with `photongi render`,
 # compare with a path-traced reference (`photongi compare`: SSIM on luma, PSNR
-# on tone-mapped sRGB) and record the density-estimation time (estimator build + estimate) from --stats JSON.
+# on tone-mapped sRGB, LDR-FLIP's mean) and record the density-estimation time (estimator build + estimate) from --stats JSON.
 # The reference is rendered once per scene/size/spp and cached outside the
 # repository in $PHOTONGI_CACHE (default ~/.cache/photongi); a cached one with
 # fewer samples is extended with `reference --continue`.
 #
 # Outputs in --out DIR (default bench/out/quality): quality.csv, quality.md
-# (laid out like the paper's Table 2), quality_<scene>.png plots (SSIM, PSNR
-# and build + estimate time against photons; needs gnuplot, scripts/install-deps.sh),
+# (laid out like the paper's Table 2, plus FLIP), quality_<scene>.png plots (SSIM, PSNR,
+# FLIP and build + estimate time against photons; needs gnuplot, scripts/install-deps.sh),
 # the rendered PNGs and the error heat maps.
 #
 # Usage: bench/quality.sh [--size WxH] [--spp N] [--scenes "sibenik crytek-sponza"]
@@ -94,7 +94,7 @@ print("null" if v is None else v)' "$1" "$2"
 ref_spp() { python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["spp"])' "$1"; }
 
 CSV="$OUT/quality.csv"
-echo "scene,photons,radius,estimator,ssim,ssim_rgb,psnr,density_ms,estimate_ms,build_ms,total_ms,ref_spp,width,height" > "$CSV"
+echo "scene,photons,radius,estimator,ssim,ssim_rgb,psnr,density_ms,estimate_ms,build_ms,total_ms,ref_spp,width,height,flip" > "$CSV"
 W=${SIZE%x*}; H=${SIZE#*x}
 for scene in $SCENES; do
   ref="$CACHE/ref_${scene}_${SIZE}_b4_cam0_s1.exr"
@@ -131,10 +131,10 @@ for scene in $SCENES; do
       read -r dens_ms est_ms build_ms total_ms < <(printf '%s\n' "${times[@]}" | sort -g | awk '{a[NR]=$0} END {print a[int((NR+1)/2)]}')
       "$BIN" compare "$img" "$ref" --json --diff "$OUT/img/${scene}_${est}_${label}_diff.png" > "$OUT/cmp.json"
       ssim=$(json_get "$OUT/cmp.json" ssim); ssim_rgb=$(json_get "$OUT/cmp.json" ssim_rgb)
-      psnr=$(json_get "$OUT/cmp.json" psnr)
-      echo "$scene,$label,$r,$est,$ssim,$ssim_rgb,$psnr,$dens_ms,$est_ms,$build_ms,$total_ms,$have,$W,$H" >> "$CSV"
-      printf 'quality: %-14s %5s r=%-6s %-10s SSIM %.4f PSNR %6.2f dB  build+estimate %8.1f ms\n' \
-        "$scene" "$label" "$r" "$est" "$ssim" "$psnr" "$dens_ms" >&2
+      psnr=$(json_get "$OUT/cmp.json" psnr); flip=$(json_get "$OUT/cmp.json" flip)
+      echo "$scene,$label,$r,$est,$ssim,$ssim_rgb,$psnr,$dens_ms,$est_ms,$build_ms,$total_ms,$have,$W,$H,$flip" >> "$CSV"
+      printf 'quality: %-14s %5s r=%-6s %-10s SSIM %.4f PSNR %6.2f dB FLIP %.4f  build+estimate %8.1f ms\n' \
+        "$scene" "$label" "$r" "$est" "$ssim" "$psnr" "$flip" "$dens_ms" >&2
     done
   done
 done
@@ -150,10 +150,10 @@ for r in rows:
 out = open(sys.argv[2], "w")
 if rows:
     out.write("Quality against a path-traced reference (%sx%s, reference %s spp): SSIM on luma in %%, PSNR in dB,\n"
-              "density-estimation time (estimator build + estimate) in ms (median of runs). Radii in scene units (paper's metres scaled).\n\n"
+              "FLIP (LDR-FLIP mean, lower is better), density-estimation time (estimator build + estimate) in ms (median of runs). Radii in scene units (paper's metres scaled).\n\n"
               % (rows[0]["width"], rows[0]["height"], rows[0]["ref_spp"]))
-out.write("| Scene | Photons | Radius | " + " | ".join("%s SSIM | %s PSNR | %s ms" % (e, e, e) for e in ests) + " |\n")
-out.write("|---|---|---|" + "---|---|---|" * len(ests) + "\n")
+out.write("| Scene | Photons | Radius | " + " | ".join("%s SSIM | %s PSNR | %s FLIP | %s ms" % (e, e, e, e) for e in ests) + " |\n")
+out.write("|---|---|---|" + "---|---|---|---|" * len(ests) + "\n")
 keys = []
 for r in rows:
     k = (r["scene"], r["photons"], r["radius"])
@@ -166,9 +166,9 @@ for k in keys:
         if m:
             r = m[0]
             psnr = "inf" if r["psnr"] == "null" else "%.1f" % float(r["psnr"])
-            cells += ["%.1f" % (100 * float(r["ssim"])), psnr, "%.1f" % float(r["density_ms"])]
+            cells += ["%.1f" % (100 * float(r["ssim"])), psnr, "%.4f" % float(r["flip"]), "%.1f" % float(r["density_ms"])]
         else:
-            cells += ["", "", ""]
+            cells += ["", "", "", ""]
     out.write("| %s | %s | %s | %s |\n" % (k[0] if k[0] != last else "", k[1], k[2], " | ".join(cells)))
     last = k[0]
 out.close()
@@ -182,14 +182,14 @@ if command -v gnuplot >/dev/null 2>&1; then
     for est in $ESTIMATORS; do
       echo "\"$est\"" >> "$dat"
       awk -F, -v s="$scene" -v e="$est" 'NR > 1 && $1 == s && $4 == e {
-          n = $2; sub(/k$/, "e3", n); sub(/M$/, "e6", n); print n, 100 * $5, ($7 == "null" ? 99 : $7), $8 }' "$CSV" >> "$dat"
+          n = $2; sub(/k$/, "e3", n); sub(/M$/, "e6", n); print n, 100 * $5, ($7 == "null" ? 99 : $7), $8, $15 }' "$CSV" >> "$dat"
       printf '\n\n' >> "$dat"
     done
     nblocks=$(echo $ESTIMATORS | wc -w)
     gnuplot <<EOF
-set terminal pngcairo size 1500,450 font ",10"
+set terminal pngcairo size 1900,450 font ",10"
 set output "$OUT/quality_${scene}.png"
-set multiplot layout 1,3 title "$scene, ${SIZE}, reference ${have} spp"
+set multiplot layout 1,4 title "$scene, ${SIZE}, reference ${have} spp"
 set logscale x
 set xlabel "photons"
 set key bottom right
@@ -198,6 +198,9 @@ set ylabel "SSIM (%)"
 plot for [i=0:$((nblocks - 1))] "$dat" index i using 1:2 with linespoints title columnheader(1)
 set ylabel "PSNR (dB)"
 plot for [i=0:$((nblocks - 1))] "$dat" index i using 1:3 with linespoints title columnheader(1)
+set ylabel "FLIP (mean)"
+set key top right
+plot for [i=0:$((nblocks - 1))] "$dat" index i using 1:5 with linespoints title columnheader(1)
 set ylabel "build + estimate (ms)"
 set logscale y
 set key top left

@@ -26,6 +26,8 @@ static const char *k_compare_help =
     "  FLIP      LDR-FLIP (Andersson et al. 2020) as NVlabs' reference tool computes it: per-pixel\n"
     "            error in [0,1] at P pixels per degree; its mean, and the weighted median and\n"
     "            quartiles (each value weighted by itself)\n"
+    "  relMSE    mean of (A - B)^2 / (B^2 + 0.01) over pixels and channels, on linear values\n"
+    "            (times --exposure) before tone mapping\n"
     "\n"
     "  --json          print the result as one JSON object on standard output\n"
     "  --diff FILE     write a heat map PNG of the largest channel difference per pixel\n"
@@ -148,15 +150,17 @@ int pgi_cmd_compare(int argc, char **argv) {
         printf("{\"width\": %d, \"height\": %d, \"psnr\": %s, \"mse\": %.9g, \"ssim\": %.8f, \"ssim_rgb\": %.8f, "
                "\"ssim_r\": %.8f, \"ssim_g\": %.8f, \"ssim_b\": %.8f, \"max_abs\": %.6f, \"flip\": %.8f, "
                "\"flip_weighted_median\": %.8f, \"flip_weighted_q1\": %.8f, \"flip_weighted_q3\": %.8f, "
-               "\"flip_max\": %.8f, \"flip_ppd\": %.6f}\n",
+               "\"flip_max\": %.8f, \"flip_ppd\": %.6f, \"relmse\": %.9g}\n",
                m.width, m.height, psnr, m.mse, m.ssim, m.ssim_rgb, m.ssim_channel[0], m.ssim_channel[1],
                m.ssim_channel[2], m.max_abs, m.flip.mean, m.flip.weighted_median, m.flip.weighted_q1,
-               m.flip.weighted_q3, m.flip.max, (double)m.flip.ppd);
+               m.flip.weighted_q3, m.flip.max, (double)m.flip.ppd, m.relmse);
     } else {
         printf("PSNR %s dB  SSIM %.4f (luma)  %.4f (RGB mean: %.4f %.4f %.4f)  max diff %.4f  %dx%d\n", psnr, m.ssim,
                m.ssim_rgb, m.ssim_channel[0], m.ssim_channel[1], m.ssim_channel[2], m.max_abs, m.width, m.height);
-        printf("FLIP %.6f (weighted median %.6f, quartiles %.6f %.6f, max %.6f; %.2f pixels per degree)\n", m.flip.mean,
-               m.flip.weighted_median, m.flip.weighted_q1, m.flip.weighted_q3, m.flip.max, (double)m.flip.ppd);
+        printf("FLIP %.6f (weighted median %.6f, quartiles %.6f %.6f, max %.6f; %.2f pixels per degree)  "
+               "relMSE %.6g\n",
+               m.flip.mean, m.flip.weighted_median, m.flip.weighted_q1, m.flip.weighted_q3, m.flip.max,
+               (double)m.flip.ppd, m.relmse);
     }
     return 0;
 }

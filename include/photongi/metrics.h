@@ -47,11 +47,18 @@ typedef struct pgi_metrics {
     double ssim_channel[3];
     double max_abs;      /* largest absolute channel difference */
     pgi_flip_stats flip; /* LDR-FLIP at PGI_FLIP_DEFAULT_PPD */
+    double relmse;       /* relative MSE on linear values (before tone mapping): see pgi_relmse */
 } pgi_metrics;
 
 /* Compares `a` (test) with `b` (reference). Sizes must match and be at least
  * 11x11 (the SSIM window): otherwise PGI_ERR_INVALID_ARG naming both sizes. */
 pgi_status pgi_metrics_compute(const pgi_image *a, const pgi_image *b, float exposure, pgi_metrics *out);
+
+/* Relative MSE of `a` (test) against `b` (reference) on linear RGB times `exposure`, before tone
+ * mapping: the mean over pixels and channels of (a - b)^2 / (b^2 + PGI_RELMSE_EPS). Scale-free
+ * where the reference is bright, so dark and bright regions weigh alike. NAN if sizes differ. */
+#define PGI_RELMSE_EPS 0.01
+double pgi_relmse(const pgi_image *a, const pgi_image *b, float exposure);
 
 /* FLIP of `a` (test) against `b` (reference), tone-mapped as above, at `ppd` pixels per degree
  * (pgi_flip_ppd; PGI_FLIP_DEFAULT_PPD). Writes the per-pixel error map to `map` (width x height

@@ -2,6 +2,7 @@
  * 8-bit sRGB, and an error heat map. See include/photongi/metrics.h. */
 #include "photongi/metrics.h"
 
+#include <math.h>
 #include <string.h>
 
 #include "core/core.h"
@@ -99,6 +100,17 @@ static pgi_status tonemap_pair(const pgi_image *a, const pgi_image *b, float exp
     return PGI_OK;
 }
 
+double pgi_relmse(const pgi_image *a, const pgi_image *b, float exposure) {
+    if (!a || !b || !a->rgb || !b->rgb || a->width != b->width || a->height != b->height) return NAN;
+    const size_t n3 = (size_t)a->width * a->height * 3;
+    double sum = 0.0;
+    for (size_t i = 0; i < n3; i++) {
+        double x = (double)a->rgb[i] * exposure, y = (double)b->rgb[i] * exposure;
+        sum += (x - y) * (x - y) / (y * y + PGI_RELMSE_EPS);
+    }
+    return n3 ? sum / (double)n3 : NAN;
+}
+
 /* FLIP of the tone-mapped test `ta` against the reference `tb`; map may be NULL. */
 static pgi_status flip_tonemapped(const unsigned char *ta, const unsigned char *tb, int w, int h, float ppd, float *map,
                                   pgi_flip_stats *out) {
@@ -159,6 +171,7 @@ pgi_status pgi_metrics_compute(const pgi_image *a, const pgi_image *b, float exp
         free(tb);
         return pgi__fail(PGI_ERR_OOM, "compare: out of memory for SSIM");
     }
+    out->relmse = pgi_relmse(a, b, exposure);
     st = flip_tonemapped(ta, tb, w, h, PGI_FLIP_DEFAULT_PPD, NULL, &out->flip);
     free(ta);
     free(tb);
