@@ -9,6 +9,11 @@
 # repository in $PHOTONGI_CACHE (default ~/.cache/photongi); a cached one with
 # fewer samples is extended with `reference --continue`.
 #
+# The reference is the merge of two halves rendered with different seeds; their difference
+# gives its own noise, so the CSV also has the PSNR against the noise-free limit (psnr_limit:
+# 10 log10(1 / (MSE - MSE(half A, half B) / 4)), the image's error with the reference's noise
+# taken out).
+#
 # Outputs in --out DIR (default bench/out/quality): quality.csv, quality.md
 # (laid out like the paper's Table 2, plus FLIP), quality_<scene>.png plots (SSIM, PSNR,
 # FLIP and build + estimate time against photons; needs gnuplot, scripts/install-deps.sh),
@@ -94,22 +99,33 @@ print("null" if v is None else v)' "$1" "$2"
 ref_spp() { python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["spp"])' "$1"; }
 
 CSV="$OUT/quality.csv"
-echo "scene,photons,radius,estimator,ssim,ssim_rgb,psnr,density_ms,estimate_ms,build_ms,total_ms,ref_spp,width,height,flip" > "$CSV"
+echo "scene,photons,radius,estimator,ssim,ssim_rgb,psnr,density_ms,estimate_ms,build_ms,total_ms,ref_spp,width,height,flip,psnr_limit" > "$CSV"
 W=${SIZE%x*}; H=${SIZE#*x}
 for scene in $SCENES; do
-  ref="$CACHE/ref_${scene}_${SIZE}_b4_cam0_s1.exr"
-  if [ -f "$ref" ] && [ -f "$ref.json" ]; then
-    have=$(ref_spp "$ref.json")
-    if [ "$have" -lt "$SPP" ]; then
-      echo "quality: extending $ref from $have to $SPP spp" >&2
-      nice -n 10 "$BIN" reference --continue "$ref" --spp $(( SPP - have ))
+  # The reference: two halves of SPP/2 samples with seeds 1 and 2, merged. Their difference
+  # measures the merged reference's own noise (MSE(A, B) / 4), which the PSNR against the
+  # noise-free limit removes from each image's MSE.
+  for seed in 1 2; do
+    half="$CACHE/ref_${scene}_${SIZE}_b4_cam0_s${seed}.exr"
+    if [ -f "$half" ] && [ -f "$half.json" ]; then
+      hv=$(ref_spp "$half.json")
+      if [ "$hv" -lt $(( (SPP + 1) / 2 )) ]; then
+        echo "quality: extending $half from $hv to $(( (SPP + 1) / 2 )) spp" >&2
+        nice -n 10 "$BIN" reference --continue "$half" --spp $(( (SPP + 1) / 2 - hv )) -q
+      fi
+    else
+      echo "quality: rendering the half reference $half ($(( (SPP + 1) / 2 )) spp; cached for later runs)" >&2
+      # --jitter off: pixel centres, as the single frames compared with it (the estimators' error
+      # only, not the aliasing every single frame shares)
+      nice -n 10 "$BIN" reference --scene "$scene" --size "$SIZE" --bounces 4 --seed "$seed" --jitter off \
+        --spp $(( (SPP + 1) / 2 )) -o "$half" -q
     fi
-  else
-    echo "quality: rendering the reference $ref ($SPP spp; cached for later runs)" >&2
-    # --jitter off: pixel centres, as the single frames compared with it (the estimators' error
-    # only, not the aliasing every single frame shares)
-    nice -n 10 "$BIN" reference --scene "$scene" --size "$SIZE" --bounces 4 --seed 1 --jitter off --spp "$SPP" -o "$ref"
-  fi
+  done
+  base="$CACHE/ref_${scene}_${SIZE}_b4_cam0"
+  ref="${base}_s1+2.exr"
+  "$BIN" reference --merge "${base}_s1.exr" "${base}_s2.exr" -o "$ref" -q
+  "$BIN" compare "${base}_s1.exr" "${base}_s2.exr" --json > "$OUT/cmp.json"
+  ref_noise=$(python3 -c "print($(json_get "$OUT/cmp.json" mse) / 4)")
   have=$(ref_spp "$ref.json")
   scale=$(scene_scale "$scene")
   for label in $PHOTONS; do
@@ -132,9 +148,14 @@ for scene in $SCENES; do
       "$BIN" compare "$img" "$ref" --json --diff "$OUT/img/${scene}_${est}_${label}_diff.png" > "$OUT/cmp.json"
       ssim=$(json_get "$OUT/cmp.json" ssim); ssim_rgb=$(json_get "$OUT/cmp.json" ssim_rgb)
       psnr=$(json_get "$OUT/cmp.json" psnr); flip=$(json_get "$OUT/cmp.json" flip)
-      echo "$scene,$label,$r,$est,$ssim,$ssim_rgb,$psnr,$dens_ms,$est_ms,$build_ms,$total_ms,$have,$W,$H,$flip" >> "$CSV"
-      printf 'quality: %-14s %5s r=%-6s %-10s SSIM %.4f PSNR %6.2f dB FLIP %.4f  build+estimate %8.1f ms\n' \
-        "$scene" "$label" "$r" "$est" "$ssim" "$psnr" "$flip" "$dens_ms" >&2
+      # PSNR against the noise-free limit: the reference's noise taken out of the MSE ("null"
+      # when the image is no farther from the reference than the reference's own noise)
+      psnr_limit=$(python3 -c "
+import math; e = $(json_get "$OUT/cmp.json" mse) - $ref_noise
+print('%.4f' % (10 * math.log10(1 / e)) if e > 0 else 'null')")
+      echo "$scene,$label,$r,$est,$ssim,$ssim_rgb,$psnr,$dens_ms,$est_ms,$build_ms,$total_ms,$have,$W,$H,$flip,$psnr_limit" >> "$CSV"
+      printf 'quality: %-14s %5s r=%-6s %-10s SSIM %.4f PSNR %6.2f dB (limit %s) FLIP %.4f  build+estimate %8.1f ms\n' \
+        "$scene" "$label" "$r" "$est" "$ssim" "$psnr" "$psnr_limit" "$flip" "$dens_ms" >&2
     done
   done
 done
@@ -150,6 +171,7 @@ for r in rows:
 out = open(sys.argv[2], "w")
 if rows:
     out.write("Quality against a path-traced reference (%sx%s, reference %s spp): SSIM on luma in %%, PSNR in dB,\n"
+              "in brackets the PSNR against the noise-free limit (the reference's own noise taken out of the MSE),\n"
               "FLIP (LDR-FLIP mean, lower is better), density-estimation time (estimator build + estimate) in ms (median of runs). Radii in scene units (paper's metres scaled).\n\n"
               % (rows[0]["width"], rows[0]["height"], rows[0]["ref_spp"]))
 out.write("| Scene | Photons | Radius | " + " | ".join("%s SSIM | %s PSNR | %s FLIP | %s ms" % (e, e, e, e) for e in ests) + " |\n")
@@ -166,6 +188,7 @@ for k in keys:
         if m:
             r = m[0]
             psnr = "inf" if r["psnr"] == "null" else "%.1f" % float(r["psnr"])
+            psnr += " (%s)" % ("-" if r["psnr_limit"] == "null" else "%.1f" % float(r["psnr_limit"]))
             cells += ["%.1f" % (100 * float(r["ssim"])), psnr, "%.4f" % float(r["flip"]), "%.1f" % float(r["density_ms"])]
         else:
             cells += ["", "", "", ""]

@@ -461,6 +461,17 @@ if expect_ok reference --scene cornell --size 24x16 --spp 2 -q -o "$TMP/r.exr" -
     expect_error "missing.png" compare "$TMP/p.png" "$TMP/missing.png"
     expect_error "two images" compare "$TMP/p.png"
     expect_error "unknown option" compare "$TMP/p.png" "$TMP/r.exr" --frobnicate
+    # --merge: two seeds' samples averaged, their counts summed; same seed or other settings refused
+    if expect_ok reference --scene cornell --size 24x16 --spp 3 --seed 9 -q -o "$TMP/r9.exr"; then
+        if expect_ok reference --merge "$TMP/r.exr" "$TMP/r9.exr" -o "$TMP/rm.exr" -q; then
+            grep -q '"spp":[[:space:]]*"8"' "$TMP/rm.exr.json" && ok || bad "reference --merge: spp is not 5 + 3"
+        fi
+        expect_status 1 "same samples" reference --merge "$TMP/r9.exr" "$TMP/r9.exr" -o "$TMP/rm.exr"
+        expect_status 2 "two references" reference --merge "$TMP/r9.exr" -o "$TMP/rm.exr"
+        expect_status 2 "only the two" reference --merge "$TMP/r.exr" "$TMP/r9.exr" --spp 2 -o "$TMP/rm.exr"
+    fi
+    expect_ok reference --scene cornell --size 20x16 --spp 1 --seed 9 -q -o "$TMP/r20.exr"
+    expect_status 1 "sizes differ" reference --merge "$TMP/r.exr" "$TMP/r20.exr" -o "$TMP/rm.exr"
     grep -qE '"jitter":[[:space:]]*true' "$TMP/r.exr.json" && ok || bad "reference: r.exr.json lacks jitter true"
     printf 'not json' >"$TMP/r.exr.json"
     expect_error "metadata" reference --continue "$TMP/r.exr" --spp 1

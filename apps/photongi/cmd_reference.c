@@ -20,6 +20,7 @@
 static const char *k_reference_help =
     "usage: photongi reference [--scene S] [--spp N | --time SECONDS] [options] -o REF.exr\n"
     "       photongi reference --continue REF.exr [--spp N | --time SECONDS] [-o OUT.exr]\n"
+    "       photongi reference --merge A.exr B.exr -o OUT.exr\n"
     "\n"
     "Path-traces a reference with the photon pipeline's light transport: emission seen along\n"
     "the eye path, direct light at the first non-specular hit (next-event estimation, MIS for\n"
@@ -42,6 +43,10 @@ static const char *k_reference_help =
     "  --camera I         camera index, from 0 (default 0)\n"
     "  --jitter on|off    samples over the whole pixel (on, default) or through its centre\n"
     "  --continue REF.exr add samples to REF.exr (settings from REF.exr.json; -o defaults to it)\n"
+    "  --merge A B        average two references of the same scene, size, bounces, camera and\n"
+    "                     jitter rendered with different seeds (e.g. on two machines), weighted by\n"
+    "                     their samples; OUT.exr.json counts both, and --continue on OUT goes on\n"
+    "                     with A's seed past both counts\n"
     "  --png FILE         also write a tone-mapped PNG\n"
     "  --exposure X       exposure for --png (default: the scene's, else 1)\n"
     "  -o, --out FILE     output EXR (required unless --continue); its folder must exist\n"
@@ -77,8 +82,61 @@ static int progress_cb(void *user, uint64_t done, uint64_t total, double elapsed
 
 static const char *const k_exr[] = {".exr", NULL}, *const k_png[] = {".png", NULL};
 
+/* Reads a reference and its sidecar; 0 or the exit status of the failure. */
+static int read_reference(const char *path, pgi_image *img, pgi_reference_meta *meta, const char *what) {
+    char mp[4096];
+    snprintf(mp, sizeof mp, "%s.json", path);
+    pgi_status st = pgi_reference_meta_read(mp, meta);
+    if (st) return cli_input_fail("reference", what, st);
+    int hdr = 0;
+    st = pgi_image_read(path, img, &hdr);
+    if (st) return cli_input_fail("reference", what, st);
+    if (!hdr || img->width != meta->width || img->height != meta->height) {
+        pgi_image_free(img);
+        return cli_failure("reference", "%s: %s is not the %dx%d EXR its .json describes", what, path, meta->width,
+                           meta->height);
+    }
+    return 0;
+}
+
+/* --merge: the sample-weighted mean of two references of the same settings and different seeds. */
+static int merge_references(const char *a, const char *b, const char *out, const char *meta_path, int quiet) {
+    pgi_image img[2] = {{0}, {0}};
+    pgi_reference_meta m[2];
+    int rc = read_reference(a, &img[0], &m[0], "cannot merge");
+    if (!rc && (rc = read_reference(b, &img[1], &m[1], "cannot merge"))) pgi_image_free(&img[0]);
+    if (rc) return rc;
+    const char *differs = strcmp(m[0].scene, m[1].scene)                                ? "scenes"
+                          : m[0].width != m[1].width || m[0].height != m[1].height ? "sizes"
+                          : m[0].bounces != m[1].bounces                            ? "bounces"
+                          : m[0].camera != m[1].camera                              ? "cameras"
+                          : m[0].jitter != m[1].jitter                              ? "jitter settings"
+                                                                                    : NULL;
+    if (differs || m[0].seed == m[1].seed) {
+        pgi_image_free(&img[0]);
+        pgi_image_free(&img[1]);
+        if (differs) return cli_failure("reference", "cannot merge %s and %s: their %s differ", a, b, differs);
+        return cli_failure("reference", "cannot merge %s and %s: both have seed %" PRIu64 ", so the same samples", a,
+                           b, m[0].seed);
+    }
+    const double wa = (double)m[0].spp / (double)(m[0].spp + m[1].spp);
+    const size_t n3 = (size_t)img[0].width * img[0].height * 3;
+    for (size_t i = 0; i < n3; i++)
+        img[0].rgb[i] = (float)(wa * img[0].rgb[i] + (1.0 - wa) * img[1].rgb[i]);
+    pgi_image_free(&img[1]);
+    pgi_status st = pgi_image_write(&img[0], out, 1.f);
+    pgi_image_free(&img[0]);
+    if (st) return cli_fail("reference", "cannot write image", st);
+    m[0].spp += m[1].spp;
+    if ((st = pgi_reference_meta_write(&m[0], meta_path))) return cli_fail("reference", "cannot write metadata", st);
+    if (!quiet)
+        fprintf(stderr, "%s: %s %dx%d, %" PRIu64 " spp (%s and %s)\n", out, m[0].scene, m[0].width, m[0].height,
+                m[0].spp, a, b);
+    return 0;
+}
+
 int pgi_cmd_reference(int argc, char **argv) {
-    const char *scene_spec = NULL, *out = NULL, *png = NULL, *cont = NULL;
+    const char *scene_spec = NULL, *out = NULL, *png = NULL, *cont = NULL, *merge[2] = {NULL, NULL};
     pgi_reference_desc d = {0};
     long long spp = 0;
     double time_s = 0.0;
@@ -95,6 +153,14 @@ int pgi_cmd_reference(int argc, char **argv) {
             continue;
         }
         if (a[0] != '-') return cli_usage("reference", "unexpected argument '%s'", a);
+        if (strcmp(a, "--merge") == 0) {
+            if (i + 2 >= argc) return cli_usage("reference", "%s", "--merge needs two references: --merge A.exr B.exr");
+            merge[0] = argv[++i];
+            merge[1] = argv[++i];
+            if (merge[0][0] == '-' || merge[1][0] == '-')
+                return cli_usage("reference", "%s", "--merge needs two references: --merge A.exr B.exr");
+            continue;
+        }
         if (i + 1 >= argc) return cli_usage("reference", "%s needs a value", a);
         const char *v = argv[++i];
         long long n;
@@ -152,6 +218,9 @@ int pgi_cmd_reference(int argc, char **argv) {
         return cli_usage("reference", "%s",
                          "--continue takes the scene, size, bounces, seed, camera and jitter from the reference's "
                          ".json file; do not give them");
+    if (merge[0] && (cont || scene_spec || size_set || bounces_set || seed_set || camera_set || jitter_set || spp ||
+                     time_s > 0.0 || png))
+        return cli_usage("reference", "%s", "--merge takes only the two references and -o OUT.exr");
     if (!out) out = cont;
     if (!out) return cli_usage("reference", "%s", "no output file: give -o REF.exr");
     char meta_path[4096];
@@ -160,24 +229,15 @@ int pgi_cmd_reference(int argc, char **argv) {
     if (!rc) rc = app_check_output("photongi reference", "-o (its sidecar)", meta_path, NULL);
     if (!rc && png) rc = app_check_output("photongi reference", "--png", png, k_png);
     if (rc) return rc;
+    if (merge[0]) return merge_references(merge[0], merge[1], out, meta_path, quiet);
 
     pgi_image img = {0};
     uint64_t have = 0;
     pgi_reference_meta meta;
     memset(&meta, 0, sizeof meta);
     if (cont) {
-        char cont_meta[4096];
-        snprintf(cont_meta, sizeof cont_meta, "%s.json", cont);
-        pgi_status st = pgi_reference_meta_read(cont_meta, &meta);
-        if (st) return cli_input_fail("reference", "cannot continue", st);
-        int hdr = 0;
-        st = pgi_image_read(cont, &img, &hdr);
-        if (st) return cli_input_fail("reference", "cannot continue", st);
-        if (!hdr || img.width != meta.width || img.height != meta.height) {
-            pgi_image_free(&img);
-            return cli_failure("reference", "cannot continue: %s is not the %dx%d EXR its .json describes", cont,
-                               meta.width, meta.height);
-        }
+        int rc2 = read_reference(cont, &img, &meta, "cannot continue");
+        if (rc2) return rc2;
         scene_spec = meta.scene;
         d.width = meta.width;
         d.height = meta.height;
