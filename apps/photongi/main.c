@@ -57,7 +57,8 @@ static const char *k_render_help =
     "  --estimator E      density estimator (see 'photongi estimators'); default " PGI_DEFAULT_ESTIMATOR "\n"
     "  --photons N        photons to store, 1..100000000 (2e6 is fine too; flux is normalised by\n"
     "                     the paths emitted); default: the scene's, else 200000\n"
-    "  --radius R         photon radius in scene units; default: the scene's, else 2% of its diagonal\n"
+    "  --radius R|auto    photon radius in scene units; default: the scene's, else auto: chosen each\n"
+    "                     frame from the photon density the camera sees (docs/radius.md)\n"
     "  --size WxH         image size, 1..16384 a side and at most 37748736 pixels (36 Mi);\n"
     "                     default: the scene's, else 640x480\n"
     "  --bounces B        maximum photon bounces, 1..64 (default 4)\n"
@@ -188,8 +189,11 @@ static int cmd_info(int argc, char **argv) {
            in.camera.eye[1], in.camera.eye[2], in.camera.look_at[0], in.camera.look_at[1], in.camera.look_at[2],
            in.camera.up[0], in.camera.up[1], in.camera.up[2], in.camera.fov_y_deg);
     const pgi_scene_defaults *d = &in.defaults;
-    printf("defaults:   photons %u, radius %g, bounces %d, size %dx%d, exposure %g\n", d->photons, d->radius,
-           d->bounces, d->width, d->height, d->exposure);
+    char radius[32];
+    if (d->radius > 0.f) snprintf(radius, sizeof radius, "%g", d->radius);
+    else snprintf(radius, sizeof radius, "auto");
+    printf("defaults:   photons %u, radius %s, bounces %d, size %dx%d, exposure %g\n", d->photons, radius, d->bounces,
+           d->width, d->height, d->exposure);
     printf("animated:   %zu objects, keyframes up to %g s\n", in.animated_objects, in.anim_duration);
     pgi_scene_destroy(scene);
     return 0;
@@ -270,8 +274,9 @@ static int cmd_render(int argc, char **argv) {
                 return cli_usage("render", "--photons needs a whole number in 1..%u, got '%s'", PGI_MAX_PHOTONS, v);
             d.photons = (uint32_t)n;
         } else if (strcmp(a, "--radius") == 0) {
-            if (!parse_pos_float(v, &d.radius))
-                return cli_usage("render", "--radius needs a positive number (scene units), got '%s'", v);
+            if (strcmp(v, "auto") == 0) d.radius = PGI_RADIUS_AUTO;
+            else if (!parse_pos_float(v, &d.radius))
+                return cli_usage("render", "--radius needs a positive number (scene units) or auto, got '%s'", v);
         } else if (strcmp(a, "--size") == 0) {
             if (!parse_size(v, PGI_MAX_IMAGE_SIDE, PGI_MAX_IMAGE_PIXELS, &d.width, &d.height))
                 return cli_usage("render",

@@ -31,7 +31,8 @@ static const char *k_help =
     "                     has animated objects)\n"
     "  --estimator E      density estimator (default " PGI_DEFAULT_ESTIMATOR "; Tab switches live)\n"
     "  --photons N        photons to store (default: the scene's, else 200000)\n"
-    "  --radius R         photon radius (default: the scene's, else 2% of the diagonal)\n"
+    "  --radius R|auto    photon radius (default: the scene's, else auto: chosen each frame from\n"
+    "                     the photon density the camera sees)\n"
     "  --size WxH         window / full render size (default: the scene's, else 1280x720)\n"
     "  --scale F          render at F times the window size (0 < F <= 1; default 1)\n"
     "  --seed K           random seed (default 1)\n"
@@ -502,8 +503,9 @@ int main(int argc, char **argv) {
                 return usage("--photons needs a number in 1..100000000, got '%s'", val);
             v.desc.photons = (uint32_t)n;
         } else if (strcmp(a, "--radius") == 0) {
-            if (!parse_finite_float(val, &v.desc.radius) || !(v.desc.radius > 0.f))
-                return usage("--radius needs a positive number, got '%s'", val);
+            if (strcmp(val, "auto") == 0) v.desc.radius = PGI_RADIUS_AUTO;
+            else if (!parse_finite_float(val, &v.desc.radius) || !(v.desc.radius > 0.f))
+                return usage("--radius needs a positive number or auto, got '%s'", val);
         } else if (strcmp(a, "--size") == 0) {
             char extra;
             if (sscanf(val, "%dx%d%c", &v.win_w, &v.win_h, &extra) != 2 || v.win_w <= 0 || v.win_h <= 0 ||

@@ -125,13 +125,19 @@ typedef struct pgi_progress {
  * photon paths, never from inside a parallel region: it cannot change the image. */
 typedef void (*pgi_progress_fn)(void *user, const pgi_progress *progress);
 
+/* pgi_render_desc.radius: choose the radius each frame (docs/radius.md). */
+#define PGI_RADIUS_AUTO (-1.0f)
+
 /* Zero means "default" for every field, nested estimator options included. */
 typedef struct pgi_render_desc {
     const char *estimator;  /* registered name; default PGI_DEFAULT_ESTIMATOR */
     pgi_estimator_desc est; /* the estimator's options (include/photongi/estimator.h); options of other
                                 estimators are ignored, so one desc serves every estimator */
     uint32_t photons;       /* photons to store (at least 1); default scene's or 200000 */
-    float radius;           /* photon radius in scene units (> 0); default scene's or 2% of the diagonal */
+    float radius;           /* photon radius in scene units (> 0); default the scene's, else chosen each frame
+                               from the photon density the camera sees (PGI_RADIUS_AUTO: that even when the
+                               scene gives one; only with PGI_RADIUS_FIXED, the other policies default to 2%
+                               of the scene's diagonal) */
     int width, height;      /* default scene's or 640x480 */
     int bounces;            /* max photon bounces (1..64); default scene's or 4 */
     uint64_t seed;          /* default 1 */
@@ -177,6 +183,19 @@ typedef struct pgi_named_value {
     double value;
 } pgi_named_value;
 
+/* How the automatic radius was chosen (pgi_frame_stats.auto_radius). For `queries` view samples
+ * spread over the image, the distance to the k-th nearest photon each would gather; the radius is
+ * the `quantile` of those distances (`knn`), clamped to [lo, hi] and shrunk, when the mean photons
+ * a gather would read exceeds `mean_cap`, by the square root of the excess. */
+typedef struct pgi_auto_radius_stats {
+    int used; /* 0: the radius was given (desc, scene) */
+    int k;
+    float quantile, knn, lo, hi;
+    int queries, starved; /* starved: samples with fewer than k photons near them */
+    double mean_reads;    /* mean photons a query gathers at the chosen radius (0: not counted) */
+    double mean_cap;
+} pgi_auto_radius_stats;
+
 typedef struct pgi_frame_stats {
     const char *estimator;
     int width, height, threads;
@@ -206,6 +225,8 @@ typedef struct pgi_frame_stats {
     int leaf_size;             /* "bvh": leaf-size threshold used */
     float footprint_bin_width; /* 0: no per-photon footprints */
     uint64_t footprint_hist[PGI_FOOTPRINT_BINS]; /* see PGI_FOOTPRINT_BINS */
+    pgi_auto_radius_stats auto_radius;           /* how `radius` was chosen, when it was */
+    double radius_ms;                            /* choosing it (0 when given) */
 } pgi_frame_stats;
 
 /* Renders one frame into `out` (free with pgi_image_free). Pass a zeroed

@@ -48,6 +48,30 @@ static cJSON *build(const pgi_frame_stats *st) {
     ok &= add_num(root, "height", st->height);
     ok &= add_num(root, "threads", st->threads);
     ok &= add_num(root, "radius", float_as_double(st->radius));
+    const pgi_auto_radius_stats *ar = &st->auto_radius;
+    ok &= cJSON_AddStringToObject(root, "radius_source", ar->used ? "auto" : "given") != NULL;
+    if (ar->used) {
+        /* what the automatic radius looked at and why it is what it is */
+        ok &= (o = cJSON_AddObjectToObject(root, "radius_auto")) != NULL;
+        if (o) {
+            ok &= add_num(o, "k", ar->k);
+            ok &= add_num(o, "quantile", float_as_double(ar->quantile));
+            ok &= add_num(o, "knn_distance", float_as_double(ar->knn));
+            ok &= add_num(o, "lo", float_as_double(ar->lo));
+            ok &= add_num(o, "hi", float_as_double(ar->hi));
+            ok &= add_num(o, "queries", ar->queries);
+            ok &= add_num(o, "starved", ar->starved);
+            ok &= add_num(o, "mean_reads", ar->mean_reads);
+            ok &= add_num(o, "mean_cap", ar->mean_cap);
+            const char *why = ar->queries == 0 || !(ar->knn > 0.f)
+                                  ? "no view sample or too few photons: 2% of the diagonal"
+                              : ar->mean_reads > ar->mean_cap ? "capped: gathers would read too many photons"
+                              : !(ar->knn > ar->lo)           ? "clamped to lo"
+                              : !(ar->knn < ar->hi)           ? "clamped to hi: the view sees few photons"
+                                                              : "the k-th neighbour distance at the quantile";
+            ok &= cJSON_AddStringToObject(o, "why", why) != NULL;
+        }
+    }
 
     ok &= (o = cJSON_AddObjectToObject(root, "photons")) != NULL;
     if (o) {
@@ -65,6 +89,7 @@ static cJSON *build(const pgi_frame_stats *st) {
     if (o) {
         ok &= add_num(o, "view", st->view_ms);
         ok &= add_num(o, "trace", st->trace_ms);
+        ok &= add_num(o, "radius", st->radius_ms);
         ok &= add_num(o, "build", st->build_ms);
         ok &= add_num(o, "estimate", st->estimate_ms);
         ok &= add_num(o, "direct", st->direct_ms);

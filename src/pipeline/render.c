@@ -3,6 +3,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "photon/auto_radius.h"
 #include "photon/photon.h"
 #include "pipeline/pipeline.h"
 #include "view/view.h"
@@ -76,6 +77,20 @@ pgi_status pgi__check_view(const pgi_camera_def *v) {
 
 /* Fills defaults and rejects what cannot be rendered (the estimator's own
  * options are resolved and checked by pgi_estimator_desc_resolve). */
+static float pgi__diag(const pgi_scene *s) { return v3_len(v3_sub(v3_load(s->bmax), v3_load(s->bmin))); }
+
+/* The automatic radius (d->radius == PGI_RADIUS_AUTO) from this frame's photons and view samples. */
+static pgi_status choose_radius(pgi_renderer *r, pgi_render_desc *d, pgi_frame_stats *fs) {
+    if (d->radius != PGI_RADIUS_AUTO) return PGI_OK;
+    double t0 = pgi__now_ms();
+    pgi_status st =
+        pgi__auto_radius_choose(&r->ph, &r->vs, pgi__diag(r->scene), d->threads, &d->radius, &fs->auto_radius);
+    fs->radius_ms = pgi__now_ms() - t0;
+    fs->radius = d->radius;
+    fs->settings.radius = d->radius;
+    return st;
+}
+
 static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pgi_render_desc *d) {
     pgi_status st;
     *d = *in;
@@ -96,13 +111,16 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
     if (d->photons == 0) d->photons = sd->photons ? sd->photons : 200000;
     if (d->photons > PGI_MAX_PHOTONS)
         return pgi__fail(PGI_ERR_INVALID_ARG, "photon count %u is too large (at most %u)", d->photons, PGI_MAX_PHOTONS);
-    if (d->radius < 0.f || !isfinite(d->radius))
-        return pgi__fail(PGI_ERR_INVALID_ARG, "photon radius must be a positive finite number (or 0: default), got %g",
+    if ((d->radius < 0.f && d->radius != PGI_RADIUS_AUTO) || !isfinite(d->radius))
+        return pgi__fail(PGI_ERR_INVALID_ARG,
+                         "photon radius must be a positive finite number (or 0: default, -1: automatic), got %g",
                          (double)d->radius);
-    if (d->radius == 0.f) {
-        float diag = v3_len(v3_sub(v3_load(s->bmax), v3_load(s->bmin)));
-        d->radius = sd->radius > 0.f ? sd->radius : 0.02f * diag;
-    }
+    if (d->radius == 0.f && sd->radius > 0.f) d->radius = sd->radius;
+    /* No radius anywhere: automatic with one fixed radius (chosen after the photons are traced, see
+       choose_radius); the footprint policies keep 2% of the diagonal, their r_max. */
+    if (d->radius == 0.f) d->radius = d->radius_policy == PGI_RADIUS_FIXED ? PGI_RADIUS_AUTO : 0.02f * pgi__diag(s);
+    if (d->radius == PGI_RADIUS_AUTO && d->radius_policy != PGI_RADIUS_FIXED)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "%s", "the automatic radius needs the fixed radius policy");
     if (d->bounces == 0) d->bounces = sd->bounces > 0 ? sd->bounces : 4;
     if (d->bounces < 1 || d->bounces > PGI_MAX_BOUNCES)
         return pgi__fail(PGI_ERR_INVALID_ARG, "bounces must be in 1..%d, got %d", PGI_MAX_BOUNCES, d->bounces);
@@ -126,7 +144,7 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
                          "r_min, r_max and smoothing must be positive finite numbers (or 0: "
                          "default), got %g, %g, %g",
                          (double)d->r_min, (double)d->r_max, (double)d->smoothing);
-    if (d->r_max == 0.f) d->r_max = d->radius;
+    if (d->r_max == 0.f) d->r_max = d->radius > 0.f ? d->radius : 0.02f * pgi__diag(s);
     if (d->r_min == 0.f) d->r_min = d->r_max / 8.f;
     if (!(d->r_min <= d->r_max))
         return pgi__fail(PGI_ERR_INVALID_ARG, "r_min (%g) must not exceed r_max (%g)", (double)d->r_min,
@@ -306,6 +324,7 @@ pgi_status pgi_renderer_prepare(pgi_renderer *r, const pgi_render_desc *in, pgi_
     double t0 = pgi__now_ms();
     const progress_ctx pc = {&d, t0};
     if ((st = prepare(r, &d, d.seed, 0, &pc, &fs))) return st;
+    if ((st = choose_radius(r, &d, &fs))) return st;
     fs.total_ms = pgi__now_ms() - t0;
     *out = (pgi_frame_inputs){.photons = &r->ph,
                               .samples = &r->vs,
@@ -335,6 +354,7 @@ pgi_status pgi__renderer_render_frame(pgi_renderer *r, const pgi_render_desc *in
     if ((st = ensure_estimator(r, &d, &fs.estimators_created))) return st;
     const progress_ctx pc = {&d, t_start};
     if ((st = prepare(r, &d, seq_seed, index, &pc, &fs))) return st;
+    if ((st = choose_radius(r, &d, &fs))) return st;
     const pgi_scene *s = r->scene;
     double t2 = pgi__now_ms();
     pgi_estimate_args ea = {.photons = &r->ph,

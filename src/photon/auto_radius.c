@@ -1,0 +1,237 @@
+/* The automatic gather radius (auto_radius.h). */
+#include "auto_radius.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/core.h"
+
+/* Photons a gather disk should hold at the quantile, and the quantile of the view samples'
+ * K-th-neighbour distances: 3 in 4 of the samples the camera sees gather at least K. Tuned on
+ * Sibenik and the Cornell box against converged references (docs/radius.md). */
+#define AUTO_K 48
+#define AUTO_QUANTILE 0.75f
+/* The cost cap: the radius shrinks until the mean photons a query gathers is at most this. */
+#define AUTO_MEAN_CAP 400.0
+/* The clamp, as fractions of the scene's diagonal. */
+#define AUTO_LO 1e-4f
+#define AUTO_HI 0.05f
+
+typedef struct grid {
+    float cell, inv;
+    uint32_t mask;         /* buckets - 1 */
+    uint32_t *start;       /* buckets + 1 offsets into idx */
+    uint32_t *idx;         /* photon indices, bucket by bucket, in photon order */
+    int32_t *cx, *cy, *cz; /* each photon's cell */
+} grid;
+
+static inline uint32_t cell_hash(int32_t x, int32_t y, int32_t z, uint32_t mask) {
+    uint32_t h = (uint32_t)x * 73856093u ^ (uint32_t)y * 19349663u ^ (uint32_t)z * 83492791u;
+    return h & mask;
+}
+
+static inline int32_t cell_of(float v, float inv) { return (int32_t)floorf(v * inv); }
+
+static void grid_free(grid *g) {
+    free(g->start);
+    free(g->idx);
+    free(g->cx);
+    free(g->cy);
+    free(g->cz);
+    memset(g, 0, sizeof *g);
+}
+
+/* Counting sort of the photons into hashed cells of edge `cell` (sequential: the order, and so
+ * everything after, is the same for any thread count). */
+static pgi_status grid_build(const pgi_photons *ph, float cell, grid *g) {
+    const size_t n = ph->count;
+    uint32_t buckets = 1024;
+    while (buckets < n / 2 && buckets < (1u << 26)) buckets <<= 1;
+    g->cell = cell;
+    g->inv = 1.f / cell;
+    g->mask = buckets - 1;
+    g->start = calloc((size_t)buckets + 1, sizeof *g->start);
+    g->idx = malloc(n * sizeof *g->idx);
+    g->cx = malloc(n * sizeof *g->cx);
+    g->cy = malloc(n * sizeof *g->cy);
+    g->cz = malloc(n * sizeof *g->cz);
+    if (!g->start || !g->idx || !g->cx || !g->cy || !g->cz) {
+        grid_free(g);
+        return pgi__fail(PGI_ERR_OOM, "automatic radius: out of memory for a grid of %zu photons", n);
+    }
+    for (size_t i = 0; i < n; i++) {
+        g->cx[i] = cell_of(ph->px[i], g->inv);
+        g->cy[i] = cell_of(ph->py[i], g->inv);
+        g->cz[i] = cell_of(ph->pz[i], g->inv);
+        g->start[cell_hash(g->cx[i], g->cy[i], g->cz[i], g->mask) + 1]++;
+    }
+    for (uint32_t b = 0; b < buckets; b++) g->start[b + 1] += g->start[b];
+    uint32_t *fill = malloc((size_t)buckets * sizeof *fill);
+    if (!fill) {
+        grid_free(g);
+        return pgi__fail(PGI_ERR_OOM, "automatic radius: out of memory for a grid of %zu photons", n);
+    }
+    memcpy(fill, g->start, (size_t)buckets * sizeof *fill);
+    for (size_t i = 0; i < n; i++) g->idx[fill[cell_hash(g->cx[i], g->cy[i], g->cz[i], g->mask)]++] = (uint32_t)i;
+    free(fill);
+    return PGI_OK;
+}
+
+/* Calls body(photon index, squared distance) for every photon within R of p that the sample of
+ * normal n would gather (strictly inside, arriving from its side). */
+#define FOR_EACH_NEAR(g, ph, p, n, R, body)                                                                            \
+    do {                                                                                                               \
+        const float r2_ = (R) * (R);                                                                                   \
+        const int32_t x0_ = cell_of((p)[0] - (R), (g)->inv), x1_ = cell_of((p)[0] + (R), (g)->inv);                    \
+        const int32_t y0_ = cell_of((p)[1] - (R), (g)->inv), y1_ = cell_of((p)[1] + (R), (g)->inv);                    \
+        const int32_t z0_ = cell_of((p)[2] - (R), (g)->inv), z1_ = cell_of((p)[2] + (R), (g)->inv);                    \
+        for (int32_t z_ = z0_; z_ <= z1_; z_++)                                                                        \
+            for (int32_t y_ = y0_; y_ <= y1_; y_++)                                                                    \
+                for (int32_t x_ = x0_; x_ <= x1_; x_++) {                                                              \
+                    uint32_t b_ = cell_hash(x_, y_, z_, (g)->mask);                                                    \
+                    for (uint32_t k_ = (g)->start[b_]; k_ < (g)->start[b_ + 1]; k_++) {                                \
+                        uint32_t j_ = (g)->idx[k_];                                                                    \
+                        if ((g)->cx[j_] != x_ || (g)->cy[j_] != y_ || (g)->cz[j_] != z_) continue;                     \
+                        float ex_ = (ph)->px[j_] - (p)[0], ey_ = (ph)->py[j_] - (p)[1], ez_ = (ph)->pz[j_] - (p)[2];   \
+                        float d2_ = ex_ * ex_ + ey_ * ey_ + ez_ * ez_;                                                 \
+                        if (!(d2_ < r2_)) continue;                                                                    \
+                        if (!((n)[0] * (ph)->dx[j_] + (n)[1] * (ph)->dy[j_] + (n)[2] * (ph)->dz[j_] > 0.f)) continue;  \
+                        body(j_, d2_);                                                                                 \
+                    }                                                                                                  \
+                }                                                                                                      \
+    } while (0)
+
+/* Max-heap of the K smallest squared distances seen. */
+typedef struct kheap {
+    float v[AUTO_K];
+    int n;
+} kheap;
+
+static inline void kheap_push(kheap *h, float d2) {
+    if (h->n < AUTO_K) {
+        int i = h->n++;
+        while (i > 0 && h->v[(i - 1) / 2] < d2) {
+            h->v[i] = h->v[(i - 1) / 2];
+            i = (i - 1) / 2;
+        }
+        h->v[i] = d2;
+    } else if (d2 < h->v[0]) {
+        int i = 0;
+        for (;;) {
+            int l = 2 * i + 1, r = l + 1, m = i;
+            float big = d2;
+            if (l < AUTO_K && h->v[l] > big) m = l, big = h->v[l];
+            if (r < AUTO_K && h->v[r] > big) m = r;
+            if (m == i) break;
+            h->v[i] = h->v[m];
+            i = m;
+        }
+        h->v[i] = d2;
+    }
+}
+
+static int cmp_float(const void *a, const void *b) {
+    float x = *(const float *)a, y = *(const float *)b;
+    return (x > y) - (x < y);
+}
+
+/* Up to PGI__AUTO_QUERIES valid samples spread evenly over the pixels. */
+static int pick_queries(const pgi_view_samples *vs, uint32_t *q) {
+    int m = 0;
+    const size_t n = vs->count;
+    const size_t want = n < PGI__AUTO_QUERIES ? n : PGI__AUTO_QUERIES;
+    for (size_t j = 0; j < want; j++) {
+        size_t i = (size_t)(((double)j + 0.5) * (double)n / (double)want);
+        if (i < n && (vs->flags[i] & PGI_VS_VALID)) q[m++] = (uint32_t)i;
+    }
+    return m;
+}
+
+pgi_status pgi__auto_radius_choose(const pgi_photons *ph, const pgi_view_samples *vs, float diag, int threads,
+                                   float *radius, pgi_auto_radius_stats *out) {
+    memset(out, 0, sizeof *out);
+    out->used = 1;
+    out->k = AUTO_K;
+    out->quantile = AUTO_QUANTILE;
+    out->lo = AUTO_LO * diag;
+    out->hi = AUTO_HI * diag;
+    out->mean_cap = AUTO_MEAN_CAP;
+    *radius = 0.02f * diag;
+    uint32_t q[PGI__AUTO_QUERIES];
+    const int m = pick_queries(vs, q);
+    out->queries = m;
+    if (m == 0 || ph->count < AUTO_K) return PGI_OK;
+
+    /* First cell edge: the radius that would hold K photons if they were spread evenly over the
+     * photons' bounding box's largest face; grown 4x while the quantile falls among the queries
+     * that found fewer than K within 4 cells. */
+    float bmin[3] = {INFINITY, INFINITY, INFINITY}, bmax[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t i = 0; i < ph->count; i++) {
+        const float p[3] = {ph->px[i], ph->py[i], ph->pz[i]};
+        for (int a = 0; a < 3; a++) {
+            bmin[a] = fminf(bmin[a], p[a]);
+            bmax[a] = fmaxf(bmax[a], p[a]);
+        }
+    }
+    float ex = bmax[0] - bmin[0], ey = bmax[1] - bmin[1], ez = bmax[2] - bmin[2];
+    float face = fmaxf(ex * ey, fmaxf(ey * ez, ex * ez));
+    float cell = sqrtf(face * (float)AUTO_K / (PGI_PI * (float)ph->count));
+    cell = fminf(fmaxf(cell, out->lo), out->hi);
+    float d[PGI__AUTO_QUERIES];
+    const int qi = (int)(AUTO_QUANTILE * (float)(m - 1));
+    grid g = {0};
+    for (int attempt = 0;; attempt++) {
+        pgi_status st = grid_build(ph, cell, &g);
+        if (st) return st;
+        const float reach = 4.f * cell;
+#pragma omp parallel for schedule(dynamic, 16) num_threads(pgi__threads(threads))
+        for (int j = 0; j < m; j++) {
+            const float *p = vs->pos + 3 * (size_t)q[j], *n = vs->nrm + 3 * (size_t)q[j];
+            d[j] = INFINITY;
+            for (float R = cell; R <= reach * 1.001f; R *= 2.f) {
+                kheap h = {.n = 0};
+#define PUSH(j_, d2_) kheap_push(&h, d2_)
+                FOR_EACH_NEAR(&g, ph, p, n, R, PUSH);
+#undef PUSH
+                if (h.n == AUTO_K) {
+                    d[j] = sqrtf(h.v[0]);
+                    break;
+                }
+            }
+        }
+        float sorted[PGI__AUTO_QUERIES];
+        memcpy(sorted, d, (size_t)m * sizeof *d);
+        qsort(sorted, (size_t)m, sizeof *sorted, cmp_float);
+        if (isfinite(sorted[qi]) || cell >= out->hi || attempt == 3) {
+            out->knn = sorted[qi];
+            out->starved = 0;
+            for (int j = 0; j < m; j++) out->starved += !isfinite(d[j]);
+            break;
+        }
+        grid_free(&g);
+        cell = fminf(4.f * cell, out->hi);
+    }
+    float r = isfinite(out->knn) ? out->knn : out->hi;
+    r = fminf(fmaxf(r, out->lo), out->hi);
+
+    /* The cost cap: the mean number of photons a query gathers at r (bright parts of the view
+     * hold many more than K), scaled down by area when it exceeds the cap. */
+    double total = 0.0;
+    if (r <= 4.f * g.cell) {
+#pragma omp parallel for schedule(dynamic, 16) reduction(+ : total) num_threads(pgi__threads(threads))
+        for (int j = 0; j < m; j++) {
+            const float *p = vs->pos + 3 * (size_t)q[j], *n = vs->nrm + 3 * (size_t)q[j];
+            uint32_t c = 0;
+#define COUNT(j_, d2_) c++
+            FOR_EACH_NEAR(&g, ph, p, n, r, COUNT);
+#undef COUNT
+            total += (double)c;
+        }
+        out->mean_reads = total / m;
+        if (out->mean_reads > AUTO_MEAN_CAP) r = fmaxf(out->lo, r * (float)sqrt(AUTO_MEAN_CAP / out->mean_reads));
+    }
+    grid_free(&g);
+    *radius = r;
+    return PGI_OK;
+}
