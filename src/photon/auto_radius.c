@@ -10,7 +10,7 @@
 /* Photons a gather disk should hold at the quantile, and the quantile of the view samples'
  * K-th-neighbour distances: 3 in 4 of the samples the camera sees gather at least K. Tuned on
  * Sibenik and the Cornell box against converged references (docs/radius.md). */
-#define AUTO_K 48
+#define AUTO_K 32
 #define AUTO_QUANTILE 0.75f
 /* The cost cap: the radius shrinks until the mean photons a query gathers is at most this. */
 #define AUTO_MEAN_CAP 400.0
@@ -78,29 +78,10 @@ static pgi_status grid_build(const pgi_photons *ph, float cell, grid *g) {
     return PGI_OK;
 }
 
-/* Calls body(photon index, squared distance) for every photon within R of p that the sample of
- * normal n would gather (strictly inside, arriving from its side). */
-#define FOR_EACH_NEAR(g, ph, p, n, R, body)                                                                            \
-    do {                                                                                                               \
-        const float r2_ = (R) * (R);                                                                                   \
-        const int32_t x0_ = cell_of((p)[0] - (R), (g)->inv), x1_ = cell_of((p)[0] + (R), (g)->inv);                    \
-        const int32_t y0_ = cell_of((p)[1] - (R), (g)->inv), y1_ = cell_of((p)[1] + (R), (g)->inv);                    \
-        const int32_t z0_ = cell_of((p)[2] - (R), (g)->inv), z1_ = cell_of((p)[2] + (R), (g)->inv);                    \
-        for (int32_t z_ = z0_; z_ <= z1_; z_++)                                                                        \
-            for (int32_t y_ = y0_; y_ <= y1_; y_++)                                                                    \
-                for (int32_t x_ = x0_; x_ <= x1_; x_++) {                                                              \
-                    uint32_t b_ = cell_hash(x_, y_, z_, (g)->mask);                                                    \
-                    for (uint32_t k_ = (g)->start[b_]; k_ < (g)->start[b_ + 1]; k_++) {                                \
-                        uint32_t j_ = (g)->idx[k_];                                                                    \
-                        if ((g)->cx[j_] != x_ || (g)->cy[j_] != y_ || (g)->cz[j_] != z_) continue;                     \
-                        float ex_ = (ph)->px[j_] - (p)[0], ey_ = (ph)->py[j_] - (p)[1], ez_ = (ph)->pz[j_] - (p)[2];   \
-                        float d2_ = ex_ * ex_ + ey_ * ey_ + ez_ * ez_;                                                 \
-                        if (!(d2_ < r2_)) continue;                                                                    \
-                        if (!((n)[0] * (ph)->dx[j_] + (n)[1] * (ph)->dy[j_] + (n)[2] * (ph)->dz[j_] > 0.f)) continue;  \
-                        body(j_, d2_);                                                                                 \
-                    }                                                                                                  \
-                }                                                                                                      \
-    } while (0)
+/* Rings of cells around a query: ring 1 is the 3x3x3 block around the query's cell, ring J > 1
+ * the cells at Chebyshev distance J from it. After rings 1..J every photon within J cells of the
+ * query has been seen, so a K-th distance of at most J * cell is exact. */
+#define AUTO_RINGS 4
 
 /* Max-heap of the K smallest squared distances seen. */
 typedef struct kheap {
@@ -129,6 +110,28 @@ static inline void kheap_push(kheap *h, float d2) {
         }
         h->v[i] = d2;
     }
+}
+
+/* Pushes into h the squared distances of ring J's photons that the sample (p, n) would gather
+ * (arriving from its side). */
+static void scan_ring(const grid *g, const pgi_photons *ph, const float *p, const float *n, int J, kheap *h) {
+    const int32_t cx = cell_of(p[0], g->inv), cy = cell_of(p[1], g->inv), cz = cell_of(p[2], g->inv);
+    for (int dz = -J; dz <= J; dz++)
+        for (int dy = -J; dy <= J; dy++)
+            for (int dx = -J; dx <= J; dx++) {
+                int cheb = abs(dx) > abs(dy) ? abs(dx) : abs(dy);
+                cheb = abs(dz) > cheb ? abs(dz) : cheb;
+                if (J > 1 && cheb < J) continue; /* seen in an inner ring */
+                const int32_t x = cx + dx, y = cy + dy, z = cz + dz;
+                const uint32_t b = cell_hash(x, y, z, g->mask);
+                for (uint32_t k = g->start[b]; k < g->start[b + 1]; k++) {
+                    const uint32_t j = g->idx[k];
+                    if (g->cx[j] != x || g->cy[j] != y || g->cz[j] != z) continue; /* a hash collision */
+                    if (!(n[0] * ph->dx[j] + n[1] * ph->dy[j] + n[2] * ph->dz[j] > 0.f)) continue;
+                    float ex = ph->px[j] - p[0], ey = ph->py[j] - p[1], ez = ph->pz[j] - p[2];
+                    kheap_push(h, ex * ex + ey * ey + ez * ez);
+                }
+            }
 }
 
 static int cmp_float(const void *a, const void *b) {
@@ -184,17 +187,14 @@ pgi_status pgi__auto_radius_choose(const pgi_photons *ph, const pgi_view_samples
     for (int attempt = 0;; attempt++) {
         pgi_status st = grid_build(ph, cell, &g);
         if (st) return st;
-        const float reach = 4.f * cell;
 #pragma omp parallel for schedule(dynamic, 16) num_threads(pgi__threads(threads))
         for (int j = 0; j < m; j++) {
             const float *p = vs->pos + 3 * (size_t)q[j], *n = vs->nrm + 3 * (size_t)q[j];
+            kheap h = {.n = 0};
             d[j] = INFINITY;
-            for (float R = cell; R <= reach * 1.001f; R *= 2.f) {
-                kheap h = {.n = 0};
-#define PUSH(j_, d2_) kheap_push(&h, d2_)
-                FOR_EACH_NEAR(&g, ph, p, n, R, PUSH);
-#undef PUSH
-                if (h.n == AUTO_K) {
+            for (int J = 1; J <= AUTO_RINGS; J++) {
+                scan_ring(&g, ph, p, n, J, &h);
+                if (h.n == AUTO_K && h.v[0] <= ((float)J * cell) * ((float)J * cell)) {
                     d[j] = sqrtf(h.v[0]);
                     break;
                 }
@@ -216,21 +216,17 @@ pgi_status pgi__auto_radius_choose(const pgi_photons *ph, const pgi_view_samples
     r = fminf(fmaxf(r, out->lo), out->hi);
 
     /* The cost cap: the mean number of photons a query gathers at r (bright parts of the view
-     * hold many more than K), scaled down by area when it exceeds the cap. */
+     * hold many more than K), from each query's K-th distance as if the density were even within
+     * it (K (r / d)^2; a starved query at most K (r / (rings * cell))^2); r shrinks by area when the
+     * mean exceeds the cap. */
     double total = 0.0;
-    if (r <= 4.f * g.cell) {
-#pragma omp parallel for schedule(dynamic, 16) reduction(+ : total) num_threads(pgi__threads(threads))
-        for (int j = 0; j < m; j++) {
-            const float *p = vs->pos + 3 * (size_t)q[j], *n = vs->nrm + 3 * (size_t)q[j];
-            uint32_t c = 0;
-#define COUNT(j_, d2_) c++
-            FOR_EACH_NEAR(&g, ph, p, n, r, COUNT);
-#undef COUNT
-            total += (double)c;
-        }
-        out->mean_reads = total / m;
-        if (out->mean_reads > AUTO_MEAN_CAP) r = fmaxf(out->lo, r * (float)sqrt(AUTO_MEAN_CAP / out->mean_reads));
+    const float reach = (float)AUTO_RINGS * g.cell;
+    for (int j = 0; j < m; j++) {
+        float dj = isfinite(d[j]) ? fmaxf(d[j], 1e-30f) : reach;
+        total += (double)AUTO_K * ((double)r / dj) * ((double)r / dj);
     }
+    out->mean_reads = total / m;
+    if (out->mean_reads > AUTO_MEAN_CAP) r = fmaxf(out->lo, r * (float)sqrt(AUTO_MEAN_CAP / out->mean_reads));
     grid_free(&g);
     *radius = r;
     return PGI_OK;
