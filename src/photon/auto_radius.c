@@ -8,10 +8,20 @@
 #include "core/core.h"
 
 /* Photons a gather disk should hold at the quantile, and the quantile of the view samples'
- * K-th-neighbour distances: 3 in 4 of the samples the camera sees gather at least K. Tuned on
- * Sibenik and the Cornell box against converged references (docs/radius.md). */
+ * K-th-neighbour distances: 3 in 4 of the samples the camera sees gather at least K. K grows with
+ * the photon count N as N^(2/3), the mean-square-error optimum of a 2-D density estimate (bias ~
+ * r^2, variance ~ 1 / (N r^2), so r ~ N^(-1/6)): AUTO_K at AUTO_K_AT photons, within
+ * [AUTO_K_MIN, AUTO_K_MAX]. Tuned on Sibenik and the Cornell box against converged references
+ * (docs/radius.md). */
 #define AUTO_K 32
+#define AUTO_K_AT 200000.0
+#define AUTO_K_MIN 16
+#define AUTO_K_MAX 256
 #define AUTO_QUANTILE 0.75f
+/* Above this many photons, every s-th photon stands for s of them (and K/s is sought among them),
+ * s at most K / AUTO_K_SUB so that at least AUTO_K_SUB are still sought. */
+#define AUTO_PHOTONS 262144
+#define AUTO_K_SUB 32
 /* The cost cap: the radius shrinks until the mean photons a query gathers is at most this. */
 #define AUTO_MEAN_CAP 400.0
 /* The clamp, as fractions of the scene's diagonal. */
@@ -85,12 +95,12 @@ static pgi_status grid_build(const pgi_photons *ph, float cell, grid *g) {
 
 /* Max-heap of the K smallest squared distances seen. */
 typedef struct kheap {
-    float v[AUTO_K];
-    int n;
+    float v[AUTO_K_MAX];
+    int n, k;
 } kheap;
 
 static inline void kheap_push(kheap *h, float d2) {
-    if (h->n < AUTO_K) {
+    if (h->n < h->k) {
         int i = h->n++;
         while (i > 0 && h->v[(i - 1) / 2] < d2) {
             h->v[i] = h->v[(i - 1) / 2];
@@ -102,8 +112,8 @@ static inline void kheap_push(kheap *h, float d2) {
         for (;;) {
             int l = 2 * i + 1, r = l + 1, m = i;
             float big = d2;
-            if (l < AUTO_K && h->v[l] > big) m = l, big = h->v[l];
-            if (r < AUTO_K && h->v[r] > big) m = r;
+            if (l < h->k && h->v[l] > big) m = l, big = h->v[l];
+            if (r < h->k && h->v[r] > big) m = r;
             if (m == i) break;
             h->v[i] = h->v[m];
             i = m;
@@ -151,11 +161,11 @@ static int pick_queries(const pgi_view_samples *vs, uint32_t *q) {
     return m;
 }
 
-pgi_status pgi__auto_radius_choose(const pgi_photons *ph, const pgi_view_samples *vs, float diag, int threads,
-                                   float *radius, pgi_auto_radius_stats *out) {
-    memset(out, 0, sizeof *out);
+/* The choice on photons `ph` (maybe a subsample), seeking the K-th neighbour among them; `Kfull`
+ * is what it stands for among all photons (the cost estimate). */
+static pgi_status choose(const pgi_photons *ph, int K, int Kfull, const pgi_view_samples *vs, float diag, int threads,
+                         float *radius, pgi_auto_radius_stats *out) {
     out->used = 1;
-    out->k = AUTO_K;
     out->quantile = AUTO_QUANTILE;
     out->lo = AUTO_LO * diag;
     out->hi = AUTO_HI * diag;
@@ -164,7 +174,7 @@ pgi_status pgi__auto_radius_choose(const pgi_photons *ph, const pgi_view_samples
     uint32_t q[PGI__AUTO_QUERIES];
     const int m = pick_queries(vs, q);
     out->queries = m;
-    if (m == 0 || ph->count < AUTO_K) return PGI_OK;
+    if (m == 0 || ph->count < (size_t)K) return PGI_OK;
 
     /* First cell edge: the radius that would hold K photons if they were spread evenly over the
      * photons' bounding box's largest face; grown 4x while the quantile falls among the queries
@@ -179,7 +189,7 @@ pgi_status pgi__auto_radius_choose(const pgi_photons *ph, const pgi_view_samples
     }
     float ex = bmax[0] - bmin[0], ey = bmax[1] - bmin[1], ez = bmax[2] - bmin[2];
     float face = fmaxf(ex * ey, fmaxf(ey * ez, ex * ez));
-    float cell = sqrtf(face * (float)AUTO_K / (PGI_PI * (float)ph->count));
+    float cell = sqrtf(face * (float)K / (PGI_PI * (float)ph->count));
     cell = fminf(fmaxf(cell, out->lo), out->hi);
     float d[PGI__AUTO_QUERIES];
     const int qi = (int)(AUTO_QUANTILE * (float)(m - 1));
@@ -190,11 +200,11 @@ pgi_status pgi__auto_radius_choose(const pgi_photons *ph, const pgi_view_samples
 #pragma omp parallel for schedule(dynamic, 16) num_threads(pgi__threads(threads))
         for (int j = 0; j < m; j++) {
             const float *p = vs->pos + 3 * (size_t)q[j], *n = vs->nrm + 3 * (size_t)q[j];
-            kheap h = {.n = 0};
+            kheap h = {.n = 0, .k = K};
             d[j] = INFINITY;
             for (int J = 1; J <= AUTO_RINGS; J++) {
                 scan_ring(&g, ph, p, n, J, &h);
-                if (h.n == AUTO_K && h.v[0] <= ((float)J * cell) * ((float)J * cell)) {
+                if (h.n == K && h.v[0] <= ((float)J * cell) * ((float)J * cell)) {
                     d[j] = sqrtf(h.v[0]);
                     break;
                 }
@@ -223,11 +233,36 @@ pgi_status pgi__auto_radius_choose(const pgi_photons *ph, const pgi_view_samples
     const float reach = (float)AUTO_RINGS * g.cell;
     for (int j = 0; j < m; j++) {
         float dj = isfinite(d[j]) ? fmaxf(d[j], 1e-30f) : reach;
-        total += (double)AUTO_K * ((double)r / dj) * ((double)r / dj);
+        total += (double)Kfull * ((double)r / dj) * ((double)r / dj);
     }
     out->mean_reads = total / m;
     if (out->mean_reads > AUTO_MEAN_CAP) r = fmaxf(out->lo, r * (float)sqrt(AUTO_MEAN_CAP / out->mean_reads));
     grid_free(&g);
     *radius = r;
     return PGI_OK;
+}
+
+pgi_status pgi__auto_radius_choose(const pgi_photons *ph, const pgi_view_samples *vs, float diag, int threads,
+                                   float *radius, pgi_auto_radius_stats *out) {
+    memset(out, 0, sizeof *out);
+    int K = (int)lround(AUTO_K * pow((double)ph->count / AUTO_K_AT, 2.0 / 3.0));
+    K = K < AUTO_K_MIN ? AUTO_K_MIN : K > AUTO_K_MAX ? AUTO_K_MAX : K;
+    out->k = K;
+    size_t stride = ph->count / AUTO_PHOTONS;
+    if (stride > (size_t)(K / AUTO_K_SUB)) stride = (size_t)(K / AUTO_K_SUB);
+    if (stride <= 1) return choose(ph, K, K, vs, diag, threads, radius, out);
+    /* every stride-th photon, K / stride of them sought */
+    const size_t ns = ph->count / stride;
+    float *buf = malloc(6 * ns * sizeof *buf);
+    if (!buf) return pgi__fail(PGI_ERR_OOM, "automatic radius: out of memory for %zu photons", ns);
+    pgi_photons sub = {.count = ns, .capacity = ns};
+    float **dst[6] = {&sub.px, &sub.py, &sub.pz, &sub.dx, &sub.dy, &sub.dz};
+    const float *src[6] = {ph->px, ph->py, ph->pz, ph->dx, ph->dy, ph->dz};
+    for (int a = 0; a < 6; a++) {
+        *dst[a] = buf + (size_t)a * ns;
+        for (size_t i = 0; i < ns; i++) (*dst[a])[i] = src[a][i * stride];
+    }
+    pgi_status st = choose(&sub, (int)lround((double)K / (double)stride), K, vs, diag, threads, radius, out);
+    free(buf);
+    return st;
 }
