@@ -117,6 +117,7 @@ static uint32_t add_mat(builder *b, const char *name, pgi__material_type type, p
     v3_store(m->kd, kd);
     m->ior = 1.5f;
     m->tex_kd = -1;
+    m->tex_alpha = -1;
     return (uint32_t)s->nmats++;
 }
 
