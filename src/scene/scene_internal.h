@@ -145,6 +145,18 @@ float pgi__scene_epsilon(const pgi_scene *s);
 extern const char *const pgi__builtin_names[];
 pgi_status pgi__scene_builtin(const char *name, pgi_scene **out); /* PGI_ERR_INVALID_ARG if unknown */
 
+/* The lattice mask of the built-in scene `cutout`: PGI_CUTOUT_TEXELS^2 texels, periods of 8 x 8
+ * texels; columns 3 and 4 and rows 3 and 4 of a period are its narrow bands, and a texel is open
+ * (alpha 0) where exactly one of its column and its row is narrow: slots 2 x 6 texels, an open
+ * fraction of 2 * 2 * 6 / 64 = 0.375. Every 2 x 2 block of texels is uniform, split in halves
+ * or a checker, so bilinear alpha cut at 0.5 opens exactly the open texels' squares. */
+#define PGI_CUTOUT_TEXELS 192
+#define PGI_CUTOUT_OPEN_FRACTION 0.375
+static inline int pgi__cutout_open(int x, int y) {
+    int nx = (x & 7) == 3 || (x & 7) == 4, ny = (y & 7) == 3 || (y & 7) == 4;
+    return nx != ny;
+}
+
 /* Mesh import through Assimp (load_assimp.c): appends geometry, materials
  * and textures of `path` to `s`. Textures resolve against the mesh folder. */
 pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path);
