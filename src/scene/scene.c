@@ -263,6 +263,7 @@ void pgi_scene_get_info(const pgi_scene *s, pgi_scene_info *o) {
     o->vertices = s->nverts;
     o->materials = s->nmats;
     o->textures = s->ntexs;
+    for (size_t m = 0; m < s->nmats; m++) o->cutout_materials += pgi__mat_masked(&s->mats[m]);
     o->lights = s->nlights;
     for (size_t i = 0; i < s->nlights; i++) {
         switch (s->lights[i].type) {
