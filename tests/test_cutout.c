@@ -280,14 +280,24 @@ static void probe(const pgi_scene *s, int hits[9]) {
     pgi__rt_destroy(rt);
 }
 
-static pgi_scene *import(const char *file) {
+/* Imports g_dir/name.ext; its quad's material must be of `type`, masked or not, and the probe
+ * rays must hit as `expect` says. */
+static void check_file(const char *name, const char *ext, int type, int masked, const int expect[9]) {
     char path[700];
-    snprintf(path, sizeof path, "%s/%s", g_dir, file);
+    snprintf(path, sizeof path, "%s/%s.%s", g_dir, name, ext);
     pgi_scene *s = NULL;
     TU_CHECK_OK(pgi__scene_new("t", &s));
     TU_CHECK_OK(pgi__scene_import_mesh(s, path));
     TU_CHECK_OK(pgi__scene_finalize(s, path));
-    return s;
+    const pgi__material *m = &s->mats[s->tri_mat[0]];
+    assert_int_equal(m->type, type);
+    assert_int_equal(pgi__mat_masked(m), masked);
+    int hits[9];
+    probe(s, hits);
+    for (int i = 0; i < 9; i++)
+        if (hits[i] != expect[i])
+            fail_msg("%s.%s: the ray at x = %.2f %s", name, ext, 0.05 + 0.1 * i, hits[i] ? "hit" : "passed");
+    pgi_scene_destroy(s);
 }
 
 /* map_d with d = 1 is a cut-out, not glass: the alpha of an RGBA image or the value of a grey
@@ -318,18 +328,7 @@ static void test_mtl_map_d(void **state) {
     };
     for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
         write_obj(cases[c].name, cases[c].mtl);
-        char file[64];
-        snprintf(file, sizeof file, "%s.obj", cases[c].name);
-        pgi_scene *s = import(file);
-        const pgi__material *m = &s->mats[s->tri_mat[0]];
-        assert_int_equal(m->type, cases[c].type);
-        assert_int_equal(pgi__mat_masked(m), cases[c].masked);
-        int hits[9];
-        probe(s, hits);
-        for (int i = 0; i < 9; i++)
-            if (hits[i] != cases[c].expect[i])
-                fail_msg("%s: the ray at x = %.2f %s", cases[c].name, 0.05 + 0.1 * i, hits[i] ? "hit" : "passed");
-        pgi_scene_destroy(s);
+        check_file(cases[c].name, "obj", cases[c].type, cases[c].masked, cases[c].expect);
     }
 }
 
@@ -381,19 +380,54 @@ static void test_gltf_mask(void **state) {
                  cases[c].mode, sizeof buf);
         snprintf(path, sizeof path, "%s/%s.gltf", g_dir, cases[c].name);
         assert_int_equal(tu_write_file(path, json), 0);
-        char file[64];
-        snprintf(file, sizeof file, "%s.gltf", cases[c].name);
-        pgi_scene *s = import(file);
-        const pgi__material *m = &s->mats[s->tri_mat[0]];
-        assert_int_not_equal(m->type, PGI_MAT_GLASS);
-        assert_int_equal(pgi__mat_masked(m), cases[c].masked);
-        int hits[9];
-        probe(s, hits);
-        for (int i = 0; i < 9; i++)
-            if (hits[i] != cases[c].expect[i])
-                fail_msg("%s: the ray at x = %.2f %s", cases[c].name, 0.05 + 0.1 * i, hits[i] ? "hit" : "passed");
-        pgi_scene_destroy(s);
+        check_file(cases[c].name, "gltf", PGI_MAT_LAMBERT, cases[c].masked, cases[c].expect);
     }
+}
+
+/* A masked object that moves (its own refitted geometry, src/rt/rt.c): the lattice of `cutout`
+ * animated by 0.5 in x over 1 s, rendered by one renderer that updates its BVH. At t = 0 the
+ * floor's direct light is the static scene's; at t = 0.5 the lattice has moved 3 whole periods
+ * (the same light on the floor); at t = 1/12 half a period (another pattern, and the same open
+ * fraction: a mean within 1%). */
+static void test_animated_mask(void **state) {
+    (void)state;
+    char path[700];
+    snprintf(path, sizeof path, "%s/moving.json", g_dir);
+    assert_int_equal(tu_write_file(path, "{\"builtin\": \"cutout\", \"animate\": [{\"material\": \"lattice\", "
+                                         "\"motion\": {\"keyframes\": [{\"t\": 0}, {\"t\": 1, \"translate\": "
+                                         "[0.5, 0, 0]}]}}]}"),
+                     0);
+    pgi_scene *s = NULL;
+    TU_CHECK_OK(pgi_scene_load(path, &s));
+    pgi_renderer *r = NULL;
+    TU_CHECK_OK(pgi_renderer_create(s, &r));
+    const pgi_render_desc d = floor_desc(PGI_OUTPUT_DIRECT, 1000);
+    pgi_image a = {0}, b = {0}, c = {0};
+    TU_CHECK_OK(pgi_renderer_render(r, &d, &a, NULL));
+    TU_CHECK_OK(pgi_scene_set_time(s, 0.5));
+    TU_CHECK_OK(pgi_renderer_render(r, &d, &b, NULL));
+    TU_CHECK_OK(pgi_scene_set_time(s, 1.0 / 12.0));
+    TU_CHECK_OK(pgi_renderer_render(r, &d, &c, NULL));
+    double still = floor_mean(0, PGI_OUTPUT_DIRECT, 1000), ma = image_mean(&a), mc = image_mean(&c);
+    size_t n = 3 * (size_t)a.width * a.height, changed = 0;
+    double worst = 0.0;
+    for (size_t i = 0; i < n; i++) {
+        worst = fmax(worst, fabs(b.rgb[i] - a.rgb[i]));
+        changed += fabsf(c.rgb[i] - a.rgb[i]) > 1e-3f;
+    }
+    fprintf(stderr,
+            "  moving lattice: t = 0 %.6f (static %.6f), 3 periods on: worst pixel %g, half a period on: %zu of %zu "
+            "values changed, mean %.6f\n",
+            ma, still, worst, changed, n, mc);
+    assert_true(fabs(ma / still - 1.0) < 1e-5);
+    assert_true(worst < 1e-5);
+    assert_true(changed > n / 4);
+    assert_true(fabs(mc / ma - 1.0) < 0.01);
+    pgi_image_free(&a);
+    pgi_image_free(&b);
+    pgi_image_free(&c);
+    pgi_renderer_destroy(r);
+    pgi_scene_destroy(s);
 }
 
 static int files_setup(void **state) {
@@ -416,6 +450,7 @@ int main(void) {
     const struct CMUnitTest files[] = {
         cmocka_unit_test(test_mtl_map_d),
         cmocka_unit_test(test_gltf_mask),
+        cmocka_unit_test(test_animated_mask),
     };
     int fails = cmocka_run_group_tests_name("cutout scene", scene, NULL, NULL);
     fails += cmocka_run_group_tests_name("masks from files", files, files_setup, files_teardown);
