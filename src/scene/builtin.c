@@ -244,7 +244,7 @@ static void build_sphere_and_plane(builder *b) {
  * the floor only through the mask; a point light at y = 1.5 and a white ceiling at y = 2
  * above it (light reflected by the ceiling reaches the floor through the mask too: stored
  * photons). The mask and the walls are black, so with one bounce the light on the floor is
- * exactly linear in the open fraction of the mask. Cameras: 0 a view from the side; 1 inside,
+ * exactly linear in the open fraction of the mask. Cameras: 0 a view from the front; 1 inside,
  * at y = 0.9 straight down onto the floor's [-0.5, 0.5]^2 (the point light projects the
  * mask onto the floor magnified 3 times: that square is the shadow of 4 x 4 lattice periods,
  * 16 pixels each at 64 x 64); 2 above the mask at y = 1.9 straight down onto its
