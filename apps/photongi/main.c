@@ -50,7 +50,7 @@ static const char *k_render_help =
     "Renders one frame: primary rays, photon tracing, density estimation of indirect light,\n"
     "direct light with shadow rays, tone mapping (PNG) or linear radiance (EXR).\n"
     "\n"
-    "  --scene S          built-in (cornell [default], cornell-mirrors, giref, sphere-and-plane),\n"
+    "  --scene S          built-in (cornell [default], cornell-mirrors, giref, sphere-and-plane, cutout),\n"
     "                     a name with a description S.json (sibenik, crytek-sponza, conference,\n"
     "                     fireplace-room, cornell-box; see 'Scene files' below), a .json\n"
     "                     description, or a mesh\n"
@@ -178,7 +178,8 @@ static int cmd_info(int argc, char **argv) {
     printf("source:     %s\n", in.source);
     printf("triangles:  %zu\n", in.triangles);
     printf("vertices:   %zu\n", in.vertices);
-    printf("materials:  %zu\n", in.materials);
+    if (in.cutout_materials) printf("materials:  %zu (%zu with cut-out masks)\n", in.materials, in.cutout_materials);
+    else printf("materials:  %zu\n", in.materials);
     printf("textures:   %zu\n", in.textures);
     printf("lights:     %zu (point %zu, spot %zu, sun %zu, emissive triangles %zu)\n", in.lights, in.point_lights,
            in.spot_lights, in.sun_lights, in.area_triangles);

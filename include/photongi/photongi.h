@@ -58,7 +58,8 @@ typedef struct pgi_scene_info {
     const char *name;   /* "cornell", or the description/mesh file name */
     const char *source; /* "built-in" or the file that was loaded */
     size_t triangles, vertices, materials, textures;
-    size_t lights; /* all emitters; emissive triangles count one each */
+    size_t cutout_materials; /* materials with a cut-out mask (MTL map_d, glTF alphaMode MASK) */
+    size_t lights;           /* all emitters; emissive triangles count one each */
     size_t point_lights, spot_lights, sun_lights, area_triangles;
     float bounds_min[3], bounds_max[3];
     size_t cameras;
@@ -70,7 +71,7 @@ typedef struct pgi_scene_info {
 } pgi_scene_info;
 
 /* Loads a scene. `spec` is a built-in name ("cornell", "giref",
- * "sphere-and-plane"), a scene description (.json), a scene name with a
+ * "sphere-and-plane", "cutout"), a scene description (.json), a scene name with a
  * description <name>.json in ./scenes, in the source tree's scenes/ (a build
  * run from any directory) or in the installed share/photongi/scenes (looked up
  * in that order), or a mesh file Assimp reads (OBJ/MTL, glTF, PLY). Mesh paths

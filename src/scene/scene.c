@@ -65,6 +65,12 @@ pgi_status pgi__scene_finalize(pgi_scene *s, const char *what) {
             return pgi__fail(PGI_ERR_PARSE, "%s: material '%s' has a non-finite value", what, mt->name);
         if (mt->tex_kd >= (int)s->ntexs)
             return pgi__fail(PGI_ERR_PARSE, "%s: material '%s' refers to a missing texture", what, mt->name);
+        if (pgi__mat_masked(mt)) {
+            if (!isfinite(mt->alpha_cutoff) || mt->tex_alpha < -1 || mt->tex_alpha >= (int)s->ntexs)
+                return pgi__fail(PGI_ERR_PARSE, "%s: material '%s' has a bad cut-out mask", what, mt->name);
+            /* Area lights emit from their whole triangles: an emitter is never cut out. */
+            if (mt->ke[0] > 0.f || mt->ke[1] > 0.f || mt->ke[2] > 0.f) mt->alpha_cutoff = 0.f;
+        }
     }
 
     /* One area light per emissive triangle. */
@@ -257,6 +263,7 @@ void pgi_scene_get_info(const pgi_scene *s, pgi_scene_info *o) {
     o->vertices = s->nverts;
     o->materials = s->nmats;
     o->textures = s->ntexs;
+    for (size_t m = 0; m < s->nmats; m++) o->cutout_materials += pgi__mat_masked(&s->mats[m]);
     o->lights = s->nlights;
     for (size_t i = 0; i < s->nlights; i++) {
         switch (s->lights[i].type) {

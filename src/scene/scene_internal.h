@@ -22,12 +22,22 @@ typedef struct pgi__material {
     float ior;       /* glass: MTL Ni */
     float ke[3];     /* emitted radiance (MTL Ke); non-zero makes the triangles area lights */
     int tex_kd;      /* index into scene textures, -1 if none */
+    /* Cut-out (MTL map_d, glTF alphaMode MASK): where alpha < alpha_cutoff the surface is not
+     * there for any ray (an Embree filter, src/rt/rt.c). alpha is the alpha channel of texture
+     * tex_alpha (bilinear), or 1 when tex_alpha is -1; a cutoff above 1 removes the whole
+     * surface. alpha_cutoff 0 (what a zeroed material holds): no cut-out, tex_alpha unused. */
+    float alpha_cutoff;
+    int tex_alpha;
 } pgi__material;
+
+/* 1 when material m has a cut-out mask. */
+static inline int pgi__mat_masked(const pgi__material *m) { return m->alpha_cutoff > 0.f; }
 
 /* 8-bit sRGB texture; lookups return linear RGB. */
 typedef struct pgi__texture {
     int width, height;
     unsigned char *rgba; /* 4 bytes a texel, row 0 is the top of the image */
+    int channels;        /* of the image file: 1-4; 2 and 4 carry alpha (else alpha is 255) */
     char path[512];
 } pgi__texture;
 
@@ -135,6 +145,18 @@ float pgi__scene_epsilon(const pgi_scene *s);
 extern const char *const pgi__builtin_names[];
 pgi_status pgi__scene_builtin(const char *name, pgi_scene **out); /* PGI_ERR_INVALID_ARG if unknown */
 
+/* The lattice mask of the built-in scene `cutout`: PGI_CUTOUT_TEXELS^2 texels, periods of 8 x 8
+ * texels; columns 3 and 4 and rows 3 and 4 of a period are its narrow bands, and a texel is open
+ * (alpha 0) where exactly one of its column and its row is narrow: slots 2 x 6 texels, an open
+ * fraction of 2 * 2 * 6 / 64 = 0.375. Every 2 x 2 block of texels is uniform, split in halves
+ * or a checker, so bilinear alpha cut at 0.5 opens exactly the open texels' squares. */
+#define PGI_CUTOUT_TEXELS 192
+#define PGI_CUTOUT_OPEN_FRACTION 0.375
+static inline int pgi__cutout_open(int x, int y) {
+    int nx = (x & 7) == 3 || (x & 7) == 4, ny = (y & 7) == 3 || (y & 7) == 4;
+    return nx != ny;
+}
+
 /* Mesh import through Assimp (load_assimp.c): appends geometry, materials
  * and textures of `path` to `s`. Textures resolve against the mesh folder. */
 pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path);
@@ -144,6 +166,15 @@ pgi_status pgi__scene_load_json(const char *path, pgi_scene **out);
 
 /* Texture lookup, bilinear, wrapping; returns linear RGB. */
 pgi__v3 pgi__texture_lookup(const pgi__texture *t, float u, float v);
+/* Alpha channel (0..1, linear), bilinear and wrapping as pgi__texture_lookup; 1 without a texture. */
+float pgi__texture_alpha(const pgi__texture *t, float u, float v);
+/* 1 when the point at barycentrics (b1, b2) of triangle `tri` is cut out by its material's mask
+ * (the ray filters of rt.c call this for hits on masked triangles only). */
+int pgi__scene_cut_out(const pgi_scene *s, uint32_t tri, float b1, float b2);
+/* Appends a texture that takes ownership of `rgba` (malloc'd, w x h x 4 bytes; freed here on
+ * failure); *index receives its index. `channels` as in pgi__texture. */
+pgi_status pgi__scene_add_texture(pgi_scene *s, int w, int h, int channels, unsigned char *rgba, const char *path,
+                                  int *index);
 /* Asks the cache for the texels pgi__texture_lookup(t, u, v) will read (the photon tracer
  * issues these for a wave of hits before shading them, so that their misses overlap). */
 void pgi__texture_prefetch(const pgi__texture *t, float u, float v);

@@ -355,6 +355,7 @@ static pgi_status parse_material(const char *path, pgi_scene *s, const cJSON *j,
     m.kd[0] = m.kd[1] = m.kd[2] = 0.8f;
     m.ior = 1.5f;
     m.tex_kd = -1;
+    m.tex_alpha = -1;
     pgi_status st = PGI_OK;
     if (j) {
         if (!cJSON_IsObject(j)) return pgi__fail(PGI_ERR_PARSE, "%s: %s must be an object", path, w);
