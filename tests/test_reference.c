@@ -124,14 +124,17 @@ static void test_cornell_agreement(void **state) {
     pgi_scene_destroy(s);
 }
 
-/* A box with every material: Lambertian walls, a Blinn-Phong block (Ks 0.3,
- * Ns 40), a glass block and a mirror on the back wall, lit by a 1x1 area
- * light: exercises MIS with a glossy lobe, eye paths through glass and
- * mirrors, and caustics (light -> glass/mirror -> wall, photons in the
- * pipeline, BSDF-sampled emitter hits in the reference). Same settings and
- * bounds as the Cornell test (measured: image 0.1%, worst block 2.1%). */
+/* A box with every material: Lambertian walls, a glossy floor (illum 2, Ks 0.04, Ns 198:
+ * the plastic of real interiors), a glossy block (Ks 0.3, Ns 40), a glass block and a mirror
+ * on the back wall, lit by a 1x1 area light: exercises MIS with a glossy lobe, eye paths
+ * through glass and mirrors, and caustics (light -> glass/mirror -> wall, photons in the
+ * pipeline, BSDF-sampled emitter hits in the reference). Rendered twice: with the glossy
+ * materials as microfacet plastic (the default; the reference samples visible normals) and
+ * as the papers' Blinn-Phong (pgi_scene_set_specular). Same settings and bounds as the
+ * Cornell test. */
 static const char k_box_mtl[] =
     "newmtl white\nKd 0.7 0.7 0.7\nillum 1\nnewmtl red\nKd 0.6 0.1 0.1\nillum 1\n"
+    "newmtl floor\nKd 0.7 0.7 0.7\nKs 0.04 0.04 0.04\nNs 198\nillum 2\n"
     "newmtl green\nKd 0.1 0.5 0.1\nillum 1\nnewmtl light\nKd 0.5 0.5 0.5\nKe 4 4 4\nillum 1\n"
     "newmtl glossy\nKd 0.3 0.3 0.5\nKs 0.3 0.3 0.3\nNs 40\nillum 2\n"
     "newmtl mirror\nKd 0 0 0\nKs 0.9 0.9 0.9\nillum 3\nnewmtl glass\nKd 0 0 0\nKs 1 1 1\nNi 1.5\nillum 7\n";
@@ -170,7 +173,7 @@ static void test_materials_agreement(void **state) {
          {{-1, 0, -1}, {-1, 2, -1}, {-1, 2, 1}, {-1, 0, 1}},
          {{1, 0, -1}, {1, 0, 1}, {1, 2, 1}, {1, 2, -1}},
          {{-0.5f, 1.99f, -0.5f}, {0.5f, 1.99f, -0.5f}, {0.5f, 1.99f, 0.5f}, {-0.5f, 1.99f, 0.5f}}};
-    const char *wm[6] = {"white", "white", "white", "red", "green", "light"};
+    const char *wm[6] = {"floor", "white", "white", "red", "green", "light"};
     for (int k = 0; k < 6; k++) box_quad(obj, sizeof obj, &len, &nv, walls[k], wm[k]);
     box_cube(obj, sizeof obj, &len, &nv, 0.1f, 0.f, 0.f, 0.6f, 0.6f, 0.5f, "glossy");
     box_cube(obj, sizeof obj, &len, &nv, -0.7f, 0.f, -0.6f, -0.2f, 1.f, -0.1f, "glass");
@@ -189,7 +192,11 @@ static void test_materials_agreement(void **state) {
     pgi_scene_info info;
     pgi_scene_get_info(s, &info);
     assert_int_equal(info.area_triangles, 2);
-    agreement(s, "materials box");
+    assert_int_equal(info.glossy_materials, 2);
+    assert_int_equal(info.specular, PGI_SPECULAR_GGX);
+    agreement(s, "materials box, plastic");
+    TU_CHECK_OK(pgi_scene_set_specular(s, PGI_SPECULAR_PHONG));
+    agreement(s, "materials box, Blinn-Phong");
     pgi_scene_destroy(s);
     tu_rm_tmpdir(dir);
 }
