@@ -81,6 +81,8 @@ static inline float pgi__fresnel_f0(float eta) {
 void pgi__lobe_init(pgi__lobe *l, pgi__lobe_model model, pgi__v3 ks, float s, float eta);
 /* The lobe of a non-specular material (Lambert: PGI_LOBE_NONE). */
 void pgi__lobe_of_material(const pgi__material *m, pgi__lobe *l);
+/* What pgi__lobe_of_material passes to pgi__lobe_init (the view samples store these). */
+pgi__lobe_model pgi__lobe_params(const pgi__material *m, pgi__v3 *ks, float *s, float *eta);
 /* The untinted GGX lobe's directional albedo E(mu) and E_avg for alpha, eta, from the
  * table (tests and pgi__lobe_init). */
 float pgi__ggx_albedo(float mu, float alpha, float eta, float *e_avg);

@@ -157,16 +157,30 @@ void pgi__lobe_init(pgi__lobe *l, pgi__lobe_model model, pgi__v3 ks, float s, fl
     l->inv_1mEavg = 1.f / (1.f - eavg);
 }
 
-void pgi__lobe_of_material(const pgi__material *m, pgi__lobe *l) {
+pgi__lobe_model pgi__lobe_params(const pgi__material *m, pgi__v3 *ks, float *s, float *eta) {
     if (m->type == PGI_MAT_PHONG) {
-        pgi__lobe_init(l, PGI_LOBE_PHONG, v3_load(m->ks), m->shininess, 0.f);
-    } else if (m->type == PGI_MAT_PLASTIC) {
-        float f0 = pgi__fresnel_f0(clamp_eta(m->ior));
-        pgi__v3 tint = v3(fminf(1.f, m->ks[0] / f0), fminf(1.f, m->ks[1] / f0), fminf(1.f, m->ks[2] / f0));
-        pgi__lobe_init(l, PGI_LOBE_GGX, tint, pgi__ggx_alpha_from_ns(m->shininess), m->ior);
-    } else {
-        pgi__lobe_init(l, PGI_LOBE_NONE, v3(0.f, 0.f, 0.f), 0.f, 0.f);
+        *ks = v3_load(m->ks);
+        *s = m->shininess;
+        *eta = 0.f;
+        return PGI_LOBE_PHONG;
     }
+    if (m->type == PGI_MAT_PLASTIC) {
+        *eta = clamp_eta(m->ior);
+        float f0 = pgi__fresnel_f0(*eta);
+        *ks = v3(fminf(1.f, m->ks[0] / f0), fminf(1.f, m->ks[1] / f0), fminf(1.f, m->ks[2] / f0));
+        *s = pgi__ggx_alpha_from_ns(m->shininess);
+        return PGI_LOBE_GGX;
+    }
+    *ks = v3(0.f, 0.f, 0.f);
+    *s = *eta = 0.f;
+    return PGI_LOBE_NONE;
+}
+
+void pgi__lobe_of_material(const pgi__material *m, pgi__lobe *l) {
+    pgi__v3 ks;
+    float s, eta;
+    pgi__lobe_model model = pgi__lobe_params(m, &ks, &s, &eta);
+    pgi__lobe_init(l, model, ks, s, eta);
 }
 
 float pgi__ggx_albedo(float mu, float alpha, float eta, float *e_avg) {

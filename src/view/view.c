@@ -35,15 +35,15 @@ static void shade_eye_path(const pgi_scene *s, const pgi__rt *rt, const pgi_came
             v3_store(vs->ngeo + 3 * i, ng);
             v3_store(vs->wo + 3 * i, wo);
             v3_store(vs->kd + 3 * i, sf.kd);
-            pgi__lobe lobe;
-            pgi__lobe_of_material(sf.mat, &lobe);
-            v3_store(vs->ks + 3 * i, lobe.ks);
-            vs->shininess[i] = lobe.s;
-            vs->ior[i] = lobe.eta;
+            pgi__v3 ks;
+            float sh, eta;
+            pgi__lobe_model model = pgi__lobe_params(sf.mat, &ks, &sh, &eta);
+            v3_store(vs->ks + 3 * i, ks);
+            vs->shininess[i] = sh;
+            vs->ior[i] = eta;
             v3_store(vs->weight + 3 * i, weight);
             vs->flags[i] = PGI_VS_VALID | (depth == 0 ? PGI_VS_PRIMARY : 0) |
-                           (lobe.model == PGI_LOBE_NONE ? PGI_VS_LAMBERT : 0) |
-                           (lobe.model == PGI_LOBE_GGX ? PGI_VS_GGX : 0);
+                           (model == PGI_LOBE_NONE ? PGI_VS_LAMBERT : 0) | (model == PGI_LOBE_GGX ? PGI_VS_GGX : 0);
             found = 1;
             break;
         }
