@@ -83,9 +83,6 @@ void pgi__lobe_init(pgi__lobe *l, pgi__lobe_model model, pgi__v3 ks, float s, fl
 void pgi__lobe_of_material(const pgi__material *m, pgi__lobe *l);
 /* What pgi__lobe_of_material passes to pgi__lobe_init (the view samples store these). */
 pgi__lobe_model pgi__lobe_params(const pgi__material *m, pgi__v3 *ks, float *s, float *eta);
-/* The untinted GGX lobe's directional albedo E(mu) and E_avg for alpha, eta, from the
- * table (tests and pgi__lobe_init). */
-float pgi__ggx_albedo(float mu, float alpha, float eta, float *e_avg);
 /* Computes the table rows an index eta needs now rather than on first use (outside timed
  * passes). */
 void pgi__ggx_prepare(float eta);
