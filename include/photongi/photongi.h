@@ -54,6 +54,16 @@ typedef struct pgi_scene_defaults {
     float exposure;
 } pgi_scene_defaults;
 
+/* The model of mesh materials with a specular colour (MTL `illum 2`, Assimp's Phong/Blinn
+ * shading with Ks > 0); docs/scene-format.md "Materials". */
+typedef enum pgi_specular {
+    PGI_SPECULAR_DEFAULT = 0, /* the scene description's "specular", else GGX */
+    PGI_SPECULAR_GGX = 1,     /* microfacet plastic: Lambertian base under a GGX lobe with the Fresnel
+                                 of a dielectric (index Ni, default 1.5; alpha = sqrt(2 / (Ns + 2))) */
+    PGI_SPECULAR_PHONG = 2    /* the tiled paper's energy-conserving Blinn-Phong (Ks = F0, exponent Ns,
+                                 kd lowered to 1 - Ks), to reproduce the papers' images */
+} pgi_specular;
+
 typedef struct pgi_scene_info {
     const char *name;   /* "cornell", or the description/mesh file name */
     const char *source; /* "built-in" or the file that was loaded */
@@ -68,6 +78,8 @@ typedef struct pgi_scene_info {
     double surface_area;     /* total triangle area, scene units squared */
     size_t animated_objects; /* objects with a motion (see pgi_scene_set_time) */
     double anim_duration;    /* last keyframe time over all motions, seconds (0 if none) */
+    pgi_specular specular;   /* model of the mesh's specular materials now (GGX or PHONG) */
+    size_t glossy_materials; /* mesh materials that follow it (pgi_scene_set_specular) */
 } pgi_scene_info;
 
 /* Loads a scene. `spec` is a built-in name ("cornell", "giref",
@@ -83,6 +95,10 @@ typedef struct pgi_scene_info {
 pgi_status pgi_scene_load(const char *spec, pgi_scene **out);
 void pgi_scene_destroy(pgi_scene *scene);
 void pgi_scene_get_info(const pgi_scene *scene, pgi_scene_info *out);
+/* Switches the mesh materials with a specular colour (pgi_scene_info.glossy_materials) to
+ * `model` (PGI_SPECULAR_DEFAULT: the description's "specular", else GGX). Materials a description
+ * declares itself ("objects") keep their "type". Not thread-safe with a render of the scene. */
+pgi_status pgi_scene_set_specular(pgi_scene *scene, pgi_specular model);
 size_t pgi_builtin_scene_count(void);
 const char *pgi_builtin_scene_name(size_t i);
 

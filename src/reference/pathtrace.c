@@ -43,10 +43,6 @@ typedef struct {
     float *tri_pick; /* triangle -> pick probability of its area light (0: none) */
 } pt_ctx;
 
-static inline pgi__v3 mat_ks(const pgi__surface *sf) {
-    return sf->mat->type == PGI_MAT_PHONG ? v3_load(sf->mat->ks) : v3(0.f, 0.f, 0.f);
-}
-
 /* Next-event estimation at a non-specular vertex: every delta light once (as
  * pgi__direct), one area-light sample picked by power, MIS-weighted against
  * BSDF sampling. `wo` points back along the path. */
@@ -54,8 +50,9 @@ static pgi__v3 nee(const pt_ctx *C, const pgi__surface *sf, pgi__v3 wo, pgi__rng
     const pgi_scene *s = C->s;
     float side = v3_dot(wo, sf->ng) >= 0.f ? 1.f : -1.f;
     pgi__v3 ng = v3_scale(sf->ng, side), ns = v3_scale(sf->ns, side);
-    pgi__v3 kd = sf->kd, ks = mat_ks(sf);
-    float sh = sf->mat->shininess;
+    pgi__v3 kd = sf->kd;
+    pgi__lobe lobe;
+    pgi__lobe_of_material(sf->mat, &lobe);
     pgi__v3 x = v3_madd(sf->p, ng, C->eps);
     pgi__v3 L = v3(0.f, 0.f, 0.f);
     for (size_t l = 0; l < s->nlights; l++) {
@@ -63,7 +60,7 @@ static pgi__v3 nee(const pt_ctx *C, const pgi__surface *sf, pgi__v3 wo, pgi__rng
         float cs, tmax;
         if (!pgi__delta_light(&s->lights[l], x, ns, ng, &wi, &Li, &cs, &tmax)) continue;
         if (pgi__rt_occluded(C->rt, x, wi, 0.f, tmax)) continue;
-        L = v3_add(L, v3_scale(v3_mul(pgi__brdf_eval(kd, ks, sh, ns, wi, wo), Li), cs));
+        L = v3_add(L, v3_scale(v3_mul(pgi__brdf_eval(kd, &lobe, ns, wi, wo), Li), cs));
     }
     if (C->narea) {
         float ul = pgi_rng_f(rng), u1 = pgi_rng_f(rng), u2 = pgi_rng_f(rng);
@@ -81,7 +78,7 @@ static pgi__v3 nee(const pt_ctx *C, const pgi__surface *sf, pgi__v3 wo, pgi__rng
                 float pdf_l = pl * d2 / (cl * lt->area);
                 float pdf_b = pgi__bsdf_pdf(sf, wo, wi);
                 float mis = pdf_l * pdf_l / (pdf_l * pdf_l + pdf_b * pdf_b);
-                pgi__v3 f = pgi__brdf_eval(kd, ks, sh, ns, wi, wo);
+                pgi__v3 f = pgi__brdf_eval(kd, &lobe, ns, wi, wo);
                 L = v3_add(L, v3_scale(v3_mul(f, v3_load(lt->color)), cs / pdf_l * mis));
             }
         }

@@ -244,16 +244,17 @@ static pgi_status convert_material(pgi_scene *s, tex_cache *tc, const struct aiS
         m->type = PGI_MAT_MIRROR;
         for (int c = 0; c < 3; c++) m->ks[c] = clamp01(ks[c]);
     } else if (max3(ks) > 0.f && ns > 1.f) {
-        m->type = PGI_MAT_PHONG;
+        /* A specular colour (illum 2): the model follows the scene's "specular" (plastic by
+         * default, or Blinn-Phong, pgi_scene_set_specular sets it once the textures are in). */
+        m->type = PGI_MAT_PLASTIC;
+        m->auto_glossy = 1;
         m->shininess = ns > 10000.f ? 10000.f : ns;
-        for (int c = 0; c < 3; c++) {
-            m->ks[c] = clamp01(ks[c]);
-            if (m->kd[c] + m->ks[c] > 1.f) m->kd[c] = 1.f - m->ks[c];
-        }
+        for (int c = 0; c < 3; c++) m->ks[c] = clamp01(ks[c]);
     } else {
         m->type = PGI_MAT_LAMBERT;
     }
-    if (m->type != PGI_MAT_GLASS) m->ior = isfinite(ni) && ni > 0.f ? ni : 1.f;
+    if (m->type == PGI_MAT_PLASTIC) m->ior = (isfinite(ni) && ni > 1.f) ? ni : 1.5f;
+    else if (m->type != PGI_MAT_GLASS) m->ior = isfinite(ni) && ni > 0.f ? ni : 1.f;
 
     struct aiString tpath;
     if (aiGetMaterialTextureCount(am, aiTextureType_DIFFUSE) > 0 &&
@@ -262,10 +263,7 @@ static pgi_status convert_material(pgi_scene *s, tex_cache *tc, const struct aiS
         pgi_status st = load_texture(s, tc, sc, m->name, tpath.data, &m->tex_kd);
         if (st) return st;
         if (!has_kd || max3(m->kd) <= 0.f) {
-            for (int c = 0; c < 3; c++) {
-                m->kd[c] = 1.f;
-                if (m->type == PGI_MAT_PHONG && m->kd[c] + m->ks[c] > 1.f) m->kd[c] = 1.f - m->ks[c];
-            }
+            for (int c = 0; c < 3; c++) m->kd[c] = 1.f;
         }
     }
     if (cut_out) {
@@ -291,6 +289,7 @@ static pgi_status convert_material(pgi_scene *s, tex_cache *tc, const struct aiS
         float scale = isfinite(opacity) ? clamp01(opacity) : 1.f;
         m->alpha_cutoff = !(cutoff > 0.f) ? 0.f : scale > 0.f ? fminf(cutoff / scale, 2.f) : 2.f;
     }
+    memcpy(m->kd_mesh, m->kd, sizeof m->kd_mesh);
     return PGI_OK;
 }
 

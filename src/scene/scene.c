@@ -1,6 +1,8 @@
 /* Scene model: creation, validation, light set-up, loading dispatch. */
 #include "scene_internal.h"
 
+#include "bsdf.h"
+
 #include <dirent.h>
 #include <stdio.h>
 #include <string.h>
@@ -36,6 +38,8 @@ static int finite3(const float *p) { return isfinite(p[0]) && isfinite(p[1]) && 
 
 pgi_status pgi__scene_finalize(pgi_scene *s, const char *what) {
     if (s->ntris == 0) return pgi__fail(PGI_ERR_PARSE, "%s: the scene has no triangles", what);
+    pgi_status sst = pgi_scene_set_specular(s, PGI_SPECULAR_DEFAULT); /* the description's "specular" */
+    if (sst) return sst;
     float bmin[3] = {INFINITY, INFINITY, INFINITY}, bmax[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (size_t v = 0; v < s->nverts; v++) {
         const float *p = s->pos + 3 * v;
@@ -71,6 +75,7 @@ pgi_status pgi__scene_finalize(pgi_scene *s, const char *what) {
             /* Area lights emit from their whole triangles: an emitter is never cut out. */
             if (mt->ke[0] > 0.f || mt->ke[1] > 0.f || mt->ke[2] > 0.f) mt->alpha_cutoff = 0.f;
         }
+        if (mt->type == PGI_MAT_PLASTIC) pgi__ggx_prepare(mt->ior); /* its albedo table, now rather than mid-render */
     }
 
     /* One area light per emissive triangle. */
@@ -279,11 +284,38 @@ void pgi_scene_get_info(const pgi_scene *s, pgi_scene_info *o) {
     if (s->ncams) o->camera = s->cams[0];
     o->defaults = s->defaults;
     o->surface_area = pgi__scene_area(s);
+    o->specular = PGI_SPECULAR_GGX;
+    for (size_t m = 0; m < s->nmats; m++) {
+        if (!s->mats[m].auto_glossy) continue;
+        o->glossy_materials++;
+        if (s->mats[m].type == PGI_MAT_PHONG) o->specular = PGI_SPECULAR_PHONG;
+    }
     o->animated_objects = s->nanims;
     for (size_t i = 0; i < s->nanims; i++) {
         const pgi__anim *a = &s->anims[i];
         if (a->nkeys && a->keys[a->nkeys - 1].t > o->anim_duration) o->anim_duration = a->keys[a->nkeys - 1].t;
     }
+}
+
+pgi_status pgi_scene_set_specular(pgi_scene *s, pgi_specular model) {
+    if (!s) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_scene_set_specular: NULL scene");
+    if (model == PGI_SPECULAR_DEFAULT) model = s->specular != PGI_SPECULAR_DEFAULT ? s->specular : PGI_SPECULAR_GGX;
+    if (model != PGI_SPECULAR_GGX && model != PGI_SPECULAR_PHONG)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_scene_set_specular: unknown model %d", (int)model);
+    for (size_t m = 0; m < s->nmats; m++) {
+        pgi__material *mt = &s->mats[m];
+        if (!mt->auto_glossy) continue;
+        memcpy(mt->kd, mt->kd_mesh, sizeof mt->kd);
+        if (model == PGI_SPECULAR_PHONG) {
+            mt->type = PGI_MAT_PHONG;
+            for (int c = 0; c < 3; c++)
+                if (mt->kd[c] + mt->ks[c] > 1.f) mt->kd[c] = 1.f - mt->ks[c]; /* energy conservation */
+        } else {
+            mt->type = PGI_MAT_PLASTIC;
+            pgi__ggx_prepare(mt->ior);
+        }
+    }
+    return PGI_OK;
 }
 
 size_t pgi_builtin_scene_count(void) {

@@ -10,18 +10,27 @@ typedef enum pgi__material_type {
     PGI_MAT_LAMBERT = 0, /* kd / pi */
     PGI_MAT_PHONG = 1,   /* energy-conserving Blinn-Phong, tiled paper eqs. 6-8 */
     PGI_MAT_MIRROR = 2,  /* perfect mirror, reflectance ks */
-    PGI_MAT_GLASS = 3    /* dielectric with Fresnel, index ior, tint ks */
+    PGI_MAT_GLASS = 3,   /* dielectric with Fresnel, index ior, tint ks */
+    PGI_MAT_PLASTIC = 4  /* Lambertian base under a GGX lobe with a dielectric's Fresnel (index ior,
+                            alpha from shininess, lobe tint min(1, ks / F0(ior))): src/scene/bsdf.h */
 } pgi__material_type;
 
 typedef struct pgi__material {
     char name[64];
     pgi__material_type type;
     float kd[3];     /* diffuse albedo (multiplied by the texture if any) */
-    float ks[3];     /* Phong: F0; mirror: reflectance; glass: transmission tint */
-    float shininess; /* Phong exponent s (MTL Ns) */
-    float ior;       /* glass: MTL Ni */
-    float ke[3];     /* emitted radiance (MTL Ke); non-zero makes the triangles area lights */
-    int tex_kd;      /* index into scene textures, -1 if none */
+    float ks[3];     /* Phong: F0; plastic: F0 (tint min(1, ks / F0(ior))); mirror: reflectance; glass:
+                        transmission tint */
+    float shininess; /* Phong exponent s (MTL Ns); plastic: alpha = sqrt(2 / (s + 2)) */
+    float ior;       /* glass, plastic: MTL Ni */
+    /* A mesh material with a specular colour (MTL illum 2, Assimp's Phong/Blinn with Ks > 0): its
+     * model follows the scene's `specular` setting (pgi_scene_set_specular), plastic by default
+     * or the papers' Blinn-Phong; kd_mesh is its diffuse colour as the file gives it (Blinn-Phong
+     * lowers kd to 1 - ks). */
+    int auto_glossy;
+    float kd_mesh[3];
+    float ke[3]; /* emitted radiance (MTL Ke); non-zero makes the triangles area lights */
+    int tex_kd;  /* index into scene textures, -1 if none */
     /* Cut-out (MTL map_d, glTF alphaMode MASK): where alpha < alpha_cutoff the surface is not
      * there for any ray (an Embree filter, src/rt/rt.c). alpha is the alpha channel of texture
      * tex_alpha (bilinear), or 1 when tex_alpha is -1; a cutoff above 1 removes the whole
@@ -78,6 +87,7 @@ struct pgi_scene {
     pgi_camera_def *cams;
     size_t ncams;
     pgi_scene_defaults defaults;
+    pgi_specular specular; /* the description's "specular" (PGI_SPECULAR_DEFAULT: none given) */
     float bmin[3], bmax[3];
     /* Dynamic geometry (animate.c): objects whose vertices move with the
      * scene time, and counters the renderer compares to know when to update

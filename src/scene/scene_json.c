@@ -12,7 +12,9 @@
  *       {"type": "sun", "direction": [0.195, -0.976, 0.098], "irradiance": [5, 5, 5]}
  *     ],
  *     "render": {"photons": 200000, "radius": 0.25, "bounces": 4,
- *                "width": 1280, "height": 720, "exposure": 1.0}     all optional
+ *                "width": 1280, "height": 720, "exposure": 1.0},    all optional
+ *     "specular": "ggx"                        optional: model of the mesh's illum-2 materials,
+ *                                              "ggx" (microfacet plastic, default) or "phong"
  *   }
  *
  * Units: positions in the mesh's units; intensity I in W/sr (point, spot),
@@ -341,7 +343,7 @@ static pgi_status parse_motion(const char *path, const cJSON *m, const char *whe
     return PGI_OK;
 }
 
-/* "material": {"name", "type": lambert|phong|mirror|glass, "kd", "ks", "shininess", "ior", "emission"};
+/* "material": {"name", "type": lambert|plastic|phong|mirror|glass, "kd", "ks", "shininess", "ior", "emission"};
  * appends it to the scene and returns its index. */
 static pgi_status parse_material(const char *path, pgi_scene *s, const cJSON *j, const char *where, const char *defname,
                                  uint32_t *out) {
@@ -371,16 +373,18 @@ static pgi_status parse_material(const char *path, pgi_scene *s, const cJSON *j,
             const char *t = cJSON_IsString(jt) ? jt->valuestring : "";
             if (strcmp(t, "lambert") == 0) m.type = PGI_MAT_LAMBERT;
             else if (strcmp(t, "phong") == 0) m.type = PGI_MAT_PHONG;
+            else if (strcmp(t, "plastic") == 0) m.type = PGI_MAT_PLASTIC;
             else if (strcmp(t, "mirror") == 0) m.type = PGI_MAT_MIRROR;
             else if (strcmp(t, "glass") == 0) m.type = PGI_MAT_GLASS;
             else
-                return pgi__fail(PGI_ERR_PARSE, "%s: %s.type must be \"lambert\", \"phong\", \"mirror\" or \"glass\"",
+                return pgi__fail(PGI_ERR_PARSE,
+                                 "%s: %s.type must be \"lambert\", \"plastic\", \"phong\", \"mirror\" or \"glass\"",
                                  path, w);
         }
         if (m.type == PGI_MAT_MIRROR || m.type == PGI_MAT_GLASS) {
             m.kd[0] = m.kd[1] = m.kd[2] = 0.f;
             m.ks[0] = m.ks[1] = m.ks[2] = 1.f;
-        } else if (m.type == PGI_MAT_PHONG) {
+        } else if (m.type == PGI_MAT_PHONG || m.type == PGI_MAT_PLASTIC) {
             m.ks[0] = m.ks[1] = m.ks[2] = 0.04f;
             m.shininess = 64.f;
         }
@@ -496,8 +500,8 @@ static pgi_status parse_animate(const char *path, pgi_scene *s, const cJSON *a, 
 /* ------------------------------------------------------------ loading */
 
 static pgi_status load(const char *path, const cJSON *root, pgi_scene **out) {
-    static const char *const keys[] = {"name",   "mesh",    "camera",  "cameras", "lights",
-                                       "render", "builtin", "objects", "animate", NULL};
+    static const char *const keys[] = {"name",    "mesh",    "camera",  "cameras",  "lights", "render",
+                                       "builtin", "objects", "animate", "specular", NULL};
     if (!cJSON_IsObject(root)) return pgi__fail(PGI_ERR_PARSE, "%s: the top level must be a JSON object", path);
     pgi_status st = check_keys(path, root, "", keys);
     if (st) return st;
@@ -549,6 +553,14 @@ static pgi_status load(const char *path, const cJSON *root, pgi_scene **out) {
     const cJSON *jlights = cJSON_GetObjectItemCaseSensitive(root, "lights");
     if (jlights && !cJSON_IsArray(jlights)) return pgi__fail(PGI_ERR_PARSE, "%s: lights must be an array", path);
     const cJSON *jrender = cJSON_GetObjectItemCaseSensitive(root, "render");
+    const cJSON *jspec = cJSON_GetObjectItemCaseSensitive(root, "specular");
+    pgi_specular specular = PGI_SPECULAR_DEFAULT;
+    if (jspec) {
+        const char *v = cJSON_IsString(jspec) ? jspec->valuestring : "";
+        if (strcmp(v, "ggx") == 0) specular = PGI_SPECULAR_GGX;
+        else if (strcmp(v, "phong") == 0) specular = PGI_SPECULAR_PHONG;
+        else return pgi__fail(PGI_ERR_PARSE, "%s: specular must be \"ggx\" or \"phong\"", path);
+    }
 
     char mesh[1024];
     if (jmesh && (st = resolve_mesh(path, jmesh->valuestring, mesh, sizeof mesh))) return st;
@@ -564,6 +576,7 @@ static pgi_status load(const char *path, const cJSON *root, pgi_scene **out) {
         return st;
     }
     snprintf(s->source, sizeof s->source, "%s", path);
+    s->specular = specular;
 
     size_t ncam = jcam ? 1 : (jcams ? (size_t)cJSON_GetArraySize(jcams) : 0);
     size_t nl = jlights ? (size_t)cJSON_GetArraySize(jlights) : 0;

@@ -35,11 +35,15 @@ static void shade_eye_path(const pgi_scene *s, const pgi__rt *rt, const pgi_came
             v3_store(vs->ngeo + 3 * i, ng);
             v3_store(vs->wo + 3 * i, wo);
             v3_store(vs->kd + 3 * i, sf.kd);
-            int phong = sf.mat->type == PGI_MAT_PHONG;
-            v3_store(vs->ks + 3 * i, phong ? v3_load(sf.mat->ks) : v3(0.f, 0.f, 0.f));
-            vs->shininess[i] = phong ? sf.mat->shininess : 0.f;
+            pgi__v3 ks;
+            float sh, eta;
+            pgi__lobe_model model = pgi__lobe_params(sf.mat, &ks, &sh, &eta);
+            v3_store(vs->ks + 3 * i, ks);
+            vs->shininess[i] = sh;
+            vs->ior[i] = eta;
             v3_store(vs->weight + 3 * i, weight);
-            vs->flags[i] = PGI_VS_VALID | (depth == 0 ? PGI_VS_PRIMARY : 0) | (phong ? 0 : PGI_VS_LAMBERT);
+            vs->flags[i] = PGI_VS_VALID | (depth == 0 ? PGI_VS_PRIMARY : 0) |
+                           (model == PGI_LOBE_NONE ? PGI_VS_LAMBERT : 0) | (model == PGI_LOBE_GGX ? PGI_VS_GGX : 0);
             found = 1;
             break;
         }
@@ -62,7 +66,7 @@ static void shade_eye_path(const pgi_scene *s, const pgi__rt *rt, const pgi_came
     if (!found) {
         float *planes[] = {vs->pos, vs->nrm, vs->ngeo, vs->wo, vs->kd, vs->ks, vs->weight};
         for (int k = 0; k < 7; k++) memset(planes[k] + 3 * i, 0, 3 * sizeof(float));
-        vs->shininess[i] = 0.f;
+        vs->shininess[i] = vs->ior[i] = 0.f;
         vs->flags[i] = 0;
     }
     vs->depth[i] = depth_v;
@@ -156,8 +160,8 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
         for (int tx = 0; tx < tiles_x; tx++) {
             size_t pix[16];
             int on[16];
-            pgi__v3 x[16] = {{0}}, ns[16], ng[16], wo[16], kd[16], ks[16], L[16], La[16];
-            float sh[16];
+            pgi__v3 x[16] = {{0}}, ns[16], ng[16], wo[16], kd[16], L[16], La[16];
+            pgi__lobe lobe[16];
             int any = 0;
             for (int k = 0; k < 16; k++) {
                 int px, py;
@@ -175,8 +179,7 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
                 ng[k] = v3_load(vs->ngeo + 3 * i);
                 wo[k] = v3_load(vs->wo + 3 * i);
                 kd[k] = v3_load(vs->kd + 3 * i);
-                ks[k] = v3_load(vs->ks + 3 * i);
-                sh[k] = vs->shininess[i];
+                pgi__vs_lobe(vs, i, &lobe[k]);
                 x[k] = v3_madd(p, ng[k], eps);
                 any = 1;
             }
@@ -197,9 +200,9 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
                 pgi__rt_occluded16(rt, valid, x, wi, tmax, occ);
                 for (int k = 0; k < 16; k++)
                     if (valid[k] && !occ[k])
-                        L[k] = v3_add(L[k],
-                                      v3_scale(v3_mul(pgi__brdf_eval(kd[k], ks[k], sh[k], ns[k], wi[k], wo[k]), Li[k]),
-                                               cs[k]));
+                        L[k] =
+                            v3_add(L[k], v3_scale(v3_mul(pgi__brdf_eval(kd[k], &lobe[k], ns[k], wi[k], wo[k]), Li[k]),
+                                                  cs[k]));
             }
             if (narea && area_samples > 0) {
                 pgi__rng rng[16];
@@ -235,10 +238,9 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
                     pgi__rt_occluded16(rt, valid, x, wi, tmax, occ);
                     for (int k = 0; k < 16; k++)
                         if (valid[k] && !occ[k])
-                            La[k] =
-                                v3_add(La[k], v3_scale(v3_mul(pgi__brdf_eval(kd[k], ks[k], sh[k], ns[k], wi[k], wo[k]),
-                                                              v3_load(lts[k]->color)),
-                                                       g[k]));
+                            La[k] = v3_add(La[k], v3_scale(v3_mul(pgi__brdf_eval(kd[k], &lobe[k], ns[k], wi[k], wo[k]),
+                                                                  v3_load(lts[k]->color)),
+                                                           g[k]));
                 }
                 for (int k = 0; k < 16; k++)
                     if (on[k]) L[k] = v3_add(L[k], v3_scale(La[k], 1.f / (float)area_samples));
