@@ -58,8 +58,9 @@ typedef struct pgi_scene_info {
     const char *name;   /* "cornell", or the description/mesh file name */
     const char *source; /* "built-in" or the file that was loaded */
     size_t triangles, vertices, materials, textures;
-    size_t lights; /* all emitters; emissive triangles count one each */
+    size_t lights; /* all emitters; emissive triangles count one each, the sky one */
     size_t point_lights, spot_lights, sun_lights, area_triangles;
+    size_t sky_lights; /* 1 when the scene has a sky or environment map (docs/scene-format.md), else 0 */
     float bounds_min[3], bounds_max[3];
     size_t cameras;
     pgi_camera_def camera; /* camera 0 */
