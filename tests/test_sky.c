@@ -136,21 +136,41 @@ static void test_open_quad_uniform_sky(void **state) {
  * through the pane. Binomial noise at ~60k stored photons: 0.4 %; bound 2 %. A disk or
  * sphere factor wrong, or the sun and the sky sharing photons other than by power, would
  * miss by far more. */
-static void test_photon_power(void **state) {
-    char dir[512], path[800], json[1024];
+/* Writes a w x h equirectangular EXR: rows above the horizon `top`, below it `bottom`
+ * (grey), and the texels [x0, x1) x [y0, y1) `hot` (rgb). */
+static void write_map(const char *path, int w, int h, float top, float bottom, int x0, int x1, int y0, int y1,
+                      const float hot[3]) {
+    pgi_image m = {w, h, malloc(3 * (size_t)w * h * sizeof(float))};
+    assert_non_null(m.rgb);
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++)
+            for (int c = 0; c < 3; c++) {
+                int in = x >= x0 && x < x1 && y >= y0 && y < y1;
+                m.rgb[3 * ((size_t)y * w + x) + c] = in ? hot[c] : y < h / 2 ? top : bottom;
+            }
+    TU_CHECK_OK(pgi_image_write(&m, path, 1.f));
+    pgi_image_free(&m);
+}
+
+static void photon_power(const char *sky, double L, const char *what) {
+    char dir[512], path[800], json[1024], map[700];
     make_meshes(dir, sizeof dir);
-    const double L = 0.8, E = 3.0, dy = 0.8;
+    /* a map for the "environment" case: 0.4 above the horizon (scale 2: L = 0.8), 2.5 below it
+     * (never enters through the top pane: the photons must come by the map's density) */
+    snprintf(map, sizeof map, "%s/halves.exr", dir);
+    write_map(map, 16, 8, 0.4f, 2.5f, 0, 0, 0, 0, (const float[3]){0, 0, 0});
+    const double E = 3.0, dy = 0.8;
     snprintf(json, sizeof json,
-             "{\"mesh\": \"cube.obj\", \"sky\": {\"color\": [1, 1, 1], \"intensity\": %g},"
+             "{\"mesh\": \"cube.obj\", %s,"
              " \"lights\": [{\"type\": \"sun\", \"direction\": [0.36, -0.8, 0.48], \"irradiance\": [%g, %g, %g]}]}",
-             L, E, E, E);
+             sky, E, E, E);
     snprintf(path, sizeof path, "%s/power.json", dir);
     assert_int_equal(tu_write_file(path, json), 0);
     pgi_scene *s = NULL;
     TU_CHECK_OK(pgi_scene_load(path, &s));
     const double R = 0.5 * sqrt(3.0);
-    const double sky_power = PI_D * R * R * 4.0 * PI_D * L;
-    fprintf(stderr, "  sky power %.5f, analytic pi R^2 4 pi L = %.5f\n", s->env->light.power[1], sky_power);
+    const double sky_power = PI_D * R * R * s->env->integral[1];
+    fprintf(stderr, "  %s: sky power %.5f, pi R^2 int L = %.5f\n", what, s->env->light.power[1], sky_power);
     assert_true(fabs(s->env->light.power[1] / sky_power - 1.0) < 1e-5);
     pgi__rt *rt = NULL;
     TU_CHECK_OK(pgi__rt_create(s, &rt));
@@ -170,15 +190,163 @@ static void test_photon_power(void **state) {
         flux[2] += ph.fb[j];
     }
     const double expect = PI_D * L + E * dy;
-    fprintf(stderr, "  flux through the pane: %.4f %.4f %.4f, expected %.4f (%llu paths for %u photons)\n", flux[0],
-            flux[1], flux[2], expect, (unsigned long long)ph.emitted, n);
+    fprintf(stderr, "  %s: flux through the pane %.4f %.4f %.4f, expected %.4f (%llu paths for %u photons)\n", what,
+            flux[0], flux[1], flux[2], expect, (unsigned long long)ph.emitted, n);
     for (int c = 0; c < 3; c++)
         if (fabs(flux[c] / expect - 1.0) > 0.02)
-            fail_msg("stored flux %g differs from the analytic %g by %+.2f%%", flux[c], expect,
+            fail_msg("%s: stored flux %g differs from the analytic %g by %+.2f%%", what, flux[c], expect,
                      100 * (flux[c] / expect - 1.0));
     pgi__trace_scratch_free(&scr);
     pgi_photons_free(&ph);
     pgi__rt_destroy(rt);
+    pgi_scene_destroy(s);
+    tu_rm_tmpdir(dir);
+}
+
+static void test_photon_power(void **state) {
+    const double L = 0.8;
+    assert_true(fabs(4.0 * PI_D * L - 2.0 * PI_D * (0.8 + 0.8)) < 1e-12);
+    photon_power("\"sky\": {\"color\": [1, 1, 1], \"intensity\": 0.8}", L, "uniform sky");
+    photon_power("\"environment\": {\"map\": \"halves.exr\", \"scale\": 2, \"rotation\": 40}", L, "map");
+}
+
+/* ------------------------------------------------------------ maps */
+
+/* Direction of the centre of texel (x, y) of a w x h map by the documented convention (up
+ * = +y): theta = pi (y + 1/2) / h from +y, phi = 2 pi ((x + 1/2) / w - 1/2) + rotation from
+ * -z towards +x. */
+static pgi__v3 texel_dir(int x, int y, int w, int h, double rot) {
+    double th = PI_D * (y + 0.5) / h, ph = 2.0 * PI_D * ((x + 0.5) / w - 0.5) + rot;
+    return v3((float)(sin(th) * sin(ph)), (float)cos(th), (float)(-sin(th) * cos(ph)));
+}
+
+/* A 64 x 32 map of grey 0.1 with a hot 4 x 2 block (50, 40, 30) at columns 40..43, rows
+ * 8..9, scale 2, rotated 30 degrees: the radiance follows the documented orientation; the
+ * density integrates to 1; every sampled direction has density lum(L) / sum(lum x solid
+ * angle) (importance sampling by luminance, the same as pgi__env_pdf); the hot block gets
+ * its share of the samples (analytic: its luminance x solid angle over the total; 3 sigma);
+ * the power is pi R^2 times the integral of L. */
+static void test_map_importance(void **state) {
+    char dir[512], map[700];
+    tu_make_tmpdir(dir, sizeof dir);
+    snprintf(map, sizeof map, "%s/hot.exr", dir);
+    const int w = 64, h = 32;
+    const float hot[3] = {50.f, 40.f, 30.f};
+    write_map(map, w, h, 0.1f, 0.1f, 40, 44, 8, 10, hot);
+    pgi__env *e = NULL;
+    const float up[3] = {0.f, 1.f, 0.f};
+    const double rot = 30.0 * PI_D / 180.0;
+    TU_CHECK_OK(pgi__env_create_map("test", map, 2.f, 30.f, up, &e));
+    double lum_hot = 2.0 * (0.2126 * hot[0] + 0.7152 * hot[1] + 0.0722 * hot[2]), lum_bg = 2.0 * 0.1;
+    double total = 0.0, hot_share = 0.0, integral = 0.0, psum = 0.0;
+    for (int y = 0; y < h; y++) {
+        double om = 2.0 * PI_D / w * (cos(PI_D * y / h) - cos(PI_D * (y + 1) / h));
+        for (int x = 0; x < w; x++) {
+            int in = x >= 40 && x < 44 && y >= 8 && y < 10;
+            pgi__v3 d = texel_dir(x, y, w, h, rot);
+            pgi__v3 Le = pgi__env_eval(e, d);
+            assert_float_equal(Le.y, in ? 2.f * hot[1] : 0.2f, 1e-4);
+            total += (in ? lum_hot : lum_bg) * om;
+            hot_share += in ? lum_hot * om : 0.0;
+            integral += (in ? 2.0 * hot[1] : 0.2) * om;
+            psum += pgi__env_pdf(e, d) * om;
+        }
+    }
+    hot_share /= total;
+    assert_true(fabs(psum - 1.0) < 1e-4);
+    assert_true(fabs(e->lum_integral / total - 1.0) < 1e-5);
+    assert_true(fabs(e->integral[1] / integral - 1.0) < 1e-5);
+    pgi__env_set_radius(e, 2.f);
+    assert_true(fabs(e->light.power[1] / (PI_D * 4.0 * integral) - 1.0) < 1e-5);
+    tu_rng r = tu_rng_make(11);
+    const int N = 200000;
+    int nhot = 0;
+    double worst = 0.0;
+    for (int i = 0; i < N; i++) {
+        float pdf;
+        pgi__v3 d = pgi__env_sample(e, tu_unif(&r), tu_unif(&r), &pdf);
+        assert_true(fabsf(v3_len(d) - 1.f) < 1e-4f);
+        double l = v3_lum(pgi__env_eval(e, d));
+        double dev = fabs(l / pdf / total - 1.0);
+        if (dev > worst) worst = dev;
+        assert_float_equal(pdf, pgi__env_pdf(e, d), 1e-6 * pdf);
+        nhot += l > 1.0;
+    }
+    double got = (double)nhot / N, sd = sqrt(hot_share * (1.0 - hot_share) / N);
+    fprintf(stderr, "  hot block: %.4f of the samples, expected %.4f (sd %.4f); worst |lum L / pdf / total - 1| %.2g\n",
+            got, hot_share, sd, worst);
+    assert_true(fabs(got - hot_share) < 3.0 * sd);
+    assert_true(worst < 1e-3);
+    pgi__env_destroy(e);
+    tu_rm_tmpdir(dir);
+}
+
+/* A constant map is the uniform sky: the open quad under a map of 0.5 x scale 2 has radiance
+ * rho * 1 (direct light by an equal mixture of cosine and map directions: not exact a pixel,
+ * exact in the mean; bound 1 % on the means, 25 % a pixel). */
+static void test_constant_map_is_uniform_sky(void **state) {
+    char dir[512], path[800], map[700];
+    make_meshes(dir, sizeof dir);
+    snprintf(map, sizeof map, "%s/grey.exr", dir);
+    write_map(map, 32, 16, 0.5f, 0.5f, 0, 0, 0, 0, (const float[3]){0, 0, 0});
+    pgi_scene *s = NULL;
+    TU_CHECK_OK(
+        load_quad(dir, "map.json", "\"environment\": {\"map\": \"grey.exr\", \"scale\": 2}", &s, path, sizeof path));
+    const double expect[3] = {0.6, 0.5, 0.4};
+    check_rho_L(s, expect, 0.25, "constant map");
+    pgi_scene_destroy(s);
+    tu_rm_tmpdir(dir);
+}
+
+/* ------------------------------------------------------------ bad input */
+
+static void expect_bad(const char *dir, const char *name, const char *body, pgi_status code, const char *needle) {
+    char path[800];
+    pgi_scene *s = NULL;
+    pgi_status st = load_quad(dir, name, body, &s, path, sizeof path);
+    if (st == PGI_OK) {
+        pgi_scene_destroy(s);
+        fail_msg("%s: loaded, expected an error", name);
+    }
+    const char *msg = pgi_last_error();
+    fprintf(stderr, "  %s -> %s: %s\n", name, pgi_status_string(st), msg);
+    assert_null(s);
+    if (st != code) fail_msg("%s: status %s, expected %s", name, pgi_status_string(st), pgi_status_string(code));
+    if (!strstr(msg, path)) fail_msg("%s: message '%s' does not name the file", name, msg);
+    if (!strstr(msg, needle)) fail_msg("%s: message '%s' does not name '%s'", name, msg, needle);
+}
+
+static void test_bad_sky(void **state) {
+    char dir[512], map[700];
+    make_meshes(dir, sizeof dir);
+    expect_bad(dir, "neg.json", "\"sky\": {\"intensity\": -1}", PGI_ERR_PARSE, "sky.intensity");
+    expect_bad(dir, "negc.json", "\"sky\": {\"color\": [1, -0.5, 1]}", PGI_ERR_PARSE, "sky.color");
+    expect_bad(dir, "nanc.json", "\"sky\": {\"color\": [1, 1e999, 1]}", PGI_ERR_PARSE, "sky.color");
+    expect_bad(dir, "ground.json", "\"sky\": {\"ground\": [1, 1]}", PGI_ERR_PARSE, "sky.ground");
+    expect_bad(dir, "up.json", "\"sky\": {\"up\": [0, 0, 0]}", PGI_ERR_PARSE, "sky.up");
+    expect_bad(dir, "typo.json", "\"sky\": {\"colour\": [1, 1, 1]}", PGI_ERR_PARSE, "sky.colour");
+    expect_bad(dir, "notobj.json", "\"sky\": [1, 1, 1]", PGI_ERR_PARSE, "sky must be an object");
+    expect_bad(dir, "both.json", "\"sky\": {}, \"environment\": {\"map\": \"x.exr\"}", PGI_ERR_PARSE,
+               "either sky or environment");
+    expect_bad(dir, "nomap.json", "\"environment\": {\"scale\": 1}", PGI_ERR_PARSE, "environment.map");
+    expect_bad(dir, "missing.json", "\"environment\": {\"map\": \"no-such-sky.exr\"}", PGI_ERR_IO, "no-such-sky.exr");
+    expect_bad(dir, "scale.json", "\"environment\": {\"map\": \"x.exr\", \"scale\": -2}", PGI_ERR_PARSE,
+               "environment.scale");
+    /* a map with a NaN and one with a negative texel: named, with the texel */
+    snprintf(map, sizeof map, "%s/nan.exr", dir);
+    write_map(map, 8, 4, 1.f, 1.f, 3, 4, 1, 2, (const float[3]){1.f, NAN, 1.f});
+    expect_bad(dir, "nan.json", "\"environment\": {\"map\": \"nan.exr\"}", PGI_ERR_PARSE, "nan.exr: pixel (3, 1)");
+    snprintf(map, sizeof map, "%s/neg.exr", dir);
+    write_map(map, 8, 4, 1.f, 1.f, 5, 6, 2, 3, (const float[3]){1.f, -1.f, 1.f});
+    expect_bad(dir, "negmap.json", "\"environment\": {\"map\": \"neg.exr\"}", PGI_ERR_PARSE, "negative");
+    /* not an image */
+    snprintf(map, sizeof map, "%s/text.exr", dir);
+    assert_int_equal(tu_write_file(map, "not an image"), 0);
+    expect_bad(dir, "text.json", "\"environment\": {\"map\": \"text.exr\"}", PGI_ERR_PARSE, "text.exr");
+    /* a sky alone is light enough (no "lights", no emissive material) */
+    char path[800];
+    pgi_scene *s = NULL;
+    TU_CHECK_OK(load_quad(dir, "alone.json", "\"sky\": {}", &s, path, sizeof path));
     pgi_scene_destroy(s);
     tu_rm_tmpdir(dir);
 }
@@ -252,9 +420,9 @@ static void test_window_box_agreement(void **state) {
 
 int main(void) {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_open_quad_uniform_sky),
-        cmocka_unit_test(test_photon_power),
-        cmocka_unit_test(test_window_box_agreement),
+        cmocka_unit_test(test_open_quad_uniform_sky),       cmocka_unit_test(test_photon_power),
+        cmocka_unit_test(test_window_box_agreement),        cmocka_unit_test(test_map_importance),
+        cmocka_unit_test(test_constant_map_is_uniform_sky), cmocka_unit_test(test_bad_sky),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -92,9 +92,10 @@ pgi_status pgi__env_create_map(const char *what, const char *path, float scale, 
     const size_t n = (size_t)w * (size_t)h;
     for (size_t i = 0; i < 3 * n; i++)
         if (!isfinite(img.rgb[i]) || img.rgb[i] < 0.f) {
+            const char *why = isfinite(img.rgb[i]) ? "negative" : "not finite (NaN or Inf)";
             pgi_image_free(&img);
-            return pgi__fail(PGI_ERR_PARSE, "%s: environment map %s: pixel (%zu, %zu) is %s", what, path, i / 3 % w,
-                             i / 3 / w, isfinite(img.rgb[i]) ? "negative" : "not finite (NaN or Inf)");
+            return pgi__fail(PGI_ERR_PARSE, "%s: environment map %s: pixel (%zu, %zu) is %s", what, path,
+                             i / 3 % (size_t)w, i / 3 / (size_t)w, why);
         }
     pgi__env *e = calloc(1, sizeof *e);
     float *cdf_row = malloc((size_t)h * sizeof *cdf_row), *cdf_col = malloc(n * sizeof *cdf_col);
