@@ -138,7 +138,7 @@ typedef struct pgi_render_desc {
     uint64_t seed;          /* default 1 */
     int threads;            /* OpenMP threads of the library's parallel regions; 0 = OpenMP's default */
     int camera;             /* index into the scene's cameras */
-    int direct_samples;     /* shadow samples per pixel for area lights (1..4096); default 16 */
+    int direct_samples;     /* shadow samples per pixel for area lights and for the sky (1..4096); default 16 */
     pgi_output output;
     const pgi_camera_def *view; /* non-NULL: render from this camera instead of the scene's `camera`
                                    (borrowed for the call; the viewer's free camera) */

@@ -8,7 +8,8 @@
  * A path x0, x1, ... extended by BSDF sampling; at a non-specular vertex x_k
  * next-event estimation represents light paths with k scattering events
  * (x_k .. x_1), and an emitter hit at x_{k+1} from x_k also k events; both are
- * combined by the power heuristic for area lights. Vertices are extended while
+ * combined by the power heuristic for area lights and the sky (a path that
+ * leaves the scene sees the sky, as an emitter hit). Vertices are extended while
  * k < B. Point, spot and sun lights are delta lights, reached by NEE only:
  * a path tracer cannot find light -> mirror -> x0 from them (photon tracing
  * stores it as a caustic), so for such scenes the reference lacks those

@@ -11,6 +11,8 @@
  *       {"type": "spot", "position": [..], "direction": [..], "angle": 30, "intensity": [..]},
  *       {"type": "sun", "direction": [0.195, -0.976, 0.098], "irradiance": [5, 5, 5]}
  *     ],
+ *     "sky": {"color": [0.55, 0.7, 1], "intensity": 1.5, "ground": [..]},   optional; or
+ *     "environment": {"map": "sky.exr", "scale": 1, "rotation": 0},      (env.c)
  *     "render": {"photons": 200000, "radius": 0.25, "bounces": 4,
  *                "width": 1280, "height": 720, "exposure": 1.0}     all optional
  *   }
