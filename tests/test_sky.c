@@ -298,6 +298,30 @@ static void test_constant_map_is_uniform_sky(void **state) {
     tu_rm_tmpdir(dir);
 }
 
+/* ------------------------------------------------------------ determinism */
+
+/* The same bytes with 1 and 3 threads: the photon pipeline (sky photons, sky direct light,
+ * the sky through the window) and the path tracer, on window-box. */
+static void test_threads(void **state) {
+    pgi_scene *s = NULL;
+    TU_CHECK_OK(pgi_scene_load("window-box", &s));
+    pgi_image a[2] = {{0}}, r[2] = {{0}};
+    for (int k = 0; k < 2; k++) {
+        pgi_render_desc d = {.width = 40, .height = 30, .photons = 20000, .seed = 5, .threads = k ? 3 : 1};
+        TU_CHECK_OK(pgi_render(s, &d, &a[k], NULL));
+        pgi_reference_desc rd = {.width = 40, .height = 30, .spp = 2, .seed = 5, .threads = k ? 3 : 1};
+        uint64_t spp = 0;
+        TU_CHECK_OK(pgi_reference_render(s, &rd, &r[k], &spp));
+    }
+    assert_memory_equal(a[0].rgb, a[1].rgb, 3 * 40 * 30 * sizeof(float));
+    assert_memory_equal(r[0].rgb, r[1].rgb, 3 * 40 * 30 * sizeof(float));
+    for (int k = 0; k < 2; k++) {
+        pgi_image_free(&a[k]);
+        pgi_image_free(&r[k]);
+    }
+    pgi_scene_destroy(s);
+}
+
 /* ------------------------------------------------------------ bad input */
 
 static void expect_bad(const char *dir, const char *name, const char *body, pgi_status code, const char *needle) {
@@ -420,9 +444,13 @@ static void test_window_box_agreement(void **state) {
 
 int main(void) {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_open_quad_uniform_sky),       cmocka_unit_test(test_photon_power),
-        cmocka_unit_test(test_window_box_agreement),        cmocka_unit_test(test_map_importance),
-        cmocka_unit_test(test_constant_map_is_uniform_sky), cmocka_unit_test(test_bad_sky),
+        cmocka_unit_test(test_open_quad_uniform_sky),
+        cmocka_unit_test(test_photon_power),
+        cmocka_unit_test(test_window_box_agreement),
+        cmocka_unit_test(test_map_importance),
+        cmocka_unit_test(test_constant_map_is_uniform_sky),
+        cmocka_unit_test(test_threads),
+        cmocka_unit_test(test_bad_sky),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
