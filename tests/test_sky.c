@@ -123,6 +123,15 @@ static void test_open_quad_uniform_sky(void **state) {
                           path, sizeof path));
     check_rho_L(s, expect, 1e-4, "sky over a dark ground");
     pgi_scene_destroy(s);
+    /* up = +x: the quad's hemisphere is half sky, half ground: rho (sky + ground) / 2 (in the
+     * mean: each direction sees one or the other) */
+    TU_CHECK_OK(load_quad(dir, "tilted.json",
+                          "\"sky\": {\"color\": [0.5, 0.7, 1.0], \"intensity\": 2, \"ground\": [0.3, 0.3, 0.3], "
+                          "\"up\": [1, 0, 0]}",
+                          &s, path, sizeof path));
+    for (int c = 0; c < 3; c++) expect[c] = rho[c] * 0.5 * (L[c] + 0.6);
+    check_rho_L(s, expect, 0.5, "sky with up = +x");
+    pgi_scene_destroy(s);
     tu_rm_tmpdir(dir);
 }
 
