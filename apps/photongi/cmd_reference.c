@@ -108,23 +108,22 @@ static int merge_references(const char *a, const char *b, const char *out, const
     int rc = read_reference(a, &img[0], &m[0], "cannot merge");
     if (!rc && (rc = read_reference(b, &img[1], &m[1], "cannot merge"))) pgi_image_free(&img[0]);
     if (rc) return rc;
-    const char *differs = strcmp(m[0].scene, m[1].scene)                                ? "scenes"
+    const char *differs = strcmp(m[0].scene, m[1].scene)                           ? "scenes"
                           : m[0].width != m[1].width || m[0].height != m[1].height ? "sizes"
-                          : m[0].bounces != m[1].bounces                            ? "bounces"
-                          : m[0].camera != m[1].camera                              ? "cameras"
-                          : m[0].jitter != m[1].jitter                              ? "jitter settings"
-                                                                                    : NULL;
+                          : m[0].bounces != m[1].bounces                           ? "bounces"
+                          : m[0].camera != m[1].camera                             ? "cameras"
+                          : m[0].jitter != m[1].jitter                             ? "jitter settings"
+                                                                                   : NULL;
     if (differs || m[0].seed == m[1].seed) {
         pgi_image_free(&img[0]);
         pgi_image_free(&img[1]);
         if (differs) return cli_failure("reference", "cannot merge %s and %s: their %s differ", a, b, differs);
-        return cli_failure("reference", "cannot merge %s and %s: both have seed %" PRIu64 ", so the same samples", a,
-                           b, m[0].seed);
+        return cli_failure("reference", "cannot merge %s and %s: both have seed %" PRIu64 ", so the same samples", a, b,
+                           m[0].seed);
     }
     const double wa = (double)m[0].spp / (double)(m[0].spp + m[1].spp);
     const size_t n3 = (size_t)img[0].width * img[0].height * 3;
-    for (size_t i = 0; i < n3; i++)
-        img[0].rgb[i] = (float)(wa * img[0].rgb[i] + (1.0 - wa) * img[1].rgb[i]);
+    for (size_t i = 0; i < n3; i++) img[0].rgb[i] = (float)(wa * img[0].rgb[i] + (1.0 - wa) * img[1].rgb[i]);
     pgi_image_free(&img[1]);
     pgi_status st = pgi_image_write(&img[0], out, 1.f);
     pgi_image_free(&img[0]);

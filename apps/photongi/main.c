@@ -50,7 +50,9 @@ static const char *k_render_help =
     "Renders one frame: primary rays, photon tracing, density estimation of indirect light,\n"
     "direct light with shadow rays, tone mapping (PNG) or linear radiance (EXR).\n"
     "\n"
-    "  --scene S          built-in (cornell [default], cornell-mirrors, giref, sphere-and-plane, cutout),\n"
+    "  --scene S          built-in (cornell [default], cornell-mirrors, giref, sphere-and-plane,\n"
+    "                     cutout: light through a cut-out lattice, window-box: a room lit by the\n"
+    "                     sky through a window and a skylight),\n"
     "                     a name with a description S.json (sibenik, crytek-sponza, conference,\n"
     "                     fireplace-room, cornell-box; see 'Scene files' below), a .json\n"
     "                     description, or a mesh\n"
@@ -66,7 +68,8 @@ static const char *k_render_help =
     "                     any thread count\n"
     "  --threads T        worker threads, 1..1024 (default: all cores)\n"
     "  --camera I         camera index of the scene, from 0 (default 0)\n"
-    "  --direct-samples K shadow samples per pixel for area lights, 1..4096 (default 16)\n"
+    "  --direct-samples K shadow samples per pixel for area lights and for the sky, 1..4096\n"
+    "                     (default 16)\n"
     "  --exposure X       multiply radiance by X before tone mapping (default: the scene's, else 1)\n"
     "  --output all|direct|indirect|counts   what to put in the image (default all; counts:\n"
     "                     photons that contributed at each pixel, best written as .exr)\n"
@@ -186,8 +189,8 @@ static int cmd_info(int argc, char **argv) {
     printf("glossy:     %zu mesh materials as %s\n", in.glossy_materials,
            in.specular == PGI_SPECULAR_PHONG ? "Blinn-Phong (phong)" : "microfacet plastic (ggx)");
     printf("textures:   %zu\n", in.textures);
-    printf("lights:     %zu (point %zu, spot %zu, sun %zu, emissive triangles %zu)\n", in.lights, in.point_lights,
-           in.spot_lights, in.sun_lights, in.area_triangles);
+    printf("lights:     %zu (point %zu, spot %zu, sun %zu, emissive triangles %zu, sky %zu)\n", in.lights,
+           in.point_lights, in.spot_lights, in.sun_lights, in.area_triangles, in.sky_lights);
     printf("bounds:     (%g, %g, %g) - (%g, %g, %g)\n", in.bounds_min[0], in.bounds_min[1], in.bounds_min[2],
            in.bounds_max[0], in.bounds_max[1], in.bounds_max[2]);
     printf("cameras:    %zu\n", in.cameras);

@@ -69,8 +69,9 @@ typedef struct pgi_scene_info {
     const char *source; /* "built-in" or the file that was loaded */
     size_t triangles, vertices, materials, textures;
     size_t cutout_materials; /* materials with a cut-out mask (MTL map_d, glTF alphaMode MASK) */
-    size_t lights;           /* all emitters; emissive triangles count one each */
+    size_t lights;           /* all emitters; emissive triangles count one each, the sky one */
     size_t point_lights, spot_lights, sun_lights, area_triangles;
+    size_t sky_lights; /* 1 when the scene has a sky or environment map (docs/scene-format.md), else 0 */
     float bounds_min[3], bounds_max[3];
     size_t cameras;
     pgi_camera_def camera; /* camera 0 */
@@ -160,7 +161,7 @@ typedef struct pgi_render_desc {
     uint64_t seed;          /* default 1 */
     int threads;            /* OpenMP threads of the library's parallel regions; 0 = OpenMP's default */
     int camera;             /* index into the scene's cameras */
-    int direct_samples;     /* shadow samples per pixel for area lights (1..4096); default 16 */
+    int direct_samples;     /* shadow samples per pixel for area lights and for the sky (1..4096); default 16 */
     pgi_output output;
     const pgi_camera_def *view; /* non-NULL: render from this camera instead of the scene's `camera`
                                    (borrowed for the call; the viewer's free camera) */

@@ -1,12 +1,14 @@
 /* Built-in scenes that need no files: the Cornell box (default), the Cornell
  * box with mirrors and glass, the GIRefScene and sphere_and_plane of the Cal
- * Poly project (papers/004), and a cut-out test scene (a lattice mask). */
+ * Poly project (papers/004), a cut-out test scene (a lattice mask), and a room lit by the sky
+ * through a window. */
 #include <stdio.h>
 #include <string.h>
 
 #include "scene_internal.h"
 
-const char *const pgi__builtin_names[] = {"cornell", "cornell-mirrors", "giref", "sphere-and-plane", "cutout", NULL};
+const char *const pgi__builtin_names[] = {"cornell", "cornell-mirrors", "giref", "sphere-and-plane",
+                                          "cutout",  "window-box",      NULL};
 
 typedef struct {
     pgi_scene *s;
@@ -295,6 +297,54 @@ static void build_cutout(builder *b) {
     s->defaults = (pgi_scene_defaults){200000, 0.02f, 4, 640, 480, 1.f};
 }
 
+/* Quads of the rectangle [a0, a1] x [b0, b1] (coordinates along the axes ea, eb of a plane
+ * through `o`) around the hole [h0, h1] (a0 <= h0 < h1 <= a1 along each): four quads, wound
+ * so that their normal is ea x eb. */
+static void add_wall_with_hole(builder *b, pgi__v3 o, pgi__v3 ea, pgi__v3 eb, const float a[2], const float bb[2],
+                               const float ha[2], const float hb[2], uint32_t mat) {
+    const float r[4][4] = {{a[0], a[1], bb[0], hb[0]},   /* below the hole */
+                           {a[0], a[1], hb[1], bb[1]},   /* above */
+                           {a[0], ha[0], hb[0], hb[1]},  /* left of it */
+                           {ha[1], a[1], hb[0], hb[1]}}; /* right of it */
+    for (int k = 0; k < 4; k++) {
+        if (!(r[k][1] > r[k][0] && r[k][3] > r[k][2])) continue;
+        pgi__v3 p00 = v3_add(o, v3_add(v3_scale(ea, r[k][0]), v3_scale(eb, r[k][2])));
+        pgi__v3 p10 = v3_add(o, v3_add(v3_scale(ea, r[k][1]), v3_scale(eb, r[k][2])));
+        pgi__v3 p11 = v3_add(o, v3_add(v3_scale(ea, r[k][1]), v3_scale(eb, r[k][3])));
+        pgi__v3 p01 = v3_add(o, v3_add(v3_scale(ea, r[k][0]), v3_scale(eb, r[k][3])));
+        add_quad(b, p00, p10, p11, p01, mat);
+    }
+}
+
+/* window-box: a closed room x in [-1, 1], y in [0, 2], z in [-1, 1] (zero-thickness
+ * Lambertian walls) with two openings, a window in the left wall (x = -1, y in [0.7, 1.5],
+ * z in [-0.7, 0.1]) and a skylight in the ceiling (x, z in [-0.1, 0.5] x [-0.5, 0.1]), a
+ * block on the floor, under a uniform sky of radiance (0.6, 0.75, 1.0) and no other light:
+ * daylight through openings (direct light to infinity, photons from the sky) and the sky
+ * seen through the window. Needs no files (tests of the sky light). */
+static void build_window_box(builder *b) {
+    uint32_t mw = add_mat(b, "white", PGI_MAT_LAMBERT, v3(0.7f, 0.7f, 0.7f));
+    uint32_t mf = add_mat(b, "floor", PGI_MAT_LAMBERT, v3(0.6f, 0.5f, 0.4f));
+    uint32_t mr = add_mat(b, "red", PGI_MAT_LAMBERT, v3(0.63f, 0.065f, 0.05f));
+    uint32_t mb = add_mat(b, "block", PGI_MAT_LAMBERT, v3(0.5f, 0.6f, 0.7f));
+    add_quad(b, v3(-1, 0, -1), v3(-1, 0, 1), v3(1, 0, 1), v3(1, 0, -1), mf);   /* floor */
+    add_quad(b, v3(-1, 0, -1), v3(1, 0, -1), v3(1, 2, -1), v3(-1, 2, -1), mw); /* back */
+    add_quad(b, v3(-1, 0, 1), v3(-1, 2, 1), v3(1, 2, 1), v3(1, 0, 1), mw);     /* front, behind the camera */
+    add_quad(b, v3(1, 0, -1), v3(1, 0, 1), v3(1, 2, 1), v3(1, 2, -1), mr);     /* right */
+    /* left wall (ea = +z, eb = +y) with the window */
+    add_wall_with_hole(b, v3(-1, 0, 0), v3(0, 0, 1), v3(0, 1, 0), (const float[2]){-1.f, 1.f},
+                       (const float[2]){0.f, 2.f}, (const float[2]){-0.7f, 0.1f}, (const float[2]){0.7f, 1.5f}, mw);
+    /* ceiling (ea = +z, eb = +x) with the skylight */
+    add_wall_with_hole(b, v3(0, 2, 0), v3(0, 0, 1), v3(1, 0, 0), (const float[2]){-1.f, 1.f},
+                       (const float[2]){-1.f, 1.f}, (const float[2]){-0.5f, 0.1f}, (const float[2]){-0.1f, 0.5f}, mw);
+    add_box(b, 0.35f, 0.f, -0.3f, v3(0.25f, 0.35f, 0.25f), 20.f, mb);
+    set_camera(b, v3(0.3f, 1.f, 0.95f), v3(-0.2f, 0.9f, -1.f), 70.f);
+    if (b->st) return;
+    const float sky[3] = {0.6f, 0.75f, 1.f}, up[3] = {0.f, 1.f, 0.f};
+    b->st = pgi__env_create_constant("window-box", sky, sky, up, &b->s->env);
+    b->s->defaults = (pgi_scene_defaults){200000, 0.03f, 4, 512, 384, 2.f};
+}
+
 pgi_status pgi__scene_builtin(const char *name, pgi_scene **out) {
     *out = NULL;
     void (*fn)(builder *) = NULL;
@@ -303,6 +353,7 @@ pgi_status pgi__scene_builtin(const char *name, pgi_scene **out) {
     else if (strcmp(name, "giref") == 0) fn = build_giref;
     else if (strcmp(name, "sphere-and-plane") == 0) fn = build_sphere_and_plane;
     else if (strcmp(name, "cutout") == 0) fn = build_cutout;
+    else if (strcmp(name, "window-box") == 0) fn = build_window_box;
     if (!fn) return pgi__fail(PGI_ERR_INVALID_ARG, "no built-in scene named '%s'", name);
     builder b = {0};
     pgi_status st = pgi__scene_new(name, &b.s);

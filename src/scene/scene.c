@@ -29,6 +29,7 @@ void pgi_scene_destroy(pgi_scene *s) {
     for (size_t i = 0; i < s->ntexs; i++) free(s->texs[i].rgba);
     free(s->texs);
     free(s->lights);
+    pgi__env_destroy(s->env);
     free(s->cams);
     pgi__scene_free_anims(s);
     free(s);
@@ -138,9 +139,11 @@ pgi_status pgi__scene_finalize(pgi_scene *s, const char *what) {
             break;
         }
         case PGI_LIGHT_AREA: k = PGI_PI * l->area; break;
+        case PGI_LIGHT_ENV: return pgi__fail(PGI_ERR_PARSE, "%s: light %zu: the environment is not a light", what, i);
         }
         for (int c = 0; c < 3; c++) l->power[c] = l->color[c] * k;
     }
+    if (s->env) pgi__env_set_radius(s->env, 0.5f * diag); /* photons leave a disk covering the bounding sphere */
 
     if (s->ncams == 0) {
         /* Default view: from +z outside the bounds towards the centre. */
@@ -276,8 +279,11 @@ void pgi_scene_get_info(const pgi_scene *s, pgi_scene_info *o) {
         case PGI_LIGHT_SPOT: o->spot_lights++; break;
         case PGI_LIGHT_SUN: o->sun_lights++; break;
         case PGI_LIGHT_AREA: o->area_triangles++; break;
+        case PGI_LIGHT_ENV: break;
         }
     }
+    o->sky_lights = s->env ? 1 : 0;
+    o->lights += o->sky_lights;
     memcpy(o->bounds_min, s->bmin, sizeof o->bounds_min);
     memcpy(o->bounds_max, s->bmax, sizeof o->bounds_max);
     o->cameras = s->ncams;

@@ -54,7 +54,8 @@ typedef enum pgi__light_type {
     PGI_LIGHT_POINT = 0, /* intensity I (W/sr), power 4 pi I */
     PGI_LIGHT_SPOT = 1,  /* intensity I inside the cone cos(theta) >= cos_cutoff */
     PGI_LIGHT_SUN = 2,   /* irradiance E (W/m^2) on surfaces facing -dir */
-    PGI_LIGHT_AREA = 3   /* one emissive triangle, one-sided Lambertian, radiance Le */
+    PGI_LIGHT_AREA = 3,  /* one emissive triangle, one-sided Lambertian, radiance Le */
+    PGI_LIGHT_ENV = 4    /* the environment (pgi__env.light; never in pgi_scene.lights) */
 } pgi__light_type;
 
 typedef struct pgi__light {
@@ -68,6 +69,43 @@ typedef struct pgi__light {
     float normal[3];  /* area: unit emitting normal */
     float power[3];   /* computed by pgi__scene_finalize */
 } pgi__light;
+
+/* Environment light (env.c): radiance from infinitely far away. `w` is the direction the
+ * light comes from (pointing away from the scene, the way a ray escapes). */
+typedef struct pgi__env {
+    float sky[3], ground[3]; /* constant sky (rgb NULL): radiance above / below the horizon */
+    float p_sky;             /* constant sky: probability of sampling the upper hemisphere */
+    float *rgb;              /* map: w x h radiance (scale applied), row 0 the zenith; NULL: constant */
+    int w, h;
+    float *cdf_row;            /* map: h entries, rows by luminance x solid angle */
+    float *cdf_col;            /* map: w x h, columns of each row by luminance */
+    double lum_integral;       /* map: sum of luminance x texel solid angle */
+    float rot;                 /* map: rotation about up, radians */
+    float fx[3], fy[3], fz[3]; /* frame: fy = up */
+    double integral[3];        /* integral of the radiance over the sphere, per channel */
+    pgi__light light;          /* type PGI_LIGHT_ENV; power = pi R^2 integral (pgi__env_set_radius) */
+    char path[512];            /* map file */
+} pgi__env;
+
+pgi_status pgi__env_create_constant(const char *what, const float sky[3], const float ground[3], const float up[3],
+                                    pgi__env **out);
+/* Reads an equirectangular map (EXR, HDR, or 8-bit images decoded from sRGB); `what` names the
+ * scene description in errors. */
+pgi_status pgi__env_create_map(const char *what, const char *path, float scale, float rotation_deg, const float up[3],
+                               pgi__env **out);
+void pgi__env_destroy(pgi__env *e);
+/* Power of the photons entering from a disk of radius R: pi R^2 times the integral of L. */
+void pgi__env_set_radius(pgi__env *e, float R);
+/* Radiance arriving from direction w (unit). */
+pgi__v3 pgi__env_eval(const pgi__env *e, pgi__v3 w);
+/* A direction w with density proportional to the luminance of the radiance (constant sky:
+ * uniform in each hemisphere, the hemisphere by luminance); *pdf is its solid-angle density. */
+pgi__v3 pgi__env_sample(const pgi__env *e, float u1, float u2, float *pdf);
+float pgi__env_pdf(const pgi__env *e, pgi__v3 w);
+/* Direct light at a surface of shading normal ns: a constant sky is sampled by the cosine
+ * about ns, a map by an equal mixture of the cosine and the map's own density. */
+pgi__v3 pgi__env_sample_direct(const pgi__env *e, pgi__v3 ns, float u1, float u2, float *pdf);
+float pgi__env_pdf_direct(const pgi__env *e, pgi__v3 ns, pgi__v3 w);
 
 struct pgi_scene {
     char name[128];
@@ -84,6 +122,7 @@ struct pgi_scene {
     size_t ntexs;
     pgi__light *lights;
     size_t nlights;
+    pgi__env *env; /* the sky / environment map, or NULL */
     pgi_camera_def *cams;
     size_t ncams;
     pgi_scene_defaults defaults;

@@ -64,6 +64,8 @@ static void shade_eye_path(const pgi_scene *s, const pgi__rt *rt, const pgi_came
         if (!pgi__rt_intersect(rt, o, d, 0.f, INFINITY, &h)) break;
     }
     if (!found) {
+        /* An eye path that leaves the scene sees the sky (a window, an open roof). */
+        if (h.prim == UINT32_MAX && s->env) e = v3_add(e, v3_mul(weight, pgi__env_eval(s->env, d)));
         float *planes[] = {vs->pos, vs->nrm, vs->ngeo, vs->wo, vs->kd, vs->ks, vs->weight};
         for (int k = 0; k < 7; k++) memset(planes[k] + 3 * i, 0, 3 * sizeof(float));
         vs->shininess[i] = vs->ior[i] = 0.f;
@@ -119,6 +121,47 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, const pgi_came
     }
     *rays_out = rays;
     return PGI_OK;
+}
+
+/* Direct light from the sky at the lanes `on` of a tile: `n` directions a lane
+ * (pgi__env_sample_direct: cosine-weighted about ns, and for a map half of them by the map),
+ * the first number stratified over the n, shadow rays to infinity; adds the mean to L. Each
+ * pixel has its own RNG stream (seed, pixel). */
+static void env_direct(const pgi__env *env, const pgi__rt *rt, const int on[16], const size_t pix[16],
+                       const pgi__v3 x[16], const pgi__v3 ns[16], const pgi__v3 ng[16], const pgi__v3 wo[16],
+                       const pgi__v3 kd[16], const pgi__v3 ks[16], const float sh[16], int n, uint64_t seed,
+                       pgi__v3 L[16], uint64_t *rays) {
+    pgi__rng rng[16];
+    pgi__v3 Le[16], wi[16] = {{0}}, w[16];
+    int valid[16], occ[16];
+    float tmax[16];
+    for (int k = 0; k < 16; k++) {
+        Le[k] = v3(0.f, 0.f, 0.f);
+        tmax[k] = INFINITY;
+        if (on[k]) pgi_rng_seed(&rng[k], seed ^ 0x736b79ULL, (uint64_t)pix[k]);
+    }
+    for (int j = 0; j < n; j++) {
+        int nv = 0;
+        for (int k = 0; k < 16; k++) {
+            valid[k] = 0;
+            if (!on[k]) continue;
+            float u1 = ((float)j + pgi_rng_f(&rng[k])) / (float)n, u2 = pgi_rng_f(&rng[k]), pdf;
+            wi[k] = pgi__env_sample_direct(env, ns[k], u1, u2, &pdf);
+            float c = v3_dot(ns[k], wi[k]);
+            if (!(pdf > 0.f) || !(c > 0.f) || !(v3_dot(ng[k], wi[k]) > 0.f)) continue;
+            w[k] = v3_scale(pgi__env_eval(env, wi[k]), c / pdf);
+            valid[k] = 1;
+            nv++;
+        }
+        if (!nv) continue;
+        *rays += (uint64_t)nv;
+        pgi__rt_occluded16(rt, valid, x, wi, tmax, occ);
+        for (int k = 0; k < 16; k++)
+            if (valid[k] && !occ[k])
+                Le[k] = v3_add(Le[k], v3_mul(pgi__brdf_eval(kd[k], ks[k], sh[k], ns[k], wi[k], wo[k]), w[k]));
+    }
+    for (int k = 0; k < 16; k++)
+        if (on[k]) L[k] = v3_add(L[k], v3_scale(Le[k], 1.f / (float)n));
 }
 
 pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_samples *vs, int area_samples,
@@ -245,6 +288,8 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
                 for (int k = 0; k < 16; k++)
                     if (on[k]) L[k] = v3_add(L[k], v3_scale(La[k], 1.f / (float)area_samples));
             }
+            if (s->env && area_samples > 0)
+                env_direct(s->env, rt, on, pix, x, ns, ng, wo, kd, ks, sh, area_samples, seed, L, &rays);
             for (int k = 0; k < 16; k++)
                 if (on[k]) v3_store(out + 3 * pix[k], v3_mul(L[k], v3_load(vs->weight + 3 * pix[k])));
         }
