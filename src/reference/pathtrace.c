@@ -92,7 +92,7 @@ static pgi__v3 nee(const pt_ctx *C, const pgi__surface *sf, pgi__v3 wo, pgi__rng
         if (pdf_l > 0.f && cs > 0.f && v3_dot(ng, wi) > 0.f && !pgi__rt_occluded(C->rt, x, wi, 0.f, INFINITY)) {
             float pdf_b = pgi__bsdf_pdf(sf, wo, wi);
             float mis = pdf_l * pdf_l / (pdf_l * pdf_l + pdf_b * pdf_b);
-            pgi__v3 f = pgi__brdf_eval(kd, ks, sh, ns, wi, wo);
+            pgi__v3 f = pgi__brdf_eval(kd, &lobe, ns, wi, wo);
             L = v3_add(L, v3_scale(v3_mul(f, pgi__env_eval(s->env, wi)), cs / pdf_l * mis));
         }
     }

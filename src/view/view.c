@@ -129,8 +129,8 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, const pgi_came
  * pixel has its own RNG stream (seed, pixel). */
 static void env_direct(const pgi__env *env, const pgi__rt *rt, const int on[16], const size_t pix[16],
                        const pgi__v3 x[16], const pgi__v3 ns[16], const pgi__v3 ng[16], const pgi__v3 wo[16],
-                       const pgi__v3 kd[16], const pgi__v3 ks[16], const float sh[16], int n, uint64_t seed,
-                       pgi__v3 L[16], uint64_t *rays) {
+                       const pgi__v3 kd[16], const pgi__lobe lobe[16], int n, uint64_t seed, pgi__v3 L[16],
+                       uint64_t *rays) {
     pgi__rng rng[16];
     pgi__v3 Le[16], wi[16] = {{0}}, w[16];
     int valid[16], occ[16];
@@ -158,7 +158,7 @@ static void env_direct(const pgi__env *env, const pgi__rt *rt, const int on[16],
         pgi__rt_occluded16(rt, valid, x, wi, tmax, occ);
         for (int k = 0; k < 16; k++)
             if (valid[k] && !occ[k])
-                Le[k] = v3_add(Le[k], v3_mul(pgi__brdf_eval(kd[k], ks[k], sh[k], ns[k], wi[k], wo[k]), w[k]));
+                Le[k] = v3_add(Le[k], v3_mul(pgi__brdf_eval(kd[k], &lobe[k], ns[k], wi[k], wo[k]), w[k]));
     }
     for (int k = 0; k < 16; k++)
         if (on[k]) L[k] = v3_add(L[k], v3_scale(Le[k], 1.f / (float)n));
@@ -289,7 +289,7 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
                     if (on[k]) L[k] = v3_add(L[k], v3_scale(La[k], 1.f / (float)area_samples));
             }
             if (s->env && area_samples > 0)
-                env_direct(s->env, rt, on, pix, x, ns, ng, wo, kd, ks, sh, area_samples, seed, L, &rays);
+                env_direct(s->env, rt, on, pix, x, ns, ng, wo, kd, lobe, area_samples, seed, L, &rays);
             for (int k = 0; k < 16; k++)
                 if (on[k]) v3_store(out + 3 * pix[k], v3_mul(L[k], v3_load(vs->weight + 3 * pix[k])));
         }
