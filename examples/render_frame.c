@@ -3,7 +3,7 @@
  *   render_frame [SCENE [OUT.png [WIDTHxHEIGHT]]]
  *
  * SCENE is anything pgi_scene_load takes: a built-in scene ("cornell", the default,
- * "giref", "sphere-and-plane": no files needed), a scene description (.json) or a mesh
+ * "giref", "sphere-and-plane", "cutout": no files needed), a scene description (.json) or a mesh
  * (OBJ, glTF, PLY). OUT.png defaults to render_frame.png, the size to 320x240.
  *
  * Build it against an installed photongi:

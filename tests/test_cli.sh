@@ -503,6 +503,36 @@ if expect_ok reference --scene cornell --size 24x16 --spp 2 --jitter off -q -o "
         grep -q '"spp":[[:space:]]*"4"' "$TMP/c.exr.json" && ok || bad "format-1 reference --continue: spp is not 4"
     fi
 fi
+# --specular: the mesh's illum-2 materials as microfacet plastic (default) or the papers' Blinn-Phong.
+expect_error "--specular must be" render --specular blinn -o "$TMP/x.png"
+expect_error "--specular must be" reference --specular blinn -o "$TMP/x.exr"
+printf 'newmtl floor\nKd 0.8 0.8 0.8\nKs 0.04 0.04 0.04\nNs 198\nillum 2\n' >"$TMP/g.mtl"
+printf 'mtllib g.mtl\nv -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nusemtl floor\nf 1 4 3 2\n' >"$TMP/g.obj"
+printf '{"mesh": "%s", "camera": {"eye": [0, 0.5, 2], "look_at": [0, 0, 0]},\n "lights": [{"type": "point", "position": [0, 1, -0.5], "intensity": [1, 1, 1]}]%s}\n' \
+    "$TMP/g.obj" "" >"$TMP/g.json"
+printf '{"mesh": "%s", "camera": {"eye": [0, 0.5, 2], "look_at": [0, 0, 0]},\n "lights": [{"type": "point", "position": [0, 1, -0.5], "intensity": [1, 1, 1]}]%s}\n' \
+    "$TMP/g.obj" ', "specular": "phong"' >"$TMP/gp.json"
+if expect_ok info --scene "$TMP/g.json"; then
+    printf '%s\n' "$out" | grep -q 'glossy: *1 mesh materials as microfacet plastic (ggx)' && ok || bad "info: no ggx line"
+fi
+if expect_ok info --scene "$TMP/gp.json"; then
+    printf '%s\n' "$out" | grep -q 'glossy: *1 mesh materials as Blinn-Phong (phong)' && ok || bad "info: no phong line"
+fi
+if expect_ok render --scene "$TMP/g.json" --size 32x24 --photons 2000 -q -o "$TMP/g.exr" &&
+    expect_ok render --scene "$TMP/g.json" --specular ggx --size 32x24 --photons 2000 -q -o "$TMP/g2.exr" &&
+    expect_ok render --scene "$TMP/g.json" --specular phong --size 32x24 --photons 2000 -q -o "$TMP/g3.exr" &&
+    expect_ok render --scene "$TMP/gp.json" --size 32x24 --photons 2000 -q -o "$TMP/g4.exr"; then
+    cmp -s "$TMP/g.exr" "$TMP/g2.exr" && ok || bad "render --specular ggx differs from the default"
+    cmp -s "$TMP/g.exr" "$TMP/g3.exr" && bad "render --specular phong: same image as ggx" || ok
+    cmp -s "$TMP/g3.exr" "$TMP/g4.exr" && ok || bad "render --specular phong differs from \"specular\": \"phong\""
+fi
+if expect_ok reference --scene "$TMP/g.json" --specular phong --size 16x12 --spp 1 -q -o "$TMP/gr.exr"; then
+    grep -qE '"specular":[[:space:]]*"phong"' "$TMP/gr.exr.json" && ok || bad "reference --specular phong: not in the .json"
+    expect_error "do not give them" reference --continue "$TMP/gr.exr" --specular ggx --spp 1
+    if expect_ok reference --continue "$TMP/gr.exr" --spp 1 -q; then
+        grep -qE '"specular":[[:space:]]*"phong"' "$TMP/gr.exr.json" && ok || bad "reference --continue lost specular"
+    fi
+fi
 # kernels, subsampling, filter, k-NN, polygon bounds
 expect_error "--knn" render --estimator kdtree --knn 0 -o "$TMP/x.png"
 expect_error "--knn" render --estimator kdtree --knn -3 -o "$TMP/x.png"

@@ -9,6 +9,9 @@
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
+
+#include "photongi/photongi.h"
 
 /* Integer in [lo, hi]. */
 static inline int parse_long(const char *s, long long lo, long long hi, long long *out) {
@@ -89,6 +92,14 @@ static inline int parse_pos_double(const char *s, double *out) {
     double v = strtod(s, &end);
     if (errno || end == s || *end || !(v > 0.0) || !isfinite(v)) return 0;
     *out = v;
+    return 1;
+}
+
+/* "ggx" or "phong" (--specular); 0 when s is neither. */
+static inline int parse_specular(const char *s, pgi_specular *out) {
+    if (strcmp(s, "ggx") == 0) *out = PGI_SPECULAR_GGX;
+    else if (strcmp(s, "phong") == 0) *out = PGI_SPECULAR_PHONG;
+    else return 0;
     return 1;
 }
 

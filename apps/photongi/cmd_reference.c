@@ -29,7 +29,7 @@ static const char *k_reference_help =
     "converges to the box-filtered pixel integral, as 'render --progressive' does (--jitter off:\n"
     "pixel centres, the point samples of one 'render' frame). Deterministic for a seed whatever\n"
     "the thread count. Writes linear EXR and REF.exr.json (scene, size, bounces, camera, seed,\n"
-    "jitter, samples), so that --continue can add samples later.\n"
+    "jitter, specular, samples), so that --continue can add samples later.\n"
     "\n"
     "  --scene S          scene, as for 'render' (default cornell)\n"
     "  --spp N            samples per pixel to add, 1..2^40 (default 64; with --time: an upper bound)\n"
@@ -42,6 +42,8 @@ static const char *k_reference_help =
     "  --threads T        worker threads, 1..1024 (default: all cores)\n"
     "  --camera I         camera index, from 0 (default 0)\n"
     "  --jitter on|off    samples over the whole pixel (on, default) or through its centre\n"
+    "  --specular ggx|phong   model of the mesh's glossy materials, as 'render' (default: the\n"
+    "                     description's \"specular\", else ggx)\n"
     "  --continue REF.exr add samples to REF.exr (settings from REF.exr.json; -o defaults to it)\n"
     "  --merge A B        average two references of the same scene, size, bounces, camera and\n"
     "                     jitter rendered with different seeds (e.g. on two machines), weighted by\n"
@@ -141,6 +143,7 @@ int pgi_cmd_reference(int argc, char **argv) {
     double time_s = 0.0;
     float exposure = 0.f;
     int quiet = 0, size_set = 0, bounces_set = 0, seed_set = 0, camera_set = 0, jitter_set = 0;
+    pgi_specular specular = PGI_SPECULAR_DEFAULT;
     for (int i = 0; i < argc; i++) {
         const char *a = argv[i];
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
@@ -198,6 +201,9 @@ int pgi_cmd_reference(int argc, char **argv) {
             else if (strcmp(v, "off") == 0) d.jitter = PGI_JITTER_OFF;
             else return cli_usage("reference", "--jitter must be on or off, got '%s'", v);
             jitter_set = 1;
+        } else if (strcmp(a, "--specular") == 0) {
+            if (!parse_specular(v, &specular))
+                return cli_usage("reference", "--specular must be ggx or phong, got '%s'", v);
         } else if (strcmp(a, "--size") == 0) {
             if (!parse_size(v, PGI_MAX_IMAGE_SIDE, PGI_MAX_IMAGE_PIXELS, &d.width, &d.height))
                 return cli_usage("reference",
@@ -213,12 +219,13 @@ int pgi_cmd_reference(int argc, char **argv) {
         } else return cli_usage("reference", "unknown option '%s'", a);
     }
     /* Everything the command line alone decides, then the outputs, before any file is read. */
-    if (cont && (scene_spec || size_set || bounces_set || seed_set || camera_set || jitter_set))
+    if (cont && (scene_spec || size_set || bounces_set || seed_set || camera_set || jitter_set ||
+                 specular != PGI_SPECULAR_DEFAULT))
         return cli_usage("reference", "%s",
-                         "--continue takes the scene, size, bounces, seed, camera and jitter from the reference's "
-                         ".json file; do not give them");
+                         "--continue takes the scene, size, bounces, seed, camera, jitter and specular from the "
+                         "reference's .json file; do not give them");
     if (merge[0] && (cont || scene_spec || size_set || bounces_set || seed_set || camera_set || jitter_set || spp ||
-                     time_s > 0.0 || png))
+                     time_s > 0.0 || png || specular != PGI_SPECULAR_DEFAULT))
         return cli_usage("reference", "%s", "--merge takes only the two references and -o OUT.exr");
     if (!out) out = cont;
     if (!out) return cli_usage("reference", "%s", "no output file: give -o REF.exr");
@@ -244,6 +251,7 @@ int pgi_cmd_reference(int argc, char **argv) {
         d.camera = meta.camera;
         d.seed = meta.seed;
         d.jitter = meta.jitter;
+        specular = meta.specular;
         have = meta.spp;
     }
     if (!scene_spec) scene_spec = "cornell";
@@ -254,6 +262,11 @@ int pgi_cmd_reference(int argc, char **argv) {
     if (st) {
         pgi_image_free(&img);
         return cli_input_fail("reference", "cannot load scene", st);
+    }
+    if (specular != PGI_SPECULAR_DEFAULT && (st = pgi_scene_set_specular(scene, specular))) {
+        pgi_image_free(&img);
+        pgi_scene_destroy(scene);
+        return cli_fail("reference", "cannot set the specular model", st);
     }
     pgi_scene_info info;
     pgi_scene_get_info(scene, &info);
@@ -301,6 +314,7 @@ int pgi_cmd_reference(int argc, char **argv) {
     meta.seed = d.seed;
     meta.spp = have;
     meta.jitter = d.jitter;
+    meta.specular = specular;
     st = pgi_reference_meta_write(&meta, meta_path);
     if (st) return cli_fail("reference", "cannot write metadata", st);
     if (!quiet)

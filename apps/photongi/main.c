@@ -50,7 +50,9 @@ static const char *k_render_help =
     "Renders one frame: primary rays, photon tracing, density estimation of indirect light,\n"
     "direct light with shadow rays, tone mapping (PNG) or linear radiance (EXR).\n"
     "\n"
-    "  --scene S          built-in (cornell [default], cornell-mirrors, giref, sphere-and-plane),\n"
+    "  --scene S          built-in (cornell [default], cornell-mirrors, giref, sphere-and-plane,\n"
+    "                     cutout: light through a cut-out lattice, window-box: a room lit by the\n"
+    "                     sky through a window and a skylight),\n"
     "                     a name with a description S.json (sibenik, crytek-sponza, conference,\n"
     "                     fireplace-room, cornell-box; see 'Scene files' below), a .json\n"
     "                     description, or a mesh\n"
@@ -66,7 +68,8 @@ static const char *k_render_help =
     "                     any thread count\n"
     "  --threads T        worker threads, 1..1024 (default: all cores)\n"
     "  --camera I         camera index of the scene, from 0 (default 0)\n"
-    "  --direct-samples K shadow samples per pixel for area lights, 1..4096 (default 16)\n"
+    "  --direct-samples K shadow samples per pixel for area lights and for the sky, 1..4096\n"
+    "                     (default 16)\n"
     "  --exposure X       multiply radiance by X before tone mapping (default: the scene's, else 1)\n"
     "  --output all|direct|indirect|counts   what to put in the image (default all; counts:\n"
     "                     photons that contributed at each pixel, best written as .exr)\n"
@@ -80,6 +83,9 @@ static const char *k_render_help =
     "                     on = such a point for every frame; off = centres always (a\n"
     "                     progressive average then converges to point samples)\n"
     "  --time T           scene time in seconds for animated objects (default 0)\n"
+    "  --specular ggx|phong   model of the mesh's glossy materials (MTL illum 2): ggx =\n"
+    "                     microfacet plastic, phong = the papers' Blinn-Phong (default: the\n"
+    "                     description's \"specular\", else ggx; docs/scene-format.md)\n"
     "  --stats FILE.json  write timings, memory, photon reads/contributing as JSON ('-' = stdout)\n"
     "  -o, --out FILE     output image (.png or .exr); required; its folder must exist\n"
     "  -q, --quiet        print nothing but errors: no progress line (shown only on a terminal),\n"
@@ -178,10 +184,13 @@ static int cmd_info(int argc, char **argv) {
     printf("source:     %s\n", in.source);
     printf("triangles:  %zu\n", in.triangles);
     printf("vertices:   %zu\n", in.vertices);
-    printf("materials:  %zu\n", in.materials);
+    if (in.cutout_materials) printf("materials:  %zu (%zu with cut-out masks)\n", in.materials, in.cutout_materials);
+    else printf("materials:  %zu\n", in.materials);
+    printf("glossy:     %zu mesh materials as %s\n", in.glossy_materials,
+           in.specular == PGI_SPECULAR_PHONG ? "Blinn-Phong (phong)" : "microfacet plastic (ggx)");
     printf("textures:   %zu\n", in.textures);
-    printf("lights:     %zu (point %zu, spot %zu, sun %zu, emissive triangles %zu)\n", in.lights, in.point_lights,
-           in.spot_lights, in.sun_lights, in.area_triangles);
+    printf("lights:     %zu (point %zu, spot %zu, sun %zu, emissive triangles %zu, sky %zu)\n", in.lights,
+           in.point_lights, in.spot_lights, in.sun_lights, in.area_triangles, in.sky_lights);
     printf("bounds:     (%g, %g, %g) - (%g, %g, %g)\n", in.bounds_min[0], in.bounds_min[1], in.bounds_min[2],
            in.bounds_max[0], in.bounds_max[1], in.bounds_max[2]);
     printf("cameras:    %zu\n", in.cameras);
@@ -241,6 +250,7 @@ static int cmd_render(int argc, char **argv) {
     long long progressive = 1;
     const char *scene_spec = "cornell", *out = NULL, *stats_path = NULL;
     float exposure = 0.f, scene_time = 0.f;
+    pgi_specular specular = PGI_SPECULAR_DEFAULT;
     int quiet = 0;
     for (int i = 0; i < argc; i++) {
         const char *a = argv[i];
@@ -316,6 +326,9 @@ static int cmd_render(int argc, char **argv) {
                 return cli_usage("render", "--progressive needs a frame count, a whole number in 1..%d, got '%s'",
                                  PGI_MAX_PROGRESSIVE_FRAMES, v);
             progressive = n;
+        } else if (strcmp(a, "--specular") == 0) {
+            if (!parse_specular(v, &specular))
+                return cli_usage("render", "--specular must be ggx or phong, got '%s'", v);
         } else if (strcmp(a, "--time") == 0) {
             if (!parse_finite_float(v, &scene_time))
                 return cli_usage("render", "--time needs a number of seconds, got '%s'", v);
@@ -374,6 +387,10 @@ static int cmd_render(int argc, char **argv) {
     pgi_scene *scene;
     pgi_status st = pgi_scene_load(scene_spec, &scene);
     if (st) return cli_input_fail("render", "cannot load scene", st);
+    if (specular != PGI_SPECULAR_DEFAULT && (st = pgi_scene_set_specular(scene, specular))) {
+        pgi_scene_destroy(scene);
+        return cli_fail("render", "cannot set the specular model", st);
+    }
     if ((st = pgi_scene_set_time(scene, scene_time))) {
         pgi_scene_destroy(scene);
         return cli_fail("render", "cannot set the scene time", st);

@@ -61,7 +61,8 @@ typedef struct pgi_camera {
 enum {
     PGI_VS_VALID = 1,   /* hit a non-specular surface (else: sky or lost) */
     PGI_VS_PRIMARY = 2, /* reached directly by the primary ray (no mirror/glass on the way) */
-    PGI_VS_LAMBERT = 4  /* material is purely Lambertian (ks = 0) */
+    PGI_VS_LAMBERT = 4, /* material is purely Lambertian (ks = 0) */
+    PGI_VS_GGX = 8      /* microfacet plastic (ks = lobe tint, shininess = GGX alpha, ior); else Blinn-Phong */
 };
 
 /* View samples (G-buffer): one per pixel, index y*width + x, one plane per
@@ -74,8 +75,9 @@ typedef struct pgi_view_samples {
     float *ngeo;      /* geometric normal, same side */
     float *wo;        /* unit direction towards where the eye path came from */
     float *kd;        /* diffuse albedo (texture applied), linear RGB */
-    float *ks;        /* Blinn-Phong F0; 0 for Lambertian */
-    float *shininess; /* Blinn-Phong exponent s */
+    float *ks;        /* Blinn-Phong F0; PGI_VS_GGX: the lobe's tint; 0 for Lambertian */
+    float *shininess; /* Blinn-Phong exponent s; PGI_VS_GGX: GGX alpha */
+    float *ior;       /* PGI_VS_GGX: index of refraction of the plastic's dielectric (its Fresnel) */
     float *weight;    /* throughput of the specular chain from the eye (1 if primary) */
     float *depth;     /* view-space depth (along camera forward) of the primary hit */
     uint8_t *flags;   /* PGI_VS_* */

@@ -54,12 +54,24 @@ typedef struct pgi_scene_defaults {
     float exposure;
 } pgi_scene_defaults;
 
+/* The model of mesh materials with a specular colour (MTL `illum 2`, Assimp's Phong/Blinn
+ * shading with Ks > 0); docs/scene-format.md "Materials". */
+typedef enum pgi_specular {
+    PGI_SPECULAR_DEFAULT = 0, /* the scene description's "specular", else GGX */
+    PGI_SPECULAR_GGX = 1,     /* microfacet plastic: Lambertian base under a GGX lobe with the Fresnel
+                                 of a dielectric (index Ni, default 1.5; alpha = sqrt(2 / (Ns + 2))) */
+    PGI_SPECULAR_PHONG = 2    /* the tiled paper's energy-conserving Blinn-Phong (Ks = F0, exponent Ns,
+                                 kd lowered to 1 - Ks), to reproduce the papers' images */
+} pgi_specular;
+
 typedef struct pgi_scene_info {
     const char *name;   /* "cornell", or the description/mesh file name */
     const char *source; /* "built-in" or the file that was loaded */
     size_t triangles, vertices, materials, textures;
-    size_t lights; /* all emitters; emissive triangles count one each */
+    size_t cutout_materials; /* materials with a cut-out mask (MTL map_d, glTF alphaMode MASK) */
+    size_t lights;           /* all emitters; emissive triangles count one each, the sky one */
     size_t point_lights, spot_lights, sun_lights, area_triangles;
+    size_t sky_lights; /* 1 when the scene has a sky or environment map (docs/scene-format.md), else 0 */
     float bounds_min[3], bounds_max[3];
     size_t cameras;
     pgi_camera_def camera; /* camera 0 */
@@ -67,10 +79,12 @@ typedef struct pgi_scene_info {
     double surface_area;     /* total triangle area, scene units squared */
     size_t animated_objects; /* objects with a motion (see pgi_scene_set_time) */
     double anim_duration;    /* last keyframe time over all motions, seconds (0 if none) */
+    pgi_specular specular;   /* model of the mesh's specular materials now (GGX or PHONG) */
+    size_t glossy_materials; /* mesh materials that follow it (pgi_scene_set_specular) */
 } pgi_scene_info;
 
 /* Loads a scene. `spec` is a built-in name ("cornell", "giref",
- * "sphere-and-plane"), a scene description (.json), a scene name with a
+ * "sphere-and-plane", "cutout"), a scene description (.json), a scene name with a
  * description <name>.json in ./scenes, in the source tree's scenes/ (a build
  * run from any directory) or in the installed share/photongi/scenes (looked up
  * in that order), or a mesh file Assimp reads (OBJ/MTL, glTF, PLY). Mesh paths
@@ -82,6 +96,10 @@ typedef struct pgi_scene_info {
 pgi_status pgi_scene_load(const char *spec, pgi_scene **out);
 void pgi_scene_destroy(pgi_scene *scene);
 void pgi_scene_get_info(const pgi_scene *scene, pgi_scene_info *out);
+/* Switches the mesh materials with a specular colour (pgi_scene_info.glossy_materials) to
+ * `model` (PGI_SPECULAR_DEFAULT: the description's "specular", else GGX). Materials a description
+ * declares itself ("objects") keep their "type". Not thread-safe with a render of the scene. */
+pgi_status pgi_scene_set_specular(pgi_scene *scene, pgi_specular model);
 size_t pgi_builtin_scene_count(void);
 const char *pgi_builtin_scene_name(size_t i);
 
@@ -143,7 +161,7 @@ typedef struct pgi_render_desc {
     uint64_t seed;          /* default 1 */
     int threads;            /* OpenMP threads of the library's parallel regions; 0 = OpenMP's default */
     int camera;             /* index into the scene's cameras */
-    int direct_samples;     /* shadow samples per pixel for area lights (1..4096); default 16 */
+    int direct_samples;     /* shadow samples per pixel for area lights and for the sky (1..4096); default 16 */
     pgi_output output;
     const pgi_camera_def *view; /* non-NULL: render from this camera instead of the scene's `camera`
                                    (borrowed for the call; the viewer's free camera) */

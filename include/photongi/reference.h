@@ -55,10 +55,12 @@ typedef struct pgi_reference_meta {
     char scene[256]; /* scene spec as given on the command line */
     int width, height, bounces, camera;
     uint64_t seed, spp;
-    pgi_jitter jitter; /* PGI_JITTER_ON or PGI_JITTER_OFF (what the samples so far used) */
+    pgi_jitter jitter;     /* PGI_JITTER_ON or PGI_JITTER_OFF (what the samples so far used) */
+    pgi_specular specular; /* --specular given (GGX or PHONG); DEFAULT: the scene's ("specular" absent) */
 } pgi_reference_meta;
 
-/* Writes/reads the sidecar JSON file `path` (format "photongi-reference-2";
+/* Writes/reads the sidecar JSON file `path` (format "photongi-reference-2", with an optional
+ * "specular": "ggx" | "phong";
  * "photongi-reference-1", written before references were jittered, reads as
  * PGI_JITTER_OFF). Reading a missing file is PGI_ERR_IO; a file without the
  * fields is PGI_ERR_PARSE. */

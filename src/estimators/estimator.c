@@ -370,6 +370,7 @@ pgi_status pgi_view_samples_alloc(pgi_view_samples *vs, int width, int height) {
     for (size_t k = 0; k < sizeof v3s / sizeof v3s[0]; k++)
         ok &= (*v3s[k] = pgi__aalloc(3 * n * sizeof(float))) != NULL;
     ok &= (vs->shininess = pgi__aalloc(n * sizeof(float))) != NULL;
+    ok &= (vs->ior = pgi__aalloc(n * sizeof(float))) != NULL;
     ok &= (vs->depth = pgi__aalloc(n * sizeof(float))) != NULL;
     ok &= (vs->flags = pgi__aalloc(n)) != NULL;
     if (!ok) {
@@ -384,8 +385,8 @@ pgi_status pgi_view_samples_alloc(pgi_view_samples *vs, int width, int height) {
 }
 
 void pgi_view_samples_free(pgi_view_samples *vs) {
-    void *arrs[] = {vs->pos, vs->nrm,    vs->ngeo,      vs->wo,    vs->kd,
-                    vs->ks,  vs->weight, vs->shininess, vs->depth, vs->flags};
+    void *arrs[] = {vs->pos,    vs->nrm,       vs->ngeo, vs->wo,    vs->kd,   vs->ks,
+                    vs->weight, vs->shininess, vs->ior,  vs->depth, vs->flags};
     for (size_t k = 0; k < sizeof arrs / sizeof arrs[0]; k++) pgi__afree(arrs[k]);
     memset(vs, 0, sizeof *vs);
 }

@@ -10,13 +10,14 @@
 /* A view sample loaded once per gather. */
 typedef struct pgi__vs {
     float px, py, pz, nx, ny, nz;
-    pgi__v3 wo, kd, ks;
-    float shininess;
+    pgi__v3 wo, kd;
     int lambert;
+    pgi__lobe lobe; /* set up only when !lambert */
 } pgi__vs;
 
 /* Running sums of one gather: Lambertian part as a flux sum (kd/pi applied
- * once at the end), Blinn-Phong part as f*flux. */
+ * once at the end), the rest of the BSDF (pgi__lobe_eval: Blinn-Phong, or the
+ * plastic's lobe and its base's change from kd/pi) as f*flux. */
 typedef struct pgi__acc {
     float fr, fg, fb; /* sum of flux */
     float sr, sg, sb; /* sum of specular f * flux */
@@ -33,9 +34,8 @@ static inline void pgi__vs_load(const pgi_view_samples *vs, size_t i, pgi__vs *v
     v->nz = n[2];
     v->wo = v3_load(vs->wo + 3 * i);
     v->kd = v3_load(vs->kd + 3 * i);
-    v->ks = v3_load(vs->ks + 3 * i);
-    v->shininess = vs->shininess[i];
     v->lambert = (vs->flags[i] & PGI_VS_LAMBERT) != 0;
+    if (!v->lambert) pgi__vs_lobe(vs, i, &v->lobe);
 }
 
 /* Starts the gather of sample i: an invalid sample (sky, lost eye path)
@@ -64,11 +64,10 @@ static inline void pgi__gather(const pgi__vs *v, float r2, float px, float py, f
     a->fg += fg;
     a->fb += fb;
     if (!v->lambert) {
-        float k, fres;
-        pgi__phong_lobe(v3(v->nx, v->ny, v->nz), v3(dx, dy, dz), v->wo, v->shininess, &k, &fres);
-        a->sr += k * (v->ks.x + (1.f - v->ks.x) * fres) * fr;
-        a->sg += k * (v->ks.y + (1.f - v->ks.y) * fres) * fg;
-        a->sb += k * (v->ks.z + (1.f - v->ks.z) * fres) * fb;
+        pgi__v3 f = pgi__lobe_eval(&v->lobe, v->kd, v3(v->nx, v->ny, v->nz), v3(dx, dy, dz), v->wo);
+        a->sr += f.x * fr;
+        a->sg += f.y * fg;
+        a->sb += f.z * fb;
     }
 }
 
@@ -106,11 +105,10 @@ static inline void pgi__acc_add(const pgi__vs *v, float w, float dx, float dy, f
     a->fg += w * fg;
     a->fb += w * fb;
     if (!v->lambert) {
-        float k, fres;
-        pgi__phong_lobe(v3(v->nx, v->ny, v->nz), v3(dx, dy, dz), v->wo, v->shininess, &k, &fres);
-        a->sr += k * (v->ks.x + (1.f - v->ks.x) * fres) * (w * fr);
-        a->sg += k * (v->ks.y + (1.f - v->ks.y) * fres) * (w * fg);
-        a->sb += k * (v->ks.z + (1.f - v->ks.z) * fres) * (w * fb);
+        pgi__v3 f = pgi__lobe_eval(&v->lobe, v->kd, v3(v->nx, v->ny, v->nz), v3(dx, dy, dz), v->wo);
+        a->sr += f.x * (w * fr);
+        a->sg += f.y * (w * fg);
+        a->sb += f.z * (w * fb);
     }
 }
 

@@ -141,8 +141,10 @@ void pgi__pd_emit(pgi__pdiff *pd, const pgi__light *L, float pl, pgi__v3 d, floa
         pgi__pd_emit_dir(pd, d, v3_load(L->dir), sqrtf(omega / (4.f * PGI_PI * pl)));
         break;
     }
-    case PGI_LIGHT_SUN: {
-        /* parallel light over a disk of radius R: positional differentials only */
+    case PGI_LIGHT_SUN:
+    case PGI_LIGHT_ENV: {
+        /* parallel light over a disk of radius R: positional differentials only (the sky: its
+         * photons' directions spread, but each enters as a sun's would) */
         pgi__v3 t, b;
         v3_basis(d, &t, &b);
         float f = sqrtf(PGI_PI * sun_radius * sun_radius / (4.f * PGI_PI * pl));

@@ -55,7 +55,9 @@ void pgi__fp_scatter(pgi__pdiff *pd, const pgi__fp_params *p, const pgi_scene *s
         else {
             float side = v3_dot(wi, sf->ng) >= 0.f ? 1.f : -1.f;
             pgi__v3 ns = v3_scale(sf->ns, side);
-            pgi__v3 f = pgi__brdf_eval(sf->kd, v3_load(sf->mat->ks), sf->mat->shininess, ns, wi, wo);
+            pgi__lobe lobe;
+            pgi__lobe_of_material(sf->mat, &lobe);
+            pgi__v3 f = pgi__brdf_eval(sf->kd, &lobe, ns, wi, wo);
             pb = v3_lum(f) * fmaxf(0.f, v3_dot(wo, ns)) * 1e-3f;
         }
         pd->rho *= fminf(fmaxf(pb, 0.f), 1.f);

@@ -71,7 +71,8 @@ static int start_path(const tracer *T, uint64_t index, lane *l) {
     pgi_rng_seed(&l->rng, T->seed, index);
     float ul = pgi_rng_f(&l->rng);
     float pl;
-    const pgi__light *L = &T->s->lights[pgi__cdf_pick(T->cdf, T->nl, ul, &pl)];
+    const size_t li = pgi__cdf_pick(T->cdf, T->nl, ul, &pl);
+    const pgi__light *L = li < T->s->nlights ? &T->s->lights[li] : &T->s->env->light; /* the last: the sky */
     if (!(pl > 0.f)) return 0;
     l->flux = v3_scale(v3_load(L->power), 1.f / pl);
     float u1 = pgi_rng_f(&l->rng), u2 = pgi_rng_f(&l->rng);
@@ -89,6 +90,21 @@ static int start_path(const tracer *T, uint64_t index, lane *l) {
         float r = T->radius * sqrtf(u1), phi = 2.f * PGI_PI * u2;
         pgi__v3 disk = pgi_to_world(v3(r * cosf(phi), r * sinf(phi), 0.f), l->d);
         l->o = v3_add(v3_sub(T->centre, v3_scale(l->d, 1.01f * T->radius)), disk);
+        break;
+    }
+    case PGI_LIGHT_ENV: {
+        /* A direction w by the sky's density, then a uniform point of the disk of radius R
+         * perpendicular to w outside the bounding sphere, travelling along -w: flux
+         * L(w) pi R^2 / pdf(w) (the light's power pi R^2 int L dw when pdf is proportional to L). */
+        float pdf;
+        pgi__v3 w = pgi__env_sample(T->s->env, u1, u2, &pdf);
+        if (!(pdf > 0.f)) return 0;
+        l->flux = v3_scale(pgi__env_eval(T->s->env, w), PGI_PI * T->radius * T->radius / (pdf * pl));
+        float u3 = pgi_rng_f(&l->rng), u4 = pgi_rng_f(&l->rng);
+        l->d = v3_neg(w);
+        float r = T->radius * sqrtf(u3), phi = 2.f * PGI_PI * u4;
+        pgi__v3 disk = pgi_to_world(v3(r * cosf(phi), r * sinf(phi), 0.f), l->d);
+        l->o = v3_add(v3_madd(T->centre, w, 1.01f * T->radius), disk);
         break;
     }
     case PGI_LIGHT_AREA:
@@ -329,24 +345,27 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
                          d->photons);
     if (d->bounces < 1) return PGI_OK;
     if (d->bounces > 255) return pgi__fail(PGI_ERR_INVALID_ARG, "photon bounces %d exceed 255", d->bounces);
-    float *cdf = malloc((s->nlights ? s->nlights : 1) * sizeof *cdf);
+    /* The lights, then the sky (if any) as entry nlights. */
+    const size_t nl = s->nlights + (s->env ? 1 : 0);
+    float *cdf = malloc((nl ? nl : 1) * sizeof *cdf);
     if (!cdf) return pgi__fail(PGI_ERR_OOM, "out of memory for the light table");
     double total = 0.0;
-    for (size_t i = 0; i < s->nlights; i++) {
-        total += fmax(0.0, (double)v3_lum(v3_load(s->lights[i].power)));
+    for (size_t i = 0; i < nl; i++) {
+        const pgi__light *L = i < s->nlights ? &s->lights[i] : &s->env->light;
+        total += fmax(0.0, (double)v3_lum(v3_load(L->power)));
         cdf[i] = (float)total;
     }
     if (!(total > 0.0)) {
         free(cdf);
         return PGI_OK; /* no light: no photons; the image is black but valid */
     }
-    for (size_t i = 0; i < s->nlights; i++) cdf[i] = (float)(cdf[i] / total);
-    cdf[s->nlights - 1] = 1.f;
+    for (size_t i = 0; i < nl; i++) cdf[i] = (float)(cdf[i] / total);
+    cdf[nl - 1] = 1.f;
 
     tracer T = {s,
                 rt,
                 cdf,
-                s->nlights,
+                nl,
                 d->bounces,
                 d->seed,
                 pgi__scene_epsilon(s),

@@ -409,9 +409,9 @@ pgi_status pgi__renderer_render_frame(pgi_renderer *r, const pgi_render_desc *in
     for (int k = 0; k < es.pass_count && k < PGI_MAX_STAT_ENTRIES; k++)
         fs.passes_ms[fs.pass_count++] = (pgi_named_value){es.pass_names[k], es.pass_ms[k]};
     fs.memory_bytes[fs.memory_count++] = (pgi_named_value){"photons", (double)(r->ph.count * 12 * sizeof(float))};
-    /* 7 vector planes (pos, nrm, ngeo, wo, kd, ks, weight), shininess, depth, flags. */
+    /* 7 vector planes (pos, nrm, ngeo, wo, kd, ks, weight), shininess, ior, depth, flags. */
     fs.memory_bytes[fs.memory_count++] =
-        (pgi_named_value){"view_samples", (double)(n * ((7 * 3 + 2) * sizeof(float) + sizeof(uint8_t)))};
+        (pgi_named_value){"view_samples", (double)(n * ((7 * 3 + 3) * sizeof(float) + sizeof(uint8_t)))};
     fs.memory_bytes[fs.memory_count++] =
         (pgi_named_value){"trace_scratch", (double)pgi__trace_scratch_bytes(&r->trace_scratch)};
     for (int k = 0; k < es.memory_count && fs.memory_count < PGI_MAX_STAT_ENTRIES; k++)

@@ -8,7 +8,8 @@
  * A path x0, x1, ... extended by BSDF sampling; at a non-specular vertex x_k
  * next-event estimation represents light paths with k scattering events
  * (x_k .. x_1), and an emitter hit at x_{k+1} from x_k also k events; both are
- * combined by the power heuristic for area lights. Vertices are extended while
+ * combined by the power heuristic for area lights and the sky (a path that
+ * leaves the scene sees the sky, as an emitter hit). Vertices are extended while
  * k < B. Point, spot and sun lights are delta lights, reached by NEE only:
  * a path tracer cannot find light -> mirror -> x0 from them (photon tracing
  * stores it as a caustic), so for such scenes the reference lacks those
@@ -43,10 +44,6 @@ typedef struct {
     float *tri_pick; /* triangle -> pick probability of its area light (0: none) */
 } pt_ctx;
 
-static inline pgi__v3 mat_ks(const pgi__surface *sf) {
-    return sf->mat->type == PGI_MAT_PHONG ? v3_load(sf->mat->ks) : v3(0.f, 0.f, 0.f);
-}
-
 /* Next-event estimation at a non-specular vertex: every delta light once (as
  * pgi__direct), one area-light sample picked by power, MIS-weighted against
  * BSDF sampling. `wo` points back along the path. */
@@ -54,8 +51,9 @@ static pgi__v3 nee(const pt_ctx *C, const pgi__surface *sf, pgi__v3 wo, pgi__rng
     const pgi_scene *s = C->s;
     float side = v3_dot(wo, sf->ng) >= 0.f ? 1.f : -1.f;
     pgi__v3 ng = v3_scale(sf->ng, side), ns = v3_scale(sf->ns, side);
-    pgi__v3 kd = sf->kd, ks = mat_ks(sf);
-    float sh = sf->mat->shininess;
+    pgi__v3 kd = sf->kd;
+    pgi__lobe lobe;
+    pgi__lobe_of_material(sf->mat, &lobe);
     pgi__v3 x = v3_madd(sf->p, ng, C->eps);
     pgi__v3 L = v3(0.f, 0.f, 0.f);
     for (size_t l = 0; l < s->nlights; l++) {
@@ -63,7 +61,7 @@ static pgi__v3 nee(const pt_ctx *C, const pgi__surface *sf, pgi__v3 wo, pgi__rng
         float cs, tmax;
         if (!pgi__delta_light(&s->lights[l], x, ns, ng, &wi, &Li, &cs, &tmax)) continue;
         if (pgi__rt_occluded(C->rt, x, wi, 0.f, tmax)) continue;
-        L = v3_add(L, v3_scale(v3_mul(pgi__brdf_eval(kd, ks, sh, ns, wi, wo), Li), cs));
+        L = v3_add(L, v3_scale(v3_mul(pgi__brdf_eval(kd, &lobe, ns, wi, wo), Li), cs));
     }
     if (C->narea) {
         float ul = pgi_rng_f(rng), u1 = pgi_rng_f(rng), u2 = pgi_rng_f(rng);
@@ -81,12 +79,37 @@ static pgi__v3 nee(const pt_ctx *C, const pgi__surface *sf, pgi__v3 wo, pgi__rng
                 float pdf_l = pl * d2 / (cl * lt->area);
                 float pdf_b = pgi__bsdf_pdf(sf, wo, wi);
                 float mis = pdf_l * pdf_l / (pdf_l * pdf_l + pdf_b * pdf_b);
-                pgi__v3 f = pgi__brdf_eval(kd, ks, sh, ns, wi, wo);
+                pgi__v3 f = pgi__brdf_eval(kd, &lobe, ns, wi, wo);
                 L = v3_add(L, v3_scale(v3_mul(f, v3_load(lt->color)), cs / pdf_l * mis));
             }
         }
     }
+    if (s->env) {
+        /* One sky direction (as pgi__direct's), power heuristic against BSDF sampling. */
+        float u1 = pgi_rng_f(rng), u2 = pgi_rng_f(rng), pdf_l;
+        pgi__v3 wi = pgi__env_sample_direct(s->env, ns, u1, u2, &pdf_l);
+        float cs = v3_dot(ns, wi);
+        if (pdf_l > 0.f && cs > 0.f && v3_dot(ng, wi) > 0.f && !pgi__rt_occluded(C->rt, x, wi, 0.f, INFINITY)) {
+            float pdf_b = pgi__bsdf_pdf(sf, wo, wi);
+            float mis = pdf_l * pdf_l / (pdf_l * pdf_l + pdf_b * pdf_b);
+            pgi__v3 f = pgi__brdf_eval(kd, &lobe, ns, wi, wo);
+            L = v3_add(L, v3_scale(v3_mul(f, pgi__env_eval(s->env, wi)), cs / pdf_l * mis));
+        }
+    }
     return L;
+}
+
+/* The sky seen along a path that leaves the scene in direction d from `sf` (after the BSDF
+ * sampled d with density pdf_b; 0: a specular bounce or the eye, weight 1), MIS-weighted
+ * against the sky sample of nee(). */
+static pgi__v3 escaped(const pgi_scene *s, const pgi__surface *sf, pgi__v3 wo, pgi__v3 d, float pdf_b) {
+    pgi__v3 Le = pgi__env_eval(s->env, d);
+    if (!(pdf_b > 0.f)) return Le;
+    float side = v3_dot(wo, sf->ng) >= 0.f ? 1.f : -1.f;
+    pgi__v3 ng = v3_scale(sf->ng, side), ns = v3_scale(sf->ns, side);
+    /* nee() samples d only where it would count it */
+    float pdf_l = v3_dot(ns, d) > 0.f && v3_dot(ng, d) > 0.f ? pgi__env_pdf_direct(s->env, ns, d) : 0.f;
+    return v3_scale(Le, pdf_b * pdf_b / (pdf_b * pdf_b + pdf_l * pdf_l));
 }
 
 /* One sample of pixel (x, y), through the point (x + jx, y + jy) of the image. */
@@ -98,7 +121,8 @@ static pgi__v3 trace_sample(const pt_ctx *C, int px, int py, float jx, float jy,
     pgi__surface sf;
     /* Eye path: the specular chain to the first non-specular hit x0, as view.c. */
     for (int depth = 0;; depth++) {
-        if (!pgi__rt_intersect(C->rt, o, d, 0.f, INFINITY, &h)) return L;
+        if (!pgi__rt_intersect(C->rt, o, d, 0.f, INFINITY, &h))
+            return s->env ? v3_add(L, v3_mul(W, pgi__env_eval(s->env, d))) : L;
         pgi__v3 p = v3_madd(o, d, h.t);
         pgi__scene_surface(s, h.prim, h.u, h.v, p, &sf);
         pgi__v3 wo = v3_neg(d);
@@ -129,7 +153,11 @@ static pgi__v3 trace_sample(const pt_ctx *C, int px, int py, float jx, float jy,
         pgi__v3 p = sf.p;
         o = v3_madd(p, v3_dot(wi, sf.ng) >= 0.f ? sf.ng : v3_neg(sf.ng), C->eps);
         d = wi;
-        if (!pgi__rt_intersect(C->rt, o, d, 0.f, INFINITY, &h)) break;
+        if (!pgi__rt_intersect(C->rt, o, d, 0.f, INFINITY, &h)) {
+            /* The sky at x_{k+1}: a light path with k scattering events, as an emitter hit. */
+            if (s->env) L = v3_add(L, v3_mul(T, escaped(s, &sf, wo, d, pdf_b)));
+            break;
+        }
         pgi__v3 q = v3_madd(o, d, h.t);
         pgi__scene_surface(s, h.prim, h.u, h.v, q, &sf);
         /* Emitter hit at x_{k+1}: a light path with k scattering events. */

@@ -1,7 +1,8 @@
 /* Sidecar metadata of a reference image (<image>.json), so that
  * `photongi reference --continue` adds samples with the same settings.
  * Format 2 adds "jitter" (true: samples spread over the pixel); format 1
- * files were made through pixel centres and continue that way. */
+ * files were made through pixel centres and continue that way. An optional
+ * "specular" ("ggx" | "phong") records `reference --specular`. */
 #include <stdio.h>
 #include <string.h>
 
@@ -21,6 +22,8 @@ pgi_status pgi_reference_meta_write(const pgi_reference_meta *m, const char *pat
              cJSON_AddNumberToObject(o, "height", m->height) && cJSON_AddNumberToObject(o, "bounces", m->bounces) &&
              cJSON_AddNumberToObject(o, "camera", m->camera) && cJSON_AddStringToObject(o, "seed", seed) &&
              cJSON_AddStringToObject(o, "spp", spp) && cJSON_AddBoolToObject(o, "jitter", m->jitter != PGI_JITTER_OFF);
+    if (ok && m->specular != PGI_SPECULAR_DEFAULT)
+        ok = cJSON_AddStringToObject(o, "specular", m->specular == PGI_SPECULAR_PHONG ? "phong" : "ggx") != NULL;
     char *txt = ok ? cJSON_Print(o) : NULL;
     cJSON_Delete(o);
     if (!txt) return pgi__fail(PGI_ERR_OOM, "out of memory writing %s", path);
@@ -71,6 +74,12 @@ pgi_status pgi_reference_meta_read(const char *path, pgi_reference_meta *m) {
              get_int(o, "height", &m->height) && get_int(o, "bounces", &m->bounces) &&
              get_int(o, "camera", &m->camera) && get_u64(o, "seed", &m->seed) && get_u64(o, "spp", &m->spp);
     m->jitter = v2 && cJSON_IsTrue(jit) ? PGI_JITTER_ON : PGI_JITTER_OFF;
+    const cJSON *sp = cJSON_GetObjectItemCaseSensitive(o, "specular");
+    if (sp) {
+        if (cJSON_IsString(sp) && strcmp(sp->valuestring, "phong") == 0) m->specular = PGI_SPECULAR_PHONG;
+        else if (cJSON_IsString(sp) && strcmp(sp->valuestring, "ggx") == 0) m->specular = PGI_SPECULAR_GGX;
+        else ok = 0;
+    }
     if (ok) snprintf(m->scene, sizeof m->scene, "%s", sc->valuestring);
     cJSON_Delete(o);
     if (!ok)

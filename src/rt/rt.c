@@ -7,19 +7,34 @@
 #include <stdio.h>
 #include <string.h>
 
+/* One Embree geometry: a class of the scene's triangles (static or animated, with or without
+ * a cut-out mask). */
+typedef struct rt_geom {
+    RTCGeometry g;
+    uint32_t *map;   /* scene triangle of each of its triangles; NULL: identity (all of them) */
+    uint32_t *verts; /* scene vertex of each of its vertices; NULL: all scene vertices */
+    size_t nverts;
+    int dynamic;        /* its triangles move with the animation (refitted) */
+    const pgi_scene *s; /* masked geometries: the scene their filter reads */
+} rt_geom;
+
+/* Triangle classes, each its own geometry when present: bit 0 a cut-out mask, bit 1 animated. */
+#define CLASS_MASKED 1
+#define CLASS_DYNAMIC 2
+#define NCLASS 4
+
 struct pgi__rt {
     RTCDevice device;
     RTCScene scene;
-    /* Scenes with animated objects get two geometries: 0 holds the static
-     * triangles (built once, high quality), 1 the animated ones (refitted
-     * each time they move); Embree then builds a two-level BVH and only the
-     * moved geometry is redone. map[g][prim] is the scene triangle
-     * (NULL: identity, the single-geometry case). */
-    RTCGeometry geom[2];
+    /* Scenes with animated objects keep the static triangles (built once, high quality) and
+     * the animated ones (refitted each time they move) in geometries of their own; Embree then
+     * builds a two-level BVH and only the moved geometry is redone. Triangles with a cut-out
+     * mask get geometries of their own too, and only those carry the filter functions
+     * (alpha_filter), so that scenes without masks trace exactly as before. A scene of static,
+     * unmasked triangles has one geometry over all of them (map and verts NULL). */
+    rt_geom geom[NCLASS];
     int ngeom;
-    uint32_t *map[2];
-    uint32_t *dyn_verts; /* scene vertex of each vertex of the animated geometry; NULL: not split */
-    size_t ndyn_verts;
+    int any_dynamic;
     uint64_t static_version, dynamic_version;
     pgi__ray_log *capture; /* NULL: off (pgi__rt_capture_set) */
 };
@@ -96,11 +111,29 @@ static void on_error(void *user, enum RTCError code, const char *str) {
     snprintf(g_rt_error, sizeof g_rt_error, "Embree error %d: %s", (int)code, str ? str : "");
 }
 
+/* Embree filter of the masked geometries (intersection and occlusion alike, any packet width):
+ * a hit where the mask is cut out is refused, and traversal goes on behind it. */
+static void alpha_filter(const struct RTCFilterFunctionNArguments *args) {
+    const rt_geom *g = args->geometryUserPtr;
+    const unsigned n = args->N;
+    /* RTCHitN is N-wide SOA: Ng_x, Ng_y, Ng_z, u, v, primID, ... (rtcore_ray.h's accessors are C++). */
+    const float *hf = (const float *)args->hit;
+    const unsigned *hu = (const unsigned *)args->hit;
+    for (unsigned i = 0; i < n; i++) {
+        if (args->valid[i] != -1) continue;
+        unsigned prim = hu[5 * n + i];
+        uint32_t tri = g->map ? g->map[prim] : prim;
+        if (pgi__scene_cut_out(g->s, tri, hf[3 * n + i], hf[4 * n + i])) args->valid[i] = 0;
+    }
+}
+
 /* A triangle geometry over `ntri` triangles of the scene (tris[i], or i when
  * tris is NULL); vertices are all scene vertices, or the `nv` listed in
- * `verts`, with `remap` giving each scene vertex its local index. */
+ * `verts`, with `remap` giving each scene vertex its local index. `masked`:
+ * the geometry's record, for the cut-out filters (NULL: no filter). */
 static RTCGeometry make_geometry(pgi__rt *rt, const pgi_scene *s, const uint32_t *tris, size_t ntri,
-                                 const uint32_t *verts, size_t nv, const uint32_t *remap, enum RTCBuildQuality q) {
+                                 const uint32_t *verts, size_t nv, const uint32_t *remap, enum RTCBuildQuality q,
+                                 rt_geom *masked) {
     RTCGeometry g = rtcNewGeometry(rt->device, RTC_GEOMETRY_TYPE_TRIANGLE);
     if (!g) return NULL;
     size_t nvb = verts ? nv : s->nverts;
@@ -121,8 +154,46 @@ static RTCGeometry make_geometry(pgi__rt *rt, const pgi_scene *s, const uint32_t
         }
     }
     rtcSetGeometryBuildQuality(g, q);
+    if (masked) {
+        rtcSetGeometryUserData(g, masked);
+        rtcSetGeometryIntersectFilterFunction(g, alpha_filter);
+        rtcSetGeometryOccludedFilterFunction(g, alpha_filter);
+    }
     rtcCommitGeometry(g);
     return g;
+}
+
+static int tri_class(const pgi_scene *s, size_t t) {
+    return (pgi__mat_masked(&s->mats[s->tri_mat[t]]) ? CLASS_MASKED : 0) |
+           (s->tri_dynamic && s->tri_dynamic[t] ? CLASS_DYNAMIC : 0);
+}
+
+/* Geometry of the `ntri` triangles `tris` of class c; every class but the static, unmasked one
+ * gets a vertex buffer of its own vertices only (remap: scratch of nverts entries). */
+static pgi_status add_class(pgi__rt *rt, const pgi_scene *s, int c, uint32_t *tris, size_t ntri, uint32_t *remap) {
+    rt_geom *g = &rt->geom[rt->ngeom];
+    g->map = ntri == s->ntris && c == 0 ? NULL : tris;
+    if (g->map != tris) free(tris);
+    g->dynamic = (c & CLASS_DYNAMIC) != 0;
+    g->s = s;
+    if (c != 0) {
+        g->verts = malloc((s->nverts ? s->nverts : 1) * sizeof(uint32_t));
+        if (!g->verts) return pgi__fail(PGI_ERR_OOM, "out of memory splitting %zu triangles", ntri);
+        for (size_t v = 0; v < s->nverts; v++) remap[v] = UINT32_MAX;
+        for (size_t i = 0; i < ntri; i++)
+            for (int k = 0; k < 3; k++) {
+                uint32_t v = s->tri[3 * (size_t)tris[i] + k];
+                if (remap[v] == UINT32_MAX) {
+                    remap[v] = (uint32_t)g->nverts;
+                    g->verts[g->nverts++] = v;
+                }
+            }
+    }
+    g->g = make_geometry(rt, s, g->map, ntri, g->verts, g->nverts, g->verts ? remap : NULL,
+                         g->dynamic ? RTC_BUILD_QUALITY_REFIT : RTC_BUILD_QUALITY_HIGH, c & CLASS_MASKED ? g : NULL);
+    rt->ngeom++;
+    if (!g->g) return pgi__fail(PGI_ERR_OOM, "Embree could not allocate geometry buffers for %zu triangles", ntri);
+    return PGI_OK;
 }
 
 pgi_status pgi__rt_create(const pgi_scene *s, pgi__rt **out) {
@@ -139,12 +210,18 @@ pgi_status pgi__rt_create(const pgi_scene *s, pgi__rt **out) {
     rt->scene = rtcNewScene(rt->device);
     rt->static_version = s->static_version;
     rt->dynamic_version = s->dynamic_version;
-    size_t ndyn = 0;
-    for (size_t t = 0; s->tri_dynamic && t < s->ntris; t++) ndyn += s->tri_dynamic[t] != 0;
-    if (ndyn == 0) {
+    size_t count[NCLASS] = {0};
+    for (size_t t = 0; t < s->ntris; t++) count[tri_class(s, t)]++;
+    rt->any_dynamic = count[CLASS_DYNAMIC] + count[CLASS_DYNAMIC | CLASS_MASKED] > 0;
+    if (count[CLASS_MASKED] + count[CLASS_MASKED | CLASS_DYNAMIC] > 0 &&
+        !rtcGetDeviceProperty(rt->device, RTC_DEVICE_PROPERTY_FILTER_FUNCTION_SUPPORTED)) {
+        pgi__rt_destroy(rt);
+        return pgi__fail(PGI_ERR_UNSUPPORTED,
+                         "the scene has cut-out (alpha-masked) materials, and this Embree was built without filter "
+                         "functions (EMBREE_FILTER_FUNCTION)");
+    }
+    if (!rt->any_dynamic) {
         rtcSetSceneBuildQuality(rt->scene, RTC_BUILD_QUALITY_HIGH);
-        rt->geom[0] = make_geometry(rt, s, NULL, s->ntris, NULL, 0, NULL, RTC_BUILD_QUALITY_HIGH);
-        rt->ngeom = 1;
     } else {
         /* LOW scene quality + DYNAMIC selects Embree's two-level builder, which
          * honours each geometry's own quality: HIGH for the static part, REFIT
@@ -152,55 +229,31 @@ pgi_status pgi__rt_create(const pgi_scene *s, pgi__rt **out) {
          * keeps the tree's quality). */
         rtcSetSceneFlags(rt->scene, RTC_SCENE_FLAG_DYNAMIC);
         rtcSetSceneBuildQuality(rt->scene, RTC_BUILD_QUALITY_LOW);
-        size_t nstat = s->ntris - ndyn;
-        uint32_t *stat = malloc((nstat ? nstat : 1) * sizeof(uint32_t));
-        uint32_t *dyn = malloc(ndyn * sizeof(uint32_t));
-        uint32_t *remap = malloc((s->nverts ? s->nverts : 1) * sizeof(uint32_t));
-        rt->dyn_verts = malloc((s->nverts ? s->nverts : 1) * sizeof(uint32_t));
-        if (!stat || !dyn || !remap || !rt->dyn_verts) {
-            free(stat);
-            free(dyn);
-            free(remap);
-            pgi__rt_destroy(rt);
-            return pgi__fail(PGI_ERR_OOM, "out of memory splitting %zu animated triangles", ndyn);
-        }
-        size_t a = 0, b = 0;
-        for (size_t t = 0; t < s->ntris; t++) {
-            if (s->tri_dynamic[t]) dyn[b++] = (uint32_t)t;
-            else stat[a++] = (uint32_t)t;
-        }
-        for (size_t v = 0; v < s->nverts; v++) remap[v] = UINT32_MAX;
-        for (size_t i = 0; i < ndyn; i++)
-            for (int k = 0; k < 3; k++) {
-                uint32_t v = s->tri[3 * (size_t)dyn[i] + k];
-                if (remap[v] == UINT32_MAX) {
-                    remap[v] = (uint32_t)rt->ndyn_verts;
-                    rt->dyn_verts[rt->ndyn_verts++] = v;
-                }
-            }
-        if (nstat) {
-            rt->map[0] = stat;
-            rt->geom[0] = make_geometry(rt, s, stat, nstat, NULL, 0, NULL, RTC_BUILD_QUALITY_HIGH);
-            rt->ngeom = 1;
-        } else {
-            free(stat); /* everything moves: the animated geometry is geometry 0 */
-        }
-        rt->map[rt->ngeom] = dyn;
-        rt->geom[rt->ngeom] =
-            make_geometry(rt, s, dyn, ndyn, rt->dyn_verts, rt->ndyn_verts, remap, RTC_BUILD_QUALITY_REFIT);
-        rt->ngeom++;
-        free(remap);
     }
-    for (int g = 0; g < rt->ngeom; g++) {
-        if (!rt->geom[g]) {
-            pgi__rt_destroy(rt);
-            return pgi__fail(PGI_ERR_OOM, "Embree could not allocate geometry buffers for %zu triangles", s->ntris);
+    uint32_t *remap = count[0] < s->ntris ? malloc((s->nverts ? s->nverts : 1) * sizeof(uint32_t)) : NULL;
+    pgi_status st =
+        count[0] < s->ntris && !remap ? pgi__fail(PGI_ERR_OOM, "out of memory creating the ray tracer") : PGI_OK;
+    for (int c = 0; c < NCLASS && !st; c++) {
+        if (!count[c]) continue;
+        uint32_t *tris = malloc(count[c] * sizeof(uint32_t));
+        if (!tris) {
+            st = pgi__fail(PGI_ERR_OOM, "out of memory splitting %zu triangles", count[c]);
+            break;
         }
-        rtcAttachGeometryByID(rt->scene, rt->geom[g], (unsigned)g);
+        size_t n = 0;
+        for (size_t t = 0; t < s->ntris; t++)
+            if (tri_class(s, t) == c) tris[n++] = (uint32_t)t;
+        st = add_class(rt, s, c, tris, n, remap);
     }
+    free(remap);
+    if (st) {
+        pgi__rt_destroy(rt);
+        return st;
+    }
+    for (int g = 0; g < rt->ngeom; g++) rtcAttachGeometryByID(rt->scene, rt->geom[g].g, (unsigned)g);
     rtcCommitScene(rt->scene);
     if (rtcGetDeviceError(rt->device) != RTC_ERROR_NONE || g_rt_error[0]) {
-        pgi_status st = pgi__fail(PGI_ERR_INTERNAL, "building the ray-tracing BVH failed: %s", g_rt_error);
+        st = pgi__fail(PGI_ERR_INTERNAL, "building the ray-tracing BVH failed: %s", g_rt_error);
         pgi__rt_destroy(rt);
         return st;
     }
@@ -215,20 +268,19 @@ int pgi__rt_needs_update(const pgi__rt *rt, const pgi_scene *s) {
 pgi_status pgi__rt_update(pgi__rt *rt, const pgi_scene *s) {
     if (!pgi__rt_needs_update(rt, s)) return PGI_OK;
     g_rt_error[0] = 0;
-    const int split = rt->dyn_verts != NULL, gdyn = rt->ngeom - 1;
     const int stat_moved = rt->static_version != s->static_version;
     const int dyn_moved = rt->dynamic_version != s->dynamic_version;
-    for (int g = 0; g < rt->ngeom; g++) {
-        int is_dyn = split && g == gdyn;
-        if (!(is_dyn ? dyn_moved : (stat_moved || (!split && dyn_moved)))) continue;
-        float *vb = rtcGetGeometryBufferData(rt->geom[g], RTC_BUFFER_TYPE_VERTEX, 0);
+    for (int i = 0; i < rt->ngeom; i++) {
+        rt_geom *g = &rt->geom[i];
+        if (!(g->dynamic ? dyn_moved : (stat_moved || (!rt->any_dynamic && dyn_moved)))) continue;
+        float *vb = rtcGetGeometryBufferData(g->g, RTC_BUFFER_TYPE_VERTEX, 0);
         if (!vb) return pgi__fail(PGI_ERR_INTERNAL, "Embree vertex buffer is missing");
-        if (is_dyn)
-            for (size_t i = 0; i < rt->ndyn_verts; i++)
-                memcpy(vb + 3 * i, s->pos + 3 * (size_t)rt->dyn_verts[i], 3 * sizeof(float));
+        if (g->verts)
+            for (size_t v = 0; v < g->nverts; v++)
+                memcpy(vb + 3 * v, s->pos + 3 * (size_t)g->verts[v], 3 * sizeof(float));
         else memcpy(vb, s->pos, s->nverts * 3 * sizeof(float));
-        rtcUpdateGeometryBuffer(rt->geom[g], RTC_BUFFER_TYPE_VERTEX, 0);
-        rtcCommitGeometry(rt->geom[g]);
+        rtcUpdateGeometryBuffer(g->g, RTC_BUFFER_TYPE_VERTEX, 0);
+        rtcCommitGeometry(g->g);
     }
     rtcCommitScene(rt->scene);
     rt->static_version = s->static_version;
@@ -240,18 +292,18 @@ pgi_status pgi__rt_update(pgi__rt *rt, const pgi_scene *s) {
 
 void pgi__rt_destroy(pgi__rt *rt) {
     if (!rt) return;
-    for (int g = 0; g < 2; g++)
-        if (rt->geom[g]) rtcReleaseGeometry(rt->geom[g]);
+    for (int g = 0; g < NCLASS; g++) {
+        if (rt->geom[g].g) rtcReleaseGeometry(rt->geom[g].g);
+        free(rt->geom[g].map);
+        free(rt->geom[g].verts);
+    }
     if (rt->scene) rtcReleaseScene(rt->scene);
     if (rt->device) rtcReleaseDevice(rt->device);
-    free(rt->map[0]);
-    free(rt->map[1]);
-    free(rt->dyn_verts);
     free(rt);
 }
 
 static inline uint32_t global_prim(const pgi__rt *rt, unsigned geom, unsigned prim) {
-    const uint32_t *m = rt->map[geom & 1];
+    const uint32_t *m = rt->geom[geom & (NCLASS - 1)].map;
     return m ? m[prim] : prim;
 }
 

@@ -284,9 +284,11 @@ void pgi__scene_refresh(pgi_scene *s) {
             k = PGI_PI * l->area;
             break;
         }
+        case PGI_LIGHT_ENV: break;
         }
         for (int c = 0; c < 3; c++) l->power[c] = l->color[c] * k;
     }
+    if (s->env) pgi__env_set_radius(s->env, 0.5f * diag);
 }
 
 pgi_status pgi_scene_set_time(pgi_scene *s, double t) {

@@ -29,6 +29,30 @@ void pgi__scene_surface(const pgi_scene *s, uint32_t prim, float bu, float bv, p
     pgi__surface_texture(s, o);
 }
 
+/* Probability that pgi__bsdf_sample picks the glossy lobe (else the cosine-weighted base):
+ * Phong: by the luminances of ks and kd; GGX: by the lobe's and the base's albedos seen from wi,
+ * lum(tint) E(ci) against lum(kd) (1 - E(ci)). */
+static float glossy_pick(const pgi__lobe *l, pgi__v3 kd, pgi__v3 ns, pgi__v3 wi) {
+    float wd = v3_lum(kd), wsp = v3_lum(l->ks);
+    if (l->model == PGI_LOBE_GGX) {
+        float ci = v3_dot(wi, ns);
+        if (!(ci > 0.f)) return 0.f; /* wi under the shading normal: the lobe is zero there */
+        float e = pgi__lobe_E(l, ci);
+        wsp *= e;
+        wd *= 1.f - e;
+    }
+    return wd + wsp > 0.f ? wsp / (wd + wsp) : 0.f;
+}
+
+/* Solid-angle density of the glossy lobe's sampling. */
+static float glossy_pdf(const pgi__lobe *l, pgi__v3 ns, pgi__v3 wi, pgi__v3 wo) {
+    if (l->model == PGI_LOBE_GGX) return pgi__ggx_pdf(l, ns, wi, wo);
+    float s = l->s;
+    pgi__v3 h = v3_norm(v3_add(wi, wo));
+    float hn = fmaxf(0.f, v3_dot(h, ns)), hw = fabsf(v3_dot(h, wo));
+    return hw > 0.f ? (s + 1.f) / (2.f * PGI_PI) * powf(hn, s) / (4.f * hw) : 0.f;
+}
+
 int pgi__bsdf_sample(const pgi__surface *sf, pgi__v3 wi, float u1, float u2, float u3, pgi__v3 *wo, pgi__v3 *weight) {
     const pgi__material *m = sf->mat;
     float side = v3_dot(wi, sf->ng) >= 0.f ? 1.f : -1.f;
@@ -55,27 +79,33 @@ int pgi__bsdf_sample(const pgi__surface *sf, pgi__v3 wi, float u1, float u2, flo
         *weight = v3_load(m->ks);
         return v3_dot(*wo, ng) < 0.f;
     }
-    case PGI_MAT_PHONG: {
-        pgi__v3 ks = v3_load(m->ks);
-        float wd = v3_lum(sf->kd), wsp = v3_lum(ks);
-        float ps = wd + wsp > 0.f ? wsp / (wd + wsp) : 0.f;
-        float s = m->shininess;
+    case PGI_MAT_PHONG:
+    case PGI_MAT_PLASTIC: {
+        pgi__lobe l;
+        pgi__lobe_of_material(m, &l);
+        float ps = glossy_pick(&l, sf->kd, ns, wi);
         if (u3 < ps) {
-            /* Half vector from the normalised Blinn distribution (s+1)/(2pi) cos^s. */
-            float ct = powf(u1, 1.f / (s + 1.f)), st = sqrtf(fmaxf(0.f, 1.f - ct * ct)), phi = 2.f * PGI_PI * u2;
-            pgi__v3 h = pgi_to_world(v3(st * cosf(phi), st * sinf(phi), ct), ns);
-            *wo = pgi__reflect(wi, h);
+            if (l.model == PGI_LOBE_GGX) {
+                /* Visible normals (Heitz 2018) in the frame pgi_to_world uses. */
+                pgi__v3 t, b;
+                v3_basis(ns, &t, &b);
+                pgi__v3 V = v3(v3_dot(wi, t), v3_dot(wi, b), v3_dot(wi, ns));
+                *wo = pgi__reflect(wi, pgi_to_world(pgi__ggx_sample_vndf(V, l.s, u1, u2), ns));
+            } else {
+                /* Half vector from the normalised Blinn distribution (s+1)/(2pi) cos^s. */
+                float s = l.s;
+                float ct = powf(u1, 1.f / (s + 1.f)), st = sqrtf(fmaxf(0.f, 1.f - ct * ct)), phi = 2.f * PGI_PI * u2;
+                pgi__v3 h = pgi_to_world(v3(st * cosf(phi), st * sinf(phi), ct), ns);
+                *wo = pgi__reflect(wi, h);
+            }
         } else {
             *wo = pgi_to_world(pgi_sample_cosine(u1, u2), ns);
         }
         float cg = v3_dot(*wo, ng), cs = v3_dot(*wo, ns);
         if (!(cg > 0.f) || !(cs > 0.f)) return 0;
-        pgi__v3 h = v3_norm(v3_add(wi, *wo));
-        float hn = fmaxf(0.f, v3_dot(h, ns)), hw = fabsf(v3_dot(h, *wo));
-        float pdf_s = hw > 0.f ? (s + 1.f) / (2.f * PGI_PI) * powf(hn, s) / (4.f * hw) : 0.f;
-        float pdf = ps * pdf_s + (1.f - ps) * cs * PGI_INV_PI;
+        float pdf = ps * glossy_pdf(&l, ns, wi, *wo) + (1.f - ps) * cs * PGI_INV_PI;
         if (!(pdf > 0.f)) return 0;
-        pgi__v3 f = pgi__brdf_eval(sf->kd, ks, s, ns, wi, *wo);
+        pgi__v3 f = pgi__brdf_eval(sf->kd, &l, ns, wi, *wo);
         *weight = v3_scale(f, cs / pdf);
         return 1;
     }
@@ -94,14 +124,10 @@ float pgi__bsdf_pdf(const pgi__surface *sf, pgi__v3 wi, pgi__v3 wo) {
     pgi__v3 ng = v3_scale(sf->ng, side), ns = v3_scale(sf->ns, side);
     float cg = v3_dot(wo, ng), cs = v3_dot(wo, ns);
     if (!(cg > 0.f) || !(cs > 0.f)) return 0.f;
-    if (m->type != PGI_MAT_PHONG) return cs * PGI_INV_PI;
+    if (m->type != PGI_MAT_PHONG && m->type != PGI_MAT_PLASTIC) return cs * PGI_INV_PI;
     /* Same lobe mixture as pgi__bsdf_sample. */
-    pgi__v3 ks = v3_load(m->ks);
-    float wd = v3_lum(sf->kd), wsp = v3_lum(ks);
-    float ps = wd + wsp > 0.f ? wsp / (wd + wsp) : 0.f;
-    float s = m->shininess;
-    pgi__v3 h = v3_norm(v3_add(wi, wo));
-    float hn = fmaxf(0.f, v3_dot(h, ns)), hw = fabsf(v3_dot(h, wo));
-    float pdf_s = hw > 0.f ? (s + 1.f) / (2.f * PGI_PI) * powf(hn, s) / (4.f * hw) : 0.f;
-    return ps * pdf_s + (1.f - ps) * cs * PGI_INV_PI;
+    pgi__lobe l;
+    pgi__lobe_of_material(m, &l);
+    float ps = glossy_pick(&l, sf->kd, ns, wi);
+    return ps * glossy_pdf(&l, ns, wi, wo) + (1.f - ps) * cs * PGI_INV_PI;
 }

@@ -26,22 +26,6 @@ static inline void pgi__phong_lobe(pgi__v3 n, pgi__v3 wi, pgi__v3 wo, float s, f
     *k = (8.f + s) * (1.f / (8.f * PGI_PI)) * powf(hn, s);
 }
 
-/* f(wi, wo) for a non-specular surface: kd/pi + Blinn-Phong (ks = F0).
- * Lambertian when ks is zero. No cosine. */
-static inline pgi__v3 pgi__brdf_eval(pgi__v3 kd, pgi__v3 ks, float s, pgi__v3 n, pgi__v3 wi, pgi__v3 wo) {
-    pgi__v3 f = v3_scale(kd, PGI_INV_PI);
-    if (ks.x > 0.f || ks.y > 0.f || ks.z > 0.f) {
-        float k, fr;
-        pgi__phong_lobe(n, wi, wo, s, &k, &fr);
-        f.x += k * (ks.x + (1.f - ks.x) * fr);
-        f.y += k * (ks.y + (1.f - ks.y) * fr);
-        f.z += k * (ks.z + (1.f - ks.z) * fr);
-    }
-    return f;
-}
-
-static inline pgi__v3 pgi__reflect(pgi__v3 w, pgi__v3 n) { return v3_sub(v3_scale(n, 2.f * v3_dot(w, n)), w); }
-
 /* Unpolarised Fresnel reflectance of a dielectric; cos_i > 0 on the incident side. */
 static inline float pgi__fresnel_dielectric(float cos_i, float eta_i, float eta_t) {
     float sin_t = eta_i / eta_t * sqrtf(fmaxf(0.f, 1.f - cos_i * cos_i));
@@ -51,6 +35,148 @@ static inline float pgi__fresnel_dielectric(float cos_i, float eta_i, float eta_
     float rp = (eta_t * cos_i - eta_i * cos_t) / (eta_t * cos_i + eta_i * cos_t);
     return 0.5f * (rs * rs + rp * rp);
 }
+
+/* ------------------------------------------------ microfacet plastic (GGX)
+ * A Lambertian base under a GGX (Trowbridge-Reitz) lobe with the Fresnel
+ * reflectance of a dielectric of index eta (PGI_MAT_PLASTIC, docs/scene-format.md):
+ *   f = tint F(h.wi) D(h) G2(wi, wo) / (4 |n.wi| |n.wo|)                   (Smith, height-correlated)
+ *     + kd/pi (1 - E(n.wi)) (1 - E(n.wo)) / (1 - E_avg)                   (Kelemen & Szirmay-Kalos 2001)
+ * E(mu) is the directional albedo of the untinted lobe (a table, microfacet.c) and
+ * E_avg = 2 int_0^1 E(mu) mu dmu, so the base is reciprocal and a white base under
+ * the lobe reflects exactly everything: albedo(wo) = E(wo) + kd (1 - E(wo)) (tint 1).
+ * The table holds E at PGI_GGX_NMU values of mu = x^2, x uniform in [0, 1] (dense
+ * at grazing angles, where E changes fastest), for alpha in
+ * [PGI_GGX_ALPHA_MIN, 1] and a set of indices eta; pgi__lobe_init interpolates one
+ * row for a material's alpha and eta. */
+#define PGI_GGX_NMU 32
+#define PGI_GGX_ALPHA_MIN 0.01f
+
+typedef enum pgi__lobe_model { PGI_LOBE_NONE = 0, PGI_LOBE_PHONG = 1, PGI_LOBE_GGX = 2 } pgi__lobe_model;
+
+/* The non-Lambertian part of a non-specular BSDF, set up once per shading point. */
+typedef struct pgi__lobe {
+    pgi__lobe_model model;
+    pgi__v3 ks;           /* Phong: F0 per channel; GGX: tint (<= 1) on the dielectric's Fresnel */
+    float s;              /* Phong: exponent; GGX: alpha */
+    float eta;            /* GGX: index of refraction (> 1) */
+    float a2;             /* GGX: alpha^2 */
+    float inv_1mEavg;     /* GGX: 1 / (1 - E_avg) */
+    float E[PGI_GGX_NMU]; /* GGX: E at the table's mu nodes for this alpha and eta */
+} pgi__lobe;
+
+/* GGX roughness of a Phong exponent (MTL Ns): alpha = sqrt(2 / (Ns + 2)), clamped to
+ * [PGI_GGX_ALPHA_MIN, 1]. */
+static inline float pgi__ggx_alpha_from_ns(float ns) {
+    float a = sqrtf(2.f / (fmaxf(ns, 0.f) + 2.f));
+    return a < PGI_GGX_ALPHA_MIN ? PGI_GGX_ALPHA_MIN : a > 1.f ? 1.f : a;
+}
+/* Normal-incidence reflectance of a dielectric of index eta (from air). */
+static inline float pgi__fresnel_f0(float eta) {
+    float r = (eta - 1.f) / (eta + 1.f);
+    return r * r;
+}
+
+/* Sets up `l`: model PGI_LOBE_NONE (Lambertian), PHONG (ks = F0, s = exponent) or GGX
+ * (ks = tint, s = alpha, eta). microfacet.c. */
+void pgi__lobe_init(pgi__lobe *l, pgi__lobe_model model, pgi__v3 ks, float s, float eta);
+/* The lobe of a non-specular material (Lambert: PGI_LOBE_NONE). */
+void pgi__lobe_of_material(const pgi__material *m, pgi__lobe *l);
+/* What pgi__lobe_of_material passes to pgi__lobe_init (the view samples store these). */
+pgi__lobe_model pgi__lobe_params(const pgi__material *m, pgi__v3 *ks, float *s, float *eta);
+/* Computes the table rows an index eta needs now rather than on first use (outside timed
+ * passes). */
+void pgi__ggx_prepare(float eta);
+
+/* E(mu) of a set-up GGX lobe: linear in x = sqrt(mu) between the nodes. */
+static inline float pgi__lobe_E(const pgi__lobe *l, float mu) {
+    float x = sqrtf(fminf(fmaxf(mu, 0.f), 1.f)) * (float)(PGI_GGX_NMU - 1);
+    int i = (int)x;
+    if (i > PGI_GGX_NMU - 2) i = PGI_GGX_NMU - 2;
+    float t = x - (float)i;
+    return l->E[i] + (l->E[i + 1] - l->E[i]) * t;
+}
+
+/* Trowbridge-Reitz D(h) with cos(h, n) = c. */
+static inline float pgi__ggx_D(float a2, float c) {
+    float d = c * c * (a2 - 1.f) + 1.f;
+    return a2 / (PGI_PI * d * d);
+}
+/* sqrt(c^2 + a2 (1 - c^2)) = c sqrt(1 + a2 tan^2): Smith's Lambda(w) = (this / c - 1) / 2. */
+static inline float pgi__ggx_root(float a2, float c) { return sqrtf(c * c * (1.f - a2) + a2); }
+
+/* Untinted GGX lobe F D G2 / (4 ci co) for unit wi, wo (ci = n.wi, co = n.wo, both > 0). */
+static inline float pgi__ggx_spec(const pgi__lobe *l, pgi__v3 n, pgi__v3 wi, pgi__v3 wo, float ci, float co) {
+    pgi__v3 h = v3_add(wi, wo);
+    float hl = v3_len(h);
+    if (!(hl > 0.f)) return 0.f;
+    float hn = v3_dot(h, n) / hl, hi = fminf(1.f, fmaxf(0.f, v3_dot(h, wi) / hl));
+    float F = pgi__fresnel_dielectric(hi, 1.f, l->eta);
+    /* G2 / (4 ci co) = 1 / (2 (co root(ci) + ci root(co))) */
+    float v = 0.5f / (co * pgi__ggx_root(l->a2, ci) + ci * pgi__ggx_root(l->a2, co));
+    return F * pgi__ggx_D(l->a2, hn) * v;
+}
+
+/* Half vector h (local frame, n = +z) of GGX's distribution of the normals visible from V
+ * (unit, V.z > 0), by Heitz 2018 "Sampling the GGX distribution of visible normals". */
+static inline pgi__v3 pgi__ggx_sample_vndf(pgi__v3 V, float alpha, float u1, float u2) {
+    pgi__v3 Vh = v3_norm(v3(alpha * V.x, alpha * V.y, V.z));
+    float lensq = Vh.x * Vh.x + Vh.y * Vh.y;
+    pgi__v3 T1 = lensq > 0.f ? v3_scale(v3(-Vh.y, Vh.x, 0.f), 1.f / sqrtf(lensq)) : v3(1.f, 0.f, 0.f);
+    pgi__v3 T2 = v3_cross(Vh, T1);
+    float r = sqrtf(u1), phi = 2.f * PGI_PI * u2;
+    float t1 = r * cosf(phi), t2 = r * sinf(phi), sv = 0.5f * (1.f + Vh.z);
+    t2 = (1.f - sv) * sqrtf(fmaxf(0.f, 1.f - t1 * t1)) + sv * t2;
+    pgi__v3 Nh =
+        v3_add(v3_add(v3_scale(T1, t1), v3_scale(T2, t2)), v3_scale(Vh, sqrtf(fmaxf(0.f, 1.f - t1 * t1 - t2 * t2))));
+    return v3_norm(v3(alpha * Nh.x, alpha * Nh.y, fmaxf(0.f, Nh.z)));
+}
+
+/* Solid-angle density of wo from pgi__ggx_sample_vndf seen from wi, reflected:
+ * G1(wi) D(h) / (4 ci) = D(h) / (2 (ci + root(ci))). */
+static inline float pgi__ggx_pdf(const pgi__lobe *l, pgi__v3 n, pgi__v3 wi, pgi__v3 wo) {
+    float ci = v3_dot(n, wi);
+    if (!(ci > 0.f)) return 0.f;
+    pgi__v3 h = v3_add(wi, wo);
+    float hl = v3_len(h);
+    if (!(hl > 0.f)) return 0.f;
+    float hn = v3_dot(h, n) / hl;
+    if (!(hn > 0.f)) return 0.f;
+    return pgi__ggx_D(l->a2, hn) / (2.f * (ci + pgi__ggx_root(l->a2, ci)));
+}
+
+/* f(wi, wo) - kd/pi: what a non-specular BSDF adds to its Lambertian kd/pi (0 for
+ * PGI_LOBE_NONE). Phong: the tiled paper's lobe; GGX: the lobe plus the base's change
+ * from kd/pi. The estimators sum kd/pi over the flux once and this per photon. */
+static inline pgi__v3 pgi__lobe_eval(const pgi__lobe *l, pgi__v3 kd, pgi__v3 n, pgi__v3 wi, pgi__v3 wo) {
+    if (l->model == PGI_LOBE_PHONG) {
+        float k, fr;
+        pgi__phong_lobe(n, wi, wo, l->s, &k, &fr);
+        return v3(k * (l->ks.x + (1.f - l->ks.x) * fr), k * (l->ks.y + (1.f - l->ks.y) * fr),
+                  k * (l->ks.z + (1.f - l->ks.z) * fr));
+    }
+    if (l->model != PGI_LOBE_GGX) return v3(0.f, 0.f, 0.f);
+    float ci = v3_dot(n, wi), co = v3_dot(n, wo);
+    float base = (1.f - pgi__lobe_E(l, ci)) * (1.f - pgi__lobe_E(l, co)) * l->inv_1mEavg - 1.f;
+    pgi__v3 r = v3_scale(kd, base * PGI_INV_PI);
+    if (ci > 0.f && co > 0.f) r = v3_add(r, v3_scale(l->ks, pgi__ggx_spec(l, n, wi, wo, ci, co)));
+    return r;
+}
+
+/* f(wi, wo) for a non-specular surface: kd/pi plus the lobe. No cosine. */
+static inline pgi__v3 pgi__brdf_eval(pgi__v3 kd, const pgi__lobe *l, pgi__v3 n, pgi__v3 wi, pgi__v3 wo) {
+    pgi__v3 f = v3_scale(kd, PGI_INV_PI);
+    if (l->model != PGI_LOBE_NONE) f = v3_add(f, pgi__lobe_eval(l, kd, n, wi, wo));
+    return f;
+}
+
+/* The lobe of valid view sample i (its PGI_VS_LAMBERT / PGI_VS_GGX flags, ks, shininess, ior). */
+static inline void pgi__vs_lobe(const pgi_view_samples *vs, size_t i, pgi__lobe *l) {
+    uint8_t f = vs->flags[i];
+    pgi__lobe_model m = (f & PGI_VS_LAMBERT) ? PGI_LOBE_NONE : (f & PGI_VS_GGX) ? PGI_LOBE_GGX : PGI_LOBE_PHONG;
+    pgi__lobe_init(l, m, v3_load(vs->ks + 3 * i), vs->shininess[i], vs->ior[i]);
+}
+
+static inline pgi__v3 pgi__reflect(pgi__v3 w, pgi__v3 n) { return v3_sub(v3_scale(n, 2.f * v3_dot(w, n)), w); }
 
 /* Surface point from a hit. */
 typedef struct pgi__surface {

@@ -1,12 +1,14 @@
 /* Built-in scenes that need no files: the Cornell box (default), the Cornell
  * box with mirrors and glass, the GIRefScene and sphere_and_plane of the Cal
- * Poly project (papers/004). */
+ * Poly project (papers/004), a cut-out test scene (a lattice mask), and a room lit by the sky
+ * through a window. */
 #include <stdio.h>
 #include <string.h>
 
 #include "scene_internal.h"
 
-const char *const pgi__builtin_names[] = {"cornell", "cornell-mirrors", "giref", "sphere-and-plane", NULL};
+const char *const pgi__builtin_names[] = {"cornell", "cornell-mirrors", "giref", "sphere-and-plane",
+                                          "cutout",  "window-box",      NULL};
 
 typedef struct {
     pgi_scene *s;
@@ -117,6 +119,7 @@ static uint32_t add_mat(builder *b, const char *name, pgi__material_type type, p
     v3_store(m->kd, kd);
     m->ior = 1.5f;
     m->tex_kd = -1;
+    m->tex_alpha = -1;
     return (uint32_t)s->nmats++;
 }
 
@@ -136,19 +139,25 @@ static void add_light(builder *b, pgi__light_type type, pgi__v3 pos, pgi__v3 col
     v3_store(l->color, color);
 }
 
-static void set_camera(builder *b, pgi__v3 eye, pgi__v3 at, float fov) {
+/* Appends a camera (the first one is the scene's default view). */
+static void add_camera(builder *b, pgi__v3 eye, pgi__v3 at, pgi__v3 up, float fov) {
     if (b->st) return;
-    pgi_camera_def *c = calloc(1, sizeof *c);
+    pgi_camera_def *c = realloc(b->s->cams, (b->s->ncams + 1) * sizeof *c);
     if (!c) {
         b->st = pgi__fail(PGI_ERR_OOM, "out of memory building a scene");
         return;
     }
+    b->s->cams = c;
+    c += b->s->ncams++;
+    memset(c, 0, sizeof *c);
     v3_store(c->eye, eye);
     v3_store(c->look_at, at);
-    v3_store(c->up, v3(0.f, 1.f, 0.f));
+    v3_store(c->up, up);
     c->fov_y_deg = fov;
-    b->s->cams = c;
-    b->s->ncams = 1;
+}
+
+static void set_camera(builder *b, pgi__v3 eye, pgi__v3 at, float fov) {
+    add_camera(b, eye, at, v3(0.f, 1.f, 0.f), fov);
 }
 
 /* The classic box (McGuire's CornellBox-Original proportions and colours):
@@ -232,6 +241,110 @@ static void build_sphere_and_plane(builder *b) {
     b->s->defaults = (pgi_scene_defaults){200000, 0.1f, 4, 640, 480, 1.f};
 }
 
+/* cutout: a lattice mask (PGI_CUTOUT_* in scene_internal.h) at y = 1 over a white floor at
+ * y = 0, x, z in [-1, 1]; black walls close the space between them, so that light reaches
+ * the floor only through the mask; a point light at y = 1.5 and a white ceiling at y = 2
+ * above it (light reflected by the ceiling reaches the floor through the mask too: stored
+ * photons). The mask and the walls are black, so with one bounce the light on the floor is
+ * exactly linear in the open fraction of the mask. Cameras: 0 a view from the front; 1 inside,
+ * at y = 0.9 straight down onto the floor's [-0.5, 0.5]^2 (the point light projects the
+ * mask onto the floor magnified 3 times: that square is the shadow of 4 x 4 lattice periods,
+ * 16 pixels each at 64 x 64); 2 above the mask at y = 1.9 straight down onto its
+ * [-0.5, 0.5]^2 (12 x 12 periods: 96 x 96 pixels put one pixel centre on each texel centre). */
+static void build_cutout(builder *b) {
+    uint32_t mf = add_mat(b, "floor", PGI_MAT_LAMBERT, v3(0.8f, 0.8f, 0.8f));
+    uint32_t mc = add_mat(b, "ceiling", PGI_MAT_LAMBERT, v3(0.8f, 0.8f, 0.8f));
+    uint32_t mb = add_mat(b, "black", PGI_MAT_LAMBERT, v3(0.f, 0.f, 0.f));
+    uint32_t mm = add_mat(b, "lattice", PGI_MAT_LAMBERT, v3(0.f, 0.f, 0.f));
+    add_quad(b, v3(-1, 0, -1), v3(-1, 0, 1), v3(1, 0, 1), v3(1, 0, -1), mf);   /* floor, facing up */
+    add_quad(b, v3(-1, 2, -1), v3(1, 2, -1), v3(1, 2, 1), v3(-1, 2, 1), mc);   /* ceiling, facing down */
+    add_quad(b, v3(-1, 0, -1), v3(1, 0, -1), v3(1, 1, -1), v3(-1, 1, -1), mb); /* walls under the mask */
+    add_quad(b, v3(-1, 0, 1), v3(-1, 1, 1), v3(1, 1, 1), v3(1, 0, 1), mb);
+    add_quad(b, v3(-1, 0, -1), v3(-1, 1, -1), v3(-1, 1, 1), v3(-1, 0, 1), mb);
+    add_quad(b, v3(1, 0, -1), v3(1, 0, 1), v3(1, 1, 1), v3(1, 1, -1), mb);
+    const size_t v0 = b->s->nverts;
+    add_quad(b, v3(-1, 1, -1), v3(-1, 1, 1), v3(1, 1, 1), v3(1, 1, -1), mm); /* the mask, facing up */
+    if (b->st) return;
+    pgi_scene *s = b->s;
+    /* u = (x + 1) / 2, v = (z + 1) / 2 on the mask; 0 elsewhere. */
+    s->uv = calloc(2 * s->nverts, sizeof *s->uv);
+    const int n = PGI_CUTOUT_TEXELS;
+    unsigned char *rgba = malloc(4 * (size_t)n * n);
+    if (!s->uv || !rgba) {
+        free(rgba);
+        b->st = pgi__fail(PGI_ERR_OOM, "out of memory building a scene");
+        return;
+    }
+    for (size_t v = v0; v < v0 + 4; v++) {
+        s->uv[2 * v] = 0.5f * (s->pos[3 * v] + 1.f);
+        s->uv[2 * v + 1] = 0.5f * (s->pos[3 * v + 2] + 1.f);
+    }
+    for (int y = 0; y < n; y++)
+        for (int x = 0; x < n; x++) {
+            unsigned char *p = rgba + 4 * ((size_t)y * n + x);
+            p[0] = p[1] = p[2] = 255;
+            p[3] = pgi__cutout_open(x, y) ? 0 : 255;
+        }
+    int tex;
+    if ((b->st = pgi__scene_add_texture(s, n, n, 4, rgba, "cutout:lattice", &tex))) return;
+    s->mats[mm].tex_alpha = tex;
+    s->mats[mm].alpha_cutoff = 0.5f;
+    add_light(b, PGI_LIGHT_POINT, v3(0.f, 1.5f, 0.f), v3(4.5f, 4.5f, 4.5f));
+    const float fov = 2.f * atanf(0.5f / 0.9f) * 180.f / PGI_PI; /* [-0.5, 0.5]^2 at distance 0.9 */
+    add_camera(b, v3(0.f, 1.95f, 1.5f), v3(0.f, 0.f, -0.4f), v3(0.f, 1.f, 0.f), 60.f);
+    add_camera(b, v3(0.f, 0.9f, 0.f), v3(0.f, 0.f, 0.f), v3(0.f, 0.f, -1.f), fov);
+    add_camera(b, v3(0.f, 1.9f, 0.f), v3(0.f, 0.f, 0.f), v3(0.f, 0.f, -1.f), fov);
+    s->defaults = (pgi_scene_defaults){200000, 0.02f, 4, 640, 480, 1.f};
+}
+
+/* Quads of the rectangle [a0, a1] x [b0, b1] (coordinates along the axes ea, eb of a plane
+ * through `o`) around the hole [h0, h1] (a0 <= h0 < h1 <= a1 along each): four quads, wound
+ * so that their normal is ea x eb. */
+static void add_wall_with_hole(builder *b, pgi__v3 o, pgi__v3 ea, pgi__v3 eb, const float a[2], const float bb[2],
+                               const float ha[2], const float hb[2], uint32_t mat) {
+    const float r[4][4] = {{a[0], a[1], bb[0], hb[0]},   /* below the hole */
+                           {a[0], a[1], hb[1], bb[1]},   /* above */
+                           {a[0], ha[0], hb[0], hb[1]},  /* left of it */
+                           {ha[1], a[1], hb[0], hb[1]}}; /* right of it */
+    for (int k = 0; k < 4; k++) {
+        if (!(r[k][1] > r[k][0] && r[k][3] > r[k][2])) continue;
+        pgi__v3 p00 = v3_add(o, v3_add(v3_scale(ea, r[k][0]), v3_scale(eb, r[k][2])));
+        pgi__v3 p10 = v3_add(o, v3_add(v3_scale(ea, r[k][1]), v3_scale(eb, r[k][2])));
+        pgi__v3 p11 = v3_add(o, v3_add(v3_scale(ea, r[k][1]), v3_scale(eb, r[k][3])));
+        pgi__v3 p01 = v3_add(o, v3_add(v3_scale(ea, r[k][0]), v3_scale(eb, r[k][3])));
+        add_quad(b, p00, p10, p11, p01, mat);
+    }
+}
+
+/* window-box: a closed room x in [-1, 1], y in [0, 2], z in [-1, 1] (zero-thickness
+ * Lambertian walls) with two openings, a window in the left wall (x = -1, y in [0.7, 1.5],
+ * z in [-0.7, 0.1]) and a skylight in the ceiling (x, z in [-0.1, 0.5] x [-0.5, 0.1]), a
+ * block on the floor, under a uniform sky of radiance (0.6, 0.75, 1.0) and no other light:
+ * daylight through openings (direct light to infinity, photons from the sky) and the sky
+ * seen through the window. Needs no files (tests of the sky light). */
+static void build_window_box(builder *b) {
+    uint32_t mw = add_mat(b, "white", PGI_MAT_LAMBERT, v3(0.7f, 0.7f, 0.7f));
+    uint32_t mf = add_mat(b, "floor", PGI_MAT_LAMBERT, v3(0.6f, 0.5f, 0.4f));
+    uint32_t mr = add_mat(b, "red", PGI_MAT_LAMBERT, v3(0.63f, 0.065f, 0.05f));
+    uint32_t mb = add_mat(b, "block", PGI_MAT_LAMBERT, v3(0.5f, 0.6f, 0.7f));
+    add_quad(b, v3(-1, 0, -1), v3(-1, 0, 1), v3(1, 0, 1), v3(1, 0, -1), mf);   /* floor */
+    add_quad(b, v3(-1, 0, -1), v3(1, 0, -1), v3(1, 2, -1), v3(-1, 2, -1), mw); /* back */
+    add_quad(b, v3(-1, 0, 1), v3(-1, 2, 1), v3(1, 2, 1), v3(1, 0, 1), mw);     /* front, behind the camera */
+    add_quad(b, v3(1, 0, -1), v3(1, 0, 1), v3(1, 2, 1), v3(1, 2, -1), mr);     /* right */
+    /* left wall (ea = +z, eb = +y) with the window */
+    add_wall_with_hole(b, v3(-1, 0, 0), v3(0, 0, 1), v3(0, 1, 0), (const float[2]){-1.f, 1.f},
+                       (const float[2]){0.f, 2.f}, (const float[2]){-0.7f, 0.1f}, (const float[2]){0.7f, 1.5f}, mw);
+    /* ceiling (ea = +z, eb = +x) with the skylight */
+    add_wall_with_hole(b, v3(0, 2, 0), v3(0, 0, 1), v3(1, 0, 0), (const float[2]){-1.f, 1.f},
+                       (const float[2]){-1.f, 1.f}, (const float[2]){-0.5f, 0.1f}, (const float[2]){-0.1f, 0.5f}, mw);
+    add_box(b, 0.35f, 0.f, -0.3f, v3(0.25f, 0.35f, 0.25f), 20.f, mb);
+    set_camera(b, v3(0.3f, 1.f, 0.95f), v3(-0.2f, 0.9f, -1.f), 70.f);
+    if (b->st) return;
+    const float sky[3] = {0.6f, 0.75f, 1.f}, up[3] = {0.f, 1.f, 0.f};
+    b->st = pgi__env_create_constant("window-box", sky, sky, up, &b->s->env);
+    b->s->defaults = (pgi_scene_defaults){200000, 0.03f, 4, 512, 384, 2.f};
+}
+
 pgi_status pgi__scene_builtin(const char *name, pgi_scene **out) {
     *out = NULL;
     void (*fn)(builder *) = NULL;
@@ -239,6 +352,8 @@ pgi_status pgi__scene_builtin(const char *name, pgi_scene **out) {
     else if (strcmp(name, "cornell-mirrors") == 0) fn = build_cornell_mirrors;
     else if (strcmp(name, "giref") == 0) fn = build_giref;
     else if (strcmp(name, "sphere-and-plane") == 0) fn = build_sphere_and_plane;
+    else if (strcmp(name, "cutout") == 0) fn = build_cutout;
+    else if (strcmp(name, "window-box") == 0) fn = build_window_box;
     if (!fn) return pgi__fail(PGI_ERR_INVALID_ARG, "no built-in scene named '%s'", name);
     builder b = {0};
     pgi_status st = pgi__scene_new(name, &b.s);

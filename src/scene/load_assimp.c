@@ -27,13 +27,19 @@
  * `illum` number as the integer property "$mat.illum", and a derived
  * aiShadingMode in AI_MATKEY_SHADING_MODEL):
  *   illum 4, 6, 7 or 9, or opacity d < 1     -> glass, ior = Ni (1.5 if Ni <= 1), ks = 1
+ *     (d < 1 without map_d; with one, d scales the cut-out's alpha)
  *   illum 3 or 5, max(Kd) < 0.01, max(Ks) > 0 -> mirror, ks = Ks
  *   max(Ks) > 0 and Ns > 1                    -> Phong, ks = Ks (F0), s = Ns in [1, 10000],
  *                                                kd scaled so that kd + ks <= 1
  *   otherwise                                 -> Lambert
  * kd = Kd clamped to [0, 1]; ke = Ke. map_Kd is loaded (8-bit sRGB) relative
  * to the mesh file's folder; with a texture, kd is the multiplier, or 1 when
- * Kd is black or absent. */
+ * Kd is black or absent.
+ *
+ * Cut-outs (pgi__material.alpha_cutoff): a map_d texture (its alpha channel, or its grey value
+ * when it has none) times d, or for glTF alphaMode MASK the base colour texture's alpha times
+ * the base colour factor's alpha; the surface is cut out where that is below 0.5 (MTL) or
+ * alphaCutoff (glTF). glTF BLEND is not a cut-out (opacity < 1 is glass, as for MTL d). */
 #include "scene_internal.h"
 
 #include <assimp/cimport.h>
@@ -96,23 +102,6 @@ typedef struct tex_cache {
     int ply;        /* a PLY file (no materials of its own) */
 } tex_cache;
 
-static pgi_status push_texture(pgi_scene *s, int w, int h, unsigned char *rgba, const char *path, int *index) {
-    pgi__texture *t = realloc(s->texs, (s->ntexs + 1) * sizeof *t);
-    if (!t) {
-        stbi_image_free(rgba);
-        return pgi__fail(PGI_ERR_OOM, "out of memory for texture '%s'", path);
-    }
-    s->texs = t;
-    pgi__texture *nt = &s->texs[s->ntexs];
-    memset(nt, 0, sizeof *nt);
-    nt->width = w;
-    nt->height = h;
-    nt->rgba = rgba; /* stbi allocates with malloc: pgi_scene_destroy frees it with free() */
-    copy_str(nt->path, sizeof nt->path, path);
-    *index = (int)s->ntexs++;
-    return PGI_OK;
-}
-
 static pgi_status load_texture(pgi_scene *s, tex_cache *tc, const struct aiScene *sc, const char *mat_name,
                                const char *file, int *index) {
     char resolved[sizeof((pgi__texture *)0)
@@ -148,6 +137,7 @@ static pgi_status load_texture(pgi_scene *s, tex_cache *tc, const struct aiScene
             if (st) return st;
             w = (int)at->mWidth;
             h = (int)at->mHeight;
+            n = 4; /* raw aiTexel ARGB8888 */
             rgba = malloc((size_t)w * (size_t)h * 4);
             if (!rgba) return pgi__fail(PGI_ERR_OOM, "%s: out of memory for texture '%s'", tc->mesh_path, resolved);
             for (size_t i = 0; i < (size_t)w * (size_t)h; i++) {
@@ -157,7 +147,7 @@ static pgi_status load_texture(pgi_scene *s, tex_cache *tc, const struct aiScene
                 rgba[4 * i + 3] = at->pcData[i].a;
             }
         }
-        return push_texture(s, w, h, rgba, resolved, index);
+        return pgi__scene_add_texture(s, w, h, n, rgba, resolved, index);
     }
 
     char norm[1024];
@@ -188,13 +178,14 @@ static pgi_status load_texture(pgi_scene *s, tex_cache *tc, const struct aiScene
     if (!rgba)
         return pgi__fail(PGI_ERR_IO, "%s: material '%s': cannot read texture '%s': %s", tc->mesh_path, mat_name,
                          resolved, stbi_failure_reason());
-    return push_texture(s, w, h, rgba, resolved, index);
+    return pgi__scene_add_texture(s, w, h, n, rgba, resolved, index);
 }
 
 static pgi_status convert_material(pgi_scene *s, tex_cache *tc, const struct aiScene *sc, const struct aiMaterial *am,
                                    pgi__material *m) {
     memset(m, 0, sizeof *m);
     m->tex_kd = -1;
+    m->tex_alpha = -1;
     struct aiString name;
     if (aiGetMaterialString(am, AI_MATKEY_NAME, &name) == AI_SUCCESS) {
         copy_str(m->name, sizeof m->name, name.data);
@@ -233,7 +224,19 @@ static pgi_status convert_material(pgi_scene *s, tex_cache *tc, const struct aiS
         m->ke[c] = ke[c] > 0.f ? ke[c] : (isfinite(ke[c]) ? 0.f : ke[c]); /* Inf stays, finalize rejects it */
     }
 
-    if (illum == 4 || illum == 6 || illum == 7 || illum == 9 || opacity < 1.f) {
+    /* Cut-outs: glTF alphaMode MASK (the base colour texture's alpha), or an MTL map_d (Assimp's
+     * opacity texture). Either way `d` / the base colour factor's alpha (Assimp's opacity)
+     * scales the texture's alpha instead of making the material glass. */
+    struct aiString amode, dpath;
+    const int gltf_mask =
+        aiGetMaterialString(am, "$mat.gltf.alphaMode", 0, 0, &amode) == AI_SUCCESS && strcmp(amode.data, "MASK") == 0;
+    const int map_d =
+        !gltf_mask && aiGetMaterialTextureCount(am, aiTextureType_OPACITY) > 0 &&
+        aiGetMaterialTexture(am, aiTextureType_OPACITY, 0, &dpath, NULL, NULL, NULL, NULL, NULL, NULL) == AI_SUCCESS &&
+        dpath.length > 0;
+    const int cut_out = gltf_mask || map_d;
+
+    if (illum == 4 || illum == 6 || illum == 7 || illum == 9 || (opacity < 1.f && !cut_out)) {
         m->type = PGI_MAT_GLASS;
         m->ior = (isfinite(ni) && ni > 1.f) ? ni : 1.5f;
         m->ks[0] = m->ks[1] = m->ks[2] = 1.f;
@@ -241,16 +244,17 @@ static pgi_status convert_material(pgi_scene *s, tex_cache *tc, const struct aiS
         m->type = PGI_MAT_MIRROR;
         for (int c = 0; c < 3; c++) m->ks[c] = clamp01(ks[c]);
     } else if (max3(ks) > 0.f && ns > 1.f) {
-        m->type = PGI_MAT_PHONG;
+        /* A specular colour (illum 2): the model follows the scene's "specular" (plastic by
+         * default, or Blinn-Phong, pgi_scene_set_specular sets it once the textures are in). */
+        m->type = PGI_MAT_PLASTIC;
+        m->auto_glossy = 1;
         m->shininess = ns > 10000.f ? 10000.f : ns;
-        for (int c = 0; c < 3; c++) {
-            m->ks[c] = clamp01(ks[c]);
-            if (m->kd[c] + m->ks[c] > 1.f) m->kd[c] = 1.f - m->ks[c];
-        }
+        for (int c = 0; c < 3; c++) m->ks[c] = clamp01(ks[c]);
     } else {
         m->type = PGI_MAT_LAMBERT;
     }
-    if (m->type != PGI_MAT_GLASS) m->ior = isfinite(ni) && ni > 0.f ? ni : 1.f;
+    if (m->type == PGI_MAT_PLASTIC) m->ior = (isfinite(ni) && ni > 1.f) ? ni : 1.5f;
+    else if (m->type != PGI_MAT_GLASS) m->ior = isfinite(ni) && ni > 0.f ? ni : 1.f;
 
     struct aiString tpath;
     if (aiGetMaterialTextureCount(am, aiTextureType_DIFFUSE) > 0 &&
@@ -259,12 +263,33 @@ static pgi_status convert_material(pgi_scene *s, tex_cache *tc, const struct aiS
         pgi_status st = load_texture(s, tc, sc, m->name, tpath.data, &m->tex_kd);
         if (st) return st;
         if (!has_kd || max3(m->kd) <= 0.f) {
-            for (int c = 0; c < 3; c++) {
-                m->kd[c] = 1.f;
-                if (m->type == PGI_MAT_PHONG && m->kd[c] + m->ks[c] > 1.f) m->kd[c] = 1.f - m->ks[c];
-            }
+            for (int c = 0; c < 3; c++) m->kd[c] = 1.f;
         }
     }
+    if (cut_out) {
+        float cutoff = 0.5f; /* MTL has no cut-off of its own; glTF's default */
+        if (gltf_mask) {
+            float c;
+            if (get_float(am, "$mat.gltf.alphaCutoff", 0, 0, &c) && isfinite(c) && c >= 0.f) cutoff = c;
+            m->tex_alpha = m->tex_kd; /* the base colour texture */
+        } else {
+            pgi_status st = load_texture(s, tc, sc, m->name, dpath.data, &m->tex_alpha);
+            if (st) return st;
+            pgi__texture *t = &s->texs[m->tex_alpha];
+            if (t->channels == 1 || t->channels == 3) {
+                /* A map_d without an alpha channel is a grey mask: its value is the alpha. */
+                size_t n = (size_t)t->width * (size_t)t->height;
+                for (size_t i = 0; i < n; i++) {
+                    unsigned char *p = t->rgba + 4 * i;
+                    p[3] = (unsigned char)(((unsigned)p[0] + p[1] + p[2] + 1) / 3);
+                }
+            }
+        }
+        /* alpha * scale < cutoff  <=>  alpha < cutoff / scale; above 1 the whole surface is cut. */
+        float scale = isfinite(opacity) ? clamp01(opacity) : 1.f;
+        m->alpha_cutoff = !(cutoff > 0.f) ? 0.f : scale > 0.f ? fminf(cutoff / scale, 2.f) : 2.f;
+    }
+    memcpy(m->kd_mesh, m->kd, sizeof m->kd_mesh);
     return PGI_OK;
 }
 

@@ -1,6 +1,8 @@
 /* Scene model: creation, validation, light set-up, loading dispatch. */
 #include "scene_internal.h"
 
+#include "bsdf.h"
+
 #include <dirent.h>
 #include <stdio.h>
 #include <string.h>
@@ -27,6 +29,7 @@ void pgi_scene_destroy(pgi_scene *s) {
     for (size_t i = 0; i < s->ntexs; i++) free(s->texs[i].rgba);
     free(s->texs);
     free(s->lights);
+    pgi__env_destroy(s->env);
     free(s->cams);
     pgi__scene_free_anims(s);
     free(s);
@@ -36,6 +39,8 @@ static int finite3(const float *p) { return isfinite(p[0]) && isfinite(p[1]) && 
 
 pgi_status pgi__scene_finalize(pgi_scene *s, const char *what) {
     if (s->ntris == 0) return pgi__fail(PGI_ERR_PARSE, "%s: the scene has no triangles", what);
+    pgi_status sst = pgi_scene_set_specular(s, PGI_SPECULAR_DEFAULT); /* the description's "specular" */
+    if (sst) return sst;
     float bmin[3] = {INFINITY, INFINITY, INFINITY}, bmax[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (size_t v = 0; v < s->nverts; v++) {
         const float *p = s->pos + 3 * v;
@@ -65,6 +70,13 @@ pgi_status pgi__scene_finalize(pgi_scene *s, const char *what) {
             return pgi__fail(PGI_ERR_PARSE, "%s: material '%s' has a non-finite value", what, mt->name);
         if (mt->tex_kd >= (int)s->ntexs)
             return pgi__fail(PGI_ERR_PARSE, "%s: material '%s' refers to a missing texture", what, mt->name);
+        if (pgi__mat_masked(mt)) {
+            if (!isfinite(mt->alpha_cutoff) || mt->tex_alpha < -1 || mt->tex_alpha >= (int)s->ntexs)
+                return pgi__fail(PGI_ERR_PARSE, "%s: material '%s' has a bad cut-out mask", what, mt->name);
+            /* Area lights emit from their whole triangles: an emitter is never cut out. */
+            if (mt->ke[0] > 0.f || mt->ke[1] > 0.f || mt->ke[2] > 0.f) mt->alpha_cutoff = 0.f;
+        }
+        if (mt->type == PGI_MAT_PLASTIC) pgi__ggx_prepare(mt->ior); /* its albedo table, now rather than mid-render */
     }
 
     /* One area light per emissive triangle. */
@@ -127,9 +139,11 @@ pgi_status pgi__scene_finalize(pgi_scene *s, const char *what) {
             break;
         }
         case PGI_LIGHT_AREA: k = PGI_PI * l->area; break;
+        case PGI_LIGHT_ENV: return pgi__fail(PGI_ERR_PARSE, "%s: light %zu: the environment is not a light", what, i);
         }
         for (int c = 0; c < 3; c++) l->power[c] = l->color[c] * k;
     }
+    if (s->env) pgi__env_set_radius(s->env, 0.5f * diag); /* photons leave a disk covering the bounding sphere */
 
     if (s->ncams == 0) {
         /* Default view: from +z outside the bounds towards the centre. */
@@ -257,6 +271,7 @@ void pgi_scene_get_info(const pgi_scene *s, pgi_scene_info *o) {
     o->vertices = s->nverts;
     o->materials = s->nmats;
     o->textures = s->ntexs;
+    for (size_t m = 0; m < s->nmats; m++) o->cutout_materials += pgi__mat_masked(&s->mats[m]);
     o->lights = s->nlights;
     for (size_t i = 0; i < s->nlights; i++) {
         switch (s->lights[i].type) {
@@ -264,19 +279,49 @@ void pgi_scene_get_info(const pgi_scene *s, pgi_scene_info *o) {
         case PGI_LIGHT_SPOT: o->spot_lights++; break;
         case PGI_LIGHT_SUN: o->sun_lights++; break;
         case PGI_LIGHT_AREA: o->area_triangles++; break;
+        case PGI_LIGHT_ENV: break;
         }
     }
+    o->sky_lights = s->env ? 1 : 0;
+    o->lights += o->sky_lights;
     memcpy(o->bounds_min, s->bmin, sizeof o->bounds_min);
     memcpy(o->bounds_max, s->bmax, sizeof o->bounds_max);
     o->cameras = s->ncams;
     if (s->ncams) o->camera = s->cams[0];
     o->defaults = s->defaults;
     o->surface_area = pgi__scene_area(s);
+    o->specular = PGI_SPECULAR_GGX;
+    for (size_t m = 0; m < s->nmats; m++) {
+        if (!s->mats[m].auto_glossy) continue;
+        o->glossy_materials++;
+        if (s->mats[m].type == PGI_MAT_PHONG) o->specular = PGI_SPECULAR_PHONG;
+    }
     o->animated_objects = s->nanims;
     for (size_t i = 0; i < s->nanims; i++) {
         const pgi__anim *a = &s->anims[i];
         if (a->nkeys && a->keys[a->nkeys - 1].t > o->anim_duration) o->anim_duration = a->keys[a->nkeys - 1].t;
     }
+}
+
+pgi_status pgi_scene_set_specular(pgi_scene *s, pgi_specular model) {
+    if (!s) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_scene_set_specular: NULL scene");
+    if (model == PGI_SPECULAR_DEFAULT) model = s->specular != PGI_SPECULAR_DEFAULT ? s->specular : PGI_SPECULAR_GGX;
+    if (model != PGI_SPECULAR_GGX && model != PGI_SPECULAR_PHONG)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_scene_set_specular: unknown model %d", (int)model);
+    for (size_t m = 0; m < s->nmats; m++) {
+        pgi__material *mt = &s->mats[m];
+        if (!mt->auto_glossy) continue;
+        memcpy(mt->kd, mt->kd_mesh, sizeof mt->kd);
+        if (model == PGI_SPECULAR_PHONG) {
+            mt->type = PGI_MAT_PHONG;
+            for (int c = 0; c < 3; c++)
+                if (mt->kd[c] + mt->ks[c] > 1.f) mt->kd[c] = 1.f - mt->ks[c]; /* energy conservation */
+        } else {
+            mt->type = PGI_MAT_PLASTIC;
+            pgi__ggx_prepare(mt->ior);
+        }
+    }
+    return PGI_OK;
 }
 
 size_t pgi_builtin_scene_count(void) {

@@ -10,24 +10,43 @@ typedef enum pgi__material_type {
     PGI_MAT_LAMBERT = 0, /* kd / pi */
     PGI_MAT_PHONG = 1,   /* energy-conserving Blinn-Phong, tiled paper eqs. 6-8 */
     PGI_MAT_MIRROR = 2,  /* perfect mirror, reflectance ks */
-    PGI_MAT_GLASS = 3    /* dielectric with Fresnel, index ior, tint ks */
+    PGI_MAT_GLASS = 3,   /* dielectric with Fresnel, index ior, tint ks */
+    PGI_MAT_PLASTIC = 4  /* Lambertian base under a GGX lobe with a dielectric's Fresnel (index ior,
+                            alpha from shininess, lobe tint min(1, ks / F0(ior))): src/scene/bsdf.h */
 } pgi__material_type;
 
 typedef struct pgi__material {
     char name[64];
     pgi__material_type type;
     float kd[3];     /* diffuse albedo (multiplied by the texture if any) */
-    float ks[3];     /* Phong: F0; mirror: reflectance; glass: transmission tint */
-    float shininess; /* Phong exponent s (MTL Ns) */
-    float ior;       /* glass: MTL Ni */
-    float ke[3];     /* emitted radiance (MTL Ke); non-zero makes the triangles area lights */
-    int tex_kd;      /* index into scene textures, -1 if none */
+    float ks[3];     /* Phong: F0; plastic: F0 (tint min(1, ks / F0(ior))); mirror: reflectance; glass:
+                        transmission tint */
+    float shininess; /* Phong exponent s (MTL Ns); plastic: alpha = sqrt(2 / (s + 2)) */
+    float ior;       /* glass, plastic: MTL Ni */
+    /* A mesh material with a specular colour (MTL illum 2, Assimp's Phong/Blinn with Ks > 0): its
+     * model follows the scene's `specular` setting (pgi_scene_set_specular), plastic by default
+     * or the papers' Blinn-Phong; kd_mesh is its diffuse colour as the file gives it (Blinn-Phong
+     * lowers kd to 1 - ks). */
+    int auto_glossy;
+    float kd_mesh[3];
+    float ke[3]; /* emitted radiance (MTL Ke); non-zero makes the triangles area lights */
+    int tex_kd;  /* index into scene textures, -1 if none */
+    /* Cut-out (MTL map_d, glTF alphaMode MASK): where alpha < alpha_cutoff the surface is not
+     * there for any ray (an Embree filter, src/rt/rt.c). alpha is the alpha channel of texture
+     * tex_alpha (bilinear), or 1 when tex_alpha is -1; a cutoff above 1 removes the whole
+     * surface. alpha_cutoff 0 (what a zeroed material holds): no cut-out, tex_alpha unused. */
+    float alpha_cutoff;
+    int tex_alpha;
 } pgi__material;
+
+/* 1 when material m has a cut-out mask. */
+static inline int pgi__mat_masked(const pgi__material *m) { return m->alpha_cutoff > 0.f; }
 
 /* 8-bit sRGB texture; lookups return linear RGB. */
 typedef struct pgi__texture {
     int width, height;
     unsigned char *rgba; /* 4 bytes a texel, row 0 is the top of the image */
+    int channels;        /* of the image file: 1-4; 2 and 4 carry alpha (else alpha is 255) */
     char path[512];
 } pgi__texture;
 
@@ -35,7 +54,8 @@ typedef enum pgi__light_type {
     PGI_LIGHT_POINT = 0, /* intensity I (W/sr), power 4 pi I */
     PGI_LIGHT_SPOT = 1,  /* intensity I inside the cone cos(theta) >= cos_cutoff */
     PGI_LIGHT_SUN = 2,   /* irradiance E (W/m^2) on surfaces facing -dir */
-    PGI_LIGHT_AREA = 3   /* one emissive triangle, one-sided Lambertian, radiance Le */
+    PGI_LIGHT_AREA = 3,  /* one emissive triangle, one-sided Lambertian, radiance Le */
+    PGI_LIGHT_ENV = 4    /* the environment (pgi__env.light; never in pgi_scene.lights) */
 } pgi__light_type;
 
 typedef struct pgi__light {
@@ -49,6 +69,43 @@ typedef struct pgi__light {
     float normal[3];  /* area: unit emitting normal */
     float power[3];   /* computed by pgi__scene_finalize */
 } pgi__light;
+
+/* Environment light (env.c): radiance from infinitely far away. `w` is the direction the
+ * light comes from (pointing away from the scene, the way a ray escapes). */
+typedef struct pgi__env {
+    float sky[3], ground[3]; /* constant sky (rgb NULL): radiance above / below the horizon */
+    float p_sky;             /* constant sky: probability of sampling the upper hemisphere */
+    float *rgb;              /* map: w x h radiance (scale applied), row 0 the zenith; NULL: constant */
+    int w, h;
+    float *cdf_row;            /* map: h entries, rows by luminance x solid angle */
+    float *cdf_col;            /* map: w x h, columns of each row by luminance */
+    double lum_integral;       /* map: sum of luminance x texel solid angle */
+    float rot;                 /* map: rotation about up, radians */
+    float fx[3], fy[3], fz[3]; /* frame: fy = up */
+    double integral[3];        /* integral of the radiance over the sphere, per channel */
+    pgi__light light;          /* type PGI_LIGHT_ENV; power = pi R^2 integral (pgi__env_set_radius) */
+    char path[512];            /* map file */
+} pgi__env;
+
+pgi_status pgi__env_create_constant(const char *what, const float sky[3], const float ground[3], const float up[3],
+                                    pgi__env **out);
+/* Reads an equirectangular map (EXR, HDR, or 8-bit images decoded from sRGB); `what` names the
+ * scene description in errors. */
+pgi_status pgi__env_create_map(const char *what, const char *path, float scale, float rotation_deg, const float up[3],
+                               pgi__env **out);
+void pgi__env_destroy(pgi__env *e);
+/* Power of the photons entering from a disk of radius R: pi R^2 times the integral of L. */
+void pgi__env_set_radius(pgi__env *e, float R);
+/* Radiance arriving from direction w (unit). */
+pgi__v3 pgi__env_eval(const pgi__env *e, pgi__v3 w);
+/* A direction w with density proportional to the luminance of the radiance (constant sky:
+ * uniform in each hemisphere, the hemisphere by luminance); *pdf is its solid-angle density. */
+pgi__v3 pgi__env_sample(const pgi__env *e, float u1, float u2, float *pdf);
+float pgi__env_pdf(const pgi__env *e, pgi__v3 w);
+/* Direct light at a surface of shading normal ns: a constant sky is sampled by the cosine
+ * about ns, a map by an equal mixture of the cosine and the map's own density. */
+pgi__v3 pgi__env_sample_direct(const pgi__env *e, pgi__v3 ns, float u1, float u2, float *pdf);
+float pgi__env_pdf_direct(const pgi__env *e, pgi__v3 ns, pgi__v3 w);
 
 struct pgi_scene {
     char name[128];
@@ -65,9 +122,11 @@ struct pgi_scene {
     size_t ntexs;
     pgi__light *lights;
     size_t nlights;
+    pgi__env *env; /* the sky / environment map, or NULL */
     pgi_camera_def *cams;
     size_t ncams;
     pgi_scene_defaults defaults;
+    pgi_specular specular; /* the description's "specular" (PGI_SPECULAR_DEFAULT: none given) */
     float bmin[3], bmax[3];
     /* Dynamic geometry (animate.c): objects whose vertices move with the
      * scene time, and counters the renderer compares to know when to update
@@ -135,6 +194,18 @@ float pgi__scene_epsilon(const pgi_scene *s);
 extern const char *const pgi__builtin_names[];
 pgi_status pgi__scene_builtin(const char *name, pgi_scene **out); /* PGI_ERR_INVALID_ARG if unknown */
 
+/* The lattice mask of the built-in scene `cutout`: PGI_CUTOUT_TEXELS^2 texels, periods of 8 x 8
+ * texels; columns 3 and 4 and rows 3 and 4 of a period are its narrow bands, and a texel is open
+ * (alpha 0) where exactly one of its column and its row is narrow: slots 2 x 6 texels, an open
+ * fraction of 2 * 2 * 6 / 64 = 0.375. Every 2 x 2 block of texels is uniform, split in halves
+ * or a checker, so bilinear alpha cut at 0.5 opens exactly the open texels' squares. */
+#define PGI_CUTOUT_TEXELS 192
+#define PGI_CUTOUT_OPEN_FRACTION 0.375
+static inline int pgi__cutout_open(int x, int y) {
+    int nx = (x & 7) == 3 || (x & 7) == 4, ny = (y & 7) == 3 || (y & 7) == 4;
+    return nx != ny;
+}
+
 /* Mesh import through Assimp (load_assimp.c): appends geometry, materials
  * and textures of `path` to `s`. Textures resolve against the mesh folder. */
 pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path);
@@ -144,6 +215,15 @@ pgi_status pgi__scene_load_json(const char *path, pgi_scene **out);
 
 /* Texture lookup, bilinear, wrapping; returns linear RGB. */
 pgi__v3 pgi__texture_lookup(const pgi__texture *t, float u, float v);
+/* Alpha channel (0..1, linear), bilinear and wrapping as pgi__texture_lookup; 1 without a texture. */
+float pgi__texture_alpha(const pgi__texture *t, float u, float v);
+/* 1 when the point at barycentrics (b1, b2) of triangle `tri` is cut out by its material's mask
+ * (the ray filters of rt.c call this for hits on masked triangles only). */
+int pgi__scene_cut_out(const pgi_scene *s, uint32_t tri, float b1, float b2);
+/* Appends a texture that takes ownership of `rgba` (malloc'd, w x h x 4 bytes; freed here on
+ * failure); *index receives its index. `channels` as in pgi__texture. */
+pgi_status pgi__scene_add_texture(pgi_scene *s, int w, int h, int channels, unsigned char *rgba, const char *path,
+                                  int *index);
 /* Asks the cache for the texels pgi__texture_lookup(t, u, v) will read (the photon tracer
  * issues these for a wave of hits before shading them, so that their misses overlap). */
 void pgi__texture_prefetch(const pgi__texture *t, float u, float v);

@@ -11,8 +11,12 @@
  *       {"type": "spot", "position": [..], "direction": [..], "angle": 30, "intensity": [..]},
  *       {"type": "sun", "direction": [0.195, -0.976, 0.098], "irradiance": [5, 5, 5]}
  *     ],
+ *     "sky": {"color": [0.55, 0.7, 1], "intensity": 1.5, "ground": [..]},   optional; or
+ *     "environment": {"map": "sky.exr", "scale": 1, "rotation": 0},      (env.c)
  *     "render": {"photons": 200000, "radius": 0.25, "bounces": 4,
- *                "width": 1280, "height": 720, "exposure": 1.0}     all optional
+ *                "width": 1280, "height": 720, "exposure": 1.0},    all optional
+ *     "specular": "ggx"                        optional: model of the mesh's illum-2 materials,
+ *                                              "ggx" (microfacet plastic, default) or "phong"
  *   }
  *
  * Units: positions in the mesh's units; intensity I in W/sr (point, spot),
@@ -252,9 +256,10 @@ static pgi_status parse_render(const char *path, const cJSON *r, pgi_scene_defau
 
 /* ------------------------------------------------------------ mesh path */
 
-static pgi_status resolve_mesh(const char *path, const char *mesh, char *out, size_t n) {
+/* `kind` names the key in messages: "mesh", "environment.map". */
+static pgi_status resolve_mesh(const char *path, const char *kind, const char *mesh, char *out, size_t n) {
     if (mesh[0] == '/') {
-        if (!regular_file(mesh)) return pgi__fail(PGI_ERR_IO, "%s: mesh '%s' not found", path, mesh);
+        if (!regular_file(mesh)) return pgi__fail(PGI_ERR_IO, "%s: %s '%s' not found", path, kind, mesh);
         snprintf(out, n, "%s", mesh);
         return PGI_OK;
     }
@@ -280,9 +285,9 @@ static pgi_status resolve_mesh(const char *path, const char *mesh, char *out, si
         pgi__list_append(looked, sizeof looked, dirs[i]);
     }
     return pgi__fail(PGI_ERR_IO,
-                     "%s: mesh '%s' not found (looked in %s; set PHOTONGI_SCENES to the folder that holds "
+                     "%s: %s '%s' not found (looked in %s; set PHOTONGI_SCENES to the folder that holds "
                      "the scenes)",
-                     path, mesh, looked);
+                     path, kind, mesh, looked);
 }
 
 
@@ -341,7 +346,7 @@ static pgi_status parse_motion(const char *path, const cJSON *m, const char *whe
     return PGI_OK;
 }
 
-/* "material": {"name", "type": lambert|phong|mirror|glass, "kd", "ks", "shininess", "ior", "emission"};
+/* "material": {"name", "type": lambert|plastic|phong|mirror|glass, "kd", "ks", "shininess", "ior", "emission"};
  * appends it to the scene and returns its index. */
 static pgi_status parse_material(const char *path, pgi_scene *s, const cJSON *j, const char *where, const char *defname,
                                  uint32_t *out) {
@@ -355,6 +360,7 @@ static pgi_status parse_material(const char *path, pgi_scene *s, const cJSON *j,
     m.kd[0] = m.kd[1] = m.kd[2] = 0.8f;
     m.ior = 1.5f;
     m.tex_kd = -1;
+    m.tex_alpha = -1;
     pgi_status st = PGI_OK;
     if (j) {
         if (!cJSON_IsObject(j)) return pgi__fail(PGI_ERR_PARSE, "%s: %s must be an object", path, w);
@@ -370,16 +376,18 @@ static pgi_status parse_material(const char *path, pgi_scene *s, const cJSON *j,
             const char *t = cJSON_IsString(jt) ? jt->valuestring : "";
             if (strcmp(t, "lambert") == 0) m.type = PGI_MAT_LAMBERT;
             else if (strcmp(t, "phong") == 0) m.type = PGI_MAT_PHONG;
+            else if (strcmp(t, "plastic") == 0) m.type = PGI_MAT_PLASTIC;
             else if (strcmp(t, "mirror") == 0) m.type = PGI_MAT_MIRROR;
             else if (strcmp(t, "glass") == 0) m.type = PGI_MAT_GLASS;
             else
-                return pgi__fail(PGI_ERR_PARSE, "%s: %s.type must be \"lambert\", \"phong\", \"mirror\" or \"glass\"",
+                return pgi__fail(PGI_ERR_PARSE,
+                                 "%s: %s.type must be \"lambert\", \"plastic\", \"phong\", \"mirror\" or \"glass\"",
                                  path, w);
         }
         if (m.type == PGI_MAT_MIRROR || m.type == PGI_MAT_GLASS) {
             m.kd[0] = m.kd[1] = m.kd[2] = 0.f;
             m.ks[0] = m.ks[1] = m.ks[2] = 1.f;
-        } else if (m.type == PGI_MAT_PHONG) {
+        } else if (m.type == PGI_MAT_PHONG || m.type == PGI_MAT_PLASTIC) {
             m.ks[0] = m.ks[1] = m.ks[2] = 0.04f;
             m.shininess = 64.f;
         }
@@ -492,11 +500,65 @@ static pgi_status parse_animate(const char *path, pgi_scene *s, const cJSON *a, 
     return st;
 }
 
+/* ------------------------------------------------------------ sky */
+
+/* "sky": {"color", "intensity", "ground", "up"} or "environment": {"map", "scale", "rotation", "up"}
+ * (docs/scene-format.md, Sky); replaces the environment of a built-in base. */
+static pgi_status parse_sky(const char *path, const cJSON *jsky, const cJSON *jenv, pgi_scene *s) {
+    if (jsky && jenv) return pgi__fail(PGI_ERR_PARSE, "%s: give either sky or environment, not both", path);
+    const char *where = jsky ? "sky" : "environment";
+    const cJSON *j = jsky ? jsky : jenv;
+    if (!cJSON_IsObject(j)) return pgi__fail(PGI_ERR_PARSE, "%s: %s must be an object", path, where);
+    float up[3] = {0.f, 1.f, 0.f};
+    pgi_status st;
+    pgi__env *e = NULL;
+    if (jsky) {
+        static const char *const keys[] = {"color", "intensity", "ground", "up", NULL};
+        float color[3] = {1.f, 1.f, 1.f}, ground[3];
+        double k = 1.0;
+        int has_ground = 0;
+        if ((st = check_keys(path, j, where, keys))) return st;
+        if ((st = get_vec3(path, j, where, "color", NONNEG, 0, color, NULL))) return st;
+        if ((st = get_number(path, j, where, "intensity", 0, 0.0, 0, 3.0e38, &k, NULL))) return st;
+        if ((st = get_vec3(path, j, where, "ground", NONNEG, 0, ground, &has_ground))) return st;
+        if ((st = get_vec3(path, j, where, "up", ANY, 0, up, NULL))) return st;
+        if (!has_ground) memcpy(ground, color, sizeof ground);
+        for (int c = 0; c < 3; c++) {
+            color[c] = (float)(color[c] * k);
+            ground[c] = (float)(ground[c] * k);
+        }
+        if (!v3_finite(v3_load(color)) || !v3_finite(v3_load(ground)))
+            return pgi__fail(PGI_ERR_PARSE, "%s: sky: color x intensity overflows", path);
+        if (!(v3_len(v3_load(up)) > 0.f)) return pgi__fail(PGI_ERR_PARSE, "%s: sky.up must not be zero", path);
+        if ((st = pgi__env_create_constant(path, color, ground, up, &e))) return st;
+    } else {
+        static const char *const keys[] = {"map", "scale", "rotation", "up", NULL};
+        double scale = 1.0, rot = 0.0;
+        if ((st = check_keys(path, j, where, keys))) return st;
+        const cJSON *jm = cJSON_GetObjectItemCaseSensitive(j, "map");
+        if (!jm)
+            return pgi__fail(PGI_ERR_PARSE, "%s: environment.map is missing (an equirectangular EXR or HDR image)",
+                             path);
+        if (!cJSON_IsString(jm) || !jm->valuestring[0])
+            return pgi__fail(PGI_ERR_PARSE, "%s: environment.map must be a non-empty string (an image path)", path);
+        if ((st = get_number(path, j, where, "scale", 0, 0.0, 0, 3.0e38, &scale, NULL))) return st;
+        if ((st = get_number(path, j, where, "rotation", 0, -36000.0, 0, 36000.0, &rot, NULL))) return st;
+        if ((st = get_vec3(path, j, where, "up", ANY, 0, up, NULL))) return st;
+        if (!(v3_len(v3_load(up)) > 0.f)) return pgi__fail(PGI_ERR_PARSE, "%s: environment.up must not be zero", path);
+        char map[1024];
+        if ((st = resolve_mesh(path, "environment.map", jm->valuestring, map, sizeof map))) return st;
+        if ((st = pgi__env_create_map(path, map, (float)scale, (float)rot, up, &e))) return st;
+    }
+    pgi__env_destroy(s->env);
+    s->env = e;
+    return PGI_OK;
+}
+
 /* ------------------------------------------------------------ loading */
 
 static pgi_status load(const char *path, const cJSON *root, pgi_scene **out) {
-    static const char *const keys[] = {"name",   "mesh",    "camera",  "cameras", "lights",
-                                       "render", "builtin", "objects", "animate", NULL};
+    static const char *const keys[] = {"name",    "mesh",    "camera",   "cameras", "lights",      "render", "builtin",
+                                       "objects", "animate", "specular", "sky",     "environment", NULL};
     if (!cJSON_IsObject(root)) return pgi__fail(PGI_ERR_PARSE, "%s: the top level must be a JSON object", path);
     pgi_status st = check_keys(path, root, "", keys);
     if (st) return st;
@@ -548,9 +610,17 @@ static pgi_status load(const char *path, const cJSON *root, pgi_scene **out) {
     const cJSON *jlights = cJSON_GetObjectItemCaseSensitive(root, "lights");
     if (jlights && !cJSON_IsArray(jlights)) return pgi__fail(PGI_ERR_PARSE, "%s: lights must be an array", path);
     const cJSON *jrender = cJSON_GetObjectItemCaseSensitive(root, "render");
+    const cJSON *jspec = cJSON_GetObjectItemCaseSensitive(root, "specular");
+    pgi_specular specular = PGI_SPECULAR_DEFAULT;
+    if (jspec) {
+        const char *v = cJSON_IsString(jspec) ? jspec->valuestring : "";
+        if (strcmp(v, "ggx") == 0) specular = PGI_SPECULAR_GGX;
+        else if (strcmp(v, "phong") == 0) specular = PGI_SPECULAR_PHONG;
+        else return pgi__fail(PGI_ERR_PARSE, "%s: specular must be \"ggx\" or \"phong\"", path);
+    }
 
     char mesh[1024];
-    if (jmesh && (st = resolve_mesh(path, jmesh->valuestring, mesh, sizeof mesh))) return st;
+    if (jmesh && (st = resolve_mesh(path, "mesh", jmesh->valuestring, mesh, sizeof mesh))) return st;
 
     pgi_scene *s;
     size_t nbase = 0; /* lights of the built-in base scene kept before the description's */
@@ -563,6 +633,7 @@ static pgi_status load(const char *path, const cJSON *root, pgi_scene **out) {
         return st;
     }
     snprintf(s->source, sizeof s->source, "%s", path);
+    s->specular = specular;
 
     size_t ncam = jcam ? 1 : (jcams ? (size_t)cJSON_GetArraySize(jcams) : 0);
     size_t nl = jlights ? (size_t)cJSON_GetArraySize(jlights) : 0;
@@ -602,6 +673,9 @@ static pgi_status load(const char *path, const cJSON *root, pgi_scene **out) {
         if (!st) s->nlights = nbase + i + 1;
     }
     if (!st && jrender) st = parse_render(path, jrender, &s->defaults);
+    const cJSON *jsky = cJSON_GetObjectItemCaseSensitive(root, "sky");
+    const cJSON *jenv = cJSON_GetObjectItemCaseSensitive(root, "environment");
+    if (!st && (jsky || jenv)) st = parse_sky(path, jsky, jenv, s);
     if (!st && jbuiltin) {
         /* Settings the description leaves out come from the built-in scene. */
         pgi_scene_defaults *d = &s->defaults;
@@ -626,10 +700,10 @@ static pgi_status load(const char *path, const cJSON *root, pgi_scene **out) {
         st = pgi_scene_set_time(s, 0.0);
         s->dynamic_version = 0;
     }
-    if (!st && s->nlights == 0)
+    if (!st && s->nlights == 0 && !s->env)
         st = pgi__fail(PGI_ERR_PARSE,
-                       "%s: the scene has no lights: add a \"lights\" list, or use a mesh with emissive (Ke) "
-                       "materials",
+                       "%s: the scene has no lights: add a \"lights\" list or a \"sky\", or use a mesh with "
+                       "emissive (Ke) materials",
                        path);
     if (st) {
         pgi_scene_destroy(s);

@@ -1,10 +1,16 @@
-/* Texture lookup: bilinear filtering, repeat (wrap) addressing, sRGB -> linear.
+/* Texture lookup: bilinear filtering, repeat (wrap) addressing, sRGB -> linear; the alpha
+ * channel (cut-out masks) is linear and filtered alike.
  *
  * Texture coordinates follow the OBJ convention: v = 0 is the bottom of the
  * image, while the stored image has row 0 at the top, so rows are flipped.
  * Texel centres sit at half-integer positions (u = (x + 0.5) / width).
  * Texels are decoded with the sRGB table pgi__srgb8_texture_lut (src/core/srgb.c). */
 #include "scene_internal.h"
+
+#include <stdio.h>
+#include <string.h>
+
+#include "bsdf.h"
 
 /* Wraps a texel index of [-1, n] into [0, n) (coordinates are reduced to [0, 1] first, so
  * nothing farther out occurs; no division on this hot path). */
@@ -60,4 +66,44 @@ pgi__v3 pgi__texture_lookup(const pgi__texture *t, float u, float v) {
     pgi__v3 top = v3_add(v3_scale(a, 1.f - f.tx), v3_scale(b, f.tx));
     pgi__v3 bot = v3_add(v3_scale(c, 1.f - f.tx), v3_scale(d, f.tx));
     return v3_add(v3_scale(top, 1.f - f.ty), v3_scale(bot, f.ty));
+}
+
+float pgi__texture_alpha(const pgi__texture *t, float u, float v) {
+    if (!t || !t->rgba || t->width <= 0 || t->height <= 0) return 1.f;
+    footprint2x2 f = bilinear_footprint(t, u, v);
+    float a = texel_at(t, f.x0, f.y0)[3], b = texel_at(t, f.x1, f.y0)[3];
+    float c = texel_at(t, f.x0, f.y1)[3], d = texel_at(t, f.x1, f.y1)[3];
+    float top = a + (b - a) * f.tx, bot = c + (d - c) * f.tx;
+    return (top + (bot - top) * f.ty) * (1.f / 255.f);
+}
+
+int pgi__scene_cut_out(const pgi_scene *s, uint32_t tri, float b1, float b2) {
+    const pgi__material *m = &s->mats[s->tri_mat[tri]];
+    if (!pgi__mat_masked(m)) return 0;
+    float alpha = 1.f;
+    if (m->tex_alpha >= 0) {
+        float u = 0.f, v = 0.f;
+        if (s->uv) pgi__scene_uv(s, tri, b1, b2, &u, &v);
+        alpha = pgi__texture_alpha(&s->texs[m->tex_alpha], u, v);
+    }
+    return alpha < m->alpha_cutoff;
+}
+
+pgi_status pgi__scene_add_texture(pgi_scene *s, int w, int h, int channels, unsigned char *rgba, const char *path,
+                                  int *index) {
+    pgi__texture *t = realloc(s->texs, (s->ntexs + 1) * sizeof *t);
+    if (!t) {
+        free(rgba);
+        return pgi__fail(PGI_ERR_OOM, "out of memory for texture '%s'", path);
+    }
+    s->texs = t;
+    pgi__texture *nt = &s->texs[s->ntexs];
+    memset(nt, 0, sizeof *nt);
+    nt->width = w;
+    nt->height = h;
+    nt->channels = channels;
+    nt->rgba = rgba; /* stbi allocates with malloc: pgi_scene_destroy frees it with free() */
+    snprintf(nt->path, sizeof nt->path, "%s", path);
+    *index = (int)s->ntexs++;
+    return PGI_OK;
 }

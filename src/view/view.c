@@ -35,11 +35,15 @@ static void shade_eye_path(const pgi_scene *s, const pgi__rt *rt, const pgi_came
             v3_store(vs->ngeo + 3 * i, ng);
             v3_store(vs->wo + 3 * i, wo);
             v3_store(vs->kd + 3 * i, sf.kd);
-            int phong = sf.mat->type == PGI_MAT_PHONG;
-            v3_store(vs->ks + 3 * i, phong ? v3_load(sf.mat->ks) : v3(0.f, 0.f, 0.f));
-            vs->shininess[i] = phong ? sf.mat->shininess : 0.f;
+            pgi__v3 ks;
+            float sh, eta;
+            pgi__lobe_model model = pgi__lobe_params(sf.mat, &ks, &sh, &eta);
+            v3_store(vs->ks + 3 * i, ks);
+            vs->shininess[i] = sh;
+            vs->ior[i] = eta;
             v3_store(vs->weight + 3 * i, weight);
-            vs->flags[i] = PGI_VS_VALID | (depth == 0 ? PGI_VS_PRIMARY : 0) | (phong ? 0 : PGI_VS_LAMBERT);
+            vs->flags[i] = PGI_VS_VALID | (depth == 0 ? PGI_VS_PRIMARY : 0) |
+                           (model == PGI_LOBE_NONE ? PGI_VS_LAMBERT : 0) | (model == PGI_LOBE_GGX ? PGI_VS_GGX : 0);
             found = 1;
             break;
         }
@@ -60,9 +64,11 @@ static void shade_eye_path(const pgi_scene *s, const pgi__rt *rt, const pgi_came
         if (!pgi__rt_intersect(rt, o, d, 0.f, INFINITY, &h)) break;
     }
     if (!found) {
+        /* An eye path that leaves the scene sees the sky (a window, an open roof). */
+        if (h.prim == UINT32_MAX && s->env) e = v3_add(e, v3_mul(weight, pgi__env_eval(s->env, d)));
         float *planes[] = {vs->pos, vs->nrm, vs->ngeo, vs->wo, vs->kd, vs->ks, vs->weight};
         for (int k = 0; k < 7; k++) memset(planes[k] + 3 * i, 0, 3 * sizeof(float));
-        vs->shininess[i] = 0.f;
+        vs->shininess[i] = vs->ior[i] = 0.f;
         vs->flags[i] = 0;
     }
     vs->depth[i] = depth_v;
@@ -117,6 +123,47 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, const pgi_came
     return PGI_OK;
 }
 
+/* Direct light from the sky at the lanes `on` of a tile: `n` directions a lane
+ * (pgi__env_sample_direct: cosine-weighted about ns, and for a map half of them by the map),
+ * the first number stratified over the n, shadow rays to infinity; adds the mean to L. Each
+ * pixel has its own RNG stream (seed, pixel). */
+static void env_direct(const pgi__env *env, const pgi__rt *rt, const int on[16], const size_t pix[16],
+                       const pgi__v3 x[16], const pgi__v3 ns[16], const pgi__v3 ng[16], const pgi__v3 wo[16],
+                       const pgi__v3 kd[16], const pgi__lobe lobe[16], int n, uint64_t seed, pgi__v3 L[16],
+                       uint64_t *rays) {
+    pgi__rng rng[16];
+    pgi__v3 Le[16], wi[16] = {{0}}, w[16];
+    int valid[16], occ[16];
+    float tmax[16];
+    for (int k = 0; k < 16; k++) {
+        Le[k] = v3(0.f, 0.f, 0.f);
+        tmax[k] = INFINITY;
+        if (on[k]) pgi_rng_seed(&rng[k], seed ^ 0x736b79ULL, (uint64_t)pix[k]);
+    }
+    for (int j = 0; j < n; j++) {
+        int nv = 0;
+        for (int k = 0; k < 16; k++) {
+            valid[k] = 0;
+            if (!on[k]) continue;
+            float u1 = ((float)j + pgi_rng_f(&rng[k])) / (float)n, u2 = pgi_rng_f(&rng[k]), pdf;
+            wi[k] = pgi__env_sample_direct(env, ns[k], u1, u2, &pdf);
+            float c = v3_dot(ns[k], wi[k]);
+            if (!(pdf > 0.f) || !(c > 0.f) || !(v3_dot(ng[k], wi[k]) > 0.f)) continue;
+            w[k] = v3_scale(pgi__env_eval(env, wi[k]), c / pdf);
+            valid[k] = 1;
+            nv++;
+        }
+        if (!nv) continue;
+        *rays += (uint64_t)nv;
+        pgi__rt_occluded16(rt, valid, x, wi, tmax, occ);
+        for (int k = 0; k < 16; k++)
+            if (valid[k] && !occ[k])
+                Le[k] = v3_add(Le[k], v3_mul(pgi__brdf_eval(kd[k], &lobe[k], ns[k], wi[k], wo[k]), w[k]));
+    }
+    for (int k = 0; k < 16; k++)
+        if (on[k]) L[k] = v3_add(L[k], v3_scale(Le[k], 1.f / (float)n));
+}
+
 pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_samples *vs, int area_samples,
                        uint64_t seed, int threads, float *out, uint64_t *rays_out) {
     /* Area lights get their own CDF by power (luminance). */
@@ -156,8 +203,8 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
         for (int tx = 0; tx < tiles_x; tx++) {
             size_t pix[16];
             int on[16];
-            pgi__v3 x[16] = {{0}}, ns[16], ng[16], wo[16], kd[16], ks[16], L[16], La[16];
-            float sh[16];
+            pgi__v3 x[16] = {{0}}, ns[16], ng[16], wo[16], kd[16], L[16], La[16];
+            pgi__lobe lobe[16];
             int any = 0;
             for (int k = 0; k < 16; k++) {
                 int px, py;
@@ -175,8 +222,7 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
                 ng[k] = v3_load(vs->ngeo + 3 * i);
                 wo[k] = v3_load(vs->wo + 3 * i);
                 kd[k] = v3_load(vs->kd + 3 * i);
-                ks[k] = v3_load(vs->ks + 3 * i);
-                sh[k] = vs->shininess[i];
+                pgi__vs_lobe(vs, i, &lobe[k]);
                 x[k] = v3_madd(p, ng[k], eps);
                 any = 1;
             }
@@ -197,9 +243,9 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
                 pgi__rt_occluded16(rt, valid, x, wi, tmax, occ);
                 for (int k = 0; k < 16; k++)
                     if (valid[k] && !occ[k])
-                        L[k] = v3_add(L[k],
-                                      v3_scale(v3_mul(pgi__brdf_eval(kd[k], ks[k], sh[k], ns[k], wi[k], wo[k]), Li[k]),
-                                               cs[k]));
+                        L[k] =
+                            v3_add(L[k], v3_scale(v3_mul(pgi__brdf_eval(kd[k], &lobe[k], ns[k], wi[k], wo[k]), Li[k]),
+                                                  cs[k]));
             }
             if (narea && area_samples > 0) {
                 pgi__rng rng[16];
@@ -235,14 +281,15 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
                     pgi__rt_occluded16(rt, valid, x, wi, tmax, occ);
                     for (int k = 0; k < 16; k++)
                         if (valid[k] && !occ[k])
-                            La[k] =
-                                v3_add(La[k], v3_scale(v3_mul(pgi__brdf_eval(kd[k], ks[k], sh[k], ns[k], wi[k], wo[k]),
-                                                              v3_load(lts[k]->color)),
-                                                       g[k]));
+                            La[k] = v3_add(La[k], v3_scale(v3_mul(pgi__brdf_eval(kd[k], &lobe[k], ns[k], wi[k], wo[k]),
+                                                                  v3_load(lts[k]->color)),
+                                                           g[k]));
                 }
                 for (int k = 0; k < 16; k++)
                     if (on[k]) L[k] = v3_add(L[k], v3_scale(La[k], 1.f / (float)area_samples));
             }
+            if (s->env && area_samples > 0)
+                env_direct(s->env, rt, on, pix, x, ns, ng, wo, kd, lobe, area_samples, seed, L, &rays);
             for (int k = 0; k < 16; k++)
                 if (on[k]) v3_store(out + 3 * pix[k], v3_mul(L[k], v3_load(vs->weight + 3 * pix[k])));
         }

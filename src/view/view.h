@@ -22,7 +22,8 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, const pgi_came
                            const pgi__subpixel *sp, int threads, pgi_view_samples *vs, float *emit, uint64_t *rays);
 
 /* Direct light at every valid view sample with shadow rays (point, spot, sun:
- * one ray each; emissive triangles: `area_samples` samples picked by power).
+ * one ray each; emissive triangles: `area_samples` samples picked by power;
+ * the sky: `area_samples` directions, pgi__env_sample_direct, rays to infinity).
  * Writes weight-multiplied radiance (3 floats a pixel). */
 pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_samples *vs, int area_samples,
                        uint64_t seed, int threads, float *out, uint64_t *rays);
@@ -84,13 +85,13 @@ static inline pgi__v3 pgi__view_dir(const pgi_camera *c, const pgi__subpixel *sp
  * geometric normal ng: the unit direction `wi` towards the light, the
  * unshadowed radiance `Li`, the cosine `cs` = ns.wi and the far end `tmax` of
  * the shadow ray from x. Returns 0 when the light cannot reach x (an area
- * light, x at the light's position, outside a spot's cone, behind ns or ng).
+ * light or the sky, x at the light's position, outside a spot's cone, behind ns or ng).
  * Shared by pgi__direct and the reference path tracer's next-event
  * estimation, so that both compute the same numbers. */
 static inline int pgi__delta_light(const pgi__light *lt, pgi__v3 x, pgi__v3 ns, pgi__v3 ng, pgi__v3 *wi, pgi__v3 *Li,
                                    float *cs, float *tmax) {
     float dist;
-    if (lt->type == PGI_LIGHT_AREA) return 0;
+    if (lt->type == PGI_LIGHT_AREA || lt->type == PGI_LIGHT_ENV) return 0;
     if (lt->type == PGI_LIGHT_SUN) {
         *wi = v3_neg(v3_load(lt->dir));
         dist = INFINITY;
