@@ -45,9 +45,9 @@ static const char *k_reference_help =
     "  --specular ggx|phong   model of the mesh's glossy materials, as 'render' (default: the\n"
     "                     description's \"specular\", else ggx)\n"
     "  --continue REF.exr add samples to REF.exr (settings from REF.exr.json; -o defaults to it)\n"
-    "  --merge A B        average two references of the same scene, size, bounces, camera and\n"
-    "                     jitter rendered with different seeds (e.g. on two machines), weighted by\n"
-    "                     their samples; OUT.exr.json counts both, and --continue on OUT goes on\n"
+    "  --merge A B        average two references of the same scene, size, bounces, camera, jitter\n"
+    "                     and specular model rendered with different seeds (e.g. on two machines),\n"
+    "                     weighted by their samples; OUT.exr.json counts both, and --continue on OUT goes on\n"
     "                     with A's seed past both counts\n"
     "  --png FILE         also write a tone-mapped PNG\n"
     "  --exposure X       exposure for --png (default: the scene's, else 1)\n"
@@ -113,6 +113,7 @@ static int merge_references(const char *a, const char *b, const char *out, const
                           : m[0].bounces != m[1].bounces                           ? "bounces"
                           : m[0].camera != m[1].camera                             ? "cameras"
                           : m[0].jitter != m[1].jitter                             ? "jitter settings"
+                          : m[0].specular != m[1].specular                         ? "specular models"
                                                                                    : NULL;
     if (differs || m[0].seed == m[1].seed) {
         pgi_image_free(&img[0]);
