@@ -19,27 +19,30 @@
 # FLIP and build + estimate time against photons; needs gnuplot, scripts/install-deps.sh),
 # the rendered PNGs and the error heat maps.
 #
-# Usage: bench/quality.sh [--size WxH] [--spp N] [--scenes "sibenik crytek-sponza"]
+# Usage: bench/quality.sh [--size WxH] [--spp N] [--scenes "sibenik crytek-sponza-paper"]
 #          [--photons "10k 50k 200k 1M 5M"] [--estimators "hashgrid tiled"]
-#          [--repeat R] [--bin PATH] [--out DIR]
+#          [--repeat R] [--auto "hashgrid"] [--bin PATH] [--out DIR]
 # Defaults: 1920x1080, reference 1024 spp, both scenes, the paper's five counts
 # (50M is optional: --photons "... 50M"), every estimator `photongi estimators`
-# lists except brute, 1 run (--repeat R: median time of R runs).
+# lists except brute, 1 run (--repeat R: median time of R runs). --auto "E ...": also a row per
+# photon count with the automatic radius (docs/radius.md) for the estimators E.
 #
 # Radii: the paper's Table 2 values are in metres (Sibenik in McGuire's archive
 # is in metres, 40 m long, and Sponza's radii only make sense in metres for its
-# 37 m). Our scenes/sibenik.json is in metres (scale 1), scenes/crytek-sponza.json
-# in centimetres (scale 100).
+# 37 m). Our scenes/sibenik.json is in metres (scale 1), scenes/crytek-sponza*.json
+# in centimetres (scale 100). crytek-sponza-paper is Sponza with its point light only: the
+# shipped crytek-sponza adds a sun and a sky, which the papers do not have.
 set -euo pipefail
 
 here=$(cd "$(dirname "$0")/.." && pwd)
 BIN="$here/build/bin/photongi"
 SIZE=1920x1080
 SPP=1024
-SCENES="sibenik crytek-sponza"
+SCENES="sibenik crytek-sponza-paper"
 PHOTONS="10k 50k 200k 1M 5M"
 ESTIMATORS=""
 REPEAT=1
+AUTO=""
 OUT="$here/bench/out/quality"
 while [ $# -gt 0 ]; do
   case "$1" in
@@ -49,6 +52,7 @@ while [ $# -gt 0 ]; do
     --photons) PHOTONS=$2; shift 2 ;;
     --estimators) ESTIMATORS=$2; shift 2 ;;
     --repeat) REPEAT=$2; shift 2 ;;
+    --auto) AUTO=$2; shift 2 ;;
     --bin) BIN=$2; shift 2 ;;
     --out) OUT=$2; shift 2 ;;
     -h|--help) sed -n '2,/^set -e/p' "$0" | sed '$d; s/^# \{0,1\}//'; exit 0 ;;
@@ -79,14 +83,14 @@ count() {   # 10k -> 10000, 5M -> 5000000
 # Paper radius (metres) for scene and photon label; empty if the paper has none.
 paper_radius() {
   case "$1:$2" in
-    crytek-sponza:10k) echo 4.0 ;; crytek-sponza:50k) echo 2.0 ;; crytek-sponza:200k) echo 1.2 ;;
-    crytek-sponza:1M) echo 0.7 ;; crytek-sponza:5M) echo 0.5 ;; crytek-sponza:50M) echo 0.2 ;;
+    crytek-sponza*:10k) echo 4.0 ;; crytek-sponza*:50k) echo 2.0 ;; crytek-sponza*:200k) echo 1.2 ;;
+    crytek-sponza*:1M) echo 0.7 ;; crytek-sponza*:5M) echo 0.5 ;; crytek-sponza*:50M) echo 0.2 ;;
     sibenik:10k) echo 5.0 ;; sibenik:50k) echo 2.0 ;; sibenik:200k) echo 1.5 ;;
     sibenik:1M) echo 1.0 ;; sibenik:5M) echo 0.6 ;; sibenik:50M) echo 0.2 ;;
     *) echo "" ;;
   esac
 }
-scene_scale() { case "$1" in crytek-sponza) echo 100 ;; *) echo 1 ;; esac; }
+scene_scale() { case "$1" in crytek-sponza*) echo 100 ;; *) echo 1 ;; esac; }
 
 json_get() {   # json_get FILE KEY[.KEY...] (a number; "null" stays null)
   python3 -c '
@@ -133,19 +137,23 @@ for scene in $SCENES; do
     if [ -z "$pr" ]; then echo "quality: no paper radius for $scene $label, skipped" >&2; continue; fi
     r=$(python3 -c "print($pr * $scale)")
     n=$(count "$label")
-    for est in $ESTIMATORS; do
-      img="$OUT/img/${scene}_${est}_${label}.png"
+    for run in $(for e in $ESTIMATORS; do echo "$e:$r"; done) $(for e in $AUTO; do echo "$e:auto"; done); do
+      est=${run%%:*}; rarg=${run#*:}
+      tag=$label; [ "$rarg" = auto ] && tag="${label}_auto"
+      img="$OUT/img/${scene}_${est}_${tag}.png"
       times=()
       for rep in $(seq "$REPEAT"); do
-        "$BIN" render --scene "$scene" --size "$SIZE" --estimator "$est" --photons "$n" --radius "$r" \
+        "$BIN" render --scene "$scene" --size "$SIZE" --estimator "$est" --photons "$n" --radius "$rarg" \
           --bounces 4 --seed 1 --stats "$OUT/stats.json" -o "$img" -q
         e_ms=$(json_get "$OUT/stats.json" times_ms.estimate); b_ms=$(json_get "$OUT/stats.json" times_ms.build)
         times+=("$(python3 -c "print($e_ms + $b_ms)") $e_ms $b_ms $(json_get "$OUT/stats.json" times_ms.total)")
       done
+      # the radius: the paper's, or "auto:R" with the one the automatic radius chose
+      rcol=$r; [ "$rarg" = auto ] && rcol="auto:$(python3 -c "print('%.4g' % $(json_get "$OUT/stats.json" radius))")"
       # The run with the median density-estimation time (build + estimate: the splatting
       # methods do their photon work in build, the gather methods in estimate).
       read -r dens_ms est_ms build_ms total_ms < <(printf '%s\n' "${times[@]}" | sort -g | awk '{a[NR]=$0} END {print a[int((NR+1)/2)]}')
-      "$BIN" compare "$img" "$ref" --json --diff "$OUT/img/${scene}_${est}_${label}_diff.png" > "$OUT/cmp.json"
+      "$BIN" compare "$img" "$ref" --json --diff "$OUT/img/${scene}_${est}_${tag}_diff.png" > "$OUT/cmp.json"
       ssim=$(json_get "$OUT/cmp.json" ssim); ssim_rgb=$(json_get "$OUT/cmp.json" ssim_rgb)
       psnr=$(json_get "$OUT/cmp.json" psnr); flip=$(json_get "$OUT/cmp.json" flip)
       # PSNR against the noise-free limit: the reference's noise taken out of the MSE ("null"
@@ -153,9 +161,9 @@ for scene in $SCENES; do
       psnr_limit=$(python3 -c "
 import math; e = $(json_get "$OUT/cmp.json" mse) - $ref_noise
 print('%.4f' % (10 * math.log10(1 / e)) if e > 0 else 'null')")
-      echo "$scene,$label,$r,$est,$ssim,$ssim_rgb,$psnr,$dens_ms,$est_ms,$build_ms,$total_ms,$have,$W,$H,$flip,$psnr_limit" >> "$CSV"
-      printf 'quality: %-14s %5s r=%-6s %-10s SSIM %.4f PSNR %6.2f dB (limit %s) FLIP %.4f  build+estimate %8.1f ms\n' \
-        "$scene" "$label" "$r" "$est" "$ssim" "$psnr" "$psnr_limit" "$flip" "$dens_ms" >&2
+      echo "$scene,$label,$rcol,$est,$ssim,$ssim_rgb,$psnr,$dens_ms,$est_ms,$build_ms,$total_ms,$have,$W,$H,$flip,$psnr_limit" >> "$CSV"
+      printf 'quality: %-14s %5s r=%-10s %-10s SSIM %.4f PSNR %6.2f dB (limit %s) FLIP %.4f  build+estimate %8.1f ms\n' \
+        "$scene" "$label" "$rcol" "$est" "$ssim" "$psnr" "$psnr_limit" "$flip" "$dens_ms" >&2
     done
   done
 done
@@ -204,7 +212,7 @@ if command -v gnuplot >/dev/null 2>&1; then
     : > "$dat"
     for est in $ESTIMATORS; do
       echo "\"$est\"" >> "$dat"
-      awk -F, -v s="$scene" -v e="$est" 'NR > 1 && $1 == s && $4 == e {
+      awk -F, -v s="$scene" -v e="$est" 'NR > 1 && $1 == s && $4 == e && $3 !~ /^auto/ {
           n = $2; sub(/k$/, "e3", n); sub(/M$/, "e6", n); print n, 100 * $5, ($7 == "null" ? 99 : $7), $8, $15 }' "$CSV" >> "$dat"
       printf '\n\n' >> "$dat"
     done
