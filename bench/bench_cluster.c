@@ -12,8 +12,9 @@
  *       [--cases 10000:3,50000:1.7,200000:1,1000000:0.6] [--frames 3] [--threads T]
  *       [--estimators tiled,cluster,cluster-cone,cluster-trivial,directional] [--csv FILE]
  *
- * A case is PHOTONS:SCALE; the radius is SCALE x the scene's default radius
- * (sibenik: 0.2), or PHOTONS:=R for an absolute radius. */
+ * A case is PHOTONS:SCALE; the radius is SCALE x the scene's default radius (a scene without
+ * one, sibenik now: 0.2, the radius it shipped with when these cases were chosen), or
+ * PHOTONS:=R for an absolute radius. */
 #include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -102,7 +103,8 @@ int main(int argc, char **argv) {
         }
         pgi_scene_info info;
         pgi_scene_get_info(scene, &info);
-        float r0 = info.defaults.radius > 0.f ? info.defaults.radius : 1.f;
+        /* no radius in the description (the automatic one): the cases keep their old base */
+        float r0 = info.defaults.radius > 0.f ? info.defaults.radius : 0.2f;
         char cbuf[1024];
         snprintf(cbuf, sizeof cbuf, "%s", cases);
         char *csave = NULL;

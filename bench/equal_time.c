@@ -157,8 +157,39 @@ static int load_reference(const run_ctx *c, const char *ref_path, int bounces, p
     for (const char *p = c->scene_name; *p && k + 1 < sizeof name; p++)
         name[k++] = isalnum((unsigned char)*p) || *p == '-' ? *p : '_';
     name[k] = 0;
-    snprintf(path, sizeof path, "%s/eqt_%s_%dx%d_b%d_%llu.exr", dir, name, c->w, c->h, bounces,
-             (unsigned long long)c->ref_spp);
+    /* a fingerprint of what the scene is made of, so that an edited description (a sky added, a
+     * light moved) does not reuse a stale reference */
+    pgi_scene_info info;
+    pgi_scene_get_info(c->scene, &info);
+    uint64_t fp = 1469598103934665603ULL;
+    const double vals[] = {(double)info.triangles,
+                           (double)info.vertices,
+                           (double)info.materials,
+                           (double)info.lights,
+                           (double)info.sky_lights,
+                           (double)info.glossy_materials,
+                           (double)info.specular,
+                           (double)info.bounds_min[0],
+                           (double)info.bounds_min[1],
+                           (double)info.bounds_min[2],
+                           (double)info.bounds_max[0],
+                           (double)info.bounds_max[1],
+                           (double)info.bounds_max[2],
+                           (double)info.camera.eye[0],
+                           (double)info.camera.eye[1],
+                           (double)info.camera.eye[2],
+                           (double)info.camera.look_at[0],
+                           (double)info.camera.look_at[1],
+                           (double)info.camera.look_at[2],
+                           (double)info.camera.fov_y_deg,
+                           info.surface_area};
+    for (size_t i = 0; i < sizeof vals / sizeof vals[0]; i++) {
+        uint64_t b;
+        memcpy(&b, &vals[i], sizeof b);
+        fp = (fp ^ b) * 1099511628211ULL;
+    }
+    snprintf(path, sizeof path, "%s/eqt_%s_%dx%d_b%d_%llu_%08llx.exr", dir, name, c->w, c->h, bounces,
+             (unsigned long long)c->ref_spp, (unsigned long long)(fp & 0xffffffffULL));
     if (pgi_image_read(path, ref, NULL) == PGI_OK && ref->width == c->w && ref->height == c->h) {
         fprintf(stderr, "  reference: %s (cached)\n", path);
         return 1;
@@ -208,16 +239,20 @@ static int parse_budgets(const char *s, double *b) {
     return *s ? 0 : n;
 }
 
-/* Whether `name` is in the comma-separated `list` ("all": every estimator but the oracle,
- * "exact": those that converge progressively). */
-static int selected(const char *list, const pgi_estimator_vtbl *e) {
-    if (e->oracle) return strstr(list, e->name) != NULL && strcmp(list, "all") != 0 && strcmp(list, "exact") != 0;
-    if (strcmp(list, "all") == 0) return 1;
-    if (strcmp(list, "exact") == 0) return e->exact;
-    size_t n = strlen(e->name);
-    for (const char *p = list; (p = strstr(p, e->name)) != NULL; p += n)
+/* Whether `name` is a token of the comma-separated `list`. */
+static int in_list(const char *list, const char *name) {
+    size_t n = strlen(name);
+    for (const char *p = list; (p = strstr(p, name)) != NULL; p += n)
         if ((p == list || p[-1] == ',') && (p[n] == 0 || p[n] == ',')) return 1;
     return 0;
+}
+
+/* Whether estimator e runs: "all" (every estimator but the oracle), "exact" (those that converge
+ * progressively), or a comma-separated list of names. */
+static int selected(const char *list, const pgi_estimator_vtbl *e) {
+    if (strcmp(list, "all") == 0) return !e->oracle;
+    if (strcmp(list, "exact") == 0) return e->exact && !e->oracle;
+    return in_list(list, e->name);
 }
 
 int main(int argc, char **argv) {

@@ -107,8 +107,8 @@ echo "scene,photons,radius,estimator,ssim,ssim_rgb,psnr,density_ms,estimate_ms,b
 W=${SIZE%x*}; H=${SIZE#*x}
 for scene in $SCENES; do
   # The reference: two halves of SPP/2 samples with seeds 1 and 2, merged. Their difference
-  # measures the merged reference's own noise (MSE(A, B) / 4), which the PSNR against the
-  # noise-free limit removes from each image's MSE.
+  # measures the merged reference's own noise (MSE(A, B) / 4 for equal halves), which the PSNR
+  # against the noise-free limit removes from each image's MSE.
   for seed in 1 2; do
     half="$CACHE/ref_${scene}_${SIZE}_b4_cam0_s${seed}.exr"
     if [ -f "$half" ] && [ -f "$half.json" ]; then
@@ -129,7 +129,9 @@ for scene in $SCENES; do
   ref="${base}_s1+2.exr"
   "$BIN" reference --merge "${base}_s1.exr" "${base}_s2.exr" -o "$ref" -q
   "$BIN" compare "${base}_s1.exr" "${base}_s2.exr" --json > "$OUT/cmp.json"
-  ref_noise=$(python3 -c "print($(json_get "$OUT/cmp.json" mse) / 4)")
+  # A and B of nA and nB samples: MSE(A, B) = s2 (1/nA + 1/nB), the merge's noise s2 / (nA + nB)
+  na=$(ref_spp "${base}_s1.exr.json"); nb=$(ref_spp "${base}_s2.exr.json")
+  ref_noise=$(python3 -c "print($(json_get "$OUT/cmp.json" mse) * $na * $nb / ($na + $nb) ** 2)")
   have=$(ref_spp "$ref.json")
   scale=$(scene_scale "$scene")
   for label in $PHOTONS; do

@@ -9,7 +9,9 @@
 #include <cmocka.h>
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
+#include <unistd.h>
 
 #include "core/core.h"
 #include "photon/auto_radius.h"
@@ -152,10 +154,51 @@ static void test_renderer(void **state) {
     assert_int_equal(pgi_progressive_step(p, &d, &img, &fs), PGI_OK);
     assert_int_equal(fs.frames, 3);
     assert_true(fs.radius == pgi_progressive_radius(r_auto, 2));
+    assert_int_equal(fs.auto_radius.used, 1); /* frame 2's radius comes from frame 0's choice */
+    assert_true(fs.auto_radius.knn > 0.f);
     pgi_progressive_destroy(p);
     pgi_renderer_destroy(r);
     pgi_image_free(&img);
     pgi_scene_destroy(s);
+}
+
+/* A description with a mesh and no radius anywhere gets the automatic radius by default. */
+static void test_description_without_radius(void **state) {
+    (void)state;
+    char dir[] = "/tmp/pgi_auto_radius_XXXXXX";
+    assert_non_null(mkdtemp(dir));
+    char obj[256], json[256];
+    snprintf(obj, sizeof obj, "%s/floor.obj", dir);
+    snprintf(json, sizeof json, "%s/floor.json", dir);
+    FILE *f = fopen(obj, "w");
+    assert_non_null(f);
+    fputs("v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nv -1 2 -1\nv 1 2 -1\nv 1 2 1\nv -1 2 1\n"
+          "f 1 4 3 2\nf 5 6 7 8\n",
+          f);
+    fclose(f);
+    f = fopen(json, "w");
+    assert_non_null(f);
+    fputs("{\"mesh\": \"floor.obj\", \"cameras\": [{\"eye\": [0, 1, 0.9], \"look_at\": [0, 0, 0], "
+          "\"up\": [0, 1, 0], \"fov_y\": 60}], \"lights\": [{\"type\": \"point\", \"position\": [0, 1, 0], "
+          "\"intensity\": [1, 1, 1]}]}\n",
+          f);
+    fclose(f);
+    pgi_scene *s;
+    if (pgi_scene_load(json, &s) != PGI_OK) fail_msg("%s", pgi_last_error());
+    pgi_scene_info info;
+    pgi_scene_get_info(s, &info);
+    assert_true(info.defaults.radius == 0.f);
+    pgi_render_desc d = {.photons = 5000, .width = 32, .height = 24};
+    pgi_image img = {0};
+    pgi_frame_stats fs;
+    assert_int_equal(pgi_render(s, &d, &img, &fs), PGI_OK);
+    assert_int_equal(fs.auto_radius.used, 1);
+    assert_true(fs.radius >= fs.auto_radius.lo && fs.radius <= fs.auto_radius.hi);
+    pgi_image_free(&img);
+    pgi_scene_destroy(s);
+    remove(obj);
+    remove(json);
+    rmdir(dir);
 }
 
 int main(void) {
@@ -164,6 +207,7 @@ int main(void) {
         cmocka_unit_test(test_wrong_side_starves),
         cmocka_unit_test(test_no_samples),
         cmocka_unit_test(test_renderer),
+        cmocka_unit_test(test_description_without_radius),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

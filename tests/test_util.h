@@ -300,6 +300,7 @@ static inline void tu_set_sample(pgi_view_samples *vs, size_t i, const float pos
         vs->weight[3 * i + k] = 1.f;
     }
     vs->shininess[i] = shininess;
+    if (vs->ior) vs->ior[i] = 1.5f;
     vs->depth[i] = depth;
     vs->flags[i] = flags;
 }

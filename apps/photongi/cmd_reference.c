@@ -122,6 +122,11 @@ static int merge_references(const char *a, const char *b, const char *out, const
         return cli_failure("reference", "cannot merge %s and %s: both have seed %" PRIu64 ", so the same samples", a, b,
                            m[0].seed);
     }
+    if (m[0].spp == 0 || m[1].spp == 0) {
+        pgi_image_free(&img[0]);
+        pgi_image_free(&img[1]);
+        return cli_failure("reference", "cannot merge %s and %s: %s has no samples", a, b, m[0].spp ? b : a);
+    }
     const double wa = (double)m[0].spp / (double)(m[0].spp + m[1].spp);
     const size_t n3 = (size_t)img[0].width * img[0].height * 3;
     for (size_t i = 0; i < n3; i++) img[0].rgb[i] = (float)(wa * img[0].rgb[i] + (1.0 - wa) * img[1].rgb[i]);
@@ -226,7 +231,7 @@ int pgi_cmd_reference(int argc, char **argv) {
                          "--continue takes the scene, size, bounces, seed, camera, jitter and specular from the "
                          "reference's .json file; do not give them");
     if (merge[0] && (cont || scene_spec || size_set || bounces_set || seed_set || camera_set || jitter_set || spp ||
-                     time_s > 0.0 || png || specular != PGI_SPECULAR_DEFAULT))
+                     time_s > 0.0 || png || specular != PGI_SPECULAR_DEFAULT || d.threads || exposure > 0.f))
         return cli_usage("reference", "%s", "--merge takes only the two references and -o OUT.exr");
     if (!out) out = cont;
     if (!out) return cli_usage("reference", "%s", "no output file: give -o REF.exr");
@@ -315,7 +320,7 @@ int pgi_cmd_reference(int argc, char **argv) {
     meta.seed = d.seed;
     meta.spp = have;
     meta.jitter = d.jitter;
-    meta.specular = specular;
+    meta.specular = info.specular; /* the model in use, whether given or the scene's */
     st = pgi_reference_meta_write(&meta, meta_path);
     if (st) return cli_fail("reference", "cannot write metadata", st);
     if (!quiet)

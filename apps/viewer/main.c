@@ -32,7 +32,7 @@ static const char *k_help =
     "  --estimator E      density estimator (default " PGI_DEFAULT_ESTIMATOR "; Tab switches live)\n"
     "  --photons N        photons to store (default: the scene's, else 200000)\n"
     "  --radius R|auto    photon radius (default: the scene's, else auto: chosen each frame from\n"
-    "                     the photon density the camera sees)\n"
+    "                     the photon density the camera sees; docs/radius.md)\n"
     "  --size WxH         window / full render size (default: the scene's, else 1280x720)\n"
     "  --scale F          render at F times the window size (0 < F <= 1; default 1)\n"
     "  --seed K           random seed (default 1)\n"

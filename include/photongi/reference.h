@@ -56,7 +56,8 @@ typedef struct pgi_reference_meta {
     int width, height, bounces, camera;
     uint64_t seed, spp;
     pgi_jitter jitter;     /* PGI_JITTER_ON or PGI_JITTER_OFF (what the samples so far used) */
-    pgi_specular specular; /* --specular given (GGX or PHONG); DEFAULT: the scene's ("specular" absent) */
+    pgi_specular specular; /* the model the samples used (GGX or PHONG; a sidecar without "specular" predates
+                              the microfacet plastic and reads as PHONG) */
 } pgi_reference_meta;
 
 /* Writes/reads the sidecar JSON file `path` (format "photongi-reference-2", with an optional

@@ -22,18 +22,23 @@
  * s at most K / AUTO_K_SUB so that at least AUTO_K_SUB are still sought. */
 #define AUTO_PHOTONS 262144
 #define AUTO_K_SUB 32
-/* The cost cap: the radius shrinks until the mean photons a query gathers is at most this. */
+/* The cost cap: the radius shrinks until the mean photons a query gathers is at most
+ * max(AUTO_MEAN_CAP, AUTO_MEAN_CAP_K x K) (K grows with the photons, and a quantile of K-th
+ * distances already means somewhat more than K on average); each query counts at most
+ * AUTO_TERM_CAP_K x K, so that one caustic does not decide the frame's radius. */
 #define AUTO_MEAN_CAP 400.0
+#define AUTO_MEAN_CAP_K 8.0
+#define AUTO_TERM_CAP_K 64.0
 /* The clamp, as fractions of the scene's diagonal. */
 #define AUTO_LO 1e-4f
 #define AUTO_HI 0.05f
 
 typedef struct grid {
-    float cell, inv;
-    uint32_t mask;         /* buckets - 1 */
-    uint32_t *start;       /* buckets + 1 offsets into idx */
-    uint32_t *idx;         /* photon indices, bucket by bucket, in photon order */
-    int32_t *cx, *cy, *cz; /* each photon's cell */
+    float cell, inv, org[3]; /* cell edge, its inverse, where cell 0 starts */
+    uint32_t mask;           /* buckets - 1 */
+    uint32_t *start;         /* buckets + 1 offsets into idx */
+    uint32_t *idx;           /* photon indices, bucket by bucket, in photon order */
+    int32_t *cx, *cy, *cz;   /* each photon's cell */
 } grid;
 
 static inline uint32_t cell_hash(int32_t x, int32_t y, int32_t z, uint32_t mask) {
@@ -41,7 +46,13 @@ static inline uint32_t cell_hash(int32_t x, int32_t y, int32_t z, uint32_t mask)
     return h & mask;
 }
 
-static inline int32_t cell_of(float v, float inv) { return (int32_t)floorf(v * inv); }
+/* The cell of coordinate v along an axis whose cells start at o: counted from the photons' box,
+ * so that the index stays small (|v - o| is at most the scene's extent, the cell at least 1e-4 of
+ * its diagonal); clamped all the same, for a query far outside it. */
+static inline int32_t cell_of(float v, float o, float inv) {
+    float c = floorf((v - o) * inv);
+    return c < -1e6f ? -1000000 : c > 1e6f ? 1000000 : (int32_t)c;
+}
 
 static void grid_free(grid *g) {
     free(g->start);
@@ -54,12 +65,13 @@ static void grid_free(grid *g) {
 
 /* Counting sort of the photons into hashed cells of edge `cell` (sequential: the order, and so
  * everything after, is the same for any thread count). */
-static pgi_status grid_build(const pgi_photons *ph, float cell, grid *g) {
+static pgi_status grid_build(const pgi_photons *ph, float cell, const float org[3], grid *g) {
     const size_t n = ph->count;
     uint32_t buckets = 1024;
     while (buckets < n / 2 && buckets < (1u << 26)) buckets <<= 1;
     g->cell = cell;
     g->inv = 1.f / cell;
+    memcpy(g->org, org, sizeof g->org);
     g->mask = buckets - 1;
     g->start = calloc((size_t)buckets + 1, sizeof *g->start);
     g->idx = malloc(n * sizeof *g->idx);
@@ -71,9 +83,9 @@ static pgi_status grid_build(const pgi_photons *ph, float cell, grid *g) {
         return pgi__fail(PGI_ERR_OOM, "automatic radius: out of memory for a grid of %zu photons", n);
     }
     for (size_t i = 0; i < n; i++) {
-        g->cx[i] = cell_of(ph->px[i], g->inv);
-        g->cy[i] = cell_of(ph->py[i], g->inv);
-        g->cz[i] = cell_of(ph->pz[i], g->inv);
+        g->cx[i] = cell_of(ph->px[i], g->org[0], g->inv);
+        g->cy[i] = cell_of(ph->py[i], g->org[1], g->inv);
+        g->cz[i] = cell_of(ph->pz[i], g->org[2], g->inv);
         g->start[cell_hash(g->cx[i], g->cy[i], g->cz[i], g->mask) + 1]++;
     }
     for (uint32_t b = 0; b < buckets; b++) g->start[b + 1] += g->start[b];
@@ -125,7 +137,8 @@ static inline void kheap_push(kheap *h, float d2) {
 /* Pushes into h the squared distances of ring J's photons that the sample (p, n) would gather
  * (arriving from its side). */
 static void scan_ring(const grid *g, const pgi_photons *ph, const float *p, const float *n, int J, kheap *h) {
-    const int32_t cx = cell_of(p[0], g->inv), cy = cell_of(p[1], g->inv), cz = cell_of(p[2], g->inv);
+    const int32_t cx = cell_of(p[0], g->org[0], g->inv), cy = cell_of(p[1], g->org[1], g->inv),
+                  cz = cell_of(p[2], g->org[2], g->inv);
     for (int dz = -J; dz <= J; dz++)
         for (int dy = -J; dy <= J; dy++)
             for (int dx = -J; dx <= J; dx++) {
@@ -169,7 +182,7 @@ static pgi_status choose(const pgi_photons *ph, int K, int Kfull, const pgi_view
     out->quantile = AUTO_QUANTILE;
     out->lo = AUTO_LO * diag;
     out->hi = AUTO_HI * diag;
-    out->mean_cap = AUTO_MEAN_CAP;
+    out->mean_cap = fmax(AUTO_MEAN_CAP, AUTO_MEAN_CAP_K * (double)Kfull);
     *radius = 0.02f * diag;
     uint32_t q[PGI__AUTO_QUERIES];
     const int m = pick_queries(vs, q);
@@ -195,7 +208,7 @@ static pgi_status choose(const pgi_photons *ph, int K, int Kfull, const pgi_view
     const int qi = (int)(AUTO_QUANTILE * (float)(m - 1));
     grid g = {0};
     for (int attempt = 0;; attempt++) {
-        pgi_status st = grid_build(ph, cell, &g);
+        pgi_status st = grid_build(ph, cell, bmin, &g);
         if (st) return st;
 #pragma omp parallel for schedule(dynamic, 16) num_threads(pgi__threads(threads))
         for (int j = 0; j < m; j++) {
@@ -233,10 +246,10 @@ static pgi_status choose(const pgi_photons *ph, int K, int Kfull, const pgi_view
     const float reach = (float)AUTO_RINGS * g.cell;
     for (int j = 0; j < m; j++) {
         float dj = isfinite(d[j]) ? fmaxf(d[j], 1e-30f) : reach;
-        total += (double)Kfull * ((double)r / dj) * ((double)r / dj);
+        total += fmin(AUTO_TERM_CAP_K * Kfull, (double)Kfull * ((double)r / dj) * ((double)r / dj));
     }
     out->mean_reads = total / m;
-    if (out->mean_reads > AUTO_MEAN_CAP) r = fmaxf(out->lo, r * (float)sqrt(AUTO_MEAN_CAP / out->mean_reads));
+    if (out->mean_reads > out->mean_cap) r = fmaxf(out->lo, r * (float)sqrt(out->mean_cap / out->mean_reads));
     grid_free(&g);
     *radius = r;
     return PGI_OK;

@@ -33,7 +33,8 @@ struct pgi_progressive {
     double *sum; /* 3 per pixel */
     size_t cap;  /* pixels */
     int frames, width, height;
-    float r0; /* resolved radius of frame 0 */
+    float r0;                     /* resolved radius of frame 0 */
+    pgi_auto_radius_stats r0_how; /* how it was chosen (automatic radius), for later frames' stats */
     uint64_t seed0;
     pgi_image frame; /* scratch for one frame */
     picture made_of; /* what the average was made of; any change restarts it */
@@ -131,6 +132,7 @@ pgi_status pgi_progressive_step(pgi_progressive *a, const pgi_render_desc *in, p
         }
         memset(a->sum, 0, 3 * n * sizeof *a->sum);
         a->r0 = fs.radius;
+        a->r0_how = fs.auto_radius;
         a->seed0 = in->seed ? in->seed : 1;
         a->width = fs.width;
         a->height = fs.height;
@@ -151,6 +153,7 @@ pgi_status pgi_progressive_step(pgi_progressive *a, const pgi_render_desc *in, p
     fs.frames = a->frames;
     if (k > 0) {
         fs.settings.radius = a->r0;
+        fs.auto_radius = a->r0_how;      /* frame k's radius derives from frame 0's choice */
         fs.settings.jitter = in->jitter; /* AUTO: frame 0 at pixel centres, the others jittered */
     }
     if (stats) *stats = fs;
@@ -179,7 +182,7 @@ static void stats_add(pgi_frame_stats *sum, const pgi_frame_stats *fs) {
     pgi_frame_stats t = *fs;
     t.view_ms += sum->view_ms, t.trace_ms += sum->trace_ms, t.build_ms += sum->build_ms;
     t.estimate_ms += sum->estimate_ms, t.direct_ms += sum->direct_ms, t.total_ms += sum->total_ms;
-    t.rt_update_ms += sum->rt_update_ms;
+    t.rt_update_ms += sum->rt_update_ms, t.radius_ms += sum->radius_ms;
     t.photons_emitted += sum->photons_emitted, t.photons_stored += sum->photons_stored;
     t.photon_rays += sum->photon_rays, t.photon_paths_discarded += sum->photon_paths_discarded,
         t.primary_rays += sum->primary_rays, t.shadow_rays += sum->shadow_rays;

@@ -75,6 +75,8 @@ pgi_status pgi_reference_meta_read(const char *path, pgi_reference_meta *m) {
              get_int(o, "camera", &m->camera) && get_u64(o, "seed", &m->seed) && get_u64(o, "spp", &m->spp);
     m->jitter = v2 && cJSON_IsTrue(jit) ? PGI_JITTER_ON : PGI_JITTER_OFF;
     const cJSON *sp = cJSON_GetObjectItemCaseSensitive(o, "specular");
+    /* A sidecar without it predates the microfacet plastic: glossy materials were Blinn-Phong. */
+    m->specular = PGI_SPECULAR_PHONG;
     if (sp) {
         if (cJSON_IsString(sp) && strcmp(sp->valuestring, "phong") == 0) m->specular = PGI_SPECULAR_PHONG;
         else if (cJSON_IsString(sp) && strcmp(sp->valuestring, "ggx") == 0) m->specular = PGI_SPECULAR_GGX;
