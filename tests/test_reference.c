@@ -81,23 +81,27 @@ static void block_means(const pgi_image *img, double *out) {
  * corners. Bounds: the whole image within 2%, every block within 6%
  * (measured: about 0.3% and 2.5%). A factor pi, a cosine dropped or taken
  * twice, or a bounce too many or too few moves whole blocks by 10% or more. */
-static void agreement(const pgi_scene *s, const char *what) {
-    /* Pixel centres, as the single frame it is compared with: light transport only, no aliasing. */
+/* The reference (512 spp at pixel centres, as the single frame it is compared with: light
+ * transport only, no aliasing) and the photon pipeline (hashgrid, 2M photons, r = 0.02) of s. */
+static void reference_and_photons(const pgi_scene *s, int direct_samples, pgi_image *ref, pgi_image *pm) {
     pgi_reference_desc rd =
         {.width = CB_W, .height = CB_H, .bounces = 4, .spp = 512, .seed = 7, .jitter = PGI_JITTER_OFF};
-    pgi_image ref = {0};
     uint64_t spp = 0;
-    TU_CHECK_OK(pgi_reference_render(s, &rd, &ref, &spp));
+    TU_CHECK_OK(pgi_reference_render(s, &rd, ref, &spp));
     pgi_render_desc pd = {.estimator = "hashgrid",
                           .width = CB_W,
                           .height = CB_H,
                           .bounces = 4,
                           .photons = 2000000,
                           .radius = 0.02f,
-                          .direct_samples = 64,
+                          .direct_samples = direct_samples,
                           .seed = 7};
-    pgi_image pm = {0};
-    TU_CHECK_OK(pgi_render(s, &pd, &pm, NULL));
+    TU_CHECK_OK(pgi_render(s, &pd, pm, NULL));
+}
+
+static void agreement(const pgi_scene *s, const char *what) {
+    pgi_image ref = {0}, pm = {0};
+    reference_and_photons(s, 64, &ref, &pm);
     const int nb = (CB_W / CB_BLOCK) * (CB_H / CB_BLOCK);
     double a[16], b[16], worst = 0.0, sa = 0.0, sb = 0.0;
     block_means(&ref, a);
@@ -235,19 +239,8 @@ static void test_plastic_floor_agreement(void **state) {
     assert_int_equal(tu_write_file(path, json), 0);
     pgi_scene *s = NULL;
     TU_CHECK_OK(pgi_scene_load(path, &s));
-    pgi_reference_desc rd =
-        {.width = CB_W, .height = CB_H, .bounces = 4, .spp = 512, .seed = 7, .jitter = PGI_JITTER_OFF};
     pgi_image ref = {0}, pm = {0};
-    uint64_t spp = 0;
-    TU_CHECK_OK(pgi_reference_render(s, &rd, &ref, &spp));
-    pgi_render_desc pd = {.estimator = "hashgrid",
-                          .width = CB_W,
-                          .height = CB_H,
-                          .bounces = 4,
-                          .photons = 2000000,
-                          .radius = 0.02f,
-                          .seed = 7};
-    TU_CHECK_OK(pgi_render(s, &pd, &pm, NULL));
+    reference_and_photons(s, 0, &ref, &pm);
     double ra = 0.0, pa = 0.0, rf = 0.0, pf = 0.0;
     for (int y = 0; y < CB_H; y++)
         for (int x = 0; x < CB_W; x++) {
