@@ -100,9 +100,14 @@ int pgi_cmd_compare(int argc, char **argv) {
             return cli_input_fail("compare", "cannot read", st);
         }
     }
+    const int w = img[0].width, h = img[0].height;
+    const size_t n = (size_t)w * h;
+    float *fmap = flip_map ? malloc(n * sizeof *fmap) : NULL;
     pgi_metrics m;
-    pgi_status st = pgi_metrics_compute(&img[0], &img[1], exposure, &m);
+    pgi_status st =
+        flip_map && !fmap ? PGI_ERR_OOM : pgi_metrics_compute_flip(&img[0], &img[1], exposure, ppd, fmap, &m);
     if (st) {
+        free(fmap);
         pgi_image_free(&img[0]);
         pgi_image_free(&img[1]);
         /* sizes differ, smaller than the SSIM window: the images are at fault, not the command line */
@@ -110,12 +115,9 @@ int pgi_cmd_compare(int argc, char **argv) {
         if (strncmp(msg, "compare: ", 9) == 0) msg += 9;
         return cli_failure("compare", "%s vs %s: %s", files[0], files[1], *msg ? msg : pgi_status_string(st));
     }
-    const int w = img[0].width, h = img[0].height;
-    const size_t n = (size_t)w * h;
     unsigned char *rgb8 = (diff || flip_map) ? malloc(3 * n) : NULL;
-    float *fmap = flip_map ? malloc(n * sizeof *fmap) : NULL;
     const char *what = NULL;
-    if ((diff || flip_map) && (!rgb8 || (flip_map && !fmap))) {
+    if ((diff || flip_map) && !rgb8) {
         what = "out of memory for the maps";
         st = PGI_ERR_OOM;
     }
@@ -124,15 +126,10 @@ int pgi_cmd_compare(int argc, char **argv) {
         st = pgi_metrics_heatmap(&img[0], &img[1], exposure, diff_max, rgb8);
         if (!st) st = write_rgb8(rgb8, w, h, diff);
     }
-    /* FLIP at another viewing distance, or its map: computed again with the map kept. */
-    if (!st && (flip_map || ppd != PGI_FLIP_DEFAULT_PPD)) {
-        what = "cannot compute FLIP";
-        st = pgi_metrics_flip(&img[0], &img[1], exposure, ppd, fmap, &m.flip);
-        if (!st && flip_map) {
-            what = "cannot write the FLIP map";
-            pgi_flip_colorize(fmap, n, rgb8);
-            st = write_rgb8(rgb8, w, h, flip_map);
-        }
+    if (!st && flip_map) {
+        what = "cannot write the FLIP map";
+        pgi_flip_colorize(fmap, n, rgb8);
+        st = write_rgb8(rgb8, w, h, flip_map);
     }
     free(rgb8);
     free(fmap);

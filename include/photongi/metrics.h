@@ -53,6 +53,10 @@ typedef struct pgi_metrics {
 /* Compares `a` (test) with `b` (reference). Sizes must match and be at least
  * 11x11 (the SSIM window): otherwise PGI_ERR_INVALID_ARG naming both sizes. */
 pgi_status pgi_metrics_compute(const pgi_image *a, const pgi_image *b, float exposure, pgi_metrics *out);
+/* The same with FLIP at `ppd` pixels per degree, its per-pixel map written to `flip_map` (width x
+ * height floats; may be NULL). pgi_metrics_compute is this at PGI_FLIP_DEFAULT_PPD without a map. */
+pgi_status pgi_metrics_compute_flip(const pgi_image *a, const pgi_image *b, float exposure, float ppd, float *flip_map,
+                                    pgi_metrics *out);
 
 /* Relative MSE of `a` (test) against `b` (reference) on linear RGB times `exposure`, before tone
  * mapping: the mean over pixels and channels of (a - b)^2 / (b^2 + PGI_RELMSE_EPS). Scale-free

@@ -212,6 +212,7 @@ typedef struct pgi_auto_radius_stats {
     int queries, starved; /* starved: samples with fewer than k photons near them */
     double mean_reads;    /* mean photons a query gathers at the chosen radius (0: not counted) */
     double mean_cap;
+    const char *why; /* one line: the quantile, a clamp, the cost cap, or the fallback (static string) */
 } pgi_auto_radius_stats;
 
 typedef struct pgi_frame_stats {

@@ -69,6 +69,11 @@ void pgi__afree(void *p);
 /* ---------------------------------------------------------------- vectors */
 /* Branch-free min/max that compile to one instruction (fmaxf is a libm call
  * unless -ffinite-math-only). Unlike fmaxf they pass a NaN in `b` through. */
+/* qsort comparator of floats, ascending (NaN-free input). */
+static inline int pgi__cmp_float(const void *a, const void *b) {
+    float x = *(const float *)a, y = *(const float *)b;
+    return (x > y) - (x < y);
+}
 static inline float pgi_maxf(float a, float b) { return a > b ? a : b; }
 static inline float pgi_minf(float a, float b) { return a < b ? a : b; }
 

@@ -13,6 +13,7 @@ typedef struct pgi__vs {
     pgi__v3 wo, kd;
     int lambert;
     pgi__lobe lobe; /* set up only when !lambert */
+    float one_m_eo; /* GGX: 1 - E(n.wo), the same for every photon of the gather */
 } pgi__vs;
 
 /* Running sums of one gather: Lambertian part as a flux sum (kd/pi applied
@@ -35,7 +36,10 @@ static inline void pgi__vs_load(const pgi_view_samples *vs, size_t i, pgi__vs *v
     v->wo = v3_load(vs->wo + 3 * i);
     v->kd = v3_load(vs->kd + 3 * i);
     v->lambert = (vs->flags[i] & PGI_VS_LAMBERT) != 0;
-    if (!v->lambert) pgi__vs_lobe(vs, i, &v->lobe);
+    if (!v->lambert) {
+        pgi__vs_lobe(vs, i, &v->lobe);
+        v->one_m_eo = pgi__lobe_one_m_eo(&v->lobe, v3(v->nx, v->ny, v->nz), v->wo);
+    }
 }
 
 /* Starts the gather of sample i: an invalid sample (sky, lost eye path)
@@ -64,7 +68,7 @@ static inline void pgi__gather(const pgi__vs *v, float r2, float px, float py, f
     a->fg += fg;
     a->fb += fb;
     if (!v->lambert) {
-        pgi__v3 f = pgi__lobe_eval(&v->lobe, v->kd, v3(v->nx, v->ny, v->nz), v3(dx, dy, dz), v->wo);
+        pgi__v3 f = pgi__lobe_eval_o(&v->lobe, v->kd, v3(v->nx, v->ny, v->nz), v3(dx, dy, dz), v->wo, v->one_m_eo);
         a->sr += f.x * fr;
         a->sg += f.y * fg;
         a->sb += f.z * fb;
@@ -105,7 +109,7 @@ static inline void pgi__acc_add(const pgi__vs *v, float w, float dx, float dy, f
     a->fg += w * fg;
     a->fb += w * fb;
     if (!v->lambert) {
-        pgi__v3 f = pgi__lobe_eval(&v->lobe, v->kd, v3(v->nx, v->ny, v->nz), v3(dx, dy, dz), v->wo);
+        pgi__v3 f = pgi__lobe_eval_o(&v->lobe, v->kd, v3(v->nx, v->ny, v->nz), v3(dx, dy, dz), v->wo, v->one_m_eo);
         a->sr += f.x * (w * fr);
         a->sg += f.y * (w * fg);
         a->sb += f.z * (w * fb);

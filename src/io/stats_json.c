@@ -63,13 +63,7 @@ static cJSON *build(const pgi_frame_stats *st) {
             ok &= add_num(o, "starved", ar->starved);
             ok &= add_num(o, "mean_reads", ar->mean_reads);
             ok &= add_num(o, "mean_cap", ar->mean_cap);
-            const char *why = ar->queries == 0 || !(ar->knn > 0.f)
-                                  ? "no view sample or too few photons: 2% of the diagonal"
-                              : ar->mean_reads > ar->mean_cap ? "capped: gathers would read too many photons"
-                              : !(ar->knn > ar->lo)           ? "clamped to lo"
-                              : !(ar->knn < ar->hi)           ? "clamped to hi: the view sees few photons"
-                                                              : "the k-th neighbour distance at the quantile";
-            ok &= cJSON_AddStringToObject(o, "why", why) != NULL;
+            ok &= cJSON_AddStringToObject(o, "why", ar->why ? ar->why : "") != NULL;
         }
     }
 

@@ -320,11 +320,6 @@ pgi_status pgi_flip_map_srgb8(const unsigned char *ref, const unsigned char *tes
     return PGI_OK;
 }
 
-static int cmp_float(const void *a, const void *b) {
-    float x = *(const float *)a, y = *(const float *)b;
-    return (x > y) - (x < y);
-}
-
 pgi_status pgi_flip_pool(const float *map, size_t n, pgi_flip_stats *out) {
     memset(out, 0, sizeof *out);
     if (!map || n == 0) return pgi__fail(PGI_ERR_INVALID_ARG, "flip: empty error map");
@@ -346,7 +341,7 @@ pgi_status pgi_flip_pool(const float *map, size_t n, pgi_flip_stats *out) {
      * in float (the total in row-major order), so that the same value is picked. */
     float total = 0.f;
     for (size_t i = 0; i < n; i++) total += map[i];
-    qsort(v, n, sizeof *v, cmp_float);
+    qsort(v, n, sizeof *v, pgi__cmp_float);
     const float p[3] = {0.25f, 0.5f, 0.75f};
     double *dst[3] = {&out->weighted_q1, &out->weighted_median, &out->weighted_q3};
     float run = 0.f;

@@ -125,6 +125,11 @@ static pgi_status flip_tonemapped(const unsigned char *ta, const unsigned char *
 }
 
 pgi_status pgi_metrics_compute(const pgi_image *a, const pgi_image *b, float exposure, pgi_metrics *out) {
+    return pgi_metrics_compute_flip(a, b, exposure, PGI_FLIP_DEFAULT_PPD, NULL, out);
+}
+
+pgi_status pgi_metrics_compute_flip(const pgi_image *a, const pgi_image *b, float exposure, float ppd, float *flip_map,
+                                    pgi_metrics *out) {
     memset(out, 0, sizeof *out);
     pgi_status st = check_pair(a, b);
     if (st) return st;
@@ -172,7 +177,7 @@ pgi_status pgi_metrics_compute(const pgi_image *a, const pgi_image *b, float exp
         return pgi__fail(PGI_ERR_OOM, "compare: out of memory for SSIM");
     }
     out->relmse = pgi_relmse(a, b, exposure);
-    st = flip_tonemapped(ta, tb, w, h, PGI_FLIP_DEFAULT_PPD, NULL, &out->flip);
+    st = flip_tonemapped(ta, tb, w, h, ppd, flip_map, &out->flip);
     free(ta);
     free(tb);
     return st;

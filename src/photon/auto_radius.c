@@ -157,11 +157,6 @@ static void scan_ring(const grid *g, const pgi_photons *ph, const float *p, cons
             }
 }
 
-static int cmp_float(const void *a, const void *b) {
-    float x = *(const float *)a, y = *(const float *)b;
-    return (x > y) - (x < y);
-}
-
 /* Up to PGI__AUTO_QUERIES valid samples spread evenly over the pixels. */
 static int pick_queries(const pgi_view_samples *vs, uint32_t *q) {
     int m = 0;
@@ -184,6 +179,7 @@ static pgi_status choose(const pgi_photons *ph, int K, int Kfull, const pgi_view
     out->hi = AUTO_HI * diag;
     out->mean_cap = fmax(AUTO_MEAN_CAP, AUTO_MEAN_CAP_K * (double)Kfull);
     *radius = 0.02f * diag;
+    out->why = "no view sample or too few photons: 2% of the diagonal";
     uint32_t q[PGI__AUTO_QUERIES];
     const int m = pick_queries(vs, q);
     out->queries = m;
@@ -225,7 +221,7 @@ static pgi_status choose(const pgi_photons *ph, int K, int Kfull, const pgi_view
         }
         float sorted[PGI__AUTO_QUERIES];
         memcpy(sorted, d, (size_t)m * sizeof *d);
-        qsort(sorted, (size_t)m, sizeof *sorted, cmp_float);
+        qsort(sorted, (size_t)m, sizeof *sorted, pgi__cmp_float);
         if (isfinite(sorted[qi]) || cell >= out->hi || attempt == 3) {
             out->knn = sorted[qi];
             out->starved = 0;
@@ -236,6 +232,9 @@ static pgi_status choose(const pgi_photons *ph, int K, int Kfull, const pgi_view
         cell = fminf(4.f * cell, out->hi);
     }
     float r = isfinite(out->knn) ? out->knn : out->hi;
+    out->why = !(r > out->lo)   ? "clamped to lo"
+               : !(r < out->hi) ? "clamped to hi: the view sees few photons"
+                                : "the k-th neighbour distance at the quantile";
     r = fminf(fmaxf(r, out->lo), out->hi);
 
     /* The cost cap: the mean number of photons a query gathers at r (bright parts of the view
@@ -249,7 +248,10 @@ static pgi_status choose(const pgi_photons *ph, int K, int Kfull, const pgi_view
         total += fmin(AUTO_TERM_CAP_K * Kfull, (double)Kfull * ((double)r / dj) * ((double)r / dj));
     }
     out->mean_reads = total / m;
-    if (out->mean_reads > out->mean_cap) r = fmaxf(out->lo, r * (float)sqrt(out->mean_cap / out->mean_reads));
+    if (out->mean_reads > out->mean_cap) {
+        r = fmaxf(out->lo, r * (float)sqrt(out->mean_cap / out->mean_reads));
+        out->why = "capped: gathers would read too many photons";
+    }
     grid_free(&g);
     *radius = r;
     return PGI_OK;

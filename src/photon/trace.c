@@ -370,7 +370,7 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
                 d->seed,
                 pgi__scene_epsilon(s),
                 v3_scale(v3_add(v3_load(s->bmin), v3_load(s->bmax)), 0.5f),
-                0.5f * v3_len(v3_sub(v3_load(s->bmax), v3_load(s->bmin))),
+                0.5f * pgi__scene_diagonal(s),
                 {0},
                 0,
                 0};

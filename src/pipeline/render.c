@@ -77,14 +77,12 @@ pgi_status pgi__check_view(const pgi_camera_def *v) {
 
 /* Fills defaults and rejects what cannot be rendered (the estimator's own
  * options are resolved and checked by pgi_estimator_desc_resolve). */
-static float pgi__diag(const pgi_scene *s) { return v3_len(v3_sub(v3_load(s->bmax), v3_load(s->bmin))); }
-
 /* The automatic radius (d->radius == PGI_RADIUS_AUTO) from this frame's photons and view samples. */
 static pgi_status choose_radius(pgi_renderer *r, pgi_render_desc *d, pgi_frame_stats *fs) {
     if (d->radius != PGI_RADIUS_AUTO) return PGI_OK;
     double t0 = pgi__now_ms();
-    pgi_status st =
-        pgi__auto_radius_choose(&r->ph, &r->vs, pgi__diag(r->scene), d->threads, &d->radius, &fs->auto_radius);
+    pgi_status st = pgi__auto_radius_choose(&r->ph, &r->vs, pgi__scene_diagonal(r->scene), d->threads, &d->radius,
+                                            &fs->auto_radius);
     fs->radius_ms = pgi__now_ms() - t0;
     fs->radius = d->radius;
     fs->settings.radius = d->radius;
@@ -118,7 +116,8 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
     if (d->radius == 0.f && sd->radius > 0.f) d->radius = sd->radius;
     /* No radius anywhere: automatic with one fixed radius (chosen after the photons are traced, see
        choose_radius); the footprint policies keep 2% of the diagonal, their r_max. */
-    if (d->radius == 0.f) d->radius = d->radius_policy == PGI_RADIUS_FIXED ? PGI_RADIUS_AUTO : 0.02f * pgi__diag(s);
+    if (d->radius == 0.f)
+        d->radius = d->radius_policy == PGI_RADIUS_FIXED ? PGI_RADIUS_AUTO : 0.02f * pgi__scene_diagonal(s);
     if (d->radius == PGI_RADIUS_AUTO && d->radius_policy != PGI_RADIUS_FIXED)
         return pgi__fail(PGI_ERR_INVALID_ARG, "%s", "the automatic radius needs the fixed radius policy");
     if (d->bounces == 0) d->bounces = sd->bounces > 0 ? sd->bounces : 4;
@@ -144,7 +143,7 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
                          "r_min, r_max and smoothing must be positive finite numbers (or 0: "
                          "default), got %g, %g, %g",
                          (double)d->r_min, (double)d->r_max, (double)d->smoothing);
-    if (d->r_max == 0.f) d->r_max = d->radius > 0.f ? d->radius : 0.02f * pgi__diag(s);
+    if (d->r_max == 0.f) d->r_max = d->radius > 0.f ? d->radius : 0.02f * pgi__scene_diagonal(s);
     if (d->r_min == 0.f) d->r_min = d->r_max / 8.f;
     if (!(d->r_min <= d->r_max))
         return pgi__fail(PGI_ERR_INVALID_ARG, "r_min (%g) must not exceed r_max (%g)", (double)d->r_min,

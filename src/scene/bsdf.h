@@ -144,10 +144,10 @@ static inline float pgi__ggx_pdf(const pgi__lobe *l, pgi__v3 n, pgi__v3 wi, pgi_
     return pgi__ggx_D(l->a2, hn) / (2.f * (ci + pgi__ggx_root(l->a2, ci)));
 }
 
-/* f(wi, wo) - kd/pi: what a non-specular BSDF adds to its Lambertian kd/pi (0 for
- * PGI_LOBE_NONE). Phong: the tiled paper's lobe; GGX: the lobe plus the base's change
- * from kd/pi. The estimators sum kd/pi over the flux once and this per photon. */
-static inline pgi__v3 pgi__lobe_eval(const pgi__lobe *l, pgi__v3 kd, pgi__v3 n, pgi__v3 wi, pgi__v3 wo) {
+/* pgi__lobe_eval with 1 - E(n.wo) given (`one_m_eo`, used by GGX only): a gather evaluates one
+ * sample's lobe for many wi and the same wo, so it looks E(n.wo) up once (pgi__lobe_one_m_eo). */
+static inline pgi__v3 pgi__lobe_eval_o(const pgi__lobe *l, pgi__v3 kd, pgi__v3 n, pgi__v3 wi, pgi__v3 wo,
+                                       float one_m_eo) {
     if (l->model == PGI_LOBE_PHONG) {
         float k, fr;
         pgi__phong_lobe(n, wi, wo, l->s, &k, &fr);
@@ -156,10 +156,22 @@ static inline pgi__v3 pgi__lobe_eval(const pgi__lobe *l, pgi__v3 kd, pgi__v3 n, 
     }
     if (l->model != PGI_LOBE_GGX) return v3(0.f, 0.f, 0.f);
     float ci = v3_dot(n, wi), co = v3_dot(n, wo);
-    float base = (1.f - pgi__lobe_E(l, ci)) * (1.f - pgi__lobe_E(l, co)) * l->inv_1mEavg - 1.f;
+    float base = (1.f - pgi__lobe_E(l, ci)) * one_m_eo * l->inv_1mEavg - 1.f;
     pgi__v3 r = v3_scale(kd, base * PGI_INV_PI);
     if (ci > 0.f && co > 0.f) r = v3_add(r, v3_scale(l->ks, pgi__ggx_spec(l, n, wi, wo, ci, co)));
     return r;
+}
+
+/* 1 - E(n.wo) of a GGX lobe (0 for the other models, which do not use it). */
+static inline float pgi__lobe_one_m_eo(const pgi__lobe *l, pgi__v3 n, pgi__v3 wo) {
+    return l->model == PGI_LOBE_GGX ? 1.f - pgi__lobe_E(l, v3_dot(n, wo)) : 0.f;
+}
+
+/* f(wi, wo) - kd/pi: what a non-specular BSDF adds to its Lambertian kd/pi (0 for
+ * PGI_LOBE_NONE). Phong: the tiled paper's lobe; GGX: the lobe plus the base's change
+ * from kd/pi. The estimators sum kd/pi over the flux once and this per photon. */
+static inline pgi__v3 pgi__lobe_eval(const pgi__lobe *l, pgi__v3 kd, pgi__v3 n, pgi__v3 wi, pgi__v3 wo) {
+    return pgi__lobe_eval_o(l, kd, n, wi, wo, pgi__lobe_one_m_eo(l, n, wo));
 }
 
 /* f(wi, wo) for a non-specular surface: kd/pi plus the lobe. No cosine. */

@@ -171,10 +171,9 @@ pgi_status pgi__scene_finalize(pgi_scene *s, const char *what) {
     return PGI_OK;
 }
 
-float pgi__scene_epsilon(const pgi_scene *s) {
-    float diag = v3_len(v3_sub(v3_load(s->bmax), v3_load(s->bmin)));
-    return fmaxf(1e-5f, 1e-5f * diag);
-}
+float pgi__scene_diagonal(const pgi_scene *s) { return v3_len(v3_sub(v3_load(s->bmax), v3_load(s->bmin))); }
+
+float pgi__scene_epsilon(const pgi_scene *s) { return fmaxf(1e-5f, 1e-5f * pgi__scene_diagonal(s)); }
 
 static int file_exists(const char *p) {
     struct stat st;

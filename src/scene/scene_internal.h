@@ -186,6 +186,8 @@ pgi_status pgi__scene_new(const char *name, pgi_scene **out);
  * emissive triangle, computes light powers, adds a default camera when none
  * was given. Returns PGI_ERR_PARSE with a message naming `what` on bad data. */
 pgi_status pgi__scene_finalize(pgi_scene *s, const char *what);
+/* Length of the scene's bounding-box diagonal. */
+float pgi__scene_diagonal(const pgi_scene *s);
 /* Ray offset used to leave a surface without hitting it again (from the
  * bounds: 1e-5 of the diagonal, at least 1e-5). */
 float pgi__scene_epsilon(const pgi_scene *s);
