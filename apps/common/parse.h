@@ -13,6 +13,17 @@
 
 #include "photongi/photongi.h"
 
+/* "uniform", "guided" or "auto" (--emission). */
+static inline int app_parse_emission(const char *s, pgi_emission *out) {
+    static const char *const names[] = {"uniform", "guided", "auto"};
+    for (int i = 0; i < 3; i++)
+        if (strcmp(s, names[i]) == 0) {
+            *out = (pgi_emission)i;
+            return 1;
+        }
+    return 0;
+}
+
 /* Integer in [lo, hi]. */
 static inline int parse_long(const char *s, long long lo, long long hi, long long *out) {
     char *end;

@@ -83,6 +83,11 @@ static const char *k_render_help =
     "                     (frame k: point k of a stratified sequence per pixel; a box filter);\n"
     "                     on = such a point for every frame; off = centres always (a\n"
     "                     progressive average then converges to point samples)\n"
+    "  --emission uniform|guided|auto   how photons leave the lights: uniform (default; the\n"
+    "                     papers'), guided = towards the light paths whose photons land where\n"
+    "                     the camera looks (a uniform pilot of 1/8 of the photons, then steered\n"
+    "                     and reweighted: unbiased), auto = guided where the pilot predicts\n"
+    "                     1.25x the photons in view, else uniform (docs/emission.md)\n"
     "  --time T           scene time in seconds for animated objects (default 0)\n"
     "  --specular ggx|phong   model of the mesh's glossy materials (MTL illum 2): ggx =\n"
     "                     microfacet plastic, phong = the papers' Blinn-Phong (default: the\n"
@@ -349,6 +354,9 @@ static int cmd_render(int argc, char **argv) {
             else if (strcmp(v, "on") == 0) d.jitter = PGI_JITTER_ON;
             else if (strcmp(v, "off") == 0) d.jitter = PGI_JITTER_OFF;
             else return cli_usage("render", "--jitter must be auto, on or off, got '%s'", v);
+        } else if (strcmp(a, "--emission") == 0) {
+            if (!app_parse_emission(v, &d.emission))
+                return cli_usage("render", "--emission must be uniform, guided or auto, got '%s'", v);
         } else if (strcmp(a, "--filter") == 0) {
             if (!parse_whole(v, 0, 16, &n))
                 return cli_usage("render", "--filter needs a radius in pixels, a whole number in 0..16, got '%s'", v);

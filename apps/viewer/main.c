@@ -42,6 +42,8 @@ static const char *k_help =
     "  --camera I         scene camera to start from (default 0)\n"
     "  --exposure X       exposure before the sRGB tone map (default: the scene's, else 1)\n"
     "  --output all|direct|indirect|counts   what to show (counts: false-colour photons per pixel)\n"
+    "  --emission uniform|guided|auto   photon emission, as 'photongi render --emission'\n"
+    "                     (default uniform; docs/emission.md)\n"
     "  --time T           scene time in seconds to start at (default 0)\n"
     "  --animate          advance the scene time (real time in a window, 1/30 s a frame headless;\n"
     "                     on by default in a window when the scene has animated objects)\n"
@@ -483,10 +485,11 @@ int main(int argc, char **argv) {
             if (app_estimator_option("photongi-view", a, argv[++i], &v.desc.est, NULL) < 0) return 2;
             continue;
         }
-        static const char *const valued[] = {"--scene",          "--estimator", "--screenshot", "--stats",  "--photons",
-                                             "--radius",         "--size",      "--scale",      "--seed",   "--threads",
-                                             "--camera",         "--exposure",  "--time",       "--frames", "--output",
-                                             "--direct-samples", "--bounces",   "--keys",       NULL};
+        static const char *const valued[] = {"--scene",   "--estimator", "--screenshot", "--stats",
+                                             "--photons", "--radius",    "--size",       "--scale",
+                                             "--seed",    "--threads",   "--camera",     "--exposure",
+                                             "--time",    "--frames",    "--output",     "--direct-samples",
+                                             "--bounces", "--keys",      "--emission",   NULL};
         int known = 0;
         for (int k = 0; valued[k]; k++) known |= strcmp(a, valued[k]) == 0;
         if (!known) return usage("unknown option '%s'", a);
@@ -502,6 +505,9 @@ int main(int argc, char **argv) {
             if (!parse_long(val, 1, 100000000, &n))
                 return usage("--photons needs a number in 1..100000000, got '%s'", val);
             v.desc.photons = (uint32_t)n;
+        } else if (strcmp(a, "--emission") == 0) {
+            if (!app_parse_emission(val, &v.desc.emission))
+                return usage("--emission must be uniform, guided or auto, got '%s'", val);
         } else if (strcmp(a, "--radius") == 0) {
             if (strcmp(val, "auto") == 0) v.desc.radius = PGI_RADIUS_AUTO;
             else if (!parse_finite_float(val, &v.desc.radius) || !(v.desc.radius > 0.f))

@@ -125,6 +125,16 @@ typedef enum pgi_jitter {
                             progressive frame k takes point k of one stratified sequence per pixel */
 } pgi_jitter;
 
+/* How photons leave the lights (docs/emission.md). */
+typedef enum pgi_emission {
+    PGI_EMISSION_UNIFORM = 0, /* default: by the lights' power and emission profiles (the papers' choice) */
+    PGI_EMISSION_GUIDED,      /* view importance: a uniform pilot of about an eighth of the photons, then
+                                 photons steered towards the light paths whose photons landed where the
+                                 camera looks, weighted so that the estimate stays unbiased */
+    PGI_EMISSION_AUTO         /* guided where the pilot predicts at least 1.25x the photons in view,
+                                 uniform elsewhere (byte-identical to PGI_EMISSION_UNIFORM then) */
+} pgi_emission;
+
 /* Limits of a render (pgi_render_desc): photons to store, image size (also the largest image
  * pgi_image_read accepts), frames of pgi_render_progressive. */
 #define PGI_MAX_PHOTONS 100000000u
@@ -173,6 +183,7 @@ typedef struct pgi_render_desc {
     int filter;               /* bilateral reconstruction filter radius in pixels on the indirect light (0 off) */
     pgi_jitter jitter;        /* sub-pixel position of the view samples; default PGI_JITTER_AUTO (resolved: a single
                            frame reports OFF, a progressive average the caller's value) */
+    pgi_emission emission;    /* photon emission; default PGI_EMISSION_UNIFORM */
     pgi_progress_fn progress; /* may be NULL; not part of the picture (progressive mode does not restart) */
     void *progress_user;      /* passed to `progress` */
 } pgi_render_desc;
@@ -215,6 +226,23 @@ typedef struct pgi_auto_radius_stats {
     const char *why; /* one line: the quantile, a clamp, the cost cap, or the fallback (static string) */
 } pgi_auto_radius_stats;
 
+/* How photons left the lights (pgi_frame_stats.emission); all zero with uniform emission. A photon
+ * is "in view" when it lands in a cell of the view grid: cells of size `cell` holding a view sample
+ * whose surface faces the same way. */
+typedef struct pgi_emission_stats {
+    int guided;             /* 1: the guide steered the photons after the pilot (0: auto kept uniform) */
+    int bins;               /* the guide's bins */
+    uint64_t pilot_paths;   /* uniform paths traced to build the guide; their photons were dropped (0 when
+                               the guide did not steer: the pilot's photons were kept) */
+    double gain;            /* predicted photons in view per stored photon, steered over uniform */
+    double in_view;         /* fraction of the photons of this frame's paths (the steered ones: not the pilot's
+                               when it was dropped) that landed in view; measured over every path traced */
+    double in_view_uniform; /* the same for uniform emission (from the pilot and the bins) */
+    size_t cells;           /* cells the camera sees */
+    float cell;             /* their size, scene units */
+    double grid_ms;         /* building the view grid */
+} pgi_emission_stats;
+
 typedef struct pgi_frame_stats {
     const char *estimator;
     int width, height, threads;
@@ -246,6 +274,7 @@ typedef struct pgi_frame_stats {
     uint64_t footprint_hist[PGI_FOOTPRINT_BINS]; /* see PGI_FOOTPRINT_BINS */
     pgi_auto_radius_stats auto_radius;           /* how `radius` was chosen, when it was */
     double radius_ms;                            /* choosing it (0 when given) */
+    pgi_emission_stats emission;                 /* guided photon emission, when asked for */
 } pgi_frame_stats;
 
 /* Renders one frame into `out` (free with pgi_image_free). Pass a zeroed

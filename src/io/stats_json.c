@@ -116,6 +116,26 @@ static cJSON *build(const pgi_frame_stats *st) {
     ok &= cJSON_AddStringToObject(root, "jitter",
                                   st->settings.jitter >= 0 && st->settings.jitter < 3 ? jitters[st->settings.jitter]
                                                                                       : "?") != NULL;
+    static const char *const emissions[] = {"uniform", "guided", "auto"};
+    ok &= cJSON_AddStringToObject(root, "emission",
+                                  st->settings.emission >= 0 && st->settings.emission < 3
+                                      ? emissions[st->settings.emission]
+                                      : "?") != NULL;
+    if (st->emission.bins > 0) {
+        const pgi_emission_stats *es = &st->emission;
+        ok &= (o = cJSON_AddObjectToObject(root, "emission_guide")) != NULL;
+        if (o) {
+            ok &= cJSON_AddBoolToObject(o, "guided", es->guided) != NULL;
+            ok &= add_num(o, "bins", es->bins);
+            ok &= add_num(o, "pilot_paths", (double)es->pilot_paths);
+            ok &= add_num(o, "gain", es->gain);
+            ok &= add_num(o, "in_view", es->in_view);
+            ok &= add_num(o, "in_view_uniform", es->in_view_uniform);
+            ok &= add_num(o, "cells", (double)es->cells);
+            ok &= add_num(o, "cell", float_as_double(es->cell));
+            ok &= add_num(o, "grid_ms", es->grid_ms);
+        }
+    }
     if (st->leaf_size > 0) ok &= add_num(root, "bvh_leaf_size", (double)st->leaf_size);
     if (st->footprint_bin_width > 0.f) {
         /* BVH paper Table 3: counts of footprint radii in [k, k+1) * bin_width, the last bin open */

@@ -18,6 +18,11 @@ typedef struct pgi__trace_desc {
        batch and after each one, on the calling thread (outside the parallel regions) */
     void (*progress)(void *ctx, uint64_t stored, uint64_t wanted);
     void *progress_ctx;
+    /* view-importance emission (guide.h): NULL = uniform. A uniform pilot batch, then batches
+       steered by the guide whenever it predicts at least `min_gain` times the photons in view */
+    struct pgi__guide *guide;
+    const struct pgi__view_grid *vgrid;
+    double min_gain;
 } pgi__trace_desc;
 
 /* Fills `ph` (capacity >= photons) with exactly `photons` photons, unless the
@@ -35,11 +40,15 @@ struct chunk_info;
 typedef struct pgi__trace_scratch {
     struct pgi__trace_tbuf *tbuf;
     int nthreads;
-    uint8_t *counts;                   /* photons of each path of the batch */
+    uint8_t *counts;    /* photons of each path of the batch */
+    uint16_t *path_bin; /* guided emission: the guide's bin of each path of the batch */
+    uint16_t *ph_bin;   /* ... and of each photon stored */
+    size_t ph_bin_cap;
     struct chunk_info *chunks;         /* where each chunk's photons are */
     size_t cap;                        /* paths */
     double prior_paths, prior_photons; /* the last frame's traced paths and their photons */
-    uint64_t paths_traced;             /* out: paths traced by the last call (emitted + discarded) */
+    uint64_t paths_traced;             /* out: paths traced by the last call (emitted + discarded + pilot) */
+    uint64_t paths_pilot;              /* out: guided emission's uniform pilot, whose photons were dropped */
 } pgi__trace_scratch;
 void pgi__trace_scratch_free(pgi__trace_scratch *sc);
 /* Bytes the scratch holds. */

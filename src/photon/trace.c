@@ -8,6 +8,7 @@
 #include <omp.h>
 #include <string.h>
 
+#include "guide.h"
 #include "radius.h"
 #include "scene/bsdf.h"
 
@@ -54,6 +55,10 @@ typedef struct tracer {
     pgi__fp_params fp; /* radius policy */
     int fp_track;      /* a radius policy follows the paths (the hooks are no-ops otherwise) */
     int fp_on;         /* footprints are stored */
+    /* view-importance emission (guide.h): NULL, or the guide; sampling from it when G->on, else
+       uniform with its evidence counted (vg: the cells the camera sees) */
+    const pgi__guide *G;
+    const pgi__view_grid *vg;
 } tracer;
 
 typedef struct lane {
@@ -63,19 +68,58 @@ typedef struct lane {
     pgi__hit h;
     int b;    /* bounce: the hit of this ray is the path's (b+1)-th */
     int path; /* path within the chunk; -1: idle */
+    int bin;  /* the guide's bin of its emission */
 } lane;
 
 /* Starts path `index` in `l` (emission from a light picked by power). Flux is power / pick
- * probability (divided by the paths later). Returns 0 when the path carries nothing. */
-static int start_path(const tracer *T, uint64_t index, lane *l) {
+ * probability (divided by the paths later; with a guide, weighted by its bin's mixture weight
+ * then). Returns 0 when the path carries nothing. `cnt`: the thread's guide counters (paths of
+ * each bin). */
+static int start_path(const tracer *T, uint64_t index, lane *l, uint32_t *cnt) {
     pgi_rng_seed(&l->rng, T->seed, index);
-    float ul = pgi_rng_f(&l->rng);
+    const pgi__guide *G = T->G;
+    const int steer = G && G->on;
+    float ul, a = 0.f, b = 0.f, u1, u2, u3 = 0.f, u4 = 0.f;
+    if (steer) {
+        /* a bin of the guide, then the light pick and the steered pair inside it */
+        float ub = pgi_rng_f(&l->rng), r0 = pgi_rng_f(&l->rng), r1 = pgi_rng_f(&l->rng), r2 = pgi_rng_f(&l->rng);
+        l->bin = pgi__guide_sample(G, ub, r0, r1, r2, &ul, &a, &b);
+    } else {
+        ul = pgi_rng_f(&l->rng);
+    }
     float pl;
     const size_t li = pgi__cdf_pick(T->cdf, T->nl, ul, &pl);
     const pgi__light *L = li < T->s->nlights ? &T->s->lights[li] : &T->s->env->light; /* the last: the sky */
     if (!(pl > 0.f)) return 0;
     l->flux = v3_scale(v3_load(L->power), 1.f / pl);
-    float u1 = pgi_rng_f(&l->rng), u2 = pgi_rng_f(&l->rng);
+    /* The steered pair: an area light's direction and the sky's disk point (its 3rd and 4th
+     * numbers), the first two of the others. Uniform emission draws in the historical order:
+     * an area light's azimuth first (the order gcc gave the two draws when they were arguments
+     * of one call; explicit now, so that every compiler draws the same). */
+    const int late = L->type == PGI_LIGHT_AREA || L->type == PGI_LIGHT_ENV;
+    if (steer) {
+        if (late) {
+            u3 = a;
+            u4 = b;
+            u1 = pgi_rng_f(&l->rng);
+            u2 = pgi_rng_f(&l->rng);
+        } else {
+            u1 = a;
+            u2 = b;
+        }
+    } else {
+        u1 = pgi_rng_f(&l->rng);
+        u2 = pgi_rng_f(&l->rng);
+        if (L->type == PGI_LIGHT_AREA) {
+            u4 = pgi_rng_f(&l->rng);
+            u3 = pgi_rng_f(&l->rng);
+        } else if (L->type == PGI_LIGHT_ENV) {
+            u3 = pgi_rng_f(&l->rng);
+            u4 = pgi_rng_f(&l->rng);
+        }
+        if (G) l->bin = late ? pgi__guide_bin(G, ul, u3, u4) : pgi__guide_bin(G, ul, u1, u2);
+    }
+    if (G) cnt[l->bin]++;
     switch (L->type) {
     case PGI_LIGHT_POINT:
         l->o = v3_load(L->pos);
@@ -100,7 +144,6 @@ static int start_path(const tracer *T, uint64_t index, lane *l) {
         pgi__v3 w = pgi__env_sample(T->s->env, u1, u2, &pdf);
         if (!(pdf > 0.f)) return 0;
         l->flux = v3_scale(pgi__env_eval(T->s->env, w), PGI_PI * T->radius * T->radius / (pdf * pl));
-        float u3 = pgi_rng_f(&l->rng), u4 = pgi_rng_f(&l->rng);
         l->d = v3_neg(w);
         float r = T->radius * sqrtf(u3), phi = 2.f * PGI_PI * u4;
         pgi__v3 disk = pgi_to_world(v3(r * cosf(phi), r * sinf(phi), 0.f), l->d);
@@ -111,9 +154,6 @@ static int start_path(const tracer *T, uint64_t index, lane *l) {
     default: {
         pgi__v3 n = v3_load(L->normal);
         l->o = v3_madd(pgi__triangle_sample(T->s, L->tri, u1, u2), n, T->eps);
-        /* The azimuth is drawn first (the order gcc gave the two draws when they were
-         * arguments of one call; explicit now, so that every compiler draws the same). */
-        float u4 = pgi_rng_f(&l->rng), u3 = pgi_rng_f(&l->rng);
         l->d = pgi_to_world(pgi_sample_cosine(u3, u4), n);
         break;
     }
@@ -150,7 +190,8 @@ static int record(pgi__trace_tbuf *tb, int fp_on, int path, pgi__v3 p, pgi__v3 w
 
 /* Traces paths [p0, p1) of the frame (one chunk) a wave at a time; their photons go to
  * tb->out in path order, cnt[i - p0] gets path i's count. Returns 0 when out of memory. */
-static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbuf *tb, uint8_t *cnt, uint64_t *rays) {
+static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbuf *tb, uint8_t *cnt, uint64_t *rays,
+                       uint32_t *gcnt, uint16_t *pbin) {
     const pgi_scene *s = T->s;
     const int n = (int)(p1 - p0);
     memset(cnt, 0, (size_t)n);
@@ -165,8 +206,9 @@ static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbu
             if (L[k].path >= 0) continue;
             while (next < n) {
                 int pi = next++;
-                if (start_path(T, p0 + (uint64_t)pi, &L[k])) {
+                if (start_path(T, p0 + (uint64_t)pi, &L[k], gcnt)) {
                     L[k].path = pi;
+                    if (pbin) pbin[pi] = (uint16_t)L[k].bin;
                     active++;
                     break;
                 }
@@ -230,6 +272,10 @@ static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbu
                     if (T->fp_on) pgi__fp_store(&l->pd, &T->fp, ng, &fp);
                     if (!record(tb, T->fp_on, l->path, p, wi, l->flux, ng, &fp)) ok = 0;
                     cnt[l->path]++;
+                    if (T->G) {
+                        gcnt[T->G->nbins + l->bin]++;
+                        if (pgi__view_grid_has(T->vg, p, ng)) gcnt[2 * T->G->nbins + l->bin]++;
+                    }
                 }
                 if (l->b < T->bounces && ok) {
                     pgi__surface_texture(s, &sf);
@@ -299,18 +345,31 @@ void pgi__trace_scratch_free(pgi__trace_scratch *sc) {
     free(sc->tbuf);
     free(sc->counts);
     free(sc->chunks);
+    free(sc->path_bin);
+    free(sc->ph_bin);
     memset(sc, 0, sizeof *sc);
 }
 
 size_t pgi__trace_scratch_bytes(const pgi__trace_scratch *sc) {
-    size_t b =
-        sc->cap * sizeof(uint8_t) + sc->cap / CHUNK * sizeof(chunk_info) + (size_t)sc->nthreads * sizeof *sc->tbuf;
+    size_t b = sc->cap * (sizeof(uint8_t) + sizeof(uint16_t)) + sc->cap / CHUNK * sizeof(chunk_info) +
+               (size_t)sc->nthreads * sizeof *sc->tbuf + sc->ph_bin_cap * sizeof(uint16_t);
     for (int t = 0; t < sc->nthreads; t++) {
         const pgi__trace_tbuf *tb = &sc->tbuf[t];
         b += tb->rec_cap * (sizeof(stored_photon) + sizeof(uint16_t) + (tb->rec_fp ? sizeof(pgi__footprint) : 0));
         b += tb->out_cap * (sizeof(stored_photon) + (tb->out_fp ? sizeof(pgi__footprint) : 0));
     }
     return b;
+}
+
+/* Guided emission: a bin a path of the batch (sized with the batch) and a bin a photon. */
+static pgi_status guide_reserve(pgi__trace_scratch *sc, size_t photons) {
+    if (photons > sc->ph_bin_cap) {
+        uint16_t *b = realloc(sc->ph_bin, photons * sizeof *b);
+        if (!b) return pgi__fail(PGI_ERR_OOM, "out of memory for %zu photons' emission bins", photons);
+        sc->ph_bin = b;
+        sc->ph_bin_cap = photons;
+    }
+    return PGI_OK;
 }
 
 /* Scratch for a batch of `paths` paths on `nt` threads. */
@@ -328,7 +387,9 @@ static pgi_status scratch_reserve(pgi__trace_scratch *sc, size_t paths, int nt) 
         if (c) sc->counts = c;
         chunk_info *ci = realloc(sc->chunks, nch * sizeof *ci);
         if (ci) sc->chunks = ci;
-        if (!c || !ci) return pgi__fail(PGI_ERR_OOM, "out of memory tracing photons (%zu paths a batch)", paths);
+        uint16_t *pb = realloc(sc->path_bin, nch * CHUNK * sizeof *pb);
+        if (pb) sc->path_bin = pb;
+        if (!c || !ci || !pb) return pgi__fail(PGI_ERR_OOM, "out of memory tracing photons (%zu paths a batch)", paths);
         sc->cap = nch * CHUNK;
     }
     return PGI_OK;
@@ -373,19 +434,42 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
                 0.5f * pgi__scene_diagonal(s),
                 {0},
                 0,
-                0};
+                0,
+                NULL,
+                NULL};
+    const int nt = pgi__threads(d->threads);
+    if (d->guide) {
+        if (!d->vgrid) {
+            free(cdf);
+            return pgi__fail(PGI_ERR_INVALID_ARG, "%s", "guided emission needs the view grid");
+        }
+        pgi_status gs = pgi__guide_init(d->guide, cdf, nl, nt);
+        if (gs) {
+            free(cdf);
+            return gs;
+        }
+        T.G = d->guide;
+        T.vg = d->vgrid;
+    }
     pgi__fp_params_init(&T.fp, d->radius_policy, d->r_min, d->r_max, d->smoothing, d->photons, 2.f * T.radius);
     T.fp_track = d->radius_policy != PGI_RADIUS_FIXED;
     T.fp_on = T.fp_track && ph->radius;
     const float bin_w = d->r_max / 14.f;
-    const int nt = pgi__threads(d->threads);
     uint64_t path = 0, traced = 0, rays = 0;
     const uint64_t max_paths = 64ull * d->photons + (1u << 20);
     const size_t want = d->photons;
     /* Photons per path, observed: the last frame's counts seed this frame's, so that each
      * batch traces about the paths still needed and few are thrown away. */
     double seen_paths = sc->prior_paths, seen_photons = sc->prior_photons;
+    double frame_paths = 0, frame_photons = 0;
+    uint64_t pilot_paths = 0; /* guided emission: paths of the uniform pilot, dropped */
+    int guide_done = 0;       /* the pilot has decided */
+    double pilot_stored = 0, pilot_useful = 0;
     pgi_status st = PGI_OK;
+    if (d->guide && (st = guide_reserve(sc, want))) {
+        free(cdf);
+        return st;
+    }
     while (ph->count < want && path < max_paths) {
         if (d->progress) d->progress(d->progress_ctx, ph->count, want);
         size_t remaining = want - ph->count;
@@ -401,6 +485,13 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
              * below: an extra small batch costs less than paths traced for nothing. */
             double y = seen_photons / seen_paths * (1.0 + 3.0 / sqrt(seen_photons));
             batch = (size_t)((double)remaining / y) + 1;
+        }
+        if (d->guide && frame_paths == 0) {
+            /* guided emission: a uniform pilot of about an eighth of the photons; its evidence
+               steers the batches after it */
+            double y = seen_photons >= 64.0 ? seen_photons / seen_paths : 1.0;
+            batch = (size_t)((double)want / 8.0 / y) + 64;
+            if (batch < 4 * CHUNK) batch = 4 * CHUNK;
         }
         if (batch < 64) batch = 64;
         if (batch > (1u << 20)) batch = 1u << 20;
@@ -424,7 +515,10 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
             int f;
 #pragma omp atomic read
             f = failed;
-            if (!f) ok = trace_chunk(&T, p0, p1, tb, sc->counts + (size_t)c * CHUNK, &r);
+            uint32_t *gc = T.G ? d->guide->tcount + (size_t)tid * 3 * (size_t)d->guide->nbins : NULL;
+            if (!f)
+                ok = trace_chunk(&T, p0, p1, tb, sc->counts + (size_t)c * CHUNK, &r, gc,
+                                 T.G ? sc->path_bin + (size_t)c * CHUNK : NULL);
             if (!ok) {
 #pragma omp atomic write
                 failed = 1;
@@ -473,6 +567,13 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
         for (long long k = 0; k < used_chunks; k++) {
             const chunk_info *ci = &sc->chunks[k];
             const pgi__trace_tbuf *tb = &sc->tbuf[ci->tid];
+            if (T.G) { /* each photon's bin, from its path's */
+                const uint8_t *cn = sc->counts + (size_t)k * CHUNK;
+                size_t q = 0;
+                for (int i = 0; q < ci->count; i++)
+                    for (int m = 0; m < cn[i] && q < ci->count; m++)
+                        sc->ph_bin[dst[k] + q++] = sc->path_bin[k * CHUNK + i];
+            }
             for (size_t q = 0; q < ci->count; q++) {
                 const stored_photon *sp = &tb->out[ci->off + q];
                 size_t j = dst[k] + q;
@@ -518,8 +619,31 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
         for (size_t i = 0; i < batch; i++) batch_photons += sc->counts[i];
         seen_paths += (double)batch;
         seen_photons += (double)batch_photons;
+        frame_paths += (double)batch;
+        frame_photons += (double)batch_photons;
         ph->count += produced;
         path += used_paths;
+        if (d->guide) {
+            pgi__guide_collect(d->guide);
+            if (!guide_done && pilot_paths == 0) { /* the pilot's evidence builds q, once */
+                pilot_paths = path;
+                pgi__guide_totals(d->guide, &pilot_stored, &pilot_useful);
+                pgi__guide_update(d->guide, d->min_gain);
+                if (d->guide->on) {
+                    /* The pilot's photons go: weighted by a q built from themselves they would
+                       be biased (a lucky bin lowers its own weight), and with their uniform
+                       weight they would stand out as bright disks among the steered ones. */
+                    ph->count = 0;
+                    /* steering changes the yield: size the next batch by the guide's prediction */
+                    seen_paths = 1024.0;
+                    seen_photons = 1024.0 * d->guide->yield;
+                } else {
+                    pilot_paths = 0; /* uniform after all: the pilot's photons stay */
+                    pilot_stored = pilot_useful = 0;
+                    guide_done = 1;
+                }
+            }
+        }
     }
     free(cdf);
     *rays_out = rays;
@@ -528,9 +652,35 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
     if (d->progress) d->progress(d->progress_ctx, ph->count, want);
     /* This frame's counts seed the next frame's batches (a moved light changes the yield: a
      * frame's worth of evidence is enough to forget the older ones). */
-    sc->prior_paths = seen_paths - sc->prior_paths;
-    sc->prior_photons = seen_photons - sc->prior_photons;
+    sc->prior_paths = frame_paths;
+    sc->prior_photons = frame_photons;
+    sc->paths_pilot = pilot_paths;
+    if (d->guide) {
+        double S, U;
+        pgi__guide_totals(d->guide, &S, &U);
+        d->guide->in_view = S > pilot_stored ? (U - pilot_useful) / (S - pilot_stored) : 0.0;
+    }
+    path -= pilot_paths;
     ph->emitted = path;
+    if (pilot_paths > 0 && path > 0) {
+        /* steered paths: weight V_b / q_b (guide.h), over the paths */
+        const pgi__guide *g = d->guide;
+        const int per = PGI__GUIDE_RES * PGI__GUIDE_RES;
+        float *w = malloc((size_t)g->nbins * sizeof *w);
+        if (!w) return pgi__fail(PGI_ERR_OOM, "%s", "out of memory for the emission weights");
+        for (int b = 0; b < g->nbins; b++) {
+            const double V = (double)(g->gb[b / per + 1] - g->gb[b / per]) / per;
+            w[b] = g->q[b] > 0 ? (float)(V / g->q[b] / (double)path) : 0.f;
+        }
+        for (size_t j = 0; j < ph->count; j++) {
+            const float f = w[sc->ph_bin[j]];
+            ph->fr[j] *= f;
+            ph->fg[j] *= f;
+            ph->fb[j] *= f;
+        }
+        free(w);
+        return PGI_OK;
+    }
     if (path > 0) {
         const float inv = (float)(1.0 / (double)path);
         for (size_t j = 0; j < ph->count; j++) {

@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "photon/auto_radius.h"
+#include "photon/guide.h"
 #include "photon/photon.h"
 #include "pipeline/pipeline.h"
 #include "view/view.h"
@@ -27,6 +28,9 @@ struct pgi_renderer {
     float *fp_buf;
     size_t fp_cap;
     double scene_area; /* total triangle area, for the bvh's T_auto */
+    /* guided emission: the guide's tables and the cells the camera sees (kept between frames) */
+    pgi__guide guide;
+    pgi__view_grid vgrid;
 };
 
 const pgi_scene *pgi_renderer_scene(const pgi_renderer *r) { return r ? r->scene : NULL; }
@@ -59,6 +63,8 @@ void pgi_renderer_destroy(pgi_renderer *r) {
     pgi__afree(r->indirect);
     pgi_estimator_destroy(r->est);
     pgi__afree(r->fp_buf);
+    pgi__guide_free(&r->guide);
+    pgi__view_grid_free(&r->vgrid);
     free(r);
 }
 
@@ -161,6 +167,8 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
     if (d->jitter < PGI_JITTER_AUTO || d->jitter > PGI_JITTER_ON)
         return pgi__fail(PGI_ERR_INVALID_ARG, "unknown jitter mode %d", (int)d->jitter);
     if (d->jitter == PGI_JITTER_AUTO) d->jitter = PGI_JITTER_OFF; /* one frame: pixel centres */
+    if (d->emission < PGI_EMISSION_UNIFORM || d->emission > PGI_EMISSION_AUTO)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "unknown emission mode %d", (int)d->emission);
     if (d->filter < 0 || d->filter > 16)
         return pgi__fail(PGI_ERR_INVALID_ARG, "filter radius %d is out of range (0..16 pixels)", d->filter);
     return PGI_OK;
@@ -282,6 +290,20 @@ static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, uint64_t se
         td.progress = report_trace;
         td.progress_ctx = (void *)pc;
     }
+    if (d->emission != PGI_EMISSION_UNIFORM) {
+        /* the cells the camera sees: the radius when it is known now, else 1/256 of the diagonal */
+        const float diag = pgi__scene_diagonal(s);
+        float h = d->radius > 0.f ? d->radius : diag / 256.f;
+        h = fminf(fmaxf(h, diag / 4096.f), diag / 32.f);
+        double tg = pgi__now_ms();
+        if ((st = pgi__view_grid_build(&r->vgrid, &r->vs, s->bmin, h))) return st;
+        fs->emission.grid_ms = pgi__now_ms() - tg;
+        fs->emission.cells = r->vgrid.count;
+        fs->emission.cell = h;
+        td.guide = &r->guide;
+        td.vgrid = &r->vgrid;
+        td.min_gain = d->emission == PGI_EMISSION_AUTO ? 1.25 : 0.0;
+    }
     pgi__rt_capture_pass(r->rt, PGI__PASS_TRACE);
     st = pgi__photons_trace(s, r->rt, &td, &r->ph, &r->trace_scratch, &fs->photon_rays);
     pgi__rt_capture_pass(r->rt, PGI__PASS_NONE);
@@ -290,8 +312,17 @@ static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, uint64_t se
     fs->trace_ms = pgi__now_ms() - t1;
     fs->photons_emitted = r->ph.emitted;
     fs->photons_stored = r->ph.count;
-    fs->photon_paths_discarded = r->trace_scratch.paths_traced - r->ph.emitted;
+    fs->photon_paths_discarded = r->trace_scratch.paths_traced - r->ph.emitted - r->trace_scratch.paths_pilot;
+    fs->emission.pilot_paths = r->trace_scratch.paths_pilot;
     if (d->radius_policy != PGI_RADIUS_FIXED) fs->footprint_bin_width = d->r_max / 14.f;
+    if (td.guide) {
+        const pgi__guide *g = td.guide;
+        fs->emission.guided = g->on;
+        fs->emission.bins = g->nbins;
+        fs->emission.gain = g->gain;
+        fs->emission.in_view = g->in_view;
+        fs->emission.in_view_uniform = g->useful_uniform;
+    }
     return PGI_OK;
 }
 

@@ -1,14 +1,14 @@
 /* Built-in scenes that need no files: the Cornell box (default), the Cornell
  * box with mirrors and glass, the GIRefScene and sphere_and_plane of the Cal
- * Poly project (papers/004), a cut-out test scene (a lattice mask), and a room lit by the sky
- * through a window. */
+ * Poly project (papers/004), a cut-out test scene (a lattice mask), a room lit by the sky
+ * through a window, and a room lit only through a doorway from a bright second room. */
 #include <stdio.h>
 #include <string.h>
 
 #include "scene_internal.h"
 
-const char *const pgi__builtin_names[] = {"cornell", "cornell-mirrors", "giref", "sphere-and-plane",
-                                          "cutout",  "window-box",      NULL};
+const char *const pgi__builtin_names[] = {"cornell", "cornell-mirrors", "giref",     "sphere-and-plane",
+                                          "cutout",  "window-box",      "two-rooms", NULL};
 
 typedef struct {
     pgi_scene *s;
@@ -345,6 +345,37 @@ static void build_window_box(builder *b) {
     b->s->defaults = (pgi_scene_defaults){200000, 0.03f, 4, 512, 384, 2.f};
 }
 
+/* two-rooms: two closed rooms side by side, y in [0, 2.5], z in [-2, 2]: a bright one, x in
+ * [-4, 0], with an area light under its ceiling (x in [-2.6, -1.4], z in [-0.5, 0.5]), and a
+ * dark one, x in [0, 4], lit only through a doorway in the shared wall (z in [-0.45, 0.45], y
+ * below 1.9). The camera stands in the dark room by the doorway's wall and looks into it, away
+ * from the light: what it sees is lit by the few photons that find the doorway (the test scene
+ * of view-importance emission, docs/emission.md). Zero-thickness Lambertian walls. */
+static void build_two_rooms(builder *b) {
+    uint32_t mw = add_mat(b, "white", PGI_MAT_LAMBERT, v3(0.75f, 0.75f, 0.75f));
+    uint32_t mf = add_mat(b, "floor", PGI_MAT_LAMBERT, v3(0.6f, 0.5f, 0.4f));
+    uint32_t mr = add_mat(b, "red", PGI_MAT_LAMBERT, v3(0.63f, 0.065f, 0.05f));
+    uint32_t mg = add_mat(b, "green", PGI_MAT_LAMBERT, v3(0.14f, 0.45f, 0.091f));
+    uint32_t mb = add_mat(b, "block", PGI_MAT_LAMBERT, v3(0.5f, 0.6f, 0.7f));
+    uint32_t ml = add_mat(b, "light", PGI_MAT_LAMBERT, v3(0.78f, 0.78f, 0.78f));
+    if (!b->st) v3_store(b->s->mats[ml].ke, v3(40.f, 36.f, 30.f));
+    add_quad(b, v3(-4, 0, -2), v3(-4, 0, 2), v3(4, 0, 2), v3(4, 0, -2), mf);             /* floor */
+    add_quad(b, v3(-4, 2.5f, -2), v3(4, 2.5f, -2), v3(4, 2.5f, 2), v3(-4, 2.5f, 2), mw); /* ceiling */
+    add_quad(b, v3(-4, 0, -2), v3(4, 0, -2), v3(4, 2.5f, -2), v3(-4, 2.5f, -2), mw);     /* back (-z) */
+    add_quad(b, v3(-4, 0, 2), v3(-4, 2.5f, 2), v3(4, 2.5f, 2), v3(4, 0, 2), mw);         /* front (+z) */
+    add_quad(b, v3(-4, 0, -2), v3(-4, 2.5f, -2), v3(-4, 2.5f, 2), v3(-4, 0, 2), mr);     /* bright room's end */
+    add_quad(b, v3(4, 0, -2), v3(4, 0, 2), v3(4, 2.5f, 2), v3(4, 2.5f, -2), mg);         /* dark room's end */
+    /* the shared wall x = 0 (ea = +z, eb = +y) with the doorway */
+    add_wall_with_hole(b, v3(0, 0, 0), v3(0, 0, 1), v3(0, 1, 0), (const float[2]){-2.f, 2.f},
+                       (const float[2]){0.f, 2.5f}, (const float[2]){-0.45f, 0.45f}, (const float[2]){0.f, 1.9f}, mw);
+    add_quad(b, v3(-2.6f, 2.49f, -0.5f), v3(-1.4f, 2.49f, -0.5f), v3(-1.4f, 2.49f, 0.5f), v3(-2.6f, 2.49f, 0.5f),
+             ml);                                                 /* light, facing down */
+    add_box(b, 2.4f, 0.f, -0.8f, v3(0.4f, 0.5f, 0.4f), 25.f, mb); /* a block in the dark room */
+    add_box(b, -2.f, 0.f, 1.f, v3(0.4f, 0.4f, 0.4f), -15.f, mw);  /* and one in the bright room */
+    set_camera(b, v3(1.f, 1.3f, 1.8f), v3(3.2f, 0.7f, -1.2f), 60.f);
+    b->s->defaults = (pgi_scene_defaults){200000, 0.f, 4, 640, 360, 1.f};
+}
+
 pgi_status pgi__scene_builtin(const char *name, pgi_scene **out) {
     *out = NULL;
     void (*fn)(builder *) = NULL;
@@ -354,6 +385,7 @@ pgi_status pgi__scene_builtin(const char *name, pgi_scene **out) {
     else if (strcmp(name, "sphere-and-plane") == 0) fn = build_sphere_and_plane;
     else if (strcmp(name, "cutout") == 0) fn = build_cutout;
     else if (strcmp(name, "window-box") == 0) fn = build_window_box;
+    else if (strcmp(name, "two-rooms") == 0) fn = build_two_rooms;
     if (!fn) return pgi__fail(PGI_ERR_INVALID_ARG, "no built-in scene named '%s'", name);
     builder b = {0};
     pgi_status st = pgi__scene_new(name, &b.s);

@@ -1,0 +1,181 @@
+/* View-importance photon emission: the guide's tables and the cells the camera sees (guide.h). */
+#include "guide.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "core/core.h"
+
+/* ------------------------------------------------------------- view grid */
+
+static int grid_insert(pgi__view_grid *g, uint64_t k) {
+    for (size_t i = pgi__view_grid_hash(k) & g->mask;; i = (i + 1) & g->mask) {
+        if (g->keys[i] == k) return 0;
+        if (g->keys[i] == 0) {
+            g->keys[i] = k;
+            g->count++;
+            return 1;
+        }
+    }
+}
+
+static int grid_grow(pgi__view_grid *g) {
+    size_t cap = 2 * (g->mask + 1);
+    uint64_t *old = g->keys, *nk = calloc(cap, sizeof *nk);
+    if (!nk) return 0;
+    size_t n = g->mask + 1;
+    g->keys = nk;
+    g->mask = cap - 1;
+    g->count = 0;
+    for (size_t i = 0; i < n; i++)
+        if (old[i]) grid_insert(g, old[i]);
+    free(old);
+    return 1;
+}
+
+pgi_status pgi__view_grid_build(pgi__view_grid *g, const pgi_view_samples *vs, const float bmin[3], float h) {
+    if (!(h > 0.f)) return pgi__fail(PGI_ERR_INVALID_ARG, "view grid cell %g is not positive", (double)h);
+    /* keep the allocation between frames; start empty */
+    if (!g->keys) {
+        g->keys = calloc(1u << 16, sizeof *g->keys);
+        if (!g->keys) return pgi__fail(PGI_ERR_OOM, "%s", "out of memory for the view grid");
+        g->mask = (1u << 16) - 1;
+    } else {
+        memset(g->keys, 0, (g->mask + 1) * sizeof *g->keys);
+    }
+    g->count = 0;
+    g->h = h;
+    g->inv_h = 1.f / h;
+    memcpy(g->origin, bmin, sizeof g->origin);
+    uint64_t last = 0;
+    for (size_t i = 0; i < vs->count; i++) {
+        if (!(vs->flags[i] & PGI_VS_VALID)) continue;
+        uint64_t k = pgi__view_grid_key(g, v3_load(vs->pos + 3 * i), v3_load(vs->ngeo + 3 * i));
+        if (k == last) continue; /* neighbouring pixels mostly share a cell */
+        last = k;
+        if (2 * (g->count + 1) > g->mask + 1 && !grid_grow(g))
+            return pgi__fail(PGI_ERR_OOM, "%s", "out of memory for the view grid");
+        grid_insert(g, k);
+    }
+    return PGI_OK;
+}
+
+void pgi__view_grid_free(pgi__view_grid *g) {
+    free(g->keys);
+    memset(g, 0, sizeof *g);
+}
+
+/* ----------------------------------------------------------------- guide */
+
+pgi_status pgi__guide_init(pgi__guide *g, const float *light_cdf, size_t nl, int nthreads) {
+    const int groups = nl <= PGI__GUIDE_GROUPS ? (int)nl : PGI__GUIDE_GROUPS;
+    const int nbins = groups * PGI__GUIDE_RES * PGI__GUIDE_RES;
+    if (g->nbins != nbins || g->nthreads < nthreads) {
+        pgi__guide_free(g);
+        g->cdf = malloc((size_t)nbins * sizeof *g->cdf);
+        g->q = malloc((size_t)nbins * sizeof *g->q);
+        g->paths = malloc((size_t)nbins * 3 * sizeof *g->paths);
+        g->tcount = malloc((size_t)nthreads * 3 * (size_t)nbins * sizeof *g->tcount);
+        if (!g->cdf || !g->q || !g->paths || !g->tcount) {
+            pgi__guide_free(g);
+            return pgi__fail(PGI_ERR_OOM, "%s", "out of memory for the emission guide");
+        }
+        g->nbins = nbins;
+        g->nthreads = nthreads;
+    }
+    g->stored = g->paths + nbins;
+    g->useful = g->paths + 2 * nbins;
+    g->groups = groups;
+    g->gb[0] = 0.f;
+    for (int i = 1; i <= groups; i++) g->gb[i] = nl <= PGI__GUIDE_GROUPS ? light_cdf[i - 1] : (float)i / (float)groups;
+    g->gb[groups] = 1.f;
+    memset(g->paths, 0, (size_t)nbins * 3 * sizeof *g->paths);
+    memset(g->tcount, 0, (size_t)g->nthreads * 3 * (size_t)nbins * sizeof *g->tcount);
+    g->on = 0;
+    g->gain = 1.0;
+    g->useful_uniform = 0.0;
+    return PGI_OK;
+}
+
+void pgi__guide_free(pgi__guide *g) {
+    free(g->cdf);
+    free(g->q);
+    free(g->paths);
+    free(g->tcount);
+    memset(g, 0, sizeof *g);
+}
+
+void pgi__guide_totals(const pgi__guide *g, double *stored, double *useful) {
+    double s = 0, u = 0;
+    for (int b = 0; b < g->nbins; b++) {
+        s += g->stored[b];
+        u += g->useful[b];
+    }
+    *stored = s;
+    *useful = u;
+}
+
+void pgi__guide_collect(pgi__guide *g) {
+    const size_t n = (size_t)g->nbins;
+    for (int t = 0; t < g->nthreads; t++) {
+        uint32_t *c = g->tcount + (size_t)t * 3 * n;
+        for (size_t b = 0; b < 3 * n; b++) g->paths[b] += c[b]; /* paths, stored, useful are contiguous */
+        memset(c, 0, 3 * n * sizeof *c);
+    }
+}
+
+/* The uniform density's share of q: exploration, and a bound (1 / MIX) on a path's weight. Measured
+ * on two-rooms (docs/emission.md): 0.25 and 0.1 steer more photons into view but their heavier
+ * weights cost more than that gains. */
+#define MIX 0.5
+/* Prior strength, in paths: a bin with little evidence looks like the average bin (the pilot gives
+ * a bin a few dozen paths; a weaker prior lets their noise into the weights). */
+#define PRIOR 16.0
+
+void pgi__guide_update(pgi__guide *g, double min_gain) {
+    const int n = g->nbins, per = PGI__GUIDE_RES * PGI__GUIDE_RES;
+    double N = 0, S = 0, U = 0;
+    for (int b = 0; b < n; b++) {
+        N += g->paths[b];
+        S += g->stored[b];
+        U += g->useful[b];
+    }
+    g->on = 0;
+    g->gain = 1.0;
+    g->useful_uniform = S > 0 ? U / S : 0.0;
+    if (!(U >= 32.0) || !(S > U)) return; /* too little evidence, or every photon lands in view */
+    const double ebar = U / N, sbar = S / N;
+    /* expected useful and stored photons of a path from each bin, and the target t ~ V e */
+    double T = 0, ue = 0, us = 0;
+    for (int b = 0; b < n; b++) {
+        const int grp = b / per;
+        const double V = (double)(g->gb[grp + 1] - g->gb[grp]) / per;
+        const double e = (g->useful[b] + PRIOR * ebar) / (g->paths[b] + PRIOR);
+        const double s = (g->stored[b] + PRIOR * sbar) / (g->paths[b] + PRIOR);
+        g->q[b] = V;          /* V for now; q below */
+        g->cdf[b] = (float)e; /* e for now */
+        T += V * e;
+        us += V * s;
+    }
+    ue = T;
+    double acc = 0, qe = 0, qs = 0;
+    for (int b = 0; b < n; b++) {
+        const double V = g->q[b], e = g->cdf[b];
+        const double s = (g->stored[b] + PRIOR * sbar) / (g->paths[b] + PRIOR);
+        const double q = MIX * V + (1.0 - MIX) * V * e / T;
+        qe += q * e;
+        qs += q * s;
+        acc += q;
+        g->cdf[b] = (float)acc;
+        g->q[b] = q;
+    }
+    for (int b = 0; b < n; b++) {
+        g->cdf[b] = (float)(g->cdf[b] / acc);
+        g->q[b] /= acc;
+    }
+    g->cdf[n - 1] = 1.f;
+    g->useful_uniform = ue / us;
+    g->gain = (qe / qs) / (ue / us);
+    g->yield = qs / acc;
+    g->on = g->gain >= min_gain;
+}

@@ -1,0 +1,138 @@
+/* View-importance photon emission (src/photon/guide.c, --emission): on the built-in two-rooms
+ * (a room lit only through a doorway) the guided photons land in view more often than uniform
+ * ones, and their image has the same mean (the weights keep it unbiased); the photons are the
+ * same for any thread count; `auto` keeps uniform emission, byte for byte, where everything
+ * the light reaches is in view; a bad mode is refused. */
+#include <stdarg.h>
+#include <stddef.h>
+#include <setjmp.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "photongi/photongi.h"
+#include "test_util.h"
+
+static double image_mean(const pgi_image *im) {
+    double s = 0.0;
+    for (size_t i = 0; i < 3 * (size_t)im->width * (size_t)im->height; i++) s += im->rgb[i];
+    return s / (3.0 * (double)im->width * (double)im->height);
+}
+
+static pgi_render_desc two_rooms_desc(pgi_emission e, uint64_t seed) {
+    pgi_render_desc d = {0};
+    d.width = 160;
+    d.height = 90;
+    d.photons = 100000;
+    d.radius = 0.15f;
+    d.seed = seed;
+    d.output = PGI_OUTPUT_INDIRECT;
+    d.emission = e;
+    return d;
+}
+
+/* The mean indirect radiance over 12 seeds: guided within 3 % of uniform (one frame's mean varies
+ * by 3.1 % uniform, 2.4 % guided: the difference of the two means has a standard error of 1.1 %;
+ * 30 seeds of each measured +1.1 % +- 0.7 %). Weighting steered photons by a q built from their own
+ * pilot, as a first version did, came out 5 % low. The guided photons are in view about 1.4 times
+ * as often. */
+static void guided_is_unbiased_and_steers(void **state) {
+    (void)state;
+    pgi_scene *s = NULL;
+    TU_CHECK_OK(pgi_scene_load("two-rooms", &s));
+    double mean[2] = {0, 0}, in_view[2] = {0, 0}, in_view_uniform = 0;
+    const pgi_emission modes[2] = {PGI_EMISSION_UNIFORM, PGI_EMISSION_GUIDED};
+    const int seeds = 12;
+    for (int m = 0; m < 2; m++)
+        for (int k = 0; k < seeds; k++) {
+            pgi_render_desc d = two_rooms_desc(modes[m], (uint64_t)k + 1);
+            pgi_image im = {0};
+            pgi_frame_stats fs;
+            TU_CHECK_OK(pgi_render(s, &d, &im, &fs));
+            mean[m] += image_mean(&im) / seeds;
+            if (m == 1) {
+                assert_int_equal(fs.emission.guided, 1);
+                assert_true(fs.emission.pilot_paths > 0);
+                assert_int_equal(fs.photons_stored, 100000);
+                in_view[1] += fs.emission.in_view / seeds;
+                in_view_uniform += fs.emission.in_view_uniform / seeds;
+            } else {
+                assert_int_equal(fs.emission.bins, 0); /* no guide at all */
+            }
+            pgi_image_free(&im);
+        }
+    printf("mean indirect: uniform %.6f guided %.6f (%+.2f %%); in view: guided %.4f, uniform (pilot) %.4f\n",
+           mean[0], mean[1], 100.0 * (mean[1] / mean[0] - 1.0), in_view[1], in_view_uniform);
+    assert_true(fabs(mean[1] / mean[0] - 1.0) < 0.03);
+    assert_true(in_view[1] > 1.25 * in_view_uniform);
+    pgi_scene_destroy(s);
+}
+
+/* Same seed, same photons and image with 1 and 2 threads. */
+static void guided_is_deterministic(void **state) {
+    (void)state;
+    pgi_scene *s = NULL;
+    TU_CHECK_OK(pgi_scene_load("two-rooms", &s));
+    pgi_image a = {0}, b = {0};
+    pgi_render_desc d = two_rooms_desc(PGI_EMISSION_GUIDED, 7);
+    d.photons = 30000;
+    d.threads = 1;
+    TU_CHECK_OK(pgi_render(s, &d, &a, NULL));
+    d.threads = 2;
+    TU_CHECK_OK(pgi_render(s, &d, &b, NULL));
+    assert_memory_equal(a.rgb, b.rgb, 3 * sizeof(float) * (size_t)a.width * (size_t)a.height);
+    pgi_image_free(&a);
+    pgi_image_free(&b);
+    pgi_scene_destroy(s);
+}
+
+/* The Cornell box seen whole: the pilot predicts no gain, so auto keeps uniform emission and its
+ * image, byte for byte. */
+static void auto_keeps_uniform_where_all_is_in_view(void **state) {
+    (void)state;
+    pgi_scene *s = NULL;
+    TU_CHECK_OK(pgi_scene_load("cornell", &s));
+    pgi_render_desc d = {0};
+    d.width = d.height = 64;
+    d.photons = 20000;
+    d.radius = 0.1f;
+    pgi_image a = {0}, b = {0};
+    pgi_frame_stats fs;
+    TU_CHECK_OK(pgi_render(s, &d, &a, NULL));
+    d.emission = PGI_EMISSION_AUTO;
+    TU_CHECK_OK(pgi_render(s, &d, &b, &fs));
+    printf("cornell auto: guided %d, predicted gain %.3f, in view %.3f\n", fs.emission.guided, fs.emission.gain,
+           fs.emission.in_view);
+    assert_int_equal(fs.emission.guided, 0);
+    assert_true(fs.emission.bins > 0);
+    assert_memory_equal(a.rgb, b.rgb, 3 * sizeof(float) * 64 * 64);
+    pgi_image_free(&a);
+    pgi_image_free(&b);
+    pgi_scene_destroy(s);
+}
+
+static void bad_mode_is_refused(void **state) {
+    (void)state;
+    pgi_scene *s = NULL;
+    TU_CHECK_OK(pgi_scene_load("cornell", &s));
+    pgi_render_desc d = {0};
+    d.width = d.height = 16;
+    d.emission = (pgi_emission)7;
+    pgi_image im = {0};
+    assert_int_equal(pgi_render(s, &d, &im, NULL), PGI_ERR_INVALID_ARG);
+    assert_non_null(strstr(pgi_last_error(), "emission"));
+    pgi_scene_destroy(s);
+}
+
+int main(void) {
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(guided_is_unbiased_and_steers),
+        cmocka_unit_test(guided_is_deterministic),
+        cmocka_unit_test(auto_keeps_uniform_where_all_is_in_view),
+        cmocka_unit_test(bad_mode_is_refused),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
