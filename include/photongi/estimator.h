@@ -217,7 +217,7 @@ typedef struct pgi_estimator_vtbl {
     const struct pgi_option_default *defaults;
     /* About the bytes its structures and build scratch hold per photon and per view sample (a
      * little above what it reports in its stats): the memory budget's up-front check of a frame
-     * (pgi_render_desc.max_memory) uses them before anything is traced. 0: 64 each. */
+     * (pgi_render_desc.max_memory) uses them before anything is traced. Both 0: 64 each. */
     size_t bytes_per_photon, bytes_per_sample;
 } pgi_estimator_vtbl;
 

@@ -744,6 +744,9 @@ const pgi_estimator_vtbl pgi__est_cluster = {
     .destroy = cl_destroy,
     .options = k_options,
     .caps = 0,
+    /* memory budget: measured bytes of its stats per photon and per view sample, rounded up */
+    .bytes_per_photon = 192,
+    .bytes_per_sample = 128,
 };
 const pgi_estimator_vtbl pgi__est_cluster_cone = {
     .name = "cluster-cone",
@@ -756,6 +759,9 @@ const pgi_estimator_vtbl pgi__est_cluster_cone = {
     .destroy = cl_destroy,
     .options = k_options,
     .caps = 0,
+    /* memory budget: measured bytes of its stats per photon and per view sample, rounded up */
+    .bytes_per_photon = 192,
+    .bytes_per_sample = 128,
 };
 const pgi_estimator_vtbl pgi__est_cluster_trivial = {
     .name = "cluster-trivial",
@@ -768,4 +774,7 @@ const pgi_estimator_vtbl pgi__est_cluster_trivial = {
     .destroy = cl_destroy,
     .options = k_options,
     .caps = 0,
+    /* memory budget: measured bytes of its stats per photon and per view sample, rounded up */
+    .bytes_per_photon = 144,
+    .bytes_per_sample = 96,
 };

@@ -48,9 +48,10 @@ static int mem_optional(const char *name) {
 #define VIEW_SAMPLE_BYTES ((7 * 3 + 3) * sizeof(float) + sizeof(uint8_t))
 /* Bytes a pixel of the emitted, direct and indirect buffers. */
 #define FRAME_BUFFER_BYTES (3 * 3 * sizeof(float))
-/* The tracer's scratch per photon of a batch (each thread's record and path-ordered copy; measured
- * 52-60 bytes on Sibenik), and the most photons a batch stores: 2^20 paths of at most `bounces`. */
-#define TRACE_BYTES_PER_PHOTON 64
+/* The tracer's scratch per photon of a batch (each thread's record and path-ordered copy, grown by
+ * doubling: measured 49-65 bytes), for at most the photons of a batch: 2^20 paths of at most
+ * `bounces` photons each. */
+#define TRACE_BYTES_PER_PHOTON 80
 
 pgi__mem_ledger *pgi__renderer_mem(pgi_renderer *r) { return &r->mem; }
 
@@ -76,8 +77,9 @@ static pgi_status mem_plan(pgi_renderer *r, const pgi_render_desc *d, const pgi_
     const uint64_t n = (uint64_t)d->width * (uint64_t)d->height, np = d->photons;
     const uint64_t planes = d->radius_policy == PGI_RADIUS_FIXED ? 0 : d->radius_policy == PGI_RADIUS_PATH ? 1 : 7;
     const uint64_t batch = (uint64_t)d->bounces << 20, traced = np < batch ? np : batch;
-    const uint64_t per_photon = vt ? (vt->bytes_per_photon ? vt->bytes_per_photon : 64) : 0;
-    const uint64_t per_sample = vt ? (vt->bytes_per_sample ? vt->bytes_per_sample : 64) : 0;
+    const int unknown = vt && !vt->bytes_per_photon && !vt->bytes_per_sample;
+    const uint64_t per_photon = !vt ? 0 : unknown ? 64 : vt->bytes_per_photon;
+    const uint64_t per_sample = !vt ? 0 : unknown ? 64 : vt->bytes_per_sample;
     const char *est = vt ? vt->name : "estimator";
     pgi__mem_plan_item it[] = {
         {"scene", pgi__mem_get(&r->mem, "scene"), 0},
