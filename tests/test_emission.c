@@ -64,8 +64,8 @@ static void guided_is_unbiased_and_steers(void **state) {
             }
             pgi_image_free(&im);
         }
-    printf("mean indirect: uniform %.6f guided %.6f (%+.2f %%); in view: guided %.4f, uniform (pilot) %.4f\n",
-           mean[0], mean[1], 100.0 * (mean[1] / mean[0] - 1.0), in_view[1], in_view_uniform);
+    printf("mean indirect: uniform %.6f guided %.6f (%+.2f %%); in view: guided %.4f, uniform (pilot) %.4f\n", mean[0],
+           mean[1], 100.0 * (mean[1] / mean[0] - 1.0), in_view[1], in_view_uniform);
     assert_true(fabs(mean[1] / mean[0] - 1.0) < 0.03);
     assert_true(in_view[1] > 1.25 * in_view_uniform);
     pgi_scene_destroy(s);

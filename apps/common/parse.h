@@ -4,6 +4,7 @@
 #ifndef PGI_APPS_PARSE_H
 #define PGI_APPS_PARSE_H
 
+#include <ctype.h>
 #include <errno.h>
 #include <math.h>
 #include <stdint.h>
@@ -103,6 +104,35 @@ static inline int parse_pos_double(const char *s, double *out) {
     double v = strtod(s, &end);
     if (errno || end == s || *end || !(v > 0.0) || !isfinite(v)) return 0;
     *out = v;
+    return 1;
+}
+
+/* A memory size (--max-memory): a positive number with an optional binary unit K, M, G or T
+ * (1024-based; "KB", "KiB", "k" alike; none: bytes), e.g. "2G", "1.5GiB", "512M"; or "none"
+ * (PGI_MEMORY_UNLIMITED). */
+static inline int parse_bytes(const char *s, uint64_t *out) {
+    if (strcmp(s, "none") == 0) {
+        *out = PGI_MEMORY_UNLIMITED;
+        return 1;
+    }
+    char *end;
+    errno = 0;
+    double v = strtod(s, &end);
+    if (errno || end == s || !isfinite(v) || !(v > 0.0)) return 0;
+    double unit = 1.0;
+    const char *units = "KMGT";
+    const char *u = *end ? strchr(units, toupper((unsigned char)*end)) : NULL;
+    if (*end && !u) return 0;
+    if (u) {
+        for (const char *k = units; k <= u; k++) unit *= 1024.0;
+        end++;
+        if (*end == 'i' || *end == 'I') end++;
+        if (*end == 'B' || *end == 'b') end++;
+    }
+    if (*end) return 0;
+    v *= unit;
+    if (v < 1.0 || v >= 18446744073709551615.0) return 0;
+    *out = (uint64_t)v;
     return 1;
 }
 

@@ -92,7 +92,13 @@ static const char *k_render_help =
     "  --specular ggx|phong   model of the mesh's glossy materials (MTL illum 2): ggx =\n"
     "                     microfacet plastic, phong = the papers' Blinn-Phong (default: the\n"
     "                     description's \"specular\", else ggx; docs/scene-format.md)\n"
-    "  --stats FILE.json  write timings, memory, photon reads/contributing as JSON ('-' = stdout)\n"
+    "  --stats FILE.json  write timings, memory (every large allocation and the process's peak\n"
+    "                     resident set), photon reads/contributing as JSON ('-' = stdout)\n"
+    "  --max-memory SIZE|none   memory budget: a frame whose scene, BVH, photons, buffers and\n"
+    "                     estimator would need more is refused before anything is traced, naming\n"
+    "                     what does not fit; SIZE in bytes or with K, M, G, T (1024-based), e.g.\n"
+    "                     4G; none: no budget (default: the machine's physical memory, or the\n"
+    "                     cgroup's limit when lower; docs/memory.md)\n"
     "  -o, --out FILE     output image (.png or .exr); required; its folder must exist\n"
     "  -q, --quiet        print nothing but errors: no progress line (shown only on a terminal),\n"
     "                     summary, notes or warnings\n"
@@ -338,6 +344,11 @@ static int cmd_render(int argc, char **argv) {
         } else if (strcmp(a, "--time") == 0) {
             if (!parse_finite_float(v, &scene_time))
                 return cli_usage("render", "--time needs a number of seconds, got '%s'", v);
+        } else if (strcmp(a, "--max-memory") == 0) {
+            if (!parse_bytes(v, &d.max_memory))
+                return cli_usage("render",
+                                 "--max-memory needs a size (bytes, or with K, M, G, T: 4G, 512M) or none, got '%s'",
+                                 v);
         } else if (strcmp(a, "--radius-policy") == 0) {
             if (strcmp(v, "fixed") == 0) d.radius_policy = PGI_RADIUS_FIXED;
             else if (strcmp(v, "path") == 0) d.radius_policy = PGI_RADIUS_PATH;
@@ -440,6 +451,7 @@ static int cmd_render(int argc, char **argv) {
     pgi_image_free(&img);
     pgi_scene_destroy(scene);
     if (st) return cli_fail("render", "cannot write image", st);
+    fs.memory_peak_rss = pgi_memory_peak_rss(); /* writing the image included */
     if (stats_path) {
         st = pgi_stats_write_json(&fs, stats_path);
         if (st) return cli_fail("render", "cannot write stats", st);
@@ -460,6 +472,16 @@ static int cmd_render(int argc, char **argv) {
         if (fs.frames > 1)
             fprintf(stderr, "  progressive: %d frames averaged (times and counts summed), last radius %g\n", fs.frames,
                     (double)fs.radius);
+        double counted = 0.0;
+        int big = 0;
+        for (int k = 0; k < fs.memory_count; k++) {
+            counted += fs.memory_bytes[k].value;
+            if (fs.memory_bytes[k].value > fs.memory_bytes[big].value) big = k;
+        }
+        if (fs.memory_count > 0)
+            fprintf(stderr, "  memory %.1f MiB counted (largest: %s %.1f MiB), peak resident set %.1f MiB\n",
+                    counted / 1048576.0, fs.memory_bytes[big].name, fs.memory_bytes[big].value / 1048576.0,
+                    (double)fs.memory_peak_rss / 1048576.0);
         if (fs.leaf_size > 0) fprintf(stderr, "  bvh leaf-size threshold %d\n", fs.leaf_size);
         if (fs.footprint_bin_width > 0.f) {
             fprintf(stderr, "  footprint radii (before the r_max clamp):\n");

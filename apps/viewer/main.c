@@ -52,6 +52,8 @@ static const char *k_help =
     "  --window           open a window even with --frames (e.g. SDL_VIDEODRIVER=offscreen)\n"
     "  --screenshot FILE  after the last frame, save the image, no overlay (.png, or .exr: linear)\n"
     "  --stats FILE.json  write the last frame's statistics ('-' = stdout)\n"
+    "  --max-memory SIZE|none   memory budget (4G, 512M; default: the machine's memory): a frame\n"
+    "                     that would need more is refused and the previous settings kept\n"
     "                     (both paths are checked before the scene loads)\n"
     "  --keys K1,K2,...   press these keys, one before each frame (scripted demos and tests): a\n"
     "                     character, or tab, shift+tab, space, up, down, left, right, pageup,\n"
@@ -233,7 +235,10 @@ static void compose(viewer *v) {
              fst->height, 100.0 * v->scale, output_name(v->out_mode), fst->frames,
              v->accumulate ? "" : " (no accumulation)", v->time, v->animate ? "" : " (paused)",
              nl ? v->light % nl + 1 : 0, nl, nl ? g.name : "-");
-    snprintf(line[5], sizeof line[5], "H hides this; see photongi-view --help for keys");
+    double mem = 0.0;
+    for (int i = 0; i < fst->memory_count; i++) mem += fst->memory_bytes[i].value;
+    snprintf(line[5], sizeof line[5], "memory %.0f MiB counted, peak RSS %.0f MiB | H hides this; see --help for keys",
+             mem / 1048576.0, (double)fst->memory_peak_rss / 1048576.0);
     static const unsigned char yellow[3] = {255, 220, 0};
     /* Marker on the selected light (point lights are invisible otherwise). */
     if (nl && g.kind != PGI_LIGHT_KIND_SUN) {
@@ -489,7 +494,8 @@ int main(int argc, char **argv) {
                                              "--photons", "--radius",    "--size",       "--scale",
                                              "--seed",    "--threads",   "--camera",     "--exposure",
                                              "--time",    "--frames",    "--output",     "--direct-samples",
-                                             "--bounces", "--keys",      "--emission",   NULL};
+                                             "--bounces", "--keys",      "--emission",   "--max-memory",
+                                             NULL};
         int known = 0;
         for (int k = 0; valued[k]; k++) known |= strcmp(a, valued[k]) == 0;
         if (!known) return usage("unknown option '%s'", a);
@@ -501,7 +507,10 @@ int main(int argc, char **argv) {
         else if (strcmp(a, "--estimator") == 0) est = val;
         else if (strcmp(a, "--screenshot") == 0) shot = val;
         else if (strcmp(a, "--stats") == 0) stats_path = val;
-        else if (strcmp(a, "--photons") == 0) {
+        else if (strcmp(a, "--max-memory") == 0) {
+            if (!parse_bytes(val, &v.desc.max_memory))
+                return usage("--max-memory needs a size (bytes, or with K, M, G, T: 4G, 512M) or none, got '%s'", val);
+        } else if (strcmp(a, "--photons") == 0) {
             if (!parse_long(val, 1, 100000000, &n))
                 return usage("--photons needs a number in 1..100000000, got '%s'", val);
             v.desc.photons = (uint32_t)n;

@@ -184,7 +184,7 @@ typedef struct pgi_option {
  * always strict. */
 #define PGI_OPTION_STRICT 1u
 
-#define PGI_EST_MAX_ENTRIES 8
+#define PGI_EST_MAX_ENTRIES 12
 
 typedef struct pgi_estimator_stats {
     double build_ms, estimate_ms;
@@ -215,6 +215,10 @@ typedef struct pgi_estimator_vtbl {
      * the rows' defaults), e.g. tiled's 16-pixel tiles on the --tile row that bounds3d/25d
      * default to 32. */
     const struct pgi_option_default *defaults;
+    /* About the bytes its structures and build scratch hold per photon and per view sample (a
+     * little above what it reports in its stats): the memory budget's up-front check of a frame
+     * (pgi_render_desc.max_memory) uses them before anything is traced. Both 0: 64 each. */
+    size_t bytes_per_photon, bytes_per_sample;
 } pgi_estimator_vtbl;
 
 /* An estimator's default for a shared option row. */

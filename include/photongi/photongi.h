@@ -142,6 +142,9 @@ typedef enum pgi_emission {
 #define PGI_MAX_IMAGE_PIXELS (36u * 1024u * 1024u)
 #define PGI_MAX_PROGRESSIVE_FRAMES 1000000
 
+/* pgi_render_desc.max_memory: no memory budget. */
+#define PGI_MEMORY_UNLIMITED UINT64_MAX
+
 /* Progress of a render, for a progress bar (pgi_render_desc.progress). */
 typedef struct pgi_progress {
     const char *pass;     /* the pass now running: "view", "trace", "build", "estimate", "direct" */
@@ -186,6 +189,11 @@ typedef struct pgi_render_desc {
     pgi_emission emission;    /* photon emission; default PGI_EMISSION_UNIFORM */
     pgi_progress_fn progress; /* may be NULL; not part of the picture (progressive mode does not restart) */
     void *progress_user;      /* passed to `progress` */
+    uint64_t max_memory;      /* memory budget in bytes (docs/memory.md): a frame whose scene, BVH, photons, view
+                                 samples, buffers and estimator structures would need more is refused before it
+                                 allocates them (PGI_ERR_OOM naming what does not fit; a photon count before any
+                                 tracing); 0 = default: pgi_memory_default_budget(); PGI_MEMORY_UNLIMITED: none.
+                                 Not part of the picture. */
 } pgi_render_desc;
 
 typedef enum pgi_radius_policy {
@@ -205,7 +213,7 @@ typedef struct pgi_image {
     float *rgb;
 } pgi_image;
 
-#define PGI_MAX_STAT_ENTRIES 12
+#define PGI_MAX_STAT_ENTRIES 24
 
 typedef struct pgi_named_value {
     const char *name;
@@ -257,20 +265,26 @@ typedef struct pgi_frame_stats {
     /* estimator sub-passes (e.g. tiled: bounds, count, scan, copy, gather) */
     pgi_named_value passes_ms[PGI_MAX_STAT_ENTRIES];
     int pass_count;
-    /* bytes per structure (photons, view samples, estimator structures) */
+    /* Bytes held at the end of the frame by every large allocation (docs/memory.md): "scene" (geometry,
+     * materials, lights, sky), "textures", "embree_bvh" (Embree's own count), "photons", "footprints",
+     * "trace_scratch", "view_samples", "frame_buffers", "image", "progressive_sum", then the estimator's
+     * structures under its names and "estimator_scratch" (its build buffers not listed). */
     pgi_named_value memory_bytes[PGI_MAX_STAT_ENTRIES];
     int memory_count;
-    uint64_t reads;            /* photon reads by the estimator */
-    uint64_t contributing;     /* reads that passed the sphere + hemisphere test */
-    uint64_t nodes_visited;    /* cells / tiles / nodes touched */
-    int frames;                /* frames averaged into the image (progressive); 1 for a single frame */
-    int estimators_created;    /* estimators this call created (0 when the renderer reused its estimator) */
-    pgi_render_desc settings;  /* what was rendered: every default filled in (estimator options too; `view`,
+    uint64_t memory_counted_peak; /* the largest sum of those entries since the renderer was created (Embree's
+                                     build scratch included) */
+    uint64_t memory_peak_rss;     /* the process's peak resident set so far, bytes (getrusage), for comparison */
+    uint64_t reads;               /* photon reads by the estimator */
+    uint64_t contributing;        /* reads that passed the sphere + hemisphere test */
+    uint64_t nodes_visited;       /* cells / tiles / nodes touched */
+    int frames;                   /* frames averaged into the image (progressive); 1 for a single frame */
+    int estimators_created;       /* estimators this call created (0 when the renderer reused its estimator) */
+    pgi_render_desc settings;     /* what was rendered: every default filled in (estimator options too; `view`,
                                   `progress` and `progress_user` are NULL; `radius` is the first frame's) */
-    double rt_update_ms;       /* updating the ray-tracing scene after geometry moved (0 if nothing moved) */
-    int radius_policy;         /* pgi_radius_policy used */
-    int leaf_size;             /* "bvh": leaf-size threshold used */
-    float footprint_bin_width; /* 0: no per-photon footprints */
+    double rt_update_ms;          /* updating the ray-tracing scene after geometry moved (0 if nothing moved) */
+    int radius_policy;            /* pgi_radius_policy used */
+    int leaf_size;                /* "bvh": leaf-size threshold used */
+    float footprint_bin_width;    /* 0: no per-photon footprints */
     uint64_t footprint_hist[PGI_FOOTPRINT_BINS]; /* see PGI_FOOTPRINT_BINS */
     pgi_auto_radius_stats auto_radius;           /* how `radius` was chosen, when it was */
     double radius_ms;                            /* choosing it (0 when given) */
@@ -316,6 +330,11 @@ void pgi_image_free(pgi_image *img);
 pgi_status pgi_image_write(const pgi_image *img, const char *path, float exposure);
 /* Tone maps to 8-bit sRGB (3 bytes a pixel, caller-owned buffer). */
 void pgi_tonemap_srgb8(const pgi_image *img, float exposure, unsigned char *out);
+/* The process's peak resident set size so far, bytes (getrusage; 0 if unknown). */
+uint64_t pgi_memory_peak_rss(void);
+/* The memory budget a render desc with max_memory 0 gets: the machine's physical memory, or the
+ * cgroup's memory limit when lower (docs/memory.md). */
+uint64_t pgi_memory_default_budget(void);
 /* Writes the frame statistics as JSON to `path` ("-" = standard output). */
 pgi_status pgi_stats_write_json(const pgi_frame_stats *stats, const char *path);
 

@@ -580,6 +580,9 @@ const pgi_estimator_vtbl pgi__est_bounds3d = {
     .destroy = b_destroy,
     .caps = PGI_EST_CAP_KERNELS,
     .options = k_options3d,
+    /* memory budget: measured bytes of its stats per photon and per view sample, rounded up */
+    .bytes_per_photon = 24,
+    .bytes_per_sample = 8,
 };
 
 const pgi_estimator_vtbl pgi__est_bounds25d = {
@@ -593,4 +596,7 @@ const pgi_estimator_vtbl pgi__est_bounds25d = {
     .destroy = b_destroy,
     .caps = PGI_EST_CAP_KERNELS,
     .options = k_options25d,
+    /* memory budget: measured bytes of its stats per photon and per view sample, rounded up */
+    .bytes_per_photon = 24,
+    .bytes_per_sample = 8,
 };

@@ -114,4 +114,7 @@ const pgi_estimator_vtbl pgi__est_brute = {
     .stats = brute_stats,
     .destroy = brute_destroy,
     .caps = PGI_EST_CAP_PHOTON_RADIUS | PGI_EST_CAP_KERNELS,
+    /* memory budget: it holds nothing of its own (1: not the default of an estimator that gives none) */
+    .bytes_per_photon = 1,
+    .bytes_per_sample = 0,
 };

@@ -466,4 +466,7 @@ const pgi_estimator_vtbl pgi__est_bvh = {
     .destroy = bvh_destroy,
     .caps = PGI_EST_CAP_PHOTON_RADIUS,
     .options = k_options,
+    /* memory budget: measured bytes of its stats per photon and per view sample, rounded up */
+    .bytes_per_photon = 112,
+    .bytes_per_sample = 0,
 };

@@ -677,6 +677,21 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
     return PGI_OK;
 }
 
+/* Every buffer of the state, for cl_destroy and the memory stats. */
+#define CL_NBUFS 41
+static void cl_bufs(cl_state *s, pgi__buf *out[CL_NBUFS]) {
+    pgi__buf *b[CL_NBUFS] = {&s->keys_buf,      &s->keys2_buf,  &s->spread_buf,   &s->ck2_buf,       &s->tcl_buf,
+                             &s->tn_buf,        &s->ci_buf,     &s->ci2_buf,      &s->cb_buf,        &s->cn_buf,
+                             &s->cs_buf,        &s->order_buf,  &s->hist_buf,     &s->pix_cnt_buf,   &s->nodes_buf,
+                             &s->sbeg_buf,      &s->send_buf,   &s->nkey_buf,     &s->top_cnt_buf,   &s->top_tcnt_buf,
+                             &s->job_start_buf, &s->jobs_buf,   &s->top_ids_buf,  &s->node_cnt_buf,  &s->node_start_buf,
+                             &s->node_tcnt_buf, &s->cursor_buf, &s->top_flux_buf, &s->node_flux_buf, &s->buckets_buf,
+                             &s->lists_buf,     &s->pk_buf,     &s->cum_flux_buf, &s->irr_buf,       &s->cum_cnt_buf,
+                             &s->task_rec_buf,  &s->soa_buf,    &s->sam_buf,      &s->sec_key_buf,   &s->sec_pix_buf,
+                             &s->sec_pos_buf};
+    memcpy(out, b, sizeof b);
+}
+
 /* Bytes per structure (the paper's Table 1), after the radiance pass. */
 void cl_stats_memory(cl_state *s, size_t npix) {
     const size_t nn = s->nnodes;
@@ -697,21 +712,22 @@ void cl_stats_memory(cl_state *s, size_t npix) {
     pgi__stats_mem(&s->c.st, "packed_photons", s->npacked * sizeof(pgi__packed_photon));
     if (!(s->variant & V_DIR))
         pgi__stats_mem(&s->c.st, "photon_lists", s->nlist * sizeof(uint32_t) + (nn + 1) * sizeof(uint32_t));
+    /* what its buffers hold beyond the structures above: sort keys, build and traversal scratch */
+    pgi__buf *b[CL_NBUFS];
+    cl_bufs(s, b);
+    size_t held = 0, listed = 0;
+    for (size_t k = 0; k < CL_NBUFS; k++) held += b[k]->bytes;
+    for (int i = 0; i < s->nouts; i++) held += s->outs[i].capout * 2 * sizeof(uint32_t);
+    for (int k = 0; k < s->c.st.memory_count; k++) listed += s->c.st.memory_bytes[k];
+    if (held > listed) pgi__stats_mem(&s->c.st, "estimator_scratch", held - listed);
 }
 
 void cl_destroy(void *state) {
     cl_state *s = state;
     if (!s) return;
-    pgi__buf *b[] = {&s->keys_buf,      &s->keys2_buf,  &s->spread_buf,   &s->ck2_buf,       &s->tcl_buf,
-                     &s->tn_buf,        &s->ci_buf,     &s->ci2_buf,      &s->cb_buf,        &s->cn_buf,
-                     &s->cs_buf,        &s->order_buf,  &s->hist_buf,     &s->pix_cnt_buf,   &s->nodes_buf,
-                     &s->sbeg_buf,      &s->send_buf,   &s->nkey_buf,     &s->top_cnt_buf,   &s->top_tcnt_buf,
-                     &s->job_start_buf, &s->jobs_buf,   &s->top_ids_buf,  &s->node_cnt_buf,  &s->node_start_buf,
-                     &s->node_tcnt_buf, &s->cursor_buf, &s->top_flux_buf, &s->node_flux_buf, &s->buckets_buf,
-                     &s->lists_buf,     &s->pk_buf,     &s->cum_flux_buf, &s->irr_buf,       &s->cum_cnt_buf,
-                     &s->task_rec_buf,  &s->soa_buf,    &s->sam_buf,      &s->sec_key_buf,   &s->sec_pix_buf,
-                     &s->sec_pos_buf};
-    for (size_t k = 0; k < sizeof b / sizeof b[0]; k++) pgi__buf_free(b[k]);
+    pgi__buf *b[CL_NBUFS];
+    cl_bufs(s, b);
+    for (size_t k = 0; k < CL_NBUFS; k++) pgi__buf_free(b[k]);
     for (int i = 0; i < s->nouts; i++) free(s->outs[i].out);
     free(s->outs);
     free(s);
@@ -728,6 +744,9 @@ const pgi_estimator_vtbl pgi__est_cluster = {
     .destroy = cl_destroy,
     .options = k_options,
     .caps = 0,
+    /* memory budget: measured bytes of its stats per photon and per view sample, rounded up */
+    .bytes_per_photon = 192,
+    .bytes_per_sample = 128,
 };
 const pgi_estimator_vtbl pgi__est_cluster_cone = {
     .name = "cluster-cone",
@@ -740,6 +759,9 @@ const pgi_estimator_vtbl pgi__est_cluster_cone = {
     .destroy = cl_destroy,
     .options = k_options,
     .caps = 0,
+    /* memory budget: measured bytes of its stats per photon and per view sample, rounded up */
+    .bytes_per_photon = 192,
+    .bytes_per_sample = 128,
 };
 const pgi_estimator_vtbl pgi__est_cluster_trivial = {
     .name = "cluster-trivial",
@@ -752,4 +774,7 @@ const pgi_estimator_vtbl pgi__est_cluster_trivial = {
     .destroy = cl_destroy,
     .options = k_options,
     .caps = 0,
+    /* memory budget: measured bytes of its stats per photon and per view sample, rounded up */
+    .bytes_per_photon = 144,
+    .bytes_per_sample = 96,
 };

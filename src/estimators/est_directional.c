@@ -346,4 +346,7 @@ const pgi_estimator_vtbl pgi__est_directional = {
     .destroy = cl_destroy,
     .options = k_options,
     .caps = 0,
+    /* memory budget: measured bytes of its stats per photon and per view sample, rounded up */
+    .bytes_per_photon = 80,
+    .bytes_per_sample = 120,
 };

@@ -198,6 +198,7 @@ static pgi_status hg_estimate(void *state, const pgi_estimate_args *a) {
     s->c.st.memory_count = 0;
     pgi__stats_mem(&s->c.st, "hash_table", s->nslots * sizeof(slot));
     pgi__stats_mem(&s->c.st, "sorted_photons", a->photons->count * sizeof(pgi__packed_photon));
+    pgi__stats_mem(&s->c.st, "sort_keys", (a->photons->count + 1) * (sizeof(uint64_t) + sizeof(uint32_t)));
     return PGI_OK;
 }
 
@@ -224,4 +225,7 @@ const pgi_estimator_vtbl pgi__est_hashgrid = {
     .destroy = hg_destroy,
     .caps = PGI_EST_CAP_KERNELS | PGI_EST_CAP_SUBSAMPLE,
     .options = k_options,
+    /* memory budget: measured bytes of its stats per photon and per view sample, rounded up */
+    .bytes_per_photon = 112,
+    .bytes_per_sample = 0,
 };

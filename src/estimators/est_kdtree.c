@@ -364,4 +364,7 @@ const pgi_estimator_vtbl pgi__est_kdtree = {
     .destroy = kd_destroy,
     .caps = PGI_EST_CAP_KERNELS | PGI_EST_CAP_SUBSAMPLE,
     .options = k_options,
+    /* memory budget: measured bytes of its stats per photon and per view sample, rounded up */
+    .bytes_per_photon = 48,
+    .bytes_per_sample = 0,
 };

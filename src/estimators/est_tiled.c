@@ -358,4 +358,7 @@ const pgi_estimator_vtbl pgi__est_tiled = {
     .caps = PGI_EST_CAP_KERNELS | PGI_EST_CAP_SUBSAMPLE,
     .options = k_options,
     .defaults = k_defaults,
+    /* memory budget: measured bytes of its stats per photon and per view sample, rounded up */
+    .bytes_per_photon = 80,
+    .bytes_per_sample = 48,
 };

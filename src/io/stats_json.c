@@ -93,14 +93,25 @@ static cJSON *build(const pgi_frame_stats *st) {
     if (o)
         for (int i = 0, n = clamp_count(st->pass_count); i < n; ++i)
             ok &= add_num(o, st->passes_ms[i].name ? st->passes_ms[i].name : "?", st->passes_ms[i].value);
+    double total = 0.0;
     ok &= (o = cJSON_AddObjectToObject(root, "memory_bytes")) != NULL;
     if (o) {
-        double total = 0.0;
         for (int i = 0, n = clamp_count(st->memory_count); i < n; ++i) {
             ok &= add_num(o, st->memory_bytes[i].name ? st->memory_bytes[i].name : "?", st->memory_bytes[i].value);
             total += st->memory_bytes[i].value;
         }
         ok &= add_num(o, "total", total);
+    }
+    /* the counted total next to what the process really used (docs/memory.md) */
+    ok &= (o = cJSON_AddObjectToObject(root, "memory")) != NULL;
+    if (o) {
+        ok &= add_num(o, "counted_bytes", total);
+        ok &= add_num(o, "counted_peak_bytes", (double)st->memory_counted_peak);
+        ok &= add_num(o, "peak_rss_bytes", (double)st->memory_peak_rss);
+        ok &= add_num(o, "counted_over_peak_rss", st->memory_peak_rss ? total / (double)st->memory_peak_rss : 0.0);
+        ok &= (st->settings.max_memory == PGI_MEMORY_UNLIMITED || st->settings.max_memory == 0
+                   ? cJSON_AddNullToObject(o, "budget_bytes")
+                   : cJSON_AddNumberToObject(o, "budget_bytes", (double)st->settings.max_memory)) != NULL;
     }
     ok &= add_num(root, "reads", (double)st->reads);
     ok &= add_num(root, "contributing", (double)st->contributing);

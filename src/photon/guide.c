@@ -97,6 +97,12 @@ pgi_status pgi__guide_init(pgi__guide *g, const float *light_cdf, size_t nl, int
     return PGI_OK;
 }
 
+size_t pgi__guide_bytes(const pgi__guide *g, const pgi__view_grid *vg) {
+    const size_t n = (size_t)g->nbins;
+    return n * (sizeof *g->cdf + sizeof *g->q + 3 * sizeof *g->paths) +
+           (size_t)g->nthreads * 3 * n * sizeof *g->tcount + (vg->keys ? (vg->mask + 1) * sizeof *vg->keys : 0);
+}
+
 void pgi__guide_free(pgi__guide *g) {
     free(g->cdf);
     free(g->q);

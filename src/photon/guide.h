@@ -80,6 +80,8 @@ typedef struct pgi__guide {
 /* Lays out the bins for a light CDF (nl entries) and clears the evidence. */
 pgi_status pgi__guide_init(pgi__guide *g, const float *light_cdf, size_t nl, int nthreads);
 void pgi__guide_free(pgi__guide *g);
+/* Bytes the guide and the view grid hold. */
+size_t pgi__guide_bytes(const pgi__guide *g, const pgi__view_grid *vg);
 /* Photons stored and stored in view, over all the evidence. */
 void pgi__guide_totals(const pgi__guide *g, double *stored, double *useful);
 /* Adds the per-thread counters of a batch to the evidence and zeroes them. */

@@ -5,6 +5,7 @@
 #define PGI_PIPELINE_H
 
 #include "core/core.h"
+#include "core/mem.h"
 #include "rt/rt.h"
 
 /* pgi_renderer_render with the view samples' sub-pixel positions (when
@@ -14,6 +15,9 @@
  * each pixel evenly. pgi_renderer_render is (0, 0). */
 pgi_status pgi__renderer_render_frame(pgi_renderer *r, const pgi_render_desc *desc, uint64_t seq_seed, uint32_t index,
                                       pgi_image *out, pgi_frame_stats *stats);
+
+/* The renderer's memory ledger (render.c): progressive.c reports its accumulator there. */
+pgi__mem_ledger *pgi__renderer_mem(pgi_renderer *r);
 
 /* Rejects a view camera that is not finite or degenerate (render.c). */
 pgi_status pgi__check_view(const pgi_camera_def *v);

@@ -52,6 +52,7 @@ pgi_status pgi_progressive_create(pgi_renderer *r, pgi_progressive **out) {
 
 void pgi_progressive_destroy(pgi_progressive *a) {
     if (!a) return;
+    pgi__mem_set(pgi__renderer_mem(a->r), "progressive_sum", 0);
     free(a->sum);
     pgi_image_free(&a->frame);
     free(a);
@@ -83,6 +84,7 @@ static void picture_of(const pgi_render_desc *d, const pgi_scene *s, picture *p)
     p->key.threads = 0; /* the image does not depend on the thread count */
     p->key.progress = NULL;
     p->key.progress_user = NULL;
+    p->key.max_memory = 0; /* a budget does not change the picture */
     snprintf(p->est, sizeof p->est, "%s", d->estimator ? d->estimator : "");
     p->has_view = d->view != NULL;
     if (d->view) p->view = *d->view;
@@ -122,8 +124,16 @@ pgi_status pgi_progressive_step(pgi_progressive *a, const pgi_render_desc *in, p
         return st;
     }
     size_t n = (size_t)fs.width * (size_t)fs.height;
+    pgi__mem_ledger *mem = pgi__renderer_mem(a->r);
     if (k == 0) {
         if (a->cap < n) {
+            /* the running sum (doubles) and the average handed out */
+            char what[64];
+            snprintf(what, sizeof what, "a %dx%d accumulation buffer", fs.width, fs.height);
+            if ((st = pgi__mem_reserve(mem, "progressive_sum", n * 3 * (sizeof(double) + sizeof(float)), what))) {
+                a->frames = 0;
+                return st;
+            }
             free(a->sum);
             a->sum = malloc(3 * n * sizeof *a->sum);
             a->cap = a->sum ? n : 0;
@@ -151,6 +161,11 @@ pgi_status pgi_progressive_step(pgi_progressive *a, const pgi_render_desc *in, p
     const double inv = 1.0 / (double)a->frames;
     for (size_t i = 0; i < 3 * n; i++) out->rgb[i] = (float)(a->sum[i] * inv);
     fs.frames = a->frames;
+    /* the accumulator's buffers in the frame's memory (the frame's stats were taken before them) */
+    const size_t acc = a->cap * 3 * (sizeof(double) + sizeof(float));
+    pgi__mem_set(mem, "progressive_sum", acc);
+    pgi__stats_mem_put(&fs, "progressive_sum", acc);
+    fs.memory_counted_peak = mem->peak;
     if (k > 0) {
         fs.settings.radius = a->r0;
         fs.auto_radius = a->r0_how;      /* frame k's radius derives from frame 0's choice */

@@ -3,6 +3,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "core/mem.h"
 #include "photon/auto_radius.h"
 #include "photon/guide.h"
 #include "photon/photon.h"
@@ -27,11 +28,98 @@ struct pgi_renderer {
     /* radius policies: per-photon footprint arrays (radius, then 6 ellipsoid axis planes) */
     float *fp_buf;
     size_t fp_cap;
-    double scene_area; /* total triangle area, for the bvh's T_auto */
+    double scene_area;   /* total triangle area, for the bvh's T_auto */
+    pgi__mem_ledger mem; /* what the large allocations of the renderer (and its scene) hold */
     /* guided emission: the guide's tables and the cells the camera sees (kept between frames) */
     pgi__guide guide;
     pgi__view_grid vgrid;
 };
+
+/* The ledger's entries in the order the stats list them. "estimator" is the estimator's total (its
+ * own entries are listed instead); entries of features not in use (0 bytes) are left out. */
+static const char *const k_mem_entries[] = {"scene",          "textures",      "embree_bvh",      "photons",
+                                            "footprints",     "trace_scratch", "view_samples",    "frame_buffers",
+                                            "emission_guide", "image",         "progressive_sum", "estimator"};
+/* Left out of the stats when 0 (the rest are always listed). */
+static int mem_optional(const char *name) {
+    return strcmp(name, "footprints") == 0 || strcmp(name, "emission_guide") == 0 ||
+           strcmp(name, "progressive_sum") == 0 || strcmp(name, "estimator") == 0;
+}
+
+/* Bytes of one photon in pgi_photons: 12 float planes. */
+#define PHOTON_BYTES (12 * sizeof(float))
+/* Bytes of one view sample: 7 vector planes (pos, nrm, ngeo, wo, kd, ks, weight), shininess, ior,
+ * depth, flags. */
+#define VIEW_SAMPLE_BYTES ((7 * 3 + 3) * sizeof(float) + sizeof(uint8_t))
+/* Bytes a pixel of the emitted, direct and indirect buffers. */
+#define FRAME_BUFFER_BYTES (3 * 3 * sizeof(float))
+/* The tracer's scratch per photon of a batch (each thread's record and path-ordered copy, grown by
+ * doubling: measured 49-65 bytes), for at most the photons of a batch: 2^20 paths of at most
+ * `bounces` photons each. */
+#define TRACE_BYTES_PER_PHOTON 80
+
+pgi__mem_ledger *pgi__renderer_mem(pgi_renderer *r) { return &r->mem; }
+
+/* Entries the renderer does not allocate itself: the scene's and Embree's bytes, read now. */
+static void mem_update_held(pgi_renderer *r) {
+    size_t scene, tex, peak;
+    pgi__scene_memory(r->scene, &scene, &tex);
+    pgi__mem_set(&r->mem, "scene", scene);
+    pgi__mem_set(&r->mem, "textures", tex);
+    size_t bvh = pgi__rt_memory(r->rt, &peak);
+    /* the build's scratch first, so that the ledger's peak has seen it */
+    if (peak > pgi__mem_get(&r->mem, "embree_bvh")) pgi__mem_set(&r->mem, "embree_bvh", peak);
+    pgi__mem_set(&r->mem, "embree_bvh", bvh);
+}
+
+/* A frame's memory, checked against the budget before anything of it is allocated (vt NULL:
+ * pgi_renderer_prepare, no estimator): a photon count that cannot fit is refused here, before
+ * tracing. */
+static pgi_status mem_plan(pgi_renderer *r, const pgi_render_desc *d, const pgi_estimator_vtbl *vt) {
+    mem_update_held(r);
+    r->mem.budget = d->max_memory;
+    if (d->max_memory == PGI_MEMORY_UNLIMITED) return PGI_OK;
+    const uint64_t n = (uint64_t)d->width * (uint64_t)d->height, np = d->photons;
+    const uint64_t planes = d->radius_policy == PGI_RADIUS_FIXED ? 0 : d->radius_policy == PGI_RADIUS_PATH ? 1 : 7;
+    const uint64_t batch = (uint64_t)d->bounces << 20, traced = np < batch ? np : batch;
+    const int unknown = vt && !vt->bytes_per_photon && !vt->bytes_per_sample;
+    const uint64_t per_photon = !vt ? 0 : unknown ? 64 : vt->bytes_per_photon;
+    const uint64_t per_sample = !vt ? 0 : unknown ? 64 : vt->bytes_per_sample;
+    const char *est = vt ? vt->name : "estimator";
+    pgi__mem_plan_item it[] = {
+        {"scene", pgi__mem_get(&r->mem, "scene"), 0},
+        {"textures", pgi__mem_get(&r->mem, "textures"), 0},
+        {"embree_bvh", pgi__mem_get(&r->mem, "embree_bvh"), 0},
+        {"view_samples", n * VIEW_SAMPLE_BYTES, 0},
+        {"frame_buffers", n * FRAME_BUFFER_BYTES, 0},
+        {"image", vt ? n * 3 * sizeof(float) : 0, 0},
+        {"progressive_sum", pgi__mem_get(&r->mem, "progressive_sum"), 0},
+        {est, n * per_sample, 0},
+        {"photons", np * PHOTON_BYTES, 1},
+        {"footprints", np * planes * sizeof(float), 1},
+        {"trace_scratch", traced * TRACE_BYTES_PER_PHOTON, 1},
+        {est, np * per_photon, 1},
+    };
+    return pgi__mem_plan_check(it, (int)(sizeof it / sizeof it[0]), d->max_memory, np);
+}
+
+/* The frame's memory into its stats: the ledger's entries, then the estimator's (es may be NULL). */
+static void mem_stats(pgi_renderer *r, const pgi_estimator_stats *es, pgi_frame_stats *fs) {
+    size_t est = 0;
+    for (int k = 0; es && k < es->memory_count; k++) est += es->memory_bytes[k];
+    if (es) pgi__mem_set(&r->mem, "estimator", est);
+    mem_update_held(r);
+    fs->memory_count = 0;
+    for (int i = 0; i < r->mem.n && fs->memory_count < PGI_MAX_STAT_ENTRIES; i++) {
+        const pgi__mem_entry *e = &r->mem.e[i];
+        if (strcmp(e->name, "estimator") == 0 || (e->cur == 0 && mem_optional(e->name))) continue;
+        fs->memory_bytes[fs->memory_count++] = (pgi_named_value){e->name, (double)e->cur};
+    }
+    for (int k = 0; es && k < es->memory_count && fs->memory_count < PGI_MAX_STAT_ENTRIES; k++)
+        fs->memory_bytes[fs->memory_count++] = (pgi_named_value){es->memory_names[k], (double)es->memory_bytes[k]};
+    fs->memory_counted_peak = r->mem.peak;
+    fs->memory_peak_rss = pgi_memory_peak_rss();
+}
 
 const pgi_scene *pgi_renderer_scene(const pgi_renderer *r) { return r ? r->scene : NULL; }
 
@@ -48,6 +136,10 @@ pgi_status pgi_renderer_create(const pgi_scene *scene, pgi_renderer **out) {
         free(r);
         return st;
     }
+    for (size_t i = 0; i < sizeof k_mem_entries / sizeof k_mem_entries[0]; i++)
+        pgi__mem_set(&r->mem, k_mem_entries[i], 0);
+    r->mem.budget = PGI_MEMORY_UNLIMITED;
+    mem_update_held(r);
     *out = r;
     return PGI_OK;
 }
@@ -171,6 +263,7 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
         return pgi__fail(PGI_ERR_INVALID_ARG, "unknown emission mode %d", (int)d->emission);
     if (d->filter < 0 || d->filter > 16)
         return pgi__fail(PGI_ERR_INVALID_ARG, "filter radius %d is out of range (0..16 pixels)", d->filter);
+    if (d->max_memory == 0) d->max_memory = pgi__mem_default_budget();
     return PGI_OK;
 }
 
@@ -201,9 +294,14 @@ static pgi_status ensure_footprints(pgi_renderer *r, const pgi_render_desc *d) {
     if (d->radius_policy == PGI_RADIUS_FIXED) return PGI_OK;
     size_t n = d->photons ? d->photons : 1, planes = d->radius_policy == PGI_RADIUS_DIFFERENTIALS ? 7 : 1;
     if (r->fp_cap < n * planes) {
+        char what[64];
+        snprintf(what, sizeof what, "%zu photon footprints", n);
+        pgi_status st = pgi__mem_reserve(&r->mem, "footprints", n * planes * sizeof(float), what);
+        if (st) return st;
         pgi__afree(r->fp_buf);
         r->fp_buf = pgi__aalloc(n * planes * sizeof(float));
         r->fp_cap = r->fp_buf ? n * planes : 0;
+        pgi__mem_set(&r->mem, "footprints", r->fp_cap * sizeof(float));
         if (!r->fp_buf) return pgi__fail(PGI_ERR_OOM, "out of memory for %zu photon footprints", n);
     }
     ph->radius = r->fp_buf;
@@ -215,18 +313,28 @@ static pgi_status ensure_footprints(pgi_renderer *r, const pgi_render_desc *d) {
 }
 
 static pgi_status ensure_buffers(pgi_renderer *r, const pgi_render_desc *d) {
+    char what[96];
+    pgi_status st;
     if (r->ph.capacity < d->photons) {
+        snprintf(what, sizeof what, "%u photons", d->photons);
+        if ((st = pgi__mem_reserve(&r->mem, "photons", (size_t)d->photons * PHOTON_BYTES, what))) return st;
         pgi_photons_free(&r->ph);
-        pgi_status st = pgi_photons_alloc(&r->ph, d->photons);
-        if (st) return st;
-    }
-    if (r->vs.width != d->width || r->vs.height != d->height) {
-        pgi_view_samples_free(&r->vs);
-        pgi_status st = pgi_view_samples_alloc(&r->vs, d->width, d->height);
+        st = pgi_photons_alloc(&r->ph, d->photons);
+        pgi__mem_set(&r->mem, "photons", r->ph.capacity * PHOTON_BYTES);
         if (st) return st;
     }
     size_t n = (size_t)d->width * (size_t)d->height;
+    if (r->vs.width != d->width || r->vs.height != d->height) {
+        snprintf(what, sizeof what, "the view samples of %dx%d pixels", d->width, d->height);
+        if ((st = pgi__mem_reserve(&r->mem, "view_samples", n * VIEW_SAMPLE_BYTES, what))) return st;
+        pgi_view_samples_free(&r->vs);
+        st = pgi_view_samples_alloc(&r->vs, d->width, d->height);
+        pgi__mem_set(&r->mem, "view_samples", r->vs.count * VIEW_SAMPLE_BYTES);
+        if (st) return st;
+    }
     if (r->pix_cap < n) {
+        snprintf(what, sizeof what, "the emitted, direct and indirect buffers of %dx%d pixels", d->width, d->height);
+        if ((st = pgi__mem_reserve(&r->mem, "frame_buffers", n * FRAME_BUFFER_BYTES, what))) return st;
         pgi__afree(r->emit);
         pgi__afree(r->direct);
         pgi__afree(r->indirect);
@@ -236,6 +344,7 @@ static pgi_status ensure_buffers(pgi_renderer *r, const pgi_render_desc *d) {
         r->pix_cap = n;
         if (!r->emit || !r->direct || !r->indirect) {
             r->pix_cap = 0;
+            pgi__mem_set(&r->mem, "frame_buffers", 0);
             return pgi__fail(PGI_ERR_OOM, "out of memory for %dx%d frame buffers", d->width, d->height);
         }
     }
@@ -307,6 +416,8 @@ static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, uint64_t se
     pgi__rt_capture_pass(r->rt, PGI__PASS_TRACE);
     st = pgi__photons_trace(s, r->rt, &td, &r->ph, &r->trace_scratch, &fs->photon_rays);
     pgi__rt_capture_pass(r->rt, PGI__PASS_NONE);
+    pgi__mem_set(&r->mem, "trace_scratch", pgi__trace_scratch_bytes(&r->trace_scratch));
+    if (td.guide) pgi__mem_set(&r->mem, "emission_guide", pgi__guide_bytes(&r->guide, &r->vgrid));
     if (st) return st;
     fs->view_ms = t1 - t0;
     fs->trace_ms = pgi__now_ms() - t1;
@@ -351,11 +462,13 @@ pgi_status pgi_renderer_prepare(pgi_renderer *r, const pgi_render_desc *in, pgi_
     if (st) return st;
     pgi_frame_stats fs;
     stats_begin(&fs, &d);
+    if ((st = mem_plan(r, &d, NULL))) return st;
     double t0 = pgi__now_ms();
     const progress_ctx pc = {&d, t0};
     if ((st = prepare(r, &d, d.seed, 0, &pc, &fs))) return st;
     if ((st = choose_radius(r, &d, &fs))) return st;
     fs.total_ms = pgi__now_ms() - t0;
+    mem_stats(r, NULL, &fs);
     *out = (pgi_frame_inputs){.photons = &r->ph,
                               .samples = &r->vs,
                               .camera = r->cam,
@@ -381,6 +494,7 @@ pgi_status pgi__renderer_render_frame(pgi_renderer *r, const pgi_render_desc *in
     double t_start = pgi__now_ms();
     pgi_frame_stats fs;
     stats_begin(&fs, &d);
+    if ((st = mem_plan(r, &d, pgi_estimator_find(d.estimator)))) return st;
     if ((st = ensure_estimator(r, &d, &fs.estimators_created))) return st;
     const progress_ctx pc = {&d, t_start};
     if ((st = prepare(r, &d, seq_seed, index, &pc, &fs))) return st;
@@ -414,6 +528,9 @@ pgi_status pgi__renderer_render_frame(pgi_renderer *r, const pgi_render_desc *in
      * frames then allocate nothing). */
     pgi_image img = *out;
     if (!img.rgb || img.width != d.width || img.height != d.height) {
+        char what[64];
+        snprintf(what, sizeof what, "the %dx%d output image", d.width, d.height);
+        if ((st = pgi__mem_reserve(&r->mem, "image", 3 * n * sizeof(float), what))) return st;
         img = (pgi_image){d.width, d.height, malloc(3 * n * sizeof(float))};
         if (!img.rgb) return pgi__fail(PGI_ERR_OOM, "out of memory for the output image");
         pgi_image_free(out);
@@ -438,23 +555,12 @@ pgi_status pgi__renderer_render_frame(pgi_renderer *r, const pgi_render_desc *in
     fs.total_ms = t6 - t_start;
     for (int k = 0; k < es.pass_count && k < PGI_MAX_STAT_ENTRIES; k++)
         fs.passes_ms[fs.pass_count++] = (pgi_named_value){es.pass_names[k], es.pass_ms[k]};
-    fs.memory_bytes[fs.memory_count++] = (pgi_named_value){"photons", (double)(r->ph.count * 12 * sizeof(float))};
-    /* 7 vector planes (pos, nrm, ngeo, wo, kd, ks, weight), shininess, ior, depth, flags. */
-    fs.memory_bytes[fs.memory_count++] =
-        (pgi_named_value){"view_samples", (double)(n * ((7 * 3 + 3) * sizeof(float) + sizeof(uint8_t)))};
-    fs.memory_bytes[fs.memory_count++] =
-        (pgi_named_value){"trace_scratch", (double)pgi__trace_scratch_bytes(&r->trace_scratch)};
-    for (int k = 0; k < es.memory_count && fs.memory_count < PGI_MAX_STAT_ENTRIES; k++)
-        fs.memory_bytes[fs.memory_count++] = (pgi_named_value){es.memory_names[k], (double)es.memory_bytes[k]};
+    pgi__mem_set(&r->mem, "image", 3 * n * sizeof(float));
+    mem_stats(r, &es, &fs);
     fs.reads = es.reads;
     fs.contributing = es.contributing;
     fs.nodes_visited = es.nodes_visited;
     fs.leaf_size = es.leaf_size;
-    if (d.radius_policy != PGI_RADIUS_FIXED) {
-        if (fs.memory_count < PGI_MAX_STAT_ENTRIES)
-            fs.memory_bytes[fs.memory_count++] =
-                (pgi_named_value){"footprints", (double)(r->ph.count * (r->ph.sax ? 7 : 1) * sizeof(float))};
-    }
     if (stats) *stats = fs;
     *out = img;
     return PGI_OK;

@@ -4,6 +4,7 @@
 #include "ray_log.h"
 
 #include <embree3/rtcore.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -14,6 +15,7 @@ typedef struct rt_geom {
     uint32_t *map;   /* scene triangle of each of its triangles; NULL: identity (all of them) */
     uint32_t *verts; /* scene vertex of each of its vertices; NULL: all scene vertices */
     size_t nverts;
+    size_t ntri;
     int dynamic;        /* its triangles move with the animation (refitted) */
     const pgi_scene *s; /* masked geometries: the scene their filter reads */
 } rt_geom;
@@ -37,6 +39,9 @@ struct pgi__rt {
     int any_dynamic;
     uint64_t static_version, dynamic_version;
     pgi__ray_log *capture; /* NULL: off (pgi__rt_capture_set) */
+    /* Embree's bytes as its memory monitor reports them (BVH, geometry buffers, build scratch);
+     * the monitor runs on Embree's build threads, hence atomics. */
+    _Atomic long long embree_bytes, embree_peak;
 };
 
 /* Ray capture (ray_log.h): each query ends with `if (CAPTURING(rt)) capture...(...)`. The
@@ -106,6 +111,29 @@ static PGI__COLD void capture_packet(pgi__ray_log *log, pgi__ray_kind kind, unsi
 
 static _Thread_local char g_rt_error[256];
 
+/* Embree's memory monitor: bytes > 0 before an allocation, < 0 after a free. Never refuses (the
+ * budget is checked per frame, where the BVH's size is known). */
+static bool on_memory(void *user, ssize_t bytes, bool post) {
+    (void)post;
+    pgi__rt *rt = user;
+    long long now = atomic_fetch_add_explicit(&rt->embree_bytes, (long long)bytes, memory_order_relaxed) + bytes;
+    long long peak = atomic_load_explicit(&rt->embree_peak, memory_order_relaxed);
+    while (now > peak && !atomic_compare_exchange_weak_explicit(&rt->embree_peak, &peak, now, memory_order_relaxed,
+                                                                memory_order_relaxed)) {}
+    return true;
+}
+
+size_t pgi__rt_memory(const pgi__rt *rt, size_t *peak) {
+    long long cur = atomic_load_explicit(&rt->embree_bytes, memory_order_relaxed);
+    long long pk = atomic_load_explicit(&rt->embree_peak, memory_order_relaxed);
+    size_t own = sizeof *rt; /* and the triangle and vertex maps of split geometries */
+    for (int g = 0; g < rt->ngeom; g++)
+        own += ((rt->geom[g].map ? rt->geom[g].ntri : 0) + (rt->geom[g].verts ? rt->geom[g].nverts : 0)) *
+               sizeof(uint32_t);
+    if (peak) *peak = (pk > 0 ? (size_t)pk : 0) + own;
+    return (cur > 0 ? (size_t)cur : 0) + own;
+}
+
 static void on_error(void *user, enum RTCError code, const char *str) {
     (void)user;
     snprintf(g_rt_error, sizeof g_rt_error, "Embree error %d: %s", (int)code, str ? str : "");
@@ -173,6 +201,7 @@ static int tri_class(const pgi_scene *s, size_t t) {
 static pgi_status add_class(pgi__rt *rt, const pgi_scene *s, int c, uint32_t *tris, size_t ntri, uint32_t *remap) {
     rt_geom *g = &rt->geom[rt->ngeom];
     g->map = ntri == s->ntris && c == 0 ? NULL : tris;
+    g->ntri = ntri;
     if (g->map != tris) free(tris);
     g->dynamic = (c & CLASS_DYNAMIC) != 0;
     g->s = s;
@@ -207,6 +236,7 @@ pgi_status pgi__rt_create(const pgi_scene *s, pgi__rt **out) {
         return pgi__fail(PGI_ERR_INTERNAL, "cannot create an Embree device (error %d)", (int)rtcGetDeviceError(NULL));
     }
     rtcSetDeviceErrorFunction(rt->device, on_error, NULL);
+    rtcSetDeviceMemoryMonitorFunction(rt->device, on_memory, rt);
     rt->scene = rtcNewScene(rt->device);
     rt->static_version = s->static_version;
     rt->dynamic_version = s->dynamic_version;

@@ -16,6 +16,10 @@ typedef struct pgi__hit {
 /* Builds the BVH over the scene's triangles. The scene is borrowed. */
 pgi_status pgi__rt_create(const pgi_scene *s, pgi__rt **out);
 void pgi__rt_destroy(pgi__rt *rt);
+/* Bytes the ray tracer holds now: what Embree's memory monitor counted (BVH, geometry buffers)
+ * and the ray tracer's own triangle maps; *peak (may be NULL): the most it has held, Embree's
+ * build scratch included. */
+size_t pgi__rt_memory(const pgi__rt *rt, size_t *peak);
 /* 1 when the scene's geometry moved since the BVH was built or updated. */
 int pgi__rt_needs_update(const pgi__rt *rt, const pgi_scene *s);
 /* Brings the BVH in line with the scene's current vertex positions

@@ -348,3 +348,23 @@ double pgi__scene_area(const pgi_scene *s) {
     }
     return a;
 }
+
+void pgi__scene_memory(const pgi_scene *s, size_t *scene_bytes, size_t *texture_bytes) {
+    size_t b = sizeof *s + s->nverts * 3 * sizeof(float) * (1 + (s->nrm != NULL)) +
+               (s->uv ? s->nverts * 2 * sizeof(float) : 0) + s->ntris * 4 * sizeof(uint32_t) +
+               (s->tri_dynamic ? s->ntris : 0) + s->nmats * sizeof *s->mats + s->ntexs * sizeof *s->texs +
+               s->nlights * sizeof *s->lights + s->ncams * sizeof *s->cams;
+    if (s->env) {
+        const pgi__env *e = s->env;
+        b += sizeof *e + (e->rgb ? (size_t)e->w * (size_t)e->h * 4 * sizeof(float) + (size_t)e->h * sizeof(float) : 0);
+    }
+    for (size_t i = 0; i < s->nanims; i++) {
+        const pgi__anim *a = &s->anims[i];
+        b += sizeof *a + a->nverts * (sizeof(uint32_t) + 3 * sizeof(float) * (1 + (a->rest_nrm != NULL))) +
+             a->nkeys * sizeof *a->keys;
+    }
+    size_t t = 0;
+    for (size_t i = 0; i < s->ntexs; i++) t += (size_t)s->texs[i].width * (size_t)s->texs[i].height * 4;
+    *scene_bytes = b;
+    *texture_bytes = t;
+}

@@ -241,6 +241,9 @@ typedef struct pgi__mesh_hints {
 /* Refuses mesh files that make Assimp crash or hang (mesh_check.c); fills
  * *hints (may be NULL). */
 pgi_status pgi__mesh_precheck(const char *path, pgi__mesh_hints *hints);
+/* Bytes the scene holds (scene.c, for the memory stats): geometry, materials, lights, cameras,
+ * sky map and motions in *scene_bytes, decoded textures in *texture_bytes. */
+void pgi__scene_memory(const pgi_scene *s, size_t *scene_bytes, size_t *texture_bytes);
 /* Total triangle area (scene.c). */
 double pgi__scene_area(const pgi_scene *s);
 
