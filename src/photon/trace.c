@@ -515,7 +515,7 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
             int f;
 #pragma omp atomic read
             f = failed;
-            uint32_t *gc = T.G ? d->guide->tcount + (size_t)tid * 3 * (size_t)d->guide->nbins : NULL;
+            uint32_t *gc = T.G ? T.G->tcount + (size_t)tid * 3 * (size_t)T.G->nbins : NULL;
             if (!f)
                 ok = trace_chunk(&T, p0, p1, tb, sc->counts + (size_t)c * CHUNK, &r, gc,
                                  T.G ? sc->path_bin + (size_t)c * CHUNK : NULL);
@@ -641,6 +641,7 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
                     pilot_paths = 0; /* uniform after all: the pilot's photons stay */
                     pilot_stored = pilot_useful = 0;
                     guide_done = 1;
+                    T.G = NULL; /* and the paths after it count nothing (in_view: the pilot's) */
                 }
             }
         }
