@@ -60,9 +60,11 @@ static const char *first_token(const char *s, char *tok, size_t n) {
     return s;
 }
 
-static pgi_status check_mtl(const char *path) {
+/* `*found` is set when the file could be opened. */
+static pgi_status check_mtl(const char *path, int *found) {
     FILE *f = fopen(path, "rb");
     if (!f) return PGI_OK; /* a missing material library is Assimp's to report */
+    *found = 1;
     line_reader r = {.f = f};
     pgi_status st = PGI_OK;
     int in_material = 0;
@@ -103,11 +105,17 @@ static pgi_status check_obj(const char *path, pgi__mesh_hints *hints) {
             char lib[2048], name[1024];
             snprintf(name, sizeof name, "%s", rest);
             for (size_t n = strlen(name); n > 0 && isspace((unsigned char)name[n - 1]);) name[--n] = 0;
-            if (snprintf(lib, sizeof lib, "%.*s%s", dir_len, path, name) < (int)sizeof lib) st = check_mtl(lib);
+            int found = 0;
+            if (snprintf(lib, sizeof lib, "%.*s%s", dir_len, path, name) < (int)sizeof lib) st = check_mtl(lib, &found);
             for (const char *w = rest; !st && *w;) {
                 w = first_token(w, name, sizeof name);
-                if (snprintf(lib, sizeof lib, "%.*s%s", dir_len, path, name) < (int)sizeof lib) st = check_mtl(lib);
+                if (snprintf(lib, sizeof lib, "%.*s%s", dir_len, path, name) < (int)sizeof lib)
+                    st = check_mtl(lib, &found);
             }
+            /* No such library: Assimp then reads the OBJ's own name with "mtl" for "obj" instead. */
+            size_t pl = strlen(path);
+            if (!st && !found && pl >= 3 && snprintf(lib, sizeof lib, "%.*smtl", (int)(pl - 3), path) < (int)sizeof lib)
+                st = check_mtl(lib, &found);
         }
     }
     fclose(f);
