@@ -500,8 +500,10 @@ pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path) {
             ? NORMALS_FLAT
             : NORMALS_SMOOTH;
 
-    const unsigned int flags = aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_SortByPType |
-                               aiProcess_PreTransformVertices;
+    /* ValidateDataStructure runs first: Assimp's importers leave out-of-range indices in some
+     * malformed files (a PLY face list longer than the file), which the later steps follow. */
+    const unsigned int flags = aiProcess_ValidateDataStructure | aiProcess_Triangulate |
+                               aiProcess_JoinIdenticalVertices | aiProcess_SortByPType | aiProcess_PreTransformVertices;
     const struct aiScene *sc = aiImportFile(path, flags);
     if (!sc) {
         const char *e = aiGetErrorString();
