@@ -68,8 +68,8 @@ fi
 
 # ---- run
 export PHOTONGI_SCENES=$WORK/scenes
-export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1}
-export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
+export ASAN_OPTIONS=detect_leaks=1
+export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 # Assimp 5.2 leaks on some failed imports (its own code, not photongi's).
 export LSAN_OPTIONS=suppressions=$ROOT/tests/lsan-assimp.supp:print_suppressions=0
 export OMP_NUM_THREADS=1
@@ -94,14 +94,16 @@ for t in "${TARGETS[@]}"; do
     last=$(grep -E '^#[0-9]+' "$log" | tail -1 || true)
     cov=$(printf '%s' "$last" | sed -n 's/.* cov: \([0-9]*\).*/\1/p')
     ft=$(printf '%s' "$last" | sed -n 's/.* ft: \([0-9]*\).*/\1/p')
+    corp=$(printf '%s' "$last" | sed -n 's/.* corp: \([0-9]*\).*/\1/p')
     corpus=$(find "$WORK/corpus/$t" -type f | wc -l)
     if [ "$rc" -ne 0 ]; then
         status=1
         echo "FAIL fuzz_$t (exit $rc):"
         grep -E 'ERROR|SUMMARY|Test unit written|^    #[0-9]' "$log" | head -20 | sed 's/^/    /'
     fi
-    summary+=("$(printf '%-16s %4s %10s execs %7s/s  cov %5s  ft %6s  corpus %5s' "fuzz_$t" \
-        "$([ "$rc" -eq 0 ] && echo ok || echo FAIL)" "${execs:-?}" "${rate:-?}" "${cov:-?}" "${ft:-?}" "$corpus")")
+    summary+=("$(printf '%-16s %4s %10s execs %7s/s  cov %5s  ft %6s  corpus %5s (%s files)' "fuzz_$t" \
+        "$([ "$rc" -eq 0 ] && echo ok || echo FAIL)" "${execs:-?}" "${rate:-?}" "${cov:-?}" "${ft:-?}" "${corp:-?}" \
+        "$corpus")")
 done
 printf '%s\n' "${summary[@]}"
 exit "$status"
