@@ -4,7 +4,17 @@ BUILD ?= build
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 CMAKE_FLAGS ?=
 
-.PHONY: all deps build demo test test-sanitize bench clean
+# make fuzz: the libFuzzer targets (clang), FUZZ_SECONDS each (tests/fuzz/run.sh).
+# make test-tsan: the multi-threaded tests under ThreadSanitizer (clang, LLVM libomp + Archer).
+FUZZ_SECONDS ?= 60
+# (the cmocka tests that run OpenMP code; about 4 minutes on 2 cores)
+TSAN_TESTS ?= test_trace test_determinism test_progressive test_estimators test_dynamic test_cluster \
+	test_reference test_kdtree_bounds_kernels test_auto_radius test_sky test_cutout test_pixel_sampling \
+	test_analytic test_plastic test_bvh test_differentials test_scene test_ray_log
+empty :=
+space := $(empty) $(empty)
+
+.PHONY: all deps build demo test test-sanitize fuzz test-tsan bench clean
 
 all: build
 
@@ -27,8 +37,16 @@ test: deps build
 test-sanitize: deps
 	$(MAKE) test BUILD=build-asan CMAKE_FLAGS="-DCMAKE_BUILD_TYPE=RelWithDebInfo -DPGI_SANITIZE=ON"
 
+fuzz: deps
+	PGI_FUZZ_BUILD=build-fuzz JOBS=$(JOBS) tests/fuzz/run.sh $(FUZZ_SECONDS)
+
+test-tsan: deps
+	CC=clang cmake -S . -B build-tsan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPGI_TSAN=ON $(CMAKE_FLAGS)
+	cmake --build build-tsan -j $(JOBS) --target $(TSAN_TESTS)
+	cd build-tsan && ctest --output-on-failure -R '^($(subst $(space),|,$(strip $(TSAN_TESTS))))$$'
+
 bench: deps build
 	./$(BUILD)/bin/photongi-bench
 
 clean:
-	rm -rf $(BUILD) build-asan
+	rm -rf $(BUILD) build-asan build-fuzz build-tsan

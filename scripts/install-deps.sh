@@ -11,6 +11,10 @@ PKGS+=(libsdl2-dev)   # photongi-view (optional for the library and CLI)
 PKGS+=(python3-skimage python3-numpy gnuplot-nox)
 # clang-format 14 formats and checks the C sources (scripts/format.sh, .clang-format).
 PKGS+=(clang-format)
+# clang 14 builds the libFuzzer targets (make fuzz: libFuzzer, ASan, UBSan come in
+# libclang-rt-14-dev, which clang only recommends) and the ThreadSanitizer job (make test-tsan:
+# LLVM's OpenMP runtime libomp and its TSan tool libarcher.so, both in libomp-14-dev).
+PKGS+=(clang libclang-rt-14-dev libomp-dev)
 
 missing=()
 for p in "${PKGS[@]}"; do

@@ -3,14 +3,13 @@
 # clear error -- exit status 1 (the file is at fault, not the command line: see
 # 'photongi --help'), a message naming the file -- within
 # seconds and in bounded memory, never a crash, a hang or an OOM.
-#   test_bad_inputs.sh PHOTONGI_CLI BAD_INPUTS_DIR
+#   test_bad_inputs.sh PHOTONGI_CLI BAD_INPUTS_DIR [REPO_BAD_INPUTS_DIR]
+# BAD_INPUTS_DIR is ../shared/bad-inputs (skipped when absent); REPO_BAD_INPUTS_DIR is
+# tests/bad-inputs (found by the fuzzers, see its README.md); the cases at the end need no file.
 set -u
 BIN=$1
 DIR=$2
-if [ ! -d "$DIR" ]; then
-    echo "test_bad_inputs: $DIR not found (the shared/ folder beside the checkout); skipped"
-    exit 77
-fi
+REPO_DIR=${3:-$(dirname "$0")/bad-inputs}
 TMP=$(mktemp -d)
 trap 'rm -rf "$TMP"' EXIT
 pass=0
@@ -40,6 +39,8 @@ expect_clear_error() {
     fi
 }
 
+# ---- ../shared/bad-inputs
+shared_inputs() {
 # Images: photongi compare reads them with pgi_image_read.
 for f in image_pgm16_heap_overflow.pgm compare_pgm16_512_segv.pgm image_tga_21B_3GB.tga image_tga_23B_oom.tga \
          exr_header_1e8x1e8.exr exr_zip_bomb_16384.exr; do
@@ -71,6 +72,51 @@ for f in "$DIR"/*; do
     *) echo "FAIL $b: a hostile input this test does not try yet"; fail=$((fail + 1)) ;;
     esac
 done
+}
+if [ -d "$DIR" ]; then
+    shared_inputs
+else
+    echo "test_bad_inputs: $DIR not found (the shared/ folder beside the checkout): its files skipped"
+fi
+
+# ---- tests/bad-inputs (see its README.md)
+R=$REPO_DIR
+for f in hdr_rle_truncated.hdr hdr_rle_zero_run.hdr hdr_rle_header_nul.hdr; do
+    expect_clear_error "$f: corrupt Radiance HDR data" compare "$R/$f" "$R/$f"
+done
+expect_clear_error "hdr_texture/t.hdr: corrupt Radiance HDR data" info --scene "$R/hdr_texture/m.obj"
+expect_clear_error "obj_mtl_fallback/m.mtl:1: 'map_Kd' before any 'newmtl'" info --scene "$R/obj_mtl_fallback/m.obj"
+expect_clear_error "ply_face_past_end.ply: PLY face 0 refers to vertex" info --scene "$R/ply_face_past_end.ply"
+expect_clear_error "ply_empty_face.ply: PLY face 0 has 0 vertices" info --scene "$R/ply_empty_face.ply"
+for f in "$R"/*; do
+    case "$(basename "$f")" in
+    README.md | hdr_rle_truncated.hdr | hdr_rle_zero_run.hdr | hdr_rle_header_nul.hdr | hdr_texture | obj_mtl_fallback | \
+        ply_face_past_end.ply | ply_empty_face.ply) ;;
+    *) echo "FAIL $f: a hostile input this test does not try yet"; fail=$((fail + 1)) ;;
+    esac
+done
+
+# ---- no file needed: what a path names, and a light that is not one
+mkfifo "$TMP/fifo.json" "$TMP/fifo.obj"
+ln -s /dev/zero "$TMP/zero.json"
+mkdir "$TMP/dir.obj" "$TMP/dir.json"
+expect_clear_error "fifo.json: is a FIFO, not a regular file" info --scene "$TMP/fifo.json"
+expect_clear_error "zero.json: is a device, not a regular file" info --scene "$TMP/zero.json"
+expect_clear_error "fifo.obj: is a FIFO, not a regular file" info --scene "$TMP/fifo.obj"
+expect_clear_error "dir.obj: is a directory" info --scene "$TMP/dir.obj"
+expect_clear_error "dir.json: is a directory" info --scene "$TMP/dir.json"
+printf '{"mesh": "dir.obj", "sky": {}}\n' >"$TMP/mesh-dir.json"
+expect_clear_error "mesh 'dir.obj': $TMP/dir.obj is a directory" info --scene "$TMP/mesh-dir.json"
+printf '{"mesh": "%s", "sky": {}}\n' "$TMP/fifo.obj" >"$TMP/mesh-fifo.json"
+expect_clear_error "mesh '$TMP/fifo.obj' is a FIFO, not a regular file" info --scene "$TMP/mesh-fifo.json"
+# The only emissive triangle has zero area (three points on a line): say so, not "no emissive material".
+printf 'mtllib deg.mtl\nv 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 0 1\nv 1 0 1\nv 0 1 1\nusemtl light\nf 1 2 3\nusemtl white\nf 4 5 6\n' \
+    >"$TMP/deg.obj"
+printf 'newmtl light\nKe 1 1 1\nnewmtl white\nKd 0.8 0.8 0.8\n' >"$TMP/deg.mtl"
+expect_clear_error "deg.obj: the emissive triangles (1, MTL Ke) all have zero area" info --scene "$TMP/deg.obj"
+printf '{"mesh": "deg.obj"}\n' >"$TMP/deg.json"
+expect_clear_error "deg.json: the scene has no lights: its emissive triangles (1) all have zero area" \
+    info --scene "$TMP/deg.json"
 
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]

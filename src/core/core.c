@@ -1,8 +1,10 @@
 #include "core.h"
 
+#include <errno.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <time.h>
 
 static _Thread_local char g_last_error[1024];
@@ -63,4 +65,15 @@ pgi_status pgi__check_image_size(const char *what, int64_t w, int64_t h) {
         return PGI_OK;
     return pgi__fail(PGI_ERR_UNSUPPORTED, "%s: image of %lldx%lld is out of range (1..%d a side, at most %u pixels)",
                      what, (long long)w, (long long)h, PGI__MAX_SIDE, PGI__MAX_PIXELS);
+}
+
+const char *pgi__not_regular_file(const char *path) {
+    struct stat st;
+    if (stat(path, &st) != 0) return errno == ENOENT || errno == ENOTDIR ? "no such file" : strerror(errno);
+    if (S_ISREG(st.st_mode)) return NULL;
+    if (S_ISDIR(st.st_mode)) return "is a directory";
+    if (S_ISFIFO(st.st_mode)) return "is a FIFO, not a regular file";
+    if (S_ISCHR(st.st_mode) || S_ISBLK(st.st_mode)) return "is a device, not a regular file";
+    if (S_ISSOCK(st.st_mode)) return "is a socket, not a regular file";
+    return "is not a regular file";
 }

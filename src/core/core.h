@@ -59,6 +59,11 @@ extern const float pgi__srgb8_texture_lut[256];
 /* PGI_ERR_INVALID_ARG naming `name` and the registered estimators (estimator.c). */
 pgi_status pgi__fail_unknown_estimator(const char *name);
 
+/* Why `path` cannot be read as an input file (stat follows links): NULL for a regular file,
+ * else "no such file", "is a directory", "is a FIFO, not a regular file", "is a device, not a
+ * regular file", ... (static text). Checked before opening: a FIFO would block the open, a
+ * device such as /dev/zero never ends. */
+const char *pgi__not_regular_file(const char *path);
 /* Appends `name` to the comma-separated list in buf (for "registered: a, b" messages). */
 void pgi__list_append(char *buf, size_t cap, const char *name);
 

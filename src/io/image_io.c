@@ -294,6 +294,99 @@ pgi_status pgi_image_write(const pgi_image *img, const char *path, float exposur
 
 /* --------------------------------------------------------------------- read */
 
+/* Radiance HDR run-length data: stb_image 2.27 (Debian 12's) loops forever on a literal run of
+ * length 0, which is also what it reads past the end of a truncated file. Walks the scanlines
+ * as stb will (same header parsing, same fall-back to flat pixels) and reports such a run
+ * before stb sees it. Not an HDR file, or not run-length encoded: fine (stb decides). */
+typedef struct byte_src {
+    FILE *f;
+    const unsigned char *p, *end;
+} byte_src;
+
+static int src_get(byte_src *s) { /* stb's stbi__get8: 0 past the end */
+    if (s->f) {
+        int c = getc(s->f);
+        return c == EOF ? 0 : c;
+    }
+    return s->p < s->end ? *s->p++ : 0;
+}
+
+/* One header line (stbi__hdr_gettoken: up to '\n', the first 1023 bytes kept); -1 at the end. */
+static int src_line(byte_src *s, char *buf, size_t cap) {
+    size_t n = 0;
+    int any = 0;
+    for (;;) {
+        int c;
+        if (s->f) c = getc(s->f);
+        else c = s->p < s->end ? *s->p++ : EOF;
+        if (c == EOF) {
+            if (!any) return -1;
+            break;
+        }
+        any = 1;
+        if (c == '\n') break;
+        if (n + 1 < cap) buf[n++] = (char)c;
+    }
+    buf[n] = 0;
+    return (int)n;
+}
+
+/* Returns the 1-based scanline with a zero-length run, or 0. */
+static long hdr_zero_run(byte_src *s) {
+    char line[1024];
+    if (src_line(s, line, sizeof line) < 0 || (strcmp(line, "#?RADIANCE") != 0 && strcmp(line, "#?RGBE") != 0))
+        return 0;
+    for (;;) { /* header lines up to an empty one */
+        int n = src_line(s, line, sizeof line);
+        if (n < 0) return 0;
+        if (line[0] == 0) break; /* stb compares C strings: a line that starts with a NUL is empty too */
+    }
+    if (src_line(s, line, sizeof line) < 0 || strncmp(line, "-Y ", 3) != 0) return 0;
+    char *p = line + 3;
+    long h = strtol(p, &p, 10);
+    while (*p == ' ') ++p;
+    if (strncmp(p, "+X ", 3) != 0) return 0;
+    long w = strtol(p + 3, NULL, 10);
+    if (w < 8 || w >= 32768 || h < 1 || h > (1 << 24)) return 0; /* flat pixels, or refused by stb */
+    for (long j = 0; j < h; j++) {
+        int c1 = src_get(s), c2 = src_get(s), len = src_get(s);
+        if (c1 != 2 || c2 != 2 || (len & 0x80)) return 0; /* stb reads flat pixels from here on */
+        len = (len << 8) | src_get(s);
+        if (len != w) return 0; /* stb: "invalid decoded scanline length" */
+        for (int k = 0; k < 4; k++) {
+            for (long i = 0; i < w;) {
+                int count = src_get(s);
+                if (count > 128) {
+                    src_get(s);
+                    count -= 128;
+                } else if (count == 0) {
+                    return j + 1;
+                } else {
+                    for (int z = 0; z < count; z++) src_get(s);
+                }
+                if (count > w - i) return 0; /* stb: "bad RLE data in HDR" */
+                i += count;
+            }
+        }
+    }
+    return 0;
+}
+
+pgi_status pgi__hdr_check(const char *what, FILE *f, const void *data, size_t size) {
+    byte_src src = {f, data, data ? (const unsigned char *)data + size : NULL};
+    long pos = f ? ftell(f) : 0;
+    long line = hdr_zero_run(&src);
+    if (f) {
+        clearerr(f);
+        if (pos < 0 || fseek(f, pos, SEEK_SET) != 0) return pgi__fail(PGI_ERR_IO, "%s: cannot seek", what);
+    }
+    if (line)
+        return pgi__fail(PGI_ERR_PARSE,
+                         "%s: corrupt Radiance HDR data: scanline %ld has a run of length 0 (or ends early)", what,
+                         line);
+    return PGI_OK;
+}
+
 static pgi_status read_stb(const char *path, FILE *f, int png, pgi_image *out, int *is_hdr) {
     int w = 0, h = 0, comp = 0;
     float *rgb = NULL;
@@ -303,6 +396,7 @@ static pgi_status read_stb(const char *path, FILE *f, int png, pgi_image *out, i
     pgi_status st = pgi__check_image_size(path, w, h);
     if (st) return st;
     if (stbi_is_hdr_from_file(f)) {
+        if ((st = pgi__hdr_check(path, f, NULL, 0))) return st;
         float *px = stbi_loadf_from_file(f, &w, &h, &comp, 3);
         if (!px) return pgi__fail(PGI_ERR_PARSE, "%s: unreadable image: %s", path, stbi_failure_reason());
         /* stb scales its own HDR loads by 1 (no gamma): values as stored. */

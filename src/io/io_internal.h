@@ -4,6 +4,8 @@
 
 #include "photongi/photongi.h"
 
+#include <stdio.h>
+
 /* Reads an image into linear RGB floats (`out` receives a new image; free with
  * pgi_image_free). The format comes from the file's content, not its name:
  * OpenEXR (scanline, R,G,B channels of any pixel type) and Radiance HDR give
@@ -12,6 +14,12 @@
  * 8-bit PNG with exposure 1 gives back its bytes exactly. `is_hdr` may be NULL.
  * Missing/unopenable file: PGI_ERR_IO; unreadable content: PGI_ERR_PARSE. */
 pgi_status pgi__image_read(const char *path, pgi_image *out, int *is_hdr);
+
+/* Guards stb_image's Radiance HDR decoder, which hangs on some corrupt run-length data (a run
+ * of length 0, or a truncated file): PGI_ERR_PARSE naming `what` if the file `f` (read from its
+ * position, which is restored) or the buffer `data` of `size` bytes holds such data, else PGI_OK
+ * (also for anything that is not an HDR image). Call it before any stbi_load* of such a file. */
+pgi_status pgi__hdr_check(const char *what, FILE *f, const void *data, size_t size);
 
 /* The frame statistics as a JSON document (the format pgi_stats_write_json
  * writes). Returns a malloc'd string the caller frees, or NULL when out of memory. */

@@ -42,21 +42,19 @@
  * alphaCutoff (glTF). glTF BLEND is not a cut-out (opacity < 1 is glass, as for MTL d). */
 #include "scene_internal.h"
 
+#include "io/io_internal.h"
+
 #include <assimp/cimport.h>
 #include <assimp/material.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 #include <stb_image.h>
 
+#include <errno.h>
 #include <stdio.h>
 #include <string.h>
 #include <strings.h>
 #include <sys/stat.h>
-
-static int regular_file(const char *p) {
-    struct stat st;
-    return stat(p, &st) == 0 && S_ISREG(st.st_mode);
-}
 
 /* Copies with truncation (names longer than the field are cut). */
 static void copy_str(char *dst, size_t n, const char *src) {
@@ -102,6 +100,13 @@ typedef struct tex_cache {
     int ply;        /* a PLY file (no materials of its own) */
 } tex_cache;
 
+/* A texture's error (which names the texture) prefixed with the mesh and the material. */
+static pgi_status texture_fail(pgi_status st, const tex_cache *tc, const char *mat_name) {
+    char why[512];
+    snprintf(why, sizeof why, "%s", pgi_last_error());
+    return pgi__fail(st, "%s: material '%s': %s", tc->mesh_path, mat_name, why);
+}
+
 static pgi_status load_texture(pgi_scene *s, tex_cache *tc, const struct aiScene *sc, const char *mat_name,
                                const char *file, int *index) {
     char resolved[sizeof((pgi__texture *)0)
@@ -128,6 +133,7 @@ static pgi_status load_texture(pgi_scene *s, tex_cache *tc, const struct aiScene
                                  resolved, stbi_failure_reason());
             pgi_status st = pgi__check_image_size(resolved, w, h);
             if (st) return st;
+            if ((st = pgi__hdr_check(resolved, NULL, at->pcData, at->mWidth))) return texture_fail(st, tc, mat_name);
             rgba = stbi_load_from_memory((const unsigned char *)at->pcData, (int)at->mWidth, &w, &h, &n, 4);
             if (!rgba)
                 return pgi__fail(PGI_ERR_IO, "%s: material '%s': cannot read texture '%s': %s", tc->mesh_path, mat_name,
@@ -169,12 +175,23 @@ static pgi_status load_texture(pgi_scene *s, tex_cache *tc, const struct aiScene
     for (size_t i = tc->first; i < s->ntexs; i++)
         if (strcmp(s->texs[i].path, resolved) == 0) return *index = (int)i, PGI_OK;
     int w, h, n;
+    const char *why = pgi__not_regular_file(resolved);
+    if (why)
+        return pgi__fail(PGI_ERR_IO, "%s: material '%s': cannot read texture '%s': %s", tc->mesh_path, mat_name,
+                         resolved, why);
     if (!stbi_info(resolved, &w, &h, &n))
         return pgi__fail(PGI_ERR_IO, "%s: material '%s': cannot read texture '%s': %s", tc->mesh_path, mat_name,
                          resolved, stbi_failure_reason());
     pgi_status st = pgi__check_image_size(resolved, w, h);
     if (st) return st;
-    unsigned char *rgba = stbi_load(resolved, &w, &h, &n, 4);
+    FILE *f = fopen(resolved, "rb");
+    if (!f)
+        return pgi__fail(PGI_ERR_IO, "%s: material '%s': cannot read texture '%s': %s", tc->mesh_path, mat_name,
+                         resolved, strerror(errno));
+    st = pgi__hdr_check(resolved, f, NULL, 0);
+    unsigned char *rgba = st ? NULL : stbi_load_from_file(f, &w, &h, &n, 4);
+    fclose(f);
+    if (st) return texture_fail(st, tc, mat_name);
     if (!rgba)
         return pgi__fail(PGI_ERR_IO, "%s: material '%s': cannot read texture '%s': %s", tc->mesh_path, mat_name,
                          resolved, stbi_failure_reason());
@@ -473,7 +490,8 @@ static int has_ext(const char *path, const char *ext) {
 
 pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path) {
     if (!s || !path) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi__scene_import_mesh: NULL argument");
-    if (!regular_file(path)) return pgi__fail(PGI_ERR_IO, "%s: no such file", path);
+    const char *why = pgi__not_regular_file(path);
+    if (why) return pgi__fail(PGI_ERR_IO, "%s: %s", path, why);
     pgi__mesh_hints hints;
     pgi_status pre = pgi__mesh_precheck(path, &hints);
     if (pre) return pre;
@@ -482,8 +500,10 @@ pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path) {
             ? NORMALS_FLAT
             : NORMALS_SMOOTH;
 
-    const unsigned int flags = aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_SortByPType |
-                               aiProcess_PreTransformVertices;
+    /* ValidateDataStructure runs first: Assimp's importers leave out-of-range indices in some
+     * malformed files (a PLY face list longer than the file), which the later steps follow. */
+    const unsigned int flags = aiProcess_ValidateDataStructure | aiProcess_Triangulate |
+                               aiProcess_JoinIdenticalVertices | aiProcess_SortByPType | aiProcess_PreTransformVertices;
     const struct aiScene *sc = aiImportFile(path, flags);
     if (!sc) {
         const char *e = aiGetErrorString();

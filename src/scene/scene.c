@@ -171,6 +171,15 @@ pgi_status pgi__scene_finalize(pgi_scene *s, const char *what) {
     return PGI_OK;
 }
 
+size_t pgi__scene_emissive_triangles(const pgi_scene *s) {
+    size_t n = 0;
+    for (size_t t = 0; t < s->ntris; t++) {
+        const float *ke = s->mats[s->tri_mat[t]].ke;
+        n += ke[0] > 0.f || ke[1] > 0.f || ke[2] > 0.f;
+    }
+    return n;
+}
+
 float pgi__scene_diagonal(const pgi_scene *s) { return v3_len(v3_sub(v3_load(s->bmax), v3_load(s->bmin))); }
 
 float pgi__scene_epsilon(const pgi_scene *s) { return fmaxf(1e-5f, 1e-5f * pgi__scene_diagonal(s)); }
@@ -241,7 +250,8 @@ pgi_status pgi_scene_load(const char *spec, pgi_scene **out) {
                          "to a .json description or a mesh)",
                          spec, spec, dirs, names);
     }
-    if (!file_exists(spec)) return pgi__fail(PGI_ERR_IO, "%s: no such file", spec);
+    const char *why = pgi__not_regular_file(spec);
+    if (why) return pgi__fail(PGI_ERR_IO, "%s: %s", spec, why);
     const char *base = strrchr(spec, '/');
     pgi_scene *s = NULL;
     pgi_status st = pgi__scene_new(base ? base + 1 : spec, &s);
@@ -249,7 +259,12 @@ pgi_status pgi_scene_load(const char *spec, pgi_scene **out) {
     snprintf(s->source, sizeof s->source, "%s", spec);
     st = pgi__scene_import_mesh(s, spec);
     if (!st) st = pgi__scene_finalize(s, spec);
-    if (!st && s->nlights == 0)
+    if (!st && s->nlights == 0 && pgi__scene_emissive_triangles(s) > 0)
+        st = pgi__fail(PGI_ERR_PARSE,
+                       "%s: the emissive triangles (%zu, MTL Ke) all have zero area, so nothing emits; a bare mesh "
+                       "cannot name other lights: write a .json scene description with a \"lights\" list",
+                       spec, pgi__scene_emissive_triangles(s));
+    else if (!st && s->nlights == 0)
         st = pgi__fail(PGI_ERR_PARSE,
                        "%s: the mesh has no emissive material (MTL Ke) and a bare mesh cannot name lights; "
                        "write a .json scene description with a \"lights\" list",

@@ -188,6 +188,8 @@ pgi_status pgi__scene_new(const char *name, pgi_scene **out);
 pgi_status pgi__scene_finalize(pgi_scene *s, const char *what);
 /* Length of the scene's bounding-box diagonal. */
 float pgi__scene_diagonal(const pgi_scene *s);
+/* Triangles whose material emits (Ke > 0), area lights or not (a zero-area one is none). */
+size_t pgi__scene_emissive_triangles(const pgi_scene *s);
 /* Ray offset used to leave a surface without hitting it again (from the
  * bounds: 1e-5 of the diagonal, at least 1e-5). */
 float pgi__scene_epsilon(const pgi_scene *s);

@@ -46,13 +46,14 @@
 #define SOURCE_SCENES_DIR PGI_SOURCE_DIR "/../shared/scenes"
 #endif
 
-static int regular_file(const char *p) {
-    struct stat st;
-    return stat(p, &st) == 0 && S_ISREG(st.st_mode);
-}
+/* A description is a few kilobytes; far beyond that it is not one (or a file that never ends). */
+#define MAX_JSON_BYTES (64u << 20)
 
 /* Reads a whole file, NUL-terminated. */
 static pgi_status read_file(const char *path, char **out, size_t *len) {
+    /* A FIFO would block the open, a device (a link to /dev/zero) never end. */
+    const char *why = pgi__not_regular_file(path);
+    if (why) return pgi__fail(PGI_ERR_IO, "%s: %s", path, why);
     FILE *f = fopen(path, "rb");
     if (!f) return pgi__fail(PGI_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
     size_t cap = 4096, n = 0;
@@ -62,6 +63,12 @@ static pgi_status read_file(const char *path, char **out, size_t *len) {
         return pgi__fail(PGI_ERR_OOM, "%s: out of memory", path);
     }
     for (;;) {
+        if (n > MAX_JSON_BYTES) {
+            free(buf);
+            fclose(f);
+            return pgi__fail(PGI_ERR_PARSE, "%s: larger than %u MiB: not a scene description", path,
+                             MAX_JSON_BYTES >> 20);
+        }
         if (n + 1 >= cap) {
             char *nb = realloc(buf, cap * 2);
             if (!nb) {
@@ -259,7 +266,10 @@ static pgi_status parse_render(const char *path, const cJSON *r, pgi_scene_defau
 /* `kind` names the key in messages: "mesh", "environment.map". */
 static pgi_status resolve_mesh(const char *path, const char *kind, const char *mesh, char *out, size_t n) {
     if (mesh[0] == '/') {
-        if (!regular_file(mesh)) return pgi__fail(PGI_ERR_IO, "%s: %s '%s' not found", path, kind, mesh);
+        const char *why = pgi__not_regular_file(mesh);
+        if (why && strcmp(why, "no such file") == 0)
+            return pgi__fail(PGI_ERR_IO, "%s: %s '%s' not found", path, kind, mesh);
+        if (why) return pgi__fail(PGI_ERR_IO, "%s: %s '%s' %s", path, kind, mesh, why);
         snprintf(out, n, "%s", mesh);
         return PGI_OK;
     }
@@ -277,13 +287,21 @@ static pgi_status resolve_mesh(const char *path, const char *kind, const char *m
 #endif
         dirs[nd++] = DEFAULT_SCENES_DIR;
     }
-    char looked[2048] = "";
+    char looked[2048] = "", other[1024] = "";
+    const char *other_why = NULL;
     for (int i = 0; i < nd; i++) {
         size_t dl = strlen(dirs[i]);
         int len = snprintf(out, n, "%s%s%s", dirs[i], dl && dirs[i][dl - 1] == '/' ? "" : "/", mesh);
-        if (len > 0 && (size_t)len < n && regular_file(out)) return PGI_OK;
+        if (len <= 0 || (size_t)len >= n) continue;
+        const char *why = pgi__not_regular_file(out);
+        if (!why) return PGI_OK;
+        if (!other_why && strcmp(why, "no such file") != 0) { /* there, but a directory, a FIFO, ... */
+            other_why = why;
+            snprintf(other, sizeof other, "%s", out);
+        }
         pgi__list_append(looked, sizeof looked, dirs[i]);
     }
+    if (other_why) return pgi__fail(PGI_ERR_IO, "%s: %s '%s': %s %s", path, kind, mesh, other, other_why);
     return pgi__fail(PGI_ERR_IO,
                      "%s: %s '%s' not found (looked in %s; set PHOTONGI_SCENES to the folder that holds "
                      "the scenes)",
@@ -700,7 +718,12 @@ static pgi_status load(const char *path, const cJSON *root, pgi_scene **out) {
         st = pgi_scene_set_time(s, 0.0);
         s->dynamic_version = 0;
     }
-    if (!st && s->nlights == 0 && !s->env)
+    if (!st && s->nlights == 0 && !s->env && pgi__scene_emissive_triangles(s) > 0)
+        st = pgi__fail(PGI_ERR_PARSE,
+                       "%s: the scene has no lights: its emissive triangles (%zu) all have zero area; add a "
+                       "\"lights\" list or a \"sky\"",
+                       path, pgi__scene_emissive_triangles(s));
+    else if (!st && s->nlights == 0 && !s->env)
         st = pgi__fail(PGI_ERR_PARSE,
                        "%s: the scene has no lights: add a \"lights\" list or a \"sky\", or use a mesh with "
                        "emissive (Ke) materials",
