@@ -12,13 +12,6 @@
 
 #include "fuzz_util.h"
 
-int LLVMFuzzerInitialize(int *argc, char ***argv) {
-    (void)argc;
-    (void)argv;
-    fuzz_dir_init();
-    return 0;
-}
-
 /* Offset of the first line that starts with "#MTL", or n. */
 static size_t find_mtl_line(const uint8_t *d, size_t n) {
     for (size_t i = 0; i + 4 <= n; i++) {
@@ -48,15 +41,6 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
         }
         fuzz_write("m.obj", data, split, path, sizeof path);
     }
-    pgi_scene *s = NULL;
-    pgi_status st = pgi_scene_load(path, &s);
-    if (st == PGI_OK) {
-        pgi_scene_info info;
-        pgi_scene_get_info(s, &info);
-        pgi_scene_destroy(s);
-    } else if (s || !pgi_last_error()[0]) {
-        fprintf(stderr, "pgi_scene_load failed (%d) %s\n", (int)st, s ? "but returned a scene" : "without a message");
-        abort();
-    }
+    fuzz_load_scene(path);
     return 0;
 }

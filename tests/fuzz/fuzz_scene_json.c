@@ -6,25 +6,9 @@
 
 #include "fuzz_util.h"
 
-int LLVMFuzzerInitialize(int *argc, char ***argv) {
-    (void)argc;
-    (void)argv;
-    fuzz_dir_init();
-    return 0;
-}
-
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
     char path[512];
     fuzz_write("scene.json", data, size, path, sizeof path);
-    pgi_scene *s = NULL;
-    pgi_status st = pgi_scene_load(path, &s);
-    if (st == PGI_OK) {
-        pgi_scene_info info;
-        pgi_scene_get_info(s, &info);
-        pgi_scene_destroy(s);
-    } else if (s || !pgi_last_error()[0]) {
-        fprintf(stderr, "pgi_scene_load failed (%d) %s\n", (int)st, s ? "but returned a scene" : "without a message");
-        abort();
-    }
+    fuzz_load_scene(path);
     return 0;
 }

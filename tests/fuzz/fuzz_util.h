@@ -10,6 +10,8 @@
 #include <string.h>
 #include <unistd.h>
 
+#include <photongi/photongi.h>
+
 static char g_fuzz_dir[256];
 
 static inline void fuzz_dir_remove(void) {
@@ -39,6 +41,29 @@ static inline void fuzz_write(const char *name, const uint8_t *data, size_t n, c
     FILE *f = fopen(path, "wb");
     if (!f || (n && fwrite(data, 1, n, f) != n) || fclose(f) != 0) {
         perror("pgi fuzz: write");
+        abort();
+    }
+}
+
+/* Every target's libFuzzer initialisation: the folder. */
+int LLVMFuzzerInitialize(int *argc, char ***argv) {
+    (void)argc;
+    (void)argv;
+    fuzz_dir_init();
+    return 0;
+}
+
+/* Loads a scene from `path` as `photongi render --scene` would; a failure must come with a
+ * message and no scene (else abort: a finding). */
+static inline void fuzz_load_scene(const char *path) {
+    pgi_scene *s = NULL;
+    pgi_status st = pgi_scene_load(path, &s);
+    if (st == PGI_OK) {
+        pgi_scene_info info;
+        pgi_scene_get_info(s, &info);
+        pgi_scene_destroy(s);
+    } else if (s || !pgi_last_error()[0]) {
+        fprintf(stderr, "pgi_scene_load failed (%d) %s\n", (int)st, s ? "but returned a scene" : "without a message");
         abort();
     }
 }
