@@ -238,10 +238,11 @@ typedef struct pgi_auto_radius_stats {
  * is "in view" when it lands in a cell of the view grid: cells of size `cell` holding a view sample
  * whose surface faces the same way. */
 typedef struct pgi_emission_stats {
-    int guided;             /* 1: the guide steered the photons after the pilot (0: auto kept uniform) */
+    int guided;             /* 1: the guide steered the photons after the pilot (0: it kept uniform emission:
+                               auto predicted too little gain, or the pilot saw under 32 photons in view) */
     int bins;               /* the guide's bins */
-    uint64_t pilot_paths;   /* uniform paths traced to build the guide; their photons were dropped (0 when
-                               the guide did not steer: the pilot's photons were kept) */
+    uint64_t pilot_paths;   /* path indices the uniform pilot used (all it traced); their photons were dropped
+                               (0 when the guide did not steer: the pilot's photons were kept) */
     double gain;            /* predicted photons in view per stored photon, steered over uniform */
     double in_view;         /* fraction of the photons of this frame's paths (the steered ones: not the pilot's
                                when it was dropped) that landed in view; measured over every path traced */

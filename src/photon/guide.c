@@ -175,11 +175,14 @@ void pgi__guide_update(pgi__guide *g, double min_gain) {
         g->cdf[b] = (float)acc;
         g->q[b] = q;
     }
-    for (int b = 0; b < n; b++) {
-        g->cdf[b] = (float)(g->cdf[b] / acc);
-        g->q[b] /= acc;
-    }
+    for (int b = 0; b < n; b++) g->cdf[b] = (float)(g->cdf[b] / acc);
     g->cdf[n - 1] = 1.f;
+    /* The weights use the probability each bin really has: pgi__cdf_pick takes the first bin with
+       u < cdf[b], and u is one of 2^24 grid values. */
+    for (int b = 0; b < n; b++) {
+        const double lo = b ? ceil((double)g->cdf[b - 1] * 16777216.0) : 0.0;
+        g->q[b] = (ceil((double)g->cdf[b] * 16777216.0) - lo) / 16777216.0;
+    }
     g->useful_uniform = ue / us;
     g->gain = (qe / qs) / (ue / us);
     g->yield = qs / acc;

@@ -66,7 +66,8 @@ typedef struct pgi__guide {
     float gb[PGI__GUIDE_GROUPS + 1]; /* the groups' ranges of the light-pick number */
     int on;                          /* sample from q (else uniformly: the papers' emission) */
     float *cdf;                      /* of q over the bins */
-    double *q;                       /* q_b */
+    double *q;                       /* q_b: the probability the sampler really gives bin b (its share of
+                                        the 2^24 values of pgi_rng_f below the float CDF) */
     /* evidence: paths traced, photons stored and stored near a view sample, per bin */
     double *paths, *stored, *useful;
     uint32_t *tcount; /* per thread: 3 * nbins counters of the batch */
@@ -108,11 +109,12 @@ static inline int pgi__guide_sample(const pgi__guide *g, float u, float r0, floa
     const int bin = (int)pgi__cdf_pick(g->cdf, (size_t)g->nbins, u, &p);
     const int grp = bin / (PGI__GUIDE_RES * PGI__GUIDE_RES), ia = bin / PGI__GUIDE_RES % PGI__GUIDE_RES,
               ib = bin % PGI__GUIDE_RES;
-    const float below1 = 0x1.fffffep-1f, inv = 1.f / PGI__GUIDE_RES;
+    const float inv = 1.f / PGI__GUIDE_RES;
     *ul = g->gb[grp] + r0 * (g->gb[grp + 1] - g->gb[grp]);
     if (!(*ul < g->gb[grp + 1])) *ul = nextafterf(g->gb[grp + 1], 0.f); /* stays in its light's range */
-    *a = fminf(((float)ia + r1) * inv, below1);
-    *b = fminf(((float)ib + r2) * inv, below1);
+    /* in float, ia + r1 can round up to ia + 1: stay inside the bin */
+    *a = fminf(((float)ia + r1) * inv, nextafterf((float)(ia + 1) * inv, 0.f));
+    *b = fminf(((float)ib + r2) * inv, nextafterf((float)(ib + 1) * inv, 0.f));
     return bin;
 }
 

@@ -470,9 +470,12 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
         free(cdf);
         return st;
     }
+    /* guided emission: the uniform pilot stores about an eighth of the photons */
+    const size_t pilot_want = want / 8 + 1 < want ? want / 8 + 1 : want;
     while (ph->count < want && path < max_paths) {
         if (d->progress) d->progress(d->progress_ctx, ph->count, want);
-        size_t remaining = want - ph->count;
+        const size_t goal = d->guide && !guide_done ? pilot_want : want; /* this phase's photons */
+        size_t remaining = goal - ph->count;
         size_t batch;
         if (seen_photons < 64.0) {
             batch = remaining / 4 + 64; /* no estimate yet: a pilot batch */
@@ -485,13 +488,6 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
              * below: an extra small batch costs less than paths traced for nothing. */
             double y = seen_photons / seen_paths * (1.0 + 3.0 / sqrt(seen_photons));
             batch = (size_t)((double)remaining / y) + 1;
-        }
-        if (d->guide && frame_paths == 0) {
-            /* guided emission: a uniform pilot of about an eighth of the photons; its evidence
-               steers the batches after it */
-            double y = seen_photons >= 64.0 ? seen_photons / seen_paths : 1.0;
-            batch = (size_t)((double)want / 8.0 / y) + 64;
-            if (batch < 4 * CHUNK) batch = 4 * CHUNK;
         }
         if (batch < 64) batch = 64;
         if (batch > (1u << 20)) batch = 1u << 20;
@@ -535,18 +531,18 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
         /* Take whole chunks while they fit; cut the last one after the path that fills the buffer. */
         size_t produced = 0, used_paths = 0;
         long long c = 0;
-        for (; c < nch && ph->count + produced < want; c++) {
+        for (; c < nch && ph->count + produced < goal; c++) {
             chunk_info *ci = &sc->chunks[c];
             size_t np = (size_t)((c + 1) * CHUNK <= (long long)batch ? CHUNK : batch - (size_t)c * CHUNK);
-            if (ph->count + produced + ci->count < want) { /* an exact fill is cut after its filling path */
+            if (ph->count + produced + ci->count < goal) { /* an exact fill is cut after its filling path */
                 produced += ci->count;
                 used_paths += np;
                 continue;
             }
             size_t take = 0, i = 0;
             const uint8_t *cn = sc->counts + (size_t)c * CHUNK;
-            while (ph->count + produced + take < want) take += cn[i++];
-            ci->count = want - ph->count - produced;
+            while (ph->count + produced + take < goal) take += cn[i++];
+            ci->count = goal - ph->count - produced;
             produced += ci->count;
             used_paths += i;
             c++;
@@ -622,26 +618,29 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
         frame_paths += (double)batch;
         frame_photons += (double)batch_photons;
         ph->count += produced;
+        const uint64_t batch_end = path + batch; /* every path index this batch traced */
         path += used_paths;
         if (d->guide) {
             pgi__guide_collect(d->guide);
-            if (!guide_done && pilot_paths == 0) { /* the pilot's evidence builds q, once */
-                pilot_paths = path;
+            if (!guide_done && (ph->count >= goal || path >= max_paths)) { /* the pilot decides, once */
+                guide_done = 1;
                 pgi__guide_totals(d->guide, &pilot_stored, &pilot_useful);
                 pgi__guide_update(d->guide, d->min_gain);
                 if (d->guide->on) {
                     /* The pilot's photons go: weighted by a q built from themselves they would
                        be biased (a lucky bin lowers its own weight), and with their uniform
-                       weight they would stand out as bright disks among the steered ones. */
+                       weight they would stand out as bright disks among the steered ones. The
+                       steered paths start after every index the pilot traced (none reuses a
+                       pilot path's random numbers, which built q). */
                     ph->count = 0;
+                    path = pilot_paths = batch_end;
+                    if (d->footprint_hist) memset(d->footprint_hist, 0, PGI_FOOTPRINT_BINS * sizeof *d->footprint_hist);
                     /* steering changes the yield: size the next batch by the guide's prediction */
                     seen_paths = 1024.0;
                     seen_photons = 1024.0 * d->guide->yield;
                 } else {
-                    pilot_paths = 0; /* uniform after all: the pilot's photons stay */
-                    pilot_stored = pilot_useful = 0;
-                    guide_done = 1;
-                    T.G = NULL; /* and the paths after it count nothing (in_view: the pilot's) */
+                    pilot_stored = pilot_useful = 0; /* uniform after all: the pilot's photons stay */
+                    T.G = NULL;                      /* and the paths after it count nothing (in_view: the pilot's) */
                 }
             }
         }

@@ -411,6 +411,10 @@ static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, uint64_t se
         fs->emission.cell = h;
         td.guide = &r->guide;
         td.vgrid = &r->vgrid;
+        /* no stale figures if the tracer returns before the guide starts (no light, no bounce) */
+        r->guide.on = 0;
+        r->guide.gain = 1.0;
+        r->guide.in_view = r->guide.useful_uniform = 0.0;
         td.min_gain = d->emission == PGI_EMISSION_AUTO ? 1.25 : 0.0;
     }
     pgi__rt_capture_pass(r->rt, PGI__PASS_TRACE);
