@@ -25,6 +25,14 @@ static inline int app_parse_emission(const char *s, pgi_emission *out) {
     return 0;
 }
 
+/* "all" or "view" (--store). */
+static inline int app_parse_store(const char *s, pgi_store *out) {
+    if (strcmp(s, "all") == 0) *out = PGI_STORE_ALL;
+    else if (strcmp(s, "view") == 0) *out = PGI_STORE_VIEW;
+    else return 0;
+    return 1;
+}
+
 /* Integer in [lo, hi]. */
 static inline int parse_long(const char *s, long long lo, long long hi, long long *out) {
     char *end;

@@ -88,6 +88,10 @@ static const char *k_render_help =
     "                     the camera looks (a uniform pilot of 1/8 of the photons, then steered\n"
     "                     and reweighted: unbiased), auto = guided where the pilot predicts\n"
     "                     1.25x the photons in view, else uniform (docs/emission.md)\n"
+    "  --store all|view   which photons to store: all (default), or view = only those that\n"
+    "                     may lie within the radius of a view sample (the others add nothing;\n"
+    "                     --photons then counts photons where the camera looks, and more paths\n"
+    "                     are traced to find them); needs a given --radius\n"
     "  --time T           scene time in seconds for animated objects (default 0)\n"
     "  --specular ggx|phong   model of the mesh's glossy materials (MTL illum 2): ggx =\n"
     "                     microfacet plastic, phong = the papers' Blinn-Phong (default: the\n"
@@ -365,6 +369,8 @@ static int cmd_render(int argc, char **argv) {
             else if (strcmp(v, "on") == 0) d.jitter = PGI_JITTER_ON;
             else if (strcmp(v, "off") == 0) d.jitter = PGI_JITTER_OFF;
             else return cli_usage("render", "--jitter must be auto, on or off, got '%s'", v);
+        } else if (strcmp(a, "--store") == 0) {
+            if (!app_parse_store(v, &d.store)) return cli_usage("render", "--store must be all or view, got '%s'", v);
         } else if (strcmp(a, "--emission") == 0) {
             if (!app_parse_emission(v, &d.emission))
                 return cli_usage("render", "--emission must be uniform, guided or auto, got '%s'", v);

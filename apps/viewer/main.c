@@ -44,6 +44,7 @@ static const char *k_help =
     "  --output all|direct|indirect|counts   what to show (counts: false-colour photons per pixel)\n"
     "  --emission uniform|guided|auto   photon emission, as 'photongi render --emission'\n"
     "                     (default uniform; docs/emission.md)\n"
+    "  --store all|view   photons stored, as 'photongi render --store' (view needs --radius)\n"
     "  --time T           scene time in seconds to start at (default 0)\n"
     "  --animate          advance the scene time (real time in a window, 1/30 s a frame headless;\n"
     "                     on by default in a window when the scene has animated objects)\n"
@@ -495,7 +496,7 @@ int main(int argc, char **argv) {
                                              "--seed",    "--threads",   "--camera",     "--exposure",
                                              "--time",    "--frames",    "--output",     "--direct-samples",
                                              "--bounces", "--keys",      "--emission",   "--max-memory",
-                                             NULL};
+                                             "--store",   NULL};
         int known = 0;
         for (int k = 0; valued[k]; k++) known |= strcmp(a, valued[k]) == 0;
         if (!known) return usage("unknown option '%s'", a);
@@ -514,6 +515,8 @@ int main(int argc, char **argv) {
             if (!parse_long(val, 1, 100000000, &n))
                 return usage("--photons needs a number in 1..100000000, got '%s'", val);
             v.desc.photons = (uint32_t)n;
+        } else if (strcmp(a, "--store") == 0) {
+            if (!app_parse_store(val, &v.desc.store)) return usage("--store must be all or view, got '%s'", val);
         } else if (strcmp(a, "--emission") == 0) {
             if (!app_parse_emission(val, &v.desc.emission))
                 return usage("--emission must be uniform, guided or auto, got '%s'", val);

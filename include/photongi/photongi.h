@@ -135,6 +135,15 @@ typedef enum pgi_emission {
                                  uniform elsewhere (byte-identical to PGI_EMISSION_UNIFORM then) */
 } pgi_emission;
 
+/* Which photons are stored (docs/emission.md). */
+typedef enum pgi_store {
+    PGI_STORE_ALL = 0, /* default: every photon from the second bounce on */
+    PGI_STORE_VIEW     /* only photons that may lie within the radius of a view sample (the others add nothing
+                          to the image; importance-driven storage, Keller & Wald 2000): `photons` then counts
+                          photons where the camera looks, and more paths are traced to find them. Needs a
+                          given radius (not PGI_RADIUS_AUTO) */
+} pgi_store;
+
 /* Limits of a render (pgi_render_desc): photons to store, image size (also the largest image
  * pgi_image_read accepts), frames of pgi_render_progressive. */
 #define PGI_MAX_PHOTONS 100000000u
@@ -187,6 +196,7 @@ typedef struct pgi_render_desc {
     pgi_jitter jitter;        /* sub-pixel position of the view samples; default PGI_JITTER_AUTO (resolved: a single
                            frame reports OFF, a progressive average the caller's value) */
     pgi_emission emission;    /* photon emission; default PGI_EMISSION_UNIFORM */
+    pgi_store store;          /* which photons are stored; default PGI_STORE_ALL */
     pgi_progress_fn progress; /* may be NULL; not part of the picture (progressive mode does not restart) */
     void *progress_user;      /* passed to `progress` */
     uint64_t max_memory;      /* memory budget in bytes (docs/memory.md): a frame whose scene, BVH, photons, view
@@ -249,7 +259,8 @@ typedef struct pgi_emission_stats {
     double in_view_uniform; /* the same for uniform emission (from the pilot and the bins) */
     size_t cells;           /* cells the camera sees */
     float cell;             /* their size, scene units */
-    double grid_ms;         /* building the view grid */
+    double grid_ms;         /* building the view grid(s) */
+    uint64_t culled;        /* PGI_STORE_VIEW: photons not stored (no view sample within the radius) */
 } pgi_emission_stats;
 
 typedef struct pgi_frame_stats {

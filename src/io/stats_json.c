@@ -132,7 +132,8 @@ static cJSON *build(const pgi_frame_stats *st) {
                                   st->settings.emission >= 0 && st->settings.emission < 3
                                       ? emissions[st->settings.emission]
                                       : "?") != NULL;
-    if (st->emission.bins > 0) {
+    ok &= cJSON_AddStringToObject(root, "store", st->settings.store == PGI_STORE_VIEW ? "view" : "all") != NULL;
+    if (st->emission.bins > 0 || st->settings.store == PGI_STORE_VIEW) {
         const pgi_emission_stats *es = &st->emission;
         ok &= (o = cJSON_AddObjectToObject(root, "emission_guide")) != NULL;
         if (o) {
@@ -145,6 +146,7 @@ static cJSON *build(const pgi_frame_stats *st) {
             ok &= add_num(o, "cells", (double)es->cells);
             ok &= add_num(o, "cell", float_as_double(es->cell));
             ok &= add_num(o, "grid_ms", es->grid_ms);
+            ok &= add_num(o, "culled", (double)es->culled);
         }
     }
     if (st->leaf_size > 0) ok &= add_num(root, "bvh_leaf_size", (double)st->leaf_size);

@@ -60,6 +60,35 @@ pgi_status pgi__view_grid_build(pgi__view_grid *g, const pgi_view_samples *vs, c
     return PGI_OK;
 }
 
+pgi_status pgi__view_grid_build_near(pgi__view_grid *g, const pgi_view_samples *vs, const float bmin[3], float h,
+                                     float r) {
+    pgi_status st = pgi__view_grid_build(g, &(pgi_view_samples){0}, bmin, h); /* empty, sized, placed */
+    if (st) return st;
+    int last[6] = {-1, -1, -1, -1, -1, -1};
+    for (size_t i = 0; i < vs->count; i++) {
+        if (!(vs->flags[i] & PGI_VS_VALID)) continue;
+        const float *p = vs->pos + 3 * i;
+        int lo[3], hi[3];
+        for (int a = 0; a < 3; a++) {
+            lo[a] = pgi__view_grid_cell(g, p[a] - r, a);
+            hi[a] = pgi__view_grid_cell(g, p[a] + r, a);
+        }
+        if (lo[0] == last[0] && lo[1] == last[1] && lo[2] == last[2] && hi[0] == last[3] && hi[1] == last[4] &&
+            hi[2] == last[5])
+            continue; /* neighbouring pixels mostly mark the same cells */
+        memcpy(last, lo, sizeof lo);
+        memcpy(last + 3, hi, sizeof hi);
+        for (int x = lo[0]; x <= hi[0]; x++)
+            for (int y = lo[1]; y <= hi[1]; y++)
+                for (int z = lo[2]; z <= hi[2]; z++) {
+                    if (2 * (g->count + 1) > g->mask + 1 && !grid_grow(g))
+                        return pgi__fail(PGI_ERR_OOM, "%s", "out of memory for the view grid");
+                    grid_insert(g, pgi__view_grid_cell_key(x, y, z));
+                }
+    }
+    return PGI_OK;
+}
+
 void pgi__view_grid_free(pgi__view_grid *g) {
     free(g->keys);
     memset(g, 0, sizeof *g);

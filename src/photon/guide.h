@@ -31,6 +31,11 @@ typedef struct pgi__view_grid {
 } pgi__view_grid;
 
 pgi_status pgi__view_grid_build(pgi__view_grid *g, const pgi_view_samples *vs, const float bmin[3], float h);
+/* The conservative variant for view-culled storage: cells of size h >= 2 r, without facing; each
+ * view sample marks every cell its box of half-width r touches, so a photon closer than r to any
+ * view sample lies in a marked cell (pgi__view_grid_near). */
+pgi_status pgi__view_grid_build_near(pgi__view_grid *g, const pgi_view_samples *vs, const float bmin[3], float h,
+                                     float r);
 void pgi__view_grid_free(pgi__view_grid *g);
 
 static inline uint64_t pgi__view_grid_key(const pgi__view_grid *g, pgi__v3 p, pgi__v3 n) {
@@ -46,6 +51,11 @@ static inline uint64_t pgi__view_grid_key(const pgi__view_grid *g, pgi__v3 p, pg
     return (k << 3 | f) + 1; /* never 0 */
 }
 
+static inline int pgi__view_grid_cell(const pgi__view_grid *g, float x, int axis) {
+    float v = (x - g->origin[axis]) * g->inv_h;
+    return v < 0.f ? 0 : v > 1048575.f ? 1048575 : (int)v;
+}
+
 static inline uint64_t pgi__view_grid_hash(uint64_t k) {
     k ^= k >> 33;
     k *= 0xff51afd7ed558ccdull;
@@ -53,12 +63,27 @@ static inline uint64_t pgi__view_grid_hash(uint64_t k) {
     return k;
 }
 
-static inline int pgi__view_grid_has(const pgi__view_grid *g, pgi__v3 p, pgi__v3 n) {
-    const uint64_t k = pgi__view_grid_key(g, p, n);
+static inline int pgi__view_grid_find(const pgi__view_grid *g, uint64_t k) {
     for (size_t i = pgi__view_grid_hash(k) & g->mask;; i = (i + 1) & g->mask) {
         if (g->keys[i] == k) return 1;
         if (g->keys[i] == 0) return 0;
     }
+}
+
+static inline int pgi__view_grid_has(const pgi__view_grid *g, pgi__v3 p, pgi__v3 n) {
+    return pgi__view_grid_find(g, pgi__view_grid_key(g, p, n));
+}
+
+/* Key of cell (x, y, z) without facing (the conservative grid). */
+static inline uint64_t pgi__view_grid_cell_key(int x, int y, int z) {
+    return ((((uint64_t)x << 20 | (uint64_t)y) << 20 | (uint64_t)z) << 3) + 1;
+}
+
+/* Whether a photon at p may lie closer than r to a view sample (pgi__view_grid_build_near). */
+static inline int pgi__view_grid_near(const pgi__view_grid *g, pgi__v3 p) {
+    return pgi__view_grid_find(g,
+                               pgi__view_grid_cell_key(pgi__view_grid_cell(g, p.x, 0), pgi__view_grid_cell(g, p.y, 1),
+                                                       pgi__view_grid_cell(g, p.z, 2)));
 }
 
 typedef struct pgi__guide {

@@ -22,6 +22,7 @@ typedef struct pgi__trace_desc {
        steered by the guide whenever it predicts at least `min_gain` times the photons in view */
     struct pgi__guide *guide;
     const struct pgi__view_grid *vgrid;
+    const struct pgi__view_grid *near; /* non-NULL: store only photons in its cells (PGI_STORE_VIEW) */
     double min_gain;
 } pgi__trace_desc;
 
@@ -49,6 +50,7 @@ typedef struct pgi__trace_scratch {
     double prior_paths, prior_photons; /* the last frame's traced paths and their photons */
     uint64_t paths_traced;             /* out: paths traced by the last call (emitted + discarded + pilot) */
     uint64_t paths_pilot;              /* out: guided emission's uniform pilot, whose photons were dropped */
+    uint64_t culled;                   /* out: photons not stored (trace desc `near`) */
 } pgi__trace_scratch;
 void pgi__trace_scratch_free(pgi__trace_scratch *sc);
 /* Bytes the scratch holds. */

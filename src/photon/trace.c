@@ -34,6 +34,7 @@ typedef struct pgi__trace_tbuf {
     pgi__footprint *rec_fp, *out_fp;
     uint16_t *rec_path;
     size_t nrec, rec_cap, nout, out_cap;
+    uint64_t culled; /* photons not stored: no view sample near */
 } pgi__trace_tbuf;
 
 typedef struct chunk_info {
@@ -59,6 +60,7 @@ typedef struct tracer {
        uniform with its evidence counted (vg: the cells the camera sees) */
     const pgi__guide *G;
     const pgi__view_grid *vg;
+    const pgi__view_grid *near; /* store only photons in its cells (NULL: all) */
 } tracer;
 
 typedef struct lane {
@@ -270,11 +272,15 @@ static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbu
                 if (l->b >= 1 && !pgi__mat_specular(sf.mat)) {
                     pgi__footprint fp;
                     if (T->fp_on) pgi__fp_store(&l->pd, &T->fp, ng, &fp);
-                    if (!record(tb, T->fp_on, l->path, p, wi, l->flux, ng, &fp)) ok = 0;
-                    cnt[l->path]++;
-                    if (T->G) {
+                    if (T->G) { /* the guide's evidence: every photon the path would store */
                         gcnt[T->G->nbins + l->bin]++;
                         if (pgi__view_grid_has(T->vg, p, ng)) gcnt[2 * T->G->nbins + l->bin]++;
+                    }
+                    if (T->near && !pgi__view_grid_near(T->near, p)) {
+                        tb->culled++;
+                    } else {
+                        if (!record(tb, T->fp_on, l->path, p, wi, l->flux, ng, &fp)) ok = 0;
+                        cnt[l->path]++;
                     }
                 }
                 if (l->b < T->bounces && ok) {
@@ -436,7 +442,8 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
                 0,
                 0,
                 NULL,
-                NULL};
+                NULL,
+                d->near};
     const int nt = pgi__threads(d->threads);
     if (d->guide) {
         if (!d->vgrid) {
@@ -655,6 +662,11 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
     sc->prior_paths = frame_paths;
     sc->prior_photons = frame_photons;
     sc->paths_pilot = pilot_paths;
+    sc->culled = 0;
+    for (int t = 0; t < sc->nthreads; t++) {
+        sc->culled += sc->tbuf[t].culled;
+        sc->tbuf[t].culled = 0;
+    }
     if (d->guide) {
         double S, U;
         pgi__guide_totals(d->guide, &S, &U);

@@ -33,6 +33,7 @@ struct pgi_renderer {
     /* guided emission: the guide's tables and the cells the camera sees (kept between frames) */
     pgi__guide guide;
     pgi__view_grid vgrid;
+    pgi__view_grid near; /* PGI_STORE_VIEW: the cells within the radius of a view sample */
 };
 
 /* The ledger's entries in the order the stats list them. "estimator" is the estimator's total (its
@@ -157,6 +158,7 @@ void pgi_renderer_destroy(pgi_renderer *r) {
     pgi__afree(r->fp_buf);
     pgi__guide_free(&r->guide);
     pgi__view_grid_free(&r->vgrid);
+    pgi__view_grid_free(&r->near);
     free(r);
 }
 
@@ -261,6 +263,12 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
     if (d->jitter == PGI_JITTER_AUTO) d->jitter = PGI_JITTER_OFF; /* one frame: pixel centres */
     if (d->emission < PGI_EMISSION_UNIFORM || d->emission > PGI_EMISSION_AUTO)
         return pgi__fail(PGI_ERR_INVALID_ARG, "unknown emission mode %d", (int)d->emission);
+    if (d->store < PGI_STORE_ALL || d->store > PGI_STORE_VIEW)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "unknown store mode %d", (int)d->store);
+    if (d->store == PGI_STORE_VIEW && d->radius == PGI_RADIUS_AUTO)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "%s",
+                         "storing only the photons in view needs a given radius (the automatic one is chosen "
+                         "from the stored photons): set one (--radius R)");
     if (d->filter < 0 || d->filter > 16)
         return pgi__fail(PGI_ERR_INVALID_ARG, "filter radius %d is out of range (0..16 pixels)", d->filter);
     if (d->max_memory == 0) d->max_memory = pgi__mem_default_budget();
@@ -417,11 +425,23 @@ static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, uint64_t se
         r->guide.in_view = r->guide.useful_uniform = 0.0;
         td.min_gain = d->emission == PGI_EMISSION_AUTO ? 1.25 : 0.0;
     }
+    if (d->store == PGI_STORE_VIEW) {
+        /* every cell a photon closer than the radius to a view sample can be in */
+        const float rr = d->radius_policy == PGI_RADIUS_FIXED ? d->radius : d->r_max;
+        const float h = fmaxf(2.f * rr, pgi__scene_diagonal(s) / 65536.f);
+        double tg = pgi__now_ms();
+        if ((st = pgi__view_grid_build_near(&r->near, &r->vs, s->bmin, h, rr))) return st;
+        fs->emission.grid_ms += pgi__now_ms() - tg;
+        td.near = &r->near;
+    }
     pgi__rt_capture_pass(r->rt, PGI__PASS_TRACE);
     st = pgi__photons_trace(s, r->rt, &td, &r->ph, &r->trace_scratch, &fs->photon_rays);
     pgi__rt_capture_pass(r->rt, PGI__PASS_NONE);
     pgi__mem_set(&r->mem, "trace_scratch", pgi__trace_scratch_bytes(&r->trace_scratch));
-    if (td.guide) pgi__mem_set(&r->mem, "emission_guide", pgi__guide_bytes(&r->guide, &r->vgrid));
+    if (td.guide || td.near)
+        pgi__mem_set(&r->mem, "emission_guide",
+                     pgi__guide_bytes(&r->guide, &r->vgrid) +
+                         (r->near.keys ? (r->near.mask + 1) * sizeof(uint64_t) : 0));
     if (st) return st;
     fs->view_ms = t1 - t0;
     fs->trace_ms = pgi__now_ms() - t1;
@@ -429,6 +449,7 @@ static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, uint64_t se
     fs->photons_stored = r->ph.count;
     fs->photon_paths_discarded = r->trace_scratch.paths_traced - r->ph.emitted - r->trace_scratch.paths_pilot;
     fs->emission.pilot_paths = r->trace_scratch.paths_pilot;
+    fs->emission.culled = r->trace_scratch.culled;
     if (d->radius_policy != PGI_RADIUS_FIXED) fs->footprint_bin_width = d->r_max / 14.f;
     if (td.guide) {
         const pgi__guide *g = td.guide;
