@@ -9,6 +9,11 @@
  *
  *   photongi-bench-equal-time [--scene S] [--size WxH] [--photons N] [--budgets 0.25,1,4,16]
  *       [--estimators a,b | all | exact] [--ref-spp N] [--ref FILE.exr] [--threads T] [--csv FILE]
+ *       [--radius R] [--emission-variants]
+ *
+ * --emission-variants runs each estimator four times: uniform emission storing every photon (its
+ * plain name), guided emission (+guided), storing only the photons in view (+view, needs --radius)
+ * and both (+guided+view); docs/emission.md.
  *
  * The reference is cached in $PHOTONGI_CACHE (default ~/.cache/photongi) by scene, size,
  * bounces and samples. bench/equal_time.sh runs it on scenes and plots the CSV (gnuplot). */
@@ -257,7 +262,8 @@ static int selected(const char *list, const pgi_estimator_vtbl *e) {
 
 int main(int argc, char **argv) {
     const char *scene_spec = "cornell", *ests = "exact", *ref_path = NULL, *csv_path = NULL, *budget_s = "0.25,1,4,16";
-    int w = 0, h = 0, threads = 0, with_pt = 1;
+    int w = 0, h = 0, threads = 0, with_pt = 1, variants = 0;
+    float radius = 0.f;
     unsigned long photons = 0;
     unsigned long long ref_spp = 1024;
     for (int i = 1; i < argc; i++) {
@@ -265,17 +271,24 @@ int main(int argc, char **argv) {
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
             puts("usage: photongi-bench-equal-time [--scene S] [--size WxH] [--photons N] [--budgets 0.25,1,4,16]\n"
                  "         [--estimators a,b | all | exact] [--no-pathtracer] [--ref-spp N] [--ref FILE.exr]\n"
-                 "         [--threads T] [--csv FILE]\n"
+                 "         [--threads T] [--csv FILE] [--radius R] [--emission-variants]\n"
                  "\n"
                  "Each estimator's progressive mode and the path tracer get the same wall-time budgets (seconds,\n"
                  "increasing); the image each has after a budget is compared with a path-traced reference:\n"
                  "PSNR, SSIM, FLIP (tone-mapped) and relMSE (radiance). Defaults: scene cornell at its size,\n"
                  "the scene's photons a frame, the exact estimators, reference 1024 spp (cached in\n"
-                 "$PHOTONGI_CACHE), CSV bench/results/equal_time_<scene>.csv. bench/equal_time.sh plots it.");
+                 "$PHOTONGI_CACHE), CSV bench/results/equal_time_<scene>.csv. bench/equal_time.sh plots it.\n"
+                 "--radius R: the progressive start radius (default the scene's, else automatic).\n"
+                 "--emission-variants: each estimator with uniform and guided emission (+guided), storing every\n"
+                 "photon or only those in view (+view, needs a radius): docs/emission.md.");
             return 0;
         }
         if (strcmp(a, "--no-pathtracer") == 0) {
             with_pt = 0;
+            continue;
+        }
+        if (strcmp(a, "--emission-variants") == 0) {
+            variants = 1;
             continue;
         }
         if (!v) {
@@ -295,6 +308,7 @@ int main(int argc, char **argv) {
                    photons <= PGI_MAX_PHOTONS) {
         } else if (strcmp(a, "--ref-spp") == 0 && (ref_spp = strtoull(v, &end, 10)) > 0 && !*end) {
         } else if (strcmp(a, "--threads") == 0 && (threads = atoi(v)) > 0 && threads <= 1024) {
+        } else if (strcmp(a, "--radius") == 0 && (radius = strtof(v, &end)) > 0.f && !*end && isfinite(radius)) {
         } else {
             fprintf(stderr, "photongi-bench-equal-time: bad option %s %s (see --help)\n", a, v);
             return 2;
@@ -356,21 +370,29 @@ int main(int argc, char **argv) {
     for (size_t i = 0; ok && i < pgi_estimator_count(); i++) {
         const pgi_estimator_vtbl *e = pgi_estimator_at(i);
         if (!selected(ests, e)) continue;
-        prog_state s = {.d = {.estimator = e->name,
-                              .photons = c.photons,
-                              .width = w,
-                              .height = h,
-                              .seed = 1,
-                              .threads = threads,
-                              .bounces = bounces}};
-        if (pgi_progressive_create(r, &s.p)) {
-            fprintf(stderr, "photongi-bench-equal-time: %s\n", pgi_last_error());
-            ok = 0;
-            break;
+        for (int v = 0; ok && v < (variants ? 4 : 1); v++) {
+            static const char *const suffix[] = {"", "+guided", "+view", "+guided+view"};
+            prog_state s = {.d = {.estimator = e->name,
+                                  .photons = c.photons,
+                                  .radius = radius,
+                                  .width = w,
+                                  .height = h,
+                                  .seed = 1,
+                                  .threads = threads,
+                                  .bounces = bounces,
+                                  .emission = (v & 1) ? PGI_EMISSION_GUIDED : PGI_EMISSION_UNIFORM,
+                                  .store = (v & 2) ? PGI_STORE_VIEW : PGI_STORE_ALL}};
+            char name[128];
+            snprintf(name, sizeof name, "%s%s", e->name, suffix[v]);
+            if (pgi_progressive_create(r, &s.p)) {
+                fprintf(stderr, "photongi-bench-equal-time: %s\n", pgi_last_error());
+                ok = 0;
+                break;
+            }
+            ok = run_method(&c, name, prog_step, &s, budgets, nb);
+            pgi_progressive_destroy(s.p);
+            nrun++;
         }
-        ok = run_method(&c, e->name, prog_step, &s, budgets, nb);
-        pgi_progressive_destroy(s.p);
-        nrun++;
     }
     if (ok && with_pt) {
         pt_state s = {.scene = scene,
