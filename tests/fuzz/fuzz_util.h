@@ -50,6 +50,9 @@ int LLVMFuzzerInitialize(int *argc, char ***argv) {
     (void)argc;
     (void)argv;
     fuzz_dir_init();
+    /* Run by hand without run.sh: a description's meshes are looked up in the empty temporary
+     * folder only, never in ../shared/scenes, where naming Sponza would spend seconds importing. */
+    if (!getenv("PHOTONGI_SCENES")) setenv("PHOTONGI_SCENES", g_fuzz_dir, 1);
     return 0;
 }
 
