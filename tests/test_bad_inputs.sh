@@ -86,11 +86,12 @@ for f in hdr_rle_truncated.hdr hdr_rle_zero_run.hdr hdr_rle_header_nul.hdr; do
 done
 expect_clear_error "hdr_texture/t.hdr: corrupt Radiance HDR data" info --scene "$R/hdr_texture/m.obj"
 expect_clear_error "obj_mtl_fallback/m.mtl:1: 'map_Kd' before any 'newmtl'" info --scene "$R/obj_mtl_fallback/m.obj"
+expect_clear_error "obj_nul_mtllib/m.mtl:1: 'map_Kd' before any 'newmtl'" info --scene "$R/obj_nul_mtllib/m.obj"
 expect_clear_error "ply_face_past_end.ply: PLY face 0 refers to vertex" info --scene "$R/ply_face_past_end.ply"
 expect_clear_error "ply_empty_face.ply: PLY face 0 has 0 vertices" info --scene "$R/ply_empty_face.ply"
 for f in "$R"/*; do
     case "$(basename "$f")" in
-    README.md | hdr_rle_truncated.hdr | hdr_rle_zero_run.hdr | hdr_rle_header_nul.hdr | hdr_texture | obj_mtl_fallback | \
+    README.md | hdr_rle_truncated.hdr | hdr_rle_zero_run.hdr | hdr_rle_header_nul.hdr | hdr_texture | obj_mtl_fallback | obj_nul_mtllib | \
         ply_face_past_end.ply | ply_empty_face.ply) ;;
     *) echo "FAIL $f: a hostile input this test does not try yet"; fail=$((fail + 1)) ;;
     esac

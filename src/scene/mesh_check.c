@@ -31,23 +31,32 @@ typedef struct line_reader {
     FILE *f;
     char head[1024];
     size_t tokens;
-    int line;
+    int line; /* of the current line: 1 + the newlines before it */
+    int newlines;
+    int obj; /* OBJ and MTL: lines as Assimp's OBJ parser sees them */
 } line_reader;
 
+/* The next line. OBJ and MTL (r->obj) as Assimp's OBJ parser sees lines: a NUL, CR or form feed
+ * ends one too (its IsLineEnd), so that "junk\0mtllib m.mtl" names a material library there and
+ * here alike. A PLY header's lines end at newlines only (its binary body follows the last). */
 static int next_line(line_reader *r) {
     int c, in_token = 0, any = 0;
     size_t n = 0;
     r->tokens = 0;
+    r->line = r->newlines + 1;
     while ((c = fgetc(r->f)) != EOF) {
         any = 1;
-        if (c == '\n') break;
+        if (c == '\n') {
+            r->newlines++;
+            break;
+        }
+        if (r->obj && (c == '\0' || c == '\r' || c == '\f')) break;
         if (n + 1 < sizeof r->head) r->head[n++] = (char)c;
         int space = isspace(c) != 0;
         if (!space && !in_token) r->tokens++;
         in_token = !space;
     }
     r->head[n] = 0;
-    if (any) r->line++;
     return any;
 }
 
@@ -69,7 +78,7 @@ static pgi_status check_mtl(const char *path, int *found) {
     FILE *f = fopen(path, "rb");
     if (!f) return PGI_OK; /* a missing material library is Assimp's to report */
     *found = 1;
-    line_reader r = {.f = f};
+    line_reader r = {.f = f, .obj = 1};
     pgi_status st = PGI_OK;
     int in_material = 0;
     while (!st && next_line(&r)) {
@@ -88,7 +97,7 @@ static pgi_status check_mtl(const char *path, int *found) {
 static pgi_status check_obj(const char *path, pgi__mesh_hints *hints) {
     FILE *f = fopen(path, "rb");
     if (!f) return PGI_OK;
-    line_reader r = {.f = f};
+    line_reader r = {.f = f, .obj = 1};
     pgi_status st = PGI_OK;
     const char *slash = strrchr(path, '/');
     const int dir_len = slash ? (int)(slash - path + 1) : 0;
