@@ -14,23 +14,27 @@
 
 #include "photongi/photongi.h"
 
+/* Index of s in the NULL-terminated `names` (an enum's values in order), or -1. */
+static inline int parse_choice(const char *s, const char *const *names) {
+    for (int i = 0; names[i]; i++)
+        if (strcmp(s, names[i]) == 0) return i;
+    return -1;
+}
+
 /* "uniform", "guided" or "auto" (--emission). */
 static inline int app_parse_emission(const char *s, pgi_emission *out) {
-    static const char *const names[] = {"uniform", "guided", "auto"};
-    for (int i = 0; i < 3; i++)
-        if (strcmp(s, names[i]) == 0) {
-            *out = (pgi_emission)i;
-            return 1;
-        }
-    return 0;
+    static const char *const names[] = {"uniform", "guided", "auto", NULL};
+    int i = parse_choice(s, names);
+    if (i >= 0) *out = (pgi_emission)i;
+    return i >= 0;
 }
 
 /* "all" or "view" (--store). */
 static inline int app_parse_store(const char *s, pgi_store *out) {
-    if (strcmp(s, "all") == 0) *out = PGI_STORE_ALL;
-    else if (strcmp(s, "view") == 0) *out = PGI_STORE_VIEW;
-    else return 0;
-    return 1;
+    static const char *const names[] = {"all", "view", NULL};
+    int i = parse_choice(s, names);
+    if (i >= 0) *out = (pgi_store)i;
+    return i >= 0;
 }
 
 /* Integer in [lo, hi]. */

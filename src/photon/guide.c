@@ -33,9 +33,16 @@ static int grid_grow(pgi__view_grid *g) {
     return 1;
 }
 
-pgi_status pgi__view_grid_build(pgi__view_grid *g, const pgi_view_samples *vs, const float bmin[3], float h) {
+/* Inserts k, growing the table first when it would pass half full; 0 when out of memory. */
+static int grid_add(pgi__view_grid *g, uint64_t k) {
+    if (2 * (g->count + 1) > g->mask + 1 && !grid_grow(g)) return 0;
+    grid_insert(g, k);
+    return 1;
+}
+
+/* Empties the grid (keeping its table between frames) and places its cells. */
+static pgi_status grid_reset(pgi__view_grid *g, const float bmin[3], float h) {
     if (!(h > 0.f)) return pgi__fail(PGI_ERR_INVALID_ARG, "view grid cell %g is not positive", (double)h);
-    /* keep the allocation between frames; start empty */
     if (!g->keys) {
         g->keys = calloc(1u << 16, sizeof *g->keys);
         if (!g->keys) return pgi__fail(PGI_ERR_OOM, "%s", "out of memory for the view grid");
@@ -47,44 +54,43 @@ pgi_status pgi__view_grid_build(pgi__view_grid *g, const pgi_view_samples *vs, c
     g->h = h;
     g->inv_h = 1.f / h;
     memcpy(g->origin, bmin, sizeof g->origin);
+    return PGI_OK;
+}
+
+pgi_status pgi__view_grid_build(pgi__view_grid *g, const pgi_view_samples *vs, const float bmin[3], float h) {
+    pgi_status st = grid_reset(g, bmin, h);
+    if (st) return st;
     uint64_t last = 0;
     for (size_t i = 0; i < vs->count; i++) {
         if (!(vs->flags[i] & PGI_VS_VALID)) continue;
         uint64_t k = pgi__view_grid_key(g, v3_load(vs->pos + 3 * i), v3_load(vs->ngeo + 3 * i));
         if (k == last) continue; /* neighbouring pixels mostly share a cell */
         last = k;
-        if (2 * (g->count + 1) > g->mask + 1 && !grid_grow(g))
-            return pgi__fail(PGI_ERR_OOM, "%s", "out of memory for the view grid");
-        grid_insert(g, k);
+        if (!grid_add(g, k)) return pgi__fail(PGI_ERR_OOM, "%s", "out of memory for the view grid");
     }
     return PGI_OK;
 }
 
 pgi_status pgi__view_grid_build_near(pgi__view_grid *g, const pgi_view_samples *vs, const float bmin[3], float h,
                                      float r) {
-    pgi_status st = pgi__view_grid_build(g, &(pgi_view_samples){0}, bmin, h); /* empty, sized, placed */
+    pgi_status st = grid_reset(g, bmin, h);
     if (st) return st;
     int last[6] = {-1, -1, -1, -1, -1, -1};
     for (size_t i = 0; i < vs->count; i++) {
         if (!(vs->flags[i] & PGI_VS_VALID)) continue;
         const float *p = vs->pos + 3 * i;
-        int lo[3], hi[3];
+        int box[6]; /* lowest cells, then highest, of the sample's box of half-width r */
         for (int a = 0; a < 3; a++) {
-            lo[a] = pgi__view_grid_cell(g, p[a] - r, a);
-            hi[a] = pgi__view_grid_cell(g, p[a] + r, a);
+            box[a] = pgi__view_grid_cell(g, p[a] - r, a);
+            box[3 + a] = pgi__view_grid_cell(g, p[a] + r, a);
         }
-        if (lo[0] == last[0] && lo[1] == last[1] && lo[2] == last[2] && hi[0] == last[3] && hi[1] == last[4] &&
-            hi[2] == last[5])
-            continue; /* neighbouring pixels mostly mark the same cells */
-        memcpy(last, lo, sizeof lo);
-        memcpy(last + 3, hi, sizeof hi);
-        for (int x = lo[0]; x <= hi[0]; x++)
-            for (int y = lo[1]; y <= hi[1]; y++)
-                for (int z = lo[2]; z <= hi[2]; z++) {
-                    if (2 * (g->count + 1) > g->mask + 1 && !grid_grow(g))
+        if (memcmp(box, last, sizeof box) == 0) continue; /* neighbouring pixels mostly mark the same cells */
+        memcpy(last, box, sizeof box);
+        for (int x = box[0]; x <= box[3]; x++)
+            for (int y = box[1]; y <= box[4]; y++)
+                for (int z = box[2]; z <= box[5]; z++)
+                    if (!grid_add(g, pgi__view_grid_cell_key(x, y, z, 0)))
                         return pgi__fail(PGI_ERR_OOM, "%s", "out of memory for the view grid");
-                    grid_insert(g, pgi__view_grid_cell_key(x, y, z));
-                }
     }
     return PGI_OK;
 }
@@ -126,10 +132,9 @@ pgi_status pgi__guide_init(pgi__guide *g, const float *light_cdf, size_t nl, int
     return PGI_OK;
 }
 
-size_t pgi__guide_bytes(const pgi__guide *g, const pgi__view_grid *vg) {
+size_t pgi__guide_bytes(const pgi__guide *g) {
     const size_t n = (size_t)g->nbins;
-    return n * (sizeof *g->cdf + sizeof *g->q + 3 * sizeof *g->paths) +
-           (size_t)g->nthreads * 3 * n * sizeof *g->tcount + (vg->keys ? (vg->mask + 1) * sizeof *vg->keys : 0);
+    return n * (sizeof *g->cdf + sizeof *g->q + 3 * sizeof *g->paths) + (size_t)g->nthreads * 3 * n * sizeof *g->tcount;
 }
 
 void pgi__guide_free(pgi__guide *g) {
@@ -167,42 +172,38 @@ void pgi__guide_collect(pgi__guide *g) {
  * a bin a few dozen paths; a weaker prior lets their noise into the weights). */
 #define PRIOR 16.0
 
+/* Photons (stored, or stored in view) per path of a bin: its counts with PRIOR paths at the
+ * average rate `bar`. */
+static inline double rate(double photons, double paths, double bar) {
+    return (photons + PRIOR * bar) / (paths + PRIOR);
+}
+
 void pgi__guide_update(pgi__guide *g, double min_gain) {
-    const int n = g->nbins, per = PGI__GUIDE_RES * PGI__GUIDE_RES;
+    const int n = g->nbins;
     double N = 0, S = 0, U = 0;
-    for (int b = 0; b < n; b++) {
-        N += g->paths[b];
-        S += g->stored[b];
-        U += g->useful[b];
-    }
+    pgi__guide_totals(g, &S, &U);
+    for (int b = 0; b < n; b++) N += g->paths[b];
     g->on = 0;
     g->gain = 1.0;
     g->useful_uniform = S > 0 ? U / S : 0.0;
     if (!(U >= 32.0) || !(S > U)) return; /* too little evidence, or every photon lands in view */
     const double ebar = U / N, sbar = S / N;
-    /* expected useful and stored photons of a path from each bin, and the target t ~ V e */
-    double T = 0, ue = 0, us = 0;
+    /* useful (e) and stored (s) photons a path from each bin, expected under uniform emission */
+    double ue = 0, us = 0;
     for (int b = 0; b < n; b++) {
-        const int grp = b / per;
-        const double V = (double)(g->gb[grp + 1] - g->gb[grp]) / per;
-        const double e = (g->useful[b] + PRIOR * ebar) / (g->paths[b] + PRIOR);
-        const double s = (g->stored[b] + PRIOR * sbar) / (g->paths[b] + PRIOR);
-        g->q[b] = V;          /* V for now; q below */
-        g->cdf[b] = (float)e; /* e for now */
-        T += V * e;
-        us += V * s;
+        const double V = pgi__guide_volume(g, b);
+        ue += V * rate(g->useful[b], g->paths[b], ebar);
+        us += V * rate(g->stored[b], g->paths[b], sbar);
     }
-    ue = T;
+    /* q ~ MIX V + (1 - MIX) V e / ue, and the same expectations under q */
     double acc = 0, qe = 0, qs = 0;
     for (int b = 0; b < n; b++) {
-        const double V = g->q[b], e = g->cdf[b];
-        const double s = (g->stored[b] + PRIOR * sbar) / (g->paths[b] + PRIOR);
-        const double q = MIX * V + (1.0 - MIX) * V * e / T;
+        const double V = pgi__guide_volume(g, b), e = rate(g->useful[b], g->paths[b], ebar);
+        const double q = MIX * V + (1.0 - MIX) * V * e / ue;
         qe += q * e;
-        qs += q * s;
+        qs += q * rate(g->stored[b], g->paths[b], sbar);
         acc += q;
         g->cdf[b] = (float)acc;
-        g->q[b] = q;
     }
     for (int b = 0; b < n; b++) g->cdf[b] = (float)(g->cdf[b] / acc);
     g->cdf[n - 1] = 1.f;

@@ -38,22 +38,24 @@ pgi_status pgi__view_grid_build_near(pgi__view_grid *g, const pgi_view_samples *
                                      float r);
 void pgi__view_grid_free(pgi__view_grid *g);
 
-static inline uint64_t pgi__view_grid_key(const pgi__view_grid *g, pgi__v3 p, pgi__v3 n) {
-    float c[3] = {(p.x - g->origin[0]) * g->inv_h, (p.y - g->origin[1]) * g->inv_h, (p.z - g->origin[2]) * g->inv_h};
-    uint64_t k = 0;
-    for (int i = 0; i < 3; i++) {
-        float v = c[i] < 0.f ? 0.f : c[i] > 1048575.f ? 1048575.f : c[i];
-        k = (k << 20) | (uint64_t)v;
-    }
-    /* the axis the surface faces most, with its sign: the two sides of a wall differ */
-    float ax = fabsf(n.x), ay = fabsf(n.y), az = fabsf(n.z);
-    unsigned f = ax >= ay && ax >= az ? (n.x < 0.f) : ay >= az ? 2u + (n.y < 0.f) : 4u + (n.z < 0.f);
-    return (k << 3 | f) + 1; /* never 0 */
-}
-
+/* Cell index of coordinate x along `axis` (20 bits, clamped). */
 static inline int pgi__view_grid_cell(const pgi__view_grid *g, float x, int axis) {
     float v = (x - g->origin[axis]) * g->inv_h;
     return v < 0.f ? 0 : v > 1048575.f ? 1048575 : (int)v;
+}
+
+/* Key of cell (x, y, z) with facing code f (0..5; the conservative grid uses 0); never 0. */
+static inline uint64_t pgi__view_grid_cell_key(int x, int y, int z, unsigned f) {
+    return ((((uint64_t)x << 20 | (uint64_t)y) << 20 | (uint64_t)z) << 3 | f) + 1;
+}
+
+/* Key of a point on a surface of normal n: its cell, and the axis the surface faces most with its
+ * sign (the two sides of a wall differ). */
+static inline uint64_t pgi__view_grid_key(const pgi__view_grid *g, pgi__v3 p, pgi__v3 n) {
+    float ax = fabsf(n.x), ay = fabsf(n.y), az = fabsf(n.z);
+    unsigned f = ax >= ay && ax >= az ? (n.x < 0.f) : ay >= az ? 2u + (n.y < 0.f) : 4u + (n.z < 0.f);
+    return pgi__view_grid_cell_key(pgi__view_grid_cell(g, p.x, 0), pgi__view_grid_cell(g, p.y, 1),
+                                   pgi__view_grid_cell(g, p.z, 2), f);
 }
 
 static inline uint64_t pgi__view_grid_hash(uint64_t k) {
@@ -74,16 +76,16 @@ static inline int pgi__view_grid_has(const pgi__view_grid *g, pgi__v3 p, pgi__v3
     return pgi__view_grid_find(g, pgi__view_grid_key(g, p, n));
 }
 
-/* Key of cell (x, y, z) without facing (the conservative grid). */
-static inline uint64_t pgi__view_grid_cell_key(int x, int y, int z) {
-    return ((((uint64_t)x << 20 | (uint64_t)y) << 20 | (uint64_t)z) << 3) + 1;
-}
-
 /* Whether a photon at p may lie closer than r to a view sample (pgi__view_grid_build_near). */
 static inline int pgi__view_grid_near(const pgi__view_grid *g, pgi__v3 p) {
     return pgi__view_grid_find(g,
                                pgi__view_grid_cell_key(pgi__view_grid_cell(g, p.x, 0), pgi__view_grid_cell(g, p.y, 1),
-                                                       pgi__view_grid_cell(g, p.z, 2)));
+                                                       pgi__view_grid_cell(g, p.z, 2), 0));
+}
+
+/* Bytes the grid's table holds. */
+static inline size_t pgi__view_grid_bytes(const pgi__view_grid *g) {
+    return g->keys ? (g->mask + 1) * sizeof *g->keys : 0;
 }
 
 typedef struct pgi__guide {
@@ -106,8 +108,8 @@ typedef struct pgi__guide {
 /* Lays out the bins for a light CDF (nl entries) and clears the evidence. */
 pgi_status pgi__guide_init(pgi__guide *g, const float *light_cdf, size_t nl, int nthreads);
 void pgi__guide_free(pgi__guide *g);
-/* Bytes the guide and the view grid hold. */
-size_t pgi__guide_bytes(const pgi__guide *g, const pgi__view_grid *vg);
+/* Bytes the guide holds. */
+size_t pgi__guide_bytes(const pgi__guide *g);
 /* Photons stored and stored in view, over all the evidence. */
 void pgi__guide_totals(const pgi__guide *g, double *stored, double *useful);
 /* Adds the per-thread counters of a batch to the evidence and zeroes them. */
@@ -115,6 +117,12 @@ void pgi__guide_collect(pgi__guide *g);
 /* Rebuilds q from the evidence; g->on tells whether it is worth sampling from (predicted gain at
  * least `min_gain`). */
 void pgi__guide_update(pgi__guide *g, double min_gain);
+
+/* A bin's volume in the primary sample space: its probability under uniform emission. */
+static inline double pgi__guide_volume(const pgi__guide *g, int b) {
+    const int per = PGI__GUIDE_RES * PGI__GUIDE_RES, grp = b / per;
+    return (double)(g->gb[grp + 1] - g->gb[grp]) / per;
+}
 
 /* Bin of uniform primary numbers (ul: light pick, a, b: the steered pair). */
 static inline int pgi__guide_bin(const pgi__guide *g, float ul, float a, float b) {

@@ -44,7 +44,7 @@ typedef struct pgi__trace_scratch {
     uint8_t *counts;    /* photons of each path of the batch */
     uint16_t *path_bin; /* guided emission: the guide's bin of each path of the batch */
     uint16_t *ph_bin;   /* ... and of each photon stored */
-    size_t ph_bin_cap;
+    size_t path_bin_cap, ph_bin_cap;
     struct chunk_info *chunks;         /* where each chunk's photons are */
     size_t cap;                        /* paths */
     double prior_paths, prior_photons; /* the last frame's traced paths and their photons */

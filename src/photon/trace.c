@@ -357,8 +357,8 @@ void pgi__trace_scratch_free(pgi__trace_scratch *sc) {
 }
 
 size_t pgi__trace_scratch_bytes(const pgi__trace_scratch *sc) {
-    size_t b = sc->cap * (sizeof(uint8_t) + sizeof(uint16_t)) + sc->cap / CHUNK * sizeof(chunk_info) +
-               (size_t)sc->nthreads * sizeof *sc->tbuf + sc->ph_bin_cap * sizeof(uint16_t);
+    size_t b = sc->cap * sizeof(uint8_t) + sc->cap / CHUNK * sizeof(chunk_info) +
+               (size_t)sc->nthreads * sizeof *sc->tbuf + (sc->path_bin_cap + sc->ph_bin_cap) * sizeof(uint16_t);
     for (int t = 0; t < sc->nthreads; t++) {
         const pgi__trace_tbuf *tb = &sc->tbuf[t];
         b += tb->rec_cap * (sizeof(stored_photon) + sizeof(uint16_t) + (tb->rec_fp ? sizeof(pgi__footprint) : 0));
@@ -378,8 +378,8 @@ static pgi_status guide_reserve(pgi__trace_scratch *sc, size_t photons) {
     return PGI_OK;
 }
 
-/* Scratch for a batch of `paths` paths on `nt` threads. */
-static pgi_status scratch_reserve(pgi__trace_scratch *sc, size_t paths, int nt) {
+/* Scratch for a batch of `paths` paths on `nt` threads (and their guide bins when `guided`). */
+static pgi_status scratch_reserve(pgi__trace_scratch *sc, size_t paths, int nt, int guided) {
     if (sc->nthreads < nt) {
         pgi__trace_tbuf *tb = realloc(sc->tbuf, (size_t)nt * sizeof *tb);
         if (!tb) return pgi__fail(PGI_ERR_OOM, "out of memory for %d photon-tracing threads", nt);
@@ -393,10 +393,14 @@ static pgi_status scratch_reserve(pgi__trace_scratch *sc, size_t paths, int nt) 
         if (c) sc->counts = c;
         chunk_info *ci = realloc(sc->chunks, nch * sizeof *ci);
         if (ci) sc->chunks = ci;
-        uint16_t *pb = realloc(sc->path_bin, nch * CHUNK * sizeof *pb);
-        if (pb) sc->path_bin = pb;
-        if (!c || !ci || !pb) return pgi__fail(PGI_ERR_OOM, "out of memory tracing photons (%zu paths a batch)", paths);
+        if (!c || !ci) return pgi__fail(PGI_ERR_OOM, "out of memory tracing photons (%zu paths a batch)", paths);
         sc->cap = nch * CHUNK;
+    }
+    if (guided && sc->path_bin_cap < sc->cap) {
+        uint16_t *pb = realloc(sc->path_bin, sc->cap * sizeof *pb);
+        if (!pb) return pgi__fail(PGI_ERR_OOM, "out of memory tracing photons (%zu paths a batch)", paths);
+        sc->path_bin = pb;
+        sc->path_bin_cap = sc->cap;
     }
     return PGI_OK;
 }
@@ -499,7 +503,7 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
         if (batch < 64) batch = 64;
         if (batch > (1u << 20)) batch = 1u << 20;
         if (batch > max_paths - path) batch = (size_t)(max_paths - path);
-        if ((st = scratch_reserve(sc, batch, nt))) break;
+        if ((st = scratch_reserve(sc, batch, nt, T.G != NULL))) break;
         const long long nch = (long long)((batch + CHUNK - 1) / CHUNK);
         for (int t = 0; t < nt; t++) sc->tbuf[t].nout = 0;
         uint64_t batch_rays = 0;
@@ -677,20 +681,15 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
     if (pilot_paths > 0 && path > 0) {
         /* steered paths: weight V_b / q_b (guide.h), over the paths */
         const pgi__guide *g = d->guide;
-        const int per = PGI__GUIDE_RES * PGI__GUIDE_RES;
-        float *w = malloc((size_t)g->nbins * sizeof *w);
-        if (!w) return pgi__fail(PGI_ERR_OOM, "%s", "out of memory for the emission weights");
-        for (int b = 0; b < g->nbins; b++) {
-            const double V = (double)(g->gb[b / per + 1] - g->gb[b / per]) / per;
-            w[b] = g->q[b] > 0 ? (float)(V / g->q[b] / (double)path) : 0.f;
-        }
+        float w[PGI__GUIDE_GROUPS * PGI__GUIDE_RES * PGI__GUIDE_RES];
+        for (int b = 0; b < g->nbins; b++)
+            w[b] = g->q[b] > 0 ? (float)(pgi__guide_volume(g, b) / g->q[b] / (double)path) : 0.f;
         for (size_t j = 0; j < ph->count; j++) {
             const float f = w[sc->ph_bin[j]];
             ph->fr[j] *= f;
             ph->fg[j] *= f;
             ph->fb[j] *= f;
         }
-        free(w);
         return PGI_OK;
     }
     if (path > 0) {

@@ -440,8 +440,7 @@ static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, uint64_t se
     pgi__mem_set(&r->mem, "trace_scratch", pgi__trace_scratch_bytes(&r->trace_scratch));
     if (td.guide || td.near)
         pgi__mem_set(&r->mem, "emission_guide",
-                     pgi__guide_bytes(&r->guide, &r->vgrid) +
-                         (r->near.keys ? (r->near.mask + 1) * sizeof(uint64_t) : 0));
+                     pgi__guide_bytes(&r->guide) + pgi__view_grid_bytes(&r->vgrid) + pgi__view_grid_bytes(&r->near));
     if (st) return st;
     fs->view_ms = t1 - t0;
     fs->trace_ms = pgi__now_ms() - t1;
