@@ -2,7 +2,8 @@
  * flux-preserving Russian roulette (cluster paper eq. 1), storage from the
  * second hit on (the first hit is direct light, done with shadow rays; a path
  * whose first hits are all specular stores at its first non-specular hit:
- * a caustic). */
+ * a caustic). Optionally steered towards where the camera looks (guide.h) and
+ * storing only the photons near a view sample (trace desc `near`). */
 #include "photon.h"
 
 #include <omp.h>
@@ -74,8 +75,8 @@ typedef struct lane {
 } lane;
 
 /* Starts path `index` in `l` (emission from a light picked by power). Flux is power / pick
- * probability (divided by the paths later; with a guide, weighted by its bin's mixture weight
- * then). Returns 0 when the path carries nothing. `cnt`: the thread's guide counters (paths of
+ * probability (divided by the paths later; a steered path's photons then take its bin's weight
+ * V/q too). Returns 0 when the path carries nothing. `cnt`: the thread's guide counters (paths of
  * each bin). */
 static int start_path(const tracer *T, uint64_t index, lane *l, uint32_t *cnt) {
     pgi_rng_seed(&l->rng, T->seed, index);
@@ -367,7 +368,7 @@ size_t pgi__trace_scratch_bytes(const pgi__trace_scratch *sc) {
     return b;
 }
 
-/* Guided emission: a bin a path of the batch (sized with the batch) and a bin a photon. */
+/* Guided emission: a guide bin for each photon stored (a bin a path: scratch_reserve). */
 static pgi_status guide_reserve(pgi__trace_scratch *sc, size_t photons) {
     if (photons > sc->ph_bin_cap) {
         uint16_t *b = realloc(sc->ph_bin, photons * sizeof *b);

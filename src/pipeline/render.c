@@ -99,6 +99,7 @@ static pgi_status mem_plan(pgi_renderer *r, const pgi_render_desc *d, const pgi_
         {"photons", np * PHOTON_BYTES, 1},
         {"footprints", np * planes * sizeof(float), 1},
         {"trace_scratch", traced * TRACE_BYTES_PER_PHOTON, 1},
+        {"emission_guide", d->emission != PGI_EMISSION_UNIFORM ? np * sizeof(uint16_t) : 0, 1}, /* a bin a photon */
         {est, np * per_photon, 1},
     };
     return pgi__mem_plan_check(it, (int)(sizeof it / sizeof it[0]), d->max_memory, np);
