@@ -1,0 +1,83 @@
+/* The Vulkan compute backend's device layer (issue "The GPU backend"): one device, its queue,
+ * storage buffers, compute kernels from SPIR-V embedded at build time, and one command sequence
+ * at a time with timestamps. Everything the GPU passes (rays, photons, estimators) need, nothing
+ * more. Built when CMake finds Vulkan and glslc (PGI_HAVE_VULKAN); without them every call that
+ * could fail returns PGI_ERR_UNSUPPORTED with a message saying the build has no Vulkan backend.
+ *
+ *   pgi__gpu *g;  pgi__gpu_create(-1, &g);
+ *   pgi__gpu_kernel *k;  pgi__gpu_kernel_create(g, pgi__spv_hashgrid_gather, sizeof pgi__spv_hashgrid_gather,
+ *                                               "gather", 4, sizeof(push), &k);
+ *   pgi__gpu_buffer *b;  pgi__gpu_buffer_reserve(g, &b, bytes, "gpu_photons");
+ *   pgi__gpu_upload(g, b, 0, src, bytes);
+ *   pgi__gpu_begin(g);
+ *   pgi__gpu_timestamp(g, "start");
+ *   pgi__gpu_dispatch(g, k, (pgi__gpu_buffer *[]){a, b, c, d}, &push, groups, 1, 1);
+ *   pgi__gpu_timestamp(g, "gather");          // the span since the previous label is "gather"
+ *   pgi__gpu_submit_wait(g);
+ *   pgi__gpu_download(g, d, 0, dst, bytes);
+ *
+ * Shaders: src/gpu/shaders/<name>.comp (GLSL 4.50, Vulkan 1.3 compute), compiled by glslc at
+ * build time into the generated header "gpu/spirv.h" as `static const uint32_t pgi__spv_<name>[]`.
+ * Not thread-safe: one thread records and submits (the renderer's). */
+#ifndef PGI_GPU_H
+#define PGI_GPU_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "photongi/photongi.h"
+
+typedef struct pgi__gpu pgi__gpu;
+typedef struct pgi__gpu_buffer pgi__gpu_buffer;
+typedef struct pgi__gpu_kernel pgi__gpu_kernel;
+
+/* 1 when the library was built with the Vulkan backend. */
+int pgi__gpu_available(void);
+
+/* Instance (Vulkan 1.3), physical device `index` in the loader's order (-1: the first discrete
+ * GPU, else the first integrated one, else the first CPU device such as lavapipe), a device with
+ * one compute queue, a command pool and a timestamp query pool. PGI_ERR_UNSUPPORTED (message:
+ * no Vulkan backend in this build / no Vulkan device / device index out of range, listing the
+ * devices) when there is none. */
+pgi_status pgi__gpu_create(int index, pgi__gpu **out);
+void pgi__gpu_destroy(pgi__gpu *g);
+/* "llvmpipe (LLVM 15.0.6, 256 bits)", "NVIDIA H100 80GB HBM3" */
+const char *pgi__gpu_device_name(const pgi__gpu *g);
+/* Number of Vulkan devices and the name of device i (for `--device vulkan:N` messages and --help). */
+int pgi__gpu_device_count(void);
+
+/* Storage buffers: device-local where the device has such memory (uploads and downloads through a
+ * staging buffer), host-visible otherwise. `what` is a static string naming the buffer in the
+ * memory stats ("gpu_photons"). reserve: (re)creates *b when it is NULL or smaller than `bytes`
+ * (contents are then lost; a buffer is never shrunk). */
+pgi_status pgi__gpu_buffer_reserve(pgi__gpu *g, pgi__gpu_buffer **b, size_t bytes, const char *what);
+void pgi__gpu_buffer_destroy(pgi__gpu *g, pgi__gpu_buffer *b);
+size_t pgi__gpu_buffer_size(const pgi__gpu_buffer *b);
+/* Blocking copies between host memory and a buffer (outside a begin/submit sequence). */
+pgi_status pgi__gpu_upload(pgi__gpu *g, pgi__gpu_buffer *dst, size_t offset, const void *src, size_t bytes);
+pgi_status pgi__gpu_download(pgi__gpu *g, const pgi__gpu_buffer *src, size_t offset, void *dst, size_t bytes);
+/* Bytes held by the device's buffers, one entry per `what` (summed), for the frame's memory stats. */
+int pgi__gpu_memory(const pgi__gpu *g, pgi_named_value *out, int max);
+
+/* A compute pipeline from SPIR-V: `nbuffers` (1..16) storage buffers at set 0, bindings
+ * 0..nbuffers-1, and push constants of `push_bytes` (0..128, a multiple of 4). `name` names it in
+ * error messages. */
+pgi_status pgi__gpu_kernel_create(pgi__gpu *g, const uint32_t *spirv, size_t spirv_bytes, const char *name,
+                                  int nbuffers, uint32_t push_bytes, pgi__gpu_kernel **out);
+void pgi__gpu_kernel_destroy(pgi__gpu *g, pgi__gpu_kernel *k);
+
+/* One command sequence: begin, then dispatches, fills and timestamps in order, then submit_wait.
+ * Every dispatch and fill waits for the writes of everything recorded before it (a full
+ * compute/transfer memory barrier in between), so a sequence runs as written. */
+pgi_status pgi__gpu_begin(pgi__gpu *g);
+pgi_status pgi__gpu_dispatch(pgi__gpu *g, pgi__gpu_kernel *k, pgi__gpu_buffer *const *buffers, const void *push,
+                             uint32_t groups_x, uint32_t groups_y, uint32_t groups_z);
+/* Sets `bytes` bytes of b from `offset` to the 32-bit word `value` (vkCmdFillBuffer). */
+pgi_status pgi__gpu_fill(pgi__gpu *g, pgi__gpu_buffer *b, size_t offset, size_t bytes, uint32_t value);
+/* Records a timestamp named `label` (a static string); after submit_wait, pgi__gpu_timings gives
+ * the milliseconds between each label and the one before it, under the later label's name. */
+void pgi__gpu_timestamp(pgi__gpu *g, const char *label);
+pgi_status pgi__gpu_submit_wait(pgi__gpu *g);
+int pgi__gpu_timings(const pgi__gpu *g, pgi_named_value *out, int max);
+
+#endif
