@@ -4,7 +4,8 @@
 # compare'), the JSON stats name the device and its passes, a device that does not exist and an
 # estimator without a GPU version fail with exit status 1 and a message saying why, and a machine
 # without a Vulkan driver gets a clear message instead of a crash.
-#   usage: tests/test_gpu_cli.sh path/to/photongi     (run from the repository root)
+# With the viewer's path as a second argument, photongi-view --device vulkan headless too.
+#   usage: tests/test_gpu_cli.sh path/to/photongi [path/to/photongi-view]   (from the repository root)
 set -u
 
 BIN=${1:?usage: test_gpu_cli.sh path/to/photongi}
@@ -61,6 +62,18 @@ run render "${common[@]}" --device metal -o "$TMP/x.png"
 VK_DRIVER_FILES=$TMP/none.json VK_ICD_FILENAMES=$TMP/none.json expect_fail "no Vulkan device" \
     render "${common[@]}" --device vulkan -o "$TMP/x.png"
 [ -e "$TMP/x.png" ] && bad "a failed render wrote its image" || ok
+
+VIEW=${2:-}
+if [ -n "$VIEW" ]; then
+    "$VIEW" --scene cornell --size 64x48 --photons 20000 --device vulkan --frames 2 --stats "$TMP/view.json" \
+        >"$TMP/out" 2>"$TMP/err"
+    rc=$?
+    [ "$rc" -eq 0 ] && grep -q '"device":[[:space:]]*"[^"c]' "$TMP/view.json" && ok ||
+        bad "photongi-view --device vulkan: exit $rc $(cat "$TMP/err")"
+    "$VIEW" --scene cornell --device vulkan --estimator tiled --frames 1 >"$TMP/out" 2>"$TMP/err"
+    rc=$?
+    [ "$rc" -eq 1 ] && grep -q "no GPU version" "$TMP/err" && ok || bad "photongi-view tiled on vulkan: exit $rc"
+fi
 
 echo "test_gpu_cli: $pass passed, $fail failed"
 [ "$fail" -eq 0 ]
