@@ -5,6 +5,9 @@
 //   src/scene/bsdf.h         pgi__phong_lobe, pgi__fresnel_dielectric, pgi__lobe_E, pgi__ggx_D,
 //                            pgi__ggx_root, pgi__ggx_spec, pgi__lobe_eval_o
 // A change there must be made here too (tests/test_gpu.c compares against the CPU's brute force).
+// The including shader declares the lobe table `lobes[]` (struct Lobe, below) before including this
+// file with GATHER_LOBES defined: lobes are read from it by index (a Lobe passed by value, with its
+// 32-float table, was copied for every photon).
 #ifndef PGI_GATHER_GLSL
 #define PGI_GATHER_GLSL
 
@@ -35,6 +38,10 @@ struct Lobe {
     float ksx, ksy, ksz, s, eta, a2, inv_1mEavg;
     float E[GGX_NMU];
 };
+
+#ifdef GATHER_LOBES_DECLARE
+GATHER_LOBES_DECLARE
+#endif
 
 struct Acc {
     float fr, fg, fb; // sum of flux
@@ -80,12 +87,13 @@ float fresnel_dielectric(float cos_i, float eta_i, float eta_t) {
 }
 
 // bsdf.h pgi__lobe_E
-float lobe_E(Lobe l, float mu) {
+float lobe_E(uint li, float mu) {
     precise float x = sqrt(min(max(mu, 0.0), 1.0)) * float(GGX_NMU - 1);
     int i = int(x);
     if (i > GGX_NMU - 2) i = GGX_NMU - 2;
     precise float t = x - float(i);
-    precise float e = l.E[i] + (l.E[i + 1] - l.E[i]) * t;
+    float e0 = lobes[li].E[i], e1 = lobes[li].E[i + 1];
+    precise float e = e0 + (e1 - e0) * t;
     return e;
 }
 
@@ -100,31 +108,34 @@ float ggx_root(float a2, float c) {
 }
 
 // bsdf.h pgi__ggx_spec
-float ggx_spec(Lobe l, vec3 n, vec3 wi, vec3 wo, float ci, float co) {
+float ggx_spec(uint li, vec3 n, vec3 wi, vec3 wo, float ci, float co) {
+    const float eta = lobes[li].eta, a2 = lobes[li].a2;
     precise vec3 h = wi + wo;
     float hl = v3_len(h);
     if (!(hl > 0.0)) return 0.0;
     precise float hn = v3_dot(h, n) / hl, hi = min(1.0, max(0.0, v3_dot(h, wi) / hl));
-    float F = fresnel_dielectric(hi, 1.0, l.eta);
-    precise float v = 0.5 / (co * ggx_root(l.a2, ci) + ci * ggx_root(l.a2, co));
-    precise float r = F * ggx_D(l.a2, hn) * v;
+    float F = fresnel_dielectric(hi, 1.0, eta);
+    precise float v = 0.5 / (co * ggx_root(a2, ci) + ci * ggx_root(a2, co));
+    precise float r = F * ggx_D(a2, hn) * v;
     return r;
 }
 
 // bsdf.h pgi__lobe_eval_o
-vec3 lobe_eval(Lobe l, vec3 kd, vec3 n, vec3 wi, vec3 wo, float one_m_eo) {
-    if (l.model == LOBE_PHONG) {
+vec3 lobe_eval(uint li, vec3 kd, vec3 n, vec3 wi, vec3 wo, float one_m_eo) {
+    const uint model = lobes[li].model;
+    const vec3 ks = vec3(lobes[li].ksx, lobes[li].ksy, lobes[li].ksz);
+    if (model == LOBE_PHONG) {
         float k, fr;
-        phong_lobe(n, wi, wo, l.s, k, fr);
-        precise vec3 r = vec3(k * (l.ksx + (1.0 - l.ksx) * fr), k * (l.ksy + (1.0 - l.ksy) * fr),
-                              k * (l.ksz + (1.0 - l.ksz) * fr));
+        phong_lobe(n, wi, wo, lobes[li].s, k, fr);
+        precise vec3 r = vec3(k * (ks.x + (1.0 - ks.x) * fr), k * (ks.y + (1.0 - ks.y) * fr),
+                              k * (ks.z + (1.0 - ks.z) * fr));
         return r;
     }
-    if (l.model != LOBE_GGX) return vec3(0.0);
+    if (model != LOBE_GGX) return vec3(0.0);
     float ci = v3_dot(n, wi), co = v3_dot(n, wo);
-    precise float base = (1.0 - lobe_E(l, ci)) * one_m_eo * l.inv_1mEavg - 1.0;
+    precise float base = (1.0 - lobe_E(li, ci)) * one_m_eo * lobes[li].inv_1mEavg - 1.0;
     precise vec3 r = kd * (base * float(PGI_INV_PI));
-    if (ci > 0.0 && co > 0.0) r = r + vec3(l.ksx, l.ksy, l.ksz) * ggx_spec(l, n, wi, wo, ci, co);
+    if (ci > 0.0 && co > 0.0) r = r + ks * ggx_spec(li, n, wi, wo, ci, co);
     return r;
 }
 
@@ -138,7 +149,7 @@ float kernel_weight(uint k, float d2, float r2) {
 
 // gather.h pgi__gather / pgi__gather_k (+ pgi__acc_add): the same decision (d^2 < r^2 strictly,
 // dot(n, w_p) > 0) and sums. `lambert`: no lobe; `l` is read only otherwise.
-void gather(ViewSample v, bool lambert, Lobe l, float r2, uint kern, Photon q, inout Acc a) {
+void gather(ViewSample v, bool lambert, float r2, uint kern, Photon q, inout Acc a) {
     precise float ex = q.px - v.px, ey = q.py - v.py, ez = q.pz - v.pz;
     precise float d2 = ex * ex + ey * ey + ez * ez;
     if (!(d2 < r2)) return;
@@ -150,7 +161,7 @@ void gather(ViewSample v, bool lambert, Lobe l, float r2, uint kern, Photon q, i
         a.fg += q.fg;
         a.fb += q.fb;
         if (!lambert) {
-            vec3 f = lobe_eval(l, vec3(v.kdx, v.kdy, v.kdz), vec3(v.nx, v.ny, v.nz), vec3(q.dx, q.dy, q.dz),
+            vec3 f = lobe_eval(v.lobe, vec3(v.kdx, v.kdy, v.kdz), vec3(v.nx, v.ny, v.nz), vec3(q.dx, q.dy, q.dz),
                                vec3(v.wox, v.woy, v.woz), v.one_m_eo);
             precise float tr = f.x * q.fr, tg = f.y * q.fg, tb = f.z * q.fb;
             a.sr += tr;
@@ -164,7 +175,7 @@ void gather(ViewSample v, bool lambert, Lobe l, float r2, uint kern, Photon q, i
         a.fg += wg;
         a.fb += wb;
         if (!lambert) {
-            vec3 f = lobe_eval(l, vec3(v.kdx, v.kdy, v.kdz), vec3(v.nx, v.ny, v.nz), vec3(q.dx, q.dy, q.dz),
+            vec3 f = lobe_eval(v.lobe, vec3(v.kdx, v.kdy, v.kdz), vec3(v.nx, v.ny, v.nz), vec3(q.dx, q.dy, q.dz),
                                vec3(v.wox, v.woy, v.woz), v.one_m_eo);
             precise float tr = f.x * wr, tg = f.y * wg, tb = f.z * wb;
             a.sr += tr;

@@ -18,14 +18,22 @@ int cell_coord(float x, float inv) {
     return int(c);
 }
 
+// lowbias32 (Chris Wellons' hash-prospector): a full-avalanche 32-bit mixer
+uint mix32(uint v) {
+    v ^= v >> 16;
+    v *= 0x7feb352du;
+    v ^= v >> 15;
+    v *= 0x846ca68bu;
+    v ^= v >> 16;
+    return v;
+}
+
+// The three coordinates mixed in turn (XOR-ing prime multiples, Teschner et al.'s hash, put a third
+// of Cornell's cells into shared buckets; this leaves about the birthday bound).
 uint cell_bucket(ivec3 c, uint mask) {
-    uint h = uint(c.x) * 73856093u ^ uint(c.y) * 19349663u ^ uint(c.z) * 83492791u;
-    // murmur3's finaliser
-    h ^= h >> 16;
-    h *= 0x85ebca6bu;
-    h ^= h >> 13;
-    h *= 0xc2b2ae35u;
-    h ^= h >> 16;
+    uint h = mix32(uint(c.x) + 0x9e3779b9u);
+    h = mix32(h ^ uint(c.y));
+    h = mix32(h ^ uint(c.z));
     return h & mask;
 }
 

@@ -5,10 +5,10 @@
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
 #include "hashgrid.glsl"
+#define GATHER_LOBES_DECLARE layout(std430, binding = 1) readonly buffer Lobes { Lobe lobes[]; };
 #include "gather.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(std430, binding = 0) readonly buffer Samples { ViewSample vs[]; };
-layout(std430, binding = 1) readonly buffer Lobes { Lobe lobes[]; };
 layout(std430, binding = 2) readonly buffer Start { uint start[]; };
 layout(std430, binding = 3) readonly buffer Sorted { Photon sorted[]; };
 layout(std430, binding = 4) writeonly buffer Out { float out_rgb[]; };
@@ -33,8 +33,6 @@ void main() {
         vec3 o = vec3(0.0);
         if ((v.flags & VS_VALID) != 0u) {
             bool lambert = (v.flags & VS_LAMBERT) != 0u;
-            Lobe l;
-            if (!lambert) l = lobes[v.lobe];
             Acc a = Acc(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0u);
             const float r = pc.r, inv = pc.inv_cell;
             precise float xl = v.px - r, xh = v.px + r, yl = v.py - r, yh = v.py + r, zl = v.pz - r, zh = v.pz + r;
@@ -53,7 +51,7 @@ void main() {
                             ivec3 qc = ivec3(cell_coord(q.px, inv), cell_coord(q.py, inv), cell_coord(q.pz, inv));
                             if (qc != c) continue; // another cell of the same bucket
                             reads++;
-                            gather(v, lambert, l, pc.r2, pc.kernel, q, a);
+                            gather(v, lambert, pc.r2, pc.kernel, q, a);
                         }
                     }
             o = acc_finish(v, a, pc.r2, pc.scale);
