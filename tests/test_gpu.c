@@ -77,6 +77,9 @@ static void test_buffer_round_trip(void **state) {
 }
 
 /* The same through the staging buffer (device memory that is not mapped, as on a discrete GPU). */
+static void test_kernel_fill_timestamps(void **state);
+static void test_hashgrid_vs_brute_cornell(void **state);
+
 static void test_buffer_round_trip_staged(void **state) {
     setenv("PGI_GPU_STAGING", "1", 1);
     pgi__gpu *keep = g_gpu;
@@ -309,13 +312,38 @@ static void keep_lavapipe_loaded(void) {
 #endif
 }
 
+/* A device without push descriptors (descriptor sets from a pool reset each sequence) nor
+ * timestamps (the sequence timed on the CPU), and with staging: the kernels and the GPU hashgrid
+ * still give the same results. */
+static void test_fallback_paths(void **state) {
+    setenv("PGI_GPU_NO_PUSH_DESCRIPTORS", "1", 1);
+    setenv("PGI_GPU_NO_TIMESTAMPS", "1", 1);
+    setenv("PGI_GPU_STAGING", "1", 1);
+    pgi__gpu *keep = g_gpu;
+    pgi_status st = pgi__gpu_create(-1, &g_gpu);
+    unsetenv("PGI_GPU_NO_PUSH_DESCRIPTORS");
+    unsetenv("PGI_GPU_NO_TIMESTAMPS");
+    unsetenv("PGI_GPU_STAGING");
+    TU_CHECK_OK(st);
+    assert_false(pgi__gpu_has_timestamps(g_gpu));
+    test_kernel_fill_timestamps(state);
+    test_hashgrid_vs_brute_cornell(state);
+    pgi__gpu_destroy(g_gpu);
+    g_gpu = keep;
+}
+
 int main(void) {
     keep_lavapipe_loaded();
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_buffer_round_trip),         cmocka_unit_test(test_buffer_round_trip_staged),
-        cmocka_unit_test(test_kernel_fill_timestamps),    cmocka_unit_test(test_device_errors),
-        cmocka_unit_test(test_hashgrid_vs_brute_cornell), cmocka_unit_test(test_hashgrid_vs_brute_kernels),
-        cmocka_unit_test(test_hashgrid_vs_brute_glossy),  cmocka_unit_test(test_renderer_device),
+        cmocka_unit_test(test_buffer_round_trip),
+        cmocka_unit_test(test_buffer_round_trip_staged),
+        cmocka_unit_test(test_kernel_fill_timestamps),
+        cmocka_unit_test(test_device_errors),
+        cmocka_unit_test(test_hashgrid_vs_brute_cornell),
+        cmocka_unit_test(test_hashgrid_vs_brute_kernels),
+        cmocka_unit_test(test_hashgrid_vs_brute_glossy),
+        cmocka_unit_test(test_renderer_device),
+        cmocka_unit_test(test_fallback_paths),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
