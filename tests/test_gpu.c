@@ -233,11 +233,13 @@ static void test_hashgrid_vs_brute_cornell(void **state) {
     gpu_vs_brute("cornell", 64, 48, 20000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT);
 }
 
-/* the other kernels, and cells smaller than the sphere (many cells a query) */
+/* the other kernels, cells of a given size, and huge cells (huge buckets) */
 static void test_hashgrid_vs_brute_kernels(void **state) {
     (void)state;
     gpu_vs_brute("cornell", 40, 30, 8000, PGI_KERNEL_CONE, 0.f, PGI_SPECULAR_DEFAULT);
     gpu_vs_brute("cornell", 40, 30, 8000, PGI_KERNEL_EPANECHNIKOV, 0.3f, PGI_SPECULAR_DEFAULT);
+    /* cells as large as the box: a few buckets of thousands of photons (the per-bucket sort) */
+    gpu_vs_brute("cornell", 32, 24, 20000, PGI_KERNEL_CONSTANT, 4.f, PGI_SPECULAR_DEFAULT);
 }
 
 /* glossy view samples (the fireplace room's MTL illum 2 materials): Blinn-Phong and GGX plastic lobes */
