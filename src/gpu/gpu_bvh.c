@@ -230,7 +230,7 @@ static uint32_t flatten_inner(flat_ctx *fc, const tinner *t, int depth, int *nee
 }
 
 pgi__bvh_config pgi__bvh_default_config(void) {
-    pgi__bvh_config c = {.quality = 2, .width = 4, .max_leaf = 8, .traversal_cost = 1.f, .intersection_cost = 1.f};
+    pgi__bvh_config c = {.quality = 1, .width = 4, .max_leaf = 4, .traversal_cost = 1.f, .intersection_cost = 1.f};
     return c;
 }
 
