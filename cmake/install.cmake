@@ -87,6 +87,9 @@ endif()
 string(REPLACE ";" " " _pgi_embree_flags "${_pgi_embree_flags}")
 
 set(_pgi_pc_modules "assimp OpenEXR libcjson stb")
+if(PGI_VULKAN)
+  string(APPEND _pgi_pc_modules " vulkan")
+endif()
 set(_pgi_pc_libs "${_pgi_embree_flags} ${OpenMP_C_FLAGS} -lm")
 if(PGI_SHARED)
   # libphotongi.so records its own dependencies: the consumer links -lphotongi alone

@@ -15,6 +15,9 @@ PKGS+=(clang-format)
 # libclang-rt-14-dev, which clang only recommends) and the ThreadSanitizer job (make test-tsan:
 # LLVM's OpenMP runtime libomp and its TSan tool libarcher.so, both in libomp-14-dev).
 PKGS+=(clang libclang-rt-14-dev libomp-dev)
+# The Vulkan compute backend (--device vulkan, docs/gpu.md): the loader and headers, glslc to compile
+# the shaders, and Mesa's lavapipe (a CPU Vulkan device) so that the GPU tests run without a GPU.
+PKGS+=(libvulkan-dev glslc mesa-vulkan-drivers vulkan-tools)
 
 missing=()
 for p in "${PKGS[@]}"; do

@@ -45,6 +45,11 @@ void pgi__gpu_destroy(pgi__gpu *g);
 const char *pgi__gpu_device_name(const pgi__gpu *g);
 /* Number of Vulkan devices and the name of device i (for `--device vulkan:N` messages and --help). */
 int pgi__gpu_device_count(void);
+/* (addition) The name of device i of pgi__gpu_device_count() into buf; PGI_ERR_INVALID_ARG out of range. */
+pgi_status pgi__gpu_device_name_at(int i, char *buf, size_t size);
+/* (addition) 1 when the device's compute queue writes timestamps; 0: pgi__gpu_timings gives one entry,
+ * the whole sequence timed on the CPU, under its last label. */
+int pgi__gpu_has_timestamps(const pgi__gpu *g);
 
 /* Storage buffers: device-local where the device has such memory (uploads and downloads through a
  * staging buffer), host-visible otherwise. `what` is a static string naming the buffer in the

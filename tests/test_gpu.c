@@ -1,0 +1,166 @@
+/* The Vulkan backend (src/gpu, docs/gpu.md), on whatever device the loader finds (CI: lavapipe):
+ * the device layer (buffers, kernels, fills, timestamps, memory stats, errors). Built and run only
+ * when the library has the backend (PGI_VULKAN). */
+#include "test_util.h"
+
+#include "core/core.h"
+#include "gpu/gpu.h"
+#include "gpu/spirv.h"
+
+static pgi__gpu *g_gpu;
+
+static int setup(void **state) {
+    (void)state;
+    if (pgi__gpu_create(-1, &g_gpu) != PGI_OK) {
+        fprintf(stderr, "no Vulkan device: %s\n", pgi_last_error());
+        return -1;
+    }
+    fprintf(stderr, "device: %s (timestamps: %s)\n", pgi__gpu_device_name(g_gpu),
+            pgi__gpu_has_timestamps(g_gpu) ? "yes" : "no");
+    return 0;
+}
+
+static int teardown(void **state) {
+    (void)state;
+    pgi__gpu_destroy(g_gpu);
+    return 0;
+}
+
+/* Upload, download and partial ranges; a buffer is reused while large enough and grows otherwise. */
+static void test_buffer_round_trip(void **state) {
+    (void)state;
+    pgi__gpu *g = g_gpu;
+    enum { N = 100003 };
+    uint32_t *a = malloc(N * sizeof *a), *b = malloc(N * sizeof *b);
+    assert_non_null(a);
+    assert_non_null(b);
+    for (uint32_t i = 0; i < N; i++) a[i] = i * 2654435761u;
+    pgi__gpu_buffer *buf = NULL;
+    TU_CHECK_OK(pgi__gpu_buffer_reserve(g, &buf, N * sizeof *a, "gpu_test"));
+    assert_true(pgi__gpu_buffer_size(buf) >= N * sizeof *a);
+    TU_CHECK_OK(pgi__gpu_upload(g, buf, 0, a, N * sizeof *a));
+    memset(b, 0, N * sizeof *b);
+    TU_CHECK_OK(pgi__gpu_download(g, buf, 0, b, N * sizeof *b));
+    assert_memory_equal(a, b, N * sizeof *a);
+    /* a range in the middle */
+    uint32_t mid[5] = {1, 2, 3, 4, 5}, back[7];
+    TU_CHECK_OK(pgi__gpu_upload(g, buf, 400, mid, sizeof mid));
+    TU_CHECK_OK(pgi__gpu_download(g, buf, 396, back, sizeof back));
+    assert_int_equal(back[0], a[99]);
+    for (int k = 0; k < 5; k++) assert_int_equal(back[1 + k], mid[k]);
+    assert_int_equal(back[6], a[105]);
+    /* out of range: an error, no crash */
+    assert_int_not_equal(pgi__gpu_upload(g, buf, pgi__gpu_buffer_size(buf) - 4, mid, sizeof mid), PGI_OK);
+    /* reserve: same buffer when large enough, a new one when not */
+    pgi__gpu_buffer *same = buf;
+    TU_CHECK_OK(pgi__gpu_buffer_reserve(g, &buf, 16, "gpu_test"));
+    assert_ptr_equal(buf, same);
+    TU_CHECK_OK(pgi__gpu_buffer_reserve(g, &buf, 2 * N * sizeof *a, "gpu_test"));
+    assert_true(pgi__gpu_buffer_size(buf) >= 2 * N * sizeof *a);
+    /* memory stats: one entry for "gpu_test" with its size */
+    pgi_named_value mem[8];
+    int n = pgi__gpu_memory(g, mem, 8), found = 0;
+    for (int k = 0; k < n; k++)
+        if (strcmp(mem[k].name, "gpu_test") == 0) {
+            found = 1;
+            assert_true(mem[k].value >= 2.0 * N * sizeof *a);
+        }
+    assert_true(found);
+    pgi__gpu_buffer_destroy(g, buf);
+    n = pgi__gpu_memory(g, mem, 8);
+    for (int k = 0; k < n; k++) assert_string_not_equal(mem[k].name, "gpu_test");
+    free(a);
+    free(b);
+}
+
+/* The same through the staging buffer (device memory that is not mapped, as on a discrete GPU). */
+static void test_buffer_round_trip_staged(void **state) {
+    setenv("PGI_GPU_STAGING", "1", 1);
+    pgi__gpu *keep = g_gpu;
+    pgi_status st = pgi__gpu_create(-1, &g_gpu);
+    unsetenv("PGI_GPU_STAGING");
+    TU_CHECK_OK(st);
+    test_buffer_round_trip(state);
+    pgi__gpu_destroy(g_gpu);
+    g_gpu = keep;
+}
+
+/* A kernel with push constants, a fill, two dependent dispatches in one sequence, timestamps. */
+static void test_kernel_fill_timestamps(void **state) {
+    (void)state;
+    pgi__gpu *g = g_gpu;
+    enum { N = 1000 };
+    pgi__gpu_kernel *k = NULL;
+    TU_CHECK_OK(pgi__gpu_kernel_create(g, pgi__spv_test_saxpy, sizeof pgi__spv_test_saxpy, "test_saxpy", 2, 8, &k));
+    float x[N], y[N];
+    for (int i = 0; i < N; i++) x[i] = (float)i;
+    pgi__gpu_buffer *bx = NULL, *by = NULL;
+    TU_CHECK_OK(pgi__gpu_buffer_reserve(g, &bx, sizeof x, "gpu_test_x"));
+    TU_CHECK_OK(pgi__gpu_buffer_reserve(g, &by, sizeof y, "gpu_test_y"));
+    TU_CHECK_OK(pgi__gpu_upload(g, bx, 0, x, sizeof x));
+    struct {
+        float a;
+        uint32_t n;
+    } push = {2.f, N - 1}; /* the last element is left alone */
+    TU_CHECK_OK(pgi__gpu_begin(g));
+    pgi__gpu_timestamp(g, "start");
+    TU_CHECK_OK(pgi__gpu_fill(g, by, 0, sizeof y, 0x3f800000u)); /* 1.0f */
+    pgi__gpu_timestamp(g, "fill");
+    TU_CHECK_OK(pgi__gpu_dispatch(g, k, (pgi__gpu_buffer *[]){bx, by}, &push, (N + 63) / 64, 1, 1));
+    push.a = 0.5f;
+    TU_CHECK_OK(pgi__gpu_dispatch(g, k, (pgi__gpu_buffer *[]){bx, by}, &push, (N + 63) / 64, 1, 1));
+    pgi__gpu_timestamp(g, "saxpy");
+    TU_CHECK_OK(pgi__gpu_submit_wait(g));
+    TU_CHECK_OK(pgi__gpu_download(g, by, 0, y, sizeof y));
+    for (int i = 0; i < N - 1; i++) assert_true(y[i] == 1.f + 2.5f * (float)i);
+    assert_true(y[N - 1] == 1.f);
+    pgi_named_value t[8];
+    int nt = pgi__gpu_timings(g, t, 8);
+    if (pgi__gpu_has_timestamps(g)) {
+        assert_int_equal(nt, 2);
+        assert_string_equal(t[0].name, "fill");
+        assert_string_equal(t[1].name, "saxpy");
+    } else {
+        assert_int_equal(nt, 1);
+        assert_string_equal(t[0].name, "saxpy");
+    }
+    for (int i = 0; i < nt; i++) assert_true(t[i].value >= 0.0 && t[i].value < 10000.0);
+    /* a second sequence on the same command buffer */
+    TU_CHECK_OK(pgi__gpu_begin(g));
+    TU_CHECK_OK(pgi__gpu_fill(g, by, 4, 8, 0));
+    TU_CHECK_OK(pgi__gpu_submit_wait(g));
+    TU_CHECK_OK(pgi__gpu_download(g, by, 0, y, 16));
+    assert_true(y[0] == 1.f && y[1] == 0.f && y[2] == 0.f && y[3] == 1.f + 7.5f);
+    /* misuse is an error, not a crash */
+    assert_int_not_equal(pgi__gpu_dispatch(g, k, (pgi__gpu_buffer *[]){bx, by}, &push, 1, 1, 1), PGI_OK);
+    assert_int_not_equal(pgi__gpu_submit_wait(g), PGI_OK);
+    pgi__gpu_kernel_destroy(g, k);
+    pgi__gpu_buffer_destroy(g, bx);
+    pgi__gpu_buffer_destroy(g, by);
+}
+
+/* Device selection: an index past the last device lists the devices. */
+static void test_device_errors(void **state) {
+    (void)state;
+    int n = pgi__gpu_device_count();
+    assert_true(n >= 1);
+    char name[256];
+    TU_CHECK_OK(pgi__gpu_device_name_at(0, name, sizeof name));
+    assert_true(name[0] != 0);
+    pgi__gpu *g = NULL;
+    assert_int_equal(pgi__gpu_create(99, &g), PGI_ERR_UNSUPPORTED);
+    assert_null(g);
+    assert_non_null(strstr(pgi_last_error(), "99"));
+    assert_non_null(strstr(pgi_last_error(), name));
+    assert_true(pgi__gpu_available());
+}
+
+int main(void) {
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_buffer_round_trip),
+        cmocka_unit_test(test_buffer_round_trip_staged),
+        cmocka_unit_test(test_kernel_fill_timestamps),
+        cmocka_unit_test(test_device_errors),
+    };
+    return cmocka_run_group_tests(tests, setup, teardown);
+}
