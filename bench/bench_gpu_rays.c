@@ -1,19 +1,24 @@
-/* photongi-bench-gpu-rays: the GPU backend's BVH (src/gpu/gpu_bvh.h) on one scene.
+/* photongi-bench-gpu-rays: the GPU backend's BVH (src/gpu/gpu_bvh.h) and ray kernel
+ * (src/gpu/gpu_rays.h) on one scene.
  *
  *   photongi-bench-gpu-rays [--scene sibenik] [--rays 200000] [--size 640x360] [--threads 2] [--configs]
+ *                           [--device N]
  *
  * Prints markdown tables: the default build (time, bytes, nodes, leaves, SAH cost) and, with
- * --configs, the other builds (binned SAH or spatial splits, 2- or 4-wide, leaf sizes); then for
- * primary rays (every camera of the scene at --size) and random rays (origins in the scene's box,
- * uniform directions) the work a ray costs the traversal (nodes, leaves, triangles) and the rates
- * of Embree (pgi__rt_intersect, --threads threads) and of the layout's CPU traversal (same
- * threads). */
+ * --configs, the other builds (binned SAH or spatial splits, 2- or 4-wide, leaf sizes), with the
+ * work a ray costs the traversal (nodes, leaves, triangles) and the rate of the layout's CPU
+ * traversal (--threads threads) for primary rays (every camera of the scene at --size) and random
+ * rays (origins in the scene's box, uniform directions); then the rates of Embree (single-ray
+ * queries, --threads threads) and of the GPU kernel (Vulkan device N, default the first GPU, else
+ * lavapipe) for those and for shadow rays (any hit, from random rays' hits to random points):
+ * the kernel alone (timestamps) and with the rays' upload and the hits' download. */
 #include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "gpu/gpu_bvh.h"
+#include "gpu/gpu_rays.h"
 #include "rt/rt.h"
 #include "scene/scene_internal.h"
 #include "view/view.h"
@@ -22,6 +27,7 @@ typedef struct ray_set {
     const char *name;
     pgi__bvh_ray *r;
     size_t n;
+    int any; /* occlusion queries */
 } ray_set;
 
 static uint64_t splitmix(uint64_t *s) {
@@ -33,7 +39,7 @@ static uint64_t splitmix(uint64_t *s) {
 static float unif(uint64_t *s) { return (float)(splitmix(s) >> 40) * (1.0f / 16777216.0f); }
 
 static ray_set primary_rays(const pgi_scene *s, int w, int h) {
-    ray_set rs = {"primary", malloc((size_t)w * h * (s->ncams ? s->ncams : 1) * sizeof(pgi__bvh_ray)), 0};
+    ray_set rs = {"primary", malloc((size_t)w * h * (s->ncams ? s->ncams : 1) * sizeof(pgi__bvh_ray)), 0, 0};
     for (size_t c = 0; c < s->ncams; c++) {
         pgi_camera cam;
         const pgi_camera_def *cd = &s->cams[c];
@@ -48,13 +54,32 @@ static ray_set primary_rays(const pgi_scene *s, int w, int h) {
 }
 
 static ray_set random_rays(const pgi_scene *s, size_t n) {
-    ray_set rs = {"random", malloc(n * sizeof(pgi__bvh_ray)), n};
+    ray_set rs = {"random", malloc(n * sizeof(pgi__bvh_ray)), n, 0};
     uint64_t g = 12345;
     for (size_t i = 0; i < n; i++) {
         float o[3];
         for (int k = 0; k < 3; k++) o[k] = s->bmin[k] + (0.01f + 0.98f * unif(&g)) * (s->bmax[k] - s->bmin[k]);
         float z = 2.f * unif(&g) - 1.f, phi = 6.2831853f * unif(&g), r = sqrtf(fmaxf(0.f, 1.f - z * z));
         rs.r[i] = (pgi__bvh_ray){{o[0], o[1], o[2]}, 0.f, {r * cosf(phi), r * sinf(phi), z}, INFINITY};
+    }
+    return rs;
+}
+
+/* Shadow rays: from the closest hits of the random rays (their origins where they miss) to
+ * uniform points in the scene's box, over (epsilon, 0.9999 length). */
+static ray_set shadow_rays(const pgi_scene *s, const pgi__rt *rt, const ray_set *from) {
+    ray_set rs = {"shadow", malloc(from->n * sizeof(pgi__bvh_ray)), from->n, 1};
+    uint64_t g = 777;
+    const float eps = pgi__scene_epsilon(s);
+    for (size_t i = 0; i < from->n; i++) {
+        const pgi__bvh_ray *r = &from->r[i];
+        pgi__hit h;
+        float p[3] = {r->org[0], r->org[1], r->org[2]}, d[3];
+        if (pgi__rt_intersect(rt, v3(p[0], p[1], p[2]), v3(r->dir[0], r->dir[1], r->dir[2]), 0.f, INFINITY, &h))
+            for (int k = 0; k < 3; k++) p[k] += h.t * r->dir[k];
+        for (int k = 0; k < 3; k++) d[k] = s->bmin[k] + (0.01f + 0.98f * unif(&g)) * (s->bmax[k] - s->bmin[k]) - p[k];
+        float len = sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        rs.r[i] = (pgi__bvh_ray){{p[0], p[1], p[2]}, eps, {d[0] / len, d[1] / len, d[2] / len}, 0.9999f * len};
     }
     return rs;
 }
@@ -90,7 +115,8 @@ static double bvh_rate(const pgi__bvh *b, const ray_set *rs, int threads, pgi__b
             const pgi__bvh_ray *r = &rs->r[i];
             pgi__hit h;
             pgi__bvh_counters c = {0};
-            pgi__bvh_intersect(b, r->org, r->dir, r->tnear, r->tfar, &h, NULL, NULL, &c);
+            if (rs->any) pgi__bvh_occluded(b, r->org, r->dir, r->tnear, r->tfar, NULL, NULL, &c);
+            else pgi__bvh_intersect(b, r->org, r->dir, r->tnear, r->tfar, &h, NULL, NULL, &c);
             nn += c.nodes;
             nl += c.leaves;
             nt += c.tris;
@@ -102,20 +128,50 @@ static double bvh_rate(const pgi__bvh *b, const ray_set *rs, int threads, pgi__b
     return best;
 }
 
+/* Mrays/s of the GPU kernel over the set, best of 3: the kernel alone (the sequence's "rays"
+ * timestamp) in *kernel, with the upload and download as the return value; *hits its hits. */
+static double gpu_rate(pgi__gpu *g, pgi__gpu_rays *gr, const ray_set *rs, double *kernel, size_t *hits) {
+    pgi__hit *h = malloc(rs->n * sizeof *h);
+    double best = 0.0, best_k = 0.0;
+    for (int rep = 0; h && rep < 4; rep++) {
+        double t0 = pgi__now_ms();
+        if (pgi__gpu_rays_intersect(gr, rs->r, rs->n, rs->any, h) != PGI_OK) {
+            fprintf(stderr, "%s\n", pgi_last_error());
+            break;
+        }
+        double ms = pgi__now_ms() - t0;
+        pgi_named_value tv[8];
+        int nt = pgi__gpu_timings(g, tv, 8);
+        double kms = 0.0;
+        for (int i = 0; i < nt; i++)
+            if (!strcmp(tv[i].name, "rays")) kms = tv[i].value;
+        if (rep == 0) continue; /* warm-up (buffers allocated, pipeline compiled) */
+        best = fmax(best, (double)rs->n / (ms * 1e3));
+        if (kms > 0) best_k = fmax(best_k, (double)rs->n / (kms * 1e3));
+        size_t nh = 0;
+        for (size_t i = 0; i < rs->n; i++) nh += h[i].prim != UINT32_MAX;
+        *hits = nh;
+    }
+    free(h);
+    *kernel = best_k;
+    return best;
+}
+
 int main(int argc, char **argv) {
     const char *scene = "sibenik";
     size_t nrays = 200000;
-    int w = 640, h = 360, threads = 2, configs = 0;
+    int w = 640, h = 360, threads = 2, configs = 0, device = -1;
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--scene") && i + 1 < argc) scene = argv[++i];
         else if (!strcmp(argv[i], "--rays") && i + 1 < argc) nrays = (size_t)strtoull(argv[++i], NULL, 10);
         else if (!strcmp(argv[i], "--size") && i + 1 < argc && sscanf(argv[++i], "%dx%d", &w, &h) == 2) {
         } else if (!strcmp(argv[i], "--threads") && i + 1 < argc) threads = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--configs")) configs = 1;
+        else if (!strcmp(argv[i], "--device") && i + 1 < argc) device = atoi(argv[++i]);
         else {
             fprintf(stderr,
-                    "usage: %s [--scene NAME] [--rays N] [--size WxH] [--threads N] [--configs]\n"
-                    "  the GPU BVH on one scene: build statistics, work a ray, rates against Embree\n",
+                    "usage: %s [--scene NAME] [--rays N] [--size WxH] [--threads N] [--configs] [--device N]\n"
+                    "  the GPU BVH and ray kernel on one scene: build statistics, work a ray, rates against Embree\n",
                     argv[0]);
             return 2;
         }
@@ -138,7 +194,8 @@ int main(int argc, char **argv) {
     }
     double embree_ms = pgi__now_ms() - t0;
     size_t embree_peak = 0, embree_bytes = pgi__rt_memory(rt, &embree_peak);
-    ray_set sets[2] = {primary_rays(s, w, h), random_rays(s, nrays)};
+    ray_set sets[3] = {primary_rays(s, w, h), random_rays(s, nrays), {0}};
+    sets[2] = shadow_rays(s, rt, &sets[1]);
     printf("scene %s: %zu triangles; Embree scene build %.1f ms, %zu bytes (peak %zu); %zu primary rays (%dx%d x %zu "
            "cameras), %zu random rays, %d threads\n\n",
            scene, s->ntris, embree_ms, embree_bytes, embree_peak, sets[0].n, w, h, s->ncams, sets[1].n, threads);
@@ -179,13 +236,27 @@ int main(int argc, char **argv) {
         fflush(stdout);
         pgi__bvh_destroy(b);
     }
-    printf("\n| rays | Embree Mrays/s (%d threads, rtcIntersect1) | hits |\n|---|---|---|\n", threads);
-    for (int r = 0; r < 2; r++) {
-        size_t hits = 0;
-        double rate = embree_rate(rt, &sets[r], threads, &hits);
-        printf("| %s | %.2f | %zu |\n", sets[r].name, rate, hits);
+    pgi__gpu *g = NULL;
+    pgi__gpu_rays *gr = NULL;
+    char gname[160] = "no Vulkan device";
+    if (pgi__gpu_create(device, &g) == PGI_OK) {
+        snprintf(gname, sizeof gname, "%s", pgi__gpu_device_name(g));
+        if (pgi__gpu_rays_create(g, s, &gr) != PGI_OK) snprintf(gname, sizeof gname, "%s", pgi_last_error());
+    } else snprintf(gname, sizeof gname, "%s", pgi_last_error());
+    printf("\n| rays | n | Embree (%d threads) Mrays/s | GPU kernel Mrays/s | GPU with transfers Mrays/s | "
+           "Embree hits | GPU hits |\n|---|---|---|---|---|---|---|\n",
+           threads);
+    for (int r = 0; r < 3; r++) {
+        size_t hits = 0, ghits = 0;
+        double rate = embree_rate(rt, &sets[r], threads, &hits), kern = 0.0;
+        double grate = gr ? gpu_rate(g, gr, &sets[r], &kern, &ghits) : 0.0;
+        printf("| %s | %zu | %.2f | %.2f | %.2f | %zu | %zu |\n", sets[r].name, sets[r].n, rate, kern, grate, hits,
+               ghits);
     }
-    for (int r = 0; r < 2; r++) free(sets[r].r);
+    printf("\nGPU: %s\n", gname);
+    pgi__gpu_rays_destroy(gr);
+    pgi__gpu_destroy(g);
+    for (int r = 0; r < 3; r++) free(sets[r].r);
     pgi__rt_destroy(rt);
     pgi_scene_destroy(s);
     return 0;

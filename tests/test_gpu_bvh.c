@@ -7,6 +7,8 @@
  * build is deterministic. */
 #include "gpu_rays_common.h"
 
+static int g_layout_filter;
+
 /* Casts n rays of kind `kind` both ways and checks the agreement; returns the tally. */
 static gr_tally check_kind(const pgi_scene *s, const pgi__rt *rt, const pgi__bvh *b, gr_kind kind, size_t n, int w,
                            int h, uint64_t seed, const char *what, pgi__bvh_counters *cnt) {
@@ -17,8 +19,9 @@ static gr_tally check_kind(const pgi_scene *s, const pgi__rt *rt, const pgi__bvh
     assert_non_null(got);
     assert_non_null(ref);
     n = gr_rays(s, rt, kind, n, w, h, seed, r);
-    pgi__bvh_filter filter = pgi__bvh_scene_filter;
-    void *user = (void *)s;
+    /* the renderer's cut-out test, or (g_layout_filter) the layout's, the shader's */
+    pgi__bvh_filter filter = g_layout_filter ? pgi__bvh_mask_filter : pgi__bvh_scene_filter;
+    void *user = g_layout_filter ? (void *)b : (void *)s;
     gr_tally c = {0};
     if (kind == GR_SHADOW) {
         size_t differ = 0, occl = 0;
@@ -108,6 +111,10 @@ static void test_sphere_and_plane(void **state) {
 static void test_cutout(void **state) {
     (void)state;
     check_scene("cutout", 20000, 96, 96, NULL);
+    /* the layout's cut-out test (masks[], alpha[]: what the shader reads) */
+    g_layout_filter = 1;
+    check_scene("cutout", 20000, 96, 96, NULL);
+    g_layout_filter = 0;
     /* Without the filter the lattice is solid: camera 2 (straight down on it) then sees the
      * lattice where Embree sees through it, about the open fraction of the pixels. */
     pgi_scene *s = NULL;
@@ -133,6 +140,43 @@ static void test_cutout(void **state) {
     fprintf(stderr, "  cutout without the filter: %zu of %d pixels differ from Embree's\n", differ, 96 * 96);
     assert_true(masked > 0);
     assert_true(fabs((double)differ / (96.0 * 96.0) - PGI_CUTOUT_OPEN_FRACTION) < 0.1);
+    /* The layout's test is the renderer's: the same answer at random points of every masked
+     * triangle, tiled texture coordinates included. */
+    assert_true(b->nmasks > 0 && b->nalpha > 0);
+    tu_rng g = tu_rng_make(3);
+    size_t tested = 0, cut = 0;
+    for (size_t i = 0; i < b->ntris; i++) {
+        if (!(b->tris[i].flags & PGI__BVH_TRI_MASKED)) continue;
+        for (int k = 0; k < 20000; k++) {
+            float u = tu_unif(&g), v = tu_unif(&g);
+            if (u + v > 1.f) u = 1.f - u, v = 1.f - v;
+            int a = pgi__bvh_mask_filter(b, &b->tris[i], u, v), e = pgi__scene_cut_out(s, b->tris[i].prim, u, v);
+            assert_int_equal(a, e);
+            tested++;
+            cut += a;
+        }
+    }
+    fprintf(stderr, "  cutout: layout and renderer agree at %zu points (%zu cut out)\n", tested, cut);
+    assert_true(cut > tested / 5 && cut < tested / 2);
+    /* tiled and shifted texture coordinates (wrapping, negative ones) */
+    pgi__bvh_destroy(b);
+    assert_non_null(s->uv);
+    for (size_t i = 0; i < 2 * s->nverts; i++) s->uv[i] = 3.7f * s->uv[i] - 1.3f;
+    TU_CHECK_OK(pgi__bvh_build(s, NULL, &b));
+    tested = cut = 0;
+    for (size_t i = 0; i < b->ntris; i++) {
+        if (!(b->tris[i].flags & PGI__BVH_TRI_MASKED)) continue;
+        for (int k = 0; k < 20000; k++) {
+            float u = tu_unif(&g), v = tu_unif(&g);
+            if (u + v > 1.f) u = 1.f - u, v = 1.f - v;
+            int a = pgi__bvh_mask_filter(b, &b->tris[i], u, v), e = pgi__scene_cut_out(s, b->tris[i].prim, u, v);
+            assert_int_equal(a, e);
+            tested++;
+            cut += a;
+        }
+    }
+    fprintf(stderr, "  cutout, tiled: layout and renderer agree at %zu points (%zu cut out)\n", tested, cut);
+    assert_true(cut > tested / 5 && cut < tested / 2);
     pgi__bvh_destroy(b);
     pgi__rt_destroy(rt);
     pgi_scene_destroy(s);

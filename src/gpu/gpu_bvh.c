@@ -141,6 +141,7 @@ static void on_error(void *user, enum RTCError code, const char *str) {
 typedef struct flat_ctx {
     const pgi_scene *s;
     pgi__bvh *b;
+    const uint32_t *mask_of; /* scene triangle -> masks[] entry (NULL: no cut-outs) */
     size_t nnodes, ntris;
     double sah; /* sum of Ct SA(inner) + Ci n SA(leaf), unnormalised */
     int max_depth;
@@ -164,7 +165,7 @@ static void count_tree(const tnode *n, size_t *inner, size_t *refs) {
     for (uint32_t i = 0; i < n->n; i++) count_tree(t->c[i], inner, refs);
 }
 
-static void write_tri(const pgi_scene *s, uint32_t prim, pgi__bvh_tri *o) {
+static void write_tri(const pgi_scene *s, const uint32_t *mask_of, uint32_t prim, pgi__bvh_tri *o) {
     const uint32_t *t = s->tri + 3 * (size_t)prim;
     const float *v0 = s->pos + 3 * (size_t)t[0], *v1 = s->pos + 3 * (size_t)t[1], *v2 = s->pos + 3 * (size_t)t[2];
     for (int k = 0; k < 3; k++) {
@@ -173,14 +174,14 @@ static void write_tri(const pgi_scene *s, uint32_t prim, pgi__bvh_tri *o) {
         o->e2[k] = v2[k] - v0[k];
     }
     o->prim = prim;
-    o->flags = pgi__mat_masked(&s->mats[s->tri_mat[prim]]) ? PGI__BVH_TRI_MASKED : 0u;
+    o->flags = pgi__mat_masked(&s->mats[s->tri_mat[prim]]) ? PGI__BVH_TRI_MASKED | (mask_of[prim] << 1) : 0u;
     o->pad = 0.f;
 }
 
 /* The reference of a leaf: its triangles are appended to tris[]. */
 static uint32_t flatten_leaf(flat_ctx *fc, const tleaf *l) {
     uint32_t first = (uint32_t)fc->ntris;
-    for (uint32_t i = 0; i < l->h.n; i++) write_tri(fc->s, l->prim[i], &fc->b->tris[fc->ntris++]);
+    for (uint32_t i = 0; i < l->h.n; i++) write_tri(fc->s, fc->mask_of, l->prim[i], &fc->b->tris[fc->ntris++]);
     return PGI__BVH_LEAF | ((l->h.n - 1) << PGI__BVH_LEAF_SHIFT) | first;
 }
 
@@ -238,11 +239,85 @@ void pgi__bvh_destroy(pgi__bvh *b) {
     if (!b) return;
     free(b->nodes);
     free(b->tris);
+    free(b->masks);
+    free(b->alpha);
     free(b);
 }
 
-size_t pgi__bvh_memory(const pgi__bvh *b) {
-    return b ? sizeof *b + b->nnodes * sizeof(pgi__bvh_node) + b->ntris * sizeof(pgi__bvh_tri) : 0;
+static size_t arrays_bytes(const pgi__bvh *b) {
+    return b->nnodes * sizeof(pgi__bvh_node) + b->ntris * sizeof(pgi__bvh_tri) + b->nmasks * sizeof(pgi__bvh_mask) +
+           b->nalpha * sizeof(uint32_t);
+}
+
+size_t pgi__bvh_memory(const pgi__bvh *b) { return b ? sizeof *b + arrays_bytes(b) : 0; }
+
+/* The cut-out records: one per masked scene triangle (in triangle order), and the alpha
+ * channels of their textures packed into b->alpha; *mask_of (ntris entries) maps a scene
+ * triangle to its record. Nothing (and *mask_of NULL) when no triangle is masked. */
+static pgi_status build_masks(const pgi_scene *s, pgi__bvh *b, uint32_t **mask_of) {
+    *mask_of = NULL;
+    size_t n = 0;
+    for (size_t t = 0; t < s->ntris; t++) n += pgi__mat_masked(&s->mats[s->tri_mat[t]]);
+    if (!n) return PGI_OK;
+    if (n >= (1u << 31)) return pgi__fail(PGI_ERR_UNSUPPORTED, "GPU BVH: %zu cut-out triangles, at most 2^31", n);
+    uint32_t *map = malloc(s->ntris * sizeof *map);
+    int64_t *tex_at = malloc((s->ntexs ? s->ntexs : 1) * sizeof *tex_at);
+    b->masks = calloc(n, sizeof *b->masks);
+    if (!map || !tex_at || !b->masks) {
+        free(map);
+        free(tex_at);
+        return pgi__fail(PGI_ERR_OOM, "out of memory for the GPU BVH's %zu cut-out triangles", n);
+    }
+    /* the textures' places in alpha[] (texels, a multiple of 4) */
+    size_t texels = 0;
+    for (size_t i = 0; i < s->ntexs; i++) tex_at[i] = -1;
+    for (size_t t = 0; t < s->ntris; t++) {
+        const pgi__material *m = &s->mats[s->tri_mat[t]];
+        if (!pgi__mat_masked(m) || m->tex_alpha < 0) continue;
+        const pgi__texture *tx = &s->texs[m->tex_alpha];
+        if (tex_at[m->tex_alpha] >= 0 || !tx->rgba || tx->width <= 0 || tx->height <= 0) continue;
+        tex_at[m->tex_alpha] = (int64_t)texels;
+        texels += ((size_t)tx->width * (size_t)tx->height + 3) & ~(size_t)3;
+    }
+    pgi_status st = PGI_OK;
+    if (texels >= ((size_t)1 << 32))
+        st = pgi__fail(PGI_ERR_UNSUPPORTED, "GPU BVH: the cut-out textures hold %zu texels, at most 2^32", texels);
+    else if (texels && !(b->alpha = calloc(texels / 4, sizeof *b->alpha)))
+        st = pgi__fail(PGI_ERR_OOM, "out of memory for the GPU BVH's cut-out textures (%zu texels)", texels);
+    if (st) {
+        free(map);
+        free(tex_at);
+        return st;
+    }
+    b->nalpha = texels / 4;
+    for (size_t i = 0; i < s->ntexs; i++) {
+        if (tex_at[i] < 0) continue;
+        const pgi__texture *tx = &s->texs[i];
+        size_t nt = (size_t)tx->width * (size_t)tx->height, at = (size_t)tex_at[i];
+        for (size_t k = 0; k < nt; k++)
+            b->alpha[(at + k) >> 2] |= (uint32_t)tx->rgba[4 * k + 3] << (8 * ((at + k) & 3));
+    }
+    for (size_t t = 0; t < s->ntris; t++) {
+        const pgi__material *m = &s->mats[s->tri_mat[t]];
+        if (!pgi__mat_masked(m)) continue;
+        pgi__bvh_mask *k = &b->masks[b->nmasks];
+        map[t] = (uint32_t)b->nmasks++;
+        if (s->uv) {
+            const uint32_t *ti = s->tri + 3 * t;
+            memcpy(k->uv0, s->uv + 2 * (size_t)ti[0], sizeof k->uv0);
+            memcpy(k->uv1, s->uv + 2 * (size_t)ti[1], sizeof k->uv1);
+            memcpy(k->uv2, s->uv + 2 * (size_t)ti[2], sizeof k->uv2);
+        }
+        k->cutoff = m->alpha_cutoff;
+        if (m->tex_alpha >= 0 && tex_at[m->tex_alpha] >= 0) {
+            k->texel0 = (uint32_t)tex_at[m->tex_alpha];
+            k->width = (uint32_t)s->texs[m->tex_alpha].width;
+            k->height = (uint32_t)s->texs[m->tex_alpha].height;
+        }
+    }
+    free(tex_at);
+    *mask_of = map;
+    return PGI_OK;
 }
 
 int pgi__bvh_needs_update(const pgi__bvh *b, const pgi_scene *s) {
@@ -355,7 +430,9 @@ pgi_status pgi__bvh_build(const pgi_scene *s, const pgi__bvh_config *cfg_in, pgi
             st = pgi__fail(PGI_ERR_OOM, "out of memory flattening the GPU BVH (%zu nodes, %zu triangles)", inner, refs);
             goto done;
         }
-        flat_ctx fc = {.s = s, .b = b};
+        uint32_t *mask_of = NULL;
+        if ((st = build_masks(s, b, &mask_of))) goto done;
+        flat_ctx fc = {.s = s, .b = b, .mask_of = mask_of};
         int need = 0;
         double root_area = 0.0;
         if (!root) {
@@ -383,6 +460,7 @@ pgi_status pgi__bvh_build(const pgi_scene *s, const pgi__bvh_config *cfg_in, pgi
             flatten_inner(&fc, t, 1, &need);
             fc.sah += root_area; /* the root's own visit */
         }
+        free(mask_of);
         PGI_ASSERT(fc.nnodes == inner && fc.ntris == refs);
         b->nnodes = fc.nnodes;
         b->ntris = fc.ntris;
@@ -416,14 +494,47 @@ done:
     }
     long long pk = atomic_load_explicit(&bc.peak, memory_order_relaxed);
     b->stats.build_bytes = cap * sizeof(struct RTCBuildPrimitive) + (pk > 0 ? (size_t)pk : 0);
-    b->stats.bytes = b->nnodes * sizeof(pgi__bvh_node) + b->ntris * sizeof(pgi__bvh_tri);
+    b->stats.bytes = arrays_bytes(b);
     b->stats.build_ms = pgi__now_ms() - t0;
     *out = b;
     return PGI_OK;
 }
 
-int pgi__bvh_scene_filter(void *scene, uint32_t prim, float u, float v) {
-    return pgi__scene_cut_out((const pgi_scene *)scene, prim, u, v);
+int pgi__bvh_scene_filter(void *scene, const pgi__bvh_tri *tri, float u, float v) {
+    return pgi__scene_cut_out((const pgi_scene *)scene, tri->prim, u, v);
+}
+
+static inline int wrap_index(int i, int n) { return i < 0 ? i + n : i >= n ? i - n : i; }
+
+/* pgi__scene_cut_out on the layout's arrays: pgi__scene_uv, then pgi__texture_alpha's bilinear
+ * lookup, operation for operation (bvh.glsl's bvh_cut_out is this again). */
+int pgi__bvh_mask_filter(void *bvh, const pgi__bvh_tri *tri, float b1, float b2) {
+    const pgi__bvh *b = bvh;
+    const pgi__bvh_mask *m = &b->masks[tri->flags >> 1];
+    float bw = 1.f - b1 - b2;
+    float u = bw * m->uv0[0] + b1 * m->uv1[0] + b2 * m->uv2[0];
+    float v = bw * m->uv0[1] + b1 * m->uv1[1] + b2 * m->uv2[1];
+    float alpha = 1.f;
+    if (m->width > 0) {
+        const int w = (int)m->width, h = (int)m->height;
+        if (!isfinite(u)) u = 0.f;
+        if (!isfinite(v)) v = 0.f;
+        float fu = u - floorf(u), fv = v - floorf(v);
+        float x = fu * (float)w - 0.5f, y = (1.f - fv) * (float)h - 0.5f;
+        float x0f = floorf(x), y0f = floorf(y);
+        float tx = x - x0f, ty = y - y0f;
+        int x0 = wrap_index((int)x0f, w), x1 = wrap_index((int)x0f + 1, w);
+        int y0 = wrap_index((int)y0f, h), y1 = wrap_index((int)y0f + 1, h);
+#define TEXEL(X, Y)                                                                                                    \
+    (float)((b->alpha[(m->texel0 + (uint32_t)(Y)*m->width + (uint32_t)(X)) >> 2] >>                                    \
+             (8u * ((m->texel0 + (uint32_t)(Y)*m->width + (uint32_t)(X)) & 3u))) &                                     \
+            0xFFu)
+        float a = TEXEL(x0, y0), bb = TEXEL(x1, y0), c = TEXEL(x0, y1), d = TEXEL(x1, y1);
+#undef TEXEL
+        float top = a + (bb - a) * tx, bot = c + (d - c) * tx;
+        alpha = (top + (bot - top) * ty) * (1.f / 255.f);
+    }
+    return alpha < m->cutoff;
 }
 
 /* ------------------------------------------------------------ traversal (bvh.glsl's algorithm) */
@@ -527,7 +638,7 @@ static int traverse(const pgi__bvh *b, const float o[3], const float d[3], float
                 float t, u, v;
                 nt++;
                 if (!tri_hit(tr, o, d, tnear, tfar, &t, &u, &v)) continue;
-                if ((tr->flags & PGI__BVH_TRI_MASKED) && filter && filter(user, tr->prim, u, v)) continue;
+                if ((tr->flags & PGI__BVH_TRI_MASKED) && filter && filter(user, tr, u, v)) continue;
                 found = 1;
                 tfar = t;
                 if (h) {

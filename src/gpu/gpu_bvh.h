@@ -17,9 +17,21 @@
  *   tris[ntris]: pgi__bvh_tri, 48 bytes, in leaf order (a leaf's triangles are contiguous; with
  *     spatial splits a scene triangle may appear in several leaves). Precomputed for Embree's
  *     Moeller-Trumbore test (its triangle4 layout): v0, e1 = v0 - v1, e2 = v2 - v0, and in the
- *     w components the scene triangle index (prim, v0's w) and flags (e1's w; PGI__BVH_TRI_MASKED:
- *     the material has a cut-out mask).
+ *     w components the scene triangle index (prim, v0's w) and flags (e1's w): bit 0
+ *     (PGI__BVH_TRI_MASKED) the material has a cut-out mask, bits 1..31 then its entry in masks[].
  *     GLSL: struct Tri { vec4 v0_prim; vec4 e1_flags; vec4 e2; };   prim = floatBitsToUint(v0_prim.w)
+ *
+ *   masks[nmasks]: pgi__bvh_mask, 48 bytes, one a cut-out scene triangle: its vertices' texture
+ *     coordinates, the material's alpha cutoff, and its alpha texture (texel0: first texel in
+ *     alpha[], width x height; width 0: no texture, alpha 1).
+ *     GLSL: struct Mask { vec4 uv01; vec2 uv2; float cutoff; uint texel0; uint width, height, pad0, pad1; };
+ *
+ *   alpha[nalpha]: uint32 words holding the 8-bit alpha channel of the cut-out textures, four
+ *     texels a word (texel k: byte k & 3 of word k >> 2, the least significant first), rows from
+ *     the top as pgi__texture; each texture starts at a word.
+ *   A hit on a masked triangle is refused where the alpha (bilinear, wrapping, as
+ *   pgi__texture_alpha) is below the cutoff: pgi__bvh_mask_filter, bvh.glsl's bvh_cut_out, and
+ *   the renderer's pgi__scene_cut_out give the same answer.
  *
  * Traversal (pgi__bvh_intersect / pgi__bvh_occluded and bvh.glsl alike): a stack of child
  * references (PGI__BVH_STACK entries; the builder checks the tree never needs more), root first;
@@ -29,10 +41,10 @@
  * so the nearest is popped next. At a leaf each triangle gets Embree's Moeller-Trumbore test: hit
  * when den != 0, U >= 0, V >= 0, U + V <= |den|, and tnear < t <= tfar (both faces: no culling),
  * t = T / |den|, u = U / |den|, v = V / |den| (barycentrics of vertices 1 and 2, as Embree's).
+ * A hit on a masked triangle then goes through the cut-out test (the CPU traversal: a filter
+ * callback, pgi__bvh_mask_filter for the shader's, pgi__bvh_scene_filter for the renderer's).
  * Closest hit shrinks tfar to each hit's t (a later hit at an equal t replaces an earlier one, as
- * Embree's `T <= tfar`); any hit stops at the first hit. Rays of ray.mask -1 only (no masks);
- * cut-out triangles: the CPU traversal calls a filter (the renderer's pgi__scene_cut_out, as
- * rt.c's Embree filter), the shader refuses such scenes for now (pgi__gpu_rays_create). */
+ * Embree's `T <= tfar`); any hit stops at the first hit. Rays of ray.mask -1 only (no ray masks). */
 #ifndef PGI_GPU_BVH_H
 #define PGI_GPU_BVH_H
 
@@ -59,6 +71,14 @@ typedef struct pgi__bvh_tri {
     float e2[3];
     float pad;
 } pgi__bvh_tri;
+
+typedef struct pgi__bvh_mask {
+    float uv0[2], uv1[2], uv2[2];
+    float cutoff;
+    uint32_t texel0;
+    uint32_t width, height;
+    uint32_t pad[2];
+} pgi__bvh_mask;
 
 /* A ray as rays.comp reads it (32 bytes; GLSL: struct Ray { vec4 org_tnear; vec4 dir_tfar; }):
  * the segment org + t dir, tnear < t <= tfar. Its answer is a pgi__hit (16 bytes; GLSL: struct
@@ -104,6 +124,10 @@ typedef struct pgi__bvh {
     size_t nnodes;
     pgi__bvh_tri *tris;
     size_t ntris;
+    pgi__bvh_mask *masks; /* NULL when nothing is cut out */
+    size_t nmasks;
+    uint32_t *alpha;
+    size_t nalpha; /* words */
     pgi__bvh_stats stats;
     uint64_t static_version, dynamic_version; /* of the scene it was built from */
 } pgi__bvh;
@@ -116,12 +140,12 @@ pgi_status pgi__bvh_build(const pgi_scene *s, const pgi__bvh_config *cfg, pgi__b
 void pgi__bvh_destroy(pgi__bvh *b);
 /* 1 when the scene's geometry moved since the BVH was built (rebuild then: pgi__bvh_build). */
 int pgi__bvh_needs_update(const pgi__bvh *b, const pgi_scene *s);
-/* Bytes held (nodes, tris, the struct). */
+/* Bytes held (the arrays, the struct). */
 size_t pgi__bvh_memory(const pgi__bvh *b);
 
 /* Called for candidate hits on PGI__BVH_TRI_MASKED triangles (tnear < t <= tfar): 1 refuses the
  * hit (traversal goes on behind it), as rt.c's Embree filter. */
-typedef int (*pgi__bvh_filter)(void *user, uint32_t prim, float u, float v);
+typedef int (*pgi__bvh_filter)(void *user, const pgi__bvh_tri *tri, float u, float v);
 
 /* Work counters of one traversal (NULL: not counted). */
 typedef struct pgi__bvh_counters {
@@ -136,7 +160,9 @@ int pgi__bvh_intersect(const pgi__bvh *b, const float o[3], const float d[3], fl
 int pgi__bvh_occluded(const pgi__bvh *b, const float o[3], const float d[3], float tnear, float tfar,
                       pgi__bvh_filter filter, void *user, pgi__bvh_counters *c);
 
-/* The renderer's cut-out filter for scene s (user = the scene): pgi__scene_cut_out. */
-int pgi__bvh_scene_filter(void *scene, uint32_t prim, float u, float v);
+/* The renderer's cut-out filter (user = the scene): pgi__scene_cut_out. */
+int pgi__bvh_scene_filter(void *scene, const pgi__bvh_tri *tri, float u, float v);
+/* The shader's (user = the pgi__bvh): the triangle's mask record and alpha[] (bvh_cut_out). */
+int pgi__bvh_mask_filter(void *bvh, const pgi__bvh_tri *tri, float u, float v);
 
 #endif

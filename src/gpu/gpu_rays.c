@@ -18,35 +18,28 @@ typedef struct rays_push {
 struct pgi__gpu_rays {
     pgi__gpu *g;
     pgi__bvh *bvh;
-    pgi__gpu_buffer *nodes, *tris;
+    pgi__gpu_buffer *nodes, *tris, *masks, *alpha;
     pgi__gpu_buffer *rays, *hits; /* pgi__gpu_rays_intersect's */
     pgi__gpu_kernel *kernel;
 };
 
-/* PGI_ERR_UNSUPPORTED naming the first cut-out material of s, if it has one on a triangle. */
-static pgi_status refuse_cutouts(const pgi_scene *s) {
-    size_t n = 0, first = 0;
-    for (size_t t = 0; t < s->ntris; t++)
-        if (pgi__mat_masked(&s->mats[s->tri_mat[t]]) && n++ == 0) first = t;
-    if (!n) return PGI_OK;
-    return pgi__fail(PGI_ERR_UNSUPPORTED,
-                     "the GPU ray kernel does not handle cut-out (alpha-masked) materials yet: %zu triangles have "
-                     "one (material '%s'); render this scene on the CPU",
-                     n, s->mats[s->tri_mat[first]].name);
+/* Uploads n bytes of src (NULL or n 0: one zero word, a buffer must exist) into *b. */
+static pgi_status upload(pgi__gpu *g, pgi__gpu_buffer **b, const void *src, size_t n, const char *what) {
+    static const uint32_t zero[12];
+    if (!src || !n) src = zero, n = sizeof zero;
+    pgi_status st = pgi__gpu_buffer_reserve(g, b, n, what);
+    return st ? st : pgi__gpu_upload(g, *b, 0, src, n);
 }
 
-/* Builds the BVH and uploads it (buffers of at least one entry: a scene without a triangle has
- * none). */
+/* Builds the BVH and uploads its four arrays. */
 static pgi_status build_upload(pgi__gpu_rays *r, const pgi_scene *s) {
-    pgi_status st = refuse_cutouts(s);
-    if (st) return st;
     pgi__bvh *b = NULL;
-    if ((st = pgi__bvh_build(s, NULL, &b))) return st;
-    size_t nb = b->nnodes * sizeof(pgi__bvh_node), tb = (b->ntris ? b->ntris : 1) * sizeof(pgi__bvh_tri);
-    if ((st = pgi__gpu_buffer_reserve(r->g, &r->nodes, nb, "gpu_bvh_nodes")) ||
-        (st = pgi__gpu_buffer_reserve(r->g, &r->tris, tb, "gpu_bvh_tris")) ||
-        (st = pgi__gpu_upload(r->g, r->nodes, 0, b->nodes, nb)) ||
-        (b->ntris && (st = pgi__gpu_upload(r->g, r->tris, 0, b->tris, b->ntris * sizeof(pgi__bvh_tri))))) {
+    pgi_status st = pgi__bvh_build(s, NULL, &b);
+    if (st) return st;
+    if ((st = upload(r->g, &r->nodes, b->nodes, b->nnodes * sizeof(pgi__bvh_node), "gpu_bvh_nodes")) ||
+        (st = upload(r->g, &r->tris, b->tris, b->ntris * sizeof(pgi__bvh_tri), "gpu_bvh_tris")) ||
+        (st = upload(r->g, &r->masks, b->masks, b->nmasks * sizeof(pgi__bvh_mask), "gpu_bvh_masks")) ||
+        (st = upload(r->g, &r->alpha, b->alpha, b->nalpha * sizeof(uint32_t), "gpu_bvh_alpha"))) {
         pgi__bvh_destroy(b);
         return st;
     }
@@ -67,7 +60,7 @@ pgi_status pgi__gpu_rays_create(pgi__gpu *g, const pgi_scene *s, pgi__gpu_rays *
     r->g = g;
     pgi_status st = build_upload(r, s);
     if (!st)
-        st = pgi__gpu_kernel_create(g, pgi__spv_rays, sizeof pgi__spv_rays, "rays", 4, sizeof(rays_push), &r->kernel);
+        st = pgi__gpu_kernel_create(g, pgi__spv_rays, sizeof pgi__spv_rays, "rays", 6, sizeof(rays_push), &r->kernel);
     if (st) {
         pgi__gpu_rays_destroy(r);
         return st;
@@ -82,6 +75,8 @@ void pgi__gpu_rays_destroy(pgi__gpu_rays *r) {
     pgi__gpu_kernel_destroy(r->g, r->kernel);
     pgi__gpu_buffer_destroy(r->g, r->nodes);
     pgi__gpu_buffer_destroy(r->g, r->tris);
+    pgi__gpu_buffer_destroy(r->g, r->masks);
+    pgi__gpu_buffer_destroy(r->g, r->alpha);
     pgi__gpu_buffer_destroy(r->g, r->rays);
     pgi__gpu_buffer_destroy(r->g, r->hits);
     pgi__bvh_destroy(r->bvh);
@@ -102,7 +97,7 @@ pgi_status pgi__gpu_rays_dispatch(pgi__gpu_rays *r, pgi__gpu_buffer *rays, pgi__
     if (first + n > pgi__gpu_buffer_size(rays) / sizeof(pgi__bvh_ray) ||
         first + n > pgi__gpu_buffer_size(hits) / sizeof(pgi__hit) || first + n > UINT32_MAX)
         return pgi__fail(PGI_ERR_INTERNAL, "GPU rays: rays %zu..%zu outside the ray or hit buffer", first, first + n);
-    pgi__gpu_buffer *bufs[4] = {r->nodes, r->tris, rays, hits};
+    pgi__gpu_buffer *bufs[6] = {r->nodes, r->tris, r->masks, r->alpha, rays, hits};
     const size_t chunk = (size_t)MAX_GROUPS * GROUP;
     for (size_t done = 0; done < n; done += chunk) {
         size_t m = n - done < chunk ? n - done : chunk;

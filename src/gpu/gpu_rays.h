@@ -11,8 +11,8 @@
  *
  * Rays are pgi__bvh_ray (32 bytes), hits pgi__hit (16 bytes, prim UINT32_MAX for none), as the
  * CPU's pgi__rt_intersect returns them (Embree's conventions: t in (tnear, tfar], both faces, u, v
- * the barycentrics of vertices 1 and 2). Cut-out (alpha-masked) materials are not handled on the
- * GPU yet: create and update refuse such scenes with PGI_ERR_UNSUPPORTED. */
+ * the barycentrics of vertices 1 and 2; cut-out materials refuse hits where their mask is open, as
+ * the renderer's Embree filter). */
 #ifndef PGI_GPU_RAYS_H
 #define PGI_GPU_RAYS_H
 
@@ -22,7 +22,8 @@
 typedef struct pgi__gpu_rays pgi__gpu_rays;
 
 /* Builds the BVH of s (the default pgi__bvh_config), uploads it to g (buffers "gpu_bvh_nodes",
- * "gpu_bvh_tris") and creates the kernel. The scene and the device are borrowed. */
+ * "gpu_bvh_tris", "gpu_bvh_masks", "gpu_bvh_alpha") and creates the kernel. The scene and the
+ * device are borrowed. */
 pgi_status pgi__gpu_rays_create(pgi__gpu *g, const pgi_scene *s, pgi__gpu_rays **out);
 void pgi__gpu_rays_destroy(pgi__gpu_rays *r);
 /* 1 when the scene's geometry moved since the BVH was built. */

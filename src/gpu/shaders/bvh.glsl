@@ -1,12 +1,14 @@
 // Ray traversal of the GPU BVH (src/gpu/gpu_bvh.h documents the layout and the algorithm; the
 // CPU traversal there is this code line for line, and tests/test_gpu_rays.c compares the two).
-// Include it after choosing the bindings of its two storage buffers (set 0):
+// Include it after choosing the bindings of its four storage buffers (set 0; these are the
+// defaults):
 //   #define BVH_NODES_BINDING 0   // pgi__bvh_node[]
 //   #define BVH_TRIS_BINDING 1    // pgi__bvh_tri[]
+//   #define BVH_MASKS_BINDING 2   // pgi__bvh_mask[] (cut-out triangles; one dummy entry when none)
+//   #define BVH_ALPHA_BINDING 3   // uint32 alpha words of the cut-out textures (idem)
 //   #include "bvh.glsl"
-// then call bvh_trace(origin, direction, tnear, tfar, any_hit, hit).
-// Cut-out (alpha-masked) triangles are solid here: pgi__gpu_rays_create refuses scenes that have
-// them (the CPU traversal's filter has no GPU counterpart yet).
+// then call bvh_trace(origin, direction, tnear, tfar, any_hit, hit). Hits on cut-out triangles
+// where their mask is open are refused, as the renderer's Embree filter does.
 #ifndef PGI_BVH_GLSL
 #define PGI_BVH_GLSL
 
@@ -15,6 +17,12 @@
 #endif
 #ifndef BVH_TRIS_BINDING
 #define BVH_TRIS_BINDING 1
+#endif
+#ifndef BVH_MASKS_BINDING
+#define BVH_MASKS_BINDING 2
+#endif
+#ifndef BVH_ALPHA_BINDING
+#define BVH_ALPHA_BINDING 3
 #endif
 
 #define BVH_EMPTY 0xFFFFFFFFu
@@ -34,12 +42,23 @@ struct BvhNode {
 
 struct BvhTri {
     vec4 v0_prim;  // v0; w: the scene triangle (floatBitsToUint)
-    vec4 e1_flags; // v0 - v1; w: flags (bit 0: cut-out material)
+    vec4 e1_flags; // v0 - v1; w: flags (bit 0: cut-out material; bits 1..31 its bvh_masks entry)
     vec4 e2;       // v2 - v0
+};
+
+struct BvhMask {
+    vec4 uv01; // texture coordinates of vertices 0 and 1
+    vec2 uv2;  // of vertex 2
+    float cutoff;
+    uint texel0;         // first texel in bvh_alpha
+    uint width, height;  // width 0: no texture, alpha 1
+    uint pad0, pad1;
 };
 
 layout(std430, set = 0, binding = BVH_NODES_BINDING) readonly restrict buffer BvhNodes { BvhNode bvh_nodes[]; };
 layout(std430, set = 0, binding = BVH_TRIS_BINDING) readonly restrict buffer BvhTris { BvhTri bvh_tris[]; };
+layout(std430, set = 0, binding = BVH_MASKS_BINDING) readonly restrict buffer BvhMasks { BvhMask bvh_masks[]; };
+layout(std430, set = 0, binding = BVH_ALPHA_BINDING) readonly restrict buffer BvhAlpha { uint bvh_alpha[]; };
 
 struct BvhHit {
     float t, u, v; // u, v: barycentrics of vertices 1 and 2
@@ -73,6 +92,45 @@ bool bvh_tri_hit(BvhTri tr, vec3 o, vec3 d, float tnear, float tfar, out float t
     u = U * rcp;
     v = V * rcp;
     return true;
+}
+
+int bvh_wrap(int i, int n) { return i < 0 ? i + n : i >= n ? i - n : i; }
+
+float bvh_texel(BvhMask m, int x, int y) {
+    const uint k = m.texel0 + uint(y) * m.width + uint(x);
+    return float((bvh_alpha[k >> 2] >> (8u * (k & 3u))) & 0xFFu);
+}
+
+// Whether the cut-out triangle of `flags` is open at barycentrics (b1, b2): pgi__scene_cut_out
+// (texture coordinates, then pgi__texture_alpha's bilinear wrapping lookup) operation for
+// operation, as gpu_bvh.c's pgi__bvh_mask_filter.
+bool bvh_cut_out(uint flags, float b1, float b2) {
+    const BvhMask m = bvh_masks[flags >> 1];
+    precise float bw = 1.0 - b1 - b2;
+    precise float u = bw * m.uv01.x + b1 * m.uv01.z + b2 * m.uv2.x;
+    precise float v = bw * m.uv01.y + b1 * m.uv01.w + b2 * m.uv2.y;
+    float alpha = 1.0;
+    if (m.width > 0u) {
+        const int w = int(m.width), h = int(m.height);
+        if (isnan(u) || isinf(u)) u = 0.0;
+        if (isnan(v) || isinf(v)) v = 0.0;
+        precise float fu = u - floor(u);
+        precise float fv = v - floor(v);
+        precise float x = fu * float(w) - 0.5;
+        precise float y = (1.0 - fv) * float(h) - 0.5;
+        const float x0f = floor(x), y0f = floor(y);
+        precise float tx = x - x0f;
+        precise float ty = y - y0f;
+        const int x0 = bvh_wrap(int(x0f), w), x1 = bvh_wrap(int(x0f) + 1, w);
+        const int y0 = bvh_wrap(int(y0f), h), y1 = bvh_wrap(int(y0f) + 1, h);
+        const float a = bvh_texel(m, x0, y0), b = bvh_texel(m, x1, y0);
+        const float c = bvh_texel(m, x0, y1), d = bvh_texel(m, x1, y1);
+        precise float top = a + (b - a) * tx;
+        precise float bot = c + (d - c) * tx;
+        precise float al = (top + (bot - top) * ty) * (1.0 / 255.0);
+        alpha = al;
+    }
+    return alpha < m.cutoff;
 }
 
 // Compare-and-swap of (distance, reference) pairs: only when a is strictly farther, so that the
@@ -140,6 +198,8 @@ bool bvh_trace(vec3 o, vec3 d, float tnear, float tfar, bool any_hit, out BvhHit
                 const BvhTri tr = bvh_tris[i];
                 float t, u, v;
                 if (!bvh_tri_hit(tr, o, d, tnear, tfar, t, u, v)) continue;
+                const uint flags = floatBitsToUint(tr.e1_flags.w);
+                if ((flags & 1u) != 0u && bvh_cut_out(flags, u, v)) continue;
                 found = true;
                 tfar = t;
                 hit.t = t;
