@@ -177,7 +177,8 @@ static void test_cutout(void **state) {
     pgi_scene_destroy(s);
 }
 
-/* Rays in the middle of a device buffer (dispatch offsets); an empty batch. */
+/* Rays in the middle of a device buffer (dispatch offsets); an empty batch; a batch split into
+ * several dispatches. */
 static void test_dispatch_offsets(void **state) {
     (void)state;
     pgi_scene *s = NULL;
@@ -205,6 +206,13 @@ static void test_dispatch_offsets(void **state) {
         if (i < FIRST || i >= FIRST + M) assert_int_equal(h[i].prim, 0xABABABABu);
     assert_int_equal(gpu_vs_cpu(pgi__gpu_rays_bvh(gr), r + FIRST, h + FIRST, M, 0, &exact), 0);
     TU_CHECK_OK(pgi__gpu_rays_intersect(gr, r, 0, 0, h));
+    /* split into dispatches of 3 groups (192 rays): the same hits */
+    pgi__gpu_rays_set_max_groups(gr, 3);
+    memset(h, 0, N * sizeof *h);
+    TU_CHECK_OK(pgi__gpu_rays_intersect(gr, r, N, 0, h));
+    exact = 0;
+    assert_int_equal(gpu_vs_cpu(pgi__gpu_rays_bvh(gr), r, h, N, 0, &exact), 0);
+    assert_int_equal(exact, N);
     pgi__gpu_buffer_destroy(g_gpu, rb);
     pgi__gpu_buffer_destroy(g_gpu, hb);
     free(r);

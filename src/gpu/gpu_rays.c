@@ -1,5 +1,5 @@
-/* Rays on the GPU (gpu_rays.h): the BVH's two arrays in two storage buffers, the rays.comp kernel
- * over a ray buffer and a hit buffer. */
+/* Rays on the GPU (gpu_rays.h): the BVH's four arrays in four storage buffers, the rays.comp
+ * kernel over a ray buffer and a hit buffer. */
 #include "gpu/gpu_rays.h"
 
 #include <string.h>
@@ -21,6 +21,7 @@ struct pgi__gpu_rays {
     pgi__gpu_buffer *nodes, *tris, *masks, *alpha;
     pgi__gpu_buffer *rays, *hits; /* pgi__gpu_rays_intersect's */
     pgi__gpu_kernel *kernel;
+    uint32_t max_groups; /* a dispatch's most groups (MAX_GROUPS; tests lower it) */
 };
 
 /* Uploads n bytes of src (NULL or n 0: one zero word, a buffer must exist) into *b. */
@@ -58,6 +59,7 @@ pgi_status pgi__gpu_rays_create(pgi__gpu *g, const pgi_scene *s, pgi__gpu_rays *
     pgi__gpu_rays *r = calloc(1, sizeof *r);
     if (!r) return pgi__fail(PGI_ERR_OOM, "out of memory creating the GPU rays");
     r->g = g;
+    r->max_groups = MAX_GROUPS;
     pgi_status st = build_upload(r, s);
     if (!st)
         st = pgi__gpu_kernel_create(g, pgi__spv_rays, sizeof pgi__spv_rays, "rays", 6, sizeof(rays_push), &r->kernel);
@@ -92,13 +94,18 @@ pgi_status pgi__gpu_rays_update(pgi__gpu_rays *r, const pgi_scene *s) {
 
 const pgi__bvh *pgi__gpu_rays_bvh(const pgi__gpu_rays *r) { return r->bvh; }
 
+void pgi__gpu_rays_set_max_groups(pgi__gpu_rays *r, uint32_t groups) {
+    r->max_groups = groups < 1 ? 1 : groups > MAX_GROUPS ? MAX_GROUPS : groups;
+}
+
 pgi_status pgi__gpu_rays_dispatch(pgi__gpu_rays *r, pgi__gpu_buffer *rays, pgi__gpu_buffer *hits, size_t first,
                                   size_t n, int any_hit) {
+    if (!rays || !hits) return pgi__fail(PGI_ERR_INTERNAL, "GPU rays: no ray or hit buffer");
     if (first + n > pgi__gpu_buffer_size(rays) / sizeof(pgi__bvh_ray) ||
         first + n > pgi__gpu_buffer_size(hits) / sizeof(pgi__hit) || first + n > UINT32_MAX)
         return pgi__fail(PGI_ERR_INTERNAL, "GPU rays: rays %zu..%zu outside the ray or hit buffer", first, first + n);
     pgi__gpu_buffer *bufs[6] = {r->nodes, r->tris, r->masks, r->alpha, rays, hits};
-    const size_t chunk = (size_t)MAX_GROUPS * GROUP;
+    const size_t chunk = (size_t)r->max_groups * GROUP;
     for (size_t done = 0; done < n; done += chunk) {
         size_t m = n - done < chunk ? n - done : chunk;
         rays_push p = {(uint32_t)(first + done), (uint32_t)m, any_hit ? 1u : 0u, 0u};

@@ -28,7 +28,8 @@ pgi_status pgi__gpu_rays_create(pgi__gpu *g, const pgi_scene *s, pgi__gpu_rays *
 void pgi__gpu_rays_destroy(pgi__gpu_rays *r);
 /* 1 when the scene's geometry moved since the BVH was built. */
 int pgi__gpu_rays_needs_update(const pgi__gpu_rays *r, const pgi_scene *s);
-/* Rebuilds the BVH from the scene's current positions and uploads it (buffers grow as needed). */
+/* Rebuilds the BVH from the scene's current positions and uploads it (buffers grow as needed).
+ * On failure the device may hold part of the new BVH: update again (or destroy) before tracing. */
 pgi_status pgi__gpu_rays_update(pgi__gpu_rays *r, const pgi_scene *s);
 /* The BVH on the device (its statistics, and the CPU traversal of the same layout). */
 const pgi__bvh *pgi__gpu_rays_bvh(const pgi__gpu_rays *r);
@@ -39,6 +40,8 @@ const pgi__bvh *pgi__gpu_rays_bvh(const pgi__gpu_rays *r);
  * groups of 64. */
 pgi_status pgi__gpu_rays_dispatch(pgi__gpu_rays *r, pgi__gpu_buffer *rays, pgi__gpu_buffer *hits, size_t first,
                                   size_t n, int any_hit);
+/* Tests: dispatches of at most `groups` groups (1..65535) from now on, to exercise the split. */
+void pgi__gpu_rays_set_max_groups(pgi__gpu_rays *r, uint32_t groups);
 /* Host arrays: uploads n rays, runs one sequence (timestamp label "rays"), downloads n hits.
  * Blocking; the ray and hit buffers ("gpu_rays", "gpu_hits") are kept and grown for the next call. */
 pgi_status pgi__gpu_rays_intersect(pgi__gpu_rays *r, const pgi__bvh_ray *rays, size_t n, int any_hit, pgi__hit *hits);
