@@ -5,6 +5,7 @@
 
 #include "core/core.h"
 #include "gpu/gpu.h"
+#include "gpu/gpu_estimator.h"
 #include "gpu/spirv.h"
 
 static pgi__gpu *g_gpu;
@@ -155,12 +156,153 @@ static void test_device_errors(void **state) {
     assert_true(pgi__gpu_available());
 }
 
+/* CPU brute force and the GPU hashgrid on the same photons and view samples (pgi_renderer_prepare):
+ * within 1e-4 relative per value, with a floor of 1e-6 x the image's largest value for values near
+ * zero (tu_compare), and the same number of contributing photons. */
+static void gpu_vs_brute(const char *scene_name, int w, int h, uint32_t photons, pgi_kernel kern, float cell,
+                         pgi_specular spec) {
+    pgi_scene *scene = NULL;
+    TU_CHECK_OK(pgi_scene_load(scene_name, &scene));
+    size_t glossy_samples = 0;
+    if (spec != PGI_SPECULAR_DEFAULT) {
+        pgi_scene_info info;
+        pgi_scene_get_info(scene, &info);
+        assert_true(info.glossy_materials > 0);
+        TU_CHECK_OK(pgi_scene_set_specular(scene, spec));
+    }
+    pgi_renderer *r = NULL;
+    TU_CHECK_OK(pgi_renderer_create(scene, &r));
+    pgi_render_desc d = {.photons = photons, .width = w, .height = h, .seed = 3};
+    pgi_frame_inputs in;
+    TU_CHECK_OK(pgi_renderer_prepare(r, &d, &in, NULL));
+    const size_t nf = 3 * in.samples->count;
+    for (size_t i = 0; i < in.samples->count; i++)
+        glossy_samples += (in.samples->flags[i] & PGI_VS_VALID) && !(in.samples->flags[i] & PGI_VS_LAMBERT);
+    if (spec != PGI_SPECULAR_DEFAULT) assert_true(glossy_samples > in.samples->count / 20);
+    float *ref = malloc(nf * sizeof *ref), *got = malloc(nf * sizeof *got), *again = malloc(nf * sizeof *again);
+    assert_non_null(ref);
+    assert_non_null(got);
+    assert_non_null(again);
+    pgi_estimator_desc ed = {.kernel = kern, .hashgrid.cell_size = cell};
+    pgi_estimator *brute = NULL;
+    TU_CHECK_OK(pgi_estimator_create("brute", &ed, &brute));
+    pgi_estimate_args a = {.photons = in.photons,
+                           .samples = in.samples,
+                           .camera = &in.camera,
+                           .out_rgb = ref,
+                           .radius = in.radius,
+                           .seed = in.seed};
+    TU_CHECK_OK(pgi_estimator_build(brute, &a));
+    TU_CHECK_OK(pgi_estimator_estimate(brute, &a));
+    pgi_estimator_stats bs, gs, gs2;
+    pgi_estimator_get_stats(brute, &bs);
+    pgi_estimator_desc rd;
+    TU_CHECK_OK(pgi_estimator_desc_resolve(pgi_estimator_find("hashgrid"), &ed, &rd));
+    void *ge = NULL;
+    TU_CHECK_OK(pgi__gpu_est_hashgrid.create(g_gpu, &rd, &ge));
+    for (size_t i = 0; i < nf; i++) got[i] = NAN;
+    a.out_rgb = got;
+    TU_CHECK_OK(pgi__gpu_est_hashgrid.run(ge, &a, &gs));
+    char what[160];
+    snprintf(what, sizeof what, "%s %dx%d, %u photons, kernel %d, specular %d: GPU hashgrid vs CPU brute", scene_name,
+             w, h, photons, (int)kern, (int)spec);
+    assert_true(bs.contributing > 0);
+    tu_expect_same(what, got, ref, nf, gs.contributing, bs.contributing);
+    assert_true(gs.reads >= gs.contributing && gs.reads <= bs.reads);
+    /* the same image bit for bit on a second run (atomics reorder each bucket; the sort restores it) */
+    a.out_rgb = again;
+    TU_CHECK_OK(pgi__gpu_est_hashgrid.run(ge, &a, &gs2));
+    assert_memory_equal(got, again, nf * sizeof *got);
+    assert_int_equal(gs2.reads, gs.reads);
+    pgi__gpu_est_hashgrid.destroy(ge);
+    pgi_estimator_destroy(brute);
+    free(ref);
+    free(got);
+    free(again);
+    pgi_renderer_destroy(r);
+    pgi_scene_destroy(scene);
+}
+
+static void test_hashgrid_vs_brute_cornell(void **state) {
+    (void)state;
+    gpu_vs_brute("cornell", 64, 48, 20000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT);
+}
+
+/* the other kernels, and cells smaller than the sphere (many cells a query) */
+static void test_hashgrid_vs_brute_kernels(void **state) {
+    (void)state;
+    gpu_vs_brute("cornell", 40, 30, 8000, PGI_KERNEL_CONE, 0.f, PGI_SPECULAR_DEFAULT);
+    gpu_vs_brute("cornell", 40, 30, 8000, PGI_KERNEL_EPANECHNIKOV, 0.3f, PGI_SPECULAR_DEFAULT);
+}
+
+/* glossy view samples (the fireplace room's MTL illum 2 materials): Blinn-Phong and GGX plastic lobes */
+static void test_hashgrid_vs_brute_glossy(void **state) {
+    (void)state;
+    gpu_vs_brute("fireplace-room", 48, 36, 10000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_PHONG);
+    gpu_vs_brute("fireplace-room", 48, 36, 10000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_GGX);
+}
+
+/* The renderer on the GPU device: the same image as the CPU's brute force (same seed: the same
+ * photons, traced on the CPU), device name and GPU passes and buffers in the stats; an estimator
+ * without a GPU version is refused with the list of those that have one. */
+static void test_renderer_device(void **state) {
+    (void)state;
+    pgi_scene *scene = NULL;
+    TU_CHECK_OK(pgi_scene_load("cornell", &scene));
+    pgi_renderer *r = NULL;
+    TU_CHECK_OK(pgi_renderer_create(scene, &r));
+    pgi_render_desc d =
+        {.estimator = "brute", .photons = 20000, .width = 64, .height = 48, .output = PGI_OUTPUT_INDIRECT, .seed = 7};
+    pgi_image cpu = {0}, gpu = {0}, gpu2 = {0};
+    pgi_frame_stats cs, gs;
+    TU_CHECK_OK(pgi_renderer_render(r, &d, &cpu, &cs));
+    assert_string_equal(cs.device, "cpu");
+    d.estimator = "hashgrid";
+    d.device = PGI_DEVICE_VULKAN;
+    TU_CHECK_OK(pgi_renderer_render(r, &d, &gpu, &gs));
+    assert_string_equal(gs.device, pgi__gpu_device_name(g_gpu));
+    tu_expect_same("renderer: vulkan hashgrid vs cpu brute", gpu.rgb, cpu.rgb, 3 * 64 * 48, gs.contributing,
+                   cs.contributing);
+    int gather = 0, photons_mem = 0;
+    for (int k = 0; k < gs.pass_count; k++) gather += strcmp(gs.passes_ms[k].name, "gpu_gather") == 0;
+    for (int k = 0; k < gs.memory_count; k++) photons_mem += strcmp(gs.memory_bytes[k].name, "gpu_photons") == 0;
+    assert_int_equal(gather, pgi__gpu_has_timestamps(g_gpu) ? 1 : 1);
+    assert_int_equal(photons_mem, 1);
+    /* the renderer keeps its device and estimator */
+    TU_CHECK_OK(pgi_renderer_render(r, &d, &gpu2, &gs));
+    assert_int_equal(gs.estimators_created, 0);
+    assert_memory_equal(gpu.rgb, gpu2.rgb, 3 * 64 * 48 * sizeof(float));
+    /* explicit device 0 */
+    d.device_index = PGI_DEVICE_INDEX(0);
+    TU_CHECK_OK(pgi_renderer_render(r, &d, &gpu2, &gs));
+    /* no GPU version */
+    d.estimator = "tiled";
+    assert_int_equal(pgi_renderer_render(r, &d, &gpu2, &gs), PGI_ERR_UNSUPPORTED);
+    assert_non_null(strstr(pgi_last_error(), "tiled"));
+    assert_non_null(strstr(pgi_last_error(), "hashgrid"));
+    /* a device that does not exist */
+    d.estimator = "hashgrid";
+    d.device_index = PGI_DEVICE_INDEX(99);
+    assert_int_equal(pgi_renderer_render(r, &d, &gpu2, &gs), PGI_ERR_UNSUPPORTED);
+    assert_non_null(strstr(pgi_last_error(), "99"));
+    /* progressive mode on the device */
+    d.device_index = 0;
+    d.output = PGI_OUTPUT_ALL;
+    TU_CHECK_OK(pgi_render_progressive(r, &d, 3, &gpu2, &gs));
+    assert_int_equal(gs.frames, 3);
+    pgi_image_free(&cpu);
+    pgi_image_free(&gpu);
+    pgi_image_free(&gpu2);
+    pgi_renderer_destroy(r);
+    pgi_scene_destroy(scene);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_buffer_round_trip),
-        cmocka_unit_test(test_buffer_round_trip_staged),
-        cmocka_unit_test(test_kernel_fill_timestamps),
-        cmocka_unit_test(test_device_errors),
+        cmocka_unit_test(test_buffer_round_trip),         cmocka_unit_test(test_buffer_round_trip_staged),
+        cmocka_unit_test(test_kernel_fill_timestamps),    cmocka_unit_test(test_device_errors),
+        cmocka_unit_test(test_hashgrid_vs_brute_cornell), cmocka_unit_test(test_hashgrid_vs_brute_kernels),
+        cmocka_unit_test(test_hashgrid_vs_brute_glossy),  cmocka_unit_test(test_renderer_device),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -11,6 +11,7 @@
 #include "photongi/photongi.h"
 #include "cli.h"
 #include "cmd.h"
+#include "device.h"
 #include "options.h"
 #include "output.h"
 #include "parse.h"
@@ -27,6 +28,7 @@ static const char *k_main_help =
     "  info         print what a scene holds (triangles, materials, lights, bounds, camera)\n"
     "  reference    path-trace a reference image (EXR), resumable with --continue\n"
     "  compare      PSNR and SSIM of an image against a reference, error heat map\n"
+    "  devices      list the Vulkan devices (render --device vulkan:N) and GPU estimators\n"
     "  help [CMD]   this text, or the options of a command (as 'photongi CMD --help')\n"
     "\n"
     "Run 'photongi <command> --help' for the options of a command. Long renders show a\n"
@@ -112,8 +114,7 @@ static const char *k_render_help =
     "                     differentials: r_max clamps the footprint radius\n"
     "  --smoothing S      differentials: smoothing factor s (default: automatic)\n"
     "  --filter R         depth/normal-aware bilateral filter of the indirect light, radius R\n"
-    "                     pixels (0..16, default 0 = off)\n"
-    "\n"
+    "                     pixels (0..16, default 0 = off)\n" APP_DEVICE_HELP "\n"
     "Scene files: a name S is looked up as S.json in ./scenes, then in the scenes/ folder of the\n"
     "source tree photongi was built from (so a build works from any directory), then in the\n"
     "installed share/photongi/scenes. Mesh paths in a description resolve against its folder,\n"
@@ -342,6 +343,9 @@ static int cmd_render(int argc, char **argv) {
                 return cli_usage("render", "--progressive needs a frame count, a whole number in 1..%d, got '%s'",
                                  PGI_MAX_PROGRESSIVE_FRAMES, v);
             progressive = n;
+        } else if (strcmp(a, "--device") == 0) {
+            char err[160];
+            if (!app_parse_device(v, &d, err, sizeof err)) return cli_usage("render", "%s", err);
         } else if (strcmp(a, "--specular") == 0) {
             if (!parse_specular(v, &specular))
                 return cli_usage("render", "--specular must be ggx or phong, got '%s'", v);
@@ -409,6 +413,10 @@ static int cmd_render(int argc, char **argv) {
     if (d.r_min > 0.f && d.r_max > 0.f && d.r_min > d.r_max)
         return cli_usage("render", "--r-min (%g) must not exceed --r-max (%g)", (double)d.r_min, (double)d.r_max);
     if (!quiet) app_note_ignored_options("photongi render", d.estimator, &given);
+    {
+        char err[320];
+        if (!app_check_device(&d, d.estimator, err, sizeof err)) return cli_failure("render", "%s", err);
+    }
 
     pgi_scene *scene;
     pgi_status st = pgi_scene_load(scene_spec, &scene);
@@ -447,6 +455,11 @@ static int cmd_render(int argc, char **argv) {
     st = progressive > 1 ? pgi_render_progressive(r, &d, (int)progressive, &img, &fs)
                          : pgi_renderer_render(r, &d, &img, &fs);
     app_progress_end(&bar, 0);
+    char device_name[256]; /* the stats' device name lives with the renderer */
+    if (st == PGI_OK) {
+        snprintf(device_name, sizeof device_name, "%s", fs.device ? fs.device : "cpu");
+        fs.device = device_name;
+    }
     pgi_renderer_destroy(r);
     if (st) {
         pgi_image_free(&img);
@@ -475,6 +488,12 @@ static int cmd_render(int argc, char **argv) {
                 out, scene_name, fs.width, fs.height, fs.estimator, fs.photons_stored, fs.photons_emitted,
                 (double)fs.radius, fs.view_ms, fs.trace_ms, fs.build_ms, fs.estimate_ms, fs.direct_ms, fs.total_ms,
                 fs.reads, fs.contributing, fs.reads ? 100.0 * (double)fs.contributing / (double)fs.reads : 0.0);
+        if (strcmp(fs.device, "cpu") != 0) {
+            fprintf(stderr, "  device %s:", fs.device);
+            for (int k = 0; k < fs.pass_count; k++)
+                fprintf(stderr, "%s %s %.2f ms", k ? " |" : "", fs.passes_ms[k].name, fs.passes_ms[k].value);
+            fprintf(stderr, "\n");
+        }
         if (fs.frames > 1)
             fprintf(stderr, "  progressive: %d frames averaged (times and counts summed), last radius %g\n", fs.frames,
                     (double)fs.radius);
@@ -503,16 +522,45 @@ static int cmd_render(int argc, char **argv) {
     return 0;
 }
 
+static const char *k_devices_help =
+    "usage: photongi devices\n"
+    "\n"
+    "Lists the Vulkan devices the loader finds, numbered as 'render --device vulkan:N' takes them,\n"
+    "and the estimators that run on them (docs/gpu.md). A build without the Vulkan backend, or a\n"
+    "machine without a Vulkan driver, lists none (exit status 0: the CPU device is always there).\n"
+    "Exit status: 0 success, 2 usage error (see 'photongi --help').\n";
+
+static int cmd_devices(int argc, char **argv) {
+    if (argc == 1 && is_help(argv[0])) {
+        fputs(k_devices_help, stdout);
+        return 0;
+    }
+    if (argc > 0) return cli_usage("devices", "unexpected argument '%s'", argv[0]);
+    printf("cpu: the CPU (default, every estimator)\n");
+    if (!pgi_vulkan_available()) {
+        printf("vulkan: none (this build of photongi has no Vulkan backend: built without Vulkan/glslc)\n");
+        return 0;
+    }
+    int n = pgi_device_count();
+    if (n == 0) printf("vulkan: no device (no Vulkan driver: install mesa-vulkan-drivers or a GPU driver)\n");
+    for (int i = 0; i < n; i++) {
+        char name[256];
+        if (pgi_device_name(i, name, sizeof name) == PGI_OK) printf("vulkan:%d: %s\n", i, name);
+    }
+    char names[256];
+    pgi_device_estimators(names, sizeof names);
+    printf("GPU estimators: %s\n", names);
+    return 0;
+}
+
 typedef struct command {
     const char *name;
     int (*run)(int argc, char **argv);
 } command;
 
-static const command k_commands[] = {{"render", cmd_render},
-                                     {"estimators", cmd_estimators},
-                                     {"info", cmd_info},
-                                     {"reference", pgi_cmd_reference},
-                                     {"compare", pgi_cmd_compare}};
+static const command k_commands[] = {{"render", cmd_render},       {"estimators", cmd_estimators},
+                                     {"info", cmd_info},           {"reference", pgi_cmd_reference},
+                                     {"compare", pgi_cmd_compare}, {"devices", cmd_devices}};
 
 static const command *find_command(const char *name) {
     for (size_t i = 0; i < sizeof k_commands / sizeof k_commands[0]; i++)

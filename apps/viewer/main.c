@@ -14,6 +14,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "device.h"
 #include "overlay.h"
 #include "photongi/photongi.h"
 #include "options.h"
@@ -38,7 +39,7 @@ static const char *k_help =
     "  --seed K           random seed (default 1)\n"
     "  --bounces B        maximum photon bounces (default 4)\n"
     "  --direct-samples K shadow samples per pixel for area lights (default 16)\n"
-    "  --threads T        worker threads (default: all cores)\n"
+    "  --threads T        worker threads (default: all cores)\n" APP_DEVICE_HELP
     "  --camera I         scene camera to start from (default 0)\n"
     "  --exposure X       exposure before the sRGB tone map (default: the scene's, else 1)\n"
     "  --output all|direct|indirect|counts   what to show (counts: false-colour photons per pixel)\n"
@@ -217,8 +218,8 @@ static void compose(viewer *v) {
     const pgi_frame_stats *fst = &v->fs;
     char line[6][256];
     size_t ne = pgi_estimator_count();
-    snprintf(line[0], sizeof line[0], "%s | %s (%zu/%zu) | %.1f FPS, %.0f ms a frame", v->info.name, fst->estimator,
-             v->est_index + 1, ne, v->fps, v->frame_ms);
+    snprintf(line[0], sizeof line[0], "%s | %s (%zu/%zu) on %s | %.1f FPS, %.0f ms a frame", v->info.name,
+             fst->estimator, v->est_index + 1, ne, fst->device ? fst->device : "cpu", v->fps, v->frame_ms);
     snprintf(line[1], sizeof line[1], "view %.1f  trace %.1f  build %.1f  estimate %.1f  direct %.1f  rt %.1f ms",
              fst->view_ms, fst->trace_ms, fst->build_ms, fst->estimate_ms, fst->direct_ms, fst->rt_update_ms);
     int o = 0;
@@ -491,12 +492,11 @@ int main(int argc, char **argv) {
             if (app_estimator_option("photongi-view", a, argv[++i], &v.desc.est, NULL) < 0) return 2;
             continue;
         }
-        static const char *const valued[] = {"--scene",   "--estimator", "--screenshot", "--stats",
-                                             "--photons", "--radius",    "--size",       "--scale",
-                                             "--seed",    "--threads",   "--camera",     "--exposure",
-                                             "--time",    "--frames",    "--output",     "--direct-samples",
-                                             "--bounces", "--keys",      "--emission",   "--max-memory",
-                                             "--store",   NULL};
+        static const char *const valued[] =
+            {"--scene",    "--estimator",  "--screenshot", "--stats",          "--photons", "--radius",
+             "--size",     "--scale",      "--seed",       "--threads",        "--camera",  "--exposure",
+             "--time",     "--frames",     "--output",     "--direct-samples", "--bounces", "--keys",
+             "--emission", "--max-memory", "--store",      "--device",         NULL};
         int known = 0;
         for (int k = 0; valued[k]; k++) known |= strcmp(a, valued[k]) == 0;
         if (!known) return usage("unknown option '%s'", a);
@@ -506,7 +506,13 @@ int main(int argc, char **argv) {
         if (strcmp(a, "--scene") == 0) scene_spec = val;
         else if (strcmp(a, "--keys") == 0) script = val;
         else if (strcmp(a, "--estimator") == 0) est = val;
-        else if (strcmp(a, "--screenshot") == 0) shot = val;
+        else if (strcmp(a, "--device") == 0) {
+            char err[160];
+            if (!app_parse_device(val, &v.desc, err, sizeof err)) {
+                fprintf(stderr, "photongi-view: %s\nTry 'photongi-view --help'.\n", err);
+                return 2;
+            }
+        } else if (strcmp(a, "--screenshot") == 0) shot = val;
         else if (strcmp(a, "--stats") == 0) stats_path = val;
         else if (strcmp(a, "--max-memory") == 0) {
             if (!parse_bytes(val, &v.desc.max_memory))
@@ -579,6 +585,13 @@ int main(int argc, char **argv) {
     }
     for (size_t i = 0; i < pgi_estimator_count(); i++)
         if (pgi_estimator_at(i) == vt) v.est_index = i;
+    {
+        char err[320];
+        if (!app_check_device(&v.desc, vt->name, err, sizeof err)) {
+            fprintf(stderr, "photongi-view: %s\n", err);
+            return 1;
+        }
+    }
 
     /* The display next: without one, loading the scene would be wasted. */
     const int headless = frames > 0 && !want_window;

@@ -168,6 +168,18 @@ typedef void (*pgi_progress_fn)(void *user, const pgi_progress *progress);
 /* pgi_render_desc.radius: choose the radius each frame (docs/radius.md). */
 #define PGI_RADIUS_AUTO (-1.0f)
 
+/* Where density estimation runs (pgi_render_desc.device; docs/gpu.md). On the GPU, this release
+ * builds and gathers the estimator there; view samples, photon tracing and direct light stay on the
+ * CPU, and their results are uploaded each frame. */
+typedef enum pgi_device {
+    PGI_DEVICE_CPU = 0,   /* default */
+    PGI_DEVICE_VULKAN = 1 /* the Vulkan compute backend (a build with PGI_VULKAN): estimators with a GPU
+                             version only (pgi_device_estimators); PGI_ERR_UNSUPPORTED otherwise */
+} pgi_device;
+/* pgi_render_desc.device_index for the loader's Vulkan device i (0-based, as `--device vulkan:i`);
+ * 0 = automatic: the first discrete GPU, else integrated, else a CPU device (lavapipe). */
+#define PGI_DEVICE_INDEX(i) ((i) + 1)
+
 /* Zero means "default" for every field, nested estimator options included. */
 typedef struct pgi_render_desc {
     const char *estimator;  /* registered name; default PGI_DEFAULT_ESTIMATOR */
@@ -204,6 +216,8 @@ typedef struct pgi_render_desc {
                                  allocates them (PGI_ERR_OOM naming what does not fit; a photon count before any
                                  tracing); 0 = default: pgi_memory_default_budget(); PGI_MEMORY_UNLIMITED: none.
                                  Not part of the picture. */
+    pgi_device device;        /* where the estimator runs; default PGI_DEVICE_CPU */
+    int device_index;         /* PGI_DEVICE_VULKAN: 0 = automatic, PGI_DEVICE_INDEX(i) = Vulkan device i */
 } pgi_render_desc;
 
 typedef enum pgi_radius_policy {
@@ -301,6 +315,10 @@ typedef struct pgi_frame_stats {
     pgi_auto_radius_stats auto_radius;           /* how `radius` was chosen, when it was */
     double radius_ms;                            /* choosing it (0 when given) */
     pgi_emission_stats emission;                 /* guided photon emission, when asked for */
+    const char *device; /* "cpu", or the Vulkan device's name ("llvmpipe (LLVM 15.0.6, 256 bits)"); valid while
+                           the renderer lives. With a GPU: passes_ms has the device's passes ("gpu_count", ...,
+                           "gpu_gather": GPU timestamps; "gpu_upload", "gpu_submit", "gpu_download": host wall
+                           clock) and memory_bytes the device's buffers ("gpu_photons", "gpu_hash", ...) */
 } pgi_frame_stats;
 
 /* Renders one frame into `out` (free with pgi_image_free). Pass a zeroed
@@ -408,6 +426,18 @@ pgi_status pgi_render_progressive(pgi_renderer *r, const pgi_render_desc *desc, 
                                   pgi_frame_stats *stats);
 /* Radius of progressive frame k (0-based) for a first radius r0. */
 float pgi_progressive_radius(float r0, int k);
+
+/* ---------------------------------------------------------------- devices */
+
+/* 1 when this build has the Vulkan backend (PGI_DEVICE_VULKAN), else 0. */
+int pgi_vulkan_available(void);
+/* Vulkan devices the loader finds (Vulkan 1.3; 0 without a driver or without the backend). */
+int pgi_device_count(void);
+/* The name of Vulkan device i (0-based) into buf; PGI_ERR_INVALID_ARG out of range,
+ * PGI_ERR_UNSUPPORTED without the backend or a driver. */
+pgi_status pgi_device_name(int i, char *buf, size_t size);
+/* "hashgrid": the estimators that run on PGI_DEVICE_VULKAN, comma-separated, into buf. */
+void pgi_device_estimators(char *buf, size_t size);
 
 #ifdef __cplusplus
 }

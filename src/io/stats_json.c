@@ -44,6 +44,7 @@ static cJSON *build(const pgi_frame_stats *st) {
     int ok = 1;
     ok &= (st->estimator ? cJSON_AddStringToObject(root, "estimator", st->estimator)
                          : cJSON_AddNullToObject(root, "estimator")) != NULL;
+    ok &= cJSON_AddStringToObject(root, "device", st->device ? st->device : "cpu") != NULL;
     ok &= add_num(root, "width", st->width);
     ok &= add_num(root, "height", st->height);
     ok &= add_num(root, "threads", st->threads);

@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "core/mem.h"
+#include "gpu/gpu_estimator.h"
 #include "photon/auto_radius.h"
 #include "photon/guide.h"
 #include "photon/photon.h"
@@ -34,6 +35,13 @@ struct pgi_renderer {
     pgi__guide guide;
     pgi__view_grid vgrid;
     pgi__view_grid near; /* PGI_STORE_VIEW: the cells within the radius of a view sample */
+    /* PGI_DEVICE_VULKAN: the device (created on the first GPU frame, kept; again when the index changes)
+     * and the GPU estimator (once per name + options, as the CPU one) */
+    pgi__gpu *gpu;
+    int gpu_index; /* device_index it was created for */
+    void *gpu_est;
+    const pgi__gpu_est_vtbl *gpu_est_vt;
+    pgi_estimator_desc gpu_est_desc;
 };
 
 /* The ledger's entries in the order the stats list them. "estimator" is the estimator's total (its
@@ -160,6 +168,8 @@ void pgi_renderer_destroy(pgi_renderer *r) {
     pgi__guide_free(&r->guide);
     pgi__view_grid_free(&r->vgrid);
     pgi__view_grid_free(&r->near);
+    if (r->gpu_est_vt) r->gpu_est_vt->destroy(r->gpu_est);
+    pgi__gpu_destroy(r->gpu);
     free(r);
 }
 
@@ -273,6 +283,11 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
     if (d->filter < 0 || d->filter > 16)
         return pgi__fail(PGI_ERR_INVALID_ARG, "filter radius %d is out of range (0..16 pixels)", d->filter);
     if (d->max_memory == 0) d->max_memory = pgi__mem_default_budget();
+    if (d->device != PGI_DEVICE_CPU && d->device != PGI_DEVICE_VULKAN)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "unknown device %d", (int)d->device);
+    if (d->device_index < 0)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "device index %d: 0 (automatic) or PGI_DEVICE_INDEX(i)", d->device_index);
+    if (d->device == PGI_DEVICE_CPU) d->device_index = 0;
     return PGI_OK;
 }
 
@@ -371,6 +386,46 @@ static pgi_status ensure_estimator(pgi_renderer *r, const pgi_render_desc *d, in
     if (st) return st;
     r->est_vt = vt;
     r->est_desc = d->est;
+    (*created)++;
+    return PGI_OK;
+}
+
+/* The device and the GPU estimator for `d` (PGI_DEVICE_VULKAN): the renderer's while the device index,
+ * the estimator's name and its options stay the same. */
+static pgi_status ensure_gpu(pgi_renderer *r, const pgi_render_desc *d, int *created) {
+    pgi_status st;
+    if (!pgi__gpu_available())
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "%s",
+                         "--device vulkan: this build of photongi has no Vulkan backend (built without "
+                         "Vulkan/glslc); use --device cpu");
+    const pgi__gpu_est_vtbl *vt = pgi__gpu_est_find(d->estimator);
+    if (!vt) {
+        char names[128];
+        pgi__gpu_est_names(names, sizeof names);
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "estimator '%s' has no GPU version; on --device vulkan: %s", d->estimator,
+                         names);
+    }
+    if (d->output == PGI_OUTPUT_PHOTON_COUNT)
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "%s",
+                         "--output counts is not supported on the GPU device (use --device cpu)");
+    if (r->gpu && r->gpu_index != d->device_index) {
+        if (r->gpu_est_vt) r->gpu_est_vt->destroy(r->gpu_est);
+        r->gpu_est = NULL;
+        r->gpu_est_vt = NULL;
+        pgi__gpu_destroy(r->gpu);
+        r->gpu = NULL;
+    }
+    if (!r->gpu) {
+        if ((st = pgi__gpu_create(d->device_index - 1, &r->gpu))) return st;
+        r->gpu_index = d->device_index;
+    }
+    if (r->gpu_est_vt == vt && memcmp(&d->est, &r->gpu_est_desc, sizeof d->est) == 0) return PGI_OK;
+    if (r->gpu_est_vt) r->gpu_est_vt->destroy(r->gpu_est);
+    r->gpu_est = NULL;
+    r->gpu_est_vt = NULL;
+    if ((st = vt->create(r->gpu, &d->est, &r->gpu_est))) return st;
+    r->gpu_est_vt = vt;
+    r->gpu_est_desc = d->est;
     (*created)++;
     return PGI_OK;
 }
@@ -476,6 +531,7 @@ static void stats_begin(pgi_frame_stats *fs, const pgi_render_desc *d) {
     fs->radius = d->radius;
     fs->radius_policy = d->radius_policy;
     fs->frames = 1;
+    fs->device = "cpu";
 }
 
 pgi_status pgi_renderer_prepare(pgi_renderer *r, const pgi_render_desc *in, pgi_frame_inputs *out,
@@ -520,7 +576,10 @@ pgi_status pgi__renderer_render_frame(pgi_renderer *r, const pgi_render_desc *in
     pgi_frame_stats fs;
     stats_begin(&fs, &d);
     if ((st = mem_plan(r, &d, pgi_estimator_find(d.estimator)))) return st;
-    if ((st = ensure_estimator(r, &d, &fs.estimators_created))) return st;
+    const int on_gpu = d.device == PGI_DEVICE_VULKAN;
+    if ((st = on_gpu ? ensure_gpu(r, &d, &fs.estimators_created) : ensure_estimator(r, &d, &fs.estimators_created)))
+        return st;
+    fs.device = on_gpu ? pgi__gpu_device_name(r->gpu) : "cpu";
     const progress_ctx pc = {&d, t_start};
     if ((st = prepare(r, &d, seq_seed, index, &pc, &fs))) return st;
     if ((st = choose_radius(r, &d, &fs))) return st;
@@ -534,11 +593,19 @@ pgi_status pgi__renderer_render_frame(pgi_renderer *r, const pgi_render_desc *in
                             .seed = d.seed,
                             .threads = d.threads,
                             .scene_area = (float)r->scene_area};
+    pgi_estimator_stats es;
+    double t3;
     report(&pc, "build", 0, 0);
-    if ((st = pgi_estimator_build(r->est, &ea))) return st;
-    double t3 = pgi__now_ms();
-    report(&pc, "estimate", 0, 0);
-    if ((st = pgi_estimator_estimate(r->est, &ea))) return st;
+    if (on_gpu) {
+        /* build + estimate in one device sequence; its own stats split the time */
+        if ((st = r->gpu_est_vt->run(r->gpu_est, &ea, &es))) return st;
+        t3 = t2 + es.build_ms;
+    } else {
+        if ((st = pgi_estimator_build(r->est, &ea))) return st;
+        t3 = pgi__now_ms();
+        report(&pc, "estimate", 0, 0);
+        if ((st = pgi_estimator_estimate(r->est, &ea))) return st;
+    }
     if (d.filter > 0 && (st = pgi__bilateral_filter(&r->vs, d.filter, d.threads, r->indirect))) return st;
     double t4 = pgi__now_ms();
     report(&pc, "direct", 0, 0);
@@ -568,8 +635,7 @@ pgi_status pgi__renderer_render_frame(pgi_renderer *r, const pgi_render_desc *in
     }
     double t6 = pgi__now_ms();
 
-    pgi_estimator_stats es;
-    pgi_estimator_get_stats(r->est, &es);
+    if (!on_gpu) pgi_estimator_get_stats(r->est, &es);
     if (d.output == PGI_OUTPUT_PHOTON_COUNT && (st = pgi__photon_counts(r->est, &ea, img.rgb))) {
         if (img.rgb != out->rgb) free(img.rgb);
         return st;
@@ -582,6 +648,12 @@ pgi_status pgi__renderer_render_frame(pgi_renderer *r, const pgi_render_desc *in
         fs.passes_ms[fs.pass_count++] = (pgi_named_value){es.pass_names[k], es.pass_ms[k]};
     pgi__mem_set(&r->mem, "image", 3 * n * sizeof(float));
     mem_stats(r, &es, &fs);
+    if (on_gpu) { /* the device's buffers, after the host's entries */
+        pgi_named_value gm[PGI_MAX_STAT_ENTRIES];
+        int ng = pgi__gpu_memory(r->gpu, gm, PGI_MAX_STAT_ENTRIES);
+        for (int k = 0; k < ng && fs.memory_count < PGI_MAX_STAT_ENTRIES; k++)
+            fs.memory_bytes[fs.memory_count++] = gm[k];
+    }
     fs.reads = es.reads;
     fs.contributing = es.contributing;
     fs.nodes_visited = es.nodes_visited;
@@ -599,3 +671,11 @@ pgi_status pgi_render(const pgi_scene *scene, const pgi_render_desc *desc, pgi_i
     pgi_renderer_destroy(r);
     return st;
 }
+
+int pgi_vulkan_available(void) { return pgi__gpu_available(); }
+
+int pgi_device_count(void) { return pgi__gpu_device_count(); }
+
+pgi_status pgi_device_name(int i, char *buf, size_t size) { return pgi__gpu_device_name_at(i, buf, size); }
+
+void pgi_device_estimators(char *buf, size_t size) { pgi__gpu_est_names(buf, size); }

@@ -1,0 +1,345 @@
+/* hashgrid on the GPU (docs/gpu.md): the CPU hashgrid's cells (edge 2r, or --cell-size; the same
+ * cell_coord), kept in a bucket table built on the device, and a gather per view sample with the
+ * CPU's contribution math (shaders/gather.glsl mirrors src/estimators/gather.h and bsdf.h).
+ *
+ * Each frame: the photons (packed as pgi__packed_photon, in photon order) and the view samples
+ * (64 bytes each, plus a lobe record per glossy sample) are uploaded; then one command sequence:
+ *   hg_count    bucket of each photon's cell (a 32-bit hash of the cell, power-of-two table of at
+ *               least as many buckets as photons), photons per bucket (atomics)
+ *   hg_scan     exclusive prefix sum of the counts: each bucket's start (blocks of 1024, levels)
+ *   hg_scatter  each photon's index into its bucket's range (atomic cursors)
+ *   hg_sort     each bucket's indices sorted: photon order, so the sums do not depend on the order
+ *               in which the atomics ran (the same image bit for bit every run)
+ *   hg_reorder  the photons copied in bucket order
+ *   hg_gather   per view sample: the cells its sphere overlaps, each cell's bucket, the bucket's
+ *               photons of that cell, contribution test and sum; reads/contributing/cells counted
+ * and the radiance is downloaded. Same contributing photons as brute; the sums differ from
+ * brute's only by their order (and the device's division, sqrt and pow, within 1e-4). */
+#include "gpu/gpu_estimator.h"
+
+#include <stdio.h>
+#include <string.h>
+
+#include "core/core.h"
+#include "estimators/estimator_internal.h"
+
+#ifndef PGI_HAVE_VULKAN
+
+static pgi_status hg_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) {
+    *state = NULL;
+    return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
+}
+static pgi_status hg_run(void *state, const pgi_estimate_args *a, pgi_estimator_stats *st) {
+    return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
+}
+static void hg_destroy(void *state) {}
+
+#else
+
+#include "gpu/spirv.h"
+
+#define GGX_NMU PGI_GGX_NMU
+#define SCAN_LEVELS 4 /* 1024^4 buckets */
+
+/* shaders/gather.glsl ViewSample */
+typedef struct {
+    float px, py, pz, nx, ny, nz, wox, woy, woz, kdx, kdy, kdz, one_m_eo;
+    uint32_t flags, lobe, pad;
+} gpu_vs;
+
+/* shaders/gather.glsl Lobe */
+typedef struct {
+    uint32_t model;
+    float ksx, ksy, ksz, s, eta, a2, inv_1mEavg;
+    float E[GGX_NMU];
+} gpu_lobe;
+
+/* shaders/hashgrid.glsl Push */
+typedef struct {
+    float inv_cell, r, r2;
+    uint32_t n, mask, width, height, kernel;
+    float scale;
+    uint32_t pad[3];
+} hg_push;
+
+enum { K_COUNT, K_SCAN, K_SCAN_ADD, K_SCATTER, K_SORT, K_REORDER, K_GATHER, K_N };
+
+typedef struct {
+    pgi__gpu *g;
+    pgi_estimator_desc desc;
+    pgi__gpu_kernel *k[K_N];
+    pgi__gpu_buffer *photons, *sorted, *start, *cursor, *bucket_of, *idx, *scan[SCAN_LEVELS], *vs, *lobes, *out,
+        *counters;
+    /* host-side upload arrays */
+    pgi__packed_photon *packed;
+    size_t packed_cap;
+    gpu_vs *hvs;
+    size_t hvs_cap;
+    gpu_lobe *hlobes;
+    size_t hlobes_cap;
+    uint32_t *lobe_of;
+    size_t lobe_of_cap;
+} hg_state;
+
+static void hg_destroy(void *state) {
+    hg_state *s = state;
+    if (!s) return;
+    for (int i = 0; i < K_N; i++) pgi__gpu_kernel_destroy(s->g, s->k[i]);
+    pgi__gpu_buffer *b[] = {s->photons, s->sorted, s->start, s->cursor, s->bucket_of,
+                            s->idx,     s->vs,     s->lobes, s->out,    s->counters};
+    for (size_t i = 0; i < sizeof b / sizeof b[0]; i++) pgi__gpu_buffer_destroy(s->g, b[i]);
+    for (int i = 0; i < SCAN_LEVELS; i++) pgi__gpu_buffer_destroy(s->g, s->scan[i]);
+    pgi__afree(s->packed);
+    pgi__afree(s->hvs);
+    pgi__afree(s->hlobes);
+    pgi__afree(s->lobe_of);
+    free(s);
+}
+
+static pgi_status hg_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) {
+    *state = NULL;
+    if (d->subsample > 1)
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "hashgrid on the GPU: --subsample is not supported (CPU only)");
+    hg_state *s = calloc(1, sizeof *s);
+    if (!s) return pgi__fail(PGI_ERR_OOM, "out of memory");
+    s->g = g;
+    s->desc = *d;
+    static const struct {
+        const uint32_t *spv;
+        size_t bytes;
+        const char *name;
+        int nbuf;
+    } k[K_N] = {
+        [K_COUNT] = {pgi__spv_hg_count, sizeof pgi__spv_hg_count, "hg_count", 3},
+        [K_SCAN] = {pgi__spv_hg_scan, sizeof pgi__spv_hg_scan, "hg_scan", 2},
+        [K_SCAN_ADD] = {pgi__spv_hg_scan_add, sizeof pgi__spv_hg_scan_add, "hg_scan_add", 2},
+        [K_SCATTER] = {pgi__spv_hg_scatter, sizeof pgi__spv_hg_scatter, "hg_scatter", 4},
+        [K_SORT] = {pgi__spv_hg_sort, sizeof pgi__spv_hg_sort, "hg_sort", 2},
+        [K_REORDER] = {pgi__spv_hg_reorder, sizeof pgi__spv_hg_reorder, "hg_reorder", 3},
+        [K_GATHER] = {pgi__spv_hg_gather, sizeof pgi__spv_hg_gather, "hg_gather", 6},
+    };
+    for (int i = 0; i < K_N; i++) {
+        pgi_status st =
+            pgi__gpu_kernel_create(g, k[i].spv, k[i].bytes, k[i].name, k[i].nbuf, sizeof(hg_push), &s->k[i]);
+        if (st) {
+            hg_destroy(s);
+            return st;
+        }
+    }
+    *state = s;
+    return PGI_OK;
+}
+
+/* Workgroups for `items` invocations of `local` each, as a 2D grid of rows of at most 65535
+ * (shaders/common.glsl linear_group). */
+static void groups_2d(size_t items, uint32_t local, uint32_t *gx, uint32_t *gy) {
+    size_t groups = (items + local - 1) / local;
+    if (groups == 0) groups = 1;
+    *gx = groups < 65535 ? (uint32_t)groups : 65535u;
+    *gy = (uint32_t)((groups + *gx - 1) / *gx);
+}
+
+static pgi_status dispatch_1d(pgi__gpu *g, pgi__gpu_kernel *k, pgi__gpu_buffer *const *b, const hg_push *p,
+                              size_t items, uint32_t local) {
+    uint32_t gx, gy;
+    groups_2d(items, local, &gx, &gy);
+    return pgi__gpu_dispatch(g, k, b, p, gx, gy, 1);
+}
+
+/* The view samples in the shaders' form; the lobes of the glossy ones (pgi__vs_load: the CPU
+ * estimators' set-up, GGX's E row included). */
+static pgi_status pack_samples(hg_state *s, const pgi_view_samples *vs, int threads, size_t *nlobes) {
+    pgi_status st;
+    const size_t n = vs->count;
+    if ((st = pgi__ensure((void **)&s->hvs, &s->hvs_cap, n + 1, sizeof(gpu_vs))) ||
+        (st = pgi__ensure((void **)&s->lobe_of, &s->lobe_of_cap, n + 1, sizeof(uint32_t))))
+        return st;
+    size_t nl = 0;
+    for (size_t i = 0; i < n; i++) {
+        const uint8_t f = vs->flags[i];
+        s->lobe_of[i] = (uint32_t)nl;
+        if ((f & PGI_VS_VALID) && !(f & PGI_VS_LAMBERT)) nl++;
+    }
+    if ((st = pgi__ensure((void **)&s->hlobes, &s->hlobes_cap, nl + 1, sizeof(gpu_lobe)))) return st;
+#pragma omp parallel for schedule(dynamic, 256) num_threads(pgi__threads(threads))
+    for (long long ii = 0; ii < (long long)n; ii++) {
+        size_t i = (size_t)ii;
+        gpu_vs *o = &s->hvs[i];
+        memset(o, 0, sizeof *o);
+        o->flags = vs->flags[i];
+        if (!(vs->flags[i] & PGI_VS_VALID)) continue;
+        pgi__vs v;
+        pgi__vs_load(vs, i, &v);
+        *o = (gpu_vs){v.px,   v.py,   v.pz,   v.nx,   v.ny,       v.nz,         v.wo.x,        v.wo.y,
+                      v.wo.z, v.kd.x, v.kd.y, v.kd.z, v.one_m_eo, vs->flags[i], s->lobe_of[i], 0};
+        if (v.lambert) continue;
+        gpu_lobe *l = &s->hlobes[s->lobe_of[i]];
+        memset(l, 0, sizeof *l);
+        l->model = (uint32_t)v.lobe.model;
+        l->ksx = v.lobe.ks.x;
+        l->ksy = v.lobe.ks.y;
+        l->ksz = v.lobe.ks.z;
+        l->s = v.lobe.s;
+        l->eta = v.lobe.eta;
+        l->a2 = v.lobe.a2;
+        l->inv_1mEavg = v.lobe.inv_1mEavg;
+        if (v.lobe.model == PGI_LOBE_GGX) memcpy(l->E, v.lobe.E, sizeof l->E);
+    }
+    *nlobes = nl;
+    return PGI_OK;
+}
+
+static pgi_status hg_run(void *state, const pgi_estimate_args *a, pgi_estimator_stats *es) {
+    hg_state *s = state;
+    pgi__gpu *g = s->g;
+    pgi_status st;
+    memset(es, 0, sizeof *es);
+    if (a->photons->radius)
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "hashgrid on the GPU: per-photon footprints are not supported");
+    const float r = a->radius, r2 = r * r;
+    const float cell = s->desc.hashgrid.cell_size;
+    if (cell > 0.f && cell < r / 64.f)
+        return pgi__fail(PGI_ERR_INVALID_ARG,
+                         "hashgrid: --cell-size must be 0 (default: 2r) or at least r/64 = %g, got %g",
+                         (double)(r / 64.f), (double)cell);
+    const float cell_edge = cell > 0.f ? cell : 2.f * r;
+    const pgi_photons *ph = a->photons;
+    const pgi_view_samples *vs = a->samples;
+    const size_t n = ph->count, ns = vs->count;
+    if (n > UINT32_MAX / 2 || ns > UINT32_MAX / 4)
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "hashgrid on the GPU: at most 2^31 photons and 2^30 view samples");
+    size_t nb = 1024;
+    while (nb < n) nb <<= 1;
+
+    /* upload: photons packed in photon order, the view samples and lobes */
+    double t0 = pgi__now_ms();
+    if ((st = pgi__ensure((void **)&s->packed, &s->packed_cap, n + 1, sizeof(pgi__packed_photon)))) return st;
+#pragma omp parallel for schedule(static) num_threads(pgi__threads(a->threads))
+    for (long long j = 0; j < (long long)n; j++) pgi__pack_photon(ph, (size_t)j, &s->packed[j]);
+    size_t nlobes = 0;
+    if ((st = pack_samples(s, vs, a->threads, &nlobes))) return st;
+    /* the scan's levels: level 0 is `start` (buckets + 1), each next one its blocks' totals */
+    size_t level_n[SCAN_LEVELS + 1];
+    int levels = 0;
+    level_n[0] = nb + 1;
+    while (levels < SCAN_LEVELS && (levels == 0 || level_n[levels] > 1)) {
+        level_n[levels + 1] = (level_n[levels] + 1023) / 1024;
+        levels++;
+    }
+    if (level_n[levels] > 1) return pgi__fail(PGI_ERR_UNSUPPORTED, "hashgrid on the GPU: too many buckets (%zu)", nb);
+    const size_t psz = sizeof(pgi__packed_photon);
+    if ((st = pgi__gpu_buffer_reserve(g, &s->photons, (n + 1) * psz, "gpu_photons")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->sorted, (n + 1) * psz, "gpu_sorted_photons")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->start, (nb + 1) * 4, "gpu_hash")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->cursor, nb * 4, "gpu_hash")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->bucket_of, (n + 1) * 4, "gpu_photon_index")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->idx, (n + 1) * 4, "gpu_photon_index")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->vs, (ns + 1) * sizeof(gpu_vs), "gpu_view_samples")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->lobes, (nlobes + 1) * sizeof(gpu_lobe), "gpu_view_samples")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->out, (3 * ns + 1) * sizeof(float), "gpu_radiance")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->counters, 6 * sizeof(uint32_t), "gpu_hash")))
+        return st;
+    for (int l = 1; l <= levels; l++)
+        if ((st = pgi__gpu_buffer_reserve(g, &s->scan[l - 1], level_n[l] * 4, "gpu_hash"))) return st;
+    if ((st = pgi__gpu_upload(g, s->photons, 0, s->packed, n * psz)) ||
+        (st = pgi__gpu_upload(g, s->vs, 0, s->hvs, ns * sizeof(gpu_vs))) ||
+        (st = pgi__gpu_upload(g, s->lobes, 0, s->hlobes, nlobes * sizeof(gpu_lobe))))
+        return st;
+    double t1 = pgi__now_ms();
+
+    /* build and gather: one sequence */
+    hg_push p = {.inv_cell = 1.f / cell_edge,
+                 .r = r,
+                 .r2 = r2,
+                 .n = (uint32_t)n,
+                 .mask = (uint32_t)(nb - 1),
+                 .width = (uint32_t)vs->width,
+                 .height = (uint32_t)vs->height,
+                 .kernel = (uint32_t)s->desc.kernel,
+                 .scale = pgi__kernel_norm(s->desc.kernel)};
+    if ((st = pgi__gpu_begin(g))) return st;
+    pgi__gpu_timestamp(g, "start");
+    if ((st = pgi__gpu_fill(g, s->start, 0, (nb + 1) * 4, 0)) || (st = pgi__gpu_fill(g, s->cursor, 0, nb * 4, 0)) ||
+        (st = pgi__gpu_fill(g, s->counters, 0, 6 * 4, 0)) ||
+        (st = dispatch_1d(g, s->k[K_COUNT], (pgi__gpu_buffer *[]){s->photons, s->start, s->bucket_of}, &p, n, 64)))
+        goto fail;
+    pgi__gpu_timestamp(g, "gpu_count");
+    pgi__gpu_buffer *lv[SCAN_LEVELS + 1];
+    lv[0] = s->start;
+    for (int l = 1; l <= levels; l++) lv[l] = s->scan[l - 1];
+    for (int l = 0; l < levels; l++) {
+        hg_push q = p;
+        q.n = (uint32_t)level_n[l];
+        if ((st = dispatch_1d(g, s->k[K_SCAN], (pgi__gpu_buffer *[]){lv[l], lv[l + 1]}, &q, level_n[l], 1024)))
+            goto fail;
+    }
+    for (int l = levels - 2; l >= 0; l--) {
+        hg_push q = p;
+        q.n = (uint32_t)level_n[l];
+        if ((st = dispatch_1d(g, s->k[K_SCAN_ADD], (pgi__gpu_buffer *[]){lv[l], lv[l + 1]}, &q, level_n[l], 256)))
+            goto fail;
+    }
+    pgi__gpu_timestamp(g, "gpu_scan");
+    if ((st = dispatch_1d(g, s->k[K_SCATTER], (pgi__gpu_buffer *[]){s->bucket_of, s->start, s->cursor, s->idx}, &p, n,
+                          64)))
+        goto fail;
+    pgi__gpu_timestamp(g, "gpu_scatter");
+    if ((st = dispatch_1d(g, s->k[K_SORT], (pgi__gpu_buffer *[]){s->start, s->idx}, &p, nb, 64))) goto fail;
+    pgi__gpu_timestamp(g, "gpu_sort");
+    if ((st = dispatch_1d(g, s->k[K_REORDER], (pgi__gpu_buffer *[]){s->photons, s->idx, s->sorted}, &p, n, 64)))
+        goto fail;
+    pgi__gpu_timestamp(g, "gpu_reorder");
+    if ((st = pgi__gpu_dispatch(g, s->k[K_GATHER],
+                                (pgi__gpu_buffer *[]){s->vs, s->lobes, s->start, s->sorted, s->out, s->counters}, &p,
+                                ((uint32_t)vs->width + 7) / 8, ((uint32_t)vs->height + 7) / 8, 1)))
+        goto fail;
+    pgi__gpu_timestamp(g, "gpu_gather");
+    double t2 = pgi__now_ms();
+    if ((st = pgi__gpu_submit_wait(g))) return st;
+    double t3 = pgi__now_ms();
+    uint32_t c[6];
+    if ((st = pgi__gpu_download(g, s->out, 0, a->out_rgb, 3 * ns * sizeof(float))) ||
+        (st = pgi__gpu_download(g, s->counters, 0, c, sizeof c)))
+        return st;
+    double t4 = pgi__now_ms();
+
+    /* stats: host passes (wall clock) and the device's (timestamps) */
+    pgi_named_value t[16];
+    int nt = pgi__gpu_timings(g, t, 16);
+    double gpu_build = 0.0, gpu_gather = 0.0;
+    pgi__stats_pass(es, "gpu_upload", t1 - t0);
+    for (int i = 0; i < nt; i++) {
+        pgi__stats_pass(es, t[i].name, t[i].value);
+        if (strcmp(t[i].name, "gpu_gather") == 0) gpu_gather += t[i].value;
+        else gpu_build += t[i].value;
+    }
+    pgi__stats_pass(es, "gpu_submit", t3 - t2);
+    pgi__stats_pass(es, "gpu_download", t4 - t3);
+    if (!pgi__gpu_has_timestamps(g)) { /* the CPU-timed sequence (one entry) is the gather's */
+        gpu_build = 0.0;
+        gpu_gather = t3 - t2;
+    }
+    es->build_ms = (t1 - t0) + gpu_build;
+    es->estimate_ms = gpu_gather + (t4 - t3);
+    es->reads = (uint64_t)c[0] | (uint64_t)c[1] << 32;
+    es->contributing = (uint64_t)c[2] | (uint64_t)c[3] << 32;
+    es->nodes_visited = (uint64_t)c[4] | (uint64_t)c[5] << 32;
+    /* host memory of the upload arrays (the device's buffers are listed by the renderer) */
+    pgi__stats_mem(es, "gpu_host_upload",
+                   s->packed_cap * sizeof(pgi__packed_photon) + s->hvs_cap * sizeof(gpu_vs) +
+                       s->hlobes_cap * sizeof(gpu_lobe) + s->lobe_of_cap * sizeof(uint32_t));
+    return PGI_OK;
+fail:
+    /* close the sequence so that the next frame can begin one */
+    (void)pgi__gpu_submit_wait(g);
+    return st;
+}
+
+#endif /* PGI_HAVE_VULKAN */
+
+const pgi__gpu_est_vtbl pgi__gpu_est_hashgrid = {
+    .name = "hashgrid",
+    .create = hg_create,
+    .run = hg_run,
+    .destroy = hg_destroy,
+};

@@ -1,0 +1,79 @@
+#!/usr/bin/env bash
+# The Vulkan backend from the command line (docs/gpu.md), on whatever device the loader finds
+# (CI: lavapipe): `render --device vulkan` gives the CPU's image (PSNR >= 40 dB by 'photongi
+# compare'), the JSON stats name the device and its passes, a device that does not exist and an
+# estimator without a GPU version fail with exit status 1 and a message saying why, and a machine
+# without a Vulkan driver gets a clear message instead of a crash.
+# With the viewer's path as a second argument, photongi-view --device vulkan headless too.
+#   usage: tests/test_gpu_cli.sh path/to/photongi [path/to/photongi-view]   (from the repository root)
+set -u
+
+BIN=${1:?usage: test_gpu_cli.sh path/to/photongi}
+case $BIN in /*) ;; */*) BIN=$PWD/$BIN ;; esac
+TMP=$(mktemp -d "${TMPDIR:-/tmp}/pgi-test-gpu-cli-XXXXXX")
+trap 'rm -rf "$TMP"' EXIT
+pass=0
+fail=0
+ok() { pass=$((pass + 1)); }
+bad() {
+    fail=$((fail + 1))
+    echo "FAIL: $*"
+}
+run() {
+    "$BIN" "$@" >"$TMP/out" 2>"$TMP/err"
+    rc=$?
+    out=$(cat "$TMP/out")
+    err=$(cat "$TMP/err")
+}
+expect_fail() { # NEEDLE ARGS...: exit 1, stderr contains NEEDLE
+    local needle=$1
+    shift
+    run "$@"
+    if [ "$rc" -ne 1 ]; then bad "exit $rc (want 1): $* -- $err"; return; fi
+    if ! grep -qiF -- "$needle" "$TMP/err"; then bad "no '$needle' in the message of: $* -- $err"; return; fi
+    ok
+}
+
+common=(--scene cornell --size 64x48 --photons 20000 --seed 3 -q)
+run render "${common[@]}" -o "$TMP/cpu.exr"
+[ "$rc" -eq 0 ] && ok || bad "cpu render: $err"
+run render "${common[@]}" --device vulkan -o "$TMP/gpu.exr" --stats "$TMP/gpu.json"
+[ "$rc" -eq 0 ] && ok || bad "vulkan render: $err"
+run compare "$TMP/gpu.exr" "$TMP/cpu.exr" --json
+psnr=$(sed -n 's/.*"psnr": *\([^,]*\),.*/\1/p' "$TMP/out")
+# null: identical after tone mapping (infinite PSNR)
+if [ "$psnr" = null ] || awk -v p="$psnr" 'BEGIN { exit !(p >= 40) }'; then ok; else bad "PSNR $psnr dB < 40: $out"; fi
+grep -q '"device":[[:space:]]*"[^"c]' "$TMP/gpu.json" && ok || bad "stats: no device name: $(head -c 300 "$TMP/gpu.json")"
+grep -q '"gpu_gather"' "$TMP/gpu.json" && ok || bad "stats: no gpu_gather pass"
+grep -q '"gpu_photons"' "$TMP/gpu.json" && ok || bad "stats: no gpu_photons memory"
+# gpu = vulkan, vulkan:0 = the first device: the same image as the automatic choice when there is one device
+run render "${common[@]}" --device gpu --progressive 2 -o "$TMP/gpu2.png"
+[ "$rc" -eq 0 ] && ok || bad "--device gpu --progressive 2: $err"
+run devices
+[ "$rc" -eq 0 ] && grep -q '^vulkan:0: ' "$TMP/out" && ok || bad "devices: $out $err"
+run render --help
+grep -qF -- '--device cpu|gpu|vulkan[:N]' "$TMP/out" && ok || bad "render --help has no --device"
+expect_fail "does not exist" render "${common[@]}" --device vulkan:99 -o "$TMP/x.png"
+expect_fail "0: " render "${common[@]}" --device vulkan:99 -o "$TMP/x.png"
+expect_fail "no GPU version" render "${common[@]}" --device vulkan --estimator tiled -o "$TMP/x.png"
+run render "${common[@]}" --device metal -o "$TMP/x.png"
+[ "$rc" -eq 2 ] && ok || bad "--device metal: exit $rc (want 2)"
+# no Vulkan driver at all: the loader finds no ICD
+VK_DRIVER_FILES=$TMP/none.json VK_ICD_FILENAMES=$TMP/none.json expect_fail "no Vulkan device" \
+    render "${common[@]}" --device vulkan -o "$TMP/x.png"
+[ -e "$TMP/x.png" ] && bad "a failed render wrote its image" || ok
+
+VIEW=${2:-}
+if [ -n "$VIEW" ]; then
+    "$VIEW" --scene cornell --size 64x48 --photons 20000 --device vulkan --frames 2 --stats "$TMP/view.json" \
+        >"$TMP/out" 2>"$TMP/err"
+    rc=$?
+    [ "$rc" -eq 0 ] && grep -q '"device":[[:space:]]*"[^"c]' "$TMP/view.json" && ok ||
+        bad "photongi-view --device vulkan: exit $rc $(cat "$TMP/err")"
+    "$VIEW" --scene cornell --device vulkan --estimator tiled --frames 1 >"$TMP/out" 2>"$TMP/err"
+    rc=$?
+    [ "$rc" -eq 1 ] && grep -q "no GPU version" "$TMP/err" && ok || bad "photongi-view tiled on vulkan: exit $rc"
+fi
+
+echo "test_gpu_cli: $pass passed, $fail failed"
+[ "$fail" -eq 0 ]
