@@ -199,6 +199,13 @@ int main(int argc, char **argv) {
     printf("scene %s: %zu triangles; Embree scene build %.1f ms, %zu bytes (peak %zu); %zu primary rays (%dx%d x %zu "
            "cameras), %zu random rays, %d threads\n\n",
            scene, s->ntris, embree_ms, embree_bytes, embree_peak, sets[0].n, w, h, s->ncams, sets[1].n, threads);
+    pgi__gpu *g = NULL;
+    pgi__gpu_rays *gr = NULL;
+    char gname[160] = "no Vulkan device";
+    if (pgi__gpu_create(device, &g) == PGI_OK) {
+        snprintf(gname, sizeof gname, "%s", pgi__gpu_device_name(g));
+        if (pgi__gpu_rays_create(g, s, &gr) != PGI_OK) snprintf(gname, sizeof gname, "%s", pgi_last_error());
+    } else snprintf(gname, sizeof gname, "%s", pgi_last_error());
     pgi__bvh_config list[16];
     int ncfg = 0;
     list[ncfg++] = pgi__bvh_default_config();
@@ -213,9 +220,11 @@ int main(int argc, char **argv) {
                     if (ncfg < 16) list[ncfg++] = cf;
                 }
     }
-    printf("| quality | width | max leaf | build ms | bytes | inner | leaves | tri refs | depth | stack | SAH | "
-           "primary: nodes / leaves / tris a ray | Mrays/s | random: nodes / leaves / tris a ray | Mrays/s |\n");
-    printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+    printf(
+        "| quality | width | max leaf | build ms | bytes | inner | leaves | tri refs | depth | stack | SAH | "
+        "primary: nodes / leaves / tris a ray | Mrays/s | random: nodes / leaves / tris a ray | Mrays/s | GPU kernel "
+        "primary / random Mrays/s |\n");
+    printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for (int k = 0; k < ncfg; k++) {
         pgi__bvh *b = NULL;
         if (pgi__bvh_build(s, &list[k], &b) != PGI_OK) {
@@ -232,17 +241,22 @@ int main(int argc, char **argv) {
             double n = (double)sets[r].n;
             printf(" %.1f / %.1f / %.1f | %.2f |", (double)c.nodes / n, (double)c.leaves / n, (double)c.tris / n, rate);
         }
+        if (gr && pgi__gpu_rays_set_config(gr, s, &list[k]) == PGI_OK) {
+            double kp = 0.0, kr = 0.0;
+            size_t nh;
+            gpu_rate(g, gr, &sets[0], &kp, &nh);
+            gpu_rate(g, gr, &sets[1], &kr, &nh);
+            printf(" %.2f / %.2f |", kp, kr);
+        } else printf(" - |");
         printf("\n");
         fflush(stdout);
         pgi__bvh_destroy(b);
     }
-    pgi__gpu *g = NULL;
-    pgi__gpu_rays *gr = NULL;
-    char gname[160] = "no Vulkan device";
-    if (pgi__gpu_create(device, &g) == PGI_OK) {
-        snprintf(gname, sizeof gname, "%s", pgi__gpu_device_name(g));
-        if (pgi__gpu_rays_create(g, s, &gr) != PGI_OK) snprintf(gname, sizeof gname, "%s", pgi_last_error());
-    } else snprintf(gname, sizeof gname, "%s", pgi_last_error());
+    if (gr && pgi__gpu_rays_set_config(gr, s, NULL) != PGI_OK) { /* the default build for the rates */
+        fprintf(stderr, "%s\n", pgi_last_error());
+        pgi__gpu_rays_destroy(gr);
+        gr = NULL;
+    }
     printf("\n| rays | n | Embree (%d threads) Mrays/s | GPU kernel Mrays/s | GPU with transfers Mrays/s | "
            "Embree hits | GPU hits |\n|---|---|---|---|---|---|---|\n",
            threads);

@@ -177,6 +177,36 @@ static void test_cutout(void **state) {
     pgi_scene_destroy(s);
 }
 
+/* Other builds on the device: spatial splits (references repeated across leaves) on Sibenik,
+ * binary nodes (two empty slots a node) and one triangle a leaf on Cornell; a bad setting is
+ * refused and the previous build stays. */
+static void test_configs(void **state) {
+    (void)state;
+    const pgi__bvh_config
+        split = {.quality = 2, .width = 4, .max_leaf = 8, .traversal_cost = 1.f, .intersection_cost = 1.f},
+        binary = {.quality = 1, .width = 2, .max_leaf = 1, .traversal_cost = 1.f, .intersection_cost = 1.f};
+    pgi_scene *s = NULL;
+    TU_CHECK_OK(pgi_scene_load("sibenik", &s));
+    pgi__gpu_rays *gr = NULL;
+    TU_CHECK_OK(pgi__gpu_rays_create(g_gpu, s, &gr));
+    TU_CHECK_OK(pgi__gpu_rays_set_config(gr, s, &split));
+    assert_true(pgi__gpu_rays_bvh(gr)->ntris > s->ntris);
+    check_rays(s, gr, 5000, 48, 27, "sibenik splits");
+    pgi__gpu_rays_destroy(gr);
+    pgi_scene_destroy(s);
+    TU_CHECK_OK(pgi_scene_load("cornell", &s));
+    TU_CHECK_OK(pgi__gpu_rays_create(g_gpu, s, &gr));
+    TU_CHECK_OK(pgi__gpu_rays_set_config(gr, s, &binary));
+    check_rays(s, gr, 5000, 32, 24, "cornell binary");
+    const pgi__bvh *before = pgi__gpu_rays_bvh(gr);
+    pgi__bvh_config bad = binary;
+    bad.width = 3;
+    assert_int_equal(pgi__gpu_rays_set_config(gr, s, &bad), PGI_ERR_INVALID_ARG);
+    assert_ptr_equal(pgi__gpu_rays_bvh(gr), before);
+    pgi__gpu_rays_destroy(gr);
+    pgi_scene_destroy(s);
+}
+
 /* Rays in the middle of a device buffer (dispatch offsets); an empty batch; a batch split into
  * several dispatches. */
 static void test_dispatch_offsets(void **state) {
@@ -226,6 +256,7 @@ int main(void) {
         cmocka_unit_test(test_cornell), cmocka_unit_test(test_sphere_and_plane),
         cmocka_unit_test(test_sibenik), cmocka_unit_test(test_dynamic),
         cmocka_unit_test(test_cutout),  cmocka_unit_test(test_dispatch_offsets),
+        cmocka_unit_test(test_configs),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

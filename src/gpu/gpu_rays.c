@@ -22,6 +22,7 @@ struct pgi__gpu_rays {
     pgi__gpu_buffer *rays, *hits; /* pgi__gpu_rays_intersect's */
     pgi__gpu_kernel *kernel;
     uint32_t max_groups; /* a dispatch's most groups (MAX_GROUPS; tests lower it) */
+    pgi__bvh_config cfg;
 };
 
 /* Uploads n bytes of src (NULL or n 0: one zero word, a buffer must exist) into *b. */
@@ -35,7 +36,7 @@ static pgi_status upload(pgi__gpu *g, pgi__gpu_buffer **b, const void *src, size
 /* Builds the BVH and uploads its four arrays. */
 static pgi_status build_upload(pgi__gpu_rays *r, const pgi_scene *s) {
     pgi__bvh *b = NULL;
-    pgi_status st = pgi__bvh_build(s, NULL, &b);
+    pgi_status st = pgi__bvh_build(s, &r->cfg, &b);
     if (st) return st;
     if ((st = upload(r->g, &r->nodes, b->nodes, b->nnodes * sizeof(pgi__bvh_node), "gpu_bvh_nodes")) ||
         (st = upload(r->g, &r->tris, b->tris, b->ntris * sizeof(pgi__bvh_tri), "gpu_bvh_tris")) ||
@@ -60,6 +61,7 @@ pgi_status pgi__gpu_rays_create(pgi__gpu *g, const pgi_scene *s, pgi__gpu_rays *
     if (!r) return pgi__fail(PGI_ERR_OOM, "out of memory creating the GPU rays");
     r->g = g;
     r->max_groups = MAX_GROUPS;
+    r->cfg = pgi__bvh_default_config();
     pgi_status st = build_upload(r, s);
     if (!st)
         st = pgi__gpu_kernel_create(g, pgi__spv_rays, sizeof pgi__spv_rays, "rays", 6, sizeof(rays_push), &r->kernel);
@@ -93,6 +95,14 @@ pgi_status pgi__gpu_rays_update(pgi__gpu_rays *r, const pgi_scene *s) {
 }
 
 const pgi__bvh *pgi__gpu_rays_bvh(const pgi__gpu_rays *r) { return r->bvh; }
+
+pgi_status pgi__gpu_rays_set_config(pgi__gpu_rays *r, const pgi_scene *s, const pgi__bvh_config *cfg) {
+    pgi__bvh_config old = r->cfg;
+    r->cfg = cfg ? *cfg : pgi__bvh_default_config();
+    pgi_status st = build_upload(r, s);
+    if (st) r->cfg = old;
+    return st;
+}
 
 void pgi__gpu_rays_set_max_groups(pgi__gpu_rays *r, uint32_t groups) {
     r->max_groups = groups < 1 ? 1 : groups > MAX_GROUPS ? MAX_GROUPS : groups;

@@ -40,6 +40,10 @@ const pgi__bvh *pgi__gpu_rays_bvh(const pgi__gpu_rays *r);
  * groups of 64. */
 pgi_status pgi__gpu_rays_dispatch(pgi__gpu_rays *r, pgi__gpu_buffer *rays, pgi__gpu_buffer *hits, size_t first,
                                   size_t n, int any_hit);
+/* Benchmarks: rebuilds and uploads the BVH of s with build settings cfg (NULL: the default), kept
+ * for later updates; on failure the previous settings stay (the device state as after a failed
+ * update). */
+pgi_status pgi__gpu_rays_set_config(pgi__gpu_rays *r, const pgi_scene *s, const pgi__bvh_config *cfg);
 /* Tests: dispatches of at most `groups` groups (1..65535) from now on, to exercise the split. */
 void pgi__gpu_rays_set_max_groups(pgi__gpu_rays *r, uint32_t groups);
 /* Host arrays: uploads n rays, runs one sequence (timestamp label "rays"), downloads n hits.
