@@ -62,7 +62,7 @@ static gr_tally check_kind(const pgi_scene *s, const pgi__rt *rt, const pgi__bvh
 /* Edge ties: at most 0.2 % of the hits of random rays; primary rays through pixel centres in the
  * symmetric built-in scenes hit quads' diagonals exactly (up to 1 % in cornell at 32 x 24), hence
  * 2 % for them. Coplanar overlaps are the scene's own (cornell's boxes stand on the floor with
- * coplanar bottoms, Sibenik has doubled faces) and only counted. */
+ * coplanar bottoms, Sibenik has coplanar overlapping faces) and only counted. */
 static void assert_agreement(const gr_tally *c, gr_kind kind) {
     assert_int_equal(c->missed, 0);
     assert_true(c->extra <= c->rays / 20000); /* grazing hits at open edges: a few in 10^5 at most */
