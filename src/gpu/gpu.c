@@ -14,6 +14,11 @@
 #ifndef PGI_HAVE_VULKAN
 
 int pgi__gpu_available(void) { return 0; }
+static int env_on(const char *name) {
+    const char *v = getenv(name);
+    return v && strcmp(v, "1") == 0;
+}
+
 pgi_status pgi__gpu_create(int index, pgi__gpu **out) {
     *out = NULL;
     return pgi__fail(PGI_ERR_UNSUPPORTED, "%s", NO_BACKEND);
@@ -102,7 +107,10 @@ struct pgi__gpu {
     double ts_period_ns;
     uint64_t ts_mask;
     int has_ts;
-    int force_staging; /* PGI_GPU_STAGING=1 in the environment: no mapped device buffers (tests the staging path) */
+    /* test hooks, from the environment (tests/test_gpu.c): PGI_GPU_STAGING=1: no mapped device buffers
+     * (the staging path of a discrete GPU); PGI_GPU_NO_PUSH_DESCRIPTORS=1: descriptor sets from the
+     * pool; PGI_GPU_NO_TIMESTAMPS=1: the CPU-timed sequence of a queue without timestamps */
+    int force_staging;
     pgi__gpu_buffer *buffers; /* every live buffer, for the memory stats */
     pgi__gpu_buffer *staging;
     /* the sequence being recorded */
@@ -245,6 +253,11 @@ static int has_extension(VkPhysicalDevice pd, const char *name) {
     return found;
 }
 
+static int env_on(const char *name) {
+    const char *v = getenv(name);
+    return v && strcmp(v, "1") == 0;
+}
+
 pgi_status pgi__gpu_create(int index, pgi__gpu **out) {
     *out = NULL;
     pgi__gpu *g = calloc(1, sizeof *g);
@@ -280,8 +293,7 @@ pgi_status pgi__gpu_create(int index, pgi__gpu **out) {
         if (index < 0) index = 0;
     }
     g->pd = d[index];
-    const char *fs = getenv("PGI_GPU_STAGING");
-    g->force_staging = fs && strcmp(fs, "1") == 0;
+    g->force_staging = env_on("PGI_GPU_STAGING");
     VkPhysicalDeviceProperties props;
     vkGetPhysicalDeviceProperties(g->pd, &props);
     snprintf(g->name, sizeof g->name, "%s", props.deviceName);
@@ -303,10 +315,11 @@ pgi_status pgi__gpu_create(int index, pgi__gpu **out) {
     }
     g->qfam = (uint32_t)fam;
     uint32_t valid = qf[fam].timestampValidBits;
-    g->has_ts = valid > 0 && props.limits.timestampPeriod > 0.f;
+    g->has_ts = valid > 0 && props.limits.timestampPeriod > 0.f && !env_on("PGI_GPU_NO_TIMESTAMPS");
     g->ts_period_ns = props.limits.timestampPeriod;
     g->ts_mask = valid >= 64 ? UINT64_MAX : ((uint64_t)1 << valid) - 1;
-    const int push = has_extension(g->pd, VK_KHR_PUSH_DESCRIPTOR_EXTENSION_NAME);
+    const int push =
+        has_extension(g->pd, VK_KHR_PUSH_DESCRIPTOR_EXTENSION_NAME) && !env_on("PGI_GPU_NO_PUSH_DESCRIPTORS");
     const char *ext[] = {VK_KHR_PUSH_DESCRIPTOR_EXTENSION_NAME};
     float prio = 1.f;
     VkDeviceQueueCreateInfo qci = {.sType = VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO,

@@ -1,5 +1,6 @@
-// GPU hashgrid build 4/5: sorts each bucket's photon indices (insertion sort, one invocation a
-// bucket), so that the photons of a cell are summed in photon order: the same image every run.
+// GPU hashgrid build 4/5: sorts each bucket's photon indices (Shell sort with Ciura's gaps, one
+// invocation a bucket: insertion sort for the usual few photons, no quadratic time for a cell of
+// thousands), so that the photons of a cell are summed in photon order: the same image every run.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
@@ -7,16 +8,28 @@
 layout(local_size_x = 64) in;
 layout(std430, binding = 0) readonly buffer Start { uint start[]; };
 layout(std430, binding = 1) buffer Index { uint idx[]; };
-void main() {
-    uint b = linear_group() * 64u + gl_LocalInvocationID.x;
-    if (b > pc.mask) return;
-    uint s0 = start[b], s1 = start[b + 1u];
-    for (uint i = s0 + 1u; i < s1; i++) {
+// One gapped insertion-sort pass over idx[s0, s1).
+void pass_gap(uint s0, uint s1, uint gap) {
+    for (uint i = s0 + gap; i < s1; i++) {
         uint v = idx[i], k = i;
-        while (k > s0 && idx[k - 1u] > v) {
-            idx[k] = idx[k - 1u];
-            k--;
+        while (k >= s0 + gap && idx[k - gap] > v) {
+            idx[k] = idx[k - gap];
+            k -= gap;
         }
         idx[k] = v;
     }
+}
+
+void main() {
+    uint b = linear_group() * 64u + gl_LocalInvocationID.x;
+    if (b > pc.mask) return;
+    uint s0 = start[b], s1 = start[b + 1u], len = s1 - s0;
+    if (len < 2u) return;
+    // gaps above Ciura's table: x 2.25 from 701 while below the length, then back down
+    uint g = 701u;
+    while (g * 9u / 4u < len) g = g * 9u / 4u;
+    for (; g > 701u; g = g * 4u / 9u) pass_gap(s0, s1, g);
+    const uint gaps[8] = uint[8](701u, 301u, 132u, 57u, 23u, 10u, 4u, 1u);
+    for (int i = 0; i < 8; i++)
+        if (gaps[i] < len) pass_gap(s0, s1, gaps[i]);
 }
