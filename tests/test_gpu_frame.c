@@ -357,6 +357,37 @@ static void test_whole_frame(void **state) {
     compare_frames("cornell", &d, "indirect", 40.0);
 }
 
+/* A dynamic scene: the frame after pgi_scene_set_time (geometry moved, the GPU scene re-uploaded)
+ * agrees with the CPU's at the new time, and a moved light is seen too. */
+static void test_dynamic(void **state) {
+    (void)state;
+    pgi_scene *s = NULL;
+    TU_CHECK_OK(pgi_scene_load("scenes/cornell-moving.json", &s));
+    pgi_renderer *r = NULL;
+    TU_CHECK_OK(pgi_renderer_create(s, &r));
+    pgi_render_desc d = frame_desc(48, 36, 20000, 64, PGI_OUTPUT_ALL, 1);
+    d.radius = 0.05f;
+    pgi_image a = {0}, b = {0}, c = {0};
+    TU_CHECK_OK(pgi_renderer_render(r, &d, &a, NULL));
+    TU_CHECK_OK(pgi_scene_set_time(s, 1.0));
+    TU_CHECK_OK(pgi_renderer_render(r, &d, &b, NULL));
+    d.device = PGI_DEVICE_CPU;
+    TU_CHECK_OK(pgi_renderer_render(r, &d, &c, NULL));
+    const double ma = image_mean(&a), mb = image_mean(&b), mc = image_mean(&c);
+    pgi_metrics m;
+    TU_CHECK_OK(pgi_metrics_compute(&b, &c, 1.f, &m));
+    fprintf(stderr, "  cornell-moving: t=0 mean %.6g, t=1 GPU %.6g CPU %.6g (%+.3f %%), PSNR %.2f dB\n", ma, mb, mc,
+            100.0 * (mb - mc) / mc, m.psnr);
+    assert_true(memcmp(a.rgb, b.rgb, 3 * 48 * 36 * sizeof(float)) != 0);
+    assert_true(fabs(mb - mc) <= 0.01 * mc);
+    assert_true(m.psnr >= 35.0);
+    pgi_image_free(&a);
+    pgi_image_free(&b);
+    pgi_image_free(&c);
+    pgi_renderer_destroy(r);
+    pgi_scene_destroy(s);
+}
+
 static void test_deterministic(void **state) {
     (void)state;
     pgi_scene *s = NULL;
@@ -445,10 +476,11 @@ static void keep_lavapipe_loaded(void) {
 int main(void) {
     keep_lavapipe_loaded();
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_scene_upload), cmocka_unit_test(test_scene_refuses_env_map),
-        cmocka_unit_test(test_view_samples), cmocka_unit_test(test_direct_light),
-        cmocka_unit_test(test_whole_frame),  cmocka_unit_test(test_deterministic),
-        cmocka_unit_test(test_progressive),  cmocka_unit_test(test_refusals),
+        cmocka_unit_test(test_scene_upload),  cmocka_unit_test(test_scene_refuses_env_map),
+        cmocka_unit_test(test_view_samples),  cmocka_unit_test(test_direct_light),
+        cmocka_unit_test(test_whole_frame),   cmocka_unit_test(test_dynamic),
+        cmocka_unit_test(test_deterministic), cmocka_unit_test(test_progressive),
+        cmocka_unit_test(test_refusals),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
