@@ -139,3 +139,10 @@ pgi_status pgi__gpu_rays_intersect(pgi__gpu_rays *r, const pgi__bvh_ray *rays, s
     if (st || (st = st2)) return st;
     return pgi__gpu_download(r->g, r->hits, 0, hits, n * sizeof *hits);
 }
+
+void pgi__gpu_rays_buffers(const pgi__gpu_rays *r, pgi__gpu_buffer **out) {
+    out[0] = r->nodes;
+    out[1] = r->tris;
+    out[2] = r->masks;
+    out[3] = r->alpha;
+}
