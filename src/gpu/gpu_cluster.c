@@ -8,20 +8,20 @@
  * top key bit), so that a curved mirror's pixels do not make clusters that span the scene. Each
  * cluster (leaf) is bounded by the world-space box of its samples and a normal cone.
  *
- * The hierarchy has three fixed levels instead of the CPU's sparse 32-ary key tree: supertiles
- * (8 x 8 tiles), tiles, clusters, each level with separate nodes for the primary and the
+ * The hierarchy has four fixed levels instead of the CPU's sparse 32-ary key tree: roots (4 x 4
+ * supertiles), supertiles (8 x 8 tiles), tiles, clusters, each level with separate nodes for the primary and the
  * mirror-seen samples (shaders/cluster.glsl: the layout). One command sequence builds it:
  *   cl_reduce   near depth, the mirror-seen samples' box (atomic min/max: order-independent)
  *   cl_tiles    a workgroup a tile: keys, a sort by (key, pixel), runs = clusters, leaf bounds
- *   cl_bounds   tile nodes, then supertile nodes: boxes, cones, Lambert flags (fixed reductions)
- *   cl_splat    per photon (mode 0): the traversal of est_cluster.c's walk/decide, outputs counted
- *   hg_scan     the counts' exclusive sum: each photon's output offset
- * then, after reading back the number of outputs, a second one:
- *   cl_splat    mode 1: the (node entry, photon) pairs written at each photon's offset
+ *   cl_bounds   supertile, tile and root nodes: boxes, cones, Lambert flags (fixed reductions)
+ *   cl_splat    per photon: the traversal of est_cluster.c's walk/decide; each output, a (node
+ *               entry, photon) pair, appended at an atomic counter (any order: the lists are sorted)
+ * then, after reading back the number of pairs (a larger buffer and the splat again when they did
+ * not fit; the capacity is kept for the next frame), a second one:
  *   cl_group    pairs per entry (atomic counts), hg_scan, scatter into the entries' ranges
  *   hg_sort     each range sorted: photon order (as the CPU's lists), whatever order the atomics ran
  *   cl_node_flux  each node's trivially accepted flux, summed in photon order
- *   cl_radiance per view sample: its three nodes' lists through gather.glsl, plus their trivial flux
+ *   cl_radiance per view sample: its four nodes' lists through gather.glsl, plus their trivial flux
  * Every float sum is made in an order fixed by the inputs: the same image bit for bit every run.
  * Exactness: the radiance applies gather's test to every listed photon; culling and trivial accept
  * are conservative (box tests in the gather's operation order, margins as the CPU's load_photon;
@@ -54,6 +54,7 @@ static void ct_destroy(void *state) { (void)state; }
 #define GGX_NMU PGI_GGX_NMU
 #define SCAN_LEVELS 4 /* 1024^4 elements */
 #define SUPER 8       /* supertile edge in tiles */
+#define ROOT 4        /* root edge in supertiles */
 #define MAX_TILE 16   /* cl_tiles sorts a tile in shared memory (256 samples) */
 
 /* shaders/gather.glsl ViewSample */
@@ -72,7 +73,7 @@ typedef struct {
 /* shaders/cluster.glsl Push */
 typedef struct {
     float r, r2, inv_step, slack;
-    uint32_t n, width, height, T, G, ntx, nty, nsx, nsy, mode, bits, NS, NL0, nnodes, npairs, pad0;
+    uint32_t n, width, height, T, G, ntx, nty, nrx, nry, mode, bits, NS0, NT0, NL0, nnodes, npairs, R;
 } cl_push;
 
 /* shaders/hashgrid.glsl Push (hg_scan, hg_scan_add, hg_sort): n at byte 12, mask at byte 16 */
@@ -89,8 +90,9 @@ typedef struct {
     pgi__gpu *g;
     pgi_estimator_desc desc;
     pgi__gpu_kernel *k[K_N];
-    pgi__gpu_buffer *photons, *vs, *lobes, *depth, *out, *frame, *nodes, *pix_node, *tile_ncl, *pcount, *pairs, *estart,
-        *ecur, *eidx, *flux, *counters, *scan_a[SCAN_LEVELS], *scan_b[SCAN_LEVELS];
+    pgi__gpu_buffer *photons, *vs, *lobes, *depth, *out, *frame, *nodes, *pix_node, *tile_ncl, *pairs, *estart, *ecur,
+        *eidx, *flux, *counters, *scan_b[SCAN_LEVELS];
+    size_t pair_cap; /* pairs the buffer holds */
     /* host-side upload arrays */
     pgi__packed_photon *packed;
     size_t packed_cap;
@@ -106,13 +108,10 @@ static void ct_destroy(void *state) {
     ct_state *s = state;
     if (!s) return;
     for (int i = 0; i < K_N; i++) pgi__gpu_kernel_destroy(s->g, s->k[i]);
-    pgi__gpu_buffer *b[] = {s->photons,  s->vs,     s->lobes, s->depth,  s->out,  s->frame, s->nodes, s->pix_node,
-                            s->tile_ncl, s->pcount, s->pairs, s->estart, s->ecur, s->eidx,  s->flux,  s->counters};
+    pgi__gpu_buffer *b[] = {s->photons,  s->vs,    s->lobes,  s->depth, s->out,  s->frame, s->nodes,   s->pix_node,
+                            s->tile_ncl, s->pairs, s->estart, s->ecur,  s->eidx, s->flux,  s->counters};
     for (size_t i = 0; i < sizeof b / sizeof b[0]; i++) pgi__gpu_buffer_destroy(s->g, b[i]);
-    for (int i = 0; i < SCAN_LEVELS; i++) {
-        pgi__gpu_buffer_destroy(s->g, s->scan_a[i]);
-        pgi__gpu_buffer_destroy(s->g, s->scan_b[i]);
-    }
+    for (int i = 0; i < SCAN_LEVELS; i++) { pgi__gpu_buffer_destroy(s->g, s->scan_b[i]); }
     pgi__afree(s->packed);
     pgi__afree(s->hvs);
     pgi__afree(s->hlobes);
@@ -145,7 +144,7 @@ static pgi_status ct_create(pgi__gpu *g, const pgi_estimator_desc *d, void **sta
         [K_REDUCE] = {pgi__spv_cl_reduce, sizeof pgi__spv_cl_reduce, "cl_reduce", 3, sizeof(cl_push)},
         [K_TILES] = {pgi__spv_cl_tiles, sizeof pgi__spv_cl_tiles, "cl_tiles", 6, sizeof(cl_push)},
         [K_BOUNDS] = {pgi__spv_cl_bounds, sizeof pgi__spv_cl_bounds, "cl_bounds", 3, sizeof(cl_push)},
-        [K_SPLAT] = {pgi__spv_cl_splat, sizeof pgi__spv_cl_splat, "cl_splat", 5, sizeof(cl_push)},
+        [K_SPLAT] = {pgi__spv_cl_splat, sizeof pgi__spv_cl_splat, "cl_splat", 4, sizeof(cl_push)},
         [K_GROUP] = {pgi__spv_cl_group, sizeof pgi__spv_cl_group, "cl_group", 4, sizeof(cl_push)},
         [K_NODE_FLUX] = {pgi__spv_cl_node_flux, sizeof pgi__spv_cl_node_flux, "cl_node_flux", 4, sizeof(cl_push)},
         [K_RADIANCE] = {pgi__spv_cl_radiance, sizeof pgi__spv_cl_radiance, "cl_radiance", 9, sizeof(cl_push)},
@@ -298,9 +297,11 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     const size_t n = ph->count, ns = vs->count;
     const uint32_t W = (uint32_t)vs->width, H = (uint32_t)vs->height, T = (uint32_t)s->desc.cluster.tile;
     const uint32_t ntx = (W + T - 1) / T, nty = (H + T - 1) / T, nsx = (ntx + SUPER - 1) / SUPER,
-                   nsy = (nty + SUPER - 1) / SUPER;
-    const size_t ntiles = (size_t)ntx * nty, NS = 2 * (size_t)nsx * nsy, NT = NS * SUPER * SUPER, NL0 = NS + NT,
-                 nnodes = NL0 + ntiles * T * T, nent = 2 * nnodes;
+                   nsy = (nty + SUPER - 1) / SUPER, nrx = (nsx + ROOT - 1) / ROOT, nry = (nsy + ROOT - 1) / ROOT;
+    /* shaders/cluster.glsl: the node layout (supertile slots root-major, tile slots supertile-major) */
+    const size_t ntiles = (size_t)ntx * nty, NS0 = 2 * (size_t)nrx * nry, nss = (size_t)nrx * nry * ROOT * ROOT,
+                 NT0 = NS0 + 2 * nss, NL0 = NT0 + 2 * nss * SUPER * SUPER, nnodes = NL0 + ntiles * T * T,
+                 nent = 2 * nnodes;
     if (n > UINT32_MAX / 4 || ns > UINT32_MAX / 4 || nent > UINT32_MAX / 4)
         return pgi__fail(PGI_ERR_UNSUPPORTED,
                          "cluster-trivial on the GPU: at most 2^30 photons, view samples and nodes");
@@ -316,12 +317,14 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
                  .G = SUPER,
                  .ntx = ntx,
                  .nty = nty,
-                 .nsx = nsx,
-                 .nsy = nsy,
+                 .nrx = nrx,
+                 .nry = nry,
                  .bits = (uint32_t)bits,
-                 .NS = (uint32_t)NS,
+                 .NS0 = (uint32_t)NS0,
+                 .NT0 = (uint32_t)NT0,
                  .NL0 = (uint32_t)NL0,
-                 .nnodes = (uint32_t)nnodes};
+                 .nnodes = (uint32_t)nnodes,
+                 .R = ROOT};
 
     /* upload: photons packed in photon order, the view samples, lobes and depths */
     double t0 = pgi__now_ms();
@@ -330,9 +333,9 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     for (long long j = 0; j < (long long)n; j++) pgi__pack_photon(ph, (size_t)j, &s->packed[j]);
     size_t nlobes = 0;
     if ((st = pack_samples(s, vs, a->threads, &nlobes))) return st;
-    size_t lv_a[SCAN_LEVELS + 1], lv_b[SCAN_LEVELS + 1];
-    int levels_a = scan_levels(n + 1, lv_a), levels_b = scan_levels(nent + 1, lv_b);
-    if (levels_a < 0 || levels_b < 0)
+    size_t lv_b[SCAN_LEVELS + 1];
+    int levels_b = scan_levels(nent + 1, lv_b);
+    if (levels_b < 0)
         return pgi__fail(PGI_ERR_UNSUPPORTED, "cluster-trivial on the GPU: too many photons or nodes to scan");
     const size_t psz = sizeof(pgi__packed_photon);
     if ((st = pgi__gpu_buffer_reserve(g, &s->photons, (n + 1) * psz, "gpu_photons")) ||
@@ -344,12 +347,10 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
         (st = pgi__gpu_buffer_reserve(g, &s->nodes, nnodes * NODE_BYTES, "gpu_cluster_nodes")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->pix_node, (ns + 1) * 4, "gpu_clusters")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->tile_ncl, (2 * ntiles + 1) * 4, "gpu_clusters")) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->pcount, (n + 1) * 4, "gpu_splat")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->estart, (nent + 1) * 4, "gpu_photon_lists")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->ecur, nent * 4, "gpu_photon_lists")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->flux, nnodes * 16, "gpu_node_flux")) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->counters, 6 * sizeof(uint32_t), "gpu_photon_lists")) ||
-        (st = scan_reserve(g, s->scan_a, lv_a, levels_a, "gpu_splat")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->counters, 8 * sizeof(uint32_t), "gpu_photon_lists")) ||
         (st = scan_reserve(g, s->scan_b, lv_b, levels_b, "gpu_photon_lists")))
         return st;
     if ((st = pgi__gpu_upload(g, s->photons, 0, s->packed, n * psz)) ||
@@ -359,13 +360,16 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
         return st;
     double t1 = pgi__now_ms();
 
-    /* sequence 1: clusters, bounds, the splat's output counts and offsets */
+    /* sequence 1: clusters, bounds, the splat's pairs */
+    if (s->pair_cap < 4 * n + 1024) s->pair_cap = 4 * n + 1024;
+    if (s->pair_cap > UINT32_MAX / 4) s->pair_cap = UINT32_MAX / 4;
+    if ((st = pgi__gpu_buffer_reserve(g, &s->pairs, s->pair_cap * 8, "gpu_splat"))) return st;
+    p.npairs = (uint32_t)s->pair_cap;
     double gpu_build = 0.0, gpu_gather = 0.0;
     if ((st = pgi__gpu_begin(g))) return st;
     pgi__gpu_timestamp(g, "start");
     if ((st = pgi__gpu_fill(g, s->frame, 0, 4, 0x7f800000u)) || (st = pgi__gpu_fill(g, s->frame, 4, 12, 0xffffffffu)) ||
-        (st = pgi__gpu_fill(g, s->frame, 16, 16, 0)) || (st = pgi__gpu_fill(g, s->counters, 0, 6 * 4, 0)) ||
-        (st = pgi__gpu_fill(g, s->pcount, 0, (n + 1) * 4, 0)) ||
+        (st = pgi__gpu_fill(g, s->frame, 16, 16, 0)) || (st = pgi__gpu_fill(g, s->counters, 0, 8 * 4, 0)) ||
         (st = dispatch_1d(g, s->k[K_REDUCE], (pgi__gpu_buffer *[]){s->vs, s->depth, s->frame}, &p, ns, 64)))
         goto fail;
     if ((st = dispatch_1d(g, s->k[K_TILES],
@@ -375,29 +379,48 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     pgi__gpu_timestamp(g, "gpu_clusters");
     {
         cl_push q = p;
-        q.mode = 1;
-        if ((st = dispatch_1d(g, s->k[K_BOUNDS], (pgi__gpu_buffer *[]){s->vs, s->nodes, s->tile_ncl}, &q, NT, 1)))
-            goto fail;
-        q.mode = 0;
-        if ((st = dispatch_1d(g, s->k[K_BOUNDS], (pgi__gpu_buffer *[]){s->vs, s->nodes, s->tile_ncl}, &q, NS, 1)))
-            goto fail;
+        const size_t groups[3] = {2 * nss, 2 * nss * SUPER * SUPER, NS0}; /* supertiles, tiles, roots */
+        for (uint32_t m = 0; m < 3; m++) {
+            q.mode = m;
+            if ((st = dispatch_1d(g, s->k[K_BOUNDS], (pgi__gpu_buffer *[]){s->vs, s->nodes, s->tile_ncl}, &q, groups[m],
+                                  1)))
+                goto fail;
+        }
     }
     pgi__gpu_timestamp(g, "gpu_bounds");
-    if ((st = dispatch_1d(g, s->k[K_SPLAT],
-                          (pgi__gpu_buffer *[]){s->photons, s->nodes, s->pcount, s->pcount, s->counters}, &p, n, 64)))
+    if ((st = dispatch_1d(g, s->k[K_SPLAT], (pgi__gpu_buffer *[]){s->photons, s->nodes, s->pairs, s->counters}, &p, n,
+                          64)))
         goto fail;
-    pgi__gpu_timestamp(g, "gpu_splat_count");
-    if ((st = scan_record(s, s->pcount, s->scan_a, lv_a, levels_a))) goto fail;
-    pgi__gpu_timestamp(g, "gpu_splat_scan");
+    pgi__gpu_timestamp(g, "gpu_splat");
     double t2 = pgi__now_ms();
     if ((st = pgi__gpu_submit_wait(g))) return st;
     double t3 = pgi__now_ms();
     add_timings(s, es, &gpu_build, &gpu_gather);
     uint32_t npairs = 0;
-    if ((st = pgi__gpu_download(g, s->pcount, n * 4, &npairs, 4))) return st;
-    if ((st = pgi__gpu_buffer_reserve(g, &s->pairs, ((size_t)npairs + 1) * 8, "gpu_splat")) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->eidx, ((size_t)npairs + 1) * 4, "gpu_photon_lists")))
-        return st;
+    if ((st = pgi__gpu_download(g, s->counters, 6 * 4, &npairs, 4))) return st;
+    if (npairs > s->pair_cap) { /* did not fit: a larger buffer (kept), the splat again */
+        if (npairs > UINT32_MAX / 4)
+            return pgi__fail(PGI_ERR_UNSUPPORTED, "cluster-trivial on the GPU: %u photon list entries (at most 2^30)",
+                             npairs);
+        s->pair_cap = (size_t)npairs + npairs / 4;
+        if (s->pair_cap > UINT32_MAX / 4) s->pair_cap = UINT32_MAX / 4;
+        if ((st = pgi__gpu_buffer_reserve(g, &s->pairs, s->pair_cap * 8, "gpu_splat"))) return st;
+        p.npairs = (uint32_t)s->pair_cap;
+        double t2b = pgi__now_ms();
+        if ((st = pgi__gpu_begin(g))) return st;
+        pgi__gpu_timestamp(g, "start");
+        if ((st = pgi__gpu_fill(g, s->counters, 0, 8 * 4, 0)) ||
+            (st = dispatch_1d(g, s->k[K_SPLAT], (pgi__gpu_buffer *[]){s->photons, s->nodes, s->pairs, s->counters}, &p,
+                              n, 64)))
+            goto fail;
+        pgi__gpu_timestamp(g, "gpu_splat_again");
+        if ((st = pgi__gpu_submit_wait(g))) return st;
+        t3 += pgi__now_ms() - t2b;
+        add_timings(s, es, &gpu_build, &gpu_gather);
+        if ((st = pgi__gpu_download(g, s->counters, 6 * 4, &npairs, 4))) return st;
+        PGI_ASSERT(npairs <= s->pair_cap);
+    }
+    if ((st = pgi__gpu_buffer_reserve(g, &s->eidx, ((size_t)npairs + 1) * 4, "gpu_photon_lists"))) return st;
     p.npairs = npairs;
 
     /* sequence 2: the pairs, the lists in photon order, the trivial flux, the radiance */
@@ -406,14 +429,9 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     pgi__gpu_timestamp(g, "start");
     {
         cl_push q = p;
-        q.mode = 1;
         if ((st = pgi__gpu_fill(g, s->estart, 0, (nent + 1) * 4, 0)) ||
-            (st = pgi__gpu_fill(g, s->ecur, 0, nent * 4, 0)) ||
-            (st =
-                 dispatch_1d(g, s->k[K_SPLAT],
-                             (pgi__gpu_buffer *[]){s->photons, s->nodes, s->pcount, s->pairs, s->counters}, &q, n, 64)))
+            (st = pgi__gpu_fill(g, s->ecur, 0, nent * 4, 0)))
             goto fail;
-        pgi__gpu_timestamp(g, "gpu_splat_fill");
         q.mode = 0;
         if ((st = dispatch_1d(g, s->k[K_GROUP], (pgi__gpu_buffer *[]){s->pairs, s->estart, s->ecur, s->eidx}, &q,
                               npairs, 64)) ||

@@ -1,5 +1,5 @@
-// GPU cluster build 3/3 (gpu_cluster.c): the tile nodes (mode 1) and the supertile nodes (mode 0,
-// after the tiles), one workgroup a node: the world-space box, normal cone and Lambert flag of
+// GPU cluster build 3/3 (gpu_cluster.c): the tile nodes (mode 1), the supertile nodes (mode 0) and
+// the roots (mode 2), one workgroup a node: the world-space box, normal cone and Lambert flag of
 // every sample of the node's kind (primary / seen through a mirror or glass) in its pixel
 // rectangle, reduced in a fixed order (the same result every run), and its children.
 #version 450
@@ -16,27 +16,35 @@ shared float r_min[64];
 shared bool r_bad[64];
 
 void main() {
-    const uint g = linear_group(), lid = gl_LocalInvocationID.x, G = pc.G, GG = G * G, T = pc.T;
-    const uint kind = g & 1u, slot = g >> 1;
+    const uint g = linear_group(), lid = gl_LocalInvocationID.x, G = pc.G, GG = G * G, R = pc.R, RR = R * R;
+    const uint T = pc.T, kind = g & 1u, slot = g >> 1, nroots = pc.nrx * pc.nry;
     uint x0, y0, ext, id, first = 0u, count = 0u;
-    if (pc.mode == 1u) { // tile node: slot = u G^2 + ly G + lx
-        if (slot >= pc.nsx * pc.nsy * GG) return;
-        uint u = slot / GG, l = slot % GG;
-        uint tx = (u % pc.nsx) * G + l % G, ty = (u / pc.nsx) * G + l / G;
-        id = pc.NS + g;
-        x0 = tx * T, y0 = ty * T, ext = T;
-        if (tx < pc.ntx && ty < pc.nty) {
-            uint t = ty * pc.ntx + tx;
-            count = tile_ncl[2u * t + kind];
-            first = pc.NL0 + t * T * T + (kind == 1u ? tile_ncl[2u * t] : 0u);
-        }
-    } else { // supertile node u
-        if (slot >= pc.nsx * pc.nsy) return;
+    bool tile_level = pc.mode == 1u;
+    if (pc.mode == 2u) { // root
+        if (slot >= nroots) return;
         id = g;
-        x0 = (slot % pc.nsx) * G * T, y0 = (slot / pc.nsx) * G * T, ext = G * T;
-        first = pc.NS + 2u * slot * GG + kind;
-        if (lid == 0u)
-            for (uint l = 0u; l < GG; l++) count += nodes[first + 2u * l].count > 0u ? 1u : 0u;
+        x0 = (slot % pc.nrx) * R * G * T, y0 = (slot / pc.nrx) * R * G * T, ext = R * G * T;
+        first = pc.NS0 + 2u * slot * RR + kind;
+    } else {
+        // supertile slot s (root-major) and its position in supertiles
+        const uint s = pc.mode == 1u ? slot / GG : slot;
+        if (s >= nroots * RR) return;
+        const uint r = s / RR, l1 = s % RR;
+        const uint sx = (r % pc.nrx) * R + l1 % R, sy = (r / pc.nrx) * R + l1 / R;
+        if (pc.mode == 0u) { // supertile
+            id = pc.NS0 + g;
+            x0 = sx * G * T, y0 = sy * G * T, ext = G * T;
+            first = pc.NT0 + 2u * s * GG + kind;
+        } else { // tile
+            const uint l = slot % GG, tx = sx * G + l % G, ty = sy * G + l / G;
+            id = pc.NT0 + g;
+            x0 = tx * T, y0 = ty * T, ext = T;
+            if (tx < pc.ntx && ty < pc.nty) {
+                uint t = ty * pc.ntx + tx;
+                count = tile_ncl[2u * t + kind];
+                first = pc.NL0 + t * T * T + (kind == 1u ? tile_ncl[2u * t] : 0u);
+            }
+        }
     }
     vec3 lo = vec3(1.0 / 0.0), hi = vec3(-1.0 / 0.0), sum = vec3(0.0);
     uint lam = 1u, cnt = 0u;
@@ -99,6 +107,6 @@ void main() {
     }
     if (lid != 0u) return;
     if (!open) cone_thresholds(nd, r_min[0], r_bad[0]);
-    nd.count = nsamples > 0u ? count : 0u;
+    nd.count = nsamples == 0u ? 0u : tile_level ? count : nsamples;
     nodes[id] = nd;
 }

@@ -1,5 +1,5 @@
 // GPU cluster-trivial radiance (gpu_cluster.c): an 8x8 tile of view samples a workgroup; each sample
-// reads the lists of its supertile, tile and cluster (the nodes that contain it) through
+// reads the lists of its root, supertile, tile and cluster (the nodes that contain it) through
 // gather.glsl's contribution test and sums (as est_cluster.c cl_estimate with pgi__gather), then
 // adds those nodes' trivially accepted flux and counts.
 #version 450
@@ -39,20 +39,18 @@ void main() {
         if ((v.flags & VS_VALID) != 0u) {
             bool lambert = (v.flags & VS_LAMBERT) != 0u;
             Acc a = Acc(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0u);
-            const uint kind = (v.flags & VS_PRIMARY) != 0u ? 0u : 1u, G = pc.G;
-            const uint tx = x / pc.T, ty = y / pc.T, u = (ty / G) * pc.nsx + tx / G;
-            uint ids[3];
-            ids[0] = 2u * u + kind;
-            ids[1] = pc.NS + 2u * (u * G * G + (ty % G) * G + tx % G) + kind;
-            ids[2] = pix_node[i];
-            for (int l = 0; l < 3; l++) {
+            const uint kind = (v.flags & VS_PRIMARY) != 0u ? 0u : 1u;
+            uint up[3], ids[4];
+            node_path(x, y, kind, up);
+            ids[0] = up[0], ids[1] = up[1], ids[2] = up[2], ids[3] = pix_node[i];
+            for (int l = 0; l < 4; l++) {
                 uint s1 = start[2u * ids[l] + 1u];
                 for (uint k = start[2u * ids[l]]; k < s1; k++) {
                     reads++;
                     gather(v, lambert, pc.r2, 0u, ph[idx[k]], a);
                 }
             }
-            for (int l = 0; l < 3; l++) {
+            for (int l = 0; l < 4; l++) {
                 vec4 f = flux[ids[l]];
                 precise float fr = a.fr + f.x, fg = a.fg + f.y, fb = a.fb + f.z;
                 a.fr = fr, a.fg = fg, a.fb = fb;

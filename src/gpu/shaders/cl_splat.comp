@@ -1,12 +1,15 @@
 // GPU cluster-trivial splat (gpu_cluster.c), one invocation a photon, as est_cluster.c's walk and
-// decide (Moreau et al. 2016 §4.3-4.6) over the three fixed levels: a node the photon's sphere
+// decide (Moreau et al. 2016 §4.3-4.6) over the four fixed levels: a node the photon's sphere
 // cannot reach (its box farther than r plus a margin) or that lies below the photon (normal cone)
 // is skipped; an enclosed node takes the photon, as trivially accepted flux (all samples
 // Lambertian and the photon above every normal: each sample would accept it) or else into its
 // list; an intersected leaf takes it into its list; other nodes are descended.
-// mode 0 counts each photon's outputs (and the node tests); mode 1 writes them, (node entry,
-// photon) pairs from the photon's offset (the exclusive sum of the counts): entry 2 node is the
-// node's list, 2 node + 1 its trivially accepted photons. No atomics on the outputs.
+// Each output, a (node entry, photon) pair (entry 2 node: the node's list, 2 node + 1: its trivially
+// accepted photons), is appended at an atomic counter, in whatever order the invocations run:
+// cl_group and hg_sort then put every list in photon order, so the order here does not matter.
+// Pairs past the capacity (pc.npairs) are counted, not written: the host grows the buffer and
+// runs the splat again. The traversal is one flat loop over the four levels (one node test an
+// iteration), so that SIMD lanes at different levels keep working.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
@@ -14,28 +17,30 @@
 layout(local_size_x = 64) in;
 layout(std430, binding = 0) readonly buffer Photons { Photon ph[]; };
 layout(std430, binding = 1) readonly buffer Nodes { Node nodes[]; };
-layout(std430, binding = 2) buffer Count { uint out_cnt[]; }; // mode 0: written; mode 1: offsets
-layout(std430, binding = 3) writeonly buffer Pairs { uint pairs[]; };
-layout(std430, binding = 4) buffer Counters { uint counters[6]; };
+layout(std430, binding = 2) writeonly buffer Pairs { uint pairs[]; };
+// [4, 5] node tests (64-bit), [6] pairs (may exceed the capacity)
+layout(std430, binding = 3) buffer Counters { uint counters[8]; };
 shared uint wg_visited;
 
 vec3 c, w;
 float rr2, re2;
-uint outs, base, j;
+uint j;
 uint visited;
 
 void emit(uint entry) {
-    if (pc.mode == 1u) {
-        pairs[2u * (base + outs)] = entry;
-        pairs[2u * (base + outs) + 1u] = j;
+    uint k = atomicAdd(counters[6], 1u);
+    if (k < pc.npairs) {
+        pairs[2u * k] = entry;
+        pairs[2u * k + 1u] = j;
     }
-    outs++;
 }
 
-// 0: skipped or taken; 1: descend
-uint decide(uint id, bool leaf) {
+// 0: skipped or taken; 1: descend (first, count: the node's)
+uint decide(uint id, bool leaf, out uint first, out uint count) {
     visited++;
     Node nd = nodes[id];
+    first = nd.first;
+    count = nd.count;
     if (nd.count == 0u) return 0u;
     precise float ex = max(max(nd.lox - c.x, c.x - nd.hix), 0.0);
     precise float ey = max(max(nd.loy - c.y, c.y - nd.hiy), 0.0);
@@ -75,27 +80,32 @@ void main() {
         precise float rp = r + slack, rm = r - slack;
         rr2 = rp * rp;
         re2 = rm > 0.0 ? rm * rm : -1.0;
-        outs = 0u;
-        base = pc.mode == 1u ? out_cnt[j] : 0u;
-        const uint GG = pc.G * pc.G;
-        for (uint s = 0u; s < pc.NS; s++) {
-            if (decide(s, false) == 0u) continue;
-            const uint f = nodes[s].first;
-            for (uint l = 0u; l < GG; l++) {
-                const uint tn = f + 2u * l;
-                if (decide(tn, false) == 0u) continue;
-                const uint f2 = nodes[tn].first, n2 = nodes[tn].count;
-                for (uint k = 0u; k < n2; k++) decide(f2 + k, true);
+        // levels 0 roots, 1 supertiles, 2 tiles, 3 clusters: first child, children, stride, next
+        uint f[4], n[4], st[4], k[4];
+        f[0] = 0u, n[0] = pc.NS0, st[0] = 1u, k[0] = 0u;
+        uint lv = 0u;
+        for (;;) {
+            if (k[lv] >= n[lv]) {
+                if (lv == 0u) break;
+                lv--;
+                continue;
+            }
+            const uint id = f[lv] + st[lv] * k[lv];
+            k[lv]++;
+            uint first, count;
+            if (decide(id, lv == 3u, first, count) != 0u) {
+                lv++;
+                f[lv] = first;
+                n[lv] = lv == 1u ? pc.R * pc.R : lv == 2u ? pc.G * pc.G : count;
+                st[lv] = lv == 3u ? 1u : 2u;
+                k[lv] = 0u;
             }
         }
-        if (pc.mode == 0u) out_cnt[j] = outs;
     }
-    if (pc.mode == 0u) {
-        atomicAdd(wg_visited, visited);
-        barrier();
-        if (lid == 0u) {
-            uint old = atomicAdd(counters[4], wg_visited);
-            if (old + wg_visited < old) atomicAdd(counters[5], 1u);
-        }
+    atomicAdd(wg_visited, visited);
+    barrier();
+    if (lid == 0u) {
+        uint old = atomicAdd(counters[4], wg_visited);
+        if (old + wg_visited < old) atomicAdd(counters[5], 1u);
     }
 }

@@ -2,11 +2,12 @@
 // constants of every cl_*.comp kernel, the node record, the photon record, and the CPU clustering's
 // depth slices (src/estimators/cluster_build.c fast_log2 / slice_of, operation for operation).
 //
-// Nodes (one array, three levels, fixed layout; `kind` 0: primary samples, 1: samples seen through
+// Nodes (one array, four levels, fixed layout; `kind` 0: primary samples, 1: samples seen through
 // mirrors or glass, which have their own nodes at every level as the CPU gives them their subtree):
-//   [0, NS)            supertiles: 2 x (G x G tiles), index 2 u + kind
-//   [NS, NL0)          tiles: 2 x G^2 per supertile, index NS + 2 (u G^2 + ly G + lx) + kind
-//   [NL0, NL0 + NLs)   clusters (leaves): T^2 slots per tile (row-major tile t), NL0 + t T^2 + k
+//   [0, NS0)           roots: 2 x (R x R supertiles), index 2 r + kind (r row-major)
+//   [NS0, NT0)         supertiles: 2 x R^2 per root, index NS0 + 2 (r R^2 + ly R + lx) + kind
+//   [NT0, NL0)         tiles: 2 x G^2 per supertile slot s (as above), NT0 + 2 (s G^2 + ly G + lx) + kind
+//   [NL0, nnodes)      clusters (leaves): T^2 slots per tile (row-major tile t), NL0 + t T^2 + k
 // A tile's clusters are its primary clusters (by depth slice) then its mirror-seen ones (by cell).
 #ifndef PGI_CLUSTER_GLSL
 #define PGI_CLUSTER_GLSL
@@ -21,8 +22,8 @@ struct Node {
     float lox, loy, loz, hix, hiy, hiz;
     float ax, ay, az, acc, rej;
     uint lambert;
-    uint first; // leaf: unused; tile: first cluster node; supertile: first tile node (stride 2)
-    uint count; // samples (leaf) / clusters (tile) / non-empty tiles (supertile); 0: empty node
+    uint first; // leaf: unused; tile: first cluster node; supertile, root: first child (stride 2)
+    uint count; // samples (leaf) / clusters (tile) / samples (supertile, root); 0: empty node
     uint pad0, pad1;
 };
 
@@ -34,13 +35,14 @@ layout(push_constant) uniform Push {
     uint width, height;
     uint T, G;       // tile edge (pixels), supertile edge (tiles)
     uint ntx, nty;   // tiles
-    uint nsx, nsy;   // supertiles
+    uint nrx, nry;   // roots (R x R supertiles each)
     uint mode;       // kernel-specific
     uint bits;       // mirror-seen samples: grid bits a side
-    uint NS, NL0;    // first tile node, first leaf node
+    uint NS0, NT0;   // first supertile node, first tile node
+    uint NL0;        // first leaf node
     uint nnodes;     // NL0 + tiles * T^2
     uint npairs;     // splat outputs
-    uint pad0;
+    uint R;          // root edge (supertiles)
 } pc;
 
 #define VS_PRIMARY 2u // PGI_VS_PRIMARY
@@ -59,6 +61,15 @@ struct ViewSample {
     uint pad;
 };
 #endif
+
+// The nodes above pixel (x, y)'s leaf: root, supertile, tile (kind 0 or 1).
+void node_path(uint x, uint y, uint kind, out uint ids[3]) {
+    const uint G = pc.G, R = pc.R, tx = x / pc.T, ty = y / pc.T, sx = tx / G, sy = ty / G;
+    const uint r = (sy / R) * pc.nrx + sx / R, s = r * R * R + (sy % R) * R + sx % R;
+    ids[0] = 2u * r + kind;
+    ids[1] = pc.NS0 + 2u * s + kind;
+    ids[2] = pc.NT0 + 2u * (s * G * G + (ty % G) * G + tx % G) + kind;
+}
 
 #define KEY_NONE 0xffffffffu
 #define KEY_SEC 0x80000000u
