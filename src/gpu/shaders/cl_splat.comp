@@ -80,25 +80,49 @@ void main() {
         precise float rp = r + slack, rm = r - slack;
         rr2 = rp * rp;
         re2 = rm > 0.0 ? rm * rm : -1.0;
-        // levels 0 roots, 1 supertiles, 2 tiles, 3 clusters: first child, children, stride, next
-        uint f[4], n[4], st[4], k[4];
-        f[0] = 0u, n[0] = pc.NS0, st[0] = 1u, k[0] = 0u;
-        uint lv = 0u;
+        // levels 0 roots, 1 supertiles, 2 tiles, 3 clusters: the next child k_l of the node being
+        // descended at each level (first child f_l; stride 2 between the children of one kind), in
+        // plain variables (an array indexed by the level was spilled to memory, lane by lane)
+        const uint RR = pc.R * pc.R, GG = pc.G * pc.G;
+        uint lv = 0u, k0 = 0u, f1 = 0u, k1 = 0u, f2 = 0u, k2 = 0u, f3 = 0u, n3 = 0u, k3 = 0u;
         for (;;) {
-            if (k[lv] >= n[lv]) {
-                if (lv == 0u) break;
-                lv--;
-                continue;
+            uint id;
+            if (lv == 3u) {
+                if (k3 >= n3) {
+                    lv = 2u;
+                    continue;
+                }
+                id = f3 + k3++;
+            } else if (lv == 2u) {
+                if (k2 >= GG) {
+                    lv = 1u;
+                    continue;
+                }
+                id = f2 + 2u * k2++;
+            } else if (lv == 1u) {
+                if (k1 >= RR) {
+                    lv = 0u;
+                    continue;
+                }
+                id = f1 + 2u * k1++;
+            } else {
+                if (k0 >= pc.NS0) break;
+                id = k0++;
             }
-            const uint id = f[lv] + st[lv] * k[lv];
-            k[lv]++;
             uint first, count;
             if (decide(id, lv == 3u, first, count) != 0u) {
+                if (lv == 0u) {
+                    f1 = first;
+                    k1 = 0u;
+                } else if (lv == 1u) {
+                    f2 = first;
+                    k2 = 0u;
+                } else {
+                    f3 = first;
+                    n3 = count;
+                    k3 = 0u;
+                }
                 lv++;
-                f[lv] = first;
-                n[lv] = lv == 1u ? pc.R * pc.R : lv == 2u ? pc.G * pc.G : count;
-                st[lv] = lv == 3u ? 1u : 2u;
-                k[lv] = 0u;
             }
         }
     }
