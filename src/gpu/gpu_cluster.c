@@ -8,6 +8,9 @@
  * top key bit), so that a curved mirror's pixels do not make clusters that span the scene. Each
  * cluster (leaf) is bounded by the world-space box of its samples and a normal cone.
  *
+ * Photons are packed in the order of their cell in a coarse Morton grid (pack_photons: coherent
+ * splat lanes, nearby list records); that packed index is the photon order of every list and sum.
+ *
  * The hierarchy has four fixed levels instead of the CPU's sparse 32-ary key tree: roots (4 x 4
  * supertiles), supertiles (8 x 8 tiles), tiles, clusters, each level with separate nodes for the primary and the
  * mirror-seen samples (shaders/cluster.glsl: the layout). One command sequence builds it:
@@ -102,6 +105,8 @@ typedef struct {
     size_t hlobes_cap;
     uint32_t *lobe_of;
     size_t lobe_of_cap;
+    uint32_t *porder, *pkey, *pcell; /* photons in Morton cell order (pack_photons) */
+    size_t porder_cap, pkey_cap, pcell_cap;
 } ct_state;
 
 static void ct_destroy(void *state) {
@@ -116,6 +121,9 @@ static void ct_destroy(void *state) {
     pgi__afree(s->hvs);
     pgi__afree(s->hlobes);
     pgi__afree(s->lobe_of);
+    pgi__afree(s->porder);
+    pgi__afree(s->pkey);
+    pgi__afree(s->pcell);
     free(s);
 }
 
@@ -262,6 +270,57 @@ static pgi_status pack_samples(ct_state *s, const pgi_view_samples *vs, int thre
     return PGI_OK;
 }
 
+#define PCELL_BITS 5 /* photon order: Morton code of a 32^3 grid over the photons' box */
+
+/* Spreads the low 5 bits of v to every third bit. */
+static uint32_t spread3_5(uint32_t v) {
+    uint32_t o = 0;
+    for (int b = 0; b < PCELL_BITS; b++) o |= (v >> b & 1u) << (3 * b);
+    return o;
+}
+
+/* The photons packed in the order of their cell in a 32^3 grid over their box (Morton order;
+ * photon order inside a cell: a stable counting sort), a deterministic function of the photons.
+ * Neighbouring splat invocations then walk the same nodes (coherent SIMD lanes and warps), and a
+ * node's list, sorted by packed index, reads nearby records. The packed index is the "photon
+ * order" of the lists and sums. */
+static pgi_status pack_photons(ct_state *s, const pgi_photons *ph, int threads) {
+    const size_t n = ph->count, ncell = (size_t)1 << (3 * PCELL_BITS);
+    pgi_status st;
+    if ((st = pgi__ensure((void **)&s->packed, &s->packed_cap, n + 1, sizeof(pgi__packed_photon))) ||
+        (st = pgi__ensure((void **)&s->porder, &s->porder_cap, n + 1, sizeof(uint32_t))) ||
+        (st = pgi__ensure((void **)&s->pkey, &s->pkey_cap, n + 1, sizeof(uint32_t))) ||
+        (st = pgi__ensure((void **)&s->pcell, &s->pcell_cap, ncell + 1, sizeof(uint32_t))))
+        return st;
+    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    const float *P[3] = {ph->px, ph->py, ph->pz};
+    for (int d = 0; d < 3; d++)
+        for (size_t j = 0; j < n; j++) {
+            lo[d] = P[d][j] < lo[d] ? P[d][j] : lo[d]; /* NaN: skipped */
+            hi[d] = P[d][j] > hi[d] ? P[d][j] : hi[d];
+        }
+    float inv[3];
+    const float cells = (float)(1u << PCELL_BITS);
+    for (int d = 0; d < 3; d++) inv[d] = hi[d] > lo[d] && isfinite(hi[d] - lo[d]) ? cells / (hi[d] - lo[d]) : 0.f;
+#pragma omp parallel for schedule(static) num_threads(pgi__threads(threads))
+    for (long long jj = 0; jj < (long long)n; jj++) {
+        uint32_t key = 0;
+        for (int d = 0; d < 3; d++) {
+            float f = (P[d][jj] - lo[d]) * inv[d];
+            uint32_t c = f >= 1.f ? (f < cells ? (uint32_t)f : (uint32_t)cells - 1u) : 0u; /* NaN: 0 */
+            key |= spread3_5(c) << (2 - d);
+        }
+        s->pkey[jj] = key;
+    }
+    memset(s->pcell, 0, (ncell + 1) * sizeof(uint32_t));
+    for (size_t j = 0; j < n; j++) s->pcell[s->pkey[j] + 1]++;
+    for (size_t c = 0; c < ncell; c++) s->pcell[c + 1] += s->pcell[c];
+    for (size_t j = 0; j < n; j++) s->porder[s->pcell[s->pkey[j]]++] = (uint32_t)j;
+#pragma omp parallel for schedule(static) num_threads(pgi__threads(threads))
+    for (long long k = 0; k < (long long)n; k++) pgi__pack_photon(ph, s->porder[k], &s->packed[k]);
+    return PGI_OK;
+}
+
 static int bits_for(uint32_t n) {
     int b = 0;
     while (b < 31 && (1u << b) < n) b++;
@@ -326,11 +385,9 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
                  .nnodes = (uint32_t)nnodes,
                  .R = ROOT};
 
-    /* upload: photons packed in photon order, the view samples, lobes and depths */
+    /* upload: photons packed in cell order, the view samples, lobes and depths */
     double t0 = pgi__now_ms();
-    if ((st = pgi__ensure((void **)&s->packed, &s->packed_cap, n + 1, sizeof(pgi__packed_photon)))) return st;
-#pragma omp parallel for schedule(static) num_threads(pgi__threads(a->threads))
-    for (long long j = 0; j < (long long)n; j++) pgi__pack_photon(ph, (size_t)j, &s->packed[j]);
+    if ((st = pack_photons(s, ph, a->threads))) return st;
     size_t nlobes = 0;
     if ((st = pack_samples(s, vs, a->threads, &nlobes))) return st;
     size_t lv_b[SCAN_LEVELS + 1];
@@ -481,7 +538,8 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     es->nodes_visited = (uint64_t)c[4] | (uint64_t)c[5] << 32;
     pgi__stats_mem(es, "gpu_host_upload",
                    s->packed_cap * sizeof(pgi__packed_photon) + s->hvs_cap * sizeof(gpu_vs) +
-                       s->hlobes_cap * sizeof(gpu_lobe) + s->lobe_of_cap * sizeof(uint32_t));
+                       s->hlobes_cap * sizeof(gpu_lobe) +
+                       (s->lobe_of_cap + s->porder_cap + s->pkey_cap + s->pcell_cap) * sizeof(uint32_t));
     return PGI_OK;
 fail:
     /* close the sequence so that the next frame can begin one */
