@@ -22,7 +22,7 @@
  * then, after reading back the number of pairs (a larger buffer and the splat again when they did
  * not fit; the capacity is kept for the next frame), a second one:
  *   cl_group    pairs per entry (atomic counts), hg_scan, scatter into the entries' ranges
- *   hg_sort     each range sorted: photon order (as the CPU's lists), whatever order the atomics ran
+ *   cl_sort     each range sorted: photon order (as the CPU's lists), whatever order the atomics ran
  *   cl_node_flux  each node's trivially accepted flux, summed in photon order
  *   cl_radiance per view sample: its four nodes' lists through gather.glsl, plus their trivial flux
  * Every float sum is made in an order fixed by the inputs: the same image bit for bit every run.
@@ -79,7 +79,7 @@ typedef struct {
     uint32_t n, width, height, T, G, ntx, nty, nrx, nry, mode, bits, NS0, NT0, NL0, nnodes, npairs, R;
 } cl_push;
 
-/* shaders/hashgrid.glsl Push (hg_scan, hg_scan_add, hg_sort): n at byte 12, mask at byte 16 */
+/* shaders/hashgrid.glsl Push (hg_scan, hg_scan_add): n at byte 12 */
 typedef struct {
     float f[3];
     uint32_t n, mask, pad[7];
@@ -158,7 +158,7 @@ static pgi_status ct_create(pgi__gpu *g, const pgi_estimator_desc *d, void **sta
         [K_RADIANCE] = {pgi__spv_cl_radiance, sizeof pgi__spv_cl_radiance, "cl_radiance", 9, sizeof(cl_push)},
         [K_SCAN] = {pgi__spv_hg_scan, sizeof pgi__spv_hg_scan, "hg_scan", 2, sizeof(scan_push)},
         [K_SCAN_ADD] = {pgi__spv_hg_scan_add, sizeof pgi__spv_hg_scan_add, "hg_scan_add", 2, sizeof(scan_push)},
-        [K_SORT] = {pgi__spv_hg_sort, sizeof pgi__spv_hg_sort, "hg_sort", 2, sizeof(scan_push)},
+        [K_SORT] = {pgi__spv_cl_sort, sizeof pgi__spv_cl_sort, "cl_sort", 2, sizeof(cl_push)},
     };
     for (int i = 0; i < K_N; i++) {
         pgi_status st = pgi__gpu_kernel_create(g, k[i].spv, k[i].bytes, k[i].name, k[i].nbuf, k[i].push, &s->k[i]);
@@ -499,8 +499,7 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
                               npairs, 64)))
             goto fail;
         pgi__gpu_timestamp(g, "gpu_lists");
-        scan_push sp = {.mask = (uint32_t)(nent - 1)};
-        if ((st = dispatch_1d(g, s->k[K_SORT], (pgi__gpu_buffer *[]){s->estart, s->eidx}, &sp, nent, 64))) goto fail;
+        if ((st = dispatch_1d(g, s->k[K_SORT], (pgi__gpu_buffer *[]){s->estart, s->eidx}, &p, nent, 64))) goto fail;
         pgi__gpu_timestamp(g, "gpu_sort");
         if ((st = dispatch_1d(g, s->k[K_NODE_FLUX], (pgi__gpu_buffer *[]){s->photons, s->estart, s->eidx, s->flux}, &p,
                               nnodes, 64)))
