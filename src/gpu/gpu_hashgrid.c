@@ -8,8 +8,9 @@
  *               least as many buckets as photons), photons per bucket (atomics)
  *   hg_scan     exclusive prefix sum of the counts: each bucket's start (blocks of 1024, levels)
  *   hg_scatter  each photon's index into its bucket's range (atomic cursors)
- *   hg_sort     each bucket's indices sorted: photon order, so the sums do not depend on the order
- *               in which the atomics ran (the same image bit for bit every run)
+ *   hg_rank     each photon's rank among its bucket's indices: the bucket in photon order, so the
+ *               sums do not depend on the order in which the atomics ran (the same image bit for
+ *               bit every run)
  *   hg_reorder  the photons copied in bucket order
  *   hg_gather   per view sample: the cells its sphere overlaps, each cell's bucket, the bucket's
  *               photons of that cell, contribution test and sum; reads/contributing/cells counted
@@ -62,14 +63,14 @@ typedef struct {
     uint32_t pad[3];
 } hg_push;
 
-enum { K_COUNT, K_SCAN, K_SCAN_ADD, K_SCATTER, K_SORT, K_REORDER, K_GATHER, K_N };
+enum { K_COUNT, K_SCAN, K_SCAN_ADD, K_SCATTER, K_RANK, K_REORDER, K_GATHER, K_N };
 
 typedef struct {
     pgi__gpu *g;
     pgi_estimator_desc desc;
     pgi__gpu_kernel *k[K_N];
-    pgi__gpu_buffer *photons, *sorted, *start, *cursor, *bucket_of, *idx, *scan[SCAN_LEVELS], *vs, *lobes, *out,
-        *counters;
+    pgi__gpu_buffer *photons, *sorted, *start, *cursor, *bucket_of, *idx, *ranked, *scan[SCAN_LEVELS], *vs, *lobes,
+        *out, *counters;
     /* host-side upload arrays */
     pgi__packed_photon *packed;
     size_t packed_cap;
@@ -85,8 +86,8 @@ static void hg_destroy(void *state) {
     hg_state *s = state;
     if (!s) return;
     for (int i = 0; i < K_N; i++) pgi__gpu_kernel_destroy(s->g, s->k[i]);
-    pgi__gpu_buffer *b[] = {s->photons, s->sorted, s->start, s->cursor, s->bucket_of,
-                            s->idx,     s->vs,     s->lobes, s->out,    s->counters};
+    pgi__gpu_buffer *b[] = {s->photons, s->sorted, s->start, s->cursor, s->bucket_of, s->idx,
+                            s->ranked,  s->vs,     s->lobes, s->out,    s->counters};
     for (size_t i = 0; i < sizeof b / sizeof b[0]; i++) pgi__gpu_buffer_destroy(s->g, b[i]);
     for (int i = 0; i < SCAN_LEVELS; i++) pgi__gpu_buffer_destroy(s->g, s->scan[i]);
     pgi__afree(s->packed);
@@ -114,7 +115,7 @@ static pgi_status hg_create(pgi__gpu *g, const pgi_estimator_desc *d, void **sta
         [K_SCAN] = {pgi__spv_hg_scan, sizeof pgi__spv_hg_scan, "hg_scan", 2},
         [K_SCAN_ADD] = {pgi__spv_hg_scan_add, sizeof pgi__spv_hg_scan_add, "hg_scan_add", 2},
         [K_SCATTER] = {pgi__spv_hg_scatter, sizeof pgi__spv_hg_scatter, "hg_scatter", 4},
-        [K_SORT] = {pgi__spv_hg_sort, sizeof pgi__spv_hg_sort, "hg_sort", 2},
+        [K_RANK] = {pgi__spv_hg_rank, sizeof pgi__spv_hg_rank, "hg_rank", 4},
         [K_REORDER] = {pgi__spv_hg_reorder, sizeof pgi__spv_hg_reorder, "hg_reorder", 3},
         [K_GATHER] = {pgi__spv_hg_gather, sizeof pgi__spv_hg_gather, "hg_gather", 6},
     };
@@ -234,6 +235,7 @@ static pgi_status hg_run(void *state, const pgi_estimate_args *a, pgi_estimator_
         (st = pgi__gpu_buffer_reserve(g, &s->cursor, nb * 4, "gpu_hash")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->bucket_of, (n + 1) * 4, "gpu_photon_index")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->idx, (n + 1) * 4, "gpu_photon_index")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->ranked, (n + 1) * 4, "gpu_photon_index")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->vs, (ns + 1) * sizeof(gpu_vs), "gpu_view_samples")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->lobes, (nlobes + 1) * sizeof(gpu_lobe), "gpu_view_samples")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->out, (3 * ns + 1) * sizeof(float), "gpu_radiance")) ||
@@ -284,9 +286,11 @@ static pgi_status hg_run(void *state, const pgi_estimate_args *a, pgi_estimator_
                           64)))
         goto fail;
     pgi__gpu_timestamp(g, "gpu_scatter");
-    if ((st = dispatch_1d(g, s->k[K_SORT], (pgi__gpu_buffer *[]){s->start, s->idx}, &p, nb, 64))) goto fail;
-    pgi__gpu_timestamp(g, "gpu_sort");
-    if ((st = dispatch_1d(g, s->k[K_REORDER], (pgi__gpu_buffer *[]){s->photons, s->idx, s->sorted}, &p, n, 64)))
+    if ((st =
+             dispatch_1d(g, s->k[K_RANK], (pgi__gpu_buffer *[]){s->start, s->bucket_of, s->idx, s->ranked}, &p, n, 64)))
+        goto fail;
+    pgi__gpu_timestamp(g, "gpu_rank");
+    if ((st = dispatch_1d(g, s->k[K_REORDER], (pgi__gpu_buffer *[]){s->photons, s->ranked, s->sorted}, &p, n, 64)))
         goto fail;
     pgi__gpu_timestamp(g, "gpu_reorder");
     if ((st = pgi__gpu_dispatch(g, s->k[K_GATHER],

@@ -1,5 +1,5 @@
 // GPU hashgrid build 3/5: each photon's index into its bucket's range (atomic cursor: the order
-// within a bucket varies from run to run until hg_sort puts it back in photon order).
+// within a bucket varies from run to run until hg_rank puts it back in photon order).
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
