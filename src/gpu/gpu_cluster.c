@@ -22,7 +22,8 @@
  * then, after reading back the number of pairs (a larger buffer and the splat again when they did
  * not fit; the capacity is kept for the next frame), a second one:
  *   cl_group    pairs per entry (atomic counts), hg_scan, scatter into the entries' ranges
- *   cl_sort     each range sorted: photon order (as the CPU's lists), whatever order the atomics ran
+ *   cl_rank     each pair placed by its rank among its range's photons: photon order (as the CPU's
+ *               lists), whatever order the atomics ran in (a pure function of the range)
  *   cl_node_flux  each node's trivially accepted flux, summed in photon order
  *   cl_radiance per view sample: its four nodes' lists through gather.glsl, plus their trivial flux
  * Every float sum is made in an order fixed by the inputs: the same image bit for bit every run.
@@ -87,14 +88,14 @@ typedef struct {
 
 #define NODE_BYTES 64 /* shaders/cluster.glsl Node */
 
-enum { K_REDUCE, K_TILES, K_BOUNDS, K_SPLAT, K_GROUP, K_NODE_FLUX, K_RADIANCE, K_SCAN, K_SCAN_ADD, K_SORT, K_N };
+enum { K_REDUCE, K_TILES, K_BOUNDS, K_SPLAT, K_GROUP, K_NODE_FLUX, K_RADIANCE, K_SCAN, K_SCAN_ADD, K_RANK, K_N };
 
 typedef struct {
     pgi__gpu *g;
     pgi_estimator_desc desc;
     pgi__gpu_kernel *k[K_N];
     pgi__gpu_buffer *photons, *vs, *lobes, *depth, *out, *frame, *nodes, *pix_node, *tile_ncl, *pairs, *estart, *ecur,
-        *eidx, *flux, *counters, *scan_b[SCAN_LEVELS];
+        *eidx, *ranked, *flux, *counters, *scan_b[SCAN_LEVELS];
     size_t pair_cap; /* pairs the buffer holds */
     /* host-side upload arrays */
     pgi__packed_photon *packed;
@@ -113,8 +114,8 @@ static void ct_destroy(void *state) {
     ct_state *s = state;
     if (!s) return;
     for (int i = 0; i < K_N; i++) pgi__gpu_kernel_destroy(s->g, s->k[i]);
-    pgi__gpu_buffer *b[] = {s->photons,  s->vs,    s->lobes,  s->depth, s->out,  s->frame, s->nodes,   s->pix_node,
-                            s->tile_ncl, s->pairs, s->estart, s->ecur,  s->eidx, s->flux,  s->counters};
+    pgi__gpu_buffer *b[] = {s->photons,  s->vs,    s->lobes,  s->depth, s->out,  s->frame,  s->nodes, s->pix_node,
+                            s->tile_ncl, s->pairs, s->estart, s->ecur,  s->eidx, s->ranked, s->flux,  s->counters};
     for (size_t i = 0; i < sizeof b / sizeof b[0]; i++) pgi__gpu_buffer_destroy(s->g, b[i]);
     for (int i = 0; i < SCAN_LEVELS; i++) { pgi__gpu_buffer_destroy(s->g, s->scan_b[i]); }
     pgi__afree(s->packed);
@@ -158,7 +159,7 @@ static pgi_status ct_create(pgi__gpu *g, const pgi_estimator_desc *d, void **sta
         [K_RADIANCE] = {pgi__spv_cl_radiance, sizeof pgi__spv_cl_radiance, "cl_radiance", 9, sizeof(cl_push)},
         [K_SCAN] = {pgi__spv_hg_scan, sizeof pgi__spv_hg_scan, "hg_scan", 2, sizeof(scan_push)},
         [K_SCAN_ADD] = {pgi__spv_hg_scan_add, sizeof pgi__spv_hg_scan_add, "hg_scan_add", 2, sizeof(scan_push)},
-        [K_SORT] = {pgi__spv_cl_sort, sizeof pgi__spv_cl_sort, "cl_sort", 2, sizeof(cl_push)},
+        [K_RANK] = {pgi__spv_cl_rank, sizeof pgi__spv_cl_rank, "cl_rank", 4, sizeof(cl_push)},
     };
     for (int i = 0; i < K_N; i++) {
         pgi_status st = pgi__gpu_kernel_create(g, k[i].spv, k[i].bytes, k[i].name, k[i].nbuf, k[i].push, &s->k[i]);
@@ -477,7 +478,9 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
         if ((st = pgi__gpu_download(g, s->counters, 6 * 4, &npairs, 4))) return st;
         PGI_ASSERT(npairs <= s->pair_cap);
     }
-    if ((st = pgi__gpu_buffer_reserve(g, &s->eidx, ((size_t)npairs + 1) * 4, "gpu_photon_lists"))) return st;
+    if ((st = pgi__gpu_buffer_reserve(g, &s->eidx, ((size_t)npairs + 1) * 4, "gpu_photon_lists")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->ranked, ((size_t)npairs + 1) * 4, "gpu_photon_lists")))
+        return st;
     p.npairs = npairs;
 
     /* sequence 2: the pairs, the lists in photon order, the trivial flux, the radiance */
@@ -499,15 +502,17 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
                               npairs, 64)))
             goto fail;
         pgi__gpu_timestamp(g, "gpu_lists");
-        if ((st = dispatch_1d(g, s->k[K_SORT], (pgi__gpu_buffer *[]){s->estart, s->eidx}, &p, nent, 64))) goto fail;
-        pgi__gpu_timestamp(g, "gpu_sort");
-        if ((st = dispatch_1d(g, s->k[K_NODE_FLUX], (pgi__gpu_buffer *[]){s->photons, s->estart, s->eidx, s->flux}, &p,
-                              nnodes, 64)))
+        if ((st = dispatch_1d(g, s->k[K_RANK], (pgi__gpu_buffer *[]){s->pairs, s->estart, s->eidx, s->ranked}, &p,
+                              npairs, 64)))
+            goto fail;
+        pgi__gpu_timestamp(g, "gpu_rank");
+        if ((st = dispatch_1d(g, s->k[K_NODE_FLUX], (pgi__gpu_buffer *[]){s->photons, s->estart, s->ranked, s->flux},
+                              &p, nnodes, 64)))
             goto fail;
         pgi__gpu_timestamp(g, "gpu_node_flux");
         if ((st = pgi__gpu_dispatch(g, s->k[K_RADIANCE],
-                                    (pgi__gpu_buffer *[]){s->vs, s->lobes, s->photons, s->pix_node, s->estart, s->eidx,
-                                                          s->flux, s->out, s->counters},
+                                    (pgi__gpu_buffer *[]){s->vs, s->lobes, s->photons, s->pix_node, s->estart,
+                                                          s->ranked, s->flux, s->out, s->counters},
                                     &p, (W + 7) / 8, (H + 7) / 8, 1)))
             goto fail;
         pgi__gpu_timestamp(g, "gpu_radiance");

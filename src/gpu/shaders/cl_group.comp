@@ -1,6 +1,6 @@
 // GPU cluster-trivial lists (gpu_cluster.c): the splat's (entry, photon) pairs grouped by entry.
 // mode 0: photons per entry (atomic counts); mode 1: each pair's photon into its entry's range (an
-// atomic cursor: the order within a range varies from run to run until cl_sort puts it back in
+// atomic cursor: the order within a range varies from run to run until cl_rank puts it back in
 // photon order, so that every sum over a list is made in photon order).
 #version 450
 #extension GL_GOOGLE_include_directive : require

@@ -6,7 +6,7 @@
 // list; an intersected leaf takes it into its list; other nodes are descended.
 // Each output, a (node entry, photon) pair (entry 2 node: the node's list, 2 node + 1: its trivially
 // accepted photons), is appended at an atomic counter, in whatever order the invocations run:
-// cl_group and cl_sort then put every list in photon order, so the order here does not matter.
+// cl_group and cl_rank then put every list in photon order, so the order here does not matter.
 // Pairs past the capacity (pc.npairs) are counted, not written: the host grows the buffer and
 // runs the splat again. The traversal is one flat loop over the four levels (one node test an
 // iteration), so that SIMD lanes at different levels keep working.
