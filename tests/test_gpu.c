@@ -279,6 +279,43 @@ static void test_cluster_trivial_vs_brute(void **state) {
     gpu_est_vs_brute(vt, "cornell-mirrors", 64, 48, 20000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.06f, 0);
     gpu_est_vs_brute(vt, "cornell-mirrors", 64, 48, 3000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.6f, 0);
     gpu_est_vs_brute(vt, "fireplace-room", 48, 36, 10000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_GGX, 0.f, 0);
+    /* an image smaller than one tile */
+    gpu_est_vs_brute(vt, "cornell", 7, 5, 3000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.6f, 0);
+}
+
+/* No photons: every sample gets zero (the splat, lists and radiance run on empty inputs). */
+static void test_cluster_trivial_no_photons(void **state) {
+    (void)state;
+    pgi_scene *scene = NULL;
+    TU_CHECK_OK(pgi_scene_load("cornell", &scene));
+    pgi_renderer *r = NULL;
+    TU_CHECK_OK(pgi_renderer_create(scene, &r));
+    pgi_render_desc d = {.photons = 1000, .width = 20, .height = 15, .seed = 3};
+    pgi_frame_inputs in;
+    TU_CHECK_OK(pgi_renderer_prepare(r, &d, &in, NULL));
+    pgi_photons none = *in.photons;
+    none.count = 0;
+    const size_t nf = 3 * in.samples->count;
+    float *out = malloc(nf * sizeof *out);
+    assert_non_null(out);
+    for (size_t i = 0; i < nf; i++) out[i] = NAN;
+    pgi_estimator_desc ed = {0}, rd;
+    TU_CHECK_OK(pgi_estimator_desc_resolve(pgi_estimator_find("cluster-trivial"), &ed, &rd));
+    void *ge = NULL;
+    TU_CHECK_OK(pgi__gpu_est_cluster_trivial.create(g_gpu, &rd, &ge));
+    pgi_estimate_args a = {.photons = &none,
+                           .samples = in.samples,
+                           .camera = &in.camera,
+                           .out_rgb = out,
+                           .radius = in.radius};
+    pgi_estimator_stats gs;
+    TU_CHECK_OK(pgi__gpu_est_cluster_trivial.run(ge, &a, &gs));
+    for (size_t i = 0; i < nf; i++) assert_true(out[i] == 0.f);
+    assert_int_equal(gs.contributing, 0);
+    pgi__gpu_est_cluster_trivial.destroy(ge);
+    free(out);
+    pgi_renderer_destroy(r);
+    pgi_scene_destroy(scene);
 }
 
 /* What the GPU cluster-trivial refuses: other kernels (as the CPU), tiles over 16 pixels. */
@@ -398,17 +435,12 @@ static void test_fallback_paths(void **state) {
 int main(void) {
     keep_lavapipe_loaded();
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_buffer_round_trip),
-        cmocka_unit_test(test_buffer_round_trip_staged),
-        cmocka_unit_test(test_kernel_fill_timestamps),
-        cmocka_unit_test(test_device_errors),
-        cmocka_unit_test(test_hashgrid_vs_brute_cornell),
-        cmocka_unit_test(test_hashgrid_vs_brute_kernels),
-        cmocka_unit_test(test_hashgrid_vs_brute_glossy),
-        cmocka_unit_test(test_cluster_trivial_vs_brute),
-        cmocka_unit_test(test_cluster_trivial_errors),
-        cmocka_unit_test(test_renderer_device),
-        cmocka_unit_test(test_fallback_paths),
+        cmocka_unit_test(test_buffer_round_trip),         cmocka_unit_test(test_buffer_round_trip_staged),
+        cmocka_unit_test(test_kernel_fill_timestamps),    cmocka_unit_test(test_device_errors),
+        cmocka_unit_test(test_hashgrid_vs_brute_cornell), cmocka_unit_test(test_hashgrid_vs_brute_kernels),
+        cmocka_unit_test(test_hashgrid_vs_brute_glossy),  cmocka_unit_test(test_cluster_trivial_vs_brute),
+        cmocka_unit_test(test_cluster_trivial_errors),    cmocka_unit_test(test_cluster_trivial_no_photons),
+        cmocka_unit_test(test_renderer_device),           cmocka_unit_test(test_fallback_paths),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
