@@ -164,8 +164,8 @@ static void test_device_errors(void **state) {
 /* CPU brute force and the GPU hashgrid on the same photons and view samples (pgi_renderer_prepare):
  * within 1e-4 relative per value, with a floor of 1e-6 x the image's largest value for values near
  * zero (tu_compare), and the same number of contributing photons. */
-static void gpu_vs_brute(const char *scene_name, int w, int h, uint32_t photons, pgi_kernel kern, float cell,
-                         pgi_specular spec) {
+static void gpu_est_vs_brute(const pgi__gpu_est_vtbl *vt, const char *scene_name, int w, int h, uint32_t photons,
+                             pgi_kernel kern, float cell, pgi_specular spec, float radius, int tile) {
     pgi_scene *scene = NULL;
     TU_CHECK_OK(pgi_scene_load(scene_name, &scene));
     size_t glossy_samples = 0;
@@ -177,7 +177,7 @@ static void gpu_vs_brute(const char *scene_name, int w, int h, uint32_t photons,
     }
     pgi_renderer *r = NULL;
     TU_CHECK_OK(pgi_renderer_create(scene, &r));
-    pgi_render_desc d = {.photons = photons, .width = w, .height = h, .seed = 3};
+    pgi_render_desc d = {.photons = photons, .width = w, .height = h, .seed = 3, .radius = radius};
     pgi_frame_inputs in;
     TU_CHECK_OK(pgi_renderer_prepare(r, &d, &in, NULL));
     const size_t nf = 3 * in.samples->count;
@@ -188,7 +188,10 @@ static void gpu_vs_brute(const char *scene_name, int w, int h, uint32_t photons,
     assert_non_null(ref);
     assert_non_null(got);
     assert_non_null(again);
-    pgi_estimator_desc ed = {.kernel = kern, .hashgrid.cell_size = cell};
+    pgi_estimator_desc ed = {.kernel = kern, .hashgrid.cell_size = cell, .cluster.tile = tile};
+    size_t mirror_seen = 0;
+    for (size_t i = 0; i < in.samples->count; i++)
+        mirror_seen += (in.samples->flags[i] & (PGI_VS_VALID | PGI_VS_PRIMARY)) == PGI_VS_VALID;
     pgi_estimator *brute = NULL;
     TU_CHECK_OK(pgi_estimator_create("brute", &ed, &brute));
     pgi_estimate_args a = {.photons = in.photons,
@@ -202,30 +205,42 @@ static void gpu_vs_brute(const char *scene_name, int w, int h, uint32_t photons,
     pgi_estimator_stats bs, gs, gs2;
     pgi_estimator_get_stats(brute, &bs);
     pgi_estimator_desc rd;
-    TU_CHECK_OK(pgi_estimator_desc_resolve(pgi_estimator_find("hashgrid"), &ed, &rd));
+    TU_CHECK_OK(pgi_estimator_desc_resolve(pgi_estimator_find(vt->name), &ed, &rd));
     void *ge = NULL;
-    TU_CHECK_OK(pgi__gpu_est_hashgrid.create(g_gpu, &rd, &ge));
+    TU_CHECK_OK(vt->create(g_gpu, &rd, &ge));
     for (size_t i = 0; i < nf; i++) got[i] = NAN;
     a.out_rgb = got;
-    TU_CHECK_OK(pgi__gpu_est_hashgrid.run(ge, &a, &gs));
-    char what[160];
-    snprintf(what, sizeof what, "%s %dx%d, %u photons, kernel %d, specular %d: GPU hashgrid vs CPU brute", scene_name,
-             w, h, photons, (int)kern, (int)spec);
+    TU_CHECK_OK(vt->run(ge, &a, &gs));
+    char what[200];
+    snprintf(what, sizeof what,
+             "%s %dx%d, %u photons, kernel %d, specular %d, r %g, %zu mirror-seen samples: GPU %s vs CPU brute",
+             scene_name, w, h, photons, (int)kern, (int)spec, (double)in.radius, mirror_seen, vt->name);
+    int again_pass = 0; /* cluster-trivial: its pair buffer grew and the splat ran again */
+    for (int k = 0; k < gs.pass_count; k++) again_pass |= strcmp(gs.pass_names[k], "gpu_splat_again") == 0;
+    fprintf(stderr, "  %s: reads %llu (brute %llu), contributing %llu, nodes visited %llu%s\n", what,
+            (unsigned long long)gs.reads, (unsigned long long)bs.reads, (unsigned long long)gs.contributing,
+            (unsigned long long)gs.nodes_visited, again_pass ? ", splat run again" : "");
     assert_true(bs.contributing > 0);
     tu_expect_same(what, got, ref, nf, gs.contributing, bs.contributing);
-    assert_true(gs.reads >= gs.contributing && gs.reads <= bs.reads);
+    if (vt == &pgi__gpu_est_hashgrid) assert_true(gs.reads >= gs.contributing && gs.reads <= bs.reads);
+    else assert_true(gs.reads <= bs.reads); /* trivially accepted photons are contributing but never read */
     /* the same image bit for bit on a second run (atomics reorder each bucket; the sort restores it) */
     a.out_rgb = again;
-    TU_CHECK_OK(pgi__gpu_est_hashgrid.run(ge, &a, &gs2));
+    TU_CHECK_OK(vt->run(ge, &a, &gs2));
     assert_memory_equal(got, again, nf * sizeof *got);
     assert_int_equal(gs2.reads, gs.reads);
-    pgi__gpu_est_hashgrid.destroy(ge);
+    vt->destroy(ge);
     pgi_estimator_destroy(brute);
     free(ref);
     free(got);
     free(again);
     pgi_renderer_destroy(r);
     pgi_scene_destroy(scene);
+}
+
+static void gpu_vs_brute(const char *scene_name, int w, int h, uint32_t photons, pgi_kernel kern, float cell,
+                         pgi_specular spec) {
+    gpu_est_vs_brute(&pgi__gpu_est_hashgrid, scene_name, w, h, photons, kern, cell, spec, 0.f, 0);
 }
 
 static void test_hashgrid_vs_brute_cornell(void **state) {
@@ -247,6 +262,80 @@ static void test_hashgrid_vs_brute_glossy(void **state) {
     (void)state;
     gpu_vs_brute("fireplace-room", 48, 36, 10000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_PHONG);
     gpu_vs_brute("fireplace-room", 48, 36, 10000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_GGX);
+}
+
+/* cluster-trivial on the GPU (gpu_cluster.c) against the CPU's brute force, as the hashgrid: the
+ * Cornell box at the scene's radius and at a radius larger than tiles and supertiles (trivial accepts
+ * at every level), the mirror box (samples seen through mirrors and glass: their own clusters),
+ * the fireplace room's glossy samples (no trivial accept for them: lists through gather), odd tile
+ * sizes, and bit-identical on a second run. */
+static void test_cluster_trivial_vs_brute(void **state) {
+    (void)state;
+    const pgi__gpu_est_vtbl *vt = &pgi__gpu_est_cluster_trivial;
+    gpu_est_vs_brute(vt, "cornell", 64, 48, 20000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.f, 0);
+    gpu_est_vs_brute(vt, "cornell", 64, 48, 3000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.6f, 0);
+    gpu_est_vs_brute(vt, "cornell", 50, 37, 5000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.f, 5);
+    gpu_est_vs_brute(vt, "cornell", 40, 30, 5000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.2f, 16);
+    gpu_est_vs_brute(vt, "cornell-mirrors", 64, 48, 20000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.06f, 0);
+    gpu_est_vs_brute(vt, "cornell-mirrors", 64, 48, 3000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.6f, 0);
+    gpu_est_vs_brute(vt, "fireplace-room", 48, 36, 10000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_GGX, 0.f, 0);
+    /* an image smaller than one tile */
+    gpu_est_vs_brute(vt, "cornell", 7, 5, 3000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.6f, 0);
+}
+
+/* No photons: every sample gets zero (the splat, lists and radiance run on empty inputs). */
+static void test_cluster_trivial_no_photons(void **state) {
+    (void)state;
+    pgi_scene *scene = NULL;
+    TU_CHECK_OK(pgi_scene_load("cornell", &scene));
+    pgi_renderer *r = NULL;
+    TU_CHECK_OK(pgi_renderer_create(scene, &r));
+    pgi_render_desc d = {.photons = 1000, .width = 20, .height = 15, .seed = 3};
+    pgi_frame_inputs in;
+    TU_CHECK_OK(pgi_renderer_prepare(r, &d, &in, NULL));
+    pgi_photons none = *in.photons;
+    none.count = 0;
+    const size_t nf = 3 * in.samples->count;
+    float *out = malloc(nf * sizeof *out);
+    assert_non_null(out);
+    for (size_t i = 0; i < nf; i++) out[i] = NAN;
+    pgi_estimator_desc ed = {0}, rd;
+    TU_CHECK_OK(pgi_estimator_desc_resolve(pgi_estimator_find("cluster-trivial"), &ed, &rd));
+    void *ge = NULL;
+    TU_CHECK_OK(pgi__gpu_est_cluster_trivial.create(g_gpu, &rd, &ge));
+    pgi_estimate_args a = {.photons = &none,
+                           .samples = in.samples,
+                           .camera = &in.camera,
+                           .out_rgb = out,
+                           .radius = in.radius};
+    pgi_estimator_stats gs;
+    TU_CHECK_OK(pgi__gpu_est_cluster_trivial.run(ge, &a, &gs));
+    for (size_t i = 0; i < nf; i++) assert_true(out[i] == 0.f);
+    assert_int_equal(gs.contributing, 0);
+    pgi__gpu_est_cluster_trivial.destroy(ge);
+    free(out);
+    pgi_renderer_destroy(r);
+    pgi_scene_destroy(scene);
+}
+
+/* What the GPU cluster-trivial refuses: other kernels (as the CPU), tiles over 16 pixels. */
+static void test_cluster_trivial_errors(void **state) {
+    (void)state;
+    const pgi__gpu_est_vtbl *vt = pgi__gpu_est_find("cluster-trivial");
+    assert_non_null(vt);
+    pgi_estimator_desc ed = {.cluster.tile = 32}, rd;
+    TU_CHECK_OK(pgi_estimator_desc_resolve(pgi_estimator_find("cluster-trivial"), &ed, &rd));
+    void *ge = NULL;
+    assert_int_equal(vt->create(g_gpu, &rd, &ge), PGI_ERR_UNSUPPORTED);
+    assert_null(ge);
+    assert_non_null(strstr(pgi_last_error(), "cluster-tile"));
+    rd.cluster.tile = 8;
+    rd.kernel = PGI_KERNEL_CONE;
+    assert_int_equal(vt->create(g_gpu, &rd, &ge), PGI_ERR_UNSUPPORTED);
+    assert_null(ge);
+    char names[128];
+    pgi__gpu_est_names(names, sizeof names);
+    assert_non_null(strstr(names, "cluster-trivial"));
 }
 
 /* The renderer on the GPU device: the same image as the CPU's brute force (same seed: the same
@@ -283,6 +372,15 @@ static void test_renderer_device(void **state) {
     TU_CHECK_OK(pgi_renderer_render(r, &d, &gpu2, &gs));
     assert_int_equal(gs.estimators_created, 0);
     assert_memory_equal(gpu.rgb, gpu2.rgb, 3 * 64 * 48 * sizeof(float));
+    /* cluster-trivial through the renderer (the registry): the same image */
+    d.estimator = "cluster-trivial";
+    TU_CHECK_OK(pgi_renderer_render(r, &d, &gpu2, &gs));
+    tu_expect_same("renderer: vulkan cluster-trivial vs cpu brute", gpu2.rgb, cpu.rgb, 3 * 64 * 48, gs.contributing,
+                   cs.contributing);
+    int radiance = 0;
+    for (int k = 0; k < gs.pass_count; k++) radiance += strcmp(gs.passes_ms[k].name, "gpu_radiance") == 0;
+    assert_int_equal(radiance, pgi__gpu_has_timestamps(g_gpu));
+    d.estimator = "hashgrid";
     /* explicit device 0 */
     d.device_index = PGI_DEVICE_INDEX(0);
     TU_CHECK_OK(pgi_renderer_render(r, &d, &gpu2, &gs));
@@ -341,15 +439,12 @@ static void test_fallback_paths(void **state) {
 int main(void) {
     keep_lavapipe_loaded();
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_buffer_round_trip),
-        cmocka_unit_test(test_buffer_round_trip_staged),
-        cmocka_unit_test(test_kernel_fill_timestamps),
-        cmocka_unit_test(test_device_errors),
-        cmocka_unit_test(test_hashgrid_vs_brute_cornell),
-        cmocka_unit_test(test_hashgrid_vs_brute_kernels),
-        cmocka_unit_test(test_hashgrid_vs_brute_glossy),
-        cmocka_unit_test(test_renderer_device),
-        cmocka_unit_test(test_fallback_paths),
+        cmocka_unit_test(test_buffer_round_trip),         cmocka_unit_test(test_buffer_round_trip_staged),
+        cmocka_unit_test(test_kernel_fill_timestamps),    cmocka_unit_test(test_device_errors),
+        cmocka_unit_test(test_hashgrid_vs_brute_cornell), cmocka_unit_test(test_hashgrid_vs_brute_kernels),
+        cmocka_unit_test(test_hashgrid_vs_brute_glossy),  cmocka_unit_test(test_cluster_trivial_vs_brute),
+        cmocka_unit_test(test_cluster_trivial_errors),    cmocka_unit_test(test_cluster_trivial_no_photons),
+        cmocka_unit_test(test_renderer_device),           cmocka_unit_test(test_fallback_paths),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -40,5 +40,6 @@ const pgi__gpu_est_vtbl *pgi__gpu_est_find(const char *name);
 void pgi__gpu_est_names(char *buf, size_t size);
 
 extern const pgi__gpu_est_vtbl pgi__gpu_est_hashgrid;
+extern const pgi__gpu_est_vtbl pgi__gpu_est_cluster_trivial;
 
 #endif

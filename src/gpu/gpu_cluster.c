@@ -1,0 +1,561 @@
+/* cluster-trivial on the GPU (docs/gpu.md): the CPU estimator's method (src/estimators/est_cluster.c,
+ * cluster_build.c; Moreau et al., HPG 2016, §4.1-4.6) in a GPU-friendly form, exact like it.
+ *
+ * Clusters (the paper's screen-space clustering, as cluster_build.c): a screen tile of T x T pixels
+ * (--cluster-tile, at most 16 here) x a view-depth slice (the CPU's near depth, slice width and
+ * fast_log2, operation for operation: the same slices); samples seen through mirrors or glass are
+ * clustered apart, by their cell in a uniform grid over their box (as the CPU's subtree under the
+ * top key bit), so that a curved mirror's pixels do not make clusters that span the scene. Each
+ * cluster (leaf) is bounded by the world-space box of its samples and a normal cone.
+ *
+ * Photons are packed in the order of their cell in a coarse Morton grid (pack_photons: coherent
+ * splat lanes, nearby list records); that packed index is the photon order of every list and sum.
+ *
+ * The hierarchy has four fixed levels instead of the CPU's sparse 32-ary key tree: roots (4 x 4
+ * supertiles), supertiles (8 x 8 tiles), tiles, clusters, each level with separate nodes for the primary and the
+ * mirror-seen samples (shaders/cluster.glsl: the layout). One command sequence builds it:
+ *   cl_reduce   near depth, the mirror-seen samples' box (atomic min/max: order-independent)
+ *   cl_tiles    a workgroup a tile: keys, a sort by (key, pixel), runs = clusters, leaf bounds
+ *   cl_bounds   supertile, tile and root nodes: boxes, cones, Lambert flags (fixed reductions)
+ *   cl_splat    per photon: the traversal of est_cluster.c's walk/decide; each output, a (node
+ *               entry, photon) pair, appended at an atomic counter (any order: the lists are sorted)
+ * then, after reading back the number of pairs (a larger buffer and the splat again when they did
+ * not fit; the capacity is kept for the next frame), a second one:
+ *   cl_group    pairs per entry (atomic counts), hg_scan, scatter into the entries' ranges
+ *   cl_rank     each pair placed by its rank among its range's photons: photon order (as the CPU's
+ *               lists), whatever order the atomics ran in (a pure function of the range)
+ *   cl_node_flux  each node's trivially accepted flux, summed in photon order
+ *   cl_radiance per view sample: its four nodes' lists through gather.glsl, plus their trivial flux
+ * Every float sum is made in an order fixed by the inputs: the same image bit for bit every run.
+ * Exactness: the radiance applies gather's test to every listed photon; culling and trivial accept
+ * are conservative (box tests in the gather's operation order, margins as the CPU's load_photon;
+ * cone thresholds from the smallest cosine, with margins: shaders/cluster.glsl cone_thresholds). */
+#include "gpu/gpu_estimator.h"
+
+#include <stdio.h>
+#include <string.h>
+
+#include "core/core.h"
+#include "estimators/estimator_internal.h"
+
+#ifndef PGI_HAVE_VULKAN
+
+static pgi_status ct_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) {
+    (void)g, (void)d;
+    *state = NULL;
+    return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
+}
+static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_stats *st) {
+    (void)state, (void)a, (void)st;
+    return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
+}
+static void ct_destroy(void *state) { (void)state; }
+
+#else
+
+#include "gpu/spirv.h"
+
+#define GGX_NMU PGI_GGX_NMU
+#define SCAN_LEVELS 4 /* 1024^4 elements */
+#define SUPER 8       /* supertile edge in tiles */
+#define ROOT 4        /* root edge in supertiles */
+#define MAX_TILE 16   /* cl_tiles sorts a tile in shared memory (256 samples) */
+
+/* shaders/gather.glsl ViewSample */
+typedef struct {
+    float px, py, pz, nx, ny, nz, wox, woy, woz, kdx, kdy, kdz, one_m_eo;
+    uint32_t flags, lobe, pad;
+} gpu_vs;
+
+/* shaders/gather.glsl Lobe */
+typedef struct {
+    uint32_t model;
+    float ksx, ksy, ksz, s, eta, a2, inv_1mEavg;
+    float E[GGX_NMU];
+} gpu_lobe;
+
+/* shaders/cluster.glsl Push */
+typedef struct {
+    float r, r2, inv_step, slack;
+    uint32_t n, width, height, T, G, ntx, nty, nrx, nry, mode, bits, NS0, NT0, NL0, nnodes, npairs, R;
+} cl_push;
+
+/* shaders/hashgrid.glsl Push (hg_scan, hg_scan_add): n at byte 12 */
+typedef struct {
+    float f[3];
+    uint32_t n, mask, pad[7];
+} scan_push;
+
+#define NODE_BYTES 64 /* shaders/cluster.glsl Node */
+
+enum { K_REDUCE, K_TILES, K_BOUNDS, K_SPLAT, K_GROUP, K_NODE_FLUX, K_RADIANCE, K_SCAN, K_SCAN_ADD, K_RANK, K_N };
+
+typedef struct {
+    pgi__gpu *g;
+    pgi_estimator_desc desc;
+    pgi__gpu_kernel *k[K_N];
+    pgi__gpu_buffer *photons, *vs, *lobes, *depth, *out, *frame, *nodes, *pix_node, *tile_ncl, *pairs, *estart, *ecur,
+        *eidx, *ranked, *flux, *counters, *scan_b[SCAN_LEVELS];
+    size_t pair_cap; /* pairs the buffer holds */
+    /* host-side upload arrays */
+    pgi__packed_photon *packed;
+    size_t packed_cap;
+    gpu_vs *hvs;
+    size_t hvs_cap;
+    gpu_lobe *hlobes;
+    size_t hlobes_cap;
+    uint32_t *lobe_of;
+    size_t lobe_of_cap;
+    uint32_t *porder, *pkey, *pcell; /* photons in Morton cell order (pack_photons) */
+    size_t porder_cap, pkey_cap, pcell_cap;
+} ct_state;
+
+static void ct_destroy(void *state) {
+    ct_state *s = state;
+    if (!s) return;
+    for (int i = 0; i < K_N; i++) pgi__gpu_kernel_destroy(s->g, s->k[i]);
+    pgi__gpu_buffer *b[] = {s->photons,  s->vs,    s->lobes,  s->depth, s->out,  s->frame,  s->nodes, s->pix_node,
+                            s->tile_ncl, s->pairs, s->estart, s->ecur,  s->eidx, s->ranked, s->flux,  s->counters};
+    for (size_t i = 0; i < sizeof b / sizeof b[0]; i++) pgi__gpu_buffer_destroy(s->g, b[i]);
+    for (int i = 0; i < SCAN_LEVELS; i++) { pgi__gpu_buffer_destroy(s->g, s->scan_b[i]); }
+    pgi__afree(s->packed);
+    pgi__afree(s->hvs);
+    pgi__afree(s->hlobes);
+    pgi__afree(s->lobe_of);
+    pgi__afree(s->porder);
+    pgi__afree(s->pkey);
+    pgi__afree(s->pcell);
+    free(s);
+}
+
+static pgi_status ct_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) {
+    *state = NULL;
+    if (d->subsample > 1)
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "cluster-trivial on the GPU: --subsample is not supported (CPU only)");
+    if (d->kernel != PGI_KERNEL_CONSTANT)
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "cluster-trivial: only the constant kernel (as on the CPU)");
+    if (d->cluster.tile < 1 || d->cluster.tile > MAX_TILE)
+        return pgi__fail(PGI_ERR_UNSUPPORTED,
+                         "cluster-trivial on the GPU: --cluster-tile must be 1..%d (a tile is sorted in shared "
+                         "memory), got %d",
+                         MAX_TILE, d->cluster.tile);
+    ct_state *s = calloc(1, sizeof *s);
+    if (!s) return pgi__fail(PGI_ERR_OOM, "out of memory");
+    s->g = g;
+    s->desc = *d;
+    static const struct {
+        const uint32_t *spv;
+        size_t bytes;
+        const char *name;
+        int nbuf;
+        uint32_t push;
+    } k[K_N] = {
+        [K_REDUCE] = {pgi__spv_cl_reduce, sizeof pgi__spv_cl_reduce, "cl_reduce", 3, sizeof(cl_push)},
+        [K_TILES] = {pgi__spv_cl_tiles, sizeof pgi__spv_cl_tiles, "cl_tiles", 6, sizeof(cl_push)},
+        [K_BOUNDS] = {pgi__spv_cl_bounds, sizeof pgi__spv_cl_bounds, "cl_bounds", 3, sizeof(cl_push)},
+        [K_SPLAT] = {pgi__spv_cl_splat, sizeof pgi__spv_cl_splat, "cl_splat", 4, sizeof(cl_push)},
+        [K_GROUP] = {pgi__spv_cl_group, sizeof pgi__spv_cl_group, "cl_group", 4, sizeof(cl_push)},
+        [K_NODE_FLUX] = {pgi__spv_cl_node_flux, sizeof pgi__spv_cl_node_flux, "cl_node_flux", 4, sizeof(cl_push)},
+        [K_RADIANCE] = {pgi__spv_cl_radiance, sizeof pgi__spv_cl_radiance, "cl_radiance", 9, sizeof(cl_push)},
+        [K_SCAN] = {pgi__spv_hg_scan, sizeof pgi__spv_hg_scan, "hg_scan", 2, sizeof(scan_push)},
+        [K_SCAN_ADD] = {pgi__spv_hg_scan_add, sizeof pgi__spv_hg_scan_add, "hg_scan_add", 2, sizeof(scan_push)},
+        [K_RANK] = {pgi__spv_cl_rank, sizeof pgi__spv_cl_rank, "cl_rank", 4, sizeof(cl_push)},
+    };
+    for (int i = 0; i < K_N; i++) {
+        pgi_status st = pgi__gpu_kernel_create(g, k[i].spv, k[i].bytes, k[i].name, k[i].nbuf, k[i].push, &s->k[i]);
+        if (st) {
+            ct_destroy(s);
+            return st;
+        }
+    }
+    *state = s;
+    return PGI_OK;
+}
+
+/* Workgroups for `items` invocations of `local` each, as a 2D grid of rows of at most 65535
+ * (shaders/common.glsl linear_group). */
+static void groups_2d(size_t items, uint32_t local, uint32_t *gx, uint32_t *gy) {
+    size_t groups = (items + local - 1) / local;
+    if (groups == 0) groups = 1;
+    *gx = groups < 65535 ? (uint32_t)groups : 65535u;
+    *gy = (uint32_t)((groups + *gx - 1) / *gx);
+}
+
+static pgi_status dispatch_1d(pgi__gpu *g, pgi__gpu_kernel *k, pgi__gpu_buffer *const *b, const void *p, size_t items,
+                              uint32_t local) {
+    uint32_t gx, gy;
+    groups_2d(items, local, &gx, &gy);
+    return pgi__gpu_dispatch(g, k, b, p, gx, gy, 1);
+}
+
+/* Exclusive prefix sum of the n words of lv[0] (hg_scan / hg_scan_add in blocks of 1024, levels
+ * above holding the block totals). level_n: the element count of each level (from scan_levels). */
+static int scan_levels(size_t n, size_t level_n[SCAN_LEVELS + 1]) {
+    int levels = 0;
+    level_n[0] = n;
+    while (levels < SCAN_LEVELS && (levels == 0 || level_n[levels] > 1)) {
+        level_n[levels + 1] = (level_n[levels] + 1023) / 1024;
+        levels++;
+    }
+    return level_n[levels] > 1 ? -1 : levels;
+}
+
+static pgi_status scan_reserve(pgi__gpu *g, pgi__gpu_buffer **lv, const size_t *level_n, int levels, const char *what) {
+    for (int l = 1; l <= levels; l++) {
+        pgi_status st = pgi__gpu_buffer_reserve(g, &lv[l - 1], level_n[l] * 4, what);
+        if (st) return st;
+    }
+    return PGI_OK;
+}
+
+static pgi_status scan_record(ct_state *s, pgi__gpu_buffer *data, pgi__gpu_buffer **lvb, const size_t *level_n,
+                              int levels) {
+    pgi__gpu_buffer *lv[SCAN_LEVELS + 1];
+    lv[0] = data;
+    for (int l = 1; l <= levels; l++) lv[l] = lvb[l - 1];
+    pgi_status st;
+    for (int l = 0; l < levels; l++) {
+        scan_push q = {.n = (uint32_t)level_n[l]};
+        if ((st = dispatch_1d(s->g, s->k[K_SCAN], (pgi__gpu_buffer *[]){lv[l], lv[l + 1]}, &q, level_n[l], 1024)))
+            return st;
+    }
+    for (int l = levels - 2; l >= 0; l--) {
+        scan_push q = {.n = (uint32_t)level_n[l]};
+        if ((st = dispatch_1d(s->g, s->k[K_SCAN_ADD], (pgi__gpu_buffer *[]){lv[l], lv[l + 1]}, &q, level_n[l], 256)))
+            return st;
+    }
+    return PGI_OK;
+}
+
+/* The view samples in the shaders' form; the lobes of the glossy ones (pgi__vs_load: the CPU
+ * estimators' set-up, GGX's E row included). The same as gpu_hashgrid.c's (kept apart until the
+ * GPU estimators share an upload). */
+static pgi_status pack_samples(ct_state *s, const pgi_view_samples *vs, int threads, size_t *nlobes) {
+    pgi_status st;
+    const size_t n = vs->count;
+    if ((st = pgi__ensure((void **)&s->hvs, &s->hvs_cap, n + 1, sizeof(gpu_vs))) ||
+        (st = pgi__ensure((void **)&s->lobe_of, &s->lobe_of_cap, n + 1, sizeof(uint32_t))))
+        return st;
+    size_t nl = 0;
+    for (size_t i = 0; i < n; i++) {
+        const uint8_t f = vs->flags[i];
+        s->lobe_of[i] = (uint32_t)nl;
+        if ((f & PGI_VS_VALID) && !(f & PGI_VS_LAMBERT)) nl++;
+    }
+    if ((st = pgi__ensure((void **)&s->hlobes, &s->hlobes_cap, nl + 1, sizeof(gpu_lobe)))) return st;
+#pragma omp parallel for schedule(dynamic, 256) num_threads(pgi__threads(threads))
+    for (long long ii = 0; ii < (long long)n; ii++) {
+        size_t i = (size_t)ii;
+        gpu_vs *o = &s->hvs[i];
+        memset(o, 0, sizeof *o);
+        o->flags = vs->flags[i];
+        if (!(vs->flags[i] & PGI_VS_VALID)) continue;
+        pgi__vs v;
+        pgi__vs_load(vs, i, &v);
+        *o = (gpu_vs){v.px,   v.py,   v.pz,   v.nx,   v.ny,       v.nz,         v.wo.x,        v.wo.y,
+                      v.wo.z, v.kd.x, v.kd.y, v.kd.z, v.one_m_eo, vs->flags[i], s->lobe_of[i], 0};
+        if (v.lambert) continue;
+        gpu_lobe *l = &s->hlobes[s->lobe_of[i]];
+        memset(l, 0, sizeof *l);
+        l->model = (uint32_t)v.lobe.model;
+        l->ksx = v.lobe.ks.x;
+        l->ksy = v.lobe.ks.y;
+        l->ksz = v.lobe.ks.z;
+        l->s = v.lobe.s;
+        l->eta = v.lobe.eta;
+        l->a2 = v.lobe.a2;
+        l->inv_1mEavg = v.lobe.inv_1mEavg;
+        if (v.lobe.model == PGI_LOBE_GGX) memcpy(l->E, v.lobe.E, sizeof l->E);
+    }
+    *nlobes = nl;
+    return PGI_OK;
+}
+
+#define PCELL_BITS 5 /* photon order: Morton code of a 32^3 grid over the photons' box */
+
+/* Spreads the low 5 bits of v to every third bit. */
+static uint32_t spread3_5(uint32_t v) {
+    uint32_t o = 0;
+    for (int b = 0; b < PCELL_BITS; b++) o |= (v >> b & 1u) << (3 * b);
+    return o;
+}
+
+/* The photons packed in the order of their cell in a 32^3 grid over their box (Morton order;
+ * photon order inside a cell: a stable counting sort), a deterministic function of the photons.
+ * Neighbouring splat invocations then walk the same nodes (coherent SIMD lanes and warps), and a
+ * node's list, sorted by packed index, reads nearby records. The packed index is the "photon
+ * order" of the lists and sums. */
+static pgi_status pack_photons(ct_state *s, const pgi_photons *ph, int threads) {
+    const size_t n = ph->count, ncell = (size_t)1 << (3 * PCELL_BITS);
+    pgi_status st;
+    if ((st = pgi__ensure((void **)&s->packed, &s->packed_cap, n + 1, sizeof(pgi__packed_photon))) ||
+        (st = pgi__ensure((void **)&s->porder, &s->porder_cap, n + 1, sizeof(uint32_t))) ||
+        (st = pgi__ensure((void **)&s->pkey, &s->pkey_cap, n + 1, sizeof(uint32_t))) ||
+        (st = pgi__ensure((void **)&s->pcell, &s->pcell_cap, ncell + 1, sizeof(uint32_t))))
+        return st;
+    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    const float *P[3] = {ph->px, ph->py, ph->pz};
+    for (int d = 0; d < 3; d++)
+        for (size_t j = 0; j < n; j++) {
+            lo[d] = P[d][j] < lo[d] ? P[d][j] : lo[d]; /* NaN: skipped */
+            hi[d] = P[d][j] > hi[d] ? P[d][j] : hi[d];
+        }
+    float inv[3];
+    const float cells = (float)(1u << PCELL_BITS);
+    for (int d = 0; d < 3; d++) inv[d] = hi[d] > lo[d] && isfinite(hi[d] - lo[d]) ? cells / (hi[d] - lo[d]) : 0.f;
+#pragma omp parallel for schedule(static) num_threads(pgi__threads(threads))
+    for (long long jj = 0; jj < (long long)n; jj++) {
+        uint32_t key = 0;
+        for (int d = 0; d < 3; d++) {
+            float f = (P[d][jj] - lo[d]) * inv[d];
+            uint32_t c = f >= 1.f ? (f < cells ? (uint32_t)f : (uint32_t)cells - 1u) : 0u; /* NaN: 0 */
+            key |= spread3_5(c) << (2 - d);
+        }
+        s->pkey[jj] = key;
+    }
+    memset(s->pcell, 0, (ncell + 1) * sizeof(uint32_t));
+    for (size_t j = 0; j < n; j++) s->pcell[s->pkey[j] + 1]++;
+    for (size_t c = 0; c < ncell; c++) s->pcell[c + 1] += s->pcell[c];
+    for (size_t j = 0; j < n; j++) s->porder[s->pcell[s->pkey[j]]++] = (uint32_t)j;
+#pragma omp parallel for schedule(static) num_threads(pgi__threads(threads))
+    for (long long k = 0; k < (long long)n; k++) pgi__pack_photon(ph, s->porder[k], &s->packed[k]);
+    return PGI_OK;
+}
+
+static int bits_for(uint32_t n) {
+    int b = 0;
+    while (b < 31 && (1u << b) < n) b++;
+    return b;
+}
+
+/* Appends the last sequence's timings to the stats; returns the gather's share in *gather. */
+static void add_timings(ct_state *s, pgi_estimator_stats *es, double *build, double *gather) {
+    pgi_named_value t[16];
+    int nt = pgi__gpu_timings(s->g, t, 16);
+    for (int i = 0; i < nt; i++) {
+        pgi__stats_pass(es, t[i].name, t[i].value);
+        if (strcmp(t[i].name, "gpu_radiance") == 0) *gather += t[i].value;
+        else *build += t[i].value;
+    }
+}
+
+static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_stats *es) {
+    ct_state *s = state;
+    pgi__gpu *g = s->g;
+    pgi_status st;
+    memset(es, 0, sizeof *es);
+    if (a->photons->radius)
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "cluster-trivial on the GPU: per-photon footprints are not supported");
+    const pgi_photons *ph = a->photons;
+    const pgi_view_samples *vs = a->samples;
+    const pgi_camera *cam = a->camera;
+    if (!cam || vs->width != cam->width || vs->height != cam->height)
+        return pgi__fail(PGI_ERR_INVALID_ARG,
+                         "cluster-trivial on the GPU: view samples are %dx%d but the camera is %dx%d", vs->width,
+                         vs->height, cam ? cam->width : 0, cam ? cam->height : 0);
+    const float r = a->radius;
+    const size_t n = ph->count, ns = vs->count;
+    const uint32_t W = (uint32_t)vs->width, H = (uint32_t)vs->height, T = (uint32_t)s->desc.cluster.tile;
+    const uint32_t ntx = (W + T - 1) / T, nty = (H + T - 1) / T, nsx = (ntx + SUPER - 1) / SUPER,
+                   nsy = (nty + SUPER - 1) / SUPER, nrx = (nsx + ROOT - 1) / ROOT, nry = (nsy + ROOT - 1) / ROOT;
+    /* shaders/cluster.glsl: the node layout (supertile slots root-major, tile slots supertile-major) */
+    const size_t ntiles = (size_t)ntx * nty, NS0 = 2 * (size_t)nrx * nry, nss = (size_t)nrx * nry * ROOT * ROOT,
+                 NT0 = NS0 + 2 * nss, NL0 = NT0 + 2 * nss * SUPER * SUPER, nnodes = NL0 + ntiles * T * T,
+                 nent = 2 * nnodes;
+    if (n > UINT32_MAX / 4 || ns > UINT32_MAX / 4 || nent > UINT32_MAX / 4)
+        return pgi__fail(PGI_ERR_UNSUPPORTED,
+                         "cluster-trivial on the GPU: at most 2^30 photons, view samples and nodes");
+    int bits = (bits_for(ntx) + 2 * bits_for(nty)) / 3;
+    bits = bits < 1 ? 1 : bits > 10 ? 10 : bits;
+    cl_push p = {.r = r,
+                 .r2 = r * r,
+                 .inv_step = (float)(1.0 / log2(1.0 + 2.0 * (double)cam->tan_half_fov_y / (double)nty)),
+                 .n = (uint32_t)n,
+                 .width = W,
+                 .height = H,
+                 .T = T,
+                 .G = SUPER,
+                 .ntx = ntx,
+                 .nty = nty,
+                 .nrx = nrx,
+                 .nry = nry,
+                 .bits = (uint32_t)bits,
+                 .NS0 = (uint32_t)NS0,
+                 .NT0 = (uint32_t)NT0,
+                 .NL0 = (uint32_t)NL0,
+                 .nnodes = (uint32_t)nnodes,
+                 .R = ROOT};
+
+    /* upload: photons packed in cell order, the view samples, lobes and depths */
+    double t0 = pgi__now_ms();
+    if ((st = pack_photons(s, ph, a->threads))) return st;
+    size_t nlobes = 0;
+    if ((st = pack_samples(s, vs, a->threads, &nlobes))) return st;
+    size_t lv_b[SCAN_LEVELS + 1];
+    int levels_b = scan_levels(nent + 1, lv_b);
+    if (levels_b < 0)
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "cluster-trivial on the GPU: too many photons or nodes to scan");
+    const size_t psz = sizeof(pgi__packed_photon);
+    if ((st = pgi__gpu_buffer_reserve(g, &s->photons, (n + 1) * psz, "gpu_photons")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->vs, (ns + 1) * sizeof(gpu_vs), "gpu_view_samples")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->lobes, (nlobes + 1) * sizeof(gpu_lobe), "gpu_view_samples")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->depth, (ns + 1) * sizeof(float), "gpu_view_samples")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->out, (3 * ns + 1) * sizeof(float), "gpu_radiance")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->frame, 8 * sizeof(uint32_t), "gpu_clusters")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->nodes, nnodes * NODE_BYTES, "gpu_cluster_nodes")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->pix_node, (ns + 1) * 4, "gpu_clusters")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->tile_ncl, (2 * ntiles + 1) * 4, "gpu_clusters")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->estart, (nent + 1) * 4, "gpu_photon_lists")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->ecur, nent * 4, "gpu_photon_lists")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->flux, nnodes * 16, "gpu_node_flux")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->counters, 8 * sizeof(uint32_t), "gpu_photon_lists")) ||
+        (st = scan_reserve(g, s->scan_b, lv_b, levels_b, "gpu_photon_lists")))
+        return st;
+    if ((st = pgi__gpu_upload(g, s->photons, 0, s->packed, n * psz)) ||
+        (st = pgi__gpu_upload(g, s->vs, 0, s->hvs, ns * sizeof(gpu_vs))) ||
+        (st = pgi__gpu_upload(g, s->lobes, 0, s->hlobes, nlobes * sizeof(gpu_lobe))) ||
+        (st = pgi__gpu_upload(g, s->depth, 0, vs->depth, ns * sizeof(float))))
+        return st;
+    double t1 = pgi__now_ms();
+
+    /* sequence 1: clusters, bounds, the splat's pairs */
+    if (s->pair_cap < 4 * n + 1024) s->pair_cap = 4 * n + 1024;
+    if (s->pair_cap > UINT32_MAX / 4) s->pair_cap = UINT32_MAX / 4;
+    if ((st = pgi__gpu_buffer_reserve(g, &s->pairs, s->pair_cap * 8, "gpu_splat"))) return st;
+    p.npairs = (uint32_t)s->pair_cap;
+    double gpu_build = 0.0, gpu_gather = 0.0;
+    if ((st = pgi__gpu_begin(g))) return st;
+    pgi__gpu_timestamp(g, "start");
+    if ((st = pgi__gpu_fill(g, s->frame, 0, 4, 0x7f800000u)) || (st = pgi__gpu_fill(g, s->frame, 4, 12, 0xffffffffu)) ||
+        (st = pgi__gpu_fill(g, s->frame, 16, 16, 0)) || (st = pgi__gpu_fill(g, s->counters, 0, 8 * 4, 0)) ||
+        (st = dispatch_1d(g, s->k[K_REDUCE], (pgi__gpu_buffer *[]){s->vs, s->depth, s->frame}, &p, ns, 64)))
+        goto fail;
+    if ((st = dispatch_1d(g, s->k[K_TILES],
+                          (pgi__gpu_buffer *[]){s->vs, s->depth, s->frame, s->nodes, s->pix_node, s->tile_ncl}, &p,
+                          ntiles, 1)))
+        goto fail;
+    pgi__gpu_timestamp(g, "gpu_clusters");
+    {
+        cl_push q = p;
+        const size_t groups[3] = {2 * nss, 2 * nss * SUPER * SUPER, NS0}; /* supertiles, tiles, roots */
+        for (uint32_t m = 0; m < 3; m++) {
+            q.mode = m;
+            if ((st = dispatch_1d(g, s->k[K_BOUNDS], (pgi__gpu_buffer *[]){s->vs, s->nodes, s->tile_ncl}, &q, groups[m],
+                                  1)))
+                goto fail;
+        }
+    }
+    pgi__gpu_timestamp(g, "gpu_bounds");
+    if ((st = dispatch_1d(g, s->k[K_SPLAT], (pgi__gpu_buffer *[]){s->photons, s->nodes, s->pairs, s->counters}, &p, n,
+                          64)))
+        goto fail;
+    pgi__gpu_timestamp(g, "gpu_splat");
+    double t2 = pgi__now_ms();
+    if ((st = pgi__gpu_submit_wait(g))) return st;
+    double t3 = pgi__now_ms();
+    add_timings(s, es, &gpu_build, &gpu_gather);
+    uint32_t npairs = 0;
+    if ((st = pgi__gpu_download(g, s->counters, 6 * 4, &npairs, 4))) return st;
+    if (npairs > s->pair_cap) { /* did not fit: a larger buffer (kept), the splat again */
+        if (npairs > UINT32_MAX / 4)
+            return pgi__fail(PGI_ERR_UNSUPPORTED, "cluster-trivial on the GPU: %u photon list entries (at most 2^30)",
+                             npairs);
+        s->pair_cap = (size_t)npairs + npairs / 4;
+        if (s->pair_cap > UINT32_MAX / 4) s->pair_cap = UINT32_MAX / 4;
+        if ((st = pgi__gpu_buffer_reserve(g, &s->pairs, s->pair_cap * 8, "gpu_splat"))) return st;
+        p.npairs = (uint32_t)s->pair_cap;
+        double t2b = pgi__now_ms();
+        if ((st = pgi__gpu_begin(g))) return st;
+        pgi__gpu_timestamp(g, "start");
+        if ((st = pgi__gpu_fill(g, s->counters, 0, 8 * 4, 0)) ||
+            (st = dispatch_1d(g, s->k[K_SPLAT], (pgi__gpu_buffer *[]){s->photons, s->nodes, s->pairs, s->counters}, &p,
+                              n, 64)))
+            goto fail;
+        pgi__gpu_timestamp(g, "gpu_splat_again");
+        if ((st = pgi__gpu_submit_wait(g))) return st;
+        t3 += pgi__now_ms() - t2b;
+        add_timings(s, es, &gpu_build, &gpu_gather);
+        if ((st = pgi__gpu_download(g, s->counters, 6 * 4, &npairs, 4))) return st;
+        PGI_ASSERT(npairs <= s->pair_cap);
+    }
+    if ((st = pgi__gpu_buffer_reserve(g, &s->eidx, ((size_t)npairs + 1) * 4, "gpu_photon_lists")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->ranked, ((size_t)npairs + 1) * 4, "gpu_photon_lists")))
+        return st;
+    p.npairs = npairs;
+
+    /* sequence 2: the pairs, the lists in photon order, the trivial flux, the radiance */
+    double t4 = pgi__now_ms();
+    if ((st = pgi__gpu_begin(g))) return st;
+    pgi__gpu_timestamp(g, "start");
+    {
+        cl_push q = p;
+        if ((st = pgi__gpu_fill(g, s->estart, 0, (nent + 1) * 4, 0)) ||
+            (st = pgi__gpu_fill(g, s->ecur, 0, nent * 4, 0)))
+            goto fail;
+        q.mode = 0;
+        if ((st = dispatch_1d(g, s->k[K_GROUP], (pgi__gpu_buffer *[]){s->pairs, s->estart, s->ecur, s->eidx}, &q,
+                              npairs, 64)) ||
+            (st = scan_record(s, s->estart, s->scan_b, lv_b, levels_b)))
+            goto fail;
+        q.mode = 1;
+        if ((st = dispatch_1d(g, s->k[K_GROUP], (pgi__gpu_buffer *[]){s->pairs, s->estart, s->ecur, s->eidx}, &q,
+                              npairs, 64)))
+            goto fail;
+        pgi__gpu_timestamp(g, "gpu_lists");
+        if ((st = dispatch_1d(g, s->k[K_RANK], (pgi__gpu_buffer *[]){s->pairs, s->estart, s->eidx, s->ranked}, &p,
+                              npairs, 64)))
+            goto fail;
+        pgi__gpu_timestamp(g, "gpu_rank");
+        if ((st = dispatch_1d(g, s->k[K_NODE_FLUX], (pgi__gpu_buffer *[]){s->photons, s->estart, s->ranked, s->flux},
+                              &p, nnodes, 64)))
+            goto fail;
+        pgi__gpu_timestamp(g, "gpu_node_flux");
+        if ((st = pgi__gpu_dispatch(g, s->k[K_RADIANCE],
+                                    (pgi__gpu_buffer *[]){s->vs, s->lobes, s->photons, s->pix_node, s->estart,
+                                                          s->ranked, s->flux, s->out, s->counters},
+                                    &p, (W + 7) / 8, (H + 7) / 8, 1)))
+            goto fail;
+        pgi__gpu_timestamp(g, "gpu_radiance");
+    }
+    double t5 = pgi__now_ms();
+    if ((st = pgi__gpu_submit_wait(g))) return st;
+    double t6 = pgi__now_ms();
+    add_timings(s, es, &gpu_build, &gpu_gather);
+    uint32_t c[6];
+    if ((st = pgi__gpu_download(g, s->out, 0, a->out_rgb, 3 * ns * sizeof(float))) ||
+        (st = pgi__gpu_download(g, s->counters, 0, c, sizeof c)))
+        return st;
+    double t7 = pgi__now_ms();
+
+    /* stats: host passes (wall clock) and the device's (timestamps) */
+    pgi__stats_pass(es, "gpu_upload", t1 - t0);
+    pgi__stats_pass(es, "gpu_submit", (t3 - t2) + (t6 - t5));
+    pgi__stats_pass(es, "gpu_download", (t7 - t6) + (t4 - t3));
+    if (!pgi__gpu_has_timestamps(g)) { /* CPU-timed sequences: the first is the build, the second the gather */
+        gpu_build = t3 - t2;
+        gpu_gather = t6 - t5;
+    }
+    es->build_ms = (t1 - t0) + gpu_build + (t4 - t3);
+    es->estimate_ms = gpu_gather + (t7 - t6);
+    es->reads = (uint64_t)c[0] | (uint64_t)c[1] << 32;
+    es->contributing = (uint64_t)c[2] | (uint64_t)c[3] << 32;
+    es->nodes_visited = (uint64_t)c[4] | (uint64_t)c[5] << 32;
+    pgi__stats_mem(es, "gpu_host_upload",
+                   s->packed_cap * sizeof(pgi__packed_photon) + s->hvs_cap * sizeof(gpu_vs) +
+                       s->hlobes_cap * sizeof(gpu_lobe) +
+                       (s->lobe_of_cap + s->porder_cap + s->pkey_cap + s->pcell_cap) * sizeof(uint32_t));
+    return PGI_OK;
+fail:
+    /* close the sequence so that the next frame can begin one */
+    (void)pgi__gpu_submit_wait(g);
+    return st;
+}
+
+#endif /* PGI_HAVE_VULKAN */
+
+const pgi__gpu_est_vtbl pgi__gpu_est_cluster_trivial = {
+    .name = "cluster-trivial",
+    .create = ct_create,
+    .run = ct_run,
+    .destroy = ct_destroy,
+};
