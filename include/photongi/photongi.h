@@ -428,7 +428,7 @@ pgi_status pgi_progressive_frame(pgi_renderer *r, const pgi_render_desc *desc, f
  * in exactly this order, with these helpers, so a distributed run that renders blocks elsewhere
  * (apps/mpi) and adds their sums in block order gets the same image byte for byte. `values` is
  * 3 x pixels. */
-#define PGI_PROGRESSIVE_BLOCK 8
+#define PGI_PROGRESSIVE_BLOCK 4
 /* block[i] = frame[i] for the first frame of a block (`first` non-zero), else block[i] += frame[i]. */
 void pgi_block_sum_add(double *block, const float *frame, size_t values, int first);
 /* total[i] += block[i]: a finished block, in block order. */

@@ -55,7 +55,7 @@ typedef struct pgi_reference_desc {
 pgi_status pgi_reference_render(const pgi_scene *scene, const pgi_reference_desc *desc, pgi_image *mean, uint64_t *spp);
 
 /* Samples per block of pgi_reference_render's summation order. */
-#define PGI_REFERENCE_BLOCK 8
+#define PGI_REFERENCE_BLOCK 4
 
 /* The reference's samples one at a time, for callers that deal sample blocks out (apps/mpi):
  * the ray-tracing scene and light tables of `desc` (validated and resolved as
