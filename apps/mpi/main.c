@@ -217,11 +217,13 @@ static void top_up(job *j) {
         while (j->outstanding[w] < target && can_deal(j)) {
             int64_t b = j->next_deal++;
             MPI_Send(&b, 1, MPI_INT64_T, w, TAG_DEAL, MPI_COMM_WORLD);
+            g_rs[RS_SENT] += sizeof b;
             j->outstanding[w]++;
         }
         if (dealing_over(j)) {
             int64_t stop = -1;
             MPI_Send(&stop, 1, MPI_INT64_T, w, TAG_DEAL, MPI_COMM_WORLD);
+            g_rs[RS_SENT] += sizeof stop;
             j->stopped[w] = 1;
         }
     }
