@@ -20,7 +20,7 @@ install(DIRECTORY ${PROJECT_SOURCE_DIR}/include/photongi ${PROJECT_BINARY_DIR}/i
 
 # Tools: next to a shared libphotongi they find it through a relative RPATH.
 set(PGI_TOOLS)
-foreach(t photongi-cli photongi-view)
+foreach(t photongi-cli photongi-view photongi-mpi)
   if(TARGET ${t})
     list(APPEND PGI_TOOLS ${t})
   endif()

@@ -6,6 +6,7 @@ set -euo pipefail
 PKGS=(build-essential cmake pkg-config libembree-dev libassimp-dev libstb-dev libopenexr-dev
       libcjson-dev libcmocka-dev)
 PKGS+=(libsdl2-dev)   # photongi-view (optional for the library and CLI)
+PKGS+=(libopenmpi-dev openmpi-bin)   # photongi-mpi, the MPI launcher (optional; tests/test_mpi.sh)
 # scikit-image validates compare's SSIM/PSNR (test_metrics_skimage);
 # gnuplot draws the quality benchmark's plots (bench/quality.sh).
 PKGS+=(python3-skimage python3-numpy gnuplot-nox)

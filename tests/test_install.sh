@@ -75,6 +75,11 @@ for f in photongiConfig.cmake photongiConfigVersion.cmake photongiTargets.cmake;
     [ -f "$LIBDIR/cmake/photongi/$f" ] || die "lib/cmake/photongi/$f not installed"
 done
 [ "$("$PREFIX/bin/photongi" --version)" = "photongi $VERSION" ] || die "installed bin/photongi --version"
+# photongi-mpi is installed with the tools when MPI was found (PGI_MPI); alone it is one rank
+if [ -x "$PREFIX/bin/photongi-mpi" ]; then
+    [ "$("$PREFIX/bin/photongi-mpi" --version 2>/dev/null)" = "photongi-mpi $VERSION" ] ||
+        die "installed bin/photongi-mpi --version"
+fi
 # A shared libphotongi is found by the consumers below through LD_LIBRARY_PATH (the CMake one
 # has an RPATH anyway); a static one makes this a no-op.
 export LD_LIBRARY_PATH=$LIBDIR${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
@@ -121,7 +126,7 @@ add_subdirectory("$SRC/examples" example)
 if(NOT TARGET photongi::photongi)
   message(FATAL_ERROR "no photongi::photongi after add_subdirectory")
 endif()
-foreach(t photongi-cli photongi-view photongi-bench test_scene)
+foreach(t photongi-cli photongi-view photongi-mpi photongi-bench test_scene)
   if(TARGET \${t})
     message(FATAL_ERROR "a subproject photongi defines \${t} (tools, benches and tests are top-level only)")
   endif()

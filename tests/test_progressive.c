@@ -113,6 +113,63 @@ static void test_progressive_equals_accumulate(void **state) {
     pgi_scene_destroy(s);
 }
 
+/* The fixed summation order (photongi.h, PGI_PROGRESSIVE_BLOCK): up to one block, the plain
+ * sequential double sum of the frames (what progressive mode always did); past it, block sums
+ * added in block order. Frames rendered standalone with pgi_progressive_frame, in reverse order on a
+ * second renderer, and summed by hand in that order give pgi_render_progressive's bytes, at every
+ * frame count, whole blocks and a partial last one. */
+static void test_block_order(void **state) {
+    (void)state;
+    pgi_scene *s = load("cornell");
+    const pgi_render_desc d = {.photons = 3000, .width = 24, .height = 20, .direct_samples = 2, .seed = 11};
+    const int B = PGI_PROGRESSIVE_BLOCK, N = 2 * B + 3;
+    const size_t n = 3 * 24 * 20;
+    pgi_renderer *r;
+    TU_CHECK_OK(pgi_renderer_create(s, &r));
+    pgi_image f = {0}, *frames = calloc((size_t)N, sizeof *frames);
+    assert_non_null(frames);
+    pgi_frame_stats fs;
+    TU_CHECK_OK(pgi_progressive_frame(r, &d, 0.f, 0, &frames[0], &fs));
+    const float r0 = fs.radius;
+    for (int k = N - 1; k >= 1; k--) TU_CHECK_OK(pgi_progressive_frame(r, &d, r0, k, &frames[k], NULL));
+    double *total = calloc(n, sizeof *total), *block = calloc(n, sizeof *block), *seq = calloc(n, sizeof *seq);
+    float *want = malloc(n * sizeof *want), *plain = malloc(n * sizeof *plain);
+    assert_true(total && block && seq && want && plain);
+    pgi_image got = {0};
+    for (int m = 1; m <= N; m++) {
+        /* blocks by hand */
+        memset(total, 0, n * sizeof *total);
+        for (int b = 0; b * B < m; b++) {
+            for (int k = b * B; k < (b + 1) * B && k < m; k++) {
+                pgi_block_sum_add(block, frames[k].rgb, n, k == b * B);
+            }
+            pgi_block_sum_merge(total, block, n);
+        }
+        const double inv = 1.0 / (double)m;
+        for (size_t i = 0; i < n; i++) want[i] = (float)(total[i] * inv);
+        TU_CHECK_OK(progressive(s, &d, m, &got, NULL));
+        assert_memory_equal(got.rgb, want, n * sizeof(float));
+        if (m <= B) { /* one block: the sequential sum */
+            memset(seq, 0, n * sizeof *seq);
+            for (int k = 0; k < m; k++)
+                for (size_t i = 0; i < n; i++) seq[i] += frames[k].rgb[i];
+            for (size_t i = 0; i < n; i++) plain[i] = (float)(seq[i] * inv);
+            assert_memory_equal(got.rgb, plain, n * sizeof(float));
+        }
+    }
+    for (int k = 0; k < N; k++) pgi_image_free(&frames[k]);
+    free(frames);
+    free(total);
+    free(block);
+    free(seq);
+    free(want);
+    free(plain);
+    pgi_image_free(&f);
+    pgi_image_free(&got);
+    pgi_renderer_destroy(r);
+    pgi_scene_destroy(s);
+}
+
 /* The running average restarts when the camera, a light, the time or a setting changes. */
 static void test_accumulation_restarts(void **state) {
     (void)state;
@@ -397,6 +454,7 @@ int main(void) {
         cmocka_unit_test(test_first_frame_is_plain_render),
         cmocka_unit_test(test_radius_sequence),
         cmocka_unit_test(test_progressive_equals_accumulate),
+        cmocka_unit_test(test_block_order),
         cmocka_unit_test(test_accumulation_restarts),
         cmocka_unit_test(test_estimator_created_once),
         cmocka_unit_test(test_every_exact_estimator),

@@ -3,7 +3,30 @@
 #ifndef PGI_CLI_CMD_H
 #define PGI_CLI_CMD_H
 
+#include <stdint.h>
+
+#include "photongi/photongi.h"
+#include "photongi/reference.h"
+
+int pgi_cmd_render(int argc, char **argv);
 int pgi_cmd_reference(int argc, char **argv);
 int pgi_cmd_compare(int argc, char **argv);
+
+/* Where `render` runs its frames and `reference` its samples: NULL (photongi) in this process;
+ * photongi-mpi (apps/mpi) sets a backend that deals them to MPI ranks. The commands parse and
+ * check the command line, load the scene and resolve the settings as always, then hand the work
+ * to the backend on every rank; only a `writer` (rank 0) writes the outputs and prints. */
+typedef struct pgi_cli_backend {
+    int writer; /* this process writes the image, the stats and the sidecar, and prints the summary */
+    /* the frames of `render` (--progressive N, N >= 1): as pgi_render_progressive */
+    pgi_status (*progressive)(pgi_renderer *r, const pgi_render_desc *desc, int frames, pgi_image *out,
+                              pgi_frame_stats *stats);
+    /* the samples of `reference`: as pgi_reference_render */
+    pgi_status (*reference)(const pgi_scene *scene, const pgi_reference_desc *desc, pgi_image *mean, uint64_t *spp);
+    /* writes the render's stats JSON (the library's, plus what the backend adds) */
+    pgi_status (*write_stats)(const pgi_frame_stats *stats, const char *path);
+} pgi_cli_backend;
+
+extern const pgi_cli_backend *pgi_cli_backend_now;
 
 #endif

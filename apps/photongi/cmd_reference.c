@@ -241,7 +241,10 @@ int pgi_cmd_reference(int argc, char **argv) {
     if (!rc) rc = app_check_output("photongi reference", "-o (its sidecar)", meta_path, NULL);
     if (!rc && png) rc = app_check_output("photongi reference", "--png", png, k_png);
     if (rc) return rc;
-    if (merge[0]) return merge_references(merge[0], merge[1], out, meta_path, quiet);
+    if (merge[0]) /* no samples to deal: one process merges */
+        return pgi_cli_backend_now && !pgi_cli_backend_now->writer
+                   ? 0
+                   : merge_references(merge[0], merge[1], out, meta_path, quiet);
 
     pgi_image img = {0};
     uint64_t have = 0;
@@ -300,12 +303,17 @@ int pgi_cmd_reference(int argc, char **argv) {
         d.progress_user = &rp;
     }
     uint64_t before = have;
-    st = pgi_reference_render(scene, &d, &img, &have);
+    const pgi_cli_backend *be = pgi_cli_backend_now;
+    st = be ? be->reference(scene, &d, &img, &have) : pgi_reference_render(scene, &d, &img, &have);
     app_progress_end(&rp.bar, 1);
     pgi_scene_destroy(scene);
     if (st) {
         pgi_image_free(&img);
         return cli_fail("reference", "render failed", st);
+    }
+    if (be && !be->writer) { /* another process writes */
+        pgi_image_free(&img);
+        return 0;
     }
     st = pgi_image_write(&img, out, 1.f);
     if (!st && png) st = pgi_image_write(&img, png, exposure);

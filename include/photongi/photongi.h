@@ -427,6 +427,33 @@ pgi_status pgi_render_progressive(pgi_renderer *r, const pgi_render_desc *desc, 
 /* Radius of progressive frame k (0-based) for a first radius r0. */
 float pgi_progressive_radius(float r0, int k);
 
+/* Frame k (0-based) of the progressive sequence of `desc`, rendered on its own into `frame` (a
+ * zeroed image the first time): the frame pgi_progressive_step adds as its (k+1)-th, whatever
+ * was rendered before, so frames can be rendered in any order, on any process. Frame 0 is the
+ * ordinary render of `desc` and resolves the first radius: stats->radius is r0, which every
+ * later frame needs (`r0` is ignored for k = 0). Frame k > 0 uses seed stream k of desc->seed,
+ * radius pgi_progressive_radius(r0, k) and (jitter AUTO) point k of the pixels' sub-pixel
+ * sequence. Needs an exact estimator for k > 0. */
+pgi_status pgi_progressive_frame(pgi_renderer *r, const pgi_render_desc *desc, float r0, int k, pgi_image *frame,
+                                 pgi_frame_stats *stats);
+
+/* The summation order of a progressive average (and of the reference's samples,
+ * include/photongi/reference.h), fixed so that frames rendered anywhere add up to the same
+ * bits: frames are summed in BLOCKS of PGI_PROGRESSIVE_BLOCK consecutive frames (block b holds
+ * frames bB .. bB+B-1), frames within a block in frame order into a block sum (double), and block
+ * sums in block order into the total (double, starting at 0); the image after n frames is
+ * (float)((total + the sum of the last, partial block) / n). pgi_progressive_step adds its frames
+ * in exactly this order, with these helpers, so a distributed run that renders blocks elsewhere
+ * (apps/mpi) and adds their sums in block order gets the same image byte for byte. `values` is
+ * 3 x pixels. */
+#define PGI_PROGRESSIVE_BLOCK 4
+/* block[i] = frame[i] for the first frame of a block (`first` non-zero), else block[i] += frame[i]. */
+void pgi_block_sum_add(double *block, const float *frame, size_t values, int first);
+/* total[i] += block[i]: a finished block, in block order. */
+void pgi_block_sum_merge(double *total, const double *block, size_t values);
+/* out[i] = (float)((total[i] + partial[i]) * (1 / count)); partial may be NULL (no partial block). */
+void pgi_block_sum_mean(const double *total, const double *partial, size_t values, uint64_t count, float *out);
+
 /* ---------------------------------------------------------------- devices */
 
 /* 1 when this build has the Vulkan backend (PGI_DEVICE_VULKAN), else 0. */
@@ -436,7 +463,7 @@ int pgi_device_count(void);
 /* The name of Vulkan device i (0-based) into buf; PGI_ERR_INVALID_ARG out of range,
  * PGI_ERR_UNSUPPORTED without the backend or a driver. */
 pgi_status pgi_device_name(int i, char *buf, size_t size);
-/* "hashgrid": the estimators that run on PGI_DEVICE_VULKAN, comma-separated, into buf. */
+/* "hashgrid, cluster-trivial": the estimators that run on PGI_DEVICE_VULKAN, comma-separated, into buf. */
 void pgi_device_estimators(char *buf, size_t size);
 
 #ifdef __cplusplus

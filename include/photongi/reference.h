@@ -45,10 +45,31 @@ typedef struct pgi_reference_desc {
 /* Adds desc->spp samples (sample indices *spp .. *spp + desc->spp - 1 of the
  * stream of `seed`) to `mean`, which holds the mean of the first *spp samples
  * (*spp = 0: `mean` may be a zeroed image; it is (re)allocated). On return
- * *spp counts the samples in `mean`. The samples of pixel i are summed in
- * sample order, so the result does not depend on the thread count; continuing
- * from a saved mean matches one long run up to float rounding of the mean. */
+ * *spp counts the samples in `mean`. The sums are in a fixed order that does not
+ * depend on the thread count: the total starts at (double)mean x *spp, the call's
+ * samples are summed per pixel in blocks of PGI_REFERENCE_BLOCK consecutive samples
+ * (from the call's first), in sample order within a block, and block sums are
+ * added in block order (photongi.h, pgi_block_sum_*), so that sample blocks
+ * rendered elsewhere (apps/mpi) reduce to the same bits. Continuing from a saved
+ * mean matches one long run up to float rounding of the mean. */
 pgi_status pgi_reference_render(const pgi_scene *scene, const pgi_reference_desc *desc, pgi_image *mean, uint64_t *spp);
+
+/* Samples per block of pgi_reference_render's summation order. */
+#define PGI_REFERENCE_BLOCK 4
+
+/* The reference's samples one at a time, for callers that deal sample blocks out (apps/mpi):
+ * the ray-tracing scene and light tables of `desc` (validated and resolved as
+ * pgi_reference_render does; desc->spp, time_limit_s and progress are not used), built once. */
+typedef struct pgi_reference_sampler pgi_reference_sampler;
+pgi_status pgi_reference_sampler_create(const pgi_scene *scene, const pgi_reference_desc *desc,
+                                        pgi_reference_sampler **out);
+/* The resolved image size. */
+void pgi_reference_sampler_size(const pgi_reference_sampler *s, int *width, int *height);
+/* Adds sample `sample` (0-based, of the stream of the desc's seed) of every pixel to `sum`
+ * (3 doubles a pixel, row-major): sum[i] += sample. A block's sum is a zeroed buffer and its
+ * samples in order. */
+pgi_status pgi_reference_sampler_add(pgi_reference_sampler *s, uint64_t sample, double *sum);
+void pgi_reference_sampler_destroy(pgi_reference_sampler *s);
 
 /* What a reference image needs to be extended later (sidecar "<image>.json"). */
 typedef struct pgi_reference_meta {

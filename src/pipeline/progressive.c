@@ -30,8 +30,9 @@ typedef struct picture {
 
 struct pgi_progressive {
     pgi_renderer *r;
-    double *sum; /* 3 per pixel */
-    size_t cap;  /* pixels */
+    double *sum;   /* 3 per pixel: the finished blocks' sums, in block order (PGI_PROGRESSIVE_BLOCK) */
+    double *block; /* 3 per pixel: the frames of the block in progress */
+    size_t cap;    /* pixels */
     int frames, width, height;
     float r0;                     /* resolved radius of frame 0 */
     pgi_auto_radius_stats r0_how; /* how it was chosen (automatic radius), for later frames' stats */
@@ -54,6 +55,7 @@ void pgi_progressive_destroy(pgi_progressive *a) {
     if (!a) return;
     pgi__mem_set(pgi__renderer_mem(a->r), "progressive_sum", 0);
     free(a->sum);
+    free(a->block);
     pgi_image_free(&a->frame);
     free(a);
 }
@@ -94,6 +96,61 @@ static void picture_of(const pgi_render_desc *d, const pgi_scene *s, picture *p)
     p->lights_hash = lights_hash(s);
 }
 
+void pgi_block_sum_add(double *block, const float *frame, size_t values, int first) {
+    if (first)
+        for (size_t i = 0; i < values; i++) block[i] = (double)frame[i];
+    else
+        for (size_t i = 0; i < values; i++) block[i] += (double)frame[i];
+}
+
+void pgi_block_sum_merge(double *total, const double *block, size_t values) {
+    for (size_t i = 0; i < values; i++) total[i] += block[i];
+}
+
+void pgi_block_sum_mean(const double *total, const double *partial, size_t values, uint64_t count, float *out) {
+    const double inv = 1.0 / (double)count;
+    if (partial)
+        for (size_t i = 0; i < values; i++) out[i] = (float)((total[i] + partial[i]) * inv);
+    else
+        for (size_t i = 0; i < values; i++) out[i] = (float)(total[i] * inv);
+}
+
+pgi_status pgi_progressive_frame(pgi_renderer *r, const pgi_render_desc *in, float r0, int k, pgi_image *frame,
+                                 pgi_frame_stats *stats) {
+    if (!r || !in || !frame) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_progressive_frame: NULL argument");
+    if (k < 0) return pgi__fail(PGI_ERR_INVALID_ARG, "progressive frame %d: frames count from 0", k);
+    pgi_render_desc d = *in;
+    uint64_t seq_seed = 0;
+    if (k > 0) {
+        const pgi_estimator_vtbl *vt =
+            pgi_estimator_find(in->estimator && *in->estimator ? in->estimator : PGI_DEFAULT_ESTIMATOR);
+        if (!vt) return pgi__fail_unknown_estimator(in->estimator);
+        if (!vt->exact)
+            return pgi__fail(PGI_ERR_INVALID_ARG,
+                             "progressive mode needs an exact estimator; '%s' is approximate (its bias does not "
+                             "vanish)",
+                             vt->name);
+        if (!(r0 > 0.f) || !isfinite(r0))
+            return pgi__fail(PGI_ERR_INVALID_ARG, "progressive frame %d needs frame 0's radius (> 0), got %g", k,
+                             (double)r0);
+        const uint64_t seed0 = in->seed ? in->seed : 1;
+        /* Fresh, deterministic photons and direct-light samples for frame k. */
+        d.seed = pgi__mix64(seed0 ^ (0x9e3779b97f4a7c15ULL * (uint64_t)k));
+        if (d.seed == 0) d.seed = 1;
+        d.radius = pgi_progressive_radius(r0, k);
+        /* ... and view samples anywhere in their pixel, so the average converges to the pixel integral. */
+        if (d.jitter == PGI_JITTER_AUTO) d.jitter = PGI_JITTER_ON;
+        /* Jittered view samples: point k of one sequence per pixel (seed of frame 0), which covers the
+           pixel more evenly over the frames than independent points would. */
+        seq_seed = seed0;
+    }
+    pgi_frame_stats fs;
+    pgi_status st = pgi__renderer_render_frame(r, &d, seq_seed, (uint32_t)k, frame, &fs);
+    if (st) return st;
+    if (stats) *stats = fs;
+    return PGI_OK;
+}
+
 pgi_status pgi_progressive_step(pgi_progressive *a, const pgi_render_desc *in, pgi_image *out, pgi_frame_stats *stats) {
     if (!a || !in || !out) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_progressive_step: NULL argument");
     const pgi_scene *s = pgi_renderer_scene(a->r);
@@ -104,21 +161,9 @@ pgi_status pgi_progressive_step(pgi_progressive *a, const pgi_render_desc *in, p
     picture_of(in, s, &now);
     if (a->frames > 0 && (!vt->exact || memcmp(&now, &a->made_of, sizeof now) != 0)) a->frames = 0;
 
-    pgi_render_desc d = *in;
     const int k = a->frames;
-    if (k > 0) {
-        /* Fresh, deterministic photons and direct-light samples for frame k. */
-        d.seed = pgi__mix64(a->seed0 ^ (0x9e3779b97f4a7c15ULL * (uint64_t)k));
-        if (d.seed == 0) d.seed = 1;
-        d.radius = pgi_progressive_radius(a->r0, k);
-        /* ... and view samples anywhere in their pixel, so the average converges to the pixel integral. */
-        if (d.jitter == PGI_JITTER_AUTO) d.jitter = PGI_JITTER_ON;
-    }
     pgi_frame_stats fs;
-    /* Jittered view samples: point k of one sequence per pixel (seed of frame 0), which covers the
-       pixel more evenly over the frames than independent points would. */
-    const uint64_t seq_seed = k > 0 ? a->seed0 : 0;
-    pgi_status st = pgi__renderer_render_frame(a->r, &d, seq_seed, (uint32_t)k, &a->frame, &fs);
+    pgi_status st = pgi_progressive_frame(a->r, in, a->r0, k, &a->frame, &fs);
     if (st) {
         a->frames = 0;
         return st;
@@ -127,18 +172,24 @@ pgi_status pgi_progressive_step(pgi_progressive *a, const pgi_render_desc *in, p
     pgi__mem_ledger *mem = pgi__renderer_mem(a->r);
     if (k == 0) {
         if (a->cap < n) {
-            /* the running sum (doubles) and the average handed out */
+            /* the finished blocks' sum and the block in progress (doubles) and the average handed out */
             char what[64];
             snprintf(what, sizeof what, "a %dx%d accumulation buffer", fs.width, fs.height);
-            if ((st = pgi__mem_reserve(mem, "progressive_sum", n * 3 * (sizeof(double) + sizeof(float)), what))) {
+            if ((st = pgi__mem_reserve(mem, "progressive_sum", n * 3 * (2 * sizeof(double) + sizeof(float)), what))) {
                 a->frames = 0;
                 return st;
             }
             free(a->sum);
+            free(a->block);
             a->sum = malloc(3 * n * sizeof *a->sum);
-            a->cap = a->sum ? n : 0;
-            if (!a->sum)
+            a->block = malloc(3 * n * sizeof *a->block);
+            a->cap = a->sum && a->block ? n : 0;
+            if (!a->cap) {
+                free(a->sum);
+                free(a->block);
+                a->sum = a->block = NULL;
                 return pgi__fail(PGI_ERR_OOM, "out of memory for a %dx%d accumulation buffer", fs.width, fs.height);
+            }
         }
         memset(a->sum, 0, 3 * n * sizeof *a->sum);
         a->r0 = fs.radius;
@@ -148,8 +199,11 @@ pgi_status pgi_progressive_step(pgi_progressive *a, const pgi_render_desc *in, p
         a->height = fs.height;
         a->made_of = now;
     }
-    const float *f = a->frame.rgb;
-    for (size_t i = 0; i < 3 * n; i++) a->sum[i] += f[i];
+    /* The fixed summation order (photongi.h, PGI_PROGRESSIVE_BLOCK): frames into their block's sum,
+       finished blocks into the total. */
+    const int first = k % PGI_PROGRESSIVE_BLOCK == 0, last = (k + 1) % PGI_PROGRESSIVE_BLOCK == 0;
+    pgi_block_sum_add(a->block, a->frame.rgb, 3 * n, first);
+    if (last) pgi_block_sum_merge(a->sum, a->block, 3 * n);
     a->frames = k + 1;
     if (!out->rgb || out->width != fs.width || out->height != fs.height) {
         pgi_image_free(out);
@@ -158,11 +212,10 @@ pgi_status pgi_progressive_step(pgi_progressive *a, const pgi_render_desc *in, p
         out->width = fs.width;
         out->height = fs.height;
     }
-    const double inv = 1.0 / (double)a->frames;
-    for (size_t i = 0; i < 3 * n; i++) out->rgb[i] = (float)(a->sum[i] * inv);
+    pgi_block_sum_mean(a->sum, last ? NULL : a->block, 3 * n, (uint64_t)a->frames, out->rgb);
     fs.frames = a->frames;
     /* the accumulator's buffers in the frame's memory (the frame's stats were taken before them) */
-    const size_t acc = a->cap * 3 * (sizeof(double) + sizeof(float));
+    const size_t acc = a->cap * 3 * (2 * sizeof(double) + sizeof(float));
     pgi__mem_set(mem, "progressive_sum", acc);
     pgi__stats_mem_put(&fs, "progressive_sum", acc);
     fs.memory_counted_peak = mem->peak;

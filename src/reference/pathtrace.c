@@ -217,9 +217,15 @@ static pgi_status ctx_lights(pt_ctx *C) {
     return PGI_OK;
 }
 
-pgi_status pgi_reference_render(const pgi_scene *s, const pgi_reference_desc *in, pgi_image *mean, uint64_t *spp) {
-    if (!s || !in || !mean || !spp) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_reference_render: NULL argument");
-    pgi__clear_error();
+struct pgi_reference_sampler {
+    pt_ctx C;
+    pgi__rt *rt;
+    pgi_reference_desc d; /* resolved */
+    uint64_t rng_seed;
+};
+
+/* Validates and resolves a desc (spp, mean and time limit aside) into `d`. */
+static pgi_status resolve_desc(const pgi_scene *s, const pgi_reference_desc *in, pgi_reference_desc *out) {
     pgi_reference_desc d = *in;
     const pgi_scene_defaults *sd = &s->defaults;
     if (d.width == 0 && d.height == 0) {
@@ -233,92 +239,135 @@ pgi_status pgi_reference_render(const pgi_scene *s, const pgi_reference_desc *in
     if (d.bounces < 1 || d.bounces > PGI_REF_MAX_BOUNCES)
         return pgi__fail(PGI_ERR_INVALID_ARG, "bounces must be in 1..%d, got %d", PGI_REF_MAX_BOUNCES, d.bounces);
     if (d.seed == 0) d.seed = 1;
-    if (d.spp < 1) return pgi__fail(PGI_ERR_INVALID_ARG, "samples per pixel must be at least 1");
     if (d.threads < 0) return pgi__fail(PGI_ERR_INVALID_ARG, "threads must be 0 (all) or positive, got %d", d.threads);
     if (d.jitter < PGI_JITTER_AUTO || d.jitter > PGI_JITTER_ON)
         return pgi__fail(PGI_ERR_INVALID_ARG, "unknown jitter mode %d", (int)d.jitter);
     if (d.camera < 0 || (size_t)d.camera >= s->ncams)
         return pgi__fail(PGI_ERR_INVALID_ARG, "camera %d does not exist (the scene has %zu)", d.camera, s->ncams);
+    *out = d;
+    return PGI_OK;
+}
+
+pgi_status pgi_reference_sampler_create(const pgi_scene *s, const pgi_reference_desc *in, pgi_reference_sampler **out) {
+    if (!out) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_reference_sampler_create: NULL argument");
+    *out = NULL;
+    if (!s || !in) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_reference_sampler_create: NULL argument");
+    pgi__clear_error();
+    pgi_reference_desc d;
+    pgi_status st = resolve_desc(s, in, &d);
+    if (st) return st;
+    pgi_reference_sampler *S = calloc(1, sizeof *S);
+    if (!S) return pgi__fail(PGI_ERR_OOM, "out of memory for the reference sampler");
+    S->d = d;
+    pt_ctx *C = &S->C;
+    C->s = s;
+    C->bounces = d.bounces;
+    C->jitter = d.jitter != PGI_JITTER_OFF;
+    C->seed = d.seed;
+    C->eps = pgi__scene_epsilon(s);
+    const pgi_camera_def *cd = &s->cams[d.camera];
+    pgi_camera_look_at(&C->cam, cd->eye, cd->look_at, cd->up, cd->fov_y_deg, d.width, d.height);
+    if ((st = ctx_lights(C)) || (st = pgi__rt_create(s, &S->rt))) {
+        pgi_reference_sampler_destroy(S);
+        return st;
+    }
+    C->rt = S->rt;
+    S->rng_seed = pgi__mix64(d.seed ^ 0x7265666572656e63ULL);
+    *out = S;
+    return PGI_OK;
+}
+
+void pgi_reference_sampler_destroy(pgi_reference_sampler *S) {
+    if (!S) return;
+    if (S->rt) pgi__rt_destroy(S->rt);
+    ctx_free(&S->C);
+    free(S);
+}
+
+void pgi_reference_sampler_size(const pgi_reference_sampler *S, int *width, int *height) {
+    if (width) *width = S ? S->d.width : 0;
+    if (height) *height = S ? S->d.height : 0;
+}
+
+pgi_status pgi_reference_sampler_add(pgi_reference_sampler *S, uint64_t sidx, double *sum) {
+    if (!S || !sum) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_reference_sampler_add: NULL argument");
+    const pt_ctx *C = &S->C;
+    const uint64_t rng_seed = S->rng_seed;
+    const int W = S->d.width, H = S->d.height;
+    /* Sample sidx of a pixel looks through point sidx of the pixel's sub-pixel sequence (the view
+       pass's, pgi__pixel_jitter): uniform over the pixel, and the samples so far cover it evenly,
+       so the mean converges to the box-filtered pixel integral; without jitter, the centre. */
+    const pgi__subpixel sp = {.jitter = C->jitter, .seed = rng_seed, .index = (uint32_t)sidx};
+#pragma omp parallel for schedule(dynamic, 1) num_threads(pgi__threads(S->d.threads))
+    for (int y = 0; y < H; y++) {
+        for (int x = 0; x < W; x++) {
+            size_t i = (size_t)y * W + (size_t)x;
+            pgi__rng rng;
+            /* Stream per pixel, sequence per sample: independent of threads and passes. */
+            pgi_rng_seed(&rng, rng_seed + sidx, (uint64_t)i);
+            float jx, jy;
+            pgi__pixel_jitter(&sp, i, &jx, &jy);
+            pgi__v3 c = trace_sample(C, x, y, jx, jy, &rng);
+            if (!v3_finite(c)) c = v3(0.f, 0.f, 0.f);
+            sum[3 * i] += c.x;
+            sum[3 * i + 1] += c.y;
+            sum[3 * i + 2] += c.z;
+        }
+    }
+    return PGI_OK;
+}
+
+pgi_status pgi_reference_render(const pgi_scene *s, const pgi_reference_desc *in, pgi_image *mean, uint64_t *spp) {
+    if (!s || !in || !mean || !spp) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_reference_render: NULL argument");
+    pgi__clear_error();
+    pgi_reference_desc d;
+    pgi_status st = resolve_desc(s, in, &d);
+    if (st) return st;
+    if (d.spp < 1) return pgi__fail(PGI_ERR_INVALID_ARG, "samples per pixel must be at least 1");
     if (*spp > 0 && (!mean->rgb || mean->width != d.width || mean->height != d.height))
         return pgi__fail(PGI_ERR_INVALID_ARG, "the image to continue is %dx%d, the reference is %dx%d", mean->width,
                          mean->height, d.width, d.height);
-
-    pt_ctx C;
-    memset(&C, 0, sizeof C);
-    C.s = s;
-    C.bounces = d.bounces;
-    C.jitter = d.jitter != PGI_JITTER_OFF;
-    C.seed = d.seed;
-    C.eps = pgi__scene_epsilon(s);
-    const pgi_camera_def *cd = &s->cams[d.camera];
-    pgi_camera_look_at(&C.cam, cd->eye, cd->look_at, cd->up, cd->fov_y_deg, d.width, d.height);
-    pgi_status st = ctx_lights(&C);
-    if (st) {
-        ctx_free(&C);
-        return st;
-    }
-    pgi__rt *rt = NULL;
-    if ((st = pgi__rt_create(s, &rt))) {
-        ctx_free(&C);
-        return st;
-    }
-    C.rt = rt;
+    pgi_reference_sampler *S;
+    if ((st = pgi_reference_sampler_create(s, &d, &S))) return st;
     const size_t n = (size_t)d.width * (size_t)d.height;
-    double *sum = malloc(3 * n * sizeof *sum);
+    double *sum = malloc(3 * n * sizeof *sum), *block = calloc(3 * n, sizeof *block);
     float *img = *spp > 0 ? mean->rgb : malloc(3 * n * sizeof(float));
-    if (!sum || !img) {
+    if (!sum || !block || !img) {
         free(sum);
+        free(block);
         if (img != mean->rgb) free(img);
-        pgi__rt_destroy(rt);
-        ctx_free(&C);
+        pgi_reference_sampler_destroy(S);
         return pgi__fail(PGI_ERR_OOM, "out of memory for a %dx%d accumulation buffer", d.width, d.height);
     }
     const uint64_t n0 = *spp;
     for (size_t i = 0; i < 3 * n; i++) sum[i] = n0 > 0 ? (double)img[i] * (double)n0 : 0.0;
-    const uint64_t rng_seed = pgi__mix64(d.seed ^ 0x7265666572656e63ULL);
     const double t0 = pgi__now_ms();
     uint64_t done = 0;
-    const int W = d.width, H = d.height;
     while (done < d.spp) {
-        const uint64_t sidx = n0 + done;
-        /* Sample sidx of a pixel looks through point sidx of the pixel's sub-pixel sequence (the view
-           pass's, pgi__pixel_jitter): uniform over the pixel, and the samples so far cover it evenly,
-           so the mean converges to the box-filtered pixel integral; without jitter, the centre. */
-        const pgi__subpixel sp = {.jitter = C.jitter, .seed = rng_seed, .index = (uint32_t)sidx};
-#pragma omp parallel for schedule(dynamic, 1) num_threads(pgi__threads(d.threads))
-        for (int y = 0; y < H; y++) {
-            for (int x = 0; x < W; x++) {
-                size_t i = (size_t)y * W + (size_t)x;
-                pgi__rng rng;
-                /* Stream per pixel, sequence per sample: independent of threads and passes. */
-                pgi_rng_seed(&rng, rng_seed + sidx, (uint64_t)i);
-                float jx, jy;
-                pgi__pixel_jitter(&sp, i, &jx, &jy);
-                pgi__v3 c = trace_sample(&C, x, y, jx, jy, &rng);
-                if (!v3_finite(c)) c = v3(0.f, 0.f, 0.f);
-                sum[3 * i] += c.x;
-                sum[3 * i + 1] += c.y;
-                sum[3 * i + 2] += c.z;
-            }
-        }
+        /* Blocks of PGI_REFERENCE_BLOCK samples from this call's first, in sample order within a
+           block, block sums in block order (reference.h). */
+        pgi_reference_sampler_add(S, n0 + done, block);
         done++;
+        if (done % PGI_REFERENCE_BLOCK == 0) {
+            pgi_block_sum_merge(sum, block, 3 * n);
+            memset(block, 0, 3 * n * sizeof *block);
+        }
         double el = pgi__now_ms() - t0;
         int stop = 0;
         if (d.progress) stop = d.progress(d.progress_user, done, d.spp, el);
         if (d.time_limit_s > 0.0 && el >= 1000.0 * d.time_limit_s) stop = 1;
         if (stop) break;
     }
-    const double inv = 1.0 / (double)(n0 + done);
-    for (size_t i = 0; i < 3 * n; i++) img[i] = (float)(sum[i] * inv);
+    pgi_block_sum_mean(sum, done % PGI_REFERENCE_BLOCK ? block : NULL, 3 * n, n0 + done, img);
     free(sum);
-    pgi__rt_destroy(rt);
-    ctx_free(&C);
+    free(block);
+    pgi_reference_sampler_destroy(S);
     if (img != mean->rgb) {
         pgi_image_free(mean);
         mean->rgb = img;
     }
-    mean->width = W;
-    mean->height = H;
+    mean->width = d.width;
+    mean->height = d.height;
     *spp = n0 + done;
     return PGI_OK;
 }

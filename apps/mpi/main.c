@@ -1,0 +1,810 @@
+/* photongi-mpi: `photongi render` and `photongi reference` with their frames and samples dealt
+ * to MPI ranks (docs/distributed.md). A thin layer over the public API: the command lines are
+ * photongi's own (apps/photongi/cmd_render.c, cmd_reference.c), which call this file's backend
+ * (pgi_cli_backend, apps/photongi/cmd.h) where photongi renders in its own process.
+ *
+ * The unit of work is a block of PGI_PROGRESSIVE_BLOCK frames (PGI_REFERENCE_BLOCK samples), the
+ * unit of the library's summation order: rank 0 deals block indices on demand (each worker keeps
+ * one block queued ahead while many remain), renders blocks itself between serving the others
+ * (from the render's progress callback, which the library calls between passes), receives the
+ * workers' block sums and adds them into the total in block order, holding those that arrive
+ * early (at most `window` blocks dealt past the oldest unfinished one). Frame k is the same
+ * whoever renders it (seed stream k, radius r_k from frame 0's r0, broadcast by rank 0), so the
+ * image is the single-process image, byte for byte, whatever the rank and thread counts.
+ *
+ * Failures: every rank parses the command line and loads the scene; then all meet once
+ * (begin()): if any rank failed by then, rank 0's message (or, when rank 0 is fine, the failed
+ * rank's, prefixed with its rank) is printed and every rank exits with that status. A failure
+ * after that point prints "photongi-mpi: rank N: ..." and ends the job with MPI_Abort. Ranks
+ * other than 0 write nothing: their standard output is discarded and their standard error kept
+ * in a temporary file, shown only when that rank fails. */
+#include <errno.h>
+#include <fcntl.h>
+#include <inttypes.h>
+#include <math.h>
+#include <mpi.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/resource.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <cjson/cJSON.h>
+
+#include "cli.h"
+#include "cmd.h"
+#include "photongi/photongi.h"
+#include "photongi/reference.h"
+
+#define STR(x) #x
+#define XSTR(x) STR(x)
+
+static const char *k_help =
+    "photongi-mpi " PGI_VERSION_STRING " - photongi's render and reference across MPI ranks\n"
+    "\n"
+    "usage: mpirun -np R photongi-mpi render [options] -o OUT.png|OUT.exr\n"
+    "       mpirun -np R photongi-mpi reference [options] -o REF.exr\n"
+    "\n"
+    "The command lines are photongi's ('photongi-mpi render --help' lists the options). The\n"
+    "frames of render --progressive N (blocks of " XSTR(
+        PGI_PROGRESSIVE_BLOCK) " frames) and the samples of reference\n"
+                               "(blocks of " XSTR(
+                                   PGI_REFERENCE_BLOCK) " samples) are dealt to the ranks by rank 0 on demand, so a "
+                                                        "slow rank does not\n"
+                                                        "hold up the others; the sums are added in block order, so the "
+                                                        "image is the one 'photongi'\n"
+                                                        "writes with the same options, byte for byte, whatever R and "
+                                                        "--threads. Rank 0 writes the\n"
+                                                        "outputs and prints; render --stats adds \"mpi\": per-rank "
+                                                        "blocks, frames, busy, wait and\n"
+                                                        "reduction milliseconds, bytes sent and peak resident set. "
+                                                        "Every rank reads the scene (and\n"
+                                                        "--continue's reference): the files must be visible to all of "
+                                                        "them. Give --threads T for\n"
+                                                        "the threads of each rank (default: all cores, per rank). "
+                                                        "Without mpirun it runs as 1 rank.\n"
+                                                        "\n"
+                                                        "Exit status as photongi's (0 success, 2 usage error, 1 "
+                                                        "failure); an error on a rank other\n"
+                                                        "than 0 is printed with its rank. See docs/distributed.md.\n";
+
+enum { TAG_DEAL = 1, TAG_RESULT = 2 };
+
+static int g_rank, g_size;
+static int g_real_err = 2; /* the process's standard error (rank > 0: stderr itself goes to g_capture) */
+static FILE *g_capture;    /* rank > 0: what the command printed on stderr */
+static int g_entered;      /* begin() was called */
+static int *g_codes;       /* begin(): each rank's code (0 ready, -1 done without work, > 0 exit status) */
+static int g_quiet;
+
+static double now_ms(void) {
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec * 1e3 + (double)t.tv_nsec * 1e-6;
+}
+
+/* A failure once the ranks work together: the message, with the rank, and the end of the job. */
+#if defined(__GNUC__)
+__attribute__((format(printf, 1, 2), noreturn))
+#endif
+static void
+die(const char *fmt, ...) {
+    char msg[1024];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    dprintf(g_real_err, "photongi-mpi: rank %d of %d: %s\n", g_rank, g_size, msg);
+    MPI_Abort(MPI_COMM_WORLD, CLI_EXIT_FAILURE);
+    exit(CLI_EXIT_FAILURE);
+}
+
+/* The one meeting before the work: every rank's code; returns the first failed rank or -1. */
+static int begin(int code) {
+    g_entered = 1;
+    MPI_Allgather(&code, 1, MPI_INT, g_codes, 1, MPI_INT, MPI_COMM_WORLD);
+    for (int i = 0; i < g_size; i++)
+        if (g_codes[i] > 0) return i;
+    return -1;
+}
+
+static pgi_status peer_failed(int who) {
+    /* the library's error slot is not ours to set: the message goes through cli_fail's fallback */
+    if (g_rank != who && g_rank == 0)
+        fprintf(stderr, "photongi-mpi: rank %d of %d failed before the work began (its message follows)\n", who,
+                g_size);
+    return PGI_ERR_IO;
+}
+
+/* ------------------------------------------------------------------ per-rank statistics */
+
+enum { RS_BLOCKS, RS_ITEMS, RS_BUSY, RS_WAIT, RS_REDUCE, RS_SENT, RS_RSS, RS_COUNT };
+static double g_rs[RS_COUNT];
+
+/* ------------------------------------------------------------------ the dealer */
+
+typedef struct job job;
+/* Renders the items of block b into sum (3 doubles a pixel; overwritten). */
+typedef pgi_status (*work_fn)(job *j, int64_t b, double *sum);
+
+struct job {
+    size_t values; /* 3 x pixels */
+    int64_t items; /* frames or samples */
+    int block;     /* items per block */
+    int64_t nblocks;
+    work_fn work;
+    double time_limit_ms; /* reference --time: no block is dealt after it (0: none) */
+    double t0;
+    /* rank 0 */
+    double *total;
+    double **held; /* block -> its sum, until merged */
+    double **pool;
+    int npool, cap_pool;
+    int64_t next_deal, next_merge, items_done;
+    int window;
+    int *outstanding, *stopped;
+    MPI_Request *rreq;
+    double **rbuf;
+    int nrecv, cap_recv;
+    /* workers: results in flight */
+    MPI_Request sreq[2];
+    /* what the job is */
+    pgi_renderer *r;
+    pgi_render_desc d;
+    float r0;
+    pgi_image frame;
+    pgi_frame_stats first, sum; /* rank 0: frame 0's; every rank: its frames' counters summed */
+    int have_sum;
+    pgi_reference_sampler *sampler;
+    uint64_t n0;
+    /* the caller's progress callbacks */
+    pgi_progress_fn user_progress;
+    void *user_progress_user;
+    pgi_reference_progress_fn ref_progress;
+    void *ref_progress_user;
+    const char *pass;
+};
+
+static int64_t block_items(const job *j, int64_t b) {
+    int64_t lo = b * j->block, hi = lo + j->block;
+    return (hi > j->items ? j->items : hi) - lo;
+}
+
+static double *pool_get(job *j) {
+    if (j->npool > 0) return j->pool[--j->npool];
+    double *p = malloc((j->values + 1) * sizeof *p);
+    if (!p) die("out of memory for a block sum of %zu values", j->values);
+    return p;
+}
+
+static void pool_put(job *j, double *p) {
+    if (j->npool == j->cap_pool) {
+        int cap = j->cap_pool ? 2 * j->cap_pool : 8;
+        double **q = realloc(j->pool, (size_t)cap * sizeof *q);
+        if (!q) die("out of memory");
+        j->pool = q;
+        j->cap_pool = cap;
+    }
+    j->pool[j->npool++] = p;
+}
+
+static int dealing_over(const job *j) {
+    if (j->next_deal >= j->nblocks) return 1;
+    return j->time_limit_ms > 0.0 && now_ms() - j->t0 >= j->time_limit_ms && j->next_deal > 0;
+}
+
+static int can_deal(const job *j) { return !dealing_over(j) && j->next_deal < j->next_merge + j->window; }
+
+static void merge_ready(job *j) {
+    double t = now_ms();
+    while (j->next_merge < j->next_deal && j->held[j->next_merge]) {
+        pgi_block_sum_merge(j->total, j->held[j->next_merge], j->values);
+        j->items_done += block_items(j, j->next_merge);
+        pool_put(j, j->held[j->next_merge]);
+        j->held[j->next_merge++] = NULL;
+    }
+    g_rs[RS_REDUCE] += now_ms() - t;
+}
+
+static void top_up(job *j) {
+    for (int w = 1; w < g_size; w++) {
+        if (j->stopped[w]) continue;
+        /* one block queued ahead while many remain; at the end one at a time, so that no rank holds
+           a block another could start */
+        const int target = j->nblocks - j->next_deal >= 2 * g_size ? 2 : 1;
+        while (j->outstanding[w] < target && can_deal(j)) {
+            int64_t b = j->next_deal++;
+            MPI_Send(&b, 1, MPI_INT64_T, w, TAG_DEAL, MPI_COMM_WORLD);
+            g_rs[RS_SENT] += sizeof b;
+            j->outstanding[w]++;
+        }
+        if (dealing_over(j)) {
+            int64_t stop = -1;
+            MPI_Send(&stop, 1, MPI_INT64_T, w, TAG_DEAL, MPI_COMM_WORLD);
+            g_rs[RS_SENT] += sizeof stop;
+            j->stopped[w] = 1;
+        }
+    }
+}
+
+/* Rank 0, between its own passes and when idle: take in finished blocks, add them in order, deal. */
+static void master_poll(job *j) {
+    if (g_size == 1 || !j->held) return; /* alone, or frame 0 before the dealing starts */
+    double t = now_ms();
+    int flag;
+    MPI_Status s;
+    for (;;) {
+        MPI_Iprobe(MPI_ANY_SOURCE, TAG_RESULT, MPI_COMM_WORLD, &flag, &s);
+        if (!flag) break;
+        if (j->nrecv == j->cap_recv) {
+            int cap = j->cap_recv ? 2 * j->cap_recv : 8;
+            MPI_Request *q = realloc(j->rreq, (size_t)cap * sizeof *q);
+            if (q) j->rreq = q;
+            double **qb = realloc(j->rbuf, (size_t)cap * sizeof *qb);
+            if (qb) j->rbuf = qb;
+            if (!q || !qb) die("out of memory");
+            j->cap_recv = cap;
+        }
+        double *buf = pool_get(j);
+        MPI_Irecv(buf, (int)(j->values + 1), MPI_DOUBLE, s.MPI_SOURCE, TAG_RESULT, MPI_COMM_WORLD, &j->rreq[j->nrecv]);
+        j->rbuf[j->nrecv++] = buf;
+    }
+    for (int i = 0; i < j->nrecv;) {
+        MPI_Test(&j->rreq[i], &flag, &s);
+        if (!flag) {
+            i++;
+            continue;
+        }
+        double *buf = j->rbuf[i];
+        int64_t b = (int64_t)buf[j->values];
+        if (b < 0 || b >= j->next_deal || j->held[b])
+            die("rank %d sent block %" PRId64 " it was not dealt", s.MPI_SOURCE, b);
+        j->held[b] = buf;
+        j->outstanding[s.MPI_SOURCE]--;
+        j->rreq[i] = j->rreq[j->nrecv - 1];
+        j->rbuf[i] = j->rbuf[j->nrecv - 1];
+        j->nrecv--;
+    }
+    g_rs[RS_REDUCE] += now_ms() - t;
+    merge_ready(j);
+    top_up(j);
+}
+
+/* Rank 0 with nothing to render: block until a worker's result is on its way. */
+static void master_wait(job *j) {
+    double t = now_ms();
+    MPI_Status s;
+    if (j->nrecv > 0) {
+        int idx;
+        MPI_Waitany(j->nrecv, j->rreq, &idx, &s);
+        /* completed: put it back as a finished request for master_poll's test */
+        if (idx != MPI_UNDEFINED) {
+            double *buf = j->rbuf[idx];
+            int64_t b = (int64_t)buf[j->values];
+            j->held[b] = buf;
+            j->outstanding[s.MPI_SOURCE]--;
+            j->rreq[idx] = j->rreq[j->nrecv - 1];
+            j->rbuf[idx] = j->rbuf[j->nrecv - 1];
+            j->nrecv--;
+        }
+    } else MPI_Probe(MPI_ANY_SOURCE, TAG_RESULT, MPI_COMM_WORLD, &s);
+    g_rs[RS_WAIT] += now_ms() - t;
+    master_poll(j);
+}
+
+/* Workers: let the results in flight move while rendering. */
+static void worker_poll(job *j) {
+    int flag;
+    for (int i = 0; i < 2; i++)
+        if (j->sreq[i] != MPI_REQUEST_NULL) MPI_Test(&j->sreq[i], &flag, MPI_STATUS_IGNORE);
+}
+
+static void run_block(job *j, int64_t b, double *sum) {
+    /* test hook (tests/test_mpi.sh): a rank that fails in the middle of the work */
+    const char *fail = getenv("PHOTONGI_MPI_FAIL_RANK");
+    if (fail && *fail && atoi(fail) == g_rank) die("failing on purpose (PHOTONGI_MPI_FAIL_RANK=%s)", fail);
+    double t = now_ms(), served = g_rs[RS_REDUCE];
+    pgi_status st = j->work(j, b, sum);
+    if (st) {
+        const char *m = pgi_last_error();
+        die("block %" PRId64 ": %s", b, *m ? m : pgi_status_string(st));
+    }
+    g_rs[RS_BUSY] += now_ms() - t - (g_rs[RS_REDUCE] - served); /* rank 0's serving between passes: reduction */
+    g_rs[RS_BLOCKS] += 1;
+    g_rs[RS_ITEMS] += (double)block_items(j, b);
+}
+
+/* Rank 0's part; block 0 may already be started (frame 0): own0 then holds its sum so far. */
+static void master_run(job *j, double *own0) {
+    j->held = calloc((size_t)j->nblocks, sizeof *j->held);
+    j->outstanding = calloc((size_t)g_size, sizeof *j->outstanding);
+    j->stopped = calloc((size_t)g_size, sizeof *j->stopped);
+    if (!j->held || !j->outstanding || !j->stopped) die("out of memory for %" PRId64 " blocks", j->nblocks);
+    j->window = 4 * g_size < 8 ? 8 : 4 * g_size;
+    if (own0) {
+        j->next_deal = 1;
+        top_up(j);
+        run_block(j, 0, own0);
+        j->held[0] = own0;
+        merge_ready(j);
+    }
+    for (;;) {
+        master_poll(j);
+        if (can_deal(j)) {
+            int64_t b = j->next_deal++;
+            top_up(j);
+            double *buf = pool_get(j);
+            run_block(j, b, buf);
+            j->held[b] = buf;
+            merge_ready(j);
+            continue;
+        }
+        if (dealing_over(j) && j->next_merge == j->next_deal) break;
+        master_wait(j);
+    }
+    top_up(j); /* the stops, if the last blocks were rank 0's */
+    free(j->held);
+    free(j->outstanding);
+    free(j->stopped);
+    free(j->rreq);
+    free(j->rbuf);
+    for (int i = 0; i < j->npool; i++) free(j->pool[i]);
+    free(j->pool);
+}
+
+static void worker_run(job *j) {
+    double *buf[2] = {malloc((j->values + 1) * sizeof(double)), malloc((j->values + 1) * sizeof(double))};
+    if (!buf[0] || !buf[1]) die("out of memory for two block sums of %zu values", j->values);
+    j->sreq[0] = j->sreq[1] = MPI_REQUEST_NULL;
+    for (int k = 0;; k ^= 1) {
+        int64_t b;
+        double t = now_ms();
+        MPI_Recv(&b, 1, MPI_INT64_T, 0, TAG_DEAL, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+        if (b >= 0) MPI_Wait(&j->sreq[k], MPI_STATUS_IGNORE);
+        g_rs[RS_WAIT] += now_ms() - t;
+        if (b < 0) break;
+        run_block(j, b, buf[k]);
+        buf[k][j->values] = (double)b;
+        MPI_Isend(buf[k], (int)(j->values + 1), MPI_DOUBLE, 0, TAG_RESULT, MPI_COMM_WORLD, &j->sreq[k]);
+        g_rs[RS_SENT] += (double)((j->values + 1) * sizeof(double));
+    }
+    double t = now_ms();
+    MPI_Waitall(2, j->sreq, MPI_STATUSES_IGNORE);
+    g_rs[RS_WAIT] += now_ms() - t;
+    free(buf[0]);
+    free(buf[1]);
+}
+
+/* ------------------------------------------------------------------ frame statistics across ranks */
+
+/* The counters pgi_render_progressive sums over frames (its stats_add), as one array. */
+enum {
+    FC_VIEW,
+    FC_TRACE,
+    FC_BUILD,
+    FC_EST,
+    FC_DIRECT,
+    FC_TOTAL,
+    FC_RT,
+    FC_RADIUS,
+    FC_EMITTED,
+    FC_STORED,
+    FC_PRAYS,
+    FC_DISC,
+    FC_PRIM,
+    FC_SHADOW,
+    FC_READS,
+    FC_CONTRIB,
+    FC_NODES,
+    FC_CREATED,
+    FC_PASSES
+};
+#define FC_COUNT (FC_PASSES + PGI_MAX_STAT_ENTRIES)
+
+static void counters_of(const pgi_frame_stats *f, double *c) {
+    memset(c, 0, FC_COUNT * sizeof *c);
+    c[FC_VIEW] = f->view_ms, c[FC_TRACE] = f->trace_ms, c[FC_BUILD] = f->build_ms, c[FC_EST] = f->estimate_ms;
+    c[FC_DIRECT] = f->direct_ms, c[FC_TOTAL] = f->total_ms, c[FC_RT] = f->rt_update_ms, c[FC_RADIUS] = f->radius_ms;
+    c[FC_EMITTED] = (double)f->photons_emitted, c[FC_STORED] = (double)f->photons_stored;
+    c[FC_PRAYS] = (double)f->photon_rays, c[FC_DISC] = (double)f->photon_paths_discarded;
+    c[FC_PRIM] = (double)f->primary_rays, c[FC_SHADOW] = (double)f->shadow_rays;
+    c[FC_READS] = (double)f->reads, c[FC_CONTRIB] = (double)f->contributing, c[FC_NODES] = (double)f->nodes_visited;
+    c[FC_CREATED] = f->estimators_created;
+    for (int i = 0; i < f->pass_count && i < PGI_MAX_STAT_ENTRIES; i++) c[FC_PASSES + i] = f->passes_ms[i].value;
+}
+
+static void counters_to(const double *c, pgi_frame_stats *f) {
+    f->view_ms = c[FC_VIEW], f->trace_ms = c[FC_TRACE], f->build_ms = c[FC_BUILD], f->estimate_ms = c[FC_EST];
+    f->direct_ms = c[FC_DIRECT], f->total_ms = c[FC_TOTAL], f->rt_update_ms = c[FC_RT], f->radius_ms = c[FC_RADIUS];
+    f->photons_emitted = (uint64_t)c[FC_EMITTED], f->photons_stored = (uint64_t)c[FC_STORED];
+    f->photon_rays = (uint64_t)c[FC_PRAYS], f->photon_paths_discarded = (uint64_t)c[FC_DISC];
+    f->primary_rays = (uint64_t)c[FC_PRIM], f->shadow_rays = (uint64_t)c[FC_SHADOW];
+    f->reads = (uint64_t)c[FC_READS], f->contributing = (uint64_t)c[FC_CONTRIB];
+    f->nodes_visited = (uint64_t)c[FC_NODES], f->estimators_created = (int)c[FC_CREATED];
+    for (int i = 0; i < f->pass_count && i < PGI_MAX_STAT_ENTRIES; i++) f->passes_ms[i].value = c[FC_PASSES + i];
+}
+
+static double g_fc[FC_COUNT]; /* this rank's frames, summed */
+
+/* Gathers every rank's statistics on rank 0 (in rank order): rs[g_size][RS_COUNT], fc summed. */
+static double *g_all_rs;
+static double g_reduce_wall_ms, g_wall_ms;
+static int64_t g_blocks, g_block;
+static const char *g_unit;
+
+static void gather_stats(double *fc_total) {
+    g_rs[RS_RSS] = (double)pgi_memory_peak_rss();
+    double send[RS_COUNT + FC_COUNT];
+    memcpy(send, g_rs, sizeof g_rs);
+    memcpy(send + RS_COUNT, g_fc, sizeof g_fc);
+    double *all = g_rank == 0 ? malloc((size_t)g_size * sizeof send) : NULL;
+    if (g_rank == 0 && !all) die("out of memory");
+    MPI_Gather(send, RS_COUNT + FC_COUNT, MPI_DOUBLE, all, RS_COUNT + FC_COUNT, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+    if (g_rank != 0) return;
+    free(g_all_rs);
+    g_all_rs = malloc((size_t)g_size * RS_COUNT * sizeof *g_all_rs);
+    if (!g_all_rs) die("out of memory");
+    if (fc_total) memset(fc_total, 0, FC_COUNT * sizeof *fc_total);
+    for (int r = 0; r < g_size; r++) {
+        memcpy(g_all_rs + (size_t)r * RS_COUNT, all + (size_t)r * (RS_COUNT + FC_COUNT), RS_COUNT * sizeof(double));
+        if (fc_total)
+            for (int i = 0; i < FC_COUNT; i++) fc_total[i] += all[(size_t)r * (RS_COUNT + FC_COUNT) + RS_COUNT + i];
+    }
+    free(all);
+}
+
+static void print_summary(void) {
+    if (g_rank != 0 || g_quiet || !g_all_rs) return;
+    char line[4096];
+    int n = snprintf(line, sizeof line, "photongi-mpi: %d rank%s, %" PRId64 " blocks of %" PRId64 " %s, %.0f ms",
+                     g_size, g_size == 1 ? "" : "s", g_blocks, g_block, g_unit, g_wall_ms);
+    for (int r = 0; r < g_size && n < (int)sizeof line - 160; r++) {
+        const double *s = g_all_rs + (size_t)r * RS_COUNT;
+        n += snprintf(line + n, sizeof line - (size_t)n,
+                      "; rank %d: %.0f %s, busy %.0f ms, wait %.0f ms, reduce %.0f ms, sent %.1f MiB, rss %.0f MiB", r,
+                      s[RS_ITEMS], g_unit, s[RS_BUSY], s[RS_WAIT], s[RS_REDUCE], s[RS_SENT] / 1048576.0,
+                      s[RS_RSS] / 1048576.0);
+    }
+    fprintf(stderr, "%s\n", line);
+}
+
+/* ------------------------------------------------------------------ render --progressive */
+
+static void frame_progress(void *user, const pgi_progress *p) {
+    job *j = user;
+    if (g_rank == 0) master_poll(j);
+    else worker_poll(j);
+    if (j->user_progress) {
+        pgi_progress q = *p;
+        q.frame = (int)(j->items_done < j->items ? j->items_done : j->items - 1);
+        q.frames = (int)j->items;
+        q.elapsed_ms = now_ms() - j->t0;
+        j->user_progress(j->user_progress_user, &q);
+    }
+}
+
+static void add_frame_stats(job *j, const pgi_frame_stats *fs) {
+    double c[FC_COUNT];
+    counters_of(fs, c);
+    for (int i = 0; i < FC_COUNT; i++) g_fc[i] += c[i];
+}
+
+static pgi_status frames_work(job *j, int64_t b, double *sum) {
+    const int64_t k0 = b * j->block, n = block_items(j, b);
+    for (int64_t k = k0; k < k0 + n; k++) {
+        if (k == 0) continue; /* rank 0 rendered it first (its radius is everyone's r0) */
+        pgi_frame_stats fs;
+        pgi_status st = pgi_progressive_frame(j->r, &j->d, j->r0, (int)k, &j->frame, &fs);
+        if (st) return st;
+        if ((size_t)fs.width * (size_t)fs.height * 3 != j->values)
+            return PGI_ERR_INVALID_ARG; /* cannot happen: one desc */
+        pgi_block_sum_add(sum, j->frame.rgb, j->values, k == k0);
+        add_frame_stats(j, &fs);
+    }
+    return PGI_OK;
+}
+
+static pgi_status mpi_progressive(pgi_renderer *r, const pgi_render_desc *in, int frames, pgi_image *out,
+                                  pgi_frame_stats *stats) {
+    job j;
+    memset(&j, 0, sizeof j);
+    j.r = r;
+    j.d = *in;
+    j.user_progress = in->progress;
+    j.user_progress_user = in->progress_user;
+    j.d.progress = frame_progress;
+    j.d.progress_user = &j;
+    j.items = frames;
+    j.block = PGI_PROGRESSIVE_BLOCK;
+    j.nblocks = (frames + j.block - 1) / j.block;
+    j.work = frames_work;
+    int who = begin(0);
+    if (who >= 0) return peer_failed(who);
+    j.t0 = now_ms();
+    g_block = j.block;
+    g_blocks = j.nblocks;
+    g_unit = "frames";
+    /* Frame 0 on rank 0: it resolves r0, which every other frame needs. */
+    double *own0 = NULL;
+    float r0 = 0.f;
+    int w = 0, h = 0;
+    if (g_rank == 0) {
+        double t = now_ms();
+        pgi_status st = pgi_progressive_frame(r, &j.d, 0.f, 0, &j.frame, &j.first);
+        if (st) die("frame 0: %s", *pgi_last_error() ? pgi_last_error() : pgi_status_string(st));
+        g_rs[RS_BUSY] += now_ms() - t;
+        r0 = j.first.radius;
+        w = j.first.width;
+        h = j.first.height;
+        add_frame_stats(&j, &j.first);
+    }
+    float bc[3] = {r0, (float)w, (float)h};
+    double t = now_ms();
+    MPI_Bcast(bc, 3, MPI_FLOAT, 0, MPI_COMM_WORLD);
+    if (g_rank != 0) g_rs[RS_WAIT] += now_ms() - t;
+    j.r0 = bc[0];
+    j.values = 3 * (size_t)bc[1] * (size_t)bc[2];
+    if (g_rank == 0) {
+        j.total = calloc(j.values, sizeof *j.total);
+        own0 = pool_get(&j);
+        if (!j.total) die("out of memory for the %dx%d total", w, h);
+        pgi_block_sum_add(own0, j.frame.rgb, j.values, 1);
+        master_run(&j, own0);
+    } else worker_run(&j);
+    double fc[FC_COUNT];
+    double tr = now_ms();
+    gather_stats(g_rank == 0 ? fc : NULL);
+    g_reduce_wall_ms = now_ms() - tr;
+    g_wall_ms = now_ms() - j.t0;
+    pgi_image_free(&j.frame);
+    if (g_rank != 0) return PGI_OK;
+    if (!out->rgb || out->width != w || out->height != h) {
+        pgi_image_free(out);
+        out->rgb = malloc(j.values * sizeof(float));
+        if (!out->rgb) die("out of memory for the image");
+        out->width = w;
+        out->height = h;
+    }
+    pgi_block_sum_mean(j.total, NULL, j.values, (uint64_t)frames, out->rgb);
+    free(j.total);
+    /* the stats of pgi_render_progressive: counters summed over every frame, the rest frame 0's */
+    pgi_frame_stats fs = j.first;
+    counters_to(fc, &fs);
+    fs.frames = frames;
+    fs.radius = pgi_progressive_radius(r0, frames - 1);
+    if (frames > 1) fs.settings.jitter = in->jitter;
+    fs.memory_peak_rss = pgi_memory_peak_rss();
+    if (stats) *stats = fs;
+    print_summary();
+    return PGI_OK;
+}
+
+/* ------------------------------------------------------------------ reference */
+
+static pgi_status samples_work(job *j, int64_t b, double *sum) {
+    memset(sum, 0, j->values * sizeof *sum);
+    const int64_t s0 = b * j->block, n = block_items(j, b);
+    for (int64_t s = s0; s < s0 + n; s++) {
+        pgi_status st = pgi_reference_sampler_add(j->sampler, j->n0 + (uint64_t)s, sum);
+        if (st) return st;
+        if (g_rank == 0) {
+            master_poll(j);
+            if (j->ref_progress) {
+                uint64_t done = (uint64_t)j->items_done + (uint64_t)(s - s0 + 1);
+                j->ref_progress(j->ref_progress_user, done > (uint64_t)j->items ? (uint64_t)j->items : done,
+                                (uint64_t)j->items, now_ms() - j->t0);
+            }
+        } else worker_poll(j);
+    }
+    return PGI_OK;
+}
+
+static pgi_status mpi_reference(const pgi_scene *scene, const pgi_reference_desc *in, pgi_image *mean, uint64_t *spp) {
+    job j;
+    memset(&j, 0, sizeof j);
+    pgi_status st = PGI_OK;
+    if (in->spp < 1) st = PGI_ERR_INVALID_ARG;
+    else st = pgi_reference_sampler_create(scene, in, &j.sampler);
+    int w = 0, h = 0;
+    pgi_reference_sampler_size(j.sampler, &w, &h);
+    if (!st && *spp > 0 && (!mean->rgb || mean->width != w || mean->height != h)) st = PGI_ERR_INVALID_ARG;
+    int who = begin(st ? CLI_EXIT_FAILURE : 0);
+    if (st || who >= 0) {
+        pgi_reference_sampler_destroy(j.sampler);
+        return st ? st : peer_failed(who);
+    }
+    j.values = 3 * (size_t)w * (size_t)h;
+    j.n0 = *spp;
+    j.items = (int64_t)in->spp;
+    j.block = PGI_REFERENCE_BLOCK;
+    j.nblocks = (j.items + j.block - 1) / j.block;
+    j.work = samples_work;
+    j.time_limit_ms = in->time_limit_s > 0.0 ? 1000.0 * in->time_limit_s : 0.0;
+    j.ref_progress = in->progress;
+    j.ref_progress_user = in->progress_user;
+    j.t0 = now_ms();
+    g_block = j.block;
+    g_blocks = j.nblocks;
+    g_unit = "samples";
+    if (g_rank == 0) {
+        j.total = malloc(j.values * sizeof *j.total);
+        if (!j.total) die("out of memory for the %dx%d total", w, h);
+        /* as pgi_reference_render: the mean so far times its samples */
+        for (size_t i = 0; i < j.values; i++) j.total[i] = j.n0 > 0 ? (double)mean->rgb[i] * (double)j.n0 : 0.0;
+        master_run(&j, NULL);
+    } else worker_run(&j);
+    int64_t dealt = j.next_deal; /* rank 0: fewer than nblocks after --time */
+    gather_stats(NULL);
+    g_wall_ms = now_ms() - j.t0;
+    pgi_reference_sampler_destroy(j.sampler);
+    if (g_rank != 0) return PGI_OK;
+    g_blocks = dealt;
+    uint64_t done = (uint64_t)j.items_done;
+    if (*spp == 0) {
+        pgi_image_free(mean);
+        mean->rgb = malloc(j.values * sizeof(float));
+        if (!mean->rgb) die("out of memory for the image");
+        mean->width = w;
+        mean->height = h;
+    }
+    pgi_block_sum_mean(j.total, NULL, j.values, j.n0 + done, mean->rgb);
+    free(j.total);
+    *spp = j.n0 + done;
+    print_summary();
+    return PGI_OK;
+}
+
+/* ------------------------------------------------------------------ stats JSON with "mpi" */
+
+static pgi_status write_stats(const pgi_frame_stats *fs, const char *path) {
+    char tmp[] = "/tmp/photongi-mpi-stats-XXXXXX";
+    int fd = mkstemp(tmp);
+    if (fd < 0) return pgi_stats_write_json(fs, path);
+    close(fd);
+    pgi_status st = pgi_stats_write_json(fs, tmp);
+    if (st) {
+        unlink(tmp);
+        return st;
+    }
+    FILE *f = fopen(tmp, "rb");
+    char *text = NULL;
+    long len = 0;
+    if (f && fseek(f, 0, SEEK_END) == 0 && (len = ftell(f)) >= 0 && fseek(f, 0, SEEK_SET) == 0) {
+        text = malloc((size_t)len + 1);
+        if (text && fread(text, 1, (size_t)len, f) == (size_t)len) text[len] = 0;
+        else {
+            free(text);
+            text = NULL;
+        }
+    }
+    if (f) fclose(f);
+    unlink(tmp);
+    cJSON *root = text ? cJSON_Parse(text) : NULL;
+    free(text);
+    if (!root) return pgi_stats_write_json(fs, path);
+    cJSON *m = cJSON_AddObjectToObject(root, "mpi");
+    cJSON_AddNumberToObject(m, "ranks", g_size);
+    cJSON_AddNumberToObject(m, "block", (double)g_block);
+    cJSON_AddNumberToObject(m, "blocks", (double)g_blocks);
+    cJSON_AddNumberToObject(m, "wall_ms", g_wall_ms);
+    cJSON_AddNumberToObject(m, "stats_gather_ms", g_reduce_wall_ms);
+    cJSON *per = cJSON_AddArrayToObject(m, "per_rank");
+    static const char *const names[RS_COUNT] = {"blocks",       "frames",     "busy_ms",       "wait_ms",
+                                                "reduction_ms", "bytes_sent", "peak_rss_bytes"};
+    for (int r = 0; g_all_rs && r < g_size; r++) {
+        cJSON *o = cJSON_CreateObject();
+        cJSON_AddNumberToObject(o, "rank", r);
+        for (int i = 0; i < RS_COUNT; i++) cJSON_AddNumberToObject(o, names[i], g_all_rs[(size_t)r * RS_COUNT + i]);
+        cJSON_AddItemToArray(per, o);
+    }
+    char *out = cJSON_Print(root);
+    cJSON_Delete(root);
+    if (!out) return PGI_ERR_OOM;
+    FILE *o = strcmp(path, "-") == 0 ? stdout : fopen(path, "wb");
+    st = PGI_OK;
+    if (!o || fputs(out, o) < 0 || fputc('\n', o) == EOF) st = PGI_ERR_IO;
+    if (o && o != stdout && fclose(o) != 0) st = PGI_ERR_IO;
+    if (st) fprintf(stderr, "photongi-mpi: cannot write %s: %s\n", path, strerror(errno));
+    free(out);
+    return st;
+}
+
+/* ------------------------------------------------------------------ main */
+
+/* Rank > 0: what the command printed, each line prefixed with the rank, on the real stderr. */
+static void replay_capture(void) {
+    if (!g_capture) return;
+    fflush(stderr);
+    rewind(g_capture);
+    char line[2048];
+    while (fgets(line, sizeof line, g_capture))
+        dprintf(g_real_err, "photongi-mpi: rank %d of %d: %s%s", g_rank, g_size, line, strchr(line, '\n') ? "" : "\n");
+}
+
+int main(int argc, char **argv) {
+    int provided;
+    MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
+    MPI_Comm_rank(MPI_COMM_WORLD, &g_rank);
+    MPI_Comm_size(MPI_COMM_WORLD, &g_size);
+    g_codes = calloc((size_t)g_size, sizeof *g_codes);
+    if (!g_codes) {
+        fprintf(stderr, "photongi-mpi: out of memory\n");
+        MPI_Abort(MPI_COMM_WORLD, 1);
+    }
+    g_real_err = dup(2);
+    if (g_real_err < 0) g_real_err = 2;
+    if (g_rank > 0) {
+        fflush(stdout);
+        int null = open("/dev/null", O_WRONLY);
+        if (null >= 0) {
+            dup2(null, 1);
+            close(null);
+        }
+        g_capture = tmpfile();
+        if (g_capture) {
+            fflush(stderr);
+            dup2(fileno(g_capture), 2);
+        }
+    }
+    for (int i = 2; i < argc; i++)
+        if (strcmp(argv[i], "-q") == 0 || strcmp(argv[i], "--quiet") == 0) g_quiet = 1;
+    static pgi_cli_backend be = {0, mpi_progressive, mpi_reference, write_stats};
+    be.writer = g_rank == 0;
+    pgi_cli_backend_now = &be;
+    int rc;
+    if (argc < 2) {
+        fputs(k_help, stderr);
+        rc = CLI_EXIT_USAGE;
+    } else if (strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0 || strcmp(argv[1], "help") == 0) {
+        if (argc > 2 && strcmp(argv[1], "help") == 0) {
+            char help[] = "--help";
+            char *args[] = {help, NULL};
+            if (strcmp(argv[2], "render") == 0) rc = pgi_cmd_render(1, args);
+            else if (strcmp(argv[2], "reference") == 0) rc = pgi_cmd_reference(1, args);
+            else {
+                fprintf(stderr, "photongi-mpi help: unknown help topic '%s'; the topics are render, reference\n",
+                        argv[2]);
+                rc = CLI_EXIT_USAGE;
+            }
+        } else {
+            fputs(k_help, stdout);
+            rc = 0;
+        }
+    } else if (strcmp(argv[1], "--version") == 0) {
+        printf("photongi-mpi %s\n", pgi_version());
+        rc = 0;
+    } else if (strcmp(argv[1], "render") == 0) rc = pgi_cmd_render(argc - 2, argv + 2);
+    else if (strcmp(argv[1], "reference") == 0) rc = pgi_cmd_reference(argc - 2, argv + 2);
+    else {
+        fprintf(stderr, "photongi-mpi: unknown command '%s' (photongi-mpi runs render and reference)\n\n%s", argv[1],
+                k_help);
+        rc = CLI_EXIT_USAGE;
+    }
+    fflush(stdout);
+    fflush(stderr);
+    int final = rc;
+    if (!g_entered) {
+        int who = begin(rc ? rc : -1);
+        final = who < 0 ? 0 : g_codes[who];
+        if (g_rank > 0 && who == g_rank && g_codes[0] <= 0) replay_capture();
+    } else {
+        /* entered: the work was done (or refused because a rank failed before it) */
+        int who = -1;
+        for (int i = 0; i < g_size; i++)
+            if (g_codes[i] > 0) {
+                who = i;
+                break;
+            }
+        if (who >= 0) {
+            final = g_codes[who];
+            if (g_rank > 0 && who == g_rank && g_codes[0] <= 0) replay_capture();
+        } else if (rc && g_rank > 0) replay_capture(); /* after the work: this rank's own failure */
+    }
+    if (g_capture) fclose(g_capture);
+    free(g_codes);
+    free(g_all_rs);
+    MPI_Finalize();
+    return final;
+}

@@ -1,0 +1,404 @@
+/* photongi render: one frame, or the average of --progressive N frames, to PNG or EXR. The
+ * frames run in this process, or through pgi_cli_backend_now where a launcher set one
+ * (photongi-mpi deals them to MPI ranks, apps/mpi). */
+#include <inttypes.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cli.h"
+#include "cmd.h"
+#include "device.h"
+#include "options.h"
+#include "output.h"
+#include "parse.h"
+#include "photongi/photongi.h"
+#include "progress.h"
+
+const pgi_cli_backend *pgi_cli_backend_now = NULL;
+
+static int is_help(const char *a) { return strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0; }
+
+static const char *k_render_help =
+    "usage: photongi render [--scene S] [options] -o OUT.png|OUT.exr\n"
+    "\n"
+    "Renders one frame: primary rays, photon tracing, density estimation of indirect light,\n"
+    "direct light with shadow rays, tone mapping (PNG) or linear radiance (EXR).\n"
+    "\n"
+    "  --scene S          built-in (cornell [default], cornell-mirrors, giref, sphere-and-plane,\n"
+    "                     cutout: light through a cut-out lattice, window-box: a room lit by the\n"
+    "                     sky through a window and a skylight),\n"
+    "                     a name with a description S.json (sibenik, crytek-sponza, conference,\n"
+    "                     fireplace-room, cornell-box; see 'Scene files' below), a .json\n"
+    "                     description, or a mesh\n"
+    "  --estimator E      density estimator (see 'photongi estimators'); default " PGI_DEFAULT_ESTIMATOR "\n"
+    "  --photons N        photons to store, 1..100000000 (2e6 is fine too; flux is normalised by\n"
+    "                     the paths emitted); default: the scene's, else 200000\n"
+    "  --radius R|auto    photon radius in scene units; default: the scene's, else auto: chosen each\n"
+    "                     frame from the photon density the camera sees (docs/radius.md; with\n"
+    "                     --radius-policy path or differentials: 2% of the scene's diagonal)\n"
+    "  --size WxH         image size, 1..16384 a side and at most 37748736 pixels (36 Mi);\n"
+    "                     default: the scene's, else 640x480\n"
+    "  --bounces B        maximum photon bounces, 1..64 (default 4)\n"
+    "  --seed K           random seed, 0..2^64-1 (default 1; 0 is 1); same seed, same image,\n"
+    "                     any thread count\n"
+    "  --threads T        worker threads, 1..1024 (default: all cores)\n"
+    "  --camera I         camera index of the scene, from 0 (default 0)\n"
+    "  --direct-samples K shadow samples per pixel for area lights and for the sky, 1..4096\n"
+    "                     (default 16)\n"
+    "  --exposure X       multiply radiance by X before tone mapping (default: the scene's, else 1)\n"
+    "  --output all|direct|indirect|counts   what to put in the image (default all; counts:\n"
+    "                     photons that contributed at each pixel, best written as .exr)\n"
+    "  --progressive N    average N frames (1..1000000) with fresh photons and a shrinking radius\n"
+    "                     (Knaus & Zwicker 2011; exact estimators); converges as N grows\n"
+    "                     to the pixel integral, as 'photongi reference' (see --jitter)\n"
+    "  --jitter auto|on|off   where in its pixel each view sample looks: auto (default) =\n"
+    "                     the pixel centre for one frame, and for every frame after the first\n"
+    "                     of --progressive a uniform point of the pixel drawn from the seed\n"
+    "                     (frame k: point k of a stratified sequence per pixel; a box filter);\n"
+    "                     on = such a point for every frame; off = centres always (a\n"
+    "                     progressive average then converges to point samples)\n"
+    "  --emission uniform|guided|auto   how photons leave the lights: uniform (default; the\n"
+    "                     papers'), guided = towards the light paths whose photons land where\n"
+    "                     the camera looks (a uniform pilot of 1/8 of the photons, then steered\n"
+    "                     and reweighted: unbiased), auto = guided where the pilot predicts\n"
+    "                     1.25x the photons in view, else uniform (docs/emission.md)\n"
+    "  --store all|view   which photons to store: all (default), or view = only those that\n"
+    "                     may lie within the radius of a view sample (the others add nothing;\n"
+    "                     --photons then counts photons where the camera looks, and more paths\n"
+    "                     are traced to find them); needs a given --radius\n"
+    "  --time T           scene time in seconds for animated objects (default 0)\n"
+    "  --specular ggx|phong   model of the mesh's glossy materials (MTL illum 2): ggx =\n"
+    "                     microfacet plastic, phong = the papers' Blinn-Phong (default: the\n"
+    "                     description's \"specular\", else ggx; docs/scene-format.md)\n"
+    "  --stats FILE.json  write timings, memory (every large allocation and the process's peak\n"
+    "                     resident set), photon reads/contributing as JSON ('-' = stdout)\n"
+    "  --max-memory SIZE|none   memory budget: a frame whose scene, BVH, photons, buffers and\n"
+    "                     estimator would need more is refused before anything is traced, naming\n"
+    "                     what does not fit; SIZE in bytes or with K, M, G, T (1024-based), e.g.\n"
+    "                     4G; none: no budget (default: the machine's physical memory, or the\n"
+    "                     cgroup's limit when lower; docs/memory.md)\n"
+    "  -o, --out FILE     output image (.png or .exr); required; its folder must exist\n"
+    "  -q, --quiet        print nothing but errors: no progress line (shown only on a terminal),\n"
+    "                     summary, notes or warnings\n"
+    "  --radius-policy fixed|path|differentials   per-photon footprints (default fixed; others\n"
+    "                     need an estimator that honours them: see 'photongi estimators -v')\n"
+    "  --r-min R, --r-max R   path: radius range (default r_max = radius, r_min = r_max/8);\n"
+    "                     differentials: r_max clamps the footprint radius\n"
+    "  --smoothing S      differentials: smoothing factor s (default: automatic)\n"
+    "  --filter R         depth/normal-aware bilateral filter of the indirect light, radius R\n"
+    "                     pixels (0..16, default 0 = off)\n" APP_DEVICE_HELP "\n"
+    "Scene files: a name S is looked up as S.json in ./scenes, then in the scenes/ folder of the\n"
+    "source tree photongi was built from (so a build works from any directory), then in the\n"
+    "installed share/photongi/scenes. Mesh paths in a description resolve against its folder,\n"
+    "then $PHOTONGI_SCENES, or when that is not set the source tree's ../shared/scenes, then\n"
+    "../shared/scenes from the working directory.\n"
+    "Output files are checked (extension, folder) before the scene is loaded.\n"
+    "Exit status: 0 success, 2 usage error, 1 failure (see 'photongi --help').\n"
+    "\n";
+
+/* The progress line of a render (only on a terminal, see progress.h): the pass, the photons
+ * traced, the frame of --progressive. The bar splits a frame between the passes roughly as they
+ * take time (tracing the most). */
+static void render_progress(void *user, const pgi_progress *p) {
+    static const struct {
+        const char *pass, *label;
+        double from, to;
+    } k_passes[] = {{"view", "view samples", 0.0, 0.1},
+                    {"trace", "tracing photons", 0.1, 0.6},
+                    {"build", "building the estimator", 0.6, 0.7},
+                    {"estimate", "estimating indirect light", 0.7, 0.9},
+                    {"direct", "direct light", 0.9, 1.0}};
+    app_progress *bar = user;
+    const char *label = p->pass;
+    double within = 0.0;
+    for (size_t i = 0; i < sizeof k_passes / sizeof k_passes[0]; i++)
+        if (strcmp(p->pass, k_passes[i].pass) == 0) {
+            label = k_passes[i].label;
+            within = k_passes[i].from;
+            if (p->total) within += (k_passes[i].to - k_passes[i].from) * (double)p->done / (double)p->total;
+        }
+    const int frames = p->frames > 0 ? p->frames : 1;
+    const double frac = (p->frame + within) / frames, s = p->elapsed_ms / 1000.0;
+    char what[96];
+    if (p->total) snprintf(what, sizeof what, "%s %" PRIu64 "/%" PRIu64, label, p->done, p->total);
+    else snprintf(what, sizeof what, "%s", label);
+    if (frames == 1) app_progress_draw(bar, frac, p->elapsed_ms, 0, "%s  %.1f s", what, s);
+    else if (p->frame == 0)
+        app_progress_draw(bar, frac, p->elapsed_ms, 0, "frame %d/%d: %s  %.0f s", p->frame + 1, frames, what, s);
+    else
+        app_progress_draw(bar, frac, p->elapsed_ms, 0, "frame %d/%d: %s  %.0f s elapsed, %.0f s left", p->frame + 1,
+                          frames, what, s, s / frac * (1.0 - frac));
+}
+
+static const char *const k_image_exts[] = {".png", ".exr", NULL};
+
+int pgi_cmd_render(int argc, char **argv) {
+    pgi_render_desc d = {0};
+    app_given_options given = {0};
+    long long progressive = 1;
+    const char *scene_spec = "cornell", *out = NULL, *stats_path = NULL;
+    float exposure = 0.f, scene_time = 0.f;
+    pgi_specular specular = PGI_SPECULAR_DEFAULT;
+    int quiet = 0;
+    for (int i = 0; i < argc; i++) {
+        const char *a = argv[i];
+        if (is_help(a)) {
+            fputs(k_render_help, stdout);
+            app_print_estimator_options(stdout);
+            return 0;
+        }
+        if (strcmp(a, "-q") == 0 || strcmp(a, "--quiet") == 0) {
+            quiet = 1;
+            continue;
+        }
+        if (a[0] != '-') return cli_usage("render", "unexpected argument '%s'", a);
+        if (i + 1 >= argc) return cli_usage("render", "%s needs a value", a);
+        const char *v = argv[++i];
+        long long n;
+        int eo = app_estimator_option("photongi render", a, v, &d.est, &given);
+        if (eo < 0) {
+            fprintf(stderr, "Try 'photongi render --help'.\n");
+            return CLI_EXIT_USAGE;
+        }
+        if (eo > 0) continue;
+        if (strcmp(a, "--scene") == 0) {
+            if (!*v) return cli_usage("render", "%s", "--scene needs a scene");
+            scene_spec = v;
+        } else if (strcmp(a, "--estimator") == 0) d.estimator = v;
+        else if (strcmp(a, "-o") == 0 || strcmp(a, "--out") == 0) out = v;
+        else if (strcmp(a, "--stats") == 0) stats_path = v;
+        else if (strcmp(a, "--photons") == 0) {
+            if (!parse_whole(v, 1, PGI_MAX_PHOTONS, &n))
+                return cli_usage("render", "--photons needs a whole number in 1..%u, got '%s'", PGI_MAX_PHOTONS, v);
+            d.photons = (uint32_t)n;
+        } else if (strcmp(a, "--radius") == 0) {
+            if (strcmp(v, "auto") == 0) d.radius = PGI_RADIUS_AUTO;
+            else if (!parse_pos_float(v, &d.radius))
+                return cli_usage("render", "--radius needs a positive number (scene units) or auto, got '%s'", v);
+        } else if (strcmp(a, "--size") == 0) {
+            if (!parse_size(v, PGI_MAX_IMAGE_SIDE, PGI_MAX_IMAGE_PIXELS, &d.width, &d.height))
+                return cli_usage("render",
+                                 "--size needs WIDTHxHEIGHT, e.g. 1280x720, each side in 1..%d and at most %u pixels, "
+                                 "got '%s'",
+                                 PGI_MAX_IMAGE_SIDE, PGI_MAX_IMAGE_PIXELS, v);
+        } else if (strcmp(a, "--bounces") == 0) {
+            if (!parse_whole(v, 1, 64, &n))
+                return cli_usage("render", "--bounces needs a whole number in 1..64, got '%s'", v);
+            d.bounces = (int)n;
+        } else if (strcmp(a, "--seed") == 0) {
+            if (!parse_u64(v, &d.seed))
+                return cli_usage("render", "--seed needs a whole number in 0..%" PRIu64 ", got '%s'", UINT64_MAX, v);
+        } else if (strcmp(a, "--threads") == 0) {
+            if (!parse_whole(v, 1, 1024, &n))
+                return cli_usage("render", "--threads needs a whole number in 1..1024, got '%s'", v);
+            d.threads = (int)n;
+        } else if (strcmp(a, "--camera") == 0) {
+            if (!parse_whole(v, 0, 1000000, &n))
+                return cli_usage("render", "--camera needs a camera index, a whole number from 0, got '%s'", v);
+            d.camera = (int)n;
+        } else if (strcmp(a, "--direct-samples") == 0) {
+            if (!parse_whole(v, 1, 4096, &n))
+                return cli_usage("render", "--direct-samples needs a whole number in 1..4096, got '%s'", v);
+            d.direct_samples = (int)n;
+        } else if (strcmp(a, "--exposure") == 0) {
+            if (!parse_pos_float(v, &exposure))
+                return cli_usage("render", "--exposure needs a positive number, got '%s'", v);
+        } else if (strcmp(a, "--output") == 0) {
+            if (strcmp(v, "all") == 0) d.output = PGI_OUTPUT_ALL;
+            else if (strcmp(v, "direct") == 0) d.output = PGI_OUTPUT_DIRECT;
+            else if (strcmp(v, "indirect") == 0) d.output = PGI_OUTPUT_INDIRECT;
+            else if (strcmp(v, "counts") == 0) d.output = PGI_OUTPUT_PHOTON_COUNT;
+            else return cli_usage("render", "--output must be all, direct, indirect or counts, got '%s'", v);
+        } else if (strcmp(a, "--progressive") == 0) {
+            if (!parse_whole(v, 1, PGI_MAX_PROGRESSIVE_FRAMES, &n))
+                return cli_usage("render", "--progressive needs a frame count, a whole number in 1..%d, got '%s'",
+                                 PGI_MAX_PROGRESSIVE_FRAMES, v);
+            progressive = n;
+        } else if (strcmp(a, "--device") == 0) {
+            char err[160];
+            if (!app_parse_device(v, &d, err, sizeof err)) return cli_usage("render", "%s", err);
+        } else if (strcmp(a, "--specular") == 0) {
+            if (!parse_specular(v, &specular))
+                return cli_usage("render", "--specular must be ggx or phong, got '%s'", v);
+        } else if (strcmp(a, "--time") == 0) {
+            if (!parse_finite_float(v, &scene_time))
+                return cli_usage("render", "--time needs a number of seconds, got '%s'", v);
+        } else if (strcmp(a, "--max-memory") == 0) {
+            if (!parse_bytes(v, &d.max_memory))
+                return cli_usage("render",
+                                 "--max-memory needs a size (bytes, or with K, M, G, T: 4G, 512M) or none, got '%s'",
+                                 v);
+        } else if (strcmp(a, "--radius-policy") == 0) {
+            if (strcmp(v, "fixed") == 0) d.radius_policy = PGI_RADIUS_FIXED;
+            else if (strcmp(v, "path") == 0) d.radius_policy = PGI_RADIUS_PATH;
+            else if (strcmp(v, "differentials") == 0) d.radius_policy = PGI_RADIUS_DIFFERENTIALS;
+            else return cli_usage("render", "--radius-policy must be fixed, path or differentials, got '%s'", v);
+        } else if (strcmp(a, "--r-min") == 0 || strcmp(a, "--r-max") == 0 || strcmp(a, "--smoothing") == 0) {
+            float f;
+            if (!parse_pos_float(v, &f)) return cli_usage("render", "%s needs a positive number, got '%s'", a, v);
+            if (a[2] == 's') d.smoothing = f;
+            else if (strcmp(a, "--r-min") == 0) d.r_min = f;
+            else d.r_max = f;
+        } else if (strcmp(a, "--jitter") == 0) {
+            if (strcmp(v, "auto") == 0) d.jitter = PGI_JITTER_AUTO;
+            else if (strcmp(v, "on") == 0) d.jitter = PGI_JITTER_ON;
+            else if (strcmp(v, "off") == 0) d.jitter = PGI_JITTER_OFF;
+            else return cli_usage("render", "--jitter must be auto, on or off, got '%s'", v);
+        } else if (strcmp(a, "--store") == 0) {
+            if (!app_parse_store(v, &d.store)) return cli_usage("render", "--store must be all or view, got '%s'", v);
+        } else if (strcmp(a, "--emission") == 0) {
+            if (!app_parse_emission(v, &d.emission))
+                return cli_usage("render", "--emission must be uniform, guided or auto, got '%s'", v);
+        } else if (strcmp(a, "--filter") == 0) {
+            if (!parse_whole(v, 0, 16, &n))
+                return cli_usage("render", "--filter needs a radius in pixels, a whole number in 0..16, got '%s'", v);
+            d.filter = (int)n;
+        } else return cli_usage("render", "unknown option '%s'", a);
+    }
+    /* Everything the command line alone decides, before any file is read. */
+    if (!out) return cli_usage("render", "%s", "no output file: give -o OUT.png or -o OUT.exr");
+    int rc = app_check_output("photongi render", "-o", out, k_image_exts);
+    if (rc) return rc;
+    if (stats_path && strcmp(stats_path, "-") != 0 &&
+        (rc = app_check_output("photongi render", "--stats", stats_path, NULL)))
+        return rc;
+    const pgi_estimator_vtbl *vt = pgi_estimator_find(d.estimator ? d.estimator : PGI_DEFAULT_ESTIMATOR);
+    if (!vt) {
+        fprintf(stderr, "photongi render: unknown estimator '%s'; registered:", d.estimator);
+        for (size_t i = 0; i < pgi_estimator_count(); i++) fprintf(stderr, " %s", pgi_estimator_at(i)->name);
+        fprintf(stderr, "\nTry 'photongi estimators -v'.\n");
+        return CLI_EXIT_USAGE;
+    }
+    pgi_estimator_desc resolved;
+    if (pgi_estimator_desc_resolve(vt, &d.est, &resolved) != PGI_OK)
+        return cli_usage("render", "%s", pgi_last_error()); /* a strict option the estimator refuses */
+    if (progressive > 1 && !vt->exact)
+        return cli_usage("render", "--progressive needs an exact estimator; '%s' is approximate", vt->name);
+    if (progressive > 1 && d.output == PGI_OUTPUT_PHOTON_COUNT)
+        return cli_usage("render", "%s", "--progressive cannot average --output counts");
+    if (d.radius_policy != PGI_RADIUS_FIXED && !(vt->caps & PGI_EST_CAP_PHOTON_RADIUS))
+        return cli_usage("render",
+                         "--radius-policy %s needs an estimator with per-photon footprints (see 'photongi "
+                         "estimators -v'); '%s' has one fixed radius",
+                         d.radius_policy == PGI_RADIUS_PATH ? "path" : "differentials", vt->name);
+    if (d.r_min > 0.f && d.r_max > 0.f && d.r_min > d.r_max)
+        return cli_usage("render", "--r-min (%g) must not exceed --r-max (%g)", (double)d.r_min, (double)d.r_max);
+    if (!quiet) app_note_ignored_options("photongi render", d.estimator, &given);
+    {
+        char err[320];
+        if (!app_check_device(&d, d.estimator, err, sizeof err)) return cli_failure("render", "%s", err);
+    }
+
+    pgi_scene *scene;
+    pgi_status st = pgi_scene_load(scene_spec, &scene);
+    if (st) return cli_input_fail("render", "cannot load scene", st);
+    if (specular != PGI_SPECULAR_DEFAULT && (st = pgi_scene_set_specular(scene, specular))) {
+        pgi_scene_destroy(scene);
+        return cli_fail("render", "cannot set the specular model", st);
+    }
+    if ((st = pgi_scene_set_time(scene, scene_time))) {
+        pgi_scene_destroy(scene);
+        return cli_fail("render", "cannot set the scene time", st);
+    }
+    pgi_scene_info info;
+    pgi_scene_get_info(scene, &info);
+    char scene_name[128];
+    snprintf(scene_name, sizeof scene_name, "%s", info.name);
+    if ((size_t)d.camera >= info.cameras) {
+        pgi_scene_destroy(scene);
+        return cli_failure("render", "--camera %d: scene %s has %zu camera%s (0..%zu)", d.camera, scene_name,
+                           info.cameras, info.cameras == 1 ? "" : "s", info.cameras - 1);
+    }
+    if (exposure == 0.f) exposure = info.defaults.exposure > 0.f ? info.defaults.exposure : 1.f;
+    pgi_image img = {0};
+    pgi_frame_stats fs;
+    pgi_renderer *r;
+    if ((st = pgi_renderer_create(scene, &r))) {
+        pgi_scene_destroy(scene);
+        return cli_fail("render", "cannot create a renderer", st);
+    }
+    app_progress bar;
+    app_progress_init(&bar, quiet);
+    if (bar.on) {
+        d.progress = render_progress;
+        d.progress_user = &bar;
+    }
+    const pgi_cli_backend *be = pgi_cli_backend_now;
+    if (be) st = be->progressive(r, &d, (int)progressive, &img, &fs);
+    else
+        st = progressive > 1 ? pgi_render_progressive(r, &d, (int)progressive, &img, &fs)
+                             : pgi_renderer_render(r, &d, &img, &fs);
+    app_progress_end(&bar, 0);
+    char device_name[256]; /* the stats' device name lives with the renderer */
+    if (st == PGI_OK) {
+        snprintf(device_name, sizeof device_name, "%s", fs.device ? fs.device : "cpu");
+        fs.device = device_name;
+    }
+    pgi_renderer_destroy(r);
+    if (st) {
+        pgi_image_free(&img);
+        pgi_scene_destroy(scene);
+        return cli_fail("render", "render failed", st);
+    }
+    if (be && !be->writer) { /* another process writes */
+        pgi_image_free(&img);
+        pgi_scene_destroy(scene);
+        return 0;
+    }
+    st = pgi_image_write(&img, out, exposure);
+    pgi_image_free(&img);
+    pgi_scene_destroy(scene);
+    if (st) return cli_fail("render", "cannot write image", st);
+    fs.memory_peak_rss = pgi_memory_peak_rss(); /* writing the image included */
+    if (stats_path) {
+        st = be && be->write_stats ? be->write_stats(&fs, stats_path) : pgi_stats_write_json(&fs, stats_path);
+        if (st) return cli_fail("render", "cannot write stats", st);
+    }
+    if (fs.photons_stored < (uint64_t)fs.settings.photons * (uint64_t)fs.frames)
+        cli_warn(quiet, "render",
+                 "only %" PRIu64 " photons were stored from %" PRIu64
+                 " paths: most light leaves the scene (the tracer stops after 64 paths per requested photon)",
+                 fs.photons_stored, fs.photons_emitted);
+    if (!quiet) {
+        fprintf(stderr,
+                "%s: %s %dx%d, %s, %" PRIu64 " photons stored from %" PRIu64 " paths, r=%g\n"
+                "  view %.1f ms | trace %.1f ms | build %.1f ms | estimate %.1f ms | direct %.1f ms | total %.1f ms\n"
+                "  photon reads %" PRIu64 ", contributing %" PRIu64 " (%.1f%%)\n",
+                out, scene_name, fs.width, fs.height, fs.estimator, fs.photons_stored, fs.photons_emitted,
+                (double)fs.radius, fs.view_ms, fs.trace_ms, fs.build_ms, fs.estimate_ms, fs.direct_ms, fs.total_ms,
+                fs.reads, fs.contributing, fs.reads ? 100.0 * (double)fs.contributing / (double)fs.reads : 0.0);
+        if (strcmp(fs.device, "cpu") != 0) {
+            fprintf(stderr, "  device %s:", fs.device);
+            for (int k = 0; k < fs.pass_count; k++)
+                fprintf(stderr, "%s %s %.2f ms", k ? " |" : "", fs.passes_ms[k].name, fs.passes_ms[k].value);
+            fprintf(stderr, "\n");
+        }
+        if (fs.frames > 1)
+            fprintf(stderr, "  progressive: %d frames averaged (times and counts summed), last radius %g\n", fs.frames,
+                    (double)fs.radius);
+        double counted = 0.0;
+        int big = 0;
+        for (int k = 0; k < fs.memory_count; k++) {
+            counted += fs.memory_bytes[k].value;
+            if (fs.memory_bytes[k].value > fs.memory_bytes[big].value) big = k;
+        }
+        if (fs.memory_count > 0)
+            fprintf(stderr, "  memory %.1f MiB counted (largest: %s %.1f MiB), peak resident set %.1f MiB\n",
+                    counted / 1048576.0, fs.memory_bytes[big].name, fs.memory_bytes[big].value / 1048576.0,
+                    (double)fs.memory_peak_rss / 1048576.0);
+        if (fs.leaf_size > 0) fprintf(stderr, "  bvh leaf-size threshold %d\n", fs.leaf_size);
+        if (fs.footprint_bin_width > 0.f) {
+            fprintf(stderr, "  footprint radii (before the r_max clamp):\n");
+            for (int k = 0; k < PGI_FOOTPRINT_BINS; k++) {
+                double lo = k * (double)fs.footprint_bin_width;
+                if (k < PGI_FOOTPRINT_BINS - 1)
+                    fprintf(stderr, "    %8.4g - %-8.4g %10" PRIu64 "\n", lo, lo + fs.footprint_bin_width,
+                            fs.footprint_hist[k]);
+                else fprintf(stderr, "    > %-17.4g %10" PRIu64 "\n", lo, fs.footprint_hist[k]);
+            }
+        }
+    }
+    return 0;
+}

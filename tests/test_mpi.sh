@@ -1,0 +1,100 @@
+#!/usr/bin/env bash
+# photongi-mpi (apps/mpi, docs/distributed.md): under mpirun -np 2 and -np 3 (and without
+# mpirun: 1 rank), render --progressive 12 and reference --spp 24 (and --continue) write the same
+# bytes as photongi; bad input under MPI exits non-zero with a message, never hangs; a rank that
+# fails in the middle of the work ends the job with its rank in the message.
+#   usage: tests/test_mpi.sh path/to/photongi path/to/photongi-mpi [path/to/mpirun]
+set -u
+
+CLI=${1:?usage: test_mpi.sh photongi photongi-mpi [mpirun]}
+MPI=${2:?usage: test_mpi.sh photongi photongi-mpi [mpirun]}
+MPIRUN=${3:-mpirun}
+# Under make test-sanitize: Open MPI's own allocations are not ours to report.
+# Its components stay loaded to the end (mca_base_component_disable_dlclose), so that their
+# frames have names the suppressions (lsan-mpi.supp) can match.
+export LSAN_OPTIONS="${LSAN_OPTIONS:+$LSAN_OPTIONS:}suppressions=$(cd "$(dirname "$0")" && pwd)/lsan-mpi.supp"
+export OMPI_MCA_mca_base_component_disable_dlclose=1
+# Open MPI is built without frame pointers: slow unwinding finds the library in each trace.
+[ -n "${ASAN_OPTIONS:-}" ] && export ASAN_OPTIONS="$ASAN_OPTIONS:fast_unwind_on_malloc=0"
+TMP=$(mktemp -d "${TMPDIR:-/tmp}/pgi-test-mpi-XXXXXX")
+trap 'rm -rf "$TMP"' EXIT
+pass=0
+fail=0
+ok() { pass=$((pass + 1)); }
+bad() {
+    fail=$((fail + 1))
+    echo "FAIL: $*"
+}
+
+# mpirun's options: oversubscribe (CI machines have few cores), and as root (CI's containers)
+# Open MPI needs --allow-run-as-root.
+MPIOPTS=(--oversubscribe)
+[ "$(id -u)" -eq 0 ] && MPIOPTS+=(--allow-run-as-root)
+if "$MPIRUN" --version 2>&1 | grep -qiE "open mpi|openrte"; then :; else MPIOPTS=(); fi
+# np N ARGS...: photongi-mpi under mpirun -np N (a minute at most: never a hang)
+np() {
+    local n=$1
+    shift
+    timeout 120 "$MPIRUN" "${MPIOPTS[@]}" -np "$n" "$MPI" "$@"
+}
+
+# A small built-in scene, few photons: fast, yet several blocks of frames and samples.
+R=(render --scene cornell --size 48x40 --photons 3000 --direct-samples 2 --seed 5 --progressive 12 -q)
+"$CLI" "${R[@]}" -o "$TMP/r-ref.exr" && ok || bad "photongi render failed"
+"$MPI" "${R[@]}" -o "$TMP/r-1.exr" && ok || bad "photongi-mpi render without mpirun failed"
+cmp -s "$TMP/r-ref.exr" "$TMP/r-1.exr" && ok || bad "render: photongi-mpi (1 rank) differs from photongi"
+for n in 2 3; do
+    np "$n" "${R[@]}" --threads 1 -o "$TMP/r-$n.exr" --stats "$TMP/r-$n.json" 2>"$TMP/err"
+    rc=$?
+    [ $rc -eq 0 ] && ok || { bad "render -np $n: exit $rc"; head -5 "$TMP/err"; }
+    cmp -s "$TMP/r-ref.exr" "$TMP/r-$n.exr" && ok || bad "render: -np $n differs from photongi"
+    # the stats carry the per-rank figures
+    grep -q '"mpi"' "$TMP/r-$n.json" && grep -q "\"ranks\":[[:space:]]*$n" "$TMP/r-$n.json" &&
+        grep -q '"bytes_sent"' "$TMP/r-$n.json" && ok || bad "render -np $n: no \"mpi\" in the stats"
+done
+# the thread count does not matter either (2 ranks x 2 threads)
+np 2 "${R[@]}" --threads 2 -o "$TMP/r-2t.exr" && cmp -s "$TMP/r-ref.exr" "$TMP/r-2t.exr" && ok ||
+    bad "render: -np 2 --threads 2 differs from photongi"
+# a PNG and a frame count that leaves a partial last block
+R2=(render --scene cornell --size 40x32 --photons 2000 --direct-samples 2 --progressive 7 -q)
+"$CLI" "${R2[@]}" -o "$TMP/p-ref.png" && np 3 "${R2[@]}" --threads 1 -o "$TMP/p-3.png" &&
+    cmp -s "$TMP/p-ref.png" "$TMP/p-3.png" && ok || bad "render --progressive 7 PNG: -np 3 differs from photongi"
+
+F=(reference --scene cornell --size 40x32 --spp 24 -q)
+"$CLI" "${F[@]}" -o "$TMP/f-ref.exr" && ok || bad "photongi reference failed"
+for n in 2 3; do
+    np "$n" "${F[@]}" --threads 1 -o "$TMP/f-$n.exr" && ok || bad "reference -np $n failed"
+    cmp -s "$TMP/f-ref.exr" "$TMP/f-$n.exr" && cmp -s "$TMP/f-ref.exr.json" "$TMP/f-$n.exr.json" && ok ||
+        bad "reference: -np $n differs from photongi"
+done
+# --continue: 10 more samples (a partial last block) on top of the 24
+cp "$TMP/f-ref.exr" "$TMP/c-ref.exr" && cp "$TMP/f-ref.exr.json" "$TMP/c-ref.exr.json"
+cp "$TMP/f-ref.exr" "$TMP/c-3.exr" && cp "$TMP/f-ref.exr.json" "$TMP/c-3.exr.json"
+"$CLI" reference --continue "$TMP/c-ref.exr" --spp 10 -q &&
+    np 3 reference --continue "$TMP/c-3.exr" --spp 10 --threads 1 -q &&
+    cmp -s "$TMP/c-ref.exr" "$TMP/c-3.exr" && grep -q '"spp":.*34' "$TMP/c-3.exr.json" && ok ||
+    bad "reference --continue: -np 3 differs from photongi"
+
+# Bad input under MPI: a message, a non-zero exit, no hang, no output.
+np 2 render --scene "$TMP/missing.obj" -o "$TMP/x.png" 2>"$TMP/err"
+rc=$?
+[ $rc -ne 0 ] && [ $rc -ne 124 ] && grep -q "missing.obj" "$TMP/err" && [ ! -e "$TMP/x.png" ] && ok ||
+    bad "missing scene under -np 2: exit $rc, $(head -1 "$TMP/err")"
+np 3 reference --spp 0 -o "$TMP/x.exr" 2>"$TMP/err"
+rc=$?
+[ $rc -eq 2 ] && grep -q -- "--spp" "$TMP/err" && ok || bad "reference --spp 0 under -np 3: exit $rc"
+np 2 frobnicate 2>"$TMP/err"
+rc=$?
+[ $rc -eq 2 ] && grep -q "unknown command" "$TMP/err" && ok || bad "unknown command under -np 2: exit $rc"
+# A rank that fails in the middle of the work ends the job (MPI_Abort), naming its rank.
+PHOTONGI_MPI_FAIL_RANK=2 timeout 120 "$MPIRUN" "${MPIOPTS[@]}" -x PHOTONGI_MPI_FAIL_RANK -np 3 "$MPI" \
+    render --scene cornell --size 32x24 --photons 1000 --progressive 40 --threads 1 -q -o "$TMP/y.png" 2>"$TMP/err"
+rc=$?
+[ $rc -ne 0 ] && [ $rc -ne 124 ] && grep -q "rank 2 of 3" "$TMP/err" && [ ! -e "$TMP/y.png" ] && ok ||
+    bad "a failing rank: exit $rc, $(head -1 "$TMP/err")"
+
+"$MPI" --help | grep -q "mpirun -np R photongi-mpi render" && ok || bad "photongi-mpi --help"
+"$MPI" render --help | grep -q -- "--progressive N" && ok || bad "photongi-mpi render --help"
+
+echo "test_mpi: $pass passed, $fail failed"
+[ "$fail" -eq 0 ]
