@@ -314,6 +314,7 @@ int pgi_cmd_render(int argc, char **argv) {
     if (exposure == 0.f) exposure = info.defaults.exposure > 0.f ? info.defaults.exposure : 1.f;
     pgi_image img = {0};
     pgi_frame_stats fs;
+    memset(&fs, 0, sizeof fs); /* a launcher's rank that does not write leaves it untouched */
     pgi_renderer *r;
     if ((st = pgi_renderer_create(scene, &r))) {
         pgi_scene_destroy(scene);

@@ -182,12 +182,9 @@ typedef struct command {
     int (*run)(int argc, char **argv);
 } command;
 
-static const command k_commands[] = {{"render", pgi_cmd_render},
-                                     {"estimators", cmd_estimators},
-                                     {"info", cmd_info},
-                                     {"reference", pgi_cmd_reference},
-                                     {"compare", pgi_cmd_compare},
-                                     {"devices", cmd_devices}};
+static const command k_commands[] = {{"render", pgi_cmd_render},   {"estimators", cmd_estimators},
+                                     {"info", cmd_info},           {"reference", pgi_cmd_reference},
+                                     {"compare", pgi_cmd_compare}, {"devices", cmd_devices}};
 
 static const command *find_command(const char *name) {
     for (size_t i = 0; i < sizeof k_commands / sizeof k_commands[0]; i++)

@@ -287,8 +287,8 @@ static pgi_status hg_record(hg_state *s, pgi__gpu_buffer *photons, size_t n, pgi
                           64)))
         return st;
     pgi__gpu_timestamp(g, "gpu_scatter");
-    if ((st = dispatch_1d(g, s->k[K_RANK], (pgi__gpu_buffer *[]){s->start, s->bucket_of, s->idx, s->ranked}, &p, n,
-                          64)))
+    if ((st =
+             dispatch_1d(g, s->k[K_RANK], (pgi__gpu_buffer *[]){s->start, s->bucket_of, s->idx, s->ranked}, &p, n, 64)))
         return st;
     pgi__gpu_timestamp(g, "gpu_rank");
     if ((st = dispatch_1d(g, s->k[K_REORDER], (pgi__gpu_buffer *[]){photons, s->ranked, s->sorted}, &p, n, 64)))

@@ -679,7 +679,8 @@ static pgi_status gpu_frame(pgi_renderer *r, pgi_render_desc *d, uint64_t seq_se
     pgi__gpu_buffer *indirect = NULL;
     const int need_indirect = d->output != PGI_OUTPUT_DIRECT;
     if (need_indirect && !r->gpu_est_vt->device_reserve)
-        return pgi__fail(PGI_ERR_UNSUPPORTED, "%s on the GPU does not run in the GPU frame yet (only on uploaded inputs)",
+        return pgi__fail(PGI_ERR_UNSUPPORTED,
+                         "%s on the GPU does not run in the GPU frame yet (only on uploaded inputs)",
                          r->gpu_est_vt->name);
     if (need_indirect && (st = r->gpu_est_vt->device_reserve(r->gpu_est, np, d->width, d->height, &indirect)))
         return st;
