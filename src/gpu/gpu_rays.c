@@ -94,6 +94,12 @@ pgi_status pgi__gpu_rays_update(pgi__gpu_rays *r, const pgi_scene *s) {
     return build_upload(r, s);
 }
 
+void pgi__gpu_rays_buffers(const pgi__gpu_rays *r, pgi__gpu_buffer *out[4]) {
+    out[0] = r->nodes;
+    out[1] = r->tris;
+    out[2] = r->masks;
+    out[3] = r->alpha;
+}
 const pgi__bvh *pgi__gpu_rays_bvh(const pgi__gpu_rays *r) { return r->bvh; }
 
 pgi_status pgi__gpu_rays_set_config(pgi__gpu_rays *r, const pgi_scene *s, const pgi__bvh_config *cfg) {
