@@ -1,0 +1,256 @@
+/* Photon tracing on the GPU (src/gpu/gpu_trace.h, shaders/trace.comp) against the CPU tracer
+ * (src/photon/trace.c), on whatever Vulkan device the loader finds (CI: lavapipe, a CPU: small
+ * photon counts). The two draw different random numbers, so they are compared statistically:
+ * photons stored per path emitted within 1 %, total stored flux within 1 %, mean photon position
+ * within 1 % of the scene's diagonal, mean incoming direction within 0.01 (Cornell; Cornell with a
+ * mirror and a glass sphere; Sibenik, textured, when the large scenes are there). And: the same
+ * bytes on two runs and with any batch size, few paths traced for nothing (<= 5 %), the options the
+ * GPU lacks refused with a message naming them. Built and run only with the Vulkan backend. */
+#include "test_util.h"
+
+#include <dlfcn.h>
+
+#include "gpu/gpu_trace.h"
+#include "photon/photon.h"
+#include "rt/rt.h"
+#include "scene/scene_internal.h"
+
+static pgi__gpu *g_gpu;
+
+static int setup(void **state) {
+    (void)state;
+    if (pgi__gpu_create(-1, &g_gpu) != PGI_OK) {
+        fprintf(stderr, "no Vulkan device: %s\n", pgi_last_error());
+        return -1;
+    }
+    fprintf(stderr, "device: %s\n", pgi__gpu_device_name(g_gpu));
+    return 0;
+}
+
+static int teardown(void **state) {
+    (void)state;
+    pgi__gpu_destroy(g_gpu);
+    return 0;
+}
+
+typedef struct stats {
+    double yield;   /* photons per path emitted */
+    double flux[3]; /* total */
+    double pos[3];  /* mean position */
+    double dir[3];  /* mean incoming direction */
+} stats;
+
+static stats photon_stats(const pgi_photons *ph) {
+    stats s = {0};
+    s.yield = ph->emitted ? (double)ph->count / (double)ph->emitted : 0.0;
+    for (size_t j = 0; j < ph->count; j++) {
+        s.flux[0] += ph->fr[j], s.flux[1] += ph->fg[j], s.flux[2] += ph->fb[j];
+        s.pos[0] += ph->px[j], s.pos[1] += ph->py[j], s.pos[2] += ph->pz[j];
+        s.dir[0] += ph->dx[j], s.dir[1] += ph->dy[j], s.dir[2] += ph->dz[j];
+    }
+    for (int k = 0; k < 3 && ph->count; k++) s.pos[k] /= (double)ph->count, s.dir[k] /= (double)ph->count;
+    return s;
+}
+
+static double rel(double a, double b) { return fabs(a - b) / fmax(fabs(b), 1e-30); }
+
+/* GPU and CPU photons of scene s: statistically the same. */
+static void compare(pgi_scene *s, const char *what, uint32_t photons, int bounces) {
+    pgi__rt *rt = NULL;
+    TU_CHECK_OK(pgi__rt_create(s, &rt));
+    pgi_photons cpu = {0}, gpu = {0};
+    TU_CHECK_OK(pgi_photons_alloc(&cpu, photons));
+    TU_CHECK_OK(pgi_photons_alloc(&gpu, photons));
+    pgi__trace_desc td = {.photons = photons, .bounces = bounces, .seed = 7, .threads = 2};
+    pgi__trace_scratch sc = {0};
+    uint64_t crays = 0;
+    double c0 = pgi__now_ms();
+    TU_CHECK_OK(pgi__photons_trace(s, rt, &td, &cpu, &sc, &crays));
+    double cms = pgi__now_ms() - c0;
+    pgi__trace_scratch_free(&sc);
+
+    pgi__gpu_rays *gr = NULL;
+    pgi__gpu_trace *gt = NULL;
+    TU_CHECK_OK(pgi__gpu_rays_create(g_gpu, s, &gr));
+    TU_CHECK_OK(pgi__gpu_trace_create(g_gpu, gr, s, &gt));
+    pgi__gpu_trace_desc gd = {.photons = photons, .bounces = bounces, .seed = 7};
+    pgi__gpu_trace_result r;
+    TU_CHECK_OK(pgi__gpu_trace_run(gt, s, &gd, &r));
+    TU_CHECK_OK(pgi__gpu_trace_download(gt, &gpu));
+    assert_int_equal(r.count, photons);
+    assert_int_equal(gpu.count, photons);
+    assert_true(r.paths_discarded * 20 <= r.paths_traced); /* <= 5 % traced for nothing */
+    stats a = photon_stats(&gpu), b = photon_stats(&cpu);
+    const double diag = pgi__scene_diagonal(s);
+    fprintf(stderr,
+            "  %-16s %u photons: GPU %.1f ms (device %.1f, %d batches, %llu paths, %llu discarded, %llu rays), "
+            "CPU %.1f ms (%llu rays)\n"
+            "  %-16s yield GPU %.4f CPU %.4f (%.2f %%); flux GPU %.4g %.4g %.4g CPU %.4g %.4g %.4g\n"
+            "  %-16s mean position GPU %.4f %.4f %.4f CPU %.4f %.4f %.4f; direction GPU %.4f %.4f %.4f CPU %.4f %.4f "
+            "%.4f\n",
+            what, photons, r.wall_ms, r.trace_ms, r.batches, (unsigned long long)r.paths_traced,
+            (unsigned long long)r.paths_discarded, (unsigned long long)r.rays, cms, (unsigned long long)crays, what,
+            a.yield, b.yield, 100.0 * rel(a.yield, b.yield), a.flux[0], a.flux[1], a.flux[2], b.flux[0], b.flux[1],
+            b.flux[2], what, a.pos[0], a.pos[1], a.pos[2], b.pos[0], b.pos[1], b.pos[2], a.dir[0], a.dir[1], a.dir[2],
+            b.dir[0], b.dir[1], b.dir[2]);
+    assert_true(rel(a.yield, b.yield) <= 0.01);
+    for (int k = 0; k < 3; k++) {
+        assert_true(rel(a.flux[k], b.flux[k]) <= 0.01);
+        assert_true(fabs(a.pos[k] - b.pos[k]) <= 0.01 * diag);
+        assert_true(fabs(a.dir[k] - b.dir[k]) <= 0.01);
+    }
+    pgi__gpu_trace_destroy(gt);
+    pgi__gpu_rays_destroy(gr);
+    pgi_photons_free(&cpu);
+    pgi_photons_free(&gpu);
+    pgi__rt_destroy(rt);
+}
+
+static void test_cornell(void **state) {
+    (void)state;
+    pgi_scene *s = NULL;
+    TU_CHECK_OK(pgi_scene_load("cornell", &s));
+    compare(s, "cornell", 300000, 4);
+    pgi_scene_destroy(s);
+}
+
+static void test_cornell_mirrors(void **state) {
+    (void)state;
+    pgi_scene *s = NULL;
+    TU_CHECK_OK(pgi_scene_load("cornell-mirrors", &s));
+    compare(s, "cornell-mirrors", 300000, 6);
+    pgi_scene_destroy(s);
+}
+
+static void test_sibenik(void **state) {
+    (void)state;
+    pgi_scene *s = NULL;
+    if (pgi_scene_load("sibenik", &s) != PGI_OK) {
+        fprintf(stderr, "  sibenik not found (%s): skipped\n", pgi_last_error());
+        skip();
+    }
+    assert_true(s->ntexs > 0);
+    compare(s, "sibenik", 200000, 4);
+    pgi_scene_destroy(s);
+}
+
+/* Spot and sun lights beside Cornell's area light; glossy objects: microfacet plastic and
+ * Blinn-Phong. */
+static void test_lights_glossy(void **state) {
+    (void)state;
+    char dir[512], path[700];
+    tu_make_tmpdir(dir, sizeof dir);
+    snprintf(path, sizeof path, "%s/lights.json", dir);
+    assert_int_equal(
+        tu_write_file(path,
+                      "{\"builtin\": \"cornell\", \"lights\": ["
+                      "{\"type\": \"spot\", \"position\": [0, 1.6, 0.5], \"direction\": [0.2, -1, -0.3], "
+                      "\"angle\": 35, \"intensity\": [3, 2, 1]},"
+                      "{\"type\": \"sun\", \"direction\": [0.3, -0.8, -0.4], \"irradiance\": [0.5, 0.6, 0.7]}],"
+                      " \"objects\": ["
+                      "{\"shape\": \"sphere\", \"center\": [-0.4, 0.3, 0.3], \"radius\": 0.25, \"material\": "
+                      "{\"type\": \"plastic\", \"kd\": [0.6, 0.5, 0.4], \"ks\": [0.04, 0.04, 0.04], \"shininess\": "
+                      "30}},"
+                      "{\"shape\": \"box\", \"center\": [0.4, 0.2, 0.4], \"size\": [0.3, 0.4, 0.3], \"material\": "
+                      "{\"type\": \"phong\", \"kd\": [0.5, 0.6, 0.5], \"ks\": [0.3, 0.3, 0.3], \"shininess\": 40}}]}"),
+        0);
+    pgi_scene *s = NULL;
+    TU_CHECK_OK(pgi_scene_load(path, &s));
+    int types = 0;
+    for (size_t i = 0; i < s->nlights; i++) types |= 1 << s->lights[i].type;
+    for (size_t i = 0; i < s->nmats; i++) types |= 1 << (8 + s->mats[i].type);
+    assert_int_equal(types & 0xE, 0xE);                                               /* spot, sun, area */
+    assert_int_equal(types & (1 << (8 + PGI_MAT_PLASTIC) | 1 << (8 + PGI_MAT_PHONG)), /* both lobes */
+                     1 << (8 + PGI_MAT_PLASTIC) | 1 << (8 + PGI_MAT_PHONG));
+    compare(s, "lights-glossy", 300000, 5);
+    pgi_scene_destroy(s);
+    tu_rm_tmpdir(dir);
+}
+
+/* Same bytes on two runs, and with small batches (many launches): the photons and `emitted` do
+ * not depend on how the paths are split. */
+static void test_deterministic(void **state) {
+    (void)state;
+    pgi_scene *s = NULL;
+    TU_CHECK_OK(pgi_scene_load("cornell-mirrors", &s));
+    pgi__gpu_rays *gr = NULL;
+    pgi__gpu_trace *gt = NULL;
+    TU_CHECK_OK(pgi__gpu_rays_create(g_gpu, s, &gr));
+    TU_CHECK_OK(pgi__gpu_trace_create(g_gpu, gr, s, &gt));
+    const uint32_t n = 20000;
+    pgi_photons ph[3] = {{0}};
+    pgi__gpu_trace_desc d = {.photons = n, .bounces = 5, .seed = 11};
+    pgi__gpu_trace_result r[3];
+    for (int k = 0; k < 3; k++) {
+        TU_CHECK_OK(pgi_photons_alloc(&ph[k], n));
+        pgi__gpu_trace_set_max_batch(gt, k == 2 ? 777 : 0);
+        TU_CHECK_OK(pgi__gpu_trace_run(gt, s, &d, &r[k]));
+        TU_CHECK_OK(pgi__gpu_trace_download(gt, &ph[k]));
+        fprintf(stderr, "  run %d: %u photons, %llu emitted, %d batches, %llu discarded\n", k, r[k].count,
+                (unsigned long long)r[k].emitted, r[k].batches, (unsigned long long)r[k].paths_discarded);
+    }
+    for (int k = 1; k < 3; k++) {
+        assert_int_equal(ph[k].count, n);
+        assert_int_equal(ph[k].emitted, ph[0].emitted);
+        float *a[] = {ph[0].px, ph[0].py, ph[0].pz, ph[0].dx, ph[0].dy, ph[0].dz, ph[0].fr, ph[0].fg, ph[0].fb};
+        float *b[] = {ph[k].px, ph[k].py, ph[k].pz, ph[k].dx, ph[k].dy, ph[k].dz, ph[k].fr, ph[k].fg, ph[k].fb};
+        for (int c = 0; c < 9; c++) assert_memory_equal(a[c], b[c], n * sizeof(float));
+    }
+    assert_true(r[2].batches > r[0].batches);
+    /* another seed: other photons */
+    d.seed = 12;
+    TU_CHECK_OK(pgi__gpu_trace_run(gt, s, &d, &r[1]));
+    TU_CHECK_OK(pgi__gpu_trace_download(gt, &ph[1]));
+    assert_memory_not_equal(ph[0].px, ph[1].px, n * sizeof(float));
+    for (int k = 0; k < 3; k++) pgi_photons_free(&ph[k]);
+    pgi__gpu_trace_destroy(gt);
+    pgi__gpu_rays_destroy(gr);
+    pgi_scene_destroy(s);
+}
+
+static void expect_refused(const pgi__gpu_trace_desc *d, const char *word) {
+    assert_int_equal(pgi__gpu_trace_check(d), PGI_ERR_UNSUPPORTED);
+    fprintf(stderr, "  refused: %s\n", pgi_last_error());
+    assert_non_null(strstr(pgi_last_error(), word));
+}
+
+static void test_unsupported(void **state) {
+    (void)state;
+    pgi__gpu_trace_desc d = {.photons = 1000, .bounces = 4, .seed = 1};
+    TU_CHECK_OK(pgi__gpu_trace_check(&d));
+    d.radius_policy = PGI_RADIUS_PATH;
+    expect_refused(&d, "radius-policy path");
+    d.radius_policy = PGI_RADIUS_DIFFERENTIALS;
+    expect_refused(&d, "radius-policy differentials");
+    d.radius_policy = PGI_RADIUS_FIXED;
+    d.emission = PGI_EMISSION_GUIDED;
+    expect_refused(&d, "emission guided");
+    d.emission = PGI_EMISSION_AUTO;
+    expect_refused(&d, "emission auto");
+    d.emission = PGI_EMISSION_UNIFORM;
+    d.store = PGI_STORE_VIEW;
+    expect_refused(&d, "store view");
+    /* a sky */
+    pgi_scene *s = NULL;
+    TU_CHECK_OK(pgi_scene_load("window-box", &s));
+    pgi__gpu_rays *gr = NULL;
+    pgi__gpu_trace *gt = NULL;
+    TU_CHECK_OK(pgi__gpu_rays_create(g_gpu, s, &gr));
+    assert_int_equal(pgi__gpu_trace_create(g_gpu, gr, s, &gt), PGI_ERR_UNSUPPORTED);
+    assert_null(gt);
+    fprintf(stderr, "  refused: %s\n", pgi_last_error());
+    assert_non_null(strstr(pgi_last_error(), "sky"));
+    pgi__gpu_rays_destroy(gr);
+    pgi_scene_destroy(s);
+}
+
+int main(void) {
+#if defined(__SANITIZE_ADDRESS__)
+    (void)dlopen("libvulkan_lvp.so", RTLD_NOW | RTLD_NODELETE); /* as test_gpu.c keep_lavapipe_loaded */
+#endif
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_unsupported),     cmocka_unit_test(test_deterministic), cmocka_unit_test(test_cornell),
+        cmocka_unit_test(test_cornell_mirrors), cmocka_unit_test(test_lights_glossy), cmocka_unit_test(test_sibenik),
+    };
+    return cmocka_run_group_tests(tests, setup, teardown);
+}
