@@ -94,12 +94,6 @@ pgi_status pgi__gpu_rays_update(pgi__gpu_rays *r, const pgi_scene *s) {
     return build_upload(r, s);
 }
 
-void pgi__gpu_rays_buffers(const pgi__gpu_rays *r, pgi__gpu_buffer *out[4]) {
-    out[0] = r->nodes;
-    out[1] = r->tris;
-    out[2] = r->masks;
-    out[3] = r->alpha;
-}
 const pgi__bvh *pgi__gpu_rays_bvh(const pgi__gpu_rays *r) { return r->bvh; }
 
 pgi_status pgi__gpu_rays_set_config(pgi__gpu_rays *r, const pgi_scene *s, const pgi__bvh_config *cfg) {
@@ -144,4 +138,11 @@ pgi_status pgi__gpu_rays_intersect(pgi__gpu_rays *r, const pgi__bvh_ray *rays, s
     pgi_status st2 = pgi__gpu_submit_wait(r->g); /* ends the sequence even when recording failed */
     if (st || (st = st2)) return st;
     return pgi__gpu_download(r->g, r->hits, 0, hits, n * sizeof *hits);
+}
+
+void pgi__gpu_rays_buffers(const pgi__gpu_rays *r, pgi__gpu_buffer **out) {
+    out[0] = r->nodes;
+    out[1] = r->tris;
+    out[2] = r->masks;
+    out[3] = r->alpha;
 }

@@ -31,9 +31,9 @@ int pgi__gpu_rays_needs_update(const pgi__gpu_rays *r, const pgi_scene *s);
 /* Rebuilds the BVH from the scene's current positions and uploads it (buffers grow as needed).
  * On failure the device may hold part of the new BVH: update again (or destroy) before tracing. */
 pgi_status pgi__gpu_rays_update(pgi__gpu_rays *r, const pgi_scene *s);
-/* The BVH's four device buffers (nodes, triangles, masks, alpha), for kernels that include
- * bvh.glsl at bindings 0..3 (trace.comp). */
-void pgi__gpu_rays_buffers(const pgi__gpu_rays *r, pgi__gpu_buffer *out[4]);
+/* (addition, gpu-frame) The BVH's four buffers in bvh.glsl's binding order: nodes, triangles,
+ * masks, alpha (for passes that bind them beside their own, gpu_scene.h). */
+void pgi__gpu_rays_buffers(const pgi__gpu_rays *r, pgi__gpu_buffer **out);
 /* The BVH on the device (its statistics, and the CPU traversal of the same layout). */
 const pgi__bvh *pgi__gpu_rays_bvh(const pgi__gpu_rays *r);
 

@@ -1,0 +1,229 @@
+/* The scene on the GPU (gpu_scene.h): packing the scene's internals into the std430 arrays
+ * scene.glsl reads, and keeping them in step with the scene's versions. */
+#include "gpu/gpu_scene.h"
+
+#include <string.h>
+
+#include "scene/bsdf.h"
+
+/* gather.glsl Lobe (gpu_hashgrid.c's gpu_lobe) */
+typedef struct {
+    uint32_t model;
+    float ks[3], s, eta, a2, inv_1mEavg;
+    float E[PGI_GGX_NMU];
+} gpu_lobe;
+
+struct pgi__gpu_scene {
+    pgi__gpu *g;
+    pgi__gpu_rays *rays;
+    pgi__gpu_buffer *verts, *tris, *mats, *lobes, *lights, *area, *tex;
+    pgi__gpu_scene_push info;
+    uint64_t static_version, dynamic_version;
+};
+
+#define LUT_WORDS 256
+
+/* Uploads n bytes of src (n 0: one zero entry of 16 words, a buffer must exist) into *b. */
+static pgi_status upload(pgi__gpu *g, pgi__gpu_buffer **b, const void *src, size_t n, const char *what) {
+    static const uint32_t zero[16];
+    if (!src || !n) src = zero, n = sizeof zero;
+    pgi_status st = pgi__gpu_buffer_reserve(g, b, n, what);
+    return st ? st : pgi__gpu_upload(g, *b, 0, src, n);
+}
+
+static pgi_status check_scene(const pgi_scene *s) {
+    if (s->env && s->env->rgb)
+        return pgi__fail(PGI_ERR_UNSUPPORTED,
+                         "the GPU frame does not support an environment map ('%s'): a constant sky only (use "
+                         "--device cpu)",
+                         s->env->path);
+    if (s->ntris > UINT32_MAX / 4 || s->nverts > UINT32_MAX / 4 || s->nlights > UINT32_MAX / 4)
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "the GPU frame: the scene is too large (%zu triangles)", s->ntris);
+    return PGI_OK;
+}
+
+/* Vertices, lights and the area CDF: what moves with the scene's geometry. */
+static pgi_status upload_dynamic(pgi__gpu_scene *gs, const pgi_scene *s) {
+    pgi__gpu *g = gs->g;
+    pgi_status st = PGI_OK;
+    pgi__gpu_vert *v = calloc(s->nverts + 1, sizeof *v);
+    pgi__gpu_light *l = calloc(s->nlights + 1, sizeof *l);
+    pgi__gpu_area *a = calloc(s->nlights + 1, sizeof *a);
+    if (!v || !l || !a) {
+        st = pgi__fail(PGI_ERR_OOM, "%s", "out of memory packing the scene for the GPU");
+        goto done;
+    }
+    for (size_t i = 0; i < s->nverts; i++) {
+        memcpy(v[i].pos, s->pos + 3 * i, 3 * sizeof(float));
+        if (s->nrm) memcpy(v[i].nrm, s->nrm + 3 * i, 3 * sizeof(float));
+        if (s->uv) {
+            v[i].u = s->uv[2 * i];
+            v[i].v = s->uv[2 * i + 1];
+        }
+    }
+    /* pgi__direct's table: cumulative luminance of the power in double, divided by the total */
+    size_t narea = 0;
+    double tot = 0.0;
+    double *cum = calloc(s->nlights + 1, sizeof *cum);
+    if (!cum) {
+        st = pgi__fail(PGI_ERR_OOM, "%s", "out of memory packing the scene for the GPU");
+        goto done;
+    }
+    for (size_t i = 0; i < s->nlights; i++) {
+        const pgi__light *L = &s->lights[i];
+        pgi__gpu_light *o = &l[i];
+        memcpy(o->pos, L->pos, sizeof o->pos);
+        memcpy(o->dir, L->dir, sizeof o->dir);
+        memcpy(o->color, L->color, sizeof o->color);
+        memcpy(o->normal, L->normal, sizeof o->normal);
+        o->type = (uint32_t)L->type;
+        o->cos_cutoff = L->cos_cutoff;
+        o->area = L->area;
+        o->tri = L->tri;
+        if (L->type != PGI_LIGHT_AREA) continue;
+        tot += v3_lum(v3_load(L->power));
+        cum[narea] = (double)(float)tot; /* pgi__direct stores the running sum as a float first */
+        a[narea++].light = (uint32_t)i;
+    }
+    for (size_t k = 0; k < narea; k++) a[k].cdf = tot > 0.0 ? (float)(cum[k] / tot) : (float)(k + 1) / (float)narea;
+    if (narea) a[narea - 1].cdf = 1.f;
+    free(cum);
+    if ((st = upload(g, &gs->verts, v, s->nverts * sizeof *v, "gpu_scene")) ||
+        (st = upload(g, &gs->lights, l, s->nlights * sizeof *l, "gpu_scene")) ||
+        (st = upload(g, &gs->area, a, narea * sizeof *a, "gpu_scene")))
+        goto done;
+    gs->info.nlights = (uint32_t)s->nlights;
+    gs->info.narea = (uint32_t)narea;
+    gs->info.eps = pgi__scene_epsilon(s);
+    gs->static_version = s->static_version;
+    gs->dynamic_version = s->dynamic_version;
+done:
+    free(v);
+    free(l);
+    free(a);
+    return st;
+}
+
+/* Triangles, materials, lobes, textures: fixed for the scene's life. */
+static pgi_status upload_static(pgi__gpu_scene *gs, const pgi_scene *s) {
+    pgi__gpu *g = gs->g;
+    pgi_status st = PGI_OK;
+    uint32_t *t = calloc(4 * (s->ntris + 1), sizeof *t);
+    pgi__gpu_mat *m = calloc(s->nmats + 1, sizeof *m);
+    gpu_lobe *lb = calloc(s->nmats + 1, sizeof *lb);
+    size_t words = LUT_WORDS + 4 * s->ntexs;
+    for (size_t i = 0; i < s->ntexs; i++) words += (size_t)s->texs[i].width * (size_t)s->texs[i].height;
+    uint32_t *tx = calloc(words + 1, sizeof *tx);
+    if (!t || !m || !lb || !tx) {
+        st = pgi__fail(PGI_ERR_OOM, "%s", "out of memory packing the scene for the GPU");
+        goto done;
+    }
+    for (size_t i = 0; i < s->ntris; i++) {
+        memcpy(t + 4 * i, s->tri + 3 * i, 3 * sizeof(uint32_t));
+        t[4 * i + 3] = s->tri_mat[i];
+    }
+    for (size_t i = 0; i < s->nmats; i++) {
+        const pgi__material *M = &s->mats[i];
+        memcpy(m[i].kd, M->kd, sizeof m[i].kd);
+        memcpy(m[i].ks, M->ks, sizeof m[i].ks);
+        memcpy(m[i].ke, M->ke, sizeof m[i].ke);
+        m[i].type = (uint32_t)M->type;
+        m[i].ior = M->ior;
+        /* without texture coordinates pgi__surface_texture reads at (0, 0), as scene.glsl */
+        m[i].tex_kd = M->tex_kd >= 0 && (size_t)M->tex_kd < s->ntexs ? M->tex_kd : -1;
+        if (pgi__mat_specular(M)) continue;
+        pgi__lobe lo;
+        pgi__lobe_of_material(M, &lo);
+        lb[i].model = (uint32_t)lo.model;
+        lb[i].ks[0] = lo.ks.x;
+        lb[i].ks[1] = lo.ks.y;
+        lb[i].ks[2] = lo.ks.z;
+        lb[i].s = lo.s;
+        lb[i].eta = lo.eta;
+        lb[i].a2 = lo.a2;
+        lb[i].inv_1mEavg = lo.inv_1mEavg;
+        if (lo.model == PGI_LOBE_GGX) memcpy(lb[i].E, lo.E, sizeof lb[i].E);
+    }
+    memcpy(tx, pgi__srgb8_texture_lut, LUT_WORDS * sizeof(float));
+    size_t at = LUT_WORDS + 4 * s->ntexs;
+    for (size_t i = 0; i < s->ntexs; i++) {
+        const pgi__texture *T = &s->texs[i];
+        uint32_t *d = tx + LUT_WORDS + 4 * i;
+        const size_t n = T->rgba && T->width > 0 && T->height > 0 ? (size_t)T->width * (size_t)T->height : 0;
+        d[0] = (uint32_t)at;
+        d[1] = n ? (uint32_t)T->width : 0u; /* width 0: no texels, the lookup gives 1 (pgi__texture_lookup) */
+        d[2] = n ? (uint32_t)T->height : 0u;
+        for (size_t k = 0; k < n; k++) {
+            const unsigned char *p = T->rgba + 4 * k;
+            tx[at + k] = (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+        }
+        at += n;
+    }
+    if ((st = upload(g, &gs->tris, t, 4 * s->ntris * sizeof *t, "gpu_scene")) ||
+        (st = upload(g, &gs->mats, m, s->nmats * sizeof *m, "gpu_scene")) ||
+        (st = upload(g, &gs->lobes, lb, s->nmats * sizeof *lb, "gpu_scene")) ||
+        (st = upload(g, &gs->tex, tx, words * sizeof *tx, "gpu_textures")))
+        goto done;
+    gs->info.ntris = (uint32_t)s->ntris;
+    gs->info.flags =
+        (s->nrm ? PGI__GPU_SCENE_NORMALS : 0u) | (s->uv ? PGI__GPU_SCENE_UVS : 0u) | (s->env ? PGI__GPU_SCENE_SKY : 0u);
+    if (s->env) {
+        memcpy(gs->info.up, s->env->fy, sizeof gs->info.up);
+        memcpy(gs->info.sky, s->env->sky, sizeof gs->info.sky);
+        memcpy(gs->info.ground, s->env->ground, sizeof gs->info.ground);
+    }
+done:
+    free(t);
+    free(m);
+    free(lb);
+    free(tx);
+    return st;
+}
+
+pgi_status pgi__gpu_scene_create(pgi__gpu *g, const pgi_scene *s, pgi__gpu_scene **out) {
+    *out = NULL;
+    pgi_status st = check_scene(s);
+    if (st) return st;
+    pgi__gpu_scene *gs = calloc(1, sizeof *gs);
+    if (!gs) return pgi__fail(PGI_ERR_OOM, "%s", "out of memory for the GPU scene");
+    gs->g = g;
+    if ((st = pgi__gpu_rays_create(g, s, &gs->rays)) || (st = upload_static(gs, s)) || (st = upload_dynamic(gs, s))) {
+        pgi__gpu_scene_destroy(gs);
+        return st;
+    }
+    *out = gs;
+    return PGI_OK;
+}
+
+void pgi__gpu_scene_destroy(pgi__gpu_scene *gs) {
+    if (!gs) return;
+    pgi__gpu_rays_destroy(gs->rays);
+    pgi__gpu_buffer *b[] = {gs->verts, gs->tris, gs->mats, gs->lobes, gs->lights, gs->area, gs->tex};
+    for (size_t i = 0; i < sizeof b / sizeof b[0]; i++) pgi__gpu_buffer_destroy(gs->g, b[i]);
+    free(gs);
+}
+
+int pgi__gpu_scene_needs_update(const pgi__gpu_scene *gs, const pgi_scene *s) {
+    return gs->static_version != s->static_version || gs->dynamic_version != s->dynamic_version ||
+           pgi__gpu_rays_needs_update(gs->rays, s);
+}
+
+pgi_status pgi__gpu_scene_update(pgi__gpu_scene *gs, const pgi_scene *s) {
+    pgi_status st;
+    if (pgi__gpu_rays_needs_update(gs->rays, s) && (st = pgi__gpu_rays_update(gs->rays, s))) return st;
+    return upload_dynamic(gs, s);
+}
+
+void pgi__gpu_scene_buffers(const pgi__gpu_scene *gs, pgi__gpu_buffer **out) {
+    pgi__gpu_buffer *bvh[4];
+    pgi__gpu_rays_buffers(gs->rays, bvh);
+    pgi__gpu_buffer *b[PGI__GPU_SCENE_NBUF] = {bvh[0],   bvh[1],    bvh[2],     bvh[3],   gs->verts, gs->tris,
+                                               gs->mats, gs->lobes, gs->lights, gs->area, gs->tex};
+    memcpy(out, b, sizeof b);
+}
+
+void pgi__gpu_scene_info(const pgi__gpu_scene *gs, pgi__gpu_scene_push *out) { *out = gs->info; }
+
+pgi__gpu_buffer *pgi__gpu_scene_lobes(const pgi__gpu_scene *gs) { return gs->lobes; }
+
+pgi__gpu_rays *pgi__gpu_scene_rays(const pgi__gpu_scene *gs) { return gs->rays; }
