@@ -17,7 +17,7 @@
 
 #include "core/core.h"
 #include "estimators/packed.h"
-#include "scene/bsdf.h"
+#include "scene/scene_internal.h"
 
 #ifdef PGI_HAVE_VULKAN
 #include "gpu/spirv.h"
@@ -47,8 +47,8 @@ pgi_status pgi__gpu_trace_check(const pgi__gpu_trace_desc *d) {
 
 #ifndef PGI_HAVE_VULKAN
 
-pgi_status pgi__gpu_trace_create(pgi__gpu *g, pgi__gpu_rays *rays, const pgi_scene *s, pgi__gpu_trace **out) {
-    (void)g, (void)rays, (void)s;
+pgi_status pgi__gpu_trace_create(pgi__gpu *g, pgi__gpu_scene *gs, pgi__gpu_trace **out) {
+    (void)g, (void)gs;
     *out = NULL;
     return pgi__fail(PGI_ERR_UNSUPPORTED, "photon tracing on the GPU: this build has no Vulkan backend");
 }
@@ -71,31 +71,9 @@ void pgi__gpu_trace_set_max_batch(pgi__gpu_trace *t, uint32_t paths) { (void)t, 
 
 #else
 
-/* shaders/trace.glsl records */
 typedef struct {
-    float px, py, pz, u, nx, ny, nz, v;
-} t_vert;
-typedef struct {
-    uint32_t a, b, c, mat;
-} t_tri;
-typedef struct {
-    uint32_t type;
-    int32_t tex_kd;
-    float kdx, kdy, kdz, ksx, ksy, ksz, ior, pad;
-} t_mat;
-typedef struct { /* shaders/gather.glsl Lobe */
-    uint32_t model;
-    float ksx, ksy, ksz, s, eta, a2, inv_1mEavg;
-    float E[PGI_GGX_NMU];
-} t_lobe;
-typedef struct {
-    uint32_t type, tri;
-    float px, py, pz, dx, dy, dz, nx, ny, nz, cos_cutoff, pr, pg, pb, cdf;
-} t_light;
-typedef struct {
-    uint32_t path0_lo, path0_hi, npaths, bounces, seed_lo, seed_hi, nlights, flags;
-    float eps, radius, cx, cy, cz;
-    uint32_t pad[3];
+    pgi__gpu_scene_push scene;
+    uint32_t path0_lo, path0_hi, npaths, bounces, seed_lo, seed_hi, nemit, pad;
 } trace_push;
 typedef struct { /* shaders/hashgrid.glsl Push: the scan kernels read n */
     float inv_cell, r, r2;
@@ -112,23 +90,14 @@ typedef struct {
     uint32_t pad[2];
 } scale_push;
 
-_Static_assert(sizeof(t_vert) == 32 && sizeof(t_tri) == 16 && sizeof(t_mat) == 40 && sizeof(t_lobe) == 160 &&
-                   sizeof(t_light) == 64 && sizeof(pgi__packed_photon) == 36,
-               "trace.glsl's records");
+_Static_assert(sizeof(trace_push) == 96 && sizeof(pgi__packed_photon) == 36, "trace.glsl's push and photons");
 
 enum { K_TRACE, K_SCAN, K_SCAN_ADD, K_COMPACT, K_SCALE, K_N };
 
 struct pgi__gpu_trace {
     pgi__gpu *g;
-    pgi__gpu_rays *rays;
+    pgi__gpu_scene *scene; /* borrowed */
     pgi__gpu_kernel *k[K_N];
-    /* the scene's tracing view */
-    pgi__gpu_buffer *verts, *tris, *mats, *lobes, *lights, *texinfo, *texels;
-    uint32_t nlights; /* 0: no light with power (no photons) */
-    uint32_t flags;
-    float eps, radius, centre[3];
-    uint64_t static_version, dynamic_version;
-    /* per run */
     pgi__gpu_buffer *slots, *counts, *scan[SCAN_LEVELS], *counters, *result, *photons;
     uint32_t count;
     uint64_t emitted;
@@ -136,149 +105,21 @@ struct pgi__gpu_trace {
     double prior_paths, prior_photons; /* the last run's yield seeds the next run's batches */
 };
 
-static pgi_status upload(pgi__gpu *g, pgi__gpu_buffer **b, const void *src, size_t n, const char *what) {
-    static const uint32_t zero[16];
-    if (!src || !n) src = zero, n = sizeof zero;
-    pgi_status st = pgi__gpu_buffer_reserve(g, b, n, what);
-    return st ? st : pgi__gpu_upload(g, *b, 0, src, n);
-}
-
-/* ---- the scene's tracing view (what trace.glsl reads). A stand-in for the GPU scene upload of
- * the gpu-frame branch (src/gpu/gpu_scene.[ch]): to be replaced by its buffers once merged. */
-
-/* Vertices (positions, normals, uvs) and lights: what moves with the scene time. */
-static pgi_status upload_dynamic(pgi__gpu_trace *t, const pgi_scene *s) {
-    pgi_status st = PGI_OK;
-    t_vert *v = calloc(s->nverts ? s->nverts : 1, sizeof *v);
-    const size_t nl = s->nlights;
-    t_light *L = calloc(nl ? nl : 1, sizeof *L);
-    if (!v || !L) {
-        free(v);
-        free(L);
-        return pgi__fail(PGI_ERR_OOM, "out of memory uploading the scene for GPU photon tracing");
-    }
-    for (size_t i = 0; i < s->nverts; i++) {
-        const float *p = s->pos + 3 * i;
-        v[i].px = p[0], v[i].py = p[1], v[i].pz = p[2];
-        if (s->nrm) v[i].nx = s->nrm[3 * i], v[i].ny = s->nrm[3 * i + 1], v[i].nz = s->nrm[3 * i + 2];
-        if (s->uv) v[i].u = s->uv[2 * i], v[i].v = s->uv[2 * i + 1];
-    }
-    /* the light CDF by luminance of power, computed as src/photon/trace.c does */
-    double total = 0.0;
-    for (size_t i = 0; i < nl; i++) {
-        const pgi__light *l = &s->lights[i];
-        total += fmax(0.0, (double)v3_lum(v3_load(l->power)));
-        L[i].cdf = (float)total;
-        L[i].type = (uint32_t)l->type;
-        L[i].tri = l->tri;
-        L[i].px = l->pos[0], L[i].py = l->pos[1], L[i].pz = l->pos[2];
-        L[i].dx = l->dir[0], L[i].dy = l->dir[1], L[i].dz = l->dir[2];
-        L[i].nx = l->normal[0], L[i].ny = l->normal[1], L[i].nz = l->normal[2];
-        L[i].cos_cutoff = l->cos_cutoff;
-        L[i].pr = l->power[0], L[i].pg = l->power[1], L[i].pb = l->power[2];
-    }
-    t->nlights = 0;
-    if (total > 0.0) {
-        for (size_t i = 0; i < nl; i++) L[i].cdf = (float)(L[i].cdf / total);
-        L[nl - 1].cdf = 1.f;
-        t->nlights = (uint32_t)nl;
-    }
-    if ((st = upload(t->g, &t->verts, v, s->nverts * sizeof *v, "gpu_trace_scene")) ||
-        (st = upload(t->g, &t->lights, L, nl * sizeof *L, "gpu_trace_scene"))) {}
-    free(v);
-    free(L);
-    t->eps = pgi__scene_epsilon(s);
-    t->radius = 0.5f * pgi__scene_diagonal(s);
-    for (int a = 0; a < 3; a++) t->centre[a] = 0.5f * (s->bmin[a] + s->bmax[a]);
-    t->static_version = s->static_version;
-    t->dynamic_version = s->dynamic_version;
-    return st;
-}
-
-/* Triangles, materials with their lobes, textures: fixed for the scene's life. */
-static pgi_status upload_static(pgi__gpu_trace *t, const pgi_scene *s) {
-    pgi_status st = PGI_OK;
-    t_tri *tr = calloc(s->ntris ? s->ntris : 1, sizeof *tr);
-    t_mat *m = calloc(s->nmats ? s->nmats : 1, sizeof *m);
-    t_lobe *lb = calloc(s->nmats ? s->nmats : 1, sizeof *lb);
-    size_t ntexels = 0;
-    for (size_t i = 0; i < s->ntexs; i++) ntexels += (size_t)s->texs[i].width * (size_t)s->texs[i].height;
-    uint32_t *info = calloc(256 + 4 * s->ntexs, sizeof *info);
-    uint32_t *tx = malloc((ntexels ? ntexels : 1) * sizeof *tx);
-    if (!tr || !m || !lb || !info || !tx) {
-        st = pgi__fail(PGI_ERR_OOM, "out of memory uploading the scene for GPU photon tracing");
-        goto done;
-    }
-    for (size_t i = 0; i < s->ntris; i++)
-        tr[i] = (t_tri){s->tri[3 * i], s->tri[3 * i + 1], s->tri[3 * i + 2], s->tri_mat[i]};
-    for (size_t i = 0; i < s->nmats; i++) {
-        const pgi__material *mm = &s->mats[i];
-        m[i] = (t_mat){(uint32_t)mm->type, mm->tex_kd, mm->kd[0], mm->kd[1], mm->kd[2],
-                       mm->ks[0],          mm->ks[1],  mm->ks[2], mm->ior,   0.f};
-        if (mm->type == PGI_MAT_PHONG || mm->type == PGI_MAT_PLASTIC) {
-            pgi__lobe l;
-            pgi__lobe_of_material(mm, &l);
-            lb[i].model = (uint32_t)l.model;
-            lb[i].ksx = l.ks.x, lb[i].ksy = l.ks.y, lb[i].ksz = l.ks.z;
-            lb[i].s = l.s, lb[i].eta = l.eta, lb[i].a2 = l.a2, lb[i].inv_1mEavg = l.inv_1mEavg;
-            if (l.model == PGI_LOBE_GGX) memcpy(lb[i].E, l.E, sizeof lb[i].E);
-        }
-    }
-    memcpy(info, pgi__srgb8_texture_lut, 256 * sizeof(float));
-    size_t off = 0;
-    for (size_t i = 0; i < s->ntexs; i++) {
-        const pgi__texture *x = &s->texs[i];
-        const size_t n = x->rgba ? (size_t)x->width * (size_t)x->height : 0;
-        info[256 + 4 * i] = (uint32_t)off;
-        info[256 + 4 * i + 1] = n ? (uint32_t)x->width : 0;
-        info[256 + 4 * i + 2] = n ? (uint32_t)x->height : 0;
-        for (size_t j = 0; j < n; j++) {
-            const unsigned char *p = x->rgba + 4 * j;
-            tx[off + j] = (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
-        }
-        off += n;
-    }
-    if (off > UINT32_MAX) {
-        st = pgi__fail(PGI_ERR_UNSUPPORTED, "photon tracing on the GPU: at most 2^32 texels (the scene has %zu)", off);
-        goto done;
-    }
-    if ((st = upload(t->g, &t->tris, tr, s->ntris * sizeof *tr, "gpu_trace_scene")) ||
-        (st = upload(t->g, &t->mats, m, s->nmats * sizeof *m, "gpu_trace_scene")) ||
-        (st = upload(t->g, &t->lobes, lb, s->nmats * sizeof *lb, "gpu_trace_scene")) ||
-        (st = upload(t->g, &t->texinfo, info, (256 + 4 * s->ntexs) * sizeof *info, "gpu_trace_scene")) ||
-        (st = upload(t->g, &t->texels, tx, off * sizeof *tx, "gpu_trace_textures")))
-        goto done;
-    t->flags = (s->nrm ? 1u : 0u) | (s->uv ? 2u : 0u);
-done:
-    free(tr);
-    free(m);
-    free(lb);
-    free(info);
-    free(tx);
-    return st;
-}
-
 void pgi__gpu_trace_destroy(pgi__gpu_trace *t) {
     if (!t) return;
     for (int i = 0; i < K_N; i++) pgi__gpu_kernel_destroy(t->g, t->k[i]);
-    pgi__gpu_buffer *b[] = {t->verts,  t->tris,  t->mats,   t->lobes,    t->lights, t->texinfo,
-                            t->texels, t->slots, t->counts, t->counters, t->result, t->photons};
+    pgi__gpu_buffer *b[] = {t->slots, t->counts, t->counters, t->result, t->photons};
     for (size_t i = 0; i < sizeof b / sizeof b[0]; i++) pgi__gpu_buffer_destroy(t->g, b[i]);
     for (int i = 0; i < SCAN_LEVELS; i++) pgi__gpu_buffer_destroy(t->g, t->scan[i]);
     free(t);
 }
 
-pgi_status pgi__gpu_trace_create(pgi__gpu *g, pgi__gpu_rays *rays, const pgi_scene *s, pgi__gpu_trace **out) {
+pgi_status pgi__gpu_trace_create(pgi__gpu *g, pgi__gpu_scene *gs, pgi__gpu_trace **out) {
     *out = NULL;
-    if (s->env)
-        return pgi__fail(PGI_ERR_UNSUPPORTED, "photon tracing on the GPU: the scene's sky / environment light is not "
-                                              "supported yet (use --device cpu)");
-    if (s->ntris > UINT32_MAX || s->nverts > UINT32_MAX)
-        return pgi__fail(PGI_ERR_UNSUPPORTED, "photon tracing on the GPU: at most 2^32 triangles and vertices");
     pgi__gpu_trace *t = calloc(1, sizeof *t);
     if (!t) return pgi__fail(PGI_ERR_OOM, "out of memory creating the GPU photon tracer");
     t->g = g;
-    t->rays = rays;
+    t->scene = gs;
     t->max_batch = MAX_BATCH;
     static const struct {
         const uint32_t *spv;
@@ -287,7 +128,7 @@ pgi_status pgi__gpu_trace_create(pgi__gpu *g, pgi__gpu_rays *rays, const pgi_sce
         int nbuf;
         uint32_t push;
     } k[K_N] = {
-        [K_TRACE] = {pgi__spv_trace, sizeof pgi__spv_trace, "trace", 14, sizeof(trace_push)},
+        [K_TRACE] = {pgi__spv_trace, sizeof pgi__spv_trace, "trace", 15, sizeof(trace_push)},
         [K_SCAN] = {pgi__spv_hg_scan, sizeof pgi__spv_hg_scan, "trace_scan", 2, sizeof(scan_push)},
         [K_SCAN_ADD] = {pgi__spv_hg_scan_add, sizeof pgi__spv_hg_scan_add, "trace_scan_add", 2, sizeof(scan_push)},
         [K_COMPACT] = {pgi__spv_trace_compact, sizeof pgi__spv_trace_compact, "trace_compact", 4, sizeof(compact_push)},
@@ -296,8 +137,6 @@ pgi_status pgi__gpu_trace_create(pgi__gpu *g, pgi__gpu_rays *rays, const pgi_sce
     pgi_status st = PGI_OK;
     for (int i = 0; i < K_N && !st; i++)
         st = pgi__gpu_kernel_create(g, k[i].spv, k[i].bytes, k[i].name, k[i].nbuf, k[i].push, &t->k[i]);
-    if (!st) st = upload_static(t, s);
-    if (!st) st = upload_dynamic(t, s);
     if (!st) st = pgi__gpu_buffer_reserve(g, &t->counters, 16, "gpu_trace_scratch");
     if (!st) st = pgi__gpu_buffer_reserve(g, &t->result, 16, "gpu_trace_scratch");
     if (st) {
@@ -348,31 +187,26 @@ static pgi_status run_batch(pgi__gpu_trace *t, const pgi__gpu_trace_desc *d, uin
         return st;
     for (int l = 1; l <= levels; l++)
         if ((st = pgi__gpu_buffer_reserve(g, &t->scan[l - 1], level_n[l] * 4, "gpu_trace_scratch"))) return st;
-    pgi__gpu_buffer *bvh[4];
-    pgi__gpu_rays_buffers(t->rays, bvh);
-    trace_push tp = {(uint32_t)path,
-                     (uint32_t)(path >> 32),
-                     n,
-                     (uint32_t)d->bounces,
-                     (uint32_t)d->seed,
-                     (uint32_t)(d->seed >> 32),
-                     t->nlights,
-                     t->flags,
-                     t->eps,
-                     t->radius,
-                     t->centre[0],
-                     t->centre[1],
-                     t->centre[2],
-                     {0}};
+    pgi__gpu_buffer *b[PGI__GPU_SCENE_NBUF + 4];
+    pgi__gpu_scene_buffers(t->scene, b);
+    uint32_t nemit = 0;
+    b[PGI__GPU_SCENE_NBUF] = pgi__gpu_scene_emit(t->scene, &nemit);
+    b[PGI__GPU_SCENE_NBUF + 1] = t->slots;
+    b[PGI__GPU_SCENE_NBUF + 2] = t->counts;
+    b[PGI__GPU_SCENE_NBUF + 3] = t->counters;
+    trace_push tp = {.path0_lo = (uint32_t)path,
+                     .path0_hi = (uint32_t)(path >> 32),
+                     .npaths = n,
+                     .bounces = (uint32_t)d->bounces,
+                     .seed_lo = (uint32_t)d->seed,
+                     .seed_hi = (uint32_t)(d->seed >> 32),
+                     .nemit = nemit};
+    pgi__gpu_scene_info(t->scene, &tp.scene);
     compact_push cp = {n, (uint32_t)d->bounces, base, remaining};
     if ((st = pgi__gpu_begin(g))) return st;
     pgi__gpu_timestamp(g, "start");
     if ((st = pgi__gpu_fill(g, t->counts, 0, level_n[0] * 4, 0)) || (st = pgi__gpu_fill(g, t->counters, 0, 16, 0)) ||
-        (st = pgi__gpu_fill(g, t->result, 0, 16, 0xFFFFFFFFu)) ||
-        (st = dispatch_1d(g, t->k[K_TRACE],
-                          (pgi__gpu_buffer *[]){bvh[0], bvh[1], bvh[2], bvh[3], t->verts, t->tris, t->mats, t->lobes,
-                                                t->lights, t->texinfo, t->texels, t->slots, t->counts, t->counters},
-                          &tp, n, 64)))
+        (st = pgi__gpu_fill(g, t->result, 0, 16, 0xFFFFFFFFu)) || (st = dispatch_1d(g, t->k[K_TRACE], b, &tp, n, 64)))
         goto fail;
     pgi__gpu_timestamp(g, "gpu_trace");
     pgi__gpu_buffer *lv[SCAN_LEVELS + 1];
@@ -421,13 +255,10 @@ pgi_status pgi__gpu_trace_run(pgi__gpu_trace *t, const pgi_scene *s, const pgi__
     pgi_status st = pgi__gpu_trace_check(d);
     if (st) return st;
     const double w0 = pgi__now_ms();
-    if (s->env)
-        return pgi__fail(PGI_ERR_UNSUPPORTED, "photon tracing on the GPU: the scene's sky / environment light is not "
-                                              "supported yet (use --device cpu)");
-    if (s->static_version != t->static_version || s->dynamic_version != t->dynamic_version) {
-        if ((st = pgi__gpu_rays_update(t->rays, s)) || (st = upload_dynamic(t, s))) return st;
-    }
-    if (d->bounces < 1 || d->photons == 0 || t->nlights == 0) return PGI_OK;
+    if (pgi__gpu_scene_needs_update(t->scene, s) && (st = pgi__gpu_scene_update(t->scene, s))) return st;
+    uint32_t nemit = 0;
+    (void)pgi__gpu_scene_emit(t->scene, &nemit);
+    if (d->bounces < 1 || d->photons == 0 || nemit == 0) return PGI_OK;
     if (d->photons > UINT32_MAX / 2)
         return pgi__fail(PGI_ERR_UNSUPPORTED, "photon tracing on the GPU: at most 2^31 photons (%u requested)",
                          d->photons);

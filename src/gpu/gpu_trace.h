@@ -5,7 +5,7 @@
  * invocation a path, rays through the GPU BVH (gpu_rays.h). The photons stay on the device in the
  * layout the GPU hashgrid reads (pgi__packed_photon, photon order = path order).
  *
- *   pgi__gpu_trace *t;  pgi__gpu_trace_create(gpu, rays, scene, &t);
+ *   pgi__gpu_trace *t;  pgi__gpu_trace_create(gpu, gpu_scene, &t);
  *   pgi__gpu_trace_desc d = {.photons = 200000, .bounces = 4, .seed = 1};
  *   pgi__gpu_trace_result r;  pgi__gpu_trace_run(t, scene, &d, &r);
  *   pgi__gpu_trace_photons(t)      // device buffer: r.count pgi__packed_photon (36 bytes each)
@@ -22,7 +22,7 @@
 #define PGI_GPU_TRACE_H
 
 #include "gpu/gpu.h"
-#include "gpu/gpu_rays.h"
+#include "gpu/gpu_scene.h"
 
 typedef struct pgi__gpu_trace pgi__gpu_trace;
 
@@ -51,13 +51,13 @@ typedef struct pgi__gpu_trace_result {
 /* 1 when the options are supported; else PGI_ERR_UNSUPPORTED with a message naming the option.
  * The renderer calls it before a GPU frame starts. */
 pgi_status pgi__gpu_trace_check(const pgi__gpu_trace_desc *d);
-/* Uploads the scene's tracing view (vertices, triangles, materials with their lobes, lights with
- * the light CDF, textures) and creates the kernels; rays (borrowed) gives the BVH. A sky /
- * environment light is refused (PGI_ERR_UNSUPPORTED): its emission is not on the GPU yet. */
-pgi_status pgi__gpu_trace_create(pgi__gpu *g, pgi__gpu_rays *rays, const pgi_scene *s, pgi__gpu_trace **out);
+/* Creates the kernels; the scene on the device (gpu_scene.h: its buffers, the BVH, and its emission
+ * records pgi__gpu_scene_emit) is borrowed. A constant sky emits photons as on the CPU; an
+ * environment map is refused by pgi__gpu_scene_create. */
+pgi_status pgi__gpu_trace_create(pgi__gpu *g, pgi__gpu_scene *gs, pgi__gpu_trace **out);
 void pgi__gpu_trace_destroy(pgi__gpu_trace *t);
-/* Traces d->photons photons of scene s (the one given to create; geometry or lights that moved
- * are uploaded again first, the BVH updated through gpu_rays). */
+/* Traces d->photons photons of scene s (the one the GPU scene holds; if its geometry or lights
+ * moved, the GPU scene is updated first). */
 pgi_status pgi__gpu_trace_run(pgi__gpu_trace *t, const pgi_scene *s, const pgi__gpu_trace_desc *d,
                               pgi__gpu_trace_result *r);
 /* The photons of the last run (r.count of them), pgi__packed_photon; NULL before a run. */

@@ -1,7 +1,7 @@
 // Photon tracing on the GPU (src/gpu/gpu_trace.c, docs/gpu.md "Photon tracing"): one invocation a
 // light path, the CPU tracer's policy (src/photon/trace.c) step for step:
 //   light picked by power (the scene's light CDF), emission per light type (point, spot, sun, area
-//   triangle's cosine lobe), the ray cast through the GPU BVH (bvh.glsl, closest hit over (0, inf)),
+//   triangle's cosine lobe, constant sky), the ray cast through the GPU BVH (bvh.glsl, closest hit over (0, inf)),
 //   storage from the second hit on at non-specular surfaces, BSDF sampling (bsdf.c: Lambert,
 //   Blinn-Phong, GGX plastic, mirror, glass), flux-preserving Russian roulette, at most `bounces`
 //   scattering events.
@@ -9,25 +9,15 @@
 // slots[k * bounces ...] (a path stores at most `bounces` photons), its photon count to counts[k];
 // gpu_trace.c then scans the counts and compacts the slots in path order (trace_compact.comp), so
 // that the photons and the paths emitted do not depend on the order in which invocations run.
-// Random numbers: counter-based, rng_next() below (not the CPU's PCG streams).
-// Buffers: 0..3 the BVH, 4 vertices, 5 triangles, 6 materials, 7 lobes (one per material),
-// 8 lights, 9 texture headers (after the sRGB table), 10 texels, 11 slots, 12 counts, 13 counters.
+// Random numbers: counter-based, trace.glsl path_rng (scene.glsl's hash; not the CPU's PCG streams).
+// Buffers: 0..10 the GPU scene (gpu_scene.h), 11 its emission records (pgi__gpu_scene_emit),
+// 12 slots, 13 counts, 14 counters.
 #version 450
 #extension GL_GOOGLE_include_directive : require
 layout(local_size_x = 64) in;
 
 #include "common.glsl"
-#define BVH_NODES_BINDING 0
-#define BVH_TRIS_BINDING 1
-#define BVH_MASKS_BINDING 2
-#define BVH_ALPHA_BINDING 3
-#include "bvh.glsl"
-
-struct Photon { // pgi__packed_photon (the GPU hashgrid's Photon, hashgrid.glsl): 36 bytes
-    float px, py, pz, dx, dy, dz, fr, fg, fb;
-};
-#define GATHER_LOBES_DECLARE layout(std430, set = 0, binding = 7) readonly restrict buffer Lobes { Lobe lobes[]; };
-#include "gather.glsl"
+#include "scene.glsl"
 #include "trace.glsl"
 
 void main() {
@@ -35,7 +25,7 @@ void main() {
     if (k >= pc.npaths) return;
     const uint slot0 = k * pc.bounces;
     uint stored = 0u, rays = 0u;
-    Rng rng = rng_seed(pc.path0_lo + k, pc.path0_hi + (pc.path0_lo + k < pc.path0_lo ? 1u : 0u));
+    Rng rng = path_rng(pc.path0_lo + k, pc.path0_hi + (pc.path0_lo + k < pc.path0_lo ? 1u : 0u));
     vec3 o, d, flux;
     if (start_path(rng, o, d, flux)) {
         const float inf = uintBitsToFloat(0x7F800000u);
@@ -45,7 +35,7 @@ void main() {
             rays++;
             if (h.prim == BVH_EMPTY) break;
             precise vec3 p = o + d * h.t;
-            Surface sf = surface(h.prim, h.u, h.v);
+            const Surf sf = scene_surface(pc.scene, h.prim, h.u, h.v);
             const vec3 wi = -d;
             const vec3 ng = v3_dot(wi, sf.ng) >= 0.0 ? sf.ng : -sf.ng;
             const uint type = mats[sf.mat].type;
@@ -54,17 +44,17 @@ void main() {
                 stored++;
             }
             if (b >= pc.bounces) break;
-            surface_texture(sf);
+            const vec3 kd = surface_kd(sf);
             const float r1 = rng_f(rng), r2 = rng_f(rng), r3 = rng_f(rng);
             vec3 wo, w;
-            if (!bsdf_sample(sf, wi, r1, r2, r3, wo, w)) break;
+            if (!bsdf_sample(sf, kd, wi, r1, r2, r3, wo, w)) break;
             precise vec3 nf = flux * w;
             const float mf = maxc(flux);
             const float R = mf > 0.0 ? min(1.0, maxc(nf) / mf) : 0.0;
             if (!(rng_f(rng) < R)) break;
             flux = nf * (1.0 / R);
             if (any(isnan(flux)) || any(isinf(flux))) break;
-            precise vec3 off = (v3_dot(wo, ng) >= 0.0 ? ng : -ng) * pc.eps;
+            precise vec3 off = (v3_dot(wo, ng) >= 0.0 ? ng : -ng) * pc.scene.eps;
             o = p + off;
             d = wo;
         }
