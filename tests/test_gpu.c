@@ -268,8 +268,12 @@ static void test_renderer_device(void **state) {
     d.device = PGI_DEVICE_VULKAN;
     TU_CHECK_OK(pgi_renderer_render(r, &d, &gpu, &gs));
     assert_string_equal(gs.device, pgi__gpu_device_name(g_gpu));
-    tu_expect_same("renderer: vulkan hashgrid vs cpu brute", gpu.rgb, cpu.rgb, 3 * 64 * 48, gs.contributing,
-                   cs.contributing);
+    /* the GPU frame casts its own view samples (view.comp): a pixel whose ray meets an edge between two
+     * surfaces may land on the other one than Embree's (test_gpu_frame bounds those); the rest agree */
+    size_t bad = tu_compare(gpu.rgb, cpu.rgb, 3 * 64 * 48, 1e-4, "renderer: vulkan hashgrid vs cpu brute");
+    assert_true(bad <= 3 * 64 * 48 / 500);
+    assert_true(gs.contributing <= cs.contributing + cs.contributing / 200 &&
+                cs.contributing <= gs.contributing + gs.contributing / 200);
     int gather = 0, photons_mem = 0;
     for (int k = 0; k < gs.pass_count; k++) gather += strcmp(gs.passes_ms[k].name, "gpu_gather") == 0;
     for (int k = 0; k < gs.memory_count; k++) photons_mem += strcmp(gs.memory_bytes[k].name, "gpu_photons") == 0;

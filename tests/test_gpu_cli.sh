@@ -46,6 +46,15 @@ if [ "$psnr" = null ] || awk -v p="$psnr" 'BEGIN { exit !(p >= 40) }'; then ok; 
 grep -q '"device":[[:space:]]*"[^"c]' "$TMP/gpu.json" && ok || bad "stats: no device name: $(head -c 300 "$TMP/gpu.json")"
 grep -q '"gpu_gather"' "$TMP/gpu.json" && ok || bad "stats: no gpu_gather pass"
 grep -q '"gpu_photons"' "$TMP/gpu.json" && ok || bad "stats: no gpu_photons memory"
+grep -q '"gpu_view"' "$TMP/gpu.json" && ok || bad "stats: no gpu_view pass"
+grep -q '"gpu_direct"' "$TMP/gpu.json" && ok || bad "stats: no gpu_direct pass"
+# the GPU frame on a textured mesh scene (when the scenes folder has Sibenik): it renders
+if [ -f scenes/sibenik.json ] && [ -f "${PHOTONGI_SCENES:-scenes}/sibenik/sibenik.obj" ]; then
+    run render --scene sibenik --size 64x36 --photons 20000 --seed 3 -q --device vulkan -o "$TMP/sib.exr"
+    [ "$rc" -eq 0 ] && [ -s "$TMP/sib.exr" ] && ok || bad "vulkan render of sibenik: $err"
+fi
+# what the GPU frame does not have: refused by name
+expect_fail "--filter" render "${common[@]}" --device vulkan --filter 2 -o "$TMP/x.png"
 # gpu = vulkan, vulkan:0 = the first device: the same image as the automatic choice when there is one device
 run render "${common[@]}" --device gpu --progressive 2 -o "$TMP/gpu2.png"
 [ "$rc" -eq 0 ] && ok || bad "--device gpu --progressive 2: $err"

@@ -7,12 +7,31 @@
 
 #include "gpu/gpu.h"
 
+/* The GPU frame's inputs (device buffers, no host round trip): photons already on the device as
+ * pgi__packed_photon (the CPU's photons uploaded until the GPU tracer provides them), the view
+ * samples as gpu_view.h's ViewSample array with the scene's material lobe table (gpu_scene.h). */
+typedef struct pgi__gpu_est_inputs {
+    pgi__gpu_buffer *photons;
+    size_t nphotons;
+    pgi__gpu_buffer *samples, *lobes;
+    int width, height;
+    float radius;
+} pgi__gpu_est_inputs;
+
 typedef struct pgi__gpu_est_vtbl {
     const char *name; /* the CPU estimator it mirrors ("hashgrid") */
     /* desc: resolved (pgi_estimator_desc_resolve); options the GPU version lacks are refused here */
     pgi_status (*create)(pgi__gpu *g, const pgi_estimator_desc *desc, void **state);
     pgi_status (*run)(void *state, const pgi_estimate_args *args, pgi_estimator_stats *st);
     void (*destroy)(void *state);
+    /* Device inputs (the GPU frame). reserve: outside a command sequence, the buffers for n photons
+     * and a width x height frame; *out the radiance buffer (3 floats a sample) record will write.
+     * record: inside the caller's sequence (timestamps "gpu_*" after each pass). finish: after
+     * it, the counters and the passes' times (t: the sequence's pgi__gpu_timings; labels not the
+     * estimator's own are left out) into st. */
+    pgi_status (*device_reserve)(void *state, size_t nphotons, int width, int height, pgi__gpu_buffer **out);
+    pgi_status (*device_record)(void *state, const pgi__gpu_est_inputs *in);
+    pgi_status (*device_finish)(void *state, const pgi_named_value *t, int nt, pgi_estimator_stats *st);
 } pgi__gpu_est_vtbl;
 
 /* NULL when `name` has no GPU version. */

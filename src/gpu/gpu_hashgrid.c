@@ -33,6 +33,15 @@ static pgi_status hg_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
 }
 static void hg_destroy(void *state) {}
+static pgi_status hg_device_reserve(void *state, size_t nphotons, int width, int height, pgi__gpu_buffer **out) {
+    return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
+}
+static pgi_status hg_device_record(void *state, const pgi__gpu_est_inputs *in) {
+    return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
+}
+static pgi_status hg_device_finish(void *state, const pgi_named_value *t, int nt, pgi_estimator_stats *es) {
+    return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
+}
 
 #else
 
@@ -79,6 +88,9 @@ typedef struct {
     size_t hlobes_cap;
     uint32_t *lobe_of;
     size_t lobe_of_cap;
+    /* hg_reserve's: buckets, scan levels; photons reserved for by hg_device_reserve */
+    size_t nb, level_n[SCAN_LEVELS + 1], dev_n;
+    int levels;
 } hg_state;
 
 static void hg_destroy(void *state) {
@@ -189,6 +201,129 @@ static pgi_status pack_samples(hg_state *s, const pgi_view_samples *vs, int thre
     return PGI_OK;
 }
 
+/* The buckets' table and the scan's levels for n photons (level 0 is `start`, buckets + 1, each
+ * next one its blocks' totals), then every buffer of a frame of ns samples and nlobes lobes. */
+static pgi_status hg_reserve(hg_state *s, size_t n, size_t ns, size_t nlobes, int lobes_here) {
+    pgi__gpu *g = s->g;
+    pgi_status st;
+    if (n > UINT32_MAX / 2 || ns > UINT32_MAX / 4)
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "hashgrid on the GPU: at most 2^31 photons and 2^30 view samples");
+    size_t nb = 1024;
+    while (nb < n) nb <<= 1;
+    int levels = 0;
+    s->level_n[0] = nb + 1;
+    while (levels < SCAN_LEVELS && (levels == 0 || s->level_n[levels] > 1)) {
+        s->level_n[levels + 1] = (s->level_n[levels] + 1023) / 1024;
+        levels++;
+    }
+    if (s->level_n[levels] > 1)
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "hashgrid on the GPU: too many buckets (%zu)", nb);
+    s->nb = nb;
+    s->levels = levels;
+    const size_t psz = sizeof(pgi__packed_photon);
+    if ((st = pgi__gpu_buffer_reserve(g, &s->sorted, (n + 1) * psz, "gpu_sorted_photons")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->start, (nb + 1) * 4, "gpu_hash")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->cursor, nb * 4, "gpu_hash")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->bucket_of, (n + 1) * 4, "gpu_photon_index")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->idx, (n + 1) * 4, "gpu_photon_index")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->out, (3 * ns + 1) * sizeof(float), "gpu_radiance")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->counters, 6 * sizeof(uint32_t), "gpu_hash")))
+        return st;
+    if (lobes_here &&
+        ((st = pgi__gpu_buffer_reserve(g, &s->photons, (n + 1) * psz, "gpu_photons")) ||
+         (st = pgi__gpu_buffer_reserve(g, &s->vs, (ns + 1) * sizeof(gpu_vs), "gpu_view_samples")) ||
+         (st = pgi__gpu_buffer_reserve(g, &s->lobes, (nlobes + 1) * sizeof(gpu_lobe), "gpu_view_samples"))))
+        return st;
+    for (int l = 1; l <= levels; l++)
+        if ((st = pgi__gpu_buffer_reserve(g, &s->scan[l - 1], s->level_n[l] * 4, "gpu_hash"))) return st;
+    return PGI_OK;
+}
+
+/* Records build and gather (hg_reserve done for these sizes) into the open sequence. */
+static pgi_status hg_record(hg_state *s, pgi__gpu_buffer *photons, size_t n, pgi__gpu_buffer *vsb,
+                            pgi__gpu_buffer *lobes, int width, int height, float r) {
+    pgi__gpu *g = s->g;
+    pgi_status st;
+    const size_t nb = s->nb;
+    const float cell = s->desc.hashgrid.cell_size;
+    if (cell > 0.f && cell < r / 64.f)
+        return pgi__fail(PGI_ERR_INVALID_ARG,
+                         "hashgrid: --cell-size must be 0 (default: 2r) or at least r/64 = %g, got %g",
+                         (double)(r / 64.f), (double)cell);
+    const float cell_edge = cell > 0.f ? cell : 2.f * r;
+    hg_push p = {.inv_cell = 1.f / cell_edge,
+                 .r = r,
+                 .r2 = r * r,
+                 .n = (uint32_t)n,
+                 .mask = (uint32_t)(nb - 1),
+                 .width = (uint32_t)width,
+                 .height = (uint32_t)height,
+                 .kernel = (uint32_t)s->desc.kernel,
+                 .scale = pgi__kernel_norm(s->desc.kernel)};
+    if ((st = pgi__gpu_fill(g, s->start, 0, (nb + 1) * 4, 0)) || (st = pgi__gpu_fill(g, s->cursor, 0, nb * 4, 0)) ||
+        (st = pgi__gpu_fill(g, s->counters, 0, 6 * 4, 0)) ||
+        (st = dispatch_1d(g, s->k[K_COUNT], (pgi__gpu_buffer *[]){photons, s->start, s->bucket_of}, &p, n, 64)))
+        return st;
+    pgi__gpu_timestamp(g, "gpu_count");
+    pgi__gpu_buffer *lv[SCAN_LEVELS + 1];
+    lv[0] = s->start;
+    for (int l = 1; l <= s->levels; l++) lv[l] = s->scan[l - 1];
+    for (int l = 0; l < s->levels; l++) {
+        hg_push q = p;
+        q.n = (uint32_t)s->level_n[l];
+        if ((st = dispatch_1d(g, s->k[K_SCAN], (pgi__gpu_buffer *[]){lv[l], lv[l + 1]}, &q, s->level_n[l], 1024)))
+            return st;
+    }
+    for (int l = s->levels - 2; l >= 0; l--) {
+        hg_push q = p;
+        q.n = (uint32_t)s->level_n[l];
+        if ((st = dispatch_1d(g, s->k[K_SCAN_ADD], (pgi__gpu_buffer *[]){lv[l], lv[l + 1]}, &q, s->level_n[l], 256)))
+            return st;
+    }
+    pgi__gpu_timestamp(g, "gpu_scan");
+    if ((st = dispatch_1d(g, s->k[K_SCATTER], (pgi__gpu_buffer *[]){s->bucket_of, s->start, s->cursor, s->idx}, &p, n,
+                          64)))
+        return st;
+    pgi__gpu_timestamp(g, "gpu_scatter");
+    if ((st = dispatch_1d(g, s->k[K_SORT], (pgi__gpu_buffer *[]){s->start, s->idx}, &p, nb, 64))) return st;
+    pgi__gpu_timestamp(g, "gpu_sort");
+    if ((st = dispatch_1d(g, s->k[K_REORDER], (pgi__gpu_buffer *[]){photons, s->idx, s->sorted}, &p, n, 64))) return st;
+    pgi__gpu_timestamp(g, "gpu_reorder");
+    if ((st = pgi__gpu_dispatch(g, s->k[K_GATHER],
+                                (pgi__gpu_buffer *[]){vsb, lobes, s->start, s->sorted, s->out, s->counters}, &p,
+                                ((uint32_t)width + 7) / 8, ((uint32_t)height + 7) / 8, 1)))
+        return st;
+    pgi__gpu_timestamp(g, "gpu_gather");
+    return PGI_OK;
+}
+
+static int hg_label(const char *name) {
+    static const char *const own[] = {"gpu_count", "gpu_scan", "gpu_scatter", "gpu_sort", "gpu_reorder", "gpu_gather"};
+    for (size_t i = 0; i < sizeof own / sizeof own[0]; i++)
+        if (strcmp(name, own[i]) == 0) return 1;
+    return 0;
+}
+
+/* The counters and the device passes (t: the sequence's timings) into es; *build, *gather the
+ * device time of the build and of the gather. */
+static pgi_status hg_counters(hg_state *s, const pgi_named_value *t, int nt, pgi_estimator_stats *es, double *build,
+                              double *gather) {
+    uint32_t c[6];
+    pgi_status st = pgi__gpu_download(s->g, s->counters, 0, c, sizeof c);
+    if (st) return st;
+    *build = *gather = 0.0;
+    for (int i = 0; i < nt; i++) {
+        if (!hg_label(t[i].name)) continue;
+        pgi__stats_pass(es, t[i].name, t[i].value);
+        if (strcmp(t[i].name, "gpu_gather") == 0) *gather += t[i].value;
+        else *build += t[i].value;
+    }
+    es->reads = (uint64_t)c[0] | (uint64_t)c[1] << 32;
+    es->contributing = (uint64_t)c[2] | (uint64_t)c[3] << 32;
+    es->nodes_visited = (uint64_t)c[4] | (uint64_t)c[5] << 32;
+    return PGI_OK;
+}
+
 static pgi_status hg_run(void *state, const pgi_estimate_args *a, pgi_estimator_stats *es) {
     hg_state *s = state;
     pgi__gpu *g = s->g;
@@ -196,20 +331,9 @@ static pgi_status hg_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     memset(es, 0, sizeof *es);
     if (a->photons->radius)
         return pgi__fail(PGI_ERR_UNSUPPORTED, "hashgrid on the GPU: per-photon footprints are not supported");
-    const float r = a->radius, r2 = r * r;
-    const float cell = s->desc.hashgrid.cell_size;
-    if (cell > 0.f && cell < r / 64.f)
-        return pgi__fail(PGI_ERR_INVALID_ARG,
-                         "hashgrid: --cell-size must be 0 (default: 2r) or at least r/64 = %g, got %g",
-                         (double)(r / 64.f), (double)cell);
-    const float cell_edge = cell > 0.f ? cell : 2.f * r;
     const pgi_photons *ph = a->photons;
     const pgi_view_samples *vs = a->samples;
     const size_t n = ph->count, ns = vs->count;
-    if (n > UINT32_MAX / 2 || ns > UINT32_MAX / 4)
-        return pgi__fail(PGI_ERR_UNSUPPORTED, "hashgrid on the GPU: at most 2^31 photons and 2^30 view samples");
-    size_t nb = 1024;
-    while (nb < n) nb <<= 1;
 
     /* upload: photons packed in photon order, the view samples and lobes */
     double t0 = pgi__now_ms();
@@ -218,89 +342,25 @@ static pgi_status hg_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     for (long long j = 0; j < (long long)n; j++) pgi__pack_photon(ph, (size_t)j, &s->packed[j]);
     size_t nlobes = 0;
     if ((st = pack_samples(s, vs, a->threads, &nlobes))) return st;
-    /* the scan's levels: level 0 is `start` (buckets + 1), each next one its blocks' totals */
-    size_t level_n[SCAN_LEVELS + 1];
-    int levels = 0;
-    level_n[0] = nb + 1;
-    while (levels < SCAN_LEVELS && (levels == 0 || level_n[levels] > 1)) {
-        level_n[levels + 1] = (level_n[levels] + 1023) / 1024;
-        levels++;
-    }
-    if (level_n[levels] > 1) return pgi__fail(PGI_ERR_UNSUPPORTED, "hashgrid on the GPU: too many buckets (%zu)", nb);
-    const size_t psz = sizeof(pgi__packed_photon);
-    if ((st = pgi__gpu_buffer_reserve(g, &s->photons, (n + 1) * psz, "gpu_photons")) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->sorted, (n + 1) * psz, "gpu_sorted_photons")) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->start, (nb + 1) * 4, "gpu_hash")) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->cursor, nb * 4, "gpu_hash")) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->bucket_of, (n + 1) * 4, "gpu_photon_index")) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->idx, (n + 1) * 4, "gpu_photon_index")) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->vs, (ns + 1) * sizeof(gpu_vs), "gpu_view_samples")) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->lobes, (nlobes + 1) * sizeof(gpu_lobe), "gpu_view_samples")) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->out, (3 * ns + 1) * sizeof(float), "gpu_radiance")) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->counters, 6 * sizeof(uint32_t), "gpu_hash")))
-        return st;
-    for (int l = 1; l <= levels; l++)
-        if ((st = pgi__gpu_buffer_reserve(g, &s->scan[l - 1], level_n[l] * 4, "gpu_hash"))) return st;
-    if ((st = pgi__gpu_upload(g, s->photons, 0, s->packed, n * psz)) ||
+    if ((st = hg_reserve(s, n, ns, nlobes, 1))) return st;
+    if ((st = pgi__gpu_upload(g, s->photons, 0, s->packed, n * sizeof(pgi__packed_photon))) ||
         (st = pgi__gpu_upload(g, s->vs, 0, s->hvs, ns * sizeof(gpu_vs))) ||
         (st = pgi__gpu_upload(g, s->lobes, 0, s->hlobes, nlobes * sizeof(gpu_lobe))))
         return st;
     double t1 = pgi__now_ms();
 
     /* build and gather: one sequence */
-    hg_push p = {.inv_cell = 1.f / cell_edge,
-                 .r = r,
-                 .r2 = r2,
-                 .n = (uint32_t)n,
-                 .mask = (uint32_t)(nb - 1),
-                 .width = (uint32_t)vs->width,
-                 .height = (uint32_t)vs->height,
-                 .kernel = (uint32_t)s->desc.kernel,
-                 .scale = pgi__kernel_norm(s->desc.kernel)};
     if ((st = pgi__gpu_begin(g))) return st;
     pgi__gpu_timestamp(g, "start");
-    if ((st = pgi__gpu_fill(g, s->start, 0, (nb + 1) * 4, 0)) || (st = pgi__gpu_fill(g, s->cursor, 0, nb * 4, 0)) ||
-        (st = pgi__gpu_fill(g, s->counters, 0, 6 * 4, 0)) ||
-        (st = dispatch_1d(g, s->k[K_COUNT], (pgi__gpu_buffer *[]){s->photons, s->start, s->bucket_of}, &p, n, 64)))
-        goto fail;
-    pgi__gpu_timestamp(g, "gpu_count");
-    pgi__gpu_buffer *lv[SCAN_LEVELS + 1];
-    lv[0] = s->start;
-    for (int l = 1; l <= levels; l++) lv[l] = s->scan[l - 1];
-    for (int l = 0; l < levels; l++) {
-        hg_push q = p;
-        q.n = (uint32_t)level_n[l];
-        if ((st = dispatch_1d(g, s->k[K_SCAN], (pgi__gpu_buffer *[]){lv[l], lv[l + 1]}, &q, level_n[l], 1024)))
-            goto fail;
+    if ((st = hg_record(s, s->photons, n, s->vs, s->lobes, vs->width, vs->height, a->radius))) {
+        /* close the sequence so that the next frame can begin one */
+        (void)pgi__gpu_submit_wait(g);
+        return st;
     }
-    for (int l = levels - 2; l >= 0; l--) {
-        hg_push q = p;
-        q.n = (uint32_t)level_n[l];
-        if ((st = dispatch_1d(g, s->k[K_SCAN_ADD], (pgi__gpu_buffer *[]){lv[l], lv[l + 1]}, &q, level_n[l], 256)))
-            goto fail;
-    }
-    pgi__gpu_timestamp(g, "gpu_scan");
-    if ((st = dispatch_1d(g, s->k[K_SCATTER], (pgi__gpu_buffer *[]){s->bucket_of, s->start, s->cursor, s->idx}, &p, n,
-                          64)))
-        goto fail;
-    pgi__gpu_timestamp(g, "gpu_scatter");
-    if ((st = dispatch_1d(g, s->k[K_SORT], (pgi__gpu_buffer *[]){s->start, s->idx}, &p, nb, 64))) goto fail;
-    pgi__gpu_timestamp(g, "gpu_sort");
-    if ((st = dispatch_1d(g, s->k[K_REORDER], (pgi__gpu_buffer *[]){s->photons, s->idx, s->sorted}, &p, n, 64)))
-        goto fail;
-    pgi__gpu_timestamp(g, "gpu_reorder");
-    if ((st = pgi__gpu_dispatch(g, s->k[K_GATHER],
-                                (pgi__gpu_buffer *[]){s->vs, s->lobes, s->start, s->sorted, s->out, s->counters}, &p,
-                                ((uint32_t)vs->width + 7) / 8, ((uint32_t)vs->height + 7) / 8, 1)))
-        goto fail;
-    pgi__gpu_timestamp(g, "gpu_gather");
     double t2 = pgi__now_ms();
     if ((st = pgi__gpu_submit_wait(g))) return st;
     double t3 = pgi__now_ms();
-    uint32_t c[6];
-    if ((st = pgi__gpu_download(g, s->out, 0, a->out_rgb, 3 * ns * sizeof(float))) ||
-        (st = pgi__gpu_download(g, s->counters, 0, c, sizeof c)))
-        return st;
+    if ((st = pgi__gpu_download(g, s->out, 0, a->out_rgb, 3 * ns * sizeof(float)))) return st;
     double t4 = pgi__now_ms();
 
     /* stats: host passes (wall clock) and the device's (timestamps) */
@@ -308,11 +368,7 @@ static pgi_status hg_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     int nt = pgi__gpu_timings(g, t, 16);
     double gpu_build = 0.0, gpu_gather = 0.0;
     pgi__stats_pass(es, "gpu_upload", t1 - t0);
-    for (int i = 0; i < nt; i++) {
-        pgi__stats_pass(es, t[i].name, t[i].value);
-        if (strcmp(t[i].name, "gpu_gather") == 0) gpu_gather += t[i].value;
-        else gpu_build += t[i].value;
-    }
+    if ((st = hg_counters(s, t, nt, es, &gpu_build, &gpu_gather))) return st;
     pgi__stats_pass(es, "gpu_submit", t3 - t2);
     pgi__stats_pass(es, "gpu_download", t4 - t3);
     if (!pgi__gpu_has_timestamps(g)) { /* the CPU-timed sequence (one entry) is the gather's */
@@ -321,17 +377,39 @@ static pgi_status hg_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     }
     es->build_ms = (t1 - t0) + gpu_build;
     es->estimate_ms = gpu_gather + (t4 - t3);
-    es->reads = (uint64_t)c[0] | (uint64_t)c[1] << 32;
-    es->contributing = (uint64_t)c[2] | (uint64_t)c[3] << 32;
-    es->nodes_visited = (uint64_t)c[4] | (uint64_t)c[5] << 32;
     /* host memory of the upload arrays (the device's buffers are listed by the renderer) */
     pgi__stats_mem(es, "gpu_host_upload",
                    s->packed_cap * sizeof(pgi__packed_photon) + s->hvs_cap * sizeof(gpu_vs) +
                        s->hlobes_cap * sizeof(gpu_lobe) + s->lobe_of_cap * sizeof(uint32_t));
     return PGI_OK;
-fail:
-    /* close the sequence so that the next frame can begin one */
-    (void)pgi__gpu_submit_wait(g);
+}
+
+/* ---- device inputs (the GPU frame) */
+
+static pgi_status hg_device_reserve(void *state, size_t nphotons, int width, int height, pgi__gpu_buffer **out) {
+    hg_state *s = state;
+    pgi_status st = hg_reserve(s, nphotons, (size_t)width * (size_t)height, 0, 0);
+    if (st) return st;
+    s->dev_n = nphotons;
+    *out = s->out;
+    return PGI_OK;
+}
+
+static pgi_status hg_device_record(void *state, const pgi__gpu_est_inputs *in) {
+    hg_state *s = state;
+    if (in->nphotons != s->dev_n)
+        return pgi__fail(PGI_ERR_INTERNAL, "hashgrid on the GPU: reserved for %zu photons, given %zu", s->dev_n,
+                         in->nphotons);
+    return hg_record(s, in->photons, in->nphotons, in->samples, in->lobes, in->width, in->height, in->radius);
+}
+
+static pgi_status hg_device_finish(void *state, const pgi_named_value *t, int nt, pgi_estimator_stats *es) {
+    hg_state *s = state;
+    memset(es, 0, sizeof *es);
+    double build, gather;
+    pgi_status st = hg_counters(s, t, nt, es, &build, &gather);
+    es->build_ms = build;
+    es->estimate_ms = gather;
     return st;
 }
 
@@ -342,4 +420,7 @@ const pgi__gpu_est_vtbl pgi__gpu_est_hashgrid = {
     .create = hg_create,
     .run = hg_run,
     .destroy = hg_destroy,
+    .device_reserve = hg_device_reserve,
+    .device_record = hg_device_record,
+    .device_finish = hg_device_finish,
 };

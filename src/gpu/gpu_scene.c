@@ -21,8 +21,17 @@ struct pgi__gpu_scene {
     pgi__gpu_buffer *emit; /* (gpu-trace) photon emission */
     uint32_t nemit;
     pgi__gpu_scene_push info;
-    uint64_t static_version, dynamic_version;
+    uint64_t static_version, dynamic_version, lights_hash;
 };
+
+/* FNV-1a over the lights, as progressive.c's picture_of: point and spot lights move
+ * (pgi_scene_set_light_position) without touching the geometry's versions. */
+static uint64_t lights_hash(const pgi_scene *s) {
+    uint64_t h = 1469598103934665603ULL;
+    const unsigned char *p = (const unsigned char *)s->lights;
+    for (size_t i = 0; i < s->nlights * sizeof *s->lights; i++) h = (h ^ p[i]) * 1099511628211ULL;
+    return h;
+}
 
 #define LUT_WORDS 256
 
@@ -131,6 +140,7 @@ static pgi_status upload_dynamic(pgi__gpu_scene *gs, const pgi_scene *s) {
     gs->info.eps = pgi__scene_epsilon(s);
     gs->static_version = s->static_version;
     gs->dynamic_version = s->dynamic_version;
+    gs->lights_hash = lights_hash(s);
     st = upload_emit(gs, s);
 done:
     free(v);
@@ -240,7 +250,7 @@ void pgi__gpu_scene_destroy(pgi__gpu_scene *gs) {
 
 int pgi__gpu_scene_needs_update(const pgi__gpu_scene *gs, const pgi_scene *s) {
     return gs->static_version != s->static_version || gs->dynamic_version != s->dynamic_version ||
-           pgi__gpu_rays_needs_update(gs->rays, s);
+           gs->lights_hash != lights_hash(s) || pgi__gpu_rays_needs_update(gs->rays, s);
 }
 
 pgi_status pgi__gpu_scene_update(pgi__gpu_scene *gs, const pgi_scene *s) {

@@ -1,6 +1,7 @@
 /* The scene on the GPU (issue "The GPU backend", the frame's passes): everything shading needs
  * on the device, uploaded once from the scene's internals (scene_internal.h) and refreshed when
- * its geometry or lights change (static_version / dynamic_version, as the renderer's BVH), plus
+ * its geometry or lights change (static_version / dynamic_version as the renderer's BVH, a hash of
+ * the lights as progressive.c's picture_of), plus
  * the ray-tracing BVH (gpu_rays.h), so that one object gives a pass every buffer it binds.
  *
  *   pgi__gpu_scene *gs;  pgi__gpu_scene_create(gpu, scene, &gs);     // PGI_ERR_UNSUPPORTED: a feature
@@ -96,7 +97,8 @@ typedef struct pgi__gpu_scene pgi__gpu_scene;
  * PGI_ERR_UNSUPPORTED for an environment map. */
 pgi_status pgi__gpu_scene_create(pgi__gpu *g, const pgi_scene *s, pgi__gpu_scene **out);
 void pgi__gpu_scene_destroy(pgi__gpu_scene *gs);
-/* 1 when the scene's geometry or lights moved since the upload (static/dynamic versions). */
+/* 1 when the scene's geometry or lights moved since the upload (static/dynamic versions, and a
+ * hash of the lights: point and spot lights move without a version). */
 int pgi__gpu_scene_needs_update(const pgi__gpu_scene *gs, const pgi_scene *s);
 /* Uploads again what depends on positions: vertices, lights, the area CDF, and the BVH. */
 pgi_status pgi__gpu_scene_update(pgi__gpu_scene *gs, const pgi_scene *s);

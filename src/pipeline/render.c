@@ -4,7 +4,10 @@
 #include <string.h>
 
 #include "core/mem.h"
+#include "estimators/estimator_internal.h"
 #include "gpu/gpu_estimator.h"
+#include "gpu/gpu_scene.h"
+#include "gpu/gpu_view.h"
 #include "photon/auto_radius.h"
 #include "photon/guide.h"
 #include "photon/photon.h"
@@ -42,6 +45,13 @@ struct pgi_renderer {
     void *gpu_est;
     const pgi__gpu_est_vtbl *gpu_est_vt;
     pgi_estimator_desc gpu_est_desc;
+    /* the GPU frame (gpu_frame): the scene on the device, the view/direct passes, the photons
+     * uploaded from the CPU tracer (gpu_photons) */
+    pgi__gpu_scene *gpu_scene;
+    pgi__gpu_view *gpu_view;
+    pgi__gpu_buffer *gpu_photons;
+    pgi__packed_photon *gpu_packed;
+    size_t gpu_packed_cap;
 };
 
 /* The ledger's entries in the order the stats list them. "estimator" is the estimator's total (its
@@ -169,6 +179,10 @@ void pgi_renderer_destroy(pgi_renderer *r) {
     pgi__view_grid_free(&r->vgrid);
     pgi__view_grid_free(&r->near);
     if (r->gpu_est_vt) r->gpu_est_vt->destroy(r->gpu_est);
+    pgi__gpu_view_destroy(r->gpu_view);
+    pgi__gpu_scene_destroy(r->gpu_scene);
+    if (r->gpu) pgi__gpu_buffer_destroy(r->gpu, r->gpu_photons);
+    pgi__afree(r->gpu_packed);
     pgi__gpu_destroy(r->gpu);
     free(r);
 }
@@ -408,10 +422,30 @@ static pgi_status ensure_gpu(pgi_renderer *r, const pgi_render_desc *d, int *cre
     if (d->output == PGI_OUTPUT_PHOTON_COUNT)
         return pgi__fail(PGI_ERR_UNSUPPORTED, "%s",
                          "--output counts is not supported on the GPU device (use --device cpu)");
+    /* what the GPU frame does not have: refused by name, never a silent CPU fallback */
+    if (d->radius_policy != PGI_RADIUS_FIXED)
+        return pgi__fail(PGI_ERR_UNSUPPORTED,
+                         "--radius-policy %s is not supported on the GPU device (use --device cpu)",
+                         d->radius_policy == PGI_RADIUS_PATH ? "path" : "differentials");
+    if (d->emission != PGI_EMISSION_UNIFORM)
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "%s",
+                         "--emission guided/auto is not supported on the GPU device (use --device cpu)");
+    if (d->store == PGI_STORE_VIEW)
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "%s",
+                         "--store view is not supported on the GPU device (use --device cpu)");
+    if (d->filter > 0)
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "%s",
+                         "--filter (the bilateral filter) is not supported on the GPU device (use --device cpu)");
     if (r->gpu && r->gpu_index != d->device_index) {
         if (r->gpu_est_vt) r->gpu_est_vt->destroy(r->gpu_est);
         r->gpu_est = NULL;
         r->gpu_est_vt = NULL;
+        pgi__gpu_view_destroy(r->gpu_view);
+        r->gpu_view = NULL;
+        pgi__gpu_scene_destroy(r->gpu_scene);
+        r->gpu_scene = NULL;
+        pgi__gpu_buffer_destroy(r->gpu, r->gpu_photons);
+        r->gpu_photons = NULL;
         pgi__gpu_destroy(r->gpu);
         r->gpu = NULL;
     }
@@ -419,6 +453,8 @@ static pgi_status ensure_gpu(pgi_renderer *r, const pgi_render_desc *d, int *cre
         if ((st = pgi__gpu_create(d->device_index - 1, &r->gpu))) return st;
         r->gpu_index = d->device_index;
     }
+    if (!r->gpu_scene && (st = pgi__gpu_scene_create(r->gpu, r->scene, &r->gpu_scene))) return st;
+    if (!r->gpu_view && (st = pgi__gpu_view_create(r->gpu, &r->gpu_view))) return st;
     if (r->gpu_est_vt == vt && memcmp(&d->est, &r->gpu_est_desc, sizeof d->est) == 0) return PGI_OK;
     if (r->gpu_est_vt) r->gpu_est_vt->destroy(r->gpu_est);
     r->gpu_est = NULL;
@@ -534,6 +570,185 @@ static void stats_begin(pgi_frame_stats *fs, const pgi_render_desc *d) {
     fs->device = "cpu";
 }
 
+/* ------------------------------------------------------------------ the GPU frame
+ * --device vulkan (docs/gpu.md): the view samples (gpu_view.h view.comp), the estimator
+ * (reading the device's view samples and photons) and direct light with the sum (direct.comp) run
+ * on the device; the image is read back. Photons are still traced by the CPU and uploaded
+ * (gpu_photons, the seam the GPU tracer replaces). Two command sequences: the view pass, then
+ * (after the automatic radius, which reads the view samples back, only when it is asked for) the
+ * estimator and direct light. */
+
+/* Appends a pass to the frame's stats (the list is bounded). */
+static void stats_pass(pgi_frame_stats *fs, const char *name, double ms) {
+    if (fs->pass_count < PGI_MAX_STAT_ENTRIES) fs->passes_ms[fs->pass_count++] = (pgi_named_value){name, ms};
+}
+
+/* THE SEAM for the GPU photon tracer (branch gpu-trace): the frame's photons on the device as
+ * pgi__packed_photon, *n of them. Today: traced by the CPU (pgi__photons_trace, into r->ph: the
+ * automatic radius and pgi_renderer_prepare read them there) and uploaded ("gpu_photons"); the
+ * host time is fs->trace_ms and the pass "gpu_upload". A device tracer returns its own buffer
+ * here (and fills fs's photon counts). */
+static pgi_status gpu_photons(pgi_renderer *r, const pgi_render_desc *d, const progress_ctx *pc, pgi_frame_stats *fs,
+                              pgi__gpu_buffer **buf, size_t *n) {
+    pgi_status st;
+    double t0 = pgi__now_ms();
+    pgi__trace_desc td = {.photons = d->photons, .bounces = d->bounces, .seed = d->seed, .threads = d->threads};
+    if ((st = ensure_footprints(r, d))) return st;
+    if (d->progress) {
+        td.progress = report_trace;
+        td.progress_ctx = (void *)pc;
+    }
+    pgi__rt_capture_pass(r->rt, PGI__PASS_TRACE);
+    st = pgi__photons_trace(r->scene, r->rt, &td, &r->ph, &r->trace_scratch, &fs->photon_rays);
+    pgi__rt_capture_pass(r->rt, PGI__PASS_NONE);
+    pgi__mem_set(&r->mem, "trace_scratch", pgi__trace_scratch_bytes(&r->trace_scratch));
+    if (st) return st;
+    double t1 = pgi__now_ms();
+    fs->trace_ms = t1 - t0;
+    fs->photons_emitted = r->ph.emitted;
+    fs->photons_stored = r->ph.count;
+    fs->photon_paths_discarded = r->trace_scratch.paths_traced - r->ph.emitted - r->trace_scratch.paths_pilot;
+    const size_t np = r->ph.count;
+    if ((st = pgi__ensure((void **)&r->gpu_packed, &r->gpu_packed_cap, np + 1, sizeof(pgi__packed_photon)))) return st;
+#pragma omp parallel for schedule(static) num_threads(pgi__threads(d->threads))
+    for (long long j = 0; j < (long long)np; j++) pgi__pack_photon(&r->ph, (size_t)j, &r->gpu_packed[j]);
+    if ((st = pgi__gpu_buffer_reserve(r->gpu, &r->gpu_photons, (np + 1) * sizeof(pgi__packed_photon), "gpu_photons")) ||
+        (st = pgi__gpu_upload(r->gpu, r->gpu_photons, 0, r->gpu_packed, np * sizeof(pgi__packed_photon))))
+        return st;
+    stats_pass(fs, "gpu_upload", pgi__now_ms() - t1);
+    *buf = r->gpu_photons;
+    *n = np;
+    return PGI_OK;
+}
+
+static double timing_of(const pgi_named_value *t, int nt, const char *name) {
+    double ms = 0.0;
+    for (int i = 0; i < nt; i++)
+        if (strcmp(t[i].name, name) == 0) ms += t[i].value;
+    return ms;
+}
+
+static pgi_status gpu_frame(pgi_renderer *r, pgi_render_desc *d, uint64_t seq_seed, uint32_t index,
+                            const progress_ctx *pc, pgi_frame_stats *fs, double t_start, pgi_image *out) {
+    pgi_status st;
+    pgi__gpu *g = r->gpu;
+    const pgi_scene *s = r->scene;
+    if ((st = ensure_buffers(r, d))) return st;
+    const pgi_camera_def *cd = d->view ? d->view : &s->cams[d->camera];
+    pgi_camera_look_at(&r->cam, cd->eye, cd->look_at, cd->up, cd->fov_y_deg, d->width, d->height);
+    if (pgi__rt_needs_update(r->rt, s)) { /* the CPU tracer's Embree scene */
+        double tu = pgi__now_ms();
+        if ((st = pgi__rt_update(r->rt, s))) return st;
+        fs->rt_update_ms = pgi__now_ms() - tu;
+    }
+    if (pgi__gpu_scene_needs_update(r->gpu_scene, s)) {
+        double tu = pgi__now_ms();
+        if ((st = pgi__gpu_scene_update(r->gpu_scene, s))) return st;
+        fs->rt_update_ms += pgi__now_ms() - tu;
+    }
+    /* photons first (the CPU), then the device's passes */
+    report(pc, "trace", 0, 0);
+    pgi__gpu_buffer *photons = NULL;
+    size_t np = 0;
+    if ((st = gpu_photons(r, d, pc, fs, &photons, &np))) return st;
+
+    /* sequence 1: the view pass */
+    report(pc, "view", 0, 0);
+    const pgi__subpixel sp = {.jitter = d->jitter == PGI_JITTER_ON, .seed = seq_seed, .index = index};
+    if ((st = pgi__gpu_view_prepare(r->gpu_view, &r->cam, d->seed, &sp))) return st;
+    pgi_named_value t[64];
+    int nt = 0;
+    if ((st = pgi__gpu_begin(g))) return st;
+    pgi__gpu_timestamp(g, "start");
+    if ((st = pgi__gpu_view_record(r->gpu_view, r->gpu_scene))) {
+        (void)pgi__gpu_submit_wait(g);
+        return st;
+    }
+    if ((st = pgi__gpu_submit_wait(g))) return st;
+    nt = pgi__gpu_timings(g, t, 64);
+    if (d->radius == PGI_RADIUS_AUTO) {
+        /* the automatic radius reads the view samples on the host: the one read-back of the G-buffer */
+        double tr = pgi__now_ms();
+        if ((st = pgi__gpu_view_download(r->gpu_view, s, &r->vs, NULL))) return st;
+        stats_pass(fs, "gpu_view_download", pgi__now_ms() - tr);
+        if ((st = choose_radius(r, d, fs))) return st;
+    }
+
+    /* sequence 2: the estimator on the device's photons and view samples, direct light, the sum */
+    report(pc, "build", 0, 0);
+    pgi__gpu_buffer *indirect = NULL;
+    const int need_indirect = d->output != PGI_OUTPUT_DIRECT;
+    if (need_indirect && (st = r->gpu_est_vt->device_reserve(r->gpu_est, np, d->width, d->height, &indirect)))
+        return st;
+    const pgi__gpu_est_inputs in = {.photons = photons,
+                                    .nphotons = np,
+                                    .samples = pgi__gpu_view_samples(r->gpu_view),
+                                    .lobes = pgi__gpu_scene_lobes(r->gpu_scene),
+                                    .width = d->width,
+                                    .height = d->height,
+                                    .radius = d->radius};
+    if ((st = pgi__gpu_begin(g))) return st;
+    pgi__gpu_timestamp(g, "start");
+    if ((need_indirect && (st = r->gpu_est_vt->device_record(r->gpu_est, &in))) ||
+        (st = pgi__gpu_direct_record(r->gpu_view, r->gpu_scene, indirect, d->direct_samples, d->seed, d->output))) {
+        (void)pgi__gpu_submit_wait(g);
+        return st;
+    }
+    double ts = pgi__now_ms();
+    if ((st = pgi__gpu_submit_wait(g))) return st;
+    double te = pgi__now_ms();
+    nt += pgi__gpu_timings(g, t + nt, 64 - nt);
+    pgi_estimator_stats es;
+    memset(&es, 0, sizeof es);
+    if (need_indirect && (st = r->gpu_est_vt->device_finish(r->gpu_est, t, nt, &es))) return st;
+    if ((st = pgi__gpu_view_counters(r->gpu_view, &fs->primary_rays, &fs->shadow_rays))) return st;
+
+    /* the image */
+    const size_t n = (size_t)d->width * d->height;
+    pgi_image img = *out;
+    if (!img.rgb || img.width != d->width || img.height != d->height) {
+        char what[64];
+        snprintf(what, sizeof what, "the %dx%d output image", d->width, d->height);
+        if ((st = pgi__mem_reserve(&r->mem, "image", 3 * n * sizeof(float), what))) return st;
+        img = (pgi_image){d->width, d->height, malloc(3 * n * sizeof(float))};
+        if (!img.rgb) return pgi__fail(PGI_ERR_OOM, "out of memory for the output image");
+    }
+    double td0 = pgi__now_ms();
+    if ((st = pgi__gpu_download(g, pgi__gpu_view_image(r->gpu_view), 0, img.rgb, 3 * n * sizeof(float)))) {
+        if (img.rgb != out->rgb) free(img.rgb);
+        return st;
+    }
+    double td1 = pgi__now_ms();
+    if (img.rgb != out->rgb) pgi_image_free(out);
+
+    /* stats: the device's passes from its timestamps (the CPU-timed sequence when it has none) */
+    if (pgi__gpu_has_timestamps(g)) {
+        fs->view_ms = timing_of(t, nt, "gpu_view");
+        fs->direct_ms = timing_of(t, nt, "gpu_direct");
+        fs->build_ms = es.build_ms;
+        fs->estimate_ms = es.estimate_ms;
+    } else {
+        fs->view_ms = timing_of(t, nt, "gpu_view");
+        fs->direct_ms = te - ts; /* estimator and direct light in one CPU-timed entry */
+    }
+    stats_pass(fs, "gpu_view", timing_of(t, nt, "gpu_view"));
+    for (int k = 0; k < es.pass_count; k++) stats_pass(fs, es.pass_names[k], es.pass_ms[k]);
+    stats_pass(fs, "gpu_direct", timing_of(t, nt, "gpu_direct"));
+    stats_pass(fs, "gpu_download", td1 - td0);
+    fs->total_ms = pgi__now_ms() - t_start;
+    pgi__mem_set(&r->mem, "image", 3 * n * sizeof(float));
+    mem_stats(r, &es, fs);
+    pgi_named_value gm[PGI_MAX_STAT_ENTRIES];
+    int ng = pgi__gpu_memory(g, gm, PGI_MAX_STAT_ENTRIES);
+    for (int k = 0; k < ng && fs->memory_count < PGI_MAX_STAT_ENTRIES; k++)
+        fs->memory_bytes[fs->memory_count++] = gm[k];
+    fs->reads = es.reads;
+    fs->contributing = es.contributing;
+    fs->nodes_visited = es.nodes_visited;
+    *out = img;
+    return PGI_OK;
+}
+
 pgi_status pgi_renderer_prepare(pgi_renderer *r, const pgi_render_desc *in, pgi_frame_inputs *out,
                                 pgi_frame_stats *stats) {
     if (!r || !in || !out) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_renderer_prepare: NULL argument");
@@ -581,6 +796,11 @@ pgi_status pgi__renderer_render_frame(pgi_renderer *r, const pgi_render_desc *in
         return st;
     fs.device = on_gpu ? pgi__gpu_device_name(r->gpu) : "cpu";
     const progress_ctx pc = {&d, t_start};
+    if (on_gpu) {
+        st = gpu_frame(r, &d, seq_seed, index, &pc, &fs, t_start, out);
+        if (!st && stats) *stats = fs;
+        return st;
+    }
     if ((st = prepare(r, &d, seq_seed, index, &pc, &fs))) return st;
     if ((st = choose_radius(r, &d, &fs))) return st;
     const pgi_scene *s = r->scene;
@@ -596,16 +816,10 @@ pgi_status pgi__renderer_render_frame(pgi_renderer *r, const pgi_render_desc *in
     pgi_estimator_stats es;
     double t3;
     report(&pc, "build", 0, 0);
-    if (on_gpu) {
-        /* build + estimate in one device sequence; its own stats split the time */
-        if ((st = r->gpu_est_vt->run(r->gpu_est, &ea, &es))) return st;
-        t3 = t2 + es.build_ms;
-    } else {
-        if ((st = pgi_estimator_build(r->est, &ea))) return st;
-        t3 = pgi__now_ms();
-        report(&pc, "estimate", 0, 0);
-        if ((st = pgi_estimator_estimate(r->est, &ea))) return st;
-    }
+    if ((st = pgi_estimator_build(r->est, &ea))) return st;
+    t3 = pgi__now_ms();
+    report(&pc, "estimate", 0, 0);
+    if ((st = pgi_estimator_estimate(r->est, &ea))) return st;
     if (d.filter > 0 && (st = pgi__bilateral_filter(&r->vs, d.filter, d.threads, r->indirect))) return st;
     double t4 = pgi__now_ms();
     report(&pc, "direct", 0, 0);
@@ -635,7 +849,7 @@ pgi_status pgi__renderer_render_frame(pgi_renderer *r, const pgi_render_desc *in
     }
     double t6 = pgi__now_ms();
 
-    if (!on_gpu) pgi_estimator_get_stats(r->est, &es);
+    pgi_estimator_get_stats(r->est, &es);
     if (d.output == PGI_OUTPUT_PHOTON_COUNT && (st = pgi__photon_counts(r->est, &ea, img.rgb))) {
         if (img.rgb != out->rgb) free(img.rgb);
         return st;
@@ -648,12 +862,6 @@ pgi_status pgi__renderer_render_frame(pgi_renderer *r, const pgi_render_desc *in
         fs.passes_ms[fs.pass_count++] = (pgi_named_value){es.pass_names[k], es.pass_ms[k]};
     pgi__mem_set(&r->mem, "image", 3 * n * sizeof(float));
     mem_stats(r, &es, &fs);
-    if (on_gpu) { /* the device's buffers, after the host's entries */
-        pgi_named_value gm[PGI_MAX_STAT_ENTRIES];
-        int ng = pgi__gpu_memory(r->gpu, gm, PGI_MAX_STAT_ENTRIES);
-        for (int k = 0; k < ng && fs.memory_count < PGI_MAX_STAT_ENTRIES; k++)
-            fs.memory_bytes[fs.memory_count++] = gm[k];
-    }
     fs.reads = es.reads;
     fs.contributing = es.contributing;
     fs.nodes_visited = es.nodes_visited;
