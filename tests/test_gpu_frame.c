@@ -351,10 +351,13 @@ static void test_direct_light(void **state) {
 
 static void test_whole_frame(void **state) {
     (void)state;
+    /* the photons are traced on the device (gpu_trace.h) with their own random numbers: two
+       independent photon maps, whose noise bounds the PSNR at 200k photons (37 dB);
+       test_gpu_trace's test_frame checks 40 dB at 1M photons */
     pgi_render_desc d = frame_desc(64, 48, 200000, 256, PGI_OUTPUT_ALL, 1);
-    compare_frames("cornell", &d, "all", 40.0);
+    compare_frames("cornell", &d, "all", 35.0);
     d = frame_desc(64, 48, 200000, 16, PGI_OUTPUT_INDIRECT, 1);
-    compare_frames("cornell", &d, "indirect", 40.0);
+    compare_frames("cornell", &d, "indirect", 33.0);
 }
 
 /* A dynamic scene: the frame after pgi_scene_set_time (geometry moved, the GPU scene re-uploaded)
@@ -380,7 +383,8 @@ static void test_dynamic(void **state) {
             100.0 * (mb - mc) / mc, m.psnr);
     assert_true(memcmp(a.rgb, b.rgb, 3 * 48 * 36 * sizeof(float)) != 0);
     assert_true(fabs(mb - mc) <= 0.01 * mc);
-    assert_true(m.psnr >= 35.0);
+    /* independent photon maps (the device traces its own, gpu_trace.h) of 20k photons: 26.6 dB */
+    assert_true(m.psnr >= 24.0);
     pgi_image_free(&a);
     pgi_image_free(&b);
     pgi_image_free(&c);

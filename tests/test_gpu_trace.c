@@ -13,6 +13,7 @@
 
 #include "gpu/gpu_trace.h"
 #include "photon/photon.h"
+#include "photongi/metrics.h"
 #include "rt/rt.h"
 #include "scene/scene_internal.h"
 
@@ -111,7 +112,7 @@ static void test_cornell(void **state) {
     (void)state;
     pgi_scene *s = NULL;
     TU_CHECK_OK(pgi_scene_load("cornell", &s));
-    compare(s, "cornell", 300000, 4);
+    compare(s, "cornell", 200000, 4);
     pgi_scene_destroy(s);
 }
 
@@ -119,7 +120,7 @@ static void test_cornell_mirrors(void **state) {
     (void)state;
     pgi_scene *s = NULL;
     TU_CHECK_OK(pgi_scene_load("cornell-mirrors", &s));
-    compare(s, "cornell-mirrors", 300000, 6);
+    compare(s, "cornell-mirrors", 200000, 6);
     pgi_scene_destroy(s);
 }
 
@@ -141,7 +142,7 @@ static void test_sibenik(void **state) {
         skip();
     }
     assert_true(s->ntexs > 0);
-    compare(s, "sibenik", 200000, 4);
+    compare(s, "sibenik", 150000, 4);
     pgi_scene_destroy(s);
 }
 
@@ -219,6 +220,72 @@ static void test_deterministic(void **state) {
     pgi_scene_destroy(s);
 }
 
+static double image_mean(const pgi_image *im) {
+    double m = 0.0;
+    const size_t n = 3 * (size_t)im->width * im->height;
+    for (size_t i = 0; i < n; i++) m += im->rgb[i];
+    return m / (double)n;
+}
+
+/* The whole frame on the device (photons traced there: the CPU tracer does not run) against the
+ * CPU's frame: image mean within 1 %, PSNR >= 40 dB at a high photon count (the two photon maps
+ * are independent: their noise is what the PSNR sees); the frame's photon stats. */
+static void frame_vs_cpu(const char *scene, uint32_t photons, pgi_output out, int w, int h) {
+    pgi_scene *s = NULL;
+    TU_CHECK_OK(pgi_scene_load(scene, &s));
+    pgi_renderer *r = NULL;
+    TU_CHECK_OK(pgi_renderer_create(s, &r));
+    pgi_render_desc d = {0};
+    d.width = w;
+    d.height = h;
+    d.photons = photons;
+    d.direct_samples = 256;
+    d.output = out;
+    d.seed = 5;
+    d.estimator = "hashgrid";
+    pgi_image ci = {0}, gi = {0};
+    pgi_frame_stats cs, gs;
+    d.device = PGI_DEVICE_CPU;
+    TU_CHECK_OK(pgi_renderer_render(r, &d, &ci, &cs));
+    d.device = PGI_DEVICE_VULKAN;
+    TU_CHECK_OK(pgi_renderer_render(r, &d, &gi, &gs));
+    pgi_metrics m;
+    TU_CHECK_OK(pgi_metrics_compute(&gi, &ci, 1.f, &m));
+    const double mc = image_mean(&ci), mg = image_mean(&gi);
+    fprintf(stderr,
+            "  %-10s %ux%u %u photons: mean CPU %.6g GPU %.6g (%+.3f %%), PSNR %.2f dB; trace CPU %.1f ms, GPU %.1f "
+            "ms; emitted CPU %llu GPU %llu, stored %llu / %llu, photon rays %llu / %llu, discarded %llu / %llu\n",
+            scene, w, h, photons, mc, mg, 100.0 * (mg - mc) / mc, m.psnr, cs.trace_ms, gs.trace_ms,
+            (unsigned long long)cs.photons_emitted, (unsigned long long)gs.photons_emitted,
+            (unsigned long long)cs.photons_stored, (unsigned long long)gs.photons_stored,
+            (unsigned long long)cs.photon_rays, (unsigned long long)gs.photon_rays,
+            (unsigned long long)cs.photon_paths_discarded, (unsigned long long)gs.photon_paths_discarded);
+    assert_true(fabs(mg - mc) <= 0.01 * mc);
+    assert_true(m.psnr >= 40.0);
+    assert_int_equal(gs.photons_stored, photons);
+    assert_true(gs.photons_emitted > 0 && gs.photon_rays > gs.photons_emitted);
+    assert_true(gs.photon_paths_discarded * 20 <= gs.photons_emitted);
+    int pass = 0, mem = 0;
+    for (int k = 0; k < gs.pass_count; k++) pass += strcmp(gs.passes_ms[k].name, "gpu_trace") == 0;
+    for (int k = 0; k < gs.memory_count; k++)
+        mem += strcmp(gs.memory_bytes[k].name, "gpu_photons") == 0 ||
+               strcmp(gs.memory_bytes[k].name, "gpu_trace_scratch") == 0;
+    assert_int_equal(pass, 1);
+    assert_int_equal(mem, 2);
+    pgi_image_free(&ci);
+    pgi_image_free(&gi);
+    pgi_renderer_destroy(r);
+    pgi_scene_destroy(s);
+}
+
+static void test_frame(void **state) {
+    (void)state;
+    /* 1M photons: 43.5 dB (200k: 37 dB). Cornell with mirrors and glass is left to the photon
+       statistics above: its caustics make the image mean of a small frame vary by +-1.5 % from
+       seed to seed on the CPU alone. */
+    frame_vs_cpu("cornell", 1000000, PGI_OUTPUT_ALL, 64, 48);
+}
+
 static void expect_refused(const pgi__gpu_trace_desc *d, const char *word) {
     assert_int_equal(pgi__gpu_trace_check(d), PGI_ERR_UNSUPPORTED);
     fprintf(stderr, "  refused: %s\n", pgi_last_error());
@@ -250,7 +317,7 @@ int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_unsupported),     cmocka_unit_test(test_deterministic), cmocka_unit_test(test_cornell),
         cmocka_unit_test(test_cornell_mirrors), cmocka_unit_test(test_lights_glossy), cmocka_unit_test(test_sky),
-        cmocka_unit_test(test_sibenik),
+        cmocka_unit_test(test_sibenik),         cmocka_unit_test(test_frame),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -151,7 +151,7 @@ void pgi__gpu_trace_set_max_batch(pgi__gpu_trace *t, uint32_t paths) {
     t->max_batch = paths == 0 ? MAX_BATCH : paths > MAX_BATCH ? MAX_BATCH : paths;
 }
 
-pgi__gpu_buffer *pgi__gpu_trace_photons(const pgi__gpu_trace *t) { return t->count ? t->photons : NULL; }
+pgi__gpu_buffer *pgi__gpu_trace_photons(const pgi__gpu_trace *t) { return t->photons; }
 
 static void groups_2d(size_t items, uint32_t local, uint32_t *gx, uint32_t *gy) {
     size_t groups = (items + local - 1) / local;
@@ -256,15 +256,17 @@ pgi_status pgi__gpu_trace_run(pgi__gpu_trace *t, const pgi_scene *s, const pgi__
     if (st) return st;
     const double w0 = pgi__now_ms();
     if (pgi__gpu_scene_needs_update(t->scene, s) && (st = pgi__gpu_scene_update(t->scene, s))) return st;
-    uint32_t nemit = 0;
-    (void)pgi__gpu_scene_emit(t->scene, &nemit);
-    if (d->bounces < 1 || d->photons == 0 || nemit == 0) return PGI_OK;
     if (d->photons > UINT32_MAX / 2)
         return pgi__fail(PGI_ERR_UNSUPPORTED, "photon tracing on the GPU: at most 2^31 photons (%u requested)",
                          d->photons);
     const uint32_t want = d->photons;
-    if ((st = pgi__gpu_buffer_reserve(t->g, &t->photons, (size_t)want * sizeof(pgi__packed_photon), "gpu_photons")))
+    /* the buffer exists even when nothing is stored (a pass may bind it) */
+    if ((st = pgi__gpu_buffer_reserve(t->g, &t->photons, ((size_t)want + 1) * sizeof(pgi__packed_photon),
+                                      "gpu_photons")))
         return st;
+    uint32_t nemit = 0;
+    (void)pgi__gpu_scene_emit(t->scene, &nemit);
+    if (d->bounces < 1 || d->photons == 0 || nemit == 0) return PGI_OK;
     uint32_t max_batch = t->max_batch;
     if ((size_t)max_batch * (size_t)d->bounces > MAX_SLOTS) max_batch = (uint32_t)(MAX_SLOTS / (size_t)d->bounces);
     const uint64_t max_paths = 64ull * want + (1u << 20);

@@ -60,7 +60,8 @@ void pgi__gpu_trace_destroy(pgi__gpu_trace *t);
  * moved, the GPU scene is updated first). */
 pgi_status pgi__gpu_trace_run(pgi__gpu_trace *t, const pgi_scene *s, const pgi__gpu_trace_desc *d,
                               pgi__gpu_trace_result *r);
-/* The photons of the last run (r.count of them), pgi__packed_photon; NULL before a run. */
+/* The photons of the last run (r.count of them, the buffer holds at least one entry),
+ * pgi__packed_photon; NULL before a run. */
 pgi__gpu_buffer *pgi__gpu_trace_photons(const pgi__gpu_trace *t);
 /* Copies the last run's photons into ph (capacity >= count): positions, directions, flux; normals
  * 0; ph->emitted set. */
