@@ -87,8 +87,8 @@ int main(int argc, char **argv) {
         printf("| device | view | trace (CPU) | build | estimate | direct | total |\n|---|---|---|---|---|---|---|\n");
         printf("| cpu | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f |\n", c.view, c.trace, c.build, c.estimate, c.direct,
                c.total);
-        printf("| vulkan | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f |\n", g.view, g.trace, g.build, g.estimate,
-               g.direct, g.total);
+        printf("| vulkan | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f |\n", g.view, g.trace, g.build, g.estimate, g.direct,
+               g.total);
         printf("GPU passes (fastest frame):");
         for (int k = 0; k < g.npasses; k++) printf(" %s %.1f", g.passes[k].name, g.passes[k].value);
         printf("\n");
