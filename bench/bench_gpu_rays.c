@@ -2,10 +2,11 @@
  * (src/gpu/gpu_rays.h) on one scene.
  *
  *   photongi-bench-gpu-rays [--scene sibenik] [--rays 200000] [--size 640x360] [--threads 2] [--configs]
- *                           [--device N]
+ *                           [--config QUALITY,WIDTH,MAX_LEAF] [--device N]
  *
  * Prints markdown tables: the default build (time, bytes, nodes, leaves, SAH cost) and, with
- * --configs, the other builds (binned SAH or spatial splits, 2- or 4-wide, leaf sizes), with the
+ * --configs, the other builds (binned SAH or spatial splits, 2- or 4-wide, leaf sizes; --config:
+ * another build first, e.g. 2,4,8 for spatial splits, 4-wide, leaves of 8), with the
  * work a ray costs the traversal (nodes, leaves, triangles) and the rate of the layout's CPU
  * traversal (--threads threads) for primary rays (every camera of the scene at --size) and random
  * rays (origins in the scene's box, uniform directions); then the rates of Embree (single-ray
@@ -161,6 +162,7 @@ int main(int argc, char **argv) {
     const char *scene = "sibenik";
     size_t nrays = 200000;
     int w = 640, h = 360, threads = 2, configs = 0, device = -1;
+    pgi__bvh_config first = pgi__bvh_default_config();
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--scene") && i + 1 < argc) scene = argv[++i];
         else if (!strcmp(argv[i], "--rays") && i + 1 < argc) nrays = (size_t)strtoull(argv[++i], NULL, 10);
@@ -168,9 +170,12 @@ int main(int argc, char **argv) {
         } else if (!strcmp(argv[i], "--threads") && i + 1 < argc) threads = atoi(argv[++i]);
         else if (!strcmp(argv[i], "--configs")) configs = 1;
         else if (!strcmp(argv[i], "--device") && i + 1 < argc) device = atoi(argv[++i]);
-        else {
+        else if (!strcmp(argv[i], "--config") && i + 1 < argc &&
+                 sscanf(argv[++i], "%d,%d,%d", &first.quality, &first.width, &first.max_leaf) == 3) {
+        } else {
             fprintf(stderr,
-                    "usage: %s [--scene NAME] [--rays N] [--size WxH] [--threads N] [--configs] [--device N]\n"
+                    "usage: %s [--scene NAME] [--rays N] [--size WxH] [--threads N] [--configs] [--config Q,W,L] "
+                    "[--device N]\n"
                     "  the GPU BVH and ray kernel on one scene: build statistics, work a ray, rates against Embree\n",
                     argv[0]);
             return 2;
@@ -208,7 +213,7 @@ int main(int argc, char **argv) {
     } else snprintf(gname, sizeof gname, "%s", pgi_last_error());
     pgi__bvh_config list[16];
     int ncfg = 0;
-    list[ncfg++] = pgi__bvh_default_config();
+    list[ncfg++] = first;
     if (configs) {
         const int q[] = {1, 2}, wd[] = {4, 2}, leaf[] = {1, 2, 4, 8, 16};
         for (int a = 0; a < 2; a++)

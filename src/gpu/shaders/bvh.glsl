@@ -34,6 +34,8 @@
 #define BVH_BOX_WIDEN 1.00000036
 // Embree's rcp_safe: smaller direction components become +-this.
 #define BVH_MIN_RCP 1e-18
+// +infinity (GLSL leaves 1.0 / 0.0 undefined)
+#define BVH_INF uintBitsToFloat(0x7F800000u)
 
 struct BvhNode {
     vec4 lo_x, hi_x, lo_y, hi_y, lo_z, hi_z;
@@ -171,8 +173,8 @@ bool bvh_trace(vec3 o, vec3 d, float tnear, float tfar, bool any_hit, out BvhHit
             const vec4 tn = max(max(n0, n1), max(n2, vec4(tnear)));
             const vec4 tf = min(min(f0, f1), min(f2, vec4(tfar)));
             const bvec4 in_box = lessThanEqual(tn, tf * BVH_BOX_WIDEN);
-            float d0 = in_box.x ? tn.x : 1.0 / 0.0, d1 = in_box.y ? tn.y : 1.0 / 0.0;
-            float d2 = in_box.z ? tn.z : 1.0 / 0.0, d3 = in_box.w ? tn.w : 1.0 / 0.0;
+            float d0 = in_box.x ? tn.x : BVH_INF, d1 = in_box.y ? tn.y : BVH_INF;
+            float d2 = in_box.z ? tn.z : BVH_INF, d3 = in_box.w ? tn.w : BVH_INF;
             uint r0 = in_box.x ? nd.child.x : BVH_EMPTY, r1 = in_box.y ? nd.child.y : BVH_EMPTY;
             uint r2 = in_box.z ? nd.child.z : BVH_EMPTY, r3 = in_box.w ? nd.child.w : BVH_EMPTY;
             const int cnt = int(in_box.x) + int(in_box.y) + int(in_box.z) + int(in_box.w);

@@ -40,7 +40,7 @@ struct Photon { // hashgrid.glsl's (gather.glsl's gather() takes one); hashgrid.
 #define SCENE_UVS 2u
 #define SCENE_SKY 4u
 
-#define PGI_INF (1.0 / 0.0)
+#define PGI_INF uintBitsToFloat(0x7F800000u) // +infinity (GLSL leaves 1.0 / 0.0 undefined)
 
 struct SceneInfo { // pgi__gpu_scene_push, 64 bytes
     uint nlights, narea, flags, ntris;
