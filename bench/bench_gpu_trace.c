@@ -32,9 +32,8 @@ int main(int argc, char **argv) {
         else if (!strcmp(a, "--threads") && v) threads = atoi(argv[++i]);
         else if (!strcmp(a, "--runs") && v) runs = atoi(argv[++i]);
         else {
-            fprintf(stderr,
-                    "usage: photongi-bench-gpu-trace [--scene NAME] [--photons N] [--bounces N] [--threads N] "
-                    "[--runs N]\n");
+            fprintf(stderr, "usage: photongi-bench-gpu-trace [--scene NAME] [--photons N] [--bounces N] [--threads N] "
+                            "[--runs N]\n");
             return 2;
         }
     }
