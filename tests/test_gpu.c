@@ -339,10 +339,11 @@ static void test_cluster_trivial_errors(void **state) {
 }
 
 /* The renderer on the GPU device: the same image as the CPU's brute force (same seed: the same
- * photons, traced on the CPU), device name and GPU passes and buffers in the stats; an estimator
+ * photons, traced on the CPU: the test hook PGI_GPU_CPU_PHOTONS=1), device name and GPU passes and buffers in the stats; an estimator
  * without a GPU version is refused with the list of those that have one. */
 static void test_renderer_device(void **state) {
     (void)state;
+    setenv("PGI_GPU_CPU_PHOTONS", "1", 1); /* the CPU tracer's photons (render.c's test hook) */
     pgi_scene *scene = NULL;
     TU_CHECK_OK(pgi_scene_load("cornell", &scene));
     pgi_renderer *r = NULL;
@@ -399,6 +400,7 @@ static void test_renderer_device(void **state) {
     d.output = PGI_OUTPUT_ALL;
     TU_CHECK_OK(pgi_render_progressive(r, &d, 3, &gpu2, &gs));
     assert_int_equal(gs.frames, 3);
+    unsetenv("PGI_GPU_CPU_PHOTONS");
     pgi_image_free(&cpu);
     pgi_image_free(&gpu);
     pgi_image_free(&gpu2);

@@ -334,6 +334,9 @@ static void compare_frames(const char *scene, const pgi_render_desc *d, const ch
 
 static void compare_frames_on(const char *scene, void (*modify)(pgi_scene *), const pgi_render_desc *d,
                               const char *what, double min_psnr) {
+    /* the device's passes on the CPU tracer's photons (render.c's test hook): the photons traced on
+       the device are an independent photon map, compared in tests/test_gpu_trace.c */
+    setenv("PGI_GPU_CPU_PHOTONS", "1", 1);
     pgi_scene *s = NULL;
     TU_CHECK_OK(pgi_scene_load(scene, &s));
     if (modify) modify(s);
@@ -346,6 +349,7 @@ static void compare_frames_on(const char *scene, void (*modify)(pgi_scene *), co
     g.device = PGI_DEVICE_VULKAN;
     TU_CHECK_OK(pgi_renderer_render(r, &c, &ci, &cs));
     TU_CHECK_OK(pgi_renderer_render(r, &g, &gi, &gs));
+    unsetenv("PGI_GPU_CPU_PHOTONS");
     pgi_metrics m;
     TU_CHECK_OK(pgi_metrics_compute(&gi, &ci, 1.f, &m));
     const double mc = image_mean(&ci), mg = image_mean(&gi);
@@ -426,7 +430,8 @@ static void test_dynamic(void **state) {
             100.0 * (mb - mc) / mc, m.psnr);
     assert_true(memcmp(a.rgb, b.rgb, 3 * 48 * 36 * sizeof(float)) != 0);
     assert_true(fabs(mb - mc) <= 0.01 * mc);
-    assert_true(m.psnr >= 35.0);
+    /* independent photon maps (the device traces its own, gpu_trace.h) of 20k photons: 26.6 dB */
+    assert_true(m.psnr >= 24.0);
     pgi_image_free(&a);
     pgi_image_free(&b);
     pgi_image_free(&c);

@@ -2,6 +2,7 @@
  * scene.glsl reads, and keeping them in step with the scene's versions. */
 #include "gpu/gpu_scene.h"
 
+#include <math.h>
 #include <string.h>
 
 #include "scene/bsdf.h"
@@ -17,6 +18,8 @@ struct pgi__gpu_scene {
     pgi__gpu *g;
     pgi__gpu_rays *rays;
     pgi__gpu_buffer *verts, *tris, *mats, *lobes, *lights, *area, *tex;
+    pgi__gpu_buffer *emit; /* (gpu-trace) photon emission */
+    uint32_t nemit;
     pgi__gpu_scene_push info;
     uint64_t static_version, dynamic_version, lights_hash;
 };
@@ -49,6 +52,37 @@ static pgi_status check_scene(const pgi_scene *s) {
     if (s->ntris > UINT32_MAX / 4 || s->nverts > UINT32_MAX / 4 || s->nlights > UINT32_MAX / 4)
         return pgi__fail(PGI_ERR_UNSUPPORTED, "the GPU frame: the scene is too large (%zu triangles)", s->ntris);
     return PGI_OK;
+}
+
+/* (addition, gpu-trace) Photon emission: the lights' power and the light CDF of
+ * src/photon/trace.c (the sky its last entry), the bounding sphere, the sky's frame. */
+static pgi_status upload_emit(pgi__gpu_scene *gs, const pgi_scene *s) {
+    const size_t nl = s->nlights + (s->env ? 1 : 0);
+    pgi__gpu_emit *e = calloc(nl + 3, sizeof *e);
+    if (!e) return pgi__fail(PGI_ERR_OOM, "%s", "out of memory packing the scene for the GPU");
+    double total = 0.0;
+    for (size_t i = 0; i < nl; i++) {
+        const pgi__light *L = i < s->nlights ? &s->lights[i] : &s->env->light;
+        memcpy(e[i].power, L->power, sizeof e[i].power);
+        total += fmax(0.0, (double)v3_lum(v3_load(L->power)));
+        e[i].cdf = (float)total; /* trace.c keeps the running sum as a float */
+    }
+    gs->nemit = 0;
+    if (total > 0.0) {
+        for (size_t i = 0; i < nl; i++) e[i].cdf = (float)(e[i].cdf / total);
+        e[nl - 1].cdf = 1.f;
+        gs->nemit = (uint32_t)nl;
+    }
+    for (int a = 0; a < 3; a++) e[nl].power[a] = 0.5f * (s->bmin[a] + s->bmax[a]);
+    e[nl].cdf = 0.5f * pgi__scene_diagonal(s);
+    if (s->env) {
+        memcpy(e[nl + 1].power, s->env->fx, sizeof e[nl + 1].power);
+        e[nl + 1].cdf = s->env->p_sky;
+        memcpy(e[nl + 2].power, s->env->fz, sizeof e[nl + 2].power);
+    }
+    pgi_status st = upload(gs->g, &gs->emit, e, (nl + 3) * sizeof *e, "gpu_scene");
+    free(e);
+    return st;
 }
 
 /* Vertices, lights and the area CDF: what moves with the scene's geometry. */
@@ -107,6 +141,7 @@ static pgi_status upload_dynamic(pgi__gpu_scene *gs, const pgi_scene *s) {
     gs->static_version = s->static_version;
     gs->dynamic_version = s->dynamic_version;
     gs->lights_hash = lights_hash(s);
+    st = upload_emit(gs, s);
 done:
     free(v);
     free(l);
@@ -208,7 +243,7 @@ pgi_status pgi__gpu_scene_create(pgi__gpu *g, const pgi_scene *s, pgi__gpu_scene
 void pgi__gpu_scene_destroy(pgi__gpu_scene *gs) {
     if (!gs) return;
     pgi__gpu_rays_destroy(gs->rays);
-    pgi__gpu_buffer *b[] = {gs->verts, gs->tris, gs->mats, gs->lobes, gs->lights, gs->area, gs->tex};
+    pgi__gpu_buffer *b[] = {gs->verts, gs->tris, gs->mats, gs->lobes, gs->lights, gs->area, gs->tex, gs->emit};
     for (size_t i = 0; i < sizeof b / sizeof b[0]; i++) pgi__gpu_buffer_destroy(gs->g, b[i]);
     free(gs);
 }
@@ -237,3 +272,8 @@ void pgi__gpu_scene_info(const pgi__gpu_scene *gs, pgi__gpu_scene_push *out) { *
 pgi__gpu_buffer *pgi__gpu_scene_lobes(const pgi__gpu_scene *gs) { return gs->lobes; }
 
 pgi__gpu_rays *pgi__gpu_scene_rays(const pgi__gpu_scene *gs) { return gs->rays; }
+
+pgi__gpu_buffer *pgi__gpu_scene_emit(const pgi__gpu_scene *gs, uint32_t *nemit) {
+    *nemit = gs->nemit;
+    return gs->emit;
+}

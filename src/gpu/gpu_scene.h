@@ -109,4 +109,17 @@ void pgi__gpu_scene_info(const pgi__gpu_scene *gs, pgi__gpu_scene_push *out);
 pgi__gpu_buffer *pgi__gpu_scene_lobes(const pgi__gpu_scene *gs);
 pgi__gpu_rays *pgi__gpu_scene_rays(const pgi__gpu_scene *gs);
 
+/* (addition, gpu-trace) Photon emission (src/gpu/gpu_trace.h), a buffer outside the bindings
+ * above ("gpu_scene"): nemit records pgi__gpu_emit, one a light and the sky last when the scene
+ * has one, with the light CDF by the luminance of the power as src/photon/trace.c builds it
+ * (cumulative in double, divided by the total, the last entry 1); then three records: the
+ * bounding sphere (centre, radius; the sun's and the sky's disks), the sky's frame x axis and its
+ * probability of the upper hemisphere (p_sky), its z axis (and 0). nemit is 0 when no light has
+ * power (no photons). Updated with the lights. */
+typedef struct pgi__gpu_emit {
+    float power[3];
+    float cdf;
+} pgi__gpu_emit;
+pgi__gpu_buffer *pgi__gpu_scene_emit(const pgi__gpu_scene *gs, uint32_t *nemit);
+
 #endif

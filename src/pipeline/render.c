@@ -7,6 +7,7 @@
 #include "estimators/estimator_internal.h"
 #include "gpu/gpu_estimator.h"
 #include "gpu/gpu_scene.h"
+#include "gpu/gpu_trace.h"
 #include "gpu/gpu_view.h"
 #include "photon/auto_radius.h"
 #include "photon/guide.h"
@@ -45,11 +46,13 @@ struct pgi_renderer {
     void *gpu_est;
     const pgi__gpu_est_vtbl *gpu_est_vt;
     pgi_estimator_desc gpu_est_desc;
-    /* the GPU frame (gpu_frame): the scene on the device, the view/direct passes, the photons
-     * uploaded from the CPU tracer (gpu_photons) */
+    /* the GPU frame (gpu_frame): the scene on the device, the view/direct passes, the photon
+     * tracer (gpu_trace.h: the photons stay on the device) */
     pgi__gpu_scene *gpu_scene;
     pgi__gpu_view *gpu_view;
-    pgi__gpu_buffer *gpu_photons;
+    pgi__gpu_trace *gpu_trace;
+    /* test hook PGI_GPU_CPU_PHOTONS=1: the CPU tracer's photons, uploaded (gpu_photons_cpu) */
+    pgi__gpu_buffer *gpu_cpu_photons;
     pgi__packed_photon *gpu_packed;
     size_t gpu_packed_cap;
 };
@@ -179,9 +182,10 @@ void pgi_renderer_destroy(pgi_renderer *r) {
     pgi__view_grid_free(&r->vgrid);
     pgi__view_grid_free(&r->near);
     if (r->gpu_est_vt) r->gpu_est_vt->destroy(r->gpu_est);
+    pgi__gpu_trace_destroy(r->gpu_trace);
     pgi__gpu_view_destroy(r->gpu_view);
     pgi__gpu_scene_destroy(r->gpu_scene);
-    if (r->gpu) pgi__gpu_buffer_destroy(r->gpu, r->gpu_photons);
+    if (r->gpu) pgi__gpu_buffer_destroy(r->gpu, r->gpu_cpu_photons);
     pgi__afree(r->gpu_packed);
     pgi__gpu_destroy(r->gpu);
     free(r);
@@ -440,12 +444,14 @@ static pgi_status ensure_gpu(pgi_renderer *r, const pgi_render_desc *d, int *cre
         if (r->gpu_est_vt) r->gpu_est_vt->destroy(r->gpu_est);
         r->gpu_est = NULL;
         r->gpu_est_vt = NULL;
+        pgi__gpu_trace_destroy(r->gpu_trace);
+        r->gpu_trace = NULL;
         pgi__gpu_view_destroy(r->gpu_view);
         r->gpu_view = NULL;
         pgi__gpu_scene_destroy(r->gpu_scene);
         r->gpu_scene = NULL;
-        pgi__gpu_buffer_destroy(r->gpu, r->gpu_photons);
-        r->gpu_photons = NULL;
+        pgi__gpu_buffer_destroy(r->gpu, r->gpu_cpu_photons);
+        r->gpu_cpu_photons = NULL;
         pgi__gpu_destroy(r->gpu);
         r->gpu = NULL;
     }
@@ -455,6 +461,7 @@ static pgi_status ensure_gpu(pgi_renderer *r, const pgi_render_desc *d, int *cre
     }
     if (!r->gpu_scene && (st = pgi__gpu_scene_create(r->gpu, r->scene, &r->gpu_scene))) return st;
     if (!r->gpu_view && (st = pgi__gpu_view_create(r->gpu, &r->gpu_view))) return st;
+    if (!r->gpu_trace && (st = pgi__gpu_trace_create(r->gpu, r->gpu_scene, &r->gpu_trace))) return st;
     if (r->gpu_est_vt == vt && memcmp(&d->est, &r->gpu_est_desc, sizeof d->est) == 0) return PGI_OK;
     if (r->gpu_est_vt) r->gpu_est_vt->destroy(r->gpu_est);
     r->gpu_est = NULL;
@@ -573,8 +580,8 @@ static void stats_begin(pgi_frame_stats *fs, const pgi_render_desc *d) {
 /* ------------------------------------------------------------------ the GPU frame
  * --device vulkan (docs/gpu.md): the view samples (gpu_view.h view.comp), the estimator
  * (reading the device's view samples and photons) and direct light with the sum (direct.comp) run
- * on the device; the image is read back. Photons are still traced by the CPU and uploaded
- * (gpu_photons, the seam the GPU tracer replaces). Two command sequences: the view pass, then
+ * on the device; the image is read back. Photons are traced on the device too (gpu_photons,
+ * gpu_trace.h). Two command sequences: the view pass, then
  * (after the automatic radius, which reads the view samples back, only when it is asked for) the
  * estimator and direct light. */
 
@@ -583,13 +590,11 @@ static void stats_pass(pgi_frame_stats *fs, const char *name, double ms) {
     if (fs->pass_count < PGI_MAX_STAT_ENTRIES) fs->passes_ms[fs->pass_count++] = (pgi_named_value){name, ms};
 }
 
-/* THE SEAM for the GPU photon tracer (branch gpu-trace): the frame's photons on the device as
- * pgi__packed_photon, *n of them. Today: traced by the CPU (pgi__photons_trace, into r->ph: the
- * automatic radius and pgi_renderer_prepare read them there) and uploaded ("gpu_photons"); the
- * host time is fs->trace_ms and the pass "gpu_upload". A device tracer returns its own buffer
- * here (and fills fs's photon counts). */
-static pgi_status gpu_photons(pgi_renderer *r, const pgi_render_desc *d, const progress_ctx *pc, pgi_frame_stats *fs,
-                              pgi__gpu_buffer **buf, size_t *n) {
+/* Test hook PGI_GPU_CPU_PHOTONS=1: the CPU tracer's photons (pgi__photons_trace into r->ph), packed
+ * and uploaded (a buffer also named "gpu_photons"; pass "gpu_upload"), so that tests can compare the device's other
+ * passes with the CPU's frame on the same photons (test_gpu, test_gpu_cli). */
+static pgi_status gpu_photons_cpu(pgi_renderer *r, const pgi_render_desc *d, const progress_ctx *pc,
+                                  pgi_frame_stats *fs, pgi__gpu_buffer **buf, size_t *n) {
     pgi_status st;
     double t0 = pgi__now_ms();
     pgi__trace_desc td = {.photons = d->photons, .bounces = d->bounces, .seed = d->seed, .threads = d->threads};
@@ -612,12 +617,51 @@ static pgi_status gpu_photons(pgi_renderer *r, const pgi_render_desc *d, const p
     if ((st = pgi__ensure((void **)&r->gpu_packed, &r->gpu_packed_cap, np + 1, sizeof(pgi__packed_photon)))) return st;
 #pragma omp parallel for schedule(static) num_threads(pgi__threads(d->threads))
     for (long long j = 0; j < (long long)np; j++) pgi__pack_photon(&r->ph, (size_t)j, &r->gpu_packed[j]);
-    if ((st = pgi__gpu_buffer_reserve(r->gpu, &r->gpu_photons, (np + 1) * sizeof(pgi__packed_photon), "gpu_photons")) ||
-        (st = pgi__gpu_upload(r->gpu, r->gpu_photons, 0, r->gpu_packed, np * sizeof(pgi__packed_photon))))
+    if ((st = pgi__gpu_buffer_reserve(r->gpu, &r->gpu_cpu_photons, (np + 1) * sizeof(pgi__packed_photon),
+                                      "gpu_photons")) ||
+        (st = pgi__gpu_upload(r->gpu, r->gpu_cpu_photons, 0, r->gpu_packed, np * sizeof(pgi__packed_photon))))
         return st;
     stats_pass(fs, "gpu_upload", pgi__now_ms() - t1);
-    *buf = r->gpu_photons;
+    *buf = r->gpu_cpu_photons;
     *n = np;
+    return PGI_OK;
+}
+
+/* The frame's photons on the device (gpu_trace.h: traced there, pgi__packed_photon, *n of them,
+ * in the tracer's buffer "gpu_photons"); fs gets trace_ms (the device's "gpu_trace" timestamps),
+ * the photon counts and the pass "gpu_trace". The CPU tracer does not run. The photons are read
+ * back into r->ph only when the automatic radius needs them (pass "gpu_trace_download"); otherwise
+ * r->ph holds none after a GPU frame. */
+static pgi_status gpu_photons(pgi_renderer *r, const pgi_render_desc *d, const progress_ctx *pc, pgi_frame_stats *fs,
+                              pgi__gpu_buffer **buf, size_t *n) {
+    const char *hook = getenv("PGI_GPU_CPU_PHOTONS");
+    if (hook && strcmp(hook, "1") == 0) return gpu_photons_cpu(r, d, pc, fs, buf, n);
+    pgi_status st;
+    const pgi__gpu_trace_desc td = {.photons = d->photons,
+                                    .bounces = d->bounces,
+                                    .seed = d->seed,
+                                    .radius_policy = d->radius_policy,
+                                    .emission = (int)d->emission,
+                                    .store = (int)d->store};
+    if (d->progress) report_trace((void *)pc, 0, d->photons);
+    pgi__gpu_trace_result tr;
+    if ((st = pgi__gpu_trace_run(r->gpu_trace, r->scene, &td, &tr))) return st;
+    if (d->progress) report_trace((void *)pc, tr.count, d->photons);
+    fs->trace_ms = tr.trace_ms;
+    fs->photons_emitted = tr.emitted;
+    fs->photons_stored = tr.count;
+    fs->photon_rays = tr.rays;
+    fs->photon_paths_discarded = tr.paths_discarded;
+    stats_pass(fs, "gpu_trace", tr.trace_ms);
+    r->ph.count = 0;
+    r->ph.emitted = tr.emitted;
+    if (d->radius == PGI_RADIUS_AUTO) { /* the automatic radius reads the photons on the host */
+        double t0 = pgi__now_ms();
+        if ((st = pgi__gpu_trace_download(r->gpu_trace, &r->ph))) return st;
+        stats_pass(fs, "gpu_trace_download", pgi__now_ms() - t0);
+    }
+    *buf = pgi__gpu_trace_photons(r->gpu_trace);
+    *n = tr.count;
     return PGI_OK;
 }
 
@@ -646,7 +690,7 @@ static pgi_status gpu_frame(pgi_renderer *r, pgi_render_desc *d, uint64_t seq_se
         if ((st = pgi__gpu_scene_update(r->gpu_scene, s))) return st;
         fs->rt_update_ms += pgi__now_ms() - tu;
     }
-    /* photons first (the CPU), then the device's passes */
+    /* photons first (their own sequences: batches sized by the yield), then the other passes */
     report(pc, "trace", 0, 0);
     pgi__gpu_buffer *photons = NULL;
     size_t np = 0;

@@ -1,0 +1,370 @@
+/* Photon tracing on the GPU (gpu_trace.h, shaders/trace.comp, trace_compact.comp, trace_scale.comp).
+ *
+ * A run is a loop of batches, each one command sequence:
+ *   trace         paths [path, path + batch): photons to per-path slots, counts, rays (atomic sum)
+ *   hg_scan(_add) exclusive prefix sum of the counts (the hashgrid's scan kernels, blocks of 1024)
+ *   compact       the slots in path order into the photon buffer after the photons already stored,
+ *                 cut at the photons wanted; the filling path's index
+ * then the batch's total, filling path and rays are read back; the next batch is sized by the
+ * yield seen so far (an upper bound, 3 sigma of the photon count, as the CPU tracer: the batches
+ * undershoot, so that few paths are traced for nothing). Last, trace_scale divides the flux by
+ * the paths emitted. */
+#include "gpu/gpu_trace.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "core/core.h"
+#include "estimators/packed.h"
+#include "scene/scene_internal.h"
+
+#ifdef PGI_HAVE_VULKAN
+#include "gpu/spirv.h"
+#endif
+
+#define SCAN_LEVELS 4               /* 1024^4 counts */
+#define MAX_BATCH (1u << 20)        /* paths a launch */
+#define MAX_SLOTS ((size_t)1 << 21) /* photon slots a launch (x 36 bytes: 72 MiB) */
+
+pgi_status pgi__gpu_trace_check(const pgi__gpu_trace_desc *d) {
+    if (d->radius_policy != PGI_RADIUS_FIXED)
+        return pgi__fail(PGI_ERR_UNSUPPORTED,
+                         "photon tracing on the GPU: --radius-policy %s is not supported (only "
+                         "fixed; use --device cpu)",
+                         d->radius_policy == PGI_RADIUS_PATH ? "path" : "differentials");
+    if (d->emission != PGI_EMISSION_UNIFORM)
+        return pgi__fail(PGI_ERR_UNSUPPORTED,
+                         "photon tracing on the GPU: --emission %s is not supported (only uniform; use --device cpu)",
+                         d->emission == PGI_EMISSION_GUIDED ? "guided" : "auto");
+    if (d->store != PGI_STORE_ALL)
+        return pgi__fail(PGI_ERR_UNSUPPORTED,
+                         "photon tracing on the GPU: --store view is not supported (only all; use --device cpu)");
+    if (d->bounces < 0 || d->bounces > 64)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "photon tracing on the GPU: bounces %d outside 0..64", d->bounces);
+    return PGI_OK;
+}
+
+#ifndef PGI_HAVE_VULKAN
+
+pgi_status pgi__gpu_trace_create(pgi__gpu *g, pgi__gpu_scene *gs, pgi__gpu_trace **out) {
+    (void)g, (void)gs;
+    *out = NULL;
+    return pgi__fail(PGI_ERR_UNSUPPORTED, "photon tracing on the GPU: this build has no Vulkan backend");
+}
+void pgi__gpu_trace_destroy(pgi__gpu_trace *t) { (void)t; }
+pgi_status pgi__gpu_trace_run(pgi__gpu_trace *t, const pgi_scene *s, const pgi__gpu_trace_desc *d,
+                              pgi__gpu_trace_result *r) {
+    (void)t, (void)s, (void)d;
+    memset(r, 0, sizeof *r);
+    return pgi__fail(PGI_ERR_UNSUPPORTED, "photon tracing on the GPU: this build has no Vulkan backend");
+}
+pgi__gpu_buffer *pgi__gpu_trace_photons(const pgi__gpu_trace *t) {
+    (void)t;
+    return NULL;
+}
+pgi_status pgi__gpu_trace_download(pgi__gpu_trace *t, pgi_photons *ph) {
+    (void)t, (void)ph;
+    return pgi__fail(PGI_ERR_UNSUPPORTED, "photon tracing on the GPU: this build has no Vulkan backend");
+}
+void pgi__gpu_trace_set_max_batch(pgi__gpu_trace *t, uint32_t paths) { (void)t, (void)paths; }
+
+#else
+
+typedef struct {
+    pgi__gpu_scene_push scene;
+    uint32_t path0_lo, path0_hi, npaths, bounces, seed_lo, seed_hi, nemit, pad;
+} trace_push;
+typedef struct { /* shaders/hashgrid.glsl Push: the scan kernels read n */
+    float inv_cell, r, r2;
+    uint32_t n, mask, width, height, kernel;
+    float scale;
+    uint32_t pad[3];
+} scan_push;
+typedef struct {
+    uint32_t npaths, bounces, base, remaining;
+} compact_push;
+typedef struct {
+    uint32_t n;
+    float inv;
+    uint32_t pad[2];
+} scale_push;
+
+_Static_assert(sizeof(trace_push) == 96 && sizeof(pgi__packed_photon) == 36, "trace.glsl's push and photons");
+
+enum { K_TRACE, K_SCAN, K_SCAN_ADD, K_COMPACT, K_SCALE, K_N };
+
+struct pgi__gpu_trace {
+    pgi__gpu *g;
+    pgi__gpu_scene *scene; /* borrowed */
+    pgi__gpu_kernel *k[K_N];
+    pgi__gpu_buffer *slots, *counts, *scan[SCAN_LEVELS], *counters, *result, *photons;
+    uint32_t count;
+    uint64_t emitted;
+    uint32_t max_batch;
+    double prior_paths, prior_photons; /* the last run's yield seeds the next run's batches */
+};
+
+void pgi__gpu_trace_destroy(pgi__gpu_trace *t) {
+    if (!t) return;
+    for (int i = 0; i < K_N; i++) pgi__gpu_kernel_destroy(t->g, t->k[i]);
+    pgi__gpu_buffer *b[] = {t->slots, t->counts, t->counters, t->result, t->photons};
+    for (size_t i = 0; i < sizeof b / sizeof b[0]; i++) pgi__gpu_buffer_destroy(t->g, b[i]);
+    for (int i = 0; i < SCAN_LEVELS; i++) pgi__gpu_buffer_destroy(t->g, t->scan[i]);
+    free(t);
+}
+
+pgi_status pgi__gpu_trace_create(pgi__gpu *g, pgi__gpu_scene *gs, pgi__gpu_trace **out) {
+    *out = NULL;
+    pgi__gpu_trace *t = calloc(1, sizeof *t);
+    if (!t) return pgi__fail(PGI_ERR_OOM, "out of memory creating the GPU photon tracer");
+    t->g = g;
+    t->scene = gs;
+    t->max_batch = MAX_BATCH;
+    static const struct {
+        const uint32_t *spv;
+        size_t bytes;
+        const char *name;
+        int nbuf;
+        uint32_t push;
+    } k[K_N] = {
+        [K_TRACE] = {pgi__spv_trace, sizeof pgi__spv_trace, "trace", 15, sizeof(trace_push)},
+        [K_SCAN] = {pgi__spv_hg_scan, sizeof pgi__spv_hg_scan, "trace_scan", 2, sizeof(scan_push)},
+        [K_SCAN_ADD] = {pgi__spv_hg_scan_add, sizeof pgi__spv_hg_scan_add, "trace_scan_add", 2, sizeof(scan_push)},
+        [K_COMPACT] = {pgi__spv_trace_compact, sizeof pgi__spv_trace_compact, "trace_compact", 4, sizeof(compact_push)},
+        [K_SCALE] = {pgi__spv_trace_scale, sizeof pgi__spv_trace_scale, "trace_scale", 1, sizeof(scale_push)},
+    };
+    pgi_status st = PGI_OK;
+    for (int i = 0; i < K_N && !st; i++)
+        st = pgi__gpu_kernel_create(g, k[i].spv, k[i].bytes, k[i].name, k[i].nbuf, k[i].push, &t->k[i]);
+    if (!st) st = pgi__gpu_buffer_reserve(g, &t->counters, 16, "gpu_trace_scratch");
+    if (!st) st = pgi__gpu_buffer_reserve(g, &t->result, 16, "gpu_trace_scratch");
+    if (st) {
+        pgi__gpu_trace_destroy(t);
+        return st;
+    }
+    *out = t;
+    return PGI_OK;
+}
+
+void pgi__gpu_trace_set_max_batch(pgi__gpu_trace *t, uint32_t paths) {
+    t->max_batch = paths == 0 ? MAX_BATCH : paths > MAX_BATCH ? MAX_BATCH : paths;
+}
+
+pgi__gpu_buffer *pgi__gpu_trace_photons(const pgi__gpu_trace *t) { return t->photons; }
+
+static void groups_2d(size_t items, uint32_t local, uint32_t *gx, uint32_t *gy) {
+    size_t groups = (items + local - 1) / local;
+    if (groups == 0) groups = 1;
+    *gx = groups < 65535 ? (uint32_t)groups : 65535u;
+    *gy = (uint32_t)((groups + *gx - 1) / *gx);
+}
+
+static pgi_status dispatch_1d(pgi__gpu *g, pgi__gpu_kernel *k, pgi__gpu_buffer *const *b, const void *p, size_t items,
+                              uint32_t local) {
+    uint32_t gx, gy;
+    groups_2d(items, local, &gx, &gy);
+    return pgi__gpu_dispatch(g, k, b, p, gx, gy, 1);
+}
+
+/* One batch: paths [path, path + n) traced, their photons compacted after `base` (at most
+ * `remaining`). Out: the batch's photons (all of them, before the cut), the filling path (relative;
+ * UINT32_MAX: none), rays, device ms. */
+static pgi_status run_batch(pgi__gpu_trace *t, const pgi__gpu_trace_desc *d, uint64_t path, uint32_t n, uint32_t base,
+                            uint32_t remaining, uint32_t *total, uint32_t *fill, uint32_t *rays, double *ms) {
+    pgi__gpu *g = t->g;
+    pgi_status st;
+    size_t level_n[SCAN_LEVELS + 1];
+    int levels = 0;
+    level_n[0] = (size_t)n + 1;
+    while (levels < SCAN_LEVELS && (levels == 0 || level_n[levels] > 1)) {
+        level_n[levels + 1] = (level_n[levels] + 1023) / 1024;
+        levels++;
+    }
+    if ((st = pgi__gpu_buffer_reserve(g, &t->slots, (size_t)n * (size_t)d->bounces * sizeof(pgi__packed_photon),
+                                      "gpu_trace_scratch")) ||
+        (st = pgi__gpu_buffer_reserve(g, &t->counts, level_n[0] * 4, "gpu_trace_scratch")))
+        return st;
+    for (int l = 1; l <= levels; l++)
+        if ((st = pgi__gpu_buffer_reserve(g, &t->scan[l - 1], level_n[l] * 4, "gpu_trace_scratch"))) return st;
+    pgi__gpu_buffer *b[PGI__GPU_SCENE_NBUF + 4];
+    pgi__gpu_scene_buffers(t->scene, b);
+    uint32_t nemit = 0;
+    b[PGI__GPU_SCENE_NBUF] = pgi__gpu_scene_emit(t->scene, &nemit);
+    b[PGI__GPU_SCENE_NBUF + 1] = t->slots;
+    b[PGI__GPU_SCENE_NBUF + 2] = t->counts;
+    b[PGI__GPU_SCENE_NBUF + 3] = t->counters;
+    trace_push tp = {.path0_lo = (uint32_t)path,
+                     .path0_hi = (uint32_t)(path >> 32),
+                     .npaths = n,
+                     .bounces = (uint32_t)d->bounces,
+                     .seed_lo = (uint32_t)d->seed,
+                     .seed_hi = (uint32_t)(d->seed >> 32),
+                     .nemit = nemit};
+    pgi__gpu_scene_info(t->scene, &tp.scene);
+    compact_push cp = {n, (uint32_t)d->bounces, base, remaining};
+    if ((st = pgi__gpu_begin(g))) return st;
+    pgi__gpu_timestamp(g, "start");
+    if ((st = pgi__gpu_fill(g, t->counts, 0, level_n[0] * 4, 0)) || (st = pgi__gpu_fill(g, t->counters, 0, 16, 0)) ||
+        (st = pgi__gpu_fill(g, t->result, 0, 16, 0xFFFFFFFFu)) || (st = dispatch_1d(g, t->k[K_TRACE], b, &tp, n, 64)))
+        goto fail;
+    pgi__gpu_timestamp(g, "gpu_trace");
+    pgi__gpu_buffer *lv[SCAN_LEVELS + 1];
+    lv[0] = t->counts;
+    for (int l = 1; l <= levels; l++) lv[l] = t->scan[l - 1];
+    for (int l = 0; l < levels; l++) {
+        scan_push q = {0};
+        q.n = (uint32_t)level_n[l];
+        if ((st = dispatch_1d(g, t->k[K_SCAN], (pgi__gpu_buffer *[]){lv[l], lv[l + 1]}, &q, level_n[l], 1024)))
+            goto fail;
+    }
+    for (int l = levels - 2; l >= 0; l--) {
+        scan_push q = {0};
+        q.n = (uint32_t)level_n[l];
+        if ((st = dispatch_1d(g, t->k[K_SCAN_ADD], (pgi__gpu_buffer *[]){lv[l], lv[l + 1]}, &q, level_n[l], 256)))
+            goto fail;
+    }
+    if ((st = dispatch_1d(g, t->k[K_COMPACT], (pgi__gpu_buffer *[]){t->slots, t->counts, t->photons, t->result}, &cp, n,
+                          64)))
+        goto fail;
+    pgi__gpu_timestamp(g, "gpu_trace_compact");
+    double t0 = pgi__now_ms();
+    if ((st = pgi__gpu_submit_wait(g))) return st;
+    double t1 = pgi__now_ms();
+    uint32_t c[4];
+    if ((st = pgi__gpu_download(g, t->counts, (size_t)n * 4, total, 4)) ||
+        (st = pgi__gpu_download(g, t->result, 0, fill, 4)) || (st = pgi__gpu_download(g, t->counters, 0, c, 16)))
+        return st;
+    *rays = c[0];
+    pgi_named_value tv[8];
+    int nt = pgi__gpu_timings(g, tv, 8);
+    *ms = 0.0;
+    for (int i = 0; i < nt; i++) *ms += tv[i].value;
+    if (!pgi__gpu_has_timestamps(g)) *ms = t1 - t0;
+    return PGI_OK;
+fail:
+    (void)pgi__gpu_submit_wait(g);
+    return st;
+}
+
+pgi_status pgi__gpu_trace_run(pgi__gpu_trace *t, const pgi_scene *s, const pgi__gpu_trace_desc *d,
+                              pgi__gpu_trace_result *r) {
+    memset(r, 0, sizeof *r);
+    t->count = 0;
+    t->emitted = 0;
+    pgi_status st = pgi__gpu_trace_check(d);
+    if (st) return st;
+    const double w0 = pgi__now_ms();
+    if (pgi__gpu_scene_needs_update(t->scene, s) && (st = pgi__gpu_scene_update(t->scene, s))) return st;
+    if (d->photons > UINT32_MAX / 2)
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "photon tracing on the GPU: at most 2^31 photons (%u requested)",
+                         d->photons);
+    const uint32_t want = d->photons;
+    /* the buffer exists even when nothing is stored (a pass may bind it) */
+    if ((st = pgi__gpu_buffer_reserve(t->g, &t->photons, ((size_t)want + 1) * sizeof(pgi__packed_photon),
+                                      "gpu_photons")))
+        return st;
+    uint32_t nemit = 0;
+    (void)pgi__gpu_scene_emit(t->scene, &nemit);
+    if (d->bounces < 1 || d->photons == 0 || nemit == 0) return PGI_OK;
+    uint32_t max_batch = t->max_batch;
+    if ((size_t)max_batch * (size_t)d->bounces > MAX_SLOTS) max_batch = (uint32_t)(MAX_SLOTS / (size_t)d->bounces);
+    const uint64_t max_paths = 64ull * want + (1u << 20);
+    double seen_paths = t->prior_paths, seen_photons = t->prior_photons, frame_paths = 0, frame_photons = 0;
+    uint64_t path = 0, traced = 0, rays = 0;
+    uint32_t count = 0;
+    double ms = 0.0;
+    while (count < want && path < max_paths) {
+        const uint32_t remaining = want - count;
+        double b;
+        if (seen_photons < 64.0) {
+            /* no estimate yet: a pilot of an eighth of the photons' paths at most one a path (a scene
+               storing nearly nothing grows the pilots: each as many paths as all before it) */
+            b = (double)remaining / 8.0 + 64.0;
+            if (b > 65536.0) b = 65536.0;
+            if (b < seen_paths) b = seen_paths;
+        } else {
+            const double y = seen_photons / seen_paths * (1.0 + 3.0 / sqrt(seen_photons));
+            b = (double)remaining / y + 1.0;
+        }
+        if (b < 32.0) b = 32.0;
+        if (b > (double)max_batch) b = (double)max_batch;
+        if (b > (double)(max_paths - path)) b = (double)(max_paths - path);
+        const uint32_t n = (uint32_t)b;
+        uint32_t total = 0, fill = UINT32_MAX, brays = 0;
+        double bms = 0.0;
+        if ((st = run_batch(t, d, path, n, count, remaining, &total, &fill, &brays, &bms))) return st;
+        r->batches++;
+        ms += bms;
+        rays += brays;
+        traced += n;
+        seen_paths += n;
+        seen_photons += total;
+        frame_paths += n;
+        frame_photons += total;
+        if (total >= remaining) {
+            if (fill >= n) return pgi__fail(PGI_ERR_INTERNAL, "photon tracing on the GPU: no filling path found");
+            count = want;
+            path += (uint64_t)fill + 1;
+        } else {
+            count += total;
+            path += n;
+        }
+    }
+    t->prior_paths = frame_paths;
+    t->prior_photons = frame_photons;
+    /* the flux over the paths emitted */
+    if (count > 0 && path > 0) {
+        scale_push sp = {count, (float)(1.0 / (double)path), {0}};
+        if ((st = pgi__gpu_begin(t->g))) return st;
+        pgi__gpu_timestamp(t->g, "start");
+        if ((st = dispatch_1d(t->g, t->k[K_SCALE], (pgi__gpu_buffer *[]){t->photons}, &sp, count, 64))) {
+            (void)pgi__gpu_submit_wait(t->g);
+            return st;
+        }
+        pgi__gpu_timestamp(t->g, "gpu_trace_scale");
+        double t0 = pgi__now_ms();
+        if ((st = pgi__gpu_submit_wait(t->g))) return st;
+        double t1 = pgi__now_ms();
+        pgi_named_value tv[4];
+        int nt = pgi__gpu_timings(t->g, tv, 4);
+        if (!pgi__gpu_has_timestamps(t->g)) ms += t1 - t0;
+        else
+            for (int i = 0; i < nt; i++) ms += tv[i].value;
+    }
+    t->count = count;
+    t->emitted = path;
+    r->count = count;
+    r->emitted = path;
+    r->paths_traced = traced;
+    r->paths_discarded = traced - path;
+    r->rays = rays;
+    r->trace_ms = ms;
+    r->wall_ms = pgi__now_ms() - w0;
+    return PGI_OK;
+}
+
+pgi_status pgi__gpu_trace_download(pgi__gpu_trace *t, pgi_photons *ph) {
+    if (t->count > ph->capacity)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "photon buffer holds %zu photons, the GPU traced %u", ph->capacity,
+                         t->count);
+    ph->count = 0;
+    ph->emitted = t->emitted;
+    if (t->count == 0) return PGI_OK;
+    pgi__packed_photon *p = malloc((size_t)t->count * sizeof *p);
+    if (!p) return pgi__fail(PGI_ERR_OOM, "out of memory downloading %u photons", t->count);
+    pgi_status st = pgi__gpu_download(t->g, t->photons, 0, p, (size_t)t->count * sizeof *p);
+    if (!st) {
+        for (size_t j = 0; j < t->count; j++) {
+            ph->px[j] = p[j].px, ph->py[j] = p[j].py, ph->pz[j] = p[j].pz;
+            ph->dx[j] = p[j].dx, ph->dy[j] = p[j].dy, ph->dz[j] = p[j].dz;
+            ph->fr[j] = p[j].fr, ph->fg[j] = p[j].fg, ph->fb[j] = p[j].fb;
+            ph->nx[j] = ph->ny[j] = ph->nz[j] = 0.f;
+        }
+        ph->count = t->count;
+    }
+    free(p);
+    return st;
+}
+
+#endif /* PGI_HAVE_VULKAN */
