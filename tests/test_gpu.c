@@ -373,11 +373,14 @@ static void test_renderer_device(void **state) {
     TU_CHECK_OK(pgi_renderer_render(r, &d, &gpu2, &gs));
     assert_int_equal(gs.estimators_created, 0);
     assert_memory_equal(gpu.rgb, gpu2.rgb, 3 * 64 * 48 * sizeof(float));
-    /* cluster-trivial through the renderer (the registry): the same image */
+    /* cluster-trivial through the renderer (the registry; the GPU frame reads its inputs back for it,
+     * gpu_host_estimate): on the same device view samples and photons, the GPU hashgrid's image */
     d.estimator = "cluster-trivial";
     TU_CHECK_OK(pgi_renderer_render(r, &d, &gpu2, &gs));
-    tu_expect_same("renderer: vulkan cluster-trivial vs cpu brute", gpu2.rgb, cpu.rgb, 3 * 64 * 48, gs.contributing,
-                   cs.contributing);
+    assert_int_equal(tu_compare(gpu2.rgb, gpu.rgb, 3 * 64 * 48, 1e-4, "renderer: vulkan cluster-trivial vs hashgrid"),
+                     0);
+    bad = tu_compare(gpu2.rgb, cpu.rgb, 3 * 64 * 48, 1e-4, "renderer: vulkan cluster-trivial vs cpu brute");
+    assert_true(bad <= 3 * 64 * 48 / 500);
     int radiance = 0;
     for (int k = 0; k < gs.pass_count; k++) radiance += strcmp(gs.passes_ms[k].name, "gpu_radiance") == 0;
     assert_int_equal(radiance, pgi__gpu_has_timestamps(g_gpu));

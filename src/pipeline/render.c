@@ -53,6 +53,7 @@ struct pgi_renderer {
     pgi__gpu_trace *gpu_trace;
     /* test hook PGI_GPU_CPU_PHOTONS=1: the CPU tracer's photons, uploaded (gpu_photons_cpu) */
     pgi__gpu_buffer *gpu_cpu_photons;
+    pgi__gpu_buffer *gpu_indirect; /* gpu_host_estimate: the radiance of an estimator without device inputs */
     pgi__packed_photon *gpu_packed;
     size_t gpu_packed_cap;
 };
@@ -185,7 +186,10 @@ void pgi_renderer_destroy(pgi_renderer *r) {
     pgi__gpu_trace_destroy(r->gpu_trace);
     pgi__gpu_view_destroy(r->gpu_view);
     pgi__gpu_scene_destroy(r->gpu_scene);
-    if (r->gpu) pgi__gpu_buffer_destroy(r->gpu, r->gpu_cpu_photons);
+    if (r->gpu) {
+        pgi__gpu_buffer_destroy(r->gpu, r->gpu_cpu_photons);
+        pgi__gpu_buffer_destroy(r->gpu, r->gpu_indirect);
+    }
     pgi__afree(r->gpu_packed);
     pgi__gpu_destroy(r->gpu);
     free(r);
@@ -451,7 +455,9 @@ static pgi_status ensure_gpu(pgi_renderer *r, const pgi_render_desc *d, int *cre
         pgi__gpu_scene_destroy(r->gpu_scene);
         r->gpu_scene = NULL;
         pgi__gpu_buffer_destroy(r->gpu, r->gpu_cpu_photons);
+        pgi__gpu_buffer_destroy(r->gpu, r->gpu_indirect);
         r->gpu_cpu_photons = NULL;
+        r->gpu_indirect = NULL;
         pgi__gpu_destroy(r->gpu);
         r->gpu = NULL;
     }
@@ -672,6 +678,36 @@ static double timing_of(const pgi_named_value *t, int nt, const char *name) {
     return ms;
 }
 
+/* An estimator that runs on uploaded inputs only (no device_* entry points: cluster-trivial): the
+ * frame's photons and view samples are read back (unless the automatic radius did already), the
+ * estimator runs as on host inputs (uploading them again) and its radiance goes back up into
+ * "gpu_indirect" for the sum. Three more copies than the device path; the image is the same. */
+static pgi_status gpu_host_estimate(pgi_renderer *r, const pgi_render_desc *d, size_t np, int vs_on_host,
+                                    pgi_frame_stats *fs, pgi_estimator_stats *es, pgi__gpu_buffer **indirect) {
+    pgi_status st;
+    double t0 = pgi__now_ms();
+    if (!vs_on_host && (st = pgi__gpu_view_download(r->gpu_view, r->scene, &r->vs, NULL))) return st;
+    if (r->ph.count != np && (st = pgi__gpu_trace_download(r->gpu_trace, &r->ph))) return st;
+    stats_pass(fs, "gpu_readback", pgi__now_ms() - t0);
+    const size_t n = (size_t)d->width * (size_t)d->height;
+    pgi_estimate_args a = {.photons = &r->ph,
+                           .samples = &r->vs,
+                           .camera = &r->cam,
+                           .out_rgb = r->indirect,
+                           .radius = d->radius,
+                           .seed = d->seed,
+                           .threads = d->threads,
+                           .scene_area = (float)r->scene_area};
+    if ((st = r->gpu_est_vt->run(r->gpu_est, &a, es))) return st;
+    double t1 = pgi__now_ms();
+    if ((st = pgi__gpu_buffer_reserve(r->gpu, &r->gpu_indirect, 3 * n * sizeof(float), "gpu_indirect")) ||
+        (st = pgi__gpu_upload(r->gpu, r->gpu_indirect, 0, r->indirect, 3 * n * sizeof(float))))
+        return st;
+    stats_pass(fs, "gpu_indirect_upload", pgi__now_ms() - t1);
+    *indirect = r->gpu_indirect;
+    return PGI_OK;
+}
+
 static pgi_status gpu_frame(pgi_renderer *r, pgi_render_desc *d, uint64_t seq_seed, uint32_t index,
                             const progress_ctx *pc, pgi_frame_stats *fs, double t_start, pgi_image *out) {
     pgi_status st;
@@ -710,8 +746,10 @@ static pgi_status gpu_frame(pgi_renderer *r, pgi_render_desc *d, uint64_t seq_se
     }
     if ((st = pgi__gpu_submit_wait(g))) return st;
     nt = pgi__gpu_timings(g, t, 64);
+    int vs_on_host = 0;
     if (d->radius == PGI_RADIUS_AUTO) {
         /* the automatic radius reads the view samples on the host: the one read-back of the G-buffer */
+        vs_on_host = 1;
         double tr = pgi__now_ms();
         if ((st = pgi__gpu_view_download(r->gpu_view, s, &r->vs, NULL))) return st;
         stats_pass(fs, "gpu_view_download", pgi__now_ms() - tr);
@@ -722,11 +760,12 @@ static pgi_status gpu_frame(pgi_renderer *r, pgi_render_desc *d, uint64_t seq_se
     report(pc, "build", 0, 0);
     pgi__gpu_buffer *indirect = NULL;
     const int need_indirect = d->output != PGI_OUTPUT_DIRECT;
-    if (need_indirect && !r->gpu_est_vt->device_reserve)
-        return pgi__fail(PGI_ERR_UNSUPPORTED,
-                         "%s on the GPU does not run in the GPU frame yet (only on uploaded inputs)",
-                         r->gpu_est_vt->name);
-    if (need_indirect && (st = r->gpu_est_vt->device_reserve(r->gpu_est, np, d->width, d->height, &indirect)))
+    const int host_inputs = need_indirect && !r->gpu_est_vt->device_reserve;
+    pgi_estimator_stats es;
+    memset(&es, 0, sizeof es);
+    if (host_inputs) {
+        if ((st = gpu_host_estimate(r, d, np, vs_on_host, fs, &es, &indirect))) return st;
+    } else if (need_indirect && (st = r->gpu_est_vt->device_reserve(r->gpu_est, np, d->width, d->height, &indirect)))
         return st;
     const pgi__gpu_est_inputs in = {.photons = photons,
                                     .nphotons = np,
@@ -737,7 +776,7 @@ static pgi_status gpu_frame(pgi_renderer *r, pgi_render_desc *d, uint64_t seq_se
                                     .radius = d->radius};
     if ((st = pgi__gpu_begin(g))) return st;
     pgi__gpu_timestamp(g, "start");
-    if ((need_indirect && (st = r->gpu_est_vt->device_record(r->gpu_est, &in))) ||
+    if ((need_indirect && !host_inputs && (st = r->gpu_est_vt->device_record(r->gpu_est, &in))) ||
         (st = pgi__gpu_direct_record(r->gpu_view, r->gpu_scene, indirect, d->direct_samples, d->seed, d->output))) {
         (void)pgi__gpu_submit_wait(g);
         return st;
@@ -746,9 +785,7 @@ static pgi_status gpu_frame(pgi_renderer *r, pgi_render_desc *d, uint64_t seq_se
     if ((st = pgi__gpu_submit_wait(g))) return st;
     double te = pgi__now_ms();
     nt += pgi__gpu_timings(g, t + nt, 64 - nt);
-    pgi_estimator_stats es;
-    memset(&es, 0, sizeof es);
-    if (need_indirect && (st = r->gpu_est_vt->device_finish(r->gpu_est, t, nt, &es))) return st;
+    if (need_indirect && !host_inputs && (st = r->gpu_est_vt->device_finish(r->gpu_est, t, nt, &es))) return st;
     if ((st = pgi__gpu_view_counters(r->gpu_view, &fs->primary_rays, &fs->shadow_rays))) return st;
 
     /* the image */
