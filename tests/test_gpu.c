@@ -1,9 +1,9 @@
 /* The Vulkan backend (src/gpu, docs/gpu.md), on whatever device the loader finds (CI: lavapipe):
  * the device layer (buffers, kernels, fills, timestamps, memory stats, errors). Built and run only
  * when the library has the backend (PGI_VULKAN). */
+#include "test_gpu_util.h"
 #include "test_util.h"
 
-#include <dlfcn.h>
 
 #include "core/core.h"
 #include "gpu/gpu.h"
@@ -411,16 +411,6 @@ static void test_renderer_device(void **state) {
     pgi_scene_destroy(scene);
 }
 
-/* AddressSanitizer: lavapipe keeps a 128-byte allocation in a global that it never frees; once the
- * loader unloads the driver (vkDestroyInstance) LeakSanitizer sees it as a leak in an unknown module,
- * which no suppression can name. Keeping the driver loaded (RTLD_NODELETE) leaves the block
- * reachable; the library's own allocations are still checked. */
-static void keep_lavapipe_loaded(void) {
-#if defined(__SANITIZE_ADDRESS__)
-    (void)dlopen("libvulkan_lvp.so", RTLD_NOW | RTLD_NODELETE);
-#endif
-}
-
 /* A device without push descriptors (descriptor sets from a pool reset each sequence) nor
  * timestamps (the sequence timed on the CPU), and with staging: the kernels and the GPU hashgrid
  * still give the same results. */
@@ -442,7 +432,7 @@ static void test_fallback_paths(void **state) {
 }
 
 int main(void) {
-    keep_lavapipe_loaded();
+    tu_keep_lavapipe_loaded();
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_buffer_round_trip),         cmocka_unit_test(test_buffer_round_trip_staged),
         cmocka_unit_test(test_kernel_fill_timestamps),    cmocka_unit_test(test_device_errors),

@@ -13,9 +13,9 @@
  *     PSNR >= 40 dB; the whole frame (Cornell, 200k photons): mean within 1 %, PSNR >= 40 dB;
  *   - the same seed gives the same bytes twice; progressive frames run; what the GPU frame does not
  *     have is refused by name (PGI_ERR_UNSUPPORTED). */
+#include "test_gpu_util.h"
 #include "test_util.h"
 
-#include <dlfcn.h>
 
 #include "core/core.h"
 #include "gpu/gpu.h"
@@ -517,15 +517,8 @@ static void test_refusals(void **state) {
     pgi_scene_destroy(s);
 }
 
-/* lavapipe keeps one global block it never frees; keep the driver loaded under ASan (test_gpu.c). */
-static void keep_lavapipe_loaded(void) {
-#if defined(__SANITIZE_ADDRESS__)
-    (void)dlopen("libvulkan_lvp.so", RTLD_NOW | RTLD_NODELETE);
-#endif
-}
-
 int main(void) {
-    keep_lavapipe_loaded();
+    tu_keep_lavapipe_loaded();
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_scene_upload), cmocka_unit_test(test_scene_refuses_env_map),
         cmocka_unit_test(test_view_samples), cmocka_unit_test(test_direct_light),

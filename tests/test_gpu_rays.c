@@ -6,6 +6,7 @@
  * tests/test_gpu_bvh.c's traversal does, cut-outs included. Small ray counts: lavapipe is a CPU. Built and run only
  * when the library has the Vulkan backend (PGI_VULKAN). */
 #include "gpu_rays_common.h"
+#include "test_gpu_util.h"
 
 #include "gpu/gpu_rays.h"
 
@@ -252,6 +253,7 @@ static void test_dispatch_offsets(void **state) {
 }
 
 int main(void) {
+    tu_keep_lavapipe_loaded();
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_cornell), cmocka_unit_test(test_sphere_and_plane),
         cmocka_unit_test(test_sibenik), cmocka_unit_test(test_dynamic),

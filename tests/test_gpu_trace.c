@@ -7,9 +7,9 @@
  * when the large scenes are there). And: the same
  * bytes on two runs and with any batch size, few paths traced for nothing (<= 5 %), the options the
  * GPU lacks refused with a message naming them. Built and run only with the Vulkan backend. */
+#include "test_gpu_util.h"
 #include "test_util.h"
 
-#include <dlfcn.h>
 
 #include "gpu/gpu_trace.h"
 #include "photon/photon.h"
@@ -311,9 +311,7 @@ static void test_unsupported(void **state) {
 }
 
 int main(void) {
-#if defined(__SANITIZE_ADDRESS__)
-    (void)dlopen("libvulkan_lvp.so", RTLD_NOW | RTLD_NODELETE); /* as test_gpu.c keep_lavapipe_loaded */
-#endif
+    tu_keep_lavapipe_loaded();
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_unsupported),     cmocka_unit_test(test_deterministic), cmocka_unit_test(test_cornell),
         cmocka_unit_test(test_cornell_mirrors), cmocka_unit_test(test_lights_glossy), cmocka_unit_test(test_sky),
