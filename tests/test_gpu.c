@@ -10,24 +10,6 @@
 #include "gpu/gpu_estimator.h"
 #include "gpu/spirv.h"
 
-static pgi__gpu *g_gpu;
-
-static int setup(void **state) {
-    (void)state;
-    if (pgi__gpu_create(-1, &g_gpu) != PGI_OK) {
-        fprintf(stderr, "no Vulkan device: %s\n", pgi_last_error());
-        return -1;
-    }
-    fprintf(stderr, "device: %s (timestamps: %s)\n", pgi__gpu_device_name(g_gpu),
-            pgi__gpu_has_timestamps(g_gpu) ? "yes" : "no");
-    return 0;
-}
-
-static int teardown(void **state) {
-    (void)state;
-    pgi__gpu_destroy(g_gpu);
-    return 0;
-}
 
 /* Upload, download and partial ranges; a buffer is reused while large enough and grows otherwise. */
 static void test_buffer_round_trip(void **state) {
@@ -441,5 +423,5 @@ int main(void) {
         cmocka_unit_test(test_cluster_trivial_errors),    cmocka_unit_test(test_cluster_trivial_no_photons),
         cmocka_unit_test(test_renderer_device),           cmocka_unit_test(test_fallback_paths),
     };
-    return cmocka_run_group_tests(tests, setup, teardown);
+    return cmocka_run_group_tests(tests, tu_gpu_setup, tu_gpu_teardown);
 }

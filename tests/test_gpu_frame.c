@@ -28,23 +28,6 @@
 #include "scene/scene_internal.h"
 #include "view/view.h"
 
-static pgi__gpu *g_gpu;
-
-static int setup(void **state) {
-    (void)state;
-    if (pgi__gpu_create(-1, &g_gpu) != PGI_OK) {
-        fprintf(stderr, "no Vulkan device: %s\n", pgi_last_error());
-        return -1;
-    }
-    fprintf(stderr, "device: %s\n", pgi__gpu_device_name(g_gpu));
-    return 0;
-}
-
-static int teardown(void **state) {
-    (void)state;
-    pgi__gpu_destroy(g_gpu);
-    return 0;
-}
 
 /* Sibenik (textured) when the scenes folder has it, else NULL. */
 static pgi_scene *load_sibenik(void) {
@@ -526,5 +509,5 @@ int main(void) {
         cmocka_unit_test(test_dynamic),      cmocka_unit_test(test_deterministic),
         cmocka_unit_test(test_progressive),  cmocka_unit_test(test_refusals),
     };
-    return cmocka_run_group_tests(tests, setup, teardown);
+    return cmocka_run_group_tests(tests, tu_gpu_setup, tu_gpu_teardown);
 }

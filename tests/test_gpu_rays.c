@@ -10,23 +10,6 @@
 
 #include "gpu/gpu_rays.h"
 
-static pgi__gpu *g_gpu;
-
-static int setup(void **state) {
-    (void)state;
-    if (pgi__gpu_create(-1, &g_gpu) != PGI_OK) {
-        fprintf(stderr, "no Vulkan device: %s\n", pgi_last_error());
-        return -1;
-    }
-    fprintf(stderr, "device: %s\n", pgi__gpu_device_name(g_gpu));
-    return 0;
-}
-
-static int teardown(void **state) {
-    (void)state;
-    pgi__gpu_destroy(g_gpu);
-    return 0;
-}
 
 /* GPU against the CPU traversal of the same BVH: rays whose answers differ (prim, or t, u, v
  * beyond 1e-6 relative / 1e-6 absolute), printing the first few. */
@@ -260,5 +243,5 @@ int main(void) {
         cmocka_unit_test(test_cutout),  cmocka_unit_test(test_dispatch_offsets),
         cmocka_unit_test(test_configs),
     };
-    return cmocka_run_group_tests(tests, setup, teardown);
+    return cmocka_run_group_tests(tests, tu_gpu_setup, tu_gpu_teardown);
 }

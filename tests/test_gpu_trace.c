@@ -17,23 +17,6 @@
 #include "rt/rt.h"
 #include "scene/scene_internal.h"
 
-static pgi__gpu *g_gpu;
-
-static int setup(void **state) {
-    (void)state;
-    if (pgi__gpu_create(-1, &g_gpu) != PGI_OK) {
-        fprintf(stderr, "no Vulkan device: %s\n", pgi_last_error());
-        return -1;
-    }
-    fprintf(stderr, "device: %s\n", pgi__gpu_device_name(g_gpu));
-    return 0;
-}
-
-static int teardown(void **state) {
-    (void)state;
-    pgi__gpu_destroy(g_gpu);
-    return 0;
-}
 
 typedef struct stats {
     double yield;   /* photons per path emitted */
@@ -317,5 +300,5 @@ int main(void) {
         cmocka_unit_test(test_cornell_mirrors), cmocka_unit_test(test_lights_glossy), cmocka_unit_test(test_sky),
         cmocka_unit_test(test_sibenik),         cmocka_unit_test(test_frame),
     };
-    return cmocka_run_group_tests(tests, setup, teardown);
+    return cmocka_run_group_tests(tests, tu_gpu_setup, tu_gpu_teardown);
 }
