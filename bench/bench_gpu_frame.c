@@ -2,7 +2,7 @@
  *   photongi-bench-gpu-frame [--scene NAME] [--size WxH] [--photons N] [--direct N] [--runs N]
  * renders one warm-up frame per device (lavapipe compiles its kernels on first use), then `runs`
  * frames each, and prints each pass's best time (ms) for both devices and the GPU's device passes.
- * Photons are traced by the CPU on both (the GPU frame uploads them). Exit 1 with the message when
+ * Photons are traced on each device (the GPU frame by trace.comp). Exit 1 with the message when
  * a frame fails (no Vulkan device: the CPU's figures are still printed first). */
 #include <stdio.h>
 #include <stdlib.h>
@@ -84,7 +84,7 @@ int main(int argc, char **argv) {
     if (!rc) {
         printf("%s %dx%d, %u photons, %d direct samples, best of %d (after a warm-up frame)\n", scene, w, h, photons,
                direct, runs);
-        printf("| device | view | trace (CPU) | build | estimate | direct | total |\n|---|---|---|---|---|---|---|\n");
+        printf("| device | view | trace | build | estimate | direct | total |\n|---|---|---|---|---|---|---|\n");
         printf("| cpu | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f |\n", c.view, c.trace, c.build, c.estimate, c.direct,
                c.total);
         printf("| vulkan | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f |\n", g.view, g.trace, g.build, g.estimate, g.direct,

@@ -602,6 +602,11 @@ static void stats_pass(pgi_frame_stats *fs, const char *name, double ms) {
 static pgi_status gpu_photons_cpu(pgi_renderer *r, const pgi_render_desc *d, const progress_ctx *pc,
                                   pgi_frame_stats *fs, pgi__gpu_buffer **buf, size_t *n) {
     pgi_status st;
+    if (pgi__rt_needs_update(r->rt, r->scene)) { /* the CPU tracer's Embree scene (only this hook uses it) */
+        double tu = pgi__now_ms();
+        if ((st = pgi__rt_update(r->rt, r->scene))) return st;
+        fs->rt_update_ms += pgi__now_ms() - tu;
+    }
     double t0 = pgi__now_ms();
     pgi__trace_desc td = {.photons = d->photons, .bounces = d->bounces, .seed = d->seed, .threads = d->threads};
     if ((st = ensure_footprints(r, d))) return st;
@@ -716,11 +721,6 @@ static pgi_status gpu_frame(pgi_renderer *r, pgi_render_desc *d, uint64_t seq_se
     if ((st = ensure_buffers(r, d))) return st;
     const pgi_camera_def *cd = d->view ? d->view : &s->cams[d->camera];
     pgi_camera_look_at(&r->cam, cd->eye, cd->look_at, cd->up, cd->fov_y_deg, d->width, d->height);
-    if (pgi__rt_needs_update(r->rt, s)) { /* the CPU tracer's Embree scene */
-        double tu = pgi__now_ms();
-        if ((st = pgi__rt_update(r->rt, s))) return st;
-        fs->rt_update_ms = pgi__now_ms() - tu;
-    }
     if (pgi__gpu_scene_needs_update(r->gpu_scene, s)) {
         double tu = pgi__now_ms();
         if ((st = pgi__gpu_scene_update(r->gpu_scene, s))) return st;
