@@ -284,8 +284,7 @@ static void test_cluster_trivial_vs_brute(void **state) {
 }
 
 /* No photons: every sample gets zero (the splat, lists and radiance run on empty inputs). */
-static void test_cluster_trivial_no_photons(void **state) {
-    (void)state;
+static void no_photons(const char *name) {
     pgi_scene *scene = NULL;
     TU_CHECK_OK(pgi_scene_load("cornell", &scene));
     pgi_renderer *r = NULL;
@@ -300,19 +299,21 @@ static void test_cluster_trivial_no_photons(void **state) {
     assert_non_null(out);
     for (size_t i = 0; i < nf; i++) out[i] = NAN;
     pgi_estimator_desc ed = {0}, rd;
-    TU_CHECK_OK(pgi_estimator_desc_resolve(pgi_estimator_find("cluster-trivial"), &ed, &rd));
+    TU_CHECK_OK(pgi_estimator_desc_resolve(pgi_estimator_find(name), &ed, &rd));
+    const pgi__gpu_est_vtbl *vt = pgi__gpu_est_find(name);
+    assert_non_null(vt);
     void *ge = NULL;
-    TU_CHECK_OK(pgi__gpu_est_cluster_trivial.create(g_gpu, &rd, &ge));
+    TU_CHECK_OK(vt->create(g_gpu, &rd, &ge));
     pgi_estimate_args a = {.photons = &none,
                            .samples = in.samples,
                            .camera = &in.camera,
                            .out_rgb = out,
                            .radius = in.radius};
     pgi_estimator_stats gs;
-    TU_CHECK_OK(pgi__gpu_est_cluster_trivial.run(ge, &a, &gs));
+    TU_CHECK_OK(vt->run(ge, &a, &gs));
     for (size_t i = 0; i < nf; i++) assert_true(out[i] == 0.f);
     assert_int_equal(gs.contributing, 0);
-    pgi__gpu_est_cluster_trivial.destroy(ge);
+    vt->destroy(ge);
     free(out);
     pgi_renderer_destroy(r);
     pgi_scene_destroy(scene);
@@ -411,6 +412,12 @@ static void test_directional_vs_cpu(void **state) {
     /* samples seen through mirrors: the GPU's grid cells over their box are not the CPU's subtree
      * (other clusters, other buckets): close in mean and PSNR only (measured -1.2 %, 46 dB) */
     dir_vs_cpu("cornell-mirrors", 64, 48, 20000, 0.f, 0, 0, 0.0, 38.0, 0.025, 0.2);
+}
+
+static void test_cluster_trivial_no_photons(void **state) {
+    (void)state;
+    no_photons("cluster-trivial");
+    no_photons("directional"); /* and the blur of zeros */
 }
 
 /* What the GPU cluster-trivial refuses: other kernels (as the CPU), tiles over 16 pixels. */

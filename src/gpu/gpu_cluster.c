@@ -154,15 +154,16 @@ static void ct_destroy(void *state) {
 
 static pgi_status cl_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state, int dir) {
     *state = NULL;
+    const char *nm = dir ? "directional" : "cluster-trivial";
     if (d->subsample > 1)
-        return pgi__fail(PGI_ERR_UNSUPPORTED, "cluster-trivial on the GPU: --subsample is not supported (CPU only)");
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "%s on the GPU: --subsample is not supported (CPU only)", nm);
     if (d->kernel != PGI_KERNEL_CONSTANT)
-        return pgi__fail(PGI_ERR_UNSUPPORTED, "cluster-trivial: only the constant kernel (as on the CPU)");
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "%s: only the constant kernel (as on the CPU)", nm);
     if (d->cluster.tile < 1 || d->cluster.tile > MAX_TILE)
         return pgi__fail(PGI_ERR_UNSUPPORTED,
-                         "cluster-trivial on the GPU: --cluster-tile must be 1..%d (a tile is sorted in shared "
+                         "%s on the GPU: --cluster-tile must be 1..%d (a tile is sorted in shared "
                          "memory), got %d",
-                         MAX_TILE, d->cluster.tile);
+                         nm, MAX_TILE, d->cluster.tile);
     ct_state *s = calloc(1, sizeof *s);
     if (!s) return pgi__fail(PGI_ERR_OOM, "out of memory");
     s->g = g;
@@ -389,15 +390,15 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     pgi__gpu *g = s->g;
     pgi_status st;
     memset(es, 0, sizeof *es);
+    const char *nm = s->dir ? "directional" : "cluster-trivial";
     if (a->photons->radius)
-        return pgi__fail(PGI_ERR_UNSUPPORTED, "cluster-trivial on the GPU: per-photon footprints are not supported");
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "%s on the GPU: per-photon footprints are not supported", nm);
     const pgi_photons *ph = a->photons;
     const pgi_view_samples *vs = a->samples;
     const pgi_camera *cam = a->camera;
     if (!cam || vs->width != cam->width || vs->height != cam->height)
-        return pgi__fail(PGI_ERR_INVALID_ARG,
-                         "cluster-trivial on the GPU: view samples are %dx%d but the camera is %dx%d", vs->width,
-                         vs->height, cam ? cam->width : 0, cam ? cam->height : 0);
+        return pgi__fail(PGI_ERR_INVALID_ARG, "%s on the GPU: view samples are %dx%d but the camera is %dx%d", nm,
+                         vs->width, vs->height, cam ? cam->width : 0, cam ? cam->height : 0);
     const float r = a->radius;
     const size_t n = ph->count, ns = vs->count;
     const uint32_t W = (uint32_t)vs->width, H = (uint32_t)vs->height, T = (uint32_t)s->desc.cluster.tile;
