@@ -205,6 +205,14 @@ static inline float knorm(float x, float y, float z) {
     return (1.f - du) * ((1.f - dv) * k[i0][j0] + dv * k[i0][j1]) + du * ((1.f - dv) * k[i1][j0] + dv * k[i1][j1]);
 }
 
+/* The K table (6 faces x KRES x KRES, texel [f][i][j] at (f KRES + i) KRES + j), for the GPU
+ * directional (gpu_cluster.c), which interpolates it as knorm does. */
+const float *pgi__directional_knorm_table(int *res) {
+    pthread_once(&g_knorm_once, knorm_init);
+    *res = KRES;
+    return &g_knorm[0][0][0];
+}
+
 static pgi_status dir_create(const pgi_estimator_desc *d, void **st) {
     pthread_once(&g_knorm_once, knorm_init);
     return cl_create_variant(d, st, V_DIR);

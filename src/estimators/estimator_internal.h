@@ -18,4 +18,7 @@
 #include "screen.h"
 #include "subsample.h"
 
+/* directional's table of octant weight normalisations K (est_directional.c): 6 x res x res floats */
+const float *pgi__directional_knorm_table(int *res);
+
 #endif

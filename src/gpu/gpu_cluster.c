@@ -50,6 +50,7 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
 }
 static void ct_destroy(void *state) { (void)state; }
+static pgi_status dir_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) { return ct_create(g, d, state); }
 
 #else
 
@@ -77,7 +78,7 @@ typedef struct {
 /* shaders/cluster.glsl Push */
 typedef struct {
     float r, r2, inv_step, slack;
-    uint32_t n, width, height, T, G, ntx, nty, nrx, nry, mode, bits, NS0, NT0, NL0, nnodes, npairs, R;
+    uint32_t n, width, height, T, G, ntx, nty, nrx, nry, mode, bits, NS0, NT0, NL0, nnodes, npairs, R, D, blur, dir;
 } cl_push;
 
 /* shaders/hashgrid.glsl Push (hg_scan, hg_scan_add): n at byte 12 */
@@ -88,12 +89,32 @@ typedef struct {
 
 #define NODE_BYTES 64 /* shaders/cluster.glsl Node */
 
-enum { K_REDUCE, K_TILES, K_BOUNDS, K_SPLAT, K_GROUP, K_NODE_FLUX, K_RADIANCE, K_SCAN, K_SCAN_ADD, K_RANK, K_N };
+enum {
+    K_REDUCE,
+    K_TILES,
+    K_BOUNDS,
+    K_SPLAT,
+    K_GROUP,
+    K_NODE_FLUX,
+    K_RADIANCE,
+    K_SCAN,
+    K_SCAN_ADD,
+    K_RANK,
+    K_DIR_FLUX,
+    K_DIR_RADIANCE,
+    K_DIR_BLUR,
+    K_N
+};
+
+#define DIR_TAB_HEAD 12 /* shaders/cl_dir_radiance.comp Tab: view axes, then K */
 
 typedef struct {
     pgi__gpu *g;
     pgi_estimator_desc desc;
     pgi__gpu_kernel *k[K_N];
+    int dir;          /* directional (pgi__gpu_est_directional) */
+    uint32_t D, blur; /* directional: bucket level (0 roots .. 3 clusters), blur radius */
+    pgi__gpu_buffer *buckets, *planes, *dirtab;
     pgi__gpu_buffer *photons, *vs, *lobes, *depth, *out, *frame, *nodes, *pix_node, *tile_ncl, *pairs, *estart, *ecur,
         *eidx, *ranked, *flux, *counters, *scan_b[SCAN_LEVELS];
     size_t pair_cap; /* pairs the buffer holds */
@@ -118,6 +139,9 @@ static void ct_destroy(void *state) {
                             s->tile_ncl, s->pairs, s->estart, s->ecur,  s->eidx, s->ranked, s->flux,  s->counters};
     for (size_t i = 0; i < sizeof b / sizeof b[0]; i++) pgi__gpu_buffer_destroy(s->g, b[i]);
     for (int i = 0; i < SCAN_LEVELS; i++) { pgi__gpu_buffer_destroy(s->g, s->scan_b[i]); }
+    pgi__gpu_buffer_destroy(s->g, s->buckets);
+    pgi__gpu_buffer_destroy(s->g, s->planes);
+    pgi__gpu_buffer_destroy(s->g, s->dirtab);
     pgi__afree(s->packed);
     pgi__afree(s->hvs);
     pgi__afree(s->hlobes);
@@ -128,21 +152,29 @@ static void ct_destroy(void *state) {
     free(s);
 }
 
-static pgi_status ct_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) {
+static pgi_status cl_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state, int dir) {
     *state = NULL;
+    const char *nm = dir ? "directional" : "cluster-trivial";
     if (d->subsample > 1)
-        return pgi__fail(PGI_ERR_UNSUPPORTED, "cluster-trivial on the GPU: --subsample is not supported (CPU only)");
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "%s on the GPU: --subsample is not supported (CPU only)", nm);
     if (d->kernel != PGI_KERNEL_CONSTANT)
-        return pgi__fail(PGI_ERR_UNSUPPORTED, "cluster-trivial: only the constant kernel (as on the CPU)");
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "%s: only the constant kernel (as on the CPU)", nm);
     if (d->cluster.tile < 1 || d->cluster.tile > MAX_TILE)
         return pgi__fail(PGI_ERR_UNSUPPORTED,
-                         "cluster-trivial on the GPU: --cluster-tile must be 1..%d (a tile is sorted in shared "
+                         "%s on the GPU: --cluster-tile must be 1..%d (a tile is sorted in shared "
                          "memory), got %d",
-                         MAX_TILE, d->cluster.tile);
+                         nm, MAX_TILE, d->cluster.tile);
     ct_state *s = calloc(1, sizeof *s);
     if (!s) return pgi__fail(PGI_ERR_OOM, "out of memory");
     s->g = g;
     s->desc = *d;
+    s->dir = dir;
+    if (dir) {
+        /* est_cluster.c: D = L - level (levels above the leaves), here of the four levels */
+        int up = d->directional.level == PGI_DIRECTIONAL_LEAVES ? 0 : d->directional.level;
+        s->D = up >= 3 ? 0u : (uint32_t)(3 - up);
+        s->blur = d->directional.blur == PGI_DIRECTIONAL_NO_BLUR ? 0u : (uint32_t)d->directional.blur;
+    }
     static const struct {
         const uint32_t *spv;
         size_t bytes;
@@ -160,8 +192,14 @@ static pgi_status ct_create(pgi__gpu *g, const pgi_estimator_desc *d, void **sta
         [K_SCAN] = {pgi__spv_hg_scan, sizeof pgi__spv_hg_scan, "hg_scan", 2, sizeof(scan_push)},
         [K_SCAN_ADD] = {pgi__spv_hg_scan_add, sizeof pgi__spv_hg_scan_add, "hg_scan_add", 2, sizeof(scan_push)},
         [K_RANK] = {pgi__spv_cl_rank, sizeof pgi__spv_cl_rank, "cl_rank", 4, sizeof(cl_push)},
+        [K_DIR_FLUX] = {pgi__spv_cl_dir_flux, sizeof pgi__spv_cl_dir_flux, "cl_dir_flux", 5, sizeof(cl_push)},
+        [K_DIR_RADIANCE] = {pgi__spv_cl_dir_radiance, sizeof pgi__spv_cl_dir_radiance, "cl_dir_radiance", 5,
+                            sizeof(cl_push)},
+        [K_DIR_BLUR] = {pgi__spv_cl_dir_blur, sizeof pgi__spv_cl_dir_blur, "cl_dir_blur", 4, sizeof(cl_push)},
     };
     for (int i = 0; i < K_N; i++) {
+        if ((i == K_NODE_FLUX || i == K_RADIANCE) && dir) continue;
+        if ((i == K_DIR_FLUX || i == K_DIR_RADIANCE || i == K_DIR_BLUR) && !dir) continue;
         pgi_status st = pgi__gpu_kernel_create(g, k[i].spv, k[i].bytes, k[i].name, k[i].nbuf, k[i].push, &s->k[i]);
         if (st) {
             ct_destroy(s);
@@ -170,6 +208,14 @@ static pgi_status ct_create(pgi__gpu *g, const pgi_estimator_desc *d, void **sta
     }
     *state = s;
     return PGI_OK;
+}
+
+static pgi_status ct_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) {
+    return cl_create(g, d, state, 0);
+}
+
+static pgi_status dir_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) {
+    return cl_create(g, d, state, 1);
 }
 
 /* Workgroups for `items` invocations of `local` each, as a 2D grid of rows of at most 65535
@@ -334,7 +380,7 @@ static void add_timings(ct_state *s, pgi_estimator_stats *es, double *build, dou
     int nt = pgi__gpu_timings(s->g, t, 16);
     for (int i = 0; i < nt; i++) {
         pgi__stats_pass(es, t[i].name, t[i].value);
-        if (strcmp(t[i].name, "gpu_radiance") == 0) *gather += t[i].value;
+        if (strcmp(t[i].name, "gpu_radiance") == 0 || strcmp(t[i].name, "gpu_blur") == 0) *gather += t[i].value;
         else *build += t[i].value;
     }
 }
@@ -344,15 +390,15 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     pgi__gpu *g = s->g;
     pgi_status st;
     memset(es, 0, sizeof *es);
+    const char *nm = s->dir ? "directional" : "cluster-trivial";
     if (a->photons->radius)
-        return pgi__fail(PGI_ERR_UNSUPPORTED, "cluster-trivial on the GPU: per-photon footprints are not supported");
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "%s on the GPU: per-photon footprints are not supported", nm);
     const pgi_photons *ph = a->photons;
     const pgi_view_samples *vs = a->samples;
     const pgi_camera *cam = a->camera;
     if (!cam || vs->width != cam->width || vs->height != cam->height)
-        return pgi__fail(PGI_ERR_INVALID_ARG,
-                         "cluster-trivial on the GPU: view samples are %dx%d but the camera is %dx%d", vs->width,
-                         vs->height, cam ? cam->width : 0, cam ? cam->height : 0);
+        return pgi__fail(PGI_ERR_INVALID_ARG, "%s on the GPU: view samples are %dx%d but the camera is %dx%d", nm,
+                         vs->width, vs->height, cam ? cam->width : 0, cam ? cam->height : 0);
     const float r = a->radius;
     const size_t n = ph->count, ns = vs->count;
     const uint32_t W = (uint32_t)vs->width, H = (uint32_t)vs->height, T = (uint32_t)s->desc.cluster.tile;
@@ -384,7 +430,10 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
                  .NT0 = (uint32_t)NT0,
                  .NL0 = (uint32_t)NL0,
                  .nnodes = (uint32_t)nnodes,
-                 .R = ROOT};
+                 .R = ROOT,
+                 .D = s->D,
+                 .blur = s->blur,
+                 .dir = (uint32_t)s->dir};
 
     /* upload: photons packed in cell order, the view samples, lobes and depths */
     double t0 = pgi__now_ms();
@@ -411,6 +460,21 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
         (st = pgi__gpu_buffer_reserve(g, &s->counters, 8 * sizeof(uint32_t), "gpu_photon_lists")) ||
         (st = scan_reserve(g, s->scan_b, lv_b, levels_b, "gpu_photon_lists")))
         return st;
+    if (s->dir) { /* view axes and K (shaders/cl_dir_radiance.comp Tab), buckets, irradiance planes */
+        int kres = 0;
+        const float *K = pgi__directional_knorm_table(&kres);
+        const size_t nk = 6 * (size_t)kres * kres;
+        float head[DIR_TAB_HEAD] = {0};
+        const pgi__view_xf x = pgi__view_xf_make(cam, vs->width, vs->height);
+        const pgi__v3 ax[3] = {x.right, x.up, x.fwd};
+        for (int k = 0; k < 3; k++) head[3 * k] = ax[k].x, head[3 * k + 1] = ax[k].y, head[3 * k + 2] = ax[k].z;
+        if ((st = pgi__gpu_buffer_reserve(g, &s->dirtab, (DIR_TAB_HEAD + nk) * sizeof(float), "gpu_directional")) ||
+            (st = pgi__gpu_buffer_reserve(g, &s->buckets, nnodes * 24 * sizeof(float), "gpu_directional")) ||
+            (st = pgi__gpu_buffer_reserve(g, &s->planes, (6 * ns + 1) * sizeof(float), "gpu_directional")) ||
+            (st = pgi__gpu_upload(g, s->dirtab, 0, head, sizeof head)) ||
+            (st = pgi__gpu_upload(g, s->dirtab, sizeof head, K, nk * sizeof(float))))
+            return st;
+    }
     if ((st = pgi__gpu_upload(g, s->photons, 0, s->packed, n * psz)) ||
         (st = pgi__gpu_upload(g, s->vs, 0, s->hvs, ns * sizeof(gpu_vs))) ||
         (st = pgi__gpu_upload(g, s->lobes, 0, s->hlobes, nlobes * sizeof(gpu_lobe))) ||
@@ -506,6 +570,27 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
                               npairs, 64)))
             goto fail;
         pgi__gpu_timestamp(g, "gpu_rank");
+        if (s->dir) { /* the buckets, the irradiance, the blur and shading */
+            if ((st = dispatch_1d(g, s->k[K_DIR_FLUX],
+                                  (pgi__gpu_buffer *[]){s->photons, s->estart, s->ranked, s->dirtab, s->buckets}, &p,
+                                  nnodes, 64)))
+                goto fail;
+            pgi__gpu_timestamp(g, "gpu_buckets");
+            if ((st = pgi__gpu_dispatch(g, s->k[K_DIR_RADIANCE],
+                                        (pgi__gpu_buffer *[]){s->vs, s->pix_node, s->buckets, s->dirtab, s->planes}, &p,
+                                        (W + 7) / 8, (H + 7) / 8, 1)))
+                goto fail;
+            pgi__gpu_timestamp(g, "gpu_radiance");
+            for (uint32_t m = s->blur > 0 ? 0u : 1u; m < 2u; m++) {
+                q.mode = m;
+                if ((st = pgi__gpu_dispatch(g, s->k[K_DIR_BLUR],
+                                            (pgi__gpu_buffer *[]){s->vs, s->depth, s->planes, s->out}, &q, (W + 7) / 8,
+                                            (H + 7) / 8, 1)))
+                    goto fail;
+            }
+            pgi__gpu_timestamp(g, "gpu_blur");
+            goto submit;
+        }
         if ((st = dispatch_1d(g, s->k[K_NODE_FLUX], (pgi__gpu_buffer *[]){s->photons, s->estart, s->ranked, s->flux},
                               &p, nnodes, 64)))
             goto fail;
@@ -517,6 +602,7 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
             goto fail;
         pgi__gpu_timestamp(g, "gpu_radiance");
     }
+submit:;
     double t5 = pgi__now_ms();
     if ((st = pgi__gpu_submit_wait(g))) return st;
     double t6 = pgi__now_ms();
@@ -540,6 +626,7 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     es->reads = (uint64_t)c[0] | (uint64_t)c[1] << 32;
     es->contributing = (uint64_t)c[2] | (uint64_t)c[3] << 32;
     es->nodes_visited = (uint64_t)c[4] | (uint64_t)c[5] << 32;
+    if (s->dir) es->reads = es->contributing = npairs; /* as the CPU directional: bucket deposits */
     pgi__stats_mem(es, "gpu_host_upload",
                    s->packed_cap * sizeof(pgi__packed_photon) + s->hvs_cap * sizeof(gpu_vs) +
                        s->hlobes_cap * sizeof(gpu_lobe) +
@@ -556,6 +643,16 @@ fail:
 const pgi__gpu_est_vtbl pgi__gpu_est_cluster_trivial = {
     .name = "cluster-trivial",
     .create = ct_create,
+    .run = ct_run,
+    .destroy = ct_destroy,
+};
+
+/* directional (est_directional.c, Moreau et al. 2016 §4.7) on the same clusters, hierarchy and
+ * lists: cl_splat deposits (pc.dir), cl_dir_flux sums each node's octant buckets in photon order,
+ * cl_dir_radiance and cl_dir_blur shade. Approximate, like the CPU's; its levels are the four here. */
+const pgi__gpu_est_vtbl pgi__gpu_est_directional = {
+    .name = "directional",
+    .create = dir_create,
     .run = ct_run,
     .destroy = ct_destroy,
 };

@@ -3,7 +3,8 @@
 // cannot reach (its box farther than r plus a margin) or that lies below the photon (normal cone)
 // is skipped; an enclosed node takes the photon, as trivially accepted flux (all samples
 // Lambertian and the photon above every normal: each sample would accept it) or else into its
-// list; an intersected leaf takes it into its list; other nodes are descended.
+// list; an intersected leaf takes it into its list; other nodes are descended. Directional
+// (pc.dir): the deposit rule of est_cluster.c's V_DIR instead (entry 2 node: the node's buckets).
 // Each output, a (node entry, photon) pair (entry 2 node: the node's list, 2 node + 1: its trivially
 // accepted photons), is appended at an atomic counter, in whatever order the invocations run:
 // cl_group and cl_rank then put every list in photon order, so the order here does not matter.
@@ -36,7 +37,7 @@ void emit(uint entry) {
 }
 
 // 0: skipped or taken; 1: descend (first, count: the node's)
-uint decide(uint id, bool leaf, out uint first, out uint count) {
+uint decide(uint id, uint lvl, bool leaf, out uint first, out uint count) {
     visited++;
     Node nd = nodes[id];
     first = nd.first;
@@ -47,6 +48,28 @@ uint decide(uint id, bool leaf, out uint first, out uint count) {
     precise float ez = max(max(nd.loz - c.z, c.z - nd.hiz), 0.0);
     precise float d2 = ex * ex + ey * ey + ez * ez;
     if (!(d2 <= rr2)) return 0u;
+    if (pc.dir != 0u) {
+        // directional (est_cluster.c decide, V_DIR: no cone test): from level D down, an enclosed
+        // node or a leaf whose box centre lies in the sphere takes the photon (its buckets)
+        if (lvl >= pc.D) {
+            precise float gx = max(c.x - nd.lox, nd.hix - c.x);
+            precise float gy = max(c.y - nd.loy, nd.hiy - c.y);
+            precise float gz = max(c.z - nd.loz, nd.hiz - c.z);
+            precise float g2 = gx * gx + gy * gy + gz * gz;
+            if (g2 < re2) {
+                emit(2u * id);
+                return 0u;
+            }
+            if (leaf) {
+                precise float mx = 0.5 * (nd.lox + nd.hix) - c.x, my = 0.5 * (nd.loy + nd.hiy) - c.y,
+                              mz = 0.5 * (nd.loz + nd.hiz) - c.z;
+                precise float m2 = mx * mx + my * my + mz * mz;
+                if (m2 < pc.r2) emit(2u * id);
+                return 0u;
+            }
+        }
+        return leaf ? 0u : 1u;
+    }
     precise float dw = nd.ax * w.x + nd.ay * w.y + nd.az * w.z;
     if (!(dw >= nd.rej)) return 0u; // below every surface in the node (§4.5)
     precise float fx = max(c.x - nd.lox, nd.hix - c.x);
@@ -110,7 +133,7 @@ void main() {
                 id = k0++;
             }
             uint first, count;
-            if (decide(id, lv == 3u, first, count) != 0u) {
+            if (decide(id, lv, lv == 3u, first, count) != 0u) {
                 if (lv == 0u) {
                     f1 = first;
                     k1 = 0u;

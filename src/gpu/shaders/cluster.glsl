@@ -43,6 +43,9 @@ layout(push_constant) uniform Push {
     uint nnodes;     // NL0 + tiles * T^2
     uint npairs;     // splat outputs
     uint R;          // root edge (supertiles)
+    uint D;          // directional: the level (0 roots .. 3 clusters) from which photons deposit
+    uint blur;       // directional: blur radius (pixels; 0: off)
+    uint dir;        // 1: directional (cl_splat deposits instead of listing)
 } pc;
 
 #define VS_PRIMARY 2u // PGI_VS_PRIMARY
