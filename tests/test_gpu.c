@@ -472,12 +472,20 @@ static void test_fallback_paths(void **state) {
 int main(void) {
     tu_keep_lavapipe_loaded();
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_buffer_round_trip),         cmocka_unit_test(test_buffer_round_trip_staged),
-        cmocka_unit_test(test_kernel_fill_timestamps),    cmocka_unit_test(test_device_errors),
-        cmocka_unit_test(test_hashgrid_vs_brute_cornell), cmocka_unit_test(test_hashgrid_vs_brute_kernels),
-        cmocka_unit_test(test_hashgrid_vs_brute_glossy),  cmocka_unit_test(test_cluster_trivial_vs_brute),
-        cmocka_unit_test(test_cluster_trivial_errors), cmocka_unit_test(test_tiled_vs_brute), cmocka_unit_test(test_tiled_errors),    cmocka_unit_test(test_cluster_trivial_no_photons),
-        cmocka_unit_test(test_renderer_device),           cmocka_unit_test(test_fallback_paths),
+        cmocka_unit_test(test_buffer_round_trip),
+        cmocka_unit_test(test_buffer_round_trip_staged),
+        cmocka_unit_test(test_kernel_fill_timestamps),
+        cmocka_unit_test(test_device_errors),
+        cmocka_unit_test(test_hashgrid_vs_brute_cornell),
+        cmocka_unit_test(test_hashgrid_vs_brute_kernels),
+        cmocka_unit_test(test_hashgrid_vs_brute_glossy),
+        cmocka_unit_test(test_cluster_trivial_vs_brute),
+        cmocka_unit_test(test_cluster_trivial_errors),
+        cmocka_unit_test(test_tiled_vs_brute),
+        cmocka_unit_test(test_tiled_errors),
+        cmocka_unit_test(test_cluster_trivial_no_photons),
+        cmocka_unit_test(test_renderer_device),
+        cmocka_unit_test(test_fallback_paths),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -116,8 +116,8 @@ static void tl_destroy(void *state) {
     tl_state *s = state;
     if (!s) return;
     for (int i = 0; i < K_N; i++) pgi__gpu_kernel_destroy(s->g, s->k[i]);
-    pgi__gpu_buffer *b[] = {s->photons, s->vs,     s->lobes, s->out,    s->bounds, s->frame,   s->grid,
-                            s->cbox,    s->ctable, s->cell_of, s->counts, s->ids,  s->counters};
+    pgi__gpu_buffer *b[] = {s->photons, s->vs,     s->lobes,   s->out,    s->bounds, s->frame,   s->grid,
+                            s->cbox,    s->ctable, s->cell_of, s->counts, s->ids,    s->counters};
     for (size_t i = 0; i < sizeof b / sizeof b[0]; i++) pgi__gpu_buffer_destroy(s->g, b[i]);
     for (int i = 0; i < SCAN_LEVELS; i++) pgi__gpu_buffer_destroy(s->g, s->scan_b[i]);
     pgi__spec_cells_free(&s->cells);
@@ -135,7 +135,8 @@ static pgi_status tl_create(pgi__gpu *g, const pgi_estimator_desc *d, void **sta
     if (d->subsample > 1)
         return pgi__fail(PGI_ERR_UNSUPPORTED, "tiled on the GPU: --subsample is not supported (CPU only)");
     if (d->tiled.tile_size < 1)
-        return pgi__fail(PGI_ERR_INVALID_ARG, "tiled on the GPU: --tile must be at least 1, got %d", d->tiled.tile_size);
+        return pgi__fail(PGI_ERR_INVALID_ARG, "tiled on the GPU: --tile must be at least 1, got %d",
+                         d->tiled.tile_size);
     tl_state *s = calloc(1, sizeof *s);
     if (!s) return pgi__fail(PGI_ERR_OOM, "out of memory");
     s->g = g;
@@ -291,7 +292,8 @@ static pgi_status pack_cells(tl_state *s, size_t ns, uint32_t *hmask) {
         s->htable[4 * h + 3] = c->hval[e];
         found++;
     }
-    if (found != c->n) return pgi__fail(PGI_ERR_INTERNAL, "tiled on the GPU: %zu mirror cells in the table, not %u", found, c->n);
+    if (found != c->n)
+        return pgi__fail(PGI_ERR_INTERNAL, "tiled on the GPU: %zu mirror cells in the table, not %u", found, c->n);
     *hmask = (uint32_t)(tn - 1);
     return PGI_OK;
 }
@@ -338,8 +340,9 @@ static pgi_status tl_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     if (nchunks == 0) nchunks = 1;
     const size_t ncounts = (size_t)nlists * nchunks;
     if (ncounts > UINT32_MAX / 4)
-        return pgi__fail(PGI_ERR_UNSUPPORTED, "tiled on the GPU: %u lists x %zu photon chunks is too many; use larger tiles",
-                         nlists, nchunks);
+        return pgi__fail(PGI_ERR_UNSUPPORTED,
+                         "tiled on the GPU: %u lists x %zu photon chunks is too many; use larger tiles", nlists,
+                         nchunks);
     size_t lv[SCAN_LEVELS + 1];
     int levels = scan_levels(ncounts + 1, lv);
     if (levels < 0) return pgi__fail(PGI_ERR_UNSUPPORTED, "tiled on the GPU: too many lists to scan");
@@ -405,10 +408,12 @@ static pgi_status tl_run(void *state, const pgi_estimate_args *a, pgi_estimator_
 
     /* sequence 1: tile bounds, counts, offsets */
     double gpu_build = 0.0, gpu_gather = 0.0;
-    pgi__gpu_buffer *lists_in[8] = {s->photons, s->bounds, s->frame, s->grid, s->cbox, s->ctable, s->counts, s->counters};
+    pgi__gpu_buffer *lists_in[8] = {s->photons, s->bounds, s->frame,  s->grid,
+                                    s->cbox,    s->ctable, s->counts, s->counters};
     if ((st = pgi__gpu_begin(g))) return st;
     pgi__gpu_timestamp(g, "start");
-    if ((st = pgi__gpu_fill(g, s->counts, 0, (ncounts + 1) * 4, 0)) || (st = pgi__gpu_fill(g, s->counters, 0, 8 * 4, 0)) ||
+    if ((st = pgi__gpu_fill(g, s->counts, 0, (ncounts + 1) * 4, 0)) ||
+        (st = pgi__gpu_fill(g, s->counters, 0, 8 * 4, 0)) ||
         (st = dispatch_1d(g, s->k[K_BOUNDS], (pgi__gpu_buffer *[]){s->vs, s->bounds}, &p, ntiles, 64)) ||
         (st = pgi__gpu_dispatch(g, s->k[K_FRAME], (pgi__gpu_buffer *[]){s->bounds, s->frame}, &p, 1, 1, 1)))
         goto fail;
@@ -433,8 +438,8 @@ static pgi_status tl_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     if ((st = dispatch_1d(g, s->k[K_COPY], lists_in, &p, nchunks, 64))) goto fail;
     pgi__gpu_timestamp(g, "gpu_copy");
     if ((st = pgi__gpu_dispatch(g, s->k[K_GATHER],
-                                (pgi__gpu_buffer *[]){s->vs, s->lobes, s->photons, s->counts, s->ids, s->cell_of, s->out,
-                                                      s->counters},
+                                (pgi__gpu_buffer *[]){s->vs, s->lobes, s->photons, s->counts, s->ids, s->cell_of,
+                                                      s->out, s->counters},
                                 &p, (W + 7) / 8, (H + 7) / 8, 1)))
         goto fail;
     pgi__gpu_timestamp(g, "gpu_gather");
