@@ -220,6 +220,20 @@ static void gpu_est_vs_brute(const pgi__gpu_est_vtbl *vt, const char *scene_name
     fprintf(stderr, "  %s: reads %llu (brute %llu), contributing %llu, nodes visited %llu%s\n", what,
             (unsigned long long)gs.reads, (unsigned long long)bs.reads, (unsigned long long)gs.contributing,
             (unsigned long long)gs.nodes_visited, again_pass ? ", splat run again" : "");
+    if (vt == &pgi__gpu_est_tiled) { /* the CPU tiled's lists on the same inputs, for comparison */
+        pgi_estimator *ct = NULL;
+        TU_CHECK_OK(pgi_estimator_create("tiled", &ed, &ct));
+        a.out_rgb = again;
+        TU_CHECK_OK(pgi_estimator_build(ct, &a));
+        TU_CHECK_OK(pgi_estimator_estimate(ct, &a));
+        pgi_estimator_stats cs;
+        pgi_estimator_get_stats(ct, &cs);
+        fprintf(stderr, "    CPU tiled: reads %llu, contributing %llu, photon-list tests %llu\n",
+                (unsigned long long)cs.reads, (unsigned long long)cs.contributing,
+                (unsigned long long)cs.nodes_visited);
+        assert_int_equal(cs.contributing, gs.contributing);
+        pgi_estimator_destroy(ct);
+    }
     assert_true(bs.contributing > 0);
     tu_expect_same(what, got, ref, nf, gs.contributing, bs.contributing);
     if (vt == &pgi__gpu_est_hashgrid) assert_true(gs.reads >= gs.contributing && gs.reads <= bs.reads);
