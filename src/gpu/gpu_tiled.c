@@ -426,8 +426,17 @@ static pgi_status tl_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     if ((st = pgi__gpu_submit_wait(g))) return st;
     double t3 = pgi__now_ms();
     add_timings(s, es, &gpu_build, &gpu_gather);
-    uint32_t copies = 0;
-    if ((st = pgi__gpu_download(g, s->counts, ncounts * 4, &copies, 4))) return st;
+    uint32_t copies = 0, tested[2];
+    if ((st = pgi__gpu_download(g, s->counts, ncounts * 4, &copies, 4)) ||
+        (st = pgi__gpu_download(g, s->counters, 6 * 4, tested, sizeof tested)))
+        return st;
+    /* every list test is a copy: the 64-bit count catches a scan that wrapped */
+    const uint64_t ncopies = (uint64_t)tested[0] | (uint64_t)tested[1] << 32;
+    if (ncopies > UINT32_MAX / 4)
+        return pgi__fail(PGI_ERR_UNSUPPORTED,
+                         "tiled on the GPU: %llu photon copies (at most 2^30); use a smaller radius or larger tiles",
+                         (unsigned long long)ncopies);
+    PGI_ASSERT(ncopies == copies);
     if ((st = pgi__gpu_buffer_reserve(g, &s->ids, ((size_t)copies + 1) * 4, "gpu_tile_photons"))) return st;
 
     /* sequence 2: the lists (photon order), the gather */
