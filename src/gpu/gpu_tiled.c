@@ -16,13 +16,14 @@
  *   tl_copy     the same walk, each photon's index at its chunk's next offset: every list in
  *               photon order, without atomics (nothing to rank)
  *   tl_gather   per view sample: its tile's (a mirror-seen sample: its cell's) list through
- *               gather.glsl's contribution test and sums
+ *               gather.glsl's contribution test and sums (tiles a multiple of 8 pixels: the tile's
+ *               photons through shared memory, 64 at a time, for the workgroup's primary samples)
  * Every float sum is in photon order: the same image bit for bit every run. Exactness: the lists
  * are conservative (the CPU's tests with a padded radius, pad_radius in shaders/tiled.glsl) and
  * the gather applies gather.glsl's test to every listed photon.
  * Limits: one invocation a chunk of photons (at most 4096 chunks) walks its photons in turn (the
  * order that makes the lists deterministic without a rank pass); --subsample and per-photon
- * footprints are refused. */
+ * footprints are refused, as are more than 2^30 photon copies or (list, chunk) counts. */
 #include "gpu/gpu_estimator.h"
 
 #include <stdio.h>
