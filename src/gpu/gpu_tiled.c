@@ -333,7 +333,8 @@ static pgi_status tl_run(void *state, const pgi_estimate_args *a, pgi_estimator_
 
     /* upload: photons in photon order, the view samples and lobes, the mirror cells (host) */
     double t0 = pgi__now_ms();
-    if ((st = pgi__spec_cells_build(&s->cells, vs, &x, r, pgi__spec_cells_cap((int)ntiles), a->threads))) return st;
+    if ((st = pgi__spec_cells_build(&s->cells, vs, &x, r, pgi__spec_cells_cap((int)ntiles), pgi__threads(a->threads))))
+        return st;
     const uint32_t nlists = ntiles + s->cells.n;
     size_t chunk = (n + MAX_CHUNKS - 1) / MAX_CHUNKS;
     if (chunk < 64) chunk = 64;
