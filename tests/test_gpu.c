@@ -170,7 +170,7 @@ static void gpu_est_vs_brute(const pgi__gpu_est_vtbl *vt, const char *scene_name
     assert_non_null(ref);
     assert_non_null(got);
     assert_non_null(again);
-    pgi_estimator_desc ed = {.kernel = kern, .hashgrid.cell_size = cell, .cluster.tile = tile};
+    pgi_estimator_desc ed = {.kernel = kern, .hashgrid.cell_size = cell, .cluster.tile = tile, .tiled.tile_size = tile};
     size_t mirror_seen = 0;
     for (size_t i = 0; i < in.samples->count; i++)
         mirror_seen += (in.samples->flags[i] & (PGI_VS_VALID | PGI_VS_PRIMARY)) == PGI_VS_VALID;
@@ -202,6 +202,20 @@ static void gpu_est_vs_brute(const pgi__gpu_est_vtbl *vt, const char *scene_name
     fprintf(stderr, "  %s: reads %llu (brute %llu), contributing %llu, nodes visited %llu%s\n", what,
             (unsigned long long)gs.reads, (unsigned long long)bs.reads, (unsigned long long)gs.contributing,
             (unsigned long long)gs.nodes_visited, again_pass ? ", splat run again" : "");
+    if (vt == &pgi__gpu_est_tiled) { /* the CPU tiled's lists on the same inputs, for comparison */
+        pgi_estimator *ct = NULL;
+        TU_CHECK_OK(pgi_estimator_create("tiled", &ed, &ct));
+        a.out_rgb = again;
+        TU_CHECK_OK(pgi_estimator_build(ct, &a));
+        TU_CHECK_OK(pgi_estimator_estimate(ct, &a));
+        pgi_estimator_stats cs;
+        pgi_estimator_get_stats(ct, &cs);
+        fprintf(stderr, "    CPU tiled: reads %llu, contributing %llu, photon-list tests %llu\n",
+                (unsigned long long)cs.reads, (unsigned long long)cs.contributing,
+                (unsigned long long)cs.nodes_visited);
+        assert_int_equal(cs.contributing, gs.contributing);
+        pgi_estimator_destroy(ct);
+    }
     assert_true(bs.contributing > 0);
     tu_expect_same(what, got, ref, nf, gs.contributing, bs.contributing);
     if (vt == &pgi__gpu_est_hashgrid) assert_true(gs.reads >= gs.contributing && gs.reads <= bs.reads);
@@ -263,6 +277,40 @@ static void test_cluster_trivial_vs_brute(void **state) {
     gpu_est_vs_brute(vt, "fireplace-room", 48, 36, 10000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_GGX, 0.f, 0);
     /* an image smaller than one tile */
     gpu_est_vs_brute(vt, "cornell", 7, 5, 3000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.6f, 0);
+}
+
+/* tiled on the GPU (gpu_tiled.c) against the CPU's brute force: the Cornell box at the scene's
+ * radius and at a radius larger than a tile (photons in many lists), odd and large tile sizes, the
+ * mirror box (samples seen through mirrors and glass: the mirror cells' lists), the fireplace
+ * room's glossy samples, an image smaller than a tile; bit-identical on a second run. */
+static void test_tiled_vs_brute(void **state) {
+    (void)state;
+    const pgi__gpu_est_vtbl *vt = &pgi__gpu_est_tiled;
+    gpu_est_vs_brute(vt, "cornell", 64, 48, 20000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.f, 0);
+    gpu_est_vs_brute(vt, "cornell", 64, 48, 3000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.6f, 0);
+    gpu_est_vs_brute(vt, "cornell", 50, 37, 5000, PGI_KERNEL_CONE, 0.f, PGI_SPECULAR_DEFAULT, 0.f, 5);
+    gpu_est_vs_brute(vt, "cornell", 40, 30, 5000, PGI_KERNEL_EPANECHNIKOV, 0.f, PGI_SPECULAR_DEFAULT, 0.2f, 64);
+    gpu_est_vs_brute(vt, "cornell-mirrors", 64, 48, 20000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.06f, 0);
+    gpu_est_vs_brute(vt, "cornell-mirrors", 64, 48, 3000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.6f, 0);
+    gpu_est_vs_brute(vt, "fireplace-room", 48, 36, 10000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_GGX, 0.f, 0);
+    gpu_est_vs_brute(vt, "cornell", 7, 5, 3000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.6f, 0);
+}
+
+/* What the GPU tiled refuses: --subsample (CPU only); the registry lists it. */
+static void test_tiled_errors(void **state) {
+    (void)state;
+    const pgi__gpu_est_vtbl *vt = pgi__gpu_est_find("tiled");
+    assert_non_null(vt);
+    pgi_estimator_desc ed = {.subsample = 4}, rd;
+    TU_CHECK_OK(pgi_estimator_desc_resolve(pgi_estimator_find("tiled"), &ed, &rd));
+    assert_int_equal(rd.tiled.tile_size, 16);
+    void *ge = NULL;
+    assert_int_equal(vt->create(g_gpu, &rd, &ge), PGI_ERR_UNSUPPORTED);
+    assert_null(ge);
+    assert_non_null(strstr(pgi_last_error(), "subsample"));
+    char names[128];
+    pgi__gpu_est_names(names, sizeof names);
+    assert_non_null(strstr(names, "tiled"));
 }
 
 /* No photons: every sample gets zero (the splat, lists and radiance run on empty inputs). */
@@ -468,14 +516,18 @@ static void test_renderer_device(void **state) {
     int radiance = 0;
     for (int k = 0; k < gs.pass_count; k++) radiance += strcmp(gs.passes_ms[k].name, "gpu_radiance") == 0;
     assert_int_equal(radiance, pgi__gpu_has_timestamps(g_gpu));
+    /* tiled the same way (gpu_tiled.c, run on the inputs read back) */
+    d.estimator = "tiled";
+    TU_CHECK_OK(pgi_renderer_render(r, &d, &gpu2, &gs));
+    assert_int_equal(tu_compare(gpu2.rgb, gpu.rgb, 3 * 64 * 48, 1e-4, "renderer: vulkan tiled vs hashgrid"), 0);
     d.estimator = "hashgrid";
     /* explicit device 0 */
     d.device_index = PGI_DEVICE_INDEX(0);
     TU_CHECK_OK(pgi_renderer_render(r, &d, &gpu2, &gs));
     /* no GPU version */
-    d.estimator = "tiled";
+    d.estimator = "bounds3d";
     assert_int_equal(pgi_renderer_render(r, &d, &gpu2, &gs), PGI_ERR_UNSUPPORTED);
-    assert_non_null(strstr(pgi_last_error(), "tiled"));
+    assert_non_null(strstr(pgi_last_error(), "bounds3d"));
     assert_non_null(strstr(pgi_last_error(), "hashgrid"));
     /* a device that does not exist */
     d.estimator = "hashgrid";
@@ -528,6 +580,8 @@ int main(void) {
         cmocka_unit_test(test_cluster_trivial_vs_brute),
         cmocka_unit_test(test_cluster_trivial_errors),
         cmocka_unit_test(test_directional_vs_cpu),
+        cmocka_unit_test(test_tiled_vs_brute),
+        cmocka_unit_test(test_tiled_errors),
         cmocka_unit_test(test_cluster_trivial_no_photons),
         cmocka_unit_test(test_renderer_device),
         cmocka_unit_test(test_fallback_paths),

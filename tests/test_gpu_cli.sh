@@ -74,7 +74,7 @@ run render --help
 grep -qF -- '--device cpu|gpu|vulkan[:N]' "$TMP/out" && ok || bad "render --help has no --device"
 expect_fail "does not exist" render "${common[@]}" --device vulkan:99 -o "$TMP/x.png"
 expect_fail "0: " render "${common[@]}" --device vulkan:99 -o "$TMP/x.png"
-expect_fail "no GPU version" render "${common[@]}" --device vulkan --estimator tiled -o "$TMP/x.png"
+expect_fail "no GPU version" render "${common[@]}" --device vulkan --estimator bounds3d -o "$TMP/x.png"
 run render "${common[@]}" --device metal -o "$TMP/x.png"
 [ "$rc" -eq 2 ] && ok || bad "--device metal: exit $rc (want 2)"
 # no Vulkan driver at all: the loader finds no ICD
@@ -89,9 +89,9 @@ if [ -n "$VIEW" ]; then
     rc=$?
     [ "$rc" -eq 0 ] && grep -q '"device":[[:space:]]*"[^"c]' "$TMP/view.json" && ok ||
         bad "photongi-view --device vulkan: exit $rc $(cat "$TMP/err")"
-    "$VIEW" --scene cornell --device vulkan --estimator tiled --frames 1 >"$TMP/out" 2>"$TMP/err"
+    "$VIEW" --scene cornell --device vulkan --estimator bounds3d --frames 1 >"$TMP/out" 2>"$TMP/err"
     rc=$?
-    [ "$rc" -eq 1 ] && grep -q "no GPU version" "$TMP/err" && ok || bad "photongi-view tiled on vulkan: exit $rc"
+    [ "$rc" -eq 1 ] && grep -q "no GPU version" "$TMP/err" && ok || bad "photongi-view bounds3d on vulkan: exit $rc"
 fi
 
 echo "test_gpu_cli: $pass passed, $fail failed"

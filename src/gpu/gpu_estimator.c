@@ -6,7 +6,7 @@
 #include "core/core.h"
 
 static const pgi__gpu_est_vtbl *const k_gpu_estimators[] = {&pgi__gpu_est_hashgrid, &pgi__gpu_est_cluster_trivial,
-                                                            &pgi__gpu_est_directional};
+                                                            &pgi__gpu_est_directional, &pgi__gpu_est_tiled};
 #define NGPU (sizeof k_gpu_estimators / sizeof k_gpu_estimators[0])
 
 const pgi__gpu_est_vtbl *pgi__gpu_est_find(const char *name) {

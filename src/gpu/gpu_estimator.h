@@ -42,5 +42,6 @@ void pgi__gpu_est_names(char *buf, size_t size);
 extern const pgi__gpu_est_vtbl pgi__gpu_est_hashgrid;
 extern const pgi__gpu_est_vtbl pgi__gpu_est_cluster_trivial;
 extern const pgi__gpu_est_vtbl pgi__gpu_est_directional;
+extern const pgi__gpu_est_vtbl pgi__gpu_est_tiled;
 
 #endif
