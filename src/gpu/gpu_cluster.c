@@ -62,18 +62,8 @@ static pgi_status dir_create(pgi__gpu *g, const pgi_estimator_desc *d, void **st
 #define ROOT 4        /* root edge in supertiles */
 #define MAX_TILE 16   /* cl_tiles sorts a tile in shared memory (256 samples) */
 
-/* shaders/gather.glsl ViewSample */
-typedef struct {
-    float px, py, pz, nx, ny, nz, wox, woy, woz, kdx, kdy, kdz, one_m_eo;
-    uint32_t flags, lobe, pad;
-} gpu_vs;
-
-/* shaders/gather.glsl Lobe */
-typedef struct {
-    uint32_t model;
-    float ksx, ksy, ksz, s, eta, a2, inv_1mEavg;
-    float E[GGX_NMU];
-} gpu_lobe;
+typedef pgi__gpu_vs gpu_vs;
+typedef pgi__gpu_lobe gpu_lobe;
 
 /* shaders/cluster.glsl Push */
 typedef struct {
@@ -121,12 +111,7 @@ typedef struct {
     /* host-side upload arrays */
     pgi__packed_photon *packed;
     size_t packed_cap;
-    gpu_vs *hvs;
-    size_t hvs_cap;
-    gpu_lobe *hlobes;
-    size_t hlobes_cap;
-    uint32_t *lobe_of;
-    size_t lobe_of_cap;
+    pgi__gpu_vs_pack pk;             /* the view samples in the shaders' form */
     uint32_t *porder, *pkey, *pcell; /* photons in Morton cell order (pack_photons) */
     size_t porder_cap, pkey_cap, pcell_cap;
 } ct_state;
@@ -143,9 +128,7 @@ static void ct_destroy(void *state) {
     pgi__gpu_buffer_destroy(s->g, s->planes);
     pgi__gpu_buffer_destroy(s->g, s->dirtab);
     pgi__afree(s->packed);
-    pgi__afree(s->hvs);
-    pgi__afree(s->hlobes);
-    pgi__afree(s->lobe_of);
+    pgi__gpu_vs_pack_free(&s->pk);
     pgi__afree(s->porder);
     pgi__afree(s->pkey);
     pgi__afree(s->pcell);
@@ -273,50 +256,6 @@ static pgi_status scan_record(ct_state *s, pgi__gpu_buffer *data, pgi__gpu_buffe
     return PGI_OK;
 }
 
-/* The view samples in the shaders' form; the lobes of the glossy ones (pgi__vs_load: the CPU
- * estimators' set-up, GGX's E row included). The same as gpu_hashgrid.c's (kept apart until the
- * GPU estimators share an upload). */
-static pgi_status pack_samples(ct_state *s, const pgi_view_samples *vs, int threads, size_t *nlobes) {
-    pgi_status st;
-    const size_t n = vs->count;
-    if ((st = pgi__ensure((void **)&s->hvs, &s->hvs_cap, n + 1, sizeof(gpu_vs))) ||
-        (st = pgi__ensure((void **)&s->lobe_of, &s->lobe_of_cap, n + 1, sizeof(uint32_t))))
-        return st;
-    size_t nl = 0;
-    for (size_t i = 0; i < n; i++) {
-        const uint8_t f = vs->flags[i];
-        s->lobe_of[i] = (uint32_t)nl;
-        if ((f & PGI_VS_VALID) && !(f & PGI_VS_LAMBERT)) nl++;
-    }
-    if ((st = pgi__ensure((void **)&s->hlobes, &s->hlobes_cap, nl + 1, sizeof(gpu_lobe)))) return st;
-#pragma omp parallel for schedule(dynamic, 256) num_threads(pgi__threads(threads))
-    for (long long ii = 0; ii < (long long)n; ii++) {
-        size_t i = (size_t)ii;
-        gpu_vs *o = &s->hvs[i];
-        memset(o, 0, sizeof *o);
-        o->flags = vs->flags[i];
-        if (!(vs->flags[i] & PGI_VS_VALID)) continue;
-        pgi__vs v;
-        pgi__vs_load(vs, i, &v);
-        *o = (gpu_vs){v.px,   v.py,   v.pz,   v.nx,   v.ny,       v.nz,         v.wo.x,        v.wo.y,
-                      v.wo.z, v.kd.x, v.kd.y, v.kd.z, v.one_m_eo, vs->flags[i], s->lobe_of[i], 0};
-        if (v.lambert) continue;
-        gpu_lobe *l = &s->hlobes[s->lobe_of[i]];
-        memset(l, 0, sizeof *l);
-        l->model = (uint32_t)v.lobe.model;
-        l->ksx = v.lobe.ks.x;
-        l->ksy = v.lobe.ks.y;
-        l->ksz = v.lobe.ks.z;
-        l->s = v.lobe.s;
-        l->eta = v.lobe.eta;
-        l->a2 = v.lobe.a2;
-        l->inv_1mEavg = v.lobe.inv_1mEavg;
-        if (v.lobe.model == PGI_LOBE_GGX) memcpy(l->E, v.lobe.E, sizeof l->E);
-    }
-    *nlobes = nl;
-    return PGI_OK;
-}
-
 #define PCELL_BITS 5 /* photon order: Morton code of a 32^3 grid over the photons' box */
 
 /* Spreads the low 5 bits of v to every third bit. */
@@ -439,7 +378,7 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     double t0 = pgi__now_ms();
     if ((st = pack_photons(s, ph, a->threads))) return st;
     size_t nlobes = 0;
-    if ((st = pack_samples(s, vs, a->threads, &nlobes))) return st;
+    if ((st = pgi__gpu_pack_samples(&s->pk, vs, a->threads, &nlobes))) return st;
     size_t lv_b[SCAN_LEVELS + 1];
     int levels_b = scan_levels(nent + 1, lv_b);
     if (levels_b < 0)
@@ -476,8 +415,8 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
             return st;
     }
     if ((st = pgi__gpu_upload(g, s->photons, 0, s->packed, n * psz)) ||
-        (st = pgi__gpu_upload(g, s->vs, 0, s->hvs, ns * sizeof(gpu_vs))) ||
-        (st = pgi__gpu_upload(g, s->lobes, 0, s->hlobes, nlobes * sizeof(gpu_lobe))) ||
+        (st = pgi__gpu_upload(g, s->vs, 0, s->pk.hvs, ns * sizeof(gpu_vs))) ||
+        (st = pgi__gpu_upload(g, s->lobes, 0, s->pk.hlobes, nlobes * sizeof(gpu_lobe))) ||
         (st = pgi__gpu_upload(g, s->depth, 0, vs->depth, ns * sizeof(float))))
         return st;
     double t1 = pgi__now_ms();
@@ -628,9 +567,9 @@ submit:;
     es->nodes_visited = (uint64_t)c[4] | (uint64_t)c[5] << 32;
     if (s->dir) es->reads = es->contributing = npairs; /* as the CPU directional: bucket deposits */
     pgi__stats_mem(es, "gpu_host_upload",
-                   s->packed_cap * sizeof(pgi__packed_photon) + s->hvs_cap * sizeof(gpu_vs) +
-                       s->hlobes_cap * sizeof(gpu_lobe) +
-                       (s->lobe_of_cap + s->porder_cap + s->pkey_cap + s->pcell_cap) * sizeof(uint32_t));
+                   s->packed_cap * sizeof(pgi__packed_photon) + s->pk.hvs_cap * sizeof(gpu_vs) +
+                       s->pk.hlobes_cap * sizeof(gpu_lobe) +
+                       (s->pk.lobe_of_cap + s->porder_cap + s->pkey_cap + s->pcell_cap) * sizeof(uint32_t));
     return PGI_OK;
 fail:
     /* close the sequence so that the next frame can begin one */

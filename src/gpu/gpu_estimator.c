@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "core/core.h"
+#include "estimators/estimator_internal.h"
 
 static const pgi__gpu_est_vtbl *const k_gpu_estimators[] = {&pgi__gpu_est_hashgrid, &pgi__gpu_est_cluster_trivial,
                                                             &pgi__gpu_est_directional, &pgi__gpu_est_tiled};
@@ -18,4 +19,56 @@ const pgi__gpu_est_vtbl *pgi__gpu_est_find(const char *name) {
 void pgi__gpu_est_names(char *buf, size_t size) {
     if (size) buf[0] = 0;
     for (size_t i = 0; i < NGPU; i++) pgi__list_append(buf, size, k_gpu_estimators[i]->name);
+}
+
+pgi_status pgi__gpu_pack_samples(pgi__gpu_vs_pack *s, const pgi_view_samples *vs, int threads, size_t *nlobes) {
+    pgi_status st;
+    const size_t n = vs->count;
+    if ((st = pgi__ensure((void **)&s->hvs, &s->hvs_cap, n + 1, sizeof(pgi__gpu_vs))) ||
+        (st = pgi__ensure((void **)&s->lobe_of, &s->lobe_of_cap, n + 1, sizeof(uint32_t))))
+        return st;
+    size_t nl = 0;
+    for (size_t i = 0; i < n; i++) {
+        const uint8_t f = vs->flags[i];
+        s->lobe_of[i] = (uint32_t)nl;
+        if ((f & PGI_VS_VALID) && !(f & PGI_VS_LAMBERT)) nl++;
+    }
+    if ((st = pgi__ensure((void **)&s->hlobes, &s->hlobes_cap, nl + 1, sizeof(pgi__gpu_lobe)))) return st;
+#pragma omp parallel for schedule(dynamic, 256) num_threads(pgi__threads(threads))
+    for (long long ii = 0; ii < (long long)n; ii++) {
+        size_t i = (size_t)ii;
+        pgi__gpu_vs *o = &s->hvs[i];
+        memset(o, 0, sizeof *o);
+        o->flags = vs->flags[i];
+        if (!(vs->flags[i] & PGI_VS_VALID)) continue;
+        pgi__vs v;
+        pgi__vs_load(vs, i, &v);
+        *o = (pgi__gpu_vs){v.px,   v.py,   v.pz,   v.nx,   v.ny,       v.nz,         v.wo.x,        v.wo.y,
+                           v.wo.z, v.kd.x, v.kd.y, v.kd.z, v.one_m_eo, vs->flags[i], s->lobe_of[i], 0};
+        if (v.lambert) continue;
+        pgi__gpu_lobe *l = &s->hlobes[s->lobe_of[i]];
+        memset(l, 0, sizeof *l);
+        l->model = (uint32_t)v.lobe.model;
+        l->ksx = v.lobe.ks.x;
+        l->ksy = v.lobe.ks.y;
+        l->ksz = v.lobe.ks.z;
+        l->s = v.lobe.s;
+        l->eta = v.lobe.eta;
+        l->a2 = v.lobe.a2;
+        l->inv_1mEavg = v.lobe.inv_1mEavg;
+        if (v.lobe.model == PGI_LOBE_GGX) memcpy(l->E, v.lobe.E, sizeof l->E);
+    }
+    *nlobes = nl;
+    return PGI_OK;
+}
+
+void pgi__gpu_vs_pack_free(pgi__gpu_vs_pack *p) {
+    pgi__afree(p->hvs);
+    pgi__afree(p->hlobes);
+    pgi__afree(p->lobe_of);
+    memset(p, 0, sizeof *p);
+}
+
+size_t pgi__gpu_vs_pack_bytes(const pgi__gpu_vs_pack *p) {
+    return p->hvs_cap * sizeof(pgi__gpu_vs) + p->hlobes_cap * sizeof(pgi__gpu_lobe) + p->lobe_of_cap * sizeof(uint32_t);
 }

@@ -6,6 +6,7 @@
 #define PGI_GPU_ESTIMATOR_H
 
 #include "gpu/gpu.h"
+#include "scene/bsdf.h" /* PGI_GGX_NMU */
 
 /* The GPU frame's inputs (device buffers, no host round trip): photons already on the device as
  * pgi__packed_photon (the CPU's photons uploaded until the GPU tracer provides them), the view
@@ -38,6 +39,35 @@ typedef struct pgi__gpu_est_vtbl {
 const pgi__gpu_est_vtbl *pgi__gpu_est_find(const char *name);
 /* "hashgrid, ...": the estimators with a GPU version. */
 void pgi__gpu_est_names(char *buf, size_t size);
+
+/* The view samples in the shaders' form (shaders/gather.glsl ViewSample) and the lobe of each glossy
+ * one (Lobe), packed on the host by the estimators that run on uploaded inputs: the arrays grow and
+ * are kept between frames. */
+typedef struct pgi__gpu_vs {
+    float px, py, pz, nx, ny, nz, wox, woy, woz, kdx, kdy, kdz, one_m_eo;
+    uint32_t flags, lobe, pad;
+} pgi__gpu_vs;
+
+typedef struct pgi__gpu_lobe {
+    uint32_t model;
+    float ksx, ksy, ksz, s, eta, a2, inv_1mEavg;
+    float E[PGI_GGX_NMU];
+} pgi__gpu_lobe;
+
+typedef struct pgi__gpu_vs_pack {
+    pgi__gpu_vs *hvs;
+    size_t hvs_cap;
+    pgi__gpu_lobe *hlobes;
+    size_t hlobes_cap;
+    uint32_t *lobe_of;
+    size_t lobe_of_cap;
+} pgi__gpu_vs_pack;
+
+/* Packs vs (pgi__vs_load: the CPU estimators' set-up, GGX's E row included); *nlobes: glossy samples. */
+pgi_status pgi__gpu_pack_samples(pgi__gpu_vs_pack *p, const pgi_view_samples *vs, int threads, size_t *nlobes);
+void pgi__gpu_vs_pack_free(pgi__gpu_vs_pack *p);
+/* Host bytes the pack holds. */
+size_t pgi__gpu_vs_pack_bytes(const pgi__gpu_vs_pack *p);
 
 extern const pgi__gpu_est_vtbl pgi__gpu_est_hashgrid;
 extern const pgi__gpu_est_vtbl pgi__gpu_est_cluster_trivial;

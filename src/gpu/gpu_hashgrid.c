@@ -51,18 +51,8 @@ static pgi_status hg_device_finish(void *state, const pgi_named_value *t, int nt
 #define GGX_NMU PGI_GGX_NMU
 #define SCAN_LEVELS 4 /* 1024^4 buckets */
 
-/* shaders/gather.glsl ViewSample */
-typedef struct {
-    float px, py, pz, nx, ny, nz, wox, woy, woz, kdx, kdy, kdz, one_m_eo;
-    uint32_t flags, lobe, pad;
-} gpu_vs;
-
-/* shaders/gather.glsl Lobe */
-typedef struct {
-    uint32_t model;
-    float ksx, ksy, ksz, s, eta, a2, inv_1mEavg;
-    float E[GGX_NMU];
-} gpu_lobe;
+typedef pgi__gpu_vs gpu_vs;
+typedef pgi__gpu_lobe gpu_lobe;
 
 /* shaders/hashgrid.glsl Push */
 typedef struct {
@@ -83,12 +73,7 @@ typedef struct {
     /* host-side upload arrays */
     pgi__packed_photon *packed;
     size_t packed_cap;
-    gpu_vs *hvs;
-    size_t hvs_cap;
-    gpu_lobe *hlobes;
-    size_t hlobes_cap;
-    uint32_t *lobe_of;
-    size_t lobe_of_cap;
+    pgi__gpu_vs_pack pk; /* the view samples in the shaders' form */
     /* hg_reserve's: buckets, scan levels; photons reserved for by hg_device_reserve */
     size_t nb, level_n[SCAN_LEVELS + 1], dev_n;
     int levels;
@@ -103,9 +88,7 @@ static void hg_destroy(void *state) {
     for (size_t i = 0; i < sizeof b / sizeof b[0]; i++) pgi__gpu_buffer_destroy(s->g, b[i]);
     for (int i = 0; i < SCAN_LEVELS; i++) pgi__gpu_buffer_destroy(s->g, s->scan[i]);
     pgi__afree(s->packed);
-    pgi__afree(s->hvs);
-    pgi__afree(s->hlobes);
-    pgi__afree(s->lobe_of);
+    pgi__gpu_vs_pack_free(&s->pk);
     free(s);
 }
 
@@ -157,49 +140,6 @@ static pgi_status dispatch_1d(pgi__gpu *g, pgi__gpu_kernel *k, pgi__gpu_buffer *
     uint32_t gx, gy;
     groups_2d(items, local, &gx, &gy);
     return pgi__gpu_dispatch(g, k, b, p, gx, gy, 1);
-}
-
-/* The view samples in the shaders' form; the lobes of the glossy ones (pgi__vs_load: the CPU
- * estimators' set-up, GGX's E row included). */
-static pgi_status pack_samples(hg_state *s, const pgi_view_samples *vs, int threads, size_t *nlobes) {
-    pgi_status st;
-    const size_t n = vs->count;
-    if ((st = pgi__ensure((void **)&s->hvs, &s->hvs_cap, n + 1, sizeof(gpu_vs))) ||
-        (st = pgi__ensure((void **)&s->lobe_of, &s->lobe_of_cap, n + 1, sizeof(uint32_t))))
-        return st;
-    size_t nl = 0;
-    for (size_t i = 0; i < n; i++) {
-        const uint8_t f = vs->flags[i];
-        s->lobe_of[i] = (uint32_t)nl;
-        if ((f & PGI_VS_VALID) && !(f & PGI_VS_LAMBERT)) nl++;
-    }
-    if ((st = pgi__ensure((void **)&s->hlobes, &s->hlobes_cap, nl + 1, sizeof(gpu_lobe)))) return st;
-#pragma omp parallel for schedule(dynamic, 256) num_threads(pgi__threads(threads))
-    for (long long ii = 0; ii < (long long)n; ii++) {
-        size_t i = (size_t)ii;
-        gpu_vs *o = &s->hvs[i];
-        memset(o, 0, sizeof *o);
-        o->flags = vs->flags[i];
-        if (!(vs->flags[i] & PGI_VS_VALID)) continue;
-        pgi__vs v;
-        pgi__vs_load(vs, i, &v);
-        *o = (gpu_vs){v.px,   v.py,   v.pz,   v.nx,   v.ny,       v.nz,         v.wo.x,        v.wo.y,
-                      v.wo.z, v.kd.x, v.kd.y, v.kd.z, v.one_m_eo, vs->flags[i], s->lobe_of[i], 0};
-        if (v.lambert) continue;
-        gpu_lobe *l = &s->hlobes[s->lobe_of[i]];
-        memset(l, 0, sizeof *l);
-        l->model = (uint32_t)v.lobe.model;
-        l->ksx = v.lobe.ks.x;
-        l->ksy = v.lobe.ks.y;
-        l->ksz = v.lobe.ks.z;
-        l->s = v.lobe.s;
-        l->eta = v.lobe.eta;
-        l->a2 = v.lobe.a2;
-        l->inv_1mEavg = v.lobe.inv_1mEavg;
-        if (v.lobe.model == PGI_LOBE_GGX) memcpy(l->E, v.lobe.E, sizeof l->E);
-    }
-    *nlobes = nl;
-    return PGI_OK;
 }
 
 /* The buckets' table and the scan's levels for n photons (level 0 is `start`, buckets + 1, each
@@ -346,11 +286,11 @@ static pgi_status hg_run(void *state, const pgi_estimate_args *a, pgi_estimator_
 #pragma omp parallel for schedule(static) num_threads(pgi__threads(a->threads))
     for (long long j = 0; j < (long long)n; j++) pgi__pack_photon(ph, (size_t)j, &s->packed[j]);
     size_t nlobes = 0;
-    if ((st = pack_samples(s, vs, a->threads, &nlobes))) return st;
+    if ((st = pgi__gpu_pack_samples(&s->pk, vs, a->threads, &nlobes))) return st;
     if ((st = hg_reserve(s, n, ns, nlobes, 1))) return st;
     if ((st = pgi__gpu_upload(g, s->photons, 0, s->packed, n * sizeof(pgi__packed_photon))) ||
-        (st = pgi__gpu_upload(g, s->vs, 0, s->hvs, ns * sizeof(gpu_vs))) ||
-        (st = pgi__gpu_upload(g, s->lobes, 0, s->hlobes, nlobes * sizeof(gpu_lobe))))
+        (st = pgi__gpu_upload(g, s->vs, 0, s->pk.hvs, ns * sizeof(gpu_vs))) ||
+        (st = pgi__gpu_upload(g, s->lobes, 0, s->pk.hlobes, nlobes * sizeof(gpu_lobe))))
         return st;
     double t1 = pgi__now_ms();
 
@@ -384,8 +324,8 @@ static pgi_status hg_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     es->estimate_ms = gpu_gather + (t4 - t3);
     /* host memory of the upload arrays (the device's buffers are listed by the renderer) */
     pgi__stats_mem(es, "gpu_host_upload",
-                   s->packed_cap * sizeof(pgi__packed_photon) + s->hvs_cap * sizeof(gpu_vs) +
-                       s->hlobes_cap * sizeof(gpu_lobe) + s->lobe_of_cap * sizeof(uint32_t));
+                   s->packed_cap * sizeof(pgi__packed_photon) + s->pk.hvs_cap * sizeof(gpu_vs) +
+                       s->pk.hlobes_cap * sizeof(gpu_lobe) + s->pk.lobe_of_cap * sizeof(uint32_t));
     return PGI_OK;
 }
 

@@ -54,18 +54,8 @@ static void tl_destroy(void *state) { (void)state; }
 #define SCAN_LEVELS 4    /* 1024^4 elements */
 #define MAX_CHUNKS 4096u /* count/copy invocations */
 
-/* shaders/gather.glsl ViewSample */
-typedef struct {
-    float px, py, pz, nx, ny, nz, wox, woy, woz, kdx, kdy, kdz, one_m_eo;
-    uint32_t flags, lobe, pad;
-} gpu_vs;
-
-/* shaders/gather.glsl Lobe */
-typedef struct {
-    uint32_t model;
-    float ksx, ksy, ksz, s, eta, a2, inv_1mEavg;
-    float E[GGX_NMU];
-} gpu_lobe;
+typedef pgi__gpu_vs gpu_vs;
+typedef pgi__gpu_lobe gpu_lobe;
 
 /* shaders/tiled.glsl Push */
 typedef struct {
@@ -101,12 +91,7 @@ typedef struct {
     /* host-side upload arrays */
     pgi__packed_photon *packed;
     size_t packed_cap;
-    gpu_vs *hvs;
-    size_t hvs_cap;
-    gpu_lobe *hlobes;
-    size_t hlobes_cap;
-    uint32_t *lobe_of;
-    size_t lobe_of_cap;
+    pgi__gpu_vs_pack pk; /* the view samples in the shaders' form */
     uint32_t *hcell_of;
     size_t hcell_of_cap;
     uint32_t *htable;
@@ -123,9 +108,7 @@ static void tl_destroy(void *state) {
     for (int i = 0; i < SCAN_LEVELS; i++) pgi__gpu_buffer_destroy(s->g, s->scan_b[i]);
     pgi__spec_cells_free(&s->cells);
     pgi__afree(s->packed);
-    pgi__afree(s->hvs);
-    pgi__afree(s->hlobes);
-    pgi__afree(s->lobe_of);
+    pgi__gpu_vs_pack_free(&s->pk);
     pgi__afree(s->hcell_of);
     pgi__afree(s->htable);
     free(s);
@@ -210,50 +193,6 @@ static pgi_status scan_record(tl_state *s, pgi__gpu_buffer *data, const size_t *
         if ((st = dispatch_1d(s->g, s->k[K_SCAN_ADD], (pgi__gpu_buffer *[]){lv[l], lv[l + 1]}, &q, level_n[l], 256)))
             return st;
     }
-    return PGI_OK;
-}
-
-/* The view samples in the shaders' form; the lobes of the glossy ones (pgi__vs_load: the CPU
- * estimators' set-up, GGX's E row included). The same as gpu_hashgrid.c's (kept apart until the
- * GPU estimators share an upload). */
-static pgi_status pack_samples(tl_state *s, const pgi_view_samples *vs, int threads, size_t *nlobes) {
-    pgi_status st;
-    const size_t n = vs->count;
-    if ((st = pgi__ensure((void **)&s->hvs, &s->hvs_cap, n + 1, sizeof(gpu_vs))) ||
-        (st = pgi__ensure((void **)&s->lobe_of, &s->lobe_of_cap, n + 1, sizeof(uint32_t))))
-        return st;
-    size_t nl = 0;
-    for (size_t i = 0; i < n; i++) {
-        const uint8_t f = vs->flags[i];
-        s->lobe_of[i] = (uint32_t)nl;
-        if ((f & PGI_VS_VALID) && !(f & PGI_VS_LAMBERT)) nl++;
-    }
-    if ((st = pgi__ensure((void **)&s->hlobes, &s->hlobes_cap, nl + 1, sizeof(gpu_lobe)))) return st;
-#pragma omp parallel for schedule(dynamic, 256) num_threads(pgi__threads(threads))
-    for (long long ii = 0; ii < (long long)n; ii++) {
-        size_t i = (size_t)ii;
-        gpu_vs *o = &s->hvs[i];
-        memset(o, 0, sizeof *o);
-        o->flags = vs->flags[i];
-        if (!(vs->flags[i] & PGI_VS_VALID)) continue;
-        pgi__vs v;
-        pgi__vs_load(vs, i, &v);
-        *o = (gpu_vs){v.px,   v.py,   v.pz,   v.nx,   v.ny,       v.nz,         v.wo.x,        v.wo.y,
-                      v.wo.z, v.kd.x, v.kd.y, v.kd.z, v.one_m_eo, vs->flags[i], s->lobe_of[i], 0};
-        if (v.lambert) continue;
-        gpu_lobe *l = &s->hlobes[s->lobe_of[i]];
-        memset(l, 0, sizeof *l);
-        l->model = (uint32_t)v.lobe.model;
-        l->ksx = v.lobe.ks.x;
-        l->ksy = v.lobe.ks.y;
-        l->ksz = v.lobe.ks.z;
-        l->s = v.lobe.s;
-        l->eta = v.lobe.eta;
-        l->a2 = v.lobe.a2;
-        l->inv_1mEavg = v.lobe.inv_1mEavg;
-        if (v.lobe.model == PGI_LOBE_GGX) memcpy(l->E, v.lobe.E, sizeof l->E);
-    }
-    *nlobes = nl;
     return PGI_OK;
 }
 
@@ -353,7 +292,7 @@ static pgi_status tl_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     for (long long j = 0; j < (long long)n; j++) pgi__pack_photon(ph, (size_t)j, &s->packed[j]);
     size_t nlobes = 0;
     uint32_t hmask = 0;
-    if ((st = pack_samples(s, vs, a->threads, &nlobes)) || (st = pack_cells(s, ns, &hmask))) return st;
+    if ((st = pgi__gpu_pack_samples(&s->pk, vs, a->threads, &nlobes)) || (st = pack_cells(s, ns, &hmask))) return st;
     const pgi__spec_cells *c = &s->cells;
     tl_grid grid = {.o = {c->o[0], c->o[1], c->o[2]},
                     .inv_h = c->inv_h,
@@ -378,8 +317,8 @@ static pgi_status tl_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     for (int l = 1; l <= levels; l++)
         if ((st = pgi__gpu_buffer_reserve(g, &s->scan_b[l - 1], lv[l] * 4, "gpu_tile_offsets"))) return st;
     if ((st = pgi__gpu_upload(g, s->photons, 0, s->packed, n * psz)) ||
-        (st = pgi__gpu_upload(g, s->vs, 0, s->hvs, ns * sizeof(gpu_vs))) ||
-        (st = pgi__gpu_upload(g, s->lobes, 0, s->hlobes, nlobes * sizeof(gpu_lobe))) ||
+        (st = pgi__gpu_upload(g, s->vs, 0, s->pk.hvs, ns * sizeof(gpu_vs))) ||
+        (st = pgi__gpu_upload(g, s->lobes, 0, s->pk.hlobes, nlobes * sizeof(gpu_lobe))) ||
         (st = pgi__gpu_upload(g, s->grid, 0, &grid, sizeof grid)) ||
         (c->n && (st = pgi__gpu_upload(g, s->cbox, 0, c->box, (size_t)c->n * 24))) ||
         (st = pgi__gpu_upload(g, s->ctable, 0, s->htable, (size_t)(hmask + 1) * 16)) ||
@@ -478,8 +417,8 @@ static pgi_status tl_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     es->contributing = (uint64_t)cnt[2] | (uint64_t)cnt[3] << 32;
     es->nodes_visited = (uint64_t)cnt[6] | (uint64_t)cnt[7] << 32;
     pgi__stats_mem(es, "gpu_host_upload",
-                   s->packed_cap * sizeof(pgi__packed_photon) + s->hvs_cap * sizeof(gpu_vs) +
-                       s->hlobes_cap * sizeof(gpu_lobe) + (s->lobe_of_cap + s->hcell_of_cap + s->htable_cap) * 4);
+                   s->packed_cap * sizeof(pgi__packed_photon) + s->pk.hvs_cap * sizeof(gpu_vs) +
+                       s->pk.hlobes_cap * sizeof(gpu_lobe) + (s->pk.lobe_of_cap + s->hcell_of_cap + s->htable_cap) * 4);
     pgi__stats_mem(es, "specular_cells", pgi__spec_cells_bytes(&s->cells));
     return PGI_OK;
 fail:
