@@ -794,3 +794,13 @@ int pgi__gpu_timings(const pgi__gpu *g, pgi_named_value *out, int max) {
 }
 
 #endif /* PGI_HAVE_VULKAN */
+
+/* Both builds: only pgi__gpu_dispatch differs. */
+pgi_status pgi__gpu_dispatch_1d(pgi__gpu *g, pgi__gpu_kernel *k, pgi__gpu_buffer *const *buffers, const void *push,
+                                size_t items, uint32_t local) {
+    size_t groups = (items + local - 1) / local;
+    if (groups == 0) groups = 1;
+    const uint32_t gx = groups < 65535 ? (uint32_t)groups : 65535u;
+    const uint32_t gy = (uint32_t)((groups + gx - 1) / gx);
+    return pgi__gpu_dispatch(g, k, buffers, push, gx, gy, 1);
+}

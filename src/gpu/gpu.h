@@ -77,6 +77,10 @@ void pgi__gpu_kernel_destroy(pgi__gpu *g, pgi__gpu_kernel *k);
 pgi_status pgi__gpu_begin(pgi__gpu *g);
 pgi_status pgi__gpu_dispatch(pgi__gpu *g, pgi__gpu_kernel *k, pgi__gpu_buffer *const *buffers, const void *push,
                              uint32_t groups_x, uint32_t groups_y, uint32_t groups_z);
+/* A dispatch of `items` invocations in workgroups of `local` (the kernel's local size), as a 2D grid
+ * of rows of at most 65535 workgroups (shaders/common.glsl linear_group finds an invocation's index). */
+pgi_status pgi__gpu_dispatch_1d(pgi__gpu *g, pgi__gpu_kernel *k, pgi__gpu_buffer *const *buffers, const void *push,
+                                size_t items, uint32_t local);
 /* Sets `bytes` bytes of b from `offset` to the 32-bit word `value` (vkCmdFillBuffer). */
 pgi_status pgi__gpu_fill(pgi__gpu *g, pgi__gpu_buffer *b, size_t offset, size_t bytes, uint32_t value);
 /* Records a timestamp named `label` (a static string); after submit_wait, pgi__gpu_timings gives

@@ -201,22 +201,6 @@ static pgi_status dir_create(pgi__gpu *g, const pgi_estimator_desc *d, void **st
     return cl_create(g, d, state, 1);
 }
 
-/* Workgroups for `items` invocations of `local` each, as a 2D grid of rows of at most 65535
- * (shaders/common.glsl linear_group). */
-static void groups_2d(size_t items, uint32_t local, uint32_t *gx, uint32_t *gy) {
-    size_t groups = (items + local - 1) / local;
-    if (groups == 0) groups = 1;
-    *gx = groups < 65535 ? (uint32_t)groups : 65535u;
-    *gy = (uint32_t)((groups + *gx - 1) / *gx);
-}
-
-static pgi_status dispatch_1d(pgi__gpu *g, pgi__gpu_kernel *k, pgi__gpu_buffer *const *b, const void *p, size_t items,
-                              uint32_t local) {
-    uint32_t gx, gy;
-    groups_2d(items, local, &gx, &gy);
-    return pgi__gpu_dispatch(g, k, b, p, gx, gy, 1);
-}
-
 /* Exclusive prefix sum of the n words of lv[0] (hg_scan / hg_scan_add in blocks of 1024, levels
  * above holding the block totals). level_n: the element count of each level (from scan_levels). */
 static int scan_levels(size_t n, size_t level_n[SCAN_LEVELS + 1]) {
@@ -245,12 +229,14 @@ static pgi_status scan_record(ct_state *s, pgi__gpu_buffer *data, pgi__gpu_buffe
     pgi_status st;
     for (int l = 0; l < levels; l++) {
         scan_push q = {.n = (uint32_t)level_n[l]};
-        if ((st = dispatch_1d(s->g, s->k[K_SCAN], (pgi__gpu_buffer *[]){lv[l], lv[l + 1]}, &q, level_n[l], 1024)))
+        if ((st = pgi__gpu_dispatch_1d(s->g, s->k[K_SCAN], (pgi__gpu_buffer *[]){lv[l], lv[l + 1]}, &q, level_n[l],
+                                       1024)))
             return st;
     }
     for (int l = levels - 2; l >= 0; l--) {
         scan_push q = {.n = (uint32_t)level_n[l]};
-        if ((st = dispatch_1d(s->g, s->k[K_SCAN_ADD], (pgi__gpu_buffer *[]){lv[l], lv[l + 1]}, &q, level_n[l], 256)))
+        if ((st = pgi__gpu_dispatch_1d(s->g, s->k[K_SCAN_ADD], (pgi__gpu_buffer *[]){lv[l], lv[l + 1]}, &q, level_n[l],
+                                       256)))
             return st;
     }
     return PGI_OK;
@@ -431,11 +417,11 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     pgi__gpu_timestamp(g, "start");
     if ((st = pgi__gpu_fill(g, s->frame, 0, 4, 0x7f800000u)) || (st = pgi__gpu_fill(g, s->frame, 4, 12, 0xffffffffu)) ||
         (st = pgi__gpu_fill(g, s->frame, 16, 16, 0)) || (st = pgi__gpu_fill(g, s->counters, 0, 8 * 4, 0)) ||
-        (st = dispatch_1d(g, s->k[K_REDUCE], (pgi__gpu_buffer *[]){s->vs, s->depth, s->frame}, &p, ns, 64)))
+        (st = pgi__gpu_dispatch_1d(g, s->k[K_REDUCE], (pgi__gpu_buffer *[]){s->vs, s->depth, s->frame}, &p, ns, 64)))
         goto fail;
-    if ((st = dispatch_1d(g, s->k[K_TILES],
-                          (pgi__gpu_buffer *[]){s->vs, s->depth, s->frame, s->nodes, s->pix_node, s->tile_ncl}, &p,
-                          ntiles, 1)))
+    if ((st = pgi__gpu_dispatch_1d(g, s->k[K_TILES],
+                                   (pgi__gpu_buffer *[]){s->vs, s->depth, s->frame, s->nodes, s->pix_node, s->tile_ncl},
+                                   &p, ntiles, 1)))
         goto fail;
     pgi__gpu_timestamp(g, "gpu_clusters");
     {
@@ -443,14 +429,14 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
         const size_t groups[3] = {2 * nss, 2 * nss * SUPER * SUPER, NS0}; /* supertiles, tiles, roots */
         for (uint32_t m = 0; m < 3; m++) {
             q.mode = m;
-            if ((st = dispatch_1d(g, s->k[K_BOUNDS], (pgi__gpu_buffer *[]){s->vs, s->nodes, s->tile_ncl}, &q, groups[m],
-                                  1)))
+            if ((st = pgi__gpu_dispatch_1d(g, s->k[K_BOUNDS], (pgi__gpu_buffer *[]){s->vs, s->nodes, s->tile_ncl}, &q,
+                                           groups[m], 1)))
                 goto fail;
         }
     }
     pgi__gpu_timestamp(g, "gpu_bounds");
-    if ((st = dispatch_1d(g, s->k[K_SPLAT], (pgi__gpu_buffer *[]){s->photons, s->nodes, s->pairs, s->counters}, &p, n,
-                          64)))
+    if ((st = pgi__gpu_dispatch_1d(g, s->k[K_SPLAT], (pgi__gpu_buffer *[]){s->photons, s->nodes, s->pairs, s->counters},
+                                   &p, n, 64)))
         goto fail;
     pgi__gpu_timestamp(g, "gpu_splat");
     double t2 = pgi__now_ms();
@@ -471,8 +457,8 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
         if ((st = pgi__gpu_begin(g))) return st;
         pgi__gpu_timestamp(g, "start");
         if ((st = pgi__gpu_fill(g, s->counters, 0, 8 * 4, 0)) ||
-            (st = dispatch_1d(g, s->k[K_SPLAT], (pgi__gpu_buffer *[]){s->photons, s->nodes, s->pairs, s->counters}, &p,
-                              n, 64)))
+            (st = pgi__gpu_dispatch_1d(g, s->k[K_SPLAT],
+                                       (pgi__gpu_buffer *[]){s->photons, s->nodes, s->pairs, s->counters}, &p, n, 64)))
             goto fail;
         pgi__gpu_timestamp(g, "gpu_splat_again");
         if ((st = pgi__gpu_submit_wait(g))) return st;
@@ -496,23 +482,24 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
             (st = pgi__gpu_fill(g, s->ecur, 0, nent * 4, 0)))
             goto fail;
         q.mode = 0;
-        if ((st = dispatch_1d(g, s->k[K_GROUP], (pgi__gpu_buffer *[]){s->pairs, s->estart, s->ecur, s->eidx}, &q,
-                              npairs, 64)) ||
+        if ((st = pgi__gpu_dispatch_1d(g, s->k[K_GROUP], (pgi__gpu_buffer *[]){s->pairs, s->estart, s->ecur, s->eidx},
+                                       &q, npairs, 64)) ||
             (st = scan_record(s, s->estart, s->scan_b, lv_b, levels_b)))
             goto fail;
         q.mode = 1;
-        if ((st = dispatch_1d(g, s->k[K_GROUP], (pgi__gpu_buffer *[]){s->pairs, s->estart, s->ecur, s->eidx}, &q,
-                              npairs, 64)))
+        if ((st = pgi__gpu_dispatch_1d(g, s->k[K_GROUP], (pgi__gpu_buffer *[]){s->pairs, s->estart, s->ecur, s->eidx},
+                                       &q, npairs, 64)))
             goto fail;
         pgi__gpu_timestamp(g, "gpu_lists");
-        if ((st = dispatch_1d(g, s->k[K_RANK], (pgi__gpu_buffer *[]){s->pairs, s->estart, s->eidx, s->ranked}, &p,
-                              npairs, 64)))
+        if ((st = pgi__gpu_dispatch_1d(g, s->k[K_RANK], (pgi__gpu_buffer *[]){s->pairs, s->estart, s->eidx, s->ranked},
+                                       &p, npairs, 64)))
             goto fail;
         pgi__gpu_timestamp(g, "gpu_rank");
         if (s->dir) { /* the buckets, the irradiance, the blur and shading */
-            if ((st = dispatch_1d(g, s->k[K_DIR_FLUX],
-                                  (pgi__gpu_buffer *[]){s->photons, s->estart, s->ranked, s->dirtab, s->buckets}, &p,
-                                  nnodes, 64)))
+            if ((st = pgi__gpu_dispatch_1d(g, s->k[K_DIR_FLUX],
+                                           (pgi__gpu_buffer *[]){s->photons, s->estart, s->ranked, s->dirtab,
+                                                                 s->buckets},
+                                           &p, nnodes, 64)))
                 goto fail;
             pgi__gpu_timestamp(g, "gpu_buckets");
             if ((st = pgi__gpu_dispatch(g, s->k[K_DIR_RADIANCE],
@@ -530,8 +517,9 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
             pgi__gpu_timestamp(g, "gpu_blur");
             goto submit;
         }
-        if ((st = dispatch_1d(g, s->k[K_NODE_FLUX], (pgi__gpu_buffer *[]){s->photons, s->estart, s->ranked, s->flux},
-                              &p, nnodes, 64)))
+        if ((st = pgi__gpu_dispatch_1d(g, s->k[K_NODE_FLUX],
+                                       (pgi__gpu_buffer *[]){s->photons, s->estart, s->ranked, s->flux}, &p, nnodes,
+                                       64)))
             goto fail;
         pgi__gpu_timestamp(g, "gpu_node_flux");
         if ((st = pgi__gpu_dispatch(g, s->k[K_RADIANCE],

@@ -126,22 +126,6 @@ static pgi_status hg_create(pgi__gpu *g, const pgi_estimator_desc *d, void **sta
     return PGI_OK;
 }
 
-/* Workgroups for `items` invocations of `local` each, as a 2D grid of rows of at most 65535
- * (shaders/common.glsl linear_group). */
-static void groups_2d(size_t items, uint32_t local, uint32_t *gx, uint32_t *gy) {
-    size_t groups = (items + local - 1) / local;
-    if (groups == 0) groups = 1;
-    *gx = groups < 65535 ? (uint32_t)groups : 65535u;
-    *gy = (uint32_t)((groups + *gx - 1) / *gx);
-}
-
-static pgi_status dispatch_1d(pgi__gpu *g, pgi__gpu_kernel *k, pgi__gpu_buffer *const *b, const hg_push *p,
-                              size_t items, uint32_t local) {
-    uint32_t gx, gy;
-    groups_2d(items, local, &gx, &gy);
-    return pgi__gpu_dispatch(g, k, b, p, gx, gy, 1);
-}
-
 /* The buckets' table and the scan's levels for n photons (level 0 is `start`, buckets + 1, each
  * next one its blocks' totals), then every buffer of a frame of ns samples and nlobes lobes. */
 static pgi_status hg_reserve(hg_state *s, size_t n, size_t ns, size_t nlobes, int lobes_here) {
@@ -204,7 +188,8 @@ static pgi_status hg_record(hg_state *s, pgi__gpu_buffer *photons, size_t n, pgi
                  .scale = pgi__kernel_norm(s->desc.kernel)};
     if ((st = pgi__gpu_fill(g, s->start, 0, (nb + 1) * 4, 0)) || (st = pgi__gpu_fill(g, s->cursor, 0, nb * 4, 0)) ||
         (st = pgi__gpu_fill(g, s->counters, 0, 6 * 4, 0)) ||
-        (st = dispatch_1d(g, s->k[K_COUNT], (pgi__gpu_buffer *[]){photons, s->start, s->bucket_of}, &p, n, 64)))
+        (st =
+             pgi__gpu_dispatch_1d(g, s->k[K_COUNT], (pgi__gpu_buffer *[]){photons, s->start, s->bucket_of}, &p, n, 64)))
         return st;
     pgi__gpu_timestamp(g, "gpu_count");
     pgi__gpu_buffer *lv[SCAN_LEVELS + 1];
@@ -213,25 +198,28 @@ static pgi_status hg_record(hg_state *s, pgi__gpu_buffer *photons, size_t n, pgi
     for (int l = 0; l < s->levels; l++) {
         hg_push q = p;
         q.n = (uint32_t)s->level_n[l];
-        if ((st = dispatch_1d(g, s->k[K_SCAN], (pgi__gpu_buffer *[]){lv[l], lv[l + 1]}, &q, s->level_n[l], 1024)))
+        if ((st = pgi__gpu_dispatch_1d(g, s->k[K_SCAN], (pgi__gpu_buffer *[]){lv[l], lv[l + 1]}, &q, s->level_n[l],
+                                       1024)))
             return st;
     }
     for (int l = s->levels - 2; l >= 0; l--) {
         hg_push q = p;
         q.n = (uint32_t)s->level_n[l];
-        if ((st = dispatch_1d(g, s->k[K_SCAN_ADD], (pgi__gpu_buffer *[]){lv[l], lv[l + 1]}, &q, s->level_n[l], 256)))
+        if ((st = pgi__gpu_dispatch_1d(g, s->k[K_SCAN_ADD], (pgi__gpu_buffer *[]){lv[l], lv[l + 1]}, &q, s->level_n[l],
+                                       256)))
             return st;
     }
     pgi__gpu_timestamp(g, "gpu_scan");
-    if ((st = dispatch_1d(g, s->k[K_SCATTER], (pgi__gpu_buffer *[]){s->bucket_of, s->start, s->cursor, s->idx}, &p, n,
-                          64)))
+    if ((st = pgi__gpu_dispatch_1d(g, s->k[K_SCATTER], (pgi__gpu_buffer *[]){s->bucket_of, s->start, s->cursor, s->idx},
+                                   &p, n, 64)))
         return st;
     pgi__gpu_timestamp(g, "gpu_scatter");
-    if ((st =
-             dispatch_1d(g, s->k[K_RANK], (pgi__gpu_buffer *[]){s->start, s->bucket_of, s->idx, s->ranked}, &p, n, 64)))
+    if ((st = pgi__gpu_dispatch_1d(g, s->k[K_RANK], (pgi__gpu_buffer *[]){s->start, s->bucket_of, s->idx, s->ranked},
+                                   &p, n, 64)))
         return st;
     pgi__gpu_timestamp(g, "gpu_rank");
-    if ((st = dispatch_1d(g, s->k[K_REORDER], (pgi__gpu_buffer *[]){photons, s->ranked, s->sorted}, &p, n, 64)))
+    if ((st =
+             pgi__gpu_dispatch_1d(g, s->k[K_REORDER], (pgi__gpu_buffer *[]){photons, s->ranked, s->sorted}, &p, n, 64)))
         return st;
     pgi__gpu_timestamp(g, "gpu_reorder");
     if ((st = pgi__gpu_dispatch(g, s->k[K_GATHER],

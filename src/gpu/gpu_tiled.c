@@ -151,22 +151,6 @@ static pgi_status tl_create(pgi__gpu *g, const pgi_estimator_desc *d, void **sta
     return PGI_OK;
 }
 
-/* Workgroups for `items` invocations of `local` each, as a 2D grid of rows of at most 65535
- * (shaders/common.glsl linear_group). */
-static void groups_2d(size_t items, uint32_t local, uint32_t *gx, uint32_t *gy) {
-    size_t groups = (items + local - 1) / local;
-    if (groups == 0) groups = 1;
-    *gx = groups < 65535 ? (uint32_t)groups : 65535u;
-    *gy = (uint32_t)((groups + *gx - 1) / *gx);
-}
-
-static pgi_status dispatch_1d(pgi__gpu *g, pgi__gpu_kernel *k, pgi__gpu_buffer *const *b, const void *p, size_t items,
-                              uint32_t local) {
-    uint32_t gx, gy;
-    groups_2d(items, local, &gx, &gy);
-    return pgi__gpu_dispatch(g, k, b, p, gx, gy, 1);
-}
-
 static int scan_levels(size_t n, size_t level_n[SCAN_LEVELS + 1]) {
     int levels = 0;
     level_n[0] = n;
@@ -185,12 +169,14 @@ static pgi_status scan_record(tl_state *s, pgi__gpu_buffer *data, const size_t *
     pgi_status st;
     for (int l = 0; l < levels; l++) {
         scan_push q = {.n = (uint32_t)level_n[l]};
-        if ((st = dispatch_1d(s->g, s->k[K_SCAN], (pgi__gpu_buffer *[]){lv[l], lv[l + 1]}, &q, level_n[l], 1024)))
+        if ((st = pgi__gpu_dispatch_1d(s->g, s->k[K_SCAN], (pgi__gpu_buffer *[]){lv[l], lv[l + 1]}, &q, level_n[l],
+                                       1024)))
             return st;
     }
     for (int l = levels - 2; l >= 0; l--) {
         scan_push q = {.n = (uint32_t)level_n[l]};
-        if ((st = dispatch_1d(s->g, s->k[K_SCAN_ADD], (pgi__gpu_buffer *[]){lv[l], lv[l + 1]}, &q, level_n[l], 256)))
+        if ((st = pgi__gpu_dispatch_1d(s->g, s->k[K_SCAN_ADD], (pgi__gpu_buffer *[]){lv[l], lv[l + 1]}, &q, level_n[l],
+                                       256)))
             return st;
     }
     return PGI_OK;
@@ -355,11 +341,11 @@ static pgi_status tl_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     pgi__gpu_timestamp(g, "start");
     if ((st = pgi__gpu_fill(g, s->counts, 0, (ncounts + 1) * 4, 0)) ||
         (st = pgi__gpu_fill(g, s->counters, 0, 8 * 4, 0)) ||
-        (st = dispatch_1d(g, s->k[K_BOUNDS], (pgi__gpu_buffer *[]){s->vs, s->bounds}, &p, ntiles, 64)) ||
+        (st = pgi__gpu_dispatch_1d(g, s->k[K_BOUNDS], (pgi__gpu_buffer *[]){s->vs, s->bounds}, &p, ntiles, 64)) ||
         (st = pgi__gpu_dispatch(g, s->k[K_FRAME], (pgi__gpu_buffer *[]){s->bounds, s->frame}, &p, 1, 1, 1)))
         goto fail;
     pgi__gpu_timestamp(g, "gpu_bounds");
-    if ((st = dispatch_1d(g, s->k[K_COUNT], lists_in, &p, nchunks, 64))) goto fail;
+    if ((st = pgi__gpu_dispatch_1d(g, s->k[K_COUNT], lists_in, &p, nchunks, 64))) goto fail;
     pgi__gpu_timestamp(g, "gpu_count");
     if ((st = scan_record(s, s->counts, lv, levels))) goto fail;
     pgi__gpu_timestamp(g, "gpu_scan");
@@ -385,7 +371,7 @@ static pgi_status tl_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     if ((st = pgi__gpu_begin(g))) return st;
     pgi__gpu_timestamp(g, "start");
     lists_in[7] = s->ids;
-    if ((st = dispatch_1d(g, s->k[K_COPY], lists_in, &p, nchunks, 64))) goto fail;
+    if ((st = pgi__gpu_dispatch_1d(g, s->k[K_COPY], lists_in, &p, nchunks, 64))) goto fail;
     pgi__gpu_timestamp(g, "gpu_copy");
     if ((st = pgi__gpu_dispatch(g, s->k[K_GATHER],
                                 (pgi__gpu_buffer *[]){s->vs, s->lobes, s->photons, s->counts, s->ids, s->cell_of,

@@ -153,20 +153,6 @@ void pgi__gpu_trace_set_max_batch(pgi__gpu_trace *t, uint32_t paths) {
 
 pgi__gpu_buffer *pgi__gpu_trace_photons(const pgi__gpu_trace *t) { return t->photons; }
 
-static void groups_2d(size_t items, uint32_t local, uint32_t *gx, uint32_t *gy) {
-    size_t groups = (items + local - 1) / local;
-    if (groups == 0) groups = 1;
-    *gx = groups < 65535 ? (uint32_t)groups : 65535u;
-    *gy = (uint32_t)((groups + *gx - 1) / *gx);
-}
-
-static pgi_status dispatch_1d(pgi__gpu *g, pgi__gpu_kernel *k, pgi__gpu_buffer *const *b, const void *p, size_t items,
-                              uint32_t local) {
-    uint32_t gx, gy;
-    groups_2d(items, local, &gx, &gy);
-    return pgi__gpu_dispatch(g, k, b, p, gx, gy, 1);
-}
-
 /* One batch: paths [path, path + n) traced, their photons compacted after `base` (at most
  * `remaining`). Out: the batch's photons (all of them, before the cut), the filling path (relative;
  * UINT32_MAX: none), rays, device ms. */
@@ -206,7 +192,8 @@ static pgi_status run_batch(pgi__gpu_trace *t, const pgi__gpu_trace_desc *d, uin
     if ((st = pgi__gpu_begin(g))) return st;
     pgi__gpu_timestamp(g, "start");
     if ((st = pgi__gpu_fill(g, t->counts, 0, level_n[0] * 4, 0)) || (st = pgi__gpu_fill(g, t->counters, 0, 16, 0)) ||
-        (st = pgi__gpu_fill(g, t->result, 0, 16, 0xFFFFFFFFu)) || (st = dispatch_1d(g, t->k[K_TRACE], b, &tp, n, 64)))
+        (st = pgi__gpu_fill(g, t->result, 0, 16, 0xFFFFFFFFu)) ||
+        (st = pgi__gpu_dispatch_1d(g, t->k[K_TRACE], b, &tp, n, 64)))
         goto fail;
     pgi__gpu_timestamp(g, "gpu_trace");
     pgi__gpu_buffer *lv[SCAN_LEVELS + 1];
@@ -215,17 +202,18 @@ static pgi_status run_batch(pgi__gpu_trace *t, const pgi__gpu_trace_desc *d, uin
     for (int l = 0; l < levels; l++) {
         scan_push q = {0};
         q.n = (uint32_t)level_n[l];
-        if ((st = dispatch_1d(g, t->k[K_SCAN], (pgi__gpu_buffer *[]){lv[l], lv[l + 1]}, &q, level_n[l], 1024)))
+        if ((st = pgi__gpu_dispatch_1d(g, t->k[K_SCAN], (pgi__gpu_buffer *[]){lv[l], lv[l + 1]}, &q, level_n[l], 1024)))
             goto fail;
     }
     for (int l = levels - 2; l >= 0; l--) {
         scan_push q = {0};
         q.n = (uint32_t)level_n[l];
-        if ((st = dispatch_1d(g, t->k[K_SCAN_ADD], (pgi__gpu_buffer *[]){lv[l], lv[l + 1]}, &q, level_n[l], 256)))
+        if ((st = pgi__gpu_dispatch_1d(g, t->k[K_SCAN_ADD], (pgi__gpu_buffer *[]){lv[l], lv[l + 1]}, &q, level_n[l],
+                                       256)))
             goto fail;
     }
-    if ((st = dispatch_1d(g, t->k[K_COMPACT], (pgi__gpu_buffer *[]){t->slots, t->counts, t->photons, t->result}, &cp, n,
-                          64)))
+    if ((st = pgi__gpu_dispatch_1d(g, t->k[K_COMPACT],
+                                   (pgi__gpu_buffer *[]){t->slots, t->counts, t->photons, t->result}, &cp, n, 64)))
         goto fail;
     pgi__gpu_timestamp(g, "gpu_trace_compact");
     double t0 = pgi__now_ms();
@@ -318,7 +306,7 @@ pgi_status pgi__gpu_trace_run(pgi__gpu_trace *t, const pgi_scene *s, const pgi__
         scale_push sp = {count, (float)(1.0 / (double)path), {0}};
         if ((st = pgi__gpu_begin(t->g))) return st;
         pgi__gpu_timestamp(t->g, "start");
-        if ((st = dispatch_1d(t->g, t->k[K_SCALE], (pgi__gpu_buffer *[]){t->photons}, &sp, count, 64))) {
+        if ((st = pgi__gpu_dispatch_1d(t->g, t->k[K_SCALE], (pgi__gpu_buffer *[]){t->photons}, &sp, count, 64))) {
             (void)pgi__gpu_submit_wait(t->g);
             return st;
         }
