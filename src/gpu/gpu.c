@@ -14,10 +14,6 @@
 #ifndef PGI_HAVE_VULKAN
 
 int pgi__gpu_available(void) { return 0; }
-static int env_on(const char *name) {
-    const char *v = getenv(name);
-    return v && strcmp(v, "1") == 0;
-}
 
 pgi_status pgi__gpu_create(int index, pgi__gpu **out) {
     *out = NULL;
