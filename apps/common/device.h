@@ -10,11 +10,12 @@
 #include "photongi/photongi.h"
 
 #define APP_DEVICE_HELP                                                                                                \
-    "  --device cpu|gpu|vulkan[:N]   where the estimator runs: cpu (default); gpu or vulkan = the\n"                   \
+    "  --device cpu|gpu|vulkan[:N]   where the frame runs: cpu (default); gpu or vulkan = the\n"                       \
     "                     Vulkan backend on the first discrete GPU, else integrated, else a CPU\n"                     \
     "                     device (lavapipe); vulkan:N = Vulkan device N ('photongi devices').\n"                       \
-    "                     On the GPU the estimator (hashgrid) is built and gathered there; view\n"                     \
-    "                     samples, photons and direct light stay on the CPU (docs/gpu.md)\n"
+    "                     On the GPU the view samples, photons, estimator (hashgrid,\n"                                \
+    "                     cluster-trivial, directional, tiled) and direct light run there\n"                           \
+    "                     (docs/gpu.md)\n"
 
 /* Parses v into d->device and d->device_index: 1 when valid, else 0 with a message in err. */
 static inline int app_parse_device(const char *v, pgi_render_desc *d, char *err, size_t size) {
