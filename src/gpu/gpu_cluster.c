@@ -541,18 +541,10 @@ submit:;
     double t7 = pgi__now_ms();
 
     /* stats: host passes (wall clock) and the device's (timestamps) */
-    pgi__stats_pass(es, "gpu_upload", t1 - t0);
-    pgi__stats_pass(es, "gpu_submit", (t3 - t2) + (t6 - t5));
-    pgi__stats_pass(es, "gpu_download", (t7 - t6) + (t4 - t3));
-    if (!pgi__gpu_has_timestamps(g)) { /* CPU-timed sequences: the first is the build, the second the gather */
-        gpu_build = t3 - t2;
-        gpu_gather = t6 - t5;
-    }
-    es->build_ms = (t1 - t0) + gpu_build + (t4 - t3);
-    es->estimate_ms = gpu_gather + (t7 - t6);
-    es->reads = (uint64_t)c[0] | (uint64_t)c[1] << 32;
-    es->contributing = (uint64_t)c[2] | (uint64_t)c[3] << 32;
-    es->nodes_visited = (uint64_t)c[4] | (uint64_t)c[5] << 32;
+    pgi__gpu_est_two_sequence_times(g, es, (double[8]){t0, t1, t2, t3, t4, t5, t6, t7}, gpu_build, gpu_gather);
+    es->reads = pgi__gpu_u64(c);
+    es->contributing = pgi__gpu_u64(c + 2);
+    es->nodes_visited = pgi__gpu_u64(c + 4);
     if (s->dir) es->reads = es->contributing = npairs; /* as the CPU directional: bucket deposits */
     pgi__stats_mem(es, "gpu_host_upload",
                    s->packed_cap * sizeof(pgi__packed_photon) + s->pk.hvs_cap * sizeof(gpu_vs) +

@@ -72,3 +72,16 @@ void pgi__gpu_vs_pack_free(pgi__gpu_vs_pack *p) {
 size_t pgi__gpu_vs_pack_bytes(const pgi__gpu_vs_pack *p) {
     return p->hvs_cap * sizeof(pgi__gpu_vs) + p->hlobes_cap * sizeof(pgi__gpu_lobe) + p->lobe_of_cap * sizeof(uint32_t);
 }
+
+void pgi__gpu_est_two_sequence_times(const pgi__gpu *g, pgi_estimator_stats *es, const double t[8], double build,
+                                     double gather) {
+    pgi__stats_pass(es, "gpu_upload", t[1] - t[0]);
+    pgi__stats_pass(es, "gpu_submit", (t[3] - t[2]) + (t[6] - t[5]));
+    pgi__stats_pass(es, "gpu_download", (t[7] - t[6]) + (t[4] - t[3]));
+    if (!pgi__gpu_has_timestamps(g)) { /* CPU-timed sequences: the first is the build, the second the gather */
+        build = t[3] - t[2];
+        gather = t[6] - t[5];
+    }
+    es->build_ms = (t[1] - t[0]) + build + (t[4] - t[3]);
+    es->estimate_ms = gather + (t[7] - t[6]);
+}

@@ -63,6 +63,16 @@ typedef struct pgi__gpu_vs_pack {
     size_t lobe_of_cap;
 } pgi__gpu_vs_pack;
 
+/* The host part of an estimator's stats when it ran on uploaded inputs in two command sequences,
+ * build then gather: t[0..7] the wall clock at upload start/end, build submit/end, build read-back end,
+ * gather submit/end, download end; build and gather the device time of each (timestamps; on a device
+ * without them the sequences' wall clock is taken). Sets the passes gpu_upload, gpu_submit,
+ * gpu_download and build_ms / estimate_ms. */
+void pgi__gpu_est_two_sequence_times(const pgi__gpu *g, pgi_estimator_stats *es, const double t[8], double build,
+                                     double gather);
+/* A 64-bit counter kept by the shaders as two 32-bit words, low first. */
+static inline uint64_t pgi__gpu_u64(const uint32_t *w) { return (uint64_t)w[0] | (uint64_t)w[1] << 32; }
+
 /* Packs vs (pgi__vs_load: the CPU estimators' set-up, GGX's E row included); *nlobes: glossy samples. */
 pgi_status pgi__gpu_pack_samples(pgi__gpu_vs_pack *p, const pgi_view_samples *vs, int threads, size_t *nlobes);
 void pgi__gpu_vs_pack_free(pgi__gpu_vs_pack *p);

@@ -251,9 +251,9 @@ static pgi_status hg_counters(hg_state *s, const pgi_named_value *t, int nt, pgi
         if (strcmp(t[i].name, "gpu_gather") == 0) *gather += t[i].value;
         else *build += t[i].value;
     }
-    es->reads = (uint64_t)c[0] | (uint64_t)c[1] << 32;
-    es->contributing = (uint64_t)c[2] | (uint64_t)c[3] << 32;
-    es->nodes_visited = (uint64_t)c[4] | (uint64_t)c[5] << 32;
+    es->reads = pgi__gpu_u64(c);
+    es->contributing = pgi__gpu_u64(c + 2);
+    es->nodes_visited = pgi__gpu_u64(c + 4);
     return PGI_OK;
 }
 

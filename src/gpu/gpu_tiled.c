@@ -358,7 +358,7 @@ static pgi_status tl_run(void *state, const pgi_estimate_args *a, pgi_estimator_
         (st = pgi__gpu_download(g, s->counters, 6 * 4, tested, sizeof tested)))
         return st;
     /* every list test is a copy: the 64-bit count catches a scan that wrapped */
-    const uint64_t ncopies = (uint64_t)tested[0] | (uint64_t)tested[1] << 32;
+    const uint64_t ncopies = pgi__gpu_u64(tested);
     if (ncopies > UINT32_MAX / 4)
         return pgi__fail(PGI_ERR_UNSUPPORTED,
                          "tiled on the GPU: %llu photon copies (at most 2^30); use a smaller radius or larger tiles",
@@ -390,18 +390,10 @@ static pgi_status tl_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     double t7 = pgi__now_ms();
 
     /* stats: host passes (wall clock) and the device's (timestamps) */
-    pgi__stats_pass(es, "gpu_upload", t1 - t0);
-    pgi__stats_pass(es, "gpu_submit", (t3 - t2) + (t6 - t5));
-    pgi__stats_pass(es, "gpu_download", (t7 - t6) + (t4 - t3));
-    if (!pgi__gpu_has_timestamps(g)) { /* CPU-timed sequences: the first is the build, the second the gather */
-        gpu_build = t3 - t2;
-        gpu_gather = t6 - t5;
-    }
-    es->build_ms = (t1 - t0) + gpu_build + (t4 - t3);
-    es->estimate_ms = gpu_gather + (t7 - t6);
-    es->reads = (uint64_t)cnt[0] | (uint64_t)cnt[1] << 32;
-    es->contributing = (uint64_t)cnt[2] | (uint64_t)cnt[3] << 32;
-    es->nodes_visited = (uint64_t)cnt[6] | (uint64_t)cnt[7] << 32;
+    pgi__gpu_est_two_sequence_times(g, es, (double[8]){t0, t1, t2, t3, t4, t5, t6, t7}, gpu_build, gpu_gather);
+    es->reads = pgi__gpu_u64(cnt);
+    es->contributing = pgi__gpu_u64(cnt + 2);
+    es->nodes_visited = pgi__gpu_u64(cnt + 6);
     pgi__stats_mem(es, "gpu_host_upload",
                    s->packed_cap * sizeof(pgi__packed_photon) + s->pk.hvs_cap * sizeof(gpu_vs) +
                        s->pk.hlobes_cap * sizeof(gpu_lobe) + (s->pk.lobe_of_cap + s->hcell_of_cap + s->htable_cap) * 4);
