@@ -31,6 +31,7 @@
  * are conservative (box tests in the gather's operation order, margins as the CPU's load_photon;
  * cone thresholds from the smallest cosine, with margins: shaders/cluster.glsl cone_thresholds). */
 #include "gpu/gpu_estimator.h"
+#include "gpu/gpu_scan.h"
 
 #include <stdio.h>
 #include <string.h>
@@ -57,10 +58,9 @@ static pgi_status dir_create(pgi__gpu *g, const pgi_estimator_desc *d, void **st
 #include "gpu/spirv.h"
 
 #define GGX_NMU PGI_GGX_NMU
-#define SCAN_LEVELS 4 /* 1024^4 elements */
-#define SUPER 8       /* supertile edge in tiles */
-#define ROOT 4        /* root edge in supertiles */
-#define MAX_TILE 16   /* cl_tiles sorts a tile in shared memory (256 samples) */
+#define SUPER 8     /* supertile edge in tiles */
+#define ROOT 4      /* root edge in supertiles */
+#define MAX_TILE 16 /* cl_tiles sorts a tile in shared memory (256 samples) */
 
 typedef pgi__gpu_vs gpu_vs;
 typedef pgi__gpu_lobe gpu_lobe;
@@ -70,12 +70,6 @@ typedef struct {
     float r, r2, inv_step, slack;
     uint32_t n, width, height, T, G, ntx, nty, nrx, nry, mode, bits, NS0, NT0, NL0, nnodes, npairs, R, D, blur, dir;
 } cl_push;
-
-/* shaders/hashgrid.glsl Push (hg_scan, hg_scan_add): n at byte 12 */
-typedef struct {
-    float f[3];
-    uint32_t n, mask, pad[7];
-} scan_push;
 
 #define NODE_BYTES 64 /* shaders/cluster.glsl Node */
 
@@ -87,8 +81,6 @@ enum {
     K_GROUP,
     K_NODE_FLUX,
     K_RADIANCE,
-    K_SCAN,
-    K_SCAN_ADD,
     K_RANK,
     K_DIR_FLUX,
     K_DIR_RADIANCE,
@@ -106,8 +98,9 @@ typedef struct {
     uint32_t D, blur; /* directional: bucket level (0 roots .. 3 clusters), blur radius */
     pgi__gpu_buffer *buckets, *planes, *dirtab;
     pgi__gpu_buffer *photons, *vs, *lobes, *depth, *out, *frame, *nodes, *pix_node, *tile_ncl, *pairs, *estart, *ecur,
-        *eidx, *ranked, *flux, *counters, *scan_b[SCAN_LEVELS];
-    size_t pair_cap; /* pairs the buffer holds */
+        *eidx, *ranked, *flux, *counters;
+    pgi__gpu_scan scan; /* the photon lists' starts */
+    size_t pair_cap;    /* pairs the buffer holds */
     /* host-side upload arrays */
     pgi__packed_photon *packed;
     size_t packed_cap;
@@ -123,7 +116,7 @@ static void ct_destroy(void *state) {
     pgi__gpu_buffer *b[] = {s->photons,  s->vs,    s->lobes,  s->depth, s->out,  s->frame,  s->nodes, s->pix_node,
                             s->tile_ncl, s->pairs, s->estart, s->ecur,  s->eidx, s->ranked, s->flux,  s->counters};
     for (size_t i = 0; i < sizeof b / sizeof b[0]; i++) pgi__gpu_buffer_destroy(s->g, b[i]);
-    for (int i = 0; i < SCAN_LEVELS; i++) { pgi__gpu_buffer_destroy(s->g, s->scan_b[i]); }
+    pgi__gpu_scan_destroy(&s->scan);
     pgi__gpu_buffer_destroy(s->g, s->buckets);
     pgi__gpu_buffer_destroy(s->g, s->planes);
     pgi__gpu_buffer_destroy(s->g, s->dirtab);
@@ -172,8 +165,6 @@ static pgi_status cl_create(pgi__gpu *g, const pgi_estimator_desc *d, void **sta
         [K_GROUP] = {pgi__spv_cl_group, sizeof pgi__spv_cl_group, "cl_group", 4, sizeof(cl_push)},
         [K_NODE_FLUX] = {pgi__spv_cl_node_flux, sizeof pgi__spv_cl_node_flux, "cl_node_flux", 4, sizeof(cl_push)},
         [K_RADIANCE] = {pgi__spv_cl_radiance, sizeof pgi__spv_cl_radiance, "cl_radiance", 9, sizeof(cl_push)},
-        [K_SCAN] = {pgi__spv_hg_scan, sizeof pgi__spv_hg_scan, "hg_scan", 2, sizeof(scan_push)},
-        [K_SCAN_ADD] = {pgi__spv_hg_scan_add, sizeof pgi__spv_hg_scan_add, "hg_scan_add", 2, sizeof(scan_push)},
         [K_RANK] = {pgi__spv_cl_rank, sizeof pgi__spv_cl_rank, "cl_rank", 4, sizeof(cl_push)},
         [K_DIR_FLUX] = {pgi__spv_cl_dir_flux, sizeof pgi__spv_cl_dir_flux, "cl_dir_flux", 5, sizeof(cl_push)},
         [K_DIR_RADIANCE] = {pgi__spv_cl_dir_radiance, sizeof pgi__spv_cl_dir_radiance, "cl_dir_radiance", 5,
@@ -189,6 +180,11 @@ static pgi_status cl_create(pgi__gpu *g, const pgi_estimator_desc *d, void **sta
             return st;
         }
     }
+    pgi_status st = pgi__gpu_scan_create(g, "gpu_photon_lists", &s->scan);
+    if (st) {
+        ct_destroy(s);
+        return st;
+    }
     *state = s;
     return PGI_OK;
 }
@@ -199,47 +195,6 @@ static pgi_status ct_create(pgi__gpu *g, const pgi_estimator_desc *d, void **sta
 
 static pgi_status dir_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) {
     return cl_create(g, d, state, 1);
-}
-
-/* Exclusive prefix sum of the n words of lv[0] (hg_scan / hg_scan_add in blocks of 1024, levels
- * above holding the block totals). level_n: the element count of each level (from scan_levels). */
-static int scan_levels(size_t n, size_t level_n[SCAN_LEVELS + 1]) {
-    int levels = 0;
-    level_n[0] = n;
-    while (levels < SCAN_LEVELS && (levels == 0 || level_n[levels] > 1)) {
-        level_n[levels + 1] = (level_n[levels] + 1023) / 1024;
-        levels++;
-    }
-    return level_n[levels] > 1 ? -1 : levels;
-}
-
-static pgi_status scan_reserve(pgi__gpu *g, pgi__gpu_buffer **lv, const size_t *level_n, int levels, const char *what) {
-    for (int l = 1; l <= levels; l++) {
-        pgi_status st = pgi__gpu_buffer_reserve(g, &lv[l - 1], level_n[l] * 4, what);
-        if (st) return st;
-    }
-    return PGI_OK;
-}
-
-static pgi_status scan_record(ct_state *s, pgi__gpu_buffer *data, pgi__gpu_buffer **lvb, const size_t *level_n,
-                              int levels) {
-    pgi__gpu_buffer *lv[SCAN_LEVELS + 1];
-    lv[0] = data;
-    for (int l = 1; l <= levels; l++) lv[l] = lvb[l - 1];
-    pgi_status st;
-    for (int l = 0; l < levels; l++) {
-        scan_push q = {.n = (uint32_t)level_n[l]};
-        if ((st = pgi__gpu_dispatch_1d(s->g, s->k[K_SCAN], (pgi__gpu_buffer *[]){lv[l], lv[l + 1]}, &q, level_n[l],
-                                       1024)))
-            return st;
-    }
-    for (int l = levels - 2; l >= 0; l--) {
-        scan_push q = {.n = (uint32_t)level_n[l]};
-        if ((st = pgi__gpu_dispatch_1d(s->g, s->k[K_SCAN_ADD], (pgi__gpu_buffer *[]){lv[l], lv[l + 1]}, &q, level_n[l],
-                                       256)))
-            return st;
-    }
-    return PGI_OK;
 }
 
 #define PCELL_BITS 5 /* photon order: Morton code of a 32^3 grid over the photons' box */
@@ -365,10 +320,6 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     if ((st = pack_photons(s, ph, a->threads))) return st;
     size_t nlobes = 0;
     if ((st = pgi__gpu_pack_samples(&s->pk, vs, a->threads, &nlobes))) return st;
-    size_t lv_b[SCAN_LEVELS + 1];
-    int levels_b = scan_levels(nent + 1, lv_b);
-    if (levels_b < 0)
-        return pgi__fail(PGI_ERR_UNSUPPORTED, "cluster-trivial on the GPU: too many photons or nodes to scan");
     const size_t psz = sizeof(pgi__packed_photon);
     if ((st = pgi__gpu_buffer_reserve(g, &s->photons, (n + 1) * psz, "gpu_photons")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->vs, (ns + 1) * sizeof(gpu_vs), "gpu_view_samples")) ||
@@ -383,7 +334,7 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
         (st = pgi__gpu_buffer_reserve(g, &s->ecur, nent * 4, "gpu_photon_lists")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->flux, nnodes * 16, "gpu_node_flux")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->counters, 8 * sizeof(uint32_t), "gpu_photon_lists")) ||
-        (st = scan_reserve(g, s->scan_b, lv_b, levels_b, "gpu_photon_lists")))
+        (st = pgi__gpu_scan_reserve(&s->scan, nent + 1)))
         return st;
     if (s->dir) { /* view axes and K (shaders/cl_dir_radiance.comp Tab), buckets, irradiance planes */
         int kres = 0;
@@ -484,7 +435,7 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
         q.mode = 0;
         if ((st = pgi__gpu_dispatch_1d(g, s->k[K_GROUP], (pgi__gpu_buffer *[]){s->pairs, s->estart, s->ecur, s->eidx},
                                        &q, npairs, 64)) ||
-            (st = scan_record(s, s->estart, s->scan_b, lv_b, levels_b)))
+            (st = pgi__gpu_scan_record(&s->scan, s->estart)))
             goto fail;
         q.mode = 1;
         if ((st = pgi__gpu_dispatch_1d(g, s->k[K_GROUP], (pgi__gpu_buffer *[]){s->pairs, s->estart, s->ecur, s->eidx},

@@ -6,7 +6,7 @@
  * (64 bytes each, plus a lobe record per glossy sample) are uploaded; then one command sequence:
  *   hg_count    bucket of each photon's cell (a 32-bit hash of the cell, power-of-two table of at
  *               least as many buckets as photons), photons per bucket (atomics)
- *   hg_scan     exclusive prefix sum of the counts: each bucket's start (blocks of 1024, levels)
+ *   scan        exclusive prefix sum of the counts: each bucket's start (gpu_scan.h)
  *   hg_scatter  each photon's index into its bucket's range (atomic cursors)
  *   hg_rank     each photon's rank among its bucket's indices: the bucket in photon order, so the
  *               sums do not depend on the order in which the atomics ran (the same image bit for
@@ -17,6 +17,7 @@
  * and the radiance is downloaded. Same contributing photons as brute; the sums differ from
  * brute's only by their order (and the device's division, sqrt and pow, within 1e-4). */
 #include "gpu/gpu_estimator.h"
+#include "gpu/gpu_scan.h"
 
 #include <stdio.h>
 #include <string.h>
@@ -49,7 +50,6 @@ static pgi_status hg_device_finish(void *state, const pgi_named_value *t, int nt
 #include "gpu/spirv.h"
 
 #define GGX_NMU PGI_GGX_NMU
-#define SCAN_LEVELS 4 /* 1024^4 buckets */
 
 typedef pgi__gpu_vs gpu_vs;
 typedef pgi__gpu_lobe gpu_lobe;
@@ -62,21 +62,20 @@ typedef struct {
     uint32_t pad[3];
 } hg_push;
 
-enum { K_COUNT, K_SCAN, K_SCAN_ADD, K_SCATTER, K_RANK, K_REORDER, K_GATHER, K_N };
+enum { K_COUNT, K_SCATTER, K_RANK, K_REORDER, K_GATHER, K_N };
 
 typedef struct {
     pgi__gpu *g;
     pgi_estimator_desc desc;
     pgi__gpu_kernel *k[K_N];
-    pgi__gpu_buffer *photons, *sorted, *start, *cursor, *bucket_of, *idx, *ranked, *scan[SCAN_LEVELS], *vs, *lobes,
-        *out, *counters;
+    pgi__gpu_buffer *photons, *sorted, *start, *cursor, *bucket_of, *idx, *ranked, *vs, *lobes, *out, *counters;
     /* host-side upload arrays */
     pgi__packed_photon *packed;
     size_t packed_cap;
     pgi__gpu_vs_pack pk; /* the view samples in the shaders' form */
-    /* hg_reserve's: buckets, scan levels; photons reserved for by hg_device_reserve */
-    size_t nb, level_n[SCAN_LEVELS + 1], dev_n;
-    int levels;
+    pgi__gpu_scan scan;  /* the buckets' starts */
+    /* hg_reserve's: buckets; photons reserved for by hg_device_reserve */
+    size_t nb, dev_n;
 } hg_state;
 
 static void hg_destroy(void *state) {
@@ -86,7 +85,7 @@ static void hg_destroy(void *state) {
     pgi__gpu_buffer *b[] = {s->photons, s->sorted, s->start, s->cursor, s->bucket_of, s->idx,
                             s->ranked,  s->vs,     s->lobes, s->out,    s->counters};
     for (size_t i = 0; i < sizeof b / sizeof b[0]; i++) pgi__gpu_buffer_destroy(s->g, b[i]);
-    for (int i = 0; i < SCAN_LEVELS; i++) pgi__gpu_buffer_destroy(s->g, s->scan[i]);
+    pgi__gpu_scan_destroy(&s->scan);
     pgi__afree(s->packed);
     pgi__gpu_vs_pack_free(&s->pk);
     free(s);
@@ -107,8 +106,6 @@ static pgi_status hg_create(pgi__gpu *g, const pgi_estimator_desc *d, void **sta
         int nbuf;
     } k[K_N] = {
         [K_COUNT] = {pgi__spv_hg_count, sizeof pgi__spv_hg_count, "hg_count", 3},
-        [K_SCAN] = {pgi__spv_hg_scan, sizeof pgi__spv_hg_scan, "hg_scan", 2},
-        [K_SCAN_ADD] = {pgi__spv_hg_scan_add, sizeof pgi__spv_hg_scan_add, "hg_scan_add", 2},
         [K_SCATTER] = {pgi__spv_hg_scatter, sizeof pgi__spv_hg_scatter, "hg_scatter", 4},
         [K_RANK] = {pgi__spv_hg_rank, sizeof pgi__spv_hg_rank, "hg_rank", 4},
         [K_REORDER] = {pgi__spv_hg_reorder, sizeof pgi__spv_hg_reorder, "hg_reorder", 3},
@@ -122,12 +119,17 @@ static pgi_status hg_create(pgi__gpu *g, const pgi_estimator_desc *d, void **sta
             return st;
         }
     }
+    pgi_status st = pgi__gpu_scan_create(g, "gpu_hash", &s->scan);
+    if (st) {
+        hg_destroy(s);
+        return st;
+    }
     *state = s;
     return PGI_OK;
 }
 
-/* The buckets' table and the scan's levels for n photons (level 0 is `start`, buckets + 1, each
- * next one its blocks' totals), then every buffer of a frame of ns samples and nlobes lobes. */
+/* The buckets' table and its scan (of `start`, buckets + 1 words) for n photons, then every
+ * buffer of a frame of ns samples and nlobes lobes. */
 static pgi_status hg_reserve(hg_state *s, size_t n, size_t ns, size_t nlobes, int lobes_here) {
     pgi__gpu *g = s->g;
     pgi_status st;
@@ -135,16 +137,8 @@ static pgi_status hg_reserve(hg_state *s, size_t n, size_t ns, size_t nlobes, in
         return pgi__fail(PGI_ERR_UNSUPPORTED, "hashgrid on the GPU: at most 2^31 photons and 2^30 view samples");
     size_t nb = 1024;
     while (nb < n) nb <<= 1;
-    int levels = 0;
-    s->level_n[0] = nb + 1;
-    while (levels < SCAN_LEVELS && (levels == 0 || s->level_n[levels] > 1)) {
-        s->level_n[levels + 1] = (s->level_n[levels] + 1023) / 1024;
-        levels++;
-    }
-    if (s->level_n[levels] > 1)
-        return pgi__fail(PGI_ERR_UNSUPPORTED, "hashgrid on the GPU: too many buckets (%zu)", nb);
+    if ((st = pgi__gpu_scan_reserve(&s->scan, nb + 1))) return st;
     s->nb = nb;
-    s->levels = levels;
     const size_t psz = sizeof(pgi__packed_photon);
     if ((st = pgi__gpu_buffer_reserve(g, &s->sorted, (n + 1) * psz, "gpu_sorted_photons")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->start, (nb + 1) * 4, "gpu_hash")) ||
@@ -160,8 +154,6 @@ static pgi_status hg_reserve(hg_state *s, size_t n, size_t ns, size_t nlobes, in
          (st = pgi__gpu_buffer_reserve(g, &s->vs, (ns + 1) * sizeof(gpu_vs), "gpu_view_samples")) ||
          (st = pgi__gpu_buffer_reserve(g, &s->lobes, (nlobes + 1) * sizeof(gpu_lobe), "gpu_view_samples"))))
         return st;
-    for (int l = 1; l <= levels; l++)
-        if ((st = pgi__gpu_buffer_reserve(g, &s->scan[l - 1], s->level_n[l] * 4, "gpu_hash"))) return st;
     return PGI_OK;
 }
 
@@ -192,23 +184,7 @@ static pgi_status hg_record(hg_state *s, pgi__gpu_buffer *photons, size_t n, pgi
              pgi__gpu_dispatch_1d(g, s->k[K_COUNT], (pgi__gpu_buffer *[]){photons, s->start, s->bucket_of}, &p, n, 64)))
         return st;
     pgi__gpu_timestamp(g, "gpu_count");
-    pgi__gpu_buffer *lv[SCAN_LEVELS + 1];
-    lv[0] = s->start;
-    for (int l = 1; l <= s->levels; l++) lv[l] = s->scan[l - 1];
-    for (int l = 0; l < s->levels; l++) {
-        hg_push q = p;
-        q.n = (uint32_t)s->level_n[l];
-        if ((st = pgi__gpu_dispatch_1d(g, s->k[K_SCAN], (pgi__gpu_buffer *[]){lv[l], lv[l + 1]}, &q, s->level_n[l],
-                                       1024)))
-            return st;
-    }
-    for (int l = s->levels - 2; l >= 0; l--) {
-        hg_push q = p;
-        q.n = (uint32_t)s->level_n[l];
-        if ((st = pgi__gpu_dispatch_1d(g, s->k[K_SCAN_ADD], (pgi__gpu_buffer *[]){lv[l], lv[l + 1]}, &q, s->level_n[l],
-                                       256)))
-            return st;
-    }
+    if ((st = pgi__gpu_scan_record(&s->scan, s->start))) return st;
     pgi__gpu_timestamp(g, "gpu_scan");
     if ((st = pgi__gpu_dispatch_1d(g, s->k[K_SCATTER], (pgi__gpu_buffer *[]){s->bucket_of, s->start, s->cursor, s->idx},
                                    &p, n, 64)))

@@ -25,6 +25,7 @@
  * order that makes the lists deterministic without a rank pass); --subsample and per-photon
  * footprints are refused, as are more than 2^30 photon copies or (list, chunk) counts. */
 #include "gpu/gpu_estimator.h"
+#include "gpu/gpu_scan.h"
 
 #include <stdio.h>
 #include <string.h>
@@ -51,7 +52,6 @@ static void tl_destroy(void *state) { (void)state; }
 #include "gpu/spirv.h"
 
 #define GGX_NMU PGI_GGX_NMU
-#define SCAN_LEVELS 4    /* 1024^4 elements */
 #define MAX_CHUNKS 4096u /* count/copy invocations */
 
 typedef pgi__gpu_vs gpu_vs;
@@ -73,20 +73,15 @@ typedef struct {
     uint32_t n;
 } tl_grid;
 
-/* shaders/hashgrid.glsl Push (hg_scan, hg_scan_add): n at byte 12 */
-typedef struct {
-    float f[3];
-    uint32_t n, mask, pad[7];
-} scan_push;
-
-enum { K_BOUNDS, K_FRAME, K_COUNT, K_COPY, K_GATHER, K_SCAN, K_SCAN_ADD, K_N };
+enum { K_BOUNDS, K_FRAME, K_COUNT, K_COPY, K_GATHER, K_N };
 
 typedef struct {
     pgi__gpu *g;
     pgi_estimator_desc desc;
     pgi__gpu_kernel *k[K_N];
     pgi__gpu_buffer *photons, *vs, *lobes, *out, *bounds, *frame, *grid, *cbox, *ctable, *cell_of, *counts, *ids,
-        *counters, *scan_b[SCAN_LEVELS];
+        *counters;
+    pgi__gpu_scan scan; /* each chunk's offset in each list */
     pgi__spec_cells cells;
     /* host-side upload arrays */
     pgi__packed_photon *packed;
@@ -105,7 +100,7 @@ static void tl_destroy(void *state) {
     pgi__gpu_buffer *b[] = {s->photons, s->vs,     s->lobes,   s->out,    s->bounds, s->frame,   s->grid,
                             s->cbox,    s->ctable, s->cell_of, s->counts, s->ids,    s->counters};
     for (size_t i = 0; i < sizeof b / sizeof b[0]; i++) pgi__gpu_buffer_destroy(s->g, b[i]);
-    for (int i = 0; i < SCAN_LEVELS; i++) pgi__gpu_buffer_destroy(s->g, s->scan_b[i]);
+    pgi__gpu_scan_destroy(&s->scan);
     pgi__spec_cells_free(&s->cells);
     pgi__afree(s->packed);
     pgi__gpu_vs_pack_free(&s->pk);
@@ -137,8 +132,6 @@ static pgi_status tl_create(pgi__gpu *g, const pgi_estimator_desc *d, void **sta
         [K_COUNT] = {pgi__spv_tl_count, sizeof pgi__spv_tl_count, "tl_count", 8, sizeof(tl_push)},
         [K_COPY] = {pgi__spv_tl_copy, sizeof pgi__spv_tl_copy, "tl_copy", 8, sizeof(tl_push)},
         [K_GATHER] = {pgi__spv_tl_gather, sizeof pgi__spv_tl_gather, "tl_gather", 8, sizeof(tl_push)},
-        [K_SCAN] = {pgi__spv_hg_scan, sizeof pgi__spv_hg_scan, "hg_scan", 2, sizeof(scan_push)},
-        [K_SCAN_ADD] = {pgi__spv_hg_scan_add, sizeof pgi__spv_hg_scan_add, "hg_scan_add", 2, sizeof(scan_push)},
     };
     for (int i = 0; i < K_N; i++) {
         pgi_status st = pgi__gpu_kernel_create(g, k[i].spv, k[i].bytes, k[i].name, k[i].nbuf, k[i].push, &s->k[i]);
@@ -147,38 +140,12 @@ static pgi_status tl_create(pgi__gpu *g, const pgi_estimator_desc *d, void **sta
             return st;
         }
     }
+    pgi_status st = pgi__gpu_scan_create(g, "gpu_tile_offsets", &s->scan);
+    if (st) {
+        tl_destroy(s);
+        return st;
+    }
     *state = s;
-    return PGI_OK;
-}
-
-static int scan_levels(size_t n, size_t level_n[SCAN_LEVELS + 1]) {
-    int levels = 0;
-    level_n[0] = n;
-    while (levels < SCAN_LEVELS && (levels == 0 || level_n[levels] > 1)) {
-        level_n[levels + 1] = (level_n[levels] + 1023) / 1024;
-        levels++;
-    }
-    return level_n[levels] > 1 ? -1 : levels;
-}
-
-/* Exclusive prefix sum of the level_n[0] words of data (hg_scan / hg_scan_add in blocks of 1024). */
-static pgi_status scan_record(tl_state *s, pgi__gpu_buffer *data, const size_t *level_n, int levels) {
-    pgi__gpu_buffer *lv[SCAN_LEVELS + 1];
-    lv[0] = data;
-    for (int l = 1; l <= levels; l++) lv[l] = s->scan_b[l - 1];
-    pgi_status st;
-    for (int l = 0; l < levels; l++) {
-        scan_push q = {.n = (uint32_t)level_n[l]};
-        if ((st = pgi__gpu_dispatch_1d(s->g, s->k[K_SCAN], (pgi__gpu_buffer *[]){lv[l], lv[l + 1]}, &q, level_n[l],
-                                       1024)))
-            return st;
-    }
-    for (int l = levels - 2; l >= 0; l--) {
-        scan_push q = {.n = (uint32_t)level_n[l]};
-        if ((st = pgi__gpu_dispatch_1d(s->g, s->k[K_SCAN_ADD], (pgi__gpu_buffer *[]){lv[l], lv[l + 1]}, &q, level_n[l],
-                                       256)))
-            return st;
-    }
     return PGI_OK;
 }
 
@@ -270,9 +237,6 @@ static pgi_status tl_run(void *state, const pgi_estimate_args *a, pgi_estimator_
         return pgi__fail(PGI_ERR_UNSUPPORTED,
                          "tiled on the GPU: %u lists x %zu photon chunks is too many; use larger tiles", nlists,
                          nchunks);
-    size_t lv[SCAN_LEVELS + 1];
-    int levels = scan_levels(ncounts + 1, lv);
-    if (levels < 0) return pgi__fail(PGI_ERR_UNSUPPORTED, "tiled on the GPU: too many lists to scan");
     if ((st = pgi__ensure((void **)&s->packed, &s->packed_cap, n + 1, sizeof(pgi__packed_photon)))) return st;
 #pragma omp parallel for schedule(static) num_threads(pgi__threads(a->threads))
     for (long long j = 0; j < (long long)n; j++) pgi__pack_photon(ph, (size_t)j, &s->packed[j]);
@@ -298,10 +262,9 @@ static pgi_status tl_run(void *state, const pgi_estimate_args *a, pgi_estimator_
         (st = pgi__gpu_buffer_reserve(g, &s->ctable, (size_t)(hmask + 1) * 16, "gpu_mirror_cells")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->cell_of, (ns + 1) * 4, "gpu_mirror_cells")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->counts, (ncounts + 1) * 4, "gpu_tile_offsets")) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->counters, 8 * 4, "gpu_tile_offsets")))
+        (st = pgi__gpu_buffer_reserve(g, &s->counters, 8 * 4, "gpu_tile_offsets")) ||
+        (st = pgi__gpu_scan_reserve(&s->scan, ncounts + 1)))
         return st;
-    for (int l = 1; l <= levels; l++)
-        if ((st = pgi__gpu_buffer_reserve(g, &s->scan_b[l - 1], lv[l] * 4, "gpu_tile_offsets"))) return st;
     if ((st = pgi__gpu_upload(g, s->photons, 0, s->packed, n * psz)) ||
         (st = pgi__gpu_upload(g, s->vs, 0, s->pk.hvs, ns * sizeof(gpu_vs))) ||
         (st = pgi__gpu_upload(g, s->lobes, 0, s->pk.hlobes, nlobes * sizeof(gpu_lobe))) ||
@@ -347,7 +310,7 @@ static pgi_status tl_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     pgi__gpu_timestamp(g, "gpu_bounds");
     if ((st = pgi__gpu_dispatch_1d(g, s->k[K_COUNT], lists_in, &p, nchunks, 64))) goto fail;
     pgi__gpu_timestamp(g, "gpu_count");
-    if ((st = scan_record(s, s->counts, lv, levels))) goto fail;
+    if ((st = pgi__gpu_scan_record(&s->scan, s->counts))) goto fail;
     pgi__gpu_timestamp(g, "gpu_scan");
     double t2 = pgi__now_ms();
     if ((st = pgi__gpu_submit_wait(g))) return st;

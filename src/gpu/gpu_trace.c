@@ -2,7 +2,7 @@
  *
  * A run is a loop of batches, each one command sequence:
  *   trace         paths [path, path + batch): photons to per-path slots, counts, rays (atomic sum)
- *   hg_scan(_add) exclusive prefix sum of the counts (the hashgrid's scan kernels, blocks of 1024)
+ *   scan          exclusive prefix sum of the counts (gpu_scan.h)
  *   compact       the slots in path order into the photon buffer after the photons already stored,
  *                 cut at the photons wanted; the filling path's index
  * then the batch's total, filling path and rays are read back; the next batch is sized by the
@@ -20,10 +20,10 @@
 #include "scene/scene_internal.h"
 
 #ifdef PGI_HAVE_VULKAN
+#include "gpu/gpu_scan.h"
 #include "gpu/spirv.h"
 #endif
 
-#define SCAN_LEVELS 4               /* 1024^4 counts */
 #define MAX_BATCH (1u << 20)        /* paths a launch */
 #define MAX_SLOTS ((size_t)1 << 21) /* photon slots a launch (x 36 bytes: 72 MiB) */
 
@@ -75,12 +75,6 @@ typedef struct {
     pgi__gpu_scene_push scene;
     uint32_t path0_lo, path0_hi, npaths, bounces, seed_lo, seed_hi, nemit, pad;
 } trace_push;
-typedef struct { /* shaders/hashgrid.glsl Push: the scan kernels read n */
-    float inv_cell, r, r2;
-    uint32_t n, mask, width, height, kernel;
-    float scale;
-    uint32_t pad[3];
-} scan_push;
 typedef struct {
     uint32_t npaths, bounces, base, remaining;
 } compact_push;
@@ -92,13 +86,14 @@ typedef struct {
 
 _Static_assert(sizeof(trace_push) == 96 && sizeof(pgi__packed_photon) == 36, "trace.glsl's push and photons");
 
-enum { K_TRACE, K_SCAN, K_SCAN_ADD, K_COMPACT, K_SCALE, K_N };
+enum { K_TRACE, K_COMPACT, K_SCALE, K_N };
 
 struct pgi__gpu_trace {
     pgi__gpu *g;
     pgi__gpu_scene *scene; /* borrowed */
     pgi__gpu_kernel *k[K_N];
-    pgi__gpu_buffer *slots, *counts, *scan[SCAN_LEVELS], *counters, *result, *photons;
+    pgi__gpu_buffer *slots, *counts, *counters, *result, *photons;
+    pgi__gpu_scan scan; /* each path's first slot in the compacted photons */
     uint32_t count;
     uint64_t emitted;
     uint32_t max_batch;
@@ -110,7 +105,7 @@ void pgi__gpu_trace_destroy(pgi__gpu_trace *t) {
     for (int i = 0; i < K_N; i++) pgi__gpu_kernel_destroy(t->g, t->k[i]);
     pgi__gpu_buffer *b[] = {t->slots, t->counts, t->counters, t->result, t->photons};
     for (size_t i = 0; i < sizeof b / sizeof b[0]; i++) pgi__gpu_buffer_destroy(t->g, b[i]);
-    for (int i = 0; i < SCAN_LEVELS; i++) pgi__gpu_buffer_destroy(t->g, t->scan[i]);
+    pgi__gpu_scan_destroy(&t->scan);
     free(t);
 }
 
@@ -129,14 +124,13 @@ pgi_status pgi__gpu_trace_create(pgi__gpu *g, pgi__gpu_scene *gs, pgi__gpu_trace
         uint32_t push;
     } k[K_N] = {
         [K_TRACE] = {pgi__spv_trace, sizeof pgi__spv_trace, "trace", 15, sizeof(trace_push)},
-        [K_SCAN] = {pgi__spv_hg_scan, sizeof pgi__spv_hg_scan, "trace_scan", 2, sizeof(scan_push)},
-        [K_SCAN_ADD] = {pgi__spv_hg_scan_add, sizeof pgi__spv_hg_scan_add, "trace_scan_add", 2, sizeof(scan_push)},
         [K_COMPACT] = {pgi__spv_trace_compact, sizeof pgi__spv_trace_compact, "trace_compact", 4, sizeof(compact_push)},
         [K_SCALE] = {pgi__spv_trace_scale, sizeof pgi__spv_trace_scale, "trace_scale", 1, sizeof(scale_push)},
     };
     pgi_status st = PGI_OK;
     for (int i = 0; i < K_N && !st; i++)
         st = pgi__gpu_kernel_create(g, k[i].spv, k[i].bytes, k[i].name, k[i].nbuf, k[i].push, &t->k[i]);
+    if (!st) st = pgi__gpu_scan_create(g, "gpu_trace_scratch", &t->scan);
     if (!st) st = pgi__gpu_buffer_reserve(g, &t->counters, 16, "gpu_trace_scratch");
     if (!st) st = pgi__gpu_buffer_reserve(g, &t->result, 16, "gpu_trace_scratch");
     if (st) {
@@ -160,19 +154,12 @@ static pgi_status run_batch(pgi__gpu_trace *t, const pgi__gpu_trace_desc *d, uin
                             uint32_t remaining, uint32_t *total, uint32_t *fill, uint32_t *rays, double *ms) {
     pgi__gpu *g = t->g;
     pgi_status st;
-    size_t level_n[SCAN_LEVELS + 1];
-    int levels = 0;
-    level_n[0] = (size_t)n + 1;
-    while (levels < SCAN_LEVELS && (levels == 0 || level_n[levels] > 1)) {
-        level_n[levels + 1] = (level_n[levels] + 1023) / 1024;
-        levels++;
-    }
+    const size_t ncounts = (size_t)n + 1;
     if ((st = pgi__gpu_buffer_reserve(g, &t->slots, (size_t)n * (size_t)d->bounces * sizeof(pgi__packed_photon),
                                       "gpu_trace_scratch")) ||
-        (st = pgi__gpu_buffer_reserve(g, &t->counts, level_n[0] * 4, "gpu_trace_scratch")))
+        (st = pgi__gpu_buffer_reserve(g, &t->counts, ncounts * 4, "gpu_trace_scratch")) ||
+        (st = pgi__gpu_scan_reserve(&t->scan, ncounts)))
         return st;
-    for (int l = 1; l <= levels; l++)
-        if ((st = pgi__gpu_buffer_reserve(g, &t->scan[l - 1], level_n[l] * 4, "gpu_trace_scratch"))) return st;
     pgi__gpu_buffer *b[PGI__GPU_SCENE_NBUF + 4];
     pgi__gpu_scene_buffers(t->scene, b);
     uint32_t nemit = 0;
@@ -191,27 +178,12 @@ static pgi_status run_batch(pgi__gpu_trace *t, const pgi__gpu_trace_desc *d, uin
     compact_push cp = {n, (uint32_t)d->bounces, base, remaining};
     if ((st = pgi__gpu_begin(g))) return st;
     pgi__gpu_timestamp(g, "start");
-    if ((st = pgi__gpu_fill(g, t->counts, 0, level_n[0] * 4, 0)) || (st = pgi__gpu_fill(g, t->counters, 0, 16, 0)) ||
+    if ((st = pgi__gpu_fill(g, t->counts, 0, ncounts * 4, 0)) || (st = pgi__gpu_fill(g, t->counters, 0, 16, 0)) ||
         (st = pgi__gpu_fill(g, t->result, 0, 16, 0xFFFFFFFFu)) ||
         (st = pgi__gpu_dispatch_1d(g, t->k[K_TRACE], b, &tp, n, 64)))
         goto fail;
     pgi__gpu_timestamp(g, "gpu_trace");
-    pgi__gpu_buffer *lv[SCAN_LEVELS + 1];
-    lv[0] = t->counts;
-    for (int l = 1; l <= levels; l++) lv[l] = t->scan[l - 1];
-    for (int l = 0; l < levels; l++) {
-        scan_push q = {0};
-        q.n = (uint32_t)level_n[l];
-        if ((st = pgi__gpu_dispatch_1d(g, t->k[K_SCAN], (pgi__gpu_buffer *[]){lv[l], lv[l + 1]}, &q, level_n[l], 1024)))
-            goto fail;
-    }
-    for (int l = levels - 2; l >= 0; l--) {
-        scan_push q = {0};
-        q.n = (uint32_t)level_n[l];
-        if ((st = pgi__gpu_dispatch_1d(g, t->k[K_SCAN_ADD], (pgi__gpu_buffer *[]){lv[l], lv[l + 1]}, &q, level_n[l],
-                                       256)))
-            goto fail;
-    }
+    if ((st = pgi__gpu_scan_record(&t->scan, t->counts))) goto fail;
     if ((st = pgi__gpu_dispatch_1d(g, t->k[K_COMPACT],
                                    (pgi__gpu_buffer *[]){t->slots, t->counts, t->photons, t->result}, &cp, n, 64)))
         goto fail;
