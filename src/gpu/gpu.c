@@ -800,3 +800,14 @@ pgi_status pgi__gpu_dispatch_1d(pgi__gpu *g, pgi__gpu_kernel *k, pgi__gpu_buffer
     const uint32_t gy = (uint32_t)((groups + gx - 1) / gx);
     return pgi__gpu_dispatch(g, k, buffers, push, gx, gy, 1);
 }
+
+pgi_status pgi__gpu_kernels_create(pgi__gpu *g, const pgi__gpu_kernel_spec *specs, int n, uint32_t skip,
+                                   pgi__gpu_kernel **out) {
+    for (int i = 0; i < n; i++) {
+        if (skip >> i & 1u) continue;
+        pgi_status st = pgi__gpu_kernel_create(g, specs[i].spirv, specs[i].spirv_bytes, specs[i].name,
+                                               specs[i].nbuffers, specs[i].push_bytes, &out[i]);
+        if (st) return st;
+    }
+    return PGI_OK;
+}

@@ -70,6 +70,22 @@ int pgi__gpu_memory(const pgi__gpu *g, pgi_named_value *out, int max);
 pgi_status pgi__gpu_kernel_create(pgi__gpu *g, const uint32_t *spirv, size_t spirv_bytes, const char *name,
                                   int nbuffers, uint32_t push_bytes, pgi__gpu_kernel **out);
 void pgi__gpu_kernel_destroy(pgi__gpu *g, pgi__gpu_kernel *k);
+/* A table of kernels made in one go: `static const pgi__gpu_kernel_spec k[K_N] = {[K_X] =
+ * PGI__GPU_KERNEL(shader_x, 3, sizeof(x_push)), ...}` (the kernel named after its shader, whose
+ * SPIR-V is pgi__spv_<shader> in gpu/spirv.h), then pgi__gpu_kernels_create(g, k, K_N, skip, s->k).
+ * Entry i is made unless bit i of `skip` is set (out[i] stays NULL); on a failure the kernels made
+ * so far stay in out[] for the caller's destroy. */
+typedef struct pgi__gpu_kernel_spec {
+    const uint32_t *spirv;
+    size_t spirv_bytes;
+    const char *name;
+    int nbuffers;
+    uint32_t push_bytes;
+} pgi__gpu_kernel_spec;
+#define PGI__GPU_KERNEL(shader, nbuffers, push_bytes)                                                                  \
+    { pgi__spv_##shader, sizeof pgi__spv_##shader, #shader, nbuffers, push_bytes }
+pgi_status pgi__gpu_kernels_create(pgi__gpu *g, const pgi__gpu_kernel_spec *specs, int n, uint32_t skip,
+                                   pgi__gpu_kernel **out);
 
 /* One command sequence: begin, then dispatches, fills and timestamps in order, then submit_wait.
  * Every dispatch and fill waits for the writes of everything recorded before it (a full

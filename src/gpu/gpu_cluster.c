@@ -151,36 +151,24 @@ static pgi_status cl_create(pgi__gpu *g, const pgi_estimator_desc *d, void **sta
         s->D = up >= 3 ? 0u : (uint32_t)(3 - up);
         s->blur = d->directional.blur == PGI_DIRECTIONAL_NO_BLUR ? 0u : (uint32_t)d->directional.blur;
     }
-    static const struct {
-        const uint32_t *spv;
-        size_t bytes;
-        const char *name;
-        int nbuf;
-        uint32_t push;
-    } k[K_N] = {
-        [K_REDUCE] = {pgi__spv_cl_reduce, sizeof pgi__spv_cl_reduce, "cl_reduce", 3, sizeof(cl_push)},
-        [K_TILES] = {pgi__spv_cl_tiles, sizeof pgi__spv_cl_tiles, "cl_tiles", 6, sizeof(cl_push)},
-        [K_BOUNDS] = {pgi__spv_cl_bounds, sizeof pgi__spv_cl_bounds, "cl_bounds", 3, sizeof(cl_push)},
-        [K_SPLAT] = {pgi__spv_cl_splat, sizeof pgi__spv_cl_splat, "cl_splat", 4, sizeof(cl_push)},
-        [K_GROUP] = {pgi__spv_cl_group, sizeof pgi__spv_cl_group, "cl_group", 4, sizeof(cl_push)},
-        [K_NODE_FLUX] = {pgi__spv_cl_node_flux, sizeof pgi__spv_cl_node_flux, "cl_node_flux", 4, sizeof(cl_push)},
-        [K_RADIANCE] = {pgi__spv_cl_radiance, sizeof pgi__spv_cl_radiance, "cl_radiance", 9, sizeof(cl_push)},
-        [K_RANK] = {pgi__spv_cl_rank, sizeof pgi__spv_cl_rank, "cl_rank", 4, sizeof(cl_push)},
-        [K_DIR_FLUX] = {pgi__spv_cl_dir_flux, sizeof pgi__spv_cl_dir_flux, "cl_dir_flux", 5, sizeof(cl_push)},
-        [K_DIR_RADIANCE] = {pgi__spv_cl_dir_radiance, sizeof pgi__spv_cl_dir_radiance, "cl_dir_radiance", 5,
-                            sizeof(cl_push)},
-        [K_DIR_BLUR] = {pgi__spv_cl_dir_blur, sizeof pgi__spv_cl_dir_blur, "cl_dir_blur", 4, sizeof(cl_push)},
+    static const pgi__gpu_kernel_spec k[K_N] = {
+        [K_REDUCE] = PGI__GPU_KERNEL(cl_reduce, 3, sizeof(cl_push)),
+        [K_TILES] = PGI__GPU_KERNEL(cl_tiles, 6, sizeof(cl_push)),
+        [K_BOUNDS] = PGI__GPU_KERNEL(cl_bounds, 3, sizeof(cl_push)),
+        [K_SPLAT] = PGI__GPU_KERNEL(cl_splat, 4, sizeof(cl_push)),
+        [K_GROUP] = PGI__GPU_KERNEL(cl_group, 4, sizeof(cl_push)),
+        [K_NODE_FLUX] = PGI__GPU_KERNEL(cl_node_flux, 4, sizeof(cl_push)),
+        [K_RADIANCE] = PGI__GPU_KERNEL(cl_radiance, 9, sizeof(cl_push)),
+        [K_RANK] = PGI__GPU_KERNEL(cl_rank, 4, sizeof(cl_push)),
+        [K_DIR_FLUX] = PGI__GPU_KERNEL(cl_dir_flux, 5, sizeof(cl_push)),
+        [K_DIR_RADIANCE] = PGI__GPU_KERNEL(cl_dir_radiance, 5, sizeof(cl_push)),
+        [K_DIR_BLUR] = PGI__GPU_KERNEL(cl_dir_blur, 4, sizeof(cl_push)),
     };
-    for (int i = 0; i < K_N; i++) {
-        if ((i == K_NODE_FLUX || i == K_RADIANCE) && dir) continue;
-        if ((i == K_DIR_FLUX || i == K_DIR_RADIANCE || i == K_DIR_BLUR) && !dir) continue;
-        pgi_status st = pgi__gpu_kernel_create(g, k[i].spv, k[i].bytes, k[i].name, k[i].nbuf, k[i].push, &s->k[i]);
-        if (st) {
-            ct_destroy(s);
-            return st;
-        }
-    }
-    pgi_status st = pgi__gpu_scan_create(g, "gpu_photon_lists", &s->scan);
+    /* directional has its own flux and radiance kernels */
+    const uint32_t skip =
+        dir ? (1u << K_NODE_FLUX | 1u << K_RADIANCE) : (1u << K_DIR_FLUX | 1u << K_DIR_RADIANCE | 1u << K_DIR_BLUR);
+    pgi_status st = pgi__gpu_kernels_create(g, k, K_N, skip, s->k);
+    if (!st) st = pgi__gpu_scan_create(g, "gpu_photon_lists", &s->scan);
     if (st) {
         ct_destroy(s);
         return st;

@@ -99,27 +99,15 @@ static pgi_status hg_create(pgi__gpu *g, const pgi_estimator_desc *d, void **sta
     if (!s) return pgi__fail(PGI_ERR_OOM, "out of memory");
     s->g = g;
     s->desc = *d;
-    static const struct {
-        const uint32_t *spv;
-        size_t bytes;
-        const char *name;
-        int nbuf;
-    } k[K_N] = {
-        [K_COUNT] = {pgi__spv_hg_count, sizeof pgi__spv_hg_count, "hg_count", 3},
-        [K_SCATTER] = {pgi__spv_hg_scatter, sizeof pgi__spv_hg_scatter, "hg_scatter", 4},
-        [K_RANK] = {pgi__spv_hg_rank, sizeof pgi__spv_hg_rank, "hg_rank", 4},
-        [K_REORDER] = {pgi__spv_hg_reorder, sizeof pgi__spv_hg_reorder, "hg_reorder", 3},
-        [K_GATHER] = {pgi__spv_hg_gather, sizeof pgi__spv_hg_gather, "hg_gather", 6},
+    static const pgi__gpu_kernel_spec k[K_N] = {
+        [K_COUNT] = PGI__GPU_KERNEL(hg_count, 3, sizeof(hg_push)),
+        [K_SCATTER] = PGI__GPU_KERNEL(hg_scatter, 4, sizeof(hg_push)),
+        [K_RANK] = PGI__GPU_KERNEL(hg_rank, 4, sizeof(hg_push)),
+        [K_REORDER] = PGI__GPU_KERNEL(hg_reorder, 3, sizeof(hg_push)),
+        [K_GATHER] = PGI__GPU_KERNEL(hg_gather, 6, sizeof(hg_push)),
     };
-    for (int i = 0; i < K_N; i++) {
-        pgi_status st =
-            pgi__gpu_kernel_create(g, k[i].spv, k[i].bytes, k[i].name, k[i].nbuf, sizeof(hg_push), &s->k[i]);
-        if (st) {
-            hg_destroy(s);
-            return st;
-        }
-    }
-    pgi_status st = pgi__gpu_scan_create(g, "gpu_hash", &s->scan);
+    pgi_status st = pgi__gpu_kernels_create(g, k, K_N, 0, s->k);
+    if (!st) st = pgi__gpu_scan_create(g, "gpu_hash", &s->scan);
     if (st) {
         hg_destroy(s);
         return st;

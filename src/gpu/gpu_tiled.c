@@ -120,27 +120,15 @@ static pgi_status tl_create(pgi__gpu *g, const pgi_estimator_desc *d, void **sta
     if (!s) return pgi__fail(PGI_ERR_OOM, "out of memory");
     s->g = g;
     s->desc = *d;
-    static const struct {
-        const uint32_t *spv;
-        size_t bytes;
-        const char *name;
-        int nbuf;
-        uint32_t push;
-    } k[K_N] = {
-        [K_BOUNDS] = {pgi__spv_tl_bounds, sizeof pgi__spv_tl_bounds, "tl_bounds", 2, sizeof(tl_push)},
-        [K_FRAME] = {pgi__spv_tl_frame, sizeof pgi__spv_tl_frame, "tl_frame", 2, sizeof(tl_push)},
-        [K_COUNT] = {pgi__spv_tl_count, sizeof pgi__spv_tl_count, "tl_count", 8, sizeof(tl_push)},
-        [K_COPY] = {pgi__spv_tl_copy, sizeof pgi__spv_tl_copy, "tl_copy", 8, sizeof(tl_push)},
-        [K_GATHER] = {pgi__spv_tl_gather, sizeof pgi__spv_tl_gather, "tl_gather", 8, sizeof(tl_push)},
+    static const pgi__gpu_kernel_spec k[K_N] = {
+        [K_BOUNDS] = PGI__GPU_KERNEL(tl_bounds, 2, sizeof(tl_push)),
+        [K_FRAME] = PGI__GPU_KERNEL(tl_frame, 2, sizeof(tl_push)),
+        [K_COUNT] = PGI__GPU_KERNEL(tl_count, 8, sizeof(tl_push)),
+        [K_COPY] = PGI__GPU_KERNEL(tl_copy, 8, sizeof(tl_push)),
+        [K_GATHER] = PGI__GPU_KERNEL(tl_gather, 8, sizeof(tl_push)),
     };
-    for (int i = 0; i < K_N; i++) {
-        pgi_status st = pgi__gpu_kernel_create(g, k[i].spv, k[i].bytes, k[i].name, k[i].nbuf, k[i].push, &s->k[i]);
-        if (st) {
-            tl_destroy(s);
-            return st;
-        }
-    }
-    pgi_status st = pgi__gpu_scan_create(g, "gpu_tile_offsets", &s->scan);
+    pgi_status st = pgi__gpu_kernels_create(g, k, K_N, 0, s->k);
+    if (!st) st = pgi__gpu_scan_create(g, "gpu_tile_offsets", &s->scan);
     if (st) {
         tl_destroy(s);
         return st;

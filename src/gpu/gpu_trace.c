@@ -116,20 +116,12 @@ pgi_status pgi__gpu_trace_create(pgi__gpu *g, pgi__gpu_scene *gs, pgi__gpu_trace
     t->g = g;
     t->scene = gs;
     t->max_batch = MAX_BATCH;
-    static const struct {
-        const uint32_t *spv;
-        size_t bytes;
-        const char *name;
-        int nbuf;
-        uint32_t push;
-    } k[K_N] = {
-        [K_TRACE] = {pgi__spv_trace, sizeof pgi__spv_trace, "trace", 15, sizeof(trace_push)},
-        [K_COMPACT] = {pgi__spv_trace_compact, sizeof pgi__spv_trace_compact, "trace_compact", 4, sizeof(compact_push)},
-        [K_SCALE] = {pgi__spv_trace_scale, sizeof pgi__spv_trace_scale, "trace_scale", 1, sizeof(scale_push)},
+    static const pgi__gpu_kernel_spec k[K_N] = {
+        [K_TRACE] = PGI__GPU_KERNEL(trace, 15, sizeof(trace_push)),
+        [K_COMPACT] = PGI__GPU_KERNEL(trace_compact, 4, sizeof(compact_push)),
+        [K_SCALE] = PGI__GPU_KERNEL(trace_scale, 1, sizeof(scale_push)),
     };
-    pgi_status st = PGI_OK;
-    for (int i = 0; i < K_N && !st; i++)
-        st = pgi__gpu_kernel_create(g, k[i].spv, k[i].bytes, k[i].name, k[i].nbuf, k[i].push, &t->k[i]);
+    pgi_status st = pgi__gpu_kernels_create(g, k, K_N, 0, t->k);
     if (!st) st = pgi__gpu_scan_create(g, "gpu_trace_scratch", &t->scan);
     if (!st) st = pgi__gpu_buffer_reserve(g, &t->counters, 16, "gpu_trace_scratch");
     if (!st) st = pgi__gpu_buffer_reserve(g, &t->result, 16, "gpu_trace_scratch");
