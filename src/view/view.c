@@ -126,39 +126,48 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, const pgi_came
 /* Direct light from the sky at the lanes `on` of a tile: `n` directions a lane
  * (pgi__env_sample_direct: cosine-weighted about ns, and for a map half of them by the map),
  * the first number stratified over the n, shadow rays to infinity; adds the mean to L. Each
- * pixel has its own RNG stream (seed, pixel). */
+ * pixel has its own RNG stream (seed, pixel). The rays scatter over the hemisphere, so they
+ * go to Embree as incoherent streams (pgi__rt_occluded1M: the fastest style for them,
+ * photongi-bench --limits) of up to ENV_RUN samples of the 16 lanes, sample by sample; each
+ * pixel still draws its numbers and sums its samples in the order j = 0, 1, ... */
+#define ENV_RUN (PGI__RT_STREAM_MAX / 16)
 static void env_direct(const pgi__env *env, const pgi__rt *rt, const int on[16], const size_t pix[16],
                        const pgi__v3 x[16], const pgi__v3 ns[16], const pgi__v3 ng[16], const pgi__v3 wo[16],
                        const pgi__v3 kd[16], const pgi__lobe lobe[16], int n, uint64_t seed, pgi__v3 L[16],
                        uint64_t *rays) {
     pgi__rng rng[16];
-    pgi__v3 Le[16], wi[16] = {{0}}, w[16];
-    int valid[16], occ[16];
-    float tmax[16];
+    pgi__v3 Le[16], org[PGI__RT_STREAM_MAX], wi[PGI__RT_STREAM_MAX], w[PGI__RT_STREAM_MAX];
+    float tmax[PGI__RT_STREAM_MAX];
+    int occ[PGI__RT_STREAM_MAX];
+    unsigned char lane[PGI__RT_STREAM_MAX];
     for (int k = 0; k < 16; k++) {
         Le[k] = v3(0.f, 0.f, 0.f);
-        tmax[k] = INFINITY;
         if (on[k]) pgi_rng_seed(&rng[k], seed ^ 0x736b79ULL, (uint64_t)pix[k]);
     }
-    for (int j = 0; j < n; j++) {
-        int nv = 0;
-        for (int k = 0; k < 16; k++) {
-            valid[k] = 0;
-            if (!on[k]) continue;
-            float u1 = ((float)j + pgi_rng_f(&rng[k])) / (float)n, u2 = pgi_rng_f(&rng[k]), pdf;
-            wi[k] = pgi__env_sample_direct(env, ns[k], u1, u2, &pdf);
-            float c = v3_dot(ns[k], wi[k]);
-            if (!(pdf > 0.f) || !(c > 0.f) || !(v3_dot(ng[k], wi[k]) > 0.f)) continue;
-            w[k] = v3_scale(pgi__env_eval(env, wi[k]), c / pdf);
-            valid[k] = 1;
-            nv++;
+    for (int j0 = 0; j0 < n; j0 += ENV_RUN) {
+        const int j1 = n - j0 < ENV_RUN ? n : j0 + ENV_RUN;
+        size_t m = 0;
+        for (int j = j0; j < j1; j++)
+            for (int k = 0; k < 16; k++) {
+                if (!on[k]) continue;
+                float u1 = ((float)j + pgi_rng_f(&rng[k])) / (float)n, u2 = pgi_rng_f(&rng[k]), pdf;
+                pgi__v3 d = pgi__env_sample_direct(env, ns[k], u1, u2, &pdf);
+                float c = v3_dot(ns[k], d);
+                if (!(pdf > 0.f) || !(c > 0.f) || !(v3_dot(ng[k], d) > 0.f)) continue;
+                w[m] = v3_scale(pgi__env_eval(env, d), c / pdf);
+                wi[m] = d;
+                org[m] = x[k];
+                tmax[m] = INFINITY;
+                lane[m++] = (unsigned char)k;
+            }
+        if (!m) continue;
+        *rays += (uint64_t)m;
+        pgi__rt_occluded1M(rt, m, org, wi, tmax, occ);
+        for (size_t i = 0; i < m; i++) {
+            if (occ[i]) continue;
+            const int k = lane[i];
+            Le[k] = v3_add(Le[k], v3_mul(pgi__brdf_eval(kd[k], &lobe[k], ns[k], wi[i], wo[k]), w[i]));
         }
-        if (!nv) continue;
-        *rays += (uint64_t)nv;
-        pgi__rt_occluded16(rt, valid, x, wi, tmax, occ);
-        for (int k = 0; k < 16; k++)
-            if (valid[k] && !occ[k])
-                Le[k] = v3_add(Le[k], v3_mul(pgi__brdf_eval(kd[k], &lobe[k], ns[k], wi[k], wo[k]), w[k]));
     }
     for (int k = 0; k < 16; k++)
         if (on[k]) L[k] = v3_add(L[k], v3_scale(Le[k], 1.f / (float)n));
@@ -240,7 +249,7 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
                 }
                 if (!nv) continue;
                 rays += (uint64_t)nv;
-                pgi__rt_occluded16(rt, valid, x, wi, tmax, occ);
+                pgi__rt_occluded16(rt, valid, x, wi, tmax, 1, occ);
                 for (int k = 0; k < 16; k++)
                     if (valid[k] && !occ[k])
                         L[k] =
@@ -278,7 +287,7 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
                     }
                     if (!nv) continue;
                     rays += (uint64_t)nv;
-                    pgi__rt_occluded16(rt, valid, x, wi, tmax, occ);
+                    pgi__rt_occluded16(rt, valid, x, wi, tmax, 1, occ);
                     for (int k = 0; k < 16; k++)
                         if (valid[k] && !occ[k])
                             La[k] = v3_add(La[k], v3_scale(v3_mul(pgi__brdf_eval(kd[k], &lobe[k], ns[k], wi[k], wo[k]),
