@@ -123,40 +123,65 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, const pgi_came
     return PGI_OK;
 }
 
-/* Direct light from the sky at the lanes `on` of a tile: `n` directions a lane
+/* The view samples of a 4x4-pixel tile (tile_lane) that pgi__direct shades. Position, normals
+ * and the ray origin x are loaded for every valid lane; wo, kd and the lobe (pgi__vs_lobe, which
+ * interpolates a GGX lobe's albedo table) only when a shadow ray of the lane comes through
+ * (tile_brdf), which in a scene with one light skips them for every shadowed pixel. */
+typedef struct dtile {
+    int on[16], ready[16];
+    size_t pix[16];
+    pgi__v3 x[16], ns[16], ng[16], wo[16], kd[16];
+    pgi__lobe lobe[16];
+} dtile;
+
+/* f(wi, wo) of lane k (kd/pi plus its lobe), its shading loaded on first use. */
+static inline pgi__v3 tile_brdf(dtile *t, const pgi_view_samples *vs, int k, pgi__v3 wi) {
+    if (!t->ready[k]) {
+        const size_t i = t->pix[k];
+        t->wo[k] = v3_load(vs->wo + 3 * i);
+        t->kd[k] = v3_load(vs->kd + 3 * i);
+        pgi__vs_lobe(vs, i, &t->lobe[k]);
+        t->ready[k] = 1;
+    }
+    return pgi__brdf_eval(t->kd[k], &t->lobe[k], t->ns[k], wi, t->wo[k]);
+}
+
+/* Direct light from the sky at the valid lanes of a tile: `n` directions a lane
  * (pgi__env_sample_direct: cosine-weighted about ns, and for a map half of them by the map),
  * the first number stratified over the n, shadow rays to infinity; adds the mean to L. Each
  * pixel has its own RNG stream (seed, pixel). The rays scatter over the hemisphere, so they
  * go to Embree as incoherent streams (pgi__rt_occluded1M: the fastest style for them,
  * photongi-bench --limits) of up to ENV_RUN samples of the 16 lanes, sample by sample; each
- * pixel still draws its numbers and sums its samples in the order j = 0, 1, ... */
+ * pixel still draws its numbers and sums its samples in the order j = 0, 1, ... A lane's
+ * tangent frame for the cosine-weighted directions is set up once (pgi__env_frame). */
 #define ENV_RUN (PGI__RT_STREAM_MAX / 16)
-static void env_direct(const pgi__env *env, const pgi__rt *rt, const int on[16], const size_t pix[16],
-                       const pgi__v3 x[16], const pgi__v3 ns[16], const pgi__v3 ng[16], const pgi__v3 wo[16],
-                       const pgi__v3 kd[16], const pgi__lobe lobe[16], int n, uint64_t seed, pgi__v3 L[16],
-                       uint64_t *rays) {
+static void env_direct(const pgi__env *env, const pgi__rt *rt, dtile *t, const pgi_view_samples *vs, int n,
+                       uint64_t seed, pgi__v3 L[16], uint64_t *rays) {
     pgi__rng rng[16];
+    pgi__env_frame fr[16];
     pgi__v3 Le[16], org[PGI__RT_STREAM_MAX], wi[PGI__RT_STREAM_MAX], w[PGI__RT_STREAM_MAX];
     float tmax[PGI__RT_STREAM_MAX];
     int occ[PGI__RT_STREAM_MAX];
     unsigned char lane[PGI__RT_STREAM_MAX];
     for (int k = 0; k < 16; k++) {
         Le[k] = v3(0.f, 0.f, 0.f);
-        if (on[k]) pgi_rng_seed(&rng[k], seed ^ 0x736b79ULL, (uint64_t)pix[k]);
+        if (!t->on[k]) continue;
+        pgi_rng_seed(&rng[k], seed ^ 0x736b79ULL, (uint64_t)t->pix[k]);
+        pgi__env_frame_init(&fr[k], t->ns[k]);
     }
     for (int j0 = 0; j0 < n; j0 += ENV_RUN) {
         const int j1 = n - j0 < ENV_RUN ? n : j0 + ENV_RUN;
         size_t m = 0;
         for (int j = j0; j < j1; j++)
             for (int k = 0; k < 16; k++) {
-                if (!on[k]) continue;
+                if (!t->on[k]) continue;
                 float u1 = ((float)j + pgi_rng_f(&rng[k])) / (float)n, u2 = pgi_rng_f(&rng[k]), pdf;
-                pgi__v3 d = pgi__env_sample_direct(env, ns[k], u1, u2, &pdf);
-                float c = v3_dot(ns[k], d);
-                if (!(pdf > 0.f) || !(c > 0.f) || !(v3_dot(ng[k], d) > 0.f)) continue;
-                w[m] = v3_scale(pgi__env_eval(env, d), c / pdf);
+                pgi__v3 le, d = pgi__env_sample_direct_in(env, &fr[k], u1, u2, &pdf, &le);
+                float c = v3_dot(t->ns[k], d);
+                if (!(pdf > 0.f) || !(c > 0.f) || !(v3_dot(t->ng[k], d) > 0.f)) continue;
+                w[m] = v3_scale(le, c / pdf);
                 wi[m] = d;
-                org[m] = x[k];
+                org[m] = t->x[k];
                 tmax[m] = INFINITY;
                 lane[m++] = (unsigned char)k;
             }
@@ -166,39 +191,113 @@ static void env_direct(const pgi__env *env, const pgi__rt *rt, const int on[16],
         for (size_t i = 0; i < m; i++) {
             if (occ[i]) continue;
             const int k = lane[i];
-            Le[k] = v3_add(Le[k], v3_mul(pgi__brdf_eval(kd[k], &lobe[k], ns[k], wi[i], wo[k]), w[i]));
+            Le[k] = v3_add(Le[k], v3_mul(tile_brdf(t, vs, k, wi[i]), w[i]));
         }
     }
     for (int k = 0; k < 16; k++)
-        if (on[k]) L[k] = v3_add(L[k], v3_scale(Le[k], 1.f / (float)n));
+        if (t->on[k]) L[k] = v3_add(L[k], v3_scale(Le[k], 1.f / (float)n));
+}
+
+/* An area light as the sampling loop reads it: one record (no trip through the light, the
+ * triangle and its vertices) with its pick probability. */
+typedef struct area_rec {
+    pgi__v3 a, b, c; /* the triangle's vertices */
+    pgi__v3 normal, color;
+    float area, p;
+} area_rec;
+
+/* The area lights' CDF by power (luminance), with a guide table (the cutpoint method, Chen and
+ * Asau 1974) that makes a pick O(1) on average whatever the number of emissive triangles:
+ * start[b] is the first entry whose cdf exceeds (b - 1.5) / nb, below any u of bucket
+ * b = (int)(u nb) (float rounding moves u nb by at most 1/16 for nb <= 2^20), so the first entry
+ * with u < cdf lies at or after start[b], and a scan from there finds the same entry as
+ * pgi__cdf_pick's binary search (so the same light for the same u). */
+typedef struct area_table {
+    size_t n, nb;
+    float *cdf;
+    uint32_t *start; /* nb + 1 entries; NULL: binary search (cdf not monotone or too long) */
+    area_rec *rec;
+} area_table;
+
+static void area_table_free(area_table *t) {
+    free(t->cdf);
+    free(t->start);
+    free(t->rec);
+}
+
+static pgi_status area_table_build(const pgi_scene *s, area_table *t) {
+    memset(t, 0, sizeof *t);
+    for (size_t l = 0; l < s->nlights; l++) t->n += s->lights[l].type == PGI_LIGHT_AREA;
+    if (!t->n) return PGI_OK;
+    const size_t n = t->n;
+    t->cdf = malloc(n * sizeof *t->cdf);
+    t->rec = malloc(n * sizeof *t->rec);
+    if (!t->cdf || !t->rec) {
+        area_table_free(t);
+        return pgi__fail(PGI_ERR_OOM, "out of memory for the area-light table");
+    }
+    double tot = 0.0;
+    size_t k = 0;
+    for (size_t l = 0; l < s->nlights; l++) {
+        const pgi__light *lt = &s->lights[l];
+        if (lt->type != PGI_LIGHT_AREA) continue;
+        tot += v3_lum(v3_load(lt->power));
+        t->cdf[k] = (float)tot;
+        const uint32_t *v = s->tri + 3 * (size_t)lt->tri;
+        area_rec *r = &t->rec[k++];
+        r->a = pgi__scene_vertex(s, v[0]);
+        r->b = pgi__scene_vertex(s, v[1]);
+        r->c = pgi__scene_vertex(s, v[2]);
+        r->normal = v3_load(lt->normal);
+        r->color = v3_load(lt->color);
+        r->area = lt->area;
+    }
+    for (k = 0; k < n; k++) t->cdf[k] = tot > 0.0 ? (float)(t->cdf[k] / tot) : (float)(k + 1) / (float)n;
+    t->cdf[n - 1] = 1.f;
+    int monotone = 1;
+    for (k = 0; k < n; k++) {
+        t->rec[k].p = t->cdf[k] - (k ? t->cdf[k - 1] : 0.f); /* what pgi__cdf_pick returns */
+        if (k && !(t->cdf[k] >= t->cdf[k - 1])) monotone = 0;
+    }
+    /* Buckets: one per light, at most 2^20 (so that (int)(u nb) in float is at least b - 1). */
+    t->nb = n < ((size_t)1 << 20) ? n : ((size_t)1 << 20);
+    if (monotone && n > 1 && n <= UINT32_MAX) {
+        t->start = malloc((t->nb + 1) * sizeof *t->start);
+        if (!t->start) {
+            area_table_free(t);
+            return pgi__fail(PGI_ERR_OOM, "out of memory for the area-light table");
+        }
+        size_t i = 0;
+        t->start[0] = 0;
+        for (size_t b = 1; b <= t->nb; b++) {
+            const double lo = ((double)b - 1.5) / (double)t->nb;
+            while (i < n - 1 && !((double)t->cdf[i] > lo)) i++;
+            t->start[b] = (uint32_t)i;
+        }
+    }
+    return PGI_OK;
+}
+
+/* The entry pgi__cdf_pick(t->cdf, t->n, u, .) picks. */
+static inline size_t area_pick(const area_table *t, float u) {
+    if (!t->start) {
+        float p;
+        return pgi__cdf_pick(t->cdf, t->n, u, &p);
+    }
+    size_t b = (size_t)(u * (float)t->nb);
+    if (b >= t->nb) b = t->nb - 1;
+    size_t i = t->start[b];
+    while (i < t->n - 1 && !(u < t->cdf[i])) i++;
+    return i;
 }
 
 pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_samples *vs, int area_samples,
                        uint64_t seed, int threads, float *out, uint64_t *rays_out) {
     /* Area lights get their own CDF by power (luminance). */
-    size_t narea = 0;
-    for (size_t l = 0; l < s->nlights; l++) narea += s->lights[l].type == PGI_LIGHT_AREA;
-    float *cdf = NULL;
-    size_t *idx = NULL;
-    if (narea) {
-        cdf = malloc(narea * sizeof *cdf);
-        idx = malloc(narea * sizeof *idx);
-        if (!cdf || !idx) {
-            free(cdf);
-            free(idx);
-            return pgi__fail(PGI_ERR_OOM, "out of memory for the area-light table");
-        }
-        double tot = 0.0;
-        size_t k = 0;
-        for (size_t l = 0; l < s->nlights; l++) {
-            if (s->lights[l].type != PGI_LIGHT_AREA) continue;
-            tot += v3_lum(v3_load(s->lights[l].power));
-            cdf[k] = (float)tot;
-            idx[k++] = l;
-        }
-        for (k = 0; k < narea; k++) cdf[k] = tot > 0.0 ? (float)(cdf[k] / tot) : (float)(k + 1) / (float)narea;
-        cdf[narea - 1] = 1.f;
-    }
+    area_table at;
+    pgi_status st = area_table_build(s, &at);
+    if (st) return st;
+    const size_t narea = at.n;
     const float eps = pgi__scene_epsilon(s);
     uint64_t rays = 0;
     const int W = vs->width, H = vs->height;
@@ -209,76 +308,77 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
     const int tiles_x = (W + 3) / 4, tiles_y = (H + 3) / 4;
 #pragma omp parallel for schedule(dynamic, 1) reduction(+ : rays) num_threads(pgi__threads(threads))
     for (int ty = 0; ty < tiles_y; ty++) {
+        dtile t;
         for (int tx = 0; tx < tiles_x; tx++) {
-            size_t pix[16];
-            int on[16];
-            pgi__v3 x[16] = {{0}}, ns[16], ng[16], wo[16], kd[16], L[16], La[16];
-            pgi__lobe lobe[16];
+            pgi__v3 L[16], La[16];
             int any = 0;
             for (int k = 0; k < 16; k++) {
                 int px, py;
-                on[k] = tile_lane(tx, ty, k, W, H, &px, &py);
-                pix[k] = on[k] ? (size_t)py * (size_t)W + (size_t)px : 0;
+                int on = tile_lane(tx, ty, k, W, H, &px, &py);
+                size_t i = on ? (size_t)py * (size_t)W + (size_t)px : 0;
+                t.pix[k] = i;
+                t.ready[k] = 0;
                 L[k] = La[k] = v3(0.f, 0.f, 0.f);
-                if (on[k] && !(vs->flags[pix[k]] & PGI_VS_VALID)) {
-                    v3_store(out + 3 * pix[k], L[k]);
-                    on[k] = 0;
+                if (on && !(vs->flags[i] & PGI_VS_VALID)) {
+                    v3_store(out + 3 * i, L[k]);
+                    on = 0;
                 }
-                if (!on[k]) continue;
-                size_t i = pix[k];
+                t.on[k] = on;
+                if (!on) {
+                    t.x[k] = v3(0.f, 0.f, 0.f); /* off lanes reach Embree masked: zeros, not garbage */
+                    continue;
+                }
                 pgi__v3 p = v3_load(vs->pos + 3 * i);
-                ns[k] = v3_load(vs->nrm + 3 * i);
-                ng[k] = v3_load(vs->ngeo + 3 * i);
-                wo[k] = v3_load(vs->wo + 3 * i);
-                kd[k] = v3_load(vs->kd + 3 * i);
-                pgi__vs_lobe(vs, i, &lobe[k]);
-                x[k] = v3_madd(p, ng[k], eps);
+                t.ns[k] = v3_load(vs->nrm + 3 * i);
+                t.ng[k] = v3_load(vs->ngeo + 3 * i);
+                t.x[k] = v3_madd(p, t.ng[k], eps);
                 any = 1;
             }
             if (!any) continue;
             int valid[16], occ[16];
-            pgi__v3 wi[16] = {{0}}, Li[16]; /* off lanes reach Embree masked: zeros, not garbage */
+            pgi__v3 wi[16] = {{0}}, Li[16];
             float cs[16], tmax[16];
             for (size_t l = 0; l < s->nlights; l++) {
                 if (s->lights[l].type == PGI_LIGHT_AREA) continue;
                 int nv = 0;
                 for (int k = 0; k < 16; k++) {
-                    valid[k] =
-                        on[k] && pgi__delta_light(&s->lights[l], x[k], ns[k], ng[k], &wi[k], &Li[k], &cs[k], &tmax[k]);
+                    valid[k] = t.on[k] && pgi__delta_light(&s->lights[l], t.x[k], t.ns[k], t.ng[k], &wi[k], &Li[k],
+                                                           &cs[k], &tmax[k]);
                     nv += valid[k];
                 }
                 if (!nv) continue;
                 rays += (uint64_t)nv;
-                pgi__rt_occluded16(rt, valid, x, wi, tmax, 1, occ);
+                pgi__rt_occluded16(rt, valid, t.x, wi, tmax, 1, occ);
                 for (int k = 0; k < 16; k++)
                     if (valid[k] && !occ[k])
-                        L[k] =
-                            v3_add(L[k], v3_scale(v3_mul(pgi__brdf_eval(kd[k], &lobe[k], ns[k], wi[k], wo[k]), Li[k]),
-                                                  cs[k]));
+                        L[k] = v3_add(L[k], v3_scale(v3_mul(tile_brdf(&t, vs, k, wi[k]), Li[k]), cs[k]));
             }
             if (narea && area_samples > 0) {
                 pgi__rng rng[16];
                 for (int k = 0; k < 16; k++)
-                    if (on[k]) pgi_rng_seed(&rng[k], seed ^ 0xd15ec7ULL, (uint64_t)pix[k]);
+                    if (t.on[k]) pgi_rng_seed(&rng[k], seed ^ 0xd15ec7ULL, (uint64_t)t.pix[k]);
                 float g[16];
-                const pgi__light *lts[16];
+                const area_rec *lts[16];
                 for (int j = 0; j < area_samples; j++) {
                     int nv = 0;
                     for (int k = 0; k < 16; k++) {
                         valid[k] = 0;
-                        if (!on[k]) continue;
+                        if (!t.on[k]) continue;
                         float u = ((float)j + pgi_rng_f(&rng[k])) / (float)area_samples; /* stratified light pick */
-                        float pl;
-                        const pgi__light *lt = &s->lights[idx[pgi__cdf_pick(cdf, narea, u, &pl)]];
+                        const area_rec *lt = &at.rec[area_pick(&at, u)];
+                        const float pl = lt->p;
                         float u1 = pgi_rng_f(&rng[k]), u2 = pgi_rng_f(&rng[k]);
-                        pgi__v3 y = pgi__triangle_sample(s, lt->tri, u1, u2);
-                        pgi__v3 dv = v3_sub(y, x[k]);
+                        /* pgi__triangle_sample on the record's vertices */
+                        float su = sqrtf(u1), b1 = 1.f - su, b2 = u2 * su;
+                        pgi__v3 y =
+                            v3_add(v3_add(v3_scale(lt->a, 1.f - b1 - b2), v3_scale(lt->b, b1)), v3_scale(lt->c, b2));
+                        pgi__v3 dv = v3_sub(y, t.x[k]);
                         float d2 = v3_dot(dv, dv);
                         if (!(d2 > 0.f) || !(pl > 0.f)) continue;
                         float dist = sqrtf(d2);
                         wi[k] = v3_scale(dv, 1.f / dist);
-                        float cl = -v3_dot(wi[k], v3_load(lt->normal)), c = v3_dot(ns[k], wi[k]);
-                        if (!(cl > 0.f) || !(c > 0.f) || !(v3_dot(ng[k], wi[k]) > 0.f)) continue;
+                        float cl = -v3_dot(wi[k], lt->normal), c = v3_dot(t.ns[k], wi[k]);
+                        if (!(cl > 0.f) || !(c > 0.f) || !(v3_dot(t.ng[k], wi[k]) > 0.f)) continue;
                         tmax[k] = dist * (1.f - 1e-3f);
                         g[k] = c * cl / d2 * lt->area / pl;
                         lts[k] = lt;
@@ -287,24 +387,20 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
                     }
                     if (!nv) continue;
                     rays += (uint64_t)nv;
-                    pgi__rt_occluded16(rt, valid, x, wi, tmax, 1, occ);
+                    pgi__rt_occluded16(rt, valid, t.x, wi, tmax, 1, occ);
                     for (int k = 0; k < 16; k++)
                         if (valid[k] && !occ[k])
-                            La[k] = v3_add(La[k], v3_scale(v3_mul(pgi__brdf_eval(kd[k], &lobe[k], ns[k], wi[k], wo[k]),
-                                                                  v3_load(lts[k]->color)),
-                                                           g[k]));
+                            La[k] = v3_add(La[k], v3_scale(v3_mul(tile_brdf(&t, vs, k, wi[k]), lts[k]->color), g[k]));
                 }
                 for (int k = 0; k < 16; k++)
-                    if (on[k]) L[k] = v3_add(L[k], v3_scale(La[k], 1.f / (float)area_samples));
+                    if (t.on[k]) L[k] = v3_add(L[k], v3_scale(La[k], 1.f / (float)area_samples));
             }
-            if (s->env && area_samples > 0)
-                env_direct(s->env, rt, on, pix, x, ns, ng, wo, kd, lobe, area_samples, seed, L, &rays);
+            if (s->env && area_samples > 0) env_direct(s->env, rt, &t, vs, area_samples, seed, L, &rays);
             for (int k = 0; k < 16; k++)
-                if (on[k]) v3_store(out + 3 * pix[k], v3_mul(L[k], v3_load(vs->weight + 3 * pix[k])));
+                if (t.on[k]) v3_store(out + 3 * t.pix[k], v3_mul(L[k], v3_load(vs->weight + 3 * t.pix[k])));
         }
     }
-    free(cdf);
-    free(idx);
+    area_table_free(&at);
     *rays_out = rays;
     return PGI_OK;
 }
