@@ -454,6 +454,39 @@ void pgi__rt_occluded16(const pgi__rt *rt, const int valid[16], const pgi__v3 or
     }
 }
 
+void pgi__rt_occluded16_soa(const pgi__rt *rt, const int valid[16], const float *const o[3], const float *const d[3],
+                            const float tfar[16], int occluded[16]) {
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    RTC_ALIGN(64) struct RTCRay16 r;
+    RTC_ALIGN(64) int vmask[16];
+    float tf[16];
+    for (int i = 0; i < 16; i++) {
+        const int v = valid[i] != 0;
+        vmask[i] = v ? -1 : 0;
+        /* invalid lanes: zeros, not whatever the caller left there */
+        r.org_x[i] = v ? o[0][i] : 0.f;
+        r.org_y[i] = v ? o[1][i] : 0.f;
+        r.org_z[i] = v ? o[2][i] : 0.f;
+        r.dir_x[i] = v ? d[0][i] : 0.f;
+        r.dir_y[i] = v ? d[1][i] : 0.f;
+        r.dir_z[i] = v ? d[2][i] : 0.f;
+        r.tnear[i] = 0.f;
+        tf[i] = r.tfar[i] = v ? tfar[i] : 0.f;
+        r.time[i] = 0.f;
+        r.mask[i] = (unsigned)-1;
+        r.id[i] = (unsigned)i;
+        r.flags[i] = 0;
+    }
+    rtcOccluded16(vmask, rt->scene, &ctx, &r);
+    for (int i = 0; i < 16; i++) occluded[i] = valid[i] && r.tfar[i] < 0.f;
+    if (CAPTURING(rt)) {
+        const packet_view p = {PACKET_RAYS(16, r)};
+        capture_packet(rt->capture, PGI__RAY_OCCLUDED16, PGI__RAY_COHERENT, &p, vmask, 0.f, tf, occluded);
+    }
+}
+
 /* The rays of an occlusion stream as cast (Embree overwrote tfar). */
 static PGI__COLD void capture_stream(pgi__ray_log *log, const struct RTCRay *r, size_t n, const float *tfar,
                                      const int *occluded) {

@@ -46,6 +46,11 @@ void pgi__rt_intersect16(const pgi__rt *rt, const int valid[16], const pgi__v3 *
                          const pgi__v3 dirs[16], int coherent, pgi__hit hits[16]);
 void pgi__rt_occluded16(const pgi__rt *rt, const int valid[16], const pgi__v3 org[16], const pgi__v3 dirs[16],
                         const float tfar[16], int coherent, int occluded[16]);
+/* occluded16 with its lanes in arrays (structure of arrays, as Embree's packet): ray i from
+ * (o[0][i], o[1][i], o[2][i]) along (d[0][i], d[1][i], d[2][i]) over (0, tfar[i]), coherent
+ * context; invalid lanes are masked (their values are not read). */
+void pgi__rt_occluded16_soa(const pgi__rt *rt, const int valid[16], const float *const o[3], const float *const d[3],
+                            const float tfar[16], int occluded[16]);
 /* A stream of n (<= PGI__RT_STREAM_MAX) occlusion rays in one rtcOccluded1M call with an
  * incoherent context (the fastest style for scattered shadow rays, e.g. the sky's:
  * photongi-bench --limits): ray i from org[i] along dirs[i] over (0, tfar[i]); occluded[i]
