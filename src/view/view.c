@@ -246,34 +246,35 @@ static void env_direct(const pgi__env *env, const pgi__rt *rt, dtile *t, const p
         if (t->on[k]) L[k] = v3_add(L[k], v3_scale(Le[k], 1.f / (float)n));
 }
 
-/* An area light as the sampling loop reads it: one record (no trip through the light, the
- * triangle and its vertices) with its pick probability. */
-typedef struct area_rec {
-    pgi__v3 a, b, c; /* the triangle's vertices */
-    pgi__v3 normal, color;
-    float area, p;
-} area_rec;
-
-/* The area lights' CDF by power (luminance), with a guide table (the cutpoint method, Chen and
- * Asau 1974) that makes a pick O(1) on average whatever the number of emissive triangles:
- * start[b] is the first entry whose cdf exceeds (b - 1.5) / nb, below any u of bucket
- * b = (int)(u nb) (float rounding moves u nb by at most 1/16 for nb <= 2^20), so the first entry
- * with u < cdf lies at or after start[b], and a scan from there finds the same entry as
- * pgi__cdf_pick's binary search (so the same light for the same u). */
-typedef struct area_table {
-    size_t n, nb;
-    float *cdf;
-    uint32_t *start; /* nb + 1 entries; NULL: binary search (cdf not monotone or too long) */
-    area_rec *rec;
-} area_table;
-
-static void area_table_free(area_table *t) {
+void pgi__area_table_free(pgi__area_table *t) {
     free(t->cdf);
     free(t->start);
     free(t->rec);
+    memset(t, 0, sizeof *t);
 }
 
-static pgi_status area_table_build(const pgi_scene *s, area_table *t) {
+pgi_status pgi__area_table_guide(pgi__area_table *t) {
+    const size_t n = t->n;
+    free(t->start);
+    t->start = NULL;
+    t->nb = n < ((size_t)1 << 20) ? n : ((size_t)1 << 20);
+    int monotone = 1;
+    for (size_t k = 1; k < n; k++)
+        if (!(t->cdf[k] >= t->cdf[k - 1])) monotone = 0;
+    if (!monotone || n < 2 || n > UINT32_MAX) return PGI_OK; /* binary search */
+    t->start = malloc((t->nb + 1) * sizeof *t->start);
+    if (!t->start) return pgi__fail(PGI_ERR_OOM, "out of memory for the area-light table");
+    size_t i = 0;
+    t->start[0] = 0;
+    for (size_t b = 1; b <= t->nb; b++) {
+        const double lo = ((double)b - 1.5) / (double)t->nb;
+        while (i < n - 1 && !((double)t->cdf[i] > lo)) i++;
+        t->start[b] = (uint32_t)i;
+    }
+    return PGI_OK;
+}
+
+pgi_status pgi__area_table_build(const pgi_scene *s, pgi__area_table *t) {
     memset(t, 0, sizeof *t);
     for (size_t l = 0; l < s->nlights; l++) t->n += s->lights[l].type == PGI_LIGHT_AREA;
     if (!t->n) return PGI_OK;
@@ -281,7 +282,7 @@ static pgi_status area_table_build(const pgi_scene *s, area_table *t) {
     t->cdf = malloc(n * sizeof *t->cdf);
     t->rec = malloc(n * sizeof *t->rec);
     if (!t->cdf || !t->rec) {
-        area_table_free(t);
+        pgi__area_table_free(t);
         return pgi__fail(PGI_ERR_OOM, "out of memory for the area-light table");
     }
     double tot = 0.0;
@@ -292,7 +293,7 @@ static pgi_status area_table_build(const pgi_scene *s, area_table *t) {
         tot += v3_lum(v3_load(lt->power));
         t->cdf[k] = (float)tot;
         const uint32_t *v = s->tri + 3 * (size_t)lt->tri;
-        area_rec *r = &t->rec[k++];
+        pgi__area_rec *r = &t->rec[k++];
         r->a = pgi__scene_vertex(s, v[0]);
         r->b = pgi__scene_vertex(s, v[1]);
         r->c = pgi__scene_vertex(s, v[2]);
@@ -302,41 +303,10 @@ static pgi_status area_table_build(const pgi_scene *s, area_table *t) {
     }
     for (k = 0; k < n; k++) t->cdf[k] = tot > 0.0 ? (float)(t->cdf[k] / tot) : (float)(k + 1) / (float)n;
     t->cdf[n - 1] = 1.f;
-    int monotone = 1;
-    for (k = 0; k < n; k++) {
-        t->rec[k].p = t->cdf[k] - (k ? t->cdf[k - 1] : 0.f); /* what pgi__cdf_pick returns */
-        if (k && !(t->cdf[k] >= t->cdf[k - 1])) monotone = 0;
-    }
-    /* Buckets: one per light, at most 2^20 (so that (int)(u nb) in float is at least b - 1). */
-    t->nb = n < ((size_t)1 << 20) ? n : ((size_t)1 << 20);
-    if (monotone && n > 1 && n <= UINT32_MAX) {
-        t->start = malloc((t->nb + 1) * sizeof *t->start);
-        if (!t->start) {
-            area_table_free(t);
-            return pgi__fail(PGI_ERR_OOM, "out of memory for the area-light table");
-        }
-        size_t i = 0;
-        t->start[0] = 0;
-        for (size_t b = 1; b <= t->nb; b++) {
-            const double lo = ((double)b - 1.5) / (double)t->nb;
-            while (i < n - 1 && !((double)t->cdf[i] > lo)) i++;
-            t->start[b] = (uint32_t)i;
-        }
-    }
-    return PGI_OK;
-}
-
-/* The entry pgi__cdf_pick(t->cdf, t->n, u, .) picks. */
-static inline size_t area_pick(const area_table *t, float u) {
-    if (!t->start) {
-        float p;
-        return pgi__cdf_pick(t->cdf, t->n, u, &p);
-    }
-    size_t b = (size_t)(u * (float)t->nb);
-    if (b >= t->nb) b = t->nb - 1;
-    size_t i = t->start[b];
-    while (i < t->n - 1 && !(u < t->cdf[i])) i++;
-    return i;
+    for (k = 0; k < n; k++) t->rec[k].p = t->cdf[k] - (k ? t->cdf[k - 1] : 0.f); /* what pgi__cdf_pick returns */
+    pgi_status st = pgi__area_table_guide(t);
+    if (st) pgi__area_table_free(t);
+    return st;
 }
 
 /* The view-sample planes of tile (tx, ty) that pgi__direct reads, and its output, into the
@@ -372,8 +342,8 @@ static inline size_t area_pick(const area_table *t, float u) {
 pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_samples *vs, int area_samples,
                        uint64_t seed, int threads, float *out, uint64_t *rays_out) {
     /* Area lights get their own CDF by power (luminance). */
-    area_table at;
-    pgi_status st = area_table_build(s, &at);
+    pgi__area_table at;
+    pgi_status st = pgi__area_table_build(s, &at);
     if (st) return st;
     const size_t narea = at.n;
     const float eps = pgi__scene_epsilon(s);
@@ -460,14 +430,14 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
                 for (int k = 0; k < 16; k++)
                     if (t.on[k]) pgi_rng_seed(&rng[k], seed ^ 0xd15ec7ULL, (uint64_t)t.pix[k]);
                 float g[16];
-                const area_rec *lts[16];
+                const pgi__area_rec *lts[16];
                 for (int j = 0; j < area_samples; j++) {
                     int nv = 0;
                     for (int k = 0; k < 16; k++) {
                         valid[k] = 0;
                         if (!t.on[k]) continue;
                         float u = ((float)j + pgi_rng_f(&rng[k])) / (float)area_samples; /* stratified light pick */
-                        const area_rec *lt = &at.rec[area_pick(&at, u)];
+                        const pgi__area_rec *lt = &at.rec[pgi__area_pick(&at, u)];
                         const float pl = lt->p;
                         float u1 = pgi_rng_f(&rng[k]), u2 = pgi_rng_f(&rng[k]);
                         /* pgi__triangle_sample on the record's vertices */
@@ -502,7 +472,7 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
                 if (t.on[k]) v3_store(out + 3 * t.pix[k], v3_mul(L[k], v3_load(vs->weight + 3 * t.pix[k])));
         }
     }
-    area_table_free(&at);
+    pgi__area_table_free(&at);
     *rays_out = rays;
     return PGI_OK;
 }
