@@ -384,6 +384,47 @@ static void test_bad_sky(void **state) {
     tu_rm_tmpdir(dir);
 }
 
+/* ------------------------------------------------ the direct pass's sky sampling */
+
+/* pgi__env_sample_direct_in (a frame per point, the radiance with the direction: the direct
+ * pass) gives the numbers of pgi__env_sample_direct and pgi__env_eval bit for bit, for a
+ * constant sky and a map; the pdf too wherever it is positive (the direct pass refuses the
+ * others). */
+static void same_samples(const pgi__env *e, const char *what) {
+    tu_rng r = tu_rng_make(5);
+    int positive = 0;
+    for (int i = 0; i < 20000; i++) {
+        pgi__v3 ns = v3_norm(v3(2.f * tu_unif(&r) - 1.f, 2.f * tu_unif(&r) - 1.f, 2.f * tu_unif(&r) - 1.f));
+        if (i % 7 == 0) ns = v3(0.f, 0.f, i % 2 ? 1.f : -1.f); /* v3_basis's pole cases */
+        float u1 = tu_unif(&r), u2 = tu_unif(&r), pa, pb;
+        pgi__v3 a = pgi__env_sample_direct(e, ns, u1, u2, &pa), la = pgi__env_eval(e, a), lb;
+        pgi__env_frame f;
+        pgi__env_frame_init(&f, ns);
+        pgi__v3 b = pgi__env_sample_direct_in(e, &f, u1, u2, &pb, &lb);
+        if (memcmp(&a, &b, sizeof a) || memcmp(&la, &lb, sizeof la) || (pa > 0.f) != (pb > 0.f) ||
+            (pa > 0.f && memcmp(&pa, &pb, sizeof pa)))
+            fail_msg("%s: sample %d differs", what, i);
+        positive += pa > 0.f;
+    }
+    assert_true(positive > 10000);
+}
+
+static void test_direct_sampling_same(void **state) {
+    const float up[3] = {0.f, 1.f, 0.f}, sky[3] = {0.5f, 0.7f, 1.f}, ground[3] = {0.4f, 0.3f, 0.2f};
+    pgi__env *e = NULL;
+    TU_CHECK_OK(pgi__env_create_constant("test", sky, ground, up, &e));
+    same_samples(e, "constant sky");
+    pgi__env_destroy(e);
+    char dir[512], map[700];
+    tu_make_tmpdir(dir, sizeof dir);
+    snprintf(map, sizeof map, "%s/hot.exr", dir);
+    write_map(map, 64, 32, 0.1f, 0.3f, 40, 44, 8, 10, (const float[3]){50.f, 40.f, 30.f});
+    TU_CHECK_OK(pgi__env_create_map("test", map, 2.f, 30.f, up, &e));
+    same_samples(e, "map");
+    pgi__env_destroy(e);
+    tu_rm_tmpdir(dir);
+}
+
 /* ------------------------------------------------ window-box: pipeline vs path tracer */
 
 /* The built-in window-box (a closed room, a window and a skylight, uniform sky): the photon
@@ -457,6 +498,7 @@ int main(void) {
         cmocka_unit_test(test_photon_power),
         cmocka_unit_test(test_window_box_agreement),
         cmocka_unit_test(test_map_importance),
+        cmocka_unit_test(test_direct_sampling_same),
         cmocka_unit_test(test_constant_map_is_uniform_sky),
         cmocka_unit_test(test_threads),
         cmocka_unit_test(test_bad_sky),

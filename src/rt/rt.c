@@ -435,10 +435,10 @@ void pgi__rt_intersect16(const pgi__rt *rt, const int valid[16], const pgi__v3 *
 }
 
 void pgi__rt_occluded16(const pgi__rt *rt, const int valid[16], const pgi__v3 org[16], const pgi__v3 dirs[16],
-                        const float tfar[16], int occluded[16]) {
+                        const float tfar[16], int coherent, int occluded[16]) {
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
-    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    ctx.flags = coherent ? RTC_INTERSECT_CONTEXT_FLAG_COHERENT : RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
     RTC_ALIGN(64) struct RTCRay16 r;
     RTC_ALIGN(64) int vmask[16];
     const packet_view p = {PACKET_RAYS(16, r)};
@@ -449,8 +449,78 @@ void pgi__rt_occluded16(const pgi__rt *rt, const int valid[16], const pgi__v3 or
         /* As cast: the query overwrote tfar, and capture_packet reads the lanes' own. */
         float tf[16];
         for (int i = 0; i < 16; i++) tf[i] = valid[i] ? tfar[i] : 0.f;
+        capture_packet(rt->capture, PGI__RAY_OCCLUDED16, coherent ? PGI__RAY_COHERENT : 0, &p, vmask, 0.f, tf,
+                       occluded);
+    }
+}
+
+void pgi__rt_occluded16_soa(const pgi__rt *rt, const int valid[16], const float *const o[3], const float *const d[3],
+                            const float tfar[16], int occluded[16]) {
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    RTC_ALIGN(64) struct RTCRay16 r;
+    RTC_ALIGN(64) int vmask[16];
+    float tf[16];
+    for (int i = 0; i < 16; i++) {
+        const int v = valid[i] != 0;
+        vmask[i] = v ? -1 : 0;
+        /* invalid lanes: zeros, not whatever the caller left there */
+        r.org_x[i] = v ? o[0][i] : 0.f;
+        r.org_y[i] = v ? o[1][i] : 0.f;
+        r.org_z[i] = v ? o[2][i] : 0.f;
+        r.dir_x[i] = v ? d[0][i] : 0.f;
+        r.dir_y[i] = v ? d[1][i] : 0.f;
+        r.dir_z[i] = v ? d[2][i] : 0.f;
+        r.tnear[i] = 0.f;
+        tf[i] = r.tfar[i] = v ? tfar[i] : 0.f;
+        r.time[i] = 0.f;
+        r.mask[i] = (unsigned)-1;
+        r.id[i] = (unsigned)i;
+        r.flags[i] = 0;
+    }
+    rtcOccluded16(vmask, rt->scene, &ctx, &r);
+    for (int i = 0; i < 16; i++) occluded[i] = valid[i] && r.tfar[i] < 0.f;
+    if (CAPTURING(rt)) {
+        const packet_view p = {PACKET_RAYS(16, r)};
         capture_packet(rt->capture, PGI__RAY_OCCLUDED16, PGI__RAY_COHERENT, &p, vmask, 0.f, tf, occluded);
     }
+}
+
+/* The rays of an occlusion stream as cast (Embree overwrote tfar). */
+static PGI__COLD void capture_stream(pgi__ray_log *log, const struct RTCRay *r, size_t n, const float *tfar,
+                                     const int *occluded) {
+    pgi__ray_rec *c = pgi__ray_log_reserve(log, PGI__RAY_OCCLUDED1M, (unsigned)n, 0);
+    for (size_t i = 0; c && i < n; i++)
+        pgi__ray_rec_set(c + i, v3(r[i].org_x, r[i].org_y, r[i].org_z), v3(r[i].dir_x, r[i].dir_y, r[i].dir_z),
+                         r[i].tnear, tfar[i], 1, occluded[i] ? 0u : RTC_INVALID_GEOMETRY_ID, 0u);
+}
+
+void pgi__rt_occluded1M(const pgi__rt *rt, size_t n, const pgi__v3 *org, const pgi__v3 *dirs, const float *tfar,
+                        int *occluded) {
+    if (n == 0) return;
+    if (n > PGI__RT_STREAM_MAX) n = PGI__RT_STREAM_MAX;
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+    RTC_ALIGN(64) struct RTCRay r[PGI__RT_STREAM_MAX];
+    for (size_t i = 0; i < n; i++) {
+        r[i].org_x = org[i].x;
+        r[i].org_y = org[i].y;
+        r[i].org_z = org[i].z;
+        r[i].tnear = 0.f;
+        r[i].dir_x = dirs[i].x;
+        r[i].dir_y = dirs[i].y;
+        r[i].dir_z = dirs[i].z;
+        r[i].time = 0.f;
+        r[i].tfar = tfar[i];
+        r[i].mask = (unsigned)-1;
+        r[i].id = (unsigned)i;
+        r[i].flags = 0;
+    }
+    rtcOccluded1M(rt->scene, &ctx, r, (unsigned)n, sizeof r[0]);
+    for (size_t i = 0; i < n; i++) occluded[i] = r[i].tfar < 0.f;
+    if (CAPTURING(rt)) capture_stream(rt->capture, r, n, tfar, occluded);
 }
 
 void pgi__rt_capture_set(pgi__rt *rt, pgi__ray_log *log) { rt->capture = log; }

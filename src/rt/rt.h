@@ -40,12 +40,24 @@ void pgi__rt_intersect8(const pgi__rt *rt, const int valid[8], pgi__v3 o, const 
  * the fastest call style for primary and shadow rays by photongi-bench --limits).
  * intersect16: ray i starts at org[i * org_step] (org_step 0: one shared origin) and runs over
  * (0, infinity); `coherent` picks Embree's coherent or incoherent traversal context.
- * occluded16: rays over (0, tfar[i]), coherent; occluded[i] is 1 when lane i is valid and
- * blocked. */
+ * occluded16: rays over (0, tfar[i]), coherent or not likewise; occluded[i] is 1 when lane i
+ * is valid and blocked. */
 void pgi__rt_intersect16(const pgi__rt *rt, const int valid[16], const pgi__v3 *org, size_t org_step,
                          const pgi__v3 dirs[16], int coherent, pgi__hit hits[16]);
 void pgi__rt_occluded16(const pgi__rt *rt, const int valid[16], const pgi__v3 org[16], const pgi__v3 dirs[16],
-                        const float tfar[16], int occluded[16]);
+                        const float tfar[16], int coherent, int occluded[16]);
+/* occluded16 with its lanes in arrays (structure of arrays, as Embree's packet): ray i from
+ * (o[0][i], o[1][i], o[2][i]) along (d[0][i], d[1][i], d[2][i]) over (0, tfar[i]), coherent
+ * context; invalid lanes are masked (their values are not read). */
+void pgi__rt_occluded16_soa(const pgi__rt *rt, const int valid[16], const float *const o[3], const float *const d[3],
+                            const float tfar[16], int occluded[16]);
+/* A stream of n (<= PGI__RT_STREAM_MAX) occlusion rays in one rtcOccluded1M call with an
+ * incoherent context (the fastest style for scattered shadow rays, e.g. the sky's:
+ * photongi-bench --limits): ray i from org[i] along dirs[i] over (0, tfar[i]); occluded[i]
+ * is 1 when it is blocked. */
+#define PGI__RT_STREAM_MAX 256
+void pgi__rt_occluded1M(const pgi__rt *rt, size_t n, const pgi__v3 *org, const pgi__v3 *dirs, const float *tfar,
+                        int *occluded);
 
 /* Ray capture (src/rt/ray_log.h, photongi-bench --limits). While a log is
  * set, every query above appends its rays and answers to it, tagged with the

@@ -219,6 +219,20 @@ pgi__v3 pgi__env_sample_direct(const pgi__env *e, pgi__v3 ns, float u1, float u2
     return w;
 }
 
+pgi__v3 pgi__env_sample_direct_map(const pgi__env *e, const pgi__env_frame *f, float u1, float u2, float *pdf,
+                                   pgi__v3 *le) {
+    pgi__v3 w;
+    if (u1 < 0.5f) {
+        float p;
+        w = pgi__env_sample(e, 2.f * u1, u2, &p);
+    } else {
+        w = pgi__env_frame_dir(f, pgi_sample_cosine(fminf(2.f * u1 - 1.f, 1.f), u2));
+    }
+    *pdf = pgi__env_pdf_direct(e, f->n, w);
+    *le = pgi__env_eval(e, w);
+    return w;
+}
+
 float pgi__env_pdf_direct(const pgi__env *e, pgi__v3 ns, pgi__v3 w) {
     float pc = fmaxf(0.f, v3_dot(ns, w)) * PGI_INV_PI;
     if (!e->rgb) return pc;

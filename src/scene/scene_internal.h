@@ -106,6 +106,33 @@ float pgi__env_pdf(const pgi__env *e, pgi__v3 w);
  * about ns, a map by an equal mixture of the cosine and the map's own density. */
 pgi__v3 pgi__env_sample_direct(const pgi__env *e, pgi__v3 ns, float u1, float u2, float *pdf);
 float pgi__env_pdf_direct(const pgi__env *e, pgi__v3 ns, pgi__v3 w);
+/* pgi__env_sample_direct for many directions at one point (the direct pass): the tangent frame
+ * of ns set up once, and the radiance pgi__env_eval gives for the direction returned in *le. The
+ * same numbers as pgi__env_sample_direct and pgi__env_eval, bit for bit (tests/test_env.c). */
+typedef struct pgi__env_frame {
+    pgi__v3 t, b, n;
+} pgi__env_frame;
+static inline void pgi__env_frame_init(pgi__env_frame *f, pgi__v3 ns) {
+    v3_basis(ns, &f->t, &f->b);
+    f->n = ns;
+}
+/* pgi_to_world(l, f->n) */
+static inline pgi__v3 pgi__env_frame_dir(const pgi__env_frame *f, pgi__v3 l) {
+    return v3_add(v3_add(v3_scale(f->t, l.x), v3_scale(f->b, l.y)), v3_scale(f->n, l.z));
+}
+/* The map's case (env.c). */
+pgi__v3 pgi__env_sample_direct_map(const pgi__env *e, const pgi__env_frame *f, float u1, float u2, float *pdf,
+                                   pgi__v3 *le);
+static inline pgi__v3 pgi__env_sample_direct_in(const pgi__env *e, const pgi__env_frame *f, float u1, float u2,
+                                                float *pdf, pgi__v3 *le) {
+    if (e->rgb) return pgi__env_sample_direct_map(e, f, u1, u2, pdf, le);
+    pgi__v3 w = pgi__env_frame_dir(f, pgi_sample_cosine(u1, u2));
+    float c = v3_dot(f->n, w);
+    /* pgi__env_pdf_direct's fmaxf(0, c) / pi, but for the sign of a zero (a zero pdf is refused) */
+    *pdf = (c > 0.f ? c : 0.f) * PGI_INV_PI;
+    *le = v3_load(v3_dot(w, v3_load(e->fy)) > 0.f ? e->sky : e->ground);
+    return w;
+}
 
 struct pgi_scene {
     char name[128];

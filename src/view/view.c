@@ -123,73 +123,229 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, const pgi_came
     return PGI_OK;
 }
 
-/* Direct light from the sky at the lanes `on` of a tile: `n` directions a lane
+/* The view samples of a 4x4-pixel tile (tile_lane) that pgi__direct shades. Position, normals
+ * and the ray origin x are loaded for every valid lane; wo, kd and the lobe (pgi__vs_lobe, which
+ * interpolates a GGX lobe's albedo table) only when a shadow ray of the lane comes through
+ * (tile_brdf), which in a scene with one light skips them for every shadowed pixel. */
+typedef struct dtile {
+    int on[16], ready[16];
+    size_t pix[16];
+    pgi__v3 x[16], ns[16], ng[16], wo[16], kd[16];
+    float xs[3][16], nss[3][16], ngs[3][16]; /* x, ns, ng lane by lane (zeros where off), for delta16 */
+    pgi__lobe lobe[16];
+} dtile;
+
+/* pgi__delta_light at the 16 lanes of a tile for a point light or the sun: the same operations
+ * lane by lane (so the same numbers, bit for bit), branch-free over arrays so that the compiler
+ * runs four or more lanes in one instruction. Fills valid (0 where off or unreachable), wi,
+ * Li, cs and tmax as pgi__delta_light would; returns the number of valid lanes. */
+static int delta16(const pgi__light *lt, const dtile *t, int valid[16], float wi[3][16], float Li[3][16], float cs[16],
+                   float tmax[16]) {
+    int nv = 0;
+    const float cr = lt->color[0], cg = lt->color[1], cb = lt->color[2];
+    if (lt->type == PGI_LIGHT_SUN) {
+        const float wx = -lt->dir[0], wy = -lt->dir[1], wz = -lt->dir[2];
+        for (int k = 0; k < 16; k++) {
+            wi[0][k] = wx;
+            wi[1][k] = wy;
+            wi[2][k] = wz;
+            Li[0][k] = cr;
+            Li[1][k] = cg;
+            Li[2][k] = cb;
+            const float c = t->nss[0][k] * wx + t->nss[1][k] * wy + t->nss[2][k] * wz;
+            const float g = t->ngs[0][k] * wx + t->ngs[1][k] * wy + t->ngs[2][k] * wz;
+            cs[k] = c;
+            tmax[k] = INFINITY;
+            valid[k] = t->on[k] & (c > 0.f) & (g > 0.f);
+            nv += valid[k];
+        }
+        return nv;
+    }
+    const float px = lt->pos[0], py = lt->pos[1], pz = lt->pos[2];
+    for (int k = 0; k < 16; k++) {
+        const float dx = px - t->xs[0][k], dy = py - t->xs[1][k], dz = pz - t->xs[2][k];
+        const float d2 = dx * dx + dy * dy + dz * dz, dist = sqrtf(d2), inv = 1.f / dist, il = 1.f / d2;
+        const float wx = dx * inv, wy = dy * inv, wz = dz * inv;
+        wi[0][k] = wx;
+        wi[1][k] = wy;
+        wi[2][k] = wz;
+        Li[0][k] = cr * il;
+        Li[1][k] = cg * il;
+        Li[2][k] = cb * il;
+        const float c = t->nss[0][k] * wx + t->nss[1][k] * wy + t->nss[2][k] * wz;
+        const float g = t->ngs[0][k] * wx + t->ngs[1][k] * wy + t->ngs[2][k] * wz;
+        cs[k] = c;
+        tmax[k] = dist * (1.f - 1e-4f); /* infinity stays infinity, as in pgi__delta_light */
+        valid[k] = t->on[k] & (d2 > 0.f) & (c > 0.f) & (g > 0.f);
+        nv += valid[k];
+    }
+    return nv;
+}
+
+/* f(wi, wo) of lane k (kd/pi plus its lobe), its shading loaded on first use. */
+static inline pgi__v3 tile_brdf(dtile *t, const pgi_view_samples *vs, int k, pgi__v3 wi) {
+    if (!t->ready[k]) {
+        const size_t i = t->pix[k];
+        t->wo[k] = v3_load(vs->wo + 3 * i);
+        t->kd[k] = v3_load(vs->kd + 3 * i);
+        pgi__vs_lobe(vs, i, &t->lobe[k]);
+        t->ready[k] = 1;
+    }
+    return pgi__brdf_eval(t->kd[k], &t->lobe[k], t->ns[k], wi, t->wo[k]);
+}
+
+/* Direct light from the sky at the valid lanes of a tile: `n` directions a lane
  * (pgi__env_sample_direct: cosine-weighted about ns, and for a map half of them by the map),
  * the first number stratified over the n, shadow rays to infinity; adds the mean to L. Each
- * pixel has its own RNG stream (seed, pixel). */
-static void env_direct(const pgi__env *env, const pgi__rt *rt, const int on[16], const size_t pix[16],
-                       const pgi__v3 x[16], const pgi__v3 ns[16], const pgi__v3 ng[16], const pgi__v3 wo[16],
-                       const pgi__v3 kd[16], const pgi__lobe lobe[16], int n, uint64_t seed, pgi__v3 L[16],
-                       uint64_t *rays) {
+ * pixel has its own RNG stream (seed, pixel). The rays scatter over the hemisphere, so they
+ * go to Embree as incoherent streams (pgi__rt_occluded1M: the fastest style for them,
+ * photongi-bench --limits) of up to ENV_RUN samples of the 16 lanes, sample by sample; each
+ * pixel still draws its numbers and sums its samples in the order j = 0, 1, ... A lane's
+ * tangent frame for the cosine-weighted directions is set up once (pgi__env_frame). */
+#define ENV_RUN (PGI__RT_STREAM_MAX / 16)
+static void env_direct(const pgi__env *env, const pgi__rt *rt, dtile *t, const pgi_view_samples *vs, int n,
+                       uint64_t seed, pgi__v3 L[16], uint64_t *rays) {
     pgi__rng rng[16];
-    pgi__v3 Le[16], wi[16] = {{0}}, w[16];
-    int valid[16], occ[16];
-    float tmax[16];
+    pgi__env_frame fr[16];
+    pgi__v3 Le[16], org[PGI__RT_STREAM_MAX], wi[PGI__RT_STREAM_MAX], w[PGI__RT_STREAM_MAX];
+    float tmax[PGI__RT_STREAM_MAX];
+    int occ[PGI__RT_STREAM_MAX];
+    unsigned char lane[PGI__RT_STREAM_MAX];
     for (int k = 0; k < 16; k++) {
         Le[k] = v3(0.f, 0.f, 0.f);
-        tmax[k] = INFINITY;
-        if (on[k]) pgi_rng_seed(&rng[k], seed ^ 0x736b79ULL, (uint64_t)pix[k]);
+        if (!t->on[k]) continue;
+        pgi_rng_seed(&rng[k], seed ^ 0x736b79ULL, (uint64_t)t->pix[k]);
+        pgi__env_frame_init(&fr[k], t->ns[k]);
     }
-    for (int j = 0; j < n; j++) {
-        int nv = 0;
-        for (int k = 0; k < 16; k++) {
-            valid[k] = 0;
-            if (!on[k]) continue;
-            float u1 = ((float)j + pgi_rng_f(&rng[k])) / (float)n, u2 = pgi_rng_f(&rng[k]), pdf;
-            wi[k] = pgi__env_sample_direct(env, ns[k], u1, u2, &pdf);
-            float c = v3_dot(ns[k], wi[k]);
-            if (!(pdf > 0.f) || !(c > 0.f) || !(v3_dot(ng[k], wi[k]) > 0.f)) continue;
-            w[k] = v3_scale(pgi__env_eval(env, wi[k]), c / pdf);
-            valid[k] = 1;
-            nv++;
+    for (int j0 = 0; j0 < n; j0 += ENV_RUN) {
+        const int j1 = n - j0 < ENV_RUN ? n : j0 + ENV_RUN;
+        size_t m = 0;
+        for (int j = j0; j < j1; j++)
+            for (int k = 0; k < 16; k++) {
+                if (!t->on[k]) continue;
+                float u1 = ((float)j + pgi_rng_f(&rng[k])) / (float)n, u2 = pgi_rng_f(&rng[k]), pdf;
+                pgi__v3 le, d = pgi__env_sample_direct_in(env, &fr[k], u1, u2, &pdf, &le);
+                float c = v3_dot(t->ns[k], d);
+                if (!(pdf > 0.f) || !(c > 0.f) || !(v3_dot(t->ng[k], d) > 0.f)) continue;
+                w[m] = v3_scale(le, c / pdf);
+                wi[m] = d;
+                org[m] = t->x[k];
+                tmax[m] = INFINITY;
+                lane[m++] = (unsigned char)k;
+            }
+        if (!m) continue;
+        *rays += (uint64_t)m;
+        pgi__rt_occluded1M(rt, m, org, wi, tmax, occ);
+        for (size_t i = 0; i < m; i++) {
+            if (occ[i]) continue;
+            const int k = lane[i];
+            Le[k] = v3_add(Le[k], v3_mul(tile_brdf(t, vs, k, wi[i]), w[i]));
         }
-        if (!nv) continue;
-        *rays += (uint64_t)nv;
-        pgi__rt_occluded16(rt, valid, x, wi, tmax, occ);
-        for (int k = 0; k < 16; k++)
-            if (valid[k] && !occ[k])
-                Le[k] = v3_add(Le[k], v3_mul(pgi__brdf_eval(kd[k], &lobe[k], ns[k], wi[k], wo[k]), w[k]));
     }
     for (int k = 0; k < 16; k++)
-        if (on[k]) L[k] = v3_add(L[k], v3_scale(Le[k], 1.f / (float)n));
+        if (t->on[k]) L[k] = v3_add(L[k], v3_scale(Le[k], 1.f / (float)n));
 }
+
+void pgi__area_table_free(pgi__area_table *t) {
+    free(t->cdf);
+    free(t->start);
+    free(t->rec);
+    memset(t, 0, sizeof *t);
+}
+
+pgi_status pgi__area_table_guide(pgi__area_table *t) {
+    const size_t n = t->n;
+    free(t->start);
+    t->start = NULL;
+    t->nb = n < ((size_t)1 << 20) ? n : ((size_t)1 << 20);
+    int monotone = 1;
+    for (size_t k = 1; k < n; k++)
+        if (!(t->cdf[k] >= t->cdf[k - 1])) monotone = 0;
+    if (!monotone || n < 2 || n > UINT32_MAX) return PGI_OK; /* binary search */
+    t->start = malloc((t->nb + 1) * sizeof *t->start);
+    if (!t->start) return pgi__fail(PGI_ERR_OOM, "out of memory for the area-light table");
+    size_t i = 0;
+    t->start[0] = 0;
+    for (size_t b = 1; b <= t->nb; b++) {
+        const double lo = ((double)b - 1.5) / (double)t->nb;
+        while (i < n - 1 && !((double)t->cdf[i] > lo)) i++;
+        t->start[b] = (uint32_t)i;
+    }
+    return PGI_OK;
+}
+
+pgi_status pgi__area_table_build(const pgi_scene *s, pgi__area_table *t) {
+    memset(t, 0, sizeof *t);
+    for (size_t l = 0; l < s->nlights; l++) t->n += s->lights[l].type == PGI_LIGHT_AREA;
+    if (!t->n) return PGI_OK;
+    const size_t n = t->n;
+    t->cdf = malloc(n * sizeof *t->cdf);
+    t->rec = malloc(n * sizeof *t->rec);
+    if (!t->cdf || !t->rec) {
+        pgi__area_table_free(t);
+        return pgi__fail(PGI_ERR_OOM, "out of memory for the area-light table");
+    }
+    double tot = 0.0;
+    size_t k = 0;
+    for (size_t l = 0; l < s->nlights; l++) {
+        const pgi__light *lt = &s->lights[l];
+        if (lt->type != PGI_LIGHT_AREA) continue;
+        tot += v3_lum(v3_load(lt->power));
+        t->cdf[k] = (float)tot;
+        const uint32_t *v = s->tri + 3 * (size_t)lt->tri;
+        pgi__area_rec *r = &t->rec[k++];
+        r->a = pgi__scene_vertex(s, v[0]);
+        r->b = pgi__scene_vertex(s, v[1]);
+        r->c = pgi__scene_vertex(s, v[2]);
+        r->normal = v3_load(lt->normal);
+        r->color = v3_load(lt->color);
+        r->area = lt->area;
+    }
+    for (k = 0; k < n; k++) t->cdf[k] = tot > 0.0 ? (float)(t->cdf[k] / tot) : (float)(k + 1) / (float)n;
+    t->cdf[n - 1] = 1.f;
+    for (k = 0; k < n; k++) t->rec[k].p = t->cdf[k] - (k ? t->cdf[k - 1] : 0.f); /* what pgi__cdf_pick returns */
+    pgi_status st = pgi__area_table_guide(t);
+    if (st) pgi__area_table_free(t);
+    return st;
+}
+
+/* The view-sample planes of tile (tx, ty) that pgi__direct reads, and its output, into the
+ * cache: a tile reads 4 short runs of each of a dozen planes, more streams than the hardware
+ * prefetcher follows. DIRECT_PREFETCH tiles ahead. Macros, not functions: gcc finds a
+ * function that only prefetches free of side effects and drops its calls. */
+#ifndef DIRECT_PREFETCH
+#define DIRECT_PREFETCH 2
+#endif
+#define PREFETCH_RUN(p, bytes)                                                                                         \
+    do {                                                                                                               \
+        __builtin_prefetch((const char *)(p));                                                                         \
+        __builtin_prefetch((const char *)(p) + (bytes)-1);                                                             \
+    } while (0)
+#define PREFETCH_TILE(vs, out, tx, ty)                                                                                 \
+    do {                                                                                                               \
+        const int pf_x0 = 4 * (tx), pf_n = (vs)->width - pf_x0 < 4 ? (vs)->width - pf_x0 : 4;                          \
+        const size_t pf_b3 = 3 * (size_t)pf_n * sizeof(float);                                                         \
+        for (int pf_r = 0; pf_r < 4 && 4 * (ty) + pf_r < (vs)->height; pf_r++) {                                       \
+            const size_t pf_i = (size_t)(4 * (ty) + pf_r) * (size_t)(vs)->width + (size_t)pf_x0;                       \
+            PREFETCH_RUN((vs)->flags + pf_i, (size_t)pf_n);                                                            \
+            PREFETCH_RUN((vs)->pos + 3 * pf_i, pf_b3);                                                                 \
+            PREFETCH_RUN((vs)->nrm + 3 * pf_i, pf_b3);                                                                 \
+            PREFETCH_RUN((vs)->ngeo + 3 * pf_i, pf_b3);                                                                \
+            PREFETCH_RUN((vs)->wo + 3 * pf_i, pf_b3);                                                                  \
+            PREFETCH_RUN((vs)->kd + 3 * pf_i, pf_b3);                                                                  \
+            PREFETCH_RUN((vs)->ks + 3 * pf_i, pf_b3);                                                                  \
+            PREFETCH_RUN((vs)->weight + 3 * pf_i, pf_b3);                                                              \
+            PREFETCH_RUN((out) + 3 * pf_i, pf_b3);                                                                     \
+        }                                                                                                              \
+    } while (0)
 
 pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_samples *vs, int area_samples,
                        uint64_t seed, int threads, float *out, uint64_t *rays_out) {
     /* Area lights get their own CDF by power (luminance). */
-    size_t narea = 0;
-    for (size_t l = 0; l < s->nlights; l++) narea += s->lights[l].type == PGI_LIGHT_AREA;
-    float *cdf = NULL;
-    size_t *idx = NULL;
-    if (narea) {
-        cdf = malloc(narea * sizeof *cdf);
-        idx = malloc(narea * sizeof *idx);
-        if (!cdf || !idx) {
-            free(cdf);
-            free(idx);
-            return pgi__fail(PGI_ERR_OOM, "out of memory for the area-light table");
-        }
-        double tot = 0.0;
-        size_t k = 0;
-        for (size_t l = 0; l < s->nlights; l++) {
-            if (s->lights[l].type != PGI_LIGHT_AREA) continue;
-            tot += v3_lum(v3_load(s->lights[l].power));
-            cdf[k] = (float)tot;
-            idx[k++] = l;
-        }
-        for (k = 0; k < narea; k++) cdf[k] = tot > 0.0 ? (float)(cdf[k] / tot) : (float)(k + 1) / (float)narea;
-        cdf[narea - 1] = 1.f;
-    }
+    pgi__area_table at;
+    pgi_status st = pgi__area_table_build(s, &at);
+    if (st) return st;
+    const size_t narea = at.n;
     const float eps = pgi__scene_epsilon(s);
     uint64_t rays = 0;
     const int W = vs->width, H = vs->height;
@@ -200,76 +356,101 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
     const int tiles_x = (W + 3) / 4, tiles_y = (H + 3) / 4;
 #pragma omp parallel for schedule(dynamic, 1) reduction(+ : rays) num_threads(pgi__threads(threads))
     for (int ty = 0; ty < tiles_y; ty++) {
+        dtile t;
         for (int tx = 0; tx < tiles_x; tx++) {
-            size_t pix[16];
-            int on[16];
-            pgi__v3 x[16] = {{0}}, ns[16], ng[16], wo[16], kd[16], L[16], La[16];
-            pgi__lobe lobe[16];
+            pgi__v3 L[16], La[16];
             int any = 0;
+            if (DIRECT_PREFETCH && tx + DIRECT_PREFETCH < tiles_x) PREFETCH_TILE(vs, out, tx + DIRECT_PREFETCH, ty);
             for (int k = 0; k < 16; k++) {
                 int px, py;
-                on[k] = tile_lane(tx, ty, k, W, H, &px, &py);
-                pix[k] = on[k] ? (size_t)py * (size_t)W + (size_t)px : 0;
+                int on = tile_lane(tx, ty, k, W, H, &px, &py);
+                size_t i = on ? (size_t)py * (size_t)W + (size_t)px : 0;
+                t.pix[k] = i;
+                t.ready[k] = 0;
                 L[k] = La[k] = v3(0.f, 0.f, 0.f);
-                if (on[k] && !(vs->flags[pix[k]] & PGI_VS_VALID)) {
-                    v3_store(out + 3 * pix[k], L[k]);
-                    on[k] = 0;
+                if (on && !(vs->flags[i] & PGI_VS_VALID)) {
+                    v3_store(out + 3 * i, L[k]);
+                    on = 0;
                 }
-                if (!on[k]) continue;
-                size_t i = pix[k];
-                pgi__v3 p = v3_load(vs->pos + 3 * i);
-                ns[k] = v3_load(vs->nrm + 3 * i);
-                ng[k] = v3_load(vs->ngeo + 3 * i);
-                wo[k] = v3_load(vs->wo + 3 * i);
-                kd[k] = v3_load(vs->kd + 3 * i);
-                pgi__vs_lobe(vs, i, &lobe[k]);
-                x[k] = v3_madd(p, ng[k], eps);
-                any = 1;
+                t.on[k] = on;
+                if (!on) {
+                    t.x[k] = t.ns[k] = t.ng[k] = v3(0.f, 0.f, 0.f); /* off lanes reach Embree masked: zeros */
+                } else {
+                    pgi__v3 p = v3_load(vs->pos + 3 * i);
+                    t.ns[k] = v3_load(vs->nrm + 3 * i);
+                    t.ng[k] = v3_load(vs->ngeo + 3 * i);
+                    t.x[k] = v3_madd(p, t.ng[k], eps);
+                    any = 1;
+                }
+                t.xs[0][k] = t.x[k].x;
+                t.xs[1][k] = t.x[k].y;
+                t.xs[2][k] = t.x[k].z;
+                t.nss[0][k] = t.ns[k].x;
+                t.nss[1][k] = t.ns[k].y;
+                t.nss[2][k] = t.ns[k].z;
+                t.ngs[0][k] = t.ng[k].x;
+                t.ngs[1][k] = t.ng[k].y;
+                t.ngs[2][k] = t.ng[k].z;
             }
             if (!any) continue;
             int valid[16], occ[16];
-            pgi__v3 wi[16] = {{0}}, Li[16]; /* off lanes reach Embree masked: zeros, not garbage */
-            float cs[16], tmax[16];
+            pgi__v3 wi[16] = {{0}};
+            float cs[16], tmax[16], wis[3][16], Lis[3][16];
+            const float *const xo[3] = {t.xs[0], t.xs[1], t.xs[2]}, *const wd[3] = {wis[0], wis[1], wis[2]};
             for (size_t l = 0; l < s->nlights; l++) {
-                if (s->lights[l].type == PGI_LIGHT_AREA) continue;
+                const pgi__light *lt = &s->lights[l];
+                if (lt->type == PGI_LIGHT_AREA) continue;
                 int nv = 0;
-                for (int k = 0; k < 16; k++) {
-                    valid[k] =
-                        on[k] && pgi__delta_light(&s->lights[l], x[k], ns[k], ng[k], &wi[k], &Li[k], &cs[k], &tmax[k]);
-                    nv += valid[k];
-                }
+                if (lt->type == PGI_LIGHT_POINT || lt->type == PGI_LIGHT_SUN)
+                    nv = delta16(lt, &t, valid, wis, Lis, cs, tmax);
+                else
+                    for (int k = 0; k < 16; k++) {
+                        pgi__v3 w, li;
+                        valid[k] = t.on[k] && pgi__delta_light(lt, t.x[k], t.ns[k], t.ng[k], &w, &li, &cs[k], &tmax[k]);
+                        if (!valid[k]) continue;
+                        nv++;
+                        wis[0][k] = w.x;
+                        wis[1][k] = w.y;
+                        wis[2][k] = w.z;
+                        Lis[0][k] = li.x;
+                        Lis[1][k] = li.y;
+                        Lis[2][k] = li.z;
+                    }
                 if (!nv) continue;
                 rays += (uint64_t)nv;
-                pgi__rt_occluded16(rt, valid, x, wi, tmax, occ);
+                pgi__rt_occluded16_soa(rt, valid, xo, wd, tmax, occ);
                 for (int k = 0; k < 16; k++)
-                    if (valid[k] && !occ[k])
-                        L[k] =
-                            v3_add(L[k], v3_scale(v3_mul(pgi__brdf_eval(kd[k], &lobe[k], ns[k], wi[k], wo[k]), Li[k]),
-                                                  cs[k]));
+                    if (valid[k] && !occ[k]) {
+                        const pgi__v3 w = v3(wis[0][k], wis[1][k], wis[2][k]), li = v3(Lis[0][k], Lis[1][k], Lis[2][k]);
+                        L[k] = v3_add(L[k], v3_scale(v3_mul(tile_brdf(&t, vs, k, w), li), cs[k]));
+                    }
             }
             if (narea && area_samples > 0) {
                 pgi__rng rng[16];
                 for (int k = 0; k < 16; k++)
-                    if (on[k]) pgi_rng_seed(&rng[k], seed ^ 0xd15ec7ULL, (uint64_t)pix[k]);
+                    if (t.on[k]) pgi_rng_seed(&rng[k], seed ^ 0xd15ec7ULL, (uint64_t)t.pix[k]);
                 float g[16];
-                const pgi__light *lts[16];
+                const pgi__area_rec *lts[16];
                 for (int j = 0; j < area_samples; j++) {
                     int nv = 0;
                     for (int k = 0; k < 16; k++) {
                         valid[k] = 0;
-                        if (!on[k]) continue;
+                        if (!t.on[k]) continue;
                         float u = ((float)j + pgi_rng_f(&rng[k])) / (float)area_samples; /* stratified light pick */
-                        float pl;
-                        const pgi__light *lt = &s->lights[idx[pgi__cdf_pick(cdf, narea, u, &pl)]];
+                        const pgi__area_rec *lt = &at.rec[pgi__area_pick(&at, u)];
+                        const float pl = lt->p;
                         float u1 = pgi_rng_f(&rng[k]), u2 = pgi_rng_f(&rng[k]);
-                        pgi__v3 y = pgi__triangle_sample(s, lt->tri, u1, u2);
-                        pgi__v3 dv = v3_sub(y, x[k]);
+                        /* pgi__triangle_sample on the record's vertices */
+                        float su = sqrtf(u1), b1 = 1.f - su, b2 = u2 * su;
+                        pgi__v3 y =
+                            v3_add(v3_add(v3_scale(lt->a, 1.f - b1 - b2), v3_scale(lt->b, b1)), v3_scale(lt->c, b2));
+                        pgi__v3 dv = v3_sub(y, t.x[k]);
                         float d2 = v3_dot(dv, dv);
                         if (!(d2 > 0.f) || !(pl > 0.f)) continue;
                         float dist = sqrtf(d2);
                         wi[k] = v3_scale(dv, 1.f / dist);
-                        float cl = -v3_dot(wi[k], v3_load(lt->normal)), c = v3_dot(ns[k], wi[k]);
-                        if (!(cl > 0.f) || !(c > 0.f) || !(v3_dot(ng[k], wi[k]) > 0.f)) continue;
+                        float cl = -v3_dot(wi[k], lt->normal), c = v3_dot(t.ns[k], wi[k]);
+                        if (!(cl > 0.f) || !(c > 0.f) || !(v3_dot(t.ng[k], wi[k]) > 0.f)) continue;
                         tmax[k] = dist * (1.f - 1e-3f);
                         g[k] = c * cl / d2 * lt->area / pl;
                         lts[k] = lt;
@@ -278,24 +459,20 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
                     }
                     if (!nv) continue;
                     rays += (uint64_t)nv;
-                    pgi__rt_occluded16(rt, valid, x, wi, tmax, occ);
+                    pgi__rt_occluded16(rt, valid, t.x, wi, tmax, 1, occ);
                     for (int k = 0; k < 16; k++)
                         if (valid[k] && !occ[k])
-                            La[k] = v3_add(La[k], v3_scale(v3_mul(pgi__brdf_eval(kd[k], &lobe[k], ns[k], wi[k], wo[k]),
-                                                                  v3_load(lts[k]->color)),
-                                                           g[k]));
+                            La[k] = v3_add(La[k], v3_scale(v3_mul(tile_brdf(&t, vs, k, wi[k]), lts[k]->color), g[k]));
                 }
                 for (int k = 0; k < 16; k++)
-                    if (on[k]) L[k] = v3_add(L[k], v3_scale(La[k], 1.f / (float)area_samples));
+                    if (t.on[k]) L[k] = v3_add(L[k], v3_scale(La[k], 1.f / (float)area_samples));
             }
-            if (s->env && area_samples > 0)
-                env_direct(s->env, rt, on, pix, x, ns, ng, wo, kd, lobe, area_samples, seed, L, &rays);
+            if (s->env && area_samples > 0) env_direct(s->env, rt, &t, vs, area_samples, seed, L, &rays);
             for (int k = 0; k < 16; k++)
-                if (on[k]) v3_store(out + 3 * pix[k], v3_mul(L[k], v3_load(vs->weight + 3 * pix[k])));
+                if (t.on[k]) v3_store(out + 3 * t.pix[k], v3_mul(L[k], v3_load(vs->weight + 3 * t.pix[k])));
         }
     }
-    free(cdf);
-    free(idx);
+    pgi__area_table_free(&at);
     *rays_out = rays;
     return PGI_OK;
 }

@@ -28,6 +28,44 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, const pgi_came
 pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_samples *vs, int area_samples,
                        uint64_t seed, int threads, float *out, uint64_t *rays);
 
+/* The area lights as pgi__direct samples them: their CDF by the luminance of their power (the
+ * table the GPU backend and the reference path tracer build too) and one record a light (no
+ * trip through the light, its triangle and its vertices). */
+typedef struct pgi__area_rec {
+    pgi__v3 a, b, c; /* the triangle's vertices */
+    pgi__v3 normal, color;
+    float area, p; /* p: the light's probability, cdf[k] - cdf[k - 1] as pgi__cdf_pick gives it */
+} pgi__area_rec;
+/* A guide table over the CDF (the cutpoint method, Chen and Asau 1974) makes a pick O(1) on
+ * average whatever the number of emissive triangles: start[b] is the first entry whose cdf
+ * exceeds (b - 1.5) / nb, below any u of bucket b = (int)(u nb) (float rounding moves u nb by
+ * at most 1/16 for nb <= 2^20), so the first entry with u < cdf lies at or after start[b],
+ * and a scan from there finds the entry pgi__cdf_pick's binary search finds: the same light
+ * for the same u (tests/test_area_pick.c). */
+typedef struct pgi__area_table {
+    size_t n, nb;
+    float *cdf;      /* n entries, cdf[n - 1] = 1 */
+    uint32_t *start; /* nb + 1 entries; NULL: binary search (n < 2, or a cdf that decreases) */
+    pgi__area_rec *rec;
+} pgi__area_table;
+/* The scene's area lights (t->n = 0: none). */
+pgi_status pgi__area_table_build(const pgi_scene *s, pgi__area_table *t);
+/* (Re)builds t->start from t->cdf and t->n. */
+pgi_status pgi__area_table_guide(pgi__area_table *t);
+void pgi__area_table_free(pgi__area_table *t);
+/* The entry pgi__cdf_pick(t->cdf, t->n, u, .) picks, for u in [0, 1]. */
+static inline size_t pgi__area_pick(const pgi__area_table *t, float u) {
+    if (!t->start) {
+        float p;
+        return pgi__cdf_pick(t->cdf, t->n, u, &p);
+    }
+    size_t b = (size_t)(u * (float)t->nb);
+    if (b >= t->nb) b = t->nb - 1;
+    size_t i = t->start[b];
+    while (i < t->n - 1 && !(u < t->cdf[i])) i++;
+    return i;
+}
+
 /* ---------------------------------------------------- where a pixel looks
  * A frame's view samples look through one point of their pixel each; the
  * image is the box-filtered pixel integral in expectation only when those
