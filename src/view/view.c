@@ -62,6 +62,27 @@ static void put_block(const view_block *b, int rows, int n, size_t i0, size_t W,
     }
 }
 
+/* Writes sample j of a block: the non-specular surface sf (texture applied) seen from wo on
+ * `side` of its geometric normal, at the end of a specular chain of throughput `weight`. */
+static inline void put_sample(view_block *vs, int j, const pgi__surface *sf, pgi__v3 wo, float side, pgi__v3 weight,
+                              int primary) {
+    pgi__v3 ng = v3_scale(sf->ng, side), ns = v3_scale(sf->ns, side);
+    v3_store(vs->pos + 3 * j, sf->p);
+    v3_store(vs->nrm + 3 * j, ns);
+    v3_store(vs->ngeo + 3 * j, ng);
+    v3_store(vs->wo + 3 * j, wo);
+    v3_store(vs->kd + 3 * j, sf->kd);
+    pgi__v3 ks;
+    float sh, eta;
+    pgi__lobe_model model = pgi__lobe_params(sf->mat, &ks, &sh, &eta);
+    v3_store(vs->ks + 3 * j, ks);
+    vs->shininess[j] = sh;
+    vs->ior[j] = eta;
+    v3_store(vs->weight + 3 * j, weight);
+    vs->flags[j] = PGI_VS_VALID | (primary ? PGI_VS_PRIMARY : 0) | (model == PGI_LOBE_NONE ? PGI_VS_LAMBERT : 0) |
+                   (model == PGI_LOBE_GGX ? PGI_VS_GGX : 0);
+}
+
 /* Continues the eye path of pixel i from its primary hit to its first non-specular hit and
  * writes every field of view sample i (each once) and its emitted radiance. */
 static void shade_eye_path(const pgi_scene *s, const pgi__rt *rt, const pgi_camera *cam, uint64_t seed, float eps,
@@ -82,21 +103,7 @@ static void shade_eye_path(const pgi_scene *s, const pgi__rt *rt, const pgi_came
         if (side > 0.f) e = v3_add(e, v3_mul(weight, ke)); /* one-sided emitters */
         if (!pgi__mat_specular(sf.mat)) {
             pgi__surface_texture(s, &sf);
-            pgi__v3 ng = v3_scale(sf.ng, side), ns = v3_scale(sf.ns, side);
-            v3_store(vs->pos + 3 * j, p);
-            v3_store(vs->nrm + 3 * j, ns);
-            v3_store(vs->ngeo + 3 * j, ng);
-            v3_store(vs->wo + 3 * j, wo);
-            v3_store(vs->kd + 3 * j, sf.kd);
-            pgi__v3 ks;
-            float sh, eta;
-            pgi__lobe_model model = pgi__lobe_params(sf.mat, &ks, &sh, &eta);
-            v3_store(vs->ks + 3 * j, ks);
-            vs->shininess[j] = sh;
-            vs->ior[j] = eta;
-            v3_store(vs->weight + 3 * j, weight);
-            vs->flags[j] = PGI_VS_VALID | (depth == 0 ? PGI_VS_PRIMARY : 0) |
-                           (model == PGI_LOBE_NONE ? PGI_VS_LAMBERT : 0) | (model == PGI_LOBE_GGX ? PGI_VS_GGX : 0);
+            put_sample(vs, j, &sf, wo, side, weight, depth == 0);
             found = 1;
             break;
         }
@@ -172,11 +179,43 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, const pgi_came
                         dirs[k] = pgi__view_dir(cam, sp, valid[k] ? px : 0, valid[k] ? py : 0);
                     }
                     pgi__rt_intersect16(rt, valid, &eye, 0, dirs, 1, hits);
+                    /* Lanes whose primary hit is non-specular (nearly all) are shaded here in
+                     * three sweeps over the packet: surfaces, then the 16 texture lookups one
+                     * after the other (independent: their cache misses overlap), then the
+                     * samples. The others (sky, mirrors, glass) follow their eye paths. */
+                    pgi__surface sf[16];
+                    int lit[16];
                     for (int k = 0; k < 16; k++) {
+                        lit[k] = 0;
                         if (!valid[k]) continue;
                         rays++;
-                        shade_eye_path(s, rt, cam, seed, eps, pix[k], eye, dirs[k], hits[k], &blk,
-                                       (k >> 2) * BLOCK_W + 4 * tb + (k & 3), &rays);
+                        const int j = (k >> 2) * BLOCK_W + 4 * tb + (k & 3);
+                        if (hits[k].prim != UINT32_MAX) {
+                            pgi__v3 p = v3_madd(eye, dirs[k], hits[k].t);
+                            pgi__scene_surface_untextured(s, hits[k].prim, hits[k].u, hits[k].v, p, &sf[k]);
+                            if (!pgi__mat_specular(sf[k].mat)) {
+                                lit[k] = 1;
+                                continue;
+                            }
+                        }
+                        shade_eye_path(s, rt, cam, seed, eps, pix[k], eye, dirs[k], hits[k], &blk, j, &rays);
+                    }
+                    for (int k = 0; k < 16; k++)
+                        if (lit[k] && sf[k].mat->tex_kd >= 0)
+                            pgi__texture_prefetch(&s->texs[sf[k].mat->tex_kd], sf[k].u, sf[k].v);
+                    for (int k = 0; k < 16; k++)
+                        if (lit[k]) pgi__surface_texture(s, &sf[k]);
+                    for (int k = 0; k < 16; k++) {
+                        if (!lit[k]) continue;
+                        const int j = (k >> 2) * BLOCK_W + 4 * tb + (k & 3);
+                        pgi__v3 wo = v3_neg(dirs[k]);
+                        float side = v3_dot(wo, sf[k].ng) >= 0.f ? 1.f : -1.f;
+                        /* as shade_eye_path at depth 0: the same operations, the same bits */
+                        pgi__v3 e = v3(0.f, 0.f, 0.f);
+                        if (side > 0.f) e = v3_add(e, v3_mul(v3(1.f, 1.f, 1.f), v3_load(sf[k].mat->ke)));
+                        put_sample(&blk, j, &sf[k], wo, side, v3(1.f, 1.f, 1.f), 1);
+                        blk.depth[j] = v3_dot(v3_sub(sf[k].p, eye), v3_load(cam->forward));
+                        v3_store(blk.emit + 3 * j, e);
                     }
                 }
                 const int px0 = bx * BLOCK_W, py0 = 4 * ty;
