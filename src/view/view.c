@@ -200,11 +200,19 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, const pgi_came
                         }
                         shade_eye_path(s, rt, cam, seed, eps, pix[k], eye, dirs[k], hits[k], &blk, j, &rays);
                     }
+                    const pgi__texture *tex[16];
+                    float tu[16], tv[16];
+                    pgi__v3 texc[16];
+                    int lane[16], nt = 0;
                     for (int k = 0; k < 16; k++)
-                        if (lit[k] && sf[k].mat->tex_kd >= 0)
-                            pgi__texture_prefetch(&s->texs[sf[k].mat->tex_kd], sf[k].u, sf[k].v);
-                    for (int k = 0; k < 16; k++)
-                        if (lit[k]) pgi__surface_texture(s, &sf[k]);
+                        if (lit[k] && sf[k].mat->tex_kd >= 0) { /* as pgi__surface_texture */
+                            tex[nt] = &s->texs[sf[k].mat->tex_kd];
+                            tu[nt] = sf[k].u;
+                            tv[nt] = sf[k].v;
+                            lane[nt++] = k;
+                        }
+                    pgi__texture_lookup_n(tex, tu, tv, nt, texc);
+                    for (int q = 0; q < nt; q++) sf[lane[q]].kd = v3_mul(sf[lane[q]].kd, texc[q]);
                     for (int k = 0; k < 16; k++) {
                         if (!lit[k]) continue;
                         const int j = (k >> 2) * BLOCK_W + 4 * tb + (k & 3);
