@@ -52,7 +52,7 @@ typedef struct pgi__texture {
      * of never. Built by pgi__scene_add_texture from the colour channels, which nothing changes
      * later (the cut-out code rewrites alpha, read from rgba); NULL without memory for it. */
     unsigned char *tiled;
-    int channels;        /* of the image file: 1-4; 2 and 4 carry alpha (else alpha is 255) */
+    int channels; /* of the image file: 1-4; 2 and 4 carry alpha (else alpha is 255) */
     char path[512];
 } pgi__texture;
 

@@ -91,7 +91,8 @@ void pgi__texture_lookup_n(const pgi__texture *const *t, const float *u, const f
         __builtin_prefetch(color_at(t[k], f[k].x1, f[k].y1));
     }
     for (int k = 0; k < n; k++)
-        out[k] = !t[k] || !t[k]->rgba || t[k]->width <= 0 || t[k]->height <= 0 ? v3(1.f, 1.f, 1.f) : bilinear(t[k], &f[k]);
+        out[k] =
+            !t[k] || !t[k]->rgba || t[k]->width <= 0 || t[k]->height <= 0 ? v3(1.f, 1.f, 1.f) : bilinear(t[k], &f[k]);
 }
 
 float pgi__texture_alpha(const pgi__texture *t, float u, float v) {
@@ -135,7 +136,8 @@ pgi_status pgi__scene_add_texture(pgi_scene *s, int w, int h, int channels, unsi
         memset(nt->tiled, 0, (size_t)bw * (size_t)bh * 64);
         for (int y = 0; y < h; y++)
             for (int x = 0; x < w; x++)
-                memcpy(nt->tiled + 64 * ((size_t)(y >> 2) * (size_t)bw + (size_t)(x >> 2)) + 4 * (4 * (y & 3) + (x & 3)),
+                memcpy(nt->tiled + 64 * ((size_t)(y >> 2) * (size_t)bw + (size_t)(x >> 2)) +
+                           4 * (4 * (y & 3) + (x & 3)),
                        rgba + 4 * ((size_t)y * (size_t)w + (size_t)x), 4);
     }
     snprintf(nt->path, sizeof nt->path, "%s", path);
