@@ -143,6 +143,55 @@ static inline int tile_lane(int tx, int ty, int k, int W, int H, int *px, int *p
     return *px < W && *py < H;
 }
 
+/* The lanes of tile (tx, ty) (tile_lane), their pixels and their directions pgi__view_dir(cam,
+ * sp, x, y) (pixel (0, 0)'s for a lane outside the image), bit for bit: with SSE four lanes at a
+ * time, the same operations in the same order (IEEE: packed and scalar results agree). */
+static void tile_dirs(const pgi_camera *cam, const pgi__subpixel *sp, int tx, int ty, int valid[16], size_t pix[16],
+                      pgi__v3 dirs[16]) {
+    const int W = cam->width, H = cam->height;
+    float fx[16], fy[16];
+    for (int k = 0; k < 16; k++) {
+        int px, py;
+        valid[k] = tile_lane(tx, ty, k, W, H, &px, &py);
+        if (!valid[k]) px = py = 0;
+        pix[k] = valid[k] ? (size_t)py * (size_t)W + (size_t)px : 0;
+        float jx, jy;
+        pgi__pixel_jitter(sp, (size_t)py * (size_t)W + (size_t)px, &jx, &jy);
+        fx[k] = (float)px + jx; /* pgi__camera_dir_at's first operations */
+        fy[k] = (float)py + jy;
+    }
+#if defined(__SSE2__)
+    const __m128 two = _mm_set1_ps(2.f), one = _mm_set1_ps(1.f), zero = _mm_setzero_ps();
+    const __m128 w = _mm_set1_ps((float)cam->width), h = _mm_set1_ps((float)cam->height);
+    const __m128 th = _mm_set1_ps(cam->tan_half_fov_y), asp = _mm_set1_ps(cam->aspect);
+    for (int k = 0; k < 16; k += 4) {
+        __m128 u =
+            _mm_mul_ps(_mm_mul_ps(_mm_sub_ps(_mm_div_ps(_mm_mul_ps(two, _mm_loadu_ps(fx + k)), w), one), th), asp);
+        __m128 v = _mm_mul_ps(_mm_sub_ps(one, _mm_div_ps(_mm_mul_ps(two, _mm_loadu_ps(fy + k)), h)), th);
+        __m128 d[3];
+        for (int c = 0; c < 3; c++)
+            d[c] = _mm_add_ps(_mm_set1_ps(cam->forward[c]), _mm_add_ps(_mm_mul_ps(_mm_set1_ps(cam->right[c]), u),
+                                                                       _mm_mul_ps(_mm_set1_ps(cam->up[c]), v)));
+        __m128 l =
+            _mm_sqrt_ps(_mm_add_ps(_mm_add_ps(_mm_mul_ps(d[0], d[0]), _mm_mul_ps(d[1], d[1])), _mm_mul_ps(d[2], d[2])));
+        __m128 pos = _mm_cmpgt_ps(l, zero), r = _mm_div_ps(one, l); /* v3_norm */
+        float o[3][4], m[4];
+        for (int c = 0; c < 3; c++) _mm_storeu_ps(o[c], _mm_mul_ps(d[c], r));
+        _mm_storeu_ps(m, pos);
+        for (int q = 0; q < 4; q++) {
+            uint32_t bits;
+            memcpy(&bits, &m[q], sizeof bits);
+            dirs[k + q] = bits ? v3(o[0][q], o[1][q], o[2][q]) : v3(0.f, 0.f, 1.f);
+        }
+    }
+#else
+    for (int k = 0; k < 16; k++) {
+        int px = valid[k] ? 4 * tx + (k & 3) : 0, py = valid[k] ? 4 * ty + (k >> 2) : 0;
+        dirs[k] = pgi__view_dir(cam, sp, px, py);
+    }
+#endif
+}
+
 pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, const pgi_camera *cam, uint64_t seed,
                            const pgi__subpixel *sp, int threads, pgi_view_samples *vs, float *emit,
                            uint64_t *rays_out) {
@@ -172,12 +221,7 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, const pgi_came
                     size_t pix[16];
                     pgi__v3 dirs[16];
                     pgi__hit hits[16];
-                    for (int k = 0; k < 16; k++) {
-                        int px, py;
-                        valid[k] = tile_lane(tx, ty, k, W, H, &px, &py);
-                        pix[k] = valid[k] ? (size_t)py * (size_t)W + (size_t)px : 0;
-                        dirs[k] = pgi__view_dir(cam, sp, valid[k] ? px : 0, valid[k] ? py : 0);
-                    }
+                    tile_dirs(cam, sp, tx, ty, valid, pix, dirs);
                     pgi__rt_intersect16(rt, valid, &eye, 0, dirs, 1, hits);
                     /* Lanes whose primary hit is non-specular (nearly all) are shaded here in
                      * three sweeps over the packet: surfaces, then the 16 texture lookups one
