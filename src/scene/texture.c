@@ -82,17 +82,41 @@ pgi__v3 pgi__texture_lookup(const pgi__texture *t, float u, float v) {
     return bilinear(t, &f);
 }
 
-void pgi__texture_lookup_n(const pgi__texture *const *t, const float *u, const float *v, int n, pgi__v3 *out) {
-    footprint2x2 f[PGI__TEXTURE_LOOKUP_N];
-    for (int k = 0; k < n; k++) {
-        if (!t[k] || !t[k]->rgba || t[k]->width <= 0 || t[k]->height <= 0) continue;
-        f[k] = bilinear_footprint(t[k], u[k], v[k]);
-        __builtin_prefetch(color_at(t[k], f[k].x0, f[k].y0));
-        __builtin_prefetch(color_at(t[k], f[k].x1, f[k].y1));
-    }
-    for (int k = 0; k < n; k++)
-        out[k] =
+/* The body of pgi__texture_lookup_n, compiled once for the baseline and, on x86-64 with GCC or
+ * clang, once more for SSE 4.1, where floorf is one instruction (roundss) instead of a sequence
+ * of conversions and compares: floorf is exact either way, so both give the same bits. */
+#define LOOKUP_N_BODY                                                                                                  \
+    footprint2x2 f[PGI__TEXTURE_LOOKUP_N];                                                                             \
+    for (int k = 0; k < n; k++) {                                                                                      \
+        if (!t[k] || !t[k]->rgba || t[k]->width <= 0 || t[k]->height <= 0) continue;                                   \
+        f[k] = bilinear_footprint(t[k], u[k], v[k]);                                                                   \
+        __builtin_prefetch(color_at(t[k], f[k].x0, f[k].y0));                                                          \
+        __builtin_prefetch(color_at(t[k], f[k].x1, f[k].y1));                                                          \
+    }                                                                                                                  \
+    for (int k = 0; k < n; k++)                                                                                        \
+        out[k] =                                                                                                       \
             !t[k] || !t[k]->rgba || t[k]->width <= 0 || t[k]->height <= 0 ? v3(1.f, 1.f, 1.f) : bilinear(t[k], &f[k]);
+
+static void lookup_n_base(const pgi__texture *const *t, const float *u, const float *v, int n, pgi__v3 *out) {
+    LOOKUP_N_BODY
+}
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__)) && !defined(__SSE4_1__)
+#define PGI__LOOKUP_SSE41 1
+__attribute__((target("sse4.1"))) static void lookup_n_sse41(const pgi__texture *const *t, const float *u,
+                                                             const float *v, int n, pgi__v3 *out) {
+    LOOKUP_N_BODY
+}
+#endif
+
+void pgi__texture_lookup_n(const pgi__texture *const *t, const float *u, const float *v, int n, pgi__v3 *out) {
+#ifdef PGI__LOOKUP_SSE41
+    if (__builtin_cpu_supports("sse4.1")) { /* a load and a test (libgcc sets the flags at start-up) */
+        lookup_n_sse41(t, u, v, n, out);
+        return;
+    }
+#endif
+    lookup_n_base(t, u, v, n, out);
 }
 
 float pgi__texture_alpha(const pgi__texture *t, float u, float v) {
