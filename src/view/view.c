@@ -62,31 +62,46 @@ static void put_block(const view_block *b, int rows, int n, size_t i0, size_t W,
     }
 }
 
+/* pgi__lobe_params of the material last seen (neighbouring samples mostly share one). */
+typedef struct lobe_cache {
+    const pgi__material *m; /* NULL: empty */
+    pgi__v3 ks;
+    float sh, eta;
+    uint8_t flags; /* PGI_VS_LAMBERT, PGI_VS_GGX */
+} lobe_cache;
+
+static inline const lobe_cache *lobe_of(lobe_cache *c, const pgi__material *m) {
+    if (c->m != m) {
+        pgi__lobe_model model = pgi__lobe_params(m, &c->ks, &c->sh, &c->eta);
+        c->flags = (uint8_t)((model == PGI_LOBE_NONE ? PGI_VS_LAMBERT : 0) | (model == PGI_LOBE_GGX ? PGI_VS_GGX : 0));
+        c->m = m;
+    }
+    return c;
+}
+
 /* Writes sample j of a block: the non-specular surface sf (texture applied) seen from wo on
  * `side` of its geometric normal, at the end of a specular chain of throughput `weight`. */
 static inline void put_sample(view_block *vs, int j, const pgi__surface *sf, pgi__v3 wo, float side, pgi__v3 weight,
-                              int primary) {
+                              int primary, lobe_cache *lc) {
     pgi__v3 ng = v3_scale(sf->ng, side), ns = v3_scale(sf->ns, side);
     v3_store(vs->pos + 3 * j, sf->p);
     v3_store(vs->nrm + 3 * j, ns);
     v3_store(vs->ngeo + 3 * j, ng);
     v3_store(vs->wo + 3 * j, wo);
     v3_store(vs->kd + 3 * j, sf->kd);
-    pgi__v3 ks;
-    float sh, eta;
-    pgi__lobe_model model = pgi__lobe_params(sf->mat, &ks, &sh, &eta);
-    v3_store(vs->ks + 3 * j, ks);
-    vs->shininess[j] = sh;
-    vs->ior[j] = eta;
+    const lobe_cache *l = lobe_of(lc, sf->mat);
+    v3_store(vs->ks + 3 * j, l->ks);
+    vs->shininess[j] = l->sh;
+    vs->ior[j] = l->eta;
     v3_store(vs->weight + 3 * j, weight);
-    vs->flags[j] = PGI_VS_VALID | (primary ? PGI_VS_PRIMARY : 0) | (model == PGI_LOBE_NONE ? PGI_VS_LAMBERT : 0) |
-                   (model == PGI_LOBE_GGX ? PGI_VS_GGX : 0);
+    vs->flags[j] = (uint8_t)(PGI_VS_VALID | (primary ? PGI_VS_PRIMARY : 0) | l->flags);
 }
 
 /* Continues the eye path of pixel i from its primary hit to its first non-specular hit and
  * writes every field of view sample i (each once) and its emitted radiance. */
 static void shade_eye_path(const pgi_scene *s, const pgi__rt *rt, const pgi_camera *cam, uint64_t seed, float eps,
-                           size_t i, pgi__v3 o, pgi__v3 d, pgi__hit h, view_block *vs, int j, uint64_t *rays) {
+                           size_t i, pgi__v3 o, pgi__v3 d, pgi__hit h, view_block *vs, int j, lobe_cache *lc,
+                           uint64_t *rays) {
     pgi__v3 weight = v3(1.f, 1.f, 1.f), e = v3(0.f, 0.f, 0.f);
     float depth_v = 0.f;
     int found = 0;
@@ -103,7 +118,7 @@ static void shade_eye_path(const pgi_scene *s, const pgi__rt *rt, const pgi_came
         if (side > 0.f) e = v3_add(e, v3_mul(weight, ke)); /* one-sided emitters */
         if (!pgi__mat_specular(sf.mat)) {
             pgi__surface_texture(s, &sf);
-            put_sample(vs, j, &sf, wo, side, weight, depth == 0);
+            put_sample(vs, j, &sf, wo, side, weight, depth == 0, lc);
             found = 1;
             break;
         }
@@ -211,6 +226,7 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, const pgi_came
 #pragma omp parallel num_threads(pgi__threads(threads)) reduction(+ : rays)
     {
         view_block blk;
+        lobe_cache lc = {0};
 #pragma omp for schedule(dynamic, 1)
         for (int ty = 0; ty < tiles_y; ty++) {
             for (int bx = 0; bx < blocks_x; bx++) {
@@ -242,7 +258,7 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, const pgi_came
                                 continue;
                             }
                         }
-                        shade_eye_path(s, rt, cam, seed, eps, pix[k], eye, dirs[k], hits[k], &blk, j, &rays);
+                        shade_eye_path(s, rt, cam, seed, eps, pix[k], eye, dirs[k], hits[k], &blk, j, &lc, &rays);
                     }
                     const pgi__texture *tex[16];
                     float tu[16], tv[16];
@@ -265,7 +281,7 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, const pgi_came
                         /* as shade_eye_path at depth 0: the same operations, the same bits */
                         pgi__v3 e = v3(0.f, 0.f, 0.f);
                         if (side > 0.f) e = v3_add(e, v3_mul(v3(1.f, 1.f, 1.f), v3_load(sf[k].mat->ke)));
-                        put_sample(&blk, j, &sf[k], wo, side, v3(1.f, 1.f, 1.f), 1);
+                        put_sample(&blk, j, &sf[k], wo, side, v3(1.f, 1.f, 1.f), 1, &lc);
                         blk.depth[j] = v3_dot(v3_sub(sf[k].p, eye), v3_load(cam->forward));
                         v3_store(blk.emit + 3 * j, e);
                     }
