@@ -218,9 +218,9 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, const pgi_came
     const pgi__v3 eye = v3_load(cam->eye);
     const float eps = pgi__scene_epsilon(s);
     /* 4x4-pixel tiles, one coherent 16-wide packet each (the fastest layout of primary rays:
-     * photongi-bench --limits). Prefetching a tile's texels while the next tile's packet runs
-     * was measured and gained nothing here (primary hits are coherent), so tiles are simply
-     * cast and shaded in turn. */
+     * photongi-bench --limits), cast and shaded in turn, BLOCK_TILES of them side by side into
+     * one staging block. Prefetching a whole block's texels a sweep ahead of the lookups was
+     * measured slower than prefetching a packet's just before them (pgi__texture_lookup_n). */
     const int tiles_x = (W + 3) / 4, tiles_y = (H + 3) / 4;
     const int blocks_x = (tiles_x + BLOCK_TILES - 1) / BLOCK_TILES;
 #pragma omp parallel num_threads(pgi__threads(threads)) reduction(+ : rays)
