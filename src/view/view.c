@@ -164,6 +164,7 @@ static inline int tile_lane(int tx, int ty, int k, int W, int H, int *px, int *p
 static void tile_dirs(const pgi_camera *cam, const pgi__subpixel *sp, int tx, int ty, int valid[16], size_t pix[16],
                       pgi__v3 dirs[16]) {
     const int W = cam->width, H = cam->height;
+#if defined(__SSE2__)
     float fx[16], fy[16];
     for (int k = 0; k < 16; k++) {
         int px, py;
@@ -175,7 +176,6 @@ static void tile_dirs(const pgi_camera *cam, const pgi__subpixel *sp, int tx, in
         fx[k] = (float)px + jx; /* pgi__camera_dir_at's first operations */
         fy[k] = (float)py + jy;
     }
-#if defined(__SSE2__)
     const __m128 two = _mm_set1_ps(2.f), one = _mm_set1_ps(1.f), zero = _mm_setzero_ps();
     const __m128 w = _mm_set1_ps((float)cam->width), h = _mm_set1_ps((float)cam->height);
     const __m128 th = _mm_set1_ps(cam->tan_half_fov_y), asp = _mm_set1_ps(cam->aspect);
@@ -201,7 +201,10 @@ static void tile_dirs(const pgi_camera *cam, const pgi__subpixel *sp, int tx, in
     }
 #else
     for (int k = 0; k < 16; k++) {
-        int px = valid[k] ? 4 * tx + (k & 3) : 0, py = valid[k] ? 4 * ty + (k >> 2) : 0;
+        int px, py;
+        valid[k] = tile_lane(tx, ty, k, W, H, &px, &py);
+        if (!valid[k]) px = py = 0;
+        pix[k] = valid[k] ? (size_t)py * (size_t)W + (size_t)px : 0;
         dirs[k] = pgi__view_dir(cam, sp, px, py);
     }
 #endif
