@@ -26,7 +26,10 @@ void pgi_scene_destroy(pgi_scene *s) {
     free(s->tri);
     free(s->tri_mat);
     free(s->mats);
-    for (size_t i = 0; i < s->ntexs; i++) free(s->texs[i].rgba);
+    for (size_t i = 0; i < s->ntexs; i++) {
+        free(s->texs[i].rgba);
+        pgi__afree(s->texs[i].tiled);
+    }
     free(s->texs);
     free(s->lights);
     pgi__env_destroy(s->env);
@@ -379,7 +382,11 @@ void pgi__scene_memory(const pgi_scene *s, size_t *scene_bytes, size_t *texture_
              a->nkeys * sizeof *a->keys;
     }
     size_t t = 0;
-    for (size_t i = 0; i < s->ntexs; i++) t += (size_t)s->texs[i].width * (size_t)s->texs[i].height * 4;
+    for (size_t i = 0; i < s->ntexs; i++) {
+        const pgi__texture *x = &s->texs[i];
+        t += (size_t)x->width * (size_t)x->height * 4;
+        if (x->tiled) t += (size_t)((x->width + 3) / 4) * (size_t)((x->height + 3) / 4) * 64;
+    }
     *scene_bytes = b;
     *texture_bytes = t;
 }

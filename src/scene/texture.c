@@ -20,8 +20,15 @@ static inline const unsigned char *texel_at(const pgi__texture *t, int x, int y)
     return t->rgba + 4 * ((size_t)y * (size_t)t->width + (size_t)x);
 }
 
+/* Texel (x, y)'s colour bytes: in the block layout when there is one (pgi__texture.tiled). */
+static inline const unsigned char *color_at(const pgi__texture *t, int x, int y) {
+    if (!t->tiled) return texel_at(t, x, y);
+    size_t block = (size_t)(y >> 2) * (size_t)((t->width + 3) >> 2) + (size_t)(x >> 2);
+    return t->tiled + 64 * block + 4 * (4 * (y & 3) + (x & 3));
+}
+
 static inline pgi__v3 texel(const pgi__texture *t, int x, int y) {
-    const unsigned char *p = texel_at(t, x, y);
+    const unsigned char *p = color_at(t, x, y);
     return v3(pgi__srgb8_texture_lut[p[0]], pgi__srgb8_texture_lut[p[1]], pgi__srgb8_texture_lut[p[2]]);
 }
 
@@ -55,17 +62,61 @@ static inline footprint2x2 bilinear_footprint(const pgi__texture *t, float u, fl
 void pgi__texture_prefetch(const pgi__texture *t, float u, float v) {
     if (!t || !t->rgba || t->width <= 0 || t->height <= 0) return;
     footprint2x2 f = bilinear_footprint(t, u, v);
-    __builtin_prefetch(texel_at(t, f.x0, f.y0));
-    __builtin_prefetch(texel_at(t, f.x0, f.y1));
+    __builtin_prefetch(color_at(t, f.x0, f.y0));
+    __builtin_prefetch(color_at(t, f.x1, f.y1));
+}
+
+/* The 2x2 texels' colours, bilinearly weighted (the order of the operations is part of the
+ * result: every lookup runs through here). */
+static inline pgi__v3 bilinear(const pgi__texture *t, const footprint2x2 *f) {
+    pgi__v3 a = texel(t, f->x0, f->y0), b = texel(t, f->x1, f->y0), c = texel(t, f->x0, f->y1),
+            d = texel(t, f->x1, f->y1);
+    pgi__v3 top = v3_add(v3_scale(a, 1.f - f->tx), v3_scale(b, f->tx));
+    pgi__v3 bot = v3_add(v3_scale(c, 1.f - f->tx), v3_scale(d, f->tx));
+    return v3_add(v3_scale(top, 1.f - f->ty), v3_scale(bot, f->ty));
 }
 
 pgi__v3 pgi__texture_lookup(const pgi__texture *t, float u, float v) {
     if (!t || !t->rgba || t->width <= 0 || t->height <= 0) return v3(1.f, 1.f, 1.f);
     footprint2x2 f = bilinear_footprint(t, u, v);
-    pgi__v3 a = texel(t, f.x0, f.y0), b = texel(t, f.x1, f.y0), c = texel(t, f.x0, f.y1), d = texel(t, f.x1, f.y1);
-    pgi__v3 top = v3_add(v3_scale(a, 1.f - f.tx), v3_scale(b, f.tx));
-    pgi__v3 bot = v3_add(v3_scale(c, 1.f - f.tx), v3_scale(d, f.tx));
-    return v3_add(v3_scale(top, 1.f - f.ty), v3_scale(bot, f.ty));
+    return bilinear(t, &f);
+}
+
+/* The body of pgi__texture_lookup_n, compiled once for the baseline and, on x86-64 with GCC or
+ * clang, once more for SSE 4.1, where floorf is one instruction (roundss) instead of a sequence
+ * of conversions and compares: floorf is exact either way, so both give the same bits. */
+#define LOOKUP_N_BODY                                                                                                  \
+    footprint2x2 f[PGI__TEXTURE_LOOKUP_N];                                                                             \
+    for (int k = 0; k < n; k++) {                                                                                      \
+        if (!t[k] || !t[k]->rgba || t[k]->width <= 0 || t[k]->height <= 0) continue;                                   \
+        f[k] = bilinear_footprint(t[k], u[k], v[k]);                                                                   \
+        __builtin_prefetch(color_at(t[k], f[k].x0, f[k].y0));                                                          \
+        __builtin_prefetch(color_at(t[k], f[k].x1, f[k].y1));                                                          \
+    }                                                                                                                  \
+    for (int k = 0; k < n; k++)                                                                                        \
+        out[k] =                                                                                                       \
+            !t[k] || !t[k]->rgba || t[k]->width <= 0 || t[k]->height <= 0 ? v3(1.f, 1.f, 1.f) : bilinear(t[k], &f[k]);
+
+static void lookup_n_base(const pgi__texture *const *t, const float *u, const float *v, int n, pgi__v3 *out) {
+    LOOKUP_N_BODY
+}
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__)) && !defined(__SSE4_1__)
+#define PGI__LOOKUP_SSE41 1
+__attribute__((target("sse4.1"))) static void lookup_n_sse41(const pgi__texture *const *t, const float *u,
+                                                             const float *v, int n, pgi__v3 *out) {
+    LOOKUP_N_BODY
+}
+#endif
+
+void pgi__texture_lookup_n(const pgi__texture *const *t, const float *u, const float *v, int n, pgi__v3 *out) {
+#ifdef PGI__LOOKUP_SSE41
+    if (__builtin_cpu_supports("sse4.1")) { /* a load and a test (libgcc sets the flags at start-up) */
+        lookup_n_sse41(t, u, v, n, out);
+        return;
+    }
+#endif
+    lookup_n_base(t, u, v, n, out);
 }
 
 float pgi__texture_alpha(const pgi__texture *t, float u, float v) {
@@ -103,6 +154,16 @@ pgi_status pgi__scene_add_texture(pgi_scene *s, int w, int h, int channels, unsi
     nt->height = h;
     nt->channels = channels;
     nt->rgba = rgba; /* stbi allocates with malloc: pgi_scene_destroy frees it with free() */
+    const int bw = (w + 3) / 4, bh = (h + 3) / 4;
+    nt->tiled = w > 0 && h > 0 ? pgi__aalloc((size_t)bw * (size_t)bh * 64) : NULL;
+    if (nt->tiled) { /* the lookups fall back on rgba without it */
+        memset(nt->tiled, 0, (size_t)bw * (size_t)bh * 64);
+        for (int y = 0; y < h; y++)
+            for (int x = 0; x < w; x++)
+                memcpy(nt->tiled + 64 * ((size_t)(y >> 2) * (size_t)bw + (size_t)(x >> 2)) +
+                           4 * (4 * (y & 3) + (x & 3)),
+                       rgba + 4 * ((size_t)y * (size_t)w + (size_t)x), 4);
+    }
     snprintf(nt->path, sizeof nt->path, "%s", path);
     *index = (int)s->ntexs++;
     return PGI_OK;

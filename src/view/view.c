@@ -1,17 +1,106 @@
 /* View samples and direct light. */
 #include "view.h"
 
+#include <stdint.h>
 #include <string.h>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "photon/photon.h"
 #include "scene/bsdf.h"
 
 #define PGI_MAX_SPECULAR_DEPTH 8
 
+/* The view pass shades blocks of BLOCK_TILES 4x4-pixel tiles side by side (32x4 pixels) into a
+ * staging block on the stack (11 KB) and then writes each plane's rows out whole: 32 samples of
+ * a vector plane are 384 bytes, of a scalar plane 128, whole cache lines where the image width
+ * is a multiple of 32 (the planes are 64-byte aligned; 16x4 blocks measured a little slower). Those rows go out with non-temporal
+ * stores: the 93 bytes a pixel of the G-buffer (86 MB at 1280x720) then neither read their
+ * lines before writing them (write-allocate) nor evict the textures and the scene from the
+ * caches. */
+#define BLOCK_TILES 8
+#define BLOCK_W (4 * BLOCK_TILES)
+#define BLOCK_N (4 * BLOCK_W)
+
+/* One block's view samples and emitted radiance; sample j = row * BLOCK_W + column. */
+typedef struct view_block {
+    float pos[3 * BLOCK_N], nrm[3 * BLOCK_N], ngeo[3 * BLOCK_N], wo[3 * BLOCK_N], kd[3 * BLOCK_N], ks[3 * BLOCK_N],
+        weight[3 * BLOCK_N], emit[3 * BLOCK_N];
+    float shininess[BLOCK_N], ior[BLOCK_N], depth[BLOCK_N];
+    uint8_t flags[BLOCK_N];
+} view_block;
+
+/* Copies n floats to dst: streaming stores where dst is 16-byte aligned and n a multiple of 4,
+ * else plain ones. */
+static inline void put_floats(float *dst, const float *src, size_t n) {
+#if defined(__SSE2__)
+    if (((uintptr_t)dst & 15u) == 0 && (n & 3u) == 0) {
+        for (size_t k = 0; k < n; k += 4) _mm_stream_ps(dst + k, _mm_loadu_ps(src + k));
+        return;
+    }
+#endif
+    memcpy(dst, src, n * sizeof(float));
+}
+
+/* Writes rows [0, rows) of a block, n samples each, whose first sample is pixel i0 of the image. */
+static void put_block(const view_block *b, int rows, int n, size_t i0, size_t W, pgi_view_samples *vs, float *emit) {
+    for (int r = 0; r < rows; r++) {
+        size_t i = i0 + (size_t)r * W, j = (size_t)r * BLOCK_W;
+        put_floats(vs->pos + 3 * i, b->pos + 3 * j, 3 * (size_t)n);
+        put_floats(vs->nrm + 3 * i, b->nrm + 3 * j, 3 * (size_t)n);
+        put_floats(vs->ngeo + 3 * i, b->ngeo + 3 * j, 3 * (size_t)n);
+        put_floats(vs->wo + 3 * i, b->wo + 3 * j, 3 * (size_t)n);
+        put_floats(vs->kd + 3 * i, b->kd + 3 * j, 3 * (size_t)n);
+        put_floats(vs->ks + 3 * i, b->ks + 3 * j, 3 * (size_t)n);
+        put_floats(vs->weight + 3 * i, b->weight + 3 * j, 3 * (size_t)n);
+        put_floats(emit + 3 * i, b->emit + 3 * j, 3 * (size_t)n);
+        put_floats(vs->shininess + i, b->shininess + j, (size_t)n);
+        put_floats(vs->ior + i, b->ior + j, (size_t)n);
+        put_floats(vs->depth + i, b->depth + j, (size_t)n);
+        memcpy(vs->flags + i, b->flags + j, (size_t)n);
+    }
+}
+
+/* pgi__lobe_params of the material last seen (neighbouring samples mostly share one). */
+typedef struct lobe_cache {
+    const pgi__material *m; /* NULL: empty */
+    pgi__v3 ks;
+    float sh, eta;
+    uint8_t flags; /* PGI_VS_LAMBERT, PGI_VS_GGX */
+} lobe_cache;
+
+static inline const lobe_cache *lobe_of(lobe_cache *c, const pgi__material *m) {
+    if (c->m != m) {
+        pgi__lobe_model model = pgi__lobe_params(m, &c->ks, &c->sh, &c->eta);
+        c->flags = (uint8_t)((model == PGI_LOBE_NONE ? PGI_VS_LAMBERT : 0) | (model == PGI_LOBE_GGX ? PGI_VS_GGX : 0));
+        c->m = m;
+    }
+    return c;
+}
+
+/* Writes sample j of a block: the non-specular surface sf (texture applied) seen from wo on
+ * `side` of its geometric normal, at the end of a specular chain of throughput `weight`. */
+static inline void put_sample(view_block *vs, int j, const pgi__surface *sf, pgi__v3 wo, float side, pgi__v3 weight,
+                              int primary, lobe_cache *lc) {
+    pgi__v3 ng = v3_scale(sf->ng, side), ns = v3_scale(sf->ns, side);
+    v3_store(vs->pos + 3 * j, sf->p);
+    v3_store(vs->nrm + 3 * j, ns);
+    v3_store(vs->ngeo + 3 * j, ng);
+    v3_store(vs->wo + 3 * j, wo);
+    v3_store(vs->kd + 3 * j, sf->kd);
+    const lobe_cache *l = lobe_of(lc, sf->mat);
+    v3_store(vs->ks + 3 * j, l->ks);
+    vs->shininess[j] = l->sh;
+    vs->ior[j] = l->eta;
+    v3_store(vs->weight + 3 * j, weight);
+    vs->flags[j] = (uint8_t)(PGI_VS_VALID | (primary ? PGI_VS_PRIMARY : 0) | l->flags);
+}
+
 /* Continues the eye path of pixel i from its primary hit to its first non-specular hit and
  * writes every field of view sample i (each once) and its emitted radiance. */
 static void shade_eye_path(const pgi_scene *s, const pgi__rt *rt, const pgi_camera *cam, uint64_t seed, float eps,
-                           size_t i, pgi__v3 o, pgi__v3 d, pgi__hit h, pgi_view_samples *vs, float *emit,
+                           size_t i, pgi__v3 o, pgi__v3 d, pgi__hit h, view_block *vs, int j, lobe_cache *lc,
                            uint64_t *rays) {
     pgi__v3 weight = v3(1.f, 1.f, 1.f), e = v3(0.f, 0.f, 0.f);
     float depth_v = 0.f;
@@ -29,21 +118,7 @@ static void shade_eye_path(const pgi_scene *s, const pgi__rt *rt, const pgi_came
         if (side > 0.f) e = v3_add(e, v3_mul(weight, ke)); /* one-sided emitters */
         if (!pgi__mat_specular(sf.mat)) {
             pgi__surface_texture(s, &sf);
-            pgi__v3 ng = v3_scale(sf.ng, side), ns = v3_scale(sf.ns, side);
-            v3_store(vs->pos + 3 * i, p);
-            v3_store(vs->nrm + 3 * i, ns);
-            v3_store(vs->ngeo + 3 * i, ng);
-            v3_store(vs->wo + 3 * i, wo);
-            v3_store(vs->kd + 3 * i, sf.kd);
-            pgi__v3 ks;
-            float sh, eta;
-            pgi__lobe_model model = pgi__lobe_params(sf.mat, &ks, &sh, &eta);
-            v3_store(vs->ks + 3 * i, ks);
-            vs->shininess[i] = sh;
-            vs->ior[i] = eta;
-            v3_store(vs->weight + 3 * i, weight);
-            vs->flags[i] = PGI_VS_VALID | (depth == 0 ? PGI_VS_PRIMARY : 0) |
-                           (model == PGI_LOBE_NONE ? PGI_VS_LAMBERT : 0) | (model == PGI_LOBE_GGX ? PGI_VS_GGX : 0);
+            put_sample(vs, j, &sf, wo, side, weight, depth == 0, lc);
             found = 1;
             break;
         }
@@ -67,12 +142,12 @@ static void shade_eye_path(const pgi_scene *s, const pgi__rt *rt, const pgi_came
         /* An eye path that leaves the scene sees the sky (a window, an open roof). */
         if (h.prim == UINT32_MAX && s->env) e = v3_add(e, v3_mul(weight, pgi__env_eval(s->env, d)));
         float *planes[] = {vs->pos, vs->nrm, vs->ngeo, vs->wo, vs->kd, vs->ks, vs->weight};
-        for (int k = 0; k < 7; k++) memset(planes[k] + 3 * i, 0, 3 * sizeof(float));
-        vs->shininess[i] = vs->ior[i] = 0.f;
-        vs->flags[i] = 0;
+        for (int k = 0; k < 7; k++) memset(planes[k] + 3 * j, 0, 3 * sizeof(float));
+        vs->shininess[j] = vs->ior[j] = 0.f;
+        vs->flags[j] = 0;
     }
-    vs->depth[i] = depth_v;
-    v3_store(emit + 3 * i, e);
+    vs->depth[j] = depth_v;
+    v3_store(vs->emit + 3 * j, e);
 }
 
 /* Both passes go over the image in 4x4-pixel tiles, one 16-wide packet each: lane k of tile
@@ -81,6 +156,58 @@ static inline int tile_lane(int tx, int ty, int k, int W, int H, int *px, int *p
     *px = 4 * tx + (k & 3);
     *py = 4 * ty + (k >> 2);
     return *px < W && *py < H;
+}
+
+/* The lanes of tile (tx, ty) (tile_lane), their pixels and their directions pgi__view_dir(cam,
+ * sp, x, y) (pixel (0, 0)'s for a lane outside the image), bit for bit: with SSE four lanes at a
+ * time, the same operations in the same order (IEEE: packed and scalar results agree). */
+static void tile_dirs(const pgi_camera *cam, const pgi__subpixel *sp, int tx, int ty, int valid[16], size_t pix[16],
+                      pgi__v3 dirs[16]) {
+    const int W = cam->width, H = cam->height;
+#if defined(__SSE2__)
+    float fx[16], fy[16];
+    for (int k = 0; k < 16; k++) {
+        int px, py;
+        valid[k] = tile_lane(tx, ty, k, W, H, &px, &py);
+        if (!valid[k]) px = py = 0;
+        pix[k] = valid[k] ? (size_t)py * (size_t)W + (size_t)px : 0;
+        float jx, jy;
+        pgi__pixel_jitter(sp, (size_t)py * (size_t)W + (size_t)px, &jx, &jy);
+        fx[k] = (float)px + jx; /* pgi__camera_dir_at's first operations */
+        fy[k] = (float)py + jy;
+    }
+    const __m128 two = _mm_set1_ps(2.f), one = _mm_set1_ps(1.f), zero = _mm_setzero_ps();
+    const __m128 w = _mm_set1_ps((float)cam->width), h = _mm_set1_ps((float)cam->height);
+    const __m128 th = _mm_set1_ps(cam->tan_half_fov_y), asp = _mm_set1_ps(cam->aspect);
+    for (int k = 0; k < 16; k += 4) {
+        __m128 u =
+            _mm_mul_ps(_mm_mul_ps(_mm_sub_ps(_mm_div_ps(_mm_mul_ps(two, _mm_loadu_ps(fx + k)), w), one), th), asp);
+        __m128 v = _mm_mul_ps(_mm_sub_ps(one, _mm_div_ps(_mm_mul_ps(two, _mm_loadu_ps(fy + k)), h)), th);
+        __m128 d[3];
+        for (int c = 0; c < 3; c++)
+            d[c] = _mm_add_ps(_mm_set1_ps(cam->forward[c]), _mm_add_ps(_mm_mul_ps(_mm_set1_ps(cam->right[c]), u),
+                                                                       _mm_mul_ps(_mm_set1_ps(cam->up[c]), v)));
+        __m128 l =
+            _mm_sqrt_ps(_mm_add_ps(_mm_add_ps(_mm_mul_ps(d[0], d[0]), _mm_mul_ps(d[1], d[1])), _mm_mul_ps(d[2], d[2])));
+        __m128 pos = _mm_cmpgt_ps(l, zero), r = _mm_div_ps(one, l); /* v3_norm */
+        float o[3][4], m[4];
+        for (int c = 0; c < 3; c++) _mm_storeu_ps(o[c], _mm_mul_ps(d[c], r));
+        _mm_storeu_ps(m, pos);
+        for (int q = 0; q < 4; q++) {
+            uint32_t bits;
+            memcpy(&bits, &m[q], sizeof bits);
+            dirs[k + q] = bits ? v3(o[0][q], o[1][q], o[2][q]) : v3(0.f, 0.f, 1.f);
+        }
+    }
+#else
+    for (int k = 0; k < 16; k++) {
+        int px, py;
+        valid[k] = tile_lane(tx, ty, k, W, H, &px, &py);
+        if (!valid[k]) px = py = 0;
+        pix[k] = valid[k] ? (size_t)py * (size_t)W + (size_t)px : 0;
+        dirs[k] = pgi__view_dir(cam, sp, px, py);
+    }
+#endif
 }
 
 pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, const pgi_camera *cam, uint64_t seed,
@@ -94,30 +221,82 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, const pgi_came
     const pgi__v3 eye = v3_load(cam->eye);
     const float eps = pgi__scene_epsilon(s);
     /* 4x4-pixel tiles, one coherent 16-wide packet each (the fastest layout of primary rays:
-     * photongi-bench --limits). Prefetching a tile's texels while the next tile's packet runs
-     * was measured and gained nothing here (primary hits are coherent), so tiles are simply
-     * cast and shaded in turn. */
+     * photongi-bench --limits), cast and shaded in turn, BLOCK_TILES of them side by side into
+     * one staging block. Prefetching a whole block's texels a sweep ahead of the lookups was
+     * measured slower than prefetching a packet's just before them (pgi__texture_lookup_n). */
     const int tiles_x = (W + 3) / 4, tiles_y = (H + 3) / 4;
-#pragma omp parallel for schedule(dynamic, 1) reduction(+ : rays) num_threads(pgi__threads(threads))
-    for (int ty = 0; ty < tiles_y; ty++) {
-        for (int tx = 0; tx < tiles_x; tx++) {
-            int valid[16];
-            size_t pix[16];
-            pgi__v3 dirs[16];
-            pgi__hit hits[16];
-            for (int k = 0; k < 16; k++) {
-                int px, py;
-                valid[k] = tile_lane(tx, ty, k, W, H, &px, &py);
-                pix[k] = valid[k] ? (size_t)py * (size_t)W + (size_t)px : 0;
-                dirs[k] = pgi__view_dir(cam, sp, valid[k] ? px : 0, valid[k] ? py : 0);
-            }
-            pgi__rt_intersect16(rt, valid, &eye, 0, dirs, 1, hits);
-            for (int k = 0; k < 16; k++) {
-                if (!valid[k]) continue;
-                rays++;
-                shade_eye_path(s, rt, cam, seed, eps, pix[k], eye, dirs[k], hits[k], vs, emit, &rays);
+    const int blocks_x = (tiles_x + BLOCK_TILES - 1) / BLOCK_TILES;
+#pragma omp parallel num_threads(pgi__threads(threads)) reduction(+ : rays)
+    {
+        view_block blk;
+        lobe_cache lc = {0};
+#pragma omp for schedule(dynamic, 1)
+        for (int ty = 0; ty < tiles_y; ty++) {
+            for (int bx = 0; bx < blocks_x; bx++) {
+                for (int tb = 0; tb < BLOCK_TILES; tb++) {
+                    const int tx = bx * BLOCK_TILES + tb;
+                    if (tx >= tiles_x) break;
+                    int valid[16];
+                    size_t pix[16];
+                    pgi__v3 dirs[16];
+                    pgi__hit hits[16];
+                    tile_dirs(cam, sp, tx, ty, valid, pix, dirs);
+                    pgi__rt_intersect16(rt, valid, &eye, 0, dirs, 1, hits);
+                    /* Lanes whose primary hit is non-specular (nearly all) are shaded here in
+                     * three sweeps over the packet: surfaces, then the 16 texture lookups one
+                     * after the other (independent: their cache misses overlap), then the
+                     * samples. The others (sky, mirrors, glass) follow their eye paths. */
+                    pgi__surface sf[16];
+                    int lit[16];
+                    for (int k = 0; k < 16; k++) {
+                        lit[k] = 0;
+                        if (!valid[k]) continue;
+                        rays++;
+                        const int j = (k >> 2) * BLOCK_W + 4 * tb + (k & 3);
+                        if (hits[k].prim != UINT32_MAX) {
+                            pgi__v3 p = v3_madd(eye, dirs[k], hits[k].t);
+                            pgi__scene_surface_untextured(s, hits[k].prim, hits[k].u, hits[k].v, p, &sf[k]);
+                            if (!pgi__mat_specular(sf[k].mat)) {
+                                lit[k] = 1;
+                                continue;
+                            }
+                        }
+                        shade_eye_path(s, rt, cam, seed, eps, pix[k], eye, dirs[k], hits[k], &blk, j, &lc, &rays);
+                    }
+                    const pgi__texture *tex[16];
+                    float tu[16], tv[16];
+                    pgi__v3 texc[16];
+                    int lane[16], nt = 0;
+                    for (int k = 0; k < 16; k++)
+                        if (lit[k] && sf[k].mat->tex_kd >= 0) { /* as pgi__surface_texture */
+                            tex[nt] = &s->texs[sf[k].mat->tex_kd];
+                            tu[nt] = sf[k].u;
+                            tv[nt] = sf[k].v;
+                            lane[nt++] = k;
+                        }
+                    pgi__texture_lookup_n(tex, tu, tv, nt, texc);
+                    for (int q = 0; q < nt; q++) sf[lane[q]].kd = v3_mul(sf[lane[q]].kd, texc[q]);
+                    for (int k = 0; k < 16; k++) {
+                        if (!lit[k]) continue;
+                        const int j = (k >> 2) * BLOCK_W + 4 * tb + (k & 3);
+                        pgi__v3 wo = v3_neg(dirs[k]);
+                        float side = v3_dot(wo, sf[k].ng) >= 0.f ? 1.f : -1.f;
+                        /* as shade_eye_path at depth 0: the same operations, the same bits */
+                        pgi__v3 e = v3(0.f, 0.f, 0.f);
+                        if (side > 0.f) e = v3_add(e, v3_mul(v3(1.f, 1.f, 1.f), v3_load(sf[k].mat->ke)));
+                        put_sample(&blk, j, &sf[k], wo, side, v3(1.f, 1.f, 1.f), 1, &lc);
+                        blk.depth[j] = v3_dot(v3_sub(sf[k].p, eye), v3_load(cam->forward));
+                        v3_store(blk.emit + 3 * j, e);
+                    }
+                }
+                const int px0 = bx * BLOCK_W, py0 = 4 * ty;
+                const int n = W - px0 < BLOCK_W ? W - px0 : BLOCK_W, rows = H - py0 < 4 ? H - py0 : 4;
+                put_block(&blk, rows, n, (size_t)py0 * (size_t)W + (size_t)px0, (size_t)W, vs, emit);
             }
         }
+#if defined(__SSE2__)
+        _mm_sfence(); /* the streamed rows are visible to the other threads after the barrier */
+#endif
     }
     *rays_out = rays;
     return PGI_OK;
