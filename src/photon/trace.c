@@ -72,6 +72,10 @@ typedef struct lane {
     int b;    /* bounce: the hit of this ray is the path's (b+1)-th */
     int path; /* path within the chunk; -1: idle */
     int bin;  /* the guide's bin of its emission */
+    /* the texels of the hit's albedo (found before shading, where the path may go on; tex NULL:
+       no texture, or one without texels) */
+    const pgi__texture *tex;
+    pgi__texel_quad tq;
 } lane;
 
 /* Starts path `index` in `l` (emission from a light picked by power). Flux is power / pick
@@ -241,23 +245,34 @@ static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbu
                 }
             }
         }
-        /* Then the vertices and materials of the hits, then the texels of those whose path goes
-         * on (the albedo weighs the scattered flux): each stage's loads are in cache when the
-         * next stage needs them. */
+        /* Then the vertices and materials of the hits (texture coordinates only where a path
+         * may go on and its material has a texture), then the texels of those (the albedo
+         * weighs the scattered flux): each stage's loads are in cache when the next stage needs
+         * them. */
         for (int k = 0; k < WAVE; k++) {
-            const lane *l = &L[k];
+            lane *l = &L[k];
+            l->tex = NULL;
             if (l->path < 0 || l->h.prim == UINT32_MAX) continue;
             const uint32_t *t = s->tri + 3 * (size_t)l->h.prim;
-            __builtin_prefetch(&s->mats[s->tri_mat[l->h.prim]]);
+            const pgi__material *m = &s->mats[s->tri_mat[l->h.prim]];
+            __builtin_prefetch(m);
             for (int j = 0; j < 3; j++) {
                 __builtin_prefetch(s->pos + 3 * (size_t)t[j]);
                 if (s->nrm) __builtin_prefetch(s->nrm + 3 * (size_t)t[j]);
-                if (s->uv) __builtin_prefetch(s->uv + 2 * (size_t)t[j]);
+            }
+            if (m->tex_kd >= 0 && l->b < T->bounces) {
+                l->tex = &s->texs[m->tex_kd];
+                if (s->uv)
+                    for (int j = 0; j < 3; j++) __builtin_prefetch(s->uv + 2 * (size_t)t[j]);
             }
         }
-        for (int k = 0; k < WAVE; k++)
-            if (L[k].path >= 0 && L[k].h.prim != UINT32_MAX && L[k].b < T->bounces)
-                pgi__surface_prefetch_texels(s, L[k].h.prim, L[k].h.u, L[k].h.v);
+        for (int k = 0; k < WAVE; k++) {
+            lane *l = &L[k];
+            if (!l->tex) continue;
+            float u = 0.f, v = 0.f; /* without texture coordinates the lookup reads (0, 0) */
+            if (s->uv) pgi__scene_uv(s, l->h.prim, l->h.u, l->h.v, &u, &v);
+            if (!pgi__texture_quad(l->tex, u, v, &l->tq)) l->tex = NULL; /* no texels: white */
+        }
         /* Shade: store, scatter, roulette. */
         for (int k = 0; k < WAVE; k++) {
             lane *l = &L[k];
@@ -266,7 +281,7 @@ static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbu
             if (l->h.prim != UINT32_MAX) {
                 pgi__surface sf;
                 pgi__v3 p = v3_madd(l->o, l->d, l->h.t);
-                pgi__scene_surface_untextured(s, l->h.prim, l->h.u, l->h.v, p, &sf);
+                pgi__scene_surface_no_uv(s, l->h.prim, l->h.u, l->h.v, p, &sf);
                 pgi__v3 wi = v3_neg(l->d);
                 pgi__v3 ng = v3_dot(wi, sf.ng) >= 0.f ? sf.ng : v3_neg(sf.ng);
                 if (T->fp_track) pgi__fp_hit(&l->pd, &T->fp, l->d, l->h.t, ng);
@@ -285,7 +300,7 @@ static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbu
                     }
                 }
                 if (l->b < T->bounces && ok) {
-                    pgi__surface_texture(s, &sf);
+                    if (l->tex) sf.kd = v3_mul(sf.kd, pgi__texture_quad_lookup(&l->tq));
                     pgi__v3 wo, w;
                     float r1 = pgi_rng_f(&l->rng), r2 = pgi_rng_f(&l->rng), r3 = pgi_rng_f(&l->rng);
                     if (pgi__bsdf_sample(&sf, wi, r1, r2, r3, &wo, &w)) {

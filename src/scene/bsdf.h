@@ -205,6 +205,9 @@ void pgi__scene_surface(const pgi_scene *s, uint32_t prim, float bu, float bv, p
 /* The same without the texture fetch (kd is the material's); pgi__surface_texture applies it
  * later, only where a path needs the albedo. */
 void pgi__scene_surface_untextured(const pgi_scene *s, uint32_t prim, float bu, float bv, pgi__v3 p, pgi__surface *out);
+/* The same without the texture coordinates either (u = v = 0; the photon tracer finds a hit's
+ * texels from the coordinates before it shades the hit: pgi__texture_quad). */
+void pgi__scene_surface_no_uv(const pgi_scene *s, uint32_t prim, float bu, float bv, pgi__v3 p, pgi__surface *out);
 /* Texture coordinates at barycentrics (bu, bv) of triangle prim (the scene has uvs). */
 static inline void pgi__scene_uv(const pgi_scene *s, uint32_t prim, float bu, float bv, float *u, float *v) {
     const uint32_t *t = s->tri + 3 * (size_t)prim;

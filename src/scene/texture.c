@@ -59,13 +59,41 @@ void pgi__texture_prefetch(const pgi__texture *t, float u, float v) {
     __builtin_prefetch(texel_at(t, f.x0, f.y1));
 }
 
+int pgi__texture_quad(const pgi__texture *t, float u, float v, pgi__texel_quad *q) {
+    if (!t || !t->rgba || t->width <= 0 || t->height <= 0) return 0;
+    footprint2x2 f = bilinear_footprint(t, u, v);
+    q->row0 = texel_at(t, 0, f.y0);
+    q->row1 = texel_at(t, 0, f.y1);
+    q->x0 = 4 * f.x0;
+    q->x1 = 4 * f.x1;
+    q->tx = f.tx;
+    q->ty = f.ty;
+    __builtin_prefetch(q->row0 + q->x0);
+    __builtin_prefetch(q->row1 + q->x0);
+    return 1;
+}
+
+static inline pgi__v3 decode(const unsigned char *p) {
+    return v3(pgi__srgb8_texture_lut[p[0]], pgi__srgb8_texture_lut[p[1]], pgi__srgb8_texture_lut[p[2]]);
+}
+
+/* The bilinear blend of pgi__texture_lookup (the same operations in the same order). */
+static inline pgi__v3 blend(pgi__v3 a, pgi__v3 b, pgi__v3 c, pgi__v3 d, float tx, float ty) {
+    pgi__v3 top = v3_add(v3_scale(a, 1.f - tx), v3_scale(b, tx));
+    pgi__v3 bot = v3_add(v3_scale(c, 1.f - tx), v3_scale(d, tx));
+    return v3_add(v3_scale(top, 1.f - ty), v3_scale(bot, ty));
+}
+
+pgi__v3 pgi__texture_quad_lookup(const pgi__texel_quad *q) {
+    return blend(decode(q->row0 + q->x0), decode(q->row0 + q->x1), decode(q->row1 + q->x0), decode(q->row1 + q->x1),
+                 q->tx, q->ty);
+}
+
 pgi__v3 pgi__texture_lookup(const pgi__texture *t, float u, float v) {
     if (!t || !t->rgba || t->width <= 0 || t->height <= 0) return v3(1.f, 1.f, 1.f);
     footprint2x2 f = bilinear_footprint(t, u, v);
     pgi__v3 a = texel(t, f.x0, f.y0), b = texel(t, f.x1, f.y0), c = texel(t, f.x0, f.y1), d = texel(t, f.x1, f.y1);
-    pgi__v3 top = v3_add(v3_scale(a, 1.f - f.tx), v3_scale(b, f.tx));
-    pgi__v3 bot = v3_add(v3_scale(c, 1.f - f.tx), v3_scale(d, f.tx));
-    return v3_add(v3_scale(top, 1.f - f.ty), v3_scale(bot, f.ty));
+    return blend(a, b, c, d, f.tx, f.ty);
 }
 
 float pgi__texture_alpha(const pgi__texture *t, float u, float v) {
