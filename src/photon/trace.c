@@ -28,20 +28,22 @@ typedef struct stored_photon {
     float p[3], d[3], f[3], n[3];
 } stored_photon;
 
-/* A thread's photons: `rec` (+ `rec_fp`, `rec_path`) collect the current chunk in the order
- * the wave produced them; `out` (+ `out_fp`) holds the thread's chunks in path order. */
+/* A thread's photons: `rec` (+ `rec_fp`, `rec_path`: the path within its chunk) collect the
+ * thread's chunks of the current batch, each in the order the wave produced them. The gather
+ * puts them into path order as it copies them into the photon map. */
 typedef struct pgi__trace_tbuf {
-    stored_photon *rec, *out;
-    pgi__footprint *rec_fp, *out_fp;
+    stored_photon *rec;
+    pgi__footprint *rec_fp;
     uint16_t *rec_path;
-    size_t nrec, rec_cap, nout, out_cap;
+    size_t nrec, rec_cap;
     uint64_t culled; /* photons not stored: no view sample near */
 } pgi__trace_tbuf;
 
 typedef struct chunk_info {
-    int tid;      /* thread whose `out` holds the chunk */
+    int tid;      /* thread whose `rec` holds the chunk */
     size_t off;   /* its first photon there */
-    size_t count; /* photons of the chunk */
+    size_t total; /* photons of the chunk */
+    size_t count; /* of these, the photons taken: the first in path order */
 } chunk_info;
 
 typedef struct tracer {
@@ -195,14 +197,13 @@ static int record(pgi__trace_tbuf *tb, int fp_on, int path, pgi__v3 p, pgi__v3 w
     return 1;
 }
 
-/* Traces paths [p0, p1) of the frame (one chunk) a wave at a time; their photons go to
- * tb->out in path order, cnt[i - p0] gets path i's count. Returns 0 when out of memory. */
+/* Traces paths [p0, p1) of the frame (one chunk) a wave at a time; their photons are appended
+ * to tb->rec, cnt[i - p0] gets path i's count. Returns 0 when out of memory. */
 static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbuf *tb, uint8_t *cnt, uint64_t *rays,
                        uint32_t *gcnt, uint16_t *pbin) {
     const pgi_scene *s = T->s;
     const int n = (int)(p1 - p0);
     memset(cnt, 0, (size_t)n);
-    tb->nrec = 0;
     lane L[WAVE];
     memset(L, 0, sizeof L); /* lanes without a path still go to Embree (masked): no garbage */
     int next = 0, active = 0, ok = 1;
@@ -328,30 +329,6 @@ static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbu
         }
         if (!ok) return 0;
     }
-    /* Counting sort of the chunk's photons into path order, appended to tb->out. */
-    size_t need = tb->nout + tb->nrec;
-    if (need > tb->out_cap) {
-        size_t cap = tb->out_cap ? tb->out_cap : 4096;
-        while (cap < need) cap *= 2;
-        stored_photon *o = realloc(tb->out, cap * sizeof *o);
-        if (o) tb->out = o;
-        pgi__footprint *of = T->fp_on ? realloc(tb->out_fp, cap * sizeof *of) : tb->out_fp;
-        if (of) tb->out_fp = of;
-        if (!o || (T->fp_on && !of)) return 0;
-        tb->out_cap = cap;
-    }
-    size_t start[CHUNK];
-    size_t acc = tb->nout;
-    for (int i = 0; i < n; i++) {
-        start[i] = acc;
-        acc += cnt[i];
-    }
-    for (size_t j = 0; j < tb->nrec; j++) {
-        size_t dst = start[tb->rec_path[j]]++;
-        tb->out[dst] = tb->rec[j];
-        if (T->fp_on) tb->out_fp[dst] = tb->rec_fp[j];
-    }
-    tb->nout = need;
     return 1;
 }
 
@@ -359,9 +336,7 @@ void pgi__trace_scratch_free(pgi__trace_scratch *sc) {
     pgi__trace_tbuf *tb = sc->tbuf;
     for (int t = 0; t < sc->nthreads; t++) {
         free(tb[t].rec);
-        free(tb[t].out);
         free(tb[t].rec_fp);
-        free(tb[t].out_fp);
         free(tb[t].rec_path);
     }
     free(sc->tbuf);
@@ -378,7 +353,6 @@ size_t pgi__trace_scratch_bytes(const pgi__trace_scratch *sc) {
     for (int t = 0; t < sc->nthreads; t++) {
         const pgi__trace_tbuf *tb = &sc->tbuf[t];
         b += tb->rec_cap * (sizeof(stored_photon) + sizeof(uint16_t) + (tb->rec_fp ? sizeof(pgi__footprint) : 0));
-        b += tb->out_cap * (sizeof(stored_photon) + (tb->out_fp ? sizeof(pgi__footprint) : 0));
     }
     return b;
 }
@@ -521,7 +495,7 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
         if (batch > max_paths - path) batch = (size_t)(max_paths - path);
         if ((st = scratch_reserve(sc, batch, nt, T.G != NULL))) break;
         const long long nch = (long long)((batch + CHUNK - 1) / CHUNK);
-        for (int t = 0; t < nt; t++) sc->tbuf[t].nout = 0;
+        for (int t = 0; t < nt; t++) sc->tbuf[t].nrec = 0;
         uint64_t batch_rays = 0;
         int failed = 0;
 #pragma omp parallel for schedule(dynamic, 1) reduction(+ : batch_rays) num_threads(nt)
@@ -532,7 +506,7 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
             if (p1 > path + batch) p1 = path + batch;
             chunk_info *ci = &sc->chunks[c];
             ci->tid = tid;
-            ci->off = tb->nout;
+            ci->off = tb->nrec;
             uint64_t r = 0;
             int ok = 0;
             int f;
@@ -546,7 +520,7 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
 #pragma omp atomic write
                 failed = 1;
             }
-            ci->count = ok ? tb->nout - ci->off : 0;
+            ci->total = ci->count = ok ? tb->nrec - ci->off : 0;
             batch_rays += r;
         }
         rays += batch_rays;
@@ -590,16 +564,30 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
         for (long long k = 0; k < used_chunks; k++) {
             const chunk_info *ci = &sc->chunks[k];
             const pgi__trace_tbuf *tb = &sc->tbuf[ci->tid];
+            const uint8_t *cn = sc->counts + (size_t)k * CHUNK;
             if (T.G) { /* each photon's bin, from its path's */
-                const uint8_t *cn = sc->counts + (size_t)k * CHUNK;
                 size_t q = 0;
                 for (int i = 0; q < ci->count; i++)
                     for (int m = 0; m < cn[i] && q < ci->count; m++)
                         sc->ph_bin[dst[k] + q++] = sc->path_bin[k * CHUNK + i];
             }
-            for (size_t q = 0; q < ci->count; q++) {
-                const stored_photon *sp = &tb->out[ci->off + q];
-                size_t j = dst[k] + q;
+            /* The chunk's photons into path order as they are copied: a path's photons were
+             * recorded in its bounce order, so each goes to its path's start plus the ones
+             * before it; those past the count taken (the cut chunk) stay out. */
+            const size_t np = (size_t)((k + 1) * CHUNK <= (long long)batch ? CHUNK : batch - (size_t)k * CHUNK);
+            uint32_t start[CHUNK];
+            uint32_t first = 0;
+            for (size_t i = 0; i < np; i++) {
+                start[i] = first;
+                first += cn[i];
+            }
+            uint64_t hist[PGI_FOOTPRINT_BINS] = {0};
+            for (size_t q = 0; q < ci->total; q++) {
+                const size_t r = ci->off + q;
+                const uint32_t pos = start[tb->rec_path[r]]++;
+                if (pos >= ci->count) continue;
+                const stored_photon *sp = &tb->rec[r];
+                const size_t j = dst[k] + pos;
                 ph->px[j] = sp->p[0];
                 ph->py[j] = sp->p[1];
                 ph->pz[j] = sp->p[2];
@@ -613,7 +601,7 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
                 ph->ny[j] = sp->n[1];
                 ph->nz[j] = sp->n[2];
                 if (T.fp_on) {
-                    const pgi__footprint *fp = &tb->out_fp[ci->off + q];
+                    const pgi__footprint *fp = &tb->rec_fp[r];
                     ph->radius[j] = fp->r;
                     if (ph->sax) {
                         ph->sax[j] = fp->a[0];
@@ -623,19 +611,20 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
                         ph->sby[j] = fp->b[1];
                         ph->sbz[j] = fp->b[2];
                     }
+                    if (d->footprint_hist) {
+                        float qb = fp->r_raw / bin_w;
+                        int bin = qb < (float)(PGI_FOOTPRINT_BINS - 1) ? (int)qb : PGI_FOOTPRINT_BINS - 1;
+                        hist[bin < 0 ? 0 : bin]++;
+                    }
                 }
             }
+            if (T.fp_on && d->footprint_hist)
+                for (int i = 0; i < PGI_FOOTPRINT_BINS; i++)
+                    if (hist[i]) {
+#pragma omp atomic
+                        d->footprint_hist[i] += hist[i];
+                    }
         }
-        if (T.fp_on && d->footprint_hist)
-            for (long long k = 0; k < used_chunks; k++) {
-                const chunk_info *ci = &sc->chunks[k];
-                const pgi__trace_tbuf *tb = &sc->tbuf[ci->tid];
-                for (size_t q = 0; q < ci->count; q++) {
-                    float qb = tb->out_fp[ci->off + q].r_raw / bin_w;
-                    int bin = qb < (float)(PGI_FOOTPRINT_BINS - 1) ? (int)qb : PGI_FOOTPRINT_BINS - 1;
-                    d->footprint_hist[bin < 0 ? 0 : bin]++;
-                }
-            }
         free(dst);
         /* The batch's full yield (all its paths and photons) informs the next batch. */
         size_t batch_photons = 0;

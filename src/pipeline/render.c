@@ -76,9 +76,8 @@ static int mem_optional(const char *name) {
 #define VIEW_SAMPLE_BYTES ((7 * 3 + 3) * sizeof(float) + sizeof(uint8_t))
 /* Bytes a pixel of the emitted, direct and indirect buffers. */
 #define FRAME_BUFFER_BYTES (3 * 3 * sizeof(float))
-/* The tracer's scratch per photon of a batch (each thread's record and path-ordered copy, grown by
- * doubling: measured 49-65 bytes), for at most the photons of a batch: 2^20 paths of at most
- * `bounces` photons each. */
+/* The tracer's scratch per photon of a batch (each thread's records, 50 bytes a photon, grown by
+ * doubling), for at most the photons of a batch: 2^20 paths of at most `bounces` photons each. */
 #define TRACE_BYTES_PER_PHOTON 80
 
 pgi__mem_ledger *pgi__renderer_mem(pgi_renderer *r) { return &r->mem; }
