@@ -24,6 +24,21 @@ _Static_assert(WAVE == 16, "a wave is one pgi__rt_intersect16 packet");
  * order, so that the result is the same whatever the thread count. */
 #define CHUNK 1024
 
+/* A triangle as the tracer shades it, one cache line: its unit geometric normal, material and
+ * vertex normals (what pgi__scene_surface_untextured reads, less the positions); the texture
+ * coordinates are in a second array, 8 floats a triangle (u0 v0 u1 v1 u2 v2, 2 unused). A hit
+ * then needs one line (two when textured) instead of the triangle's indices and material
+ * and its vertices' positions, normals and coordinates: 9 scattered lines after a dependent
+ * one. */
+typedef struct pgi__trace_tri {
+    float ng[3];
+    uint32_t mat;
+    float n[9];
+    float pad[3];
+} pgi__trace_tri;
+_Static_assert(sizeof(pgi__trace_tri) == 64, "a triangle record is one cache line");
+#define TRI_UV 8
+
 typedef struct stored_photon {
     float p[3], d[3], f[3], n[3];
 } stored_photon;
@@ -49,7 +64,9 @@ typedef struct chunk_info {
 typedef struct tracer {
     const pgi_scene *s;
     const pgi__rt *rt;
-    const float *cdf; /* light CDF by luminance of power */
+    const pgi__trace_tri *tris; /* the scene's triangles as shaded (tris_update) */
+    const float *tri_uv;        /* and their texture coordinates, TRI_UV floats each (NULL: none) */
+    const float *cdf;           /* light CDF by luminance of power */
     size_t nl;
     int bounces;
     uint64_t seed;
@@ -197,6 +214,74 @@ static int record(pgi__trace_tbuf *tb, int fp_on, int path, pgi__v3 p, pgi__v3 w
     return 1;
 }
 
+/* (Re)builds the triangle records when the scene's geometry is not the one they hold. */
+static pgi_status tris_update(pgi__trace_scratch *sc, const pgi_scene *s, int nt) {
+    const void *key[6] = {s, s->tri, s->pos, s->nrm, s->uv, s->tri_mat};
+    if (sc->tris && sc->tris_n == s->ntris && !memcmp(key, sc->tris_key, sizeof key) &&
+        sc->tris_version[0] == s->static_version && sc->tris_version[1] == s->dynamic_version)
+        return PGI_OK;
+    free(sc->tris);
+    free(sc->tri_uv);
+    sc->tri_uv = NULL;
+    sc->tris_n = 0;
+    const size_t n = s->ntris ? s->ntris : 1;
+    sc->tris = aligned_alloc(64, n * sizeof *sc->tris);
+    if (s->uv) sc->tri_uv = aligned_alloc(32, n * TRI_UV * sizeof(float));
+    if (!sc->tris || (s->uv && !sc->tri_uv)) {
+        free(sc->tris);
+        free(sc->tri_uv);
+        sc->tris = NULL;
+        sc->tri_uv = NULL;
+        return pgi__fail(PGI_ERR_OOM, "out of memory for the tracer's %zu triangle records", s->ntris);
+    }
+    pgi__trace_tri *tr = sc->tris;
+    float *tuv = sc->tri_uv;
+#pragma omp parallel for schedule(static) num_threads(nt)
+    for (long long i = 0; i < (long long)s->ntris; i++) {
+        const uint32_t *t = s->tri + 3 * (size_t)i;
+        pgi__trace_tri *r = &tr[i];
+        memset(r, 0, sizeof *r);
+        /* as pgi__scene_surface_untextured computes it */
+        pgi__v3 a = pgi__scene_vertex(s, t[0]), b = pgi__scene_vertex(s, t[1]), c = pgi__scene_vertex(s, t[2]);
+        v3_store(r->ng, v3_norm(v3_cross(v3_sub(b, a), v3_sub(c, a))));
+        r->mat = s->tri_mat[i];
+        if (s->nrm)
+            for (int j = 0; j < 3; j++) memcpy(r->n + 3 * j, s->nrm + 3 * (size_t)t[j], 3 * sizeof(float));
+        if (tuv) {
+            float *q = tuv + TRI_UV * (size_t)i;
+            for (int j = 0; j < 3; j++) memcpy(q + 2 * j, s->uv + 2 * (size_t)t[j], 2 * sizeof(float));
+            q[6] = q[7] = 0.f;
+        }
+    }
+    sc->tris_n = s->ntris;
+    memcpy(sc->tris_key, key, sizeof key);
+    sc->tris_version[0] = s->static_version;
+    sc->tris_version[1] = s->dynamic_version;
+    return PGI_OK;
+}
+
+/* pgi__scene_surface_untextured from a triangle record, less the texture coordinates (the texels
+ * are found before shading): the same operations on the same values, so the same bits. */
+static inline void tri_surface(const pgi_scene *s, const pgi__trace_tri *r, float bu, float bv, pgi__v3 p,
+                               pgi__surface *o) {
+    float bw = 1.f - bu - bv;
+    o->p = p;
+    o->ng = v3_load(r->ng);
+    o->ns = o->ng;
+    if (s->nrm) {
+        pgi__v3 n = v3_add(v3_add(v3_scale(v3_load(r->n), bw), v3_scale(v3_load(r->n + 3), bu)),
+                           v3_scale(v3_load(r->n + 6), bv));
+        float l = v3_len(n);
+        if (l > 0.f && isfinite(l)) {
+            n = v3_scale(n, 1.f / l);
+            o->ns = v3_dot(n, o->ng) < 0.f ? v3_neg(n) : n;
+        }
+    }
+    o->u = o->v = 0.f;
+    o->mat = &s->mats[r->mat];
+    o->kd = v3_load(o->mat->kd);
+}
+
 /* Traces paths [p0, p1) of the frame (one chunk) a wave at a time; their photons are appended
  * to tb->rec, cnt[i - p0] gets path i's count. Returns 0 when out of memory. */
 static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbuf *tb, uint8_t *cnt, uint64_t *rays,
@@ -241,37 +326,28 @@ static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbu
                 if (!valid[k]) continue;
                 L[k].h = hh[k];
                 if (hh[k].prim != UINT32_MAX) {
-                    __builtin_prefetch(s->tri + 3 * (size_t)hh[k].prim);
-                    __builtin_prefetch(s->tri_mat + hh[k].prim);
+                    __builtin_prefetch(T->tris + hh[k].prim);
+                    if (T->tri_uv) __builtin_prefetch(T->tri_uv + TRI_UV * (size_t)hh[k].prim);
                 }
             }
         }
-        /* Then the vertices and materials of the hits (texture coordinates only where a path
-         * may go on and its material has a texture), then the texels of those (the albedo
-         * weighs the scattered flux): each stage's loads are in cache when the next stage needs
-         * them. */
+        /* Then the texels of the hits whose path may go on (the albedo weighs the scattered
+         * flux): each stage's loads are in cache when the next stage needs them. */
         for (int k = 0; k < WAVE; k++) {
             lane *l = &L[k];
             l->tex = NULL;
-            if (l->path < 0 || l->h.prim == UINT32_MAX) continue;
-            const uint32_t *t = s->tri + 3 * (size_t)l->h.prim;
-            const pgi__material *m = &s->mats[s->tri_mat[l->h.prim]];
-            __builtin_prefetch(m);
-            for (int j = 0; j < 3; j++) {
-                __builtin_prefetch(s->pos + 3 * (size_t)t[j]);
-                if (s->nrm) __builtin_prefetch(s->nrm + 3 * (size_t)t[j]);
-            }
-            if (m->tex_kd >= 0 && l->b < T->bounces) {
-                l->tex = &s->texs[m->tex_kd];
-                if (s->uv)
-                    for (int j = 0; j < 3; j++) __builtin_prefetch(s->uv + 2 * (size_t)t[j]);
-            }
-        }
-        for (int k = 0; k < WAVE; k++) {
-            lane *l = &L[k];
-            if (!l->tex) continue;
+            if (l->path < 0 || l->h.prim == UINT32_MAX || l->b >= T->bounces) continue;
+            const pgi__material *m = &s->mats[T->tris[l->h.prim].mat];
+            if (m->tex_kd < 0) continue;
+            l->tex = &s->texs[m->tex_kd];
             float u = 0.f, v = 0.f; /* without texture coordinates the lookup reads (0, 0) */
-            if (s->uv) pgi__scene_uv(s, l->h.prim, l->h.u, l->h.v, &u, &v);
+            if (T->tri_uv) {
+                /* pgi__scene_uv's operations */
+                const float *q = T->tri_uv + TRI_UV * (size_t)l->h.prim;
+                float bw = 1.f - l->h.u - l->h.v;
+                u = bw * q[0] + l->h.u * q[2] + l->h.v * q[4];
+                v = bw * q[1] + l->h.u * q[3] + l->h.v * q[5];
+            }
             if (!pgi__texture_quad(l->tex, u, v, &l->tq)) l->tex = NULL; /* no texels: white */
         }
         /* Shade: store, scatter, roulette. */
@@ -282,7 +358,7 @@ static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbu
             if (l->h.prim != UINT32_MAX) {
                 pgi__surface sf;
                 pgi__v3 p = v3_madd(l->o, l->d, l->h.t);
-                pgi__scene_surface_no_uv(s, l->h.prim, l->h.u, l->h.v, p, &sf);
+                tri_surface(s, &T->tris[l->h.prim], l->h.u, l->h.v, p, &sf);
                 pgi__v3 wi = v3_neg(l->d);
                 pgi__v3 ng = v3_dot(wi, sf.ng) >= 0.f ? sf.ng : v3_neg(sf.ng);
                 if (T->fp_track) pgi__fp_hit(&l->pd, &T->fp, l->d, l->h.t, ng);
@@ -344,12 +420,15 @@ void pgi__trace_scratch_free(pgi__trace_scratch *sc) {
     free(sc->chunks);
     free(sc->path_bin);
     free(sc->ph_bin);
+    free(sc->tris);
+    free(sc->tri_uv);
     memset(sc, 0, sizeof *sc);
 }
 
 size_t pgi__trace_scratch_bytes(const pgi__trace_scratch *sc) {
     size_t b = sc->cap * sizeof(uint8_t) + sc->cap / CHUNK * sizeof(chunk_info) +
-               (size_t)sc->nthreads * sizeof *sc->tbuf + (sc->path_bin_cap + sc->ph_bin_cap) * sizeof(uint16_t);
+               (size_t)sc->nthreads * sizeof *sc->tbuf + (sc->path_bin_cap + sc->ph_bin_cap) * sizeof(uint16_t) +
+               sc->tris_n * (sizeof(pgi__trace_tri) + (sc->tri_uv ? TRI_UV * sizeof(float) : 0));
     for (int t = 0; t < sc->nthreads; t++) {
         const pgi__trace_tbuf *tb = &sc->tbuf[t];
         b += tb->rec_cap * (sizeof(stored_photon) + sizeof(uint16_t) + (tb->rec_fp ? sizeof(pgi__footprint) : 0));
@@ -425,6 +504,8 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
 
     tracer T = {s,
                 rt,
+                NULL,
+                NULL,
                 cdf,
                 nl,
                 d->bounces,
@@ -439,6 +520,13 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
                 NULL,
                 d->near};
     const int nt = pgi__threads(d->threads);
+    pgi_status ts = tris_update(sc, s, nt);
+    if (ts) {
+        free(cdf);
+        return ts;
+    }
+    T.tris = sc->tris;
+    T.tri_uv = sc->tri_uv;
     if (d->guide) {
         if (!d->vgrid) {
             free(cdf);

@@ -79,6 +79,8 @@ static int mem_optional(const char *name) {
 /* The tracer's scratch per photon of a batch (each thread's records, 50 bytes a photon, grown by
  * doubling), for at most the photons of a batch: 2^20 paths of at most `bounces` photons each. */
 #define TRACE_BYTES_PER_PHOTON 80
+/* ... and per scene triangle: the tracer's shading record and texture coordinates (trace.c). */
+#define TRACE_BYTES_PER_TRIANGLE 96
 
 pgi__mem_ledger *pgi__renderer_mem(pgi_renderer *r) { return &r->mem; }
 
@@ -120,6 +122,7 @@ static pgi_status mem_plan(pgi_renderer *r, const pgi_render_desc *d, const pgi_
         {"photons", np * PHOTON_BYTES, 1},
         {"footprints", np * planes * sizeof(float), 1},
         {"trace_scratch", traced * TRACE_BYTES_PER_PHOTON, 1},
+        {"trace_scratch", (uint64_t)r->scene->ntris * TRACE_BYTES_PER_TRIANGLE, 0},
         {"emission_guide", d->emission != PGI_EMISSION_UNIFORM ? np * sizeof(uint16_t) : 0, 1}, /* a bin a photon */
         {est, np * per_photon, 1},
     };

@@ -2,11 +2,6 @@
 #include "bsdf.h"
 
 void pgi__scene_surface_untextured(const pgi_scene *s, uint32_t prim, float bu, float bv, pgi__v3 p, pgi__surface *o) {
-    pgi__scene_surface_no_uv(s, prim, bu, bv, p, o);
-    if (s->uv) pgi__scene_uv(s, prim, bu, bv, &o->u, &o->v);
-}
-
-void pgi__scene_surface_no_uv(const pgi_scene *s, uint32_t prim, float bu, float bv, pgi__v3 p, pgi__surface *o) {
     const uint32_t *t = s->tri + 3 * (size_t)prim;
     pgi__v3 a = pgi__scene_vertex(s, t[0]), b = pgi__scene_vertex(s, t[1]), c = pgi__scene_vertex(s, t[2]);
     float bw = 1.f - bu - bv;
@@ -24,6 +19,7 @@ void pgi__scene_surface_no_uv(const pgi_scene *s, uint32_t prim, float bu, float
         }
     }
     o->u = o->v = 0.f;
+    if (s->uv) pgi__scene_uv(s, prim, bu, bv, &o->u, &o->v);
     o->mat = &s->mats[s->tri_mat[prim]];
     o->kd = v3_load(o->mat->kd);
 }

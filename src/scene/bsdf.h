@@ -205,9 +205,6 @@ void pgi__scene_surface(const pgi_scene *s, uint32_t prim, float bu, float bv, p
 /* The same without the texture fetch (kd is the material's); pgi__surface_texture applies it
  * later, only where a path needs the albedo. */
 void pgi__scene_surface_untextured(const pgi_scene *s, uint32_t prim, float bu, float bv, pgi__v3 p, pgi__surface *out);
-/* The same without the texture coordinates either (u = v = 0; the photon tracer finds a hit's
- * texels from the coordinates before it shades the hit: pgi__texture_quad). */
-void pgi__scene_surface_no_uv(const pgi_scene *s, uint32_t prim, float bu, float bv, pgi__v3 p, pgi__surface *out);
 /* Texture coordinates at barycentrics (bu, bv) of triangle prim (the scene has uvs). */
 static inline void pgi__scene_uv(const pgi_scene *s, uint32_t prim, float bu, float bv, float *u, float *v) {
     const uint32_t *t = s->tri + 3 * (size_t)prim;
@@ -215,16 +212,6 @@ static inline void pgi__scene_uv(const pgi_scene *s, uint32_t prim, float bu, fl
     float bw = 1.f - bu - bv;
     *u = bw * ua[0] + bu * ub[0] + bv * uc[0];
     *v = bw * ua[1] + bu * ub[1] + bv * uc[1];
-}
-
-/* Prefetches the texels pgi__surface_texture will read for a hit (nothing for an untextured
- * material). */
-static inline void pgi__surface_prefetch_texels(const pgi_scene *s, uint32_t prim, float bu, float bv) {
-    const pgi__material *m = &s->mats[s->tri_mat[prim]];
-    if (m->tex_kd < 0 || !s->uv) return;
-    float u, v;
-    pgi__scene_uv(s, prim, bu, bv, &u, &v);
-    pgi__texture_prefetch(&s->texs[m->tex_kd], u, v);
 }
 
 static inline void pgi__surface_texture(const pgi_scene *s, pgi__surface *sf) {

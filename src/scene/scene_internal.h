@@ -228,9 +228,6 @@ int pgi__scene_cut_out(const pgi_scene *s, uint32_t tri, float b1, float b2);
  * failure); *index receives its index. `channels` as in pgi__texture. */
 pgi_status pgi__scene_add_texture(pgi_scene *s, int w, int h, int channels, unsigned char *rgba, const char *path,
                                   int *index);
-/* Asks the cache for the texels pgi__texture_lookup(t, u, v) will read (the photon tracer
- * issues these for a wave of hits before shading them, so that their misses overlap). */
-void pgi__texture_prefetch(const pgi__texture *t, float u, float v);
 /* The 2x2 texels of a bilinear lookup, found once: pgi__texture_quad computes them for (u, v)
  * and prefetches them (0 when the texture has no texels: the lookup is then white, and q is
  * not set); pgi__texture_quad_lookup later gives exactly pgi__texture_lookup(t, u, v). The

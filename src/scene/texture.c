@@ -52,13 +52,6 @@ static inline footprint2x2 bilinear_footprint(const pgi__texture *t, float u, fl
     return f;
 }
 
-void pgi__texture_prefetch(const pgi__texture *t, float u, float v) {
-    if (!t || !t->rgba || t->width <= 0 || t->height <= 0) return;
-    footprint2x2 f = bilinear_footprint(t, u, v);
-    __builtin_prefetch(texel_at(t, f.x0, f.y0));
-    __builtin_prefetch(texel_at(t, f.x0, f.y1));
-}
-
 int pgi__texture_quad(const pgi__texture *t, float u, float v, pgi__texel_quad *q) {
     if (!t || !t->rgba || t->width <= 0 || t->height <= 0) return 0;
     footprint2x2 f = bilinear_footprint(t, u, v);
