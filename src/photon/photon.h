@@ -55,7 +55,7 @@ typedef struct pgi__trace_scratch {
        geometry changes (its arrays, or static_version / dynamic_version) */
     struct pgi__trace_tri *tris;
     float *tri_uv;
-    size_t tris_n;
+    size_t tris_n, tris_bytes; /* triangles, bytes allocated for them */
     const void *tris_key[6];
     uint64_t tris_version[2];
 } pgi__trace_scratch;

@@ -219,10 +219,14 @@ static int record(pgi__trace_tbuf *tb, int fp_on, int path, pgi__v3 p, pgi__v3 w
 /* Memory for the triangle records. Each hit reads one of them at random: from 1 MiB on they go to
  * 2 MiB-aligned memory the kernel may back with huge pages, so that a hit costs a cache miss but
  * no TLB miss (a scene's records span thousands of 4 KiB pages). */
-static void *tris_alloc(size_t bytes) {
+static void *tris_alloc(size_t bytes, size_t *total) {
     const size_t huge = (size_t)2 << 20;
-    if (bytes < huge / 2) return aligned_alloc(64, bytes);
+    if (bytes < huge / 2) {
+        *total += bytes;
+        return aligned_alloc(64, bytes);
+    }
     bytes = (bytes + huge - 1) / huge * huge;
+    *total += bytes;
     void *p = aligned_alloc(huge, bytes);
 #ifdef MADV_HUGEPAGE
     if (p) madvise(p, bytes, MADV_HUGEPAGE); /* a hint: without huge pages all still works */
@@ -239,10 +243,11 @@ static pgi_status tris_update(pgi__trace_scratch *sc, const pgi_scene *s, int nt
     free(sc->tris);
     free(sc->tri_uv);
     sc->tri_uv = NULL;
-    sc->tris_n = 0;
+    sc->tris_n = sc->tris_bytes = 0;
     const size_t n = s->ntris ? s->ntris : 1;
-    sc->tris = tris_alloc(n * sizeof *sc->tris);
-    if (s->uv) sc->tri_uv = tris_alloc(n * TRI_UV * sizeof(float));
+    size_t bytes = 0;
+    sc->tris = tris_alloc(n * sizeof *sc->tris, &bytes);
+    if (s->uv) sc->tri_uv = tris_alloc(n * TRI_UV * sizeof(float), &bytes);
     if (!sc->tris || (s->uv && !sc->tri_uv)) {
         free(sc->tris);
         free(sc->tri_uv);
@@ -270,6 +275,7 @@ static pgi_status tris_update(pgi__trace_scratch *sc, const pgi_scene *s, int nt
         }
     }
     sc->tris_n = s->ntris;
+    sc->tris_bytes = bytes;
     memcpy(sc->tris_key, key, sizeof key);
     sc->tris_version[0] = s->static_version;
     sc->tris_version[1] = s->dynamic_version;
@@ -444,7 +450,7 @@ void pgi__trace_scratch_free(pgi__trace_scratch *sc) {
 size_t pgi__trace_scratch_bytes(const pgi__trace_scratch *sc) {
     size_t b = sc->cap * sizeof(uint8_t) + sc->cap / CHUNK * sizeof(chunk_info) +
                (size_t)sc->nthreads * sizeof *sc->tbuf + (sc->path_bin_cap + sc->ph_bin_cap) * sizeof(uint16_t) +
-               sc->tris_n * (sizeof(pgi__trace_tri) + (sc->tri_uv ? TRI_UV * sizeof(float) : 0));
+               sc->tris_bytes;
     for (int t = 0; t < sc->nthreads; t++) {
         const pgi__trace_tbuf *tb = &sc->tbuf[t];
         b += tb->rec_cap * (sizeof(stored_photon) + sizeof(uint16_t) + (tb->rec_fp ? sizeof(pgi__footprint) : 0));

@@ -79,8 +79,13 @@ static int mem_optional(const char *name) {
 /* The tracer's scratch per photon of a batch (each thread's records, 50 bytes a photon, grown by
  * doubling), for at most the photons of a batch: 2^20 paths of at most `bounces` photons each. */
 #define TRACE_BYTES_PER_PHOTON 80
-/* ... and per scene triangle: the tracer's shading record and texture coordinates (trace.c). */
-#define TRACE_BYTES_PER_TRIANGLE 96
+/* ... and the tracer's copy of the triangles: a 64-byte record and 32 bytes of texture
+ * coordinates each, two arrays that from 1 MiB on are rounded to whole 2 MiB huge pages
+ * (trace.c, tris_alloc). */
+static uint64_t trace_triangle_bytes(uint64_t ntris) {
+    const uint64_t huge = (uint64_t)2 << 20, a = ntris * 64, b = ntris * 32;
+    return (a < huge / 2 ? a : (a + huge - 1) / huge * huge) + (b < huge / 2 ? b : (b + huge - 1) / huge * huge);
+}
 
 pgi__mem_ledger *pgi__renderer_mem(pgi_renderer *r) { return &r->mem; }
 
@@ -122,7 +127,7 @@ static pgi_status mem_plan(pgi_renderer *r, const pgi_render_desc *d, const pgi_
         {"photons", np * PHOTON_BYTES, 1},
         {"footprints", np * planes * sizeof(float), 1},
         {"trace_scratch", traced * TRACE_BYTES_PER_PHOTON, 1},
-        {"trace_scratch", (uint64_t)r->scene->ntris * TRACE_BYTES_PER_TRIANGLE, 0},
+        {"trace_scratch", trace_triangle_bytes(r->scene->ntris), 0},
         {"emission_guide", d->emission != PGI_EMISSION_UNIFORM ? np * sizeof(uint16_t) : 0, 1}, /* a bin a photon */
         {est, np * per_photon, 1},
     };
