@@ -51,6 +51,13 @@ typedef struct pgi__trace_scratch {
     uint64_t paths_traced;             /* out: paths traced by the last call (emitted + discarded + pilot) */
     uint64_t paths_pilot;              /* out: guided emission's uniform pilot, whose photons were dropped */
     uint64_t culled;                   /* out: photons not stored (trace desc `near`) */
+    /* The scene's triangles as the tracer shades them (trace.c), rebuilt when the scene's
+       geometry changes (its arrays, or static_version / dynamic_version) */
+    struct pgi__trace_tri *tris;
+    float *tri_uv;
+    size_t tris_n, tris_bytes; /* triangles, bytes allocated for them */
+    const void *tris_key[6];
+    uint64_t tris_version[2];
 } pgi__trace_scratch;
 void pgi__trace_scratch_free(pgi__trace_scratch *sc);
 /* Bytes the scratch holds. */

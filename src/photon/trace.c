@@ -4,6 +4,7 @@
  * whose first hits are all specular stores at its first non-specular hit:
  * a caustic). Optionally steered towards where the camera looks (guide.h) and
  * storing only the photons near a view sample (trace desc `near`). */
+#define _DEFAULT_SOURCE /* madvise's MADV_HUGEPAGE */
 #include "photon.h"
 
 #include <omp.h>
@@ -14,6 +15,7 @@
 #include "scene/bsdf.h"
 
 #include <stdint.h>
+#include <sys/mman.h>
 
 /* Paths one thread carries at once: the rays of a wave are cast back to back and the
  * texels of its hits are prefetched before any is shaded, so that their cache misses overlap
@@ -24,30 +26,49 @@ _Static_assert(WAVE == 16, "a wave is one pgi__rt_intersect16 packet");
  * order, so that the result is the same whatever the thread count. */
 #define CHUNK 1024
 
+/* A triangle as the tracer shades it, one cache line: its unit geometric normal, material and
+ * vertex normals (what pgi__scene_surface_untextured reads, less the positions); the texture
+ * coordinates are in a second array, 8 floats a triangle (u0 v0 u1 v1 u2 v2, 2 unused). A hit
+ * then needs one line (two when textured) instead of the triangle's indices and material
+ * and its vertices' positions, normals and coordinates: 9 scattered lines after a dependent
+ * one. */
+typedef struct pgi__trace_tri {
+    float ng[3];
+    uint32_t mat;
+    float n[9];
+    float pad[3];
+} pgi__trace_tri;
+_Static_assert(sizeof(pgi__trace_tri) == 64, "a triangle record is one cache line");
+#define TRI_UV 8
+
 typedef struct stored_photon {
     float p[3], d[3], f[3], n[3];
 } stored_photon;
 
-/* A thread's photons: `rec` (+ `rec_fp`, `rec_path`) collect the current chunk in the order
- * the wave produced them; `out` (+ `out_fp`) holds the thread's chunks in path order. */
+/* A thread's photons: `rec` (+ `rec_fp`, `rec_path`: the path within its chunk) collect the
+ * thread's chunks of the current batch, each in the order the wave produced them. The gather
+ * puts them into path order as it copies them into the photon map. */
 typedef struct pgi__trace_tbuf {
-    stored_photon *rec, *out;
-    pgi__footprint *rec_fp, *out_fp;
+    stored_photon *rec;
+    pgi__footprint *rec_fp;
     uint16_t *rec_path;
-    size_t nrec, rec_cap, nout, out_cap;
+    size_t nrec, rec_cap;
     uint64_t culled; /* photons not stored: no view sample near */
 } pgi__trace_tbuf;
 
 typedef struct chunk_info {
-    int tid;      /* thread whose `out` holds the chunk */
+    int tid;      /* thread whose `rec` holds the chunk */
     size_t off;   /* its first photon there */
-    size_t count; /* photons of the chunk */
+    size_t total; /* photons of the chunk */
+    size_t count; /* of these, the photons taken: the first in path order */
 } chunk_info;
 
 typedef struct tracer {
     const pgi_scene *s;
     const pgi__rt *rt;
-    const float *cdf; /* light CDF by luminance of power */
+    const pgi__trace_tri *tris; /* the scene's triangles as shaded (tris_update) */
+    const float *tri_uv;        /* and their texture coordinates, TRI_UV floats each (NULL: none) */
+    const float *cdf;           /* light CDF by luminance of power */
     size_t nl;
     int bounces;
     uint64_t seed;
@@ -72,6 +93,10 @@ typedef struct lane {
     int b;    /* bounce: the hit of this ray is the path's (b+1)-th */
     int path; /* path within the chunk; -1: idle */
     int bin;  /* the guide's bin of its emission */
+    /* the texels of the hit's albedo (found before shading, where the path may go on; tex NULL:
+       no texture, or one without texels) */
+    const pgi__texture *tex;
+    pgi__texel_quad tq;
 } lane;
 
 /* Starts path `index` in `l` (emission from a light picked by power). Flux is power / pick
@@ -191,14 +216,101 @@ static int record(pgi__trace_tbuf *tb, int fp_on, int path, pgi__v3 p, pgi__v3 w
     return 1;
 }
 
-/* Traces paths [p0, p1) of the frame (one chunk) a wave at a time; their photons go to
- * tb->out in path order, cnt[i - p0] gets path i's count. Returns 0 when out of memory. */
+/* Memory for the triangle records. Each hit reads one of them at random: from 1 MiB on they go to
+ * 2 MiB-aligned memory the kernel may back with huge pages, so that a hit costs a cache miss but
+ * no TLB miss (a scene's records span thousands of 4 KiB pages). */
+static void *tris_alloc(size_t bytes, size_t *total) {
+    const size_t huge = (size_t)2 << 20;
+    if (bytes < huge / 2) {
+        *total += bytes;
+        return aligned_alloc(64, bytes);
+    }
+    bytes = (bytes + huge - 1) / huge * huge;
+    *total += bytes;
+    void *p = aligned_alloc(huge, bytes);
+#ifdef MADV_HUGEPAGE
+    if (p) madvise(p, bytes, MADV_HUGEPAGE); /* a hint: without huge pages all still works */
+#endif
+    return p;
+}
+
+/* (Re)builds the triangle records when the scene's geometry is not the one they hold. */
+static pgi_status tris_update(pgi__trace_scratch *sc, const pgi_scene *s, int nt) {
+    const void *key[6] = {s, s->tri, s->pos, s->nrm, s->uv, s->tri_mat};
+    if (sc->tris && sc->tris_n == s->ntris && !memcmp(key, sc->tris_key, sizeof key) &&
+        sc->tris_version[0] == s->static_version && sc->tris_version[1] == s->dynamic_version)
+        return PGI_OK;
+    free(sc->tris);
+    free(sc->tri_uv);
+    sc->tri_uv = NULL;
+    sc->tris_n = sc->tris_bytes = 0;
+    const size_t n = s->ntris ? s->ntris : 1;
+    size_t bytes = 0;
+    sc->tris = tris_alloc(n * sizeof *sc->tris, &bytes);
+    if (s->uv) sc->tri_uv = tris_alloc(n * TRI_UV * sizeof(float), &bytes);
+    if (!sc->tris || (s->uv && !sc->tri_uv)) {
+        free(sc->tris);
+        free(sc->tri_uv);
+        sc->tris = NULL;
+        sc->tri_uv = NULL;
+        return pgi__fail(PGI_ERR_OOM, "out of memory for the tracer's %zu triangle records", s->ntris);
+    }
+    pgi__trace_tri *tr = sc->tris;
+    float *tuv = sc->tri_uv;
+#pragma omp parallel for schedule(static) num_threads(nt)
+    for (long long i = 0; i < (long long)s->ntris; i++) {
+        const uint32_t *t = s->tri + 3 * (size_t)i;
+        pgi__trace_tri *r = &tr[i];
+        memset(r, 0, sizeof *r);
+        /* as pgi__scene_surface_untextured computes it */
+        pgi__v3 a = pgi__scene_vertex(s, t[0]), b = pgi__scene_vertex(s, t[1]), c = pgi__scene_vertex(s, t[2]);
+        v3_store(r->ng, v3_norm(v3_cross(v3_sub(b, a), v3_sub(c, a))));
+        r->mat = s->tri_mat[i];
+        if (s->nrm)
+            for (int j = 0; j < 3; j++) memcpy(r->n + 3 * j, s->nrm + 3 * (size_t)t[j], 3 * sizeof(float));
+        if (tuv) {
+            float *q = tuv + TRI_UV * (size_t)i;
+            for (int j = 0; j < 3; j++) memcpy(q + 2 * j, s->uv + 2 * (size_t)t[j], 2 * sizeof(float));
+            q[6] = q[7] = 0.f;
+        }
+    }
+    sc->tris_n = s->ntris;
+    sc->tris_bytes = bytes;
+    memcpy(sc->tris_key, key, sizeof key);
+    sc->tris_version[0] = s->static_version;
+    sc->tris_version[1] = s->dynamic_version;
+    return PGI_OK;
+}
+
+/* pgi__scene_surface_untextured from a triangle record, less the texture coordinates (the texels
+ * are found before shading): the same operations on the same values, so the same bits. */
+static inline void tri_surface(const pgi_scene *s, const pgi__trace_tri *r, float bu, float bv, pgi__v3 p,
+                               pgi__surface *o) {
+    float bw = 1.f - bu - bv;
+    o->p = p;
+    o->ng = v3_load(r->ng);
+    o->ns = o->ng;
+    if (s->nrm) {
+        pgi__v3 n = v3_add(v3_add(v3_scale(v3_load(r->n), bw), v3_scale(v3_load(r->n + 3), bu)),
+                           v3_scale(v3_load(r->n + 6), bv));
+        float l = v3_len(n);
+        if (l > 0.f && isfinite(l)) {
+            n = v3_scale(n, 1.f / l);
+            o->ns = v3_dot(n, o->ng) < 0.f ? v3_neg(n) : n;
+        }
+    }
+    o->u = o->v = 0.f;
+    o->mat = &s->mats[r->mat];
+    o->kd = v3_load(o->mat->kd);
+}
+
+/* Traces paths [p0, p1) of the frame (one chunk) a wave at a time; their photons are appended
+ * to tb->rec, cnt[i - p0] gets path i's count. Returns 0 when out of memory. */
 static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbuf *tb, uint8_t *cnt, uint64_t *rays,
                        uint32_t *gcnt, uint16_t *pbin) {
     const pgi_scene *s = T->s;
     const int n = (int)(p1 - p0);
     memset(cnt, 0, (size_t)n);
-    tb->nrec = 0;
     lane L[WAVE];
     memset(L, 0, sizeof L); /* lanes without a path still go to Embree (masked): no garbage */
     int next = 0, active = 0, ok = 1;
@@ -236,28 +348,30 @@ static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbu
                 if (!valid[k]) continue;
                 L[k].h = hh[k];
                 if (hh[k].prim != UINT32_MAX) {
-                    __builtin_prefetch(s->tri + 3 * (size_t)hh[k].prim);
-                    __builtin_prefetch(s->tri_mat + hh[k].prim);
+                    __builtin_prefetch(T->tris + hh[k].prim);
+                    if (T->tri_uv) __builtin_prefetch(T->tri_uv + TRI_UV * (size_t)hh[k].prim);
                 }
             }
         }
-        /* Then the vertices and materials of the hits, then the texels of those whose path goes
-         * on (the albedo weighs the scattered flux): each stage's loads are in cache when the
-         * next stage needs them. */
+        /* Then the texels of the hits whose path may go on (the albedo weighs the scattered
+         * flux): each stage's loads are in cache when the next stage needs them. */
         for (int k = 0; k < WAVE; k++) {
-            const lane *l = &L[k];
-            if (l->path < 0 || l->h.prim == UINT32_MAX) continue;
-            const uint32_t *t = s->tri + 3 * (size_t)l->h.prim;
-            __builtin_prefetch(&s->mats[s->tri_mat[l->h.prim]]);
-            for (int j = 0; j < 3; j++) {
-                __builtin_prefetch(s->pos + 3 * (size_t)t[j]);
-                if (s->nrm) __builtin_prefetch(s->nrm + 3 * (size_t)t[j]);
-                if (s->uv) __builtin_prefetch(s->uv + 2 * (size_t)t[j]);
+            lane *l = &L[k];
+            l->tex = NULL;
+            if (l->path < 0 || l->h.prim == UINT32_MAX || l->b >= T->bounces) continue;
+            const pgi__material *m = &s->mats[T->tris[l->h.prim].mat];
+            if (m->tex_kd < 0) continue;
+            l->tex = &s->texs[m->tex_kd];
+            float u = 0.f, v = 0.f; /* without texture coordinates the lookup reads (0, 0) */
+            if (T->tri_uv) {
+                /* pgi__scene_uv's operations */
+                const float *q = T->tri_uv + TRI_UV * (size_t)l->h.prim;
+                float bw = 1.f - l->h.u - l->h.v;
+                u = bw * q[0] + l->h.u * q[2] + l->h.v * q[4];
+                v = bw * q[1] + l->h.u * q[3] + l->h.v * q[5];
             }
+            if (!pgi__texture_quad(l->tex, u, v, &l->tq)) l->tex = NULL; /* no texels: white */
         }
-        for (int k = 0; k < WAVE; k++)
-            if (L[k].path >= 0 && L[k].h.prim != UINT32_MAX && L[k].b < T->bounces)
-                pgi__surface_prefetch_texels(s, L[k].h.prim, L[k].h.u, L[k].h.v);
         /* Shade: store, scatter, roulette. */
         for (int k = 0; k < WAVE; k++) {
             lane *l = &L[k];
@@ -266,7 +380,7 @@ static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbu
             if (l->h.prim != UINT32_MAX) {
                 pgi__surface sf;
                 pgi__v3 p = v3_madd(l->o, l->d, l->h.t);
-                pgi__scene_surface_untextured(s, l->h.prim, l->h.u, l->h.v, p, &sf);
+                tri_surface(s, &T->tris[l->h.prim], l->h.u, l->h.v, p, &sf);
                 pgi__v3 wi = v3_neg(l->d);
                 pgi__v3 ng = v3_dot(wi, sf.ng) >= 0.f ? sf.ng : v3_neg(sf.ng);
                 if (T->fp_track) pgi__fp_hit(&l->pd, &T->fp, l->d, l->h.t, ng);
@@ -285,7 +399,7 @@ static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbu
                     }
                 }
                 if (l->b < T->bounces && ok) {
-                    pgi__surface_texture(s, &sf);
+                    if (l->tex) sf.kd = v3_mul(sf.kd, pgi__texture_quad_lookup(&l->tq));
                     pgi__v3 wo, w;
                     float r1 = pgi_rng_f(&l->rng), r2 = pgi_rng_f(&l->rng), r3 = pgi_rng_f(&l->rng);
                     if (pgi__bsdf_sample(&sf, wi, r1, r2, r3, &wo, &w)) {
@@ -313,30 +427,6 @@ static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbu
         }
         if (!ok) return 0;
     }
-    /* Counting sort of the chunk's photons into path order, appended to tb->out. */
-    size_t need = tb->nout + tb->nrec;
-    if (need > tb->out_cap) {
-        size_t cap = tb->out_cap ? tb->out_cap : 4096;
-        while (cap < need) cap *= 2;
-        stored_photon *o = realloc(tb->out, cap * sizeof *o);
-        if (o) tb->out = o;
-        pgi__footprint *of = T->fp_on ? realloc(tb->out_fp, cap * sizeof *of) : tb->out_fp;
-        if (of) tb->out_fp = of;
-        if (!o || (T->fp_on && !of)) return 0;
-        tb->out_cap = cap;
-    }
-    size_t start[CHUNK];
-    size_t acc = tb->nout;
-    for (int i = 0; i < n; i++) {
-        start[i] = acc;
-        acc += cnt[i];
-    }
-    for (size_t j = 0; j < tb->nrec; j++) {
-        size_t dst = start[tb->rec_path[j]]++;
-        tb->out[dst] = tb->rec[j];
-        if (T->fp_on) tb->out_fp[dst] = tb->rec_fp[j];
-    }
-    tb->nout = need;
     return 1;
 }
 
@@ -344,9 +434,7 @@ void pgi__trace_scratch_free(pgi__trace_scratch *sc) {
     pgi__trace_tbuf *tb = sc->tbuf;
     for (int t = 0; t < sc->nthreads; t++) {
         free(tb[t].rec);
-        free(tb[t].out);
         free(tb[t].rec_fp);
-        free(tb[t].out_fp);
         free(tb[t].rec_path);
     }
     free(sc->tbuf);
@@ -354,16 +442,18 @@ void pgi__trace_scratch_free(pgi__trace_scratch *sc) {
     free(sc->chunks);
     free(sc->path_bin);
     free(sc->ph_bin);
+    free(sc->tris);
+    free(sc->tri_uv);
     memset(sc, 0, sizeof *sc);
 }
 
 size_t pgi__trace_scratch_bytes(const pgi__trace_scratch *sc) {
     size_t b = sc->cap * sizeof(uint8_t) + sc->cap / CHUNK * sizeof(chunk_info) +
-               (size_t)sc->nthreads * sizeof *sc->tbuf + (sc->path_bin_cap + sc->ph_bin_cap) * sizeof(uint16_t);
+               (size_t)sc->nthreads * sizeof *sc->tbuf + (sc->path_bin_cap + sc->ph_bin_cap) * sizeof(uint16_t) +
+               sc->tris_bytes;
     for (int t = 0; t < sc->nthreads; t++) {
         const pgi__trace_tbuf *tb = &sc->tbuf[t];
         b += tb->rec_cap * (sizeof(stored_photon) + sizeof(uint16_t) + (tb->rec_fp ? sizeof(pgi__footprint) : 0));
-        b += tb->out_cap * (sizeof(stored_photon) + (tb->out_fp ? sizeof(pgi__footprint) : 0));
     }
     return b;
 }
@@ -436,6 +526,8 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
 
     tracer T = {s,
                 rt,
+                NULL,
+                NULL,
                 cdf,
                 nl,
                 d->bounces,
@@ -450,6 +542,13 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
                 NULL,
                 d->near};
     const int nt = pgi__threads(d->threads);
+    pgi_status ts = tris_update(sc, s, nt);
+    if (ts) {
+        free(cdf);
+        return ts;
+    }
+    T.tris = sc->tris;
+    T.tri_uv = sc->tri_uv;
     if (d->guide) {
         if (!d->vgrid) {
             free(cdf);
@@ -506,7 +605,7 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
         if (batch > max_paths - path) batch = (size_t)(max_paths - path);
         if ((st = scratch_reserve(sc, batch, nt, T.G != NULL))) break;
         const long long nch = (long long)((batch + CHUNK - 1) / CHUNK);
-        for (int t = 0; t < nt; t++) sc->tbuf[t].nout = 0;
+        for (int t = 0; t < nt; t++) sc->tbuf[t].nrec = 0;
         uint64_t batch_rays = 0;
         int failed = 0;
 #pragma omp parallel for schedule(dynamic, 1) reduction(+ : batch_rays) num_threads(nt)
@@ -517,7 +616,7 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
             if (p1 > path + batch) p1 = path + batch;
             chunk_info *ci = &sc->chunks[c];
             ci->tid = tid;
-            ci->off = tb->nout;
+            ci->off = tb->nrec;
             uint64_t r = 0;
             int ok = 0;
             int f;
@@ -531,7 +630,7 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
 #pragma omp atomic write
                 failed = 1;
             }
-            ci->count = ok ? tb->nout - ci->off : 0;
+            ci->total = ci->count = ok ? tb->nrec - ci->off : 0;
             batch_rays += r;
         }
         rays += batch_rays;
@@ -575,16 +674,30 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
         for (long long k = 0; k < used_chunks; k++) {
             const chunk_info *ci = &sc->chunks[k];
             const pgi__trace_tbuf *tb = &sc->tbuf[ci->tid];
+            const uint8_t *cn = sc->counts + (size_t)k * CHUNK;
             if (T.G) { /* each photon's bin, from its path's */
-                const uint8_t *cn = sc->counts + (size_t)k * CHUNK;
                 size_t q = 0;
                 for (int i = 0; q < ci->count; i++)
                     for (int m = 0; m < cn[i] && q < ci->count; m++)
                         sc->ph_bin[dst[k] + q++] = sc->path_bin[k * CHUNK + i];
             }
-            for (size_t q = 0; q < ci->count; q++) {
-                const stored_photon *sp = &tb->out[ci->off + q];
-                size_t j = dst[k] + q;
+            /* The chunk's photons into path order as they are copied: a path's photons were
+             * recorded in its bounce order, so each goes to its path's start plus the ones
+             * before it; those past the count taken (the cut chunk) stay out. */
+            const size_t np = (size_t)((k + 1) * CHUNK <= (long long)batch ? CHUNK : batch - (size_t)k * CHUNK);
+            uint32_t start[CHUNK];
+            uint32_t first = 0;
+            for (size_t i = 0; i < np; i++) {
+                start[i] = first;
+                first += cn[i];
+            }
+            uint64_t hist[PGI_FOOTPRINT_BINS] = {0};
+            for (size_t q = 0; q < ci->total; q++) {
+                const size_t r = ci->off + q;
+                const uint32_t pos = start[tb->rec_path[r]]++;
+                if (pos >= ci->count) continue;
+                const stored_photon *sp = &tb->rec[r];
+                const size_t j = dst[k] + pos;
                 ph->px[j] = sp->p[0];
                 ph->py[j] = sp->p[1];
                 ph->pz[j] = sp->p[2];
@@ -598,7 +711,7 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
                 ph->ny[j] = sp->n[1];
                 ph->nz[j] = sp->n[2];
                 if (T.fp_on) {
-                    const pgi__footprint *fp = &tb->out_fp[ci->off + q];
+                    const pgi__footprint *fp = &tb->rec_fp[r];
                     ph->radius[j] = fp->r;
                     if (ph->sax) {
                         ph->sax[j] = fp->a[0];
@@ -608,19 +721,20 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
                         ph->sby[j] = fp->b[1];
                         ph->sbz[j] = fp->b[2];
                     }
+                    if (d->footprint_hist) {
+                        float qb = fp->r_raw / bin_w;
+                        int bin = qb < (float)(PGI_FOOTPRINT_BINS - 1) ? (int)qb : PGI_FOOTPRINT_BINS - 1;
+                        hist[bin < 0 ? 0 : bin]++;
+                    }
                 }
             }
+            if (T.fp_on && d->footprint_hist)
+                for (int i = 0; i < PGI_FOOTPRINT_BINS; i++)
+                    if (hist[i]) {
+#pragma omp atomic
+                        d->footprint_hist[i] += hist[i];
+                    }
         }
-        if (T.fp_on && d->footprint_hist)
-            for (long long k = 0; k < used_chunks; k++) {
-                const chunk_info *ci = &sc->chunks[k];
-                const pgi__trace_tbuf *tb = &sc->tbuf[ci->tid];
-                for (size_t q = 0; q < ci->count; q++) {
-                    float qb = tb->out_fp[ci->off + q].r_raw / bin_w;
-                    int bin = qb < (float)(PGI_FOOTPRINT_BINS - 1) ? (int)qb : PGI_FOOTPRINT_BINS - 1;
-                    d->footprint_hist[bin < 0 ? 0 : bin]++;
-                }
-            }
         free(dst);
         /* The batch's full yield (all its paths and photons) informs the next batch. */
         size_t batch_photons = 0;

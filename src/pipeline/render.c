@@ -76,10 +76,16 @@ static int mem_optional(const char *name) {
 #define VIEW_SAMPLE_BYTES ((7 * 3 + 3) * sizeof(float) + sizeof(uint8_t))
 /* Bytes a pixel of the emitted, direct and indirect buffers. */
 #define FRAME_BUFFER_BYTES (3 * 3 * sizeof(float))
-/* The tracer's scratch per photon of a batch (each thread's record and path-ordered copy, grown by
- * doubling: measured 49-65 bytes), for at most the photons of a batch: 2^20 paths of at most
- * `bounces` photons each. */
+/* The tracer's scratch per photon of a batch (each thread's records, 50 bytes a photon, grown by
+ * doubling), for at most the photons of a batch: 2^20 paths of at most `bounces` photons each. */
 #define TRACE_BYTES_PER_PHOTON 80
+/* ... and the tracer's copy of the triangles: a 64-byte record and 32 bytes of texture
+ * coordinates each, two arrays that from 1 MiB on are rounded to whole 2 MiB huge pages
+ * (trace.c, tris_alloc). */
+static uint64_t trace_triangle_bytes(uint64_t ntris) {
+    const uint64_t huge = (uint64_t)2 << 20, a = ntris * 64, b = ntris * 32;
+    return (a < huge / 2 ? a : (a + huge - 1) / huge * huge) + (b < huge / 2 ? b : (b + huge - 1) / huge * huge);
+}
 
 pgi__mem_ledger *pgi__renderer_mem(pgi_renderer *r) { return &r->mem; }
 
@@ -121,6 +127,7 @@ static pgi_status mem_plan(pgi_renderer *r, const pgi_render_desc *d, const pgi_
         {"photons", np * PHOTON_BYTES, 1},
         {"footprints", np * planes * sizeof(float), 1},
         {"trace_scratch", traced * TRACE_BYTES_PER_PHOTON, 1},
+        {"trace_scratch", trace_triangle_bytes(r->scene->ntris), 0},
         {"emission_guide", d->emission != PGI_EMISSION_UNIFORM ? np * sizeof(uint16_t) : 0, 1}, /* a bin a photon */
         {est, np * per_photon, 1},
     };

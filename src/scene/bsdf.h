@@ -214,16 +214,6 @@ static inline void pgi__scene_uv(const pgi_scene *s, uint32_t prim, float bu, fl
     *v = bw * ua[1] + bu * ub[1] + bv * uc[1];
 }
 
-/* Prefetches the texels pgi__surface_texture will read for a hit (nothing for an untextured
- * material). */
-static inline void pgi__surface_prefetch_texels(const pgi_scene *s, uint32_t prim, float bu, float bv) {
-    const pgi__material *m = &s->mats[s->tri_mat[prim]];
-    if (m->tex_kd < 0 || !s->uv) return;
-    float u, v;
-    pgi__scene_uv(s, prim, bu, bv, &u, &v);
-    pgi__texture_prefetch(&s->texs[m->tex_kd], u, v);
-}
-
 static inline void pgi__surface_texture(const pgi_scene *s, pgi__surface *sf) {
     if (sf->mat->tex_kd >= 0) sf->kd = v3_mul(sf->kd, pgi__texture_lookup(&s->texs[sf->mat->tex_kd], sf->u, sf->v));
 }

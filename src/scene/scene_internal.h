@@ -266,9 +266,16 @@ int pgi__scene_cut_out(const pgi_scene *s, uint32_t tri, float b1, float b2);
  * failure); *index receives its index. `channels` as in pgi__texture. */
 pgi_status pgi__scene_add_texture(pgi_scene *s, int w, int h, int channels, unsigned char *rgba, const char *path,
                                   int *index);
-/* Asks the cache for the texels pgi__texture_lookup(t, u, v) will read (the photon tracer
- * issues these for a wave of hits before shading them, so that their misses overlap). */
-void pgi__texture_prefetch(const pgi__texture *t, float u, float v);
+/* The 2x2 texels of a bilinear lookup, found once: pgi__texture_quad computes them for (u, v)
+ * and prefetches them (0 when the texture has no texels: the lookup is then white, and q is
+ * not set); pgi__texture_quad_lookup later gives exactly pgi__texture_lookup(t, u, v). The
+ * photon tracer finds a hit's quad one pipeline stage before it shades the hit. */
+typedef struct pgi__texel_quad {
+    const unsigned char *p[4]; /* texels (x0, y0), (x1, y0), (x0, y1), (x1, y1) */
+    float tx, ty;              /* weights of x1 and y1 */
+} pgi__texel_quad;
+int pgi__texture_quad(const pgi__texture *t, float u, float v, pgi__texel_quad *q);
+pgi__v3 pgi__texture_quad_lookup(const pgi__texel_quad *q);
 
 /* Geometry helpers used by rt/ and view/. */
 static inline pgi__v3 pgi__scene_vertex(const pgi_scene *s, uint32_t v) { return v3_load(s->pos + 3 * (size_t)v); }

@@ -27,10 +27,11 @@ static inline const unsigned char *color_at(const pgi__texture *t, int x, int y)
     return t->tiled + 64 * block + 4 * (4 * (y & 3) + (x & 3));
 }
 
-static inline pgi__v3 texel(const pgi__texture *t, int x, int y) {
-    const unsigned char *p = color_at(t, x, y);
+static inline pgi__v3 decode(const unsigned char *p) {
     return v3(pgi__srgb8_texture_lut[p[0]], pgi__srgb8_texture_lut[p[1]], pgi__srgb8_texture_lut[p[2]]);
 }
+
+static inline pgi__v3 texel(const pgi__texture *t, int x, int y) { return decode(color_at(t, x, y)); }
 
 /* The 2x2 texels of a bilinear lookup at (u, v): columns x0, x1, rows y0, y1, and the weights
  * (tx, ty) of x1 and y1. NaN / Inf coordinates (degenerate UVs) read texel (0, 0)'s
@@ -59,21 +60,35 @@ static inline footprint2x2 bilinear_footprint(const pgi__texture *t, float u, fl
     return f;
 }
 
-void pgi__texture_prefetch(const pgi__texture *t, float u, float v) {
-    if (!t || !t->rgba || t->width <= 0 || t->height <= 0) return;
+int pgi__texture_quad(const pgi__texture *t, float u, float v, pgi__texel_quad *q) {
+    if (!t || !t->rgba || t->width <= 0 || t->height <= 0) return 0;
     footprint2x2 f = bilinear_footprint(t, u, v);
-    __builtin_prefetch(color_at(t, f.x0, f.y0));
-    __builtin_prefetch(color_at(t, f.x1, f.y1));
+    q->p[0] = color_at(t, f.x0, f.y0);
+    q->p[1] = color_at(t, f.x1, f.y0);
+    q->p[2] = color_at(t, f.x0, f.y1);
+    q->p[3] = color_at(t, f.x1, f.y1);
+    q->tx = f.tx;
+    q->ty = f.ty;
+    __builtin_prefetch(q->p[0]);
+    __builtin_prefetch(q->p[3]);
+    return 1;
 }
 
-/* The 2x2 texels' colours, bilinearly weighted (the order of the operations is part of the
- * result: every lookup runs through here). */
+/* The bilinear blend of every colour lookup (the order of the operations is part of the result). */
+static inline pgi__v3 blend(pgi__v3 a, pgi__v3 b, pgi__v3 c, pgi__v3 d, float tx, float ty) {
+    pgi__v3 top = v3_add(v3_scale(a, 1.f - tx), v3_scale(b, tx));
+    pgi__v3 bot = v3_add(v3_scale(c, 1.f - tx), v3_scale(d, tx));
+    return v3_add(v3_scale(top, 1.f - ty), v3_scale(bot, ty));
+}
+
+/* The 2x2 texels' colours, bilinearly weighted. */
 static inline pgi__v3 bilinear(const pgi__texture *t, const footprint2x2 *f) {
-    pgi__v3 a = texel(t, f->x0, f->y0), b = texel(t, f->x1, f->y0), c = texel(t, f->x0, f->y1),
-            d = texel(t, f->x1, f->y1);
-    pgi__v3 top = v3_add(v3_scale(a, 1.f - f->tx), v3_scale(b, f->tx));
-    pgi__v3 bot = v3_add(v3_scale(c, 1.f - f->tx), v3_scale(d, f->tx));
-    return v3_add(v3_scale(top, 1.f - f->ty), v3_scale(bot, f->ty));
+    return blend(texel(t, f->x0, f->y0), texel(t, f->x1, f->y0), texel(t, f->x0, f->y1), texel(t, f->x1, f->y1), f->tx,
+                 f->ty);
+}
+
+pgi__v3 pgi__texture_quad_lookup(const pgi__texel_quad *q) {
+    return blend(decode(q->p[0]), decode(q->p[1]), decode(q->p[2]), decode(q->p[3]), q->tx, q->ty);
 }
 
 pgi__v3 pgi__texture_lookup(const pgi__texture *t, float u, float v) {
