@@ -289,7 +289,7 @@ int pgi_cmd_render(int argc, char **argv) {
         return cli_usage("render", "--r-min (%g) must not exceed --r-max (%g)", (double)d.r_min, (double)d.r_max);
     if (!quiet) app_note_ignored_options("photongi render", d.estimator, &given);
     {
-        char err[320];
+        char err[400];
         if (!app_check_device(&d, d.estimator, err, sizeof err)) return cli_failure("render", "%s", err);
     }
 

@@ -587,7 +587,7 @@ int main(int argc, char **argv) {
     for (size_t i = 0; i < pgi_estimator_count(); i++)
         if (pgi_estimator_at(i) == vt) v.est_index = i;
     {
-        char err[320];
+        char err[400];
         if (!app_check_device(&v.desc, vt->name, err, sizeof err)) {
             fprintf(stderr, "photongi-view: %s\n", err);
             return 1;
