@@ -299,7 +299,10 @@ static inline __attribute__((always_inline)) void walk(const cl_state *s, const 
         const cnode *nd = &s->nodes[start];
         int nc = __builtin_popcount(nd->mask);
         k->visited += (uint64_t)nc;
-        stk[0].mask = child_hits(s, variant, nd->first, nc, q, masks ? &stk[0].encl : NULL, &stk[0].triv);
+        /* the top pass's children at J become jobs whatever the masks say */
+        stk[0].mask = masks && !(top && start_level + 1 == s->J)
+                          ? child_hits(s, variant, nd->first, nc, q, &stk[0].encl, &stk[0].triv)
+                          : child_hits(s, variant, nd->first, nc, q, NULL, NULL);
         stk[0].first = nd->first;
         sp = 1;
     }
@@ -334,7 +337,9 @@ static inline __attribute__((always_inline)) void walk(const cl_state *s, const 
             const cnode *nd = &s->nodes[ch];
             int nc = __builtin_popcount(nd->mask);
             k->visited += (uint64_t)nc;
-            stk[sp].mask = child_hits(s, variant, nd->first, nc, q, masks ? &stk[sp].encl : NULL, &stk[sp].triv);
+            stk[sp].mask = masks && !(top && level + 1 == s->J)
+                               ? child_hits(s, variant, nd->first, nc, q, &stk[sp].encl, &stk[sp].triv)
+                               : child_hits(s, variant, nd->first, nc, q, NULL, NULL);
             stk[sp].first = nd->first;
             sp++;
         }
