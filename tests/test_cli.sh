@@ -542,6 +542,11 @@ expect_error "kernel" render --kernel gaussian -o "$TMP/x.png"
 expect_error "--subsample" render --subsample 0 -o "$TMP/x.png"
 expect_error "--subsample" render --subsample 65 -o "$TMP/x.png"
 expect_error "subsampling" render --estimator bounds3d --subsample 2 --size 32x24 --photons 1000 -o "$TMP/x.png"
+# the default estimator (cluster-trivial) takes neither: the message names it and those that do
+expect_error "(the default) does not support --kernel" render --kernel cone --size 32x24 --photons 1000 -o "$TMP/x.png"
+expect_error "brute, hashgrid, tiled, kdtree" render --kernel cone --size 32x24 --photons 1000 -o "$TMP/x.png"
+expect_error "do: hashgrid, tiled, kdtree" render --subsample 2 --size 32x24 --photons 1000 -o "$TMP/x.png"
+expect_ok render --scene cornell --size 40x30 --photons 2000 --kernel constant --subsample 1 -o "$TMP/d.png" -q
 expect_error "subsampling" render --estimator kdtree --knn 4 --subsample 2 --size 32x24 --photons 1000 -o "$TMP/x.png"
 expect_error "--filter" render --filter 17 -o "$TMP/x.png"
 expect_error "--filter" render --filter -1 -o "$TMP/x.png"

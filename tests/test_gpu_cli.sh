@@ -54,7 +54,8 @@ psnr=$(sed -n 's/.*"psnr": *\([^,]*\),.*/\1/p' "$TMP/out")
 if [ "$psnr" = null ] || awk -v p="$psnr" 'BEGIN { exit !(p >= 24) }'; then ok; else bad "PSNR $psnr dB < 24: $out"; fi
 grep -q '"gpu_trace"' "$TMP/gpu.json" && ok || bad "stats: no gpu_trace pass"
 grep -q '"device":[[:space:]]*"[^"c]' "$TMP/gpu.json" && ok || bad "stats: no device name: $(head -c 300 "$TMP/gpu.json")"
-grep -q '"gpu_gather"' "$TMP/gpu.json" && ok || bad "stats: no gpu_gather pass"
+# the default estimator's (cluster-trivial) last pass
+grep -q '"gpu_radiance"' "$TMP/gpu.json" && ok || bad "stats: no gpu_radiance pass"
 grep -q '"gpu_photons"' "$TMP/gpu.json" && ok || bad "stats: no gpu_photons memory"
 grep -q '"gpu_view"' "$TMP/gpu.json" && ok || bad "stats: no gpu_view pass"
 grep -q '"gpu_direct"' "$TMP/gpu.json" && ok || bad "stats: no gpu_direct pass"

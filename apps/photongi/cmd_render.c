@@ -32,7 +32,9 @@ static const char *k_render_help =
     "                     a name with a description S.json (sibenik, crytek-sponza, conference,\n"
     "                     fireplace-room, cornell-box; see 'Scene files' below), a .json\n"
     "                     description, or a mesh\n"
-    "  --estimator E      density estimator (see 'photongi estimators'); default " PGI_DEFAULT_ESTIMATOR "\n"
+    "  --estimator E      density estimator (see 'photongi estimators'); default " PGI_DEFAULT_ESTIMATOR ",\n"
+    "                     the fastest exact one at the shipped scenes' defaults (README); it\n"
+    "                     takes no --kernel or --subsample (the list below names those that do)\n"
     "  --photons N        photons to store, 1..100000000 (2e6 is fine too; flux is normalised by\n"
     "                     the paths emitted); default: the scene's, else 200000\n"
     "  --radius R|auto    photon radius in scene units; default: the scene's, else auto: chosen each\n"
@@ -287,7 +289,7 @@ int pgi_cmd_render(int argc, char **argv) {
         return cli_usage("render", "--r-min (%g) must not exceed --r-max (%g)", (double)d.r_min, (double)d.r_max);
     if (!quiet) app_note_ignored_options("photongi render", d.estimator, &given);
     {
-        char err[320];
+        char err[400];
         if (!app_check_device(&d, d.estimator, err, sizeof err)) return cli_failure("render", "%s", err);
     }
 

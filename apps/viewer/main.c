@@ -30,7 +30,8 @@ static const char *k_help =
     "\n"
     "  --scene S          as 'photongi render --scene' (default cornell; scenes/cornell-moving.json\n"
     "                     has animated objects)\n"
-    "  --estimator E      density estimator (default " PGI_DEFAULT_ESTIMATOR "; Tab switches live)\n"
+    "  --estimator E      density estimator (default " PGI_DEFAULT_ESTIMATOR ", the fastest exact one at the\n"
+    "                     shipped scenes' defaults; Tab switches live)\n"
     "  --photons N        photons to store (default: the scene's, else 200000)\n"
     "  --radius R|auto    photon radius (default: the scene's, else auto: chosen each frame from\n"
     "                     the photon density the camera sees; docs/radius.md)\n"
@@ -586,7 +587,7 @@ int main(int argc, char **argv) {
     for (size_t i = 0; i < pgi_estimator_count(); i++)
         if (pgi_estimator_at(i) == vt) v.est_index = i;
     {
-        char err[320];
+        char err[400];
         if (!app_check_device(&v.desc, vt->name, err, sizeof err)) {
             fprintf(stderr, "photongi-view: %s\n", err);
             return 1;

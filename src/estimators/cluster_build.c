@@ -165,6 +165,8 @@ static inline void soa_store(cl_state *s, size_t ni, const cnode *nd) {
     s->sx0[ni] = nd->lo[0], s->sy0[ni] = nd->lo[1], s->sz0[ni] = nd->lo[2];
     s->sx1[ni] = nd->hi[0], s->sy1[ni] = nd->hi[1], s->sz1[ni] = nd->hi[2];
     s->cax[ni] = nd->ax, s->cay[ni] = nd->ay, s->caz[ni] = nd->az, s->crej[ni] = nd->rej;
+    /* trivial accept needs dot > acc and an all-Lambertian node: never when it is not */
+    s->cacc[ni] = nd->lambert ? nd->acc : INFINITY;
 }
 
 /* What one phase of the build hands to the next. */
@@ -556,9 +558,10 @@ static pgi_status leaf_bounds(cl_state *s, const pgi_view_samples *vs) {
     pgi_status st;
     /* Structure-of-arrays copies of boxes and cones for the child tests. */
     const size_t stride = nn + 16;
-    if ((st = ENSURE(soa, 10 * stride, float))) return st;
-    float **arr[10] = {&s->sx0, &s->sy0, &s->sz0, &s->sx1, &s->sy1, &s->sz1, &s->cax, &s->cay, &s->caz, &s->crej};
-    for (int k = 0; k < 10; k++) *arr[k] = s->soa + (size_t)k * stride;
+    if ((st = ENSURE(soa, 11 * stride, float))) return st;
+    float **arr[11] = {&s->sx0, &s->sy0, &s->sz0, &s->sx1,  &s->sy1, &s->sz1,
+                       &s->cax, &s->cay, &s->caz, &s->crej, &s->cacc};
+    for (int k = 0; k < 11; k++) *arr[k] = s->soa + (size_t)k * stride;
     /* Leaf boxes, cones, Lambert flags from the samples; the samples' position
      * and normal are copied in sorted order (SoA) for the radiance pass, which
      * then reads them sequentially instead of gathering tile rows again. */

@@ -82,7 +82,9 @@ typedef struct {
     struct sink *outs; /* traversal records: one per top chunk / per thread */
     int nouts;
     PGI__BUF(uint32_t, task_rec); /* per job-level node: thread, first and end record */
-    float *sx0, *sy0, *sz0, *sx1, *sy1, *sz1, *cax, *cay, *caz, *crej; /* SoA copies for child_hits (in soa) */
+    /* SoA copies for child_hits (in soa); cacc: the trivial-accept threshold, +inf for a node
+       that is not all-Lambertian */
+    float *sx0, *sy0, *sz0, *sx1, *sy1, *sz1, *cax, *cay, *caz, *crej, *cacc;
     PGI__BUF(float, soa);
     PGI__BUF(float, sam); /* 6 x nvalid: sorted samples' world position (x NaN: not Lambertian) and normal */
     int splatted;         /* this frame has nodes and photons (lists/buckets are valid) */

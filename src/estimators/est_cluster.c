@@ -125,33 +125,48 @@ static inline void load_photon(const cl_state *s, const pgi__packed_photon *p, s
 
 /* Culling test of the children [f, f + nc) of one node, branch-free over
  * structure-of-arrays boxes and cones (the compiler vectorises it): bit k of
- * the result is set when child f + k may hold a sample the photon reaches. */
+ * the result is set when child f + k may hold a sample the photon reaches.
+ * With `encl` (the list variants), bit k of *encl is set when the sphere
+ * encloses child f + k (far2 < re2, decide's test, the same expressions), and
+ * of *triv when it is also trivially accepted there (V_TRIVIAL: dot(axis, w) >
+ * cacc, +inf unless all-Lambertian): decide then needs no node record. */
 static inline __attribute__((always_inline)) uint32_t child_hits(const cl_state *s, const int variant, uint32_t f,
-                                                                 int nc, const photon_q *q) {
+                                                                 int nc, const photon_q *q, uint32_t *encl,
+                                                                 uint32_t *triv) {
     const float *x0 = s->sx0 + f, *y0 = s->sy0 + f, *z0 = s->sz0 + f, *x1 = s->sx1 + f, *y1 = s->sy1 + f,
                 *z1 = s->sz1 + f;
-    uint32_t m = 0;
+    uint32_t m = 0, me = 0, mt = 0;
 #ifdef __SSE2__
     /* 4 children a step; the SoA arrays are padded, extra lanes are masked off. */
     const __m128 cx = _mm_set1_ps(q->c.x), cy = _mm_set1_ps(q->c.y), cz = _mm_set1_ps(q->c.z);
-    const __m128 rr2 = _mm_set1_ps(q->rr2), zero = _mm_setzero_ps();
+    const __m128 rr2 = _mm_set1_ps(q->rr2), re2 = _mm_set1_ps(q->re2), zero = _mm_setzero_ps();
     const __m128 wx = _mm_set1_ps(q->wx), wy = _mm_set1_ps(q->wy), wz = _mm_set1_ps(q->wz);
     for (int k = 0; k < nc; k += 4) {
-        __m128 ex =
-            _mm_max_ps(_mm_max_ps(_mm_sub_ps(_mm_loadu_ps(x0 + k), cx), _mm_sub_ps(cx, _mm_loadu_ps(x1 + k))), zero);
-        __m128 ey =
-            _mm_max_ps(_mm_max_ps(_mm_sub_ps(_mm_loadu_ps(y0 + k), cy), _mm_sub_ps(cy, _mm_loadu_ps(y1 + k))), zero);
-        __m128 ez =
-            _mm_max_ps(_mm_max_ps(_mm_sub_ps(_mm_loadu_ps(z0 + k), cz), _mm_sub_ps(cz, _mm_loadu_ps(z1 + k))), zero);
+        const __m128 lx = _mm_loadu_ps(x0 + k), ly = _mm_loadu_ps(y0 + k), lz = _mm_loadu_ps(z0 + k),
+                     hx = _mm_loadu_ps(x1 + k), hy = _mm_loadu_ps(y1 + k), hz = _mm_loadu_ps(z1 + k);
+        __m128 ex = _mm_max_ps(_mm_max_ps(_mm_sub_ps(lx, cx), _mm_sub_ps(cx, hx)), zero);
+        __m128 ey = _mm_max_ps(_mm_max_ps(_mm_sub_ps(ly, cy), _mm_sub_ps(cy, hy)), zero);
+        __m128 ez = _mm_max_ps(_mm_max_ps(_mm_sub_ps(lz, cz), _mm_sub_ps(cz, hz)), zero);
         __m128 d2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(ex, ex), _mm_mul_ps(ey, ey)), _mm_mul_ps(ez, ez));
-        __m128 hit = _mm_cmple_ps(d2, rr2);
+        __m128 hit = _mm_cmple_ps(d2, rr2), dw = zero;
         if (variant & V_CONE) {
-            __m128 dw = _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_loadu_ps(s->cax + f + k), wx),
-                                              _mm_mul_ps(_mm_loadu_ps(s->cay + f + k), wy)),
-                                   _mm_mul_ps(_mm_loadu_ps(s->caz + f + k), wz));
+            dw = _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_loadu_ps(s->cax + f + k), wx),
+                                       _mm_mul_ps(_mm_loadu_ps(s->cay + f + k), wy)),
+                            _mm_mul_ps(_mm_loadu_ps(s->caz + f + k), wz));
             hit = _mm_and_ps(hit, _mm_cmpge_ps(dw, _mm_loadu_ps(s->crej + f + k))); /* §4.5 */
         }
         m |= (uint32_t)_mm_movemask_ps(hit) << k;
+        if (encl) {
+            /* far2: max(c - lo, hi - c) per axis (_mm_max_ps(a, b) is pgi_maxf's a > b ? a : b) */
+            __m128 fx = _mm_max_ps(_mm_sub_ps(cx, lx), _mm_sub_ps(hx, cx));
+            __m128 fy = _mm_max_ps(_mm_sub_ps(cy, ly), _mm_sub_ps(hy, cy));
+            __m128 fz = _mm_max_ps(_mm_sub_ps(cz, lz), _mm_sub_ps(hz, cz));
+            __m128 f2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(fx, fx), _mm_mul_ps(fy, fy)), _mm_mul_ps(fz, fz));
+            __m128 in = _mm_cmplt_ps(f2, re2);
+            me |= (uint32_t)_mm_movemask_ps(in) << k;
+            if (variant & V_TRIVIAL)
+                mt |= (uint32_t)_mm_movemask_ps(_mm_and_ps(in, _mm_cmpgt_ps(dw, _mm_loadu_ps(s->cacc + f + k)))) << k;
+        }
     }
     if (nc < 32) m &= (1u << nc) - 1u;
 #else
@@ -161,13 +176,22 @@ static inline __attribute__((always_inline)) uint32_t child_hits(const cl_state 
         float ey = pgi_maxf(pgi_maxf(y0[k] - cy, cy - y1[k]), 0.f);
         float ez = pgi_maxf(pgi_maxf(z0[k] - cz, cz - z1[k]), 0.f);
         uint32_t hit = ex * ex + ey * ey + ez * ez <= rr2;
+        float dw = 0.f;
         if (variant & V_CONE) {
-            float dw = s->cax[f + k] * q->wx + s->cay[f + k] * q->wy + s->caz[f + k] * q->wz;
+            dw = s->cax[f + k] * q->wx + s->cay[f + k] * q->wy + s->caz[f + k] * q->wz;
             hit &= dw >= s->crej[f + k]; /* else below every surface in the child (§4.5) */
         }
         m |= hit << k;
+        if (encl) {
+            float fx = pgi_maxf(cx - x0[k], x1[k] - cx), fy = pgi_maxf(cy - y0[k], y1[k] - cy),
+                  fz = pgi_maxf(cz - z0[k], z1[k] - cz);
+            uint32_t in = fx * fx + fy * fy + fz * fz < q->re2;
+            me |= in << k;
+            if (variant & V_TRIVIAL) mt |= (uint32_t)(in && dw > s->cacc[f + k]) << k;
+        }
     }
 #endif
+    if (encl) *encl = me & m, *triv = mt & m;
     return m;
 }
 
@@ -263,15 +287,22 @@ job:
 static inline __attribute__((always_inline)) void walk(const cl_state *s, const int variant, const int top,
                                                        uint32_t start, int start_level, const photon_q *q, sink *k) {
     if (!decide(s, variant, top, start, start_level, q, k)) return;
+    /* The list variants take decide's enclosure and trivial-accept tests of the children from
+     * child_hits (SoA, 4 at a time) instead of each child's node record; directional's buckets
+     * keep decide. */
+    const int masks = !(variant & V_DIR);
     struct {
-        uint32_t mask, first;
+        uint32_t mask, first, encl, triv;
     } stk[MAX_LEVELS + 2];
     int sp = 0;
     {
         const cnode *nd = &s->nodes[start];
         int nc = __builtin_popcount(nd->mask);
         k->visited += (uint64_t)nc;
-        stk[0].mask = child_hits(s, variant, nd->first, nc, q);
+        /* the top pass's children at J become jobs whatever the masks say */
+        stk[0].mask = masks && !(top && start_level + 1 == s->J)
+                          ? child_hits(s, variant, nd->first, nc, q, &stk[0].encl, &stk[0].triv)
+                          : child_hits(s, variant, nd->first, nc, q, NULL, NULL);
         stk[0].first = nd->first;
         sp = 1;
     }
@@ -282,17 +313,41 @@ static inline __attribute__((always_inline)) void walk(const cl_state *s, const 
             continue;
         }
         stk[sp - 1].mask = m & (m - 1);
+        const uint32_t bit = m & (0u - m);
         uint32_t ch = stk[sp - 1].first + (uint32_t)__builtin_ctz(m);
-        if (decide(s, variant, top, ch, start_level + sp, q, k)) {
+        const int level = start_level + sp;
+        int down = 0;
+        if (!masks) {
+            down = decide(s, variant, top, ch, level, q, k);
+        } else if (top && level == s->J) { /* decide's job at J */
+            k->cnt[ch]++;
+            emit(k, ch, q->j);
+        } else if ((variant & V_TRIVIAL) && (stk[sp - 1].triv & bit)) {
+            /* encloses the node and above every surface in it (§4.6) */
+            float *f = k->flux + 3 * (size_t)ch;
+            f[0] += q->fr, f[1] += q->fg, f[2] += q->fb;
+            k->tcnt[ch]++;
+        } else if ((stk[sp - 1].encl & bit) || level == s->L) { /* list: enclosed node or leaf */
+            k->cnt[ch]++;
+            emit(k, ch, q->j);
+        } else {
+            down = 1;
+        }
+        if (down) {
             const cnode *nd = &s->nodes[ch];
             int nc = __builtin_popcount(nd->mask);
             k->visited += (uint64_t)nc;
-            stk[sp].mask = child_hits(s, variant, nd->first, nc, q);
+            stk[sp].mask = masks && !(top && level + 1 == s->J)
+                               ? child_hits(s, variant, nd->first, nc, q, &stk[sp].encl, &stk[sp].triv)
+                               : child_hits(s, variant, nd->first, nc, q, NULL, NULL);
             stk[sp].first = nd->first;
             sp++;
         }
     }
 }
+
+/* How many jobs ahead the subtree pass prefetches their packed photons. */
+#define PREFETCH_JOBS 8
 
 /* Per-thread (and per top chunk) output records kept between frames. */
 static pgi_status grow_outs(cl_state *s, int n) {
@@ -349,7 +404,7 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
             pgi__pack_photon(ph, j, &s->pk[j]); /* sequential here; the later passes read pk */
             load_photon(s, &s->pk[j], j, &q);
             k->visited++;
-            if (!(child_hits(s, variant, 0, 1, &q) & 1u)) continue; /* the root */
+            if (!(child_hits(s, variant, 0, 1, &q, NULL, NULL) & 1u)) continue; /* the root */
             walk(s, variant, 1, 0, 0, &q, k);
         }
         visited += k->visited;
@@ -433,7 +488,15 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
         for (long long t = 0; t < (long long)nJ; t++) {
             s->task_rec[3 * t] = (uint32_t)omp_get_thread_num();
             s->task_rec[3 * t + 1] = (uint32_t)k->nout;
-            for (uint32_t u = s->job_start[t]; u < s->job_start[t + 1]; u++) {
+            const uint32_t u1 = s->job_start[t + 1];
+            for (uint32_t u = s->job_start[t]; u < u1; u++) {
+                /* The jobs' photons are increasing but sparse in pk: without the prefetch a third
+                 * of this pass waited on their first load. 36-byte records: two lines. */
+                if (u + PREFETCH_JOBS < u1) {
+                    const char *p = (const char *)&s->pk[s->jobs[u + PREFETCH_JOBS]];
+                    __builtin_prefetch(p);
+                    __builtin_prefetch(p + sizeof(pgi__packed_photon) - 1);
+                }
                 photon_q q;
                 load_photon(s, &s->pk[s->jobs[u]], s->jobs[u], &q);
                 walk(s, variant, 0, nabove + (uint32_t)t, s->J, &q, k);

@@ -235,8 +235,12 @@ pgi_status pgi_estimator_desc_resolve(const pgi_estimator_vtbl *vt, const pgi_es
             if (!(o->flags & PGI_OPTION_STRICT)) continue;
             if (o->caps) {
                 if (o->type == PGI_OPTION_INT && *int_field(o, &r) == 1) continue; /* subsample 1 is off */
-                return pgi__fail(PGI_ERR_INVALID_ARG, "estimator '%s' does not support --%s (%s)", vt->name, o->name,
-                                 o->help);
+                /* Name those that do: --kernel/--subsample given without --estimator reach the default. */
+                pgi_option_takers(o, names, sizeof names);
+                return pgi__fail(PGI_ERR_INVALID_ARG,
+                                 "estimator '%s'%s does not support --%s (%s); the estimators that do: %s", vt->name,
+                                 strcmp(vt->name, PGI_DEFAULT_ESTIMATOR) ? "" : " (the default)", o->name, o->help,
+                                 names);
             }
             pgi_option_takers(o, names, sizeof names);
             return pgi__fail(PGI_ERR_INVALID_ARG, "--%s is an option of %s, not of '%s'", o->name, names, vt->name);

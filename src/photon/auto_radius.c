@@ -134,11 +134,31 @@ static inline void kheap_push(kheap *h, float d2) {
     }
 }
 
+/* Distance from coordinate v to cell c's interval along an axis (cells start at o, edge `cell`),
+ * widened by m: a photon that cell_of puts in cell c lies within m of the interval. */
+static inline double axis_gap(double v, double o, double cell, int32_t c, double m) {
+    const double lo = o + (double)c * cell - m, hi = o + (double)(c + 1) * cell + m;
+    return v < lo ? lo - v : v > hi ? v - hi : 0.0;
+}
+
 /* Pushes into h the squared distances of ring J's photons that the sample (p, n) would gather
- * (arriving from its side). */
+ * (arriving from its side).
+ *
+ * Once h holds K distances, a cell whose box is farther than the K-th of them is skipped: its
+ * photons could not enter h (kheap_push drops d2 >= h->v[0], and h->v[0] only falls), so h->v[0],
+ * the one value used, is what the full scan gives (the K smallest of a set do not depend on the
+ * order they come in). The box is widened by m, more than cell_of's rounding can move a photon out
+ * of it, and the test has a relative margin over the float d2's rounding: exact, not a heuristic.
+ * Most of a query's cells are in its outermost ring, and most of those are past the K-th
+ * distance. */
 static void scan_ring(const grid *g, const pgi_photons *ph, const float *p, const float *n, int J, kheap *h) {
     const int32_t cx = cell_of(p[0], g->org[0], g->inv), cy = cell_of(p[1], g->org[1], g->inv),
                   cz = cell_of(p[2], g->org[2], g->inv);
+    const double cell = (double)g->cell;
+    /* cell_of's products are within a few float roundings (~6e-8 relative) of the exact ones */
+    const double m = 1e-3 * cell + 1e-5 * (fabs((double)p[0] - g->org[0]) + fabs((double)p[1] - g->org[1]) +
+                                           fabs((double)p[2] - g->org[2]) + 8.0 * cell);
+    const int prune = abs(cx) < 900000 && abs(cy) < 900000 && abs(cz) < 900000; /* not clamped */
     for (int dz = -J; dz <= J; dz++)
         for (int dy = -J; dy <= J; dy++)
             for (int dx = -J; dx <= J; dx++) {
@@ -146,6 +166,11 @@ static void scan_ring(const grid *g, const pgi_photons *ph, const float *p, cons
                 cheb = abs(dz) > cheb ? abs(dz) : cheb;
                 if (J > 1 && cheb < J) continue; /* seen in an inner ring */
                 const int32_t x = cx + dx, y = cy + dy, z = cz + dz;
+                if (prune && h->n == h->k) {
+                    const double gx = axis_gap(p[0], g->org[0], cell, x, m), gy = axis_gap(p[1], g->org[1], cell, y, m),
+                                 gz = axis_gap(p[2], g->org[2], cell, z, m);
+                    if ((gx * gx + gy * gy + gz * gz) * (1.0 - 1e-4) > (double)h->v[0]) continue;
+                }
                 const uint32_t b = cell_hash(x, y, z, g->mask);
                 for (uint32_t k = g->start[b]; k < g->start[b + 1]; k++) {
                     const uint32_t j = g->idx[k];
