@@ -70,7 +70,7 @@ static const char *k_help =
                                                         "failure); an error on a rank other\n"
                                                         "than 0 is printed with its rank. See docs/distributed.md.\n";
 
-enum { TAG_DEAL = 1, TAG_RESULT = 2 };
+enum { TAG_DEAL = 1, TAG_RESULT = 2, TAG_FRAME = 3 };
 
 static int g_rank, g_size;
 static int g_real_err = 2; /* the process's standard error (rank > 0: stderr itself goes to g_capture) */
@@ -125,9 +125,18 @@ static double g_rs[RS_COUNT];
 
 /* ------------------------------------------------------------------ the dealer */
 
+/* A unit of work as it travels in a TAG_DEAL message: block b (b >= 0), the single frame k of a
+ * split block (-2 - k) or the end of the work (-1). */
+#define UNIT_STOP (-1)
+static int64_t unit_frame(int64_t k) { return -2 - k; }
+static int unit_is_frame(int64_t u) { return u <= -2; }
+static int64_t frame_of_unit(int64_t u) { return -2 - u; }
+
 typedef struct job job;
 /* Renders the items of block b into sum (3 doubles a pixel; overwritten). */
 typedef pgi_status (*work_fn)(job *j, int64_t b, double *sum);
+/* Renders the single frame k into j->frame (split blocks, render --progressive only). */
+typedef pgi_status (*frame_fn)(job *j, int64_t k);
 
 struct job {
     size_t values; /* 3 x pixels */
@@ -135,19 +144,28 @@ struct job {
     int block;     /* items per block */
     int64_t nblocks;
     work_fn work;
+    frame_fn work_frame;
     double time_limit_ms; /* reference --time: no block is dealt after it (0: none) */
     double t0;
+    /* the blocks from split_from on are dealt frame by frame (nblocks: none), so that the last
+       rank to finish is at most about one frame, not one block, behind the others */
+    int64_t split_from;
     /* rank 0 */
     double *total;
     double **held; /* block -> its sum, until merged */
     double **pool;
     int npool, cap_pool;
-    int64_t next_deal, next_merge, items_done;
+    int64_t next_item; /* the first frame (sample) not dealt yet */
+    int64_t next_merge, items_done;
     int window;
     int *outstanding, *stopped;
     MPI_Request *rreq;
     double **rbuf;
+    int *rframe; /* rreq[i] receives a frame (else a block sum) */
     int nrecv, cap_recv;
+    double **part;      /* split block split_from + i: its sum so far, frames added in frame order */
+    int64_t *part_next; /* ... and the next frame it takes */
+    double **fheld;     /* frame split_from * block + i, arrived before its turn (a pool buffer) */
     /* workers: results in flight */
     MPI_Request sreq[2];
     /* what the job is */
@@ -172,6 +190,10 @@ static int64_t block_items(const job *j, int64_t b) {
     return (hi > j->items ? j->items : hi) - lo;
 }
 
+/* Blocks dealt so far, whole or in part. */
+static int64_t blocks_dealt(const job *j) { return (j->next_item + j->block - 1) / j->block; }
+
+/* A buffer of values + 1 doubles: a block sum and its index, or (as bytes) a frame's index and floats. */
 static double *pool_get(job *j) {
     if (j->npool > 0) return j->pool[--j->npool];
     double *p = malloc((j->values + 1) * sizeof *p);
@@ -190,16 +212,32 @@ static void pool_put(job *j, double *p) {
     j->pool[j->npool++] = p;
 }
 
+/* A frame message: the frame index (int64) and then the frame's values floats. */
+#define FRAME_HEAD sizeof(int64_t)
+static size_t frame_bytes(const job *j) { return FRAME_HEAD + j->values * sizeof(float); }
+static float *frame_rgb(double *buf) { return (float *)(void *)((char *)buf + FRAME_HEAD); }
+
 static int dealing_over(const job *j) {
-    if (j->next_deal >= j->nblocks) return 1;
-    return j->time_limit_ms > 0.0 && now_ms() - j->t0 >= j->time_limit_ms && j->next_deal > 0;
+    if (j->next_item >= j->items) return 1;
+    return j->time_limit_ms > 0.0 && now_ms() - j->t0 >= j->time_limit_ms && j->next_item > 0;
 }
 
-static int can_deal(const job *j) { return !dealing_over(j) && j->next_deal < j->next_merge + j->window; }
+static int can_deal(const job *j) { return !dealing_over(j) && j->next_item / j->block < j->next_merge + j->window; }
+
+/* The next unit (can_deal): a whole block before split_from, else one frame. */
+static int64_t take_unit(job *j) {
+    const int64_t b = j->next_item / j->block;
+    if (b < j->split_from) {
+        j->next_item = b * j->block + block_items(j, b);
+        return b;
+    }
+    return unit_frame(j->next_item++);
+}
 
 static void merge_ready(job *j) {
     double t = now_ms();
-    while (j->next_merge < j->next_deal && j->held[j->next_merge]) {
+    const int64_t dealt = blocks_dealt(j);
+    while (j->next_merge < dealt && j->held[j->next_merge]) {
         pgi_block_sum_merge(j->total, j->held[j->next_merge], j->values);
         j->items_done += block_items(j, j->next_merge);
         pool_put(j, j->held[j->next_merge]);
@@ -208,20 +246,57 @@ static void merge_ready(job *j) {
     g_rs[RS_REDUCE] += now_ms() - t;
 }
 
+/* Frame k of a split block, from rank 0 itself (rgb, buf NULL) or from a worker (buf, a pool
+ * buffer, given up): added into its block's sum in frame order (pgi_block_sum_add, as one rank
+ * would), or held until the frames before it have come. */
+static void deliver_frame(job *j, int64_t k, const float *rgb, double *buf) {
+    double t = now_ms();
+    const int64_t b = k / j->block, i = b - j->split_from, f0 = j->split_from * j->block;
+    if (k != j->part_next[i]) {
+        if (!buf) {
+            buf = pool_get(j);
+            memcpy(frame_rgb(buf), rgb, j->values * sizeof(float));
+        }
+        j->fheld[k - f0] = buf;
+        g_rs[RS_REDUCE] += now_ms() - t;
+        return;
+    }
+    if (!j->part[i]) j->part[i] = pool_get(j);
+    const int64_t end = b * j->block + block_items(j, b);
+    for (;;) {
+        pgi_block_sum_add(j->part[i], rgb, j->values, k == b * j->block);
+        if (buf) pool_put(j, buf);
+        j->part_next[i] = ++k;
+        if (k == end || !j->fheld[k - f0]) break;
+        buf = j->fheld[k - f0];
+        j->fheld[k - f0] = NULL;
+        rgb = frame_rgb(buf);
+    }
+    if (k == end) {
+        j->held[b] = j->part[i];
+        j->part[i] = NULL;
+    }
+    g_rs[RS_REDUCE] += now_ms() - t;
+    merge_ready(j);
+}
+
 static void top_up(job *j) {
     for (int w = 1; w < g_size; w++) {
         if (j->stopped[w]) continue;
-        /* one block queued ahead while many remain; at the end one at a time, so that no rank holds
-           a block another could start */
-        const int target = j->nblocks - j->next_deal >= 2 * g_size ? 2 : 1;
-        while (j->outstanding[w] < target && can_deal(j)) {
-            int64_t b = j->next_deal++;
-            MPI_Send(&b, 1, MPI_INT64_T, w, TAG_DEAL, MPI_COMM_WORLD);
-            g_rs[RS_SENT] += sizeof b;
+        for (;;) {
+            /* one unit queued ahead while many remain; at the end one at a time, so that no rank
+               holds work another could start */
+            const int64_t b = j->next_item / j->block;
+            const int target = b < j->split_from ? (j->nblocks - b >= 2 * g_size ? 2 : 1)
+                                                 : (j->items - j->next_item >= 2 * g_size ? 2 : 1);
+            if (j->outstanding[w] >= target || !can_deal(j)) break;
+            int64_t u = take_unit(j);
+            MPI_Send(&u, 1, MPI_INT64_T, w, TAG_DEAL, MPI_COMM_WORLD);
+            g_rs[RS_SENT] += sizeof u;
             j->outstanding[w]++;
         }
         if (dealing_over(j)) {
-            int64_t stop = -1;
+            int64_t stop = UNIT_STOP;
             MPI_Send(&stop, 1, MPI_INT64_T, w, TAG_DEAL, MPI_COMM_WORLD);
             g_rs[RS_SENT] += sizeof stop;
             j->stopped[w] = 1;
@@ -229,43 +304,64 @@ static void top_up(job *j) {
     }
 }
 
-/* Rank 0, between its own passes and when idle: take in finished blocks, add them in order, deal. */
+/* A completed receive (rreq[i], status s): a block sum held for its turn, or a frame delivered. */
+static void received(job *j, int i, const MPI_Status *s) {
+    double *buf = j->rbuf[i];
+    const int is_frame = j->rframe[i];
+    j->rreq[i] = j->rreq[j->nrecv - 1];
+    j->rbuf[i] = j->rbuf[j->nrecv - 1];
+    j->rframe[i] = j->rframe[j->nrecv - 1];
+    j->nrecv--;
+    j->outstanding[s->MPI_SOURCE]--;
+    if (is_frame) {
+        int64_t k;
+        memcpy(&k, buf, sizeof k);
+        if (k < j->split_from * j->block || k >= j->next_item || k < j->part_next[k / j->block - j->split_from] ||
+            j->fheld[k - j->split_from * j->block])
+            die("rank %d sent frame %" PRId64 " it was not dealt", s->MPI_SOURCE, k);
+        deliver_frame(j, k, frame_rgb(buf), buf);
+        return;
+    }
+    int64_t b = (int64_t)buf[j->values];
+    if (b < 0 || b >= j->split_from || b >= blocks_dealt(j) || j->held[b])
+        die("rank %d sent block %" PRId64 " it was not dealt", s->MPI_SOURCE, b);
+    j->held[b] = buf;
+}
+
+/* Rank 0, between its own passes and when idle: take in finished work, add it in order, deal. */
 static void master_poll(job *j) {
     if (g_size == 1 || !j->held) return; /* alone, or frame 0 before the dealing starts */
     double t = now_ms();
     int flag;
     MPI_Status s;
     for (;;) {
-        MPI_Iprobe(MPI_ANY_SOURCE, TAG_RESULT, MPI_COMM_WORLD, &flag, &s);
+        MPI_Iprobe(MPI_ANY_SOURCE, MPI_ANY_TAG, MPI_COMM_WORLD, &flag, &s);
         if (!flag) break;
+        if (s.MPI_TAG != TAG_RESULT && s.MPI_TAG != TAG_FRAME) die("unexpected message (tag %d)", s.MPI_TAG);
         if (j->nrecv == j->cap_recv) {
             int cap = j->cap_recv ? 2 * j->cap_recv : 8;
             MPI_Request *q = realloc(j->rreq, (size_t)cap * sizeof *q);
             if (q) j->rreq = q;
             double **qb = realloc(j->rbuf, (size_t)cap * sizeof *qb);
             if (qb) j->rbuf = qb;
-            if (!q || !qb) die("out of memory");
+            int *qf = realloc(j->rframe, (size_t)cap * sizeof *qf);
+            if (qf) j->rframe = qf;
+            if (!q || !qb || !qf) die("out of memory");
             j->cap_recv = cap;
         }
         double *buf = pool_get(j);
-        MPI_Irecv(buf, (int)(j->values + 1), MPI_DOUBLE, s.MPI_SOURCE, TAG_RESULT, MPI_COMM_WORLD, &j->rreq[j->nrecv]);
+        j->rframe[j->nrecv] = s.MPI_TAG == TAG_FRAME;
+        if (s.MPI_TAG == TAG_FRAME)
+            MPI_Irecv(buf, (int)frame_bytes(j), MPI_BYTE, s.MPI_SOURCE, TAG_FRAME, MPI_COMM_WORLD, &j->rreq[j->nrecv]);
+        else
+            MPI_Irecv(buf, (int)(j->values + 1), MPI_DOUBLE, s.MPI_SOURCE, TAG_RESULT, MPI_COMM_WORLD,
+                      &j->rreq[j->nrecv]);
         j->rbuf[j->nrecv++] = buf;
     }
     for (int i = 0; i < j->nrecv;) {
         MPI_Test(&j->rreq[i], &flag, &s);
-        if (!flag) {
-            i++;
-            continue;
-        }
-        double *buf = j->rbuf[i];
-        int64_t b = (int64_t)buf[j->values];
-        if (b < 0 || b >= j->next_deal || j->held[b])
-            die("rank %d sent block %" PRId64 " it was not dealt", s.MPI_SOURCE, b);
-        j->held[b] = buf;
-        j->outstanding[s.MPI_SOURCE]--;
-        j->rreq[i] = j->rreq[j->nrecv - 1];
-        j->rbuf[i] = j->rbuf[j->nrecv - 1];
-        j->nrecv--;
+        if (flag) received(j, i, &s);
+        else i++;
     }
     g_rs[RS_REDUCE] += now_ms() - t;
     merge_ready(j);
@@ -279,18 +375,12 @@ static void master_wait(job *j) {
     if (j->nrecv > 0) {
         int idx;
         MPI_Waitany(j->nrecv, j->rreq, &idx, &s);
-        /* completed: put it back as a finished request for master_poll's test */
-        if (idx != MPI_UNDEFINED) {
-            double *buf = j->rbuf[idx];
-            int64_t b = (int64_t)buf[j->values];
-            j->held[b] = buf;
-            j->outstanding[s.MPI_SOURCE]--;
-            j->rreq[idx] = j->rreq[j->nrecv - 1];
-            j->rbuf[idx] = j->rbuf[j->nrecv - 1];
-            j->nrecv--;
-        }
-    } else MPI_Probe(MPI_ANY_SOURCE, TAG_RESULT, MPI_COMM_WORLD, &s);
-    g_rs[RS_WAIT] += now_ms() - t;
+        g_rs[RS_WAIT] += now_ms() - t;
+        if (idx != MPI_UNDEFINED) received(j, idx, &s);
+    } else {
+        MPI_Probe(MPI_ANY_SOURCE, MPI_ANY_TAG, MPI_COMM_WORLD, &s);
+        g_rs[RS_WAIT] += now_ms() - t;
+    }
     master_poll(j);
 }
 
@@ -301,19 +391,25 @@ static void worker_poll(job *j) {
         if (j->sreq[i] != MPI_REQUEST_NULL) MPI_Test(&j->sreq[i], &flag, MPI_STATUS_IGNORE);
 }
 
-static void run_block(job *j, int64_t b, double *sum) {
+/* Renders unit u: block b into sum, or frame k into j->frame. */
+static void run_unit(job *j, int64_t u, double *sum) {
     /* test hook (tests/test_mpi.sh): a rank that fails in the middle of the work */
     const char *fail = getenv("PHOTONGI_MPI_FAIL_RANK");
     if (fail && *fail && atoi(fail) == g_rank) die("failing on purpose (PHOTONGI_MPI_FAIL_RANK=%s)", fail);
     double t = now_ms(), served = g_rs[RS_REDUCE];
-    pgi_status st = j->work(j, b, sum);
+    const int is_frame = unit_is_frame(u);
+    pgi_status st = is_frame ? j->work_frame(j, frame_of_unit(u)) : j->work(j, u, sum);
     if (st) {
         const char *m = pgi_last_error();
-        die("block %" PRId64 ": %s", b, *m ? m : pgi_status_string(st));
+        if (is_frame) die("frame %" PRId64 ": %s", frame_of_unit(u), *m ? m : pgi_status_string(st));
+        die("block %" PRId64 ": %s", u, *m ? m : pgi_status_string(st));
     }
     g_rs[RS_BUSY] += now_ms() - t - (g_rs[RS_REDUCE] - served); /* rank 0's serving between passes: reduction */
-    g_rs[RS_BLOCKS] += 1;
-    g_rs[RS_ITEMS] += (double)block_items(j, b);
+    if (is_frame) g_rs[RS_ITEMS] += 1;
+    else {
+        g_rs[RS_BLOCKS] += 1;
+        g_rs[RS_ITEMS] += (double)block_items(j, u);
+    }
 }
 
 /* Rank 0's part; block 0 may already be started (frame 0): own0 then holds its sum so far. */
@@ -321,27 +417,49 @@ static void master_run(job *j, double *own0) {
     j->held = calloc((size_t)j->nblocks, sizeof *j->held);
     j->outstanding = calloc((size_t)g_size, sizeof *j->outstanding);
     j->stopped = calloc((size_t)g_size, sizeof *j->stopped);
-    if (!j->held || !j->outstanding || !j->stopped) die("out of memory for %" PRId64 " blocks", j->nblocks);
+    const int64_t nsplit = j->nblocks - j->split_from;
+    j->part = calloc((size_t)nsplit + 1, sizeof *j->part);
+    j->part_next = calloc((size_t)nsplit + 1, sizeof *j->part_next);
+    const int64_t split_items = j->split_from < j->nblocks ? j->items - j->split_from * j->block : 0;
+    j->fheld = calloc((size_t)split_items + 1, sizeof *j->fheld);
+    if (!j->held || !j->outstanding || !j->stopped || !j->part || !j->part_next || !j->fheld)
+        die("out of memory for %" PRId64 " blocks", j->nblocks);
+    for (int64_t i = 0; i < nsplit; i++) j->part_next[i] = (j->split_from + i) * j->block;
     j->window = 4 * g_size < 8 ? 8 : 4 * g_size;
-    if (own0) {
-        j->next_deal = 1;
+    if (own0 && j->split_from == 0) {
+        /* block 0 is split: frame 0 is its first frame, the others are dealt */
+        j->part[0] = own0;
+        j->part_next[0] = 1;
+        j->next_item = 1;
+        if (block_items(j, 0) == 1) {
+            j->held[0] = own0;
+            j->part[0] = NULL;
+            merge_ready(j);
+        }
+    } else if (own0) {
+        j->next_item = block_items(j, 0);
         top_up(j);
-        run_block(j, 0, own0);
+        run_unit(j, 0, own0);
         j->held[0] = own0;
         merge_ready(j);
     }
     for (;;) {
         master_poll(j);
         if (can_deal(j)) {
-            int64_t b = j->next_deal++;
+            int64_t u = take_unit(j);
             top_up(j);
-            double *buf = pool_get(j);
-            run_block(j, b, buf);
-            j->held[b] = buf;
-            merge_ready(j);
+            if (unit_is_frame(u)) {
+                run_unit(j, u, NULL);
+                deliver_frame(j, frame_of_unit(u), j->frame.rgb, NULL);
+            } else {
+                double *buf = pool_get(j);
+                run_unit(j, u, buf);
+                j->held[u] = buf;
+                merge_ready(j);
+            }
             continue;
         }
-        if (dealing_over(j) && j->next_merge == j->next_deal) break;
+        if (dealing_over(j) && j->next_merge == blocks_dealt(j)) break;
         master_wait(j);
     }
     top_up(j); /* the stops, if the last blocks were rank 0's */
@@ -350,6 +468,10 @@ static void master_run(job *j, double *own0) {
     free(j->stopped);
     free(j->rreq);
     free(j->rbuf);
+    free(j->rframe);
+    free(j->part);
+    free(j->part_next);
+    free(j->fheld);
     for (int i = 0; i < j->npool; i++) free(j->pool[i]);
     free(j->pool);
 }
@@ -359,16 +481,25 @@ static void worker_run(job *j) {
     if (!buf[0] || !buf[1]) die("out of memory for two block sums of %zu values", j->values);
     j->sreq[0] = j->sreq[1] = MPI_REQUEST_NULL;
     for (int k = 0;; k ^= 1) {
-        int64_t b;
+        int64_t u;
         double t = now_ms();
-        MPI_Recv(&b, 1, MPI_INT64_T, 0, TAG_DEAL, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-        if (b >= 0) MPI_Wait(&j->sreq[k], MPI_STATUS_IGNORE);
+        MPI_Recv(&u, 1, MPI_INT64_T, 0, TAG_DEAL, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+        if (u != UNIT_STOP) MPI_Wait(&j->sreq[k], MPI_STATUS_IGNORE);
         g_rs[RS_WAIT] += now_ms() - t;
-        if (b < 0) break;
-        run_block(j, b, buf[k]);
-        buf[k][j->values] = (double)b;
-        MPI_Isend(buf[k], (int)(j->values + 1), MPI_DOUBLE, 0, TAG_RESULT, MPI_COMM_WORLD, &j->sreq[k]);
-        g_rs[RS_SENT] += (double)((j->values + 1) * sizeof(double));
+        if (u == UNIT_STOP) break;
+        run_unit(j, u, buf[k]);
+        if (unit_is_frame(u)) {
+            /* a single frame of a split block: its index and its floats, added on rank 0 in order */
+            const int64_t f = frame_of_unit(u);
+            memcpy(buf[k], &f, sizeof f);
+            memcpy(frame_rgb(buf[k]), j->frame.rgb, j->values * sizeof(float));
+            MPI_Isend(buf[k], (int)frame_bytes(j), MPI_BYTE, 0, TAG_FRAME, MPI_COMM_WORLD, &j->sreq[k]);
+            g_rs[RS_SENT] += (double)frame_bytes(j);
+        } else {
+            buf[k][j->values] = (double)u;
+            MPI_Isend(buf[k], (int)(j->values + 1), MPI_DOUBLE, 0, TAG_RESULT, MPI_COMM_WORLD, &j->sreq[k]);
+            g_rs[RS_SENT] += (double)((j->values + 1) * sizeof(double));
+        }
     }
     double t = now_ms();
     MPI_Waitall(2, j->sreq, MPI_STATUSES_IGNORE);
@@ -506,6 +637,16 @@ static pgi_status frames_work(job *j, int64_t b, double *sum) {
     return PGI_OK;
 }
 
+/* One frame of a split block into j->frame (frame 0 is rank 0's, rendered first). */
+static pgi_status frame_work(job *j, int64_t k) {
+    pgi_frame_stats fs;
+    pgi_status st = pgi_progressive_frame(j->r, &j->d, j->r0, (int)k, &j->frame, &fs);
+    if (st) return st;
+    if ((size_t)fs.width * (size_t)fs.height * 3 != j->values) return PGI_ERR_INVALID_ARG; /* cannot happen: one desc */
+    add_frame_stats(j, &fs);
+    return PGI_OK;
+}
+
 static pgi_status mpi_progressive(pgi_renderer *r, const pgi_render_desc *in, int frames, pgi_image *out,
                                   pgi_frame_stats *stats) {
     job j;
@@ -520,6 +661,9 @@ static pgi_status mpi_progressive(pgi_renderer *r, const pgi_render_desc *in, in
     j.block = PGI_PROGRESSIVE_BLOCK;
     j.nblocks = (frames + j.block - 1) / j.block;
     j.work = frames_work;
+    j.work_frame = frame_work;
+    /* the last 2R blocks frame by frame (alone: none) */
+    j.split_from = g_size == 1 ? j.nblocks : j.nblocks > 2 * g_size ? j.nblocks - 2 * g_size : 0;
     int who = begin(0);
     if (who >= 0) return peer_failed(who);
     j.t0 = now_ms();
@@ -621,6 +765,7 @@ static pgi_status mpi_reference(const pgi_scene *scene, const pgi_reference_desc
     j.block = PGI_REFERENCE_BLOCK;
     j.nblocks = (j.items + j.block - 1) / j.block;
     j.work = samples_work;
+    j.split_from = j.nblocks; /* whole blocks only: a sample adds into its block's sum on its own */
     j.time_limit_ms = in->time_limit_s > 0.0 ? 1000.0 * in->time_limit_s : 0.0;
     j.ref_progress = in->progress;
     j.ref_progress_user = in->progress_user;
@@ -635,7 +780,7 @@ static pgi_status mpi_reference(const pgi_scene *scene, const pgi_reference_desc
         for (size_t i = 0; i < j.values; i++) j.total[i] = j.n0 > 0 ? (double)mean->rgb[i] * (double)j.n0 : 0.0;
         master_run(&j, NULL);
     } else worker_run(&j);
-    int64_t dealt = j.next_deal; /* rank 0: fewer than nblocks after --time */
+    int64_t dealt = blocks_dealt(&j); /* rank 0: fewer than nblocks after --time */
     gather_stats(NULL);
     g_wall_ms = now_ms() - j.t0;
     pgi_reference_sampler_destroy(j.sampler);
