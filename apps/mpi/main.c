@@ -133,8 +133,9 @@ static int unit_is_frame(int64_t u) { return u <= -2; }
 static int64_t frame_of_unit(int64_t u) { return -2 - u; }
 
 typedef struct job job;
-/* Renders the items of block b into sum (3 doubles a pixel; overwritten). */
-typedef pgi_status (*work_fn)(job *j, int64_t b, double *sum);
+/* Renders the items of block b into *sum (3 doubles a pixel; overwritten; a worker's *sum may be NULL
+ * before its first frame, which tells the image size: then allocated). */
+typedef pgi_status (*work_fn)(job *j, int64_t b, double **sum);
 /* Renders the single frame k into j->frame (split blocks, render --progressive only). */
 typedef pgi_status (*frame_fn)(job *j, int64_t k);
 
@@ -171,7 +172,10 @@ struct job {
     /* what the job is */
     pgi_renderer *r;
     pgi_render_desc d;
-    float r0;
+    float r0;      /* frame 0's radius, once broadcast (0 before) */
+    int have_r0;   /* this rank took part in r0's broadcast */
+    int in_frame0; /* rank 0 is rendering frame 0 */
+    int serving;   /* rank 0 takes in results (from frame 0's end: the image size is known) */
     pgi_image frame;
     pgi_frame_stats first, sum; /* rank 0: frame 0's; every rank: its frames' counters summed */
     int have_sum;
@@ -330,7 +334,7 @@ static void received(job *j, int i, const MPI_Status *s) {
 
 /* Rank 0, between its own passes and when idle: take in finished work, add it in order, deal. */
 static void master_poll(job *j) {
-    if (g_size == 1 || !j->held) return; /* alone, or frame 0 before the dealing starts */
+    if (g_size == 1 || !j->serving) return; /* alone, or frame 0 (nothing can have come yet) */
     double t = now_ms();
     int flag;
     MPI_Status s;
@@ -384,6 +388,13 @@ static void master_wait(job *j) {
     master_poll(j);
 }
 
+/* A worker's buffer: a block sum and its index, or a frame's index and floats. */
+static double *alloc_sum(const job *j) {
+    double *p = malloc((j->values + 1) * sizeof *p);
+    if (!p) die("out of memory for a block sum of %zu values", j->values);
+    return p;
+}
+
 /* Workers: let the results in flight move while rendering. */
 static void worker_poll(job *j) {
     int flag;
@@ -391,12 +402,12 @@ static void worker_poll(job *j) {
         if (j->sreq[i] != MPI_REQUEST_NULL) MPI_Test(&j->sreq[i], &flag, MPI_STATUS_IGNORE);
 }
 
-/* Renders unit u: block b into sum, or frame k into j->frame. */
-static void run_unit(job *j, int64_t u, double *sum) {
+/* Renders unit u: block b into *sum, or frame k into j->frame. */
+static void run_unit(job *j, int64_t u, double **sum) {
     /* test hook (tests/test_mpi.sh): a rank that fails in the middle of the work */
     const char *fail = getenv("PHOTONGI_MPI_FAIL_RANK");
     if (fail && *fail && atoi(fail) == g_rank) die("failing on purpose (PHOTONGI_MPI_FAIL_RANK=%s)", fail);
-    double t = now_ms(), served = g_rs[RS_REDUCE];
+    double t = now_ms(), served = g_rs[RS_REDUCE], waited = g_rs[RS_WAIT];
     const int is_frame = unit_is_frame(u);
     pgi_status st = is_frame ? j->work_frame(j, frame_of_unit(u)) : j->work(j, u, sum);
     if (st) {
@@ -404,7 +415,8 @@ static void run_unit(job *j, int64_t u, double *sum) {
         if (is_frame) die("frame %" PRId64 ": %s", frame_of_unit(u), *m ? m : pgi_status_string(st));
         die("block %" PRId64 ": %s", u, *m ? m : pgi_status_string(st));
     }
-    g_rs[RS_BUSY] += now_ms() - t - (g_rs[RS_REDUCE] - served); /* rank 0's serving between passes: reduction */
+    /* rank 0's serving between passes is reduction, a worker's wait for r0 in its first frame wait */
+    g_rs[RS_BUSY] += now_ms() - t - (g_rs[RS_REDUCE] - served) - (g_rs[RS_WAIT] - waited);
     if (is_frame) g_rs[RS_ITEMS] += 1;
     else {
         g_rs[RS_BLOCKS] += 1;
@@ -412,8 +424,9 @@ static void run_unit(job *j, int64_t u, double *sum) {
     }
 }
 
-/* Rank 0's part; block 0 may already be started (frame 0): own0 then holds its sum so far. */
-static void master_run(job *j, double *own0) {
+/* Rank 0, before its first frame: the dealer's state, and the first units dealt to the workers (which
+ * start on them while rank 0 renders frame 0; progressive: rank 0 starts with frame 0 of block 0). */
+static void master_begin(job *j, int frame0) {
     j->held = calloc((size_t)j->nblocks, sizeof *j->held);
     j->outstanding = calloc((size_t)g_size, sizeof *j->outstanding);
     j->stopped = calloc((size_t)g_size, sizeof *j->stopped);
@@ -426,20 +439,25 @@ static void master_run(job *j, double *own0) {
         die("out of memory for %" PRId64 " blocks", j->nblocks);
     for (int64_t i = 0; i < nsplit; i++) j->part_next[i] = (j->split_from + i) * j->block;
     j->window = 4 * g_size < 8 ? 8 : 4 * g_size;
+    /* block 0 is rank 0's; when it is split, only frame 0 */
+    if (frame0) j->next_item = j->split_from == 0 ? 1 : block_items(j, 0);
+    top_up(j);
+}
+
+/* Rank 0's part after master_begin; own0: the sum of frame 0 (progressive), or NULL. */
+static void master_run(job *j, double *own0) {
+    j->serving = 1;
     if (own0 && j->split_from == 0) {
         /* block 0 is split: frame 0 is its first frame, the others are dealt */
         j->part[0] = own0;
         j->part_next[0] = 1;
-        j->next_item = 1;
         if (block_items(j, 0) == 1) {
             j->held[0] = own0;
             j->part[0] = NULL;
             merge_ready(j);
         }
     } else if (own0) {
-        j->next_item = block_items(j, 0);
-        top_up(j);
-        run_unit(j, 0, own0);
+        run_unit(j, 0, &own0);
         j->held[0] = own0;
         merge_ready(j);
     }
@@ -453,7 +471,7 @@ static void master_run(job *j, double *own0) {
                 deliver_frame(j, frame_of_unit(u), j->frame.rgb, NULL);
             } else {
                 double *buf = pool_get(j);
-                run_unit(j, u, buf);
+                run_unit(j, u, &buf);
                 j->held[u] = buf;
                 merge_ready(j);
             }
@@ -477,8 +495,7 @@ static void master_run(job *j, double *own0) {
 }
 
 static void worker_run(job *j) {
-    double *buf[2] = {malloc((j->values + 1) * sizeof(double)), malloc((j->values + 1) * sizeof(double))};
-    if (!buf[0] || !buf[1]) die("out of memory for two block sums of %zu values", j->values);
+    double *buf[2] = {NULL, NULL}; /* progressive: the image size is known after the first frame */
     j->sreq[0] = j->sreq[1] = MPI_REQUEST_NULL;
     for (int k = 0;; k ^= 1) {
         int64_t u;
@@ -487,7 +504,9 @@ static void worker_run(job *j) {
         if (u != UNIT_STOP) MPI_Wait(&j->sreq[k], MPI_STATUS_IGNORE);
         g_rs[RS_WAIT] += now_ms() - t;
         if (u == UNIT_STOP) break;
-        run_unit(j, u, buf[k]);
+        if (!buf[k] && j->values) buf[k] = alloc_sum(j);
+        run_unit(j, u, &buf[k]);
+        if (!buf[k]) buf[k] = alloc_sum(j);
         if (unit_is_frame(u)) {
             /* a single frame of a split block: its index and its floats, added on rank 0 in order */
             const int64_t f = frame_of_unit(u);
@@ -603,8 +622,12 @@ static void print_summary(void) {
 
 /* ------------------------------------------------------------------ render --progressive */
 
+static void send_r0(job *j, float r0);
+
 static void frame_progress(void *user, const pgi_progress *p) {
     job *j = user;
+    /* frame 0's radius, known from its "build" pass on (given: from the start), is everyone's r0 */
+    if (g_rank == 0 && j->in_frame0 && !j->have_r0 && p->radius > 0.f && g_size > 1) send_r0(j, p->radius);
     if (g_rank == 0) master_poll(j);
     else worker_poll(j);
     if (j->user_progress) {
@@ -622,30 +645,58 @@ static void add_frame_stats(job *j, const pgi_frame_stats *fs) {
     for (int i = 0; i < FC_COUNT; i++) g_fc[i] += c[i];
 }
 
-static pgi_status frames_work(job *j, int64_t b, double *sum) {
+/* Rank 0: frame 0's radius to every rank, as soon as it is known (from frame 0's progress). */
+static void send_r0(job *j, float r0) {
+    double t = now_ms();
+    MPI_Bcast(&r0, 1, MPI_FLOAT, 0, MPI_COMM_WORLD);
+    g_rs[RS_REDUCE] += now_ms() - t;
+    j->r0 = r0;
+    j->have_r0 = 1;
+}
+
+/* A worker: r0 from rank 0 (the first frame asks for it once its photons are traced; a worker
+ * dealt no frame takes part at the end). */
+static float receive_r0(void *user) {
+    job *j = user;
+    if (!j->have_r0) {
+        double t = now_ms();
+        float r0 = 0.f;
+        MPI_Bcast(&r0, 1, MPI_FLOAT, 0, MPI_COMM_WORLD);
+        g_rs[RS_WAIT] += now_ms() - t;
+        j->r0 = r0;
+        j->have_r0 = 1;
+    }
+    return j->r0;
+}
+
+/* Progressive frame k > 0 into j->frame: a worker's first frame traces its photons before it
+ * waits for r0 (pgi_progressive_frame_await_r0). */
+static pgi_status render_frame(job *j, int64_t k) {
+    pgi_frame_stats fs;
+    pgi_status st = j->have_r0 ? pgi_progressive_frame(j->r, &j->d, j->r0, (int)k, &j->frame, &fs)
+                               : pgi_progressive_frame_await_r0(j->r, &j->d, receive_r0, j, (int)k, &j->frame, &fs);
+    if (st) return st;
+    const size_t values = (size_t)fs.width * (size_t)fs.height * 3;
+    if (!j->values) j->values = values;
+    if (values != j->values) return PGI_ERR_INVALID_ARG; /* cannot happen: one desc */
+    add_frame_stats(j, &fs);
+    return PGI_OK;
+}
+
+static pgi_status frames_work(job *j, int64_t b, double **sum) {
     const int64_t k0 = b * j->block, n = block_items(j, b);
     for (int64_t k = k0; k < k0 + n; k++) {
         if (k == 0) continue; /* rank 0 rendered it first (its radius is everyone's r0) */
-        pgi_frame_stats fs;
-        pgi_status st = pgi_progressive_frame(j->r, &j->d, j->r0, (int)k, &j->frame, &fs);
+        pgi_status st = render_frame(j, k);
         if (st) return st;
-        if ((size_t)fs.width * (size_t)fs.height * 3 != j->values)
-            return PGI_ERR_INVALID_ARG; /* cannot happen: one desc */
-        pgi_block_sum_add(sum, j->frame.rgb, j->values, k == k0);
-        add_frame_stats(j, &fs);
+        if (!*sum) *sum = alloc_sum(j);
+        pgi_block_sum_add(*sum, j->frame.rgb, j->values, k == k0);
     }
     return PGI_OK;
 }
 
 /* One frame of a split block into j->frame (frame 0 is rank 0's, rendered first). */
-static pgi_status frame_work(job *j, int64_t k) {
-    pgi_frame_stats fs;
-    pgi_status st = pgi_progressive_frame(j->r, &j->d, j->r0, (int)k, &j->frame, &fs);
-    if (st) return st;
-    if ((size_t)fs.width * (size_t)fs.height * 3 != j->values) return PGI_ERR_INVALID_ARG; /* cannot happen: one desc */
-    add_frame_stats(j, &fs);
-    return PGI_OK;
-}
+static pgi_status frame_work(job *j, int64_t k) { return render_frame(j, k); }
 
 static pgi_status mpi_progressive(pgi_renderer *r, const pgi_render_desc *in, int frames, pgi_image *out,
                                   pgi_frame_stats *stats) {
@@ -670,33 +721,34 @@ static pgi_status mpi_progressive(pgi_renderer *r, const pgi_render_desc *in, in
     g_block = j.block;
     g_blocks = j.nblocks;
     g_unit = "frames";
-    /* Frame 0 on rank 0: it resolves r0, which every other frame needs. */
-    double *own0 = NULL;
-    float r0 = 0.f;
+    /* Frame 0 on rank 0: it resolves r0, which every other frame needs. The workers are dealt their
+       first units before it and trace their first frame's photons meanwhile; rank 0 broadcasts r0 as
+       soon as frame 0 has chosen it (frame_progress), before the frame ends. */
     int w = 0, h = 0;
     if (g_rank == 0) {
-        double t = now_ms();
+        master_begin(&j, 1);
+        double t = now_ms(), served = g_rs[RS_REDUCE];
+        j.in_frame0 = 1;
         pgi_status st = pgi_progressive_frame(r, &j.d, 0.f, 0, &j.frame, &j.first);
+        j.in_frame0 = 0;
         if (st) die("frame 0: %s", *pgi_last_error() ? pgi_last_error() : pgi_status_string(st));
-        g_rs[RS_BUSY] += now_ms() - t;
-        r0 = j.first.radius;
+        g_rs[RS_BUSY] += now_ms() - t - (g_rs[RS_REDUCE] - served);
+        if (!j.have_r0) send_r0(&j, j.first.radius); /* alone, or no pass reported it */
+        if (j.r0 != j.first.radius)
+            die("frame 0's radius %g is not the one broadcast (%g)", (double)j.first.radius, (double)j.r0);
         w = j.first.width;
         h = j.first.height;
         add_frame_stats(&j, &j.first);
-    }
-    float bc[3] = {r0, (float)w, (float)h};
-    double t = now_ms();
-    MPI_Bcast(bc, 3, MPI_FLOAT, 0, MPI_COMM_WORLD);
-    if (g_rank != 0) g_rs[RS_WAIT] += now_ms() - t;
-    j.r0 = bc[0];
-    j.values = 3 * (size_t)bc[1] * (size_t)bc[2];
-    if (g_rank == 0) {
+        j.values = 3 * (size_t)w * (size_t)h;
         j.total = calloc(j.values, sizeof *j.total);
-        own0 = pool_get(&j);
+        double *own0 = pool_get(&j);
         if (!j.total) die("out of memory for the %dx%d total", w, h);
         pgi_block_sum_add(own0, j.frame.rgb, j.values, 1);
         master_run(&j, own0);
-    } else worker_run(&j);
+    } else {
+        worker_run(&j);
+        receive_r0(&j); /* a worker dealt no frame (more ranks than frames) */
+    }
     double fc[FC_COUNT];
     double tr = now_ms();
     gather_stats(g_rank == 0 ? fc : NULL);
@@ -717,7 +769,7 @@ static pgi_status mpi_progressive(pgi_renderer *r, const pgi_render_desc *in, in
     pgi_frame_stats fs = j.first;
     counters_to(fc, &fs);
     fs.frames = frames;
-    fs.radius = pgi_progressive_radius(r0, frames - 1);
+    fs.radius = pgi_progressive_radius(j.r0, frames - 1);
     if (frames > 1) fs.settings.jitter = in->jitter;
     fs.memory_peak_rss = pgi_memory_peak_rss();
     if (stats) *stats = fs;
@@ -727,7 +779,8 @@ static pgi_status mpi_progressive(pgi_renderer *r, const pgi_render_desc *in, in
 
 /* ------------------------------------------------------------------ reference */
 
-static pgi_status samples_work(job *j, int64_t b, double *sum) {
+static pgi_status samples_work(job *j, int64_t b, double **sump) {
+    double *sum = *sump;
     memset(sum, 0, j->values * sizeof *sum);
     const int64_t s0 = b * j->block, n = block_items(j, b);
     for (int64_t s = s0; s < s0 + n; s++) {
@@ -778,6 +831,7 @@ static pgi_status mpi_reference(const pgi_scene *scene, const pgi_reference_desc
         if (!j.total) die("out of memory for the %dx%d total", w, h);
         /* as pgi_reference_render: the mean so far times its samples */
         for (size_t i = 0; i < j.values; i++) j.total[i] = j.n0 > 0 ? (double)mean->rgb[i] * (double)j.n0 : 0.0;
+        master_begin(&j, 0);
         master_run(&j, NULL);
     } else worker_run(&j);
     int64_t dealt = blocks_dealt(&j); /* rank 0: fewer than nblocks after --time */
