@@ -120,7 +120,9 @@ static pgi_status peer_failed(int who) {
 
 /* ------------------------------------------------------------------ per-rank statistics */
 
-enum { RS_BLOCKS, RS_ITEMS, RS_BUSY, RS_WAIT, RS_REDUCE, RS_SENT, RS_RSS, RS_COUNT };
+/* wait: all of a rank's waiting; of it, wait_r0: a worker's wait for r0, wait_end: the wait after its
+   last unit (a worker: for the end; rank 0: for the workers' last results) */
+enum { RS_BLOCKS, RS_ITEMS, RS_BUSY, RS_WAIT, RS_WAIT_R0, RS_WAIT_END, RS_REDUCE, RS_SENT, RS_RSS, RS_COUNT };
 static double g_rs[RS_COUNT];
 
 /* ------------------------------------------------------------------ the dealer */
@@ -375,16 +377,14 @@ static void master_poll(job *j) {
 /* Rank 0 with nothing to render: block until a worker's result is on its way. */
 static void master_wait(job *j) {
     double t = now_ms();
+    const int end = dealing_over(j);
     MPI_Status s;
-    if (j->nrecv > 0) {
-        int idx;
-        MPI_Waitany(j->nrecv, j->rreq, &idx, &s);
-        g_rs[RS_WAIT] += now_ms() - t;
-        if (idx != MPI_UNDEFINED) received(j, idx, &s);
-    } else {
-        MPI_Probe(MPI_ANY_SOURCE, MPI_ANY_TAG, MPI_COMM_WORLD, &s);
-        g_rs[RS_WAIT] += now_ms() - t;
-    }
+    int idx = MPI_UNDEFINED;
+    if (j->nrecv > 0) MPI_Waitany(j->nrecv, j->rreq, &idx, &s);
+    else MPI_Probe(MPI_ANY_SOURCE, MPI_ANY_TAG, MPI_COMM_WORLD, &s);
+    g_rs[RS_WAIT] += now_ms() - t;
+    if (end) g_rs[RS_WAIT_END] += now_ms() - t;
+    if (idx != MPI_UNDEFINED) received(j, idx, &s);
     master_poll(j);
 }
 
@@ -503,7 +503,10 @@ static void worker_run(job *j) {
         MPI_Recv(&u, 1, MPI_INT64_T, 0, TAG_DEAL, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
         if (u != UNIT_STOP) MPI_Wait(&j->sreq[k], MPI_STATUS_IGNORE);
         g_rs[RS_WAIT] += now_ms() - t;
-        if (u == UNIT_STOP) break;
+        if (u == UNIT_STOP) {
+            g_rs[RS_WAIT_END] += now_ms() - t;
+            break;
+        }
         if (!buf[k] && j->values) buf[k] = alloc_sum(j);
         run_unit(j, u, &buf[k]);
         if (!buf[k]) buf[k] = alloc_sum(j);
@@ -523,6 +526,7 @@ static void worker_run(job *j) {
     double t = now_ms();
     MPI_Waitall(2, j->sreq, MPI_STATUSES_IGNORE);
     g_rs[RS_WAIT] += now_ms() - t;
+    g_rs[RS_WAIT_END] += now_ms() - t;
     free(buf[0]);
     free(buf[1]);
 }
@@ -610,12 +614,13 @@ static void print_summary(void) {
     char line[4096];
     int n = snprintf(line, sizeof line, "photongi-mpi: %d rank%s, %" PRId64 " blocks of %" PRId64 " %s, %.0f ms",
                      g_size, g_size == 1 ? "" : "s", g_blocks, g_block, g_unit, g_wall_ms);
-    for (int r = 0; r < g_size && n < (int)sizeof line - 160; r++) {
+    for (int r = 0; r < g_size && n < (int)sizeof line - 200; r++) {
         const double *s = g_all_rs + (size_t)r * RS_COUNT;
         n += snprintf(line + n, sizeof line - (size_t)n,
-                      "; rank %d: %.0f %s, busy %.0f ms, wait %.0f ms, reduce %.0f ms, sent %.1f MiB, rss %.0f MiB", r,
-                      s[RS_ITEMS], g_unit, s[RS_BUSY], s[RS_WAIT], s[RS_REDUCE], s[RS_SENT] / 1048576.0,
-                      s[RS_RSS] / 1048576.0);
+                      "; rank %d: %.0f %s, busy %.0f ms, wait %.0f ms (r0 %.0f, end %.0f), reduce %.0f ms, sent %.1f "
+                      "MiB, rss %.0f MiB",
+                      r, s[RS_ITEMS], g_unit, s[RS_BUSY], s[RS_WAIT], s[RS_WAIT_R0], s[RS_WAIT_END], s[RS_REDUCE],
+                      s[RS_SENT] / 1048576.0, s[RS_RSS] / 1048576.0);
     }
     fprintf(stderr, "%s\n", line);
 }
@@ -663,6 +668,7 @@ static float receive_r0(void *user) {
         float r0 = 0.f;
         MPI_Bcast(&r0, 1, MPI_FLOAT, 0, MPI_COMM_WORLD);
         g_rs[RS_WAIT] += now_ms() - t;
+        g_rs[RS_WAIT_R0] += now_ms() - t;
         j->r0 = r0;
         j->have_r0 = 1;
     }
@@ -890,7 +896,8 @@ static pgi_status write_stats(const pgi_frame_stats *fs, const char *path) {
     cJSON_AddNumberToObject(m, "wall_ms", g_wall_ms);
     cJSON_AddNumberToObject(m, "stats_gather_ms", g_reduce_wall_ms);
     cJSON *per = cJSON_AddArrayToObject(m, "per_rank");
-    static const char *const names[RS_COUNT] = {"blocks",       "frames",     "busy_ms",       "wait_ms",
+    static const char *const names[RS_COUNT] = {"blocks",       "frames",     "busy_ms",
+                                                "wait_ms",      "wait_r0_ms", "wait_end_ms",
                                                 "reduction_ms", "bytes_sent", "peak_rss_bytes"};
     for (int r = 0; g_all_rs && r < g_size; r++) {
         cJSON *o = cJSON_CreateObject();
