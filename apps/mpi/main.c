@@ -28,6 +28,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/resource.h>
+#include <sched.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -70,7 +71,8 @@ static const char *k_help =
                                                         "failure); an error on a rank other\n"
                                                         "than 0 is printed with its rank. See docs/distributed.md.\n";
 
-enum { TAG_DEAL = 1, TAG_RESULT = 2, TAG_FRAME = 3 };
+/* TAG_SOON: a worker has started the last passes of its unit's last frame (no data) */
+enum { TAG_DEAL = 1, TAG_RESULT = 2, TAG_FRAME = 3, TAG_SOON = 4 };
 
 static int g_rank, g_size;
 static int g_real_err = 2; /* the process's standard error (rank > 0: stderr itself goes to g_capture) */
@@ -162,6 +164,7 @@ struct job {
     int64_t next_merge, items_done;
     int window;
     int *outstanding, *stopped;
+    int *soon; /* per worker: units whose TAG_SOON came but not their result */
     MPI_Request *rreq;
     double **rbuf;
     int *rframe; /* rreq[i] receives a frame (else a block sum) */
@@ -169,8 +172,10 @@ struct job {
     double **part;      /* split block split_from + i: its sum so far, frames added in frame order */
     int64_t *part_next; /* ... and the next frame it takes */
     double **fheld;     /* frame split_from * block + i, arrived before its turn (a pool buffer) */
-    /* workers: results in flight */
+    /* workers: results in flight; the frame being rendered and its unit's last frame */
     MPI_Request sreq[2];
+    int64_t cur_frame, unit_last;
+    int soon_sent;
     /* what the job is */
     pgi_renderer *r;
     pgi_render_desc d;
@@ -295,7 +300,10 @@ static void top_up(job *j) {
             const int64_t b = j->next_item / j->block;
             const int target = b < j->split_from ? (j->nblocks - b >= 2 * g_size ? 2 : 1)
                                                  : (j->items - j->next_item >= 2 * g_size ? 2 : 1);
-            if (j->outstanding[w] >= target || !can_deal(j)) break;
+            /* at the end, a unit whose last passes have started (TAG_SOON) is as good as done: its
+               successor is dealt now and is there when it ends, no round trip */
+            const int held = j->outstanding[w] - (target == 1 ? j->soon[w] : 0);
+            if (held >= target || !can_deal(j)) break;
             int64_t u = take_unit(j);
             MPI_Send(&u, 1, MPI_INT64_T, w, TAG_DEAL, MPI_COMM_WORLD);
             g_rs[RS_SENT] += sizeof u;
@@ -319,6 +327,7 @@ static void received(job *j, int i, const MPI_Status *s) {
     j->rframe[i] = j->rframe[j->nrecv - 1];
     j->nrecv--;
     j->outstanding[s->MPI_SOURCE]--;
+    if (j->soon[s->MPI_SOURCE] > 0) j->soon[s->MPI_SOURCE]--;
     if (is_frame) {
         int64_t k;
         memcpy(&k, buf, sizeof k);
@@ -334,15 +343,20 @@ static void received(job *j, int i, const MPI_Status *s) {
     j->held[b] = buf;
 }
 
-/* Rank 0, between its own passes and when idle: take in finished work, add it in order, deal. */
-static void master_poll(job *j) {
-    if (g_size == 1 || !j->serving) return; /* alone, or frame 0 (nothing can have come yet) */
-    double t = now_ms();
-    int flag;
+/* Rank 0: takes in what the workers sent (receives posted, completed ones added or held, TAG_SOON
+ * noted); returns how many messages it handled. */
+static int collect(job *j) {
+    int flag, n = 0;
     MPI_Status s;
     for (;;) {
         MPI_Iprobe(MPI_ANY_SOURCE, MPI_ANY_TAG, MPI_COMM_WORLD, &flag, &s);
         if (!flag) break;
+        if (s.MPI_TAG == TAG_SOON) {
+            MPI_Recv(NULL, 0, MPI_BYTE, s.MPI_SOURCE, TAG_SOON, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+            j->soon[s.MPI_SOURCE]++;
+            n++;
+            continue;
+        }
         if (s.MPI_TAG != TAG_RESULT && s.MPI_TAG != TAG_FRAME) die("unexpected message (tag %d)", s.MPI_TAG);
         if (j->nrecv == j->cap_recv) {
             int cap = j->cap_recv ? 2 * j->cap_recv : 8;
@@ -366,26 +380,35 @@ static void master_poll(job *j) {
     }
     for (int i = 0; i < j->nrecv;) {
         MPI_Test(&j->rreq[i], &flag, &s);
-        if (flag) received(j, i, &s);
-        else i++;
+        if (flag) {
+            received(j, i, &s);
+            n++;
+        } else i++;
     }
-    g_rs[RS_REDUCE] += now_ms() - t;
+    return n;
+}
+
+/* Rank 0, between its own passes and when idle: take in finished work, add it in order, deal. */
+static void master_poll(job *j) {
+    if (g_size == 1 || !j->serving) return; /* alone, or frame 0 (nothing can have come yet) */
+    double t = now_ms(), red = g_rs[RS_REDUCE];
+    collect(j);
+    g_rs[RS_REDUCE] = red + (now_ms() - t); /* the adds inside included once */
     merge_ready(j);
     top_up(j);
 }
 
-/* Rank 0 with nothing to render: block until a worker's result is on its way. */
+/* Rank 0 with nothing to render: until a worker's message comes (any of them, so that a worker's
+ * TAG_SOON is answered while another's result is still on its way). */
 static void master_wait(job *j) {
-    double t = now_ms();
+    double t = now_ms(), red = g_rs[RS_REDUCE];
     const int end = dealing_over(j);
-    MPI_Status s;
-    int idx = MPI_UNDEFINED;
-    if (j->nrecv > 0) MPI_Waitany(j->nrecv, j->rreq, &idx, &s);
-    else MPI_Probe(MPI_ANY_SOURCE, MPI_ANY_TAG, MPI_COMM_WORLD, &s);
-    g_rs[RS_WAIT] += now_ms() - t;
-    if (end) g_rs[RS_WAIT_END] += now_ms() - t;
-    if (idx != MPI_UNDEFINED) received(j, idx, &s);
-    master_poll(j);
+    while (!collect(j)) sched_yield();
+    const double w = now_ms() - t - (g_rs[RS_REDUCE] - red);
+    g_rs[RS_WAIT] += w;
+    if (end) g_rs[RS_WAIT_END] += w;
+    merge_ready(j);
+    top_up(j);
 }
 
 /* A worker's buffer: a block sum and its index, or a frame's index and floats. */
@@ -409,6 +432,8 @@ static void run_unit(job *j, int64_t u, double **sum) {
     if (fail && *fail && atoi(fail) == g_rank) die("failing on purpose (PHOTONGI_MPI_FAIL_RANK=%s)", fail);
     double t = now_ms(), served = g_rs[RS_REDUCE], waited = g_rs[RS_WAIT];
     const int is_frame = unit_is_frame(u);
+    j->unit_last = is_frame ? frame_of_unit(u) : u * j->block + block_items(j, u) - 1;
+    j->soon_sent = 0;
     pgi_status st = is_frame ? j->work_frame(j, frame_of_unit(u)) : j->work(j, u, sum);
     if (st) {
         const char *m = pgi_last_error();
@@ -430,12 +455,13 @@ static void master_begin(job *j, int frame0) {
     j->held = calloc((size_t)j->nblocks, sizeof *j->held);
     j->outstanding = calloc((size_t)g_size, sizeof *j->outstanding);
     j->stopped = calloc((size_t)g_size, sizeof *j->stopped);
+    j->soon = calloc((size_t)g_size, sizeof *j->soon);
     const int64_t nsplit = j->nblocks - j->split_from;
     j->part = calloc((size_t)nsplit + 1, sizeof *j->part);
     j->part_next = calloc((size_t)nsplit + 1, sizeof *j->part_next);
     const int64_t split_items = j->split_from < j->nblocks ? j->items - j->split_from * j->block : 0;
     j->fheld = calloc((size_t)split_items + 1, sizeof *j->fheld);
-    if (!j->held || !j->outstanding || !j->stopped || !j->part || !j->part_next || !j->fheld)
+    if (!j->held || !j->outstanding || !j->stopped || !j->soon || !j->part || !j->part_next || !j->fheld)
         die("out of memory for %" PRId64 " blocks", j->nblocks);
     for (int64_t i = 0; i < nsplit; i++) j->part_next[i] = (j->split_from + i) * j->block;
     j->window = 4 * g_size < 8 ? 8 : 4 * g_size;
@@ -484,6 +510,7 @@ static void master_run(job *j, double *own0) {
     free(j->held);
     free(j->outstanding);
     free(j->stopped);
+    free(j->soon);
     free(j->rreq);
     free(j->rbuf);
     free(j->rframe);
@@ -634,7 +661,14 @@ static void frame_progress(void *user, const pgi_progress *p) {
     /* frame 0's radius, known from its "build" pass on (given: from the start), is everyone's r0 */
     if (g_rank == 0 && j->in_frame0 && !j->have_r0 && p->radius > 0.f && g_size > 1) send_r0(j, p->radius);
     if (g_rank == 0) master_poll(j);
-    else worker_poll(j);
+    else {
+        worker_poll(j);
+        /* the last passes of the unit's last frame: rank 0 may deal the next unit now (TAG_SOON) */
+        if (!j->soon_sent && j->cur_frame == j->unit_last && strcmp(p->pass, "build") == 0) {
+            MPI_Send(NULL, 0, MPI_BYTE, 0, TAG_SOON, MPI_COMM_WORLD);
+            j->soon_sent = 1;
+        }
+    }
     if (j->user_progress) {
         pgi_progress q = *p;
         q.frame = (int)(j->items_done < j->items ? j->items_done : j->items - 1);
@@ -679,6 +713,7 @@ static float receive_r0(void *user) {
  * waits for r0 (pgi_progressive_frame_await_r0). */
 static pgi_status render_frame(job *j, int64_t k) {
     pgi_frame_stats fs;
+    j->cur_frame = k;
     pgi_status st = j->have_r0 ? pgi_progressive_frame(j->r, &j->d, j->r0, (int)k, &j->frame, &fs)
                                : pgi_progressive_frame_await_r0(j->r, &j->d, receive_r0, j, (int)k, &j->frame, &fs);
     if (st) return st;
