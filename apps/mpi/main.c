@@ -964,8 +964,25 @@ static void replay_capture(void) {
         dprintf(g_real_err, "photongi-mpi: rank %d of %d: %s%s", g_rank, g_size, line, strchr(line, '\n') ? "" : "\n");
 }
 
+/* All ranks on one machine (Open MPI's mpirun says so: every rank local), or one process without a
+ * launcher: Open MPI's shared-memory path (pml ob1, btl vader) instead of UCX, whose start-up
+ * probing of network devices costs 0.2 to 0.4 s a run here (docs/distributed.md, "Start").
+ * An explicit choice (OMPI_MCA_pml, which mpirun --mca pml X sets) is kept; under another
+ * launcher, or across machines, nothing changes. */
+static void prefer_shared_memory(void) {
+    if (getenv("OMPI_MCA_pml") || getenv("PHOTONGI_MPI_KEEP_PML")) return;
+    const char *size = getenv("OMPI_COMM_WORLD_SIZE"), *local = getenv("OMPI_COMM_WORLD_LOCAL_SIZE");
+    int one_machine;
+    if (size && local) one_machine = strcmp(size, local) == 0;
+    else
+        one_machine = !size && !local && !getenv("PMIX_RANK") && !getenv("PMI_RANK") && !getenv("SLURM_PROCID") &&
+                      !getenv("OMPI_COMM_WORLD_RANK");
+    if (one_machine) setenv("OMPI_MCA_pml", "ob1", 0);
+}
+
 int main(int argc, char **argv) {
     int provided;
+    prefer_shared_memory();
     MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
     MPI_Comm_rank(MPI_COMM_WORLD, &g_rank);
     MPI_Comm_size(MPI_COMM_WORLD, &g_size);
