@@ -38,6 +38,12 @@ np() {
     timeout 120 "$MPIRUN" "${MPIOPTS[@]}" -np "$n" "$MPI" "$@"
 }
 
+# rank_sums STATS.json: the whole blocks and the frames of every rank, summed ("mpi" per_rank)
+rank_sums() {
+    awk '/"per_rank"/ { on = 1 } on && /"blocks"/ { gsub(/[^0-9]/, ""); b += $0 }
+        on && /"frames"/ { gsub(/[^0-9]/, ""); f += $0 } END { print b + 0, f + 0 }' "$1"
+}
+
 # A small built-in scene, few photons: fast, yet several blocks of frames and samples.
 R=(render --scene cornell --size 48x40 --photons 3000 --direct-samples 2 --seed 5 --progressive 12 -q)
 "$CLI" "${R[@]}" -o "$TMP/r-ref.exr" && ok || bad "photongi render failed"
@@ -51,6 +57,8 @@ for n in 2 3; do
     # the stats carry the per-rank figures
     grep -q '"mpi"' "$TMP/r-$n.json" && grep -q "\"ranks\":[[:space:]]*$n" "$TMP/r-$n.json" &&
         grep -q '"bytes_sent"' "$TMP/r-$n.json" && ok || bad "render -np $n: no \"mpi\" in the stats"
+    [ "$(rank_sums "$TMP/r-$n.json" | cut -d' ' -f2)" = 12 ] && ok ||
+        bad "render -np $n: the ranks' frames do not add up to 12"
 done
 # the thread count does not matter either (2 ranks x 2 threads)
 np 2 "${R[@]}" --threads 2 -o "$TMP/r-2t.exr" && cmp -s "$TMP/r-ref.exr" "$TMP/r-2t.exr" && ok ||
@@ -68,9 +76,7 @@ for n in 2 3; do
     np "$n" "${R3[@]}" --threads 1 -o "$TMP/s-$n.exr" --stats "$TMP/s-$n.json" && cmp -s "$TMP/s-ref.exr" "$TMP/s-$n.exr" &&
         ok || bad "render --progressive 30: -np $n differs from photongi"
     # per rank: whole blocks and frames; every frame rendered once, fewer whole blocks than 8
-    sums=$(awk '/"per_rank"/ { on = 1 } on && /"blocks"/ { gsub(/[^0-9]/, ""); b += $0 }
-        on && /"frames"/ { gsub(/[^0-9]/, ""); f += $0 } END { print b, f }' "$TMP/s-$n.json")
-    read -r blocks frames <<<"$sums"
+    read -r blocks frames <<<"$(rank_sums "$TMP/s-$n.json")"
     [ "${frames:-0}" -eq 30 ] && [ "${blocks:-8}" -lt 8 ] && ok ||
         bad "render --progressive 30 -np $n: per-rank blocks $blocks, frames $frames (want < 8 and 30)"
 done

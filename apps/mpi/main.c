@@ -4,13 +4,17 @@
  * (pgi_cli_backend, apps/photongi/cmd.h) where photongi renders in its own process.
  *
  * The unit of work is a block of PGI_PROGRESSIVE_BLOCK frames (PGI_REFERENCE_BLOCK samples), the
- * unit of the library's summation order: rank 0 deals block indices on demand (each worker keeps
- * one block queued ahead while many remain), renders blocks itself between serving the others
- * (from the render's progress callback, which the library calls between passes), receives the
- * workers' block sums and adds them into the total in block order, holding those that arrive
- * early (at most `window` blocks dealt past the oldest unfinished one). Frame k is the same
- * whoever renders it (seed stream k, radius r_k from frame 0's r0, broadcast by rank 0), so the
- * image is the single-process image, byte for byte, whatever the rank and thread counts.
+ * unit of the library's summation order, and for the last 2R blocks of a progressive render a
+ * single frame (so that the tail is one frame): rank 0 deals units on demand (each worker keeps
+ * one queued ahead while many remain; at the end a worker's TAG_SOON gets it its next unit before
+ * it needs it), renders units itself between serving the others (from the render's progress
+ * callback, which the library calls between passes), receives the workers' block sums and adds
+ * them into the total in block order, and their single frames into their block's sum in frame
+ * order, holding those that arrive early (at most `window` blocks dealt past the oldest
+ * unfinished one). Frame k is the same whoever renders it (seed stream k, radius r_k from frame
+ * 0's r0, broadcast by rank 0 as soon as frame 0 has chosen it; a worker traces its first frame's
+ * photons before it needs r0), so the image is the single-process image, byte for byte, whatever
+ * the rank and thread counts.
  *
  * Failures: every rank parses the command line and loads the scene; then all meet once
  * (begin()): if any rank failed by then, rank 0's message (or, when rank 0 is fine, the failed
@@ -475,6 +479,7 @@ static void master_run(job *j, double *own0) {
     j->serving = 1;
     if (own0 && j->split_from == 0) {
         /* block 0 is split: frame 0 is its first frame, the others are dealt */
+        g_rs[RS_ITEMS] += 1; /* frame 0 (a whole block 0 counts it with its block) */
         j->part[0] = own0;
         j->part_next[0] = 1;
         if (block_items(j, 0) == 1) {
