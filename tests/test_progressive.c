@@ -177,7 +177,8 @@ static void test_block_order(void **state) {
 typedef struct r0_source {
     float r0;
     int asked;
-    int traced, traced_when_asked; /* the "trace" pass was reported (before r0 was asked for) */
+    int traced, traced_when_asked;        /* the "trace" pass was reported (before r0 was asked for) */
+    float radius_before, radius_at_build; /* pgi_progress.radius before r0 was asked for, at "build" */
 } r0_source;
 
 static float give_r0(void *user) {
@@ -188,7 +189,10 @@ static float give_r0(void *user) {
 }
 
 static void note_trace(void *user, const pgi_progress *p) {
-    if (strcmp(p->pass, "trace") == 0) ((r0_source *)user)->traced = 1;
+    r0_source *src = user;
+    if (strcmp(p->pass, "trace") == 0) src->traced = 1;
+    if (!src->asked && p->radius != 0.f) src->radius_before = p->radius;
+    if (strcmp(p->pass, "build") == 0) src->radius_at_build = p->radius;
 }
 
 typedef struct radius_seen {
@@ -227,19 +231,21 @@ static void test_await_r0(void **state) {
         assert_true(seen.at_build == fs.radius && seen.at_direct == fs.radius && fs.radius > 0.f);
         for (int k = 1; k <= 5; k += 4) {
             TU_CHECK_OK(pgi_progressive_frame(ra, &d, fs.radius, k, &want, &fw));
-            r0_source src = {fs.radius, 0, 0, 0};
+            r0_source src = {fs.radius, 0, 0, 0, 0.f, 0.f};
             pgi_render_desc dt = d;
             dt.progress = note_trace;
             dt.progress_user = &src;
             TU_CHECK_OK(pgi_progressive_frame_await_r0(r2, &dt, give_r0, &src, k, &got, &fg));
             assert_int_equal(src.asked, 1);
             assert_int_equal(src.traced_when_asked, !guided); /* guided: the photons need the radius */
+            assert_true(src.radius_before == 0.f);            /* not known before it is asked for */
+            assert_true(src.radius_at_build == pgi_progressive_radius(fs.radius, k));
             assert_int_equal(got.width, want.width);
             assert_memory_equal(got.rgb, want.rgb, n * sizeof(float));
             assert_true(fg.radius == fw.radius && fg.radius == pgi_progressive_radius(fs.radius, k));
             assert_true(fg.photons_stored == fw.photons_stored);
         }
-        r0_source bad = {0.f, 0, 0, 0};
+        r0_source bad = {0.f, 0, 0, 0, 0.f, 0.f};
         assert_int_equal(pgi_progressive_frame_await_r0(r2, &d, give_r0, &bad, 2, &got, NULL), PGI_ERR_INVALID_ARG);
         assert_int_equal(bad.asked, 1);
         assert_non_null(strstr(pgi_last_error(), "radius"));

@@ -318,6 +318,7 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
 typedef struct progress_ctx {
     const pgi_render_desc *d;
     double t_start;
+    int radius_unknown; /* d->radius is a stand-in (pgi__renderer_render_frame_late, until it is asked for) */
 } progress_ctx;
 
 static void report(const progress_ctx *pc, const char *pass, uint64_t done, uint64_t total) {
@@ -328,7 +329,7 @@ static void report(const progress_ctx *pc, const char *pass, uint64_t done, uint
                       .frame = 0,
                       .frames = 1,
                       .elapsed_ms = pgi__now_ms() - pc->t_start,
-                      .radius = pc->d->radius > 0.f ? pc->d->radius : 0.f};
+                      .radius = pc->d->radius > 0.f && !pc->radius_unknown ? pc->d->radius : 0.f};
     pc->d->progress(pc->d->progress_user, &p);
 }
 
@@ -846,7 +847,7 @@ pgi_status pgi_renderer_prepare(pgi_renderer *r, const pgi_render_desc *in, pgi_
     stats_begin(&fs, &d);
     if ((st = mem_plan(r, &d, NULL))) return st;
     double t0 = pgi__now_ms();
-    const progress_ctx pc = {&d, t0};
+    const progress_ctx pc = {&d, t0, 0};
     if ((st = prepare(r, &d, d.seed, 0, &pc, &fs))) return st;
     if ((st = choose_radius(r, &d, &fs))) return st;
     fs.total_ms = pgi__now_ms() - t0;
@@ -900,7 +901,7 @@ pgi_status pgi__renderer_render_frame_late(pgi_renderer *r, const pgi_render_des
     if ((st = on_gpu ? ensure_gpu(r, &d, &fs.estimators_created) : ensure_estimator(r, &d, &fs.estimators_created)))
         return st;
     fs.device = on_gpu ? pgi__gpu_device_name(r->gpu) : "cpu";
-    progress_ctx pc = {&d, t_start};
+    progress_ctx pc = {&d, t_start, late};
     if (on_gpu) {
         st = gpu_frame(r, &d, seq_seed, index, &pc, &fs, t_start, out);
         if (!st && stats) *stats = fs;
@@ -924,6 +925,7 @@ pgi_status pgi__renderer_render_frame_late(pgi_renderer *r, const pgi_render_des
         const double waited = pgi__now_ms() - tw; /* the caller's wait is not the frame's time */
         t_start += waited;
         pc.t_start = t_start;
+        pc.radius_unknown = 0;
     }
     if ((st = choose_radius(r, &d, &fs))) return st;
     const pgi_scene *s = r->scene;
