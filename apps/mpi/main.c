@@ -168,7 +168,9 @@ struct job {
     int64_t next_merge, items_done;
     int window;
     int *outstanding, *stopped;
-    int *soon; /* per worker: units whose TAG_SOON came but not their result */
+    int *soon;          /* per worker: units whose TAG_SOON came but not their result */
+    double unit_t0;     /* rank 0: when its unit in progress started (0: none) */
+    int64_t unit_items; /* ... and its frames still to render */
     MPI_Request *rreq;
     double **rbuf;
     int *rframe; /* rreq[i] receives a frame (else a block sum) */
@@ -295,6 +297,16 @@ static void deliver_frame(job *j, int64_t k, const float *rgb, double *buf) {
     merge_ready(j);
 }
 
+/* Rank 0's frames so far, mean milliseconds (0 before it has finished any). */
+static double rank0_frame_ms(void) { return g_rs[RS_ITEMS] > 0.0 ? g_rs[RS_BUSY] / g_rs[RS_ITEMS] : 0.0; }
+
+/* How long until rank 0 is done with its unit in progress (0 when it renders none). */
+static double rank0_free_in(const job *j) {
+    if (j->unit_t0 <= 0.0) return 0.0;
+    const double left = rank0_frame_ms() * (double)j->unit_items - (now_ms() - j->unit_t0);
+    return left > 0.0 ? left : 0.0;
+}
+
 static void top_up(job *j) {
     for (int w = 1; w < g_size; w++) {
         if (j->stopped[w]) continue;
@@ -308,6 +320,13 @@ static void top_up(job *j) {
                successor is dealt now and is there when it ends, no round trip */
             const int held = j->outstanding[w] - (target == 1 ? j->soon[w] : 0);
             if (held >= target || !can_deal(j)) break;
+            /* the very last frame: a worker still finishing its frame (TAG_SOON came: about half a
+               frame to go) would end it about 1.5 frames from now; rank 0 keeps it when it will be
+               free within half a frame (it, or a worker that is idle by then, takes it) */
+            const double per_frame = rank0_frame_ms();
+            if (held < j->outstanding[w] && b >= j->split_from && j->items - j->next_item == 1 && per_frame > 0.0 &&
+                rank0_free_in(j) < 0.5 * per_frame)
+                break;
             int64_t u = take_unit(j);
             MPI_Send(&u, 1, MPI_INT64_T, w, TAG_DEAL, MPI_COMM_WORLD);
             g_rs[RS_SENT] += sizeof u;
@@ -438,12 +457,17 @@ static void run_unit(job *j, int64_t u, double **sum) {
     const int is_frame = unit_is_frame(u);
     j->unit_last = is_frame ? frame_of_unit(u) : u * j->block + block_items(j, u) - 1;
     j->soon_sent = 0;
+    if (g_rank == 0) {
+        j->unit_t0 = t;
+        j->unit_items = is_frame ? 1 : block_items(j, u) - (u == 0); /* frame 0 is done before */
+    }
     pgi_status st = is_frame ? j->work_frame(j, frame_of_unit(u)) : j->work(j, u, sum);
     if (st) {
         const char *m = pgi_last_error();
         if (is_frame) die("frame %" PRId64 ": %s", frame_of_unit(u), *m ? m : pgi_status_string(st));
         die("block %" PRId64 ": %s", u, *m ? m : pgi_status_string(st));
     }
+    j->unit_t0 = 0.0;
     /* rank 0's serving between passes is reduction, a worker's wait for r0 in its first frame wait */
     g_rs[RS_BUSY] += now_ms() - t - (g_rs[RS_REDUCE] - served) - (g_rs[RS_WAIT] - waited);
     if (is_frame) g_rs[RS_ITEMS] += 1;
