@@ -5,7 +5,8 @@
 #   R ranks x 1 thread   (mpirun -np R, R = T: the same cores)
 #   2R ranks x 1 thread  (oversubscribed: per-rank work and communication separately)
 # (and 1 process x 1 thread, the serial time) with wall times, efficiencies and each rank's frames, busy,
-# wait and reduction milliseconds, bytes sent and peak resident set from the "mpi" stats; checks
+# wait (and of it: for r0, after its last unit) and reduction milliseconds, bytes sent and peak
+# resident set from the "mpi" stats; checks
 # that every run wrote the baseline's bytes. Writes bench/results/mpi_scaling-<scene>-<size>.csv.
 #   usage: bench/mpi_scaling.sh [FRAMES [SIZE [SCENE [CORES]]]]    (defaults: 64 640x360 sibenik 2)
 #   env:   REPEAT (rounds, the fastest run of each kept; default 1), BUILD (default build),
@@ -67,7 +68,7 @@ for rep in $(seq 1 "$REPEAT"); do
     run m2R "$MPIRUN" "${MPIOPTS[@]}" -np $((2 * CORES)) "$MPI" "${ARGS[@]}" --threads 1 -o @OUT@ --stats @STATS@
 done
 
-echo "config,ranks,threads_per_rank,wall_s,efficiency,vs_threads,cpu_s,cpu_efficiency,rank,frames,busy_ms,wait_ms,reduction_ms,bytes_sent,peak_rss_mib,same_bytes" >"$CSV"
+echo "config,ranks,threads_per_rank,wall_s,efficiency,vs_threads,cpu_s,cpu_efficiency,rank,frames,busy_ms,wait_ms,wait_r0_ms,wait_end_ms,reduction_ms,bytes_sent,peak_rss_mib,same_bytes" >"$CSV"
 # efficiency = T(1 process x 1 thread) / (cores used x T): the classic parallel efficiency on
 # min(ranks x threads, CORES) cores; vs_threads = T(1 process x CORES threads) / T: MPI ranks
 # against OpenMP threads on the same cores; cpu_efficiency = CPU(1 process x 1 thread) / CPU (all
@@ -79,10 +80,10 @@ cp "$TMP/best-b1.exr" "$TMP/base.exr"
 rss() { python3 -c "import json,sys; print(round(json.load(open(sys.argv[1]))['memory']['peak_rss_bytes']/1048576,1))" "$1" 2>/dev/null || echo ""; }
 fmt() { printf %.3f "$(echo "$1" | bc -l)"; }
 C11=$(cat "$TMP/best-b1.cpu")
-echo "photongi,1,1,$(fmt "$T11"),1.000,$(fmt "$T1C / $T11"),$(fmt "$C11"),1.000,0,$FRAMES,,,,0,$(rss "$TMP/best-b1.json"),yes" >>"$CSV"
+echo "photongi,1,1,$(fmt "$T11"),1.000,$(fmt "$T1C / $T11"),$(fmt "$C11"),1.000,0,$FRAMES,,,,,,0,$(rss "$TMP/best-b1.json"),yes" >>"$CSV"
 same=no
 cmp -s "$TMP/base.exr" "$TMP/best-bC.exr" && same=yes
-echo "photongi,1,$CORES,$(fmt "$T1C"),$(fmt "$T11 / ($CORES * $T1C)"),1.000,$(fmt "$(cat "$TMP/best-bC.cpu")"),$(fmt "$C11 / $(cat "$TMP/best-bC.cpu")"),0,$FRAMES,,,,0,$(rss "$TMP/best-bC.json"),$same" >>"$CSV"
+echo "photongi,1,$CORES,$(fmt "$T1C"),$(fmt "$T11 / ($CORES * $T1C)"),1.000,$(fmt "$(cat "$TMP/best-bC.cpu")"),$(fmt "$C11 / $(cat "$TMP/best-bC.cpu")"),0,$FRAMES,,,,,,0,$(rss "$TMP/best-bC.json"),$same" >>"$CSV"
 
 # row CONFIG NAME RANKS THREADS: the per-rank rows of the best run of NAME
 row() {
@@ -102,7 +103,8 @@ m = json.load(open(path))["mpi"]
 for r in m["per_rank"]:
     print(f"{cfg},{ranks},{threads},{float(wall):.3f},{float(eff):.3f},{float(vs):.3f},{float(cpu):.3f},"
           f"{float(c11) / float(cpu):.3f},{r['rank']},{int(r['frames'])},"
-          f"{r['busy_ms']:.0f},{r['wait_ms']:.0f},{r['reduction_ms']:.0f},{int(r['bytes_sent'])},"
+          f"{r['busy_ms']:.0f},{r['wait_ms']:.0f},{r.get('wait_r0_ms', 0):.0f},{r.get('wait_end_ms', 0):.0f},"
+          f"{r['reduction_ms']:.0f},{int(r['bytes_sent'])},"
           f"{r['peak_rss_bytes']/1048576:.1f},{same}")
 PY
 }

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # photongi-mpi (apps/mpi, docs/distributed.md): under mpirun -np 2 and -np 3 (and without
-# mpirun: 1 rank), render --progressive 12 and reference --spp 24 (and --continue) write the same
-# bytes as photongi; bad input under MPI exits non-zero with a message, never hangs; a rank that
+# mpirun: 1 rank), render --progressive 12 and 30 (its last blocks dealt frame by frame) and
+# reference --spp 24 (and --continue) write the same bytes as photongi; bad input under MPI exits non-zero with a message, never hangs; a rank that
 # fails in the middle of the work ends the job with its rank in the message.
 #   usage: tests/test_mpi.sh path/to/photongi path/to/photongi-mpi [path/to/mpirun]
 set -u
@@ -38,6 +38,12 @@ np() {
     timeout 120 "$MPIRUN" "${MPIOPTS[@]}" -np "$n" "$MPI" "$@"
 }
 
+# rank_sums STATS.json: the whole blocks and the frames of every rank, summed ("mpi" per_rank)
+rank_sums() {
+    awk '/"per_rank"/ { on = 1 } on && /"blocks"/ { gsub(/[^0-9]/, ""); b += $0 }
+        on && /"frames"/ { gsub(/[^0-9]/, ""); f += $0 } END { print b + 0, f + 0 }' "$1"
+}
+
 # A small built-in scene, few photons: fast, yet several blocks of frames and samples.
 R=(render --scene cornell --size 48x40 --photons 3000 --direct-samples 2 --seed 5 --progressive 12 -q)
 "$CLI" "${R[@]}" -o "$TMP/r-ref.exr" && ok || bad "photongi render failed"
@@ -51,6 +57,8 @@ for n in 2 3; do
     # the stats carry the per-rank figures
     grep -q '"mpi"' "$TMP/r-$n.json" && grep -q "\"ranks\":[[:space:]]*$n" "$TMP/r-$n.json" &&
         grep -q '"bytes_sent"' "$TMP/r-$n.json" && ok || bad "render -np $n: no \"mpi\" in the stats"
+    [ "$(rank_sums "$TMP/r-$n.json" | cut -d' ' -f2)" = 12 ] && ok ||
+        bad "render -np $n: the ranks' frames do not add up to 12"
 done
 # the thread count does not matter either (2 ranks x 2 threads)
 np 2 "${R[@]}" --threads 2 -o "$TMP/r-2t.exr" && cmp -s "$TMP/r-ref.exr" "$TMP/r-2t.exr" && ok ||
@@ -59,6 +67,19 @@ np 2 "${R[@]}" --threads 2 -o "$TMP/r-2t.exr" && cmp -s "$TMP/r-ref.exr" "$TMP/r
 R2=(render --scene cornell --size 40x32 --photons 2000 --direct-samples 2 --progressive 7 -q)
 "$CLI" "${R2[@]}" -o "$TMP/p-ref.png" && np 3 "${R2[@]}" --threads 1 -o "$TMP/p-3.png" &&
     cmp -s "$TMP/p-ref.png" "$TMP/p-3.png" && ok || bad "render --progressive 7 PNG: -np 3 differs from photongi"
+
+# The last 2R blocks are dealt frame by frame (rank 0 adds the frames into their block sums in frame
+# order): 30 frames (8 blocks, the last partial) on 2 and 3 ranks, some blocks split, same bytes.
+R3=(render --scene cornell --size 40x32 --photons 2000 --direct-samples 2 --seed 3 --progressive 30 -q)
+"$CLI" "${R3[@]}" -o "$TMP/s-ref.exr" || bad "photongi render --progressive 30 failed"
+for n in 2 3; do
+    np "$n" "${R3[@]}" --threads 1 -o "$TMP/s-$n.exr" --stats "$TMP/s-$n.json" && cmp -s "$TMP/s-ref.exr" "$TMP/s-$n.exr" &&
+        ok || bad "render --progressive 30: -np $n differs from photongi"
+    # per rank: whole blocks and frames; every frame rendered once, fewer whole blocks than 8
+    read -r blocks frames <<<"$(rank_sums "$TMP/s-$n.json")"
+    [ "${frames:-0}" -eq 30 ] && [ "${blocks:-8}" -lt 8 ] && ok ||
+        bad "render --progressive 30 -np $n: per-rank blocks $blocks, frames $frames (want < 8 and 30)"
+done
 
 F=(reference --scene cornell --size 40x32 --spp 24 -q)
 "$CLI" "${F[@]}" -o "$TMP/f-ref.exr" && ok || bad "photongi reference failed"

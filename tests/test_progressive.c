@@ -170,6 +170,96 @@ static void test_block_order(void **state) {
     pgi_scene_destroy(s);
 }
 
+/* pgi_progressive_frame_await_r0: frame k with r0 given once the photons are traced (asked for
+ * once), byte for byte the frame of pgi_progressive_frame on a renderer with the same history, also when the photons depend on the
+ * radius (guided emission: r0 asked for first); a bad r0 is refused. Frame 0's progress reports
+ * carry its radius from "build" on (the automatic one is chosen then). */
+typedef struct r0_source {
+    float r0;
+    int asked;
+    int traced, traced_when_asked;        /* the "trace" pass was reported (before r0 was asked for) */
+    float radius_before, radius_at_build; /* pgi_progress.radius before r0 was asked for, at "build" */
+} r0_source;
+
+static float give_r0(void *user) {
+    r0_source *src = user;
+    src->asked++;
+    src->traced_when_asked = src->traced;
+    return src->r0;
+}
+
+static void note_trace(void *user, const pgi_progress *p) {
+    r0_source *src = user;
+    if (strcmp(p->pass, "trace") == 0) src->traced = 1;
+    if (!src->asked && p->radius != 0.f) src->radius_before = p->radius;
+    if (strcmp(p->pass, "build") == 0) src->radius_at_build = p->radius;
+}
+
+typedef struct radius_seen {
+    float at_view, at_build, at_direct;
+} radius_seen;
+
+static void see_radius(void *user, const pgi_progress *p) {
+    radius_seen *rs = user;
+    if (strcmp(p->pass, "view") == 0) rs->at_view = p->radius;
+    if (strcmp(p->pass, "build") == 0) rs->at_build = p->radius;
+    if (strcmp(p->pass, "direct") == 0) rs->at_direct = p->radius;
+}
+
+static void test_await_r0(void **state) {
+    (void)state;
+    pgi_scene *s = load("cornell");
+    const size_t n = 3 * 24 * 20;
+    for (int guided = 0; guided <= 1; guided++) {
+        pgi_render_desc d =
+            {.photons = 3000, .width = 24, .height = 20, .direct_samples = 2, .seed = 7, .radius = PGI_RADIUS_AUTO};
+        if (guided) d.emission = PGI_EMISSION_GUIDED;
+        /* frame 0 on r; frames k on ra and rb, which render the same frames in the same order (a
+           renderer's guided emission keeps its guide between frames) */
+        pgi_renderer *r, *ra, *r2;
+        TU_CHECK_OK(pgi_renderer_create(s, &r));
+        TU_CHECK_OK(pgi_renderer_create(s, &ra));
+        TU_CHECK_OK(pgi_renderer_create(s, &r2));
+        pgi_image f0 = {0}, want = {0}, got = {0};
+        pgi_frame_stats fs, fw, fg;
+        radius_seen seen = {-1.f, -1.f, -1.f};
+        pgi_render_desc dp = d;
+        dp.progress = see_radius;
+        dp.progress_user = &seen;
+        TU_CHECK_OK(pgi_progressive_frame(r, &dp, 0.f, 0, &f0, &fs));
+        assert_true(seen.at_view == 0.f); /* automatic: not known yet */
+        assert_true(seen.at_build == fs.radius && seen.at_direct == fs.radius && fs.radius > 0.f);
+        for (int k = 1; k <= 5; k += 4) {
+            TU_CHECK_OK(pgi_progressive_frame(ra, &d, fs.radius, k, &want, &fw));
+            r0_source src = {fs.radius, 0, 0, 0, 0.f, 0.f};
+            pgi_render_desc dt = d;
+            dt.progress = note_trace;
+            dt.progress_user = &src;
+            TU_CHECK_OK(pgi_progressive_frame_await_r0(r2, &dt, give_r0, &src, k, &got, &fg));
+            assert_int_equal(src.asked, 1);
+            assert_int_equal(src.traced_when_asked, !guided); /* guided: the photons need the radius */
+            assert_true(src.radius_before == 0.f);            /* not known before it is asked for */
+            assert_true(src.radius_at_build == pgi_progressive_radius(fs.radius, k));
+            assert_int_equal(got.width, want.width);
+            assert_memory_equal(got.rgb, want.rgb, n * sizeof(float));
+            assert_true(fg.radius == fw.radius && fg.radius == pgi_progressive_radius(fs.radius, k));
+            assert_true(fg.photons_stored == fw.photons_stored);
+        }
+        r0_source bad = {0.f, 0, 0, 0, 0.f, 0.f};
+        assert_int_equal(pgi_progressive_frame_await_r0(r2, &d, give_r0, &bad, 2, &got, NULL), PGI_ERR_INVALID_ARG);
+        assert_int_equal(bad.asked, 1);
+        assert_non_null(strstr(pgi_last_error(), "radius"));
+        assert_int_equal(pgi_progressive_frame_await_r0(r2, &d, give_r0, &bad, 0, &got, NULL), PGI_ERR_INVALID_ARG);
+        pgi_image_free(&f0);
+        pgi_image_free(&want);
+        pgi_image_free(&got);
+        pgi_renderer_destroy(r);
+        pgi_renderer_destroy(ra);
+        pgi_renderer_destroy(r2);
+    }
+    pgi_scene_destroy(s);
+}
+
 /* The running average restarts when the camera, a light, the time or a setting changes. */
 static void test_accumulation_restarts(void **state) {
     (void)state;
@@ -455,6 +545,7 @@ int main(void) {
         cmocka_unit_test(test_radius_sequence),
         cmocka_unit_test(test_progressive_equals_accumulate),
         cmocka_unit_test(test_block_order),
+        cmocka_unit_test(test_await_r0),
         cmocka_unit_test(test_accumulation_restarts),
         cmocka_unit_test(test_estimator_created_once),
         cmocka_unit_test(test_every_exact_estimator),

@@ -4,13 +4,17 @@
  * (pgi_cli_backend, apps/photongi/cmd.h) where photongi renders in its own process.
  *
  * The unit of work is a block of PGI_PROGRESSIVE_BLOCK frames (PGI_REFERENCE_BLOCK samples), the
- * unit of the library's summation order: rank 0 deals block indices on demand (each worker keeps
- * one block queued ahead while many remain), renders blocks itself between serving the others
- * (from the render's progress callback, which the library calls between passes), receives the
- * workers' block sums and adds them into the total in block order, holding those that arrive
- * early (at most `window` blocks dealt past the oldest unfinished one). Frame k is the same
- * whoever renders it (seed stream k, radius r_k from frame 0's r0, broadcast by rank 0), so the
- * image is the single-process image, byte for byte, whatever the rank and thread counts.
+ * unit of the library's summation order, and for the last 2R blocks of a progressive render a
+ * single frame (so that the tail is one frame): rank 0 deals units on demand (each worker keeps
+ * one queued ahead while many remain; at the end a worker's TAG_SOON gets it its next unit before
+ * it needs it), renders units itself between serving the others (from the render's progress
+ * callback, which the library calls between passes), receives the workers' block sums and adds
+ * them into the total in block order, and their single frames into their block's sum in frame
+ * order, holding those that arrive early (at most `window` blocks dealt past the oldest
+ * unfinished one). Frame k is the same whoever renders it (seed stream k, radius r_k from frame
+ * 0's r0, broadcast by rank 0 as soon as frame 0 has chosen it; a worker traces its first frame's
+ * photons before it needs r0), so the image is the single-process image, byte for byte, whatever
+ * the rank and thread counts.
  *
  * Failures: every rank parses the command line and loads the scene; then all meet once
  * (begin()): if any rank failed by then, rank 0's message (or, when rank 0 is fine, the failed
@@ -28,6 +32,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/resource.h>
+#include <sched.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -70,7 +75,8 @@ static const char *k_help =
                                                         "failure); an error on a rank other\n"
                                                         "than 0 is printed with its rank. See docs/distributed.md.\n";
 
-enum { TAG_DEAL = 1, TAG_RESULT = 2 };
+/* TAG_SOON: a worker has started the last passes of its unit's last frame (no data) */
+enum { TAG_DEAL = 1, TAG_RESULT = 2, TAG_FRAME = 3, TAG_SOON = 4 };
 
 static int g_rank, g_size;
 static int g_real_err = 2; /* the process's standard error (rank > 0: stderr itself goes to g_capture) */
@@ -120,14 +126,26 @@ static pgi_status peer_failed(int who) {
 
 /* ------------------------------------------------------------------ per-rank statistics */
 
-enum { RS_BLOCKS, RS_ITEMS, RS_BUSY, RS_WAIT, RS_REDUCE, RS_SENT, RS_RSS, RS_COUNT };
+/* wait: all of a rank's waiting; of it, wait_r0: a worker's wait for r0, wait_end: the wait after its
+   last unit (a worker: for the end; rank 0: for the workers' last results) */
+enum { RS_BLOCKS, RS_ITEMS, RS_BUSY, RS_WAIT, RS_WAIT_R0, RS_WAIT_END, RS_REDUCE, RS_SENT, RS_RSS, RS_COUNT };
 static double g_rs[RS_COUNT];
 
 /* ------------------------------------------------------------------ the dealer */
 
+/* A unit of work as it travels in a TAG_DEAL message: block b (b >= 0), the single frame k of a
+ * split block (-2 - k) or the end of the work (-1). */
+#define UNIT_STOP (-1)
+static int64_t unit_frame(int64_t k) { return -2 - k; }
+static int unit_is_frame(int64_t u) { return u <= -2; }
+static int64_t frame_of_unit(int64_t u) { return -2 - u; }
+
 typedef struct job job;
-/* Renders the items of block b into sum (3 doubles a pixel; overwritten). */
-typedef pgi_status (*work_fn)(job *j, int64_t b, double *sum);
+/* Renders the items of block b into *sum (3 doubles a pixel; overwritten; a worker's *sum may be NULL
+ * before its first frame, which tells the image size: then allocated). */
+typedef pgi_status (*work_fn)(job *j, int64_t b, double **sum);
+/* Renders the single frame k into j->frame (split blocks, render --progressive only). */
+typedef pgi_status (*frame_fn)(job *j, int64_t k);
 
 struct job {
     size_t values; /* 3 x pixels */
@@ -135,25 +153,42 @@ struct job {
     int block;     /* items per block */
     int64_t nblocks;
     work_fn work;
+    frame_fn work_frame;
     double time_limit_ms; /* reference --time: no block is dealt after it (0: none) */
     double t0;
+    /* the blocks from split_from on are dealt frame by frame (nblocks: none), so that the last
+       rank to finish is at most about one frame, not one block, behind the others */
+    int64_t split_from;
     /* rank 0 */
     double *total;
     double **held; /* block -> its sum, until merged */
     double **pool;
     int npool, cap_pool;
-    int64_t next_deal, next_merge, items_done;
+    int64_t next_item; /* the first frame (sample) not dealt yet */
+    int64_t next_merge, items_done;
     int window;
     int *outstanding, *stopped;
+    int *soon;          /* per worker: units whose TAG_SOON came but not their result */
+    double unit_t0;     /* rank 0: when its unit in progress started (0: none) */
+    int64_t unit_items; /* ... and its frames still to render */
     MPI_Request *rreq;
     double **rbuf;
+    int *rframe; /* rreq[i] receives a frame (else a block sum) */
     int nrecv, cap_recv;
-    /* workers: results in flight */
+    double **part;      /* split block split_from + i: its sum so far, frames added in frame order */
+    int64_t *part_next; /* ... and the next frame it takes */
+    double **fheld;     /* frame split_from * block + i, arrived before its turn (a pool buffer) */
+    /* workers: results in flight; the frame being rendered and its unit's last frame */
     MPI_Request sreq[2];
+    int64_t cur_frame, unit_last;
+    int soon_sent;
     /* what the job is */
     pgi_renderer *r;
     pgi_render_desc d;
-    float r0;
+    float r0;      /* frame 0's radius, once broadcast (0 before) */
+    int have_r0;   /* this rank took part in r0's broadcast */
+    int in_frame0; /* rank 0 is rendering frame 0 */
+    int serving;   /* rank 0 takes in results (from frame 0's end: the image size is known) */
     pgi_image frame;
     pgi_frame_stats first, sum; /* rank 0: frame 0's; every rank: its frames' counters summed */
     int have_sum;
@@ -172,6 +207,10 @@ static int64_t block_items(const job *j, int64_t b) {
     return (hi > j->items ? j->items : hi) - lo;
 }
 
+/* Blocks dealt so far, whole or in part. */
+static int64_t blocks_dealt(const job *j) { return (j->next_item + j->block - 1) / j->block; }
+
+/* A buffer of values + 1 doubles: a block sum and its index, or (as bytes) a frame's index and floats. */
 static double *pool_get(job *j) {
     if (j->npool > 0) return j->pool[--j->npool];
     double *p = malloc((j->values + 1) * sizeof *p);
@@ -190,16 +229,32 @@ static void pool_put(job *j, double *p) {
     j->pool[j->npool++] = p;
 }
 
+/* A frame message: the frame index (int64) and then the frame's values floats. */
+#define FRAME_HEAD sizeof(int64_t)
+static size_t frame_bytes(const job *j) { return FRAME_HEAD + j->values * sizeof(float); }
+static float *frame_rgb(double *buf) { return (float *)(void *)((char *)buf + FRAME_HEAD); }
+
 static int dealing_over(const job *j) {
-    if (j->next_deal >= j->nblocks) return 1;
-    return j->time_limit_ms > 0.0 && now_ms() - j->t0 >= j->time_limit_ms && j->next_deal > 0;
+    if (j->next_item >= j->items) return 1;
+    return j->time_limit_ms > 0.0 && now_ms() - j->t0 >= j->time_limit_ms && j->next_item > 0;
 }
 
-static int can_deal(const job *j) { return !dealing_over(j) && j->next_deal < j->next_merge + j->window; }
+static int can_deal(const job *j) { return !dealing_over(j) && j->next_item / j->block < j->next_merge + j->window; }
+
+/* The next unit (can_deal): a whole block before split_from, else one frame. */
+static int64_t take_unit(job *j) {
+    const int64_t b = j->next_item / j->block;
+    if (b < j->split_from) {
+        j->next_item = b * j->block + block_items(j, b);
+        return b;
+    }
+    return unit_frame(j->next_item++);
+}
 
 static void merge_ready(job *j) {
     double t = now_ms();
-    while (j->next_merge < j->next_deal && j->held[j->next_merge]) {
+    const int64_t dealt = blocks_dealt(j);
+    while (j->next_merge < dealt && j->held[j->next_merge]) {
         pgi_block_sum_merge(j->total, j->held[j->next_merge], j->values);
         j->items_done += block_items(j, j->next_merge);
         pool_put(j, j->held[j->next_merge]);
@@ -208,20 +263,77 @@ static void merge_ready(job *j) {
     g_rs[RS_REDUCE] += now_ms() - t;
 }
 
+/* Frame k of a split block, from rank 0 itself (rgb, buf NULL) or from a worker (buf, a pool
+ * buffer, given up): added into its block's sum in frame order (pgi_block_sum_add, as one rank
+ * would), or held until the frames before it have come. */
+static void deliver_frame(job *j, int64_t k, const float *rgb, double *buf) {
+    double t = now_ms();
+    const int64_t b = k / j->block, i = b - j->split_from, f0 = j->split_from * j->block;
+    if (k != j->part_next[i]) {
+        if (!buf) {
+            buf = pool_get(j);
+            memcpy(frame_rgb(buf), rgb, j->values * sizeof(float));
+        }
+        j->fheld[k - f0] = buf;
+        g_rs[RS_REDUCE] += now_ms() - t;
+        return;
+    }
+    if (!j->part[i]) j->part[i] = pool_get(j);
+    const int64_t end = b * j->block + block_items(j, b);
+    for (;;) {
+        pgi_block_sum_add(j->part[i], rgb, j->values, k == b * j->block);
+        if (buf) pool_put(j, buf);
+        j->part_next[i] = ++k;
+        if (k == end || !j->fheld[k - f0]) break;
+        buf = j->fheld[k - f0];
+        j->fheld[k - f0] = NULL;
+        rgb = frame_rgb(buf);
+    }
+    if (k == end) {
+        j->held[b] = j->part[i];
+        j->part[i] = NULL;
+    }
+    g_rs[RS_REDUCE] += now_ms() - t;
+    merge_ready(j);
+}
+
+/* Rank 0's frames so far, mean milliseconds (0 before it has finished any). */
+static double rank0_frame_ms(void) { return g_rs[RS_ITEMS] > 0.0 ? g_rs[RS_BUSY] / g_rs[RS_ITEMS] : 0.0; }
+
+/* How long until rank 0 is done with its unit in progress (0 when it renders none). */
+static double rank0_free_in(const job *j) {
+    if (j->unit_t0 <= 0.0) return 0.0;
+    const double left = rank0_frame_ms() * (double)j->unit_items - (now_ms() - j->unit_t0);
+    return left > 0.0 ? left : 0.0;
+}
+
 static void top_up(job *j) {
     for (int w = 1; w < g_size; w++) {
         if (j->stopped[w]) continue;
-        /* one block queued ahead while many remain; at the end one at a time, so that no rank holds
-           a block another could start */
-        const int target = j->nblocks - j->next_deal >= 2 * g_size ? 2 : 1;
-        while (j->outstanding[w] < target && can_deal(j)) {
-            int64_t b = j->next_deal++;
-            MPI_Send(&b, 1, MPI_INT64_T, w, TAG_DEAL, MPI_COMM_WORLD);
-            g_rs[RS_SENT] += sizeof b;
+        for (;;) {
+            /* one unit queued ahead while many remain; at the end one at a time, so that no rank
+               holds work another could start */
+            const int64_t b = j->next_item / j->block;
+            const int target = b < j->split_from ? (j->nblocks - b >= 2 * g_size ? 2 : 1)
+                                                 : (j->items - j->next_item >= 2 * g_size ? 2 : 1);
+            /* at the end, a unit whose last passes have started (TAG_SOON) is as good as done: its
+               successor is dealt now and is there when it ends, no round trip */
+            const int held = j->outstanding[w] - (target == 1 ? j->soon[w] : 0);
+            if (held >= target || !can_deal(j)) break;
+            /* the very last frame: a worker still finishing its frame (TAG_SOON came: about half a
+               frame to go) would end it about 1.5 frames from now; rank 0 keeps it when it will be
+               free within half a frame (it, or a worker that is idle by then, takes it) */
+            const double per_frame = rank0_frame_ms();
+            if (held < j->outstanding[w] && b >= j->split_from && j->items - j->next_item == 1 && per_frame > 0.0 &&
+                rank0_free_in(j) < 0.5 * per_frame)
+                break;
+            int64_t u = take_unit(j);
+            MPI_Send(&u, 1, MPI_INT64_T, w, TAG_DEAL, MPI_COMM_WORLD);
+            g_rs[RS_SENT] += sizeof u;
             j->outstanding[w]++;
         }
         if (dealing_over(j)) {
-            int64_t stop = -1;
+            int64_t stop = UNIT_STOP;
             MPI_Send(&stop, 1, MPI_INT64_T, w, TAG_DEAL, MPI_COMM_WORLD);
             g_rs[RS_SENT] += sizeof stop;
             j->stopped[w] = 1;
@@ -229,69 +341,104 @@ static void top_up(job *j) {
     }
 }
 
-/* Rank 0, between its own passes and when idle: take in finished blocks, add them in order, deal. */
-static void master_poll(job *j) {
-    if (g_size == 1 || !j->held) return; /* alone, or frame 0 before the dealing starts */
-    double t = now_ms();
-    int flag;
+/* A completed receive (rreq[i], status s): a block sum held for its turn, or a frame delivered. */
+static void received(job *j, int i, const MPI_Status *s) {
+    double *buf = j->rbuf[i];
+    const int is_frame = j->rframe[i];
+    j->rreq[i] = j->rreq[j->nrecv - 1];
+    j->rbuf[i] = j->rbuf[j->nrecv - 1];
+    j->rframe[i] = j->rframe[j->nrecv - 1];
+    j->nrecv--;
+    j->outstanding[s->MPI_SOURCE]--;
+    if (j->soon[s->MPI_SOURCE] > 0) j->soon[s->MPI_SOURCE]--;
+    if (is_frame) {
+        int64_t k;
+        memcpy(&k, buf, sizeof k);
+        if (k < j->split_from * j->block || k >= j->next_item || k < j->part_next[k / j->block - j->split_from] ||
+            j->fheld[k - j->split_from * j->block])
+            die("rank %d sent frame %" PRId64 " it was not dealt", s->MPI_SOURCE, k);
+        deliver_frame(j, k, frame_rgb(buf), buf);
+        return;
+    }
+    int64_t b = (int64_t)buf[j->values];
+    if (b < 0 || b >= j->split_from || b >= blocks_dealt(j) || j->held[b])
+        die("rank %d sent block %" PRId64 " it was not dealt", s->MPI_SOURCE, b);
+    j->held[b] = buf;
+}
+
+/* Rank 0: takes in what the workers sent (receives posted, completed ones added or held, TAG_SOON
+ * noted); returns how many messages it handled. */
+static int collect(job *j) {
+    int flag, n = 0;
     MPI_Status s;
     for (;;) {
-        MPI_Iprobe(MPI_ANY_SOURCE, TAG_RESULT, MPI_COMM_WORLD, &flag, &s);
+        MPI_Iprobe(MPI_ANY_SOURCE, MPI_ANY_TAG, MPI_COMM_WORLD, &flag, &s);
         if (!flag) break;
+        if (s.MPI_TAG == TAG_SOON) {
+            MPI_Recv(NULL, 0, MPI_BYTE, s.MPI_SOURCE, TAG_SOON, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+            j->soon[s.MPI_SOURCE]++;
+            n++;
+            continue;
+        }
+        if (s.MPI_TAG != TAG_RESULT && s.MPI_TAG != TAG_FRAME) die("unexpected message (tag %d)", s.MPI_TAG);
         if (j->nrecv == j->cap_recv) {
             int cap = j->cap_recv ? 2 * j->cap_recv : 8;
             MPI_Request *q = realloc(j->rreq, (size_t)cap * sizeof *q);
             if (q) j->rreq = q;
             double **qb = realloc(j->rbuf, (size_t)cap * sizeof *qb);
             if (qb) j->rbuf = qb;
-            if (!q || !qb) die("out of memory");
+            int *qf = realloc(j->rframe, (size_t)cap * sizeof *qf);
+            if (qf) j->rframe = qf;
+            if (!q || !qb || !qf) die("out of memory");
             j->cap_recv = cap;
         }
         double *buf = pool_get(j);
-        MPI_Irecv(buf, (int)(j->values + 1), MPI_DOUBLE, s.MPI_SOURCE, TAG_RESULT, MPI_COMM_WORLD, &j->rreq[j->nrecv]);
+        j->rframe[j->nrecv] = s.MPI_TAG == TAG_FRAME;
+        if (s.MPI_TAG == TAG_FRAME)
+            MPI_Irecv(buf, (int)frame_bytes(j), MPI_BYTE, s.MPI_SOURCE, TAG_FRAME, MPI_COMM_WORLD, &j->rreq[j->nrecv]);
+        else
+            MPI_Irecv(buf, (int)(j->values + 1), MPI_DOUBLE, s.MPI_SOURCE, TAG_RESULT, MPI_COMM_WORLD,
+                      &j->rreq[j->nrecv]);
         j->rbuf[j->nrecv++] = buf;
     }
     for (int i = 0; i < j->nrecv;) {
         MPI_Test(&j->rreq[i], &flag, &s);
-        if (!flag) {
-            i++;
-            continue;
-        }
-        double *buf = j->rbuf[i];
-        int64_t b = (int64_t)buf[j->values];
-        if (b < 0 || b >= j->next_deal || j->held[b])
-            die("rank %d sent block %" PRId64 " it was not dealt", s.MPI_SOURCE, b);
-        j->held[b] = buf;
-        j->outstanding[s.MPI_SOURCE]--;
-        j->rreq[i] = j->rreq[j->nrecv - 1];
-        j->rbuf[i] = j->rbuf[j->nrecv - 1];
-        j->nrecv--;
+        if (flag) {
+            received(j, i, &s);
+            n++;
+        } else i++;
     }
-    g_rs[RS_REDUCE] += now_ms() - t;
+    return n;
+}
+
+/* Rank 0, between its own passes and when idle: take in finished work, add it in order, deal. */
+static void master_poll(job *j) {
+    if (g_size == 1 || !j->serving) return; /* alone, or frame 0 (nothing can have come yet) */
+    double t = now_ms(), red = g_rs[RS_REDUCE];
+    collect(j);
+    g_rs[RS_REDUCE] = red + (now_ms() - t); /* the adds inside included once */
     merge_ready(j);
     top_up(j);
 }
 
-/* Rank 0 with nothing to render: block until a worker's result is on its way. */
+/* Rank 0 with nothing to render: until a worker's message comes (any of them, so that a worker's
+ * TAG_SOON is answered while another's result is still on its way). */
 static void master_wait(job *j) {
-    double t = now_ms();
-    MPI_Status s;
-    if (j->nrecv > 0) {
-        int idx;
-        MPI_Waitany(j->nrecv, j->rreq, &idx, &s);
-        /* completed: put it back as a finished request for master_poll's test */
-        if (idx != MPI_UNDEFINED) {
-            double *buf = j->rbuf[idx];
-            int64_t b = (int64_t)buf[j->values];
-            j->held[b] = buf;
-            j->outstanding[s.MPI_SOURCE]--;
-            j->rreq[idx] = j->rreq[j->nrecv - 1];
-            j->rbuf[idx] = j->rbuf[j->nrecv - 1];
-            j->nrecv--;
-        }
-    } else MPI_Probe(MPI_ANY_SOURCE, TAG_RESULT, MPI_COMM_WORLD, &s);
-    g_rs[RS_WAIT] += now_ms() - t;
-    master_poll(j);
+    double t = now_ms(), red = g_rs[RS_REDUCE];
+    const int end = dealing_over(j);
+    while (!collect(j)) sched_yield();
+    const double w = now_ms() - t - (g_rs[RS_REDUCE] - red);
+    g_rs[RS_WAIT] += w;
+    if (end) g_rs[RS_WAIT_END] += w;
+    merge_ready(j);
+    top_up(j);
+}
+
+/* A worker's buffer: a block sum and its index, or a frame's index and floats. */
+static double *alloc_sum(const job *j) {
+    double *p = malloc((j->values + 1) * sizeof *p);
+    if (!p) die("out of memory for a block sum of %zu values", j->values);
+    return p;
 }
 
 /* Workers: let the results in flight move while rendering. */
@@ -301,78 +448,141 @@ static void worker_poll(job *j) {
         if (j->sreq[i] != MPI_REQUEST_NULL) MPI_Test(&j->sreq[i], &flag, MPI_STATUS_IGNORE);
 }
 
-static void run_block(job *j, int64_t b, double *sum) {
+/* Renders unit u: block b into *sum, or frame k into j->frame. */
+static void run_unit(job *j, int64_t u, double **sum) {
     /* test hook (tests/test_mpi.sh): a rank that fails in the middle of the work */
     const char *fail = getenv("PHOTONGI_MPI_FAIL_RANK");
     if (fail && *fail && atoi(fail) == g_rank) die("failing on purpose (PHOTONGI_MPI_FAIL_RANK=%s)", fail);
-    double t = now_ms(), served = g_rs[RS_REDUCE];
-    pgi_status st = j->work(j, b, sum);
+    double t = now_ms(), served = g_rs[RS_REDUCE], waited = g_rs[RS_WAIT];
+    const int is_frame = unit_is_frame(u);
+    j->unit_last = is_frame ? frame_of_unit(u) : u * j->block + block_items(j, u) - 1;
+    j->soon_sent = 0;
+    if (g_rank == 0) {
+        j->unit_t0 = t;
+        j->unit_items = is_frame ? 1 : block_items(j, u) - (u == 0); /* frame 0 is done before */
+    }
+    pgi_status st = is_frame ? j->work_frame(j, frame_of_unit(u)) : j->work(j, u, sum);
     if (st) {
         const char *m = pgi_last_error();
-        die("block %" PRId64 ": %s", b, *m ? m : pgi_status_string(st));
+        if (is_frame) die("frame %" PRId64 ": %s", frame_of_unit(u), *m ? m : pgi_status_string(st));
+        die("block %" PRId64 ": %s", u, *m ? m : pgi_status_string(st));
     }
-    g_rs[RS_BUSY] += now_ms() - t - (g_rs[RS_REDUCE] - served); /* rank 0's serving between passes: reduction */
-    g_rs[RS_BLOCKS] += 1;
-    g_rs[RS_ITEMS] += (double)block_items(j, b);
+    j->unit_t0 = 0.0;
+    /* rank 0's serving between passes is reduction, a worker's wait for r0 in its first frame wait */
+    g_rs[RS_BUSY] += now_ms() - t - (g_rs[RS_REDUCE] - served) - (g_rs[RS_WAIT] - waited);
+    if (is_frame) g_rs[RS_ITEMS] += 1;
+    else {
+        g_rs[RS_BLOCKS] += 1;
+        g_rs[RS_ITEMS] += (double)block_items(j, u);
+    }
 }
 
-/* Rank 0's part; block 0 may already be started (frame 0): own0 then holds its sum so far. */
-static void master_run(job *j, double *own0) {
+/* Rank 0, before its first frame: the dealer's state, and the first units dealt to the workers (which
+ * start on them while rank 0 renders frame 0; progressive: rank 0 starts with frame 0 of block 0). */
+static void master_begin(job *j, int frame0) {
     j->held = calloc((size_t)j->nblocks, sizeof *j->held);
     j->outstanding = calloc((size_t)g_size, sizeof *j->outstanding);
     j->stopped = calloc((size_t)g_size, sizeof *j->stopped);
-    if (!j->held || !j->outstanding || !j->stopped) die("out of memory for %" PRId64 " blocks", j->nblocks);
+    j->soon = calloc((size_t)g_size, sizeof *j->soon);
+    const int64_t nsplit = j->nblocks - j->split_from;
+    j->part = calloc((size_t)nsplit + 1, sizeof *j->part);
+    j->part_next = calloc((size_t)nsplit + 1, sizeof *j->part_next);
+    const int64_t split_items = j->split_from < j->nblocks ? j->items - j->split_from * j->block : 0;
+    j->fheld = calloc((size_t)split_items + 1, sizeof *j->fheld);
+    if (!j->held || !j->outstanding || !j->stopped || !j->soon || !j->part || !j->part_next || !j->fheld)
+        die("out of memory for %" PRId64 " blocks", j->nblocks);
+    for (int64_t i = 0; i < nsplit; i++) j->part_next[i] = (j->split_from + i) * j->block;
     j->window = 4 * g_size < 8 ? 8 : 4 * g_size;
-    if (own0) {
-        j->next_deal = 1;
-        top_up(j);
-        run_block(j, 0, own0);
+    /* block 0 is rank 0's; when it is split, only frame 0 */
+    if (frame0) j->next_item = j->split_from == 0 ? 1 : block_items(j, 0);
+    top_up(j);
+}
+
+/* Rank 0's part after master_begin; own0: the sum of frame 0 (progressive), or NULL. */
+static void master_run(job *j, double *own0) {
+    j->serving = 1;
+    if (own0 && j->split_from == 0) {
+        /* block 0 is split: frame 0 is its first frame, the others are dealt */
+        g_rs[RS_ITEMS] += 1; /* frame 0 (a whole block 0 counts it with its block) */
+        j->part[0] = own0;
+        j->part_next[0] = 1;
+        if (block_items(j, 0) == 1) {
+            j->held[0] = own0;
+            j->part[0] = NULL;
+            merge_ready(j);
+        }
+    } else if (own0) {
+        run_unit(j, 0, &own0);
         j->held[0] = own0;
         merge_ready(j);
     }
     for (;;) {
         master_poll(j);
         if (can_deal(j)) {
-            int64_t b = j->next_deal++;
+            int64_t u = take_unit(j);
             top_up(j);
-            double *buf = pool_get(j);
-            run_block(j, b, buf);
-            j->held[b] = buf;
-            merge_ready(j);
+            if (unit_is_frame(u)) {
+                run_unit(j, u, NULL);
+                deliver_frame(j, frame_of_unit(u), j->frame.rgb, NULL);
+            } else {
+                double *buf = pool_get(j);
+                run_unit(j, u, &buf);
+                j->held[u] = buf;
+                merge_ready(j);
+            }
             continue;
         }
-        if (dealing_over(j) && j->next_merge == j->next_deal) break;
+        if (dealing_over(j) && j->next_merge == blocks_dealt(j)) break;
         master_wait(j);
     }
     top_up(j); /* the stops, if the last blocks were rank 0's */
     free(j->held);
     free(j->outstanding);
     free(j->stopped);
+    free(j->soon);
     free(j->rreq);
     free(j->rbuf);
+    free(j->rframe);
+    free(j->part);
+    free(j->part_next);
+    free(j->fheld);
     for (int i = 0; i < j->npool; i++) free(j->pool[i]);
     free(j->pool);
 }
 
 static void worker_run(job *j) {
-    double *buf[2] = {malloc((j->values + 1) * sizeof(double)), malloc((j->values + 1) * sizeof(double))};
-    if (!buf[0] || !buf[1]) die("out of memory for two block sums of %zu values", j->values);
+    double *buf[2] = {NULL, NULL}; /* progressive: the image size is known after the first frame */
     j->sreq[0] = j->sreq[1] = MPI_REQUEST_NULL;
     for (int k = 0;; k ^= 1) {
-        int64_t b;
+        int64_t u;
         double t = now_ms();
-        MPI_Recv(&b, 1, MPI_INT64_T, 0, TAG_DEAL, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-        if (b >= 0) MPI_Wait(&j->sreq[k], MPI_STATUS_IGNORE);
+        MPI_Recv(&u, 1, MPI_INT64_T, 0, TAG_DEAL, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+        if (u != UNIT_STOP) MPI_Wait(&j->sreq[k], MPI_STATUS_IGNORE);
         g_rs[RS_WAIT] += now_ms() - t;
-        if (b < 0) break;
-        run_block(j, b, buf[k]);
-        buf[k][j->values] = (double)b;
-        MPI_Isend(buf[k], (int)(j->values + 1), MPI_DOUBLE, 0, TAG_RESULT, MPI_COMM_WORLD, &j->sreq[k]);
-        g_rs[RS_SENT] += (double)((j->values + 1) * sizeof(double));
+        if (u == UNIT_STOP) {
+            g_rs[RS_WAIT_END] += now_ms() - t;
+            break;
+        }
+        if (!buf[k] && j->values) buf[k] = alloc_sum(j);
+        run_unit(j, u, &buf[k]);
+        if (!buf[k]) buf[k] = alloc_sum(j);
+        if (unit_is_frame(u)) {
+            /* a single frame of a split block: its index and its floats, added on rank 0 in order */
+            const int64_t f = frame_of_unit(u);
+            memcpy(buf[k], &f, sizeof f);
+            memcpy(frame_rgb(buf[k]), j->frame.rgb, j->values * sizeof(float));
+            MPI_Isend(buf[k], (int)frame_bytes(j), MPI_BYTE, 0, TAG_FRAME, MPI_COMM_WORLD, &j->sreq[k]);
+            g_rs[RS_SENT] += (double)frame_bytes(j);
+        } else {
+            buf[k][j->values] = (double)u;
+            MPI_Isend(buf[k], (int)(j->values + 1), MPI_DOUBLE, 0, TAG_RESULT, MPI_COMM_WORLD, &j->sreq[k]);
+            g_rs[RS_SENT] += (double)((j->values + 1) * sizeof(double));
+        }
     }
     double t = now_ms();
     MPI_Waitall(2, j->sreq, MPI_STATUSES_IGNORE);
     g_rs[RS_WAIT] += now_ms() - t;
+    g_rs[RS_WAIT_END] += now_ms() - t;
     free(buf[0]);
     free(buf[1]);
 }
@@ -460,22 +670,34 @@ static void print_summary(void) {
     char line[4096];
     int n = snprintf(line, sizeof line, "photongi-mpi: %d rank%s, %" PRId64 " blocks of %" PRId64 " %s, %.0f ms",
                      g_size, g_size == 1 ? "" : "s", g_blocks, g_block, g_unit, g_wall_ms);
-    for (int r = 0; r < g_size && n < (int)sizeof line - 160; r++) {
+    for (int r = 0; r < g_size && n < (int)sizeof line - 200; r++) {
         const double *s = g_all_rs + (size_t)r * RS_COUNT;
         n += snprintf(line + n, sizeof line - (size_t)n,
-                      "; rank %d: %.0f %s, busy %.0f ms, wait %.0f ms, reduce %.0f ms, sent %.1f MiB, rss %.0f MiB", r,
-                      s[RS_ITEMS], g_unit, s[RS_BUSY], s[RS_WAIT], s[RS_REDUCE], s[RS_SENT] / 1048576.0,
-                      s[RS_RSS] / 1048576.0);
+                      "; rank %d: %.0f %s, busy %.0f ms, wait %.0f ms (r0 %.0f, end %.0f), reduce %.0f ms, sent %.1f "
+                      "MiB, rss %.0f MiB",
+                      r, s[RS_ITEMS], g_unit, s[RS_BUSY], s[RS_WAIT], s[RS_WAIT_R0], s[RS_WAIT_END], s[RS_REDUCE],
+                      s[RS_SENT] / 1048576.0, s[RS_RSS] / 1048576.0);
     }
     fprintf(stderr, "%s\n", line);
 }
 
 /* ------------------------------------------------------------------ render --progressive */
 
+static void send_r0(job *j, float r0);
+
 static void frame_progress(void *user, const pgi_progress *p) {
     job *j = user;
+    /* frame 0's radius, known from its "build" pass on (given: from the start), is everyone's r0 */
+    if (g_rank == 0 && j->in_frame0 && !j->have_r0 && p->radius > 0.f && g_size > 1) send_r0(j, p->radius);
     if (g_rank == 0) master_poll(j);
-    else worker_poll(j);
+    else {
+        worker_poll(j);
+        /* the last passes of the unit's last frame: rank 0 may deal the next unit now (TAG_SOON) */
+        if (!j->soon_sent && j->cur_frame == j->unit_last && strcmp(p->pass, "build") == 0) {
+            MPI_Send(NULL, 0, MPI_BYTE, 0, TAG_SOON, MPI_COMM_WORLD);
+            j->soon_sent = 1;
+        }
+    }
     if (j->user_progress) {
         pgi_progress q = *p;
         q.frame = (int)(j->items_done < j->items ? j->items_done : j->items - 1);
@@ -491,20 +713,60 @@ static void add_frame_stats(job *j, const pgi_frame_stats *fs) {
     for (int i = 0; i < FC_COUNT; i++) g_fc[i] += c[i];
 }
 
-static pgi_status frames_work(job *j, int64_t b, double *sum) {
+/* Rank 0: frame 0's radius to every rank, as soon as it is known (from frame 0's progress). */
+static void send_r0(job *j, float r0) {
+    double t = now_ms();
+    MPI_Bcast(&r0, 1, MPI_FLOAT, 0, MPI_COMM_WORLD);
+    g_rs[RS_REDUCE] += now_ms() - t;
+    j->r0 = r0;
+    j->have_r0 = 1;
+}
+
+/* A worker: r0 from rank 0 (the first frame asks for it once its photons are traced; a worker
+ * dealt no frame takes part at the end). */
+static float receive_r0(void *user) {
+    job *j = user;
+    if (!j->have_r0) {
+        double t = now_ms();
+        float r0 = 0.f;
+        MPI_Bcast(&r0, 1, MPI_FLOAT, 0, MPI_COMM_WORLD);
+        g_rs[RS_WAIT] += now_ms() - t;
+        g_rs[RS_WAIT_R0] += now_ms() - t;
+        j->r0 = r0;
+        j->have_r0 = 1;
+    }
+    return j->r0;
+}
+
+/* Progressive frame k > 0 into j->frame: a worker's first frame traces its photons before it
+ * waits for r0 (pgi_progressive_frame_await_r0). */
+static pgi_status render_frame(job *j, int64_t k) {
+    pgi_frame_stats fs;
+    j->cur_frame = k;
+    pgi_status st = j->have_r0 ? pgi_progressive_frame(j->r, &j->d, j->r0, (int)k, &j->frame, &fs)
+                               : pgi_progressive_frame_await_r0(j->r, &j->d, receive_r0, j, (int)k, &j->frame, &fs);
+    if (st) return st;
+    const size_t values = (size_t)fs.width * (size_t)fs.height * 3;
+    if (!j->values) j->values = values;
+    if (values != j->values) return PGI_ERR_INVALID_ARG; /* cannot happen: one desc */
+    add_frame_stats(j, &fs);
+    return PGI_OK;
+}
+
+static pgi_status frames_work(job *j, int64_t b, double **sum) {
     const int64_t k0 = b * j->block, n = block_items(j, b);
     for (int64_t k = k0; k < k0 + n; k++) {
         if (k == 0) continue; /* rank 0 rendered it first (its radius is everyone's r0) */
-        pgi_frame_stats fs;
-        pgi_status st = pgi_progressive_frame(j->r, &j->d, j->r0, (int)k, &j->frame, &fs);
+        pgi_status st = render_frame(j, k);
         if (st) return st;
-        if ((size_t)fs.width * (size_t)fs.height * 3 != j->values)
-            return PGI_ERR_INVALID_ARG; /* cannot happen: one desc */
-        pgi_block_sum_add(sum, j->frame.rgb, j->values, k == k0);
-        add_frame_stats(j, &fs);
+        if (!*sum) *sum = alloc_sum(j);
+        pgi_block_sum_add(*sum, j->frame.rgb, j->values, k == k0);
     }
     return PGI_OK;
 }
+
+/* One frame of a split block into j->frame (frame 0 is rank 0's, rendered first). */
+static pgi_status frame_work(job *j, int64_t k) { return render_frame(j, k); }
 
 static pgi_status mpi_progressive(pgi_renderer *r, const pgi_render_desc *in, int frames, pgi_image *out,
                                   pgi_frame_stats *stats) {
@@ -520,39 +782,43 @@ static pgi_status mpi_progressive(pgi_renderer *r, const pgi_render_desc *in, in
     j.block = PGI_PROGRESSIVE_BLOCK;
     j.nblocks = (frames + j.block - 1) / j.block;
     j.work = frames_work;
+    j.work_frame = frame_work;
+    /* the last 2R blocks frame by frame (alone: none) */
+    j.split_from = g_size == 1 ? j.nblocks : j.nblocks > 2 * g_size ? j.nblocks - 2 * g_size : 0;
     int who = begin(0);
     if (who >= 0) return peer_failed(who);
     j.t0 = now_ms();
     g_block = j.block;
     g_blocks = j.nblocks;
     g_unit = "frames";
-    /* Frame 0 on rank 0: it resolves r0, which every other frame needs. */
-    double *own0 = NULL;
-    float r0 = 0.f;
+    /* Frame 0 on rank 0: it resolves r0, which every other frame needs. The workers are dealt their
+       first units before it and trace their first frame's photons meanwhile; rank 0 broadcasts r0 as
+       soon as frame 0 has chosen it (frame_progress), before the frame ends. */
     int w = 0, h = 0;
     if (g_rank == 0) {
-        double t = now_ms();
+        master_begin(&j, 1);
+        double t = now_ms(), served = g_rs[RS_REDUCE];
+        j.in_frame0 = 1;
         pgi_status st = pgi_progressive_frame(r, &j.d, 0.f, 0, &j.frame, &j.first);
+        j.in_frame0 = 0;
         if (st) die("frame 0: %s", *pgi_last_error() ? pgi_last_error() : pgi_status_string(st));
-        g_rs[RS_BUSY] += now_ms() - t;
-        r0 = j.first.radius;
+        g_rs[RS_BUSY] += now_ms() - t - (g_rs[RS_REDUCE] - served);
+        if (!j.have_r0) send_r0(&j, j.first.radius); /* alone, or no pass reported it */
+        if (j.r0 != j.first.radius)
+            die("frame 0's radius %g is not the one broadcast (%g)", (double)j.first.radius, (double)j.r0);
         w = j.first.width;
         h = j.first.height;
         add_frame_stats(&j, &j.first);
-    }
-    float bc[3] = {r0, (float)w, (float)h};
-    double t = now_ms();
-    MPI_Bcast(bc, 3, MPI_FLOAT, 0, MPI_COMM_WORLD);
-    if (g_rank != 0) g_rs[RS_WAIT] += now_ms() - t;
-    j.r0 = bc[0];
-    j.values = 3 * (size_t)bc[1] * (size_t)bc[2];
-    if (g_rank == 0) {
+        j.values = 3 * (size_t)w * (size_t)h;
         j.total = calloc(j.values, sizeof *j.total);
-        own0 = pool_get(&j);
+        double *own0 = pool_get(&j);
         if (!j.total) die("out of memory for the %dx%d total", w, h);
         pgi_block_sum_add(own0, j.frame.rgb, j.values, 1);
         master_run(&j, own0);
-    } else worker_run(&j);
+    } else {
+        worker_run(&j);
+        receive_r0(&j); /* a worker dealt no frame (more ranks than frames) */
+    }
     double fc[FC_COUNT];
     double tr = now_ms();
     gather_stats(g_rank == 0 ? fc : NULL);
@@ -573,7 +839,7 @@ static pgi_status mpi_progressive(pgi_renderer *r, const pgi_render_desc *in, in
     pgi_frame_stats fs = j.first;
     counters_to(fc, &fs);
     fs.frames = frames;
-    fs.radius = pgi_progressive_radius(r0, frames - 1);
+    fs.radius = pgi_progressive_radius(j.r0, frames - 1);
     if (frames > 1) fs.settings.jitter = in->jitter;
     fs.memory_peak_rss = pgi_memory_peak_rss();
     if (stats) *stats = fs;
@@ -583,7 +849,8 @@ static pgi_status mpi_progressive(pgi_renderer *r, const pgi_render_desc *in, in
 
 /* ------------------------------------------------------------------ reference */
 
-static pgi_status samples_work(job *j, int64_t b, double *sum) {
+static pgi_status samples_work(job *j, int64_t b, double **sump) {
+    double *sum = *sump;
     memset(sum, 0, j->values * sizeof *sum);
     const int64_t s0 = b * j->block, n = block_items(j, b);
     for (int64_t s = s0; s < s0 + n; s++) {
@@ -621,6 +888,7 @@ static pgi_status mpi_reference(const pgi_scene *scene, const pgi_reference_desc
     j.block = PGI_REFERENCE_BLOCK;
     j.nblocks = (j.items + j.block - 1) / j.block;
     j.work = samples_work;
+    j.split_from = j.nblocks; /* whole blocks only: a sample adds into its block's sum on its own */
     j.time_limit_ms = in->time_limit_s > 0.0 ? 1000.0 * in->time_limit_s : 0.0;
     j.ref_progress = in->progress;
     j.ref_progress_user = in->progress_user;
@@ -633,9 +901,10 @@ static pgi_status mpi_reference(const pgi_scene *scene, const pgi_reference_desc
         if (!j.total) die("out of memory for the %dx%d total", w, h);
         /* as pgi_reference_render: the mean so far times its samples */
         for (size_t i = 0; i < j.values; i++) j.total[i] = j.n0 > 0 ? (double)mean->rgb[i] * (double)j.n0 : 0.0;
+        master_begin(&j, 0);
         master_run(&j, NULL);
     } else worker_run(&j);
-    int64_t dealt = j.next_deal; /* rank 0: fewer than nblocks after --time */
+    int64_t dealt = blocks_dealt(&j); /* rank 0: fewer than nblocks after --time */
     gather_stats(NULL);
     g_wall_ms = now_ms() - j.t0;
     pgi_reference_sampler_destroy(j.sampler);
@@ -691,7 +960,8 @@ static pgi_status write_stats(const pgi_frame_stats *fs, const char *path) {
     cJSON_AddNumberToObject(m, "wall_ms", g_wall_ms);
     cJSON_AddNumberToObject(m, "stats_gather_ms", g_reduce_wall_ms);
     cJSON *per = cJSON_AddArrayToObject(m, "per_rank");
-    static const char *const names[RS_COUNT] = {"blocks",       "frames",     "busy_ms",       "wait_ms",
+    static const char *const names[RS_COUNT] = {"blocks",       "frames",     "busy_ms",
+                                                "wait_ms",      "wait_r0_ms", "wait_end_ms",
                                                 "reduction_ms", "bytes_sent", "peak_rss_bytes"};
     for (int r = 0; g_all_rs && r < g_size; r++) {
         cJSON *o = cJSON_CreateObject();
@@ -723,8 +993,25 @@ static void replay_capture(void) {
         dprintf(g_real_err, "photongi-mpi: rank %d of %d: %s%s", g_rank, g_size, line, strchr(line, '\n') ? "" : "\n");
 }
 
+/* All ranks on one machine (Open MPI's mpirun says so: every rank local), or one process without a
+ * launcher: Open MPI's shared-memory path (pml ob1, btl vader) instead of UCX, whose start-up
+ * probing of network devices costs 0.2 to 0.4 s a run here (docs/distributed.md, "Start").
+ * An explicit choice (OMPI_MCA_pml, which mpirun --mca pml X sets) is kept; under another
+ * launcher, or across machines, nothing changes. */
+static void prefer_shared_memory(void) {
+    if (getenv("OMPI_MCA_pml") || getenv("PHOTONGI_MPI_KEEP_PML")) return;
+    const char *size = getenv("OMPI_COMM_WORLD_SIZE"), *local = getenv("OMPI_COMM_WORLD_LOCAL_SIZE");
+    int one_machine;
+    if (size && local) one_machine = strcmp(size, local) == 0;
+    else
+        one_machine = !size && !local && !getenv("PMIX_RANK") && !getenv("PMI_RANK") && !getenv("SLURM_PROCID") &&
+                      !getenv("OMPI_COMM_WORLD_RANK");
+    if (one_machine) setenv("OMPI_MCA_pml", "ob1", 0);
+}
+
 int main(int argc, char **argv) {
     int provided;
+    prefer_shared_memory();
     MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
     MPI_Comm_rank(MPI_COMM_WORLD, &g_rank);
     MPI_Comm_size(MPI_COMM_WORLD, &g_size);

@@ -160,6 +160,8 @@ typedef struct pgi_progress {
     uint64_t done, total; /* "trace": photons stored so far, of `total`; other passes: 0 of 0 */
     int frame, frames;    /* pgi_render_progressive: this frame (0-based) of `frames`; else 0 of 1 */
     double elapsed_ms;    /* since the call started (pgi_render_progressive: since its start) */
+    float radius;         /* the frame's photon radius once it is known (a given one from the start, the
+                             automatic one from "build" on), else 0 */
 } pgi_progress;
 /* Called on the thread that called the render, as each pass starts and between batches of
  * photon paths, never from inside a parallel region: it cannot change the image. */
@@ -436,6 +438,16 @@ float pgi_progressive_radius(float r0, int k);
  * sequence. Needs an exact estimator for k > 0. */
 pgi_status pgi_progressive_frame(pgi_renderer *r, const pgi_render_desc *desc, float r0, int k, pgi_image *frame,
                                  pgi_frame_stats *stats);
+/* Frame k > 0 as pgi_progressive_frame(r, desc, r0, k, ...), byte for byte, for a caller that does not
+ * know r0 yet (another process is rendering frame 0, apps/mpi): the frame's view samples and photons,
+ * which do not depend on the radius, are made first; then r0_fn(user) is called once, on the calling
+ * thread (it may block until r0 is known), and must return frame 0's radius; the frame ends with it.
+ * When the photons do depend on the radius (a footprint radius policy, guided emission, --store view)
+ * or the frame runs on the GPU device, r0_fn is called first. The time spent in r0_fn is left out of
+ * the frame's stats. */
+typedef float (*pgi_radius_fn)(void *user);
+pgi_status pgi_progressive_frame_await_r0(pgi_renderer *r, const pgi_render_desc *desc, pgi_radius_fn r0_fn, void *user,
+                                          int k, pgi_image *frame, pgi_frame_stats *stats);
 
 /* The summation order of a progressive average (and of the reference's samples,
  * include/photongi/reference.h), fixed so that frames rendered anywhere add up to the same

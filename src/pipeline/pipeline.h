@@ -16,6 +16,14 @@
 pgi_status pgi__renderer_render_frame(pgi_renderer *r, const pgi_render_desc *desc, uint64_t seq_seed, uint32_t index,
                                       pgi_image *out, pgi_frame_stats *stats);
 
+/* pgi__renderer_render_frame for a radius known only after the view samples and photons
+ * (pgi_progressive_frame_await_r0): desc->radius is ignored; once the photons are traced,
+ * radius_fn(user, k) gives the frame's radius (it is called first when they depend on it). */
+typedef float (*pgi__late_radius_fn)(void *user, int k);
+pgi_status pgi__renderer_render_frame_late(pgi_renderer *r, const pgi_render_desc *desc, uint64_t seq_seed,
+                                           uint32_t index, pgi__late_radius_fn radius_fn, void *user, pgi_image *out,
+                                           pgi_frame_stats *stats);
+
 /* The renderer's memory ledger (render.c): progressive.c reports its accumulator there. */
 pgi__mem_ledger *pgi__renderer_mem(pgi_renderer *r);
 

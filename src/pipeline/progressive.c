@@ -115,38 +115,83 @@ void pgi_block_sum_mean(const double *total, const double *partial, size_t value
         for (size_t i = 0; i < values; i++) out[i] = (float)(total[i] * inv);
 }
 
+/* The desc of frame k > 0 but its radius (pgi_progressive_frame sets it from r0): its seed stream,
+ * jittered view samples; seq_seed gets the sequence of the view samples' sub-pixel positions. */
+static pgi_status frame_desc(const pgi_render_desc *in, int k, pgi_render_desc *d, uint64_t *seq_seed) {
+    *d = *in;
+    *seq_seed = 0;
+    if (k < 0) return pgi__fail(PGI_ERR_INVALID_ARG, "progressive frame %d: frames count from 0", k);
+    if (k == 0) return PGI_OK;
+    const pgi_estimator_vtbl *vt =
+        pgi_estimator_find(in->estimator && *in->estimator ? in->estimator : PGI_DEFAULT_ESTIMATOR);
+    if (!vt) return pgi__fail_unknown_estimator(in->estimator);
+    if (!vt->exact)
+        return pgi__fail(PGI_ERR_INVALID_ARG,
+                         "progressive mode needs an exact estimator; '%s' is approximate (its bias does not "
+                         "vanish)",
+                         vt->name);
+    const uint64_t seed0 = in->seed ? in->seed : 1;
+    /* Fresh, deterministic photons and direct-light samples for frame k. */
+    d->seed = pgi__mix64(seed0 ^ (0x9e3779b97f4a7c15ULL * (uint64_t)k));
+    if (d->seed == 0) d->seed = 1;
+    /* ... and view samples anywhere in their pixel, so the average converges to the pixel integral. */
+    if (d->jitter == PGI_JITTER_AUTO) d->jitter = PGI_JITTER_ON;
+    /* Jittered view samples: point k of one sequence per pixel (seed of frame 0), which covers the
+       pixel more evenly over the frames than independent points would. */
+    *seq_seed = seed0;
+    return PGI_OK;
+}
+
+static pgi_status bad_r0(int k, float r0) {
+    return pgi__fail(PGI_ERR_INVALID_ARG, "progressive frame %d needs frame 0's radius (> 0), got %g", k, (double)r0);
+}
+
 pgi_status pgi_progressive_frame(pgi_renderer *r, const pgi_render_desc *in, float r0, int k, pgi_image *frame,
                                  pgi_frame_stats *stats) {
     if (!r || !in || !frame) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_progressive_frame: NULL argument");
-    if (k < 0) return pgi__fail(PGI_ERR_INVALID_ARG, "progressive frame %d: frames count from 0", k);
-    pgi_render_desc d = *in;
-    uint64_t seq_seed = 0;
+    pgi_render_desc d;
+    uint64_t seq_seed;
+    pgi_status st = frame_desc(in, k, &d, &seq_seed);
+    if (st) return st;
     if (k > 0) {
-        const pgi_estimator_vtbl *vt =
-            pgi_estimator_find(in->estimator && *in->estimator ? in->estimator : PGI_DEFAULT_ESTIMATOR);
-        if (!vt) return pgi__fail_unknown_estimator(in->estimator);
-        if (!vt->exact)
-            return pgi__fail(PGI_ERR_INVALID_ARG,
-                             "progressive mode needs an exact estimator; '%s' is approximate (its bias does not "
-                             "vanish)",
-                             vt->name);
-        if (!(r0 > 0.f) || !isfinite(r0))
-            return pgi__fail(PGI_ERR_INVALID_ARG, "progressive frame %d needs frame 0's radius (> 0), got %g", k,
-                             (double)r0);
-        const uint64_t seed0 = in->seed ? in->seed : 1;
-        /* Fresh, deterministic photons and direct-light samples for frame k. */
-        d.seed = pgi__mix64(seed0 ^ (0x9e3779b97f4a7c15ULL * (uint64_t)k));
-        if (d.seed == 0) d.seed = 1;
+        if (!(r0 > 0.f) || !isfinite(r0)) return bad_r0(k, r0);
         d.radius = pgi_progressive_radius(r0, k);
-        /* ... and view samples anywhere in their pixel, so the average converges to the pixel integral. */
-        if (d.jitter == PGI_JITTER_AUTO) d.jitter = PGI_JITTER_ON;
-        /* Jittered view samples: point k of one sequence per pixel (seed of frame 0), which covers the
-           pixel more evenly over the frames than independent points would. */
-        seq_seed = seed0;
     }
     pgi_frame_stats fs;
-    pgi_status st = pgi__renderer_render_frame(r, &d, seq_seed, (uint32_t)k, frame, &fs);
+    st = pgi__renderer_render_frame(r, &d, seq_seed, (uint32_t)k, frame, &fs);
     if (st) return st;
+    if (stats) *stats = fs;
+    return PGI_OK;
+}
+
+/* pgi_progressive_frame_await_r0: the caller's r0, asked for once the photons are traced. */
+typedef struct await_r0 {
+    pgi_radius_fn fn;
+    void *user;
+    float r0;
+    int asked;
+} await_r0;
+
+static float late_radius(void *user, int k) {
+    await_r0 *a = user;
+    a->r0 = a->fn(a->user);
+    a->asked = 1;
+    return a->r0 > 0.f && isfinite(a->r0) ? pgi_progressive_radius(a->r0, k) : NAN; /* NAN: refused */
+}
+
+pgi_status pgi_progressive_frame_await_r0(pgi_renderer *r, const pgi_render_desc *in, pgi_radius_fn r0_fn, void *user,
+                                          int k, pgi_image *frame, pgi_frame_stats *stats) {
+    if (!r || !in || !r0_fn || !frame)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_progressive_frame_await_r0: NULL argument");
+    if (k < 1) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_progressive_frame_await_r0: frame %d (it is for k > 0)", k);
+    pgi_render_desc d;
+    uint64_t seq_seed;
+    pgi_status st = frame_desc(in, k, &d, &seq_seed);
+    if (st) return st;
+    await_r0 a = {r0_fn, user, 0.f, 0};
+    pgi_frame_stats fs;
+    st = pgi__renderer_render_frame_late(r, &d, seq_seed, (uint32_t)k, late_radius, &a, frame, &fs);
+    if (st) return a.asked && (!(a.r0 > 0.f) || !isfinite(a.r0)) ? bad_r0(k, a.r0) : st;
     if (stats) *stats = fs;
     return PGI_OK;
 }

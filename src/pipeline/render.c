@@ -325,6 +325,7 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
 typedef struct progress_ctx {
     const pgi_render_desc *d;
     double t_start;
+    int radius_unknown; /* d->radius is a stand-in (pgi__renderer_render_frame_late, until it is asked for) */
 } progress_ctx;
 
 static void report(const progress_ctx *pc, const char *pass, uint64_t done, uint64_t total) {
@@ -334,7 +335,8 @@ static void report(const progress_ctx *pc, const char *pass, uint64_t done, uint
                       .total = total,
                       .frame = 0,
                       .frames = 1,
-                      .elapsed_ms = pgi__now_ms() - pc->t_start};
+                      .elapsed_ms = pgi__now_ms() - pc->t_start,
+                      .radius = pc->d->radius > 0.f && !pc->radius_unknown ? pc->d->radius : 0.f};
     pc->d->progress(pc->d->progress_user, &p);
 }
 
@@ -852,7 +854,7 @@ pgi_status pgi_renderer_prepare(pgi_renderer *r, const pgi_render_desc *in, pgi_
     stats_begin(&fs, &d);
     if ((st = mem_plan(r, &d, NULL))) return st;
     double t0 = pgi__now_ms();
-    const progress_ctx pc = {&d, t0};
+    const progress_ctx pc = {&d, t0, 0};
     if ((st = prepare(r, &d, d.seed, 0, &pc, &fs))) return st;
     if ((st = choose_radius(r, &d, &fs))) return st;
     fs.total_ms = pgi__now_ms() - t0;
@@ -873,10 +875,29 @@ pgi_status pgi_renderer_render(pgi_renderer *r, const pgi_render_desc *in, pgi_i
 
 pgi_status pgi__renderer_render_frame(pgi_renderer *r, const pgi_render_desc *in, uint64_t seq_seed, uint32_t index,
                                       pgi_image *out, pgi_frame_stats *stats) {
+    return pgi__renderer_render_frame_late(r, in, seq_seed, index, NULL, NULL, out, stats);
+}
+
+/* Does the part of a frame before the radius (view samples, photons) not read the radius? */
+static int prepare_without_radius(const pgi_render_desc *in) {
+    return in->device == PGI_DEVICE_CPU && in->radius_policy == PGI_RADIUS_FIXED &&
+           in->emission == PGI_EMISSION_UNIFORM && in->store == PGI_STORE_ALL;
+}
+
+pgi_status pgi__renderer_render_frame_late(pgi_renderer *r, const pgi_render_desc *in, uint64_t seq_seed,
+                                           uint32_t index, pgi__late_radius_fn radius_fn, void *user, pgi_image *out,
+                                           pgi_frame_stats *stats) {
     if (!r || !in || !out) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_renderer_render: NULL argument");
     pgi__clear_error();
-    pgi_render_desc d;
-    pgi_status st = resolve_desc(r->scene, in, &d);
+    pgi_render_desc given = *in, d;
+    int late = 0;
+    if (radius_fn) {
+        if (prepare_without_radius(in)) {
+            late = 1;
+            given.radius = 1.f; /* a stand-in: nothing before the radius reads it */
+        } else given.radius = radius_fn(user, (int)index);
+    }
+    pgi_status st = resolve_desc(r->scene, &given, &d);
     if (st) return st;
     if (seq_seed == 0) seq_seed = d.seed; /* a lone frame: the sequence of its own seed */
     double t_start = pgi__now_ms();
@@ -887,13 +908,32 @@ pgi_status pgi__renderer_render_frame(pgi_renderer *r, const pgi_render_desc *in
     if ((st = on_gpu ? ensure_gpu(r, &d, &fs.estimators_created) : ensure_estimator(r, &d, &fs.estimators_created)))
         return st;
     fs.device = on_gpu ? pgi__gpu_device_name(r->gpu) : "cpu";
-    const progress_ctx pc = {&d, t_start};
+    progress_ctx pc = {&d, t_start, late};
     if (on_gpu) {
         st = gpu_frame(r, &d, seq_seed, index, &pc, &fs, t_start, out);
         if (!st && stats) *stats = fs;
         return st;
     }
     if ((st = prepare(r, &d, seq_seed, index, &pc, &fs))) return st;
+    if (late) {
+        /* the radius now: the desc resolved with it, as pgi__renderer_render_frame would have
+           (only the radius and what derives from it differ from the stand-in's) */
+        double tw = pgi__now_ms();
+        given.radius = radius_fn(user, (int)index);
+        pgi_render_desc d2;
+        if ((st = resolve_desc(r->scene, &given, &d2))) return st;
+        d.radius = d2.radius;
+        d.r_min = d2.r_min;
+        d.r_max = d2.r_max;
+        fs.settings.radius = d.radius;
+        fs.settings.r_min = d.r_min;
+        fs.settings.r_max = d.r_max;
+        fs.radius = d.radius;
+        const double waited = pgi__now_ms() - tw; /* the caller's wait is not the frame's time */
+        t_start += waited;
+        pc.t_start = t_start;
+        pc.radius_unknown = 0;
+    }
     if ((st = choose_radius(r, &d, &fs))) return st;
     const pgi_scene *s = r->scene;
     double t2 = pgi__now_ms();
