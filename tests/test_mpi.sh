@@ -63,6 +63,11 @@ done
 # the thread count does not matter either (2 ranks x 2 threads)
 np 2 "${R[@]}" --threads 2 -o "$TMP/r-2t.exr" && cmp -s "$TMP/r-ref.exr" "$TMP/r-2t.exr" && ok ||
     bad "render: -np 2 --threads 2 differs from photongi"
+# guided emission with the automatic radius: a frame's pilot (hence its guide) does not depend on
+# the frames its renderer rendered before (each rank renders other frames)
+R4=(render --scene cornell --size 48x40 --photons 3000 --direct-samples 2 --emission guided --radius auto --progressive 8 -q)
+"$CLI" "${R4[@]}" -o "$TMP/g-ref.exr" && np 2 "${R4[@]}" --threads 1 -o "$TMP/g-2.exr" &&
+    cmp -s "$TMP/g-ref.exr" "$TMP/g-2.exr" && ok || bad "render --emission guided --radius auto: -np 2 differs from photongi"
 # a PNG and a frame count that leaves a partial last block
 R2=(render --scene cornell --size 40x32 --photons 2000 --direct-samples 2 --progressive 7 -q)
 "$CLI" "${R2[@]}" -o "$TMP/p-ref.png" && np 3 "${R2[@]}" --threads 1 -o "$TMP/p-3.png" &&

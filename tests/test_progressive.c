@@ -171,7 +171,7 @@ static void test_block_order(void **state) {
 }
 
 /* pgi_progressive_frame_await_r0: frame k with r0 given once the photons are traced (asked for
- * once), byte for byte the frame of pgi_progressive_frame on a renderer with the same history, also when the photons depend on the
+ * once), byte for byte the frame of pgi_progressive_frame, also when the photons depend on the
  * radius (guided emission: r0 asked for first); a bad r0 is refused. Frame 0's progress reports
  * carry its radius from "build" on (the automatic one is chosen then). */
 typedef struct r0_source {

@@ -570,8 +570,11 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
     const uint64_t max_paths = 64ull * d->photons + (1u << 20);
     const size_t want = d->photons;
     /* Photons per path, observed: the last frame's counts seed this frame's, so that each
-     * batch traces about the paths still needed and few are thrown away. */
-    double seen_paths = sc->prior_paths, seen_photons = sc->prior_photons;
+     * batch traces about the paths still needed and few are thrown away. Not with guided
+     * emission: its pilot ends with a whole batch, so the batches' sizes decide the guide, and a
+     * frame must not depend on the frames rendered before it (progressive frames dealt to MPI
+     * ranks, test_mpi). */
+    double seen_paths = d->guide ? 0.0 : sc->prior_paths, seen_photons = d->guide ? 0.0 : sc->prior_photons;
     double frame_paths = 0, frame_photons = 0;
     uint64_t pilot_paths = 0; /* guided emission: paths of the uniform pilot, dropped */
     int guide_done = 0;       /* the pilot has decided */
