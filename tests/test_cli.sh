@@ -7,16 +7,7 @@ set -u
 
 BIN=${1:?usage: test_cli.sh path/to/photongi}
 case $BIN in /*) ;; */*) BIN=$PWD/$BIN ;; esac
-TMP=$(mktemp -d "${TMPDIR:-/tmp}/pgi-test-cli-XXXXXX")
-trap 'rm -rf "$TMP"' EXIT
-pass=0
-fail=0
-
-ok() { pass=$((pass + 1)); }
-bad() {
-    fail=$((fail + 1))
-    echo "FAIL: $*"
-}
+. "$(dirname "$0")/lib.sh" test-cli
 
 # run ARGS...: runs the binary, sets $rc, $out (stdout), $err (stderr).
 run() {
@@ -567,5 +558,4 @@ for f in --kernel --subsample --filter --knn --polygon; do
     printf '%s\n' "$out" | grep -qF -- "$f" && ok || bad "render --help does not mention $f"
 done
 
-echo "$pass passed, $fail failed"
-[ "$fail" -eq 0 ]
+summary test_cli

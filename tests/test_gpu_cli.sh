@@ -10,15 +10,7 @@ set -u
 
 BIN=${1:?usage: test_gpu_cli.sh path/to/photongi}
 case $BIN in /*) ;; */*) BIN=$PWD/$BIN ;; esac
-TMP=$(mktemp -d "${TMPDIR:-/tmp}/pgi-test-gpu-cli-XXXXXX")
-trap 'rm -rf "$TMP"' EXIT
-pass=0
-fail=0
-ok() { pass=$((pass + 1)); }
-bad() {
-    fail=$((fail + 1))
-    echo "FAIL: $*"
-}
+. "$(dirname "$0")/lib.sh" test-gpu-cli
 run() {
     "$BIN" "$@" >"$TMP/out" 2>"$TMP/err"
     rc=$?
@@ -95,5 +87,4 @@ if [ -n "$VIEW" ]; then
     [ "$rc" -eq 1 ] && grep -q "no GPU version" "$TMP/err" && ok || bad "photongi-view bounds3d on vulkan: exit $rc"
 fi
 
-echo "test_gpu_cli: $pass passed, $fail failed"
-[ "$fail" -eq 0 ]
+summary test_gpu_cli

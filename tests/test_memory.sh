@@ -8,15 +8,7 @@ set -u
 
 BIN=${1:?usage: test_memory.sh path/to/photongi}
 case $BIN in /*) ;; */*) BIN=$PWD/$BIN ;; esac
-TMP=$(mktemp -d "${TMPDIR:-/tmp}/pgi-test-memory-XXXXXX")
-trap 'rm -rf "$TMP"' EXIT
-pass=0
-fail=0
-ok() { pass=$((pass + 1)); }
-bad() {
-    fail=$((fail + 1))
-    echo "FAIL: $*"
-}
+. "$(dirname "$0")/lib.sh" test-memory
 
 # run ARGS...: sets $rc and $err (stderr); 60 s at most.
 run() {
@@ -89,5 +81,4 @@ else
     fi
 fi
 
-echo "test_memory: $pass passed, $fail failed"
-[ "$fail" -eq 0 ]
+summary test_memory

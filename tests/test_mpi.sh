@@ -16,15 +16,7 @@ export LSAN_OPTIONS="${LSAN_OPTIONS:+$LSAN_OPTIONS:}suppressions=$(cd "$(dirname
 export OMPI_MCA_mca_base_component_disable_dlclose=1
 # Open MPI is built without frame pointers: slow unwinding finds the library in each trace.
 [ -n "${ASAN_OPTIONS:-}" ] && export ASAN_OPTIONS="$ASAN_OPTIONS:fast_unwind_on_malloc=0"
-TMP=$(mktemp -d "${TMPDIR:-/tmp}/pgi-test-mpi-XXXXXX")
-trap 'rm -rf "$TMP"' EXIT
-pass=0
-fail=0
-ok() { pass=$((pass + 1)); }
-bad() {
-    fail=$((fail + 1))
-    echo "FAIL: $*"
-}
+. "$(dirname "$0")/lib.sh" test-mpi
 
 # mpirun's options: oversubscribe (CI machines have few cores), and as root (CI's containers)
 # Open MPI needs --allow-run-as-root.
@@ -122,5 +114,4 @@ rc=$?
 "$MPI" --help | grep -q "mpirun -np R photongi-mpi render" && ok || bad "photongi-mpi --help"
 "$MPI" render --help | grep -q -- "--progressive N" && ok || bad "photongi-mpi render --help"
 
-echo "test_mpi: $pass passed, $fail failed"
-[ "$fail" -eq 0 ]
+summary test_mpi

@@ -10,15 +10,7 @@
 set -u
 VIEW=${1:?usage: test_viewer.sh photongi-view photongi}
 CLI=${2:?usage: test_viewer.sh photongi-view photongi}
-TMP=$(mktemp -d "${TMPDIR:-/tmp}/pgi-test-view-XXXXXX")
-trap 'rm -rf "$TMP"' EXIT
-pass=0
-fail=0
-ok() { pass=$((pass + 1)); }
-bad() {
-    fail=$((fail + 1))
-    echo "FAIL: $*"
-}
+. "$(dirname "$0")/lib.sh" test-view
 
 # same NAME VIEW_ARGS -- RENDER_ARGS: both must succeed and write identical PNGs.
 same() {
@@ -137,5 +129,4 @@ expect_fail 1 "not a folder" --frames 1 --size 8x8 --photons 100 --screenshot "$
 expect_fail 2 ".png or .exr" --frames 1 --size 8x8 --photons 100 --screenshot "$TMP/shot.jpg"
 [ -e "$TMP/shot.jpg" ] && bad "--screenshot shot.jpg wrote a file" || ok
 
-echo "$pass passed, $fail failed"
-[ "$fail" -eq 0 ]
+summary test_viewer
