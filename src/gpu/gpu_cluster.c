@@ -243,15 +243,8 @@ static int bits_for(uint32_t n) {
 }
 
 /* Appends the last sequence's timings to the stats; returns the gather's share in *gather. */
-static void add_timings(ct_state *s, pgi_estimator_stats *es, double *build, double *gather) {
-    pgi_named_value t[16];
-    int nt = pgi__gpu_timings(s->g, t, 16);
-    for (int i = 0; i < nt; i++) {
-        pgi__stats_pass(es, t[i].name, t[i].value);
-        if (strcmp(t[i].name, "gpu_radiance") == 0 || strcmp(t[i].name, "gpu_blur") == 0) *gather += t[i].value;
-        else *build += t[i].value;
-    }
-}
+/* the passes that are the gather (the rest is the build) */
+static const char *const gather_passes[] = {"gpu_radiance", "gpu_blur", NULL};
 
 static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_stats *es) {
     ct_state *s = state;
@@ -381,7 +374,7 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     double t2 = pgi__now_ms();
     if ((st = pgi__gpu_submit_wait(g))) return st;
     double t3 = pgi__now_ms();
-    add_timings(s, es, &gpu_build, &gpu_gather);
+    pgi__gpu_est_add_timings(g, es, gather_passes, &gpu_build, &gpu_gather);
     uint32_t npairs = 0;
     if ((st = pgi__gpu_download(g, s->counters, 6 * 4, &npairs, 4))) return st;
     if (npairs > s->pair_cap) { /* did not fit: a larger buffer (kept), the splat again */
@@ -402,7 +395,7 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
         pgi__gpu_timestamp(g, "gpu_splat_again");
         if ((st = pgi__gpu_submit_wait(g))) return st;
         t3 += pgi__now_ms() - t2b;
-        add_timings(s, es, &gpu_build, &gpu_gather);
+        pgi__gpu_est_add_timings(g, es, gather_passes, &gpu_build, &gpu_gather);
         if ((st = pgi__gpu_download(g, s->counters, 6 * 4, &npairs, 4))) return st;
         PGI_ASSERT(npairs <= s->pair_cap);
     }
@@ -472,7 +465,7 @@ submit:;
     double t5 = pgi__now_ms();
     if ((st = pgi__gpu_submit_wait(g))) return st;
     double t6 = pgi__now_ms();
-    add_timings(s, es, &gpu_build, &gpu_gather);
+    pgi__gpu_est_add_timings(g, es, gather_passes, &gpu_build, &gpu_gather);
     uint32_t c[6];
     if ((st = pgi__gpu_download(g, s->out, 0, a->out_rgb, 3 * ns * sizeof(float))) ||
         (st = pgi__gpu_download(g, s->counters, 0, c, sizeof c)))

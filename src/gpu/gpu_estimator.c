@@ -73,6 +73,18 @@ size_t pgi__gpu_vs_pack_bytes(const pgi__gpu_vs_pack *p) {
     return p->hvs_cap * sizeof(pgi__gpu_vs) + p->hlobes_cap * sizeof(pgi__gpu_lobe) + p->lobe_of_cap * sizeof(uint32_t);
 }
 
+void pgi__gpu_est_add_timings(const pgi__gpu *g, pgi_estimator_stats *es, const char *const *gather, double *build_ms,
+                              double *gather_ms) {
+    pgi_named_value t[16];
+    int nt = pgi__gpu_timings(g, t, 16);
+    for (int i = 0; i < nt; i++) {
+        pgi__stats_pass(es, t[i].name, t[i].value);
+        int in_gather = 0;
+        for (const char *const *n = gather; *n && !in_gather; n++) in_gather = strcmp(t[i].name, *n) == 0;
+        *(in_gather ? gather_ms : build_ms) += t[i].value;
+    }
+}
+
 void pgi__gpu_est_two_sequence_times(const pgi__gpu *g, pgi_estimator_stats *es, const double t[8], double build,
                                      double gather) {
     pgi__stats_pass(es, "gpu_upload", t[1] - t[0]);

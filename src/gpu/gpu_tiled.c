@@ -179,16 +179,8 @@ static pgi_status pack_cells(tl_state *s, size_t ns, uint32_t *hmask) {
     return PGI_OK;
 }
 
-static void add_timings(tl_state *s, pgi_estimator_stats *es, double *build, double *gather) {
-    pgi_named_value t[16];
-    int nt = pgi__gpu_timings(s->g, t, 16);
-    for (int i = 0; i < nt; i++) {
-        if (strcmp(t[i].name, "start") == 0) continue;
-        pgi__stats_pass(es, t[i].name, t[i].value);
-        if (strcmp(t[i].name, "gpu_gather") == 0) *gather += t[i].value;
-        else *build += t[i].value;
-    }
-}
+/* the passes that are the gather (the rest is the build) */
+static const char *const gather_passes[] = {"gpu_gather", NULL};
 
 static pgi_status tl_run(void *state, const pgi_estimate_args *a, pgi_estimator_stats *es) {
     tl_state *s = state;
@@ -303,7 +295,7 @@ static pgi_status tl_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     double t2 = pgi__now_ms();
     if ((st = pgi__gpu_submit_wait(g))) return st;
     double t3 = pgi__now_ms();
-    add_timings(s, es, &gpu_build, &gpu_gather);
+    pgi__gpu_est_add_timings(g, es, gather_passes, &gpu_build, &gpu_gather);
     uint32_t copies = 0, tested[2];
     if ((st = pgi__gpu_download(g, s->counts, ncounts * 4, &copies, 4)) ||
         (st = pgi__gpu_download(g, s->counters, 6 * 4, tested, sizeof tested)))
@@ -333,7 +325,7 @@ static pgi_status tl_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     double t5 = pgi__now_ms();
     if ((st = pgi__gpu_submit_wait(g))) return st;
     double t6 = pgi__now_ms();
-    add_timings(s, es, &gpu_build, &gpu_gather);
+    pgi__gpu_est_add_timings(g, es, gather_passes, &gpu_build, &gpu_gather);
     uint32_t cnt[8];
     if ((st = pgi__gpu_download(g, s->out, 0, a->out_rgb, 3 * ns * sizeof(float))) ||
         (st = pgi__gpu_download(g, s->counters, 0, cnt, sizeof cnt)))
