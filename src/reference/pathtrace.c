@@ -158,8 +158,8 @@ static pgi__v3 trace_sample(const pt_ctx *C, int px, int py, float jx, float jy,
             if (s->env) L = v3_add(L, v3_mul(T, escaped(s, &sf, wo, d, pdf_b)));
             break;
         }
-        pgi__v3 q = v3_madd(o, d, h.t);
-        pgi__scene_surface(s, h.prim, h.u, h.v, q, &sf);
+        /* The geometry first: a vertex the path ends at needs no shading normal or texel. */
+        pgi__scene_surface_geometry(s, h.prim, v3_madd(o, d, h.t), &sf);
         /* Emitter hit at x_{k+1}: a light path with k scattering events. */
         pgi__v3 ke = v3_load(sf.mat->ke);
         float cl = -v3_dot(d, sf.ng);
@@ -182,6 +182,8 @@ static pgi__v3 trace_sample(const pt_ctx *C, int px, int py, float jx, float jy,
             if (!(pgi_rng_f(rng) < qrr)) break;
             T = v3_scale(T, 1.f / qrr);
         }
+        pgi__scene_surface_shading(s, h.prim, h.u, h.v, &sf);
+        pgi__surface_texture(s, &sf);
     }
     return L;
 }
