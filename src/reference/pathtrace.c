@@ -44,14 +44,21 @@ typedef struct {
     float *tri_pick; /* triangle -> pick probability of its area light (0: none) */
 } pt_ctx;
 
+/* Applies the texels of *tq (pgi__texture_quad, NULL: applied) to sf's albedo. */
+static inline void texture_resolve(pgi__surface *sf, const pgi__texel_quad **tq) {
+    if (*tq) sf->kd = v3_mul(sf->kd, pgi__texture_quad_lookup(*tq));
+    *tq = NULL;
+}
+
 /* Next-event estimation at a non-specular vertex: every delta light once (as
  * pgi__direct), one area-light sample picked by power, MIS-weighted against
- * BSDF sampling. `wo` points back along the path. */
-static pgi__v3 nee(const pt_ctx *C, const pgi__surface *sf, pgi__v3 wo, pgi__rng *rng) {
+ * BSDF sampling. `wo` points back along the path. The albedo's texels `tq`
+ * (*tq, NULL: none) are applied where first needed, after a shadow ray where
+ * there is one, so that their cache misses overlap its traversal; sf->kd has them on return. */
+static pgi__v3 nee(const pt_ctx *C, pgi__surface *sf, const pgi__texel_quad **tq, pgi__v3 wo, pgi__rng *rng) {
     const pgi_scene *s = C->s;
     float side = v3_dot(wo, sf->ng) >= 0.f ? 1.f : -1.f;
     pgi__v3 ng = v3_scale(sf->ng, side), ns = v3_scale(sf->ns, side);
-    pgi__v3 kd = sf->kd;
     pgi__lobe lobe;
     pgi__lobe_of_material(sf->mat, &lobe);
     pgi__v3 x = v3_madd(sf->p, ng, C->eps);
@@ -61,7 +68,8 @@ static pgi__v3 nee(const pt_ctx *C, const pgi__surface *sf, pgi__v3 wo, pgi__rng
         float cs, tmax;
         if (!pgi__delta_light(&s->lights[l], x, ns, ng, &wi, &Li, &cs, &tmax)) continue;
         if (pgi__rt_occluded(C->rt, x, wi, 0.f, tmax)) continue;
-        L = v3_add(L, v3_scale(v3_mul(pgi__brdf_eval(kd, &lobe, ns, wi, wo), Li), cs));
+        texture_resolve(sf, tq);
+        L = v3_add(L, v3_scale(v3_mul(pgi__brdf_eval(sf->kd, &lobe, ns, wi, wo), Li), cs));
     }
     if (C->narea) {
         float ul = pgi_rng_f(rng), u1 = pgi_rng_f(rng), u2 = pgi_rng_f(rng);
@@ -76,10 +84,11 @@ static pgi__v3 nee(const pt_ctx *C, const pgi__surface *sf, pgi__v3 wo, pgi__rng
             float cl = -v3_dot(wi, v3_load(lt->normal)), cs = v3_dot(ns, wi);
             if (cl > 0.f && cs > 0.f && v3_dot(ng, wi) > 0.f &&
                 !pgi__rt_occluded(C->rt, x, wi, 0.f, dist * (1.f - 1e-3f))) {
+                texture_resolve(sf, tq);
                 float pdf_l = pl * d2 / (cl * lt->area);
                 float pdf_b = pgi__bsdf_pdf(sf, wo, wi);
                 float mis = pdf_l * pdf_l / (pdf_l * pdf_l + pdf_b * pdf_b);
-                pgi__v3 f = pgi__brdf_eval(kd, &lobe, ns, wi, wo);
+                pgi__v3 f = pgi__brdf_eval(sf->kd, &lobe, ns, wi, wo);
                 L = v3_add(L, v3_scale(v3_mul(f, v3_load(lt->color)), cs / pdf_l * mis));
             }
         }
@@ -90,12 +99,14 @@ static pgi__v3 nee(const pt_ctx *C, const pgi__surface *sf, pgi__v3 wo, pgi__rng
         pgi__v3 wi = pgi__env_sample_direct(s->env, ns, u1, u2, &pdf_l);
         float cs = v3_dot(ns, wi);
         if (pdf_l > 0.f && cs > 0.f && v3_dot(ng, wi) > 0.f && !pgi__rt_occluded(C->rt, x, wi, 0.f, INFINITY)) {
+            texture_resolve(sf, tq);
             float pdf_b = pgi__bsdf_pdf(sf, wo, wi);
             float mis = pdf_l * pdf_l / (pdf_l * pdf_l + pdf_b * pdf_b);
-            pgi__v3 f = pgi__brdf_eval(kd, &lobe, ns, wi, wo);
+            pgi__v3 f = pgi__brdf_eval(sf->kd, &lobe, ns, wi, wo);
             L = v3_add(L, v3_scale(v3_mul(f, pgi__env_eval(s->env, wi)), cs / pdf_l * mis));
         }
     }
+    texture_resolve(sf, tq);
     return L;
 }
 
@@ -140,10 +151,13 @@ static pgi__v3 trace_sample(const pt_ctx *C, int px, int py, float jx, float jy,
     const float w0 = v3_maxc(W);
     if (!(w0 > 0.f)) return L;
     pgi__v3 T = W;
+    pgi__texel_quad quad;
+    const pgi__texel_quad *tq = NULL; /* x_k's texels not yet in sf.kd */
     for (int k = 0;; k++) {
         pgi__v3 wo = v3_neg(d);
         int diffuse = !pgi__mat_specular(sf.mat);
-        if (diffuse) L = v3_add(L, v3_mul(T, nee(C, &sf, wo, rng)));
+        if (diffuse) L = v3_add(L, v3_mul(T, nee(C, &sf, &tq, wo, rng)));
+        texture_resolve(&sf, &tq);
         pgi__v3 wi, w;
         float u1 = pgi_rng_f(rng), u2 = pgi_rng_f(rng), u3 = pgi_rng_f(rng);
         if (!pgi__bsdf_sample(&sf, wo, u1, u2, u3, &wi, &w)) break;
@@ -183,7 +197,11 @@ static pgi__v3 trace_sample(const pt_ctx *C, int px, int py, float jx, float jy,
             T = v3_scale(T, 1.f / qrr);
         }
         pgi__scene_surface_shading(s, h.prim, h.u, h.v, &sf);
-        pgi__surface_texture(s, &sf);
+        /* as pgi__surface_texture, its texels fetched now and applied by nee() or above */
+        if (sf.mat->tex_kd >= 0) {
+            if (pgi__texture_quad(&s->texs[sf.mat->tex_kd], sf.u, sf.v, &quad)) tq = &quad;
+            else sf.kd = v3_mul(sf.kd, v3(1.f, 1.f, 1.f)); /* no texels: pgi__texture_lookup's white */
+        }
     }
     return L;
 }
