@@ -44,15 +44,17 @@ typedef struct {
     float *tri_pick; /* triangle -> pick probability of its area light (0: none) */
 } pt_ctx;
 
-/* What every sample of a pixel sees alike without jitter: the primary ray (it draws no random
- * numbers) and, where its hit is x0, the sum of x0's delta lights in nee() (none drawn either). */
+/* What every sample of a pixel sees alike without jitter: the primary ray's hit and its surface
+ * (no random numbers drawn) and, where that is x0, the sum of x0's delta lights in nee() (none
+ * drawn either). One cache line. */
 enum { PT_EYE_NONE, PT_EYE_MISS, PT_EYE_HIT, PT_EYE_X0 };
 typedef struct pt_eye {
-    float t, u, v; /* the primary ray's hit (PT_EYE_HIT, PT_EYE_X0) */
-    uint32_t prim;
-    float delta[3]; /* PT_EYE_X0: x0's delta lights */
-    uint32_t state; /* PT_EYE_*: how much of the above is known */
+    float p[3], ng[3], ns[3], kd[3]; /* PT_EYE_HIT, PT_EYE_X0: the surface (kd with its texels) */
+    float delta[3];                  /* PT_EYE_X0: x0's delta lights */
+    uint32_t state : 2;              /* PT_EYE_*: how much of the above is known */
+    uint32_t mat : 30;               /* the surface's material, an index into the scene's */
 } pt_eye;
+_Static_assert(sizeof(pt_eye) == 64, "a pixel's eye record is one cache line");
 
 /* Applies the texels of *tq (pgi__texture_quad, NULL: applied) to sf's albedo. */
 static inline void texture_resolve(pgi__surface *sf, const pgi__texel_quad **tq) {
@@ -153,20 +155,27 @@ static pgi__v3 trace_sample(const pt_ctx *C, int px, int py, float jx, float jy,
     /* Eye path: the specular chain to the first non-specular hit x0, as view.c. */
     int depth;
     for (depth = 0;; depth++) {
-        int hit;
-        if (depth == 0 && eye && eye->state != PT_EYE_NONE) {
-            hit = eye->state != PT_EYE_MISS;
-            h = (pgi__hit){.t = eye->t, .u = eye->u, .v = eye->v, .prim = eye->prim};
-        } else {
-            hit = pgi__rt_intersect(C->rt, o, d, 0.f, INFINITY, &h);
+        const int cached = depth == 0 && eye && eye->state != PT_EYE_NONE;
+        const int hit = cached ? eye->state != PT_EYE_MISS : pgi__rt_intersect(C->rt, o, d, 0.f, INFINITY, &h);
+        if (depth == 0 && eye && !cached) eye->state = hit ? PT_EYE_HIT : PT_EYE_MISS;
+        if (!hit) return s->env ? v3_add(L, v3_mul(W, pgi__env_eval(s->env, d))) : L;
+        if (cached)
+            sf = (pgi__surface){.p = v3_load(eye->p),
+                                .ng = v3_load(eye->ng),
+                                .ns = v3_load(eye->ns),
+                                .mat = &s->mats[eye->mat],
+                                .kd = v3_load(eye->kd)}; /* u, v: no longer read */
+        else {
+            pgi__scene_surface(s, h.prim, h.u, h.v, v3_madd(o, d, h.t), &sf);
             if (depth == 0 && eye) {
-                *eye = (pt_eye){.t = h.t, .u = h.u, .v = h.v, .prim = h.prim};
-                eye->state = hit ? PT_EYE_HIT : PT_EYE_MISS;
+                v3_store(eye->p, sf.p);
+                v3_store(eye->ng, sf.ng);
+                v3_store(eye->ns, sf.ns);
+                v3_store(eye->kd, sf.kd);
+                eye->mat = (uint32_t)(sf.mat - s->mats);
             }
         }
-        if (!hit) return s->env ? v3_add(L, v3_mul(W, pgi__env_eval(s->env, d))) : L;
-        pgi__v3 p = v3_madd(o, d, h.t);
-        pgi__scene_surface(s, h.prim, h.u, h.v, p, &sf);
+        pgi__v3 p = sf.p;
         pgi__v3 wo = v3_neg(d);
         if (v3_dot(wo, sf.ng) >= 0.f) L = v3_add(L, v3_mul(W, v3_load(sf.mat->ke)));
         if (!pgi__mat_specular(sf.mat)) break;
@@ -324,9 +333,9 @@ pgi_status pgi_reference_sampler_create(const pgi_scene *s, const pgi_reference_
         return st;
     }
     C->rt = S->rt;
-    /* Worth its 32 bytes a pixel: a sample of Sibenik at 4 bounces traces some 2 of its
-       8 or so rays there. Without the memory, every sample traces them. */
-    if (!C->jitter) S->eye = calloc((size_t)d.width * (size_t)d.height, sizeof *S->eye);
+    /* Worth its 64 bytes a pixel: a sample of Sibenik at 4 bounces traces some 2 of its 8 or so
+       rays there, and shades a surface. Without the memory, every sample does that again. */
+    if (!C->jitter && s->nmats <= (size_t)1 << 30) S->eye = calloc((size_t)d.width * (size_t)d.height, sizeof *S->eye);
     S->rng_seed = pgi__mix64(d.seed ^ 0x7265666572656e63ULL);
     *out = S;
     return PGI_OK;
