@@ -3,6 +3,62 @@
 #define PGI_PHOTON_H
 
 #include "rt/rt.h"
+#include "scene/bsdf.h"
+
+/* A triangle as the tracers shade it, one cache line: its unit geometric normal, material and
+ * vertex normals (what pgi__scene_surface_untextured reads, less the positions); the texture
+ * coordinates are in a second array, 8 floats a triangle (u0 v0 u1 v1 u2 v2, 2 unused). A hit
+ * then needs one line (two when textured) instead of the triangle's indices and material
+ * and its vertices' positions, normals and coordinates: 9 scattered lines after a dependent
+ * one. */
+typedef struct pgi__trace_tri {
+    float ng[3];
+    uint32_t mat;
+    float n[9];
+    float pad[3];
+} pgi__trace_tri;
+_Static_assert(sizeof(pgi__trace_tri) == 64, "a triangle record is one cache line");
+#define PGI__TRI_UV 8
+
+/* pgi__scene_surface_untextured from a triangle record, less the texture coordinates (the texels
+ * are found before shading): the same operations on the same values, so the same bits. In two
+ * halves for a path tracer: the geometry (p, ng, mat: all that a path's last vertex needs),
+ * then the shading (ns, kd). */
+static inline void pgi__trace_tri_geometry(const pgi_scene *s, const pgi__trace_tri *r, pgi__v3 p, pgi__surface *o) {
+    o->p = p;
+    o->ng = v3_load(r->ng);
+    o->mat = &s->mats[r->mat];
+}
+
+static inline void pgi__trace_tri_shading(const pgi_scene *s, const pgi__trace_tri *r, float bu, float bv,
+                                          pgi__surface *o) {
+    float bw = 1.f - bu - bv;
+    o->ns = o->ng;
+    if (s->nrm) {
+        pgi__v3 n = v3_add(v3_add(v3_scale(v3_load(r->n), bw), v3_scale(v3_load(r->n + 3), bu)),
+                           v3_scale(v3_load(r->n + 6), bv));
+        float l = v3_len(n);
+        if (l > 0.f && isfinite(l)) {
+            n = v3_scale(n, 1.f / l);
+            o->ns = v3_dot(n, o->ng) < 0.f ? v3_neg(n) : n;
+        }
+    }
+    o->u = o->v = 0.f;
+    o->kd = v3_load(o->mat->kd);
+}
+
+static inline void pgi__trace_tri_surface(const pgi_scene *s, const pgi__trace_tri *r, float bu, float bv, pgi__v3 p,
+                                          pgi__surface *o) {
+    pgi__trace_tri_geometry(s, r, p, o);
+    pgi__trace_tri_shading(s, r, bu, bv, o);
+}
+
+/* pgi__scene_uv from a triangle's PGI__TRI_UV coordinates `q`: the same operations. */
+static inline void pgi__trace_tri_uv(const float *q, float bu, float bv, float *u, float *v) {
+    float bw = 1.f - bu - bv;
+    *u = bw * q[0] + bu * q[2] + bv * q[4];
+    *v = bw * q[1] + bu * q[3] + bv * q[5];
+}
 
 typedef struct pgi__trace_desc {
     uint32_t photons; /* photons to store */
@@ -60,6 +116,9 @@ typedef struct pgi__trace_scratch {
     uint64_t tris_version[2];
 } pgi__trace_scratch;
 void pgi__trace_scratch_free(pgi__trace_scratch *sc);
+/* (Re)builds sc's triangle records (tris, tri_uv) with nt threads when the scene's geometry is not
+ * the one they hold; the rest of sc is left alone. */
+pgi_status pgi__trace_tris_update(pgi__trace_scratch *sc, const pgi_scene *s, int nt);
 /* Bytes the scratch holds. */
 size_t pgi__trace_scratch_bytes(const pgi__trace_scratch *sc);
 

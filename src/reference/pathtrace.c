@@ -42,6 +42,10 @@ typedef struct {
     float *cdf;      /* area lights by luminance of power (as pgi__direct) */
     size_t *idx;     /* cdf entry -> light index */
     float *tri_pick; /* triangle -> pick probability of its area light (0: none) */
+    /* the triangles as the path's vertices after x0 read them (pgi__trace_tris_update): one
+       cache line a hit instead of a dozen scattered ones */
+    const pgi__trace_tri *tris;
+    const float *tri_uv; /* PGI__TRI_UV floats a triangle (NULL: no texture coordinates) */
 } pt_ctx;
 
 /* What every sample of a pixel sees alike without jitter: the primary ray's hit and its surface
@@ -212,8 +216,11 @@ static pgi__v3 trace_sample(const pt_ctx *C, int px, int py, float jx, float jy,
             if (s->env) L = v3_add(L, v3_mul(T, escaped(s, &sf, wo, d, pdf_b)));
             break;
         }
+        const pgi__trace_tri *tr = &C->tris[h.prim];
+        const float *tuv = C->tri_uv ? C->tri_uv + PGI__TRI_UV * (size_t)h.prim : NULL;
+        if (tuv) __builtin_prefetch(tuv); /* its miss overlapping tr's */
         /* The geometry first: a vertex the path ends at needs no shading normal or texel. */
-        pgi__scene_surface_geometry(s, h.prim, v3_madd(o, d, h.t), &sf);
+        pgi__trace_tri_geometry(s, tr, v3_madd(o, d, h.t), &sf);
         /* Emitter hit at x_{k+1}: a light path with k scattering events. */
         pgi__v3 ke = v3_load(sf.mat->ke);
         float cl = -v3_dot(d, sf.ng);
@@ -236,9 +243,10 @@ static pgi__v3 trace_sample(const pt_ctx *C, int px, int py, float jx, float jy,
             if (!(pgi_rng_f(rng) < qrr)) break;
             T = v3_scale(T, 1.f / qrr);
         }
-        pgi__scene_surface_shading(s, h.prim, h.u, h.v, &sf);
+        pgi__trace_tri_shading(s, tr, h.u, h.v, &sf);
         /* as pgi__surface_texture, its texels fetched now and applied by nee() or above */
         if (sf.mat->tex_kd >= 0) {
+            if (tuv) pgi__trace_tri_uv(tuv, h.u, h.v, &sf.u, &sf.v);
             if (pgi__texture_quad(&s->texs[sf.mat->tex_kd], sf.u, sf.v, &quad)) tq = &quad;
             else sf.kd = v3_mul(sf.kd, v3(1.f, 1.f, 1.f)); /* no texels: pgi__texture_lookup's white */
         }
@@ -280,8 +288,9 @@ static pgi_status ctx_lights(pt_ctx *C) {
 struct pgi_reference_sampler {
     pt_ctx C;
     pgi__rt *rt;
-    pt_eye *eye;          /* a pixel's, without jitter (NULL: none, or no memory for them) */
-    pgi_reference_desc d; /* resolved */
+    pgi__trace_scratch tris; /* only its triangle records */
+    pt_eye *eye;             /* a pixel's, without jitter (NULL: none, or no memory for them) */
+    pgi_reference_desc d;    /* resolved */
     uint64_t rng_seed;
 };
 
@@ -328,11 +337,14 @@ pgi_status pgi_reference_sampler_create(const pgi_scene *s, const pgi_reference_
     C->eps = pgi__scene_epsilon(s);
     const pgi_camera_def *cd = &s->cams[d.camera];
     pgi_camera_look_at(&C->cam, cd->eye, cd->look_at, cd->up, cd->fov_y_deg, d.width, d.height);
-    if ((st = ctx_lights(C)) || (st = pgi__rt_create(s, &S->rt))) {
+    if ((st = ctx_lights(C)) || (st = pgi__rt_create(s, &S->rt)) ||
+        (st = pgi__trace_tris_update(&S->tris, s, pgi__threads(d.threads)))) {
         pgi_reference_sampler_destroy(S);
         return st;
     }
     C->rt = S->rt;
+    C->tris = S->tris.tris;
+    C->tri_uv = S->tris.tri_uv;
     /* Worth its 64 bytes a pixel: a sample of Sibenik at 4 bounces traces some 2 of its 8 or so
        rays there, and shades a surface. Without the memory, every sample does that again. */
     if (!C->jitter && s->nmats <= (size_t)1 << 30) S->eye = calloc((size_t)d.width * (size_t)d.height, sizeof *S->eye);
@@ -345,6 +357,7 @@ void pgi_reference_sampler_destroy(pgi_reference_sampler *S) {
     if (!S) return;
     if (S->rt) pgi__rt_destroy(S->rt);
     ctx_free(&S->C);
+    pgi__trace_scratch_free(&S->tris);
     free(S->eye);
     free(S);
 }

@@ -1,17 +1,12 @@
 /* Surface interaction and BSDF sampling. */
 #include "bsdf.h"
 
-void pgi__scene_surface_geometry(const pgi_scene *s, uint32_t prim, pgi__v3 p, pgi__surface *o) {
+void pgi__scene_surface_untextured(const pgi_scene *s, uint32_t prim, float bu, float bv, pgi__v3 p, pgi__surface *o) {
     const uint32_t *t = s->tri + 3 * (size_t)prim;
     pgi__v3 a = pgi__scene_vertex(s, t[0]), b = pgi__scene_vertex(s, t[1]), c = pgi__scene_vertex(s, t[2]);
+    float bw = 1.f - bu - bv;
     o->p = p;
     o->ng = v3_norm(v3_cross(v3_sub(b, a), v3_sub(c, a)));
-    o->mat = &s->mats[s->tri_mat[prim]];
-}
-
-void pgi__scene_surface_shading(const pgi_scene *s, uint32_t prim, float bu, float bv, pgi__surface *o) {
-    const uint32_t *t = s->tri + 3 * (size_t)prim;
-    float bw = 1.f - bu - bv;
     o->ns = o->ng;
     if (s->nrm) {
         pgi__v3 n = v3_add(v3_add(v3_scale(v3_load(s->nrm + 3 * (size_t)t[0]), bw),
@@ -25,12 +20,8 @@ void pgi__scene_surface_shading(const pgi_scene *s, uint32_t prim, float bu, flo
     }
     o->u = o->v = 0.f;
     if (s->uv) pgi__scene_uv(s, prim, bu, bv, &o->u, &o->v);
+    o->mat = &s->mats[s->tri_mat[prim]];
     o->kd = v3_load(o->mat->kd);
-}
-
-void pgi__scene_surface_untextured(const pgi_scene *s, uint32_t prim, float bu, float bv, pgi__v3 p, pgi__surface *o) {
-    pgi__scene_surface_geometry(s, prim, p, o);
-    pgi__scene_surface_shading(s, prim, bu, bv, o);
 }
 
 void pgi__scene_surface(const pgi_scene *s, uint32_t prim, float bu, float bv, pgi__v3 p, pgi__surface *o) {

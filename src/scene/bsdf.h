@@ -205,10 +205,6 @@ void pgi__scene_surface(const pgi_scene *s, uint32_t prim, float bu, float bv, p
 /* The same without the texture fetch (kd is the material's); pgi__surface_texture applies it
  * later, only where a path needs the albedo. */
 void pgi__scene_surface_untextured(const pgi_scene *s, uint32_t prim, float bu, float bv, pgi__v3 p, pgi__surface *out);
-/* pgi__scene_surface_untextured in two halves: the geometry (p, ng, mat: all that a path's last
- * vertex needs, its emission and the side it is seen from), then the shading (ns, u, v, kd). */
-void pgi__scene_surface_geometry(const pgi_scene *s, uint32_t prim, pgi__v3 p, pgi__surface *out);
-void pgi__scene_surface_shading(const pgi_scene *s, uint32_t prim, float bu, float bv, pgi__surface *out);
 /* Texture coordinates at barycentrics (bu, bv) of triangle prim (the scene has uvs). */
 static inline void pgi__scene_uv(const pgi_scene *s, uint32_t prim, float bu, float bv, float *u, float *v) {
     const uint32_t *t = s->tri + 3 * (size_t)prim;
