@@ -67,7 +67,8 @@ pgi_status pgi_reference_sampler_create(const pgi_scene *scene, const pgi_refere
 void pgi_reference_sampler_size(const pgi_reference_sampler *s, int *width, int *height);
 /* Adds sample `sample` (0-based, of the stream of the desc's seed) of every pixel to `sum`
  * (3 doubles a pixel, row-major): sum[i] += sample. A block's sum is a zeroed buffer and its
- * samples in order. */
+ * samples in order. One call at a time on a sampler (without jitter it keeps what a pixel's
+ * samples share). */
 pgi_status pgi_reference_sampler_add(pgi_reference_sampler *s, uint64_t sample, double *sum);
 void pgi_reference_sampler_destroy(pgi_reference_sampler *s);
 

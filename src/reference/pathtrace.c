@@ -345,7 +345,7 @@ pgi_status pgi_reference_sampler_create(const pgi_scene *s, const pgi_reference_
     C->rt = S->rt;
     C->tris = S->tris.tris;
     C->tri_uv = S->tris.tri_uv;
-    /* Worth its 64 bytes a pixel: a sample of Sibenik at 4 bounces traces some 2 of its 8 or so
+    /* Worth its 64 bytes a pixel: a sample of Sibenik at 4 bounces traces 1.8 of its 5.0
        rays there, and shades a surface. Without the memory, every sample does that again. */
     if (!C->jitter && s->nmats <= (size_t)1 << 30) S->eye = calloc((size_t)d.width * (size_t)d.height, sizeof *S->eye);
     S->rng_seed = pgi__mix64(d.seed ^ 0x7265666572656e63ULL);
