@@ -597,32 +597,52 @@ pgi_status cl_build(void *state, const pgi_estimate_args *a) {
 
 /* ------------------------------------------------------------ radiance */
 
-/* One block of nb samples (local arrays) against m list photons, photon-major:
- * the inner loop over the samples is branch-free and vectorises. It makes
- * exactly pgi__gather's decisions (same expressions; no FMA contraction) and
- * adds each contributing photon's flux in list order; a rejected photon adds
- * 0 * flux (flux is finite), so the sums are those of gather. */
+/* 8 lanes: 8 consecutive samples of a block; an AVX2 register (the default clone uses two SSE ones). */
+typedef float cl_v8f __attribute__((vector_size(32)));
+typedef int32_t cl_v8i __attribute__((vector_size(32)));
+
+/* One block of nbv samples (a multiple of 8; sorted-sample arrays) against the
+ * lists of the np path nodes (path[np - 1] is the root), into the block's
+ * local sums. Sample-major, 8 samples a step: their sums stay in registers
+ * over every photon of the path (photon-major, each photon stored and reloaded
+ * them, a store-to-load chain per photon). The loop over the lanes is
+ * branch-free; it makes exactly pgi__gather's decisions (same expressions; no
+ * FMA contraction) and adds each sample's contributing photons in path order
+ * (root first), then list order; a rejected photon adds 0 * flux (flux is
+ * finite), so the sums are those of gather. */
 PGI__HOT_LOOP
-static void rad_block(const pgi__packed_photon *restrict pk, const uint32_t *restrict li, uint32_t m, int nb,
+static void rad_block(const pgi__packed_photon *restrict pk, const uint32_t *restrict lists,
+                      const uint32_t *restrict node_start, const uint32_t *restrict path, int np, int nbv,
                       const float *restrict bx, const float *restrict by, const float *restrict bz,
                       const float *restrict bnx, const float *restrict bny, const float *restrict bnz,
                       float *restrict ar, float *restrict ag, float *restrict ab, uint32_t *restrict an, float r2) {
-    for (uint32_t e = 0; e < m; e++) {
-        if (e + 8 < m) __builtin_prefetch(pk + li[e + 8]);
-        const pgi__packed_photon *q = pk + li[e];
-        const float px = q->px, py = q->py, pz = q->pz, dx = q->dx, dy = q->dy, dz = q->dz, fr = q->fr, fg = q->fg,
-                    fb = q->fb;
-        for (int t = 0; t < nb; t++) {
-            float ex = px - bx[t], ey = py - by[t], ez = pz - bz[t];
-            float d2 = ex * ex + ey * ey + ez * ez;
-            float c = bnx[t] * dx + bny[t] * dy + bnz[t] * dz;
-            int ok = (d2 < r2) & (c > 0.f);
-            float okf = (float)ok; /* int, not unsigned: SSE2 has the conversion */
-            ar[t] += okf * fr;
-            ag[t] += okf * fg;
-            ab[t] += okf * fb;
-            an[t] += (uint32_t)ok;
+    const cl_v8i one = {0x3f800000, 0x3f800000, 0x3f800000, 0x3f800000,
+                        0x3f800000, 0x3f800000, 0x3f800000, 0x3f800000}; /* the bits of 1.f */
+    for (int t = 0; t < nbv; t += 8) {
+        cl_v8f x, y, z, nx, ny, nz;
+        memcpy(&x, bx + t, sizeof x), memcpy(&y, by + t, sizeof y), memcpy(&z, bz + t, sizeof z);
+        memcpy(&nx, bnx + t, sizeof nx), memcpy(&ny, bny + t, sizeof ny), memcpy(&nz, bnz + t, sizeof nz);
+        cl_v8f sr = {0.f}, sg = {0.f}, sb = {0.f};
+        cl_v8i sn = {0};
+        for (int p = np - 1; p >= 0; p--) {
+            const uint32_t *li = lists + node_start[path[p]];
+            const uint32_t m = node_start[path[p] + 1] - node_start[path[p]];
+            for (uint32_t e = 0; e < m; e++) {
+                if (t == 0 && e + 8 < m) __builtin_prefetch(pk + li[e + 8]);
+                const pgi__packed_photon *q = pk + li[e];
+                const cl_v8f ex = q->px - x, ey = q->py - y, ez = q->pz - z;
+                const cl_v8f d2 = ex * ex + ey * ey + ez * ez;
+                const cl_v8f c = nx * q->dx + ny * q->dy + nz * q->dz;
+                const cl_v8i ok = (d2 < r2) & (c > 0.f); /* lanes: -1 or 0 */
+                const cl_v8f okf = (cl_v8f)(ok & one);   /* 1.f or 0.f */
+                sr += okf * q->fr;
+                sg += okf * q->fg;
+                sb += okf * q->fb;
+                sn -= ok;
+            }
         }
+        memcpy(ar + t, &sr, sizeof sr), memcpy(ag + t, &sg, sizeof sg), memcpy(ab + t, &sb, sizeof sb);
+        memcpy(an + t, &sn, sizeof sn);
     }
 }
 
@@ -675,12 +695,11 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
             }
             const float *cf = s->cum_flux + 3 * li;
             const uint32_t cc = s->cum_cnt[li];
-            /* Photon-major over blocks of samples held as local arrays: the
-             * inner loop over samples is branch-free and vectorises. It makes
-             * exactly pgi__gather's decisions (same expressions, same order;
-             * no FMA contraction) and sums each sample's flux in the same
-             * order (root to leaf, photon order). Non-Lambertian samples are
-             * masked out (NaN position) and gathered with pgi__gather. */
+            /* Blocks of up to B sorted samples, 8 at a time against every
+             * photon of the path (rad_block): the same decisions and the same
+             * summation order as pgi__gather (root to leaf, photon order).
+             * Non-Lambertian samples are masked out (NaN position) and
+             * gathered with pgi__gather. */
             enum { B = 64 };
             float ar[B], ag[B], ab[B];
             uint32_t an[B];
@@ -692,13 +711,8 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
                 /* whole vectors: lanes past nb read the next samples (or the zero
                  * padding) and are ignored; each lane is independent */
                 const int nbv = (nb + 7) & ~7;
-                for (int t = 0; t < nbv; t++) ar[t] = ag[t] = ab[t] = 0.f, an[t] = 0;
-                for (int p = np - 1; p >= 0; p--) {
-                    const uint32_t *q = s->lists + s->node_start[path[p]];
-                    const uint32_t m = s->node_start[path[p] + 1] - s->node_start[path[p]];
-                    rad_block(s->pk, q, m, nbv, bx + k0, by + k0, bz + k0, bnx + k0, bny + k0, bnz + k0, ar, ag, ab, an,
-                              r2);
-                }
+                rad_block(s->pk, s->lists, s->node_start, path, np, nbv, bx + k0, by + k0, bz + k0, bnx + k0, bny + k0,
+                          bnz + k0, ar, ag, ab, an, r2);
                 const float w = 1.f / (PGI_PI * r2);
                 for (int t = 0; t < nb; t++) {
                     size_t i = s->order[k0 + t];
