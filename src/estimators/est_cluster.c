@@ -401,8 +401,9 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
         size_t j1 = ((size_t)ci + 1) * chunk < n ? ((size_t)ci + 1) * chunk : n;
         for (size_t j = (size_t)ci * chunk; j < j1; j++) {
             photon_q q;
-            pgi__pack_photon(ph, j, &s->pk[j]); /* sequential here; the later passes read pk */
-            load_photon(s, &s->pk[j], j, &q);
+            pgi__packed_photon p;
+            pgi__pack_photon(ph, j, &p); /* into pk once its position is known (below) */
+            load_photon(s, &p, j, &q);
             k->visited++;
             if (!(child_hits(s, variant, 0, 1, &q, NULL, NULL) & 1u)) continue; /* the root */
             walk(s, variant, 1, 0, 0, &q, k);
@@ -411,6 +412,48 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
         oom |= k->oom;
     }
     if (oom) return pgi__fail(PGI_ERR_OOM, "cluster: out of memory for the traversal records");
+    /* Where each photon goes in pk: grouped by the first node its top walk recorded (a job-level
+     * node, in key order, or a list node above; photons with no record last), photon order
+     * within a group (a counting sort over the fixed chunks). The jobs of one subtree and the
+     * lists of its leaves then read few, nearby records; in photon order pk was a random
+     * scatter, and those loads were a third of the subtree and radiance passes. Lists and jobs
+     * hold pk positions but stay in photon order, so every sum is unchanged. */
+    const size_t nkeys = (size_t)ntop + 1;
+    if ((st = ENSURE(perm, n + 1, uint32_t)) || (st = ENSURE(perm_hist, nch * nkeys + 1, uint32_t))) return st;
+#pragma omp parallel for schedule(static) num_threads(s->c.threads)
+    for (long long ci = 0; ci < (long long)nch; ci++) {
+        const sink *k = &s->outs[ci];
+        uint32_t *h = s->perm_hist + (size_t)ci * nkeys;
+        memset(h, 0, nkeys * sizeof *h);
+        size_t u = 0, j1 = ((size_t)ci + 1) * chunk < n ? ((size_t)ci + 1) * chunk : n;
+        for (size_t j = (size_t)ci * chunk; j < j1; j++) {
+            uint32_t key = ntop;
+            if (u < k->nout && k->out[2 * u + 1] == (uint32_t)j) {
+                key = k->out[2 * u];
+                while (u < k->nout && k->out[2 * u + 1] == (uint32_t)j) u++;
+            }
+            s->perm[j] = key;
+            h[key]++;
+        }
+    }
+    {
+        uint32_t pos = 0;
+        for (size_t key = 0; key < nkeys; key++)
+            for (size_t ci = 0; ci < nch; ci++) {
+                uint32_t *h = s->perm_hist + ci * nkeys + key, v = *h;
+                *h = pos;
+                pos += v;
+            }
+    }
+#pragma omp parallel for schedule(static) num_threads(s->c.threads)
+    for (long long ci = 0; ci < (long long)nch; ci++) {
+        uint32_t *h = s->perm_hist + (size_t)ci * nkeys;
+        size_t j1 = ((size_t)ci + 1) * chunk < n ? ((size_t)ci + 1) * chunk : n;
+        for (size_t j = (size_t)ci * chunk; j < j1; j++) {
+            s->perm[j] = h[s->perm[j]]++;
+            pgi__pack_photon(ph, j, &s->pk[s->perm[j]]);
+        }
+    }
     /* Prefix sums, node-major then chunk: photon order within every list. */
     size_t sum = 0;
     for (uint32_t nd = 0; nd < nabove; nd++) {
@@ -443,10 +486,10 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
         const sink *k = &s->outs[ci];
         uint32_t *off = s->top_cnt + (size_t)ci * ntop;
         for (size_t u = 0; u < k->nout; u++) {
-            uint32_t nd = k->out[2 * u], j = k->out[2 * u + 1];
+            uint32_t nd = k->out[2 * u], j = s->perm[k->out[2 * u + 1]];
             if (nd < nabove) {
                 s->top_ids[off[nd]++] = j;
-            } else { /* the subtree pass reads pk[j] in increasing j within a job: no copy of the
+            } else { /* the subtree pass reads pk[j], mostly increasing within a job: no copy of the
                       * record (it cost 36 of the 40 bytes a job entry took: 90 MB at 1M photons) */
                 s->jobs[off[nd]++] = j;
             }
@@ -490,8 +533,8 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
             s->task_rec[3 * t + 1] = (uint32_t)k->nout;
             const uint32_t u1 = s->job_start[t + 1];
             for (uint32_t u = s->job_start[t]; u < u1; u++) {
-                /* The jobs' photons are increasing but sparse in pk: without the prefetch a third
-                 * of this pass waited on their first load. 36-byte records: two lines. */
+                /* The jobs' photons are sparse in pk: without the prefetch a third of this pass
+                 * waited on their first load. 36-byte records: two lines. */
                 if (u + PREFETCH_JOBS < u1) {
                     const char *p = (const char *)&s->pk[s->jobs[u + PREFETCH_JOBS]];
                     __builtin_prefetch(p);
@@ -755,7 +798,7 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
 }
 
 /* Every buffer of the state, for cl_destroy and the memory stats. */
-#define CL_NBUFS 41
+#define CL_NBUFS 43
 static void cl_bufs(cl_state *s, pgi__buf *out[CL_NBUFS]) {
     pgi__buf *b[CL_NBUFS] = {&s->keys_buf,      &s->keys2_buf,  &s->spread_buf,   &s->ck2_buf,       &s->tcl_buf,
                              &s->tn_buf,        &s->ci_buf,     &s->ci2_buf,      &s->cb_buf,        &s->cn_buf,
@@ -765,7 +808,7 @@ static void cl_bufs(cl_state *s, pgi__buf *out[CL_NBUFS]) {
                              &s->node_tcnt_buf, &s->cursor_buf, &s->top_flux_buf, &s->node_flux_buf, &s->buckets_buf,
                              &s->lists_buf,     &s->pk_buf,     &s->cum_flux_buf, &s->irr_buf,       &s->cum_cnt_buf,
                              &s->task_rec_buf,  &s->soa_buf,    &s->sam_buf,      &s->sec_key_buf,   &s->sec_pix_buf,
-                             &s->sec_pos_buf};
+                             &s->sec_pos_buf,   &s->perm_buf,   &s->perm_hist_buf};
     memcpy(out, b, sizeof b);
 }
 
