@@ -72,7 +72,9 @@ typedef struct {
     PGI__BUF(float, node_flux);
     PGI__BUF(float, buckets);
     PGI__BUF(uint32_t, lists);        /* node photon lists: indices into pk, photon order */
-    PGI__BUF(pgi__packed_photon, pk); /* every photon packed */
+    PGI__BUF(pgi__packed_photon, pk); /* every photon packed, grouped by its first top node */
+    PGI__BUF(uint32_t, perm);         /* per photon: its position in pk */
+    PGI__BUF(uint32_t, perm_hist);    /* per top chunk x first top node: counts, then positions */
     size_t njobs, nlist, ntop_list, npacked;
     /* radiance */
     PGI__BUF(float, cum_flux);
