@@ -488,9 +488,10 @@ pgi_status pgi__area_table_build(const pgi_scene *s, pgi__area_table *t) {
     return st;
 }
 
-/* The view-sample planes of tile (tx, ty) that pgi__direct reads, and its output, into the
- * cache: a tile reads 4 short runs of each of a dozen planes, more streams than the hardware
- * prefetcher follows. DIRECT_PREFETCH tiles ahead. Macros, not functions: gcc finds a
+/* The view-sample planes of tile (tx, ty) that pgi__direct reads for every pixel, and its
+ * output, into the cache: a tile reads 4 short runs of each plane, more streams than the hardware
+ * prefetcher follows (the shading planes follow per lane: PREFETCH_SHADING). DIRECT_PREFETCH
+ * tiles ahead. Macros, not functions: gcc finds a
  * function that only prefetches free of side effects and drops its calls. */
 #ifndef DIRECT_PREFETCH
 #define DIRECT_PREFETCH 2
