@@ -7,6 +7,9 @@
 #include <stdatomic.h>
 #include <stdio.h>
 #include <string.h>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 /* One Embree geometry: a class of the scene's triangles (static or animated, with or without
  * a cut-out mask). */
@@ -461,7 +464,31 @@ void pgi__rt_occluded16_soa(const pgi__rt *rt, const int valid[16], const float 
     ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
     RTC_ALIGN(64) struct RTCRay16 r;
     RTC_ALIGN(64) int vmask[16];
-    float tf[16];
+    RTC_ALIGN(16) float tf[16];
+#if defined(__SSE2__)
+    /* Four lanes an instruction (gcc keeps the loop below scalar: a dozen stores a lane, as many
+     * as the direct pass's own work on the lane). The same bits: a lane's values, or +0. */
+    for (int i = 0; i < 16; i += 4) {
+        const __m128i vi = _mm_loadu_si128((const __m128i *)(valid + i));
+        const __m128i mi = _mm_xor_si128(_mm_cmpeq_epi32(vi, _mm_setzero_si128()), _mm_set1_epi32(-1));
+        const __m128 m = _mm_castsi128_ps(mi);
+        _mm_store_si128((__m128i *)(vmask + i), mi);
+        _mm_store_ps(r.org_x + i, _mm_and_ps(m, _mm_loadu_ps(o[0] + i)));
+        _mm_store_ps(r.org_y + i, _mm_and_ps(m, _mm_loadu_ps(o[1] + i)));
+        _mm_store_ps(r.org_z + i, _mm_and_ps(m, _mm_loadu_ps(o[2] + i)));
+        _mm_store_ps(r.dir_x + i, _mm_and_ps(m, _mm_loadu_ps(d[0] + i)));
+        _mm_store_ps(r.dir_y + i, _mm_and_ps(m, _mm_loadu_ps(d[1] + i)));
+        _mm_store_ps(r.dir_z + i, _mm_and_ps(m, _mm_loadu_ps(d[2] + i)));
+        _mm_store_ps(r.tnear + i, _mm_setzero_ps());
+        const __m128 t = _mm_and_ps(m, _mm_loadu_ps(tfar + i));
+        _mm_store_ps(r.tfar + i, t);
+        _mm_store_ps(tf + i, t);
+        _mm_store_ps(r.time + i, _mm_setzero_ps());
+        _mm_store_si128((__m128i *)(r.mask + i), _mm_set1_epi32(-1));
+        _mm_store_si128((__m128i *)(r.id + i), _mm_setr_epi32(i, i + 1, i + 2, i + 3));
+        _mm_store_si128((__m128i *)(r.flags + i), _mm_setzero_si128());
+    }
+#else
     for (int i = 0; i < 16; i++) {
         const int v = valid[i] != 0;
         vmask[i] = v ? -1 : 0;
@@ -479,6 +506,7 @@ void pgi__rt_occluded16_soa(const pgi__rt *rt, const int valid[16], const float 
         r.id[i] = (unsigned)i;
         r.flags[i] = 0;
     }
+#endif
     rtcOccluded16(vmask, rt->scene, &ctx, &r);
     for (int i = 0; i < 16; i++) occluded[i] = valid[i] && r.tfar[i] < 0.f;
     if (CAPTURING(rt)) {

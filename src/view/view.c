@@ -488,9 +488,10 @@ pgi_status pgi__area_table_build(const pgi_scene *s, pgi__area_table *t) {
     return st;
 }
 
-/* The view-sample planes of tile (tx, ty) that pgi__direct reads, and its output, into the
- * cache: a tile reads 4 short runs of each of a dozen planes, more streams than the hardware
- * prefetcher follows. DIRECT_PREFETCH tiles ahead. Macros, not functions: gcc finds a
+/* The view-sample planes of tile (tx, ty) that pgi__direct reads for every pixel, and its
+ * output, into the cache: a tile reads 4 short runs of each plane, more streams than the hardware
+ * prefetcher follows (the shading planes follow per lane: PREFETCH_SHADING). DIRECT_PREFETCH
+ * tiles ahead. Macros, not functions: gcc finds a
  * function that only prefetches free of side effects and drops its calls. */
 #ifndef DIRECT_PREFETCH
 #define DIRECT_PREFETCH 2
@@ -510,11 +511,21 @@ pgi_status pgi__area_table_build(const pgi_scene *s, pgi__area_table *t) {
             PREFETCH_RUN((vs)->pos + 3 * pf_i, pf_b3);                                                                 \
             PREFETCH_RUN((vs)->nrm + 3 * pf_i, pf_b3);                                                                 \
             PREFETCH_RUN((vs)->ngeo + 3 * pf_i, pf_b3);                                                                \
-            PREFETCH_RUN((vs)->wo + 3 * pf_i, pf_b3);                                                                  \
-            PREFETCH_RUN((vs)->kd + 3 * pf_i, pf_b3);                                                                  \
-            PREFETCH_RUN((vs)->ks + 3 * pf_i, pf_b3);                                                                  \
             PREFETCH_RUN((vs)->weight + 3 * pf_i, pf_b3);                                                              \
             PREFETCH_RUN((out) + 3 * pf_i, pf_b3);                                                                     \
+        }                                                                                                              \
+    } while (0)
+/* What tile_brdf loads for lane k, requested when the lane casts a shadow ray: the ray's trace
+ * then covers the misses, and pixels that face away from every light never load these planes
+ * (a fifth of Sibenik's; prefetched with the tile, they cost bandwidth for nothing). */
+#define PREFETCH_SHADING(vs, t, k)                                                                                     \
+    do {                                                                                                               \
+        if (!(t)->ready[k]) {                                                                                          \
+            const size_t pf_i = (t)->pix[k];                                                                           \
+            __builtin_prefetch((vs)->wo + 3 * pf_i);                                                                   \
+            __builtin_prefetch((vs)->kd + 3 * pf_i);                                                                   \
+            __builtin_prefetch((vs)->ks + 3 * pf_i);                                                                   \
+            __builtin_prefetch((vs)->shininess + pf_i);                                                                \
         }                                                                                                              \
     } while (0)
 
@@ -597,6 +608,8 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
                     }
                 if (!nv) continue;
                 rays += (uint64_t)nv;
+                for (int k = 0; k < 16; k++)
+                    if (valid[k]) PREFETCH_SHADING(vs, &t, k);
                 pgi__rt_occluded16_soa(rt, valid, xo, wd, tmax, occ);
                 for (int k = 0; k < 16; k++)
                     if (valid[k] && !occ[k]) {
@@ -638,6 +651,8 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
                     }
                     if (!nv) continue;
                     rays += (uint64_t)nv;
+                    for (int k = 0; k < 16; k++)
+                        if (valid[k]) PREFETCH_SHADING(vs, &t, k);
                     pgi__rt_occluded16(rt, valid, t.x, wi, tmax, 1, occ);
                     for (int k = 0; k < 16; k++)
                         if (valid[k] && !occ[k])
@@ -646,7 +661,11 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
                 for (int k = 0; k < 16; k++)
                     if (t.on[k]) L[k] = v3_add(L[k], v3_scale(La[k], 1.f / (float)area_samples));
             }
-            if (s->env && area_samples > 0) env_direct(s->env, rt, &t, vs, area_samples, seed, L, &rays);
+            if (s->env && area_samples > 0) {
+                for (int k = 0; k < 16; k++)
+                    if (t.on[k]) PREFETCH_SHADING(vs, &t, k);
+                env_direct(s->env, rt, &t, vs, area_samples, seed, L, &rays);
+            }
             for (int k = 0; k < 16; k++)
                 if (t.on[k]) v3_store(out + 3 * t.pix[k], v3_mul(L[k], v3_load(vs->weight + 3 * t.pix[k])));
         }
