@@ -3,6 +3,7 @@
 #define PGI_PHOTON_H
 
 #include "rt/rt.h"
+#include "scene/bsdf.h"
 
 typedef struct pgi__trace_desc {
     uint32_t photons; /* photons to store */
@@ -62,6 +63,49 @@ typedef struct pgi__trace_scratch {
 void pgi__trace_scratch_free(pgi__trace_scratch *sc);
 /* Bytes the scratch holds. */
 size_t pgi__trace_scratch_bytes(const pgi__trace_scratch *sc);
+
+/* A triangle as the tracer and the view pass shade it, one cache line: its unit geometric normal, material and
+ * vertex normals (what pgi__scene_surface_untextured reads, less the positions); the texture
+ * coordinates are in a second array, 8 floats a triangle (u0 v0 u1 v1 u2 v2, 2 unused). A hit
+ * then needs one line (two when textured) instead of the triangle's indices and material
+ * and its vertices' positions, normals and coordinates: 9 scattered lines after a dependent
+ * one. */
+typedef struct pgi__trace_tri {
+    float ng[3];
+    uint32_t mat;
+    float n[9];
+    float pad[3];
+} pgi__trace_tri;
+_Static_assert(sizeof(pgi__trace_tri) == 64, "a triangle record is one cache line");
+#define PGI__TRI_UV 8
+
+/* pgi__scene_surface_untextured from a triangle record, less the texture coordinates (the texels
+ * are found before shading): the same operations on the same values, so the same bits. */
+static inline void pgi__tri_surface(const pgi_scene *s, const pgi__trace_tri *r, float bu, float bv, pgi__v3 p,
+                                    pgi__surface *o) {
+    float bw = 1.f - bu - bv;
+    o->p = p;
+    o->ng = v3_load(r->ng);
+    o->ns = o->ng;
+    if (s->nrm) {
+        pgi__v3 n = v3_add(v3_add(v3_scale(v3_load(r->n), bw), v3_scale(v3_load(r->n + 3), bu)),
+                           v3_scale(v3_load(r->n + 6), bv));
+        float l = v3_len(n);
+        if (l > 0.f && isfinite(l)) {
+            n = v3_scale(n, 1.f / l);
+            o->ns = v3_dot(n, o->ng) < 0.f ? v3_neg(n) : n;
+        }
+    }
+    o->u = o->v = 0.f;
+    o->mat = &s->mats[r->mat];
+    o->kd = v3_load(o->mat->kd);
+}
+
+
+/* (Re)builds sc's triangle records (tris, tri_uv) when the scene's geometry is not the one they
+ * hold, with `threads` threads (0: OpenMP's default). pgi__photons_trace calls it; the view pass
+ * shades from the same records. */
+pgi_status pgi__trace_tris_update(pgi__trace_scratch *sc, const pgi_scene *s, int threads);
 
 pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__trace_desc *d, pgi_photons *ph,
                               pgi__trace_scratch *scratch, uint64_t *rays);

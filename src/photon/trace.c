@@ -26,20 +26,6 @@ _Static_assert(WAVE == 16, "a wave is one pgi__rt_intersect16 packet");
  * order, so that the result is the same whatever the thread count. */
 #define CHUNK 1024
 
-/* A triangle as the tracer shades it, one cache line: its unit geometric normal, material and
- * vertex normals (what pgi__scene_surface_untextured reads, less the positions); the texture
- * coordinates are in a second array, 8 floats a triangle (u0 v0 u1 v1 u2 v2, 2 unused). A hit
- * then needs one line (two when textured) instead of the triangle's indices and material
- * and its vertices' positions, normals and coordinates: 9 scattered lines after a dependent
- * one. */
-typedef struct pgi__trace_tri {
-    float ng[3];
-    uint32_t mat;
-    float n[9];
-    float pad[3];
-} pgi__trace_tri;
-_Static_assert(sizeof(pgi__trace_tri) == 64, "a triangle record is one cache line");
-#define TRI_UV 8
 
 typedef struct stored_photon {
     float p[3], d[3], f[3], n[3];
@@ -66,8 +52,8 @@ typedef struct chunk_info {
 typedef struct tracer {
     const pgi_scene *s;
     const pgi__rt *rt;
-    const pgi__trace_tri *tris; /* the scene's triangles as shaded (tris_update) */
-    const float *tri_uv;        /* and their texture coordinates, TRI_UV floats each (NULL: none) */
+    const pgi__trace_tri *tris; /* the scene's triangles as shaded (pgi__trace_tris_update) */
+    const float *tri_uv;        /* and their texture coordinates, PGI__TRI_UV floats each (NULL: none) */
     const float *cdf;           /* light CDF by luminance of power */
     size_t nl;
     int bounces;
@@ -234,8 +220,8 @@ static void *tris_alloc(size_t bytes, size_t *total) {
     return p;
 }
 
-/* (Re)builds the triangle records when the scene's geometry is not the one they hold. */
-static pgi_status tris_update(pgi__trace_scratch *sc, const pgi_scene *s, int nt) {
+pgi_status pgi__trace_tris_update(pgi__trace_scratch *sc, const pgi_scene *s, int threads) {
+    const int nt = pgi__threads(threads);
     const void *key[6] = {s, s->tri, s->pos, s->nrm, s->uv, s->tri_mat};
     if (sc->tris && sc->tris_n == s->ntris && !memcmp(key, sc->tris_key, sizeof key) &&
         sc->tris_version[0] == s->static_version && sc->tris_version[1] == s->dynamic_version)
@@ -247,7 +233,7 @@ static pgi_status tris_update(pgi__trace_scratch *sc, const pgi_scene *s, int nt
     const size_t n = s->ntris ? s->ntris : 1;
     size_t bytes = 0;
     sc->tris = tris_alloc(n * sizeof *sc->tris, &bytes);
-    if (s->uv) sc->tri_uv = tris_alloc(n * TRI_UV * sizeof(float), &bytes);
+    if (s->uv) sc->tri_uv = tris_alloc(n * PGI__TRI_UV * sizeof(float), &bytes);
     if (!sc->tris || (s->uv && !sc->tri_uv)) {
         free(sc->tris);
         free(sc->tri_uv);
@@ -269,7 +255,7 @@ static pgi_status tris_update(pgi__trace_scratch *sc, const pgi_scene *s, int nt
         if (s->nrm)
             for (int j = 0; j < 3; j++) memcpy(r->n + 3 * j, s->nrm + 3 * (size_t)t[j], 3 * sizeof(float));
         if (tuv) {
-            float *q = tuv + TRI_UV * (size_t)i;
+            float *q = tuv + PGI__TRI_UV * (size_t)i;
             for (int j = 0; j < 3; j++) memcpy(q + 2 * j, s->uv + 2 * (size_t)t[j], 2 * sizeof(float));
             q[6] = q[7] = 0.f;
         }
@@ -280,28 +266,6 @@ static pgi_status tris_update(pgi__trace_scratch *sc, const pgi_scene *s, int nt
     sc->tris_version[0] = s->static_version;
     sc->tris_version[1] = s->dynamic_version;
     return PGI_OK;
-}
-
-/* pgi__scene_surface_untextured from a triangle record, less the texture coordinates (the texels
- * are found before shading): the same operations on the same values, so the same bits. */
-static inline void tri_surface(const pgi_scene *s, const pgi__trace_tri *r, float bu, float bv, pgi__v3 p,
-                               pgi__surface *o) {
-    float bw = 1.f - bu - bv;
-    o->p = p;
-    o->ng = v3_load(r->ng);
-    o->ns = o->ng;
-    if (s->nrm) {
-        pgi__v3 n = v3_add(v3_add(v3_scale(v3_load(r->n), bw), v3_scale(v3_load(r->n + 3), bu)),
-                           v3_scale(v3_load(r->n + 6), bv));
-        float l = v3_len(n);
-        if (l > 0.f && isfinite(l)) {
-            n = v3_scale(n, 1.f / l);
-            o->ns = v3_dot(n, o->ng) < 0.f ? v3_neg(n) : n;
-        }
-    }
-    o->u = o->v = 0.f;
-    o->mat = &s->mats[r->mat];
-    o->kd = v3_load(o->mat->kd);
 }
 
 /* Traces paths [p0, p1) of the frame (one chunk) a wave at a time; their photons are appended
@@ -349,7 +313,7 @@ static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbu
                 L[k].h = hh[k];
                 if (hh[k].prim != UINT32_MAX) {
                     __builtin_prefetch(T->tris + hh[k].prim);
-                    if (T->tri_uv) __builtin_prefetch(T->tri_uv + TRI_UV * (size_t)hh[k].prim);
+                    if (T->tri_uv) __builtin_prefetch(T->tri_uv + PGI__TRI_UV * (size_t)hh[k].prim);
                 }
             }
         }
@@ -365,7 +329,7 @@ static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbu
             float u = 0.f, v = 0.f; /* without texture coordinates the lookup reads (0, 0) */
             if (T->tri_uv) {
                 /* pgi__scene_uv's operations */
-                const float *q = T->tri_uv + TRI_UV * (size_t)l->h.prim;
+                const float *q = T->tri_uv + PGI__TRI_UV * (size_t)l->h.prim;
                 float bw = 1.f - l->h.u - l->h.v;
                 u = bw * q[0] + l->h.u * q[2] + l->h.v * q[4];
                 v = bw * q[1] + l->h.u * q[3] + l->h.v * q[5];
@@ -380,7 +344,7 @@ static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbu
             if (l->h.prim != UINT32_MAX) {
                 pgi__surface sf;
                 pgi__v3 p = v3_madd(l->o, l->d, l->h.t);
-                tri_surface(s, &T->tris[l->h.prim], l->h.u, l->h.v, p, &sf);
+                pgi__tri_surface(s, &T->tris[l->h.prim], l->h.u, l->h.v, p, &sf);
                 pgi__v3 wi = v3_neg(l->d);
                 pgi__v3 ng = v3_dot(wi, sf.ng) >= 0.f ? sf.ng : v3_neg(sf.ng);
                 if (T->fp_track) pgi__fp_hit(&l->pd, &T->fp, l->d, l->h.t, ng);
@@ -542,7 +506,7 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
                 NULL,
                 d->near};
     const int nt = pgi__threads(d->threads);
-    pgi_status ts = tris_update(sc, s, nt);
+    pgi_status ts = pgi__trace_tris_update(sc, s, nt);
     if (ts) {
         free(cdf);
         return ts;
