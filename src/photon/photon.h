@@ -64,10 +64,10 @@ void pgi__trace_scratch_free(pgi__trace_scratch *sc);
 /* Bytes the scratch holds. */
 size_t pgi__trace_scratch_bytes(const pgi__trace_scratch *sc);
 
-/* A triangle as the tracer and the view pass shade it, one cache line: its unit geometric normal, material and
- * vertex normals (what pgi__scene_surface_untextured reads, less the positions); the texture
- * coordinates are in a second array, 8 floats a triangle (u0 v0 u1 v1 u2 v2, 2 unused). A hit
- * then needs one line (two when textured) instead of the triangle's indices and material
+/* A triangle as the tracer and the view pass shade it, one cache line: its unit geometric normal,
+ * material and vertex normals (what pgi__scene_surface_untextured reads, less the positions); the
+ * texture coordinates are in a second array, 8 floats a triangle (u0 v0 u1 v1 u2 v2, 2 unused).
+ * A hit then needs one line (two when textured) instead of the triangle's indices and material
  * and its vertices' positions, normals and coordinates: 9 scattered lines after a dependent
  * one. */
 typedef struct pgi__trace_tri {
@@ -100,7 +100,6 @@ static inline void pgi__tri_surface(const pgi_scene *s, const pgi__trace_tri *r,
     o->mat = &s->mats[r->mat];
     o->kd = v3_load(o->mat->kd);
 }
-
 
 /* (Re)builds sc's triangle records (tris, tri_uv) when the scene's geometry is not the one they
  * hold, with `threads` threads (0: OpenMP's default). pgi__photons_trace calls it; the view pass

@@ -26,7 +26,6 @@ _Static_assert(WAVE == 16, "a wave is one pgi__rt_intersect16 packet");
  * order, so that the result is the same whatever the thread count. */
 #define CHUNK 1024
 
-
 typedef struct stored_photon {
     float p[3], d[3], f[3], n[3];
 } stored_photon;
