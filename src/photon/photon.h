@@ -116,9 +116,10 @@ typedef struct pgi__trace_scratch {
     uint64_t tris_version[2];
 } pgi__trace_scratch;
 void pgi__trace_scratch_free(pgi__trace_scratch *sc);
-/* (Re)builds sc's triangle records (tris, tri_uv) with nt threads when the scene's geometry is not
- * the one they hold; the rest of sc is left alone. */
-pgi_status pgi__trace_tris_update(pgi__trace_scratch *sc, const pgi_scene *s, int nt);
+/* (Re)builds sc's triangle records (tris, tri_uv) with `threads` threads (0: OpenMP's default) when the
+ * scene's geometry is not the one they hold; the rest of sc is left alone. pgi__photons_trace calls
+ * it; the view pass and the reference path tracer shade from the same records. */
+pgi_status pgi__trace_tris_update(pgi__trace_scratch *sc, const pgi_scene *s, int threads);
 /* Bytes the scratch holds. */
 size_t pgi__trace_scratch_bytes(const pgi__trace_scratch *sc);
 

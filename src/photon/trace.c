@@ -220,7 +220,8 @@ static void *tris_alloc(size_t bytes, size_t *total) {
     return p;
 }
 
-pgi_status pgi__trace_tris_update(pgi__trace_scratch *sc, const pgi_scene *s, int nt) {
+pgi_status pgi__trace_tris_update(pgi__trace_scratch *sc, const pgi_scene *s, int threads) {
+    const int nt = pgi__threads(threads);
     const void *key[6] = {s, s->tri, s->pos, s->nrm, s->uv, s->tri_mat};
     if (sc->tris && sc->tris_n == s->ntris && !memcmp(key, sc->tris_key, sizeof key) &&
         sc->tris_version[0] == s->static_version && sc->tris_version[1] == s->dynamic_version)

@@ -507,7 +507,8 @@ static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, uint64_t se
     double t0 = pgi__now_ms();
     pgi__rt_capture_pass(r->rt, PGI__PASS_VIEW); /* ray capture tags (a no-op unless a bench captures) */
     const pgi__subpixel sp = {.jitter = d->jitter == PGI_JITTER_ON, .seed = seq_seed, .index = index};
-    if ((st = pgi__view_build(s, r->rt, &r->cam, d->seed, &sp, d->threads, &r->vs, r->emit, &fs->primary_rays)))
+    if ((st = pgi__view_build(s, r->rt, &r->trace_scratch, &r->cam, d->seed, &sp, d->threads, &r->vs, r->emit,
+                              &fs->primary_rays)))
         return st;
     double t1 = pgi__now_ms();
     pgi__trace_desc td = {.photons = d->photons, .bounces = d->bounces, .seed = d->seed, .threads = d->threads};

@@ -338,7 +338,7 @@ pgi_status pgi_reference_sampler_create(const pgi_scene *s, const pgi_reference_
     const pgi_camera_def *cd = &s->cams[d.camera];
     pgi_camera_look_at(&C->cam, cd->eye, cd->look_at, cd->up, cd->fov_y_deg, d.width, d.height);
     if ((st = ctx_lights(C)) || (st = pgi__rt_create(s, &S->rt)) ||
-        (st = pgi__trace_tris_update(&S->tris, s, pgi__threads(d.threads)))) {
+        (st = pgi__trace_tris_update(&S->tris, s, d.threads))) {
         pgi_reference_sampler_destroy(S);
         return st;
     }

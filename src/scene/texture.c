@@ -20,18 +20,9 @@ static inline const unsigned char *texel_at(const pgi__texture *t, int x, int y)
     return t->rgba + 4 * ((size_t)y * (size_t)t->width + (size_t)x);
 }
 
-/* Texel (x, y)'s colour bytes: in the block layout when there is one (pgi__texture.tiled). */
-static inline const unsigned char *color_at(const pgi__texture *t, int x, int y) {
-    if (!t->tiled) return texel_at(t, x, y);
-    size_t block = (size_t)(y >> 2) * (size_t)((t->width + 3) >> 2) + (size_t)(x >> 2);
-    return t->tiled + 64 * block + 4 * (4 * (y & 3) + (x & 3));
-}
-
 static inline pgi__v3 decode(const unsigned char *p) {
     return v3(pgi__srgb8_texture_lut[p[0]], pgi__srgb8_texture_lut[p[1]], pgi__srgb8_texture_lut[p[2]]);
 }
-
-static inline pgi__v3 texel(const pgi__texture *t, int x, int y) { return decode(color_at(t, x, y)); }
 
 /* The 2x2 texels of a bilinear lookup at (u, v): columns x0, x1, rows y0, y1, and the weights
  * (tx, ty) of x1 and y1. NaN / Inf coordinates (degenerate UVs) read texel (0, 0)'s
@@ -60,15 +51,37 @@ static inline footprint2x2 bilinear_footprint(const pgi__texture *t, float u, fl
     return f;
 }
 
+/* The colour bytes of footprint f's texels (x0, y0), (x1, y0), (x0, y1), (x1, y1), in the block
+ * layout when there is one (pgi__texture.tiled): each address is a row part plus a column part,
+ * two of each computed once. */
+static inline void quad_at(const pgi__texture *t, const footprint2x2 *f, pgi__texel_quad *q) {
+    size_t r0, r1, c0, c1;
+    const unsigned char *base = t->tiled;
+    if (base) {
+        const size_t bw = (size_t)((t->width + 3) >> 2);
+        r0 = 64 * ((size_t)(f->y0 >> 2) * bw) + 16 * (size_t)(f->y0 & 3);
+        r1 = 64 * ((size_t)(f->y1 >> 2) * bw) + 16 * (size_t)(f->y1 & 3);
+        c0 = 64 * (size_t)(f->x0 >> 2) + 4 * (size_t)(f->x0 & 3);
+        c1 = 64 * (size_t)(f->x1 >> 2) + 4 * (size_t)(f->x1 & 3);
+    } else {
+        base = t->rgba;
+        r0 = 4 * (size_t)f->y0 * (size_t)t->width;
+        r1 = 4 * (size_t)f->y1 * (size_t)t->width;
+        c0 = 4 * (size_t)f->x0;
+        c1 = 4 * (size_t)f->x1;
+    }
+    q->p[0] = base + r0 + c0;
+    q->p[1] = base + r0 + c1;
+    q->p[2] = base + r1 + c0;
+    q->p[3] = base + r1 + c1;
+    q->tx = f->tx;
+    q->ty = f->ty;
+}
+
 int pgi__texture_quad(const pgi__texture *t, float u, float v, pgi__texel_quad *q) {
     if (!t || !t->rgba || t->width <= 0 || t->height <= 0) return 0;
     footprint2x2 f = bilinear_footprint(t, u, v);
-    q->p[0] = color_at(t, f.x0, f.y0);
-    q->p[1] = color_at(t, f.x1, f.y0);
-    q->p[2] = color_at(t, f.x0, f.y1);
-    q->p[3] = color_at(t, f.x1, f.y1);
-    q->tx = f.tx;
-    q->ty = f.ty;
+    quad_at(t, &f, q);
     __builtin_prefetch(q->p[0]);
     __builtin_prefetch(q->p[3]);
     return 1;
@@ -81,36 +94,36 @@ static inline pgi__v3 blend(pgi__v3 a, pgi__v3 b, pgi__v3 c, pgi__v3 d, float tx
     return v3_add(v3_scale(top, 1.f - ty), v3_scale(bot, ty));
 }
 
-/* The 2x2 texels' colours, bilinearly weighted. */
-static inline pgi__v3 bilinear(const pgi__texture *t, const footprint2x2 *f) {
-    return blend(texel(t, f->x0, f->y0), texel(t, f->x1, f->y0), texel(t, f->x0, f->y1), texel(t, f->x1, f->y1), f->tx,
-                 f->ty);
-}
-
-pgi__v3 pgi__texture_quad_lookup(const pgi__texel_quad *q) {
+/* The quad's colours, bilinearly weighted. */
+static inline pgi__v3 quad_blend(const pgi__texel_quad *q) {
     return blend(decode(q->p[0]), decode(q->p[1]), decode(q->p[2]), decode(q->p[3]), q->tx, q->ty);
 }
+
+pgi__v3 pgi__texture_quad_lookup(const pgi__texel_quad *q) { return quad_blend(q); }
 
 pgi__v3 pgi__texture_lookup(const pgi__texture *t, float u, float v) {
     if (!t || !t->rgba || t->width <= 0 || t->height <= 0) return v3(1.f, 1.f, 1.f);
     footprint2x2 f = bilinear_footprint(t, u, v);
-    return bilinear(t, &f);
+    pgi__texel_quad q;
+    quad_at(t, &f, &q);
+    return quad_blend(&q);
 }
 
 /* The body of pgi__texture_lookup_n, compiled once for the baseline and, on x86-64 with GCC or
  * clang, once more for SSE 4.1, where floorf is one instruction (roundss) instead of a sequence
  * of conversions and compares: floorf is exact either way, so both give the same bits. */
 #define LOOKUP_N_BODY                                                                                                  \
-    footprint2x2 f[PGI__TEXTURE_LOOKUP_N];                                                                             \
+    pgi__texel_quad q[PGI__TEXTURE_LOOKUP_N];                                                                          \
+    int on[PGI__TEXTURE_LOOKUP_N];                                                                                     \
     for (int k = 0; k < n; k++) {                                                                                      \
-        if (!t[k] || !t[k]->rgba || t[k]->width <= 0 || t[k]->height <= 0) continue;                                   \
-        f[k] = bilinear_footprint(t[k], u[k], v[k]);                                                                   \
-        __builtin_prefetch(color_at(t[k], f[k].x0, f[k].y0));                                                          \
-        __builtin_prefetch(color_at(t[k], f[k].x1, f[k].y1));                                                          \
+        on[k] = t[k] && t[k]->rgba && t[k]->width > 0 && t[k]->height > 0;                                             \
+        if (!on[k]) continue;                                                                                          \
+        const footprint2x2 f = bilinear_footprint(t[k], u[k], v[k]);                                                   \
+        quad_at(t[k], &f, &q[k]);                                                                                      \
+        __builtin_prefetch(q[k].p[0]);                                                                                 \
+        __builtin_prefetch(q[k].p[3]);                                                                                 \
     }                                                                                                                  \
-    for (int k = 0; k < n; k++)                                                                                        \
-        out[k] =                                                                                                       \
-            !t[k] || !t[k]->rgba || t[k]->width <= 0 || t[k]->height <= 0 ? v3(1.f, 1.f, 1.f) : bilinear(t[k], &f[k]);
+    for (int k = 0; k < n; k++) out[k] = on[k] ? quad_blend(&q[k]) : v3(1.f, 1.f, 1.f);
 
 static void lookup_n_base(const pgi__texture *const *t, const float *u, const float *v, int n, pgi__v3 *out) {
     LOOKUP_N_BODY

@@ -210,12 +210,16 @@ static void tile_dirs(const pgi_camera *cam, const pgi__subpixel *sp, int tx, in
 #endif
 }
 
-pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, const pgi_camera *cam, uint64_t seed,
-                           const pgi__subpixel *sp, int threads, pgi_view_samples *vs, float *emit,
+pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scratch *tris, const pgi_camera *cam,
+                           uint64_t seed, const pgi__subpixel *sp, int threads, pgi_view_samples *vs, float *emit,
                            uint64_t *rays_out) {
     const int W = cam->width, H = cam->height;
     if (vs->width != W || vs->height != H)
         return pgi__fail(PGI_ERR_INVALID_ARG, "view-sample buffer is %dx%d, camera %dx%d", vs->width, vs->height, W, H);
+    pgi__trace_scratch own = {0};
+    pgi__trace_scratch *const tr = tris ? tris : &own;
+    pgi_status st = pgi__trace_tris_update(tr, s, threads);
+    if (st) return st;
     vs->jitter = sp->jitter ? 0.5f : 0.f;
     uint64_t rays = 0;
     const pgi__v3 eye = v3_load(cam->eye);
@@ -255,7 +259,14 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, const pgi_came
                         const int j = (k >> 2) * BLOCK_W + 4 * tb + (k & 3);
                         if (hits[k].prim != UINT32_MAX) {
                             pgi__v3 p = v3_madd(eye, dirs[k], hits[k].t);
-                            pgi__scene_surface_untextured(s, hits[k].prim, hits[k].u, hits[k].v, p, &sf[k]);
+                            /* pgi__scene_surface_untextured from the triangle's record: the same bits */
+                            pgi__trace_tri_surface(s, &tr->tris[hits[k].prim], hits[k].u, hits[k].v, p, &sf[k]);
+                            if (tr->tri_uv) { /* pgi__scene_uv's operations */
+                                const float *q = tr->tri_uv + PGI__TRI_UV * (size_t)hits[k].prim;
+                                const float bw = 1.f - hits[k].u - hits[k].v;
+                                sf[k].u = bw * q[0] + hits[k].u * q[2] + hits[k].v * q[4];
+                                sf[k].v = bw * q[1] + hits[k].u * q[3] + hits[k].v * q[5];
+                            }
                             if (!pgi__mat_specular(sf[k].mat)) {
                                 lit[k] = 1;
                                 continue;
@@ -298,6 +309,7 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, const pgi_came
         _mm_sfence(); /* the streamed rows are visible to the other threads after the barrier */
 #endif
     }
+    pgi__trace_scratch_free(&own);
     *rays_out = rays;
     return PGI_OK;
 }

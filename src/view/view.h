@@ -17,9 +17,13 @@ typedef struct pgi__subpixel {
  * perfect mirrors and glass (up to 8 specular bounces; glass picks reflection
  * or refraction by Fresnel with a per-pixel RNG) to the first non-specular
  * hit, and fills `vs`. `emit` (3 floats a pixel) receives emitted radiance
- * seen along the eye path. */
-pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, const pgi_camera *cam, uint64_t seed,
-                           const pgi__subpixel *sp, int threads, pgi_view_samples *vs, float *emit, uint64_t *rays);
+ * seen along the eye path. Primary hits are shaded from the triangle records of `tris`
+ * (pgi__trace_tris_update, brought up to date here: the renderer passes its tracer's scratch, so
+ * that both passes share one copy); NULL: records of its own for the call. */
+struct pgi__trace_scratch;
+pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, struct pgi__trace_scratch *tris,
+                           const pgi_camera *cam, uint64_t seed, const pgi__subpixel *sp, int threads,
+                           pgi_view_samples *vs, float *emit, uint64_t *rays);
 
 /* Direct light at every valid view sample with shadow rays (point, spot, sun:
  * one ray each; emissive triangles: `area_samples` samples picked by power;
