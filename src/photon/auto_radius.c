@@ -216,9 +216,9 @@ static pgi_status choose(const pgi_photons *ph, int K, int Kfull, const pgi_view
     float bmin[3] = {INFINITY, INFINITY, INFINITY}, bmax[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (size_t i = 0; i < ph->count; i++) {
         const float p[3] = {ph->px[i], ph->py[i], ph->pz[i]};
-        for (int a = 0; a < 3; a++) {
-            bmin[a] = fminf(bmin[a], p[a]);
-            bmax[a] = fmaxf(bmax[a], p[a]);
+        for (int a = 0; a < 3; a++) { /* not fminf, a libm call: 3 ms of 15 on Sibenik */
+            bmin[a] = pgi_minf(p[a], bmin[a]);
+            bmax[a] = pgi_maxf(p[a], bmax[a]);
         }
     }
     float ex = bmax[0] - bmin[0], ey = bmax[1] - bmin[1], ez = bmax[2] - bmin[2];
