@@ -41,9 +41,12 @@ typedef struct grid {
     int32_t *cx, *cy, *cz;   /* each photon's cell */
 } grid;
 
+/* Bricks of 4 x 2 x 2 cells share a hash and take 16 consecutive buckets: a query visits a brick's
+ * cells close together, and their offsets (64 bytes) and photon indices are then in the same cache
+ * lines. */
 static inline uint32_t cell_hash(int32_t x, int32_t y, int32_t z, uint32_t mask) {
-    uint32_t h = (uint32_t)x * 73856093u ^ (uint32_t)y * 19349663u ^ (uint32_t)z * 83492791u;
-    return h & mask;
+    uint32_t h = (uint32_t)(x >> 2) * 73856093u ^ (uint32_t)(y >> 1) * 19349663u ^ (uint32_t)(z >> 1) * 83492791u;
+    return (h << 4 | ((uint32_t)z & 1u) << 3 | ((uint32_t)y & 1u) << 2 | ((uint32_t)x & 3u)) & mask;
 }
 
 /* The cell of coordinate v along an axis whose cells start at o: counted from the photons' box,
