@@ -208,13 +208,15 @@ static const char *output_name(int m) {
 
 static void compose(viewer *v) {
     const int W = v->win_w, H = v->win_h, w = v->img.width, h = v->img.height;
-    for (int y = 0; y < H; y++) {
-        int sy = (int)((long long)y * h / H);
-        for (int x = 0; x < W; x++) {
-            int sx = (int)((long long)x * w / W);
-            memcpy(v->disp + 3 * ((size_t)y * W + x), v->rgb8 + 3 * ((size_t)sy * w + sx), 3);
+    if (W == w && H == h) memcpy(v->disp, v->rgb8, (size_t)W * H * 3); /* full scale: no divisions a pixel */
+    else
+        for (int y = 0; y < H; y++) {
+            int sy = (int)((long long)y * h / H);
+            for (int x = 0; x < W; x++) {
+                int sx = (int)((long long)x * w / W);
+                memcpy(v->disp + 3 * ((size_t)y * W + x), v->rgb8 + 3 * ((size_t)sy * w + sx), 3);
+            }
         }
-    }
     if (!v->overlay) return;
     const pgi_frame_stats *fst = &v->fs;
     char line[6][256];
