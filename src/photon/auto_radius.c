@@ -89,17 +89,12 @@ static pgi_status grid_build(const pgi_photons *ph, float cell, const float org[
         g->cx[i] = cell_of(ph->px[i], g->org[0], g->inv);
         g->cy[i] = cell_of(ph->py[i], g->org[1], g->inv);
         g->cz[i] = cell_of(ph->pz[i], g->org[2], g->inv);
-        g->start[cell_hash(g->cx[i], g->cy[i], g->cz[i], g->mask) + 1]++;
+        g->start[cell_hash(g->cx[i], g->cy[i], g->cz[i], g->mask)]++;
     }
-    for (uint32_t b = 0; b < buckets; b++) g->start[b + 1] += g->start[b];
-    uint32_t *fill = malloc((size_t)buckets * sizeof *fill);
-    if (!fill) {
-        grid_free(g);
-        return pgi__fail(PGI_ERR_OOM, "automatic radius: out of memory for a grid of %zu photons", n);
-    }
-    memcpy(fill, g->start, (size_t)buckets * sizeof *fill);
-    for (size_t i = 0; i < n; i++) g->idx[fill[cell_hash(g->cx[i], g->cy[i], g->cz[i], g->mask)]++] = (uint32_t)i;
-    free(fill);
+    /* start[b] becomes the end of bucket b, then, filled from the last photon back, its beginning */
+    for (uint32_t b = 1; b < buckets; b++) g->start[b] += g->start[b - 1];
+    g->start[buckets] = (uint32_t)n;
+    for (size_t i = n; i-- > 0;) g->idx[--g->start[cell_hash(g->cx[i], g->cy[i], g->cz[i], g->mask)]] = (uint32_t)i;
     return PGI_OK;
 }
 
