@@ -973,16 +973,11 @@ pgi_status pgi__renderer_render_frame_late(pgi_renderer *r, const pgi_render_des
         if (!img.rgb) return pgi__fail(PGI_ERR_OOM, "out of memory for the output image");
         pgi_image_free(out);
     }
-    /* In parallel: serial, it was most of what a frame spends outside its passes (2-3 ms at
-     * 1280x720). */
-    const float *w = r->vs.weight, *emit = r->emit, *direct = r->direct, *indirect = r->indirect;
-    const pgi_output o = d.output;
-    float *rgb = img.rgb;
-#pragma omp parallel for schedule(static) num_threads(pgi__threads(d.threads)) if (n > 16384)
-    for (long long i = 0; i < (long long)(3 * n); i++) {
-        float ind = w[i] * indirect[i];
-        float dir = emit[i] + direct[i];
-        rgb[i] = o == PGI_OUTPUT_INDIRECT ? ind : o == PGI_OUTPUT_DIRECT ? dir : dir + ind;
+    const float *w = r->vs.weight;
+    for (size_t i = 0; i < 3 * n; i++) {
+        float ind = w[i] * r->indirect[i];
+        float dir = r->emit[i] + r->direct[i];
+        img.rgb[i] = d.output == PGI_OUTPUT_INDIRECT ? ind : d.output == PGI_OUTPUT_DIRECT ? dir : dir + ind;
     }
     double t6 = pgi__now_ms();
 
