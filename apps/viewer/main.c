@@ -94,7 +94,7 @@ typedef struct viewer {
     int win_w, win_h;
     pgi_image img;
     pgi_frame_stats fs;
-    unsigned char *rgb8; /* render resolution, tone-mapped */
+    unsigned char *rgb8; /* render resolution, tone-mapped (unused at full scale but for false colour) */
     unsigned char *disp; /* window resolution, with overlay */
     double frame_ms, fps;
     int screenshot_count;
@@ -206,15 +206,18 @@ static const char *output_name(int m) {
     return m >= 0 && m <= 3 ? names[m] : "?";
 }
 
-static void compose(viewer *v) {
+/* The image at window size (unless render_frame tone-mapped it there already), then the overlay. */
+static void compose(viewer *v, int in_place) {
     const int W = v->win_w, H = v->win_h, w = v->img.width, h = v->img.height;
-    for (int y = 0; y < H; y++) {
-        int sy = (int)((long long)y * h / H);
-        for (int x = 0; x < W; x++) {
-            int sx = (int)((long long)x * w / W);
-            memcpy(v->disp + 3 * ((size_t)y * W + x), v->rgb8 + 3 * ((size_t)sy * w + sx), 3);
+    if (!in_place && W == w && H == h) memcpy(v->disp, v->rgb8, (size_t)W * H * 3); /* false colour */
+    else if (!in_place)
+        for (int y = 0; y < H; y++) {
+            int sy = (int)((long long)y * h / H);
+            for (int x = 0; x < W; x++) {
+                int sx = (int)((long long)x * w / W);
+                memcpy(v->disp + 3 * ((size_t)y * W + x), v->rgb8 + 3 * ((size_t)sy * w + sx), 3);
+            }
         }
-    }
     if (!v->overlay) return;
     const pgi_frame_stats *fst = &v->fs;
     char line[6][256];
@@ -289,13 +292,20 @@ static pgi_status render_frame(viewer *v) {
         st = pgi_progressive_step(v->prog, &d, &v->img, &v->fs);
     else st = pgi_renderer_render(v->r, &d, &v->img, &v->fs);
     if (st) return st;
-    size_t n = (size_t)v->img.width * v->img.height;
-    unsigned char *nb = realloc(v->rgb8, 3 * n);
-    if (!nb) return PGI_ERR_OOM;
-    v->rgb8 = nb;
-    if (v->out_mode == PGI_OUTPUT_PHOTON_COUNT) false_colour(&v->img, v->rgb8);
-    else pgi_tonemap_srgb8(&v->img, v->exposure, v->rgb8);
-    compose(v);
+    /* At full scale the tone map writes straight into the window's image (false colour keeps
+     * rgb8: its screenshot is made from it). */
+    const int in_place =
+        v->img.width == v->win_w && v->img.height == v->win_h && v->out_mode != PGI_OUTPUT_PHOTON_COUNT;
+    if (in_place) pgi_tonemap_srgb8(&v->img, v->exposure, v->disp);
+    else {
+        size_t n = (size_t)v->img.width * v->img.height;
+        unsigned char *nb = realloc(v->rgb8, 3 * n);
+        if (!nb) return PGI_ERR_OOM;
+        v->rgb8 = nb;
+        if (v->out_mode == PGI_OUTPUT_PHOTON_COUNT) false_colour(&v->img, v->rgb8);
+        else pgi_tonemap_srgb8(&v->img, v->exposure, v->rgb8);
+    }
+    compose(v, in_place);
     return PGI_OK;
 }
 

@@ -48,19 +48,32 @@ static void build_tables(void) {
     for (int b = 0; b <= PGI__TM_BUCKETS; b++) g_bucket[b] = tonemap1((float)b / (float)PGI__TM_BUCKETS, 1.f);
 }
 
-static inline unsigned char tonemap_fast(float value, float exposure) {
-    float v = value * exposure;
-    if (!(v > 0.f)) return 0;
-    if (v >= 1.f) return 255;
-    int k = g_bucket[(int)(v * (float)PGI__TM_BUCKETS)];
-    while (v >= g_first[k + 1]) k++;
-    return (unsigned char)k;
+/* Branch-free (the threshold step and the clamps were data-dependent branches): v clamped to
+ * [0, 1] (NaN and negatives to 0) reads the same codes, 0 from bucket 0 and 255 from bucket 4096,
+ * whose next threshold is g_first[256] = inf. On x86-64 an AVX2 clone is picked at load time (the
+ * table reads become gathers, 8 values at a time; no FMA, and each value alone: the same bytes). */
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(__SANITIZE_ADDRESS__)
+#define PGI__TM_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define PGI__TM_CLONES
+#endif
+PGI__TM_CLONES static void tonemap_span(const float *in, unsigned char *out, size_t n, float exposure) {
+    for (size_t i = 0; i < n; i++) {
+        const float v = in[i] * exposure;
+        const float c = v > 0.f ? (v < 1.f ? v : 1.f) : 0.f;
+        const int k = g_bucket[(int)(c * (float)PGI__TM_BUCKETS)];
+        out[i] = (unsigned char)(k + (c >= g_first[k + 1]));
+    }
 }
 
 void pgi_tonemap_srgb8(const pgi_image *img, float exposure, unsigned char *out) {
     if (!img || !img->rgb || !out || img->width <= 0 || img->height <= 0) return;
     pthread_once(&g_tables_once, build_tables);
-    const long long n = (long long)img->width * (long long)img->height * 3;
-#pragma omp parallel for schedule(static) num_threads(pgi__threads(0)) if (n > 65536)
-    for (long long i = 0; i < n; ++i) out[i] = tonemap_fast(img->rgb[i], exposure);
+    const size_t n = (size_t)img->width * (size_t)img->height * 3, chunk = 16384;
+    const long long chunks = (long long)((n + chunk - 1) / chunk);
+#pragma omp parallel for schedule(static) num_threads(pgi__threads(0)) if (chunks > 4)
+    for (long long c = 0; c < chunks; ++c) {
+        const size_t i = (size_t)c * chunk;
+        tonemap_span(img->rgb + i, out + i, n - i < chunk ? n - i : chunk, exposure);
+    }
 }
