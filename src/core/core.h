@@ -29,6 +29,18 @@ void pgi__clear_error(void);
     } while (0)
 void pgi__assert_fail(const char *expr, const char *file, int line);
 
+/* Run-time AVX2 dispatch (GCC on x86-64; not under ASan, whose instrumentation the ifunc
+ * resolvers of target clones trip over): PGI__AVX2_DISPATCH is 1 where code may carry an AVX2
+ * build picked at run time, and PGI__AVX2_CLONES gives a function a default and an AVX2 clone.
+ * Without FMA contraction (-ffp-contract=off) both builds give the same bits. */
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(__SANITIZE_ADDRESS__)
+#define PGI__AVX2_DISPATCH 1
+#define PGI__AVX2_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define PGI__AVX2_DISPATCH 0
+#define PGI__AVX2_CLONES
+#endif
+
 double pgi__now_ms(void);
 
 /* Largest image the library allocates, rendered or read (a header that

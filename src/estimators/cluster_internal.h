@@ -101,11 +101,7 @@ typedef struct {
  * on x86-64 an AVX2 clone is picked at load time (no FMA: -ffp-contract=off
  * still holds, lanes are independent, so the results are bit-identical). */
 #if defined(__GNUC__) && !defined(__clang__)
-#if defined(__x86_64__) && !defined(__SANITIZE_ADDRESS__)
-#define PGI__HOT_LOOP __attribute__((optimize("no-loop-unroll-and-jam"), target_clones("avx2", "default")))
-#else
-#define PGI__HOT_LOOP __attribute__((optimize("no-loop-unroll-and-jam")))
-#endif
+#define PGI__HOT_LOOP __attribute__((optimize("no-loop-unroll-and-jam"))) PGI__AVX2_CLONES
 #else
 #define PGI__HOT_LOOP
 #endif

@@ -46,18 +46,18 @@
  * the trivially accepted ones (they are never read per sample, so contributing
  * may exceed reads, as in the paper's Fig. 7); nodes_visited = node tests in
  * the traversals. */
+#include "cluster_internal.h"
+
 #include <omp.h>
 #include <string.h>
 #ifdef __SSE2__
 #include <emmintrin.h>
 #endif
 /* x86-64 GCC: the top pass's traversals also come in an AVX2 build (8 children a step), picked at run time. */
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(__SANITIZE_ADDRESS__)
+#if PGI__AVX2_DISPATCH
 #define CL_AVX2 1
 #include <immintrin.h>
 #endif
-
-#include "cluster_internal.h"
 
 const pgi_option pgi__opt_cluster_tile = {.name = "cluster-tile",
                                           .type = PGI_OPTION_INT,
@@ -451,6 +451,11 @@ __attribute__((target("avx2"))) static void top_photons_w(cl_state *s, const pgi
 #define top_photons_w top_photons_n
 #endif
 
+/* The end of top chunk ci of n photons. */
+static inline size_t chunk_end(size_t ci, size_t chunk, size_t n) {
+    return (ci + 1) * chunk < n ? (ci + 1) * chunk : n;
+}
+
 /* Per-thread (and per top chunk) output records kept between frames. */
 static pgi_status grow_outs(cl_state *s, int n) {
     if (n <= s->nouts) return PGI_OK;
@@ -505,7 +510,7 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
         memset(k->cnt, 0, ntop * sizeof *k->cnt);
         memset(k->flux, 0, (size_t)nabove * 3 * sizeof *k->flux);
         memset(k->tcnt, 0, (size_t)nabove * sizeof *k->tcnt);
-        size_t j1 = ((size_t)ci + 1) * chunk < n ? ((size_t)ci + 1) * chunk : n;
+        size_t j1 = chunk_end((size_t)ci, chunk, n);
         if (wide) top_photons_w(s, ph, (size_t)ci * chunk, j1, k);
         else top_photons_n(s, ph, (size_t)ci * chunk, j1, k);
         visited += k->visited;
@@ -525,7 +530,7 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
         const sink *k = &s->outs[ci];
         uint32_t *h = s->perm_hist + (size_t)ci * nkeys;
         memset(h, 0, nkeys * sizeof *h);
-        size_t u = 0, j1 = ((size_t)ci + 1) * chunk < n ? ((size_t)ci + 1) * chunk : n;
+        size_t u = 0, j1 = chunk_end((size_t)ci, chunk, n);
         for (size_t j = (size_t)ci * chunk; j < j1; j++) {
             uint32_t key = ntop;
             if (u < k->nout && k->out[2 * u + 1] == (uint32_t)j) {
@@ -548,7 +553,7 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
 #pragma omp parallel for schedule(static) num_threads(s->c.threads)
     for (long long ci = 0; ci < (long long)nch; ci++) {
         uint32_t *h = s->perm_hist + (size_t)ci * nkeys;
-        size_t j1 = ((size_t)ci + 1) * chunk < n ? ((size_t)ci + 1) * chunk : n;
+        size_t j1 = chunk_end((size_t)ci, chunk, n);
         for (size_t j = (size_t)ci * chunk; j < j1; j++) {
             s->perm[j] = h[s->perm[j]]++;
             pgi__pack_photon(ph, j, &s->pk[s->perm[j]]);

@@ -52,12 +52,7 @@ static void build_tables(void) {
  * [0, 1] (NaN and negatives to 0) reads the same codes, 0 from bucket 0 and 255 from bucket 4096,
  * whose next threshold is g_first[256] = inf. On x86-64 an AVX2 clone is picked at load time (the
  * table reads become gathers, 8 values at a time; no FMA, and each value alone: the same bytes). */
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(__SANITIZE_ADDRESS__)
-#define PGI__TM_CLONES __attribute__((target_clones("avx2", "default")))
-#else
-#define PGI__TM_CLONES
-#endif
-PGI__TM_CLONES static void tonemap_span(const float *in, unsigned char *out, size_t n, float exposure) {
+PGI__AVX2_CLONES static void tonemap_span(const float *in, unsigned char *out, size_t n, float exposure) {
     for (size_t i = 0; i < n; i++) {
         const float v = in[i] * exposure;
         const float c = v > 0.f ? (v < 1.f ? v : 1.f) : 0.f;

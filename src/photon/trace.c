@@ -327,7 +327,7 @@ static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbu
             if (m->tex_kd < 0) continue;
             l->tex = &s->texs[m->tex_kd];
             float u = 0.f, v = 0.f; /* without texture coordinates the lookup reads (0, 0) */
-            if (T->tri_uv) { pgi__trace_tri_uv(T->tri_uv + PGI__TRI_UV * (size_t)l->h.prim, l->h.u, l->h.v, &u, &v); }
+            if (T->tri_uv) pgi__trace_tri_uv(T->tri_uv + PGI__TRI_UV * (size_t)l->h.prim, l->h.u, l->h.v, &u, &v);
             if (!pgi__texture_quad(l->tex, u, v, &l->tq)) l->tex = NULL; /* no texels: white */
         }
         /* Shade: store, scatter, roulette. */

@@ -247,8 +247,8 @@ static pgi__v3 trace_sample(const pt_ctx *C, int px, int py, float jx, float jy,
         /* as pgi__surface_texture, its texels fetched now and applied by nee() or above */
         if (sf.mat->tex_kd >= 0) {
             if (tuv) pgi__trace_tri_uv(tuv, h.u, h.v, &sf.u, &sf.v);
+            /* no texels: pgi__texture_lookup's white, kd as it is */
             if (pgi__texture_quad(&s->texs[sf.mat->tex_kd], sf.u, sf.v, &quad)) tq = &quad;
-            else sf.kd = v3_mul(sf.kd, v3(1.f, 1.f, 1.f)); /* no texels: pgi__texture_lookup's white */
         }
     }
     return L;

@@ -261,12 +261,9 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
                             pgi__v3 p = v3_madd(eye, dirs[k], hits[k].t);
                             /* pgi__scene_surface_untextured from the triangle's record: the same bits */
                             pgi__trace_tri_surface(s, &tr->tris[hits[k].prim], hits[k].u, hits[k].v, p, &sf[k]);
-                            if (tr->tri_uv) { /* pgi__scene_uv's operations */
-                                const float *q = tr->tri_uv + PGI__TRI_UV * (size_t)hits[k].prim;
-                                const float bw = 1.f - hits[k].u - hits[k].v;
-                                sf[k].u = bw * q[0] + hits[k].u * q[2] + hits[k].v * q[4];
-                                sf[k].v = bw * q[1] + hits[k].u * q[3] + hits[k].v * q[5];
-                            }
+                            if (tr->tri_uv)
+                                pgi__trace_tri_uv(tr->tri_uv + PGI__TRI_UV * (size_t)hits[k].prim, hits[k].u, hits[k].v,
+                                                  &sf[k].u, &sf[k].v);
                             if (!pgi__mat_specular(sf[k].mat)) {
                                 lit[k] = 1;
                                 continue;
