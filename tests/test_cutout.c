@@ -62,7 +62,7 @@ static void test_primary_rays(void **state) {
     assert_non_null(emit);
     uint64_t rays = 0;
     const pgi__subpixel sp = {0};
-    TU_CHECK_OK(pgi__view_build(s, rt, NULL, &cam, 1, &sp, 0, &vs, emit, &rays));
+    TU_CHECK_OK(pgi__view_build(s, rt, NULL, &cam, 1, &sp, 0, &vs, emit, NULL, &rays));
     int open = 0, closed = 0, wrong = 0, single_wrong = 0;
     for (int y = 0; y < H; y++)
         for (int x = 0; x < W; x++) {

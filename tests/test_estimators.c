@@ -267,7 +267,7 @@ static void test_mirror_glass_pipeline(void **state) {
         pgi_camera_look_at(&cam, cd->eye, cd->look_at, cd->up, cd->fov_y_deg, 72, 56);
         uint64_t rays = 0;
         const pgi__subpixel centres = {0};
-        TU_CHECK_OK(pgi__view_build(sc, rt, NULL, &cam, 1, &centres, 0, &vs, emit, &rays));
+        TU_CHECK_OK(pgi__view_build(sc, rt, NULL, &cam, 1, &centres, 0, &vs, emit, NULL, &rays));
         size_t secondary = 0, phong = 0;
         for (size_t i = 0; i < vs.count; i++) {
             if (!(vs.flags[i] & PGI_VS_VALID)) continue;

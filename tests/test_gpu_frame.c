@@ -182,7 +182,7 @@ static size_t compare_view(const pgi_scene *s, int w, int h, const pgi__subpixel
     const size_t n = (size_t)w * h;
     float *ce = malloc(3 * n * sizeof(float)), *ge = malloc(3 * n * sizeof(float));
     uint64_t rays = 0;
-    TU_CHECK_OK(pgi__view_build(s, rt, NULL, &cam, 7, sp, 2, &cv, ce, &rays));
+    TU_CHECK_OK(pgi__view_build(s, rt, NULL, &cam, 7, sp, 2, &cv, ce, NULL, &rays));
     pgi__gpu_scene *gs = NULL;
     pgi__gpu_view *v = NULL;
     TU_CHECK_OK(pgi__gpu_scene_create(g_gpu, s, &gs));

@@ -26,7 +26,8 @@ struct pgi_renderer {
     pgi_view_samples vs;
     float *emit, *direct, *indirect;
     size_t pix_cap;
-    pgi_estimator *est; /* created once per estimator name + resolved options */
+    pgi__view_fill fill; /* what vs and emit hold already (pgi__view_build skips those stores) */
+    pgi_estimator *est;  /* created once per estimator name + resolved options */
     const pgi_estimator_vtbl *est_vt;
     pgi_estimator_desc est_desc;
     pgi_camera cam; /* this frame's */
@@ -184,6 +185,7 @@ void pgi_renderer_destroy(pgi_renderer *r) {
     pgi__afree(r->emit);
     pgi__afree(r->direct);
     pgi__afree(r->indirect);
+    pgi__view_fill_free(&r->fill);
     pgi_estimator_destroy(r->est);
     pgi__afree(r->fp_buf);
     pgi__guide_free(&r->guide);
@@ -382,6 +384,7 @@ static pgi_status ensure_buffers(pgi_renderer *r, const pgi_render_desc *d) {
     if (r->vs.width != d->width || r->vs.height != d->height) {
         snprintf(what, sizeof what, "the view samples of %dx%d pixels", d->width, d->height);
         if ((st = pgi__mem_reserve(&r->mem, "view_samples", n * VIEW_SAMPLE_BYTES, what))) return st;
+        pgi__view_fill_forget(&r->fill);
         pgi_view_samples_free(&r->vs);
         st = pgi_view_samples_alloc(&r->vs, d->width, d->height);
         pgi__mem_set(&r->mem, "view_samples", r->vs.count * VIEW_SAMPLE_BYTES);
@@ -390,6 +393,7 @@ static pgi_status ensure_buffers(pgi_renderer *r, const pgi_render_desc *d) {
     if (r->pix_cap < n) {
         snprintf(what, sizeof what, "the emitted, direct and indirect buffers of %dx%d pixels", d->width, d->height);
         if ((st = pgi__mem_reserve(&r->mem, "frame_buffers", n * FRAME_BUFFER_BYTES, what))) return st;
+        pgi__view_fill_forget(&r->fill);
         pgi__afree(r->emit);
         pgi__afree(r->direct);
         pgi__afree(r->indirect);
@@ -507,7 +511,7 @@ static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, uint64_t se
     double t0 = pgi__now_ms();
     pgi__rt_capture_pass(r->rt, PGI__PASS_VIEW); /* ray capture tags (a no-op unless a bench captures) */
     const pgi__subpixel sp = {.jitter = d->jitter == PGI_JITTER_ON, .seed = seq_seed, .index = index};
-    if ((st = pgi__view_build(s, r->rt, &r->trace_scratch, &r->cam, d->seed, &sp, d->threads, &r->vs, r->emit,
+    if ((st = pgi__view_build(s, r->rt, &r->trace_scratch, &r->cam, d->seed, &sp, d->threads, &r->vs, r->emit, &r->fill,
                               &fs->primary_rays)))
         return st;
     double t1 = pgi__now_ms();
@@ -729,6 +733,7 @@ static pgi_status gpu_frame(pgi_renderer *r, pgi_render_desc *d, uint64_t seq_se
     pgi__gpu *g = r->gpu;
     const pgi_scene *s = r->scene;
     if ((st = ensure_buffers(r, d))) return st;
+    pgi__view_fill_forget(&r->fill); /* the view samples may come from the device (pgi__gpu_view_download) */
     const pgi_camera_def *cd = d->view ? d->view : &s->cams[d->camera];
     pgi_camera_look_at(&r->cam, cd->eye, cd->look_at, cd->up, cd->fov_y_deg, d->width, d->height);
     if (pgi__gpu_scene_needs_update(r->gpu_scene, s)) {
@@ -842,6 +847,18 @@ static pgi_status gpu_frame(pgi_renderer *r, pgi_render_desc *d, uint64_t seq_se
     fs->nodes_visited = es.nodes_visited;
     *out = img;
     return PGI_OK;
+}
+
+/* The image's floats [i0, i1): emitted + direct light, plus the weight times the indirect light
+ * (d.output picks the parts); `fill` holds the pgi__view_fill bits of these pixels. */
+static void composite(float *out, const float *w, const float *emit, const float *direct, const float *indirect,
+                      size_t i0, size_t i1, pgi_output output, unsigned fill) {
+    const int one = (fill & PGI__FILL_WEIGHT) != 0, zero = (fill & PGI__FILL_EMIT) != 0;
+    for (size_t i = i0; i < i1; i++) {
+        float ind = one ? indirect[i] : w[i] * indirect[i];
+        float dir = (zero ? 0.f : emit[i]) + direct[i];
+        out[i] = output == PGI_OUTPUT_INDIRECT ? ind : output == PGI_OUTPUT_DIRECT ? dir : dir + ind;
+    }
 }
 
 pgi_status pgi_renderer_prepare(pgi_renderer *r, const pgi_render_desc *in, pgi_frame_inputs *out,
@@ -974,12 +991,18 @@ pgi_status pgi__renderer_render_frame_late(pgi_renderer *r, const pgi_render_des
         if (!img.rgb) return pgi__fail(PGI_ERR_OOM, "out of memory for the output image");
         pgi_image_free(out);
     }
-    const float *w = r->vs.weight;
-    for (size_t i = 0; i < 3 * n; i++) {
-        float ind = w[i] * r->indirect[i];
-        float dir = r->emit[i] + r->direct[i];
-        img.rgb[i] = d.output == PGI_OUTPUT_INDIRECT ? ind : d.output == PGI_OUTPUT_DIRECT ? dir : dir + ind;
-    }
+    /* Row by row of the view pass's blocks: where r->fill says that a row's weights are 1 or its
+     * emission +0, those loads are left out (1 * x is x, and +0 + x is what adding the constant
+     * gives, -0 included). */
+    const int W = d.width, cols = (W + PGI__FILL_W - 1) / PGI__FILL_W;
+    const uint8_t *fill = r->fill.width == W && r->fill.height == d.height ? r->fill.rows : NULL;
+    for (int y = 0; y < d.height; y++)
+        for (int c = 0; c < cols; c++) {
+            const size_t p0 = (size_t)y * (size_t)W + (size_t)c * PGI__FILL_W;
+            const size_t p1 = p0 + (W - c * PGI__FILL_W < PGI__FILL_W ? (size_t)(W - c * PGI__FILL_W) : PGI__FILL_W);
+            composite(img.rgb, r->vs.weight, r->emit, r->direct, r->indirect, 3 * p0, 3 * p1, d.output,
+                      fill ? fill[(size_t)y * (size_t)cols + (size_t)c] : 0u);
+        }
     double t6 = pgi__now_ms();
 
     pgi_estimator_get_stats(r->est, &es);

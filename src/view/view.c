@@ -22,6 +22,7 @@
 #define BLOCK_TILES 8
 #define BLOCK_W (4 * BLOCK_TILES)
 #define BLOCK_N (4 * BLOCK_W)
+_Static_assert(BLOCK_W == PGI__FILL_W, "a pgi__view_fill entry is a block's row");
 
 /* One block's view samples and emitted radiance; sample j = row * BLOCK_W + column. */
 typedef struct view_block {
@@ -43,23 +44,73 @@ static inline void put_floats(float *dst, const float *src, size_t n) {
     memcpy(dst, src, n * sizeof(float));
 }
 
-/* Writes rows [0, rows) of a block, n samples each, whose first sample is pixel i0 of the image. */
-static void put_block(const view_block *b, int rows, int n, size_t i0, size_t W, pgi_view_samples *vs, float *emit) {
+/* Do the n floats at p all hold the bits v? */
+static inline int all_bits(const float *p, size_t n, uint32_t v) {
+    uint32_t acc = 0;
+    for (size_t k = 0; k < n; k++) {
+        uint32_t u;
+        memcpy(&u, p + k, sizeof u);
+        acc |= u ^ v;
+    }
+    return acc == 0;
+}
+
+/* Writes rows [0, rows) of a block, n samples each, whose first sample is pixel i0 of the image.
+ * fill (NULL: none) is the block's entry of its first row in a pgi__view_fill, `stride` entries
+ * a row: a plane whose row holds its defaults there already and receives them again is left
+ * alone (a float compares equal to the default's bits only when it is those bytes: -0 is not
+ * +0), and each entry then says what its row holds. */
+static void put_block(const view_block *b, int rows, int n, size_t i0, size_t W, pgi_view_samples *vs, float *emit,
+                      uint8_t *fill, size_t stride) {
+    const size_t m = (size_t)n;
     for (int r = 0; r < rows; r++) {
         size_t i = i0 + (size_t)r * W, j = (size_t)r * BLOCK_W;
-        put_floats(vs->pos + 3 * i, b->pos + 3 * j, 3 * (size_t)n);
-        put_floats(vs->nrm + 3 * i, b->nrm + 3 * j, 3 * (size_t)n);
-        put_floats(vs->ngeo + 3 * i, b->ngeo + 3 * j, 3 * (size_t)n);
-        put_floats(vs->wo + 3 * i, b->wo + 3 * j, 3 * (size_t)n);
-        put_floats(vs->kd + 3 * i, b->kd + 3 * j, 3 * (size_t)n);
-        put_floats(vs->ks + 3 * i, b->ks + 3 * j, 3 * (size_t)n);
-        put_floats(vs->weight + 3 * i, b->weight + 3 * j, 3 * (size_t)n);
-        put_floats(emit + 3 * i, b->emit + 3 * j, 3 * (size_t)n);
-        put_floats(vs->shininess + i, b->shininess + j, (size_t)n);
-        put_floats(vs->ior + i, b->ior + j, (size_t)n);
-        put_floats(vs->depth + i, b->depth + j, (size_t)n);
-        memcpy(vs->flags + i, b->flags + j, (size_t)n);
+        unsigned skip = 0;
+        if (fill) {
+            const unsigned now =
+                (all_bits(b->ks + 3 * j, 3 * m, 0) && all_bits(b->shininess + j, m, 0) && all_bits(b->ior + j, m, 0)
+                     ? PGI__FILL_LOBE
+                     : 0) |
+                (all_bits(b->weight + 3 * j, 3 * m, 0x3f800000u) ? PGI__FILL_WEIGHT : 0) |
+                (all_bits(b->emit + 3 * j, 3 * m, 0) ? PGI__FILL_EMIT : 0);
+            uint8_t *f = fill + (size_t)r * stride;
+            skip = *f & now;
+            *f = (uint8_t)now;
+        }
+        put_floats(vs->pos + 3 * i, b->pos + 3 * j, 3 * m);
+        put_floats(vs->nrm + 3 * i, b->nrm + 3 * j, 3 * m);
+        put_floats(vs->ngeo + 3 * i, b->ngeo + 3 * j, 3 * m);
+        put_floats(vs->wo + 3 * i, b->wo + 3 * j, 3 * m);
+        put_floats(vs->kd + 3 * i, b->kd + 3 * j, 3 * m);
+        if (!(skip & PGI__FILL_LOBE)) {
+            put_floats(vs->ks + 3 * i, b->ks + 3 * j, 3 * m);
+            put_floats(vs->shininess + i, b->shininess + j, m);
+            put_floats(vs->ior + i, b->ior + j, m);
+        }
+        if (!(skip & PGI__FILL_WEIGHT)) put_floats(vs->weight + 3 * i, b->weight + 3 * j, 3 * m);
+        if (!(skip & PGI__FILL_EMIT)) put_floats(emit + 3 * i, b->emit + 3 * j, 3 * m);
+        put_floats(vs->depth + i, b->depth + j, m);
+        memcpy(vs->flags + i, b->flags + j, m);
     }
+}
+
+void pgi__view_fill_free(pgi__view_fill *f) {
+    free(f->rows);
+    *f = (pgi__view_fill){0};
+}
+
+/* Makes f describe a W x H destination: kept as it is for that size, else nothing known. Returns
+ * 0 when out of memory (f is then empty). */
+static int view_fill_fit(pgi__view_fill *f, int W, int H) {
+    if (f->rows && f->width == W && f->height == H) return 1;
+    pgi__view_fill_free(f);
+    const int cols = (W + PGI__FILL_W - 1) / PGI__FILL_W;
+    f->rows = calloc((size_t)H * (size_t)cols, 1);
+    if (!f->rows) return 0;
+    f->width = W;
+    f->height = H;
+    f->cols = cols;
+    return 1;
 }
 
 /* pgi__lobe_params of the material last seen (neighbouring samples mostly share one). */
@@ -212,7 +263,7 @@ static void tile_dirs(const pgi_camera *cam, const pgi__subpixel *sp, int tx, in
 
 pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scratch *tris, const pgi_camera *cam,
                            uint64_t seed, const pgi__subpixel *sp, int threads, pgi_view_samples *vs, float *emit,
-                           uint64_t *rays_out) {
+                           pgi__view_fill *fill, uint64_t *rays_out) {
     const int W = cam->width, H = cam->height;
     if (vs->width != W || vs->height != H)
         return pgi__fail(PGI_ERR_INVALID_ARG, "view-sample buffer is %dx%d, camera %dx%d", vs->width, vs->height, W, H);
@@ -221,6 +272,9 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
     pgi_status st = pgi__trace_tris_update(tr, s, threads);
     if (st) return st;
     vs->jitter = sp->jitter ? 0.5f : 0.f;
+    /* without the memory for the record, every row is written (as with none) */
+    uint8_t *const fill_rows = fill && view_fill_fit(fill, W, H) ? fill->rows : NULL;
+    const size_t fill_cols = fill_rows ? (size_t)fill->cols : 0;
     uint64_t rays = 0;
     const pgi__v3 eye = v3_load(cam->eye);
     const float eps = pgi__scene_epsilon(s);
@@ -299,7 +353,8 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
                 }
                 const int px0 = bx * BLOCK_W, py0 = 4 * ty;
                 const int n = W - px0 < BLOCK_W ? W - px0 : BLOCK_W, rows = H - py0 < 4 ? H - py0 : 4;
-                put_block(&blk, rows, n, (size_t)py0 * (size_t)W + (size_t)px0, (size_t)W, vs, emit);
+                put_block(&blk, rows, n, (size_t)py0 * (size_t)W + (size_t)px0, (size_t)W, vs, emit,
+                          fill_rows ? fill_rows + (size_t)py0 * fill_cols + (size_t)bx : NULL, fill_cols);
             }
         }
 #if defined(__SSE2__)

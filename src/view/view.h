@@ -2,6 +2,8 @@
 #ifndef PGI_VIEW_H
 #define PGI_VIEW_H
 
+#include <string.h>
+
 #include "rt/rt.h"
 
 /* Where the view samples of a frame look in their pixels (pgi__pixel_jitter). */
@@ -11,19 +13,46 @@ typedef struct pgi__subpixel {
     uint32_t index; /* the frame's place in the sequence: 0 for a lone frame, k for progressive frame k */
 } pgi__subpixel;
 
+/* What the destination of the view pass holds already, row by row (the renderer keeps one beside
+ * its view samples and emitted radiance). Most pixels of a frame store fixed defaults in five
+ * planes -- ks, shininess and ior +0 (Lambertian samples, and no sample), weight 1 (primary
+ * samples), emit +0 (no emitter seen) -- which the frame before has most likely stored at the
+ * same place already: the view pass skips those rows' stores (44 of the 105 bytes a pixel it
+ * writes) and the composite their loads. Entry (y, c) covers the pixels [PGI__FILL_W c,
+ * PGI__FILL_W (c + 1)) of row y (fewer at the right edge); its PGI__FILL_* bits say which of
+ * those planes hold exactly the bytes of their defaults there now. */
+enum {
+    PGI__FILL_LOBE = 1,   /* ks, shininess and ior: every bit 0 */
+    PGI__FILL_WEIGHT = 2, /* weight: 1.0f */
+    PGI__FILL_EMIT = 4    /* emit: every bit 0 */
+};
+#define PGI__FILL_W 32 /* the view pass's block width */
+typedef struct pgi__view_fill {
+    int width, height, cols; /* the image the entries describe (0 x 0: none); cols entries a row */
+    uint8_t *rows;           /* height * cols entries */
+} pgi__view_fill;
+/* Nothing is known of the destination any more (it was reallocated, or written by anything but
+ * pgi__view_build with this record). */
+static inline void pgi__view_fill_forget(pgi__view_fill *f) {
+    if (f->rows) memset(f->rows, 0, (size_t)f->height * (size_t)f->cols);
+}
+void pgi__view_fill_free(pgi__view_fill *f);
+
 /* Casts primary rays in 16-wide packets of 4x4 pixels, one a pixel through its centre or,
  * with sp->jitter, through the point pgi__pixel_jitter gives (pgi__view_dir;
  * vs->jitter says which), follows
  * perfect mirrors and glass (up to 8 specular bounces; glass picks reflection
  * or refraction by Fresnel with a per-pixel RNG) to the first non-specular
  * hit, and fills `vs`. `emit` (3 floats a pixel) receives emitted radiance
- * seen along the eye path. Primary hits are shaded from the triangle records of `tris`
+ * seen along the eye path. `fill` (NULL: every row is written) is the record of what vs and
+ * emit hold (pgi__view_fill): rows that hold what they would receive are left alone, and it
+ * is brought up to date (made anew for another size). Primary hits are shaded from the triangle records of `tris`
  * (pgi__trace_tris_update, brought up to date here: the renderer passes its tracer's scratch, so
  * that both passes share one copy); NULL: records of its own for the call. */
 struct pgi__trace_scratch;
 pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, struct pgi__trace_scratch *tris,
                            const pgi_camera *cam, uint64_t seed, const pgi__subpixel *sp, int threads,
-                           pgi_view_samples *vs, float *emit, uint64_t *rays);
+                           pgi_view_samples *vs, float *emit, pgi__view_fill *fill, uint64_t *rays);
 
 /* Direct light at every valid view sample with shadow rays (point, spot, sun:
  * one ray each; emissive triangles: `area_samples` samples picked by power;
