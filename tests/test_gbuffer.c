@@ -81,7 +81,8 @@ static void same_samples(const pgi_view_samples *a, const pgi_view_samples *b, c
 }
 
 /* pgi__view_build into buffers kept across frames with a pgi__view_fill, against fresh buffers
- * without one; the record must both skip rows and not skip others for the test to mean much. */
+ * without one, and pgi__direct with the record against it without; the record must both skip
+ * rows and not skip others for the test to mean much. */
 static void test_view_build_reuse(void **state) {
     (void)state;
     pgi_scene *sc = NULL;
@@ -141,6 +142,14 @@ static void test_view_build_reuse(void **state) {
                         }
                     }
                 }
+            /* direct light reads the weights the record does not know to be 1 */
+            float *dk = malloc(3 * fresh.count * sizeof(float)), *df = malloc(3 * fresh.count * sizeof(float));
+            assert_true(dk && df);
+            TU_CHECK_OK(pgi__direct(sc, rt, &kept, &fill, 4, 9, 2, dk, &rays));
+            TU_CHECK_OK(pgi__direct(sc, rt, &fresh, NULL, 4, 9, 1, df, &rays));
+            if (memcmp(dk, df, 3 * fresh.count * sizeof(float)) != 0) fail_msg("%s: direct light differs", what);
+            free(dk);
+            free(df);
             skipped += before;
             written += (size_t)H * (size_t)fill.cols - before;
             free(fresh_emit);

@@ -974,7 +974,7 @@ pgi_status pgi__renderer_render_frame_late(pgi_renderer *r, const pgi_render_des
     double t4 = pgi__now_ms();
     report(&pc, "direct", 0, 0);
     pgi__rt_capture_pass(r->rt, PGI__PASS_DIRECT);
-    st = pgi__direct(s, r->rt, &r->vs, d.direct_samples, d.seed, d.threads, r->direct, &fs.shadow_rays);
+    st = pgi__direct(s, r->rt, &r->vs, &r->fill, d.direct_samples, d.seed, d.threads, r->direct, &fs.shadow_rays);
     pgi__rt_capture_pass(r->rt, PGI__PASS_NONE);
     if (st) return st;
     double t5 = pgi__now_ms();

@@ -185,8 +185,11 @@ static inline pgi__v3 pgi__brdf_eval(pgi__v3 kd, const pgi__lobe *l, pgi__v3 n, 
 static inline void pgi__vs_lobe(const pgi_view_samples *vs, size_t i, pgi__lobe *l) {
     uint8_t f = vs->flags[i];
     pgi__lobe_model m = (f & PGI_VS_LAMBERT) ? PGI_LOBE_NONE : (f & PGI_VS_GGX) ? PGI_LOBE_GGX : PGI_LOBE_PHONG;
-    /* ior only for GGX: samples filled by hand for Blinn-Phong or Lambert need no ior plane */
-    pgi__lobe_init(l, m, v3_load(vs->ks + 3 * i), vs->shininess[i], m == PGI_LOBE_GGX ? vs->ior[i] : 1.5f);
+    /* A Lambertian lobe is its model alone (nothing reads its ks, s or eta): no load of the ks and
+     * shininess planes, which the view pass then need not touch either (pgi__view_fill). ior only
+     * for GGX: samples filled by hand for Blinn-Phong or Lambert need no ior plane. */
+    if (m == PGI_LOBE_NONE) pgi__lobe_init(l, m, v3(0.f, 0.f, 0.f), 0.f, 1.5f);
+    else pgi__lobe_init(l, m, v3_load(vs->ks + 3 * i), vs->shininess[i], m == PGI_LOBE_GGX ? vs->ior[i] : 1.5f);
 }
 
 static inline pgi__v3 pgi__reflect(pgi__v3 w, pgi__v3 n) { return v3_sub(v3_scale(n, 2.f * v3_dot(w, n)), w); }

@@ -565,7 +565,7 @@ pgi_status pgi__area_table_build(const pgi_scene *s, pgi__area_table *t) {
         __builtin_prefetch((const char *)(p));                                                                         \
         __builtin_prefetch((const char *)(p) + (bytes)-1);                                                             \
     } while (0)
-#define PREFETCH_TILE(vs, out, tx, ty)                                                                                 \
+#define PREFETCH_TILE(vs, out, one, tx, ty)                                                                            \
     do {                                                                                                               \
         const int pf_x0 = 4 * (tx), pf_n = (vs)->width - pf_x0 < 4 ? (vs)->width - pf_x0 : 4;                          \
         const size_t pf_b3 = 3 * (size_t)pf_n * sizeof(float);                                                         \
@@ -575,7 +575,7 @@ pgi_status pgi__area_table_build(const pgi_scene *s, pgi__area_table *t) {
             PREFETCH_RUN((vs)->pos + 3 * pf_i, pf_b3);                                                                 \
             PREFETCH_RUN((vs)->nrm + 3 * pf_i, pf_b3);                                                                 \
             PREFETCH_RUN((vs)->ngeo + 3 * pf_i, pf_b3);                                                                \
-            PREFETCH_RUN((vs)->weight + 3 * pf_i, pf_b3);                                                              \
+            if (!weight_one(one, 4 * (ty) + pf_r, pf_x0)) PREFETCH_RUN((vs)->weight + 3 * pf_i, pf_b3);                \
             PREFETCH_RUN((out) + 3 * pf_i, pf_b3);                                                                     \
         }                                                                                                              \
     } while (0)
@@ -588,13 +588,25 @@ pgi_status pgi__area_table_build(const pgi_scene *s, pgi__area_table *t) {
             const size_t pf_i = (t)->pix[k];                                                                           \
             __builtin_prefetch((vs)->wo + 3 * pf_i);                                                                   \
             __builtin_prefetch((vs)->kd + 3 * pf_i);                                                                   \
-            __builtin_prefetch((vs)->ks + 3 * pf_i);                                                                   \
-            __builtin_prefetch((vs)->shininess + pf_i);                                                                \
+            if (!((vs)->flags[pf_i] & PGI_VS_LAMBERT)) { /* pgi__vs_lobe reads no more */                              \
+                __builtin_prefetch((vs)->ks + 3 * pf_i);                                                               \
+                __builtin_prefetch((vs)->shininess + pf_i);                                                            \
+            }                                                                                                          \
         }                                                                                                              \
     } while (0)
 
-pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_samples *vs, int area_samples,
-                       uint64_t seed, int threads, float *out, uint64_t *rays_out) {
+/* Does the record `one` (pgi__view_fill of this image; NULL: none) know the weights at pixel (x, y)
+ * to be 1? */
+typedef struct weight_rows {
+    const uint8_t *rows;
+    size_t cols;
+} weight_rows;
+static inline int weight_one(const weight_rows *one, int y, int x) {
+    return one->rows && (one->rows[(size_t)y * one->cols + (size_t)(x / PGI__FILL_W)] & PGI__FILL_WEIGHT);
+}
+
+pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_samples *vs, const pgi__view_fill *fill,
+                       int area_samples, uint64_t seed, int threads, float *out, uint64_t *rays_out) {
     /* Area lights get their own CDF by power (luminance). */
     pgi__area_table at;
     pgi_status st = pgi__area_table_build(s, &at);
@@ -603,6 +615,9 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
     const float eps = pgi__scene_epsilon(s);
     uint64_t rays = 0;
     const int W = vs->width, H = vs->height;
+    /* rows whose weights are all 1 are not read: 1 * x is x */
+    const weight_rows one = {fill && fill->rows && fill->width == W && fill->height == H ? fill->rows : NULL,
+                             fill ? (size_t)fill->cols : 0};
     /* 4x4-pixel tiles (tile_lane): the shadow rays of a tile towards one light (or one area
      * sample each) go to Embree as one coherent 16-wide packet (the fastest style:
      * photongi-bench --limits). Every pixel keeps its own RNG stream and its sums run in the
@@ -614,7 +629,8 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
         for (int tx = 0; tx < tiles_x; tx++) {
             pgi__v3 L[16], La[16];
             int any = 0;
-            if (DIRECT_PREFETCH && tx + DIRECT_PREFETCH < tiles_x) PREFETCH_TILE(vs, out, tx + DIRECT_PREFETCH, ty);
+            if (DIRECT_PREFETCH && tx + DIRECT_PREFETCH < tiles_x)
+                PREFETCH_TILE(vs, out, &one, tx + DIRECT_PREFETCH, ty);
             for (int k = 0; k < 16; k++) {
                 int px, py;
                 int on = tile_lane(tx, ty, k, W, H, &px, &py);
@@ -731,7 +747,10 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
                 env_direct(s->env, rt, &t, vs, area_samples, seed, L, &rays);
             }
             for (int k = 0; k < 16; k++)
-                if (t.on[k]) v3_store(out + 3 * t.pix[k], v3_mul(L[k], v3_load(vs->weight + 3 * t.pix[k])));
+                if (t.on[k])
+                    v3_store(out + 3 * t.pix[k], weight_one(&one, 4 * ty + (k >> 2), 4 * tx)
+                                                     ? L[k]
+                                                     : v3_mul(L[k], v3_load(vs->weight + 3 * t.pix[k])));
         }
     }
     pgi__area_table_free(&at);

@@ -57,9 +57,10 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, struct pgi__tr
 /* Direct light at every valid view sample with shadow rays (point, spot, sun:
  * one ray each; emissive triangles: `area_samples` samples picked by power;
  * the sky: `area_samples` directions, pgi__env_sample_direct, rays to infinity).
- * Writes weight-multiplied radiance (3 floats a pixel). */
-pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_samples *vs, int area_samples,
-                       uint64_t seed, int threads, float *out, uint64_t *rays);
+ * Writes weight-multiplied radiance (3 floats a pixel). `fill` (NULL: none), the record of what
+ * vs holds: the weights of the rows it knows to be 1 are not read. */
+pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_samples *vs, const pgi__view_fill *fill,
+                       int area_samples, uint64_t seed, int threads, float *out, uint64_t *rays);
 
 /* The area lights as pgi__direct samples them: their CDF by the luminance of their power (the
  * table the GPU backend and the reference path tracer build too) and one record a light (no
