@@ -595,8 +595,8 @@ pgi_status pgi__area_table_build(const pgi_scene *s, pgi__area_table *t) {
         }                                                                                                              \
     } while (0)
 
-/* Does the record `one` (pgi__view_fill of this image; NULL: none) know the weights at pixel (x, y)
- * to be 1? */
+/* The entries of a pgi__view_fill of this image (rows NULL: none); weight_one: does it know the
+ * weights of pixel (x, y) to be 1? */
 typedef struct weight_rows {
     const uint8_t *rows;
     size_t cols;
