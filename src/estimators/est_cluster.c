@@ -418,16 +418,15 @@ static inline __attribute__((always_inline)) void walk(const cl_state *s, const 
     }
 }
 
-/* walk for the list variants: the same decisions, but the children of a node are settled
- * together from child_hits' masks (trivial flux, then list records or the top pass's jobs,
- * then the children to descend into, the only ones stacked): leaves and jobs are never stacked
- * or popped one by one. Within one photon the order of its outputs is free: a list or an
- * accumulator only sees the order of the photons, which is unchanged. (The top pass groups pk
- * by a photon's first record: with few lists above J that is still its first job.) */
-static inline __attribute__((always_inline)) void walk_lists(const cl_state *s, const int variant, const int wide,
-                                                             const int top, uint32_t start, int start_level,
-                                                             const photon_q *q, sink *k) {
-    if (!decide(s, variant, top, start, start_level, q, k)) return;
+/* The subtree pass's walk for the list variants: walk's decisions, but the children of a node
+ * are settled together from child_hits' masks (trivial flux, then list records, then the
+ * children to descend into, the only ones stacked): leaves are never stacked or popped one by
+ * one. Within one photon the order of its outputs is free: a list or an accumulator only sees
+ * the order of the photons (jobs), which is unchanged. (In the top pass it gained nothing.) */
+static inline __attribute__((always_inline)) void walk_sub(const cl_state *s, const int variant, const int wide,
+                                                           uint32_t start, const photon_q *q, sink *k) {
+    const int start_level = s->J;
+    if (!decide(s, variant, 0, start, start_level, q, k)) return;
     const int L = s->L;
     struct {
         uint32_t mask, first;
@@ -439,18 +438,6 @@ static inline __attribute__((always_inline)) void walk_lists(const cl_state *s, 
         const int nc = __builtin_popcount(nd->mask);
         const uint32_t f = nd->first;
         k->visited += (uint64_t)nc;
-        if (top && level + 1 == s->J) { /* decide's jobs at J, whatever the masks say */
-            uint32_t m = child_hits_w(s, variant, wide, f, nc, q, NULL, NULL);
-            if (m && reserve(k, 32))
-                for (; m; m &= m - 1) {
-                    const uint32_t ch = f + (uint32_t)__builtin_ctz(m);
-                    k->cnt[ch]++;
-                    k->out[2 * k->nout] = ch;
-                    k->out[2 * k->nout + 1] = q->j;
-                    k->nout++;
-                }
-            goto next;
-        }
         uint32_t encl, triv;
         const uint32_t m = child_hits_w(s, variant, wide, f, nc, q, &encl, &triv);
         if (variant & V_TRIVIAL) /* enclosed and above every surface in it (§4.6); triv is in encl */
@@ -475,7 +462,6 @@ static inline __attribute__((always_inline)) void walk_lists(const cl_state *s, 
             stk[sp].first = f;
             sp++;
         }
-    next:
         while (sp > 0 && !stk[sp - 1].mask) sp--;
         if (!sp) return;
         const uint32_t d = stk[sp - 1].mask;
@@ -496,8 +482,7 @@ top_photons_impl(cl_state *s, const pgi_photons *ph, const int variant, const in
         load_photon(s, &p, j, &q);
         k->visited++;
         if (!(child_hits(s, variant, 0, 1, &q, NULL, NULL) & 1u)) continue; /* the root */
-        if (variant & V_DIR) walk(s, variant, wide, 1, 0, 0, &q, k);
-        else walk_lists(s, variant, wide, 1, 0, 0, &q, k);
+        walk(s, variant, wide, 1, 0, 0, &q, k);
     }
 }
 
@@ -541,13 +526,13 @@ static inline __attribute__((always_inline)) void subtree_task_impl(cl_state *s,
         photon_q q;
         load_photon(s, &s->pk[s->jobs[u]], s->jobs[u], &q);
         if (variant & V_DIR) walk(s, variant, wide, 0, node, s->J, &q, k);
-        else walk_lists(s, variant, wide, 0, node, s->J, &q, k);
+        else walk_sub(s, variant, wide, node, &q, k);
     }
 }
 
 /* The subtree pass's tasks, narrow and wide as the top pass's traversals, dispatched once a
  * task (target_clones on the walk itself was slower: every call went through the ifunc); the
- * wide build also has popcnt (a libgcc call in the narrow one). With walk_lists, -21 % CPU time
+ * wide build also has popcnt (a libgcc call in the narrow one). With walk_sub, -21 % CPU time
  * of the count pass (Sibenik 1280x720, 200k photons, one thread: 40.8 -> 32.3 ms). */
 #define CL_SUB_N(v) subtree_task_impl(s, v, 0, t, k)
 #define CL_SUB_W(v) subtree_task_impl(s, v, 1, t, k)
