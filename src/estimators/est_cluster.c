@@ -831,6 +831,7 @@ pgi_status cl_build(void *state, const pgi_estimate_args *a) {
 /* 8 lanes: 8 consecutive samples of a block; an AVX2 register (the default clone uses two SSE ones). */
 typedef float cl_v8f __attribute__((vector_size(32)));
 typedef int32_t cl_v8i __attribute__((vector_size(32)));
+#define CL_SPLAT(f) ((cl_v8f){(f), (f), (f), (f), (f), (f), (f), (f)})
 
 /* One block of nbv samples (a multiple of 8; sorted-sample arrays) against the
  * lists of the np path nodes (path[np - 1] is the root), into the block's
@@ -847,8 +848,6 @@ static void rad_block(const pgi__packed_photon *restrict pk, const uint32_t *res
                       const float *restrict bx, const float *restrict by, const float *restrict bz,
                       const float *restrict bnx, const float *restrict bny, const float *restrict bnz,
                       float *restrict ar, float *restrict ag, float *restrict ab, uint32_t *restrict an, float r2) {
-    const cl_v8i one = {0x3f800000, 0x3f800000, 0x3f800000, 0x3f800000,
-                        0x3f800000, 0x3f800000, 0x3f800000, 0x3f800000}; /* the bits of 1.f */
     for (int t = 0; t < nbv; t += 8) {
         cl_v8f x, y, z, nx, ny, nz;
         memcpy(&x, bx + t, sizeof x), memcpy(&y, by + t, sizeof y), memcpy(&z, bz + t, sizeof z);
@@ -865,10 +864,11 @@ static void rad_block(const pgi__packed_photon *restrict pk, const uint32_t *res
                 const cl_v8f d2 = ex * ex + ey * ey + ez * ez;
                 const cl_v8f c = nx * q->dx + ny * q->dy + nz * q->dz;
                 const cl_v8i ok = (d2 < r2) & (c > 0.f); /* lanes: -1 or 0 */
-                const cl_v8f okf = (cl_v8f)(ok & one);   /* 1.f or 0.f */
-                sr += okf * q->fr;
-                sg += okf * q->fg;
-                sb += okf * q->fb;
+                /* flux or +0.f: the bits of 1.f * flux or 0.f * flux added to a sum that starts
+                 * at +0.f (never -0.f: x + y is -0.f only for two -0.f), flux finite */
+                sr += (cl_v8f)(ok & (cl_v8i)CL_SPLAT(q->fr));
+                sg += (cl_v8f)(ok & (cl_v8i)CL_SPLAT(q->fg));
+                sb += (cl_v8f)(ok & (cl_v8i)CL_SPLAT(q->fb));
                 sn -= ok;
             }
         }
