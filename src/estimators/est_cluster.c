@@ -472,17 +472,23 @@ static inline __attribute__((always_inline)) void walk_sub(const cl_state *s, co
 }
 
 
-/* Top pass over the photons [j0, j1): walks each from the root (pk is filled later). */
-static inline __attribute__((always_inline)) void
-top_photons_impl(cl_state *s, const pgi_photons *ph, const int variant, const int wide, size_t j0, size_t j1, sink *k) {
+/* Top pass over the photons [j0, j1): walks each from the root (pk is filled later). perm[j]
+ * gets the first node photon j recorded (none: nkey), counted in h (splat_impl groups pk by it;
+ * counted here, not in a pass over the records afterwards). */
+static inline __attribute__((always_inline)) void top_photons_impl(cl_state *s, const pgi_photons *ph,
+                                                                   const int variant, const int wide, size_t j0,
+                                                                   size_t j1, sink *k, uint32_t *h, uint32_t nkey) {
     for (size_t j = j0; j < j1; j++) {
         photon_q q;
         pgi__packed_photon p;
         pgi__pack_photon(ph, j, &p); /* into pk once its position is known (splat_impl) */
         load_photon(s, &p, j, &q);
         k->visited++;
-        if (!(child_hits(s, variant, 0, 1, &q, NULL, NULL) & 1u)) continue; /* the root */
-        walk(s, variant, wide, 1, 0, 0, &q, k);
+        const size_t u = k->nout;
+        if (child_hits(s, variant, 0, 1, &q, NULL, NULL) & 1u) walk(s, variant, wide, 1, 0, 0, &q, k); /* the root */
+        const uint32_t key = k->nout > u ? k->out[2 * u] : nkey;
+        s->perm[j] = key;
+        h[key]++;
     }
 }
 
@@ -496,12 +502,15 @@ top_photons_impl(cl_state *s, const pgi_photons *ph, const int variant, const in
     case V_CONE | V_TRIVIAL: call(V_CONE | V_TRIVIAL); break;                                                          \
     default: call(V_DIR); break;                                                                                       \
     }
-#define CL_TOP_N(v) top_photons_impl(s, ph, v, 0, j0, j1, k)
-#define CL_TOP_W(v) top_photons_impl(s, ph, v, 1, j0, j1, k)
-static void top_photons_n(cl_state *s, const pgi_photons *ph, size_t j0, size_t j1, sink *k) { CL_BY_VARIANT(CL_TOP_N) }
+#define CL_TOP_N(v) top_photons_impl(s, ph, v, 0, j0, j1, k, h, nkey)
+#define CL_TOP_W(v) top_photons_impl(s, ph, v, 1, j0, j1, k, h, nkey)
+static void top_photons_n(cl_state *s, const pgi_photons *ph, size_t j0, size_t j1, sink *k, uint32_t *h,
+                          uint32_t nkey) {
+    CL_BY_VARIANT(CL_TOP_N)
+}
 #ifdef CL_AVX2
 __attribute__((target("avx2,popcnt"))) static void top_photons_w(cl_state *s, const pgi_photons *ph, size_t j0,
-                                                                 size_t j1, sink *k) {
+                                                                 size_t j1, sink *k, uint32_t *h, uint32_t nkey) {
     CL_BY_VARIANT(CL_TOP_W)
 }
 #else
@@ -585,7 +594,10 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
         return st;
     const size_t nD = (variant & V_DIR) ? nn - s->lvl_off[s->D] : 0; /* nodes with buckets */
     if ((variant & V_DIR) && (st = ENSURE(buckets, nD * 24 + 1, float))) return st;
-    if ((st = ENSURE(pk, n + 1, pgi__packed_photon))) return st;
+    const size_t nkeys = (size_t)ntop + 1; /* the first-record keys grouping pk: nodes up to J, none */
+    if ((st = ENSURE(pk, n + 1, pgi__packed_photon)) || (st = ENSURE(perm, n + 1, uint32_t)) ||
+        (st = ENSURE(perm_hist, nch * nkeys + 1, uint32_t)))
+        return st;
     s->npacked = n;
     uint64_t visited = 0, deposits = 0;
     int oom = 0;
@@ -605,8 +617,10 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
         memset(k->flux, 0, (size_t)nabove * 3 * sizeof *k->flux);
         memset(k->tcnt, 0, (size_t)nabove * sizeof *k->tcnt);
         size_t j1 = chunk_end((size_t)ci, chunk, n);
-        if (wide) top_photons_w(s, ph, (size_t)ci * chunk, j1, k);
-        else top_photons_n(s, ph, (size_t)ci * chunk, j1, k);
+        uint32_t *h = s->perm_hist + (size_t)ci * nkeys;
+        memset(h, 0, nkeys * sizeof *h);
+        if (wide) top_photons_w(s, ph, (size_t)ci * chunk, j1, k, h, ntop);
+        else top_photons_n(s, ph, (size_t)ci * chunk, j1, k, h, ntop);
         visited += k->visited;
         oom |= k->oom;
     }
@@ -616,25 +630,8 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
      * within a group (a counting sort over the fixed chunks). The jobs of one subtree and the
      * lists of its leaves then read few, nearby records; in photon order pk was a random
      * scatter, and those loads were a third of the subtree and radiance passes. Lists and jobs
-     * hold pk positions but stay in photon order, so every sum is unchanged. */
-    const size_t nkeys = (size_t)ntop + 1;
-    if ((st = ENSURE(perm, n + 1, uint32_t)) || (st = ENSURE(perm_hist, nch * nkeys + 1, uint32_t))) return st;
-#pragma omp parallel for schedule(static) num_threads(s->c.threads)
-    for (long long ci = 0; ci < (long long)nch; ci++) {
-        const sink *k = &s->outs[ci];
-        uint32_t *h = s->perm_hist + (size_t)ci * nkeys;
-        memset(h, 0, nkeys * sizeof *h);
-        size_t u = 0, j1 = chunk_end((size_t)ci, chunk, n);
-        for (size_t j = (size_t)ci * chunk; j < j1; j++) {
-            uint32_t key = ntop;
-            if (u < k->nout && k->out[2 * u + 1] == (uint32_t)j) {
-                key = k->out[2 * u];
-                while (u < k->nout && k->out[2 * u + 1] == (uint32_t)j) u++;
-            }
-            s->perm[j] = key;
-            h[key]++;
-        }
-    }
+     * hold pk positions but stay in photon order, so every sum is unchanged. The top pass
+     * found each photon's key and counted the keys per chunk (perm, perm_hist). */
     {
         uint32_t pos = 0;
         for (size_t key = 0; key < nkeys; key++)
