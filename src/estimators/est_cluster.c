@@ -259,18 +259,25 @@ static inline __attribute__((always_inline)) uint32_t child_hits_w(const cl_stat
     return child_hits(s, variant, f, nc, q, encl, triv);
 }
 
-/* Records one traversal output (node, photon) in the sink's growable array. */
-static inline void emit(sink *k, uint32_t node, uint32_t j) {
-    if (k->nout == k->capout) {
+/* Makes room for n more records in the sink's growable array; 0 when out of memory. */
+static inline int reserve(sink *k, size_t n) {
+    if (k->nout + n > k->capout) {
         size_t nc = k->capout ? 2 * k->capout : 4096;
+        while (nc < k->nout + n) nc *= 2;
         uint32_t *p = realloc(k->out, 2 * nc * sizeof *p);
         if (!p) {
             k->oom = 1;
-            return;
+            return 0;
         }
         k->out = p;
         k->capout = nc;
     }
+    return 1;
+}
+
+/* Records one traversal output (node, photon) in the sink's growable array. */
+static inline void emit(sink *k, uint32_t node, uint32_t j) {
+    if (k->nout == k->capout && !reserve(k, 1)) return;
     k->out[2 * k->nout] = node;
     k->out[2 * k->nout + 1] = j;
     k->nout++;
@@ -411,27 +418,83 @@ static inline __attribute__((always_inline)) void walk(const cl_state *s, const 
     }
 }
 
-/* How many jobs ahead the subtree pass prefetches their packed photons. */
-#define PREFETCH_JOBS 8
+/* The subtree pass's walk for the list variants: walk's decisions, but the children of a node
+ * are settled together from child_hits' masks (trivial flux, then list records, then the
+ * children to descend into, the only ones stacked): leaves are never stacked or popped one by
+ * one. Within one photon the order of its outputs is free: a list or an accumulator only sees
+ * the order of the photons (jobs), which is unchanged. (In the top pass it gained nothing.) */
+static inline __attribute__((always_inline)) void walk_sub(const cl_state *s, const int variant, const int wide,
+                                                           uint32_t start, const photon_q *q, sink *k) {
+    const int start_level = s->J;
+    if (!decide(s, variant, 0, start, start_level, q, k)) return;
+    const int L = s->L;
+    struct {
+        uint32_t mask, first;
+    } stk[MAX_LEVELS + 2];
+    int sp = 0, level = start_level; /* of node ni */
+    uint32_t ni = start;
+    for (;;) {
+        const cnode *nd = &s->nodes[ni];
+        const int nc = __builtin_popcount(nd->mask);
+        const uint32_t f = nd->first;
+        k->visited += (uint64_t)nc;
+        uint32_t encl, triv;
+        const uint32_t m = child_hits_w(s, variant, wide, f, nc, q, &encl, &triv);
+        if (variant & V_TRIVIAL) /* enclosed and above every surface in it (§4.6); triv is in encl */
+            for (uint32_t b = triv; b; b &= b - 1) {
+                const uint32_t ch = f + (uint32_t)__builtin_ctz(b);
+                float *fl = k->flux + 3 * (size_t)ch;
+                fl[0] += q->fr, fl[1] += q->fg, fl[2] += q->fb;
+                k->tcnt[ch]++;
+            }
+        const int leaves = level + 1 == L;
+        uint32_t e = (leaves ? m : encl) & ~triv; /* lists: enclosed nodes, intersected leaves */
+        if (e && reserve(k, 32))
+            for (; e; e &= e - 1) {
+                const uint32_t ch = f + (uint32_t)__builtin_ctz(e);
+                k->cnt[ch]++;
+                k->out[2 * k->nout] = ch;
+                k->out[2 * k->nout + 1] = q->j;
+                k->nout++;
+            }
+        if (!leaves && (m & ~encl)) {
+            stk[sp].mask = m & ~encl;
+            stk[sp].first = f;
+            sp++;
+        }
+        while (sp > 0 && !stk[sp - 1].mask) sp--;
+        if (!sp) return;
+        const uint32_t d = stk[sp - 1].mask;
+        stk[sp - 1].mask = d & (d - 1);
+        ni = stk[sp - 1].first + (uint32_t)__builtin_ctz(d);
+        level = start_level + sp;
+    }
+}
 
-/* Top pass over the photons [j0, j1): walks each from the root (pk is filled later). */
-static inline __attribute__((always_inline)) void
-top_photons_impl(cl_state *s, const pgi_photons *ph, const int variant, const int wide, size_t j0, size_t j1, sink *k) {
+
+/* Top pass over the photons [j0, j1): walks each from the root (pk is filled later). perm[j]
+ * gets the first node photon j recorded (none: nkey), counted in h (splat_impl groups pk by it;
+ * counted here, not in a pass over the records afterwards). */
+static inline __attribute__((always_inline)) void top_photons_impl(cl_state *s, const pgi_photons *ph,
+                                                                   const int variant, const int wide, size_t j0,
+                                                                   size_t j1, sink *k, uint32_t *h, uint32_t nkey) {
     for (size_t j = j0; j < j1; j++) {
         photon_q q;
         pgi__packed_photon p;
         pgi__pack_photon(ph, j, &p); /* into pk once its position is known (splat_impl) */
         load_photon(s, &p, j, &q);
         k->visited++;
-        if (!(child_hits(s, variant, 0, 1, &q, NULL, NULL) & 1u)) continue; /* the root */
-        walk(s, variant, wide, 1, 0, 0, &q, k);
+        const size_t u = k->nout;
+        if (child_hits(s, variant, 0, 1, &q, NULL, NULL) & 1u) walk(s, variant, wide, 1, 0, 0, &q, k); /* the root */
+        const uint32_t key = k->nout > u ? k->out[2 * u] : nkey;
+        s->perm[j] = key;
+        h[key]++;
     }
 }
 
 /* The top pass's traversals, one function per variant, narrow (SSE2) and, where the CPU has
  * it, wide (AVX2: child_hits8): 10 % off the top pass (the OpenMP body takes the target of
- * splat_impl, so the wide code needs a function of its own). The subtree pass stays in its
- * OpenMP body: split out like this it took 16 % longer, and 7 % longer even wide. */
+ * splat_impl, so the wide code needs a function of its own). */
 #define CL_BY_VARIANT(call)                                                                                            \
     switch (s->variant) {                                                                                              \
     case 0: call(0); break;                                                                                            \
@@ -439,16 +502,56 @@ top_photons_impl(cl_state *s, const pgi_photons *ph, const int variant, const in
     case V_CONE | V_TRIVIAL: call(V_CONE | V_TRIVIAL); break;                                                          \
     default: call(V_DIR); break;                                                                                       \
     }
-#define CL_TOP_N(v) top_photons_impl(s, ph, v, 0, j0, j1, k)
-#define CL_TOP_W(v) top_photons_impl(s, ph, v, 1, j0, j1, k)
-static void top_photons_n(cl_state *s, const pgi_photons *ph, size_t j0, size_t j1, sink *k) { CL_BY_VARIANT(CL_TOP_N) }
+#define CL_TOP_N(v) top_photons_impl(s, ph, v, 0, j0, j1, k, h, nkey)
+#define CL_TOP_W(v) top_photons_impl(s, ph, v, 1, j0, j1, k, h, nkey)
+static void top_photons_n(cl_state *s, const pgi_photons *ph, size_t j0, size_t j1, sink *k, uint32_t *h,
+                          uint32_t nkey) {
+    CL_BY_VARIANT(CL_TOP_N)
+}
 #ifdef CL_AVX2
-__attribute__((target("avx2"))) static void top_photons_w(cl_state *s, const pgi_photons *ph, size_t j0, size_t j1,
-                                                          sink *k) {
+__attribute__((target("avx2,popcnt"))) static void top_photons_w(cl_state *s, const pgi_photons *ph, size_t j0,
+                                                                 size_t j1, sink *k, uint32_t *h, uint32_t nkey) {
     CL_BY_VARIANT(CL_TOP_W)
 }
 #else
 #define top_photons_w top_photons_n
+#endif
+
+/* How many jobs ahead the subtree pass prefetches their packed photons. */
+#define PREFETCH_JOBS 8
+
+/* Subtree pass, task t: the jobs of job-level node nabove + t. */
+static inline __attribute__((always_inline)) void subtree_task_impl(cl_state *s, const int variant, const int wide,
+                                                                    uint32_t t, sink *k) {
+    const uint32_t node = s->lvl_off[s->J] + t, u1 = s->job_start[t + 1];
+    for (uint32_t u = s->job_start[t]; u < u1; u++) {
+        /* The jobs' photons are sparse in pk: without the prefetch a third of this pass
+         * waited on their first load. 36-byte records: two lines. */
+        if (u + PREFETCH_JOBS < u1) {
+            const char *p = (const char *)&s->pk[s->jobs[u + PREFETCH_JOBS]];
+            __builtin_prefetch(p);
+            __builtin_prefetch(p + sizeof(pgi__packed_photon) - 1);
+        }
+        photon_q q;
+        load_photon(s, &s->pk[s->jobs[u]], s->jobs[u], &q);
+        if (variant & V_DIR) walk(s, variant, wide, 0, node, s->J, &q, k);
+        else walk_sub(s, variant, wide, node, &q, k);
+    }
+}
+
+/* The subtree pass's tasks, narrow and wide as the top pass's traversals, dispatched once a
+ * task (target_clones on the walk itself was slower: every call went through the ifunc); the
+ * wide build also has popcnt (a libgcc call in the narrow one). With walk_sub, -21 % CPU time
+ * of the count pass (Sibenik 1280x720, 200k photons, one thread: 40.8 -> 32.3 ms). */
+#define CL_SUB_N(v) subtree_task_impl(s, v, 0, t, k)
+#define CL_SUB_W(v) subtree_task_impl(s, v, 1, t, k)
+static void subtree_task_n(cl_state *s, uint32_t t, sink *k) { CL_BY_VARIANT(CL_SUB_N) }
+#ifdef CL_AVX2
+__attribute__((target("avx2,popcnt"))) static void subtree_task_w(cl_state *s, uint32_t t, sink *k) {
+    CL_BY_VARIANT(CL_SUB_W)
+}
+#else
+#define subtree_task_w subtree_task_n
 #endif
 
 /* The end of top chunk ci of n photons. */
@@ -491,7 +594,10 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
         return st;
     const size_t nD = (variant & V_DIR) ? nn - s->lvl_off[s->D] : 0; /* nodes with buckets */
     if ((variant & V_DIR) && (st = ENSURE(buckets, nD * 24 + 1, float))) return st;
-    if ((st = ENSURE(pk, n + 1, pgi__packed_photon))) return st;
+    const size_t nkeys = (size_t)ntop + 1; /* the first-record keys grouping pk: nodes up to J, none */
+    if ((st = ENSURE(pk, n + 1, pgi__packed_photon)) || (st = ENSURE(perm, n + 1, uint32_t)) ||
+        (st = ENSURE(perm_hist, nch * nkeys + 1, uint32_t)))
+        return st;
     s->npacked = n;
     uint64_t visited = 0, deposits = 0;
     int oom = 0;
@@ -511,8 +617,10 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
         memset(k->flux, 0, (size_t)nabove * 3 * sizeof *k->flux);
         memset(k->tcnt, 0, (size_t)nabove * sizeof *k->tcnt);
         size_t j1 = chunk_end((size_t)ci, chunk, n);
-        if (wide) top_photons_w(s, ph, (size_t)ci * chunk, j1, k);
-        else top_photons_n(s, ph, (size_t)ci * chunk, j1, k);
+        uint32_t *h = s->perm_hist + (size_t)ci * nkeys;
+        memset(h, 0, nkeys * sizeof *h);
+        if (wide) top_photons_w(s, ph, (size_t)ci * chunk, j1, k, h, ntop);
+        else top_photons_n(s, ph, (size_t)ci * chunk, j1, k, h, ntop);
         visited += k->visited;
         oom |= k->oom;
     }
@@ -522,25 +630,8 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
      * within a group (a counting sort over the fixed chunks). The jobs of one subtree and the
      * lists of its leaves then read few, nearby records; in photon order pk was a random
      * scatter, and those loads were a third of the subtree and radiance passes. Lists and jobs
-     * hold pk positions but stay in photon order, so every sum is unchanged. */
-    const size_t nkeys = (size_t)ntop + 1;
-    if ((st = ENSURE(perm, n + 1, uint32_t)) || (st = ENSURE(perm_hist, nch * nkeys + 1, uint32_t))) return st;
-#pragma omp parallel for schedule(static) num_threads(s->c.threads)
-    for (long long ci = 0; ci < (long long)nch; ci++) {
-        const sink *k = &s->outs[ci];
-        uint32_t *h = s->perm_hist + (size_t)ci * nkeys;
-        memset(h, 0, nkeys * sizeof *h);
-        size_t u = 0, j1 = chunk_end((size_t)ci, chunk, n);
-        for (size_t j = (size_t)ci * chunk; j < j1; j++) {
-            uint32_t key = ntop;
-            if (u < k->nout && k->out[2 * u + 1] == (uint32_t)j) {
-                key = k->out[2 * u];
-                while (u < k->nout && k->out[2 * u + 1] == (uint32_t)j) u++;
-            }
-            s->perm[j] = key;
-            h[key]++;
-        }
-    }
+     * hold pk positions but stay in photon order, so every sum is unchanged. The top pass
+     * found each photon's key and counted the keys per chunk (perm, perm_hist). */
     {
         uint32_t pos = 0;
         for (size_t key = 0; key < nkeys; key++)
@@ -636,19 +727,8 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
         for (long long t = 0; t < (long long)nJ; t++) {
             s->task_rec[3 * t] = (uint32_t)omp_get_thread_num();
             s->task_rec[3 * t + 1] = (uint32_t)k->nout;
-            const uint32_t u1 = s->job_start[t + 1];
-            for (uint32_t u = s->job_start[t]; u < u1; u++) {
-                /* The jobs' photons are sparse in pk: without the prefetch a third of this pass
-                 * waited on their first load. 36-byte records: two lines. */
-                if (u + PREFETCH_JOBS < u1) {
-                    const char *p = (const char *)&s->pk[s->jobs[u + PREFETCH_JOBS]];
-                    __builtin_prefetch(p);
-                    __builtin_prefetch(p + sizeof(pgi__packed_photon) - 1);
-                }
-                photon_q q;
-                load_photon(s, &s->pk[s->jobs[u]], s->jobs[u], &q);
-                walk(s, variant, 0, 0, nabove + (uint32_t)t, s->J, &q, k);
-            }
+            if (wide) subtree_task_w(s, (uint32_t)t, k);
+            else subtree_task_n(s, (uint32_t)t, k);
             s->task_rec[3 * t + 2] = (uint32_t)k->nout;
         }
         visited += k->visited;
@@ -748,6 +828,7 @@ pgi_status cl_build(void *state, const pgi_estimate_args *a) {
 /* 8 lanes: 8 consecutive samples of a block; an AVX2 register (the default clone uses two SSE ones). */
 typedef float cl_v8f __attribute__((vector_size(32)));
 typedef int32_t cl_v8i __attribute__((vector_size(32)));
+#define CL_SPLAT(f) ((cl_v8f){(f), (f), (f), (f), (f), (f), (f), (f)})
 
 /* One block of nbv samples (a multiple of 8; sorted-sample arrays) against the
  * lists of the np path nodes (path[np - 1] is the root), into the block's
@@ -756,16 +837,15 @@ typedef int32_t cl_v8i __attribute__((vector_size(32)));
  * them, a store-to-load chain per photon). The loop over the lanes is
  * branch-free; it makes exactly pgi__gather's decisions (same expressions; no
  * FMA contraction) and adds each sample's contributing photons in path order
- * (root first), then list order; a rejected photon adds 0 * flux (flux is
- * finite), so the sums are those of gather. */
+ * (root first), then list order; a rejected photon adds +0 (its flux masked
+ * off: a sum that starts at +0 is never -0, so no bit changes), so the sums
+ * are those of gather. */
 PGI__HOT_LOOP
 static void rad_block(const pgi__packed_photon *restrict pk, const uint32_t *restrict lists,
                       const uint32_t *restrict node_start, const uint32_t *restrict path, int np, int nbv,
                       const float *restrict bx, const float *restrict by, const float *restrict bz,
                       const float *restrict bnx, const float *restrict bny, const float *restrict bnz,
                       float *restrict ar, float *restrict ag, float *restrict ab, uint32_t *restrict an, float r2) {
-    const cl_v8i one = {0x3f800000, 0x3f800000, 0x3f800000, 0x3f800000,
-                        0x3f800000, 0x3f800000, 0x3f800000, 0x3f800000}; /* the bits of 1.f */
     for (int t = 0; t < nbv; t += 8) {
         cl_v8f x, y, z, nx, ny, nz;
         memcpy(&x, bx + t, sizeof x), memcpy(&y, by + t, sizeof y), memcpy(&z, bz + t, sizeof z);
@@ -782,10 +862,12 @@ static void rad_block(const pgi__packed_photon *restrict pk, const uint32_t *res
                 const cl_v8f d2 = ex * ex + ey * ey + ez * ez;
                 const cl_v8f c = nx * q->dx + ny * q->dy + nz * q->dz;
                 const cl_v8i ok = (d2 < r2) & (c > 0.f); /* lanes: -1 or 0 */
-                const cl_v8f okf = (cl_v8f)(ok & one);   /* 1.f or 0.f */
-                sr += okf * q->fr;
-                sg += okf * q->fg;
-                sb += okf * q->fb;
+                /* flux or +0.f: what 1.f * flux or 0.f * flux (finite flux) adds to a sum that
+                 * starts at +0.f and so is never -0.f (x + y is -0.f only for two -0.f); a mask
+                 * is one operation where the multiply by 1.f or 0.f was two (-1 ms CPU) */
+                sr += (cl_v8f)(ok & (cl_v8i)CL_SPLAT(q->fr));
+                sg += (cl_v8f)(ok & (cl_v8i)CL_SPLAT(q->fg));
+                sb += (cl_v8f)(ok & (cl_v8i)CL_SPLAT(q->fb));
                 sn -= ok;
             }
         }
