@@ -6,6 +6,13 @@
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
+/* An AVX2 build of the primary hits' surfaces, picked at run time (tile_surfaces_avx2). */
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#define VIEW_AVX2 1
+#include <immintrin.h>
+#else
+#define VIEW_AVX2 0
+#endif
 
 #include "photon/photon.h"
 #include "scene/bsdf.h"
@@ -160,9 +167,10 @@ static inline int tile_lane(int tx, int ty, int k, int W, int H, int *px, int *p
 
 /* The lanes of tile (tx, ty) (tile_lane), their pixels and their directions pgi__view_dir(cam,
  * sp, x, y) (pixel (0, 0)'s for a lane outside the image), bit for bit: with SSE four lanes at a
- * time, the same operations in the same order (IEEE: packed and scalar results agree). */
+ * time, the same operations in the same order (IEEE: packed and scalar results agree). The
+ * directions come lane by lane (dirs) and component by component (dsoa). */
 static void tile_dirs(const pgi_camera *cam, const pgi__subpixel *sp, int tx, int ty, int valid[16], size_t pix[16],
-                      pgi__v3 dirs[16]) {
+                      pgi__v3 dirs[16], float dsoa[3][16]) {
     const int W = cam->width, H = cam->height;
 #if defined(__SSE2__)
     float fx[16], fy[16];
@@ -190,14 +198,11 @@ static void tile_dirs(const pgi_camera *cam, const pgi__subpixel *sp, int tx, in
         __m128 l =
             _mm_sqrt_ps(_mm_add_ps(_mm_add_ps(_mm_mul_ps(d[0], d[0]), _mm_mul_ps(d[1], d[1])), _mm_mul_ps(d[2], d[2])));
         __m128 pos = _mm_cmpgt_ps(l, zero), r = _mm_div_ps(one, l); /* v3_norm */
-        float o[3][4], m[4];
-        for (int c = 0; c < 3; c++) _mm_storeu_ps(o[c], _mm_mul_ps(d[c], r));
-        _mm_storeu_ps(m, pos);
-        for (int q = 0; q < 4; q++) {
-            uint32_t bits;
-            memcpy(&bits, &m[q], sizeof bits);
-            dirs[k + q] = bits ? v3(o[0][q], o[1][q], o[2][q]) : v3(0.f, 0.f, 1.f);
-        }
+        /* (0, 0, 1) where the length is not positive, as v3_norm */
+        const __m128 fb[3] = {zero, zero, one};
+        for (int c = 0; c < 3; c++)
+            _mm_storeu_ps(dsoa[c] + k, _mm_or_ps(_mm_and_ps(pos, _mm_mul_ps(d[c], r)), _mm_andnot_ps(pos, fb[c])));
+        for (int q = 0; q < 4; q++) dirs[k + q] = v3(dsoa[0][k + q], dsoa[1][k + q], dsoa[2][k + q]);
     }
 #else
     for (int k = 0; k < 16; k++) {
@@ -206,9 +211,138 @@ static void tile_dirs(const pgi_camera *cam, const pgi__subpixel *sp, int tx, in
         if (!valid[k]) px = py = 0;
         pix[k] = valid[k] ? (size_t)py * (size_t)W + (size_t)px : 0;
         dirs[k] = pgi__view_dir(cam, sp, px, py);
+        dsoa[0][k] = dirs[k].x;
+        dsoa[1][k] = dirs[k].y;
+        dsoa[2][k] = dirs[k].z;
     }
 #endif
 }
+
+/* The surfaces of a tile's primary hits component by component, lane k at [k] (lanes without a
+ * hit hold anything): pgi__trace_tri_surface's position and shading normal, pgi__trace_tri_uv's
+ * texture coordinates (0 without them) and the depth along the camera's forward axis. */
+typedef struct tile_surf {
+    float p[3][16], ns[3][16], u[16], v[16], depth[16];
+} tile_surf;
+
+/* tile_surf lane by lane with the inline functions: what tile_surfaces_avx2 must equal, and the
+ * build for processors without AVX2. */
+static void tile_surfaces(const pgi_scene *s, const pgi__trace_scratch *tr, const pgi__hit hits[16],
+                          const float dsoa[3][16], pgi__v3 eye, pgi__v3 fwd, tile_surf *o) {
+    for (int k = 0; k < 16; k++) {
+        if (hits[k].prim == UINT32_MAX) continue;
+        pgi__surface sf;
+        const pgi__v3 p = v3_madd(eye, v3(dsoa[0][k], dsoa[1][k], dsoa[2][k]), hits[k].t);
+        pgi__trace_tri_surface(s, &tr->tris[hits[k].prim], hits[k].u, hits[k].v, p, &sf);
+        if (tr->tri_uv)
+            pgi__trace_tri_uv(tr->tri_uv + PGI__TRI_UV * (size_t)hits[k].prim, hits[k].u, hits[k].v, &sf.u, &sf.v);
+        o->p[0][k] = p.x;
+        o->p[1][k] = p.y;
+        o->p[2][k] = p.z;
+        o->ns[0][k] = sf.ns.x;
+        o->ns[1][k] = sf.ns.y;
+        o->ns[2][k] = sf.ns.z;
+        o->u[k] = sf.u;
+        o->v[k] = sf.v;
+        o->depth[k] = v3_dot(v3_sub(p, eye), fwd);
+    }
+}
+
+#if VIEW_AVX2
+/* Rows r[0..7] of an 8x8 matrix become its columns. */
+__attribute__((target("avx2"))) static inline void transpose8(__m256 r[8]) {
+    const __m256 t0 = _mm256_unpacklo_ps(r[0], r[1]), t1 = _mm256_unpackhi_ps(r[0], r[1]);
+    const __m256 t2 = _mm256_unpacklo_ps(r[2], r[3]), t3 = _mm256_unpackhi_ps(r[2], r[3]);
+    const __m256 t4 = _mm256_unpacklo_ps(r[4], r[5]), t5 = _mm256_unpackhi_ps(r[4], r[5]);
+    const __m256 t6 = _mm256_unpacklo_ps(r[6], r[7]), t7 = _mm256_unpackhi_ps(r[6], r[7]);
+    const __m256 s0 = _mm256_shuffle_ps(t0, t2, 0x44), s1 = _mm256_shuffle_ps(t0, t2, 0xee);
+    const __m256 s2 = _mm256_shuffle_ps(t1, t3, 0x44), s3 = _mm256_shuffle_ps(t1, t3, 0xee);
+    const __m256 s4 = _mm256_shuffle_ps(t4, t6, 0x44), s5 = _mm256_shuffle_ps(t4, t6, 0xee);
+    const __m256 s6 = _mm256_shuffle_ps(t5, t7, 0x44), s7 = _mm256_shuffle_ps(t5, t7, 0xee);
+    r[0] = _mm256_permute2f128_ps(s0, s4, 0x20);
+    r[1] = _mm256_permute2f128_ps(s1, s5, 0x20);
+    r[2] = _mm256_permute2f128_ps(s2, s6, 0x20);
+    r[3] = _mm256_permute2f128_ps(s3, s7, 0x20);
+    r[4] = _mm256_permute2f128_ps(s0, s4, 0x31);
+    r[5] = _mm256_permute2f128_ps(s1, s5, 0x31);
+    r[6] = _mm256_permute2f128_ps(s2, s6, 0x31);
+    r[7] = _mm256_permute2f128_ps(s3, s7, 0x31);
+}
+
+/* tile_surfaces eight lanes an instruction: the records (two rows of 8 floats each, coordinates
+ * one row) and hits transposed into components, then pgi__trace_tri_surface's and
+ * pgi__trace_tri_uv's operations in their order, without FMA (-ffp-contract=off; packed IEEE
+ * results equal the scalar ones), so the same bits. Lanes without a hit read record 0. */
+__attribute__((target("avx2"))) static void tile_surfaces_avx2(const pgi_scene *s, const pgi__trace_scratch *tr,
+                                                               const pgi__hit hits[16], const float dsoa[3][16],
+                                                               pgi__v3 eye, pgi__v3 fwd, tile_surf *o) {
+    const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.f), inf = _mm256_set1_ps(INFINITY);
+    const __m256 sign = _mm256_set1_ps(-0.f);
+    const float e[3] = {eye.x, eye.y, eye.z}, f[3] = {fwd.x, fwd.y, fwd.z};
+    for (int h = 0; h < 16; h += 8) {
+        /* hits: (t, u, v, prim) of lane i low, of lane i + 4 high */
+        __m256 x[4];
+        for (int i = 0; i < 4; i++)
+            x[i] = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(&hits[h + i].t)),
+                                        _mm_loadu_ps(&hits[h + i + 4].t), 1);
+        const __m256 a0 = _mm256_unpacklo_ps(x[0], x[1]), a1 = _mm256_unpackhi_ps(x[0], x[1]);
+        const __m256 a2 = _mm256_unpacklo_ps(x[2], x[3]), a3 = _mm256_unpackhi_ps(x[2], x[3]);
+        const __m256 t = _mm256_shuffle_ps(a0, a2, 0x44), bu = _mm256_shuffle_ps(a0, a2, 0xee);
+        const __m256 bv = _mm256_shuffle_ps(a1, a3, 0x44);
+        __m256 lo[8], hi[8];
+        size_t prim[8];
+        for (int i = 0; i < 8; i++) {
+            prim[i] = hits[h + i].prim != UINT32_MAX ? hits[h + i].prim : 0;
+            const float *r = tr->tris[prim[i]].ng; /* ng, mat, n[0..3]; n[4..8], pad */
+            lo[i] = _mm256_loadu_ps(r);
+            hi[i] = _mm256_loadu_ps(r + 8);
+        }
+        transpose8(lo);
+        transpose8(hi);
+        const __m256 bw = _mm256_sub_ps(_mm256_sub_ps(one, bu), bv);
+        __m256 p[3], ng[3] = {lo[0], lo[1], lo[2]}, ns[3] = {lo[0], lo[1], lo[2]};
+        for (int c = 0; c < 3; c++) {
+            p[c] = _mm256_add_ps(_mm256_set1_ps(e[c]), _mm256_mul_ps(_mm256_loadu_ps(dsoa[c] + h), t));
+            _mm256_storeu_ps(o->p[c] + h, p[c]);
+        }
+        if (s->nrm) {
+            /* n[0..8] are lo[4..7], hi[0..4] */
+            const __m256 n0[3] = {lo[4], lo[5], lo[6]}, n1[3] = {lo[7], hi[0], hi[1]}, n2[3] = {hi[2], hi[3], hi[4]};
+            __m256 n[3];
+            for (int c = 0; c < 3; c++)
+                n[c] = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(n0[c], bw), _mm256_mul_ps(n1[c], bu)),
+                                     _mm256_mul_ps(n2[c], bv));
+            const __m256 l =
+                _mm256_sqrt_ps(_mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(n[0], n[0]), _mm256_mul_ps(n[1], n[1])),
+                                             _mm256_mul_ps(n[2], n[2])));
+            const __m256 ok = _mm256_and_ps(_mm256_cmp_ps(l, zero, _CMP_GT_OQ), _mm256_cmp_ps(l, inf, _CMP_LT_OQ));
+            const __m256 rl = _mm256_div_ps(one, l);
+            for (int c = 0; c < 3; c++) n[c] = _mm256_mul_ps(n[c], rl);
+            const __m256 d = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(n[0], ng[0]), _mm256_mul_ps(n[1], ng[1])),
+                                           _mm256_mul_ps(n[2], ng[2]));
+            const __m256 flip = _mm256_and_ps(_mm256_cmp_ps(d, zero, _CMP_LT_OQ), sign);
+            for (int c = 0; c < 3; c++) ns[c] = _mm256_blendv_ps(ng[c], _mm256_xor_ps(n[c], flip), ok);
+        }
+        for (int c = 0; c < 3; c++) _mm256_storeu_ps(o->ns[c] + h, ns[c]);
+        __m256 u = zero, v = zero;
+        if (tr->tri_uv) {
+            __m256 q[8];
+            for (int i = 0; i < 8; i++) q[i] = _mm256_loadu_ps(tr->tri_uv + PGI__TRI_UV * prim[i]);
+            transpose8(q);
+            u = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(bw, q[0]), _mm256_mul_ps(bu, q[2])), _mm256_mul_ps(bv, q[4]));
+            v = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(bw, q[1]), _mm256_mul_ps(bu, q[3])), _mm256_mul_ps(bv, q[5]));
+        }
+        _mm256_storeu_ps(o->u + h, u);
+        _mm256_storeu_ps(o->v + h, v);
+        __m256 dep = zero;
+        for (int c = 0; c < 3; c++) {
+            const __m256 dc = _mm256_mul_ps(_mm256_sub_ps(p[c], _mm256_set1_ps(e[c])), _mm256_set1_ps(f[c]));
+            dep = c ? _mm256_add_ps(dep, dc) : dc;
+        }
+        _mm256_storeu_ps(o->depth + h, dep);
+    }
+}
+#endif
 
 pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scratch *tris, const pgi_camera *cam,
                            uint64_t seed, const pgi__subpixel *sp, int threads, pgi_view_samples *vs, float *emit,
@@ -222,8 +356,11 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
     if (st) return st;
     vs->jitter = sp->jitter ? 0.5f : 0.f;
     uint64_t rays = 0;
-    const pgi__v3 eye = v3_load(cam->eye);
+    const pgi__v3 eye = v3_load(cam->eye), fwd = v3_load(cam->forward);
     const float eps = pgi__scene_epsilon(s);
+#if VIEW_AVX2
+    const int avx2 = __builtin_cpu_supports("avx2");
+#endif
     /* 4x4-pixel tiles, one coherent 16-wide packet each (the fastest layout of primary rays:
      * photongi-bench --limits), cast and shaded in turn, BLOCK_TILES of them side by side into
      * one staging block. Prefetching a whole block's texels a sweep ahead of the lookups was
@@ -244,12 +381,24 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
                     size_t pix[16];
                     pgi__v3 dirs[16];
                     pgi__hit hits[16];
-                    tile_dirs(cam, sp, tx, ty, valid, pix, dirs);
+                    float dsoa[3][16];
+                    tile_dirs(cam, sp, tx, ty, valid, pix, dirs, dsoa);
                     pgi__rt_intersect16(rt, valid, &eye, 0, dirs, 1, hits);
                     /* Lanes whose primary hit is non-specular (nearly all) are shaded here in
-                     * three sweeps over the packet: surfaces, then the 16 texture lookups one
-                     * after the other (independent: their cache misses overlap), then the
-                     * samples. The others (sky, mirrors, glass) follow their eye paths. */
+                     * sweeps over the packet: the surfaces of all hits (tile_surfaces), their
+                     * materials, then the 16 texture lookups one after the other (independent:
+                     * their cache misses overlap), then the samples. The others (sky, mirrors,
+                     * glass) follow their eye paths. */
+                    int any = 0;
+                    for (int k = 0; k < 16; k++) any |= hits[k].prim != UINT32_MAX;
+                    tile_surf ts;
+                    if (any) {
+#if VIEW_AVX2
+                        if (avx2) tile_surfaces_avx2(s, tr, hits, (const float(*)[16])dsoa, eye, fwd, &ts);
+                        else
+#endif
+                            tile_surfaces(s, tr, hits, (const float(*)[16])dsoa, eye, fwd, &ts);
+                    }
                     pgi__surface sf[16];
                     int lit[16];
                     for (int k = 0; k < 16; k++) {
@@ -258,13 +407,14 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
                         rays++;
                         const int j = (k >> 2) * BLOCK_W + 4 * tb + (k & 3);
                         if (hits[k].prim != UINT32_MAX) {
-                            pgi__v3 p = v3_madd(eye, dirs[k], hits[k].t);
                             /* pgi__scene_surface_untextured from the triangle's record: the same bits */
-                            pgi__trace_tri_surface(s, &tr->tris[hits[k].prim], hits[k].u, hits[k].v, p, &sf[k]);
-                            if (tr->tri_uv)
-                                pgi__trace_tri_uv(tr->tri_uv + PGI__TRI_UV * (size_t)hits[k].prim, hits[k].u, hits[k].v,
-                                                  &sf[k].u, &sf[k].v);
+                            pgi__trace_tri_geometry(s, &tr->tris[hits[k].prim], v3(ts.p[0][k], ts.p[1][k], ts.p[2][k]),
+                                                    &sf[k]);
                             if (!pgi__mat_specular(sf[k].mat)) {
+                                sf[k].ns = v3(ts.ns[0][k], ts.ns[1][k], ts.ns[2][k]);
+                                sf[k].u = ts.u[k];
+                                sf[k].v = ts.v[k];
+                                sf[k].kd = v3_load(sf[k].mat->kd);
                                 lit[k] = 1;
                                 continue;
                             }
@@ -278,8 +428,8 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
                     for (int k = 0; k < 16; k++)
                         if (lit[k] && sf[k].mat->tex_kd >= 0) { /* as pgi__surface_texture */
                             tex[nt] = &s->texs[sf[k].mat->tex_kd];
-                            tu[nt] = sf[k].u;
-                            tv[nt] = sf[k].v;
+                            tu[nt] = ts.u[k];
+                            tv[nt] = ts.v[k];
                             lane[nt++] = k;
                         }
                     pgi__texture_lookup_n(tex, tu, tv, nt, texc);
@@ -293,7 +443,7 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
                         pgi__v3 e = v3(0.f, 0.f, 0.f);
                         if (side > 0.f) e = v3_add(e, v3_mul(v3(1.f, 1.f, 1.f), v3_load(sf[k].mat->ke)));
                         put_sample(&blk, j, &sf[k], wo, side, v3(1.f, 1.f, 1.f), 1, &lc);
-                        blk.depth[j] = v3_dot(v3_sub(sf[k].p, eye), v3_load(cam->forward));
+                        blk.depth[j] = ts.depth[k];
                         v3_store(blk.emit + 3 * j, e);
                     }
                 }
