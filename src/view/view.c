@@ -218,6 +218,60 @@ static void tile_dirs(const pgi_camera *cam, const pgi__subpixel *sp, int tx, in
 #endif
 }
 
+#if VIEW_AVX2
+/* tile_dirs eight lanes an instruction (lanes h..h+7 are rows h/4 and h/4 + 1 of the tile): the
+ * same operations in the same order, so the same bits; the directions component by component
+ * only. */
+__attribute__((target("avx2"))) static void tile_dirs_avx2(const pgi_camera *cam, const pgi__subpixel *sp, int tx,
+                                                           int ty, int valid[16], size_t pix[16], float dsoa[3][16]) {
+    const __m256 two = _mm256_set1_ps(2.f), one = _mm256_set1_ps(1.f), zero = _mm256_setzero_ps();
+    const __m256 w = _mm256_set1_ps((float)cam->width), h = _mm256_set1_ps((float)cam->height);
+    const __m256 th = _mm256_set1_ps(cam->tan_half_fov_y), asp = _mm256_set1_ps(cam->aspect);
+    const __m256i W = _mm256_set1_epi32(cam->width), H = _mm256_set1_epi32(cam->height);
+    const __m256i kx = _mm256_setr_epi32(0, 1, 2, 3, 0, 1, 2, 3), ky = _mm256_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1);
+    const __m256 fb[3] = {zero, zero, one};
+    for (int k = 0; k < 16; k += 8) {
+        __m256i px = _mm256_add_epi32(_mm256_set1_epi32(4 * tx), kx);
+        __m256i py = _mm256_add_epi32(_mm256_set1_epi32(4 * ty + (k >> 2)), ky);
+        const __m256i in = _mm256_and_si256(_mm256_cmpgt_epi32(W, px), _mm256_cmpgt_epi32(H, py));
+        px = _mm256_and_si256(px, in); /* pixel (0, 0) outside the image */
+        py = _mm256_and_si256(py, in);
+        _mm256_storeu_si256((__m256i *)(valid + k), _mm256_and_si256(in, _mm256_set1_epi32(1)));
+        const __m256i w64 = _mm256_set1_epi64x(cam->width); /* pix = py W + px in 64 bits, four at a time */
+        _mm256_storeu_si256((__m256i *)(pix + k),
+                            _mm256_add_epi64(_mm256_mul_epu32(_mm256_cvtepu32_epi64(_mm256_castsi256_si128(py)), w64),
+                                             _mm256_cvtepu32_epi64(_mm256_castsi256_si128(px))));
+        _mm256_storeu_si256((__m256i *)(pix + k + 4),
+                            _mm256_add_epi64(_mm256_mul_epu32(_mm256_cvtepu32_epi64(_mm256_extracti128_si256(py, 1)),
+                                                              w64),
+                                             _mm256_cvtepu32_epi64(_mm256_extracti128_si256(px, 1))));
+        __m256 fx, fy;
+        if (!sp->jitter) { /* pgi__pixel_jitter's pixel centre */
+            fx = _mm256_add_ps(_mm256_cvtepi32_ps(px), _mm256_set1_ps(0.5f));
+            fy = _mm256_add_ps(_mm256_cvtepi32_ps(py), _mm256_set1_ps(0.5f));
+        } else {
+            float jx[8], jy[8];
+            for (int q = 0; q < 8; q++) pgi__pixel_jitter(sp, pix[k + q], &jx[q], &jy[q]);
+            fx = _mm256_add_ps(_mm256_cvtepi32_ps(px), _mm256_loadu_ps(jx));
+            fy = _mm256_add_ps(_mm256_cvtepi32_ps(py), _mm256_loadu_ps(jy));
+        }
+        const __m256 u =
+            _mm256_mul_ps(_mm256_mul_ps(_mm256_sub_ps(_mm256_div_ps(_mm256_mul_ps(two, fx), w), one), th), asp);
+        const __m256 v = _mm256_mul_ps(_mm256_sub_ps(one, _mm256_div_ps(_mm256_mul_ps(two, fy), h)), th);
+        __m256 d[3];
+        for (int c = 0; c < 3; c++)
+            d[c] = _mm256_add_ps(_mm256_set1_ps(cam->forward[c]),
+                                 _mm256_add_ps(_mm256_mul_ps(_mm256_set1_ps(cam->right[c]), u),
+                                               _mm256_mul_ps(_mm256_set1_ps(cam->up[c]), v)));
+        const __m256 l =
+            _mm256_sqrt_ps(_mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(d[0], d[0]), _mm256_mul_ps(d[1], d[1])),
+                                         _mm256_mul_ps(d[2], d[2])));
+        const __m256 pos = _mm256_cmp_ps(l, zero, _CMP_GT_OQ), r = _mm256_div_ps(one, l); /* v3_norm */
+        for (int c = 0; c < 3; c++) _mm256_storeu_ps(dsoa[c] + k, _mm256_blendv_ps(fb[c], _mm256_mul_ps(d[c], r), pos));
+    }
+}
+#endif
+
 /* The surfaces of a tile's primary hits component by component, lane k at [k] (lanes without a
  * hit hold anything): pgi__trace_tri_surface's position and shading normal, pgi__trace_tri_uv's
  * texture coordinates (0 without them) and the depth along the camera's forward axis. */
@@ -382,7 +436,13 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
                     pgi__v3 dirs[16];
                     pgi__hit hits[16];
                     float dsoa[3][16];
-                    tile_dirs(cam, sp, tx, ty, valid, pix, dirs, dsoa);
+#if VIEW_AVX2
+                    if (avx2) {
+                        tile_dirs_avx2(cam, sp, tx, ty, valid, pix, dsoa);
+                        for (int k = 0; k < 16; k++) dirs[k] = v3(dsoa[0][k], dsoa[1][k], dsoa[2][k]);
+                    } else
+#endif
+                        tile_dirs(cam, sp, tx, ty, valid, pix, dirs, dsoa);
                     pgi__rt_intersect16(rt, valid, &eye, 0, dirs, 1, hits);
                     /* Lanes whose primary hit is non-specular (nearly all) are shaded here in
                      * sweeps over the packet: the surfaces of all hits (tile_surfaces), their
