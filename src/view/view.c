@@ -168,9 +168,9 @@ static inline int tile_lane(int tx, int ty, int k, int W, int H, int *px, int *p
 /* The lanes of tile (tx, ty) (tile_lane), their pixels and their directions pgi__view_dir(cam,
  * sp, x, y) (pixel (0, 0)'s for a lane outside the image), bit for bit: with SSE four lanes at a
  * time, the same operations in the same order (IEEE: packed and scalar results agree). The
- * directions come lane by lane (dirs) and component by component (dsoa). */
+ * directions come component by component: lane k's is (dsoa[0][k], dsoa[1][k], dsoa[2][k]). */
 static void tile_dirs(const pgi_camera *cam, const pgi__subpixel *sp, int tx, int ty, int valid[16], size_t pix[16],
-                      pgi__v3 dirs[16], float dsoa[3][16]) {
+                      float dsoa[3][16]) {
     const int W = cam->width, H = cam->height;
 #if defined(__SSE2__)
     float fx[16], fy[16];
@@ -202,7 +202,6 @@ static void tile_dirs(const pgi_camera *cam, const pgi__subpixel *sp, int tx, in
         const __m128 fb[3] = {zero, zero, one};
         for (int c = 0; c < 3; c++)
             _mm_storeu_ps(dsoa[c] + k, _mm_or_ps(_mm_and_ps(pos, _mm_mul_ps(d[c], r)), _mm_andnot_ps(pos, fb[c])));
-        for (int q = 0; q < 4; q++) dirs[k + q] = v3(dsoa[0][k + q], dsoa[1][k + q], dsoa[2][k + q]);
     }
 #else
     for (int k = 0; k < 16; k++) {
@@ -210,18 +209,17 @@ static void tile_dirs(const pgi_camera *cam, const pgi__subpixel *sp, int tx, in
         valid[k] = tile_lane(tx, ty, k, W, H, &px, &py);
         if (!valid[k]) px = py = 0;
         pix[k] = valid[k] ? (size_t)py * (size_t)W + (size_t)px : 0;
-        dirs[k] = pgi__view_dir(cam, sp, px, py);
-        dsoa[0][k] = dirs[k].x;
-        dsoa[1][k] = dirs[k].y;
-        dsoa[2][k] = dirs[k].z;
+        const pgi__v3 d = pgi__view_dir(cam, sp, px, py);
+        dsoa[0][k] = d.x;
+        dsoa[1][k] = d.y;
+        dsoa[2][k] = d.z;
     }
 #endif
 }
 
 #if VIEW_AVX2
 /* tile_dirs eight lanes an instruction (lanes h..h+7 are rows h/4 and h/4 + 1 of the tile): the
- * same operations in the same order, so the same bits; the directions component by component
- * only. */
+ * same operations in the same order, so the same bits. */
 __attribute__((target("avx2"))) static void tile_dirs_avx2(const pgi_camera *cam, const pgi__subpixel *sp, int tx,
                                                            int ty, int valid[16], size_t pix[16], float dsoa[3][16]) {
     const __m256 two = _mm256_set1_ps(2.f), one = _mm256_set1_ps(1.f), zero = _mm256_setzero_ps();
@@ -272,6 +270,13 @@ __attribute__((target("avx2"))) static void tile_dirs_avx2(const pgi_camera *cam
 }
 #endif
 
+/* A tile's primary hits (pgi__rt_intersect16_soa): lane k's is triangle prim[k] (UINT32_MAX: none)
+ * at distance t[k], barycentrics u[k], v[k]. */
+typedef struct tile_hits {
+    float t[16], u[16], v[16];
+    uint32_t prim[16];
+} tile_hits;
+
 /* The surfaces of a tile's primary hits component by component, lane k at [k] (lanes without a
  * hit hold anything): pgi__trace_tri_surface's position and shading normal, pgi__trace_tri_uv's
  * texture coordinates (0 without them) and the depth along the camera's forward axis. */
@@ -281,15 +286,15 @@ typedef struct tile_surf {
 
 /* tile_surf lane by lane with the inline functions: what tile_surfaces_avx2 must equal, and the
  * build for processors without AVX2. */
-static void tile_surfaces(const pgi_scene *s, const pgi__trace_scratch *tr, const pgi__hit hits[16],
+static void tile_surfaces(const pgi_scene *s, const pgi__trace_scratch *tr, const tile_hits *hits,
                           const float dsoa[3][16], pgi__v3 eye, pgi__v3 fwd, tile_surf *o) {
     for (int k = 0; k < 16; k++) {
-        if (hits[k].prim == UINT32_MAX) continue;
+        if (hits->prim[k] == UINT32_MAX) continue;
         pgi__surface sf;
-        const pgi__v3 p = v3_madd(eye, v3(dsoa[0][k], dsoa[1][k], dsoa[2][k]), hits[k].t);
-        pgi__trace_tri_surface(s, &tr->tris[hits[k].prim], hits[k].u, hits[k].v, p, &sf);
+        const pgi__v3 p = v3_madd(eye, v3(dsoa[0][k], dsoa[1][k], dsoa[2][k]), hits->t[k]);
+        pgi__trace_tri_surface(s, &tr->tris[hits->prim[k]], hits->u[k], hits->v[k], p, &sf);
         if (tr->tri_uv)
-            pgi__trace_tri_uv(tr->tri_uv + PGI__TRI_UV * (size_t)hits[k].prim, hits[k].u, hits[k].v, &sf.u, &sf.v);
+            pgi__trace_tri_uv(tr->tri_uv + PGI__TRI_UV * (size_t)hits->prim[k], hits->u[k], hits->v[k], &sf.u, &sf.v);
         o->p[0][k] = p.x;
         o->p[1][k] = p.y;
         o->p[2][k] = p.z;
@@ -324,29 +329,22 @@ __attribute__((target("avx2"))) static inline void transpose8(__m256 r[8]) {
 }
 
 /* tile_surfaces eight lanes an instruction: the records (two rows of 8 floats each, coordinates
- * one row) and hits transposed into components, then pgi__trace_tri_surface's and
+ * one row) transposed into components, then pgi__trace_tri_surface's and
  * pgi__trace_tri_uv's operations in their order, without FMA (-ffp-contract=off; packed IEEE
  * results equal the scalar ones), so the same bits. Lanes without a hit read record 0. */
 __attribute__((target("avx2"))) static void tile_surfaces_avx2(const pgi_scene *s, const pgi__trace_scratch *tr,
-                                                               const pgi__hit hits[16], const float dsoa[3][16],
+                                                               const tile_hits *hits, const float dsoa[3][16],
                                                                pgi__v3 eye, pgi__v3 fwd, tile_surf *o) {
     const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.f), inf = _mm256_set1_ps(INFINITY);
     const __m256 sign = _mm256_set1_ps(-0.f);
     const float e[3] = {eye.x, eye.y, eye.z}, f[3] = {fwd.x, fwd.y, fwd.z};
     for (int h = 0; h < 16; h += 8) {
-        /* hits: (t, u, v, prim) of lane i low, of lane i + 4 high */
-        __m256 x[4];
-        for (int i = 0; i < 4; i++)
-            x[i] = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(&hits[h + i].t)),
-                                        _mm_loadu_ps(&hits[h + i + 4].t), 1);
-        const __m256 a0 = _mm256_unpacklo_ps(x[0], x[1]), a1 = _mm256_unpackhi_ps(x[0], x[1]);
-        const __m256 a2 = _mm256_unpacklo_ps(x[2], x[3]), a3 = _mm256_unpackhi_ps(x[2], x[3]);
-        const __m256 t = _mm256_shuffle_ps(a0, a2, 0x44), bu = _mm256_shuffle_ps(a0, a2, 0xee);
-        const __m256 bv = _mm256_shuffle_ps(a1, a3, 0x44);
+        const __m256 t = _mm256_loadu_ps(hits->t + h), bu = _mm256_loadu_ps(hits->u + h);
+        const __m256 bv = _mm256_loadu_ps(hits->v + h);
         __m256 lo[8], hi[8];
         size_t prim[8];
         for (int i = 0; i < 8; i++) {
-            prim[i] = hits[h + i].prim != UINT32_MAX ? hits[h + i].prim : 0;
+            prim[i] = hits->prim[h + i] != UINT32_MAX ? hits->prim[h + i] : 0;
             const float *r = tr->tris[prim[i]].ng; /* ng, mat, n[0..3]; n[4..8], pad */
             lo[i] = _mm256_loadu_ps(r);
             hi[i] = _mm256_loadu_ps(r + 8);
@@ -433,31 +431,29 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
                     if (tx >= tiles_x) break;
                     int valid[16];
                     size_t pix[16];
-                    pgi__v3 dirs[16];
-                    pgi__hit hits[16];
                     float dsoa[3][16];
+                    tile_hits hits;
 #if VIEW_AVX2
-                    if (avx2) {
-                        tile_dirs_avx2(cam, sp, tx, ty, valid, pix, dsoa);
-                        for (int k = 0; k < 16; k++) dirs[k] = v3(dsoa[0][k], dsoa[1][k], dsoa[2][k]);
-                    } else
+                    if (avx2) tile_dirs_avx2(cam, sp, tx, ty, valid, pix, dsoa);
+                    else
 #endif
-                        tile_dirs(cam, sp, tx, ty, valid, pix, dirs, dsoa);
-                    pgi__rt_intersect16(rt, valid, &eye, 0, dirs, 1, hits);
+                        tile_dirs(cam, sp, tx, ty, valid, pix, dsoa);
+                    const float *const dirs[3] = {dsoa[0], dsoa[1], dsoa[2]};
+                    pgi__rt_intersect16_soa(rt, valid, eye, dirs, hits.t, hits.u, hits.v, hits.prim);
                     /* Lanes whose primary hit is non-specular (nearly all) are shaded here in
                      * sweeps over the packet: the surfaces of all hits (tile_surfaces), their
                      * materials, then the 16 texture lookups one after the other (independent:
                      * their cache misses overlap), then the samples. The others (sky, mirrors,
                      * glass) follow their eye paths. */
                     int any = 0;
-                    for (int k = 0; k < 16; k++) any |= hits[k].prim != UINT32_MAX;
+                    for (int k = 0; k < 16; k++) any |= hits.prim[k] != UINT32_MAX;
                     tile_surf ts;
                     if (any) {
 #if VIEW_AVX2
-                        if (avx2) tile_surfaces_avx2(s, tr, hits, (const float(*)[16])dsoa, eye, fwd, &ts);
+                        if (avx2) tile_surfaces_avx2(s, tr, &hits, (const float(*)[16])dsoa, eye, fwd, &ts);
                         else
 #endif
-                            tile_surfaces(s, tr, hits, (const float(*)[16])dsoa, eye, fwd, &ts);
+                            tile_surfaces(s, tr, &hits, (const float(*)[16])dsoa, eye, fwd, &ts);
                     }
                     pgi__surface sf[16];
                     int lit[16];
@@ -466,9 +462,9 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
                         if (!valid[k]) continue;
                         rays++;
                         const int j = (k >> 2) * BLOCK_W + 4 * tb + (k & 3);
-                        if (hits[k].prim != UINT32_MAX) {
+                        if (hits.prim[k] != UINT32_MAX) {
                             /* pgi__scene_surface_untextured from the triangle's record: the same bits */
-                            pgi__trace_tri_geometry(s, &tr->tris[hits[k].prim], v3(ts.p[0][k], ts.p[1][k], ts.p[2][k]),
+                            pgi__trace_tri_geometry(s, &tr->tris[hits.prim[k]], v3(ts.p[0][k], ts.p[1][k], ts.p[2][k]),
                                                     &sf[k]);
                             if (!pgi__mat_specular(sf[k].mat)) {
                                 sf[k].ns = v3(ts.ns[0][k], ts.ns[1][k], ts.ns[2][k]);
@@ -479,7 +475,9 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
                                 continue;
                             }
                         }
-                        shade_eye_path(s, rt, cam, seed, eps, pix[k], eye, dirs[k], hits[k], &blk, j, &lc, &rays);
+                        const pgi__hit h = {hits.t[k], hits.u[k], hits.v[k], hits.prim[k]};
+                        shade_eye_path(s, rt, cam, seed, eps, pix[k], eye, v3(dsoa[0][k], dsoa[1][k], dsoa[2][k]), h,
+                                       &blk, j, &lc, &rays);
                     }
                     const pgi__texture *tex[16];
                     float tu[16], tv[16];
@@ -497,7 +495,7 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
                     for (int k = 0; k < 16; k++) {
                         if (!lit[k]) continue;
                         const int j = (k >> 2) * BLOCK_W + 4 * tb + (k & 3);
-                        pgi__v3 wo = v3_neg(dirs[k]);
+                        pgi__v3 wo = v3_neg(v3(dsoa[0][k], dsoa[1][k], dsoa[2][k]));
                         float side = v3_dot(wo, sf[k].ng) >= 0.f ? 1.f : -1.f;
                         /* as shade_eye_path at depth 0: the same operations, the same bits */
                         pgi__v3 e = v3(0.f, 0.f, 0.f);
