@@ -6,7 +6,8 @@
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
-/* An AVX2 build of the primary hits' surfaces, picked at run time (tile_surfaces_avx2). */
+/* AVX2 builds of a tile's directions and surfaces, picked at run time (tile_dirs_avx2,
+ * tile_surfaces_avx2). */
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 #define VIEW_AVX2 1
 #include <immintrin.h>
@@ -218,7 +219,7 @@ static void tile_dirs(const pgi_camera *cam, const pgi__subpixel *sp, int tx, in
 }
 
 #if VIEW_AVX2
-/* tile_dirs eight lanes an instruction (lanes h..h+7 are rows h/4 and h/4 + 1 of the tile): the
+/* tile_dirs eight lanes an instruction (lanes k..k+7 are rows k/4 and k/4 + 1 of the tile): the
  * same operations in the same order, so the same bits. */
 __attribute__((target("avx2"))) static void tile_dirs_avx2(const pgi_camera *cam, const pgi__subpixel *sp, int tx,
                                                            int ty, int valid[16], size_t pix[16], float dsoa[3][16]) {
