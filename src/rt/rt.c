@@ -437,6 +437,44 @@ void pgi__rt_intersect16(const pgi__rt *rt, const int valid[16], const pgi__v3 *
     packet_hits(rt, &p, valid, hits);
 }
 
+void pgi__rt_intersect16_soa(const pgi__rt *rt, const int valid[16], pgi__v3 o, const float *const d[3], float t[16],
+                             float u[16], float v[16], uint32_t prim[16]) {
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    RTC_ALIGN(64) struct RTCRayHit16 rh;
+    RTC_ALIGN(64) int vmask[16];
+    /* The packet pgi__rt_intersect16 builds, from arrays: gcc stores four lanes an instruction. */
+    for (int i = 0; i < 16; i++) {
+        vmask[i] = valid[i] ? -1 : 0;
+        rh.ray.org_x[i] = o.x;
+        rh.ray.org_y[i] = o.y;
+        rh.ray.org_z[i] = o.z;
+        rh.ray.dir_x[i] = d[0][i];
+        rh.ray.dir_y[i] = d[1][i];
+        rh.ray.dir_z[i] = d[2][i];
+        rh.ray.tnear[i] = 0.f;
+        rh.ray.tfar[i] = INFINITY;
+        rh.ray.time[i] = 0.f;
+        rh.ray.mask[i] = (unsigned)-1;
+        rh.ray.id[i] = (unsigned)i;
+        rh.ray.flags[i] = 0;
+        rh.hit.geomID[i] = rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
+    }
+    rtcIntersect16(vmask, rt->scene, &ctx, &rh);
+    if (CAPTURING(rt)) {
+        const packet_view p = {PACKET_RAYS(16, rh.ray), PACKET_HITS(rh.hit)};
+        capture_packet(rt->capture, PGI__RAY_INTERSECT16, PGI__RAY_COHERENT, &p, vmask, INFINITY, NULL, NULL);
+    }
+    for (int i = 0; i < 16; i++) {
+        const int hit = valid[i] && rh.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID;
+        prim[i] = hit ? global_prim(rt, rh.hit.geomID[i], rh.hit.primID[i]) : UINT32_MAX;
+        t[i] = hit ? rh.ray.tfar[i] : 0.f;
+        u[i] = hit ? rh.hit.u[i] : 0.f;
+        v[i] = hit ? rh.hit.v[i] : 0.f;
+    }
+}
+
 void pgi__rt_occluded16(const pgi__rt *rt, const int valid[16], const pgi__v3 org[16], const pgi__v3 dirs[16],
                         const float tfar[16], int coherent, int occluded[16]) {
     struct RTCIntersectContext ctx;

@@ -44,6 +44,11 @@ void pgi__rt_intersect8(const pgi__rt *rt, const int valid[8], pgi__v3 o, const 
  * is valid and blocked. */
 void pgi__rt_intersect16(const pgi__rt *rt, const int valid[16], const pgi__v3 *org, size_t org_step,
                          const pgi__v3 dirs[16], int coherent, pgi__hit hits[16]);
+/* intersect16 from one origin with the lanes in arrays (structure of arrays, as Embree's packet),
+ * coherent context: ray i along (d[0][i], d[1][i], d[2][i]); lane i's hit is prim[i] (UINT32_MAX:
+ * none, or lane off) at distance t[i] and barycentrics u[i], v[i] (0 without a hit). */
+void pgi__rt_intersect16_soa(const pgi__rt *rt, const int valid[16], pgi__v3 o, const float *const d[3], float t[16],
+                             float u[16], float v[16], uint32_t prim[16]);
 void pgi__rt_occluded16(const pgi__rt *rt, const int valid[16], const pgi__v3 org[16], const pgi__v3 dirs[16],
                         const float tfar[16], int coherent, int occluded[16]);
 /* occluded16 with its lanes in arrays (structure of arrays, as Embree's packet): ray i from

@@ -11,6 +11,9 @@
 #include <string.h>
 
 #include "bsdf.h"
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#include <immintrin.h> /* lookup_n_avx2 */
+#endif
 
 /* Wraps a texel index of [-1, n] into [0, n) (coordinates are reduced to [0, 1] first, so
  * nothing farther out occurs; no division on this hot path). */
@@ -137,7 +140,98 @@ __attribute__((target("sse4.1"))) static void lookup_n_sse41(const pgi__texture 
 }
 #endif
 
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#define PGI__LOOKUP_AVX2 1
+/* i wrapped into [0, n) as wrap_index (i in [-1, n]). */
+__attribute__((target("avx2"))) static inline __m256i wrap8(__m256i i, __m256i n) {
+    const __m256i neg = _mm256_cmpgt_epi32(_mm256_setzero_si256(), i),
+                  over = _mm256_cmpgt_epi32(i, _mm256_sub_epi32(n, _mm256_set1_epi32(1)));
+    return _mm256_sub_epi32(_mm256_add_epi32(i, _mm256_and_si256(neg, n)), _mm256_and_si256(over, n));
+}
+
+/* LOOKUP_N_BODY with the footprints of eight lookups on one texture (nearly always: the lanes of
+ * a view packet mostly share a material) an instruction: bilinear_footprint's and quad_at's
+ * operations on the same values (floorf as roundps, exact; the addresses' parts in 32 bits where
+ * the blocks are below 2 GiB), so the same texels and weights; other lookups one by one. */
+__attribute__((target("avx2"))) static void lookup_n_avx2(const pgi__texture *const *t, const float *u, const float *v,
+                                                          int n, pgi__v3 *out) {
+    pgi__texel_quad q[PGI__TEXTURE_LOOKUP_N];
+    int on[PGI__TEXTURE_LOOKUP_N];
+    for (int k0 = 0; k0 < n; k0 += 8) {
+        const int m = n - k0 < 8 ? n - k0 : 8;
+        const pgi__texture *t0 = t[k0];
+        int same = t0 && t0->rgba && t0->tiled && t0->width > 0 && t0->height > 0 &&
+                   (size_t)((t0->width + 3) >> 2) * (size_t)((t0->height + 3) >> 2) * 64 <= (size_t)INT32_MAX;
+        for (int k = k0 + 1; same && k < k0 + m; k++) same = t[k] == t0;
+        if (!same) {
+            for (int k = k0; k < k0 + m; k++) {
+                on[k] = t[k] && t[k]->rgba && t[k]->width > 0 && t[k]->height > 0;
+                if (!on[k]) continue;
+                const footprint2x2 f = bilinear_footprint(t[k], u[k], v[k]);
+                quad_at(t[k], &f, &q[k]);
+                __builtin_prefetch(q[k].p[0]);
+                __builtin_prefetch(q[k].p[3]);
+            }
+            continue;
+        }
+        float uu[8] = {0}, vv[8] = {0};
+        memcpy(uu, u + k0, (size_t)m * sizeof(float));
+        memcpy(vv, v + k0, (size_t)m * sizeof(float));
+        const __m256 inf = _mm256_set1_ps(INFINITY), absm = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
+        __m256 uf = _mm256_loadu_ps(uu), vf = _mm256_loadu_ps(vv);
+        uf = _mm256_and_ps(uf, _mm256_cmp_ps(_mm256_and_ps(uf, absm), inf, _CMP_LT_OQ)); /* !isfinite: 0 */
+        vf = _mm256_and_ps(vf, _mm256_cmp_ps(_mm256_and_ps(vf, absm), inf, _CMP_LT_OQ));
+        const __m256 fu = _mm256_sub_ps(uf, _mm256_floor_ps(uf)), fv = _mm256_sub_ps(vf, _mm256_floor_ps(vf));
+        const __m256 half = _mm256_set1_ps(0.5f);
+        const __m256 x = _mm256_sub_ps(_mm256_mul_ps(fu, _mm256_set1_ps((float)t0->width)), half);
+        const __m256 y =
+            _mm256_sub_ps(_mm256_mul_ps(_mm256_sub_ps(_mm256_set1_ps(1.f), fv), _mm256_set1_ps((float)t0->height)),
+                          half);
+        const __m256 x0f = _mm256_floor_ps(x), y0f = _mm256_floor_ps(y);
+        float tx[8], ty[8];
+        _mm256_storeu_ps(tx, _mm256_sub_ps(x, x0f));
+        _mm256_storeu_ps(ty, _mm256_sub_ps(y, y0f));
+        const __m256i W = _mm256_set1_epi32(t0->width), H = _mm256_set1_epi32(t0->height), one = _mm256_set1_epi32(1);
+        const __m256i three = _mm256_set1_epi32(3);
+        const __m256i xi = _mm256_cvttps_epi32(x0f), yi = _mm256_cvttps_epi32(y0f);
+        const __m256i x0 = wrap8(xi, W), x1 = wrap8(_mm256_add_epi32(xi, one), W);
+        const __m256i y0 = wrap8(yi, H), y1 = wrap8(_mm256_add_epi32(yi, one), H);
+        /* quad_at: rows 64 ((y >> 2) bw) + 16 (y & 3), columns 64 (x >> 2) + 4 (x & 3) */
+        const __m256i bw = _mm256_set1_epi32((t0->width + 3) >> 2);
+#define ROW8(y)                                                                                                        \
+    _mm256_add_epi32(_mm256_slli_epi32(_mm256_mullo_epi32(_mm256_srai_epi32(y, 2), bw), 6),                            \
+                     _mm256_slli_epi32(_mm256_and_si256(y, three), 4))
+#define COL8(x)                                                                                                        \
+    _mm256_add_epi32(_mm256_slli_epi32(_mm256_srai_epi32(x, 2), 6), _mm256_slli_epi32(_mm256_and_si256(x, three), 2))
+        const __m256i r0 = ROW8(y0), r1 = ROW8(y1), c0 = COL8(x0), c1 = COL8(x1);
+#undef ROW8
+#undef COL8
+        int32_t o[4][8];
+        _mm256_storeu_si256((__m256i *)o[0], _mm256_add_epi32(r0, c0));
+        _mm256_storeu_si256((__m256i *)o[1], _mm256_add_epi32(r0, c1));
+        _mm256_storeu_si256((__m256i *)o[2], _mm256_add_epi32(r1, c0));
+        _mm256_storeu_si256((__m256i *)o[3], _mm256_add_epi32(r1, c1));
+        for (int i = 0; i < m; i++) {
+            pgi__texel_quad *qk = &q[k0 + i];
+            on[k0 + i] = 1;
+            for (int c = 0; c < 4; c++) qk->p[c] = t0->tiled + o[c][i];
+            qk->tx = tx[i];
+            qk->ty = ty[i];
+            __builtin_prefetch(qk->p[0]);
+            __builtin_prefetch(qk->p[3]);
+        }
+    }
+    for (int k = 0; k < n; k++) out[k] = on[k] ? quad_blend(&q[k]) : v3(1.f, 1.f, 1.f);
+}
+#endif
+
 void pgi__texture_lookup_n(const pgi__texture *const *t, const float *u, const float *v, int n, pgi__v3 *out) {
+#ifdef PGI__LOOKUP_AVX2
+    if (__builtin_cpu_supports("avx2")) { /* a load and a test (libgcc sets the flags at start-up) */
+        lookup_n_avx2(t, u, v, n, out);
+        return;
+    }
+#endif
 #ifdef PGI__LOOKUP_SSE41
     if (__builtin_cpu_supports("sse4.1")) { /* a load and a test (libgcc sets the flags at start-up) */
         lookup_n_sse41(t, u, v, n, out);

@@ -6,6 +6,14 @@
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
+/* AVX2 builds of a tile's directions and surfaces, picked at run time (tile_dirs_avx2,
+ * tile_surfaces_avx2). */
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#define VIEW_AVX2 1
+#include <immintrin.h>
+#else
+#define VIEW_AVX2 0
+#endif
 
 #include "photon/photon.h"
 #include "scene/bsdf.h"
@@ -211,9 +219,10 @@ static inline int tile_lane(int tx, int ty, int k, int W, int H, int *px, int *p
 
 /* The lanes of tile (tx, ty) (tile_lane), their pixels and their directions pgi__view_dir(cam,
  * sp, x, y) (pixel (0, 0)'s for a lane outside the image), bit for bit: with SSE four lanes at a
- * time, the same operations in the same order (IEEE: packed and scalar results agree). */
+ * time, the same operations in the same order (IEEE: packed and scalar results agree). The
+ * directions come component by component: lane k's is (dsoa[0][k], dsoa[1][k], dsoa[2][k]). */
 static void tile_dirs(const pgi_camera *cam, const pgi__subpixel *sp, int tx, int ty, int valid[16], size_t pix[16],
-                      pgi__v3 dirs[16]) {
+                      float dsoa[3][16]) {
     const int W = cam->width, H = cam->height;
 #if defined(__SSE2__)
     float fx[16], fy[16];
@@ -241,14 +250,10 @@ static void tile_dirs(const pgi_camera *cam, const pgi__subpixel *sp, int tx, in
         __m128 l =
             _mm_sqrt_ps(_mm_add_ps(_mm_add_ps(_mm_mul_ps(d[0], d[0]), _mm_mul_ps(d[1], d[1])), _mm_mul_ps(d[2], d[2])));
         __m128 pos = _mm_cmpgt_ps(l, zero), r = _mm_div_ps(one, l); /* v3_norm */
-        float o[3][4], m[4];
-        for (int c = 0; c < 3; c++) _mm_storeu_ps(o[c], _mm_mul_ps(d[c], r));
-        _mm_storeu_ps(m, pos);
-        for (int q = 0; q < 4; q++) {
-            uint32_t bits;
-            memcpy(&bits, &m[q], sizeof bits);
-            dirs[k + q] = bits ? v3(o[0][q], o[1][q], o[2][q]) : v3(0.f, 0.f, 1.f);
-        }
+        /* (0, 0, 1) where the length is not positive, as v3_norm */
+        const __m128 fb[3] = {zero, zero, one};
+        for (int c = 0; c < 3; c++)
+            _mm_storeu_ps(dsoa[c] + k, _mm_or_ps(_mm_and_ps(pos, _mm_mul_ps(d[c], r)), _mm_andnot_ps(pos, fb[c])));
     }
 #else
     for (int k = 0; k < 16; k++) {
@@ -256,10 +261,192 @@ static void tile_dirs(const pgi_camera *cam, const pgi__subpixel *sp, int tx, in
         valid[k] = tile_lane(tx, ty, k, W, H, &px, &py);
         if (!valid[k]) px = py = 0;
         pix[k] = valid[k] ? (size_t)py * (size_t)W + (size_t)px : 0;
-        dirs[k] = pgi__view_dir(cam, sp, px, py);
+        const pgi__v3 d = pgi__view_dir(cam, sp, px, py);
+        dsoa[0][k] = d.x;
+        dsoa[1][k] = d.y;
+        dsoa[2][k] = d.z;
     }
 #endif
 }
+
+#if VIEW_AVX2
+/* tile_dirs eight lanes an instruction (lanes k..k+7 are rows k/4 and k/4 + 1 of the tile): the
+ * same operations in the same order, so the same bits. */
+__attribute__((target("avx2"))) static void tile_dirs_avx2(const pgi_camera *cam, const pgi__subpixel *sp, int tx,
+                                                           int ty, int valid[16], size_t pix[16], float dsoa[3][16]) {
+    const __m256 two = _mm256_set1_ps(2.f), one = _mm256_set1_ps(1.f), zero = _mm256_setzero_ps();
+    const __m256 w = _mm256_set1_ps((float)cam->width), h = _mm256_set1_ps((float)cam->height);
+    const __m256 th = _mm256_set1_ps(cam->tan_half_fov_y), asp = _mm256_set1_ps(cam->aspect);
+    const __m256i W = _mm256_set1_epi32(cam->width), H = _mm256_set1_epi32(cam->height);
+    const __m256i kx = _mm256_setr_epi32(0, 1, 2, 3, 0, 1, 2, 3), ky = _mm256_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1);
+    const __m256 fb[3] = {zero, zero, one};
+    for (int k = 0; k < 16; k += 8) {
+        __m256i px = _mm256_add_epi32(_mm256_set1_epi32(4 * tx), kx);
+        __m256i py = _mm256_add_epi32(_mm256_set1_epi32(4 * ty + (k >> 2)), ky);
+        const __m256i in = _mm256_and_si256(_mm256_cmpgt_epi32(W, px), _mm256_cmpgt_epi32(H, py));
+        px = _mm256_and_si256(px, in); /* pixel (0, 0) outside the image */
+        py = _mm256_and_si256(py, in);
+        _mm256_storeu_si256((__m256i *)(valid + k), _mm256_and_si256(in, _mm256_set1_epi32(1)));
+        const __m256i w64 = _mm256_set1_epi64x(cam->width); /* pix = py W + px in 64 bits, four at a time */
+        _mm256_storeu_si256((__m256i *)(pix + k),
+                            _mm256_add_epi64(_mm256_mul_epu32(_mm256_cvtepu32_epi64(_mm256_castsi256_si128(py)), w64),
+                                             _mm256_cvtepu32_epi64(_mm256_castsi256_si128(px))));
+        _mm256_storeu_si256((__m256i *)(pix + k + 4),
+                            _mm256_add_epi64(_mm256_mul_epu32(_mm256_cvtepu32_epi64(_mm256_extracti128_si256(py, 1)),
+                                                              w64),
+                                             _mm256_cvtepu32_epi64(_mm256_extracti128_si256(px, 1))));
+        __m256 fx, fy;
+        if (!sp->jitter) { /* pgi__pixel_jitter's pixel centre */
+            fx = _mm256_add_ps(_mm256_cvtepi32_ps(px), _mm256_set1_ps(0.5f));
+            fy = _mm256_add_ps(_mm256_cvtepi32_ps(py), _mm256_set1_ps(0.5f));
+        } else {
+            float jx[8], jy[8];
+            for (int q = 0; q < 8; q++) pgi__pixel_jitter(sp, pix[k + q], &jx[q], &jy[q]);
+            fx = _mm256_add_ps(_mm256_cvtepi32_ps(px), _mm256_loadu_ps(jx));
+            fy = _mm256_add_ps(_mm256_cvtepi32_ps(py), _mm256_loadu_ps(jy));
+        }
+        const __m256 u =
+            _mm256_mul_ps(_mm256_mul_ps(_mm256_sub_ps(_mm256_div_ps(_mm256_mul_ps(two, fx), w), one), th), asp);
+        const __m256 v = _mm256_mul_ps(_mm256_sub_ps(one, _mm256_div_ps(_mm256_mul_ps(two, fy), h)), th);
+        __m256 d[3];
+        for (int c = 0; c < 3; c++)
+            d[c] = _mm256_add_ps(_mm256_set1_ps(cam->forward[c]),
+                                 _mm256_add_ps(_mm256_mul_ps(_mm256_set1_ps(cam->right[c]), u),
+                                               _mm256_mul_ps(_mm256_set1_ps(cam->up[c]), v)));
+        const __m256 l =
+            _mm256_sqrt_ps(_mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(d[0], d[0]), _mm256_mul_ps(d[1], d[1])),
+                                         _mm256_mul_ps(d[2], d[2])));
+        const __m256 pos = _mm256_cmp_ps(l, zero, _CMP_GT_OQ), r = _mm256_div_ps(one, l); /* v3_norm */
+        for (int c = 0; c < 3; c++) _mm256_storeu_ps(dsoa[c] + k, _mm256_blendv_ps(fb[c], _mm256_mul_ps(d[c], r), pos));
+    }
+}
+#endif
+
+/* A tile's primary hits (pgi__rt_intersect16_soa): lane k's is triangle prim[k] (UINT32_MAX: none)
+ * at distance t[k], barycentrics u[k], v[k]. */
+typedef struct tile_hits {
+    float t[16], u[16], v[16];
+    uint32_t prim[16];
+} tile_hits;
+
+/* The surfaces of a tile's primary hits component by component, lane k at [k] (lanes without a
+ * hit hold anything): pgi__trace_tri_surface's position and shading normal, pgi__trace_tri_uv's
+ * texture coordinates (0 without them) and the depth along the camera's forward axis. */
+typedef struct tile_surf {
+    float p[3][16], ns[3][16], u[16], v[16], depth[16];
+} tile_surf;
+
+/* tile_surf lane by lane with the inline functions: what tile_surfaces_avx2 must equal, and the
+ * build for processors without AVX2. */
+static void tile_surfaces(const pgi_scene *s, const pgi__trace_scratch *tr, const tile_hits *hits,
+                          const float dsoa[3][16], pgi__v3 eye, pgi__v3 fwd, tile_surf *o) {
+    for (int k = 0; k < 16; k++) {
+        if (hits->prim[k] == UINT32_MAX) continue;
+        pgi__surface sf;
+        const pgi__v3 p = v3_madd(eye, v3(dsoa[0][k], dsoa[1][k], dsoa[2][k]), hits->t[k]);
+        pgi__trace_tri_surface(s, &tr->tris[hits->prim[k]], hits->u[k], hits->v[k], p, &sf);
+        if (tr->tri_uv)
+            pgi__trace_tri_uv(tr->tri_uv + PGI__TRI_UV * (size_t)hits->prim[k], hits->u[k], hits->v[k], &sf.u, &sf.v);
+        o->p[0][k] = p.x;
+        o->p[1][k] = p.y;
+        o->p[2][k] = p.z;
+        o->ns[0][k] = sf.ns.x;
+        o->ns[1][k] = sf.ns.y;
+        o->ns[2][k] = sf.ns.z;
+        o->u[k] = sf.u;
+        o->v[k] = sf.v;
+        o->depth[k] = v3_dot(v3_sub(p, eye), fwd);
+    }
+}
+
+#if VIEW_AVX2
+/* Rows r[0..7] of an 8x8 matrix become its columns. */
+__attribute__((target("avx2"))) static inline void transpose8(__m256 r[8]) {
+    const __m256 t0 = _mm256_unpacklo_ps(r[0], r[1]), t1 = _mm256_unpackhi_ps(r[0], r[1]);
+    const __m256 t2 = _mm256_unpacklo_ps(r[2], r[3]), t3 = _mm256_unpackhi_ps(r[2], r[3]);
+    const __m256 t4 = _mm256_unpacklo_ps(r[4], r[5]), t5 = _mm256_unpackhi_ps(r[4], r[5]);
+    const __m256 t6 = _mm256_unpacklo_ps(r[6], r[7]), t7 = _mm256_unpackhi_ps(r[6], r[7]);
+    const __m256 s0 = _mm256_shuffle_ps(t0, t2, 0x44), s1 = _mm256_shuffle_ps(t0, t2, 0xee);
+    const __m256 s2 = _mm256_shuffle_ps(t1, t3, 0x44), s3 = _mm256_shuffle_ps(t1, t3, 0xee);
+    const __m256 s4 = _mm256_shuffle_ps(t4, t6, 0x44), s5 = _mm256_shuffle_ps(t4, t6, 0xee);
+    const __m256 s6 = _mm256_shuffle_ps(t5, t7, 0x44), s7 = _mm256_shuffle_ps(t5, t7, 0xee);
+    r[0] = _mm256_permute2f128_ps(s0, s4, 0x20);
+    r[1] = _mm256_permute2f128_ps(s1, s5, 0x20);
+    r[2] = _mm256_permute2f128_ps(s2, s6, 0x20);
+    r[3] = _mm256_permute2f128_ps(s3, s7, 0x20);
+    r[4] = _mm256_permute2f128_ps(s0, s4, 0x31);
+    r[5] = _mm256_permute2f128_ps(s1, s5, 0x31);
+    r[6] = _mm256_permute2f128_ps(s2, s6, 0x31);
+    r[7] = _mm256_permute2f128_ps(s3, s7, 0x31);
+}
+
+/* tile_surfaces eight lanes an instruction: the records (two rows of 8 floats each, coordinates
+ * one row) transposed into components, then pgi__trace_tri_surface's and
+ * pgi__trace_tri_uv's operations in their order, without FMA (-ffp-contract=off; packed IEEE
+ * results equal the scalar ones), so the same bits. Lanes without a hit read record 0. */
+__attribute__((target("avx2"))) static void tile_surfaces_avx2(const pgi_scene *s, const pgi__trace_scratch *tr,
+                                                               const tile_hits *hits, const float dsoa[3][16],
+                                                               pgi__v3 eye, pgi__v3 fwd, tile_surf *o) {
+    const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.f), inf = _mm256_set1_ps(INFINITY);
+    const __m256 sign = _mm256_set1_ps(-0.f);
+    const float e[3] = {eye.x, eye.y, eye.z}, f[3] = {fwd.x, fwd.y, fwd.z};
+    for (int h = 0; h < 16; h += 8) {
+        const __m256 t = _mm256_loadu_ps(hits->t + h), bu = _mm256_loadu_ps(hits->u + h);
+        const __m256 bv = _mm256_loadu_ps(hits->v + h);
+        __m256 lo[8], hi[8];
+        size_t prim[8];
+        for (int i = 0; i < 8; i++) {
+            prim[i] = hits->prim[h + i] != UINT32_MAX ? hits->prim[h + i] : 0;
+            const float *r = tr->tris[prim[i]].ng; /* ng, mat, n[0..3]; n[4..8], pad */
+            lo[i] = _mm256_loadu_ps(r);
+            hi[i] = _mm256_loadu_ps(r + 8);
+        }
+        transpose8(lo);
+        transpose8(hi);
+        const __m256 bw = _mm256_sub_ps(_mm256_sub_ps(one, bu), bv);
+        __m256 p[3], ng[3] = {lo[0], lo[1], lo[2]}, ns[3] = {lo[0], lo[1], lo[2]};
+        for (int c = 0; c < 3; c++) {
+            p[c] = _mm256_add_ps(_mm256_set1_ps(e[c]), _mm256_mul_ps(_mm256_loadu_ps(dsoa[c] + h), t));
+            _mm256_storeu_ps(o->p[c] + h, p[c]);
+        }
+        if (s->nrm) {
+            /* n[0..8] are lo[4..7], hi[0..4] */
+            const __m256 n0[3] = {lo[4], lo[5], lo[6]}, n1[3] = {lo[7], hi[0], hi[1]}, n2[3] = {hi[2], hi[3], hi[4]};
+            __m256 n[3];
+            for (int c = 0; c < 3; c++)
+                n[c] = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(n0[c], bw), _mm256_mul_ps(n1[c], bu)),
+                                     _mm256_mul_ps(n2[c], bv));
+            const __m256 l =
+                _mm256_sqrt_ps(_mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(n[0], n[0]), _mm256_mul_ps(n[1], n[1])),
+                                             _mm256_mul_ps(n[2], n[2])));
+            const __m256 ok = _mm256_and_ps(_mm256_cmp_ps(l, zero, _CMP_GT_OQ), _mm256_cmp_ps(l, inf, _CMP_LT_OQ));
+            const __m256 rl = _mm256_div_ps(one, l);
+            for (int c = 0; c < 3; c++) n[c] = _mm256_mul_ps(n[c], rl);
+            const __m256 d = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(n[0], ng[0]), _mm256_mul_ps(n[1], ng[1])),
+                                           _mm256_mul_ps(n[2], ng[2]));
+            const __m256 flip = _mm256_and_ps(_mm256_cmp_ps(d, zero, _CMP_LT_OQ), sign);
+            for (int c = 0; c < 3; c++) ns[c] = _mm256_blendv_ps(ng[c], _mm256_xor_ps(n[c], flip), ok);
+        }
+        for (int c = 0; c < 3; c++) _mm256_storeu_ps(o->ns[c] + h, ns[c]);
+        __m256 u = zero, v = zero;
+        if (tr->tri_uv) {
+            __m256 q[8];
+            for (int i = 0; i < 8; i++) q[i] = _mm256_loadu_ps(tr->tri_uv + PGI__TRI_UV * prim[i]);
+            transpose8(q);
+            u = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(bw, q[0]), _mm256_mul_ps(bu, q[2])), _mm256_mul_ps(bv, q[4]));
+            v = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(bw, q[1]), _mm256_mul_ps(bu, q[3])), _mm256_mul_ps(bv, q[5]));
+        }
+        _mm256_storeu_ps(o->u + h, u);
+        _mm256_storeu_ps(o->v + h, v);
+        __m256 dep = zero;
+        for (int c = 0; c < 3; c++) {
+            const __m256 dc = _mm256_mul_ps(_mm256_sub_ps(p[c], _mm256_set1_ps(e[c])), _mm256_set1_ps(f[c]));
+            dep = c ? _mm256_add_ps(dep, dc) : dc;
+        }
+        _mm256_storeu_ps(o->depth + h, dep);
+    }
+}
+#endif
 
 pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scratch *tris, const pgi_camera *cam,
                            uint64_t seed, const pgi__subpixel *sp, int threads, pgi_view_samples *vs, float *emit,
@@ -276,8 +463,11 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
     uint8_t *const fill_rows = fill && view_fill_fit(fill, W, H) ? fill->rows : NULL;
     const size_t fill_cols = fill_rows ? (size_t)fill->cols : 0;
     uint64_t rays = 0;
-    const pgi__v3 eye = v3_load(cam->eye);
+    const pgi__v3 eye = v3_load(cam->eye), fwd = v3_load(cam->forward);
     const float eps = pgi__scene_epsilon(s);
+#if VIEW_AVX2
+    const int avx2 = __builtin_cpu_supports("avx2");
+#endif
     /* 4x4-pixel tiles, one coherent 16-wide packet each (the fastest layout of primary rays:
      * photongi-bench --limits), cast and shaded in turn, BLOCK_TILES of them side by side into
      * one staging block. Prefetching a whole block's texels a sweep ahead of the lookups was
@@ -296,14 +486,30 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
                     if (tx >= tiles_x) break;
                     int valid[16];
                     size_t pix[16];
-                    pgi__v3 dirs[16];
-                    pgi__hit hits[16];
-                    tile_dirs(cam, sp, tx, ty, valid, pix, dirs);
-                    pgi__rt_intersect16(rt, valid, &eye, 0, dirs, 1, hits);
+                    float dsoa[3][16];
+                    tile_hits hits;
+#if VIEW_AVX2
+                    if (avx2) tile_dirs_avx2(cam, sp, tx, ty, valid, pix, dsoa);
+                    else
+#endif
+                        tile_dirs(cam, sp, tx, ty, valid, pix, dsoa);
+                    const float *const dirs[3] = {dsoa[0], dsoa[1], dsoa[2]};
+                    pgi__rt_intersect16_soa(rt, valid, eye, dirs, hits.t, hits.u, hits.v, hits.prim);
                     /* Lanes whose primary hit is non-specular (nearly all) are shaded here in
-                     * three sweeps over the packet: surfaces, then the 16 texture lookups one
-                     * after the other (independent: their cache misses overlap), then the
-                     * samples. The others (sky, mirrors, glass) follow their eye paths. */
+                     * sweeps over the packet: the surfaces of all hits (tile_surfaces), their
+                     * materials, then the 16 texture lookups one after the other (independent:
+                     * their cache misses overlap), then the samples. The others (sky, mirrors,
+                     * glass) follow their eye paths. */
+                    int any = 0;
+                    for (int k = 0; k < 16; k++) any |= hits.prim[k] != UINT32_MAX;
+                    tile_surf ts;
+                    if (any) {
+#if VIEW_AVX2
+                        if (avx2) tile_surfaces_avx2(s, tr, &hits, (const float(*)[16])dsoa, eye, fwd, &ts);
+                        else
+#endif
+                            tile_surfaces(s, tr, &hits, (const float(*)[16])dsoa, eye, fwd, &ts);
+                    }
                     pgi__surface sf[16];
                     int lit[16];
                     for (int k = 0; k < 16; k++) {
@@ -311,19 +517,22 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
                         if (!valid[k]) continue;
                         rays++;
                         const int j = (k >> 2) * BLOCK_W + 4 * tb + (k & 3);
-                        if (hits[k].prim != UINT32_MAX) {
-                            pgi__v3 p = v3_madd(eye, dirs[k], hits[k].t);
+                        if (hits.prim[k] != UINT32_MAX) {
                             /* pgi__scene_surface_untextured from the triangle's record: the same bits */
-                            pgi__trace_tri_surface(s, &tr->tris[hits[k].prim], hits[k].u, hits[k].v, p, &sf[k]);
-                            if (tr->tri_uv)
-                                pgi__trace_tri_uv(tr->tri_uv + PGI__TRI_UV * (size_t)hits[k].prim, hits[k].u, hits[k].v,
-                                                  &sf[k].u, &sf[k].v);
+                            pgi__trace_tri_geometry(s, &tr->tris[hits.prim[k]], v3(ts.p[0][k], ts.p[1][k], ts.p[2][k]),
+                                                    &sf[k]);
                             if (!pgi__mat_specular(sf[k].mat)) {
+                                sf[k].ns = v3(ts.ns[0][k], ts.ns[1][k], ts.ns[2][k]);
+                                sf[k].u = ts.u[k];
+                                sf[k].v = ts.v[k];
+                                sf[k].kd = v3_load(sf[k].mat->kd);
                                 lit[k] = 1;
                                 continue;
                             }
                         }
-                        shade_eye_path(s, rt, cam, seed, eps, pix[k], eye, dirs[k], hits[k], &blk, j, &lc, &rays);
+                        const pgi__hit h = {hits.t[k], hits.u[k], hits.v[k], hits.prim[k]};
+                        shade_eye_path(s, rt, cam, seed, eps, pix[k], eye, v3(dsoa[0][k], dsoa[1][k], dsoa[2][k]), h,
+                                       &blk, j, &lc, &rays);
                     }
                     const pgi__texture *tex[16];
                     float tu[16], tv[16];
@@ -332,8 +541,8 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
                     for (int k = 0; k < 16; k++)
                         if (lit[k] && sf[k].mat->tex_kd >= 0) { /* as pgi__surface_texture */
                             tex[nt] = &s->texs[sf[k].mat->tex_kd];
-                            tu[nt] = sf[k].u;
-                            tv[nt] = sf[k].v;
+                            tu[nt] = ts.u[k];
+                            tv[nt] = ts.v[k];
                             lane[nt++] = k;
                         }
                     pgi__texture_lookup_n(tex, tu, tv, nt, texc);
@@ -341,13 +550,13 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
                     for (int k = 0; k < 16; k++) {
                         if (!lit[k]) continue;
                         const int j = (k >> 2) * BLOCK_W + 4 * tb + (k & 3);
-                        pgi__v3 wo = v3_neg(dirs[k]);
+                        pgi__v3 wo = v3_neg(v3(dsoa[0][k], dsoa[1][k], dsoa[2][k]));
                         float side = v3_dot(wo, sf[k].ng) >= 0.f ? 1.f : -1.f;
                         /* as shade_eye_path at depth 0: the same operations, the same bits */
                         pgi__v3 e = v3(0.f, 0.f, 0.f);
                         if (side > 0.f) e = v3_add(e, v3_mul(v3(1.f, 1.f, 1.f), v3_load(sf[k].mat->ke)));
                         put_sample(&blk, j, &sf[k], wo, side, v3(1.f, 1.f, 1.f), 1, &lc);
-                        blk.depth[j] = v3_dot(v3_sub(sf[k].p, eye), v3_load(cam->forward));
+                        blk.depth[j] = ts.depth[k];
                         v3_store(blk.emit + 3 * j, e);
                     }
                 }
