@@ -605,7 +605,6 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
             }
             if (!any) continue;
             int valid[16], occ[16];
-            pgi__v3 wi[16] = {{0}};
             float cs[16], tmax[16], wis[3][16], Lis[3][16];
             const float *const xo[3] = {t.xs[0], t.xs[1], t.xs[2]}, *const wd[3] = {wis[0], wis[1], wis[2]};
             for (size_t l = 0; l < s->nlights; l++) {
@@ -642,6 +641,7 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
             if (narea && area_samples > 0) {
                 pgi__rng rng[16];
                 pgi__v3 La[16], xa[16]; /* the samples' sum; the origins as occluded16 takes them */
+                pgi__v3 wi[16] = {{0}}; /* zeroed here, not for every tile: Sibenik has no area light */
                 for (int k = 0; k < 16; k++) {
                     La[k] = v3(0.f, 0.f, 0.f);
                     xa[k] = tile_x(&t, k);
