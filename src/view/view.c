@@ -641,7 +641,7 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
             if (narea && area_samples > 0) {
                 pgi__rng rng[16];
                 pgi__v3 La[16], xa[16]; /* the samples' sum; the origins as occluded16 takes them */
-                pgi__v3 wi[16] = {{0}}; /* zeroed here, not for every tile: Sibenik has no area light */
+                pgi__v3 wi[16] = {{0}}; /* zeroed only in scenes with area lights */
                 for (int k = 0; k < 16; k++) {
                     La[k] = v3(0.f, 0.f, 0.f);
                     xa[k] = tile_x(&t, k);
