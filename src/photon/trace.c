@@ -83,6 +83,10 @@ typedef struct lane {
        no texture, or one without texels) */
     const pgi__texture *tex;
     pgi__texel_quad tq;
+    /* the hit's four numbers (BSDF, roulette), and whether the roulette ends the path whatever
+       the texture (ends: no texel, no BSDF) */
+    int ends;
+    float u[4];
 } lane;
 
 /* Starts path `index` in `l` (emission from a light picked by power). Flux is power / pick
@@ -175,6 +179,13 @@ static int start_path(const tracer *T, uint64_t index, lane *l, uint32_t *cnt) {
     if (T->fp_track) pgi__fp_emit(&l->pd, &T->fp, T->s, L, pl, l->d, T->radius);
     l->b = 0;
     return 1;
+}
+
+/* Whether pgi__bsdf_sample scatters like a Lambertian surface at m: weight kd, whatever the
+ * direction. */
+static inline int lambert(const pgi__material *m) {
+    return m->type != PGI_MAT_MIRROR && m->type != PGI_MAT_GLASS && m->type != PGI_MAT_PHONG &&
+           m->type != PGI_MAT_PLASTIC;
 }
 
 /* Appends one photon of chunk path `path` to the thread's record. */
@@ -314,6 +325,11 @@ static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbu
                 if (hh[k].prim != UINT32_MAX) {
                     __builtin_prefetch(T->tris + hh[k].prim);
                     if (T->tri_uv) __builtin_prefetch(T->tri_uv + PGI__TRI_UV * (size_t)hh[k].prim);
+                    /* The numbers shading draws where the path may scatter, drawn while the
+                     * records load: a path that goes on uses all four (a failed BSDF sample
+                     * ends it), so its stream stays as it was. */
+                    if (L[k].b < T->bounces)
+                        for (int j = 0; j < 4; j++) L[k].u[j] = pgi_rng_f(&L[k].rng);
                 }
             }
         }
@@ -322,8 +338,24 @@ static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbu
         for (int k = 0; k < WAVE; k++) {
             lane *l = &L[k];
             l->tex = NULL;
+            l->ends = 0;
             if (l->path < 0 || l->h.prim == UINT32_MAX || l->b >= T->bounces) continue;
             const pgi__material *m = &s->mats[T->tris[l->h.prim].mat];
+            if (lambert(m)) {
+                /* The scattered flux is flux kd tex, with tex <= 1 (+ a rounding): the roulette's
+                 * probability with tex = 1 bounds it from above. A path whose roulette number is
+                 * past the bound (times 1.0001) ends whatever its texel and direction, so it
+                 * needs neither (a quarter of Sibenik's stone hits). */
+                const pgi__v3 kd = v3_load(m->kd), f = l->flux;
+                if (kd.x >= 0.f && kd.y >= 0.f && kd.z >= 0.f && f.x >= 0.f && f.y >= 0.f && f.z >= 0.f) {
+                    const float mf = v3_maxc(f);
+                    const float Rb = mf > 0.f ? fminf(1.f, v3_maxc(v3_mul(f, kd)) / mf) : 0.f;
+                    if (Rb < 1.f && l->u[3] >= Rb * 1.0001f) {
+                        l->ends = 1;
+                        continue;
+                    }
+                }
+            }
             if (m->tex_kd < 0) continue;
             l->tex = &s->texs[m->tex_kd];
             float u = 0.f, v = 0.f; /* without texture coordinates the lookup reads (0, 0) */
@@ -338,7 +370,10 @@ static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbu
             if (l->h.prim != UINT32_MAX) {
                 pgi__surface sf;
                 pgi__v3 p = v3_madd(l->o, l->d, l->h.t);
-                pgi__trace_tri_surface(s, &T->tris[l->h.prim], l->h.u, l->h.v, p, &sf);
+                /* the shading normal and albedo only where the path scatters */
+                if (l->b < T->bounces && !l->ends)
+                    pgi__trace_tri_surface(s, &T->tris[l->h.prim], l->h.u, l->h.v, p, &sf);
+                else pgi__trace_tri_geometry(s, &T->tris[l->h.prim], p, &sf);
                 pgi__v3 wi = v3_neg(l->d);
                 pgi__v3 ng = v3_dot(wi, sf.ng) >= 0.f ? sf.ng : v3_neg(sf.ng);
                 if (T->fp_track) pgi__fp_hit(&l->pd, &T->fp, l->d, l->h.t, ng);
@@ -356,16 +391,15 @@ static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbu
                         cnt[l->path]++;
                     }
                 }
-                if (l->b < T->bounces && ok) {
+                if (l->b < T->bounces && ok && !l->ends) {
                     if (l->tex) sf.kd = v3_mul(sf.kd, pgi__texture_quad_lookup(&l->tq));
                     pgi__v3 wo, w;
-                    float r1 = pgi_rng_f(&l->rng), r2 = pgi_rng_f(&l->rng), r3 = pgi_rng_f(&l->rng);
-                    if (pgi__bsdf_sample(&sf, wi, r1, r2, r3, &wo, &w)) {
+                    if (pgi__bsdf_sample(&sf, wi, l->u[0], l->u[1], l->u[2], &wo, &w)) {
                         if (T->fp_track) pgi__fp_scatter(&l->pd, &T->fp, s, l->h.prim, l->h.u, l->h.v, &sf, wi, wo, w);
                         pgi__v3 nf = v3_mul(l->flux, w);
                         float mf = v3_maxc(l->flux);
                         float R = mf > 0.f ? fminf(1.f, v3_maxc(nf) / mf) : 0.f;
-                        if (pgi_rng_f(&l->rng) < R) {
+                        if (l->u[3] < R) {
                             l->flux = v3_scale(nf, 1.f / R);
                             if (v3_finite(l->flux)) {
                                 if (T->fp_track) pgi__fp_roulette(&l->pd, &T->fp, R);

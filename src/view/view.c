@@ -582,10 +582,15 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
 typedef struct dtile {
     int on[16], ready[16];
     size_t pix[16];
-    pgi__v3 x[16], ns[16], ng[16], wo[16], kd[16];
-    float xs[3][16], nss[3][16], ngs[3][16]; /* x, ns, ng lane by lane (zeros where off), for delta16 */
+    pgi__v3 wo[16], kd[16];
+    /* x, ns, ng lane by lane (zeros where off): only so, the setup stores each component once */
+    float xs[3][16], nss[3][16], ngs[3][16];
     pgi__lobe lobe[16];
 } dtile;
+
+static inline pgi__v3 tile_x(const dtile *t, int k) { return v3(t->xs[0][k], t->xs[1][k], t->xs[2][k]); }
+static inline pgi__v3 tile_ns(const dtile *t, int k) { return v3(t->nss[0][k], t->nss[1][k], t->nss[2][k]); }
+static inline pgi__v3 tile_ng(const dtile *t, int k) { return v3(t->ngs[0][k], t->ngs[1][k], t->ngs[2][k]); }
 
 /* pgi__delta_light at the 16 lanes of a tile for a point light or the sun: the same operations
  * lane by lane (so the same numbers, bit for bit), branch-free over arrays so that the compiler
@@ -643,7 +648,7 @@ static inline pgi__v3 tile_brdf(dtile *t, const pgi_view_samples *vs, int k, pgi
         pgi__vs_lobe(vs, i, &t->lobe[k]);
         t->ready[k] = 1;
     }
-    return pgi__brdf_eval(t->kd[k], &t->lobe[k], t->ns[k], wi, t->wo[k]);
+    return pgi__brdf_eval(t->kd[k], &t->lobe[k], tile_ns(t, k), wi, t->wo[k]);
 }
 
 /* Direct light from the sky at the valid lanes of a tile: `n` directions a lane
@@ -667,7 +672,7 @@ static void env_direct(const pgi__env *env, const pgi__rt *rt, dtile *t, const p
         Le[k] = v3(0.f, 0.f, 0.f);
         if (!t->on[k]) continue;
         pgi_rng_seed(&rng[k], seed ^ 0x736b79ULL, (uint64_t)t->pix[k]);
-        pgi__env_frame_init(&fr[k], t->ns[k]);
+        pgi__env_frame_init(&fr[k], tile_ns(t, k));
     }
     for (int j0 = 0; j0 < n; j0 += ENV_RUN) {
         const int j1 = n - j0 < ENV_RUN ? n : j0 + ENV_RUN;
@@ -677,11 +682,11 @@ static void env_direct(const pgi__env *env, const pgi__rt *rt, dtile *t, const p
                 if (!t->on[k]) continue;
                 float u1 = ((float)j + pgi_rng_f(&rng[k])) / (float)n, u2 = pgi_rng_f(&rng[k]), pdf;
                 pgi__v3 le, d = pgi__env_sample_direct_in(env, &fr[k], u1, u2, &pdf, &le);
-                float c = v3_dot(t->ns[k], d);
-                if (!(pdf > 0.f) || !(c > 0.f) || !(v3_dot(t->ng[k], d) > 0.f)) continue;
+                float c = v3_dot(tile_ns(t, k), d);
+                if (!(pdf > 0.f) || !(c > 0.f) || !(v3_dot(tile_ng(t, k), d) > 0.f)) continue;
                 w[m] = v3_scale(le, c / pdf);
                 wi[m] = d;
-                org[m] = t->x[k];
+                org[m] = tile_x(t, k);
                 tmax[m] = INFINITY;
                 lane[m++] = (unsigned char)k;
             }
@@ -836,7 +841,7 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
     for (int ty = 0; ty < tiles_y; ty++) {
         dtile t;
         for (int tx = 0; tx < tiles_x; tx++) {
-            pgi__v3 L[16], La[16];
+            pgi__v3 L[16];
             int any = 0;
             if (DIRECT_PREFETCH && tx + DIRECT_PREFETCH < tiles_x)
                 PREFETCH_TILE(vs, out, &one, tx + DIRECT_PREFETCH, ty);
@@ -846,34 +851,40 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
                 size_t i = on ? (size_t)py * (size_t)W + (size_t)px : 0;
                 t.pix[k] = i;
                 t.ready[k] = 0;
-                L[k] = La[k] = v3(0.f, 0.f, 0.f);
+                L[k] = v3(0.f, 0.f, 0.f);
                 if (on && !(vs->flags[i] & PGI_VS_VALID)) {
                     v3_store(out + 3 * i, L[k]);
                     on = 0;
                 }
                 t.on[k] = on;
-                if (!on) {
-                    t.x[k] = t.ns[k] = t.ng[k] = v3(0.f, 0.f, 0.f); /* off lanes reach Embree masked: zeros */
-                } else {
-                    pgi__v3 p = v3_load(vs->pos + 3 * i);
-                    t.ns[k] = v3_load(vs->nrm + 3 * i);
-                    t.ng[k] = v3_load(vs->ngeo + 3 * i);
-                    t.x[k] = v3_madd(p, t.ng[k], eps);
+                /* x = p + eps ng (v3_madd) in scalars, stored to both layouts: filled as vectors and
+                 * read back lane by lane, gcc reloaded each component from the stores just made */
+                float x0 = 0.f, x1 = 0.f, x2 = 0.f, n0 = 0.f, n1 = 0.f, n2 = 0.f, g0 = 0.f, g1 = 0.f, g2 = 0.f;
+                if (on) { /* off lanes reach Embree masked: zeros */
+                    const float *pp = vs->pos + 3 * i, *pn = vs->nrm + 3 * i, *pg = vs->ngeo + 3 * i;
+                    n0 = pn[0];
+                    n1 = pn[1];
+                    n2 = pn[2];
+                    g0 = pg[0];
+                    g1 = pg[1];
+                    g2 = pg[2];
+                    x0 = pp[0] + g0 * eps;
+                    x1 = pp[1] + g1 * eps;
+                    x2 = pp[2] + g2 * eps;
                     any = 1;
                 }
-                t.xs[0][k] = t.x[k].x;
-                t.xs[1][k] = t.x[k].y;
-                t.xs[2][k] = t.x[k].z;
-                t.nss[0][k] = t.ns[k].x;
-                t.nss[1][k] = t.ns[k].y;
-                t.nss[2][k] = t.ns[k].z;
-                t.ngs[0][k] = t.ng[k].x;
-                t.ngs[1][k] = t.ng[k].y;
-                t.ngs[2][k] = t.ng[k].z;
+                t.xs[0][k] = x0;
+                t.xs[1][k] = x1;
+                t.xs[2][k] = x2;
+                t.nss[0][k] = n0;
+                t.nss[1][k] = n1;
+                t.nss[2][k] = n2;
+                t.ngs[0][k] = g0;
+                t.ngs[1][k] = g1;
+                t.ngs[2][k] = g2;
             }
             if (!any) continue;
             int valid[16], occ[16];
-            pgi__v3 wi[16] = {{0}};
             float cs[16], tmax[16], wis[3][16], Lis[3][16];
             const float *const xo[3] = {t.xs[0], t.xs[1], t.xs[2]}, *const wd[3] = {wis[0], wis[1], wis[2]};
             for (size_t l = 0; l < s->nlights; l++) {
@@ -885,7 +896,8 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
                 else
                     for (int k = 0; k < 16; k++) {
                         pgi__v3 w, li;
-                        valid[k] = t.on[k] && pgi__delta_light(lt, t.x[k], t.ns[k], t.ng[k], &w, &li, &cs[k], &tmax[k]);
+                        valid[k] = t.on[k] && pgi__delta_light(lt, tile_x(&t, k), tile_ns(&t, k), tile_ng(&t, k), &w,
+                                                               &li, &cs[k], &tmax[k]);
                         if (!valid[k]) continue;
                         nv++;
                         wis[0][k] = w.x;
@@ -908,8 +920,13 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
             }
             if (narea && area_samples > 0) {
                 pgi__rng rng[16];
-                for (int k = 0; k < 16; k++)
+                pgi__v3 La[16], xa[16]; /* the samples' sum; the origins as occluded16 takes them */
+                pgi__v3 wi[16] = {{0}}; /* zeroed only in scenes with area lights */
+                for (int k = 0; k < 16; k++) {
+                    La[k] = v3(0.f, 0.f, 0.f);
+                    xa[k] = tile_x(&t, k);
                     if (t.on[k]) pgi_rng_seed(&rng[k], seed ^ 0xd15ec7ULL, (uint64_t)t.pix[k]);
+                }
                 float g[16];
                 const pgi__area_rec *lts[16];
                 for (int j = 0; j < area_samples; j++) {
@@ -925,13 +942,13 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
                         float su = sqrtf(u1), b1 = 1.f - su, b2 = u2 * su;
                         pgi__v3 y =
                             v3_add(v3_add(v3_scale(lt->a, 1.f - b1 - b2), v3_scale(lt->b, b1)), v3_scale(lt->c, b2));
-                        pgi__v3 dv = v3_sub(y, t.x[k]);
+                        pgi__v3 dv = v3_sub(y, xa[k]);
                         float d2 = v3_dot(dv, dv);
                         if (!(d2 > 0.f) || !(pl > 0.f)) continue;
                         float dist = sqrtf(d2);
                         wi[k] = v3_scale(dv, 1.f / dist);
-                        float cl = -v3_dot(wi[k], lt->normal), c = v3_dot(t.ns[k], wi[k]);
-                        if (!(cl > 0.f) || !(c > 0.f) || !(v3_dot(t.ng[k], wi[k]) > 0.f)) continue;
+                        float cl = -v3_dot(wi[k], lt->normal), c = v3_dot(tile_ns(&t, k), wi[k]);
+                        if (!(cl > 0.f) || !(c > 0.f) || !(v3_dot(tile_ng(&t, k), wi[k]) > 0.f)) continue;
                         tmax[k] = dist * (1.f - 1e-3f);
                         g[k] = c * cl / d2 * lt->area / pl;
                         lts[k] = lt;
@@ -942,7 +959,7 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
                     rays += (uint64_t)nv;
                     for (int k = 0; k < 16; k++)
                         if (valid[k]) PREFETCH_SHADING(vs, &t, k);
-                    pgi__rt_occluded16(rt, valid, t.x, wi, tmax, 1, occ);
+                    pgi__rt_occluded16(rt, valid, xa, wi, tmax, 1, occ);
                     for (int k = 0; k < 16; k++)
                         if (valid[k] && !occ[k])
                             La[k] = v3_add(La[k], v3_scale(v3_mul(tile_brdf(&t, vs, k, wi[k]), lts[k]->color), g[k]));
