@@ -8,42 +8,11 @@
 
 static char g_dir[512], g_json[700];
 
-/* A room open at the front (the sky around it): Blinn-Phong floor, red and white walls, a mirror
- * back wall, a glass block and an emissive ceiling quad. */
+/* tu_write_room's room, with the sky around it. */
 static int setup(void **state) {
     (void)state;
-    char path[700];
     tu_make_tmpdir(g_dir, sizeof g_dir);
-    snprintf(path, sizeof path, "%s/room.mtl", g_dir);
-    if (tu_write_file(path, "newmtl white\nKd 0.7 0.7 0.7\nillum 1\n"
-                            "newmtl red\nKd 0.7 0.1 0.1\nillum 1\n"
-                            "newmtl floor\nKd 0.5 0.5 0.4\nKs 0.3 0.3 0.3\nNs 30\nillum 2\n"
-                            "newmtl mirror\nKd 0 0 0\nKs 0.9 0.9 0.9\nillum 3\n"
-                            "newmtl glass\nKd 0 0 0\nKs 1 1 1\nNi 1.5\nillum 7\n"
-                            "newmtl lamp\nKd 0.8 0.8 0.8\nKe 20 20 20\nillum 1\n"))
-        return -1;
-    snprintf(path, sizeof path, "%s/room.obj", g_dir);
-    if (tu_write_file(path, "mtllib room.mtl\n"
-                            "v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\n"                             /* 1-4 floor */
-                            "v -1 2 -1\nv 1 2 -1\nv 1 2 1\nv -1 2 1\n"                             /* 5-8 ceiling */
-                            "v -0.3 1.98 -0.3\nv 0.3 1.98 -0.3\nv 0.3 1.98 0.3\nv -0.3 1.98 0.3\n" /* 9-12 lamp */
-                            "v 0.1 0 0.1\nv 0.6 0 0.1\nv 0.6 0 0.6\nv 0.1 0 0.6\n"         /* 13-16 glass bottom */
-                            "v 0.1 0.6 0.1\nv 0.6 0.6 0.1\nv 0.6 0.6 0.6\nv 0.1 0.6 0.6\n" /* 17-20 glass top */
-                            "usemtl floor\nf 1 4 3 2\n"
-                            "usemtl white\nf 5 6 7 8\nf 2 3 7 6\n"
-                            "usemtl red\nf 1 5 8 4\n"
-                            "usemtl mirror\nf 1 2 6 5\n"
-                            "usemtl lamp\nf 9 10 11 12\n"
-                            "usemtl glass\nf 13 14 15 16\nf 17 20 19 18\nf 13 17 18 14\nf 14 18 19 15\n"
-                            "f 15 19 20 16\nf 16 20 17 13\n"))
-        return -1;
-    char json[1600];
-    snprintf(json, sizeof json,
-             "{\"mesh\": \"%s\", \"camera\": {\"eye\": [-0.3, 1.1, 3.2], \"look_at\": [0.1, 0.8, -1], "
-             "\"fov_y\": 50}, \"sky\": {\"color\": [0.2, 0.3, 0.5]}}\n",
-             path);
-    snprintf(g_json, sizeof g_json, "%s/room.json", g_dir);
-    return tu_write_file(g_json, json);
+    return tu_write_room(g_dir, "\"sky\": {\"color\": [0.2, 0.3, 0.5]}", g_json, sizeof g_json);
 }
 
 static int teardown(void **state) {

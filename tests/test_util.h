@@ -107,6 +107,43 @@ static inline int tu_write_file(const char *path, const char *text) {
     return (fclose(f) == 0 && ok) ? 0 : -1;
 }
 
+/* Writes a room open at the front into folder dir -- a Blinn-Phong floor, red and white walls, a
+ * mirror back wall, a glass block and an emissive ceiling quad (room.obj, room.mtl) -- and its
+ * scene file room.json (path into json_path) with the camera the tests start from and `extra`
+ * JSON members (e.g. a sky; "" for none). Returns 0 on success. */
+static inline int tu_write_room(const char *dir, const char *extra, char *json_path, size_t n) {
+    char path[700], json[1600];
+    snprintf(path, sizeof path, "%s/room.mtl", dir);
+    if (tu_write_file(path, "newmtl white\nKd 0.7 0.7 0.7\nillum 1\n"
+                            "newmtl red\nKd 0.7 0.1 0.1\nillum 1\n"
+                            "newmtl floor\nKd 0.5 0.5 0.4\nKs 0.3 0.3 0.3\nNs 30\nillum 2\n"
+                            "newmtl mirror\nKd 0 0 0\nKs 0.9 0.9 0.9\nillum 3\n"
+                            "newmtl glass\nKd 0 0 0\nKs 1 1 1\nNi 1.5\nillum 7\n"
+                            "newmtl lamp\nKd 0.8 0.8 0.8\nKe 20 20 20\nillum 1\n"))
+        return -1;
+    snprintf(path, sizeof path, "%s/room.obj", dir);
+    if (tu_write_file(path, "mtllib room.mtl\n"
+                            "v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\n"                             /* 1-4 floor */
+                            "v -1 2 -1\nv 1 2 -1\nv 1 2 1\nv -1 2 1\n"                             /* 5-8 ceiling */
+                            "v -0.3 1.98 -0.3\nv 0.3 1.98 -0.3\nv 0.3 1.98 0.3\nv -0.3 1.98 0.3\n" /* 9-12 lamp */
+                            "v 0.1 0 0.1\nv 0.6 0 0.1\nv 0.6 0 0.6\nv 0.1 0 0.6\n"         /* 13-16 glass bottom */
+                            "v 0.1 0.6 0.1\nv 0.6 0.6 0.1\nv 0.6 0.6 0.6\nv 0.1 0.6 0.6\n" /* 17-20 glass top */
+                            "usemtl floor\nf 1 4 3 2\n"
+                            "usemtl white\nf 5 6 7 8\nf 2 3 7 6\n"
+                            "usemtl red\nf 1 5 8 4\n"
+                            "usemtl mirror\nf 1 2 6 5\n"
+                            "usemtl lamp\nf 9 10 11 12\n"
+                            "usemtl glass\nf 13 14 15 16\nf 17 20 19 18\nf 13 17 18 14\nf 14 18 19 15\n"
+                            "f 15 19 20 16\nf 16 20 17 13\n"))
+        return -1;
+    snprintf(json, sizeof json,
+             "{\"mesh\": \"%s\", \"camera\": {\"eye\": [-0.3, 1.1, 3.2], \"look_at\": [0.1, 0.8, -1], "
+             "\"fov_y\": 50}%s%s}\n",
+             path, *extra ? ", " : "", extra);
+    snprintf(json_path, n, "%s/room.json", dir);
+    return tu_write_file(json_path, json);
+}
+
 /* Creates a fresh temporary folder (buf receives its path). */
 static inline void tu_make_tmpdir(char *buf, size_t n) {
     const char *base = getenv("TMPDIR");
