@@ -77,6 +77,7 @@ static void test_view_build_reuse(void **state) {
                 assert_non_null(kept_emit);
                 /* garbage, not zeros: nothing may pass for a default that was not written */
                 for (size_t i = 0; i < 3 * kept.count; i++) kept_emit[i] = kept.weight[i] = kept.ks[i] = -0.f;
+                for (size_t i = 0; i < kept.count; i++) kept.shininess[i] = kept.ior[i] = -0.f;
             }
             pgi_camera cam;
             const pgi_camera_def *cd = &k_views[v];
@@ -108,6 +109,10 @@ static void test_view_build_reuse(void **state) {
                                 assert_true(kept_emit[3 * i + q] == 0.f && !signbit(kept_emit[3 * i + q]));
                             if (f & PGI__FILL_LOBE)
                                 assert_true(kept.ks[3 * i + q] == 0.f && !signbit(kept.ks[3 * i + q]));
+                        }
+                        if (f & PGI__FILL_LOBE) {
+                            assert_true(kept.shininess[i] == 0.f && !signbit(kept.shininess[i]));
+                            assert_true(kept.ior[i] == 0.f && !signbit(kept.ior[i]));
                         }
                     }
                 }

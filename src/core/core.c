@@ -17,6 +17,10 @@ pgi_status pgi__fail(pgi_status s, const char *fmt, ...) {
     return s;
 }
 
+#if defined(__x86_64__) || defined(__i386__)
+int pgi__cpu_narrow = 0;
+#endif
+
 void pgi__clear_error(void) { g_last_error[0] = 0; }
 
 const char *pgi_last_error(void) { return g_last_error; }

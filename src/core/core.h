@@ -41,6 +41,18 @@ void pgi__assert_fail(const char *expr, const char *file, int line);
 #define PGI__AVX2_CLONES
 #endif
 
+/* Whether the builds picked at run time with an explicit test may take their AVX2 path: the CPU
+ * has AVX2 and POPCNT (a load and a test: libgcc sets the flags at start-up) and nobody asked
+ * for the narrow builds. pgi__cpu_narrow = 1 forces the narrow (SSE) builds everywhere such a
+ * test picks, so that a test can check both give the same bits on an AVX2 machine; set it only
+ * while no frame is running. (Target clones, PGI__AVX2_CLONES, pick by the CPU alone.) */
+#if defined(__x86_64__) || defined(__i386__)
+extern int pgi__cpu_narrow;
+static inline int pgi__cpu_avx2(void) {
+    return !pgi__cpu_narrow && __builtin_cpu_supports("avx2") && __builtin_cpu_supports("popcnt");
+}
+#endif
+
 double pgi__now_ms(void);
 
 /* Largest image the library allocates, rendered or read (a header that

@@ -580,7 +580,7 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
     const size_t nn = s->nnodes;
     const int nthr = s->c.threads;
 #ifdef CL_AVX2
-    const int wide = __builtin_cpu_supports("avx2");
+    const int wide = pgi__cpu_avx2(); /* the wide build is also compiled for popcnt */
 #else
     const int wide = 0;
 #endif

@@ -227,7 +227,7 @@ __attribute__((target("avx2"))) static void lookup_n_avx2(const pgi__texture *co
 
 void pgi__texture_lookup_n(const pgi__texture *const *t, const float *u, const float *v, int n, pgi__v3 *out) {
 #ifdef PGI__LOOKUP_AVX2
-    if (__builtin_cpu_supports("avx2")) { /* a load and a test (libgcc sets the flags at start-up) */
+    if (pgi__cpu_avx2()) {
         lookup_n_avx2(t, u, v, n, out);
         return;
     }

@@ -466,7 +466,7 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
     const pgi__v3 eye = v3_load(cam->eye), fwd = v3_load(cam->forward);
     const float eps = pgi__scene_epsilon(s);
 #if VIEW_AVX2
-    const int avx2 = __builtin_cpu_supports("avx2");
+    const int avx2 = pgi__cpu_avx2();
 #endif
     /* 4x4-pixel tiles, one coherent 16-wide packet each (the fastest layout of primary rays:
      * photongi-bench --limits), cast and shaded in turn, BLOCK_TILES of them side by side into
