@@ -84,6 +84,17 @@ static void put_block(const view_block *b, int rows, int n, size_t i0, size_t W,
             uint8_t *f = fill + (size_t)r * stride;
             skip = *f & now;
             *f = (uint8_t)now;
+#if defined(__SANITIZE_ADDRESS__) || !defined(NDEBUG)
+            /* sanitizer and debug builds: a skipped row holds what the stores would have written
+             * (a writer of the buffers that did not forget the record breaks this) */
+            if (skip & PGI__FILL_LOBE)
+                PGI_ASSERT(!memcmp(vs->ks + 3 * i, b->ks + 3 * j, 3 * m * sizeof(float)) &&
+                           !memcmp(vs->shininess + i, b->shininess + j, m * sizeof(float)) &&
+                           !memcmp(vs->ior + i, b->ior + j, m * sizeof(float)));
+            if (skip & PGI__FILL_WEIGHT)
+                PGI_ASSERT(!memcmp(vs->weight + 3 * i, b->weight + 3 * j, 3 * m * sizeof(float)));
+            if (skip & PGI__FILL_EMIT) PGI_ASSERT(!memcmp(emit + 3 * i, b->emit + 3 * j, 3 * m * sizeof(float)));
+#endif
         }
         put_floats(vs->pos + 3 * i, b->pos + 3 * j, 3 * m);
         put_floats(vs->nrm + 3 * i, b->nrm + 3 * j, 3 * m);
