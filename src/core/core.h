@@ -46,6 +46,14 @@ void pgi__assert_fail(const char *expr, const char *file, int line);
  * for the narrow builds. pgi__cpu_narrow = 1 forces the narrow (SSE) builds everywhere such a
  * test picks, so that a test can check both give the same bits on an AVX2 machine; set it only
  * while no frame is running. (Target clones, PGI__AVX2_CLONES, pick by the CPU alone.) */
+/* Where code may hold explicit AVX2 builds (functions with target("avx2") and intrinsics, picked
+ * with pgi__cpu_avx2): x86-64 with GCC or clang, sanitizer builds included. */
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#define PGI__AVX2_TARGET 1
+#else
+#define PGI__AVX2_TARGET 0
+#endif
+
 #if defined(__x86_64__) || defined(__i386__)
 extern int pgi__cpu_narrow;
 static inline int pgi__cpu_avx2(void) {

@@ -140,7 +140,7 @@ __attribute__((target("sse4.1"))) static void lookup_n_sse41(const pgi__texture 
 }
 #endif
 
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#if PGI__AVX2_TARGET
 #define PGI__LOOKUP_AVX2 1
 /* i wrapped into [0, n) as wrap_index (i in [-1, n]). */
 __attribute__((target("avx2"))) static inline __m256i wrap8(__m256i i, __m256i n) {

@@ -6,13 +6,13 @@
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
+
+#include "core/core.h"
 /* AVX2 builds of a tile's directions and surfaces, picked at run time (tile_dirs_avx2,
  * tile_surfaces_avx2). */
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-#define VIEW_AVX2 1
+#define VIEW_AVX2 PGI__AVX2_TARGET
+#if VIEW_AVX2
 #include <immintrin.h>
-#else
-#define VIEW_AVX2 0
 #endif
 
 #include "photon/photon.h"
