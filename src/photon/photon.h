@@ -101,8 +101,16 @@ typedef struct pgi__trace_scratch {
     uint16_t *path_bin; /* guided emission: the guide's bin of each path of the batch */
     uint16_t *ph_bin;   /* ... and of each photon stored */
     size_t path_bin_cap, ph_bin_cap;
-    struct chunk_info *chunks;         /* where each chunk's photons are */
-    size_t cap;                        /* paths */
+    struct chunk_info *chunks; /* where each chunk's photons are */
+    size_t cap;                /* paths */
+    /* How each path of the batch starts, the states of those from point and spot lights
+       between their first and second hits (trace.c first_hits), their differentials (when a
+       radius policy follows them: pd_cap), and their emission order (sort keys, indices) */
+    uint8_t *mode;
+    struct path_state *ps;
+    struct pgi__pdiff *ps_pd;
+    uint32_t *key, *idx, *tkey, *tidx, *hist;
+    size_t mode_cap, ps_cap, pd_cap;
     double prior_paths, prior_photons; /* the last frame's traced paths and their photons */
     uint64_t paths_traced;             /* out: paths traced by the last call (emitted + discarded + pilot) */
     uint64_t paths_pilot;              /* out: guided emission's uniform pilot, whose photons were dropped */
@@ -122,6 +130,10 @@ void pgi__trace_scratch_free(pgi__trace_scratch *sc);
 pgi_status pgi__trace_tris_update(pgi__trace_scratch *sc, const pgi_scene *s, int threads);
 /* Bytes the scratch holds. */
 size_t pgi__trace_scratch_bytes(const pgi__trace_scratch *sc);
+
+/* Tests: at most this many paths of a chunk from point and spot lights start in the emission
+ * pre-pass (0: no cap); the others start in their chunk (trace.c start_paths). */
+extern int pgi__trace_room_cap;
 
 pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__trace_desc *d, pgi_photons *ph,
                               pgi__trace_scratch *scratch, uint64_t *rays);

@@ -17,6 +17,8 @@
 #include <stdint.h>
 #include <sys/mman.h>
 
+int pgi__trace_room_cap = 0;
+
 /* Paths one thread carries at once: the rays of a wave are cast back to back and the
  * texels of its hits are prefetched before any is shaded, so that their cache misses overlap
  * instead of following one another (photon rays are incoherent: each hit is a miss). */
@@ -25,6 +27,12 @@ _Static_assert(WAVE == 16, "a wave is one pgi__rt_intersect16 packet");
 /* Paths a scheduling unit: a thread traces a chunk's paths and sorts their photons into path
  * order, so that the result is the same whatever the thread count. */
 #define CHUNK 1024
+/* The emission pre-pass (start_paths, first_hits): paths from point and spot lights are sorted by
+ * direction and cast 16 at a time as coherent packets when a batch has at least COHERENT_MIN of
+ * them (fewer, spread over the sphere, are not coherent enough: single rays are faster); a batch
+ * holds at most PREPASS_BATCH paths (its states take 80 bytes a path). */
+#define COHERENT_MIN 32768
+#define PREPASS_BATCH (1u << 18)
 
 
 typedef struct stored_photon {
@@ -47,6 +55,7 @@ typedef struct chunk_info {
     size_t off;   /* its first photon there */
     size_t total; /* photons of the chunk */
     size_t count; /* of these, the photons taken: the first in path order */
+    size_t keyed; /* paths that start in start_paths (from point and spot lights) */
 } chunk_info;
 
 typedef struct tracer {
@@ -89,25 +98,39 @@ typedef struct lane {
     float u[4];
 } lane;
 
-/* Starts path `index` in `l` (emission from a light picked by power). Flux is power / pick
- * probability (divided by the paths later; a steered path's photons then take its bin's weight
- * V/q too). Returns 0 when the path carries nothing. `cnt`: the thread's guide counters (paths of
- * each bin). */
-static int start_path(const tracer *T, uint64_t index, lane *l, uint32_t *cnt) {
+/* The first numbers of path `index`: its stream seeded in `l`, the light it leaves (picked by
+ * power), the pick's probability, and a steered path's bin and pair. NULL: none (a light of no
+ * power). */
+typedef struct emission_pick {
+    float ul, pl, a, b; /* the pick's number and probability; the steered pair */
+} emission_pick;
+static const pgi__light *pick_light(const tracer *T, uint64_t index, lane *l, emission_pick *e) {
     pgi_rng_seed(&l->rng, T->seed, index);
     const pgi__guide *G = T->G;
-    const int steer = G && G->on;
-    float ul, a = 0.f, b = 0.f, u1, u2, u3 = 0.f, u4 = 0.f;
-    if (steer) {
+    float ul;
+    e->a = e->b = 0.f;
+    if (G && G->on) {
         /* a bin of the guide, then the light pick and the steered pair inside it */
         float ub = pgi_rng_f(&l->rng), r0 = pgi_rng_f(&l->rng), r1 = pgi_rng_f(&l->rng), r2 = pgi_rng_f(&l->rng);
-        l->bin = pgi__guide_sample(G, ub, r0, r1, r2, &ul, &a, &b);
+        l->bin = pgi__guide_sample(G, ub, r0, r1, r2, &ul, &e->a, &e->b);
     } else {
         ul = pgi_rng_f(&l->rng);
     }
-    float pl;
-    const size_t li = pgi__cdf_pick(T->cdf, T->nl, ul, &pl);
-    const pgi__light *L = li < T->s->nlights ? &T->s->lights[li] : &T->s->env->light; /* the last: the sky */
+    e->ul = ul;
+    const size_t li = pgi__cdf_pick(T->cdf, T->nl, ul, &e->pl);
+    return li < T->s->nlights ? &T->s->lights[li] : &T->s->env->light; /* the last: the sky */
+}
+
+/* Whether the paths of light L all start at one point (their first rays make coherent packets
+ * once sorted by direction: first_hits). */
+static inline int point_like(const pgi__light *L) { return L->type == PGI_LIGHT_POINT || L->type == PGI_LIGHT_SPOT; }
+
+/* start_path after pick_light (below). */
+static int emit_from(const tracer *T, const pgi__light *L, const emission_pick *e, lane *l, uint32_t *cnt) {
+    const pgi__guide *G = T->G;
+    const int steer = G && G->on;
+    const float pl = e->pl;
+    float u1, u2, u3 = 0.f, u4 = 0.f;
     if (!(pl > 0.f)) return 0;
     l->flux = v3_scale(v3_load(L->power), 1.f / pl);
     /* The steered pair: an area light's direction and the sky's disk point (its 3rd and 4th
@@ -117,13 +140,13 @@ static int start_path(const tracer *T, uint64_t index, lane *l, uint32_t *cnt) {
     const int late = L->type == PGI_LIGHT_AREA || L->type == PGI_LIGHT_ENV;
     if (steer) {
         if (late) {
-            u3 = a;
-            u4 = b;
+            u3 = e->a;
+            u4 = e->b;
             u1 = pgi_rng_f(&l->rng);
             u2 = pgi_rng_f(&l->rng);
         } else {
-            u1 = a;
-            u2 = b;
+            u1 = e->a;
+            u2 = e->b;
         }
     } else {
         u1 = pgi_rng_f(&l->rng);
@@ -135,7 +158,7 @@ static int start_path(const tracer *T, uint64_t index, lane *l, uint32_t *cnt) {
             u3 = pgi_rng_f(&l->rng);
             u4 = pgi_rng_f(&l->rng);
         }
-        if (G) l->bin = late ? pgi__guide_bin(G, ul, u3, u4) : pgi__guide_bin(G, ul, u1, u2);
+        if (G) l->bin = late ? pgi__guide_bin(G, e->ul, u3, u4) : pgi__guide_bin(G, e->ul, u1, u2);
     }
     if (G) cnt[l->bin]++;
     switch (L->type) {
@@ -179,6 +202,16 @@ static int start_path(const tracer *T, uint64_t index, lane *l, uint32_t *cnt) {
     if (T->fp_track) pgi__fp_emit(&l->pd, &T->fp, T->s, L, pl, l->d, T->radius);
     l->b = 0;
     return 1;
+}
+
+/* Starts path `index` in `l` (emission from a light picked by power). Flux is power / pick
+ * probability (divided by the paths later; a steered path's photons then take its bin's weight
+ * V/q too). Returns 0 when the path carries nothing. `cnt`: the thread's guide counters (paths of
+ * each bin). */
+static int start_path(const tracer *T, uint64_t index, lane *l, uint32_t *cnt) {
+    emission_pick e;
+    const pgi__light *L = pick_light(T, index, l, &e);
+    return emit_from(T, L, &e, l, cnt);
 }
 
 /* Whether pgi__bsdf_sample scatters like a Lambertian surface at m: weight kd, whatever the
@@ -279,11 +312,307 @@ pgi_status pgi__trace_tris_update(pgi__trace_scratch *sc, const pgi_scene *s, in
     return PGI_OK;
 }
 
-/* Traces paths [p0, p1) of the frame (one chunk) a wave at a time; their photons are appended
- * to tb->rec, cnt[i - p0] gets path i's count. Returns 0 when out of memory. */
-static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbuf *tb, uint8_t *cnt, uint64_t *rays,
-                       uint32_t *gcnt, uint16_t *pbin) {
+/* A path between two hits, as the emission pre-pass (first_hits) leaves it for trace_chunk:
+ * the lane's state that lasts from one bounce to the next (its differentials in a second
+ * array, when a radius policy follows them). */
+typedef struct path_state {
+    _Alignas(64) pgi__rng rng; /* one cache line each: first_hits reads them in sorted order */
+    pgi__v3 o, d, flux;
+    uint16_t bin;
+    uint8_t b;
+    uint8_t live; /* 0: the path has ended (or carried nothing) */
+} path_state;
+
+static inline void state_save(const lane *l, path_state *ps, pgi__pdiff *pd) {
+    ps->rng = l->rng;
+    ps->o = l->o;
+    ps->d = l->d;
+    ps->flux = l->flux;
+    ps->bin = (uint16_t)l->bin;
+    ps->b = (uint8_t)l->b;
+    ps->live = l->path >= 0;
+    if (pd) *pd = l->pd;
+}
+
+static inline void state_load(lane *l, const path_state *ps, const pgi__pdiff *pd) {
+    l->rng = ps->rng;
+    l->o = ps->o;
+    l->d = ps->d;
+    l->flux = ps->flux;
+    l->bin = ps->bin;
+    l->b = ps->b;
+    if (pd) l->pd = *pd;
+}
+
+/* A wave's packet has returned: each lane's hit, its triangle records requested (the misses of
+ * the 16 hits overlap), and the numbers shading draws where the path may scatter, drawn while
+ * the records load: a path that goes on uses all four (a failed BSDF sample ends it), so its
+ * stream stays as it was. */
+static inline void wave_hits(const tracer *T, lane *L, const int *valid, const pgi__hit *hh) {
+    for (int k = 0; k < WAVE; k++) {
+        if (!valid[k]) continue;
+        L[k].h = hh[k];
+        if (hh[k].prim != UINT32_MAX) {
+            __builtin_prefetch(T->tris + hh[k].prim);
+            if (T->tri_uv) __builtin_prefetch(T->tri_uv + PGI__TRI_UV * (size_t)hh[k].prim);
+            if (L[k].b < T->bounces)
+                for (int j = 0; j < 4; j++) L[k].u[j] = pgi_rng_f(&L[k].rng);
+        }
+    }
+}
+
+/* Then the texels of the hits whose path may go on (the albedo weighs the scattered flux): each
+ * stage's loads are in cache when the next stage needs them. */
+static inline void wave_texels(const tracer *T, lane *L) {
     const pgi_scene *s = T->s;
+    for (int k = 0; k < WAVE; k++) {
+        lane *l = &L[k];
+        l->tex = NULL;
+        l->ends = 0;
+        if (l->path < 0 || l->h.prim == UINT32_MAX || l->b >= T->bounces) continue;
+        const pgi__material *m = &s->mats[T->tris[l->h.prim].mat];
+        if (lambert(m)) {
+            /* The scattered flux is flux kd tex, with tex <= 1 (+ a rounding): the roulette's
+             * probability with tex = 1 bounds it from above. A path whose roulette number is
+             * past the bound (times 1.0001) ends whatever its texel and direction, so it
+             * needs neither (a quarter of Sibenik's stone hits). */
+            const pgi__v3 kd = v3_load(m->kd), f = l->flux;
+            if (kd.x >= 0.f && kd.y >= 0.f && kd.z >= 0.f && f.x >= 0.f && f.y >= 0.f && f.z >= 0.f) {
+                const float mf = v3_maxc(f);
+                const float Rb = mf > 0.f ? fminf(1.f, v3_maxc(v3_mul(f, kd)) / mf) : 0.f;
+                if (Rb < 1.f && l->u[3] >= Rb * 1.0001f) {
+                    l->ends = 1;
+                    continue;
+                }
+            }
+        }
+        if (m->tex_kd < 0) continue;
+        l->tex = &s->texs[m->tex_kd];
+        float u = 0.f, v = 0.f; /* without texture coordinates the lookup reads (0, 0) */
+        if (T->tri_uv) pgi__trace_tri_uv(T->tri_uv + PGI__TRI_UV * (size_t)l->h.prim, l->h.u, l->h.v, &u, &v);
+        if (!pgi__texture_quad(l->tex, u, v, &l->tq)) l->tex = NULL; /* no texels: white */
+    }
+}
+
+/* Shade: store, scatter, roulette. A lane whose path ends gets path -1; returns how many did.
+ * Photons are stored from the second hit on (b >= 1), into tb with cnt counting each chunk
+ * path's: a wave of first hits (b = 0 everywhere) stores none and may pass NULL for both. *ok
+ * becomes 0 when out of memory. */
+static inline int wave_shade(const tracer *T, lane *L, pgi__trace_tbuf *tb, uint8_t *cnt, uint32_t *gcnt, int *ok) {
+    const pgi_scene *s = T->s;
+    int ended = 0;
+    for (int k = 0; k < WAVE; k++) {
+        lane *l = &L[k];
+        if (l->path < 0) continue;
+        int alive = 0;
+        if (l->h.prim != UINT32_MAX) {
+            pgi__surface sf;
+            pgi__v3 p = v3_madd(l->o, l->d, l->h.t);
+            /* the shading normal and albedo only where the path scatters */
+            if (l->b < T->bounces && !l->ends) pgi__trace_tri_surface(s, &T->tris[l->h.prim], l->h.u, l->h.v, p, &sf);
+            else pgi__trace_tri_geometry(s, &T->tris[l->h.prim], p, &sf);
+            pgi__v3 wi = v3_neg(l->d);
+            pgi__v3 ng = v3_dot(wi, sf.ng) >= 0.f ? sf.ng : v3_neg(sf.ng);
+            if (T->fp_track) pgi__fp_hit(&l->pd, &T->fp, l->d, l->h.t, ng);
+            if (l->b >= 1 && !pgi__mat_specular(sf.mat)) {
+                pgi__footprint fp;
+                if (T->fp_on) pgi__fp_store(&l->pd, &T->fp, ng, &fp);
+                if (T->G) { /* the guide's evidence: every photon the path would store */
+                    gcnt[T->G->nbins + l->bin]++;
+                    if (pgi__view_grid_has(T->vg, p, ng)) gcnt[2 * T->G->nbins + l->bin]++;
+                }
+                if (T->near && !pgi__view_grid_near(T->near, p)) {
+                    tb->culled++;
+                } else {
+                    if (!record(tb, T->fp_on, l->path, p, wi, l->flux, ng, &fp)) *ok = 0;
+                    cnt[l->path]++;
+                }
+            }
+            if (l->b < T->bounces && *ok && !l->ends) {
+                if (l->tex) sf.kd = v3_mul(sf.kd, pgi__texture_quad_lookup(&l->tq));
+                pgi__v3 wo, w;
+                if (pgi__bsdf_sample(&sf, wi, l->u[0], l->u[1], l->u[2], &wo, &w)) {
+                    if (T->fp_track) pgi__fp_scatter(&l->pd, &T->fp, s, l->h.prim, l->h.u, l->h.v, &sf, wi, wo, w);
+                    pgi__v3 nf = v3_mul(l->flux, w);
+                    float mf = v3_maxc(l->flux);
+                    float R = mf > 0.f ? fminf(1.f, v3_maxc(nf) / mf) : 0.f;
+                    if (l->u[3] < R) {
+                        l->flux = v3_scale(nf, 1.f / R);
+                        if (v3_finite(l->flux)) {
+                            if (T->fp_track) pgi__fp_roulette(&l->pd, &T->fp, R);
+                            l->o = v3_madd(p, v3_dot(wo, ng) >= 0.f ? ng : v3_neg(ng), T->eps);
+                            l->d = wo;
+                            l->b++;
+                            alive = 1;
+                        }
+                    }
+                }
+            }
+        }
+        if (!alive) {
+            l->path = -1;
+            ended++;
+        }
+    }
+    return ended;
+}
+
+/* Emission sort key of a path: its origin's cell of a 32^3 grid over the bounding sphere's cube
+ * (the sun's and sky's disks start just outside the scene's box), then its direction's cell of a
+ * 256 x 256 octahedral map, each in Morton order, so that paths close in key start close
+ * together and leave in nearly the same direction: the packets of first_hits. 31 bits. */
+static inline uint32_t spread2(uint32_t x) { /* 8 bits -> every other of 16 */
+    x &= 0xff;
+    x = (x | (x << 4)) & 0x0f0f;
+    x = (x | (x << 2)) & 0x3333;
+    return (x | (x << 1)) & 0x5555;
+}
+static inline uint32_t spread3(uint32_t x) { /* 5 bits -> every third of 15 */
+    uint32_t r = 0;
+    for (int i = 0; i < 5; i++) r |= ((x >> i) & 1u) << (3 * i);
+    return r;
+}
+static inline uint32_t cellq(float x, int n) {
+    return x > 0.f ? (x < (float)(n - 1) ? (uint32_t)x : (uint32_t)(n - 1)) : 0u; /* NaN: 0 */
+}
+static uint32_t emit_key(const tracer *T, pgi__v3 o, pgi__v3 d) {
+    const float so = 16.f / (1.02f * T->radius);
+    const uint32_t ox = cellq((o.x - T->centre.x) * so + 16.f, 32), oy = cellq((o.y - T->centre.y) * so + 16.f, 32),
+                   oz = cellq((o.z - T->centre.z) * so + 16.f, 32);
+    const float l1 = fabsf(d.x) + fabsf(d.y) + fabsf(d.z);
+    float px = l1 > 0.f ? d.x / l1 : 0.f, py = l1 > 0.f ? d.y / l1 : 0.f;
+    if (d.z < 0.f) {
+        const float tx = (1.f - fabsf(py)) * (px >= 0.f ? 1.f : -1.f),
+                    ty = (1.f - fabsf(px)) * (py >= 0.f ? 1.f : -1.f);
+        px = tx;
+        py = ty;
+    }
+    const uint32_t dx = cellq((px + 1.f) * 128.f, 256), dy = cellq((py + 1.f) * 128.f, 256);
+    return (spread3(ox) | spread3(oy) << 1 | spread3(oz) << 2) << 16 | spread2(dx) | spread2(dy) << 1;
+}
+
+/* How a path of the batch starts (start_paths): */
+enum {
+    START_NONE = 0,  /* it carries nothing */
+    START_STATE = 1, /* from its state in ps (its first hit already found by first_hits) */
+    START_CHUNK = 2  /* in its chunk (trace_chunk calls start_path) */
+};
+
+/* Paths [p0, p1) of the batch (its first path `base`) decide how they start. The first `room`
+ * paths from point or spot lights start here: each one's state into ps[m] and its sort key and
+ * slot into key[m], idx[m] = m, m counting from `slot`, in path order; returns how many. The
+ * others start in their chunk (trace_chunk): their origins differ, so their packets would not be
+ * coherent. pbin: the guide bins (guided emission), gcnt: the thread's guide counters. */
+static size_t start_paths(const tracer *T, uint64_t base, size_t p0, size_t p1, size_t slot, size_t room,
+                          path_state *ps, pgi__pdiff *pd, uint8_t *mode, uint32_t *key, uint32_t *idx, uint32_t *gcnt,
+                          uint16_t *pbin) {
+    size_t m = slot;
+    for (size_t i = p0; i < p1; i++) {
+        lane l;
+        l.bin = 0;
+        l.path = 0;
+        emission_pick e;
+        const pgi__light *L = m < slot + room ? pick_light(T, base + i, &l, &e) : NULL;
+        if (!L || !point_like(L)) {
+            mode[i] = START_CHUNK;
+            continue;
+        }
+        if (!emit_from(T, L, &e, &l, gcnt)) {
+            mode[i] = START_NONE;
+            continue;
+        }
+        mode[i] = START_STATE;
+        if (pbin) pbin[i] = (uint16_t)l.bin;
+        state_save(&l, &ps[m], pd ? &pd[m] : NULL);
+        key[m] = emit_key(T, l.o, l.d);
+        idx[m] = (uint32_t)m;
+        m++;
+    }
+    return m - slot;
+}
+
+/* Sorts n paths (idx[i] with key[i]) by key, stably (a key's paths stay in path order), into
+ * idx; tkey, tidx: room for n more. Two passes of 16 bits. */
+static void sort_paths(size_t n, uint32_t *key, uint32_t *idx, uint32_t *tkey, uint32_t *tidx, uint32_t *hist) {
+    memset(hist, 0, 65536 * sizeof *hist);
+    for (size_t i = 0; i < n; i++) hist[key[i] & 0xffff]++;
+    uint32_t acc = 0;
+    for (int b = 0; b < 65536; b++) {
+        const uint32_t c = hist[b];
+        hist[b] = acc;
+        acc += c;
+    }
+    for (size_t i = 0; i < n; i++) {
+        const uint32_t j = hist[key[i] & 0xffff]++;
+        tkey[j] = key[i];
+        tidx[j] = idx[i];
+    }
+    memset(hist, 0, 65536 * sizeof *hist);
+    for (size_t i = 0; i < n; i++) hist[tkey[i] >> 16]++;
+    acc = 0;
+    for (int b = 0; b < 65536; b++) {
+        const uint32_t c = hist[b];
+        hist[b] = acc;
+        acc += c;
+    }
+    for (size_t i = 0; i < n; i++) idx[hist[tkey[i] >> 16]++] = tidx[i];
+}
+
+/* The first hits of sorted paths order[g0*16 .. g1*16) (of n), 16 at a time, shaded in that
+ * order (neighbouring hits share triangle records and texels) and saved back as each path's next
+ * ray. With `coherent`, a group whose rays leave one point is cast as a coherent packet: sorted by
+ * direction, Embree's packet traversal runs 2-3x faster than single rays. A packet's answers may
+ * depend on its other rays (ties, and the kernel that finishes a thinned packet), so the groups are
+ * a function of the batch alone (its sorted paths, 16 at a time), whatever the thread count. */
+static void first_hits(const tracer *T, path_state *ps, pgi__pdiff *pd, const uint32_t *order, size_t n, size_t g0,
+                       size_t g1, int coherent, uint64_t *rays) {
+    enum { AHEAD = 2 }; /* groups whose states are requested ahead (they lie anywhere in ps) */
+    for (size_t j = g0 * WAVE; j < (g0 + AHEAD) * WAVE && j < n; j++) {
+        __builtin_prefetch(&ps[order[j]]);
+        if (pd) __builtin_prefetch(&pd[order[j]]);
+    }
+    for (size_t g = g0; g < g1; g++) {
+        for (size_t j = (g + AHEAD) * WAVE; j < (g + AHEAD + 1) * WAVE && j < n; j++) {
+            __builtin_prefetch(&ps[order[j]]);
+            if (pd) __builtin_prefetch(&pd[order[j]]);
+        }
+        lane L[WAVE];
+        int valid[WAVE];
+        pgi__v3 org[WAVE], dir[WAVE];
+        pgi__hit hh[WAVE];
+        for (int k = 0; k < WAVE; k++) {
+            const size_t j = g * WAVE + (size_t)k;
+            valid[k] = j < n;
+            L[k].path = valid[k] ? 0 : -1;
+            if (valid[k]) state_load(&L[k], &ps[order[j]], pd ? &pd[order[j]] : NULL);
+            else L[k].o = L[k].d = v3(0.f, 0.f, 1.f);
+            org[k] = L[k].o;
+            dir[k] = L[k].d;
+            *rays += (uint64_t)valid[k];
+        }
+        /* one origin (a point or spot light): a coherent packet; else single rays */
+        int same = 1;
+        for (int k = 1; k < WAVE; k++)
+            if (valid[k] && (org[k].x != org[0].x || org[k].y != org[0].y || org[k].z != org[0].z)) same = 0;
+        pgi__rt_intersect16(T->rt, valid, org, 1, dir, coherent && same, hh);
+        wave_hits(T, L, valid, hh);
+        wave_texels(T, L);
+        int ok = 1;
+        wave_shade(T, L, NULL, NULL, NULL, &ok);
+        for (int k = 0; k < WAVE; k++) {
+            const size_t j = g * WAVE + (size_t)k;
+            if (j < n) state_save(&L[k], &ps[order[j]], pd ? &pd[order[j]] : NULL);
+        }
+    }
+}
+
+/* Traces paths [p0, p1) of the batch (one chunk; its first path `base`; mode: how each starts,
+ * NULL: all here; ps, pd: the chunk's states from start_paths and first_hits) a wave at a time; their photons are appended to tb->rec, cnt[i - p0] gets path i's count. Returns 0
+ * when out of memory. */
+static int trace_chunk(const tracer *T, uint64_t base, const uint8_t *mode, const path_state *ps, const pgi__pdiff *pd,
+                       size_t p0, size_t p1, pgi__trace_tbuf *tb, uint8_t *cnt, uint64_t *rays, uint32_t *gcnt,
+                       uint16_t *pbin) {
+    size_t slot = 0; /* the chunk's next state in ps */
     const int n = (int)(p1 - p0);
     memset(cnt, 0, (size_t)n);
     lane L[WAVE];
@@ -291,14 +620,18 @@ static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbu
     int next = 0, active = 0, ok = 1;
     for (int k = 0; k < WAVE; k++) L[k].path = -1;
     for (;;) {
-        /* Fill idle lanes with the chunk's next paths. */
+        /* Fill idle lanes with the chunk's next paths still going. */
         for (int k = 0; k < WAVE && next < n; k++) {
             if (L[k].path >= 0) continue;
             while (next < n) {
-                int pi = next++;
-                if (start_path(T, p0 + (uint64_t)pi, &L[k], gcnt)) {
+                const int pi = next++;
+                const size_t i = p0 + (size_t)pi;
+                const int m = !mode ? START_CHUNK : mode[i];
+                const size_t j = m == START_STATE ? slot++ : 0;
+                if (m == START_CHUNK ? start_path(T, base + i, &L[k], gcnt) : m == START_STATE && ps[j].live) {
+                    if (m == START_CHUNK && pbin) pbin[i] = (uint16_t)L[k].bin;
+                    if (m == START_STATE) state_load(&L[k], &ps[j], pd ? &pd[j] : NULL);
                     L[k].path = pi;
-                    if (pbin) pbin[pi] = (uint16_t)L[k].bin;
                     active++;
                     break;
                 }
@@ -308,115 +641,19 @@ static int trace_chunk(const tracer *T, uint64_t p0, uint64_t p1, pgi__trace_tbu
         /* Cast the wave's rays as one 16-wide incoherent packet (single rays, 8- and 16-wide
          * packets and streams are within noise of each other for these rays: photongi-bench
          * --limits); the triangle records of all the hits are requested together. */
-        {
-            int valid[WAVE];
-            pgi__v3 org[WAVE], dir[WAVE];
-            pgi__hit hh[WAVE];
-            for (int k = 0; k < WAVE; k++) {
-                valid[k] = L[k].path >= 0;
-                org[k] = L[k].o;
-                dir[k] = L[k].d;
-                *rays += (uint64_t)valid[k];
-            }
-            pgi__rt_intersect16(T->rt, valid, org, 1, dir, 0, hh);
-            for (int k = 0; k < WAVE; k++) {
-                if (!valid[k]) continue;
-                L[k].h = hh[k];
-                if (hh[k].prim != UINT32_MAX) {
-                    __builtin_prefetch(T->tris + hh[k].prim);
-                    if (T->tri_uv) __builtin_prefetch(T->tri_uv + PGI__TRI_UV * (size_t)hh[k].prim);
-                    /* The numbers shading draws where the path may scatter, drawn while the
-                     * records load: a path that goes on uses all four (a failed BSDF sample
-                     * ends it), so its stream stays as it was. */
-                    if (L[k].b < T->bounces)
-                        for (int j = 0; j < 4; j++) L[k].u[j] = pgi_rng_f(&L[k].rng);
-                }
-            }
-        }
-        /* Then the texels of the hits whose path may go on (the albedo weighs the scattered
-         * flux): each stage's loads are in cache when the next stage needs them. */
+        int valid[WAVE];
+        pgi__v3 org[WAVE], dir[WAVE];
+        pgi__hit hh[WAVE];
         for (int k = 0; k < WAVE; k++) {
-            lane *l = &L[k];
-            l->tex = NULL;
-            l->ends = 0;
-            if (l->path < 0 || l->h.prim == UINT32_MAX || l->b >= T->bounces) continue;
-            const pgi__material *m = &s->mats[T->tris[l->h.prim].mat];
-            if (lambert(m)) {
-                /* The scattered flux is flux kd tex, with tex <= 1 (+ a rounding): the roulette's
-                 * probability with tex = 1 bounds it from above. A path whose roulette number is
-                 * past the bound (times 1.0001) ends whatever its texel and direction, so it
-                 * needs neither (a quarter of Sibenik's stone hits). */
-                const pgi__v3 kd = v3_load(m->kd), f = l->flux;
-                if (kd.x >= 0.f && kd.y >= 0.f && kd.z >= 0.f && f.x >= 0.f && f.y >= 0.f && f.z >= 0.f) {
-                    const float mf = v3_maxc(f);
-                    const float Rb = mf > 0.f ? fminf(1.f, v3_maxc(v3_mul(f, kd)) / mf) : 0.f;
-                    if (Rb < 1.f && l->u[3] >= Rb * 1.0001f) {
-                        l->ends = 1;
-                        continue;
-                    }
-                }
-            }
-            if (m->tex_kd < 0) continue;
-            l->tex = &s->texs[m->tex_kd];
-            float u = 0.f, v = 0.f; /* without texture coordinates the lookup reads (0, 0) */
-            if (T->tri_uv) pgi__trace_tri_uv(T->tri_uv + PGI__TRI_UV * (size_t)l->h.prim, l->h.u, l->h.v, &u, &v);
-            if (!pgi__texture_quad(l->tex, u, v, &l->tq)) l->tex = NULL; /* no texels: white */
+            valid[k] = L[k].path >= 0;
+            org[k] = L[k].o;
+            dir[k] = L[k].d;
+            *rays += (uint64_t)valid[k];
         }
-        /* Shade: store, scatter, roulette. */
-        for (int k = 0; k < WAVE; k++) {
-            lane *l = &L[k];
-            if (l->path < 0) continue;
-            int alive = 0;
-            if (l->h.prim != UINT32_MAX) {
-                pgi__surface sf;
-                pgi__v3 p = v3_madd(l->o, l->d, l->h.t);
-                /* the shading normal and albedo only where the path scatters */
-                if (l->b < T->bounces && !l->ends)
-                    pgi__trace_tri_surface(s, &T->tris[l->h.prim], l->h.u, l->h.v, p, &sf);
-                else pgi__trace_tri_geometry(s, &T->tris[l->h.prim], p, &sf);
-                pgi__v3 wi = v3_neg(l->d);
-                pgi__v3 ng = v3_dot(wi, sf.ng) >= 0.f ? sf.ng : v3_neg(sf.ng);
-                if (T->fp_track) pgi__fp_hit(&l->pd, &T->fp, l->d, l->h.t, ng);
-                if (l->b >= 1 && !pgi__mat_specular(sf.mat)) {
-                    pgi__footprint fp;
-                    if (T->fp_on) pgi__fp_store(&l->pd, &T->fp, ng, &fp);
-                    if (T->G) { /* the guide's evidence: every photon the path would store */
-                        gcnt[T->G->nbins + l->bin]++;
-                        if (pgi__view_grid_has(T->vg, p, ng)) gcnt[2 * T->G->nbins + l->bin]++;
-                    }
-                    if (T->near && !pgi__view_grid_near(T->near, p)) {
-                        tb->culled++;
-                    } else {
-                        if (!record(tb, T->fp_on, l->path, p, wi, l->flux, ng, &fp)) ok = 0;
-                        cnt[l->path]++;
-                    }
-                }
-                if (l->b < T->bounces && ok && !l->ends) {
-                    if (l->tex) sf.kd = v3_mul(sf.kd, pgi__texture_quad_lookup(&l->tq));
-                    pgi__v3 wo, w;
-                    if (pgi__bsdf_sample(&sf, wi, l->u[0], l->u[1], l->u[2], &wo, &w)) {
-                        if (T->fp_track) pgi__fp_scatter(&l->pd, &T->fp, s, l->h.prim, l->h.u, l->h.v, &sf, wi, wo, w);
-                        pgi__v3 nf = v3_mul(l->flux, w);
-                        float mf = v3_maxc(l->flux);
-                        float R = mf > 0.f ? fminf(1.f, v3_maxc(nf) / mf) : 0.f;
-                        if (l->u[3] < R) {
-                            l->flux = v3_scale(nf, 1.f / R);
-                            if (v3_finite(l->flux)) {
-                                if (T->fp_track) pgi__fp_roulette(&l->pd, &T->fp, R);
-                                l->o = v3_madd(p, v3_dot(wo, ng) >= 0.f ? ng : v3_neg(ng), T->eps);
-                                l->d = wo;
-                                l->b++;
-                                alive = 1;
-                            }
-                        }
-                    }
-                }
-            }
-            if (!alive) {
-                l->path = -1;
-                active--;
-            }
-        }
+        pgi__rt_intersect16(T->rt, valid, org, 1, dir, 0, hh);
+        wave_hits(T, L, valid, hh);
+        wave_texels(T, L);
+        active -= wave_shade(T, L, tb, cnt, gcnt, &ok);
         if (!ok) return 0;
     }
     return 1;
@@ -436,13 +673,22 @@ void pgi__trace_scratch_free(pgi__trace_scratch *sc) {
     free(sc->ph_bin);
     free(sc->tris);
     free(sc->tri_uv);
+    free(sc->ps);
+    free(sc->ps_pd);
+    free(sc->mode);
+    free(sc->key);
+    free(sc->idx);
+    free(sc->tkey);
+    free(sc->tidx);
+    free(sc->hist);
     memset(sc, 0, sizeof *sc);
 }
 
 size_t pgi__trace_scratch_bytes(const pgi__trace_scratch *sc) {
     size_t b = sc->cap * sizeof(uint8_t) + sc->cap / CHUNK * sizeof(chunk_info) +
                (size_t)sc->nthreads * sizeof *sc->tbuf + (sc->path_bin_cap + sc->ph_bin_cap) * sizeof(uint16_t) +
-               sc->tris_bytes;
+               sc->tris_bytes + sc->mode_cap + sc->ps_cap * (sizeof(path_state) + 4 * sizeof(uint32_t)) +
+               sc->pd_cap * sizeof(pgi__pdiff) + (sc->hist ? 65536 * sizeof(uint32_t) : 0);
     for (int t = 0; t < sc->nthreads; t++) {
         const pgi__trace_tbuf *tb = &sc->tbuf[t];
         b += tb->rec_cap * (sizeof(stored_photon) + sizeof(uint16_t) + (tb->rec_fp ? sizeof(pgi__footprint) : 0));
@@ -461,8 +707,9 @@ static pgi_status guide_reserve(pgi__trace_scratch *sc, size_t photons) {
     return PGI_OK;
 }
 
-/* Scratch for a batch of `paths` paths on `nt` threads (and their guide bins when `guided`). */
-static pgi_status scratch_reserve(pgi__trace_scratch *sc, size_t paths, int nt, int guided) {
+/* Scratch for a batch of `paths` paths on `nt` threads (and their guide bins when `guided`, their
+ * differentials when `diffs`). */
+static pgi_status scratch_reserve(pgi__trace_scratch *sc, size_t paths, int nt, int guided, int diffs, size_t room) {
     if (sc->nthreads < nt) {
         pgi__trace_tbuf *tb = realloc(sc->tbuf, (size_t)nt * sizeof *tb);
         if (!tb) return pgi__fail(PGI_ERR_OOM, "out of memory for %d photon-tracing threads", nt);
@@ -484,6 +731,37 @@ static pgi_status scratch_reserve(pgi__trace_scratch *sc, size_t paths, int nt, 
         if (!pb) return pgi__fail(PGI_ERR_OOM, "out of memory tracing photons (%zu paths a batch)", paths);
         sc->path_bin = pb;
         sc->path_bin_cap = sc->cap;
+    }
+    if (!room) return PGI_OK;
+    /* the emission pre-pass: a start mode a path, `room` states a chunk */
+    const size_t states = (paths + CHUNK - 1) / CHUNK * room;
+    if (!sc->hist && !(sc->hist = malloc(65536 * sizeof *sc->hist)))
+        return pgi__fail(PGI_ERR_OOM, "%s", "out of memory for the emission sort");
+    if (paths > sc->mode_cap) {
+        free(sc->mode);
+        sc->mode = malloc(paths);
+        sc->mode_cap = sc->mode ? paths : 0;
+        if (!sc->mode) return pgi__fail(PGI_ERR_OOM, "out of memory tracing photons (%zu paths a batch)", paths);
+    }
+    if (states > sc->ps_cap) {
+        free(sc->ps);
+        free(sc->key);
+        free(sc->idx);
+        free(sc->tkey);
+        free(sc->tidx);
+        sc->ps = aligned_alloc(64, states * sizeof *sc->ps);
+        sc->key = malloc(states * sizeof *sc->key);
+        sc->idx = malloc(states * sizeof *sc->idx);
+        sc->tkey = malloc(states * sizeof *sc->tkey);
+        sc->tidx = malloc(states * sizeof *sc->tidx);
+        sc->ps_cap = sc->ps && sc->key && sc->idx && sc->tkey && sc->tidx ? states : 0;
+        if (!sc->ps_cap) return pgi__fail(PGI_ERR_OOM, "out of memory tracing photons (%zu paths a batch)", paths);
+    }
+    if (diffs && states > sc->pd_cap) {
+        free(sc->ps_pd);
+        sc->ps_pd = malloc(states * sizeof *sc->ps_pd);
+        sc->pd_cap = sc->ps_pd ? states : 0;
+        if (!sc->ps_pd) return pgi__fail(PGI_ERR_OOM, "out of memory tracing photons (%zu paths a batch)", paths);
     }
     return PGI_OK;
 }
@@ -513,6 +791,16 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
         free(cdf);
         return PGI_OK; /* no light: no photons; the image is black but valid */
     }
+    /* The share of the power that leaves point and spot lights sizes the room for their paths'
+     * states a chunk (start_paths): the expected count and 4 sigma; the chunk's paths past it
+     * start in the chunk. */
+    double point_power = 0.0;
+    for (size_t i = 0; i < s->nlights; i++)
+        if (point_like(&s->lights[i])) point_power += fmax(0.0, (double)v3_lum(v3_load(s->lights[i].power)));
+    const double share = point_power / total;
+    size_t room = share <= 0.0 ? 0 : (size_t)ceil(share * CHUNK + 4.0 * sqrt(share * (1.0 - share) * CHUNK) + 16.0);
+    if (room > CHUNK) room = CHUNK;
+    if (pgi__trace_room_cap > 0 && room > (size_t)pgi__trace_room_cap) room = (size_t)pgi__trace_room_cap;
     for (size_t i = 0; i < nl; i++) cdf[i] = (float)(cdf[i] / total);
     cdf[nl - 1] = 1.f;
 
@@ -565,8 +853,11 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
      * batch traces about the paths still needed and few are thrown away. Not with guided
      * emission: its pilot ends with a whole batch, so the batches' sizes decide the guide, and a
      * frame must not depend on the frames rendered before it (progressive frames dealt to MPI
-     * ranks, test_mpi). */
-    double seen_paths = d->guide ? 0.0 : sc->prior_paths, seen_photons = d->guide ? 0.0 : sc->prior_photons;
+     * ranks, test_mpi). Nor with point or spot lights: their paths' first hits come from packets
+     * formed within a batch (first_hits), so there too the batches must follow from the request
+     * alone (a pilot batch a frame instead). */
+    const int fresh = d->guide || room > 0;
+    double seen_paths = fresh ? 0.0 : sc->prior_paths, seen_photons = fresh ? 0.0 : sc->prior_photons;
     double frame_paths = 0, frame_photons = 0;
     uint64_t pilot_paths = 0; /* guided emission: paths of the uniform pilot, dropped */
     int guide_done = 0;       /* the pilot has decided */
@@ -597,18 +888,50 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
         }
         if (batch < 64) batch = 64;
         if (batch > (1u << 20)) batch = 1u << 20;
+        if (room && batch > PREPASS_BATCH) batch = PREPASS_BATCH;
         if (batch > max_paths - path) batch = (size_t)(max_paths - path);
-        if ((st = scratch_reserve(sc, batch, nt, T.G != NULL))) break;
+        if ((st = scratch_reserve(sc, batch, nt, T.G != NULL, T.fp_track, room))) break;
         const long long nch = (long long)((batch + CHUNK - 1) / CHUNK);
         for (int t = 0; t < nt; t++) sc->tbuf[t].nrec = 0;
         uint64_t batch_rays = 0;
         int failed = 0;
+        path_state *ps = sc->ps;
+        pgi__pdiff *pd = T.fp_track ? sc->ps_pd : NULL;
+        /* The paths from point and spot lights start first (up to `room` a chunk), sorted by
+         * where they go, and meet their first hits in that order (first_hits); then each chunk
+         * traces its paths on from there, and starts the others. */
+        if (room) {
+#pragma omp parallel for schedule(static) num_threads(nt)
+            for (long long c = 0; c < nch; c++) {
+                const size_t p0 = (size_t)c * CHUNK, p1 = p0 + CHUNK < batch ? p0 + CHUNK : batch;
+                uint32_t *gc = T.G ? T.G->tcount + (size_t)omp_get_thread_num() * 3 * (size_t)T.G->nbins : NULL;
+                sc->chunks[c].keyed = start_paths(&T, path, p0, p1, (size_t)c * room, room, ps, pd, sc->mode, sc->key,
+                                                  sc->idx, gc, T.G ? sc->path_bin : NULL);
+            }
+        }
+        size_t keyed = 0; /* each chunk's keyed paths, together */
+        for (long long c = 0; room && c < nch; c++) {
+            const size_t m = sc->chunks[c].keyed, s0 = (size_t)c * room;
+            if (m && keyed != s0) {
+                memmove(sc->key + keyed, sc->key + s0, m * sizeof *sc->key);
+                memmove(sc->idx + keyed, sc->idx + s0, m * sizeof *sc->idx);
+            }
+            keyed += m;
+        }
+        if (keyed) sort_paths(keyed, sc->key, sc->idx, sc->tkey, sc->tidx, sc->hist);
+        const long long ngroups = (long long)((keyed + WAVE - 1) / WAVE), nblocks = (ngroups + 15) / 16;
+#pragma omp parallel for schedule(dynamic, 1) reduction(+ : batch_rays) num_threads(nt)
+        for (long long bk = 0; bk < nblocks; bk++) {
+            uint64_t r = 0;
+            const size_t g0 = (size_t)bk * 16, g1 = g0 + 16 < (size_t)ngroups ? g0 + 16 : (size_t)ngroups;
+            first_hits(&T, ps, pd, sc->idx, keyed, g0, g1, keyed >= COHERENT_MIN, &r);
+            batch_rays += r;
+        }
 #pragma omp parallel for schedule(dynamic, 1) reduction(+ : batch_rays) num_threads(nt)
         for (long long c = 0; c < nch; c++) {
             int tid = omp_get_thread_num();
             pgi__trace_tbuf *tb = &sc->tbuf[tid];
-            uint64_t p0 = path + (uint64_t)c * CHUNK, p1 = p0 + CHUNK;
-            if (p1 > path + batch) p1 = path + batch;
+            const size_t p0 = (size_t)c * CHUNK, p1 = p0 + CHUNK < batch ? p0 + CHUNK : batch;
             chunk_info *ci = &sc->chunks[c];
             ci->tid = tid;
             ci->off = tb->nrec;
@@ -619,8 +942,9 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
             f = failed;
             uint32_t *gc = T.G ? T.G->tcount + (size_t)tid * 3 * (size_t)T.G->nbins : NULL;
             if (!f)
-                ok = trace_chunk(&T, p0, p1, tb, sc->counts + (size_t)c * CHUNK, &r, gc,
-                                 T.G ? sc->path_bin + (size_t)c * CHUNK : NULL);
+                ok = trace_chunk(&T, path, room ? sc->mode : NULL, room ? ps + (size_t)c * room : NULL,
+                                 pd && room ? pd + (size_t)c * room : NULL, p0, p1, tb, sc->counts + (size_t)c * CHUNK,
+                                 &r, gc, T.G ? sc->path_bin : NULL);
             if (!ok) {
 #pragma omp atomic write
                 failed = 1;
