@@ -468,12 +468,15 @@ static inline uint32_t spread2(uint32_t x) { /* 8 bits -> every other of 16 */
     return (x | (x << 1)) & 0x5555;
 }
 static inline uint32_t spread3(uint32_t x) { /* 5 bits -> every third of 15 */
-    uint32_t r = 0;
-    for (int i = 0; i < 5; i++) r |= ((x >> i) & 1u) << (3 * i);
-    return r;
+    x &= 0x1f;
+    x = (x | (x << 8)) & 0x0300f00f;
+    x = (x | (x << 4)) & 0x030c30c3;
+    return (x | (x << 2)) & 0x09249249;
 }
 static inline uint32_t cellq(float x, int n) {
-    return x > 0.f ? (x < (float)(n - 1) ? (uint32_t)x : (uint32_t)(n - 1)) : 0u; /* NaN: 0 */
+    /* max, then min (NaN: 0), without branches: maxss and minss */
+    const float y = x > 0.f ? x : 0.f, top = (float)(n - 1);
+    return (uint32_t)(y < top ? y : top);
 }
 static uint32_t emit_key(const tracer *T, pgi__v3 o, pgi__v3 d) {
     const float so = 16.f / (1.02f * T->radius);
