@@ -379,7 +379,7 @@ static inline void wave_texels(const tracer *T, lane *L) {
             const pgi__v3 kd = v3_load(m->kd), f = l->flux;
             if (kd.x >= 0.f && kd.y >= 0.f && kd.z >= 0.f && f.x >= 0.f && f.y >= 0.f && f.z >= 0.f) {
                 const float mf = v3_maxc(f);
-                const float Rb = mf > 0.f ? fminf(1.f, v3_maxc(v3_mul(f, kd)) / mf) : 0.f;
+                const float Rb = mf > 0.f ? pgi_minf(v3_maxc(v3_mul(f, kd)) / mf, 1.f) : 0.f;
                 if (Rb < 1.f && l->u[3] >= Rb * 1.0001f) {
                     l->ends = 1;
                     continue;
@@ -435,7 +435,7 @@ static inline int wave_shade(const tracer *T, lane *L, pgi__trace_tbuf *tb, uint
                     if (T->fp_track) pgi__fp_scatter(&l->pd, &T->fp, s, l->h.prim, l->h.u, l->h.v, &sf, wi, wo, w);
                     pgi__v3 nf = v3_mul(l->flux, w);
                     float mf = v3_maxc(l->flux);
-                    float R = mf > 0.f ? fminf(1.f, v3_maxc(nf) / mf) : 0.f;
+                    float R = mf > 0.f ? pgi_minf(v3_maxc(nf) / mf, 1.f) : 0.f;
                     if (l->u[3] < R) {
                         l->flux = v3_scale(nf, 1.f / R);
                         if (v3_finite(l->flux)) {
