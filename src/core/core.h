@@ -194,15 +194,15 @@ static inline float pgi_rng_f(pgi__rng *r) { return (float)(pgi_rng_u32(r) >> 8)
 /* --------------------------------------------------------------- sampling */
 static inline pgi__v3 pgi_sample_cosine(float u1, float u2) {
     float r = sqrtf(u1), phi = 2.f * PGI_PI * u2;
-    return v3(r * cosf(phi), r * sinf(phi), sqrtf(fmaxf(0.f, 1.f - u1)));
+    return v3(r * cosf(phi), r * sinf(phi), sqrtf(pgi_maxf(1.f - u1, 0.f)));
 }
 static inline pgi__v3 pgi_sample_sphere(float u1, float u2) {
-    float z = 1.f - 2.f * u1, r = sqrtf(fmaxf(0.f, 1.f - z * z)), phi = 2.f * PGI_PI * u2;
+    float z = 1.f - 2.f * u1, r = sqrtf(pgi_maxf(1.f - z * z, 0.f)), phi = 2.f * PGI_PI * u2;
     return v3(r * cosf(phi), r * sinf(phi), z);
 }
 /* Uniform direction in the cone around +z with cos(theta) >= cos_max. */
 static inline pgi__v3 pgi_sample_cone(float u1, float u2, float cos_max) {
-    float z = 1.f - u1 * (1.f - cos_max), r = sqrtf(fmaxf(0.f, 1.f - z * z)), phi = 2.f * PGI_PI * u2;
+    float z = 1.f - u1 * (1.f - cos_max), r = sqrtf(pgi_maxf(1.f - z * z, 0.f)), phi = 2.f * PGI_PI * u2;
     return v3(r * cosf(phi), r * sinf(phi), z);
 }
 static inline pgi__v3 pgi_to_world(pgi__v3 l, pgi__v3 n) {

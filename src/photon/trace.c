@@ -379,7 +379,7 @@ static inline void wave_texels(const tracer *T, lane *L) {
             const pgi__v3 kd = v3_load(m->kd), f = l->flux;
             if (kd.x >= 0.f && kd.y >= 0.f && kd.z >= 0.f && f.x >= 0.f && f.y >= 0.f && f.z >= 0.f) {
                 const float mf = v3_maxc(f);
-                const float Rb = mf > 0.f ? fminf(1.f, v3_maxc(v3_mul(f, kd)) / mf) : 0.f;
+                const float Rb = mf > 0.f ? pgi_minf(v3_maxc(v3_mul(f, kd)) / mf, 1.f) : 0.f;
                 if (Rb < 1.f && l->u[3] >= Rb * 1.0001f) {
                     l->ends = 1;
                     continue;
@@ -435,7 +435,7 @@ static inline int wave_shade(const tracer *T, lane *L, pgi__trace_tbuf *tb, uint
                     if (T->fp_track) pgi__fp_scatter(&l->pd, &T->fp, s, l->h.prim, l->h.u, l->h.v, &sf, wi, wo, w);
                     pgi__v3 nf = v3_mul(l->flux, w);
                     float mf = v3_maxc(l->flux);
-                    float R = mf > 0.f ? fminf(1.f, v3_maxc(nf) / mf) : 0.f;
+                    float R = mf > 0.f ? pgi_minf(v3_maxc(nf) / mf, 1.f) : 0.f;
                     if (l->u[3] < R) {
                         l->flux = v3_scale(nf, 1.f / R);
                         if (v3_finite(l->flux)) {
@@ -468,12 +468,15 @@ static inline uint32_t spread2(uint32_t x) { /* 8 bits -> every other of 16 */
     return (x | (x << 1)) & 0x5555;
 }
 static inline uint32_t spread3(uint32_t x) { /* 5 bits -> every third of 15 */
-    uint32_t r = 0;
-    for (int i = 0; i < 5; i++) r |= ((x >> i) & 1u) << (3 * i);
-    return r;
+    x &= 0x1f;
+    x = (x | (x << 8)) & 0x0300f00f;
+    x = (x | (x << 4)) & 0x030c30c3;
+    return (x | (x << 2)) & 0x09249249;
 }
 static inline uint32_t cellq(float x, int n) {
-    return x > 0.f ? (x < (float)(n - 1) ? (uint32_t)x : (uint32_t)(n - 1)) : 0u; /* NaN: 0 */
+    /* max, then min (NaN: 0), without branches: maxss and minss */
+    const float y = x > 0.f ? x : 0.f, top = (float)(n - 1);
+    return (uint32_t)(y < top ? y : top);
 }
 static uint32_t emit_key(const tracer *T, pgi__v3 o, pgi__v3 d) {
     const float so = 16.f / (1.02f * T->radius);
