@@ -839,11 +839,14 @@ typedef int32_t cl_v8i __attribute__((vector_size(32)));
  * FMA contraction) and adds each sample's contributing photons in path order
  * (root first), then list order; a rejected photon adds +0 (its flux masked
  * off: a sum that starts at +0 is never -0, so no bit changes), so the sums
- * are those of gather. */
+ * are those of gather. An inner node lists only photons whose sphere encloses it (far corner
+ * within r - slack, as for a trivial accept), so every sample under it passes d^2 < r^2 in float:
+ * for the lists of the ancestors (all of the path but path[0] when leaf_list) the lanes test only
+ * dot(n, w) > 0 (and Lambertian: NaN x), 9 of the 20 operations a photon; the same masks. */
 PGI__HOT_LOOP
 static void rad_block(const pgi__packed_photon *restrict pk, const uint32_t *restrict lists,
-                      const uint32_t *restrict node_start, const uint32_t *restrict path, int np, int nbv,
-                      const float *restrict bx, const float *restrict by, const float *restrict bz,
+                      const uint32_t *restrict node_start, const uint32_t *restrict path, int np, int leaf_list,
+                      int nbv, const float *restrict bx, const float *restrict by, const float *restrict bz,
                       const float *restrict bnx, const float *restrict bny, const float *restrict bnz,
                       float *restrict ar, float *restrict ag, float *restrict ab, uint32_t *restrict an, float r2) {
     for (int t = 0; t < nbv; t += 8) {
@@ -852,9 +855,25 @@ static void rad_block(const pgi__packed_photon *restrict pk, const uint32_t *res
         memcpy(&nx, bnx + t, sizeof nx), memcpy(&ny, bny + t, sizeof ny), memcpy(&nz, bnz + t, sizeof nz);
         cl_v8f sr = {0.f}, sg = {0.f}, sb = {0.f};
         cl_v8i sn = {0};
-        for (int p = np - 1; p >= 0; p--) {
+        const cl_v8i lam = x == x; /* Lambertian lanes (the others are gathered afterwards) */
+        const int p1 = leaf_list ? 1 : 0;
+        for (int p = np - 1; p >= p1; p--) { /* enclosing photons: the normal test only */
             const uint32_t *li = lists + node_start[path[p]];
             const uint32_t m = node_start[path[p] + 1] - node_start[path[p]];
+            for (uint32_t e = 0; e < m; e++) {
+                if (t == 0 && e + 8 < m) __builtin_prefetch(pk + li[e + 8]);
+                const pgi__packed_photon *q = pk + li[e];
+                const cl_v8f c = nx * q->dx + ny * q->dy + nz * q->dz;
+                const cl_v8i ok = lam & (c > 0.f);
+                sr += (cl_v8f)(ok & (cl_v8i)CL_SPLAT(q->fr));
+                sg += (cl_v8f)(ok & (cl_v8i)CL_SPLAT(q->fg));
+                sb += (cl_v8f)(ok & (cl_v8i)CL_SPLAT(q->fb));
+                sn -= ok;
+            }
+        }
+        if (leaf_list) {
+            const uint32_t *li = lists + node_start[path[0]];
+            const uint32_t m = node_start[path[0] + 1] - node_start[path[0]];
             for (uint32_t e = 0; e < m; e++) {
                 if (t == 0 && e + 8 < m) __builtin_prefetch(pk + li[e + 8]);
                 const pgi__packed_photon *q = pk + li[e];
@@ -941,8 +960,8 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
                 /* whole vectors: lanes past nb read the next samples (or the zero
                  * padding) and are ignored; each lane is independent */
                 const int nbv = (nb + 7) & ~7;
-                rad_block(s->pk, s->lists, s->node_start, path, np, nbv, bx + k0, by + k0, bz + k0, bnx + k0, bny + k0,
-                          bnz + k0, ar, ag, ab, an, r2);
+                rad_block(s->pk, s->lists, s->node_start, path, np, np > 0 && path[0] == (uint32_t)li, nbv, bx + k0,
+                          by + k0, bz + k0, bnx + k0, bny + k0, bnz + k0, ar, ag, ab, an, r2);
                 const float w = 1.f / (PGI_PI * r2);
                 for (int t = 0; t < nb; t++) {
                     size_t i = s->order[k0 + t];
