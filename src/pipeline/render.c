@@ -1,5 +1,5 @@
 /* One frame, end to end (DESIGN.md §1): view samples, photons, estimator
- * build + estimate, direct light, composite. */
+ * build + estimate, direct light (which writes the composite: pgi__direct_sum). */
 #include <stdio.h>
 #include <string.h>
 
