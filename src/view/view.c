@@ -790,7 +790,7 @@ pgi_status pgi__area_table_build(const pgi_scene *s, pgi__area_table *t) {
         __builtin_prefetch((const char *)(p));                                                                         \
         __builtin_prefetch((const char *)(p) + (bytes)-1);                                                             \
     } while (0)
-#define PREFETCH_TILE(vs, out, sum, one, tx, ty)                                                                       \
+#define PREFETCH_TILE(vs, out, one, tx, ty)                                                                            \
     do {                                                                                                               \
         const int pf_x0 = 4 * (tx), pf_n = (vs)->width - pf_x0 < 4 ? (vs)->width - pf_x0 : 4;                          \
         const size_t pf_b3 = 3 * (size_t)pf_n * sizeof(float);                                                         \
@@ -802,10 +802,6 @@ pgi_status pgi__area_table_build(const pgi_scene *s, pgi__area_table *t) {
             PREFETCH_RUN((vs)->ngeo + 3 * pf_i, pf_b3);                                                                \
             if (!weight_one(one, 4 * (ty) + pf_r, pf_x0)) PREFETCH_RUN((vs)->weight + 3 * pf_i, pf_b3);                \
             PREFETCH_RUN((out) + 3 * pf_i, pf_b3);                                                                     \
-            if (sum) {                                                                                                 \
-                PREFETCH_RUN((sum)->indirect + 3 * pf_i, pf_b3);                                                       \
-                if (!emit_zero(one, 4 * (ty) + pf_r, pf_x0)) PREFETCH_RUN((sum)->emit + 3 * pf_i, pf_b3);              \
-            }                                                                                                          \
         }                                                                                                              \
     } while (0)
 /* What tile_brdf loads for lane k, requested when the lane casts a shadow ray: the ray's trace
@@ -825,7 +821,7 @@ pgi_status pgi__area_table_build(const pgi_scene *s, pgi__area_table *t) {
     } while (0)
 
 /* The entries of a pgi__view_fill of this image (rows NULL: none); weight_one: does it know the
- * weights of pixel (x, y) to be 1? emit_zero: its emission to be +0? */
+ * weights of pixel (x, y) to be 1? */
 typedef struct weight_rows {
     const uint8_t *rows;
     size_t cols;
@@ -833,25 +829,20 @@ typedef struct weight_rows {
 static inline int weight_one(const weight_rows *one, int y, int x) {
     return one->rows && (one->rows[(size_t)y * one->cols + (size_t)(x / PGI__FILL_W)] & PGI__FILL_WEIGHT);
 }
-static inline int emit_zero(const weight_rows *one, int y, int x) {
-    return one->rows && (one->rows[(size_t)y * one->cols + (size_t)(x / PGI__FILL_W)] & PGI__FILL_EMIT);
-}
 
-/* Pixel i's direct light d (the weight applied), or with sum its image floats: the operations of
- * the composite in their order (+0 + d where the emission is known to be +0 is what adding it
- * gives, -0 included; 1 * x is x). */
-static inline void put_direct(float *out, const pgi__direct_sum *sum, const pgi_view_samples *vs,
-                              const weight_rows *one, int y, int x, size_t i, pgi__v3 d) {
-    if (!sum) {
-        v3_store(out + 3 * i, d);
-        return;
+/* The image's floats [i0, i1) from the direct light out holds there (the weight applied): emitted +
+ * direct light, plus the weight times the indirect light (output picks the parts);
+ * `fill` holds the pgi__view_fill bits of these pixels: where the weights are known to be 1 or the
+ * emission +0 those loads are left out (1 * x is x, and +0 + x is what adding the constant gives,
+ * -0 included). */
+static void composite(float *out, const float *w, const float *emit, const float *indirect, size_t i0, size_t i1,
+                      pgi_output output, unsigned fill) {
+    const int one = (fill & PGI__FILL_WEIGHT) != 0, zero = (fill & PGI__FILL_EMIT) != 0;
+    for (size_t i = i0; i < i1; i++) {
+        float ind = one ? indirect[i] : w[i] * indirect[i];
+        float dir = (zero ? 0.f : emit[i]) + out[i];
+        out[i] = output == PGI_OUTPUT_INDIRECT ? ind : output == PGI_OUTPUT_DIRECT ? dir : dir + ind;
     }
-    const pgi__v3 in = v3_load(sum->indirect + 3 * i);
-    const pgi__v3 ind = weight_one(one, y, x) ? in : v3_mul(v3_load(vs->weight + 3 * i), in);
-    const pgi__v3 dir = v3_add(emit_zero(one, y, x) ? v3(0.f, 0.f, 0.f) : v3_load(sum->emit + 3 * i), d);
-    v3_store(out + 3 * i, sum->output == PGI_OUTPUT_INDIRECT ? ind
-                          : sum->output == PGI_OUTPUT_DIRECT ? dir
-                                                             : v3_add(dir, ind));
 }
 
 pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_samples *vs, const pgi__view_fill *fill,
@@ -880,7 +871,7 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
             pgi__v3 L[16];
             int any = 0;
             if (DIRECT_PREFETCH && tx + DIRECT_PREFETCH < tiles_x)
-                PREFETCH_TILE(vs, out, sum, &one, tx + DIRECT_PREFETCH, ty);
+                PREFETCH_TILE(vs, out, &one, tx + DIRECT_PREFETCH, ty);
             for (int k = 0; k < 16; k++) {
                 int px, py;
                 int on = tile_lane(tx, ty, k, W, H, &px, &py);
@@ -889,7 +880,7 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
                 t.ready[k] = 0;
                 L[k] = v3(0.f, 0.f, 0.f);
                 if (on && !(vs->flags[i] & PGI_VS_VALID)) {
-                    put_direct(out, sum, vs, &one, py, px, i, L[k]);
+                    v3_store(out + 3 * i, L[k]);
                     on = 0;
                 }
                 t.on[k] = on;
@@ -1010,11 +1001,20 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
             }
             for (int k = 0; k < 16; k++)
                 if (t.on[k])
-                    put_direct(out, sum, vs, &one, 4 * ty + (k >> 2), 4 * tx, t.pix[k],
-                               weight_one(&one, 4 * ty + (k >> 2), 4 * tx)
-                                   ? L[k]
-                                   : v3_mul(L[k], v3_load(vs->weight + 3 * t.pix[k])));
+                    v3_store(out + 3 * t.pix[k], weight_one(&one, 4 * ty + (k >> 2), 4 * tx)
+                                                     ? L[k]
+                                                     : v3_mul(L[k], v3_load(vs->weight + 3 * t.pix[k])));
         }
+        /* The strip's 4 rows are one run of memory, its direct light still in the cache: the
+         * composite follows it here, 32 pixels (a pgi__view_fill entry) at a time, in parallel. */
+        if (sum)
+            for (int y = 4 * ty; y < 4 * ty + 4 && y < H; y++)
+                for (int x = 0; x < W; x += PGI__FILL_W) {
+                    const size_t p0 = (size_t)y * (size_t)W + (size_t)x;
+                    const size_t p1 = p0 + (size_t)(W - x < PGI__FILL_W ? W - x : PGI__FILL_W);
+                    composite(out, vs->weight, sum->emit, sum->indirect, 3 * p0, 3 * p1, sum->output,
+                              one.rows ? one.rows[(size_t)y * one.cols + (size_t)(x / PGI__FILL_W)] : 0u);
+                }
     }
     pgi__area_table_free(&at);
     *rays_out = rays;
