@@ -119,8 +119,8 @@ static void test_view_build_reuse(void **state) {
             /* direct light reads the weights the record does not know to be 1 */
             float *dk = malloc(3 * fresh.count * sizeof(float)), *df = malloc(3 * fresh.count * sizeof(float));
             assert_true(dk && df);
-            TU_CHECK_OK(pgi__direct(sc, rt, &kept, &fill, 4, 9, 2, dk, &rays));
-            TU_CHECK_OK(pgi__direct(sc, rt, &fresh, NULL, 4, 9, 1, df, &rays));
+            TU_CHECK_OK(pgi__direct(sc, rt, &kept, &fill, NULL, 4, 9, 2, dk, &rays));
+            TU_CHECK_OK(pgi__direct(sc, rt, &fresh, NULL, NULL, 4, 9, 1, df, &rays));
             if (memcmp(dk, df, 3 * fresh.count * sizeof(float)) != 0) fail_msg("%s: direct light differs", what);
             free(dk);
             free(df);

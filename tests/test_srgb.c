@@ -65,7 +65,15 @@ static void test_tonemap_matches_formula(void **state) {
                 fail_msg("value %a exposure %g: %d, formula %d", (double)v[i], (double)exposures[e], out3[3 * i],
                          tonemap_formula(v[i], exposures[e]));
     }
-    /* Around each code's threshold, one ulp at a time. */
+    /* Around each code's threshold, one ulp at a time: one pixel at a time (the scalar code), then
+     * all of them in one image (the vector code where the CPU has it). */
+    size_t steps = 0;
+    for (size_t i = 0; i + 1 < n; i++) steps += tonemap_formula(v[i], 1.f) != tonemap_formula(v[i + 1], 1.f);
+    float *near = malloc(3 * 66 * steps * sizeof *near);
+    unsigned char *near8 = malloc(3 * 66 * steps);
+    assert_non_null(near);
+    assert_non_null(near8);
+    size_t m = 0;
     for (size_t i = 0; i + 1 < n; i++) {
         if (tonemap_formula(v[i], 1.f) == tonemap_formula(v[i + 1], 1.f)) continue;
         float a = v[i];
@@ -74,8 +82,15 @@ static void test_tonemap_matches_formula(void **state) {
             unsigned char o[3];
             pgi_tonemap_srgb8(&one, 1.f, o);
             assert_int_equal(o[0], tonemap_formula(a, 1.f));
+            near[3 * m] = near[3 * m + 1] = near[3 * m + 2] = a;
+            m++;
         }
     }
+    pgi_image all = {(int)m, 1, near};
+    pgi_tonemap_srgb8(&all, 1.f, near8);
+    for (size_t i = 0; i < 3 * m; i++) assert_int_equal(near8[i], tonemap_formula(near[i], 1.f));
+    free(near);
+    free(near8);
     free(v);
     free(out);
     free(rgb);

@@ -66,9 +66,10 @@ static void grid_free(grid *g) {
     memset(g, 0, sizeof *g);
 }
 
-/* Counting sort of the photons into hashed cells of edge `cell` (sequential: the order, and so
- * everything after, is the same for any thread count). */
-static pgi_status grid_build(const pgi_photons *ph, float cell, const float org[3], grid *g) {
+/* Counting sort of the photons into hashed cells of edge `cell`: the photons' cells and buckets in
+ * parallel (each photon's alone), then the counts and the placing in photon order, sequential (the
+ * order, and so everything after, is the same for any thread count). */
+static pgi_status grid_build(const pgi_photons *ph, float cell, const float org[3], int threads, grid *g) {
     const size_t n = ph->count;
     /* a bucket a photon or more: a query's empty cells then mostly fall in empty buckets (a
      * collision is an unpredictable branch on a photon's cell, read from far away; half the buckets
@@ -84,20 +85,26 @@ static pgi_status grid_build(const pgi_photons *ph, float cell, const float org[
     g->cx = malloc(n * sizeof *g->cx);
     g->cy = malloc(n * sizeof *g->cy);
     g->cz = malloc(n * sizeof *g->cz);
-    if (!g->start || !g->idx || !g->cx || !g->cy || !g->cz) {
+    uint32_t *bk = malloc(n * sizeof *bk); /* each photon's bucket */
+    if (!g->start || !g->idx || !g->cx || !g->cy || !g->cz || !bk) {
+        free(bk);
         grid_free(g);
         return pgi__fail(PGI_ERR_OOM, "automatic radius: out of memory for a grid of %zu photons", n);
     }
-    for (size_t i = 0; i < n; i++) {
+    const long long np = (long long)n;
+#pragma omp parallel for schedule(static) num_threads(pgi__threads(threads)) if (np > 65536)
+    for (long long i = 0; i < np; i++) {
         g->cx[i] = cell_of(ph->px[i], g->org[0], g->inv);
         g->cy[i] = cell_of(ph->py[i], g->org[1], g->inv);
         g->cz[i] = cell_of(ph->pz[i], g->org[2], g->inv);
-        g->start[cell_hash(g->cx[i], g->cy[i], g->cz[i], g->mask)]++;
+        bk[i] = cell_hash(g->cx[i], g->cy[i], g->cz[i], g->mask);
     }
+    for (size_t i = 0; i < n; i++) g->start[bk[i]]++;
     /* start[b] becomes the end of bucket b, then, filled from the last photon back, its beginning */
     for (uint32_t b = 1; b < buckets; b++) g->start[b] += g->start[b - 1];
     g->start[buckets] = (uint32_t)n;
-    for (size_t i = n; i-- > 0;) g->idx[--g->start[cell_hash(g->cx[i], g->cy[i], g->cz[i], g->mask)]] = (uint32_t)i;
+    for (size_t i = n; i-- > 0;) g->idx[--g->start[bk[i]]] = (uint32_t)i;
+    free(bk);
     return PGI_OK;
 }
 
@@ -250,7 +257,7 @@ static pgi_status choose(const pgi_photons *ph, int K, int Kfull, const pgi_view
     const int qi = (int)(AUTO_QUANTILE * (float)(m - 1));
     grid g = {0};
     for (int attempt = 0;; attempt++) {
-        pgi_status st = grid_build(ph, cell, bmin, &g);
+        pgi_status st = grid_build(ph, cell, bmin, threads, &g);
         if (st) return st;
 #pragma omp parallel for schedule(dynamic, 16) num_threads(pgi__threads(threads))
         for (int j = 0; j < m; j++) {

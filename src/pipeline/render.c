@@ -1,5 +1,5 @@
 /* One frame, end to end (DESIGN.md §1): view samples, photons, estimator
- * build + estimate, direct light, composite. */
+ * build + estimate, direct light (which writes the composite: pgi__direct_sum). */
 #include <stdio.h>
 #include <string.h>
 
@@ -24,7 +24,7 @@ struct pgi_renderer {
     pgi_photons ph;
     pgi__trace_scratch trace_scratch;
     pgi_view_samples vs;
-    float *emit, *direct, *indirect;
+    float *emit, *indirect;
     size_t pix_cap;
     pgi__view_fill fill; /* what vs and emit hold already (pgi__view_build skips those stores) */
     pgi_estimator *est;  /* created once per estimator name + resolved options */
@@ -75,8 +75,8 @@ static int mem_optional(const char *name) {
 /* Bytes of one view sample: 7 vector planes (pos, nrm, ngeo, wo, kd, ks, weight), shininess, ior,
  * depth, flags. */
 #define VIEW_SAMPLE_BYTES ((7 * 3 + 3) * sizeof(float) + sizeof(uint8_t))
-/* Bytes a pixel of the emitted, direct and indirect buffers. */
-#define FRAME_BUFFER_BYTES (3 * 3 * sizeof(float))
+/* Bytes a pixel of the emitted and indirect buffers (the direct pass writes the image itself). */
+#define FRAME_BUFFER_BYTES (2 * 3 * sizeof(float))
 /* The tracer's scratch per photon of a batch (each thread's records, 50 bytes a photon, grown by
  * doubling), for at most the photons of a batch: 2^20 paths of at most `bounces` photons each. */
 #define TRACE_BYTES_PER_PHOTON 80
@@ -195,7 +195,6 @@ void pgi_renderer_destroy(pgi_renderer *r) {
     pgi__trace_scratch_free(&r->trace_scratch);
     pgi_view_samples_free(&r->vs);
     pgi__afree(r->emit);
-    pgi__afree(r->direct);
     pgi__afree(r->indirect);
     pgi__view_fill_free(&r->fill);
     pgi_estimator_destroy(r->est);
@@ -403,17 +402,15 @@ static pgi_status ensure_buffers(pgi_renderer *r, const pgi_render_desc *d) {
         if (st) return st;
     }
     if (r->pix_cap < n) {
-        snprintf(what, sizeof what, "the emitted, direct and indirect buffers of %dx%d pixels", d->width, d->height);
+        snprintf(what, sizeof what, "the emitted and indirect buffers of %dx%d pixels", d->width, d->height);
         if ((st = pgi__mem_reserve(&r->mem, "frame_buffers", n * FRAME_BUFFER_BYTES, what))) return st;
         pgi__view_fill_forget(&r->fill);
         pgi__afree(r->emit);
-        pgi__afree(r->direct);
         pgi__afree(r->indirect);
         r->emit = pgi__aalloc(3 * n * sizeof(float));
-        r->direct = pgi__aalloc(3 * n * sizeof(float));
         r->indirect = pgi__aalloc(3 * n * sizeof(float));
         r->pix_cap = n;
-        if (!r->emit || !r->direct || !r->indirect) {
+        if (!r->emit || !r->indirect) {
             r->pix_cap = 0;
             pgi__mem_set(&r->mem, "frame_buffers", 0);
             return pgi__fail(PGI_ERR_OOM, "out of memory for %dx%d frame buffers", d->width, d->height);
@@ -861,18 +858,6 @@ static pgi_status gpu_frame(pgi_renderer *r, pgi_render_desc *d, uint64_t seq_se
     return PGI_OK;
 }
 
-/* The image's floats [i0, i1): emitted + direct light, plus the weight times the indirect light
- * (d.output picks the parts); `fill` holds the pgi__view_fill bits of these pixels. */
-static void composite(float *out, const float *w, const float *emit, const float *direct, const float *indirect,
-                      size_t i0, size_t i1, pgi_output output, unsigned fill) {
-    const int one = (fill & PGI__FILL_WEIGHT) != 0, zero = (fill & PGI__FILL_EMIT) != 0;
-    for (size_t i = i0; i < i1; i++) {
-        float ind = one ? indirect[i] : w[i] * indirect[i];
-        float dir = (zero ? 0.f : emit[i]) + direct[i];
-        out[i] = output == PGI_OUTPUT_INDIRECT ? ind : output == PGI_OUTPUT_DIRECT ? dir : dir + ind;
-    }
-}
-
 pgi_status pgi_renderer_prepare(pgi_renderer *r, const pgi_render_desc *in, pgi_frame_inputs *out,
                                 pgi_frame_stats *stats) {
     if (!r || !in || !out) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_renderer_prepare: NULL argument");
@@ -983,14 +968,6 @@ pgi_status pgi__renderer_render_frame_late(pgi_renderer *r, const pgi_render_des
     report(&pc, "estimate", 0, 0);
     if ((st = pgi_estimator_estimate(r->est, &ea))) return st;
     if (d.filter > 0 && (st = pgi__bilateral_filter(&r->vs, d.filter, d.threads, r->indirect))) return st;
-    double t4 = pgi__now_ms();
-    report(&pc, "direct", 0, 0);
-    pgi__rt_capture_pass(r->rt, PGI__PASS_DIRECT);
-    st = pgi__direct(s, r->rt, &r->vs, &r->fill, d.direct_samples, d.seed, d.threads, r->direct, &fs.shadow_rays);
-    pgi__rt_capture_pass(r->rt, PGI__PASS_NONE);
-    if (st) return st;
-    double t5 = pgi__now_ms();
-
     size_t n = (size_t)d.width * d.height;
     /* Reuse the caller's image when it already has this size (steady-state
      * frames then allocate nothing). */
@@ -1001,21 +978,21 @@ pgi_status pgi__renderer_render_frame_late(pgi_renderer *r, const pgi_render_des
         if ((st = pgi__mem_reserve(&r->mem, "image", 3 * n * sizeof(float), what))) return st;
         img = (pgi_image){d.width, d.height, malloc(3 * n * sizeof(float))};
         if (!img.rgb) return pgi__fail(PGI_ERR_OOM, "out of memory for the output image");
-        pgi_image_free(out);
     }
-    /* Row by row of the view pass's blocks: where r->fill says that a row's weights are 1 or its
-     * emission +0, those loads are left out (1 * x is x, and +0 + x is what adding the constant
-     * gives, -0 included). */
-    const int W = d.width, cols = (W + PGI__FILL_W - 1) / PGI__FILL_W;
-    const uint8_t *fill = r->fill.width == W && r->fill.height == d.height ? r->fill.rows : NULL;
-    for (int y = 0; y < d.height; y++)
-        for (int c = 0; c < cols; c++) {
-            const size_t p0 = (size_t)y * (size_t)W + (size_t)c * PGI__FILL_W;
-            const size_t p1 = p0 + (W - c * PGI__FILL_W < PGI__FILL_W ? (size_t)(W - c * PGI__FILL_W) : PGI__FILL_W);
-            composite(img.rgb, r->vs.weight, r->emit, r->direct, r->indirect, 3 * p0, 3 * p1, d.output,
-                      fill ? fill[(size_t)y * (size_t)cols + (size_t)c] : 0u);
-        }
-    double t6 = pgi__now_ms();
+    double t4 = pgi__now_ms();
+    report(&pc, "direct", 0, 0);
+    /* The direct pass writes the image itself (emitted + direct + weight x indirect: the
+     * composite), so that the direct light never makes a trip through memory. */
+    const pgi__direct_sum sum = {.emit = r->emit, .indirect = r->indirect, .output = d.output};
+    pgi__rt_capture_pass(r->rt, PGI__PASS_DIRECT);
+    st = pgi__direct(s, r->rt, &r->vs, &r->fill, &sum, d.direct_samples, d.seed, d.threads, img.rgb, &fs.shadow_rays);
+    pgi__rt_capture_pass(r->rt, PGI__PASS_NONE);
+    if (st) {
+        if (img.rgb != out->rgb) free(img.rgb);
+        return st;
+    }
+    double t5 = pgi__now_ms();
+    if (img.rgb != out->rgb) pgi_image_free(out);
 
     pgi_estimator_get_stats(r->est, &es);
     if (d.output == PGI_OUTPUT_PHOTON_COUNT && (st = pgi__photon_counts(r->est, &ea, img.rgb))) {
@@ -1025,7 +1002,7 @@ pgi_status pgi__renderer_render_frame_late(pgi_renderer *r, const pgi_render_des
     fs.build_ms = t3 - t2;
     fs.estimate_ms = t4 - t3;
     fs.direct_ms = t5 - t4;
-    fs.total_ms = t6 - t_start;
+    fs.total_ms = t5 - t_start;
     for (int k = 0; k < es.pass_count && k < PGI_MAX_STAT_ENTRIES; k++)
         fs.passes_ms[fs.pass_count++] = (pgi_named_value){es.pass_names[k], es.pass_ms[k]};
     pgi__mem_set(&r->mem, "image", 3 * n * sizeof(float));

@@ -830,8 +830,24 @@ static inline int weight_one(const weight_rows *one, int y, int x) {
     return one->rows && (one->rows[(size_t)y * one->cols + (size_t)(x / PGI__FILL_W)] & PGI__FILL_WEIGHT);
 }
 
+/* The image's floats [i0, i1) from the direct light out holds there (the weight applied): emitted +
+ * direct light, plus the weight times the indirect light (output picks the parts);
+ * `fill` holds the pgi__view_fill bits of these pixels: where the weights are known to be 1 or the
+ * emission +0 those loads are left out (1 * x is x, and +0 + x is what adding the constant gives,
+ * -0 included). */
+static void composite(float *out, const float *w, const float *emit, const float *indirect, size_t i0, size_t i1,
+                      pgi_output output, unsigned fill) {
+    const int one = (fill & PGI__FILL_WEIGHT) != 0, zero = (fill & PGI__FILL_EMIT) != 0;
+    for (size_t i = i0; i < i1; i++) {
+        float ind = one ? indirect[i] : w[i] * indirect[i];
+        float dir = (zero ? 0.f : emit[i]) + out[i];
+        out[i] = output == PGI_OUTPUT_INDIRECT ? ind : output == PGI_OUTPUT_DIRECT ? dir : dir + ind;
+    }
+}
+
 pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_samples *vs, const pgi__view_fill *fill,
-                       int area_samples, uint64_t seed, int threads, float *out, uint64_t *rays_out) {
+                       const pgi__direct_sum *sum, int area_samples, uint64_t seed, int threads, float *out,
+                       uint64_t *rays_out) {
     /* Area lights get their own CDF by power (luminance). */
     pgi__area_table at;
     pgi_status st = pgi__area_table_build(s, &at);
@@ -989,6 +1005,16 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
                                                      ? L[k]
                                                      : v3_mul(L[k], v3_load(vs->weight + 3 * t.pix[k])));
         }
+        /* The strip's 4 rows are one run of memory, its direct light still in the cache: the
+         * composite follows it here, 32 pixels (a pgi__view_fill entry) at a time, in parallel. */
+        if (sum)
+            for (int y = 4 * ty; y < 4 * ty + 4 && y < H; y++)
+                for (int x = 0; x < W; x += PGI__FILL_W) {
+                    const size_t p0 = (size_t)y * (size_t)W + (size_t)x;
+                    const size_t p1 = p0 + (size_t)(W - x < PGI__FILL_W ? W - x : PGI__FILL_W);
+                    composite(out, vs->weight, sum->emit, sum->indirect, 3 * p0, 3 * p1, sum->output,
+                              one.rows ? one.rows[(size_t)y * one.cols + (size_t)(x / PGI__FILL_W)] : 0u);
+                }
     }
     pgi__area_table_free(&at);
     *rays_out = rays;

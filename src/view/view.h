@@ -54,13 +54,24 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, struct pgi__tr
                            const pgi_camera *cam, uint64_t seed, const pgi__subpixel *sp, int threads,
                            pgi_view_samples *vs, float *emit, pgi__view_fill *fill, uint64_t *rays);
 
+/* The frame's image as pgi__direct writes it in place of its direct light (the composite): a
+ * pixel's floats are emitted + direct light, plus its weight times the indirect light, `output`
+ * picking the parts. A pass of its own would read the direct light back from memory (at
+ * 1920x1080, 25 MB) on one thread. */
+typedef struct pgi__direct_sum {
+    const float *emit, *indirect; /* 3 floats a pixel each */
+    pgi_output output;
+} pgi__direct_sum;
+
 /* Direct light at every valid view sample with shadow rays (point, spot, sun:
  * one ray each; emissive triangles: `area_samples` samples picked by power;
  * the sky: `area_samples` directions, pgi__env_sample_direct, rays to infinity).
- * Writes weight-multiplied radiance (3 floats a pixel). `fill` (NULL: none), the record of what
- * vs holds: the weights of the rows it knows to be 1 are not read. */
+ * Writes weight-multiplied radiance (3 floats a pixel), or with `sum` (NULL: none) the image it
+ * describes. `fill` (NULL: none), the record of what vs and sum->emit hold: the weights of the
+ * rows it knows to be 1 and the emission of those it knows to be +0 are not read. */
 pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_samples *vs, const pgi__view_fill *fill,
-                       int area_samples, uint64_t seed, int threads, float *out, uint64_t *rays);
+                       const pgi__direct_sum *sum, int area_samples, uint64_t seed, int threads, float *out,
+                       uint64_t *rays);
 
 /* The area lights as pgi__direct samples them: their CDF by the luminance of their power (the
  * table the GPU backend and the reference path tracer build too) and one record a light (no
