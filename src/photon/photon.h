@@ -131,6 +131,12 @@ pgi_status pgi__trace_tris_update(pgi__trace_scratch *sc, const pgi_scene *s, in
 /* Bytes the scratch holds. */
 size_t pgi__trace_scratch_bytes(const pgi__trace_scratch *sc);
 
+/* Whether every path of light L starts at one point (point and spot lights): the tracer sorts
+ * those paths by direction and casts their first rays as coherent packets (trace.c first_hits). */
+static inline int pgi__light_from_point(const pgi__light *L) {
+    return L->type == PGI_LIGHT_POINT || L->type == PGI_LIGHT_SPOT;
+}
+
 /* Tests: at most this many paths of a chunk from point and spot lights start in the emission
  * pre-pass (0: no cap); the others start in their chunk (trace.c start_paths). */
 extern int pgi__trace_room_cap;

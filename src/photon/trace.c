@@ -99,8 +99,8 @@ typedef struct lane {
 } lane;
 
 /* The first numbers of path `index`: its stream seeded in `l`, the light it leaves (picked by
- * power), the pick's probability, and a steered path's bin and pair. NULL: none (a light of no
- * power). */
+ * power), the pick's probability (0: a light of no power, emit_from ends the path), and a steered
+ * path's bin and pair. */
 typedef struct emission_pick {
     float ul, pl, a, b; /* the pick's number and probability; the steered pair */
 } emission_pick;
@@ -120,10 +120,6 @@ static const pgi__light *pick_light(const tracer *T, uint64_t index, lane *l, em
     const size_t li = pgi__cdf_pick(T->cdf, T->nl, ul, &e->pl);
     return li < T->s->nlights ? &T->s->lights[li] : &T->s->env->light; /* the last: the sky */
 }
-
-/* Whether the paths of light L all start at one point (their first rays make coherent packets
- * once sorted by direction: first_hits). */
-static inline int point_like(const pgi__light *L) { return L->type == PGI_LIGHT_POINT || L->type == PGI_LIGHT_SPOT; }
 
 /* start_path after pick_light (below). */
 static int emit_from(const tracer *T, const pgi__light *L, const emission_pick *e, lane *l, uint32_t *cnt) {
@@ -361,6 +357,25 @@ static inline void wave_hits(const tracer *T, lane *L, const int *valid, const p
     }
 }
 
+/* Casts the rays of a wave's lanes that carry a path (path >= 0) as one 16-wide packet, counted
+ * in *rays, and takes their hits (wave_hits). Coherent: only where every ray leaves one point (a
+ * point or spot light's paths, sorted by direction: first_hits); otherwise single rays. */
+static inline void cast_wave(const tracer *T, lane *L, int coherent, uint64_t *rays) {
+    int valid[WAVE];
+    pgi__v3 org[WAVE], dir[WAVE];
+    pgi__hit hh[WAVE];
+    for (int k = 0; k < WAVE; k++) {
+        valid[k] = L[k].path >= 0;
+        org[k] = L[k].o;
+        dir[k] = L[k].d;
+        *rays += (uint64_t)valid[k];
+    }
+    for (int k = 1; k < WAVE && coherent; k++)
+        if (valid[k] && (org[k].x != org[0].x || org[k].y != org[0].y || org[k].z != org[0].z)) coherent = 0;
+    pgi__rt_intersect16(T->rt, valid, org, 1, dir, coherent, hh);
+    wave_hits(T, L, valid, hh);
+}
+
 /* Then the texels of the hits whose path may go on (the albedo weighs the scattered flux): each
  * stage's loads are in cache when the next stage needs them. */
 static inline void wave_texels(const tracer *T, lane *L) {
@@ -516,7 +531,7 @@ static size_t start_paths(const tracer *T, uint64_t base, size_t p0, size_t p1, 
         l.path = 0;
         emission_pick e;
         const pgi__light *L = m < slot + room ? pick_light(T, base + i, &l, &e) : NULL;
-        if (!L || !point_like(L)) {
+        if (!L || !pgi__light_from_point(L)) {
             mode[i] = START_CHUNK;
             continue;
         }
@@ -534,17 +549,22 @@ static size_t start_paths(const tracer *T, uint64_t base, size_t p0, size_t p1, 
     return m - slot;
 }
 
-/* Sorts n paths (idx[i] with key[i]) by key, stably (a key's paths stay in path order), into
- * idx; tkey, tidx: room for n more. Two passes of 16 bits. */
-static void sort_paths(size_t n, uint32_t *key, uint32_t *idx, uint32_t *tkey, uint32_t *tidx, uint32_t *hist) {
-    memset(hist, 0, 65536 * sizeof *hist);
-    for (size_t i = 0; i < n; i++) hist[key[i] & 0xffff]++;
+/* A histogram into the offsets where each bucket starts (an exclusive prefix sum). */
+static void hist_offsets(uint32_t *hist) {
     uint32_t acc = 0;
     for (int b = 0; b < 65536; b++) {
         const uint32_t c = hist[b];
         hist[b] = acc;
         acc += c;
     }
+}
+
+/* Sorts n paths (idx[i] with key[i]) by key, stably (a key's paths stay in path order), into
+ * idx; tkey, tidx: room for n more. Two passes of 16 bits. */
+static void sort_paths(size_t n, uint32_t *key, uint32_t *idx, uint32_t *tkey, uint32_t *tidx, uint32_t *hist) {
+    memset(hist, 0, 65536 * sizeof *hist);
+    for (size_t i = 0; i < n; i++) hist[key[i] & 0xffff]++;
+    hist_offsets(hist);
     for (size_t i = 0; i < n; i++) {
         const uint32_t j = hist[key[i] & 0xffff]++;
         tkey[j] = key[i];
@@ -552,12 +572,7 @@ static void sort_paths(size_t n, uint32_t *key, uint32_t *idx, uint32_t *tkey, u
     }
     memset(hist, 0, 65536 * sizeof *hist);
     for (size_t i = 0; i < n; i++) hist[tkey[i] >> 16]++;
-    acc = 0;
-    for (int b = 0; b < 65536; b++) {
-        const uint32_t c = hist[b];
-        hist[b] = acc;
-        acc += c;
-    }
+    hist_offsets(hist);
     for (size_t i = 0; i < n; i++) idx[hist[tkey[i] >> 16]++] = tidx[i];
 }
 
@@ -570,35 +585,20 @@ static void sort_paths(size_t n, uint32_t *key, uint32_t *idx, uint32_t *tkey, u
 static void first_hits(const tracer *T, path_state *ps, pgi__pdiff *pd, const uint32_t *order, size_t n, size_t g0,
                        size_t g1, int coherent, uint64_t *rays) {
     enum { AHEAD = 2 }; /* groups whose states are requested ahead (they lie anywhere in ps) */
-    for (size_t j = g0 * WAVE; j < (g0 + AHEAD) * WAVE && j < n; j++) {
-        __builtin_prefetch(&ps[order[j]]);
-        if (pd) __builtin_prefetch(&pd[order[j]]);
-    }
     for (size_t g = g0; g < g1; g++) {
-        for (size_t j = (g + AHEAD) * WAVE; j < (g + AHEAD + 1) * WAVE && j < n; j++) {
+        /* the states of group g + AHEAD (and, at the start, of the groups before it) */
+        for (size_t j = (g == g0 ? g : g + AHEAD) * WAVE; j < (g + AHEAD + 1) * WAVE && j < n; j++) {
             __builtin_prefetch(&ps[order[j]]);
             if (pd) __builtin_prefetch(&pd[order[j]]);
         }
         lane L[WAVE];
-        int valid[WAVE];
-        pgi__v3 org[WAVE], dir[WAVE];
-        pgi__hit hh[WAVE];
         for (int k = 0; k < WAVE; k++) {
             const size_t j = g * WAVE + (size_t)k;
-            valid[k] = j < n;
-            L[k].path = valid[k] ? 0 : -1;
-            if (valid[k]) state_load(&L[k], &ps[order[j]], pd ? &pd[order[j]] : NULL);
+            L[k].path = j < n ? 0 : -1;
+            if (j < n) state_load(&L[k], &ps[order[j]], pd ? &pd[order[j]] : NULL);
             else L[k].o = L[k].d = v3(0.f, 0.f, 1.f);
-            org[k] = L[k].o;
-            dir[k] = L[k].d;
-            *rays += (uint64_t)valid[k];
         }
-        /* one origin (a point or spot light): a coherent packet; else single rays */
-        int same = 1;
-        for (int k = 1; k < WAVE; k++)
-            if (valid[k] && (org[k].x != org[0].x || org[k].y != org[0].y || org[k].z != org[0].z)) same = 0;
-        pgi__rt_intersect16(T->rt, valid, org, 1, dir, coherent && same, hh);
-        wave_hits(T, L, valid, hh);
+        cast_wave(T, L, coherent, rays);
         wave_texels(T, L);
         int ok = 1;
         wave_shade(T, L, NULL, NULL, NULL, &ok);
@@ -610,8 +610,9 @@ static void first_hits(const tracer *T, path_state *ps, pgi__pdiff *pd, const ui
 }
 
 /* Traces paths [p0, p1) of the batch (one chunk; its first path `base`; mode: how each starts,
- * NULL: all here; ps, pd: the chunk's states from start_paths and first_hits) a wave at a time; their photons are appended to tb->rec, cnt[i - p0] gets path i's count. Returns 0
- * when out of memory. */
+ * NULL: all here; ps, pd: the chunk's states from start_paths and first_hits) a wave at a time;
+ * their photons are appended to tb->rec, cnt[i - p0] gets path i's count. Returns 0 when out of
+ * memory. */
 static int trace_chunk(const tracer *T, uint64_t base, const uint8_t *mode, const path_state *ps, const pgi__pdiff *pd,
                        size_t p0, size_t p1, pgi__trace_tbuf *tb, uint8_t *cnt, uint64_t *rays, uint32_t *gcnt,
                        uint16_t *pbin) {
@@ -644,17 +645,7 @@ static int trace_chunk(const tracer *T, uint64_t base, const uint8_t *mode, cons
         /* Cast the wave's rays as one 16-wide incoherent packet (single rays, 8- and 16-wide
          * packets and streams are within noise of each other for these rays: photongi-bench
          * --limits); the triangle records of all the hits are requested together. */
-        int valid[WAVE];
-        pgi__v3 org[WAVE], dir[WAVE];
-        pgi__hit hh[WAVE];
-        for (int k = 0; k < WAVE; k++) {
-            valid[k] = L[k].path >= 0;
-            org[k] = L[k].o;
-            dir[k] = L[k].d;
-            *rays += (uint64_t)valid[k];
-        }
-        pgi__rt_intersect16(T->rt, valid, org, 1, dir, 0, hh);
-        wave_hits(T, L, valid, hh);
+        cast_wave(T, L, 0, rays);
         wave_texels(T, L);
         active -= wave_shade(T, L, tb, cnt, gcnt, &ok);
         if (!ok) return 0;
@@ -799,7 +790,7 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
      * start in the chunk. */
     double point_power = 0.0;
     for (size_t i = 0; i < s->nlights; i++)
-        if (point_like(&s->lights[i])) point_power += fmax(0.0, (double)v3_lum(v3_load(s->lights[i].power)));
+        if (pgi__light_from_point(&s->lights[i])) point_power += fmax(0.0, (double)v3_lum(v3_load(s->lights[i].power)));
     const double share = point_power / total;
     size_t room = share <= 0.0 ? 0 : (size_t)ceil(share * CHUNK + 4.0 * sqrt(share * (1.0 - share) * CHUNK) + 16.0);
     if (room > CHUNK) room = CHUNK;

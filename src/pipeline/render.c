@@ -88,8 +88,7 @@ static int mem_optional(const char *name) {
  * where a radius policy follows the paths; a start mode (1 byte) for each path of a batch. */
 static uint64_t trace_prepass_bytes(const pgi_scene *s, uint64_t photons, int diffs) {
     int point = 0;
-    for (size_t i = 0; i < s->nlights; i++)
-        point |= s->lights[i].type == PGI_LIGHT_POINT || s->lights[i].type == PGI_LIGHT_SPOT;
+    for (size_t i = 0; i < s->nlights; i++) point |= pgi__light_from_point(&s->lights[i]);
     if (!point) return 0;
     const uint64_t paths = photons < (1u << 18) ? photons : (1u << 18);
     return paths * (80 + (diffs ? 52 : 0)) + (photons < (1u << 20) ? photons : (1u << 20));
