@@ -257,6 +257,9 @@ pgi__v3 pgi__texture_lookup(const pgi__texture *t, float u, float v);
  * lookups' cache misses overlap. */
 #define PGI__TEXTURE_LOOKUP_N 16
 void pgi__texture_lookup_n(const pgi__texture *const *t, const float *u, const float *v, int n, pgi__v3 *out);
+/* 16 lookups on one texture t, out[c][k] = component c of pgi__texture_lookup(t, u[k], v[k]) bit for
+ * bit (gathers where the CPU has AVX2). */
+void pgi__texture_lookup16_soa(const pgi__texture *t, const float *u, const float *v, float out[3][16]);
 /* Alpha channel (0..1, linear), bilinear and wrapping as pgi__texture_lookup; 1 without a texture. */
 float pgi__texture_alpha(const pgi__texture *t, float u, float v);
 /* 1 when the point at barycentrics (b1, b2) of triangle `tri` is cut out by its material's mask

@@ -149,10 +149,52 @@ __attribute__((target("avx2"))) static inline __m256i wrap8(__m256i i, __m256i n
     return _mm256_sub_epi32(_mm256_add_epi32(i, _mm256_and_si256(neg, n)), _mm256_and_si256(over, n));
 }
 
+/* Can the footprints of lookups on t be computed eight at a time (footprint8)? The addresses'
+ * parts are 32-bit there. */
+static inline int footprint8_ok(const pgi__texture *t) {
+    return t && t->rgba && t->tiled && t->width > 0 && t->height > 0 &&
+           (size_t)((t->width + 3) >> 2) * (size_t)((t->height + 3) >> 2) * 64 <= (size_t)INT32_MAX;
+}
+
+/* bilinear_footprint's and quad_at's operations on eight lookups (u, v) on t an instruction (floorf
+ * as roundps, exact), so the same texels and weights: o[c] the byte offsets of texel c of each
+ * lookup's quad in t->tiled, *tx and *ty its weights. t must pass footprint8_ok. */
+__attribute__((target("avx2"))) static inline void footprint8(const pgi__texture *t, __m256 uf, __m256 vf, __m256i o[4],
+                                                              __m256 *tx, __m256 *ty) {
+    const __m256 inf = _mm256_set1_ps(INFINITY), absm = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
+    uf = _mm256_and_ps(uf, _mm256_cmp_ps(_mm256_and_ps(uf, absm), inf, _CMP_LT_OQ)); /* !isfinite: 0 */
+    vf = _mm256_and_ps(vf, _mm256_cmp_ps(_mm256_and_ps(vf, absm), inf, _CMP_LT_OQ));
+    const __m256 fu = _mm256_sub_ps(uf, _mm256_floor_ps(uf)), fv = _mm256_sub_ps(vf, _mm256_floor_ps(vf));
+    const __m256 half = _mm256_set1_ps(0.5f);
+    const __m256 x = _mm256_sub_ps(_mm256_mul_ps(fu, _mm256_set1_ps((float)t->width)), half);
+    const __m256 y =
+        _mm256_sub_ps(_mm256_mul_ps(_mm256_sub_ps(_mm256_set1_ps(1.f), fv), _mm256_set1_ps((float)t->height)), half);
+    const __m256 x0f = _mm256_floor_ps(x), y0f = _mm256_floor_ps(y);
+    *tx = _mm256_sub_ps(x, x0f);
+    *ty = _mm256_sub_ps(y, y0f);
+    const __m256i W = _mm256_set1_epi32(t->width), H = _mm256_set1_epi32(t->height), one = _mm256_set1_epi32(1);
+    const __m256i three = _mm256_set1_epi32(3);
+    const __m256i xi = _mm256_cvttps_epi32(x0f), yi = _mm256_cvttps_epi32(y0f);
+    const __m256i x0 = wrap8(xi, W), x1 = wrap8(_mm256_add_epi32(xi, one), W);
+    const __m256i y0 = wrap8(yi, H), y1 = wrap8(_mm256_add_epi32(yi, one), H);
+    /* quad_at: rows 64 ((y >> 2) bw) + 16 (y & 3), columns 64 (x >> 2) + 4 (x & 3) */
+    const __m256i bw = _mm256_set1_epi32((t->width + 3) >> 2);
+#define ROW8(y)                                                                                                        \
+    _mm256_add_epi32(_mm256_slli_epi32(_mm256_mullo_epi32(_mm256_srai_epi32(y, 2), bw), 6),                            \
+                     _mm256_slli_epi32(_mm256_and_si256(y, three), 4))
+#define COL8(x)                                                                                                        \
+    _mm256_add_epi32(_mm256_slli_epi32(_mm256_srai_epi32(x, 2), 6), _mm256_slli_epi32(_mm256_and_si256(x, three), 2))
+    const __m256i r0 = ROW8(y0), r1 = ROW8(y1), c0 = COL8(x0), c1 = COL8(x1);
+#undef ROW8
+#undef COL8
+    o[0] = _mm256_add_epi32(r0, c0);
+    o[1] = _mm256_add_epi32(r0, c1);
+    o[2] = _mm256_add_epi32(r1, c0);
+    o[3] = _mm256_add_epi32(r1, c1);
+}
+
 /* LOOKUP_N_BODY with the footprints of eight lookups on one texture (nearly always: the lanes of
- * a view packet mostly share a material) an instruction: bilinear_footprint's and quad_at's
- * operations on the same values (floorf as roundps, exact; the addresses' parts in 32 bits where
- * the blocks are below 2 GiB), so the same texels and weights; other lookups one by one. */
+ * a view packet mostly share a material) an instruction (footprint8); other lookups one by one. */
 __attribute__((target("avx2"))) static void lookup_n_avx2(const pgi__texture *const *t, const float *u, const float *v,
                                                           int n, pgi__v3 *out) {
     pgi__texel_quad q[PGI__TEXTURE_LOOKUP_N];
@@ -160,8 +202,7 @@ __attribute__((target("avx2"))) static void lookup_n_avx2(const pgi__texture *co
     for (int k0 = 0; k0 < n; k0 += 8) {
         const int m = n - k0 < 8 ? n - k0 : 8;
         const pgi__texture *t0 = t[k0];
-        int same = t0 && t0->rgba && t0->tiled && t0->width > 0 && t0->height > 0 &&
-                   (size_t)((t0->width + 3) >> 2) * (size_t)((t0->height + 3) >> 2) * 64 <= (size_t)INT32_MAX;
+        int same = footprint8_ok(t0);
         for (int k = k0 + 1; same && k < k0 + m; k++) same = t[k] == t0;
         if (!same) {
             for (int k = k0; k < k0 + m; k++) {
@@ -177,40 +218,14 @@ __attribute__((target("avx2"))) static void lookup_n_avx2(const pgi__texture *co
         float uu[8] = {0}, vv[8] = {0};
         memcpy(uu, u + k0, (size_t)m * sizeof(float));
         memcpy(vv, v + k0, (size_t)m * sizeof(float));
-        const __m256 inf = _mm256_set1_ps(INFINITY), absm = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
-        __m256 uf = _mm256_loadu_ps(uu), vf = _mm256_loadu_ps(vv);
-        uf = _mm256_and_ps(uf, _mm256_cmp_ps(_mm256_and_ps(uf, absm), inf, _CMP_LT_OQ)); /* !isfinite: 0 */
-        vf = _mm256_and_ps(vf, _mm256_cmp_ps(_mm256_and_ps(vf, absm), inf, _CMP_LT_OQ));
-        const __m256 fu = _mm256_sub_ps(uf, _mm256_floor_ps(uf)), fv = _mm256_sub_ps(vf, _mm256_floor_ps(vf));
-        const __m256 half = _mm256_set1_ps(0.5f);
-        const __m256 x = _mm256_sub_ps(_mm256_mul_ps(fu, _mm256_set1_ps((float)t0->width)), half);
-        const __m256 y =
-            _mm256_sub_ps(_mm256_mul_ps(_mm256_sub_ps(_mm256_set1_ps(1.f), fv), _mm256_set1_ps((float)t0->height)),
-                          half);
-        const __m256 x0f = _mm256_floor_ps(x), y0f = _mm256_floor_ps(y);
+        __m256i ov[4];
+        __m256 txv, tyv;
+        footprint8(t0, _mm256_loadu_ps(uu), _mm256_loadu_ps(vv), ov, &txv, &tyv);
         float tx[8], ty[8];
-        _mm256_storeu_ps(tx, _mm256_sub_ps(x, x0f));
-        _mm256_storeu_ps(ty, _mm256_sub_ps(y, y0f));
-        const __m256i W = _mm256_set1_epi32(t0->width), H = _mm256_set1_epi32(t0->height), one = _mm256_set1_epi32(1);
-        const __m256i three = _mm256_set1_epi32(3);
-        const __m256i xi = _mm256_cvttps_epi32(x0f), yi = _mm256_cvttps_epi32(y0f);
-        const __m256i x0 = wrap8(xi, W), x1 = wrap8(_mm256_add_epi32(xi, one), W);
-        const __m256i y0 = wrap8(yi, H), y1 = wrap8(_mm256_add_epi32(yi, one), H);
-        /* quad_at: rows 64 ((y >> 2) bw) + 16 (y & 3), columns 64 (x >> 2) + 4 (x & 3) */
-        const __m256i bw = _mm256_set1_epi32((t0->width + 3) >> 2);
-#define ROW8(y)                                                                                                        \
-    _mm256_add_epi32(_mm256_slli_epi32(_mm256_mullo_epi32(_mm256_srai_epi32(y, 2), bw), 6),                            \
-                     _mm256_slli_epi32(_mm256_and_si256(y, three), 4))
-#define COL8(x)                                                                                                        \
-    _mm256_add_epi32(_mm256_slli_epi32(_mm256_srai_epi32(x, 2), 6), _mm256_slli_epi32(_mm256_and_si256(x, three), 2))
-        const __m256i r0 = ROW8(y0), r1 = ROW8(y1), c0 = COL8(x0), c1 = COL8(x1);
-#undef ROW8
-#undef COL8
+        _mm256_storeu_ps(tx, txv);
+        _mm256_storeu_ps(ty, tyv);
         int32_t o[4][8];
-        _mm256_storeu_si256((__m256i *)o[0], _mm256_add_epi32(r0, c0));
-        _mm256_storeu_si256((__m256i *)o[1], _mm256_add_epi32(r0, c1));
-        _mm256_storeu_si256((__m256i *)o[2], _mm256_add_epi32(r1, c0));
-        _mm256_storeu_si256((__m256i *)o[3], _mm256_add_epi32(r1, c1));
+        for (int c = 0; c < 4; c++) _mm256_storeu_si256((__m256i *)o[c], ov[c]);
         for (int i = 0; i < m; i++) {
             pgi__texel_quad *qk = &q[k0 + i];
             on[k0 + i] = 1;
@@ -224,6 +239,51 @@ __attribute__((target("avx2"))) static void lookup_n_avx2(const pgi__texture *co
     for (int k = 0; k < n; k++) out[k] = on[k] ? quad_blend(&q[k]) : v3(1.f, 1.f, 1.f);
 }
 #endif
+
+#ifdef PGI__LOOKUP_AVX2
+/* pgi__texture_lookup16_soa eight lanes an instruction: the quads' texels and their sRGB decoding
+ * by gathers, then quad_blend's operations in its order (no FMA: -ffp-contract=off), so the
+ * same bits. t must pass footprint8_ok. */
+__attribute__((target("avx2"))) static void lookup16_soa_avx2(const pgi__texture *t, const float *u, const float *v,
+                                                              float out[3][16]) {
+    const __m256i byte = _mm256_set1_epi32(0xff);
+    const __m256 one = _mm256_set1_ps(1.f);
+    /* every texel of the 16 quads requested before any is decoded: their cache misses overlap */
+    __m256i g[2][4];
+    __m256 tx[2], ty[2];
+    for (int h = 0; h < 2; h++) {
+        __m256i o[4];
+        footprint8(t, _mm256_loadu_ps(u + 8 * h), _mm256_loadu_ps(v + 8 * h), o, &tx[h], &ty[h]);
+        for (int c = 0; c < 4; c++) g[h][c] = _mm256_i32gather_epi32((const int *)(const void *)t->tiled, o[c], 1);
+    }
+    for (int h = 0; h < 2; h++) {
+        const __m256 sx = _mm256_sub_ps(one, tx[h]), sy = _mm256_sub_ps(one, ty[h]);
+        for (int ch = 0; ch < 3; ch++) {
+            __m256 d[4];
+            for (int c = 0; c < 4; c++)
+                d[c] = _mm256_i32gather_ps(pgi__srgb8_texture_lut,
+                                           _mm256_and_si256(_mm256_srli_epi32(g[h][c], 8 * ch), byte), 4);
+            const __m256 top = _mm256_add_ps(_mm256_mul_ps(d[0], sx), _mm256_mul_ps(d[1], tx[h]));
+            const __m256 bot = _mm256_add_ps(_mm256_mul_ps(d[2], sx), _mm256_mul_ps(d[3], tx[h]));
+            _mm256_storeu_ps(out[ch] + 8 * h, _mm256_add_ps(_mm256_mul_ps(top, sy), _mm256_mul_ps(bot, ty[h])));
+        }
+    }
+}
+#endif
+
+void pgi__texture_lookup16_soa(const pgi__texture *t, const float *u, const float *v, float out[3][16]) {
+#ifdef PGI__LOOKUP_AVX2
+    if (pgi__cpu_avx2() && footprint8_ok(t)) {
+        lookup16_soa_avx2(t, u, v, out);
+        return;
+    }
+#endif
+    const pgi__texture *ts[16];
+    pgi__v3 c[16];
+    for (int k = 0; k < 16; k++) ts[k] = t;
+    pgi__texture_lookup_n(ts, u, v, 16, c);
+    for (int k = 0; k < 16; k++) out[0][k] = c[k].x, out[1][k] = c[k].y, out[2][k] = c[k].z;
+}
 
 void pgi__texture_lookup_n(const pgi__texture *const *t, const float *u, const float *v, int n, pgi__v3 *out) {
 #ifdef PGI__LOOKUP_AVX2

@@ -345,6 +345,8 @@ typedef struct tile_hits {
  * texture coordinates (0 without them) and the depth along the camera's forward axis. */
 typedef struct tile_surf {
     float p[3][16], ns[3][16], u[16], v[16], depth[16];
+    float ng[3][16];  /* the record's geometric normal (tile_surfaces_avx2 only) */
+    uint32_t mat[16]; /* the record's material (tile_surfaces_avx2 only) */
 } tile_surf;
 
 /* tile_surf lane by lane with the inline functions: what tile_surfaces_avx2 must equal, and the
@@ -438,7 +440,11 @@ __attribute__((target("avx2"))) static void tile_surfaces_avx2(const pgi_scene *
             const __m256 flip = _mm256_and_ps(_mm256_cmp_ps(d, zero, _CMP_LT_OQ), sign);
             for (int c = 0; c < 3; c++) ns[c] = _mm256_blendv_ps(ng[c], _mm256_xor_ps(n[c], flip), ok);
         }
-        for (int c = 0; c < 3; c++) _mm256_storeu_ps(o->ns[c] + h, ns[c]);
+        for (int c = 0; c < 3; c++) {
+            _mm256_storeu_ps(o->ns[c] + h, ns[c]);
+            _mm256_storeu_ps(o->ng[c] + h, ng[c]);
+        }
+        _mm256_storeu_ps((float *)o->mat + h, lo[3]);
         __m256 u = zero, v = zero;
         if (tr->tri_uv) {
             __m256 q[8];
@@ -456,6 +462,90 @@ __attribute__((target("avx2"))) static void tile_surfaces_avx2(const pgi_scene *
         }
         _mm256_storeu_ps(o->depth + h, dep);
     }
+}
+
+/* Rows a (lanes 0-3 of each component) and b (lanes 4-7) of 4 vectors x, y, z become x0 y0 z0 x1
+ * y1 z1 ... at pa and pb (12 floats each). */
+__attribute__((target("avx2"))) static inline void aos_rows(float *pa, float *pb, __m256 x, __m256 y, __m256 z) {
+    const __m256 t0 = _mm256_unpacklo_ps(x, y), t1 = _mm256_unpackhi_ps(x, y);
+    const __m256 o0 = _mm256_shuffle_ps(t0, _mm256_shuffle_ps(z, x, _MM_SHUFFLE(1, 1, 0, 0)), _MM_SHUFFLE(2, 0, 1, 0));
+    const __m256 o1 = _mm256_shuffle_ps(_mm256_shuffle_ps(y, z, _MM_SHUFFLE(1, 1, 1, 1)), t1, _MM_SHUFFLE(1, 0, 2, 0));
+    const __m256 o2 = _mm256_shuffle_ps(_mm256_shuffle_ps(z, x, _MM_SHUFFLE(3, 3, 2, 2)),
+                                        _mm256_shuffle_ps(y, z, _MM_SHUFFLE(3, 3, 3, 3)), _MM_SHUFFLE(2, 0, 2, 0));
+    _mm_storeu_ps(pa, _mm256_castps256_ps128(o0));
+    _mm_storeu_ps(pa + 4, _mm256_castps256_ps128(o1));
+    _mm_storeu_ps(pa + 8, _mm256_castps256_ps128(o2));
+    _mm_storeu_ps(pb, _mm256_extractf128_ps(o0, 1));
+    _mm_storeu_ps(pb + 4, _mm256_extractf128_ps(o1, 1));
+    _mm_storeu_ps(pb + 8, _mm256_extractf128_ps(o2, 1));
+}
+
+/* The samples of a tile whose 16 lanes are in the image and hit one non-specular material m
+ * (lobe l), written into columns 4 tb.. of blk: what the lane-by-lane path (the lit lanes of
+ * pgi__view_build, put_sample) writes, the same operations eight lanes an instruction, so the
+ * same bits. tk: the texture's colour at each lane, component by component (NULL: untextured). */
+__attribute__((target("avx2"))) static void tile_put_uniform_avx2(view_block *blk, int tb, const tile_surf *ts,
+                                                                  const float dsoa[3][16], const float tk[3][16],
+                                                                  const pgi__material *m, const lobe_cache *l) {
+    const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.f), sign = _mm256_set1_ps(-0.f);
+    /* e = (0, 0, 0) + (1, 1, 1) * ke where the lane sees the emitting side */
+    const float ek[3] = {0.f + 1.f * m->ke[0], 0.f + 1.f * m->ke[1], 0.f + 1.f * m->ke[2]};
+    const uint8_t fl = (uint8_t)(PGI_VS_VALID | PGI_VS_PRIMARY | l->flags);
+    for (int h = 0; h < 16; h += 8) {
+        const int ja = (h >> 2) * BLOCK_W + 4 * tb, jb = ja + BLOCK_W;
+        __m256 wo[3], ng[3], ns[3], kd[3];
+        for (int c = 0; c < 3; c++) {
+            wo[c] = _mm256_xor_ps(_mm256_loadu_ps(dsoa[c] + h), sign);
+            ng[c] = _mm256_loadu_ps(ts->ng[c] + h);
+            ns[c] = _mm256_loadu_ps(ts->ns[c] + h);
+            kd[c] = _mm256_set1_ps(m->kd[c]);
+            if (tk) kd[c] = _mm256_mul_ps(kd[c], _mm256_loadu_ps(tk[c] + h));
+        }
+        const __m256 dot = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(wo[0], ng[0]), _mm256_mul_ps(wo[1], ng[1])),
+                                         _mm256_mul_ps(wo[2], ng[2]));
+        const __m256 front = _mm256_cmp_ps(dot, zero, _CMP_GE_OQ);
+        const __m256 side = _mm256_blendv_ps(_mm256_set1_ps(-1.f), one, front);
+        aos_rows(blk->pos + 3 * ja, blk->pos + 3 * jb, _mm256_loadu_ps(ts->p[0] + h), _mm256_loadu_ps(ts->p[1] + h),
+                 _mm256_loadu_ps(ts->p[2] + h));
+        aos_rows(blk->nrm + 3 * ja, blk->nrm + 3 * jb, _mm256_mul_ps(ns[0], side), _mm256_mul_ps(ns[1], side),
+                 _mm256_mul_ps(ns[2], side));
+        aos_rows(blk->ngeo + 3 * ja, blk->ngeo + 3 * jb, _mm256_mul_ps(ng[0], side), _mm256_mul_ps(ng[1], side),
+                 _mm256_mul_ps(ng[2], side));
+        aos_rows(blk->wo + 3 * ja, blk->wo + 3 * jb, wo[0], wo[1], wo[2]);
+        aos_rows(blk->kd + 3 * ja, blk->kd + 3 * jb, kd[0], kd[1], kd[2]);
+        aos_rows(blk->ks + 3 * ja, blk->ks + 3 * jb, _mm256_set1_ps(l->ks.x), _mm256_set1_ps(l->ks.y),
+                 _mm256_set1_ps(l->ks.z));
+        aos_rows(blk->weight + 3 * ja, blk->weight + 3 * jb, one, one, one);
+        aos_rows(blk->emit + 3 * ja, blk->emit + 3 * jb, _mm256_and_ps(front, _mm256_set1_ps(ek[0])),
+                 _mm256_and_ps(front, _mm256_set1_ps(ek[1])), _mm256_and_ps(front, _mm256_set1_ps(ek[2])));
+        const __m256 dep = _mm256_loadu_ps(ts->depth + h), sh = _mm256_set1_ps(l->sh), eta = _mm256_set1_ps(l->eta);
+        _mm_storeu_ps(blk->depth + ja, _mm256_castps256_ps128(dep));
+        _mm_storeu_ps(blk->depth + jb, _mm256_extractf128_ps(dep, 1));
+        _mm_storeu_ps(blk->shininess + ja, _mm256_castps256_ps128(sh));
+        _mm_storeu_ps(blk->shininess + jb, _mm256_castps256_ps128(sh));
+        _mm_storeu_ps(blk->ior + ja, _mm256_castps256_ps128(eta));
+        _mm_storeu_ps(blk->ior + jb, _mm256_castps256_ps128(eta));
+        memset(blk->flags + ja, fl, 4);
+        memset(blk->flags + jb, fl, 4);
+    }
+}
+
+/* Do the 16 lanes of a tile all lie in the image and hit one material (ts from
+ * tile_surfaces_avx2)? */
+__attribute__((target("avx2"))) static int tile_uniform_avx2(const int valid[16], const tile_hits *hits,
+                                                             const tile_surf *ts) {
+    const __m256i none = _mm256_set1_epi32(-1), zero = _mm256_setzero_si256();
+    const __m256i m0 = _mm256_set1_epi32((int)ts->mat[0]);
+    __m256i bad = zero;
+    for (int h = 0; h < 16; h += 8) {
+        bad = _mm256_or_si256(bad, _mm256_cmpeq_epi32(_mm256_loadu_si256((const __m256i *)(valid + h)), zero));
+        bad = _mm256_or_si256(bad, _mm256_cmpeq_epi32(_mm256_loadu_si256((const __m256i *)(hits->prim + h)), none));
+        bad =
+            _mm256_or_si256(bad,
+                            _mm256_xor_si256(_mm256_cmpeq_epi32(_mm256_loadu_si256((const __m256i *)(ts->mat + h)), m0),
+                                             none));
+    }
+    return _mm256_testz_si256(bad, bad);
 }
 #endif
 
@@ -521,6 +611,20 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
 #endif
                             tile_surfaces(s, tr, &hits, (const float(*)[16])dsoa, eye, fwd, &ts);
                     }
+#if VIEW_AVX2
+                    if (avx2 && any && tile_uniform_avx2(valid, &hits, &ts)) {
+                        const pgi__material *m = &s->mats[ts.mat[0]];
+                        if (!pgi__mat_specular(m)) {
+                            float tk[3][16];
+                            if (m->tex_kd >= 0) /* as pgi__surface_texture */
+                                pgi__texture_lookup16_soa(&s->texs[m->tex_kd], ts.u, ts.v, tk);
+                            tile_put_uniform_avx2(&blk, tb, &ts, (const float(*)[16])dsoa,
+                                                  m->tex_kd >= 0 ? (const float(*)[16])tk : NULL, m, lobe_of(&lc, m));
+                            rays += 16;
+                            continue;
+                        }
+                    }
+#endif
                     pgi__surface sf[16];
                     int lit[16];
                     for (int k = 0; k < 16; k++) {
