@@ -114,27 +114,35 @@ static void test_renderer_reuse(void **state) {
     pgi_renderer_destroy(r);
 }
 
-/* The narrow (SSE) and AVX2 builds picked at run time (view directions, surfaces and texel
- * footprints, the cluster family's subtree and top passes) give the same bytes: renders with
- * pgi__cpu_narrow on and off, at sizes that leave partial tiles and blocks. On a CPU without
- * AVX2 both sides take the narrow builds. */
+/* The narrow (SSE), AVX2 and AVX-512 builds picked at run time (view directions, surfaces,
+ * uniform tiles and texel lookups, the cluster family's subtree and top passes) give the same
+ * bytes: renders with pgi__cpu_narrow and pgi__cpu_no512 on and off, at sizes that leave partial
+ * tiles and blocks. On a CPU without AVX2 (AVX-512F) those sides take the narrower builds. */
 static void narrow_vs_wide(pgi_scene *sc, const char *est, int w, int h, uint32_t photons) {
 #if defined(__x86_64__) || defined(__i386__)
     pgi_render_desc d = {.estimator = est, .width = w, .height = h, .photons = photons, .threads = 2, .seed = 5};
-    pgi_image wide = {0}, narrow = {0};
-    pgi_frame_stats fw, fn;
+    pgi_image wide = {0}, narrow = {0}, avx2 = {0};
+    pgi_frame_stats fw, fn, f2;
     TU_CHECK_OK(pgi_render(sc, &d, &wide, &fw));
     pgi__cpu_narrow = 1;
     pgi_status st = pgi_render(sc, &d, &narrow, &fn);
     pgi__cpu_narrow = 0;
     TU_CHECK_OK(st);
+    pgi__cpu_no512 = 1;
+    st = pgi_render(sc, &d, &avx2, &f2);
+    pgi__cpu_no512 = 0;
+    TU_CHECK_OK(st);
     assert_true(fw.contributing > 0);
     if (memcmp(wide.rgb, narrow.rgb, 3 * (size_t)w * h * sizeof(float)) != 0)
-        fail_msg("%s %dx%d: the narrow builds' image differs from the AVX2 builds'", est, w, h);
+        fail_msg("%s %dx%d: the narrow builds' image differs from the widest builds'", est, w, h);
+    if (memcmp(wide.rgb, avx2.rgb, 3 * (size_t)w * h * sizeof(float)) != 0)
+        fail_msg("%s %dx%d: the AVX2 builds' image differs from the AVX-512 builds'", est, w, h);
     assert_int_equal(fw.nodes_visited, fn.nodes_visited);
     assert_int_equal(fw.reads, fn.reads);
+    assert_int_equal(fw.reads, f2.reads);
     pgi_image_free(&wide);
     pgi_image_free(&narrow);
+    pgi_image_free(&avx2);
 #else
     (void)sc, (void)est, (void)w, (void)h, (void)photons;
 #endif

@@ -5,6 +5,7 @@
 #include "test_util.h"
 
 #include "core/core.h"
+#include "scene/scene_internal.h"
 
 static void test_texture_lut_matches_formula(void **state) {
     (void)state;
@@ -97,9 +98,70 @@ static void test_tonemap_matches_formula(void **state) {
     free(out3);
 }
 
+/* pgi__texture_lookup16_soa (the view pass's lookups of a uniform tile) equals
+ * pgi__texture_lookup lane by lane, bit for bit, in each build the CPU can take (AVX-512 permutes,
+ * AVX2 gathers, the narrow lookups): textures of odd sizes, coordinates anywhere (negative, past
+ * 1, on texel centres and edges, huge, non-finite). */
+static void test_texture_lookup16_builds(void **state) {
+    (void)state;
+    pgi_scene *s = calloc(1, sizeof *s);
+    assert_non_null(s);
+    const int sizes[][2] = {{1, 1}, {3, 5}, {64, 64}, {257, 130}};
+    tu_rng r = tu_rng_make(11);
+    for (size_t t = 0; t < sizeof sizes / sizeof sizes[0]; t++) {
+        const int w = sizes[t][0], h = sizes[t][1];
+        unsigned char *rgba = malloc(4 * (size_t)w * h);
+        assert_non_null(rgba);
+        for (size_t k = 0; k < 4 * (size_t)w * h; k++) rgba[k] = (unsigned char)(tu_next(&r) >> 56);
+        int idx = -1;
+        TU_CHECK_OK(pgi__scene_add_texture(s, w, h, 4, rgba, "test", &idx));
+    }
+    for (size_t t = 0; t < s->ntexs; t++) {
+        const pgi__texture *tex = &s->texs[t];
+        for (int round = 0; round < 200; round++) {
+            float u[16], v[16];
+            for (int k = 0; k < 16; k++) {
+                const int kind = (int)((uint32_t)tu_next(&r) % 8);
+                const float a = tu_unif(&r), b = tu_unif(&r);
+                switch (kind) {
+                case 0: u[k] = a, v[k] = b; break;
+                case 1: u[k] = 4.f * a - 2.f, v[k] = 4.f * b - 2.f; break; /* wrapping */
+                case 2:                                                    /* texel centres and edges */
+                    u[k] = (float)((uint32_t)tu_next(&r) % 64) / (2.f * (float)tex->width);
+                    v[k] = (float)((uint32_t)tu_next(&r) % 64) / (2.f * (float)tex->height);
+                    break;
+                case 3: u[k] = 1e6f * a, v[k] = -3e5f * b; break;
+                case 4: u[k] = NAN, v[k] = b; break;
+                case 5: u[k] = a, v[k] = -INFINITY; break;
+                case 6: u[k] = 1.f, v[k] = 0.f; break;
+                default: u[k] = -0.f, v[k] = 1.f - 1e-7f; break;
+                }
+            }
+            for (int build = 0; build < 3; build++) {
+                pgi__cpu_no512 = build >= 1;
+                pgi__cpu_narrow = build == 2;
+                float out[3][16];
+                pgi__texture_lookup16_soa(tex, u, v, out);
+                pgi__cpu_no512 = pgi__cpu_narrow = 0;
+                for (int k = 0; k < 16; k++) {
+                    const pgi__v3 e = pgi__texture_lookup(tex, u[k], v[k]);
+                    const float ev[3] = {e.x, e.y, e.z};
+                    for (int c = 0; c < 3; c++)
+                        if (memcmp(&out[c][k], &ev[c], sizeof(float)) != 0)
+                            fail_msg("texture %dx%d, build %d, (%g, %g) component %d: %.9g, expected %.9g", tex->width,
+                                     tex->height, build, (double)u[k], (double)v[k], c, (double)out[c][k],
+                                     (double)ev[c]);
+                }
+            }
+        }
+    }
+    pgi_scene_destroy(s);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_texture_lut_matches_formula),
+        cmocka_unit_test(test_texture_lookup16_builds),
         cmocka_unit_test(test_decode_then_tonemap_round_trips),
         cmocka_unit_test(test_tonemap_matches_formula),
     };

@@ -19,6 +19,7 @@ pgi_status pgi__fail(pgi_status s, const char *fmt, ...) {
 
 #if defined(__x86_64__) || defined(__i386__)
 int pgi__cpu_narrow = 0;
+int pgi__cpu_no512 = 0;
 #endif
 
 void pgi__clear_error(void) { g_last_error[0] = 0; }

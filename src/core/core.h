@@ -59,6 +59,13 @@ extern int pgi__cpu_narrow;
 static inline int pgi__cpu_avx2(void) {
     return !pgi__cpu_narrow && __builtin_cpu_supports("avx2") && __builtin_cpu_supports("popcnt");
 }
+/* Whether the few AVX-512 builds (AVX-512F, picked at run time, e.g. the view pass's texture
+ * lookups) may run: pgi__cpu_avx2() and AVX-512F, unless pgi__cpu_no512 = 1 (tests compare them
+ * with the AVX2 builds; set it only while no frame is running). */
+extern int pgi__cpu_no512;
+static inline int pgi__cpu_avx512(void) {
+    return pgi__cpu_avx2() && !pgi__cpu_no512 && __builtin_cpu_supports("avx512f");
+}
 #endif
 
 double pgi__now_ms(void);

@@ -271,10 +271,55 @@ __attribute__((target("avx2"))) static void lookup16_soa_avx2(const pgi__texture
 }
 #endif
 
+#ifdef PGI__LOOKUP_AVX2
+/* The table pgi__srgb8_texture_lut at 16 indices (0..255) from registers: lut[2j], lut[2j+1] hold
+ * entries 32 j .. 32 j + 31, one two-register permute picks by the index's low five bits, its top
+ * three bits pick the permute. */
+__attribute__((target("avx2,avx512f"))) static inline __m512 srgb_decode16(__m512i idx, const __m512 lut[16]) {
+    const __m512i hi = _mm512_srli_epi32(idx, 5);
+    __m512 r = _mm512_permutex2var_ps(lut[0], idx, lut[1]);
+    for (int j = 1; j < 8; j++)
+        r = _mm512_mask_mov_ps(r, _mm512_cmpeq_epi32_mask(hi, _mm512_set1_epi32(j)),
+                               _mm512_permutex2var_ps(lut[2 * j], idx, lut[2 * j + 1]));
+    return r;
+}
+
+/* lookup16_soa_avx2 with 16 lanes a register: the footprints as footprint8, the texels by
+ * 16-wide gathers, their decoding by permutes of the table held in registers instead of
+ * gathers from it, then quad_blend's operations in its order; the same bits. */
+__attribute__((target("avx2,avx512f"))) static void lookup16_soa_avx512(const pgi__texture *t, const float *u,
+                                                                        const float *v, float out[3][16]) {
+    __m512 lut[16];
+    for (int j = 0; j < 16; j++) lut[j] = _mm512_loadu_ps(pgi__srgb8_texture_lut + 16 * j);
+    __m256i o0[4], o1[4];
+    __m256 tx0, ty0, tx1, ty1;
+    footprint8(t, _mm256_loadu_ps(u), _mm256_loadu_ps(v), o0, &tx0, &ty0);
+    footprint8(t, _mm256_loadu_ps(u + 8), _mm256_loadu_ps(v + 8), o1, &tx1, &ty1);
+    __m512i g[4];
+    for (int c = 0; c < 4; c++)
+        g[c] = _mm512_i32gather_epi32(_mm512_inserti64x4(_mm512_castsi256_si512(o0[c]), o1[c], 1),
+                                      (const void *)t->tiled, 1);
+#define JOIN16(a, b)                                                                                                   \
+    _mm512_castpd_ps(_mm512_insertf64x4(_mm512_castpd256_pd512(_mm256_castps_pd(a)), _mm256_castps_pd(b), 1))
+    const __m512 tx = JOIN16(tx0, tx1), ty = JOIN16(ty0, ty1);
+#undef JOIN16
+    const __m512 one = _mm512_set1_ps(1.f), sx = _mm512_sub_ps(one, tx), sy = _mm512_sub_ps(one, ty);
+    const __m512i byte = _mm512_set1_epi32(0xff);
+    for (int ch = 0; ch < 3; ch++) {
+        __m512 d[4];
+        for (int c = 0; c < 4; c++) d[c] = srgb_decode16(_mm512_and_si512(_mm512_srli_epi32(g[c], 8 * ch), byte), lut);
+        const __m512 top = _mm512_add_ps(_mm512_mul_ps(d[0], sx), _mm512_mul_ps(d[1], tx));
+        const __m512 bot = _mm512_add_ps(_mm512_mul_ps(d[2], sx), _mm512_mul_ps(d[3], tx));
+        _mm512_storeu_ps(out[ch], _mm512_add_ps(_mm512_mul_ps(top, sy), _mm512_mul_ps(bot, ty)));
+    }
+}
+#endif
+
 void pgi__texture_lookup16_soa(const pgi__texture *t, const float *u, const float *v, float out[3][16]) {
 #ifdef PGI__LOOKUP_AVX2
     if (pgi__cpu_avx2() && footprint8_ok(t)) {
-        lookup16_soa_avx2(t, u, v, out);
+        if (pgi__cpu_avx512()) lookup16_soa_avx512(t, u, v, out);
+        else lookup16_soa_avx2(t, u, v, out);
         return;
     }
 #endif

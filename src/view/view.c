@@ -283,8 +283,9 @@ static void tile_dirs(const pgi_camera *cam, const pgi__subpixel *sp, int tx, in
 #if VIEW_AVX2
 /* tile_dirs eight lanes an instruction (lanes k..k+7 are rows k/4 and k/4 + 1 of the tile): the
  * same operations in the same order, so the same bits. */
-__attribute__((target("avx2"))) static void tile_dirs_avx2(const pgi_camera *cam, const pgi__subpixel *sp, int tx,
-                                                           int ty, int valid[16], size_t pix[16], float dsoa[3][16]) {
+__attribute__((target("avx2"))) static void tile_dirs_avx2(const pgi_camera *cam, const pgi__subpixel *sp,
+                                                           const float *cu, const float *cv, int tx, int ty,
+                                                           int valid[16], size_t pix[16], float dsoa[3][16]) {
     const __m256 two = _mm256_set1_ps(2.f), one = _mm256_set1_ps(1.f), zero = _mm256_setzero_ps();
     const __m256 w = _mm256_set1_ps((float)cam->width), h = _mm256_set1_ps((float)cam->height);
     const __m256 th = _mm256_set1_ps(cam->tan_half_fov_y), asp = _mm256_set1_ps(cam->aspect);
@@ -307,6 +308,25 @@ __attribute__((target("avx2"))) static void tile_dirs_avx2(const pgi_camera *cam
                                                               w64),
                                              _mm256_cvtepu32_epi64(_mm256_extracti128_si256(px, 1))));
         __m256 fx, fy;
+        if (cu) { /* through the pixel centres: u and v of the column and the row, computed once a frame */
+            __m256 u = _mm256_broadcast_ps((const __m128 *)(const void *)(cu + 4 * tx));
+            __m256 v = _mm256_setr_m128(_mm_set1_ps(cv[4 * ty + (k >> 2)]), _mm_set1_ps(cv[4 * ty + (k >> 2) + 1]));
+            const __m256 inf = _mm256_castsi256_ps(in); /* pixel (0, 0)'s outside the image */
+            u = _mm256_blendv_ps(_mm256_set1_ps(cu[0]), u, inf);
+            v = _mm256_blendv_ps(_mm256_set1_ps(cv[0]), v, inf);
+            __m256 d[3];
+            for (int c = 0; c < 3; c++)
+                d[c] = _mm256_add_ps(_mm256_set1_ps(cam->forward[c]),
+                                     _mm256_add_ps(_mm256_mul_ps(_mm256_set1_ps(cam->right[c]), u),
+                                                   _mm256_mul_ps(_mm256_set1_ps(cam->up[c]), v)));
+            const __m256 l =
+                _mm256_sqrt_ps(_mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(d[0], d[0]), _mm256_mul_ps(d[1], d[1])),
+                                             _mm256_mul_ps(d[2], d[2])));
+            const __m256 pos = _mm256_cmp_ps(l, zero, _CMP_GT_OQ), r = _mm256_div_ps(one, l); /* v3_norm */
+            for (int c = 0; c < 3; c++)
+                _mm256_storeu_ps(dsoa[c] + k, _mm256_blendv_ps(fb[c], _mm256_mul_ps(d[c], r), pos));
+            continue;
+        }
         if (!sp->jitter) { /* pgi__pixel_jitter's pixel centre */
             fx = _mm256_add_ps(_mm256_cvtepi32_ps(px), _mm256_set1_ps(0.5f));
             fy = _mm256_add_ps(_mm256_cvtepi32_ps(py), _mm256_set1_ps(0.5f));
@@ -568,6 +588,20 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
     const float eps = pgi__scene_epsilon(s);
 #if VIEW_AVX2
     const int avx2 = pgi__cpu_avx2();
+    /* Through the pixel centres, a direction's u (tile_dirs_avx2) depends on its column alone and
+     * its v on its row: both computed here once, with the operations of tile_dirs_avx2 (whole
+     * tiles of columns and rows, so that a tile's four read no farther). Without the memory
+     * they are computed lane by lane. */
+    float *cu = NULL, *cv = NULL;
+    if (avx2 && !sp->jitter) {
+        cu = malloc(4 * (((size_t)W + 3) / 4 + (size_t)((H + 3) / 4)) * sizeof(float));
+        if (cu) {
+            cv = cu + 4 * (((size_t)W + 3) / 4);
+            const float w = (float)cam->width, h = (float)cam->height, th = cam->tan_half_fov_y, asp = cam->aspect;
+            for (int x = 0; x < 4 * ((W + 3) / 4); x++) cu[x] = ((2.f * ((float)x + 0.5f)) / w - 1.f) * th * asp;
+            for (int y = 0; y < 4 * ((H + 3) / 4); y++) cv[y] = (1.f - (2.f * ((float)y + 0.5f)) / h) * th;
+        }
+    }
 #endif
     /* 4x4-pixel tiles, one coherent 16-wide packet each (the fastest layout of primary rays:
      * photongi-bench --limits), cast and shaded in turn, BLOCK_TILES of them side by side into
@@ -590,7 +624,7 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
                     float dsoa[3][16];
                     tile_hits hits;
 #if VIEW_AVX2
-                    if (avx2) tile_dirs_avx2(cam, sp, tx, ty, valid, pix, dsoa);
+                    if (avx2) tile_dirs_avx2(cam, sp, cu, cv, tx, ty, valid, pix, dsoa);
                     else
 #endif
                         tile_dirs(cam, sp, tx, ty, valid, pix, dsoa);
@@ -685,6 +719,9 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
         _mm_sfence(); /* the streamed rows are visible to the other threads after the barrier */
 #endif
     }
+#if VIEW_AVX2
+    free(cu);
+#endif
     pgi__trace_scratch_free(&own);
     *rays_out = rays;
     return PGI_OK;
