@@ -63,55 +63,92 @@ static inline int all_bits(const float *p, size_t n, uint32_t v) {
     return acc == 0;
 }
 
+#if VIEW_AVX2
+/* put_floats with 32-byte streaming stores where dst is 32-byte aligned and n a multiple of 8. */
+__attribute__((target("avx2"))) static inline void put_floats_avx2(float *dst, const float *src, size_t n) {
+    if (((uintptr_t)dst & 31u) == 0 && (n & 7u) == 0) {
+        for (size_t k = 0; k < n; k += 8) _mm256_stream_ps(dst + k, _mm256_loadu_ps(src + k));
+        return;
+    }
+    put_floats(dst, src, n);
+}
+
+/* all_bits eight floats an instruction (n a multiple of 8, else all_bits). */
+__attribute__((target("avx2"))) static inline int all_bits_avx2(const float *p, size_t n, uint32_t v) {
+    if (n & 7u) return all_bits(p, n, v);
+    const __m256i want = _mm256_set1_epi32((int)v);
+    __m256i acc = _mm256_setzero_si256();
+    for (size_t k = 0; k < n; k += 8)
+        acc = _mm256_or_si256(acc, _mm256_xor_si256(_mm256_loadu_si256((const __m256i *)(const void *)(p + k)), want));
+    return _mm256_testz_si256(acc, acc);
+}
+#endif
+
 /* Writes rows [0, rows) of a block, n samples each, whose first sample is pixel i0 of the image.
  * fill (NULL: none) is the block's entry of its first row in a pgi__view_fill, `stride` entries
  * a row: a plane whose row holds its defaults there already and receives them again is left
  * alone (a float compares equal to the default's bits only when it is those bytes: -0 is not
- * +0), and each entry then says what its row holds. */
+ * +0), and each entry then says what its row holds. The body of put_block and, where the CPU
+ * has AVX2, of put_block_avx2 (32-byte stores and tests). */
+#define PUT_BLOCK_BODY(PUT, ALL_BITS)                                                                                  \
+    const size_t m = (size_t)n;                                                                                        \
+    for (int r = 0; r < rows; r++) {                                                                                   \
+        size_t i = i0 + (size_t)r * W, j = (size_t)r * BLOCK_W;                                                        \
+        unsigned skip = 0;                                                                                             \
+        if (fill) {                                                                                                    \
+            const unsigned now =                                                                                       \
+                (ALL_BITS(b->ks + 3 * j, 3 * m, 0) && ALL_BITS(b->shininess + j, m, 0) && ALL_BITS(b->ior + j, m, 0)   \
+                     ? PGI__FILL_LOBE                                                                                  \
+                     : 0) |                                                                                            \
+                (ALL_BITS(b->weight + 3 * j, 3 * m, 0x3f800000u) ? PGI__FILL_WEIGHT : 0) |                             \
+                (ALL_BITS(b->emit + 3 * j, 3 * m, 0) ? PGI__FILL_EMIT : 0);                                            \
+            uint8_t *f = fill + (size_t)r * stride;                                                                    \
+            skip = *f & now;                                                                                           \
+            *f = (uint8_t)now;                                                                                         \
+            PUT_BLOCK_CHECK                                                                                            \
+        }                                                                                                              \
+        PUT(vs->pos + 3 * i, b->pos + 3 * j, 3 * m);                                                                   \
+        PUT(vs->nrm + 3 * i, b->nrm + 3 * j, 3 * m);                                                                   \
+        PUT(vs->ngeo + 3 * i, b->ngeo + 3 * j, 3 * m);                                                                 \
+        PUT(vs->wo + 3 * i, b->wo + 3 * j, 3 * m);                                                                     \
+        PUT(vs->kd + 3 * i, b->kd + 3 * j, 3 * m);                                                                     \
+        if (!(skip & PGI__FILL_LOBE)) {                                                                                \
+            PUT(vs->ks + 3 * i, b->ks + 3 * j, 3 * m);                                                                 \
+            PUT(vs->shininess + i, b->shininess + j, m);                                                               \
+            PUT(vs->ior + i, b->ior + j, m);                                                                           \
+        }                                                                                                              \
+        if (!(skip & PGI__FILL_WEIGHT)) PUT(vs->weight + 3 * i, b->weight + 3 * j, 3 * m);                             \
+        if (!(skip & PGI__FILL_EMIT)) PUT(emit + 3 * i, b->emit + 3 * j, 3 * m);                                       \
+        PUT(vs->depth + i, b->depth + j, m);                                                                           \
+        memcpy(vs->flags + i, b->flags + j, m);                                                                        \
+    }
+
+#if defined(__SANITIZE_ADDRESS__) || !defined(NDEBUG)
+/* sanitizer and debug builds: a skipped row holds what the stores would have written (a writer
+ * of the buffers that did not forget the record breaks this) */
+#define PUT_BLOCK_CHECK                                                                                                \
+    if (skip & PGI__FILL_LOBE)                                                                                         \
+        PGI_ASSERT(!memcmp(vs->ks + 3 * i, b->ks + 3 * j, 3 * m * sizeof(float)) &&                                    \
+                   !memcmp(vs->shininess + i, b->shininess + j, m * sizeof(float)) &&                                  \
+                   !memcmp(vs->ior + i, b->ior + j, m * sizeof(float)));                                               \
+    if (skip & PGI__FILL_WEIGHT) PGI_ASSERT(!memcmp(vs->weight + 3 * i, b->weight + 3 * j, 3 * m * sizeof(float)));    \
+    if (skip & PGI__FILL_EMIT) PGI_ASSERT(!memcmp(emit + 3 * i, b->emit + 3 * j, 3 * m * sizeof(float)));
+#else
+#define PUT_BLOCK_CHECK
+#endif
+
 static void put_block(const view_block *b, int rows, int n, size_t i0, size_t W, pgi_view_samples *vs, float *emit,
                       uint8_t *fill, size_t stride) {
-    const size_t m = (size_t)n;
-    for (int r = 0; r < rows; r++) {
-        size_t i = i0 + (size_t)r * W, j = (size_t)r * BLOCK_W;
-        unsigned skip = 0;
-        if (fill) {
-            const unsigned now =
-                (all_bits(b->ks + 3 * j, 3 * m, 0) && all_bits(b->shininess + j, m, 0) && all_bits(b->ior + j, m, 0)
-                     ? PGI__FILL_LOBE
-                     : 0) |
-                (all_bits(b->weight + 3 * j, 3 * m, 0x3f800000u) ? PGI__FILL_WEIGHT : 0) |
-                (all_bits(b->emit + 3 * j, 3 * m, 0) ? PGI__FILL_EMIT : 0);
-            uint8_t *f = fill + (size_t)r * stride;
-            skip = *f & now;
-            *f = (uint8_t)now;
-#if defined(__SANITIZE_ADDRESS__) || !defined(NDEBUG)
-            /* sanitizer and debug builds: a skipped row holds what the stores would have written
-             * (a writer of the buffers that did not forget the record breaks this) */
-            if (skip & PGI__FILL_LOBE)
-                PGI_ASSERT(!memcmp(vs->ks + 3 * i, b->ks + 3 * j, 3 * m * sizeof(float)) &&
-                           !memcmp(vs->shininess + i, b->shininess + j, m * sizeof(float)) &&
-                           !memcmp(vs->ior + i, b->ior + j, m * sizeof(float)));
-            if (skip & PGI__FILL_WEIGHT)
-                PGI_ASSERT(!memcmp(vs->weight + 3 * i, b->weight + 3 * j, 3 * m * sizeof(float)));
-            if (skip & PGI__FILL_EMIT) PGI_ASSERT(!memcmp(emit + 3 * i, b->emit + 3 * j, 3 * m * sizeof(float)));
-#endif
-        }
-        put_floats(vs->pos + 3 * i, b->pos + 3 * j, 3 * m);
-        put_floats(vs->nrm + 3 * i, b->nrm + 3 * j, 3 * m);
-        put_floats(vs->ngeo + 3 * i, b->ngeo + 3 * j, 3 * m);
-        put_floats(vs->wo + 3 * i, b->wo + 3 * j, 3 * m);
-        put_floats(vs->kd + 3 * i, b->kd + 3 * j, 3 * m);
-        if (!(skip & PGI__FILL_LOBE)) {
-            put_floats(vs->ks + 3 * i, b->ks + 3 * j, 3 * m);
-            put_floats(vs->shininess + i, b->shininess + j, m);
-            put_floats(vs->ior + i, b->ior + j, m);
-        }
-        if (!(skip & PGI__FILL_WEIGHT)) put_floats(vs->weight + 3 * i, b->weight + 3 * j, 3 * m);
-        if (!(skip & PGI__FILL_EMIT)) put_floats(emit + 3 * i, b->emit + 3 * j, 3 * m);
-        put_floats(vs->depth + i, b->depth + j, m);
-        memcpy(vs->flags + i, b->flags + j, m);
-    }
+    PUT_BLOCK_BODY(put_floats, all_bits)
 }
+
+#if VIEW_AVX2
+__attribute__((target("avx2"))) static void put_block_avx2(const view_block *b, int rows, int n, size_t i0, size_t W,
+                                                           pgi_view_samples *vs, float *emit, uint8_t *fill,
+                                                           size_t stride) {
+    PUT_BLOCK_BODY(put_floats_avx2, all_bits_avx2)
+}
+#endif
 
 void pgi__view_fill_free(pgi__view_fill *f) {
     free(f->rows);
@@ -711,8 +748,13 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
                 }
                 const int px0 = bx * BLOCK_W, py0 = 4 * ty;
                 const int n = W - px0 < BLOCK_W ? W - px0 : BLOCK_W, rows = H - py0 < 4 ? H - py0 : 4;
-                put_block(&blk, rows, n, (size_t)py0 * (size_t)W + (size_t)px0, (size_t)W, vs, emit,
-                          fill_rows ? fill_rows + (size_t)py0 * fill_cols + (size_t)bx : NULL, fill_cols);
+                uint8_t *const fr = fill_rows ? fill_rows + (size_t)py0 * fill_cols + (size_t)bx : NULL;
+                const size_t i0 = (size_t)py0 * (size_t)W + (size_t)px0;
+#if VIEW_AVX2
+                if (avx2) put_block_avx2(&blk, rows, n, i0, (size_t)W, vs, emit, fr, fill_cols);
+                else
+#endif
+                    put_block(&blk, rows, n, i0, (size_t)W, vs, emit, fr, fill_cols);
             }
         }
 #if defined(__SSE2__)
