@@ -258,8 +258,18 @@ pgi__v3 pgi__texture_lookup(const pgi__texture *t, float u, float v);
 #define PGI__TEXTURE_LOOKUP_N 16
 void pgi__texture_lookup_n(const pgi__texture *const *t, const float *u, const float *v, int n, pgi__v3 *out);
 /* 16 lookups on one texture t, out[c][k] = component c of pgi__texture_lookup(t, u[k], v[k]) bit for
- * bit (gathers where the CPU has AVX2). */
+ * bit (vectorised where the CPU has AVX2: the two steps below). */
 void pgi__texture_lookup16_soa(const pgi__texture *t, const float *u, const float *v, float out[3][16]);
+/* pgi__texture_lookup16_soa in two steps, so that the texels' cache misses can pass while other
+ * work is done: pgi__texture_quads16 finds the 16 quads (byte offsets into t->tiled and weights)
+ * and requests their texels, or returns 0 where the CPU (AVX2) or t cannot (then use
+ * pgi__texture_lookup16_soa); pgi__texture_quads16_lookup later blends them, the same bits. */
+typedef struct pgi__texel_quads16 {
+    int32_t o[4][16]; /* texels (x0, y0), (x1, y0), (x0, y1), (x1, y1) of lookup k: t->tiled + o[c][k] */
+    float tx[16], ty[16];
+} pgi__texel_quads16;
+int pgi__texture_quads16(const pgi__texture *t, const float *u, const float *v, pgi__texel_quads16 *q);
+void pgi__texture_quads16_lookup(const pgi__texture *t, const pgi__texel_quads16 *q, float out[3][16]);
 /* Alpha channel (0..1, linear), bilinear and wrapping as pgi__texture_lookup; 1 without a texture. */
 float pgi__texture_alpha(const pgi__texture *t, float u, float v);
 /* 1 when the point at barycentrics (b1, b2) of triangle `tri` is cut out by its material's mask

@@ -241,37 +241,52 @@ __attribute__((target("avx2"))) static void lookup_n_avx2(const pgi__texture *co
 #endif
 
 #ifdef PGI__LOOKUP_AVX2
-/* pgi__texture_lookup16_soa eight lanes an instruction: the quads' texels and their sRGB decoding
- * by gathers, then quad_blend's operations in its order (no FMA: -ffp-contract=off), so the
- * same bits. t must pass footprint8_ok. */
-__attribute__((target("avx2"))) static void lookup16_soa_avx2(const pgi__texture *t, const float *u, const float *v,
-                                                              float out[3][16]) {
+/* pgi__texture_quads16's footprints (footprint8) of 16 lookups: offsets and weights stored, two
+ * texels of each quad (its corners, which lie in the lines of the other two unless the quad
+ * straddles a block on both axes) requested. */
+__attribute__((target("avx2"))) static void quads16_avx2(const pgi__texture *t, const float *u, const float *v,
+                                                         pgi__texel_quads16 *q) {
+    for (int h = 0; h < 16; h += 8) {
+        __m256i o[4];
+        __m256 tx, ty;
+        footprint8(t, _mm256_loadu_ps(u + h), _mm256_loadu_ps(v + h), o, &tx, &ty);
+        for (int c = 0; c < 4; c++) _mm256_storeu_si256((__m256i *)(void *)(q->o[c] + h), o[c]);
+        _mm256_storeu_ps(q->tx + h, tx);
+        _mm256_storeu_ps(q->ty + h, ty);
+    }
+    for (int k = 0; k < 16; k++) {
+        __builtin_prefetch(t->tiled + q->o[0][k]);
+        __builtin_prefetch(t->tiled + q->o[3][k]);
+    }
+}
+
+/* pgi__texture_quads16_lookup eight lanes an instruction: the quads' texels and their sRGB
+ * decoding by gathers, then quad_blend's operations in its order (no FMA: -ffp-contract=off),
+ * so the same bits. */
+__attribute__((target("avx2"))) static void quads16_lookup_avx2(const pgi__texture *t, const pgi__texel_quads16 *q,
+                                                                float out[3][16]) {
     const __m256i byte = _mm256_set1_epi32(0xff);
     const __m256 one = _mm256_set1_ps(1.f);
-    /* every texel of the 16 quads requested before any is decoded: their cache misses overlap */
-    __m256i g[2][4];
-    __m256 tx[2], ty[2];
+    __m256i g[2][4]; /* every texel requested before any is decoded: their cache misses overlap */
+    for (int h = 0; h < 2; h++)
+        for (int c = 0; c < 4; c++)
+            g[h][c] = _mm256_i32gather_epi32((const int *)(const void *)t->tiled,
+                                             _mm256_loadu_si256((const __m256i *)(const void *)(q->o[c] + 8 * h)), 1);
     for (int h = 0; h < 2; h++) {
-        __m256i o[4];
-        footprint8(t, _mm256_loadu_ps(u + 8 * h), _mm256_loadu_ps(v + 8 * h), o, &tx[h], &ty[h]);
-        for (int c = 0; c < 4; c++) g[h][c] = _mm256_i32gather_epi32((const int *)(const void *)t->tiled, o[c], 1);
-    }
-    for (int h = 0; h < 2; h++) {
-        const __m256 sx = _mm256_sub_ps(one, tx[h]), sy = _mm256_sub_ps(one, ty[h]);
+        const __m256 tx = _mm256_loadu_ps(q->tx + 8 * h), ty = _mm256_loadu_ps(q->ty + 8 * h);
+        const __m256 sx = _mm256_sub_ps(one, tx), sy = _mm256_sub_ps(one, ty);
         for (int ch = 0; ch < 3; ch++) {
             __m256 d[4];
             for (int c = 0; c < 4; c++)
                 d[c] = _mm256_i32gather_ps(pgi__srgb8_texture_lut,
                                            _mm256_and_si256(_mm256_srli_epi32(g[h][c], 8 * ch), byte), 4);
-            const __m256 top = _mm256_add_ps(_mm256_mul_ps(d[0], sx), _mm256_mul_ps(d[1], tx[h]));
-            const __m256 bot = _mm256_add_ps(_mm256_mul_ps(d[2], sx), _mm256_mul_ps(d[3], tx[h]));
-            _mm256_storeu_ps(out[ch] + 8 * h, _mm256_add_ps(_mm256_mul_ps(top, sy), _mm256_mul_ps(bot, ty[h])));
+            const __m256 top = _mm256_add_ps(_mm256_mul_ps(d[0], sx), _mm256_mul_ps(d[1], tx));
+            const __m256 bot = _mm256_add_ps(_mm256_mul_ps(d[2], sx), _mm256_mul_ps(d[3], tx));
+            _mm256_storeu_ps(out[ch] + 8 * h, _mm256_add_ps(_mm256_mul_ps(top, sy), _mm256_mul_ps(bot, ty)));
         }
     }
 }
-#endif
 
-#ifdef PGI__LOOKUP_AVX2
 /* The table pgi__srgb8_texture_lut at 16 indices (0..255) from registers: lut[2j], lut[2j+1] hold
  * entries 32 j .. 32 j + 31, one two-register permute picks by the index's low five bits, its top
  * three bits pick the permute. */
@@ -284,25 +299,16 @@ __attribute__((target("avx2,avx512f"))) static inline __m512 srgb_decode16(__m51
     return r;
 }
 
-/* lookup16_soa_avx2 with 16 lanes a register: the footprints as footprint8, the texels by
- * 16-wide gathers, their decoding by permutes of the table held in registers instead of
- * gathers from it, then quad_blend's operations in its order; the same bits. */
-__attribute__((target("avx2,avx512f"))) static void lookup16_soa_avx512(const pgi__texture *t, const float *u,
-                                                                        const float *v, float out[3][16]) {
-    __m512 lut[16];
-    for (int j = 0; j < 16; j++) lut[j] = _mm512_loadu_ps(pgi__srgb8_texture_lut + 16 * j);
-    __m256i o0[4], o1[4];
-    __m256 tx0, ty0, tx1, ty1;
-    footprint8(t, _mm256_loadu_ps(u), _mm256_loadu_ps(v), o0, &tx0, &ty0);
-    footprint8(t, _mm256_loadu_ps(u + 8), _mm256_loadu_ps(v + 8), o1, &tx1, &ty1);
+/* quads16_lookup_avx2 with 16 lanes a register: 16-wide gathers of the texels, their decoding by
+ * permutes of the table held in registers instead of gathers from it; the same bits. */
+__attribute__((target("avx2,avx512f"))) static void
+quads16_lookup_avx512(const pgi__texture *t, const pgi__texel_quads16 *q, float out[3][16]) {
     __m512i g[4];
     for (int c = 0; c < 4; c++)
-        g[c] = _mm512_i32gather_epi32(_mm512_inserti64x4(_mm512_castsi256_si512(o0[c]), o1[c], 1),
-                                      (const void *)t->tiled, 1);
-#define JOIN16(a, b)                                                                                                   \
-    _mm512_castpd_ps(_mm512_insertf64x4(_mm512_castpd256_pd512(_mm256_castps_pd(a)), _mm256_castps_pd(b), 1))
-    const __m512 tx = JOIN16(tx0, tx1), ty = JOIN16(ty0, ty1);
-#undef JOIN16
+        g[c] = _mm512_i32gather_epi32(_mm512_loadu_si512((const void *)q->o[c]), (const void *)t->tiled, 1);
+    __m512 lut[16];
+    for (int j = 0; j < 16; j++) lut[j] = _mm512_loadu_ps(pgi__srgb8_texture_lut + 16 * j);
+    const __m512 tx = _mm512_loadu_ps(q->tx), ty = _mm512_loadu_ps(q->ty);
     const __m512 one = _mm512_set1_ps(1.f), sx = _mm512_sub_ps(one, tx), sy = _mm512_sub_ps(one, ty);
     const __m512i byte = _mm512_set1_epi32(0xff);
     for (int ch = 0; ch < 3; ch++) {
@@ -315,14 +321,32 @@ __attribute__((target("avx2,avx512f"))) static void lookup16_soa_avx512(const pg
 }
 #endif
 
-void pgi__texture_lookup16_soa(const pgi__texture *t, const float *u, const float *v, float out[3][16]) {
+int pgi__texture_quads16(const pgi__texture *t, const float *u, const float *v, pgi__texel_quads16 *q) {
 #ifdef PGI__LOOKUP_AVX2
     if (pgi__cpu_avx2() && footprint8_ok(t)) {
-        if (pgi__cpu_avx512()) lookup16_soa_avx512(t, u, v, out);
-        else lookup16_soa_avx2(t, u, v, out);
-        return;
+        quads16_avx2(t, u, v, q);
+        return 1;
     }
 #endif
+    (void)t, (void)u, (void)v, (void)q;
+    return 0;
+}
+
+void pgi__texture_quads16_lookup(const pgi__texture *t, const pgi__texel_quads16 *q, float out[3][16]) {
+#ifdef PGI__LOOKUP_AVX2
+    if (pgi__cpu_avx512()) quads16_lookup_avx512(t, q, out);
+    else quads16_lookup_avx2(t, q, out);
+#else
+    (void)t, (void)q, (void)out;
+#endif
+}
+
+void pgi__texture_lookup16_soa(const pgi__texture *t, const float *u, const float *v, float out[3][16]) {
+    pgi__texel_quads16 q;
+    if (pgi__texture_quads16(t, u, v, &q)) {
+        pgi__texture_quads16_lookup(t, &q, out);
+        return;
+    }
     const pgi__texture *ts[16];
     pgi__v3 c[16];
     for (int k = 0; k < 16; k++) ts[k] = t;

@@ -406,10 +406,25 @@ typedef struct tile_surf {
     uint32_t mat[16]; /* the record's material (tile_surfaces_avx2 only) */
 } tile_surf;
 
+/* A tile between the view pass's two sweeps (pgi__view_build): its lanes (tile_dirs), hits and
+ * surfaces, and whether all 16 lanes hit one non-specular material (then shaded eight lanes an
+ * instruction, tile_put_uniform_avx2) whose texels have been requested (q). */
+typedef struct view_tile {
+    int valid[16];
+    size_t pix[16];
+    float dsoa[3][16];
+    tile_hits hits;
+    tile_surf ts;
+    int any;                  /* a lane hit something (else ts is not set) */
+    const pgi__material *uni; /* NULL: shade lane by lane */
+    int quads;                /* q holds uni's texture's quads */
+    pgi__texel_quads16 q;
+} view_tile;
+
 /* tile_surf lane by lane with the inline functions: what tile_surfaces_avx2 must equal, and the
  * build for processors without AVX2. */
 static void tile_surfaces(const pgi_scene *s, const pgi__trace_scratch *tr, const tile_hits *hits,
-                          const float dsoa[3][16], pgi__v3 eye, pgi__v3 fwd, tile_surf *o) {
+                          const float (*dsoa)[16], pgi__v3 eye, pgi__v3 fwd, tile_surf *o) {
     for (int k = 0; k < 16; k++) {
         if (hits->prim[k] == UINT32_MAX) continue;
         pgi__surface sf;
@@ -455,7 +470,7 @@ __attribute__((target("avx2"))) static inline void transpose8(__m256 r[8]) {
  * pgi__trace_tri_uv's operations in their order, without FMA (-ffp-contract=off; packed IEEE
  * results equal the scalar ones), so the same bits. Lanes without a hit read record 0. */
 __attribute__((target("avx2"))) static void tile_surfaces_avx2(const pgi_scene *s, const pgi__trace_scratch *tr,
-                                                               const tile_hits *hits, const float dsoa[3][16],
+                                                               const tile_hits *hits, const float (*dsoa)[16],
                                                                pgi__v3 eye, pgi__v3 fwd, tile_surf *o) {
     const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.f), inf = _mm256_set1_ps(INFINITY);
     const __m256 sign = _mm256_set1_ps(-0.f);
@@ -542,7 +557,7 @@ __attribute__((target("avx2"))) static inline void aos_rows(float *pa, float *pb
  * pgi__view_build, put_sample) writes, the same operations eight lanes an instruction, so the
  * same bits. tk: the texture's colour at each lane, component by component (NULL: untextured). */
 __attribute__((target("avx2"))) static void tile_put_uniform_avx2(view_block *blk, int tb, const tile_surf *ts,
-                                                                  const float dsoa[3][16], const float tk[3][16],
+                                                                  const float (*dsoa)[16], const float tk[3][16],
                                                                   const pgi__material *m, const lobe_cache *l) {
     const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.f), sign = _mm256_set1_ps(-0.f);
     /* e = (0, 0, 0) + (1, 1, 1) * ke where the lane sees the emitting side */
@@ -650,75 +665,92 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
     {
         view_block blk;
         lobe_cache lc = {0};
+        view_tile vt[BLOCK_TILES];
 #pragma omp for schedule(dynamic, 1)
         for (int ty = 0; ty < tiles_y; ty++) {
             for (int bx = 0; bx < blocks_x; bx++) {
-                for (int tb = 0; tb < BLOCK_TILES; tb++) {
+                const int ntb = tiles_x - bx * BLOCK_TILES < BLOCK_TILES ? tiles_x - bx * BLOCK_TILES : BLOCK_TILES;
+                /* Two sweeps over the block's tiles: each tile's packet is cast and its surfaces found,
+                 * and where all its lanes hit one textured material its texels are requested; then
+                 * the tiles are shaded, by when those texels have arrived (the casts of the tiles
+                 * between took their cache misses' time). */
+                for (int tb = 0; tb < ntb; tb++) {
+                    view_tile *const T = &vt[tb];
                     const int tx = bx * BLOCK_TILES + tb;
-                    if (tx >= tiles_x) break;
-                    int valid[16];
-                    size_t pix[16];
-                    float dsoa[3][16];
-                    tile_hits hits;
 #if VIEW_AVX2
-                    if (avx2) tile_dirs_avx2(cam, sp, cu, cv, tx, ty, valid, pix, dsoa);
+                    if (avx2) tile_dirs_avx2(cam, sp, cu, cv, tx, ty, T->valid, T->pix, T->dsoa);
                     else
 #endif
-                        tile_dirs(cam, sp, tx, ty, valid, pix, dsoa);
-                    const float *const dirs[3] = {dsoa[0], dsoa[1], dsoa[2]};
-                    pgi__rt_intersect16_soa(rt, valid, eye, dirs, hits.t, hits.u, hits.v, hits.prim);
-                    /* Lanes whose primary hit is non-specular (nearly all) are shaded here in
-                     * sweeps over the packet: the surfaces of all hits (tile_surfaces), their
-                     * materials, then the 16 texture lookups one after the other (independent:
-                     * their cache misses overlap), then the samples. The others (sky, mirrors,
-                     * glass) follow their eye paths. */
+                        tile_dirs(cam, sp, tx, ty, T->valid, T->pix, T->dsoa);
+                    const float *const dirs[3] = {T->dsoa[0], T->dsoa[1], T->dsoa[2]};
+                    tile_hits *const hits = &T->hits;
+                    pgi__rt_intersect16_soa(rt, T->valid, eye, dirs, hits->t, hits->u, hits->v, hits->prim);
                     int any = 0;
-                    for (int k = 0; k < 16; k++) any |= hits.prim[k] != UINT32_MAX;
-                    tile_surf ts;
-                    if (any) {
+                    for (int k = 0; k < 16; k++) any |= hits->prim[k] != UINT32_MAX;
+                    T->any = any;
+                    T->uni = NULL;
+                    if (!any) continue;
 #if VIEW_AVX2
-                        if (avx2) tile_surfaces_avx2(s, tr, &hits, (const float(*)[16])dsoa, eye, fwd, &ts);
-                        else
-#endif
-                            tile_surfaces(s, tr, &hits, (const float(*)[16])dsoa, eye, fwd, &ts);
-                    }
-#if VIEW_AVX2
-                    if (avx2 && any && tile_uniform_avx2(valid, &hits, &ts)) {
-                        const pgi__material *m = &s->mats[ts.mat[0]];
-                        if (!pgi__mat_specular(m)) {
-                            float tk[3][16];
-                            if (m->tex_kd >= 0) /* as pgi__surface_texture */
-                                pgi__texture_lookup16_soa(&s->texs[m->tex_kd], ts.u, ts.v, tk);
-                            tile_put_uniform_avx2(&blk, tb, &ts, (const float(*)[16])dsoa,
-                                                  m->tex_kd >= 0 ? (const float(*)[16])tk : NULL, m, lobe_of(&lc, m));
-                            rays += 16;
-                            continue;
+                    if (avx2) {
+                        tile_surfaces_avx2(s, tr, hits, (const float(*)[16])T->dsoa, eye, fwd, &T->ts);
+                        if (tile_uniform_avx2(T->valid, hits, &T->ts)) {
+                            const pgi__material *m = &s->mats[T->ts.mat[0]];
+                            if (!pgi__mat_specular(m)) {
+                                T->uni = m;
+                                T->quads = m->tex_kd >= 0 &&
+                                           pgi__texture_quads16(&s->texs[m->tex_kd], T->ts.u, T->ts.v, &T->q);
+                            }
                         }
+                        continue;
                     }
 #endif
+                    tile_surfaces(s, tr, hits, (const float(*)[16])T->dsoa, eye, fwd, &T->ts);
+                }
+                for (int tb = 0; tb < ntb; tb++) {
+                    view_tile *const T = &vt[tb];
+                    const tile_hits *const hits = &T->hits;
+                    const tile_surf *const ts = &T->ts;
+#if VIEW_AVX2
+                    if (T->uni) {
+                        const pgi__material *m = T->uni;
+                        float tk[3][16];
+                        if (m->tex_kd >= 0) { /* as pgi__surface_texture */
+                            if (T->quads) pgi__texture_quads16_lookup(&s->texs[m->tex_kd], &T->q, tk);
+                            else pgi__texture_lookup16_soa(&s->texs[m->tex_kd], ts->u, ts->v, tk);
+                        }
+                        tile_put_uniform_avx2(&blk, tb, ts, (const float(*)[16])T->dsoa,
+                                              m->tex_kd >= 0 ? (const float(*)[16])tk : NULL, m, lobe_of(&lc, m));
+                        rays += 16;
+                        continue;
+                    }
+#endif
+                    /* Lanes whose primary hit is non-specular (nearly all) are shaded here in
+                     * sweeps over the packet: their materials, then the 16 texture lookups one after
+                     * the other (independent: their cache misses overlap), then the samples. The
+                     * others (sky, mirrors, glass) follow their eye paths. */
                     pgi__surface sf[16];
                     int lit[16];
                     for (int k = 0; k < 16; k++) {
                         lit[k] = 0;
-                        if (!valid[k]) continue;
+                        if (!T->valid[k]) continue;
                         rays++;
                         const int j = (k >> 2) * BLOCK_W + 4 * tb + (k & 3);
-                        if (hits.prim[k] != UINT32_MAX) {
+                        if (hits->prim[k] != UINT32_MAX) {
                             /* pgi__scene_surface_untextured from the triangle's record: the same bits */
-                            pgi__trace_tri_geometry(s, &tr->tris[hits.prim[k]], v3(ts.p[0][k], ts.p[1][k], ts.p[2][k]),
-                                                    &sf[k]);
+                            pgi__trace_tri_geometry(s, &tr->tris[hits->prim[k]],
+                                                    v3(ts->p[0][k], ts->p[1][k], ts->p[2][k]), &sf[k]);
                             if (!pgi__mat_specular(sf[k].mat)) {
-                                sf[k].ns = v3(ts.ns[0][k], ts.ns[1][k], ts.ns[2][k]);
-                                sf[k].u = ts.u[k];
-                                sf[k].v = ts.v[k];
+                                sf[k].ns = v3(ts->ns[0][k], ts->ns[1][k], ts->ns[2][k]);
+                                sf[k].u = ts->u[k];
+                                sf[k].v = ts->v[k];
                                 sf[k].kd = v3_load(sf[k].mat->kd);
                                 lit[k] = 1;
                                 continue;
                             }
                         }
-                        const pgi__hit h = {hits.t[k], hits.u[k], hits.v[k], hits.prim[k]};
-                        shade_eye_path(s, rt, cam, seed, eps, pix[k], eye, v3(dsoa[0][k], dsoa[1][k], dsoa[2][k]), h,
-                                       &blk, j, &lc, &rays);
+                        const pgi__hit h = {hits->t[k], hits->u[k], hits->v[k], hits->prim[k]};
+                        shade_eye_path(s, rt, cam, seed, eps, T->pix[k], eye,
+                                       v3(T->dsoa[0][k], T->dsoa[1][k], T->dsoa[2][k]), h, &blk, j, &lc, &rays);
                     }
                     const pgi__texture *tex[16];
                     float tu[16], tv[16];
@@ -727,8 +759,8 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
                     for (int k = 0; k < 16; k++)
                         if (lit[k] && sf[k].mat->tex_kd >= 0) { /* as pgi__surface_texture */
                             tex[nt] = &s->texs[sf[k].mat->tex_kd];
-                            tu[nt] = ts.u[k];
-                            tv[nt] = ts.v[k];
+                            tu[nt] = ts->u[k];
+                            tv[nt] = ts->v[k];
                             lane[nt++] = k;
                         }
                     pgi__texture_lookup_n(tex, tu, tv, nt, texc);
@@ -736,13 +768,13 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
                     for (int k = 0; k < 16; k++) {
                         if (!lit[k]) continue;
                         const int j = (k >> 2) * BLOCK_W + 4 * tb + (k & 3);
-                        pgi__v3 wo = v3_neg(v3(dsoa[0][k], dsoa[1][k], dsoa[2][k]));
+                        pgi__v3 wo = v3_neg(v3(T->dsoa[0][k], T->dsoa[1][k], T->dsoa[2][k]));
                         float side = v3_dot(wo, sf[k].ng) >= 0.f ? 1.f : -1.f;
                         /* as shade_eye_path at depth 0: the same operations, the same bits */
                         pgi__v3 e = v3(0.f, 0.f, 0.f);
                         if (side > 0.f) e = v3_add(e, v3_mul(v3(1.f, 1.f, 1.f), v3_load(sf[k].mat->ke)));
                         put_sample(&blk, j, &sf[k], wo, side, v3(1.f, 1.f, 1.f), 1, &lc);
-                        blk.depth[j] = ts.depth[k];
+                        blk.depth[j] = ts->depth[k];
                         v3_store(blk.emit + 3 * j, e);
                     }
                 }
