@@ -1045,6 +1045,25 @@ static inline int weight_one(const weight_rows *one, int y, int x) {
     return one->rows && (one->rows[(size_t)y * one->cols + (size_t)(x / PGI__FILL_W)] & PGI__FILL_WEIGHT);
 }
 
+#if VIEW_AVX2
+/* composite's loop over whole groups of eight floats from i0; returns where it stopped. */
+__attribute__((target("avx2"))) static size_t composite_avx2(float *out, const float *w, const float *emit,
+                                                             const float *indirect, size_t i0, size_t i1,
+                                                             pgi_output output, int one, int zero) {
+    size_t i = i0;
+    for (; i + 8 <= i1; i += 8) {
+        const __m256 in = _mm256_loadu_ps(indirect + i);
+        const __m256 ind = one ? in : _mm256_mul_ps(_mm256_loadu_ps(w + i), in);
+        const __m256 dir =
+            _mm256_add_ps(zero ? _mm256_setzero_ps() : _mm256_loadu_ps(emit + i), _mm256_loadu_ps(out + i));
+        _mm256_storeu_ps(out + i, output == PGI_OUTPUT_INDIRECT ? ind
+                                  : output == PGI_OUTPUT_DIRECT ? dir
+                                                                : _mm256_add_ps(dir, ind));
+    }
+    return i;
+}
+#endif
+
 /* The image's floats [i0, i1) from the direct light out holds there (the weight applied): emitted +
  * direct light, plus the weight times the indirect light (output picks the parts);
  * `fill` holds the pgi__view_fill bits of these pixels: where the weights are known to be 1 or the
@@ -1053,6 +1072,10 @@ static inline int weight_one(const weight_rows *one, int y, int x) {
 static void composite(float *out, const float *w, const float *emit, const float *indirect, size_t i0, size_t i1,
                       pgi_output output, unsigned fill) {
     const int one = (fill & PGI__FILL_WEIGHT) != 0, zero = (fill & PGI__FILL_EMIT) != 0;
+#if VIEW_AVX2
+    /* the same operations eight floats an instruction (gcc left this loop scalar) */
+    if (pgi__cpu_avx2()) i0 = composite_avx2(out, w, emit, indirect, i0, i1, output, one, zero);
+#endif
     for (size_t i = i0; i < i1; i++) {
         float ind = one ? indirect[i] : w[i] * indirect[i];
         float dir = (zero ? 0.f : emit[i]) + out[i];
