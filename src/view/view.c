@@ -1083,6 +1083,53 @@ static void composite(float *out, const float *w, const float *emit, const float
     }
 }
 
+#if VIEW_AVX2
+/* The lanes of tile (tx, ty), which lies whole in the image: when all 16 samples are valid,
+ * sets them up as pgi__direct's lane loop does (pixels, on, not ready, x = p + eps ng, ns, ng:
+ * the same operations, each row's 12 floats of a plane turned into components by shuffles)
+ * and returns 1; else 0, and t is left for that loop. */
+__attribute__((target("avx2"))) static int dtile_full_avx2(const pgi_view_samples *vs, int W, int tx, int ty, float eps,
+                                                           dtile *t) {
+    const size_t i0 = (size_t)(4 * ty) * (size_t)W + (size_t)(4 * tx);
+    uint32_t all = 0x01010101u * PGI_VS_VALID, f = all;
+    for (int r = 0; r < 4; r++) {
+        uint32_t b;
+        memcpy(&b, vs->flags + i0 + (size_t)r * (size_t)W, 4);
+        f &= b;
+    }
+    if ((f & all) != all) return 0;
+    const __m256 e = _mm256_set1_ps(eps);
+    for (int h = 0; h < 2; h++) {
+        const size_t ia = i0 + (size_t)(2 * h) * (size_t)W, ib = ia + (size_t)W;
+        __m256 c[3][3]; /* plane (pos, nrm, ngeo), component */
+        const float *planes[3] = {vs->pos, vs->nrm, vs->ngeo};
+        for (int pl = 0; pl < 3; pl++) {
+            const float *a = planes[pl] + 3 * ia, *b = planes[pl] + 3 * ib;
+            const __m256 o0 = _mm256_setr_m128(_mm_loadu_ps(a), _mm_loadu_ps(b));
+            const __m256 o1 = _mm256_setr_m128(_mm_loadu_ps(a + 4), _mm_loadu_ps(b + 4));
+            const __m256 o2 = _mm256_setr_m128(_mm_loadu_ps(a + 8), _mm_loadu_ps(b + 8));
+            /* (x0 y0 z0 x1) (y1 z1 x2 y2) (z2 x3 y3 z3) -> (x0..x3) (y0..y3) (z0..z3), per half */
+            const __m256 q = _mm256_shuffle_ps(o1, o2, _MM_SHUFFLE(2, 1, 3, 2)); /* x2 y2 x3 y3 */
+            const __m256 u = _mm256_shuffle_ps(o0, o1, _MM_SHUFFLE(1, 0, 2, 1)); /* y0 z0 y1 z1 */
+            c[pl][0] = _mm256_shuffle_ps(o0, q, _MM_SHUFFLE(2, 0, 3, 0));
+            c[pl][1] = _mm256_shuffle_ps(u, q, _MM_SHUFFLE(3, 1, 2, 0));
+            c[pl][2] = _mm256_shuffle_ps(u, o2, _MM_SHUFFLE(3, 0, 3, 1));
+        }
+        for (int k = 0; k < 3; k++) {
+            _mm256_storeu_ps(t->xs[k] + 8 * h, _mm256_add_ps(c[0][k], _mm256_mul_ps(c[2][k], e)));
+            _mm256_storeu_ps(t->nss[k] + 8 * h, c[1][k]);
+            _mm256_storeu_ps(t->ngs[k] + 8 * h, c[2][k]);
+        }
+    }
+    for (int k = 0; k < 16; k++) {
+        t->pix[k] = i0 + (size_t)(k >> 2) * (size_t)W + (size_t)(k & 3);
+        t->ready[k] = 0;
+        t->on[k] = 1;
+    }
+    return 1;
+}
+#endif
+
 pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_samples *vs, const pgi__view_fill *fill,
                        const pgi__direct_sum *sum, int area_samples, uint64_t seed, int threads, float *out,
                        uint64_t *rays_out) {
@@ -1102,6 +1149,9 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
      * photongi-bench --limits). Every pixel keeps its own RNG stream and its sums run in the
      * order of the lights and samples, as a pixel-by-pixel loop would. */
     const int tiles_x = (W + 3) / 4, tiles_y = (H + 3) / 4;
+#if VIEW_AVX2
+    const int avx2 = pgi__cpu_avx2();
+#endif
 #pragma omp parallel for schedule(dynamic, 1) reduction(+ : rays) num_threads(pgi__threads(threads))
     for (int ty = 0; ty < tiles_y; ty++) {
         dtile t;
@@ -1110,44 +1160,50 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
             int any = 0;
             if (DIRECT_PREFETCH && tx + DIRECT_PREFETCH < tiles_x)
                 PREFETCH_TILE(vs, out, &one, tx + DIRECT_PREFETCH, ty);
-            for (int k = 0; k < 16; k++) {
-                int px, py;
-                int on = tile_lane(tx, ty, k, W, H, &px, &py);
-                size_t i = on ? (size_t)py * (size_t)W + (size_t)px : 0;
-                t.pix[k] = i;
-                t.ready[k] = 0;
-                L[k] = v3(0.f, 0.f, 0.f);
-                if (on && !(vs->flags[i] & PGI_VS_VALID)) {
-                    v3_store(out + 3 * i, L[k]);
-                    on = 0;
-                }
-                t.on[k] = on;
-                /* x = p + eps ng (v3_madd) in scalars, stored to both layouts: filled as vectors and
+#if VIEW_AVX2
+            if (avx2 && 4 * tx + 4 <= W && 4 * ty + 4 <= H && dtile_full_avx2(vs, W, tx, ty, eps, &t)) {
+                for (int k = 0; k < 16; k++) L[k] = v3(0.f, 0.f, 0.f);
+                any = 1;
+            } else
+#endif
+                for (int k = 0; k < 16; k++) {
+                    int px, py;
+                    int on = tile_lane(tx, ty, k, W, H, &px, &py);
+                    size_t i = on ? (size_t)py * (size_t)W + (size_t)px : 0;
+                    t.pix[k] = i;
+                    t.ready[k] = 0;
+                    L[k] = v3(0.f, 0.f, 0.f);
+                    if (on && !(vs->flags[i] & PGI_VS_VALID)) {
+                        v3_store(out + 3 * i, L[k]);
+                        on = 0;
+                    }
+                    t.on[k] = on;
+                    /* x = p + eps ng (v3_madd) in scalars, stored to both layouts: filled as vectors and
                  * read back lane by lane, gcc reloaded each component from the stores just made */
-                float x0 = 0.f, x1 = 0.f, x2 = 0.f, n0 = 0.f, n1 = 0.f, n2 = 0.f, g0 = 0.f, g1 = 0.f, g2 = 0.f;
-                if (on) { /* off lanes reach Embree masked: zeros */
-                    const float *pp = vs->pos + 3 * i, *pn = vs->nrm + 3 * i, *pg = vs->ngeo + 3 * i;
-                    n0 = pn[0];
-                    n1 = pn[1];
-                    n2 = pn[2];
-                    g0 = pg[0];
-                    g1 = pg[1];
-                    g2 = pg[2];
-                    x0 = pp[0] + g0 * eps;
-                    x1 = pp[1] + g1 * eps;
-                    x2 = pp[2] + g2 * eps;
-                    any = 1;
+                    float x0 = 0.f, x1 = 0.f, x2 = 0.f, n0 = 0.f, n1 = 0.f, n2 = 0.f, g0 = 0.f, g1 = 0.f, g2 = 0.f;
+                    if (on) { /* off lanes reach Embree masked: zeros */
+                        const float *pp = vs->pos + 3 * i, *pn = vs->nrm + 3 * i, *pg = vs->ngeo + 3 * i;
+                        n0 = pn[0];
+                        n1 = pn[1];
+                        n2 = pn[2];
+                        g0 = pg[0];
+                        g1 = pg[1];
+                        g2 = pg[2];
+                        x0 = pp[0] + g0 * eps;
+                        x1 = pp[1] + g1 * eps;
+                        x2 = pp[2] + g2 * eps;
+                        any = 1;
+                    }
+                    t.xs[0][k] = x0;
+                    t.xs[1][k] = x1;
+                    t.xs[2][k] = x2;
+                    t.nss[0][k] = n0;
+                    t.nss[1][k] = n1;
+                    t.nss[2][k] = n2;
+                    t.ngs[0][k] = g0;
+                    t.ngs[1][k] = g1;
+                    t.ngs[2][k] = g2;
                 }
-                t.xs[0][k] = x0;
-                t.xs[1][k] = x1;
-                t.xs[2][k] = x2;
-                t.nss[0][k] = n0;
-                t.nss[1][k] = n1;
-                t.nss[2][k] = n2;
-                t.ngs[0][k] = g0;
-                t.ngs[1][k] = g1;
-                t.ngs[2][k] = g2;
-            }
             if (!any) continue;
             int valid[16], occ[16];
             float cs[16], tmax[16], wis[3][16], Lis[3][16];
