@@ -344,38 +344,29 @@ __attribute__((target("avx2"))) static void tile_dirs_avx2(const pgi_camera *cam
                             _mm256_add_epi64(_mm256_mul_epu32(_mm256_cvtepu32_epi64(_mm256_extracti128_si256(py, 1)),
                                                               w64),
                                              _mm256_cvtepu32_epi64(_mm256_extracti128_si256(px, 1))));
-        __m256 fx, fy;
+        __m256 u, v;
         if (cu) { /* through the pixel centres: u and v of the column and the row, computed once a frame */
-            __m256 u = _mm256_broadcast_ps((const __m128 *)(const void *)(cu + 4 * tx));
-            __m256 v = _mm256_setr_m128(_mm_set1_ps(cv[4 * ty + (k >> 2)]), _mm_set1_ps(cv[4 * ty + (k >> 2) + 1]));
             const __m256 inf = _mm256_castsi256_ps(in); /* pixel (0, 0)'s outside the image */
-            u = _mm256_blendv_ps(_mm256_set1_ps(cu[0]), u, inf);
-            v = _mm256_blendv_ps(_mm256_set1_ps(cv[0]), v, inf);
-            __m256 d[3];
-            for (int c = 0; c < 3; c++)
-                d[c] = _mm256_add_ps(_mm256_set1_ps(cam->forward[c]),
-                                     _mm256_add_ps(_mm256_mul_ps(_mm256_set1_ps(cam->right[c]), u),
-                                                   _mm256_mul_ps(_mm256_set1_ps(cam->up[c]), v)));
-            const __m256 l =
-                _mm256_sqrt_ps(_mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(d[0], d[0]), _mm256_mul_ps(d[1], d[1])),
-                                             _mm256_mul_ps(d[2], d[2])));
-            const __m256 pos = _mm256_cmp_ps(l, zero, _CMP_GT_OQ), r = _mm256_div_ps(one, l); /* v3_norm */
-            for (int c = 0; c < 3; c++)
-                _mm256_storeu_ps(dsoa[c] + k, _mm256_blendv_ps(fb[c], _mm256_mul_ps(d[c], r), pos));
-            continue;
-        }
-        if (!sp->jitter) { /* pgi__pixel_jitter's pixel centre */
-            fx = _mm256_add_ps(_mm256_cvtepi32_ps(px), _mm256_set1_ps(0.5f));
-            fy = _mm256_add_ps(_mm256_cvtepi32_ps(py), _mm256_set1_ps(0.5f));
+            u = _mm256_blendv_ps(_mm256_set1_ps(cu[0]),
+                                 _mm256_broadcast_ps((const __m128 *)(const void *)(cu + 4 * tx)), inf);
+            v = _mm256_blendv_ps(_mm256_set1_ps(cv[0]),
+                                 _mm256_setr_m128(_mm_set1_ps(cv[4 * ty + (k >> 2)]),
+                                                  _mm_set1_ps(cv[4 * ty + (k >> 2) + 1])),
+                                 inf);
         } else {
-            float jx[8], jy[8];
-            for (int q = 0; q < 8; q++) pgi__pixel_jitter(sp, pix[k + q], &jx[q], &jy[q]);
-            fx = _mm256_add_ps(_mm256_cvtepi32_ps(px), _mm256_loadu_ps(jx));
-            fy = _mm256_add_ps(_mm256_cvtepi32_ps(py), _mm256_loadu_ps(jy));
+            __m256 fx, fy;
+            if (!sp->jitter) { /* pgi__pixel_jitter's pixel centre */
+                fx = _mm256_add_ps(_mm256_cvtepi32_ps(px), _mm256_set1_ps(0.5f));
+                fy = _mm256_add_ps(_mm256_cvtepi32_ps(py), _mm256_set1_ps(0.5f));
+            } else {
+                float jx[8], jy[8];
+                for (int q = 0; q < 8; q++) pgi__pixel_jitter(sp, pix[k + q], &jx[q], &jy[q]);
+                fx = _mm256_add_ps(_mm256_cvtepi32_ps(px), _mm256_loadu_ps(jx));
+                fy = _mm256_add_ps(_mm256_cvtepi32_ps(py), _mm256_loadu_ps(jy));
+            }
+            u = _mm256_mul_ps(_mm256_mul_ps(_mm256_sub_ps(_mm256_div_ps(_mm256_mul_ps(two, fx), w), one), th), asp);
+            v = _mm256_mul_ps(_mm256_sub_ps(one, _mm256_div_ps(_mm256_mul_ps(two, fy), h)), th);
         }
-        const __m256 u =
-            _mm256_mul_ps(_mm256_mul_ps(_mm256_sub_ps(_mm256_div_ps(_mm256_mul_ps(two, fx), w), one), th), asp);
-        const __m256 v = _mm256_mul_ps(_mm256_sub_ps(one, _mm256_div_ps(_mm256_mul_ps(two, fy), h)), th);
         __m256 d[3];
         for (int c = 0; c < 3; c++)
             d[c] = _mm256_add_ps(_mm256_set1_ps(cam->forward[c]),
