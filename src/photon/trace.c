@@ -12,6 +12,7 @@
 
 #include "guide.h"
 #include "radius.h"
+#include "trace_simd.h"
 #include "scene/bsdf.h"
 
 #include <stdint.h>
@@ -78,6 +79,7 @@ typedef struct tracer {
     const pgi__guide *G;
     const pgi__view_grid *vg;
     const pgi__view_grid *near; /* store only photons in its cells (NULL: all) */
+    int fast_sincos;            /* pgi__trace_sincos_fast: a wave's azimuths together */
 } tracer;
 
 typedef struct lane {
@@ -121,8 +123,11 @@ static const pgi__light *pick_light(const tracer *T, uint64_t index, lane *l, em
     return li < T->s->nlights ? &T->s->lights[li] : &T->s->env->light; /* the last: the sky */
 }
 
-/* start_path after pick_light (below). */
-static int emit_from(const tracer *T, const pgi__light *L, const emission_pick *e, lane *l, uint32_t *cnt) {
+/* start_path after pick_light (below), in two steps: emit_draw, the numbers (the flux, the four
+ * numbers u[0..3] of the emission, the guide's bin and count; 0: the light carries nothing), then
+ * emit_place, the ray. `cs`: cos and sin of 2 pi u[1] where known (pgi__trace_sincos_2pi: the
+ * same bits as cosf and sinf), used by point and spot lights; NULL: computed here. */
+static int emit_draw(const tracer *T, const pgi__light *L, const emission_pick *e, lane *l, uint32_t *cnt, float u[4]) {
     const pgi__guide *G = T->G;
     const int steer = G && G->on;
     const float pl = e->pl;
@@ -157,15 +162,37 @@ static int emit_from(const tracer *T, const pgi__light *L, const emission_pick *
         if (G) l->bin = late ? pgi__guide_bin(G, e->ul, u3, u4) : pgi__guide_bin(G, e->ul, u1, u2);
     }
     if (G) cnt[l->bin]++;
+    u[0] = u1;
+    u[1] = u2;
+    u[2] = u3;
+    u[3] = u4;
+    return 1;
+}
+
+static int emit_place(const tracer *T, const pgi__light *L, float pl, const float u[4], const float *cs, lane *l) {
+    const float u1 = u[0], u2 = u[1], u3 = u[2], u4 = u[3];
     switch (L->type) {
     case PGI_LIGHT_POINT:
         l->o = v3_load(L->pos);
-        l->d = pgi_sample_sphere(u1, u2);
+        if (cs) { /* pgi_sample_sphere(u1, u2) with its cosine and sine given */
+            const float z = 1.f - 2.f * u1, r = sqrtf(pgi_maxf(1.f - z * z, 0.f));
+            l->d = v3(r * cs[0], r * cs[1], z);
+        } else {
+            l->d = pgi_sample_sphere(u1, u2);
+        }
         break;
-    case PGI_LIGHT_SPOT:
+    case PGI_LIGHT_SPOT: {
+        pgi__v3 c;
+        if (cs) { /* pgi_sample_cone(u1, u2, cos_cutoff) with its cosine and sine given */
+            const float z = 1.f - u1 * (1.f - L->cos_cutoff), r = sqrtf(pgi_maxf(1.f - z * z, 0.f));
+            c = v3(r * cs[0], r * cs[1], z);
+        } else {
+            c = pgi_sample_cone(u1, u2, L->cos_cutoff);
+        }
         l->o = v3_load(L->pos);
-        l->d = pgi_to_world(pgi_sample_cone(u1, u2, L->cos_cutoff), v3_load(L->dir));
+        l->d = pgi_to_world(c, v3_load(L->dir));
         break;
+    }
     case PGI_LIGHT_SUN: {
         l->d = v3_load(L->dir);
         float r = T->radius * sqrtf(u1), phi = 2.f * PGI_PI * u2;
@@ -198,6 +225,11 @@ static int emit_from(const tracer *T, const pgi__light *L, const emission_pick *
     if (T->fp_track) pgi__fp_emit(&l->pd, &T->fp, T->s, L, pl, l->d, T->radius);
     l->b = 0;
     return 1;
+}
+
+static int emit_from(const tracer *T, const pgi__light *L, const emission_pick *e, lane *l, uint32_t *cnt) {
+    float u[4];
+    return emit_draw(T, L, e, l, cnt, u) && emit_place(T, L, e->pl, u, NULL, l);
 }
 
 /* Starts path `index` in `l` (emission from a light picked by power). Flux is power / pick
@@ -416,6 +448,15 @@ static inline void wave_texels(const tracer *T, lane *L) {
 static inline int wave_shade(const tracer *T, lane *L, pgi__trace_tbuf *tb, uint8_t *cnt, uint32_t *gcnt, int *ok) {
     const pgi_scene *s = T->s;
     int ended = 0;
+    /* sin and cos of each lane's BSDF azimuth 2 pi u[1], for the wave at once (AVX2) */
+    float scb[2][WAVE], (*sc)[WAVE] = NULL;
+    if (T->fast_sincos) {
+        float az[WAVE];
+        for (int k = 0; k < WAVE; k++)
+            az[k] = L[k].path >= 0 && L[k].h.prim != UINT32_MAX && L[k].b < T->bounces ? L[k].u[1] : 0.f;
+        pgi__trace_sincos_2pi(az, scb[0], scb[1], WAVE);
+        sc = scb;
+    }
     for (int k = 0; k < WAVE; k++) {
         lane *l = &L[k];
         if (l->path < 0) continue;
@@ -446,7 +487,26 @@ static inline int wave_shade(const tracer *T, lane *L, pgi__trace_tbuf *tb, uint
             if (l->b < T->bounces && *ok && !l->ends) {
                 if (l->tex) sf.kd = v3_mul(sf.kd, pgi__texture_quad_lookup(&l->tq));
                 pgi__v3 wo, w;
-                if (pgi__bsdf_sample(&sf, wi, l->u[0], l->u[1], l->u[2], &wo, &w)) {
+                int scatters;
+                if (lambert(sf.mat)) {
+                    /* pgi__bsdf_sample's Lambertian case, its azimuth's cosine and sine found for
+                     * the wave at once where that is faster (the same bits) */
+                    const float side = v3_dot(wi, sf.ng) >= 0.f ? 1.f : -1.f;
+                    const pgi__v3 gn = v3_scale(sf.ng, side), sn = v3_scale(sf.ns, side);
+                    pgi__v3 c;
+                    if (sc) {
+                        const float r = sqrtf(l->u[0]);
+                        c = v3(r * sc[1][k], r * sc[0][k], sqrtf(pgi_maxf(1.f - l->u[0], 0.f)));
+                    } else {
+                        c = pgi_sample_cosine(l->u[0], l->u[1]);
+                    }
+                    wo = pgi_to_world(c, sn);
+                    w = sf.kd;
+                    scatters = v3_dot(wo, gn) > 0.f;
+                } else {
+                    scatters = pgi__bsdf_sample(&sf, wi, l->u[0], l->u[1], l->u[2], &wo, &w);
+                }
+                if (scatters) {
                     if (T->fp_track) pgi__fp_scatter(&l->pd, &T->fp, s, l->h.prim, l->h.u, l->h.v, &sf, wi, wo, w);
                     pgi__v3 nf = v3_mul(l->flux, w);
                     float mf = v3_maxc(l->flux);
@@ -472,43 +532,6 @@ static inline int wave_shade(const tracer *T, lane *L, pgi__trace_tbuf *tb, uint
     return ended;
 }
 
-/* Emission sort key of a path: its origin's cell of a 32^3 grid over the bounding sphere's cube
- * (the sun's and sky's disks start just outside the scene's box), then its direction's cell of a
- * 256 x 256 octahedral map, each in Morton order, so that paths close in key start close
- * together and leave in nearly the same direction: the packets of first_hits. 31 bits. */
-static inline uint32_t spread2(uint32_t x) { /* 8 bits -> every other of 16 */
-    x &= 0xff;
-    x = (x | (x << 4)) & 0x0f0f;
-    x = (x | (x << 2)) & 0x3333;
-    return (x | (x << 1)) & 0x5555;
-}
-static inline uint32_t spread3(uint32_t x) { /* 5 bits -> every third of 15 */
-    x &= 0x1f;
-    x = (x | (x << 8)) & 0x0300f00f;
-    x = (x | (x << 4)) & 0x030c30c3;
-    return (x | (x << 2)) & 0x09249249;
-}
-static inline uint32_t cellq(float x, int n) {
-    /* max, then min (NaN: 0), without branches: maxss and minss */
-    const float y = x > 0.f ? x : 0.f, top = (float)(n - 1);
-    return (uint32_t)(y < top ? y : top);
-}
-static uint32_t emit_key(const tracer *T, pgi__v3 o, pgi__v3 d) {
-    const float so = 16.f / (1.02f * T->radius);
-    const uint32_t ox = cellq((o.x - T->centre.x) * so + 16.f, 32), oy = cellq((o.y - T->centre.y) * so + 16.f, 32),
-                   oz = cellq((o.z - T->centre.z) * so + 16.f, 32);
-    const float l1 = fabsf(d.x) + fabsf(d.y) + fabsf(d.z);
-    float px = l1 > 0.f ? d.x / l1 : 0.f, py = l1 > 0.f ? d.y / l1 : 0.f;
-    if (d.z < 0.f) {
-        const float tx = (1.f - fabsf(py)) * (px >= 0.f ? 1.f : -1.f),
-                    ty = (1.f - fabsf(px)) * (py >= 0.f ? 1.f : -1.f);
-        px = tx;
-        py = ty;
-    }
-    const uint32_t dx = cellq((px + 1.f) * 128.f, 256), dy = cellq((py + 1.f) * 128.f, 256);
-    return (spread3(ox) | spread3(oy) << 1 | spread3(oz) << 2) << 16 | spread2(dx) | spread2(dy) << 1;
-}
-
 /* How a path of the batch starts (start_paths): */
 enum {
     START_NONE = 0,  /* it carries nothing */
@@ -525,26 +548,55 @@ static size_t start_paths(const tracer *T, uint64_t base, size_t p0, size_t p1, 
                           path_state *ps, pgi__pdiff *pd, uint8_t *mode, uint32_t *key, uint32_t *idx, uint32_t *gcnt,
                           uint16_t *pbin) {
     size_t m = slot;
-    for (size_t i = p0; i < p1; i++) {
-        lane l;
-        l.bin = 0;
-        l.path = 0;
-        emission_pick e;
-        const pgi__light *L = m < slot + room ? pick_light(T, base + i, &l, &e) : NULL;
-        if (!L || !pgi__light_from_point(L)) {
-            mode[i] = START_CHUNK;
-            continue;
+    /* 16 paths at a time: their numbers, then the sines and cosines of their azimuths together
+     * (pgi__trace_sincos_2pi), then their rays, states and sort keys */
+    for (size_t i0 = p0; i0 < p1; i0 += WAVE) {
+        lane lb[WAVE];
+        const pgi__light *lights[WAVE];
+        float pl[WAVE], u[WAVE][4], az[WAVE], sn[WAVE], cs[WAVE];
+        int nb = 0;
+        for (size_t i = i0; i < p1 && i < i0 + WAVE; i++) {
+            lane *l = &lb[nb];
+            l->bin = 0;
+            l->path = 0;
+            emission_pick e;
+            const pgi__light *L = m < slot + room ? pick_light(T, base + i, l, &e) : NULL;
+            if (!L || !pgi__light_from_point(L)) {
+                mode[i] = START_CHUNK;
+                continue;
+            }
+            if (!emit_draw(T, L, &e, l, gcnt, u[nb])) {
+                mode[i] = START_NONE;
+                continue;
+            }
+            mode[i] = START_STATE;
+            if (pbin) pbin[i] = (uint16_t)l->bin;
+            lights[nb] = L;
+            pl[nb] = e.pl;
+            az[nb] = u[nb][1];
+            nb++;
+            m++;
         }
-        if (!emit_from(T, L, &e, &l, gcnt)) {
-            mode[i] = START_NONE;
-            continue;
+        if (!nb) continue;
+        const int n8 = (nb + 7) & ~7;
+        for (int k = nb; k < n8; k++) az[k] = 0.f;
+        pgi__trace_sincos_2pi(az, sn, cs, n8);
+        const size_t m0 = m - (size_t)nb;
+        float o[3][WAVE], d[3][WAVE];
+        for (int k = 0; k < nb; k++) {
+            const float c2[2] = {cs[k], sn[k]};
+            lane *l = &lb[k];
+            emit_place(T, lights[k], pl[k], u[k], c2, l); /* point and spot lights: always 1 */
+            state_save(l, &ps[m0 + (size_t)k], pd ? &pd[m0 + (size_t)k] : NULL);
+            o[0][k] = l->o.x;
+            o[1][k] = l->o.y;
+            o[2][k] = l->o.z;
+            d[0][k] = l->d.x;
+            d[1][k] = l->d.y;
+            d[2][k] = l->d.z;
+            idx[m0 + (size_t)k] = (uint32_t)(m0 + (size_t)k);
         }
-        mode[i] = START_STATE;
-        if (pbin) pbin[i] = (uint16_t)l.bin;
-        state_save(&l, &ps[m], pd ? &pd[m] : NULL);
-        key[m] = emit_key(T, l.o, l.d);
-        idx[m] = (uint32_t)m;
-        m++;
+        pgi__trace_emit_keys(T->centre, T->radius, o[0], o[1], o[2], d[0], d[1], d[2], nb, key + m0);
     }
     return m - slot;
 }
@@ -610,12 +662,12 @@ static void first_hits(const tracer *T, path_state *ps, pgi__pdiff *pd, const ui
 }
 
 /* Traces paths [p0, p1) of the batch (one chunk; its first path `base`; mode: how each starts,
- * NULL: all here; ps, pd: the chunk's states from start_paths and first_hits) a wave at a time;
+ * NULL: all here; ps, pd: the chunk's room_n states from start_paths and first_hits) a wave at a time;
  * their photons are appended to tb->rec, cnt[i - p0] gets path i's count. Returns 0 when out of
  * memory. */
 static int trace_chunk(const tracer *T, uint64_t base, const uint8_t *mode, const path_state *ps, const pgi__pdiff *pd,
-                       size_t p0, size_t p1, pgi__trace_tbuf *tb, uint8_t *cnt, uint64_t *rays, uint32_t *gcnt,
-                       uint16_t *pbin) {
+                       size_t room_n, size_t p0, size_t p1, pgi__trace_tbuf *tb, uint8_t *cnt, uint64_t *rays,
+                       uint32_t *gcnt, uint16_t *pbin) {
     size_t slot = 0; /* the chunk's next state in ps */
     const int n = (int)(p1 - p0);
     memset(cnt, 0, (size_t)n);
@@ -623,7 +675,16 @@ static int trace_chunk(const tracer *T, uint64_t base, const uint8_t *mode, cons
     memset(L, 0, sizeof L); /* lanes without a path still go to Embree (masked): no garbage */
     int next = 0, active = 0, ok = 1;
     for (int k = 0; k < WAVE; k++) L[k].path = -1;
+    size_t ahead = 0; /* the chunk's states requested so far */
     for (;;) {
+        /* The states the next waves start from: they lie in ps in path order, written by
+         * first_hits in sorted order (a miss each, which the hardware prefetcher does not see
+         * coming across the chunk's scattered writes). */
+        if (ps)
+            for (; ahead < slot + 2 * WAVE && ahead < room_n; ahead++) {
+                __builtin_prefetch(&ps[ahead]);
+                if (pd) __builtin_prefetch(&pd[ahead]);
+            }
         /* Fill idle lanes with the chunk's next paths still going. */
         for (int k = 0; k < WAVE && next < n; k++) {
             if (L[k].path >= 0) continue;
@@ -814,7 +875,8 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
                 0,
                 NULL,
                 NULL,
-                d->near};
+                d->near,
+                0};
     const int nt = pgi__threads(d->threads);
     pgi_status ts = pgi__trace_tris_update(sc, s, nt);
     if (ts) {
@@ -823,6 +885,7 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
     }
     T.tris = sc->tris;
     T.tri_uv = sc->tri_uv;
+    T.fast_sincos = pgi__trace_sincos_fast();
     if (d->guide) {
         if (!d->vgrid) {
             free(cdf);
@@ -937,8 +1000,8 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
             uint32_t *gc = T.G ? T.G->tcount + (size_t)tid * 3 * (size_t)T.G->nbins : NULL;
             if (!f)
                 ok = trace_chunk(&T, path, room ? sc->mode : NULL, room ? ps + (size_t)c * room : NULL,
-                                 pd && room ? pd + (size_t)c * room : NULL, p0, p1, tb, sc->counts + (size_t)c * CHUNK,
-                                 &r, gc, T.G ? sc->path_bin : NULL);
+                                 pd && room ? pd + (size_t)c * room : NULL, room ? ci->keyed : 0, p0, p1, tb,
+                                 sc->counts + (size_t)c * CHUNK, &r, gc, T.G ? sc->path_bin : NULL);
             if (!ok) {
 #pragma omp atomic write
                 failed = 1;
