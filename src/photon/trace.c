@@ -462,15 +462,18 @@ static inline int wave_shade(const tracer *T, lane *L, pgi__trace_tbuf *tb, uint
         if (l->path < 0) continue;
         int alive = 0;
         if (l->h.prim != UINT32_MAX) {
-            pgi__surface sf;
-            pgi__v3 p = v3_madd(l->o, l->d, l->h.t);
-            /* the shading normal and albedo only where the path scatters */
-            if (l->b < T->bounces && !l->ends) pgi__trace_tri_surface(s, &T->tris[l->h.prim], l->h.u, l->h.v, p, &sf);
-            else pgi__trace_tri_geometry(s, &T->tris[l->h.prim], p, &sf);
-            pgi__v3 wi = v3_neg(l->d);
-            pgi__v3 ng = v3_dot(wi, sf.ng) >= 0.f ? sf.ng : v3_neg(sf.ng);
+            /* pgi__trace_tri_surface's values (the shading normal and albedo only where the path
+             * scatters) in registers rather than a pgi__surface (whose copies through memory
+             * stalled the loads after them), the same operations */
+            const pgi__trace_tri *r = &T->tris[l->h.prim];
+            const pgi__material *mat = &s->mats[r->mat];
+            const pgi__v3 p = v3_madd(l->o, l->d, l->h.t);
+            const pgi__v3 g = v3_load(r->ng);
+            const pgi__v3 wi = v3_neg(l->d);
+            const int front = v3_dot(wi, g) >= 0.f;
+            const pgi__v3 ng = front ? g : v3_neg(g);
             if (T->fp_track) pgi__fp_hit(&l->pd, &T->fp, l->d, l->h.t, ng);
-            if (l->b >= 1 && !pgi__mat_specular(sf.mat)) {
+            if (l->b >= 1 && !pgi__mat_specular(mat)) {
                 pgi__footprint fp;
                 if (T->fp_on) pgi__fp_store(&l->pd, &T->fp, ng, &fp);
                 if (T->G) { /* the guide's evidence: every photon the path would store */
@@ -485,29 +488,45 @@ static inline int wave_shade(const tracer *T, lane *L, pgi__trace_tbuf *tb, uint
                 }
             }
             if (l->b < T->bounces && *ok && !l->ends) {
-                if (l->tex) sf.kd = v3_mul(sf.kd, pgi__texture_quad_lookup(&l->tq));
+                pgi__v3 ns = g; /* pgi__trace_tri_shading */
+                if (s->nrm) {
+                    const float bu = l->h.u, bv = l->h.v, bw = 1.f - bu - bv;
+                    pgi__v3 n = v3_add(v3_add(v3_scale(v3_load(r->n), bw), v3_scale(v3_load(r->n + 3), bu)),
+                                       v3_scale(v3_load(r->n + 6), bv));
+                    const float len = v3_len(n);
+                    if (len > 0.f && isfinite(len)) {
+                        n = v3_scale(n, 1.f / len);
+                        ns = v3_dot(n, g) < 0.f ? v3_neg(n) : n;
+                    }
+                }
+                pgi__v3 kd = v3_load(mat->kd);
+                if (l->tex) kd = v3_mul(kd, pgi__texture_quad_lookup(&l->tq));
                 pgi__v3 wo, w;
                 int scatters;
-                if (lambert(sf.mat)) {
+                if (lambert(mat)) {
                     /* pgi__bsdf_sample's Lambertian case, its azimuth's cosine and sine found for
                      * the wave at once where that is faster (the same bits) */
-                    const float side = v3_dot(wi, sf.ng) >= 0.f ? 1.f : -1.f;
-                    const pgi__v3 gn = v3_scale(sf.ng, side), sn = v3_scale(sf.ns, side);
+                    const float side = front ? 1.f : -1.f;
+                    const pgi__v3 gn = v3_scale(g, side), sn = v3_scale(ns, side);
                     pgi__v3 c;
                     if (sc) {
-                        const float r = sqrtf(l->u[0]);
-                        c = v3(r * sc[1][k], r * sc[0][k], sqrtf(pgi_maxf(1.f - l->u[0], 0.f)));
+                        const float rr = sqrtf(l->u[0]);
+                        c = v3(rr * sc[1][k], rr * sc[0][k], sqrtf(pgi_maxf(1.f - l->u[0], 0.f)));
                     } else {
                         c = pgi_sample_cosine(l->u[0], l->u[1]);
                     }
                     wo = pgi_to_world(c, sn);
-                    w = sf.kd;
+                    w = kd;
                     scatters = v3_dot(wo, gn) > 0.f;
                 } else {
+                    const pgi__surface sf = {.p = p, .ng = g, .ns = ns, .mat = mat, .kd = kd};
                     scatters = pgi__bsdf_sample(&sf, wi, l->u[0], l->u[1], l->u[2], &wo, &w);
                 }
                 if (scatters) {
-                    if (T->fp_track) pgi__fp_scatter(&l->pd, &T->fp, s, l->h.prim, l->h.u, l->h.v, &sf, wi, wo, w);
+                    if (T->fp_track) {
+                        const pgi__surface sf = {.p = p, .ng = g, .ns = ns, .mat = mat, .kd = kd};
+                        pgi__fp_scatter(&l->pd, &T->fp, s, l->h.prim, l->h.u, l->h.v, &sf, wi, wo, w);
+                    }
                     pgi__v3 nf = v3_mul(l->flux, w);
                     float mf = v3_maxc(l->flux);
                     float R = mf > 0.f ? pgi_minf(v3_maxc(nf) / mf, 1.f) : 0.f;
