@@ -643,6 +643,10 @@ static void sort_paths(size_t n, uint32_t *key, uint32_t *idx, uint32_t *tkey, u
     }
     memset(hist, 0, 65536 * sizeof *hist);
     for (size_t i = 0; i < n; i++) hist[tkey[i] >> 16]++;
+    if (hist[tkey[0] >> 16] == n) { /* one origin cell (point lights): the order stays */
+        memcpy(idx, tidx, n * sizeof *idx);
+        return;
+    }
     hist_offsets(hist);
     for (size_t i = 0; i < n; i++) idx[hist[tkey[i] >> 16]++] = tidx[i];
 }

@@ -26,17 +26,17 @@ static void sincos_2pi_scalar(const float *u, float *s, float *c, int n) {
  * polynomials of sincosf_poly with the contractions gcc made there (each a + b c below is one
  * fused operation), the results swapped in odd quadrants; |y| < 2^-12 gives sin y, cos 1.
  * n = 0 reduces nothing (xr = x exactly), so the path of |y| < pi/4 is the same formula. */
-static const double k_sc[2][8] = {
-    /* c0, c1, s1, c2, s2, c3, s3, c4 (__sincosf_table[0], then [1]: the odd quadrant pair) */
-    {0x1p+0, -0x1.ffffffd0c621cp-2, -0x1.555545995a603p-3, 0x1.55553e1068f19p-5, 0x1.1107605230bc4p-7,
-     -0x1.6c087e89a359dp-10, -0x1.994eb3774cf24p-13, 0x1.99343027bf8c3p-16},
-    {-0x1p+0, 0x1.ffffffd0c621cp-2, -0x1.555545995a603p-3, -0x1.55553e1068f19p-5, 0x1.1107605230bc4p-7,
-     0x1.6c087e89a359dp-10, -0x1.994eb3774cf24p-13, -0x1.99343027bf8c3p-16},
-};
-
-__attribute__((target("avx2,fma"))) static inline __m256d coef(__m256d q2, int i) {
-    return _mm256_blendv_pd(_mm256_set1_pd(k_sc[0][i]), _mm256_set1_pd(k_sc[1][i]), q2);
-}
+#define SC_C0 0x1p+0
+#define SC_C1 -0x1.ffffffd0c621cp-2
+#define SC_S1 -0x1.555545995a603p-3
+#define SC_C2 0x1.55553e1068f19p-5
+#define SC_S2 0x1.1107605230bc4p-7
+#define SC_C3 -0x1.6c087e89a359dp-10
+#define SC_S3 -0x1.994eb3774cf24p-13
+#define SC_C4 0x1.99343027bf8c3p-16
+/* (__sincosf_table[0]; quadrants with n & 2 take __sincosf_table[1], whose cosine coefficients
+ * are these negated and sine coefficients these: each fused operation of the cosine polynomial
+ * then gives the negated result, exactly, so the cosine polynomial's sign is flipped instead.) */
 
 /* Four angles y (floats, |y| < 120): their sines and cosines, rounded to float. */
 __attribute__((target("avx2,fma"))) static inline void sincos4(__m128 y, __m128 *sn, __m128 *cs) {
@@ -48,23 +48,20 @@ __attribute__((target("avx2,fma"))) static inline void sincos4(__m128 y, __m128 
     const __m256d xr = _mm256_fnmadd_pd(_mm256_cvtepi32_pd(n), _mm256_set1_pd(0x1.921fb54442d18p+0), x);
     const __m256i n64 = _mm256_cvtepi32_epi64(n);
     /* the sign of the sine in quadrant n & 3: + - - + (a product by -1: the sign bit) */
-    const __m256i neg =
-        _mm256_slli_epi64(_mm256_and_si256(_mm256_xor_si256(n64, _mm256_srli_epi64(n64, 1)), _mm256_set1_epi64x(1)),
-                          63);
-    const __m256d q2 =
-        _mm256_castsi256_pd(_mm256_cmpeq_epi64(_mm256_and_si256(n64, _mm256_set1_epi64x(2)), _mm256_set1_epi64x(2)));
-    const __m256d q1 =
-        _mm256_castsi256_pd(_mm256_cmpeq_epi64(_mm256_and_si256(n64, _mm256_set1_epi64x(1)), _mm256_set1_epi64x(1)));
-    const __m256d xs = _mm256_xor_pd(xr, _mm256_castsi256_pd(neg)); /* x = xr * sign */
+    const __m256i neg = _mm256_slli_epi64(_mm256_xor_si256(n64, _mm256_srli_epi64(n64, 1)), 63);
+    const __m256i negc = _mm256_slli_epi64(_mm256_srli_epi64(n64, 1), 63); /* n & 2 */
+    const __m256d q1 = _mm256_castsi256_pd(_mm256_slli_epi64(n64, 63));    /* n & 1: blendv reads the sign bit */
+    const __m256d xs = _mm256_xor_pd(xr, _mm256_castsi256_pd(neg));        /* x = xr * sign */
     const __m256d x2 = _mm256_mul_pd(xr, xr);
-    const __m256d c1v = _mm256_fmadd_pd(x2, coef(q2, 1), coef(q2, 0));
-    const __m256d s1v = _mm256_fmadd_pd(x2, coef(q2, 6), coef(q2, 4));
-    const __m256d c2v = _mm256_fmadd_pd(x2, coef(q2, 7), coef(q2, 5));
+    const __m256d c1v = _mm256_fmadd_pd(x2, _mm256_set1_pd(SC_C1), _mm256_set1_pd(SC_C0));
+    const __m256d s1v = _mm256_fmadd_pd(x2, _mm256_set1_pd(SC_S3), _mm256_set1_pd(SC_S2));
+    const __m256d c2v = _mm256_fmadd_pd(x2, _mm256_set1_pd(SC_C4), _mm256_set1_pd(SC_C3));
     const __m256d x3 = _mm256_mul_pd(x2, xs), x4 = _mm256_mul_pd(x2, x2);
     const __m256d x5 = _mm256_mul_pd(x2, x3), x6 = _mm256_mul_pd(x2, x4);
-    const __m256d sp = _mm256_fmadd_pd(x3, coef(q2, 2), xs);
-    const __m256d cp = _mm256_fmadd_pd(x4, coef(q2, 3), c1v);
-    const __m256d S = _mm256_fmadd_pd(s1v, x5, sp), C = _mm256_fmadd_pd(c2v, x6, cp);
+    const __m256d sp = _mm256_fmadd_pd(x3, _mm256_set1_pd(SC_S1), xs);
+    const __m256d cp = _mm256_fmadd_pd(x4, _mm256_set1_pd(SC_C2), c1v);
+    const __m256d S = _mm256_fmadd_pd(s1v, x5, sp);
+    const __m256d C = _mm256_xor_pd(_mm256_fmadd_pd(c2v, x6, cp), _mm256_castsi256_pd(negc));
     /* odd quadrants: the sine is the cosine polynomial and the cosine the sine's */
     const __m128 sf = _mm256_cvtpd_ps(_mm256_blendv_pd(S, C, q1)), cf = _mm256_cvtpd_ps(_mm256_blendv_pd(C, S, q1));
     /* |y| < 2^-12: sin y = y, cos y = 1 */
