@@ -80,6 +80,7 @@ typedef struct tracer {
     const pgi__view_grid *vg;
     const pgi__view_grid *near; /* store only photons in its cells (NULL: all) */
     int fast_sincos;            /* pgi__trace_sincos_fast: a wave's azimuths together */
+    int lambert_simd;           /* pgi__trace_lambert_avx2 is there (pgi__cpu_avx2) */
 } tracer;
 
 typedef struct lane {
@@ -408,6 +409,18 @@ static inline void cast_wave(const tracer *T, lane *L, int coherent, uint64_t *r
     wave_hits(T, L, valid, hh);
 }
 
+/* The sines and cosines of the wave's BSDF azimuths 2 pi u[1] into sc (sin, cos), all 16 at once
+ * while the hits' records load; NULL where that is not the faster way (wave_shade then calls
+ * cosf and sinf where it needs them). */
+static inline float (*wave_azimuths(const tracer *T, const lane *L, float (*sc)[WAVE]))[WAVE] {
+    if (!T->fast_sincos) return NULL;
+    float az[WAVE];
+    for (int k = 0; k < WAVE; k++)
+        az[k] = L[k].path >= 0 && L[k].h.prim != UINT32_MAX && L[k].b < T->bounces ? L[k].u[1] : 0.f;
+    pgi__trace_sincos_2pi(az, sc[0], sc[1], WAVE);
+    return sc;
+}
+
 /* Then the texels of the hits whose path may go on (the albedo weighs the scattered flux): each
  * stage's loads are in cache when the next stage needs them. */
 static inline void wave_texels(const tracer *T, lane *L) {
@@ -441,21 +454,46 @@ static inline void wave_texels(const tracer *T, lane *L) {
     }
 }
 
+/* Pads the batch to whole registers (copies of its first lane) and shades it. */
+static inline void lambert_batch(pgi__lambert_batch *b) {
+    const int n8 = (b->n + 7) & ~7;
+    for (int j = b->n; j < n8; j++) {
+        for (int q = 0; q < 9; q++) b->nv[q][j] = b->nv[q][0];
+        for (int q = 0; q < 3; q++) {
+            b->g[q][j] = b->g[q][0];
+            b->kd[q][j] = b->kd[q][0];
+            b->flux[q][j] = b->flux[q][0];
+            b->p[q][j] = b->p[q][0];
+            b->ng[q][j] = b->ng[q][0];
+        }
+        b->bu[j] = b->bu[0];
+        b->bv[j] = b->bv[0];
+        b->side[j] = b->side[0];
+        b->u0[j] = b->u0[0];
+        b->u3[j] = b->u3[0];
+        b->cs[j] = b->cs[0];
+        b->sn[j] = b->sn[0];
+    }
+    pgi__trace_lambert_avx2(b);
+}
+
 /* Shade: store, scatter, roulette. A lane whose path ends gets path -1; returns how many did.
  * Photons are stored from the second hit on (b >= 1), into tb with cnt counting each chunk
  * path's: a wave of first hits (b = 0 everywhere) stores none and may pass NULL for both. *ok
  * becomes 0 when out of memory. */
-static inline int wave_shade(const tracer *T, lane *L, pgi__trace_tbuf *tb, uint8_t *cnt, uint32_t *gcnt, int *ok) {
+static inline int wave_shade(const tracer *T, lane *L, float (*sc)[WAVE], pgi__trace_tbuf *tb, uint8_t *cnt,
+                             uint32_t *gcnt, int *ok) {
     const pgi_scene *s = T->s;
     int ended = 0;
-    /* sin and cos of each lane's BSDF azimuth 2 pi u[1], for the wave at once (AVX2) */
-    float scb[2][WAVE], (*sc)[WAVE] = NULL;
-    if (T->fast_sincos) {
-        float az[WAVE];
-        for (int k = 0; k < WAVE; k++)
-            az[k] = L[k].path >= 0 && L[k].h.prim != UINT32_MAX && L[k].b < T->bounces ? L[k].u[1] : 0.f;
-        pgi__trace_sincos_2pi(az, scb[0], scb[1], WAVE);
-        sc = scb;
+    /* Lambertian scattering, 8 lanes an instruction (AVX2, no radius policy): the lanes that
+     * scatter so go into a batch, shaded together after the others */
+    pgi__lambert_batch lbs, *lb = NULL;
+    int lmap[WAVE];
+    if (sc && T->lambert_simd && !T->fp_track) {
+        lb = &lbs;
+        lb->n = 0;
+        lb->nrm = s->nrm != NULL;
+        lb->eps = T->eps;
     }
     for (int k = 0; k < WAVE; k++) {
         lane *l = &L[k];
@@ -489,7 +527,7 @@ static inline int wave_shade(const tracer *T, lane *L, pgi__trace_tbuf *tb, uint
             }
             if (l->b < T->bounces && *ok && !l->ends) {
                 pgi__v3 ns = g; /* pgi__trace_tri_shading */
-                if (s->nrm) {
+                if (s->nrm && !(lb && lambert(mat))) {
                     const float bu = l->h.u, bv = l->h.v, bw = 1.f - bu - bv;
                     pgi__v3 n = v3_add(v3_add(v3_scale(v3_load(r->n), bw), v3_scale(v3_load(r->n + 3), bu)),
                                        v3_scale(v3_load(r->n + 6), bv));
@@ -503,6 +541,35 @@ static inline int wave_shade(const tracer *T, lane *L, pgi__trace_tbuf *tb, uint
                 if (l->tex) kd = v3_mul(kd, pgi__texture_quad_lookup(&l->tq));
                 pgi__v3 wo, w;
                 int scatters;
+                if (lb && lambert(mat)) {
+                    /* into the wave's batch (pgi__trace_lambert_avx2: the operations below) */
+                    const int j = lb->n++;
+                    lmap[j] = k;
+                    lb->bu[j] = l->h.u;
+                    lb->bv[j] = l->h.v;
+                    for (int q = 0; q < 9 && s->nrm; q++) lb->nv[q][j] = r->n[q];
+                    lb->g[0][j] = g.x;
+                    lb->g[1][j] = g.y;
+                    lb->g[2][j] = g.z;
+                    lb->side[j] = front ? 1.f : -1.f;
+                    lb->kd[0][j] = kd.x;
+                    lb->kd[1][j] = kd.y;
+                    lb->kd[2][j] = kd.z;
+                    lb->u0[j] = l->u[0];
+                    lb->u3[j] = l->u[3];
+                    lb->cs[j] = sc[1][k];
+                    lb->sn[j] = sc[0][k];
+                    lb->flux[0][j] = l->flux.x;
+                    lb->flux[1][j] = l->flux.y;
+                    lb->flux[2][j] = l->flux.z;
+                    lb->p[0][j] = p.x;
+                    lb->p[1][j] = p.y;
+                    lb->p[2][j] = p.z;
+                    lb->ng[0][j] = ng.x;
+                    lb->ng[1][j] = ng.y;
+                    lb->ng[2][j] = ng.z;
+                    continue; /* its fate after the loop */
+                }
                 if (lambert(mat)) {
                     /* pgi__bsdf_sample's Lambertian case, its azimuth's cosine and sine found for
                      * the wave at once where that is faster (the same bits) */
@@ -546,6 +613,21 @@ static inline int wave_shade(const tracer *T, lane *L, pgi__trace_tbuf *tb, uint
         if (!alive) {
             l->path = -1;
             ended++;
+        }
+    }
+    if (lb && lb->n) {
+        lambert_batch(lb);
+        for (int j = 0; j < lb->n; j++) {
+            lane *l = &L[lmap[j]];
+            if (lb->alive[j]) {
+                l->flux = v3(lb->f[0][j], lb->f[1][j], lb->f[2][j]);
+                l->o = v3(lb->o[0][j], lb->o[1][j], lb->o[2][j]);
+                l->d = v3(lb->d[0][j], lb->d[1][j], lb->d[2][j]);
+                l->b++;
+            } else {
+                l->path = -1;
+                ended++;
+            }
         }
     }
     return ended;
@@ -674,9 +756,10 @@ static void first_hits(const tracer *T, path_state *ps, pgi__pdiff *pd, const ui
             else L[k].o = L[k].d = v3(0.f, 0.f, 1.f);
         }
         cast_wave(T, L, coherent, rays);
+        float scb[2][WAVE], (*sc)[WAVE] = wave_azimuths(T, L, scb);
         wave_texels(T, L);
         int ok = 1;
-        wave_shade(T, L, NULL, NULL, NULL, &ok);
+        wave_shade(T, L, sc, NULL, NULL, NULL, &ok);
         for (int k = 0; k < WAVE; k++) {
             const size_t j = g * WAVE + (size_t)k;
             if (j < n) state_save(&L[k], &ps[order[j]], pd ? &pd[order[j]] : NULL);
@@ -730,8 +813,9 @@ static int trace_chunk(const tracer *T, uint64_t base, const uint8_t *mode, cons
          * packets and streams are within noise of each other for these rays: photongi-bench
          * --limits); the triangle records of all the hits are requested together. */
         cast_wave(T, L, 0, rays);
+        float scb[2][WAVE], (*sc)[WAVE] = wave_azimuths(T, L, scb);
         wave_texels(T, L);
-        active -= wave_shade(T, L, tb, cnt, gcnt, &ok);
+        active -= wave_shade(T, L, sc, tb, cnt, gcnt, &ok);
         if (!ok) return 0;
     }
     return 1;
@@ -899,6 +983,7 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
                 NULL,
                 NULL,
                 d->near,
+                0,
                 0};
     const int nt = pgi__threads(d->threads);
     pgi_status ts = pgi__trace_tris_update(sc, s, nt);
@@ -909,6 +994,7 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
     T.tris = sc->tris;
     T.tri_uv = sc->tri_uv;
     T.fast_sincos = pgi__trace_sincos_fast();
+    T.lambert_simd = T.fast_sincos; /* AVX2 (and FMA) and not narrow, as the batch's build needs */
     if (d->guide) {
         if (!d->vgrid) {
             free(cdf);

@@ -265,3 +265,108 @@ void pgi__trace_emit_keys(pgi__v3 centre, float radius, const float *ox, const f
     for (int i = 0; i < n; i++)
         key[i] = pgi__trace_emit_key(centre, radius, v3(ox[i], oy[i], oz[i]), v3(dx[i], dy[i], dz[i]));
 }
+
+/* -------------------------------------------------- Lambertian scattering */
+
+#if PGI__AVX2_TARGET
+typedef struct v8x3 {
+    __m256 x, y, z;
+} v8x3;
+__attribute__((target("avx2"))) static inline v8x3 ld3(const float (*a)[16], int i) {
+    return (v8x3){_mm256_loadu_ps(a[0] + i), _mm256_loadu_ps(a[1] + i), _mm256_loadu_ps(a[2] + i)};
+}
+__attribute__((target("avx2"))) static inline void st3(float (*a)[16], int i, v8x3 v) {
+    _mm256_storeu_ps(a[0] + i, v.x);
+    _mm256_storeu_ps(a[1] + i, v.y);
+    _mm256_storeu_ps(a[2] + i, v.z);
+}
+__attribute__((target("avx2"))) static inline v8x3 scale3(v8x3 a, __m256 s) {
+    return (v8x3){_mm256_mul_ps(a.x, s), _mm256_mul_ps(a.y, s), _mm256_mul_ps(a.z, s)};
+}
+__attribute__((target("avx2"))) static inline v8x3 add3(v8x3 a, v8x3 b) {
+    return (v8x3){_mm256_add_ps(a.x, b.x), _mm256_add_ps(a.y, b.y), _mm256_add_ps(a.z, b.z)};
+}
+__attribute__((target("avx2"))) static inline __m256 dot3(v8x3 a, v8x3 b) {
+    return _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(a.x, b.x), _mm256_mul_ps(a.y, b.y)), _mm256_mul_ps(a.z, b.z));
+}
+__attribute__((target("avx2"))) static inline v8x3 neg3(v8x3 a) { /* v3_neg: the sign bits */
+    const __m256 m = _mm256_set1_ps(-0.f);
+    return (v8x3){_mm256_xor_ps(a.x, m), _mm256_xor_ps(a.y, m), _mm256_xor_ps(a.z, m)};
+}
+__attribute__((target("avx2"))) static inline v8x3 sel3(__m256 m, v8x3 a, v8x3 b) { /* m ? a : b */
+    return (v8x3){_mm256_blendv_ps(b.x, a.x, m), _mm256_blendv_ps(b.y, a.y, m), _mm256_blendv_ps(b.z, a.z, m)};
+}
+__attribute__((target("avx2"))) static inline __m256 finite8(__m256 x) {
+    return _mm256_cmp_ps(_mm256_and_ps(x, _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff))), _mm256_set1_ps(INFINITY),
+                         _CMP_LT_OQ);
+}
+
+/* The operations of trace.c's lane-by-lane code (pgi__trace_tri_shading, pgi__bsdf_sample's
+ * Lambertian case, pgi_to_world, the roulette), 8 lanes an instruction: +-*, / and sqrt are
+ * IEEE operations either way; pgi_maxf and pgi_minf are maxps and minps with the operands in
+ * their order; a ? b : c a blend. */
+__attribute__((target("avx2"))) static void lambert_avx2(pgi__lambert_batch *b) {
+    const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.f), eps = _mm256_set1_ps(b->eps);
+    for (int i = 0; i < b->n; i += 8) {
+        const v8x3 g = ld3(b->g, i);
+        v8x3 ns = g;
+        if (b->nrm) {
+            const __m256 bu = _mm256_loadu_ps(b->bu + i), bv = _mm256_loadu_ps(b->bv + i);
+            const __m256 bw = _mm256_sub_ps(_mm256_sub_ps(one, bu), bv);
+            const v8x3 n0 = ld3((const float(*)[16])b->nv[0], i), n1 = ld3((const float(*)[16])b->nv[3], i),
+                       n2 = ld3((const float(*)[16])b->nv[6], i);
+            v8x3 n = add3(add3(scale3(n0, bw), scale3(n1, bu)), scale3(n2, bv));
+            const __m256 len = _mm256_sqrt_ps(dot3(n, n));
+            const __m256 ok = _mm256_and_ps(_mm256_cmp_ps(len, zero, _CMP_GT_OQ), finite8(len));
+            n = scale3(n, _mm256_div_ps(one, len));
+            const __m256 back = _mm256_cmp_ps(dot3(n, g), zero, _CMP_LT_OQ);
+            ns = sel3(ok, sel3(back, neg3(n), n), g);
+        }
+        const __m256 side = _mm256_loadu_ps(b->side + i);
+        const v8x3 gn = scale3(g, side), sn = scale3(ns, side);
+        /* pgi_sample_cosine(u0, u1) with the azimuth's cosine and sine */
+        const __m256 u0 = _mm256_loadu_ps(b->u0 + i), rr = _mm256_sqrt_ps(u0);
+        const __m256 cx = _mm256_mul_ps(rr, _mm256_loadu_ps(b->cs + i)),
+                     cy = _mm256_mul_ps(rr, _mm256_loadu_ps(b->sn + i)),
+                     cz = _mm256_sqrt_ps(_mm256_max_ps(_mm256_sub_ps(one, u0), zero));
+        /* pgi_to_world(c, sn): v3_basis (Duff et al.) */
+        const __m256 sign = _mm256_or_ps(_mm256_and_ps(sn.z, _mm256_set1_ps(-0.f)), one); /* copysignf(1, z) */
+        const __m256 a = _mm256_div_ps(_mm256_set1_ps(-1.f), _mm256_add_ps(sign, sn.z));
+        const __m256 bb = _mm256_mul_ps(_mm256_mul_ps(sn.x, sn.y), a);
+        const __m256 nsign = _mm256_xor_ps(sign, _mm256_set1_ps(-0.f));
+        const v8x3 t = {_mm256_add_ps(one, _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(sign, sn.x), sn.x), a)),
+                        _mm256_mul_ps(sign, bb), _mm256_mul_ps(nsign, sn.x)};
+        const v8x3 bt = {bb, _mm256_add_ps(sign, _mm256_mul_ps(_mm256_mul_ps(sn.y, sn.y), a)),
+                         _mm256_xor_ps(sn.y, _mm256_set1_ps(-0.f))};
+        const v8x3 wo = add3(add3(scale3(t, cx), scale3(bt, cy)), scale3(sn, cz));
+        const __m256 scat = _mm256_cmp_ps(dot3(wo, gn), zero, _CMP_GT_OQ);
+        /* the roulette (weight kd) */
+        const v8x3 f = ld3(b->flux, i), kd = ld3(b->kd, i);
+        const v8x3 nf = {_mm256_mul_ps(f.x, kd.x), _mm256_mul_ps(f.y, kd.y), _mm256_mul_ps(f.z, kd.z)};
+        const __m256 mf = _mm256_max_ps(f.x, _mm256_max_ps(f.y, f.z));
+        const __m256 q = _mm256_div_ps(_mm256_max_ps(nf.x, _mm256_max_ps(nf.y, nf.z)), mf);
+        const __m256 R = _mm256_and_ps(_mm256_cmp_ps(mf, zero, _CMP_GT_OQ), _mm256_min_ps(q, one));
+        const __m256 go = _mm256_and_ps(scat, _mm256_cmp_ps(_mm256_loadu_ps(b->u3 + i), R, _CMP_LT_OQ));
+        const v8x3 f2 = scale3(nf, _mm256_div_ps(one, R));
+        const __m256 alive =
+            _mm256_and_ps(go, _mm256_and_ps(finite8(f2.x), _mm256_and_ps(finite8(f2.y), finite8(f2.z))));
+        const v8x3 ng = ld3(b->ng, i), p = ld3(b->p, i);
+        const v8x3 off = sel3(_mm256_cmp_ps(dot3(wo, ng), zero, _CMP_GE_OQ), ng, neg3(ng));
+        st3(b->f, i, f2);
+        st3(b->o, i, add3(p, scale3(off, eps)));
+        st3(b->d, i, wo);
+        _mm256_storeu_si256((__m256i *)(b->alive + i), _mm256_castps_si256(alive));
+    }
+}
+
+int pgi__trace_lambert_avx2(pgi__lambert_batch *b) {
+    if (!pgi__cpu_avx2()) return 0;
+    lambert_avx2(b);
+    return 1;
+}
+#else
+int pgi__trace_lambert_avx2(pgi__lambert_batch *b) {
+    (void)b;
+    return 0;
+}
+#endif

@@ -26,4 +26,24 @@ void pgi__trace_emit_keys(pgi__v3 centre, float radius, const float *ox, const f
 /* The scalar key of one path (the reference of both builds). */
 uint32_t pgi__trace_emit_key(pgi__v3 centre, float radius, pgi__v3 o, pgi__v3 d);
 
+/* Lambertian scattering of up to 16 hits (trace.c wave_shade), in and out as arrays of lanes:
+ * the shading normal (pgi__trace_tri_shading: the vertex normals n at barycentrics bu, bv where
+ * the scene has them, else g), pgi__bsdf_sample's Lambertian case (a cosine-weighted direction
+ * about the shading normal turned to the side `side` = +-1 of the hit, from u0 and the
+ * azimuth's cosine and sine; weight kd), then the roulette with number u3 and the next ray
+ * (origin p moved eps along the facing normal ng on wo's side). alive[i]: the path goes on,
+ * with flux f, origin o and direction d. The AVX2 build is pgi__trace_lambert_avx2 (0: none);
+ * trace.c computes the same operations lane by lane elsewhere. */
+typedef struct pgi__lambert_batch {
+    int n, nrm;
+    float eps;
+    float nv[9][16], bu[16], bv[16], g[3][16], side[16], kd[3][16];
+    float u0[16], u3[16], cs[16], sn[16];
+    float flux[3][16], p[3][16], ng[3][16];
+    /* out */
+    int alive[16];
+    float f[3][16], o[3][16], d[3][16];
+} pgi__lambert_batch;
+int pgi__trace_lambert_avx2(pgi__lambert_batch *b);
+
 #endif
