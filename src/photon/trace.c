@@ -425,6 +425,10 @@ static inline float (*wave_azimuths(const tracer *T, const lane *L, float (*sc)[
  * stage's loads are in cache when the next stage needs them. */
 static inline void wave_texels(const tracer *T, lane *L) {
     const pgi_scene *s = T->s;
+    /* the lookups whose quads the AVX2 build finds, 8 an instruction */
+    const pgi__texture *bt[WAVE];
+    float bu[WAVE], bv[WAVE];
+    int bk[WAVE], nb = 0;
     for (int k = 0; k < WAVE; k++) {
         lane *l = &L[k];
         l->tex = NULL;
@@ -450,7 +454,19 @@ static inline void wave_texels(const tracer *T, lane *L) {
         l->tex = &s->texs[m->tex_kd];
         float u = 0.f, v = 0.f; /* without texture coordinates the lookup reads (0, 0) */
         if (T->tri_uv) pgi__trace_tri_uv(T->tri_uv + PGI__TRI_UV * (size_t)l->h.prim, l->h.u, l->h.v, &u, &v);
+        if (T->lambert_simd && pgi__trace_quad_fits(l->tex)) { /* found with the wave's others below */
+            bt[nb] = l->tex;
+            bu[nb] = u;
+            bv[nb] = v;
+            bk[nb++] = k;
+            continue;
+        }
         if (!pgi__texture_quad(l->tex, u, v, &l->tq)) l->tex = NULL; /* no texels: white */
+    }
+    if (nb) {
+        pgi__texel_quad q[WAVE];
+        pgi__trace_texel_quads_avx2(bt, bu, bv, nb, q);
+        for (int j = 0; j < nb; j++) L[bk[j]].tq = q[j];
     }
 }
 
@@ -538,7 +554,8 @@ static inline int wave_shade(const tracer *T, lane *L, float (*sc)[WAVE], pgi__t
                     }
                 }
                 pgi__v3 kd = v3_load(mat->kd);
-                if (l->tex) kd = v3_mul(kd, pgi__texture_quad_lookup(&l->tq));
+                /* a batch lane's texels later, after the others' work (their misses overlap it) */
+                if (l->tex && !(lb && lambert(mat))) kd = v3_mul(kd, pgi__texture_quad_lookup(&l->tq));
                 pgi__v3 wo, w;
                 int scatters;
                 if (lb && lambert(mat)) {
@@ -616,6 +633,14 @@ static inline int wave_shade(const tracer *T, lane *L, float (*sc)[WAVE], pgi__t
         }
     }
     if (lb && lb->n) {
+        for (int j = 0; j < lb->n; j++) {
+            const lane *l = &L[lmap[j]];
+            if (!l->tex) continue;
+            const pgi__v3 kd = v3_mul(v3(lb->kd[0][j], lb->kd[1][j], lb->kd[2][j]), pgi__texture_quad_lookup(&l->tq));
+            lb->kd[0][j] = kd.x;
+            lb->kd[1][j] = kd.y;
+            lb->kd[2][j] = kd.z;
+        }
         lambert_batch(lb);
         for (int j = 0; j < lb->n; j++) {
             lane *l = &L[lmap[j]];

@@ -370,3 +370,89 @@ int pgi__trace_lambert_avx2(pgi__lambert_batch *b) {
     return 0;
 }
 #endif
+
+/* ------------------------------------------------------------ texel quads */
+
+#if PGI__AVX2_TARGET
+/* i wrapped into [0, n) as texture.c's wrap_index (i in [-1, n]). */
+__attribute__((target("avx2"))) static inline __m256i wrap8(__m256i i, __m256i n) {
+    const __m256i neg = _mm256_cmpgt_epi32(_mm256_setzero_si256(), i),
+                  over = _mm256_cmpgt_epi32(i, _mm256_sub_epi32(n, _mm256_set1_epi32(1)));
+    return _mm256_sub_epi32(_mm256_add_epi32(i, _mm256_and_si256(neg, n)), _mm256_and_si256(over, n));
+}
+
+/* texture.c's lookup_n_avx2 with each lane's own texture (its sizes a lane of a register). */
+__attribute__((target("avx2"))) static void texel_quads_avx2(const pgi__texture *const *t, const float *u,
+                                                             const float *v, int n, pgi__texel_quad *q) {
+    for (int k0 = 0; k0 < n; k0 += 8) {
+        const int m = n - k0 < 8 ? n - k0 : 8;
+        float uu[8] = {0}, vv[8] = {0}, wf[8], hf[8];
+        int32_t wi[8], hi[8], bwi[8];
+        for (int i = 0; i < 8; i++) {
+            const pgi__texture *ti = t[k0 + (i < m ? i : 0)];
+            uu[i] = i < m ? u[k0 + i] : 0.f;
+            vv[i] = i < m ? v[k0 + i] : 0.f;
+            wi[i] = ti->width;
+            hi[i] = ti->height;
+            wf[i] = (float)ti->width;
+            hf[i] = (float)ti->height;
+            bwi[i] = (ti->width + 3) >> 2;
+        }
+        const __m256 inf = _mm256_set1_ps(INFINITY), absm = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
+        __m256 uf = _mm256_loadu_ps(uu), vf = _mm256_loadu_ps(vv);
+        uf = _mm256_and_ps(uf, _mm256_cmp_ps(_mm256_and_ps(uf, absm), inf, _CMP_LT_OQ)); /* !isfinite: 0 */
+        vf = _mm256_and_ps(vf, _mm256_cmp_ps(_mm256_and_ps(vf, absm), inf, _CMP_LT_OQ));
+        const __m256 fu = _mm256_sub_ps(uf, _mm256_floor_ps(uf)), fv = _mm256_sub_ps(vf, _mm256_floor_ps(vf));
+        const __m256 half = _mm256_set1_ps(0.5f);
+        const __m256 x = _mm256_sub_ps(_mm256_mul_ps(fu, _mm256_loadu_ps(wf)), half);
+        const __m256 y =
+            _mm256_sub_ps(_mm256_mul_ps(_mm256_sub_ps(_mm256_set1_ps(1.f), fv), _mm256_loadu_ps(hf)), half);
+        const __m256 x0f = _mm256_floor_ps(x), y0f = _mm256_floor_ps(y);
+        float tx[8], ty[8];
+        _mm256_storeu_ps(tx, _mm256_sub_ps(x, x0f));
+        _mm256_storeu_ps(ty, _mm256_sub_ps(y, y0f));
+        const __m256i W = _mm256_loadu_si256((const __m256i *)wi), H = _mm256_loadu_si256((const __m256i *)hi);
+        const __m256i one = _mm256_set1_epi32(1), three = _mm256_set1_epi32(3);
+        const __m256i xi = _mm256_cvttps_epi32(x0f), yi = _mm256_cvttps_epi32(y0f);
+        const __m256i x0 = wrap8(xi, W), x1 = wrap8(_mm256_add_epi32(xi, one), W);
+        const __m256i y0 = wrap8(yi, H), y1 = wrap8(_mm256_add_epi32(yi, one), H);
+        /* quad_at: rows 64 ((y >> 2) bw) + 16 (y & 3), columns 64 (x >> 2) + 4 (x & 3) */
+        const __m256i bw = _mm256_loadu_si256((const __m256i *)bwi);
+#define ROW8(y)                                                                                                        \
+    _mm256_add_epi32(_mm256_slli_epi32(_mm256_mullo_epi32(_mm256_srai_epi32(y, 2), bw), 6),                            \
+                     _mm256_slli_epi32(_mm256_and_si256(y, three), 4))
+#define COL8(x)                                                                                                        \
+    _mm256_add_epi32(_mm256_slli_epi32(_mm256_srai_epi32(x, 2), 6), _mm256_slli_epi32(_mm256_and_si256(x, three), 2))
+        const __m256i r0 = ROW8(y0), r1 = ROW8(y1), c0 = COL8(x0), c1 = COL8(x1);
+#undef ROW8
+#undef COL8
+        int32_t o[4][8];
+        _mm256_storeu_si256((__m256i *)o[0], _mm256_add_epi32(r0, c0));
+        _mm256_storeu_si256((__m256i *)o[1], _mm256_add_epi32(r0, c1));
+        _mm256_storeu_si256((__m256i *)o[2], _mm256_add_epi32(r1, c0));
+        _mm256_storeu_si256((__m256i *)o[3], _mm256_add_epi32(r1, c1));
+        for (int i = 0; i < m; i++) {
+            pgi__texel_quad *qk = &q[k0 + i];
+            const unsigned char *base = t[k0 + i]->tiled;
+            for (int c = 0; c < 4; c++) qk->p[c] = base + o[c][i];
+            qk->tx = tx[i];
+            qk->ty = ty[i];
+            __builtin_prefetch(qk->p[0]);
+            __builtin_prefetch(qk->p[3]);
+        }
+    }
+}
+
+int pgi__trace_texel_quads_avx2(const pgi__texture *const *t, const float *u, const float *v, int n,
+                                pgi__texel_quad *q) {
+    if (!pgi__cpu_avx2()) return 0;
+    texel_quads_avx2(t, u, v, n, q);
+    return 1;
+}
+#else
+int pgi__trace_texel_quads_avx2(const pgi__texture *const *t, const float *u, const float *v, int n,
+                                pgi__texel_quad *q) {
+    (void)t, (void)u, (void)v, (void)n, (void)q;
+    return 0;
+}
+#endif
