@@ -57,6 +57,7 @@ typedef struct chunk_info {
     size_t total; /* photons of the chunk */
     size_t count; /* of these, the photons taken: the first in path order */
     size_t keyed; /* paths that start in start_paths (from point and spot lights) */
+    size_t kofs;  /* ... and the first one's place among the batch's (sort_paths) */
 } chunk_info;
 
 typedef struct tracer {
@@ -727,35 +728,71 @@ static size_t start_paths(const tracer *T, uint64_t base, size_t p0, size_t p1, 
     return m - slot;
 }
 
-/* A histogram into the offsets where each bucket starts (an exclusive prefix sum). */
-static void hist_offsets(uint32_t *hist) {
-    uint32_t acc = 0;
-    for (int b = 0; b < 65536; b++) {
-        const uint32_t c = hist[b];
-        hist[b] = acc;
-        acc += c;
+/* Sorts the batch's n keyed paths by key, stably (a key's paths stay in path order): chunk c's
+ * sort keys and slots are key, idx + c room (chunks[c].keyed of them, at chunks[c].kofs among the
+ * batch's). A byte of the key at a time, least significant first, each byte's counts taken in one
+ * read of the keys; a byte that every key shares (a point light's origin cell) is skipped. The
+ * first pass gathers the chunks' keys as it places them; the order ends in idx (tkey, tidx: room
+ * for n more). Serial: a parallel sort's barriers cost more than its work when the machine is
+ * shared. */
+static void sort_paths(pgi__trace_scratch *sc, long long nch, size_t room, size_t n) {
+    uint32_t *const key = sc->key, *const idx = sc->idx;
+    const chunk_info *ch = sc->chunks;
+    uint32_t *const h = sc->hist; /* 4 x 256 counts */
+    memset(h, 0, 1024 * sizeof *h);
+    for (long long c = 0; c < nch; c++)
+        for (size_t i = (size_t)c * room, e = i + ch[c].keyed; i < e; i++) {
+            const uint32_t k = key[i];
+            h[k & 255]++;
+            h[256 + (k >> 8 & 255)]++;
+            h[512 + (k >> 16 & 255)]++;
+            h[768 + (k >> 24)]++;
+        }
+    int pass[4], np = 0;
+    for (int d = 0; d < 4; d++) {
+        int one = 0;
+        uint32_t acc = 0, *hd = h + 256 * d;
+        for (int b = 0; b < 256; b++) {
+            const uint32_t c = hd[b];
+            one |= c == n;
+            hd[b] = acc;
+            acc += c;
+        }
+        if (!one) pass[np++] = d;
     }
-}
-
-/* Sorts n paths (idx[i] with key[i]) by key, stably (a key's paths stay in path order), into
- * idx; tkey, tidx: room for n more. Two passes of 16 bits. */
-static void sort_paths(size_t n, uint32_t *key, uint32_t *idx, uint32_t *tkey, uint32_t *tidx, uint32_t *hist) {
-    memset(hist, 0, 65536 * sizeof *hist);
-    for (size_t i = 0; i < n; i++) hist[key[i] & 0xffff]++;
-    hist_offsets(hist);
-    for (size_t i = 0; i < n; i++) {
-        const uint32_t j = hist[key[i] & 0xffff]++;
-        tkey[j] = key[i];
-        tidx[j] = idx[i];
-    }
-    memset(hist, 0, 65536 * sizeof *hist);
-    for (size_t i = 0; i < n; i++) hist[tkey[i] >> 16]++;
-    if (hist[tkey[0] >> 16] == n) { /* one origin cell (point lights): the order stays */
-        memcpy(idx, tidx, n * sizeof *idx);
+    if (!np) { /* one key: the chunks' slots in path order */
+        for (long long c = 0; c < nch; c++)
+            if (ch[c].keyed && ch[c].kofs != (size_t)c * room)
+                memmove(idx + ch[c].kofs, idx + (size_t)c * room, ch[c].keyed * sizeof *idx);
         return;
     }
-    hist_offsets(hist);
-    for (size_t i = 0; i < n; i++) idx[hist[tkey[i] >> 16]++] = tidx[i];
+    /* the first pass from the chunks' slices; then back and forth, the last into idx */
+    uint32_t *dk = sc->tkey, *di = sc->tidx;
+    {
+        const int d = 8 * pass[0];
+        uint32_t *hd = h + 256 * pass[0];
+        for (long long c = 0; c < nch; c++)
+            for (size_t i = (size_t)c * room, e = i + ch[c].keyed; i < e; i++) {
+                const uint32_t k = key[i], j = hd[k >> d & 255]++;
+                dk[j] = k;
+                di[j] = idx[i];
+            }
+    }
+    uint32_t *sk = dk, *si = di;
+    for (int p = 1; p < np; p++) {
+        const int d = 8 * pass[p];
+        uint32_t *hd = h + 256 * pass[p];
+        dk = sk == sc->tkey ? key : sc->tkey;
+        di = si == sc->tidx ? idx : sc->tidx;
+        for (size_t i = 0; i < n; i++) {
+            const uint32_t k = sk[i], j = hd[k >> d & 255]++;
+            dk[j] = k;
+            di[j] = si[i];
+        }
+        sk = dk;
+        si = di;
+    }
+    if (si != idx) memcpy(idx, si, n * sizeof *idx);
 }
 
 /* The first hits of sorted paths order[g0*16 .. g1*16) (of n), 16 at a time, shaded in that
@@ -875,7 +912,7 @@ size_t pgi__trace_scratch_bytes(const pgi__trace_scratch *sc) {
     size_t b = sc->cap * sizeof(uint8_t) + sc->cap / CHUNK * sizeof(chunk_info) +
                (size_t)sc->nthreads * sizeof *sc->tbuf + (sc->path_bin_cap + sc->ph_bin_cap) * sizeof(uint16_t) +
                sc->tris_bytes + sc->mode_cap + sc->ps_cap * (sizeof(path_state) + 4 * sizeof(uint32_t)) +
-               sc->pd_cap * sizeof(pgi__pdiff) + (sc->hist ? 65536 * sizeof(uint32_t) : 0);
+               sc->pd_cap * sizeof(pgi__pdiff) + sc->hist_n * sizeof(uint32_t);
     for (int t = 0; t < sc->nthreads; t++) {
         const pgi__trace_tbuf *tb = &sc->tbuf[t];
         b += tb->rec_cap * (sizeof(stored_photon) + sizeof(uint16_t) + (tb->rec_fp ? sizeof(pgi__footprint) : 0));
@@ -922,8 +959,13 @@ static pgi_status scratch_reserve(pgi__trace_scratch *sc, size_t paths, int nt, 
     if (!room) return PGI_OK;
     /* the emission pre-pass: a start mode a path, `room` states a chunk */
     const size_t states = (paths + CHUNK - 1) / CHUNK * room;
-    if (!sc->hist && !(sc->hist = malloc(65536 * sizeof *sc->hist)))
-        return pgi__fail(PGI_ERR_OOM, "%s", "out of memory for the emission sort");
+    const size_t hist_n = 1024; /* the sort's counts (sort_paths) */
+    if (sc->hist_n < hist_n) {
+        free(sc->hist);
+        sc->hist = malloc(hist_n * sizeof *sc->hist);
+        sc->hist_n = sc->hist ? hist_n : 0;
+        if (!sc->hist) return pgi__fail(PGI_ERR_OOM, "%s", "out of memory for the emission sort");
+    }
     if (paths > sc->mode_cap) {
         free(sc->mode);
         sc->mode = malloc(paths);
@@ -1102,14 +1144,10 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
         }
         size_t keyed = 0; /* each chunk's keyed paths, together */
         for (long long c = 0; room && c < nch; c++) {
-            const size_t m = sc->chunks[c].keyed, s0 = (size_t)c * room;
-            if (m && keyed != s0) {
-                memmove(sc->key + keyed, sc->key + s0, m * sizeof *sc->key);
-                memmove(sc->idx + keyed, sc->idx + s0, m * sizeof *sc->idx);
-            }
-            keyed += m;
+            sc->chunks[c].kofs = keyed;
+            keyed += sc->chunks[c].keyed;
         }
-        if (keyed) sort_paths(keyed, sc->key, sc->idx, sc->tkey, sc->tidx, sc->hist);
+        if (keyed) sort_paths(sc, nch, room, keyed);
         const long long ngroups = (long long)((keyed + WAVE - 1) / WAVE), nblocks = (ngroups + 15) / 16;
 #pragma omp parallel for schedule(dynamic, 1) reduction(+ : batch_rays) num_threads(nt)
         for (long long bk = 0; bk < nblocks; bk++) {
