@@ -471,43 +471,20 @@ static inline void wave_texels(const tracer *T, lane *L) {
     }
 }
 
-/* Pads the batch to whole registers (copies of its first lane) and shades it. */
-static inline void lambert_batch(pgi__lambert_batch *b) {
-    const int n8 = (b->n + 7) & ~7;
-    for (int j = b->n; j < n8; j++) {
-        for (int q = 0; q < 9; q++) b->nv[q][j] = b->nv[q][0];
-        for (int q = 0; q < 3; q++) {
-            b->g[q][j] = b->g[q][0];
-            b->kd[q][j] = b->kd[q][0];
-            b->flux[q][j] = b->flux[q][0];
-            b->p[q][j] = b->p[q][0];
-            b->ng[q][j] = b->ng[q][0];
-        }
-        b->bu[j] = b->bu[0];
-        b->bv[j] = b->bv[0];
-        b->side[j] = b->side[0];
-        b->u0[j] = b->u0[0];
-        b->u3[j] = b->u3[0];
-        b->cs[j] = b->cs[0];
-        b->sn[j] = b->sn[0];
-    }
-    pgi__trace_lambert_avx2(b);
-}
-
 /* Shade: store, scatter, roulette. A lane whose path ends gets path -1; returns how many did.
  * Photons are stored from the second hit on (b >= 1), into tb with cnt counting each chunk
  * path's: a wave of first hits (b = 0 everywhere) stores none and may pass NULL for both. *ok
  * becomes 0 when out of memory. */
-static inline int wave_shade(const tracer *T, lane *L, float (*sc)[WAVE], pgi__trace_tbuf *tb, uint8_t *cnt,
-                             uint32_t *gcnt, int *ok) {
+static inline int wave_shade(const tracer *T, lane *L, float (*sc)[WAVE], pgi__lambert_batch *lbs, pgi__trace_tbuf *tb,
+                             uint8_t *cnt, uint32_t *gcnt, int *ok) {
     const pgi_scene *s = T->s;
     int ended = 0;
     /* Lambertian scattering, 8 lanes an instruction (AVX2, no radius policy): the lanes that
      * scatter so go into a batch, shaded together after the others */
-    pgi__lambert_batch lbs, *lb = NULL;
+    pgi__lambert_batch *lb = NULL;
     int lmap[WAVE];
     if (sc && T->lambert_simd && !T->fp_track) {
-        lb = &lbs;
+        lb = lbs;
         lb->n = 0;
         lb->nrm = s->nrm != NULL;
         lb->eps = T->eps;
@@ -642,7 +619,7 @@ static inline int wave_shade(const tracer *T, lane *L, float (*sc)[WAVE], pgi__t
             lb->kd[1][j] = kd.y;
             lb->kd[2][j] = kd.z;
         }
-        lambert_batch(lb);
+        pgi__trace_lambert_avx2(lb); /* the lanes past n: earlier waves' (or zeros), not read */
         for (int j = 0; j < lb->n; j++) {
             lane *l = &L[lmap[j]];
             if (lb->alive[j]) {
@@ -803,7 +780,9 @@ static void sort_paths(pgi__trace_scratch *sc, long long nch, size_t room, size_
  * a function of the batch alone (its sorted paths, 16 at a time), whatever the thread count. */
 static void first_hits(const tracer *T, path_state *ps, pgi__pdiff *pd, const uint32_t *order, size_t n, size_t g0,
                        size_t g1, int coherent, uint64_t *rays) {
-    enum { AHEAD = 2 }; /* groups whose states are requested ahead (they lie anywhere in ps) */
+    enum { AHEAD = 2 };     /* groups whose states are requested ahead (they lie anywhere in ps) */
+    pgi__lambert_batch lbs; /* wave_shade's (zeroed once: its lanes are all defined) */
+    memset(&lbs, 0, sizeof lbs);
     for (size_t g = g0; g < g1; g++) {
         /* the states of group g + AHEAD (and, at the start, of the groups before it) */
         for (size_t j = (g == g0 ? g : g + AHEAD) * WAVE; j < (g + AHEAD + 1) * WAVE && j < n; j++) {
@@ -821,7 +800,7 @@ static void first_hits(const tracer *T, path_state *ps, pgi__pdiff *pd, const ui
         float scb[2][WAVE], (*sc)[WAVE] = wave_azimuths(T, L, scb);
         wave_texels(T, L);
         int ok = 1;
-        wave_shade(T, L, sc, NULL, NULL, NULL, &ok);
+        wave_shade(T, L, sc, &lbs, NULL, NULL, NULL, &ok);
         for (int k = 0; k < WAVE; k++) {
             const size_t j = g * WAVE + (size_t)k;
             if (j < n) state_save(&L[k], &ps[order[j]], pd ? &pd[order[j]] : NULL);
@@ -841,6 +820,8 @@ static int trace_chunk(const tracer *T, uint64_t base, const uint8_t *mode, cons
     memset(cnt, 0, (size_t)n);
     lane L[WAVE];
     memset(L, 0, sizeof L); /* lanes without a path still go to Embree (masked): no garbage */
+    pgi__lambert_batch lbs; /* wave_shade's (zeroed once: its lanes are all defined) */
+    memset(&lbs, 0, sizeof lbs);
     int next = 0, active = 0, ok = 1;
     for (int k = 0; k < WAVE; k++) L[k].path = -1;
     size_t ahead = 0; /* the chunk's states requested so far */
@@ -877,7 +858,7 @@ static int trace_chunk(const tracer *T, uint64_t base, const uint8_t *mode, cons
         cast_wave(T, L, 0, rays);
         float scb[2][WAVE], (*sc)[WAVE] = wave_azimuths(T, L, scb);
         wave_texels(T, L);
-        active -= wave_shade(T, L, sc, tb, cnt, gcnt, &ok);
+        active -= wave_shade(T, L, sc, &lbs, tb, cnt, gcnt, &ok);
         if (!ok) return 0;
     }
     return 1;
