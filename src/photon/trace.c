@@ -108,7 +108,7 @@ typedef struct lane {
 typedef struct emission_pick {
     float ul, pl, a, b; /* the pick's number and probability; the steered pair */
 } emission_pick;
-static const pgi__light *pick_light(const tracer *T, uint64_t index, lane *l, emission_pick *e) {
+static inline const pgi__light *pick_light(const tracer *T, uint64_t index, lane *l, emission_pick *e) {
     pgi_rng_seed(&l->rng, T->seed, index);
     const pgi__guide *G = T->G;
     float ul;
@@ -129,7 +129,8 @@ static const pgi__light *pick_light(const tracer *T, uint64_t index, lane *l, em
  * numbers u[0..3] of the emission, the guide's bin and count; 0: the light carries nothing), then
  * emit_place, the ray. `cs`: cos and sin of 2 pi u[1] where known (pgi__trace_sincos_2pi: the
  * same bits as cosf and sinf), used by point and spot lights; NULL: computed here. */
-static int emit_draw(const tracer *T, const pgi__light *L, const emission_pick *e, lane *l, uint32_t *cnt, float u[4]) {
+static inline int emit_draw(const tracer *T, const pgi__light *L, const emission_pick *e, lane *l, uint32_t *cnt,
+                            float u[4]) {
     const pgi__guide *G = T->G;
     const int steer = G && G->on;
     const float pl = e->pl;
@@ -171,19 +172,19 @@ static int emit_draw(const tracer *T, const pgi__light *L, const emission_pick *
     return 1;
 }
 
-static int emit_place(const tracer *T, const pgi__light *L, float pl, const float u[4], const float *cs, lane *l) {
-    const float u1 = u[0], u2 = u[1], u3 = u[2], u4 = u[3];
-    switch (L->type) {
-    case PGI_LIGHT_POINT:
-        l->o = v3_load(L->pos);
+/* emit_place for a point or spot light (pgi__light_from_point). */
+static inline void emit_place_point(const tracer *T, const pgi__light *L, float pl, const float u[4], const float *cs,
+                                    lane *l) {
+    const float u1 = u[0], u2 = u[1];
+    l->o = v3_load(L->pos);
+    if (L->type == PGI_LIGHT_POINT) {
         if (cs) { /* pgi_sample_sphere(u1, u2) with its cosine and sine given */
             const float z = 1.f - 2.f * u1, r = sqrtf(pgi_maxf(1.f - z * z, 0.f));
             l->d = v3(r * cs[0], r * cs[1], z);
         } else {
             l->d = pgi_sample_sphere(u1, u2);
         }
-        break;
-    case PGI_LIGHT_SPOT: {
+    } else {
         pgi__v3 c;
         if (cs) { /* pgi_sample_cone(u1, u2, cos_cutoff) with its cosine and sine given */
             const float z = 1.f - u1 * (1.f - L->cos_cutoff), r = sqrtf(pgi_maxf(1.f - z * z, 0.f));
@@ -191,10 +192,17 @@ static int emit_place(const tracer *T, const pgi__light *L, float pl, const floa
         } else {
             c = pgi_sample_cone(u1, u2, L->cos_cutoff);
         }
-        l->o = v3_load(L->pos);
         l->d = pgi_to_world(c, v3_load(L->dir));
-        break;
     }
+    if (T->fp_track) pgi__fp_emit(&l->pd, &T->fp, T->s, L, pl, l->d, T->radius);
+    l->b = 0;
+}
+
+static int emit_place(const tracer *T, const pgi__light *L, float pl, const float u[4], const float *cs, lane *l) {
+    const float u1 = u[0], u2 = u[1], u3 = u[2], u4 = u[3];
+    switch (L->type) {
+    case PGI_LIGHT_POINT:
+    case PGI_LIGHT_SPOT: emit_place_point(T, L, pl, u, cs, l); return 1;
     case PGI_LIGHT_SUN: {
         l->d = v3_load(L->dir);
         float r = T->radius * sqrtf(u1), phi = 2.f * PGI_PI * u2;
@@ -690,7 +698,7 @@ static size_t start_paths(const tracer *T, uint64_t base, size_t p0, size_t p1, 
         for (int k = 0; k < nb; k++) {
             const float c2[2] = {cs[k], sn[k]};
             lane *l = &lb[k];
-            emit_place(T, lights[k], pl[k], u[k], c2, l); /* point and spot lights: always 1 */
+            emit_place_point(T, lights[k], pl[k], u[k], c2, l);
             state_save(l, &ps[m0 + (size_t)k], pd ? &pd[m0 + (size_t)k] : NULL);
             o[0][k] = l->o.x;
             o[1][k] = l->o.y;
