@@ -422,7 +422,7 @@ static inline void cast_wave(const tracer *T, lane *L, int coherent, uint64_t *r
  * while the hits' records load; NULL where that is not the faster way (wave_shade then calls
  * cosf and sinf where it needs them). */
 static inline float (*wave_azimuths(const tracer *T, const lane *L, float (*sc)[WAVE]))[WAVE] {
-    if (!T->fast_sincos) return NULL;
+    if (!T->fast_sincos || T->lambert_simd) return NULL; /* the batch finds its own */
     float az[WAVE];
     for (int k = 0; k < WAVE; k++)
         az[k] = L[k].path >= 0 && L[k].h.prim != UINT32_MAX && L[k].b < T->bounces ? L[k].u[1] : 0.f;
@@ -491,7 +491,7 @@ static inline int wave_shade(const tracer *T, lane *L, float (*sc)[WAVE], pgi__l
      * scatter so go into a batch, shaded together after the others */
     pgi__lambert_batch *lb = NULL;
     int lmap[WAVE];
-    if (sc && T->lambert_simd && !T->fp_track) {
+    if (T->lambert_simd) {
         lb = lbs;
         lb->n = 0;
         lb->nrm = s->nrm != NULL;
@@ -560,8 +560,7 @@ static inline int wave_shade(const tracer *T, lane *L, float (*sc)[WAVE], pgi__l
                     lb->kd[2][j] = kd.z;
                     lb->u0[j] = l->u[0];
                     lb->u3[j] = l->u[3];
-                    lb->cs[j] = sc[1][k];
-                    lb->sn[j] = sc[0][k];
+                    lb->u1[j] = l->u[1];
                     lb->flux[0][j] = l->flux.x;
                     lb->flux[1][j] = l->flux.y;
                     lb->flux[2][j] = l->flux.z;
@@ -1050,7 +1049,6 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
     T.tris = sc->tris;
     T.tri_uv = sc->tri_uv;
     T.fast_sincos = pgi__trace_sincos_fast();
-    T.lambert_simd = T.fast_sincos; /* AVX2 (and FMA) and not narrow, as the batch's build needs */
     if (d->guide) {
         if (!d->vgrid) {
             free(cdf);
@@ -1066,6 +1064,7 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
     }
     pgi__fp_params_init(&T.fp, d->radius_policy, d->r_min, d->r_max, d->smoothing, d->photons, 2.f * T.radius);
     T.fp_track = d->radius_policy != PGI_RADIUS_FIXED;
+    T.lambert_simd = T.fast_sincos && !T.fp_track; /* AVX2 (and FMA), not narrow; no radius policy */
     T.fp_on = T.fp_track && ph->radius;
     const float bin_w = d->r_max / 14.f;
     uint64_t path = 0, traced = 0, rays = 0;

@@ -305,7 +305,7 @@ __attribute__((target("avx2"))) static inline __m256 finite8(__m256 x) {
  * Lambertian case, pgi_to_world, the roulette), 8 lanes an instruction: +-*, / and sqrt are
  * IEEE operations either way; pgi_maxf and pgi_minf are maxps and minps with the operands in
  * their order; a ? b : c a blend. */
-__attribute__((target("avx2"))) static void lambert_avx2(pgi__lambert_batch *b) {
+__attribute__((target("avx2,fma"))) static void lambert_avx2(pgi__lambert_batch *b) {
     const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.f), eps = _mm256_set1_ps(b->eps);
     for (int i = 0; i < b->n; i += 8) {
         const v8x3 g = ld3(b->g, i);
@@ -326,8 +326,11 @@ __attribute__((target("avx2"))) static void lambert_avx2(pgi__lambert_batch *b) 
         const v8x3 gn = scale3(g, side), sn = scale3(ns, side);
         /* pgi_sample_cosine(u0, u1) with the azimuth's cosine and sine */
         const __m256 u0 = _mm256_loadu_ps(b->u0 + i), rr = _mm256_sqrt_ps(u0);
-        const __m256 cx = _mm256_mul_ps(rr, _mm256_loadu_ps(b->cs + i)),
-                     cy = _mm256_mul_ps(rr, _mm256_loadu_ps(b->sn + i)),
+        __m128 s0, c0, s1, c1; /* the azimuth's sine and cosine (sincos_2pi_avx2) */
+        const __m256 phi = _mm256_mul_ps(_mm256_set1_ps(2.f * PGI_PI), _mm256_loadu_ps(b->u1 + i));
+        sincos4(_mm256_castps256_ps128(phi), &s0, &c0);
+        sincos4(_mm256_extractf128_ps(phi, 1), &s1, &c1);
+        const __m256 cx = _mm256_mul_ps(rr, _mm256_set_m128(c1, c0)), cy = _mm256_mul_ps(rr, _mm256_set_m128(s1, s0)),
                      cz = _mm256_sqrt_ps(_mm256_max_ps(_mm256_sub_ps(one, u0), zero));
         /* pgi_to_world(c, sn): v3_basis (Duff et al.) */
         const __m256 sign = _mm256_or_ps(_mm256_and_ps(sn.z, _mm256_set1_ps(-0.f)), one); /* copysignf(1, z) */

@@ -32,14 +32,16 @@ uint32_t pgi__trace_emit_key(pgi__v3 centre, float radius, pgi__v3 o, pgi__v3 d)
  * the scene has them, else g), pgi__bsdf_sample's Lambertian case (a cosine-weighted direction
  * about the shading normal turned to the side `side` = +-1 of the hit, from u0 and the
  * azimuth's cosine and sine; weight kd), then the roulette with number u3 and the next ray
- * (origin p moved eps along the facing normal ng on wo's side). alive[i]: the path goes on,
+ * (origin p moved eps along the facing normal ng on wo's side). u0, u1: the direction's numbers
+ * (the azimuth 2 pi u1's sine and cosine as pgi__trace_sincos_2pi finds them), u3: the roulette's.
+ * alive[i]: the path goes on,
  * with flux f, origin o and direction d. The AVX2 build is pgi__trace_lambert_avx2 (0: none);
  * trace.c computes the same operations lane by lane elsewhere. */
 typedef struct pgi__lambert_batch {
     int n, nrm;
     float eps;
     float nv[9][16], bu[16], bv[16], g[3][16], side[16], kd[3][16];
-    float u0[16], u3[16], cs[16], sn[16];
+    float u0[16], u1[16], u3[16];
     float flux[3][16], p[3][16], ng[3][16];
     /* out */
     int alive[16];
