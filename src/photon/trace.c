@@ -657,7 +657,7 @@ enum {
  * coherent. pbin: the guide bins (guided emission), gcnt: the thread's guide counters. */
 static size_t start_paths(const tracer *T, uint64_t base, size_t p0, size_t p1, size_t slot, size_t room,
                           path_state *ps, pgi__pdiff *pd, uint8_t *mode, uint32_t *key, uint32_t *idx, uint32_t *gcnt,
-                          uint16_t *pbin) {
+                          uint16_t *pbin, uint32_t *hist) {
     size_t m = slot;
     /* 16 paths at a time: their numbers, then the sines and cosines of their azimuths together
      * (pgi__trace_sincos_2pi), then their rays, states and sort keys */
@@ -708,30 +708,34 @@ static size_t start_paths(const tracer *T, uint64_t base, size_t p0, size_t p1, 
             idx[m0 + (size_t)k] = (uint32_t)(m0 + (size_t)k);
         }
         pgi__trace_emit_keys(T->centre, T->radius, o[0], o[1], o[2], d[0], d[1], d[2], nb, key + m0);
+        for (int k = 0; k < nb; k++) { /* the sort's counts of each byte of the keys (sort_paths) */
+            const uint32_t kk = key[m0 + (size_t)k];
+            hist[kk & 255]++;
+            hist[256 + (kk >> 8 & 255)]++;
+            hist[512 + (kk >> 16 & 255)]++;
+            hist[768 + (kk >> 24)]++;
+        }
     }
     return m - slot;
 }
 
 /* Sorts the batch's n keyed paths by key, stably (a key's paths stay in path order): chunk c's
  * sort keys and slots are key, idx + c room (chunks[c].keyed of them, at chunks[c].kofs among the
- * batch's). A byte of the key at a time, least significant first, each byte's counts taken in one
- * read of the keys; a byte that every key shares (a point light's origin cell) is skipped. The
+ * batch's). A byte of the key at a time, least significant first, each byte's counts taken by
+ * start_paths as it made the keys (hist + 1024 (t + 1) for thread t); a byte that every key shares
+ * (a point light's origin cell) is skipped. The
  * first pass gathers the chunks' keys as it places them; the order ends in idx (tkey, tidx: room
  * for n more). Serial: a parallel sort's barriers cost more than its work when the machine is
  * shared. */
-static void sort_paths(pgi__trace_scratch *sc, long long nch, size_t room, size_t n) {
+static void sort_paths(pgi__trace_scratch *sc, long long nch, size_t room, size_t n, int nt) {
     uint32_t *const key = sc->key, *const idx = sc->idx;
     const chunk_info *ch = sc->chunks;
-    uint32_t *const h = sc->hist; /* 4 x 256 counts */
-    memset(h, 0, 1024 * sizeof *h);
-    for (long long c = 0; c < nch; c++)
-        for (size_t i = (size_t)c * room, e = i + ch[c].keyed; i < e; i++) {
-            const uint32_t k = key[i];
-            h[k & 255]++;
-            h[256 + (k >> 8 & 255)]++;
-            h[512 + (k >> 16 & 255)]++;
-            h[768 + (k >> 24)]++;
-        }
+    uint32_t *const h = sc->hist; /* 4 x 256 counts: the sums of the threads' (start_paths), which follow */
+    for (int b = 0; b < 1024; b++) {
+        uint32_t c = 0;
+        for (int t = 1; t <= nt; t++) c += h[(size_t)t * 1024 + (size_t)b];
+        h[b] = c;
+    }
     int pass[4], np = 0;
     for (int d = 0; d < 4; d++) {
         int one = 0;
@@ -947,7 +951,7 @@ static pgi_status scratch_reserve(pgi__trace_scratch *sc, size_t paths, int nt, 
     if (!room) return PGI_OK;
     /* the emission pre-pass: a start mode a path, `room` states a chunk */
     const size_t states = (paths + CHUNK - 1) / CHUNK * room;
-    const size_t hist_n = 1024; /* the sort's counts (sort_paths) */
+    const size_t hist_n = (size_t)(nt + 1) * 1024; /* the sort's counts, each thread's and theirs (sort_paths) */
     if (sc->hist_n < hist_n) {
         free(sc->hist);
         sc->hist = malloc(hist_n * sizeof *sc->hist);
@@ -1122,12 +1126,14 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
          * where they go, and meet their first hits in that order (first_hits); then each chunk
          * traces its paths on from there, and starts the others. */
         if (room) {
+            memset(sc->hist, 0, (size_t)(nt + 1) * 1024 * sizeof *sc->hist);
 #pragma omp parallel for schedule(static) num_threads(nt)
             for (long long c = 0; c < nch; c++) {
                 const size_t p0 = (size_t)c * CHUNK, p1 = p0 + CHUNK < batch ? p0 + CHUNK : batch;
                 uint32_t *gc = T.G ? T.G->tcount + (size_t)omp_get_thread_num() * 3 * (size_t)T.G->nbins : NULL;
-                sc->chunks[c].keyed = start_paths(&T, path, p0, p1, (size_t)c * room, room, ps, pd, sc->mode, sc->key,
-                                                  sc->idx, gc, T.G ? sc->path_bin : NULL);
+                sc->chunks[c].keyed =
+                    start_paths(&T, path, p0, p1, (size_t)c * room, room, ps, pd, sc->mode, sc->key, sc->idx, gc,
+                                T.G ? sc->path_bin : NULL, sc->hist + (size_t)(omp_get_thread_num() + 1) * 1024);
             }
         }
         size_t keyed = 0; /* each chunk's keyed paths, together */
@@ -1135,7 +1141,7 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
             sc->chunks[c].kofs = keyed;
             keyed += sc->chunks[c].keyed;
         }
-        if (keyed) sort_paths(sc, nch, room, keyed);
+        if (keyed) sort_paths(sc, nch, room, keyed, nt);
         const long long ngroups = (long long)((keyed + WAVE - 1) / WAVE), nblocks = (ngroups + 15) / 16;
 #pragma omp parallel for schedule(dynamic, 1) reduction(+ : batch_rays) num_threads(nt)
         for (long long bk = 0; bk < nblocks; bk++) {
