@@ -250,58 +250,10 @@ static void simd_builds_give_the_same_bits(void **state) {
     }
 }
 
-/* The tracer's AVX2 texel quads (trace_simd.c) are pgi__texture_quad's for textures of odd and
- * even sizes, coordinates in and far outside [0, 1], negative, NaN and infinite, lanes of
- * different textures side by side. */
-static void texel_quads_match_the_texture_lookup(void **state) {
-    (void)state;
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi__scene_new("t", &s));
-    const int sizes[4][2] = {{1, 1}, {7, 5}, {64, 32}, {513, 3}};
-    int ti[4];
-    for (int k = 0; k < 4; k++) {
-        const int w = sizes[k][0], h = sizes[k][1];
-        unsigned char *px = malloc((size_t)w * (size_t)h * 4);
-        assert_non_null(px);
-        for (int i = 0; i < w * h * 4; i++) px[i] = (unsigned char)(i * 37 + k);
-        TU_CHECK_OK(pgi__scene_add_texture(s, w, h, 4, px, "t.png", &ti[k]));
-    }
-    pgi__rng rng;
-    pgi_rng_seed(&rng, 3, 9);
-    int checked = 0;
-    for (int round = 0; round < 400; round++) {
-        const pgi__texture *t[16];
-        float u[16], v[16];
-        const int n = 1 + round % 16;
-        for (int i = 0; i < n; i++) {
-            t[i] = &s->texs[ti[(round + i * (round % 3)) % 4]];
-            u[i] = 8.f * pgi_rng_f(&rng) - 4.f;
-            v[i] = round % 5 ? pgi_rng_f(&rng) : 1000.f * pgi_rng_f(&rng);
-            if (round % 37 == i) u[i] = NAN;
-            if (round % 41 == i) v[i] = -INFINITY;
-            if (round % 43 == i) u[i] = 1.f;
-        }
-        pgi__texel_quad q[16];
-        if (!pgi__trace_texel_quads_avx2(t, u, v, n, q)) break;
-        for (int i = 0; i < n; i++) {
-            assert_true(pgi__trace_quad_fits(t[i]));
-            pgi__texel_quad r;
-            assert_true(pgi__texture_quad(t[i], u[i], v[i], &r));
-            for (int c = 0; c < 4; c++) assert_ptr_equal(q[i].p[c], r.p[c]);
-            assert_memory_equal(&q[i].tx, &r.tx, sizeof r.tx);
-            assert_memory_equal(&q[i].ty, &r.ty, sizeof r.ty);
-            checked++;
-        }
-    }
-    if (!checked) fprintf(stderr, "no AVX2: the texel quads are not checked\n");
-    pgi_scene_destroy(s);
-}
-
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(same_photons_any_thread_count),
         cmocka_unit_test(simd_builds_give_the_same_bits),
-        cmocka_unit_test(texel_quads_match_the_texture_lookup),
         cmocka_unit_test(same_photons_whatever_the_history),
         cmocka_unit_test(point_light_photons_whatever_the_history),
         cmocka_unit_test(few_paths_discarded),

@@ -434,10 +434,6 @@ static inline float (*wave_azimuths(const tracer *T, const lane *L, float (*sc)[
  * stage's loads are in cache when the next stage needs them. */
 static inline void wave_texels(const tracer *T, lane *L) {
     const pgi_scene *s = T->s;
-    /* the lookups whose quads the AVX2 build finds, 8 an instruction */
-    const pgi__texture *bt[WAVE];
-    float bu[WAVE], bv[WAVE];
-    int bk[WAVE], nb = 0;
     for (int k = 0; k < WAVE; k++) {
         lane *l = &L[k];
         l->tex = NULL;
@@ -463,19 +459,7 @@ static inline void wave_texels(const tracer *T, lane *L) {
         l->tex = &s->texs[m->tex_kd];
         float u = 0.f, v = 0.f; /* without texture coordinates the lookup reads (0, 0) */
         if (T->tri_uv) pgi__trace_tri_uv(T->tri_uv + PGI__TRI_UV * (size_t)l->h.prim, l->h.u, l->h.v, &u, &v);
-        if (T->lambert_simd && pgi__trace_quad_fits(l->tex)) { /* found with the wave's others below */
-            bt[nb] = l->tex;
-            bu[nb] = u;
-            bv[nb] = v;
-            bk[nb++] = k;
-            continue;
-        }
         if (!pgi__texture_quad(l->tex, u, v, &l->tq)) l->tex = NULL; /* no texels: white */
-    }
-    if (nb) {
-        pgi__texel_quad q[WAVE];
-        pgi__trace_texel_quads_avx2(bt, bu, bv, nb, q);
-        for (int j = 0; j < nb; j++) L[bk[j]].tq = q[j];
     }
 }
 

@@ -5,7 +5,6 @@
 #define PGI_TRACE_SIMD_H
 
 #include "core/core.h"
-#include "scene/scene_internal.h"
 
 /* s[i] = sinf(phi), c[i] = cosf(phi) with phi = 2 pi u[i] (phi as pgi_sample_cosine and
  * pgi_sample_sphere compute it: 2.f * PGI_PI * u), for i < n (n a multiple of 8, at most 16).
@@ -48,19 +47,5 @@ typedef struct pgi__lambert_batch {
     float f[3][16], o[3][16], d[3][16];
 } pgi__lambert_batch;
 int pgi__trace_lambert_avx2(pgi__lambert_batch *b);
-
-/* The texel quads of n (at most 16) albedo lookups (pgi__texture_quad(t[i], u[i], v[i], &q[i]):
- * the same texels and weights), their texels prefetched; every t[i] must be one
- * pgi__trace_quad_fits accepts. The AVX2 build computes bilinear_footprint's and quad_at's
- * operations (src/scene/texture.c: the 4x4-texel blocks of pgi__texture.tiled) 8 lookups an
- * instruction; returns 0 where there is none (q then not written). */
-int pgi__trace_texel_quads_avx2(const pgi__texture *const *t, const float *u, const float *v, int n,
-                                pgi__texel_quad *q);
-/* Whether texture t's quads may be found by pgi__trace_texel_quads_avx2: texels in blocks, whose
- * offsets fit 31 bits. */
-static inline int pgi__trace_quad_fits(const pgi__texture *t) {
-    return t->rgba && t->tiled && t->width > 0 && t->height > 0 &&
-           (size_t)((t->width + 3) >> 2) * (size_t)((t->height + 3) >> 2) * 64 <= (size_t)INT32_MAX;
-}
 
 #endif
