@@ -525,7 +525,7 @@ static inline int wave_shade(const tracer *T, lane *L, float (*sc)[WAVE], pgi__l
                 }
                 pgi__v3 kd = v3_load(mat->kd);
                 /* a batch lane's texels later, after the others' work (their misses overlap it) */
-                if (l->tex && !(lb && lambert(mat))) kd = v3_mul(kd, pgi__texture_quad_lookup(&l->tq));
+                if (l->tex) kd = v3_mul(kd, pgi__texture_quad_lookup(&l->tq));
                 pgi__v3 wo, w;
                 int scatters;
                 if (lb && lambert(mat)) {
@@ -602,14 +602,6 @@ static inline int wave_shade(const tracer *T, lane *L, float (*sc)[WAVE], pgi__l
         }
     }
     if (lb && lb->n) {
-        for (int j = 0; j < lb->n; j++) {
-            const lane *l = &L[lmap[j]];
-            if (!l->tex) continue;
-            const pgi__v3 kd = v3_mul(v3(lb->kd[0][j], lb->kd[1][j], lb->kd[2][j]), pgi__texture_quad_lookup(&l->tq));
-            lb->kd[0][j] = kd.x;
-            lb->kd[1][j] = kd.y;
-            lb->kd[2][j] = kd.z;
-        }
         pgi__trace_lambert_avx2(lb); /* the lanes past n: earlier waves' (or zeros), not read */
         for (int j = 0; j < lb->n; j++) {
             lane *l = &L[lmap[j]];
