@@ -363,7 +363,7 @@ __attribute__((target("avx2,fma"))) static void lambert_avx2(pgi__lambert_batch 
 }
 
 int pgi__trace_lambert_avx2(pgi__lambert_batch *b) {
-    if (!pgi__cpu_avx2()) return 0;
+    if (!pgi__cpu_avx2() || !__builtin_cpu_supports("fma")) return 0;
     lambert_avx2(b);
     return 1;
 }
