@@ -524,7 +524,6 @@ static inline int wave_shade(const tracer *T, lane *L, float (*sc)[WAVE], pgi__l
                     }
                 }
                 pgi__v3 kd = v3_load(mat->kd);
-                /* a batch lane's texels later, after the others' work (their misses overlap it) */
                 if (l->tex) kd = v3_mul(kd, pgi__texture_quad_lookup(&l->tq));
                 pgi__v3 wo, w;
                 int scatters;
