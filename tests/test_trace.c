@@ -4,6 +4,7 @@
 #include "test_util.h"
 
 #include "photon/photon.h"
+#include "photon/trace_simd.h"
 
 typedef struct traced {
     pgi_photons ph;
@@ -188,9 +189,71 @@ static void scratch_does_not_grow_with_bounces(void **state) {
     pgi_photons_free(&b63.ph);
 }
 
+
+/* The tracer's AVX2 sines and cosines (trace_simd.c) give libm's bits for every angle 2 pi u its
+ * numbers make (u = k / 2^24), and the sort keys of both builds agree; then the photons of Sibenik
+ * with the narrow builds are those of the wide ones. */
+static void simd_builds_give_the_same_bits(void **state) {
+    (void)state;
+    enum { N = 1 << 14 };
+    static float u[N], s[N], c[N];
+    size_t bad = 0;
+    int wide = 1;
+    for (uint32_t k0 = 0; wide && k0 < (1u << 24); k0 += N) {
+        for (int i = 0; i < N; i++) u[i] = (float)(k0 + (uint32_t)i) * (1.f / 16777216.f);
+        wide = pgi__trace_sincos_2pi_avx2(u, s, c, N);
+        for (int i = 0; wide && i < N; i++) {
+            const float phi = 2.f * PGI_PI * u[i], cs = cosf(phi), sn = sinf(phi);
+            bad += memcmp(&cs, &c[i], sizeof cs) != 0 || memcmp(&sn, &s[i], sizeof sn) != 0;
+        }
+    }
+    if (!wide) fprintf(stderr, "no AVX2 and FMA: the wide sincos is not checked\n");
+    /* a glibc other than 2.28 on may compute sincosf otherwise: then the tracer must not take it */
+    if (bad) assert_false(pgi__trace_sincos_fast());
+    else if (wide) assert_true(pgi__trace_sincos_fast());
+    /* sort keys: directions over the sphere (some with zero and negative zero parts), origins in
+       and around the grid */
+    enum { K = 4099 };
+    static float o[3][K], d[3][K];
+    uint32_t kw[K], kn[K];
+    pgi__rng rng;
+    pgi_rng_seed(&rng, 7, 1);
+    for (int i = 0; i < K; i++) {
+        for (int a = 0; a < 3; a++) {
+            o[a][i] = 40.f * pgi_rng_f(&rng) - 20.f;
+            d[a][i] = 2.f * pgi_rng_f(&rng) - 1.f;
+        }
+        if (i % 7 == 0) d[i % 3][i] = i % 2 ? 0.f : -0.f;
+        if (i % 11 == 0) d[0][i] = d[1][i] = d[2][i] = 0.f;
+    }
+    const pgi__v3 centre = v3(1.f, -2.f, 0.5f);
+    pgi__trace_emit_keys(centre, 15.f, o[0], o[1], o[2], d[0], d[1], d[2], K, kw);
+    pgi__cpu_narrow = 1;
+    pgi__trace_emit_keys(centre, 15.f, o[0], o[1], o[2], d[0], d[1], d[2], K, kn);
+    pgi__cpu_narrow = 0;
+    for (int i = 0; i < K; i++) {
+        assert_int_equal(kw[i], kn[i]);
+        assert_int_equal(kw[i], pgi__trace_emit_key(centre, 15.f, v3(o[0][i], o[1][i], o[2][i]),
+                                                    v3(d[0][i], d[1][i], d[2][i])));
+    }
+    const char *sib = sibenik();
+    const char *scenes[] = {"giref", "cornell", sib};
+    for (int i = 0; i < 3 && scenes[i]; i++) {
+        traced a, b;
+        trace_scene(scenes[i], 30000, 4, 2, 1, &a);
+        pgi__cpu_narrow = 1;
+        trace_scene(scenes[i], 30000, 4, 2, 1, &b);
+        pgi__cpu_narrow = 0;
+        assert_same_photons(&a.ph, &b.ph);
+        pgi_photons_free(&a.ph);
+        pgi_photons_free(&b.ph);
+    }
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(same_photons_any_thread_count),
+        cmocka_unit_test(simd_builds_give_the_same_bits),
         cmocka_unit_test(same_photons_whatever_the_history),
         cmocka_unit_test(point_light_photons_whatever_the_history),
         cmocka_unit_test(few_paths_discarded),

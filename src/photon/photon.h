@@ -110,7 +110,7 @@ typedef struct pgi__trace_scratch {
     struct path_state *ps;
     struct pgi__pdiff *ps_pd;
     uint32_t *key, *idx, *tkey, *tidx, *hist;
-    size_t mode_cap, ps_cap, pd_cap;
+    size_t mode_cap, ps_cap, pd_cap, hist_n;
     double prior_paths, prior_photons; /* the last frame's traced paths and their photons */
     uint64_t paths_traced;             /* out: paths traced by the last call (emitted + discarded + pilot) */
     uint64_t paths_pilot;              /* out: guided emission's uniform pilot, whose photons were dropped */

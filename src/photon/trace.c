@@ -12,6 +12,7 @@
 
 #include "guide.h"
 #include "radius.h"
+#include "trace_simd.h"
 #include "scene/bsdf.h"
 
 #include <stdint.h>
@@ -56,6 +57,7 @@ typedef struct chunk_info {
     size_t total; /* photons of the chunk */
     size_t count; /* of these, the photons taken: the first in path order */
     size_t keyed; /* paths that start in start_paths (from point and spot lights) */
+    size_t kofs;  /* ... and the first one's place among the batch's (sort_paths) */
 } chunk_info;
 
 typedef struct tracer {
@@ -78,6 +80,8 @@ typedef struct tracer {
     const pgi__guide *G;
     const pgi__view_grid *vg;
     const pgi__view_grid *near; /* store only photons in its cells (NULL: all) */
+    int fast_sincos;            /* pgi__trace_sincos_fast: a wave's azimuths together */
+    int lambert_simd;           /* pgi__trace_lambert_avx2 is there (pgi__cpu_avx2) */
 } tracer;
 
 typedef struct lane {
@@ -104,7 +108,7 @@ typedef struct lane {
 typedef struct emission_pick {
     float ul, pl, a, b; /* the pick's number and probability; the steered pair */
 } emission_pick;
-static const pgi__light *pick_light(const tracer *T, uint64_t index, lane *l, emission_pick *e) {
+static inline const pgi__light *pick_light(const tracer *T, uint64_t index, lane *l, emission_pick *e) {
     pgi_rng_seed(&l->rng, T->seed, index);
     const pgi__guide *G = T->G;
     float ul;
@@ -121,8 +125,12 @@ static const pgi__light *pick_light(const tracer *T, uint64_t index, lane *l, em
     return li < T->s->nlights ? &T->s->lights[li] : &T->s->env->light; /* the last: the sky */
 }
 
-/* start_path after pick_light (below). */
-static int emit_from(const tracer *T, const pgi__light *L, const emission_pick *e, lane *l, uint32_t *cnt) {
+/* start_path after pick_light (below), in two steps: emit_draw, the numbers (the flux, the four
+ * numbers u[0..3] of the emission, the guide's bin and count; 0: the light carries nothing), then
+ * emit_place, the ray. `cs`: cos and sin of 2 pi u[1] where known (pgi__trace_sincos_2pi: the
+ * same bits as cosf and sinf), used by point and spot lights; NULL: computed here. */
+static inline int emit_draw(const tracer *T, const pgi__light *L, const emission_pick *e, lane *l, uint32_t *cnt,
+                            float u[4]) {
     const pgi__guide *G = T->G;
     const int steer = G && G->on;
     const float pl = e->pl;
@@ -157,15 +165,44 @@ static int emit_from(const tracer *T, const pgi__light *L, const emission_pick *
         if (G) l->bin = late ? pgi__guide_bin(G, e->ul, u3, u4) : pgi__guide_bin(G, e->ul, u1, u2);
     }
     if (G) cnt[l->bin]++;
+    u[0] = u1;
+    u[1] = u2;
+    u[2] = u3;
+    u[3] = u4;
+    return 1;
+}
+
+/* emit_place for a point or spot light (pgi__light_from_point). */
+static inline void emit_place_point(const tracer *T, const pgi__light *L, float pl, const float u[4], const float *cs,
+                                    lane *l) {
+    const float u1 = u[0], u2 = u[1];
+    l->o = v3_load(L->pos);
+    if (L->type == PGI_LIGHT_POINT) {
+        if (cs) { /* pgi_sample_sphere(u1, u2) with its cosine and sine given */
+            const float z = 1.f - 2.f * u1, r = sqrtf(pgi_maxf(1.f - z * z, 0.f));
+            l->d = v3(r * cs[0], r * cs[1], z);
+        } else {
+            l->d = pgi_sample_sphere(u1, u2);
+        }
+    } else {
+        pgi__v3 c;
+        if (cs) { /* pgi_sample_cone(u1, u2, cos_cutoff) with its cosine and sine given */
+            const float z = 1.f - u1 * (1.f - L->cos_cutoff), r = sqrtf(pgi_maxf(1.f - z * z, 0.f));
+            c = v3(r * cs[0], r * cs[1], z);
+        } else {
+            c = pgi_sample_cone(u1, u2, L->cos_cutoff);
+        }
+        l->d = pgi_to_world(c, v3_load(L->dir));
+    }
+    if (T->fp_track) pgi__fp_emit(&l->pd, &T->fp, T->s, L, pl, l->d, T->radius);
+    l->b = 0;
+}
+
+static int emit_place(const tracer *T, const pgi__light *L, float pl, const float u[4], const float *cs, lane *l) {
+    const float u1 = u[0], u2 = u[1], u3 = u[2], u4 = u[3];
     switch (L->type) {
     case PGI_LIGHT_POINT:
-        l->o = v3_load(L->pos);
-        l->d = pgi_sample_sphere(u1, u2);
-        break;
-    case PGI_LIGHT_SPOT:
-        l->o = v3_load(L->pos);
-        l->d = pgi_to_world(pgi_sample_cone(u1, u2, L->cos_cutoff), v3_load(L->dir));
-        break;
+    case PGI_LIGHT_SPOT: emit_place_point(T, L, pl, u, cs, l); return 1;
     case PGI_LIGHT_SUN: {
         l->d = v3_load(L->dir);
         float r = T->radius * sqrtf(u1), phi = 2.f * PGI_PI * u2;
@@ -198,6 +235,11 @@ static int emit_from(const tracer *T, const pgi__light *L, const emission_pick *
     if (T->fp_track) pgi__fp_emit(&l->pd, &T->fp, T->s, L, pl, l->d, T->radius);
     l->b = 0;
     return 1;
+}
+
+static int emit_from(const tracer *T, const pgi__light *L, const emission_pick *e, lane *l, uint32_t *cnt) {
+    float u[4];
+    return emit_draw(T, L, e, l, cnt, u) && emit_place(T, L, e->pl, u, NULL, l);
 }
 
 /* Starts path `index` in `l` (emission from a light picked by power). Flux is power / pick
@@ -376,6 +418,18 @@ static inline void cast_wave(const tracer *T, lane *L, int coherent, uint64_t *r
     wave_hits(T, L, valid, hh);
 }
 
+/* The sines and cosines of the wave's BSDF azimuths 2 pi u[1] into sc (sin, cos), all 16 at once
+ * while the hits' records load; NULL where that is not the faster way (wave_shade then calls
+ * cosf and sinf where it needs them). */
+static inline float (*wave_azimuths(const tracer *T, const lane *L, float (*sc)[WAVE]))[WAVE] {
+    if (!T->fast_sincos || T->lambert_simd) return NULL; /* the batch finds its own */
+    float az[WAVE];
+    for (int k = 0; k < WAVE; k++)
+        az[k] = L[k].path >= 0 && L[k].h.prim != UINT32_MAX && L[k].b < T->bounces ? L[k].u[1] : 0.f;
+    pgi__trace_sincos_2pi(az, sc[0], sc[1], WAVE);
+    return sc;
+}
+
 /* Then the texels of the hits whose path may go on (the albedo weighs the scattered flux): each
  * stage's loads are in cache when the next stage needs them. */
 static inline void wave_texels(const tracer *T, lane *L) {
@@ -413,23 +467,37 @@ static inline void wave_texels(const tracer *T, lane *L) {
  * Photons are stored from the second hit on (b >= 1), into tb with cnt counting each chunk
  * path's: a wave of first hits (b = 0 everywhere) stores none and may pass NULL for both. *ok
  * becomes 0 when out of memory. */
-static inline int wave_shade(const tracer *T, lane *L, pgi__trace_tbuf *tb, uint8_t *cnt, uint32_t *gcnt, int *ok) {
+static inline int wave_shade(const tracer *T, lane *L, float (*sc)[WAVE], pgi__lambert_batch *lbs, pgi__trace_tbuf *tb,
+                             uint8_t *cnt, uint32_t *gcnt, int *ok) {
     const pgi_scene *s = T->s;
     int ended = 0;
+    /* Lambertian scattering, 8 lanes an instruction (AVX2, no radius policy): the lanes that
+     * scatter so go into a batch, shaded together after the others */
+    pgi__lambert_batch *lb = NULL;
+    int lmap[WAVE];
+    if (T->lambert_simd) {
+        lb = lbs;
+        lb->n = 0;
+        lb->nrm = s->nrm != NULL;
+        lb->eps = T->eps;
+    }
     for (int k = 0; k < WAVE; k++) {
         lane *l = &L[k];
         if (l->path < 0) continue;
         int alive = 0;
         if (l->h.prim != UINT32_MAX) {
-            pgi__surface sf;
-            pgi__v3 p = v3_madd(l->o, l->d, l->h.t);
-            /* the shading normal and albedo only where the path scatters */
-            if (l->b < T->bounces && !l->ends) pgi__trace_tri_surface(s, &T->tris[l->h.prim], l->h.u, l->h.v, p, &sf);
-            else pgi__trace_tri_geometry(s, &T->tris[l->h.prim], p, &sf);
-            pgi__v3 wi = v3_neg(l->d);
-            pgi__v3 ng = v3_dot(wi, sf.ng) >= 0.f ? sf.ng : v3_neg(sf.ng);
+            /* pgi__trace_tri_surface's values (the shading normal and albedo only where the path
+             * scatters) in registers rather than a pgi__surface (whose copies through memory
+             * stalled the loads after them), the same operations */
+            const pgi__trace_tri *r = &T->tris[l->h.prim];
+            const pgi__material *mat = &s->mats[r->mat];
+            const pgi__v3 p = v3_madd(l->o, l->d, l->h.t);
+            const pgi__v3 g = v3_load(r->ng);
+            const pgi__v3 wi = v3_neg(l->d);
+            const int front = v3_dot(wi, g) >= 0.f;
+            const pgi__v3 ng = front ? g : v3_neg(g);
             if (T->fp_track) pgi__fp_hit(&l->pd, &T->fp, l->d, l->h.t, ng);
-            if (l->b >= 1 && !pgi__mat_specular(sf.mat)) {
+            if (l->b >= 1 && !pgi__mat_specular(mat)) {
                 pgi__footprint fp;
                 if (T->fp_on) pgi__fp_store(&l->pd, &T->fp, ng, &fp);
                 if (T->G) { /* the guide's evidence: every photon the path would store */
@@ -444,10 +512,73 @@ static inline int wave_shade(const tracer *T, lane *L, pgi__trace_tbuf *tb, uint
                 }
             }
             if (l->b < T->bounces && *ok && !l->ends) {
-                if (l->tex) sf.kd = v3_mul(sf.kd, pgi__texture_quad_lookup(&l->tq));
+                pgi__v3 ns = g; /* pgi__trace_tri_shading */
+                if (s->nrm && !(lb && lambert(mat))) {
+                    const float bu = l->h.u, bv = l->h.v, bw = 1.f - bu - bv;
+                    pgi__v3 n = v3_add(v3_add(v3_scale(v3_load(r->n), bw), v3_scale(v3_load(r->n + 3), bu)),
+                                       v3_scale(v3_load(r->n + 6), bv));
+                    const float len = v3_len(n);
+                    if (len > 0.f && isfinite(len)) {
+                        n = v3_scale(n, 1.f / len);
+                        ns = v3_dot(n, g) < 0.f ? v3_neg(n) : n;
+                    }
+                }
+                pgi__v3 kd = v3_load(mat->kd);
+                if (l->tex) kd = v3_mul(kd, pgi__texture_quad_lookup(&l->tq));
                 pgi__v3 wo, w;
-                if (pgi__bsdf_sample(&sf, wi, l->u[0], l->u[1], l->u[2], &wo, &w)) {
-                    if (T->fp_track) pgi__fp_scatter(&l->pd, &T->fp, s, l->h.prim, l->h.u, l->h.v, &sf, wi, wo, w);
+                int scatters;
+                if (lb && lambert(mat)) {
+                    /* into the wave's batch (pgi__trace_lambert_avx2: the operations below) */
+                    const int j = lb->n++;
+                    lmap[j] = k;
+                    lb->bu[j] = l->h.u;
+                    lb->bv[j] = l->h.v;
+                    for (int q = 0; q < 9 && s->nrm; q++) lb->nv[q][j] = r->n[q];
+                    lb->g[0][j] = g.x;
+                    lb->g[1][j] = g.y;
+                    lb->g[2][j] = g.z;
+                    lb->side[j] = front ? 1.f : -1.f;
+                    lb->kd[0][j] = kd.x;
+                    lb->kd[1][j] = kd.y;
+                    lb->kd[2][j] = kd.z;
+                    lb->u0[j] = l->u[0];
+                    lb->u3[j] = l->u[3];
+                    lb->u1[j] = l->u[1];
+                    lb->flux[0][j] = l->flux.x;
+                    lb->flux[1][j] = l->flux.y;
+                    lb->flux[2][j] = l->flux.z;
+                    lb->p[0][j] = p.x;
+                    lb->p[1][j] = p.y;
+                    lb->p[2][j] = p.z;
+                    lb->ng[0][j] = ng.x;
+                    lb->ng[1][j] = ng.y;
+                    lb->ng[2][j] = ng.z;
+                    continue; /* its fate after the loop */
+                }
+                if (lambert(mat)) {
+                    /* pgi__bsdf_sample's Lambertian case, its azimuth's cosine and sine found for
+                     * the wave at once where that is faster (the same bits) */
+                    const float side = front ? 1.f : -1.f;
+                    const pgi__v3 gn = v3_scale(g, side), sn = v3_scale(ns, side);
+                    pgi__v3 c;
+                    if (sc) {
+                        const float rr = sqrtf(l->u[0]);
+                        c = v3(rr * sc[1][k], rr * sc[0][k], sqrtf(pgi_maxf(1.f - l->u[0], 0.f)));
+                    } else {
+                        c = pgi_sample_cosine(l->u[0], l->u[1]);
+                    }
+                    wo = pgi_to_world(c, sn);
+                    w = kd;
+                    scatters = v3_dot(wo, gn) > 0.f;
+                } else {
+                    const pgi__surface sf = {.p = p, .ng = g, .ns = ns, .mat = mat, .kd = kd};
+                    scatters = pgi__bsdf_sample(&sf, wi, l->u[0], l->u[1], l->u[2], &wo, &w);
+                }
+                if (scatters) {
+                    if (T->fp_track) {
+                        const pgi__surface sf = {.p = p, .ng = g, .ns = ns, .mat = mat, .kd = kd};
+                        pgi__fp_scatter(&l->pd, &T->fp, s, l->h.prim, l->h.u, l->h.v, &sf, wi, wo, w);
+                    }
                     pgi__v3 nf = v3_mul(l->flux, w);
                     float mf = v3_maxc(l->flux);
                     float R = mf > 0.f ? pgi_minf(v3_maxc(nf) / mf, 1.f) : 0.f;
@@ -469,44 +600,22 @@ static inline int wave_shade(const tracer *T, lane *L, pgi__trace_tbuf *tb, uint
             ended++;
         }
     }
-    return ended;
-}
-
-/* Emission sort key of a path: its origin's cell of a 32^3 grid over the bounding sphere's cube
- * (the sun's and sky's disks start just outside the scene's box), then its direction's cell of a
- * 256 x 256 octahedral map, each in Morton order, so that paths close in key start close
- * together and leave in nearly the same direction: the packets of first_hits. 31 bits. */
-static inline uint32_t spread2(uint32_t x) { /* 8 bits -> every other of 16 */
-    x &= 0xff;
-    x = (x | (x << 4)) & 0x0f0f;
-    x = (x | (x << 2)) & 0x3333;
-    return (x | (x << 1)) & 0x5555;
-}
-static inline uint32_t spread3(uint32_t x) { /* 5 bits -> every third of 15 */
-    x &= 0x1f;
-    x = (x | (x << 8)) & 0x0300f00f;
-    x = (x | (x << 4)) & 0x030c30c3;
-    return (x | (x << 2)) & 0x09249249;
-}
-static inline uint32_t cellq(float x, int n) {
-    /* max, then min (NaN: 0), without branches: maxss and minss */
-    const float y = x > 0.f ? x : 0.f, top = (float)(n - 1);
-    return (uint32_t)(y < top ? y : top);
-}
-static uint32_t emit_key(const tracer *T, pgi__v3 o, pgi__v3 d) {
-    const float so = 16.f / (1.02f * T->radius);
-    const uint32_t ox = cellq((o.x - T->centre.x) * so + 16.f, 32), oy = cellq((o.y - T->centre.y) * so + 16.f, 32),
-                   oz = cellq((o.z - T->centre.z) * so + 16.f, 32);
-    const float l1 = fabsf(d.x) + fabsf(d.y) + fabsf(d.z);
-    float px = l1 > 0.f ? d.x / l1 : 0.f, py = l1 > 0.f ? d.y / l1 : 0.f;
-    if (d.z < 0.f) {
-        const float tx = (1.f - fabsf(py)) * (px >= 0.f ? 1.f : -1.f),
-                    ty = (1.f - fabsf(px)) * (py >= 0.f ? 1.f : -1.f);
-        px = tx;
-        py = ty;
+    if (lb && lb->n) {
+        pgi__trace_lambert_avx2(lb); /* the lanes past n: earlier waves' (or zeros), not read */
+        for (int j = 0; j < lb->n; j++) {
+            lane *l = &L[lmap[j]];
+            if (lb->alive[j]) {
+                l->flux = v3(lb->f[0][j], lb->f[1][j], lb->f[2][j]);
+                l->o = v3(lb->o[0][j], lb->o[1][j], lb->o[2][j]);
+                l->d = v3(lb->d[0][j], lb->d[1][j], lb->d[2][j]);
+                l->b++;
+            } else {
+                l->path = -1;
+                ended++;
+            }
+        }
     }
-    const uint32_t dx = cellq((px + 1.f) * 128.f, 256), dy = cellq((py + 1.f) * 128.f, 256);
-    return (spread3(ox) | spread3(oy) << 1 | spread3(oz) << 2) << 16 | spread2(dx) | spread2(dy) << 1;
+    return ended;
 }
 
 /* How a path of the batch starts (start_paths): */
@@ -523,57 +632,130 @@ enum {
  * coherent. pbin: the guide bins (guided emission), gcnt: the thread's guide counters. */
 static size_t start_paths(const tracer *T, uint64_t base, size_t p0, size_t p1, size_t slot, size_t room,
                           path_state *ps, pgi__pdiff *pd, uint8_t *mode, uint32_t *key, uint32_t *idx, uint32_t *gcnt,
-                          uint16_t *pbin) {
+                          uint16_t *pbin, uint32_t *hist) {
     size_t m = slot;
-    for (size_t i = p0; i < p1; i++) {
-        lane l;
-        l.bin = 0;
-        l.path = 0;
-        emission_pick e;
-        const pgi__light *L = m < slot + room ? pick_light(T, base + i, &l, &e) : NULL;
-        if (!L || !pgi__light_from_point(L)) {
-            mode[i] = START_CHUNK;
-            continue;
+    /* 16 paths at a time: their numbers, then the sines and cosines of their azimuths together
+     * (pgi__trace_sincos_2pi), then their rays, states and sort keys */
+    for (size_t i0 = p0; i0 < p1; i0 += WAVE) {
+        lane lb[WAVE];
+        const pgi__light *lights[WAVE];
+        float pl[WAVE], u[WAVE][4], az[WAVE], sn[WAVE], cs[WAVE];
+        int nb = 0;
+        for (size_t i = i0; i < p1 && i < i0 + WAVE; i++) {
+            lane *l = &lb[nb];
+            l->bin = 0;
+            l->path = 0;
+            emission_pick e;
+            const pgi__light *L = m < slot + room ? pick_light(T, base + i, l, &e) : NULL;
+            if (!L || !pgi__light_from_point(L)) {
+                mode[i] = START_CHUNK;
+                continue;
+            }
+            if (!emit_draw(T, L, &e, l, gcnt, u[nb])) {
+                mode[i] = START_NONE;
+                continue;
+            }
+            mode[i] = START_STATE;
+            if (pbin) pbin[i] = (uint16_t)l->bin;
+            lights[nb] = L;
+            pl[nb] = e.pl;
+            az[nb] = u[nb][1];
+            nb++;
+            m++;
         }
-        if (!emit_from(T, L, &e, &l, gcnt)) {
-            mode[i] = START_NONE;
-            continue;
+        if (!nb) continue;
+        const int n8 = (nb + 7) & ~7;
+        for (int k = nb; k < n8; k++) az[k] = 0.f;
+        pgi__trace_sincos_2pi(az, sn, cs, n8);
+        const size_t m0 = m - (size_t)nb;
+        float o[3][WAVE], d[3][WAVE];
+        for (int k = 0; k < nb; k++) {
+            const float c2[2] = {cs[k], sn[k]};
+            lane *l = &lb[k];
+            emit_place_point(T, lights[k], pl[k], u[k], c2, l);
+            state_save(l, &ps[m0 + (size_t)k], pd ? &pd[m0 + (size_t)k] : NULL);
+            o[0][k] = l->o.x;
+            o[1][k] = l->o.y;
+            o[2][k] = l->o.z;
+            d[0][k] = l->d.x;
+            d[1][k] = l->d.y;
+            d[2][k] = l->d.z;
+            idx[m0 + (size_t)k] = (uint32_t)(m0 + (size_t)k);
         }
-        mode[i] = START_STATE;
-        if (pbin) pbin[i] = (uint16_t)l.bin;
-        state_save(&l, &ps[m], pd ? &pd[m] : NULL);
-        key[m] = emit_key(T, l.o, l.d);
-        idx[m] = (uint32_t)m;
-        m++;
+        pgi__trace_emit_keys(T->centre, T->radius, o[0], o[1], o[2], d[0], d[1], d[2], nb, key + m0);
+        for (int k = 0; k < nb; k++) { /* the sort's counts of each byte of the keys (sort_paths) */
+            const uint32_t kk = key[m0 + (size_t)k];
+            hist[kk & 255]++;
+            hist[256 + (kk >> 8 & 255)]++;
+            hist[512 + (kk >> 16 & 255)]++;
+            hist[768 + (kk >> 24)]++;
+        }
     }
     return m - slot;
 }
 
-/* A histogram into the offsets where each bucket starts (an exclusive prefix sum). */
-static void hist_offsets(uint32_t *hist) {
-    uint32_t acc = 0;
-    for (int b = 0; b < 65536; b++) {
-        const uint32_t c = hist[b];
-        hist[b] = acc;
-        acc += c;
+/* Sorts the batch's n keyed paths by key, stably (a key's paths stay in path order): chunk c's
+ * sort keys and slots are key, idx + c room (chunks[c].keyed of them, at chunks[c].kofs among the
+ * batch's). A byte of the key at a time, least significant first, each byte's counts taken by
+ * start_paths as it made the keys (hist + 1024 (t + 1) for thread t); a byte that every key shares
+ * (a point light's origin cell) is skipped. The
+ * first pass gathers the chunks' keys as it places them; the order ends in idx (tkey, tidx: room
+ * for n more). Serial: a parallel sort's barriers cost more than its work when the machine is
+ * shared. */
+static void sort_paths(pgi__trace_scratch *sc, long long nch, size_t room, size_t n, int nt) {
+    uint32_t *const key = sc->key, *const idx = sc->idx;
+    const chunk_info *ch = sc->chunks;
+    uint32_t *const h = sc->hist; /* 4 x 256 counts: the sums of the threads' (start_paths), which follow */
+    for (int b = 0; b < 1024; b++) {
+        uint32_t c = 0;
+        for (int t = 1; t <= nt; t++) c += h[(size_t)t * 1024 + (size_t)b];
+        h[b] = c;
     }
-}
-
-/* Sorts n paths (idx[i] with key[i]) by key, stably (a key's paths stay in path order), into
- * idx; tkey, tidx: room for n more. Two passes of 16 bits. */
-static void sort_paths(size_t n, uint32_t *key, uint32_t *idx, uint32_t *tkey, uint32_t *tidx, uint32_t *hist) {
-    memset(hist, 0, 65536 * sizeof *hist);
-    for (size_t i = 0; i < n; i++) hist[key[i] & 0xffff]++;
-    hist_offsets(hist);
-    for (size_t i = 0; i < n; i++) {
-        const uint32_t j = hist[key[i] & 0xffff]++;
-        tkey[j] = key[i];
-        tidx[j] = idx[i];
+    int pass[4], np = 0;
+    for (int d = 0; d < 4; d++) {
+        int one = 0;
+        uint32_t acc = 0, *hd = h + 256 * d;
+        for (int b = 0; b < 256; b++) {
+            const uint32_t c = hd[b];
+            one |= c == n;
+            hd[b] = acc;
+            acc += c;
+        }
+        if (!one) pass[np++] = d;
     }
-    memset(hist, 0, 65536 * sizeof *hist);
-    for (size_t i = 0; i < n; i++) hist[tkey[i] >> 16]++;
-    hist_offsets(hist);
-    for (size_t i = 0; i < n; i++) idx[hist[tkey[i] >> 16]++] = tidx[i];
+    if (!np) { /* one key: the chunks' slots in path order */
+        for (long long c = 0; c < nch; c++)
+            if (ch[c].keyed && ch[c].kofs != (size_t)c * room)
+                memmove(idx + ch[c].kofs, idx + (size_t)c * room, ch[c].keyed * sizeof *idx);
+        return;
+    }
+    /* the first pass from the chunks' slices; then back and forth, the last into idx */
+    uint32_t *dk = sc->tkey, *di = sc->tidx;
+    {
+        const int d = 8 * pass[0];
+        uint32_t *hd = h + 256 * pass[0];
+        for (long long c = 0; c < nch; c++)
+            for (size_t i = (size_t)c * room, e = i + ch[c].keyed; i < e; i++) {
+                const uint32_t k = key[i], j = hd[k >> d & 255]++;
+                dk[j] = k;
+                di[j] = idx[i];
+            }
+    }
+    uint32_t *sk = dk, *si = di;
+    for (int p = 1; p < np; p++) {
+        const int d = 8 * pass[p];
+        uint32_t *hd = h + 256 * pass[p];
+        dk = sk == sc->tkey ? key : sc->tkey;
+        di = si == sc->tidx ? idx : sc->tidx;
+        for (size_t i = 0; i < n; i++) {
+            const uint32_t k = sk[i], j = hd[k >> d & 255]++;
+            dk[j] = k;
+            di[j] = si[i];
+        }
+        sk = dk;
+        si = di;
+    }
+    if (si != idx) memcpy(idx, si, n * sizeof *idx);
 }
 
 /* The first hits of sorted paths order[g0*16 .. g1*16) (of n), 16 at a time, shaded in that
@@ -584,7 +766,9 @@ static void sort_paths(size_t n, uint32_t *key, uint32_t *idx, uint32_t *tkey, u
  * a function of the batch alone (its sorted paths, 16 at a time), whatever the thread count. */
 static void first_hits(const tracer *T, path_state *ps, pgi__pdiff *pd, const uint32_t *order, size_t n, size_t g0,
                        size_t g1, int coherent, uint64_t *rays) {
-    enum { AHEAD = 2 }; /* groups whose states are requested ahead (they lie anywhere in ps) */
+    enum { AHEAD = 2 };     /* groups whose states are requested ahead (they lie anywhere in ps) */
+    pgi__lambert_batch lbs; /* wave_shade's (zeroed once: its lanes are all defined) */
+    memset(&lbs, 0, sizeof lbs);
     for (size_t g = g0; g < g1; g++) {
         /* the states of group g + AHEAD (and, at the start, of the groups before it) */
         for (size_t j = (g == g0 ? g : g + AHEAD) * WAVE; j < (g + AHEAD + 1) * WAVE && j < n; j++) {
@@ -599,9 +783,10 @@ static void first_hits(const tracer *T, path_state *ps, pgi__pdiff *pd, const ui
             else L[k].o = L[k].d = v3(0.f, 0.f, 1.f);
         }
         cast_wave(T, L, coherent, rays);
+        float scb[2][WAVE], (*sc)[WAVE] = wave_azimuths(T, L, scb);
         wave_texels(T, L);
         int ok = 1;
-        wave_shade(T, L, NULL, NULL, NULL, &ok);
+        wave_shade(T, L, sc, &lbs, NULL, NULL, NULL, &ok);
         for (int k = 0; k < WAVE; k++) {
             const size_t j = g * WAVE + (size_t)k;
             if (j < n) state_save(&L[k], &ps[order[j]], pd ? &pd[order[j]] : NULL);
@@ -610,20 +795,31 @@ static void first_hits(const tracer *T, path_state *ps, pgi__pdiff *pd, const ui
 }
 
 /* Traces paths [p0, p1) of the batch (one chunk; its first path `base`; mode: how each starts,
- * NULL: all here; ps, pd: the chunk's states from start_paths and first_hits) a wave at a time;
+ * NULL: all here; ps, pd: the chunk's room_n states from start_paths and first_hits) a wave at a time;
  * their photons are appended to tb->rec, cnt[i - p0] gets path i's count. Returns 0 when out of
  * memory. */
 static int trace_chunk(const tracer *T, uint64_t base, const uint8_t *mode, const path_state *ps, const pgi__pdiff *pd,
-                       size_t p0, size_t p1, pgi__trace_tbuf *tb, uint8_t *cnt, uint64_t *rays, uint32_t *gcnt,
-                       uint16_t *pbin) {
+                       size_t room_n, size_t p0, size_t p1, pgi__trace_tbuf *tb, uint8_t *cnt, uint64_t *rays,
+                       uint32_t *gcnt, uint16_t *pbin) {
     size_t slot = 0; /* the chunk's next state in ps */
     const int n = (int)(p1 - p0);
     memset(cnt, 0, (size_t)n);
     lane L[WAVE];
     memset(L, 0, sizeof L); /* lanes without a path still go to Embree (masked): no garbage */
+    pgi__lambert_batch lbs; /* wave_shade's (zeroed once: its lanes are all defined) */
+    memset(&lbs, 0, sizeof lbs);
     int next = 0, active = 0, ok = 1;
     for (int k = 0; k < WAVE; k++) L[k].path = -1;
+    size_t ahead = 0; /* the chunk's states requested so far */
     for (;;) {
+        /* The states the next waves start from: they lie in ps in path order, written by
+         * first_hits in sorted order (a miss each, which the hardware prefetcher does not see
+         * coming across the chunk's scattered writes). */
+        if (ps)
+            for (; ahead < slot + 2 * WAVE && ahead < room_n; ahead++) {
+                __builtin_prefetch(&ps[ahead]);
+                if (pd) __builtin_prefetch(&pd[ahead]);
+            }
         /* Fill idle lanes with the chunk's next paths still going. */
         for (int k = 0; k < WAVE && next < n; k++) {
             if (L[k].path >= 0) continue;
@@ -646,8 +842,9 @@ static int trace_chunk(const tracer *T, uint64_t base, const uint8_t *mode, cons
          * packets and streams are within noise of each other for these rays: photongi-bench
          * --limits); the triangle records of all the hits are requested together. */
         cast_wave(T, L, 0, rays);
+        float scb[2][WAVE], (*sc)[WAVE] = wave_azimuths(T, L, scb);
         wave_texels(T, L);
-        active -= wave_shade(T, L, tb, cnt, gcnt, &ok);
+        active -= wave_shade(T, L, sc, &lbs, tb, cnt, gcnt, &ok);
         if (!ok) return 0;
     }
     return 1;
@@ -682,7 +879,7 @@ size_t pgi__trace_scratch_bytes(const pgi__trace_scratch *sc) {
     size_t b = sc->cap * sizeof(uint8_t) + sc->cap / CHUNK * sizeof(chunk_info) +
                (size_t)sc->nthreads * sizeof *sc->tbuf + (sc->path_bin_cap + sc->ph_bin_cap) * sizeof(uint16_t) +
                sc->tris_bytes + sc->mode_cap + sc->ps_cap * (sizeof(path_state) + 4 * sizeof(uint32_t)) +
-               sc->pd_cap * sizeof(pgi__pdiff) + (sc->hist ? 65536 * sizeof(uint32_t) : 0);
+               sc->pd_cap * sizeof(pgi__pdiff) + sc->hist_n * sizeof(uint32_t);
     for (int t = 0; t < sc->nthreads; t++) {
         const pgi__trace_tbuf *tb = &sc->tbuf[t];
         b += tb->rec_cap * (sizeof(stored_photon) + sizeof(uint16_t) + (tb->rec_fp ? sizeof(pgi__footprint) : 0));
@@ -729,8 +926,13 @@ static pgi_status scratch_reserve(pgi__trace_scratch *sc, size_t paths, int nt, 
     if (!room) return PGI_OK;
     /* the emission pre-pass: a start mode a path, `room` states a chunk */
     const size_t states = (paths + CHUNK - 1) / CHUNK * room;
-    if (!sc->hist && !(sc->hist = malloc(65536 * sizeof *sc->hist)))
-        return pgi__fail(PGI_ERR_OOM, "%s", "out of memory for the emission sort");
+    const size_t hist_n = (size_t)(nt + 1) * 1024; /* the sort's counts, each thread's and theirs (sort_paths) */
+    if (sc->hist_n < hist_n) {
+        free(sc->hist);
+        sc->hist = malloc(hist_n * sizeof *sc->hist);
+        sc->hist_n = sc->hist ? hist_n : 0;
+        if (!sc->hist) return pgi__fail(PGI_ERR_OOM, "%s", "out of memory for the emission sort");
+    }
     if (paths > sc->mode_cap) {
         free(sc->mode);
         sc->mode = malloc(paths);
@@ -814,7 +1016,9 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
                 0,
                 NULL,
                 NULL,
-                d->near};
+                d->near,
+                0,
+                0};
     const int nt = pgi__threads(d->threads);
     pgi_status ts = pgi__trace_tris_update(sc, s, nt);
     if (ts) {
@@ -823,6 +1027,7 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
     }
     T.tris = sc->tris;
     T.tri_uv = sc->tri_uv;
+    T.fast_sincos = pgi__trace_sincos_fast();
     if (d->guide) {
         if (!d->vgrid) {
             free(cdf);
@@ -838,6 +1043,7 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
     }
     pgi__fp_params_init(&T.fp, d->radius_policy, d->r_min, d->r_max, d->smoothing, d->photons, 2.f * T.radius);
     T.fp_track = d->radius_policy != PGI_RADIUS_FIXED;
+    T.lambert_simd = T.fast_sincos && !T.fp_track; /* AVX2 (and FMA), not narrow; no radius policy */
     T.fp_on = T.fp_track && ph->radius;
     const float bin_w = d->r_max / 14.f;
     uint64_t path = 0, traced = 0, rays = 0;
@@ -895,24 +1101,22 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
          * where they go, and meet their first hits in that order (first_hits); then each chunk
          * traces its paths on from there, and starts the others. */
         if (room) {
+            memset(sc->hist, 0, (size_t)(nt + 1) * 1024 * sizeof *sc->hist);
 #pragma omp parallel for schedule(static) num_threads(nt)
             for (long long c = 0; c < nch; c++) {
                 const size_t p0 = (size_t)c * CHUNK, p1 = p0 + CHUNK < batch ? p0 + CHUNK : batch;
                 uint32_t *gc = T.G ? T.G->tcount + (size_t)omp_get_thread_num() * 3 * (size_t)T.G->nbins : NULL;
-                sc->chunks[c].keyed = start_paths(&T, path, p0, p1, (size_t)c * room, room, ps, pd, sc->mode, sc->key,
-                                                  sc->idx, gc, T.G ? sc->path_bin : NULL);
+                sc->chunks[c].keyed =
+                    start_paths(&T, path, p0, p1, (size_t)c * room, room, ps, pd, sc->mode, sc->key, sc->idx, gc,
+                                T.G ? sc->path_bin : NULL, sc->hist + (size_t)(omp_get_thread_num() + 1) * 1024);
             }
         }
         size_t keyed = 0; /* each chunk's keyed paths, together */
         for (long long c = 0; room && c < nch; c++) {
-            const size_t m = sc->chunks[c].keyed, s0 = (size_t)c * room;
-            if (m && keyed != s0) {
-                memmove(sc->key + keyed, sc->key + s0, m * sizeof *sc->key);
-                memmove(sc->idx + keyed, sc->idx + s0, m * sizeof *sc->idx);
-            }
-            keyed += m;
+            sc->chunks[c].kofs = keyed;
+            keyed += sc->chunks[c].keyed;
         }
-        if (keyed) sort_paths(keyed, sc->key, sc->idx, sc->tkey, sc->tidx, sc->hist);
+        if (keyed) sort_paths(sc, nch, room, keyed, nt);
         const long long ngroups = (long long)((keyed + WAVE - 1) / WAVE), nblocks = (ngroups + 15) / 16;
 #pragma omp parallel for schedule(dynamic, 1) reduction(+ : batch_rays) num_threads(nt)
         for (long long bk = 0; bk < nblocks; bk++) {
@@ -937,8 +1141,8 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
             uint32_t *gc = T.G ? T.G->tcount + (size_t)tid * 3 * (size_t)T.G->nbins : NULL;
             if (!f)
                 ok = trace_chunk(&T, path, room ? sc->mode : NULL, room ? ps + (size_t)c * room : NULL,
-                                 pd && room ? pd + (size_t)c * room : NULL, p0, p1, tb, sc->counts + (size_t)c * CHUNK,
-                                 &r, gc, T.G ? sc->path_bin : NULL);
+                                 pd && room ? pd + (size_t)c * room : NULL, room ? ci->keyed : 0, p0, p1, tb,
+                                 sc->counts + (size_t)c * CHUNK, &r, gc, T.G ? sc->path_bin : NULL);
             if (!ok) {
 #pragma omp atomic write
                 failed = 1;
