@@ -393,30 +393,41 @@ pgi_status pgi__rt_replay(const pgi__rt *rt, const pgi__ray_log *log, pgi__pass 
     const pgi__ray_rec *R = log->rec + log->begin[g];
     const size_t n = log->begin[g + 1] - log->begin[g];
     const int occl = pgi__ray_kind_occluded(kind), width = kind_width((int)kind);
-    /* Units of work: captured packets / streams for CAST of packet kinds, else runs of PGI__REPLAY_STREAM records. */
+    /* Units of work: runs of PGI__REPLAY_STREAM records, or for CAST of packet kinds as many whole
+     * captured packets / streams (each cast as captured); a unit a packet would charge the
+     * replay a scheduling step a packet, which the passes do not pay. */
     const int by_packet = m == PGI__REPLAY_CAST && width != 1;
     const size_t *pk = log->pk[g];
+    const long long npk = (long long)log->npk[g];
+    const long long per = by_packet && width > 1 ? PGI__REPLAY_STREAM / width : 1; /* packets a unit */
     const long long units =
-        by_packet ? (long long)log->npk[g] : (long long)((n + PGI__REPLAY_STREAM - 1) / PGI__REPLAY_STREAM);
+        by_packet ? (npk + per - 1) / per : (long long)((n + PGI__REPLAY_STREAM - 1) / PGI__REPLAY_STREAM);
     RTCScene sc = pgi__rt_embree_scene(rt);
     uint64_t rays = 0, hits = 0, mism = 0;
     double t0 = pgi__now_ms();
 #pragma omp parallel for schedule(dynamic, 1) reduction(+ : rays, hits, mism) num_threads(pgi__threads(threads))
     for (long long u = 0; u < units; u++) {
-        size_t b = by_packet ? pk[u] : (size_t)u * PGI__REPLAY_STREAM;
-        size_t e = by_packet ? pk[u + 1] : (b + PGI__REPLAY_STREAM < n ? b + PGI__REPLAY_STREAM : n);
+        const long long q1 = by_packet ? (u + 1) * per < npk ? (u + 1) * per : npk : 0;
+        size_t b = by_packet ? pk[u * per] : (size_t)u * PGI__REPLAY_STREAM;
+        size_t e = by_packet ? pk[q1] : (b + PGI__REPLAY_STREAM < n ? b + PGI__REPLAY_STREAM : n);
         const pgi__ray_rec *U = R + b;
         size_t len = e - b;
         int coh = (U[0].flags & PGI__RAY_COHERENT) != 0;
         tally t = {0, 0, 0};
         switch (m) {
         case PGI__REPLAY_CAST:
-            if (width == 8) cast8(sc, U, len, occl, coh, 1, &t);
-            else if (width == 16) cast16(sc, U, len, occl, coh, 1, &t);
-            else if (width == 0) {
-                for (size_t s = 0; s < len; s += PGI__REPLAY_STREAM)
-                    cast1M(sc, U + s, len - s < PGI__REPLAY_STREAM ? len - s : PGI__REPLAY_STREAM, occl, coh, &t);
-            } else cast1(sc, U, len, occl, coh, &t);
+            if (by_packet)
+                for (long long q = u * per; q < q1; q++) { /* each packet with its own context flags */
+                    const pgi__ray_rec *P = R + pk[q];
+                    const size_t pl = pk[q + 1] - pk[q];
+                    const int pc = (P[0].flags & PGI__RAY_COHERENT) != 0;
+                    if (width == 8) cast8(sc, P, pl, occl, pc, 1, &t);
+                    else if (width == 16) cast16(sc, P, pl, occl, pc, 1, &t);
+                    else
+                        for (size_t s = 0; s < pl; s += PGI__REPLAY_STREAM)
+                            cast1M(sc, P + s, pl - s < PGI__REPLAY_STREAM ? pl - s : PGI__REPLAY_STREAM, occl, pc, &t);
+                }
+            else cast1(sc, U, len, occl, coh, &t);
             break;
         case PGI__REPLAY_1: cast1(sc, U, len, occl, 0, &t); break;
         case PGI__REPLAY_8: cast8(sc, U, len, occl, 1, 0, &t); break;
