@@ -405,8 +405,7 @@ typedef struct view_tile {
     size_t pix[16];
     float dsoa[3][16];
     tile_hits hits;
-    tile_surf ts;
-    int any;                  /* a lane hit something (else ts is not set) */
+    tile_surf ts;             /* set where a lane hit something */
     const pgi__material *uni; /* NULL: shade lane by lane */
     int quads;                /* q holds uni's texture's quads */
     pgi__texel_quads16 q;
@@ -678,7 +677,6 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
                     pgi__rt_intersect16_soa(rt, T->valid, eye, dirs, hits->t, hits->u, hits->v, hits->prim);
                     int any = 0;
                     for (int k = 0; k < 16; k++) any |= hits->prim[k] != UINT32_MAX;
-                    T->any = any;
                     T->uni = NULL;
                     if (!any) continue;
 #if VIEW_AVX2
@@ -1061,11 +1059,13 @@ __attribute__((target("avx2"))) static size_t composite_avx2(float *out, const f
  * emission +0 those loads are left out (1 * x is x, and +0 + x is what adding the constant gives,
  * -0 included). */
 static void composite(float *out, const float *w, const float *emit, const float *indirect, size_t i0, size_t i1,
-                      pgi_output output, unsigned fill) {
+                      pgi_output output, unsigned fill, int avx2) {
     const int one = (fill & PGI__FILL_WEIGHT) != 0, zero = (fill & PGI__FILL_EMIT) != 0;
 #if VIEW_AVX2
     /* the same operations eight floats an instruction (gcc left this loop scalar) */
-    if (pgi__cpu_avx2()) i0 = composite_avx2(out, w, emit, indirect, i0, i1, output, one, zero);
+    if (avx2) i0 = composite_avx2(out, w, emit, indirect, i0, i1, output, one, zero);
+#else
+    (void)avx2;
 #endif
     for (size_t i = i0; i < i1; i++) {
         float ind = one ? indirect[i] : w[i] * indirect[i];
@@ -1142,6 +1142,8 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
     const int tiles_x = (W + 3) / 4, tiles_y = (H + 3) / 4;
 #if VIEW_AVX2
     const int avx2 = pgi__cpu_avx2();
+#else
+    const int avx2 = 0;
 #endif
 #pragma omp parallel for schedule(dynamic, 1) reduction(+ : rays) num_threads(pgi__threads(threads))
     for (int ty = 0; ty < tiles_y; ty++) {
@@ -1298,7 +1300,7 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
                     const size_t p0 = (size_t)y * (size_t)W + (size_t)x;
                     const size_t p1 = p0 + (size_t)(W - x < PGI__FILL_W ? W - x : PGI__FILL_W);
                     composite(out, vs->weight, sum->emit, sum->indirect, 3 * p0, 3 * p1, sum->output,
-                              one.rows ? one.rows[(size_t)y * one.cols + (size_t)(x / PGI__FILL_W)] : 0u);
+                              one.rows ? one.rows[(size_t)y * one.cols + (size_t)(x / PGI__FILL_W)] : 0u, avx2);
                 }
     }
     pgi__area_table_free(&at);
