@@ -105,9 +105,11 @@ typedef struct pgi__trace_scratch {
     size_t cap;                /* paths */
     /* How each path of the batch starts, the states of those from point and spot lights
        between their first and second hits (trace.c first_hits), their differentials (when a
-       radius policy follows them: pd_cap), and their emission order (sort keys, indices) */
+       radius policy follows them: pd_cap), whether each goes on after its first hit (live, a
+       byte a state and one more), and their emission order (sort keys, indices) */
     uint8_t *mode;
     struct path_state *ps;
+    uint8_t *live;
     struct pgi__pdiff *ps_pd;
     uint32_t *key, *idx, *tkey, *tidx, *hist;
     size_t mode_cap, ps_cap, pd_cap, hist_n;

@@ -430,16 +430,27 @@ static inline float (*wave_azimuths(const tracer *T, const lane *L, float (*sc)[
     return sc;
 }
 
-/* Then the texels of the hits whose path may go on (the albedo weighs the scattered flux): each
+/* Then which hits may scatter, into W->go in lane order (a lane that ends here ends without a
+ * branch on it: whether a path goes on is a coin toss, and a branch on it missed half the
+ * time), and the texels of those with a texture (the albedo weighs the scattered flux): each
  * stage's loads are in cache when the next stage needs them. */
-static inline void wave_texels(const tracer *T, lane *L) {
+typedef struct wave_go {
+    int n;
+    uint8_t k[WAVE]; /* the lanes that may scatter */
+    /* wave_shade's hit point, facing normal and side of each lane */
+    pgi__v3 p[WAVE], ng[WAVE];
+    uint8_t front[WAVE];
+} wave_go;
+
+static inline void wave_texels(const tracer *T, lane *L, wave_go *W) {
     const pgi_scene *s = T->s;
+    int n = 0;
     for (int k = 0; k < WAVE; k++) {
         lane *l = &L[k];
         l->tex = NULL;
-        l->ends = 0;
         if (l->path < 0 || l->h.prim == UINT32_MAX || l->b >= T->bounces) continue;
         const pgi__material *m = &s->mats[T->tris[l->h.prim].mat];
+        int ends = 0;
         if (lambert(m)) {
             /* The scattered flux is flux kd tex, with tex <= 1 (+ a rounding): the roulette's
              * probability with tex = 1 bounds it from above. A path whose roulette number is
@@ -449,12 +460,16 @@ static inline void wave_texels(const tracer *T, lane *L) {
             if (kd.x >= 0.f && kd.y >= 0.f && kd.z >= 0.f && f.x >= 0.f && f.y >= 0.f && f.z >= 0.f) {
                 const float mf = v3_maxc(f);
                 const float Rb = mf > 0.f ? pgi_minf(v3_maxc(v3_mul(f, kd)) / mf, 1.f) : 0.f;
-                if (Rb < 1.f && l->u[3] >= Rb * 1.0001f) {
-                    l->ends = 1;
-                    continue;
-                }
+                ends = (Rb < 1.f) & (l->u[3] >= Rb * 1.0001f);
             }
         }
+        W->k[n] = (uint8_t)k;
+        n += !ends;
+    }
+    W->n = n;
+    for (int i = 0; i < n; i++) {
+        lane *l = &L[W->k[i]];
+        const pgi__material *m = &s->mats[T->tris[l->h.prim].mat];
         if (m->tex_kd < 0) continue;
         l->tex = &s->texs[m->tex_kd];
         float u = 0.f, v = 0.f; /* without texture coordinates the lookup reads (0, 0) */
@@ -466,25 +481,17 @@ static inline void wave_texels(const tracer *T, lane *L) {
 /* Shade: store, scatter, roulette. A lane whose path ends gets path -1; returns how many did.
  * Photons are stored from the second hit on (b >= 1), into tb with cnt counting each chunk
  * path's: a wave of first hits (b = 0 everywhere) stores none and may pass NULL for both. *ok
- * becomes 0 when out of memory. */
-static inline int wave_shade(const tracer *T, lane *L, float (*sc)[WAVE], pgi__lambert_batch *lbs, pgi__trace_tbuf *tb,
-                             uint8_t *cnt, uint32_t *gcnt, int *ok) {
+ * becomes 0 when out of memory (the wave is then left as it is). First every hit (its photon),
+ * then the lanes that may scatter (W, from wave_texels); the others end. */
+static inline int wave_shade(const tracer *T, lane *L, float (*sc)[WAVE], pgi__lambert_batch *lbs, wave_go *W,
+                             pgi__trace_tbuf *tb, uint8_t *cnt, uint32_t *gcnt, int *ok) {
     const pgi_scene *s = T->s;
     int ended = 0;
-    /* Lambertian scattering, 8 lanes an instruction (AVX2, no radius policy): the lanes that
-     * scatter so go into a batch, shaded together after the others */
-    pgi__lambert_batch *lb = NULL;
-    int lmap[WAVE];
-    if (T->lambert_simd) {
-        lb = lbs;
-        lb->n = 0;
-        lb->nrm = s->nrm != NULL;
-        lb->eps = T->eps;
-    }
+    uint32_t go = 0; /* the lanes in W */
+    for (int i = 0; i < W->n; i++) go |= 1u << W->k[i];
     for (int k = 0; k < WAVE; k++) {
         lane *l = &L[k];
         if (l->path < 0) continue;
-        int alive = 0;
         if (l->h.prim != UINT32_MAX) {
             /* pgi__trace_tri_surface's values (the shading normal and albedo only where the path
              * scatters) in registers rather than a pgi__surface (whose copies through memory
@@ -496,6 +503,9 @@ static inline int wave_shade(const tracer *T, lane *L, float (*sc)[WAVE], pgi__l
             const pgi__v3 wi = v3_neg(l->d);
             const int front = v3_dot(wi, g) >= 0.f;
             const pgi__v3 ng = front ? g : v3_neg(g);
+            W->p[k] = p;
+            W->ng[k] = ng;
+            W->front[k] = (uint8_t)front;
             if (T->fp_track) pgi__fp_hit(&l->pd, &T->fp, l->d, l->h.t, ng);
             if (l->b >= 1 && !pgi__mat_specular(mat)) {
                 pgi__footprint fp;
@@ -511,87 +521,108 @@ static inline int wave_shade(const tracer *T, lane *L, float (*sc)[WAVE], pgi__l
                     cnt[l->path]++;
                 }
             }
-            if (l->b < T->bounces && *ok && !l->ends) {
-                pgi__v3 ns = g; /* pgi__trace_tri_shading */
-                if (s->nrm && !(lb && lambert(mat))) {
-                    const float bu = l->h.u, bv = l->h.v, bw = 1.f - bu - bv;
-                    pgi__v3 n = v3_add(v3_add(v3_scale(v3_load(r->n), bw), v3_scale(v3_load(r->n + 3), bu)),
-                                       v3_scale(v3_load(r->n + 6), bv));
-                    const float len = v3_len(n);
-                    if (len > 0.f && isfinite(len)) {
-                        n = v3_scale(n, 1.f / len);
-                        ns = v3_dot(n, g) < 0.f ? v3_neg(n) : n;
-                    }
-                }
-                pgi__v3 kd = v3_load(mat->kd);
-                if (l->tex) kd = v3_mul(kd, pgi__texture_quad_lookup(&l->tq));
-                pgi__v3 wo, w;
-                int scatters;
-                if (lb && lambert(mat)) {
-                    /* into the wave's batch (pgi__trace_lambert_avx2: the operations below) */
-                    const int j = lb->n++;
-                    lmap[j] = k;
-                    lb->bu[j] = l->h.u;
-                    lb->bv[j] = l->h.v;
-                    for (int q = 0; q < 9 && s->nrm; q++) lb->nv[q][j] = r->n[q];
-                    lb->g[0][j] = g.x;
-                    lb->g[1][j] = g.y;
-                    lb->g[2][j] = g.z;
-                    lb->side[j] = front ? 1.f : -1.f;
-                    lb->kd[0][j] = kd.x;
-                    lb->kd[1][j] = kd.y;
-                    lb->kd[2][j] = kd.z;
-                    lb->u0[j] = l->u[0];
-                    lb->u3[j] = l->u[3];
-                    lb->u1[j] = l->u[1];
-                    lb->flux[0][j] = l->flux.x;
-                    lb->flux[1][j] = l->flux.y;
-                    lb->flux[2][j] = l->flux.z;
-                    lb->p[0][j] = p.x;
-                    lb->p[1][j] = p.y;
-                    lb->p[2][j] = p.z;
-                    lb->ng[0][j] = ng.x;
-                    lb->ng[1][j] = ng.y;
-                    lb->ng[2][j] = ng.z;
-                    continue; /* its fate after the loop */
-                }
-                if (lambert(mat)) {
-                    /* pgi__bsdf_sample's Lambertian case, its azimuth's cosine and sine found for
-                     * the wave at once where that is faster (the same bits) */
-                    const float side = front ? 1.f : -1.f;
-                    const pgi__v3 gn = v3_scale(g, side), sn = v3_scale(ns, side);
-                    pgi__v3 c;
-                    if (sc) {
-                        const float rr = sqrtf(l->u[0]);
-                        c = v3(rr * sc[1][k], rr * sc[0][k], sqrtf(pgi_maxf(1.f - l->u[0], 0.f)));
-                    } else {
-                        c = pgi_sample_cosine(l->u[0], l->u[1]);
-                    }
-                    wo = pgi_to_world(c, sn);
-                    w = kd;
-                    scatters = v3_dot(wo, gn) > 0.f;
-                } else {
-                    const pgi__surface sf = {.p = p, .ng = g, .ns = ns, .mat = mat, .kd = kd};
-                    scatters = pgi__bsdf_sample(&sf, wi, l->u[0], l->u[1], l->u[2], &wo, &w);
-                }
-                if (scatters) {
-                    if (T->fp_track) {
-                        const pgi__surface sf = {.p = p, .ng = g, .ns = ns, .mat = mat, .kd = kd};
-                        pgi__fp_scatter(&l->pd, &T->fp, s, l->h.prim, l->h.u, l->h.v, &sf, wi, wo, w);
-                    }
-                    pgi__v3 nf = v3_mul(l->flux, w);
-                    float mf = v3_maxc(l->flux);
-                    float R = mf > 0.f ? pgi_minf(v3_maxc(nf) / mf, 1.f) : 0.f;
-                    if (l->u[3] < R) {
-                        l->flux = v3_scale(nf, 1.f / R);
-                        if (v3_finite(l->flux)) {
-                            if (T->fp_track) pgi__fp_roulette(&l->pd, &T->fp, R);
-                            l->o = v3_madd(p, v3_dot(wo, ng) >= 0.f ? ng : v3_neg(ng), T->eps);
-                            l->d = wo;
-                            l->b++;
-                            alive = 1;
-                        }
-                    }
+        }
+        const int e = !(go >> k & 1); /* a miss, the last bounce, or the roulette's bound */
+        l->path |= -e;
+        ended += e;
+    }
+    if (!*ok) return ended;
+    /* Lambertian scattering, 8 lanes an instruction (AVX2, no radius policy): the lanes that
+     * scatter so go into a batch, shaded together after the others */
+    pgi__lambert_batch *lb = NULL;
+    int lmap[WAVE];
+    if (T->lambert_simd) {
+        lb = lbs;
+        lb->n = 0;
+        lb->nrm = s->nrm != NULL;
+        lb->eps = T->eps;
+    }
+    for (int i = 0; i < W->n; i++) {
+        const int k = W->k[i];
+        lane *l = &L[k];
+        const pgi__trace_tri *r = &T->tris[l->h.prim];
+        const pgi__material *mat = &s->mats[r->mat];
+        const pgi__v3 p = W->p[k], g = v3_load(r->ng), wi = v3_neg(l->d), ng = W->ng[k];
+        const int front = W->front[k];
+        int alive = 0;
+        pgi__v3 ns = g; /* pgi__trace_tri_shading */
+        if (s->nrm && !(lb && lambert(mat))) {
+            const float bu = l->h.u, bv = l->h.v, bw = 1.f - bu - bv;
+            pgi__v3 n = v3_add(v3_add(v3_scale(v3_load(r->n), bw), v3_scale(v3_load(r->n + 3), bu)),
+                               v3_scale(v3_load(r->n + 6), bv));
+            const float len = v3_len(n);
+            if (len > 0.f && isfinite(len)) {
+                n = v3_scale(n, 1.f / len);
+                ns = v3_dot(n, g) < 0.f ? v3_neg(n) : n;
+            }
+        }
+        pgi__v3 kd = v3_load(mat->kd);
+        if (l->tex) kd = v3_mul(kd, pgi__texture_quad_lookup(&l->tq));
+        pgi__v3 wo, w;
+        int scatters;
+        if (lb && lambert(mat)) {
+            /* into the wave's batch (pgi__trace_lambert_avx2: the operations below) */
+            const int j = lb->n++;
+            lmap[j] = k;
+            lb->bu[j] = l->h.u;
+            lb->bv[j] = l->h.v;
+            for (int q = 0; q < 9 && s->nrm; q++) lb->nv[q][j] = r->n[q];
+            lb->g[0][j] = g.x;
+            lb->g[1][j] = g.y;
+            lb->g[2][j] = g.z;
+            lb->side[j] = front ? 1.f : -1.f;
+            lb->kd[0][j] = kd.x;
+            lb->kd[1][j] = kd.y;
+            lb->kd[2][j] = kd.z;
+            lb->u0[j] = l->u[0];
+            lb->u3[j] = l->u[3];
+            lb->u1[j] = l->u[1];
+            lb->flux[0][j] = l->flux.x;
+            lb->flux[1][j] = l->flux.y;
+            lb->flux[2][j] = l->flux.z;
+            lb->p[0][j] = p.x;
+            lb->p[1][j] = p.y;
+            lb->p[2][j] = p.z;
+            lb->ng[0][j] = ng.x;
+            lb->ng[1][j] = ng.y;
+            lb->ng[2][j] = ng.z;
+            continue; /* its fate after the loop */
+        }
+        if (lambert(mat)) {
+            /* pgi__bsdf_sample's Lambertian case, its azimuth's cosine and sine found for
+             * the wave at once where that is faster (the same bits) */
+            const float side = front ? 1.f : -1.f;
+            const pgi__v3 gn = v3_scale(g, side), sn = v3_scale(ns, side);
+            pgi__v3 c;
+            if (sc) {
+                const float rr = sqrtf(l->u[0]);
+                c = v3(rr * sc[1][k], rr * sc[0][k], sqrtf(pgi_maxf(1.f - l->u[0], 0.f)));
+            } else {
+                c = pgi_sample_cosine(l->u[0], l->u[1]);
+            }
+            wo = pgi_to_world(c, sn);
+            w = kd;
+            scatters = v3_dot(wo, gn) > 0.f;
+        } else {
+            const pgi__surface sf = {.p = p, .ng = g, .ns = ns, .mat = mat, .kd = kd};
+            scatters = pgi__bsdf_sample(&sf, wi, l->u[0], l->u[1], l->u[2], &wo, &w);
+        }
+        if (scatters) {
+            if (T->fp_track) {
+                const pgi__surface sf = {.p = p, .ng = g, .ns = ns, .mat = mat, .kd = kd};
+                pgi__fp_scatter(&l->pd, &T->fp, s, l->h.prim, l->h.u, l->h.v, &sf, wi, wo, w);
+            }
+            pgi__v3 nf = v3_mul(l->flux, w);
+            float mf = v3_maxc(l->flux);
+            float R = mf > 0.f ? pgi_minf(v3_maxc(nf) / mf, 1.f) : 0.f;
+            if (l->u[3] < R) {
+                l->flux = v3_scale(nf, 1.f / R);
+                if (v3_finite(l->flux)) {
+                    if (T->fp_track) pgi__fp_roulette(&l->pd, &T->fp, R);
+                    l->o = v3_madd(p, v3_dot(wo, ng) >= 0.f ? ng : v3_neg(ng), T->eps);
+                    l->d = wo;
+                    l->b++;
+                    alive = 1;
                 }
             }
         }
@@ -602,17 +633,17 @@ static inline int wave_shade(const tracer *T, lane *L, float (*sc)[WAVE], pgi__l
     }
     if (lb && lb->n) {
         pgi__trace_lambert_avx2(lb); /* the lanes past n: earlier waves' (or zeros), not read */
+        /* without a branch on the roulette (a coin toss: a branch missed as often as it hit);
+           an ended path's flux and ray are not read again */
         for (int j = 0; j < lb->n; j++) {
             lane *l = &L[lmap[j]];
-            if (lb->alive[j]) {
-                l->flux = v3(lb->f[0][j], lb->f[1][j], lb->f[2][j]);
-                l->o = v3(lb->o[0][j], lb->o[1][j], lb->o[2][j]);
-                l->d = v3(lb->d[0][j], lb->d[1][j], lb->d[2][j]);
-                l->b++;
-            } else {
-                l->path = -1;
-                ended++;
-            }
+            const int a = lb->alive[j] != 0;
+            l->flux = v3(lb->f[0][j], lb->f[1][j], lb->f[2][j]);
+            l->o = v3(lb->o[0][j], lb->o[1][j], lb->o[2][j]);
+            l->d = v3(lb->d[0][j], lb->d[1][j], lb->d[2][j]);
+            l->b += a;
+            l->path |= -(int)!a; /* -1: ended */
+            ended += !a;
         }
     }
     return ended;
@@ -764,11 +795,12 @@ static void sort_paths(pgi__trace_scratch *sc, long long nch, size_t room, size_
  * direction, Embree's packet traversal runs 2-3x faster than single rays. A packet's answers may
  * depend on its other rays (ties, and the kernel that finishes a thinned packet), so the groups are
  * a function of the batch alone (its sorted paths, 16 at a time), whatever the thread count. */
-static void first_hits(const tracer *T, path_state *ps, pgi__pdiff *pd, const uint32_t *order, size_t n, size_t g0,
-                       size_t g1, int coherent, uint64_t *rays) {
+static void first_hits(const tracer *T, path_state *ps, pgi__pdiff *pd, uint8_t *live, const uint32_t *order, size_t n,
+                       size_t g0, size_t g1, int coherent, uint64_t *rays) {
     enum { AHEAD = 2 };     /* groups whose states are requested ahead (they lie anywhere in ps) */
     pgi__lambert_batch lbs; /* wave_shade's (zeroed once: its lanes are all defined) */
     memset(&lbs, 0, sizeof lbs);
+    wave_go wg;
     for (size_t g = g0; g < g1; g++) {
         /* the states of group g + AHEAD (and, at the start, of the groups before it) */
         for (size_t j = (g == g0 ? g : g + AHEAD) * WAVE; j < (g + AHEAD + 1) * WAVE && j < n; j++) {
@@ -784,12 +816,15 @@ static void first_hits(const tracer *T, path_state *ps, pgi__pdiff *pd, const ui
         }
         cast_wave(T, L, coherent, rays);
         float scb[2][WAVE], (*sc)[WAVE] = wave_azimuths(T, L, scb);
-        wave_texels(T, L);
+        wave_texels(T, L, &wg);
         int ok = 1;
-        wave_shade(T, L, sc, &lbs, NULL, NULL, NULL, &ok);
+        wave_shade(T, L, sc, &lbs, &wg, NULL, NULL, NULL, &ok);
         for (int k = 0; k < WAVE; k++) {
             const size_t j = g * WAVE + (size_t)k;
-            if (j < n) state_save(&L[k], &ps[order[j]], pd ? &pd[order[j]] : NULL);
+            if (j < n) {
+                state_save(&L[k], &ps[order[j]], pd ? &pd[order[j]] : NULL);
+                live[order[j]] = L[k].path >= 0;
+            }
         }
     }
 }
@@ -799,43 +834,56 @@ static void first_hits(const tracer *T, path_state *ps, pgi__pdiff *pd, const ui
  * their photons are appended to tb->rec, cnt[i - p0] gets path i's count. Returns 0 when out of
  * memory. */
 static int trace_chunk(const tracer *T, uint64_t base, const uint8_t *mode, const path_state *ps, const pgi__pdiff *pd,
-                       size_t room_n, size_t p0, size_t p1, pgi__trace_tbuf *tb, uint8_t *cnt, uint64_t *rays,
+                       const uint8_t *live, size_t p0, size_t p1, pgi__trace_tbuf *tb, uint8_t *cnt, uint64_t *rays,
                        uint32_t *gcnt, uint16_t *pbin) {
-    size_t slot = 0; /* the chunk's next state in ps */
     const int n = (int)(p1 - p0);
     memset(cnt, 0, (size_t)n);
     lane L[WAVE];
     memset(L, 0, sizeof L); /* lanes without a path still go to Embree (masked): no garbage */
     pgi__lambert_batch lbs; /* wave_shade's (zeroed once: its lanes are all defined) */
     memset(&lbs, 0, sizeof lbs);
-    int next = 0, active = 0, ok = 1;
+    wave_go wg;
+    /* The chunk's paths that go on, in path order, and their states in ps (START_STATE): the
+     * refill below takes them without a test a path (whether a path ended at its first hit is
+     * as random as a coin: a branch on it missed half the time). live has a byte past the
+     * chunk's states (read, not used, after a chunk's last one). */
+    uint16_t go_pi[CHUNK], go_j[CHUNK];
+    int ngo = 0;
+    for (int pi = 0, j = 0; pi < n; pi++) {
+        const int m = !mode ? START_CHUNK : mode[p0 + (size_t)pi];
+        const int st = m == START_STATE, lv = st ? live[j] : 0;
+        go_pi[ngo] = (uint16_t)pi;
+        go_j[ngo] = (uint16_t)j;
+        ngo += st ? lv != 0 : m == START_CHUNK;
+        j += st;
+    }
+    int gi = 0, active = 0, ok = 1;
+    uint32_t idle = (1u << WAVE) - 1; /* lanes without a path */
     for (int k = 0; k < WAVE; k++) L[k].path = -1;
-    size_t ahead = 0; /* the chunk's states requested so far */
+    int ahead = 0; /* the go list's states requested so far */
     for (;;) {
         /* The states the next waves start from: they lie in ps in path order, written by
          * first_hits in sorted order (a miss each, which the hardware prefetcher does not see
          * coming across the chunk's scattered writes). */
         if (ps)
-            for (; ahead < slot + 2 * WAVE && ahead < room_n; ahead++) {
-                __builtin_prefetch(&ps[ahead]);
-                if (pd) __builtin_prefetch(&pd[ahead]);
+            for (; ahead < gi + 2 * WAVE && ahead < ngo; ahead++) {
+                __builtin_prefetch(&ps[go_j[ahead]]);
+                if (pd) __builtin_prefetch(&pd[go_j[ahead]]);
             }
-        /* Fill idle lanes with the chunk's next paths still going. */
-        for (int k = 0; k < WAVE && next < n; k++) {
-            if (L[k].path >= 0) continue;
-            while (next < n) {
-                const int pi = next++;
-                const size_t i = p0 + (size_t)pi;
-                const int m = !mode ? START_CHUNK : mode[i];
-                const size_t j = m == START_STATE ? slot++ : 0;
-                if (m == START_CHUNK ? start_path(T, base + i, &L[k], gcnt) : m == START_STATE && ps[j].live) {
-                    if (m == START_CHUNK && pbin) pbin[i] = (uint16_t)L[k].bin;
-                    if (m == START_STATE) state_load(&L[k], &ps[j], pd ? &pd[j] : NULL);
-                    L[k].path = pi;
-                    active++;
-                    break;
-                }
+        /* Fill idle lanes with the chunk's next paths, lowest lane first. */
+        while (idle && gi < ngo) {
+            const int k = __builtin_ctz(idle), pi = go_pi[gi];
+            const size_t i = p0 + (size_t)pi, j = go_j[gi];
+            gi++;
+            if (mode && mode[i] == START_STATE) {
+                state_load(&L[k], &ps[j], pd ? &pd[j] : NULL);
+            } else {
+                if (!start_path(T, base + i, &L[k], gcnt)) continue; /* it carries nothing */
+                if (pbin) pbin[i] = (uint16_t)L[k].bin;
             }
+            L[k].path = pi;
+            idle &= idle - 1;
+            active++;
         }
         if (active == 0) break;
         /* Cast the wave's rays as one 16-wide incoherent packet (single rays, 8- and 16-wide
@@ -843,9 +891,10 @@ static int trace_chunk(const tracer *T, uint64_t base, const uint8_t *mode, cons
          * --limits); the triangle records of all the hits are requested together. */
         cast_wave(T, L, 0, rays);
         float scb[2][WAVE], (*sc)[WAVE] = wave_azimuths(T, L, scb);
-        wave_texels(T, L);
-        active -= wave_shade(T, L, sc, &lbs, tb, cnt, gcnt, &ok);
+        wave_texels(T, L, &wg);
+        active -= wave_shade(T, L, sc, &lbs, &wg, tb, cnt, gcnt, &ok);
         if (!ok) return 0;
+        for (int k = 0; k < WAVE; k++) idle |= (uint32_t)(L[k].path < 0) << k;
     }
     return 1;
 }
@@ -865,6 +914,7 @@ void pgi__trace_scratch_free(pgi__trace_scratch *sc) {
     free(sc->tris);
     free(sc->tri_uv);
     free(sc->ps);
+    free(sc->live);
     free(sc->ps_pd);
     free(sc->mode);
     free(sc->key);
@@ -878,7 +928,7 @@ void pgi__trace_scratch_free(pgi__trace_scratch *sc) {
 size_t pgi__trace_scratch_bytes(const pgi__trace_scratch *sc) {
     size_t b = sc->cap * sizeof(uint8_t) + sc->cap / CHUNK * sizeof(chunk_info) +
                (size_t)sc->nthreads * sizeof *sc->tbuf + (sc->path_bin_cap + sc->ph_bin_cap) * sizeof(uint16_t) +
-               sc->tris_bytes + sc->mode_cap + sc->ps_cap * (sizeof(path_state) + 4 * sizeof(uint32_t)) +
+               sc->tris_bytes + sc->mode_cap + sc->ps_cap * (sizeof(path_state) + 1 + 4 * sizeof(uint32_t)) +
                sc->pd_cap * sizeof(pgi__pdiff) + sc->hist_n * sizeof(uint32_t);
     for (int t = 0; t < sc->nthreads; t++) {
         const pgi__trace_tbuf *tb = &sc->tbuf[t];
@@ -941,16 +991,18 @@ static pgi_status scratch_reserve(pgi__trace_scratch *sc, size_t paths, int nt, 
     }
     if (states > sc->ps_cap) {
         free(sc->ps);
+        free(sc->live);
         free(sc->key);
         free(sc->idx);
         free(sc->tkey);
         free(sc->tidx);
         sc->ps = aligned_alloc(64, states * sizeof *sc->ps);
+        sc->live = malloc(states + 1); /* a byte past the last: trace_chunk */
         sc->key = malloc(states * sizeof *sc->key);
         sc->idx = malloc(states * sizeof *sc->idx);
         sc->tkey = malloc(states * sizeof *sc->tkey);
         sc->tidx = malloc(states * sizeof *sc->tidx);
-        sc->ps_cap = sc->ps && sc->key && sc->idx && sc->tkey && sc->tidx ? states : 0;
+        sc->ps_cap = sc->ps && sc->live && sc->key && sc->idx && sc->tkey && sc->tidx ? states : 0;
         if (!sc->ps_cap) return pgi__fail(PGI_ERR_OOM, "out of memory tracing photons (%zu paths a batch)", paths);
     }
     if (diffs && states > sc->pd_cap) {
@@ -1122,7 +1174,7 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
         for (long long bk = 0; bk < nblocks; bk++) {
             uint64_t r = 0;
             const size_t g0 = (size_t)bk * 16, g1 = g0 + 16 < (size_t)ngroups ? g0 + 16 : (size_t)ngroups;
-            first_hits(&T, ps, pd, sc->idx, keyed, g0, g1, keyed >= COHERENT_MIN, &r);
+            first_hits(&T, ps, pd, sc->live, sc->idx, keyed, g0, g1, keyed >= COHERENT_MIN, &r);
             batch_rays += r;
         }
 #pragma omp parallel for schedule(dynamic, 1) reduction(+ : batch_rays) num_threads(nt)
@@ -1141,8 +1193,8 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
             uint32_t *gc = T.G ? T.G->tcount + (size_t)tid * 3 * (size_t)T.G->nbins : NULL;
             if (!f)
                 ok = trace_chunk(&T, path, room ? sc->mode : NULL, room ? ps + (size_t)c * room : NULL,
-                                 pd && room ? pd + (size_t)c * room : NULL, room ? ci->keyed : 0, p0, p1, tb,
-                                 sc->counts + (size_t)c * CHUNK, &r, gc, T.G ? sc->path_bin : NULL);
+                                 pd && room ? pd + (size_t)c * room : NULL, room ? sc->live + (size_t)c * room : NULL,
+                                 p0, p1, tb, sc->counts + (size_t)c * CHUNK, &r, gc, T.G ? sc->path_bin : NULL);
             if (!ok) {
 #pragma omp atomic write
                 failed = 1;
