@@ -725,27 +725,27 @@ static size_t start_paths(const tracer *T, uint64_t base, size_t p0, size_t p1, 
     return m - slot;
 }
 
-/* The emission sort (sort_paths) in SORT_PARTS parts: the batch's chunks [0, nch) split at
- * (nch + 1) / 2, each part's keyed paths sorted on their own (by one thread each), so that the
- * order and the packets formed from it follow from the batch alone, whatever the thread count.
- * part_chunk: the first chunk of part h (h = SORT_PARTS: nch). */
-enum { SORT_PARTS = 2 };
-static inline long long part_chunk(long long nch, int h) { return h == 0 ? 0 : h == 1 ? (nch + 1) / 2 : nch; }
-
-/* Part h of sort_paths: its keyed paths' counts of each byte of their keys, summed over the
- * threads' (start_paths: hist + 1024 (2 (t + 1) + h) for thread t) into hist + 1024 h and made
- * offsets; pass[] the bytes the keys do not all share. Returns how many. */
-static int sort_counts(pgi__trace_scratch *sc, int h, size_t n, int nt, int pass[4]) {
-    uint32_t *const hh = sc->hist + 1024 * (size_t)h;
+/* Sorts the batch's n keyed paths by key, stably (a key's paths stay in path order): chunk c's
+ * sort keys and slots are key, idx + c room (chunks[c].keyed of them, at chunks[c].kofs among the
+ * batch's). A byte of the key at a time, least significant first, each byte's counts taken by
+ * start_paths as it made the keys (hist + 1024 (t + 1) for thread t); a byte that every key shares
+ * (a point light's origin cell) is skipped. The
+ * first pass gathers the chunks' keys as it places them; the order ends in idx (tkey, tidx: room
+ * for n more). Serial: a parallel sort's barriers cost more than its work when the machine is
+ * shared. */
+static void sort_paths(pgi__trace_scratch *sc, long long nch, size_t room, size_t n, int nt) {
+    uint32_t *const key = sc->key, *const idx = sc->idx;
+    const chunk_info *ch = sc->chunks;
+    uint32_t *const h = sc->hist; /* 4 x 256 counts: the sums of the threads' (start_paths), which follow */
     for (int b = 0; b < 1024; b++) {
         uint32_t c = 0;
-        for (int t = 1; t <= nt; t++) c += sc->hist[1024 * (2 * (size_t)t + (size_t)h) + (size_t)b];
-        hh[b] = c;
+        for (int t = 1; t <= nt; t++) c += h[(size_t)t * 1024 + (size_t)b];
+        h[b] = c;
     }
-    int np = 0;
+    int pass[4], np = 0;
     for (int d = 0; d < 4; d++) {
         int one = 0;
-        uint32_t acc = 0, *hd = hh + 256 * d;
+        uint32_t acc = 0, *hd = h + 256 * d;
         for (int b = 0; b < 256; b++) {
             const uint32_t c = hd[b];
             one |= c == n;
@@ -754,64 +754,39 @@ static int sort_counts(pgi__trace_scratch *sc, int h, size_t n, int nt, int pass
         }
         if (!one) pass[np++] = d;
     }
-    return np;
-}
-
-/* Sorts each part's keyed paths by key, stably (a key's paths stay in path order): chunk c's sort
- * keys and slots are key, idx + c room (chunks[c].keyed of them, at chunks[c].kofs among the
- * batch's); part h's order ends in idx + kofs of its first chunk. A byte of the key at a time,
- * least significant first, each byte's counts taken by start_paths as it made the keys; a byte
- * that every key of the part shares (a point light's origin cell) is skipped. The first pass
- * gathers the part's keys from the chunks' slices into tkey, tidx (room for all); the passes after
- * it write key and idx, whose slices the other part may still be reading until the barrier
- * between. Two parts on two threads: one barrier, where a sort of the whole batch in parallel
- * needs one a pass, which cost more than its work when the machine is shared. */
-static void sort_paths(pgi__trace_scratch *sc, long long nch, size_t room, int nt) {
-    const chunk_info *ch = sc->chunks;
-    size_t base[SORT_PARTS + 1];
-    for (int h = 0; h <= SORT_PARTS; h++) {
-        const long long c = part_chunk(nch, h);
-        base[h] = c < nch ? ch[c].kofs : ch[nch - 1].kofs + ch[nch - 1].keyed;
+    if (!np) { /* one key: the chunks' slots in path order */
+        for (long long c = 0; c < nch; c++)
+            if (ch[c].keyed && ch[c].kofs != (size_t)c * room)
+                memmove(idx + ch[c].kofs, idx + (size_t)c * room, ch[c].keyed * sizeof *idx);
+        return;
     }
-#pragma omp parallel num_threads(nt < SORT_PARTS ? nt : SORT_PARTS)
+    /* the first pass from the chunks' slices; then back and forth, the last into idx */
+    uint32_t *dk = sc->tkey, *di = sc->tidx;
     {
-        int pass[SORT_PARTS][4], np[SORT_PARTS];
-        const int t0 = omp_get_thread_num(), tn = omp_get_num_threads();
-        for (int h = t0; h < SORT_PARTS; h += tn) {
-            const size_t n = base[h + 1] - base[h];
-            uint32_t *const key = sc->key, *const idx = sc->idx, *const dk = sc->tkey + base[h],
-                            *const di = sc->tidx + base[h];
-            np[h] = n ? sort_counts(sc, h, n, nt, pass[h]) : 0;
-            /* the first pass (or, when every key is one, the slots in path order) from the slices */
-            const int d = np[h] ? 8 * pass[h][0] : 0;
-            uint32_t *hd = sc->hist + 1024 * (size_t)h + 256 * (size_t)(np[h] ? pass[h][0] : 0);
-            for (long long c = part_chunk(nch, h), m = 0; c < part_chunk(nch, h + 1); c++)
-                for (size_t i = (size_t)c * room, e = i + ch[c].keyed; i < e; i++) {
-                    const uint32_t k = key[i], j = np[h] ? hd[k >> d & 255]++ : (uint32_t)m++;
-                    dk[j] = k;
-                    di[j] = idx[i];
-                }
-        }
-#pragma omp barrier
-        for (int h = t0; h < SORT_PARTS; h += tn) {
-            const size_t n = base[h + 1] - base[h];
-            uint32_t *sk = sc->tkey + base[h], *si = sc->tidx + base[h];
-            for (int p = 1; p < np[h]; p++) {
-                const int d = 8 * pass[h][p];
-                uint32_t *hd = sc->hist + 1024 * (size_t)h + 256 * (size_t)pass[h][p];
-                uint32_t *const dk = sk == sc->tkey + base[h] ? sc->key + base[h] : sc->tkey + base[h];
-                uint32_t *const di = si == sc->tidx + base[h] ? sc->idx + base[h] : sc->tidx + base[h];
-                for (size_t i = 0; i < n; i++) {
-                    const uint32_t k = sk[i], j = hd[k >> d & 255]++;
-                    dk[j] = k;
-                    di[j] = si[i];
-                }
-                sk = dk;
-                si = di;
+        const int d = 8 * pass[0];
+        uint32_t *hd = h + 256 * pass[0];
+        for (long long c = 0; c < nch; c++)
+            for (size_t i = (size_t)c * room, e = i + ch[c].keyed; i < e; i++) {
+                const uint32_t k = key[i], j = hd[k >> d & 255]++;
+                dk[j] = k;
+                di[j] = idx[i];
             }
-            if (si != sc->idx + base[h]) memcpy(sc->idx + base[h], si, n * sizeof *si);
-        }
     }
+    uint32_t *sk = dk, *si = di;
+    for (int p = 1; p < np; p++) {
+        const int d = 8 * pass[p];
+        uint32_t *hd = h + 256 * pass[p];
+        dk = sk == sc->tkey ? key : sc->tkey;
+        di = si == sc->tidx ? idx : sc->tidx;
+        for (size_t i = 0; i < n; i++) {
+            const uint32_t k = sk[i], j = hd[k >> d & 255]++;
+            dk[j] = k;
+            di[j] = si[i];
+        }
+        sk = dk;
+        si = di;
+    }
+    if (si != idx) memcpy(idx, si, n * sizeof *idx);
 }
 
 /* The first hits of sorted paths order[g0*16 .. g1*16) (of n), 16 at a time, shaded in that
@@ -1001,8 +976,7 @@ static pgi_status scratch_reserve(pgi__trace_scratch *sc, size_t paths, int nt, 
     if (!room) return PGI_OK;
     /* the emission pre-pass: a start mode a path, `room` states a chunk */
     const size_t states = (paths + CHUNK - 1) / CHUNK * room;
-    /* the sort's counts: each thread's of each part, and theirs (sort_paths) */
-    const size_t hist_n = (size_t)(nt + 1) * SORT_PARTS * 1024;
+    const size_t hist_n = (size_t)(nt + 1) * 1024; /* the sort's counts, each thread's and theirs (sort_paths) */
     if (sc->hist_n < hist_n) {
         free(sc->hist);
         sc->hist = malloc(hist_n * sizeof *sc->hist);
@@ -1190,15 +1164,14 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
          * where they go, and meet their first hits in that order (first_hits); then each chunk
          * traces its paths on from there, and starts the others. */
         if (room) {
-            memset(sc->hist, 0, (size_t)(nt + 1) * SORT_PARTS * 1024 * sizeof *sc->hist);
+            memset(sc->hist, 0, (size_t)(nt + 1) * 1024 * sizeof *sc->hist);
 #pragma omp parallel for schedule(static) num_threads(nt)
             for (long long c = 0; c < nch; c++) {
                 const size_t p0 = (size_t)c * CHUNK, p1 = p0 + CHUNK < batch ? p0 + CHUNK : batch;
                 uint32_t *gc = T.G ? T.G->tcount + (size_t)omp_get_thread_num() * 3 * (size_t)T.G->nbins : NULL;
                 sc->chunks[c].keyed =
                     start_paths(&T, path, p0, p1, (size_t)c * room, room, ps, pd, sc->mode, sc->key, sc->idx, gc,
-                                T.G ? sc->path_bin : NULL,
-                                sc->hist + 1024 * (2 * (size_t)(omp_get_thread_num() + 1) + (c >= part_chunk(nch, 1))));
+                                T.G ? sc->path_bin : NULL, sc->hist + (size_t)(omp_get_thread_num() + 1) * 1024);
             }
         }
         size_t keyed = 0; /* each chunk's keyed paths, together */
@@ -1206,24 +1179,13 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
             sc->chunks[c].kofs = keyed;
             keyed += sc->chunks[c].keyed;
         }
-        if (keyed) sort_paths(sc, nch, room, nt);
-        /* each part's sorted paths in blocks of 16 groups */
-        size_t pbase[SORT_PARTS + 1];
-        long long pblock[SORT_PARTS + 1];
-        pblock[0] = 0;
-        for (int h = 0; h <= SORT_PARTS; h++) {
-            const long long c = part_chunk(nch, h);
-            pbase[h] = !keyed ? 0 : c < nch ? sc->chunks[c].kofs : keyed;
-            if (h > 0) pblock[h] = pblock[h - 1] + (long long)((pbase[h] - pbase[h - 1] + 16 * WAVE - 1) / (16 * WAVE));
-        }
+        if (keyed) sort_paths(sc, nch, room, keyed, nt);
+        const long long ngroups = (long long)((keyed + WAVE - 1) / WAVE), nblocks = (ngroups + 15) / 16;
 #pragma omp parallel for schedule(dynamic, 1) reduction(+ : batch_rays) num_threads(nt)
-        for (long long bk = 0; bk < pblock[SORT_PARTS]; bk++) {
+        for (long long bk = 0; bk < nblocks; bk++) {
             uint64_t r = 0;
-            int h = 0;
-            while (bk >= pblock[h + 1]) h++;
-            const size_t n = pbase[h + 1] - pbase[h], ngroups = (n + WAVE - 1) / WAVE;
-            const size_t g0 = (size_t)(bk - pblock[h]) * 16, g1 = g0 + 16 < ngroups ? g0 + 16 : ngroups;
-            first_hits(&T, ps, pd, sc->live, sc->idx + pbase[h], n, g0, g1, keyed >= COHERENT_MIN, &r);
+            const size_t g0 = (size_t)bk * 16, g1 = g0 + 16 < (size_t)ngroups ? g0 + 16 : (size_t)ngroups;
+            first_hits(&T, ps, pd, sc->live, sc->idx, keyed, g0, g1, keyed >= COHERENT_MIN, &r);
             batch_rays += r;
         }
 #pragma omp parallel for schedule(dynamic, 1) reduction(+ : batch_rays) num_threads(nt)
