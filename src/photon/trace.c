@@ -17,6 +17,9 @@
 
 #include <stdint.h>
 #include <sys/mman.h>
+#if defined(__SSE2__)
+#include <emmintrin.h> /* record: streaming stores */
+#endif
 
 int pgi__trace_room_cap = 0;
 
@@ -275,10 +278,19 @@ static int record(pgi__trace_tbuf *tb, int fp_on, int path, pgi__v3 p, pgi__v3 w
     }
     size_t j = tb->nrec++;
     stored_photon *sp = &tb->rec[j];
+#if defined(__SSE2__)
+    /* streamed past the caches (the gather reads them once, after the batch): the pass's
+       rays, triangle records and texels keep the cache, and no line is read to be written */
+    __m128i *q = (__m128i *)(void *)sp;
+    _mm_stream_si128(q, _mm_castps_si128(_mm_setr_ps(p.x, p.y, p.z, wi.x)));
+    _mm_stream_si128(q + 1, _mm_castps_si128(_mm_setr_ps(wi.y, wi.z, flux.x, flux.y)));
+    _mm_stream_si128(q + 2, _mm_castps_si128(_mm_setr_ps(flux.z, ng.x, ng.y, ng.z)));
+#else
     v3_store(sp->p, p);
     v3_store(sp->d, wi);
     v3_store(sp->f, flux);
     v3_store(sp->n, ng);
+#endif
     if (fp_on) tb->rec_fp[j] = *fp;
     tb->rec_path[j] = (uint16_t)path;
     return 1;
@@ -893,10 +905,13 @@ static int trace_chunk(const tracer *T, uint64_t base, const uint8_t *mode, cons
         float scb[2][WAVE], (*sc)[WAVE] = wave_azimuths(T, L, scb);
         wave_texels(T, L, &wg);
         active -= wave_shade(T, L, sc, &lbs, &wg, tb, cnt, gcnt, &ok);
-        if (!ok) return 0;
+        if (!ok) break;
         for (int k = 0; k < WAVE; k++) idle |= (uint32_t)(L[k].path < 0) << k;
     }
-    return 1;
+#if defined(__SSE2__)
+    _mm_sfence(); /* record's streaming stores, ordered before the gather reads them */
+#endif
+    return ok;
 }
 
 void pgi__trace_scratch_free(pgi__trace_scratch *sc) {
