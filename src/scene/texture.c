@@ -81,29 +81,13 @@ static inline void quad_at(const pgi__texture *t, const footprint2x2 *f, pgi__te
     q->ty = f->ty;
 }
 
-/* The body of pgi__texture_quad, compiled once more for SSE 4.1 where the build lacks it (floorf
- * one instruction: the same bits, see LOOKUP_N_BODY). */
-#define TEXTURE_QUAD_BODY                                                                                              \
-    if (!t || !t->rgba || t->width <= 0 || t->height <= 0) return 0;                                                   \
-    footprint2x2 f = bilinear_footprint(t, u, v);                                                                      \
-    quad_at(t, &f, q);                                                                                                 \
-    __builtin_prefetch(q->p[0]);                                                                                       \
-    __builtin_prefetch(q->p[3]);                                                                                       \
-    return 1;
-
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__)) && !defined(__SSE4_1__)
-__attribute__((target("sse4.1"))) static int texture_quad_sse41(const pgi__texture *t, float u, float v,
-                                                                pgi__texel_quad *q) {
-    TEXTURE_QUAD_BODY
-}
-#define PGI__QUAD_SSE41 1
-#endif
-
 int pgi__texture_quad(const pgi__texture *t, float u, float v, pgi__texel_quad *q) {
-#ifdef PGI__QUAD_SSE41
-    if (__builtin_cpu_supports("sse4.1")) return texture_quad_sse41(t, u, v, q);
-#endif
-    TEXTURE_QUAD_BODY
+    if (!t || !t->rgba || t->width <= 0 || t->height <= 0) return 0;
+    footprint2x2 f = bilinear_footprint(t, u, v);
+    quad_at(t, &f, q);
+    __builtin_prefetch(q->p[0]);
+    __builtin_prefetch(q->p[3]);
+    return 1;
 }
 
 /* The bilinear blend of every colour lookup (the order of the operations is part of the result). */
