@@ -772,33 +772,56 @@ static void sort_paths(pgi__trace_scratch *sc, long long nch, size_t room, size_
                 memmove(idx + ch[c].kofs, idx + (size_t)c * room, ch[c].keyed * sizeof *idx);
         return;
     }
-    /* the first pass from the chunks' slices; then back and forth, the last into idx */
-    uint32_t *dk = sc->tkey, *di = sc->tidx;
+    /* The first pass, from the chunks' slices into tkey, tidx, by the most significant byte the
+       keys do not all share: 256 runs, each a part of the order. Then each run on its own by the
+       other bytes, least significant first (a run fits the cache; runs in parallel, each the same
+       whatever thread takes it), back and forth with key, idx (whose slices the first pass has
+       read), the last into idx. The order is the one stable sort by key. */
     {
-        const int d = 8 * pass[0];
-        uint32_t *hd = h + 256 * pass[0];
+        const int top = pass[np - 1], d = 8 * top;
+        uint32_t *const hd = h + 256 * top, run[257];
+        for (int b = 0; b < 256; b++) run[b] = hd[b];
+        run[256] = (uint32_t)n;
         for (long long c = 0; c < nch; c++)
             for (size_t i = (size_t)c * room, e = i + ch[c].keyed; i < e; i++) {
                 const uint32_t k = key[i], j = hd[k >> d & 255]++;
-                dk[j] = k;
-                di[j] = idx[i];
+                sc->tkey[j] = k;
+                sc->tidx[j] = idx[i];
             }
-    }
-    uint32_t *sk = dk, *si = di;
-    for (int p = 1; p < np; p++) {
-        const int d = 8 * pass[p];
-        uint32_t *hd = h + 256 * pass[p];
-        dk = sk == sc->tkey ? key : sc->tkey;
-        di = si == sc->tidx ? idx : sc->tidx;
-        for (size_t i = 0; i < n; i++) {
-            const uint32_t k = sk[i], j = hd[k >> d & 255]++;
-            dk[j] = k;
-            di[j] = si[i];
+        if (np == 1) {
+            memcpy(idx, sc->tidx, n * sizeof *idx);
+            return;
         }
-        sk = dk;
-        si = di;
+#pragma omp parallel for schedule(dynamic, 16) num_threads(nt)
+        for (int b = 0; b < 256; b++) {
+            const size_t r0 = run[b], rn = run[b + 1] - run[b];
+            if (rn < 2) {
+                if (rn) idx[r0] = sc->tidx[r0];
+                continue;
+            }
+            uint32_t *sk = sc->tkey + r0, *si = sc->tidx + r0;
+            for (int p = 0; p < np - 1; p++) {
+                const int dp = 8 * pass[p];
+                uint32_t o[256] = {0};
+                for (size_t i = 0; i < rn; i++) o[sk[i] >> dp & 255]++;
+                for (uint32_t q = 0, acc = 0; q < 256; q++) {
+                    const uint32_t cq = o[q];
+                    o[q] = acc;
+                    acc += cq;
+                }
+                uint32_t *const dk = sk == sc->tkey + r0 ? key + r0 : sc->tkey + r0;
+                uint32_t *const di = si == sc->tidx + r0 ? idx + r0 : sc->tidx + r0;
+                for (size_t i = 0; i < rn; i++) {
+                    const uint32_t k = sk[i], j = o[k >> dp & 255]++;
+                    dk[j] = k;
+                    di[j] = si[i];
+                }
+                sk = dk;
+                si = di;
+            }
+            if (si != idx + r0) memcpy(idx + r0, si, rn * sizeof *si);
+        }
     }
-    if (si != idx) memcpy(idx, si, n * sizeof *idx);
 }
 
 /* The first hits of sorted paths order[g0*16 .. g1*16) (of n), 16 at a time, shaded in that
