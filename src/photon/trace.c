@@ -739,12 +739,12 @@ static size_t start_paths(const tracer *T, uint64_t base, size_t p0, size_t p1, 
 
 /* Sorts the batch's n keyed paths by key, stably (a key's paths stay in path order): chunk c's
  * sort keys and slots are key, idx + c room (chunks[c].keyed of them, at chunks[c].kofs among the
- * batch's). A byte of the key at a time, least significant first, each byte's counts taken by
- * start_paths as it made the keys (hist + 1024 (t + 1) for thread t); a byte that every key shares
- * (a point light's origin cell) is skipped. The
- * first pass gathers the chunks' keys as it places them; the order ends in idx (tkey, tidx: room
- * for n more). Serial: a parallel sort's barriers cost more than its work when the machine is
- * shared. */
+ * batch's). A byte of the key at a time, each byte's counts taken by start_paths as it made the
+ * keys (hist + 1024 (t + 1) for thread t); a byte that every key shares (a point light's origin
+ * cell) is skipped. The first pass (serial) gathers the chunks' keys as it places them by the
+ * most significant byte; the runs it makes are then sorted on their own, in parallel; the order
+ * ends in idx (tkey, tidx: room for n more). A sort of the whole batch in parallel, a pass at a
+ * time, was no faster: its passes are bound by the cache misses of their scattered writes. */
 static void sort_paths(pgi__trace_scratch *sc, long long nch, size_t room, size_t n, int nt) {
     uint32_t *const key = sc->key, *const idx = sc->idx;
     const chunk_info *ch = sc->chunks;
