@@ -199,18 +199,33 @@ static inline void pgi_rng_seed(pgi__rng *r, uint64_t seed, uint64_t stream) {
 static inline float pgi_rng_f(pgi__rng *r) { return (float)(pgi_rng_u32(r) >> 8) * (1.f / 16777216.f); }
 
 /* --------------------------------------------------------------- sampling */
+/* Each sampler takes the azimuth 2 pi u2; its _cs form takes the azimuth's cosine c and sine s
+ * instead (found elsewhere, e.g. for many samples at once: the same bits as cosf and sinf give
+ * the same direction). */
+static inline pgi__v3 pgi_sample_cosine_cs(float u1, float c, float s) {
+    const float r = sqrtf(u1);
+    return v3(r * c, r * s, sqrtf(pgi_maxf(1.f - u1, 0.f)));
+}
 static inline pgi__v3 pgi_sample_cosine(float u1, float u2) {
-    float r = sqrtf(u1), phi = 2.f * PGI_PI * u2;
-    return v3(r * cosf(phi), r * sinf(phi), sqrtf(pgi_maxf(1.f - u1, 0.f)));
+    const float phi = 2.f * PGI_PI * u2;
+    return pgi_sample_cosine_cs(u1, cosf(phi), sinf(phi));
+}
+static inline pgi__v3 pgi_sample_sphere_cs(float u1, float c, float s) {
+    const float z = 1.f - 2.f * u1, r = sqrtf(pgi_maxf(1.f - z * z, 0.f));
+    return v3(r * c, r * s, z);
 }
 static inline pgi__v3 pgi_sample_sphere(float u1, float u2) {
-    float z = 1.f - 2.f * u1, r = sqrtf(pgi_maxf(1.f - z * z, 0.f)), phi = 2.f * PGI_PI * u2;
-    return v3(r * cosf(phi), r * sinf(phi), z);
+    const float phi = 2.f * PGI_PI * u2;
+    return pgi_sample_sphere_cs(u1, cosf(phi), sinf(phi));
 }
 /* Uniform direction in the cone around +z with cos(theta) >= cos_max. */
+static inline pgi__v3 pgi_sample_cone_cs(float u1, float c, float s, float cos_max) {
+    const float z = 1.f - u1 * (1.f - cos_max), r = sqrtf(pgi_maxf(1.f - z * z, 0.f));
+    return v3(r * c, r * s, z);
+}
 static inline pgi__v3 pgi_sample_cone(float u1, float u2, float cos_max) {
-    float z = 1.f - u1 * (1.f - cos_max), r = sqrtf(pgi_maxf(1.f - z * z, 0.f)), phi = 2.f * PGI_PI * u2;
-    return v3(r * cosf(phi), r * sinf(phi), z);
+    const float phi = 2.f * PGI_PI * u2;
+    return pgi_sample_cone_cs(u1, cosf(phi), sinf(phi), cos_max);
 }
 static inline pgi__v3 pgi_to_world(pgi__v3 l, pgi__v3 n) {
     pgi__v3 t, b;

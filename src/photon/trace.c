@@ -180,23 +180,11 @@ static inline void emit_place_point(const tracer *T, const pgi__light *L, float 
                                     lane *l) {
     const float u1 = u[0], u2 = u[1];
     l->o = v3_load(L->pos);
-    if (L->type == PGI_LIGHT_POINT) {
-        if (cs) { /* pgi_sample_sphere(u1, u2) with its cosine and sine given */
-            const float z = 1.f - 2.f * u1, r = sqrtf(pgi_maxf(1.f - z * z, 0.f));
-            l->d = v3(r * cs[0], r * cs[1], z);
-        } else {
-            l->d = pgi_sample_sphere(u1, u2);
-        }
-    } else {
-        pgi__v3 c;
-        if (cs) { /* pgi_sample_cone(u1, u2, cos_cutoff) with its cosine and sine given */
-            const float z = 1.f - u1 * (1.f - L->cos_cutoff), r = sqrtf(pgi_maxf(1.f - z * z, 0.f));
-            c = v3(r * cs[0], r * cs[1], z);
-        } else {
-            c = pgi_sample_cone(u1, u2, L->cos_cutoff);
-        }
-        l->d = pgi_to_world(c, v3_load(L->dir));
-    }
+    if (L->type == PGI_LIGHT_POINT) l->d = cs ? pgi_sample_sphere_cs(u1, cs[0], cs[1]) : pgi_sample_sphere(u1, u2);
+    else
+        l->d = pgi_to_world(cs ? pgi_sample_cone_cs(u1, cs[0], cs[1], L->cos_cutoff)
+                               : pgi_sample_cone(u1, u2, L->cos_cutoff),
+                            v3_load(L->dir));
     if (T->fp_track) pgi__fp_emit(&l->pd, &T->fp, T->s, L, pl, l->d, T->radius);
     l->b = 0;
 }
@@ -369,8 +357,7 @@ typedef struct path_state {
     _Alignas(64) pgi__rng rng; /* one cache line each: first_hits reads them in sorted order */
     pgi__v3 o, d, flux;
     uint16_t bin;
-    uint8_t b;
-    uint8_t live; /* 0: the path has ended (or carried nothing) */
+    uint8_t b; /* whether the path goes on: trace_scratch.live */
 } path_state;
 
 static inline void state_save(const lane *l, path_state *ps, pgi__pdiff *pd) {
@@ -380,7 +367,6 @@ static inline void state_save(const lane *l, path_state *ps, pgi__pdiff *pd) {
     ps->flux = l->flux;
     ps->bin = (uint16_t)l->bin;
     ps->b = (uint8_t)l->b;
-    ps->live = l->path >= 0;
     if (pd) *pd = l->pd;
 }
 
@@ -448,7 +434,8 @@ static inline float (*wave_azimuths(const tracer *T, const lane *L, float (*sc)[
  * stage's loads are in cache when the next stage needs them. */
 typedef struct wave_go {
     int n;
-    uint8_t k[WAVE]; /* the lanes that may scatter */
+    uint8_t k[WAVE];                /* the lanes that may scatter */
+    const pgi__material *mat[WAVE]; /* and their materials */
     /* wave_shade's hit point, facing normal and side of each lane */
     pgi__v3 p[WAVE], ng[WAVE];
     uint8_t front[WAVE];
@@ -476,12 +463,13 @@ static inline void wave_texels(const tracer *T, lane *L, wave_go *W) {
             }
         }
         W->k[n] = (uint8_t)k;
+        W->mat[k] = m;
         n += !ends;
     }
     W->n = n;
     for (int i = 0; i < n; i++) {
         lane *l = &L[W->k[i]];
-        const pgi__material *m = &s->mats[T->tris[l->h.prim].mat];
+        const pgi__material *m = W->mat[W->k[i]];
         if (m->tex_kd < 0) continue;
         l->tex = &s->texs[m->tex_kd];
         float u = 0.f, v = 0.f; /* without texture coordinates the lookup reads (0, 0) */
@@ -553,7 +541,7 @@ static inline int wave_shade(const tracer *T, lane *L, float (*sc)[WAVE], pgi__l
         const int k = W->k[i];
         lane *l = &L[k];
         const pgi__trace_tri *r = &T->tris[l->h.prim];
-        const pgi__material *mat = &s->mats[r->mat];
+        const pgi__material *mat = W->mat[k];
         const pgi__v3 p = W->p[k], g = v3_load(r->ng), wi = v3_neg(l->d), ng = W->ng[k];
         const int front = W->front[k];
         int alive = 0;
@@ -605,13 +593,8 @@ static inline int wave_shade(const tracer *T, lane *L, float (*sc)[WAVE], pgi__l
              * the wave at once where that is faster (the same bits) */
             const float side = front ? 1.f : -1.f;
             const pgi__v3 gn = v3_scale(g, side), sn = v3_scale(ns, side);
-            pgi__v3 c;
-            if (sc) {
-                const float rr = sqrtf(l->u[0]);
-                c = v3(rr * sc[1][k], rr * sc[0][k], sqrtf(pgi_maxf(1.f - l->u[0], 0.f)));
-            } else {
-                c = pgi_sample_cosine(l->u[0], l->u[1]);
-            }
+            const pgi__v3 c =
+                sc ? pgi_sample_cosine_cs(l->u[0], sc[1][k], sc[0][k]) : pgi_sample_cosine(l->u[0], l->u[1]);
             wo = pgi_to_world(c, sn);
             w = kd;
             scatters = v3_dot(wo, gn) > 0.f;
@@ -880,16 +863,15 @@ static int trace_chunk(const tracer *T, uint64_t base, const uint8_t *mode, cons
     wave_go wg;
     /* The chunk's paths that go on, in path order, and their states in ps (START_STATE): the
      * refill below takes them without a test a path (whether a path ended at its first hit is
-     * as random as a coin: a branch on it missed half the time). live has a byte past the
-     * chunk's states (read, not used, after a chunk's last one). */
+     * as random as a coin: a branch on it missed half the time). */
     uint16_t go_pi[CHUNK], go_j[CHUNK];
     int ngo = 0;
     for (int pi = 0, j = 0; pi < n; pi++) {
         const int m = !mode ? START_CHUNK : mode[p0 + (size_t)pi];
-        const int st = m == START_STATE, lv = st ? live[j] : 0;
+        const int st = m == START_STATE;
         go_pi[ngo] = (uint16_t)pi;
         go_j[ngo] = (uint16_t)j;
-        ngo += st ? lv != 0 : m == START_CHUNK;
+        ngo += st ? live[j] != 0 : m == START_CHUNK;
         j += st;
     }
     int gi = 0, active = 0, ok = 1;
@@ -1035,7 +1017,7 @@ static pgi_status scratch_reserve(pgi__trace_scratch *sc, size_t paths, int nt, 
         free(sc->tkey);
         free(sc->tidx);
         sc->ps = aligned_alloc(64, states * sizeof *sc->ps);
-        sc->live = malloc(states + 1); /* a byte past the last: trace_chunk */
+        sc->live = malloc(states);
         sc->key = malloc(states * sizeof *sc->key);
         sc->idx = malloc(states * sizeof *sc->idx);
         sc->tkey = malloc(states * sizeof *sc->tkey);
