@@ -30,19 +30,21 @@ static inline void pgi__trace_tri_geometry(const pgi_scene *s, const pgi__trace_
     o->mat = &s->mats[r->mat];
 }
 
+/* The shading normal of r at barycentrics (bu, bv): its vertex normals interpolated, turned to
+ * the side of the geometric normal g (g itself without vertex normals or where they cancel). */
+static inline pgi__v3 pgi__trace_tri_ns(const pgi_scene *s, const pgi__trace_tri *r, float bu, float bv, pgi__v3 g) {
+    if (!s->nrm) return g;
+    float bw = 1.f - bu - bv;
+    pgi__v3 n =
+        v3_add(v3_add(v3_scale(v3_load(r->n), bw), v3_scale(v3_load(r->n + 3), bu)), v3_scale(v3_load(r->n + 6), bv));
+    float l = v3_len(n);
+    if (!(l > 0.f && isfinite(l))) return g;
+    n = v3_scale(n, 1.f / l);
+    return v3_dot(n, g) < 0.f ? v3_neg(n) : n;
+}
 static inline void pgi__trace_tri_shading(const pgi_scene *s, const pgi__trace_tri *r, float bu, float bv,
                                           pgi__surface *o) {
-    float bw = 1.f - bu - bv;
-    o->ns = o->ng;
-    if (s->nrm) {
-        pgi__v3 n = v3_add(v3_add(v3_scale(v3_load(r->n), bw), v3_scale(v3_load(r->n + 3), bu)),
-                           v3_scale(v3_load(r->n + 6), bv));
-        float l = v3_len(n);
-        if (l > 0.f && isfinite(l)) {
-            n = v3_scale(n, 1.f / l);
-            o->ns = v3_dot(n, o->ng) < 0.f ? v3_neg(n) : n;
-        }
-    }
+    o->ns = pgi__trace_tri_ns(s, r, bu, bv, o->ng);
     o->u = o->v = 0.f;
     o->kd = v3_load(o->mat->kd);
 }

@@ -545,17 +545,8 @@ static inline int wave_shade(const tracer *T, lane *L, float (*sc)[WAVE], pgi__l
         const pgi__v3 p = W->p[k], g = v3_load(r->ng), wi = v3_neg(l->d), ng = W->ng[k];
         const int front = W->front[k];
         int alive = 0;
-        pgi__v3 ns = g; /* pgi__trace_tri_shading */
-        if (s->nrm && !(lb && lambert(mat))) {
-            const float bu = l->h.u, bv = l->h.v, bw = 1.f - bu - bv;
-            pgi__v3 n = v3_add(v3_add(v3_scale(v3_load(r->n), bw), v3_scale(v3_load(r->n + 3), bu)),
-                               v3_scale(v3_load(r->n + 6), bv));
-            const float len = v3_len(n);
-            if (len > 0.f && isfinite(len)) {
-                n = v3_scale(n, 1.f / len);
-                ns = v3_dot(n, g) < 0.f ? v3_neg(n) : n;
-            }
-        }
+        /* the shading normal (the batch finds its own) */
+        const pgi__v3 ns = lb && lambert(mat) ? g : pgi__trace_tri_ns(s, r, l->h.u, l->h.v, g);
         pgi__v3 kd = v3_load(mat->kd);
         if (l->tex) kd = v3_mul(kd, pgi__texture_quad_lookup(&l->tq));
         pgi__v3 wo, w;
