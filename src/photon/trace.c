@@ -711,18 +711,23 @@ static size_t start_paths(const tracer *T, uint64_t base, size_t p0, size_t p1, 
     return m - slot;
 }
 
+/* The first chunk of part q of nch chunks cut into nt parts (start_paths, sort_paths). */
+static inline long long part_first(long long nch, int nt, int q) { return nch * q / nt; }
+
 /* Sorts the batch's n keyed paths by key, stably (a key's paths stay in path order): chunk c's
  * sort keys and slots are key, idx + c room (chunks[c].keyed of them, at chunks[c].kofs among the
  * batch's). A byte of the key at a time, each byte's counts taken by start_paths as it made the
- * keys (hist + 1024 (t + 1) for thread t); a byte that every key shares (a point light's origin
- * cell) is skipped. The first pass (serial) gathers the chunks' keys as it places them by the
- * most significant byte; the runs it makes are then sorted on their own, in parallel; the order
- * ends in idx (tkey, tidx: room for n more). A sort of the whole batch in parallel, a pass at a
- * time, was no faster: its passes are bound by the cache misses of their scattered writes. */
+ * keys (hist + 1024 (q + 1) for part q of the chunks: part_first); a byte that every key shares
+ * (a point light's origin cell) is skipped. The first pass gathers the chunks' keys as it places
+ * them by the most significant byte, the parts in parallel (each part's place in each run known
+ * from the counts of the parts before it); the runs it makes are then sorted on their own, in
+ * parallel; the order ends in idx (tkey, tidx: room for n more). A sort of the whole batch in
+ * parallel, a pass at a time, was no faster: its passes are bound by the cache misses of their
+ * scattered writes. */
 static void sort_paths(pgi__trace_scratch *sc, long long nch, size_t room, size_t n, int nt) {
     uint32_t *const key = sc->key, *const idx = sc->idx;
     const chunk_info *ch = sc->chunks;
-    uint32_t *const h = sc->hist; /* 4 x 256 counts: the sums of the threads' (start_paths), which follow */
+    uint32_t *const h = sc->hist; /* 4 x 256 counts: the sums of the parts' (start_paths), which follow */
     for (int b = 0; b < 1024; b++) {
         uint32_t c = 0;
         for (int t = 1; t <= nt; t++) c += h[(size_t)t * 1024 + (size_t)b];
@@ -756,12 +761,25 @@ static void sort_paths(pgi__trace_scratch *sc, long long nch, size_t room, size_
         uint32_t *const hd = h + 256 * top, run[257];
         for (int b = 0; b < 256; b++) run[b] = hd[b];
         run[256] = (uint32_t)n;
-        for (long long c = 0; c < nch; c++)
-            for (size_t i = (size_t)c * room, e = i + ch[c].keyed; i < e; i++) {
-                const uint32_t k = key[i], j = hd[k >> d & 255]++;
-                sc->tkey[j] = k;
-                sc->tidx[j] = idx[i];
+        /* each part's first place in each run, in its counts' place */
+        for (int b = 0; b < 256; b++) {
+            uint32_t acc = hd[b];
+            for (int q = 1; q <= nt; q++) {
+                uint32_t *const hq = h + (size_t)q * 1024 + 256 * top + b, c = *hq;
+                *hq = acc;
+                acc += c;
             }
+        }
+#pragma omp parallel for schedule(static, 1) num_threads(nt)
+        for (int q = 0; q < nt; q++) {
+            uint32_t *const o = h + (size_t)(q + 1) * 1024 + 256 * top;
+            for (long long c = part_first(nch, nt, q); c < part_first(nch, nt, q + 1); c++)
+                for (size_t i = (size_t)c * room, e = i + ch[c].keyed; i < e; i++) {
+                    const uint32_t k = key[i], j = o[k >> d & 255]++;
+                    sc->tkey[j] = k;
+                    sc->tidx[j] = idx[i];
+                }
+        }
         if (np == 1) {
             memcpy(idx, sc->tidx, n * sizeof *idx);
             return;
@@ -1175,14 +1193,18 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
          * where they go, and meet their first hits in that order (first_hits); then each chunk
          * traces its paths on from there, and starts the others. */
         if (room) {
+            /* nt parts of consecutive chunks, each with its own counts of the keys' bytes: the
+               sort's first pass places each part's keys in parallel (sort_paths) */
             memset(sc->hist, 0, (size_t)(nt + 1) * 1024 * sizeof *sc->hist);
-#pragma omp parallel for schedule(static) num_threads(nt)
-            for (long long c = 0; c < nch; c++) {
-                const size_t p0 = (size_t)c * CHUNK, p1 = p0 + CHUNK < batch ? p0 + CHUNK : batch;
+#pragma omp parallel for schedule(static, 1) num_threads(nt)
+            for (int q = 0; q < nt; q++) {
                 uint32_t *gc = T.G ? T.G->tcount + (size_t)omp_get_thread_num() * 3 * (size_t)T.G->nbins : NULL;
-                sc->chunks[c].keyed =
-                    start_paths(&T, path, p0, p1, (size_t)c * room, room, ps, pd, sc->mode, sc->key, sc->idx, gc,
-                                T.G ? sc->path_bin : NULL, sc->hist + (size_t)(omp_get_thread_num() + 1) * 1024);
+                for (long long c = part_first(nch, nt, q); c < part_first(nch, nt, q + 1); c++) {
+                    const size_t p0 = (size_t)c * CHUNK, p1 = p0 + CHUNK < batch ? p0 + CHUNK : batch;
+                    sc->chunks[c].keyed =
+                        start_paths(&T, path, p0, p1, (size_t)c * room, room, ps, pd, sc->mode, sc->key, sc->idx, gc,
+                                    T.G ? sc->path_bin : NULL, sc->hist + (size_t)(q + 1) * 1024);
+                }
             }
         }
         size_t keyed = 0; /* each chunk's keyed paths, together */
@@ -1390,6 +1412,7 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
         float w[PGI__GUIDE_GROUPS * PGI__GUIDE_RES * PGI__GUIDE_RES];
         for (int b = 0; b < g->nbins; b++)
             w[b] = g->q[b] > 0 ? (float)(pgi__guide_volume(g, b) / g->q[b] / (double)path) : 0.f;
+#pragma omp parallel for schedule(static) num_threads(nt) if (ph->count >= 65536)
         for (size_t j = 0; j < ph->count; j++) {
             const float f = w[sc->ph_bin[j]];
             ph->fr[j] *= f;
@@ -1400,6 +1423,7 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
     }
     if (path > 0) {
         const float inv = (float)(1.0 / (double)path);
+#pragma omp parallel for schedule(static) num_threads(nt) if (ph->count >= 65536)
         for (size_t j = 0; j < ph->count; j++) {
             ph->fr[j] *= inv;
             ph->fg[j] *= inv;
