@@ -4,6 +4,8 @@
 #ifndef PGI_SCENE_INTERNAL_H
 #define PGI_SCENE_INTERNAL_H
 
+#include <math.h>
+
 #include "core/core.h"
 
 typedef enum pgi__material_type {
@@ -287,8 +289,97 @@ typedef struct pgi__texel_quad {
     const unsigned char *p[4]; /* texels (x0, y0), (x1, y0), (x0, y1), (x1, y1) */
     float tx, ty;              /* weights of x1 and y1 */
 } pgi__texel_quad;
-int pgi__texture_quad(const pgi__texture *t, float u, float v, pgi__texel_quad *q);
-pgi__v3 pgi__texture_quad_lookup(const pgi__texel_quad *q);
+/* Defined here, inline: the photon tracer and the path tracer call them for every textured hit
+ * (a call each cost the tracer about 1 %; texture.c builds its lookups from the same pieces). */
+/* Wraps a texel index of [-1, n] into [0, n) (coordinates are reduced to [0, 1] first, so
+ * nothing farther out occurs; no division on this hot path). */
+static inline int pgi__tex_wrap_index(long i, int n) { return i < 0 ? (int)(i + n) : i >= n ? (int)(i - n) : (int)i; }
+
+static inline const unsigned char *pgi__tex_texel_at(const pgi__texture *t, int x, int y) {
+    return t->rgba + 4 * ((size_t)y * (size_t)t->width + (size_t)x);
+}
+
+static inline pgi__v3 pgi__tex_decode(const unsigned char *p) {
+    return v3(pgi__srgb8_texture_lut[p[0]], pgi__srgb8_texture_lut[p[1]], pgi__srgb8_texture_lut[p[2]]);
+}
+
+/* The 2x2 texels of a bilinear lookup at (u, v): columns x0, x1, rows y0, y1, and the weights
+ * (tx, ty) of x1 and y1. NaN / Inf coordinates (degenerate UVs) read texel (0, 0)'s
+ * neighbourhood instead of crashing. */
+typedef struct pgi__tex_footprint2x2 {
+    int x0, x1, y0, y1;
+    float tx, ty;
+} pgi__tex_footprint2x2;
+
+static inline pgi__tex_footprint2x2 pgi__tex_bilinear_footprint(const pgi__texture *t, float u, float v) {
+    if (!isfinite(u)) u = 0.f;
+    if (!isfinite(v)) v = 0.f;
+    /* Reduce to [0, 1) first so that huge tiling factors keep their precision in the fraction. */
+    float fu = u - floorf(u);
+    float fv = v - floorf(v);
+    float x = fu * (float)t->width - 0.5f;
+    float y = (1.f - fv) * (float)t->height - 0.5f; /* v = 0 is the bottom row */
+    float x0f = floorf(x), y0f = floorf(y);
+    pgi__tex_footprint2x2 f;
+    f.tx = x - x0f;
+    f.ty = y - y0f;
+    f.x0 = pgi__tex_wrap_index((long)x0f, t->width);
+    f.x1 = pgi__tex_wrap_index((long)x0f + 1, t->width);
+    f.y0 = pgi__tex_wrap_index((long)y0f, t->height);
+    f.y1 = pgi__tex_wrap_index((long)y0f + 1, t->height);
+    return f;
+}
+
+/* The colour bytes of footprint f's texels (x0, y0), (x1, y0), (x0, y1), (x1, y1), in the block
+ * layout when there is one (pgi__texture.tiled): each address is a row part plus a column part,
+ * two of each computed once. */
+static inline void pgi__tex_quad_at(const pgi__texture *t, const pgi__tex_footprint2x2 *f, pgi__texel_quad *q) {
+    size_t r0, r1, c0, c1;
+    const unsigned char *base = t->tiled;
+    if (base) {
+        const size_t bw = (size_t)((t->width + 3) >> 2);
+        r0 = 64 * ((size_t)(f->y0 >> 2) * bw) + 16 * (size_t)(f->y0 & 3);
+        r1 = 64 * ((size_t)(f->y1 >> 2) * bw) + 16 * (size_t)(f->y1 & 3);
+        c0 = 64 * (size_t)(f->x0 >> 2) + 4 * (size_t)(f->x0 & 3);
+        c1 = 64 * (size_t)(f->x1 >> 2) + 4 * (size_t)(f->x1 & 3);
+    } else {
+        base = t->rgba;
+        r0 = 4 * (size_t)f->y0 * (size_t)t->width;
+        r1 = 4 * (size_t)f->y1 * (size_t)t->width;
+        c0 = 4 * (size_t)f->x0;
+        c1 = 4 * (size_t)f->x1;
+    }
+    q->p[0] = base + r0 + c0;
+    q->p[1] = base + r0 + c1;
+    q->p[2] = base + r1 + c0;
+    q->p[3] = base + r1 + c1;
+    q->tx = f->tx;
+    q->ty = f->ty;
+}
+
+static inline int pgi__texture_quad(const pgi__texture *t, float u, float v, pgi__texel_quad *q) {
+    if (!t || !t->rgba || t->width <= 0 || t->height <= 0) return 0;
+    pgi__tex_footprint2x2 f = pgi__tex_bilinear_footprint(t, u, v);
+    pgi__tex_quad_at(t, &f, q);
+    __builtin_prefetch(q->p[0]);
+    __builtin_prefetch(q->p[3]);
+    return 1;
+}
+
+/* The bilinear pgi__tex_blend of every colour lookup (the order of the operations is part of the result). */
+static inline pgi__v3 pgi__tex_blend(pgi__v3 a, pgi__v3 b, pgi__v3 c, pgi__v3 d, float tx, float ty) {
+    pgi__v3 top = v3_add(v3_scale(a, 1.f - tx), v3_scale(b, tx));
+    pgi__v3 bot = v3_add(v3_scale(c, 1.f - tx), v3_scale(d, tx));
+    return v3_add(v3_scale(top, 1.f - ty), v3_scale(bot, ty));
+}
+
+/* The quad's colours, bilinearly weighted. */
+static inline pgi__v3 pgi__tex_quad_blend(const pgi__texel_quad *q) {
+    return pgi__tex_blend(pgi__tex_decode(q->p[0]), pgi__tex_decode(q->p[1]), pgi__tex_decode(q->p[2]),
+                          pgi__tex_decode(q->p[3]), q->tx, q->ty);
+}
+
+static inline pgi__v3 pgi__texture_quad_lookup(const pgi__texel_quad *q) { return pgi__tex_quad_blend(q); }
 
 /* Geometry helpers used by rt/ and view/. */
 static inline pgi__v3 pgi__scene_vertex(const pgi_scene *s, uint32_t v) { return v3_load(s->pos + 3 * (size_t)v); }

@@ -15,101 +15,12 @@
 #include <immintrin.h> /* lookup_n_avx2 */
 #endif
 
-/* Wraps a texel index of [-1, n] into [0, n) (coordinates are reduced to [0, 1] first, so
- * nothing farther out occurs; no division on this hot path). */
-static inline int wrap_index(long i, int n) { return i < 0 ? (int)(i + n) : i >= n ? (int)(i - n) : (int)i; }
-
-static inline const unsigned char *texel_at(const pgi__texture *t, int x, int y) {
-    return t->rgba + 4 * ((size_t)y * (size_t)t->width + (size_t)x);
-}
-
-static inline pgi__v3 decode(const unsigned char *p) {
-    return v3(pgi__srgb8_texture_lut[p[0]], pgi__srgb8_texture_lut[p[1]], pgi__srgb8_texture_lut[p[2]]);
-}
-
-/* The 2x2 texels of a bilinear lookup at (u, v): columns x0, x1, rows y0, y1, and the weights
- * (tx, ty) of x1 and y1. NaN / Inf coordinates (degenerate UVs) read texel (0, 0)'s
- * neighbourhood instead of crashing. */
-typedef struct footprint2x2 {
-    int x0, x1, y0, y1;
-    float tx, ty;
-} footprint2x2;
-
-static inline footprint2x2 bilinear_footprint(const pgi__texture *t, float u, float v) {
-    if (!isfinite(u)) u = 0.f;
-    if (!isfinite(v)) v = 0.f;
-    /* Reduce to [0, 1) first so that huge tiling factors keep their precision in the fraction. */
-    float fu = u - floorf(u);
-    float fv = v - floorf(v);
-    float x = fu * (float)t->width - 0.5f;
-    float y = (1.f - fv) * (float)t->height - 0.5f; /* v = 0 is the bottom row */
-    float x0f = floorf(x), y0f = floorf(y);
-    footprint2x2 f;
-    f.tx = x - x0f;
-    f.ty = y - y0f;
-    f.x0 = wrap_index((long)x0f, t->width);
-    f.x1 = wrap_index((long)x0f + 1, t->width);
-    f.y0 = wrap_index((long)y0f, t->height);
-    f.y1 = wrap_index((long)y0f + 1, t->height);
-    return f;
-}
-
-/* The colour bytes of footprint f's texels (x0, y0), (x1, y0), (x0, y1), (x1, y1), in the block
- * layout when there is one (pgi__texture.tiled): each address is a row part plus a column part,
- * two of each computed once. */
-static inline void quad_at(const pgi__texture *t, const footprint2x2 *f, pgi__texel_quad *q) {
-    size_t r0, r1, c0, c1;
-    const unsigned char *base = t->tiled;
-    if (base) {
-        const size_t bw = (size_t)((t->width + 3) >> 2);
-        r0 = 64 * ((size_t)(f->y0 >> 2) * bw) + 16 * (size_t)(f->y0 & 3);
-        r1 = 64 * ((size_t)(f->y1 >> 2) * bw) + 16 * (size_t)(f->y1 & 3);
-        c0 = 64 * (size_t)(f->x0 >> 2) + 4 * (size_t)(f->x0 & 3);
-        c1 = 64 * (size_t)(f->x1 >> 2) + 4 * (size_t)(f->x1 & 3);
-    } else {
-        base = t->rgba;
-        r0 = 4 * (size_t)f->y0 * (size_t)t->width;
-        r1 = 4 * (size_t)f->y1 * (size_t)t->width;
-        c0 = 4 * (size_t)f->x0;
-        c1 = 4 * (size_t)f->x1;
-    }
-    q->p[0] = base + r0 + c0;
-    q->p[1] = base + r0 + c1;
-    q->p[2] = base + r1 + c0;
-    q->p[3] = base + r1 + c1;
-    q->tx = f->tx;
-    q->ty = f->ty;
-}
-
-int pgi__texture_quad(const pgi__texture *t, float u, float v, pgi__texel_quad *q) {
-    if (!t || !t->rgba || t->width <= 0 || t->height <= 0) return 0;
-    footprint2x2 f = bilinear_footprint(t, u, v);
-    quad_at(t, &f, q);
-    __builtin_prefetch(q->p[0]);
-    __builtin_prefetch(q->p[3]);
-    return 1;
-}
-
-/* The bilinear blend of every colour lookup (the order of the operations is part of the result). */
-static inline pgi__v3 blend(pgi__v3 a, pgi__v3 b, pgi__v3 c, pgi__v3 d, float tx, float ty) {
-    pgi__v3 top = v3_add(v3_scale(a, 1.f - tx), v3_scale(b, tx));
-    pgi__v3 bot = v3_add(v3_scale(c, 1.f - tx), v3_scale(d, tx));
-    return v3_add(v3_scale(top, 1.f - ty), v3_scale(bot, ty));
-}
-
-/* The quad's colours, bilinearly weighted. */
-static inline pgi__v3 quad_blend(const pgi__texel_quad *q) {
-    return blend(decode(q->p[0]), decode(q->p[1]), decode(q->p[2]), decode(q->p[3]), q->tx, q->ty);
-}
-
-pgi__v3 pgi__texture_quad_lookup(const pgi__texel_quad *q) { return quad_blend(q); }
-
 pgi__v3 pgi__texture_lookup(const pgi__texture *t, float u, float v) {
     if (!t || !t->rgba || t->width <= 0 || t->height <= 0) return v3(1.f, 1.f, 1.f);
-    footprint2x2 f = bilinear_footprint(t, u, v);
+    pgi__tex_footprint2x2 f = pgi__tex_bilinear_footprint(t, u, v);
     pgi__texel_quad q;
-    quad_at(t, &f, &q);
-    return quad_blend(&q);
+    pgi__tex_quad_at(t, &f, &q);
+    return pgi__tex_quad_blend(&q);
 }
 
 /* The body of pgi__texture_lookup_n, compiled once for the baseline and, on x86-64 with GCC or
@@ -121,12 +32,12 @@ pgi__v3 pgi__texture_lookup(const pgi__texture *t, float u, float v) {
     for (int k = 0; k < n; k++) {                                                                                      \
         on[k] = t[k] && t[k]->rgba && t[k]->width > 0 && t[k]->height > 0;                                             \
         if (!on[k]) continue;                                                                                          \
-        const footprint2x2 f = bilinear_footprint(t[k], u[k], v[k]);                                                   \
-        quad_at(t[k], &f, &q[k]);                                                                                      \
+        const pgi__tex_footprint2x2 f = pgi__tex_bilinear_footprint(t[k], u[k], v[k]);                                 \
+        pgi__tex_quad_at(t[k], &f, &q[k]);                                                                             \
         __builtin_prefetch(q[k].p[0]);                                                                                 \
         __builtin_prefetch(q[k].p[3]);                                                                                 \
     }                                                                                                                  \
-    for (int k = 0; k < n; k++) out[k] = on[k] ? quad_blend(&q[k]) : v3(1.f, 1.f, 1.f);
+    for (int k = 0; k < n; k++) out[k] = on[k] ? pgi__tex_quad_blend(&q[k]) : v3(1.f, 1.f, 1.f);
 
 static void lookup_n_base(const pgi__texture *const *t, const float *u, const float *v, int n, pgi__v3 *out) {
     LOOKUP_N_BODY
@@ -142,7 +53,7 @@ __attribute__((target("sse4.1"))) static void lookup_n_sse41(const pgi__texture 
 
 #if PGI__AVX2_TARGET
 #define PGI__LOOKUP_AVX2 1
-/* i wrapped into [0, n) as wrap_index (i in [-1, n]). */
+/* i wrapped into [0, n) as pgi__tex_wrap_index (i in [-1, n]). */
 __attribute__((target("avx2"))) static inline __m256i wrap8(__m256i i, __m256i n) {
     const __m256i neg = _mm256_cmpgt_epi32(_mm256_setzero_si256(), i),
                   over = _mm256_cmpgt_epi32(i, _mm256_sub_epi32(n, _mm256_set1_epi32(1)));
@@ -156,7 +67,7 @@ static inline int footprint8_ok(const pgi__texture *t) {
            (size_t)((t->width + 3) >> 2) * (size_t)((t->height + 3) >> 2) * 64 <= (size_t)INT32_MAX;
 }
 
-/* bilinear_footprint's and quad_at's operations on eight lookups (u, v) on t an instruction (floorf
+/* pgi__tex_bilinear_footprint's and pgi__tex_quad_at's operations on eight lookups (u, v) on t an instruction (floorf
  * as roundps, exact), so the same texels and weights: o[c] the byte offsets of texel c of each
  * lookup's quad in t->tiled, *tx and *ty its weights. t must pass footprint8_ok. */
 __attribute__((target("avx2"))) static inline void footprint8(const pgi__texture *t, __m256 uf, __m256 vf, __m256i o[4],
@@ -177,7 +88,7 @@ __attribute__((target("avx2"))) static inline void footprint8(const pgi__texture
     const __m256i xi = _mm256_cvttps_epi32(x0f), yi = _mm256_cvttps_epi32(y0f);
     const __m256i x0 = wrap8(xi, W), x1 = wrap8(_mm256_add_epi32(xi, one), W);
     const __m256i y0 = wrap8(yi, H), y1 = wrap8(_mm256_add_epi32(yi, one), H);
-    /* quad_at: rows 64 ((y >> 2) bw) + 16 (y & 3), columns 64 (x >> 2) + 4 (x & 3) */
+    /* pgi__tex_quad_at: rows 64 ((y >> 2) bw) + 16 (y & 3), columns 64 (x >> 2) + 4 (x & 3) */
     const __m256i bw = _mm256_set1_epi32((t->width + 3) >> 2);
 #define ROW8(y)                                                                                                        \
     _mm256_add_epi32(_mm256_slli_epi32(_mm256_mullo_epi32(_mm256_srai_epi32(y, 2), bw), 6),                            \
@@ -208,8 +119,8 @@ __attribute__((target("avx2"))) static void lookup_n_avx2(const pgi__texture *co
             for (int k = k0; k < k0 + m; k++) {
                 on[k] = t[k] && t[k]->rgba && t[k]->width > 0 && t[k]->height > 0;
                 if (!on[k]) continue;
-                const footprint2x2 f = bilinear_footprint(t[k], u[k], v[k]);
-                quad_at(t[k], &f, &q[k]);
+                const pgi__tex_footprint2x2 f = pgi__tex_bilinear_footprint(t[k], u[k], v[k]);
+                pgi__tex_quad_at(t[k], &f, &q[k]);
                 __builtin_prefetch(q[k].p[0]);
                 __builtin_prefetch(q[k].p[3]);
             }
@@ -236,7 +147,7 @@ __attribute__((target("avx2"))) static void lookup_n_avx2(const pgi__texture *co
             __builtin_prefetch(qk->p[3]);
         }
     }
-    for (int k = 0; k < n; k++) out[k] = on[k] ? quad_blend(&q[k]) : v3(1.f, 1.f, 1.f);
+    for (int k = 0; k < n; k++) out[k] = on[k] ? pgi__tex_quad_blend(&q[k]) : v3(1.f, 1.f, 1.f);
 }
 #endif
 
@@ -261,7 +172,7 @@ __attribute__((target("avx2"))) static void quads16_avx2(const pgi__texture *t, 
 }
 
 /* pgi__texture_quads16_lookup eight lanes an instruction: the quads' texels and their sRGB
- * decoding by gathers, then quad_blend's operations in its order (no FMA: -ffp-contract=off),
+ * decoding by gathers, then pgi__tex_quad_blend's operations in its order (no FMA: -ffp-contract=off),
  * so the same bits. */
 __attribute__((target("avx2"))) static void quads16_lookup_avx2(const pgi__texture *t, const pgi__texel_quads16 *q,
                                                                 float out[3][16]) {
@@ -372,9 +283,9 @@ void pgi__texture_lookup_n(const pgi__texture *const *t, const float *u, const f
 
 float pgi__texture_alpha(const pgi__texture *t, float u, float v) {
     if (!t || !t->rgba || t->width <= 0 || t->height <= 0) return 1.f;
-    footprint2x2 f = bilinear_footprint(t, u, v);
-    float a = texel_at(t, f.x0, f.y0)[3], b = texel_at(t, f.x1, f.y0)[3];
-    float c = texel_at(t, f.x0, f.y1)[3], d = texel_at(t, f.x1, f.y1)[3];
+    pgi__tex_footprint2x2 f = pgi__tex_bilinear_footprint(t, u, v);
+    float a = pgi__tex_texel_at(t, f.x0, f.y0)[3], b = pgi__tex_texel_at(t, f.x1, f.y0)[3];
+    float c = pgi__tex_texel_at(t, f.x0, f.y1)[3], d = pgi__tex_texel_at(t, f.x1, f.y1)[3];
     float top = a + (b - a) * f.tx, bot = c + (d - c) * f.tx;
     return (top + (bot - top) * f.ty) * (1.f / 255.f);
 }
