@@ -395,13 +395,17 @@ static inline void state_load(lane *l, const path_state *ps, const pgi__pdiff *p
  * the 16 hits overlap), and the numbers shading draws where the path may scatter, drawn while
  * the records load: a path that goes on uses all four (a failed BSDF sample ends it), so its
  * stream stays as it was. */
-static inline void wave_hits(const tracer *T, lane *L, const int *valid, const pgi__hit *hh) {
+static inline void wave_hits(const tracer *T, lane *L, const int *valid, const float *t, const float *u, const float *v,
+                             const uint32_t *prim) {
     for (int k = 0; k < WAVE; k++) {
         if (!valid[k]) continue;
-        L[k].h = hh[k];
-        if (hh[k].prim != UINT32_MAX) {
-            __builtin_prefetch(T->tris + hh[k].prim);
-            if (T->tri_uv) __builtin_prefetch(T->tri_uv + PGI__TRI_UV * (size_t)hh[k].prim);
+        L[k].h.t = t[k];
+        L[k].h.u = u[k];
+        L[k].h.v = v[k];
+        L[k].h.prim = prim[k];
+        if (prim[k] != UINT32_MAX) {
+            __builtin_prefetch(T->tris + prim[k]);
+            if (T->tri_uv) __builtin_prefetch(T->tri_uv + PGI__TRI_UV * (size_t)prim[k]);
             if (L[k].b < T->bounces)
                 for (int j = 0; j < 4; j++) L[k].u[j] = pgi_rng_f(&L[k].rng);
         }
@@ -413,18 +417,22 @@ static inline void wave_hits(const tracer *T, lane *L, const int *valid, const p
  * point or spot light's paths, sorted by direction: first_hits); otherwise single rays. */
 static inline void cast_wave(const tracer *T, lane *L, int coherent, uint64_t *rays) {
     int valid[WAVE];
-    pgi__v3 org[WAVE], dir[WAVE];
-    pgi__hit hh[WAVE];
+    _Alignas(64) float o[3][WAVE], d[3][WAVE], t[WAVE], u[WAVE], v[WAVE];
+    _Alignas(64) uint32_t prim[WAVE];
     for (int k = 0; k < WAVE; k++) {
         valid[k] = L[k].path >= 0;
-        org[k] = L[k].o;
-        dir[k] = L[k].d;
+        o[0][k] = L[k].o.x;
+        o[1][k] = L[k].o.y;
+        o[2][k] = L[k].o.z;
+        d[0][k] = L[k].d.x;
+        d[1][k] = L[k].d.y;
+        d[2][k] = L[k].d.z;
         *rays += (uint64_t)valid[k];
     }
     for (int k = 1; k < WAVE && coherent; k++)
-        if (valid[k] && (org[k].x != org[0].x || org[k].y != org[0].y || org[k].z != org[0].z)) coherent = 0;
-    pgi__rt_intersect16(T->rt, valid, org, 1, dir, coherent, hh);
-    wave_hits(T, L, valid, hh);
+        if (valid[k] && (o[0][k] != o[0][0] || o[1][k] != o[1][0] || o[2][k] != o[2][0])) coherent = 0;
+    pgi__rt_intersect16(T->rt, valid, (const float(*)[WAVE])o, (const float(*)[WAVE])d, coherent, t, u, v, prim);
+    wave_hits(T, L, valid, t, u, v, prim);
 }
 
 /* The sines and cosines of the wave's BSDF azimuths 2 pi u[1] into sc (sin, cos), all 16 at once

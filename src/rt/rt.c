@@ -27,6 +27,7 @@ typedef struct rt_geom {
 #define CLASS_MASKED 1
 #define CLASS_DYNAMIC 2
 #define NCLASS 4
+_Static_assert(NCLASS == 4, "pgi__rt_intersect16 tests the four classes' maps");
 
 struct pgi__rt {
     RTCDevice device;
@@ -421,28 +422,25 @@ void pgi__rt_intersect8(const pgi__rt *rt, const int valid[8], pgi__v3 o, const 
     packet_hits(rt, &p, valid, hits);
 }
 
-void pgi__rt_intersect16(const pgi__rt *rt, const int valid[16], const pgi__v3 *org, size_t org_step,
-                         const pgi__v3 dirs[16], int coherent, pgi__hit hits[16]) {
+void pgi__rt_intersect16(const pgi__rt *rt, const int valid[16], const float o[3][16], const float d[3][16],
+                         int coherent, float t[16], float u[16], float v[16], uint32_t prim[16]) {
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     ctx.flags = coherent ? RTC_INTERSECT_CONTEXT_FLAG_COHERENT : RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
     RTC_ALIGN(64) struct RTCRayHit16 rh;
     RTC_ALIGN(64) int vmask[16];
     /* packet_set's lanes, written through the packet's own fields rather than a packet_view's
-       pointers (which the compiler must assume alias), the fields that every lane shares in a
-       loop of their own: it writes several lanes an instruction (the photon tracer casts one such
-       packet a wave, and the packet took a fifth of its own instructions) */
-    for (int i = 0; i < 16; i++) {
-        const pgi__v3 o = org[(size_t)i * org_step], d = dirs[i];
-        rh.ray.org_x[i] = o.x;
-        rh.ray.org_y[i] = o.y;
-        rh.ray.org_z[i] = o.z;
-        rh.ray.dir_x[i] = d.x;
-        rh.ray.dir_y[i] = d.y;
-        rh.ray.dir_z[i] = d.z;
-    }
+       pointers (which the compiler must assume alias) and from arrays in the packet's layout: the
+       compiler writes several lanes an instruction (the photon tracer casts one such packet a
+       wave: it took a fifth of the tracer's own instructions as packet_set and packet_hits) */
     for (int i = 0; i < 16; i++) {
         vmask[i] = valid[i] ? -1 : 0;
+        rh.ray.org_x[i] = o[0][i];
+        rh.ray.org_y[i] = o[1][i];
+        rh.ray.org_z[i] = o[2][i];
+        rh.ray.dir_x[i] = d[0][i];
+        rh.ray.dir_y[i] = d[1][i];
+        rh.ray.dir_z[i] = d[2][i];
         rh.ray.tnear[i] = 0.f;
         rh.ray.tfar[i] = INFINITY;
         rh.ray.time[i] = 0.f;
@@ -458,15 +456,21 @@ void pgi__rt_intersect16(const pgi__rt *rt, const int valid[16], const pgi__v3 *
         capture_packet(rt->capture, PGI__RAY_INTERSECT16, coherent ? PGI__RAY_COHERENT : 0, &p, vmask, INFINITY, NULL,
                        NULL);
     }
-    /* packet_hits' answers (t, u, v also where there is no hit: not read there) */
+    /* packet_hits' answers (t, u, v also where there is no hit) */
     for (int i = 0; i < 16; i++) {
-        hits[i].t = rh.ray.tfar[i];
-        hits[i].u = rh.hit.u[i];
-        hits[i].v = rh.hit.v[i];
-        hits[i].prim = valid[i] && rh.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID
-                           ? global_prim(rt, rh.hit.geomID[i], rh.hit.primID[i])
-                           : UINT32_MAX;
+        t[i] = rh.ray.tfar[i];
+        u[i] = rh.hit.u[i];
+        v[i] = rh.hit.v[i];
     }
+    if (!rt->geom[0].map && !rt->geom[1].map && !rt->geom[2].map && !rt->geom[3].map) {
+        for (int i = 0; i < 16; i++) /* one geometry, numbered as the scene: without a branch */
+            prim[i] = (valid[i] != 0) & (rh.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID) ? rh.hit.primID[i] : UINT32_MAX;
+        return;
+    }
+    for (int i = 0; i < 16; i++)
+        prim[i] = valid[i] && rh.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID
+                      ? global_prim(rt, rh.hit.geomID[i], rh.hit.primID[i])
+                      : UINT32_MAX;
 }
 
 void pgi__rt_intersect16_soa(const pgi__rt *rt, const int valid[16], pgi__v3 o, const float *const d[3], float t[16],

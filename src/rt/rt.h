@@ -38,12 +38,14 @@ void pgi__rt_intersect8(const pgi__rt *rt, const int valid[8], pgi__v3 o, const 
 
 /* 16-wide packets (on AVX2, Embree runs them as two 8-wide halves with one traversal; measured
  * the fastest call style for primary and shadow rays by photongi-bench --limits).
- * intersect16: ray i starts at org[i * org_step] (org_step 0: one shared origin) and runs over
- * (0, infinity); `coherent` picks Embree's coherent or incoherent traversal context.
+ * intersect16: ray i from (o[0][i], o[1][i], o[2][i]) along (d[0][i], d[1][i], d[2][i]) over
+ * (0, infinity) (arrays in Embree's packet layout); `coherent` picks Embree's coherent or
+ * incoherent traversal context; lane i's hit in t[i], u[i], v[i] (barycentrics of vertices 1
+ * and 2), prim[i] (UINT32_MAX: none, or a disabled lane; t, u, v then hold nothing useful).
  * occluded16: rays over (0, tfar[i]), coherent or not likewise; occluded[i] is 1 when lane i
  * is valid and blocked. */
-void pgi__rt_intersect16(const pgi__rt *rt, const int valid[16], const pgi__v3 *org, size_t org_step,
-                         const pgi__v3 dirs[16], int coherent, pgi__hit hits[16]);
+void pgi__rt_intersect16(const pgi__rt *rt, const int valid[16], const float o[3][16], const float d[3][16],
+                         int coherent, float t[16], float u[16], float v[16], uint32_t prim[16]);
 /* intersect16 from one origin with the lanes in arrays (structure of arrays, as Embree's packet),
  * coherent context: ray i along (d[0][i], d[1][i], d[2][i]); lane i's hit is prim[i] (UINT32_MAX:
  * none, or lane off) at distance t[i] and barycentrics u[i], v[i] (0 without a hit). */
