@@ -429,8 +429,12 @@ static inline void cast_wave(const tracer *T, lane *L, int coherent, uint64_t *r
         d[2][k] = L[k].d.z;
         *rays += (uint64_t)valid[k];
     }
-    for (int k = 1; k < WAVE && coherent; k++)
-        if (valid[k] && (o[0][k] != o[0][0] || o[1][k] != o[1][0] || o[2][k] != o[2][0])) coherent = 0;
+    if (coherent) { /* without a branch a lane: several lanes an instruction */
+        int differ = 0;
+        for (int k = 1; k < WAVE; k++)
+            differ |= valid[k] & ((o[0][k] != o[0][0]) | (o[1][k] != o[1][0]) | (o[2][k] != o[2][0]));
+        coherent = !differ;
+    }
     pgi__rt_intersect16(T->rt, valid, (const float(*)[WAVE])o, (const float(*)[WAVE])d, coherent, t, u, v, prim);
     wave_hits(T, L, valid, t, u, v, prim);
 }
@@ -455,6 +459,7 @@ typedef struct wave_go {
     int n;
     uint8_t k[WAVE];                /* the lanes that may scatter */
     const pgi__material *mat[WAVE]; /* and their materials */
+    uint8_t lam[WAVE];              /* lambert(mat) */
     /* wave_shade's hit point, facing normal and side of each lane */
     pgi__v3 p[WAVE], ng[WAVE];
     uint8_t front[WAVE];
@@ -468,21 +473,24 @@ static inline void wave_texels(const tracer *T, lane *L, wave_go *W) {
         l->tex = NULL;
         if (l->path < 0 || l->h.prim == UINT32_MAX || l->b >= T->bounces) continue;
         const pgi__material *m = &s->mats[T->tris[l->h.prim].mat];
+        const int lam = lambert(m);
         int ends = 0;
-        if (lambert(m)) {
+        if (lam) {
             /* The scattered flux is flux kd tex, with tex <= 1 (+ a rounding): the roulette's
              * probability with tex = 1 bounds it from above. A path whose roulette number is
              * past the bound (times 1.0001) ends whatever its texel and direction, so it
-             * needs neither (a quarter of Sibenik's stone hits). */
+             * needs neither (a quarter of Sibenik's stone hits). Where kd and the flux are
+             * not all >= 0 (the bound holds for those only), found but not taken. */
             const pgi__v3 kd = v3_load(m->kd), f = l->flux;
-            if (kd.x >= 0.f && kd.y >= 0.f && kd.z >= 0.f && f.x >= 0.f && f.y >= 0.f && f.z >= 0.f) {
-                const float mf = v3_maxc(f);
-                const float Rb = mf > 0.f ? pgi_minf(v3_maxc(v3_mul(f, kd)) / mf, 1.f) : 0.f;
-                ends = (Rb < 1.f) & (l->u[3] >= Rb * 1.0001f);
-            }
+            const int signs =
+                (kd.x >= 0.f) & (kd.y >= 0.f) & (kd.z >= 0.f) & (f.x >= 0.f) & (f.y >= 0.f) & (f.z >= 0.f);
+            const float mf = v3_maxc(f);
+            const float Rb = mf > 0.f ? pgi_minf(v3_maxc(v3_mul(f, kd)) / mf, 1.f) : 0.f;
+            ends = signs & (Rb < 1.f) & (l->u[3] >= Rb * 1.0001f);
         }
         W->k[n] = (uint8_t)k;
         W->mat[k] = m;
+        W->lam[k] = (uint8_t)lam;
         n += !ends;
     }
     W->n = n;
@@ -565,18 +573,20 @@ static inline int wave_shade(const tracer *T, lane *L, float (*sc)[WAVE], pgi__l
         const int front = W->front[k];
         int alive = 0;
         /* the shading normal (the batch finds its own) */
-        const pgi__v3 ns = lb && lambert(mat) ? g : pgi__trace_tri_ns(s, r, l->h.u, l->h.v, g);
+        const int lam = W->lam[k], batched = lb && lam;
+        const pgi__v3 ns = batched ? g : pgi__trace_tri_ns(s, r, l->h.u, l->h.v, g);
         pgi__v3 kd = v3_load(mat->kd);
         if (l->tex) kd = v3_mul(kd, pgi__texture_quad_lookup(&l->tq));
         pgi__v3 wo, w;
         int scatters;
-        if (lb && lambert(mat)) {
+        if (batched) {
             /* into the wave's batch (pgi__trace_lambert_avx2: the operations below) */
             const int j = lb->n++;
             lmap[j] = k;
             lb->bu[j] = l->h.u;
             lb->bv[j] = l->h.v;
-            for (int q = 0; q < 9 && s->nrm; q++) lb->nv[q][j] = r->n[q];
+            if (s->nrm)
+                for (int q = 0; q < 9; q++) lb->nv[q][j] = r->n[q];
             lb->g[0][j] = g.x;
             lb->g[1][j] = g.y;
             lb->g[2][j] = g.z;
@@ -598,7 +608,7 @@ static inline int wave_shade(const tracer *T, lane *L, float (*sc)[WAVE], pgi__l
             lb->ng[2][j] = ng.z;
             continue; /* its fate after the loop */
         }
-        if (lambert(mat)) {
+        if (lam) {
             /* pgi__bsdf_sample's Lambertian case, its azimuth's cosine and sine found for
              * the wave at once where that is faster (the same bits) */
             const float side = front ? 1.f : -1.f;
