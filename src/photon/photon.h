@@ -107,14 +107,15 @@ typedef struct pgi__trace_scratch {
     size_t cap;                /* paths */
     /* How each path of the batch starts, the states of those from point and spot lights
        between their first and second hits (trace.c first_hits), their differentials (when a
-       radius policy follows them: pd_cap), whether each goes on after its first hit (live, a
-       byte a state and one more), and their emission order (sort keys, indices) */
+       radius policy follows them: pd_cap), whether each goes on after its first hit (live: a
+       byte a state for each thread, which writes those of the states it shades; live_n bytes),
+       and their emission order (sort keys, indices) */
     uint8_t *mode;
     struct path_state *ps;
     uint8_t *live;
     struct pgi__pdiff *ps_pd;
     uint32_t *key, *idx, *tkey, *tidx, *hist;
-    size_t mode_cap, ps_cap, pd_cap, hist_n;
+    size_t mode_cap, ps_cap, pd_cap, hist_n, live_n;
     double prior_paths, prior_photons; /* the last frame's traced paths and their photons */
     uint64_t paths_traced;             /* out: paths traced by the last call (emitted + discarded + pilot) */
     uint64_t paths_pilot;              /* out: guided emission's uniform pilot, whose photons were dropped */

@@ -55,7 +55,7 @@ typedef struct stored_photon {
  * thread's chunks of the current batch, each in the order the wave produced them. The gather
  * puts them into path order as it copies them into the photon map. */
 typedef struct pgi__trace_tbuf {
-    stored_photon *rec;
+    _Alignas(64) stored_photon *rec; /* a cache line each: each thread counts its photons in its own */
     pgi__footprint *rec_fp;
     uint16_t *rec_path;
     size_t nrec, rec_cap;
@@ -886,12 +886,13 @@ static void first_hits(const tracer *T, path_state *ps, pgi__pdiff *pd, uint8_t 
 }
 
 /* Traces paths [p0, p1) of the batch (one chunk; its first path `base`; mode: how each starts,
- * NULL: all here; ps, pd: the chunk's room_n states from start_paths and first_hits) a wave at a time;
+ * NULL: all here; ps, pd: the chunk's room_n states from start_paths and first_hits, live + t
+ * live_stride for t < live_n: the threads' bytes of whether each goes on) a wave at a time;
  * their photons are appended to tb->rec, cnt[i - p0] gets path i's count. Returns 0 when out of
  * memory. */
 static int trace_chunk(const tracer *T, uint64_t base, const uint8_t *mode, const path_state *ps, const pgi__pdiff *pd,
-                       const uint8_t *live, size_t p0, size_t p1, pgi__trace_tbuf *tb, uint8_t *cnt, uint64_t *rays,
-                       uint32_t *gcnt, uint16_t *pbin) {
+                       const uint8_t *live, size_t live_stride, int live_n, size_t p0, size_t p1, pgi__trace_tbuf *tb,
+                       uint8_t *cnt, uint64_t *rays, uint32_t *gcnt, uint16_t *pbin) {
     const int n = (int)(p1 - p0);
     memset(cnt, 0, (size_t)n);
     lane L[WAVE];
@@ -909,7 +910,9 @@ static int trace_chunk(const tracer *T, uint64_t base, const uint8_t *mode, cons
         const int st = m == START_STATE;
         go_pi[ngo] = (uint16_t)pi;
         go_j[ngo] = (uint16_t)j;
-        ngo += st ? live[j] != 0 : m == START_CHUNK;
+        int on = 0; /* the path goes on: in the byte of the thread that shaded its first hit */
+        for (int t = 0; st && t < live_n; t++) on |= live[(size_t)t * live_stride + (size_t)j];
+        ngo += st ? on != 0 : m == START_CHUNK;
         j += st;
     }
     int gi = 0, active = 0, ok = 1;
@@ -987,7 +990,7 @@ void pgi__trace_scratch_free(pgi__trace_scratch *sc) {
 size_t pgi__trace_scratch_bytes(const pgi__trace_scratch *sc) {
     size_t b = sc->cap * sizeof(uint8_t) + sc->cap / CHUNK * sizeof(chunk_info) +
                (size_t)sc->nthreads * sizeof *sc->tbuf + (sc->path_bin_cap + sc->ph_bin_cap) * sizeof(uint16_t) +
-               sc->tris_bytes + sc->mode_cap + sc->ps_cap * (sizeof(path_state) + 1 + 4 * sizeof(uint32_t)) +
+               sc->tris_bytes + sc->mode_cap + sc->ps_cap * (sizeof(path_state) + 4 * sizeof(uint32_t)) + sc->live_n +
                sc->pd_cap * sizeof(pgi__pdiff) + sc->hist_n * sizeof(uint32_t);
     for (int t = 0; t < sc->nthreads; t++) {
         const pgi__trace_tbuf *tb = &sc->tbuf[t];
@@ -1013,8 +1016,10 @@ static pgi_status guide_reserve(pgi__trace_scratch *sc, size_t photons) {
  * differentials when `diffs`). */
 static pgi_status scratch_reserve(pgi__trace_scratch *sc, size_t paths, int nt, int guided, int diffs, size_t room) {
     if (sc->nthreads < nt) {
-        pgi__trace_tbuf *tb = realloc(sc->tbuf, (size_t)nt * sizeof *tb);
+        pgi__trace_tbuf *tb = aligned_alloc(_Alignof(pgi__trace_tbuf), (size_t)nt * sizeof *tb);
         if (!tb) return pgi__fail(PGI_ERR_OOM, "out of memory for %d photon-tracing threads", nt);
+        if (sc->nthreads) memcpy(tb, sc->tbuf, (size_t)sc->nthreads * sizeof *tb);
+        free(sc->tbuf);
         memset(tb + sc->nthreads, 0, (size_t)(nt - sc->nthreads) * sizeof *tb);
         sc->tbuf = tb;
         sc->nthreads = nt;
@@ -1052,19 +1057,23 @@ static pgi_status scratch_reserve(pgi__trace_scratch *sc, size_t paths, int nt, 
     }
     if (states > sc->ps_cap) {
         free(sc->ps);
-        free(sc->live);
         free(sc->key);
         free(sc->idx);
         free(sc->tkey);
         free(sc->tidx);
         sc->ps = aligned_alloc(64, states * sizeof *sc->ps);
-        sc->live = malloc(states);
         sc->key = malloc(states * sizeof *sc->key);
         sc->idx = malloc(states * sizeof *sc->idx);
         sc->tkey = malloc(states * sizeof *sc->tkey);
         sc->tidx = malloc(states * sizeof *sc->tidx);
-        sc->ps_cap = sc->ps && sc->live && sc->key && sc->idx && sc->tkey && sc->tidx ? states : 0;
+        sc->ps_cap = sc->ps && sc->key && sc->idx && sc->tkey && sc->tidx ? states : 0;
         if (!sc->ps_cap) return pgi__fail(PGI_ERR_OOM, "out of memory tracing photons (%zu paths a batch)", paths);
+    }
+    if (states * (size_t)nt > sc->live_n) {
+        free(sc->live);
+        sc->live = malloc(states * (size_t)nt);
+        sc->live_n = sc->live ? states * (size_t)nt : 0;
+        if (!sc->live) return pgi__fail(PGI_ERR_OOM, "out of memory tracing photons (%zu paths a batch)", paths);
     }
     if (diffs && states > sc->pd_cap) {
         free(sc->ps_pd);
@@ -1246,11 +1255,18 @@ static pgi_status trace_photons(const pgi_scene *s, const pgi__rt *rt, const pgi
         }
         if (keyed) sort_paths(sc, nch, room, keyed, nt);
         const long long ngroups = (long long)((keyed + WAVE - 1) / WAVE), nblocks = (ngroups + 15) / 16;
+        /* each thread's byte a state slot (first_hits: whether the path goes on), zero where
+           another thread shades the path: one array written by all, at random places, had the
+           threads take its lines from each other's caches (first_hits took 13 % longer a thread
+           at two threads than at one) */
+        const size_t slots = (size_t)nch * room;
+        if (keyed) memset(sc->live, 0, slots * (size_t)nt);
 #pragma omp parallel for schedule(dynamic, 1) reduction(+ : batch_rays) num_threads(nt)
         for (long long bk = 0; bk < nblocks; bk++) {
             uint64_t r = 0;
             const size_t g0 = (size_t)bk * 16, g1 = g0 + 16 < (size_t)ngroups ? g0 + 16 : (size_t)ngroups;
-            first_hits(&T, ps, pd, sc->live, sc->idx, keyed, g0, g1, keyed >= COHERENT_MIN, &r);
+            first_hits(&T, ps, pd, sc->live + (size_t)omp_get_thread_num() * slots, sc->idx, keyed, g0, g1,
+                       keyed >= COHERENT_MIN, &r);
             batch_rays += r;
         }
 #pragma omp parallel for schedule(dynamic, 1) reduction(+ : batch_rays) num_threads(nt)
@@ -1270,7 +1286,8 @@ static pgi_status trace_photons(const pgi_scene *s, const pgi__rt *rt, const pgi
             if (!f)
                 ok = trace_chunk(&T, path, room ? sc->mode : NULL, room ? ps + (size_t)c * room : NULL,
                                  pd && room ? pd + (size_t)c * room : NULL, room ? sc->live + (size_t)c * room : NULL,
-                                 p0, p1, tb, sc->counts + (size_t)c * CHUNK, &r, gc, T.G ? sc->path_bin : NULL);
+                                 slots, nt, p0, p1, tb, sc->counts + (size_t)c * CHUNK, &r, gc,
+                                 T.G ? sc->path_bin : NULL);
             if (!ok) {
 #pragma omp atomic write
                 failed = 1;
