@@ -84,14 +84,15 @@ static int mem_optional(const char *name) {
  * coordinates each, two arrays that from 1 MiB on are rounded to whole 2 MiB huge pages
  * (trace.c, tris_alloc). */
 /* ... and the emission pre-pass, where the scene has point or spot lights (trace.c start_paths):
- * up to 2^18 paths a batch, a state and sort entries each (80 bytes), and their differentials (52)
- * where a radius policy follows the paths; a start mode (1 byte) for each path of a batch. */
-static uint64_t trace_prepass_bytes(const pgi_scene *s, uint64_t photons, int diffs) {
+ * up to 2^18 paths a batch, a state and sort entries each (80 bytes) and a byte for each thread
+ * (whether the path goes on), and their differentials (52) where a radius policy follows the
+ * paths; a start mode (1 byte) for each path of a batch. */
+static uint64_t trace_prepass_bytes(const pgi_scene *s, uint64_t photons, int diffs, int threads) {
     int point = 0;
     for (size_t i = 0; i < s->nlights; i++) point |= pgi__light_from_point(&s->lights[i]);
     if (!point) return 0;
     const uint64_t paths = photons < (1u << 18) ? photons : (1u << 18);
-    return paths * (80 + (diffs ? 52 : 0)) + (photons < (1u << 20) ? photons : (1u << 20));
+    return paths * (80 + (uint64_t)threads + (diffs ? 52 : 0)) + (photons < (1u << 20) ? photons : (1u << 20));
 }
 static uint64_t trace_triangle_bytes(uint64_t ntris) {
     const uint64_t huge = (uint64_t)2 << 20, a = ntris * 64, b = ntris * 32;
@@ -139,7 +140,8 @@ static pgi_status mem_plan(pgi_renderer *r, const pgi_render_desc *d, const pgi_
         {"footprints", np * planes * sizeof(float), 1},
         {"trace_scratch", traced * TRACE_BYTES_PER_PHOTON, 1},
         {"trace_scratch", trace_triangle_bytes(r->scene->ntris), 0},
-        {"trace_scratch", trace_prepass_bytes(r->scene, np, d->radius_policy != PGI_RADIUS_FIXED), 1},
+        {"trace_scratch",
+         trace_prepass_bytes(r->scene, np, d->radius_policy != PGI_RADIUS_FIXED, pgi__threads(d->threads)), 1},
         {"emission_guide", d->emission != PGI_EMISSION_UNIFORM ? np * sizeof(uint16_t) : 0, 1}, /* a bin a photon */
         {est, np * per_photon, 1},
     };
