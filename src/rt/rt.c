@@ -422,6 +422,34 @@ void pgi__rt_intersect8(const pgi__rt *rt, const int valid[8], pgi__v3 o, const 
     packet_hits(rt, &p, valid, hits);
 }
 
+/* A 16-wide packet's rays over (0, infinity) from arrays in its layout (ray i from ox[i ostep],
+ * oy[i ostep], oz[i ostep]: ostep 0 for one shared origin): packet_set's lanes, written through
+ * the packet's own fields rather than a packet_view's pointers (which the compiler must assume
+ * alias), so that the compiler writes several lanes an instruction (the photon tracer casts one
+ * such packet a wave: through packet_set and packet_hits it took a fifth of the tracer's own
+ * instructions). */
+static inline void packet16_set(struct RTCRayHit16 *rh, int *vmask, const int valid[16], const float *ox,
+                                const float *oy, const float *oz, size_t ostep, const float *dx, const float *dy,
+                                const float *dz) {
+    for (int i = 0; i < 16; i++) {
+        vmask[i] = valid[i] ? -1 : 0;
+        rh->ray.org_x[i] = ox[(size_t)i * ostep];
+        rh->ray.org_y[i] = oy[(size_t)i * ostep];
+        rh->ray.org_z[i] = oz[(size_t)i * ostep];
+        rh->ray.dir_x[i] = dx[i];
+        rh->ray.dir_y[i] = dy[i];
+        rh->ray.dir_z[i] = dz[i];
+        rh->ray.tnear[i] = 0.f;
+        rh->ray.tfar[i] = INFINITY;
+        rh->ray.time[i] = 0.f;
+        rh->ray.mask[i] = (unsigned)-1;
+        rh->ray.id[i] = (unsigned)i;
+        rh->ray.flags[i] = 0;
+        rh->hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
+        rh->hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
+    }
+}
+
 void pgi__rt_intersect16(const pgi__rt *rt, const int valid[16], const float o[3][16], const float d[3][16],
                          int coherent, float t[16], float u[16], float v[16], uint32_t prim[16]) {
     struct RTCIntersectContext ctx;
@@ -429,27 +457,7 @@ void pgi__rt_intersect16(const pgi__rt *rt, const int valid[16], const float o[3
     ctx.flags = coherent ? RTC_INTERSECT_CONTEXT_FLAG_COHERENT : RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
     RTC_ALIGN(64) struct RTCRayHit16 rh;
     RTC_ALIGN(64) int vmask[16];
-    /* packet_set's lanes, written through the packet's own fields rather than a packet_view's
-       pointers (which the compiler must assume alias) and from arrays in the packet's layout: the
-       compiler writes several lanes an instruction (the photon tracer casts one such packet a
-       wave: it took a fifth of the tracer's own instructions as packet_set and packet_hits) */
-    for (int i = 0; i < 16; i++) {
-        vmask[i] = valid[i] ? -1 : 0;
-        rh.ray.org_x[i] = o[0][i];
-        rh.ray.org_y[i] = o[1][i];
-        rh.ray.org_z[i] = o[2][i];
-        rh.ray.dir_x[i] = d[0][i];
-        rh.ray.dir_y[i] = d[1][i];
-        rh.ray.dir_z[i] = d[2][i];
-        rh.ray.tnear[i] = 0.f;
-        rh.ray.tfar[i] = INFINITY;
-        rh.ray.time[i] = 0.f;
-        rh.ray.mask[i] = (unsigned)-1;
-        rh.ray.id[i] = (unsigned)i;
-        rh.ray.flags[i] = 0;
-        rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
-        rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
-    }
+    packet16_set(&rh, vmask, valid, o[0], o[1], o[2], 1, d[0], d[1], d[2]);
     rtcIntersect16(vmask, rt->scene, &ctx, &rh);
     if (CAPTURING(rt)) {
         const packet_view p = {PACKET_RAYS(16, rh.ray), PACKET_HITS(rh.hit)};
@@ -480,23 +488,7 @@ void pgi__rt_intersect16_soa(const pgi__rt *rt, const int valid[16], pgi__v3 o, 
     ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
     RTC_ALIGN(64) struct RTCRayHit16 rh;
     RTC_ALIGN(64) int vmask[16];
-    /* The packet pgi__rt_intersect16 builds, from arrays: gcc stores four lanes an instruction. */
-    for (int i = 0; i < 16; i++) {
-        vmask[i] = valid[i] ? -1 : 0;
-        rh.ray.org_x[i] = o.x;
-        rh.ray.org_y[i] = o.y;
-        rh.ray.org_z[i] = o.z;
-        rh.ray.dir_x[i] = d[0][i];
-        rh.ray.dir_y[i] = d[1][i];
-        rh.ray.dir_z[i] = d[2][i];
-        rh.ray.tnear[i] = 0.f;
-        rh.ray.tfar[i] = INFINITY;
-        rh.ray.time[i] = 0.f;
-        rh.ray.mask[i] = (unsigned)-1;
-        rh.ray.id[i] = (unsigned)i;
-        rh.ray.flags[i] = 0;
-        rh.hit.geomID[i] = rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
-    }
+    packet16_set(&rh, vmask, valid, &o.x, &o.y, &o.z, 0, d[0], d[1], d[2]);
     rtcIntersect16(vmask, rt->scene, &ctx, &rh);
     if (CAPTURING(rt)) {
         const packet_view p = {PACKET_RAYS(16, rh.ray), PACKET_HITS(rh.hit)};
