@@ -472,7 +472,7 @@ void pgi__rt_intersect16(const pgi__rt *rt, const int valid[16], const float o[3
     }
     if (!rt->geom[0].map && !rt->geom[1].map && !rt->geom[2].map && !rt->geom[3].map) {
         for (int i = 0; i < 16; i++) /* one geometry, numbered as the scene: without a branch */
-            prim[i] = (valid[i] != 0) & (rh.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID) ? rh.hit.primID[i] : UINT32_MAX;
+            prim[i] = ((valid[i] != 0) & (rh.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID)) ? rh.hit.primID[i] : UINT32_MAX;
         return;
     }
     for (int i = 0; i < 16; i++)
