@@ -107,10 +107,7 @@ typedef struct lane {
        no texture, or one without texels) */
     const pgi__texture *tex;
     pgi__texel_quad tq;
-    /* the hit's four numbers (BSDF, roulette), and whether the roulette ends the path whatever
-       the texture (ends: no texel, no BSDF) */
-    int ends;
-    float u[4];
+    float u[4]; /* the hit's four numbers (BSDF, roulette) */
 } lane;
 
 /* The first numbers of path `index`: its stream seeded in `l`, the light it leaves (picked by
@@ -359,16 +356,16 @@ pgi_status pgi__trace_tris_update(pgi__trace_scratch *sc, const pgi_scene *s, in
     return PGI_OK;
 }
 
-/* A path between two hits, as the emission pre-pass (first_hits) leaves it for trace_chunk:
- * the lane's state that lasts from one bounce to the next (its differentials in a second
- * array, when a radius policy follows them). */
 #endif
 
+/* A path between two hits, as the emission pre-pass (first_hits) leaves it for trace_chunk:
+ * the lane's state that lasts from one bounce to the next (its differentials in a second
+ * array, when a radius policy follows them; whether it goes on: trace_scratch.live). */
 typedef struct path_state {
     _Alignas(64) pgi__rng rng; /* one cache line each: first_hits reads them in sorted order */
     pgi__v3 o, d, flux;
     uint16_t bin;
-    uint8_t b; /* whether the path goes on: trace_scratch.live */
+    uint8_t b;
 } path_state;
 
 static inline void state_save(const lane *l, path_state *ps, pgi__pdiff *pd) {
@@ -999,9 +996,9 @@ size_t pgi__trace_scratch_bytes(const pgi__trace_scratch *sc) {
     return b;
 }
 
-/* Guided emission: a guide bin for each photon stored (a bin a path: scratch_reserve). */
 #endif
 
+/* Guided emission: a guide bin for each photon stored (a bin a path: scratch_reserve). */
 static pgi_status guide_reserve(pgi__trace_scratch *sc, size_t photons) {
     if (photons > sc->ph_bin_cap) {
         uint16_t *b = realloc(sc->ph_bin, photons * sizeof *b);

@@ -27,7 +27,7 @@ typedef struct rt_geom {
 #define CLASS_MASKED 1
 #define CLASS_DYNAMIC 2
 #define NCLASS 4
-_Static_assert(NCLASS == 4, "pgi__rt_intersect16 tests the four classes' maps");
+_Static_assert(NCLASS == 4, "packet16_prims tests the four classes' maps");
 
 struct pgi__rt {
     RTCDevice device;
@@ -450,6 +450,23 @@ static inline void packet16_set(struct RTCRayHit16 *rh, int *vmask, const int va
     }
 }
 
+/* The scene triangles a 16-wide packet hit (packet_hits' prim: UINT32_MAX for a miss or a lane
+ * off), without a branch a lane where the scene is one geometry numbered as the scene (no class
+ * has a map). */
+static inline void packet16_prims(const pgi__rt *rt, const int valid[16], const struct RTCRayHit16 *rh,
+                                  uint32_t prim[16]) {
+    if (!rt->geom[0].map && !rt->geom[1].map && !rt->geom[2].map && !rt->geom[3].map) {
+        for (int i = 0; i < 16; i++)
+            prim[i] =
+                ((valid[i] != 0) & (rh->hit.geomID[i] != RTC_INVALID_GEOMETRY_ID)) ? rh->hit.primID[i] : UINT32_MAX;
+        return;
+    }
+    for (int i = 0; i < 16; i++)
+        prim[i] = valid[i] && rh->hit.geomID[i] != RTC_INVALID_GEOMETRY_ID
+                      ? global_prim(rt, rh->hit.geomID[i], rh->hit.primID[i])
+                      : UINT32_MAX;
+}
+
 void pgi__rt_intersect16(const pgi__rt *rt, const int valid[16], const float o[3][16], const float d[3][16],
                          int coherent, float t[16], float u[16], float v[16], uint32_t prim[16]) {
     struct RTCIntersectContext ctx;
@@ -470,15 +487,7 @@ void pgi__rt_intersect16(const pgi__rt *rt, const int valid[16], const float o[3
         u[i] = rh.hit.u[i];
         v[i] = rh.hit.v[i];
     }
-    if (!rt->geom[0].map && !rt->geom[1].map && !rt->geom[2].map && !rt->geom[3].map) {
-        for (int i = 0; i < 16; i++) /* one geometry, numbered as the scene: without a branch */
-            prim[i] = ((valid[i] != 0) & (rh.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID)) ? rh.hit.primID[i] : UINT32_MAX;
-        return;
-    }
-    for (int i = 0; i < 16; i++)
-        prim[i] = valid[i] && rh.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID
-                      ? global_prim(rt, rh.hit.geomID[i], rh.hit.primID[i])
-                      : UINT32_MAX;
+    packet16_prims(rt, valid, &rh, prim);
 }
 
 void pgi__rt_intersect16_soa(const pgi__rt *rt, const int valid[16], pgi__v3 o, const float *const d[3], float t[16],
@@ -494,9 +503,9 @@ void pgi__rt_intersect16_soa(const pgi__rt *rt, const int valid[16], pgi__v3 o, 
         const packet_view p = {PACKET_RAYS(16, rh.ray), PACKET_HITS(rh.hit)};
         capture_packet(rt->capture, PGI__RAY_INTERSECT16, PGI__RAY_COHERENT, &p, vmask, INFINITY, NULL, NULL);
     }
+    packet16_prims(rt, valid, &rh, prim);
     for (int i = 0; i < 16; i++) {
-        const int hit = valid[i] && rh.hit.geomID[i] != RTC_INVALID_GEOMETRY_ID;
-        prim[i] = hit ? global_prim(rt, rh.hit.geomID[i], rh.hit.primID[i]) : UINT32_MAX;
+        const int hit = prim[i] != UINT32_MAX;
         t[i] = hit ? rh.ray.tfar[i] : 0.f;
         u[i] = hit ? rh.hit.u[i] : 0.f;
         v[i] = hit ? rh.hit.v[i] : 0.f;

@@ -295,10 +295,6 @@ typedef struct pgi__texel_quad {
  * nothing farther out occurs; no division on this hot path). */
 static inline int pgi__tex_wrap_index(long i, int n) { return i < 0 ? (int)(i + n) : i >= n ? (int)(i - n) : (int)i; }
 
-static inline const unsigned char *pgi__tex_texel_at(const pgi__texture *t, int x, int y) {
-    return t->rgba + 4 * ((size_t)y * (size_t)t->width + (size_t)x);
-}
-
 static inline pgi__v3 pgi__tex_decode(const unsigned char *p) {
     return v3(pgi__srgb8_texture_lut[p[0]], pgi__srgb8_texture_lut[p[1]], pgi__srgb8_texture_lut[p[2]]);
 }

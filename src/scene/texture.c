@@ -15,6 +15,10 @@
 #include <immintrin.h> /* lookup_n_avx2 */
 #endif
 
+static inline const unsigned char *texel_at(const pgi__texture *t, int x, int y) {
+    return t->rgba + 4 * ((size_t)y * (size_t)t->width + (size_t)x);
+}
+
 pgi__v3 pgi__texture_lookup(const pgi__texture *t, float u, float v) {
     if (!t || !t->rgba || t->width <= 0 || t->height <= 0) return v3(1.f, 1.f, 1.f);
     pgi__tex_footprint2x2 f = pgi__tex_bilinear_footprint(t, u, v);
@@ -284,8 +288,8 @@ void pgi__texture_lookup_n(const pgi__texture *const *t, const float *u, const f
 float pgi__texture_alpha(const pgi__texture *t, float u, float v) {
     if (!t || !t->rgba || t->width <= 0 || t->height <= 0) return 1.f;
     pgi__tex_footprint2x2 f = pgi__tex_bilinear_footprint(t, u, v);
-    float a = pgi__tex_texel_at(t, f.x0, f.y0)[3], b = pgi__tex_texel_at(t, f.x1, f.y0)[3];
-    float c = pgi__tex_texel_at(t, f.x0, f.y1)[3], d = pgi__tex_texel_at(t, f.x1, f.y1)[3];
+    float a = texel_at(t, f.x0, f.y0)[3], b = texel_at(t, f.x1, f.y0)[3];
+    float c = texel_at(t, f.x0, f.y1)[3], d = texel_at(t, f.x1, f.y1)[3];
     float top = a + (b - a) * f.tx, bot = c + (d - c) * f.tx;
     return (top + (bot - top) * f.ty) * (1.f / 255.f);
 }
