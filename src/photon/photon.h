@@ -150,7 +150,7 @@ pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__
                               pgi__trace_scratch *scratch, uint64_t *rays);
 
 #if PGI__AVX2_TARGET
-/* The same tracer built for x86-64-v3's instructions (trace_v3.c): pgi__photons_trace calls it
+/* The same tracer built for AVX2, FMA, BMI1/2 and POPCNT (trace_v3.c): pgi__photons_trace calls it
  * where pgi__trace_v3_ok(); the same photons, bit for bit. */
 pgi_status pgi__photons_trace_v3(const pgi_scene *s, const pgi__rt *rt, const pgi__trace_desc *d, pgi_photons *ph,
                                  pgi__trace_scratch *scratch, uint64_t *rays);

@@ -9,7 +9,7 @@
  * includes this file with PGI__TRACE_V3) with AVX2, FMA, BMI1/2 and POPCNT enabled, whose
  * pgi__photons_trace_v3 pgi__photons_trace calls where the CPU has them (pgi__trace_v3_ok).
  * The same operations either way (no contraction: -ffp-contract=off), so the same bits
- * (test_trace); the wider instruction set takes ~7 % off the tracer's own time (docs/limits.md). */
+ * (test_trace); the wider instruction set takes about 5 % off the tracer's own time (docs/limits.md). */
 #define _DEFAULT_SOURCE /* madvise's MADV_HUGEPAGE */
 #include "photon.h"
 
