@@ -892,11 +892,8 @@ static int trace_chunk(const tracer *T, uint64_t base, const uint8_t *mode, cons
                        uint8_t *cnt, uint64_t *rays, uint32_t *gcnt, uint16_t *pbin) {
     const int n = (int)(p1 - p0);
     memset(cnt, 0, (size_t)n);
-    lane L[WAVE];
-    memset(L, 0, sizeof L); /* lanes without a path still go to Embree (masked): no garbage */
     pgi__lambert_batch lbs; /* wave_shade's (zeroed once: its lanes are all defined) */
     memset(&lbs, 0, sizeof lbs);
-    wave_go wg;
     /* The chunk's paths that go on, in path order, and their states in ps (START_STATE): the
      * refill below takes them without a test a path (whether a path ended at its first hit is
      * as random as a coin: a branch on it missed half the time). */
@@ -912,11 +909,25 @@ static int trace_chunk(const tracer *T, uint64_t base, const uint8_t *mode, cons
         ngo += st ? on != 0 : m == START_CHUNK;
         j += st;
     }
-    int gi = 0, active = 0, ok = 1;
-    uint32_t idle = (1u << WAVE) - 1; /* lanes without a path */
-    for (int k = 0; k < WAVE; k++) L[k].path = -1;
+    /* Two waves in turn: a wave's hits are shaded while the other's rays are in Embree, so
+     * that its triangle records (requested as its hits came back) and then its texels (requested
+     * before the other wave's cast) arrive during that cast rather than stalling the shading. */
+    lane L2[2][WAVE];
+    memset(L2, 0, sizeof L2); /* lanes without a path still go to Embree (masked): no garbage */
+    wave_go wg2[2];
+    float scb2[2][2][WAVE], (*sc2[2])[WAVE] = {NULL, NULL};
+    int gi = 0, active[2] = {0, 0}, ok = 1, cast[2] = {0, 0};
+    uint32_t idle[2] = {(1u << WAVE) - 1, (1u << WAVE) - 1}; /* lanes without a path */
+    for (int w = 0; w < 2; w++)
+        for (int k = 0; k < WAVE; k++) L2[w][k].path = -1;
     int ahead = 0; /* the go list's states requested so far */
-    for (;;) {
+    for (int cur = 0;; cur ^= 1) {
+        const int oth = cur ^ 1;
+        /* the texels of the wave cast last (its records arrived during the other's shading) */
+        if (cast[cur]) {
+            sc2[cur] = wave_azimuths(T, L2[cur], scb2[cur]);
+            wave_texels(T, L2[cur], &wg2[cur]);
+        }
         /* The states the next waves start from: they lie in ps in path order, written by
          * first_hits in sorted order (a miss each, which the hardware prefetcher does not see
          * coming across the chunk's scattered writes). */
@@ -925,9 +936,10 @@ static int trace_chunk(const tracer *T, uint64_t base, const uint8_t *mode, cons
                 __builtin_prefetch(&ps[go_j[ahead]]);
                 if (pd) __builtin_prefetch(&pd[go_j[ahead]]);
             }
-        /* Fill idle lanes with the chunk's next paths, lowest lane first. */
-        while (idle && gi < ngo) {
-            const int k = __builtin_ctz(idle), pi = go_pi[gi];
+        /* Fill the other wave's idle lanes with the chunk's next paths, lowest lane first. */
+        lane *const L = L2[oth];
+        while (idle[oth] && gi < ngo) {
+            const int k = __builtin_ctz(idle[oth]), pi = go_pi[gi];
             const size_t i = p0 + (size_t)pi, j = go_j[gi];
             gi++;
             if (mode && mode[i] == START_STATE) {
@@ -937,19 +949,22 @@ static int trace_chunk(const tracer *T, uint64_t base, const uint8_t *mode, cons
                 if (pbin) pbin[i] = (uint16_t)L[k].bin;
             }
             L[k].path = pi;
-            idle &= idle - 1;
-            active++;
+            idle[oth] &= idle[oth] - 1;
+            active[oth]++;
         }
-        if (active == 0) break;
-        /* Cast the wave's rays as one 16-wide incoherent packet (single rays, 8- and 16-wide
-         * packets and streams are within noise of each other for these rays: photongi-bench
-         * --limits); the triangle records of all the hits are requested together. */
-        cast_wave(T, L, 0, rays);
-        float scb[2][WAVE], (*sc)[WAVE] = wave_azimuths(T, L, scb);
-        wave_texels(T, L, &wg);
-        active -= wave_shade(T, L, sc, &lbs, &wg, tb, cnt, gcnt, &ok);
-        if (!ok) break;
-        for (int k = 0; k < WAVE; k++) idle |= (uint32_t)(L[k].path < 0) << k;
+        /* Cast the other wave's rays as one 16-wide incoherent packet (single rays, 8- and
+         * 16-wide packets and streams are within noise of each other for these rays:
+         * photongi-bench --limits); the triangle records of all the hits are requested
+         * together. */
+        cast[oth] = active[oth] > 0;
+        if (cast[oth]) cast_wave(T, L, 0, rays);
+        if (cast[cur]) {
+            active[cur] -= wave_shade(T, L2[cur], sc2[cur], &lbs, &wg2[cur], tb, cnt, gcnt, &ok);
+            cast[cur] = 0;
+            if (!ok) break;
+            for (int k = 0; k < WAVE; k++) idle[cur] |= (uint32_t)(L2[cur][k].path < 0) << k;
+        }
+        if (!cast[oth] && active[cur] == 0 && gi >= ngo) break;
     }
 #if defined(__SSE2__)
     _mm_sfence(); /* record's streaming stores, ordered before the gather reads them */

@@ -357,7 +357,11 @@ static inline int pgi__texture_quad(const pgi__texture *t, float u, float v, pgi
     if (!t || !t->rgba || t->width <= 0 || t->height <= 0) return 0;
     pgi__tex_footprint2x2 f = pgi__tex_bilinear_footprint(t, u, v);
     pgi__tex_quad_at(t, &f, q);
+    /* all four requested (mostly one or two lines): with p[0] and p[3] alone, the photon tracer's
+       shading still waited on the others (the four: about 1 % off its pass) */
     __builtin_prefetch(q->p[0]);
+    __builtin_prefetch(q->p[1]);
+    __builtin_prefetch(q->p[2]);
     __builtin_prefetch(q->p[3]);
     return 1;
 }
