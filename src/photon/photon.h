@@ -158,6 +158,15 @@ static inline int pgi__trace_v3_ok(void) {
     return pgi__cpu_avx2() && __builtin_cpu_supports("fma") && __builtin_cpu_supports("bmi") &&
            __builtin_cpu_supports("bmi2");
 }
+/* ... and for AVX-512 F, DQ, VL, BW and CD as well (trace_v4.c: x86-64-v4), where
+ * pgi__trace_v4_ok() (not with pgi__cpu_no512); the same photons, bit for bit. */
+pgi_status pgi__photons_trace_v4(const pgi_scene *s, const pgi__rt *rt, const pgi__trace_desc *d, pgi_photons *ph,
+                                 pgi__trace_scratch *scratch, uint64_t *rays);
+static inline int pgi__trace_v4_ok(void) {
+    return pgi__trace_v3_ok() && pgi__cpu_avx512() && __builtin_cpu_supports("avx512dq") &&
+           __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512bw") &&
+           __builtin_cpu_supports("avx512cd");
+}
 #endif
 
 #endif

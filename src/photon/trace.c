@@ -5,11 +5,12 @@
  * a caustic). Optionally steered towards where the camera looks (guide.h) and
  * storing only the photons near a view sample (trace desc `near`).
  *
- * Compiled twice on x86-64 (GCC, clang): here for the baseline, and by trace_v3.c (which
+ * Compiled three times on x86-64 (GCC, clang): here for the baseline; by trace_v3.c (which
  * includes this file with PGI__TRACE_V3) with AVX2, FMA, BMI1/2 and POPCNT enabled, whose
- * pgi__photons_trace_v3 pgi__photons_trace calls where the CPU has them (pgi__trace_v3_ok).
- * The same operations either way (no contraction: -ffp-contract=off), so the same bits
- * (test_trace); the wider instruction set takes about 5 % off the tracer's own time (docs/limits.md). */
+ * pgi__photons_trace_v3 pgi__photons_trace calls where the CPU has them (pgi__trace_v3_ok); and
+ * by trace_v4.c (PGI__TRACE_V3 and PGI__TRACE_V4) with AVX-512 too (pgi__trace_v4_ok). The same
+ * operations each way (no contraction: -ffp-contract=off), so the same bits (test_trace); the
+ * wider instruction sets take about 5 % and then 4 % off the tracer's own time (docs/limits.md). */
 #define _DEFAULT_SOURCE /* madvise's MADV_HUGEPAGE */
 #include "photon.h"
 
@@ -1494,7 +1495,12 @@ static pgi_status trace_photons(const pgi_scene *s, const pgi__rt *rt, const pgi
     return PGI_OK;
 }
 
-#ifdef PGI__TRACE_V3
+#if defined(PGI__TRACE_V4)
+pgi_status pgi__photons_trace_v4(const pgi_scene *s, const pgi__rt *rt, const pgi__trace_desc *d, pgi_photons *ph,
+                                 pgi__trace_scratch *sc, uint64_t *rays_out) {
+    return trace_photons(s, rt, d, ph, sc, rays_out);
+}
+#elif defined(PGI__TRACE_V3)
 pgi_status pgi__photons_trace_v3(const pgi_scene *s, const pgi__rt *rt, const pgi__trace_desc *d, pgi_photons *ph,
                                  pgi__trace_scratch *sc, uint64_t *rays_out) {
     return trace_photons(s, rt, d, ph, sc, rays_out);
@@ -1503,6 +1509,7 @@ pgi_status pgi__photons_trace_v3(const pgi_scene *s, const pgi__rt *rt, const pg
 pgi_status pgi__photons_trace(const pgi_scene *s, const pgi__rt *rt, const pgi__trace_desc *d, pgi_photons *ph,
                               pgi__trace_scratch *sc, uint64_t *rays_out) {
 #if PGI__AVX2_TARGET
+    if (pgi__trace_v4_ok()) return pgi__photons_trace_v4(s, rt, d, ph, sc, rays_out);
     if (pgi__trace_v3_ok()) return pgi__photons_trace_v3(s, rt, d, ph, sc, rays_out);
 #endif
     return trace_photons(s, rt, d, ph, sc, rays_out);
