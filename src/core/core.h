@@ -188,12 +188,19 @@ static inline uint32_t pgi_rng_u32(pgi__rng *r) {
     uint32_t rot = (uint32_t)(old >> 59u);
     return (xs >> rot) | (xs << ((-rot) & 31));
 }
-static inline void pgi_rng_seed(pgi__rng *r, uint64_t seed, uint64_t stream) {
+/* pgi_rng_seed in two parts, for many streams of one seed (the photon tracer's paths): the
+ * seed's part once (pgi__rng_seed_mix), then each stream's (pgi__rng_seed_mixed); the same
+ * generator as pgi_rng_seed(r, seed, stream). */
+static inline uint64_t pgi__rng_seed_mix(uint64_t seed) { return pgi__mix64(seed + 0x632be59bd9b4e019ULL); }
+static inline void pgi__rng_seed_mixed(pgi__rng *r, uint64_t seed_mix, uint64_t stream) {
     r->state = 0u;
     r->inc = (pgi__mix64(stream ^ 0x9e3779b97f4a7c15ULL) << 1u) | 1u;
     pgi_rng_u32(r);
-    r->state += pgi__mix64(seed + 0x632be59bd9b4e019ULL);
+    r->state += seed_mix;
     pgi_rng_u32(r);
+}
+static inline void pgi_rng_seed(pgi__rng *r, uint64_t seed, uint64_t stream) {
+    pgi__rng_seed_mixed(r, pgi__rng_seed_mix(seed), stream);
 }
 /* Uniform in [0, 1). */
 static inline float pgi_rng_f(pgi__rng *r) { return (float)(pgi_rng_u32(r) >> 8) * (1.f / 16777216.f); }

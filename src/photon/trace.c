@@ -80,7 +80,7 @@ typedef struct tracer {
     const float *cdf;           /* light CDF by luminance of power */
     size_t nl;
     int bounces;
-    uint64_t seed;
+    uint64_t seed_mix; /* pgi__rng_seed_mix(seed): each path's stream from it (pick_light) */
     float eps;
     pgi__v3 centre;
     float radius;      /* bounding-sphere radius, for the sun's disk */
@@ -118,7 +118,7 @@ typedef struct emission_pick {
     float ul, pl, a, b; /* the pick's number and probability; the steered pair */
 } emission_pick;
 static inline const pgi__light *pick_light(const tracer *T, uint64_t index, lane *l, emission_pick *e) {
-    pgi_rng_seed(&l->rng, T->seed, index);
+    pgi__rng_seed_mixed(&l->rng, T->seed_mix, index);
     const pgi__guide *G = T->G;
     float ul;
     e->a = e->b = 0.f;
@@ -912,17 +912,18 @@ static int trace_chunk(const tracer *T, uint64_t base, const uint8_t *mode, cons
     }
     /* Two waves in turn: a wave's hits are shaded while the other's rays are in Embree, so
      * that its triangle records (requested as its hits came back) and then its texels (requested
-     * before the other wave's cast) arrive during that cast rather than stalling the shading. */
+     * before the other wave's cast) arrive during that cast rather than stalling the shading.
+     * Once every path has started, the two merge into one (the tail, below). */
     lane L2[2][WAVE];
     memset(L2, 0, sizeof L2); /* lanes without a path still go to Embree (masked): no garbage */
     wave_go wg2[2];
     float scb2[2][2][WAVE], (*sc2[2])[WAVE] = {NULL, NULL};
-    int gi = 0, active[2] = {0, 0}, ok = 1, cast[2] = {0, 0};
+    int gi = 0, active[2] = {0, 0}, ok = 1, cast[2] = {0, 0}, cur = 0;
     uint32_t idle[2] = {(1u << WAVE) - 1, (1u << WAVE) - 1}; /* lanes without a path */
     for (int w = 0; w < 2; w++)
         for (int k = 0; k < WAVE; k++) L2[w][k].path = -1;
     int ahead = 0; /* the go list's states requested so far */
-    for (int cur = 0;; cur ^= 1) {
+    for (;; cur ^= 1) {
         const int oth = cur ^ 1;
         /* the texels of the wave cast last (its records arrived during the other's shading) */
         if (cast[cur]) {
@@ -953,19 +954,39 @@ static int trace_chunk(const tracer *T, uint64_t base, const uint8_t *mode, cons
             idle[oth] &= idle[oth] - 1;
             active[oth]++;
         }
-        /* Cast the other wave's rays as one 16-wide incoherent packet (single rays, 8- and
-         * 16-wide packets and streams are within noise of each other for these rays:
+        if (gi >= ngo) break; /* every path started (the other wave may not be full): the tail */
+        /* Cast the other (full) wave's rays as one 16-wide incoherent packet (single rays, 8-
+         * and 16-wide packets and streams are within noise of each other for these rays:
          * photongi-bench --limits); the triangle records of all the hits are requested
          * together. */
-        cast[oth] = active[oth] > 0;
-        if (cast[oth]) cast_wave(T, L, 0, rays);
+        cast_wave(T, L, 0, rays);
+        cast[oth] = 1;
         if (cast[cur]) {
             active[cur] -= wave_shade(T, L2[cur], sc2[cur], &lbs, &wg2[cur], tb, cnt, gcnt, &ok);
             cast[cur] = 0;
             if (!ok) break;
             for (int k = 0; k < WAVE; k++) idle[cur] |= (uint32_t)(L2[cur][k].path < 0) << k;
         }
-        if (!cast[oth] && active[cur] == 0 && gi >= ngo) break;
+    }
+    /* The tail: the wave cast last shaded, then one wave at a time (waves half empty cost Embree
+     * more a ray), its idle lanes filled from the other's paths. */
+    if (ok && cast[cur]) {
+        active[cur] -= wave_shade(T, L2[cur], sc2[cur], &lbs, &wg2[cur], tb, cnt, gcnt, &ok);
+        for (int k = 0; k < WAVE; k++) idle[cur] |= (uint32_t)(L2[cur][k].path < 0) << k;
+    }
+    lane *const L = L2[0];
+    uint32_t more = ~idle[1] & ((1u << WAVE) - 1); /* the paths waiting in wave 1 */
+    active[0] += active[1];
+    while (ok && active[0] > 0) {
+        for (; idle[0] && more; idle[0] &= idle[0] - 1, more &= more - 1) {
+            L[__builtin_ctz(idle[0])] = L2[1][__builtin_ctz(more)];
+            L2[1][__builtin_ctz(more)].path = -1;
+        }
+        cast_wave(T, L, 0, rays);
+        float scb[2][WAVE], (*sc)[WAVE] = wave_azimuths(T, L, scb);
+        wave_texels(T, L, &wg2[0]);
+        active[0] -= wave_shade(T, L, sc, &lbs, &wg2[0], tb, cnt, gcnt, &ok);
+        for (int k = 0; k < WAVE; k++) idle[0] |= (uint32_t)(L[k].path < 0) << k;
     }
 #if defined(__SSE2__)
     _mm_sfence(); /* record's streaming stores, ordered before the gather reads them */
@@ -1142,7 +1163,7 @@ static pgi_status trace_photons(const pgi_scene *s, const pgi__rt *rt, const pgi
                 cdf,
                 nl,
                 d->bounces,
-                d->seed,
+                pgi__rng_seed_mix(d->seed),
                 pgi__scene_epsilon(s),
                 v3_scale(v3_add(v3_load(s->bmin), v3_load(s->bmax)), 0.5f),
                 0.5f * pgi__scene_diagonal(s),
