@@ -10,7 +10,8 @@
  * pgi__photons_trace_v3 pgi__photons_trace calls where the CPU has them (pgi__trace_v3_ok); and
  * by trace_v4.c (PGI__TRACE_V3 and PGI__TRACE_V4) with AVX-512 too (pgi__trace_v4_ok). The same
  * operations each way (no contraction: -ffp-contract=off), so the same bits (test_trace); the
- * wider instruction sets take about 5 % and then 4 % off the tracer's own time (docs/limits.md). */
+ * wider instruction sets take time off the tracer's own code (docs/limits.md, seventh and eighth
+ * rounds). */
 #define _DEFAULT_SOURCE /* madvise's MADV_HUGEPAGE */
 #include "photon.h"
 
@@ -32,9 +33,10 @@
 int pgi__trace_room_cap = 0;
 #endif
 
-/* Paths one thread carries at once: the rays of a wave are cast back to back and the
- * texels of its hits are prefetched before any is shaded, so that their cache misses overlap
- * instead of following one another (photon rays are incoherent: each hit is a miss). */
+/* The paths of a wave (a thread carries two in turn, trace_chunk): the rays of a wave are cast
+ * together and the texels of its hits are prefetched before any is shaded, so that their cache
+ * misses overlap instead of following one another (photon rays are incoherent: each hit is a
+ * miss). */
 #define WAVE 16 /* = the packet width of pgi__rt_intersect16 */
 _Static_assert(WAVE == 16, "a wave is one pgi__rt_intersect16 packet");
 /* Paths a scheduling unit: a thread traces a chunk's paths and sorts their photons into path
@@ -885,7 +887,8 @@ static void first_hits(const tracer *T, path_state *ps, pgi__pdiff *pd, uint8_t 
 
 /* Traces paths [p0, p1) of the batch (one chunk; its first path `base`; mode: how each starts,
  * NULL: all here; ps, pd: the chunk's room_n states from start_paths and first_hits, live + t
- * live_stride for t < live_n: the threads' bytes of whether each goes on) a wave at a time;
+ * live_stride for t < live_n: the threads' bytes of whether each goes on) two waves in turn, then
+ * one (the tail);
  * their photons are appended to tb->rec, cnt[i - p0] gets path i's count. Returns 0 when out of
  * memory. */
 static int trace_chunk(const tracer *T, uint64_t base, const uint8_t *mode, const path_state *ps, const pgi__pdiff *pd,
@@ -910,10 +913,11 @@ static int trace_chunk(const tracer *T, uint64_t base, const uint8_t *mode, cons
         ngo += st ? on != 0 : m == START_CHUNK;
         j += st;
     }
-    /* Two waves in turn: a wave's hits are shaded while the other's rays are in Embree, so
-     * that its triangle records (requested as its hits came back) and then its texels (requested
-     * before the other wave's cast) arrive during that cast rather than stalling the shading.
-     * Once every path has started, the two merge into one (the tail, below). */
+    /* Two waves in turn: a wave waits, its triangle records (requested as its hits came back)
+     * and then its texels (requested just before the other wave's cast) on their way, while the
+     * other wave's rays are in Embree; then it is shaded, its misses served during that cast
+     * rather than stalling the shading. Once every path has started, the two merge into one
+     * (the tail, below). */
     lane L2[2][WAVE];
     memset(L2, 0, sizeof L2); /* lanes without a path still go to Embree (masked): no garbage */
     wave_go wg2[2];
