@@ -664,6 +664,29 @@ static inline int wave_shade(const tracer *T, lane *L, float (*sc)[WAVE], pgi__l
     return ended;
 }
 
+/* A wave in flight (trace_chunk carries two, first_hits one): its lanes, which of them carry no
+ * path and how many do, and, once it is cast, what wave_ready finds for its shading. */
+typedef struct wave {
+    lane L[WAVE];
+    uint32_t idle; /* lanes without a path */
+    int active;    /* lanes with one */
+    wave_go go;
+    float scb[2][WAVE], (*sc)[WAVE]; /* wave_azimuths' */
+} wave;
+
+/* A cast wave's azimuths and texels requested (wave_azimuths, wave_texels), for wave_finish. */
+static inline void wave_ready(const tracer *T, wave *w) {
+    w->sc = wave_azimuths(T, w->L, w->scb);
+    wave_texels(T, w->L, &w->go);
+}
+
+/* A ready wave shaded (wave_shade), the lanes whose paths ended marked idle. */
+static inline void wave_finish(const tracer *T, wave *w, pgi__lambert_batch *lbs, pgi__trace_tbuf *tb, uint8_t *cnt,
+                               uint32_t *gcnt, int *ok) {
+    w->active -= wave_shade(T, w->L, w->sc, lbs, &w->go, tb, cnt, gcnt, ok);
+    for (int k = 0; k < WAVE; k++) w->idle |= (uint32_t)(w->L[k].path < 0) << k;
+}
+
 /* How a path of the batch starts (start_paths): */
 enum {
     START_NONE = 0,  /* it carries nothing */
@@ -856,14 +879,14 @@ static void first_hits(const tracer *T, path_state *ps, pgi__pdiff *pd, uint8_t 
     enum { AHEAD = 2 };     /* groups whose states are requested ahead (they lie anywhere in ps) */
     pgi__lambert_batch lbs; /* wave_shade's (zeroed once: its lanes are all defined) */
     memset(&lbs, 0, sizeof lbs);
-    wave_go wg;
+    wave w;
+    lane *const L = w.L;
     for (size_t g = g0; g < g1; g++) {
         /* the states of group g + AHEAD (and, at the start, of the groups before it) */
         for (size_t j = (g == g0 ? g : g + AHEAD) * WAVE; j < (g + AHEAD + 1) * WAVE && j < n; j++) {
             __builtin_prefetch(&ps[order[j]]);
             if (pd) __builtin_prefetch(&pd[order[j]]);
         }
-        lane L[WAVE];
         for (int k = 0; k < WAVE; k++) {
             const size_t j = g * WAVE + (size_t)k;
             L[k].path = j < n ? 0 : -1;
@@ -871,10 +894,9 @@ static void first_hits(const tracer *T, path_state *ps, pgi__pdiff *pd, uint8_t 
             else L[k].o = L[k].d = v3(0.f, 0.f, 1.f);
         }
         cast_wave(T, L, coherent, rays);
-        float scb[2][WAVE], (*sc)[WAVE] = wave_azimuths(T, L, scb);
-        wave_texels(T, L, &wg);
+        wave_ready(T, &w);
         int ok = 1;
-        wave_shade(T, L, sc, &lbs, &wg, NULL, NULL, NULL, &ok);
+        wave_shade(T, L, w.sc, &lbs, &w.go, NULL, NULL, NULL, &ok);
         for (int k = 0; k < WAVE; k++) {
             const size_t j = g * WAVE + (size_t)k;
             if (j < n) {
@@ -918,22 +940,18 @@ static int trace_chunk(const tracer *T, uint64_t base, const uint8_t *mode, cons
      * other wave's rays are in Embree; then it is shaded, its misses served during that cast
      * rather than stalling the shading. Once every path has started, the two merge into one
      * (the tail, below). */
-    lane L2[2][WAVE];
-    memset(L2, 0, sizeof L2); /* lanes without a path still go to Embree (masked): no garbage */
-    wave_go wg2[2];
-    float scb2[2][2][WAVE], (*sc2[2])[WAVE] = {NULL, NULL};
-    int gi = 0, active[2] = {0, 0}, ok = 1, cast[2] = {0, 0}, cur = 0;
-    uint32_t idle[2] = {(1u << WAVE) - 1, (1u << WAVE) - 1}; /* lanes without a path */
-    for (int w = 0; w < 2; w++)
-        for (int k = 0; k < WAVE; k++) L2[w][k].path = -1;
+    wave W[2];
+    memset(W, 0, sizeof W); /* lanes without a path still go to Embree (masked): no garbage */
+    int gi = 0, ok = 1, cast[2] = {0, 0}, cur = 0;
+    for (int w = 0; w < 2; w++) {
+        W[w].idle = (1u << WAVE) - 1;
+        for (int k = 0; k < WAVE; k++) W[w].L[k].path = -1;
+    }
     int ahead = 0; /* the go list's states requested so far */
     for (;; cur ^= 1) {
-        const int oth = cur ^ 1;
+        wave *const C = &W[cur], *const O = &W[cur ^ 1];
         /* the texels of the wave cast last (its records arrived during the other's shading) */
-        if (cast[cur]) {
-            sc2[cur] = wave_azimuths(T, L2[cur], scb2[cur]);
-            wave_texels(T, L2[cur], &wg2[cur]);
-        }
+        if (cast[cur]) wave_ready(T, C);
         /* The states the next waves start from: they lie in ps in path order, written by
          * first_hits in sorted order (a miss each, which the hardware prefetcher does not see
          * coming across the chunk's scattered writes). */
@@ -943,9 +961,9 @@ static int trace_chunk(const tracer *T, uint64_t base, const uint8_t *mode, cons
                 if (pd) __builtin_prefetch(&pd[go_j[ahead]]);
             }
         /* Fill the other wave's idle lanes with the chunk's next paths, lowest lane first. */
-        lane *const L = L2[oth];
-        while (idle[oth] && gi < ngo) {
-            const int k = __builtin_ctz(idle[oth]), pi = go_pi[gi];
+        lane *const L = O->L;
+        while (O->idle && gi < ngo) {
+            const int k = __builtin_ctz(O->idle), pi = go_pi[gi];
             const size_t i = p0 + (size_t)pi, j = go_j[gi];
             gi++;
             if (mode && mode[i] == START_STATE) {
@@ -955,8 +973,8 @@ static int trace_chunk(const tracer *T, uint64_t base, const uint8_t *mode, cons
                 if (pbin) pbin[i] = (uint16_t)L[k].bin;
             }
             L[k].path = pi;
-            idle[oth] &= idle[oth] - 1;
-            active[oth]++;
+            O->idle &= O->idle - 1;
+            O->active++;
         }
         if (gi >= ngo) break; /* every path started (the other wave may not be full): the tail */
         /* Cast the other (full) wave's rays as one 16-wide incoherent packet (single rays, 8-
@@ -964,33 +982,24 @@ static int trace_chunk(const tracer *T, uint64_t base, const uint8_t *mode, cons
          * photongi-bench --limits); the triangle records of all the hits are requested
          * together. */
         cast_wave(T, L, 0, rays);
-        cast[oth] = 1;
+        cast[cur ^ 1] = 1;
         if (cast[cur]) {
-            active[cur] -= wave_shade(T, L2[cur], sc2[cur], &lbs, &wg2[cur], tb, cnt, gcnt, &ok);
+            wave_finish(T, C, &lbs, tb, cnt, gcnt, &ok);
             cast[cur] = 0;
             if (!ok) break;
-            for (int k = 0; k < WAVE; k++) idle[cur] |= (uint32_t)(L2[cur][k].path < 0) << k;
         }
     }
     /* The tail: the wave cast last shaded, then one wave at a time (waves half empty cost Embree
      * more a ray), its idle lanes filled from the other's paths. */
-    if (ok && cast[cur]) {
-        active[cur] -= wave_shade(T, L2[cur], sc2[cur], &lbs, &wg2[cur], tb, cnt, gcnt, &ok);
-        for (int k = 0; k < WAVE; k++) idle[cur] |= (uint32_t)(L2[cur][k].path < 0) << k;
-    }
-    lane *const L = L2[0];
-    uint32_t more = ~idle[1] & ((1u << WAVE) - 1); /* the paths waiting in wave 1 */
-    active[0] += active[1];
-    while (ok && active[0] > 0) {
-        for (; idle[0] && more; idle[0] &= idle[0] - 1, more &= more - 1) {
-            L[__builtin_ctz(idle[0])] = L2[1][__builtin_ctz(more)];
-            L2[1][__builtin_ctz(more)].path = -1;
-        }
-        cast_wave(T, L, 0, rays);
-        float scb[2][WAVE], (*sc)[WAVE] = wave_azimuths(T, L, scb);
-        wave_texels(T, L, &wg2[0]);
-        active[0] -= wave_shade(T, L, sc, &lbs, &wg2[0], tb, cnt, gcnt, &ok);
-        for (int k = 0; k < WAVE; k++) idle[0] |= (uint32_t)(L[k].path < 0) << k;
+    if (ok && cast[cur]) wave_finish(T, &W[cur], &lbs, tb, cnt, gcnt, &ok);
+    uint32_t more = ~W[1].idle & ((1u << WAVE) - 1); /* the paths waiting in wave 1 */
+    W[0].active += W[1].active;
+    while (ok && W[0].active > 0) {
+        for (; W[0].idle && more; W[0].idle &= W[0].idle - 1, more &= more - 1)
+            W[0].L[__builtin_ctz(W[0].idle)] = W[1].L[__builtin_ctz(more)];
+        cast_wave(T, W[0].L, 0, rays);
+        wave_ready(T, &W[0]);
+        wave_finish(T, &W[0], &lbs, tb, cnt, gcnt, &ok);
     }
 #if defined(__SSE2__)
     _mm_sfence(); /* record's streaming stores, ordered before the gather reads them */
@@ -1520,14 +1529,14 @@ static pgi_status trace_photons(const pgi_scene *s, const pgi__rt *rt, const pgi
     return PGI_OK;
 }
 
-#if defined(PGI__TRACE_V4)
-pgi_status pgi__photons_trace_v4(const pgi_scene *s, const pgi__rt *rt, const pgi__trace_desc *d, pgi_photons *ph,
-                                 pgi__trace_scratch *sc, uint64_t *rays_out) {
-    return trace_photons(s, rt, d, ph, sc, rays_out);
-}
-#elif defined(PGI__TRACE_V3)
-pgi_status pgi__photons_trace_v3(const pgi_scene *s, const pgi__rt *rt, const pgi__trace_desc *d, pgi_photons *ph,
-                                 pgi__trace_scratch *sc, uint64_t *rays_out) {
+#if defined(PGI__TRACE_V3) /* the wider builds' entries (trace_v3.c, trace_v4.c) */
+#ifdef PGI__TRACE_V4
+#define PGI__TRACE_ENTRY pgi__photons_trace_v4
+#else
+#define PGI__TRACE_ENTRY pgi__photons_trace_v3
+#endif
+pgi_status PGI__TRACE_ENTRY(const pgi_scene *s, const pgi__rt *rt, const pgi__trace_desc *d, pgi_photons *ph,
+                            pgi__trace_scratch *sc, uint64_t *rays_out) {
     return trace_photons(s, rt, d, ph, sc, rays_out);
 }
 #else

@@ -374,12 +374,10 @@ static inline pgi__v3 pgi__tex_blend(pgi__v3 a, pgi__v3 b, pgi__v3 c, pgi__v3 d,
 }
 
 /* The quad's colours, bilinearly weighted. */
-static inline pgi__v3 pgi__tex_quad_blend(const pgi__texel_quad *q) {
+static inline pgi__v3 pgi__texture_quad_lookup(const pgi__texel_quad *q) {
     return pgi__tex_blend(pgi__tex_decode(q->p[0]), pgi__tex_decode(q->p[1]), pgi__tex_decode(q->p[2]),
                           pgi__tex_decode(q->p[3]), q->tx, q->ty);
 }
-
-static inline pgi__v3 pgi__texture_quad_lookup(const pgi__texel_quad *q) { return pgi__tex_quad_blend(q); }
 
 /* Geometry helpers used by rt/ and view/. */
 static inline pgi__v3 pgi__scene_vertex(const pgi_scene *s, uint32_t v) { return v3_load(s->pos + 3 * (size_t)v); }

@@ -24,7 +24,7 @@ pgi__v3 pgi__texture_lookup(const pgi__texture *t, float u, float v) {
     pgi__tex_footprint2x2 f = pgi__tex_bilinear_footprint(t, u, v);
     pgi__texel_quad q;
     pgi__tex_quad_at(t, &f, &q);
-    return pgi__tex_quad_blend(&q);
+    return pgi__texture_quad_lookup(&q);
 }
 
 /* The body of pgi__texture_lookup_n, compiled once for the baseline and, on x86-64 with GCC or
@@ -41,7 +41,7 @@ pgi__v3 pgi__texture_lookup(const pgi__texture *t, float u, float v) {
         __builtin_prefetch(q[k].p[0]);                                                                                 \
         __builtin_prefetch(q[k].p[3]);                                                                                 \
     }                                                                                                                  \
-    for (int k = 0; k < n; k++) out[k] = on[k] ? pgi__tex_quad_blend(&q[k]) : v3(1.f, 1.f, 1.f);
+    for (int k = 0; k < n; k++) out[k] = on[k] ? pgi__texture_quad_lookup(&q[k]) : v3(1.f, 1.f, 1.f);
 
 static void lookup_n_base(const pgi__texture *const *t, const float *u, const float *v, int n, pgi__v3 *out) {
     LOOKUP_N_BODY
@@ -151,7 +151,7 @@ __attribute__((target("avx2"))) static void lookup_n_avx2(const pgi__texture *co
             __builtin_prefetch(qk->p[3]);
         }
     }
-    for (int k = 0; k < n; k++) out[k] = on[k] ? pgi__tex_quad_blend(&q[k]) : v3(1.f, 1.f, 1.f);
+    for (int k = 0; k < n; k++) out[k] = on[k] ? pgi__texture_quad_lookup(&q[k]) : v3(1.f, 1.f, 1.f);
 }
 #endif
 
@@ -176,7 +176,7 @@ __attribute__((target("avx2"))) static void quads16_avx2(const pgi__texture *t, 
 }
 
 /* pgi__texture_quads16_lookup eight lanes an instruction: the quads' texels and their sRGB
- * decoding by gathers, then pgi__tex_quad_blend's operations in its order (no FMA: -ffp-contract=off),
+ * decoding by gathers, then pgi__texture_quad_lookup's operations in its order (no FMA: -ffp-contract=off),
  * so the same bits. */
 __attribute__((target("avx2"))) static void quads16_lookup_avx2(const pgi__texture *t, const pgi__texel_quads16 *q,
                                                                 float out[3][16]) {
