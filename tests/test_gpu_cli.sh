@@ -63,6 +63,8 @@ run render "${common[@]}" --device gpu --progressive 2 -o "$TMP/gpu2.png"
 [ "$rc" -eq 0 ] && ok || bad "--device gpu --progressive 2: $err"
 run devices
 [ "$rc" -eq 0 ] && grep -q '^vulkan:0: ' "$TMP/out" && ok || bad "devices: $out $err"
+# each device's type, driver and Vulkan version on the line below its name
+grep -A1 '^vulkan:0: ' "$TMP/out" | grep -q '; driver .*; Vulkan [0-9]' && ok || bad "devices (driver line): $out"
 run render --help
 grep -qF -- '--device cpu|gpu|vulkan[:N]' "$TMP/out" && ok || bad "render --help has no --device"
 expect_fail "does not exist" render "${common[@]}" --device vulkan:99 -o "$TMP/x.png"

@@ -150,8 +150,9 @@ static const char *k_devices_help =
     "usage: photongi devices\n"
     "\n"
     "Lists the Vulkan devices the loader finds, numbered as 'render --device vulkan:N' takes them,\n"
-    "and the estimators that run on them (docs/gpu.md). A build without the Vulkan backend, or a\n"
-    "machine without a Vulkan driver, lists none (exit status 0: the CPU device is always there).\n"
+    "each with its type, driver and Vulkan version on the line below, and the estimators that run\n"
+    "on them (docs/gpu.md). A build without the Vulkan backend, or a machine without a Vulkan\n"
+    "driver, lists none (exit status 0: the CPU device is always there).\n"
     "Exit status: 0 success, 2 usage error (see 'photongi --help').\n";
 
 static int cmd_devices(int argc, char **argv) {
@@ -168,8 +169,9 @@ static int cmd_devices(int argc, char **argv) {
     int n = pgi_device_count();
     if (n == 0) printf("vulkan: no device (no Vulkan driver: install mesa-vulkan-drivers or a GPU driver)\n");
     for (int i = 0; i < n; i++) {
-        char name[256];
+        char name[256], driver[512];
         if (pgi_device_name(i, name, sizeof name) == PGI_OK) printf("vulkan:%d: %s\n", i, name);
+        if (pgi_device_driver(i, driver, sizeof driver) == PGI_OK) printf("          %s\n", driver);
     }
     char names[256];
     pgi_device_estimators(names, sizeof names);

@@ -475,6 +475,9 @@ int pgi_device_count(void);
 /* The name of Vulkan device i (0-based) into buf; PGI_ERR_INVALID_ARG out of range,
  * PGI_ERR_UNSUPPORTED without the backend or a driver. */
 pgi_status pgi_device_name(int i, char *buf, size_t size);
+/* Device i's type, driver and the Vulkan version it supports into buf, e.g. "CPU; driver llvmpipe Mesa
+ * 22.3.6 (LLVM 15.0.6); Vulkan 1.3.230"; errors as pgi_device_name. */
+pgi_status pgi_device_driver(int i, char *buf, size_t size);
 /* "hashgrid, cluster-trivial": the estimators that run on PGI_DEVICE_VULKAN, comma-separated, into buf. */
 void pgi_device_estimators(char *buf, size_t size);
 

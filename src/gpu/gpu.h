@@ -47,6 +47,9 @@ const char *pgi__gpu_device_name(const pgi__gpu *g);
 int pgi__gpu_device_count(void);
 /* (addition) The name of device i of pgi__gpu_device_count() into buf; PGI_ERR_INVALID_ARG out of range. */
 pgi_status pgi__gpu_device_name_at(int i, char *buf, size_t size);
+/* (addition) Device i's type, driver and Vulkan version: "discrete GPU; driver NVIDIA 580.159.04; Vulkan
+ * 1.4.312" (VkPhysicalDeviceDriverProperties); PGI_ERR_INVALID_ARG out of range. */
+pgi_status pgi__gpu_device_driver_at(int i, char *buf, size_t size);
 /* (addition) 1 when the device's compute queue writes timestamps; 0: pgi__gpu_timings gives one entry,
  * the whole sequence timed on the CPU, under its last label. */
 int pgi__gpu_has_timestamps(const pgi__gpu *g);

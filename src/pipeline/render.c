@@ -1032,4 +1032,6 @@ int pgi_device_count(void) { return pgi__gpu_device_count(); }
 
 pgi_status pgi_device_name(int i, char *buf, size_t size) { return pgi__gpu_device_name_at(i, buf, size); }
 
+pgi_status pgi_device_driver(int i, char *buf, size_t size) { return pgi__gpu_device_driver_at(i, buf, size); }
+
 void pgi_device_estimators(char *buf, size_t size) { pgi__gpu_est_names(buf, size); }
