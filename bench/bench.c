@@ -184,6 +184,7 @@ static int run_frames(const char *scenes, const char *ests, int frames, const ch
         return 2;
     }
     char gpu_ests[256] = "";
+    if (ests && strcmp(ests, "default") == 0) ests = PGI_DEFAULT_ESTIMATOR; /* the renderer's */
     if (dev->device == PGI_DEVICE_VULKAN && !ests) { /* every estimator with a GPU version */
         char raw[256];
         pgi_device_estimators(raw, sizeof raw);
@@ -319,7 +320,8 @@ int main(int argc, char **argv) {
                    "                      [--size WxH] [--radius R] [--threads T[,T...]] [--device D]\n"
                    "                      [--max-seconds S] [--csv FILE] [--include-brute]\n"
                    "Median of N frames after a warm-up; per-pass ms, reads vs contributing, Mrays/s.\n"
-                   "Every scene x photon count x thread count x estimator, rows written as measured.\n"
+                   "Every scene x photon count x thread count x estimator, rows written as measured;\n"
+                   "--estimators default: the renderer's default estimator.\n"
                    "--device cpu|gpu|vulkan[:N]: where the frame runs (default cpu); on a Vulkan device\n"
                    "the default estimators are those with a GPU version, and the CSV has the device's\n"
                    "memory (gpu_bytes). --max-seconds S: stop a config's frames once they took S seconds\n"
