@@ -19,6 +19,9 @@ PKGS+=(clang libclang-rt-14-dev libomp-dev)
 # The Vulkan compute backend (--device vulkan, docs/gpu.md): the loader and headers, glslc to compile
 # the shaders, and Mesa's lavapipe (a CPU Vulkan device) so that the GPU tests run without a GPU.
 PKGS+=(libvulkan-dev glslc mesa-vulkan-drivers vulkan-tools)
+# The GPU machine's bundle (scripts/gpu-bundle.sh): xz, and the GL dispatch and X11 libraries NVIDIA's
+# Vulkan driver loads, packed with it for machine images that lack them.
+PKGS+=(xz-utils libglvnd0 libglx0 libx11-6 libxext6)
 
 missing=()
 for p in "${PKGS[@]}"; do
