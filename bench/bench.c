@@ -174,9 +174,9 @@ static void pass_times_add(pass_times *pt, const pgi_frame_stats *fs) {
  * of every pass and of each estimator sub-pass. `max_seconds` > 0 stops taking frames of a config once its
  * frames (warm-up included) have taken that long, keeping at least one: the CSV's `frames` column says how
  * many were measured. Each row is written and flushed as soon as it is measured. */
-static int run_frames(const char *scenes, const char *ests, int frames, const char *photons_arg, int width,
-                      int height, float radius, const char *threads_arg, int brute, const pgi_render_desc *dev,
-                      double max_seconds, const char *csv_path) {
+static int run_frames(const char *scenes, const char *ests, int frames, const char *photons_arg, int width, int height,
+                      float radius, const char *threads_arg, int brute, const pgi_render_desc *dev, double max_seconds,
+                      const char *csv_path) {
     double plist[16], tlist[16];
     int np = parse_list(photons_arg, plist, 16), nt = parse_list(threads_arg, tlist, 16);
     if (!np || !nt) {
@@ -185,7 +185,7 @@ static int run_frames(const char *scenes, const char *ests, int frames, const ch
     }
     char gpu_ests[256] = "";
     if (ests && strcmp(ests, "default") == 0) ests = PGI_DEFAULT_ESTIMATOR; /* the renderer's */
-    if (dev->device == PGI_DEVICE_VULKAN && !ests) { /* every estimator with a GPU version */
+    if (dev->device == PGI_DEVICE_VULKAN && !ests) {                        /* every estimator with a GPU version */
         char raw[256];
         pgi_device_estimators(raw, sizeof raw);
         size_t o = 0;
@@ -200,9 +200,9 @@ static int run_frames(const char *scenes, const char *ests, int frames, const ch
                  "estimate_ms,direct_ms,total_ms,primary_mrays_s,photon_mrays_s,reads,contributing,"
                  "contributing_ratio,estimator_bytes,passes,device,gpu_bytes,peak_rss_bytes\n");
     fflush(csv);
-    printf("%-14s %-15s %8s %3s %8s %8s %8s %9s %8s %8s | %8s %8s | %12s %11s %6s\n", "scene", "estimator",
-           "photons", "thr", "view", "trace", "build", "estimate", "direct", "total", "prim MR/s", "phot MR/s",
-           "reads", "contrib", "ratio");
+    printf("%-14s %-15s %8s %3s %8s %8s %8s %9s %8s %8s | %8s %8s | %12s %11s %6s\n", "scene", "estimator", "photons",
+           "thr", "view", "trace", "build", "estimate", "direct", "total", "prim MR/s", "phot MR/s", "reads", "contrib",
+           "ratio");
     int failures = 0;
     const char *device_seen = NULL;
     char buf[4096];
@@ -284,9 +284,9 @@ static int run_frames(const char *scenes, const char *ests, int frames, const ch
                             "%s,%s,%d,%d,%d,%llu,%llu,%g,%d,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%.3f,%llu,%llu,%.6f,"
                             "%.0f,",
                             sc, vt->name, fs.width, fs.height, fs.threads, (unsigned long long)fs.photons_stored,
-                            (unsigned long long)fs.photons_emitted, (double)fs.radius, n, m[0], m[1], m[2], m[3],
-                            m[4], m[5], mp, mt, (unsigned long long)fs.reads, (unsigned long long)fs.contributing,
-                            ratio, est_bytes);
+                            (unsigned long long)fs.photons_emitted, (double)fs.radius, n, m[0], m[1], m[2], m[3], m[4],
+                            m[5], mp, mt, (unsigned long long)fs.reads, (unsigned long long)fs.contributing, ratio,
+                            est_bytes);
                     for (int k = 0; k < pt.n; k++)
                         fprintf(csv, "%s%s=%.3f", k ? ";" : "", pt.name[k], median(pt.v[k], pt.count[k]));
                     fprintf(csv, ",\"%s\",%.0f,%llu\n", fs.device ? fs.device : "cpu", gpu_bytes(&fs),
@@ -388,8 +388,7 @@ int main(int argc, char **argv) {
                 fprintf(stderr, "photongi-bench: %s\n", err);
                 return 2;
             }
-        }
-        else if (strcmp(a, "--csv") == 0) csv_path = v;
+        } else if (strcmp(a, "--csv") == 0) csv_path = v;
         else {
             fprintf(stderr, "photongi-bench: unknown option %s\n", a);
             return 2;
