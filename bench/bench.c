@@ -131,14 +131,15 @@ static int run_table1(const char *scenes, int frames, unsigned photons, int widt
  * not a number or there are more than `cap`. */
 static int parse_list(const char *list, double *v, int cap) {
     int n = 0;
-    for (const char *p = list; *p;) {
+    for (const char *p = list;;) {
+        if (*p < '0' || *p > '9') return 0; /* no sign, no empty item, no trailing comma */
         char *end = NULL;
-        double x = strtod(p, &end);
-        if (end == p || x < 0.0 || n == cap || (*end != ',' && *end != 0)) return 0;
-        v[n++] = x;
-        p = *end ? end + 1 : end;
+        unsigned long long x = strtoull(p, &end, 10);
+        if (x > UINT32_MAX || n == cap || (*end != ',' && *end != 0)) return 0;
+        v[n++] = (double)x;
+        if (!*end) return n;
+        p = end + 1;
     }
-    return n;
 }
 
 /* Sum of the device's buffers (memory_bytes entries named gpu_*; docs/gpu.md). */
@@ -158,6 +159,7 @@ typedef struct pass_times {
 } pass_times;
 
 static void pass_times_add(pass_times *pt, const pgi_frame_stats *fs) {
+    int added[PGI_MAX_STAT_ENTRIES] = {0}; /* a pass listed twice in a frame counts once, summed */
     for (int k = 0; k < fs->pass_count; k++) {
         int j = 0;
         while (j < pt->n && strcmp(pt->name[j], fs->passes_ms[k].name) != 0) j++;
@@ -165,7 +167,11 @@ static void pass_times_add(pass_times *pt, const pgi_frame_stats *fs) {
             if (pt->n == PGI_MAX_STAT_ENTRIES) continue;
             pt->name[pt->n++] = fs->passes_ms[k].name; /* static strings of the library */
         }
-        if (pt->count[j] < MAXF) pt->v[j][pt->count[j]++] = fs->passes_ms[k].value;
+        if (added[j]) pt->v[j][pt->count[j] - 1] += fs->passes_ms[k].value;
+        else if (pt->count[j] < MAXF) {
+            pt->v[j][pt->count[j]++] = fs->passes_ms[k].value;
+            added[j] = 1;
+        }
     }
 }
 
@@ -180,7 +186,8 @@ static int run_frames(const char *scenes, const char *ests, int frames, const ch
     double plist[16], tlist[16];
     int np = parse_list(photons_arg, plist, 16), nt = parse_list(threads_arg, tlist, 16);
     if (!np || !nt) {
-        fprintf(stderr, "photongi-bench: --photons and --threads take a number or a list of up to 16 (1,2,4)\n");
+        fprintf(stderr, "photongi-bench: --photons and --threads take a whole number or a comma-separated list of up "
+                        "to 16 (1,2,4)\n");
         return 2;
     }
     char gpu_ests[256] = "";
@@ -193,6 +200,13 @@ static int run_frames(const char *scenes, const char *ests, int frames, const ch
             if (*c != ' ') gpu_ests[o++] = *c;
         gpu_ests[o] = 0;
         ests = gpu_ests;
+    }
+    size_t named = 0;
+    for (size_t e = 0; e < pgi_estimator_count(); e++) named += in_list(ests, pgi_estimator_at(e)->name) != 0;
+    if (!named) {
+        fprintf(stderr, "photongi-bench: no estimator named in --estimators '%s' (photongi estimators lists them)\n",
+                ests ? ests : "");
+        return 2;
     }
     FILE *csv = open_csv(csv_path);
     if (!csv) return 1;

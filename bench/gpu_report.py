@@ -43,6 +43,14 @@ def passes(row):
     return out
 
 
+def fl(x):
+    """A CSV field as a float, None when it is missing or not a number."""
+    try:
+        return float(x)
+    except (TypeError, ValueError):
+        return None
+
+
 def num(x, fmt="{:.1f}"):
     try:
         return fmt.format(float(x))
@@ -91,6 +99,9 @@ def main():
     a = ap.parse_args()
     W = lambda name: os.path.join(a.work, name)
     today = datetime.date.today().isoformat()
+    if a.device == "unknown":  # the device column of the frames, where the suite could not tell
+        a.device = next((r.get("device") for r in rows(W("frame-sibenik.csv")) + rows(W("frame-crytek-sponza-paper.csv"))
+                         if r.get("device") and r.get("device") != "cpu"), "unknown")
     base = "{}-{}".format(slug(a.device), today)
     steps = rows(W("steps.csv"))
     env = read(W("env.out"))
@@ -152,7 +163,7 @@ def main():
             body.append([r["estimator"], r["photons"], r["frames"], num(r["radius"], "{:.3g}"), num(r["total_ms"]),
                          num(r["view_ms"]), num(r["trace_ms"]), num(r["build_ms"]), num(r["estimate_ms"]),
                          num(r["direct_ms"]), num(p.get("gpu_splat")), mib(r.get("gpu_bytes")),
-                         "{:.1f} / {:.1f}".format(float(r["reads"]) / 1e6, float(r["contributing"]) / 1e6)])
+                         "{} / {}".format(num((fl(r.get("reads")) or 0) / 1e6), num((fl(r.get("contributing")) or 0) / 1e6))])
         md.append(table(["estimator", "photons", "frames", "radius", "**frame**", "view", "trace", "build",
                          "estimate", "direct", "splat", "GPU MiB", "reads / contributing (M)"], body))
         md.append("")
@@ -189,15 +200,15 @@ def main():
         md.append("{} {}x{}, {} photons, {} (the default estimator), on the CPU.".format(
             r0["scene"], r0["width"], r0["height"], r0["photons"], r0["estimator"]))
         md.append("")
-        one = next((float(r["total_ms"]) for r in cpu if r["threads"] == "1"), None)
+        one = next((fl(r["total_ms"]) for r in cpu if r["threads"] == "1"), None)
         body = []
         for r in cpu:
-            t = float(r["total_ms"])
-            sp = one / t if one and t > 0 else None
+            t, n = fl(r["total_ms"]), fl(r["threads"])
+            sp = one / t if one and t else None
             body.append([r["threads"], r["frames"], num(r["view_ms"]), num(r["trace_ms"]), num(r["build_ms"]),
                          num(r["estimate_ms"]), num(r["direct_ms"]), num(r["total_ms"]),
                          "{:.2f}x".format(sp) if sp else "-",
-                         "{:.0f} %".format(100 * sp / int(r["threads"])) if sp else "-"])
+                         "{:.0f} %".format(100 * sp / n) if sp and n else "-"])
         md.append(table(["threads", "frames", "view", "trace", "build", "estimate", "direct", "**frame**",
                          "speed-up", "efficiency"], body))
     else:
@@ -229,18 +240,18 @@ def main():
 
     # --- targets and the short table
     sib = rows(W("frame-sibenik.csv"))
-    cts = sorted((r for r in sib if r["estimator"] == "cluster-trivial"), key=lambda r: int(r["photons"]))
+    cts = sorted((r for r in sib if r["estimator"] == "cluster-trivial"), key=lambda r: fl(r["photons"]) or 0)
     ct = next((r for r in cts if r["photons"] == "200000"), cts[0] if cts else None)
     summary = []
     summary.append(["device", a.device])
     ok_tests = sum(1 for t in tests if t["exit"] == "0")
     summary.append(["GPU tests", "{} of {} programs passed ({} tests)".format(
-        ok_tests, len(tests), sum(int(t["passed"] or 0) for t in tests)) if tests else "did not run"])
+        ok_tests, len(tests), int(sum(fl(t["passed"]) or 0 for t in tests))) if tests else "did not run"])
     if ct:
         # the issue's targets are for 1920x1080 and 200k photons; other sizes (--quick) are only reported
         at_target = ct["photons"] == "200000" and ct["width"] == "1920" and ct["height"] == "1080"
         splat = passes(ct).get("gpu_splat")
-        frame = float(ct["total_ms"])
+        frame = fl(ct["total_ms"])
 
         def verdict(v, t):
             if not at_target:
@@ -252,22 +263,23 @@ def main():
     else:
         summary.append(["Sibenik cluster-trivial", "not measured"])
     for scene_rows, label in ((sib, "Sibenik"), (rows(W("frame-crytek-sponza-paper.csv")), "Sponza")):
-        for p in sorted({r["photons"] for r in scene_rows}, key=int):
-            best = min((r for r in scene_rows if r["photons"] == p), key=lambda r: float(r["total_ms"]))
+        for p in sorted({r["photons"] for r in scene_rows}, key=lambda p: fl(p) or 0):
+            best = min((r for r in scene_rows if r["photons"] == p), key=lambda r: fl(r["total_ms"]) or float("inf"))
             summary.append(["{} {} photons: fastest GPU frame".format(label, p),
                             "{} ms ({})".format(num(best["total_ms"]), best["estimator"])])
     if cpu:
-        t = {r["threads"]: float(r["total_ms"]) for r in cpu}
-        top = max(t, key=int)
+        t = {r["threads"]: fl(r["total_ms"]) for r in cpu}
+        top = max(t, key=lambda k: fl(k) or 0)
+        one, last = t.get("1"), t[top]
         summary.append(["CPU frame, Sibenik {} photons, 1 -> {} threads".format(cpu[0]["photons"], top),
-                        "{:.1f} -> {:.1f} ms ({:.1f}x)".format(t.get("1", float("nan")), t[top],
-                                                               t.get("1", float("nan")) / t[top])])
+                        "{} -> {} ms ({})".format(num(one), num(last),
+                                                  "{:.1f}x".format(one / last) if one and last else "-")])
     if cmp:
         summary.append(["GPU vs CPU image (Sibenik)", "PSNR {} dB".format(num(cmp.get("psnr"), "{:.2f}"))])
     bad = [s["step"] + " " + s["status"] for s in steps if s["status"] != "ok"]
     summary.append(["steps", "{} of {} ok{}".format(len(steps) - len(bad), len(steps),
                                                     "; " + ", ".join(bad) if bad else "")])
-    md.insert(3, "## Summary\n\n" + table(["", ""], summary) + "\n")
+    md.insert(4, "## Summary\n\n" + table(["", ""], summary) + "\n")
 
     with open(os.path.join(a.out, base + ".md"), "w", encoding="utf-8") as f:
         f.write("\n".join(md) + "\n")
@@ -284,5 +296,29 @@ def main():
     return 0
 
 
+def fallback(argv, err):
+    """Where the report itself fails (an unexpected CSV, say): the steps, the error and the frame CSVs as
+    they are, so that the measurements are not lost."""
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--work", required=True)
+    ap.add_argument("--out", required=True)
+    ap.add_argument("--device", default="unknown")
+    a, _ = ap.parse_known_args(argv)
+    base = os.path.join(a.out, "{}-{}".format(slug(a.device), datetime.date.today().isoformat()))
+    md = ["# photongi on {} (the report failed)".format(a.device), "", code(err), ""]
+    for name in ("steps.csv", "tests.csv", "frame-sibenik.csv", "frame-crytek-sponza-paper.csv", "cpu-scaling.csv"):
+        md += ["## " + name, code(read(os.path.join(a.work, name)), 20000), ""]
+    with open(base + ".md", "w", encoding="utf-8") as f:
+        f.write("\n".join(md) + "\n")
+    with open(base + ".csv", "w", encoding="utf-8") as f:
+        f.write(read(os.path.join(a.work, "frame-sibenik.csv")))
+    print("report FAILED ({}); the raw tables are in {}.md".format(err.strip().splitlines()[-1], base))
+    return 1
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    try:
+        sys.exit(main())
+    except Exception:  # noqa: BLE001 (any failure: keep what was measured)
+        import traceback
+        sys.exit(fallback(sys.argv[1:], traceback.format_exc()))

@@ -5,7 +5,7 @@
 #   bench/gpu_suite.sh [--local] [--quick] [--bundle FILE|DIR] [--build DIR] [--out DIR] [--budget S]
 #
 # Steps, in order, each under a time limit of its own so that the whole run ends inside --budget
-# seconds (default 480) whatever fails; a step that fails or times out is reported and the next runs:
+# seconds (default 480, the report included) whatever fails; a step that fails or times out is reported and the next runs:
 #   env, devices   the machine, nvidia-smi, glibc, `photongi devices` (driver and device name)
 #   tests          the GPU tests (test_gpu, test_gpu_rays, test_gpu_trace, test_gpu_frame) on the
 #                  device the library picks (the first discrete GPU): GPU estimators against the CPU
@@ -28,23 +28,28 @@
 #   --build    a build folder instead of a bundle (its bin/ and tests/; scenes from $PHOTONGI_SCENES)
 # Exit status: 0 when every step passed, 1 when one failed or timed out, 2 on a usage error.
 set -uo pipefail
-cd "$(dirname "$0")/.."
+cd "$(dirname "$0")/.." || exit 1
 ROOT=$(pwd)
 T_START=$(date +%s)
 
 LOCAL=0 QUICK=0 BUNDLE="" BUILD_DIR="" OUTDIR=${OUT:-} BUDGET=480
 usage() {
-    sed -n '2,35p' "$0" | sed 's/^# \{0,1\}//'
+    sed -n '2,29p' "$0" | sed 's/^# \{0,1\}//'
     exit "${1:-0}"
+}
+value() { # OPTION VALUE: the option's value, or a usage error
+    [ -n "${2:-}" ] && [ "${2#--}" = "$2" ] && return 0
+    echo "gpu_suite: $1 needs a value" >&2
+    exit 2
 }
 while [ $# -gt 0 ]; do
     case "$1" in
     --local) LOCAL=1 ;;
     --quick) QUICK=1 ;;
-    --bundle) BUNDLE=${2:?--bundle needs a file or folder} && shift ;;
-    --build) BUILD_DIR=${2:?--build needs a folder} && shift ;;
-    --out) OUTDIR=${2:?--out needs a folder} && shift ;;
-    --budget) BUDGET=${2:?--budget needs seconds} && shift ;;
+    --bundle) value "$1" "${2:-}" && BUNDLE=$2 && shift ;;
+    --build) value "$1" "${2:-}" && BUILD_DIR=$2 && shift ;;
+    --out) value "$1" "${2:-}" && OUTDIR=$2 && shift ;;
+    --budget) value "$1" "${2:-}" && BUDGET=$2 && shift ;;
     -h | --help) usage 0 ;;
     *)
         echo "gpu_suite: unknown argument $1" >&2
@@ -66,14 +71,42 @@ LOG=$OUTDIR/suite.log
 : >"$LOG"
 say() { echo "[gpu_suite $(($(date +%s) - T_START))s] $*" | tee -a "$LOG"; }
 
+# --- the driver (on the GPU machine, before the bundle's libraries are on LD_LIBRARY_PATH: dpkg and
+# ldconfig are the system's programs): docs/gpu.md and the device tool's notes
+SYS_LD_LIBRARY_PATH=${LD_LIBRARY_PATH:-}
+if [ "$LOCAL" = 0 ]; then
+    if compgen -G ".gl/*.deb" >/dev/null; then
+        say "unpacking the GL/Vulkan loader packages of .gl/"
+        for f in .gl/*.deb; do timeout 60 dpkg -x "$f" / >>"$LOG" 2>&1 || say "warning: dpkg -x $f failed"; done
+        timeout 60 ldconfig >>"$LOG" 2>&1 || say "warning: ldconfig failed"
+    fi
+    for d in /usr/local/nvidia/lib64 /usr/local/nvidia/lib; do
+        [ -d "$d" ] && SYS_LD_LIBRARY_PATH=${SYS_LD_LIBRARY_PATH:+$SYS_LD_LIBRARY_PATH:}$d
+    done
+    export LD_LIBRARY_PATH=$SYS_LD_LIBRARY_PATH
+    if [ -z "${VK_DRIVER_FILES:-}${VK_ICD_FILENAMES:-}" ] &&
+        ! compgen -G "/usr/share/vulkan/icd.d/nvidia*.json" >/dev/null &&
+        ! compgen -G "/etc/vulkan/icd.d/nvidia*.json" >/dev/null; then
+        for j in /usr/local/nvidia/share/vulkan/icd.d/nvidia_icd*.json; do
+            [ -f "$j" ] && export VK_DRIVER_FILES=$j && break
+        done
+    fi
+fi
+# the system's own programs (tar, python3, nvidia-smi) run without the bundle's libraries (its libz or
+# libstdc++ must not shadow theirs)
+sys() { env LD_LIBRARY_PATH="$SYS_LD_LIBRARY_PATH" "$@"; }
+export SYS_LD_LIBRARY_PATH
+
 # --- the programs: the bundle (unpacked here), or a build folder
 if [ -z "$BUILD_DIR" ]; then
     BUNDLE=${BUNDLE:-gpu-bundle/photongi-gpu.tar.xz}
     if [ -f "$BUNDLE" ]; then
         say "unpacking $BUNDLE"
         # (python3's tarfile where the machine has no xz)
-        tar -C "$WORK" -xJf "$BUNDLE" 2>>"$LOG" ||
-            python3 -c 'import sys, tarfile; tarfile.open(sys.argv[1]).extractall(sys.argv[2])' "$BUNDLE" "$WORK" || {
+        timeout 120 tar -C "$WORK" -xJf "$BUNDLE" 2>>"$LOG" ||
+            timeout 120 python3 -c 'import sys, tarfile
+t = tarfile.open(sys.argv[1])
+t.extractall(sys.argv[2], **({"filter": "data"} if hasattr(tarfile, "data_filter") else {}))' "$BUNDLE" "$WORK" || {
             say "cannot unpack $BUNDLE"
             exit 1
         }
@@ -98,36 +131,24 @@ else
     . "$BUNDLE/env.sh"
     SOURCE="bundle ($(sed -n 's/^commit: *//p' "$BUNDLE/MANIFEST"))"
     MANIFEST=$BUNDLE/MANIFEST
+    # a bundle made from another commit measures other code than the tree beside it
+    made=$(sed -n 's/^commit: *\([0-9a-f]*\).*/\1/p' "$MANIFEST")
+    head=$(git rev-parse --short=12 HEAD 2>/dev/null || true)
+    if [ -n "$head" ] && [ -n "$made" ] && [ "$made" != "$head" ]; then
+        say "warning: the bundle was made from commit $made, the tree is at $head (remake it: scripts/gpu-bundle.sh)"
+    fi
 fi
 command -v photongi >/dev/null || {
     say "photongi not found in $SOURCE"
     exit 1
 }
 
-# --- the driver (on the GPU machine): docs/gpu.md and the device tool's notes
-if [ "$LOCAL" = 0 ]; then
-    if compgen -G ".gl/*.deb" >/dev/null; then
-        say "unpacking the GL/Vulkan loader packages of .gl/"
-        for f in .gl/*.deb; do dpkg -x "$f" / >>"$LOG" 2>&1; done
-        ldconfig >>"$LOG" 2>&1
-    fi
-    for d in /usr/local/nvidia/lib64 /usr/local/nvidia/lib; do
-        [ -d "$d" ] && export LD_LIBRARY_PATH="$LD_LIBRARY_PATH:$d"
+# --- the GPU probe: the loader found no GPU as set up, so name NVIDIA's driver file outright if there is one
+if [ "$LOCAL" = 0 ] && ! timeout -k 2 20 photongi devices 2>>"$LOG" | grep -qE '^ +(discrete|integrated|virtual) GPU;'; then
+    for j in /usr/local/nvidia/share/vulkan/icd.d/nvidia_icd*.json /usr/share/vulkan/icd.d/nvidia_icd*.json \
+        /etc/vulkan/icd.d/nvidia_icd*.json; do
+        [ -f "$j" ] && [ "${VK_DRIVER_FILES:-}" != "$j" ] && export VK_DRIVER_FILES=$j && say "VK_DRIVER_FILES=$j" && break
     done
-    if [ -z "${VK_DRIVER_FILES:-}${VK_ICD_FILENAMES:-}" ] &&
-        ! compgen -G "/usr/share/vulkan/icd.d/nvidia*.json" >/dev/null &&
-        ! compgen -G "/etc/vulkan/icd.d/nvidia*.json" >/dev/null; then
-        for j in /usr/local/nvidia/share/vulkan/icd.d/nvidia_icd*.json; do
-            [ -f "$j" ] && export VK_DRIVER_FILES=$j && break
-        done
-    fi
-    # the loader found no GPU as set up: name NVIDIA's driver file outright if there is one
-    if ! photongi devices 2>>"$LOG" | grep -qE '^ +(discrete|integrated|virtual) GPU;'; then
-        for j in /usr/local/nvidia/share/vulkan/icd.d/nvidia_icd*.json /usr/share/vulkan/icd.d/nvidia_icd*.json \
-            /etc/vulkan/icd.d/nvidia_icd*.json; do
-            [ -f "$j" ] && [ "${VK_DRIVER_FILES:-}" != "$j" ] && export VK_DRIVER_FILES=$j && say "VK_DRIVER_FILES=$j" && break
-        done
-    fi
 fi
 
 # --- sizes
@@ -146,7 +167,7 @@ export SIZE PHOTONS FRAMES MAXS THREADS NPROC WORK OUTDIR TEST_LIMIT
 
 # --- steps: each under `timeout`, its output in $WORK/NAME.out; a row of $WORK/steps.csv each
 echo "step,status,seconds,limit" >"$WORK/steps.csv"
-RESERVE=15 # for the report
+RESERVE=25 # for the archive and the report (each under a timeout), and timeout's kill grace
 FAILED=0
 step() { # NAME LIMIT_SECONDS COMMAND...
     local name=$1 limit=$2
@@ -162,13 +183,14 @@ step() { # NAME LIMIT_SECONDS COMMAND...
     say "$name (at most ${limit}s)"
     local t0 rc status
     t0=$(date +%s.%N)
-    timeout -k 5 "$limit" "$@" >"$WORK/$name.out" 2>&1
+    STEP_END=$(($(date +%s) + limit)) timeout -k 5 "$limit" "$@" >"$WORK/$name.out" 2>&1
     rc=$?
     local secs
     secs=$(echo "$(date +%s.%N) $t0" | awk '{printf "%.1f", $1 - $2}')
     case $rc in
     0) status=ok ;;
-    124 | 137) status=timeout ;;
+    124) status=timeout ;;
+    137) status="killed (timeout's KILL, or out of memory)" ;;
     *) status="failed (exit $rc)" ;;
     esac
     [ "$rc" -eq 0 ] || FAILED=1
@@ -180,11 +202,11 @@ step() { # NAME LIMIT_SECONDS COMMAND...
 step_env() {
     echo "date: $(date -u +%Y-%m-%dT%H:%M:%SZ)"
     echo "host: $(uname -srm); $( (. /etc/os-release && echo "$PRETTY_NAME") 2>/dev/null)"
-    echo "glibc: $(ldd --version 2>/dev/null | head -1)"
+    echo "glibc: $(sys ldd --version 2>/dev/null | head -1)"
     echo "cpu: $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'), $NPROC cores"
     echo "memory: $(awk '/^MemTotal:/ {printf "%.0f GiB", $2 / 1048576}' /proc/meminfo)"
     if command -v nvidia-smi >/dev/null; then
-        echo "nvidia-smi: $(nvidia-smi --query-gpu=name,driver_version,memory.total,clocks.max.sm,clocks.max.mem \
+        echo "nvidia-smi: $(sys timeout 15 nvidia-smi --query-gpu=name,driver_version,memory.total,clocks.max.sm,clocks.max.mem \
             --format=csv,noheader 2>&1 | head -1)"
     fi
     echo "VK_DRIVER_FILES: ${VK_DRIVER_FILES:-(unset)}"
@@ -193,9 +215,9 @@ step_env() {
 }
 step_devices() {
     photongi devices || return 1
-    if ! photongi devices | grep -qE '^ +(discrete|integrated|virtual) GPU;'; then
+    if ! timeout 20 photongi devices | grep -qE '^ +(discrete|integrated|virtual) GPU;'; then
         echo "no GPU among the Vulkan devices; the loader says:"
-        VK_LOADER_DEBUG=error,warn photongi devices 2>&1 | head -40
+        VK_LOADER_DEBUG=error,warn timeout 20 photongi devices 2>&1 | head -40
         [ "${LOCAL:-0}" = 1 ] || return 1
     fi
 }
@@ -203,9 +225,17 @@ step_tests() {
     local rc=0 t
     echo "test,exit,passed,failed,device,seconds" >"$WORK/tests.csv"
     for t in test_gpu test_gpu_rays test_gpu_trace test_gpu_frame; do
-        local t0 r
+        local t0 r lim
+        # each test ends before the step's own limit, so that its row is written
+        lim=$((STEP_END - $(date +%s) - 8))
+        [ "$lim" -gt "$TEST_LIMIT" ] && lim=$TEST_LIMIT
+        if [ "$lim" -lt 5 ]; then
+            echo "$t,skipped (out of time),,,,0" >>"$WORK/tests.csv"
+            rc=1
+            continue
+        fi
         t0=$(date +%s.%N)
-        timeout -k 5 "$TEST_LIMIT" "$t" >"$WORK/$t.log" 2>&1
+        timeout -k 3 "$lim" "$t" >"$WORK/$t.log" 2>&1
         r=$?
         [ "$r" -eq 0 ] || rc=1
         printf '%s,%s,%s,%s,"%s",%s\n' "$t" "$r" \
@@ -252,7 +282,7 @@ step_images() {
     cat "$WORK/compare.json"
     return $r
 }
-export -f step_env step_devices step_tests step_frame step_rays step_trace step_cpu step_limits step_images
+export -f sys step_env step_devices step_tests step_frame step_rays step_trace step_cpu step_limits step_images
 export LOCAL MANIFEST IMG_SIZE IMG_PHOTONS
 export RAYS_ARGS_S="${RAYS_ARGS[*]}" TRACE_PHOTONS_S="${TRACE_PHOTONS[*]}" LIMITS_ARGS_S="${LIMITS_ARGS[*]}"
 # arrays do not cross `bash -c`: the steps rebuild them from these strings
@@ -271,10 +301,13 @@ step limits 60 bash -c "$pre step_limits"
 step images 40 bash -c "$pre step_images"
 
 # --- the report (python3: the standard library only); the short table is printed last
-tar -C "$WORK" --exclude='photongi-gpu' --exclude='*.exr' -czf "$OUTDIR/raw.tar.gz" . 2>>"$LOG"
-DEVICE=$(sed -n 's/^vulkan:[0-9]*: //p' "$WORK/devices.out" 2>/dev/null | head -1)
+sys timeout 10 tar -C "$WORK" --exclude='photongi-gpu' --exclude='*.exr' -czf "$OUTDIR/raw.tar.gz" . 2>>"$LOG" ||
+    say "warning: raw.tar.gz is incomplete"
+# the device the frames ran on (the library's pick), else the first listed
+DEVICE=$(sed -n 's/^device: //p' "$WORK/frame-sibenik.out" "$WORK/frame-sponza.out" 2>/dev/null | grep -v '^cpu$' | head -1)
+[ -n "$DEVICE" ] || DEVICE=$(sed -n 's/^vulkan:[0-9]*: //p' "$WORK/devices.out" 2>/dev/null | head -1)
 say "done in $(($(date +%s) - T_START))s, $( [ "$FAILED" = 0 ] && echo "every step ok" || echo "a step failed or timed out"): $OUTDIR"
-python3 bench/gpu_report.py --work "$WORK" --out "$OUTDIR" --device "${DEVICE:-unknown}" \
+sys timeout 15 python3 bench/gpu_report.py --work "$WORK" --out "$OUTDIR" --device "${DEVICE:-unknown}" \
     --mode "$( [ "$QUICK" = 1 ] && echo quick || echo full)$( [ "$LOCAL" = 1 ] && echo ", local")" \
     --source "$SOURCE" 2>&1 | tee -a "$LOG"
 [ "${PIPESTATUS[0]}" = 0 ] || FAILED=1

@@ -56,6 +56,8 @@ GLIBC_RE='^(linux-vdso\.so\.1|ld-linux-x86-64\.so\.2|libc\.so\.6|libm\.so\.6|lib
 # What NVIDIA's Vulkan driver (libGLX_nvidia.so.0) loads besides glibc: a machine image with the driver
 # but without the GL userland has these missing (docs/gpu.md).
 DRIVER_LIBS=(libGLdispatch.so.0 libGLX.so.0 libX11.so.6 libXext.so.6)
+# Loaded with dlopen, so ldd does not list them: TBB's scalable allocator (Embree's tasking).
+DLOPEN_LIBS=(libtbbmalloc.so.2)
 SCENE_DIRS=(sibenik crytek-sponza fireplace-room cornell-box)
 SCENE_JSON=(sibenik crytek-sponza crytek-sponza-paper fireplace-room cornell-box cornell-moving)
 
@@ -113,10 +115,12 @@ add_closure() { # ELF...
     done < <(ldd "$@" 2>/dev/null | grep '=>' | sort -u)
 }
 add_closure "$B"/bin/* "$B"/tests/*
-for l in "${DRIVER_LIBS[@]}"; do
-    p=$(ldconfig -p | awk -v n="$l" '$1 == n && /x86-64/ {print $NF; exit}')
+ldconfig -p >"$STAGE/ldcache.txt"
+for l in "${DRIVER_LIBS[@]}" "${DLOPEN_LIBS[@]}"; do
+    # (awk reads the whole listing: leaving early would end a pipe with SIGPIPE under pipefail)
+    p=$(awk -v n="$l" '$1 == n && /x86-64/ && !p {p = $NF} END {print p}' "$STAGE/ldcache.txt")
     if [ -z "$p" ]; then
-        say "warning: $l is not installed here (Debian: libglvnd0, libglx0, libx11-6, libxext6); left out"
+        say "warning: $l is not installed here (Debian: libglvnd0, libglx0, libx11-6, libxext6, libtbbmalloc2); left out"
         continue
     fi
     [ -n "${seen[$l]:-}" ] || { seen[$l]=1; cp -L "$p" "$B/lib/$l"; }

@@ -6,22 +6,16 @@
 # '.', '_' and '-').
 #
 #   tests/test_gpu_suite.sh ARCHIVE OUT_DIR
+# Exit 77 (skipped) when there is no archive (test_bundle skipped).
 set -uo pipefail
 SRC=$(cd "$(dirname "$0")/.." && pwd)
 ARCHIVE=${1:?usage: test_gpu_suite.sh ARCHIVE OUT_DIR}
 OUT=${2:?usage: test_gpu_suite.sh ARCHIVE OUT_DIR}
-fails=0 passes=0
-ok() {
-    echo "ok: $*"
-    passes=$((passes + 1))
-}
-bad() {
-    echo "FAIL: $*"
-    fails=$((fails + 1))
-}
+. "$SRC/tests/lib.sh" gpu-suite
+# (test_bundle removes the archive first, and makes it again unless it skips)
 [ -f "$ARCHIVE" ] || {
-    echo "FAIL: no bundle at $ARCHIVE (test_bundle makes it)"
-    exit 1
+    echo "SKIP: no bundle at $ARCHIVE: test_bundle skipped (no scenes, or no mount namespaces)"
+    exit 77
 }
 rm -rf "$OUT"
 mkdir -p "$OUT"
@@ -63,5 +57,4 @@ n=$(find "$OUT" -mindepth 1 | wc -l)
 odd=$(find "$OUT" -mindepth 1 | sed "s|^$OUT/||" | grep -vE '^[A-Za-z0-9._-]+(/[A-Za-z0-9._-]+){0,2}$')
 [ -z "$odd" ] && ok "names the device tool returns" || bad "names or depths the device tool does not return: $odd"
 
-echo "$passes passed, $fails failed"
-[ "$fails" -eq 0 ]
+summary test_gpu_suite
