@@ -223,48 +223,42 @@ int pgi__gpu_device_count(void) {
     return n;
 }
 
-/* An instance and its device i (Vulkan 1.3 or later); destroy the instance after use. */
-static pgi_status device_at(int i, VkInstance *inst, VkPhysicalDevice *pd) {
-    pgi_status st = instance_create(inst);
+/* Device i's properties and driver properties (Vulkan 1.3 or later). */
+static pgi_status device_props(int i, VkPhysicalDeviceProperties2 *p, VkPhysicalDeviceDriverProperties *drv) {
+    VkInstance inst;
+    pgi_status st = instance_create(&inst);
     if (st) return st;
     VkPhysicalDevice d[32];
-    int n = devices_list(*inst, d, 32);
+    int n = devices_list(inst, d, 32);
     if (i < 0 || i >= n) {
-        vkDestroyInstance(*inst, NULL);
+        vkDestroyInstance(inst, NULL);
         return pgi__fail(PGI_ERR_INVALID_ARG, "Vulkan device %d does not exist (%d found)", i, n);
     }
-    *pd = d[i];
-    return PGI_OK;
-}
-
-pgi_status pgi__gpu_device_name_at(int i, char *buf, size_t size) {
-    if (size) buf[0] = 0;
-    VkInstance inst;
-    VkPhysicalDevice pd = VK_NULL_HANDLE;
-    pgi_status st = device_at(i, &inst, &pd);
-    if (st) return st;
-    VkPhysicalDeviceProperties p;
-    vkGetPhysicalDeviceProperties(pd, &p);
-    snprintf(buf, size, "%s", p.deviceName);
+    *drv = (VkPhysicalDeviceDriverProperties){.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES};
+    *p = (VkPhysicalDeviceProperties2){.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2, .pNext = drv};
+    vkGetPhysicalDeviceProperties2(d[i], p);
     vkDestroyInstance(inst, NULL);
     return PGI_OK;
 }
 
-pgi_status pgi__gpu_device_driver_at(int i, char *buf, size_t size) {
+/* Device i's name (driver 0) or its type, driver and Vulkan version (driver 1) into buf. */
+static pgi_status describe(int i, int driver, char *buf, size_t size) {
     if (size) buf[0] = 0;
-    VkInstance inst;
-    VkPhysicalDevice pd = VK_NULL_HANDLE;
-    pgi_status st = device_at(i, &inst, &pd);
+    VkPhysicalDeviceProperties2 p;
+    VkPhysicalDeviceDriverProperties drv;
+    pgi_status st = device_props(i, &p, &drv);
     if (st) return st;
-    VkPhysicalDeviceDriverProperties drv = {.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES};
-    VkPhysicalDeviceProperties2 p = {.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2, .pNext = &drv};
-    vkGetPhysicalDeviceProperties2(pd, &p);
     const uint32_t api = p.properties.apiVersion;
-    snprintf(buf, size, "%s; driver %s %s; Vulkan %u.%u.%u", type_name(p.properties.deviceType), drv.driverName,
-             drv.driverInfo, VK_API_VERSION_MAJOR(api), VK_API_VERSION_MINOR(api), VK_API_VERSION_PATCH(api));
-    vkDestroyInstance(inst, NULL);
+    if (!driver) snprintf(buf, size, "%s", p.properties.deviceName);
+    else
+        snprintf(buf, size, "%s; driver %s %s; Vulkan %u.%u.%u", type_name(p.properties.deviceType), drv.driverName,
+                 drv.driverInfo, VK_API_VERSION_MAJOR(api), VK_API_VERSION_MINOR(api), VK_API_VERSION_PATCH(api));
     return PGI_OK;
 }
+
+pgi_status pgi__gpu_device_name_at(int i, char *buf, size_t size) { return describe(i, 0, buf, size); }
+
+pgi_status pgi__gpu_device_driver_at(int i, char *buf, size_t size) { return describe(i, 1, buf, size); }
 
 static int has_extension(VkPhysicalDevice pd, const char *name) {
     uint32_t n = 0;
