@@ -33,14 +33,14 @@ typedef struct app_given_options {
 
 /* Parses "--name value" into d when name is an estimator option: returns 1
  * (handled), 0 (not an estimator option) or -1 (bad value; message printed
- * as "<prog>: <message>"). */
+ * as "<prog>: <message>" unless prog is NULL; pgi_last_error() has it). */
 static inline int app_estimator_option(const char *prog, const char *flag, const char *value, pgi_estimator_desc *d,
                                        app_given_options *g) {
     if (strncmp(flag, "--", 2) != 0) return 0;
     const pgi_option *o = pgi_option_find(flag + 2);
     if (!o) return 0;
     if (pgi_estimator_desc_set(d, o->name, value) != PGI_OK) {
-        fprintf(stderr, "%s: %s\n", prog, pgi_last_error());
+        if (prog) fprintf(stderr, "%s: %s\n", prog, pgi_last_error());
         return -1;
     }
     if (g && g->count < 64) g->given[g->count++] = o;

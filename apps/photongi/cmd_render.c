@@ -15,6 +15,7 @@
 #include "parse.h"
 #include "photongi/photongi.h"
 #include "progress.h"
+#include "render_options.h"
 
 const pgi_cli_backend *pgi_cli_backend_now = NULL;
 
@@ -139,11 +140,10 @@ static const char *const k_image_exts[] = {".png", ".exr", NULL};
 int pgi_cmd_render(int argc, char **argv) {
     pgi_render_desc d = {0};
     app_given_options given = {0};
-    long long progressive = 1;
+    app_render_extra x = APP_RENDER_EXTRA_INIT;
     const char *scene_spec = "cornell", *out = NULL, *stats_path = NULL;
-    float exposure = 0.f, scene_time = 0.f;
-    pgi_specular specular = PGI_SPECULAR_DEFAULT;
     int quiet = 0;
+    char err[400];
     for (int i = 0; i < argc; i++) {
         const char *a = argv[i];
         if (is_help(a)) {
@@ -158,106 +158,15 @@ int pgi_cmd_render(int argc, char **argv) {
         if (a[0] != '-') return cli_usage("render", "unexpected argument '%s'", a);
         if (i + 1 >= argc) return cli_usage("render", "%s needs a value", a);
         const char *v = argv[++i];
-        long long n;
-        int eo = app_estimator_option("photongi render", a, v, &d.est, &given);
-        if (eo < 0) {
-            fprintf(stderr, "Try 'photongi render --help'.\n");
-            return CLI_EXIT_USAGE;
-        }
-        if (eo > 0) continue;
+        int ro = app_render_option(a, v, &d, &x, &given, err, sizeof err);
+        if (ro < 0) return cli_usage("render", "%s", err);
+        if (ro > 0) continue;
         if (strcmp(a, "--scene") == 0) {
             if (!*v) return cli_usage("render", "%s", "--scene needs a scene");
             scene_spec = v;
-        } else if (strcmp(a, "--estimator") == 0) d.estimator = v;
-        else if (strcmp(a, "-o") == 0 || strcmp(a, "--out") == 0) out = v;
+        } else if (strcmp(a, "-o") == 0 || strcmp(a, "--out") == 0) out = v;
         else if (strcmp(a, "--stats") == 0) stats_path = v;
-        else if (strcmp(a, "--photons") == 0) {
-            if (!parse_whole(v, 1, PGI_MAX_PHOTONS, &n))
-                return cli_usage("render", "--photons needs a whole number in 1..%u, got '%s'", PGI_MAX_PHOTONS, v);
-            d.photons = (uint32_t)n;
-        } else if (strcmp(a, "--radius") == 0) {
-            if (strcmp(v, "auto") == 0) d.radius = PGI_RADIUS_AUTO;
-            else if (!parse_pos_float(v, &d.radius))
-                return cli_usage("render", "--radius needs a positive number (scene units) or auto, got '%s'", v);
-        } else if (strcmp(a, "--size") == 0) {
-            if (!parse_size(v, PGI_MAX_IMAGE_SIDE, PGI_MAX_IMAGE_PIXELS, &d.width, &d.height))
-                return cli_usage("render",
-                                 "--size needs WIDTHxHEIGHT, e.g. 1280x720, each side in 1..%d and at most %u pixels, "
-                                 "got '%s'",
-                                 PGI_MAX_IMAGE_SIDE, PGI_MAX_IMAGE_PIXELS, v);
-        } else if (strcmp(a, "--bounces") == 0) {
-            if (!parse_whole(v, 1, 64, &n))
-                return cli_usage("render", "--bounces needs a whole number in 1..64, got '%s'", v);
-            d.bounces = (int)n;
-        } else if (strcmp(a, "--seed") == 0) {
-            if (!parse_u64(v, &d.seed))
-                return cli_usage("render", "--seed needs a whole number in 0..%" PRIu64 ", got '%s'", UINT64_MAX, v);
-        } else if (strcmp(a, "--threads") == 0) {
-            if (!parse_whole(v, 1, 1024, &n))
-                return cli_usage("render", "--threads needs a whole number in 1..1024, got '%s'", v);
-            d.threads = (int)n;
-        } else if (strcmp(a, "--camera") == 0) {
-            if (!parse_whole(v, 0, 1000000, &n))
-                return cli_usage("render", "--camera needs a camera index, a whole number from 0, got '%s'", v);
-            d.camera = (int)n;
-        } else if (strcmp(a, "--direct-samples") == 0) {
-            if (!parse_whole(v, 1, 4096, &n))
-                return cli_usage("render", "--direct-samples needs a whole number in 1..4096, got '%s'", v);
-            d.direct_samples = (int)n;
-        } else if (strcmp(a, "--exposure") == 0) {
-            if (!parse_pos_float(v, &exposure))
-                return cli_usage("render", "--exposure needs a positive number, got '%s'", v);
-        } else if (strcmp(a, "--output") == 0) {
-            if (strcmp(v, "all") == 0) d.output = PGI_OUTPUT_ALL;
-            else if (strcmp(v, "direct") == 0) d.output = PGI_OUTPUT_DIRECT;
-            else if (strcmp(v, "indirect") == 0) d.output = PGI_OUTPUT_INDIRECT;
-            else if (strcmp(v, "counts") == 0) d.output = PGI_OUTPUT_PHOTON_COUNT;
-            else return cli_usage("render", "--output must be all, direct, indirect or counts, got '%s'", v);
-        } else if (strcmp(a, "--progressive") == 0) {
-            if (!parse_whole(v, 1, PGI_MAX_PROGRESSIVE_FRAMES, &n))
-                return cli_usage("render", "--progressive needs a frame count, a whole number in 1..%d, got '%s'",
-                                 PGI_MAX_PROGRESSIVE_FRAMES, v);
-            progressive = n;
-        } else if (strcmp(a, "--device") == 0) {
-            char err[160];
-            if (!app_parse_device(v, &d, err, sizeof err)) return cli_usage("render", "%s", err);
-        } else if (strcmp(a, "--specular") == 0) {
-            if (!parse_specular(v, &specular))
-                return cli_usage("render", "--specular must be ggx or phong, got '%s'", v);
-        } else if (strcmp(a, "--time") == 0) {
-            if (!parse_finite_float(v, &scene_time))
-                return cli_usage("render", "--time needs a number of seconds, got '%s'", v);
-        } else if (strcmp(a, "--max-memory") == 0) {
-            if (!parse_bytes(v, &d.max_memory))
-                return cli_usage("render",
-                                 "--max-memory needs a size (bytes, or with K, M, G, T: 4G, 512M) or none, got '%s'",
-                                 v);
-        } else if (strcmp(a, "--radius-policy") == 0) {
-            if (strcmp(v, "fixed") == 0) d.radius_policy = PGI_RADIUS_FIXED;
-            else if (strcmp(v, "path") == 0) d.radius_policy = PGI_RADIUS_PATH;
-            else if (strcmp(v, "differentials") == 0) d.radius_policy = PGI_RADIUS_DIFFERENTIALS;
-            else return cli_usage("render", "--radius-policy must be fixed, path or differentials, got '%s'", v);
-        } else if (strcmp(a, "--r-min") == 0 || strcmp(a, "--r-max") == 0 || strcmp(a, "--smoothing") == 0) {
-            float f;
-            if (!parse_pos_float(v, &f)) return cli_usage("render", "%s needs a positive number, got '%s'", a, v);
-            if (a[2] == 's') d.smoothing = f;
-            else if (strcmp(a, "--r-min") == 0) d.r_min = f;
-            else d.r_max = f;
-        } else if (strcmp(a, "--jitter") == 0) {
-            if (strcmp(v, "auto") == 0) d.jitter = PGI_JITTER_AUTO;
-            else if (strcmp(v, "on") == 0) d.jitter = PGI_JITTER_ON;
-            else if (strcmp(v, "off") == 0) d.jitter = PGI_JITTER_OFF;
-            else return cli_usage("render", "--jitter must be auto, on or off, got '%s'", v);
-        } else if (strcmp(a, "--store") == 0) {
-            if (!app_parse_store(v, &d.store)) return cli_usage("render", "--store must be all or view, got '%s'", v);
-        } else if (strcmp(a, "--emission") == 0) {
-            if (!app_parse_emission(v, &d.emission))
-                return cli_usage("render", "--emission must be uniform, guided or auto, got '%s'", v);
-        } else if (strcmp(a, "--filter") == 0) {
-            if (!parse_whole(v, 0, 16, &n))
-                return cli_usage("render", "--filter needs a radius in pixels, a whole number in 0..16, got '%s'", v);
-            d.filter = (int)n;
-        } else return cli_usage("render", "unknown option '%s'", a);
+        else return cli_usage("render", "unknown option '%s'", a);
     }
     /* Everything the command line alone decides, before any file is read. */
     if (!out) return cli_usage("render", "%s", "no output file: give -o OUT.png or -o OUT.exr");
@@ -266,32 +175,18 @@ int pgi_cmd_render(int argc, char **argv) {
     if (stats_path && strcmp(stats_path, "-") != 0 &&
         (rc = app_check_output("photongi render", "--stats", stats_path, NULL)))
         return rc;
-    const pgi_estimator_vtbl *vt = pgi_estimator_find(d.estimator ? d.estimator : PGI_DEFAULT_ESTIMATOR);
-    if (!vt) {
-        fprintf(stderr, "photongi render: unknown estimator '%s'; registered:", d.estimator);
-        for (size_t i = 0; i < pgi_estimator_count(); i++) fprintf(stderr, " %s", pgi_estimator_at(i)->name);
-        fprintf(stderr, "\nTry 'photongi estimators -v'.\n");
+    int ck = app_render_check(&d, &x, err, sizeof err);
+    if (ck == 0 && !pgi_estimator_find(d.estimator ? d.estimator : PGI_DEFAULT_ESTIMATOR)) {
+        fprintf(stderr, "photongi render: %s\nTry 'photongi estimators -v'.\n", err);
         return CLI_EXIT_USAGE;
     }
-    pgi_estimator_desc resolved;
-    if (pgi_estimator_desc_resolve(vt, &d.est, &resolved) != PGI_OK)
-        return cli_usage("render", "%s", pgi_last_error()); /* a strict option the estimator refuses */
-    if (progressive > 1 && !vt->exact)
-        return cli_usage("render", "--progressive needs an exact estimator; '%s' is approximate", vt->name);
-    if (progressive > 1 && d.output == PGI_OUTPUT_PHOTON_COUNT)
-        return cli_usage("render", "%s", "--progressive cannot average --output counts");
-    if (d.radius_policy != PGI_RADIUS_FIXED && !(vt->caps & PGI_EST_CAP_PHOTON_RADIUS))
-        return cli_usage("render",
-                         "--radius-policy %s needs an estimator with per-photon footprints (see 'photongi "
-                         "estimators -v'); '%s' has one fixed radius",
-                         d.radius_policy == PGI_RADIUS_PATH ? "path" : "differentials", vt->name);
-    if (d.r_min > 0.f && d.r_max > 0.f && d.r_min > d.r_max)
-        return cli_usage("render", "--r-min (%g) must not exceed --r-max (%g)", (double)d.r_min, (double)d.r_max);
+    if (ck == 0) return cli_usage("render", "%s", err);
+    const long long progressive = x.progressive;
+    float exposure = x.exposure;
+    const float scene_time = x.time;
+    const pgi_specular specular = x.specular;
     if (!quiet) app_note_ignored_options("photongi render", d.estimator, &given);
-    {
-        char err[400];
-        if (!app_check_device(&d, d.estimator, err, sizeof err)) return cli_failure("render", "%s", err);
-    }
+    if (ck < 0) return cli_failure("render", "%s", err);
 
     pgi_scene *scene;
     pgi_status st = pgi_scene_load(scene_spec, &scene);
