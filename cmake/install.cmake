@@ -33,6 +33,17 @@ if(PGI_TOOLS)
   install(TARGETS ${PGI_TOOLS} RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 endif()
 
+# The Python package (docs/python.md): python3 finds it in the prefix's dist-packages.
+if(TARGET photongi-python)
+  if(PGI_SHARED AND NOT APPLE)
+    file(RELATIVE_PATH _pgi_py_to_lib ${CMAKE_INSTALL_PREFIX}/${PGI_PYTHON_INSTALL_DIR}/photongi
+         ${CMAKE_INSTALL_FULL_LIBDIR})
+    set_target_properties(photongi-python PROPERTIES INSTALL_RPATH "$ORIGIN/${_pgi_py_to_lib}")
+  endif()
+  install(TARGETS photongi-python LIBRARY DESTINATION ${PGI_PYTHON_INSTALL_DIR}/photongi)
+  install(FILES ${PROJECT_SOURCE_DIR}/python/photongi/__init__.py DESTINATION ${PGI_PYTHON_INSTALL_DIR}/photongi)
+endif()
+
 # CMake package.
 set(PGI_CMAKE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/photongi)
 install(EXPORT photongiTargets NAMESPACE photongi:: DESTINATION ${PGI_CMAKE_DIR})

@@ -369,6 +369,10 @@ uint64_t pgi_memory_peak_rss(void);
 uint64_t pgi_memory_default_budget(void);
 /* Writes the frame statistics as JSON to `path` ("-" = standard output). */
 pgi_status pgi_stats_write_json(const pgi_frame_stats *stats, const char *path);
+/* The same JSON document into buf (size bytes, NUL-terminated, cut short when too small, like
+ * snprintf): returns its length without the NUL, so a result >= size asks for a buffer of that
+ * plus one; 0 when out of memory. */
+size_t pgi_stats_json(const pgi_frame_stats *stats, char *buf, size_t size);
 
 /* ------------------------------------------------------ dynamic scenes */
 

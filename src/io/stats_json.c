@@ -181,6 +181,22 @@ char *pgi__stats_to_json(const pgi_frame_stats *st) {
     return text;
 }
 
+size_t pgi_stats_json(const pgi_frame_stats *st, char *buf, size_t size) {
+    char *text = pgi__stats_to_json(st);
+    if (!text) {
+        if (size) buf[0] = 0;
+        return 0;
+    }
+    size_t n = strlen(text);
+    if (size) {
+        size_t k = n < size - 1 ? n : size - 1;
+        memcpy(buf, text, k);
+        buf[k] = 0;
+    }
+    free(text);
+    return n;
+}
+
 pgi_status pgi_stats_write_json(const pgi_frame_stats *st, const char *path) {
     if (!path || !path[0]) return pgi__fail(PGI_ERR_INVALID_ARG, "stats: no output path");
     if (!st) return pgi__fail(PGI_ERR_INVALID_ARG, "%s: no statistics to write", path);
