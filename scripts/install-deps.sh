@@ -22,6 +22,9 @@ PKGS+=(libvulkan-dev glslc mesa-vulkan-drivers vulkan-tools)
 # The GPU machine's bundle (scripts/gpu-bundle.sh): xz, and the GL dispatch and X11 libraries NVIDIA's
 # Vulkan driver loads, packed with it for machine images that lack them.
 PKGS+=(xz-utils libglvnd0 libglx0 libx11-6 libxext6)
+# The Python package (python/photongi, docs/python.md): Python's headers and NumPy to build it,
+# pytest for its tests, matplotlib for the example that plots the estimators against each other.
+PKGS+=(python3-dev python3-numpy python3-pytest python3-matplotlib)
 
 missing=()
 for p in "${PKGS[@]}"; do

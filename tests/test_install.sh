@@ -84,6 +84,20 @@ fi
 # has an RPATH anyway); a static one makes this a no-op.
 export LD_LIBRARY_PATH=$LIBDIR${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
 
+# The Python package, when the build has it: Debian's python3 imports it from the prefix and renders.
+PYPKG=$(find "$PREFIX" -path '*-packages/photongi/__init__.py' -print -quit)
+if [ -n "$PYPKG" ]; then
+    step "python3: import photongi from $(dirname "$(dirname "$PYPKG")")"
+    PY=/usr/bin/python3
+    [ -x "$PY" ] || PY=python3
+    PYTHONPATH=$(dirname "$(dirname "$PYPKG")") "$PY" -c "
+import photongi
+assert photongi.__version__ == '$VERSION', photongi.__version__
+image, stats = photongi.render('cornell', size=(32, 24), photons=2000)
+assert image.shape == (24, 32, 3) and image.mean() > 0 and stats['width'] == 32
+print('   photongi', photongi.__version__, 'from', photongi.__file__)" || die "the installed Python package"
+fi
+
 step "pkg-config"
 export PKG_CONFIG_PATH=$PCDIR
 [ "$(pkg-config --modversion photongi)" = "$VERSION" ] || die "pkg-config --modversion photongi"

@@ -63,12 +63,12 @@ static PyObject *array_take(pgi_image *img) {
     return arr;
 }
 
-/* A borrowed pgi_image over an (H, W, 3) array, as float32 C-contiguous (*keep holds the array
+/* A borrowed pgi_image over an (H, W, 3) array of any real type, converted to float32 C-contiguous (*keep holds the array
  * to release after use). */
 static int image_view(PyObject *obj, const char *name, pgi_image *img, PyObject **keep) {
-    PyObject *a = PyArray_FROMANY(obj, NPY_FLOAT32, 3, 3, NPY_ARRAY_IN_ARRAY);
+    PyObject *a = PyArray_FROMANY(obj, NPY_FLOAT32, 0, 0, NPY_ARRAY_IN_ARRAY | NPY_ARRAY_FORCECAST);
     if (!a) return 0;
-    if (PyArray_DIM((PyArrayObject *)a, 2) != 3) {
+    if (PyArray_NDIM((PyArrayObject *)a) != 3 || PyArray_DIM((PyArrayObject *)a, 2) != 3) {
         Py_DECREF(a);
         PyErr_Format(PyExc_ValueError, "%s: an image is an array of shape (height, width, 3)", name);
         return 0;
