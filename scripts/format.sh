@@ -8,7 +8,7 @@ set -euo pipefail
 
 cd "$(dirname "$0")/.."
 CF=${CLANG_FORMAT:-clang-format}
-DIRS=(src include apps bench tests examples)
+DIRS=(src include apps bench tests examples python)
 
 mode=fix
 case "${1:-}" in

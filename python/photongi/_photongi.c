@@ -94,8 +94,10 @@ static PyObject *py_scene_load(PyObject *self, PyObject *args) {
     if (!PyArg_ParseTuple(args, "s", &spec)) return NULL;
     pgi_scene *s = NULL;
     pgi_status st;
-    Py_BEGIN_ALLOW_THREADS st = pgi_scene_load(spec, &s);
-    Py_END_ALLOW_THREADS if (st) return fail(st, "cannot load the scene");
+    PyThreadState *ts = PyEval_SaveThread(); /* the GIL released */
+    st = pgi_scene_load(spec, &s);
+    PyEval_RestoreThread(ts);
+    if (st) return fail(st, "cannot load the scene");
     PyObject *cap = PyCapsule_New(s, SCENE_CAP, scene_free);
     if (!cap) pgi_scene_destroy(s);
     return cap;
@@ -208,8 +210,10 @@ static PyObject *py_renderer_create(PyObject *self, PyObject *args) {
     if (!s) return NULL;
     pgi_renderer *r = NULL;
     pgi_status st;
-    Py_BEGIN_ALLOW_THREADS st = pgi_renderer_create(s, &r);
-    Py_END_ALLOW_THREADS if (st) return fail(st, "cannot create a renderer");
+    PyThreadState *ts = PyEval_SaveThread(); /* the GIL released */
+    st = pgi_renderer_create(s, &r);
+    PyEval_RestoreThread(ts);
+    if (st) return fail(st, "cannot create a renderer");
     PyObject *out = PyCapsule_New(r, RENDERER_CAP, renderer_free);
     if (!out) pgi_renderer_destroy(r);
     return out;
@@ -233,8 +237,10 @@ static int parse_settings(PyObject *pairs, pgi_render_desc *d, app_render_extra 
             snprintf(name, sizeof name, "%s", flag + (strncmp(flag, "--", 2) == 0 ? 2 : 0));
             for (char *c = name; *c; c++)
                 if (*c == '-') *c = '_';
-            PyErr_Format(PyExc_TypeError, "unknown render setting '%s' (photongi.estimators() lists the "
-                         "estimators' options; 'photongi render --help' the others)", name);
+            PyErr_Format(PyExc_TypeError,
+                         "unknown render setting '%s' (photongi.estimators() lists the "
+                         "estimators' options; 'photongi render --help' the others)",
+                         name);
             return 0;
         }
     }
@@ -264,9 +270,11 @@ static PyObject *py_render(PyObject *self, PyObject *args) {
     pgi_image img = {0};
     pgi_frame_stats fs;
     pgi_status st;
-    Py_BEGIN_ALLOW_THREADS if (x.progressive > 1) st = pgi_render_progressive(r, &d, (int)x.progressive, &img, &fs);
+    PyThreadState *ts = PyEval_SaveThread(); /* the GIL released */
+    if (x.progressive > 1) st = pgi_render_progressive(r, &d, (int)x.progressive, &img, &fs);
     else st = pgi_renderer_render(r, &d, &img, &fs);
-    Py_END_ALLOW_THREADS if (st) {
+    PyEval_RestoreThread(ts);
+    if (st) {
         pgi_image_free(&img);
         return fail(st, "render failed");
     }
@@ -317,8 +325,10 @@ static PyObject *py_reference(PyObject *self, PyObject *args) {
         count = have;
     }
     pgi_status st;
-    Py_BEGIN_ALLOW_THREADS st = pgi_reference_render(s, &d, &mean, &count);
-    Py_END_ALLOW_THREADS if (st) {
+    PyThreadState *ts = PyEval_SaveThread(); /* the GIL released */
+    st = pgi_reference_render(s, &d, &mean, &count);
+    PyEval_RestoreThread(ts);
+    if (st) {
         pgi_image_free(&mean);
         return fail(st, "reference failed");
     }
@@ -344,8 +354,9 @@ static PyObject *py_compare(PyObject *self, PyObject *args) {
     pgi_status st = PGI_OK;
     if (map) {
         float *mp = PyArray_DATA((PyArrayObject *)map);
-        Py_BEGIN_ALLOW_THREADS st = pgi_metrics_compute_flip(&a, &b, exposure, PGI_FLIP_DEFAULT_PPD, mp, &m);
-        Py_END_ALLOW_THREADS
+        PyThreadState *ts = PyEval_SaveThread(); /* the GIL released */
+        st = pgi_metrics_compute_flip(&a, &b, exposure, PGI_FLIP_DEFAULT_PPD, mp, &m);
+        PyEval_RestoreThread(ts);
     }
     Py_DECREF(ka);
     Py_DECREF(kb);
@@ -356,10 +367,10 @@ static PyObject *py_compare(PyObject *self, PyObject *args) {
     }
     return Py_BuildValue("({s:i,s:i,s:d,s:d,s:d,s:d,s:(ddd),s:d,s:d,s:{s:d,s:d,s:d,s:d,s:d,s:d,s:d}}N)", "width",
                          m.width, "height", m.height, "mse", m.mse, "psnr", m.psnr, "ssim", m.ssim, "ssim_rgb",
-                         m.ssim_rgb, "ssim_channel", m.ssim_channel[0], m.ssim_channel[1], m.ssim_channel[2],
-                         "max_abs", m.max_abs, "relmse", m.relmse, "flip", "mean", m.flip.mean, "median",
-                         m.flip.weighted_median, "q1", m.flip.weighted_q1, "q3", m.flip.weighted_q3, "min",
-                         m.flip.min, "max", m.flip.max, "ppd", (double)m.flip.ppd, map);
+                         m.ssim_rgb, "ssim_channel", m.ssim_channel[0], m.ssim_channel[1], m.ssim_channel[2], "max_abs",
+                         m.max_abs, "relmse", m.relmse, "flip", "mean", m.flip.mean, "median", m.flip.weighted_median,
+                         "q1", m.flip.weighted_q1, "q3", m.flip.weighted_q3, "min", m.flip.min, "max", m.flip.max,
+                         "ppd", (double)m.flip.ppd, map);
 }
 
 static PyObject *py_read_image(PyObject *self, PyObject *args) {
@@ -368,8 +379,10 @@ static PyObject *py_read_image(PyObject *self, PyObject *args) {
     pgi_image img = {0};
     int hdr = 0;
     pgi_status st;
-    Py_BEGIN_ALLOW_THREADS st = pgi_image_read(path, &img, &hdr);
-    Py_END_ALLOW_THREADS if (st) return fail(st, "cannot read the image");
+    PyThreadState *ts = PyEval_SaveThread(); /* the GIL released */
+    st = pgi_image_read(path, &img, &hdr);
+    PyEval_RestoreThread(ts);
+    if (st) return fail(st, "cannot read the image");
     return array_take(&img);
 }
 
@@ -381,8 +394,10 @@ static PyObject *py_write_image(PyObject *self, PyObject *args) {
     pgi_image img;
     if (!image_view(obj, "image", &img, &keep)) return NULL;
     pgi_status st;
-    Py_BEGIN_ALLOW_THREADS st = pgi_image_write(&img, path, exposure);
-    Py_END_ALLOW_THREADS Py_DECREF(keep);
+    PyThreadState *ts = PyEval_SaveThread(); /* the GIL released */
+    st = pgi_image_write(&img, path, exposure);
+    PyEval_RestoreThread(ts);
+    Py_DECREF(keep);
     if (st) return fail(st, "cannot write the image");
     Py_RETURN_NONE;
 }
@@ -405,9 +420,9 @@ static PyObject *py_estimators(PyObject *self, PyObject *noargs) {
             if (!pgi_estimator_takes(vt, o)) continue;
             char dv[64];
             pgi_option_format(o, &def, dv, sizeof dv);
-            PyObject *od = Py_BuildValue("{s:s,s:s,s:d,s:d,s:s,s:s,s:s}", "name", o->name, "type",
-                                         types[o->type & 3], "min", o->min, "max", o->max, "choices",
-                                         o->choices ? o->choices : "", "default", dv, "help", o->help);
+            PyObject *od = Py_BuildValue("{s:s,s:s,s:d,s:d,s:s,s:s,s:s}", "name", o->name, "type", types[o->type & 3],
+                                         "min", o->min, "max", o->max, "choices", o->choices ? o->choices : "",
+                                         "default", dv, "help", o->help);
             if (!od || PyList_Append(opts, od) < 0) Py_CLEAR(opts);
             Py_XDECREF(od);
         }
@@ -415,11 +430,11 @@ static PyObject *py_estimators(PyObject *self, PyObject *noargs) {
         int on_gpu = 0;
         for (const char *p = gpu; (p = strstr(p, vt->name)) != NULL; p += n)
             if ((p == gpu || p[-1] == ' ') && (p[n] == 0 || p[n] == ',')) on_gpu = 1;
-        PyObject *d = opts ? Py_BuildValue("{s:s,s:s,s:O,s:O,s:O,s:N}", "name", vt->name, "summary", vt->summary,
-                                           "exact", vt->exact ? Py_True : Py_False, "oracle",
-                                           vt->oracle ? Py_True : Py_False, "gpu", on_gpu ? Py_True : Py_False,
-                                           "options", opts)
-                           : NULL;
+        PyObject *d =
+            opts ? Py_BuildValue("{s:s,s:s,s:O,s:O,s:O,s:N}", "name", vt->name, "summary", vt->summary, "exact",
+                                 vt->exact ? Py_True : Py_False, "oracle", vt->oracle ? Py_True : Py_False, "gpu",
+                                 on_gpu ? Py_True : Py_False, "options", opts)
+                 : NULL;
         if (!d || PyList_Append(list, d) < 0) Py_CLEAR(list);
         Py_XDECREF(d);
     }
@@ -445,8 +460,7 @@ static PyObject *py_devices(PyObject *self, PyObject *noargs) {
         if (pgi_device_driver(i, drv, sizeof drv) != PGI_OK) drv[0] = 0;
         PyObject *d = Py_BuildValue("{s:s,s:s,s:s}", "device", "", "name", name, "driver", drv);
         PyObject *spec = PyUnicode_FromFormat("vulkan:%d", i);
-        if (!d || !spec || PyDict_SetItemString(d, "device", spec) < 0 || PyList_Append(list, d) < 0)
-            Py_CLEAR(list);
+        if (!d || !spec || PyDict_SetItemString(d, "device", spec) < 0 || PyList_Append(list, d) < 0) Py_CLEAR(list);
         Py_XDECREF(spec);
         Py_XDECREF(d);
     }
@@ -459,30 +473,35 @@ static PyObject *py_peak_rss(PyObject *self, PyObject *noargs) {
     return PyLong_FromUnsignedLongLong(pgi_memory_peak_rss());
 }
 
-static PyMethodDef k_methods[] = {
-    {"version", py_version, METH_NOARGS, "The library's version."},
-    {"scene_load", py_scene_load, METH_VARARGS, NULL},
-    {"scene_info", py_scene_info, METH_VARARGS, NULL},
-    {"scene_camera", py_scene_camera, METH_VARARGS, NULL},
-    {"scene_lights", py_scene_lights, METH_VARARGS, NULL},
-    {"scene_set_light_position", py_scene_set_light_position, METH_VARARGS, NULL},
-    {"scene_set_time", py_scene_set_time, METH_VARARGS, NULL},
-    {"scene_set_specular", py_scene_set_specular, METH_VARARGS, NULL},
-    {"renderer_create", py_renderer_create, METH_VARARGS, NULL},
-    {"render", py_render, METH_VARARGS, NULL},
-    {"reference", py_reference, METH_VARARGS, NULL},
-    {"compare", py_compare, METH_VARARGS, NULL},
-    {"read_image", py_read_image, METH_VARARGS, NULL},
-    {"write_image", py_write_image, METH_VARARGS, NULL},
-    {"estimators", py_estimators, METH_NOARGS, NULL},
-    {"builtin_scenes", py_builtin_scenes, METH_NOARGS, NULL},
-    {"devices", py_devices, METH_NOARGS, NULL},
-    {"peak_rss", py_peak_rss, METH_NOARGS, NULL},
-    {NULL, NULL, 0, NULL}};
+static PyMethodDef k_methods[] = {{"version", py_version, METH_NOARGS, "The library's version."},
+                                  {"scene_load", py_scene_load, METH_VARARGS, NULL},
+                                  {"scene_info", py_scene_info, METH_VARARGS, NULL},
+                                  {"scene_camera", py_scene_camera, METH_VARARGS, NULL},
+                                  {"scene_lights", py_scene_lights, METH_VARARGS, NULL},
+                                  {"scene_set_light_position", py_scene_set_light_position, METH_VARARGS, NULL},
+                                  {"scene_set_time", py_scene_set_time, METH_VARARGS, NULL},
+                                  {"scene_set_specular", py_scene_set_specular, METH_VARARGS, NULL},
+                                  {"renderer_create", py_renderer_create, METH_VARARGS, NULL},
+                                  {"render", py_render, METH_VARARGS, NULL},
+                                  {"reference", py_reference, METH_VARARGS, NULL},
+                                  {"compare", py_compare, METH_VARARGS, NULL},
+                                  {"read_image", py_read_image, METH_VARARGS, NULL},
+                                  {"write_image", py_write_image, METH_VARARGS, NULL},
+                                  {"estimators", py_estimators, METH_NOARGS, NULL},
+                                  {"builtin_scenes", py_builtin_scenes, METH_NOARGS, NULL},
+                                  {"devices", py_devices, METH_NOARGS, NULL},
+                                  {"peak_rss", py_peak_rss, METH_NOARGS, NULL},
+                                  {NULL, NULL, 0, NULL}};
 
-static struct PyModuleDef k_module = {PyModuleDef_HEAD_INIT, "_photongi",
-                                      "The C half of the photongi package (use `import photongi`).", -1, k_methods,
-                                      NULL, NULL, NULL, NULL};
+static struct PyModuleDef k_module = {PyModuleDef_HEAD_INIT,
+                                      "_photongi",
+                                      "The C half of the photongi package (use `import photongi`).",
+                                      -1,
+                                      k_methods,
+                                      NULL,
+                                      NULL,
+                                      NULL,
+                                      NULL};
 
 PyMODINIT_FUNC PyInit__photongi(void) {
     import_array();
