@@ -439,11 +439,26 @@ if expect_ok reference --scene cornell --size 24x16 --spp 2 -q -o "$TMP/r.exr" -
         case $out in *'"ssim"'*'"psnr"'*|*'"psnr"'*'"ssim"'*) ok ;; *) bad "compare --json: no ssim/psnr: $out" ;; esac
         [ -s "$TMP/heat.png" ] && ok || bad "compare did not write the heat map"
         case $out in *'"flip": 0.'[0-9]*'"flip_weighted_median"'*) ok ;; *) bad "compare --json: no flip: $out" ;; esac
+        # the pixel-area reference's sidecar: a note for a single pixel-centre frame
+        case $err in *"pixel-area reference"*) ok ;; *) bad "compare of a frame with a reference: no sampling note: $err" ;; esac
     fi
     # FLIP: an image against itself is 0; the FLIP map is written; a bad --ppd is a usage error
     if expect_ok compare "$TMP/p.png" "$TMP/p.png" --flip-map "$TMP/flip.png"; then
         case $out in *'FLIP 0.000000 '*) ok ;; *) bad "compare of an image with itself: FLIP not 0: $out" ;; esac
         [ -s "$TMP/flip.png" ] && ok || bad "compare did not write the FLIP map"
+    fi
+    # the PNG and the EXR of one render are identical at the render's exposure (window-box sets 2)
+    if expect_ok render --scene window-box --size 40x24 --photons 3000 -q -o "$TMP/wb.png" &&
+        expect_ok render --scene window-box --size 40x24 --photons 3000 -q -o "$TMP/wb.exr"; then
+        for e in 2 0.5; do
+            if expect_ok render --scene window-box --size 40x24 --photons 3000 --exposure $e -q -o "$TMP/wb$e.png" &&
+                expect_ok compare "$TMP/wb$e.png" "$TMP/wb.exr" --exposure $e; then
+                case $out in *'PSNR inf dB'*) ok ;; *) bad "compare PNG vs its EXR at exposure $e: $out" ;; esac
+                case $err in *"8-bit image"*) ok ;; *) bad "compare PNG vs EXR: no note: $err" ;; esac
+            fi
+        done
+        expect_ok compare "$TMP/wb.png" "$TMP/wb.exr" --exposure 2 --json
+        case $out in *'"psnr": null'*) ok ;; *) bad "compare PNG vs its EXR (scene exposure 2): $out" ;; esac
     fi
     expect_status 2 "--ppd" compare "$TMP/p.png" "$TMP/r.exr" --ppd 0
     expect_status 2 "--flip-map" compare "$TMP/p.png" "$TMP/r.exr" --flip-map "$TMP/flip.jpg"

@@ -11,13 +11,16 @@
 #include "output.h"
 #include "parse.h"
 #include "photongi/metrics.h"
+#include "photongi/reference.h"
 
 static const char *k_compare_help =
     "usage: photongi compare A B [--json] [--diff HEAT.png] [--diff-max E] [--flip-map FLIP.png]\n"
     "                            [--ppd P] [--exposure X]\n"
     "\n"
     "Compares image A with the reference B (PNG or EXR, same size, at least 11x11). Both are\n"
-    "tone-mapped as 'render' writes PNG (exposure, sRGB, 8 bits; a PNG compares by its bytes).\n"
+    "tone-mapped as 'render' writes PNG (exposure, sRGB, 8 bits); a PNG already is, and compares\n"
+    "by its bytes. A reference's sidecar (B.json, from 'photongi reference') is read when it is\n"
+    "there: a note says when A's sampling or settings differ from it.\n"
     "\n"
     "  PSNR      10 log10(1/MSE) on sRGB values in [0,1], all channels ('inf': identical)\n"
     "  SSIM      Wang et al. 2004 as scikit-image: 11x11 Gaussian window, sigma 1.5, K1 0.01,\n"
@@ -27,7 +30,7 @@ static const char *k_compare_help =
     "            error in [0,1] at P pixels per degree; its mean, and the weighted median and\n"
     "            quartiles (each value weighted by itself)\n"
     "  relMSE    mean of (A - B)^2 / (B^2 + 0.01) over pixels and channels, on linear values\n"
-    "            (times --exposure) before tone mapping\n"
+    "            (EXR radiance times --exposure; a PNG's values are clamped and quantised)\n"
     "\n"
     "  --json          print the result as one JSON object on standard output\n"
     "  --diff FILE     write a heat map PNG of the largest channel difference per pixel\n"
@@ -36,7 +39,9 @@ static const char *k_compare_help =
     "  --flip-map FILE write FLIP's error map PNG (magma colour map: black 0 -> yellow-white 1)\n"
     "  --ppd P         FLIP's pixels per degree, 1..1000 (default 67.02: 0.7 m from a 0.7 m wide\n"
     "                  3840-pixel monitor; halve it for a monitor of 1920 pixels)\n"
-    "  --exposure X    multiply EXR radiance by X before tone mapping (default 1)\n"
+    "  --exposure X    multiply the radiance of EXR (and HDR) inputs by X before tone mapping\n"
+    "                  (default 1), as 'render --exposure X' does before it writes PNG: an EXR and\n"
+    "                  the PNG of the same render compare as identical at the render's exposure\n"
     "\n"
     "Exit status: 0 success, 2 usage error, 1 failure (an image missing, unreadable, or not\n"
     "comparable with the other; see 'photongi --help').\n";
@@ -56,6 +61,34 @@ static pgi_status write_rgb8(const unsigned char *rgb8, int w, int h, const char
     pgi_status st = pgi_image_write(&img, path, 1.f);
     pgi_image_free(&img);
     return st;
+}
+
+/* Notes on stderr where the sidecars (FILE.json of 'photongi reference') say that A and the reference B
+ * were not made alike: a single frame (no sidecar, pixel centres) against a pixel-area reference, or two
+ * references of different scenes, cameras, bounces, sampling or glossy models. */
+static void note_sidecars(const char *a, const char *b) {
+    char pa[4096], pb[4096];
+    pgi_reference_meta ma, mb;
+    snprintf(pa, sizeof pa, "%s.json", a);
+    snprintf(pb, sizeof pb, "%s.json", b);
+    const int has_a = pgi_reference_meta_read(pa, &ma) == PGI_OK, has_b = pgi_reference_meta_read(pb, &mb) == PGI_OK;
+    if (!has_b) return;
+    if (!has_a) {
+        if (mb.jitter == PGI_JITTER_ON)
+            fprintf(stderr,
+                    "photongi compare: note: %s is a pixel-area reference (%llu samples over each pixel); a single "
+                    "frame of 'render' samples pixel centres, so its edges alias against it: render with --jitter "
+                    "on and --progressive N to compare like with like\n",
+                    b, (unsigned long long)mb.spp);
+        return;
+    }
+    const char *what = strcmp(ma.scene, mb.scene) != 0 ? "scenes"
+                       : ma.camera != mb.camera        ? "cameras"
+                       : ma.bounces != mb.bounces      ? "bounces"
+                       : ma.jitter != mb.jitter        ? "sampling (pixel centres against pixel areas)"
+                       : ma.specular != mb.specular    ? "glossy models"
+                                                       : NULL;
+    if (what) fprintf(stderr, "photongi compare: note: %s and %s differ in their %s (their .json)\n", a, b, what);
 }
 
 int pgi_cmd_compare(int argc, char **argv) {
@@ -93,19 +126,31 @@ int pgi_cmd_compare(int argc, char **argv) {
     if (!rc && flip_map) rc = app_check_output("photongi compare", "--flip-map", flip_map, k_png);
     if (rc) return rc;
     pgi_image img[2] = {{0}, {0}};
+    int hdr[2] = {0, 0};
     for (int k = 0; k < 2; k++) {
-        pgi_status st = pgi_image_read(files[k], &img[k], NULL);
+        pgi_status st = pgi_image_read(files[k], &img[k], &hdr[k]);
         if (st) {
             pgi_image_free(&img[0]);
             return cli_input_fail("compare", "cannot read", st);
         }
     }
+    /* The exposure is the linear inputs' own: an 8-bit input carries the exposure it was written with. */
+    for (int k = 0; k < 2; k++)
+        if (hdr[k] && exposure != 1.f)
+            for (size_t i = 0, n3 = (size_t)img[k].width * img[k].height * 3; i < n3; i++) img[k].rgb[i] *= exposure;
+    if (exposure != 1.f && !hdr[0] && !hdr[1])
+        fprintf(stderr, "photongi compare: note: --exposure applies to EXR inputs; both are 8-bit images\n");
+    if (hdr[0] != hdr[1])
+        fprintf(stderr,
+                "photongi compare: note: %s is an 8-bit image, written at an exposure of its own: the EXR is "
+                "tone-mapped at --exposure %g to match it; relMSE comes from its clamped, quantised values\n",
+                files[hdr[0] ? 1 : 0], (double)exposure);
+    note_sidecars(files[0], files[1]);
     const int w = img[0].width, h = img[0].height;
     const size_t n = (size_t)w * h;
     float *fmap = flip_map ? malloc(n * sizeof *fmap) : NULL;
     pgi_metrics m;
-    pgi_status st =
-        flip_map && !fmap ? PGI_ERR_OOM : pgi_metrics_compute_flip(&img[0], &img[1], exposure, ppd, fmap, &m);
+    pgi_status st = flip_map && !fmap ? PGI_ERR_OOM : pgi_metrics_compute_flip(&img[0], &img[1], 1.f, ppd, fmap, &m);
     if (st) {
         free(fmap);
         pgi_image_free(&img[0]);
@@ -123,7 +168,7 @@ int pgi_cmd_compare(int argc, char **argv) {
     }
     if (!st && diff) {
         what = "cannot write the heat map";
-        st = pgi_metrics_heatmap(&img[0], &img[1], exposure, diff_max, rgb8);
+        st = pgi_metrics_heatmap(&img[0], &img[1], 1.f, diff_max, rgb8);
         if (!st) st = write_rgb8(rgb8, w, h, diff);
     }
     if (!st && flip_map) {
