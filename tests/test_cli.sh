@@ -420,6 +420,29 @@ if expect_ok render --scene cornell --estimator bvh --bvh-build vvh --leaf-size 
     done
 fi
 
+# ---- render --from-stats: a frame's statistics render it again, to the byte
+for cfg in "exr --scene cornell-box --estimator tiled --tile 8 --radius auto --progressive 3 --seed 7" \
+    "png --scene window-box --estimator kdtree --knn 12 --bounces 3 --direct-samples 4" \
+    "exr --scene cornell --estimator bvh --radius-policy path --r-max 0.08 --jitter on"; do
+    # shellcheck disable=SC2086  # the words of cfg are the extension and options
+    set -- $cfg
+    ext=$1
+    shift
+    if expect_ok render "$@" --size 48x32 --photons 3000 -q --stats "$TMP/fs.json" -o "$TMP/fs1.$ext" &&
+        expect_ok render --from-stats "$TMP/fs.json" -q -o "$TMP/fs2.$ext"; then
+        cmp -s "$TMP/fs1.$ext" "$TMP/fs2.$ext" && ok || bad "render --from-stats ($cfg): not the same bytes"
+    fi
+done
+grep -q '"settings"' "$TMP/fs.json" && grep -q '"version"' "$TMP/fs.json" && grep -q '"scene":[[:space:]]*"cornell"' "$TMP/fs.json" &&
+    ok || bad "--stats lacks settings, version or the run's scene"
+# options after it change it; a file that is not statistics is a failure naming it
+if expect_ok render --from-stats "$TMP/fs.json" --photons 1000 -q -o "$TMP/fs3.exr"; then
+    cmp -s "$TMP/fs1.exr" "$TMP/fs3.exr" && bad "render --from-stats --photons 1000: the same image" || ok
+fi
+echo '{"width": 3}' >"$TMP/notstats.json"
+expect_status 1 "notstats.json" render --from-stats "$TMP/notstats.json" -o "$TMP/x.png"
+expect_status 1 "missing.json" render --from-stats "$TMP/missing.json" -o "$TMP/x.png"
+
 # ---- reference and compare
 expect_error "--spp" reference --scene cornell --spp 0 -o "$TMP/r.exr"
 expect_error ".exr" reference --scene cornell --spp 1 -o "$TMP/r.png"

@@ -1,11 +1,14 @@
 /* photongi render: one frame, or the average of --progressive N frames, to PNG or EXR. The
  * frames run in this process, or through pgi_cli_backend_now where a launcher set one
  * (photongi-mpi deals them to MPI ranks, apps/mpi). */
+#include <errno.h>
 #include <inttypes.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+#include <cjson/cJSON.h>
 
 #include "cli.h"
 #include "cmd.h"
@@ -20,6 +23,86 @@
 const pgi_cli_backend *pgi_cli_backend_now = NULL;
 
 static int is_help(const char *a) { return strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0; }
+
+/* FNV-1a 64 of a file's bytes (0 when it cannot be read: a built-in scene). */
+static uint64_t file_hash(const char *path) {
+    FILE *f = fopen(path, "rb");
+    if (!f) return 0;
+    uint64_t h = 1469598103934665603ull;
+    unsigned char buf[65536];
+    size_t n;
+    while ((n = fread(buf, 1, sizeof buf, f)) > 0)
+        for (size_t i = 0; i < n; i++) h = (h ^ buf[i]) * 1099511628211ull;
+    fclose(f);
+    return h;
+}
+
+/* What --from-stats read: the scene and the hash of its file then. */
+typedef struct from_stats {
+    char scene[4096], estimator[128], hash[24];
+} from_stats;
+
+/* --from-stats S.json: the settings and the run of a frame's statistics (pgi_stats_write_json) into d
+ * and x, as if given on the command line at this point. 1 fine, 0 a failure (message in err). */
+static int read_from_stats(const char *path, pgi_render_desc *d, app_render_extra *x, from_stats *fsr, char *err,
+                           size_t size) {
+    FILE *f = fopen(path, "rb");
+    if (!f) return (snprintf(err, size, "--from-stats %s: cannot read: %s", path, strerror(errno)), 0);
+    char *text = malloc(1 << 20);
+    size_t n = text ? fread(text, 1, (1 << 20) - 1, f) : 0;
+    int big = text && n == (1 << 20) - 1;
+    fclose(f);
+    if (!text || big) {
+        free(text);
+        return (snprintf(err, size, "--from-stats %s: not a statistics file (over 1 MB)", path), 0);
+    }
+    text[n] = 0;
+    cJSON *root = cJSON_Parse(text);
+    free(text);
+    const cJSON *set = cJSON_GetObjectItemCaseSensitive(root, "settings");
+    if (!cJSON_IsObject(set)) {
+        cJSON_Delete(root);
+        return (snprintf(err, size, "--from-stats %s: no \"settings\" object (statistics of photongi 0.1 or later)",
+                         path),
+                0);
+    }
+    int ok = 1;
+    const cJSON *it;
+    cJSON_ArrayForEach(it, set) {
+        char flag[80];
+        snprintf(flag, sizeof flag, "--%s", it->string ? it->string : "");
+        if (!cJSON_IsString(it) || strcmp(flag, "--estimator") == 0) continue;
+        int rc = app_render_option(flag, it->valuestring, d, x, NULL, err, size);
+        if (rc <= 0) {
+            if (rc == 0) snprintf(err, size, "unknown setting '%s'", it->string);
+            char msg[400];
+            snprintf(msg, sizeof msg, "%s", err);
+            snprintf(err, size, "--from-stats %.150s: %.200s", path, msg);
+            ok = 0;
+            break;
+        }
+    }
+    const cJSON *e = cJSON_GetObjectItemCaseSensitive(set, "estimator");
+    if (ok && cJSON_IsString(e)) {
+        snprintf(fsr->estimator, sizeof fsr->estimator, "%s", e->valuestring);
+        d->estimator = fsr->estimator;
+    }
+    const cJSON *run = cJSON_GetObjectItemCaseSensitive(root, "run");
+    if (ok && cJSON_IsObject(run)) {
+        const cJSON *sc = cJSON_GetObjectItemCaseSensitive(run, "scene"),
+                    *h = cJSON_GetObjectItemCaseSensitive(run, "scene_file_fnv1a64"),
+                    *ex = cJSON_GetObjectItemCaseSensitive(run, "exposure"),
+                    *t = cJSON_GetObjectItemCaseSensitive(run, "time"),
+                    *sp = cJSON_GetObjectItemCaseSensitive(run, "specular");
+        if (cJSON_IsString(sc)) snprintf(fsr->scene, sizeof fsr->scene, "%s", sc->valuestring);
+        if (cJSON_IsString(h)) snprintf(fsr->hash, sizeof fsr->hash, "%s", h->valuestring);
+        if (cJSON_IsNumber(ex) && ex->valuedouble > 0.0) x->exposure = (float)ex->valuedouble;
+        if (cJSON_IsNumber(t)) x->time = (float)t->valuedouble;
+        if (cJSON_IsString(sp) && !parse_specular(sp->valuestring, &x->specular)) x->specular = PGI_SPECULAR_DEFAULT;
+    }
+    cJSON_Delete(root);
+    return ok;
+}
 
 static const char *k_render_help =
     "usage: photongi render [--scene S] [options] -o OUT.png|OUT.exr\n"
@@ -75,6 +158,9 @@ static const char *k_render_help =
     "  --specular ggx|phong   model of the mesh's glossy materials (MTL illum 2): ggx =\n"
     "                     microfacet plastic, phong = the papers' Blinn-Phong (default: the\n"
     "                     description's \"specular\", else ggx; docs/scene-format.md)\n"
+    "  --from-stats S.json   the settings and the scene of a frame's --stats (what it rendered,\n"
+    "                     every default resolved): renders that frame again; options after it\n"
+    "                     change it (a note when the scene's file has changed since)\n"
     "  --stats FILE.json  write timings, memory (every large allocation and the process's peak\n"
     "                     resident set), photon reads/contributing as JSON ('-' = stdout)\n"
     "  --max-memory SIZE|none   memory budget: a frame whose scene, BVH, photons, buffers and\n"
@@ -144,6 +230,8 @@ int pgi_cmd_render(int argc, char **argv) {
     const char *scene_spec = "cornell", *out = NULL, *stats_path = NULL;
     int quiet = 0;
     char err[400];
+    static from_stats fsr; /* --from-stats: its strings live through the call */
+    memset(&fsr, 0, sizeof fsr);
     for (int i = 0; i < argc; i++) {
         const char *a = argv[i];
         if (is_help(a)) {
@@ -164,6 +252,9 @@ int pgi_cmd_render(int argc, char **argv) {
         if (strcmp(a, "--scene") == 0) {
             if (!*v) return cli_usage("render", "%s", "--scene needs a scene");
             scene_spec = v;
+        } else if (strcmp(a, "--from-stats") == 0) {
+            if (!read_from_stats(v, &d, &x, &fsr, err, sizeof err)) return cli_failure("render", "%s", err);
+            if (fsr.scene[0]) scene_spec = fsr.scene;
         } else if (strcmp(a, "-o") == 0 || strcmp(a, "--out") == 0) out = v;
         else if (strcmp(a, "--stats") == 0) stats_path = v;
         else return cli_usage("render", "unknown option '%s'", a);
@@ -201,8 +292,19 @@ int pgi_cmd_render(int argc, char **argv) {
     }
     pgi_scene_info info;
     pgi_scene_get_info(scene, &info);
-    char scene_name[128];
+    char scene_name[128], scene_file[4096];
     snprintf(scene_name, sizeof scene_name, "%s", info.name);
+    snprintf(scene_file, sizeof scene_file, "%s", info.source);
+    const uint64_t scene_hash = file_hash(scene_file);
+    if (fsr.hash[0]) {
+        char now[24];
+        snprintf(now, sizeof now, "%016llx", (unsigned long long)scene_hash);
+        if (strcmp(now, fsr.hash) != 0)
+            cli_warn(quiet, "render",
+                     "%s has changed since the statistics of --from-stats were written: the image "
+                     "may differ",
+                     scene_file);
+    }
     if ((size_t)d.camera >= info.cameras) {
         pgi_scene_destroy(scene);
         return cli_failure("render", "--camera %d: scene %s has %zu camera%s (0..%zu)", d.camera, scene_name,
@@ -250,6 +352,7 @@ int pgi_cmd_render(int argc, char **argv) {
     pgi_scene_destroy(scene);
     if (st) return cli_fail("render", "cannot write image", st);
     fs.memory_peak_rss = pgi_memory_peak_rss(); /* writing the image included */
+    fs.run = (pgi_run_info){scene_spec, scene_file, scene_hash, exposure, scene_time, specular};
     if (stats_path) {
         st = be && be->write_stats ? be->write_stats(&fs, stats_path) : pgi_stats_write_json(&fs, stats_path);
         if (st) return cli_fail("render", "cannot write stats", st);

@@ -279,6 +279,18 @@ typedef struct pgi_emission_stats {
     uint64_t culled;        /* PGI_STORE_VIEW: photons not stored (no view sample within the radius) */
 } pgi_emission_stats;
 
+/* What the caller did around the frame (pgi_frame_stats.run), for statistics that reproduce a run:
+ * the renderer leaves it zeroed; `photongi render` fills it in before it writes --stats, and the JSON
+ * has it under "run" when `scene` is set. */
+typedef struct pgi_run_info {
+    const char *scene;      /* the scene as given to pgi_scene_load */
+    const char *scene_file; /* the file that was loaded (pgi_scene_info.source) */
+    uint64_t scene_hash;    /* the caller's hash of that file's bytes (FNV-1a 64; 0: none) */
+    float exposure;         /* the exposure of the PNG tone map */
+    float time;             /* pgi_scene_set_time's t */
+    pgi_specular specular;  /* pgi_scene_set_specular's model (DEFAULT: not set) */
+} pgi_run_info;
+
 typedef struct pgi_frame_stats {
     const char *estimator;
     int width, height, threads;
@@ -321,6 +333,7 @@ typedef struct pgi_frame_stats {
                            the renderer lives. With a GPU: passes_ms has the device's passes ("gpu_count", ...,
                            "gpu_gather": GPU timestamps; "gpu_upload", "gpu_submit", "gpu_download": host wall
                            clock) and memory_bytes the device's buffers ("gpu_photons", "gpu_hash", ...) */
+    pgi_run_info run;   /* zeroed by the renderer; see pgi_run_info */
 } pgi_frame_stats;
 
 /* Renders one frame into `out` (free with pgi_image_free). Pass a zeroed
@@ -367,7 +380,10 @@ uint64_t pgi_memory_peak_rss(void);
 /* The memory budget a render desc with max_memory 0 gets: the machine's physical memory, or the
  * cgroup's memory limit when lower (docs/memory.md). */
 uint64_t pgi_memory_default_budget(void);
-/* Writes the frame statistics as JSON to `path` ("-" = standard output). */
+/* Writes the frame statistics as JSON to `path` ("-" = standard output): the counters, times and
+ * memory, "version", "settings" (every setting of the frame as `photongi render` spells it: the
+ * option's name without "--" and its value as a string, the estimator's options resolved, so that
+ * `photongi render --from-stats` renders the frame again) and "run" (pgi_frame_stats.run). */
 pgi_status pgi_stats_write_json(const pgi_frame_stats *stats, const char *path);
 /* The same JSON document into buf (size bytes, NUL-terminated, cut short when too small, like
  * snprintf): returns its length without the NUL, so a result >= size asks for a buffer of that

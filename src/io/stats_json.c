@@ -38,10 +38,100 @@ static double float_as_double(float f) {
     return (double)f;
 }
 
+/* The shortest "%g" of f that reads back as f. */
+static void float_text(float f, char *buf, size_t size) {
+    for (int prec = 6; prec <= 9; ++prec) {
+        snprintf(buf, size, "%.*g", prec, (double)f);
+        if ((float)strtod(buf, NULL) == f) return;
+    }
+}
+
+/* "settings": the frame's settings as `photongi render` options (name without "--": value). */
+static int add_settings(cJSON *root, const pgi_frame_stats *st) {
+    const pgi_render_desc *d = &st->settings;
+    cJSON *o = cJSON_AddObjectToObject(root, "settings");
+    if (!o) return 0;
+    char v[64];
+    int ok = 1;
+#define PGI__SET(name, ...) (snprintf(v, sizeof v, __VA_ARGS__), ok &= cJSON_AddStringToObject(o, name, v) != NULL)
+    const char *est = d->estimator ? d->estimator : st->estimator;
+    if (est) ok &= cJSON_AddStringToObject(o, "estimator", est) != NULL;
+    PGI__SET("photons", "%u", d->photons);
+    if (st->auto_radius.used) PGI__SET("radius", "auto");
+    else {
+        float_text(d->radius, v, sizeof v);
+        ok &= cJSON_AddStringToObject(o, "radius", v) != NULL;
+    }
+    PGI__SET("size", "%dx%d", st->width, st->height);
+    PGI__SET("bounces", "%d", d->bounces);
+    PGI__SET("seed", "%llu", (unsigned long long)d->seed);
+    if (d->threads > 0) PGI__SET("threads", "%d", d->threads);
+    PGI__SET("camera", "%d", d->camera);
+    PGI__SET("direct-samples", "%d", d->direct_samples);
+    static const char *const outputs[] = {"all", "indirect", "direct", "counts"};
+    PGI__SET("output", "%s", d->output >= 0 && d->output < 4 ? outputs[d->output] : "all");
+    static const char *const jitters[] = {"auto", "off", "on"}, *const emissions[] = {"uniform", "guided", "auto"};
+    PGI__SET("jitter", "%s", d->jitter >= 0 && d->jitter < 3 ? jitters[d->jitter] : "auto");
+    PGI__SET("emission", "%s", d->emission >= 0 && d->emission < 3 ? emissions[d->emission] : "uniform");
+    PGI__SET("store", "%s", d->store == PGI_STORE_VIEW ? "view" : "all");
+    static const char *const policies[] = {"fixed", "path", "differentials"};
+    PGI__SET("radius-policy", "%s",
+             d->radius_policy >= 0 && d->radius_policy < 3 ? policies[d->radius_policy] : "fixed");
+    if (d->radius_policy != PGI_RADIUS_FIXED) {
+        const float *f[] = {&d->r_min, &d->r_max, &d->smoothing};
+        static const char *const names[] = {"r-min", "r-max", "smoothing"};
+        for (int k = 0; k < 3; k++)
+            if (*f[k] > 0.f) {
+                float_text(*f[k], v, sizeof v);
+                ok &= cJSON_AddStringToObject(o, names[k], v) != NULL;
+            }
+    }
+    if (d->filter > 0) PGI__SET("filter", "%d", d->filter);
+    if (d->max_memory == PGI_MEMORY_UNLIMITED) PGI__SET("max-memory", "none");
+    else if (d->max_memory && d->max_memory != pgi_memory_default_budget())
+        PGI__SET("max-memory", "%llu", (unsigned long long)d->max_memory);
+    if (d->device == PGI_DEVICE_VULKAN && d->device_index > 0) PGI__SET("device", "vulkan:%d", d->device_index - 1);
+    else PGI__SET("device", "%s", d->device == PGI_DEVICE_VULKAN ? "vulkan" : "cpu");
+    if (st->frames > 1) PGI__SET("progressive", "%d", st->frames);
+#undef PGI__SET
+    const pgi_estimator_vtbl *vt = est ? pgi_estimator_find(est) : NULL;
+    for (size_t i = 0; vt && i < pgi_option_count(); i++) {
+        const pgi_option *opt = pgi_option_at(i);
+        if (!pgi_estimator_takes(vt, opt)) continue;
+        /* a zero that is its own mode (subsampling off, the automatic cell size) stays unwritten */
+        const char *field = (const char *)&d->est + opt->offset;
+        if (opt->type == PGI_OPTION_INT && opt->def == 0 && *(const int *)(const void *)field == 0) continue;
+        if (opt->type == PGI_OPTION_FLOAT && *(const float *)(const void *)field == 0.f) continue;
+        pgi_option_format(opt, &d->est, v, sizeof v);
+        ok &= cJSON_AddStringToObject(o, opt->name, v) != NULL;
+    }
+    return ok;
+}
+
+/* "run": what the caller did around the frame (pgi_run_info). */
+static int add_run(cJSON *root, const pgi_run_info *r) {
+    if (!r->scene) return 1;
+    cJSON *o = cJSON_AddObjectToObject(root, "run");
+    if (!o) return 0;
+    int ok = cJSON_AddStringToObject(o, "scene", r->scene) != NULL;
+    ok &= cJSON_AddStringToObject(o, "scene_file", r->scene_file ? r->scene_file : "") != NULL;
+    char h[24];
+    snprintf(h, sizeof h, "%016llx", (unsigned long long)r->scene_hash);
+    if (r->scene_hash) ok &= cJSON_AddStringToObject(o, "scene_file_fnv1a64", h) != NULL;
+    ok &= add_num(o, "exposure", float_as_double(r->exposure));
+    ok &= add_num(o, "time", float_as_double(r->time));
+    ok &= cJSON_AddStringToObject(o, "specular",
+                                  r->specular == PGI_SPECULAR_GGX     ? "ggx"
+                                  : r->specular == PGI_SPECULAR_PHONG ? "phong"
+                                                                      : "default") != NULL;
+    return ok;
+}
+
 static cJSON *build(const pgi_frame_stats *st) {
     cJSON *root = cJSON_CreateObject(), *o;
     if (!root) return NULL;
     int ok = 1;
+    ok &= cJSON_AddStringToObject(root, "version", pgi_version()) != NULL;
     ok &= (st->estimator ? cJSON_AddStringToObject(root, "estimator", st->estimator)
                          : cJSON_AddNullToObject(root, "estimator")) != NULL;
     ok &= cJSON_AddStringToObject(root, "device", st->device ? st->device : "cpu") != NULL;
@@ -164,6 +254,8 @@ static cJSON *build(const pgi_frame_stats *st) {
             }
         }
     }
+    ok &= add_settings(root, st);
+    ok &= add_run(root, &st->run);
     if (!ok) {
         cJSON_Delete(root);
         return NULL;

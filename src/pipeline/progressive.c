@@ -290,7 +290,7 @@ static void report_frame(void *user, const pgi_progress *in) {
     fp->fn(fp->user, &p);
 }
 
-/* Times and counters add up over the frames; the rest is the last frame's. */
+/* Times and counters add up over the frames; the rest is the last frame's, but for the seed. */
 static void stats_add(pgi_frame_stats *sum, const pgi_frame_stats *fs) {
     pgi_frame_stats t = *fs;
     t.view_ms += sum->view_ms, t.trace_ms += sum->trace_ms, t.build_ms += sum->build_ms;
@@ -302,6 +302,7 @@ static void stats_add(pgi_frame_stats *sum, const pgi_frame_stats *fs) {
     t.reads += sum->reads, t.contributing += sum->contributing, t.nodes_visited += sum->nodes_visited;
     t.estimators_created += sum->estimators_created;
     for (int i = 0; i < t.pass_count && i < sum->pass_count; i++) t.passes_ms[i].value += sum->passes_ms[i].value;
+    t.settings.seed = sum->settings.seed; /* the caller's seed (frame 0's), not the last frame's stream */
     *sum = t;
 }
 
