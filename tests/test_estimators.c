@@ -36,6 +36,9 @@ static void compare_all(const pgi_photons *ph, const pgi_view_samples *vs, const
             snprintf(what, sizeof what, "%s vs brute, %s, r=%g, tile %d, cell %g", vt->name, label, (double)radius,
                      tiles[t], (double)cell_size);
             tu_expect_same(what, got, ref, nf, gs.contributing, rs.contributing);
+            if (gs.contributing > gs.reads)
+                fail_msg("%s: contributing %llu > reads %llu", what, (unsigned long long)gs.contributing,
+                         (unsigned long long)gs.reads);
             compared++;
         }
     }

@@ -195,7 +195,9 @@ typedef struct pgi_estimator_stats {
     size_t memory_bytes[PGI_EST_MAX_ENTRIES];
     int memory_count;
     uint64_t reads, contributing, nodes_visited;
-    int leaf_size; /* "bvh": the leaf-size threshold used (T_auto or given) */
+    uint64_t reads_bulk; /* of reads: (photon, sample) pairs accepted as a node's sum without reading each photon
+                            ("cluster-trivial"'s trivial accept); reads - reads_bulk were read one by one */
+    int leaf_size;       /* "bvh": the leaf-size threshold used (T_auto or given) */
 } pgi_estimator_stats;
 
 /* One method: a const table of function pointers, dispatched once per pass. */

@@ -314,8 +314,11 @@ typedef struct pgi_frame_stats {
     uint64_t memory_counted_peak; /* the largest sum of those entries since the renderer was created (Embree's
                                      build scratch included) */
     uint64_t memory_peak_rss;     /* the process's peak resident set so far, bytes (getrusage), for comparison */
-    uint64_t reads;               /* photon reads by the estimator */
-    uint64_t contributing;        /* reads that passed the sphere + hemisphere test */
+    uint64_t reads;               /* (photon, view sample) pairs the estimator examined */
+    uint64_t contributing;        /* of those, the pairs that passed the sphere + hemisphere test (<= reads; the
+                                     same count for every exact estimator) */
+    uint64_t reads_bulk;          /* of reads: pairs taken as a node's sum without reading each photon (trivial
+                                     accept); reads - reads_bulk photon records were read one by one */
     uint64_t nodes_visited;       /* cells / tiles / nodes touched */
     int frames;                   /* frames averaged into the image (progressive); 1 for a single frame */
     int estimators_created;       /* estimators this call created (0 when the renderer reused its estimator) */

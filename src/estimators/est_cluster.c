@@ -41,11 +41,13 @@
  * accepted, so the flux sum times kd/pi is exactly what gather computes). A
  * node with a non-Lambertian sample falls back to its list.
  *
- * Counters: reads = photon records read by the radiance pass (list entries x
- * samples); contributing = (photon, sample) pairs that contribute, including
- * the trivially accepted ones (they are never read per sample, so contributing
- * may exceed reads, as in the paper's Fig. 7); nodes_visited = node tests in
- * the traversals. */
+ * Counters: reads = (photon, sample) pairs the radiance pass examined: the
+ * list entries it reads for each sample, and the photons of the trivially
+ * accepted nodes, which it takes as one sum (cum_cnt) without reading them
+ * one by one; contributing = the pairs that contribute, those accepted ones
+ * included, so it equals brute force's count and never exceeds reads;
+ * reads_bulk = the accepted ones (of reads);
+ * nodes_visited = node tests in the traversals. */
 #include "cluster_internal.h"
 
 #include <omp.h>
@@ -903,7 +905,7 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
     if (vs->width != s->W || vs->height != s->H)
         return pgi__fail(PGI_ERR_INVALID_ARG, "cluster: estimate called with a frame size other than build's");
     const size_t npix = vs->count;
-    uint64_t reads = 0, contrib = 0;
+    uint64_t reads = 0, contrib = 0, bulk = 0;
     pgi_status st;
 #pragma omp parallel for schedule(static) num_threads(s->c.threads)
     for (long long ii = 0; ii < (long long)npix; ii++)
@@ -928,7 +930,7 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
         }
         const float r2 = s->r * s->r;
         const uint32_t leaf0 = s->lvl_off[s->L], leaf1 = s->lvl_off[s->L + 1];
-#pragma omp parallel for schedule(dynamic, 8) reduction(+ : reads, contrib) num_threads(s->c.threads)
+#pragma omp parallel for schedule(dynamic, 8) reduction(+ : reads, contrib, bulk) num_threads(s->c.threads)
         for (long long li = leaf0; li < (long long)leaf1; li++) {
             if (li + 1 < (long long)leaf1) /* the next leaf's kd and output rows */
                 for (uint32_t k = s->sbeg[li + 1]; k < s->send[li + 1]; k += 4) {
@@ -972,7 +974,8 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
                         o[0] = (kd[0] * PGI_INV_PI * (ar[t] + cf[0])) * w;
                         o[1] = (kd[1] * PGI_INV_PI * (ag[t] + cf[1])) * w;
                         o[2] = (kd[2] * PGI_INV_PI * (ab[t] + cf[2])) * w;
-                        reads += total;
+                        reads += total + cc;
+                        bulk += cc;
                         contrib += an[t] + cc;
                         continue;
                     }
@@ -989,7 +992,8 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
                     acc.fr += cf[0], acc.fg += cf[1], acc.fb += cf[2];
                     acc.contributing += cc;
                     pgi__acc_finish(&v, &acc, r2, a->out_rgb + 3 * i);
-                    reads += total;
+                    reads += total + cc;
+                    bulk += cc;
                     contrib += acc.contributing;
                 }
             }
@@ -999,6 +1003,7 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
     pgi__stats_pass(&s->c.st, "radiance", s->c.st.estimate_ms);
     s->c.st.reads = reads;
     s->c.st.contributing = contrib;
+    s->c.st.reads_bulk = bulk;
     cl_stats_memory(s, npix);
     return PGI_OK;
 }

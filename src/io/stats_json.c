@@ -206,6 +206,7 @@ static cJSON *build(const pgi_frame_stats *st) {
     }
     ok &= add_num(root, "reads", (double)st->reads);
     ok &= add_num(root, "contributing", (double)st->contributing);
+    ok &= add_num(root, "reads_bulk", (double)st->reads_bulk);
     ok &= add_num(root, "contributing_ratio", st->reads ? (double)st->contributing / (double)st->reads : 0.0);
     ok &= add_num(root, "nodes_visited", (double)st->nodes_visited);
     ok &= add_num(root, "frames", (double)st->frames);

@@ -300,6 +300,7 @@ static void stats_add(pgi_frame_stats *sum, const pgi_frame_stats *fs) {
     t.photon_rays += sum->photon_rays, t.photon_paths_discarded += sum->photon_paths_discarded,
         t.primary_rays += sum->primary_rays, t.shadow_rays += sum->shadow_rays;
     t.reads += sum->reads, t.contributing += sum->contributing, t.nodes_visited += sum->nodes_visited;
+    t.reads_bulk += sum->reads_bulk;
     t.estimators_created += sum->estimators_created;
     for (int i = 0; i < t.pass_count && i < sum->pass_count; i++) t.passes_ms[i].value += sum->passes_ms[i].value;
     t.settings.seed = sum->settings.seed; /* the caller's seed (frame 0's), not the last frame's stream */

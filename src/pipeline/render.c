@@ -968,7 +968,10 @@ pgi_status pgi__renderer_render_frame_late(pgi_renderer *r, const pgi_render_des
     t3 = pgi__now_ms();
     report(&pc, "estimate", 0, 0);
     if ((st = pgi_estimator_estimate(r->est, &ea))) return st;
+    const double t_est = pgi__now_ms();
+    /* the reconstruction filter is a pass of its own ("filter"), not the estimator's time */
     if (d.filter > 0 && (st = pgi__bilateral_filter(&r->vs, d.filter, d.threads, r->indirect))) return st;
+    const double filter_ms = d.filter > 0 ? pgi__now_ms() - t_est : 0.0;
     size_t n = (size_t)d.width * d.height;
     /* Reuse the caller's image when it already has this size (steady-state
      * frames then allocate nothing). */
@@ -1001,14 +1004,16 @@ pgi_status pgi__renderer_render_frame_late(pgi_renderer *r, const pgi_render_des
         return st;
     }
     fs.build_ms = t3 - t2;
-    fs.estimate_ms = t4 - t3;
+    fs.estimate_ms = t_est - t3;
     fs.direct_ms = t5 - t4;
     fs.total_ms = t5 - t_start;
     for (int k = 0; k < es.pass_count && k < PGI_MAX_STAT_ENTRIES; k++)
         fs.passes_ms[fs.pass_count++] = (pgi_named_value){es.pass_names[k], es.pass_ms[k]};
+    if (d.filter > 0) stats_pass(&fs, "filter", filter_ms);
     pgi__mem_set(&r->mem, "image", 3 * n * sizeof(float));
     mem_stats(r, &es, &fs);
     fs.reads = es.reads;
+    fs.reads_bulk = es.reads_bulk;
     fs.contributing = es.contributing;
     fs.nodes_visited = es.nodes_visited;
     fs.leaf_size = es.leaf_size;

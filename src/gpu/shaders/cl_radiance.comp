@@ -55,6 +55,7 @@ void main() {
                 precise float fr = a.fr + f.x, fg = a.fg + f.y, fb = a.fb + f.z;
                 a.fr = fr, a.fg = fg, a.fb = fb;
                 a.contributing += floatBitsToUint(f.w);
+                reads += floatBitsToUint(f.w); // accepted as the node's sum: examined, not read one by one
             }
             o = acc_finish(v, a, pc.r2, 1.0);
             contributing = a.contributing;
