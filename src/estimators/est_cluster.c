@@ -49,6 +49,7 @@
  * reads_bulk = the accepted ones (of reads);
  * nodes_visited = node tests in the traversals. */
 #include "cluster_internal.h"
+#include "estimator_internal.h"
 
 #include <omp.h>
 #include <string.h>
@@ -790,6 +791,7 @@ pgi_status cl_build(void *state, const pgi_estimate_args *a) {
                          cam->height);
     s->W = vs->width;
     s->H = vs->height;
+    s->T = pgi__cluster_tile(s->c.desc.cluster.tile, s->W, s->H);
     s->r = s->c.radius;
     s->x = pgi__view_xf_make(cam, s->W, s->H);
     double t0 = pgi__now_ms(), t_sort = t0;

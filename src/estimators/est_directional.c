@@ -39,6 +39,8 @@ static const pgi_option k_opt_dir_blur = {.name = "directional-blur",
                                           .def = 4,
                                           .help = "irradiance blur radius in pixels (0..64, default 4; 0 = off)"};
 static const pgi_option *const k_options[] = {&pgi__opt_cluster_tile, &k_opt_dir_level, &k_opt_dir_blur, NULL};
+/* the cluster tile from the image size unless given (pgi__cluster_tile) */
+static const pgi_option_default k_defaults[] = {{&pgi__opt_cluster_tile, 0}, {NULL, 0}};
 
 
 /* Depth- and normal-aware blur along one axis (§4.7) on planes: tent weights
@@ -353,6 +355,7 @@ const pgi_estimator_vtbl pgi__est_directional = {
     .stats = pgi__est_default_stats,
     .destroy = cl_destroy,
     .options = k_options,
+    .defaults = k_defaults,
     .caps = 0,
     /* memory budget: measured bytes of its stats per photon and per view sample, rounded up */
     .bytes_per_photon = 80,

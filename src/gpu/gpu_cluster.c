@@ -135,7 +135,7 @@ static pgi_status cl_create(pgi__gpu *g, const pgi_estimator_desc *d, void **sta
         return pgi__fail(PGI_ERR_UNSUPPORTED, "%s on the GPU: --subsample is not supported (CPU only)", nm);
     if (d->kernel != PGI_KERNEL_CONSTANT)
         return pgi__fail(PGI_ERR_UNSUPPORTED, "%s: only the constant kernel (as on the CPU)", nm);
-    if (d->cluster.tile < 1 || d->cluster.tile > MAX_TILE)
+    if (d->cluster.tile < (dir ? 0 : 1) || d->cluster.tile > MAX_TILE) /* directional: 0, from the image size */
         return pgi__fail(PGI_ERR_UNSUPPORTED,
                          "%s on the GPU: --cluster-tile must be 1..%d (a tile is sorted in shared "
                          "memory), got %d",
@@ -262,7 +262,8 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
                          vs->width, vs->height, cam ? cam->width : 0, cam ? cam->height : 0);
     const float r = a->radius;
     const size_t n = ph->count, ns = vs->count;
-    const uint32_t W = (uint32_t)vs->width, H = (uint32_t)vs->height, T = (uint32_t)s->desc.cluster.tile;
+    const uint32_t W = (uint32_t)vs->width, H = (uint32_t)vs->height,
+                   T = (uint32_t)pgi__cluster_tile(s->desc.cluster.tile, vs->width, vs->height);
     const uint32_t ntx = (W + T - 1) / T, nty = (H + T - 1) / T, nsx = (ntx + SUPER - 1) / SUPER,
                    nsy = (nty + SUPER - 1) / SUPER, nrx = (nsx + ROOT - 1) / ROOT, nry = (nsy + ROOT - 1) / ROOT;
     /* shaders/cluster.glsl: the node layout (supertile slots root-major, tile slots supertile-major) */

@@ -100,7 +100,7 @@ static int add_settings(cJSON *root, const pgi_frame_stats *st) {
         if (!pgi_estimator_takes(vt, opt)) continue;
         /* a zero that is its own mode (subsampling off, the automatic cell size) stays unwritten */
         const char *field = (const char *)&d->est + opt->offset;
-        if (opt->type == PGI_OPTION_INT && opt->def == 0 && *(const int *)(const void *)field == 0) continue;
+        if (opt->type == PGI_OPTION_INT && *(const int *)(const void *)field == 0) continue;
         if (opt->type == PGI_OPTION_FLOAT && *(const float *)(const void *)field == 0.f) continue;
         pgi_option_format(opt, &d->est, v, sizeof v);
         ok &= cJSON_AddStringToObject(o, opt->name, v) != NULL;
