@@ -443,6 +443,25 @@ echo '{"width": 3}' >"$TMP/notstats.json"
 expect_status 1 "notstats.json" render --from-stats "$TMP/notstats.json" -o "$TMP/x.png"
 expect_status 1 "missing.json" render --from-stats "$TMP/missing.json" -o "$TMP/x.png"
 
+# ---- study: every exact estimator at equal photons and equal time against a reference it makes once
+if expect_ok study --scene cornell --size 40x30 --photons 2000 --spp 8 --frames 2 --out "$TMP/study" -q; then
+    for e in hashgrid tiled cluster cluster-trivial bvh kdtree bounds3d bounds25d; do
+        [ "$(grep -c "^| $e |" "$TMP/study/study.md")" = 2 ] && ok || bad "study.md: not two rows for $e"
+    done
+    grep -q "^## Equal time" "$TMP/study/study.md" && grep -q "reference's noise" "$TMP/study/study.md" && ok ||
+        bad "study.md lacks the equal-time table or the reference's noise"
+    [ "$(wc -l <"$TMP/study/study.csv")" -gt 16 ] && grep -q '<polyline' "$TMP/study/study.svg" && ok ||
+        bad "study: the CSV or the SVG plot is missing"
+    # a second study of the same scene, size and samples reuses the reference
+    if expect_ok study --scene cornell --size 40x30 --photons 2000 --spp 8 --frames 2 --estimators tiled,directional \
+        --out "$TMP/study"; then
+        case $err in *"reusing"*) ok ;; *) bad "study did not reuse its reference: $err" ;; esac
+        grep -q "^| directional |" "$TMP/study/study.md" && ok || bad "study --estimators directional: no row"
+    fi
+fi
+expect_status 2 "unknown estimator" study --estimators tiled,nope --out "$TMP/study"
+expect_status 2 "--spp" study --spp 1 --out "$TMP/study"
+
 # ---- reference and compare
 expect_error "--spp" reference --scene cornell --spp 0 -o "$TMP/r.exr"
 expect_error ".exr" reference --scene cornell --spp 1 -o "$TMP/r.png"

@@ -11,6 +11,7 @@
 int pgi_cmd_render(int argc, char **argv);
 int pgi_cmd_reference(int argc, char **argv);
 int pgi_cmd_compare(int argc, char **argv);
+int pgi_cmd_study(int argc, char **argv);
 
 /* Where `render` runs its frames and `reference` its samples: NULL (photongi) in this process;
  * photongi-mpi (apps/mpi) sets a backend that deals them to MPI ranks. The commands parse and

@@ -27,6 +27,7 @@ static const char *k_main_help =
     "  info         print what a scene holds (triangles, materials, lights, bounds, camera)\n"
     "  reference    path-trace a reference image (EXR), resumable with --continue\n"
     "  compare      PSNR and SSIM of an image against a reference, error heat map\n"
+    "  study        every estimator at equal photons and equal time against a reference: a table\n"
     "  devices      list the Vulkan devices (render --device vulkan:N) and GPU estimators\n"
     "  help [CMD]   this text, or the options of a command (as 'photongi CMD --help')\n"
     "\n"
@@ -186,7 +187,8 @@ typedef struct command {
 
 static const command k_commands[] = {{"render", pgi_cmd_render},   {"estimators", cmd_estimators},
                                      {"info", cmd_info},           {"reference", pgi_cmd_reference},
-                                     {"compare", pgi_cmd_compare}, {"devices", cmd_devices}};
+                                     {"compare", pgi_cmd_compare}, {"devices", cmd_devices},
+                                     {"study", pgi_cmd_study}};
 
 static const command *find_command(const char *name) {
     for (size_t i = 0; i < sizeof k_commands / sizeof k_commands[0]; i++)
