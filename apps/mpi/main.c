@@ -928,28 +928,11 @@ static pgi_status mpi_reference(const pgi_scene *scene, const pgi_reference_desc
 /* ------------------------------------------------------------------ stats JSON with "mpi" */
 
 static pgi_status write_stats(const pgi_frame_stats *fs, const char *path) {
-    char tmp[] = "/tmp/photongi-mpi-stats-XXXXXX";
-    int fd = mkstemp(tmp);
-    if (fd < 0) return pgi_stats_write_json(fs, path);
-    close(fd);
-    pgi_status st = pgi_stats_write_json(fs, tmp);
-    if (st) {
-        unlink(tmp);
-        return st;
-    }
-    FILE *f = fopen(tmp, "rb");
-    char *text = NULL;
-    long len = 0;
-    if (f && fseek(f, 0, SEEK_END) == 0 && (len = ftell(f)) >= 0 && fseek(f, 0, SEEK_SET) == 0) {
-        text = malloc((size_t)len + 1);
-        if (text && fread(text, 1, (size_t)len, f) == (size_t)len) text[len] = 0;
-        else {
-            free(text);
-            text = NULL;
-        }
-    }
-    if (f) fclose(f);
-    unlink(tmp);
+    /* the library's JSON, with "mpi" added */
+    char small[1];
+    const size_t len = pgi_stats_json(fs, small, sizeof small);
+    char *text = len ? malloc(len + 1) : NULL;
+    if (text) pgi_stats_json(fs, text, len + 1);
     cJSON *root = text ? cJSON_Parse(text) : NULL;
     free(text);
     if (!root) return pgi_stats_write_json(fs, path);
@@ -973,7 +956,7 @@ static pgi_status write_stats(const pgi_frame_stats *fs, const char *path) {
     cJSON_Delete(root);
     if (!out) return PGI_ERR_OOM;
     FILE *o = strcmp(path, "-") == 0 ? stdout : fopen(path, "wb");
-    st = PGI_OK;
+    pgi_status st = PGI_OK;
     if (!o || fputs(out, o) < 0 || fputc('\n', o) == EOF) st = PGI_ERR_IO;
     if (o && o != stdout && fclose(o) != 0) st = PGI_ERR_IO;
     if (st) fprintf(stderr, "photongi-mpi: cannot write %s: %s\n", path, strerror(errno));
