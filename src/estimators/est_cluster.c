@@ -68,7 +68,8 @@ const pgi_option pgi__opt_cluster_tile = {.name = "cluster-tile",
                                           .min = 1,
                                           .max = 256,
                                           .def = 8,
-                                          .help = "cluster edge in pixels (1..256, default 8)"};
+                                          .help = "cluster edge in pixels (1..256, default 8; directional: a 64th of "
+                                                  "the image's shorter side, 1..8)"};
 static const pgi_option *const k_options[] = {&pgi__opt_cluster_tile, NULL};
 
 /* d is resolved: defaults filled in, ranges checked (pgi_estimator_desc_resolve). */
