@@ -4,6 +4,7 @@
 #define PGI_CLI_CMD_H
 
 #include <stdint.h>
+#include <string.h>
 
 #include "photongi/photongi.h"
 #include "photongi/reference.h"
@@ -29,5 +30,17 @@ typedef struct pgi_cli_backend {
 } pgi_cli_backend;
 
 extern const pgi_cli_backend *pgi_cli_backend_now;
+
+/* What two references' sidecars differ in ("scenes", "sizes", ...), or NULL when they were made alike
+ * but for seed and samples. */
+static inline const char *cli_reference_differs(const pgi_reference_meta *a, const pgi_reference_meta *b) {
+    return strcmp(a->scene, b->scene)                       ? "scenes"
+           : a->width != b->width || a->height != b->height ? "sizes"
+           : a->bounces != b->bounces                       ? "bounces"
+           : a->camera != b->camera                         ? "cameras"
+           : a->jitter != b->jitter                         ? "jitter settings"
+           : a->specular != b->specular                     ? "specular models"
+                                                            : NULL;
+}
 
 #endif

@@ -11,7 +11,6 @@
 #include "output.h"
 #include "parse.h"
 #include "photongi/metrics.h"
-#include "photongi/reference.h"
 
 static const char *k_compare_help =
     "usage: photongi compare A B [--json] [--diff HEAT.png] [--diff-max E] [--flip-map FLIP.png]\n"
@@ -82,12 +81,7 @@ static void note_sidecars(const char *a, const char *b) {
                     b, (unsigned long long)mb.spp);
         return;
     }
-    const char *what = strcmp(ma.scene, mb.scene) != 0 ? "scenes"
-                       : ma.camera != mb.camera        ? "cameras"
-                       : ma.bounces != mb.bounces      ? "bounces"
-                       : ma.jitter != mb.jitter        ? "sampling (pixel centres against pixel areas)"
-                       : ma.specular != mb.specular    ? "glossy models"
-                                                       : NULL;
+    const char *what = cli_reference_differs(&ma, &mb);
     if (what) fprintf(stderr, "photongi compare: note: %s and %s differ in their %s (their .json)\n", a, b, what);
 }
 

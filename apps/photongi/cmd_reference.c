@@ -108,13 +108,7 @@ static int merge_references(const char *a, const char *b, const char *out, const
     int rc = read_reference(a, &img[0], &m[0], "cannot merge");
     if (!rc && (rc = read_reference(b, &img[1], &m[1], "cannot merge"))) pgi_image_free(&img[0]);
     if (rc) return rc;
-    const char *differs = strcmp(m[0].scene, m[1].scene)                           ? "scenes"
-                          : m[0].width != m[1].width || m[0].height != m[1].height ? "sizes"
-                          : m[0].bounces != m[1].bounces                           ? "bounces"
-                          : m[0].camera != m[1].camera                             ? "cameras"
-                          : m[0].jitter != m[1].jitter                             ? "jitter settings"
-                          : m[0].specular != m[1].specular                         ? "specular models"
-                                                                                   : NULL;
+    const char *differs = cli_reference_differs(&m[0], &m[1]);
     if (differs || m[0].seed == m[1].seed) {
         pgi_image_free(&img[0]);
         pgi_image_free(&img[1]);

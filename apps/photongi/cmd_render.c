@@ -230,8 +230,7 @@ int pgi_cmd_render(int argc, char **argv) {
     const char *scene_spec = "cornell", *out = NULL, *stats_path = NULL;
     int quiet = 0;
     char err[400];
-    static from_stats fsr; /* --from-stats: its strings live through the call */
-    memset(&fsr, 0, sizeof fsr);
+    from_stats fsr = {{0}, {0}, {0}}; /* --from-stats: its strings live through the call */
     for (int i = 0; i < argc; i++) {
         const char *a = argv[i];
         if (is_help(a)) {

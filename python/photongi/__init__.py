@@ -36,11 +36,7 @@ def _value(key, v):
     if isinstance(v, bool):
         raise TypeError("{}: expected a number or a string, got {!r}".format(key, v))
     if key == "size" and not isinstance(v, str):
-        try:
-            w, h = v
-        except (TypeError, ValueError):
-            raise TypeError("size: expected (width, height) or 'WIDTHxHEIGHT', got {!r}".format(v)) from None
-        return "{}x{}".format(int(w), int(h))
+        return "{}x{}".format(*_size(v))
     if isinstance(v, float):
         return repr(v)
     return str(v)
@@ -128,7 +124,7 @@ class Renderer:
         named = dict(estimator=estimator, photons=photons, radius=radius, size=size, seed=seed, threads=threads,
                      device=device, progressive=frames, output=output)
         for key in settings:
-            if key in ("exposure", "progressive", "camera_index"):
+            if key in ("exposure", "progressive"):
                 raise TypeError("render() got an unexpected setting {!r} (exposure belongs to write_image and "
                                 "compare; frames is the progressive count)".format(key))
         named.update(settings)
@@ -199,11 +195,12 @@ def reference(scene, spp, *, size=None, bounces=0, seed=1, threads=0, camera=0, 
 
 
 def _size(size):
-    if isinstance(size, str):
-        w, _, h = size.partition("x")
+    """(width, height) from (width, height) or "WIDTHxHEIGHT"."""
+    try:
+        w, h = size.split("x") if isinstance(size, str) else size
         return int(w), int(h)
-    w, h = size
-    return int(w), int(h)
+    except (TypeError, ValueError):
+        raise TypeError("size: expected (width, height) or 'WIDTHxHEIGHT', got {!r}".format(size)) from None
 
 
 def compare(a, b, exposure=1.0):

@@ -25,25 +25,32 @@ static int add_num(cJSON *o, const char *name, double v) {
     return cJSON_AddNumberToObject(o, name, isfinite(v) ? v : 0.0) != NULL;
 }
 
-/* A float as the shortest decimal that reads back as the same float, so that
- * a radius of 0.05f is written 0.05 rather than 0.05000000074505806. */
-static double float_as_double(float f) {
-    if (!isfinite(f)) return 0.0;
-    char buf[32];
-    for (int prec = 6; prec <= 9; ++prec) {
-        snprintf(buf, sizeof buf, "%.*g", prec, (double)f);
-        double d = strtod(buf, NULL);
-        if ((float)d == f) return d;
-    }
-    return (double)f;
-}
-
 /* The shortest "%g" of f that reads back as f. */
 static void float_text(float f, char *buf, size_t size) {
     for (int prec = 6; prec <= 9; ++prec) {
         snprintf(buf, size, "%.*g", prec, (double)f);
         if ((float)strtod(buf, NULL) == f) return;
     }
+}
+
+/* A float as the shortest decimal that reads back as the same float, so that
+ * a radius of 0.05f is written 0.05 rather than 0.05000000074505806. */
+static double float_as_double(float f) {
+    if (!isfinite(f)) return 0.0;
+    char buf[32];
+    float_text(f, buf, sizeof buf);
+    return strtod(buf, NULL);
+}
+
+/* The names of the settings' enums, as the command line spells them. */
+static const char *const k_outputs[] = {"all", "indirect", "direct", "counts"};
+static const char *const k_jitters[] = {"auto", "off", "on"};
+static const char *const k_emissions[] = {"uniform", "guided", "auto"};
+static const char *const k_policies[] = {"fixed", "path", "differentials"};
+
+/* names[i] of the n names, else `otherwise`. */
+static const char *name_of(const char *const *names, int n, int i, const char *otherwise) {
+    return i >= 0 && i < n ? names[i] : otherwise;
 }
 
 /* "settings": the frame's settings as `photongi render` options (name without "--": value). */
@@ -68,15 +75,11 @@ static int add_settings(cJSON *root, const pgi_frame_stats *st) {
     if (d->threads > 0) PGI__SET("threads", "%d", d->threads);
     PGI__SET("camera", "%d", d->camera);
     PGI__SET("direct-samples", "%d", d->direct_samples);
-    static const char *const outputs[] = {"all", "indirect", "direct", "counts"};
-    PGI__SET("output", "%s", d->output >= 0 && d->output < 4 ? outputs[d->output] : "all");
-    static const char *const jitters[] = {"auto", "off", "on"}, *const emissions[] = {"uniform", "guided", "auto"};
-    PGI__SET("jitter", "%s", d->jitter >= 0 && d->jitter < 3 ? jitters[d->jitter] : "auto");
-    PGI__SET("emission", "%s", d->emission >= 0 && d->emission < 3 ? emissions[d->emission] : "uniform");
+    PGI__SET("output", "%s", name_of(k_outputs, 4, (int)d->output, "all"));
+    PGI__SET("jitter", "%s", name_of(k_jitters, 3, (int)d->jitter, "auto"));
+    PGI__SET("emission", "%s", name_of(k_emissions, 3, (int)d->emission, "uniform"));
     PGI__SET("store", "%s", d->store == PGI_STORE_VIEW ? "view" : "all");
-    static const char *const policies[] = {"fixed", "path", "differentials"};
-    PGI__SET("radius-policy", "%s",
-             d->radius_policy >= 0 && d->radius_policy < 3 ? policies[d->radius_policy] : "fixed");
+    PGI__SET("radius-policy", "%s", name_of(k_policies, 3, d->radius_policy, "fixed"));
     if (d->radius_policy != PGI_RADIUS_FIXED) {
         const float *f[] = {&d->r_min, &d->r_max, &d->smoothing};
         static const char *const names[] = {"r-min", "r-max", "smoothing"};
@@ -211,19 +214,9 @@ static cJSON *build(const pgi_frame_stats *st) {
     ok &= add_num(root, "nodes_visited", (double)st->nodes_visited);
     ok &= add_num(root, "frames", (double)st->frames);
     ok &= add_num(root, "rt_update_ms", st->rt_update_ms);
-    static const char *const policies[] = {"fixed", "path", "differentials"};
-    ok &= cJSON_AddStringToObject(root, "radius_policy",
-                                  st->radius_policy >= 0 && st->radius_policy < 3 ? policies[st->radius_policy]
-                                                                                  : "?") != NULL;
-    static const char *const jitters[] = {"auto", "off", "on"};
-    ok &= cJSON_AddStringToObject(root, "jitter",
-                                  st->settings.jitter >= 0 && st->settings.jitter < 3 ? jitters[st->settings.jitter]
-                                                                                      : "?") != NULL;
-    static const char *const emissions[] = {"uniform", "guided", "auto"};
-    ok &= cJSON_AddStringToObject(root, "emission",
-                                  st->settings.emission >= 0 && st->settings.emission < 3
-                                      ? emissions[st->settings.emission]
-                                      : "?") != NULL;
+    ok &= cJSON_AddStringToObject(root, "radius_policy", name_of(k_policies, 3, st->radius_policy, "?")) != NULL;
+    ok &= cJSON_AddStringToObject(root, "jitter", name_of(k_jitters, 3, (int)st->settings.jitter, "?")) != NULL;
+    ok &= cJSON_AddStringToObject(root, "emission", name_of(k_emissions, 3, (int)st->settings.emission, "?")) != NULL;
     ok &= cJSON_AddStringToObject(root, "store", st->settings.store == PGI_STORE_VIEW ? "view" : "all") != NULL;
     if (st->emission.bins > 0 || st->settings.store == PGI_STORE_VIEW) {
         const pgi_emission_stats *es = &st->emission;

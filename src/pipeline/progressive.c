@@ -268,6 +268,7 @@ pgi_status pgi_progressive_step(pgi_progressive *a, const pgi_render_desc *in, p
         fs.settings.radius = a->r0;
         fs.auto_radius = a->r0_how;      /* frame k's radius derives from frame 0's choice */
         fs.settings.jitter = in->jitter; /* AUTO: frame 0 at pixel centres, the others jittered */
+        fs.settings.seed = a->seed0;     /* the caller's, not frame k's seed stream */
     }
     if (stats) *stats = fs;
     return PGI_OK;
@@ -290,7 +291,7 @@ static void report_frame(void *user, const pgi_progress *in) {
     fp->fn(fp->user, &p);
 }
 
-/* Times and counters add up over the frames; the rest is the last frame's, but for the seed. */
+/* Times and counters add up over the frames; the rest is the last frame's. */
 static void stats_add(pgi_frame_stats *sum, const pgi_frame_stats *fs) {
     pgi_frame_stats t = *fs;
     t.view_ms += sum->view_ms, t.trace_ms += sum->trace_ms, t.build_ms += sum->build_ms;
@@ -303,7 +304,6 @@ static void stats_add(pgi_frame_stats *sum, const pgi_frame_stats *fs) {
     t.reads_bulk += sum->reads_bulk;
     t.estimators_created += sum->estimators_created;
     for (int i = 0; i < t.pass_count && i < sum->pass_count; i++) t.passes_ms[i].value += sum->passes_ms[i].value;
-    t.settings.seed = sum->settings.seed; /* the caller's seed (frame 0's), not the last frame's stream */
     *sum = t;
 }
 
