@@ -11,9 +11,11 @@
  *                    arrives from above every surface in it adds its flux to the
  *                    node's accumulator instead of its list.
  *   directional      §4.7: traversal stops at a fixed level; flux goes into 8
- *                    view-space octant buckets of that node; shading weights each
- *                    bucket by 2 max(0, cos); irradiance is blurred (depth- and
- *                    normal-aware) and multiplied by kd/pi. Approximate.
+ *                    view-space octant buckets of that node, each with the sum
+ *                    of its photons' directions; shading takes a bucket whose
+ *                    mean direction lies above the surface; irradiance is
+ *                    blurred (depth- and normal-aware) and multiplied by kd/pi.
+ *                    Approximate.
  *                    Its shading and blur: est_directional.c.
  *
  * Hierarchy (rebuilt each frame, §4.1): screen tiles x view-depth slices,
@@ -325,8 +327,11 @@ static inline __attribute__((always_inline)) int decide(const cl_state *s, const
             }
         }
         if (!dep) return 1;
-        float *b = k->buckets + ((size_t)(ni - s->lvl_off[s->D]) * 8 + (size_t)q->oct) * 3;
+        /* the bucket: flux, and the directions summed weighted by flux (r + g + b) */
+        float *b = k->buckets + ((size_t)(ni - s->lvl_off[s->D]) * 8 + (size_t)q->oct) * PGI__DIR_BUCKET;
+        const float lw = q->fr + q->fg + q->fb;
         b[0] += q->fr, b[1] += q->fg, b[2] += q->fb;
+        b[3] += lw * q->wx, b[4] += lw * q->wy, b[5] += lw * q->wz;
         k->deposits++;
         return 0;
     }
@@ -597,7 +602,7 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
         (st = grow_outs(s, (int)nch > nthr ? (int)nch : nthr)))
         return st;
     const size_t nD = (variant & V_DIR) ? nn - s->lvl_off[s->D] : 0; /* nodes with buckets */
-    if ((variant & V_DIR) && (st = ENSURE(buckets, nD * 24 + 1, float))) return st;
+    if ((variant & V_DIR) && (st = ENSURE(buckets, nD * 8 * PGI__DIR_BUCKET + 1, float))) return st;
     const size_t nkeys = (size_t)ntop + 1; /* the first-record keys grouping pk: nodes up to J, none */
     if ((st = ENSURE(pk, n + 1, pgi__packed_photon)) || (st = ENSURE(perm, n + 1, uint32_t)) ||
         (st = ENSURE(perm_hist, nch * nkeys + 1, uint32_t)))
@@ -711,7 +716,7 @@ static inline __attribute__((always_inline)) pgi_status splat_impl(cl_state *s, 
     memset(s->node_cnt + nabove, 0, (nn - nabove) * sizeof(uint32_t));
     memset(s->node_flux + 3 * (size_t)nabove, 0, (nn - nabove) * 3 * sizeof(float));
     memset(s->node_tcnt + nabove, 0, (nn - nabove) * sizeof(uint32_t));
-    if (variant & V_DIR) memset(s->buckets, 0, nD * 24 * sizeof(float));
+    if (variant & V_DIR) memset(s->buckets, 0, nD * 8 * PGI__DIR_BUCKET * sizeof(float));
     tm[0] = pgi__now_ms();
     /* Subtree pass, counting traversal: one task per job-level node owns its
      * whole subtree, so counts and accumulators need no atomics and sum in job
@@ -1039,7 +1044,7 @@ void cl_stats_memory(cl_state *s, size_t npix) {
     if (s->variant & V_TRIVIAL) pgi__stats_mem(&s->c.st, "node_flux", nn * (3 * sizeof(float) + sizeof(uint32_t)));
     if (s->variant & V_DIR) {
         size_t nD = s->splatted ? nn - s->lvl_off[s->D] : 0;
-        pgi__stats_mem(&s->c.st, "node_flux", nD * 24 * sizeof(float));
+        pgi__stats_mem(&s->c.st, "node_flux", nD * 8 * PGI__DIR_BUCKET * sizeof(float));
         pgi__stats_mem(&s->c.st, "irradiance", 10 * npix * sizeof(float));
     }
     pgi__stats_mem(&s->c.st, "jobs", s->njobs * sizeof(uint32_t));

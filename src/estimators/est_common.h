@@ -51,6 +51,9 @@ void pgi__est_default_stats(const void *state, pgi_estimator_stats *out);
 extern const pgi_estimator_vtbl pgi__est_brute, pgi__est_hashgrid, pgi__est_tiled;
 /* The tile-edge option of tiled, bounds3d and bounds25d (est_tiled.c). */
 extern const pgi_option pgi__opt_tile;
+/* Floats in one of directional's octant buckets (CPU and GPU): flux r, g, b, then the photons'
+ * directions summed weighted by their flux (r + g + b). */
+#define PGI__DIR_BUCKET 6
 extern const pgi_estimator_vtbl pgi__est_cluster, pgi__est_cluster_cone, pgi__est_cluster_trivial, pgi__est_directional;
 extern const pgi_estimator_vtbl pgi__est_bvh;
 extern const pgi_estimator_vtbl pgi__est_kdtree, pgi__est_bounds3d, pgi__est_bounds25d;

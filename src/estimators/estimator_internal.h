@@ -18,8 +18,6 @@
 #include "screen.h"
 #include "subsample.h"
 
-/* directional's table of octant weight normalisations K (est_directional.c): 6 x res x res floats */
-const float *pgi__directional_knorm_table(int *res);
 /* The cluster tile of a frame: `tile` when given, else (0: directional's default) a 64th of the image's
  * shorter side, 1..8 pixels (8 from 512 pixels up). A leaf then spans about the same part of the view
  * at any image size. directional takes a leaf's flux when the photon's sphere holds the leaf's centre,

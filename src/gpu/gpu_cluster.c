@@ -88,7 +88,7 @@ enum {
     K_N
 };
 
-#define DIR_TAB_HEAD 12 /* shaders/cl_dir_radiance.comp Tab: view axes, then K */
+#define DIR_TAB_HEAD 12 /* shaders/cl_dir_flux.comp Tab: the view axes (right, up, fwd) */
 
 typedef struct {
     pgi__gpu *g;
@@ -161,7 +161,7 @@ static pgi_status cl_create(pgi__gpu *g, const pgi_estimator_desc *d, void **sta
         [K_RADIANCE] = PGI__GPU_KERNEL(cl_radiance, 9, sizeof(cl_push)),
         [K_RANK] = PGI__GPU_KERNEL(cl_rank, 4, sizeof(cl_push)),
         [K_DIR_FLUX] = PGI__GPU_KERNEL(cl_dir_flux, 5, sizeof(cl_push)),
-        [K_DIR_RADIANCE] = PGI__GPU_KERNEL(cl_dir_radiance, 5, sizeof(cl_push)),
+        [K_DIR_RADIANCE] = PGI__GPU_KERNEL(cl_dir_radiance, 4, sizeof(cl_push)),
         [K_DIR_BLUR] = PGI__GPU_KERNEL(cl_dir_blur, 4, sizeof(cl_push)),
     };
     /* directional has its own flux and radiance kernels */
@@ -318,19 +318,16 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
         (st = pgi__gpu_buffer_reserve(g, &s->counters, 8 * sizeof(uint32_t), "gpu_photon_lists")) ||
         (st = pgi__gpu_scan_reserve(&s->scan, nent + 1)))
         return st;
-    if (s->dir) { /* view axes and K (shaders/cl_dir_radiance.comp Tab), buckets, irradiance planes */
-        int kres = 0;
-        const float *K = pgi__directional_knorm_table(&kres);
-        const size_t nk = 6 * (size_t)kres * kres;
+    if (s->dir) { /* view axes (shaders/cl_dir_flux.comp Tab), buckets, irradiance planes */
         float head[DIR_TAB_HEAD] = {0};
         const pgi__view_xf x = pgi__view_xf_make(cam, vs->width, vs->height);
         const pgi__v3 ax[3] = {x.right, x.up, x.fwd};
         for (int k = 0; k < 3; k++) head[3 * k] = ax[k].x, head[3 * k + 1] = ax[k].y, head[3 * k + 2] = ax[k].z;
-        if ((st = pgi__gpu_buffer_reserve(g, &s->dirtab, (DIR_TAB_HEAD + nk) * sizeof(float), "gpu_directional")) ||
-            (st = pgi__gpu_buffer_reserve(g, &s->buckets, nnodes * 24 * sizeof(float), "gpu_directional")) ||
+        if ((st = pgi__gpu_buffer_reserve(g, &s->dirtab, sizeof head, "gpu_directional")) ||
+            (st = pgi__gpu_buffer_reserve(g, &s->buckets, nnodes * 8 * PGI__DIR_BUCKET * sizeof(float),
+                                          "gpu_directional")) ||
             (st = pgi__gpu_buffer_reserve(g, &s->planes, (6 * ns + 1) * sizeof(float), "gpu_directional")) ||
-            (st = pgi__gpu_upload(g, s->dirtab, 0, head, sizeof head)) ||
-            (st = pgi__gpu_upload(g, s->dirtab, sizeof head, K, nk * sizeof(float))))
+            (st = pgi__gpu_upload(g, s->dirtab, 0, head, sizeof head)))
             return st;
     }
     if ((st = pgi__gpu_upload(g, s->photons, 0, s->packed, n * psz)) ||
@@ -436,7 +433,7 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
                 goto fail;
             pgi__gpu_timestamp(g, "gpu_buckets");
             if ((st = pgi__gpu_dispatch(g, s->k[K_DIR_RADIANCE],
-                                        (pgi__gpu_buffer *[]){s->vs, s->pix_node, s->buckets, s->dirtab, s->planes}, &p,
+                                        (pgi__gpu_buffer *[]){s->vs, s->pix_node, s->buckets, s->planes}, &p,
                                         (W + 7) / 8, (H + 7) / 8, 1)))
                 goto fail;
             pgi__gpu_timestamp(g, "gpu_radiance");
