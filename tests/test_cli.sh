@@ -458,6 +458,22 @@ if expect_ok study --scene cornell --size 40x30 --photons 2000 --spp 8 --frames 
         case $err in *"reusing"*) ok ;; *) bad "study did not reuse its reference: $err" ;; esac
         grep -q "^| directional |" "$TMP/study/study.md" && ok || bad "study --estimators directional: no row"
     fi
+    # compare reports a reference's noise from the half study keeps beside it: the half scores against the
+    # whole about what the whole scores against the truth (both are the variance of N samples' mean)
+    if expect_ok compare "$TMP/study/reference-half.exr" "$TMP/study/reference.exr" --json; then
+        awk -v j="$out" 'BEGIN {
+            if (match(j, /"psnr": [0-9.]+/)) p = substr(j, RSTART + 8, RLENGTH - 8) + 0; else exit 1
+            if (match(j, /"reference_noise_psnr": [0-9.]+/)) q = substr(j, RSTART + 24, RLENGTH - 24) + 0; else exit 1
+            exit !(q > 10 && p - q < 3 && q - p < 3) }' && ok ||
+            bad "compare --json: no reference_noise_psnr, or far from the half's own PSNR: $out"
+    fi
+    if expect_ok compare "$TMP/study/reference-half.exr" "$TMP/study/reference.exr"; then
+        case $out in *"reference noise: PSNR"*) ok ;; *) bad "compare: no reference noise line: $out" ;; esac
+    fi
+    mv "$TMP/study/reference-half.exr.json" "$TMP/study/half.json"
+    expect_ok compare "$TMP/study/reference-half.exr" "$TMP/study/reference.exr" --json &&
+        case $out in *'"reference_noise_psnr": null'*) ok ;; *) bad "compare: noise without the half's sidecar" ;; esac
+    mv "$TMP/study/half.json" "$TMP/study/reference-half.exr.json"
 fi
 expect_status 2 "unknown estimator" study --estimators tiled,nope --out "$TMP/study"
 expect_status 2 "--spp" study --spp 1 --out "$TMP/study"

@@ -43,4 +43,15 @@ static inline const char *cli_reference_differs(const pgi_reference_meta *a, con
                                                             : NULL;
 }
 
+/* A reference's own noise from one of its halves (cmd_compare.c): REF is the mean of n samples, HALF
+ * the mean of n_half of them alone (both linear, at the same scale); the other part is
+ * (n REF - n_half HALF) / (n - n_half), and the tone-mapped squared difference of the two parts times
+ * n_half (n - n_half) / n^2 is about REF's own mean squared error against the truth (for equal halves,
+ * a quarter of their difference). 0 when it cannot be computed. */
+double cli_halves_noise_mse(const pgi_image *ref, uint64_t n, const pgi_image *half, uint64_t n_half, float exposure);
+
+/* Where a reference REF.exr keeps such a half: REF-half.exr, with its sidecar ('photongi study' writes
+ * both); 0 when the name does not fit. */
+int cli_reference_half_path(const char *ref, char *out, size_t cap);
+
 #endif

@@ -19,7 +19,10 @@ static const char *k_compare_help =
     "Compares image A with the reference B (PNG or EXR, same size, at least 11x11). Both are\n"
     "tone-mapped as 'render' writes PNG (exposure, sRGB, 8 bits); a PNG already is, and compares\n"
     "by its bytes. A reference's sidecar (B.json, from 'photongi reference') is read when it is\n"
-    "there: a note says when A's sampling or settings differ from it.\n"
+    "there: a note says when A's sampling or settings differ from it. When B has a half beside it\n"
+    "(B-half.exr and its sidecar: the mean of B's last samples alone, as 'photongi study' writes),\n"
+    "the reference's own noise is estimated from the two halves and reported as a PSNR: what B\n"
+    "itself scores against the truth, about.\n"
     "\n"
     "  PSNR      10 log10(1/MSE) on sRGB values in [0,1], all channels ('inf': identical)\n"
     "  SSIM      Wang et al. 2004 as scikit-image: 11x11 Gaussian window, sigma 1.5, K1 0.01,\n"
@@ -85,6 +88,47 @@ static void note_sidecars(const char *a, const char *b) {
     if (what) fprintf(stderr, "photongi compare: note: %s and %s differ in their %s (their .json)\n", a, b, what);
 }
 
+double cli_halves_noise_mse(const pgi_image *ref, uint64_t n, const pgi_image *half, uint64_t n_half, float exposure) {
+    if (n_half == 0 || n_half >= n || half->width != ref->width || half->height != ref->height) return 0.0;
+    const size_t n3 = (size_t)ref->width * ref->height * 3;
+    const double N = (double)n, n2 = (double)n_half, n1 = N - n2;
+    pgi_image first = {ref->width, ref->height, malloc(n3 * sizeof(float))};
+    if (!first.rgb) return 0.0;
+    for (size_t i = 0; i < n3; i++) first.rgb[i] = (float)((N * ref->rgb[i] - n2 * half->rgb[i]) / n1);
+    pgi_metrics m;
+    double mse = pgi_metrics_compute(&first, half, exposure, &m) == PGI_OK ? m.mse * n1 * n2 / (N * N) : 0.0;
+    pgi_image_free(&first);
+    return mse;
+}
+
+int cli_reference_half_path(const char *ref, char *out, size_t cap) {
+    const size_t len = strlen(ref);
+    if (len < 5 || strcmp(ref + len - 4, ".exr") != 0) return 0;
+    return snprintf(out, cap, "%.*s-half.exr", (int)(len - 4), ref) < (int)cap;
+}
+
+/* The noise of reference B (img, already scaled by the exposure) from its half B-half.exr, when there is
+ * one whose sidecar says it belongs to B; 0 when none. *half_out gets its path. */
+static double reference_noise(const char *b, const pgi_image *img, float exposure, char *half_out, size_t cap) {
+    char pb[4200], ph[4200];
+    pgi_reference_meta mb, mh;
+    snprintf(pb, sizeof pb, "%s.json", b);
+    if (!cli_reference_half_path(b, half_out, cap) || snprintf(ph, sizeof ph, "%s.json", half_out) >= (int)sizeof ph)
+        return 0.0;
+    if (pgi_reference_meta_read(pb, &mb) != PGI_OK || pgi_reference_meta_read(ph, &mh) != PGI_OK ||
+        cli_reference_differs(&mb, &mh) || mh.spp >= mb.spp)
+        return 0.0;
+    pgi_image half = {0};
+    int hdr = 0;
+    double mse = 0.0;
+    if (pgi_image_read(half_out, &half, &hdr) == PGI_OK && hdr) {
+        for (size_t i = 0, n3 = (size_t)half.width * half.height * 3; i < n3; i++) half.rgb[i] *= exposure;
+        mse = cli_halves_noise_mse(img, mb.spp, &half, mh.spp, 1.f);
+    }
+    pgi_image_free(&half);
+    return mse;
+}
+
 int pgi_cmd_compare(int argc, char **argv) {
     const char *files[2] = {NULL, NULL}, *diff = NULL, *flip_map = NULL;
     int nfiles = 0, json = 0;
@@ -140,6 +184,8 @@ int pgi_cmd_compare(int argc, char **argv) {
                 "tone-mapped at --exposure %g to match it; relMSE comes from its clamped, quantised values\n",
                 files[hdr[0] ? 1 : 0], (double)exposure);
     note_sidecars(files[0], files[1]);
+    char half[4200];
+    const double noise = hdr[1] ? reference_noise(files[1], &img[1], exposure, half, sizeof half) : 0.0;
     const int w = img[0].width, h = img[0].height;
     const size_t n = (size_t)w * h;
     float *fmap = flip_map ? malloc(n * sizeof *fmap) : NULL;
@@ -179,17 +225,18 @@ int pgi_cmd_compare(int argc, char **argv) {
     }
     pgi_image_free(&img[0]);
     pgi_image_free(&img[1]);
-    char psnr[32];
+    char psnr[32], noise_psnr[32];
     if (isinf(m.psnr)) snprintf(psnr, sizeof psnr, json ? "null" : "inf");
     else snprintf(psnr, sizeof psnr, "%.8f", m.psnr);
+    snprintf(noise_psnr, sizeof noise_psnr, noise > 0.0 ? "%.8f" : "null", 10.0 * log10(1.0 / noise));
     if (json) {
         printf("{\"width\": %d, \"height\": %d, \"psnr\": %s, \"mse\": %.9g, \"ssim\": %.8f, \"ssim_rgb\": %.8f, "
                "\"ssim_r\": %.8f, \"ssim_g\": %.8f, \"ssim_b\": %.8f, \"max_abs\": %.6f, \"flip\": %.8f, "
                "\"flip_weighted_median\": %.8f, \"flip_weighted_q1\": %.8f, \"flip_weighted_q3\": %.8f, "
-               "\"flip_max\": %.8f, \"flip_ppd\": %.6f, \"relmse\": %.9g}\n",
+               "\"flip_max\": %.8f, \"flip_ppd\": %.6f, \"relmse\": %.9g, \"reference_noise_psnr\": %s}\n",
                m.width, m.height, psnr, m.mse, m.ssim, m.ssim_rgb, m.ssim_channel[0], m.ssim_channel[1],
                m.ssim_channel[2], m.max_abs, m.flip.mean, m.flip.weighted_median, m.flip.weighted_q1,
-               m.flip.weighted_q3, m.flip.max, (double)m.flip.ppd, m.relmse);
+               m.flip.weighted_q3, m.flip.max, (double)m.flip.ppd, m.relmse, noise_psnr);
     } else {
         printf("PSNR %s dB  SSIM %.4f (luma)  %.4f (RGB mean: %.4f %.4f %.4f)  max diff %.4f  %dx%d\n", psnr, m.ssim,
                m.ssim_rgb, m.ssim_channel[0], m.ssim_channel[1], m.ssim_channel[2], m.max_abs, m.width, m.height);
@@ -197,6 +244,10 @@ int pgi_cmd_compare(int argc, char **argv) {
                "relMSE %.6g\n",
                m.flip.mean, m.flip.weighted_median, m.flip.weighted_q1, m.flip.weighted_q3, m.flip.max,
                (double)m.flip.ppd, m.relmse);
+        if (noise > 0.0)
+            printf("reference noise: PSNR %.2f dB from its half %s (the reference's own error, about: a PSNR near "
+                   "it says more about the reference than about A)\n",
+                   10.0 * log10(1.0 / noise), half);
     }
     return 0;
 }

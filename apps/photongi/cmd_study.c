@@ -156,7 +156,7 @@ static int make_reference(const char *dir, const char *scene_spec, const pgi_sce
     char path[4300], side[4400], half[4400];
     snprintf(path, sizeof path, "%s/reference.exr", dir);
     snprintf(side, sizeof side, "%s.json", path);
-    snprintf(half, sizeof half, "%s/reference-half.exr", dir);
+    if (!cli_reference_half_path(path, half, sizeof half)) return cli_failure("study", "--out path too long");
     pgi_reference_meta m;
     pgi_image hb = {0};
     if (pgi_reference_meta_read(side, &m) == PGI_OK && strcmp(m.scene, scene_spec) == 0 && m.width == w &&
@@ -199,26 +199,22 @@ static int make_reference(const char *dir, const char *scene_spec, const pgi_sce
         pgi_reference_meta out =
             {.width = w, .height = h, .bounces = 0, .seed = 1, .spp = spp, .jitter = PGI_JITTER_ON};
         snprintf(out.scene, sizeof out.scene, "%s", scene_spec);
+        pgi_reference_meta out_half = out;
+        out_half.spp = spp - spp / 2;
+        char half_side[4500];
+        snprintf(half_side, sizeof half_side, "%s.json", half);
         if ((st = pgi_image_write(ref, path, 1.f)) || (st = pgi_reference_meta_write(&out, side)) ||
-            (st = pgi_image_write(&second, half, 1.f))) {
+            (st = pgi_image_write(&second, half, 1.f)) || (st = pgi_reference_meta_write(&out_half, half_side))) {
             pgi_image_free(&hb);
             pgi_image_free(&second);
             return cli_fail("study", "cannot write the reference", st);
         }
-        /* keep the first half beside it: reference-half.exr holds the second; the first is 2 ref - second */
+        /* reference-half.exr keeps the second half (the noise estimate: cli_halves_noise_mse) */
         pgi_image_free(&hb);
         hb = second;
     }
-    /* the halves: hb (second) and 2 ref - hb (first, for equal halves) */
-    *noise_mse = 0.0;
-    const size_t n3 = (size_t)w * h * 3;
-    pgi_image first = {w, h, malloc(n3 * sizeof(float))};
-    pgi_metrics hm;
-    if (first.rgb) {
-        for (size_t i = 0; i < n3; i++) first.rgb[i] = 2.f * ref->rgb[i] - hb.rgb[i];
-        if (pgi_metrics_compute(&first, &hb, exposure, &hm) == PGI_OK) *noise_mse = hm.mse / 4.0;
-    }
-    pgi_image_free(&first);
+    /* the halves: hb (the last spp - spp/2 samples) and the rest */
+    *noise_mse = cli_halves_noise_mse(ref, spp, &hb, spp - spp / 2, exposure);
     pgi_image_free(&hb);
     return 0;
 }
