@@ -1,31 +1,29 @@
 #!/usr/bin/env bash
-# Quality benchmark: the cluster paper's Table 2 protocol (Moreau et al. 2016).
+# Quality benchmark: the cluster paper's Table 2 protocol (Moreau et al. 2016), as runs of
+# `photongi study` (one per scene and photon count) gathered into one table.
 #
-# For every scene, photon count (with the paper's radius, scaled to the scene's
-# units) and registered estimator except brute: render with `photongi render`,
-# compare with a path-traced reference (`photongi compare`: SSIM on luma, PSNR
-# on tone-mapped sRGB, LDR-FLIP's mean) and record the density-estimation time (estimator build + estimate) from --stats JSON.
-# The reference is rendered once per scene/size/spp and cached outside the
-# repository in $PHOTONGI_CACHE (default ~/.cache/photongi); a cached one with
-# fewer samples is extended with `reference --continue`.
+# For every scene and photon count (with the paper's radius, scaled to the scene's units; a scene
+# or count the paper has no radius for takes the scene's own) every registered estimator except
+# brute renders one frame through pixel centres (`study --jitter off --equal-time off`), compared
+# with a path-traced pixel-centre reference (SSIM on luma, PSNR on tone-mapped sRGB, LDR-FLIP's
+# mean) with the density-estimation time (estimator build + estimate) of that frame. The
+# reference is made once per scene, size and spp in two halves (study's) and kept outside the
+# repository in $PHOTONGI_CACHE (default ~/.cache/photongi); its halves give its own noise, so
+# the CSV also has the PSNR against the noise-free limit (psnr_limit: 10 log10(1 / (MSE - the
+# reference's MSE)), the image's error with the reference's noise taken out).
 #
-# The reference is the merge of two halves rendered with different seeds; their difference
-# gives its own noise, so the CSV also has the PSNR against the noise-free limit (psnr_limit:
-# 10 log10(1 / (MSE - MSE(half A, half B) / 4)), the image's error with the reference's noise
-# taken out).
-#
-# Outputs in --out DIR (default bench/out/quality): quality.csv, quality.md
-# (laid out like the paper's Table 2, plus FLIP), quality_<scene>.png plots (SSIM, PSNR,
-# FLIP and build + estimate time against photons; needs gnuplot, scripts/install-deps.sh),
-# the rendered PNGs and the error heat maps.
+# Outputs in --out DIR (default bench/out/quality): quality.csv, quality.md (laid out like the
+# paper's Table 2, plus FLIP), quality_<scene>.png plots (SSIM, PSNR, FLIP and build + estimate
+# time against photons; needs gnuplot, scripts/install-deps.sh), and each study's folder
+# (SCENE/COUNT/: study.md, study.csv and every method's PNG).
 #
 # Usage: bench/quality.sh [--size WxH] [--spp N] [--scenes "sibenik crytek-sponza-paper"]
 #          [--photons "10k 50k 200k 1M 5M"] [--estimators "hashgrid tiled"]
-#          [--repeat R] [--auto "hashgrid"] [--bin PATH] [--out DIR]
+#          [--auto "hashgrid"] [--bin PATH] [--out DIR]
 # Defaults: 1920x1080, reference 1024 spp, both scenes, the paper's five counts
 # (50M is optional: --photons "... 50M"), every estimator `photongi estimators`
-# lists except brute, 1 run (--repeat R: median time of R runs). --auto "E ...": also a row per
-# photon count with the automatic radius (docs/radius.md) for the estimators E.
+# lists except brute. --auto "E ...": also a row per photon count with the automatic radius
+# (docs/radius.md) for the estimators E. Times are one frame's: `photongi-bench` measures them.
 #
 # Radii: the paper's Table 2 values are in metres (Sibenik in McGuire's archive
 # is in metres, 40 m long, and Sponza's radii only make sense in metres for its
@@ -41,7 +39,6 @@ SPP=1024
 SCENES="sibenik crytek-sponza-paper"
 PHOTONS="10k 50k 200k 1M 5M"
 ESTIMATORS=""
-REPEAT=1
 AUTO=""
 OUT="$here/bench/out/quality"
 while [ $# -gt 0 ]; do
@@ -51,7 +48,6 @@ while [ $# -gt 0 ]; do
     --scenes) SCENES=$2; shift 2 ;;
     --photons) PHOTONS=$2; shift 2 ;;
     --estimators) ESTIMATORS=$2; shift 2 ;;
-    --repeat) REPEAT=$2; shift 2 ;;
     --auto) AUTO=$2; shift 2 ;;
     --bin) BIN=$2; shift 2 ;;
     --out) OUT=$2; shift 2 ;;
@@ -62,10 +58,9 @@ done
 [ -x "$BIN" ] || { echo "quality.sh: $BIN not found: build first (cmake --build build)" >&2; exit 1; }
 [[ "$SIZE" =~ ^[0-9]+x[0-9]+$ ]] || { echo "quality.sh: --size needs WxH, got '$SIZE'" >&2; exit 2; }
 [[ "$SPP" =~ ^[0-9]+$ && "$SPP" -ge 1 ]] || { echo "quality.sh: --spp needs a positive number" >&2; exit 2; }
-[[ "$REPEAT" =~ ^[0-9]+$ && "$REPEAT" -ge 1 ]] || { echo "quality.sh: --repeat needs a positive number" >&2; exit 2; }
 export PHOTONGI_SCENES=${PHOTONGI_SCENES:-$here/../shared/scenes}
 CACHE=${PHOTONGI_CACHE:-$HOME/.cache/photongi}
-mkdir -p "$CACHE" "$OUT/img"
+mkdir -p "$CACHE" "$OUT"
 cd "$here"   # scene names resolve through ./scenes/<name>.json
 
 if [ -z "$ESTIMATORS" ]; then
@@ -92,84 +87,55 @@ paper_radius() {
 }
 scene_scale() { case "$1" in crytek-sponza*) echo 100 ;; *) echo 1 ;; esac; }
 
-json_get() {   # json_get FILE KEY[.KEY...] (a number; "null" stays null)
-  python3 -c '
-import json, sys
-v = json.load(open(sys.argv[1]))
-for k in sys.argv[2].split("."):
-    v = v.get(k) if isinstance(v, dict) else None
-print("null" if v is None else v)' "$1" "$2"
-}
-ref_spp() { python3 -c 'import json,sys; print(json.load(open(sys.argv[1]))["spp"])' "$1"; }
-
 CSV="$OUT/quality.csv"
-echo "scene,photons,radius,estimator,ssim,ssim_rgb,psnr,density_ms,estimate_ms,build_ms,total_ms,ref_spp,width,height,flip,psnr_limit" > "$CSV"
-W=${SIZE%x*}; H=${SIZE#*x}
+echo "scene,photons,radius,estimator,ssim,psnr,density_ms,estimate_ms,build_ms,total_ms,ref_spp,width,height,flip,psnr_limit" > "$CSV"
+# study.csv rows -> quality.csv rows (label: the photon count as given; auto: the radius as "auto:R")
+gather() {   # gather STUDY.csv LABEL AUTO(0|1)
+  python3 - "$1" "$2" "$3" >> "$CSV" <<'PY'
+import csv, math, sys
+for r in csv.DictReader(open(sys.argv[1])):
+    psnr, ref = float(r["psnr"]), float(r["reference_psnr"])
+    mse = 10 ** (-psnr / 10) if math.isfinite(psnr) else 0.0
+    noise = 10 ** (-ref / 10) if math.isfinite(ref) else 0.0
+    lim = "%.4f" % (10 * math.log10(1 / (mse - noise))) if mse > noise else "null"
+    rad = ("auto:%.4g" if sys.argv[3] == "1" else "%.6g") % float(r["radius"])
+    b, e = float(r["build_ms"]), float(r["estimate_ms"])
+    print(",".join([r["scene"], sys.argv[2], rad, r["estimator"], r["ssim"],
+                    r["psnr"] if math.isfinite(psnr) else "null", "%.3f" % (b + e), r["estimate_ms"],
+                    r["build_ms"], r["ms"], r["reference_spp"], r["width"], r["height"], r["flip"], lim]))
+PY
+}
+
 for scene in $SCENES; do
-  # The reference: two halves of SPP/2 samples with seeds 1 and 2, merged. Their difference
-  # measures the merged reference's own noise (MSE(A, B) / 4 for equal halves), which the PSNR
-  # against the noise-free limit removes from each image's MSE.
-  for seed in 1 2; do
-    half="$CACHE/ref_${scene}_${SIZE}_b4_cam0_s${seed}.exr"
-    if [ -f "$half" ] && [ -f "$half.json" ]; then
-      hv=$(ref_spp "$half.json")
-      if [ "$hv" -lt $(( (SPP + 1) / 2 )) ]; then
-        echo "quality: extending $half from $hv to $(( (SPP + 1) / 2 )) spp" >&2
-        nice -n 10 "$BIN" reference --continue "$half" --spp $(( (SPP + 1) / 2 - hv )) -q
-      fi
-    else
-      echo "quality: rendering the half reference $half ($(( (SPP + 1) / 2 )) spp; cached for later runs)" >&2
-      # --jitter off: pixel centres, as the single frames compared with it (the estimators' error
-      # only, not the aliasing every single frame shares)
-      nice -n 10 "$BIN" reference --scene "$scene" --size "$SIZE" --bounces 4 --seed "$seed" --jitter off \
-        --spp $(( (SPP + 1) / 2 )) -o "$half" -q
-    fi
-  done
-  base="$CACHE/ref_${scene}_${SIZE}_b4_cam0"
-  ref="${base}_s1+2.exr"
-  "$BIN" reference --merge "${base}_s1.exr" "${base}_s2.exr" -o "$ref" -q
-  "$BIN" compare "${base}_s1.exr" "${base}_s2.exr" --json > "$OUT/cmp.json"
-  # A and B of nA and nB samples: MSE(A, B) = s2 (1/nA + 1/nB), the merge's noise s2 / (nA + nB)
-  na=$(ref_spp "${base}_s1.exr.json"); nb=$(ref_spp "${base}_s2.exr.json")
-  ref_noise=$(python3 -c "print($(json_get "$OUT/cmp.json" mse) * $na * $nb / ($na + $nb) ** 2)")
-  have=$(ref_spp "$ref.json")
   scale=$(scene_scale "$scene")
+  # one pixel-centre reference per scene, size and spp (study makes it in two halves and reuses it)
+  ref="$CACHE/study_${scene}_${SIZE}_b4_cam0_centre_${SPP}spp.exr"
   for label in $PHOTONS; do
-    pr=$(paper_radius "$scene" "$label")
-    if [ -z "$pr" ]; then echo "quality: no paper radius for $scene $label, skipped" >&2; continue; fi
-    r=$(python3 -c "print($pr * $scale)")
     n=$(count "$label")
-    for run in $(for e in $ESTIMATORS; do echo "$e:$r"; done) $(for e in $AUTO; do echo "$e:auto"; done); do
-      est=${run%%:*}; rarg=${run#*:}
-      tag=$label; [ "$rarg" = auto ] && tag="${label}_auto"
-      img="$OUT/img/${scene}_${est}_${tag}.png"
-      times=()
-      for rep in $(seq "$REPEAT"); do
-        "$BIN" render --scene "$scene" --size "$SIZE" --estimator "$est" --photons "$n" --radius "$rarg" \
-          --bounces 4 --seed 1 --stats "$OUT/stats.json" -o "$img" -q
-        e_ms=$(json_get "$OUT/stats.json" times_ms.estimate); b_ms=$(json_get "$OUT/stats.json" times_ms.build)
-        times+=("$(python3 -c "print($e_ms + $b_ms)") $e_ms $b_ms $(json_get "$OUT/stats.json" times_ms.total)")
-      done
-      # the radius: the paper's, or "auto:R" with the one the automatic radius chose
-      rcol=$r; [ "$rarg" = auto ] && rcol="auto:$(python3 -c "print('%.4g' % $(json_get "$OUT/stats.json" radius))")"
-      # The run with the median density-estimation time (build + estimate: the splatting
-      # methods do their photon work in build, the gather methods in estimate).
-      read -r dens_ms est_ms build_ms total_ms < <(printf '%s\n' "${times[@]}" | sort -g | awk '{a[NR]=$0} END {print a[int((NR+1)/2)]}')
-      "$BIN" compare "$img" "$ref" --json --diff "$OUT/img/${scene}_${est}_${tag}_diff.png" > "$OUT/cmp.json"
-      ssim=$(json_get "$OUT/cmp.json" ssim); ssim_rgb=$(json_get "$OUT/cmp.json" ssim_rgb)
-      psnr=$(json_get "$OUT/cmp.json" psnr); flip=$(json_get "$OUT/cmp.json" flip)
-      # PSNR against the noise-free limit: the reference's noise taken out of the MSE ("null"
-      # when the image is no farther from the reference than the reference's own noise)
-      psnr_limit=$(python3 -c "
-import math; e = $(json_get "$OUT/cmp.json" mse) - $ref_noise
-print('%.4f' % (10 * math.log10(1 / e)) if e > 0 else 'null')")
-      echo "$scene,$label,$rcol,$est,$ssim,$ssim_rgb,$psnr,$dens_ms,$est_ms,$build_ms,$total_ms,$have,$W,$H,$flip,$psnr_limit" >> "$CSV"
-      printf 'quality: %-14s %5s r=%-10s %-10s SSIM %.4f PSNR %6.2f dB (limit %s) FLIP %.4f  build+estimate %8.1f ms\n' \
-        "$scene" "$label" "$rcol" "$est" "$ssim" "$psnr" "$psnr_limit" "$flip" "$dens_ms" >&2
+    pr=$(paper_radius "$scene" "$label")
+    rargs=()
+    if [ -n "$pr" ]; then
+      rargs=(--radius "$(python3 -c "print($pr * $scale)")")
+    else
+      echo "quality: no paper radius for $scene $label: the scene's radius" >&2
+    fi
+    for mode in fixed auto; do
+      if [ $mode = auto ]; then
+        [ -n "$AUTO" ] || continue
+        ests=$AUTO; rargs=(--radius auto); dir="$OUT/$scene/${label}_auto"
+      else
+        ests=$ESTIMATORS; dir="$OUT/$scene/$label"
+      fi
+      mkdir -p "$dir"
+      nice -n 10 "$BIN" study --scene "$scene" --size "$SIZE" --spp "$SPP" --photons "$n" "${rargs[@]}" \
+        --bounces 4 --jitter off --equal-time off --estimators "$(echo $ests | tr ' ' ,)" \
+        --reference "$ref" --out "$dir" -q >/dev/null
+      gather "$dir/study.csv" "$label" "$([ $mode = auto ] && echo 1 || echo 0)"
+      echo "quality: $scene $label ($mode radius): $dir/study.md" >&2
     done
   done
 done
-rm -f "$OUT/stats.json" "$OUT/cmp.json"
+have=$(awk -F, 'NR == 2 {print $11}' "$CSV")
 
 # Markdown table laid out like the paper's Table 2.
 python3 - "$CSV" "$OUT/quality.md" <<'EOF'
@@ -182,7 +148,7 @@ out = open(sys.argv[2], "w")
 if rows:
     out.write("Quality against a path-traced reference (%sx%s, reference %s spp): SSIM on luma in %%, PSNR in dB,\n"
               "in brackets the PSNR against the noise-free limit (the reference's own noise taken out of the MSE),\n"
-              "FLIP (LDR-FLIP mean, lower is better), density-estimation time (estimator build + estimate) in ms (median of runs). Radii in scene units (paper's metres scaled).\n\n"
+              "FLIP (LDR-FLIP mean, lower is better), density-estimation time (estimator build + estimate) of one frame in ms. Radii in scene units (paper's metres scaled).\n\n"
               % (rows[0]["width"], rows[0]["height"], rows[0]["ref_spp"]))
 out.write("| Scene | Photons | Radius | " + " | ".join("%s SSIM | %s PSNR | %s FLIP | %s ms" % (e, e, e, e) for e in ests) + " |\n")
 out.write("|---|---|---|" + "---|---|---|---|" * len(ests) + "\n")
@@ -215,11 +181,16 @@ if command -v gnuplot >/dev/null 2>&1; then
     for est in $ESTIMATORS; do
       echo "\"$est\"" >> "$dat"
       awk -F, -v s="$scene" -v e="$est" 'NR > 1 && $1 == s && $4 == e && $3 !~ /^auto/ {
-          n = $2; sub(/k$/, "e3", n); sub(/M$/, "e6", n); print n, 100 * $5, ($7 == "null" ? 99 : $7), $8, $15 }' "$CSV" >> "$dat"
+          n = $2; sub(/k$/, "e3", n); sub(/M$/, "e6", n); print n, 100 * $5, ($6 == "null" ? 99 : $6), $7, $14 }' "$CSV" >> "$dat"
       printf '\n\n' >> "$dat"
     done
     nblocks=$(echo $ESTIMATORS | wc -w)
-    gnuplot <<EOF
+    # a single photon count has no curve to draw (and a log axis of one point): the table says it
+    if [ "$(awk -F, -v s="$scene" 'NR > 1 && $1 == s && $3 !~ /^auto/ {print $2}' "$CSV" | sort -u | wc -l)" -lt 2 ]; then
+      echo "quality: $scene has fewer than two photon counts: no plot" >&2
+      continue
+    fi
+    gnuplot <<EOF || echo "quality: gnuplot failed for $scene: no plot" >&2
 set terminal pngcairo size 1900,450 font ",10"
 set output "$OUT/quality_${scene}.png"
 set multiplot layout 1,4 title "$scene, ${SIZE}, reference ${have} spp"

@@ -476,6 +476,20 @@ if expect_ok study --scene cornell --size 40x30 --photons 2000 --spp 8 --frames 
     mv "$TMP/study/half.json" "$TMP/study/reference-half.exr.json"
 fi
 expect_status 2 "unknown estimator" study --estimators tiled,nope --out "$TMP/study"
+# render settings pass through (radius, pixel centres: the reference too), budgets, the path tracer, variants
+if expect_ok study --scene cornell --size 24x16 --photons 2000 --spp 8 --estimators hashgrid+guided,pathtracer \
+    --time 5,20 --jitter off --radius 0.1 --reference "$TMP/sref.exr" --out "$TMP/study2" -q; then
+    [ "$(grep -c ',time,' "$TMP/study2/study.csv")" = 4 ] && ok || bad "study --time 5,20: not four equal-time rows"
+    grep -q '^"cornell",24,16,2000,hashgrid+guided,photons,1,.*,0.1,[0-9.]*,[0-9.]*,off,0$' \
+        "$TMP/study2/study.csv" && ok || bad "study: hashgrid+guided's frame is not at radius 0.1, pixel centres"
+    grep -q '"jitter":.*false' "$TMP/sref.exr.json" && [ -f "$TMP/sref-half.exr" ] && ok ||
+        bad "study --jitter off --reference: not a pixel-centre reference with its half"
+    [ -f "$TMP/study2/pathtracer-time-20ms.png" ] && ! [ -f "$TMP/study2/pathtracer-photons.png" ] && ok ||
+        bad "study: the path tracer's images are not its equal-time ones"
+fi
+expect_status 2 "+guided or +view" study --estimators hashgrid+fast --out "$TMP/study"
+expect_status 2 "not a setting of study" study --progressive 4 --out "$TMP/study"
+expect_status 2 "increasing" study --time 20,5 --out "$TMP/study"
 expect_status 2 "--spp" study --spp 1 --out "$TMP/study"
 
 # ---- reference and compare

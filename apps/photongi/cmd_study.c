@@ -1,14 +1,17 @@
-/* photongi study: a method table for any scene. Every chosen estimator renders the same frame at equal
- * photons (one frame) and at equal time (a progressive average, as many frames as fit in the budget),
- * against a path-traced reference the study makes once and reuses; the reference's own noise comes
- * from its two halves. Writes study.md, study.csv and study.svg (PSNR against time) into --out. */
+/* photongi study: a method table for any scene. Every chosen method renders the same frame at equal
+ * photons (one frame) and at equal time (a progressive average, as many frames as fit in each budget;
+ * the path tracer too), against a path-traced reference the study makes once and reuses; the
+ * reference's own noise comes from its two halves. Writes study.md, study.csv, study.svg (PSNR against
+ * time) and every image into --out. bench/quality.sh and bench/equal_time.sh are runs of it. */
 #include <errno.h>
 #include <inttypes.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <limits.h>
 #include <sys/stat.h>
+#include <time.h>
 
 #include "cli.h"
 #include "cmd.h"
@@ -17,10 +20,12 @@
 #include "photongi/metrics.h"
 #include "photongi/photongi.h"
 #include "photongi/reference.h"
+#include "render_options.h"
 
 static const char *k_study_help =
     "usage: photongi study [--scene S] [--estimators A,B,...] [--photons N] [--size WxH]\n"
-    "                      [--time MS] [--frames N] [--spp N] [--threads T] [--out DIR] [-q]\n"
+    "                      [--time MS,...] [--frames N] [--equal-time on|off] [--spp N]\n"
+    "                      [--reference REF.exr] [--threads T] [--out DIR] [-q] [render settings]\n"
     "\n"
     "Compares density-estimation methods on one scene against a path-traced reference: each\n"
     "estimator renders the same frame at equal photons (one frame, each pixel sampled over its\n"
@@ -28,19 +33,30 @@ static const char *k_study_help =
     "its time, PSNR, SSIM, FLIP, relMSE, photon reads and memory go into one table.\n"
     "\n"
     "  --scene S          any scene 'render' takes (default cornell)\n"
-    "  --estimators LIST  comma-separated names, or exact (default: every exact estimator but\n"
-    "                     the brute-force oracle), or all\n"
+    "  --estimators LIST  comma-separated methods: estimator names, exact (every exact\n"
+    "                     estimator but the brute-force oracle; the default), all, and\n"
+    "                     pathtracer (equal time only; its frames are samples a pixel); a name\n"
+    "                     may end in +guided (--emission guided) and/or +view (--store view)\n"
     "  --photons N        photons a frame (default 100000)\n"
     "  --size WxH         image size (default 320x240)\n"
-    "  --time MS          the equal-time budget in milliseconds (default: the slowest method's\n"
-    "                     single frame times --frames)\n"
+    "  --time MS[,MS...]  the equal-time budgets in milliseconds of rendering, increasing, up\n"
+    "                     to 16 (default: one, the slowest method's single frame times --frames)\n"
     "  --frames N         the default budget in frames of the slowest method (default 8)\n"
+    "  --equal-time on|off   the equal-time table (default on)\n"
     "  --spp N            the reference's samples per pixel (default 256)\n"
+    "  --reference F.exr  where the reference and its half (F-half.exr) are kept (default\n"
+    "                     DIR/reference.exr); one there of the same scene, size, samples,\n"
+    "                     bounces, camera, sampling and glossy model is reused, else made\n"
     "  --threads T        threads (default: all)\n"
-    "  --out DIR          where study.md, study.csv, study.svg and reference.exr go (default\n"
-    "                     study-SCENE); a reference there of the same scene, size and samples is\n"
-    "                     reused\n"
+    "  --out DIR          where study.md, study.csv, study.svg and each method's PNG\n"
+    "                     (METHOD-photons.png, METHOD-time[-MSms].png) go (default study-SCENE)\n"
     "  -q, --quiet        no progress lines\n"
+    "\n"
+    "Any other setting of 'render' (--radius, --bounces, --camera, --jitter, --emission, --store,\n"
+    "--seed, --exposure, --specular, an estimator's options such as --cluster-tile, ...) applies\n"
+    "to every method's frames; --bounces, --camera, --jitter and --specular to the reference too.\n"
+    "--jitter off compares pixel centres with a pixel-centre reference: the estimators' error\n"
+    "without the edge aliasing every single frame shares.\n"
     "\n"
     "The reference's noise is measured from its two halves: 'reference PSNR' in the table is what\n"
     "the reference itself scores against the truth (about); a method scoring near it is judged\n"
@@ -50,32 +66,131 @@ static const char *k_study_help =
 
 #define MAX_EST 32
 
+/* A method of the study: an estimator with its emission and storage variant, or the path tracer. */
+typedef struct method {
+    const pgi_estimator_vtbl *vt; /* NULL: the path tracer (PATHTRACER) */
+    char name[96];                /* as the tables spell it: "hashgrid", "hashgrid+guided+view" */
+    int guided, view;             /* +guided: --emission guided; +view: --store view */
+} method;
+
+#define PATHTRACER "pathtracer"
+#define MAX_BUDGETS 16
+
 typedef struct row {
-    const char *estimator;
-    const char *mode; /* "photons" or "time" */
+    const char *estimator; /* the method's name */
+    const char *mode;      /* "photons" or "time" */
+    double budget_ms;      /* "time": the budget (0 for "photons") */
     int frames;
     double ms, psnr, ssim, flip, relmse, reads, contributing, bytes;
+    double radius, build_ms, estimate_ms; /* the first frame's */
 } row;
 
-/* One frame (budget_ms 0), or a progressive average of the frames that fit in `budget_ms` of render time
- * (at least one; the next frame is expected to take as long as the last). */
-static pgi_status run(pgi_renderer *r, const pgi_render_desc *d, double budget_ms, int max_frames, pgi_image *img,
-                      int *frames, double *ms, pgi_frame_stats *fs) {
-    pgi_progressive *p;
-    pgi_status st = pgi_progressive_create(r, &p);
+static double memory_of(const pgi_frame_stats *fs);
+
+static double now_ms(void) {
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return 1e3 * (double)t.tv_sec + 1e-6 * (double)t.tv_nsec;
+}
+
+/* What the study's methods share. */
+typedef struct study_ctx {
+    pgi_renderer *r;
+    const pgi_scene *scene;
+    const pgi_render_desc *d;       /* every method's settings but its estimator and variant */
+    const pgi_reference_meta *want; /* the reference's: the path tracer's samples are made alike */
+    const pgi_image *ref;
+    float exposure;
+    const char *dir;
+    int quiet, nbudgets;
+} study_ctx;
+
+/* A row: the image's metrics against the reference, and its PNG in the study's folder. */
+static pgi_status record(const study_ctx *c, const method *m, double budget, int nf, double ms,
+                         const pgi_frame_stats *fs, const pgi_image *img, row *x) {
+    pgi_metrics mt;
+    pgi_status st = pgi_metrics_compute(img, c->ref, c->exposure, &mt);
     if (st) return st;
-    *ms = 0.0;
-    *frames = 0;
-    pgi_frame_stats one;
-    memset(fs, 0, sizeof *fs);
-    do {
-        if ((st = pgi_progressive_step(p, d, img, &one))) break;
-        *ms += one.total_ms;
-        ++*frames;
-        if (*frames == 1) *fs = one;
-        else fs->reads += one.reads, fs->contributing += one.contributing;
-    } while (budget_ms > 0.0 && *ms + one.total_ms <= budget_ms && *frames < max_frames); /* the next one fits */
+    *x = (row){m->name,
+               budget > 0.0 ? "time" : "photons",
+               budget,
+               nf,
+               ms,
+               mt.psnr,
+               mt.ssim,
+               mt.flip.mean,
+               mt.relmse,
+               (double)fs->reads,
+               (double)fs->contributing,
+               memory_of(fs),
+               fs->radius,
+               fs->build_ms,
+               fs->estimate_ms};
+    char png[4400];
+    if (budget <= 0.0) snprintf(png, sizeof png, "%s/%s-photons.png", c->dir, m->name);
+    else if (c->nbudgets == 1) snprintf(png, sizeof png, "%s/%s-time.png", c->dir, m->name);
+    else snprintf(png, sizeof png, "%s/%s-time-%gms.png", c->dir, m->name, budget);
+    if ((st = pgi_image_write(img, png, c->exposure))) return st;
+    if (!c->quiet)
+        fprintf(stderr, "study: %-20s %-7s %5d frame%s %9.1f ms  PSNR %6.2f dB  FLIP %.4f\n", x->estimator, x->mode, nf,
+                nf == 1 ? " " : "s", ms, mt.psnr, mt.flip.mean);
+    return PGI_OK;
+}
+
+/* Method m: one frame (budgets NULL; a row "photons"), or a progressive average with a row at each
+ * budget: the frames that fit in it (at least one; the next frame is expected to take as long as the
+ * last; the clock counts rendering only). An estimator that cannot average frames keeps its one frame
+ * for every budget; the path tracer adds one sample a pixel a step (seed 2: not the reference's). */
+static pgi_status run_method(const study_ctx *c, const method *m, const double *budgets, int nb, row *rows, int *nr) {
+    pgi_render_desc dm = *c->d;
+    dm.estimator = m->vt ? m->vt->name : NULL;
+    if (m->guided) dm.emission = PGI_EMISSION_GUIDED;
+    if (m->view) dm.store = PGI_STORE_VIEW;
+    const int max_frames = !m->vt ? INT_MAX : m->vt->exact ? PGI_MAX_PROGRESSIVE_FRAMES : 1;
+    pgi_progressive *p = NULL;
+    pgi_status st = m->vt ? pgi_progressive_create(c->r, &p) : PGI_OK;
+    if (st) return st;
+    pgi_reference_desc rd = {.width = dm.width,
+                             .height = dm.height,
+                             .threads = dm.threads,
+                             .spp = 1,
+                             .seed = 2,
+                             .bounces = c->want->bounces,
+                             .camera = c->want->camera,
+                             .jitter = c->want->jitter};
+    uint64_t have = 0;
+    pgi_image img = {0};
+    pgi_frame_stats fs, one;
+    memset(&fs, 0, sizeof fs);
+    double ms = 0.0, last = 0.0;
+    int nf = 0, k = 0;
+    while (!st) {
+        if (nf > 0) {
+            if (!budgets) {
+                st = record(c, m, 0.0, nf, ms, &fs, &img, &rows[(*nr)++]);
+                break;
+            }
+            const int done = nf >= max_frames;
+            while (!st && k < nb && (done || ms + last > budgets[k]))
+                st = record(c, m, budgets[k++], nf, ms, &fs, &img, &rows[(*nr)++]);
+            if (st || k == nb) break;
+        }
+        if (m->vt) {
+            st = pgi_progressive_step(p, &dm, &img, &one);
+            last = one.total_ms;
+        } else {
+            const double t0 = now_ms();
+            st = pgi_reference_render(c->scene, &rd, &img, &have);
+            last = now_ms() - t0;
+            memset(&one, 0, sizeof one);
+        }
+        if (st) break;
+        ms += last;
+        if (++nf == 1) fs = one;
+        else fs.reads += one.reads, fs.contributing += one.contributing;
+    }
     pgi_progressive_destroy(p);
+    pgi_image_free(&img);
     return st;
 }
 
@@ -148,26 +263,37 @@ static int write_svg(const char *path, const row *rows, int n, const char *title
     return fclose(f) == 0;
 }
 
-/* The reference in DIR/reference.exr (its sidecar says scene, size, samples): reused when it matches,
- * else made (two halves, kept for the noise estimate). *noise_mse: the mean squared difference of
- * the tone-mapped halves / 4, about the full reference's own error (0 when unknown). */
-static int make_reference(const char *dir, const char *scene_spec, const pgi_scene *scene, int w, int h, uint64_t spp,
-                          int threads, float exposure, int quiet, pgi_image *ref, double *noise_mse) {
-    char path[4300], side[4400], half[4400];
-    snprintf(path, sizeof path, "%s/reference.exr", dir);
+/* The reference at `path` (its sidecar says scene, size, samples, bounces, camera, sampling, glossy
+ * model): reused when all match `want` and its half is there, else made (two halves, the second kept
+ * alone in PATH-half.exr for the noise estimate). *noise_mse: about the reference's own mean squared
+ * error (cli_halves_noise_mse; 0 when unknown). */
+static int make_reference(const char *path, const pgi_reference_meta *want, const pgi_scene *scene, int threads,
+                          float exposure, int quiet, pgi_image *ref, double *noise_mse) {
+    char side[4400], half[4400], half_side[4500];
+    const uint64_t spp = want->spp;
+    const int w = want->width, h = want->height;
     snprintf(side, sizeof side, "%s.json", path);
-    if (!cli_reference_half_path(path, half, sizeof half)) return cli_failure("study", "--out path too long");
+    if (!cli_reference_half_path(path, half, sizeof half))
+        return cli_usage("study", "--reference needs an .exr file name, got '%s'", path);
+    snprintf(half_side, sizeof half_side, "%s.json", half);
     pgi_reference_meta m;
     pgi_image hb = {0};
-    if (pgi_reference_meta_read(side, &m) == PGI_OK && strcmp(m.scene, scene_spec) == 0 && m.width == w &&
-        m.height == h && m.spp == spp && pgi_image_read(path, ref, NULL) == PGI_OK &&
-        pgi_image_read(half, &hb, NULL) == PGI_OK && hb.width == w && hb.height == h) {
+    if (pgi_reference_meta_read(side, &m) == PGI_OK && !cli_reference_differs(&m, want) && m.spp == spp &&
+        pgi_image_read(path, ref, NULL) == PGI_OK && pgi_image_read(half, &hb, NULL) == PGI_OK && hb.width == w &&
+        hb.height == h) {
         if (!quiet) fprintf(stderr, "study: reusing %s (%" PRIu64 " samples)\n", path, spp);
     } else {
         pgi_image_free(ref);
         pgi_image_free(&hb);
         if (!quiet) fprintf(stderr, "study: reference, %" PRIu64 " samples per pixel at %dx%d ...\n", spp, w, h);
-        pgi_reference_desc rd = {.width = w, .height = h, .threads = threads, .spp = spp / 2, .seed = 1};
+        pgi_reference_desc rd = {.width = w,
+                                 .height = h,
+                                 .threads = threads,
+                                 .spp = spp / 2,
+                                 .seed = want->seed,
+                                 .bounces = want->bounces,
+                                 .camera = want->camera,
+                                 .jitter = want->jitter};
         uint64_t have = 0;
         pgi_status st = pgi_reference_render(scene, &rd, &hb, &have); /* samples 0 .. spp/2 - 1 */
         pgi_image second = {0};
@@ -196,20 +322,15 @@ static int make_reference(const char *dir, const char *scene_spec, const pgi_sce
             ref->rgb[i] = (float)((hb.rgb[i] * h1 + s2) / (h1 + h2));
             second.rgb[i] = (float)(s2 / h2); /* the second half's own mean */
         }
-        pgi_reference_meta out =
-            {.width = w, .height = h, .bounces = 0, .seed = 1, .spp = spp, .jitter = PGI_JITTER_ON};
-        snprintf(out.scene, sizeof out.scene, "%s", scene_spec);
-        pgi_reference_meta out_half = out;
+        pgi_reference_meta out_half = *want;
         out_half.spp = spp - spp / 2;
-        char half_side[4500];
-        snprintf(half_side, sizeof half_side, "%s.json", half);
-        if ((st = pgi_image_write(ref, path, 1.f)) || (st = pgi_reference_meta_write(&out, side)) ||
+        if ((st = pgi_image_write(ref, path, 1.f)) || (st = pgi_reference_meta_write(want, side)) ||
             (st = pgi_image_write(&second, half, 1.f)) || (st = pgi_reference_meta_write(&out_half, half_side))) {
             pgi_image_free(&hb);
             pgi_image_free(&second);
             return cli_fail("study", "cannot write the reference", st);
         }
-        /* reference-half.exr keeps the second half (the noise estimate: cli_halves_noise_mse) */
+        /* PATH-half.exr keeps the second half (the noise estimate: cli_halves_noise_mse) */
         pgi_image_free(&hb);
         hb = second;
     }
@@ -220,10 +341,14 @@ static int make_reference(const char *dir, const char *scene_spec, const pgi_sce
 }
 
 int pgi_cmd_study(int argc, char **argv) {
-    const char *scene_spec = "cornell", *ests_arg = "exact", *out_dir = NULL;
-    long long photons = 100000, frames = 8, spp = 256, threads = 0;
-    double budget = 0.0;
-    int w = 320, h = 240, quiet = 0;
+    const char *scene_spec = "cornell", *ests_arg = "exact", *out_dir = NULL, *ref_arg = NULL;
+    long long photons = 100000, frames = 8, spp = 256;
+    double budgets[MAX_BUDGETS];
+    int nb = 0; /* none given: one, the slowest method's frame times --frames */
+    int quiet = 0, equal_time = 1;
+    /* every method: the same seed, photons and pixel-area sampling; only the estimate differs */
+    pgi_render_desc d = {.photons = 100000, .width = 320, .height = 240, .seed = 1, .jitter = PGI_JITTER_ON};
+    app_render_extra xo = APP_RENDER_EXTRA_INIT;
     for (int i = 0; i < argc; i++) {
         const char *a = argv[i];
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
@@ -240,43 +365,80 @@ int pgi_cmd_study(int argc, char **argv) {
         if (strcmp(a, "--scene") == 0) scene_spec = v;
         else if (strcmp(a, "--estimators") == 0) ests_arg = v;
         else if (strcmp(a, "--out") == 0) out_dir = v;
-        else if (strcmp(a, "--photons") == 0) {
-            if (!parse_whole(v, 1, PGI_MAX_PHOTONS, &photons))
-                return cli_usage("study", "--photons needs a whole number in 1..%u, got '%s'", PGI_MAX_PHOTONS, v);
+        else if (strcmp(a, "--reference") == 0) ref_arg = v;
+        else if (strcmp(a, "--equal-time") == 0) {
+            if (strcmp(v, "on") != 0 && strcmp(v, "off") != 0)
+                return cli_usage("study", "--equal-time must be on or off, got '%s'", v);
+            equal_time = strcmp(v, "on") == 0;
         } else if (strcmp(a, "--frames") == 0) {
             if (!parse_whole(v, 1, 10000, &frames))
                 return cli_usage("study", "--frames needs a whole number in 1..10000, got '%s'", v);
         } else if (strcmp(a, "--spp") == 0) {
             if (!parse_whole(v, 2, 1000000, &spp))
                 return cli_usage("study", "--spp needs a whole number in 2..1000000, got '%s'", v);
-        } else if (strcmp(a, "--threads") == 0) {
-            if (!parse_whole(v, 1, 1024, &threads))
-                return cli_usage("study", "--threads needs a whole number in 1..1024, got '%s'", v);
         } else if (strcmp(a, "--time") == 0) {
-            if (!parse_pos_double(v, &budget))
-                return cli_usage("study", "--time needs a positive number of milliseconds, got '%s'", v);
-        } else if (strcmp(a, "--size") == 0) {
-            if (!parse_size(v, PGI_MAX_IMAGE_SIDE, PGI_MAX_IMAGE_PIXELS, &w, &h) || w < 11 || h < 11)
-                return cli_usage("study", "--size needs WIDTHxHEIGHT, each side 11..%d, got '%s'", PGI_MAX_IMAGE_SIDE,
-                                 v);
-        } else return cli_usage("study", "unknown option '%s'", a);
+            char buf[512], *save = NULL;
+            snprintf(buf, sizeof buf, "%s", v);
+            nb = 0;
+            for (char *t = strtok_r(buf, ",", &save); t; t = strtok_r(NULL, ",", &save)) {
+                if (nb == MAX_BUDGETS || !parse_pos_double(t, &budgets[nb]) || (nb && budgets[nb] <= budgets[nb - 1]))
+                    return cli_usage("study",
+                                     "--time needs up to %d increasing positive numbers of milliseconds, got '%s'",
+                                     MAX_BUDGETS, v);
+                nb++;
+            }
+            if (!nb) return cli_usage("study", "--time needs milliseconds, got '%s'", v);
+        } else if (strcmp(a, "--estimator") == 0 || strcmp(a, "--progressive") == 0 || strcmp(a, "--output") == 0 ||
+                   strcmp(a, "--max-memory") == 0) {
+            return cli_usage("study",
+                             "%s is not a setting of study (--estimators, --time and --frames choose "
+                             "what runs)",
+                             a);
+        } else {
+            char err[512];
+            const int ro = app_render_option(a, v, &d, &xo, NULL, err, sizeof err);
+            if (ro < 0) return cli_usage("study", "%s", err);
+            if (ro == 0) return cli_usage("study", "unknown option '%s'", a);
+            if (strcmp(a, "--size") == 0 && (d.width < 11 || d.height < 11))
+                return cli_usage("study", "--size needs each side 11 or more (the SSIM window), got '%s'", v);
+        }
     }
-    /* the estimators */
-    const pgi_estimator_vtbl *ests[MAX_EST];
+    photons = d.photons;
+    const int w = d.width, h = d.height;
+    if (d.jitter == PGI_JITTER_AUTO) d.jitter = PGI_JITTER_ON;
+    /* the methods: names, "exact", "all", "pathtracer"; a name may end in +guided and/or +view */
+    method meth[MAX_EST];
     int ne = 0;
-    const int all = strcmp(ests_arg, "all") == 0, exact = strcmp(ests_arg, "exact") == 0;
-    for (size_t e = 0; e < pgi_estimator_count() && ne < MAX_EST; e++) {
-        const pgi_estimator_vtbl *vt = pgi_estimator_at(e);
-        if (all ? !vt->oracle : exact ? vt->exact && !vt->oracle : 0) ests[ne++] = vt;
-    }
-    if (!all && !exact) {
-        char buf[1024];
+    {
+        char buf[1024], *save = NULL;
         snprintf(buf, sizeof buf, "%s", ests_arg);
-        char *save = NULL;
-        for (char *t = strtok_r(buf, ",", &save); t && ne < MAX_EST; t = strtok_r(NULL, ",", &save)) {
-            const pgi_estimator_vtbl *vt = pgi_estimator_find(t);
-            if (!vt) return cli_usage("study", "unknown estimator '%s' ('photongi estimators' lists them)", t);
-            ests[ne++] = vt;
+        for (char *t = strtok_r(buf, ",", &save); t; t = strtok_r(NULL, ",", &save)) {
+            const int all = strcmp(t, "all") == 0, exact = strcmp(t, "exact") == 0;
+            if (all || exact) {
+                for (size_t e = 0; e < pgi_estimator_count() && ne < MAX_EST; e++) {
+                    const pgi_estimator_vtbl *vt = pgi_estimator_at(e);
+                    if (!vt->oracle && (all || vt->exact)) {
+                        meth[ne] = (method){.vt = vt};
+                        snprintf(meth[ne++].name, sizeof meth[0].name, "%s", vt->name);
+                    }
+                }
+                continue;
+            }
+            if (ne == MAX_EST) return cli_usage("study", "--estimators names more than %d methods", MAX_EST);
+            method *m = &meth[ne];
+            *m = (method){0};
+            snprintf(m->name, sizeof m->name, "%s", t);
+            for (char *plus; (plus = strrchr(t, '+'));) {
+                if (strcmp(plus, "+guided") == 0) m->guided = 1;
+                else if (strcmp(plus, "+view") == 0) m->view = 1;
+                else return cli_usage("study", "'%s': a method's variant is +guided or +view, got '%s'", m->name, plus);
+                *plus = 0;
+            }
+            if (strcmp(t, PATHTRACER) == 0) {
+                if (m->guided || m->view) return cli_usage("study", "'%s': the path tracer has no variants", m->name);
+            } else if (!(m->vt = pgi_estimator_find(t)))
+                return cli_usage("study", "unknown estimator '%s' ('photongi estimators' lists them)", t);
+            ne++;
         }
     }
     if (!ne) return cli_usage("study", "%s", "--estimators names none");
@@ -292,13 +454,33 @@ int pgi_cmd_study(int argc, char **argv) {
     pgi_scene *scene;
     pgi_status st = pgi_scene_load(scene_spec, &scene);
     if (st) return cli_input_fail("study", "cannot load scene", st);
+    if (xo.specular != PGI_SPECULAR_DEFAULT && (st = pgi_scene_set_specular(scene, xo.specular))) {
+        pgi_scene_destroy(scene);
+        return cli_fail("study", "cannot set the specular model", st);
+    }
     pgi_scene_info info;
     pgi_scene_get_info(scene, &info);
-    const float exposure = info.defaults.exposure > 0.f ? info.defaults.exposure : 1.f;
+    const float exposure = xo.exposure > 0.f              ? xo.exposure
+                           : info.defaults.exposure > 0.f ? info.defaults.exposure
+                                                          : 1.f;
+    /* the reference: the frames' scene, size, bounces, camera and sampling */
+    pgi_reference_meta want = {.width = w,
+                               .height = h,
+                               .bounces = d.bounces                   ? d.bounces
+                                          : info.defaults.bounces > 0 ? info.defaults.bounces
+                                                                      : 4,
+                               .camera = d.camera,
+                               .seed = 1,
+                               .spp = (uint64_t)spp,
+                               .jitter = d.jitter,
+                               .specular = info.specular};
+    snprintf(want.scene, sizeof want.scene, "%s", scene_spec);
+    char ref_path[4300];
+    if (ref_arg) snprintf(ref_path, sizeof ref_path, "%s", ref_arg);
+    else snprintf(ref_path, sizeof ref_path, "%s/reference.exr", dir);
     pgi_image ref = {0};
     double noise_mse = 0.0;
-    int rc =
-        make_reference(dir, scene_spec, scene, w, h, (uint64_t)spp, (int)threads, exposure, quiet, &ref, &noise_mse);
+    int rc = make_reference(ref_path, &want, scene, d.threads, exposure, quiet, &ref, &noise_mse);
     if (rc) {
         pgi_scene_destroy(scene);
         return rc;
@@ -310,54 +492,27 @@ int pgi_cmd_study(int argc, char **argv) {
         pgi_scene_destroy(scene);
         return cli_fail("study", "cannot create a renderer", st);
     }
-    row rows[2 * MAX_EST];
+    row *rows = malloc((size_t)ne * (MAX_BUDGETS + 1) * sizeof *rows);
     int nr = 0;
-    pgi_image img = {0};
-    pgi_frame_stats fs;
-    /* every method: the same seed, photons and pixel-area sampling; only the estimate differs */
-    pgi_render_desc d = {.photons = (uint32_t)photons,
-                         .width = w,
-                         .height = h,
-                         .seed = 1,
-                         .threads = (int)threads,
-                         .jitter = PGI_JITTER_ON};
+    if (!rows) st = PGI_ERR_OOM;
+    study_ctx c = {r, scene, &d, &want, &ref, exposure, dir, quiet, nb ? nb : 1};
+    /* equal photons: one frame each (not the path tracer: it has no photons) */
     double slowest = 0.0;
-    for (int pass = 0; pass < 2 && !st; pass++) {
-        if (pass == 1 && budget <= 0.0) budget = slowest * (double)frames;
-        for (int e = 0; e < ne && !st; e++) {
-            d.estimator = ests[e]->name;
-            int nf;
-            double ms;
-            const int max_frames = ests[e]->exact ? PGI_MAX_PROGRESSIVE_FRAMES : 1;
-            st = run(r, &d, pass ? budget : 0.0, max_frames, &img, &nf, &ms, &fs);
-            if (st) break;
-            pgi_metrics m;
-            if ((st = pgi_metrics_compute(&img, &ref, exposure, &m))) break;
-            row *x = &rows[nr++];
-            *x = (row){ests[e]->name,
-                       pass ? "time" : "photons",
-                       nf,
-                       ms,
-                       m.psnr,
-                       m.ssim,
-                       m.flip.mean,
-                       m.relmse,
-                       (double)fs.reads,
-                       (double)fs.contributing,
-                       memory_of(&fs)};
-            if (pass == 0) slowest = fmax(slowest, ms);
-            if (!quiet)
-                fprintf(stderr, "study: %-16s %-7s %5d frame%s %9.1f ms  PSNR %6.2f dB  FLIP %.4f\n", x->estimator,
-                        x->mode, nf, nf == 1 ? " " : "s", ms, m.psnr, m.flip.mean);
-        }
-    }
-    pgi_image_free(&img);
+    for (int e = 0; e < ne && !st; e++)
+        if (meth[e].vt && !(st = run_method(&c, &meth[e], NULL, 0, rows, &nr)))
+            slowest = fmax(slowest, rows[nr - 1].ms);
+    /* equal time: the budgets given, else the slowest method's frame times --frames */
+    if (!nb) budgets[nb++] = slowest > 0.0 ? slowest * (double)frames : 1000.0;
+    for (int e = 0; e < ne && !st && equal_time; e++) st = run_method(&c, &meth[e], budgets, nb, rows, &nr);
     pgi_renderer_destroy(r);
     pgi_image_free(&ref);
     pgi_scene_destroy(scene);
-    if (st) return cli_fail("study", "a render failed", st);
+    if (st) {
+        free(rows);
+        return cli_fail("study", "a render failed", st);
+    }
 
-    /* the table, the CSV, the plot: one row per estimator and mode, equal photons first */
+    /* the table, the CSV, the plot: one row per method and mode (and budget), equal photons first */
     char path[4200];
     snprintf(path, sizeof path, "%s/study.csv", dir);
     FILE *csv = fopen(path, "w");
@@ -366,49 +521,72 @@ int pgi_cmd_study(int argc, char **argv) {
     if (!csv || !md) {
         if (csv) fclose(csv);
         if (md) fclose(md);
+        free(rows);
         return cli_failure("study", "cannot write into %s: %s", dir, strerror(errno));
     }
     fprintf(csv, "scene,width,height,photons,estimator,mode,frames,ms,psnr,ssim,flip,relmse,reads,contributing,"
-                 "memory_bytes,reference_spp,reference_psnr\n");
+                 "memory_bytes,reference_spp,reference_psnr,radius,build_ms,estimate_ms,jitter,budget_ms\n");
+    const char *refname = strrchr(ref_path, '/') ? strrchr(ref_path, '/') + 1 : ref_path;
     fprintf(md,
-            "# %s, %dx%d, %lld photons a frame\n\nAgainst a %lld-sample path-traced reference (reference.exr); "
+            "# %s, %dx%d, %lld photons a frame\n\nAgainst a %lld-sample path-traced reference (%s); "
             "its own noise, from its two halves, scores about **%.1f dB**: a method near that is judged by the "
-            "reference's noise. Every frame samples each pixel over its area, with the same seed and photons; "
-            "equal time is a progressive average of as many frames as fit in %.0f ms. photongi %s.\n",
-            scene_spec, w, h, photons, spp, ref_psnr, budget, pgi_version());
-    for (int pass = 0; pass < 2; pass++) {
-        fprintf(md,
-                "\n## %s\n\n| estimator | frames | ms | PSNR dB | SSIM | FLIP | relMSE | reads (M) | contributing "
-                "| memory MiB |\n|---|---|---|---|---|---|---|---|---|---|\n",
-                pass ? "Equal time" : "Equal photons (one frame)");
-        for (int i = 0; i < nr; i++) {
-            const row *x = &rows[i];
-            if (strcmp(x->mode, pass ? "time" : "photons") != 0) continue;
-            fprintf(md, "| %s | %d | %.1f | %.2f | %.4f | %.4f | %.5f | %.2f | %.1f %% | %.1f |\n", x->estimator,
-                    x->frames, x->ms, x->psnr, x->ssim, x->flip, x->relmse, x->reads / 1e6,
-                    x->reads > 0 ? 100.0 * x->contributing / x->reads : 0.0, x->bytes / 1048576.0);
-        }
+            "reference's noise. Every frame samples each pixel %s, with the same seed and photons",
+            scene_spec, w, h, photons, spp, refname, ref_psnr,
+            d.jitter == PGI_JITTER_OFF ? "at its centre (as the reference)" : "over its area");
+    if (equal_time) {
+        fprintf(md, "; equal time is a progressive average of as many frames as fit in ");
+        for (int k = 0; k < nb; k++) fprintf(md, "%s%.0f", k ? (k + 1 == nb ? " and " : ", ") : "", budgets[k]);
+        fprintf(md, " ms of rendering");
     }
+    fprintf(md, ". Radius: %s. photongi %s.\n",
+            d.radius == PGI_RADIUS_AUTO ? "automatic (each row's in study.csv)"
+            : d.radius > 0.f            ? "as given (study.csv)"
+                                        : "the scene's (study.csv)",
+            pgi_version());
+    for (int pass = 0; pass < 1 + equal_time; pass++)
+        for (int k = 0; k < (pass ? nb : 1); k++) {
+            if (pass && nb > 1) fprintf(md, "\n## Equal time: %g ms\n", budgets[k]);
+            else fprintf(md, "\n## %s\n", pass ? "Equal time" : "Equal photons (one frame)");
+            fprintf(md, "\n| method | frames | ms | PSNR dB | SSIM | FLIP | relMSE | reads (M) | contributing "
+                        "| memory MiB |\n|---|---|---|---|---|---|---|---|---|---|\n");
+            for (int i = 0; i < nr; i++) {
+                const row *x = &rows[i];
+                if (strcmp(x->mode, pass ? "time" : "photons") != 0 || (pass && x->budget_ms != budgets[k])) continue;
+                fprintf(md, "| %s | %d | %.1f | %.2f | %.4f | %.4f | %.5f | %.2f | %.1f %% | %.1f |\n", x->estimator,
+                        x->frames, x->ms, x->psnr, x->ssim, x->flip, x->relmse, x->reads / 1e6,
+                        x->reads > 0 ? 100.0 * x->contributing / x->reads : 0.0, x->bytes / 1048576.0);
+            }
+        }
     for (int i = 0; i < nr; i++) {
         const row *x = &rows[i];
-        fprintf(csv, "\"%s\",%d,%d,%lld,%s,%s,%d,%.3f,%.4f,%.6f,%.6f,%.6g,%.0f,%.0f,%.0f,%lld,%.4f\n", scene_spec, w, h,
-                photons, x->estimator, x->mode, x->frames, x->ms, x->psnr, x->ssim, x->flip, x->relmse, x->reads,
-                x->contributing, x->bytes, spp, ref_psnr);
+        fprintf(csv,
+                "\"%s\",%d,%d,%lld,%s,%s,%d,%.3f,%.4f,%.6f,%.6f,%.6g,%.0f,%.0f,%.0f,%lld,%.4f,%.6g,%.3f,%.3f,%s,%g\n",
+                scene_spec, w, h, photons, x->estimator, x->mode, x->frames, x->ms, x->psnr, x->ssim, x->flip,
+                x->relmse, x->reads, x->contributing, x->bytes, spp, ref_psnr, x->radius, x->build_ms, x->estimate_ms,
+                d.jitter == PGI_JITTER_OFF ? "off" : "on", x->budget_ms);
     }
     int bad = fclose(csv) != 0;
     bad |= fclose(md) != 0;
-    /* the plot: each estimator's equal-photon and equal-time points, in estimator order */
-    row sorted[2 * MAX_EST];
+    /* the plot: each method's points in time order, methods in the order given */
+    row *sorted = malloc((size_t)(nr ? nr : 1) * sizeof *sorted);
     int ns = 0;
-    for (int e = 0; e < ne; e++)
+    for (int e = 0; e < ne && sorted; e++) {
+        const int first = ns;
         for (int i = 0; i < nr; i++)
-            if (rows[i].estimator == ests[e]->name) sorted[ns++] = rows[i];
+            if (rows[i].estimator == meth[e].name) {
+                int j = ns++;
+                for (; j > first && sorted[j - 1].ms > rows[i].ms; j--) sorted[j] = sorted[j - 1];
+                sorted[j] = rows[i];
+            }
+    }
+    free(rows);
     char title[512];
     snprintf(title, sizeof title, "%s %dx%d, %lld photons a frame: PSNR against time", scene_spec, w, h, photons);
-    for (char *c = title; *c; c++)
-        if (*c == '<' || *c == '>' || *c == '&' || *c == '"') *c = '_'; /* plain text inside the SVG */
+    for (char *ch = title; *ch; ch++)
+        if (*ch == '<' || *ch == '>' || *ch == '&' || *ch == '"') *ch = '_'; /* plain text inside the SVG */
     snprintf(path, sizeof path, "%s/study.svg", dir);
-    bad |= !write_svg(path, sorted, ns, title);
+    bad |= !sorted || !write_svg(path, sorted, ns, title);
+    free(sorted);
     if (bad) return cli_failure("study", "cannot write the results into %s", dir);
     printf("study: %s/study.md, study.csv, study.svg (reference noise about %.1f dB)\n", dir, ref_psnr);
     return 0;
