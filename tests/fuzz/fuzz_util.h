@@ -15,7 +15,8 @@
 static char g_fuzz_dir[256];
 
 static inline void fuzz_dir_remove(void) {
-    static const char *const names[] = {"scene.json", "m.obj", "m.mtl", "m.ply", "m.gltf", "m.glb", "image", NULL};
+    static const char *const names[] = {"scene.json", "m.obj",      "m.mtl",      "m.ply", "m.gltf", "m.glb",
+                                        "b.bin",      "r.exr.json", "w.exr.json", "image", NULL};
     char p[512];
     for (int i = 0; names[i]; i++) {
         snprintf(p, sizeof p, "%s/%s", g_fuzz_dir, names[i]);

@@ -3,7 +3,8 @@
 # one after the other. Fails on any crash, leak, timeout (10 s an input) or memory blow-up
 # (2 GB RSS); the input that did it is left in $WORK/artifacts/.
 #
-#   tests/fuzz/run.sh [SECONDS] [TARGET...]      TARGET: scene_json, mesh, image (default: all)
+#   tests/fuzz/run.sh [SECONDS] [TARGET...]      TARGET: scene_json, mesh, image, gltf, sidecar
+#                                                (default: all)
 #
 # Environment:
 #   PGI_FUZZ_BUILD   build folder (default build-fuzz)
@@ -19,7 +20,7 @@ cd "$ROOT"
 SECS=${1:-60}
 shift || true
 TARGETS=("$@")
-[ ${#TARGETS[@]} -gt 0 ] || TARGETS=(scene_json mesh image)
+[ ${#TARGETS[@]} -gt 0 ] || TARGETS=(scene_json mesh image gltf sidecar)
 BUILD=${PGI_FUZZ_BUILD:-build-fuzz}
 WORK=${PGI_FUZZ_WORK:-$BUILD/fuzz-work}
 SHARED=${PGI_SHARED:-$ROOT/../shared}
@@ -29,20 +30,22 @@ if [ ! -f "$BUILD/CMakeCache.txt" ]; then
     CC=${CC:-clang} cmake -S . -B "$BUILD" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DPGI_FUZZ=ON -DPGI_BUILD_TESTS=OFF \
         -DPGI_BUILD_TOOLS=OFF -DPGI_BUILD_BENCH=OFF -DPGI_BUILD_EXAMPLES=OFF -DPGI_INSTALL=OFF >/dev/null
 fi
-cmake --build "$BUILD" -j "${JOBS:-2}" --target fuzz_scene_json fuzz_mesh fuzz_image >/dev/null
+cmake --build "$BUILD" -j "${JOBS:-2}" --target fuzz_scene_json fuzz_mesh fuzz_image fuzz_gltf fuzz_sidecar >/dev/null
 
 # ---- corpora: seeds (rebuilt every run) and the growing corpus of each target
 mkdir -p "$WORK"
 WORK=$(cd "$WORK" && pwd)
 rm -rf "$WORK/seeds" "$WORK/scenes"
-mkdir -p "$WORK/seeds/scene_json" "$WORK/seeds/mesh" "$WORK/seeds/image" "$WORK/artifacts" \
-    "$WORK/corpus/scene_json" "$WORK/corpus/mesh" "$WORK/corpus/image" "$WORK/scenes"
+for t in scene_json mesh image gltf sidecar; do mkdir -p "$WORK/seeds/$t" "$WORK/corpus/$t"; done
+mkdir -p "$WORK/artifacts" "$WORK/scenes"
 # Meshes a description may name: the Cornell box only (PHOTONGI_SCENES below), so that a
 # description naming Sponza finds nothing rather than spending a minute importing it.
 cp "$SEEDS/image/rle.hdr" "$WORK/scenes/sky.hdr"
 cp "$ROOT"/scenes/*.json "$SEEDS"/json/*.json "$WORK/seeds/scene_json/"
 cp "$SEEDS"/mesh/* "$WORK/seeds/mesh/"
 cp "$SEEDS"/image/* "$WORK/seeds/image/"
+cp "$SEEDS"/gltf/* "$WORK/seeds/gltf/"
+cp "$SEEDS"/sidecar/* "$WORK/seeds/sidecar/"
 # obj_mtl NAME OBJ [MTL]: one input of the mesh target (the OBJ, a line "#MTL", the MTL as m.mtl).
 obj_mtl() {
     { sed 's/^mtllib .*/mtllib m.mtl/' "$2"; if [ -n "${3:-}" ]; then echo "#MTL"; cat "$3"; fi; } >"$WORK/seeds/mesh/$1"
@@ -80,7 +83,9 @@ for t in "${TARGETS[@]}"; do
     scene_json) extra=(-max_len=8192 -dict="$ROOT/tests/fuzz/scene_json.dict") ;;
     mesh) extra=(-max_len=16384 -dict="$ROOT/tests/fuzz/mesh.dict") ;;
     image) extra=(-max_len=16384) ;;
-    *) echo "fuzz: unknown target '$t' (scene_json, mesh, image)" >&2; exit 2 ;;
+    gltf) extra=(-max_len=16384 -dict="$ROOT/tests/fuzz/mesh.dict") ;;
+    sidecar) extra=(-max_len=2048 -dict="$ROOT/tests/fuzz/scene_json.dict") ;;
+    *) echo "fuzz: unknown target '$t' (scene_json, mesh, image, gltf, sidecar)" >&2; exit 2 ;;
     esac
     log=$WORK/$t.log
     echo "fuzz_$t: ${SECS} s (log: $log)"
