@@ -64,6 +64,16 @@ else
     bad "--window with SDL_VIDEODRIVER=dummy failed: $(head -c 300 "$TMP/err")"
 fi
 
+# In a window, every refused setting is undone, not only the first: more photons than --max-memory
+# allows, asked for again and again, leave the previous settings rendering (it quit on the second).
+if SDL_VIDEODRIVER=dummy "$VIEW" --window --frames 8 --size 32x24 --photons 20000 --max-memory 3M \
+    --keys "+,+,+,+,+,+,+,+" --screenshot "$TMP/refused.png" 2>"$TMP/err" >/dev/null; then
+    [ "$(grep -c 'going back to the previous settings' "$TMP/err")" -ge 2 ] && [ -s "$TMP/refused.png" ] && ok ||
+        bad "repeated refusals: not each undone ($(head -c 300 "$TMP/err"))"
+else
+    bad "a second refused setting ended the viewer: $(head -c 300 "$TMP/err")"
+fi
+
 # Scripted keys drive every handler (estimator, counts, scale, photons, radius, output,
 # camera, light, look); the result must differ from the unmoved view and the run must succeed.
 if "$VIEW" --frames 17 --scene giref "${COMMON[@]}" --keys "tab,c,c,r,+,-,],[,o,o,o,w,d,up,pageup,k,shift+tab" \

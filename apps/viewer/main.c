@@ -733,9 +733,12 @@ int main(int argc, char **argv) {
         double f0 = SDL_GetPerformanceCounter() / (double)SDL_GetPerformanceFrequency();
         if ((st = render_frame(&v))) {
             /* Interactive: a setting the estimator rejects (say, a radius too small for its
-             * grid) is reported and undone; headless, or when even the last good settings
-             * fail, it ends the program. */
-            if (headless || !good_valid) {
+             * grid, or photons over the memory budget) is reported and undone, as often as it
+             * comes; headless, or when the last good settings themselves fail, it ends the
+             * program. */
+            const int were_good = good_valid && v.est_index == good_est && v.scale == good_scale &&
+                                  v.out_mode == good_out && memcmp(&v.desc, &good_desc, sizeof good_desc) == 0;
+            if (headless || !good_valid || were_good) {
                 rc = fail("render failed", st);
                 break;
             }
@@ -744,7 +747,6 @@ int main(int argc, char **argv) {
             v.desc = good_desc;
             v.scale = good_scale;
             v.out_mode = good_out;
-            good_valid = 0;
             continue;
         }
         good_valid = 1;
