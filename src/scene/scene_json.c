@@ -137,8 +137,8 @@ static pgi_status get_vec3(const char *path, const cJSON *obj, const char *where
                          what);
     }
     int ok = cJSON_IsArray(a) && cJSON_GetArraySize(a) == 3;
-    for (int i = 0; ok && i < 3; i++) {
-        const cJSON *e = cJSON_GetArrayItem(a, i);
+    const cJSON *e = ok ? a->child : NULL;
+    for (int i = 0; ok && i < 3; i++, e = e->next) {
         if (!cJSON_IsNumber(e) || !isfinite(e->valuedouble) || fabs(e->valuedouble) > 3.0e38 ||
             (sign == NONNEG && e->valuedouble < 0.0))
             ok = 0;
@@ -335,10 +335,10 @@ static pgi_status parse_motion(const char *path, const cJSON *m, const char *whe
     size_t n = (size_t)cJSON_GetArraySize(jk);
     pgi__keyframe *k = calloc(n, sizeof *k);
     if (!k) return pgi__fail(PGI_ERR_OOM, "%s: out of memory", path);
-    for (size_t i = 0; i < n && !st; i++) {
+    const cJSON *e = jk->child; /* linked walk: cJSON_GetArrayItem in a loop is quadratic */
+    for (size_t i = 0; i < n && !st; i++, e = e->next) {
         char wk[160];
         snprintf(wk, sizeof wk, "%s.keyframes[%zu]", w, i);
-        const cJSON *e = cJSON_GetArrayItem(jk, (int)i);
         if (!cJSON_IsObject(e)) {
             st = pgi__fail(PGI_ERR_PARSE, "%s: %s must be an object", path, wk);
             break;
@@ -680,14 +680,17 @@ static pgi_status load(const char *path, const cJSON *root, pgi_scene **out) {
         st = parse_camera(path, jcam, "camera", &s->cams[0]);
         if (!st) s->ncams = 1;
     }
-    for (size_t i = 0; !st && jcams && i < ncam; i++) {
+    /* Arrays are walked by their links (cJSON_GetArrayItem in a loop is quadratic: 10^5 lights took 30 s). */
+    const cJSON *it = jcams ? jcams->child : NULL;
+    for (size_t i = 0; !st && jcams && i < ncam; i++, it = it->next) {
         snprintf(where, sizeof where, "cameras[%zu]", i);
-        st = parse_camera(path, cJSON_GetArrayItem(jcams, (int)i), where, &s->cams[i]);
+        st = parse_camera(path, it, where, &s->cams[i]);
         if (!st) s->ncams = i + 1;
     }
-    for (size_t i = 0; !st && i < nl; i++) {
+    it = jlights ? jlights->child : NULL;
+    for (size_t i = 0; !st && i < nl; i++, it = it->next) {
         snprintf(where, sizeof where, "lights[%zu]", i);
-        st = parse_light(path, cJSON_GetArrayItem(jlights, (int)i), where, &s->lights[nbase + i]);
+        st = parse_light(path, it, where, &s->lights[nbase + i]);
         if (!st) s->nlights = nbase + i + 1;
     }
     if (!st && jrender) st = parse_render(path, jrender, &s->defaults);
@@ -704,13 +707,15 @@ static pgi_status load(const char *path, const cJSON *root, pgi_scene **out) {
         if (!(d->exposure > 0.f)) d->exposure = base_defaults.exposure;
     }
     if (!st && jmesh) st = pgi__scene_import_mesh(s, mesh);
-    for (size_t i = 0; !st && jobjs && i < (size_t)cJSON_GetArraySize(jobjs); i++) {
+    it = jobjs ? jobjs->child : NULL;
+    for (size_t i = 0; !st && it; i++, it = it->next) {
         snprintf(where, sizeof where, "objects[%zu]", i);
-        st = parse_object(path, s, cJSON_GetArrayItem(jobjs, (int)i), where);
+        st = parse_object(path, s, it, where);
     }
-    for (size_t i = 0; !st && janim && i < (size_t)cJSON_GetArraySize(janim); i++) {
+    it = janim ? janim->child : NULL;
+    for (size_t i = 0; !st && it; i++, it = it->next) {
         snprintf(where, sizeof where, "animate[%zu]", i);
-        st = parse_animate(path, s, cJSON_GetArrayItem(janim, (int)i), where);
+        st = parse_animate(path, s, it, where);
     }
     if (!st) st = pgi__scene_finalize(s, path);
     if (!st && s->nanims) {
