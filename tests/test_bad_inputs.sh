@@ -122,7 +122,7 @@ expect_clear_error "deg.json: the scene has no lights: its emissive triangles (1
 # ---- scene numbers (far coordinates, radii, radiances, descriptions)
 # Coordinates beyond PGI_MAX_COORD (1e15; Embree aborted on its ray.valid() assertion beyond about
 # 1.8e18), radiances beyond PGI_MAX_RADIANCE (1e12; Inf pixels), description values the renderer
-# refuses: the file is at fault, exit 1, the file and the item named (docs/limits.md, Numbers).
+# refuses: the file is at fault, exit 1, the file and the item named (docs/scene-format.md, Numbers).
 FAR="$DIR/../bad-inputs-2/camera_far_2e18.json"
 if [ ! -f "$FAR" ]; then
     FAR="$TMP/camera_far_2e18.json"

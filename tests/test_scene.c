@@ -466,7 +466,7 @@ static void test_generated_normals_flat(void **state) {
     pgi_scene_destroy(s);
 }
 
-/* Numbers a ray or a density estimate cannot take (docs/limits.md, Numbers): refused at load or by
+/* Numbers a ray or a density estimate cannot take (docs/scene-format.md, Numbers): refused at load or by
  * the setter, never an Embree abort or NaN/Inf pixels. */
 static void test_scene_numbers(void **state) {
     char p[700], q[700];

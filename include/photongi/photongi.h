@@ -151,7 +151,7 @@ typedef enum pgi_store {
 #define PGI_MAX_IMAGE_PIXELS (36u * 1024u * 1024u)
 #define PGI_MAX_PROGRESSIVE_FRAMES 1000000
 
-/* Limits of the numbers in a scene and a render (docs/limits.md, "Numbers"):
+/* Limits of the numbers in a scene and a render (docs/scene-format.md, "Numbers"):
  * - every coordinate (vertex, camera eye and look-at, light position, object centre, motion
  *   translation, and the scene's bounds at every keyframe of its motions), and every direction
  *   and up vector's components: |x| <= PGI_MAX_COORD. Embree's rays are valid up to about
