@@ -183,6 +183,10 @@ if [ "$rc" -eq 0 ] && printf '%s' "$out" | grep -qF "point 100000" && [ $((t1 - 
     echo "FAIL photongi info on 10^5 lights: exit $rc after $((t1 - t0)) s (expected 0 within 5 s)"
     fail=$((fail + 1))
 fi
+# 5*10^6 values (10 MB, "[0,0,0,..."; cJSON takes about 100 bytes each): refused before parsing.
+awk 'BEGIN { printf "{\"builtin\": \"cornell\", \"_x\": [0"; for (i = 1; i < 5000000; i++) printf ",0"; print "]}" }' \
+    >"$TMP/values_5e6.json"
+expect_clear_error "values_5e6.json: about 5000003 JSON values, more than 4000000" info --scene "$TMP/values_5e6.json"
 # A scene name's escape sequences are not printed raw (control bytes become '?').
 printf '{"builtin": "cornell", "name": "evil\\u001b[31mred\\u001b]0;title\\u0007"}\n' >"$TMP/esc.json"
 out=$(timeout 20 "$BIN" info --scene "$TMP/esc.json" 2>&1)

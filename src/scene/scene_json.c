@@ -48,6 +48,24 @@
 
 /* A description is a few kilobytes; far beyond that it is not one (or a file that never ends). */
 #define MAX_JSON_BYTES (64u << 20)
+/* cJSON takes about 100 bytes a value (a 64-byte node, its key, malloc's overhead): a 64 MiB file
+ * of "[0,0,0,..." would take 3 GB. 4M values (10^5 lights take 1M) bound it near 400 MB. */
+#define MAX_JSON_VALUES 4000000u
+
+/* Values in a JSON text, at most: one more than its commas, brackets and braces outside strings. */
+static size_t count_json_values(const char *t, size_t len) {
+    size_t n = 1;
+    int in_str = 0;
+    for (size_t i = 0; i < len; i++) {
+        char c = t[i];
+        if (in_str) {
+            if (c == '\\') i++;
+            else if (c == '"') in_str = 0;
+        } else if (c == '"') in_str = 1;
+        else if (c == ',' || c == '[' || c == '{') n++;
+    }
+    return n;
+}
 
 /* Reads a whole file, NUL-terminated. */
 static pgi_status read_file(const char *path, char **out, size_t *len) {
@@ -777,6 +795,14 @@ pgi_status pgi__scene_load_json(const char *path, pgi_scene **out) {
     if (memchr(text, 0, len)) {
         free(text);
         return pgi__fail(PGI_ERR_PARSE, "%s: not a JSON text (contains NUL bytes)", path);
+    }
+    size_t nvalues = count_json_values(text, len);
+    if (nvalues > MAX_JSON_VALUES) {
+        free(text);
+        return pgi__fail(PGI_ERR_PARSE,
+                         "%s: about %zu JSON values, more than %u: not a scene description (10^5 lights take about "
+                         "10^6 values)",
+                         path, nvalues, MAX_JSON_VALUES);
     }
     const char *end = NULL;
     /* The length includes the terminating NUL, as cJSON_ParseWithOpts does: with
