@@ -183,6 +183,25 @@ if [ "$rc" -eq 0 ] && printf '%s' "$out" | grep -qF "point 100000" && [ $((t1 - 
     echo "FAIL photongi info on 10^5 lights: exit $rc after $((t1 - t0)) s (expected 0 within 5 s)"
     fail=$((fail + 1))
 fi
+# 10^5 objects: boxes load in linear time; spheres (2304 triangles each) are refused past 16M triangles.
+for shape in box sphere; do
+    awk -v shape=$shape 'BEGIN { printf "{\"builtin\": \"cornell\", \"objects\": [";
+        for (i = 0; i < 100000; i++) printf "%s{\"shape\": \"%s\", \"center\": [0, 1, 0], %s}", i ? ", " : "", shape,
+            shape == "box" ? "\"size\": [0.01, 0.01, 0.01]" : "\"radius\": 0.01";
+        print "]}" }' >"$TMP/objects_$shape.json"
+done
+t0=$(date +%s)
+out=$("${LIMIT[@]}" timeout 20 "$BIN" info --scene "$TMP/objects_box.json" 2>&1)
+rc=$?
+t1=$(date +%s)
+if [ "$rc" -eq 0 ] && printf '%s' "$out" | grep -qF "triangles:  1200036" && [ $((t1 - t0)) -le 5 ]; then
+    pass=$((pass + 1))
+else
+    echo "FAIL photongi info on 10^5 boxes: exit $rc after $((t1 - t0)) s (expected 0 within 5 s)"
+    fail=$((fail + 1))
+fi
+expect_clear_error "objects_sphere.json: objects[7598]: the objects make more than 16777216 triangles" \
+    info --scene "$TMP/objects_sphere.json"
 # 5*10^6 values (10 MB, "[0,0,0,..."; cJSON takes about 100 bytes each): refused before parsing.
 awk 'BEGIN { printf "{\"builtin\": \"cornell\", \"_x\": [0"; for (i = 1; i < 5000000; i++) printf ",0"; print "]}" }' \
     >"$TMP/values_5e6.json"

@@ -51,6 +51,8 @@
 /* cJSON takes about 100 bytes a value (a 64-byte node, its key, malloc's overhead): a 64 MiB file
  * of "[0,0,0,..." would take 3 GB. 4M values (10^5 lights take 1M) bound it near 400 MB. */
 #define MAX_JSON_VALUES 4000000u
+/* Triangles the "objects" may add (a sphere has 2304): 16M triangles take about 560 MB. */
+#define MAX_OBJECT_TRIANGLES (16u << 20)
 
 /* Values in a JSON text, at most: one more than its commas, brackets and braces outside strings. */
 static size_t count_json_values(const char *t, size_t len) {
@@ -752,9 +754,15 @@ static pgi_status load(const char *path, const cJSON *root, pgi_scene **out) {
     }
     if (!st && jmesh) st = pgi__scene_import_mesh(s, mesh);
     it = jobjs ? jobjs->child : NULL;
+    const size_t mesh_tris = s->ntris;
     for (size_t i = 0; !st && it; i++, it = it->next) {
         snprintf(where, sizeof where, "objects[%zu]", i);
         st = parse_object(path, s, it, where);
+        if (!st && s->ntris - mesh_tris > MAX_OBJECT_TRIANGLES)
+            st = pgi__fail(PGI_ERR_PARSE,
+                           "%s: %s: the objects make more than %u triangles (a sphere has %u, a box 12): %zu objects "
+                           "of %d would take gigabytes",
+                           path, where, MAX_OBJECT_TRIANGLES, 48u * 24u * 2u, i + 1, cJSON_GetArraySize(jobjs));
     }
     it = janim ? janim->child : NULL;
     for (size_t i = 0; !st && it; i++, it = it->next) {
