@@ -244,6 +244,9 @@ static pgi_status choose_radius(pgi_renderer *r, pgi_render_desc *d, pgi_frame_s
     double t0 = pgi__now_ms();
     pgi_status st = pgi__auto_radius_choose(&r->ph, &r->vs, pgi__scene_diagonal(r->scene), d->threads, &d->radius,
                                             &fs->auto_radius);
+    /* Within the radius range whatever the scene's size (pi r^2 stays a normal float). */
+    if (!st && d->radius > 0.f && d->radius < (float)PGI_MIN_RADIUS) d->radius = (float)PGI_MIN_RADIUS;
+    if (!st && d->radius > (float)PGI_MAX_RADIUS) d->radius = (float)PGI_MAX_RADIUS;
     fs->radius_ms = pgi__now_ms() - t0;
     fs->radius = d->radius;
     fs->settings.radius = d->radius;
@@ -274,7 +277,9 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
         return pgi__fail(PGI_ERR_INVALID_ARG,
                          "photon radius must be a positive finite number (or 0: default, -1: automatic), got %g",
                          (double)d->radius);
-    if (d->radius > 0.f && !(d->radius >= (float)PGI_MIN_RADIUS && d->radius <= PGI_MAX_RADIUS))
+    /* Progressive frames shrink the radius below the smallest given one (to a tenth after 10^6
+     * frames, pgi_progressive_radius): a 16th of PGI_MIN_RADIUS is still far from pi r^2 underflowing. */
+    if (d->radius > 0.f && !(d->radius >= (float)(PGI_MIN_RADIUS / 16.0) && d->radius <= PGI_MAX_RADIUS))
         return pgi__fail(PGI_ERR_INVALID_ARG, "photon radius %g is out of range (%g..%g: pi r^2 must stay a float)",
                          (double)d->radius, (double)PGI_MIN_RADIUS, (double)PGI_MAX_RADIUS);
     if (d->radius == 0.f && sd->radius > 0.f) d->radius = sd->radius;
@@ -307,8 +312,8 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
                          "r_min, r_max and smoothing must be positive finite numbers (or 0: "
                          "default), got %g, %g, %g",
                          (double)d->r_min, (double)d->r_max, (double)d->smoothing);
-    if ((d->r_min > 0.f && !(d->r_min >= (float)PGI_MIN_RADIUS && d->r_min <= PGI_MAX_RADIUS)) ||
-        (d->r_max > 0.f && !(d->r_max >= (float)PGI_MIN_RADIUS && d->r_max <= PGI_MAX_RADIUS)))
+    if ((d->r_min > 0.f && !(d->r_min >= (float)(PGI_MIN_RADIUS / 16.0) && d->r_min <= PGI_MAX_RADIUS)) ||
+        (d->r_max > 0.f && !(d->r_max >= (float)(PGI_MIN_RADIUS / 16.0) && d->r_max <= PGI_MAX_RADIUS)))
         return pgi__fail(PGI_ERR_INVALID_ARG, "r_min %g or r_max %g is out of range (%g..%g, or 0: default)",
                          (double)d->r_min, (double)d->r_max, (double)PGI_MIN_RADIUS, (double)PGI_MAX_RADIUS);
     if (d->r_max == 0.f) d->r_max = d->radius > 0.f ? d->radius : 0.02f * pgi__scene_diagonal(s);
