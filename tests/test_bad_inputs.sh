@@ -156,6 +156,10 @@ num_case sun_power "light 0 (sun) has a power of" \
 num_case emission_3e38 "objects[0].material.emission[0] = 3e+38 is out of range" \
     '{"builtin": "cornell", "objects": [{"shape": "sphere", "center": [0, 1, 0], "radius": 0.1,
       "material": {"emission": [3e38, 0, 0]}}]}'
+# An environment map (2x1 Radiance HDR of 1.0) times a scale beyond the radiance range.
+printf '#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 2\n\200\200\200\201\200\200\200\201' >"$TMP/one.hdr"
+num_case env_scale "environment map $TMP/one.hdr: pixel (0, 0) = 1 times scale 3e+12 is out of range" \
+    "{\"builtin\": \"cornell\", \"environment\": {\"map\": \"$TMP/one.hdr\", \"scale\": 3e12}}"
 # Description values the renderer refuses: exit 1 (the file), not 2 (the command line).
 num_case bounces_1000 "render.bounces must be a non-negative whole number (at most 64)" \
     '{"builtin": "cornell", "render": {"bounces": 1000}}'

@@ -97,11 +97,12 @@ pgi_status pgi__env_create_map(const char *what, const char *path, float scale, 
             return pgi__fail(PGI_ERR_PARSE, "%s: environment map %s: pixel (%zu, %zu) is %s", what, path,
                              i / 3 % (size_t)w, i / 3 / (size_t)w, why);
         } else if (!((double)img.rgb[i] * scale <= (double)PGI_MAX_RADIANCE)) {
+            const double v = img.rgb[i];
             pgi_image_free(&img);
             return pgi__fail(PGI_ERR_PARSE,
                              "%s: environment map %s: pixel (%zu, %zu) = %g times scale %g is out of range (0..%g, a "
                              "radiance)",
-                             what, path, i / 3 % (size_t)w, i / 3 / (size_t)w, (double)img.rgb[i], (double)scale,
+                             what, path, i / 3 % (size_t)w, i / 3 / (size_t)w, v, (double)scale,
                              (double)PGI_MAX_RADIANCE);
         }
     pgi__env *e = calloc(1, sizeof *e);
