@@ -119,5 +119,106 @@ printf '{"mesh": "deg.obj"}\n' >"$TMP/deg.json"
 expect_clear_error "deg.json: the scene has no lights: its emissive triangles (1) all have zero area" \
     info --scene "$TMP/deg.json"
 
+# ---- scene numbers (far coordinates, radii, radiances, descriptions)
+# Coordinates beyond PGI_MAX_COORD (1e15; Embree aborted on its ray.valid() assertion beyond about
+# 1.8e18), radiances beyond PGI_MAX_RADIANCE (1e12; Inf pixels), description values the renderer
+# refuses: the file is at fault, exit 1, the file and the item named (docs/scene-format.md, Numbers).
+FAR="$DIR/../bad-inputs-2/camera_far_2e18.json"
+if [ ! -f "$FAR" ]; then
+    FAR="$TMP/camera_far_2e18.json"
+    printf '{"builtin": "cornell", "camera": {"eye": [0,1,2e18], "look_at": [0,1,0]}}\n' >"$FAR"
+fi
+expect_clear_error "camera_far_2e18.json: camera.eye[2] = 2e+18 is out of range" render --scene "$FAR" \
+    -o "$TMP/far.png" --size 16x16
+num_case() { # NAME NEEDLE JSON: the description NAME.json holds JSON; render must say NEEDLE
+    printf '%s\n' "$3" >"$TMP/$1.json"
+    expect_clear_error "$1.json: $2" render --scene "$TMP/$1.json" -o "$TMP/$1.png" --size 16x16 -q
+}
+num_case light_far "lights[0].position[1] = 1e+30 is out of range" \
+    '{"builtin": "cornell", "lights": [{"type": "point", "position": [0, 1e30, 0], "intensity": [1, 1, 1]}]}'
+num_case object_far "objects[0].size[0] = 1e+30 is out of range" \
+    '{"builtin": "cornell", "objects": [{"shape": "box", "center": [0, 1, 0], "size": [1e30, 1, 1]}]}'
+num_case motion_far "objects[0].motion.keyframes[1].translate[0] = 1e+30 is out of range" \
+    '{"builtin": "cornell", "objects": [{"shape": "box", "center": [0, 1, 0], "size": [1, 1, 1],
+      "motion": {"keyframes": [{"t": 0}, {"t": 1, "translate": [1e30, 0, 0]}]}}]}'
+num_case motion_scale_far "animation 'objects[0]': keyframe 1 (translate, scale 1e+06) moves the object to 5e+15" \
+    '{"builtin": "cornell", "objects": [{"shape": "box", "center": [0, 1, 0], "size": [1e10, 1, 1],
+      "motion": {"keyframes": [{"t": 0}, {"t": 1, "scale": 1e6}]}}]}'
+num_case sky_3e38 "sky.color[0] = 3e+38 is out of range (0..1e+12)" \
+    '{"builtin": "cornell", "sky": {"color": [3e38, 3e38, 3e38]}}'
+num_case sky_intensity "sky: color x intensity (and ground x intensity) = 3e+38 is out of range" \
+    '{"builtin": "cornell", "sky": {"color": [1, 1, 1], "intensity": 3e38}}'
+num_case light_3e38 "lights[0].intensity[0] = 3e+38 is out of range (0..1e+12)" \
+    '{"builtin": "cornell", "lights": [{"type": "point", "position": [0, 1, 0], "intensity": [3e38, 1, 1]}]}'
+num_case sun_power "light 0 (sun) has a power of" \
+    '{"builtin": "cornell", "objects": [{"shape": "box", "center": [0, 1, 0], "size": [1e14, 1, 1]}],
+      "lights": [{"type": "sun", "direction": [0, -1, 0], "irradiance": [1e12, 1, 1]}]}'
+num_case emission_3e38 "objects[0].material.emission[0] = 3e+38 is out of range" \
+    '{"builtin": "cornell", "objects": [{"shape": "sphere", "center": [0, 1, 0], "radius": 0.1,
+      "material": {"emission": [3e38, 0, 0]}}]}'
+# An environment map (2x1 Radiance HDR of 1.0) times a scale beyond the radiance range.
+printf '#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 2\n\200\200\200\201\200\200\200\201' >"$TMP/one.hdr"
+num_case env_scale "environment map $TMP/one.hdr: pixel (0, 0) = 1 times scale 3e+12 is out of range" \
+    "{\"builtin\": \"cornell\", \"environment\": {\"map\": \"$TMP/one.hdr\", \"scale\": 3e12}}"
+# Description values the renderer refuses: exit 1 (the file), not 2 (the command line).
+num_case bounces_1000 "render.bounces must be a non-negative whole number (at most 64)" \
+    '{"builtin": "cornell", "render": {"bounces": 1000}}'
+num_case width_65536 "render.width must be a non-negative whole number (at most 16384)" \
+    '{"builtin": "cornell", "render": {"width": 65536, "height": 64}}'
+num_case radius_1e-20 "render.radius 1e-20 is out of range (1e-09..1e+15" \
+    '{"builtin": "cornell", "render": {"radius": 1e-20}}'
+# --radius 1e-20 is refused from the value alone (pi r^2 underflows whatever the scene): a usage
+# error, exit 2, before any file is read.
+err=$(timeout 20 "$BIN" render --scene cornell --radius 1e-20 -o "$TMP/r.png" 2>&1 >/dev/null)
+rc=$?
+if [ "$rc" -eq 2 ] && printf '%s' "$err" | grep -qF "1e-09..1e+15"; then pass=$((pass + 1)); else
+    echo "FAIL photongi render --radius 1e-20: exit $rc (expected 2 and the range): $err"
+    fail=$((fail + 1))
+fi
+# 10^5 lights: read in linear time (was quadratic, 16-30 s).
+awk 'BEGIN { printf "{\"builtin\": \"cornell\", \"lights\": [";
+    for (i = 0; i < 100000; i++) printf "%s{\"type\": \"point\", \"position\": [0, 1, 0], \"intensity\": [1e-5, 1e-5, 1e-5]}", i ? ", " : "";
+    print "]}" }' >"$TMP/lights_1e5.json"
+t0=$(date +%s)
+out=$("${LIMIT[@]}" timeout 20 "$BIN" info --scene "$TMP/lights_1e5.json" 2>&1)
+rc=$?
+t1=$(date +%s)
+if [ "$rc" -eq 0 ] && printf '%s' "$out" | grep -qF "point 100000" && [ $((t1 - t0)) -le 5 ]; then pass=$((pass + 1)); else
+    echo "FAIL photongi info on 10^5 lights: exit $rc after $((t1 - t0)) s (expected 0 within 5 s)"
+    fail=$((fail + 1))
+fi
+# 10^5 objects: boxes load in linear time; spheres (2304 triangles each) are refused past 16M triangles.
+for shape in box sphere; do
+    awk -v shape=$shape 'BEGIN { printf "{\"builtin\": \"cornell\", \"objects\": [";
+        for (i = 0; i < 100000; i++) printf "%s{\"shape\": \"%s\", \"center\": [0, 1, 0], %s}", i ? ", " : "", shape,
+            shape == "box" ? "\"size\": [0.01, 0.01, 0.01]" : "\"radius\": 0.01";
+        print "]}" }' >"$TMP/objects_$shape.json"
+done
+t0=$(date +%s)
+out=$("${LIMIT[@]}" timeout 20 "$BIN" info --scene "$TMP/objects_box.json" 2>&1)
+rc=$?
+t1=$(date +%s)
+if [ "$rc" -eq 0 ] && printf '%s' "$out" | grep -qF "triangles:  1200036" && [ $((t1 - t0)) -le 5 ]; then
+    pass=$((pass + 1))
+else
+    echo "FAIL photongi info on 10^5 boxes: exit $rc after $((t1 - t0)) s (expected 0 within 5 s)"
+    fail=$((fail + 1))
+fi
+expect_clear_error "objects_sphere.json: objects[7598]: the objects make more than 16777216 triangles" \
+    info --scene "$TMP/objects_sphere.json"
+# 5*10^6 values (10 MB, "[0,0,0,..."; cJSON takes about 100 bytes each): refused before parsing.
+awk 'BEGIN { printf "{\"builtin\": \"cornell\", \"_x\": [0"; for (i = 1; i < 5000000; i++) printf ",0"; print "]}" }' \
+    >"$TMP/values_5e6.json"
+expect_clear_error "values_5e6.json: about 5000003 JSON values, more than 4000000" info --scene "$TMP/values_5e6.json"
+# A scene name's escape sequences are not printed raw (control bytes become '?').
+printf '{"builtin": "cornell", "name": "evil\\u001b[31mred\\u001b]0;title\\u0007"}\n' >"$TMP/esc.json"
+out=$(timeout 20 "$BIN" info --scene "$TMP/esc.json" 2>&1)
+rc=$?
+if [ "$rc" -eq 0 ] && printf '%s' "$out" | grep -qF 'scene:      evil?[31mred?]0;title?' &&
+    ! printf '%s' "$out" | grep -q $'\x1b'; then pass=$((pass + 1)); else
+    echo "FAIL photongi info: a scene name's escape sequences printed raw (exit $rc)"
+    fail=$((fail + 1))
+fi
+
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]

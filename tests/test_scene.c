@@ -466,6 +466,55 @@ static void test_generated_normals_flat(void **state) {
     pgi_scene_destroy(s);
 }
 
+/* Numbers a ray or a density estimate cannot take (docs/scene-format.md, Numbers): refused at load or by
+ * the setter, never an Embree abort or NaN/Inf pixels. */
+static void test_scene_numbers(void **state) {
+    char p[700], q[700];
+    put("far.obj", "v 0 0 0\nv 1 0 0\nv 0 2e18 0\nf 1 2 3\n", p, sizeof p);
+    expect_error(p, PGI_ERR_PARSE, PGI_ERR_PARSE, "vertex 2 at (0, 2e+18, 0) is beyond the coordinate range");
+    put("hot.mtl", "newmtl lamp\nKd 0.5 0.5 0.5\nKe 3e38 1 1\n", q, sizeof q);
+    put("hot.obj", "mtllib hot.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl lamp\nf 1 2 3\n", p, sizeof p);
+    expect_error(p, PGI_ERR_PARSE, PGI_ERR_PARSE, "material 'lamp' has an emission of 3e+38");
+    put("upfar.json",
+        "{\"builtin\": \"cornell\", \"camera\": {\"eye\": [0, 1, 3], \"look_at\": [0, 1, 0], \"up\": [0, 1e16, 0]}}", p,
+        sizeof p);
+    expect_error(p, PGI_ERR_PARSE, PGI_ERR_PARSE, "camera.up[1] = 1e+16 is out of range");
+    /* A name's control bytes (an escape sequence) become '?'. */
+    put("esc.json", "{\"builtin\": \"cornell\", \"name\": \"a\\u001b[2Jb\"}", p, sizeof p);
+    pgi_scene *s = NULL;
+    TU_CHECK_OK(pgi_scene_load(p, &s));
+    pgi_scene_info in;
+    pgi_scene_get_info(s, &in);
+    assert_string_equal(in.name, "a?[2Jb");
+
+    /* Moving a light beyond the range is refused and leaves it where it was. */
+    pgi_light_group g0, g1;
+    TU_CHECK_OK(pgi_scene_get_light_group(s, 0, &g0));
+    assert_int_equal(pgi_scene_set_light_position(s, 0, (const float[3]){0.f, 1e30f, 0.f}), PGI_ERR_INVALID_ARG);
+    assert_non_null(strstr(pgi_last_error(), "-1e+15..1e+15"));
+    TU_CHECK_OK(pgi_scene_get_light_group(s, 0, &g1));
+    assert_memory_equal(g0.position, g1.position, sizeof g0.position);
+
+    /* A view camera beyond the range, a radius whose pi r^2 underflows: refused by the settings. */
+    pgi_renderer *r = NULL;
+    TU_CHECK_OK(pgi_renderer_create(s, &r));
+    pgi_image img = {0};
+    pgi_camera_def far = {{0.f, 1.f, 2e18f}, {0.f, 1.f, 0.f}, {0.f, 1.f, 0.f}, 40.f};
+    pgi_render_desc d = {.width = 16, .height = 16, .photons = 1000, .threads = 1, .view = &far};
+    assert_int_equal(pgi_renderer_render(r, &d, &img, NULL), PGI_ERR_INVALID_ARG);
+    assert_non_null(strstr(pgi_last_error(), "beyond the coordinate range"));
+    d.view = NULL;
+    d.radius = 1e-20f;
+    assert_int_equal(pgi_renderer_render(r, &d, &img, NULL), PGI_ERR_INVALID_ARG);
+    assert_non_null(strstr(pgi_last_error(), "photon radius 1e-20 is out of range (1e-09..1e+15"));
+    d.radius = 1e-9f; /* the smallest radius renders finite pixels */
+    TU_CHECK_OK(pgi_renderer_render(r, &d, &img, NULL));
+    for (size_t i = 0; i < 3 * (size_t)img.width * img.height; i++) assert_true(isfinite(img.rgb[i]));
+    pgi_image_free(&img);
+    pgi_renderer_destroy(r);
+    pgi_scene_destroy(s);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_missing_file),
@@ -476,6 +525,7 @@ int main(void) {
         cmocka_unit_test(test_nonfinite_vertex),
         cmocka_unit_test(test_missing_texture),
         cmocka_unit_test(test_json_errors),
+        cmocka_unit_test(test_scene_numbers),
         cmocka_unit_test(test_builtins),
         cmocka_unit_test(test_generated_normals_obj_ply),
         cmocka_unit_test(test_generated_normals_flat),

@@ -43,8 +43,10 @@ static inline int app_render_option(const char *a, const char *v, pgi_render_des
         d->photons = (uint32_t)n;
     } else if (strcmp(a, "--radius") == 0) {
         if (strcmp(v, "auto") == 0) d->radius = PGI_RADIUS_AUTO;
-        else if (!parse_pos_float(v, &d->radius))
-            APP_FAIL_("--radius needs a positive number (scene units) or auto, got '%s'", v);
+        else if (!parse_pos_float(v, &d->radius) ||
+                 !(d->radius >= (float)PGI_MIN_RADIUS && d->radius <= PGI_MAX_RADIUS))
+            APP_FAIL_("--radius needs a number in %g..%g (scene units) or auto, got '%s'", (double)PGI_MIN_RADIUS,
+                      (double)PGI_MAX_RADIUS, v);
     } else if (strcmp(a, "--size") == 0) {
         if (!parse_size(v, PGI_MAX_IMAGE_SIDE, PGI_MAX_IMAGE_PIXELS, &d->width, &d->height))
             APP_FAIL_("--size needs WIDTHxHEIGHT, e.g. 1280x720, each side in 1..%d and at most %u pixels, got '%s'",
@@ -94,6 +96,9 @@ static inline int app_render_option(const char *a, const char *v, pgi_render_des
     } else if (strcmp(a, "--r-min") == 0 || strcmp(a, "--r-max") == 0 || strcmp(a, "--smoothing") == 0) {
         float f;
         if (!parse_pos_float(v, &f)) APP_FAIL_("%s needs a positive number, got '%s'", a, v);
+        if (a[2] == 'r' && !(f >= (float)PGI_MIN_RADIUS && f <= PGI_MAX_RADIUS))
+            APP_FAIL_("%s needs a number in %g..%g (scene units), got '%s'", a, (double)PGI_MIN_RADIUS,
+                      (double)PGI_MAX_RADIUS, v);
         if (a[2] == 's') d->smoothing = f;
         else if (strcmp(a, "--r-min") == 0) d->r_min = f;
         else d->r_max = f;

@@ -346,6 +346,21 @@ int pgi_cmd_render(int argc, char **argv) {
         pgi_scene_destroy(scene);
         return 0;
     }
+    /* A frame that is not numbers is a failed render, not an image (the scene's limits keep its
+     * values floats, docs/scene-format.md "Numbers"; this catches what they let through). */
+    size_t bad = 0, npx = (size_t)img.width * (size_t)img.height;
+    for (size_t i = 0; i < npx; i++) {
+        const float *p = img.rgb + 3 * i;
+        bad += !isfinite(p[0] * exposure) || !isfinite(p[1] * exposure) || !isfinite(p[2] * exposure);
+    }
+    if (bad) {
+        pgi_image_free(&img);
+        pgi_scene_destroy(scene);
+        return cli_failure("render",
+                           "%s: the render has %zu non-finite pixel%s (NaN or Inf) of %zu, with exposure %g: not "
+                           "written (scene %s; see docs/scene-format.md, Numbers)",
+                           out, bad, bad == 1 ? "" : "s", npx, (double)exposure, scene_file);
+    }
     st = pgi_image_write(&img, out, exposure);
     pgi_image_free(&img);
     pgi_scene_destroy(scene);

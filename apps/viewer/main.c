@@ -539,8 +539,10 @@ int main(int argc, char **argv) {
                 return usage("--emission must be uniform, guided or auto, got '%s'", val);
         } else if (strcmp(a, "--radius") == 0) {
             if (strcmp(val, "auto") == 0) v.desc.radius = PGI_RADIUS_AUTO;
-            else if (!parse_finite_float(val, &v.desc.radius) || !(v.desc.radius > 0.f))
-                return usage("--radius needs a positive number or auto, got '%s'", val);
+            else if (!parse_finite_float(val, &v.desc.radius) ||
+                     !(v.desc.radius >= (float)PGI_MIN_RADIUS && v.desc.radius <= PGI_MAX_RADIUS))
+                return usage(
+                    "--radius needs a number in 1e-09..1e+15 (PGI_MIN_RADIUS..PGI_MAX_RADIUS) or auto, got '%s'", val);
         } else if (strcmp(a, "--size") == 0) {
             char extra;
             if (sscanf(val, "%dx%d%c", &v.win_w, &v.win_h, &extra) != 2 || v.win_w <= 0 || v.win_h <= 0 ||

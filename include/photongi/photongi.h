@@ -151,6 +151,24 @@ typedef enum pgi_store {
 #define PGI_MAX_IMAGE_PIXELS (36u * 1024u * 1024u)
 #define PGI_MAX_PROGRESSIVE_FRAMES 1000000
 
+/* Limits of the numbers in a scene and a render (docs/scene-format.md, "Numbers"):
+ * - every coordinate (vertex, camera eye and look-at, light position, object centre, motion
+ *   translation, and the scene's bounds at every keyframe of its motions), and every direction
+ *   and up vector's components: |x| <= PGI_MAX_COORD. Embree's rays are valid up to about
+ *   1.8e18 (its FLT_LARGE); 1e15 leaves a factor of 1000 for origins moved along rays and for
+ *   the scene's diagonal, whose square (the sun's cross-section, about 1e31) stays a float.
+ * - radiances and what multiplies to one (light intensity and irradiance, material emission,
+ *   sky colour x intensity, an environment map's pixels x scale): 0..PGI_MAX_RADIANCE; a light's
+ *   power (intensity x solid angle, irradiance x the scene's cross-section) at most
+ *   PGI_MAX_LIGHT_POWER, so photon fluxes and their sums stay floats.
+ * - the photon radius (and r_min, r_max): PGI_MIN_RADIUS..PGI_MAX_RADIUS, so that pi r^2 and
+ *   its inverse are normal floats (1e-20 made pi r^2 underflow: every pixel NaN). */
+#define PGI_MAX_COORD 1e15
+#define PGI_MAX_RADIANCE 1e12
+#define PGI_MAX_LIGHT_POWER 1e30
+#define PGI_MIN_RADIUS 1e-9
+#define PGI_MAX_RADIUS 1e15
+
 /* pgi_render_desc.max_memory: no memory budget. */
 #define PGI_MEMORY_UNLIMITED UINT64_MAX
 

@@ -14,7 +14,13 @@ pgi_status pgi__fail(pgi_status s, const char *fmt, ...) {
     va_start(ap, fmt);
     vsnprintf(g_last_error, sizeof g_last_error, fmt, ap);
     va_end(ap);
+    pgi__sanitize(g_last_error); /* names from files: no escape sequences reach a terminal */
     return s;
+}
+
+void pgi__sanitize(char *text) {
+    for (unsigned char *p = (unsigned char *)text; *p; p++)
+        if ((*p < 0x20 && *p != '\n' && *p != '\t') || *p == 0x7f) *p = '?';
 }
 
 #if defined(__x86_64__) || defined(__i386__)

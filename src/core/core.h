@@ -102,6 +102,9 @@ pgi_status pgi__fail_unknown_estimator(const char *name);
  * else "no such file", "is a directory", "is a FIFO, not a regular file", "is a device, not a
  * regular file", ... (static text). Checked before opening: a FIFO would block the open, a
  * device such as /dev/zero never ends. */
+/* Replaces control bytes (but newline and tab) and DEL by '?', in place: text from a file (a scene
+ * or material name) printed to a terminal carries no escape sequences. */
+void pgi__sanitize(char *text);
 const char *pgi__not_regular_file(const char *path);
 /* Appends `name` to the comma-separated list in buf (for "registered: a, b" messages). */
 void pgi__list_append(char *buf, size_t cap, const char *name);

@@ -220,6 +220,13 @@ pgi_status pgi__check_view(const pgi_camera_def *v) {
     for (int k = 0; k < 3; k++)
         if (!isfinite(v->eye[k]) || !isfinite(v->look_at[k]) || !isfinite(v->up[k]))
             return pgi__fail(PGI_ERR_INVALID_ARG, "view camera has a non-finite eye, look-at or up");
+    for (int k = 0; k < 3; k++)
+        if (!(fabsf(v->eye[k]) <= PGI_MAX_COORD) || !(fabsf(v->look_at[k]) <= PGI_MAX_COORD) ||
+            !(fabsf(v->up[k]) <= PGI_MAX_COORD))
+            return pgi__fail(PGI_ERR_INVALID_ARG,
+                             "view camera: eye (%g, %g, %g), look-at or up is beyond the coordinate range (-%g..%g)",
+                             (double)v->eye[0], (double)v->eye[1], (double)v->eye[2], (double)PGI_MAX_COORD,
+                             (double)PGI_MAX_COORD);
     pgi__v3 d = v3_sub(v3_load(v->look_at), v3_load(v->eye));
     if (!(v3_len(d) > 0.f) || !(v3_len(v3_cross(d, v3_load(v->up))) > 0.f))
         return pgi__fail(PGI_ERR_INVALID_ARG, "view camera is degenerate (eye = look-at, or up parallel to the view)");
@@ -237,6 +244,9 @@ static pgi_status choose_radius(pgi_renderer *r, pgi_render_desc *d, pgi_frame_s
     double t0 = pgi__now_ms();
     pgi_status st = pgi__auto_radius_choose(&r->ph, &r->vs, pgi__scene_diagonal(r->scene), d->threads, &d->radius,
                                             &fs->auto_radius);
+    /* Within the radius range whatever the scene's size (pi r^2 stays a normal float). */
+    if (!st && d->radius > 0.f && d->radius < (float)PGI_MIN_RADIUS) d->radius = (float)PGI_MIN_RADIUS;
+    if (!st && d->radius > (float)PGI_MAX_RADIUS) d->radius = (float)PGI_MAX_RADIUS;
     fs->radius_ms = pgi__now_ms() - t0;
     fs->radius = d->radius;
     fs->settings.radius = d->radius;
@@ -267,6 +277,11 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
         return pgi__fail(PGI_ERR_INVALID_ARG,
                          "photon radius must be a positive finite number (or 0: default, -1: automatic), got %g",
                          (double)d->radius);
+    /* Progressive frames shrink the radius below the smallest given one (to a tenth after 10^6
+     * frames, pgi_progressive_radius): a 16th of PGI_MIN_RADIUS is still far from pi r^2 underflowing. */
+    if (d->radius > 0.f && !(d->radius >= (float)(PGI_MIN_RADIUS / 16.0) && d->radius <= PGI_MAX_RADIUS))
+        return pgi__fail(PGI_ERR_INVALID_ARG, "photon radius %g is out of range (%g..%g: pi r^2 must stay a float)",
+                         (double)d->radius, (double)PGI_MIN_RADIUS, (double)PGI_MAX_RADIUS);
     if (d->radius == 0.f && sd->radius > 0.f) d->radius = sd->radius;
     /* No radius anywhere: automatic with one fixed radius (chosen after the photons are traced, see
        choose_radius); the footprint policies keep 2% of the diagonal, their r_max. */
@@ -297,6 +312,10 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
                          "r_min, r_max and smoothing must be positive finite numbers (or 0: "
                          "default), got %g, %g, %g",
                          (double)d->r_min, (double)d->r_max, (double)d->smoothing);
+    if ((d->r_min > 0.f && !(d->r_min >= (float)(PGI_MIN_RADIUS / 16.0) && d->r_min <= PGI_MAX_RADIUS)) ||
+        (d->r_max > 0.f && !(d->r_max >= (float)(PGI_MIN_RADIUS / 16.0) && d->r_max <= PGI_MAX_RADIUS)))
+        return pgi__fail(PGI_ERR_INVALID_ARG, "r_min %g or r_max %g is out of range (%g..%g, or 0: default)",
+                         (double)d->r_min, (double)d->r_max, (double)PGI_MIN_RADIUS, (double)PGI_MAX_RADIUS);
     if (d->r_max == 0.f) d->r_max = d->radius > 0.f ? d->radius : 0.02f * pgi__scene_diagonal(s);
     if (d->r_min == 0.f) d->r_min = d->r_max / 8.f;
     if (!(d->r_min <= d->r_max))

@@ -182,6 +182,31 @@ pgi_status pgi__scene_add_anim(pgi_scene *s, const char *name, const uint32_t *t
     }
     if (pivot) memcpy(a->pivot, pivot, sizeof a->pivot);
     else v3_store(a->pivot, a->nverts ? v3_scale(v3_add(lo, hi), 0.5f) : v3(0.f, 0.f, 0.f));
+    /* Bounds at every time: a vertex lies within |pivot| + |translate| + scale * (its rest distance
+     * from the pivot) of the origin, whatever the rotation; translate and scale are interpolated
+     * linearly, so the largest reach is at a keyframe. */
+    double reach0 = 0.0, far = 0.0;
+    for (int c = 0; c < 3; c++) reach0 += (double)a->pivot[c] * a->pivot[c];
+    reach0 = sqrt(reach0);
+    for (size_t i = 0; i < a->nverts; i++) {
+        double d2 = 0.0;
+        for (int c = 0; c < 3; c++) {
+            double d = (double)a->rest_pos[3 * i + c] - a->pivot[c];
+            d2 += d * d;
+        }
+        if (d2 > far) far = d2;
+    }
+    far = sqrt(far);
+    for (size_t i = 0; i < nkeys; i++) {
+        double tr = 0.0;
+        for (int c = 0; c < 3; c++) tr += (double)keys[i].translate[c] * keys[i].translate[c];
+        double reach = reach0 + sqrt(tr) + (double)keys[i].scale * far;
+        if (!(reach <= (double)PGI_MAX_COORD))
+            return pgi__fail(PGI_ERR_PARSE,
+                             "animation '%s': keyframe %zu (translate, scale %g) moves the object to %g from the "
+                             "origin, beyond the coordinate range (-%g..%g)",
+                             a->name, i, (double)keys[i].scale, reach, (double)PGI_MAX_COORD, (double)PGI_MAX_COORD);
+    }
     return PGI_OK;
 }
 
@@ -302,6 +327,40 @@ pgi_status pgi_scene_set_time(pgi_scene *s, double t) {
     for (size_t i = 0; i < s->nanims; i++) anim_apply(s, &s->anims[i], t);
     pgi__scene_refresh(s);
     s->dynamic_version++;
+    return pgi__scene_check_numbers(s, s->source[0] ? s->source : s->name);
+}
+
+/* What every change of the geometry or the lights keeps (PGI_MAX_COORD, PGI_MAX_LIGHT_POWER): the
+ * bounds within the coordinate range and each light's power a float below the limit (a sun's power
+ * grows with the scene's cross-section). */
+pgi_status pgi__scene_check_numbers(const pgi_scene *s, const char *what) {
+    for (int c = 0; c < 3; c++)
+        if (!(fabsf(s->bmin[c]) <= PGI_MAX_COORD) || !(fabsf(s->bmax[c]) <= PGI_MAX_COORD))
+            return pgi__fail(PGI_ERR_PARSE,
+                             "%s: the scene's bounds (%g, %g, %g) - (%g, %g, %g) reach beyond the coordinate range "
+                             "(-%g..%g)",
+                             what, (double)s->bmin[0], (double)s->bmin[1], (double)s->bmin[2], (double)s->bmax[0],
+                             (double)s->bmax[1], (double)s->bmax[2], (double)PGI_MAX_COORD, (double)PGI_MAX_COORD);
+    for (size_t i = 0; i < s->nlights; i++) {
+        const pgi__light *l = &s->lights[i];
+        for (int c = 0; c < 3; c++)
+            if (!(l->power[c] <= PGI_MAX_LIGHT_POWER)) {
+                static const char *const kinds[] = {"point", "spot", "sun", "area", "environment"};
+                return pgi__fail(PGI_ERR_PARSE,
+                                 "%s: light %zu (%s) has a power of %g W, beyond %g (its intensity, irradiance or "
+                                 "emission %g times %s)",
+                                 what, i, l->type <= PGI_LIGHT_ENV ? kinds[l->type] : "?", (double)l->power[c],
+                                 (double)PGI_MAX_LIGHT_POWER, (double)l->color[c],
+                                 l->type == PGI_LIGHT_SUN ? "the scene's cross-section" : "its solid angle or area");
+            }
+    }
+    if (s->env)
+        for (int c = 0; c < 3; c++)
+            if (!(s->env->light.power[c] <= PGI_MAX_LIGHT_POWER))
+                return pgi__fail(PGI_ERR_PARSE,
+                                 "%s: the sky's power (its radiance times the scene's cross-section) is %g W, beyond "
+                                 "%g",
+                                 what, (double)s->env->light.power[c], (double)PGI_MAX_LIGHT_POWER);
     return PGI_OK;
 }
 
@@ -375,8 +434,11 @@ pgi_status pgi_scene_set_light_position(pgi_scene *s, size_t i, const float pos[
     pgi_light_group g;
     pgi_status st = pgi_scene_get_light_group(s, i, &g);
     if (st) return st;
-    if (!pos || !isfinite(pos[0]) || !isfinite(pos[1]) || !isfinite(pos[2]))
-        return pgi__fail(PGI_ERR_INVALID_ARG, "light position must be 3 finite numbers");
+    if (!pos || !(fabsf(pos[0]) <= PGI_MAX_COORD) || !(fabsf(pos[1]) <= PGI_MAX_COORD) ||
+        !(fabsf(pos[2]) <= PGI_MAX_COORD))
+        return pgi__fail(PGI_ERR_INVALID_ARG, "light position must be 3 numbers in -%g..%g, got (%g, %g, %g)",
+                         (double)PGI_MAX_COORD, (double)PGI_MAX_COORD, pos ? (double)pos[0] : 0.0,
+                         pos ? (double)pos[1] : 0.0, pos ? (double)pos[2] : 0.0);
     if (g.kind == PGI_LIGHT_KIND_SUN)
         return pgi__fail(PGI_ERR_UNSUPPORTED, "light group %zu is a sun (a direction, no position)", i);
     size_t ne = explicit_lights(s);
@@ -400,8 +462,17 @@ pgi_status pgi_scene_set_light_position(pgi_scene *s, size_t i, const float pos[
     }
     for (size_t v = 0; v < s->nverts; v++)
         if (mark[v]) v3_store(s->pos + 3 * v, v3_add(pgi__scene_vertex(s, (uint32_t)v), delta));
-    free(mark);
     pgi__scene_refresh(s);
+    if ((st = pgi__scene_check_numbers(s, "moving a light"))) { /* put it back */
+        char msg[512];
+        snprintf(msg, sizeof msg, "%s", pgi_last_error());
+        for (size_t v = 0; v < s->nverts; v++)
+            if (mark[v]) v3_store(s->pos + 3 * v, v3_sub(pgi__scene_vertex(s, (uint32_t)v), delta));
+        pgi__scene_refresh(s);
+        free(mark);
+        return pgi__fail(PGI_ERR_INVALID_ARG, "%s", msg);
+    }
+    free(mark);
     s->static_version++;
     return PGI_OK;
 }

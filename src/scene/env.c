@@ -52,8 +52,8 @@ pgi_status pgi__env_create_constant(const char *what, const float sky[3], const 
     pgi_status st = check_up(what, up);
     if (st) return st;
     for (int c = 0; c < 3; c++)
-        if (!isfinite(sky[c]) || sky[c] < 0.f || !isfinite(ground[c]) || ground[c] < 0.f)
-            return pgi__fail(PGI_ERR_PARSE, "%s: the sky's radiance must be finite and non-negative", what);
+        if (!(sky[c] >= 0.f && sky[c] <= PGI_MAX_RADIANCE) || !(ground[c] >= 0.f && ground[c] <= PGI_MAX_RADIANCE))
+            return pgi__fail(PGI_ERR_PARSE, "%s: the sky's radiance must be in 0..%g", what, (double)PGI_MAX_RADIANCE);
     pgi__env *e = calloc(1, sizeof *e);
     if (!e) return pgi__fail(PGI_ERR_OOM, "%s: out of memory for the sky", what);
     memcpy(e->sky, sky, sizeof e->sky);
@@ -96,6 +96,14 @@ pgi_status pgi__env_create_map(const char *what, const char *path, float scale, 
             pgi_image_free(&img);
             return pgi__fail(PGI_ERR_PARSE, "%s: environment map %s: pixel (%zu, %zu) is %s", what, path,
                              i / 3 % (size_t)w, i / 3 / (size_t)w, why);
+        } else if (!((double)img.rgb[i] * scale <= (double)PGI_MAX_RADIANCE)) {
+            const double v = img.rgb[i];
+            pgi_image_free(&img);
+            return pgi__fail(PGI_ERR_PARSE,
+                             "%s: environment map %s: pixel (%zu, %zu) = %g times scale %g is out of range (0..%g, a "
+                             "radiance)",
+                             what, path, i / 3 % (size_t)w, i / 3 / (size_t)w, v, (double)scale,
+                             (double)PGI_MAX_RADIANCE);
         }
     pgi__env *e = calloc(1, sizeof *e);
     float *cdf_row = malloc((size_t)h * sizeof *cdf_row), *cdf_col = malloc(n * sizeof *cdf_col);

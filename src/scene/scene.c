@@ -40,15 +40,27 @@ void pgi_scene_destroy(pgi_scene *s) {
 
 static int finite3(const float *p) { return isfinite(p[0]) && isfinite(p[1]) && isfinite(p[2]); }
 
+/* Within the coordinate range (PGI_MAX_COORD; false for NaN). */
+static int in_range3(const float *p) {
+    return fabsf(p[0]) <= PGI_MAX_COORD && fabsf(p[1]) <= PGI_MAX_COORD && fabsf(p[2]) <= PGI_MAX_COORD;
+}
+
 pgi_status pgi__scene_finalize(pgi_scene *s, const char *what) {
     if (s->ntris == 0) return pgi__fail(PGI_ERR_PARSE, "%s: the scene has no triangles", what);
     pgi_status sst = pgi_scene_set_specular(s, PGI_SPECULAR_DEFAULT); /* the description's "specular" */
     if (sst) return sst;
+    pgi__sanitize(s->name); /* names come from files and are printed (info, messages, stats) */
+    for (size_t m = 0; m < s->nmats; m++) pgi__sanitize(s->mats[m].name);
+    for (size_t a = 0; a < s->nanims; a++) pgi__sanitize(s->anims[a].name);
     float bmin[3] = {INFINITY, INFINITY, INFINITY}, bmax[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (size_t v = 0; v < s->nverts; v++) {
         const float *p = s->pos + 3 * v;
         if (!finite3(p))
             return pgi__fail(PGI_ERR_PARSE, "%s: vertex %zu has a non-finite coordinate (NaN or Inf)", what, v);
+        if (!in_range3(p))
+            return pgi__fail(PGI_ERR_PARSE, "%s: vertex %zu at (%g, %g, %g) is beyond the coordinate range (-%g..%g)",
+                             what, v, (double)p[0], (double)p[1], (double)p[2], (double)PGI_MAX_COORD,
+                             (double)PGI_MAX_COORD);
         if (s->nrm && !finite3(s->nrm + 3 * v))
             return pgi__fail(PGI_ERR_PARSE, "%s: normal of vertex %zu is not finite", what, v);
         for (int k = 0; k < 3; k++) {
@@ -71,6 +83,11 @@ pgi_status pgi__scene_finalize(pgi_scene *s, const char *what) {
         pgi__material *mt = &s->mats[m];
         if (!finite3(mt->kd) || !finite3(mt->ks) || !finite3(mt->ke) || !isfinite(mt->shininess) || !isfinite(mt->ior))
             return pgi__fail(PGI_ERR_PARSE, "%s: material '%s' has a non-finite value", what, mt->name);
+        for (int c = 0; c < 3; c++)
+            if (!(mt->ke[c] <= PGI_MAX_RADIANCE))
+                return pgi__fail(PGI_ERR_PARSE,
+                                 "%s: material '%s' has an emission of %g, out of range (0..%g, a radiance)", what,
+                                 mt->name, (double)mt->ke[c], (double)PGI_MAX_RADIANCE);
         if (mt->tex_kd >= (int)s->ntexs)
             return pgi__fail(PGI_ERR_PARSE, "%s: material '%s' refers to a missing texture", what, mt->name);
         if (pgi__mat_masked(mt)) {
@@ -121,6 +138,17 @@ pgi_status pgi__scene_finalize(pgi_scene *s, const char *what) {
             return pgi__fail(PGI_ERR_PARSE, "%s: light %zu has a negative or non-finite colour", what, i);
         if (!finite3(l->pos) || !finite3(l->dir))
             return pgi__fail(PGI_ERR_PARSE, "%s: light %zu has a non-finite position or direction", what, i);
+        if (!in_range3(l->pos) || !in_range3(l->dir))
+            return pgi__fail(PGI_ERR_PARSE,
+                             "%s: light %zu has a position (%g, %g, %g) or direction beyond the coordinate range "
+                             "(-%g..%g)",
+                             what, i, (double)l->pos[0], (double)l->pos[1], (double)l->pos[2], (double)PGI_MAX_COORD,
+                             (double)PGI_MAX_COORD);
+        for (int c = 0; c < 3; c++)
+            if (!(l->color[c] <= PGI_MAX_RADIANCE))
+                return pgi__fail(PGI_ERR_PARSE,
+                                 "%s: light %zu has an intensity or irradiance of %g, out of range (0..%g)", what, i,
+                                 (double)l->color[c], (double)PGI_MAX_RADIANCE);
         float k = 0.f;
         switch (l->type) {
         case PGI_LIGHT_POINT: k = 4.f * PGI_PI; break;
@@ -167,11 +195,16 @@ pgi_status pgi__scene_finalize(pgi_scene *s, const char *what) {
             !(v3_len(v3_cross(v3_sub(v3_load(cd->look_at), v3_load(cd->eye)), v3_load(cd->up))) > 0.f))
             return pgi__fail(PGI_ERR_PARSE, "%s: camera %zu is degenerate (eye = look-at, or up parallel to the view)",
                              what, i);
+        if (!in_range3(cd->eye) || !in_range3(cd->look_at) || !in_range3(cd->up))
+            return pgi__fail(PGI_ERR_PARSE,
+                             "%s: camera %zu: eye (%g, %g, %g), look-at or up is beyond the coordinate range (-%g..%g)",
+                             what, i, (double)cd->eye[0], (double)cd->eye[1], (double)cd->eye[2], (double)PGI_MAX_COORD,
+                             (double)PGI_MAX_COORD);
         if (!(cd->fov_y_deg > 0.f && cd->fov_y_deg < 180.f))
             return pgi__fail(PGI_ERR_PARSE, "%s: camera %zu field of view %g is outside (0, 180) degrees", what, i,
                              cd->fov_y_deg);
     }
-    return PGI_OK;
+    return pgi__scene_check_numbers(s, what);
 }
 
 size_t pgi__scene_emissive_triangles(const pgi_scene *s) {

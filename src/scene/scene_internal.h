@@ -202,6 +202,9 @@ typedef struct pgi__anim {
 /* Adds an animation moving the vertices of the triangles tris[0..ntris) (the
  * caller keeps tris). Takes ownership of keys (malloc'd). Marks the
  * triangles dynamic. pivot NULL: the centre of their bounding box. */
+/* The scene's bounds within PGI_MAX_COORD and each light's power at most PGI_MAX_LIGHT_POWER
+ * (after finalize, an animation step or a moved light); `what` names the scene in the message. */
+pgi_status pgi__scene_check_numbers(const pgi_scene *s, const char *what);
 pgi_status pgi__scene_add_anim(pgi_scene *s, const char *name, const uint32_t *tris, size_t ntris, const float *pivot,
                                pgi__keyframe *keys, size_t nkeys, pgi__loop loop);
 /* Appends a UV sphere / an axis-aligned box with material `mat`; the new
