@@ -112,6 +112,24 @@ static pgi_status texture_fail(pgi_status st, const tex_cache *tc, const char *m
     return pgi__fail(st, "%s: material '%s': %s", tc->mesh_path, mat_name, why);
 }
 
+/* A texture of w x h is counted against the load's memory budget before it is decoded: its
+ * RGBA8 texels and their copy in 4x4 blocks (docs/memory.md), on top of the scene's textures. */
+static pgi_status texture_budget(const pgi_scene *s, const tex_cache *tc, const char *mat_name, const char *file, int w,
+                                 int h, uint64_t budget) {
+    if (!budget) return PGI_OK;
+    size_t scene_bytes, tex_bytes;
+    pgi__scene_memory(s, &scene_bytes, &tex_bytes);
+    const uint64_t need = (uint64_t)w * (uint64_t)h * 4u + (uint64_t)((w + 3) / 4) * (uint64_t)((h + 3) / 4) * 64u;
+    if ((uint64_t)scene_bytes + tex_bytes + need <= budget) return PGI_OK;
+    char a[32], b[32], c[32];
+    return pgi__fail(PGI_ERR_OOM,
+                     "%s: material '%s': texture '%s' (%dx%d) needs %s, with the scene's %s over the memory budget "
+                     "of %s",
+                     tc->mesh_path, mat_name, file, w, h, pgi__mem_format(need, a, sizeof a),
+                     pgi__mem_format((uint64_t)scene_bytes + tex_bytes, b, sizeof b),
+                     pgi__mem_format(budget, c, sizeof c));
+}
+
 static pgi_status load_texture(pgi_scene *s, tex_cache *tc, const struct aiScene *sc, const char *mat_name,
                                const char *file, int *index) {
     char resolved[sizeof((pgi__texture *)0)
@@ -137,6 +155,7 @@ static pgi_status load_texture(pgi_scene *s, tex_cache *tc, const struct aiScene
                 return pgi__fail(PGI_ERR_IO, "%s: material '%s': cannot read texture '%s': %s", tc->mesh_path, mat_name,
                                  resolved, stbi_failure_reason());
             pgi_status st = pgi__check_image_size(resolved, w, h);
+            if (!st) st = texture_budget(s, tc, mat_name, resolved, w, h, pgi__scene_load_budget());
             if (st) return st;
             if ((st = pgi__hdr_check(resolved, NULL, at->pcData, at->mWidth))) return texture_fail(st, tc, mat_name);
             rgba = stbi_load_from_memory((const unsigned char *)at->pcData, (int)at->mWidth, &w, &h, &n, 4);
@@ -145,6 +164,9 @@ static pgi_status load_texture(pgi_scene *s, tex_cache *tc, const struct aiScene
                                  resolved, stbi_failure_reason());
         } else {
             pgi_status st = pgi__check_image_size(resolved, at->mWidth, at->mHeight);
+            if (!st)
+                st = texture_budget(s, tc, mat_name, resolved, (int)at->mWidth, (int)at->mHeight,
+                                    pgi__scene_load_budget());
             if (st) return st;
             w = (int)at->mWidth;
             h = (int)at->mHeight;
@@ -179,28 +201,36 @@ static pgi_status load_texture(pgi_scene *s, tex_cache *tc, const struct aiScene
         return pgi__fail(PGI_ERR_IO, "%s: material '%s': texture path '%s' is too long", tc->mesh_path, mat_name, file);
     for (size_t i = tc->first; i < s->ntexs; i++)
         if (strcmp(s->texs[i].path, resolved) == 0) return *index = (int)i, PGI_OK;
+    /* One decode a file, however it is named ("a/../t.png", links): by its canonical path. */
+    char canon[PATH_MAX];
+    if (realpath(resolved, canon) && strlen(canon) < sizeof s->texs[0].canon)
+        for (size_t i = tc->first; i < s->ntexs; i++)
+            if (strcmp(s->texs[i].canon, canon) == 0) return *index = (int)i, PGI_OK;
     int w, h, n;
-    const char *why = pgi__not_regular_file(resolved);
-    if (why)
-        return pgi__fail(PGI_ERR_IO, "%s: material '%s': cannot read texture '%s': %s", tc->mesh_path, mat_name,
-                         resolved, why);
-    if (!stbi_info(resolved, &w, &h, &n))
-        return pgi__fail(PGI_ERR_IO, "%s: material '%s': cannot read texture '%s': %s", tc->mesh_path, mat_name,
-                         resolved, stbi_failure_reason());
-    pgi_status st = pgi__check_image_size(resolved, w, h);
-    if (st) return st;
-    FILE *f = fopen(resolved, "rb");
+    const char *why;
+    const uint64_t budget = pgi__scene_load_budget();
+    FILE *f = pgi__fopen_input(resolved, budget, NULL, &why);
     if (!f)
         return pgi__fail(PGI_ERR_IO, "%s: material '%s': cannot read texture '%s': %s", tc->mesh_path, mat_name,
-                         resolved, strerror(errno));
-    st = pgi__hdr_check(resolved, f, NULL, 0);
+                         resolved, why);
+    if (!stbi_info_from_file(f, &w, &h, &n)) {
+        fclose(f);
+        return pgi__fail(PGI_ERR_IO, "%s: material '%s': cannot read texture '%s': %s", tc->mesh_path, mat_name,
+                         resolved, stbi_failure_reason());
+    }
+    pgi_status st = pgi__check_image_size(resolved, w, h);
+    if (!st) st = texture_budget(s, tc, mat_name, resolved, w, h, budget);
+    if (!st) st = pgi__hdr_check(resolved, f, NULL, 0);
     unsigned char *rgba = st ? NULL : stbi_load_from_file(f, &w, &h, &n, 4);
     fclose(f);
-    if (st) return texture_fail(st, tc, mat_name);
+    if (st) return st == PGI_ERR_OOM ? st : texture_fail(st, tc, mat_name);
     if (!rgba)
         return pgi__fail(PGI_ERR_IO, "%s: material '%s': cannot read texture '%s': %s", tc->mesh_path, mat_name,
                          resolved, stbi_failure_reason());
-    return pgi__scene_add_texture(s, w, h, n, rgba, resolved, index);
+    st = pgi__scene_add_texture(s, w, h, n, rgba, resolved, index);
+    if (!st && strlen(canon) < sizeof s->texs[0].canon)
+        snprintf(s->texs[*index].canon, sizeof s->texs[0].canon, "%s", canon);
+    return st;
 }
 
 static pgi_status convert_material(pgi_scene *s, tex_cache *tc, const struct aiScene *sc, const struct aiMaterial *am,

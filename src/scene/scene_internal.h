@@ -56,6 +56,7 @@ typedef struct pgi__texture {
     unsigned char *tiled;
     int channels; /* of the image file: 1-4; 2 and 4 carry alpha (else alpha is 255) */
     char path[512];
+    char canon[512]; /* the file's canonical path (realpath), "" for embedded ones: one decode a file */
 } pgi__texture;
 
 typedef enum pgi__light_type {
