@@ -704,7 +704,7 @@ pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path) {
      * malformed files (a PLY face list longer than the file), which the later steps follow. */
     const unsigned int flags = aiProcess_ValidateDataStructure | aiProcess_Triangulate |
                                aiProcess_JoinIdenticalVertices | aiProcess_SortByPType | aiProcess_PreTransformVertices;
-    static _Thread_local io_ctx ctx;
+    io_ctx ctx; /* 7 KiB */
     memset(&ctx, 0, sizeof ctx);
     ctx.mesh_path = path;
     ctx.budget = budget;

@@ -123,10 +123,9 @@ static pgi_status check_mtl(const char *obj, const char *path, mtl_state *ms, in
 }
 
 static pgi_status check_obj(const char *path, FILE *f, uint64_t budget, pgi__mesh_hints *hints) {
-    static _Thread_local mtl_state ms;
-    ms.nlibs = 0;
-    ms.materials = 0;
-    ms.budget = budget;
+    mtl_state *ms = calloc(1, sizeof *ms); /* 256 KiB: neither the stack nor thread-local storage */
+    if (!ms) return pgi__fail(PGI_ERR_OOM, "%s: out of memory", path);
+    ms->budget = budget;
     line_reader r = {.f = f, .obj = 1};
     pgi_status st = PGI_OK;
     const char *slash = strrchr(path, '/');
@@ -150,18 +149,19 @@ static pgi_status check_obj(const char *path, FILE *f, uint64_t budget, pgi__mes
             for (size_t n = strlen(name); n > 0 && isspace((unsigned char)name[n - 1]);) name[--n] = 0;
             int found = 0;
             if (snprintf(lib, sizeof lib, "%.*s%s", dir_len, path, name) < (int)sizeof lib)
-                st = check_mtl(path, lib, &ms, &found);
+                st = check_mtl(path, lib, ms, &found);
             for (const char *w = rest; !st && *w;) {
                 w = first_token(w, name, sizeof name);
                 if (snprintf(lib, sizeof lib, "%.*s%s", dir_len, path, name) < (int)sizeof lib)
-                    st = check_mtl(path, lib, &ms, &found);
+                    st = check_mtl(path, lib, ms, &found);
             }
             /* No such library: Assimp then reads the OBJ's own name with "mtl" for "obj" instead. */
             size_t pl = strlen(path);
             if (!st && !found && pl >= 3 && snprintf(lib, sizeof lib, "%.*smtl", (int)(pl - 3), path) < (int)sizeof lib)
-                st = check_mtl(path, lib, &ms, &found);
+                st = check_mtl(path, lib, ms, &found);
         }
     }
+    free(ms);
     return st;
 }
 
