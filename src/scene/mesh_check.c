@@ -446,7 +446,7 @@ static pgi_status check_keyword_counts(const char *path, const char *b, size_t n
     long line = 1;
     long kids[PGI__MAX_MESH_DEPTH + 1];
     int nk = 0; /* AC3D: children still to come at each open level */
-    int line_start = 1;
+    int line_start = 1, sense8 = 0;
     for (size_t i = 0; i < n;) {
         if (b[i] == '\n') {
             line++;
@@ -463,6 +463,14 @@ static pgi_status check_keyword_counts(const char *path, const char *b, size_t n
         const size_t len = i - t0;
         const int first = line_start;
         line_start = 0;
+        if (keys == k_nff_keys && t0 == 0 && len == 3 && memcmp(b, "nff", 3) == 0) sense8 = 1;
+        if (sense8 && first && isdigit((unsigned char)b[t0])) {
+            /* Sense8 NFF: a line's first number is a count (vertices, polygons, a polygon's
+             * vertices) of items of at least 2 bytes. */
+            pgi_status st = check_count(path, line, "items", strtod(b + t0, NULL), 2, size);
+            if (st) return st;
+            continue;
+        }
         if (ac && first && len == 6 && memcmp(b + t0, "OBJECT", 6) == 0) {
             while (nk > 0 && kids[nk - 1] == 0) nk--;
             if (nk > 0) kids[nk - 1]--;
