@@ -243,7 +243,7 @@ static pgi_status scene_load(const char *spec, pgi_scene **out);
 
 pgi_status pgi_scene_load_budget(const char *spec, uint64_t max_memory, pgi_scene **out) {
     const uint64_t saved = g_load_budget;
-    g_load_budget = max_memory;
+    g_load_budget = max_memory ? max_memory : pgi__mem_default_budget(); /* read once a load */
     pgi_status st = scene_load(spec, out);
     g_load_budget = saved;
     return st;
