@@ -201,6 +201,18 @@ expect_clear_error "huge.nff:10: declares 400000000 polygon vertices" info --sce
 printf 'MD5Version 10\ncommandline ""\nnumJoints 1\nnumMeshes 1\njoints {\n"r" -1 ( 0 0 0 ) ( 0 0 0 )\n}\nmesh {\nnumverts 500000000\n}\n' \
     >"$fm/huge.md5mesh"
 expect_clear_error "huge.md5mesh:9: declares 500000000 vertices" info --scene "$fm/huge.md5mesh"
+printf 'xof 0303txt 0032\nMesh m {\n 400000000;\n 0.0;0.0;0.0;;\n}\n' >"$fm/huge.x"
+expect_clear_error "huge.x:3: declares 400000000 items" info --scene "$fm/huge.x"
+printf '*3DSMAX_ASCIIEXPORT 200\n*GEOMOBJECT {\n*MESH {\n*MESH_NUMVERTEX 400000000\n}\n}\n' >"$fm/huge.ase"
+expect_clear_error "huge.ase:4: declares 400000000 items" info --scene "$fm/huge.ase"
+sed 's/count="9"/count="900000000"/' >"$fm/huge.dae" <<'DAE'
+<?xml version="1.0"?>
+<COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema" version="1.4.1">
+<library_geometries><geometry id="g"><mesh><source id="p"><float_array id="pa" count="9">0 0 0 1 0 0 0 1 0</float_array>
+</source></mesh></geometry></library_geometries>
+</COLLADA>
+DAE
+expect_clear_error "huge.dae:3: declares 900000000 items" info --scene "$fm/huge.dae"
 # Many materials (Assimp's OBJ import is quadratic in them: 50k took 28 s).
 {
     for i in $(seq 0 10000); do printf 'newmtl m%d\nKe 1 1 1\n' "$i"; done

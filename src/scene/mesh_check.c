@@ -353,6 +353,15 @@ static pgi_status read_whole(const char *path, FILE *f, uint64_t size, uint64_t 
     return PGI_OK;
 }
 
+/* A count the file declares is plausible only when the file can hold that many items of at
+ * least `min_bytes` each (Assimp allocates by the declared count before it reads them). */
+static pgi_status check_count(const char *path, long line, const char *what, double count, double min_bytes,
+                              uint64_t size) {
+    if (count >= 0 && count * min_bytes <= (double)size + 16.0) return PGI_OK;
+    return pgi__fail(PGI_ERR_PARSE, "%s:%ld: declares %.0f %s, more than its %llu bytes can hold", path, line, count,
+                     what, (unsigned long long)size);
+}
+
 static pgi_status too_deep(const char *path, const char *what, long line) {
     if (line > 0)
         return pgi__fail(PGI_ERR_UNSUPPORTED, "%s:%ld: %s nested deeper than %d levels", path, line, what,
@@ -377,8 +386,9 @@ static pgi_status check_braces(const char *path, const char *b, size_t n, int qu
     return PGI_OK;
 }
 
-/* Element nesting of an XML file (COLLADA, X3D, AMF, Irrlicht...). */
-static pgi_status check_xml(const char *path, const char *b, size_t n) {
+/* Element nesting of an XML file (COLLADA, X3D, AMF, Irrlicht...), and the attributes whose name
+ * has "count" in it (COLLADA's count, Irrlicht's vertexCount...): items of at least 2 bytes. */
+static pgi_status check_xml(const char *path, const char *b, size_t n, uint64_t size) {
     long depth = 0, line = 1;
     for (size_t i = 0; i < n; i++) {
         if (b[i] == '\n') line++;
@@ -397,6 +407,25 @@ static pgi_status check_xml(const char *path, const char *b, size_t n) {
             if (b[i] == '\n') line++;
             if (b[i] == '"' || b[i] == '\'') {
                 const char q = b[i];
+                size_t e = i; /* the attribute's name: before '=' */
+                while (e > 0 && isspace((unsigned char)b[e - 1])) e--;
+                if (e > 0 && b[e - 1] == '=') {
+                    e--;
+                    while (e > 0 && isspace((unsigned char)b[e - 1])) e--;
+                    size_t a = e;
+                    while (a > 0 && (isalnum((unsigned char)b[a - 1]) || b[a - 1] == '_' || b[a - 1] == ':')) a--;
+                    char name[64];
+                    if (e - a < sizeof name) {
+                        for (size_t k = a; k < e; k++) name[k - a] = (char)tolower((unsigned char)b[k]);
+                        name[e - a] = 0;
+                        if (strstr(name, "count")) {
+                            char *end;
+                            const double v = strtod(b + i + 1, &end);
+                            pgi_status st = end > b + i + 1 ? check_count(path, line, "items", v, 2, size) : PGI_OK;
+                            if (st) return st;
+                        }
+                    }
+                }
                 for (i++; i < n && b[i] != q; i++) line += b[i] == '\n';
             }
             prev = b[i];
@@ -405,15 +434,6 @@ static pgi_status check_xml(const char *path, const char *b, size_t n) {
         else if (prev != '/' && ++depth > PGI__MAX_MESH_DEPTH) return too_deep(path, "XML elements", line);
     }
     return PGI_OK;
-}
-
-/* A count the file declares is plausible only when the file can hold that many items of at
- * least `min_bytes` each (Assimp allocates by the declared count before it reads them). */
-static pgi_status check_count(const char *path, long line, const char *what, double count, double min_bytes,
-                              uint64_t size) {
-    if (count >= 0 && count * min_bytes <= (double)size + 16.0) return PGI_OK;
-    return pgi__fail(PGI_ERR_PARSE, "%s:%ld: declares %.0f %s, more than its %llu bytes can hold", path, line, count,
-                     what, (unsigned long long)size);
 }
 
 /* Keyword counts: `keyword N` declares N items of at least min_bytes each. */
@@ -493,6 +513,54 @@ static pgi_status check_keyword_counts(const char *path, const char *b, size_t n
             if (!(v >= 0 && v <= 8))
                 return pgi__fail(PGI_ERR_UNSUPPORTED, "%s:%ld: tessellation %g (at most 8)", path, line, v);
         }
+    }
+    return PGI_OK;
+}
+
+/* DirectX .x (text): a whole number followed by ';' starts a list (vertices, faces, indices,
+ * weights) of that many items of at least 2 bytes ("0,"); floats and GUIDs are skipped. */
+static pgi_status check_x_counts(const char *path, const char *b, size_t n, uint64_t size) {
+    if (n < 16 || memcmp(b, "xof ", 4) != 0 || memcmp(b + 8, "txt", 3) != 0) return PGI_OK; /* binary: Assimp's */
+    long line = 1;
+    for (size_t i = 0; i < n; i++) {
+        if (b[i] == '\n') line++;
+        if (!isdigit((unsigned char)b[i]) ||
+            (i > 0 && (isalnum((unsigned char)b[i - 1]) || b[i - 1] == '.' || b[i - 1] == '-' || b[i - 1] == '_')))
+            continue;
+        size_t j = i;
+        while (j < n && isdigit((unsigned char)b[j])) j++;
+        size_t k = j;
+        while (k < n && (b[k] == ' ' || b[k] == '\t')) k++;
+        if (k < n && b[k] == ';') {
+            pgi_status st = check_count(path, line, "items", strtod(b + i, NULL), 2, size);
+            if (st) return st;
+        }
+        i = j - 1;
+    }
+    return PGI_OK;
+}
+
+/* ASE: a "*...NUM..." or "*...COUNT" keyword (*MESH_NUMVERTEX, *MATERIAL_COUNT...) and BVH's
+ * "Frames:" declare that many items of at least 2 bytes. */
+static pgi_status check_star_counts(const char *path, const char *b, size_t n, uint64_t size, int bvh) {
+    long line = 1;
+    for (size_t i = 0; i < n; i++) {
+        if (b[i] == '\n') line++;
+        if (bvh ? (b[i] != 'F' || (i > 0 && !isspace((unsigned char)b[i - 1]))) : b[i] != '*') continue;
+        size_t j = i;
+        while (j < n && !isspace((unsigned char)b[j])) j++;
+        char tok[64];
+        const size_t len = j - i < sizeof tok - 1 ? j - i : sizeof tok - 1;
+        memcpy(tok, b + i, len);
+        tok[len] = 0;
+        const int counts = bvh ? strcmp(tok, "Frames:") == 0 : strstr(tok, "NUM") || strstr(tok, "COUNT");
+        if (counts) {
+            char *end;
+            const double v = strtod(b + j, &end);
+            pgi_status st = end > b + j ? check_count(path, line, "items", v, 2, size) : PGI_OK;
+            if (st) return st;
+        }
+        i = j > i ? j - 1 : i;
     }
     return PGI_OK;
 }
@@ -648,11 +716,11 @@ pgi_status pgi__mesh_precheck(const char *path, uint64_t budget, pgi__mesh_hints
     else {
         static const struct {
             const char *ext;
-            int kind; /* 1 JSON, 2 braces, 3 XML, 4 OFF, 5 MD5, 6 AC3D, 7 NFF */
-        } k[] = {{".gltf", 1}, {".x", 2},       {".bvh", 2},     {".ogex", 2},      {".dae", 3},
-                 {".xml", 3},  {".x3d", 3},     {".amf", 3},     {".irr", 3},       {".irrmesh", 3},
-                 {".off", 4},  {".md5mesh", 5}, {".md5anim", 5}, {".md5camera", 5}, {".ac", 6},
-                 {".acc", 6},  {".ac3d", 6},    {".nff", 7},     {".enff", 7}};
+            int kind; /* 1 JSON, 2 braces, 3 XML, 4 OFF, 5 MD5, 6 AC3D, 7 NFF, 8 .x, 9 ASE, 10 BVH */
+        } k[] = {{".gltf", 1},    {".x", 8},         {".bvh", 10}, {".ogex", 2},    {".dae", 3},  {".xml", 3},
+                 {".x3d", 3},     {".amf", 3},       {".irr", 3},  {".irrmesh", 3}, {".off", 4},  {".md5mesh", 5},
+                 {".md5anim", 5}, {".md5camera", 5}, {".ac", 6},   {".acc", 6},     {".ac3d", 6}, {".nff", 7},
+                 {".enff", 7},    {".ase", 9},       {".ask", 9}};
         int kind = 0;
         for (size_t i = 0; i < sizeof k / sizeof k[0] && !kind; i++)
             if (has_ext(path, k[i].ext)) kind = k[i].kind;
@@ -661,12 +729,15 @@ pgi_status pgi__mesh_precheck(const char *path, uint64_t budget, pgi__mesh_hints
         const size_t n = b ? strlen(b) : 0; /* text formats: a NUL ends what the checks see */
         if (!st && kind == 1) st = check_gltf_json(path, b, n);
         else if (!st && kind == 2) st = check_braces(path, b, n, 0, "braces");
-        else if (!st && kind == 3) st = check_xml(path, b, n);
+        else if (!st && kind == 3) st = check_xml(path, b, n, size);
         else if (!st && kind == 4) st = check_off(path, b, n, size);
         else if (!st && kind == 5) st = check_keyword_counts(path, b, n, size, k_md5_keys, 0);
         else if (!st && kind == 6) st = check_keyword_counts(path, b, n, size, k_ac_keys, 1);
         else if (!st && kind == 7) st = check_keyword_counts(path, b, n, size, k_nff_keys, 0);
-        if (!st && kind == 5) st = check_braces(path, b, n, 1, "braces");
+        else if (!st && kind == 8) st = check_x_counts(path, b, n, size);
+        else if (!st && (kind == 9 || kind == 10)) st = check_star_counts(path, b, n, size, kind == 10);
+        if (!st && (kind == 5 || kind == 8 || kind == 9 || kind == 10))
+            st = check_braces(path, b, n, kind != 8 && kind != 10, "braces");
         free(b);
     }
     fclose(f);
