@@ -220,5 +220,133 @@ if [ "$rc" -eq 0 ] && printf '%s' "$out" | grep -qF 'scene:      evil?[31mred?]0
     fail=$((fail + 1))
 fi
 
+# ---- files and meshes (deep hierarchies, checked opens, declared counts)
+# expect_fast_ok ARGS...: exit 0 within 5 s (a file read once, however often it is named).
+expect_fast_ok() {
+    local err rc
+    err=$("${LIMIT[@]}" timeout 5 "$BIN" "$@" 2>&1 >/dev/null)
+    rc=$?
+    if [ "$rc" -ne 0 ]; then
+        echo "FAIL photongi $*: exit status $rc (expected 0 within 5 s; 124 = timeout)"
+        printf '%s\n' "$err" | head -5 | sed 's/^/    /'
+        fail=$((fail + 1))
+    else
+        pass=$((pass + 1))
+    fi
+}
+if [ -d "$DIR/../bad-inputs-2" ]; then
+    expect_clear_error "gltf_deep_nodes.gltf: node 1000 is 1001 levels deep" info --scene "$DIR/../bad-inputs-2/gltf_deep_nodes.gltf"
+    expect_clear_error "off_300M_faces.off:2: declares 300000000 vertices" info --scene "$DIR/../bad-inputs-2/off_300M_faces.off"
+    expect_clear_error "glb_json_chunk_4GB.glb: GLB JSON chunk declares 4294967280 bytes" \
+        info --scene "$DIR/../bad-inputs-2/glb_json_chunk_4GB.glb"
+fi
+fm="$TMP/fm"
+mkdir -p "$fm/a"
+tri='v 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl light\nf 1 2 3\n'
+# Material libraries: a FIFO, a link to /dev/zero (both hung), one 1 MB file named 1000 times on a line.
+mkfifo "$fm/fifo.mtl"
+ln -s /dev/zero "$fm/zero.mtl"
+printf "mtllib fifo.mtl\n$tri" >"$fm/fifo.obj"
+printf "mtllib zero.mtl\n$tri" >"$fm/zero.obj"
+expect_clear_error "fifo.obj: material library $fm/fifo.mtl: is a FIFO" info --scene "$fm/fifo.obj"
+expect_clear_error "zero.obj: material library $fm/zero.mtl: is a device" info --scene "$fm/zero.obj"
+{
+    printf 'newmtl light\nKe 1 1 1\n'
+    for i in $(seq 1 14000); do printf '# padding padding padding padding padding padding padding padding\n'; done
+} >"$fm/big.mtl"
+{
+    printf 'mtllib'
+    for i in $(seq 1 1000); do printf ' big.mtl'; done
+    printf "\n$tri"
+} >"$fm/many.obj"
+printf 'newmtl light\nKe 1 1 1\n' >"$fm/many.mtl" # Assimp takes the whole line for one name, then reads this
+expect_fast_ok info --scene "$fm/many.obj"
+# A glTF whose buffer is a FIFO (hung).
+mkfifo "$fm/buf.bin"
+printf '{"asset":{"version":"2.0"},"buffers":[{"uri":"buf.bin","byteLength":36}],"bufferViews":[{"buffer":0,"byteLength":36}],"accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}],"meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],"nodes":[{"mesh":0}],"scenes":[{"nodes":[0]}],"scene":0}\n' >"$fm/fifo.gltf"
+expect_clear_error "buf.bin: is a FIFO" info --scene "$fm/fifo.gltf"
+# A buffer of 3 GB (sparse) behind a 36-byte mesh: Assimp reads all of it.
+truncate -s 3G "$fm/big.bin"
+sed 's/"buf.bin","byteLength":36/"big.bin","byteLength":3221225472/' "$fm/fifo.gltf" >"$fm/big.gltf"
+expect_clear_error "big.gltf: buffer 0 declares 3221225472 bytes, its buffer views use 36" info --scene "$fm/big.gltf"
+rm -f "$fm/big.bin"
+# JSON nested 100000 deep inside a glTF.
+{
+    printf '{"asset":{"version":"2.0"},"extras":'
+    printf '%.0s[' $(seq 1 100000)
+    printf '%.0s]' $(seq 1 100000)
+    printf '}\n'
+} >"$fm/deep.gltf"
+expect_clear_error "deep.gltf:1: JSON nested deeper than 1000 levels" info --scene "$fm/deep.gltf"
+# Deep nesting: COLLADA nodes and DirectX .x frames 5000 deep (stack overflows in Assimp).
+{
+    printf '<?xml version="1.0"?>\n<COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema" version="1.4.1">\n<library_visual_scenes><visual_scene id="s">\n'
+    for i in $(seq 1 5000); do printf '<node id="n%d">' "$i"; done
+    for i in $(seq 1 5000); do printf '</node>'; done
+    printf '\n</visual_scene></library_visual_scenes></COLLADA>\n'
+} >"$fm/deep.dae"
+expect_clear_error "deep.dae:4: XML elements nested deeper than 1000 levels" info --scene "$fm/deep.dae"
+{
+    printf 'xof 0303txt 0032\n'
+    for i in $(seq 1 5000); do printf 'Frame f%d {\n' "$i"; done
+    for i in $(seq 1 5000); do printf '}\n'; done
+} >"$fm/deep.x"
+expect_clear_error "deep.x:1002: braces nested deeper than 1000 levels" info --scene "$fm/deep.x"
+# Counts a header declares that the file cannot hold (gigabytes allocated before Assimp fails).
+printf 'AC3Db\nMATERIAL "m" rgb 1 1 1 amb 0 0 0 emis 1 1 1 spec 0 0 0 shi 0 trans 0\nOBJECT world\nkids 1\nOBJECT poly\nnumvert 300000000\n0 0 0\n' \
+    >"$fm/huge.ac"
+expect_clear_error "huge.ac:6: declares 300000000 vertices" info --scene "$fm/huge.ac"
+printf 'v\nfrom 0 0 5\nat 0 0 0\nup 0 1 0\nangle 45\nhither 1\nresolution 64 64\nl 0 0 5\nf 1 1 1 1 0 0 0 0\np 400000000\n0 0 0\n' \
+    >"$fm/huge.nff"
+expect_clear_error "huge.nff:10: declares 400000000 polygon vertices" info --scene "$fm/huge.nff"
+printf 'MD5Version 10\ncommandline ""\nnumJoints 1\nnumMeshes 1\njoints {\n"r" -1 ( 0 0 0 ) ( 0 0 0 )\n}\nmesh {\nnumverts 500000000\n}\n' \
+    >"$fm/huge.md5mesh"
+expect_clear_error "huge.md5mesh:9: declares 500000000 vertices" info --scene "$fm/huge.md5mesh"
+printf 'xof 0303txt 0032\nMesh m {\n 400000000;\n 0.0;0.0;0.0;;\n}\n' >"$fm/huge.x"
+expect_clear_error "huge.x:3: declares 400000000 items" info --scene "$fm/huge.x"
+printf '*3DSMAX_ASCIIEXPORT 200\n*GEOMOBJECT {\n*MESH {\n*MESH_NUMVERTEX 400000000\n}\n}\n' >"$fm/huge.ase"
+expect_clear_error "huge.ase:4: declares 400000000 items" info --scene "$fm/huge.ase"
+sed 's/count="9"/count="900000000"/' >"$fm/huge.dae" <<'DAE'
+<?xml version="1.0"?>
+<COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema" version="1.4.1">
+<library_geometries><geometry id="g"><mesh><source id="p"><float_array id="pa" count="9">0 0 0 1 0 0 0 1 0</float_array>
+</source></mesh></geometry></library_geometries>
+</COLLADA>
+DAE
+expect_clear_error "huge.dae:3: declares 900000000 items" info --scene "$fm/huge.dae"
+# Many materials (Assimp's OBJ import is quadratic in them: 50k took 28 s).
+{
+    for i in $(seq 0 10000); do printf 'newmtl m%d\nKe 1 1 1\n' "$i"; done
+} >"$fm/mats.mtl"
+printf "mtllib mats.mtl\n$tri" >"$fm/mats.obj"
+expect_clear_error "mats.mtl:20001: more than 10000 materials" info --scene "$fm/mats.obj"
+# One texture named by 40 materials through "a/../" aliases is decoded once, and a texture over
+# the budget is refused before it is decoded.
+if command -v python3 >/dev/null 2>&1; then
+    python3 - "$fm/t.png" 2048 <<'PY'
+import struct, sys, zlib
+w = int(sys.argv[2])
+def chunk(t, d):
+    return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d) & 0xffffffff)
+raw = zlib.compress((b"\0" + b"\x80" * (3 * w)) * w, 9)
+open(sys.argv[1], "wb").write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, w, 8, 2, 0, 0, 0)) +
+                              chunk(b"IDAT", raw) + chunk(b"IEND", b""))
+PY
+    {
+        printf 'mtllib tex.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\n'
+        for i in $(seq 1 40); do printf 'usemtl m%d\nf 1/1 2/2 3/3\n' "$i"; done
+    } >"$fm/tex.obj"
+    {
+        alias=""
+        for i in $(seq 1 40); do
+            alias="a/../$alias"
+            printf 'newmtl m%d\nKe 1 1 1\nmap_Kd %st.png\n' "$i" "$alias"
+        done
+    } >"$fm/tex.mtl"
+    expect_fast_ok render --scene "$fm/tex.obj" --max-memory 120M --size 16x16 --photons 1000 -o "$fm/tex.exr"
+    expect_clear_error "texture '$fm/a/../t.png' (2048x2048) needs 32.0 MiB" \
+        render --scene "$fm/tex.obj" --max-memory 16M --size 16x16 --photons 1000 -o "$fm/tex.exr"
+fi
+
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]

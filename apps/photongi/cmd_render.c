@@ -279,7 +279,7 @@ int pgi_cmd_render(int argc, char **argv) {
     if (ck < 0) return cli_failure("render", "%s", err);
 
     pgi_scene *scene;
-    pgi_status st = pgi_scene_load(scene_spec, &scene);
+    pgi_status st = pgi_scene_load_budget(scene_spec, d.max_memory, &scene);
     if (st) return cli_input_fail("render", "cannot load scene", st);
     if (specular != PGI_SPECULAR_DEFAULT && (st = pgi_scene_set_specular(scene, specular))) {
         pgi_scene_destroy(scene);

@@ -94,6 +94,10 @@ typedef struct pgi_scene_info {
  * PGI_ERR_INVALID_ARG (the message lists the names there are), a missing file
  * PGI_ERR_IO. */
 pgi_status pgi_scene_load(const char *spec, pgi_scene **out);
+/* pgi_scene_load with a memory budget (bytes; 0: pgi_memory_default_budget(), PGI_MEMORY_UNLIMITED:
+ * none) that the files it reads are held to before they are read: a mesh file, the files Assimp
+ * opens for it (material libraries, buffers), and the decoded textures (docs/memory.md). */
+pgi_status pgi_scene_load_budget(const char *spec, uint64_t max_memory, pgi_scene **out);
 void pgi_scene_destroy(pgi_scene *scene);
 void pgi_scene_get_info(const pgi_scene *scene, pgi_scene_info *out);
 /* Switches the mesh materials with a specular colour (pgi_scene_info.glossy_materials) to

@@ -1,11 +1,13 @@
 #include "core.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
 #include <sys/stat.h>
 #include <time.h>
+#include <unistd.h>
 
 static _Thread_local char g_last_error[1024];
 
@@ -87,4 +89,55 @@ const char *pgi__not_regular_file(const char *path) {
     if (S_ISCHR(st.st_mode) || S_ISBLK(st.st_mode)) return "is a device, not a regular file";
     if (S_ISSOCK(st.st_mode)) return "is a socket, not a regular file";
     return "is not a regular file";
+}
+
+FILE *pgi__fopen_input(const char *path, uint64_t max_bytes, uint64_t *size, const char **why) {
+    static _Thread_local char too_big[96];
+    *why = NULL;
+    if (size) *size = 0;
+    int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
+    if (fd < 0) {
+        int e = errno;
+        *why = e == ENOENT || e == ENOTDIR ? "no such file" : strerror(e);
+        errno = e;
+        return NULL;
+    }
+    struct stat st;
+    if (fstat(fd, &st) != 0) {
+        int e = errno;
+        close(fd);
+        *why = strerror(e);
+        errno = e;
+        return NULL;
+    }
+    if (!S_ISREG(st.st_mode)) {
+        *why = S_ISDIR(st.st_mode)                          ? "is a directory"
+               : S_ISFIFO(st.st_mode)                       ? "is a FIFO, not a regular file"
+               : S_ISCHR(st.st_mode) || S_ISBLK(st.st_mode) ? "is a device, not a regular file"
+               : S_ISSOCK(st.st_mode)                       ? "is a socket, not a regular file"
+                                                            : "is not a regular file";
+        close(fd);
+        errno = EINVAL;
+        return NULL;
+    }
+    if (max_bytes && (uint64_t)st.st_size > max_bytes) {
+        snprintf(too_big, sizeof too_big, "is %llu bytes, more than the %llu this file may have",
+                 (unsigned long long)st.st_size, (unsigned long long)max_bytes);
+        *why = too_big;
+        close(fd);
+        errno = EFBIG;
+        return NULL;
+    }
+    int fl = fcntl(fd, F_GETFL);
+    if (fl >= 0) fcntl(fd, F_SETFL, fl & ~O_NONBLOCK);
+    FILE *f = fdopen(fd, "rb");
+    if (!f) {
+        int e = errno;
+        close(fd);
+        *why = strerror(e);
+        errno = e;
+        return NULL;
+    }
+    if (size) *size = (uint64_t)st.st_size;
+    return f;
 }

@@ -6,6 +6,7 @@
 #include <math.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 
 #include "photongi/photongi.h"
@@ -106,6 +107,13 @@ pgi_status pgi__fail_unknown_estimator(const char *name);
  * or material name) printed to a terminal carries no escape sequences. */
 void pgi__sanitize(char *text);
 const char *pgi__not_regular_file(const char *path);
+/* The one checked open of an input file (meshes, material libraries, buffers Assimp reads,
+ * textures): opened without blocking (a FIFO cannot hang the open), then refused unless it is a
+ * regular file of at most `max_bytes` (0: any size). Returns the stream, or NULL with *why set
+ * to static text ("is a FIFO, not a regular file", "larger than ...": the caller names the file)
+ * and errno set (EINVAL: not a regular file; EFBIG: too large; else open's). *size (may be
+ * NULL) gets the file's size. */
+FILE *pgi__fopen_input(const char *path, uint64_t max_bytes, uint64_t *size, const char **why);
 /* Appends `name` to the comma-separated list in buf (for "registered: a, b" messages). */
 void pgi__list_append(char *buf, size_t cap, const char *name);
 

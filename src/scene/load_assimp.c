@@ -40,10 +40,13 @@
  * when it has none) times d, or for glTF alphaMode MASK the base colour texture's alpha times
  * the base colour factor's alpha; the surface is cut out where that is below 0.5 (MTL) or
  * alphaCutoff (glTF). glTF BLEND is not a cut-out (opacity < 1 is glass, as for MTL d). */
+#define _DEFAULT_SOURCE /* realpath */
 #include "scene_internal.h"
 
+#include "core/mem.h"
 #include "io/io_internal.h"
 
+#include <assimp/cfileio.h>
 #include <assimp/cimport.h>
 #include <assimp/material.h>
 #include <assimp/postprocess.h>
@@ -51,6 +54,8 @@
 #include <stb_image.h>
 
 #include <errno.h>
+#include <limits.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <string.h>
 #include <strings.h>
@@ -107,6 +112,24 @@ static pgi_status texture_fail(pgi_status st, const tex_cache *tc, const char *m
     return pgi__fail(st, "%s: material '%s': %s", tc->mesh_path, mat_name, why);
 }
 
+/* A texture of w x h is counted against the load's memory budget before it is decoded: its
+ * RGBA8 texels and their copy in 4x4 blocks (docs/memory.md), on top of the scene's textures. */
+static pgi_status texture_budget(const pgi_scene *s, const tex_cache *tc, const char *mat_name, const char *file, int w,
+                                 int h, uint64_t budget) {
+    if (!budget) return PGI_OK;
+    size_t scene_bytes, tex_bytes;
+    pgi__scene_memory(s, &scene_bytes, &tex_bytes);
+    const uint64_t need = (uint64_t)w * (uint64_t)h * 4u + (uint64_t)((w + 3) / 4) * (uint64_t)((h + 3) / 4) * 64u;
+    if ((uint64_t)scene_bytes + tex_bytes + need <= budget) return PGI_OK;
+    char a[32], b[32], c[32];
+    return pgi__fail(PGI_ERR_OOM,
+                     "%s: material '%s': texture '%s' (%dx%d) needs %s, with the scene's %s over the memory budget "
+                     "of %s",
+                     tc->mesh_path, mat_name, file, w, h, pgi__mem_format(need, a, sizeof a),
+                     pgi__mem_format((uint64_t)scene_bytes + tex_bytes, b, sizeof b),
+                     pgi__mem_format(budget, c, sizeof c));
+}
+
 static pgi_status load_texture(pgi_scene *s, tex_cache *tc, const struct aiScene *sc, const char *mat_name,
                                const char *file, int *index) {
     char resolved[sizeof((pgi__texture *)0)
@@ -132,6 +155,7 @@ static pgi_status load_texture(pgi_scene *s, tex_cache *tc, const struct aiScene
                 return pgi__fail(PGI_ERR_IO, "%s: material '%s': cannot read texture '%s': %s", tc->mesh_path, mat_name,
                                  resolved, stbi_failure_reason());
             pgi_status st = pgi__check_image_size(resolved, w, h);
+            if (!st) st = texture_budget(s, tc, mat_name, resolved, w, h, pgi__scene_load_budget());
             if (st) return st;
             if ((st = pgi__hdr_check(resolved, NULL, at->pcData, at->mWidth))) return texture_fail(st, tc, mat_name);
             rgba = stbi_load_from_memory((const unsigned char *)at->pcData, (int)at->mWidth, &w, &h, &n, 4);
@@ -140,6 +164,9 @@ static pgi_status load_texture(pgi_scene *s, tex_cache *tc, const struct aiScene
                                  resolved, stbi_failure_reason());
         } else {
             pgi_status st = pgi__check_image_size(resolved, at->mWidth, at->mHeight);
+            if (!st)
+                st = texture_budget(s, tc, mat_name, resolved, (int)at->mWidth, (int)at->mHeight,
+                                    pgi__scene_load_budget());
             if (st) return st;
             w = (int)at->mWidth;
             h = (int)at->mHeight;
@@ -174,28 +201,36 @@ static pgi_status load_texture(pgi_scene *s, tex_cache *tc, const struct aiScene
         return pgi__fail(PGI_ERR_IO, "%s: material '%s': texture path '%s' is too long", tc->mesh_path, mat_name, file);
     for (size_t i = tc->first; i < s->ntexs; i++)
         if (strcmp(s->texs[i].path, resolved) == 0) return *index = (int)i, PGI_OK;
+    /* One decode a file, however it is named ("a/../t.png", links): by its canonical path. */
+    char canon[PATH_MAX];
+    if (realpath(resolved, canon) && strlen(canon) < sizeof s->texs[0].canon)
+        for (size_t i = tc->first; i < s->ntexs; i++)
+            if (strcmp(s->texs[i].canon, canon) == 0) return *index = (int)i, PGI_OK;
     int w, h, n;
-    const char *why = pgi__not_regular_file(resolved);
-    if (why)
-        return pgi__fail(PGI_ERR_IO, "%s: material '%s': cannot read texture '%s': %s", tc->mesh_path, mat_name,
-                         resolved, why);
-    if (!stbi_info(resolved, &w, &h, &n))
-        return pgi__fail(PGI_ERR_IO, "%s: material '%s': cannot read texture '%s': %s", tc->mesh_path, mat_name,
-                         resolved, stbi_failure_reason());
-    pgi_status st = pgi__check_image_size(resolved, w, h);
-    if (st) return st;
-    FILE *f = fopen(resolved, "rb");
+    const char *why;
+    const uint64_t budget = pgi__scene_load_budget();
+    FILE *f = pgi__fopen_input(resolved, budget, NULL, &why);
     if (!f)
         return pgi__fail(PGI_ERR_IO, "%s: material '%s': cannot read texture '%s': %s", tc->mesh_path, mat_name,
-                         resolved, strerror(errno));
-    st = pgi__hdr_check(resolved, f, NULL, 0);
+                         resolved, why);
+    if (!stbi_info_from_file(f, &w, &h, &n)) {
+        fclose(f);
+        return pgi__fail(PGI_ERR_IO, "%s: material '%s': cannot read texture '%s': %s", tc->mesh_path, mat_name,
+                         resolved, stbi_failure_reason());
+    }
+    pgi_status st = pgi__check_image_size(resolved, w, h);
+    if (!st) st = texture_budget(s, tc, mat_name, resolved, w, h, budget);
+    if (!st) st = pgi__hdr_check(resolved, f, NULL, 0);
     unsigned char *rgba = st ? NULL : stbi_load_from_file(f, &w, &h, &n, 4);
     fclose(f);
-    if (st) return texture_fail(st, tc, mat_name);
+    if (st) return st == PGI_ERR_OOM ? st : texture_fail(st, tc, mat_name);
     if (!rgba)
         return pgi__fail(PGI_ERR_IO, "%s: material '%s': cannot read texture '%s': %s", tc->mesh_path, mat_name,
                          resolved, stbi_failure_reason());
-    return pgi__scene_add_texture(s, w, h, n, rgba, resolved, index);
+    st = pgi__scene_add_texture(s, w, h, n, rgba, resolved, index);
+    if (!st && strlen(canon) < sizeof s->texs[0].canon)
+        snprintf(s->texs[*index].canon, sizeof s->texs[0].canon, "%s", canon);
+    return st;
 }
 
 static pgi_status convert_material(pgi_scene *s, tex_cache *tc, const struct aiScene *sc, const struct aiMaterial *am,
@@ -488,12 +523,177 @@ static int has_ext(const char *path, const char *ext) {
     return n > e && strcasecmp(path + n - e, ext) == 0;
 }
 
+/* ------------------------------------------------- the files Assimp opens */
+
+/* Every file Assimp opens for an import (the mesh, its material libraries, a glTF's buffers)
+ * goes through pgi__fopen_input: a regular file no larger than the budget (never a FIFO, which
+ * would hang, nor a device such as /dev/zero, which never ends). Each file's bytes are counted
+ * against the budget once however often it is opened, and no file may be opened more than
+ * PGI__MAX_FILE_OPENS times. The first refusal is kept and fails the import even where Assimp
+ * would go on without the file (a material library). */
+#define PGI__STR_(x) #x
+#define PGI__STR(x) PGI__STR_(x)
+
+typedef struct io_file {
+    dev_t dev;
+    ino_t ino;
+    int opens;
+} io_file;
+
+typedef struct io_ctx {
+    const char *mesh_path;
+    uint64_t budget, total;
+    io_file files[PGI__MAX_MESH_FILES];
+    int nfiles;
+    pgi_status st;
+    char err[1024];
+} io_ctx;
+
+static void io_refuse(io_ctx *c, pgi_status st, const char *fmt, const char *a, const char *b) {
+    if (c->st) return;
+    c->st = st;
+    snprintf(c->err, sizeof c->err, fmt, c->mesh_path, a, b);
+}
+
+static size_t io_read(struct aiFile *f, char *buf, size_t size, size_t count) {
+    return fread(buf, size, count, (FILE *)f->UserData);
+}
+static size_t io_write(struct aiFile *f, const char *buf, size_t size, size_t count) {
+    (void)f, (void)buf, (void)size, (void)count;
+    return 0;
+}
+static size_t io_tell(struct aiFile *f) {
+    long t = ftell((FILE *)f->UserData);
+    return t < 0 ? 0 : (size_t)t;
+}
+static size_t io_size(struct aiFile *f) {
+    struct stat st;
+    return fstat(fileno((FILE *)f->UserData), &st) == 0 ? (size_t)st.st_size : 0;
+}
+static enum aiReturn io_seek(struct aiFile *f, size_t off, enum aiOrigin origin) {
+    const int whence = origin == aiOrigin_SET ? SEEK_SET : origin == aiOrigin_CUR ? SEEK_CUR : SEEK_END;
+    return fseeko((FILE *)f->UserData, (off_t)off, whence) == 0 ? aiReturn_SUCCESS : aiReturn_FAILURE;
+}
+static void io_flush(struct aiFile *f) { (void)f; }
+
+static struct aiFile *io_open(struct aiFileIO *io, const char *path, const char *mode) {
+    io_ctx *c = (io_ctx *)io->UserData;
+    if (!path || !mode || strchr(mode, 'w') || strchr(mode, 'a') || strchr(mode, '+')) return NULL;
+    const char *why;
+    uint64_t size;
+    FILE *fp = pgi__fopen_input(path, c->budget, &size, &why);
+    if (!fp) {
+        /* A missing file is for Assimp to judge (it probes names); one that is not a regular file, or
+         * too large, is refused. */
+        if (errno == EINVAL || errno == EFBIG) io_refuse(c, PGI_ERR_IO, "%s: %s: %s", path, why);
+        return NULL;
+    }
+    struct stat st;
+    fstat(fileno(fp), &st);
+    io_file *slot = NULL;
+    for (int i = 0; i < c->nfiles && !slot; i++)
+        if (c->files[i].dev == st.st_dev && c->files[i].ino == st.st_ino) slot = &c->files[i];
+    if (!slot) {
+        if (c->nfiles == (int)(sizeof c->files / sizeof c->files[0])) {
+            io_refuse(c, PGI_ERR_UNSUPPORTED, "%s: %s: %s", path,
+                      "one file too many (at most " PGI__STR(PGI__MAX_MESH_FILES) " for one mesh)");
+            fclose(fp);
+            return NULL;
+        }
+        if (c->budget && c->total + size > c->budget) {
+            char b[32];
+            io_refuse(c, PGI_ERR_OOM, "%s: %s: with the files read before it, over the memory budget of %s", path,
+                      pgi__mem_format(c->budget, b, sizeof b));
+            fclose(fp);
+            return NULL;
+        }
+        c->total += size;
+        slot = &c->files[c->nfiles++];
+        slot->dev = st.st_dev;
+        slot->ino = st.st_ino;
+        slot->opens = 0;
+    }
+    if (++slot->opens > PGI__MAX_FILE_OPENS) {
+        char n[16];
+        snprintf(n, sizeof n, "%d", PGI__MAX_FILE_OPENS);
+        io_refuse(c, PGI_ERR_UNSUPPORTED, "%s: %s: opened more than %s times in one import", path, n);
+        fclose(fp);
+        return NULL;
+    }
+    struct aiFile *f = calloc(1, sizeof *f);
+    if (!f) {
+        fclose(fp);
+        return NULL;
+    }
+    f->ReadProc = io_read;
+    f->WriteProc = io_write;
+    f->TellProc = io_tell;
+    f->FileSizeProc = io_size;
+    f->SeekProc = io_seek;
+    f->FlushProc = io_flush;
+    f->UserData = (aiUserData)fp;
+    return f;
+}
+
+static void io_close(struct aiFileIO *io, struct aiFile *f) {
+    (void)io;
+    if (!f) return;
+    fclose((FILE *)f->UserData);
+    free(f);
+}
+
+/* Assimp runs on a thread of its own with a large stack (PGI__IMPORT_STACK): its importers and
+ * post-processing recurse once a level of a hierarchy, and a format the pre-check does not scan
+ * must not overflow the caller's stack. Only touched pages of the stack are ever committed. */
+#define PGI__IMPORT_STACK ((size_t)256 << 20)
+
+typedef struct import_job {
+    const char *path;
+    unsigned flags;
+    struct aiFileIO *io;
+    const struct aiScene *sc; /* in: to release; out: imported */
+    char err[1024];
+} import_job;
+
+static void *import_main(void *arg) {
+    import_job *j = arg;
+    if (j->sc) {
+        aiReleaseImport(j->sc);
+        j->sc = NULL;
+        return NULL;
+    }
+    j->sc = aiImportFileEx(j->path, j->flags, j->io);
+    if (!j->sc) {
+        const char *e = aiGetErrorString();
+        snprintf(j->err, sizeof j->err, "%s", e && *e ? e : "Assimp could not import the file");
+    }
+    return NULL;
+}
+
+/* Runs import_main on a thread with a large stack (on this one if no thread can be made). */
+static void run_import(import_job *j) {
+    pthread_attr_t attr;
+    pthread_t t;
+    int ok = pthread_attr_init(&attr) == 0;
+    if (ok && pthread_attr_setstacksize(&attr, PGI__IMPORT_STACK) == 0 &&
+        pthread_create(&t, &attr, import_main, j) == 0)
+        pthread_join(t, NULL);
+    else import_main(j);
+    if (ok) pthread_attr_destroy(&attr);
+}
+
+static void release_import(const struct aiScene *sc) {
+    import_job j = {.sc = sc};
+    run_import(&j);
+}
+
 pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path) {
     if (!s || !path) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi__scene_import_mesh: NULL argument");
     const char *why = pgi__not_regular_file(path);
     if (why) return pgi__fail(PGI_ERR_IO, "%s: %s", path, why);
     pgi__mesh_hints hints;
-    pgi_status pre = pgi__mesh_precheck(path, &hints);
+    const uint64_t budget = pgi__scene_load_budget();
+    pgi_status pre = pgi__mesh_precheck(path, budget, &hints);
     if (pre) return pre;
     const normal_mode mode =
         has_ext(path, ".gltf") || has_ext(path, ".glb") || (hints.smooth_off > 0 && hints.smooth_on == 0)
@@ -504,17 +704,25 @@ pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path) {
      * malformed files (a PLY face list longer than the file), which the later steps follow. */
     const unsigned int flags = aiProcess_ValidateDataStructure | aiProcess_Triangulate |
                                aiProcess_JoinIdenticalVertices | aiProcess_SortByPType | aiProcess_PreTransformVertices;
-    const struct aiScene *sc = aiImportFile(path, flags);
-    if (!sc) {
-        const char *e = aiGetErrorString();
-        return pgi__fail(PGI_ERR_PARSE, "%s: %s", path, e && *e ? e : "Assimp could not import the file");
+    io_ctx ctx; /* 7 KiB */
+    memset(&ctx, 0, sizeof ctx);
+    ctx.mesh_path = path;
+    ctx.budget = budget;
+    struct aiFileIO io = {.OpenProc = io_open, .CloseProc = io_close, .UserData = (aiUserData)&ctx};
+    import_job job = {.path = path, .flags = flags, .io = &io};
+    run_import(&job);
+    const struct aiScene *sc = job.sc;
+    if (ctx.st) {
+        if (sc) release_import(sc);
+        return pgi__fail(ctx.st, "%s", ctx.err);
     }
+    if (!sc) return pgi__fail(PGI_ERR_PARSE, "%s: %s", path, job.err);
 
     pgi_status st = PGI_OK;
     /* Triangles and output vertices of each mesh, then what will be appended. */
     mesh_out *outs = calloc(sc->mNumMeshes ? sc->mNumMeshes : 1, sizeof *outs);
     if (!outs) {
-        aiReleaseImport(sc);
+        release_import(sc);
         return pgi__fail(PGI_ERR_OOM, "%s: out of memory", path);
     }
     size_t add_v = 0, add_t = 0;
@@ -619,6 +827,6 @@ pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path) {
 done:
     for (unsigned i = 0; i < sc->mNumMeshes; i++) mesh_out_free(&outs[i]);
     free(outs);
-    aiReleaseImport(sc);
+    release_import(sc);
     return st;
 }

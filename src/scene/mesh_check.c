@@ -8,11 +8,14 @@
  * way it counts OBJ smoothing statements, which Assimp ignores
  * (pgi__mesh_hints). */
 #include <ctype.h>
+#include <errno.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+
+#include <cjson/cJSON.h>
 
 #include "scene/scene_internal.h"
 
@@ -73,11 +76,32 @@ static const char *first_token(const char *s, char *tok, size_t n) {
     return s;
 }
 
-/* `*found` is set when the file could be opened. */
-static pgi_status check_mtl(const char *path, int *found) {
-    FILE *f = fopen(path, "rb");
-    if (!f) return PGI_OK; /* a missing material library is Assimp's to report */
+/* What an OBJ's material libraries add up to: the distinct files read (each once) and their
+ * materials. */
+typedef struct mtl_state {
+    char libs[PGI__MAX_MESH_FILES][1024];
+    int nlibs;
+    long materials;
+    uint64_t budget;
+} mtl_state;
+
+/* `*found` is set when the file exists (a missing one is Assimp's to report). A library that is
+ * not a regular file, or is larger than the budget, is refused; one already read is skipped. */
+static pgi_status check_mtl(const char *obj, const char *path, mtl_state *ms, int *found) {
+    for (int i = 0; i < ms->nlibs; i++)
+        if (strcmp(ms->libs[i], path) == 0) return *found = 1, PGI_OK;
+    const char *why;
+    FILE *f = pgi__fopen_input(path, ms->budget, NULL, &why);
+    if (!f) {
+        if (errno != EINVAL && errno != EFBIG) return PGI_OK; /* missing, unreadable: Assimp's to report */
+        return pgi__fail(PGI_ERR_IO, "%s: material library %s: %s", obj, path, why);
+    }
     *found = 1;
+    if (ms->nlibs == PGI__MAX_MESH_FILES) {
+        fclose(f);
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "%s: names more than %d material libraries", obj, PGI__MAX_MESH_FILES);
+    }
+    snprintf(ms->libs[ms->nlibs++], sizeof ms->libs[0], "%s", path);
     line_reader r = {.f = f, .obj = 1};
     pgi_status st = PGI_OK;
     int in_material = 0;
@@ -85,8 +109,12 @@ static pgi_status check_mtl(const char *path, int *found) {
         char tok[64];
         first_token(r.head, tok, sizeof tok);
         if (!tok[0] || tok[0] == '#') continue;
-        if (strcmp(tok, "newmtl") == 0) in_material = 1;
-        else if (!in_material)
+        if (strcmp(tok, "newmtl") == 0) {
+            in_material = 1;
+            if (++ms->materials > PGI__MAX_MESH_MATERIALS)
+                st = pgi__fail(PGI_ERR_UNSUPPORTED, "%s:%d: more than %d materials (with the other libraries of %s)",
+                               path, r.line, PGI__MAX_MESH_MATERIALS, obj);
+        } else if (!in_material)
             st = pgi__fail(PGI_ERR_PARSE, "%s:%d: '%s' before any 'newmtl' (a material statement needs a material)",
                            path, r.line, tok);
     }
@@ -94,9 +122,10 @@ static pgi_status check_mtl(const char *path, int *found) {
     return st;
 }
 
-static pgi_status check_obj(const char *path, pgi__mesh_hints *hints) {
-    FILE *f = fopen(path, "rb");
-    if (!f) return PGI_OK;
+static pgi_status check_obj(const char *path, FILE *f, uint64_t budget, pgi__mesh_hints *hints) {
+    mtl_state *ms = calloc(1, sizeof *ms); /* 256 KiB: neither the stack nor thread-local storage */
+    if (!ms) return pgi__fail(PGI_ERR_OOM, "%s: out of memory", path);
+    ms->budget = budget;
     line_reader r = {.f = f, .obj = 1};
     pgi_status st = PGI_OK;
     const char *slash = strrchr(path, '/');
@@ -119,19 +148,20 @@ static pgi_status check_obj(const char *path, pgi__mesh_hints *hints) {
             snprintf(name, sizeof name, "%s", rest);
             for (size_t n = strlen(name); n > 0 && isspace((unsigned char)name[n - 1]);) name[--n] = 0;
             int found = 0;
-            if (snprintf(lib, sizeof lib, "%.*s%s", dir_len, path, name) < (int)sizeof lib) st = check_mtl(lib, &found);
+            if (snprintf(lib, sizeof lib, "%.*s%s", dir_len, path, name) < (int)sizeof lib)
+                st = check_mtl(path, lib, ms, &found);
             for (const char *w = rest; !st && *w;) {
                 w = first_token(w, name, sizeof name);
                 if (snprintf(lib, sizeof lib, "%.*s%s", dir_len, path, name) < (int)sizeof lib)
-                    st = check_mtl(lib, &found);
+                    st = check_mtl(path, lib, ms, &found);
             }
             /* No such library: Assimp then reads the OBJ's own name with "mtl" for "obj" instead. */
             size_t pl = strlen(path);
             if (!st && !found && pl >= 3 && snprintf(lib, sizeof lib, "%.*smtl", (int)(pl - 3), path) < (int)sizeof lib)
-                st = check_mtl(lib, &found);
+                st = check_mtl(path, lib, ms, &found);
         }
     }
-    fclose(f);
+    free(ms);
     return st;
 }
 
@@ -238,9 +268,7 @@ static pgi_status check_ply_body(const char *path, FILE *f, int ascii, int big, 
     return PGI_OK;
 }
 
-static pgi_status check_ply(const char *path) {
-    FILE *f = fopen(path, "rb");
-    if (!f) return PGI_OK;
+static pgi_status check_ply(const char *path, FILE *f) {
     line_reader r = {.f = f};
     pgi_status st = PGI_OK;
     int done = 0, ascii = 0, big = 0, nel = 0, walk = 1;
@@ -305,15 +333,413 @@ static pgi_status check_ply(const char *path) {
     }
     if (!st && !done) st = pgi__fail(PGI_ERR_PARSE, "%s: PLY header has no 'end_header'", path);
     if (!st && walk) st = check_ply_body(path, f, ascii, big, el, nel);
-    fclose(f);
     return st;
 }
 
-pgi_status pgi__mesh_precheck(const char *path, pgi__mesh_hints *hints) {
+
+/* ------------------------------------------------ declared counts and nesting */
+
+/* The whole file in memory (NUL-terminated), at most `budget` bytes. */
+static pgi_status read_whole(const char *path, FILE *f, uint64_t size, uint64_t budget, char **out) {
+    *out = NULL;
+    if (budget && size > budget)
+        return pgi__fail(PGI_ERR_OOM, "%s: %llu bytes, over the memory budget of %llu bytes", path,
+                         (unsigned long long)size, (unsigned long long)budget);
+    char *buf = malloc((size_t)size + 1);
+    if (!buf) return pgi__fail(PGI_ERR_OOM, "%s: out of memory for %llu bytes", path, (unsigned long long)size);
+    size_t got = fread(buf, 1, (size_t)size, f);
+    buf[got] = 0;
+    *out = buf;
+    return PGI_OK;
+}
+
+/* A count the file declares is plausible only when the file can hold that many items of at
+ * least `min_bytes` each (Assimp allocates by the declared count before it reads them). */
+static pgi_status check_count(const char *path, long line, const char *what, double count, double min_bytes,
+                              uint64_t size) {
+    if (count >= 0 && count * min_bytes <= (double)size + 16.0) return PGI_OK;
+    return pgi__fail(PGI_ERR_PARSE, "%s:%ld: declares %.0f %s, more than its %llu bytes can hold", path, line, count,
+                     what, (unsigned long long)size);
+}
+
+static pgi_status too_deep(const char *path, const char *what, long line) {
+    if (line > 0)
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "%s:%ld: %s nested deeper than %d levels", path, line, what,
+                         PGI__MAX_MESH_DEPTH);
+    return pgi__fail(PGI_ERR_UNSUPPORTED, "%s: %s nested deeper than %d levels", path, what, PGI__MAX_MESH_DEPTH);
+}
+
+/* Nesting of {} and [] (strings in double quotes skipped when `quotes`): JSON, DirectX .x, BVH,
+ * OpenGEX. */
+static pgi_status check_braces(const char *path, const char *b, size_t n, int quotes, const char *what) {
+    long depth = 0, line = 1;
+    for (size_t i = 0; i < n; i++) {
+        const char c = b[i];
+        if (c == '\n') line++;
+        else if (quotes && c == '"') {
+            for (i++; i < n && b[i] != '"'; i++)
+                if (b[i] == '\\') i++;
+        } else if (c == '{' || c == '[') {
+            if (++depth > PGI__MAX_MESH_DEPTH) return too_deep(path, what, line);
+        } else if ((c == '}' || c == ']') && depth > 0) depth--;
+    }
+    return PGI_OK;
+}
+
+/* Element nesting of an XML file (COLLADA, X3D, AMF, Irrlicht...), and the attributes whose name
+ * has "count" in it (COLLADA's count, Irrlicht's vertexCount...): items of at least 2 bytes. */
+static pgi_status check_xml(const char *path, const char *b, size_t n, uint64_t size) {
+    long depth = 0, line = 1;
+    for (size_t i = 0; i < n; i++) {
+        if (b[i] == '\n') line++;
+        if (b[i] != '<') continue;
+        if (i + 3 < n && memcmp(b + i, "<!--", 4) == 0) {
+            const char *e = strstr(b + i, "-->");
+            if (!e) break;
+            for (; b + i < e; i++) line += b[i] == '\n';
+            continue;
+        }
+        if (i + 1 < n && (b[i + 1] == '?' || b[i + 1] == '!')) continue;
+        const int closing = i + 1 < n && b[i + 1] == '/';
+        /* To the end of the tag, quoted attribute values skipped. */
+        char prev = 0;
+        for (i++; i < n && b[i] != '>'; i++) {
+            if (b[i] == '\n') line++;
+            if (b[i] == '"' || b[i] == '\'') {
+                const char q = b[i];
+                size_t e = i; /* the attribute's name: before '=' */
+                while (e > 0 && isspace((unsigned char)b[e - 1])) e--;
+                if (e > 0 && b[e - 1] == '=') {
+                    e--;
+                    while (e > 0 && isspace((unsigned char)b[e - 1])) e--;
+                    size_t a = e;
+                    while (a > 0 && (isalnum((unsigned char)b[a - 1]) || b[a - 1] == '_' || b[a - 1] == ':')) a--;
+                    char name[64];
+                    if (e - a < sizeof name) {
+                        for (size_t k = a; k < e; k++) name[k - a] = (char)tolower((unsigned char)b[k]);
+                        name[e - a] = 0;
+                        if (strstr(name, "count")) {
+                            char *end;
+                            const double v = strtod(b + i + 1, &end);
+                            pgi_status st = end > b + i + 1 ? check_count(path, line, "items", v, 2, size) : PGI_OK;
+                            if (st) return st;
+                        }
+                    }
+                }
+                for (i++; i < n && b[i] != q; i++) line += b[i] == '\n';
+            }
+            prev = b[i];
+        }
+        if (closing) depth -= depth > 0;
+        else if (prev != '/' && ++depth > PGI__MAX_MESH_DEPTH) return too_deep(path, "XML elements", line);
+    }
+    return PGI_OK;
+}
+
+/* Keyword counts: `keyword N` declares N items of at least min_bytes each. */
+typedef struct count_key {
+    const char *key, *what;
+    double min_bytes;
+} count_key;
+
+static const count_key k_md5_keys[] = {{"numJoints", "joints", 8},
+                                       {"numMeshes", "meshes", 8},
+                                       {"numverts", "vertices", 8},
+                                       {"numtris", "triangles", 8},
+                                       {"numweights", "weights", 8},
+                                       {"numFrames", "frames", 8},
+                                       {"numAnimatedComponents", "animated components", 2},
+                                       {"numCuts", "cuts", 2},
+                                       {NULL, NULL, 0}};
+static const count_key k_ac_keys[] = {{"numvert", "vertices", 6},
+                                      {"numsurf", "surfaces", 8},
+                                      {"refs", "references", 6},
+                                      {"kids", "children", 8},
+                                      {NULL, NULL, 0}};
+static const count_key k_nff_keys[] = {{"p", "polygon vertices", 6},
+                                       {"pp", "polygon vertices", 12},
+                                       {"tpp", "polygon vertices", 16},
+                                       {NULL, NULL, 0}};
+
+static pgi_status check_keyword_counts(const char *path, const char *b, size_t n, uint64_t size, const count_key *keys,
+                                       int ac) {
+    long line = 1;
+    long kids[PGI__MAX_MESH_DEPTH + 1];
+    int nk = 0; /* AC3D: children still to come at each open level */
+    int line_start = 1, sense8 = 0;
+    for (size_t i = 0; i < n;) {
+        if (b[i] == '\n') {
+            line++;
+            line_start = 1;
+            i++;
+            continue;
+        }
+        if (isspace((unsigned char)b[i])) {
+            i++;
+            continue;
+        }
+        size_t t0 = i;
+        while (i < n && !isspace((unsigned char)b[i])) i++;
+        const size_t len = i - t0;
+        const int first = line_start;
+        line_start = 0;
+        if (keys == k_nff_keys && t0 == 0 && len == 3 && memcmp(b, "nff", 3) == 0) sense8 = 1;
+        if (sense8 && first && isdigit((unsigned char)b[t0])) {
+            /* Sense8 NFF: a line's first number is a count (vertices, polygons, a polygon's
+             * vertices) of items of at least 2 bytes. */
+            pgi_status st = check_count(path, line, "items", strtod(b + t0, NULL), 2, size);
+            if (st) return st;
+            continue;
+        }
+        if (ac && first && len == 6 && memcmp(b + t0, "OBJECT", 6) == 0) {
+            while (nk > 0 && kids[nk - 1] == 0) nk--;
+            if (nk > 0) kids[nk - 1]--;
+            continue;
+        }
+        for (const count_key *k = keys; k->key; k++) {
+            if (strlen(k->key) != len || memcmp(b + t0, k->key, len) != 0) continue;
+            if (!ac && keys == k_nff_keys && !first) break; /* NFF: commands start lines */
+            const double v = strtod(b + i, NULL);
+            pgi_status st = check_count(path, line, k->what, v, k->min_bytes, size);
+            if (st) return st;
+            if (ac && strcmp(k->key, "kids") == 0 && v > 0) {
+                if (nk == PGI__MAX_MESH_DEPTH) return too_deep(path, "AC3D objects", line);
+                kids[nk++] = (long)v;
+            }
+            break;
+        }
+        if (!ac && keys == k_nff_keys && first && len == 4 && memcmp(b + t0, "tess", 4) == 0) {
+            const double v = strtod(b + i, NULL);
+            if (!(v >= 0 && v <= 8))
+                return pgi__fail(PGI_ERR_UNSUPPORTED, "%s:%ld: tessellation %g (at most 8)", path, line, v);
+        }
+    }
+    return PGI_OK;
+}
+
+/* DirectX .x (text): a whole number followed by ';' starts a list (vertices, faces, indices,
+ * weights) of that many items of at least 2 bytes ("0,"); floats and GUIDs are skipped. */
+static pgi_status check_x_counts(const char *path, const char *b, size_t n, uint64_t size) {
+    if (n < 16 || memcmp(b, "xof ", 4) != 0 || memcmp(b + 8, "txt", 3) != 0) return PGI_OK; /* binary: Assimp's */
+    long line = 1;
+    for (size_t i = 0; i < n; i++) {
+        if (b[i] == '\n') line++;
+        if (!isdigit((unsigned char)b[i]) ||
+            (i > 0 && (isalnum((unsigned char)b[i - 1]) || b[i - 1] == '.' || b[i - 1] == '-' || b[i - 1] == '_')))
+            continue;
+        size_t j = i;
+        while (j < n && isdigit((unsigned char)b[j])) j++;
+        size_t k = j;
+        while (k < n && (b[k] == ' ' || b[k] == '\t')) k++;
+        if (k < n && b[k] == ';') {
+            pgi_status st = check_count(path, line, "items", strtod(b + i, NULL), 2, size);
+            if (st) return st;
+        }
+        i = j - 1;
+    }
+    return PGI_OK;
+}
+
+/* ASE: a "*...NUM..." or "*...COUNT" keyword (*MESH_NUMVERTEX, *MATERIAL_COUNT...) and BVH's
+ * "Frames:" declare that many items of at least 2 bytes. */
+static pgi_status check_star_counts(const char *path, const char *b, size_t n, uint64_t size, int bvh) {
+    long line = 1;
+    for (size_t i = 0; i < n; i++) {
+        if (b[i] == '\n') line++;
+        if (bvh ? (b[i] != 'F' || (i > 0 && !isspace((unsigned char)b[i - 1]))) : b[i] != '*') continue;
+        size_t j = i;
+        while (j < n && !isspace((unsigned char)b[j])) j++;
+        char tok[64];
+        const size_t len = j - i < sizeof tok - 1 ? j - i : sizeof tok - 1;
+        memcpy(tok, b + i, len);
+        tok[len] = 0;
+        const int counts = bvh ? strcmp(tok, "Frames:") == 0 : strstr(tok, "NUM") || strstr(tok, "COUNT");
+        if (counts) {
+            char *end;
+            const double v = strtod(b + j, &end);
+            pgi_status st = end > b + j ? check_count(path, line, "items", v, 2, size) : PGI_OK;
+            if (st) return st;
+        }
+        i = j > i ? j - 1 : i;
+    }
+    return PGI_OK;
+}
+
+/* OFF: "[ST][C][N][4][n]OFF", then the vertex, face and edge counts. */
+static pgi_status check_off(const char *path, const char *b, size_t n, uint64_t size) {
+    const char *p = b, *end = b + n;
+    double v[3];
+    int k = 0;
+    long line = 1;
+    /* Skip the keyword, then read three numbers, skipping comments. */
+    while (p < end && !isspace((unsigned char)*p)) p++;
+    while (p < end && k < 3) {
+        if (*p == '\n') line++;
+        if (*p == '#') {
+            while (p < end && *p != '\n') p++;
+            continue;
+        }
+        if (isspace((unsigned char)*p)) {
+            p++;
+            continue;
+        }
+        char *e;
+        v[k] = strtod(p, &e);
+        if (e == p) return PGI_OK; /* not an ASCII OFF count: Assimp's to judge */
+        p = e;
+        k++;
+    }
+    if (k < 2) return PGI_OK;
+    pgi_status st = check_count(path, line, "vertices", v[0], 6, size);
+    if (!st) st = check_count(path, line, "faces", v[1], 2, size);
+    if (!st && v[0] * 6 + v[1] * 2 > (double)size + 16.0)
+        st =
+            pgi__fail(PGI_ERR_PARSE, "%s:%ld: declares %.0f vertices and %.0f faces, more than its %llu bytes can hold",
+                      path, line, v[0], v[1], (unsigned long long)size);
+    return st;
+}
+
+/* ---------------------------------------------------------------- glTF */
+
+#define PGI__GLTF_BUFFER_SLACK (64 << 20) /* bytes a buffer may hold past what its views use */
+
+/* A glTF's JSON: nesting, then (parsed) its node tree's depth, cycles and its material count. */
+static pgi_status check_gltf_json(const char *path, const char *json, size_t n) {
+    pgi_status st = check_braces(path, json, n, 1, "JSON");
+    if (st) return st;
+    cJSON *root = cJSON_ParseWithLength(json, n);
+    if (!root) return PGI_OK; /* malformed JSON: Assimp's to report */
+    const cJSON *nodes = cJSON_GetObjectItemCaseSensitive(root, "nodes");
+    const cJSON *mats = cJSON_GetObjectItemCaseSensitive(root, "materials");
+    if (cJSON_IsArray(mats) && cJSON_GetArraySize(mats) > PGI__MAX_MESH_MATERIALS)
+        st = pgi__fail(PGI_ERR_UNSUPPORTED, "%s: %d materials (at most %d)", path, cJSON_GetArraySize(mats),
+                       PGI__MAX_MESH_MATERIALS);
+    /* A buffer is read whole (its byteLength): one far larger than its views use is refused. */
+    const cJSON *bufs = cJSON_GetObjectItemCaseSensitive(root, "buffers");
+    const cJSON *views = cJSON_GetObjectItemCaseSensitive(root, "bufferViews");
+    const int nb = cJSON_IsArray(bufs) ? cJSON_GetArraySize(bufs) : 0;
+    double *used = nb > 0 ? calloc((size_t)nb, sizeof *used) : NULL;
+    if (!st && nb > 0 && !used) st = pgi__fail(PGI_ERR_OOM, "%s: out of memory for %d buffers", path, nb);
+    for (const cJSON *v = cJSON_IsArray(views) && used ? views->child : NULL; v; v = v->next) {
+        const cJSON *vb = cJSON_GetObjectItemCaseSensitive(v, "buffer");
+        const cJSON *vo = cJSON_GetObjectItemCaseSensitive(v, "byteOffset");
+        const cJSON *vl = cJSON_GetObjectItemCaseSensitive(v, "byteLength");
+        if (!cJSON_IsNumber(vb) || !(vb->valuedouble >= 0 && vb->valuedouble < nb) || !cJSON_IsNumber(vl)) continue;
+        const double end = (cJSON_IsNumber(vo) ? vo->valuedouble : 0) + vl->valuedouble;
+        if (end > used[(int)vb->valuedouble]) used[(int)vb->valuedouble] = end;
+    }
+    int bi = 0;
+    for (const cJSON *b = used ? bufs->child : NULL; b && !st; b = b->next, bi++) {
+        const cJSON *len = cJSON_GetObjectItemCaseSensitive(b, "byteLength");
+        if (cJSON_IsNumber(len) && len->valuedouble > used[bi] + PGI__GLTF_BUFFER_SLACK)
+            st = pgi__fail(PGI_ERR_PARSE,
+                           "%s: buffer %d declares %.0f bytes, its buffer views use %.0f (at most %d MiB more is read)",
+                           path, bi, len->valuedouble, used[bi], PGI__GLTF_BUFFER_SLACK >> 20);
+    }
+    free(used);
+    const int nn = cJSON_IsArray(nodes) ? cJSON_GetArraySize(nodes) : 0;
+    int *parent = nn > 0 ? malloc((size_t)nn * sizeof *parent) : NULL;
+    int *depth = nn > 0 ? malloc((size_t)nn * sizeof *depth) : NULL;
+    if (!st && nn > 0 && (!parent || !depth)) st = pgi__fail(PGI_ERR_OOM, "%s: out of memory for %d nodes", path, nn);
+    if (!st && nn > 0) {
+        for (int i = 0; i < nn; i++) parent[i] = -1, depth[i] = 0;
+        int i = 0;
+        for (const cJSON *node = nodes->child; node && !st; node = node->next, i++) {
+            const cJSON *ch = cJSON_GetObjectItemCaseSensitive(node, "children");
+            if (!cJSON_IsArray(ch)) continue;
+            for (const cJSON *c = ch->child; c && !st; c = c->next) {
+                if (!cJSON_IsNumber(c) || c->valuedouble < 0 || c->valuedouble >= nn) continue; /* Assimp's */
+                const int k = (int)c->valuedouble;
+                if (parent[k] >= 0 || k == i)
+                    st = pgi__fail(PGI_ERR_PARSE, "%s: node %d is a child of more than one node (or of itself)", path,
+                                   k);
+                parent[k] = i;
+            }
+        }
+        /* Depth of each node: up its parents to one whose depth is known (a loop never gets there). */
+        for (int k = 0; k < nn && !st; k++) {
+            int d = 0, p = k;
+            while (p >= 0 && depth[p] == 0 && d <= nn) p = parent[p], d++;
+            if (d > nn) {
+                st = pgi__fail(PGI_ERR_PARSE, "%s: node %d is its own ancestor", path, k);
+                break;
+            }
+            const int base = p >= 0 ? depth[p] : 0;
+            for (int q = k, e = base + d; q != p; q = parent[q], e--) depth[q] = e;
+            if (depth[k] > PGI__MAX_MESH_DEPTH)
+                st = pgi__fail(PGI_ERR_UNSUPPORTED, "%s: node %d is %d levels deep in the node tree (at most %d)", path,
+                               k, depth[k], PGI__MAX_MESH_DEPTH);
+        }
+    }
+    free(parent);
+    free(depth);
+    cJSON_Delete(root);
+    return st;
+}
+
+static uint32_t le32(const unsigned char *p) {
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+
+/* GLB: the lengths its header and JSON chunk declare fit in the file; then the JSON's checks. */
+static pgi_status check_glb(const char *path, FILE *f, uint64_t size, uint64_t budget) {
+    unsigned char h[20];
+    if (fread(h, 1, sizeof h, f) != sizeof h || memcmp(h, "glTF", 4) != 0) return PGI_OK; /* Assimp's */
+    const uint32_t total = le32(h + 8), chunk = le32(h + 12);
+    if (total > size)
+        return pgi__fail(PGI_ERR_PARSE, "%s: GLB header declares %u bytes, the file has %llu", path, total,
+                         (unsigned long long)size);
+    if ((uint64_t)chunk + 20 > size)
+        return pgi__fail(PGI_ERR_PARSE, "%s: GLB JSON chunk declares %u bytes, the file has %llu", path, chunk,
+                         (unsigned long long)size);
+    if (memcmp(h + 16, "JSON", 4) != 0) return PGI_OK;
+    char *json;
+    pgi_status st = read_whole(path, f, chunk, budget, &json);
+    if (st) return st;
+    st = check_gltf_json(path, json, chunk);
+    free(json);
+    return st;
+}
+
+pgi_status pgi__mesh_precheck(const char *path, uint64_t budget, pgi__mesh_hints *hints) {
     pgi__mesh_hints unused;
     if (!hints) hints = &unused;
     memset(hints, 0, sizeof *hints);
-    if (has_ext(path, ".obj")) return check_obj(path, hints);
-    if (has_ext(path, ".ply")) return check_ply(path);
-    return PGI_OK;
+    const char *why;
+    uint64_t size;
+    FILE *f = pgi__fopen_input(path, budget, &size, &why);
+    if (!f) return pgi__fail(PGI_ERR_IO, "%s: %s", path, why);
+    pgi_status st = PGI_OK;
+    if (has_ext(path, ".obj")) st = check_obj(path, f, budget, hints);
+    else if (has_ext(path, ".ply")) st = check_ply(path, f);
+    else if (has_ext(path, ".glb")) st = check_glb(path, f, size, budget);
+    else {
+        static const struct {
+            const char *ext;
+            int kind; /* 1 JSON, 2 braces, 3 XML, 4 OFF, 5 MD5, 6 AC3D, 7 NFF, 8 .x, 9 ASE, 10 BVH */
+        } k[] = {{".gltf", 1},    {".x", 8},         {".bvh", 10}, {".ogex", 2},    {".dae", 3},  {".xml", 3},
+                 {".x3d", 3},     {".amf", 3},       {".irr", 3},  {".irrmesh", 3}, {".off", 4},  {".md5mesh", 5},
+                 {".md5anim", 5}, {".md5camera", 5}, {".ac", 6},   {".acc", 6},     {".ac3d", 6}, {".nff", 7},
+                 {".enff", 7},    {".ase", 9},       {".ask", 9}};
+        int kind = 0;
+        for (size_t i = 0; i < sizeof k / sizeof k[0] && !kind; i++)
+            if (has_ext(path, k[i].ext)) kind = k[i].kind;
+        char *b = NULL;
+        if (kind) st = read_whole(path, f, size, budget, &b);
+        const size_t n = b ? strlen(b) : 0; /* text formats: a NUL ends what the checks see */
+        if (!st && kind == 1) st = check_gltf_json(path, b, n);
+        else if (!st && kind == 2) st = check_braces(path, b, n, 0, "braces");
+        else if (!st && kind == 3) st = check_xml(path, b, n, size);
+        else if (!st && kind == 4) st = check_off(path, b, n, size);
+        else if (!st && kind == 5) st = check_keyword_counts(path, b, n, size, k_md5_keys, 0);
+        else if (!st && kind == 6) st = check_keyword_counts(path, b, n, size, k_ac_keys, 1);
+        else if (!st && kind == 7) st = check_keyword_counts(path, b, n, size, k_nff_keys, 0);
+        else if (!st && kind == 8) st = check_x_counts(path, b, n, size);
+        else if (!st && (kind == 9 || kind == 10)) st = check_star_counts(path, b, n, size, kind == 10);
+        if (!st && (kind == 5 || kind == 8 || kind == 9 || kind == 10))
+            st = check_braces(path, b, n, kind != 8 && kind != 10, "braces");
+        free(b);
+    }
+    fclose(f);
+    return st;
 }

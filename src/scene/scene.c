@@ -1,5 +1,6 @@
 /* Scene model: creation, validation, light set-up, loading dispatch. */
 #include "scene_internal.h"
+#include "core/mem.h"
 
 #include "bsdf.h"
 
@@ -264,7 +265,26 @@ static void list_scene_names(char *names, size_t cap) {
         if (i == 0 || strcmp(found[i], found[i - 1]) != 0) pgi__list_append(names, cap, found[i]);
 }
 
-pgi_status pgi_scene_load(const char *spec, pgi_scene **out) {
+static _Thread_local uint64_t g_load_budget; /* 0: the default budget */
+
+uint64_t pgi__scene_load_budget(void) {
+    if (g_load_budget == PGI_MEMORY_UNLIMITED) return 0;
+    return g_load_budget ? g_load_budget : pgi__mem_default_budget();
+}
+
+static pgi_status scene_load(const char *spec, pgi_scene **out);
+
+pgi_status pgi_scene_load_budget(const char *spec, uint64_t max_memory, pgi_scene **out) {
+    const uint64_t saved = g_load_budget;
+    g_load_budget = max_memory ? max_memory : pgi__mem_default_budget(); /* read once a load */
+    pgi_status st = scene_load(spec, out);
+    g_load_budget = saved;
+    return st;
+}
+
+pgi_status pgi_scene_load(const char *spec, pgi_scene **out) { return pgi_scene_load_budget(spec, 0, out); }
+
+static pgi_status scene_load(const char *spec, pgi_scene **out) {
     if (!out) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_scene_load: out is NULL");
     *out = NULL;
     if (!spec || !*spec) return pgi__fail(PGI_ERR_INVALID_ARG, "no scene given");

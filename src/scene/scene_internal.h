@@ -56,6 +56,7 @@ typedef struct pgi__texture {
     unsigned char *tiled;
     int channels; /* of the image file: 1-4; 2 and 4 carry alpha (else alpha is 255) */
     char path[512];
+    char canon[512]; /* the file's canonical path (realpath), "" for embedded ones: one decode a file */
 } pgi__texture;
 
 typedef enum pgi__light_type {
@@ -390,9 +391,24 @@ typedef struct pgi__mesh_hints {
     size_t smooth_on;  /* OBJ `s N` with N > 0 */
     size_t smooth_off; /* OBJ `s off` or `s 0` */
 } pgi__mesh_hints;
-/* Refuses mesh files that make Assimp crash or hang (mesh_check.c); fills
- * *hints (may be NULL). */
-pgi_status pgi__mesh_precheck(const char *path, pgi__mesh_hints *hints);
+/* Limits of what a mesh file may declare (docs/limits.md), checked before Assimp reads it:
+ * nesting (JSON, XML, braces of .x/.bvh/.ogex, AC3D kids, a glTF's node tree) deeper than
+ * PGI__MAX_MESH_DEPTH levels (Assimp recurses once a level: a deep file overflows its stack);
+ * more than PGI__MAX_MESH_MATERIALS materials (Assimp 5.2's OBJ import is quadratic in them);
+ * more than PGI__MAX_MESH_FILES material libraries named by one OBJ, or files opened by Assimp for
+ * one import; a file Assimp opens more than PGI__MAX_FILE_OPENS times in one import. */
+#define PGI__MAX_MESH_DEPTH 1000
+#define PGI__MAX_MESH_MATERIALS 10000
+#define PGI__MAX_MESH_FILES 256
+#define PGI__MAX_FILE_OPENS 64
+/* Refuses mesh files that make Assimp crash, hang or allocate far more than the file holds
+ * (mesh_check.c): counts a header declares that the file is too small to hold, nesting past
+ * PGI__MAX_MESH_DEPTH, material libraries that are not regular files. `budget`: the memory
+ * budget of the load (a file it reads whole may be no larger). Fills *hints (may be NULL). */
+pgi_status pgi__mesh_precheck(const char *path, uint64_t budget, pgi__mesh_hints *hints);
+/* The memory budget of the scene being loaded on this thread (pgi_scene_load_budget; the
+ * default budget, pgi__mem_default_budget, otherwise). */
+uint64_t pgi__scene_load_budget(void);
 /* Bytes the scene holds (scene.c, for the memory stats): geometry, materials, lights, cameras,
  * sky map and motions in *scene_bytes, decoded textures in *texture_bytes. */
 void pgi__scene_memory(const pgi_scene *s, size_t *scene_bytes, size_t *texture_bytes);
