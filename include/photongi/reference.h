@@ -77,16 +77,26 @@ typedef struct pgi_reference_meta {
     char scene[256]; /* scene spec as given on the command line */
     int width, height, bounces, camera;
     uint64_t seed, spp;
-    pgi_jitter jitter;     /* PGI_JITTER_ON or PGI_JITTER_OFF (what the samples so far used) */
-    pgi_specular specular; /* the model the samples used (GGX or PHONG; a sidecar without "specular" predates
+    pgi_jitter jitter;            /* PGI_JITTER_ON or PGI_JITTER_OFF (what the samples so far used) */
+    pgi_specular specular;        /* the model the samples used (GGX or PHONG; a sidecar without "specular" predates
                               the microfacet plastic and reads as PHONG) */
+    uint64_t exr_bytes, exr_hash; /* the EXR's size and FNV-1a 64-bit hash of its bytes when the sidecar
+                                     was written ("exr_bytes", "exr_fnv1a64"): a reader checks that the
+                                     two files belong together; 0, 0: not recorded (older sidecars) */
 } pgi_reference_meta;
+
+/* The most samples a sidecar may count (2^53: exact as a double). */
+#define PGI_REFERENCE_MAX_SPP (1ULL << 53)
 
 /* Writes/reads the sidecar JSON file `path` (format "photongi-reference-2", with an optional
  * "specular": "ggx" | "phong";
  * "photongi-reference-1", written before references were jittered, reads as
  * PGI_JITTER_OFF). Reading a missing file is PGI_ERR_IO; a file without the
- * fields is PGI_ERR_PARSE. */
+ * fields, with a value out of range (width and height 1..PGI_MAX_IMAGE_SIDE, bounces 1..64, camera
+ * 0..1000000, spp 1..PGI_REFERENCE_MAX_SPP, seed and spp strings of digits) or that is not a regular
+ * file (a FIFO) is PGI_ERR_PARSE. A relative "scene" path that names a file beside the sidecar reads
+ * as that file's path (the sidecar's folder, not the current one). The write replaces `path`
+ * atomically (a temporary file renamed over it). */
 pgi_status pgi_reference_meta_write(const pgi_reference_meta *m, const char *path);
 pgi_status pgi_reference_meta_read(const char *path, pgi_reference_meta *m);
 

@@ -25,4 +25,19 @@ pgi_status pgi__hdr_check(const char *what, FILE *f, const void *data, size_t si
  * writes). Returns a malloc'd string the caller frees, or NULL when out of memory. */
 char *pgi__stats_to_json(const pgi_frame_stats *st);
 
+/* Atomic output (image_io.c): pgi__out_begin decides where a write of `path` goes (a temporary
+ * file beside the file it replaces, the file a symlink names; a path that is not a regular file,
+ * such as /dev/null, directly), pgi__out_path is the name to write, pgi__out_commit flushes it to
+ * the disk and renames it over the target, pgi__out_abort removes it. Whatever fails, the previous
+ * file is kept. Messages name `path`. */
+typedef struct pgi__out {
+    char final[4096], tmp[4096];
+    int direct;
+    unsigned mode;
+} pgi__out;
+pgi_status pgi__out_begin(const char *path, pgi__out *o);
+const char *pgi__out_path(const pgi__out *o, const char *path);
+pgi_status pgi__out_commit(pgi__out *o, const char *path);
+void pgi__out_abort(pgi__out *o);
+
 #endif
