@@ -257,6 +257,9 @@ static void merge_ready(job *j) {
     while (j->next_merge < dealt && j->held[j->next_merge]) {
         pgi_block_sum_merge(j->total, j->held[j->next_merge], j->values);
         j->items_done += block_items(j, j->next_merge);
+        /* a reference rounds its total after every whole block, as pgi_reference_render does */
+        if (j->sampler && block_items(j, j->next_merge) == j->block)
+            pgi_block_sum_round(j->total, j->values, j->n0 + (uint64_t)j->items_done);
         pool_put(j, j->held[j->next_merge]);
         j->held[j->next_merge++] = NULL;
     }

@@ -486,6 +486,10 @@ pgi_status pgi_progressive_frame_await_r0(pgi_renderer *r, const pgi_render_desc
 void pgi_block_sum_add(double *block, const float *frame, size_t values, int first);
 /* total[i] += block[i]: a finished block, in block order. */
 void pgi_block_sum_merge(double *total, const double *block, size_t values);
+/* total[i] = (double)(float)(total[i] * (1 / count)) * count: the total as a saved float mean of count
+ * samples gives it back (pgi_reference_render does this after every whole block, so that continuing a
+ * reference saved at a multiple of its block reproduces the bytes of one uninterrupted run). */
+void pgi_block_sum_round(double *total, size_t values, uint64_t count);
 /* out[i] = (float)((total[i] + partial[i]) * (1 / count)); partial may be NULL (no partial block). */
 void pgi_block_sum_mean(const double *total, const double *partial, size_t values, uint64_t count, float *out);
 

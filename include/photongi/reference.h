@@ -50,8 +50,10 @@ typedef struct pgi_reference_desc {
  * samples are summed per pixel in blocks of PGI_REFERENCE_BLOCK consecutive samples
  * (from the call's first), in sample order within a block, and block sums are
  * added in block order (photongi.h, pgi_block_sum_*), so that sample blocks
- * rendered elsewhere (apps/mpi) reduce to the same bits. Continuing from a saved
- * mean matches one long run up to float rounding of the mean. */
+ * rendered elsewhere (apps/mpi) reduce to the same bits. After every whole block
+ * the total is rounded to what the float mean gives back (pgi_block_sum_round), so
+ * continuing from a mean saved at a multiple of PGI_REFERENCE_BLOCK samples gives the
+ * same bits as one long run; from another count, the same up to float rounding. */
 pgi_status pgi_reference_render(const pgi_scene *scene, const pgi_reference_desc *desc, pgi_image *mean, uint64_t *spp);
 
 /* Samples per block of pgi_reference_render's summation order. */

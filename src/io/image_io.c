@@ -55,8 +55,15 @@ pgi_status pgi__out_begin(const char *path, pgi__out *o) {
     o->tmp[0] = 0;
     struct stat sb;
     if (lstat(path, &sb) == 0 && S_ISLNK(sb.st_mode)) {
-        char *real = realpath(path, NULL); /* NULL: a dangling link, replaced itself */
-        snprintf(o->final, sizeof o->final, "%s", real ? real : path);
+        char *real = realpath(path, NULL), link[4096];
+        ssize_t ln = real ? 0 : readlink(path, link, sizeof link - 1);
+        const char *slash = strrchr(path, '/');
+        if (real) snprintf(o->final, sizeof o->final, "%s", real);
+        else if (ln > 0) { /* a dangling link: the file it names is created */ link[ln] = 0;
+            if (link[0] == '/' || !slash) snprintf(o->final, sizeof o->final, "%s", link);
+            else if (snprintf(o->final, sizeof o->final, "%.*s/%.*s", (int)(slash - path), path, 2048, link) < 0)
+                o->final[0] = 0;
+        } else snprintf(o->final, sizeof o->final, "%s", path);
         free(real);
     } else snprintf(o->final, sizeof o->final, "%s", path);
     mode_t um = umask(0);
