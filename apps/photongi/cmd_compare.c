@@ -1,5 +1,6 @@
 /* photongi compare A B [--json] [--diff heat.png] [--flip-map F.png]: PSNR, SSIM and FLIP of A against
  * the reference B on the tone-mapped images (include/photongi/metrics.h). */
+#define _DEFAULT_SOURCE /* realpath (output.h) */
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -172,6 +173,18 @@ int pgi_cmd_compare(int argc, char **argv) {
             return cli_input_fail("compare", "cannot read", st);
         }
     }
+    /* Metrics of NaN or infinite pixels are meaningless: refuse them, naming the file. */
+    for (int k = 0; k < 2; k++) {
+        size_t bad = 0, n = (size_t)img[k].width * img[k].height;
+        for (size_t i = 0; i < n; i++)
+            bad += !isfinite(img[k].rgb[3 * i]) || !isfinite(img[k].rgb[3 * i + 1]) || !isfinite(img[k].rgb[3 * i + 2]);
+        if (bad) {
+            pgi_image_free(&img[0]);
+            pgi_image_free(&img[1]);
+            return cli_failure("compare", "%s has %zu pixel%s of %zu with NaN or infinite values", files[k], bad,
+                               bad == 1 ? "" : "s", n);
+        }
+    }
     /* The exposure is the linear inputs' own: an 8-bit input carries the exposure it was written with. */
     for (int k = 0; k < 2; k++)
         if (hdr[k] && exposure != 1.f)
@@ -230,13 +243,38 @@ int pgi_cmd_compare(int argc, char **argv) {
     else snprintf(psnr, sizeof psnr, "%.8f", m.psnr);
     snprintf(noise_psnr, sizeof noise_psnr, noise > 0.0 ? "%.8f" : "null", 10.0 * log10(1.0 / noise));
     if (json) {
-        printf("{\"width\": %d, \"height\": %d, \"psnr\": %s, \"mse\": %.9g, \"ssim\": %.8f, \"ssim_rgb\": %.8f, "
-               "\"ssim_r\": %.8f, \"ssim_g\": %.8f, \"ssim_b\": %.8f, \"max_abs\": %.6f, \"flip\": %.8f, "
-               "\"flip_weighted_median\": %.8f, \"flip_weighted_q1\": %.8f, \"flip_weighted_q3\": %.8f, "
-               "\"flip_max\": %.8f, \"flip_ppd\": %.6f, \"relmse\": %.9g, \"reference_noise_psnr\": %s}\n",
-               m.width, m.height, psnr, m.mse, m.ssim, m.ssim_rgb, m.ssim_channel[0], m.ssim_channel[1],
-               m.ssim_channel[2], m.max_abs, m.flip.mean, m.flip.weighted_median, m.flip.weighted_q1,
-               m.flip.weighted_q3, m.flip.max, (double)m.flip.ppd, m.relmse, noise_psnr);
+        /* JSON has no NaN or infinity: null for any such value (psnr of identical images). */
+        char v[16][40];
+        const double x[16] = {m.mse,
+                              m.ssim,
+                              m.ssim_rgb,
+                              m.ssim_channel[0],
+                              m.ssim_channel[1],
+                              m.ssim_channel[2],
+                              m.max_abs,
+                              m.flip.mean,
+                              m.flip.weighted_median,
+                              m.flip.weighted_q1,
+                              m.flip.weighted_q3,
+                              m.flip.max,
+                              (double)m.flip.ppd,
+                              m.relmse,
+                              0.0,
+                              0.0};
+        static const char *const fmt[14] = {"%.9g", "%.8f", "%.8f", "%.8f", "%.8f", "%.8f", "%.6f",
+                                            "%.8f", "%.8f", "%.8f", "%.8f", "%.8f", "%.6f", "%.9g"};
+        for (int i = 0; i < 14; i++) {
+            if (isfinite(x[i])) snprintf(v[i], sizeof v[i], fmt[i], x[i]);
+            else snprintf(v[i], sizeof v[i], "null");
+        }
+        if (!isfinite(m.psnr)) snprintf(psnr, sizeof psnr, "null");
+        if (noise > 0.0 && !isfinite(10.0 * log10(1.0 / noise))) snprintf(noise_psnr, sizeof noise_psnr, "null");
+        printf("{\"width\": %d, \"height\": %d, \"psnr\": %s, \"mse\": %s, \"ssim\": %s, \"ssim_rgb\": %s, "
+               "\"ssim_r\": %s, \"ssim_g\": %s, \"ssim_b\": %s, \"max_abs\": %s, \"flip\": %s, "
+               "\"flip_weighted_median\": %s, \"flip_weighted_q1\": %s, \"flip_weighted_q3\": %s, "
+               "\"flip_max\": %s, \"flip_ppd\": %s, \"relmse\": %s, \"reference_noise_psnr\": %s}\n",
+               m.width, m.height, psnr, v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8], v[9], v[10], v[11], v[12],
+               v[13], noise_psnr);
     } else {
         printf("PSNR %s dB  SSIM %.4f (luma)  %.4f (RGB mean: %.4f %.4f %.4f)  max diff %.4f  %dx%d\n", psnr, m.ssim,
                m.ssim_rgb, m.ssim_channel[0], m.ssim_channel[1], m.ssim_channel[2], m.max_abs, m.width, m.height);

@@ -3,6 +3,7 @@
  * the path tracer too), against a path-traced reference the study makes once and reuses; the
  * reference's own noise comes from its two halves. Writes study.md, study.csv, study.svg (PSNR against
  * time) and every image into --out. bench/quality.sh and bench/equal_time.sh are runs of it. */
+#define _DEFAULT_SOURCE /* realpath (output.h) */
 #include <errno.h>
 #include <inttypes.h>
 #include <math.h>
