@@ -28,6 +28,7 @@
 #include <math.h>
 #include <mpi.h>
 #include <stdarg.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -997,6 +998,7 @@ static void prefer_shared_memory(void) {
 
 int main(int argc, char **argv) {
     int provided;
+    signal(SIGXFSZ, SIG_IGN); /* a file size limit fails a write (reported), not the process */
     prefer_shared_memory();
     MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
     MPI_Comm_rank(MPI_COMM_WORLD, &g_rank);
@@ -1055,7 +1057,11 @@ int main(int argc, char **argv) {
                 k_help);
         rc = CLI_EXIT_USAGE;
     }
-    fflush(stdout);
+    /* what rank 0 printed must have reached standard output (not /dev/full, a closed pipe) */
+    if ((fflush(stdout) != 0 || ferror(stdout)) && rc == 0 && g_rank == 0) {
+        fprintf(stderr, "photongi-mpi: cannot write to standard output\n");
+        rc = CLI_EXIT_FAILURE;
+    }
     fflush(stderr);
     int final = rc;
     if (!g_entered) {

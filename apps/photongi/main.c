@@ -46,7 +46,11 @@ static const char *k_main_help =
     "     scene, mesh, image or sidecar missing, unreadable or malformed; a scene name with\n"
     "     no built-in scene and no NAME.json; a camera the scene does not have; an output\n"
     "     folder that does not exist or cannot be written; a failed render)\n"
-    "  Output paths are checked before the scene is loaded; nothing is written before the end.\n";
+    "  130, 143  'reference' interrupted by SIGINT or SIGTERM, after saving what it had\n"
+    "  Output paths are checked before the scene is loaded (two naming the same file: 2);\n"
+    "  nothing is written before the end but 'reference' checkpoints, and each file is written\n"
+    "  whole or not at all (a temporary file renamed over it). Output that does not reach\n"
+    "  standard output (a full disk, /dev/full) is a failure (1).\n";
 
 static const char *k_info_help = "usage: photongi info [--scene S]\n"
                                  "\n"
