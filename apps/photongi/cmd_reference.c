@@ -121,35 +121,6 @@ static int progress_cb(void *user, uint64_t done_call, uint64_t total_call, doub
     return 0;
 }
 
-/* FNV-1a 64 of a regular file's bytes and its size; 0, or an errno (-1: not a regular file). */
-static int file_fnv1a64(const char *path, uint64_t *bytes, uint64_t *hash) {
-    int fd = open(path, O_RDONLY | O_NONBLOCK);
-    if (fd < 0) return errno;
-    struct stat sb;
-    if (fstat(fd, &sb) != 0 || !S_ISREG(sb.st_mode)) {
-        close(fd);
-        return -1;
-    }
-    uint64_t h = 0xcbf29ce484222325ULL, n = 0;
-    unsigned char buf[1 << 16];
-    for (;;) {
-        ssize_t r = read(fd, buf, sizeof buf);
-        if (r < 0 && errno == EINTR) continue;
-        if (r < 0) {
-            int e = errno;
-            close(fd);
-            return e;
-        }
-        if (r == 0) break;
-        for (ssize_t i = 0; i < r; i++) h = (h ^ buf[i]) * 0x100000001b3ULL;
-        n += (uint64_t)r;
-    }
-    close(fd);
-    *bytes = n;
-    *hash = h;
-    return 0;
-}
-
 /* A scene named by a file is recorded by its absolute path: --continue from another folder, or with
  * another file of that name in the current one, loads the same scene. */
 static void absolute_scene(pgi_reference_meta *m) {
@@ -160,31 +131,15 @@ static void absolute_scene(pgi_reference_meta *m) {
     free(real);
 }
 
-/* Writes the EXR, then its sidecar with the EXR's size and hash (each atomically: a failure keeps the
- * previous file). 0, or prints "photongi reference: [WHAT: ]<problem>" and returns 1. */
+/* Saves the EXR and its sidecar (pgi_reference_save: both complete on the disk before either replaces
+ * the previous one). 0, or prints "photongi reference: [WHAT: ]<problem>" and returns 1. */
 static int save_reference(const pgi_image *img, const char *out, const char *meta_path, pgi_reference_meta *meta,
                           const char *what) {
-    pgi_status st = pgi_image_write(img, out, 1.f);
-    if (st) {
-        fprintf(stderr, "photongi reference: %s%scannot write the image: %s (%s and %s are as they were)\n",
-                what ? what : "", what ? ": " : "", pgi_last_error(), out, meta_path);
-        return 1;
-    }
-    int e = file_fnv1a64(out, &meta->exr_bytes, &meta->exr_hash);
-    if (e) {
-        fprintf(stderr, "photongi reference: %s%s%s: cannot read it back: %s\n", what ? what : "", what ? ": " : "",
-                out, e > 0 ? strerror(e) : "not a regular file");
-        return 1;
-    }
     absolute_scene(meta);
-    if ((st = pgi_reference_meta_write(meta, meta_path))) {
-        fprintf(stderr,
-                "photongi reference: %s%scannot write metadata: %s (%s holds %" PRIu64
-                " samples; %s still describes the previous image, so --continue refuses the pair)\n",
-                what ? what : "", what ? ": " : "", pgi_last_error(), out, meta->spp, meta_path);
-        return 1;
-    }
-    return 0;
+    if (pgi_reference_save(img, out, meta, meta_path) == PGI_OK) return 0;
+    fprintf(stderr, "photongi reference: %s%scannot save %" PRIu64 " samples: %s\n", what ? what : "", what ? ": " : "",
+            meta->spp, pgi_last_error());
+    return 1;
 }
 
 static const char *const k_exr[] = {".exr", NULL}, *const k_png[] = {".png", NULL};
@@ -198,8 +153,7 @@ static int read_reference(const char *path, pgi_image *img, pgi_reference_meta *
     pgi_status st = pgi_reference_meta_read(mp, meta);
     if (st) return cli_input_fail("reference", what, st);
     uint64_t bytes = 0, hash = 0;
-    int e = file_fnv1a64(path, &bytes, &hash);
-    if (e) return cli_failure("reference", "%s: %s: %s", what, path, e > 0 ? strerror(e) : "not a regular file");
+    if ((st = pgi_reference_file_hash(path, &bytes, &hash))) return cli_input_fail("reference", what, st);
     if (meta->exr_bytes && (bytes != meta->exr_bytes || hash != meta->exr_hash))
         return cli_failure("reference",
                            "%s: %s and %s do not belong together (the image has %" PRIu64 " bytes, hash %016" PRIx64

@@ -102,6 +102,17 @@ typedef struct pgi_reference_meta {
 pgi_status pgi_reference_meta_write(const pgi_reference_meta *m, const char *path);
 pgi_status pgi_reference_meta_read(const char *path, pgi_reference_meta *m);
 
+/* Saves a reference: the EXR `exr` and its sidecar `meta_path` with m->exr_bytes and m->exr_hash set
+ * to the EXR's size and hash. Both are written to temporary files beside their targets and flushed
+ * to the disk before either is renamed over its target, so that a failure (a full disk) keeps the
+ * previous pair and only a kill between the two renames can leave them disagreeing, which the hash
+ * tells. An EXR path that is not a regular file (/dev/null) is written directly, without a hash. */
+pgi_status pgi_reference_save(const pgi_image *img, const char *exr, pgi_reference_meta *m, const char *meta_path);
+
+/* The size and FNV-1a 64-bit hash of a regular file's bytes (what the sidecar records of its EXR);
+ * PGI_ERR_IO for a file that cannot be read or is not a regular file (a FIFO is not waited on). */
+pgi_status pgi_reference_file_hash(const char *path, uint64_t *bytes, uint64_t *hash);
+
 #ifdef __cplusplus
 }
 #endif

@@ -97,20 +97,34 @@ void pgi__out_abort(pgi__out *o) {
     o->tmp[0] = 0;
 }
 
-pgi_status pgi__out_commit(pgi__out *o, const char *path) {
+pgi_status pgi__out_sync(pgi__out *o, const char *path) {
     if (o->direct) return PGI_OK;
     int fd = open(o->tmp, O_RDONLY);
     int e = 0;
     if (fd < 0 || fsync(fd) != 0) e = errno ? errno : EIO;
     if (fd >= 0) close(fd);
     if (!e && chmod(o->tmp, o->mode) != 0) e = errno;
-    if (!e && rename(o->tmp, o->final) != 0) e = errno;
     if (e) {
+        pgi__out_abort(o);
+        return pgi__fail(PGI_ERR_IO, "%s: cannot write: %s (the previous file, if any, is kept)", path, strerror(e));
+    }
+    return PGI_OK;
+}
+
+pgi_status pgi__out_rename(pgi__out *o, const char *path) {
+    if (o->direct) return PGI_OK;
+    if (rename(o->tmp, o->final) != 0) {
+        int e = errno;
         pgi__out_abort(o);
         return pgi__fail(PGI_ERR_IO, "%s: cannot write: %s (the previous file, if any, is kept)", path, strerror(e));
     }
     o->tmp[0] = 0;
     return PGI_OK;
+}
+
+pgi_status pgi__out_commit(pgi__out *o, const char *path) {
+    pgi_status s = pgi__out_sync(o, path);
+    return s ? s : pgi__out_rename(o, path);
 }
 
 /* --------------------------------------------------------------- PNG write */
@@ -354,17 +368,22 @@ done:
 pgi_status pgi_image_write(const pgi_image *img, const char *path, float exposure) {
     if (!path || !path[0]) return pgi__fail(PGI_ERR_INVALID_ARG, "image write: no output path");
     if (!image_valid(img)) return pgi__fail(PGI_ERR_INVALID_ARG, "%s: no image to write (empty or no pixels)", path);
-    const int png = has_ext(path, ".png");
-    if (!png && !has_ext(path, ".exr"))
+    if (!has_ext(path, ".png") && !has_ext(path, ".exr"))
         return pgi__fail(PGI_ERR_INVALID_ARG, "%s: unknown image format (use .png or .exr)", path);
     pgi__out o;
     pgi_status s = pgi__out_begin(path, &o);
     if (s) return s;
-    const char *w = pgi__out_path(&o, path);
-    s = png ? write_png(img, path, w, exposure) : write_exr(img, path, w);
+    s = pgi__image_write_to(img, path, pgi__out_path(&o, path), exposure);
     if (s) pgi__out_abort(&o);
     else s = pgi__out_commit(&o, path);
     return s;
+}
+
+pgi_status pgi__image_write_to(const pgi_image *img, const char *path, const char *wpath, float exposure) {
+    const int png = has_ext(path, ".png");
+    if (!png && !has_ext(path, ".exr"))
+        return pgi__fail(PGI_ERR_INVALID_ARG, "%s: unknown image format (use .png or .exr)", path);
+    return png ? write_png(img, path, wpath, exposure) : write_exr(img, path, wpath);
 }
 
 /* --------------------------------------------------------------------- read */

@@ -37,7 +37,12 @@ typedef struct pgi__out {
 } pgi__out;
 pgi_status pgi__out_begin(const char *path, pgi__out *o);
 const char *pgi__out_path(const pgi__out *o, const char *path);
-pgi_status pgi__out_commit(pgi__out *o, const char *path);
+pgi_status pgi__out_commit(pgi__out *o, const char *path); /* pgi__out_sync, then pgi__out_rename */
+pgi_status pgi__out_sync(pgi__out *o, const char *path);   /* fsync and the mode; abort on failure */
+pgi_status pgi__out_rename(pgi__out *o, const char *path); /* over the target; abort on failure */
+/* pgi_image_write's encoders: `img` (valid) to the file wpath, messages naming path (whose extension,
+ * .png or .exr, chooses the format). */
+pgi_status pgi__image_write_to(const pgi_image *img, const char *path, const char *wpath, float exposure);
 void pgi__out_abort(pgi__out *o);
 
 #endif

@@ -17,7 +17,8 @@
 #include "io/io_internal.h"
 #include "photongi/reference.h"
 
-pgi_status pgi_reference_meta_write(const pgi_reference_meta *m, const char *path) {
+/* The sidecar's text into the file wpath (messages name path). */
+static pgi_status meta_write_to(const pgi_reference_meta *m, const char *path, const char *wpath) {
     cJSON *o = cJSON_CreateObject();
     if (!o) return pgi__fail(PGI_ERR_OOM, "out of memory writing %s", path);
     char seed[32], spp[32];
@@ -39,18 +40,11 @@ pgi_status pgi_reference_meta_write(const pgi_reference_meta *m, const char *pat
     char *txt = ok ? cJSON_Print(o) : NULL;
     cJSON_Delete(o);
     if (!txt) return pgi__fail(PGI_ERR_OOM, "out of memory writing %s", path);
-    pgi__out out;
-    pgi_status st = pgi__out_begin(path, &out);
-    if (st) {
-        free(txt);
-        return st;
-    }
     errno = 0;
-    FILE *f = fopen(pgi__out_path(&out, path), "wb");
+    FILE *f = fopen(wpath, "wb");
     if (!f) {
         int e = errno;
         free(txt);
-        pgi__out_abort(&out);
         return pgi__fail(PGI_ERR_IO, "%s: cannot write: %s", path, strerror(e));
     }
     int bad = fputs(txt, f) < 0 || fputc('\n', f) == EOF || fflush(f) != 0;
@@ -60,11 +54,89 @@ pgi_status pgi_reference_meta_write(const pgi_reference_meta *m, const char *pat
         e = errno;
     }
     free(txt);
-    if (bad) {
+    return bad ? pgi__fail(PGI_ERR_IO, "%s: cannot write: %s", path, e ? strerror(e) : "write error") : PGI_OK;
+}
+
+pgi_status pgi_reference_meta_write(const pgi_reference_meta *m, const char *path) {
+    pgi__out out;
+    pgi_status st = pgi__out_begin(path, &out);
+    if (st) return st;
+    if ((st = meta_write_to(m, path, pgi__out_path(&out, path)))) {
         pgi__out_abort(&out);
-        return pgi__fail(PGI_ERR_IO, "%s: cannot write: %s", path, e ? strerror(e) : "write error");
+        return st;
     }
     return pgi__out_commit(&out, path);
+}
+
+pgi_status pgi_reference_file_hash(const char *path, uint64_t *bytes, uint64_t *hash) {
+    int fd = open(path, O_RDONLY | O_NONBLOCK);
+    if (fd < 0) {
+        int e = errno;
+        return pgi__fail(PGI_ERR_IO, "%s: cannot open: %s", path, strerror(e));
+    }
+    struct stat sb;
+    if (fstat(fd, &sb) != 0 || !S_ISREG(sb.st_mode)) {
+        close(fd);
+        return pgi__fail(PGI_ERR_IO, "%s: not a regular file", path);
+    }
+    uint64_t h = 0xcbf29ce484222325ULL, n = 0;
+    unsigned char buf[1 << 16];
+    for (;;) {
+        ssize_t r = read(fd, buf, sizeof buf);
+        if (r < 0 && errno == EINTR) continue;
+        if (r < 0) {
+            int e = errno;
+            close(fd);
+            return pgi__fail(PGI_ERR_IO, "%s: cannot read: %s", path, strerror(e));
+        }
+        if (r == 0) break;
+        for (ssize_t i = 0; i < r; i++) h = (h ^ buf[i]) * 0x100000001b3ULL;
+        n += (uint64_t)r;
+    }
+    close(fd);
+    *bytes = n;
+    *hash = h;
+    return PGI_OK;
+}
+
+pgi_status pgi_reference_save(const pgi_image *img, const char *exr, pgi_reference_meta *m, const char *meta_path) {
+    if (!img || !img->rgb || img->width <= 0 || img->height <= 0 || !exr || !m || !meta_path)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_reference_save: no image or no path");
+    pgi__out oe, om;
+    pgi_status st = pgi__out_begin(exr, &oe);
+    if (st) return st;
+    const char *we = pgi__out_path(&oe, exr);
+    if ((st = pgi__image_write_to(img, exr, we, 1.f))) {
+        pgi__out_abort(&oe);
+        return st;
+    }
+    m->exr_bytes = m->exr_hash = 0;
+    if (!oe.direct && (st = pgi_reference_file_hash(we, &m->exr_bytes, &m->exr_hash))) {
+        pgi__out_abort(&oe);
+        return st;
+    }
+    if ((st = pgi__out_begin(meta_path, &om))) {
+        pgi__out_abort(&oe);
+        return st;
+    }
+    if ((st = meta_write_to(m, meta_path, pgi__out_path(&om, meta_path))) || (st = pgi__out_sync(&oe, exr)) ||
+        (st = pgi__out_sync(&om, meta_path))) {
+        pgi__out_abort(&oe);
+        pgi__out_abort(&om);
+        return st;
+    }
+    /* Both complete on the disk: the two renames, the only moment the pair can disagree. */
+    if ((st = pgi__out_rename(&oe, exr))) {
+        pgi__out_abort(&om);
+        return st;
+    }
+    if ((st = pgi__out_rename(&om, meta_path))) {
+        char why[512];
+        snprintf(why, sizeof why, "%s", pgi_last_error());
+        return pgi__fail(st, "%s is saved but %s could not be replaced (it describes the previous image): %s", exr,
+                         meta_path, why);
+    }
+    return PGI_OK;
 }
 
 /* A whole number written as a string of decimal digits (hexadecimal with hex), in lo..hi; 0 if it is
