@@ -49,6 +49,20 @@ n=$(spp_of "$TMP/i.exr")
     bad "SIGINT: exit $rc, $n spp: $(cat "$TMP/err")"
 "$BIN" reference --continue "$TMP/i.exr" --spp 6 -q && same_as_one_run "$TMP/i.exr" "SIGINT"
 
+# Two SIGINTs: only the current pass is finished, still saved, still 130.
+"$BIN" reference $R --spp 1000000 -q -o "$TMP/ii.exr" 2>"$TMP/err" &
+pid=$!
+sleep 0.7
+kill -INT $pid
+kill -INT $pid
+wait $pid
+rc=$?
+n=$(spp_of "$TMP/ii.exr")
+[ "$rc" -eq 130 ] && grep -q "saved with $n samples" "$TMP/err" && ok || bad "two SIGINTs: exit $rc, $n spp"
+hostile 2 "--checkpoint needs seconds" reference $R --checkpoint -1 -o "$TMP/cp.exr"
+hostile 2 "--checkpoint needs seconds" reference $R --checkpoint 1x -o "$TMP/cp.exr"
+hostile 2 "--merge takes only" reference --merge "$TMP/i.exr" "$TMP/ii.exr" --checkpoint 5 -o "$TMP/cp.exr"
+
 # SIGTERM: 143.
 "$BIN" reference $R --spp 1000000 -q -o "$TMP/t.exr" 2>"$TMP/err" &
 pid=$!
@@ -114,6 +128,8 @@ done
 [ ! -e "$TMP/mm.exr" ] && ok || bad "--merge of a bad sidecar wrote an image"
 cp "$TMP/s.exr" "$TMP/fifo.exr" && mkfifo "$TMP/fifo.exr.json"
 hostile 1 "fifo.exr.json" reference --continue "$TMP/fifo.exr" --spp 1
+cp "$TMP/s.exr.json" "$TMP/fifo2.exr.json" && mkfifo "$TMP/fifo2.exr"
+hostile 1 "fifo2.exr: not a regular file" reference --continue "$TMP/fifo2.exr" --spp 1
 # A relative scene path is the sidecar's folder's: another gloss.json in the current folder is not
 # mixed in (the reference continues with the scene it was made of).
 mkdir -p "$TMP/a" "$TMP/b"
