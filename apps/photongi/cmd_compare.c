@@ -46,8 +46,12 @@ static const char *k_compare_help =
     "                  (default 1), as 'render --exposure X' does before it writes PNG: an EXR and\n"
     "                  the PNG of the same render compare as identical at the render's exposure\n"
     "\n"
-    "Exit status: 0 success, 2 usage error, 1 failure (an image missing, unreadable, or not\n"
-    "comparable with the other; see 'photongi --help').\n";
+    "The maps must be files of their own (not each other, nor A or B: a usage error). Images with\n"
+    "NaN or infinite pixels are refused (their count is given); --json writes null for a value\n"
+    "JSON cannot hold (the PSNR of identical images).\n"
+    "\n"
+    "Exit status: 0 success, 2 usage error, 1 failure (an image missing, unreadable, not finite or\n"
+    "not comparable with the other; standard output not written; see 'photongi --help').\n";
 
 /* sRGB EOTF in float, as the viewer's screenshot has it (apps use the public API only, so not the
  * library's internal pgi__srgb_to_linear, which is in double). The two differ by a few float ulps for
@@ -164,6 +168,12 @@ int pgi_cmd_compare(int argc, char **argv) {
     int rc = diff ? app_check_output("photongi compare", "--diff", diff, k_png) : 0;
     if (!rc && flip_map) rc = app_check_output("photongi compare", "--flip-map", flip_map, k_png);
     if (rc) return rc;
+    /* the maps must not overwrite each other or an image compared (A and B may be one file) */
+    for (int k = 0; k < 2 && (diff || flip_map); k++) {
+        const char *names[] = {"--diff", "--flip-map", k ? "the reference" : "the image"},
+                   *paths[] = {diff, flip_map, files[k]};
+        if ((rc = app_check_distinct("photongi compare", 3, names, paths))) return rc;
+    }
     pgi_image img[2] = {{0}, {0}};
     int hdr[2] = {0, 0};
     for (int k = 0; k < 2; k++) {
