@@ -75,6 +75,10 @@ pgi_status pgi__out_begin(const char *path, pgi__out *o) {
             return PGI_OK;
         }
         o->mode = sb.st_mode & 07777;
+        if (access(o->final, W_OK) != 0) { /* replacing it must not get round its permissions */
+            int e = errno;
+            return pgi__fail(PGI_ERR_IO, "%s: cannot write: %s", path, strerror(e));
+        }
     }
     const char *slash = strrchr(o->final, '/');
     int dn = slash ? (int)(slash - o->final) + 1 : 0;
