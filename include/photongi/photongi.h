@@ -374,7 +374,11 @@ pgi_status pgi_renderer_prepare(pgi_renderer *r, const pgi_render_desc *desc, pg
 
 void pgi_image_free(pgi_image *img);
 /* Writes PNG (tone-mapped: exposure, then sRGB) or EXR (linear float),
- * chosen by the file extension. */
+ * chosen by the file extension. Atomically: to a temporary file beside the
+ * target, flushed and renamed over it, so a failure (a full disk) or a kill
+ * keeps the previous file; a symlink's target is replaced, and a path that is
+ * not a regular file (/dev/null) is written directly. pgi_stats_write_json
+ * and pgi_reference_meta_write write the same way. */
 pgi_status pgi_image_write(const pgi_image *img, const char *path, float exposure);
 /* Tone maps to 8-bit sRGB (3 bytes a pixel, caller-owned buffer). */
 void pgi_tonemap_srgb8(const pgi_image *img, float exposure, unsigned char *out);
