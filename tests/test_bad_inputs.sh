@@ -348,5 +348,25 @@ PY
         render --scene "$fm/tex.obj" --max-memory 16M --size 16x16 --photons 1000 -o "$fm/tex.exr"
 fi
 
+# ---- references, outputs, compare
+# (the rest, with signals, a full disk and byte-identical continuation: test_reference_safety.sh)
+if "$BIN" reference --size 24x16 --spp 4 --threads 2 -q -o "$TMP/ref.exr"; then
+    cp "$TMP/ref.exr" "$TMP/fifo-ref.exr" && mkfifo "$TMP/fifo-ref.exr.json"
+    expect_clear_error "fifo-ref.exr.json: not a reference's metadata file (not a regular file)" \
+        reference --continue "$TMP/fifo-ref.exr" --spp 1
+    for spp in -1 18446744073709551616; do
+        sed "s/\"spp\":[^,]*/\"spp\": \"$spp\"/" "$TMP/ref.exr.json" >"$TMP/wrap.exr.json" && cp "$TMP/ref.exr" "$TMP/wrap.exr"
+        expect_clear_error "wrap.exr.json: not a photongi reference metadata file" reference --continue "$TMP/wrap.exr" --spp 1
+        expect_clear_error "wrap.exr.json" reference --merge "$TMP/wrap.exr" "$TMP/ref.exr" -o "$TMP/merged.exr"
+    done
+    cp "$TMP/ref.exr.json" "$TMP/other.exr.json" && "$BIN" render --size 24x16 -q -o "$TMP/other.exr"
+    expect_clear_error "other.exr and $TMP/other.exr.json do not belong together" \
+        reference --continue "$TMP/other.exr" --spp 1
+    expect_clear_error "the name is 304 characters" reference --spp 1 -o "$TMP/$(printf 'n%.0s' $(seq 300)).exr"
+else
+    echo "FAIL a 24x16 reference"
+    fail=$((fail + 1))
+fi
+
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]

@@ -285,6 +285,19 @@ static void test_threads_and_continue(void **state) {
         if (diff > 1e-5 * fmax(1.0, fabs((double)a.rgb[i])))
             fail_msg("continued pixel %zu: %g vs %g", i, c.rgb[i], a.rgb[i]);
     }
+    /* 4 + 4 samples (a save at a multiple of PGI_REFERENCE_BLOCK, as checkpoints and interrupted
+       references are): the same bits as 8 samples in one call (pgi_block_sum_round), whatever the
+       threads. */
+    pgi_image f = {0};
+    uint64_t nf = 0;
+    d.spp = 4;
+    d.threads = 1;
+    TU_CHECK_OK(pgi_reference_render(s, &d, &f, &nf));
+    d.threads = 2;
+    TU_CHECK_OK(pgi_reference_render(s, &d, &f, &nf));
+    assert_int_equal(nf, 8);
+    assert_memory_equal(a.rgb, f.rgb, 3 * 40 * 30 * sizeof(float));
+    pgi_image_free(&f);
     /* Another seed gives another image. */
     d.seed = 4;
     d.spp = 8;

@@ -28,6 +28,7 @@
 #include <math.h>
 #include <mpi.h>
 #include <stdarg.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -257,6 +258,9 @@ static void merge_ready(job *j) {
     while (j->next_merge < dealt && j->held[j->next_merge]) {
         pgi_block_sum_merge(j->total, j->held[j->next_merge], j->values);
         j->items_done += block_items(j, j->next_merge);
+        /* a reference rounds its total after every whole block, as pgi_reference_render does */
+        if (j->sampler && block_items(j, j->next_merge) == j->block)
+            pgi_block_sum_round(j->total, j->values, j->n0 + (uint64_t)j->items_done);
         pool_put(j, j->held[j->next_merge]);
         j->held[j->next_merge++] = NULL;
     }
@@ -994,6 +998,7 @@ static void prefer_shared_memory(void) {
 
 int main(int argc, char **argv) {
     int provided;
+    signal(SIGXFSZ, SIG_IGN); /* a file size limit fails a write (reported), not the process */
     prefer_shared_memory();
     MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
     MPI_Comm_rank(MPI_COMM_WORLD, &g_rank);
@@ -1052,7 +1057,11 @@ int main(int argc, char **argv) {
                 k_help);
         rc = CLI_EXIT_USAGE;
     }
-    fflush(stdout);
+    /* what rank 0 printed must have reached standard output (not /dev/full, a closed pipe) */
+    if ((fflush(stdout) != 0 || ferror(stdout)) && rc == 0 && g_rank == 0) {
+        fprintf(stderr, "photongi-mpi: cannot write to standard output\n");
+        rc = CLI_EXIT_FAILURE;
+    }
     fflush(stderr);
     int final = rc;
     if (!g_entered) {

@@ -1,5 +1,6 @@
 /* photongi compare A B [--json] [--diff heat.png] [--flip-map F.png]: PSNR, SSIM and FLIP of A against
  * the reference B on the tone-mapped images (include/photongi/metrics.h). */
+#define _DEFAULT_SOURCE /* realpath (output.h) */
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -45,8 +46,12 @@ static const char *k_compare_help =
     "                  (default 1), as 'render --exposure X' does before it writes PNG: an EXR and\n"
     "                  the PNG of the same render compare as identical at the render's exposure\n"
     "\n"
-    "Exit status: 0 success, 2 usage error, 1 failure (an image missing, unreadable, or not\n"
-    "comparable with the other; see 'photongi --help').\n";
+    "The maps must be files of their own (not each other, nor A or B: a usage error). Images with\n"
+    "NaN or infinite pixels are refused (their count is given); --json writes null for a value\n"
+    "JSON cannot hold (the PSNR of identical images).\n"
+    "\n"
+    "Exit status: 0 success, 2 usage error, 1 failure (an image missing, unreadable, not finite or\n"
+    "not comparable with the other; standard output not written; see 'photongi --help').\n";
 
 /* sRGB EOTF in float, as the viewer's screenshot has it (apps use the public API only, so not the
  * library's internal pgi__srgb_to_linear, which is in double). The two differ by a few float ulps for
@@ -163,6 +168,12 @@ int pgi_cmd_compare(int argc, char **argv) {
     int rc = diff ? app_check_output("photongi compare", "--diff", diff, k_png) : 0;
     if (!rc && flip_map) rc = app_check_output("photongi compare", "--flip-map", flip_map, k_png);
     if (rc) return rc;
+    /* the maps must not overwrite each other or an image compared (A and B may be one file) */
+    for (int k = 0; k < 2 && (diff || flip_map); k++) {
+        const char *names[] = {"--diff", "--flip-map", k ? "the reference" : "the image"},
+                   *paths[] = {diff, flip_map, files[k]};
+        if ((rc = app_check_distinct("photongi compare", 3, names, paths))) return rc;
+    }
     pgi_image img[2] = {{0}, {0}};
     int hdr[2] = {0, 0};
     for (int k = 0; k < 2; k++) {
@@ -170,6 +181,18 @@ int pgi_cmd_compare(int argc, char **argv) {
         if (st) {
             pgi_image_free(&img[0]);
             return cli_input_fail("compare", "cannot read", st);
+        }
+    }
+    /* Metrics of NaN or infinite pixels are meaningless: refuse them, naming the file. */
+    for (int k = 0; k < 2; k++) {
+        size_t bad = 0, n = (size_t)img[k].width * img[k].height;
+        for (size_t i = 0; i < n; i++)
+            bad += !isfinite(img[k].rgb[3 * i]) || !isfinite(img[k].rgb[3 * i + 1]) || !isfinite(img[k].rgb[3 * i + 2]);
+        if (bad) {
+            pgi_image_free(&img[0]);
+            pgi_image_free(&img[1]);
+            return cli_failure("compare", "%s has %zu pixel%s of %zu with NaN or infinite values", files[k], bad,
+                               bad == 1 ? "" : "s", n);
         }
     }
     /* The exposure is the linear inputs' own: an 8-bit input carries the exposure it was written with. */
@@ -230,13 +253,38 @@ int pgi_cmd_compare(int argc, char **argv) {
     else snprintf(psnr, sizeof psnr, "%.8f", m.psnr);
     snprintf(noise_psnr, sizeof noise_psnr, noise > 0.0 ? "%.8f" : "null", 10.0 * log10(1.0 / noise));
     if (json) {
-        printf("{\"width\": %d, \"height\": %d, \"psnr\": %s, \"mse\": %.9g, \"ssim\": %.8f, \"ssim_rgb\": %.8f, "
-               "\"ssim_r\": %.8f, \"ssim_g\": %.8f, \"ssim_b\": %.8f, \"max_abs\": %.6f, \"flip\": %.8f, "
-               "\"flip_weighted_median\": %.8f, \"flip_weighted_q1\": %.8f, \"flip_weighted_q3\": %.8f, "
-               "\"flip_max\": %.8f, \"flip_ppd\": %.6f, \"relmse\": %.9g, \"reference_noise_psnr\": %s}\n",
-               m.width, m.height, psnr, m.mse, m.ssim, m.ssim_rgb, m.ssim_channel[0], m.ssim_channel[1],
-               m.ssim_channel[2], m.max_abs, m.flip.mean, m.flip.weighted_median, m.flip.weighted_q1,
-               m.flip.weighted_q3, m.flip.max, (double)m.flip.ppd, m.relmse, noise_psnr);
+        /* JSON has no NaN or infinity: null for any such value (psnr of identical images). */
+        char v[16][40];
+        const double x[16] = {m.mse,
+                              m.ssim,
+                              m.ssim_rgb,
+                              m.ssim_channel[0],
+                              m.ssim_channel[1],
+                              m.ssim_channel[2],
+                              m.max_abs,
+                              m.flip.mean,
+                              m.flip.weighted_median,
+                              m.flip.weighted_q1,
+                              m.flip.weighted_q3,
+                              m.flip.max,
+                              (double)m.flip.ppd,
+                              m.relmse,
+                              0.0,
+                              0.0};
+        static const char *const fmt[14] = {"%.9g", "%.8f", "%.8f", "%.8f", "%.8f", "%.8f", "%.6f",
+                                            "%.8f", "%.8f", "%.8f", "%.8f", "%.8f", "%.6f", "%.9g"};
+        for (int i = 0; i < 14; i++) {
+            if (isfinite(x[i])) snprintf(v[i], sizeof v[i], fmt[i], x[i]);
+            else snprintf(v[i], sizeof v[i], "null");
+        }
+        if (!isfinite(m.psnr)) snprintf(psnr, sizeof psnr, "null");
+        if (noise > 0.0 && !isfinite(10.0 * log10(1.0 / noise))) snprintf(noise_psnr, sizeof noise_psnr, "null");
+        printf("{\"width\": %d, \"height\": %d, \"psnr\": %s, \"mse\": %s, \"ssim\": %s, \"ssim_rgb\": %s, "
+               "\"ssim_r\": %s, \"ssim_g\": %s, \"ssim_b\": %s, \"max_abs\": %s, \"flip\": %s, "
+               "\"flip_weighted_median\": %s, \"flip_weighted_q1\": %s, \"flip_weighted_q3\": %s, "
+               "\"flip_max\": %s, \"flip_ppd\": %s, \"relmse\": %s, \"reference_noise_psnr\": %s}\n",
+               m.width, m.height, psnr, v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8], v[9], v[10], v[11], v[12],
+               v[13], noise_psnr);
     } else {
         printf("PSNR %s dB  SSIM %.4f (luma)  %.4f (RGB mean: %.4f %.4f %.4f)  max diff %.4f  %dx%d\n", psnr, m.ssim,
                m.ssim_rgb, m.ssim_channel[0], m.ssim_channel[1], m.ssim_channel[2], m.max_abs, m.width, m.height);

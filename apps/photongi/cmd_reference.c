@@ -1,12 +1,16 @@
 /* photongi reference: progressive path-traced reference image
  * (include/photongi/reference.h), EXR + sidecar JSON, optional PNG. */
+#define _DEFAULT_SOURCE /* realpath (output.h) */
 #include <errno.h>
+#include <fcntl.h>
 #include <inttypes.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <signal.h>
 #include <strings.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "cli.h"
@@ -49,47 +53,113 @@ static const char *k_reference_help =
     "                     and specular model rendered with different seeds (e.g. on two machines),\n"
     "                     weighted by their samples; OUT.exr.json counts both, and --continue on\n"
     "                     OUT goes on with A's seed past both counts\n"
+    "  --checkpoint SECONDS  save the EXR and its .json at the first multiple of 4 samples after\n"
+    "                     every SECONDS of rendering (default 600; 0: only at the end), so that a\n"
+    "                     killed run loses at most that much\n"
     "  --png FILE         also write a tone-mapped PNG\n"
     "  --exposure X       exposure for --png (default: the scene's, else 1)\n"
     "  -o, --out FILE     output EXR (required unless --continue); its folder must exist\n"
     "  -q, --quiet        print nothing but errors: no progress bar (shown only on a terminal),\n"
     "                     summary or warnings\n"
     "\n"
-    "The outputs (EXR, its .json, --png) are checked before the scene is loaded.\n"
-    "Exit status: 0 success, 2 usage error, 1 failure (see 'photongi --help').\n";
+    "The outputs (EXR, its .json, --png) are checked before the scene is loaded; two that name the\n"
+    "same file are a usage error. Each is written to a temporary file beside it and renamed over it\n"
+    "once complete, so a failed write (a full disk) or a killed process leaves the previous file;\n"
+    "the .json records the EXR's size and hash, and --continue and --merge refuse a pair that do not\n"
+    "belong together, a .json out of range, or an EXR with NaN or infinite pixels. The EXR and its\n"
+    ".json are written before --png. SIGINT (Ctrl-C) or SIGTERM: the samples up to the next multiple\n"
+    "of 4 are finished (a second signal: only the current one) and saved, then the exit status is\n"
+    "130 (SIGINT) or 143 (SIGTERM). Continuing a reference saved at a multiple of 4 samples (every\n"
+    "checkpoint and interrupted save is) gives the same bytes as one uninterrupted run.\n"
+    "Exit status: 0 success, 2 usage error, 1 failure (see 'photongi --help'), 130/143 interrupted.\n";
 
-/* The progress line (progress.h): samples per pixel done of this call's total, or with --time
- * and no --spp (the total unknown) the samples and the time against the limit. */
+/* SIGINT/SIGTERM: the signal, and how many came. */
+static volatile sig_atomic_t g_signal, g_signals;
+static void on_signal(int sig) {
+    g_signal = sig;
+    g_signals++;
+}
+
+/* The progress line (progress.h): samples per pixel done of this command's total, or with --time
+ * and no --spp (the total unknown) the samples and the time against the limit. The same callback
+ * stops a call at a signal, the time limit or a checkpoint. */
 typedef struct ref_progress {
     app_progress bar;
-    double time_limit_s; /* --time, 0 if none */
-    int by_time;         /* the bar follows the time, not the samples */
+    double time_limit_s;     /* --time, 0 if none */
+    int by_time;             /* the bar follows the time, not the samples */
+    uint64_t base, total;    /* samples of this command before the current call; the command's total */
+    double base_ms, last_ms; /* time of the calls before; of this call so far */
+    uint64_t n0;             /* samples in the image when this call began */
+    double checkpoint_ms;    /* 0: none */
+    int checkpoint;          /* the call stopped for a checkpoint */
 } ref_progress;
 
-static int progress_cb(void *user, uint64_t done, uint64_t total, double elapsed_ms) {
+static int progress_cb(void *user, uint64_t done_call, uint64_t total_call, double elapsed_ms) {
     ref_progress *rp = user;
-    const double s = elapsed_ms / 1000.0;
-    if (rp->by_time) {
-        double limit = rp->time_limit_s, frac = fmin(1.0, s / limit);
-        app_progress_draw(&rp->bar, frac, elapsed_ms, frac >= 1.0 || done == total,
-                          "%" PRIu64 " spp  %.0f s elapsed, %.0f s left", done, s, fmax(0.0, limit - s));
-    } else {
-        double frac = total ? (double)done / (double)total : 1.0;
-        double left_s = done ? s * (double)(total - done) / (double)done : 0.0;
-        app_progress_draw(&rp->bar, frac, elapsed_ms, done == total,
-                          "%" PRIu64 "/%" PRIu64 " spp  %.0f s elapsed, %.0f s left", done, total, s, left_s);
+    rp->last_ms = elapsed_ms;
+    const uint64_t done = rp->base + done_call, total = rp->total;
+    const double s = (rp->base_ms + elapsed_ms) / 1000.0;
+    if (rp->bar.on) {
+        if (rp->by_time) {
+            double limit = rp->time_limit_s, frac = fmin(1.0, s / limit);
+            app_progress_draw(&rp->bar, frac, 1000.0 * s, frac >= 1.0 || done == total,
+                              "%" PRIu64 " spp  %.0f s elapsed, %.0f s left", done, s, fmax(0.0, limit - s));
+        } else {
+            double frac = total ? (double)done / (double)total : 1.0;
+            double left_s = done ? s * (double)(total - done) / (double)done : 0.0;
+            app_progress_draw(&rp->bar, frac, 1000.0 * s, done == total,
+                              "%" PRIu64 "/%" PRIu64 " spp  %.0f s elapsed, %.0f s left", done, total, s, left_s);
+        }
+    }
+    const int aligned = (rp->n0 + done_call) % PGI_REFERENCE_BLOCK == 0;
+    if (g_signals >= 2 || (g_signal && aligned)) return 1;
+    if (rp->time_limit_s > 0.0 && s >= rp->time_limit_s) return 1;
+    if (rp->checkpoint_ms > 0.0 && elapsed_ms >= rp->checkpoint_ms && aligned && done_call < total_call) {
+        rp->checkpoint = 1;
+        return 1;
     }
     return 0;
 }
 
+/* A scene named by a file is recorded by its absolute path: --continue from another folder, or with
+ * another file of that name in the current one, loads the same scene. */
+static void absolute_scene(pgi_reference_meta *m) {
+    struct stat sb;
+    if (m->scene[0] == '/' || stat(m->scene, &sb) != 0 || !S_ISREG(sb.st_mode)) return;
+    char *real = realpath(m->scene, NULL);
+    if (real && strlen(real) < sizeof m->scene) snprintf(m->scene, sizeof m->scene, "%s", real);
+    free(real);
+}
+
+/* Saves the EXR and its sidecar (pgi_reference_save: both complete on the disk before either replaces
+ * the previous one). 0, or prints "photongi reference: [WHAT: ]<problem>" and returns 1. */
+static int save_reference(const pgi_image *img, const char *out, const char *meta_path, pgi_reference_meta *meta,
+                          const char *what) {
+    absolute_scene(meta);
+    if (pgi_reference_save(img, out, meta, meta_path) == PGI_OK) return 0;
+    fprintf(stderr, "photongi reference: %s%scannot save %" PRIu64 " samples: %s\n", what ? what : "", what ? ": " : "",
+            meta->spp, pgi_last_error());
+    return 1;
+}
+
 static const char *const k_exr[] = {".exr", NULL}, *const k_png[] = {".png", NULL};
 
-/* Reads a reference and its sidecar; 0 or the exit status of the failure. */
+/* Reads a reference and its sidecar, and checks that they belong together and that every pixel is
+ * finite; 0 or the exit status of the failure. */
 static int read_reference(const char *path, pgi_image *img, pgi_reference_meta *meta, const char *what) {
     char mp[4096];
-    snprintf(mp, sizeof mp, "%s.json", path);
+    if (snprintf(mp, sizeof mp, "%s.json", path) >= (int)sizeof mp)
+        return cli_failure("reference", "%s: %s: the name is too long", what, path);
     pgi_status st = pgi_reference_meta_read(mp, meta);
     if (st) return cli_input_fail("reference", what, st);
+    uint64_t bytes = 0, hash = 0;
+    if ((st = pgi_reference_file_hash(path, &bytes, &hash))) return cli_input_fail("reference", what, st);
+    if (meta->exr_bytes && (bytes != meta->exr_bytes || hash != meta->exr_hash))
+        return cli_failure("reference",
+                           "%s: %s and %s do not belong together (the image has %" PRIu64 " bytes, hash %016" PRIx64
+                           "; the .json records %" PRIu64 " bytes, hash %016" PRIx64
+                           "): the image was replaced after its .json was written, or a save was cut between the two",
+                           what, path, mp, bytes, hash, meta->exr_bytes, meta->exr_hash);
     int hdr = 0;
     st = pgi_image_read(path, img, &hdr);
     if (st) return cli_input_fail("reference", what, st);
@@ -97,6 +167,14 @@ static int read_reference(const char *path, pgi_image *img, pgi_reference_meta *
         pgi_image_free(img);
         return cli_failure("reference", "%s: %s is not the %dx%d EXR its .json describes", what, path, meta->width,
                            meta->height);
+    }
+    size_t bad = 0, n = (size_t)img->width * img->height;
+    for (size_t i = 0; i < n; i++)
+        bad += !isfinite(img->rgb[3 * i]) || !isfinite(img->rgb[3 * i + 1]) || !isfinite(img->rgb[3 * i + 2]);
+    if (bad) {
+        pgi_image_free(img);
+        return cli_failure("reference", "%s: %s has %zu pixel%s of %zu with NaN or infinite values", what, path, bad,
+                           bad == 1 ? "" : "s", n);
     }
     return 0;
 }
@@ -125,11 +203,12 @@ static int merge_references(const char *a, const char *b, const char *out, const
     const size_t n3 = (size_t)img[0].width * img[0].height * 3;
     for (size_t i = 0; i < n3; i++) img[0].rgb[i] = (float)(wa * img[0].rgb[i] + (1.0 - wa) * img[1].rgb[i]);
     pgi_image_free(&img[1]);
-    pgi_status st = pgi_image_write(&img[0], out, 1.f);
-    pgi_image_free(&img[0]);
-    if (st) return cli_fail("reference", "cannot write image", st);
     m[0].spp += m[1].spp;
-    if ((st = pgi_reference_meta_write(&m[0], meta_path))) return cli_fail("reference", "cannot write metadata", st);
+    rc = m[0].spp > PGI_REFERENCE_MAX_SPP
+             ? cli_failure("reference", "cannot merge %s and %s: together over 2^53 samples", a, b)
+             : save_reference(&img[0], out, meta_path, &m[0], NULL);
+    pgi_image_free(&img[0]);
+    if (rc) return rc;
     if (!quiet)
         fprintf(stderr, "%s: %s %dx%d, %" PRIu64 " spp (%s and %s)\n", out, m[0].scene, m[0].width, m[0].height,
                 m[0].spp, a, b);
@@ -140,7 +219,8 @@ int pgi_cmd_reference(int argc, char **argv) {
     const char *scene_spec = NULL, *out = NULL, *png = NULL, *cont = NULL, *merge[2] = {NULL, NULL};
     pgi_reference_desc d = {0};
     long long spp = 0;
-    double time_s = 0.0;
+    double time_s = 0.0, checkpoint_s = 600.0;
+    int checkpoint_set = 0;
     float exposure = 0.f;
     int quiet = 0, size_set = 0, bounces_set = 0, seed_set = 0, camera_set = 0, jitter_set = 0;
     pgi_specular specular = PGI_SPECULAR_DEFAULT;
@@ -175,6 +255,13 @@ int pgi_cmd_reference(int argc, char **argv) {
         else if (strcmp(a, "--spp") == 0) {
             if (!parse_whole(v, 1, 1LL << 40, &spp))
                 return cli_usage("reference", "--spp needs a whole number in 1..%lld (2^40), got '%s'", 1LL << 40, v);
+        } else if (strcmp(a, "--checkpoint") == 0) {
+            char *end;
+            errno = 0;
+            checkpoint_s = strtod(v, &end);
+            if (!*v || *end || errno || !(checkpoint_s >= 0.0 && checkpoint_s <= 1e9))
+                return cli_usage("reference", "--checkpoint needs seconds, a number in 0..1e9 (0: none), got '%s'", v);
+            checkpoint_set = 1;
         } else if (strcmp(a, "--time") == 0) {
             if (!parse_pos_double(v, &time_s))
                 return cli_usage("reference", "--time needs a positive number of seconds, got '%s'", v);
@@ -224,17 +311,23 @@ int pgi_cmd_reference(int argc, char **argv) {
         return cli_usage("reference", "%s",
                          "--continue takes the scene, size, bounces, seed, camera, jitter and specular from the "
                          "reference's .json file; do not give them");
-    if (merge[0] && (cont || scene_spec || size_set || bounces_set || seed_set || camera_set || jitter_set || spp ||
-                     time_s > 0.0 || png || specular != PGI_SPECULAR_DEFAULT || d.threads || exposure > 0.f))
+    if (merge[0] &&
+        (cont || scene_spec || size_set || bounces_set || seed_set || camera_set || jitter_set || spp || time_s > 0.0 ||
+         png || specular != PGI_SPECULAR_DEFAULT || d.threads || exposure > 0.f || checkpoint_set))
         return cli_usage("reference", "%s", "--merge takes only the two references and -o OUT.exr");
     if (!out) out = cont;
     if (!out) return cli_usage("reference", "%s", "no output file: give -o REF.exr");
     char meta_path[4096];
-    snprintf(meta_path, sizeof meta_path, "%s.json", out);
+    if (snprintf(meta_path, sizeof meta_path, "%s.json", out) >= (int)sizeof meta_path)
+        return cli_failure("reference", "-o %.64s...: the name is too long", out);
     int rc = app_check_output("photongi reference", "-o", out, k_exr);
     if (!rc) rc = app_check_output("photongi reference", "-o (its sidecar)", meta_path, NULL);
     if (!rc && png) rc = app_check_output("photongi reference", "--png", png, k_png);
     if (rc) return rc;
+    {
+        const char *names[] = {"-o", "-o's sidecar", "--png"}, *paths[] = {out, meta_path, png};
+        if ((rc = app_check_distinct("photongi reference", 3, names, paths))) return rc;
+    }
     if (merge[0]) /* no samples to deal: one process merges */
         return pgi_cli_backend_now && !pgi_cli_backend_now->writer
                    ? 0
@@ -290,15 +383,66 @@ int pgi_cmd_reference(int argc, char **argv) {
     if (d.bounces == 0) d.bounces = info.defaults.bounces > 0 ? info.defaults.bounces : 4;
     if (d.seed == 0) d.seed = 1;
     if (d.jitter == PGI_JITTER_AUTO) d.jitter = PGI_JITTER_ON;
-    ref_progress rp = {.time_limit_s = time_s, .by_time = !spp && time_s > 0.0};
-    app_progress_init(&rp.bar, quiet);
-    if (rp.bar.on) {
-        d.progress = progress_cb;
-        d.progress_user = &rp;
+    if (have + d.spp > PGI_REFERENCE_MAX_SPP && spp) {
+        pgi_image_free(&img);
+        pgi_scene_destroy(scene);
+        return cli_failure("reference", "%s has %" PRIu64 " samples: %lld more would pass 2^53", cont, have, spp);
     }
+    if (have + d.spp > PGI_REFERENCE_MAX_SPP) d.spp = PGI_REFERENCE_MAX_SPP - have;
+    ref_progress rp = {.time_limit_s = time_s, .by_time = !spp && time_s > 0.0, .total = d.spp};
+    app_progress_init(&rp.bar, quiet);
     uint64_t before = have;
     const pgi_cli_backend *be = pgi_cli_backend_now;
-    st = be ? be->reference(scene, &d, &img, &have) : pgi_reference_render(scene, &d, &img, &have);
+    /* What the sidecar says, for checkpoints and the end. */
+    if (scene_spec != meta.scene) /* --continue: already there (copying it onto itself is undefined) */
+        snprintf(meta.scene, sizeof meta.scene, "%s", scene_spec);
+    meta.width = d.width;
+    meta.height = d.height;
+    meta.bounces = d.bounces;
+    meta.camera = d.camera;
+    meta.seed = d.seed;
+    meta.jitter = d.jitter;
+    meta.specular = info.specular; /* the model in use, whether given or the scene's */
+    if (be) {                      /* photongi-mpi: one call, its own time limit; no checkpoints */
+        d.time_limit_s = time_s;
+        if (rp.bar.on) {
+            d.progress = progress_cb;
+            d.progress_user = &rp;
+            rp.time_limit_s = 0.0; /* the backend stops on time */
+        }
+        st = be->reference(scene, &d, &img, &have);
+    } else {
+        /* Calls of the library that stop at a checkpoint or a signal (on a multiple of 4 samples: the
+           next call goes on with the same bits) or at the time limit. */
+        /* kept to the end: a signal while saving is noted, not fatal */
+        struct sigaction sa;
+        memset(&sa, 0, sizeof sa);
+        sa.sa_handler = on_signal;
+        sigemptyset(&sa.sa_mask);
+        sigaction(SIGINT, &sa, NULL);
+        sigaction(SIGTERM, &sa, NULL);
+        d.progress = progress_cb;
+        d.progress_user = &rp;
+        d.time_limit_s = 0.0;
+        rp.checkpoint_ms = 1000.0 * checkpoint_s;
+        uint64_t left = d.spp;
+        for (;;) {
+            d.spp = left;
+            rp.n0 = have;
+            rp.checkpoint = 0;
+            rp.last_ms = 0.0;
+            const uint64_t h0 = have;
+            st = pgi_reference_render(scene, &d, &img, &have);
+            if (st) break;
+            rp.base += have - h0;
+            rp.base_ms += rp.last_ms;
+            left -= have - h0;
+            if (!rp.checkpoint || left == 0 || g_signal) break;
+            meta.spp = have;
+            if (save_reference(&img, out, meta_path, &meta, "checkpoint") == 0 && !quiet && !rp.bar.on)
+                fprintf(stderr, "photongi reference: checkpoint: %s saved at %" PRIu64 " spp\n", out, have);
+        }
+    }
     app_progress_end(&rp.bar, 1);
     pgi_scene_destroy(scene);
     if (st) {
@@ -309,22 +453,25 @@ int pgi_cmd_reference(int argc, char **argv) {
         pgi_image_free(&img);
         return 0;
     }
-    st = pgi_image_write(&img, out, 1.f);
-    if (!st && png) st = pgi_image_write(&img, png, exposure);
-    pgi_image_free(&img);
-    if (st) return cli_fail("reference", "cannot write image", st);
-    if (scene_spec != meta.scene) /* --continue: already there (copying it onto itself is undefined) */
-        snprintf(meta.scene, sizeof meta.scene, "%s", scene_spec);
-    meta.width = d.width;
-    meta.height = d.height;
-    meta.bounces = d.bounces;
-    meta.camera = d.camera;
-    meta.seed = d.seed;
     meta.spp = have;
-    meta.jitter = d.jitter;
-    meta.specular = info.specular; /* the model in use, whether given or the scene's */
-    st = pgi_reference_meta_write(&meta, meta_path);
-    if (st) return cli_fail("reference", "cannot write metadata", st);
+    rc = save_reference(&img, out, meta_path, &meta, NULL);
+    if (!rc && png && (st = pgi_image_write(&img, png, exposure))) {
+        fprintf(stderr, "photongi reference: cannot write --png: %s (%s and %s are saved at %" PRIu64 " spp)\n",
+                pgi_last_error(), out, meta_path, have);
+        rc = 1;
+    }
+    pgi_image_free(&img);
+    if (g_signal) {
+        const int sig = g_signal;
+        if (rc == 0)
+            fprintf(stderr,
+                    "photongi reference: interrupted (%s): %s saved with %" PRIu64 " samples per pixel (%" PRIu64
+                    " added); 'photongi reference --continue %s' adds more\n",
+                    sig == SIGINT ? "SIGINT" : "SIGTERM", out, have, have - before, out);
+        else fprintf(stderr, "photongi reference: interrupted (%s)\n", sig == SIGINT ? "SIGINT" : "SIGTERM");
+        return 128 + sig;
+    }
+    if (rc) return rc;
     if (!quiet)
         fprintf(stderr, "%s: %s %dx%d, %" PRIu64 " spp (%" PRIu64 " added), bounces %d, seed %" PRIu64 "\n", out,
                 scene_name, d.width, d.height, have, have - before, d.bounces, d.seed);

@@ -1,6 +1,7 @@
 /* photongi render: one frame, or the average of --progressive N frames, to PNG or EXR. The
  * frames run in this process, or through pgi_cli_backend_now where a launcher set one
  * (photongi-mpi deals them to MPI ranks, apps/mpi). */
+#define _DEFAULT_SOURCE /* realpath (output.h) */
 #include <errno.h>
 #include <inttypes.h>
 #include <math.h>
@@ -265,6 +266,10 @@ int pgi_cmd_render(int argc, char **argv) {
     if (stats_path && strcmp(stats_path, "-") != 0 &&
         (rc = app_check_output("photongi render", "--stats", stats_path, NULL)))
         return rc;
+    {
+        const char *names[] = {"-o", "--stats"}, *paths[] = {out, stats_path};
+        if ((rc = app_check_distinct("photongi render", 2, names, paths))) return rc;
+    }
     int ck = app_render_check(&d, &x, err, sizeof err);
     if (ck == 0 && !pgi_estimator_find(d.estimator ? d.estimator : PGI_DEFAULT_ESTIMATOR)) {
         fprintf(stderr, "photongi render: %s\nTry 'photongi estimators -v'.\n", err);

@@ -3,6 +3,7 @@
  * the path tracer too), against a path-traced reference the study makes once and reuses; the
  * reference's own noise comes from its two halves. Writes study.md, study.csv, study.svg (PSNR against
  * time) and every image into --out. bench/quality.sh and bench/equal_time.sh are runs of it. */
+#define _DEFAULT_SOURCE /* realpath (output.h) */
 #include <errno.h>
 #include <inttypes.h>
 #include <math.h>
@@ -322,10 +323,11 @@ static int make_reference(const char *path, const pgi_reference_meta *want, cons
             ref->rgb[i] = (float)((hb.rgb[i] * h1 + s2) / (h1 + h2));
             second.rgb[i] = (float)(s2 / h2); /* the second half's own mean */
         }
-        pgi_reference_meta out_half = *want;
+        pgi_reference_meta out_full = *want, out_half = *want;
         out_half.spp = spp - spp / 2;
-        if ((st = pgi_image_write(ref, path, 1.f)) || (st = pgi_reference_meta_write(want, side)) ||
-            (st = pgi_image_write(&second, half, 1.f)) || (st = pgi_reference_meta_write(&out_half, half_side))) {
+        /* each EXR with its sidecar (size and hash), as 'reference' saves them */
+        if ((st = pgi_reference_save(ref, path, &out_full, side)) ||
+            (st = pgi_reference_save(&second, half, &out_half, half_side))) {
             pgi_image_free(&hb);
             pgi_image_free(&second);
             return cli_fail("study", "cannot write the reference", st);

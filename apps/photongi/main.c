@@ -1,8 +1,10 @@
 /* photongi command line: estimators, info, help (render, reference and compare
  * in their own files). A thin layer over the public API; only main() exits. */
+#define _DEFAULT_SOURCE /* realpath (output.h) */
 #include <errno.h>
 #include <math.h>
 #include <inttypes.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -44,7 +46,11 @@ static const char *k_main_help =
     "     scene, mesh, image or sidecar missing, unreadable or malformed; a scene name with\n"
     "     no built-in scene and no NAME.json; a camera the scene does not have; an output\n"
     "     folder that does not exist or cannot be written; a failed render)\n"
-    "  Output paths are checked before the scene is loaded; nothing is written before the end.\n";
+    "  130, 143  'reference' interrupted by SIGINT or SIGTERM, after saving what it had\n"
+    "  Output paths are checked before the scene is loaded (two naming the same file: 2);\n"
+    "  nothing is written before the end but 'reference' checkpoints, and each file is written\n"
+    "  whole or not at all (a temporary file renamed over it). Output that does not reach\n"
+    "  standard output (a full disk, /dev/full) is a failure (1).\n";
 
 static const char *k_info_help = "usage: photongi info [--scene S]\n"
                                  "\n"
@@ -219,7 +225,7 @@ static int cmd_help(int argc, char **argv) {
     return c->run(1, args);
 }
 
-int main(int argc, char **argv) {
+static int run(int argc, char **argv) {
     if (argc < 2 || is_help(argv[1])) {
         fputs(k_main_help, argc < 2 ? stderr : stdout);
         return argc < 2 ? CLI_EXIT_USAGE : 0;
@@ -233,4 +239,21 @@ int main(int argc, char **argv) {
     if (c) return c->run(argc - 2, argv + 2);
     fprintf(stderr, "photongi: unknown command '%s'\n\n%s", argv[1], k_main_help);
     return CLI_EXIT_USAGE;
+}
+
+int main(int argc, char **argv) {
+    /* A file size limit (ulimit -f) makes a write fail, reported as a full disk is, rather than
+       killing the process half way through a file. */
+    signal(SIGXFSZ, SIG_IGN);
+    int rc = run(argc, argv);
+    /* Whatever a command printed must have reached standard output (not a full disk, /dev/full, a
+       closed pipe): a result that was not delivered is a failure. */
+    errno = 0;
+    int e = fflush(stdout) != 0 ? errno : 0;
+    if (e || ferror(stdout)) {
+        fprintf(stderr, "photongi%s%s: cannot write to standard output: %s\n", argc > 1 ? " " : "",
+                argc > 1 ? argv[1] : "", e ? strerror(e) : "write error");
+        return rc ? rc : CLI_EXIT_FAILURE;
+    }
+    return rc;
 }

@@ -396,7 +396,11 @@ pgi_status pgi_renderer_prepare(pgi_renderer *r, const pgi_render_desc *desc, pg
 
 void pgi_image_free(pgi_image *img);
 /* Writes PNG (tone-mapped: exposure, then sRGB) or EXR (linear float),
- * chosen by the file extension. */
+ * chosen by the file extension. Atomically: to a temporary file beside the
+ * target, flushed and renamed over it, so a failure (a full disk) or a kill
+ * keeps the previous file; a symlink's target is replaced, and a path that is
+ * not a regular file (/dev/null) is written directly. pgi_stats_write_json
+ * and pgi_reference_meta_write write the same way. */
 pgi_status pgi_image_write(const pgi_image *img, const char *path, float exposure);
 /* Tone maps to 8-bit sRGB (3 bytes a pixel, caller-owned buffer). */
 void pgi_tonemap_srgb8(const pgi_image *img, float exposure, unsigned char *out);
@@ -508,6 +512,10 @@ pgi_status pgi_progressive_frame_await_r0(pgi_renderer *r, const pgi_render_desc
 void pgi_block_sum_add(double *block, const float *frame, size_t values, int first);
 /* total[i] += block[i]: a finished block, in block order. */
 void pgi_block_sum_merge(double *total, const double *block, size_t values);
+/* total[i] = (double)(float)(total[i] * (1 / count)) * count: the total as a saved float mean of count
+ * samples gives it back (pgi_reference_render does this after every whole block, so that continuing a
+ * reference saved at a multiple of its block reproduces the bytes of one uninterrupted run). */
+void pgi_block_sum_round(double *total, size_t values, uint64_t count);
 /* out[i] = (float)((total[i] + partial[i]) * (1 / count)); partial may be NULL (no partial block). */
 void pgi_block_sum_mean(const double *total, const double *partial, size_t values, uint64_t count, float *out);
 

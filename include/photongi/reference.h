@@ -50,8 +50,10 @@ typedef struct pgi_reference_desc {
  * samples are summed per pixel in blocks of PGI_REFERENCE_BLOCK consecutive samples
  * (from the call's first), in sample order within a block, and block sums are
  * added in block order (photongi.h, pgi_block_sum_*), so that sample blocks
- * rendered elsewhere (apps/mpi) reduce to the same bits. Continuing from a saved
- * mean matches one long run up to float rounding of the mean. */
+ * rendered elsewhere (apps/mpi) reduce to the same bits. After every whole block
+ * the total is rounded to what the float mean gives back (pgi_block_sum_round), so
+ * continuing from a mean saved at a multiple of PGI_REFERENCE_BLOCK samples gives the
+ * same bits as one long run; from another count, the same up to float rounding. */
 pgi_status pgi_reference_render(const pgi_scene *scene, const pgi_reference_desc *desc, pgi_image *mean, uint64_t *spp);
 
 /* Samples per block of pgi_reference_render's summation order. */
@@ -77,18 +79,39 @@ typedef struct pgi_reference_meta {
     char scene[256]; /* scene spec as given on the command line */
     int width, height, bounces, camera;
     uint64_t seed, spp;
-    pgi_jitter jitter;     /* PGI_JITTER_ON or PGI_JITTER_OFF (what the samples so far used) */
-    pgi_specular specular; /* the model the samples used (GGX or PHONG; a sidecar without "specular" predates
+    pgi_jitter jitter;            /* PGI_JITTER_ON or PGI_JITTER_OFF (what the samples so far used) */
+    pgi_specular specular;        /* the model the samples used (GGX or PHONG; a sidecar without "specular" predates
                               the microfacet plastic and reads as PHONG) */
+    uint64_t exr_bytes, exr_hash; /* the EXR's size and FNV-1a 64-bit hash of its bytes when the sidecar
+                                     was written ("exr_bytes", "exr_fnv1a64"): a reader checks that the
+                                     two files belong together; 0, 0: not recorded (older sidecars) */
 } pgi_reference_meta;
+
+/* The most samples a sidecar may count (2^53: exact as a double). */
+#define PGI_REFERENCE_MAX_SPP (1ULL << 53)
 
 /* Writes/reads the sidecar JSON file `path` (format "photongi-reference-2", with an optional
  * "specular": "ggx" | "phong";
  * "photongi-reference-1", written before references were jittered, reads as
  * PGI_JITTER_OFF). Reading a missing file is PGI_ERR_IO; a file without the
- * fields is PGI_ERR_PARSE. */
+ * fields, with a value out of range (width and height 1..PGI_MAX_IMAGE_SIDE, bounces 1..64, camera
+ * 0..1000000, spp 1..PGI_REFERENCE_MAX_SPP, seed and spp strings of digits) or that is not a regular
+ * file (a FIFO) is PGI_ERR_PARSE. A relative "scene" path that names a file beside the sidecar reads
+ * as that file's path (the sidecar's folder, not the current one). The write replaces `path`
+ * atomically (a temporary file renamed over it). */
 pgi_status pgi_reference_meta_write(const pgi_reference_meta *m, const char *path);
 pgi_status pgi_reference_meta_read(const char *path, pgi_reference_meta *m);
+
+/* Saves a reference: the EXR `exr` and its sidecar `meta_path` with m->exr_bytes and m->exr_hash set
+ * to the EXR's size and hash. Both are written to temporary files beside their targets and flushed
+ * to the disk before either is renamed over its target, so that a failure (a full disk) keeps the
+ * previous pair and only a kill between the two renames can leave them disagreeing, which the hash
+ * tells. An EXR path that is not a regular file (/dev/null) is written directly, without a hash. */
+pgi_status pgi_reference_save(const pgi_image *img, const char *exr, pgi_reference_meta *m, const char *meta_path);
+
+/* The size and FNV-1a 64-bit hash of a regular file's bytes (what the sidecar records of its EXR);
+ * PGI_ERR_IO for a file that cannot be read or is not a regular file (a FIFO is not waited on). */
+pgi_status pgi_reference_file_hash(const char *path, uint64_t *bytes, uint64_t *hash);
 
 #ifdef __cplusplus
 }

@@ -5,6 +5,7 @@
  * The reader inverts that exactly (byte -> sRGB EOTF, pgi__srgb_to_linear in double),
  * so reading a PNG and tone mapping it at exposure 1 returns the same bytes.
  * EXR is scene-referred: 32-bit float R,G,B, scanline, ZIP (16 lines a chunk). */
+#define _DEFAULT_SOURCE /* realpath, mkstemp, fsync */
 #include "core/core.h"
 #include "io/io_internal.h"
 
@@ -12,7 +13,10 @@
 #include <errno.h>
 #include <stdio.h>
 #include <string.h>
+#include <fcntl.h>
+#include <stdlib.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <openexr.h>
 #include <stb/stb_image.h>
@@ -38,11 +42,93 @@ static int has_ext(const char *path, const char *ext) {
 
 static int image_valid(const pgi_image *img) { return img && img->rgb && img->width > 0 && img->height > 0; }
 
-/* Deletes a partly written output. Only regular files: the path may name a
- * device or a symlink (writing to /dev/full must not delete /dev/full). */
-static void remove_partial(const char *path) {
+/* ------------------------------------------------------- atomic outputs */
+
+/* An output is written to a temporary file in the folder of the file it replaces and renamed over
+ * it once complete and flushed to the disk (fsync): a write that fails (disk full, a size limit) or a
+ * process killed on the way leaves the previous file as it was, never a truncated one. A symlink is
+ * followed (the file it names is replaced, the link stays); a path that names something other than a
+ * regular file (/dev/null, a FIFO) is written directly and never removed. */
+pgi_status pgi__out_begin(const char *path, pgi__out *o) {
+    memset(o, 0, sizeof *o);
+    o->direct = 0;
+    o->tmp[0] = 0;
     struct stat sb;
-    if (lstat(path, &sb) == 0 && S_ISREG(sb.st_mode)) remove(path);
+    if (lstat(path, &sb) == 0 && S_ISLNK(sb.st_mode)) {
+        char *real = realpath(path, NULL), link[4096];
+        ssize_t ln = real ? 0 : readlink(path, link, sizeof link - 1);
+        const char *slash = strrchr(path, '/');
+        if (real) snprintf(o->final, sizeof o->final, "%s", real);
+        else if (ln > 0) { /* a dangling link: the file it names is created */ link[ln] = 0;
+            if (link[0] == '/' || !slash) snprintf(o->final, sizeof o->final, "%s", link);
+            else if (snprintf(o->final, sizeof o->final, "%.*s/%.*s", (int)(slash - path), path, 2048, link) < 0)
+                o->final[0] = 0;
+        } else snprintf(o->final, sizeof o->final, "%s", path);
+        free(real);
+    } else snprintf(o->final, sizeof o->final, "%s", path);
+    mode_t um = umask(0);
+    umask(um);
+    o->mode = 0666 & ~um;
+    if (stat(o->final, &sb) == 0) {
+        if (!S_ISREG(sb.st_mode)) {
+            o->direct = 1;
+            return PGI_OK;
+        }
+        o->mode = sb.st_mode & 07777;
+        if (access(o->final, W_OK) != 0) { /* replacing it must not get round its permissions */
+            int e = errno;
+            return pgi__fail(PGI_ERR_IO, "%s: cannot write: %s", path, strerror(e));
+        }
+    }
+    const char *slash = strrchr(o->final, '/');
+    int dn = slash ? (int)(slash - o->final) + 1 : 0;
+    if (snprintf(o->tmp, sizeof o->tmp, "%.*s.pgi-tmp-XXXXXX", dn, o->final) >= (int)sizeof o->tmp)
+        return pgi__fail(PGI_ERR_IO, "%s: cannot write: the name is too long", path);
+    int fd = mkstemp(o->tmp);
+    if (fd < 0) {
+        int e = errno;
+        o->tmp[0] = 0;
+        return pgi__fail(PGI_ERR_IO, "%s: cannot write: cannot create a file in its folder: %s", path, strerror(e));
+    }
+    close(fd);
+    return PGI_OK;
+}
+
+const char *pgi__out_path(const pgi__out *o, const char *path) { return o->direct ? path : o->tmp; }
+
+void pgi__out_abort(pgi__out *o) {
+    if (!o->direct && o->tmp[0]) unlink(o->tmp);
+    o->tmp[0] = 0;
+}
+
+pgi_status pgi__out_sync(pgi__out *o, const char *path) {
+    if (o->direct) return PGI_OK;
+    int fd = open(o->tmp, O_RDONLY);
+    int e = 0;
+    if (fd < 0 || fsync(fd) != 0) e = errno ? errno : EIO;
+    if (fd >= 0) close(fd);
+    if (!e && chmod(o->tmp, o->mode) != 0) e = errno;
+    if (e) {
+        pgi__out_abort(o);
+        return pgi__fail(PGI_ERR_IO, "%s: cannot write: %s (the previous file, if any, is kept)", path, strerror(e));
+    }
+    return PGI_OK;
+}
+
+pgi_status pgi__out_rename(pgi__out *o, const char *path) {
+    if (o->direct) return PGI_OK;
+    if (rename(o->tmp, o->final) != 0) {
+        int e = errno;
+        pgi__out_abort(o);
+        return pgi__fail(PGI_ERR_IO, "%s: cannot write: %s (the previous file, if any, is kept)", path, strerror(e));
+    }
+    o->tmp[0] = 0;
+    return PGI_OK;
+}
+
+pgi_status pgi__out_commit(pgi__out *o, const char *path) {
+    pgi_status s = pgi__out_sync(o, path);
+    return s ? s : pgi__out_rename(o, path);
 }
 
 /* --------------------------------------------------------------- PNG write */
@@ -58,7 +144,7 @@ static void png_write_cb(void *ctx, void *data, int size) {
     if (fwrite(data, 1, (size_t)size, s->f) != (size_t)size) s->err = errno ? errno : -1;
 }
 
-static pgi_status write_png(const pgi_image *img, const char *path, float exposure) {
+static pgi_status write_png(const pgi_image *img, const char *path, const char *wpath, float exposure) {
     size_t n = (size_t)img->width * (size_t)img->height * 3;
     if ((size_t)img->width * 3 > (size_t)0x7fffffff)
         return pgi__fail(PGI_ERR_INVALID_ARG, "%s: image too wide for PNG", path);
@@ -67,7 +153,7 @@ static pgi_status write_png(const pgi_image *img, const char *path, float exposu
     pgi_tonemap_srgb8(img, exposure, px);
 
     errno = 0;
-    FILE *f = fopen(path, "wb");
+    FILE *f = fopen(wpath, "wb");
     if (!f) {
         int e = errno;
         free(px);
@@ -79,9 +165,9 @@ static pgi_status write_png(const pgi_image *img, const char *path, float exposu
     errno = 0;
     int ok = stbi_write_png_to_func(png_write_cb, &sink, img->width, img->height, 3, px, img->width * 3);
     free(px);
-    int close_err = fclose(f) != 0 ? (errno ? errno : -1) : 0;
+    int close_err = fflush(f) != 0 ? (errno ? errno : -1) : 0;
+    if (fclose(f) != 0 && !close_err) close_err = errno ? errno : -1;
     if (!ok || sink.err || close_err) {
-        remove_partial(path);
         if (!ok) return pgi__fail(PGI_ERR_IO, "%s: cannot write: PNG encoding failed", path);
         int e = sink.err ? sink.err : close_err;
         return pgi__fail(PGI_ERR_IO, "%s: cannot write: %s", path, e > 0 ? strerror(e) : "write error");
@@ -110,7 +196,7 @@ static int rgb_offset(const char *name) {
     return -1;
 }
 
-static pgi_status write_exr(const pgi_image *img, const char *path) {
+static pgi_status write_exr(const pgi_image *img, const char *path, const char *wpath) {
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
     init.error_handler_fn = exr_error_cb;
     exr_context_t ctxt = NULL;
@@ -119,7 +205,7 @@ static pgi_status write_exr(const pgi_image *img, const char *path) {
     const int w = img->width, h = img->height;
     g_exr_msg[0] = 0;
 
-    exr_result_t rv = exr_start_write(&ctxt, path, EXR_WRITE_FILE_DIRECTLY, &init);
+    exr_result_t rv = exr_start_write(&ctxt, wpath, EXR_WRITE_FILE_DIRECTLY, &init);
     if (rv != EXR_ERR_SUCCESS) {
         pgi_status s = pgi__fail(PGI_ERR_IO, "%s: cannot write: %s", path, exr_reason(rv));
         if (ctxt) exr_finish(&ctxt);
@@ -169,7 +255,6 @@ static pgi_status write_exr(const pgi_image *img, const char *path) {
     if (enc_init) exr_encoding_destroy(ctxt, &enc);
     exr_result_t frv = exr_finish(&ctxt);
     if (s == PGI_OK && frv != EXR_ERR_SUCCESS) s = pgi__fail(PGI_ERR_IO, "%s: cannot write: %s", path, exr_reason(frv));
-    if (s != PGI_OK) remove_partial(path); /* never leave a truncated file behind */
     return s;
 }
 
@@ -287,9 +372,22 @@ done:
 pgi_status pgi_image_write(const pgi_image *img, const char *path, float exposure) {
     if (!path || !path[0]) return pgi__fail(PGI_ERR_INVALID_ARG, "image write: no output path");
     if (!image_valid(img)) return pgi__fail(PGI_ERR_INVALID_ARG, "%s: no image to write (empty or no pixels)", path);
-    if (has_ext(path, ".png")) return write_png(img, path, exposure);
-    if (has_ext(path, ".exr")) return write_exr(img, path);
-    return pgi__fail(PGI_ERR_INVALID_ARG, "%s: unknown image format (use .png or .exr)", path);
+    if (!has_ext(path, ".png") && !has_ext(path, ".exr"))
+        return pgi__fail(PGI_ERR_INVALID_ARG, "%s: unknown image format (use .png or .exr)", path);
+    pgi__out o;
+    pgi_status s = pgi__out_begin(path, &o);
+    if (s) return s;
+    s = pgi__image_write_to(img, path, pgi__out_path(&o, path), exposure);
+    if (s) pgi__out_abort(&o);
+    else s = pgi__out_commit(&o, path);
+    return s;
+}
+
+pgi_status pgi__image_write_to(const pgi_image *img, const char *path, const char *wpath, float exposure) {
+    const int png = has_ext(path, ".png");
+    if (!png && !has_ext(path, ".exr"))
+        return pgi__fail(PGI_ERR_INVALID_ARG, "%s: unknown image format (use .png or .exr)", path);
+    return png ? write_png(img, path, wpath, exposure) : write_exr(img, path, wpath);
 }
 
 /* --------------------------------------------------------------------- read */

@@ -25,4 +25,24 @@ pgi_status pgi__hdr_check(const char *what, FILE *f, const void *data, size_t si
  * writes). Returns a malloc'd string the caller frees, or NULL when out of memory. */
 char *pgi__stats_to_json(const pgi_frame_stats *st);
 
+/* Atomic output (image_io.c): pgi__out_begin decides where a write of `path` goes (a temporary
+ * file beside the file it replaces, the file a symlink names; a path that is not a regular file,
+ * such as /dev/null, directly), pgi__out_path is the name to write, pgi__out_commit flushes it to
+ * the disk and renames it over the target, pgi__out_abort removes it. Whatever fails, the previous
+ * file is kept. Messages name `path`. */
+typedef struct pgi__out {
+    char final[4096], tmp[4096];
+    int direct;
+    unsigned mode;
+} pgi__out;
+pgi_status pgi__out_begin(const char *path, pgi__out *o);
+const char *pgi__out_path(const pgi__out *o, const char *path);
+pgi_status pgi__out_commit(pgi__out *o, const char *path); /* pgi__out_sync, then pgi__out_rename */
+pgi_status pgi__out_sync(pgi__out *o, const char *path);   /* fsync and the mode; abort on failure */
+pgi_status pgi__out_rename(pgi__out *o, const char *path); /* over the target; abort on failure */
+/* pgi_image_write's encoders: `img` (valid) to the file wpath, messages naming path (whose extension,
+ * .png or .exr, chooses the format). */
+pgi_status pgi__image_write_to(const pgi_image *img, const char *path, const char *wpath, float exposure);
+void pgi__out_abort(pgi__out *o);
+
 #endif

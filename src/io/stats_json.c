@@ -10,13 +10,6 @@
 
 #include <cjson/cJSON.h>
 
-/* Deletes a partly written output. Only regular files: the path may name a
- * device or a symlink (writing to /dev/full must not delete /dev/full). */
-static void remove_partial(const char *path) {
-    struct stat sb;
-    if (lstat(path, &sb) == 0 && S_ISREG(sb.st_mode)) remove(path);
-}
-
 static int clamp_count(int n) { return n < 0 ? 0 : n > PGI_MAX_STAT_ENTRIES ? PGI_MAX_STAT_ENTRIES : n; }
 
 /* Adds `name: value`; NULL from cJSON means out of memory. */
@@ -294,21 +287,28 @@ pgi_status pgi_stats_write_json(const pgi_frame_stats *st, const char *path) {
         free(text);
         return bad ? pgi__fail(PGI_ERR_IO, "stats: cannot write to standard output") : PGI_OK;
     }
+    pgi__out o;
+    pgi_status s = pgi__out_begin(path, &o);
+    if (s) {
+        free(text);
+        return s;
+    }
     errno = 0;
-    FILE *f = fopen(path, "w");
+    FILE *f = fopen(pgi__out_path(&o, path), "w");
     if (!f) {
         int e = errno;
         free(text);
+        pgi__out_abort(&o);
         return pgi__fail(PGI_ERR_IO, "%s: cannot write: %s", path, strerror(e));
     }
     size_t n = strlen(text);
     int err = 0;
-    if (fwrite(text, 1, n, f) != n || fputc('\n', f) == EOF) err = errno ? errno : -1;
+    if (fwrite(text, 1, n, f) != n || fputc('\n', f) == EOF || fflush(f) != 0) err = errno ? errno : -1;
     free(text);
     if (fclose(f) != 0 && !err) err = errno ? errno : -1;
     if (err) {
-        remove_partial(path);
+        pgi__out_abort(&o);
         return pgi__fail(PGI_ERR_IO, "%s: cannot write: %s", path, err > 0 ? strerror(err) : "write error");
     }
-    return PGI_OK;
+    return pgi__out_commit(&o, path);
 }

@@ -107,6 +107,11 @@ void pgi_block_sum_merge(double *total, const double *block, size_t values) {
     for (size_t i = 0; i < values; i++) total[i] += block[i];
 }
 
+void pgi_block_sum_round(double *total, size_t values, uint64_t count) {
+    const double inv = 1.0 / (double)count, c = (double)count;
+    for (size_t i = 0; i < values; i++) total[i] = (double)(float)(total[i] * inv) * c;
+}
+
 void pgi_block_sum_mean(const double *total, const double *partial, size_t values, uint64_t count, float *out) {
     const double inv = 1.0 / (double)count;
     if (partial)

@@ -429,6 +429,7 @@ pgi_status pgi_reference_render(const pgi_scene *s, const pgi_reference_desc *in
         done++;
         if (done % PGI_REFERENCE_BLOCK == 0) {
             pgi_block_sum_merge(sum, block, 3 * n);
+            pgi_block_sum_round(sum, 3 * n, n0 + done); /* what a save here and a continue give back */
             memset(block, 0, 3 * n * sizeof *block);
         }
         double el = pgi__now_ms() - t0;
