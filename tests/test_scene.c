@@ -515,6 +515,129 @@ static void test_scene_numbers(void **state) {
     pgi_scene_destroy(s);
 }
 
+/* A glTF's accessors and what uses them (src/scene/gltf_check.c): a valid quad with an
+ * animation loads from a .gltf with an external buffer, a data: URI and a GLB; each broken
+ * variant is refused naming the object, where Assimp 5.2 crashed or read out of bounds. */
+static char *replace(const char *text, const char *from, const char *to) {
+    const char *at = strstr(text, from);
+    if (!at) fail_msg("'%s' not in the glTF", from);
+    char *out = malloc(strlen(text) + strlen(to) + 1);
+    assert_non_null(out);
+    sprintf(out, "%.*s%s%s", (int)(at - text), text, to, at + strlen(from));
+    return out;
+}
+
+static void write_bytes(const char *path, const void *a, size_t n, const void *b, size_t m) {
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    assert_true(fwrite(a, 1, n, f) == n && (!m || fwrite(b, 1, m, f) == m));
+    assert_int_equal(fclose(f), 0);
+}
+
+static void test_gltf_structure(void **state) {
+    (void)state;
+    /* 4 positions, 6 u16 indices, 2 key times, 2 VEC3 key values: 132 bytes */
+    unsigned char bin[132] = {0};
+    const float pos[12] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0}, times[2] = {0, 1};
+    const uint16_t idx[6] = {0, 1, 2, 0, 2, 3};
+    memcpy(bin, pos, 48);
+    memcpy(bin + 48, idx, 12);
+    memcpy(bin + 60, times, 8);
+    char p[700], json[4096];
+    snprintf(p, sizeof p, "%s/q.bin", g_dir);
+    write_bytes(p, bin, sizeof bin, NULL, 0);
+    const char *base =
+        "{\"asset\": {\"version\": \"2.0\"}, \"scene\": 0, \"scenes\": [{\"nodes\": [0]}], \"nodes\": [{\"mesh\": 0}],\n"
+        " \"materials\": [{\"emissiveFactor\": [1, 1, 1]}],\n"
+        " \"meshes\": [{\"primitives\": [{\"attributes\": {\"POSITION\": 0}, \"indices\": 1, \"material\": 0}]}],\n"
+        " \"animations\": [{\"samplers\": [{\"input\": 2, \"output\": 3, \"interpolation\": \"LINEAR\"}],\n"
+        "   \"channels\": [{\"sampler\": 0, \"target\": {\"node\": 0, \"path\": \"translation\"}}]}],\n"
+        " \"buffers\": [{\"uri\": \"q.bin\", \"byteLength\": 132}],\n"
+        " \"bufferViews\": [{\"buffer\": 0, \"byteLength\": 48}, {\"buffer\": 0, \"byteOffset\": 48, \"byteLength\": 12},\n"
+        "   {\"buffer\": 0, \"byteOffset\": 60, \"byteLength\": 72}],\n"
+        " \"accessors\": [{\"bufferView\": 0, \"componentType\": 5126, \"count\": 4, \"type\": \"VEC3\",\n"
+        "   \"min\": [0, 0, 0], \"max\": [1, 1, 0]},\n"
+        "   {\"bufferView\": 1, \"componentType\": 5123, \"count\": 6, \"type\": \"SCALAR\"},\n"
+        "   {\"bufferView\": 2, \"componentType\": 5126, \"count\": 2, \"type\": \"SCALAR\", \"min\": [0], \"max\": [1]},\n"
+        "   {\"bufferView\": 2, \"byteOffset\": 8, \"componentType\": 5126, \"count\": 2, \"type\": \"VEC3\"}]}\n";
+    pgi_scene *s = load_ok(put("q.gltf", base, p, sizeof p));
+    assert_int_equal(s->ntris, 2);
+    pgi_scene_destroy(s);
+
+    static const struct {
+        const char *from, *to, *needle;
+    } k[] = {
+        {"\"type\": \"VEC3\",\n", "\"type\": \"VEC3\", \"sparse\": {\"count\": 1, \"values\": {\"bufferView\": 0}},\n",
+         "accessor 0: sparse has no \"indices\" object"},
+        {"\"count\": 4", "\"count\": 5", "accessor 0: 5 elements of 12 bytes from byte 0 need 60 bytes, buffer view 0 has 48"},
+        {"\"count\": 4", "\"count\": 3", "mesh 0 primitive 0: index 3 of accessor 1 is past its 3 vertices"},
+        {"\"indices\": 1,", "\"indices\": 1, \"mode\": 5,", NULL},
+        {"{\"bufferView\": 1, ", "{", "accessor 1 has neither a bufferView nor a sparse part"},
+        {"\"scene\": 0,", "\"scene\": 0, \"skins\": [{\"joints\": [0]}],", "skin 0 has no \"inverseBindMatrices\""},
+        {"\"LINEAR\"", "\"CUBICSPLINE\"", "animation 0 sampler 0: 2 outputs for 2 inputs (CUBICSPLINE: three each)"},
+        {"\"sampler\": 0,", "\"sampler\": 1,", "animation 0 channel 0: \"sampler\" is not one of its 1 samplers"},
+        {"{\"POSITION\": 0}", "{\"POSITION\": 0, \"NORMAL\": 3}", "attribute NORMAL: 2 elements, POSITION has 4"},
+        {"{\"POSITION\": 0}", "{\"POSITION\": 0, \"TEXCOORD_0\": 1}", "attribute TEXCOORD_0: accessor 1 (SCALAR of 5123)"},
+    };
+    for (size_t i = 0; i < sizeof k / sizeof k[0]; i++) {
+        char *text = replace(base, k[i].from, k[i].to);
+        if (!k[i].needle) { /* a strip of 2: the indices' count */
+            char *t2 = replace(text, "\"count\": 6", "\"count\": 2");
+            free(text);
+            text = t2;
+        }
+        put("bad.gltf", text, p, sizeof p);
+        expect_error(p, PGI_ERR_PARSE, PGI_ERR_PARSE, k[i].needle ? k[i].needle : "2 vertices, mode 5 needs at least 3");
+        free(text);
+    }
+
+    /* The same buffer as a base64 data: URI, then as a GLB's BIN chunk: the index past the
+     * vertices is found there too. */
+    static const char b64[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    char uri[256] = "data:application/octet-stream;base64,";
+    size_t n = strlen(uri);
+    for (size_t i = 0; i < sizeof bin; i += 3) {
+        const uint32_t q = (uint32_t)bin[i] << 16 | (uint32_t)bin[i + 1] << 8 | bin[i + 2];
+        for (int j = 3; j >= 0; j--) uri[n++] = b64[q >> (6 * j) & 63];
+    }
+    uri[n] = 0;
+    char *data = replace(base, "q.bin", uri);
+    TU_CHECK_OK(pgi_scene_load(put("data.gltf", data, p, sizeof p), &s));
+    pgi_scene_destroy(s);
+    char *bad = replace(data, "\"count\": 4", "\"count\": 3");
+    expect_error(put("data-bad.gltf", bad, p, sizeof p), PGI_ERR_PARSE, PGI_ERR_PARSE, "index 3 of accessor 1");
+    free(bad);
+    free(data);
+    for (int broken = 0; broken < 2; broken++) {
+        char *glb = replace(base, "\"uri\": \"q.bin\", ", "");
+        if (broken) {
+            char *t = replace(glb, "\"count\": 4", "\"count\": 3");
+            free(glb);
+            glb = t;
+        }
+        snprintf(json, sizeof json, "%s", glb);
+        free(glb);
+        while (strlen(json) % 4) strcat(json, " ");
+        const uint32_t jn = (uint32_t)strlen(json);
+        unsigned char head[4096];
+        const uint32_t total = 12 + 8 + jn + 8 + (uint32_t)sizeof bin;
+        const uint32_t words[5] = {0x46546C67u, 2, total, jn, 0x4E4F534Au}; /* "glTF", 2, total, n, "JSON" */
+        memcpy(head, words, 20);
+        memcpy(head + 20, json, jn);
+        const uint32_t bh[2] = {(uint32_t)sizeof bin, 0x004E4942u}; /* n, "BIN\0" */
+        memcpy(head + 20 + jn, bh, 8);
+        snprintf(p, sizeof p, "%s/q%d.glb", g_dir, broken);
+        write_bytes(p, head, 28 + jn, bin, sizeof bin);
+        if (!broken) {
+            TU_CHECK_OK(pgi_scene_load(p, &s));
+            assert_int_equal(s->ntris, 2);
+            pgi_scene_destroy(s);
+        } else {
+            expect_error(p, PGI_ERR_PARSE, PGI_ERR_PARSE, "index 3 of accessor 1 is past its 3 vertices");
+        }
+    }
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_missing_file),
@@ -526,6 +649,7 @@ int main(void) {
         cmocka_unit_test(test_missing_texture),
         cmocka_unit_test(test_json_errors),
         cmocka_unit_test(test_scene_numbers),
+        cmocka_unit_test(test_gltf_structure),
         cmocka_unit_test(test_builtins),
         cmocka_unit_test(test_generated_normals_obj_ply),
         cmocka_unit_test(test_generated_normals_flat),

@@ -603,8 +603,10 @@ static pgi_status check_off(const char *path, const char *b, size_t n, uint64_t 
 
 #define PGI__GLTF_BUFFER_SLACK (64 << 20) /* bytes a buffer may hold past what its views use */
 
-/* A glTF's JSON: nesting, then (parsed) its node tree's depth, cycles and its material count. */
-static pgi_status check_gltf_json(const char *path, const char *json, size_t n) {
+/* A glTF's JSON: nesting, then (parsed) its node tree's depth, cycles and its material count,
+ * then its accessors and what uses them (pgi__gltf_check; a GLB's BIN chunk: glb at bin). */
+static pgi_status check_gltf_json(const char *path, const char *json, size_t n, FILE *glb, uint64_t bin,
+                                  uint64_t bin_len) {
     pgi_status st = check_braces(path, json, n, 1, "JSON");
     if (st) return st;
     cJSON *root = cJSON_ParseWithLength(json, n);
@@ -673,6 +675,7 @@ static pgi_status check_gltf_json(const char *path, const char *json, size_t n) 
     }
     free(parent);
     free(depth);
+    if (!st) st = pgi__gltf_check(path, root, glb, bin, bin_len);
     cJSON_Delete(root);
     return st;
 }
@@ -696,7 +699,14 @@ static pgi_status check_glb(const char *path, FILE *f, uint64_t size, uint64_t b
     char *json;
     pgi_status st = read_whole(path, f, chunk, budget, &json);
     if (st) return st;
-    st = check_gltf_json(path, json, chunk);
+    /* the BIN chunk after the JSON: its length, "BIN\0", its bytes */
+    unsigned char b[8];
+    const uint64_t bin = 28 + (uint64_t)chunk;
+    uint64_t bin_len = 0;
+    if (bin <= size && fseek(f, (long)(bin - 8), SEEK_SET) == 0 && fread(b, 1, 8, f) == 8 &&
+        memcmp(b + 4, "BIN", 4) == 0)
+        bin_len = le32(b) < size - bin ? le32(b) : size - bin;
+    st = check_gltf_json(path, json, chunk, f, bin, bin_len);
     free(json);
     return st;
 }
@@ -727,7 +737,7 @@ pgi_status pgi__mesh_precheck(const char *path, uint64_t budget, pgi__mesh_hints
         char *b = NULL;
         if (kind) st = read_whole(path, f, size, budget, &b);
         const size_t n = b ? strlen(b) : 0; /* text formats: a NUL ends what the checks see */
-        if (!st && kind == 1) st = check_gltf_json(path, b, n);
+        if (!st && kind == 1) st = check_gltf_json(path, b, n, NULL, 0, 0);
         else if (!st && kind == 2) st = check_braces(path, b, n, 0, "braces");
         else if (!st && kind == 3) st = check_xml(path, b, n, size);
         else if (!st && kind == 4) st = check_off(path, b, n, size);

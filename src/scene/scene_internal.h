@@ -406,6 +406,12 @@ typedef struct pgi__mesh_hints {
  * PGI__MAX_MESH_DEPTH, material libraries that are not regular files. `budget`: the memory
  * budget of the load (a file it reads whole may be no larger). Fills *hints (may be NULL). */
 pgi_status pgi__mesh_precheck(const char *path, uint64_t budget, pgi__mesh_hints *hints);
+/* A glTF's accessors, buffer views, primitives, skins and animations, as Assimp 5.2 reads them
+ * (gltf_check.c); root: its parsed JSON (a cJSON *), glb: the GLB file whose BIN chunk holds
+ * glb_bin_len bytes from offset glb_bin (NULL for a .gltf). */
+struct cJSON;
+pgi_status pgi__gltf_check(const char *path, const struct cJSON *root, FILE *glb, uint64_t glb_bin,
+                           uint64_t glb_bin_len);
 /* The memory budget of the scene being loaded on this thread (pgi_scene_load_budget; the
  * default budget, pgi__mem_default_budget, otherwise). */
 uint64_t pgi__scene_load_budget(void);
