@@ -89,10 +89,12 @@ expect_clear_error "obj_mtl_fallback/m.mtl:1: 'map_Kd' before any 'newmtl'" info
 expect_clear_error "obj_nul_mtllib/m.mtl:1: 'map_Kd' before any 'newmtl'" info --scene "$R/obj_nul_mtllib/m.obj"
 expect_clear_error "ply_face_past_end.ply: PLY face 0 refers to vertex" info --scene "$R/ply_face_past_end.ply"
 expect_clear_error "ply_empty_face.ply: PLY face 0 has 0 vertices" info --scene "$R/ply_empty_face.ply"
+expect_clear_error "gltf_sparse_no_indices/m.gltf: accessor 0: sparse has no \"indices\" object" \
+    info --scene "$R/gltf_sparse_no_indices/m.gltf"
 for f in "$R"/*; do
     case "$(basename "$f")" in
     README.md | hdr_rle_truncated.hdr | hdr_rle_zero_run.hdr | hdr_rle_header_nul.hdr | hdr_texture | obj_mtl_fallback | obj_nul_mtllib | \
-        ply_face_past_end.ply | ply_empty_face.ply) ;;
+        ply_face_past_end.ply | ply_empty_face.ply | gltf_sparse_no_indices) ;;
     *) echo "FAIL $f: a hostile input this test does not try yet"; fail=$((fail + 1)) ;;
     esac
 done
@@ -239,6 +241,13 @@ if [ -d "$DIR/../bad-inputs-2" ]; then
     expect_clear_error "off_300M_faces.off:2: declares 300000000 vertices" info --scene "$DIR/../bad-inputs-2/off_300M_faces.off"
     expect_clear_error "glb_json_chunk_4GB.glb: GLB JSON chunk declares 4294967280 bytes" \
         info --scene "$DIR/../bad-inputs-2/glb_json_chunk_4GB.glb"
+    # Every file of the second set is covered (camera_far_2e18.json: scene numbers, above).
+    for f in "$DIR/../bad-inputs-2"/*; do
+        case "$(basename "$f")" in
+        README.md | camera_far_2e18.json | gltf_deep_nodes.gltf | off_300M_faces.off | glb_json_chunk_4GB.glb) ;;
+        *) echo "FAIL $(basename "$f") (bad-inputs-2): a hostile input this test does not try yet"; fail=$((fail + 1)) ;;
+        esac
+    done
 fi
 fm="$TMP/fm"
 mkdir -p "$fm/a"
