@@ -591,6 +591,14 @@ static void test_gltf_structure(void **state) {
         free(text);
     }
 
+    /* Not glTF 2.0: refused, never handed to whichever Assimp importer claims the bytes. */
+    expect_error(put("junk.gltf", "A{\001headrindexarray", p, sizeof p), PGI_ERR_PARSE, PGI_ERR_PARSE,
+                 "junk.gltf: not glTF: its JSON does not parse");
+    expect_error(put("v1.gltf", "{\"asset\": {\"version\": \"1.0\"}}", p, sizeof p), PGI_ERR_UNSUPPORTED,
+                 PGI_ERR_UNSUPPORTED, "v1.gltf: not a glTF 2.0 file");
+    expect_error(put("more.gltf", "{\"asset\": {\"version\": \"2.0\"}} {}", p, sizeof p), PGI_ERR_PARSE,
+                 PGI_ERR_PARSE, "more.gltf: not glTF: more follows its JSON (byte 30)");
+
     /* The same buffer as a base64 data: URI, then as a GLB's BIN chunk: the index past the
      * vertices is found there too. */
     static const char b64[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";

@@ -610,7 +610,7 @@ int main(int argc, char **argv) {
     const int headless = frames > 0 && !want_window;
     if (!headless && !start_video(frames == 0)) return 1;
 
-    pgi_status st = pgi_scene_load(scene_spec, &v.scene);
+    pgi_status st = pgi_scene_load_budget(scene_spec, v.desc.max_memory, &v.scene);
     if (st) {
         if (!headless) SDL_Quit();
         return fail("cannot load scene", st);

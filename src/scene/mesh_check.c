@@ -609,8 +609,26 @@ static pgi_status check_gltf_json(const char *path, const char *json, size_t n, 
                                   uint64_t bin_len) {
     pgi_status st = check_braces(path, json, n, 1, "JSON");
     if (st) return st;
-    cJSON *root = cJSON_ParseWithLength(json, n);
-    if (!root) return PGI_OK; /* malformed JSON: Assimp's to report */
+    /* Not glTF 2.0 JSON: refused here, for Assimp would then hand the file to whichever of its
+     * importers claims its bytes (a fuzzed .gltf reached one that reads past its buffer). */
+    const char *json_end = NULL;
+    cJSON *root = cJSON_ParseWithLengthOpts(json, n, &json_end, 0);
+    if (!root) {
+        const char *at = cJSON_GetErrorPtr();
+        return pgi__fail(PGI_ERR_PARSE, "%s: not glTF: its JSON does not parse (byte %ld)", path,
+                         at && at >= json && at <= json + n ? (long)(at - json) : 0L);
+    }
+    while (json_end && json_end < json + n && isspace((unsigned char)*json_end)) json_end++;
+    const cJSON *asset = cJSON_GetObjectItemCaseSensitive(root, "asset");
+    const cJSON *version = cJSON_GetObjectItemCaseSensitive(asset, "version");
+    if (json_end && json_end < json + n) {
+        cJSON_Delete(root);
+        return pgi__fail(PGI_ERR_PARSE, "%s: not glTF: more follows its JSON (byte %ld)", path, (long)(json_end - json));
+    }
+    if (!cJSON_IsObject(root) || !cJSON_IsString(version) || version->valuestring[0] != '2') {
+        cJSON_Delete(root);
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "%s: not a glTF 2.0 file (its asset.version is not \"2.x\")", path);
+    }
     const cJSON *nodes = cJSON_GetObjectItemCaseSensitive(root, "nodes");
     const cJSON *mats = cJSON_GetObjectItemCaseSensitive(root, "materials");
     if (cJSON_IsArray(mats) && cJSON_GetArraySize(mats) > PGI__MAX_MESH_MATERIALS)
@@ -687,7 +705,10 @@ static uint32_t le32(const unsigned char *p) {
 /* GLB: the lengths its header and JSON chunk declare fit in the file; then the JSON's checks. */
 static pgi_status check_glb(const char *path, FILE *f, uint64_t size, uint64_t budget) {
     unsigned char h[20];
-    if (fread(h, 1, sizeof h, f) != sizeof h || memcmp(h, "glTF", 4) != 0) return PGI_OK; /* Assimp's */
+    if (fread(h, 1, sizeof h, f) != sizeof h || memcmp(h, "glTF", 4) != 0 || le32(h + 4) != 2 ||
+        memcmp(h + 16, "JSON", 4) != 0)
+        return pgi__fail(PGI_ERR_PARSE, "%s: not a GLB of glTF 2.0 (its header is not \"glTF\", 2, length, a JSON chunk)",
+                         path);
     const uint32_t total = le32(h + 8), chunk = le32(h + 12);
     if (total > size)
         return pgi__fail(PGI_ERR_PARSE, "%s: GLB header declares %u bytes, the file has %llu", path, total,
@@ -695,7 +716,6 @@ static pgi_status check_glb(const char *path, FILE *f, uint64_t size, uint64_t b
     if ((uint64_t)chunk + 20 > size)
         return pgi__fail(PGI_ERR_PARSE, "%s: GLB JSON chunk declares %u bytes, the file has %llu", path, chunk,
                          (unsigned long long)size);
-    if (memcmp(h + 16, "JSON", 4) != 0) return PGI_OK;
     char *json;
     pgi_status st = read_whole(path, f, chunk, budget, &json);
     if (st) return st;
