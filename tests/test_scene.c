@@ -547,18 +547,21 @@ static void test_gltf_structure(void **state) {
     snprintf(p, sizeof p, "%s/q.bin", g_dir);
     write_bytes(p, bin, sizeof bin, NULL, 0);
     const char *base =
-        "{\"asset\": {\"version\": \"2.0\"}, \"scene\": 0, \"scenes\": [{\"nodes\": [0]}], \"nodes\": [{\"mesh\": 0}],\n"
+        "{\"asset\": {\"version\": \"2.0\"}, \"scene\": 0, \"scenes\": [{\"nodes\": [0]}], \"nodes\": [{\"mesh\": "
+        "0}],\n"
         " \"materials\": [{\"emissiveFactor\": [1, 1, 1]}],\n"
         " \"meshes\": [{\"primitives\": [{\"attributes\": {\"POSITION\": 0}, \"indices\": 1, \"material\": 0}]}],\n"
         " \"animations\": [{\"samplers\": [{\"input\": 2, \"output\": 3, \"interpolation\": \"LINEAR\"}],\n"
         "   \"channels\": [{\"sampler\": 0, \"target\": {\"node\": 0, \"path\": \"translation\"}}]}],\n"
         " \"buffers\": [{\"uri\": \"q.bin\", \"byteLength\": 132}],\n"
-        " \"bufferViews\": [{\"buffer\": 0, \"byteLength\": 48}, {\"buffer\": 0, \"byteOffset\": 48, \"byteLength\": 12},\n"
+        " \"bufferViews\": [{\"buffer\": 0, \"byteLength\": 48}, {\"buffer\": 0, \"byteOffset\": 48, \"byteLength\": "
+        "12},\n"
         "   {\"buffer\": 0, \"byteOffset\": 60, \"byteLength\": 72}],\n"
         " \"accessors\": [{\"bufferView\": 0, \"componentType\": 5126, \"count\": 4, \"type\": \"VEC3\",\n"
         "   \"min\": [0, 0, 0], \"max\": [1, 1, 0]},\n"
         "   {\"bufferView\": 1, \"componentType\": 5123, \"count\": 6, \"type\": \"SCALAR\"},\n"
-        "   {\"bufferView\": 2, \"componentType\": 5126, \"count\": 2, \"type\": \"SCALAR\", \"min\": [0], \"max\": [1]},\n"
+        "   {\"bufferView\": 2, \"componentType\": 5126, \"count\": 2, \"type\": \"SCALAR\", \"min\": [0], \"max\": "
+        "[1]},\n"
         "   {\"bufferView\": 2, \"byteOffset\": 8, \"componentType\": 5126, \"count\": 2, \"type\": \"VEC3\"}]}\n";
     pgi_scene *s = load_ok(put("q.gltf", base, p, sizeof p));
     assert_int_equal(s->ntris, 2);
@@ -569,7 +572,8 @@ static void test_gltf_structure(void **state) {
     } k[] = {
         {"\"type\": \"VEC3\",\n", "\"type\": \"VEC3\", \"sparse\": {\"count\": 1, \"values\": {\"bufferView\": 0}},\n",
          "accessor 0: sparse has no \"indices\" object"},
-        {"\"count\": 4", "\"count\": 5", "accessor 0: 5 elements of 12 bytes from byte 0 need 60 bytes, buffer view 0 has 48"},
+        {"\"count\": 4", "\"count\": 5",
+         "accessor 0: 5 elements of 12 bytes from byte 0 need 60 bytes, buffer view 0 has 48"},
         {"\"count\": 4", "\"count\": 3", "mesh 0 primitive 0: index 3 of accessor 1 is past its 3 vertices"},
         {"\"indices\": 1,", "\"indices\": 1, \"mode\": 5,", NULL},
         {"{\"bufferView\": 1, ", "{", "accessor 1 has neither a bufferView nor a sparse part"},
@@ -577,7 +581,8 @@ static void test_gltf_structure(void **state) {
         {"\"LINEAR\"", "\"CUBICSPLINE\"", "animation 0 sampler 0: 2 outputs for 2 inputs (CUBICSPLINE: three each)"},
         {"\"sampler\": 0,", "\"sampler\": 1,", "animation 0 channel 0: \"sampler\" is not one of its 1 samplers"},
         {"{\"POSITION\": 0}", "{\"POSITION\": 0, \"NORMAL\": 3}", "attribute NORMAL: 2 elements, POSITION has 4"},
-        {"{\"POSITION\": 0}", "{\"POSITION\": 0, \"TEXCOORD_0\": 1}", "attribute TEXCOORD_0: accessor 1 (SCALAR of 5123)"},
+        {"{\"POSITION\": 0}", "{\"POSITION\": 0, \"TEXCOORD_0\": 1}",
+         "attribute TEXCOORD_0: accessor 1 (SCALAR of 5123)"},
     };
     for (size_t i = 0; i < sizeof k / sizeof k[0]; i++) {
         char *text = replace(base, k[i].from, k[i].to);
@@ -587,7 +592,8 @@ static void test_gltf_structure(void **state) {
             text = t2;
         }
         put("bad.gltf", text, p, sizeof p);
-        expect_error(p, PGI_ERR_PARSE, PGI_ERR_PARSE, k[i].needle ? k[i].needle : "2 vertices, mode 5 needs at least 3");
+        expect_error(p, PGI_ERR_PARSE, PGI_ERR_PARSE,
+                     k[i].needle ? k[i].needle : "2 vertices, mode 5 needs at least 3");
         free(text);
     }
 
@@ -596,8 +602,8 @@ static void test_gltf_structure(void **state) {
                  "junk.gltf: not glTF: its JSON does not parse");
     expect_error(put("v1.gltf", "{\"asset\": {\"version\": \"1.0\"}}", p, sizeof p), PGI_ERR_UNSUPPORTED,
                  PGI_ERR_UNSUPPORTED, "v1.gltf: not a glTF 2.0 file");
-    expect_error(put("more.gltf", "{\"asset\": {\"version\": \"2.0\"}} {}", p, sizeof p), PGI_ERR_PARSE,
-                 PGI_ERR_PARSE, "more.gltf: not glTF: more follows its JSON (byte 30)");
+    expect_error(put("more.gltf", "{\"asset\": {\"version\": \"2.0\"}} {}", p, sizeof p), PGI_ERR_PARSE, PGI_ERR_PARSE,
+                 "more.gltf: not glTF: more follows its JSON (byte 30)");
 
     /* The same buffer as a base64 data: URI, then as a GLB's BIN chunk: the index past the
      * vertices is found there too. */

@@ -22,7 +22,7 @@
 
 #define GLTF_FLOAT 5126
 #define SPARSE_ONLY_MAX_BYTES ((double)(1 << 28)) /* an accessor of zeros and a sparse part */
-#define PGI__GLTF_MAX_READ ((size_t)1 << 30)     /* bytes of indices read to check them */
+#define PGI__GLTF_MAX_READ ((size_t)1 << 30)      /* bytes of indices read to check them */
 
 typedef struct gltf {
     const char *path;
@@ -75,17 +75,22 @@ static pgi_status get_ref(gltf *g, const cJSON *o, const char *key, int n, int r
 
 static int component_size(double t) {
     switch ((int)t) {
-    case 5120: case 5121: return 1;
-    case 5122: case 5123: return 2;
-    case 5125: case 5126: return 4;
+    case 5120:
+    case 5121: return 1;
+    case 5122:
+    case 5123: return 2;
+    case 5125:
+    case 5126: return 4;
     default: return 0;
     }
 }
 
 /* Components of an accessor type, 0 when it is none. */
 static int type_components(const char *t) {
-    static const struct { const char *name; int n; } k[] = {{"SCALAR", 1}, {"VEC2", 2}, {"VEC3", 3}, {"VEC4", 4},
-                                                           {"MAT2", 4},   {"MAT3", 9}, {"MAT4", 16}};
+    static const struct {
+        const char *name;
+        int n;
+    } k[] = {{"SCALAR", 1}, {"VEC2", 2}, {"VEC3", 3}, {"VEC4", 4}, {"MAT2", 4}, {"MAT3", 9}, {"MAT4", 16}};
     for (size_t i = 0; t && i < sizeof k / sizeof k[0]; i++)
         if (strcmp(t, k[i].name) == 0) return k[i].n;
     return 0;
@@ -265,8 +270,11 @@ static double max_index(gltf *g, const accessor *a) {
         max = 0;
         for (size_t i = 0; i < (size_t)a->count; i++) {
             const unsigned char *p = bytes + (size_t)(i * step);
-            const double v = size == 1 ? p[0] : size == 2 ? (double)(p[0] | p[1] << 8) :
-                (double)((uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24);
+            const double v =
+                size == 1 ? p[0]
+                : size == 2
+                    ? (double)(p[0] | p[1] << 8)
+                    : (double)((uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24);
             if (v > max) max = v;
         }
     }

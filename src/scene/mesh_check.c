@@ -623,7 +623,8 @@ static pgi_status check_gltf_json(const char *path, const char *json, size_t n, 
     const cJSON *version = cJSON_GetObjectItemCaseSensitive(asset, "version");
     if (json_end && json_end < json + n) {
         cJSON_Delete(root);
-        return pgi__fail(PGI_ERR_PARSE, "%s: not glTF: more follows its JSON (byte %ld)", path, (long)(json_end - json));
+        return pgi__fail(PGI_ERR_PARSE, "%s: not glTF: more follows its JSON (byte %ld)", path,
+                         (long)(json_end - json));
     }
     if (!cJSON_IsObject(root) || !cJSON_IsString(version) || version->valuestring[0] != '2') {
         cJSON_Delete(root);
@@ -707,8 +708,8 @@ static pgi_status check_glb(const char *path, FILE *f, uint64_t size, uint64_t b
     unsigned char h[20];
     if (fread(h, 1, sizeof h, f) != sizeof h || memcmp(h, "glTF", 4) != 0 || le32(h + 4) != 2 ||
         memcmp(h + 16, "JSON", 4) != 0)
-        return pgi__fail(PGI_ERR_PARSE, "%s: not a GLB of glTF 2.0 (its header is not \"glTF\", 2, length, a JSON chunk)",
-                         path);
+        return pgi__fail(PGI_ERR_PARSE,
+                         "%s: not a GLB of glTF 2.0 (its header is not \"glTF\", 2, length, a JSON chunk)", path);
     const uint32_t total = le32(h + 8), chunk = le32(h + 12);
     if (total > size)
         return pgi__fail(PGI_ERR_PARSE, "%s: GLB header declares %u bytes, the file has %llu", path, total,

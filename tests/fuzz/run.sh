@@ -104,7 +104,8 @@ for t in "${TARGETS[@]}"; do
     if [ "$rc" -ne 0 ]; then
         status=1
         echo "FAIL fuzz_$t (exit $rc):"
-        grep -E 'ERROR|SUMMARY|Test unit written|^    #[0-9]' "$log" | head -20 | sed 's/^/    /'
+        # (sed reads to the end: head would end grep with SIGPIPE, which pipefail makes fatal)
+        grep -E 'ERROR|SUMMARY|Test unit written|^    #[0-9]' "$log" | sed -n '1,20s/^/    /p'
     fi
     summary+=("$(printf '%-16s %4s %10s execs %7s/s  cov %5s  ft %6s  corpus %5s (%s files)' "fuzz_$t" \
         "$([ "$rc" -eq 0 ] && echo ok || echo FAIL)" "${execs:-?}" "${rate:-?}" "${cov:-?}" "${ft:-?}" "${corp:-?}" \
