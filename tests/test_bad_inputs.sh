@@ -108,6 +108,8 @@ expect_clear_error "zero.json: is a device, not a regular file" info --scene "$T
 expect_clear_error "fifo.obj: is a FIFO, not a regular file" info --scene "$TMP/fifo.obj"
 expect_clear_error "dir.obj: is a directory" info --scene "$TMP/dir.obj"
 expect_clear_error "dir.json: is a directory" info --scene "$TMP/dir.json"
+mkfifo "$TMP/fifo.exr"
+expect_clear_error "fifo.exr: is a FIFO, not a regular file" compare "$TMP/fifo.exr" "$TMP/fifo.exr"
 printf '{"mesh": "dir.obj", "sky": {}}\n' >"$TMP/mesh-dir.json"
 expect_clear_error "mesh 'dir.obj': $TMP/dir.obj is a directory" info --scene "$TMP/mesh-dir.json"
 printf '{"mesh": "%s", "sky": {}}\n' "$TMP/fifo.obj" >"$TMP/mesh-fifo.json"

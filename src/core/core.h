@@ -99,13 +99,13 @@ extern const float pgi__srgb8_texture_lut[256];
 /* PGI_ERR_INVALID_ARG naming `name` and the registered estimators (estimator.c). */
 pgi_status pgi__fail_unknown_estimator(const char *name);
 
+/* Replaces control bytes (but newline and tab) and DEL by '?', in place: text from a file (a scene
+ * or material name) printed to a terminal carries no escape sequences. */
+void pgi__sanitize(char *text);
 /* Why `path` cannot be read as an input file (stat follows links): NULL for a regular file,
  * else "no such file", "is a directory", "is a FIFO, not a regular file", "is a device, not a
  * regular file", ... (static text). Checked before opening: a FIFO would block the open, a
  * device such as /dev/zero never ends. */
-/* Replaces control bytes (but newline and tab) and DEL by '?', in place: text from a file (a scene
- * or material name) printed to a terminal carries no escape sequences. */
-void pgi__sanitize(char *text);
 const char *pgi__not_regular_file(const char *path);
 /* The one checked open of an input file (meshes, material libraries, buffers Assimp reads,
  * textures): opened without blocking (a FIFO cannot hang the open), then refused unless it is a

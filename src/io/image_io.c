@@ -540,8 +540,9 @@ pgi_status pgi__image_read(const char *path, pgi_image *out, int *is_hdr) {
     if (!path || !path[0]) return pgi__fail(PGI_ERR_INVALID_ARG, "image read: no input path");
 
     errno = 0;
-    FILE *f = fopen(path, "rb");
-    if (!f) return pgi__fail(PGI_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+    const char *why = NULL;
+    FILE *f = pgi__fopen_input(path, 0, NULL, &why); /* a FIFO or device is refused, not read */
+    if (!f) return pgi__fail(PGI_ERR_IO, "%s: %s", path, why ? why : strerror(errno));
     unsigned char magic[4] = {0};
     size_t got = fread(magic, 1, sizeof magic, f);
     if (ferror(f)) {

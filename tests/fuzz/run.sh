@@ -13,6 +13,10 @@
 #   PGI_SHARED       the shared/ folder beside the checkout (default ../shared): seeds from
 #                    shared/bad-inputs and the Cornell box of shared/scenes (nothing big)
 #   PGI_FUZZ_FLAGS   more libFuzzer flags (e.g. "-jobs=2 -workers=2")
+#   PGI_FUZZ_FIXED   1: a fixed number of inputs a target (SECONDS times its rate on a 2-core
+#                    machine, at most 4 x SECONDS), so that with -seed=N in PGI_FUZZ_FLAGS and an
+#                    empty PGI_FUZZ_WORK a run tries the same inputs on every machine: what CI
+#                    runs, a local run reproduces (CI runs it so; a longer run draws its own)
 #   JOBS             build parallelism (default 2)
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/../.." && pwd)
@@ -79,19 +83,22 @@ export OMP_NUM_THREADS=1
 status=0
 summary=()
 for t in "${TARGETS[@]}"; do
+    # inputs a second from an empty corpus on a 2-core machine (sanitized build), for PGI_FUZZ_FIXED
     case "$t" in
-    scene_json) extra=(-max_len=8192 -dict="$ROOT/tests/fuzz/scene_json.dict") ;;
-    mesh) extra=(-max_len=16384 -dict="$ROOT/tests/fuzz/mesh.dict") ;;
-    image) extra=(-max_len=16384) ;;
-    gltf) extra=(-max_len=16384 -dict="$ROOT/tests/fuzz/mesh.dict") ;;
-    sidecar) extra=(-max_len=2048 -dict="$ROOT/tests/fuzz/scene_json.dict") ;;
+    scene_json) rate=4000 extra=(-max_len=8192 -dict="$ROOT/tests/fuzz/scene_json.dict") ;;
+    mesh) rate=130 extra=(-max_len=16384 -dict="$ROOT/tests/fuzz/mesh.dict") ;;
+    image) rate=3500 extra=(-max_len=16384) ;;
+    gltf) rate=2500 extra=(-max_len=16384 -dict="$ROOT/tests/fuzz/mesh.dict") ;;
+    sidecar) rate=5000 extra=(-max_len=2048 -dict="$ROOT/tests/fuzz/scene_json.dict") ;;
     *) echo "fuzz: unknown target '$t' (scene_json, mesh, image, gltf, sidecar)" >&2; exit 2 ;;
     esac
+    limit=(-max_total_time="$SECS")
+    [ "${PGI_FUZZ_FIXED:-0}" = 1 ] && limit=(-runs=$((SECS * rate)) -max_total_time=$((SECS * 4)))
     log=$WORK/$t.log
     echo "fuzz_$t: ${SECS} s (log: $log)"
     rc=0
     # shellcheck disable=SC2086
-    "$BUILD/fuzz/fuzz_$t" -max_total_time="$SECS" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
+    "$BUILD/fuzz/fuzz_$t" "${limit[@]}" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
         -artifact_prefix="$WORK/artifacts/$t-" "${extra[@]}" ${PGI_FUZZ_FLAGS:-} \
         "$WORK/corpus/$t" "$WORK/seeds/$t" >"$log" 2>&1 || rc=$?
     execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)
