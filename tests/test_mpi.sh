@@ -110,6 +110,23 @@ PHOTONGI_MPI_FAIL_RANK=2 timeout 120 "$MPIRUN" "${MPIOPTS[@]}" -x PHOTONGI_MPI_F
 rc=$?
 [ $rc -ne 0 ] && [ $rc -ne 124 ] && grep -q "rank 2 of 3" "$TMP/err" && [ ! -e "$TMP/y.png" ] && ok ||
     bad "a failing rank: exit $rc, $(head -1 "$TMP/err")"
+# Ranks that read different files under one path (each its own machine's copy; here each rank its
+# own folder): refused before the work, naming the rank, never a mixed image.
+for r in 0 1; do mkdir -p "$TMP/rank$r"; done
+echo '{"builtin": "cornell"}' >"$TMP/rank0/s.json"
+echo '{"builtin": "giref"}' >"$TMP/rank1/s.json"
+printf '#!/bin/sh\ncd "%s/rank$OMPI_COMM_WORLD_RANK" && exec "%s" "$@"\n' "$TMP" "$MPI" >"$TMP/rankdir.sh"
+chmod +x "$TMP/rankdir.sh"
+if [ ${#MPIOPTS[@]} -gt 0 ]; then # Open MPI: OMPI_COMM_WORLD_RANK
+    for cmd in "render --progressive 4 --photons 1000" "reference --spp 4"; do
+        # shellcheck disable=SC2086
+        timeout 120 "$MPIRUN" "${MPIOPTS[@]}" -np 2 "$TMP/rankdir.sh" $cmd --scene s.json --size 16x16 -q \
+            -o "$TMP/mixed.exr" 2>"$TMP/err"
+        rc=$?
+        [ $rc -eq 1 ] && grep -q "rank 1 loaded a different scene from s.json than rank 0" "$TMP/err" &&
+            [ ! -e "$TMP/mixed.exr" ] && ok || bad "${cmd%% *}: ranks with different scenes: exit $rc, $(head -1 "$TMP/err")"
+    done
+fi
 
 "$MPI" --help | grep -q "mpirun -np R photongi-mpi render" && ok || bad "photongi-mpi --help"
 "$MPI" render --help | grep -q -- "--progressive N" && ok || bad "photongi-mpi render --help"

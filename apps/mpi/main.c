@@ -17,7 +17,7 @@
  * the rank and thread counts.
  *
  * Failures: every rank parses the command line and loads the scene; then all meet once
- * (begin()): if any rank failed by then, rank 0's message (or, when rank 0 is fine, the failed
+ * (begin_scene(), which also fails a rank whose scene differs from rank 0's): if any rank failed by then, rank 0's message (or, when rank 0 is fine, the failed
  * rank's, prefixed with its rank) is printed and every rank exits with that status. A failure
  * after that point prints "photongi-mpi: rank N: ..." and ends the job with MPI_Abort. Ranks
  * other than 0 write nothing: their standard output is discarded and their standard error kept
@@ -83,6 +83,7 @@ static int g_rank, g_size;
 static int g_real_err = 2; /* the process's standard error (rank > 0: stderr itself goes to g_capture) */
 static FILE *g_capture;    /* rank > 0: what the command printed on stderr */
 static int g_entered;      /* begin() was called */
+static int g_mismatch;     /* begin_scene(): a rank's scene differs from rank 0's (rank 0 said so) */
 static int *g_codes;       /* begin(): each rank's code (0 ready, -1 done without work, > 0 exit status) */
 static int g_quiet;
 
@@ -108,18 +109,56 @@ die(const char *fmt, ...) {
     exit(CLI_EXIT_FAILURE);
 }
 
-/* The one meeting before the work: every rank's code; returns the first failed rank or -1. */
-static int begin(int code) {
+/* What a rank loaded, as a number: its counts, bounds, area and first camera (FNV-1a over them).
+ * Ranks that read different files under one path (a node's own copy) differ here. */
+static uint64_t scene_fingerprint(const pgi_scene *s) {
+    pgi_scene_info in;
+    memset(&in, 0, sizeof in);
+    if (s) pgi_scene_get_info(s, &in);
+    const double v[] = {(double)in.triangles, (double)in.vertices,   (double)in.materials, (double)in.textures,
+                        (double)in.lights,    (double)in.cameras,    in.surface_area,      in.bounds_min[0],
+                        in.bounds_min[1],     in.bounds_min[2],      in.bounds_max[0],     in.bounds_max[1],
+                        in.bounds_max[2],     in.camera.eye[0],      in.camera.eye[1],     in.camera.eye[2],
+                        in.camera.look_at[0], in.camera.look_at[1], in.camera.look_at[2], in.camera.fov_y_deg};
+    uint64_t h = 1469598103934665603ull;
+    const unsigned char *b = (const unsigned char *)v;
+    for (size_t i = 0; i < sizeof v; i++) h = (h ^ b[i]) * 1099511628211ull;
+    return h;
+}
+
+/* The one meeting before the work: every rank's code; returns the first failed rank or -1. A rank
+ * whose scene differs from rank 0's (scene_fingerprint) fails it: mixing them would be a silent
+ * wrong image. */
+static int begin_scene(int code, const pgi_scene *scene) {
     g_entered = 1;
     MPI_Allgather(&code, 1, MPI_INT, g_codes, 1, MPI_INT, MPI_COMM_WORLD);
     for (int i = 0; i < g_size; i++)
         if (g_codes[i] > 0) return i;
+    if (scene) {
+        uint64_t fp = scene_fingerprint(scene), fp0 = fp;
+        MPI_Bcast(&fp0, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
+        int bad = fp != fp0 ? g_rank : -1, first = -1;
+        MPI_Allreduce(&bad, &first, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+        if (first >= 0) {
+            if (g_rank == 0) {
+                pgi_scene_info in;
+                pgi_scene_get_info(scene, &in);
+                fprintf(stderr,
+                        "photongi-mpi: rank %d loaded a different scene from %s than rank 0 did (another file "
+                        "under the same path on its machine?): the ranks must read the same files\n",
+                        first, in.source);
+            }
+            for (int i = 0; i < g_size; i++) g_codes[i] = i == first ? CLI_EXIT_FAILURE : 0;
+            g_mismatch = 1;
+            return first;
+        }
+    }
     return -1;
 }
 
 static pgi_status peer_failed(int who) {
     /* the library's error slot is not ours to set: the message goes through cli_fail's fallback */
-    if (g_rank != who && g_rank == 0)
+    if (g_rank != who && g_rank == 0 && !g_mismatch)
         fprintf(stderr, "photongi-mpi: rank %d of %d failed before the work began (its message follows)\n", who,
                 g_size);
     return PGI_ERR_IO;
@@ -789,7 +828,7 @@ static pgi_status mpi_progressive(pgi_renderer *r, const pgi_render_desc *in, in
     j.work_frame = frame_work;
     /* the last 2R blocks frame by frame (alone: none) */
     j.split_from = g_size == 1 ? j.nblocks : j.nblocks > 2 * g_size ? j.nblocks - 2 * g_size : 0;
-    int who = begin(0);
+    int who = begin_scene(0, pgi_renderer_scene(r));
     if (who >= 0) return peer_failed(who);
     j.t0 = now_ms();
     g_block = j.block;
@@ -881,7 +920,7 @@ static pgi_status mpi_reference(const pgi_scene *scene, const pgi_reference_desc
     int w = 0, h = 0;
     pgi_reference_sampler_size(j.sampler, &w, &h);
     if (!st && *spp > 0 && (!mean->rgb || mean->width != w || mean->height != h)) st = PGI_ERR_INVALID_ARG;
-    int who = begin(st ? CLI_EXIT_FAILURE : 0);
+    int who = begin_scene(st ? CLI_EXIT_FAILURE : 0, scene);
     if (st || who >= 0) {
         pgi_reference_sampler_destroy(j.sampler);
         return st ? st : peer_failed(who);
@@ -1065,7 +1104,7 @@ int main(int argc, char **argv) {
     fflush(stderr);
     int final = rc;
     if (!g_entered) {
-        int who = begin(rc ? rc : -1);
+        int who = begin_scene(rc ? rc : -1, NULL);
         final = who < 0 ? 0 : g_codes[who];
         if (g_rank > 0 && who == g_rank && g_codes[0] <= 0) replay_capture();
     } else {
@@ -1078,7 +1117,7 @@ int main(int argc, char **argv) {
             }
         if (who >= 0) {
             final = g_codes[who];
-            if (g_rank > 0 && who == g_rank && g_codes[0] <= 0) replay_capture();
+            if (g_rank > 0 && who == g_rank && g_codes[0] <= 0 && !g_mismatch) replay_capture();
         } else if (rc && g_rank > 0) replay_capture(); /* after the work: this rank's own failure */
     }
     if (g_capture) fclose(g_capture);
