@@ -115,10 +115,10 @@ static uint64_t scene_fingerprint(const pgi_scene *s) {
     pgi_scene_info in;
     memset(&in, 0, sizeof in);
     if (s) pgi_scene_get_info(s, &in);
-    const double v[] = {(double)in.triangles, (double)in.vertices,   (double)in.materials, (double)in.textures,
-                        (double)in.lights,    (double)in.cameras,    in.surface_area,      in.bounds_min[0],
-                        in.bounds_min[1],     in.bounds_min[2],      in.bounds_max[0],     in.bounds_max[1],
-                        in.bounds_max[2],     in.camera.eye[0],      in.camera.eye[1],     in.camera.eye[2],
+    const double v[] = {(double)in.triangles, (double)in.vertices,  (double)in.materials, (double)in.textures,
+                        (double)in.lights,    (double)in.cameras,   in.surface_area,      in.bounds_min[0],
+                        in.bounds_min[1],     in.bounds_min[2],     in.bounds_max[0],     in.bounds_max[1],
+                        in.bounds_max[2],     in.camera.eye[0],     in.camera.eye[1],     in.camera.eye[2],
                         in.camera.look_at[0], in.camera.look_at[1], in.camera.look_at[2], in.camera.fov_y_deg};
     uint64_t h = 1469598103934665603ull;
     const unsigned char *b = (const unsigned char *)v;
