@@ -199,4 +199,19 @@ hostile 1 "the name is" reference $R --spp 1 -o "$TMP/$long.exr"
 hostile 1 "the name is" reference $R --spp 1 -o "$TMP/${long:0:252}.exr"
 hostile 1 "the name is" render $R -o "$TMP/$long.png"
 
+# A progressive render stopped by SIGINT writes the average of the frames it finished: the image of
+# --progressive K itself, byte for byte, and says K; exit 130.
+P="render --scene cornell --size 32x24 --photons 2000 --threads 2 -q"
+"$BIN" $P --progressive 1000000 -o "$TMP/p.exr" 2>"$TMP/err" &
+pid=$!
+sleep 1.5
+kill -INT $pid
+wait $pid
+rc=$?
+k=$(sed -n 's/.*with the average of \([0-9]*\) of 1000000 frames.*/\1/p' "$TMP/err")
+if [ "$rc" -eq 130 ] && [ -n "$k" ] && [ "$k" -ge 1 ]; then
+    "$BIN" $P --progressive "$k" -o "$TMP/pk.exr" && cmp -s "$TMP/p.exr" "$TMP/pk.exr" && ok ||
+        bad "progressive SIGINT: the average of $k frames differs from --progressive $k"
+else bad "progressive SIGINT: exit $rc: $(cat "$TMP/err")"; fi
+
 summary test_reference_safety

@@ -3,6 +3,7 @@
  * (photongi-mpi deals them to MPI ranks, apps/mpi). */
 #define _DEFAULT_SOURCE /* realpath (output.h) */
 #include <errno.h>
+#include <signal.h>
 #include <inttypes.h>
 #include <math.h>
 #include <stdio.h>
@@ -36,6 +37,15 @@ static uint64_t file_hash(const char *path) {
         for (size_t i = 0; i < n; i++) h = (h ^ buf[i]) * 1099511628211ull;
     fclose(f);
     return h;
+}
+
+/* SIGINT/SIGTERM during --progressive: the signal (the handler resets itself: a second one ends
+ * the process at once). */
+static volatile sig_atomic_t g_signal;
+static void on_signal(int sig) { g_signal = sig; }
+static int signalled(void *unused) {
+    (void)unused;
+    return g_signal != 0;
 }
 
 /* What --from-stats read: the scene and the hash of its file then. */
@@ -139,7 +149,9 @@ static const char *k_render_help =
     "                     photons that contributed at each pixel, best written as .exr)\n"
     "  --progressive N    average N frames (1..1000000) with fresh photons and a shrinking radius\n"
     "                     (Knaus & Zwicker 2011; exact estimators); converges as N grows\n"
-    "                     to the pixel integral, as 'photongi reference' (see --jitter)\n"
+    "                     to the pixel integral, as 'photongi reference' (see --jitter).\n"
+    "                     Ctrl-C (SIGINT) or SIGTERM writes the average of the frames done\n"
+    "                     (exit 130/143; a second one stops at once)\n"
     "  --jitter auto|on|off   where in its pixel each view sample looks: auto (default) =\n"
     "                     the pixel centre for one frame, and for every frame after the first\n"
     "                     of --progressive a uniform point of the pixel drawn from the seed\n"
@@ -331,9 +343,19 @@ int pgi_cmd_render(int argc, char **argv) {
     }
     const pgi_cli_backend *be = pgi_cli_backend_now;
     if (be) st = be->progressive(r, &d, (int)progressive, &img, &fs);
-    else
-        st = progressive > 1 ? pgi_render_progressive(r, &d, (int)progressive, &img, &fs)
-                             : pgi_renderer_render(r, &d, &img, &fs);
+    else if (progressive > 1) {
+        /* SIGINT/SIGTERM end the average after the frame in progress (a second one, at once) */
+        struct sigaction sa, old_int, old_term;
+        memset(&sa, 0, sizeof sa);
+        sa.sa_handler = on_signal;
+        sa.sa_flags = (int)SA_RESETHAND;
+        sigemptyset(&sa.sa_mask);
+        sigaction(SIGINT, &sa, &old_int);
+        sigaction(SIGTERM, &sa, &old_term);
+        st = pgi_render_progressive_until(r, &d, (int)progressive, signalled, NULL, &img, &fs);
+        sigaction(SIGINT, &old_int, NULL);
+        sigaction(SIGTERM, &old_term, NULL);
+    } else st = pgi_renderer_render(r, &d, &img, &fs);
     app_progress_end(&bar, 0);
     char device_name[256]; /* the stats' device name lives with the renderer */
     if (st == PGI_OK) {
@@ -370,6 +392,11 @@ int pgi_cmd_render(int argc, char **argv) {
     pgi_image_free(&img);
     pgi_scene_destroy(scene);
     if (st) return cli_fail("render", "cannot write image", st);
+    if (g_signal) { /* the average so far is written; the stats are not */
+        fprintf(stderr, "photongi render: interrupted (%s): %s written with the average of %d of %lld frames\n",
+                g_signal == SIGINT ? "SIGINT" : "SIGTERM", out, fs.frames, progressive);
+        return 128 + g_signal;
+    }
     fs.memory_peak_rss = pgi_memory_peak_rss(); /* writing the image included */
     fs.run = (pgi_run_info){scene_spec, scene_file, scene_hash, exposure, scene_time, specular};
     if (stats_path) {

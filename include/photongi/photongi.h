@@ -475,6 +475,12 @@ void pgi_progressive_destroy(pgi_progressive *p);
  * gets the times and counters summed over the frames, the rest from the last. */
 pgi_status pgi_render_progressive(pgi_renderer *r, const pgi_render_desc *desc, int frames, pgi_image *out,
                                   pgi_frame_stats *stats);
+/* pgi_render_progressive that may end early: after each frame but the last, stop(stop_user) != 0
+ * ends the average there (out holds the frames so far, stats->frames their count). A signal
+ * handler's flag is what photongi render passes (Ctrl-C saves the average so far). */
+pgi_status pgi_render_progressive_until(pgi_renderer *r, const pgi_render_desc *desc, int frames,
+                                        int (*stop)(void *stop_user), void *stop_user, pgi_image *out,
+                                        pgi_frame_stats *stats);
 /* Radius of progressive frame k (0-based) for a first radius r0. */
 float pgi_progressive_radius(float r0, int k);
 

@@ -314,6 +314,11 @@ static void stats_add(pgi_frame_stats *sum, const pgi_frame_stats *fs) {
 
 pgi_status pgi_render_progressive(pgi_renderer *r, const pgi_render_desc *in, int frames, pgi_image *out,
                                   pgi_frame_stats *stats) {
+    return pgi_render_progressive_until(r, in, frames, NULL, NULL, out, stats);
+}
+
+pgi_status pgi_render_progressive_until(pgi_renderer *r, const pgi_render_desc *in, int frames, int (*stop)(void *),
+                                        void *stop_user, pgi_image *out, pgi_frame_stats *stats) {
     if (!r || !in || !out) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_render_progressive: NULL argument");
     const pgi_estimator_vtbl *vt =
         pgi_estimator_find(in->estimator && *in->estimator ? in->estimator : PGI_DEFAULT_ESTIMATOR);
@@ -344,6 +349,7 @@ pgi_status pgi_render_progressive(pgi_renderer *r, const pgi_render_desc *in, in
         if ((st = pgi_progressive_step(p, &d, out, &fs))) break;
         if (k == 0) sum = fs;
         else stats_add(&sum, &fs);
+        if (stop && k + 1 < frames && stop(stop_user)) break;
     }
     pgi_progressive_destroy(p);
     if (!st && stats) *stats = sum;
