@@ -470,10 +470,51 @@ static long hdr_zero_run(byte_src *s) {
     return 0;
 }
 
+/* PNG chunks: stb_image grows its buffer to a chunk's declared length before it reads the chunk
+ * (a 227-byte file asked for 2 GiB). Returns the offset of the first chunk that declares more
+ * bytes than are left (its length, type and CRC included), or 0 (fine, or not a PNG). */
+static uint64_t png_chunk_past_end(byte_src *s, uint64_t size, uint32_t *declared, char type[5]) {
+    static const unsigned char sig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+    for (int i = 0; i < 8; i++)
+        if (src_get(s) != sig[i]) return 0;
+    uint64_t at = 8;
+    while (at + 12 <= size) {
+        uint32_t len = 0;
+        for (int i = 0; i < 4; i++) len = len << 8 | (uint32_t)src_get(s);
+        for (int i = 0; i < 4; i++) type[i] = (char)src_get(s);
+        type[4] = 0;
+        if ((uint64_t)len > size - at - 12) {
+            *declared = len;
+            return at;
+        }
+        if (memcmp(type, "IEND", 4) == 0) return 0;
+        at += 12 + (uint64_t)len;
+        if (s->f) {
+            if (fseek(s->f, (long)(len + 4), SEEK_CUR) != 0) return 0;
+        } else {
+            s->p += len + 4;
+        }
+    }
+    return 0;
+}
+
 pgi_status pgi__hdr_check(const char *what, FILE *f, const void *data, size_t size) {
     byte_src src = {f, data, data ? (const unsigned char *)data + size : NULL};
     long pos = f ? ftell(f) : 0;
     long line = hdr_zero_run(&src);
+    uint64_t total = size;
+    if (f) {
+        struct stat sb;
+        total = fstat(fileno(f), &sb) == 0 && pos >= 0 ? (uint64_t)sb.st_size - (uint64_t)pos : 0;
+    }
+    if (!line) { /* again from the start, as a PNG */
+        if (f) clearerr(f);
+        if (f && (pos < 0 || fseek(f, pos, SEEK_SET) != 0)) return pgi__fail(PGI_ERR_IO, "%s: cannot seek", what);
+        src.p = data;
+    }
+    uint32_t declared = 0;
+    char type[5] = "";
+    const uint64_t chunk = line ? 0 : png_chunk_past_end(&src, total, &declared, type);
     if (f) {
         clearerr(f);
         if (pos < 0 || fseek(f, pos, SEEK_SET) != 0) return pgi__fail(PGI_ERR_IO, "%s: cannot seek", what);
@@ -482,6 +523,12 @@ pgi_status pgi__hdr_check(const char *what, FILE *f, const void *data, size_t si
         return pgi__fail(PGI_ERR_PARSE,
                          "%s: corrupt Radiance HDR data: scanline %ld has a run of length 0 (or ends early)", what,
                          line);
+    if (chunk) {
+        pgi__sanitize(type);
+        return pgi__fail(PGI_ERR_PARSE, "%s: corrupt PNG: chunk '%s' at byte %llu declares %u bytes, %llu are left",
+                         what, type, (unsigned long long)chunk, declared,
+                         (unsigned long long)(total - chunk - 12 < total ? total - chunk - 12 : 0));
+    }
     return PGI_OK;
 }
 
@@ -493,8 +540,8 @@ static pgi_status read_stb(const char *path, FILE *f, int png, pgi_image *out, i
         return pgi__fail(PGI_ERR_PARSE, "%s: unreadable image: %s", path, stbi_failure_reason());
     pgi_status st = pgi__check_image_size(path, w, h);
     if (st) return st;
+    if ((st = pgi__hdr_check(path, f, NULL, 0))) return st;
     if (stbi_is_hdr_from_file(f)) {
-        if ((st = pgi__hdr_check(path, f, NULL, 0))) return st;
         float *px = stbi_loadf_from_file(f, &w, &h, &comp, 3);
         if (!px) return pgi__fail(PGI_ERR_PARSE, "%s: unreadable image: %s", path, stbi_failure_reason());
         /* stb scales its own HDR loads by 1 (no gamma): values as stored. */

@@ -15,10 +15,12 @@
  * Missing/unopenable file: PGI_ERR_IO; unreadable content: PGI_ERR_PARSE. */
 pgi_status pgi__image_read(const char *path, pgi_image *out, int *is_hdr);
 
-/* Guards stb_image's Radiance HDR decoder, which hangs on some corrupt run-length data (a run
- * of length 0, or a truncated file): PGI_ERR_PARSE naming `what` if the file `f` (read from its
- * position, which is restored) or the buffer `data` of `size` bytes holds such data, else PGI_OK
- * (also for anything that is not an HDR image). Call it before any stbi_load* of such a file. */
+/* Guards stb_image's decoders: its Radiance HDR decoder hangs on some corrupt run-length data (a
+ * run of length 0, or a truncated file), and its PNG decoder grows its buffer to a chunk's
+ * declared length before reading it (2 GiB for a 227-byte file). PGI_ERR_PARSE naming `what` if
+ * the file `f` (read from its position, which is restored) or the buffer `data` of `size` bytes
+ * holds such data or a PNG chunk longer than what is left, else PGI_OK (also for anything that is
+ * neither). Call it before any stbi_load* of a file or buffer. */
 pgi_status pgi__hdr_check(const char *what, FILE *f, const void *data, size_t size);
 
 /* The frame statistics as a JSON document (the format pgi_stats_write_json
