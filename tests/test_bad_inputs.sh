@@ -252,6 +252,14 @@ if [ -d "$DIR/../bad-inputs-2" ]; then
     expect_clear_error "off_300M_faces.off:2: declares 300000000 vertices" info --scene "$DIR/../bad-inputs-2/off_300M_faces.off"
     expect_clear_error "glb_json_chunk_4GB.glb: GLB JSON chunk declares 4294967280 bytes" \
         info --scene "$DIR/../bad-inputs-2/glb_json_chunk_4GB.glb"
+    # Named with an extension Assimp does not know (or none), a file is checked as what its content
+    # is: Assimp would pick its importer by content.
+    cp "$DIR/../bad-inputs-2/gltf_deep_nodes.gltf" "$TMP/deep-nodes.dat"
+    cp "$DIR/../bad-inputs-2/off_300M_faces.off" "$TMP/faces"
+    cp "$DIR/../bad-inputs-2/glb_json_chunk_4GB.glb" "$TMP/chunk.bin.txt"
+    expect_clear_error "deep-nodes.dat: node 1000 is 1001 levels deep" info --scene "$TMP/deep-nodes.dat"
+    expect_clear_error "faces:2: declares 300000000 vertices" info --scene "$TMP/faces"
+    expect_clear_error "chunk.bin.txt: GLB JSON chunk declares 4294967280 bytes" info --scene "$TMP/chunk.bin.txt"
     # Every file of the second set is covered (camera_far_2e18.json: scene numbers, above).
     for f in "$DIR/../bad-inputs-2"/*; do
         case "$(basename "$f")" in
@@ -312,6 +320,11 @@ expect_clear_error "deep.dae:4: XML elements nested deeper than 1000 levels" inf
     for i in $(seq 1 5000); do printf '}\n'; done
 } >"$fm/deep.x"
 expect_clear_error "deep.x:1002: braces nested deeper than 1000 levels" info --scene "$fm/deep.x"
+# The same files under names Assimp does not know: it would pick the importer by content.
+cp "$fm/deep.dae" "$fm/deep-dae.dat"
+cp "$fm/deep.x" "$fm/deep-x"
+expect_clear_error "deep-dae.dat:4: XML elements nested deeper than 1000 levels" info --scene "$fm/deep-dae.dat"
+expect_clear_error "deep-x:1002: braces nested deeper than 1000 levels" info --scene "$fm/deep-x"
 # Counts a header declares that the file cannot hold (gigabytes allocated before Assimp fails).
 printf 'AC3Db\nMATERIAL "m" rgb 1 1 1 amb 0 0 0 emis 1 1 1 spec 0 0 0 shi 0 trans 0\nOBJECT world\nkids 1\nOBJECT poly\nnumvert 300000000\n0 0 0\n' \
     >"$fm/huge.ac"

@@ -15,6 +15,7 @@
 #include <string.h>
 #include <strings.h>
 
+#include <assimp/cimport.h>
 #include <cjson/cJSON.h>
 
 #include "scene/scene_internal.h"
@@ -732,6 +733,77 @@ static pgi_status check_glb(const char *path, FILE *f, uint64_t size, uint64_t b
     return st;
 }
 
+/* What a file is, for the checks: by its extension, or (an extension Assimp does not know, or
+ * none) by its first bytes, since Assimp then picks an importer by content and a file named
+ * `model.dat` must not get round the checks its format gets. 0: not a format checked here. */
+enum {
+    KIND_NONE,
+    KIND_JSON,
+    KIND_BRACES,
+    KIND_XML,
+    KIND_OFF,
+    KIND_MD5,
+    KIND_AC3D,
+    KIND_NFF,
+    KIND_X,
+    KIND_ASE,
+    KIND_BVH,
+    KIND_OBJ,
+    KIND_PLY,
+    KIND_GLB
+};
+
+static int starts_with_word(const char *h, const char *w) {
+    size_t n = strlen(w);
+    return strncmp(h, w, n) == 0 && (!h[n] || isspace((unsigned char)h[n]));
+}
+
+/* Assimp's own tests (lower-case tokens near the start) for the formats checked here. */
+static int kind_by_content(FILE *f) {
+    char h[513];
+    size_t n = fread(h, 1, sizeof h - 1, f);
+    rewind(f);
+    if (n >= 4 && memcmp(h, "glTF", 4) == 0) return KIND_GLB;
+    for (size_t i = 0; i < n; i++) h[i] = h[i] ? (char)tolower((unsigned char)h[i]) : ' ';
+    h[n] = 0;
+    const char *t = h;
+    while (isspace((unsigned char)*t)) t++;
+    if (starts_with_word(h, "ply")) return KIND_PLY;
+    if (strncmp(h, "xof ", 4) == 0) return KIND_X;
+    if (*t == '{' || *t == '[') return KIND_JSON;
+    if (*t == '<') return KIND_XML;
+    if (strstr(h, "*3dsmax_asciiexport")) return KIND_ASE;
+    if (starts_with_word(t, "hierarchy")) return KIND_BVH;
+    if (strstr(h, "md5version")) return KIND_MD5;
+    if (strncmp(t, "ac3d", 4) == 0) return KIND_AC3D;
+    size_t w = strcspn(t, " \t\r\n");
+    if (w >= 3 && w <= 8 && strncmp(t + w - 3, "off", 3) == 0) return KIND_OFF;
+    if (strstr(h, "geometrynode") || strstr(h, "metric {")) return KIND_BRACES;
+    static const char *const obj[] = {"\nv ", "\nf ", "\nvn ", "\nvt ", "mtllib", "usemtl", "\no ", "\ng "};
+    char line[515]; /* a newline before the first line: the tokens at a line's start */
+    snprintf(line, sizeof line, "\n%s", h);
+    for (size_t i = 0; i < sizeof obj / sizeof obj[0]; i++)
+        if (strstr(line, obj[i])) return KIND_OBJ;
+    return KIND_NONE;
+}
+
+static int kind_of(const char *path, FILE *f) {
+    static const struct {
+        const char *ext;
+        int kind;
+    } k[] = {{".obj", KIND_OBJ},       {".ply", KIND_PLY},  {".glb", KIND_GLB},     {".gltf", KIND_JSON},
+             {".x", KIND_X},           {".bvh", KIND_BVH},  {".ogex", KIND_BRACES}, {".dae", KIND_XML},
+             {".xml", KIND_XML},       {".x3d", KIND_XML},  {".amf", KIND_XML},     {".irr", KIND_XML},
+             {".irrmesh", KIND_XML},   {".off", KIND_OFF},  {".md5mesh", KIND_MD5}, {".md5anim", KIND_MD5},
+             {".md5camera", KIND_MD5}, {".ac", KIND_AC3D},  {".acc", KIND_AC3D},    {".ac3d", KIND_AC3D},
+             {".nff", KIND_NFF},       {".enff", KIND_NFF}, {".ase", KIND_ASE},     {".ask", KIND_ASE}};
+    for (size_t i = 0; i < sizeof k / sizeof k[0]; i++)
+        if (has_ext(path, k[i].ext)) return k[i].kind;
+    const char *base = strrchr(path, '/'), *dot = strrchr(base ? base + 1 : path, '.');
+    if (dot && dot[1] && aiIsExtensionSupported(dot)) return KIND_NONE; /* Assimp's importer for it */
+    return kind_by_content(f);
+}
+
 pgi_status pgi__mesh_precheck(const char *path, uint64_t budget, pgi__mesh_hints *hints) {
     pgi__mesh_hints unused;
     if (!hints) hints = &unused;
@@ -741,34 +813,26 @@ pgi_status pgi__mesh_precheck(const char *path, uint64_t budget, pgi__mesh_hints
     FILE *f = pgi__fopen_input(path, budget, &size, &why);
     if (!f) return pgi__fail(PGI_ERR_IO, "%s: %s", path, why);
     pgi_status st = PGI_OK;
-    if (has_ext(path, ".obj")) st = check_obj(path, f, budget, hints);
-    else if (has_ext(path, ".ply")) st = check_ply(path, f);
-    else if (has_ext(path, ".glb")) st = check_glb(path, f, size, budget);
-    else {
-        static const struct {
-            const char *ext;
-            int kind; /* 1 JSON, 2 braces, 3 XML, 4 OFF, 5 MD5, 6 AC3D, 7 NFF, 8 .x, 9 ASE, 10 BVH */
-        } k[] = {{".gltf", 1},    {".x", 8},         {".bvh", 10}, {".ogex", 2},    {".dae", 3},  {".xml", 3},
-                 {".x3d", 3},     {".amf", 3},       {".irr", 3},  {".irrmesh", 3}, {".off", 4},  {".md5mesh", 5},
-                 {".md5anim", 5}, {".md5camera", 5}, {".ac", 6},   {".acc", 6},     {".ac3d", 6}, {".nff", 7},
-                 {".enff", 7},    {".ase", 9},       {".ask", 9}};
-        int kind = 0;
-        for (size_t i = 0; i < sizeof k / sizeof k[0] && !kind; i++)
-            if (has_ext(path, k[i].ext)) kind = k[i].kind;
+    const int kind = kind_of(path, f);
+    if (kind == KIND_OBJ) st = check_obj(path, f, budget, hints);
+    else if (kind == KIND_PLY) st = check_ply(path, f);
+    else if (kind == KIND_GLB) st = check_glb(path, f, size, budget);
+    else if (kind != KIND_NONE) {
         char *b = NULL;
-        if (kind) st = read_whole(path, f, size, budget, &b);
+        st = read_whole(path, f, size, budget, &b);
         const size_t n = b ? strlen(b) : 0; /* text formats: a NUL ends what the checks see */
-        if (!st && kind == 1) st = check_gltf_json(path, b, n, NULL, 0, 0);
-        else if (!st && kind == 2) st = check_braces(path, b, n, 0, "braces");
-        else if (!st && kind == 3) st = check_xml(path, b, n, size);
-        else if (!st && kind == 4) st = check_off(path, b, n, size);
-        else if (!st && kind == 5) st = check_keyword_counts(path, b, n, size, k_md5_keys, 0);
-        else if (!st && kind == 6) st = check_keyword_counts(path, b, n, size, k_ac_keys, 1);
-        else if (!st && kind == 7) st = check_keyword_counts(path, b, n, size, k_nff_keys, 0);
-        else if (!st && kind == 8) st = check_x_counts(path, b, n, size);
-        else if (!st && (kind == 9 || kind == 10)) st = check_star_counts(path, b, n, size, kind == 10);
-        if (!st && (kind == 5 || kind == 8 || kind == 9 || kind == 10))
-            st = check_braces(path, b, n, kind != 8 && kind != 10, "braces");
+        if (!st && kind == KIND_JSON) st = check_gltf_json(path, b, n, NULL, 0, 0);
+        else if (!st && kind == KIND_BRACES) st = check_braces(path, b, n, 0, "braces");
+        else if (!st && kind == KIND_XML) st = check_xml(path, b, n, size);
+        else if (!st && kind == KIND_OFF) st = check_off(path, b, n, size);
+        else if (!st && kind == KIND_MD5) st = check_keyword_counts(path, b, n, size, k_md5_keys, 0);
+        else if (!st && kind == KIND_AC3D) st = check_keyword_counts(path, b, n, size, k_ac_keys, 1);
+        else if (!st && kind == KIND_NFF) st = check_keyword_counts(path, b, n, size, k_nff_keys, 0);
+        else if (!st && kind == KIND_X) st = check_x_counts(path, b, n, size);
+        else if (!st && (kind == KIND_ASE || kind == KIND_BVH))
+            st = check_star_counts(path, b, n, size, kind == KIND_BVH);
+        if (!st && (kind == KIND_MD5 || kind == KIND_X || kind == KIND_ASE || kind == KIND_BVH))
+            st = check_braces(path, b, n, kind != KIND_X && kind != KIND_BVH, "braces");
         free(b);
     }
     fclose(f);
