@@ -84,6 +84,19 @@ if [ -n "$n" ] && [ "$n" -gt 0 ] && [ $((n % 4)) -eq 0 ]; then
     ok
     "$BIN" reference --continue "$TMP/k.exr" --spp 5 -q && same_as_one_run "$TMP/k.exr" "SIGKILL"
 else bad "SIGKILL after checkpoints: no checkpoint ($n spp)"; fi
+# What killed writers left: the next write of the file removes the temporary files of processes
+# that are gone (a dead process id), and keeps a live writer's (this shell's).
+host=$(uname -n | tr './' '__')
+sh -c 'exit 0' &
+dead=$!
+wait $dead
+stale="$TMP/.k.exr.pgi-tmp-$host-$dead.AbC123" live="$TMP/.k.exr.pgi-tmp-$host-$$.XyZ789"
+other="$TMP/.kk.exr.pgi-tmp-$host-$dead.AbC123"
+touch "$stale" "$live" "$other"
+"$BIN" reference --continue "$TMP/k.exr" --spp 4 -q
+[ ! -e "$stale" ] && [ -e "$live" ] && [ -e "$other" ] && ok ||
+    bad "stale temporary files: $(ls -A "$TMP" | grep pgi-tmp | tr '\n' ' ')"
+rm -f "$live" "$other"
 
 # A full disk (a file size limit) during --continue: exit 1, the reference as it was, nothing left
 # behind; continued again later, the bytes of one run.

@@ -13,7 +13,9 @@
 #include <errno.h>
 #include <stdio.h>
 #include <string.h>
+#include <dirent.h>
 #include <fcntl.h>
+#include <signal.h>
 #include <stdlib.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -43,6 +45,42 @@ static int has_ext(const char *path, const char *ext) {
 static int image_valid(const pgi_image *img) { return img && img->rgb && img->width > 0 && img->height > 0; }
 
 /* ------------------------------------------------------- atomic outputs */
+
+/* The temporary files of `base`: ".BASE.pgi-tmp-HOST-" (BASE and HOST cut short), then the
+ * writer's process id and mkstemp's six characters. */
+static void tmp_prefix(const char *base, char *out, size_t size) {
+    char host[64];
+    if (gethostname(host, sizeof host) != 0) snprintf(host, sizeof host, "host");
+    host[sizeof host - 1] = 0;
+    for (char *c = host; *c; c++)
+        if (*c == '/' || *c == '.') *c = '_';
+    snprintf(out, size, ".%.120s.pgi-tmp-%.40s-", base, host);
+}
+
+/* Removes the temporary files of this output that a process of this machine left when it was
+ * killed before renaming them (SIGKILL, a power cut): those whose writer's process id is no
+ * longer running. A live writer's (another photongi writing the same file) are kept. */
+static void remove_stale_tmps(const char *final, int dn, const char *prefix) {
+    char dir[4096];
+    snprintf(dir, sizeof dir, "%.*s", dn ? dn : 1, dn ? final : ".");
+    DIR *d = opendir(dir);
+    if (!d) return;
+    const size_t pn = strlen(prefix);
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        if (strncmp(e->d_name, prefix, pn) != 0) continue;
+        char *end;
+        errno = 0;
+        long pid = strtol(e->d_name + pn, &end, 10);
+        if (errno || pid <= 0 || *end != '.' || strlen(end) != 7) continue;
+        if (kill((pid_t)pid, 0) == 0 || errno != ESRCH) continue;
+        char name[4096 + 256];
+        snprintf(name, sizeof name, "%s/%s", dir, e->d_name);
+        struct stat sb;
+        if (lstat(name, &sb) == 0 && S_ISREG(sb.st_mode)) unlink(name);
+    }
+    closedir(d);
+}
 
 /* An output is written to a temporary file in the folder of the file it replaces and renamed over
  * it once complete and flushed to the disk (fsync): a write that fails (disk full, a size limit) or a
@@ -82,7 +120,10 @@ pgi_status pgi__out_begin(const char *path, pgi__out *o) {
     }
     const char *slash = strrchr(o->final, '/');
     int dn = slash ? (int)(slash - o->final) + 1 : 0;
-    if (snprintf(o->tmp, sizeof o->tmp, "%.*s.pgi-tmp-XXXXXX", dn, o->final) >= (int)sizeof o->tmp)
+    char prefix[256];
+    tmp_prefix(o->final + dn, prefix, sizeof prefix);
+    remove_stale_tmps(o->final, dn, prefix);
+    if (snprintf(o->tmp, sizeof o->tmp, "%.*s%s%ld.XXXXXX", dn, o->final, prefix, (long)getpid()) >= (int)sizeof o->tmp)
         return pgi__fail(PGI_ERR_IO, "%s: cannot write: the name is too long", path);
     int fd = mkstemp(o->tmp);
     if (fd < 0) {
