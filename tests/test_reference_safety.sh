@@ -227,4 +227,21 @@ if [ "$rc" -eq 130 ] && [ -n "$k" ] && [ "$k" -ge 1 ]; then
         bad "progressive SIGINT: the average of $k frames differs from --progressive $k"
 else bad "progressive SIGINT: exit $rc: $(cat "$TMP/err")"; fi
 
+# --checkpoint: a progressive render killed (SIGKILL) leaves its last checkpoint, the image of
+# --progressive K byte for byte for the K it names; no temporary file is left once the next
+# render of that file has run.
+"$BIN" ${P% -q} --progressive 1000000 --checkpoint 0.2 -o "$TMP/c.exr" 2>"$TMP/err" &
+pid=$!
+sleep 1.5
+kill -KILL $pid
+wait $pid 2>/dev/null
+k=$(sed -n 's/.*c.exr written with the average of \([0-9]*\) frames.*/\1/p' "$TMP/err" | tail -1)
+if [ -n "$k" ] && [ "$k" -ge 1 ]; then
+    "$BIN" $P --progressive "$k" -o "$TMP/ck.exr" && cmp -s "$TMP/c.exr" "$TMP/ck.exr" && ok ||
+        bad "progressive checkpoint: the checkpoint of $k frames differs from --progressive $k"
+else bad "progressive checkpoint: no checkpoint written: $(cat "$TMP/err")"; fi
+"$BIN" $P --progressive 2 -o "$TMP/c.exr" && [ -z "$(ls -A "$TMP" | grep 'c.exr.pgi-tmp')" ] && ok ||
+    bad "progressive checkpoint: a temporary file is left: $(ls -A "$TMP" | grep pgi-tmp)"
+hostile 2 "--checkpoint needs --progressive" render $R --checkpoint 5 -o "$TMP/x.png"
+
 summary test_reference_safety

@@ -7,7 +7,15 @@
 
 #include <stdarg.h>
 #include <stdio.h>
+#include <time.h>
 #include <unistd.h>
+
+/* Wall-clock milliseconds from an arbitrary origin (CLOCK_MONOTONIC). */
+static inline double app_now_ms(void) {
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return 1e3 * (double)t.tv_sec + 1e-6 * (double)t.tv_nsec;
+}
 
 typedef struct app_progress {
     int on;         /* draw at all: a terminal, not quiet */

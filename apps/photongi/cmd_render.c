@@ -43,9 +43,44 @@ static uint64_t file_hash(const char *path) {
  * the process at once). */
 static volatile sig_atomic_t g_signal;
 static void on_signal(int sig) { g_signal = sig; }
-static int signalled(void *unused) {
-    (void)unused;
-    return g_signal != 0;
+
+/* Non-finite pixels of an image at an exposure (a frame that is not numbers is not written). */
+static size_t non_finite_pixels(const pgi_image *img, float exposure) {
+    size_t bad = 0, npx = (size_t)img->width * (size_t)img->height;
+    for (size_t i = 0; i < npx; i++) {
+        const float *p = img->rgb + 3 * i;
+        bad += !isfinite(p[0] * exposure) || !isfinite(p[1] * exposure) || !isfinite(p[2] * exposure);
+    }
+    return bad;
+}
+
+/* After each frame of --progressive: a signal ends the average; every --checkpoint seconds the
+ * average so far is written to -o (atomically: a kill while writing keeps the previous file). */
+typedef struct render_checkpoint {
+    const pgi_image *img; /* the average so far */
+    const char *out;
+    float exposure;
+    int quiet, frames;
+    double every_ms, next_ms, t0_ms;
+} render_checkpoint;
+
+static int after_frame(void *user) {
+    render_checkpoint *c = user;
+    c->frames++;
+    if (g_signal) return 1;
+    if (c->every_ms <= 0.0 || app_now_ms() - c->t0_ms < c->next_ms) return 0;
+    c->next_ms = app_now_ms() - c->t0_ms + c->every_ms;
+    if (non_finite_pixels(c->img, c->exposure)) {
+        fprintf(stderr, "photongi render: checkpoint: the average of %d frames has non-finite pixels: not written\n",
+                c->frames);
+        return 0;
+    }
+    if (pgi_image_write(c->img, c->out, c->exposure) != PGI_OK)
+        fprintf(stderr, "photongi render: checkpoint: cannot write %s: %s (the render goes on)\n", c->out,
+                pgi_last_error());
+    else if (!c->quiet)
+        fprintf(stderr, "photongi render: checkpoint: %s written with the average of %d frames\n", c->out, c->frames);
+    return 0;
 }
 
 /* What --from-stats read: the scene and the hash of its file then. */
@@ -152,6 +187,9 @@ static const char *k_render_help =
     "                     to the pixel integral, as 'photongi reference' (see --jitter).\n"
     "                     Ctrl-C (SIGINT) or SIGTERM writes the average of the frames done\n"
     "                     (exit 130/143; a second one stops at once)\n"
+    "  --checkpoint SECONDS   with --progressive: write the average so far to -o after the\n"
+    "                     first frame that ends SECONDS after the last write (default 600;\n"
+    "                     0: none), so that a killed render leaves its last checkpoint\n"
     "  --jitter auto|on|off   where in its pixel each view sample looks: auto (default) =\n"
     "                     the pixel centre for one frame, and for every frame after the first\n"
     "                     of --progressive a uniform point of the pixel drawn from the seed\n"
@@ -244,6 +282,8 @@ int pgi_cmd_render(int argc, char **argv) {
     int quiet = 0;
     char err[400];
     from_stats fsr = {{0}, {0}, {0}}; /* --from-stats: its strings live through the call */
+    double checkpoint_s = 600.0;
+    int checkpoint_set = 0;
     for (int i = 0; i < argc; i++) {
         const char *a = argv[i];
         if (is_help(a)) {
@@ -269,7 +309,14 @@ int pgi_cmd_render(int argc, char **argv) {
             if (fsr.scene[0]) scene_spec = fsr.scene;
         } else if (strcmp(a, "-o") == 0 || strcmp(a, "--out") == 0) out = v;
         else if (strcmp(a, "--stats") == 0) stats_path = v;
-        else return cli_usage("render", "unknown option '%s'", a);
+        else if (strcmp(a, "--checkpoint") == 0) {
+            char *end;
+            errno = 0;
+            checkpoint_s = strtod(v, &end);
+            if (!*v || *end || errno || !(checkpoint_s >= 0.0 && checkpoint_s <= 1e9))
+                return cli_usage("render", "--checkpoint needs seconds, a number in 0..1e9 (0: none), got '%s'", v);
+            checkpoint_set = 1;
+        } else return cli_usage("render", "unknown option '%s'", a);
     }
     /* Everything the command line alone decides, before any file is read. */
     if (!out) return cli_usage("render", "%s", "no output file: give -o OUT.png or -o OUT.exr");
@@ -289,6 +336,11 @@ int pgi_cmd_render(int argc, char **argv) {
     }
     if (ck == 0) return cli_usage("render", "%s", err);
     const long long progressive = x.progressive;
+    if (checkpoint_set && progressive < 2)
+        return cli_usage("render", "%s",
+                         "--checkpoint needs --progressive N with N > 1 (one frame has nothing to save)");
+    if (checkpoint_set && pgi_cli_backend_now && checkpoint_s > 0.0)
+        return cli_usage("render", "%s", "--checkpoint: photongi-mpi render writes only at its end");
     float exposure = x.exposure;
     const float scene_time = x.time;
     const pgi_specular specular = x.specular;
@@ -352,7 +404,9 @@ int pgi_cmd_render(int argc, char **argv) {
         sigemptyset(&sa.sa_mask);
         sigaction(SIGINT, &sa, &old_int);
         sigaction(SIGTERM, &sa, &old_term);
-        st = pgi_render_progressive_until(r, &d, (int)progressive, signalled, NULL, &img, &fs);
+        render_checkpoint cp =
+            {&img, out, exposure, quiet || bar.on, 0, 1000.0 * checkpoint_s, 1000.0 * checkpoint_s, app_now_ms()};
+        st = pgi_render_progressive_until(r, &d, (int)progressive, after_frame, &cp, &img, &fs);
         sigaction(SIGINT, &old_int, NULL);
         sigaction(SIGTERM, &old_term, NULL);
     } else st = pgi_renderer_render(r, &d, &img, &fs);
@@ -375,11 +429,7 @@ int pgi_cmd_render(int argc, char **argv) {
     }
     /* A frame that is not numbers is a failed render, not an image (the scene's limits keep its
      * values floats, docs/scene-format.md "Numbers"; this catches what they let through). */
-    size_t bad = 0, npx = (size_t)img.width * (size_t)img.height;
-    for (size_t i = 0; i < npx; i++) {
-        const float *p = img.rgb + 3 * i;
-        bad += !isfinite(p[0] * exposure) || !isfinite(p[1] * exposure) || !isfinite(p[2] * exposure);
-    }
+    const size_t bad = non_finite_pixels(&img, exposure), npx = (size_t)img.width * (size_t)img.height;
     if (bad) {
         pgi_image_free(&img);
         pgi_scene_destroy(scene);

@@ -17,6 +17,7 @@
 #include "cli.h"
 #include "cmd.h"
 #include "output.h"
+#include "progress.h"
 #include "parse.h"
 #include "photongi/metrics.h"
 #include "photongi/photongi.h"
@@ -87,12 +88,6 @@ typedef struct row {
 } row;
 
 static double memory_of(const pgi_frame_stats *fs);
-
-static double now_ms(void) {
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return 1e3 * (double)t.tv_sec + 1e-6 * (double)t.tv_nsec;
-}
 
 /* What the study's methods share. */
 typedef struct study_ctx {
@@ -180,9 +175,9 @@ static pgi_status run_method(const study_ctx *c, const method *m, const double *
             st = pgi_progressive_step(p, &dm, &img, &one);
             last = one.total_ms;
         } else {
-            const double t0 = now_ms();
+            const double t0 = app_now_ms();
             st = pgi_reference_render(c->scene, &rd, &img, &have);
-            last = now_ms() - t0;
+            last = app_now_ms() - t0;
             memset(&one, 0, sizeof one);
         }
         if (st) break;
