@@ -93,6 +93,31 @@ cp "$TMP/f-ref.exr" "$TMP/c-3.exr" && cp "$TMP/f-ref.exr.json" "$TMP/c-3.exr.jso
     cmp -s "$TMP/c-ref.exr" "$TMP/c-3.exr" && grep -q '"spp":.*34' "$TMP/c-3.exr.json" && ok ||
     bad "reference --continue: -np 3 differs from photongi"
 
+# --checkpoint: the reference is saved on the way (each rank goes on from the samples saved) and ends
+# with the bytes of one uninterrupted run.
+G=(reference --scene cornell --size 24x16 --spp 2000)
+"$CLI" "${G[@]}" -q -o "$TMP/g-ref.exr" && ok || bad "photongi reference --spp 2000 failed"
+np 2 "${G[@]}" --checkpoint 0.05 --threads 1 -o "$TMP/g-2.exr" 2>"$TMP/err"
+rc=$?
+[ $rc -eq 0 ] && grep -q "checkpoint: .*g-2.exr saved at" "$TMP/err" && cmp -s "$TMP/g-ref.exr" "$TMP/g-2.exr" &&
+    cmp -s "$TMP/g-ref.exr.json" "$TMP/g-2.exr.json" && ok ||
+    bad "reference --checkpoint -np 2: exit $rc, or no checkpoint, or not the bytes of one run: $(grep -v ranks "$TMP/err" | head -3)"
+# SIGINT to mpirun (it passes SIGTERM to the ranks): the samples so far are saved, a whole number of
+# blocks; continued by 4, the bytes of one run of as many.
+I=(reference --scene cornell --size 64x48 --threads 1)
+timeout 120 "$MPIRUN" "${MPIOPTS[@]}" -np 2 "$MPI" "${I[@]}" --spp 1000000 -o "$TMP/i-2.exr" 2>"$TMP/err" &
+pid=$!
+sleep 2
+kill -INT $pid
+wait $pid
+n=$(sed -n 's/.*"spp":[[:space:]]*"\([0-9]*\)".*/\1/p' "$TMP/i-2.exr.json" 2>/dev/null)
+if grep -q "interrupted (SIGTERM): .*i-2.exr saved with" "$TMP/err" && [ -n "$n" ] && [ "$n" -gt 0 ] &&
+    [ $((n % 4)) -eq 0 ]; then
+    "$CLI" reference --continue "$TMP/i-2.exr" --spp 4 -q && "$CLI" "${I[@]}" --spp $((n + 4)) -q -o "$TMP/i-1.exr" &&
+        cmp -s "$TMP/i-1.exr" "$TMP/i-2.exr" && ok ||
+        bad "mpirun SIGINT: $n samples saved; continued by 4 they differ from one run of $((n + 4))"
+else bad "mpirun SIGINT: nothing saved ($n spp): $(grep -v ranks "$TMP/err" | head -3)"; fi
+
 # Bad input under MPI: a message, a non-zero exit, no hang, no output.
 np 2 render --scene "$TMP/missing.obj" -o "$TMP/x.png" 2>"$TMP/err"
 rc=$?

@@ -195,6 +195,7 @@ struct job {
     work_fn work;
     frame_fn work_frame;
     double time_limit_ms; /* reference --time: no block is dealt after it (0: none) */
+    int stop_asked;       /* rank 0: the caller's progress callback asked to stop (a checkpoint, a signal) */
     double t0;
     /* the blocks from split_from on are dealt frame by frame (nblocks: none), so that the last
        rank to finish is at most about one frame, not one block, behind the others */
@@ -275,7 +276,7 @@ static size_t frame_bytes(const job *j) { return FRAME_HEAD + j->values * sizeof
 static float *frame_rgb(double *buf) { return (float *)(void *)((char *)buf + FRAME_HEAD); }
 
 static int dealing_over(const job *j) {
-    if (j->next_item >= j->items) return 1;
+    if (j->next_item >= j->items || j->stop_asked) return 1;
     return j->time_limit_ms > 0.0 && now_ms() - j->t0 >= j->time_limit_ms && j->next_item > 0;
 }
 
@@ -902,9 +903,11 @@ static pgi_status samples_work(job *j, int64_t b, double **sump) {
         if (g_rank == 0) {
             master_poll(j);
             if (j->ref_progress) {
+                /* nonzero: no more blocks are dealt; those dealt are finished and added */
                 uint64_t done = (uint64_t)j->items_done + (uint64_t)(s - s0 + 1);
-                j->ref_progress(j->ref_progress_user, done > (uint64_t)j->items ? (uint64_t)j->items : done,
-                                (uint64_t)j->items, now_ms() - j->t0);
+                if (j->ref_progress(j->ref_progress_user, done > (uint64_t)j->items ? (uint64_t)j->items : done,
+                                    (uint64_t)j->items, now_ms() - j->t0))
+                    j->stop_asked = 1;
             }
         } else worker_poll(j);
     }
@@ -919,7 +922,8 @@ static pgi_status mpi_reference(const pgi_scene *scene, const pgi_reference_desc
     else st = pgi_reference_sampler_create(scene, in, &j.sampler);
     int w = 0, h = 0;
     pgi_reference_sampler_size(j.sampler, &w, &h);
-    if (!st && *spp > 0 && (!mean->rgb || mean->width != w || mean->height != h)) st = PGI_ERR_INVALID_ARG;
+    if (!st && g_rank == 0 && *spp > 0 && (!mean->rgb || mean->width != w || mean->height != h))
+        st = PGI_ERR_INVALID_ARG;
     int who = begin_scene(st ? CLI_EXIT_FAILURE : 0, scene);
     if (st || who >= 0) {
         pgi_reference_sampler_destroy(j.sampler);
@@ -951,9 +955,14 @@ static pgi_status mpi_reference(const pgi_scene *scene, const pgi_reference_desc
     gather_stats(NULL);
     g_wall_ms = now_ms() - j.t0;
     pgi_reference_sampler_destroy(j.sampler);
-    if (g_rank != 0) return PGI_OK;
-    g_blocks = dealt;
+    /* every rank learns the samples added: the caller's next call (a checkpoint's) goes on from them */
     uint64_t done = (uint64_t)j.items_done;
+    MPI_Bcast(&done, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
+    if (g_rank != 0) {
+        *spp = j.n0 + done;
+        return PGI_OK;
+    }
+    g_blocks = dealt;
     if (*spp == 0) {
         pgi_image_free(mean);
         mean->rgb = malloc(j.values * sizeof(float));
@@ -969,6 +978,12 @@ static pgi_status mpi_reference(const pgi_scene *scene, const pgi_reference_desc
 }
 
 /* ------------------------------------------------------------------ stats JSON with "mpi" */
+
+/* rank 0's value, on every rank */
+static int agree(int value) {
+    MPI_Bcast(&value, 1, MPI_INT, 0, MPI_COMM_WORLD);
+    return value;
+}
 
 static pgi_status write_stats(const pgi_frame_stats *fs, const char *path) {
     /* the library's JSON, with "mpi" added */
@@ -1064,7 +1079,7 @@ int main(int argc, char **argv) {
     }
     for (int i = 2; i < argc; i++)
         if (strcmp(argv[i], "-q") == 0 || strcmp(argv[i], "--quiet") == 0) g_quiet = 1;
-    static pgi_cli_backend be = {0, mpi_progressive, mpi_reference, write_stats};
+    static pgi_cli_backend be = {0, mpi_progressive, mpi_reference, write_stats, agree};
     be.writer = g_rank == 0;
     pgi_cli_backend_now = &be;
     int rc;

@@ -27,6 +27,8 @@ typedef struct pgi_cli_backend {
     pgi_status (*reference)(const pgi_scene *scene, const pgi_reference_desc *desc, pgi_image *mean, uint64_t *spp);
     /* writes the render's stats JSON (the library's, plus what the backend adds) */
     pgi_status (*write_stats)(const pgi_frame_stats *stats, const char *path);
+    /* the writer's value, returned on every process (whether a reference goes on after a checkpoint) */
+    int (*agree)(int value);
 } pgi_cli_backend;
 
 extern const pgi_cli_backend *pgi_cli_backend_now;

@@ -403,45 +403,39 @@ int pgi_cmd_reference(int argc, char **argv) {
     meta.seed = d.seed;
     meta.jitter = d.jitter;
     meta.specular = info.specular; /* the model in use, whether given or the scene's */
-    if (be) {                      /* photongi-mpi: one call, its own time limit; no checkpoints */
-        d.time_limit_s = time_s;
-        if (rp.bar.on) {
-            d.progress = progress_cb;
-            d.progress_user = &rp;
-            rp.time_limit_s = 0.0; /* the backend stops on time */
-        }
-        st = be->reference(scene, &d, &img, &have);
-    } else {
-        /* Calls of the library that stop at a checkpoint or a signal (on a multiple of 4 samples: the
-           next call goes on with the same bits) or at the time limit. */
-        /* kept to the end: a signal while saving is noted, not fatal */
-        struct sigaction sa;
-        memset(&sa, 0, sizeof sa);
-        sa.sa_handler = on_signal;
-        sigemptyset(&sa.sa_mask);
-        sigaction(SIGINT, &sa, NULL);
-        sigaction(SIGTERM, &sa, NULL);
-        d.progress = progress_cb;
-        d.progress_user = &rp;
-        d.time_limit_s = 0.0;
-        rp.checkpoint_ms = 1000.0 * checkpoint_s;
-        uint64_t left = d.spp;
-        for (;;) {
-            d.spp = left;
-            rp.n0 = have;
-            rp.checkpoint = 0;
-            rp.last_ms = 0.0;
-            const uint64_t h0 = have;
-            st = pgi_reference_render(scene, &d, &img, &have);
-            if (st) break;
-            rp.base += have - h0;
-            rp.base_ms += rp.last_ms;
-            left -= have - h0;
-            if (!rp.checkpoint || left == 0 || g_signal) break;
-            meta.spp = have;
-            if (save_reference(&img, out, meta_path, &meta, "checkpoint") == 0 && !quiet && !rp.bar.on)
-                fprintf(stderr, "photongi reference: checkpoint: %s saved at %" PRIu64 " spp\n", out, have);
-        }
+    /* Calls of the library (or of photongi-mpi's backend, across its ranks) that stop at a
+       checkpoint or a signal (on a multiple of 4 samples: the next call goes on with the same bits)
+       or at the time limit. */
+    /* kept to the end: a signal while saving is noted, not fatal */
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+    d.progress = progress_cb;
+    d.progress_user = &rp;
+    d.time_limit_s = 0.0;
+    rp.checkpoint_ms = 1000.0 * checkpoint_s;
+    const int writer = !be || be->writer;
+    uint64_t left = d.spp;
+    for (;;) {
+        d.spp = left;
+        rp.n0 = have;
+        rp.checkpoint = 0;
+        rp.last_ms = 0.0;
+        const uint64_t h0 = have;
+        st = be ? be->reference(scene, &d, &img, &have) : pgi_reference_render(scene, &d, &img, &have);
+        if (st) break;
+        rp.base += have - h0;
+        rp.base_ms += rp.last_ms;
+        left -= have - h0;
+        int more = rp.checkpoint && left > 0 && !g_signal;
+        if (be) more = be->agree(more); /* the writer's progress decides for every process */
+        if (!more) break;
+        meta.spp = have;
+        if (writer && save_reference(&img, out, meta_path, &meta, "checkpoint") == 0 && !quiet && !rp.bar.on)
+            fprintf(stderr, "photongi reference: checkpoint: %s saved at %" PRIu64 " spp\n", out, have);
     }
     app_progress_end(&rp.bar, 1);
     pgi_scene_destroy(scene);
