@@ -70,6 +70,11 @@ grep -qF -- '--device cpu|gpu|vulkan[:N]' "$TMP/out" && ok || bad "render --help
 expect_fail "does not exist" render "${common[@]}" --device vulkan:99 -o "$TMP/x.png"
 expect_fail "0: " render "${common[@]}" --device vulkan:99 -o "$TMP/x.png"
 expect_fail "no GPU version" render "${common[@]}" --device vulkan --estimator bounds3d -o "$TMP/x.png"
+# a device whose memory cannot hold the frame (PGI_GPU_HEAP_LIMIT, gpu.c's test hook: a 2 MB heap):
+# refused by name and size before the driver is asked, nothing written
+PGI_GPU_HEAP_LIMIT=2000000 expect_fail "gpu_trace_scratch needs 2.6 MiB of device memory" render "${common[@]}" \
+    --device vulkan -o "$TMP/heap.png"
+[ ! -e "$TMP/heap.png" ] && ok || bad "a refused device frame wrote its image"
 run render "${common[@]}" --device metal -o "$TMP/x.png"
 [ "$rc" -eq 2 ] && ok || bad "--device metal: exit $rc (want 2)"
 # no Vulkan driver at all: the loader finds no ICD

@@ -76,7 +76,9 @@ struct pgi__gpu_buffer {
     VkDeviceMemory mem;
     size_t size;
     const char *what;
-    void *mapped; /* host-visible and coherent: written and read directly */
+    void *mapped;   /* host-visible and coherent: written and read directly */
+    uint32_t heap;  /* the memory heap it lives in */
+    uint64_t alloc; /* bytes allocated for it there */
     pgi__gpu_buffer *next, *prev;
 };
 
@@ -111,6 +113,12 @@ struct pgi__gpu {
      * (the staging path of a discrete GPU); PGI_GPU_NO_PUSH_DESCRIPTORS=1: descriptor sets from the
      * pool; PGI_GPU_NO_TIMESTAMPS=1: the CPU-timed sequence of a queue without timestamps */
     int force_staging;
+    /* Device memory: what each heap holds of ours and may hold (its size; PGI_GPU_HEAP_LIMIT=BYTES, a
+     * test hook, makes it smaller). A device whose memory is the host's (a CPU device: lavapipe)
+     * also keeps its buffers within the frame's memory budget (pgi__gpu_set_budget). */
+    uint64_t heap_used[VK_MAX_MEMORY_HEAPS], heap_limit[VK_MAX_MEMORY_HEAPS];
+    int host_memory;
+    uint64_t budget;          /* 0: none */
     pgi__gpu_buffer *buffers; /* every live buffer, for the memory stats */
     pgi__gpu_buffer *staging;
     /* the sequence being recorded */
@@ -317,6 +325,11 @@ pgi_status pgi__gpu_create(int index, pgi__gpu **out) {
     vkGetPhysicalDeviceProperties(g->pd, &props);
     snprintf(g->name, sizeof g->name, "%s", props.deviceName);
     vkGetPhysicalDeviceMemoryProperties(g->pd, &g->memp);
+    const char *hl = getenv("PGI_GPU_HEAP_LIMIT");
+    const unsigned long long hook = hl ? strtoull(hl, NULL, 10) : 0;
+    for (uint32_t i = 0; i < g->memp.memoryHeapCount && i < VK_MAX_MEMORY_HEAPS; i++)
+        g->heap_limit[i] = hook && hook < g->memp.memoryHeaps[i].size ? hook : g->memp.memoryHeaps[i].size;
+    g->host_memory = props.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU;
     /* a compute queue: one without graphics first (a dedicated compute family), else any */
     uint32_t nq = 0;
     vkGetPhysicalDeviceQueueFamilyProperties(g->pd, &nq, NULL);
@@ -427,6 +440,56 @@ static int memory_type(const pgi__gpu *g, uint32_t bits, VkMemoryPropertyFlags w
     return -1;
 }
 
+/* A size as "N.N MiB", or "N KiB" under a MiB (buf: at least 32 bytes). */
+static const char *size_text(double bytes, char *buf) {
+    if (bytes < 1024.0 * 1024.0) snprintf(buf, 32, "%.0f KiB", bytes / 1024.0);
+    else snprintf(buf, 32, "%.1f MiB", bytes / (1024.0 * 1024.0));
+    return buf;
+}
+
+/* Whether `bytes` more fit in heap `heap` (and, on a device whose memory is the host's, in the
+ * budget): an allocation past them is refused with what holds the memory, before the driver
+ * fails it or the host runs out. */
+static pgi_status heap_fits(const pgi__gpu *g, uint32_t heap, uint64_t bytes, const char *what) {
+    uint64_t used = 0;
+    for (uint32_t i = 0; i < VK_MAX_MEMORY_HEAPS; i++) used += g->heap_used[i];
+    const int over_heap = g->heap_used[heap] + bytes > g->heap_limit[heap];
+    const int over_budget = g->host_memory && g->budget && used + bytes > g->budget;
+    if (!over_heap && !over_budget) return PGI_OK;
+    /* the largest holders, to say where the memory went */
+    pgi_named_value top[PGI_MAX_STAT_ENTRIES];
+    int n = pgi__gpu_memory(g, top, PGI_MAX_STAT_ENTRIES);
+    char list[256] = "";
+    for (int k = 0, len = 0; k < 3 && k < n; k++) {
+        int best = k;
+        for (int i = k + 1; i < n; i++)
+            if (top[i].value > top[best].value) best = i;
+        pgi_named_value t = top[k];
+        top[k] = top[best];
+        top[best] = t;
+        char sz[32];
+        len += snprintf(list + len, sizeof list - (size_t)len, "%s%s %s", k ? ", " : "", top[k].name,
+                        size_text(top[k].value, sz));
+        if (len >= (int)sizeof list) break;
+    }
+    char a[32], b[32], c[32];
+    if (over_heap)
+        return pgi__fail(PGI_ERR_OOM,
+                         "Vulkan device %s: %s needs %s of device memory, and %s of its %s are taken by photongi's "
+                         "other buffers%s%s%s: use fewer photons or a smaller image",
+                         g->name, what, size_text((double)bytes, a), size_text((double)g->heap_used[heap], b),
+                         size_text((double)g->heap_limit[heap], c), n ? " (" : "", list, n ? ")" : "");
+    return pgi__fail(PGI_ERR_OOM,
+                     "Vulkan device %s: %s needs %s, and the device's buffers already hold %s of the %s memory "
+                     "budget (--max-memory; this device's memory is the host's)%s%s%s",
+                     g->name, what, size_text((double)bytes, a), size_text((double)used, b),
+                     size_text((double)g->budget, c), n ? " (" : "", list, n ? ")" : "");
+}
+
+void pgi__gpu_set_budget(pgi__gpu *g, uint64_t bytes) {
+    if (g) g->budget = bytes == PGI_MEMORY_UNLIMITED ? 0 : bytes;
+}
+
 /* A buffer of `bytes`; `host`: host-visible and coherent (staging), else device-local where there is such
  * memory (mapped too when that memory is also host-visible and coherent, as on lavapipe and ReBAR). */
 static pgi_status buffer_new(pgi__gpu *g, size_t bytes, const char *what, int host, pgi__gpu_buffer **out) {
@@ -464,6 +527,13 @@ static pgi_status buffer_new(pgi__gpu *g, size_t bytes, const char *what, int ho
         free(b);
         return pgi__fail(PGI_ERR_UNSUPPORTED, "Vulkan: no memory type for a %s buffer of %zu bytes", what, bytes);
     }
+    const uint32_t heap = g->memp.memoryTypes[t].heapIndex;
+    pgi_status fits = heap_fits(g, heap, req.size, what);
+    if (fits) {
+        vkDestroyBuffer(g->dev, b->buf, NULL);
+        free(b);
+        return fits;
+    }
     VkMemoryAllocateInfo mai = {.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO,
                                 .allocationSize = req.size,
                                 .memoryTypeIndex = (uint32_t)t};
@@ -485,6 +555,9 @@ static pgi_status buffer_new(pgi__gpu *g, size_t bytes, const char *what, int ho
         b->mapped = NULL; /* used through staging instead */
     b->size = bytes;
     b->what = what;
+    b->heap = heap;
+    b->alloc = req.size;
+    g->heap_used[heap] += req.size;
     b->next = g->buffers;
     if (g->buffers) g->buffers->prev = b;
     g->buffers = b;
@@ -510,6 +583,7 @@ void pgi__gpu_buffer_destroy(pgi__gpu *g, pgi__gpu_buffer *b) {
     if (b->next) b->next->prev = b->prev;
     if (g->staging == b) g->staging = NULL;
     if (b->mapped) vkUnmapMemory(g->dev, b->mem);
+    g->heap_used[b->heap] -= b->alloc;
     vkDestroyBuffer(g->dev, b->buf, NULL);
     vkFreeMemory(g->dev, b->mem, NULL);
     free(b);

@@ -66,6 +66,9 @@ pgi_status pgi__gpu_upload(pgi__gpu *g, pgi__gpu_buffer *dst, size_t offset, con
 pgi_status pgi__gpu_download(pgi__gpu *g, const pgi__gpu_buffer *src, size_t offset, void *dst, size_t bytes);
 /* Bytes held by the device's buffers, one entry per `what` (summed), for the frame's memory stats. */
 int pgi__gpu_memory(const pgi__gpu *g, pgi_named_value *out, int max);
+/* The frame's memory budget (--max-memory; PGI_MEMORY_UNLIMITED: none), which a device whose memory
+ * is the host's (a CPU device) keeps its buffers within; every device keeps them within its heaps. */
+void pgi__gpu_set_budget(pgi__gpu *g, uint64_t bytes);
 
 /* A compute pipeline from SPIR-V: `nbuffers` (1..16) storage buffers at set 0, bindings
  * 0..nbuffers-1, and push constants of `push_bytes` (0..128, a multiple of 4). `name` names it in

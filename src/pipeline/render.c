@@ -507,6 +507,7 @@ static pgi_status ensure_gpu(pgi_renderer *r, const pgi_render_desc *d, int *cre
         if ((st = pgi__gpu_create(d->device_index - 1, &r->gpu))) return st;
         r->gpu_index = d->device_index;
     }
+    pgi__gpu_set_budget(r->gpu, d->max_memory);
     if (!r->gpu_scene && (st = pgi__gpu_scene_create(r->gpu, r->scene, &r->gpu_scene))) return st;
     if (!r->gpu_view && (st = pgi__gpu_view_create(r->gpu, &r->gpu_view))) return st;
     if (!r->gpu_trace && (st = pgi__gpu_trace_create(r->gpu, r->gpu_scene, &r->gpu_trace))) return st;
