@@ -135,8 +135,9 @@ typedef enum pgi_emission {
     PGI_EMISSION_GUIDED,      /* view importance: a uniform pilot of about an eighth of the photons, then
                                  photons steered towards the light paths whose photons landed where the
                                  camera looks, weighted so that the estimate stays unbiased */
-    PGI_EMISSION_AUTO         /* guided where the pilot predicts at least 1.25x the photons in view,
-                                 uniform elsewhere (byte-identical to PGI_EMISSION_UNIFORM then) */
+    PGI_EMISSION_AUTO         /* guided where the pilot predicts at least 1.25x the photons in view per unit
+                                 of frame cost (pgi_emission_stats.value: fewer paths per stored photon
+                                 count too), uniform elsewhere (byte-identical to PGI_EMISSION_UNIFORM then) */
 } pgi_emission;
 
 /* Which photons are stored (docs/emission.md). */
@@ -286,19 +287,25 @@ typedef struct pgi_auto_radius_stats {
  * is "in view" when it lands in a cell of the view grid: cells of size `cell` holding a view sample
  * whose surface faces the same way. */
 typedef struct pgi_emission_stats {
-    int guided;             /* 1: the guide steered the photons after the pilot (0: it kept uniform emission:
+    int guided;                      /* 1: the guide steered the photons after the pilot (0: it kept uniform emission:
                                auto predicted too little gain, or the pilot saw under 32 photons in view) */
-    int bins;               /* the guide's bins */
-    uint64_t pilot_paths;   /* path indices the uniform pilot used (all it traced); their photons were dropped
+    int bins;                        /* the guide's bins */
+    uint64_t pilot_paths;            /* path indices the uniform pilot used (all it traced); their photons were dropped
                                (0 when the guide did not steer: the pilot's photons were kept) */
-    double gain;            /* predicted photons in view per stored photon, steered over uniform */
-    double in_view;         /* fraction of the photons of this frame's paths (the steered ones: not the pilot's
+    double gain;                     /* predicted photons in view per stored photon, steered over uniform */
+    double paths_per_stored;         /* predicted paths traced per photon stored, steered (from the pilot) */
+    double paths_per_stored_uniform; /* ... and uniform */
+    double value;                    /* predicted photons in view per unit of frame cost, steered over uniform: gain x
+                               (paths_per_stored_uniform + 1) / (paths_per_stored + 1), a stored photon
+                               costing the estimator about what one path costs the tracer; auto steers
+                               when it is at least 1.25 */
+    double in_view;                  /* fraction of the photons of this frame's paths (the steered ones: not the pilot's
                                when it was dropped) that landed in view; measured over every path traced */
-    double in_view_uniform; /* the same for uniform emission (from the pilot and the bins) */
-    size_t cells;           /* cells the camera sees */
-    float cell;             /* their size, scene units */
-    double grid_ms;         /* building the view grid(s) */
-    uint64_t culled;        /* PGI_STORE_VIEW: photons not stored (no view sample within the radius) */
+    double in_view_uniform;          /* the same for uniform emission (from the pilot and the bins) */
+    size_t cells;                    /* cells the camera sees */
+    float cell;                      /* their size, scene units */
+    double grid_ms;                  /* building the view grid(s) */
+    uint64_t culled;                 /* PGI_STORE_VIEW: photons not stored (no view sample within the radius) */
 } pgi_emission_stats;
 
 /* What the caller did around the frame (pgi_frame_stats.run), for statistics that reproduce a run:

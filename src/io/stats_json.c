@@ -219,6 +219,9 @@ static cJSON *build(const pgi_frame_stats *st) {
             ok &= add_num(o, "bins", es->bins);
             ok &= add_num(o, "pilot_paths", (double)es->pilot_paths);
             ok &= add_num(o, "gain", es->gain);
+            ok &= add_num(o, "paths_per_stored", es->paths_per_stored);
+            ok &= add_num(o, "paths_per_stored_uniform", es->paths_per_stored_uniform);
+            ok &= add_num(o, "value", es->value);
             ok &= add_num(o, "in_view", es->in_view);
             ok &= add_num(o, "in_view_uniform", es->in_view_uniform);
             ok &= add_num(o, "cells", (double)es->cells);

@@ -184,8 +184,9 @@ void pgi__guide_update(pgi__guide *g, double min_gain) {
     pgi__guide_totals(g, &S, &U);
     for (int b = 0; b < n; b++) N += g->paths[b];
     g->on = 0;
-    g->gain = 1.0;
+    g->gain = g->value = 1.0;
     g->useful_uniform = S > 0 ? U / S : 0.0;
+    g->yield = g->yield_uniform = N > 0 ? S / N : 0.0;
     if (!(U >= 32.0) || !(S > U)) return; /* too little evidence, or every photon lands in view */
     const double ebar = U / N, sbar = S / N;
     /* useful (e) and stored (s) photons a path from each bin, expected under uniform emission */
@@ -216,5 +217,11 @@ void pgi__guide_update(pgi__guide *g, double min_gain) {
     g->useful_uniform = ue / us;
     g->gain = (qe / qs) / (ue / us);
     g->yield = qs / acc;
-    g->on = g->gain >= min_gain;
+    g->yield_uniform = us;
+    /* A frame of a given number of stored photons costs 1/yield paths a photon, plus about
+       PGI__GUIDE_BETA paths' worth of estimator work a photon: steering pays when its photons in view
+       per unit of that cost beat uniform emission's (a scene whose paths mostly store nothing, a sky
+       over a closed building, gains by the paths saved even when the in-view fraction barely moves). */
+    g->value = g->gain * (1.0 / us + PGI__GUIDE_BETA) / (1.0 / g->yield + PGI__GUIDE_BETA);
+    g->on = g->value >= min_gain;
 }

@@ -102,6 +102,8 @@ typedef struct pgi__guide {
     double gain;           /* predicted useful fraction of the stored photons under q over uniform's */
     double useful_uniform; /* useful fraction of stored photons with uniform emission (estimated) */
     double yield;          /* predicted stored photons per path under q */
+    double yield_uniform;  /* ... and under uniform emission */
+    double value;          /* predicted photons in view per unit of frame cost, q over uniform (PGI__GUIDE_BETA) */
     double in_view;        /* measured: fraction of the photons kept (steered, or all) that are in view */
 } pgi__guide;
 
@@ -114,8 +116,11 @@ size_t pgi__guide_bytes(const pgi__guide *g);
 void pgi__guide_totals(const pgi__guide *g, double *stored, double *useful);
 /* Adds the per-thread counters of a batch to the evidence and zeroes them. */
 void pgi__guide_collect(pgi__guide *g);
-/* Rebuilds q from the evidence; g->on tells whether it is worth sampling from (predicted gain at
- * least `min_gain`). */
+/* What a stored photon costs the rest of the frame (the estimator's build and gathers), in paths
+ * traced: on Sibenik and the Cornell box about one (docs/emission.md, Auto). */
+#define PGI__GUIDE_BETA 1.0
+/* Rebuilds q from the evidence; g->on tells whether it is worth sampling from: its predicted value
+ * (photons in view per unit of frame cost, over uniform emission's) at least `min_gain`. */
 void pgi__guide_update(pgi__guide *g, double min_gain);
 
 /* A bin's volume in the primary sample space: its probability under uniform emission. */

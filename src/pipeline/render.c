@@ -570,7 +570,8 @@ static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, uint64_t se
         td.vgrid = &r->vgrid;
         /* no stale figures if the tracer returns before the guide starts (no light, no bounce) */
         r->guide.on = 0;
-        r->guide.gain = 1.0;
+        r->guide.gain = r->guide.value = 1.0;
+        r->guide.yield = r->guide.yield_uniform = 0.0;
         r->guide.in_view = r->guide.useful_uniform = 0.0;
         td.min_gain = d->emission == PGI_EMISSION_AUTO ? 1.25 : 0.0;
     }
@@ -604,6 +605,9 @@ static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, uint64_t se
         fs->emission.guided = g->on;
         fs->emission.bins = g->nbins;
         fs->emission.gain = g->gain;
+        fs->emission.paths_per_stored = g->yield > 0 ? 1.0 / g->yield : 0.0;
+        fs->emission.paths_per_stored_uniform = g->yield_uniform > 0 ? 1.0 / g->yield_uniform : 0.0;
+        fs->emission.value = g->value;
         fs->emission.in_view = g->in_view;
         fs->emission.in_view_uniform = g->useful_uniform;
     }
