@@ -218,16 +218,23 @@ static void guided_is_deterministic(void **state) {
     pgi_scene_destroy(s);
 }
 
+/* A 64x64 frame of 20000 photons, radius 0.1, with the given emission. */
+static pgi_render_desc small_desc(pgi_emission e) {
+    pgi_render_desc d = {0};
+    d.width = d.height = 64;
+    d.photons = 20000;
+    d.radius = 0.1f;
+    d.emission = e;
+    return d;
+}
+
 /* The Cornell box seen whole: the pilot predicts no gain, so auto keeps uniform emission and its
  * image, byte for byte. */
 static void auto_keeps_uniform_where_all_is_in_view(void **state) {
     (void)state;
     pgi_scene *s = NULL;
     TU_CHECK_OK(pgi_scene_load("cornell", &s));
-    pgi_render_desc d = {0};
-    d.width = d.height = 64;
-    d.photons = 20000;
-    d.radius = 0.1f;
+    pgi_render_desc d = small_desc(PGI_EMISSION_UNIFORM);
     pgi_image a = {0}, b = {0};
     pgi_frame_stats fs;
     TU_CHECK_OK(pgi_render(s, &d, &a, NULL));
@@ -250,11 +257,7 @@ static void auto_steers_where_paths_store_nothing(void **state) {
     (void)state;
     pgi_scene *s = NULL;
     TU_CHECK_OK(pgi_scene_load("sphere-and-plane", &s));
-    pgi_render_desc d = {0};
-    d.width = d.height = 64;
-    d.photons = 20000;
-    d.radius = 0.1f;
-    d.emission = PGI_EMISSION_AUTO;
+    pgi_render_desc d = small_desc(PGI_EMISSION_AUTO);
     pgi_image a = {0};
     pgi_frame_stats fs;
     TU_CHECK_OK(pgi_render(s, &d, &a, &fs));

@@ -119,6 +119,16 @@ static inline int parse_pos_double(const char *s, double *out) {
     return 1;
 }
 
+/* --checkpoint's seconds: a number in 0..1e9 (0: none). */
+static inline int parse_checkpoint(const char *s, double *out) {
+    char *end;
+    errno = 0;
+    double v = strtod(s, &end);
+    if (!*s || *end || errno || !(v >= 0.0 && v <= 1e9)) return 0;
+    *out = v;
+    return 1;
+}
+
 /* A memory size (--max-memory): a positive number with an optional binary unit K, M, G or T
  * (1024-based; "KB", "KiB", "k" alike; none: bytes), e.g. "2G", "1.5GiB", "512M"; or "none"
  * (PGI_MEMORY_UNLIMITED). */

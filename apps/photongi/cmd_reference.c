@@ -256,10 +256,7 @@ int pgi_cmd_reference(int argc, char **argv) {
             if (!parse_whole(v, 1, 1LL << 40, &spp))
                 return cli_usage("reference", "--spp needs a whole number in 1..%lld (2^40), got '%s'", 1LL << 40, v);
         } else if (strcmp(a, "--checkpoint") == 0) {
-            char *end;
-            errno = 0;
-            checkpoint_s = strtod(v, &end);
-            if (!*v || *end || errno || !(checkpoint_s >= 0.0 && checkpoint_s <= 1e9))
+            if (!parse_checkpoint(v, &checkpoint_s))
                 return cli_usage("reference", "--checkpoint needs seconds, a number in 0..1e9 (0: none), got '%s'", v);
             checkpoint_set = 1;
         } else if (strcmp(a, "--time") == 0) {

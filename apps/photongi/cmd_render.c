@@ -311,10 +311,7 @@ int pgi_cmd_render(int argc, char **argv) {
         } else if (strcmp(a, "-o") == 0 || strcmp(a, "--out") == 0) out = v;
         else if (strcmp(a, "--stats") == 0) stats_path = v;
         else if (strcmp(a, "--checkpoint") == 0) {
-            char *end;
-            errno = 0;
-            checkpoint_s = strtod(v, &end);
-            if (!*v || *end || errno || !(checkpoint_s >= 0.0 && checkpoint_s <= 1e9))
+            if (!parse_checkpoint(v, &checkpoint_s))
                 return cli_usage("render", "--checkpoint needs seconds, a number in 0..1e9 (0: none), got '%s'", v);
             checkpoint_set = 1;
         } else return cli_usage("render", "unknown option '%s'", a);
