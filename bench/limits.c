@@ -1,5 +1,5 @@
 /* photongi-bench --limits: each ray pass of a frame next to the time Embree
- * alone takes for the same rays (docs/limits.md).
+ * alone takes for the same rays (docs/performance.md).
  *
  * Per scene: a warm-up frame, then one frame with ray capture on
  * (src/rt/ray_log.h): every ray each pass casts, with its call style, packet

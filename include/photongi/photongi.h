@@ -193,9 +193,10 @@ typedef void (*pgi_progress_fn)(void *user, const pgi_progress *progress);
 /* pgi_render_desc.radius: choose the radius each frame (docs/radius.md). */
 #define PGI_RADIUS_AUTO (-1.0f)
 
-/* Where density estimation runs (pgi_render_desc.device; docs/gpu.md). On the GPU, this release
- * builds and gathers the estimator there; view samples, photon tracing and direct light stay on the
- * CPU, and their results are uploaded each frame. */
+/* Where the frame runs (pgi_render_desc.device; docs/gpu.md). On the GPU the whole frame runs on the
+ * device: view samples, photon tracing, the estimator, direct light and the sum; the image is read
+ * back. hashgrid works on the device's own photons and view samples; the other GPU estimators read
+ * them back and upload them to their own buffers (docs/gpu.md, "What runs where"). */
 typedef enum pgi_device {
     PGI_DEVICE_CPU = 0,   /* default */
     PGI_DEVICE_VULKAN = 1 /* the Vulkan compute backend (a build with PGI_VULKAN): estimators with a GPU

@@ -1,4 +1,4 @@
-/* Photon tracing on the GPU (issue "The GPU backend", docs/gpu.md "Photon tracing"): the CPU
+/* Photon tracing on the GPU (docs/gpu.md, "Photon tracing"): the CPU
  * tracer's policy (src/photon/trace.c: light pick by power, emission per light type, BSDF
  * sampling, flux-preserving Russian roulette, storage from the second hit on, at most `bounces`
  * scattering events, flux divided by the paths emitted) in src/gpu/shaders/trace.comp, one

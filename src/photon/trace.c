@@ -10,8 +10,8 @@
  * pgi__photons_trace_v3 pgi__photons_trace calls where the CPU has them (pgi__trace_v3_ok); and
  * by trace_v4.c (PGI__TRACE_V3 and PGI__TRACE_V4) with AVX-512 too (pgi__trace_v4_ok). The same
  * operations each way (no contraction: -ffp-contract=off), so the same bits (test_trace); the
- * wider instruction sets take time off the tracer's own code (docs/limits.md, seventh and eighth
- * rounds). */
+ * wider instruction sets take time off the tracer's own code (docs/performance.md; the history in
+ * docs/history/performance.md). */
 #define _DEFAULT_SOURCE /* madvise's MADV_HUGEPAGE */
 #include "photon.h"
 

@@ -391,7 +391,7 @@ typedef struct pgi__mesh_hints {
     size_t smooth_on;  /* OBJ `s N` with N > 0 */
     size_t smooth_off; /* OBJ `s off` or `s 0` */
 } pgi__mesh_hints;
-/* Limits of what a mesh file may declare (docs/limits.md), checked before Assimp reads it:
+/* Limits of what a mesh file may declare (docs/scene-format.md, "Mesh files"), checked before Assimp reads it:
  * nesting (JSON, XML, braces of .x/.bvh/.ogex, AC3D kids, a glTF's node tree) deeper than
  * PGI__MAX_MESH_DEPTH levels (Assimp recurses once a level: a deep file overflows its stack);
  * more than PGI__MAX_MESH_MATERIALS materials (Assimp 5.2's OBJ import is quadratic in them);
