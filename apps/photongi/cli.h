@@ -1,7 +1,7 @@
 /* What every photongi command shares: the exit statuses and the messages that
  * go with them. Header only (static inline).
  *
- * Exit status (documented in 'photongi --help' and the README):
+ * Exit status (documented in 'photongi --help' and docs/usage.md):
  *   0  success
  *   2  usage error: the command line alone is wrong, whatever the files hold; found before
  *      any file is opened (unknown command, option or help topic; a missing, malformed or

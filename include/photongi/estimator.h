@@ -240,8 +240,8 @@ const pgi_estimator_vtbl *pgi_estimator_at(size_t i);
 /* NULL if no estimator has that name. */
 const pgi_estimator_vtbl *pgi_estimator_find(const char *name);
 /* The estimator a desc without one gets: the fastest exact one on the shipped scenes at their
- * defaults (automatic radius included), with a GPU version (README, "Choosing an estimator"). It
- * takes neither kernels nor subsampling: those options name the estimators that do. */
+ * defaults (automatic radius included), with a GPU version (docs/estimators.md, "Choosing an
+ * estimator"). It takes neither kernels nor subsampling: those options name the estimators that do. */
 #define PGI_DEFAULT_ESTIMATOR "cluster-trivial"
 
 /* Every estimator option, each once: the shared ones ("kernel", "subsample":
