@@ -1,7 +1,7 @@
 # Install rules (included by the top-level CMakeLists.txt when PGI_INSTALL is ON):
 #   lib/libphotongi.a (or .so), include/photongi/*.h (version.h included), bin/photongi
 #   (and photongi-view), lib/cmake/photongi/ (find_package(photongi) -> photongi::photongi),
-#   lib/pkgconfig/photongi.pc, share/doc/photongi/{LICENSE,README.md,CHANGELOG.md},
+#   lib/pkgconfig/photongi.pc, share/doc/photongi/{LICENSE,README.md,CHANGELOG.md,docs/},
 #   share/photongi/scenes/*.json.
 include(CMakePackageConfigHelpers)
 
@@ -118,6 +118,9 @@ install(FILES ${PROJECT_BINARY_DIR}/photongi.pc DESTINATION ${_pgi_pcdir})
 
 install(FILES ${PROJECT_SOURCE_DIR}/LICENSE ${PROJECT_SOURCE_DIR}/README.md ${PROJECT_SOURCE_DIR}/CHANGELOG.md
         DESTINATION ${CMAKE_INSTALL_DOCDIR})
+# The reference pages README links to, at the same relative paths (docs/*.md, their pictures).
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/docs/ DESTINATION ${CMAKE_INSTALL_DOCDIR}/docs
+        FILES_MATCHING PATTERN "*.md" PATTERN "*.png")
 
 # Scene descriptions, found by name from any directory (PGI_DATADIR/scenes; CMakeLists.txt).
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/scenes/ DESTINATION ${CMAKE_INSTALL_DATADIR}/photongi/scenes)

@@ -1,4 +1,4 @@
-/* Analytic oracles (DESIGN.md §6.2, §6.3): uniform photons on a plane, the
+/* Analytic oracles (docs/testing.md): uniform photons on a plane, the
  * furnace (closed Lambertian sphere around a point light), and the
  * normalisation of the constant kernel. */
 #include "test_util.h"

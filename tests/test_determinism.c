@@ -1,4 +1,4 @@
-/* Same seed, same bytes, whatever the thread count (DESIGN.md §6.5); a
+/* Same seed, same bytes, whatever the thread count (docs/design.md, "Determinism"); a
  * different seed gives a different image. */
 #include "core/core.h"
 #include "test_util.h"

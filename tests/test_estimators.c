@@ -1,4 +1,4 @@
-/* Every exact estimator equals "brute" (DESIGN.md §6.1): same radiance per
+/* Every exact estimator equals "brute" (docs/testing.md): same radiance per
  * view sample up to float summation order (relative 1e-4) and exactly the
  * same number of contributing photon reads. */
 #include "test_random.h"

@@ -1,4 +1,4 @@
-/* Reference path tracer: analytic furnace (DESIGN.md §6.3), agreement with the
+/* Reference path tracer: analytic furnace (docs/design.md, "Reference path tracer"), agreement with the
  * photon pipeline on the Cornell box, determinism, continuation, and bad input. */
 #include "test_util.h"
 #include "test_scenes.h"

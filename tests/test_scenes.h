@@ -1,7 +1,7 @@
 /* Scenes written to a temporary folder, shared by several tests (header only;
  * include after test_util.h).
  *
- * The furnace (DESIGN.md §6.3): a 128x64 UV sphere of radius 1 around the
+ * The furnace (docs/design.md, "Reference path tracer"): a 128x64 UV sphere of radius 1 around the
  * origin (flat faces), Lambertian albedo FURNACE_RHO, a point light of
  * intensity FURNACE_I at the centre, the camera at the centre looking along
  * +x. Use tu_furnace_setup / tu_furnace_teardown as a cmocka group's

@@ -28,7 +28,7 @@ static const char *k_main_help =
     "  estimators   list the registered density estimators\n"
     "  info         print what a scene holds (triangles, materials, lights, bounds, camera)\n"
     "  reference    path-trace a reference image (EXR), resumable with --continue\n"
-    "  compare      PSNR and SSIM of an image against a reference, error heat map\n"
+    "  compare      PSNR, SSIM, FLIP and relMSE of an image against a reference, error maps\n"
     "  study        every estimator at equal photons and equal time against a reference: a table\n"
     "  devices      list the Vulkan devices (render --device vulkan:N) and GPU estimators\n"
     "  help [CMD]   this text, or the options of a command (as 'photongi CMD --help')\n"

@@ -1,5 +1,5 @@
 /* photongi estimators: the one interface every density-estimation method
- * implements (DESIGN.md §4), and the data they read.
+ * implements (docs/estimators.md), and the data they read.
  *
  * An estimator turns a photon map (pgi_photons) into indirect radiance at every
  * view sample (pgi_view_samples). Lifecycle:
@@ -123,7 +123,8 @@ typedef struct pgi_estimator_desc {
         float cell_size; /* "hashgrid": cell edge (at least radius/64); 0 = 2 x the frame's radius */
     } hashgrid;
     struct {
-        int tile; /* "cluster*", "directional": cluster edge in pixels (1..256); default 8 */
+        int tile; /* "cluster*", "directional": cluster edge in pixels (1..256); default 8 (directional: a 64th of the
+                     image's shorter side, 1..8) */
     } cluster;
     struct {
         int level; /* flux buckets this many levels above the leaves (1..16); default 1;

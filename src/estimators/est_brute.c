@@ -1,5 +1,5 @@
 /* brute: every photon for every view sample. O(N * pixels); the oracle that
- * every exact estimator is tested against (DESIGN.md §6.1). */
+ * every exact estimator is tested against (tests/test_estimators.c). */
 #include "estimator_internal.h"
 
 typedef struct {

@@ -1,5 +1,5 @@
 /* The per-photon contribution test and sum shared by every estimator
- * (DESIGN.md §3), so that all exact methods make identical decisions and
+ * (docs/design.md, "Estimators"), so that all exact methods make identical decisions and
  * differ only in summation order; the kernel-weighted variants. */
 #ifndef PGI_EST_GATHER_H
 #define PGI_EST_GATHER_H

@@ -1,4 +1,4 @@
-/* Tone mapping for display, the last stage of a frame (DESIGN.md §1):
+/* Tone mapping for display, the last stage of a frame (docs/design.md, "One frame"):
  * exposure, clamp to [0,1], the exact sRGB OETF, and rounding to nearest to
  * 8 bits. The PNG writer and the metrics use it; the image reader inverts it
  * exactly (src/io/image_io.c), so reading a PNG and tone mapping it at

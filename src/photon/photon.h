@@ -1,4 +1,4 @@
-/* Photon tracing (DESIGN.md §3). */
+/* Photon tracing (docs/design.md, "One frame"). */
 #ifndef PGI_PHOTON_H
 #define PGI_PHOTON_H
 

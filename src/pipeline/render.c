@@ -1,4 +1,4 @@
-/* One frame, end to end (DESIGN.md §1): view samples, photons, estimator
+/* One frame, end to end (docs/design.md, "One frame"): view samples, photons, estimator
  * build + estimate, direct light (which writes the composite: pgi__direct_sum). */
 #include <stdio.h>
 #include <string.h>
