@@ -12,6 +12,7 @@
 
 #include <cjson/cJSON.h>
 
+#include "camera.h"
 #include "cli.h"
 #include "cmd.h"
 #include "device.h"
@@ -142,6 +143,13 @@ static const char *k_render_help =
     "                     any thread count\n"
     "  --threads T        worker threads, 1..1024 (default: all cores)\n"
     "  --camera I         camera index of the scene, from 0 (default 0)\n"
+    "  --eye X,Y,Z        camera position (scene units; default: camera I's)\n"
+    "  --look-at X,Y,Z    the point the camera looks at (default: camera I's)\n"
+    "  --up X,Y,Z         the camera's up direction (default: camera I's)\n"
+    "  --fov DEG          vertical field of view, above 0 and at most 179.9 degrees (default:\n"
+    "                     camera I's). The parts not given come from camera I; the camera is the\n"
+    "                     one a scene description's \"camera\" block with these values gives, to\n"
+    "                     the bit (photongi-view's V key prints both forms)\n"
     "  --direct-samples K shadow samples per pixel for area lights and for the sky, 1..4096\n"
     "                     (default 16)\n"
     "  --exposure X       multiply radiance by X before tone mapping (default: the scene's, else 1)\n"
@@ -244,6 +252,8 @@ int pgi_cmd_render(int argc, char **argv) {
     int quiet = 0;
     char err[400];
     from_stats fsr = {{0}, {0}, {0}}; /* --from-stats: its strings live through the call */
+    app_camera_args cam_args = {0};
+    pgi_camera_def view;
     for (int i = 0; i < argc; i++) {
         const char *a = argv[i];
         if (is_help(a)) {
@@ -260,6 +270,8 @@ int pgi_cmd_render(int argc, char **argv) {
         const char *v = argv[++i];
         int ro = app_render_option(a, v, &d, &x, &given, err, sizeof err);
         if (ro < 0) return cli_usage("render", "%s", err);
+        if (ro > 0) continue;
+        if ((ro = app_camera_option(a, v, &cam_args, err, sizeof err)) < 0) return cli_usage("render", "%s", err);
         if (ro > 0) continue;
         if (strcmp(a, "--scene") == 0) {
             if (!*v) return cli_usage("render", "%s", "--scene needs a scene");
@@ -326,6 +338,15 @@ int pgi_cmd_render(int argc, char **argv) {
         return cli_failure("render", "--camera %d: scene %s has %zu camera%s (0..%zu)", d.camera, scene_name,
                            info.cameras, info.cameras == 1 ? "" : "s", info.cameras - 1);
     }
+    if (app_camera_given(&cam_args)) {
+        pgi_camera_def base;
+        pgi_scene_get_camera(scene, (size_t)d.camera, &base);
+        if (!app_camera_resolve(&cam_args, &base, &view, err, sizeof err)) {
+            pgi_scene_destroy(scene);
+            return cli_failure("render", "scene %s: %s", scene_name, err);
+        }
+        d.view = &view;
+    }
     if (exposure == 0.f) exposure = info.defaults.exposure > 0.f ? info.defaults.exposure : 1.f;
     pgi_image img = {0};
     pgi_frame_stats fs;
@@ -357,6 +378,14 @@ int pgi_cmd_render(int argc, char **argv) {
         sigaction(SIGTERM, &old_term, NULL);
     } else st = pgi_renderer_render(r, &d, &img, &fs);
     app_progress_end(&bar, 0);
+    /* A camera that sees nothing lit: an automatic one (the scene gives none) is probed for direct
+     * light, any other one warned about when its image is black. */
+    if (st == PGI_OK && !quiet && !be && d.output == PGI_OUTPUT_ALL &&
+        (app_image_unlit(&img) || (info.camera_auto && !d.view && app_view_sees_light(r, &d, &info) == 0))) {
+        char why[700];
+        app_unlit_warning(&info, d.camera, d.view != NULL, why, sizeof why);
+        cli_warn(quiet, "render", "%s", why);
+    }
     char device_name[256]; /* the stats' device name lives with the renderer */
     if (st == PGI_OK) {
         snprintf(device_name, sizeof device_name, "%s", fs.device ? fs.device : "cpu");

@@ -75,6 +75,8 @@ typedef struct pgi_scene_info {
     float bounds_min[3], bounds_max[3];
     size_t cameras;
     pgi_camera_def camera; /* camera 0 */
+    int camera_auto;       /* 1: the scene gives no camera and camera 0 was placed by the loader (outside the
+                              bounds on +z, looking at their centre: a closed room is seen from outside) */
     pgi_scene_defaults defaults;
     double surface_area;     /* total triangle area, scene units squared */
     size_t animated_objects; /* objects with a motion (see pgi_scene_set_time) */
