@@ -660,6 +660,11 @@ if expect_ok render --scene cornell "${CAM[@]}" --eye 0.25,1.1,3.2 --look-at -0.
     cmp -s "$TMP/cam-cli.png" "$TMP/cam-far.png" && bad "another --eye gave the same image" || ok
     cmp -s "$TMP/cam-cli.png" "$TMP/cam-scene.png" && bad "--eye/--look-at/--fov changed nothing" || ok
 fi
+# --stats records the camera given (run.view) and --from-stats renders from it again.
+if expect_ok render --scene cornell "${CAM[@]}" --eye 0.25,1.1,3.2 --look-at -0.1,0.7,0 --up 0.1,1,0 --fov 41.5 \
+    -o "$TMP/cam-st.png" --stats "$TMP/cam-st.json" && expect_ok render --from-stats "$TMP/cam-st.json" -q -o "$TMP/cam-fs.png"; then
+    cmp -s "$TMP/cam-st.png" "$TMP/cam-fs.png" && ok || bad "--from-stats lost the camera given with --eye"
+fi
 # Only --fov given: eye, look-at and up stay the scene camera's (cornell's: eye 0,1,3.9, look-at
 # 0,1,0, fov 39), so it equals a JSON copy of that camera with the other fov.
 printf '%s\n' '{"builtin": "cornell", "camera": {"eye": [0, 1, 3.9], "look_at": [0, 1, 0], "fov_y": 30}}' \

@@ -49,6 +49,27 @@ static int signalled(void *unused) {
     return g_signal != 0;
 }
 
+/* The "view" of a statistics file's "run" (the camera of render --eye ...) as camera flags. */
+static int read_view(const cJSON *v, app_camera_args *c) {
+    static const char *const keys[3] = {"eye", "look_at", "up"};
+    app_camera_args r = {1, 1, 1, 1, {0}, {0}, {0}, 0.f};
+    float *dst[3] = {r.eye, r.look_at, r.up};
+    for (int k = 0; k < 3; k++) {
+        const cJSON *a = cJSON_GetObjectItemCaseSensitive(v, keys[k]);
+        if (!cJSON_IsArray(a) || cJSON_GetArraySize(a) != 3) return 0;
+        int i = 0;
+        for (const cJSON *it = a->child; it; it = it->next, i++) {
+            if (!cJSON_IsNumber(it) || !(fabs(it->valuedouble) <= PGI_MAX_COORD)) return 0;
+            dst[k][i] = (float)it->valuedouble;
+        }
+    }
+    const cJSON *f = cJSON_GetObjectItemCaseSensitive(v, "fov_y");
+    if (!cJSON_IsNumber(f) || !(f->valuedouble > 0.0 && f->valuedouble <= APP_MAX_FOV)) return 0;
+    r.fov = (float)f->valuedouble;
+    *c = r;
+    return 1;
+}
+
 /* What --from-stats read: the scene and the hash of its file then. */
 typedef struct from_stats {
     char scene[4096], estimator[128], hash[24];
@@ -56,8 +77,8 @@ typedef struct from_stats {
 
 /* --from-stats S.json: the settings and the run of a frame's statistics (pgi_stats_write_json) into d
  * and x, as if given on the command line at this point. 1 fine, 0 a failure (message in err). */
-static int read_from_stats(const char *path, pgi_render_desc *d, app_render_extra *x, from_stats *fsr, char *err,
-                           size_t size) {
+static int read_from_stats(const char *path, pgi_render_desc *d, app_render_extra *x, app_camera_args *cam,
+                           from_stats *fsr, char *err, size_t size) {
     FILE *f = fopen(path, "rb");
     if (!f) return (snprintf(err, size, "--from-stats %s: cannot read: %s", path, strerror(errno)), 0);
     char *text = malloc(1 << 20);
@@ -105,12 +126,18 @@ static int read_from_stats(const char *path, pgi_render_desc *d, app_render_extr
                     *h = cJSON_GetObjectItemCaseSensitive(run, "scene_file_fnv1a64"),
                     *ex = cJSON_GetObjectItemCaseSensitive(run, "exposure"),
                     *t = cJSON_GetObjectItemCaseSensitive(run, "time"),
-                    *sp = cJSON_GetObjectItemCaseSensitive(run, "specular");
+                    *sp = cJSON_GetObjectItemCaseSensitive(run, "specular"),
+                    *view = cJSON_GetObjectItemCaseSensitive(run, "view");
         if (cJSON_IsString(sc)) snprintf(fsr->scene, sizeof fsr->scene, "%s", sc->valuestring);
         if (cJSON_IsString(h)) snprintf(fsr->hash, sizeof fsr->hash, "%s", h->valuestring);
         if (cJSON_IsNumber(ex) && ex->valuedouble > 0.0) x->exposure = (float)ex->valuedouble;
         if (cJSON_IsNumber(t)) x->time = (float)t->valuedouble;
         if (cJSON_IsString(sp) && !parse_specular(sp->valuestring, &x->specular)) x->specular = PGI_SPECULAR_DEFAULT;
+        if (view && !read_view(view, cam)) {
+            snprintf(err, size, "--from-stats %s: run.view is not a camera (eye, look_at, up: three numbers; fov_y)",
+                     path);
+            ok = 0;
+        }
     }
     cJSON_Delete(root);
     return ok;
@@ -277,7 +304,7 @@ int pgi_cmd_render(int argc, char **argv) {
             if (!*v) return cli_usage("render", "%s", "--scene needs a scene");
             scene_spec = v;
         } else if (strcmp(a, "--from-stats") == 0) {
-            if (!read_from_stats(v, &d, &x, &fsr, err, sizeof err)) return cli_failure("render", "%s", err);
+            if (!read_from_stats(v, &d, &x, &cam_args, &fsr, err, sizeof err)) return cli_failure("render", "%s", err);
             if (fsr.scene[0]) scene_spec = fsr.scene;
         } else if (strcmp(a, "-o") == 0 || strcmp(a, "--out") == 0) out = v;
         else if (strcmp(a, "--stats") == 0) stats_path = v;
@@ -427,7 +454,7 @@ int pgi_cmd_render(int argc, char **argv) {
         return 128 + g_signal;
     }
     fs.memory_peak_rss = pgi_memory_peak_rss(); /* writing the image included */
-    fs.run = (pgi_run_info){scene_spec, scene_file, scene_hash, exposure, scene_time, specular};
+    fs.run = (pgi_run_info){scene_spec, scene_file, scene_hash, exposure, scene_time, specular, d.view};
     if (stats_path) {
         st = be && be->write_stats ? be->write_stats(&fs, stats_path) : pgi_stats_write_json(&fs, stats_path);
         if (st) return cli_fail("render", "cannot write stats", st);
