@@ -17,6 +17,7 @@
 
 #include "camera.h"
 #include "device.h"
+#include "held.h"
 #include "overlay.h"
 #include "photongi/photongi.h"
 #include "options.h"
@@ -858,11 +859,12 @@ int main(int argc, char **argv) {
     /* Movement keys: the camera's W S D A E Q, the light's arrows and PgUp/PgDn. A key moves by the
      * wall time it is held (from its press to its release, or to now while it is down), not by the
      * frame time, so a tap during a slow frame moves a tap's distance and every press counts. */
-    static const SDL_Scancode k_move[12] = {SDL_SCANCODE_W,    SDL_SCANCODE_S,      SDL_SCANCODE_D,
-                                            SDL_SCANCODE_A,    SDL_SCANCODE_E,      SDL_SCANCODE_Q,
-                                            SDL_SCANCODE_UP,   SDL_SCANCODE_DOWN,   SDL_SCANCODE_RIGHT,
-                                            SDL_SCANCODE_LEFT, SDL_SCANCODE_PAGEUP, SDL_SCANCODE_PAGEDOWN};
-    double held_since[12] = {0}, held[12] = {0}; /* seconds (SDL's ticks); 0: not down */
+    static const SDL_Scancode k_move[HELD_KEYS] = {SDL_SCANCODE_W,    SDL_SCANCODE_S,      SDL_SCANCODE_D,
+                                                   SDL_SCANCODE_A,    SDL_SCANCODE_E,      SDL_SCANCODE_Q,
+                                                   SDL_SCANCODE_UP,   SDL_SCANCODE_DOWN,   SDL_SCANCODE_RIGHT,
+                                                   SDL_SCANCODE_LEFT, SDL_SCANCODE_PAGEUP, SDL_SCANCODE_PAGEDOWN};
+    held_keys keys_held = {{0}, {0}, {0}};
+    double held[HELD_KEYS];
     while (running) {
         double now = SDL_GetTicks64() / 1000.0;
         double dt = now - last;
@@ -893,27 +895,20 @@ int main(int argc, char **argv) {
                     cam_update(&v);
                     changed = 1;
                 } else if (e.type == SDL_KEYDOWN || e.type == SDL_KEYUP) {
-                    const double t = e.key.timestamp / 1000.0;
+                    const double t = e.key.timestamp ? e.key.timestamp / 1000.0 : SDL_GetTicks64() / 1000.0;
                     int mk = -1;
-                    for (int k = 0; k < 12; k++)
+                    for (int k = 0; k < HELD_KEYS; k++)
                         if (e.key.keysym.scancode == k_move[k]) mk = k;
-                    if (mk >= 0 && e.type == SDL_KEYDOWN && !e.key.repeat) held_since[mk] = t > 0.0 ? t : now;
-                    else if (mk >= 0 && e.type == SDL_KEYUP && held_since[mk] > 0.0) {
-                        held[mk] += fmax(0.0, t - held_since[mk]);
-                        held_since[mk] = 0.0;
-                    } else if (mk < 0 && e.type == SDL_KEYDOWN) {
+                    if (mk >= 0 && e.type == SDL_KEYDOWN) held_press(&keys_held, mk, t);
+                    else if (mk >= 0) held_release(&keys_held, mk, t);
+                    else if (e.type == SDL_KEYDOWN) {
                         int pk = press_key(&v, e.key.keysym.sym, (e.key.keysym.mod & KMOD_SHIFT) != 0, 0.f);
                         if (!pk) running = 0;
                         changed |= pk == 1;
                     }
                 }
             }
-            now = SDL_GetTicks64() / 1000.0;
-            for (int k = 0; k < 12; k++)
-                if (held_since[k] > 0.0) {
-                    held[k] += fmax(0.0, now - held_since[k]);
-                    held_since[k] = now;
-                }
+            changed |= held_take(&keys_held, SDL_GetTicks64() / 1000.0, held);
             const SDL_Keymod mod = SDL_GetModState();
             const double sp = speed * v.speed_mul * ((mod & KMOD_SHIFT) ? 4.0 : 1.0) * ((mod & KMOD_CTRL) ? 0.2 : 1.0);
             float fw = (float)(sp * (held[0] - held[1])), sd = (float)(sp * (held[2] - held[3])),
@@ -922,10 +917,6 @@ int main(int argc, char **argv) {
             float lf = (float)(0.5 * sp * (held[6] - held[7])), ls = (float)(0.5 * sp * (held[8] - held[9])),
                   lu = (float)(0.5 * sp * (held[10] - held[11]));
             if (lf != 0.f || ls != 0.f || lu != 0.f) light_move(&v, lf, ls, lu);
-            for (int k = 0; k < 12; k++) {
-                changed |= held[k] > 0.0 || held_since[k] > 0.0;
-                held[k] = 0.0;
-            }
             if (v.animate) v.time += dt;
         } else if (v.animate && done > 0) {
             v.time += 1.0 / 30.0;
