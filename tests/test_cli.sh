@@ -645,4 +645,82 @@ for f in --kernel --subsample --filter --knn --polygon; do
     printf '%s\n' "$out" | grep -qF -- "$f" && ok || bad "render --help does not mention $f"
 done
 
+# ------------------------------------------------------------ a camera on the command line
+# --eye/--look-at/--up/--fov render what the same camera in a scene description renders, byte for
+# byte (issue 40); the parts not given are the scene camera's (cornell's up is 0,1,0, as the JSON
+# loader's default); a different eye gives a different image, so the comparison can fail.
+CAM=(--size 40x30 --photons 3000 --seed 5 -q)
+printf '%s\n' '{"builtin": "cornell", "camera": {"eye": [0.25, 1.1, 3.2], "look_at": [-0.1, 0.7, 0], "fov_y": 41.5}}' \
+    >"$TMP/cam.json"
+if expect_ok render --scene cornell "${CAM[@]}" --eye 0.25,1.1,3.2 --look-at -0.1,0.7,0 --fov 41.5 -o "$TMP/cam-cli.png" &&
+    expect_ok render --scene "$TMP/cam.json" "${CAM[@]}" -o "$TMP/cam-json.png" &&
+    expect_ok render --scene cornell "${CAM[@]}" --eye 0.25,1.1,3.3 --look-at -0.1,0.7,0 --fov 41.5 -o "$TMP/cam-far.png" &&
+    expect_ok render --scene cornell "${CAM[@]}" -o "$TMP/cam-scene.png"; then
+    cmp -s "$TMP/cam-cli.png" "$TMP/cam-json.png" && ok || bad "render --eye/--look-at/--fov differs from the JSON camera"
+    cmp -s "$TMP/cam-cli.png" "$TMP/cam-far.png" && bad "another --eye gave the same image" || ok
+    cmp -s "$TMP/cam-cli.png" "$TMP/cam-scene.png" && bad "--eye/--look-at/--fov changed nothing" || ok
+fi
+# --stats records the camera given (run.view) and --from-stats renders from it again.
+if expect_ok render --scene cornell "${CAM[@]}" --eye 0.25,1.1,3.2 --look-at -0.1,0.7,0 --up 0.1,1,0 --fov 41.5 \
+    -o "$TMP/cam-st.png" --stats "$TMP/cam-st.json" && expect_ok render --from-stats "$TMP/cam-st.json" -q -o "$TMP/cam-fs.png"; then
+    cmp -s "$TMP/cam-st.png" "$TMP/cam-fs.png" && ok || bad "--from-stats lost the camera given with --eye"
+fi
+# Only --fov given: eye, look-at and up stay the scene camera's (cornell's: eye 0,1,3.9, look-at
+# 0,1,0, fov 39), so it equals a JSON copy of that camera with the other fov.
+printf '%s\n' '{"builtin": "cornell", "camera": {"eye": [0, 1, 3.9], "look_at": [0, 1, 0], "fov_y": 30}}' \
+    >"$TMP/cam-fov.json"
+expect_ok render --scene cornell "${CAM[@]}" --fov 30 -o "$TMP/fov-cli.png" &&
+    expect_ok render --scene "$TMP/cam-fov.json" "${CAM[@]}" -o "$TMP/fov-json.png" &&
+    { cmp -s "$TMP/fov-cli.png" "$TMP/fov-json.png" && ok || bad "render --fov alone differs from the JSON camera"; }
+expect_status 2 "--eye needs X,Y,Z" "${R[@]}" --eye 1,2 -o "$TMP/a.png"
+expect_status 2 "--eye needs X,Y,Z" "${R[@]}" --eye 1,2,3,4 -o "$TMP/a.png"
+expect_status 2 "--eye needs X,Y,Z" "${R[@]}" --eye nan,0,0 -o "$TMP/a.png"
+expect_status 2 "--look-at needs X,Y,Z" "${R[@]}" --look-at 0,inf,0 -o "$TMP/a.png"
+expect_status 2 "within +-1e+15" "${R[@]}" --eye 2e15,0,0 -o "$TMP/a.png"
+expect_status 2 "--up needs X,Y,Z" "${R[@]}" --up 0,,1 -o "$TMP/a.png"
+expect_status 2 "--fov needs" "${R[@]}" --fov 180 -o "$TMP/a.png"
+expect_status 2 "--fov needs" "${R[@]}" --fov 0 -o "$TMP/a.png"
+expect_status 2 "--fov needs" "${R[@]}" --fov 30deg -o "$TMP/a.png"
+expect_status 1 "same point" "${R[@]}" --eye 0,1,0 --look-at 0,1,0 -o "$TMP/a.png"
+expect_status 1 "parallel to the view direction" "${R[@]}" --eye 0,3,0 --look-at 0,0,0 -o "$TMP/a.png"
+expect_status 1 "parallel to the view direction" "${R[@]}" --up 0,0,0 -o "$TMP/a.png"
+[ -e "$TMP/a.png" ] && bad "a refused camera wrote an image" || ok
+
+# An automatic camera (a mesh without one) outside a closed room: a warning that names the way out.
+printf 'newmtl wall\nKd 0.7 0.7 0.7\nnewmtl lamp\nKd 0 0 0\nKe 10 10 10\n' >"$TMP/room.mtl"
+{
+    printf 'mtllib room.mtl\n'
+    printf 'v %s\n' "-1 -1 -1" "1 -1 -1" "1 1 -1" "-1 1 -1" "-1 -1 1" "1 -1 1" "1 1 1" "-1 1 1"
+    printf 'v %s\n' "-0.3 0.95 -0.3" "0.3 0.95 -0.3" "0.3 0.95 0.3" "-0.3 0.95 0.3"
+    printf 'usemtl wall\nf 1 2 3 4\nf 5 8 7 6\nf 1 5 6 2\nf 4 3 7 8\nf 1 4 8 5\nf 2 6 7 3\nusemtl lamp\nf 9 10 11 12\n'
+} >"$TMP/room.obj"
+if expect_ok render --scene "$TMP/room.obj" --size 32x24 --photons 2000 -o "$TMP/room.png"; then
+    grep -q "gives no camera.*--eye X,Y,Z --look-at X,Y,Z" "$TMP/err" && ok ||
+        bad "automatic camera outside a closed room: no warning: $(head -c 300 "$TMP/err")"
+fi
+if expect_ok render --scene "$TMP/room.obj" --size 32x24 --photons 2000 --eye 0,0,0.9 --look-at 0,0,-1 \
+    -o "$TMP/room-in.png"; then
+    grep -qi "warning" "$TMP/err" && bad "a camera inside the room was warned about: $(head -c 300 "$TMP/err")" || ok
+fi
+
+# The reference records a camera given on the command line: --continue goes on from it (the
+# sidecar's "view"; 4 + 4 samples equal 8 at once, bit for bit) and --merge refuses another one.
+RC=(--scene cornell --size 24x16 --eye 0.2,1,3 --look-at 0,0.8,0 --fov 50 -q)
+if expect_ok reference "${RC[@]}" --spp 8 -o "$TMP/v8.exr" && expect_ok reference "${RC[@]}" --spp 4 \
+    -o "$TMP/v44.exr" && expect_ok reference --continue "$TMP/v44.exr" --spp 4 -q &&
+    expect_ok reference --scene cornell --size 24x16 --spp 4 -q -o "$TMP/v0.exr"; then
+    grep -q '"view"' "$TMP/v44.exr.json" && grep -q '"fov_y":[[:space:]]*50' "$TMP/v44.exr.json" && ok ||
+        bad "reference --eye: the sidecar has no view: $(cat "$TMP/v44.exr.json")"
+    cmp -s "$TMP/v8.exr" "$TMP/v44.exr" && ok || bad "reference --continue with a view: 4 + 4 samples differ from 8"
+    cmp -s "$TMP/v0.exr" "$TMP/v44.exr" && bad "reference --eye changed nothing" || ok
+    expect_ok reference "${RC[@]}" --spp 4 --seed 2 -o "$TMP/v4b.exr"
+    expect_ok reference "${RC[@]}" --spp 4 --seed 3 -o "$TMP/v4c.exr" &&
+        expect_ok reference --merge "$TMP/v4b.exr" "$TMP/v4c.exr" -o "$TMP/vm.exr"
+    expect_ok reference --scene cornell --size 24x16 --eye 0.2,1,3 --look-at 0,0.8,0 --fov 51 --spp 4 --seed 2 -q \
+        -o "$TMP/v4d.exr" && expect_status 1 "cameras differ" reference --merge "$TMP/v4c.exr" "$TMP/v4d.exr" -o "$TMP/vn.exr"
+    expect_status 1 "cameras differ" reference --merge "$TMP/v4c.exr" "$TMP/v0.exr" -o "$TMP/vn.exr"
+    expect_status 2 "do not give them" reference --continue "$TMP/v8.exr" --eye 1,1,1
+fi
+expect_status 2 "--fov needs" reference --scene cornell --fov -1 --spp 1 -o "$TMP/vx.exr"
+
 summary test_cli

@@ -10,6 +10,8 @@
 set -u
 VIEW=${1:?usage: test_viewer.sh photongi-view photongi}
 CLI=${2:?usage: test_viewer.sh photongi-view photongi}
+case $VIEW in /*) ;; */*) VIEW=$PWD/$VIEW ;; esac
+case $CLI in /*) ;; */*) CLI=$PWD/$CLI ;; esac
 . "$(dirname "$0")/lib.sh" test-view
 
 # same NAME VIEW_ARGS -- RENDER_ARGS: both must succeed and write identical PNGs.
@@ -138,5 +140,94 @@ expect_fail 1 "cannot write the screenshot" --frames 1 --size 8x8 --photons 100 
 expect_fail 1 "not a folder" --frames 1 --size 8x8 --photons 100 --screenshot "$TMP/single-view.png/x.png"
 expect_fail 2 ".png or .exr" --frames 1 --size 8x8 --photons 100 --screenshot "$TMP/shot.jpg"
 [ -e "$TMP/shot.jpg" ] && bad "--screenshot shot.jpg wrote a file" || ok
+
+# ------------------------------------------------------------ a camera you can carry (issue 40)
+# --eye/--look-at/--up/--fov start from that camera, as 'photongi render' does.
+same eye --frames 1 --scene giref --eye 0.5,4,4 --look-at 0,3.5,0 --fov 55 "${COMMON[@]}" -- \
+    --scene giref --eye 0.5,4,4 --look-at 0,3.5,0 --fov 55 "${COMMON[@]}"
+cmp -s "$TMP/eye-view.png" "$TMP/camera1-view.png" && bad "--eye changed nothing" || ok
+# V prints the camera as the JSON block and the 'photongi render' line of the frame shown, and saves
+# the block: pasted back, both reproduce the viewer's frame byte for byte. The view is moved (w, k),
+# averages --max-frames 2 frames and idles (z and x change no picture), then V: the line carries
+# --progressive 2, and the screenshot is that average.
+KV=(--frames 6 --max-frames 2 --scene giref "${COMMON[@]}" --keys "w,k,z,x,v" --camera-out "$TMP/cam.json")
+if (cd "$TMP" && "$VIEW" "${KV[@]}" --screenshot "$TMP/carry-view.png" -q >"$TMP/carry.out" 2>"$TMP/err"); then
+    line=$(sed -n 's/^render: photongi render //p' "$TMP/carry.out")
+    block=$(sed -n 's/^camera: //p' "$TMP/carry.out")
+    case $line in *"--progressive 2 "*"--eye "*) ok ;; *) bad "V: no render line with --progressive 2 and --eye: $line" ;; esac
+    [ "$(cat "$TMP/cam.json" 2>/dev/null)" = "$block" ] && ok || bad "V: $TMP/cam.json does not hold the printed block"
+    if (cd "$TMP" && eval "\"$CLI\" render $line -q" 2>"$TMP/err"); then
+        cmp -s "$TMP/view.png" "$TMP/carry-view.png" && ok || bad "V: the printed render line does not reproduce the frame"
+    else bad "V: the printed render line failed: $line: $(head -c 300 "$TMP/err")"; fi
+    printf '{"builtin": "giref", "camera": %s}\n' "$block" >"$TMP/carry.json"
+    if "$CLI" render --scene "$TMP/carry.json" "${COMMON[@]}" --progressive 2 -o "$TMP/carry-json.png" -q 2>"$TMP/err"; then
+        cmp -s "$TMP/carry-json.png" "$TMP/carry-view.png" && ok || bad "V: the JSON block in a description does not reproduce the frame"
+    else bad "V: a description with the printed block failed: $(head -c 300 "$TMP/err")"; fi
+    cmp -s "$TMP/carry-view.png" "$TMP/nokeys.png" && bad "V: the moved view equals the unmoved one" || ok
+else
+    bad "V run failed: $(head -c 300 "$TMP/err")"
+fi
+# Scripted movement takes fixed steps scaled by the speed keys: x then w moves as far as w twice.
+eye_of() { "$VIEW" --frames 3 --size 8x8 --photons 200 --keys "$1" --camera-out "$TMP/c.json" -q | sed -n 's/^camera: {"eye": \[\([^]]*\)\].*/\1/p'; }
+e1=$(eye_of "x,w,v") e2=$(eye_of "w,w,v") e0=$(eye_of "w,z,v")
+awk -v a="$e1" -v b="$e2" -v c="$e0" 'BEGIN { split(a, p, ", "); split(b, q, ", "); split(c, r, ", ");
+    d = 0; e = 0; for (i = 1; i <= 3; i++) { d += (p[i] - q[i]) ^ 2; e += (p[i] - r[i]) ^ 2 }
+    exit !(d < 1e-10 && e > 1e-6) }' && ok || bad "speed keys: x,w moved to '$e1', w,w to '$e2', w,z to '$e0'"
+
+# A still view stops rendering at --max-frames: 4 frames rendered of 10 turns, the screenshot and the
+# statistics are the 4-frame average ('render --progressive 4').
+if "$VIEW" --frames 10 --max-frames 4 "${COMMON[@]}" --screenshot "$TMP/cap.png" --stats "$TMP/cap.json" 2>"$TMP/err"; then
+    grep -q "4 frames rendered, then 6 turns idle" "$TMP/err" && ok || bad "--max-frames 4: $(grep frames "$TMP/err")"
+    grep -q '"frames":[[:space:]]*4,' "$TMP/cap.json" && ok || bad "--max-frames 4: the stats do not count 4 frames"
+    "$CLI" render "${COMMON[@]}" --progressive 4 -o "$TMP/cap-cli.png" -q && cmp -s "$TMP/cap.png" "$TMP/cap-cli.png" &&
+        ok || bad "--max-frames 4: the screenshot is not the 4-frame average"
+else
+    bad "--max-frames run failed: $(head -c 300 "$TMP/err")"
+fi
+"$VIEW" --frames 6 --max-frames 0 --size 8x8 --photons 200 2>"$TMP/err" >/dev/null
+grep -q "idle" "$TMP/err" && bad "--max-frames 0 idled" || ok
+# ... and a change wakes it: the key of the last turn renders a frame.
+"$VIEW" --frames 6 --max-frames 2 --size 8x8 --photons 200 --keys "z,z,z,z,z,w" --stats "$TMP/wake.json" 2>"$TMP/err" >/dev/null
+grep -q "3 frames rendered, then 3 turns idle" "$TMP/err" && grep -q '"frames":[[:space:]]*1,' "$TMP/wake.json" && ok ||
+    bad "a key after --max-frames did not render: $(grep -h frames "$TMP/err" "$TMP/wake.json" | head -3)"
+
+# brute (the O(photons x pixels) oracle) is not reachable by Tab, Shift+Tab or the number keys,
+# and --estimator brute is announced with its cost.
+n=$("$CLI" estimators | wc -l)
+keys=tab
+reach=""
+for i in $(seq 1 "$n"); do
+    "$VIEW" --frames "$i" --size 8x8 --photons 200 --keys "$keys" --stats "$TMP/tab.json" -q 2>/dev/null
+    reach="$reach $(sed -n 's/^[[:space:]]*"estimator":[[:space:]]*"\([^"]*\)".*/\1/p' "$TMP/tab.json" | head -1)"
+    keys="$keys,tab"
+done
+for k in 1 2 3 4 5 6 7 8 9 shift+tab; do
+    "$VIEW" --frames 1 --size 8x8 --photons 200 --keys "$k" --stats "$TMP/tab.json" -q 2>/dev/null
+    reach="$reach $(sed -n 's/^[[:space:]]*"estimator":[[:space:]]*"\([^"]*\)".*/\1/p' "$TMP/tab.json" | head -1)"
+done
+case " $reach " in *" brute "*) bad "brute is reachable by keys:$reach" ;; *) ok ;; esac
+[ "$(printf '%s\n' $reach | sort -u | wc -l)" -ge $((n - 1)) ] && ok || bad "Tab and 1-9 do not reach the other estimators:$reach"
+"$VIEW" --frames 1 --size 8x8 --photons 200 --estimator brute 2>"$TMP/err" >/dev/null
+grep -q "O(photons x pixels) oracle" "$TMP/err" && ok || bad "--estimator brute: not announced: $(head -c 300 "$TMP/err")"
+
+# An automatic camera that sees nothing lit (outside a closed room) is warned about.
+printf 'newmtl wall\nKd 0.7 0.7 0.7\nnewmtl lamp\nKd 0 0 0\nKe 10 10 10\n' >"$TMP/room.mtl"
+{
+    printf 'mtllib room.mtl\n'
+    printf 'v %s\n' "-1 -1 -1" "1 -1 -1" "1 1 -1" "-1 1 -1" "-1 -1 1" "1 -1 1" "1 1 1" "-1 1 1"
+    printf 'v %s\n' "-0.3 0.95 -0.3" "0.3 0.95 -0.3" "0.3 0.95 0.3" "-0.3 0.95 0.3"
+    printf 'usemtl wall\nf 1 2 3 4\nf 5 8 7 6\nf 1 5 6 2\nf 4 3 7 8\nf 1 4 8 5\nf 2 6 7 3\nusemtl lamp\nf 9 10 11 12\n'
+} >"$TMP/room.obj"
+"$VIEW" --frames 1 --scene "$TMP/room.obj" --size 32x24 --photons 2000 2>"$TMP/err" >/dev/null
+grep -q "gives no camera.*--eye X,Y,Z --look-at X,Y,Z" "$TMP/err" && ok ||
+    bad "viewer: automatic camera outside a closed room: no warning: $(head -c 300 "$TMP/err")"
+"$VIEW" --frames 1 --scene "$TMP/room.obj" --size 32x24 --photons 2000 --eye 0,0,0.9 --look-at 0,0,-1 2>"$TMP/err" >/dev/null
+grep -q "warning" "$TMP/err" && bad "viewer: a camera inside the room was warned about" || ok
+
+expect_fail 2 "--eye needs X,Y,Z" --frames 1 --eye 1,2
+expect_fail 2 "--fov needs" --frames 1 --fov 200
+expect_fail 2 "--max-frames" --frames 1 --max-frames -1
+expect_fail 1 "same point" --frames 1 --size 8x8 --photons 100 --eye 0,1,0 --look-at 0,1,0
+expect_fail 1 "cannot write the camera file" --frames 1 --size 8x8 --photons 100 --camera-out /nonexistent/dir/c.json
 
 summary test_viewer

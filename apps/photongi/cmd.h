@@ -39,10 +39,12 @@ static inline const char *cli_reference_differs(const pgi_reference_meta *a, con
     return strcmp(a->scene, b->scene)                       ? "scenes"
            : a->width != b->width || a->height != b->height ? "sizes"
            : a->bounces != b->bounces                       ? "bounces"
-           : a->camera != b->camera                         ? "cameras"
-           : a->jitter != b->jitter                         ? "jitter settings"
-           : a->specular != b->specular                     ? "specular models"
-                                                            : NULL;
+           : a->camera != b->camera || a->has_view != b->has_view ||
+                   (a->has_view && memcmp(&a->view, &b->view, sizeof a->view) != 0)
+               ? "cameras"
+           : a->jitter != b->jitter     ? "jitter settings"
+           : a->specular != b->specular ? "specular models"
+                                        : NULL;
 }
 
 /* A reference's own noise from one of its halves (cmd_compare.c): REF is the mean of n samples, HALF

@@ -19,6 +19,7 @@
 #include "parse.h"
 #include "photongi/metrics.h"
 #include "photongi/reference.h"
+#include "camera.h"
 #include "progress.h"
 
 static const char *k_reference_help =
@@ -32,8 +33,9 @@ static const char *k_reference_help =
     "roulette. Each sample looks through its own uniform point of the pixel, so the image\n"
     "converges to the box-filtered pixel integral, as 'render --progressive' does (--jitter off:\n"
     "pixel centres, the point samples of one 'render' frame). Deterministic for a seed whatever\n"
-    "the thread count. Writes linear EXR and REF.exr.json (scene, size, bounces, camera, seed,\n"
-    "jitter, specular, samples), so that --continue can add samples later.\n"
+    "the thread count. Writes linear EXR and REF.exr.json (scene, size, bounces, camera, the\n"
+    "--eye/--look-at/--up/--fov camera if given, seed, jitter, specular, samples), so that\n"
+    "--continue can add samples later.\n"
     "\n"
     "  --scene S          scene, as for 'render' (default cornell)\n"
     "  --spp N            samples per pixel to add, 1..2^40 (default 64; with --time: an upper bound)\n"
@@ -45,6 +47,8 @@ static const char *k_reference_help =
     "  --seed K           random seed, 0..2^64-1 (default 1; 0 is 1)\n"
     "  --threads T        worker threads, 1..1024 (default: all cores)\n"
     "  --camera I         camera index, from 0 (default 0)\n"
+    "  --eye X,Y,Z, --look-at X,Y,Z, --up X,Y,Z, --fov DEG   a camera of your own, as 'render';\n"
+    "                     the parts not given are camera I's\n"
     "  --jitter on|off    samples over the whole pixel (on, default) or through its centre\n"
     "  --specular ggx|phong   model of the mesh's glossy materials, as 'render' (default: the\n"
     "                     description's \"specular\", else ggx)\n"
@@ -224,6 +228,9 @@ int pgi_cmd_reference(int argc, char **argv) {
     float exposure = 0.f;
     int quiet = 0, size_set = 0, bounces_set = 0, seed_set = 0, camera_set = 0, jitter_set = 0;
     pgi_specular specular = PGI_SPECULAR_DEFAULT;
+    app_camera_args cam_args = {0};
+    pgi_camera_def view;
+    char err[400];
     for (int i = 0; i < argc; i++) {
         const char *a = argv[i];
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
@@ -246,6 +253,9 @@ int pgi_cmd_reference(int argc, char **argv) {
         if (i + 1 >= argc) return cli_usage("reference", "%s needs a value", a);
         const char *v = argv[++i];
         long long n;
+        int co = app_camera_option(a, v, &cam_args, err, sizeof err);
+        if (co < 0) return cli_usage("reference", "%s", err);
+        if (co > 0) continue;
         if (strcmp(a, "--scene") == 0) {
             if (!*v) return cli_usage("reference", "%s", "--scene needs a scene");
             scene_spec = v;
@@ -303,14 +313,15 @@ int pgi_cmd_reference(int argc, char **argv) {
         } else return cli_usage("reference", "unknown option '%s'", a);
     }
     /* Everything the command line alone decides, then the outputs, before any file is read. */
-    if (cont && (scene_spec || size_set || bounces_set || seed_set || camera_set || jitter_set ||
+    const int view_set = app_camera_given(&cam_args);
+    if (cont && (scene_spec || size_set || bounces_set || seed_set || camera_set || view_set || jitter_set ||
                  specular != PGI_SPECULAR_DEFAULT))
         return cli_usage("reference", "%s",
-                         "--continue takes the scene, size, bounces, seed, camera, jitter and specular from the "
-                         "reference's .json file; do not give them");
+                         "--continue takes the scene, size, bounces, seed, camera (--eye, --look-at, --up, --fov "
+                         "too), jitter and specular from the reference's .json file; do not give them");
     if (merge[0] &&
-        (cont || scene_spec || size_set || bounces_set || seed_set || camera_set || jitter_set || spp || time_s > 0.0 ||
-         png || specular != PGI_SPECULAR_DEFAULT || d.threads || exposure > 0.f || checkpoint_set))
+        (cont || scene_spec || size_set || bounces_set || seed_set || camera_set || view_set || jitter_set || spp ||
+         time_s > 0.0 || png || specular != PGI_SPECULAR_DEFAULT || d.threads || exposure > 0.f || checkpoint_set))
         return cli_usage("reference", "%s", "--merge takes only the two references and -o OUT.exr");
     if (!out) out = cont;
     if (!out) return cli_usage("reference", "%s", "no output file: give -o REF.exr");
@@ -342,6 +353,7 @@ int pgi_cmd_reference(int argc, char **argv) {
         d.height = meta.height;
         d.bounces = meta.bounces;
         d.camera = meta.camera;
+        if (meta.has_view) d.view = &meta.view; /* the samples so far were rendered from it */
         d.seed = meta.seed;
         d.jitter = meta.jitter;
         specular = meta.specular;
@@ -371,6 +383,16 @@ int pgi_cmd_reference(int argc, char **argv) {
         return cli_failure("reference", "--camera %d: scene %s has %zu camera%s (0..%zu)", d.camera, scene_name,
                            info.cameras, info.cameras == 1 ? "" : "s", info.cameras - 1);
     }
+    if (view_set) {
+        pgi_camera_def base;
+        pgi_scene_get_camera(scene, (size_t)d.camera, &base);
+        if (!app_camera_resolve(&cam_args, &base, &view, err, sizeof err)) {
+            pgi_image_free(&img);
+            pgi_scene_destroy(scene);
+            return cli_failure("reference", "scene %s: %s", scene_name, err);
+        }
+        d.view = &view;
+    }
     if (exposure == 0.f) exposure = info.defaults.exposure > 0.f ? info.defaults.exposure : 1.f;
     /* Resolve defaults here too, for the metadata. */
     if (d.width == 0 && d.height == 0) {
@@ -397,6 +419,8 @@ int pgi_cmd_reference(int argc, char **argv) {
     meta.height = d.height;
     meta.bounces = d.bounces;
     meta.camera = d.camera;
+    if (d.view && d.view != &meta.view) meta.view = *d.view;
+    meta.has_view = d.view != NULL;
     meta.seed = d.seed;
     meta.jitter = d.jitter;
     meta.specular = info.specular; /* the model in use, whether given or the scene's */

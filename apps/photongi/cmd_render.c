@@ -12,6 +12,7 @@
 
 #include <cjson/cJSON.h>
 
+#include "camera.h"
 #include "cli.h"
 #include "cmd.h"
 #include "device.h"
@@ -83,6 +84,27 @@ static int after_frame(void *user) {
     return 0;
 }
 
+/* The "view" of a statistics file's "run" (the camera of render --eye ...) as camera flags. */
+static int read_view(const cJSON *v, app_camera_args *c) {
+    static const char *const keys[3] = {"eye", "look_at", "up"};
+    app_camera_args r = {1, 1, 1, 1, {0}, {0}, {0}, 0.f};
+    float *dst[3] = {r.eye, r.look_at, r.up};
+    for (int k = 0; k < 3; k++) {
+        const cJSON *a = cJSON_GetObjectItemCaseSensitive(v, keys[k]);
+        if (!cJSON_IsArray(a) || cJSON_GetArraySize(a) != 3) return 0;
+        int i = 0;
+        for (const cJSON *it = a->child; it; it = it->next, i++) {
+            if (!cJSON_IsNumber(it) || !(fabs(it->valuedouble) <= PGI_MAX_COORD)) return 0;
+            dst[k][i] = (float)it->valuedouble;
+        }
+    }
+    const cJSON *f = cJSON_GetObjectItemCaseSensitive(v, "fov_y");
+    if (!cJSON_IsNumber(f) || !(f->valuedouble > 0.0 && f->valuedouble <= APP_MAX_FOV)) return 0;
+    r.fov = (float)f->valuedouble;
+    *c = r;
+    return 1;
+}
+
 /* What --from-stats read: the scene and the hash of its file then. */
 typedef struct from_stats {
     char scene[4096], estimator[128], hash[24];
@@ -90,8 +112,8 @@ typedef struct from_stats {
 
 /* --from-stats S.json: the settings and the run of a frame's statistics (pgi_stats_write_json) into d
  * and x, as if given on the command line at this point. 1 fine, 0 a failure (message in err). */
-static int read_from_stats(const char *path, pgi_render_desc *d, app_render_extra *x, from_stats *fsr, char *err,
-                           size_t size) {
+static int read_from_stats(const char *path, pgi_render_desc *d, app_render_extra *x, app_camera_args *cam,
+                           from_stats *fsr, char *err, size_t size) {
     FILE *f = fopen(path, "rb");
     if (!f) return (snprintf(err, size, "--from-stats %s: cannot read: %s", path, strerror(errno)), 0);
     char *text = malloc(1 << 20);
@@ -139,12 +161,18 @@ static int read_from_stats(const char *path, pgi_render_desc *d, app_render_extr
                     *h = cJSON_GetObjectItemCaseSensitive(run, "scene_file_fnv1a64"),
                     *ex = cJSON_GetObjectItemCaseSensitive(run, "exposure"),
                     *t = cJSON_GetObjectItemCaseSensitive(run, "time"),
-                    *sp = cJSON_GetObjectItemCaseSensitive(run, "specular");
+                    *sp = cJSON_GetObjectItemCaseSensitive(run, "specular"),
+                    *view = cJSON_GetObjectItemCaseSensitive(run, "view");
         if (cJSON_IsString(sc)) snprintf(fsr->scene, sizeof fsr->scene, "%s", sc->valuestring);
         if (cJSON_IsString(h)) snprintf(fsr->hash, sizeof fsr->hash, "%s", h->valuestring);
         if (cJSON_IsNumber(ex) && ex->valuedouble > 0.0) x->exposure = (float)ex->valuedouble;
         if (cJSON_IsNumber(t)) x->time = (float)t->valuedouble;
         if (cJSON_IsString(sp) && !parse_specular(sp->valuestring, &x->specular)) x->specular = PGI_SPECULAR_DEFAULT;
+        if (view && !read_view(view, cam)) {
+            snprintf(err, size, "--from-stats %s: run.view is not a camera (eye, look_at, up: three numbers; fov_y)",
+                     path);
+            ok = 0;
+        }
     }
     cJSON_Delete(root);
     return ok;
@@ -179,6 +207,13 @@ static const char *k_render_help =
     "                     any thread count\n"
     "  --threads T        worker threads, 1..1024 (default: all cores)\n"
     "  --camera I         camera index of the scene, from 0 (default 0)\n"
+    "  --eye X,Y,Z        camera position (scene units; default: camera I's)\n"
+    "  --look-at X,Y,Z    the point the camera looks at (default: camera I's)\n"
+    "  --up X,Y,Z         the camera's up direction (default: camera I's)\n"
+    "  --fov DEG          vertical field of view, above 0 and at most 179.9 degrees (default:\n"
+    "                     camera I's). The parts not given come from camera I; the camera is the\n"
+    "                     one a scene description's \"camera\" block with these values gives, to\n"
+    "                     the bit (photongi-view's V key prints both forms)\n"
     "  --direct-samples K shadow samples per pixel for area lights and for the sky, 1..4096\n"
     "                     (default 16)\n"
     "  --exposure X       multiply radiance by X before tone mapping (default: the scene's, else 1)\n"
@@ -287,6 +322,8 @@ int pgi_cmd_render(int argc, char **argv) {
     from_stats fsr = {{0}, {0}, {0}}; /* --from-stats: its strings live through the call */
     double checkpoint_s = 600.0;
     int checkpoint_set = 0;
+    app_camera_args cam_args = {0};
+    pgi_camera_def view;
     for (int i = 0; i < argc; i++) {
         const char *a = argv[i];
         if (is_help(a)) {
@@ -304,11 +341,13 @@ int pgi_cmd_render(int argc, char **argv) {
         int ro = app_render_option(a, v, &d, &x, &given, err, sizeof err);
         if (ro < 0) return cli_usage("render", "%s", err);
         if (ro > 0) continue;
+        if ((ro = app_camera_option(a, v, &cam_args, err, sizeof err)) < 0) return cli_usage("render", "%s", err);
+        if (ro > 0) continue;
         if (strcmp(a, "--scene") == 0) {
             if (!*v) return cli_usage("render", "%s", "--scene needs a scene");
             scene_spec = v;
         } else if (strcmp(a, "--from-stats") == 0) {
-            if (!read_from_stats(v, &d, &x, &fsr, err, sizeof err)) return cli_failure("render", "%s", err);
+            if (!read_from_stats(v, &d, &x, &cam_args, &fsr, err, sizeof err)) return cli_failure("render", "%s", err);
             if (fsr.scene[0]) scene_spec = fsr.scene;
         } else if (strcmp(a, "-o") == 0 || strcmp(a, "--out") == 0) out = v;
         else if (strcmp(a, "--stats") == 0) stats_path = v;
@@ -378,6 +417,15 @@ int pgi_cmd_render(int argc, char **argv) {
         return cli_failure("render", "--camera %d: scene %s has %zu camera%s (0..%zu)", d.camera, scene_name,
                            info.cameras, info.cameras == 1 ? "" : "s", info.cameras - 1);
     }
+    if (app_camera_given(&cam_args)) {
+        pgi_camera_def base;
+        pgi_scene_get_camera(scene, (size_t)d.camera, &base);
+        if (!app_camera_resolve(&cam_args, &base, &view, err, sizeof err)) {
+            pgi_scene_destroy(scene);
+            return cli_failure("render", "scene %s: %s", scene_name, err);
+        }
+        d.view = &view;
+    }
     if (exposure == 0.f) exposure = info.defaults.exposure > 0.f ? info.defaults.exposure : 1.f;
     pgi_image img = {0};
     pgi_frame_stats fs;
@@ -411,6 +459,14 @@ int pgi_cmd_render(int argc, char **argv) {
         sigaction(SIGTERM, &old_term, NULL);
     } else st = pgi_renderer_render(r, &d, &img, &fs);
     app_progress_end(&bar, 0);
+    /* A camera that sees nothing lit: an automatic one (the scene gives none) is probed for direct
+     * light, any other one warned about when its image is black. */
+    if (st == PGI_OK && !quiet && !be && d.output == PGI_OUTPUT_ALL &&
+        (app_image_unlit(&img) || (info.camera_auto && !d.view && app_view_sees_light(r, &d, &info) == 0))) {
+        char why[700];
+        app_unlit_warning(&info, d.camera, d.view != NULL, why, sizeof why);
+        cli_warn(quiet, "render", "%s", why);
+    }
     char device_name[256]; /* the stats' device name lives with the renderer */
     if (st == PGI_OK) {
         snprintf(device_name, sizeof device_name, "%s", fs.device ? fs.device : "cpu");
@@ -448,7 +504,7 @@ int pgi_cmd_render(int argc, char **argv) {
         return 128 + g_signal;
     }
     fs.memory_peak_rss = pgi_memory_peak_rss(); /* writing the image included */
-    fs.run = (pgi_run_info){scene_spec, scene_file, scene_hash, exposure, scene_time, specular};
+    fs.run = (pgi_run_info){scene_spec, scene_file, scene_hash, exposure, scene_time, specular, d.view};
     if (stats_path) {
         st = be && be->write_stats ? be->write_stats(&fs, stats_path) : pgi_stats_write_json(&fs, stats_path);
         if (st) return cli_fail("render", "cannot write stats", st);

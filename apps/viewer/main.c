@@ -5,6 +5,7 @@
  * box). With --frames N it runs headless (no window, no display needed) and
  * can save a screenshot. */
 #include <SDL.h>
+#include <ctype.h>
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -14,7 +15,9 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "camera.h"
 #include "device.h"
+#include "held.h"
 #include "overlay.h"
 #include "photongi/photongi.h"
 #include "options.h"
@@ -42,6 +45,11 @@ static const char *k_help =
     "  --direct-samples K shadow samples per pixel for area lights (default 16)\n"
     "  --threads T        worker threads (default: all cores)\n" APP_DEVICE_HELP
     "  --camera I         scene camera to start from (default 0)\n"
+    "  --eye X,Y,Z, --look-at X,Y,Z, --up X,Y,Z, --fov DEG   start from this camera instead,\n"
+    "                     as 'photongi render' (the parts not given are camera I's)\n"
+    "  --camera-out FILE  where V saves the camera's JSON block (default photongi-camera.json)\n"
+    "  --max-frames N     a still view stops rendering after N frames (progressive: N frames\n"
+    "                     averaged) and waits for input; 0: never (default 256)\n"
     "  --exposure X       exposure before the sRGB tone map (default: the scene's, else 1)\n"
     "  --output all|direct|indirect|counts   what to show (counts: false-colour photons per pixel)\n"
     "  --emission uniform|guided|auto   photon emission, as 'photongi render --emission'\n"
@@ -60,15 +68,20 @@ static const char *k_help =
     "                     (both paths are checked before the scene loads)\n"
     "  --keys K1,K2,...   press these keys, one before each frame (scripted demos and tests): a\n"
     "                     character, or tab, shift+tab, space, up, down, left, right, pageup,\n"
-    "                     pagedown, f12, escape, comma; movement keys take one step; j/k turn\n"
+    "                     pagedown, f12, escape, comma; movement keys take one fixed step (2% of\n"
+    "                     the scene's diagonal, times the speed of X / Z); j/k turn\n"
     "  -q, --quiet        print nothing but errors\n"
     "\n"
     "Without a display (DISPLAY, WAYLAND_DISPLAY) and without --frames it stops with a message\n"
     "rather than run in SDL's invisible offscreen window (SDL_VIDEODRIVER=offscreen asks for that).\n"
     "\n"
-    "keys: mouse drag (left button) look | W A S D move, Q E down/up, Shift faster\n"
+    "keys: mouse drag (left button) look | W A S D move, Q E down/up: a quarter of the scene's\n"
+    "      diagonal per second held (wall time, whatever the frame rate; every press counts),\n"
+    "      Shift x4, Ctrl x0.2 | mouse wheel or X / Z: speed x1.25 a notch / x2 / x0.5\n"
+    "      V print the camera (the JSON block and the 'photongi render' line) and save it\n"
     "      L next light, arrows or Ctrl+drag move it (camera-relative), PgUp/PgDn raise/lower it\n"
-    "      Tab / Shift+Tab next/previous estimator, 1-9 pick estimator\n"
+    "      Tab / Shift+Tab next/previous estimator, 1-9 pick estimator (not brute, the\n"
+    "      O(photons x pixels) oracle: a frame cannot be interrupted; --estimator brute only)\n"
     "      + / - photons x2 / /2, ] / [ radius x1.25 / /1.25, . / , exposure\n"
     "      O output all/direct/indirect, C photons-per-pixel false colour, P progressive on/off\n"
     "      R resolution scale 100/50/25%, Space pause animation, H overlay, F12 screenshot, Esc quit\n"
@@ -98,6 +111,10 @@ typedef struct viewer {
     unsigned char *disp; /* window resolution, with overlay */
     double frame_ms, fps;
     int screenshot_count;
+    const char *scene_spec; /* as given (--scene), for the printed command line */
+    const char *camera_out; /* where V saves the camera's JSON block */
+    char est_opts[1024];    /* estimator options as given (" --name value"), for the printed command line */
+    float speed_mul;        /* movement speed factor (mouse wheel, X / Z) */
 } viewer;
 
 static int usage(const char *fmt, const char *arg) {
@@ -243,8 +260,10 @@ static void compose(viewer *v, int in_place) {
              nl ? v->light % nl + 1 : 0, nl, nl ? g.name : "-");
     double mem = 0.0;
     for (int i = 0; i < fst->memory_count; i++) mem += fst->memory_bytes[i].value;
-    snprintf(line[5], sizeof line[5], "memory %.0f MiB counted, peak RSS %.0f MiB | H hides this; see --help for keys",
-             mem / 1048576.0, (double)fst->memory_peak_rss / 1048576.0);
+    snprintf(line[5], sizeof line[5],
+             "memory %.0f MiB counted, peak RSS %.0f MiB | speed x%.3g | V prints the camera | H hides this; see "
+             "--help for keys",
+             mem / 1048576.0, (double)fst->memory_peak_rss / 1048576.0, (double)v->speed_mul);
     static const unsigned char yellow[3] = {255, 220, 0};
     /* Marker on the selected light (point lights are invisible otherwise). */
     if (nl && g.kind != PGI_LIGHT_KIND_SUN) {
@@ -277,15 +296,21 @@ static void compose(viewer *v, int in_place) {
 
 /* ------------------------------------------------------------ frames */
 
+/* The settings of a frame as render_frame gives them to the library. */
+static void frame_desc(const viewer *v, pgi_render_desc *d) {
+    *d = v->desc;
+    d->estimator = pgi_estimator_at(v->est_index)->name;
+    d->width = (int)lroundf((float)v->win_w * v->scale);
+    d->height = (int)lroundf((float)v->win_h * v->scale);
+    if (d->width < 1) d->width = 1;
+    if (d->height < 1) d->height = 1;
+    d->view = v->cam_moved ? &v->cam : NULL;
+    d->output = (pgi_output)v->out_mode;
+}
+
 static pgi_status render_frame(viewer *v) {
-    pgi_render_desc d = v->desc;
-    d.estimator = pgi_estimator_at(v->est_index)->name;
-    d.width = (int)lroundf((float)v->win_w * v->scale);
-    d.height = (int)lroundf((float)v->win_h * v->scale);
-    if (d.width < 1) d.width = 1;
-    if (d.height < 1) d.height = 1;
-    d.view = v->cam_moved ? &v->cam : NULL;
-    d.output = (pgi_output)v->out_mode;
+    pgi_render_desc d;
+    frame_desc(v, &d);
     pgi_status st = pgi_scene_set_time(v->scene, v->time);
     if (st) return st;
     if (v->accumulate && v->out_mode != PGI_OUTPUT_PHOTON_COUNT)
@@ -330,9 +355,29 @@ static int cmp_double(const void *a, const void *b) {
     return x < y ? -1 : x > y;
 }
 
+/* Tab and the number keys reach every estimator but the oracle (brute: O(photons x pixels), a
+ * frame of minutes that cannot be interrupted); --estimator brute still selects it. */
+static int key_selectable(size_t i) { return !pgi_estimator_at(i)->oracle; }
+
 static void cycle_estimator(viewer *v, int step) {
-    size_t n = pgi_estimator_count();
-    v->est_index = (v->est_index + n + (size_t)(step % (int)n + (int)n)) % n;
+    size_t n = pgi_estimator_count(), i = v->est_index;
+    for (size_t tries = 0; tries < n; tries++) {
+        i = (i + n + (size_t)(step % (int)n + (int)n)) % n;
+        if (key_selectable(i)) {
+            v->est_index = i;
+            return;
+        }
+    }
+}
+
+/* Number key k (0-based): the k-th estimator Tab reaches, in registry order; 0 when there is none. */
+static int pick_estimator(viewer *v, size_t k) {
+    for (size_t i = 0; i < pgi_estimator_count(); i++)
+        if (key_selectable(i) && k-- == 0) {
+            v->est_index = i;
+            return 1;
+        }
+    return 0;
 }
 
 static void change_radius(viewer *v, float f) { v->desc.radius = v->fs.radius * f; }
@@ -344,14 +389,94 @@ static void change_photons(viewer *v, double f) {
     v->desc.photons = (uint32_t)p;
 }
 
-/* Handles one key press; returns 0 to quit. `step` > 0 (scripted keys): the
+/* s for a shell: as is when it holds only safe characters, else in single quotes. */
+static void shell_word(const char *s, char *out, size_t size) {
+    int safe = *s != 0;
+    for (const char *p = s; *p; p++) safe &= strchr("+-./:=@_,", *p) != NULL || isalnum((unsigned char)*p);
+    if (safe) {
+        snprintf(out, size, "%s", s);
+        return;
+    }
+    size_t o = 0;
+    if (o + 1 < size) out[o++] = '\'';
+    for (const char *p = s; *p && o + 5 < size; p++) {
+        if (*p == '\'') memcpy(out + o, "'\\''", 4), o += 4;
+        else out[o++] = *p;
+    }
+    if (o + 1 < size) out[o++] = '\'';
+    out[o] = 0;
+}
+
+/* The camera now (the scene's, or the one moved to). */
+static pgi_camera_def current_camera(const viewer *v) {
+    pgi_camera_def c = v->cam;
+    if (!v->cam_moved) pgi_scene_get_camera(v->scene, (size_t)v->desc.camera, &c);
+    return c;
+}
+
+/* The `photongi render` command line of the frame shown: the camera's flags and the settings
+ * given (defaults are the same in both programs), --progressive for the frames averaged. */
+static void command_line(const viewer *v, char *buf, size_t size) {
+    pgi_render_desc d;
+    frame_desc(v, &d);
+    const pgi_camera_def c = current_camera(v);
+    char w[4200], cam[400];
+    shell_word(v->scene_spec, w, sizeof w);
+    app_camera_flags(&c, cam, sizeof cam);
+    int o = snprintf(buf, size, "photongi render --scene %s --size %dx%d --estimator %s", w, d.width, d.height,
+                     d.estimator);
+#define ADD_(...)                                                                                                      \
+    do {                                                                                                               \
+        if (o > 0 && (size_t)o < size) o += snprintf(buf + o, size - (size_t)o, __VA_ARGS__);                          \
+    } while (0)
+    if (v->est_opts[0]) ADD_("%s", v->est_opts);
+    if (d.photons) ADD_(" --photons %u", d.photons);
+    if (d.radius == PGI_RADIUS_AUTO) ADD_(" --radius auto");
+    else if (d.radius > 0.f) ADD_(" --radius %.9g", (double)d.radius);
+    if (d.seed) ADD_(" --seed %llu", (unsigned long long)d.seed);
+    if (d.bounces) ADD_(" --bounces %d", d.bounces);
+    if (d.direct_samples) ADD_(" --direct-samples %d", d.direct_samples);
+    if (d.emission != PGI_EMISSION_UNIFORM)
+        ADD_(" --emission %s", d.emission == PGI_EMISSION_GUIDED ? "guided" : "auto");
+    if (d.store == PGI_STORE_VIEW) ADD_(" --store view");
+    if (d.device == PGI_DEVICE_VULKAN) ADD_(" --device vulkan");
+    if (d.output != PGI_OUTPUT_ALL)
+        ADD_(" --output %s", d.output == PGI_OUTPUT_DIRECT     ? "direct"
+                             : d.output == PGI_OUTPUT_INDIRECT ? "indirect"
+                                                               : "counts");
+    if (v->time != 0.0) ADD_(" --time %.9g", v->time);
+    ADD_(" --exposure %.9g", (double)v->exposure);
+    if (v->accumulate && d.output != PGI_OUTPUT_PHOTON_COUNT && v->fs.frames > 1)
+        ADD_(" --progressive %d", v->fs.frames);
+    if (v->desc.camera) ADD_(" --camera %d", v->desc.camera);
+    ADD_(" %s -o view.png", cam);
+#undef ADD_
+}
+
+/* V: the camera as the JSON camera block of a scene description and as the command line that
+ * renders the frame shown, on stdout; the block is saved to v->camera_out. */
+static void print_camera(const viewer *v) {
+    const pgi_camera_def c = current_camera(v);
+    char block[512], cmd[8192];
+    app_camera_json(&c, block, sizeof block);
+    command_line(v, cmd, sizeof cmd);
+    printf("camera: %s\nrender: %s\n", block, cmd);
+    fflush(stdout);
+    FILE *f = fopen(v->camera_out, "w");
+    int bad = !f || fprintf(f, "%s\n", block) < 0;
+    if (f && fclose(f) != 0) bad = 1;
+    if (bad) fprintf(stderr, "photongi-view: cannot write the camera to %s: %s\n", v->camera_out, strerror(errno));
+    else if (!v->quiet) fprintf(stderr, "photongi-view: camera saved to %s\n", v->camera_out);
+}
+
+/* Handles one key press; returns 0 to quit, 2 for a key that leaves the picture as it is (V, F12,
+ * the speed keys: a still view stays idle), else 1. `step` > 0 (scripted keys): the
  * movement keys move the camera or the light by that distance once (held
  * keys in a window move continuously instead, see the main loop). */
 static int press_key(viewer *v, SDL_Keycode k, int shift, float step) {
     if (k == SDLK_ESCAPE) return 0;
     if (k == SDLK_TAB) cycle_estimator(v, shift ? -1 : 1);
-    else if (k >= SDLK_1 && k <= SDLK_9 && (size_t)(k - SDLK_1) < pgi_estimator_count())
-        v->est_index = (size_t)(k - SDLK_1);
+    else if (k >= SDLK_1 && k <= SDLK_9) pick_estimator(v, (size_t)(k - SDLK_1));
     else if (k == SDLK_EQUALS || k == SDLK_PLUS || k == SDLK_KP_PLUS) change_photons(v, 2.0);
     else if (k == SDLK_MINUS || k == SDLK_KP_MINUS) change_photons(v, 0.5);
     else if (k == SDLK_RIGHTBRACKET) change_radius(v, 1.25f);
@@ -369,11 +494,19 @@ static int press_key(viewer *v, SDL_Keycode k, int shift, float step) {
     else if (k == SDLK_SPACE) v->animate = !v->animate;
     else if (k == SDLK_h) v->overlay = !v->overlay;
     else if (k == SDLK_l) v->light++;
-    else if (k == SDLK_F12) {
+    else if (k == SDLK_v) {
+        print_camera(v);
+        return 2;
+    } else if (k == SDLK_x || k == SDLK_z) {
+        v->speed_mul = fminf(1e3f, fmaxf(1e-3f, v->speed_mul * (k == SDLK_x ? 2.f : 0.5f)));
+        if (!v->quiet) fprintf(stderr, "photongi-view: movement speed x%.3g\n", (double)v->speed_mul);
+        return 2;
+    } else if (k == SDLK_F12) {
         char name[64];
         snprintf(name, sizeof name, "photongi-view-%03d.png", v->screenshot_count++);
         if (save_screenshot(v, name)) fprintf(stderr, "photongi-view: %s\n", pgi_last_error());
         else if (!v->quiet) fprintf(stderr, "photongi-view: wrote %s\n", name);
+        return 2;
     } else if (step > 0.f) {
         if (k == SDLK_w) cam_move(v, step, 0.f, 0.f);
         else if (k == SDLK_s) cam_move(v, -step, 0.f, 0.f);
@@ -468,8 +601,11 @@ int main(int argc, char **argv) {
     viewer v;
     memset(&v, 0, sizeof v);
     const char *scene_spec = "cornell", *shot = NULL, *stats_path = NULL, *est = PGI_DEFAULT_ESTIMATOR, *script = NULL;
-    long long frames = 0, cam_index = 0;
-    int want_window = 0, size_set = 0;
+    long long frames = 0, cam_index = 0, max_frames = 256;
+    int want_window = 0, size_set = 0, camera_out_set = 0;
+    app_camera_args cam_args = {0};
+    v.camera_out = "photongi-camera.json";
+    v.speed_mul = 1.f;
     v.accumulate = 1;
     v.overlay = 1;
     v.scale = 1.f;
@@ -501,13 +637,29 @@ int main(int argc, char **argv) {
         if (pgi_option_find(a + 2) && strncmp(a, "--", 2) == 0) {
             if (i + 1 >= argc) return usage("%s needs a value", a);
             if (app_estimator_option("photongi-view", a, argv[++i], &v.desc.est, NULL) < 0) return 2;
+            size_t used = strlen(v.est_opts);
+            char word[600];
+            shell_word(argv[i], word, sizeof word);
+            snprintf(v.est_opts + used, sizeof v.est_opts - used, " %s %s", a, word);
             continue;
         }
-        static const char *const valued[] =
-            {"--scene",    "--estimator",  "--screenshot", "--stats",          "--photons", "--radius",
-             "--size",     "--scale",      "--seed",       "--threads",        "--camera",  "--exposure",
-             "--time",     "--frames",     "--output",     "--direct-samples", "--bounces", "--keys",
-             "--emission", "--max-memory", "--store",      "--device",         NULL};
+        {
+            char err[400];
+            int co = i + 1 < argc ? app_camera_option(a, argv[i + 1], &cam_args, err, sizeof err) : 0;
+            if (co < 0) return usage("%s", err);
+            if (co > 0) {
+                i++;
+                continue;
+            }
+        }
+        static const char *const valued[] = {"--scene",   "--estimator", "--screenshot", "--stats",
+                                             "--photons", "--radius",    "--size",       "--scale",
+                                             "--seed",    "--threads",   "--camera",     "--exposure",
+                                             "--time",    "--frames",    "--output",     "--direct-samples",
+                                             "--bounces", "--keys",      "--emission",   "--max-memory",
+                                             "--store",   "--device",    "--camera-out", "--max-frames",
+                                             "--eye",     "--look-at",   "--up",         "--fov",
+                                             NULL};
         int known = 0;
         for (int k = 0; valued[k]; k++) known |= strcmp(a, valued[k]) == 0;
         if (!known) return usage("unknown option '%s'", a);
@@ -516,7 +668,12 @@ int main(int argc, char **argv) {
         long long n;
         if (strcmp(a, "--scene") == 0) scene_spec = val;
         else if (strcmp(a, "--keys") == 0) script = val;
-        else if (strcmp(a, "--estimator") == 0) est = val;
+        else if (strcmp(a, "--camera-out") == 0) v.camera_out = val, camera_out_set = 1;
+        else if (strcmp(a, "--max-frames") == 0) {
+            if (!parse_whole(val, 0, MAX_FRAMES_TIMED * 10LL, &max_frames))
+                return usage("--max-frames needs a frame count, a whole number in 0..1000000 (0: never stop), got '%s'",
+                             val);
+        } else if (strcmp(a, "--estimator") == 0) est = val;
         else if (strcmp(a, "--device") == 0) {
             char err[160];
             if (!app_parse_device(val, &v.desc, err, sizeof err)) {
@@ -588,6 +745,7 @@ int main(int argc, char **argv) {
     /* Output paths are checked before the scene loads and any frame renders. */
     int bad_out = shot ? check_output("screenshot", shot, 1) : 0;
     if (!bad_out && stats_path && strcmp(stats_path, "-") != 0) bad_out = check_output("stats", stats_path, 0);
+    if (!bad_out && camera_out_set) bad_out = check_output("camera file", v.camera_out, 0);
     if (bad_out) return bad_out;
     const pgi_estimator_vtbl *vt = pgi_estimator_find(est);
     if (!vt) {
@@ -623,7 +781,19 @@ int main(int argc, char **argv) {
         return 2;
     }
     v.desc.camera = (int)cam_index;
+    v.scene_spec = scene_spec;
     pgi_scene_get_camera(v.scene, (size_t)cam_index, &v.cam);
+    if (app_camera_given(&cam_args)) {
+        char err[400];
+        pgi_camera_def base = v.cam;
+        if (!app_camera_resolve(&cam_args, &base, &v.cam, err, sizeof err)) {
+            fprintf(stderr, "photongi-view: scene %s: %s\n", v.info.name, err);
+            pgi_scene_destroy(v.scene);
+            if (!headless) SDL_Quit();
+            return 1;
+        }
+        v.cam_moved = 1; /* rendered as a view, as 'photongi render --eye ...' */
+    }
     cam_init_angles(&v);
     float ext[3];
     v_sub(v.info.bounds_max, v.info.bounds_min, ext);
@@ -671,52 +841,87 @@ int main(int argc, char **argv) {
         }
     }
 
+    if (pgi_estimator_at(v.est_index)->oracle && !v.quiet)
+        fprintf(stderr,
+                "photongi-view: note: %s is the O(photons x pixels) oracle: each frame reads every photon at every "
+                "pixel (%d x %d pixels here) and cannot be interrupted; Tab and the number keys leave it\n",
+                pgi_estimator_at(v.est_index)->name, (int)lroundf((float)v.win_w * v.scale),
+                (int)lroundf((float)v.win_h * v.scale));
     double *times = frames ? malloc(2 * (size_t)frames * sizeof *times) : NULL; /* frame, viewer overhead */
-    long long done = 0;
-    int running = 1, rc = 0, dragging = 0;
+    long long done = 0, rendered = 0, idled = 0, still = 0; /* loop turns, frames rendered, turns idle */
+    int running = 1, rc = 0, dragging = 0, warned_unlit = 0;
     int good_valid = 0, good_out = 0; /* the last settings that rendered */
     size_t good_est = v.est_index;
     pgi_render_desc good_desc = v.desc;
     float good_scale = v.scale;
-    double last = SDL_GetPerformanceCounter() / (double)SDL_GetPerformanceFrequency();
+    double last = SDL_GetTicks64() / 1000.0;
     const double speed = 0.25 * v.diag; /* scene diagonals per second / 4 */
+    /* Movement keys: the camera's W S D A E Q, the light's arrows and PgUp/PgDn. A key moves by the
+     * wall time it is held (from its press to its release, or to now while it is down), not by the
+     * frame time, so a tap during a slow frame moves a tap's distance and every press counts. */
+    static const SDL_Scancode k_move[HELD_KEYS] = {SDL_SCANCODE_W,    SDL_SCANCODE_S,      SDL_SCANCODE_D,
+                                                   SDL_SCANCODE_A,    SDL_SCANCODE_E,      SDL_SCANCODE_Q,
+                                                   SDL_SCANCODE_UP,   SDL_SCANCODE_DOWN,   SDL_SCANCODE_RIGHT,
+                                                   SDL_SCANCODE_LEFT, SDL_SCANCODE_PAGEUP, SDL_SCANCODE_PAGEDOWN};
+    held_keys keys_held = {{0}, {0}, {0}};
+    double held[HELD_KEYS];
     while (running) {
-        double now = SDL_GetPerformanceCounter() / (double)SDL_GetPerformanceFrequency();
+        double now = SDL_GetTicks64() / 1000.0;
         double dt = now - last;
         last = now;
+        int changed = 0; /* input or animation: a still view renders again */
         if (!headless) {
             SDL_Event e;
-            while (SDL_PollEvent(&e)) {
+            while (SDL_PollEvent(&e)) { /* every queued event, each press on its own */
                 if (e.type == SDL_QUIT) running = 0;
-                else if (e.type == SDL_MOUSEBUTTONDOWN && e.button.button == SDL_BUTTON_LEFT) dragging = 1;
+                else if (e.type == SDL_WINDOWEVENT && tex && good_valid) { /* uncovered: draw it again */
+                    SDL_RenderClear(ren);
+                    SDL_RenderCopy(ren, tex, NULL, NULL);
+                    SDL_RenderPresent(ren);
+                } else if (e.type == SDL_MOUSEBUTTONDOWN && e.button.button == SDL_BUTTON_LEFT) dragging = 1;
                 else if (e.type == SDL_MOUSEBUTTONUP && e.button.button == SDL_BUTTON_LEFT) dragging = 0;
-                else if (e.type == SDL_MOUSEMOTION && dragging && (SDL_GetModState() & KMOD_CTRL)) {
+                else if (e.type == SDL_MOUSEWHEEL && e.wheel.y != 0) {
+                    v.speed_mul = fminf(1e3f, fmaxf(1e-3f, v.speed_mul * powf(1.25f, (float)e.wheel.y)));
+                    changed = 1; /* the overlay shows the speed */
+                } else if (e.type == SDL_MOUSEMOTION && dragging && (SDL_GetModState() & KMOD_CTRL)) {
                     /* Ctrl + drag: move the selected light in the horizontal plane. */
                     float k = 0.002f * v.diag;
                     light_move(&v, -k * (float)e.motion.yrel, k * (float)e.motion.xrel, 0.f);
+                    changed = 1;
                 } else if (e.type == SDL_MOUSEMOTION && dragging) {
                     v.yaw += 0.005f * (float)e.motion.xrel;
                     v.pitch -= 0.005f * (float)e.motion.yrel;
                     v.pitch = fmaxf(-1.55f, fminf(1.55f, v.pitch));
                     cam_update(&v);
-                } else if (e.type == SDL_KEYDOWN) {
-                    if (!press_key(&v, e.key.keysym.sym, (e.key.keysym.mod & KMOD_SHIFT) != 0, 0.f)) running = 0;
+                    changed = 1;
+                } else if (e.type == SDL_KEYDOWN || e.type == SDL_KEYUP) {
+                    const double t = e.key.timestamp ? e.key.timestamp / 1000.0 : SDL_GetTicks64() / 1000.0;
+                    int mk = -1;
+                    for (int k = 0; k < HELD_KEYS; k++)
+                        if (e.key.keysym.scancode == k_move[k]) mk = k;
+                    if (mk >= 0 && e.type == SDL_KEYDOWN) held_press(&keys_held, mk, t);
+                    else if (mk >= 0) held_release(&keys_held, mk, t);
+                    else if (e.type == SDL_KEYDOWN) {
+                        int pk = press_key(&v, e.key.keysym.sym, (e.key.keysym.mod & KMOD_SHIFT) != 0, 0.f);
+                        if (!pk) running = 0;
+                        changed |= pk == 1;
+                    }
                 }
             }
-            const Uint8 *ks = SDL_GetKeyboardState(NULL);
-            float sp = (float)(speed * dt) * ((ks[SDL_SCANCODE_LSHIFT] || ks[SDL_SCANCODE_RSHIFT]) ? 4.f : 1.f);
-            float fw = (float)(ks[SDL_SCANCODE_W] - ks[SDL_SCANCODE_S]),
-                  sd = (float)(ks[SDL_SCANCODE_D] - ks[SDL_SCANCODE_A]),
-                  ud = (float)(ks[SDL_SCANCODE_E] - ks[SDL_SCANCODE_Q]);
-            if (fw != 0.f || sd != 0.f || ud != 0.f) cam_move(&v, fw * sp, sd * sp, ud * sp);
-            float lf = (float)(ks[SDL_SCANCODE_UP] - ks[SDL_SCANCODE_DOWN]),
-                  ls = (float)(ks[SDL_SCANCODE_RIGHT] - ks[SDL_SCANCODE_LEFT]),
-                  lu = (float)(ks[SDL_SCANCODE_PAGEUP] - ks[SDL_SCANCODE_PAGEDOWN]);
-            if (lf != 0.f || ls != 0.f || lu != 0.f) light_move(&v, lf * sp * 0.5f, ls * sp * 0.5f, lu * sp * 0.5f);
+            changed |= held_take(&keys_held, SDL_GetTicks64() / 1000.0, held);
+            const SDL_Keymod mod = SDL_GetModState();
+            const double sp = speed * v.speed_mul * ((mod & KMOD_SHIFT) ? 4.0 : 1.0) * ((mod & KMOD_CTRL) ? 0.2 : 1.0);
+            float fw = (float)(sp * (held[0] - held[1])), sd = (float)(sp * (held[2] - held[3])),
+                  ud = (float)(sp * (held[4] - held[5]));
+            if (fw != 0.f || sd != 0.f || ud != 0.f) cam_move(&v, fw, sd, ud);
+            float lf = (float)(0.5 * sp * (held[6] - held[7])), ls = (float)(0.5 * sp * (held[8] - held[9])),
+                  lu = (float)(0.5 * sp * (held[10] - held[11]));
+            if (lf != 0.f || ls != 0.f || lu != 0.f) light_move(&v, lf, ls, lu);
             if (v.animate) v.time += dt;
         } else if (v.animate && done > 0) {
             v.time += 1.0 / 30.0;
         }
+        changed |= v.animate;
         if (script && *script) {
             /* --keys: one scripted key a frame (movement keys take a fixed step). */
             char name[32];
@@ -729,9 +934,22 @@ int main(int argc, char **argv) {
                 rc = usage("--keys: unknown key '%s'", name);
                 break;
             }
-            if (!press_key(&v, k, shift, (float)(0.02 * v.diag))) running = 0;
+            int pk = press_key(&v, k, shift, (float)(0.02 * v.diag) * v.speed_mul);
+            if (!pk) running = 0;
+            changed |= pk == 1;
         }
         if (!running) break;
+        /* A still view that has its frames (averaged, or --no-accumulate's fresh ones) waits for
+         * input instead of rendering on: in a window it sleeps until an event comes. */
+        if (changed) still = 0;
+        const int averaging = v.accumulate && v.out_mode != PGI_OUTPUT_PHOTON_COUNT;
+        if (max_frames > 0 && good_valid && !changed && (averaging ? v.fs.frames : still) >= max_frames) {
+            idled++;
+            done++;
+            if (frames && done >= frames) running = 0;
+            else if (!headless) SDL_WaitEventTimeout(NULL, 500);
+            continue;
+        }
         double f0 = SDL_GetPerformanceCounter() / (double)SDL_GetPerformanceFrequency();
         if ((st = render_frame(&v))) {
             /* Interactive: a setting the estimator rejects (say, a radius too small for its
@@ -756,6 +974,19 @@ int main(int argc, char **argv) {
         good_desc = v.desc;
         good_scale = v.scale;
         good_out = v.out_mode;
+        still++;
+        if (!warned_unlit && !v.quiet && v.out_mode == PGI_OUTPUT_ALL) {
+            /* The first frame of the starting view: a camera that sees nothing lit is told about. */
+            warned_unlit = 1;
+            pgi_render_desc d;
+            frame_desc(&v, &d);
+            if (app_image_unlit(&v.img) ||
+                (v.info.camera_auto && !v.cam_moved && app_view_sees_light(v.r, &d, &v.info) == 0)) {
+                char why[700];
+                app_unlit_warning(&v.info, v.desc.camera, app_camera_given(&cam_args), why, sizeof why);
+                fprintf(stderr, "photongi-view: warning: %s\n", why);
+            }
+        }
         if (tex) {
             SDL_UpdateTexture(tex, NULL, v.disp, v.win_w * 3);
             SDL_RenderClear(ren);
@@ -769,7 +1000,8 @@ int main(int argc, char **argv) {
         double f1 = SDL_GetPerformanceCounter() / (double)SDL_GetPerformanceFrequency();
         v.frame_ms = 1000.0 * (f1 - f0);
         v.fps = v.frame_ms > 0.0 ? 1000.0 / v.frame_ms : 0.0;
-        if (times) times[done] = v.frame_ms, times[frames + done] = v.frame_ms - v.fs.total_ms;
+        if (times) times[rendered] = v.frame_ms, times[frames + rendered] = v.frame_ms - v.fs.total_ms;
+        rendered++;
         done++;
         if (frames && done >= frames) running = 0;
     }
@@ -779,19 +1011,22 @@ int main(int argc, char **argv) {
     if (!rc && stats_path && done > 0) {
         if ((st = pgi_stats_write_json(&v.fs, stats_path))) rc = fail("cannot write stats", st);
     }
-    if (!rc && frames && !v.quiet && done > 0) {
+    if (!rc && frames && !v.quiet && rendered > 0) {
         double first = times[0];
-        qsort(times, (size_t)done, sizeof *times, cmp_double);
-        qsort(times + frames, (size_t)done, sizeof *times, cmp_double);
-        double med = times[done / 2], over = times[frames + done / 2];
+        qsort(times, (size_t)rendered, sizeof *times, cmp_double);
+        qsort(times + frames, (size_t)rendered, sizeof *times, cmp_double);
+        double med = times[rendered / 2], over = times[frames + rendered / 2];
         fprintf(stderr,
                 "photongi-view: %s %dx%d, %s, %lld frames: median %.1f ms a frame (%.2f FPS), first %.1f ms, "
                 "viewer overhead (tone map, overlay%s) %.1f ms; "
                 "last frame: view %.1f trace %.1f build %.1f estimate %.1f direct %.1f rt %.1f ms, %d averaged\n",
-                v.info.name, v.fs.width, v.fs.height, v.fs.estimator, done, med, med > 0 ? 1000.0 / med : 0.0, first,
-                tex ? ", display" : "", over, v.fs.view_ms, v.fs.trace_ms, v.fs.build_ms, v.fs.estimate_ms,
+                v.info.name, v.fs.width, v.fs.height, v.fs.estimator, rendered, med, med > 0 ? 1000.0 / med : 0.0,
+                first, tex ? ", display" : "", over, v.fs.view_ms, v.fs.trace_ms, v.fs.build_ms, v.fs.estimate_ms,
                 v.fs.direct_ms, v.fs.rt_update_ms, v.fs.frames);
     }
+    if (!rc && frames && !v.quiet && idled > 0)
+        fprintf(stderr, "photongi-view: %lld frames rendered, then %lld turns idle (--max-frames %lld reached)\n",
+                rendered, idled, max_frames);
     free(times);
     if (tex) SDL_DestroyTexture(tex);
     if (ren) SDL_DestroyRenderer(ren);

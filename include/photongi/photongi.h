@@ -75,6 +75,8 @@ typedef struct pgi_scene_info {
     float bounds_min[3], bounds_max[3];
     size_t cameras;
     pgi_camera_def camera; /* camera 0 */
+    int camera_auto;       /* 1: the scene gives no camera and camera 0 was placed by the loader (outside the
+                              bounds on +z, looking at their centre: a closed room is seen from outside) */
     pgi_scene_defaults defaults;
     double surface_area;     /* total triangle area, scene units squared */
     size_t animated_objects; /* objects with a motion (see pgi_scene_set_time) */
@@ -313,12 +315,15 @@ typedef struct pgi_emission_stats {
  * the renderer leaves it zeroed; `photongi render` fills it in before it writes --stats, and the JSON
  * has it under "run" when `scene` is set. */
 typedef struct pgi_run_info {
-    const char *scene;      /* the scene as given to pgi_scene_load */
-    const char *scene_file; /* the file that was loaded (pgi_scene_info.source) */
-    uint64_t scene_hash;    /* the caller's hash of that file's bytes (FNV-1a 64; 0: none) */
-    float exposure;         /* the exposure of the PNG tone map */
-    float time;             /* pgi_scene_set_time's t */
-    pgi_specular specular;  /* pgi_scene_set_specular's model (DEFAULT: not set) */
+    const char *scene;          /* the scene as given to pgi_scene_load */
+    const char *scene_file;     /* the file that was loaded (pgi_scene_info.source) */
+    uint64_t scene_hash;        /* the caller's hash of that file's bytes (FNV-1a 64; 0: none) */
+    float exposure;             /* the exposure of the PNG tone map */
+    float time;                 /* pgi_scene_set_time's t */
+    pgi_specular specular;      /* pgi_scene_set_specular's model (DEFAULT: not set) */
+    const pgi_camera_def *view; /* the camera rendered from instead of the scene's (pgi_render_desc.view:
+                                   `render --eye ...`), or NULL; "view" in the JSON, as a scene
+                                   description's camera block */
 } pgi_run_info;
 
 typedef struct pgi_frame_stats {

@@ -36,10 +36,12 @@ typedef struct pgi_reference_desc {
     double time_limit_s;                /* > 0: stop after the pass that reaches this wall time */
     pgi_reference_progress_fn progress; /* may be NULL */
     void *progress_user;
-    pgi_jitter jitter; /* AUTO (default) or ON: every sample through its own uniform point of the pixel (one
+    pgi_jitter jitter;          /* AUTO (default) or ON: every sample through its own uniform point of the pixel (one
                           stratified sequence a pixel), so the mean converges to the box-filtered pixel
                           integral (the limit of a progressive render); OFF: through pixel centres (point
                           samples, as one frame of `render`, and the images of references made before) */
+    const pgi_camera_def *view; /* non-NULL: render from this camera instead of the scene's `camera` (borrowed
+                                   for the call; checked as pgi_render_desc.view) */
 } pgi_reference_desc;
 
 /* Adds desc->spp samples (sample indices *spp .. *spp + desc->spp - 1 of the
@@ -85,13 +87,17 @@ typedef struct pgi_reference_meta {
     uint64_t exr_bytes, exr_hash; /* the EXR's size and FNV-1a 64-bit hash of its bytes when the sidecar
                                      was written ("exr_bytes", "exr_fnv1a64"): a reader checks that the
                                      two files belong together; 0, 0: not recorded (older sidecars) */
+    int has_view;                 /* 1: the samples were rendered from `view` (a camera given on the command line,
+                                     "view" in the sidecar), not from the scene's camera `camera` */
+    pgi_camera_def view;
 } pgi_reference_meta;
 
 /* The most samples a sidecar may count (2^53: exact as a double). */
 #define PGI_REFERENCE_MAX_SPP (1ULL << 53)
 
 /* Writes/reads the sidecar JSON file `path` (format "photongi-reference-2", with an optional
- * "specular": "ggx" | "phong";
+ * "specular": "ggx" | "phong" and an optional "view": {"eye": [x, y, z], "look_at": [...], "up": [...],
+ * "fov_y": f} (has_view; its numbers read back as the same floats);
  * "photongi-reference-1", written before references were jittered, reads as
  * PGI_JITTER_OFF). Reading a missing file is PGI_ERR_IO; a file without the
  * fields, with a value out of range (width and height 1..PGI_MAX_IMAGE_SIDE, bounces 1..64, camera

@@ -120,6 +120,13 @@ static int add_run(cJSON *root, const pgi_run_info *r) {
                                   r->specular == PGI_SPECULAR_GGX     ? "ggx"
                                   : r->specular == PGI_SPECULAR_PHONG ? "phong"
                                                                       : "default") != NULL;
+    if (r->view) {
+        cJSON *v = cJSON_AddObjectToObject(o, "view");
+        ok &= v && cJSON_AddItemToObject(v, "eye", cJSON_CreateFloatArray(r->view->eye, 3)) &&
+              cJSON_AddItemToObject(v, "look_at", cJSON_CreateFloatArray(r->view->look_at, 3)) &&
+              cJSON_AddItemToObject(v, "up", cJSON_CreateFloatArray(r->view->up, 3)) &&
+              add_num(v, "fov_y", float_as_double(r->view->fov_y_deg));
+    }
     return ok;
 }
 

@@ -22,6 +22,7 @@
 #include <string.h>
 
 #include "photon/photon.h"
+#include "pipeline/pipeline.h"
 #include "rt/rt.h"
 #include "scene/bsdf.h"
 #include "view/view.h"
@@ -314,6 +315,8 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_reference_desc *in,
         return pgi__fail(PGI_ERR_INVALID_ARG, "unknown jitter mode %d", (int)d.jitter);
     if (d.camera < 0 || (size_t)d.camera >= s->ncams)
         return pgi__fail(PGI_ERR_INVALID_ARG, "camera %d does not exist (the scene has %zu)", d.camera, s->ncams);
+    pgi_status st;
+    if (d.view && (st = pgi__check_view(d.view))) return st;
     *out = d;
     return PGI_OK;
 }
@@ -335,7 +338,8 @@ pgi_status pgi_reference_sampler_create(const pgi_scene *s, const pgi_reference_
     C->jitter = d.jitter != PGI_JITTER_OFF;
     C->seed = d.seed;
     C->eps = pgi__scene_epsilon(s);
-    const pgi_camera_def *cd = &s->cams[d.camera];
+    const pgi_camera_def *cd = d.view ? d.view : &s->cams[d.camera];
+    S->d.view = NULL; /* borrowed for the call only */
     pgi_camera_look_at(&C->cam, cd->eye, cd->look_at, cd->up, cd->fov_y_deg, d.width, d.height);
     if ((st = ctx_lights(C)) || (st = pgi__rt_create(s, &S->rt)) ||
         (st = pgi__trace_tris_update(&S->tris, s, d.threads))) {

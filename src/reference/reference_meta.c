@@ -31,6 +31,15 @@ static pgi_status meta_write_to(const pgi_reference_meta *m, const char *path, c
              cJSON_AddStringToObject(o, "spp", spp) && cJSON_AddBoolToObject(o, "jitter", m->jitter != PGI_JITTER_OFF);
     if (ok && m->specular != PGI_SPECULAR_DEFAULT)
         ok = cJSON_AddStringToObject(o, "specular", m->specular == PGI_SPECULAR_PHONG ? "phong" : "ggx") != NULL;
+    if (ok && m->has_view) {
+        /* float -> double is exact and cJSON prints a double so that it reads back the same */
+        const pgi_camera_def *c = &m->view;
+        cJSON *v = cJSON_AddObjectToObject(o, "view");
+        ok = v && cJSON_AddItemToObject(v, "eye", cJSON_CreateFloatArray(c->eye, 3)) &&
+             cJSON_AddItemToObject(v, "look_at", cJSON_CreateFloatArray(c->look_at, 3)) &&
+             cJSON_AddItemToObject(v, "up", cJSON_CreateFloatArray(c->up, 3)) &&
+             cJSON_AddNumberToObject(v, "fov_y", c->fov_y_deg);
+    }
     if (ok && m->exr_bytes) {
         char bytes[32], hash[32];
         snprintf(bytes, sizeof bytes, "%llu", (unsigned long long)m->exr_bytes);
@@ -159,6 +168,28 @@ static int get_u64(const cJSON *o, const char *name, uint64_t lo, uint64_t hi, i
     return 1;
 }
 
+/* n finite floats within the coordinate range. */
+static int get_floats(const cJSON *o, const char *name, int n, float *out) {
+    const cJSON *a = cJSON_GetObjectItemCaseSensitive(o, name);
+    if (!cJSON_IsArray(a) || cJSON_GetArraySize(a) != n) return 0;
+    int i = 0;
+    for (const cJSON *it = a->child; it; it = it->next, i++) {
+        if (!cJSON_IsNumber(it) || !(fabs(it->valuedouble) <= PGI_MAX_COORD)) return 0;
+        out[i] = (float)it->valuedouble;
+    }
+    return 1;
+}
+
+/* The sidecar's "view": the camera the samples were rendered from. */
+static int get_view(const cJSON *v, pgi_camera_def *c) {
+    const cJSON *f = cJSON_GetObjectItemCaseSensitive(v, "fov_y");
+    if (!cJSON_IsObject(v) || !get_floats(v, "eye", 3, c->eye) || !get_floats(v, "look_at", 3, c->look_at) ||
+        !get_floats(v, "up", 3, c->up) || !cJSON_IsNumber(f) || !(f->valuedouble > 0.0 && f->valuedouble < 180.0))
+        return 0;
+    c->fov_y_deg = (float)f->valuedouble;
+    return 1;
+}
+
 /* A whole JSON number in lo..hi. */
 static int get_int(const cJSON *o, const char *name, int lo, int hi, int *out) {
     const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, name);
@@ -222,13 +253,16 @@ pgi_status pgi_reference_meta_read(const char *path, pgi_reference_meta *m) {
         else if (cJSON_IsString(sp) && strcmp(sp->valuestring, "ggx") == 0) m->specular = PGI_SPECULAR_GGX;
         else ok = 0;
     }
+    const cJSON *view = cJSON_GetObjectItemCaseSensitive(o, "view");
+    if (ok && view) ok = get_view(view, &m->view) && (m->has_view = 1);
     if (ok) snprintf(m->scene, sizeof m->scene, "%s", sc->valuestring);
     cJSON_Delete(o);
     if (!ok)
         return pgi__fail(PGI_ERR_PARSE,
                          "%s: not a photongi reference metadata file (needs format, scene, width and height "
                          "1..%d, bounces 1..64, camera 0..1000000, seed 0..2^64-1, spp 1..2^53 as a string of "
-                         "digits, jitter)",
+                         "digits, jitter; a view camera, if any, as eye, look_at and up of three numbers and fov_y in "
+                         "(0, 180))",
                          path, PGI_MAX_IMAGE_SIDE);
     /* A relative scene path is the sidecar's folder's (where the reference was made), not the current
      * folder's: a different file of the same name here must not be mixed in. */

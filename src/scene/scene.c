@@ -188,6 +188,7 @@ pgi_status pgi__scene_finalize(pgi_scene *s, const char *what) {
         v3_store(s->cams[0].look_at, c);
         v3_store(s->cams[0].up, v3(0.f, 1.f, 0.f));
         s->cams[0].fov_y_deg = 50.f;
+        s->cams_auto = 1;
     }
     for (size_t i = 0; i < s->ncams; i++) {
         pgi_camera_def *cd = &s->cams[i];
@@ -358,6 +359,7 @@ void pgi_scene_get_info(const pgi_scene *s, pgi_scene_info *o) {
     memcpy(o->bounds_max, s->bmax, sizeof o->bounds_max);
     o->cameras = s->ncams;
     if (s->ncams) o->camera = s->cams[0];
+    o->camera_auto = s->cams_auto;
     o->defaults = s->defaults;
     o->surface_area = pgi__scene_area(s);
     o->specular = PGI_SPECULAR_GGX;

@@ -161,6 +161,7 @@ struct pgi_scene {
     pgi__env *env; /* the sky / environment map, or NULL */
     pgi_camera_def *cams;
     size_t ncams;
+    int cams_auto; /* 1: cams[0] was placed by pgi__scene_finalize (the scene gave none) */
     pgi_scene_defaults defaults;
     pgi_specular specular; /* the description's "specular" (PGI_SPECULAR_DEFAULT: none given) */
     float bmin[3], bmax[3];

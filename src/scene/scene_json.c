@@ -710,6 +710,7 @@ static pgi_status load(const char *path, const cJSON *root, pgi_scene **out) {
             free(s->cams);
             s->cams = NULL;
             s->ncams = 0;
+            s->cams_auto = 0;
         }
     }
     if (ncam) {
