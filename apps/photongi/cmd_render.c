@@ -122,7 +122,7 @@ static int read_from_stats(const char *path, pgi_render_desc *d, app_render_extr
         if (rc <= 0) {
             if (rc == 0) snprintf(err, size, "unknown setting '%s'", it->string);
             char msg[400];
-            snprintf(msg, sizeof msg, "%s", err);
+            snprintf(msg, sizeof msg, "%.399s", err);
             snprintf(err, size, "--from-stats %.150s: %.200s", path, msg);
             ok = 0;
             break;
@@ -177,7 +177,8 @@ static const char *k_render_help =
     "  --seed K           random seed, 0..2^64-1 (default 1; 0 is 1); same seed, same image,\n"
     "                     any thread count\n"
     "  --threads T        worker threads, 1..1024 (default: all cores)\n"
-    "  --camera I         camera index of the scene, from 0 (default 0)\n"
+    "  --camera NAME|I    the scene's camera: its name (a glTF camera node, a description's camera\n"
+    "                     \"name\") or its index from 0 (default 0); 'photongi info' lists them\n"
     "  --direct-samples K shadow samples per pixel for area lights and for the sky, 1..4096\n"
     "                     (default 16)\n"
     "  --exposure X       multiply radiance by X before tone mapping (default: the scene's, else 1)\n"
@@ -282,7 +283,7 @@ int pgi_cmd_render(int argc, char **argv) {
     app_render_extra x = APP_RENDER_EXTRA_INIT;
     const char *scene_spec = "cornell", *out = NULL, *stats_path = NULL;
     int quiet = 0;
-    char err[400];
+    char err[1400];
     from_stats fsr = {{0}, {0}, {0}}; /* --from-stats: its strings live through the call */
     double checkpoint_s = 600.0;
     int checkpoint_set = 0;
@@ -372,10 +373,10 @@ int pgi_cmd_render(int argc, char **argv) {
                      "may differ",
                      scene_file);
     }
-    if ((size_t)d.camera >= info.cameras) {
+    if (*info.warnings) cli_warn(quiet, "render", "%s", info.warnings);
+    if (!app_render_camera(scene, &d, &x, err, sizeof err)) {
         pgi_scene_destroy(scene);
-        return cli_failure("render", "--camera %d: scene %s has %zu camera%s (0..%zu)", d.camera, scene_name,
-                           info.cameras, info.cameras == 1 ? "" : "s", info.cameras - 1);
+        return cli_failure("render", "%s", err);
     }
     if (exposure == 0.f) exposure = info.defaults.exposure > 0.f ? info.defaults.exposure : 1.f;
     pgi_image img = {0};
