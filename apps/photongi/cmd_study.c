@@ -457,7 +457,7 @@ int pgi_cmd_study(int argc, char **argv) {
     }
     pgi_scene_info info;
     pgi_scene_get_info(scene, &info);
-    if (*info.warnings) cli_warn(0, "study", "%s", info.warnings);
+    if (*info.warnings) cli_warn(quiet, "study", "%s", info.warnings);
     {
         char cerr[1400];
         if (!app_render_camera(scene, &d, &xo, cerr, sizeof cerr)) {

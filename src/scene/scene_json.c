@@ -350,7 +350,7 @@ static pgi_status resolve_mesh(const char *path, const char *kind, const char *m
     if (other_why) return pgi__fail(PGI_ERR_IO, "%s: %s '%s': %s %s", path, kind, mesh, other, other_why);
     return pgi__fail(PGI_ERR_IO,
                      "%s: %s '%s' not found (looked in %s; set PHOTONGI_SCENES to the folder that holds "
-                     "the scenes)",
+                     "the scenes; docs/scenes.md says where to get the papers' scenes and how to lay them out)",
                      path, kind, mesh, looked);
 }
 
