@@ -292,7 +292,7 @@ pgi_status pgi__gltf_read_extras(const char *path, const cJSON *root, pgi__gltf_
     note_count(un, ucap, (size_t)array_size(item(root, "skins")), "skin", "skins");
     note_count(un, ucap, targets, "primitive with morph targets", "primitives with morph targets");
     note_count(un, ucap, colors, "primitive with vertex colours (COLOR_0)", "primitives with vertex colours (COLOR_0)");
-    note_count(un, ucap, ortho, "orthographic camera", "orthographic cameras");
+    note_count(un, ucap, ortho, "orthographic or degenerate camera", "orthographic or degenerate cameras");
     note_count(un, ucap, ranges, "light range (lights fall off as 1/d^2 without end)",
                "light ranges (lights fall off as 1/d^2 without end)");
     note_count(un, ucap, metallic, "metallic material (drawn as diffuse)", "metallic materials (drawn as diffuse)");
