@@ -163,23 +163,32 @@ pgi_status pgi__gltf_read_extras(const char *path, const cJSON *root, pgi__gltf_
     int *parent = nn > 0 ? malloc((size_t)nn * sizeof *parent) : NULL;
     char *in_scene = nn > 0 ? calloc((size_t)nn, 1) : NULL;
     const cJSON **nodev = nn > 0 ? malloc((size_t)nn * sizeof *nodev) : NULL;
-    if (nn > 0 && (!parent || !in_scene || !nodev)) {
+    /* the cameras and lights by index (nodes refer to them: no walk down a list per node) */
+    const cJSON **camv = nc > 0 ? malloc((size_t)nc * sizeof *camv) : NULL;
+    const cJSON **lightv = nl > 0 ? malloc((size_t)nl * sizeof *lightv) : NULL;
+    if ((nn > 0 && (!parent || !in_scene || !nodev)) || (nc > 0 && !camv) || (nl > 0 && !lightv)) {
         free(parent);
         free(in_scene);
         free(nodev);
+        free(camv);
+        free(lightv);
         free_extras(x);
         return pgi__fail(PGI_ERR_OOM, "%s: out of memory for %d nodes", path, nn);
     }
     for (int i = 0; i < nn; i++) parent[i] = -1;
     int i = 0;
+    for (const cJSON *c = nc ? cams->child : NULL; c; c = c->next) camv[i++] = c;
+    i = 0;
+    for (const cJSON *l = nl ? lights->child : NULL; l; l = l->next) lightv[i++] = l;
+    i = 0;
     for (const cJSON *node = nn ? nodes->child : NULL; node; node = node->next, i++) {
         nodev[i] = node;
         for (const cJSON *c = item(node, "children") ? item(node, "children")->child : NULL; c; c = c->next)
             if (cJSON_IsNumber(c) && c->valuedouble >= 0 && c->valuedouble < nn) parent[(int)c->valuedouble] = i;
     }
     const cJSON *scenes = item(root, "scenes");
-    const int si = (int)num(root, "scene", 0.0);
-    const cJSON *scene = array_size(scenes) > si && si >= 0 ? cJSON_GetArrayItem(scenes, si) : NULL;
+    const double sv = num(root, "scene", 0.0);
+    const cJSON *scene = sv >= 0.0 && sv < array_size(scenes) ? cJSON_GetArrayItem(scenes, (int)sv) : NULL;
     if (scene) {
         for (const cJSON *r = item(scene, "nodes") ? item(scene, "nodes")->child : NULL; r; r = r->next)
             if (cJSON_IsNumber(r) && r->valuedouble >= 0 && r->valuedouble < nn) in_scene[(int)r->valuedouble] = 1;
@@ -215,7 +224,7 @@ pgi_status pgi__gltf_read_extras(const char *path, const cJSON *root, pgi__gltf_
         static const double origin[3] = {0, 0, 0}, fwd[3] = {0, 0, -1}, upv[3] = {0, 1, 0};
         const cJSON *nname = item(node, "name");
         if (jc && cJSON_IsNumber(jc) && jc->valuedouble >= 0 && jc->valuedouble < nc) {
-            const cJSON *cam = cJSON_GetArrayItem(cams, (int)jc->valuedouble);
+            const cJSON *cam = camv[(int)jc->valuedouble];
             const cJSON *type = item(cam, "type");
             const cJSON *persp = item(cam, "perspective");
             const double yfov = num(persp, "yfov", 0.0);
@@ -237,7 +246,7 @@ pgi_status pgi__gltf_read_extras(const char *path, const cJSON *root, pgi__gltf_
             }
         }
         if (jl && cJSON_IsNumber(jl) && jl->valuedouble >= 0 && jl->valuedouble < nl) {
-            const cJSON *jlight = cJSON_GetArrayItem(lights, (int)jl->valuedouble);
+            const cJSON *jlight = lightv[(int)jl->valuedouble];
             const cJSON *type = item(jlight, "type");
             const char *t = cJSON_IsString(type) ? type->valuestring : "";
             double col[3] = {1, 1, 1};
@@ -275,6 +284,8 @@ pgi_status pgi__gltf_read_extras(const char *path, const cJSON *root, pgi__gltf_
     free(parent);
     free(in_scene);
     free(nodev);
+    free(camv);
+    free(lightv);
     if (st) {
         free_extras(x);
         return st;
