@@ -747,6 +747,57 @@ static void test_gltf_spot_and_sun(void **state) {
     pgi_scene_destroy(s);
 }
 
+/* Cameras of other formats come through Assimp: a Collada camera node, placed by its node and named
+ * by it. Assimp stores Collada's xfov, the whole horizontal angle (its header says half), and the
+ * aspect ratio: fov_y = 2 atan(tan(xfov / 2) / aspect). */
+static void test_collada_camera(void **state) {
+    (void)state;
+    char p[700], j[700];
+    put("cam.dae",
+        "<?xml version=\"1.0\" encoding=\"utf-8\"?>\n"
+        "<COLLADA xmlns=\"http://www.collada.org/2005/11/COLLADASchema\" version=\"1.4.1\">\n"
+        " <asset><unit name=\"meter\" meter=\"1\"/><up_axis>Y_UP</up_axis></asset>\n"
+        " <library_cameras><camera id=\"c\" name=\"C\"><optics><technique_common><perspective><xfov>60</xfov>"
+        "<aspect_ratio>1.5</aspect_ratio><znear>0.1</znear><zfar>100</zfar></perspective></technique_common>"
+        "</optics></camera></library_cameras>\n"
+        " <library_geometries><geometry id=\"tri\" name=\"tri\"><mesh>\n"
+        "  <source id=\"p\"><float_array id=\"pa\" count=\"9\">0 0 0 1 0 0 0 1 0</float_array><technique_common>"
+        "<accessor source=\"#pa\" count=\"3\" stride=\"3\"><param name=\"X\" type=\"float\"/><param name=\"Y\" "
+        "type=\"float\"/><param name=\"Z\" type=\"float\"/></accessor></technique_common></source>\n"
+        "  <vertices id=\"v\"><input semantic=\"POSITION\" source=\"#p\"/></vertices>\n"
+        "  <triangles count=\"1\"><input semantic=\"VERTEX\" source=\"#v\" offset=\"0\"/><p>0 1 2</p></triangles>\n"
+        " </mesh></geometry></library_geometries>\n"
+        " <library_visual_scenes><visual_scene id=\"S\" name=\"S\">\n"
+        "  <node id=\"tri-node\" name=\"tri\"><instance_geometry url=\"#tri\"/></node>\n"
+        "  <node id=\"CamNode\" name=\"CamNode\"><translate>0 1.5 4</translate><rotate>1 0 0 -15</rotate>"
+        "<instance_camera url=\"#c\"/></node>\n"
+        " </visual_scene></library_visual_scenes>\n"
+        " <scene><instance_visual_scene url=\"#S\"/></scene>\n"
+        "</COLLADA>\n",
+        p, sizeof p);
+    put("cam.json",
+        "{\"mesh\": \"cam.dae\", \"lights\": [{\"type\": \"point\", \"position\": [0, 1, 1], "
+        "\"intensity\": [1, 1, 1]}]}",
+        j, sizeof j);
+    pgi_scene *s = load_ok(j);
+    pgi_scene_info in;
+    pgi_scene_get_info(s, &in);
+    assert_int_equal(in.cameras, 1);
+    assert_string_equal(pgi_scene_camera_name(s, 0), "CamNode");
+    pgi_camera_def c;
+    TU_CHECK_OK(pgi_scene_get_camera(s, 0, &c));
+    const float s15 = sinf(15.f * 3.14159265f / 180.f), c15 = cosf(15.f * 3.14159265f / 180.f);
+    const float eye[3] = {0.f, 1.5f, 4.f}, fwd[3] = {0.f, -s15, -c15};
+    for (int k = 0; k < 3; k++) {
+        assert_true(fabsf(c.eye[k] - eye[k]) < 1e-5f);
+        assert_true(fabsf(c.look_at[k] - c.eye[k] - fwd[k]) < 1e-5f);
+    }
+    const double want = 2.0 * atan(tan(30.0 * 3.14159265358979323846 / 180.0) / 1.5) * 180.0 / 3.14159265358979323846;
+    fprintf(stderr, "  Collada camera: fov_y %.6g (want %.6g)\n", (double)c.fov_y_deg, want);
+    assert_true(fabs((double)c.fov_y_deg - want) < 1e-3);
+    pgi_scene_destroy(s);
+}
+
 /* --camera NAME: a glTF camera node's name, a description's camera "name", an index; an unknown
  * name lists the cameras there are. */
 static void test_camera_names(void **state) {
@@ -967,6 +1018,7 @@ int main(void) {
         cmocka_unit_test(test_gltf_camera_and_light),
         cmocka_unit_test(test_gltf_emissive_strength),
         cmocka_unit_test(test_gltf_spot_and_sun),
+        cmocka_unit_test(test_collada_camera),
         cmocka_unit_test(test_camera_names),
         cmocka_unit_test(test_load_warnings),
         cmocka_unit_test(test_builtins),
