@@ -611,6 +611,36 @@ if expect_ok reference --scene "$TMP/g.json" --specular phong --size 16x12 --spp
         grep -qE '"specular":[[:space:]]*"phong"' "$TMP/gr.exr.json" && ok || bad "reference --continue lost specular"
     fi
 fi
+# --camera NAME|I: a description's camera "name" (or a glTF camera node's); an unknown name lists the cameras.
+printf '{"builtin": "cornell", "cameras": [{"eye": [0.6, 1, 3.6], "look_at": [0, 1, 0], "name": "side"},\n  {"eye": [0, 1, 3.9], "look_at": [0, 1, 0], "fov_y": 39, "name": "front"}]}\n' >"$TMP/named.json"
+if expect_ok render --scene "$TMP/named.json" --camera front --size 32x24 --photons 2000 -q -o "$TMP/cf.exr" &&
+    expect_ok render --scene "$TMP/named.json" --camera 1 --size 32x24 --photons 2000 -q -o "$TMP/c1.exr" &&
+    expect_ok render --scene "$TMP/named.json" --camera side --size 32x24 --photons 2000 -q -o "$TMP/cs.exr"; then
+    cmp -s "$TMP/cf.exr" "$TMP/c1.exr" && ok || bad "render --camera front differs from --camera 1"
+    cmp -s "$TMP/cf.exr" "$TMP/cs.exr" && bad "render --camera side: the same image as front" || ok
+fi
+expect_status 1 "no camera named 'back' in scene named; its cameras: 0 'side', 1 'front'" \
+    render --scene "$TMP/named.json" --camera back --size 32x24 -o "$TMP/x.png"
+expect_status 1 "its cameras: 0 'side', 1 'front'" reference --scene "$TMP/named.json" --camera back --spp 1 -o "$TMP/x.exr"
+expect_status 1 "the scene has 2" render --scene "$TMP/named.json" --camera 2 --size 32x24 -o "$TMP/x.png"
+expect_status 2 "--camera needs a camera name or index" render --camera "" -o "$TMP/x.png"
+if expect_ok reference --scene "$TMP/named.json" --camera front --size 16x12 --spp 1 -q -o "$TMP/cr.exr"; then
+    grep -qE '"camera":[[:space:]]*1' "$TMP/cr.exr.json" && ok || bad "reference --camera front: not camera 1 in the .json"
+fi
+if expect_ok info --scene "$TMP/named.json"; then
+    printf '%s\n' "$out" | grep -q "^camera 1: *'front' eye (0, 1, 3.9)" && ok || bad "info does not list camera 1 'front'"
+fi
+# one warning line names what the file holds that is not used or not found (-q silences it)
+printf 'mtllib gone.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n' >"$TMP/nomtl.obj"
+printf '{"mesh": "%s", "lights": [{"type": "point", "position": [0.2, 0.2, 1], "intensity": [1, 1, 1]}]}\n' \
+    "$TMP/nomtl.obj" >"$TMP/nomtl.json"
+if expect_ok render --scene "$TMP/nomtl.json" --size 16x12 --photons 500 -o "$TMP/w.png"; then
+    [ "$(grep -c 'warning: .*nomtl.obj: not found: material library gone.mtl' "$TMP/err")" = 1 ] && ok ||
+        bad "render: no single warning naming the missing gone.mtl"
+fi
+if expect_ok render --scene "$TMP/nomtl.json" --size 16x12 --photons 500 -q -o "$TMP/w.png"; then
+    grep -q 'gone.mtl' "$TMP/err" && bad "render -q still warns about gone.mtl" || ok
+fi
 # kernels, subsampling, filter, k-NN, polygon bounds
 expect_error "--knn" render --estimator kdtree --knn 0 -o "$TMP/x.png"
 expect_error "--knn" render --estimator kdtree --knn -3 -o "$TMP/x.png"

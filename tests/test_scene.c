@@ -534,6 +534,357 @@ static void write_bytes(const char *path, const void *a, size_t n, const void *b
     assert_int_equal(fclose(f), 0);
 }
 
+
+/* ------------------------------------------------ cameras and lights from mesh files */
+
+/* A floor (y = 0, x and z in [-2, 2]) and a back wall (z = -2, y in [0, 3]): 8 float3 positions
+ * then 12 u16 indices, 120 bytes (the glTF's buffer, written beside it). */
+static const float k_room_pos[24] = {-2, 0, -2, 2, 0, -2, 2, 0, 2, -2, 0, 2, -2, 0, -2, 2, 0, -2, 2, 3, -2, -2, 3, -2};
+static const uint16_t k_room_idx[12] = {0, 2, 1, 0, 3, 2, 4, 5, 6, 4, 6, 7};
+
+/* The room as a glTF: a camera node "Cam" at (0, 1.5, 4) turned 15 degrees down about x (yfov 0.8
+ * rad, aspect 1.5, which Assimp would fold into its horizontal angle), and the point light "Lamp"
+ * of colour (1, 0.5, 0.25) and 20 cd, 1 above its parent node, itself 1 above the floor. `extra`
+ * ("": the usual "extensionsUsed") is spliced into the top-level object; `mat` is the material list. */
+static const char *put_room_gltf(const char *name, const char *mat, const char *extra, char *buf, size_t n) {
+    char bin[700];
+    snprintf(bin, sizeof bin, "%s/room.bin", g_dir);
+    write_bytes(bin, k_room_pos, sizeof k_room_pos, k_room_idx, sizeof k_room_idx);
+    const double a = -15.0 * 3.14159265358979323846 / 180.0;
+    char text[4096];
+    snprintf(
+        text, sizeof text,
+        "{\"asset\": {\"version\": \"2.0\"},\n %s\n"
+        " \"extensions\": {\"KHR_lights_punctual\": {\"lights\": [\n"
+        "   {\"type\": \"point\", \"color\": [1, 0.5, 0.25], \"intensity\": 20}]}},\n"
+        " \"scene\": 0, \"scenes\": [{\"nodes\": [0, 1, 2]}],\n"
+        " \"nodes\": [{\"mesh\": 0},\n"
+        "   {\"name\": \"Cam\", \"camera\": 0, \"translation\": [0, 1.5, 4], \"rotation\": [%.17g, 0, 0, %.17g]},\n"
+        "   {\"name\": \"LampParent\", \"translation\": [0, 1, 0], \"children\": [3]},\n"
+        "   {\"name\": \"Lamp\", \"translation\": [0, 1, 0], \"extensions\": {\"KHR_lights_punctual\": "
+        "{\"light\": 0}}}],\n"
+        " \"cameras\": [{\"type\": \"perspective\", \"perspective\": {\"yfov\": 0.8, \"aspectRatio\": 1.5, "
+        "\"znear\": 0.1}}],\n"
+        " \"materials\": [%s],\n"
+        " \"meshes\": [{\"primitives\": [{\"attributes\": {\"POSITION\": 0}, \"indices\": 1, \"material\": 0}]}],\n"
+        " \"buffers\": [{\"uri\": \"room.bin\", \"byteLength\": 120}],\n"
+        " \"bufferViews\": [{\"buffer\": 0, \"byteLength\": 96}, {\"buffer\": 0, \"byteOffset\": 96, "
+        "\"byteLength\": 24}],\n"
+        " \"accessors\": [{\"bufferView\": 0, \"componentType\": 5126, \"count\": 8, \"type\": \"VEC3\", "
+        "\"min\": [-2, 0, -2], \"max\": [2, 3, 2]},\n"
+        "   {\"bufferView\": 1, \"componentType\": 5123, \"count\": 12, \"type\": \"SCALAR\"}]}\n",
+        *extra ? extra : "\"extensionsUsed\": [\"KHR_lights_punctual\"],", sin(a / 2), cos(a / 2), mat);
+    return put(name, text, buf, n);
+}
+
+static const char *k_grey_gltf_mat = "{\"pbrMetallicRoughness\": {\"baseColorFactor\": [0.8, 0.8, 0.8, 1], "
+                                     "\"metallicFactor\": 0}}";
+
+static double image_mean(const pgi_image *img) {
+    double m = 0.0;
+    const size_t n = 3 * (size_t)img->width * (size_t)img->height;
+    for (size_t i = 0; i < n; i++) m += img->rgb[i];
+    return m / (double)n;
+}
+
+/* The glTF's camera and point light: placed by their nodes' global transforms, the camera's yfov
+ * vertical (Assimp stores yfov x aspect), and a glTF with a punctual light and no emissive material
+ * renders from that camera: within 2 % of the same room, camera and light in a JSON description. */
+static void test_gltf_camera_and_light(void **state) {
+    (void)state;
+    char p[700];
+    pgi_scene *g = load_ok(put_room_gltf("room.gltf", k_grey_gltf_mat, "", p, sizeof p));
+    pgi_scene_info in;
+    pgi_scene_get_info(g, &in);
+    assert_int_equal(in.cameras, 1);
+    assert_int_equal(in.point_lights, 1);
+    assert_int_equal(in.lights, 1);
+    assert_string_equal(in.warnings, "");
+    pgi_camera_def c;
+    TU_CHECK_OK(pgi_scene_get_camera(g, 0, &c));
+    assert_string_equal(pgi_scene_camera_name(g, 0), "Cam");
+    const float s15 = sinf(15.f * 3.14159265f / 180.f), c15 = cosf(15.f * 3.14159265f / 180.f);
+    const float eye[3] = {0.f, 1.5f, 4.f}, fwd[3] = {0.f, -s15, -c15}, up[3] = {0.f, c15, -s15};
+    for (int k = 0; k < 3; k++) {
+        assert_true(fabsf(c.eye[k] - eye[k]) < 1e-5f); /* not (0, 3.98, 7.48): the translation once */
+        assert_true(fabsf(c.look_at[k] - c.eye[k] - fwd[k]) < 1e-5f);
+        assert_true(fabsf(c.up[k] - up[k]) < 1e-5f);
+    }
+    assert_true(fabsf(c.fov_y_deg - 0.8f * 180.f / 3.14159265f) < 1e-3f); /* 45.84, not 1.2 rad */
+    const pgi__light *L = &g->lights[0];
+    assert_int_equal(L->type, PGI_LIGHT_POINT);
+    assert_true(fabsf(L->pos[0]) < 1e-6f && fabsf(L->pos[1] - 2.f) < 1e-6f && fabsf(L->pos[2]) < 1e-6f);
+    assert_true(L->color[0] == 20.f && L->color[1] == 10.f && L->color[2] == 5.f); /* cd -> W/sr, 1:1 */
+
+    /* the same room as an OBJ in a description */
+    char m[700], o[700], j[700], text[1024];
+    put("room.mtl", "newmtl grey\nKd 0.8 0.8 0.8\n", m, sizeof m);
+    size_t k = (size_t)snprintf(text, sizeof text, "mtllib room.mtl\ns off\nusemtl grey\n");
+    for (int v = 0; v < 8; v++)
+        k += (size_t)snprintf(text + k, sizeof text - k, "v %g %g %g\n", (double)k_room_pos[3 * v],
+                              (double)k_room_pos[3 * v + 1], (double)k_room_pos[3 * v + 2]);
+    for (int t = 0; t < 4; t++)
+        k += (size_t)snprintf(text + k, sizeof text - k, "f %d %d %d\n", k_room_idx[3 * t] + 1,
+                              k_room_idx[3 * t + 1] + 1, k_room_idx[3 * t + 2] + 1);
+    put("room.obj", text, o, sizeof o);
+    snprintf(text, sizeof text,
+             "{\"mesh\": \"room.obj\",\n \"camera\": {\"eye\": [0, 1.5, 4], \"look_at\": [0, %.9g, %.9g], \"up\": [0, "
+             "%.9g, %.9g], \"fov_y\": %.9g},\n"
+             " \"lights\": [{\"type\": \"point\", \"position\": [0, 2, 0], \"intensity\": [20, 10, 5]}]}\n",
+             1.5 - (double)s15, 4.0 - (double)c15, (double)c15, -(double)s15, 0.8 * 180.0 / 3.14159265358979323846);
+    pgi_scene *js = load_ok(put("room.json", text, j, sizeof j));
+    pgi_image a = {0}, b = {0};
+    render_scene(g, &a);
+    render_scene(js, &b);
+    const double ma = image_mean(&a), mb = image_mean(&b);
+    fprintf(stderr, "  glTF room mean %.6g, JSON room mean %.6g\n", ma, mb);
+    assert_true(mb > 0.01);
+    assert_true(fabs(ma - mb) <= 0.02 * mb);
+    /* and the light is where the camera looks: the left and right halves are alike, the floor lit */
+    pgi_image_free(&a);
+    pgi_image_free(&b);
+    pgi_scene_destroy(js);
+    pgi_scene_destroy(g);
+}
+
+/* KHR_materials_emissive_strength scales the emission: strength 20 emits 20 times strength 1 (the
+ * material, and the image of its direct light and emission), and the ratio needs no light besides. */
+static void test_gltf_emissive_strength(void **state) {
+    (void)state;
+    char p[700];
+    double mean[2];
+    for (int i = 0; i < 2; i++) {
+        char mat[256];
+        snprintf(mat, sizeof mat,
+                 "{\"emissiveFactor\": [1, 0.5, 0.25], \"extensions\": {\"KHR_materials_emissive_strength\": "
+                 "{\"emissiveStrength\": %d}}}",
+                 i ? 20 : 1);
+        pgi_scene *s = load_ok(put_room_gltf("glow.gltf", mat, "", p, sizeof p));
+        assert_true(s->mats[0].ke[0] == (i ? 20.f : 1.f) && s->mats[0].ke[2] == (i ? 5.f : 0.25f));
+        s->lights[0].color[0] = s->lights[0].color[1] = s->lights[0].color[2] = 0.f; /* the emitter alone */
+        pgi__scene_refresh(s);
+        pgi_renderer *r = NULL;
+        TU_CHECK_OK(pgi_renderer_create(s, &r));
+        pgi_image img = {0};
+        TU_CHECK_OK(pgi_renderer_render(r,
+                                        &(pgi_render_desc){.width = 48,
+                                                           .height = 32,
+                                                           .photons = 5000,
+                                                           .seed = 3,
+                                                           .threads = 2,
+                                                           .output = PGI_OUTPUT_DIRECT},
+                                        &img, NULL));
+        mean[i] = image_mean(&img);
+        pgi_image_free(&img);
+        pgi_renderer_destroy(r);
+        pgi_scene_destroy(s);
+    }
+    fprintf(stderr, "  emissive strength 1: mean %.6g, 20: %.6g\n", mean[0], mean[1]);
+    assert_true(mean[0] > 0.0);
+    assert_true(fabs(mean[1] / mean[0] - 20.0) < 20.0 * 1e-4);
+}
+
+/* Spot and directional lights: units 1:1, directions down their nodes' -z, the spot's smooth
+ * falloff as the hard cone of the same power and on-axis intensity. */
+static void test_gltf_spot_and_sun(void **state) {
+    (void)state;
+    char p[700];
+    const char *lights = "\"extensions\": {\"KHR_lights_punctual\": {\"lights\": [\n"
+                         "   {\"type\": \"point\", \"color\": [1, 0.5, 0.25], \"intensity\": 20},\n"
+                         "   {\"type\": \"spot\", \"intensity\": 3, \"spot\": {\"innerConeAngle\": 0.2, "
+                         "\"outerConeAngle\": 0.5}},\n"
+                         "   {\"type\": \"directional\", \"color\": [0.5, 1, 1], \"intensity\": 4, \"range\": 9}]}},";
+    pgi_scene *s;
+    {
+        char base[700];
+        put_room_gltf("lights.gltf", k_grey_gltf_mat, "", base, sizeof base);
+        char *text = NULL;
+        FILE *f = fopen(base, "rb");
+        assert_non_null(f);
+        fseek(f, 0, SEEK_END);
+        long n = ftell(f);
+        rewind(f);
+        text = calloc((size_t)n + 1, 1);
+        assert_true(fread(text, 1, (size_t)n, f) == (size_t)n);
+        fclose(f);
+        char *t1 = replace(text,
+                           "\"extensions\": {\"KHR_lights_punctual\": {\"lights\": [\n"
+                           "   {\"type\": \"point\", \"color\": [1, 0.5, 0.25], \"intensity\": 20}]}},",
+                           lights);
+        /* the lamp node becomes the spot; a sun node turned 90 degrees about x (-z -> -y) */
+        char *t2 = replace(t1, "{\"light\": 0}}}]",
+                           "{\"light\": 1}}}, {\"rotation\": [-0.70710678, 0, 0, 0.70710678], "
+                           "\"extensions\": {\"KHR_lights_punctual\": {\"light\": 2}}}]");
+        char *t3 = replace(t2, "\"nodes\": [0, 1, 2]", "\"nodes\": [0, 1, 2, 4]");
+        s = load_ok(put("lights.gltf", t3, p, sizeof p));
+        free(text);
+        free(t1);
+        free(t2);
+        free(t3);
+    }
+    pgi_scene_info in;
+    pgi_scene_get_info(s, &in);
+    assert_int_equal(in.spot_lights, 1);
+    assert_int_equal(in.sun_lights, 1);
+    assert_int_equal(in.point_lights, 0);
+    const pgi__light *spot = NULL, *sun = NULL;
+    for (size_t i = 0; i < s->nlights; i++) {
+        if (s->lights[i].type == PGI_LIGHT_SPOT) spot = &s->lights[i];
+        if (s->lights[i].type == PGI_LIGHT_SUN) sun = &s->lights[i];
+    }
+    assert_non_null(spot);
+    assert_non_null(sun);
+    assert_true(spot->color[0] == 3.f && spot->color[1] == 3.f && spot->color[2] == 3.f);
+    assert_true(fabsf(spot->pos[1] - 2.f) < 1e-6f && fabsf(spot->dir[2] + 1.f) < 1e-6f);
+    const double want = (2.0 * cos(0.2) + cos(0.5)) / 3.0;
+    assert_true(fabs((double)spot->cos_cutoff - want) < 1e-6);
+    /* the power of glTF's falloff, 2 pi [(1 - cos_i) + (cos_i - cos_o) / 3], and of the cone */
+    const double glTF_power = 2.0 * 3.14159265358979323846 * 3.0 * ((1.0 - cos(0.2)) + (cos(0.2) - cos(0.5)) / 3.0);
+    assert_true(fabs((double)spot->power[0] - glTF_power) < 1e-4 * glTF_power);
+    assert_true(sun->color[0] == 2.f && sun->color[1] == 4.f && sun->color[2] == 4.f); /* lux -> W/m^2, 1:1 */
+    assert_true(fabsf(sun->dir[1] + 1.f) < 1e-5f && fabsf(sun->dir[0]) < 1e-5f && fabsf(sun->dir[2]) < 1e-5f);
+    assert_non_null(strstr(in.warnings, "lights.gltf: not used: 1 light range"));
+    pgi_scene_destroy(s);
+}
+
+/* Cameras of other formats come through Assimp: a Collada camera node, placed by its node and named
+ * by it. Assimp stores Collada's xfov, the whole horizontal angle (its header says half), and the
+ * aspect ratio: fov_y = 2 atan(tan(xfov / 2) / aspect). */
+static void test_collada_camera(void **state) {
+    (void)state;
+    char p[700], j[700];
+    put("cam.dae",
+        "<?xml version=\"1.0\" encoding=\"utf-8\"?>\n"
+        "<COLLADA xmlns=\"http://www.collada.org/2005/11/COLLADASchema\" version=\"1.4.1\">\n"
+        " <asset><unit name=\"meter\" meter=\"1\"/><up_axis>Y_UP</up_axis></asset>\n"
+        " <library_cameras><camera id=\"c\" name=\"C\"><optics><technique_common><perspective><xfov>60</xfov>"
+        "<aspect_ratio>1.5</aspect_ratio><znear>0.1</znear><zfar>100</zfar></perspective></technique_common>"
+        "</optics></camera></library_cameras>\n"
+        " <library_geometries><geometry id=\"tri\" name=\"tri\"><mesh>\n"
+        "  <source id=\"p\"><float_array id=\"pa\" count=\"9\">0 0 0 1 0 0 0 1 0</float_array><technique_common>"
+        "<accessor source=\"#pa\" count=\"3\" stride=\"3\"><param name=\"X\" type=\"float\"/><param name=\"Y\" "
+        "type=\"float\"/><param name=\"Z\" type=\"float\"/></accessor></technique_common></source>\n"
+        "  <vertices id=\"v\"><input semantic=\"POSITION\" source=\"#p\"/></vertices>\n"
+        "  <triangles count=\"1\"><input semantic=\"VERTEX\" source=\"#v\" offset=\"0\"/><p>0 1 2</p></triangles>\n"
+        " </mesh></geometry></library_geometries>\n"
+        " <library_visual_scenes><visual_scene id=\"S\" name=\"S\">\n"
+        "  <node id=\"tri-node\" name=\"tri\"><instance_geometry url=\"#tri\"/></node>\n"
+        "  <node id=\"CamNode\" name=\"CamNode\"><translate>0 1.5 4</translate><rotate>1 0 0 -15</rotate>"
+        "<instance_camera url=\"#c\"/></node>\n"
+        " </visual_scene></library_visual_scenes>\n"
+        " <scene><instance_visual_scene url=\"#S\"/></scene>\n"
+        "</COLLADA>\n",
+        p, sizeof p);
+    put("cam.json",
+        "{\"mesh\": \"cam.dae\", \"lights\": [{\"type\": \"point\", \"position\": [0, 1, 1], "
+        "\"intensity\": [1, 1, 1]}]}",
+        j, sizeof j);
+    pgi_scene *s = load_ok(j);
+    pgi_scene_info in;
+    pgi_scene_get_info(s, &in);
+    assert_int_equal(in.cameras, 1);
+    assert_string_equal(pgi_scene_camera_name(s, 0), "CamNode");
+    pgi_camera_def c;
+    TU_CHECK_OK(pgi_scene_get_camera(s, 0, &c));
+    const float s15 = sinf(15.f * 3.14159265f / 180.f), c15 = cosf(15.f * 3.14159265f / 180.f);
+    const float eye[3] = {0.f, 1.5f, 4.f}, fwd[3] = {0.f, -s15, -c15};
+    for (int k = 0; k < 3; k++) {
+        assert_true(fabsf(c.eye[k] - eye[k]) < 1e-5f);
+        assert_true(fabsf(c.look_at[k] - c.eye[k] - fwd[k]) < 1e-5f);
+    }
+    const double want = 2.0 * atan(tan(30.0 * 3.14159265358979323846 / 180.0) / 1.5) * 180.0 / 3.14159265358979323846;
+    fprintf(stderr, "  Collada camera: fov_y %.6g (want %.6g)\n", (double)c.fov_y_deg, want);
+    assert_true(fabs((double)c.fov_y_deg - want) < 1e-3);
+    pgi_scene_destroy(s);
+}
+
+/* --camera NAME: a glTF camera node's name, a description's camera "name", an index; an unknown
+ * name lists the cameras there are. */
+static void test_camera_names(void **state) {
+    (void)state;
+    char p[700], j[700];
+    put_room_gltf("room.gltf", k_grey_gltf_mat, "", p, sizeof p);
+    put("named.json",
+        "{\"mesh\": \"room.gltf\", \"cameras\": [{\"eye\": [0, 1, 5], \"look_at\": [0, 1, 0], \"name\": \"front\"},\n"
+        "  {\"eye\": [3, 1, 3], \"look_at\": [0, 1, 0]}]}\n",
+        j, sizeof j);
+    pgi_scene *s = load_ok(j);
+    pgi_scene_info in;
+    pgi_scene_get_info(s, &in);
+    assert_int_equal(in.cameras, 3); /* the description's two, then the file's */
+    assert_int_equal(in.point_lights, 1);
+    size_t i = 99;
+    TU_CHECK_OK(pgi_scene_find_camera(s, "front", &i));
+    assert_int_equal(i, 0);
+    TU_CHECK_OK(pgi_scene_find_camera(s, "Cam", &i));
+    assert_int_equal(i, 2);
+    TU_CHECK_OK(pgi_scene_find_camera(s, "1", &i));
+    assert_int_equal(i, 1);
+    assert_string_equal(pgi_scene_camera_name(s, 1), "");
+    assert_int_equal(pgi_scene_find_camera(s, "3", &i), PGI_ERR_INVALID_ARG);
+    assert_int_equal(pgi_scene_find_camera(s, "back", &i), PGI_ERR_INVALID_ARG);
+    const char *msg = pgi_last_error();
+    fprintf(stderr, "  %s\n", msg);
+    assert_non_null(strstr(msg, "'back'"));
+    assert_non_null(strstr(msg, "0 'front', 1 (unnamed), 2 'Cam'"));
+    pgi_scene_destroy(s);
+    /* a name that looks like an index is refused (--camera 2 is camera 2) */
+    put("badname.json",
+        "{\"mesh\": \"room.gltf\", \"camera\": {\"eye\": [0, 1, 5], \"look_at\": [0, 1, 0], \"name\": \"2nd\"}}", j,
+        sizeof j);
+    expect_error(j, PGI_ERR_PARSE, PGI_ERR_PARSE, "camera.name");
+}
+
+/* One warning line names what a file holds that is not used, or not found: a missing material
+ * library, glTF animations, vertex colours, extensions; nothing for a file that uses it all. */
+static void test_load_warnings(void **state) {
+    (void)state;
+    char p[700], m[700];
+    put("lamp.mtl", k_mtl_light, m, sizeof m);
+    put("nomtl.obj", "mtllib lamp.mtl\nmtllib gone.mtl\nusemtl lamp\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", p,
+        sizeof p);
+    pgi_scene *s = load_ok(p);
+    pgi_scene_info in;
+    pgi_scene_get_info(s, &in);
+    fprintf(stderr, "  %s\n", in.warnings);
+    assert_non_null(strstr(in.warnings, "nomtl.obj: not found: material library gone.mtl"));
+    assert_null(strchr(in.warnings, '\n'));
+    pgi_scene_destroy(s);
+    put("withmtl.obj", "mtllib lamp.mtl\nusemtl lamp\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", p, sizeof p);
+    s = load_ok(p);
+    pgi_scene_get_info(s, &in);
+    assert_string_equal(in.warnings, "");
+    pgi_scene_destroy(s);
+    /* a PLY's vertex colours */
+    put("col.ply",
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+        "property uchar red\nproperty uchar green\nproperty uchar blue\nelement face 1\n"
+        "property list uchar int vertex_indices\nend_header\n0 0 0 255 0 0\n1 0 0 0 255 0\n0 1 0 0 0 255\n3 0 1 2\n",
+        p, sizeof p);
+    char j[700];
+    put("col.json",
+        "{\"mesh\": \"col.ply\", \"lights\": [{\"type\": \"point\", \"position\": [0, 0, 1], "
+        "\"intensity\": [1, 1, 1]}]}",
+        j, sizeof j);
+    s = load_ok(j);
+    pgi_scene_get_info(s, &in);
+    fprintf(stderr, "  %s\n", in.warnings);
+    assert_non_null(strstr(in.warnings, "col.ply: not used: vertex colours"));
+    pgi_scene_destroy(s);
+    /* glTF: an extension, a metallic material */
+    put_room_gltf("ext.gltf",
+                  "{\"pbrMetallicRoughness\": {\"metallicFactor\": 1}, \"extensions\": {\"KHR_materials_clearcoat\": "
+                  "{}}}",
+                  "\"extensionsUsed\": [\"KHR_lights_punctual\", \"KHR_materials_clearcoat\"], \"animations\": [],", p,
+                  sizeof p);
+    s = load_ok(p);
+    pgi_scene_get_info(s, &in);
+    fprintf(stderr, "  %s\n", in.warnings);
+    assert_non_null(
+        strstr(in.warnings, "ext.gltf: not used: 1 metallic material (drawn as diffuse), KHR_materials_clearcoat"));
+    pgi_scene_destroy(s);
+}
+
 static void test_gltf_structure(void **state) {
     (void)state;
     /* 4 positions, 6 u16 indices, 2 key times, 2 VEC3 key values: 132 bytes */
@@ -664,6 +1015,12 @@ int main(void) {
         cmocka_unit_test(test_json_errors),
         cmocka_unit_test(test_scene_numbers),
         cmocka_unit_test(test_gltf_structure),
+        cmocka_unit_test(test_gltf_camera_and_light),
+        cmocka_unit_test(test_gltf_emissive_strength),
+        cmocka_unit_test(test_gltf_spot_and_sun),
+        cmocka_unit_test(test_collada_camera),
+        cmocka_unit_test(test_camera_names),
+        cmocka_unit_test(test_load_warnings),
         cmocka_unit_test(test_builtins),
         cmocka_unit_test(test_generated_normals_obj_ply),
         cmocka_unit_test(test_generated_normals_flat),

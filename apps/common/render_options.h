@@ -19,10 +19,12 @@ typedef struct app_render_extra {
     float exposure;        /* --exposure (0: the scene's, else 1) */
     float time;            /* --time, seconds */
     pgi_specular specular; /* --specular */
+    const char *camera;    /* --camera NAME: a camera name, found once the scene is loaded (app_render_camera);
+                              NULL: --camera I (pgi_render_desc.camera) or none */
 } app_render_extra;
 
 #define APP_RENDER_EXTRA_INIT                                                                                          \
-    { 1, 0.f, 0.f, PGI_SPECULAR_DEFAULT }
+    { 1, 0.f, 0.f, PGI_SPECULAR_DEFAULT, NULL }
 
 /* Parses flag `a` ("--photons") with value `v` into d and x: 1 handled, 0 not a render setting,
  * -1 a bad value (message in err). Estimator options ("--cluster-tile") are handled too (g may
@@ -61,9 +63,13 @@ static inline int app_render_option(const char *a, const char *v, pgi_render_des
         if (!parse_whole(v, 1, 1024, &n)) APP_FAIL_("--threads needs a whole number in 1..1024, got '%s'", v);
         d->threads = (int)n;
     } else if (strcmp(a, "--camera") == 0) {
-        if (!parse_whole(v, 0, 1000000, &n))
-            APP_FAIL_("--camera needs a camera index, a whole number from 0, got '%s'", v);
-        d->camera = (int)n;
+        if (*v >= '0' && *v <= '9') {
+            if (!parse_whole(v, 0, 1000000, &n))
+                APP_FAIL_("--camera needs a camera name or index (a whole number from 0), got '%s'", v);
+            d->camera = (int)n;
+            x->camera = NULL;
+        } else if (*v) x->camera = v;
+        else APP_FAIL_("%s", "--camera needs a camera name or index (a whole number from 0)");
     } else if (strcmp(a, "--direct-samples") == 0) {
         if (!parse_whole(v, 1, 4096, &n)) APP_FAIL_("--direct-samples needs a whole number in 1..4096, got '%s'", v);
         d->direct_samples = (int)n;
@@ -116,6 +122,19 @@ static inline int app_render_option(const char *a, const char *v, pgi_render_des
             APP_FAIL_("--filter needs a radius in pixels, a whole number in 0..16, got '%s'", v);
         d->filter = (int)n;
     } else return 0;
+    return 1;
+}
+
+/* The camera of `--camera` in the loaded scene: d->camera set from x->camera (a name) or checked (an
+ * index). 1 fine; 0 no such camera (message, listing the scene's cameras, in err). */
+static inline int app_render_camera(const pgi_scene *scene, pgi_render_desc *d, const app_render_extra *x, char *err,
+                                    size_t size) {
+    char idx[24];
+    snprintf(idx, sizeof idx, "%d", d->camera);
+    size_t i;
+    if (pgi_scene_find_camera(scene, x->camera ? x->camera : idx, &i) != PGI_OK)
+        return (snprintf(err, size, "--camera %s: %s", x->camera ? x->camera : idx, pgi_last_error()), 0);
+    d->camera = (int)i;
     return 1;
 }
 

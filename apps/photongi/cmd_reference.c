@@ -46,9 +46,9 @@ static const char *k_reference_help =
     "                     scene's, else 640x480)\n"
     "  --seed K           random seed, 0..2^64-1 (default 1; 0 is 1)\n"
     "  --threads T        worker threads, 1..1024 (default: all cores)\n"
-    "  --camera I         camera index, from 0 (default 0)\n"
+    "  --camera NAME|I    the scene's camera, by name or index from 0 (default 0)\n"
     "  --eye X,Y,Z, --look-at X,Y,Z, --up X,Y,Z, --fov DEG   a camera of your own, as 'render';\n"
-    "                     the parts not given are camera I's\n"
+    "                     the parts not given are the --camera's\n"
     "  --jitter on|off    samples over the whole pixel (on, default) or through its centre\n"
     "  --specular ggx|phong   model of the mesh's glossy materials, as 'render' (default: the\n"
     "                     description's \"specular\", else ggx)\n"
@@ -227,6 +227,7 @@ int pgi_cmd_reference(int argc, char **argv) {
     int checkpoint_set = 0;
     float exposure = 0.f;
     int quiet = 0, size_set = 0, bounces_set = 0, seed_set = 0, camera_set = 0, jitter_set = 0;
+    const char *camera_name = NULL; /* --camera NAME, found once the scene is loaded */
     pgi_specular specular = PGI_SPECULAR_DEFAULT;
     app_camera_args cam_args = {0};
     pgi_camera_def view;
@@ -286,9 +287,11 @@ int pgi_cmd_reference(int argc, char **argv) {
                 return cli_usage("reference", "--threads needs a whole number in 1..1024, got '%s'", v);
             d.threads = (int)n;
         } else if (strcmp(a, "--camera") == 0) {
-            if (!parse_whole(v, 0, 1000000, &n))
-                return cli_usage("reference", "--camera needs a camera index, a whole number from 0, got '%s'", v);
-            d.camera = (int)n;
+            if (!*v || ((*v >= '0' && *v <= '9') && !parse_whole(v, 0, 1000000, &n)))
+                return cli_usage("reference", "--camera needs a camera name or index (a whole number from 0), got '%s'",
+                                 v);
+            if (*v >= '0' && *v <= '9') d.camera = (int)n, camera_name = NULL;
+            else camera_name = v;
             camera_set = 1;
         } else if (strcmp(a, "--jitter") == 0) {
             if (strcmp(v, "on") == 0) d.jitter = PGI_JITTER_ON;
@@ -377,11 +380,19 @@ int pgi_cmd_reference(int argc, char **argv) {
     pgi_scene_get_info(scene, &info);
     char scene_name[128];
     snprintf(scene_name, sizeof scene_name, "%s", info.name);
-    if ((size_t)d.camera >= info.cameras) {
-        pgi_image_free(&img);
-        pgi_scene_destroy(scene);
-        return cli_failure("reference", "--camera %d: scene %s has %zu camera%s (0..%zu)", d.camera, scene_name,
-                           info.cameras, info.cameras == 1 ? "" : "s", info.cameras - 1);
+    if (*info.warnings) cli_warn(quiet, "reference", "%s", info.warnings);
+    {
+        char idx[24];
+        snprintf(idx, sizeof idx, "%d", d.camera);
+        size_t ci;
+        if (pgi_scene_find_camera(scene, camera_name ? camera_name : idx, &ci) != PGI_OK) {
+            char why[1200];
+            snprintf(why, sizeof why, "%s", pgi_last_error());
+            pgi_image_free(&img);
+            pgi_scene_destroy(scene);
+            return cli_failure("reference", "--camera %s: %s", camera_name ? camera_name : idx, why);
+        }
+        d.camera = (int)ci;
     }
     if (view_set) {
         pgi_camera_def base;

@@ -144,7 +144,7 @@ static int read_from_stats(const char *path, pgi_render_desc *d, app_render_extr
         if (rc <= 0) {
             if (rc == 0) snprintf(err, size, "unknown setting '%s'", it->string);
             char msg[400];
-            snprintf(msg, sizeof msg, "%s", err);
+            snprintf(msg, sizeof msg, "%.399s", err);
             snprintf(err, size, "--from-stats %.150s: %.200s", path, msg);
             ok = 0;
             break;
@@ -206,14 +206,15 @@ static const char *k_render_help =
     "  --seed K           random seed, 0..2^64-1 (default 1; 0 is 1); same seed, same image,\n"
     "                     any thread count\n"
     "  --threads T        worker threads, 1..1024 (default: all cores)\n"
-    "  --camera I         camera index of the scene, from 0 (default 0)\n"
-    "  --eye X,Y,Z        camera position (scene units; default: camera I's)\n"
-    "  --look-at X,Y,Z    the point the camera looks at (default: camera I's)\n"
-    "  --up X,Y,Z         the camera's up direction (default: camera I's)\n"
+    "  --camera NAME|I    the scene's camera: its name (a glTF camera node, a description's camera\n"
+    "                     \"name\") or its index from 0 (default 0); 'photongi info' lists them\n"
+    "  --eye X,Y,Z        camera position (scene units; default: the --camera's)\n"
+    "  --look-at X,Y,Z    the point the camera looks at (default: the --camera's)\n"
+    "  --up X,Y,Z         the camera's up direction (default: the --camera's)\n"
     "  --fov DEG          vertical field of view, above 0 and at most 179.9 degrees (default:\n"
-    "                     camera I's). The parts not given come from camera I; the camera is the\n"
-    "                     one a scene description's \"camera\" block with these values gives, to\n"
-    "                     the bit (photongi-view's V key prints both forms)\n"
+    "                     the --camera's). The camera is the one a scene description's \"camera\"\n"
+    "                     block with these values gives, to the bit (photongi-view's V key\n"
+    "                     prints both forms)\n"
     "  --direct-samples K shadow samples per pixel for area lights and for the sky, 1..4096\n"
     "                     (default 16)\n"
     "  --exposure X       multiply radiance by X before tone mapping (default: the scene's, else 1)\n"
@@ -318,7 +319,7 @@ int pgi_cmd_render(int argc, char **argv) {
     app_render_extra x = APP_RENDER_EXTRA_INIT;
     const char *scene_spec = "cornell", *out = NULL, *stats_path = NULL;
     int quiet = 0;
-    char err[400];
+    char err[1400];
     from_stats fsr = {{0}, {0}, {0}}; /* --from-stats: its strings live through the call */
     double checkpoint_s = 600.0;
     int checkpoint_set = 0;
@@ -412,10 +413,10 @@ int pgi_cmd_render(int argc, char **argv) {
                      "may differ",
                      scene_file);
     }
-    if ((size_t)d.camera >= info.cameras) {
+    if (*info.warnings) cli_warn(quiet, "render", "%s", info.warnings);
+    if (!app_render_camera(scene, &d, &x, err, sizeof err)) {
         pgi_scene_destroy(scene);
-        return cli_failure("render", "--camera %d: scene %s has %zu camera%s (0..%zu)", d.camera, scene_name,
-                           info.cameras, info.cameras == 1 ? "" : "s", info.cameras - 1);
+        return cli_failure("render", "%s", err);
     }
     if (app_camera_given(&cam_args)) {
         pgi_camera_def base;

@@ -457,6 +457,14 @@ int pgi_cmd_study(int argc, char **argv) {
     }
     pgi_scene_info info;
     pgi_scene_get_info(scene, &info);
+    if (*info.warnings) cli_warn(quiet, "study", "%s", info.warnings);
+    {
+        char cerr[1400];
+        if (!app_render_camera(scene, &d, &xo, cerr, sizeof cerr)) {
+            pgi_scene_destroy(scene);
+            return cli_failure("study", "%s", cerr);
+        }
+    }
     const float exposure = xo.exposure > 0.f              ? xo.exposure
                            : info.defaults.exposure > 0.f ? info.defaults.exposure
                                                           : 1.f;

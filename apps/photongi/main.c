@@ -125,6 +125,7 @@ static int cmd_info(int argc, char **argv) {
     if (st) return cli_input_fail("info", "cannot load scene", st);
     pgi_scene_info in;
     pgi_scene_get_info(scene, &in);
+    if (*in.warnings) cli_warn(0, "info", "%s", in.warnings);
     printf("scene:      %s\n", in.name);
     printf("source:     %s\n", in.source);
     printf("triangles:  %zu\n", in.triangles);
@@ -139,9 +140,16 @@ static int cmd_info(int argc, char **argv) {
     printf("bounds:     (%g, %g, %g) - (%g, %g, %g)\n", in.bounds_min[0], in.bounds_min[1], in.bounds_min[2],
            in.bounds_max[0], in.bounds_max[1], in.bounds_max[2]);
     printf("cameras:    %zu\n", in.cameras);
-    printf("camera 0:   eye (%g, %g, %g) look-at (%g, %g, %g) up (%g, %g, %g) fov_y %g deg\n", in.camera.eye[0],
-           in.camera.eye[1], in.camera.eye[2], in.camera.look_at[0], in.camera.look_at[1], in.camera.look_at[2],
-           in.camera.up[0], in.camera.up[1], in.camera.up[2], in.camera.fov_y_deg);
+    for (size_t c = 0; c < in.cameras; c++) {
+        pgi_camera_def cd;
+        pgi_scene_get_camera(scene, c, &cd);
+        const char *cn = pgi_scene_camera_name(scene, c);
+        char label[96];
+        snprintf(label, sizeof label, *cn ? "'%.64s' " : "%s", cn);
+        printf("camera %zu:   %seye (%g, %g, %g) look-at (%g, %g, %g) up (%g, %g, %g) fov_y %g deg\n", c, label,
+               cd.eye[0], cd.eye[1], cd.eye[2], cd.look_at[0], cd.look_at[1], cd.look_at[2], cd.up[0], cd.up[1],
+               cd.up[2], cd.fov_y_deg);
+    }
     const pgi_scene_defaults *d = &in.defaults;
     char radius[32];
     if (d->radius > 0.f) snprintf(radius, sizeof radius, "%g", d->radius);

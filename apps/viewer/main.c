@@ -44,9 +44,9 @@ static const char *k_help =
     "  --bounces B        maximum photon bounces (default 4)\n"
     "  --direct-samples K shadow samples per pixel for area lights (default 16)\n"
     "  --threads T        worker threads (default: all cores)\n" APP_DEVICE_HELP
-    "  --camera I         scene camera to start from (default 0)\n"
+    "  --camera NAME|I    scene camera to start from, by name or index (default 0)\n"
     "  --eye X,Y,Z, --look-at X,Y,Z, --up X,Y,Z, --fov DEG   start from this camera instead,\n"
-    "                     as 'photongi render' (the parts not given are camera I's)\n"
+    "                     as 'photongi render' (the parts not given are the --camera's)\n"
     "  --camera-out FILE  where V saves the camera's JSON block (default photongi-camera.json)\n"
     "  --max-frames N     a still view stops rendering after N frames (progressive: N frames\n"
     "                     averaged) and waits for input; 0: never (default 256)\n"
@@ -602,6 +602,7 @@ int main(int argc, char **argv) {
     memset(&v, 0, sizeof v);
     const char *scene_spec = "cornell", *shot = NULL, *stats_path = NULL, *est = PGI_DEFAULT_ESTIMATOR, *script = NULL;
     long long frames = 0, cam_index = 0, max_frames = 256;
+    const char *cam_name = NULL; /* --camera NAME */
     int want_window = 0, size_set = 0, camera_out_set = 0;
     app_camera_args cam_args = {0};
     v.camera_out = "photongi-camera.json";
@@ -724,7 +725,9 @@ int main(int argc, char **argv) {
             if (!parse_long(val, 1, 64, &n)) return usage("--bounces needs a number in 1..64, got '%s'", val);
             v.desc.bounces = (int)n;
         } else if (strcmp(a, "--camera") == 0) {
-            if (!parse_long(val, 0, 1000000, &cam_index)) return usage("--camera needs an index, got '%s'", val);
+            if (!*val || ((*val >= '0' && *val <= '9') && !parse_long(val, 0, 1000000, &cam_index)))
+                return usage("--camera needs a camera name or index, got '%s'", val);
+            cam_name = *val >= '0' && *val <= '9' ? NULL : val;
         } else if (strcmp(a, "--exposure") == 0) {
             if (!parse_finite_float(val, &v.exposure) || !(v.exposure > 0.f))
                 return usage("--exposure needs a positive number, got '%s'", val);
@@ -774,12 +777,17 @@ int main(int argc, char **argv) {
         return fail("cannot load scene", st);
     }
     pgi_scene_get_info(v.scene, &v.info);
-    if ((size_t)cam_index >= v.info.cameras) {
-        fprintf(stderr, "photongi-view: camera %lld does not exist (the scene has %zu)\n", cam_index, v.info.cameras);
+    if (*v.info.warnings) fprintf(stderr, "photongi-view: warning: %s\n", v.info.warnings);
+    char cam_idx[24];
+    snprintf(cam_idx, sizeof cam_idx, "%lld", cam_index);
+    size_t cam_found;
+    if (pgi_scene_find_camera(v.scene, cam_name ? cam_name : cam_idx, &cam_found) != PGI_OK) {
+        fprintf(stderr, "photongi-view: --camera %s: %s\n", cam_name ? cam_name : cam_idx, pgi_last_error());
         pgi_scene_destroy(v.scene);
         if (!headless) SDL_Quit();
         return 2;
     }
+    cam_index = (long long)cam_found;
     v.desc.camera = (int)cam_index;
     v.scene_spec = scene_spec;
     pgi_scene_get_camera(v.scene, (size_t)cam_index, &v.cam);

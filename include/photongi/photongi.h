@@ -83,13 +83,20 @@ typedef struct pgi_scene_info {
     double anim_duration;    /* last keyframe time over all motions, seconds (0 if none) */
     pgi_specular specular;   /* model of the mesh's specular materials now (GGX or PHONG) */
     size_t glossy_materials; /* mesh materials that follow it (pgi_scene_set_specular) */
+    /* What the scene's files hold that photongi does not use or could not find, in one line (a
+     * material library that is not there, animations, vertex colours, glTF extensions, ...; "" when
+     * nothing): for the caller to show as a warning. Valid while the scene lives. */
+    const char *warnings;
 } pgi_scene_info;
 
 /* Loads a scene. `spec` is a built-in name ("cornell", "giref",
  * "sphere-and-plane", "cutout"), a scene description (.json), a scene name with a
  * description <name>.json in ./scenes, in the source tree's scenes/ (a build
  * run from any directory) or in the installed share/photongi/scenes (looked up
- * in that order), or a mesh file Assimp reads (OBJ/MTL, glTF, PLY). Mesh paths
+ * in that order), or a mesh file Assimp reads (OBJ/MTL, glTF, PLY). A mesh file's
+ * own cameras (glTF camera nodes, Assimp's cameras of other formats) and glTF lights
+ * (KHR_lights_punctual) come with it (docs/scene-format.md); what it holds that is not
+ * used is named in pgi_scene_info.warnings. Mesh paths
  * in a description resolve against the description's folder, then against
  * $PHOTONGI_SCENES, or when that is not set the source tree's ../shared/scenes
  * and then ../shared/scenes from the working directory. An unknown name is
@@ -222,7 +229,7 @@ typedef struct pgi_render_desc {
     int bounces;            /* max photon bounces (1..64); default scene's or 4 */
     uint64_t seed;          /* default 1 */
     int threads;            /* OpenMP threads of the library's parallel regions; 0 = OpenMP's default */
-    int camera;             /* index into the scene's cameras */
+    int camera;             /* index into the scene's cameras (pgi_scene_find_camera finds one by name) */
     int direct_samples;     /* shadow samples per pixel for area lights and for the sky (1..4096); default 16 */
     pgi_output output;
     const pgi_camera_def *view; /* non-NULL: render from this camera instead of the scene's `camera`
@@ -459,6 +466,13 @@ typedef struct pgi_light_group {
 
 /* Camera i of the scene (the viewer starts from it). */
 pgi_status pgi_scene_get_camera(const pgi_scene *scene, size_t i, pgi_camera_def *out);
+/* The name of camera i (a glTF camera node's name, a description's camera "name"; "" when it has
+ * none or i is out of range). Valid while the scene lives. */
+const char *pgi_scene_camera_name(const pgi_scene *scene, size_t i);
+/* The camera `name_or_index` stands for, as `--camera` takes it: a whole number is an index, any
+ * other text a camera's name (exact match, the first of that name). PGI_ERR_INVALID_ARG when there
+ * is none; the message lists the scene's cameras. */
+pgi_status pgi_scene_find_camera(const pgi_scene *scene, const char *name_or_index, size_t *index);
 
 size_t pgi_scene_light_group_count(const pgi_scene *scene);
 pgi_status pgi_scene_get_light_group(const pgi_scene *scene, size_t i, pgi_light_group *out);

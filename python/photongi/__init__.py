@@ -113,7 +113,7 @@ class Renderer:
         estimator  a registered name (:func:`estimators`); default "cluster-trivial"
         photons    photons to store; radius: scene units, or "auto"
         size       (width, height) or "WxH"; default the scene's or 640x480
-        camera     a camera index of the scene, or a dict / tuple (eye, look_at, up, fov)
+        camera     a camera index or name of the scene, or a dict / tuple (eye, look_at, up, fov)
         seed, threads, device ("cpu", "vulkan", "vulkan:N"), frames (progressive average)
         output     "all", "direct", "indirect" or "counts"
         time       moves the scene's animated objects first; specular: "ggx" or "phong" first
@@ -133,6 +133,8 @@ class Renderer:
         if camera is not None:
             if isinstance(camera, int) and not isinstance(camera, bool):
                 pairs.append(("--camera", str(camera)))
+            elif isinstance(camera, str):
+                pairs.append(("--camera", camera))
             else:
                 view = _view(camera)
         with self.scene._lock:

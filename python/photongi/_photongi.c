@@ -260,6 +260,11 @@ static PyObject *py_render(PyObject *self, PyObject *args) {
     pgi_render_desc d = {0};
     app_render_extra x = APP_RENDER_EXTRA_INIT;
     if (!parse_settings(pairs, &d, &x)) return NULL;
+    char cerr[1400];
+    if (x.camera && !app_render_camera(pgi_renderer_scene(r), &d, &x, cerr, sizeof cerr)) {
+        PyErr_SetString(PyExc_ValueError, cerr);
+        return NULL;
+    }
     pgi_camera_def cam;
     if (view != Py_None) {
         if (!PyArg_ParseTuple(view, "(fff)(fff)(fff)f", &cam.eye[0], &cam.eye[1], &cam.eye[2], &cam.look_at[0],

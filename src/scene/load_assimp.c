@@ -687,6 +687,100 @@ static void release_import(const struct aiScene *sc) {
     run_import(&j);
 }
 
+/* ------------------------------------------- cameras, lights, what is not used */
+
+/* A camera of Assimp's (after PreTransformVertices: in world space). Assimp's importers store the
+ * whole horizontal angle in mHorizontalFOV (Collada's xfov; its header calls it the half angle),
+ * and the aspect ratio in mAspect (0: not given, taken as 4:3, photongi's default image). */
+static int convert_camera(const struct aiCamera *c, pgi_camera_def *d) {
+    if (c->mOrthographicWidth > 0.f || !(c->mHorizontalFOV > 0.f) || !(c->mHorizontalFOV < 3.14159f)) return 0;
+    pgi__v3 f = v3((float)c->mLookAt.x, (float)c->mLookAt.y, (float)c->mLookAt.z);
+    if (!(v3_len(f) > 0.f)) return 0;
+    f = v3_norm(f);
+    const double aspect = c->mAspect > 0.f ? (double)c->mAspect : 4.0 / 3.0;
+    const pgi__v3 eye = v3((float)c->mPosition.x, (float)c->mPosition.y, (float)c->mPosition.z);
+    v3_store(d->eye, eye);
+    v3_store(d->look_at, v3_add(eye, f));
+    d->up[0] = (float)c->mUp.x;
+    d->up[1] = (float)c->mUp.y;
+    d->up[2] = (float)c->mUp.z;
+    d->fov_y_deg =
+        (float)(2.0 * atan(tan(0.5 * (double)c->mHorizontalFOV) / aspect) * (180.0 / 3.14159265358979323846));
+    return 1;
+}
+
+/* The file's cameras and lights, its glTF emissive strengths, and one warning line naming what
+ * it holds that is not used or could not be found. The materials of this import start at m0. */
+static pgi_status import_extras(pgi_scene *s, const char *path, const struct aiScene *sc, pgi__mesh_hints *h, size_t m0,
+                                struct aiFileIO *io) {
+    char unused[1536] = "";
+    pgi_status st = PGI_OK;
+    if (h->gltf) {
+        const pgi__gltf_extras *x = &h->extras;
+        /* Assimp's glTF materials are the file's, in order (then its default material). */
+        for (size_t i = 0; i < x->nmats && i < sc->mNumMaterials; i++)
+            for (int c = 0; c < 3; c++) s->mats[m0 + i].ke[c] *= x->emissive_strength[i];
+        for (size_t i = 0; i < x->ncams && !st; i++) st = pgi__scene_add_camera(s, &x->cams[i].def, x->cams[i].name);
+        if (!st && x->nlights) {
+            pgi__light *L = realloc(s->lights, (s->nlights + x->nlights) * sizeof *L);
+            if (!L) return pgi__fail(PGI_ERR_OOM, "%s: out of memory for %zu lights", path, x->nlights);
+            memcpy(L + s->nlights, x->lights, x->nlights * sizeof *L);
+            s->lights = L;
+            s->nlights += x->nlights;
+        }
+        snprintf(unused, sizeof unused, "%s", x->unused);
+    } else {
+        /* Other formats: Assimp's cameras, named as the file names them (PreTransformVertices
+         * renames them "cam_N": the names come from an import without it, same order). */
+        char(*names)[64] = NULL;
+        if (sc->mNumCameras) {
+            import_job job = {.path = path, .flags = aiProcess_ValidateDataStructure, .io = io};
+            run_import(&job);
+            if (job.sc && job.sc->mNumCameras == sc->mNumCameras && (names = calloc(sc->mNumCameras, 64)))
+                for (unsigned i = 0; i < sc->mNumCameras; i++)
+                    snprintf(names[i], 64, "%.63s", job.sc->mCameras[i]->mName.data);
+            if (job.sc) release_import(job.sc);
+        }
+        size_t ortho = 0;
+        for (unsigned i = 0; i < sc->mNumCameras && !st; i++) {
+            pgi_camera_def d;
+            if (convert_camera(sc->mCameras[i], &d)) st = pgi__scene_add_camera(s, &d, names ? names[i] : NULL);
+            else ortho++;
+        }
+        free(names);
+        if (st) return st;
+        char item[160];
+        if (ortho) {
+            snprintf(item, sizeof item, "%zu orthographic camera%s", ortho, ortho == 1 ? "" : "s");
+            pgi__list_append(unused, sizeof unused, item);
+        }
+        if (sc->mNumLights) {
+            snprintf(item, sizeof item, "%u light%s (units the format leaves open: give lights in a .json description)",
+                     sc->mNumLights, sc->mNumLights == 1 ? "" : "s");
+            pgi__list_append(unused, sizeof unused, item);
+        }
+        if (sc->mNumAnimations) {
+            snprintf(item, sizeof item, "%u animation%s", sc->mNumAnimations, sc->mNumAnimations == 1 ? "" : "s");
+            pgi__list_append(unused, sizeof unused, item);
+        }
+        unsigned colored = 0;
+        for (unsigned i = 0; i < sc->mNumMeshes; i++) colored += sc->mMeshes[i]->mColors[0] != NULL;
+        if (colored) {
+            snprintf(item, sizeof item, "vertex colours (%u mesh%s; a material has one colour)", colored,
+                     colored == 1 ? "" : "es");
+            pgi__list_append(unused, sizeof unused, item);
+        }
+    }
+    char line[2048], missing[700] = "";
+    if (h->missing_mtl[0])
+        snprintf(missing, sizeof missing, "not found: material librar%s %s (its materials are default grey)",
+                 strchr(h->missing_mtl, ',') ? "ies" : "y", h->missing_mtl);
+    snprintf(line, sizeof line, "%s: %s%s%s%s", path, unused[0] ? "not used: " : "", unused,
+             unused[0] && missing[0] ? "; " : "", missing);
+    if (unused[0] || h->missing_mtl[0]) pgi__scene_warn(s, line);
+    return PGI_OK;
+}
+
 pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path) {
     if (!s || !path) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi__scene_import_mesh: NULL argument");
     const char *why = pgi__not_regular_file(path);
@@ -714,15 +808,20 @@ pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path) {
     const struct aiScene *sc = job.sc;
     if (ctx.st) {
         if (sc) release_import(sc);
+        pgi__mesh_hints_free(&hints);
         return pgi__fail(ctx.st, "%s", ctx.err);
     }
-    if (!sc) return pgi__fail(PGI_ERR_PARSE, "%s: %s", path, job.err);
+    if (!sc) {
+        pgi__mesh_hints_free(&hints);
+        return pgi__fail(PGI_ERR_PARSE, "%s: %s", path, job.err);
+    }
 
     pgi_status st = PGI_OK;
     /* Triangles and output vertices of each mesh, then what will be appended. */
     mesh_out *outs = calloc(sc->mNumMeshes ? sc->mNumMeshes : 1, sizeof *outs);
     if (!outs) {
         release_import(sc);
+        pgi__mesh_hints_free(&hints);
         return pgi__fail(PGI_ERR_OOM, "%s: out of memory", path);
     }
     size_t add_v = 0, add_t = 0;
@@ -824,9 +923,11 @@ pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path) {
     }
     s->nverts = vb;
     s->ntris = tb;
+    st = import_extras(s, path, sc, &hints, m0, &io);
 done:
     for (unsigned i = 0; i < sc->mNumMeshes; i++) mesh_out_free(&outs[i]);
     free(outs);
     release_import(sc);
+    pgi__mesh_hints_free(&hints);
     return st;
 }

@@ -160,6 +160,11 @@ static pgi_status check_obj(const char *path, FILE *f, uint64_t budget, pgi__mes
             size_t pl = strlen(path);
             if (!st && !found && pl >= 3 && snprintf(lib, sizeof lib, "%.*smtl", (int)(pl - 3), path) < (int)sizeof lib)
                 st = check_mtl(path, lib, ms, &found);
+            if (!st && !found) {
+                snprintf(name, sizeof name, "%s", rest);
+                for (size_t n = strlen(name); n > 0 && isspace((unsigned char)name[n - 1]);) name[--n] = 0;
+                pgi__list_append(hints->missing_mtl, sizeof hints->missing_mtl, name);
+            }
         }
     }
     free(ms);
@@ -607,7 +612,7 @@ static pgi_status check_off(const char *path, const char *b, size_t n, uint64_t 
 /* A glTF's JSON: nesting, then (parsed) its node tree's depth, cycles and its material count,
  * then its accessors and what uses them (pgi__gltf_check; a GLB's BIN chunk: glb at bin). */
 static pgi_status check_gltf_json(const char *path, const char *json, size_t n, FILE *glb, uint64_t bin,
-                                  uint64_t bin_len) {
+                                  uint64_t bin_len, pgi__mesh_hints *hints) {
     pgi_status st = check_braces(path, json, n, 1, "JSON");
     if (st) return st;
     /* Not glTF 2.0 JSON: refused here, for Assimp would then hand the file to whichever of its
@@ -696,6 +701,10 @@ static pgi_status check_gltf_json(const char *path, const char *json, size_t n, 
     free(parent);
     free(depth);
     if (!st) st = pgi__gltf_check(path, root, glb, bin, bin_len);
+    if (!st) {
+        hints->gltf = 1;
+        st = pgi__gltf_read_extras(path, root, &hints->extras);
+    }
     cJSON_Delete(root);
     return st;
 }
@@ -705,7 +714,7 @@ static uint32_t le32(const unsigned char *p) {
 }
 
 /* GLB: the lengths its header and JSON chunk declare fit in the file; then the JSON's checks. */
-static pgi_status check_glb(const char *path, FILE *f, uint64_t size, uint64_t budget) {
+static pgi_status check_glb(const char *path, FILE *f, uint64_t size, uint64_t budget, pgi__mesh_hints *hints) {
     unsigned char h[20];
     if (fread(h, 1, sizeof h, f) != sizeof h || memcmp(h, "glTF", 4) != 0 || le32(h + 4) != 2 ||
         memcmp(h + 16, "JSON", 4) != 0)
@@ -728,7 +737,7 @@ static pgi_status check_glb(const char *path, FILE *f, uint64_t size, uint64_t b
     if (bin <= size && fseek(f, (long)(bin - 8), SEEK_SET) == 0 && fread(b, 1, 8, f) == 8 &&
         memcmp(b + 4, "BIN", 4) == 0)
         bin_len = le32(b) < size - bin ? le32(b) : size - bin;
-    st = check_gltf_json(path, json, chunk, f, bin, bin_len);
+    st = check_gltf_json(path, json, chunk, f, bin, bin_len, hints);
     free(json);
     return st;
 }
@@ -816,12 +825,12 @@ pgi_status pgi__mesh_precheck(const char *path, uint64_t budget, pgi__mesh_hints
     const int kind = kind_of(path, f);
     if (kind == KIND_OBJ) st = check_obj(path, f, budget, hints);
     else if (kind == KIND_PLY) st = check_ply(path, f);
-    else if (kind == KIND_GLB) st = check_glb(path, f, size, budget);
+    else if (kind == KIND_GLB) st = check_glb(path, f, size, budget, hints);
     else if (kind != KIND_NONE) {
         char *b = NULL;
         st = read_whole(path, f, size, budget, &b);
         const size_t n = b ? strlen(b) : 0; /* text formats: a NUL ends what the checks see */
-        if (!st && kind == KIND_JSON) st = check_gltf_json(path, b, n, NULL, 0, 0);
+        if (!st && kind == KIND_JSON) st = check_gltf_json(path, b, n, NULL, 0, 0, hints);
         else if (!st && kind == KIND_BRACES) st = check_braces(path, b, n, 0, "braces");
         else if (!st && kind == KIND_XML) st = check_xml(path, b, n, size);
         else if (!st && kind == KIND_OFF) st = check_off(path, b, n, size);
@@ -836,5 +845,14 @@ pgi_status pgi__mesh_precheck(const char *path, uint64_t budget, pgi__mesh_hints
         free(b);
     }
     fclose(f);
+    if (st || hints == &unused) pgi__mesh_hints_free(hints); /* the caller frees them after a success */
     return st;
+}
+
+void pgi__mesh_hints_free(pgi__mesh_hints *h) {
+    if (!h) return;
+    free(h->extras.cams);
+    free(h->extras.lights);
+    free(h->extras.emissive_strength);
+    memset(&h->extras, 0, sizeof h->extras);
 }

@@ -5,6 +5,7 @@
 #include "bsdf.h"
 
 #include <dirent.h>
+#include <errno.h>
 #include <stdio.h>
 #include <string.h>
 #include <strings.h>
@@ -35,8 +36,34 @@ void pgi_scene_destroy(pgi_scene *s) {
     free(s->lights);
     pgi__env_destroy(s->env);
     free(s->cams);
+    free(s->cam_names);
     pgi__scene_free_anims(s);
     free(s);
+}
+
+pgi_status pgi__scene_add_camera(pgi_scene *s, const pgi_camera_def *def, const char *name) {
+    pgi_camera_def *c = realloc(s->cams, (s->ncams + 1) * sizeof *c);
+    if (!c) return pgi__fail(PGI_ERR_OOM, "out of memory for a camera");
+    s->cams = c;
+    if (name && *name && !s->cam_names) s->cam_names = calloc(s->ncams + 1, sizeof *s->cam_names);
+    else if (s->cam_names) {
+        char(*n)[64] = realloc(s->cam_names, (s->ncams + 1) * sizeof *n);
+        if (n) s->cam_names = n;
+        else {
+            free(s->cam_names);
+            s->cam_names = NULL;
+        }
+    }
+    if (name && *name && !s->cam_names) return pgi__fail(PGI_ERR_OOM, "out of memory for a camera");
+    if (s->cam_names) snprintf(s->cam_names[s->ncams], sizeof s->cam_names[0], "%s", name ? name : "");
+    s->cams[s->ncams++] = *def;
+    return PGI_OK;
+}
+
+void pgi__scene_warn(pgi_scene *s, const char *text) {
+    if (!text || !*text) return;
+    size_t n = strlen(s->warning);
+    snprintf(s->warning + n, sizeof s->warning - n, "%s%s", n ? "; " : "", text);
 }
 
 static int finite3(const float *p) { return isfinite(p[0]) && isfinite(p[1]) && isfinite(p[2]); }
@@ -53,6 +80,8 @@ pgi_status pgi__scene_finalize(pgi_scene *s, const char *what) {
     pgi__sanitize(s->name); /* names come from files and are printed (info, messages, stats) */
     for (size_t m = 0; m < s->nmats; m++) pgi__sanitize(s->mats[m].name);
     for (size_t a = 0; a < s->nanims; a++) pgi__sanitize(s->anims[a].name);
+    for (size_t c = 0; s->cam_names && c < s->ncams; c++) pgi__sanitize(s->cam_names[c]);
+    pgi__sanitize(s->warning);
     float bmin[3] = {INFINITY, INFINITY, INFINITY}, bmax[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (size_t v = 0; v < s->nverts; v++) {
         const float *p = s->pos + 3 * v;
@@ -323,9 +352,15 @@ static pgi_status scene_load(const char *spec, pgi_scene **out) {
                        spec, pgi__scene_emissive_triangles(s));
     else if (!st && s->nlights == 0)
         st = pgi__fail(PGI_ERR_PARSE,
-                       "%s: the mesh has no emissive material (MTL Ke) and a bare mesh cannot name lights; "
-                       "write a .json scene description with a \"lights\" list",
-                       spec);
+                       "%s: the file has no lights: no emissive material%s and no light of its own%s; write a .json "
+                       "scene description with a \"lights\" list (docs/scene-format.md)",
+                       spec,
+                       ends_with(spec, ".obj")                               ? " (MTL Ke)"
+                       : ends_with(spec, ".gltf") || ends_with(spec, ".glb") ? " (emissiveFactor)"
+                                                                             : "",
+                       ends_with(spec, ".gltf") || ends_with(spec, ".glb")  ? " (KHR_lights_punctual)"
+                       : ends_with(spec, ".obj") || ends_with(spec, ".ply") ? " (the format has none)"
+                                                                            : "");
     if (st) {
         pgi_scene_destroy(s);
         return st;
@@ -358,6 +393,7 @@ void pgi_scene_get_info(const pgi_scene *s, pgi_scene_info *o) {
     memcpy(o->bounds_min, s->bmin, sizeof o->bounds_min);
     memcpy(o->bounds_max, s->bmax, sizeof o->bounds_max);
     o->cameras = s->ncams;
+    o->warnings = s->warning;
     if (s->ncams) o->camera = s->cams[0];
     o->camera_auto = s->cams_auto;
     o->defaults = s->defaults;
@@ -410,6 +446,35 @@ pgi_status pgi_scene_get_camera(const pgi_scene *s, size_t i, pgi_camera_def *ou
         return pgi__fail(PGI_ERR_INVALID_ARG, "camera %zu does not exist (the scene has %zu)", i, s->ncams);
     *out = s->cams[i];
     return PGI_OK;
+}
+
+const char *pgi_scene_camera_name(const pgi_scene *s, size_t i) {
+    return s && s->cam_names && i < s->ncams ? s->cam_names[i] : "";
+}
+
+pgi_status pgi_scene_find_camera(const pgi_scene *s, const char *name, size_t *index) {
+    if (!s || !name || !index) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_scene_find_camera: NULL argument");
+    char *end;
+    errno = 0;
+    unsigned long long k = *name >= '0' && *name <= '9' ? strtoull(name, &end, 10) : 0;
+    if (*name >= '0' && *name <= '9' && !*end && errno == 0) {
+        if (k >= s->ncams)
+            return pgi__fail(PGI_ERR_INVALID_ARG, "camera %s does not exist (the scene has %zu, 0..%zu)", name,
+                             s->ncams, s->ncams - 1);
+        *index = (size_t)k;
+        return PGI_OK;
+    }
+    for (size_t i = 0; s->cam_names && i < s->ncams; i++)
+        if (strcmp(s->cam_names[i], name) == 0) return *index = i, PGI_OK;
+    char list[1024] = "";
+    for (size_t i = 0; i < s->ncams; i++) {
+        char one[96];
+        const char *n = pgi_scene_camera_name(s, i);
+        if (*n) snprintf(one, sizeof one, "%zu '%.64s'", i, n);
+        else snprintf(one, sizeof one, "%zu (unnamed)", i);
+        pgi__list_append(list, sizeof list, one);
+    }
+    return pgi__fail(PGI_ERR_INVALID_ARG, "no camera named '%s' in scene %s; its cameras: %s", name, s->name, list);
 }
 
 double pgi__scene_area(const pgi_scene *s) {

@@ -161,7 +161,9 @@ struct pgi_scene {
     pgi__env *env; /* the sky / environment map, or NULL */
     pgi_camera_def *cams;
     size_t ncams;
-    int cams_auto; /* 1: cams[0] was placed by pgi__scene_finalize (the scene gave none) */
+    int cams_auto;         /* 1: cams[0] was placed by pgi__scene_finalize (the scene gave none) */
+    char (*cam_names)[64]; /* ncams names ("" unnamed), or NULL: none named */
+    char warning[2048];    /* what the files hold that the scene does not use or could not find ("" none) */
     pgi_scene_defaults defaults;
     pgi_specular specular; /* the description's "specular" (PGI_SPECULAR_DEFAULT: none given) */
     float bmin[3], bmax[3];
@@ -386,12 +388,44 @@ static inline pgi__v3 pgi__texture_quad_lookup(const pgi__texel_quad *q) {
 
 /* Geometry helpers used by rt/ and view/. */
 static inline pgi__v3 pgi__scene_vertex(const pgi_scene *s, uint32_t v) { return v3_load(s->pos + 3 * (size_t)v); }
+struct cJSON;
+/* A camera a mesh file names (glTF camera nodes, Assimp's aiCamera). */
+typedef struct pgi__file_camera {
+    char name[64]; /* "" when the file gives none */
+    pgi_camera_def def;
+} pgi__file_camera;
+
+/* What a glTF's JSON holds beyond what Assimp 5.2 reports correctly (gltf_scene.c): its camera
+ * nodes (Assimp adds the node's translation twice and renames them), its KHR_lights_punctual
+ * lights placed by their nodes, KHR_materials_emissive_strength per material, and what the file
+ * holds that photongi does not use. */
+typedef struct pgi__gltf_extras {
+    pgi__file_camera *cams;
+    size_t ncams;
+    pgi__light *lights;
+    size_t nlights;
+    float *emissive_strength; /* per glTF material (1 when absent) */
+    size_t nmats;
+    char unused[1024]; /* "2 animations, KHR_materials_clearcoat, ...": comma-separated, "" if nothing */
+} pgi__gltf_extras;
+
 /* What the mesh check learns on the way that Assimp does not report: OBJ
- * smoothing-group statements (Assimp 5.2 skips `s` lines). */
+ * smoothing-group statements (Assimp 5.2 skips `s` lines), material libraries that are not
+ * there (Assimp goes on without a word), a glTF's extras. Free with pgi__mesh_hints_free. */
 typedef struct pgi__mesh_hints {
-    size_t smooth_on;  /* OBJ `s N` with N > 0 */
-    size_t smooth_off; /* OBJ `s off` or `s 0` */
+    size_t smooth_on;      /* OBJ `s N` with N > 0 */
+    size_t smooth_off;     /* OBJ `s off` or `s 0` */
+    char missing_mtl[512]; /* OBJ mtllib names not found, comma-separated ("" if none) */
+    int gltf;              /* a glTF (.gltf / .glb): `extras` is filled */
+    pgi__gltf_extras extras;
 } pgi__mesh_hints;
+void pgi__mesh_hints_free(pgi__mesh_hints *h);
+/* Fills *x from a glTF's parsed JSON (`root`, a cJSON *; checked by pgi__gltf_check). */
+pgi_status pgi__gltf_read_extras(const char *path, const struct cJSON *root, pgi__gltf_extras *x);
+/* Appends a camera (name may be NULL or "": unnamed) to the scene. */
+pgi_status pgi__scene_add_camera(pgi_scene *s, const pgi_camera_def *def, const char *name);
+/* Appends `text` to the scene's warning line (pgi_scene_info.warnings), "; "-separated. */
+void pgi__scene_warn(pgi_scene *s, const char *text);
 /* Limits of what a mesh file may declare (docs/scene-format.md, "Mesh files"), checked before Assimp reads it:
  * nesting (JSON, XML, braces of .x/.bvh/.ogex, AC3D kids, a glTF's node tree) deeper than
  * PGI__MAX_MESH_DEPTH levels (Assimp recurses once a level: a deep file overflows its stack);

@@ -4,9 +4,11 @@
  *     "name": "sibenik",                       optional; default: file name without .json
  *     "mesh": "sibenik/sibenik.obj",           required; any file Assimp reads
  *     "cameras": [                             optional ("camera": {...} for one)
- *       {"eye": [-18, -13.5, 0], "look_at": [10, -12, 0], "up": [0, 1, 0], "fov_y": 60}
- *     ],
+ *       {"eye": [-18, -13.5, 0], "look_at": [10, -12, 0], "up": [0, 1, 0], "fov_y": 60,
+ *        "name": "nave"}                       "name" optional (--camera NAME)
+ *     ],                                       the mesh file's own cameras follow these
  *     "lights": [                              optional when the mesh has emissive (Ke) materials
+ *                                              or lights of its own (glTF), which are added to these
  *       {"type": "point", "position": [0, -3, 0], "intensity": [300, 300, 300]},
  *       {"type": "spot", "position": [..], "direction": [..], "angle": 30, "intensity": [..]},
  *       {"type": "sun", "direction": [0.195, -0.976, 0.098], "irradiance": [5, 5, 5]}
@@ -202,12 +204,21 @@ static pgi_status get_count(const char *path, const cJSON *obj, const char *key,
     return PGI_OK;
 }
 
-static pgi_status parse_camera(const char *path, const cJSON *c, const char *where, pgi_camera_def *cd) {
-    static const char *const keys[] = {"eye", "look_at", "up", "fov_y", NULL};
+static pgi_status parse_camera(const char *path, const cJSON *c, const char *where, pgi_camera_def *cd, char *name,
+                               size_t name_size) {
+    static const char *const keys[] = {"eye", "look_at", "up", "fov_y", "name", NULL};
     if (!cJSON_IsObject(c))
         return pgi__fail(PGI_ERR_PARSE, "%s: %s must be an object with eye, look_at, up, fov_y", path, where);
     pgi_status st = check_keys(path, c, where, keys);
     if (st) return st;
+    const cJSON *jn = cJSON_GetObjectItemCaseSensitive(c, "name");
+    if (jn && (!cJSON_IsString(jn) || !jn->valuestring[0] || (jn->valuestring[0] >= '0' && jn->valuestring[0] <= '9') ||
+               strlen(jn->valuestring) >= name_size))
+        return pgi__fail(PGI_ERR_PARSE,
+                         "%s: %s.name must be a string of 1..%zu characters that does not start with a digit (--camera "
+                         "takes a number as an index)",
+                         path, where, name_size - 1);
+    snprintf(name, name_size, "%s", jn ? jn->valuestring : "");
     float up[3] = {0.f, 1.f, 0.f};
     double fov = 60.0;
     if ((st = get_vec3(path, c, where, "eye", ANY, (double)PGI_MAX_COORD, 1, cd->eye, NULL))) return st;
@@ -339,7 +350,7 @@ static pgi_status resolve_mesh(const char *path, const char *kind, const char *m
     if (other_why) return pgi__fail(PGI_ERR_IO, "%s: %s '%s': %s %s", path, kind, mesh, other, other_why);
     return pgi__fail(PGI_ERR_IO,
                      "%s: %s '%s' not found (looked in %s; set PHOTONGI_SCENES to the folder that holds "
-                     "the scenes)",
+                     "the scenes; docs/scenes.md says where to get the papers' scenes and how to lay them out)",
                      path, kind, mesh, looked);
 }
 
@@ -708,14 +719,17 @@ static pgi_status load(const char *path, const cJSON *root, pgi_scene **out) {
         s->nlights = nbase;
         if (ncam) {
             free(s->cams);
+            free(s->cam_names);
             s->cams = NULL;
+            s->cam_names = NULL;
             s->ncams = 0;
             s->cams_auto = 0;
         }
     }
     if (ncam) {
         s->cams = calloc(ncam, sizeof *s->cams);
-        if (!s->cams) st = pgi__fail(PGI_ERR_OOM, "%s: out of memory", path);
+        s->cam_names = calloc(ncam, sizeof *s->cam_names);
+        if (!s->cams || !s->cam_names) st = pgi__fail(PGI_ERR_OOM, "%s: out of memory", path);
     }
     if (!st && nl) {
         pgi__light *L = realloc(s->lights, (nbase + nl) * sizeof *L);
@@ -724,14 +738,14 @@ static pgi_status load(const char *path, const cJSON *root, pgi_scene **out) {
     }
     char where[64];
     if (!st && jcam) {
-        st = parse_camera(path, jcam, "camera", &s->cams[0]);
+        st = parse_camera(path, jcam, "camera", &s->cams[0], s->cam_names[0], sizeof s->cam_names[0]);
         if (!st) s->ncams = 1;
     }
     /* Arrays are walked by their links (cJSON_GetArrayItem in a loop is quadratic: 10^5 lights took 30 s). */
     const cJSON *it = jcams ? jcams->child : NULL;
     for (size_t i = 0; !st && jcams && i < ncam; i++, it = it->next) {
         snprintf(where, sizeof where, "cameras[%zu]", i);
-        st = parse_camera(path, it, where, &s->cams[i]);
+        st = parse_camera(path, it, where, &s->cams[i], s->cam_names[i], sizeof s->cam_names[i]);
         if (!st) s->ncams = i + 1;
     }
     it = jlights ? jlights->child : NULL;

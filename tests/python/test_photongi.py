@@ -75,6 +75,18 @@ def test_progressive_and_camera_equal_cli(tmp_path, cornell):
     assert np.array_equal(a, b)
 
 
+def test_camera_by_name(tmp_path):
+    desc = tmp_path / "named.json"
+    desc.write_text('{"builtin": "cornell", "cameras": [{"eye": [0.6, 1, 3.6], "look_at": [0, 1, 0], "name": "side"},'
+                    ' {"eye": [0, 1, 3.9], "look_at": [0, 1, 0], "name": "front"}]}')
+    r = photongi.Renderer(photongi.Scene(str(desc)))
+    a, _ = r.render(camera="front", **SMALL)
+    b, _ = r.render(camera=1, **SMALL)
+    assert np.array_equal(a, b)
+    with pytest.raises(ValueError, match="its cameras: 0 'side', 1 'front'"):
+        r.render(camera="back", **SMALL)
+
+
 def test_outputs_add_up(cornell):
     r = photongi.Renderer(cornell)
     full, _ = r.render(**SMALL)
