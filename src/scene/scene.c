@@ -35,6 +35,8 @@ void pgi_scene_destroy(pgi_scene *s) {
     free(s->lights);
     pgi__env_destroy(s->env);
     free(s->cams);
+    free(s->meshes);
+    free(s->update_backup);
     pgi__scene_free_anims(s);
     free(s);
 }
