@@ -787,6 +787,8 @@ static void test_indirect_no_shadow_rays(void **state) {
     render(s, &d, &all, &fs);
     assert_true(fs.shadow_rays > 0);
     d.aovs = NULL;
+    render(s, &d, &dir, &fs); /* AOVs are not part of the picture */
+    assert_true(same_image(&all, &dir));
     d.output = PGI_OUTPUT_INDIRECT;
     render(s, &d, &ind, &fs);
     assert_int_equal(fs.shadow_rays, 0);

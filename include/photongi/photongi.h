@@ -111,7 +111,7 @@ const char *pgi_builtin_scene_name(size_t i);
 
 typedef enum pgi_output {
     PGI_OUTPUT_ALL = 0,         /* emission + direct + indirect */
-    PGI_OUTPUT_INDIRECT = 1,    /* the estimator's indirect radiance only */
+    PGI_OUTPUT_INDIRECT = 1,    /* the estimator's indirect radiance only; no direct pass (no shadow ray) on the CPU */
     PGI_OUTPUT_DIRECT = 2,      /* emission + direct only */
     PGI_OUTPUT_PHOTON_COUNT = 3 /* photons that contributed at each pixel (all three channels); needs a
                                    second build + estimate pass over unit-flux photons */
@@ -472,7 +472,7 @@ pgi_status pgi_scene_set_light_position(pgi_scene *scene, size_t i, const float 
  * frame (pgi_scene_update_positions), its lights added, removed and changed, a camera from view
  * and projection matrices, and AOVs for a denoiser (pgi_render_desc.aovs). The file loaders
  * build their scenes the same way, so a scene given as arrays renders byte-identical to the same
- * scene read from a file (docs/api.md "Scenes from memory"). */
+ * scene read from a file (docs/engine.md). */
 
 /* Material models (the internal ones the file loaders map MTL / glTF materials to). */
 typedef enum pgi_material_type {
