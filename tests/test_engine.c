@@ -407,12 +407,14 @@ static void expect_scaled(const float *a, const float *b, size_t n, double k, do
     assert_true(worst <= rel);
 }
 
-static void render_aovs(const pgi_scene *s, float *direct, float *indirect) {
+/* One frame's direct and indirect AOVs, by a renderer kept across frames (r) or a fresh one. */
+static void render_aovs(const pgi_scene *s, pgi_renderer *r, float *direct, float *indirect) {
     pgi_aovs a = {.direct = direct, .indirect = indirect};
     pgi_render_desc d = small_desc();
     d.aovs = &a;
     pgi_image img = {0};
-    render(s, &d, &img, NULL);
+    if (r) assert_int_equal(pgi_renderer_render(r, &d, &img, NULL), PGI_OK);
+    else render(s, &d, &img, NULL);
     pgi_image_free(&img);
 }
 
@@ -434,14 +436,16 @@ static void test_light_intensity_doubles(void **state) {
         pgi_scene *s;
         assert_int_equal(create_room(&r, &s, point ? &pl : NULL, point, 0), PGI_OK);
         assert_int_equal(pgi_scene_light_group_count(s), 1);
-        render_aovs(s, d1, i1);
+        pgi_renderer *rd; /* kept across the change, as an engine keeps it */
+        assert_int_equal(pgi_renderer_create(s, &rd), PGI_OK);
+        render_aovs(s, rd, d1, i1);
         pgi_light_desc l;
         assert_int_equal(pgi_scene_get_light(s, 0, &l), PGI_OK);
         assert_int_equal(l.kind, point ? PGI_LIGHT_KIND_POINT : PGI_LIGHT_KIND_AREA);
         assert_float_equal(l.intensity, point ? 3.f : 12.f, 1e-6);
         l.intensity *= 2.f;
         assert_int_equal(pgi_scene_set_light(s, 0, &l), PGI_OK);
-        render_aovs(s, d2, i2);
+        render_aovs(s, rd, d2, i2);
         expect_scaled(d1, d2, n, 2.0, 1e-5, point ? "point direct" : "area direct");
         expect_scaled(i1, i2, n, 2.0, 1e-5, point ? "point indirect" : "area indirect");
         /* the kind cannot change; bad values are refused and change nothing */
@@ -451,8 +455,15 @@ static void test_light_intensity_doubles(void **state) {
         l.intensity = -1.f;
         assert_int_equal(pgi_scene_set_light(s, 0, &l), PGI_ERR_INVALID_ARG);
         assert_non_null(strstr(pgi_last_error(), "light group 0"));
-        render_aovs(s, d1, i1);
+        render_aovs(s, NULL, d1, i1); /* a fresh renderer agrees */
         assert_memory_equal(d1, d2, n * sizeof(float));
+        assert_memory_equal(i1, i2, n * sizeof(float));
+        /* switched off: black, not NaN (no light has power) */
+        l.intensity = 0.f;
+        assert_int_equal(pgi_scene_set_light(s, 0, &l), PGI_OK);
+        render_aovs(s, rd, d1, i1);
+        for (size_t i = 0; i < n; i++) assert_true(d1[i] == 0.f && i1[i] == 0.f); /* NaN fails */
+        pgi_renderer_destroy(rd);
         pgi_scene_destroy(s);
     }
     free(d1);
@@ -502,7 +513,7 @@ static void test_light_add_remove(void **state) {
     float *dir0 = malloc(n * sizeof(float)), *dir1 = malloc(n * sizeof(float));
     assert_non_null(dir0 && dir1);
     assert_int_equal(pgi_scene_remove_light(s, 0), PGI_OK);
-    render_aovs(s, dir0, NULL);
+    render_aovs(s, NULL, dir0, NULL);
     spot.color[0] = 1.f;
     spot.color[1] = spot.color[2] = 0.f;
     spot.direction[0] = 0.25f; /* not unit: normalised */
@@ -510,7 +521,7 @@ static void test_light_add_remove(void **state) {
     assert_int_equal(pgi_scene_get_light(s, 0, &got), PGI_OK);
     assert_float_equal(got.color[1], 0.f, 0.f);
     assert_float_equal(got.direction[0] * got.direction[0] + got.direction[1] * got.direction[1], 1.f, 1e-5);
-    render_aovs(s, dir1, NULL);
+    render_aovs(s, NULL, dir1, NULL);
     double dr = 0.0;
     for (size_t i = 0; i < n; i += 3) {
         dr += dir1[i] - dir0[i];

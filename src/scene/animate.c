@@ -480,7 +480,6 @@ static pgi_status light_radiance(const pgi_light_desc *ld, const char *what, flo
     return PGI_OK;
 }
 
-pgi_status pgi__light_from_desc(const pgi_light_desc *ld, const char *what, pgi__light *l);
 pgi_status pgi__light_from_desc(const pgi_light_desc *ld, const char *what, pgi__light *l) {
     memset(l, 0, sizeof *l);
     if (ld->kind != PGI_LIGHT_KIND_POINT && ld->kind != PGI_LIGHT_KIND_SPOT && ld->kind != PGI_LIGHT_KIND_SUN)

@@ -214,8 +214,6 @@ static pgi_status convert_material(const pgi_scene_desc *d, size_t i, pgi__mater
     return PGI_OK;
 }
 
-pgi_status pgi__light_from_desc(const pgi_light_desc *ld, const char *what, pgi__light *l);
-
 pgi_status pgi_scene_create(const pgi_scene_desc *d, pgi_scene **out) {
     if (!out) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_scene_create: out is NULL");
     *out = NULL;

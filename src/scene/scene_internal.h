@@ -201,6 +201,9 @@ static inline pgi__v3 pgi__normal_clean(pgi__v3 n) {
 }
 /* Vertices of triangles [t0, t1) whose normal is zero take the face normal of a triangle using them. */
 void pgi__scene_fix_normals(pgi_scene *s, size_t t0, size_t t1);
+/* A point, spot or sun light from its public desc (animate.c): checked (`what` names it in the
+ * message), the direction normalised, colour x intensity as its radiance; power not yet set. */
+pgi_status pgi__light_from_desc(const pgi_light_desc *ld, const char *what, pgi__light *l);
 /* A texture whose image has no alpha channel (1 or 3 channels): its grey value becomes its alpha
  * (a cut-out mask given as a grey image). */
 void pgi__texture_grey_alpha(pgi__texture *t);
