@@ -378,7 +378,12 @@ static void test_update_positions(void **state) {
         /* a rebuilt static structure is the fresh one; a refitted one finds the same hits but where a
            ray meets an edge of two triangles (a few pixels) */
         if (!dynamic) assert_true(same_image(&after, &want));
-        else assert_true(tu_compare(after.rgb, want.rgb, 3 * 64 * 48, 1e-5, "refit") <= 3 * 64 * 48 / 200);
+        else {
+            size_t differ = 0;
+            for (size_t i = 0; i < (size_t)64 * 48; i++)
+                differ += memcmp(after.rgb + 3 * i, want.rgb + 3 * i, 3 * sizeof(float)) != 0;
+            assert_true(differ <= 64 * 48 / 200); /* 2 pixels of 3072 here */
+        }
         pgi_image_free(&before);
         pgi_image_free(&after);
         pgi_image_free(&want);
