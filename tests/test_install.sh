@@ -3,7 +3,8 @@
 #   1. `cmake --install` into a temporary prefix; the expected files are there and the
 #      installed CLI runs;
 #   2. examples/render_frame.c compiled with `pkg-config --cflags --libs photongi` (and
-#      with --static) renders a PNG;
+#      with --static) renders a PNG, and examples/engine_loop.c (a scene from arrays, updated
+#      every frame, AOVs read back) runs its frames and renders one;
 #   3. examples/ configured on its own with find_package(photongi) (CMAKE_PREFIX_PATH = the
 #      prefix) renders a PNG;
 #   4. a parent project that add_subdirectory()s the source tree (as FetchContent does)
@@ -53,6 +54,21 @@ check_png() {
 run_example() {
     local png=$TMP/$2.png
     (cd "$TMP" && "$1" cornell "$png" "${SIZE_W}x${SIZE_H}") || die "$2: render_frame exited with $?"
+    check_png "$png"
+}
+
+# run_engine BINARY TAG: the engine-style loop (examples/engine_loop.c): 2 frames, each reported
+# with its pixels hit (the AOVs' depth), and the last one's PNG.
+run_engine() {
+    local png=$TMP/$2-engine.png
+    local rc=0
+    (cd "$TMP" && "$1" "$png" "${SIZE_W}x${SIZE_H}" 2) >"$TMP/$2-engine.log" || rc=$?
+    [ "$rc" -eq 0 ] || {
+        cat "$TMP/$2-engine.log"
+        die "$2: engine_loop exited with $rc"
+    }
+    grep -Eq "^frame 1: .* [1-9][0-9]* of $((SIZE_W * SIZE_H)) pixels hit" "$TMP/$2-engine.log" ||
+        die "$2: engine_loop did not report its second frame's AOVs: $(cat "$TMP/$2-engine.log")"
     check_png "$png"
 }
 
@@ -110,6 +126,10 @@ run_example "$TMP/render_frame_pc" pkg-config
     $(pkg-config --static --cflags --libs photongi) ||
     die "compiling the example with \`pkg-config --static --cflags --libs photongi\`"
 run_example "$TMP/render_frame_pc_static" pkg-config-static
+# shellcheck disable=SC2046,SC2086
+"$CC_BIN" $EXTRA -o "$TMP/engine_loop_pc" "$SRC/examples/engine_loop.c" $(pkg-config --cflags --libs photongi) -lm ||
+    die "compiling examples/engine_loop.c with \`pkg-config --cflags --libs photongi\`"
+run_engine "$TMP/engine_loop_pc" pkg-config
 unset PKG_CONFIG_PATH
 
 # The consumers' own CMake runs: the flags of this build's compiler and EXTRA only.
@@ -129,6 +149,7 @@ case $pkgdir in "$PREFIX"/*) ;; *) die "find_package found photongi in '$pkgdir'
     die "building examples/ with find_package"
 }
 run_example "$(find "$TMP/find-package" -name render_frame -type f -perm -u+x -print -quit)" find-package
+run_engine "$(find "$TMP/find-package" -name engine_loop -type f -perm -u+x -print -quit)" find-package
 
 step "add_subdirectory(source tree) in a parent project"
 mkdir -p "$TMP/parent"
@@ -157,5 +178,6 @@ EOF
     die "building the add_subdirectory parent"
 }
 run_example "$(find "$TMP/parent-build/example" -name render_frame -type f -perm -u+x -print -quit)" add-subdirectory
+run_engine "$(find "$TMP/parent-build/example" -name engine_loop -type f -perm -u+x -print -quit)" add-subdirectory
 
 step "done"

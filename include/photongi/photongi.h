@@ -120,7 +120,7 @@ const char *pgi_builtin_scene_name(size_t i);
 
 typedef enum pgi_output {
     PGI_OUTPUT_ALL = 0,         /* emission + direct + indirect */
-    PGI_OUTPUT_INDIRECT = 1,    /* the estimator's indirect radiance only */
+    PGI_OUTPUT_INDIRECT = 1,    /* the estimator's indirect radiance only; no direct pass (no shadow ray) on the CPU */
     PGI_OUTPUT_DIRECT = 2,      /* emission + direct only */
     PGI_OUTPUT_PHOTON_COUNT = 3 /* photons that contributed at each pixel (all three channels); needs a
                                    second build + estimate pass over unit-flux photons */
@@ -253,6 +253,12 @@ typedef struct pgi_render_desc {
                                  Not part of the picture. */
     pgi_device device;        /* where the estimator runs; default PGI_DEVICE_CPU */
     int device_index;         /* PGI_DEVICE_VULKAN: 0 = automatic, PGI_DEVICE_INDEX(i) = Vulkan device i */
+    struct pgi_aovs *aovs;    /* non-NULL: the frame's AOVs are written to these caller-owned buffers (borrowed for
+                                 the call; see pgi_aovs); not part of the picture. CPU device only */
+    float shift[2];           /* sub-pixel offset of every view sample, pixels (x right, y down), each in
+                                 [-0.5, 0.5], added to the pixel centre (or the jittered point): an engine's TAA
+                                 jitter (pgi_camera_from_matrices); 0 = none. CPU device only; like `view`, not
+                                 in the statistics' settings */
 } pgi_render_desc;
 
 typedef enum pgi_radius_policy {
@@ -479,6 +485,141 @@ pgi_status pgi_scene_get_light_group(const pgi_scene *scene, size_t i, pgi_light
 /* Moves light group i so that its position becomes `pos` (area groups: a
  * translation of their triangles). Sun: PGI_ERR_UNSUPPORTED. */
 pgi_status pgi_scene_set_light_position(pgi_scene *scene, size_t i, const float pos[3]);
+
+/* ------------------------------------------------- an engine's scene in memory
+ * A scene from the caller's arrays instead of a file (pgi_scene_create), its vertices moved each
+ * frame (pgi_scene_update_positions), its lights added, removed and changed, a camera from view
+ * and projection matrices, and AOVs for a denoiser (pgi_render_desc.aovs). The file loaders
+ * build their scenes the same way, so a scene given as arrays renders byte-identical to the same
+ * scene read from a file (docs/engine.md). */
+
+/* Material models (the internal ones the file loaders map MTL / glTF materials to). */
+typedef enum pgi_material_type {
+    PGI_MATERIAL_LAMBERT = 0, /* diffuse: albedo `diffuse` (times the texture) / pi */
+    PGI_MATERIAL_GLOSSY,      /* a mesh file's specular material (MTL illum 2): its model follows
+                                 pgi_scene_set_specular (GGX plastic by default, or the papers' Blinn-Phong) */
+    PGI_MATERIAL_PLASTIC,     /* Lambertian base under a GGX lobe: F0 `specular`, alpha sqrt(2 / (shininess + 2)),
+                                 the Fresnel of index `ior` */
+    PGI_MATERIAL_PHONG,       /* energy-conserving Blinn-Phong: F0 `specular`, exponent `shininess` */
+    PGI_MATERIAL_MIRROR,      /* perfect mirror of reflectance `specular` */
+    PGI_MATERIAL_GLASS        /* dielectric of index `ior`, transmission tint `specular` */
+} pgi_material_type;
+
+/* A texture as pixels: 8-bit sRGB (the one texture type of the library; lookups return linear
+ * RGB), `channels` bytes a texel (1 grey, 2 grey + alpha, 3 RGB, 4 RGBA), rows from the top of
+ * the image, no padding. Copied by pgi_scene_create. */
+typedef struct pgi_texture_desc {
+    int width, height, channels;
+    const unsigned char *pixels;
+} pgi_texture_desc;
+
+typedef struct pgi_material_desc {
+    const char *name; /* NULL: "material <i>" */
+    pgi_material_type type;
+    float diffuse[3];    /* albedo in [0, 1] (multiplies the texture) */
+    float specular[3];   /* see pgi_material_type */
+    float shininess;     /* Phong exponent / GGX roughness as above (MTL Ns), 0..10000 */
+    float ior;           /* glass, plastic, glossy: index of refraction (> 1); 0: 1.5 */
+    float emission[3];   /* emitted radiance (MTL Ke): non-zero makes its triangles area lights */
+    int diffuse_texture; /* 0: none; i + 1: textures[i] of the scene desc */
+    int alpha_texture;   /* 0: none; i + 1: textures[i], whose alpha (grey if it has none) cuts the surface
+                             out where it is below alpha_cutoff */
+    float alpha_cutoff;  /* with alpha_texture: 0 = 0.5 */
+} pgi_material_desc;
+
+/* One mesh: positions (3 floats a vertex), optional normals (3 floats; NULL: every mesh of the
+ * scene must leave them out, and the scene is flat-shaded) and uvs (2 floats; NULL: 0, 0),
+ * triangles as 3 vertex indices into this mesh, and a material per triangle (NULL: `material`
+ * for all). The arrays are copied. */
+typedef struct pgi_mesh_desc {
+    size_t vertex_count;
+    const float *positions, *normals, *uvs;
+    size_t triangle_count;
+    const uint32_t *indices;
+    const uint32_t *materials; /* per triangle, indices into the scene desc's materials; NULL: `material` */
+    uint32_t material;
+    int dynamic; /* 1: pgi_scene_update_positions will move it every frame: its triangles get a ray-tracing
+                    structure of their own that is refitted (as a scene description's "motion"), instead
+                    of the rebuild of the static one that moving other meshes costs */
+} pgi_mesh_desc;
+
+/* A light: point, spot or sun (PGI_LIGHT_KIND_AREA are the emissive materials' triangles; only
+ * their colour and intensity can be set, as the emission of their material). */
+typedef struct pgi_light_desc {
+    pgi_light_kind kind;
+    float position[3];  /* point, spot */
+    float direction[3]; /* spot: its axis; sun: the way the light travels (need not be unit) */
+    float color[3];     /* linear RGB, multiplies intensity; all 0: white (1, 1, 1) */
+    float intensity;    /* point, spot: W/sr; sun: irradiance W/m^2; area: radiance (the emission) */
+    float cone_deg;     /* spot: half-angle of its cone, degrees in (0, 180) (a hard edge) */
+} pgi_light_desc;
+
+typedef struct pgi_scene_desc {
+    const char *name; /* NULL: "memory" */
+    const pgi_mesh_desc *meshes;
+    size_t mesh_count;
+    const pgi_material_desc *materials;
+    size_t material_count;
+    const pgi_texture_desc *textures;
+    size_t texture_count;
+    const pgi_light_desc *lights;
+    size_t light_count;
+    const pgi_camera_def *cameras; /* NULL / 0: one looking at the scene from +z (as a mesh file gets) */
+    size_t camera_count;
+    pgi_specular specular; /* PGI_MATERIAL_GLOSSY materials' model (pgi_scene_set_specular) */
+    uint64_t max_memory;   /* as pgi_scene_load_budget: 0 default budget, PGI_MEMORY_UNLIMITED none */
+} pgi_scene_desc;
+
+/* Builds a scene from `desc` (nothing of it is kept). The checks of a file load: finite numbers,
+ * coordinates within PGI_MAX_COORD, indices in range, radiances and powers within their limits,
+ * the arrays within the memory budget; PGI_ERR_INVALID_ARG (PGI_ERR_OOM: the budget) with a
+ * message naming the mesh, material, texture or light. A scene needs a light: an emissive
+ * material or a light of `lights` (one may be added later only to a scene that has one). */
+pgi_status pgi_scene_create(const pgi_scene_desc *desc, pgi_scene **out);
+
+/* Number of meshes of a scene (pgi_scene_create's; a loaded scene has none). */
+size_t pgi_scene_mesh_count(const pgi_scene *scene);
+#define PGI_ALL_MESHES SIZE_MAX
+/* New vertex positions (and normals, NULL: unchanged) of mesh `mesh`, or of every mesh in their
+ * order (PGI_ALL_MESHES); vertex_count must be that mesh's (all meshes': their sum). Checked as at
+ * creation (nothing changes on an error). A renderer updates its ray-tracing scene on its next
+ * frame (refit for dynamic meshes, rebuild otherwise; pgi_frame_stats.rt_update_ms). Not
+ * thread-safe with a render of the scene. */
+pgi_status pgi_scene_update_positions(pgi_scene *scene, size_t mesh, const float *positions, const float *normals,
+                                      size_t vertex_count);
+
+/* Light groups (pgi_scene_get_light_group) as light descs. Adding puts the new light after the
+ * other point, spot and sun lights (*group receives its index, may be NULL): the area groups'
+ * indices go up by one. Removing (point, spot, sun; not the scene's last light) moves the
+ * later groups down by one. Setting keeps the kind (an area group: its material's emission;
+ * its position: pgi_scene_set_light_position). Checked as at creation; not thread-safe with a
+ * render of the scene. */
+pgi_status pgi_scene_get_light(const pgi_scene *scene, size_t group, pgi_light_desc *out);
+pgi_status pgi_scene_set_light(pgi_scene *scene, size_t group, const pgi_light_desc *light);
+pgi_status pgi_scene_add_light(pgi_scene *scene, const pgi_light_desc *light, size_t *group);
+pgi_status pgi_scene_remove_light(pgi_scene *scene, size_t group);
+
+/* A camera from a view matrix (world to camera) and a perspective projection, both 4x4
+ * column-major as OpenGL and glm store them (m[4 * column + row]), the camera looking down its -z
+ * with y up, for an image of width x height. The projection must be a perspective one (last row
+ * 0, 0, -1, 0, no skew) whose aspect P[1][1] / P[0][0] is the image's (within 1e-3); its
+ * off-centre terms P[0][2], P[1][2] (an engine's TAA jitter, in NDC) become `shift` (pixels, for
+ * pgi_render_desc.shift; may be NULL when they are 0), at most half a pixel. The view matrix must be a rotation and a translation (PGI_ERR_INVALID_ARG naming the
+ * problem: singular, scaled or sheared, orthographic, an aspect or offset that does not fit). */
+pgi_status pgi_camera_from_matrices(const float view[16], const float projection[16], int width, int height,
+                                    pgi_camera_def *out, float shift[2]);
+
+/* AOVs of a frame (pgi_render_desc.aovs), each a caller-owned array of width x height pixels,
+ * row-major from the top-left (NULL: not wanted), written after the frame:
+ *   albedo   3 floats: the diffuse albedo (texture applied) of the first non-specular hit; 0: none
+ *   normal   3 floats: its shading normal (unit, on the side the eye path arrives from); 0: none
+ *   depth    1 float: the primary hit's distance along the camera's forward axis; 0: no hit
+ *   direct   3 floats: emitted + direct light (pgi_output DIRECT's image; 0 with PGI_OUTPUT_INDIRECT)
+ *   indirect 3 floats: the indirect light (PGI_OUTPUT_INDIRECT's image)
+ * With PGI_OUTPUT_ALL the image is direct + indirect, pixel by pixel (the same float sum). */
+typedef struct pgi_aovs {
+    float *albedo, *normal, *depth, *direct, *indirect;
+} pgi_aovs;
 
 /* ---------------------------------------------------------- progressive */
 

@@ -83,6 +83,7 @@ static void picture_of(const pgi_render_desc *d, const pgi_scene *s, picture *p)
     p->key = *d;
     p->key.estimator = NULL;
     p->key.view = NULL;
+    p->key.aovs = NULL;
     p->key.threads = 0; /* the image does not depend on the thread count */
     p->key.progress = NULL;
     p->key.progress_user = NULL;

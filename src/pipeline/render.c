@@ -303,6 +303,14 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
     if (d->output < PGI_OUTPUT_ALL || d->output > PGI_OUTPUT_PHOTON_COUNT)
         return pgi__fail(PGI_ERR_INVALID_ARG, "unknown output mode %d", (int)d->output);
     if (d->view && (st = pgi__check_view(d->view))) return st;
+    if (!(fabsf(d->shift[0]) <= 0.5f) || !(fabsf(d->shift[1]) <= 0.5f))
+        return pgi__fail(PGI_ERR_INVALID_ARG, "sub-pixel shift (%g, %g) is outside [-0.5, 0.5]", (double)d->shift[0],
+                         (double)d->shift[1]);
+    if (d->device == PGI_DEVICE_VULKAN) {
+        if (d->shift[0] != 0.f || d->shift[1] != 0.f)
+            return pgi__fail(PGI_ERR_UNSUPPORTED, "a sub-pixel shift (pgi_render_desc.shift) needs the CPU device");
+        if (d->aovs) return pgi__fail(PGI_ERR_UNSUPPORTED, "AOVs (pgi_render_desc.aovs) need the CPU device");
+    }
     /* radius policies */
     if (d->radius_policy < PGI_RADIUS_FIXED || d->radius_policy >= PGI_RADIUS_POLICY_COUNT_)
         return pgi__fail(PGI_ERR_INVALID_ARG, "unknown radius policy %d", d->radius_policy);
@@ -540,7 +548,10 @@ static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, uint64_t se
     report(pc, "view", 0, 0);
     double t0 = pgi__now_ms();
     pgi__rt_capture_pass(r->rt, PGI__PASS_VIEW); /* ray capture tags (a no-op unless a bench captures) */
-    const pgi__subpixel sp = {.jitter = d->jitter == PGI_JITTER_ON, .seed = seq_seed, .index = index};
+    const pgi__subpixel sp = {.jitter = d->jitter == PGI_JITTER_ON,
+                              .seed = seq_seed,
+                              .index = index,
+                              .shift = {d->shift[0], d->shift[1]}};
     if ((st = pgi__view_build(s, r->rt, &r->trace_scratch, &r->cam, d->seed, &sp, d->threads, &r->vs, r->emit, &r->fill,
                               &fs->primary_rays)))
         return st;
@@ -619,6 +630,8 @@ static void stats_begin(pgi_frame_stats *fs, const pgi_render_desc *d) {
     memset(fs, 0, sizeof *fs);
     fs->settings = *d;
     fs->settings.view = NULL;
+    fs->settings.aovs = NULL;
+    fs->settings.shift[0] = fs->settings.shift[1] = 0.f;
     fs->settings.progress = NULL;
     fs->settings.progress_user = NULL;
     fs->estimator = d->estimator;
@@ -1008,13 +1021,25 @@ pgi_status pgi__renderer_render_frame_late(pgi_renderer *r, const pgi_render_des
         if (!img.rgb) return pgi__fail(PGI_ERR_OOM, "out of memory for the output image");
     }
     double t4 = pgi__now_ms();
-    report(&pc, "direct", 0, 0);
     /* The direct pass writes the image itself (emitted + direct + weight x indirect: the
-     * composite), so that the direct light never makes a trip through memory. */
-    const pgi__direct_sum sum = {.emit = r->emit, .indirect = r->indirect, .output = d.output};
-    pgi__rt_capture_pass(r->rt, PGI__PASS_DIRECT);
-    st = pgi__direct(s, r->rt, &r->vs, &r->fill, &sum, d.direct_samples, d.seed, d.threads, img.rgb, &fs.shadow_rays);
-    pgi__rt_capture_pass(r->rt, PGI__PASS_NONE);
+     * composite), so that the direct light never makes a trip through memory. The indirect
+     * light alone needs no direct light: no shadow ray. */
+    const pgi__direct_sum sum = {.emit = r->emit,
+                                 .indirect = r->indirect,
+                                 .output = d.output,
+                                 .direct = d.aovs ? d.aovs->direct : NULL};
+    if (d.output == PGI_OUTPUT_INDIRECT) {
+        pgi__indirect_image(&r->vs, r->indirect, d.threads, img.rgb);
+        if (sum.direct) memset(sum.direct, 0, 3 * n * sizeof(float));
+        st = PGI_OK;
+    } else {
+        report(&pc, "direct", 0, 0);
+        pgi__rt_capture_pass(r->rt, PGI__PASS_DIRECT);
+        st = pgi__direct(s, r->rt, &r->vs, &r->fill, &sum, d.direct_samples, d.seed, d.threads, img.rgb,
+                         &fs.shadow_rays);
+        pgi__rt_capture_pass(r->rt, PGI__PASS_NONE);
+    }
+    if (!st && d.aovs) pgi__view_aovs(&r->vs, r->indirect, d.threads, d.aovs);
     if (st) {
         if (img.rgb != out->rgb) free(img.rgb);
         return st;

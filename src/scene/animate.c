@@ -28,34 +28,7 @@ void pgi__scene_free_anims(pgi_scene *s) {
 /* ------------------------------------------------------------ geometry */
 
 static pgi_status grow_arrays(pgi_scene *s, size_t nv, size_t nt) {
-    size_t v = s->nverts + nv, t = s->ntris + nt;
-    float *p = realloc(s->pos, v * 3 * sizeof *p);
-    if (!p) return pgi__fail(PGI_ERR_OOM, "out of memory adding an object");
-    s->pos = p;
-    if (s->nrm) {
-        float *n = realloc(s->nrm, v * 3 * sizeof *n);
-        if (!n) return pgi__fail(PGI_ERR_OOM, "out of memory adding an object");
-        s->nrm = n;
-    }
-    if (s->uv) {
-        float *u = realloc(s->uv, v * 2 * sizeof *u);
-        if (!u) return pgi__fail(PGI_ERR_OOM, "out of memory adding an object");
-        s->uv = u;
-        memset(s->uv + 2 * s->nverts, 0, nv * 2 * sizeof *u);
-    }
-    uint32_t *tr = realloc(s->tri, t * 3 * sizeof *tr);
-    if (!tr) return pgi__fail(PGI_ERR_OOM, "out of memory adding an object");
-    s->tri = tr;
-    uint32_t *m = realloc(s->tri_mat, t * sizeof *m);
-    if (!m) return pgi__fail(PGI_ERR_OOM, "out of memory adding an object");
-    s->tri_mat = m;
-    if (s->tri_dynamic) {
-        uint8_t *d = realloc(s->tri_dynamic, t);
-        if (!d) return pgi__fail(PGI_ERR_OOM, "out of memory adding an object");
-        s->tri_dynamic = d;
-        memset(s->tri_dynamic + s->ntris, 0, nt);
-    }
-    return PGI_OK;
+    return pgi__scene_grow_geometry(s, nv, nt, s->nrm != NULL, 0, "adding an object");
 }
 
 static uint32_t put_vertex(pgi_scene *s, pgi__v3 p, pgi__v3 n) {
@@ -474,5 +447,197 @@ pgi_status pgi_scene_set_light_position(pgi_scene *s, size_t i, const float pos[
     }
     free(mark);
     s->static_version++;
+    return PGI_OK;
+}
+
+/* ------------------------------------------------------------ light control */
+
+/* Index into s->lights of explicit light group i (< explicit_lights(s)). */
+static size_t explicit_light_index(const pgi_scene *s, size_t i) {
+    size_t k = 0;
+    for (size_t j = 0; j < s->nlights; j++)
+        if (s->lights[j].type != PGI_LIGHT_AREA && k++ == i) return j;
+    return SIZE_MAX;
+}
+
+static int finite_vec(const float *p, float lim) {
+    return fabsf(p[0]) <= lim && fabsf(p[1]) <= lim && fabsf(p[2]) <= lim; /* false for NaN */
+}
+
+/* color x intensity, all 0 colour meaning white. */
+static pgi_status light_radiance(const pgi_light_desc *ld, const char *what, float out[3]) {
+    const int white = ld->color[0] == 0.f && ld->color[1] == 0.f && ld->color[2] == 0.f;
+    if (!finite_vec(ld->color, 3.0e38f) || ld->color[0] < 0.f || ld->color[1] < 0.f || ld->color[2] < 0.f ||
+        !(ld->intensity >= 0.f))
+        return pgi__fail(PGI_ERR_INVALID_ARG, "%s: colour (%g, %g, %g) and intensity %g must be finite and >= 0", what,
+                         (double)ld->color[0], (double)ld->color[1], (double)ld->color[2], (double)ld->intensity);
+    for (int c = 0; c < 3; c++) {
+        out[c] = (white ? 1.f : ld->color[c]) * ld->intensity;
+        if (!(out[c] <= PGI_MAX_RADIANCE))
+            return pgi__fail(PGI_ERR_INVALID_ARG, "%s: colour x intensity %g is out of range (0..%g)", what,
+                             (double)out[c], (double)PGI_MAX_RADIANCE);
+    }
+    return PGI_OK;
+}
+
+pgi_status pgi__light_from_desc(const pgi_light_desc *ld, const char *what, pgi__light *l) {
+    memset(l, 0, sizeof *l);
+    if (ld->kind != PGI_LIGHT_KIND_POINT && ld->kind != PGI_LIGHT_KIND_SPOT && ld->kind != PGI_LIGHT_KIND_SUN)
+        return pgi__fail(PGI_ERR_INVALID_ARG,
+                         "%s: kind %d is not a point, spot or sun light (area lights are emissive materials)", what,
+                         (int)ld->kind);
+    l->type = (pgi__light_type)ld->kind;
+    pgi_status st = light_radiance(ld, what, l->color);
+    if (st) return st;
+    if (!finite_vec(ld->position, (float)PGI_MAX_COORD) || !finite_vec(ld->direction, (float)PGI_MAX_COORD))
+        return pgi__fail(PGI_ERR_INVALID_ARG,
+                         "%s: position (%g, %g, %g) or direction is not finite or beyond the coordinate range "
+                         "(-%g..%g)",
+                         what, (double)ld->position[0], (double)ld->position[1], (double)ld->position[2],
+                         (double)PGI_MAX_COORD, (double)PGI_MAX_COORD);
+    if (ld->kind != PGI_LIGHT_KIND_SUN) memcpy(l->pos, ld->position, sizeof l->pos);
+    if (ld->kind != PGI_LIGHT_KIND_POINT) {
+        pgi__v3 d = v3_load(ld->direction);
+        if (!(v3_len(d) > 0.f))
+            return pgi__fail(PGI_ERR_INVALID_ARG, "%s: a spot or sun light needs a direction", what);
+        v3_store(l->dir, v3_norm(d));
+    }
+    if (ld->kind == PGI_LIGHT_KIND_SPOT) {
+        if (!(ld->cone_deg > 0.f && ld->cone_deg < 180.f))
+            return pgi__fail(PGI_ERR_INVALID_ARG, "%s: spot cone half-angle %g is outside (0, 180) degrees", what,
+                             (double)ld->cone_deg);
+        l->cos_cutoff = cosf(ld->cone_deg * (PGI_PI / 180.f));
+    }
+    return PGI_OK;
+}
+
+/* After a change of the lights: powers recomputed and checked; on failure the lights (and the
+ * materials, area groups) are put back from the copies given. */
+static pgi_status lights_commit(pgi_scene *s, pgi__light *old_lights, size_t old_n, size_t mat, const float *old_ke) {
+    pgi__scene_refresh(s);
+    pgi_status st = pgi__scene_check_numbers(s, "pgi_scene_set_light");
+    if (!st) {
+        free(old_lights);
+        return PGI_OK;
+    }
+    char msg[512];
+    snprintf(msg, sizeof msg, "%s", pgi_last_error());
+    if (old_lights) {
+        free(s->lights);
+        s->lights = old_lights;
+        s->nlights = old_n;
+    }
+    if (old_ke) {
+        memcpy(s->mats[mat].ke, old_ke, 3 * sizeof(float));
+        for (size_t j = 0; j < s->nlights; j++)
+            if (s->lights[j].type == PGI_LIGHT_AREA && s->tri_mat[s->lights[j].tri] == mat)
+                memcpy(s->lights[j].color, old_ke, 3 * sizeof(float));
+    }
+    pgi__scene_refresh(s);
+    return pgi__fail(PGI_ERR_INVALID_ARG, "%s", msg);
+}
+
+static pgi__light *lights_copy(const pgi_scene *s) {
+    pgi__light *c = malloc((s->nlights ? s->nlights : 1) * sizeof *c);
+    if (c && s->nlights) memcpy(c, s->lights, s->nlights * sizeof *c);
+    return c;
+}
+
+/* rgb as a colour (its largest component 1) and an intensity. */
+static void split_radiance(const float rgb[3], float color[3], float *intensity) {
+    const float m = fmaxf(rgb[0], fmaxf(rgb[1], rgb[2]));
+    *intensity = m > 0.f ? m : 0.f;
+    for (int c = 0; c < 3; c++) color[c] = m > 0.f ? rgb[c] / m : 1.f;
+}
+
+pgi_status pgi_scene_get_light(const pgi_scene *s, size_t group, pgi_light_desc *out) {
+    if (!out) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_scene_get_light: NULL argument");
+    pgi_light_group g;
+    pgi_status st = pgi_scene_get_light_group(s, group, &g);
+    if (st) return st;
+    memset(out, 0, sizeof *out);
+    out->kind = g.kind;
+    if (g.kind == PGI_LIGHT_KIND_AREA) {
+        memcpy(out->position, g.position, sizeof out->position);
+        split_radiance(s->mats[area_group_material(s, group - explicit_lights(s))].ke, out->color, &out->intensity);
+        return PGI_OK;
+    }
+    const pgi__light *l = &s->lights[explicit_light_index(s, group)];
+    memcpy(out->position, l->pos, sizeof out->position);
+    memcpy(out->direction, l->dir, sizeof out->direction);
+    split_radiance(l->color, out->color, &out->intensity);
+    if (l->type == PGI_LIGHT_SPOT) out->cone_deg = acosf(l->cos_cutoff) * (180.f / PGI_PI);
+    return PGI_OK;
+}
+
+pgi_status pgi_scene_set_light(pgi_scene *s, size_t group, const pgi_light_desc *ld) {
+    if (!ld) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_scene_set_light: NULL light");
+    pgi_light_group g;
+    pgi_status st = pgi_scene_get_light_group(s, group, &g);
+    if (st) return st;
+    char what[64];
+    snprintf(what, sizeof what, "pgi_scene_set_light: light group %zu", group);
+    if (ld->kind != g.kind)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "%s is a %s light; its kind cannot change (remove it and add one)", what,
+                         g.kind == PGI_LIGHT_KIND_AREA ? "area" : g.name);
+    if (g.kind == PGI_LIGHT_KIND_AREA) {
+        float ke[3], old_ke[3];
+        if ((st = light_radiance(ld, what, ke))) return st;
+        const size_t m = area_group_material(s, group - explicit_lights(s));
+        memcpy(old_ke, s->mats[m].ke, sizeof old_ke);
+        memcpy(s->mats[m].ke, ke, sizeof ke);
+        for (size_t j = 0; j < s->nlights; j++)
+            if (s->lights[j].type == PGI_LIGHT_AREA && s->tri_mat[s->lights[j].tri] == m)
+                memcpy(s->lights[j].color, ke, sizeof ke);
+        return lights_commit(s, NULL, 0, m, old_ke);
+    }
+    pgi__light l;
+    if ((st = pgi__light_from_desc(ld, what, &l))) return st;
+    pgi__light *old = lights_copy(s);
+    if (!old) return pgi__fail(PGI_ERR_OOM, "%s: out of memory", what);
+    s->lights[explicit_light_index(s, group)] = l;
+    return lights_commit(s, old, s->nlights, 0, NULL);
+}
+
+pgi_status pgi_scene_add_light(pgi_scene *s, const pgi_light_desc *ld, size_t *group) {
+    if (!s || !ld) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_scene_add_light: NULL argument");
+    pgi__light l;
+    pgi_status st = pgi__light_from_desc(ld, "pgi_scene_add_light", &l);
+    if (st) return st;
+    pgi__light *old = lights_copy(s), *nl = old ? malloc((s->nlights + 1) * sizeof *nl) : NULL;
+    if (!nl) {
+        free(old);
+        return pgi__fail(PGI_ERR_OOM, "pgi_scene_add_light: out of memory");
+    }
+    const size_t ne = explicit_lights(s), n = s->nlights; /* explicit lights come first */
+    memcpy(nl, s->lights, ne * sizeof *nl);
+    nl[ne] = l;
+    memcpy(nl + ne + 1, s->lights + ne, (n - ne) * sizeof *nl);
+    free(s->lights);
+    s->lights = nl;
+    s->nlights = n + 1;
+    if ((st = lights_commit(s, old, n, 0, NULL))) return st;
+    if (group) *group = ne;
+    return PGI_OK;
+}
+
+pgi_status pgi_scene_remove_light(pgi_scene *s, size_t group) {
+    pgi_light_group g;
+    pgi_status st = pgi_scene_get_light_group(s, group, &g);
+    if (st) return st;
+    if (g.kind == PGI_LIGHT_KIND_AREA)
+        return pgi__fail(PGI_ERR_UNSUPPORTED,
+                         "pgi_scene_remove_light: light group %zu is an emissive material ('%s'); set its intensity "
+                         "to 0 instead",
+                         group, g.name);
+    if (s->nlights == 1 && !s->env)
+        return pgi__fail(PGI_ERR_INVALID_ARG,
+                         "pgi_scene_remove_light: light group %zu is the scene's only light (set its intensity to 0, "
+                         "or add another first)",
+                         group);
+    const size_t j = explicit_light_index(s, group);
+    memmove(s->lights + j, s->lights + j + 1, (s->nlights - j - 1) * sizeof *s->lights);
+    s->nlights--;
+    pgi__scene_refresh(s);
     return PGI_OK;
 }

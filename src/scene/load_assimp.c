@@ -327,15 +327,7 @@ static pgi_status convert_material(pgi_scene *s, tex_cache *tc, const struct aiS
         } else {
             pgi_status st = load_texture(s, tc, sc, m->name, dpath.data, &m->tex_alpha);
             if (st) return st;
-            pgi__texture *t = &s->texs[m->tex_alpha];
-            if (t->channels == 1 || t->channels == 3) {
-                /* A map_d without an alpha channel is a grey mask: its value is the alpha. */
-                size_t n = (size_t)t->width * (size_t)t->height;
-                for (size_t i = 0; i < n; i++) {
-                    unsigned char *p = t->rgba + 4 * i;
-                    p[3] = (unsigned char)(((unsigned)p[0] + p[1] + p[2] + 1) / 3);
-                }
-            }
+            pgi__texture_grey_alpha(&s->texs[m->tex_alpha]); /* a map_d without alpha is a grey mask */
         }
         /* alpha * scale < cutoff  <=>  alpha < cutoff / scale; above 1 the whole surface is cut. */
         float scale = isfinite(opacity) ? clamp01(opacity) : 1.f;
@@ -841,19 +833,12 @@ pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path) {
     if (!st && (v0 + add_v > (size_t)UINT32_MAX || t0 + add_t > (size_t)UINT32_MAX / 3))
         st = pgi__fail(PGI_ERR_UNSUPPORTED, "%s: too many vertices or triangles (%zu, %zu)", path, v0 + add_v,
                        t0 + add_t);
-    const size_t nv = v0 + add_v, nt = t0 + add_t, nm = m0 + sc->mNumMaterials;
+    const size_t nm = m0 + sc->mNumMaterials;
     /* Every mesh now has normals; they are dropped only when earlier geometry is flat-shaded (no nrm). */
-    int keep_nrm = v0 == 0 || s->nrm != NULL;
-    int had_uv = s->uv != NULL;
-    int want_uv = any_uv || had_uv;
-
-    if (!st &&
-        (!grow(&s->pos, nv * 3, sizeof(float)) || !grow(&s->tri, nt * 3, sizeof(uint32_t)) ||
-         !grow(&s->tri_mat, nt, sizeof(uint32_t)) || !grow(&s->mats, nm, sizeof(pgi__material)) ||
-         (keep_nrm && !grow(&s->nrm, nv * 3, sizeof(float))) || (want_uv && !grow(&s->uv, nv * 2, sizeof(float)))))
-        st = pgi__fail(PGI_ERR_OOM, "%s: out of memory for %zu vertices and %zu triangles", path, nv, nt);
+    if (!st) st = pgi__scene_grow_geometry(s, add_v, add_t, 1, any_uv, path);
+    if (!st && !grow(&s->mats, nm, sizeof(pgi__material))) st = pgi__fail(PGI_ERR_OOM, "%s: out of memory", path);
     if (st) goto done;
-    if (want_uv && !had_uv && v0 > 0) memset(s->uv, 0, v0 * 2 * sizeof(float)); /* earlier geometry had no UVs */
+    const int keep_nrm = s->nrm != NULL, want_uv = s->uv != NULL;
 
     /* Materials (appended first so that textures and indices are known). */
     tex_cache tc;
@@ -887,9 +872,7 @@ pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path) {
                     o->nrm ? v3_load(o->nrm + 3 * k)
                            : v3((float)me->mNormals[from].x, (float)me->mNormals[from].y, (float)me->mNormals[from].z);
                 /* Degenerate faces give zero or NaN normals: keep them finite (finalize rejects NaN). */
-                if (!v3_finite(nn) || !(v3_len(nn) > 0.f)) nn = v3(0.f, 0.f, 0.f);
-                else nn = v3_norm(nn);
-                v3_store(n, nn);
+                v3_store(n, pgi__normal_clean(nn));
             }
             if (want_uv) {
                 float *t = s->uv + 2 * (vb + k);
@@ -909,18 +892,7 @@ pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path) {
         }
         vb += o->nv;
     }
-    if (keep_nrm) {
-        /* Vertices whose normal is zero (degenerate input) take the face normal of a triangle using them. */
-        for (size_t t = t0; t < tb; t++) {
-            const uint32_t *ix = s->tri + 3 * t;
-            pgi__v3 fn = v3_cross(v3_sub(pgi__scene_vertex(s, ix[1]), pgi__scene_vertex(s, ix[0])),
-                                  v3_sub(pgi__scene_vertex(s, ix[2]), pgi__scene_vertex(s, ix[0])));
-            for (int c = 0; c < 3; c++) {
-                float *n = s->nrm + 3 * (size_t)ix[c];
-                if (n[0] == 0.f && n[1] == 0.f && n[2] == 0.f) v3_store(n, v3_norm(fn));
-            }
-        }
-    }
+    pgi__scene_fix_normals(s, t0, tb);
     s->nverts = vb;
     s->ntris = tb;
     st = import_extras(s, path, sc, &hints, m0, &io);

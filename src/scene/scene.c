@@ -37,6 +37,8 @@ void pgi_scene_destroy(pgi_scene *s) {
     pgi__env_destroy(s->env);
     free(s->cams);
     free(s->cam_names);
+    free(s->meshes);
+    free(s->update_backup);
     pgi__scene_free_anims(s);
     free(s);
 }
@@ -491,7 +493,8 @@ void pgi__scene_memory(const pgi_scene *s, size_t *scene_bytes, size_t *texture_
     size_t b = sizeof *s + s->nverts * 3 * sizeof(float) * (1 + (s->nrm != NULL)) +
                (s->uv ? s->nverts * 2 * sizeof(float) : 0) + s->ntris * 4 * sizeof(uint32_t) +
                (s->tri_dynamic ? s->ntris : 0) + s->nmats * sizeof *s->mats + s->ntexs * sizeof *s->texs +
-               s->nlights * sizeof *s->lights + s->ncams * sizeof *s->cams;
+               s->nlights * sizeof *s->lights + s->ncams * sizeof *s->cams + s->nmeshes * sizeof *s->meshes +
+               s->update_backup_cap * sizeof(float);
     if (s->env) {
         const pgi__env *e = s->env;
         b += sizeof *e + (e->rgb ? (size_t)e->w * (size_t)e->h * 4 * sizeof(float) + (size_t)e->h * sizeof(float) : 0);

@@ -176,7 +176,40 @@ struct pgi_scene {
     double time;              /* seconds, set by pgi_scene_set_time */
     uint64_t static_version;  /* bumped when triangles outside tri_dynamic move (a moved area light) */
     uint64_t dynamic_version; /* bumped when animated triangles move */
+    /* pgi_scene_create's meshes (scene_create.c): vertices [v0, v0 + nv) and triangles [t0, t0 + nt) each */
+    struct pgi__mesh_range *meshes;
+    size_t nmeshes;
+    float *update_backup; /* pgi_scene_update_positions: the previous positions (a failed update restores them) */
+    size_t update_backup_cap;
 };
+
+typedef struct pgi__mesh_range {
+    size_t v0, nv, t0, nt;
+    int dynamic;
+} pgi__mesh_range;
+
+/* ----------------------------------------------- building geometry (scene_create.c)
+ * The one way vertices and triangles are added to a scene: the mesh loader (load_assimp.c),
+ * pgi_scene_create and the objects of a description (animate.c) grow the arrays here and store
+ * their normals through pgi__normal_clean and pgi__scene_fix_normals. */
+/* Grows the arrays for add_v more vertices and add_t more triangles (the counts are not
+ * changed). Normals are kept when want_nrm and the scene has them or no vertices yet; UVs when
+ * want_uv or the scene has them (new and, when they are new, earlier ones set to 0, 0). */
+pgi_status pgi__scene_grow_geometry(pgi_scene *s, size_t add_v, size_t add_t, int want_nrm, int want_uv,
+                                    const char *what);
+/* A normal as the scene stores it: unit, or 0 for a zero or non-finite one (which
+ * pgi__scene_fix_normals replaces). */
+static inline pgi__v3 pgi__normal_clean(pgi__v3 n) {
+    return !v3_finite(n) || !(v3_len(n) > 0.f) ? v3(0.f, 0.f, 0.f) : v3_norm(n);
+}
+/* Vertices of triangles [t0, t1) whose normal is zero take the face normal of a triangle using them. */
+void pgi__scene_fix_normals(pgi_scene *s, size_t t0, size_t t1);
+/* A point, spot or sun light from its public desc (animate.c): checked (`what` names it in the
+ * message), the direction normalised, colour x intensity as its radiance; power not yet set. */
+pgi_status pgi__light_from_desc(const pgi_light_desc *ld, const char *what, pgi__light *l);
+/* A texture whose image has no alpha channel (1 or 3 channels): its grey value becomes its alpha
+ * (a cut-out mask given as a grey image). */
+void pgi__texture_grey_alpha(pgi__texture *t);
 
 /* ------------------------------------------------------------ animation */
 

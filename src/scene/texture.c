@@ -334,3 +334,12 @@ pgi_status pgi__scene_add_texture(pgi_scene *s, int w, int h, int channels, unsi
     *index = (int)s->ntexs++;
     return PGI_OK;
 }
+
+void pgi__texture_grey_alpha(pgi__texture *t) {
+    if (t->channels != 1 && t->channels != 3) return;
+    size_t n = (size_t)t->width * (size_t)t->height;
+    for (size_t i = 0; i < n; i++) {
+        unsigned char *p = t->rgba + 4 * i;
+        p[3] = (unsigned char)(((unsigned)p[0] + p[1] + p[2] + 1) / 3);
+    }
+}

@@ -355,7 +355,7 @@ __attribute__((target("avx2"))) static void tile_dirs_avx2(const pgi_camera *cam
                                  inf);
         } else {
             __m256 fx, fy;
-            if (!sp->jitter) { /* pgi__pixel_jitter's pixel centre */
+            if (pgi__subpixel_centres(sp)) { /* pgi__pixel_jitter's pixel centre */
                 fx = _mm256_add_ps(_mm256_cvtepi32_ps(px), _mm256_set1_ps(0.5f));
                 fy = _mm256_add_ps(_mm256_cvtepi32_ps(py), _mm256_set1_ps(0.5f));
             } else {
@@ -621,7 +621,7 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
     pgi__trace_scratch *const tr = tris ? tris : &own;
     pgi_status st = pgi__trace_tris_update(tr, s, threads);
     if (st) return st;
-    vs->jitter = sp->jitter ? 0.5f : 0.f;
+    vs->jitter = (sp->jitter ? 0.5f : 0.f) + fmaxf(fabsf(sp->shift[0]), fabsf(sp->shift[1]));
     /* without the memory for the record, every row is written (as with none) */
     uint8_t *const fill_rows = fill && view_fill_fit(fill, W, H) ? fill->rows : NULL;
     const size_t fill_cols = fill_rows ? (size_t)fill->cols : 0;
@@ -635,7 +635,7 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
      * tiles of columns and rows, so that a tile's four read no farther). Without the memory
      * they are computed lane by lane. */
     float *cu = NULL, *cv = NULL;
-    if (avx2 && !sp->jitter) {
+    if (avx2 && pgi__subpixel_centres(sp)) {
         cu = malloc(4 * (((size_t)W + 3) / 4 + (size_t)((H + 3) / 4)) * sizeof(float));
         if (cu) {
             cv = cu + 4 * (((size_t)W + 3) / 4);
@@ -1299,6 +1299,8 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
                 for (int x = 0; x < W; x += PGI__FILL_W) {
                     const size_t p0 = (size_t)y * (size_t)W + (size_t)x;
                     const size_t p1 = p0 + (size_t)(W - x < PGI__FILL_W ? W - x : PGI__FILL_W);
+                    if (sum->direct) /* composite's `dir`, before it replaces out */
+                        for (size_t i = 3 * p0; i < 3 * p1; i++) sum->direct[i] = sum->emit[i] + out[i];
                     composite(out, vs->weight, sum->emit, sum->indirect, 3 * p0, 3 * p1, sum->output,
                               one.rows ? one.rows[(size_t)y * one.cols + (size_t)(x / PGI__FILL_W)] : 0u, avx2);
                 }
@@ -1306,4 +1308,25 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
     pgi__area_table_free(&at);
     *rays_out = rays;
     return PGI_OK;
+}
+
+void pgi__indirect_image(const pgi_view_samples *vs, const float *indirect, int threads, float *out) {
+    const long n = (long)(3 * vs->count);
+#pragma omp parallel for schedule(static) num_threads(pgi__threads(threads))
+    for (long i = 0; i < n; i++) out[i] = vs->weight[i] * indirect[i];
+}
+
+void pgi__view_aovs(const pgi_view_samples *vs, const float *indirect, int threads, pgi_aovs *a) {
+    const long n = (long)vs->count;
+#pragma omp parallel for schedule(static) num_threads(pgi__threads(threads))
+    for (long i = 0; i < n; i++) {
+        const int valid = (vs->flags[i] & PGI_VS_VALID) != 0;
+        for (int c = 0; c < 3; c++) {
+            const size_t k = 3 * (size_t)i + (size_t)c;
+            if (a->albedo) a->albedo[k] = valid ? vs->kd[k] : 0.f;
+            if (a->normal) a->normal[k] = valid ? vs->nrm[k] : 0.f;
+            if (a->indirect) a->indirect[k] = vs->weight[k] * indirect[k];
+        }
+        if (a->depth) a->depth[i] = vs->depth[i];
+    }
 }

@@ -11,7 +11,12 @@ typedef struct pgi__subpixel {
     int jitter;     /* 0: pixel centres */
     uint64_t seed;  /* the sequence's seed: the frame's own, or frame 0's in a progressive run */
     uint32_t index; /* the frame's place in the sequence: 0 for a lone frame, k for progressive frame k */
+    float shift[2]; /* added to every point (pgi_camera_def.shift), pixels */
 } pgi__subpixel;
+/* Do the view samples pass through the pixel centres (no jitter, no shift)? */
+static inline int pgi__subpixel_centres(const pgi__subpixel *sp) {
+    return !sp->jitter && sp->shift[0] == 0.f && sp->shift[1] == 0.f;
+}
 
 /* What the destination of the view pass holds already, row by row (the renderer keeps one beside
  * its view samples and emitted radiance). Most pixels of a frame store fixed defaults in five
@@ -61,7 +66,14 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, struct pgi__tr
 typedef struct pgi__direct_sum {
     const float *emit, *indirect; /* 3 floats a pixel each */
     pgi_output output;
+    float *direct; /* non-NULL: also receives emitted + direct light (3 floats a pixel; the AOV) */
 } pgi__direct_sum;
+/* The image of PGI_OUTPUT_INDIRECT without the direct pass: weight x indirect, the floats the
+ * composite writes. */
+void pgi__indirect_image(const pgi_view_samples *vs, const float *indirect, int threads, float *out);
+/* The AOVs of a frame (pgi_aovs) but direct, which the direct pass writes: albedo, normal and
+ * depth from the view samples, indirect as weight x indirect. */
+void pgi__view_aovs(const pgi_view_samples *vs, const float *indirect, int threads, pgi_aovs *aovs);
 
 /* Direct light at every valid view sample with shadow rays (point, spot, sun:
  * one ray each; emissive triangles: `area_samples` samples picked by power;
@@ -147,14 +159,15 @@ static inline pgi__v3 pgi__camera_dir(const pgi_camera *c, int x, int y) {
  * count or the loop order. */
 static inline void pgi__pixel_jitter(const pgi__subpixel *sp, size_t i, float *jx, float *jy) {
     if (!sp->jitter) {
-        *jx = *jy = 0.5f;
+        *jx = 0.5f + sp->shift[0];
+        *jy = 0.5f + sp->shift[1];
         return;
     }
     uint64_t h = pgi__mix64(pgi__mix64(sp->seed ^ 0x6a6974746572ULL) + 0x9e3779b97f4a7c15ULL * ((uint64_t)i + 1u));
     uint32_t ux = (uint32_t)(h >> 32) + sp->index * 0xc13fa9a9u; /* 2^32 / g */
     uint32_t uy = (uint32_t)h + sp->index * 0x91e10da6u;         /* 2^32 / g^2 */
-    *jx = (float)(ux >> 8) * (1.f / 16777216.f);
-    *jy = (float)(uy >> 8) * (1.f / 16777216.f);
+    *jx = (float)(ux >> 8) * (1.f / 16777216.f) + sp->shift[0];
+    *jy = (float)(uy >> 8) * (1.f / 16777216.f) + sp->shift[1];
 }
 
 /* Unit direction of the view sample of pixel (x, y) (see pgi__pixel_jitter). */
