@@ -717,13 +717,7 @@ expect_status 1 "parallel to the view direction" "${R[@]}" --up 0,0,0 -o "$TMP/a
 [ -e "$TMP/a.png" ] && bad "a refused camera wrote an image" || ok
 
 # An automatic camera (a mesh without one) outside a closed room: a warning that names the way out.
-printf 'newmtl wall\nKd 0.7 0.7 0.7\nnewmtl lamp\nKd 0 0 0\nKe 10 10 10\n' >"$TMP/room.mtl"
-{
-    printf 'mtllib room.mtl\n'
-    printf 'v %s\n' "-1 -1 -1" "1 -1 -1" "1 1 -1" "-1 1 -1" "-1 -1 1" "1 -1 1" "1 1 1" "-1 1 1"
-    printf 'v %s\n' "-0.3 0.95 -0.3" "0.3 0.95 -0.3" "0.3 0.95 0.3" "-0.3 0.95 0.3"
-    printf 'usemtl wall\nf 1 2 3 4\nf 5 8 7 6\nf 1 5 6 2\nf 4 3 7 8\nf 1 4 8 5\nf 2 6 7 3\nusemtl lamp\nf 9 10 11 12\n'
-} >"$TMP/room.obj"
+write_closed_room "$TMP"
 if expect_ok render --scene "$TMP/room.obj" --size 32x24 --photons 2000 -o "$TMP/room.png"; then
     grep -q "gives no camera.*--eye X,Y,Z --look-at X,Y,Z" "$TMP/err" && ok ||
         bad "automatic camera outside a closed room: no warning: $(head -c 300 "$TMP/err")"

@@ -231,8 +231,6 @@ static void test_threads(void **state) {
 
 /* ------------------------------------------------ masks from files */
 
-static char g_dir[512];
-
 /* An uncompressed 32-bit TGA (stb_image reads it; alpha kept): 8 x 8 texels, the left half
  * (x < 4) opaque, the right half alpha 0. */
 static void write_tga(const char *path, int channels) {
@@ -258,13 +256,13 @@ static void write_tga(const char *path, int channels) {
 /* A quad at z = 0 over x, y in [0, 1] with u = x, v = y, material `m` of `mtl`. */
 static void write_obj(const char *name, const char *mtl) {
     char path[700], text[1024];
-    snprintf(path, sizeof path, "%s/%s.mtl", g_dir, name);
+    snprintf(path, sizeof path, "%s/%s.mtl", tu_dir, name);
     assert_int_equal(tu_write_file(path, mtl), 0);
     snprintf(text, sizeof text,
              "mtllib %s.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvn 0 0 1\nusemtl m\n"
              "f 1/1/1 2/2/1 3/3/1\nf 1/1/1 3/3/1 4/4/1\n",
              name);
-    snprintf(path, sizeof path, "%s/%s.obj", g_dir, name);
+    snprintf(path, sizeof path, "%s/%s.obj", tu_dir, name);
     assert_int_equal(tu_write_file(path, text), 0);
 }
 
@@ -280,11 +278,11 @@ static void probe(const pgi_scene *s, int hits[9]) {
     pgi__rt_destroy(rt);
 }
 
-/* Imports g_dir/name.ext; its quad's material must be of `type`, masked or not, and the probe
+/* Imports tu_dir/name.ext; its quad's material must be of `type`, masked or not, and the probe
  * rays must hit as `expect` says. */
 static void check_file(const char *name, const char *ext, int type, int masked, const int expect[9]) {
     char path[700];
-    snprintf(path, sizeof path, "%s/%s.%s", g_dir, name, ext);
+    snprintf(path, sizeof path, "%s/%s.%s", tu_dir, name, ext);
     pgi_scene *s = NULL;
     TU_CHECK_OK(pgi__scene_new("t", &s));
     TU_CHECK_OK(pgi__scene_import_mesh(s, path));
@@ -306,9 +304,9 @@ static void check_file(const char *name, const char *ext, int type, int masked, 
 static void test_mtl_map_d(void **state) {
     (void)state;
     char path[700];
-    snprintf(path, sizeof path, "%s/rgba.tga", g_dir);
+    snprintf(path, sizeof path, "%s/rgba.tga", tu_dir);
     write_tga(path, 4);
-    snprintf(path, sizeof path, "%s/grey.tga", g_dir);
+    snprintf(path, sizeof path, "%s/grey.tga", tu_dir);
     write_tga(path, 1);
     static const struct {
         const char *name, *mtl;
@@ -353,7 +351,7 @@ static void test_gltf_mask(void **state) {
     memcpy(buf + 48, uv, 32);
     memcpy(buf + 80, idx, 12);
     char path[700];
-    snprintf(path, sizeof path, "%s/quad.bin", g_dir);
+    snprintf(path, sizeof path, "%s/quad.bin", tu_dir);
     FILE *f = fopen(path, "wb");
     assert_non_null(f);
     fwrite(buf, 1, sizeof buf, f);
@@ -378,7 +376,7 @@ static void test_gltf_mask(void **state) {
                  " {\"bufferView\": 1, \"componentType\": 5126, \"count\": 4, \"type\": \"VEC2\"},"
                  " {\"bufferView\": 2, \"componentType\": 5123, \"count\": 6, \"type\": \"SCALAR\"}]}",
                  cases[c].mode, sizeof buf);
-        snprintf(path, sizeof path, "%s/%s.gltf", g_dir, cases[c].name);
+        snprintf(path, sizeof path, "%s/%s.gltf", tu_dir, cases[c].name);
         assert_int_equal(tu_write_file(path, json), 0);
         check_file(cases[c].name, "gltf", PGI_MAT_LAMBERT, cases[c].masked, cases[c].expect);
     }
@@ -392,7 +390,7 @@ static void test_gltf_mask(void **state) {
 static void test_animated_mask(void **state) {
     (void)state;
     char path[700];
-    snprintf(path, sizeof path, "%s/moving.json", g_dir);
+    snprintf(path, sizeof path, "%s/moving.json", tu_dir);
     assert_int_equal(tu_write_file(path, "{\"builtin\": \"cutout\", \"animate\": [{\"material\": \"lattice\", "
                                          "\"motion\": {\"keyframes\": [{\"t\": 0}, {\"t\": 1, \"translate\": "
                                          "[0.5, 0, 0]}]}}]}"),
@@ -430,18 +428,6 @@ static void test_animated_mask(void **state) {
     pgi_scene_destroy(s);
 }
 
-static int files_setup(void **state) {
-    (void)state;
-    tu_make_tmpdir(g_dir, sizeof g_dir);
-    return 0;
-}
-
-static int files_teardown(void **state) {
-    (void)state;
-    tu_rm_tmpdir(g_dir);
-    return 0;
-}
-
 int main(void) {
     const struct CMUnitTest scene[] = {
         cmocka_unit_test(test_primary_rays), cmocka_unit_test(test_direct_light), cmocka_unit_test(test_photons),
@@ -453,6 +439,6 @@ int main(void) {
         cmocka_unit_test(test_animated_mask),
     };
     int fails = cmocka_run_group_tests_name("cutout scene", scene, NULL, NULL);
-    fails += cmocka_run_group_tests_name("masks from files", files, files_setup, files_teardown);
+    fails += cmocka_run_group_tests_name("masks from files", files, tu_dir_setup, tu_dir_teardown);
     return fails;
 }

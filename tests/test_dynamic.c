@@ -2,24 +2,10 @@
  * update, light groups; and the scene-format errors of the new keys. */
 #include "test_util.h"
 
-static char g_dir[512];
-
-static int setup(void **state) {
-    (void)state;
-    tu_make_tmpdir(g_dir, sizeof g_dir);
-    return 0;
-}
-
-static int teardown(void **state) {
-    (void)state;
-    tu_rm_tmpdir(g_dir);
-    return 0;
-}
-
 /* Writes `json` to <tmp>/<name>.json and loads it; returns the status. */
 static pgi_status load_json(const char *name, const char *json, pgi_scene **s) {
     char path[700];
-    snprintf(path, sizeof path, "%s/%s.json", g_dir, name);
+    snprintf(path, sizeof path, "%s/%s.json", tu_dir, name);
     assert_int_equal(tu_write_file(path, json), 0);
     return pgi_scene_load(path, s);
 }
@@ -308,5 +294,5 @@ int main(void) {
         cmocka_unit_test(test_format_errors),
         cmocka_unit_test(test_example_scene),
     };
-    return cmocka_run_group_tests(tests, setup, teardown);
+    return cmocka_run_group_tests(tests, tu_dir_setup, tu_dir_teardown);
 }

@@ -4,20 +4,6 @@
  * shadow rays. */
 #include "test_util.h"
 
-static char g_dir[512];
-
-static int setup(void **state) {
-    (void)state;
-    tu_make_tmpdir(g_dir, sizeof g_dir);
-    return 0;
-}
-
-static int teardown(void **state) {
-    (void)state;
-    tu_rm_tmpdir(g_dir);
-    return 0;
-}
-
 /* ------------------------------------------------------------ a room as arrays */
 
 #define MAXV 256
@@ -141,15 +127,15 @@ static pgi_status create_room(const room *r, pgi_scene **s, const pgi_light_desc
 /* The room as OBJ + MTL + a PPM texture in the test folder; returns the OBJ's path. */
 static void write_obj(const room *r, char *path, size_t n) {
     char p[700];
-    snprintf(p, sizeof p, "%s/room.mtl", g_dir);
+    snprintf(p, sizeof p, "%s/room.mtl", tu_dir);
     assert_int_equal(tu_write_file(p, k_mtl), 0);
-    snprintf(p, sizeof p, "%s/tex.ppm", g_dir);
+    snprintf(p, sizeof p, "%s/tex.ppm", tu_dir);
     FILE *f = fopen(p, "wb");
     assert_non_null(f);
     fprintf(f, "P6\n4 4\n255\n");
     fwrite(g_tex, 1, sizeof g_tex, f);
     fclose(f);
-    snprintf(path, n, "%s/room.obj", g_dir);
+    snprintf(path, n, "%s/room.obj", tu_dir);
     f = fopen(path, "w");
     assert_non_null(f);
     fprintf(f, "mtllib room.mtl\no room\n");
@@ -839,5 +825,5 @@ int main(void) {
         cmocka_unit_test(test_aovs),
         cmocka_unit_test(test_indirect_no_shadow_rays),
     };
-    return cmocka_run_group_tests(tests, setup, teardown);
+    return cmocka_run_group_tests(tests, tu_dir_setup, tu_dir_teardown);
 }

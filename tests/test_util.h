@@ -162,6 +162,20 @@ static inline void tu_rm_tmpdir(const char *dir) {
     if (system(cmd) != 0) fprintf(stderr, "could not remove %s\n", dir);
 }
 
+/* A temporary folder for a group of tests (cmocka group fixtures): tu_dir, made by tu_dir_setup
+ * and removed with what is in it by tu_dir_teardown. */
+static char tu_dir[512] __attribute__((unused));
+static inline int tu_dir_setup(void **state) {
+    (void)state;
+    tu_make_tmpdir(tu_dir, sizeof tu_dir);
+    return 0;
+}
+static inline int tu_dir_teardown(void **state) {
+    (void)state;
+    tu_rm_tmpdir(tu_dir);
+    return 0;
+}
+
 /* Folder with the large scenes: $PHOTONGI_SCENES, else ../shared/scenes. */
 static inline const char *tu_scenes_dir(void) {
     const char *e = getenv("PHOTONGI_SCENES");
