@@ -115,12 +115,33 @@ static void test_nonfinite_vertex(void **state) {
     }
 }
 
+/* A texture file that is not there: the scene loads, the material keeps its colour, and the
+ * load's warning names the file (once, however many materials name it). A texture that is there
+ * but cannot be read still fails. */
 static void test_missing_texture(void **state) {
     char p[700], m[700];
-    put("tex.mtl", "newmtl lamp\nKd 0.5 0.5 0.5\nKe 1 1 1\nmap_Kd textures/not-there.png\n", m, sizeof m);
-    put("tex.obj", "mtllib tex.mtl\nusemtl lamp\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n", p,
-        sizeof p);
-    expect_error(p, PGI_ERR_IO, PGI_ERR_PARSE, "not-there.png");
+    put("tex.mtl",
+        "newmtl lamp\nKd 0.5 0.5 0.5\nKe 1 1 1\nmap_Kd textures/not-there.png\n"
+        "newmtl lamp2\nKd 0.5 0.5 0.5\nKe 1 1 1\nmap_Kd textures/not-there.png\n",
+        m, sizeof m);
+    put("tex.obj",
+        "mtllib tex.mtl\nusemtl lamp\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n"
+        "usemtl lamp2\nf 1/1 3/3 2/2\n",
+        p, sizeof p);
+    pgi_scene *s = NULL;
+    TU_CHECK_OK(pgi_scene_load(p, &s));
+    pgi_scene_info in;
+    pgi_scene_get_info(s, &in);
+    assert_non_null(strstr(in.warnings, "not found: texture "));
+    const char *first = strstr(in.warnings, "not-there.png");
+    assert_non_null(first);
+    assert_null(strstr(first + 1, "not-there.png"));
+    assert_int_equal(s->ntexs, 0);
+    for (size_t i = 0; i < s->nmats; i++) assert_int_equal(s->mats[i].tex_kd, -1);
+    pgi_scene_destroy(s);
+    put("bad.png", "not a png", m, sizeof m);
+    put("tex.mtl", "newmtl lamp\nKd 0.5 0.5 0.5\nKe 1 1 1\nmap_Kd bad.png\n", m, sizeof m);
+    expect_error(p, PGI_ERR_IO, PGI_ERR_PARSE, "bad.png");
 }
 
 /* JSON descriptions. */

@@ -100,9 +100,10 @@ static int get_int(const struct aiMaterial *m, const char *key, unsigned type, u
 /* Texture bookkeeping for one import: resolved path -> scene texture index. */
 typedef struct tex_cache {
     const char *mesh_path;
-    char dir[1024]; /* the mesh file's folder with a trailing '/', or "" */
-    size_t first;   /* scene textures added by this import start here */
-    int ply;        /* a PLY file (no materials of its own) */
+    char dir[1024];         /* the mesh file's folder with a trailing '/', or "" */
+    size_t first;           /* scene textures added by this import start here */
+    int ply;                /* a PLY file (no materials of its own) */
+    pgi__mesh_hints *hints; /* missing_tex: the texture files that are not there */
 } tex_cache;
 
 /* A texture's error (which names the texture) prefixed with the mesh and the material. */
@@ -206,6 +207,15 @@ static pgi_status load_texture(pgi_scene *s, tex_cache *tc, const struct aiScene
     if (realpath(resolved, canon) && strlen(canon) < sizeof s->texs[0].canon)
         for (size_t i = tc->first; i < s->ntexs; i++)
             if (strcmp(s->texs[i].canon, canon) == 0) return *index = (int)i, PGI_OK;
+    /* A texture file that is not there is named in the load's warning, and its material keeps its
+       colour (a scene from elsewhere often misses one); one that is there and cannot be read fails. */
+    struct stat sb;
+    if (stat(resolved, &sb) != 0 && errno == ENOENT) {
+        if (!strstr(tc->hints->missing_tex, resolved))
+            pgi__list_append(tc->hints->missing_tex, sizeof tc->hints->missing_tex, resolved);
+        *index = -1;
+        return PGI_OK;
+    }
     int w, h, n;
     const char *why;
     const uint64_t budget = pgi__scene_load_budget();
@@ -763,13 +773,18 @@ static pgi_status import_extras(pgi_scene *s, const char *path, const struct aiS
             pgi__list_append(unused, sizeof unused, item);
         }
     }
-    char line[2048], missing[700] = "";
+    char line[2048], missing[1400] = "";
     if (h->missing_mtl[0])
         snprintf(missing, sizeof missing, "not found: material librar%s %s (its materials are default grey)",
                  strchr(h->missing_mtl, ',') ? "ies" : "y", h->missing_mtl);
+    if (h->missing_tex[0]) {
+        const size_t n = strlen(missing);
+        snprintf(missing + n, sizeof missing - n, "%snot found: texture%s %s (drawn in their materials' colours)",
+                 n ? "; " : "", strchr(h->missing_tex, ',') ? "s" : "", h->missing_tex);
+    }
     snprintf(line, sizeof line, "%s: %s%s%s%s", path, unused[0] ? "not used: " : "", unused,
              unused[0] && missing[0] ? "; " : "", missing);
-    if (unused[0] || h->missing_mtl[0]) pgi__scene_warn(s, line);
+    if (unused[0] || missing[0]) pgi__scene_warn(s, line);
     return PGI_OK;
 }
 
@@ -846,6 +861,7 @@ pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path) {
     tc.first = s->ntexs;
     tc.dir[0] = 0;
     tc.ply = has_ext(path, ".ply");
+    tc.hints = &hints;
     const char *slash = strrchr(path, '/');
     if (slash) snprintf(tc.dir, sizeof tc.dir, "%.*s/", (int)(slash - path), path);
     for (unsigned i = 0; i < sc->mNumMaterials && !st; i++) {

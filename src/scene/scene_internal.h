@@ -449,6 +449,7 @@ typedef struct pgi__mesh_hints {
     size_t smooth_on;      /* OBJ `s N` with N > 0 */
     size_t smooth_off;     /* OBJ `s off` or `s 0` */
     char missing_mtl[512]; /* OBJ mtllib names not found, comma-separated ("" if none) */
+    char missing_tex[512]; /* texture files not found (the materials keep their colour), comma-separated */
     int gltf;              /* a glTF (.gltf / .glb): `extras` is filled */
     pgi__gltf_extras extras;
 } pgi__mesh_hints;
