@@ -511,6 +511,14 @@ pgi_status pgi__light_from_desc(const pgi_light_desc *ld, const char *what, pgi_
     return PGI_OK;
 }
 
+/* Material m's emission ke, and the colour of every area light on its triangles. */
+static void set_area_emission(pgi_scene *s, size_t m, const float ke[3]) {
+    memcpy(s->mats[m].ke, ke, 3 * sizeof(float));
+    for (size_t j = 0; j < s->nlights; j++)
+        if (s->lights[j].type == PGI_LIGHT_AREA && s->tri_mat[s->lights[j].tri] == m)
+            memcpy(s->lights[j].color, ke, 3 * sizeof(float));
+}
+
 /* After a change of the lights: powers recomputed and checked; on failure the lights (and the
  * materials, area groups) are put back from the copies given. */
 static pgi_status lights_commit(pgi_scene *s, pgi__light *old_lights, size_t old_n, size_t mat, const float *old_ke) {
@@ -527,12 +535,7 @@ static pgi_status lights_commit(pgi_scene *s, pgi__light *old_lights, size_t old
         s->lights = old_lights;
         s->nlights = old_n;
     }
-    if (old_ke) {
-        memcpy(s->mats[mat].ke, old_ke, 3 * sizeof(float));
-        for (size_t j = 0; j < s->nlights; j++)
-            if (s->lights[j].type == PGI_LIGHT_AREA && s->tri_mat[s->lights[j].tri] == mat)
-                memcpy(s->lights[j].color, old_ke, 3 * sizeof(float));
-    }
+    if (old_ke) set_area_emission(s, mat, old_ke);
     pgi__scene_refresh(s);
     return pgi__fail(PGI_ERR_INVALID_ARG, "%s", msg);
 }
@@ -585,10 +588,7 @@ pgi_status pgi_scene_set_light(pgi_scene *s, size_t group, const pgi_light_desc 
         if ((st = light_radiance(ld, what, ke))) return st;
         const size_t m = area_group_material(s, group - explicit_lights(s));
         memcpy(old_ke, s->mats[m].ke, sizeof old_ke);
-        memcpy(s->mats[m].ke, ke, sizeof ke);
-        for (size_t j = 0; j < s->nlights; j++)
-            if (s->lights[j].type == PGI_LIGHT_AREA && s->tri_mat[s->lights[j].tri] == m)
-                memcpy(s->lights[j].color, ke, sizeof ke);
+        set_area_emission(s, m, ke);
         return lights_commit(s, NULL, 0, m, old_ke);
     }
     pgi__light l;

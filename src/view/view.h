@@ -11,7 +11,7 @@ typedef struct pgi__subpixel {
     int jitter;     /* 0: pixel centres */
     uint64_t seed;  /* the sequence's seed: the frame's own, or frame 0's in a progressive run */
     uint32_t index; /* the frame's place in the sequence: 0 for a lone frame, k for progressive frame k */
-    float shift[2]; /* added to every point (pgi_camera_def.shift), pixels */
+    float shift[2]; /* added to every point (pgi_render_desc.shift), pixels */
 } pgi__subpixel;
 /* Do the view samples pass through the pixel centres (no jitter, no shift)? */
 static inline int pgi__subpixel_centres(const pgi__subpixel *sp) {
