@@ -29,6 +29,9 @@ hostile() {
     else ok; fi
 }
 spp_of() { sed -n 's/.*"spp":[[:space:]]*"\([0-9]*\)".*/\1/p' "$1.json"; }
+# started FILE: wait (up to 60 s) until a run's first checkpoint FILE is there, so that a signal finds
+# the run rendering, its handlers installed, whatever the machine's load or the sanitizers' start-up.
+started() { for _ in $(seq 1200); do [ -e "$1" ] && return 0; sleep 0.05; done; return 1; }
 # same_as_one_run REF WHAT: REF (continued) has the bytes of one run to its sample count.
 same_as_one_run() {
     local n
@@ -38,9 +41,9 @@ same_as_one_run() {
 }
 
 # SIGINT: the block of 4 samples finished and saved, exit 130, the count said.
-"$BIN" reference $R --spp 1000000 -q -o "$TMP/i.exr" 2>"$TMP/err" &
+"$BIN" reference $R --spp 1000000 --checkpoint 0.1 -q -o "$TMP/i.exr" 2>"$TMP/err" &
 pid=$!
-sleep 1
+started "$TMP/i.exr"
 kill -INT $pid
 wait $pid
 rc=$?
@@ -50,9 +53,9 @@ n=$(spp_of "$TMP/i.exr")
 "$BIN" reference --continue "$TMP/i.exr" --spp 6 -q && same_as_one_run "$TMP/i.exr" "SIGINT"
 
 # Two SIGINTs: only the current pass is finished, still saved, still 130.
-"$BIN" reference $R --spp 1000000 -q -o "$TMP/ii.exr" 2>"$TMP/err" &
+"$BIN" reference $R --spp 1000000 --checkpoint 0.1 -q -o "$TMP/ii.exr" 2>"$TMP/err" &
 pid=$!
-sleep 0.7
+started "$TMP/ii.exr"
 kill -INT $pid
 kill -INT $pid
 wait $pid
@@ -64,9 +67,9 @@ hostile 2 "--checkpoint needs seconds" reference $R --checkpoint 1x -o "$TMP/cp.
 hostile 2 "--merge takes only" reference --merge "$TMP/i.exr" "$TMP/ii.exr" --checkpoint 5 -o "$TMP/cp.exr"
 
 # SIGTERM: 143.
-"$BIN" reference $R --spp 1000000 -q -o "$TMP/t.exr" 2>"$TMP/err" &
+"$BIN" reference $R --spp 1000000 --checkpoint 0.1 -q -o "$TMP/t.exr" 2>"$TMP/err" &
 pid=$!
-sleep 0.5
+started "$TMP/t.exr"
 kill -TERM $pid
 wait $pid
 rc=$?
@@ -76,7 +79,8 @@ rc=$?
 # being written when killed.
 "$BIN" reference $R --spp 1000000 --checkpoint 0.2 -q -o "$TMP/k.exr" &
 pid=$!
-sleep 1.5
+started "$TMP/k.exr"
+sleep 0.5
 kill -KILL $pid
 wait $pid 2>/dev/null
 n=$(spp_of "$TMP/k.exr")
@@ -215,9 +219,9 @@ hostile 1 "the name is" render $R -o "$TMP/$long.png"
 # A progressive render stopped by SIGINT writes the average of the frames it finished: the image of
 # --progressive K itself, byte for byte, and says K; exit 130.
 P="render --scene cornell --size 32x24 --photons 2000 --threads 2 -q"
-"$BIN" $P --progressive 1000000 -o "$TMP/p.exr" 2>"$TMP/err" &
+"$BIN" $P --progressive 1000000 --checkpoint 0.1 -o "$TMP/p.exr" 2>"$TMP/err" &
 pid=$!
-sleep 1.5
+started "$TMP/p.exr"
 kill -INT $pid
 wait $pid
 rc=$?
@@ -232,7 +236,8 @@ else bad "progressive SIGINT: exit $rc: $(cat "$TMP/err")"; fi
 # render of that file has run.
 "$BIN" ${P% -q} --progressive 1000000 --checkpoint 0.2 -o "$TMP/c.exr" 2>"$TMP/err" &
 pid=$!
-sleep 1.5
+started "$TMP/c.exr"
+sleep 0.5
 kill -KILL $pid
 wait $pid 2>/dev/null
 k=$(sed -n 's/.*c.exr written with the average of \([0-9]*\) frames.*/\1/p' "$TMP/err" | tail -1)
