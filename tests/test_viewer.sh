@@ -210,6 +210,20 @@ case " $reach " in *" brute "*) bad "brute is reachable by keys:$reach" ;; *) ok
 "$VIEW" --frames 1 --size 8x8 --photons 200 --estimator brute 2>"$TMP/err" >/dev/null
 grep -q "O(photons x pixels) oracle" "$TMP/err" && ok || bad "--estimator brute: not announced: $(head -c 300 "$TMP/err")"
 
+# Input abandons the frame in progress: a brute frame of 960x540 pixels and 200 000 photons (about
+# 10^11 photon reads, minutes) gets Tab one second in; the frame stops within a second of it and the
+# next estimator's frame is the one finished (the whole run well inside the timeout).
+timeout 120 "$VIEW" --frames 1 --size 960x540 --photons 200000 --radius 0.05 --estimator brute --keys "tab@1" \
+    --stats "$TMP/cut.json" 2>"$TMP/err" >/dev/null
+rc=$?
+late=$(sed -n 's/.*frame abandoned .* it stopped \([0-9.]*\) ms after the request.*/\1/p' "$TMP/err")
+est=$(sed -n 's/^[[:space:]]*"estimator":[[:space:]]*"\([^"]*\)".*/\1/p' "$TMP/cut.json" 2>/dev/null | head -1)
+if [ "$rc" -eq 0 ] && [ -n "$late" ] && [ -n "$est" ] && [ "$est" != brute ] &&
+    awk -v l="$late" 'BEGIN { exit !(l < 1000) }'; then
+    ok
+    echo "  brute 960x540 abandoned ${late} ms after a key; then $est rendered"
+else bad "input during a brute frame: exit $rc, stopped after '${late}' ms, then '$est': $(grep -v note "$TMP/err" | head -3)"; fi
+
 # An automatic camera that sees nothing lit (outside a closed room) is warned about.
 write_closed_room "$TMP"
 "$VIEW" --frames 1 --scene "$TMP/room.obj" --size 32x24 --photons 2000 2>"$TMP/err" >/dev/null

@@ -69,7 +69,8 @@ static const char *k_help =
     "  --keys K1,K2,...   press these keys, one before each frame (scripted demos and tests): a\n"
     "                     character, or tab, shift+tab, space, up, down, left, right, pageup,\n"
     "                     pagedown, f12, escape, comma; movement keys take one fixed step (2% of\n"
-    "                     the scene's diagonal, times the speed of X / Z); j/k turn\n"
+    "                     the scene's diagonal, times the speed of X / Z); j/k turn. KEY@SECONDS\n"
+    "                     is pressed that long into the next frame, abandoning it as input does\n"
     "  -q, --quiet        print nothing but errors\n"
     "\n"
     "Without a display (DISPLAY, WAYLAND_DISPLAY) and without --frames it stops with a message\n"
@@ -81,7 +82,7 @@ static const char *k_help =
     "      V print the camera (the JSON block and the 'photongi render' line) and save it\n"
     "      L next light, arrows or Ctrl+drag move it (camera-relative), PgUp/PgDn raise/lower it\n"
     "      Tab / Shift+Tab next/previous estimator, 1-9 pick estimator (not brute, the\n"
-    "      O(photons x pixels) oracle: a frame cannot be interrupted; --estimator brute only)\n"
+    "      O(photons x pixels) oracle, minutes a frame: --estimator brute only)\n"
     "      + / - photons x2 / /2, ] / [ radius x1.25 / /1.25, . / , exposure\n"
     "      O output all/direct/indirect, C photons-per-pixel false colour, P progressive on/off\n"
     "      R resolution scale 100/50/25%, Space pause animation, H overlay, F12 screenshot, Esc quit\n"
@@ -115,6 +116,7 @@ typedef struct viewer {
     const char *camera_out; /* where V saves the camera's JSON block */
     char est_opts[1024];    /* estimator options as given (" --name value"), for the printed command line */
     float speed_mul;        /* movement speed factor (mouse wheel, X / Z) */
+    pgi_cancel *cancel;     /* abandons the frame in progress when input arrives (render_watched) */
 } viewer;
 
 static int usage(const char *fmt, const char *arg) {
@@ -311,6 +313,7 @@ static void frame_desc(const viewer *v, pgi_render_desc *d) {
 static pgi_status render_frame(viewer *v) {
     pgi_render_desc d;
     frame_desc(v, &d);
+    d.cancel = v->cancel;
     pgi_status st = pgi_scene_set_time(v->scene, v->time);
     if (st) return st;
     if (v->accumulate && v->out_mode != PGI_OUTPUT_PHOTON_COUNT)
@@ -348,6 +351,65 @@ static pgi_status save_screenshot(viewer *v, const char *path) {
     pgi_status st = pgi_image_write(&lin, path, 1.f);
     pgi_image_free(&lin);
     return st;
+}
+
+/* ------------------------------------------------------------ a frame that input abandons */
+
+typedef struct frame_job {
+    viewer *v;
+    pgi_status st;
+    SDL_sem *done; /* posted when the frame returns */
+} frame_job;
+
+static int frame_worker(void *user) {
+    frame_job *j = user;
+    j->st = render_frame(j->v);
+    SDL_SemPost(j->done);
+    return 0;
+}
+
+/* Input that abandons a frame in progress, left queued for the main loop: closing the window, a
+ * key pressed or released (not the repeats of a key held down: a held movement key moves by the
+ * time held, and frames go on being finished while it moves), a mouse button, the wheel. */
+static int input_waiting(void) {
+    SDL_PumpEvents();
+    if (SDL_PeepEvents(NULL, 0, SDL_PEEKEVENT, SDL_QUIT, SDL_QUIT) > 0 ||
+        SDL_PeepEvents(NULL, 0, SDL_PEEKEVENT, SDL_MOUSEBUTTONDOWN, SDL_MOUSEWHEEL) > 0)
+        return 1;
+    SDL_Event e[64];
+    const int n = SDL_PeepEvents(e, 64, SDL_PEEKEVENT, SDL_KEYDOWN, SDL_KEYUP);
+    for (int i = 0; i < n; i++)
+        if (!e[i].key.repeat) return 1;
+    return 0;
+}
+
+/* Renders a frame (render_frame) on a worker thread while this thread watches for input (in a
+ * window: input_waiting) and for a scripted key due `due_s` seconds after the frame started
+ * (--keys KEY@SECONDS; < 0: none). Either asks the frame to stop (pgi_cancel_request): it then
+ * returns PGI_ERR_CANCELLED within a fraction of a second, whatever the estimator, and *late_ms
+ * gets the time from the request to its return (else -1). */
+static pgi_status render_watched(viewer *v, int in_window, double due_s, double *late_ms) {
+    *late_ms = -1.0;
+    pgi_cancel_reset(v->cancel);
+    frame_job j = {.v = v, .st = PGI_OK, .done = SDL_CreateSemaphore(0)};
+    SDL_Thread *th = j.done ? SDL_CreateThread(frame_worker, "photongi-frame", &j) : NULL;
+    if (!th) { /* no thread to spare: a frame that runs to its end */
+        if (j.done) SDL_DestroySemaphore(j.done);
+        return render_frame(v);
+    }
+    const double f = (double)SDL_GetPerformanceFrequency(), t0 = (double)SDL_GetPerformanceCounter() / f;
+    double asked = -1.0;
+    while (SDL_SemWaitTimeout(j.done, asked < 0.0 ? 4 : 1) != 0) { /* returns as soon as the frame does */
+        const double now = (double)SDL_GetPerformanceCounter() / f;
+        if (asked < 0.0 && ((due_s >= 0.0 && now - t0 >= due_s) || (in_window && input_waiting()))) {
+            asked = now;
+            pgi_cancel_request(v->cancel);
+        }
+    }
+    SDL_WaitThread(th, NULL);
+    SDL_DestroySemaphore(j.done);
+    if (asked >= 0.0) *late_ms = 1000.0 * ((double)SDL_GetPerformanceCounter() / f - asked);
+    return j.st;
 }
 
 static int cmp_double(const void *a, const void *b) {
@@ -543,6 +605,35 @@ static SDL_Keycode key_from_name(const char *n) {
         if (strcmp(n, words[i].name) == 0) return words[i].key;
     if (n[0] > ' ' && n[0] < 127 && n[1] == 0) return (SDL_Keycode)(n[0] >= 'A' && n[0] <= 'Z' ? n[0] + 32 : n[0]);
     return SDLK_UNKNOWN;
+}
+
+/* The key at the head of a --keys script: "NAME", "shift+NAME" or either with "@SECONDS". */
+typedef struct script_key {
+    char name[32];
+    SDL_Keycode key;
+    int shift;
+    double secs; /* KEY@SECONDS: the seconds; else -1 */
+    size_t len;  /* characters to skip past it and its comma */
+} script_key;
+
+/* Reads the head of `script` into *k; 0 for an unknown key or bad seconds (k->name says which). */
+static int script_head(const char *script, script_key *k) {
+    const size_t len = strcspn(script, ",");
+    snprintf(k->name, sizeof k->name, "%.*s", (int)(len < 31 ? len : 31), script);
+    k->len = len + (script[len] == ',');
+    k->secs = -1.0;
+    char name[32];
+    snprintf(name, sizeof name, "%s", k->name);
+    char *at = strchr(name, '@');
+    if (at) {
+        float secs;
+        if (!parse_finite_float(at + 1, &secs) || !(secs >= 0.f && secs <= 3600.f)) return 0;
+        k->secs = secs;
+        *at = 0;
+    }
+    k->shift = strncmp(name, "shift+", 6) == 0;
+    k->key = key_from_name(k->shift ? name + 6 : name);
+    return k->key != SDLK_UNKNOWN;
 }
 
 /* ------------------------------------------------------------ startup checks */
@@ -819,7 +910,9 @@ int main(int argc, char **argv) {
         fprintf(stderr, "photongi-view: out of memory\n");
         return 1;
     }
-    if ((st = pgi_renderer_create(v.scene, &v.r)) || (st = pgi_progressive_create(v.r, &v.prog))) {
+    if ((st = pgi_renderer_create(v.scene, &v.r)) || (st = pgi_progressive_create(v.r, &v.prog)) ||
+        (st = pgi_cancel_create(&v.cancel))) {
+        pgi_progressive_destroy(v.prog);
         pgi_renderer_destroy(v.r);
         pgi_scene_destroy(v.scene);
         free(v.disp);
@@ -841,6 +934,7 @@ int main(int argc, char **argv) {
             if (ren) SDL_DestroyRenderer(ren);
             if (win) SDL_DestroyWindow(win);
             SDL_Quit();
+            pgi_cancel_destroy(v.cancel);
             pgi_progressive_destroy(v.prog);
             pgi_renderer_destroy(v.r);
             pgi_scene_destroy(v.scene);
@@ -852,11 +946,15 @@ int main(int argc, char **argv) {
     if (pgi_estimator_at(v.est_index)->oracle && !v.quiet)
         fprintf(stderr,
                 "photongi-view: note: %s is the O(photons x pixels) oracle: each frame reads every photon at every "
-                "pixel (%d x %d pixels here) and cannot be interrupted; Tab and the number keys leave it\n",
+                "pixel (%d x %d pixels here), minutes at large sizes; any key abandons the frame, Tab and the "
+                "number keys leave it\n",
                 pgi_estimator_at(v.est_index)->name, (int)lroundf((float)v.win_w * v.scale),
                 (int)lroundf((float)v.win_h * v.scale));
     double *times = frames ? malloc(2 * (size_t)frames * sizeof *times) : NULL; /* frame, viewer overhead */
     long long done = 0, rendered = 0, idled = 0, still = 0; /* loop turns, frames rendered, turns idle */
+    long long abandoned = 0;                                /* frames abandoned for input */
+    double due_s = -1.0; /* a scripted key KEY@SECONDS: pressed that long into the next frame */
+    int due_now = 0;     /* ... whose time has come: pressed before the next frame */
     int running = 1, rc = 0, dragging = 0, warned_unlit = 0;
     int good_valid = 0, good_out = 0; /* the last settings that rendered */
     size_t good_est = v.est_index;
@@ -930,21 +1028,24 @@ int main(int argc, char **argv) {
             v.time += 1.0 / 30.0;
         }
         changed |= v.animate;
+        due_s = -1.0;
         if (script && *script) {
-            /* --keys: one scripted key a frame (movement keys take a fixed step). */
-            char name[32];
-            size_t len = strcspn(script, ",");
-            snprintf(name, sizeof name, "%.*s", (int)(len < 31 ? len : 31), script);
-            script += len + (script[len] == ',');
-            int shift = strncmp(name, "shift+", 6) == 0;
-            SDL_Keycode k = key_from_name(shift ? name + 6 : name);
-            if (k == SDLK_UNKNOWN) {
-                rc = usage("--keys: unknown key '%s'", name);
+            /* --keys: one scripted key a frame (movement keys take a fixed step); KEY@SECONDS is
+             * pressed that long into the frame after the key before it, abandoning that frame if it
+             * is still running, then (due_now) pressed before the next frame like any key. */
+            script_key sk;
+            if (!script_head(script, &sk)) {
+                rc = usage("--keys: unknown key or bad KEY@SECONDS (seconds in 0..3600) '%s'", sk.name);
                 break;
             }
-            int pk = press_key(&v, k, shift, (float)(0.02 * v.diag) * v.speed_mul);
-            if (!pk) running = 0;
-            changed |= pk == 1;
+            if (sk.secs < 0.0 || due_now) {
+                script += sk.len;
+                int pk = press_key(&v, sk.key, sk.shift, (float)(0.02 * v.diag) * v.speed_mul);
+                if (!pk) running = 0;
+                changed |= pk == 1;
+            }
+            due_now = 0;
+            if (*script && script_head(script, &sk) && sk.secs >= 0.0) due_s = sk.secs; /* during this frame */
         }
         if (!running) break;
         /* A still view that has its frames (averaged, or --no-accumulate's fresh ones) waits for
@@ -952,6 +1053,7 @@ int main(int argc, char **argv) {
         if (changed) still = 0;
         const int averaging = v.accumulate && v.out_mode != PGI_OUTPUT_PHOTON_COUNT;
         if (max_frames > 0 && good_valid && !changed && (averaging ? v.fs.frames : still) >= max_frames) {
+            if (due_s >= 0.0) due_now = 1; /* no frame to press a timed key into: pressed next turn */
             idled++;
             done++;
             if (frames && done >= frames) running = 0;
@@ -959,7 +1061,22 @@ int main(int argc, char **argv) {
             continue;
         }
         double f0 = SDL_GetPerformanceCounter() / (double)SDL_GetPerformanceFrequency();
-        if ((st = render_frame(&v))) {
+        double late_ms;
+        st = render_watched(&v, !headless, due_s, &late_ms);
+        if (due_s >= 0.0) due_now = 1; /* the timed key: pressed now, whether or not the frame ended first */
+        if (st == PGI_ERR_CANCELLED) {
+            /* Abandoned for input: the input is handled at the top of the loop and a new frame
+             * starts; a progressive average keeps what it had. */
+            abandoned++;
+            if (due_s >= 0.0 && !v.quiet)
+                fprintf(stderr,
+                        "photongi-view: frame abandoned %.0f ms into it for a scripted key; it stopped %.1f ms "
+                        "after the request\n",
+                        1000.0 * (SDL_GetPerformanceCounter() / (double)SDL_GetPerformanceFrequency() - f0) - late_ms,
+                        late_ms);
+            continue;
+        }
+        if (st) {
             /* Interactive: a setting the estimator rejects (say, a radius too small for its
              * grid, or photons over the memory budget) is reported and undone, as often as it
              * comes; headless, or when the last good settings themselves fail, it ends the
@@ -1032,6 +1149,8 @@ int main(int argc, char **argv) {
                 first, tex ? ", display" : "", over, v.fs.view_ms, v.fs.trace_ms, v.fs.build_ms, v.fs.estimate_ms,
                 v.fs.direct_ms, v.fs.rt_update_ms, v.fs.frames);
     }
+    if (!rc && !v.quiet && abandoned > 0)
+        fprintf(stderr, "photongi-view: %lld frame%s abandoned for input\n", abandoned, abandoned == 1 ? "" : "s");
     if (!rc && frames && !v.quiet && idled > 0)
         fprintf(stderr, "photongi-view: %lld frames rendered, then %lld turns idle (--max-frames %lld reached)\n",
                 rendered, idled, max_frames);
@@ -1043,6 +1162,7 @@ int main(int argc, char **argv) {
     pgi_image_free(&v.img);
     free(v.rgb8);
     free(v.disp);
+    pgi_cancel_destroy(v.cancel);
     pgi_progressive_destroy(v.prog);
     pgi_renderer_destroy(v.r);
     pgi_scene_destroy(v.scene);

@@ -144,16 +144,32 @@ typedef struct pgi_estimator_desc {
     } bounds;
 } pgi_estimator_desc;
 
+/* A request to stop work early (a lock-free atomic flag): the caller creates one, hands it to the
+ * work (pgi_render_desc.cancel, pgi_estimate_args.cancel) and requests from any thread, or from a
+ * signal handler, while the work runs; the work returns PGI_ERR_CANCELLED at its next check. The
+ * request stands until pgi_cancel_reset: a call given a requested token stops at its first check. */
+typedef struct pgi_cancel pgi_cancel;
+pgi_status pgi_cancel_create(pgi_cancel **out);
+void pgi_cancel_destroy(pgi_cancel *c);
+void pgi_cancel_request(pgi_cancel *c);
+void pgi_cancel_reset(pgi_cancel *c);
+/* 1 once requested (until reset); 0 for NULL. */
+int pgi_cancel_requested(const pgi_cancel *c);
+
 /* Per-frame arguments: build and the estimate that follows it take the same. */
 typedef struct pgi_estimate_args {
     const pgi_photons *photons;
     const pgi_view_samples *samples;
     const pgi_camera *camera;
-    float *out_rgb;   /* estimate: 3 floats a view sample, indirect radiance (weight not applied) */
-    float radius;     /* this frame's photon radius (> 0, finite); per-photon radii take its place */
-    uint64_t seed;    /* stochastic subsampling: per-pixel random streams from (seed, pixel index) */
-    int threads;      /* OpenMP threads of this call's parallel regions; 0 = OpenMP's default */
-    float scene_area; /* scene surface area ("bvh" T_auto); 0 = the surface of the photons' bounding box */
+    float *out_rgb;           /* estimate: 3 floats a view sample, indirect radiance (weight not applied) */
+    float radius;             /* this frame's photon radius (> 0, finite); per-photon radii take its place */
+    uint64_t seed;            /* stochastic subsampling: per-pixel random streams from (seed, pixel index) */
+    int threads;              /* OpenMP threads of this call's parallel regions; 0 = OpenMP's default */
+    float scene_area;         /* scene surface area ("bvh" T_auto); 0 = the surface of the photons' bounding box */
+    const pgi_cancel *cancel; /* may be NULL; once requested, build and estimate stop early (within a few
+                                 hundred view samples or photons a thread) and return PGI_ERR_CANCELLED,
+                                 out_rgb then partly written; an estimator of the caller's own may ignore
+                                 it (the call still returns PGI_ERR_CANCELLED) */
 } pgi_estimate_args;
 
 /* ---- Options: one table row per setting holds its name, range, default

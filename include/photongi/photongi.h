@@ -259,6 +259,13 @@ typedef struct pgi_render_desc {
                                  [-0.5, 0.5], added to the pixel centre (or the jittered point): an engine's TAA
                                  jitter (pgi_camera_from_matrices); 0 = none. CPU device only; like `view`, not
                                  in the statistics' settings */
+    const pgi_cancel *cancel; /* may be NULL: once requested (pgi_cancel_request, from another thread, the
+                                 progress callback or a signal handler) the frame stops within a fraction of
+                                 a second (between passes, between batches of photon paths, every few
+                                 hundred view samples in the estimators and direct light; between passes on
+                                 the GPU) and returns PGI_ERR_CANCELLED; the output image's pixels are then
+                                 unspecified and a progressive average is left as it was. Not part of the
+                                 picture */
 } pgi_render_desc;
 
 typedef enum pgi_radius_policy {
@@ -399,7 +406,8 @@ typedef struct pgi_renderer pgi_renderer;
 pgi_status pgi_renderer_create(const pgi_scene *scene, pgi_renderer **out);
 /* One frame. The renderer creates its estimator once per estimator name and
  * options and reuses it while they stay the same (radius, seed, threads and
- * the camera are per-frame values). */
+ * the camera are per-frame values). desc->cancel abandons it (PGI_ERR_CANCELLED);
+ * the renderer stays usable. */
 pgi_status pgi_renderer_render(pgi_renderer *r, const pgi_render_desc *desc, pgi_image *out, pgi_frame_stats *stats);
 void pgi_renderer_destroy(pgi_renderer *r);
 const pgi_scene *pgi_renderer_scene(const pgi_renderer *r);
@@ -634,6 +642,8 @@ typedef struct pgi_aovs {
  * borrowed and must outlive the accumulator. */
 typedef struct pgi_progressive pgi_progressive;
 pgi_status pgi_progressive_create(pgi_renderer *r, pgi_progressive **out);
+/* A step cancelled by desc->cancel (PGI_ERR_CANCELLED) adds nothing: the average stays as it was and
+ * the next step goes on from it (out's pixels are then unspecified). Any other error restarts it. */
 pgi_status pgi_progressive_step(pgi_progressive *p, const pgi_render_desc *desc, pgi_image *out,
                                 pgi_frame_stats *stats);
 /* Forgets the running average. */

@@ -13,7 +13,8 @@ typedef enum pgi_status {
     PGI_ERR_PARSE = 3,       /* a file was read but its content is malformed */
     PGI_ERR_OOM = 4,         /* out of memory */
     PGI_ERR_UNSUPPORTED = 5, /* valid request this build cannot do */
-    PGI_ERR_INTERNAL = 6     /* a library (Embree, Assimp) failed */
+    PGI_ERR_INTERNAL = 6,    /* a library (Embree, Assimp) failed */
+    PGI_ERR_CANCELLED = 7    /* the caller asked the call to stop (pgi_cancel_request) */
 } pgi_status;
 
 /* Short name of a status code ("invalid argument"). Never NULL. */

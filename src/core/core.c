@@ -43,11 +43,34 @@ const char *pgi_status_string(pgi_status s) {
     case PGI_ERR_OOM: return "out of memory";
     case PGI_ERR_UNSUPPORTED: return "unsupported";
     case PGI_ERR_INTERNAL: return "internal error";
+    case PGI_ERR_CANCELLED: return "cancelled";
     }
     return "unknown status";
 }
 
 const char *pgi_version(void) { return PGI_VERSION_STRING; }
+
+pgi_status pgi_cancel_create(pgi_cancel **out) {
+    if (!out) return pgi__fail(PGI_ERR_INVALID_ARG, "pgi_cancel_create: NULL argument");
+    *out = calloc(1, sizeof **out);
+    if (!*out) return pgi__fail(PGI_ERR_OOM, "out of memory for a cancel token");
+    atomic_init(&(*out)->requested, 0);
+    return PGI_OK;
+}
+
+void pgi_cancel_destroy(pgi_cancel *c) { free(c); }
+
+void pgi_cancel_request(pgi_cancel *c) {
+    if (c) atomic_store_explicit(&c->requested, 1, memory_order_relaxed);
+}
+
+void pgi_cancel_reset(pgi_cancel *c) {
+    if (c) atomic_store_explicit(&c->requested, 0, memory_order_relaxed);
+}
+
+int pgi_cancel_requested(const pgi_cancel *c) { return pgi__cancelled(c); }
+
+pgi_status pgi__fail_cancelled(const char *what) { return pgi__fail(PGI_ERR_CANCELLED, "%s: cancelled", what); }
 
 void pgi__assert_fail(const char *expr, const char *file, int line) {
     fprintf(stderr, "photongi: internal invariant failed: %s (%s:%d)\n", expr, file, line);

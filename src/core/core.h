@@ -4,6 +4,7 @@
 #define PGI_CORE_H
 
 #include <math.h>
+#include <stdatomic.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -70,6 +71,17 @@ static inline int pgi__cpu_avx512(void) {
 #endif
 
 double pgi__now_ms(void);
+
+/* The cancel token (pgi_cancel_create): a flag set from any thread or a signal handler, read by
+ * every thread of the work it was given to, which then stops at its next check. */
+struct pgi_cancel {
+    atomic_int requested;
+};
+static inline int pgi__cancelled(const pgi_cancel *c) {
+    return c && atomic_load_explicit(&((pgi_cancel *)c)->requested, memory_order_relaxed);
+}
+/* PGI_ERR_CANCELLED with "WHAT: cancelled" as the last error. */
+pgi_status pgi__fail_cancelled(const char *what);
 
 /* Largest image the library allocates, rendered or read (a header that
  * declares more is refused before any pixel is allocated): 8K UHD fits. */

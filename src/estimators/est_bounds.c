@@ -462,6 +462,7 @@ static pgi_status b_estimate(void *state, const pgi_estimate_args *a) {
         uint8_t *kind = (uint8_t *)(lz + TT);
 #pragma omp for schedule(dynamic, 1)
         for (int t = 0; t < s->nbins; t++) {
+            if (pgi__est_stop(&s->c)) continue;
             const uint32_t b0 = s->tile_start[t], b1 = s->tile_start[t + 1];
             if (t >= s->ntiles) {
                 /* A cell of mirror-seen samples: every binned photon against every sample, TT samples at a time. */

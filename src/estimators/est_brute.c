@@ -42,7 +42,7 @@ static pgi_status brute_estimate_general(brute_state *s, const pgi_estimate_args
         size_t i = (size_t)ii;
         float *out = a->out_rgb + 3 * i;
         pgi__vs v;
-        if (!pgi__vs_begin(vs, i, out, &v)) continue;
+        if (pgi__est_stop(&s->c) || !pgi__vs_begin(vs, i, out, &v)) continue;
         pgi__acc acc = {0};
         if (!footprints) {
             for (size_t j = 0; j < n; j++)
@@ -86,7 +86,7 @@ static pgi_status brute_estimate(void *state, const pgi_estimate_args *a) {
         size_t i = (size_t)ii;
         float *out = a->out_rgb + 3 * i;
         pgi__vs v;
-        if (!pgi__vs_begin(vs, i, out, &v)) continue;
+        if (pgi__est_stop(&s->c) || !pgi__vs_begin(vs, i, out, &v)) continue;
         pgi__acc acc = {0};
         for (size_t j = 0; j < n; j++)
             pgi__gather(&v, r2, ph->px[j], ph->py[j], ph->pz[j], ph->dx[j], ph->dy[j], ph->dz[j], ph->fr[j], ph->fg[j],

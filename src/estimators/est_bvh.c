@@ -396,6 +396,7 @@ static pgi_status bvh_estimate(void *state, const pgi_estimate_args *a) {
     uint64_t reads = 0, contrib = 0, visited = 0;
 #pragma omp parallel for schedule(dynamic, 64) reduction(+ : reads, contrib, visited) num_threads(s->c.threads)
     for (long long ii = 0; ii < (long long)vs->count; ii++) {
+        if (pgi__est_stop(&s->c)) continue;
         size_t i = (size_t)ii;
         float *out = a->out_rgb + 3 * i;
         pgi__vs v;

@@ -940,6 +940,7 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
         const uint32_t leaf0 = s->lvl_off[s->L], leaf1 = s->lvl_off[s->L + 1];
 #pragma omp parallel for schedule(dynamic, 8) reduction(+ : reads, contrib, bulk) num_threads(s->c.threads)
         for (long long li = leaf0; li < (long long)leaf1; li++) {
+            if (pgi__est_stop(&s->c)) continue;
             if (li + 1 < (long long)leaf1) /* the next leaf's kd and output rows */
                 for (uint32_t k = s->sbeg[li + 1]; k < s->send[li + 1]; k += 4) {
                     __builtin_prefetch(vs->kd + 3 * (size_t)s->order[k]);

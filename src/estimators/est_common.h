@@ -14,6 +14,7 @@ typedef struct pgi__est_common {
     uint64_t seed;
     int threads; /* for num_threads(): never 0 */
     float scene_area;
+    const pgi_cancel *cancel; /* pgi_estimate_args.cancel: loops test it with pgi__est_stop */
 } pgi__est_common;
 
 /* Takes the per-frame values of build/estimate into the state. */
@@ -22,7 +23,12 @@ static inline void pgi__est_frame(pgi__est_common *c, const pgi_estimate_args *a
     c->seed = a->seed;
     c->threads = pgi__threads(a->threads);
     c->scene_area = a->scene_area;
+    c->cancel = a->cancel;
 }
+/* In an estimator's parallel loop over view samples (or tiles, or photons): once the caller asked
+ * to cancel, `if (pgi__est_stop(&s->c)) continue;` drains the loop (pgi_estimator_build/estimate
+ * then return PGI_ERR_CANCELLED). */
+static inline int pgi__est_stop(const pgi__est_common *c) { return pgi__cancelled(c->cancel); }
 
 static inline void pgi__stats_pass(pgi_estimator_stats *st, const char *name, double ms) {
     if (st->pass_count < PGI_EST_MAX_ENTRIES) {

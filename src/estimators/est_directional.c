@@ -188,6 +188,7 @@ static pgi_status dir_radiance(cl_state *s, const pgi_estimate_args *a, double *
         const uint32_t leaf0 = s->lvl_off[s->L], leaf1 = s->lvl_off[s->L + 1];
 #pragma omp parallel for schedule(dynamic, 16) num_threads(s->c.threads)
         for (long long li = leaf0; li < (long long)leaf1; li++) {
+            if (pgi__est_stop(&s->c)) continue;
             /* the leaf's buckets plus those of its ancestors down from level D */
             float b[8 * PGI__DIR_BUCKET];
             memset(b, 0, sizeof b);

@@ -315,6 +315,7 @@ static pgi_status kd_estimate(void *state, const pgi_estimate_args *a) {
         cand *h = heaps ? heaps + (size_t)tid * (size_t)k : NULL;
 #pragma omp for schedule(dynamic, 64)
         for (long long ii = 0; ii < (long long)vs->count; ii++) {
+            if (pgi__est_stop(&s->c)) continue;
             size_t i = (size_t)ii;
             float *out = a->out_rgb + 3 * i;
             pgi__vs v;

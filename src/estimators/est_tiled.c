@@ -291,6 +291,7 @@ static pgi_status tiled_estimate(void *state, const pgi_estimate_args *a) {
     const size_t in_tiles = s->tile_start[s->ntiles];
 #pragma omp parallel for schedule(dynamic, 1) reduction(+ : reads, contrib) reduction(| : oom) num_threads(s->c.threads)
     for (int t = 0; t < s->nlists; t++) {
+        if (pgi__est_stop(&s->c)) continue;
         const uint32_t nq = s->tile_start[t + 1] - s->tile_start[t];
         if (t < s->ntiles) {
             const pgi__packed_photon *q = s->tile_photons + s->tile_start[t];

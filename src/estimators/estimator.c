@@ -299,6 +299,7 @@ pgi_status pgi_estimator_build(pgi_estimator *e, const pgi_estimate_args *a) {
         return pgi__fail(PGI_ERR_INVALID_ARG, "ellipsoid footprints need the per-photon radius array as well");
     e->built = 0;
     if ((st = e->vt->build(e->state, a))) return st;
+    if (pgi__cancelled(a->cancel)) return pgi__fail_cancelled(e->vt->name); /* a build cut short */
     e->built = 1;
     e->built_radius = a->radius;
     return PGI_OK;
@@ -312,7 +313,8 @@ pgi_status pgi_estimator_estimate(pgi_estimator *e, const pgi_estimate_args *a) 
     if (a->radius != e->built_radius)
         return pgi__fail(PGI_ERR_INVALID_ARG, "%s: estimate with radius %g after a build with radius %g", e->vt->name,
                          (double)a->radius, (double)e->built_radius);
-    return e->vt->estimate(e->state, a);
+    if ((st = e->vt->estimate(e->state, a))) return st;
+    return pgi__cancelled(a->cancel) ? pgi__fail_cancelled(e->vt->name) : PGI_OK; /* out_rgb is partial */
 }
 
 void pgi_estimator_get_stats(const pgi_estimator *e, pgi_estimator_stats *out) {

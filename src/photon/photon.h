@@ -76,6 +76,8 @@ typedef struct pgi__trace_desc {
        batch and after each one, on the calling thread (outside the parallel regions) */
     void (*progress)(void *ctx, uint64_t stored, uint64_t wanted);
     void *progress_ctx;
+    const pgi_cancel *cancel; /* may be NULL: once requested, the tracer stops after the batch in flight
+                                 (PGI_ERR_CANCELLED) */
     /* view-importance emission (guide.h): NULL = uniform. A uniform pilot batch, then batches
        steered by the guide whenever it predicts at least `min_gain` times the photons in view */
     struct pgi__guide *guide;

@@ -1240,6 +1240,10 @@ static pgi_status trace_photons(const pgi_scene *s, const pgi__rt *rt, const pgi
     const size_t pilot_want = want / 8 + 1 < want ? want / 8 + 1 : want;
     while (ph->count < want && path < max_paths) {
         if (d->progress) d->progress(d->progress_ctx, ph->count, want);
+        if (pgi__cancelled(d->cancel)) {
+            st = pgi__fail_cancelled("trace");
+            break;
+        }
         const size_t goal = d->guide && !guide_done ? pilot_want : want; /* this phase's photons */
         size_t remaining = goal - ph->count;
         size_t batch;

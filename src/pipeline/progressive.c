@@ -87,6 +87,7 @@ static void picture_of(const pgi_render_desc *d, const pgi_scene *s, picture *p)
     p->key.threads = 0; /* the image does not depend on the thread count */
     p->key.progress = NULL;
     p->key.progress_user = NULL;
+    p->key.cancel = NULL;
     p->key.max_memory = 0; /* a budget does not change the picture */
     snprintf(p->est, sizeof p->est, "%s", d->estimator ? d->estimator : "");
     p->has_view = d->view != NULL;
@@ -216,7 +217,7 @@ pgi_status pgi_progressive_step(pgi_progressive *a, const pgi_render_desc *in, p
     pgi_frame_stats fs;
     pgi_status st = pgi_progressive_frame(a->r, in, a->r0, k, &a->frame, &fs);
     if (st) {
-        a->frames = 0;
+        if (st != PGI_ERR_CANCELLED) a->frames = 0; /* a cancelled frame adds nothing and breaks nothing */
         return st;
     }
     size_t n = (size_t)fs.width * (size_t)fs.height;

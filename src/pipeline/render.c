@@ -362,15 +362,17 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
 }
 
 /* Progress reports (pgi_render_desc.progress): on the calling thread, between passes and
- * between the tracer's batches, never inside a parallel region. */
+ * between the tracer's batches, never inside a parallel region. A pass starts with report(),
+ * which is also where a cancel request (pgi_render_desc.cancel) ends the frame. */
 typedef struct progress_ctx {
     const pgi_render_desc *d;
     double t_start;
     int radius_unknown; /* d->radius is a stand-in (pgi__renderer_render_frame_late, until it is asked for) */
 } progress_ctx;
 
-static void report(const progress_ctx *pc, const char *pass, uint64_t done, uint64_t total) {
-    if (!pc->d->progress) return;
+static pgi_status report(const progress_ctx *pc, const char *pass, uint64_t done, uint64_t total) {
+    if (pgi__cancelled(pc->d->cancel)) return pgi__fail_cancelled(pass);
+    if (!pc->d->progress) return PGI_OK;
     pgi_progress p = {.pass = pass,
                       .done = done,
                       .total = total,
@@ -379,9 +381,12 @@ static void report(const progress_ctx *pc, const char *pass, uint64_t done, uint
                       .elapsed_ms = pgi__now_ms() - pc->t_start,
                       .radius = pc->d->radius > 0.f && !pc->radius_unknown ? pc->d->radius : 0.f};
     pc->d->progress(pc->d->progress_user, &p);
+    return pgi__cancelled(pc->d->cancel) ? pgi__fail_cancelled(pass) : PGI_OK; /* asked from the callback */
 }
 
-static void report_trace(void *ctx, uint64_t stored, uint64_t total) { report(ctx, "trace", stored, total); }
+static void report_trace(void *ctx, uint64_t stored, uint64_t total) {
+    (void)report(ctx, "trace", stored, total); /* the tracer checks the cancel token itself */
+}
 
 /* Points the photon buffer at the footprint arrays the policy needs (NULL for fixed). */
 static pgi_status ensure_footprints(pgi_renderer *r, const pgi_render_desc *d) {
@@ -545,7 +550,7 @@ static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, uint64_t se
         if ((st = pgi__rt_update(r->rt, s))) return st;
         fs->rt_update_ms = pgi__now_ms() - tu;
     }
-    report(pc, "view", 0, 0);
+    if ((st = report(pc, "view", 0, 0))) return st;
     double t0 = pgi__now_ms();
     pgi__rt_capture_pass(r->rt, PGI__PASS_VIEW); /* ray capture tags (a no-op unless a bench captures) */
     const pgi__subpixel sp = {.jitter = d->jitter == PGI_JITTER_ON,
@@ -556,7 +561,11 @@ static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, uint64_t se
                               &fs->primary_rays)))
         return st;
     double t1 = pgi__now_ms();
-    pgi__trace_desc td = {.photons = d->photons, .bounces = d->bounces, .seed = d->seed, .threads = d->threads};
+    pgi__trace_desc td = {.photons = d->photons,
+                          .bounces = d->bounces,
+                          .seed = d->seed,
+                          .threads = d->threads,
+                          .cancel = d->cancel};
     if ((st = ensure_footprints(r, d))) return st;
     td.radius_policy = d->radius_policy;
     td.r_min = d->r_min;
@@ -634,6 +643,7 @@ static void stats_begin(pgi_frame_stats *fs, const pgi_render_desc *d) {
     fs->settings.shift[0] = fs->settings.shift[1] = 0.f;
     fs->settings.progress = NULL;
     fs->settings.progress_user = NULL;
+    fs->settings.cancel = NULL;
     fs->estimator = d->estimator;
     fs->width = d->width;
     fs->height = d->height;
@@ -789,13 +799,13 @@ static pgi_status gpu_frame(pgi_renderer *r, pgi_render_desc *d, uint64_t seq_se
         fs->rt_update_ms += pgi__now_ms() - tu;
     }
     /* photons first (their own sequences: batches sized by the yield), then the other passes */
-    report(pc, "trace", 0, 0);
+    if ((st = report(pc, "trace", 0, 0))) return st;
     pgi__gpu_buffer *photons = NULL;
     size_t np = 0;
     if ((st = gpu_photons(r, d, pc, fs, &photons, &np))) return st;
 
     /* sequence 1: the view pass */
-    report(pc, "view", 0, 0);
+    if ((st = report(pc, "view", 0, 0))) return st;
     const pgi__subpixel sp = {.jitter = d->jitter == PGI_JITTER_ON, .seed = seq_seed, .index = index};
     if ((st = pgi__gpu_view_prepare(r->gpu_view, &r->cam, d->seed, &sp))) return st;
     pgi_named_value t[64];
@@ -819,7 +829,7 @@ static pgi_status gpu_frame(pgi_renderer *r, pgi_render_desc *d, uint64_t seq_se
     }
 
     /* sequence 2: the estimator on the device's photons and view samples, direct light, the sum */
-    report(pc, "build", 0, 0);
+    if ((st = report(pc, "build", 0, 0))) return st;
     pgi__gpu_buffer *indirect = NULL;
     const int need_indirect = d->output != PGI_OUTPUT_DIRECT;
     const int host_inputs = need_indirect && !r->gpu_est_vt->device_reserve;
@@ -997,13 +1007,13 @@ pgi_status pgi__renderer_render_frame_late(pgi_renderer *r, const pgi_render_des
                             .radius = d.radius,
                             .seed = d.seed,
                             .threads = d.threads,
-                            .scene_area = (float)r->scene_area};
+                            .scene_area = (float)r->scene_area,
+                            .cancel = d.cancel};
     pgi_estimator_stats es;
     double t3;
-    report(&pc, "build", 0, 0);
-    if ((st = pgi_estimator_build(r->est, &ea))) return st;
+    if ((st = report(&pc, "build", 0, 0)) || (st = pgi_estimator_build(r->est, &ea))) return st;
     t3 = pgi__now_ms();
-    report(&pc, "estimate", 0, 0);
+    if ((st = report(&pc, "estimate", 0, 0))) return st;
     if ((st = pgi_estimator_estimate(r->est, &ea))) return st;
     const double t_est = pgi__now_ms();
     /* the reconstruction filter is a pass of its own ("filter"), not the estimator's time */
@@ -1027,13 +1037,18 @@ pgi_status pgi__renderer_render_frame_late(pgi_renderer *r, const pgi_render_des
     const pgi__direct_sum sum = {.emit = r->emit,
                                  .indirect = r->indirect,
                                  .output = d.output,
-                                 .direct = d.aovs ? d.aovs->direct : NULL};
+                                 .direct = d.aovs ? d.aovs->direct : NULL,
+                                 .cancel = d.cancel};
     if (d.output == PGI_OUTPUT_INDIRECT) {
         pgi__indirect_image(&r->vs, r->indirect, d.threads, img.rgb);
         if (sum.direct) memset(sum.direct, 0, 3 * n * sizeof(float));
         st = PGI_OK;
     } else {
-        report(&pc, "direct", 0, 0);
+        st = report(&pc, "direct", 0, 0);
+        if (st) {
+            if (img.rgb != out->rgb) free(img.rgb);
+            return st;
+        }
         pgi__rt_capture_pass(r->rt, PGI__PASS_DIRECT);
         st = pgi__direct(s, r->rt, &r->vs, &r->fill, &sum, d.direct_samples, d.seed, d.threads, img.rgb,
                          &fs.shadow_rays);

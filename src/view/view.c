@@ -1145,9 +1145,11 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
 #else
     const int avx2 = 0;
 #endif
+    const pgi_cancel *cancel = sum ? sum->cancel : NULL;
 #pragma omp parallel for schedule(dynamic, 1) reduction(+ : rays) num_threads(pgi__threads(threads))
     for (int ty = 0; ty < tiles_y; ty++) {
         dtile t;
+        if (pgi__cancelled(cancel)) continue; /* the remaining rows drain at once */
         for (int tx = 0; tx < tiles_x; tx++) {
             pgi__v3 L[16];
             int any = 0;
@@ -1307,7 +1309,7 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
     }
     pgi__area_table_free(&at);
     *rays_out = rays;
-    return PGI_OK;
+    return pgi__cancelled(cancel) ? pgi__fail_cancelled("direct") : PGI_OK;
 }
 
 void pgi__indirect_image(const pgi_view_samples *vs, const float *indirect, int threads, float *out) {

@@ -66,7 +66,9 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, struct pgi__tr
 typedef struct pgi__direct_sum {
     const float *emit, *indirect; /* 3 floats a pixel each */
     pgi_output output;
-    float *direct; /* non-NULL: also receives emitted + direct light (3 floats a pixel; the AOV) */
+    float *direct;            /* non-NULL: also receives emitted + direct light (3 floats a pixel; the AOV) */
+    const pgi_cancel *cancel; /* may be NULL: once requested, the pass stops within a row of tiles a
+                                 thread (PGI_ERR_CANCELLED, the image partly written) */
 } pgi__direct_sum;
 /* The image of PGI_OUTPUT_INDIRECT without the direct pass: weight x indirect, the floats the
  * composite writes. */
