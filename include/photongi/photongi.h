@@ -120,7 +120,7 @@ const char *pgi_builtin_scene_name(size_t i);
 
 typedef enum pgi_output {
     PGI_OUTPUT_ALL = 0,         /* emission + direct + indirect */
-    PGI_OUTPUT_INDIRECT = 1,    /* the estimator's indirect radiance only; no direct pass (no shadow ray) on the CPU */
+    PGI_OUTPUT_INDIRECT = 1,    /* the estimator's indirect radiance only; no shadow ray (CPU and GPU) */
     PGI_OUTPUT_DIRECT = 2,      /* emission + direct only */
     PGI_OUTPUT_PHOTON_COUNT = 3 /* photons that contributed at each pixel (all three channels); needs a
                                    second build + estimate pass over unit-flux photons */

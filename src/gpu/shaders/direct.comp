@@ -59,7 +59,7 @@ void main() {
         const ViewSample v = vsamp[i];
         const PixelExtra ex = extra[i];
         vec3 L = vec3(0.0);
-        if ((v.flags & VS_VALID) != 0u) {
+        if ((v.flags & VS_VALID) != 0u && pc.output_mode != 1u) { // the indirect light alone: no shadow ray
             const vec3 p = vec3(v.px, v.py, v.pz), ns = vec3(v.nx, v.ny, v.nz), ng = ex.ngeo_depth.xyz;
             const vec3 wo = vec3(v.wox, v.woy, v.woz), kd = vec3(v.kdx, v.kdy, v.kdz);
             precise vec3 x = p + ng * pc.scene.eps;
