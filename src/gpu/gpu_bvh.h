@@ -62,6 +62,7 @@ typedef struct pgi__bvh_node {
     float lo_x[4], hi_x[4], lo_y[4], hi_y[4], lo_z[4], hi_z[4];
     uint32_t child[4];
 } pgi__bvh_node;
+_Static_assert(sizeof(pgi__bvh_node) == 112 && offsetof(pgi__bvh_node, child) == 96, "bvh.glsl Node");
 
 typedef struct pgi__bvh_tri {
     float v0[3];
@@ -71,6 +72,8 @@ typedef struct pgi__bvh_tri {
     float e2[3];
     float pad;
 } pgi__bvh_tri;
+_Static_assert(sizeof(pgi__bvh_tri) == 48 && offsetof(pgi__bvh_tri, e1) == 16 && offsetof(pgi__bvh_tri, e2) == 32,
+               "bvh.glsl Tri");
 
 typedef struct pgi__bvh_mask {
     float uv0[2], uv1[2], uv2[2];
@@ -79,6 +82,9 @@ typedef struct pgi__bvh_mask {
     uint32_t width, height;
     uint32_t pad[2];
 } pgi__bvh_mask;
+_Static_assert(sizeof(pgi__bvh_mask) == 48 && offsetof(pgi__bvh_mask, cutoff) == 24 &&
+                   offsetof(pgi__bvh_mask, width) == 32,
+               "bvh.glsl Mask");
 
 /* A ray as rays.comp reads it (32 bytes; GLSL: struct Ray { vec4 org_tnear; vec4 dir_tfar; }):
  * the segment org + t dir, tnear < t <= tfar. Its answer is a pgi__hit (16 bytes; GLSL: struct
@@ -89,6 +95,7 @@ typedef struct pgi__bvh_ray {
     float dir[3];
     float tfar;
 } pgi__bvh_ray;
+_Static_assert(sizeof(pgi__bvh_ray) == 32 && offsetof(pgi__bvh_ray, dir) == 16, "rays.comp Ray");
 
 /* Build settings. quality: 1 Embree's binned SAH (RTC_BUILD_QUALITY_MEDIUM), 2 SAH with spatial
  * splits (RTC_BUILD_QUALITY_HIGH; triangles may be referenced from several leaves). width: 2 or 4

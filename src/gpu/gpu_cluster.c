@@ -70,6 +70,8 @@ typedef struct {
     float r, r2, inv_step, slack;
     uint32_t n, width, height, T, G, ntx, nty, nrx, nry, mode, bits, NS0, NT0, NL0, nnodes, npairs, R, D, blur, dir;
 } cl_push;
+_Static_assert(sizeof(cl_push) == 96 && offsetof(cl_push, n) == 16 && offsetof(cl_push, dir) == 92,
+               "cluster.glsl Push");
 
 #define NODE_BYTES 64 /* shaders/cluster.glsl Node */
 

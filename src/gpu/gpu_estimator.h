@@ -47,6 +47,7 @@ typedef struct pgi__gpu_vs {
     float px, py, pz, nx, ny, nz, wox, woy, woz, kdx, kdy, kdz, one_m_eo;
     uint32_t flags, lobe, pad;
 } pgi__gpu_vs;
+_Static_assert(sizeof(pgi__gpu_vs) == 64 && offsetof(pgi__gpu_vs, flags) == 52, "gather.glsl ViewSample");
 
 typedef struct pgi__gpu_lobe {
     uint32_t model;

@@ -61,6 +61,8 @@ typedef struct {
     float scale;
     uint32_t pad[3];
 } hg_push;
+_Static_assert(sizeof(hg_push) == 48 && offsetof(hg_push, n) == 12 && offsetof(hg_push, scale) == 32,
+               "hashgrid.glsl Push");
 
 enum { K_COUNT, K_SCATTER, K_RANK, K_REORDER, K_GATHER, K_N };
 

@@ -14,6 +14,7 @@
 typedef struct rays_push {
     uint32_t first, count, flags, pad;
 } rays_push;
+_Static_assert(sizeof(rays_push) == 16, "rays.comp Push");
 
 struct pgi__gpu_rays {
     pgi__gpu *g;

@@ -13,6 +13,7 @@ typedef struct {
     float f[3];
     uint32_t n, mask, pad[7];
 } scan_push;
+_Static_assert(sizeof(scan_push) == 48 && offsetof(scan_push, n) == 12, "hashgrid.glsl Push (n)");
 
 pgi_status pgi__gpu_scan_create(pgi__gpu *g, const char *what, pgi__gpu_scan *s) {
     memset(s, 0, sizeof *s);

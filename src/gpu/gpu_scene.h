@@ -55,6 +55,7 @@ typedef struct pgi__gpu_vert {
     float pos[3], u;
     float nrm[3], v;
 } pgi__gpu_vert;
+_Static_assert(sizeof(pgi__gpu_vert) == 32 && offsetof(pgi__gpu_vert, nrm) == 16, "scene.glsl Vert");
 
 typedef struct pgi__gpu_mat {
     float kd[3];
@@ -64,6 +65,8 @@ typedef struct pgi__gpu_mat {
     float ke[3];
     int32_t tex_kd;
 } pgi__gpu_mat;
+_Static_assert(sizeof(pgi__gpu_mat) == 48 && offsetof(pgi__gpu_mat, ks) == 16 && offsetof(pgi__gpu_mat, tex_kd) == 44,
+               "scene.glsl Mat");
 
 typedef struct pgi__gpu_light {
     float pos[3];
@@ -75,11 +78,15 @@ typedef struct pgi__gpu_light {
     float normal[3];
     uint32_t tri;
 } pgi__gpu_light;
+_Static_assert(sizeof(pgi__gpu_light) == 64 && offsetof(pgi__gpu_light, color) == 32 &&
+                   offsetof(pgi__gpu_light, tri) == 60,
+               "scene.glsl Light");
 
 typedef struct pgi__gpu_area {
     float cdf;
     uint32_t light;
 } pgi__gpu_area;
+_Static_assert(sizeof(pgi__gpu_area) == 8, "scene.glsl AreaPick");
 
 /* The scene's counts and constants, the first 64 bytes of a shading kernel's push constants
  * (scene.glsl SceneInfo). */
@@ -90,6 +97,9 @@ typedef struct pgi__gpu_scene_push {
     float sky[3], pad1;    /* constant sky: radiance above the horizon */
     float ground[3], pad2; /* below */
 } pgi__gpu_scene_push;
+_Static_assert(sizeof(pgi__gpu_scene_push) == 64 && offsetof(pgi__gpu_scene_push, sky) == 32 &&
+                   offsetof(pgi__gpu_scene_push, ground) == 48,
+               "scene.glsl SceneInfo");
 
 typedef struct pgi__gpu_scene pgi__gpu_scene;
 
@@ -120,6 +130,7 @@ typedef struct pgi__gpu_emit {
     float power[3];
     float cdf;
 } pgi__gpu_emit;
+_Static_assert(sizeof(pgi__gpu_emit) == 16, "trace.glsl Emit");
 pgi__gpu_buffer *pgi__gpu_scene_emit(const pgi__gpu_scene *gs, uint32_t *nemit);
 
 #endif

@@ -65,6 +65,9 @@ typedef struct {
     float scale;
     uint32_t hmask;
 } tl_push;
+_Static_assert(offsetof(tl_push, sx) == 48 && offsetof(tl_push, width) == 64 && offsetof(tl_push, kernel) == 104 &&
+                   offsetof(tl_push, hmask) == 112,
+               "tiled.glsl Push");
 
 /* shaders/tiled.glsl CellGrid */
 typedef struct {

@@ -22,6 +22,7 @@ typedef struct {
     uint32_t width, height, seed_lo, seed_hi;
     uint32_t direct_samples, output_mode, has_indirect, pad;
 } direct_push;
+_Static_assert(sizeof(direct_push) == 96 && offsetof(direct_push, direct_samples) == 80, "direct.comp Push");
 
 pgi_status pgi__gpu_view_create(pgi__gpu *g, pgi__gpu_view **out) {
     *out = NULL;

@@ -40,6 +40,9 @@ typedef struct pgi__gpu_frame_params {
     uint32_t seed_lo, seed_hi, key_lo, key_hi;
     uint32_t direct_samples, output, pad2, pad3;
 } pgi__gpu_frame_params;
+_Static_assert(sizeof(pgi__gpu_frame_params) == 112 && offsetof(pgi__gpu_frame_params, width) == 64 &&
+                   offsetof(pgi__gpu_frame_params, direct_samples) == 96,
+               "frame.glsl FrameParams");
 
 /* frame.glsl PixelExtra */
 typedef struct pgi__gpu_pixel_extra {
@@ -47,12 +50,16 @@ typedef struct pgi__gpu_pixel_extra {
     float weight[3], pad0;
     float emit[3], pad1;
 } pgi__gpu_pixel_extra;
+_Static_assert(sizeof(pgi__gpu_pixel_extra) == 48 && offsetof(pgi__gpu_pixel_extra, emit) == 32,
+               "frame.glsl PixelExtra");
 
 /* gather.glsl ViewSample */
 typedef struct pgi__gpu_view_sample {
     float pos[3], nrm[3], wo[3], kd[3], one_m_eo;
     uint32_t flags, lobe, pad;
 } pgi__gpu_view_sample;
+_Static_assert(sizeof(pgi__gpu_view_sample) == 64 && offsetof(pgi__gpu_view_sample, flags) == 52,
+               "gather.glsl ViewSample");
 
 typedef struct pgi__gpu_view pgi__gpu_view;
 
