@@ -1,4 +1,4 @@
-/* photongi-bench-gpu-rays: the GPU backend's BVH (src/gpu/gpu_bvh.h) and ray kernel
+/* photongi-bench-gpu-rays: the GPU backend's BVH (src/rt/tri_bvh.h) and ray kernel
  * (src/gpu/gpu_rays.h) on one scene.
  *
  *   photongi-bench-gpu-rays [--scene sibenik] [--rays 200000] [--size 640x360] [--threads 2] [--configs]
@@ -18,7 +18,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "gpu/gpu_bvh.h"
+#include "rt/tri_bvh.h"
 #include "gpu/gpu_rays.h"
 #include "rt/rt.h"
 #include "scene/scene_internal.h"
@@ -26,7 +26,7 @@
 
 typedef struct ray_set {
     const char *name;
-    pgi__bvh_ray *r;
+    pgi__tri_bvh_ray *r;
     size_t n;
     int any; /* occlusion queries */
 } ray_set;
@@ -40,7 +40,7 @@ static uint64_t splitmix(uint64_t *s) {
 static float unif(uint64_t *s) { return (float)(splitmix(s) >> 40) * (1.0f / 16777216.0f); }
 
 static ray_set primary_rays(const pgi_scene *s, int w, int h) {
-    ray_set rs = {"primary", malloc((size_t)w * h * (s->ncams ? s->ncams : 1) * sizeof(pgi__bvh_ray)), 0, 0};
+    ray_set rs = {"primary", malloc((size_t)w * h * (s->ncams ? s->ncams : 1) * sizeof(pgi__tri_bvh_ray)), 0, 0};
     for (size_t c = 0; c < s->ncams; c++) {
         pgi_camera cam;
         const pgi_camera_def *cd = &s->cams[c];
@@ -48,20 +48,20 @@ static ray_set primary_rays(const pgi_scene *s, int w, int h) {
         for (int y = 0; y < h; y++)
             for (int x = 0; x < w; x++) {
                 pgi__v3 d = pgi__camera_dir(&cam, x, y);
-                rs.r[rs.n++] = (pgi__bvh_ray){{cam.eye[0], cam.eye[1], cam.eye[2]}, 0.f, {d.x, d.y, d.z}, INFINITY};
+                rs.r[rs.n++] = (pgi__tri_bvh_ray){{cam.eye[0], cam.eye[1], cam.eye[2]}, 0.f, {d.x, d.y, d.z}, INFINITY};
             }
     }
     return rs;
 }
 
 static ray_set random_rays(const pgi_scene *s, size_t n) {
-    ray_set rs = {"random", malloc(n * sizeof(pgi__bvh_ray)), n, 0};
+    ray_set rs = {"random", malloc(n * sizeof(pgi__tri_bvh_ray)), n, 0};
     uint64_t g = 12345;
     for (size_t i = 0; i < n; i++) {
         float o[3];
         for (int k = 0; k < 3; k++) o[k] = s->bmin[k] + (0.01f + 0.98f * unif(&g)) * (s->bmax[k] - s->bmin[k]);
         float z = 2.f * unif(&g) - 1.f, phi = 6.2831853f * unif(&g), r = sqrtf(fmaxf(0.f, 1.f - z * z));
-        rs.r[i] = (pgi__bvh_ray){{o[0], o[1], o[2]}, 0.f, {r * cosf(phi), r * sinf(phi), z}, INFINITY};
+        rs.r[i] = (pgi__tri_bvh_ray){{o[0], o[1], o[2]}, 0.f, {r * cosf(phi), r * sinf(phi), z}, INFINITY};
     }
     return rs;
 }
@@ -69,18 +69,18 @@ static ray_set random_rays(const pgi_scene *s, size_t n) {
 /* Shadow rays: from the closest hits of the random rays (their origins where they miss) to
  * uniform points in the scene's box, over (epsilon, 0.9999 length). */
 static ray_set shadow_rays(const pgi_scene *s, const pgi__rt *rt, const ray_set *from) {
-    ray_set rs = {"shadow", malloc(from->n * sizeof(pgi__bvh_ray)), from->n, 1};
+    ray_set rs = {"shadow", malloc(from->n * sizeof(pgi__tri_bvh_ray)), from->n, 1};
     uint64_t g = 777;
     const float eps = pgi__scene_epsilon(s);
     for (size_t i = 0; i < from->n; i++) {
-        const pgi__bvh_ray *r = &from->r[i];
+        const pgi__tri_bvh_ray *r = &from->r[i];
         pgi__hit h;
         float p[3] = {r->org[0], r->org[1], r->org[2]}, d[3];
         if (pgi__rt_intersect(rt, v3(p[0], p[1], p[2]), v3(r->dir[0], r->dir[1], r->dir[2]), 0.f, INFINITY, &h))
             for (int k = 0; k < 3; k++) p[k] += h.t * r->dir[k];
         for (int k = 0; k < 3; k++) d[k] = s->bmin[k] + (0.01f + 0.98f * unif(&g)) * (s->bmax[k] - s->bmin[k]) - p[k];
         float len = sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-        rs.r[i] = (pgi__bvh_ray){{p[0], p[1], p[2]}, eps, {d[0] / len, d[1] / len, d[2] / len}, 0.9999f * len};
+        rs.r[i] = (pgi__tri_bvh_ray){{p[0], p[1], p[2]}, eps, {d[0] / len, d[1] / len, d[2] / len}, 0.9999f * len};
     }
     return rs;
 }
@@ -93,7 +93,7 @@ static double embree_rate(const pgi__rt *rt, const ray_set *rs, int threads, siz
         double t0 = pgi__now_ms();
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1024) reduction(+ : nh)
         for (size_t i = 0; i < rs->n; i++) {
-            const pgi__bvh_ray *r = &rs->r[i];
+            const pgi__tri_bvh_ray *r = &rs->r[i];
             pgi__hit h;
             nh += (size_t)pgi__rt_intersect(rt, v3(r->org[0], r->org[1], r->org[2]),
                                             v3(r->dir[0], r->dir[1], r->dir[2]), r->tnear, r->tfar, &h);
@@ -106,25 +106,25 @@ static double embree_rate(const pgi__rt *rt, const ray_set *rs, int threads, siz
 }
 
 /* Mrays/s of the layout's CPU traversal, best of 3; the work counters of one pass. */
-static double bvh_rate(const pgi__bvh *b, const ray_set *rs, int threads, pgi__bvh_counters *work) {
+static double bvh_rate(const pgi__bvh *b, const ray_set *rs, int threads, pgi__tri_bvh_counters *work) {
     double best = 0.0;
     for (int rep = 0; rep < 3; rep++) {
         uint64_t nn = 0, nl = 0, nt = 0;
         double t0 = pgi__now_ms();
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1024) reduction(+ : nn, nl, nt)
         for (size_t i = 0; i < rs->n; i++) {
-            const pgi__bvh_ray *r = &rs->r[i];
+            const pgi__tri_bvh_ray *r = &rs->r[i];
             pgi__hit h;
-            pgi__bvh_counters c = {0};
-            if (rs->any) pgi__bvh_occluded(b, r->org, r->dir, r->tnear, r->tfar, NULL, NULL, &c);
-            else pgi__bvh_intersect(b, r->org, r->dir, r->tnear, r->tfar, &h, NULL, NULL, &c);
+            pgi__tri_bvh_counters c = {0};
+            if (rs->any) pgi__tri_bvh_occluded(b, r->org, r->dir, r->tnear, r->tfar, NULL, NULL, &c);
+            else pgi__tri_bvh_intersect(b, r->org, r->dir, r->tnear, r->tfar, &h, NULL, NULL, &c);
             nn += c.nodes;
             nl += c.leaves;
             nt += c.tris;
         }
         double ms = pgi__now_ms() - t0;
         best = fmax(best, (double)rs->n / (ms * 1e3));
-        *work = (pgi__bvh_counters){nn, nl, nt};
+        *work = (pgi__tri_bvh_counters){nn, nl, nt};
     }
     return best;
 }
@@ -162,7 +162,7 @@ int main(int argc, char **argv) {
     const char *scene = "sibenik";
     size_t nrays = 200000;
     int w = 640, h = 360, threads = 2, configs = 0, device = -1;
-    pgi__bvh_config first = pgi__bvh_default_config();
+    pgi__tri_bvh_config first = pgi__tri_bvh_default_config();
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--scene") && i + 1 < argc) scene = argv[++i];
         else if (!strcmp(argv[i], "--rays") && i + 1 < argc) nrays = (size_t)strtoull(argv[++i], NULL, 10);
@@ -211,7 +211,7 @@ int main(int argc, char **argv) {
         snprintf(gname, sizeof gname, "%s", pgi__gpu_device_name(g));
         if (pgi__gpu_rays_create(g, s, &gr) != PGI_OK) snprintf(gname, sizeof gname, "%s", pgi_last_error());
     } else snprintf(gname, sizeof gname, "%s", pgi_last_error());
-    pgi__bvh_config list[16];
+    pgi__tri_bvh_config list[16];
     int ncfg = 0;
     list[ncfg++] = first;
     if (configs) {
@@ -220,7 +220,7 @@ int main(int argc, char **argv) {
             for (int b = 0; b < 2; b++)
                 for (int c = 0; c < 5; c++) {
                     if (wd[b] == 2 && leaf[c] != 4) continue;
-                    pgi__bvh_config cf = {q[a], wd[b], leaf[c], 1.f, 1.f};
+                    pgi__tri_bvh_config cf = {q[a], wd[b], leaf[c], 1.f, 1.f};
                     if (!memcmp(&cf, &list[0], sizeof cf)) continue;
                     if (ncfg < 16) list[ncfg++] = cf;
                 }
@@ -232,16 +232,16 @@ int main(int argc, char **argv) {
     printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for (int k = 0; k < ncfg; k++) {
         pgi__bvh *b = NULL;
-        if (pgi__bvh_build(s, &list[k], &b) != PGI_OK) {
+        if (pgi__tri_bvh_build(s, &list[k], &b) != PGI_OK) {
             fprintf(stderr, "%s\n", pgi_last_error());
             continue;
         }
-        const pgi__bvh_stats *S = &b->stats;
+        const pgi__tri_bvh_stats *S = &b->stats;
         printf("| %s | %d | %d | %.1f | %zu | %zu | %zu | %zu | %d | %d | %.1f |",
                list[k].quality == 2 ? "SAH+splits" : "binned SAH", list[k].width, list[k].max_leaf, S->build_ms,
                S->bytes, S->inner, S->leaves, S->tri_refs, S->max_depth, S->stack_need, S->sah_cost);
         for (int r = 0; r < 2; r++) {
-            pgi__bvh_counters c;
+            pgi__tri_bvh_counters c;
             double rate = bvh_rate(b, &sets[r], threads, &c);
             double n = (double)sets[r].n;
             printf(" %.1f / %.1f / %.1f | %.2f |", (double)c.nodes / n, (double)c.leaves / n, (double)c.tris / n, rate);
@@ -255,7 +255,7 @@ int main(int argc, char **argv) {
         } else printf(" - |");
         printf("\n");
         fflush(stdout);
-        pgi__bvh_destroy(b);
+        pgi__tri_bvh_destroy(b);
     }
     if (gr && pgi__gpu_rays_set_config(gr, s, NULL) != PGI_OK) { /* the default build for the rates */
         fprintf(stderr, "%s\n", pgi_last_error());

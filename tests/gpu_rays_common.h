@@ -6,7 +6,7 @@
 
 #include "test_util.h"
 
-#include "gpu/gpu_bvh.h"
+#include "rt/tri_bvh.h"
 #include "rt/rt.h"
 #include "scene/scene_internal.h"
 #include "view/view.h"
@@ -21,7 +21,7 @@ static const char *const gr_kind_name[] = {"random", "primary", "segment", "shad
  * shadow: from the closest hits of random rays (Embree's; misses start anywhere in the box)
  * to uniform points in the box, over (epsilon, 0.9999 length): what the direct-light pass casts. */
 static inline size_t gr_rays(const pgi_scene *s, const pgi__rt *rt, gr_kind kind, size_t n, int w, int h, uint64_t seed,
-                             pgi__bvh_ray *r) {
+                             pgi__tri_bvh_ray *r) {
     tu_rng g = tu_rng_make(seed);
     float lo[3], ext[3];
     for (int k = 0; k < 3; k++) {
@@ -38,7 +38,7 @@ static inline size_t gr_rays(const pgi_scene *s, const pgi__rt *rt, gr_kind kind
             for (int y = 0; y < h; y++)
                 for (int x = 0; x < w; x++, i++) {
                     pgi__v3 d = pgi__camera_dir(&cam, x, y);
-                    r[i] = (pgi__bvh_ray){{cam.eye[0], cam.eye[1], cam.eye[2]}, 0.f, {d.x, d.y, d.z}, INFINITY};
+                    r[i] = (pgi__tri_bvh_ray){{cam.eye[0], cam.eye[1], cam.eye[2]}, 0.f, {d.x, d.y, d.z}, INFINITY};
                 }
         }
         return i;
@@ -47,7 +47,7 @@ static inline size_t gr_rays(const pgi_scene *s, const pgi__rt *rt, gr_kind kind
         float o[3], d[3];
         for (int k = 0; k < 3; k++) o[k] = lo[k] + ext[k] * tu_unif(&g);
         tu_unit_vec(&g, d);
-        r[i] = (pgi__bvh_ray){{o[0], o[1], o[2]}, 0.f, {d[0], d[1], d[2]}, INFINITY};
+        r[i] = (pgi__tri_bvh_ray){{o[0], o[1], o[2]}, 0.f, {d[0], d[1], d[2]}, INFINITY};
         if (kind == GR_SEGMENT) {
             r[i].tnear = 0.25f * diag * tu_unif(&g);
             r[i].tfar = r[i].tnear + 0.5f * diag * tu_unif(&g);
@@ -63,7 +63,7 @@ static inline size_t gr_rays(const pgi_scene *s, const pgi__rt *rt, gr_kind kind
             }
             float len = sqrtf(tu_dot(dd, dd));
             tu_normalize(dd);
-            r[i] = (pgi__bvh_ray){{p[0], p[1], p[2]}, eps, {dd[0], dd[1], dd[2]}, 0.9999f * len};
+            r[i] = (pgi__tri_bvh_ray){{p[0], p[1], p[2]}, eps, {dd[0], dd[1], dd[2]}, 0.9999f * len};
         }
     }
     return n;

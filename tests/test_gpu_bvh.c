@@ -1,4 +1,4 @@
-/* The GPU backend's BVH (src/gpu/gpu_bvh.h): its CPU traversal, the shader's algorithm on the
+/* The GPU backend's BVH (src/rt/tri_bvh.h): its CPU traversal, the shader's algorithm on the
  * layout the shader reads, against Embree (src/rt/rt.c) on the built-in scenes and Sibenik:
  * random rays, camera primary rays, segments with tnear > 0 and shadow rays (any hit). Every
  * Embree hit is found, the same triangle is hit except at ties (coplanar or edge-sharing triangles
@@ -11,16 +11,16 @@ static int g_layout_filter;
 
 /* Casts n rays of kind `kind` both ways and checks the agreement; returns the tally. */
 static gr_tally check_kind(const pgi_scene *s, const pgi__rt *rt, const pgi__bvh *b, gr_kind kind, size_t n, int w,
-                           int h, uint64_t seed, const char *what, pgi__bvh_counters *cnt) {
+                           int h, uint64_t seed, const char *what, pgi__tri_bvh_counters *cnt) {
     size_t cap = kind == GR_PRIMARY ? (size_t)w * h * s->ncams : n;
-    pgi__bvh_ray *r = malloc(cap * sizeof *r);
+    pgi__tri_bvh_ray *r = malloc(cap * sizeof *r);
     pgi__hit *got = malloc(cap * sizeof *got), *ref = malloc(cap * sizeof *ref);
     assert_non_null(r);
     assert_non_null(got);
     assert_non_null(ref);
     n = gr_rays(s, rt, kind, n, w, h, seed, r);
     /* the renderer's cut-out test, or (g_layout_filter) the layout's, the shader's */
-    pgi__bvh_filter filter = g_layout_filter ? pgi__bvh_mask_filter : pgi__bvh_scene_filter;
+    pgi__tri_bvh_filter filter = g_layout_filter ? pgi__tri_bvh_mask_filter : pgi__tri_bvh_scene_filter;
     void *user = g_layout_filter ? (void *)b : (void *)s;
     gr_tally c = {0};
     if (kind == GR_SHADOW) {
@@ -28,7 +28,7 @@ static gr_tally check_kind(const pgi_scene *s, const pgi__rt *rt, const pgi__bvh
         for (size_t i = 0; i < n; i++) {
             pgi__v3 o = v3(r[i].org[0], r[i].org[1], r[i].org[2]), d = v3(r[i].dir[0], r[i].dir[1], r[i].dir[2]);
             int e = pgi__rt_occluded(rt, o, d, r[i].tnear, r[i].tfar);
-            int g = pgi__bvh_occluded(b, r[i].org, r[i].dir, r[i].tnear, r[i].tfar, filter, user, cnt);
+            int g = pgi__tri_bvh_occluded(b, r[i].org, r[i].dir, r[i].tnear, r[i].tfar, filter, user, cnt);
             occl += e;
             if (e != g) {
                 /* A shadow ray that ends (or starts) on a surface: the closest hit says whether the
@@ -48,7 +48,7 @@ static gr_tally check_kind(const pgi_scene *s, const pgi__rt *rt, const pgi__bvh
         for (size_t i = 0; i < n; i++) {
             pgi__v3 o = v3(r[i].org[0], r[i].org[1], r[i].org[2]), d = v3(r[i].dir[0], r[i].dir[1], r[i].dir[2]);
             if (!pgi__rt_intersect(rt, o, d, r[i].tnear, r[i].tfar, &ref[i])) ref[i].prim = UINT32_MAX;
-            pgi__bvh_intersect(b, r[i].org, r[i].dir, r[i].tnear, r[i].tfar, &got[i], filter, user, cnt);
+            pgi__tri_bvh_intersect(b, r[i].org, r[i].dir, r[i].tnear, r[i].tfar, &got[i], filter, user, cnt);
         }
         gr_compare(got, ref, n, pgi__scene_diagonal(s), &c);
         gr_print(what, gr_kind_name[kind], &c);
@@ -72,14 +72,14 @@ static void assert_agreement(const gr_tally *c, gr_kind kind) {
 }
 
 /* The four ray sets of scene `name` (primary rays at w x h a camera). */
-static void check_scene(const char *name, size_t n, int w, int h, const pgi__bvh_config *cfg) {
+static void check_scene(const char *name, size_t n, int w, int h, const pgi__tri_bvh_config *cfg) {
     pgi_scene *s = NULL;
     TU_CHECK_OK(pgi_scene_load(name, &s));
     pgi__rt *rt = NULL;
     TU_CHECK_OK(pgi__rt_create(s, &rt));
     pgi__bvh *b = NULL;
-    TU_CHECK_OK(pgi__bvh_build(s, cfg, &b));
-    const pgi__bvh_stats *S = &b->stats;
+    TU_CHECK_OK(pgi__tri_bvh_build(s, cfg, &b));
+    const pgi__tri_bvh_stats *S = &b->stats;
     fprintf(stderr,
             "%s: %zu triangles, %zu refs, %zu inner nodes, %zu leaves (%.2f a leaf), %zu empty slots, depth %d, stack "
             "%d, SAH %.1f, %zu bytes, build %.1f ms, scratch %zu bytes\n",
@@ -92,7 +92,7 @@ static void check_scene(const char *name, size_t n, int w, int h, const pgi__bvh
         if (k == GR_SHADOW) assert_int_equal(c.wrong, 0);
         else assert_agreement(&c, (gr_kind)k);
     }
-    pgi__bvh_destroy(b);
+    pgi__tri_bvh_destroy(b);
     pgi__rt_destroy(rt);
     pgi_scene_destroy(s);
 }
@@ -122,7 +122,7 @@ static void test_cutout(void **state) {
     pgi__rt *rt = NULL;
     TU_CHECK_OK(pgi__rt_create(s, &rt));
     pgi__bvh *b = NULL;
-    TU_CHECK_OK(pgi__bvh_build(s, NULL, &b));
+    TU_CHECK_OK(pgi__tri_bvh_build(s, NULL, &b));
     pgi_camera cam;
     const pgi_camera_def *cd = &s->cams[2];
     pgi_camera_look_at(&cam, cd->eye, cd->look_at, cd->up, cd->fov_y_deg, 96, 96);
@@ -133,7 +133,7 @@ static void test_cutout(void **state) {
             const float dd[3] = {d.x, d.y, d.z};
             pgi__hit e, g;
             pgi__rt_intersect(rt, v3_load(cam.eye), d, 0.f, INFINITY, &e);
-            pgi__bvh_intersect(b, cam.eye, dd, 0.f, INFINITY, &g, NULL, NULL, NULL);
+            pgi__tri_bvh_intersect(b, cam.eye, dd, 0.f, INFINITY, &g, NULL, NULL, NULL);
             differ += e.prim != g.prim;
             masked += g.prim != UINT32_MAX && pgi__mat_masked(&s->mats[s->tri_mat[g.prim]]);
         }
@@ -150,7 +150,7 @@ static void test_cutout(void **state) {
         for (int k = 0; k < 20000; k++) {
             float u = tu_unif(&g), v = tu_unif(&g);
             if (u + v > 1.f) u = 1.f - u, v = 1.f - v;
-            int a = pgi__bvh_mask_filter(b, &b->tris[i], u, v), e = pgi__scene_cut_out(s, b->tris[i].prim, u, v);
+            int a = pgi__tri_bvh_mask_filter(b, &b->tris[i], u, v), e = pgi__scene_cut_out(s, b->tris[i].prim, u, v);
             assert_int_equal(a, e);
             tested++;
             cut += a;
@@ -159,17 +159,17 @@ static void test_cutout(void **state) {
     fprintf(stderr, "  cutout: layout and renderer agree at %zu points (%zu cut out)\n", tested, cut);
     assert_true(cut > tested / 5 && cut < tested / 2);
     /* tiled and shifted texture coordinates (wrapping, negative ones) */
-    pgi__bvh_destroy(b);
+    pgi__tri_bvh_destroy(b);
     assert_non_null(s->uv);
     for (size_t i = 0; i < 2 * s->nverts; i++) s->uv[i] = 3.7f * s->uv[i] - 1.3f;
-    TU_CHECK_OK(pgi__bvh_build(s, NULL, &b));
+    TU_CHECK_OK(pgi__tri_bvh_build(s, NULL, &b));
     tested = cut = 0;
     for (size_t i = 0; i < b->ntris; i++) {
         if (!(b->tris[i].flags & PGI__BVH_TRI_MASKED)) continue;
         for (int k = 0; k < 20000; k++) {
             float u = tu_unif(&g), v = tu_unif(&g);
             if (u + v > 1.f) u = 1.f - u, v = 1.f - v;
-            int a = pgi__bvh_mask_filter(b, &b->tris[i], u, v), e = pgi__scene_cut_out(s, b->tris[i].prim, u, v);
+            int a = pgi__tri_bvh_mask_filter(b, &b->tris[i], u, v), e = pgi__scene_cut_out(s, b->tris[i].prim, u, v);
             assert_int_equal(a, e);
             tested++;
             cut += a;
@@ -177,7 +177,7 @@ static void test_cutout(void **state) {
     }
     fprintf(stderr, "  cutout, tiled: layout and renderer agree at %zu points (%zu cut out)\n", tested, cut);
     assert_true(cut > tested / 5 && cut < tested / 2);
-    pgi__bvh_destroy(b);
+    pgi__tri_bvh_destroy(b);
     pgi__rt_destroy(rt);
     pgi_scene_destroy(s);
 }
@@ -191,7 +191,7 @@ static void test_sibenik(void **state) {
  * binary nodes, one triangle a leaf. */
 static void test_configs(void **state) {
     (void)state;
-    const pgi__bvh_config cfgs[] = {
+    const pgi__tri_bvh_config cfgs[] = {
         {.quality = 2, .width = 4, .max_leaf = 8, .traversal_cost = 1.f, .intersection_cost = 1.f},
         {.quality = 2, .width = 2, .max_leaf = 4, .traversal_cost = 1.f, .intersection_cost = 1.f},
         {.quality = 1, .width = 4, .max_leaf = 1, .traversal_cost = 1.f, .intersection_cost = 1.f},
@@ -201,9 +201,9 @@ static void test_configs(void **state) {
     pgi_scene *s = NULL;
     TU_CHECK_OK(pgi_scene_load("cornell", &s));
     pgi__bvh *b = NULL;
-    pgi__bvh_config bad = pgi__bvh_default_config();
+    pgi__tri_bvh_config bad = pgi__tri_bvh_default_config();
     bad.max_leaf = 17;
-    assert_int_equal(pgi__bvh_build(s, &bad, &b), PGI_ERR_INVALID_ARG);
+    assert_int_equal(pgi__tri_bvh_build(s, &bad, &b), PGI_ERR_INVALID_ARG);
     assert_null(b);
     assert_non_null(strstr(pgi_last_error(), "max_leaf"));
     pgi_scene_destroy(s);
@@ -217,20 +217,20 @@ static void test_dynamic(void **state) {
     pgi__rt *rt = NULL;
     TU_CHECK_OK(pgi__rt_create(s, &rt));
     pgi__bvh *b = NULL;
-    TU_CHECK_OK(pgi__bvh_build(s, NULL, &b));
-    assert_false(pgi__bvh_needs_update(b, s));
+    TU_CHECK_OK(pgi__tri_bvh_build(s, NULL, &b));
+    assert_false(pgi__tri_bvh_needs_update(b, s));
     TU_CHECK_OK(pgi_scene_set_time(s, 0.75));
-    assert_true(pgi__bvh_needs_update(b, s));
+    assert_true(pgi__tri_bvh_needs_update(b, s));
     TU_CHECK_OK(pgi__rt_update(rt, s));
-    pgi__bvh_destroy(b);
-    TU_CHECK_OK(pgi__bvh_build(s, NULL, &b));
-    assert_false(pgi__bvh_needs_update(b, s));
+    pgi__tri_bvh_destroy(b);
+    TU_CHECK_OK(pgi__tri_bvh_build(s, NULL, &b));
+    assert_false(pgi__tri_bvh_needs_update(b, s));
     for (int k = 0; k < 4; k++) {
         gr_tally c = check_kind(s, rt, b, (gr_kind)k, 10000, 48, 32, 77 + (uint64_t)k, "cornell-moving t=0.75", NULL);
         if (k == GR_SHADOW) assert_int_equal(c.wrong, 0);
         else assert_agreement(&c, (gr_kind)k);
     }
-    pgi__bvh_destroy(b);
+    pgi__tri_bvh_destroy(b);
     pgi__rt_destroy(rt);
     pgi_scene_destroy(s);
 }
@@ -242,27 +242,27 @@ static void test_deterministic_and_empty(void **state) {
     pgi_scene *s = NULL;
     TU_CHECK_OK(pgi_scene_load("sibenik", &s));
     pgi__bvh *a = NULL, *b = NULL;
-    TU_CHECK_OK(pgi__bvh_build(s, NULL, &a));
-    TU_CHECK_OK(pgi__bvh_build(s, NULL, &b));
+    TU_CHECK_OK(pgi__tri_bvh_build(s, NULL, &a));
+    TU_CHECK_OK(pgi__tri_bvh_build(s, NULL, &b));
     assert_int_equal(a->nnodes, b->nnodes);
     assert_int_equal(a->ntris, b->ntris);
     assert_memory_equal(a->nodes, b->nodes, a->nnodes * sizeof *a->nodes);
     assert_memory_equal(a->tris, b->tris, a->ntris * sizeof *a->tris);
-    assert_true(pgi__bvh_memory(a) >= a->stats.bytes);
-    pgi__bvh_destroy(a);
-    pgi__bvh_destroy(b);
+    assert_true(pgi__tri_bvh_memory(a) >= a->stats.bytes);
+    pgi__tri_bvh_destroy(a);
+    pgi__tri_bvh_destroy(b);
     size_t nt = s->ntris;
     s->ntris = 0;
-    TU_CHECK_OK(pgi__bvh_build(s, NULL, &a));
+    TU_CHECK_OK(pgi__tri_bvh_build(s, NULL, &a));
     s->ntris = nt;
     assert_int_equal(a->nnodes, 1);
     assert_int_equal(a->ntris, 0);
     pgi__hit h;
     const float o[3] = {0, 0, 0}, d[3] = {0, 0, 1};
-    assert_int_equal(pgi__bvh_intersect(a, o, d, 0.f, INFINITY, &h, NULL, NULL, NULL), 0);
+    assert_int_equal(pgi__tri_bvh_intersect(a, o, d, 0.f, INFINITY, &h, NULL, NULL, NULL), 0);
     assert_int_equal(h.prim, UINT32_MAX);
-    assert_int_equal(pgi__bvh_occluded(a, o, d, 0.f, INFINITY, NULL, NULL, NULL), 0);
-    pgi__bvh_destroy(a);
+    assert_int_equal(pgi__tri_bvh_occluded(a, o, d, 0.f, INFINITY, NULL, NULL, NULL), 0);
+    pgi__tri_bvh_destroy(a);
     pgi_scene_destroy(s);
 }
 

@@ -1,6 +1,6 @@
 /* Rays on the GPU (src/gpu/gpu_rays.h, src/gpu/shaders/rays.comp) on whatever Vulkan device the
  * loader finds (CI: lavapipe). The kernel gives the same hits as the CPU traversal of the same
- * layout (gpu_bvh.c): the same triangle for every ray, t, u, v within 1e-6 relative (the kernel
+ * layout (rt/tri_bvh.c): the same triangle for every ray, t, u, v within 1e-6 relative (the kernel
  * keeps the CPU's operation order and no fused multiply-adds; a device's division may round
  * differently, hence not bit for bit), the same occlusion answers; and it agrees with Embree as
  * tests/test_gpu_bvh.c's traversal does, cut-outs included. Small ray counts: lavapipe is a CPU. Built and run only
@@ -13,20 +13,21 @@
 
 /* GPU against the CPU traversal of the same BVH: rays whose answers differ (prim, or t, u, v
  * beyond 1e-6 relative / 1e-6 absolute), printing the first few. */
-static size_t gpu_vs_cpu(const pgi__bvh *b, const pgi__bvh_ray *r, const pgi__hit *gh, size_t n, int any,
+static size_t gpu_vs_cpu(const pgi__bvh *b, const pgi__tri_bvh_ray *r, const pgi__hit *gh, size_t n, int any,
                          size_t *exact) {
     size_t bad = 0;
     void *bv = (void *)b; /* the layout's cut-out test, the shader's */
     for (size_t i = 0; i < n; i++) {
         pgi__hit ch;
         if (any) {
-            int o = pgi__bvh_occluded(b, r[i].org, r[i].dir, r[i].tnear, r[i].tfar, pgi__bvh_mask_filter, bv, NULL);
+            int o =
+                pgi__tri_bvh_occluded(b, r[i].org, r[i].dir, r[i].tnear, r[i].tfar, pgi__tri_bvh_mask_filter, bv, NULL);
             int go = gh[i].prim != UINT32_MAX;
             if (o != go && bad++ < 3) fprintf(stderr, "  shadow ray %zu: GPU %d, CPU %d\n", i, go, o);
             *exact += o == go;
             continue;
         }
-        pgi__bvh_intersect(b, r[i].org, r[i].dir, r[i].tnear, r[i].tfar, &ch, pgi__bvh_mask_filter, bv, NULL);
+        pgi__tri_bvh_intersect(b, r[i].org, r[i].dir, r[i].tnear, r[i].tfar, &ch, pgi__tri_bvh_mask_filter, bv, NULL);
         const pgi__hit *g = &gh[i];
         int same = g->prim == ch.prim;
         if (same && ch.prim != UINT32_MAX)
@@ -46,7 +47,7 @@ static void check_rays(const pgi_scene *s, pgi__gpu_rays *gr, size_t n, int w, i
     TU_CHECK_OK(pgi__rt_create(s, &rt));
     const pgi__bvh *b = pgi__gpu_rays_bvh(gr);
     size_t cap = n > (size_t)w * h * s->ncams ? n : (size_t)w * h * s->ncams;
-    pgi__bvh_ray *r = malloc(cap * sizeof *r);
+    pgi__tri_bvh_ray *r = malloc(cap * sizeof *r);
     pgi__hit *gh = malloc(cap * sizeof *gh), *eh = malloc(cap * sizeof *eh);
     assert_non_null(r);
     assert_non_null(gh);
@@ -105,8 +106,8 @@ static void check_scene(const char *name, size_t n, int w, int h) {
         if (!strcmp(mem[i].name, "gpu_bvh_tris")) tris = mem[i].value;
     }
     const pgi__bvh *b = pgi__gpu_rays_bvh(gr);
-    assert_true(nodes >= (double)(b->nnodes * sizeof(pgi__bvh_node)));
-    assert_true(tris >= (double)(b->ntris * sizeof(pgi__bvh_tri)));
+    assert_true(nodes >= (double)(b->nnodes * sizeof(pgi__tri_bvh_node)));
+    assert_true(tris >= (double)(b->ntris * sizeof(pgi__tri_bvh_tri)));
     pgi__gpu_rays_destroy(gr);
     pgi_scene_destroy(s);
 }
@@ -166,7 +167,7 @@ static void test_cutout(void **state) {
  * refused and the previous build stays. */
 static void test_configs(void **state) {
     (void)state;
-    const pgi__bvh_config
+    const pgi__tri_bvh_config
         split = {.quality = 2, .width = 4, .max_leaf = 8, .traversal_cost = 1.f, .intersection_cost = 1.f},
         binary = {.quality = 1, .width = 2, .max_leaf = 1, .traversal_cost = 1.f, .intersection_cost = 1.f};
     pgi_scene *s = NULL;
@@ -183,7 +184,7 @@ static void test_configs(void **state) {
     TU_CHECK_OK(pgi__gpu_rays_set_config(gr, s, &binary));
     check_rays(s, gr, 5000, 32, 24, "cornell binary");
     const pgi__bvh *before = pgi__gpu_rays_bvh(gr);
-    pgi__bvh_config bad = binary;
+    pgi__tri_bvh_config bad = binary;
     bad.width = 3;
     assert_int_equal(pgi__gpu_rays_set_config(gr, s, &bad), PGI_ERR_INVALID_ARG);
     assert_ptr_equal(pgi__gpu_rays_bvh(gr), before);
@@ -200,7 +201,7 @@ static void test_dispatch_offsets(void **state) {
     pgi__gpu_rays *gr = NULL;
     TU_CHECK_OK(pgi__gpu_rays_create(g_gpu, s, &gr));
     enum { N = 1000, FIRST = 300, M = 500 };
-    pgi__bvh_ray *r = malloc(N * sizeof *r);
+    pgi__tri_bvh_ray *r = malloc(N * sizeof *r);
     pgi__hit *h = malloc(N * sizeof *h);
     assert_non_null(r);
     assert_non_null(h);

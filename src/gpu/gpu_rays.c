@@ -23,7 +23,7 @@ struct pgi__gpu_rays {
     pgi__gpu_buffer *rays, *hits; /* pgi__gpu_rays_intersect's */
     pgi__gpu_kernel *kernel;
     uint32_t max_groups; /* a dispatch's most groups (MAX_GROUPS; tests lower it) */
-    pgi__bvh_config cfg;
+    pgi__tri_bvh_config cfg;
 };
 
 /* Uploads n bytes of src (NULL or n 0: one zero word, a buffer must exist) into *b. */
@@ -37,16 +37,16 @@ static pgi_status upload(pgi__gpu *g, pgi__gpu_buffer **b, const void *src, size
 /* Builds the BVH and uploads its four arrays. */
 static pgi_status build_upload(pgi__gpu_rays *r, const pgi_scene *s) {
     pgi__bvh *b = NULL;
-    pgi_status st = pgi__bvh_build(s, &r->cfg, &b);
+    pgi_status st = pgi__tri_bvh_build(s, &r->cfg, &b);
     if (st) return st;
-    if ((st = upload(r->g, &r->nodes, b->nodes, b->nnodes * sizeof(pgi__bvh_node), "gpu_bvh_nodes")) ||
-        (st = upload(r->g, &r->tris, b->tris, b->ntris * sizeof(pgi__bvh_tri), "gpu_bvh_tris")) ||
-        (st = upload(r->g, &r->masks, b->masks, b->nmasks * sizeof(pgi__bvh_mask), "gpu_bvh_masks")) ||
+    if ((st = upload(r->g, &r->nodes, b->nodes, b->nnodes * sizeof(pgi__tri_bvh_node), "gpu_bvh_nodes")) ||
+        (st = upload(r->g, &r->tris, b->tris, b->ntris * sizeof(pgi__tri_bvh_tri), "gpu_bvh_tris")) ||
+        (st = upload(r->g, &r->masks, b->masks, b->nmasks * sizeof(pgi__tri_bvh_mask), "gpu_bvh_masks")) ||
         (st = upload(r->g, &r->alpha, b->alpha, b->nalpha * sizeof(uint32_t), "gpu_bvh_alpha"))) {
-        pgi__bvh_destroy(b);
+        pgi__tri_bvh_destroy(b);
         return st;
     }
-    pgi__bvh_destroy(r->bvh);
+    pgi__tri_bvh_destroy(r->bvh);
     r->bvh = b;
     return PGI_OK;
 }
@@ -62,7 +62,7 @@ pgi_status pgi__gpu_rays_create(pgi__gpu *g, const pgi_scene *s, pgi__gpu_rays *
     if (!r) return pgi__fail(PGI_ERR_OOM, "out of memory creating the GPU rays");
     r->g = g;
     r->max_groups = MAX_GROUPS;
-    r->cfg = pgi__bvh_default_config();
+    r->cfg = pgi__tri_bvh_default_config();
     pgi_status st = build_upload(r, s);
     if (!st)
         st = pgi__gpu_kernel_create(g, pgi__spv_rays, sizeof pgi__spv_rays, "rays", 6, sizeof(rays_push), &r->kernel);
@@ -84,11 +84,13 @@ void pgi__gpu_rays_destroy(pgi__gpu_rays *r) {
     pgi__gpu_buffer_destroy(r->g, r->alpha);
     pgi__gpu_buffer_destroy(r->g, r->rays);
     pgi__gpu_buffer_destroy(r->g, r->hits);
-    pgi__bvh_destroy(r->bvh);
+    pgi__tri_bvh_destroy(r->bvh);
     free(r);
 }
 
-int pgi__gpu_rays_needs_update(const pgi__gpu_rays *r, const pgi_scene *s) { return pgi__bvh_needs_update(r->bvh, s); }
+int pgi__gpu_rays_needs_update(const pgi__gpu_rays *r, const pgi_scene *s) {
+    return pgi__tri_bvh_needs_update(r->bvh, s);
+}
 
 pgi_status pgi__gpu_rays_update(pgi__gpu_rays *r, const pgi_scene *s) {
     if (!pgi__gpu_rays_needs_update(r, s)) return PGI_OK;
@@ -97,9 +99,9 @@ pgi_status pgi__gpu_rays_update(pgi__gpu_rays *r, const pgi_scene *s) {
 
 const pgi__bvh *pgi__gpu_rays_bvh(const pgi__gpu_rays *r) { return r->bvh; }
 
-pgi_status pgi__gpu_rays_set_config(pgi__gpu_rays *r, const pgi_scene *s, const pgi__bvh_config *cfg) {
-    pgi__bvh_config old = r->cfg;
-    r->cfg = cfg ? *cfg : pgi__bvh_default_config();
+pgi_status pgi__gpu_rays_set_config(pgi__gpu_rays *r, const pgi_scene *s, const pgi__tri_bvh_config *cfg) {
+    pgi__tri_bvh_config old = r->cfg;
+    r->cfg = cfg ? *cfg : pgi__tri_bvh_default_config();
     pgi_status st = build_upload(r, s);
     if (st) r->cfg = old;
     return st;
@@ -112,7 +114,7 @@ void pgi__gpu_rays_set_max_groups(pgi__gpu_rays *r, uint32_t groups) {
 pgi_status pgi__gpu_rays_dispatch(pgi__gpu_rays *r, pgi__gpu_buffer *rays, pgi__gpu_buffer *hits, size_t first,
                                   size_t n, int any_hit) {
     if (!rays || !hits) return pgi__fail(PGI_ERR_INTERNAL, "GPU rays: no ray or hit buffer");
-    if (first + n > pgi__gpu_buffer_size(rays) / sizeof(pgi__bvh_ray) ||
+    if (first + n > pgi__gpu_buffer_size(rays) / sizeof(pgi__tri_bvh_ray) ||
         first + n > pgi__gpu_buffer_size(hits) / sizeof(pgi__hit) || first + n > UINT32_MAX)
         return pgi__fail(PGI_ERR_INTERNAL, "GPU rays: rays %zu..%zu outside the ray or hit buffer", first, first + n);
     pgi__gpu_buffer *bufs[6] = {r->nodes, r->tris, r->masks, r->alpha, rays, hits};
@@ -126,7 +128,8 @@ pgi_status pgi__gpu_rays_dispatch(pgi__gpu_rays *r, pgi__gpu_buffer *rays, pgi__
     return PGI_OK;
 }
 
-pgi_status pgi__gpu_rays_intersect(pgi__gpu_rays *r, const pgi__bvh_ray *rays, size_t n, int any_hit, pgi__hit *hits) {
+pgi_status pgi__gpu_rays_intersect(pgi__gpu_rays *r, const pgi__tri_bvh_ray *rays, size_t n, int any_hit,
+                                   pgi__hit *hits) {
     if (n == 0) return PGI_OK;
     pgi_status st;
     if ((st = pgi__gpu_buffer_reserve(r->g, &r->rays, n * sizeof *rays, "gpu_rays")) ||

@@ -1,4 +1,4 @@
-/* Rays on the GPU (issue "The GPU backend", item 2): the scene's BVH (gpu_bvh.h, built on the CPU)
+/* Rays on the GPU (issue "The GPU backend", item 2): the scene's BVH (rt/tri_bvh.h, built on the CPU)
  * uploaded once per geometry change, and the kernel src/gpu/shaders/rays.comp that intersects a
  * buffer of rays with it (closest hit, or any hit for shadow rays). Works on every Vulkan device,
  * lavapipe included; no hardware ray tracing.
@@ -9,7 +9,7 @@
  *   // or, inside a pass's own sequence with rays already on the device:
  *   pgi__gpu_begin(gpu); pgi__gpu_rays_dispatch(gr, ray_buf, hit_buf, 0, n, 1); pgi__gpu_submit_wait(gpu);
  *
- * Rays are pgi__bvh_ray (32 bytes), hits pgi__hit (16 bytes, prim UINT32_MAX for none), as the
+ * Rays are pgi__tri_bvh_ray (32 bytes), hits pgi__hit (16 bytes, prim UINT32_MAX for none), as the
  * CPU's pgi__rt_intersect returns them (Embree's conventions: t in (tnear, tfar], both faces, u, v
  * the barycentrics of vertices 1 and 2; cut-out materials refuse hits where their mask is open, as
  * the renderer's Embree filter). */
@@ -17,11 +17,11 @@
 #define PGI_GPU_RAYS_H
 
 #include "gpu/gpu.h"
-#include "gpu/gpu_bvh.h"
+#include "rt/tri_bvh.h"
 
 typedef struct pgi__gpu_rays pgi__gpu_rays;
 
-/* Builds the BVH of s (the default pgi__bvh_config), uploads it to g (buffers "gpu_bvh_nodes",
+/* Builds the BVH of s (the default pgi__tri_bvh_config), uploads it to g (buffers "gpu_bvh_nodes",
  * "gpu_bvh_tris", "gpu_bvh_masks", "gpu_bvh_alpha") and creates the kernel. The scene and the
  * device are borrowed. */
 pgi_status pgi__gpu_rays_create(pgi__gpu *g, const pgi_scene *s, pgi__gpu_rays **out);
@@ -37,7 +37,7 @@ void pgi__gpu_rays_buffers(const pgi__gpu_rays *r, pgi__gpu_buffer **out);
 /* The BVH on the device (its statistics, and the CPU traversal of the same layout). */
 const pgi__bvh *pgi__gpu_rays_bvh(const pgi__gpu_rays *r);
 
-/* Records the intersection of rays[first .. first + n) of buffer `rays` (pgi__bvh_ray) into the
+/* Records the intersection of rays[first .. first + n) of buffer `rays` (pgi__tri_bvh_ray) into the
  * same entries of `hits` (pgi__hit) in the sequence being recorded (between pgi__gpu_begin and
  * pgi__gpu_submit_wait); any_hit: occlusion queries. Splits into dispatches of at most 65535
  * groups of 64. */
@@ -46,11 +46,12 @@ pgi_status pgi__gpu_rays_dispatch(pgi__gpu_rays *r, pgi__gpu_buffer *rays, pgi__
 /* Benchmarks: rebuilds and uploads the BVH of s with build settings cfg (NULL: the default), kept
  * for later updates; on failure the previous settings stay (the device state as after a failed
  * update). */
-pgi_status pgi__gpu_rays_set_config(pgi__gpu_rays *r, const pgi_scene *s, const pgi__bvh_config *cfg);
+pgi_status pgi__gpu_rays_set_config(pgi__gpu_rays *r, const pgi_scene *s, const pgi__tri_bvh_config *cfg);
 /* Tests: dispatches of at most `groups` groups (1..65535) from now on, to exercise the split. */
 void pgi__gpu_rays_set_max_groups(pgi__gpu_rays *r, uint32_t groups);
 /* Host arrays: uploads n rays, runs one sequence (timestamp label "rays"), downloads n hits.
  * Blocking; the ray and hit buffers ("gpu_rays", "gpu_hits") are kept and grown for the next call. */
-pgi_status pgi__gpu_rays_intersect(pgi__gpu_rays *r, const pgi__bvh_ray *rays, size_t n, int any_hit, pgi__hit *hits);
+pgi_status pgi__gpu_rays_intersect(pgi__gpu_rays *r, const pgi__tri_bvh_ray *rays, size_t n, int any_hit,
+                                   pgi__hit *hits);
 
 #endif

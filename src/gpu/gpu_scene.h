@@ -14,7 +14,7 @@
  * constants' first member `SceneInfo scene` (pgi__gpu_scene_push).
  *
  * Layouts (std430, little-endian 32-bit words; scene.glsl declares the same structs):
- *   0..3  the BVH: nodes, triangles, cut-out masks, alpha words (gpu_bvh.h; "gpu_bvh_*")
+ *   0..3  the BVH: nodes, triangles, cut-out masks, alpha words (rt/tri_bvh.h; "gpu_bvh_*")
  *   4  verts[nverts]   pgi__gpu_vert, 32 bytes: pos.xyz, u | nrm.xyz, v. nrm is 0 when the scene
  *                      has no vertex normals, u, v 0 without texture coordinates (SceneInfo.flags
  *                      says which).                                                 ("gpu_scene")

@@ -1,6 +1,6 @@
-/* Ray casting. The only module that includes Embree (besides the GPU backend's BVH builder,
- * src/gpu/gpu_bvh.c, which uses Embree's rtcBuildBVH only); everything else sees
- * these few calls. */
+/* Ray casting. src/rt is the only folder that includes Embree: rt.c (the CPU's scene and rays)
+ * and tri_bvh.c (the GPU backend's triangle BVH, built with Embree's rtcBuildBVH); everything
+ * else sees these few calls and tri_bvh.h. */
 #ifndef PGI_RT_H
 #define PGI_RT_H
 

@@ -1,10 +1,10 @@
-// Ray traversal of the GPU BVH (src/gpu/gpu_bvh.h documents the layout and the algorithm; the
+// Ray traversal of the GPU BVH (src/rt/tri_bvh.h documents the layout and the algorithm; the
 // CPU traversal there is this code line for line, and tests/test_gpu_rays.c compares the two).
 // Include it after choosing the bindings of its four storage buffers (set 0; these are the
 // defaults):
-//   #define BVH_NODES_BINDING 0   // pgi__bvh_node[]
-//   #define BVH_TRIS_BINDING 1    // pgi__bvh_tri[]
-//   #define BVH_MASKS_BINDING 2   // pgi__bvh_mask[] (cut-out triangles; one dummy entry when none)
+//   #define BVH_NODES_BINDING 0   // pgi__tri_bvh_node[]
+//   #define BVH_TRIS_BINDING 1    // pgi__tri_bvh_tri[]
+//   #define BVH_MASKS_BINDING 2   // pgi__tri_bvh_mask[] (cut-out triangles; one dummy entry when none)
 //   #define BVH_ALPHA_BINDING 3   // uint32 alpha words of the cut-out textures (idem)
 //   #include "bvh.glsl"
 // then call bvh_trace(origin, direction, tnear, tfar, any_hit, hit). Hits on cut-out triangles
@@ -30,7 +30,7 @@
 #define BVH_LEAF_SHIFT 27
 #define BVH_FIRST_MASK 0x07FFFFFFu
 #define BVH_STACK 64
-// 1 + 2 gamma(3): the far distance of a box test is widened by this (gpu_bvh.c's BOX_WIDEN).
+// 1 + 2 gamma(3): the far distance of a box test is widened by this (tri_bvh.c's BOX_WIDEN).
 #define BVH_BOX_WIDEN 1.00000036
 // Embree's rcp_safe: smaller direction components become +-this.
 #define BVH_MIN_RCP 1e-18
@@ -105,7 +105,7 @@ float bvh_texel(BvhMask m, int x, int y) {
 
 // Whether the cut-out triangle of `flags` is open at barycentrics (b1, b2): pgi__scene_cut_out
 // (texture coordinates, then pgi__texture_alpha's bilinear wrapping lookup) operation for
-// operation, as gpu_bvh.c's pgi__bvh_mask_filter.
+// operation, as tri_bvh.c's pgi__tri_bvh_mask_filter.
 bool bvh_cut_out(uint flags, float b1, float b2) {
     const BvhMask m = bvh_masks[flags >> 1];
     precise float bw = 1.0 - b1 - b2;
@@ -136,7 +136,7 @@ bool bvh_cut_out(uint flags, float b1, float b2) {
 }
 
 // Compare-and-swap of (distance, reference) pairs: only when a is strictly farther, so that the
-// adjacent-pair network below is a stable sort (ties keep slot order, as gpu_bvh.c's insertion).
+// adjacent-pair network below is a stable sort (ties keep slot order, as tri_bvh.c's insertion).
 void bvh_cswap(inout float da, inout uint ra, inout float db, inout uint rb) {
     if (da > db) {
         float td = da;

@@ -1,8 +1,8 @@
-/* The GPU backend's BVH (gpu_bvh.h): Embree's rtcBuildBVH with our own node callbacks builds a
+/* The GPU backend's triangle BVH (tri_bvh.h): Embree's rtcBuildBVH with our own node callbacks builds a
  * temporary tree in Embree's thread-local memory; a depth-first walk flattens it into the
  * 4-wide node array and the leaf-ordered triangle array the shaders read. The CPU traversal at
  * the end is the shader's algorithm (src/gpu/shaders/bvh.glsl) line for line. */
-#include "gpu/gpu_bvh.h"
+#include "rt/tri_bvh.h"
 
 #include <embree3/rtcore.h>
 #include <stdatomic.h>
@@ -165,7 +165,7 @@ static void count_tree(const tnode *n, size_t *inner, size_t *refs) {
     for (uint32_t i = 0; i < n->n; i++) count_tree(t->c[i], inner, refs);
 }
 
-static void write_tri(const pgi_scene *s, const uint32_t *mask_of, uint32_t prim, pgi__bvh_tri *o) {
+static void write_tri(const pgi_scene *s, const uint32_t *mask_of, uint32_t prim, pgi__tri_bvh_tri *o) {
     const uint32_t *t = s->tri + 3 * (size_t)prim;
     const float *v0 = s->pos + 3 * (size_t)t[0], *v1 = s->pos + 3 * (size_t)t[1], *v2 = s->pos + 3 * (size_t)t[2];
     for (int k = 0; k < 3; k++) {
@@ -187,7 +187,7 @@ static uint32_t flatten_leaf(flat_ctx *fc, const tleaf *l) {
 
 /* Slot i of node nd. `+ 0.f` turns -0 into +0: Embree's parallel reductions give either for a
  * zero coordinate, and the build is the same bytes every time. */
-static void set_slot(pgi__bvh_node *nd, int i, const struct RTCBounds *b, uint32_t child) {
+static void set_slot(pgi__tri_bvh_node *nd, int i, const struct RTCBounds *b, uint32_t child) {
     nd->lo_x[i] = b->lower_x + 0.f;
     nd->lo_y[i] = b->lower_y + 0.f;
     nd->lo_z[i] = b->lower_z + 0.f;
@@ -197,7 +197,7 @@ static void set_slot(pgi__bvh_node *nd, int i, const struct RTCBounds *b, uint32
     nd->child[i] = child;
 }
 
-static void clear_node(pgi__bvh_node *nd) {
+static void clear_node(pgi__tri_bvh_node *nd) {
     static const struct RTCBounds empty = {INFINITY, INFINITY, INFINITY, 0.f, -INFINITY, -INFINITY, -INFINITY, 0.f};
     for (int i = 0; i < 4; i++) set_slot(nd, i, &empty, PGI__BVH_EMPTY);
 }
@@ -208,7 +208,7 @@ static void clear_node(pgi__bvh_node *nd) {
  * any child's). */
 static uint32_t flatten_inner(flat_ctx *fc, const tinner *t, int depth, int *need) {
     uint32_t idx = (uint32_t)fc->nnodes++;
-    pgi__bvh_node *nd = &fc->b->nodes[idx];
+    pgi__tri_bvh_node *nd = &fc->b->nodes[idx];
     clear_node(nd);
     if (depth > fc->max_depth) fc->max_depth = depth;
     int most = 0;
@@ -230,12 +230,12 @@ static uint32_t flatten_inner(flat_ctx *fc, const tinner *t, int depth, int *nee
     return idx;
 }
 
-pgi__bvh_config pgi__bvh_default_config(void) {
-    pgi__bvh_config c = {.quality = 1, .width = 4, .max_leaf = 4, .traversal_cost = 1.f, .intersection_cost = 1.f};
+pgi__tri_bvh_config pgi__tri_bvh_default_config(void) {
+    pgi__tri_bvh_config c = {.quality = 1, .width = 4, .max_leaf = 4, .traversal_cost = 1.f, .intersection_cost = 1.f};
     return c;
 }
 
-void pgi__bvh_destroy(pgi__bvh *b) {
+void pgi__tri_bvh_destroy(pgi__bvh *b) {
     if (!b) return;
     free(b->nodes);
     free(b->tris);
@@ -245,11 +245,11 @@ void pgi__bvh_destroy(pgi__bvh *b) {
 }
 
 static size_t arrays_bytes(const pgi__bvh *b) {
-    return b->nnodes * sizeof(pgi__bvh_node) + b->ntris * sizeof(pgi__bvh_tri) + b->nmasks * sizeof(pgi__bvh_mask) +
-           b->nalpha * sizeof(uint32_t);
+    return b->nnodes * sizeof(pgi__tri_bvh_node) + b->ntris * sizeof(pgi__tri_bvh_tri) +
+           b->nmasks * sizeof(pgi__tri_bvh_mask) + b->nalpha * sizeof(uint32_t);
 }
 
-size_t pgi__bvh_memory(const pgi__bvh *b) { return b ? sizeof *b + arrays_bytes(b) : 0; }
+size_t pgi__tri_bvh_memory(const pgi__bvh *b) { return b ? sizeof *b + arrays_bytes(b) : 0; }
 
 /* The cut-out records: one per masked scene triangle (in triangle order), and the alpha
  * channels of their textures packed into b->alpha; *mask_of (ntris entries) maps a scene
@@ -300,7 +300,7 @@ static pgi_status build_masks(const pgi_scene *s, pgi__bvh *b, uint32_t **mask_o
     for (size_t t = 0; t < s->ntris; t++) {
         const pgi__material *m = &s->mats[s->tri_mat[t]];
         if (!pgi__mat_masked(m)) continue;
-        pgi__bvh_mask *k = &b->masks[b->nmasks];
+        pgi__tri_bvh_mask *k = &b->masks[b->nmasks];
         map[t] = (uint32_t)b->nmasks++;
         if (s->uv) {
             const uint32_t *ti = s->tri + 3 * t;
@@ -320,7 +320,7 @@ static pgi_status build_masks(const pgi_scene *s, pgi__bvh *b, uint32_t **mask_o
     return PGI_OK;
 }
 
-int pgi__bvh_needs_update(const pgi__bvh *b, const pgi_scene *s) {
+int pgi__tri_bvh_needs_update(const pgi__bvh *b, const pgi_scene *s) {
     return b->static_version != s->static_version || b->dynamic_version != s->dynamic_version;
 }
 
@@ -347,9 +347,9 @@ static int prim_bounds(const pgi_scene *s, uint32_t t, struct RTCBuildPrimitive 
     return 1;
 }
 
-pgi_status pgi__bvh_build(const pgi_scene *s, const pgi__bvh_config *cfg_in, pgi__bvh **out) {
+pgi_status pgi__tri_bvh_build(const pgi_scene *s, const pgi__tri_bvh_config *cfg_in, pgi__bvh **out) {
     *out = NULL;
-    const pgi__bvh_config cfg = cfg_in ? *cfg_in : pgi__bvh_default_config();
+    const pgi__tri_bvh_config cfg = cfg_in ? *cfg_in : pgi__tri_bvh_default_config();
     if ((cfg.width != 2 && cfg.width != 4) || cfg.max_leaf < 1 || cfg.max_leaf > PGI__BVH_MAX_LEAF ||
         (cfg.quality != 1 && cfg.quality != 2))
         return pgi__fail(PGI_ERR_INVALID_ARG, "GPU BVH: width %d (2 or 4), max_leaf %d (1..%d), quality %d (1 or 2)",
@@ -464,7 +464,7 @@ pgi_status pgi__bvh_build(const pgi_scene *s, const pgi__bvh_config *cfg_in, pgi
         PGI_ASSERT(fc.nnodes == inner && fc.ntris == refs);
         b->nnodes = fc.nnodes;
         b->ntris = fc.ntris;
-        pgi__bvh_stats *S = &b->stats;
+        pgi__tri_bvh_stats *S = &b->stats;
         S->inner = b->nnodes;
         S->tri_refs = b->ntris;
         S->max_depth = fc.max_depth;
@@ -489,7 +489,7 @@ done:
     if (dev) rtcReleaseDevice(dev);
     free(prims);
     if (st) {
-        pgi__bvh_destroy(b);
+        pgi__tri_bvh_destroy(b);
         return st;
     }
     long long pk = atomic_load_explicit(&bc.peak, memory_order_relaxed);
@@ -500,7 +500,7 @@ done:
     return PGI_OK;
 }
 
-int pgi__bvh_scene_filter(void *scene, const pgi__bvh_tri *tri, float u, float v) {
+int pgi__tri_bvh_scene_filter(void *scene, const pgi__tri_bvh_tri *tri, float u, float v) {
     return pgi__scene_cut_out((const pgi_scene *)scene, tri->prim, u, v);
 }
 
@@ -508,9 +508,9 @@ static inline int wrap_index(int i, int n) { return i < 0 ? i + n : i >= n ? i -
 
 /* pgi__scene_cut_out on the layout's arrays: pgi__scene_uv, then pgi__texture_alpha's bilinear
  * lookup, operation for operation (bvh.glsl's bvh_cut_out is this again). */
-int pgi__bvh_mask_filter(void *bvh, const pgi__bvh_tri *tri, float b1, float b2) {
+int pgi__tri_bvh_mask_filter(void *bvh, const pgi__tri_bvh_tri *tri, float b1, float b2) {
     const pgi__bvh *b = bvh;
-    const pgi__bvh_mask *m = &b->masks[tri->flags >> 1];
+    const pgi__tri_bvh_mask *m = &b->masks[tri->flags >> 1];
     float bw = 1.f - b1 - b2;
     float u = bw * m->uv0[0] + b1 * m->uv1[0] + b2 * m->uv2[0];
     float v = bw * m->uv0[1] + b1 * m->uv1[1] + b2 * m->uv2[1];
@@ -562,7 +562,8 @@ static inline void ray_prepare(ray_pre *r, const float o[3], const float d[3]) {
 
 /* The children of node nd the ray enters within (tnear, tfar]: their references and entry
  * distances, nearest first (ties: slot order). Returns their count. */
-static inline int node_children(const pgi__bvh_node *nd, const ray_pre *r, float tnear, float tfar, uint32_t ref[4]) {
+static inline int node_children(const pgi__tri_bvh_node *nd, const ray_pre *r, float tnear, float tfar,
+                                uint32_t ref[4]) {
     float dist[4];
     int cnt = 0;
     for (int i = 0; i < 4; i++) {
@@ -590,8 +591,8 @@ static inline int node_children(const pgi__bvh_node *nd, const ray_pre *r, float
 
 /* Embree's Moeller-Trumbore (triangle4 layout): 1 and t, u, v when the ray hits tri within
  * (tnear, tfar]. */
-static inline int tri_hit(const pgi__bvh_tri *tr, const float o[3], const float d[3], float tnear, float tfar, float *t,
-                          float *u, float *v) {
+static inline int tri_hit(const pgi__tri_bvh_tri *tr, const float o[3], const float d[3], float tnear, float tfar,
+                          float *t, float *u, float *v) {
     const float *e1 = tr->e1, *e2 = tr->e2;
     float C[3] = {tr->v0[0] - o[0], tr->v0[1] - o[1], tr->v0[2] - o[2]};
     float R[3] = {C[1] * d[2] - C[2] * d[1], C[2] * d[0] - C[0] * d[2], C[0] * d[1] - C[1] * d[0]};
@@ -613,7 +614,7 @@ static inline int tri_hit(const pgi__bvh_tri *tr, const float o[3], const float 
 
 /* The traversal; any: stop at the first hit. */
 static int traverse(const pgi__bvh *b, const float o[3], const float d[3], float tnear, float tfar, int any,
-                    pgi__hit *h, pgi__bvh_filter filter, void *user, pgi__bvh_counters *c) {
+                    pgi__hit *h, pgi__tri_bvh_filter filter, void *user, pgi__tri_bvh_counters *c) {
     ray_pre r;
     ray_prepare(&r, o, d);
     uint32_t stack[PGI__BVH_STACK];
@@ -634,7 +635,7 @@ static int traverse(const pgi__bvh *b, const float o[3], const float d[3], float
             nl++;
             uint32_t first = ref & (PGI__BVH_MAX_TRIS - 1), cnt = ((ref >> PGI__BVH_LEAF_SHIFT) & 15u) + 1u;
             for (uint32_t i = first; i < first + cnt; i++) {
-                const pgi__bvh_tri *tr = &b->tris[i];
+                const pgi__tri_bvh_tri *tr = &b->tris[i];
                 float t, u, v;
                 nt++;
                 if (!tri_hit(tr, o, d, tnear, tfar, &t, &u, &v)) continue;
@@ -662,13 +663,13 @@ out:
     return found;
 }
 
-int pgi__bvh_intersect(const pgi__bvh *b, const float o[3], const float d[3], float tnear, float tfar, pgi__hit *h,
-                       pgi__bvh_filter filter, void *user, pgi__bvh_counters *c) {
+int pgi__tri_bvh_intersect(const pgi__bvh *b, const float o[3], const float d[3], float tnear, float tfar, pgi__hit *h,
+                           pgi__tri_bvh_filter filter, void *user, pgi__tri_bvh_counters *c) {
     h->prim = UINT32_MAX;
     return traverse(b, o, d, tnear, tfar, 0, h, filter, user, c);
 }
 
-int pgi__bvh_occluded(const pgi__bvh *b, const float o[3], const float d[3], float tnear, float tfar,
-                      pgi__bvh_filter filter, void *user, pgi__bvh_counters *c) {
+int pgi__tri_bvh_occluded(const pgi__bvh *b, const float o[3], const float d[3], float tnear, float tfar,
+                          pgi__tri_bvh_filter filter, void *user, pgi__tri_bvh_counters *c) {
     return traverse(b, o, d, tnear, tfar, 1, NULL, filter, user, c);
 }
