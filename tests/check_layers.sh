@@ -3,7 +3,8 @@
 #  - only src/rt includes Embree (rt.c: the CPU's rays; tri_bvh.c: the GPU backend's BVH builder);
 #  - the programs (apps/) include only the public headers and headers of apps/ (photongi-mpi
 #    shares apps/photongi's), never the library's internal ones (src/...);
-#  - the public headers include only each other and the C library.
+#  - the public headers include only each other and the C library;
+#  - a folder of src/ includes only folders below it (the ranks below).
 # Prints each breach as FILE:LINE: what, and exits 1; 0 when every rule holds.
 #   tests/check_layers.sh      (run from anywhere)
 set -uo pipefail
@@ -32,6 +33,20 @@ while IFS= read -r hit; do
     inc=$(sed -n 's/.*#include *"\([^"]*\)".*/\1/p' <<<"${hit#*:*:}")
     case $inc in photongi/*) ;; *) breach "${hit%%:#*}" "a public header includes \"$inc\"" ;; esac
 done < <(grep -rn '#include *"' include)
+
+# The library's folders, lowest first: a folder includes only folders of a lower rank (docs/architecture.md).
+declare -A rank=([core]=0 [io]=1 [metrics]=2 [filter]=2 [scene]=2 [rt]=3 [estimators]=3 [photon]=4 [view]=5
+    [gpu]=6 [pipeline]=7 [reference]=8)
+for dir in src/*/; do
+    d=$(basename "$dir")
+    [ -n "${rank[$d]+x}" ] || { breach "$dir" "a folder with no rank in tests/check_layers.sh"; continue; }
+    while IFS= read -r hit; do
+        to=$(sed -n 's/.*#include *"\([a-z]*\)\/.*/\1/p' <<<"${hit#*:*:}")
+        [ -n "$to" ] && [ "$to" != "$d" ] && [ -n "${rank[$to]+x}" ] || continue
+        [ "${rank[$to]}" -lt "${rank[$d]}" ] ||
+            breach "${hit%%:#*}" "src/$d includes src/$to, which is not below it"
+    done < <(grep -rn --include='*.c' --include='*.h' --include='*.glsl' '#include *"[a-z]*/' "$dir")
+done
 
 [ $bad -eq 0 ] && echo "check_layers: every rule holds"
 exit $bad
