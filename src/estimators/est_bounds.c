@@ -78,6 +78,7 @@ typedef struct {
     size_t nbinned;
     size_t nphotons;
 } bounds_state;
+_Static_assert(offsetof(bounds_state, c) == 0, "pgi__est_default_stats reads the state as its pgi__est_common");
 
 /* A screen bound: pixel rectangle (pixel centres at integers), half-planes
  * a X + b Y <= c with (a, b) unit, and (2.5D) a depth range. */
@@ -556,8 +557,6 @@ static pgi_status b_estimate(void *state, const pgi_estimate_args *a) {
     return PGI_OK;
 }
 
-static void b_stats(const void *state, pgi_estimator_stats *out) { *out = ((const bounds_state *)state)->c.st; }
-
 static void b_destroy(void *state) {
     bounds_state *s = state;
     if (!s) return;
@@ -577,7 +576,7 @@ const pgi_estimator_vtbl pgi__est_bounds3d = {
     .create = b3_create,
     .build = b_build,
     .estimate = b_estimate,
-    .stats = b_stats,
+    .stats = pgi__est_default_stats,
     .destroy = b_destroy,
     .caps = PGI_EST_CAP_KERNELS,
     .options = k_options3d,
@@ -593,7 +592,7 @@ const pgi_estimator_vtbl pgi__est_bounds25d = {
     .create = b25_create,
     .build = b_build,
     .estimate = b_estimate,
-    .stats = b_stats,
+    .stats = pgi__est_default_stats,
     .destroy = b_destroy,
     .caps = PGI_EST_CAP_KERNELS,
     .options = k_options25d,

@@ -5,6 +5,7 @@
 typedef struct {
     pgi__est_common c;
 } brute_state;
+_Static_assert(offsetof(brute_state, c) == 0, "pgi__est_default_stats reads the state as its pgi__est_common");
 
 static pgi_status brute_create(const pgi_estimator_desc *d, void **state) {
     brute_state *s = calloc(1, sizeof *s);
@@ -99,8 +100,6 @@ static pgi_status brute_estimate(void *state, const pgi_estimate_args *a) {
     return PGI_OK;
 }
 
-static void brute_stats(const void *state, pgi_estimator_stats *out) { *out = ((const brute_state *)state)->c.st; }
-
 static void brute_destroy(void *state) { free(state); }
 
 const pgi_estimator_vtbl pgi__est_brute = {
@@ -111,7 +110,7 @@ const pgi_estimator_vtbl pgi__est_brute = {
     .create = brute_create,
     .build = brute_build,
     .estimate = brute_estimate,
-    .stats = brute_stats,
+    .stats = pgi__est_default_stats,
     .destroy = brute_destroy,
     .caps = PGI_EST_CAP_PHOTON_RADIUS | PGI_EST_CAP_KERNELS,
     /* memory budget: it holds nothing of its own (1: not the default of an estimator that gives none) */

@@ -60,6 +60,7 @@ typedef struct {
     size_t inv_cap;
     int max_depth;
 } bvh_state;
+_Static_assert(offsetof(bvh_state, c) == 0, "pgi__est_default_stats reads the state as its pgi__est_common");
 
 static const pgi_option k_opt_build = {.name = "bvh-build",
                                        .type = PGI_OPTION_CHOICE,
@@ -445,8 +446,6 @@ static pgi_status bvh_estimate(void *state, const pgi_estimate_args *a) {
     return PGI_OK;
 }
 
-static void bvh_stats(const void *state, pgi_estimator_stats *out) { *out = ((const bvh_state *)state)->c.st; }
-
 static void bvh_destroy(void *state) {
     bvh_state *s = state;
     if (!s) return;
@@ -463,7 +462,7 @@ const pgi_estimator_vtbl pgi__est_bvh = {
     .create = bvh_create,
     .build = bvh_build,
     .estimate = bvh_estimate,
-    .stats = bvh_stats,
+    .stats = pgi__est_default_stats,
     .destroy = bvh_destroy,
     .caps = PGI_EST_CAP_PHOTON_RADIUS,
     .options = k_options,

@@ -31,6 +31,7 @@ typedef struct {
     size_t cells_used;
     uint32_t max_probe;
 } hashgrid_state;
+_Static_assert(offsetof(hashgrid_state, c) == 0, "pgi__est_default_stats reads the state as its pgi__est_common");
 
 /* Listing 4 of the tiled paper. */
 static inline uint32_t hash6432shift(uint64_t key) {
@@ -203,8 +204,6 @@ static pgi_status hg_estimate(void *state, const pgi_estimate_args *a) {
     return PGI_OK;
 }
 
-static void hg_stats(const void *state, pgi_estimator_stats *out) { *out = ((const hashgrid_state *)state)->c.st; }
-
 static void hg_destroy(void *state) {
     hashgrid_state *s = state;
     if (!s) return;
@@ -222,7 +221,7 @@ const pgi_estimator_vtbl pgi__est_hashgrid = {
     .create = hg_create,
     .build = hg_build,
     .estimate = hg_estimate,
-    .stats = hg_stats,
+    .stats = pgi__est_default_stats,
     .destroy = hg_destroy,
     .caps = PGI_EST_CAP_KERNELS | PGI_EST_CAP_SUBSAMPLE,
     .options = k_options,

@@ -42,6 +42,7 @@ typedef struct {
     size_t items_cap;
     size_t n;
 } kdtree_state;
+_Static_assert(offsetof(kdtree_state, c) == 0, "pgi__est_default_stats reads the state as its pgi__est_common");
 
 static const pgi_option k_opt_knn =
     {.name = "knn",
@@ -342,8 +343,6 @@ static pgi_status kd_estimate(void *state, const pgi_estimate_args *a) {
     return PGI_OK;
 }
 
-static void kd_stats(const void *state, pgi_estimator_stats *out) { *out = ((const kdtree_state *)state)->c.st; }
-
 static void kd_destroy(void *state) {
     kdtree_state *s = state;
     if (!s) return;
@@ -361,7 +360,7 @@ const pgi_estimator_vtbl pgi__est_kdtree = {
     .create = kd_create,
     .build = kd_build,
     .estimate = kd_estimate,
-    .stats = kd_stats,
+    .stats = pgi__est_default_stats,
     .destroy = kd_destroy,
     .caps = PGI_EST_CAP_KERNELS | PGI_EST_CAP_SUBSAMPLE,
     .options = k_options,

@@ -43,6 +43,7 @@ typedef struct {
     size_t cell_ids_cap;
     size_t copies;
 } tiled_state;
+_Static_assert(offsetof(tiled_state, c) == 0, "pgi__est_default_stats reads the state as its pgi__est_common");
 
 const pgi_option pgi__opt_tile = {.name = "tile",
                                   .type = PGI_OPTION_INT,
@@ -333,8 +334,6 @@ static pgi_status tiled_estimate(void *state, const pgi_estimate_args *a) {
     return PGI_OK;
 }
 
-static void tiled_stats(const void *state, pgi_estimator_stats *out) { *out = ((const tiled_state *)state)->c.st; }
-
 static void tiled_destroy(void *state) {
     tiled_state *s = state;
     if (!s) return;
@@ -354,7 +353,7 @@ const pgi_estimator_vtbl pgi__est_tiled = {
     .create = tiled_create,
     .build = tiled_build,
     .estimate = tiled_estimate,
-    .stats = tiled_stats,
+    .stats = pgi__est_default_stats,
     .destroy = tiled_destroy,
     .caps = PGI_EST_CAP_KERNELS | PGI_EST_CAP_SUBSAMPLE,
     .options = k_options,
