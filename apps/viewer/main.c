@@ -22,6 +22,7 @@
 #include "photongi/photongi.h"
 #include "options.h"
 #include "parse.h"
+#include "render_options.h"
 
 static const char *k_help =
     "usage: photongi-view [--scene S] [options]\n"
@@ -686,22 +687,66 @@ static int start_video(int interactive) {
     return 1;
 }
 
-/* ------------------------------------------------------------ main */
+/* ------------------------------------------------------------ the command line */
 
-int main(int argc, char **argv) {
-    viewer v;
-    memset(&v, 0, sizeof v);
-    const char *scene_spec = "cornell", *shot = NULL, *stats_path = NULL, *est = PGI_DEFAULT_ESTIMATOR, *script = NULL;
-    long long frames = 0, cam_index = 0, max_frames = 256;
-    const char *cam_name = NULL; /* --camera NAME */
-    int want_window = 0, size_set = 0, camera_out_set = 0;
-    app_camera_args cam_args = {0};
-    v.camera_out = "photongi-camera.json";
-    v.speed_mul = 1.f;
-    v.accumulate = 1;
-    v.overlay = 1;
-    v.scale = 1.f;
-    float t0 = 0.f;
+/* What the command line asks for besides the viewer's own state. */
+typedef struct view_args {
+    const char *scene_spec, *shot, *stats_path, *script;
+    long long frames, max_frames;
+    int want_window, size_set, camera_out_set;
+    app_camera_args cam; /* --eye, --look-at, --up, --fov */
+    app_render_extra x;  /* --camera NAME, --exposure, --time */
+} view_args;
+
+/* The render settings the viewer takes, parsed as 'photongi render' parses them (render_options.h);
+ * the rest of that parser's settings (--progressive, --jitter, --filter, ...) belong to offline
+ * renders and stay unknown here. */
+static int viewer_render_setting(const char *a) {
+    static const char *const k[] = {"--estimator",      "--photons", "--radius",   "--size",       "--seed",
+                                    "--threads",        "--camera",  "--exposure", "--time",       "--output",
+                                    "--direct-samples", "--bounces", "--emission", "--max-memory", "--store",
+                                    "--device",         NULL};
+    for (int i = 0; k[i]; i++)
+        if (strcmp(a, k[i]) == 0) return 1;
+    return 0;
+}
+
+/* Whether option `a` takes a value: the render settings, the viewer's own, the camera's, the
+ * estimators'. */
+static int takes_value(const char *a) {
+    static const char *const own[] = {"--scene",   "--keys",       "--screenshot",
+                                      "--stats",   "--camera-out", "--max-frames",
+                                      "--frames",  "--scale",      "--eye",
+                                      "--look-at", "--up",         "--fov",
+                                      NULL};
+    for (int i = 0; own[i]; i++)
+        if (strcmp(a, own[i]) == 0) return 1;
+    return viewer_render_setting(a) || (strncmp(a, "--", 2) == 0 && pgi_option_find(a + 2) != NULL);
+}
+
+/* One "--name value" of the viewer's own; -1 not one of them, else 0 or the exit status. */
+static int viewer_option(const char *a, const char *val, viewer *v, view_args *g) {
+    if (strcmp(a, "--scene") == 0) g->scene_spec = val;
+    else if (strcmp(a, "--keys") == 0) g->script = val;
+    else if (strcmp(a, "--screenshot") == 0) g->shot = val;
+    else if (strcmp(a, "--stats") == 0) g->stats_path = val;
+    else if (strcmp(a, "--camera-out") == 0) v->camera_out = val, g->camera_out_set = 1;
+    else if (strcmp(a, "--max-frames") == 0) {
+        if (!parse_whole(val, 0, MAX_FRAMES_TIMED * 10LL, &g->max_frames))
+            return usage("--max-frames needs a frame count, a whole number in 0..1000000 (0: never stop), got '%s'",
+                         val);
+    } else if (strcmp(a, "--frames") == 0) {
+        if (!parse_whole(val, 1, MAX_FRAMES_TIMED, &g->frames))
+            return usage("--frames needs a number in 1..100000, got '%s'", val);
+    } else if (strcmp(a, "--scale") == 0) {
+        if (!parse_finite_float(val, &v->scale) || !(v->scale > 0.f && v->scale <= 1.f))
+            return usage("--scale needs a number in (0, 1], got '%s'", val);
+    } else return -1;
+    return 0;
+}
+
+/* Parses argv into v and g; -1 to go on, else the exit status (0 after --help). */
+static int parse_args(int argc, char **argv, viewer *v, view_args *g) {
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
@@ -709,138 +754,48 @@ int main(int argc, char **argv) {
             app_print_estimator_options(stdout);
             return 0;
         }
-        if (strcmp(a, "-q") == 0 || strcmp(a, "--quiet") == 0) {
-            v.quiet = 1;
-            continue;
-        }
-        if (strcmp(a, "--animate") == 0) {
-            v.animate = 1;
-            continue;
-        }
-        if (strcmp(a, "--no-accumulate") == 0) {
-            v.accumulate = 0;
-            continue;
-        }
-        if (strcmp(a, "--window") == 0) {
-            want_window = 1;
-            continue;
-        }
-        if (a[0] != '-') return usage("unexpected argument '%s'", a);
-        if (pgi_option_find(a + 2) && strncmp(a, "--", 2) == 0) {
+        if (strcmp(a, "-q") == 0 || strcmp(a, "--quiet") == 0) v->quiet = 1;
+        else if (strcmp(a, "--animate") == 0) v->animate = 1;
+        else if (strcmp(a, "--no-accumulate") == 0) v->accumulate = 0;
+        else if (strcmp(a, "--window") == 0) g->want_window = 1;
+        else if (a[0] != '-') return usage("unexpected argument '%s'", a);
+        else {
+            char err[600];
+            if (!takes_value(a)) return usage("unknown option '%s'", a);
             if (i + 1 >= argc) return usage("%s needs a value", a);
-            if (app_estimator_option("photongi-view", a, argv[++i], &v.desc.est, NULL) < 0) return 2;
-            size_t used = strlen(v.est_opts);
-            char word[600];
-            shell_word(argv[i], word, sizeof word);
-            snprintf(v.est_opts + used, sizeof v.est_opts - used, " %s %s", a, word);
-            continue;
-        }
-        {
-            char err[400];
-            int co = i + 1 < argc ? app_camera_option(a, argv[i + 1], &cam_args, err, sizeof err) : 0;
+            const char *val = argv[++i];
+            int co = app_camera_option(a, val, &g->cam, err, sizeof err);
             if (co < 0) return usage("%s", err);
-            if (co > 0) {
-                i++;
+            if (co > 0) continue;
+            const int own = viewer_option(a, val, v, g);
+            if (own >= 0) {
+                if (own > 0) return own;
                 continue;
             }
-        }
-        static const char *const valued[] = {"--scene",   "--estimator", "--screenshot", "--stats",
-                                             "--photons", "--radius",    "--size",       "--scale",
-                                             "--seed",    "--threads",   "--camera",     "--exposure",
-                                             "--time",    "--frames",    "--output",     "--direct-samples",
-                                             "--bounces", "--keys",      "--emission",   "--max-memory",
-                                             "--store",   "--device",    "--camera-out", "--max-frames",
-                                             "--eye",     "--look-at",   "--up",         "--fov",
-                                             NULL};
-        int known = 0;
-        for (int k = 0; valued[k]; k++) known |= strcmp(a, valued[k]) == 0;
-        if (!known) return usage("unknown option '%s'", a);
-        if (i + 1 >= argc) return usage("%s needs a value", a);
-        const char *val = argv[++i];
-        long long n;
-        if (strcmp(a, "--scene") == 0) scene_spec = val;
-        else if (strcmp(a, "--keys") == 0) script = val;
-        else if (strcmp(a, "--camera-out") == 0) v.camera_out = val, camera_out_set = 1;
-        else if (strcmp(a, "--max-frames") == 0) {
-            if (!parse_whole(val, 0, MAX_FRAMES_TIMED * 10LL, &max_frames))
-                return usage("--max-frames needs a frame count, a whole number in 0..1000000 (0: never stop), got '%s'",
-                             val);
-        } else if (strcmp(a, "--estimator") == 0) est = val;
-        else if (strcmp(a, "--device") == 0) {
-            char err[160];
-            if (!app_parse_device(val, &v.desc, err, sizeof err)) {
-                fprintf(stderr, "photongi-view: %s\nTry 'photongi-view --help'.\n", err);
-                return 2;
+            const int estimator_option = strncmp(a, "--", 2) == 0 && pgi_option_find(a + 2) != NULL;
+            if (!estimator_option && !viewer_render_setting(a)) return usage("unknown option '%s'", a);
+            if (app_render_option(a, val, &v->desc, &g->x, NULL, err, sizeof err) < 0) return usage("%s", err);
+            if (estimator_option) { /* for the printed command line */
+                size_t used = strlen(v->est_opts);
+                char word[600];
+                shell_word(val, word, sizeof word);
+                snprintf(v->est_opts + used, sizeof v->est_opts - used, " %s %s", a, word);
             }
-        } else if (strcmp(a, "--screenshot") == 0) shot = val;
-        else if (strcmp(a, "--stats") == 0) stats_path = val;
-        else if (strcmp(a, "--max-memory") == 0) {
-            if (!parse_bytes(val, &v.desc.max_memory))
-                return usage("--max-memory needs a size (bytes, or with K, M, G, T: 4G, 512M) or none, got '%s'", val);
-        } else if (strcmp(a, "--photons") == 0) {
-            if (!parse_long(val, 1, 100000000, &n))
-                return usage("--photons needs a number in 1..100000000, got '%s'", val);
-            v.desc.photons = (uint32_t)n;
-        } else if (strcmp(a, "--store") == 0) {
-            if (!app_parse_store(val, &v.desc.store)) return usage("--store must be all or view, got '%s'", val);
-        } else if (strcmp(a, "--emission") == 0) {
-            if (!app_parse_emission(val, &v.desc.emission))
-                return usage("--emission must be uniform, guided or auto, got '%s'", val);
-        } else if (strcmp(a, "--radius") == 0) {
-            if (strcmp(val, "auto") == 0) v.desc.radius = PGI_RADIUS_AUTO;
-            else if (!parse_finite_float(val, &v.desc.radius) ||
-                     !(v.desc.radius >= (float)PGI_MIN_RADIUS && v.desc.radius <= PGI_MAX_RADIUS))
-                return usage(
-                    "--radius needs a number in 1e-09..1e+15 (PGI_MIN_RADIUS..PGI_MAX_RADIUS) or auto, got '%s'", val);
-        } else if (strcmp(a, "--size") == 0) {
-            char extra;
-            if (sscanf(val, "%dx%d%c", &v.win_w, &v.win_h, &extra) != 2 || v.win_w <= 0 || v.win_h <= 0 ||
-                v.win_w > 16384 || v.win_h > 16384)
-                return usage("--size needs WIDTHxHEIGHT, e.g. 1280x720, got '%s'", val);
-            size_set = 1;
-        } else if (strcmp(a, "--scale") == 0) {
-            if (!parse_finite_float(val, &v.scale) || !(v.scale > 0.f && v.scale <= 1.f))
-                return usage("--scale needs a number in (0, 1], got '%s'", val);
-        } else if (strcmp(a, "--seed") == 0) {
-            if (!parse_long(val, 0, 0x7fffffffffffffffLL, &n))
-                return usage("--seed needs a non-negative integer, got '%s'", val);
-            v.desc.seed = (uint64_t)n;
-        } else if (strcmp(a, "--threads") == 0) {
-            if (!parse_long(val, 1, 1024, &n)) return usage("--threads needs a number in 1..1024, got '%s'", val);
-            v.desc.threads = (int)n;
-        } else if (strcmp(a, "--direct-samples") == 0) {
-            if (!parse_long(val, 1, 4096, &n))
-                return usage("--direct-samples needs a number in 1..4096, got '%s'", val);
-            v.desc.direct_samples = (int)n;
-        } else if (strcmp(a, "--bounces") == 0) {
-            if (!parse_long(val, 1, 64, &n)) return usage("--bounces needs a number in 1..64, got '%s'", val);
-            v.desc.bounces = (int)n;
-        } else if (strcmp(a, "--camera") == 0) {
-            if (!*val || ((*val >= '0' && *val <= '9') && !parse_long(val, 0, 1000000, &cam_index)))
-                return usage("--camera needs a camera name or index, got '%s'", val);
-            cam_name = *val >= '0' && *val <= '9' ? NULL : val;
-        } else if (strcmp(a, "--exposure") == 0) {
-            if (!parse_finite_float(val, &v.exposure) || !(v.exposure > 0.f))
-                return usage("--exposure needs a positive number, got '%s'", val);
-        } else if (strcmp(a, "--time") == 0) {
-            if (!parse_finite_float(val, &t0)) return usage("--time needs a number of seconds, got '%s'", val);
-        } else if (strcmp(a, "--frames") == 0) {
-            if (!parse_long(val, 1, MAX_FRAMES_TIMED, &frames))
-                return usage("--frames needs a number in 1..100000, got '%s'", val);
-        } else if (strcmp(a, "--output") == 0) {
-            if (strcmp(val, "all") == 0) v.out_mode = PGI_OUTPUT_ALL;
-            else if (strcmp(val, "direct") == 0) v.out_mode = PGI_OUTPUT_DIRECT;
-            else if (strcmp(val, "indirect") == 0) v.out_mode = PGI_OUTPUT_INDIRECT;
-            else if (strcmp(val, "counts") == 0) v.out_mode = PGI_OUTPUT_PHOTON_COUNT;
-            else return usage("--output must be all, direct, indirect or counts, got '%s'", val);
-        } else return usage("unknown option '%s'", a);
+            if (strcmp(a, "--size") == 0) g->size_set = 1;
+        }
     }
-    if (shot && !frames) return usage("%s", "--screenshot needs --frames N (the frame after which to save)");
-    /* Output paths are checked before the scene loads and any frame renders. */
-    int bad_out = shot ? check_output("screenshot", shot, 1) : 0;
-    if (!bad_out && stats_path && strcmp(stats_path, "-") != 0) bad_out = check_output("stats", stats_path, 0);
-    if (!bad_out && camera_out_set) bad_out = check_output("camera file", v.camera_out, 0);
-    if (bad_out) return bad_out;
+    return -1;
+}
+
+/* The checks before any file is read: output paths writable, the estimator known and on the
+ * device. 0 to go on, else the exit status. */
+static int check_args(viewer *v, const view_args *g) {
+    if (g->shot && !g->frames) return usage("%s", "--screenshot needs --frames N (the frame after which to save)");
+    int bad = g->shot ? check_output("screenshot", g->shot, 1) : 0;
+    if (!bad && g->stats_path && strcmp(g->stats_path, "-") != 0) bad = check_output("stats", g->stats_path, 0);
+    if (!bad && g->camera_out_set) bad = check_output("camera file", v->camera_out, 0);
+    if (bad) return bad;
+    const char *est = v->desc.estimator ? v->desc.estimator : PGI_DEFAULT_ESTIMATOR;
     const pgi_estimator_vtbl *vt = pgi_estimator_find(est);
     if (!vt) {
         fprintf(stderr, "photongi-view: unknown estimator '%s'; registered:", est);
@@ -849,322 +804,400 @@ int main(int argc, char **argv) {
         return 2;
     }
     for (size_t i = 0; i < pgi_estimator_count(); i++)
-        if (pgi_estimator_at(i) == vt) v.est_index = i;
-    {
-        char err[400];
-        if (!app_check_device(&v.desc, vt->name, err, sizeof err)) {
-            fprintf(stderr, "photongi-view: %s\n", err);
-            return 1;
-        }
+        if (pgi_estimator_at(i) == vt) v->est_index = i;
+    char err[400];
+    if (!app_check_device(&v->desc, vt->name, err, sizeof err)) {
+        fprintf(stderr, "photongi-view: %s\n", err);
+        return 1;
     }
+    return 0;
+}
 
-    /* The display next: without one, loading the scene would be wasted. */
-    const int headless = frames > 0 && !want_window;
-    if (!headless && !start_video(frames == 0)) return 1;
+/* ------------------------------------------------------------ start and end */
 
-    pgi_status st = pgi_scene_load_budget(scene_spec, v.desc.max_memory, &v.scene);
-    if (st) {
-        if (!headless) SDL_Quit();
-        return fail("cannot load scene", st);
-    }
-    pgi_scene_get_info(v.scene, &v.info);
-    if (*v.info.warnings) fprintf(stderr, "photongi-view: warning: %s\n", v.info.warnings);
-    char cam_idx[24];
-    snprintf(cam_idx, sizeof cam_idx, "%lld", cam_index);
-    size_t cam_found;
-    if (pgi_scene_find_camera(v.scene, cam_name ? cam_name : cam_idx, &cam_found) != PGI_OK) {
-        fprintf(stderr, "photongi-view: --camera %s: %s\n", cam_name ? cam_name : cam_idx, pgi_last_error());
-        pgi_scene_destroy(v.scene);
-        if (!headless) SDL_Quit();
+/* Frees what the viewer holds (any part may be missing). */
+static void viewer_free(viewer *v) {
+    pgi_image_free(&v->img);
+    free(v->rgb8);
+    free(v->disp);
+    pgi_cancel_destroy(v->cancel);
+    pgi_progressive_destroy(v->prog);
+    pgi_renderer_destroy(v->r);
+    pgi_scene_destroy(v->scene);
+}
+
+/* Loads the scene and sets up the camera, the window size, the renderer. 0, else the exit status
+ * (the message printed; viewer_free frees what was made). */
+static int open_scene(viewer *v, const view_args *g) {
+    pgi_status st = pgi_scene_load_budget(g->scene_spec, v->desc.max_memory, &v->scene);
+    if (st) return fail("cannot load scene", st);
+    pgi_scene_get_info(v->scene, &v->info);
+    if (*v->info.warnings) fprintf(stderr, "photongi-view: warning: %s\n", v->info.warnings);
+    char err[600];
+    if (!app_render_camera(v->scene, &v->desc, &g->x, err, sizeof err)) {
+        fprintf(stderr, "photongi-view: %s\n", err);
         return 2;
     }
-    cam_index = (long long)cam_found;
-    v.desc.camera = (int)cam_index;
-    v.scene_spec = scene_spec;
-    pgi_scene_get_camera(v.scene, (size_t)cam_index, &v.cam);
-    if (app_camera_given(&cam_args)) {
-        char err[400];
-        pgi_camera_def base = v.cam;
-        if (!app_camera_resolve(&cam_args, &base, &v.cam, err, sizeof err)) {
-            fprintf(stderr, "photongi-view: scene %s: %s\n", v.info.name, err);
-            pgi_scene_destroy(v.scene);
-            if (!headless) SDL_Quit();
+    v->scene_spec = g->scene_spec;
+    pgi_scene_get_camera(v->scene, (size_t)v->desc.camera, &v->cam);
+    if (app_camera_given(&g->cam)) {
+        pgi_camera_def base = v->cam;
+        if (!app_camera_resolve(&g->cam, &base, &v->cam, err, sizeof err)) {
+            fprintf(stderr, "photongi-view: scene %s: %s\n", v->info.name, err);
             return 1;
         }
-        v.cam_moved = 1; /* rendered as a view, as 'photongi render --eye ...' */
+        v->cam_moved = 1; /* rendered as a view, as 'photongi render --eye ...' */
     }
-    cam_init_angles(&v);
+    cam_init_angles(v);
     float ext[3];
-    v_sub(v.info.bounds_max, v.info.bounds_min, ext);
-    v.diag = sqrtf(ext[0] * ext[0] + ext[1] * ext[1] + ext[2] * ext[2]);
-    if (!size_set) {
-        v.win_w = v.info.defaults.width > 0 ? v.info.defaults.width : 1280;
-        v.win_h = v.info.defaults.height > 0 ? v.info.defaults.height : 720;
+    v_sub(v->info.bounds_max, v->info.bounds_min, ext);
+    v->diag = sqrtf(ext[0] * ext[0] + ext[1] * ext[1] + ext[2] * ext[2]);
+    if (!g->size_set) {
+        v->win_w = v->info.defaults.width > 0 ? v->info.defaults.width : 1280;
+        v->win_h = v->info.defaults.height > 0 ? v->info.defaults.height : 720;
     }
-    if (v.exposure == 0.f) v.exposure = v.info.defaults.exposure > 0.f ? v.info.defaults.exposure : 1.f;
-    v.time = t0;
-    v.disp = malloc((size_t)v.win_w * v.win_h * 3);
-    if (!v.disp) {
-        pgi_scene_destroy(v.scene);
-        if (!headless) SDL_Quit();
+    v->exposure = g->x.exposure > 0.f               ? g->x.exposure
+                  : v->info.defaults.exposure > 0.f ? v->info.defaults.exposure
+                                                    : 1.f;
+    v->time = g->x.time;
+    v->disp = malloc((size_t)v->win_w * v->win_h * 3);
+    if (!v->disp) {
         fprintf(stderr, "photongi-view: out of memory\n");
         return 1;
     }
-    if ((st = pgi_renderer_create(v.scene, &v.r)) || (st = pgi_progressive_create(v.r, &v.prog)) ||
-        (st = pgi_cancel_create(&v.cancel))) {
-        pgi_progressive_destroy(v.prog);
-        pgi_renderer_destroy(v.r);
-        pgi_scene_destroy(v.scene);
-        free(v.disp);
-        if (!headless) SDL_Quit();
+    if ((st = pgi_renderer_create(v->scene, &v->r)) || (st = pgi_progressive_create(v->r, &v->prog)) ||
+        (st = pgi_cancel_create(&v->cancel)))
         return fail("cannot create the renderer", st);
-    }
-
-    if (!frames && v.info.animated_objects > 0) v.animate = 1; /* interactive: play animations (Space pauses) */
-    SDL_Window *win = NULL;
-    SDL_Renderer *ren = NULL;
-    SDL_Texture *tex = NULL;
-    if (!headless) {
-        win = SDL_CreateWindow("photongi-view", SDL_WINDOWPOS_CENTERED, SDL_WINDOWPOS_CENTERED, v.win_w, v.win_h, 0);
-        ren = win ? SDL_CreateRenderer(win, -1, 0) : NULL;
-        if (!ren && win) ren = SDL_CreateRenderer(win, -1, SDL_RENDERER_SOFTWARE);
-        tex = ren ? SDL_CreateTexture(ren, SDL_PIXELFORMAT_RGB24, SDL_TEXTUREACCESS_STREAMING, v.win_w, v.win_h) : NULL;
-        if (!tex) {
-            fprintf(stderr, "photongi-view: cannot create the window: %s\n", SDL_GetError());
-            if (ren) SDL_DestroyRenderer(ren);
-            if (win) SDL_DestroyWindow(win);
-            SDL_Quit();
-            pgi_cancel_destroy(v.cancel);
-            pgi_progressive_destroy(v.prog);
-            pgi_renderer_destroy(v.r);
-            pgi_scene_destroy(v.scene);
-            free(v.disp);
-            return 1;
-        }
-    }
-
-    if (pgi_estimator_at(v.est_index)->oracle && !v.quiet)
+    if (!g->frames && v->info.animated_objects > 0) v->animate = 1; /* interactive: play animations */
+    if (pgi_estimator_at(v->est_index)->oracle && !v->quiet)
         fprintf(stderr,
                 "photongi-view: note: %s is the O(photons x pixels) oracle: each frame reads every photon at every "
                 "pixel (%d x %d pixels here), minutes at large sizes; any key abandons the frame, Tab and the "
                 "number keys leave it\n",
-                pgi_estimator_at(v.est_index)->name, (int)lroundf((float)v.win_w * v.scale),
-                (int)lroundf((float)v.win_h * v.scale));
-    double *times = frames ? malloc(2 * (size_t)frames * sizeof *times) : NULL; /* frame, viewer overhead */
-    long long done = 0, rendered = 0, idled = 0, still = 0; /* loop turns, frames rendered, turns idle */
-    long long abandoned = 0;                                /* frames abandoned for input */
-    double due_s = -1.0; /* a scripted key KEY@SECONDS: pressed that long into the next frame */
-    int due_now = 0;     /* ... whose time has come: pressed before the next frame */
-    int running = 1, rc = 0, dragging = 0, warned_unlit = 0;
-    int good_valid = 0, good_out = 0; /* the last settings that rendered */
-    size_t good_est = v.est_index;
-    pgi_render_desc good_desc = v.desc;
-    float good_scale = v.scale;
-    double last = SDL_GetTicks64() / 1000.0;
-    const double speed = 0.25 * v.diag; /* scene diagonals per second / 4 */
-    /* Movement keys: the camera's W S D A E Q, the light's arrows and PgUp/PgDn. A key moves by the
-     * wall time it is held (from its press to its release, or to now while it is down), not by the
-     * frame time, so a tap during a slow frame moves a tap's distance and every press counts. */
-    static const SDL_Scancode k_move[HELD_KEYS] = {SDL_SCANCODE_W,    SDL_SCANCODE_S,      SDL_SCANCODE_D,
-                                                   SDL_SCANCODE_A,    SDL_SCANCODE_E,      SDL_SCANCODE_Q,
-                                                   SDL_SCANCODE_UP,   SDL_SCANCODE_DOWN,   SDL_SCANCODE_RIGHT,
-                                                   SDL_SCANCODE_LEFT, SDL_SCANCODE_PAGEUP, SDL_SCANCODE_PAGEDOWN};
-    held_keys keys_held = {{0}, {0}, {0}};
+                pgi_estimator_at(v->est_index)->name, (int)lroundf((float)v->win_w * v->scale),
+                (int)lroundf((float)v->win_h * v->scale));
+    return 0;
+}
+
+typedef struct window {
+    SDL_Window *win;
+    SDL_Renderer *ren;
+    SDL_Texture *tex;
+} window;
+
+static void close_window(window *w) {
+    if (w->tex) SDL_DestroyTexture(w->tex);
+    if (w->ren) SDL_DestroyRenderer(w->ren);
+    if (w->win) SDL_DestroyWindow(w->win);
+    *w = (window){0};
+}
+
+/* 1 with the window open, 0 after a message. */
+static int open_window(const viewer *v, window *w) {
+    w->win = SDL_CreateWindow("photongi-view", SDL_WINDOWPOS_CENTERED, SDL_WINDOWPOS_CENTERED, v->win_w, v->win_h, 0);
+    w->ren = w->win ? SDL_CreateRenderer(w->win, -1, 0) : NULL;
+    if (!w->ren && w->win) w->ren = SDL_CreateRenderer(w->win, -1, SDL_RENDERER_SOFTWARE);
+    w->tex = w->ren ? SDL_CreateTexture(w->ren, SDL_PIXELFORMAT_RGB24, SDL_TEXTUREACCESS_STREAMING, v->win_w, v->win_h)
+                    : NULL;
+    if (w->tex) return 1;
+    fprintf(stderr, "photongi-view: cannot create the window: %s\n", SDL_GetError());
+    close_window(w);
+    return 0;
+}
+
+/* Shows the texture (`update`: after copying the frame into it, with the title). */
+static void present(const viewer *v, window *w, int update) {
+    if (!w->tex) return;
+    if (update) SDL_UpdateTexture(w->tex, NULL, v->disp, v->win_w * 3);
+    SDL_RenderClear(w->ren);
+    SDL_RenderCopy(w->ren, w->tex, NULL, NULL);
+    SDL_RenderPresent(w->ren);
+    if (!update) return;
+    char title[256];
+    snprintf(title, sizeof title, "photongi-view - %s - %s - %.1f FPS - %d frames", v->info.name, v->fs.estimator,
+             v->fps, v->fs.frames);
+    SDL_SetWindowTitle(w->win, title);
+}
+
+/* ------------------------------------------------------------ the loop */
+
+/* The main loop's state between turns. */
+typedef struct loop_state {
+    long long done, rendered, idled, still, abandoned; /* turns, frames rendered, turns idle, ..., abandoned */
+    double due_s;                                      /* a scripted KEY@SECONDS: pressed that long into the frame */
+    int due_now;                                       /* ... whose time has come: pressed before the next frame */
+    int running, dragging, warned_unlit;
+    int good_valid, good_out; /* the last settings that rendered */
+    size_t good_est;
+    pgi_render_desc good_desc;
+    float good_scale;
+    double last;    /* seconds, the previous turn */
+    double *times;  /* --frames: each frame's time, then the viewer's overhead */
+    held_keys held; /* movement keys: wall time held */
+} loop_state;
+
+/* Movement keys: the camera's W S D A E Q, the light's arrows and PgUp/PgDn. A key moves by the
+ * wall time it is held (from its press to its release, or to now while it is down), not by the
+ * frame time, so a tap during a slow frame moves a tap's distance and every press counts. */
+static const SDL_Scancode k_move[HELD_KEYS] = {SDL_SCANCODE_W,    SDL_SCANCODE_S,      SDL_SCANCODE_D,
+                                               SDL_SCANCODE_A,    SDL_SCANCODE_E,      SDL_SCANCODE_Q,
+                                               SDL_SCANCODE_UP,   SDL_SCANCODE_DOWN,   SDL_SCANCODE_RIGHT,
+                                               SDL_SCANCODE_LEFT, SDL_SCANCODE_PAGEUP, SDL_SCANCODE_PAGEDOWN};
+
+/* One event; returns 1 when it changes the picture. Quitting clears ls->running. */
+static int take_event(viewer *v, window *w, loop_state *ls, const SDL_Event *e) {
+    if (e->type == SDL_QUIT) ls->running = 0;
+    else if (e->type == SDL_WINDOWEVENT && ls->good_valid) present(v, w, 0); /* uncovered: draw it again */
+    else if (e->type == SDL_MOUSEBUTTONDOWN && e->button.button == SDL_BUTTON_LEFT) ls->dragging = 1;
+    else if (e->type == SDL_MOUSEBUTTONUP && e->button.button == SDL_BUTTON_LEFT) ls->dragging = 0;
+    else if (e->type == SDL_MOUSEWHEEL && e->wheel.y != 0) {
+        v->speed_mul = fminf(1e3f, fmaxf(1e-3f, v->speed_mul * powf(1.25f, (float)e->wheel.y)));
+        return 1; /* the overlay shows the speed */
+    } else if (e->type == SDL_MOUSEMOTION && ls->dragging && (SDL_GetModState() & KMOD_CTRL)) {
+        /* Ctrl + drag: move the selected light in the horizontal plane. */
+        float k = 0.002f * v->diag;
+        light_move(v, -k * (float)e->motion.yrel, k * (float)e->motion.xrel, 0.f);
+        return 1;
+    } else if (e->type == SDL_MOUSEMOTION && ls->dragging) {
+        v->yaw += 0.005f * (float)e->motion.xrel;
+        v->pitch -= 0.005f * (float)e->motion.yrel;
+        v->pitch = fmaxf(-1.55f, fminf(1.55f, v->pitch));
+        cam_update(v);
+        return 1;
+    } else if (e->type == SDL_KEYDOWN || e->type == SDL_KEYUP) {
+        const double t = e->key.timestamp ? e->key.timestamp / 1000.0 : SDL_GetTicks64() / 1000.0;
+        int mk = -1;
+        for (int k = 0; k < HELD_KEYS; k++)
+            if (e->key.keysym.scancode == k_move[k]) mk = k;
+        if (mk >= 0 && e->type == SDL_KEYDOWN) held_press(&ls->held, mk, t);
+        else if (mk >= 0) held_release(&ls->held, mk, t);
+        else if (e->type == SDL_KEYDOWN) {
+            int pk = press_key(v, e->key.keysym.sym, (e->key.keysym.mod & KMOD_SHIFT) != 0, 0.f);
+            if (!pk) ls->running = 0;
+            return pk == 1;
+        }
+    }
+    return 0;
+}
+
+/* A window's input since the last turn: every queued event, each press on its own, then the
+ * movement of the keys held (by wall time) and the animation clock. Returns 1 when the picture
+ * changes. */
+static int take_input(viewer *v, window *w, loop_state *ls, double dt) {
+    int changed = 0;
+    SDL_Event e;
+    while (SDL_PollEvent(&e)) changed |= take_event(v, w, ls, &e);
     double held[HELD_KEYS];
-    while (running) {
-        double now = SDL_GetTicks64() / 1000.0;
-        double dt = now - last;
-        last = now;
+    changed |= held_take(&ls->held, SDL_GetTicks64() / 1000.0, held);
+    const SDL_Keymod mod = SDL_GetModState();
+    const double speed = 0.25 * v->diag; /* scene diagonals per second / 4 */
+    const double sp = speed * v->speed_mul * ((mod & KMOD_SHIFT) ? 4.0 : 1.0) * ((mod & KMOD_CTRL) ? 0.2 : 1.0);
+    float fw = (float)(sp * (held[0] - held[1])), sd = (float)(sp * (held[2] - held[3])),
+          ud = (float)(sp * (held[4] - held[5]));
+    if (fw != 0.f || sd != 0.f || ud != 0.f) cam_move(v, fw, sd, ud);
+    float lf = (float)(0.5 * sp * (held[6] - held[7])), lsd = (float)(0.5 * sp * (held[8] - held[9])),
+          lu = (float)(0.5 * sp * (held[10] - held[11]));
+    if (lf != 0.f || lsd != 0.f || lu != 0.f) light_move(v, lf, lsd, lu);
+    if (v->animate) v->time += dt;
+    return changed;
+}
+
+/* --keys: one scripted key a turn (movement keys take a fixed step); KEY@SECONDS is pressed that
+ * long into the frame after the key before it, abandoning that frame if it is still running,
+ * then (due_now) pressed before the next frame like any key. Returns 1 when the picture changes,
+ * -1 after a usage error (rc set). */
+static int take_script_key(viewer *v, loop_state *ls, const char **script, int *rc) {
+    ls->due_s = -1.0;
+    if (!*script || !**script) return 0;
+    int changed = 0;
+    script_key sk;
+    if (!script_head(*script, &sk)) {
+        *rc = usage("--keys: unknown key or bad KEY@SECONDS (seconds in 0..3600) '%s'", sk.name);
+        return -1;
+    }
+    if (sk.secs < 0.0 || ls->due_now) {
+        *script += sk.len;
+        int pk = press_key(v, sk.key, sk.shift, (float)(0.02 * v->diag) * v->speed_mul);
+        if (!pk) ls->running = 0;
+        changed = pk == 1;
+    }
+    ls->due_now = 0;
+    if (**script && script_head(*script, &sk) && sk.secs >= 0.0) ls->due_s = sk.secs; /* during this frame */
+    return changed;
+}
+
+/* After the first frame of the starting view: a camera that sees nothing lit is told about. */
+static void warn_unlit(viewer *v, const view_args *g) {
+    pgi_render_desc d;
+    frame_desc(v, &d);
+    if (app_image_unlit(&v->img) ||
+        (v->info.camera_auto && !v->cam_moved && app_view_sees_light(v->r, &d, &v->info) == 0)) {
+        char why[700];
+        app_unlit_warning(&v->info, v->desc.camera, app_camera_given(&g->cam), why, sizeof why);
+        fprintf(stderr, "photongi-view: warning: %s\n", why);
+    }
+}
+
+/* Renders one frame and shows it. Returns 0 (rendered, abandoned for input, or a rejected setting
+ * undone), else the exit status. */
+static int frame_turn(viewer *v, window *w, loop_state *ls, const view_args *g, int headless) {
+    const double freq = (double)SDL_GetPerformanceFrequency(), f0 = SDL_GetPerformanceCounter() / freq;
+    double late_ms;
+    pgi_status st = render_watched(v, !headless, ls->due_s, &late_ms);
+    if (ls->due_s >= 0.0) ls->due_now = 1; /* the timed key: pressed now, whether or not the frame ended first */
+    if (st == PGI_ERR_CANCELLED) {
+        /* Abandoned for input: the input is handled at the top of the loop and a new frame
+         * starts; a progressive average keeps what it had. */
+        ls->abandoned++;
+        if (ls->due_s >= 0.0 && !v->quiet)
+            fprintf(stderr,
+                    "photongi-view: frame abandoned %.0f ms into it for a scripted key; it stopped %.1f ms "
+                    "after the request\n",
+                    1000.0 * (SDL_GetPerformanceCounter() / freq - f0) - late_ms, late_ms);
+        return 0;
+    }
+    if (st) {
+        /* Interactive: a setting the estimator rejects (say, a radius too small for its grid, or
+         * photons over the memory budget) is reported and undone, as often as it comes; headless,
+         * or when the last good settings themselves fail, it ends the program. */
+        const int were_good = ls->good_valid && v->est_index == ls->good_est && v->scale == ls->good_scale &&
+                              v->out_mode == ls->good_out && memcmp(&v->desc, &ls->good_desc, sizeof v->desc) == 0;
+        if (headless || !ls->good_valid || were_good) return fail("render failed", st);
+        fprintf(stderr, "photongi-view: %s; going back to the previous settings\n", pgi_last_error());
+        v->est_index = ls->good_est;
+        v->desc = ls->good_desc;
+        v->scale = ls->good_scale;
+        v->out_mode = ls->good_out;
+        return 0;
+    }
+    ls->good_valid = 1;
+    ls->good_est = v->est_index;
+    ls->good_desc = v->desc;
+    ls->good_scale = v->scale;
+    ls->good_out = v->out_mode;
+    ls->still++;
+    if (!ls->warned_unlit && !v->quiet && v->out_mode == PGI_OUTPUT_ALL) {
+        ls->warned_unlit = 1;
+        warn_unlit(v, g);
+    }
+    present(v, w, 1);
+    v->frame_ms = 1000.0 * (SDL_GetPerformanceCounter() / freq - f0);
+    v->fps = v->frame_ms > 0.0 ? 1000.0 / v->frame_ms : 0.0;
+    if (ls->times)
+        ls->times[ls->rendered] = v->frame_ms, ls->times[g->frames + ls->rendered] = v->frame_ms - v->fs.total_ms;
+    ls->rendered++;
+    ls->done++;
+    if (g->frames && ls->done >= g->frames) ls->running = 0;
+    return 0;
+}
+
+/* The loop: input, scripted keys, then a frame, or an idle turn once a still view has its frames.
+ * Returns the exit status. */
+static int run(viewer *v, window *w, loop_state *ls, const view_args *g, int headless) {
+    const char *script = g->script;
+    int rc = 0;
+    while (ls->running) {
+        const double now = SDL_GetTicks64() / 1000.0, dt = now - ls->last;
+        ls->last = now;
         int changed = 0; /* input or animation: a still view renders again */
-        if (!headless) {
-            SDL_Event e;
-            while (SDL_PollEvent(&e)) { /* every queued event, each press on its own */
-                if (e.type == SDL_QUIT) running = 0;
-                else if (e.type == SDL_WINDOWEVENT && tex && good_valid) { /* uncovered: draw it again */
-                    SDL_RenderClear(ren);
-                    SDL_RenderCopy(ren, tex, NULL, NULL);
-                    SDL_RenderPresent(ren);
-                } else if (e.type == SDL_MOUSEBUTTONDOWN && e.button.button == SDL_BUTTON_LEFT) dragging = 1;
-                else if (e.type == SDL_MOUSEBUTTONUP && e.button.button == SDL_BUTTON_LEFT) dragging = 0;
-                else if (e.type == SDL_MOUSEWHEEL && e.wheel.y != 0) {
-                    v.speed_mul = fminf(1e3f, fmaxf(1e-3f, v.speed_mul * powf(1.25f, (float)e.wheel.y)));
-                    changed = 1; /* the overlay shows the speed */
-                } else if (e.type == SDL_MOUSEMOTION && dragging && (SDL_GetModState() & KMOD_CTRL)) {
-                    /* Ctrl + drag: move the selected light in the horizontal plane. */
-                    float k = 0.002f * v.diag;
-                    light_move(&v, -k * (float)e.motion.yrel, k * (float)e.motion.xrel, 0.f);
-                    changed = 1;
-                } else if (e.type == SDL_MOUSEMOTION && dragging) {
-                    v.yaw += 0.005f * (float)e.motion.xrel;
-                    v.pitch -= 0.005f * (float)e.motion.yrel;
-                    v.pitch = fmaxf(-1.55f, fminf(1.55f, v.pitch));
-                    cam_update(&v);
-                    changed = 1;
-                } else if (e.type == SDL_KEYDOWN || e.type == SDL_KEYUP) {
-                    const double t = e.key.timestamp ? e.key.timestamp / 1000.0 : SDL_GetTicks64() / 1000.0;
-                    int mk = -1;
-                    for (int k = 0; k < HELD_KEYS; k++)
-                        if (e.key.keysym.scancode == k_move[k]) mk = k;
-                    if (mk >= 0 && e.type == SDL_KEYDOWN) held_press(&keys_held, mk, t);
-                    else if (mk >= 0) held_release(&keys_held, mk, t);
-                    else if (e.type == SDL_KEYDOWN) {
-                        int pk = press_key(&v, e.key.keysym.sym, (e.key.keysym.mod & KMOD_SHIFT) != 0, 0.f);
-                        if (!pk) running = 0;
-                        changed |= pk == 1;
-                    }
-                }
-            }
-            changed |= held_take(&keys_held, SDL_GetTicks64() / 1000.0, held);
-            const SDL_Keymod mod = SDL_GetModState();
-            const double sp = speed * v.speed_mul * ((mod & KMOD_SHIFT) ? 4.0 : 1.0) * ((mod & KMOD_CTRL) ? 0.2 : 1.0);
-            float fw = (float)(sp * (held[0] - held[1])), sd = (float)(sp * (held[2] - held[3])),
-                  ud = (float)(sp * (held[4] - held[5]));
-            if (fw != 0.f || sd != 0.f || ud != 0.f) cam_move(&v, fw, sd, ud);
-            float lf = (float)(0.5 * sp * (held[6] - held[7])), ls = (float)(0.5 * sp * (held[8] - held[9])),
-                  lu = (float)(0.5 * sp * (held[10] - held[11]));
-            if (lf != 0.f || ls != 0.f || lu != 0.f) light_move(&v, lf, ls, lu);
-            if (v.animate) v.time += dt;
-        } else if (v.animate && done > 0) {
-            v.time += 1.0 / 30.0;
-        }
-        changed |= v.animate;
-        due_s = -1.0;
-        if (script && *script) {
-            /* --keys: one scripted key a frame (movement keys take a fixed step); KEY@SECONDS is
-             * pressed that long into the frame after the key before it, abandoning that frame if it
-             * is still running, then (due_now) pressed before the next frame like any key. */
-            script_key sk;
-            if (!script_head(script, &sk)) {
-                rc = usage("--keys: unknown key or bad KEY@SECONDS (seconds in 0..3600) '%s'", sk.name);
-                break;
-            }
-            if (sk.secs < 0.0 || due_now) {
-                script += sk.len;
-                int pk = press_key(&v, sk.key, sk.shift, (float)(0.02 * v.diag) * v.speed_mul);
-                if (!pk) running = 0;
-                changed |= pk == 1;
-            }
-            due_now = 0;
-            if (*script && script_head(script, &sk) && sk.secs >= 0.0) due_s = sk.secs; /* during this frame */
-        }
-        if (!running) break;
+        if (!headless) changed = take_input(v, w, ls, dt);
+        else if (v->animate && ls->done > 0) v->time += 1.0 / 30.0;
+        changed |= v->animate;
+        const int sk = take_script_key(v, ls, &script, &rc);
+        if (sk < 0) break;
+        changed |= sk;
+        if (!ls->running) break;
         /* A still view that has its frames (averaged, or --no-accumulate's fresh ones) waits for
          * input instead of rendering on: in a window it sleeps until an event comes. */
-        if (changed) still = 0;
-        const int averaging = v.accumulate && v.out_mode != PGI_OUTPUT_PHOTON_COUNT;
-        if (max_frames > 0 && good_valid && !changed && (averaging ? v.fs.frames : still) >= max_frames) {
-            if (due_s >= 0.0) due_now = 1; /* no frame to press a timed key into: pressed next turn */
-            idled++;
-            done++;
-            if (frames && done >= frames) running = 0;
+        if (changed) ls->still = 0;
+        const int averaging = v->accumulate && v->out_mode != PGI_OUTPUT_PHOTON_COUNT;
+        if (g->max_frames > 0 && ls->good_valid && !changed &&
+            (averaging ? v->fs.frames : ls->still) >= g->max_frames) {
+            if (ls->due_s >= 0.0) ls->due_now = 1; /* no frame to press a timed key into: pressed next turn */
+            ls->idled++;
+            ls->done++;
+            if (g->frames && ls->done >= g->frames) ls->running = 0;
             else if (!headless) SDL_WaitEventTimeout(NULL, 500);
             continue;
         }
-        double f0 = SDL_GetPerformanceCounter() / (double)SDL_GetPerformanceFrequency();
-        double late_ms;
-        st = render_watched(&v, !headless, due_s, &late_ms);
-        if (due_s >= 0.0) due_now = 1; /* the timed key: pressed now, whether or not the frame ended first */
-        if (st == PGI_ERR_CANCELLED) {
-            /* Abandoned for input: the input is handled at the top of the loop and a new frame
-             * starts; a progressive average keeps what it had. */
-            abandoned++;
-            if (due_s >= 0.0 && !v.quiet)
-                fprintf(stderr,
-                        "photongi-view: frame abandoned %.0f ms into it for a scripted key; it stopped %.1f ms "
-                        "after the request\n",
-                        1000.0 * (SDL_GetPerformanceCounter() / (double)SDL_GetPerformanceFrequency() - f0) - late_ms,
-                        late_ms);
-            continue;
-        }
-        if (st) {
-            /* Interactive: a setting the estimator rejects (say, a radius too small for its
-             * grid, or photons over the memory budget) is reported and undone, as often as it
-             * comes; headless, or when the last good settings themselves fail, it ends the
-             * program. */
-            const int were_good = good_valid && v.est_index == good_est && v.scale == good_scale &&
-                                  v.out_mode == good_out && memcmp(&v.desc, &good_desc, sizeof good_desc) == 0;
-            if (headless || !good_valid || were_good) {
-                rc = fail("render failed", st);
-                break;
-            }
-            fprintf(stderr, "photongi-view: %s; going back to the previous settings\n", pgi_last_error());
-            v.est_index = good_est;
-            v.desc = good_desc;
-            v.scale = good_scale;
-            v.out_mode = good_out;
-            continue;
-        }
-        good_valid = 1;
-        good_est = v.est_index;
-        good_desc = v.desc;
-        good_scale = v.scale;
-        good_out = v.out_mode;
-        still++;
-        if (!warned_unlit && !v.quiet && v.out_mode == PGI_OUTPUT_ALL) {
-            /* The first frame of the starting view: a camera that sees nothing lit is told about. */
-            warned_unlit = 1;
-            pgi_render_desc d;
-            frame_desc(&v, &d);
-            if (app_image_unlit(&v.img) ||
-                (v.info.camera_auto && !v.cam_moved && app_view_sees_light(v.r, &d, &v.info) == 0)) {
-                char why[700];
-                app_unlit_warning(&v.info, v.desc.camera, app_camera_given(&cam_args), why, sizeof why);
-                fprintf(stderr, "photongi-view: warning: %s\n", why);
-            }
-        }
-        if (tex) {
-            SDL_UpdateTexture(tex, NULL, v.disp, v.win_w * 3);
-            SDL_RenderClear(ren);
-            SDL_RenderCopy(ren, tex, NULL, NULL);
-            SDL_RenderPresent(ren);
-            char title[256];
-            snprintf(title, sizeof title, "photongi-view - %s - %s - %.1f FPS - %d frames", v.info.name, v.fs.estimator,
-                     v.fps, v.fs.frames);
-            SDL_SetWindowTitle(win, title);
-        }
-        double f1 = SDL_GetPerformanceCounter() / (double)SDL_GetPerformanceFrequency();
-        v.frame_ms = 1000.0 * (f1 - f0);
-        v.fps = v.frame_ms > 0.0 ? 1000.0 / v.frame_ms : 0.0;
-        if (times) times[rendered] = v.frame_ms, times[frames + rendered] = v.frame_ms - v.fs.total_ms;
-        rendered++;
-        done++;
-        if (frames && done >= frames) running = 0;
+        if ((rc = frame_turn(v, w, ls, g, headless))) break;
     }
-    if (!rc && shot && done == frames) {
-        if ((st = save_screenshot(&v, shot))) rc = fail("cannot write the screenshot", st);
-    }
-    if (!rc && stats_path && done > 0) {
-        if ((st = pgi_stats_write_json(&v.fs, stats_path))) rc = fail("cannot write stats", st);
-    }
-    if (!rc && frames && !v.quiet && rendered > 0) {
-        double first = times[0];
-        qsort(times, (size_t)rendered, sizeof *times, cmp_double);
-        qsort(times + frames, (size_t)rendered, sizeof *times, cmp_double);
-        double med = times[rendered / 2], over = times[frames + rendered / 2];
+    return rc;
+}
+
+/* After the loop: the screenshot, the stats, the summary lines. Returns the exit status. */
+static int finish(viewer *v, const window *w, loop_state *ls, const view_args *g) {
+    pgi_status st;
+    if (g->shot && ls->done == g->frames && (st = save_screenshot(v, g->shot)))
+        return fail("cannot write the screenshot", st);
+    if (g->stats_path && ls->done > 0 && (st = pgi_stats_write_json(&v->fs, g->stats_path)))
+        return fail("cannot write stats", st);
+    if (v->quiet) return 0;
+    const long long n = ls->rendered;
+    if (g->frames && n > 0) {
+        double *t = ls->times, first = t[0];
+        qsort(t, (size_t)n, sizeof *t, cmp_double);
+        qsort(t + g->frames, (size_t)n, sizeof *t, cmp_double);
+        double med = t[n / 2], over = t[g->frames + n / 2];
         fprintf(stderr,
                 "photongi-view: %s %dx%d, %s, %lld frames: median %.1f ms a frame (%.2f FPS), first %.1f ms, "
                 "viewer overhead (tone map, overlay%s) %.1f ms; "
                 "last frame: view %.1f trace %.1f build %.1f estimate %.1f direct %.1f rt %.1f ms, %d averaged\n",
-                v.info.name, v.fs.width, v.fs.height, v.fs.estimator, rendered, med, med > 0 ? 1000.0 / med : 0.0,
-                first, tex ? ", display" : "", over, v.fs.view_ms, v.fs.trace_ms, v.fs.build_ms, v.fs.estimate_ms,
-                v.fs.direct_ms, v.fs.rt_update_ms, v.fs.frames);
+                v->info.name, v->fs.width, v->fs.height, v->fs.estimator, n, med, med > 0 ? 1000.0 / med : 0.0, first,
+                w->tex ? ", display" : "", over, v->fs.view_ms, v->fs.trace_ms, v->fs.build_ms, v->fs.estimate_ms,
+                v->fs.direct_ms, v->fs.rt_update_ms, v->fs.frames);
     }
-    if (!rc && !v.quiet && abandoned > 0)
-        fprintf(stderr, "photongi-view: %lld frame%s abandoned for input\n", abandoned, abandoned == 1 ? "" : "s");
-    if (!rc && frames && !v.quiet && idled > 0)
-        fprintf(stderr, "photongi-view: %lld frames rendered, then %lld turns idle (--max-frames %lld reached)\n",
-                rendered, idled, max_frames);
-    free(times);
-    if (tex) SDL_DestroyTexture(tex);
-    if (ren) SDL_DestroyRenderer(ren);
-    if (win) SDL_DestroyWindow(win);
+    if (ls->abandoned > 0)
+        fprintf(stderr, "photongi-view: %lld frame%s abandoned for input\n", ls->abandoned,
+                ls->abandoned == 1 ? "" : "s");
+    if (g->frames && ls->idled > 0)
+        fprintf(stderr, "photongi-view: %lld frames rendered, then %lld turns idle (--max-frames %lld reached)\n", n,
+                ls->idled, g->max_frames);
+    return 0;
+}
+
+/* ------------------------------------------------------------ main */
+
+int main(int argc, char **argv) {
+    viewer v;
+    memset(&v, 0, sizeof v);
+    v.camera_out = "photongi-camera.json";
+    v.speed_mul = 1.f;
+    v.accumulate = 1;
+    v.overlay = 1;
+    v.scale = 1.f;
+    view_args g = {.scene_spec = "cornell", .max_frames = 256, .x = APP_RENDER_EXTRA_INIT};
+    int rc = parse_args(argc, argv, &v, &g);
+    if (rc >= 0) return rc;
+    if ((rc = check_args(&v, &g))) return rc;
+    if (g.size_set) v.win_w = v.desc.width, v.win_h = v.desc.height; /* --size: the window's */
+    v.out_mode = (int)v.desc.output; /* --output; the frame's desc takes it from out_mode */
+    v.desc.output = PGI_OUTPUT_ALL;
+    v.desc.estimator = NULL; /* est_index names it */
+    v.desc.width = v.desc.height = 0;
+
+    /* The display next: without one, loading the scene would be wasted. */
+    const int headless = g.frames > 0 && !g.want_window;
+    if (!headless && !start_video(g.frames == 0)) return 1;
+    window w = {0};
+    if ((rc = open_scene(&v, &g)) || (!headless && !open_window(&v, &w))) {
+        viewer_free(&v);
+        if (!headless) SDL_Quit();
+        return rc ? rc : 1;
+    }
+    loop_state ls = {.due_s = -1.0,
+                     .running = 1,
+                     .good_est = v.est_index,
+                     .good_desc = v.desc,
+                     .good_scale = v.scale,
+                     .last = SDL_GetTicks64() / 1000.0};
+    ls.times = g.frames ? malloc(2 * (size_t)g.frames * sizeof *ls.times) : NULL;
+    if (g.frames && !ls.times) rc = fail("out of memory", PGI_ERR_OOM);
+    if (!rc) rc = run(&v, &w, &ls, &g, headless);
+    if (!rc) rc = finish(&v, &w, &ls, &g);
+    free(ls.times);
+    close_window(&w);
     if (!headless) SDL_Quit();
-    pgi_image_free(&v.img);
-    free(v.rgb8);
-    free(v.disp);
-    pgi_cancel_destroy(v.cancel);
-    pgi_progressive_destroy(v.prog);
-    pgi_renderer_destroy(v.r);
-    pgi_scene_destroy(v.scene);
+    viewer_free(&v);
     return rc;
 }
