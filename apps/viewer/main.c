@@ -60,6 +60,10 @@ static const char *k_help =
     "  --animate          advance the scene time (real time in a window, 1/30 s a frame headless;\n"
     "                     on by default in a window when the scene has animated objects)\n"
     "  --no-accumulate    never average frames (every frame is a fresh single frame)\n"
+    "  --temporal on|off  temporal reuse and the a-trous filter of the indirect light while the\n"
+    "                     camera moves (docs/temporal.md; CPU device): on in a window, off headless\n"
+    "  --history N|off    frames the reprojected picture weighs at most (1..256; default 16)\n"
+    "  --denoise N|off    a-trous passes on the indirect light (1..5; default 4)\n"
     "  --frames N         render N frames and exit; without --window no window is opened\n"
     "  --window           open a window even with --frames (e.g. SDL_VIDEODRIVER=offscreen)\n"
     "  --screenshot FILE  after the last frame, save the image, no overlay (.png, or .exr: linear)\n"
@@ -86,6 +90,7 @@ static const char *k_help =
     "      O(photons x pixels) oracle, minutes a frame: --estimator brute only)\n"
     "      + / - photons x2 / /2, ] / [ radius x1.25 / /1.25, . / , exposure\n"
     "      O output all/direct/indirect, C photons-per-pixel false colour, P progressive on/off\n"
+    "      T temporal reuse on/off, F the indirect light's filter on/off (the overlay says which)\n"
     "      R resolution scale 100/50/25%, Space pause animation, H overlay, F12 screenshot, Esc quit\n"
     "\n";
 
@@ -113,11 +118,14 @@ typedef struct viewer {
     unsigned char *disp; /* window resolution, with overlay */
     double frame_ms, fps;
     int screenshot_count;
-    const char *scene_spec; /* as given (--scene), for the printed command line */
-    const char *camera_out; /* where V saves the camera's JSON block */
-    char est_opts[1024];    /* estimator options as given (" --name value"), for the printed command line */
-    float speed_mul;        /* movement speed factor (mouse wheel, X / Z) */
-    pgi_cancel *cancel;     /* abandons the frame in progress when input arrives (render_watched) */
+    const char *scene_spec;  /* as given (--scene), for the printed command line */
+    const char *camera_out;  /* where V saves the camera's JSON block */
+    char est_opts[1024];     /* estimator options as given (" --name value"), for the printed command line */
+    float speed_mul;         /* movement speed factor (mouse wheel, X / Z) */
+    pgi_cancel *cancel;      /* abandons the frame in progress when input arrives (render_watched) */
+    pgi_temporal *temporal;  /* the moving picture's history and filter (NULL: off) */
+    pgi_temporal_desc tdesc; /* its settings; T and F toggle them */
+    int temporal_on;         /* 1: frames go through `temporal` (CPU, accumulating, not counts) */
 } viewer;
 
 static int usage(const char *fmt, const char *arg) {
@@ -257,9 +265,15 @@ static void compose(viewer *v, int in_place) {
     pgi_light_group g = {0};
     size_t nl = pgi_scene_light_group_count(v->scene);
     if (nl) pgi_scene_get_light_group(v->scene, v->light % nl, &g);
-    snprintf(line[4], sizeof line[4], "%dx%d (%.0f%%) | %s | frames %d%s | t %.2f s%s | light %zu/%zu %s", fst->width,
+    char tline[96];
+    if (fst->temporal.on)
+        snprintf(tline, sizeof tline, " | T reuse %s (history %.1f), F filter %s (%.0f%%)",
+                 v->tdesc.history == PGI_TEMPORAL_OFF ? "off" : "on", fst->temporal.history,
+                 v->tdesc.filter == PGI_TEMPORAL_OFF ? "off" : "on", 100.0 * fst->temporal.filter_weight);
+    else snprintf(tline, sizeof tline, " | T reuse / F filter off");
+    snprintf(line[4], sizeof line[4], "%dx%d (%.0f%%) | %s | frames %d%s%s | t %.2f s%s | light %zu/%zu %s", fst->width,
              fst->height, 100.0 * v->scale, output_name(v->out_mode), fst->frames,
-             v->accumulate ? "" : " (no accumulation)", v->time, v->animate ? "" : " (paused)",
+             v->accumulate ? "" : " (no accumulation)", tline, v->time, v->animate ? "" : " (paused)",
              nl ? v->light % nl + 1 : 0, nl, nl ? g.name : "-");
     double mem = 0.0;
     for (int i = 0; i < fst->memory_count; i++) mem += fst->memory_bytes[i].value;
@@ -311,13 +325,29 @@ static void frame_desc(const viewer *v, pgi_render_desc *d) {
     d->output = (pgi_output)v->out_mode;
 }
 
+/* Temporal reuse and the filter run on the CPU device, on an accumulated picture. */
+static int temporal_applies(const viewer *v) {
+    return v->desc.device == PGI_DEVICE_CPU && v->accumulate && v->out_mode != PGI_OUTPUT_PHOTON_COUNT &&
+           (v->tdesc.history != PGI_TEMPORAL_OFF || v->tdesc.filter != PGI_TEMPORAL_OFF);
+}
+
+/* (Re)creates the temporal accumulator from v->tdesc (T and F change it); NULL when both are off. */
+static pgi_status temporal_renew(viewer *v) {
+    pgi_temporal_destroy(v->temporal);
+    v->temporal = NULL;
+    if (v->tdesc.history == PGI_TEMPORAL_OFF && v->tdesc.filter == PGI_TEMPORAL_OFF) return PGI_OK;
+    return pgi_temporal_create(v->r, &v->tdesc, &v->temporal);
+}
+
 static pgi_status render_frame(viewer *v) {
     pgi_render_desc d;
     frame_desc(v, &d);
     d.cancel = v->cancel;
     pgi_status st = pgi_scene_set_time(v->scene, v->time);
     if (st) return st;
-    if (v->accumulate && v->out_mode != PGI_OUTPUT_PHOTON_COUNT)
+    if (v->accumulate && v->out_mode != PGI_OUTPUT_PHOTON_COUNT && v->temporal && temporal_applies(v))
+        st = pgi_temporal_step(v->temporal, &d, &v->img, &v->fs);
+    else if (v->accumulate && v->out_mode != PGI_OUTPUT_PHOTON_COUNT)
         st = pgi_progressive_step(v->prog, &d, &v->img, &v->fs);
     else st = pgi_renderer_render(v->r, &d, &v->img, &v->fs);
     if (st) return st;
@@ -553,7 +583,12 @@ static int press_key(viewer *v, SDL_Keycode k, int shift, float step) {
     else if (k == SDLK_c)
         v->out_mode = v->out_mode == PGI_OUTPUT_PHOTON_COUNT ? PGI_OUTPUT_ALL : PGI_OUTPUT_PHOTON_COUNT;
     else if (k == SDLK_p) v->accumulate = !v->accumulate;
-    else if (k == SDLK_r) v->scale = v->scale > 0.75f ? 0.5f : v->scale > 0.375f ? 0.25f : 1.f;
+    else if (k == SDLK_t || k == SDLK_f) {
+        int *field = k == SDLK_t ? &v->tdesc.history : &v->tdesc.filter;
+        *field = *field == PGI_TEMPORAL_OFF ? 0 : PGI_TEMPORAL_OFF;
+        pgi_status st = temporal_renew(v);
+        if (st) fprintf(stderr, "photongi-view: %s\n", pgi_last_error());
+    } else if (k == SDLK_r) v->scale = v->scale > 0.75f ? 0.5f : v->scale > 0.375f ? 0.25f : 1.f;
     else if (k == SDLK_SPACE) v->animate = !v->animate;
     else if (k == SDLK_h) v->overlay = !v->overlay;
     else if (k == SDLK_l) v->light++;
@@ -695,17 +730,19 @@ typedef struct view_args {
     long long frames, max_frames;
     int want_window, size_set, camera_out_set;
     app_camera_args cam; /* --eye, --look-at, --up, --fov */
-    app_render_extra x;  /* --camera NAME, --exposure, --time */
+    app_render_extra x;  /* --camera NAME, --exposure, --time, --specular */
+    int temporal;        /* --temporal: 1 on, 0 off, -1 not given (on in a window, off headless) */
 } view_args;
 
-/* The render settings the viewer takes, parsed as 'photongi render' parses them (render_options.h);
- * the rest of that parser's settings (--progressive, --jitter, --filter, ...) belong to offline
- * renders and stay unknown here. */
+/* The render settings the viewer takes, parsed as 'photongi render' parses them (render_options.h):
+ * all of them but --progressive (the viewer averages by itself while the view is still). */
 static int viewer_render_setting(const char *a) {
-    static const char *const k[] = {"--estimator",      "--photons", "--radius",   "--size",       "--seed",
-                                    "--threads",        "--camera",  "--exposure", "--time",       "--output",
-                                    "--direct-samples", "--bounces", "--emission", "--max-memory", "--store",
-                                    "--device",         NULL};
+    static const char *const k[] = {"--estimator", "--photons",       "--radius",         "--size",
+                                    "--seed",      "--threads",       "--camera",         "--exposure",
+                                    "--time",      "--output",        "--direct-samples", "--bounces",
+                                    "--emission",  "--max-memory",    "--store",          "--device",
+                                    "--filter",    "--radius-policy", "--r-min",          "--r-max",
+                                    "--smoothing", "--jitter",        "--specular",       NULL};
     for (int i = 0; k[i]; i++)
         if (strcmp(a, k[i]) == 0) return 1;
     return 0;
@@ -714,11 +751,10 @@ static int viewer_render_setting(const char *a) {
 /* Whether option `a` takes a value: the render settings, the viewer's own, the camera's, the
  * estimators'. */
 static int takes_value(const char *a) {
-    static const char *const own[] = {"--scene",   "--keys",       "--screenshot",
-                                      "--stats",   "--camera-out", "--max-frames",
-                                      "--frames",  "--scale",      "--eye",
-                                      "--look-at", "--up",         "--fov",
-                                      NULL};
+    static const char *const own[] = {"--scene",      "--keys",       "--screenshot", "--stats",
+                                      "--camera-out", "--max-frames", "--frames",     "--scale",
+                                      "--eye",        "--look-at",    "--up",         "--fov",
+                                      "--temporal",   "--history",    "--denoise",    NULL};
     for (int i = 0; own[i]; i++)
         if (strcmp(a, own[i]) == 0) return 1;
     return viewer_render_setting(a) || (strncmp(a, "--", 2) == 0 && pgi_option_find(a + 2) != NULL);
@@ -741,6 +777,20 @@ static int viewer_option(const char *a, const char *val, viewer *v, view_args *g
     } else if (strcmp(a, "--scale") == 0) {
         if (!parse_finite_float(val, &v->scale) || !(v->scale > 0.f && v->scale <= 1.f))
             return usage("--scale needs a number in (0, 1], got '%s'", val);
+    } else if (strcmp(a, "--temporal") == 0) {
+        if (strcmp(val, "on") == 0) g->temporal = 1;
+        else if (strcmp(val, "off") == 0) g->temporal = 0;
+        else return usage("--temporal must be on or off, got '%s'", val);
+    } else if (strcmp(a, "--history") == 0 || strcmp(a, "--denoise") == 0) {
+        const int hist = a[2] == 'h';
+        long long n;
+        int *field = hist ? &v->tdesc.history : &v->tdesc.filter;
+        if (strcmp(val, "off") == 0) *field = PGI_TEMPORAL_OFF;
+        else if (parse_whole(val, 1, hist ? 256 : 5, &n)) *field = (int)n;
+        else
+            return usage(hist ? "--history needs frames, a whole number in 1..256, or off, got '%s'"
+                              : "--denoise needs a-trous passes, a whole number in 1..5, or off, got '%s'",
+                         val);
     } else return -1;
     return 0;
 }
@@ -821,6 +871,7 @@ static void viewer_free(viewer *v) {
     free(v->rgb8);
     free(v->disp);
     pgi_cancel_destroy(v->cancel);
+    pgi_temporal_destroy(v->temporal);
     pgi_progressive_destroy(v->prog);
     pgi_renderer_destroy(v->r);
     pgi_scene_destroy(v->scene);
@@ -865,8 +916,10 @@ static int open_scene(viewer *v, const view_args *g) {
         fprintf(stderr, "photongi-view: out of memory\n");
         return 1;
     }
+    if (g->x.specular != PGI_SPECULAR_DEFAULT && (st = pgi_scene_set_specular(v->scene, g->x.specular)))
+        return fail("cannot set the specular model", st);
     if ((st = pgi_renderer_create(v->scene, &v->r)) || (st = pgi_progressive_create(v->r, &v->prog)) ||
-        (st = pgi_cancel_create(&v->cancel)))
+        (st = pgi_cancel_create(&v->cancel)) || (st = temporal_renew(v)))
         return fail("cannot create the renderer", st);
     if (!g->frames && v->info.animated_objects > 0) v->animate = 1; /* interactive: play animations */
     if (pgi_estimator_at(v->est_index)->oracle && !v->quiet)
@@ -1166,11 +1219,17 @@ int main(int argc, char **argv) {
     v.accumulate = 1;
     v.overlay = 1;
     v.scale = 1.f;
-    view_args g = {.scene_spec = "cornell", .max_frames = 256, .x = APP_RENDER_EXTRA_INIT};
+    view_args g = {.scene_spec = "cornell", .max_frames = 256, .x = APP_RENDER_EXTRA_INIT, .temporal = -1};
     int rc = parse_args(argc, argv, &v, &g);
     if (rc >= 0) return rc;
     if ((rc = check_args(&v, &g))) return rc;
     if (g.size_set) v.win_w = v.desc.width, v.win_h = v.desc.height; /* --size: the window's */
+    /* Temporal reuse and the filter: on in a window, off headless (scripted runs and benches stay raw,
+     * and --frames N averages as 'photongi render --progressive N'), unless --temporal says. */
+    if (g.temporal < 0 ? g.frames > 0 && !g.want_window : g.temporal == 0)
+        v.tdesc.history = v.tdesc.filter = PGI_TEMPORAL_OFF;
+    else if (g.temporal == 1 && v.desc.device != PGI_DEVICE_CPU)
+        return usage("%s", "--temporal on: temporal reuse and the filter run on the CPU device only");
     v.out_mode = (int)v.desc.output; /* --output; the frame's desc takes it from out_mode */
     v.desc.output = PGI_OUTPUT_ALL;
     v.desc.estimator = NULL; /* est_index names it */

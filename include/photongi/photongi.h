@@ -346,6 +346,18 @@ typedef struct pgi_run_info {
                                    description's camera block */
 } pgi_run_info;
 
+/* What a temporal step did (pgi_frame_stats.temporal). */
+typedef struct pgi_temporal_stats {
+    int on;              /* the step was a temporal one */
+    int restarted;       /* 1: the history started afresh (not only the camera moved, or the first step) */
+    double reused;       /* pixels whose history was kept when the camera moved (fraction; 0 otherwise) */
+    double history;      /* the history's mean weight in frames, over all pixels */
+    float filter_weight; /* how much of the filtered indirect light the picture holds (1 fresh, 0 converged) */
+    int filter_passes;   /* a-trous passes run (0: none) */
+    double reproject_ms; /* reprojection and blending */
+    double filter_ms;    /* the filter */
+} pgi_temporal_stats;
+
 typedef struct pgi_frame_stats {
     const char *estimator;
     int width, height, threads;
@@ -387,11 +399,12 @@ typedef struct pgi_frame_stats {
     pgi_auto_radius_stats auto_radius;           /* how `radius` was chosen, when it was */
     double radius_ms;                            /* choosing it (0 when given) */
     pgi_emission_stats emission;                 /* guided photon emission, when asked for */
-    const char *device; /* "cpu", or the Vulkan device's name ("llvmpipe (LLVM 15.0.6, 256 bits)"); valid while
+    const char *device;          /* "cpu", or the Vulkan device's name ("llvmpipe (LLVM 15.0.6, 256 bits)"); valid while
                            the renderer lives. With a GPU: passes_ms has the device's passes ("gpu_count", ...,
                            "gpu_gather": GPU timestamps; "gpu_upload", "gpu_submit", "gpu_download": host wall
                            clock) and memory_bytes the device's buffers ("gpu_photons", "gpu_hash", ...) */
-    pgi_run_info run;   /* zeroed by the renderer; see pgi_run_info */
+    pgi_run_info run;            /* zeroed by the renderer; see pgi_run_info */
+    pgi_temporal_stats temporal; /* pgi_temporal_step's part; zeroed by the renderer */
 } pgi_frame_stats;
 
 /* Renders one frame into `out` (free with pgi_image_free). Pass a zeroed
@@ -681,6 +694,41 @@ pgi_status pgi_progressive_frame(pgi_renderer *r, const pgi_render_desc *desc, f
 typedef float (*pgi_radius_fn)(void *user);
 pgi_status pgi_progressive_frame_await_r0(pgi_renderer *r, const pgi_render_desc *desc, pgi_radius_fn r0_fn, void *user,
                                           int k, pgi_image *frame, pgi_frame_stats *stats);
+
+/* ---------------------------------------------------------- temporal */
+
+/* A picture that stays clean while the camera moves (docs/temporal.md), for a viewer or an
+ * engine: each step renders one progressive frame (pgi_progressive_step, which restarts when the
+ * picture changes) and then
+ *  - temporal reuse: when only the camera moved, the last picture is reprojected into the new view
+ *    (each pixel's primary hit found in the previous camera, bilinear over the previous pixels whose
+ *    depth, normal and albedo agree, clamped to the new frame's 3x3 neighbourhood so that nothing
+ *    moved leaves a ghost) and blended in with the weight of its history, at most `history` frames;
+ *    any other change (settings, lights, geometry, time, size) starts the history afresh;
+ *  - an edge-aware filter of the indirect light (a-trous, `filter` passes of a 5x5 B-spline at
+ *    steps 1, 2, 4, ..., on irradiance with the albedo divided out, stopped at normal, depth and
+ *    albedo edges and by each pixel's local variance).
+ * Both fade as a still camera's frames accumulate: after `history` frames the history weighs
+ * nothing and after `filter_frames` frames the filter is off, so a still view converges to exactly
+ * what pgi_progressive_step converges to. CPU device only (it reads the frame's AOVs). Not for
+ * comparing estimators: photongi render, the benches and the quality tables never use it. */
+typedef struct pgi_temporal_desc {
+    int history;       /* 1..256 frames the reprojected picture weighs at most; 0 = 16; PGI_TEMPORAL_OFF: no reuse */
+    int filter;        /* a-trous passes 1..5; 0 = 4; PGI_TEMPORAL_OFF: no filter */
+    int filter_frames; /* 1..256 frames after which a still view is unfiltered; 0 = 8 */
+} pgi_temporal_desc;
+#define PGI_TEMPORAL_OFF (-1)
+
+typedef struct pgi_temporal pgi_temporal;
+/* The renderer is borrowed and must outlive the accumulator; desc may be NULL (defaults). */
+pgi_status pgi_temporal_create(pgi_renderer *r, const pgi_temporal_desc *desc, pgi_temporal **out);
+/* One frame into the picture, written to `out`; stats gets the frame's, with `temporal` filled in and
+ * "temporal" and "denoise" passes in passes_ms (their time also in total_ms). desc->aovs must be
+ * NULL (the step uses them itself). A cancelled step (PGI_ERR_CANCELLED) changes nothing. */
+pgi_status pgi_temporal_step(pgi_temporal *t, const pgi_render_desc *desc, pgi_image *out, pgi_frame_stats *stats);
+/* Forgets the history and the progressive average. */
+void pgi_temporal_reset(pgi_temporal *t);
+void pgi_temporal_destroy(pgi_temporal *t);
 
 /* The summation order of a progressive average (and of the reference's samples,
  * include/photongi/reference.h), fixed so that frames rendered anywhere add up to the same

@@ -237,6 +237,19 @@ static cJSON *build(const pgi_frame_stats *st) {
             ok &= add_num(o, "culled", (double)es->culled);
         }
     }
+    if (st->temporal.on) { /* pgi_temporal_step: its history and filter */
+        const pgi_temporal_stats *ts = &st->temporal;
+        ok &= (o = cJSON_AddObjectToObject(root, "temporal")) != NULL;
+        if (o) {
+            ok &= cJSON_AddBoolToObject(o, "restarted", ts->restarted) != NULL;
+            ok &= add_num(o, "reused", ts->reused);
+            ok &= add_num(o, "history", ts->history);
+            ok &= add_num(o, "filter_weight", float_as_double(ts->filter_weight));
+            ok &= add_num(o, "filter_passes", ts->filter_passes);
+            ok &= add_num(o, "reproject_ms", ts->reproject_ms);
+            ok &= add_num(o, "filter_ms", ts->filter_ms);
+        }
+    }
     if (st->leaf_size > 0) ok &= add_num(root, "bvh_leaf_size", (double)st->leaf_size);
     if (st->footprint_bin_width > 0.f) {
         /* BVH paper Table 3: counts of footprint radii in [k, k+1) * bin_width, the last bin open */

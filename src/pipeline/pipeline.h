@@ -40,4 +40,11 @@ pgi_status pgi__photon_counts(pgi_estimator *e, const pgi_estimate_args *a, floa
  * its rays (photongi-bench --limits; src/rt/ray_log.h). */
 pgi__rt *pgi__renderer_rt(pgi_renderer *r);
 
+/* The temporal step's camera geometry (temporal.c), for tests: the direction through the centre of
+ * pixel (x, y) (its component along forward is 1); where world point q (or direction q, `dir`)
+ * lands in camera c, as continuous pixel coordinates (pixel (x, y)'s centre is (x, y)) and depth
+ * along forward (0 returned when behind the camera). */
+void pgi__temporal_pixel_dir(const pgi_camera *c, int x, int y, float d[3]);
+int pgi__temporal_project(const pgi_camera *c, const float q[3], int dir, float *px, float *py, float *z);
+
 #endif

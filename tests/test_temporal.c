@@ -1,0 +1,223 @@
+/* The temporal picture (pgi_temporal, docs/temporal.md): a still camera converges to exactly the
+ * progressive average; the reprojection's camera geometry lands on the analytic pixel; a camera
+ * move keeps the history of what stays in view and not of what it reveals or of what turns away;
+ * a moved light restarts it; the a-trous filter leaves a constant image unchanged and lowers noise
+ * without crossing edges; bad settings are refused. */
+#include "filter/atrous.h"
+#include "pipeline/pipeline.h"
+#include "test_util.h"
+
+static pgi_render_desc small_desc(void) {
+    return (pgi_render_desc){.photons = 20000, .radius = 0.05f, .width = 48, .height = 36, .threads = 2};
+}
+
+/* A still camera: after max(history, filter_frames) steps the picture is the progressive average of
+ * as many frames, bit for bit, and the stats say what faded. */
+static void test_still_converges_to_progressive(void **state) {
+    (void)state;
+    pgi_scene *s;
+    assert_int_equal(pgi_scene_load("cornell", &s), PGI_OK);
+    pgi_renderer *r;
+    assert_int_equal(pgi_renderer_create(s, &r), PGI_OK);
+    pgi_temporal *t;
+    assert_int_equal(pgi_temporal_create(r, &(pgi_temporal_desc){.history = 6, .filter = 3, .filter_frames = 4}, &t),
+                     PGI_OK);
+    const pgi_render_desc d = small_desc();
+    pgi_image img = {0}, want = {0};
+    pgi_frame_stats fs;
+    for (int k = 1; k <= 8; k++) {
+        assert_int_equal(pgi_temporal_step(t, &d, &img, &fs), PGI_OK);
+        assert_int_equal(fs.frames, k);
+        assert_int_equal(fs.temporal.on, 1);
+        if (k == 1) assert_int_equal(fs.temporal.restarted, 1);
+        assert_true(fabsf(fs.temporal.filter_weight - fmaxf(0.f, 1.f - (float)(k - 1) / 4.f)) < 1e-6f);
+        assert_int_equal(fs.temporal.filter_passes, k <= 4 ? 3 : 0);
+    }
+    assert_int_equal(pgi_render_progressive(r, &d, 8, &want, NULL), PGI_OK);
+    assert_memory_equal(img.rgb, want.rgb, 3 * 48 * 36 * sizeof(float));
+    pgi_image_free(&img);
+    pgi_image_free(&want);
+    pgi_temporal_destroy(t);
+    pgi_renderer_destroy(r);
+    pgi_scene_destroy(s);
+}
+
+/* The camera geometry: a pixel centre's ray projects back onto that pixel; a point one pixel to the
+ * right of the axis lands one pixel right of the centre; a camera turned by the angle of k pixels
+ * (small) sees a point k pixels over; a point behind the camera does not land. */
+static void test_projection_is_analytic(void **state) {
+    (void)state;
+    pgi_camera c;
+    const float eye[3] = {1.f, 2.f, 3.f}, at[3] = {1.f, 2.f, -7.f}, up[3] = {0.f, 1.f, 0.f};
+    pgi_camera_look_at(&c, eye, at, up, 60.f, 64, 48);
+    for (int y = 0; y < 48; y += 7)
+        for (int x = 0; x < 64; x += 5) {
+            float d[3], q[3], px, py, z;
+            pgi__temporal_pixel_dir(&c, x, y, d);
+            for (int k = 0; k < 3; k++) q[k] = eye[k] + 4.5f * d[k];
+            assert_int_equal(pgi__temporal_project(&c, q, 0, &px, &py, &z), 1);
+            assert_true(fabsf(px - (float)x) < 1e-3f && fabsf(py - (float)y) < 1e-3f && fabsf(z - 4.5f) < 1e-4f);
+            assert_int_equal(pgi__temporal_project(&c, d, 1, &px, &py, &z), 1); /* a direction: the sky */
+            assert_true(fabsf(px - (float)x) < 1e-3f && fabsf(py - (float)y) < 1e-3f);
+        }
+    /* turned left by the angle of 3 pixel widths at the centre: the point on the old axis lands 3
+       pixels right of the centre (31.5 + 3) */
+    const float px_angle = atanf(2.f * tanf(30.f * 3.14159265f / 180.f) / 48.f); /* one pixel at the centre */
+    const float a = 3.f * px_angle;
+    const float at2[3] = {eye[0] - 10.f * sinf(a), eye[1], eye[2] - 10.f * cosf(a)};
+    pgi_camera c2;
+    pgi_camera_look_at(&c2, eye, at2, up, 60.f, 64, 48);
+    const float q[3] = {eye[0], eye[1], eye[2] - 10.f};
+    float px, py, z;
+    assert_int_equal(pgi__temporal_project(&c2, q, 0, &px, &py, &z), 1);
+    assert_true(fabsf(px - 34.5f) < 0.01f && fabsf(py - 23.5f) < 1e-3f);
+    const float behind[3] = {eye[0], eye[1], eye[2] + 5.f};
+    assert_int_equal(pgi__temporal_project(&c, behind, 0, &px, &py, &z), 0);
+}
+
+/* Camera moves on the Cornell box: a small step keeps nearly every pixel's history; a step past
+ * the tall box reveals the wall behind it (fewer kept); turned away (looking out of the box's open
+ * side at nothing of the previous view) keeps none; a moved light starts the history afresh. */
+static void test_moves_and_disocclusion(void **state) {
+    (void)state;
+    pgi_scene *s;
+    assert_int_equal(pgi_scene_load("cornell", &s), PGI_OK);
+    pgi_renderer *r;
+    assert_int_equal(pgi_renderer_create(s, &r), PGI_OK);
+    pgi_temporal *t;
+    assert_int_equal(pgi_temporal_create(r, NULL, &t), PGI_OK);
+    pgi_camera_def cam;
+    assert_int_equal(pgi_scene_get_camera(s, 0, &cam), PGI_OK);
+    pgi_render_desc d = small_desc();
+    d.view = &cam;
+    pgi_image img = {0};
+    pgi_frame_stats fs;
+    for (int k = 0; k < 3; k++) assert_int_equal(pgi_temporal_step(t, &d, &img, &fs), PGI_OK);
+    pgi_camera_def c1 = cam;
+    c1.eye[0] += 0.01f, c1.look_at[0] += 0.01f; /* a small step sideways */
+    d.view = &c1;
+    assert_int_equal(pgi_temporal_step(t, &d, &img, &fs), PGI_OK);
+    assert_int_equal(fs.frames, 1);
+    assert_int_equal(fs.temporal.restarted, 0);
+    const double small = fs.temporal.reused;
+    pgi_camera_def c2 = c1;
+    c2.eye[0] += 0.6f, c2.look_at[0] += 0.6f; /* past the tall box: the wall behind it shows */
+    d.view = &c2;
+    assert_int_equal(pgi_temporal_step(t, &d, &img, &fs), PGI_OK);
+    const double big = fs.temporal.reused;
+    pgi_camera_def c3 = c2;
+    for (int k = 0; k < 3; k++) c3.look_at[k] = 2.f * c3.eye[k] - c2.look_at[k]; /* turned around */
+    d.view = &c3;
+    assert_int_equal(pgi_temporal_step(t, &d, &img, &fs), PGI_OK);
+    const double away = fs.temporal.reused;
+    print_message("history kept: small step %.3f, past the box %.3f, turned around %.3f\n", small, big, away);
+    assert_true(small > 0.9);
+    assert_true(big < small && big > 0.2);
+    assert_true(away < 0.05);
+    /* a light moved: everything restarts */
+    d.view = &c2;
+    assert_int_equal(pgi_temporal_step(t, &d, &img, &fs), PGI_OK);
+    pgi_light_group lg;
+    assert_int_equal(pgi_scene_get_light_group(s, 0, &lg), PGI_OK);
+    lg.position[1] -= 0.1f;
+    assert_int_equal(pgi_scene_set_light_position(s, 0, lg.position), PGI_OK);
+    assert_int_equal(pgi_temporal_step(t, &d, &img, &fs), PGI_OK);
+    assert_int_equal(fs.temporal.restarted, 1);
+    assert_true(fs.temporal.reused == 0.0);
+    pgi_image_free(&img);
+    pgi_temporal_destroy(t);
+    pgi_renderer_destroy(r);
+    pgi_scene_destroy(s);
+}
+
+/* The a-trous filter: a constant irradiance stays constant (to float rounding) whatever the guides;
+ * noise on a plane is lowered; two planes at an edge keep their different values. */
+static void test_atrous(void **state) {
+    (void)state;
+    enum { W = 40, H = 30, N = W * H };
+    float *pos = malloc(3 * N * sizeof(float)), *nrm = malloc(3 * N * sizeof(float)),
+          *alb = malloc(3 * N * sizeof(float)), *depth = malloc(N * sizeof(float)),
+          *rgb = malloc(3 * N * sizeof(float)), *scratch = malloc(6 * N * sizeof(float));
+    uint8_t *mask = malloc(N);
+    assert_non_null(pos && nrm && alb && depth && rgb && scratch && mask);
+    tu_rng rng = tu_rng_make(9);
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++) {
+            const size_t p = (size_t)y * W + (size_t)x;
+            const int right = x >= W / 2; /* two planes: z = 5 facing +z, and x = 1 facing -x */
+            pos[3 * p] = right ? 1.f : 0.05f * (float)x;
+            pos[3 * p + 1] = 0.05f * (float)y;
+            pos[3 * p + 2] = right ? 5.f - 0.05f * (float)(x - W / 2) : 5.f;
+            nrm[3 * p] = right ? -1.f : 0.f, nrm[3 * p + 1] = 0.f, nrm[3 * p + 2] = right ? 0.f : 1.f;
+            for (int c = 0; c < 3; c++) alb[3 * p + c] = 0.5f + 0.3f * tu_unif(&rng) * (float)(y % 2);
+            depth[p] = pos[3 * p + 2];
+            mask[p] = (x + 3 * y) % 17 != 0; /* a few holes keep their value */
+            for (int c = 0; c < 3; c++) rgb[3 * p + c] = 0.75f;
+        }
+    const pgi__atrous_guide g = {W, H, pos, nrm, alb, depth, mask};
+    assert_int_equal(pgi__atrous_filter(&g, 5, 2, rgb, scratch), PGI_OK);
+    for (size_t i = 0; i < 3 * N; i++) assert_true(fabsf(rgb[i] - 0.75f) < 1e-5f);
+    /* noise: left plane 1 +- 0.5, right plane 3 +- 0.5; the same albedo everywhere */
+    double err_before = 0.0, err_after = 0.0;
+    float *want = malloc(3 * N * sizeof(float));
+    assert_non_null(want);
+    for (size_t p = 0; p < N; p++) {
+        const int right = (int)(p % W) >= W / 2;
+        for (int c = 0; c < 3; c++) {
+            alb[3 * p + c] = 0.5f;
+            want[3 * p + c] = right ? 3.f : 1.f;
+            rgb[3 * p + c] = want[3 * p + c] + tu_range(&rng, -0.5f, 0.5f);
+            err_before += fabs(rgb[3 * p + c] - want[3 * p + c]);
+        }
+    }
+    assert_int_equal(pgi__atrous_filter(&g, 4, 2, rgb, scratch), PGI_OK);
+    for (size_t i = 0; i < 3 * N; i++) err_after += fabs(rgb[i] - want[i]);
+    print_message("a-trous on two noisy planes: mean error %.4f -> %.4f\n", err_before / (3 * N), err_after / (3 * N));
+    assert_true(err_after < 0.5 * err_before);
+    /* the edge holds: the columns next to it stay on their own side */
+    for (int y = 2; y < H - 2; y++) {
+        const size_t l = (size_t)y * W + W / 2 - 1, rr = l + 1;
+        if (mask[l]) assert_true(rgb[3 * l] < 1.6f);
+        if (mask[rr]) assert_true(rgb[3 * rr] > 2.4f);
+    }
+    assert_int_equal(pgi__atrous_filter(&g, 6, 2, rgb, scratch), PGI_ERR_INVALID_ARG);
+    free(want);
+    free(pos), free(nrm), free(alb), free(depth), free(rgb), free(scratch), free(mask);
+}
+
+/* Settings out of range, AOVs given, the GPU: refused with a message. */
+static void test_refusals(void **state) {
+    (void)state;
+    pgi_scene *s;
+    assert_int_equal(pgi_scene_load("cornell", &s), PGI_OK);
+    pgi_renderer *r;
+    assert_int_equal(pgi_renderer_create(s, &r), PGI_OK);
+    pgi_temporal *t = NULL;
+    assert_int_equal(pgi_temporal_create(r, &(pgi_temporal_desc){.history = 300}, &t), PGI_ERR_INVALID_ARG);
+    assert_int_equal(pgi_temporal_create(r, &(pgi_temporal_desc){.filter = 6}, &t), PGI_ERR_INVALID_ARG);
+    assert_null(t);
+    assert_int_equal(pgi_temporal_create(r, NULL, &t), PGI_OK);
+    pgi_render_desc d = small_desc();
+    pgi_aovs a = {0};
+    d.aovs = &a;
+    pgi_image img = {0};
+    assert_int_equal(pgi_temporal_step(t, &d, &img, NULL), PGI_ERR_INVALID_ARG);
+    d.aovs = NULL;
+    d.device = PGI_DEVICE_VULKAN;
+    assert_int_equal(pgi_temporal_step(t, &d, &img, NULL), PGI_ERR_UNSUPPORTED);
+    assert_non_null(strstr(pgi_last_error(), "CPU"));
+    pgi_temporal_destroy(t);
+    pgi_renderer_destroy(r);
+    pgi_scene_destroy(s);
+}
+
+int main(void) {
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_still_converges_to_progressive),
+        cmocka_unit_test(test_projection_is_analytic),
+        cmocka_unit_test(test_moves_and_disocclusion),
+        cmocka_unit_test(test_atrous),
+        cmocka_unit_test(test_refusals),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
