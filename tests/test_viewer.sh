@@ -42,6 +42,14 @@ same indirect --frames 1 "${COMMON[@]}" --output indirect -- "${COMMON[@]}" --ou
 same animated --frames 1 --scene scenes/cornell-moving.json --time 1.5 "${COMMON[@]}" -- \
     --scene scenes/cornell-moving.json --time 1.5 "${COMMON[@]}"
 same camera1 --frames 1 --scene giref --camera 0 "${COMMON[@]}" -- --scene giref --camera 0 "${COMMON[@]}"
+# Temporal reuse and the filter fade out on a still camera: after --history 4 and the filter's 8
+# frames the picture is the progressive average itself; the render options the viewer now takes.
+same temporal --frames 10 --temporal on --history 4 --denoise 2 "${COMMON[@]}" -- "${COMMON[@]}" --progressive 10
+same filter --frames 1 --filter 2 --jitter off "${COMMON[@]}" -- "${COMMON[@]}" --filter 2 --jitter off
+if "$VIEW" --frames 3 --temporal on "${COMMON[@]}" --keys d,d --stats "$TMP/temporal.json" -q 2>"$TMP/err" &&
+    grep -q '"temporal":[[:space:]]*{' "$TMP/temporal.json" && grep -q '"filter_passes":[[:space:]]*4' "$TMP/temporal.json"; then
+    ok
+else bad "--temporal on: no temporal stats: $(head -c 300 "$TMP/err")"; fi
 
 # The screenshot must really depend on the frame count (guards against a no-op 'same').
 "$VIEW" --frames 2 "${COMMON[@]}" --screenshot "$TMP/two.png" -q 2>/dev/null
@@ -130,6 +138,9 @@ expect_fail() {
     else ok; fi
 }
 expect_fail 2 "unknown option" --bogus
+expect_fail 2 "--denoise needs" --frames 1 --denoise 9
+expect_fail 2 "--temporal must be" --frames 1 --temporal maybe
+expect_fail 2 "unknown option '--progressive'" --frames 1 --progressive 4
 expect_fail 2 "--screenshot needs --frames" --screenshot x.png
 expect_fail 2 "unknown estimator" --frames 1 --estimator nope
 expect_fail 2 "--scale" --frames 1 --scale 0

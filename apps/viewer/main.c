@@ -61,7 +61,8 @@ static const char *k_help =
     "                     on by default in a window when the scene has animated objects)\n"
     "  --no-accumulate    never average frames (every frame is a fresh single frame)\n"
     "  --temporal on|off  temporal reuse and the a-trous filter of the indirect light while the\n"
-    "                     camera moves (docs/temporal.md; CPU device): on in a window, off headless\n"
+    "                     camera moves (docs/temporal.md; CPU device): on interactively, off with\n"
+    "                     --frames\n"
     "  --history N|off    frames the reprojected picture weighs at most (1..256; default 16)\n"
     "  --denoise N|off    a-trous passes on the indirect light (1..5; default 4)\n"
     "  --frames N         render N frames and exit; without --window no window is opened\n"
@@ -1224,10 +1225,10 @@ int main(int argc, char **argv) {
     if (rc >= 0) return rc;
     if ((rc = check_args(&v, &g))) return rc;
     if (g.size_set) v.win_w = v.desc.width, v.win_h = v.desc.height; /* --size: the window's */
-    /* Temporal reuse and the filter: on in a window, off headless (scripted runs and benches stay raw,
-     * and --frames N averages as 'photongi render --progressive N'), unless --temporal says. */
-    if (g.temporal < 0 ? g.frames > 0 && !g.want_window : g.temporal == 0)
-        v.tdesc.history = v.tdesc.filter = PGI_TEMPORAL_OFF;
+    /* Temporal reuse and the filter: on in an interactive session, off with --frames (scripted runs and
+     * benches stay raw, and --frames N averages as 'photongi render --progressive N'), unless
+     * --temporal says. */
+    if (g.temporal < 0 ? g.frames > 0 : g.temporal == 0) v.tdesc.history = v.tdesc.filter = PGI_TEMPORAL_OFF;
     else if (g.temporal == 1 && v.desc.device != PGI_DEVICE_CPU)
         return usage("%s", "--temporal on: temporal reuse and the filter run on the CPU device only");
     v.out_mode = (int)v.desc.output; /* --output; the frame's desc takes it from out_mode */

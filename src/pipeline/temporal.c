@@ -35,8 +35,11 @@ struct pgi_temporal {
     float *work; /* 3 a pixel: the filtered indirect light; then 6 a pixel of filter scratch */
     float *scratch;
     pgi_camera prev_cam;
+    pgi_camera_def prev_cd;
     not_camera prev_key;
-    pgi_image avg; /* the progressive average */
+    uint64_t pictures; /* pictures begun (a camera move or any other change begins one) */
+    uint64_t seed;     /* the progressive frames' seed for the picture in progress */
+    pgi_image avg;     /* the progressive average */
 };
 
 static void free_buffers(pgi_temporal *t) {
@@ -290,6 +293,25 @@ pgi_status pgi_temporal_step(pgi_temporal *t, const pgi_render_desc *in, pgi_ima
     const size_t n = (size_t)w * (size_t)h;
     pgi_status st = ensure_buffers(t, n);
     if (st) return st;
+    /* What changed since the last step: the camera only (the history is reprojected), anything else
+     * (it starts afresh), or nothing (the progressive average goes on). Each new picture takes
+     * fresh photons, a seed of its own from the caller's, so that the history of a moving camera
+     * averages independent photon maps; the first picture takes the caller's seed itself. */
+    pgi_camera_def cd;
+    if (in->view) cd = *in->view;
+    else if ((st = pgi_scene_get_camera(s, (size_t)(in->camera > 0 ? in->camera : 0), &cd))) return st;
+    not_camera key;
+    not_camera_of(in, s, &key);
+    const int size_same = t->have && t->width == w && t->height == h;
+    const int same_key = size_same && memcmp(&key, &t->prev_key, sizeof key) == 0;
+    const int same_cam = t->have && memcmp(&cd, &t->prev_cd, sizeof cd) == 0;
+    const int only_camera = same_key && !same_cam;
+    const uint64_t base = in->seed ? in->seed : 1, pictures = t->pictures + !(same_key && same_cam);
+    uint64_t seed = same_key && same_cam ? t->seed
+                    : pictures <= 1      ? base
+                                         : pgi__mix64(base ^ (0xd1b54a32d192ed03ULL * pictures));
+    if (seed == 0) seed = 1;
+    d.seed = seed;
     pgi_aovs aovs = {.albedo = t->alb, .normal = t->nrm, .depth = t->depth, .indirect = t->ind};
     d.aovs = &aovs;
     pgi_frame_stats fs;
@@ -297,18 +319,13 @@ pgi_status pgi_temporal_step(pgi_temporal *t, const pgi_render_desc *in, pgi_ima
     if (st) return st; /* cancelled: the average, the history and the previous frame are as they were */
     if (fs.width != w || fs.height != h)
         return pgi__fail(PGI_ERR_INTERNAL, "temporal step: a %dx%d frame for %dx%d buffers", fs.width, fs.height, w, h);
+    t->pictures = pictures;
+    t->seed = seed;
 
     const double t0 = pgi__now_ms();
-    pgi_camera_def cd;
-    if (d.view) cd = *d.view;
-    else if ((st = pgi_scene_get_camera(s, (size_t)fs.settings.camera, &cd))) return st;
     pgi_camera cam;
     pgi_camera_look_at(&cam, cd.eye, cd.look_at, cd.up, cd.fov_y_deg, w, h);
-    not_camera key;
-    not_camera_of(&d, s, &key);
     const int k = fs.frames; /* frames in the progressive average: 1 right after a change */
-    const int size_same = t->have && t->width == w && t->height == h;
-    const int only_camera = size_same && memcmp(&key, &t->prev_key, sizeof key) == 0;
     t->width = w, t->height = h;
     positions(t, &cam, d.threads);
     pgi_temporal_stats ts = {.on = 1};
@@ -360,12 +377,14 @@ pgi_status pgi_temporal_step(pgi_temporal *t, const pgi_render_desc *in, pgi_ima
     memcpy(t->prev_nrm, t->nrm, 3 * n * sizeof(float));
     memcpy(t->prev_alb, t->alb, 3 * n * sizeof(float));
     t->prev_cam = cam;
+    t->prev_cd = cd;
     t->prev_key = key;
     t->have = 1;
     ts.history = hsum / (double)n;
     ts.reproject_ms = t1 - t0 + (pgi__now_ms() - t2);
     ts.filter_ms = t2 - t1;
     fs.temporal = ts;
+    fs.settings.seed = base; /* the caller's: the frame's own is derived from it */
     fs.settings.aovs = NULL;
     pgi__stats_mem_put(&fs, "temporal", t->cap * (40 * sizeof(float) + 1)); /* the buffers above */
     add_pass(&fs, "temporal", ts.reproject_ms);
