@@ -140,7 +140,7 @@ int pgi_cmd_compare(int argc, char **argv) {
     float exposure = 1.f, diff_max = 0.1f, ppd = PGI_FLIP_DEFAULT_PPD;
     for (int i = 0; i < argc; i++) {
         const char *a = argv[i];
-        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
+        if (cli_is_help(a)) {
             fputs(k_compare_help, stdout);
             return 0;
         } else if (strcmp(a, "--json") == 0) {
@@ -185,9 +185,7 @@ int pgi_cmd_compare(int argc, char **argv) {
     }
     /* Metrics of NaN or infinite pixels are meaningless: refuse them, naming the file. */
     for (int k = 0; k < 2; k++) {
-        size_t bad = 0, n = (size_t)img[k].width * img[k].height;
-        for (size_t i = 0; i < n; i++)
-            bad += !isfinite(img[k].rgb[3 * i]) || !isfinite(img[k].rgb[3 * i + 1]) || !isfinite(img[k].rgb[3 * i + 2]);
+        const size_t bad = cli_non_finite_pixels(&img[k], 1.f), n = (size_t)img[k].width * img[k].height;
         if (bad) {
             pgi_image_free(&img[0]);
             pgi_image_free(&img[1]);

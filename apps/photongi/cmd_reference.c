@@ -172,9 +172,7 @@ static int read_reference(const char *path, pgi_image *img, pgi_reference_meta *
         return cli_failure("reference", "%s: %s is not the %dx%d EXR its .json describes", what, path, meta->width,
                            meta->height);
     }
-    size_t bad = 0, n = (size_t)img->width * img->height;
-    for (size_t i = 0; i < n; i++)
-        bad += !isfinite(img->rgb[3 * i]) || !isfinite(img->rgb[3 * i + 1]) || !isfinite(img->rgb[3 * i + 2]);
+    const size_t bad = cli_non_finite_pixels(img, 1.f), n = (size_t)img->width * img->height;
     if (bad) {
         pgi_image_free(img);
         return cli_failure("reference", "%s: %s has %zu pixel%s of %zu with NaN or infinite values", what, path, bad,
@@ -219,225 +217,249 @@ static int merge_references(const char *a, const char *b, const char *out, const
     return 0;
 }
 
-int pgi_cmd_reference(int argc, char **argv) {
-    const char *scene_spec = NULL, *out = NULL, *png = NULL, *cont = NULL, *merge[2] = {NULL, NULL};
-    pgi_reference_desc d = {0};
-    long long spp = 0;
-    double time_s = 0.0, checkpoint_s = 600.0;
-    int checkpoint_set = 0;
-    float exposure = 0.f;
-    int quiet = 0, size_set = 0, bounces_set = 0, seed_set = 0, camera_set = 0, jitter_set = 0;
-    const char *camera_name = NULL; /* --camera NAME, found once the scene is loaded */
-    pgi_specular specular = PGI_SPECULAR_DEFAULT;
-    app_camera_args cam_args = {0};
-    pgi_camera_def view;
+/* What the command line of 'reference' gives. */
+typedef struct reference_args {
+    const char *scene_spec, *out, *png, *cont, *merge[2];
+    pgi_reference_desc d;
+    long long spp;
+    double time_s, checkpoint_s;
+    int checkpoint_set;
+    float exposure;
+    int quiet, size_set, bounces_set, seed_set, camera_set, jitter_set;
+    const char *camera_name; /* --camera NAME, found once the scene is loaded */
+    pgi_specular specular;
+    app_camera_args cam_args;
+    pgi_camera_def view;  /* d.view when a camera flag is given */
+    char meta_path[4096]; /* the output's sidecar, OUT.exr.json */
+} reference_args;
+
+/* The reference being made: the scene, the image, its samples and the sidecar that describes it. */
+typedef struct reference_run {
+    pgi_scene *scene;
+    char scene_name[128];
+    pgi_image img;
+    uint64_t have, before; /* samples in the image; of those, before this command */
+    pgi_reference_meta meta;
+    ref_progress rp;
+} reference_run;
+
+/* One "--name value" of reference's (not --merge, not a camera flag): 0, else the exit status. */
+static int reference_option(const char *a, const char *v, reference_args *ra) {
+    pgi_reference_desc *d = &ra->d;
+    long long n;
+    if (strcmp(a, "--scene") == 0) {
+        if (!*v) return cli_usage("reference", "%s", "--scene needs a scene");
+        ra->scene_spec = v;
+    } else if (strcmp(a, "-o") == 0 || strcmp(a, "--out") == 0) ra->out = v;
+    else if (strcmp(a, "--png") == 0) ra->png = v;
+    else if (strcmp(a, "--continue") == 0) ra->cont = v;
+    else if (strcmp(a, "--spp") == 0) {
+        if (!parse_whole(v, 1, 1LL << 40, &ra->spp))
+            return cli_usage("reference", "--spp needs a whole number in 1..%lld (2^40), got '%s'", 1LL << 40, v);
+    } else if (strcmp(a, "--checkpoint") == 0) {
+        if (!parse_checkpoint(v, &ra->checkpoint_s))
+            return cli_usage("reference", "--checkpoint needs seconds, a number in 0..1e9 (0: none), got '%s'", v);
+        ra->checkpoint_set = 1;
+    } else if (strcmp(a, "--time") == 0) {
+        if (!parse_pos_double(v, &ra->time_s))
+            return cli_usage("reference", "--time needs a positive number of seconds, got '%s'", v);
+    } else if (strcmp(a, "--bounces") == 0) {
+        if (!parse_whole(v, 1, 64, &n))
+            return cli_usage("reference", "--bounces needs a whole number in 1..64, got '%s'", v);
+        d->bounces = (int)n;
+        ra->bounces_set = 1;
+    } else if (strcmp(a, "--seed") == 0) {
+        if (!parse_u64(v, &d->seed))
+            return cli_usage("reference", "--seed needs a whole number in 0..%" PRIu64 ", got '%s'", UINT64_MAX, v);
+        ra->seed_set = 1;
+    } else if (strcmp(a, "--threads") == 0) {
+        if (!parse_whole(v, 1, 1024, &n))
+            return cli_usage("reference", "--threads needs a whole number in 1..1024, got '%s'", v);
+        d->threads = (int)n;
+    } else if (strcmp(a, "--camera") == 0) {
+        if (!*v || ((*v >= '0' && *v <= '9') && !parse_whole(v, 0, 1000000, &n)))
+            return cli_usage("reference", "--camera needs a camera name or index (a whole number from 0), got '%s'", v);
+        if (*v >= '0' && *v <= '9') d->camera = (int)n, ra->camera_name = NULL;
+        else ra->camera_name = v;
+        ra->camera_set = 1;
+    } else if (strcmp(a, "--jitter") == 0) {
+        if (strcmp(v, "on") == 0) d->jitter = PGI_JITTER_ON;
+        else if (strcmp(v, "off") == 0) d->jitter = PGI_JITTER_OFF;
+        else return cli_usage("reference", "--jitter must be on or off, got '%s'", v);
+        ra->jitter_set = 1;
+    } else if (strcmp(a, "--specular") == 0) {
+        if (!parse_specular(v, &ra->specular))
+            return cli_usage("reference", "--specular must be ggx or phong, got '%s'", v);
+    } else if (strcmp(a, "--size") == 0) {
+        if (!parse_size(v, PGI_MAX_IMAGE_SIDE, PGI_MAX_IMAGE_PIXELS, &d->width, &d->height))
+            return cli_usage("reference",
+                             "--size needs WIDTHxHEIGHT, e.g. 640x480, each side in 1..%d and at most %u pixels, "
+                             "got '%s'",
+                             PGI_MAX_IMAGE_SIDE, PGI_MAX_IMAGE_PIXELS, v);
+        ra->size_set = 1;
+    } else if (strcmp(a, "--exposure") == 0) {
+        double x;
+        if (!parse_pos_double(v, &x)) return cli_usage("reference", "--exposure needs a positive number, got '%s'", v);
+        ra->exposure = (float)x;
+    } else return cli_usage("reference", "unknown option '%s'", a);
+    return 0;
+}
+
+/* Parses argv into ra; -1 to go on, else the exit status (0 after --help). */
+static int parse_args(int argc, char **argv, reference_args *ra) {
     char err[400];
     for (int i = 0; i < argc; i++) {
         const char *a = argv[i];
-        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
+        if (cli_is_help(a)) {
             fputs(k_reference_help, stdout);
             return 0;
         }
-        if (strcmp(a, "-q") == 0 || strcmp(a, "--quiet") == 0) {
-            quiet = 1;
+        if (cli_is_quiet(a)) {
+            ra->quiet = 1;
             continue;
         }
         if (a[0] != '-') return cli_usage("reference", "unexpected argument '%s'", a);
         if (strcmp(a, "--merge") == 0) {
             if (i + 2 >= argc) return cli_usage("reference", "%s", "--merge needs two references: --merge A.exr B.exr");
-            merge[0] = argv[++i];
-            merge[1] = argv[++i];
-            if (merge[0][0] == '-' || merge[1][0] == '-')
+            ra->merge[0] = argv[++i];
+            ra->merge[1] = argv[++i];
+            if (ra->merge[0][0] == '-' || ra->merge[1][0] == '-')
                 return cli_usage("reference", "%s", "--merge needs two references: --merge A.exr B.exr");
             continue;
         }
         if (i + 1 >= argc) return cli_usage("reference", "%s needs a value", a);
         const char *v = argv[++i];
-        long long n;
-        int co = app_camera_option(a, v, &cam_args, err, sizeof err);
+        int co = app_camera_option(a, v, &ra->cam_args, err, sizeof err);
         if (co < 0) return cli_usage("reference", "%s", err);
         if (co > 0) continue;
-        if (strcmp(a, "--scene") == 0) {
-            if (!*v) return cli_usage("reference", "%s", "--scene needs a scene");
-            scene_spec = v;
-        } else if (strcmp(a, "-o") == 0 || strcmp(a, "--out") == 0) out = v;
-        else if (strcmp(a, "--png") == 0) png = v;
-        else if (strcmp(a, "--continue") == 0) cont = v;
-        else if (strcmp(a, "--spp") == 0) {
-            if (!parse_whole(v, 1, 1LL << 40, &spp))
-                return cli_usage("reference", "--spp needs a whole number in 1..%lld (2^40), got '%s'", 1LL << 40, v);
-        } else if (strcmp(a, "--checkpoint") == 0) {
-            if (!parse_checkpoint(v, &checkpoint_s))
-                return cli_usage("reference", "--checkpoint needs seconds, a number in 0..1e9 (0: none), got '%s'", v);
-            checkpoint_set = 1;
-        } else if (strcmp(a, "--time") == 0) {
-            if (!parse_pos_double(v, &time_s))
-                return cli_usage("reference", "--time needs a positive number of seconds, got '%s'", v);
-        } else if (strcmp(a, "--bounces") == 0) {
-            if (!parse_whole(v, 1, 64, &n))
-                return cli_usage("reference", "--bounces needs a whole number in 1..64, got '%s'", v);
-            d.bounces = (int)n;
-            bounces_set = 1;
-        } else if (strcmp(a, "--seed") == 0) {
-            if (!parse_u64(v, &d.seed))
-                return cli_usage("reference", "--seed needs a whole number in 0..%" PRIu64 ", got '%s'", UINT64_MAX, v);
-            seed_set = 1;
-        } else if (strcmp(a, "--threads") == 0) {
-            if (!parse_whole(v, 1, 1024, &n))
-                return cli_usage("reference", "--threads needs a whole number in 1..1024, got '%s'", v);
-            d.threads = (int)n;
-        } else if (strcmp(a, "--camera") == 0) {
-            if (!*v || ((*v >= '0' && *v <= '9') && !parse_whole(v, 0, 1000000, &n)))
-                return cli_usage("reference", "--camera needs a camera name or index (a whole number from 0), got '%s'",
-                                 v);
-            if (*v >= '0' && *v <= '9') d.camera = (int)n, camera_name = NULL;
-            else camera_name = v;
-            camera_set = 1;
-        } else if (strcmp(a, "--jitter") == 0) {
-            if (strcmp(v, "on") == 0) d.jitter = PGI_JITTER_ON;
-            else if (strcmp(v, "off") == 0) d.jitter = PGI_JITTER_OFF;
-            else return cli_usage("reference", "--jitter must be on or off, got '%s'", v);
-            jitter_set = 1;
-        } else if (strcmp(a, "--specular") == 0) {
-            if (!parse_specular(v, &specular))
-                return cli_usage("reference", "--specular must be ggx or phong, got '%s'", v);
-        } else if (strcmp(a, "--size") == 0) {
-            if (!parse_size(v, PGI_MAX_IMAGE_SIDE, PGI_MAX_IMAGE_PIXELS, &d.width, &d.height))
-                return cli_usage("reference",
-                                 "--size needs WIDTHxHEIGHT, e.g. 640x480, each side in 1..%d and at most %u pixels, "
-                                 "got '%s'",
-                                 PGI_MAX_IMAGE_SIDE, PGI_MAX_IMAGE_PIXELS, v);
-            size_set = 1;
-        } else if (strcmp(a, "--exposure") == 0) {
-            double x;
-            if (!parse_pos_double(v, &x))
-                return cli_usage("reference", "--exposure needs a positive number, got '%s'", v);
-            exposure = (float)x;
-        } else return cli_usage("reference", "unknown option '%s'", a);
+        int rc = reference_option(a, v, ra);
+        if (rc) return rc;
     }
-    /* Everything the command line alone decides, then the outputs, before any file is read. */
-    const int view_set = app_camera_given(&cam_args);
-    if (cont && (scene_spec || size_set || bounces_set || seed_set || camera_set || view_set || jitter_set ||
-                 specular != PGI_SPECULAR_DEFAULT))
+    return -1;
+}
+
+/* Everything the command line alone decides, then the outputs, before any file is read: 0 to go
+ * on, else the exit status. */
+static int check_args(reference_args *ra) {
+    const int view_set = app_camera_given(&ra->cam_args);
+    if (ra->cont && (ra->scene_spec || ra->size_set || ra->bounces_set || ra->seed_set || ra->camera_set || view_set ||
+                     ra->jitter_set || ra->specular != PGI_SPECULAR_DEFAULT))
         return cli_usage("reference", "%s",
                          "--continue takes the scene, size, bounces, seed, camera (--eye, --look-at, --up, --fov "
                          "too), jitter and specular from the reference's .json file; do not give them");
-    if (merge[0] &&
-        (cont || scene_spec || size_set || bounces_set || seed_set || camera_set || view_set || jitter_set || spp ||
-         time_s > 0.0 || png || specular != PGI_SPECULAR_DEFAULT || d.threads || exposure > 0.f || checkpoint_set))
+    if (ra->merge[0] &&
+        (ra->cont || ra->scene_spec || ra->size_set || ra->bounces_set || ra->seed_set || ra->camera_set || view_set ||
+         ra->jitter_set || ra->spp || ra->time_s > 0.0 || ra->png || ra->specular != PGI_SPECULAR_DEFAULT ||
+         ra->d.threads || ra->exposure > 0.f || ra->checkpoint_set))
         return cli_usage("reference", "%s", "--merge takes only the two references and -o OUT.exr");
-    if (!out) out = cont;
-    if (!out) return cli_usage("reference", "%s", "no output file: give -o REF.exr");
-    char meta_path[4096];
-    if (snprintf(meta_path, sizeof meta_path, "%s.json", out) >= (int)sizeof meta_path)
+    if (!ra->out) ra->out = ra->cont;
+    if (!ra->out) return cli_usage("reference", "%s", "no output file: give -o REF.exr");
+    const char *out = ra->out, *png = ra->png, *meta_path = ra->meta_path;
+    if (snprintf(ra->meta_path, sizeof ra->meta_path, "%s.json", out) >= (int)sizeof ra->meta_path)
         return cli_failure("reference", "-o %.64s...: the name is too long", out);
     int rc = app_check_output("photongi reference", "-o", out, k_exr);
     if (!rc) rc = app_check_output("photongi reference", "-o (its sidecar)", meta_path, NULL);
     if (!rc && png) rc = app_check_output("photongi reference", "--png", png, k_png);
     if (rc) return rc;
-    {
-        const char *names[] = {"-o", "-o's sidecar", "--png"}, *paths[] = {out, meta_path, png};
-        if ((rc = app_check_distinct("photongi reference", 3, names, paths))) return rc;
-    }
-    if (merge[0]) /* no samples to deal: one process merges */
-        return pgi_cli_backend_now && !pgi_cli_backend_now->writer
-                   ? 0
-                   : merge_references(merge[0], merge[1], out, meta_path, quiet);
+    const char *names[] = {"-o", "-o's sidecar", "--png"}, *paths[] = {out, meta_path, png};
+    return app_check_distinct("photongi reference", 3, names, paths);
+}
 
-    pgi_image img = {0};
-    uint64_t have = 0;
-    pgi_reference_meta meta;
-    memset(&meta, 0, sizeof meta);
-    if (cont) {
-        int rc2 = read_reference(cont, &img, &meta, "cannot continue");
+/* Frees what rn holds after a failure (its message printed) and returns rc. */
+static int give_up(reference_run *rn, int rc) {
+    pgi_image_free(&rn->img);
+    pgi_scene_destroy(rn->scene);
+    rn->scene = NULL;
+    return rc;
+}
+
+/* What the sidecar says, for checkpoints and the end (the samples aside). */
+static void describe(const reference_args *ra, reference_run *rn, pgi_specular specular) {
+    const pgi_reference_desc *d = &ra->d;
+    pgi_reference_meta *meta = &rn->meta;
+    if (ra->scene_spec != meta->scene) /* --continue: already there (copying it onto itself is undefined) */
+        snprintf(meta->scene, sizeof meta->scene, "%s", ra->scene_spec);
+    meta->width = d->width;
+    meta->height = d->height;
+    meta->bounces = d->bounces;
+    meta->camera = d->camera;
+    if (d->view && d->view != &meta->view) meta->view = *d->view;
+    meta->has_view = d->view != NULL;
+    meta->seed = d->seed;
+    meta->jitter = d->jitter;
+    meta->specular = specular; /* the model in use, whether given or the scene's */
+}
+
+/* The settings of --continue's reference (its image into rn), the scene with its glossy model, the
+ * camera, the exposure and the defaults resolved, the samples to add: 0 to go on, else the exit
+ * status (what was read freed). */
+static int open_scene(reference_args *ra, reference_run *rn) {
+    pgi_reference_desc *d = &ra->d;
+    if (ra->cont) {
+        int rc2 = read_reference(ra->cont, &rn->img, &rn->meta, "cannot continue");
         if (rc2) return rc2;
-        scene_spec = meta.scene;
-        d.width = meta.width;
-        d.height = meta.height;
-        d.bounces = meta.bounces;
-        d.camera = meta.camera;
-        if (meta.has_view) d.view = &meta.view; /* the samples so far were rendered from it */
-        d.seed = meta.seed;
-        d.jitter = meta.jitter;
-        specular = meta.specular;
-        have = meta.spp;
+        const pgi_reference_meta *meta = &rn->meta;
+        ra->scene_spec = meta->scene;
+        d->width = meta->width;
+        d->height = meta->height;
+        d->bounces = meta->bounces;
+        d->camera = meta->camera;
+        if (meta->has_view) d->view = &meta->view; /* the samples so far were rendered from it */
+        d->seed = meta->seed;
+        d->jitter = meta->jitter;
+        ra->specular = meta->specular;
+        rn->have = meta->spp;
     }
-    if (!scene_spec) scene_spec = "cornell";
-    d.spp = spp ? (uint64_t)spp : time_s > 0.0 ? (uint64_t)1 << 40 : 64;
-    d.time_limit_s = time_s;
-    pgi_scene *scene;
-    pgi_status st = pgi_scene_load(scene_spec, &scene);
-    if (st) {
-        pgi_image_free(&img);
-        return cli_input_fail("reference", "cannot load scene", st);
-    }
-    if (specular != PGI_SPECULAR_DEFAULT && (st = pgi_scene_set_specular(scene, specular))) {
-        pgi_image_free(&img);
-        pgi_scene_destroy(scene);
-        return cli_fail("reference", "cannot set the specular model", st);
-    }
+    if (!ra->scene_spec) ra->scene_spec = "cornell";
+    d->spp = ra->spp ? (uint64_t)ra->spp : ra->time_s > 0.0 ? (uint64_t)1 << 40 : 64;
+    d->time_limit_s = ra->time_s;
+    int rc = cli_load_scene("reference", ra->scene_spec, 0, ra->specular, &rn->scene);
+    if (rc) return give_up(rn, rc);
     pgi_scene_info info;
-    pgi_scene_get_info(scene, &info);
-    char scene_name[128];
-    snprintf(scene_name, sizeof scene_name, "%s", info.name);
-    if (*info.warnings) cli_warn(quiet, "reference", "%s", info.warnings);
+    pgi_scene_get_info(rn->scene, &info);
+    snprintf(rn->scene_name, sizeof rn->scene_name, "%s", info.name);
+    if (*info.warnings) cli_warn(ra->quiet, "reference", "%s", info.warnings);
     {
         char idx[24];
-        snprintf(idx, sizeof idx, "%d", d.camera);
+        snprintf(idx, sizeof idx, "%d", d->camera);
+        const char *cam = ra->camera_name ? ra->camera_name : idx;
         size_t ci;
-        if (pgi_scene_find_camera(scene, camera_name ? camera_name : idx, &ci) != PGI_OK) {
-            char why[1200];
-            snprintf(why, sizeof why, "%s", pgi_last_error());
-            pgi_image_free(&img);
-            pgi_scene_destroy(scene);
-            return cli_failure("reference", "--camera %s: %s", camera_name ? camera_name : idx, why);
-        }
-        d.camera = (int)ci;
+        if (pgi_scene_find_camera(rn->scene, cam, &ci) != PGI_OK)
+            return give_up(rn, cli_failure("reference", "--camera %s: %s", cam, pgi_last_error()));
+        d->camera = (int)ci;
     }
-    if (view_set) {
-        pgi_camera_def base;
-        pgi_scene_get_camera(scene, (size_t)d.camera, &base);
-        if (!app_camera_resolve(&cam_args, &base, &view, err, sizeof err)) {
-            pgi_image_free(&img);
-            pgi_scene_destroy(scene);
-            return cli_failure("reference", "scene %s: %s", scene_name, err);
-        }
-        d.view = &view;
+    if (app_camera_given(&ra->cam_args)) {
+        if ((rc = cli_resolve_view("reference", rn->scene, d->camera, rn->scene_name, &ra->cam_args, &ra->view)))
+            return give_up(rn, rc);
+        d->view = &ra->view;
     }
-    if (exposure == 0.f) exposure = info.defaults.exposure > 0.f ? info.defaults.exposure : 1.f;
+    ra->exposure = cli_exposure(ra->exposure, &info);
     /* Resolve defaults here too, for the metadata. */
-    if (d.width == 0 && d.height == 0) {
-        d.width = info.defaults.width > 0 ? info.defaults.width : 640;
-        d.height = info.defaults.height > 0 ? info.defaults.height : 480;
+    if (d->width == 0 && d->height == 0) {
+        d->width = info.defaults.width > 0 ? info.defaults.width : 640;
+        d->height = info.defaults.height > 0 ? info.defaults.height : 480;
     }
-    if (d.bounces == 0) d.bounces = info.defaults.bounces > 0 ? info.defaults.bounces : 4;
-    if (d.seed == 0) d.seed = 1;
-    if (d.jitter == PGI_JITTER_AUTO) d.jitter = PGI_JITTER_ON;
-    if (have + d.spp > PGI_REFERENCE_MAX_SPP && spp) {
-        pgi_image_free(&img);
-        pgi_scene_destroy(scene);
-        return cli_failure("reference", "%s has %" PRIu64 " samples: %lld more would pass 2^53", cont, have, spp);
-    }
-    if (have + d.spp > PGI_REFERENCE_MAX_SPP) d.spp = PGI_REFERENCE_MAX_SPP - have;
-    ref_progress rp = {.time_limit_s = time_s, .by_time = !spp && time_s > 0.0, .total = d.spp};
-    app_progress_init(&rp.bar, quiet);
-    uint64_t before = have;
+    if (d->bounces == 0) d->bounces = info.defaults.bounces > 0 ? info.defaults.bounces : 4;
+    if (d->seed == 0) d->seed = 1;
+    if (d->jitter == PGI_JITTER_AUTO) d->jitter = PGI_JITTER_ON;
+    if (rn->have + d->spp > PGI_REFERENCE_MAX_SPP && ra->spp)
+        return give_up(rn, cli_failure("reference", "%s has %" PRIu64 " samples: %lld more would pass 2^53", ra->cont,
+                                       rn->have, ra->spp));
+    if (rn->have + d->spp > PGI_REFERENCE_MAX_SPP) d->spp = PGI_REFERENCE_MAX_SPP - rn->have;
+    describe(ra, rn, info.specular);
+    return 0;
+}
+
+/* Calls of the library (or of photongi-mpi's backend, across its ranks) that stop at a
+   checkpoint or a signal (on a multiple of 4 samples: the next call goes on with the same bits)
+   or at the time limit; a checkpoint saves the EXR and its sidecar. Frees the scene. */
+static pgi_status render_samples(reference_args *ra, reference_run *rn) {
+    pgi_reference_desc *d = &ra->d;
+    ref_progress *rp = &rn->rp;
+    *rp = (ref_progress){.time_limit_s = ra->time_s, .by_time = !ra->spp && ra->time_s > 0.0, .total = d->spp};
+    app_progress_init(&rp->bar, ra->quiet);
+    rn->before = rn->have;
     const pgi_cli_backend *be = pgi_cli_backend_now;
-    /* What the sidecar says, for checkpoints and the end. */
-    if (scene_spec != meta.scene) /* --continue: already there (copying it onto itself is undefined) */
-        snprintf(meta.scene, sizeof meta.scene, "%s", scene_spec);
-    meta.width = d.width;
-    meta.height = d.height;
-    meta.bounces = d.bounces;
-    meta.camera = d.camera;
-    if (d.view && d.view != &meta.view) meta.view = *d.view;
-    meta.has_view = d.view != NULL;
-    meta.seed = d.seed;
-    meta.jitter = d.jitter;
-    meta.specular = info.specular; /* the model in use, whether given or the scene's */
-    /* Calls of the library (or of photongi-mpi's backend, across its ranks) that stop at a
-       checkpoint or a signal (on a multiple of 4 samples: the next call goes on with the same bits)
-       or at the time limit. */
     /* kept to the end: a signal while saving is noted, not fatal */
     struct sigaction sa;
     memset(&sa, 0, sizeof sa);
@@ -445,61 +467,90 @@ int pgi_cmd_reference(int argc, char **argv) {
     sigemptyset(&sa.sa_mask);
     sigaction(SIGINT, &sa, NULL);
     sigaction(SIGTERM, &sa, NULL);
-    d.progress = progress_cb;
-    d.progress_user = &rp;
-    d.time_limit_s = 0.0;
-    rp.checkpoint_ms = 1000.0 * checkpoint_s;
+    d->progress = progress_cb;
+    d->progress_user = rp;
+    d->time_limit_s = 0.0;
+    rp->checkpoint_ms = 1000.0 * ra->checkpoint_s;
     const int writer = !be || be->writer;
-    uint64_t left = d.spp;
+    uint64_t left = d->spp;
+    pgi_status st;
     for (;;) {
-        d.spp = left;
-        rp.n0 = have;
-        rp.checkpoint = 0;
-        rp.last_ms = 0.0;
-        const uint64_t h0 = have;
-        st = be ? be->reference(scene, &d, &img, &have) : pgi_reference_render(scene, &d, &img, &have);
+        d->spp = left;
+        rp->n0 = rn->have;
+        rp->checkpoint = 0;
+        rp->last_ms = 0.0;
+        const uint64_t h0 = rn->have;
+        st = be ? be->reference(rn->scene, d, &rn->img, &rn->have)
+                : pgi_reference_render(rn->scene, d, &rn->img, &rn->have);
         if (st) break;
-        rp.base += have - h0;
-        rp.base_ms += rp.last_ms;
-        left -= have - h0;
-        int more = rp.checkpoint && left > 0 && !g_signal;
+        rp->base += rn->have - h0;
+        rp->base_ms += rp->last_ms;
+        left -= rn->have - h0;
+        int more = rp->checkpoint && left > 0 && !g_signal;
         if (be) more = be->agree(more); /* the writer's progress decides for every process */
         if (!more) break;
-        meta.spp = have;
-        if (writer && save_reference(&img, out, meta_path, &meta, "checkpoint") == 0 && !quiet && !rp.bar.on)
-            fprintf(stderr, "photongi reference: checkpoint: %s saved at %" PRIu64 " spp\n", out, have);
+        rn->meta.spp = rn->have;
+        if (writer && save_reference(&rn->img, ra->out, ra->meta_path, &rn->meta, "checkpoint") == 0 && !ra->quiet &&
+            !rp->bar.on)
+            fprintf(stderr, "photongi reference: checkpoint: %s saved at %" PRIu64 " spp\n", ra->out, rn->have);
     }
-    app_progress_end(&rp.bar, 1);
-    pgi_scene_destroy(scene);
-    if (st) {
-        pgi_image_free(&img);
-        return cli_fail("reference", "render failed", st);
-    }
-    if (be && !be->writer) { /* another process writes */
-        pgi_image_free(&img);
-        return 0;
-    }
-    meta.spp = have;
-    rc = save_reference(&img, out, meta_path, &meta, NULL);
-    if (!rc && png && (st = pgi_image_write(&img, png, exposure))) {
+    app_progress_end(&rp->bar, 1);
+    pgi_scene_destroy(rn->scene);
+    rn->scene = NULL;
+    return st;
+}
+
+/* Saves the reference, then --png; the note of an interrupted run, or the summary. Frees the image.
+ * Returns the exit status. */
+static int finish(const reference_args *ra, reference_run *rn) {
+    const char *out = ra->out;
+    const uint64_t have = rn->have;
+    rn->meta.spp = have;
+    int rc = save_reference(&rn->img, out, ra->meta_path, &rn->meta, NULL);
+    if (!rc && ra->png && pgi_image_write(&rn->img, ra->png, ra->exposure)) {
         fprintf(stderr, "photongi reference: cannot write --png: %s (%s and %s are saved at %" PRIu64 " spp)\n",
-                pgi_last_error(), out, meta_path, have);
+                pgi_last_error(), out, ra->meta_path, have);
         rc = 1;
     }
-    pgi_image_free(&img);
+    pgi_image_free(&rn->img);
     if (g_signal) {
         const int sig = g_signal;
         if (rc == 0)
             fprintf(stderr,
                     "photongi reference: interrupted (%s): %s saved with %" PRIu64 " samples per pixel (%" PRIu64
                     " added); 'photongi reference --continue %s' adds more\n",
-                    sig == SIGINT ? "SIGINT" : "SIGTERM", out, have, have - before, out);
-        else fprintf(stderr, "photongi reference: interrupted (%s)\n", sig == SIGINT ? "SIGINT" : "SIGTERM");
+                    cli_signal_name(sig), out, have, have - rn->before, out);
+        else fprintf(stderr, "photongi reference: interrupted (%s)\n", cli_signal_name(sig));
         return 128 + sig;
     }
     if (rc) return rc;
-    if (!quiet)
+    if (!ra->quiet)
         fprintf(stderr, "%s: %s %dx%d, %" PRIu64 " spp (%" PRIu64 " added), bounces %d, seed %" PRIu64 "\n", out,
-                scene_name, d.width, d.height, have, have - before, d.bounces, d.seed);
+                rn->scene_name, ra->d.width, ra->d.height, have, have - rn->before, ra->d.bounces, ra->d.seed);
     return 0;
+}
+
+int pgi_cmd_reference(int argc, char **argv) {
+    reference_args ra = {.checkpoint_s = 600.0, .specular = PGI_SPECULAR_DEFAULT};
+    int rc = parse_args(argc, argv, &ra);
+    if (rc >= 0) return rc;
+    if ((rc = check_args(&ra))) return rc;
+    if (ra.merge[0]) /* no samples to deal: one process merges */
+        return pgi_cli_backend_now && !pgi_cli_backend_now->writer
+                   ? 0
+                   : merge_references(ra.merge[0], ra.merge[1], ra.out, ra.meta_path, ra.quiet);
+
+    reference_run rn;
+    memset(&rn, 0, sizeof rn);
+    if ((rc = open_scene(&ra, &rn))) return rc;
+    pgi_status st = render_samples(&ra, &rn);
+    if (st) {
+        pgi_image_free(&rn.img);
+        return cli_fail("reference", "render failed", st);
+    }
+    if (pgi_cli_backend_now && !pgi_cli_backend_now->writer) { /* another process writes */
+        pgi_image_free(&rn.img);
+        return 0;
+    }
+    return finish(&ra, &rn);
 }

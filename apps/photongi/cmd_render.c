@@ -25,8 +25,6 @@
 
 const pgi_cli_backend *pgi_cli_backend_now = NULL;
 
-static int is_help(const char *a) { return strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0; }
-
 /* FNV-1a 64 of a file's bytes (0 when it cannot be read: a built-in scene). */
 static uint64_t file_hash(const char *path) {
     FILE *f = fopen(path, "rb");
@@ -45,16 +43,6 @@ static uint64_t file_hash(const char *path) {
 static volatile sig_atomic_t g_signal;
 static void on_signal(int sig) { g_signal = sig; }
 
-/* Non-finite pixels of an image at an exposure (a frame that is not numbers is not written). */
-static size_t non_finite_pixels(const pgi_image *img, float exposure) {
-    size_t bad = 0, npx = (size_t)img->width * (size_t)img->height;
-    for (size_t i = 0; i < npx; i++) {
-        const float *p = img->rgb + 3 * i;
-        bad += !isfinite(p[0] * exposure) || !isfinite(p[1] * exposure) || !isfinite(p[2] * exposure);
-    }
-    return bad;
-}
-
 /* After each frame of --progressive: a signal ends the average; every --checkpoint seconds the
  * average so far is written to -o (atomically: a kill while writing keeps the previous file). */
 typedef struct render_checkpoint {
@@ -71,7 +59,7 @@ static int after_frame(void *user) {
     if (g_signal) return 1;
     if (c->every_ms <= 0.0 || app_now_ms() - c->t0_ms < c->next_ms) return 0;
     c->next_ms = app_now_ms() - c->t0_ms + c->every_ms;
-    if (non_finite_pixels(c->img, c->exposure)) {
+    if (cli_non_finite_pixels(c->img, c->exposure)) {
         fprintf(stderr, "photongi render: checkpoint: the average of %d frames has non-finite pixels: not written\n",
                 c->frames);
         return 0;
@@ -314,246 +302,312 @@ static void render_progress(void *user, const pgi_progress *p) {
 
 static const char *const k_image_exts[] = {".png", ".exr", NULL};
 
-int pgi_cmd_render(int argc, char **argv) {
-    pgi_render_desc d = {0};
-    app_given_options given = {0};
-    app_render_extra x = APP_RENDER_EXTRA_INIT;
-    const char *scene_spec = "cornell", *out = NULL, *stats_path = NULL;
-    int quiet = 0;
+/* What the command line of 'render' gives: the frame's settings, the scene, the outputs. */
+typedef struct render_args {
+    pgi_render_desc d;
+    app_given_options given;
+    app_render_extra x;
+    const char *scene_spec, *out, *stats_path;
+    int quiet;
+    from_stats fsr; /* --from-stats: its strings live through the call */
+    double checkpoint_s;
+    int checkpoint_set;
+    app_camera_args cam_args;
+    pgi_camera_def view; /* d.view when a camera flag is given */
+} render_args;
+
+/* The frame: its scene, the image and statistics it made, the progress line. */
+typedef struct render_state {
+    pgi_scene *scene;
+    pgi_scene_info info;
+    char scene_name[128], scene_file[4096];
+    uint64_t scene_hash;
+    float exposure;
+    app_progress bar;
+    pgi_image img;
+    pgi_frame_stats fs;
+    char device_name[256]; /* the stats' device name lives with the renderer */
+} render_state;
+
+/* Parses argv into ra; -1 to go on, else the exit status (0 after --help). */
+static int parse_args(int argc, char **argv, render_args *ra) {
     char err[1400];
-    from_stats fsr = {{0}, {0}, {0}}; /* --from-stats: its strings live through the call */
-    double checkpoint_s = 600.0;
-    int checkpoint_set = 0;
-    app_camera_args cam_args = {0};
-    pgi_camera_def view;
     for (int i = 0; i < argc; i++) {
         const char *a = argv[i];
-        if (is_help(a)) {
+        if (cli_is_help(a)) {
             fputs(k_render_help, stdout);
             app_print_estimator_options(stdout);
             return 0;
         }
-        if (strcmp(a, "-q") == 0 || strcmp(a, "--quiet") == 0) {
-            quiet = 1;
+        if (cli_is_quiet(a)) {
+            ra->quiet = 1;
             continue;
         }
         if (a[0] != '-') return cli_usage("render", "unexpected argument '%s'", a);
         if (i + 1 >= argc) return cli_usage("render", "%s needs a value", a);
         const char *v = argv[++i];
-        int ro = app_render_option(a, v, &d, &x, &given, err, sizeof err);
+        int ro = app_render_option(a, v, &ra->d, &ra->x, &ra->given, err, sizeof err);
         if (ro < 0) return cli_usage("render", "%s", err);
         if (ro > 0) continue;
-        if ((ro = app_camera_option(a, v, &cam_args, err, sizeof err)) < 0) return cli_usage("render", "%s", err);
+        if ((ro = app_camera_option(a, v, &ra->cam_args, err, sizeof err)) < 0) return cli_usage("render", "%s", err);
         if (ro > 0) continue;
         if (strcmp(a, "--scene") == 0) {
             if (!*v) return cli_usage("render", "%s", "--scene needs a scene");
-            scene_spec = v;
+            ra->scene_spec = v;
         } else if (strcmp(a, "--from-stats") == 0) {
-            if (!read_from_stats(v, &d, &x, &cam_args, &fsr, err, sizeof err)) return cli_failure("render", "%s", err);
-            if (fsr.scene[0]) scene_spec = fsr.scene;
-        } else if (strcmp(a, "-o") == 0 || strcmp(a, "--out") == 0) out = v;
-        else if (strcmp(a, "--stats") == 0) stats_path = v;
+            if (!read_from_stats(v, &ra->d, &ra->x, &ra->cam_args, &ra->fsr, err, sizeof err))
+                return cli_failure("render", "%s", err);
+            if (ra->fsr.scene[0]) ra->scene_spec = ra->fsr.scene;
+        } else if (strcmp(a, "-o") == 0 || strcmp(a, "--out") == 0) ra->out = v;
+        else if (strcmp(a, "--stats") == 0) ra->stats_path = v;
         else if (strcmp(a, "--checkpoint") == 0) {
-            if (!parse_checkpoint(v, &checkpoint_s))
+            if (!parse_checkpoint(v, &ra->checkpoint_s))
                 return cli_usage("render", "--checkpoint needs seconds, a number in 0..1e9 (0: none), got '%s'", v);
-            checkpoint_set = 1;
+            ra->checkpoint_set = 1;
         } else return cli_usage("render", "unknown option '%s'", a);
     }
-    /* Everything the command line alone decides, before any file is read. */
-    if (!out) return cli_usage("render", "%s", "no output file: give -o OUT.png or -o OUT.exr");
-    int rc = app_check_output("photongi render", "-o", out, k_image_exts);
+    return -1;
+}
+
+/* Everything the command line alone decides, before any file is read: the outputs, the settings
+ * together. 0 to go on, else the exit status. */
+static int check_args(const render_args *ra) {
+    if (!ra->out) return cli_usage("render", "%s", "no output file: give -o OUT.png or -o OUT.exr");
+    int rc = app_check_output("photongi render", "-o", ra->out, k_image_exts);
     if (rc) return rc;
-    if (stats_path && strcmp(stats_path, "-") != 0 &&
-        (rc = app_check_output("photongi render", "--stats", stats_path, NULL)))
+    if (ra->stats_path && strcmp(ra->stats_path, "-") != 0 &&
+        (rc = app_check_output("photongi render", "--stats", ra->stats_path, NULL)))
         return rc;
     {
-        const char *names[] = {"-o", "--stats"}, *paths[] = {out, stats_path};
+        const char *names[] = {"-o", "--stats"}, *paths[] = {ra->out, ra->stats_path};
         if ((rc = app_check_distinct("photongi render", 2, names, paths))) return rc;
     }
-    int ck = app_render_check(&d, &x, err, sizeof err);
-    if (ck == 0 && !pgi_estimator_find(d.estimator ? d.estimator : PGI_DEFAULT_ESTIMATOR)) {
+    char err[1400];
+    int ck = app_render_check(&ra->d, &ra->x, err, sizeof err);
+    if (ck == 0 && !pgi_estimator_find(ra->d.estimator ? ra->d.estimator : PGI_DEFAULT_ESTIMATOR)) {
         fprintf(stderr, "photongi render: %s\nTry 'photongi estimators -v'.\n", err);
         return CLI_EXIT_USAGE;
     }
     if (ck == 0) return cli_usage("render", "%s", err);
-    const long long progressive = x.progressive;
-    if (checkpoint_set && progressive < 2)
+    if (ra->checkpoint_set && ra->x.progressive < 2)
         return cli_usage("render", "%s",
                          "--checkpoint needs --progressive N with N > 1 (one frame has nothing to save)");
-    if (checkpoint_set && pgi_cli_backend_now && checkpoint_s > 0.0)
+    if (ra->checkpoint_set && pgi_cli_backend_now && ra->checkpoint_s > 0.0)
         return cli_usage("render", "%s", "--checkpoint: photongi-mpi render writes only at its end");
-    float exposure = x.exposure;
-    const float scene_time = x.time;
-    const pgi_specular specular = x.specular;
-    if (!quiet) app_note_ignored_options("photongi render", d.estimator, &given);
+    if (!ra->quiet) app_note_ignored_options("photongi render", ra->d.estimator, &ra->given);
     if (ck < 0) return cli_failure("render", "%s", err);
+    return 0;
+}
 
-    pgi_scene *scene;
-    pgi_status st = pgi_scene_load_budget(scene_spec, d.max_memory, &scene);
-    if (st) return cli_input_fail("render", "cannot load scene", st);
-    if (specular != PGI_SPECULAR_DEFAULT && (st = pgi_scene_set_specular(scene, specular))) {
-        pgi_scene_destroy(scene);
-        return cli_fail("render", "cannot set the specular model", st);
-    }
-    if ((st = pgi_scene_set_time(scene, scene_time))) {
-        pgi_scene_destroy(scene);
+/* Loads the scene at its time with its glossy model, then the camera (--camera, or the flags of a
+ * camera of one's own) and the exposure. 0 to go on, else the exit status (the scene freed). */
+static int open_scene(render_args *ra, render_state *rs) {
+    int rc = cli_load_scene("render", ra->scene_spec, ra->d.max_memory, ra->x.specular, &rs->scene);
+    if (rc) return rc;
+    pgi_status st;
+    if ((st = pgi_scene_set_time(rs->scene, ra->x.time))) {
+        pgi_scene_destroy(rs->scene);
         return cli_fail("render", "cannot set the scene time", st);
     }
-    pgi_scene_info info;
-    pgi_scene_get_info(scene, &info);
-    char scene_name[128], scene_file[4096];
-    snprintf(scene_name, sizeof scene_name, "%s", info.name);
-    snprintf(scene_file, sizeof scene_file, "%s", info.source);
-    const uint64_t scene_hash = file_hash(scene_file);
-    if (fsr.hash[0]) {
+    pgi_scene_info *info = &rs->info;
+    pgi_scene_get_info(rs->scene, info);
+    snprintf(rs->scene_name, sizeof rs->scene_name, "%s", info->name);
+    snprintf(rs->scene_file, sizeof rs->scene_file, "%s", info->source);
+    rs->scene_hash = file_hash(rs->scene_file);
+    if (ra->fsr.hash[0]) {
         char now[24];
-        snprintf(now, sizeof now, "%016llx", (unsigned long long)scene_hash);
-        if (strcmp(now, fsr.hash) != 0)
-            cli_warn(quiet, "render",
+        snprintf(now, sizeof now, "%016llx", (unsigned long long)rs->scene_hash);
+        if (strcmp(now, ra->fsr.hash) != 0)
+            cli_warn(ra->quiet, "render",
                      "%s has changed since the statistics of --from-stats were written: the image "
                      "may differ",
-                     scene_file);
+                     rs->scene_file);
     }
-    if (*info.warnings) cli_warn(quiet, "render", "%s", info.warnings);
-    if (!app_render_camera(scene, &d, &x, err, sizeof err)) {
-        pgi_scene_destroy(scene);
+    if (*info->warnings) cli_warn(ra->quiet, "render", "%s", info->warnings);
+    char err[1400];
+    if (!app_render_camera(rs->scene, &ra->d, &ra->x, err, sizeof err)) {
+        pgi_scene_destroy(rs->scene);
         return cli_failure("render", "%s", err);
     }
-    if (app_camera_given(&cam_args)) {
-        pgi_camera_def base;
-        pgi_scene_get_camera(scene, (size_t)d.camera, &base);
-        if (!app_camera_resolve(&cam_args, &base, &view, err, sizeof err)) {
-            pgi_scene_destroy(scene);
-            return cli_failure("render", "scene %s: %s", scene_name, err);
+    if (app_camera_given(&ra->cam_args)) {
+        if ((rc = cli_resolve_view("render", rs->scene, ra->d.camera, rs->scene_name, &ra->cam_args, &ra->view))) {
+            pgi_scene_destroy(rs->scene);
+            return rc;
         }
-        d.view = &view;
+        ra->d.view = &ra->view;
     }
-    if (exposure == 0.f) exposure = info.defaults.exposure > 0.f ? info.defaults.exposure : 1.f;
-    pgi_image img = {0};
-    pgi_frame_stats fs;
-    memset(&fs, 0, sizeof fs); /* a launcher's rank that does not write leaves it untouched */
+    rs->exposure = cli_exposure(ra->x.exposure, info);
+    return 0;
+}
+
+/* --progressive N in this process: SIGINT/SIGTERM end the average after the frame in progress (a
+ * second one, at once), and every --checkpoint seconds the average so far is written. */
+static pgi_status render_progressive(const render_args *ra, render_state *rs, pgi_renderer *r) {
+    struct sigaction sa, old_int, old_term;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    sa.sa_flags = (int)SA_RESETHAND;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, &old_int);
+    sigaction(SIGTERM, &sa, &old_term);
+    render_checkpoint cp = {&rs->img,
+                            ra->out,
+                            rs->exposure,
+                            ra->quiet || rs->bar.on,
+                            0,
+                            1000.0 * ra->checkpoint_s,
+                            1000.0 * ra->checkpoint_s,
+                            app_now_ms()};
+    pgi_status st =
+        pgi_render_progressive_until(r, &ra->d, (int)ra->x.progressive, after_frame, &cp, &rs->img, &rs->fs);
+    sigaction(SIGINT, &old_int, NULL);
+    sigaction(SIGTERM, &old_term, NULL);
+    return st;
+}
+
+/* Renders the frame, or the average of --progressive N, into rs->img and rs->fs (through the
+ * launcher's backend where there is one), with the progress line; warns of a view that sees
+ * nothing lit. 0 to go on, else the exit status (the image and the scene freed). */
+static int render(render_args *ra, render_state *rs) {
     pgi_renderer *r;
-    if ((st = pgi_renderer_create(scene, &r))) {
-        pgi_scene_destroy(scene);
+    pgi_status st;
+    if ((st = pgi_renderer_create(rs->scene, &r))) {
+        pgi_scene_destroy(rs->scene);
         return cli_fail("render", "cannot create a renderer", st);
     }
-    app_progress bar;
-    app_progress_init(&bar, quiet);
-    if (bar.on) {
-        d.progress = render_progress;
-        d.progress_user = &bar;
+    pgi_render_desc *d = &ra->d;
+    app_progress_init(&rs->bar, ra->quiet);
+    if (rs->bar.on) {
+        d->progress = render_progress;
+        d->progress_user = &rs->bar;
     }
     const pgi_cli_backend *be = pgi_cli_backend_now;
-    if (be) st = be->progressive(r, &d, (int)progressive, &img, &fs);
-    else if (progressive > 1) {
-        /* SIGINT/SIGTERM end the average after the frame in progress (a second one, at once) */
-        struct sigaction sa, old_int, old_term;
-        memset(&sa, 0, sizeof sa);
-        sa.sa_handler = on_signal;
-        sa.sa_flags = (int)SA_RESETHAND;
-        sigemptyset(&sa.sa_mask);
-        sigaction(SIGINT, &sa, &old_int);
-        sigaction(SIGTERM, &sa, &old_term);
-        render_checkpoint cp =
-            {&img, out, exposure, quiet || bar.on, 0, 1000.0 * checkpoint_s, 1000.0 * checkpoint_s, app_now_ms()};
-        st = pgi_render_progressive_until(r, &d, (int)progressive, after_frame, &cp, &img, &fs);
-        sigaction(SIGINT, &old_int, NULL);
-        sigaction(SIGTERM, &old_term, NULL);
-    } else st = pgi_renderer_render(r, &d, &img, &fs);
-    app_progress_end(&bar, 0);
+    if (be) st = be->progressive(r, d, (int)ra->x.progressive, &rs->img, &rs->fs);
+    else if (ra->x.progressive > 1) st = render_progressive(ra, rs, r);
+    else st = pgi_renderer_render(r, d, &rs->img, &rs->fs);
+    app_progress_end(&rs->bar, 0);
     /* A camera that sees nothing lit: an automatic one (the scene gives none) is probed for direct
      * light, any other one warned about when its image is black. */
-    if (st == PGI_OK && !quiet && !be && d.output == PGI_OUTPUT_ALL &&
-        (app_image_unlit(&img) || (info.camera_auto && !d.view && app_view_sees_light(r, &d, &info) == 0))) {
+    const pgi_scene_info *info = &rs->info;
+    if (st == PGI_OK && !ra->quiet && !be && d->output == PGI_OUTPUT_ALL &&
+        (app_image_unlit(&rs->img) || (info->camera_auto && !d->view && app_view_sees_light(r, d, info) == 0))) {
         char why[700];
-        app_unlit_warning(&info, d.camera, d.view != NULL, why, sizeof why);
-        cli_warn(quiet, "render", "%s", why);
+        app_unlit_warning(info, d->camera, d->view != NULL, why, sizeof why);
+        cli_warn(ra->quiet, "render", "%s", why);
     }
-    char device_name[256]; /* the stats' device name lives with the renderer */
     if (st == PGI_OK) {
-        snprintf(device_name, sizeof device_name, "%s", fs.device ? fs.device : "cpu");
-        fs.device = device_name;
+        snprintf(rs->device_name, sizeof rs->device_name, "%s", rs->fs.device ? rs->fs.device : "cpu");
+        rs->fs.device = rs->device_name;
     }
     pgi_renderer_destroy(r);
     if (st) {
-        pgi_image_free(&img);
-        pgi_scene_destroy(scene);
+        pgi_image_free(&rs->img);
+        pgi_scene_destroy(rs->scene);
         return cli_fail("render", "render failed", st);
     }
-    if (be && !be->writer) { /* another process writes */
-        pgi_image_free(&img);
-        pgi_scene_destroy(scene);
-        return 0;
-    }
+    return 0;
+}
+
+/* Writes the image, then, unless a signal ended the average, the statistics. Frees the image and
+ * the scene. 0 to go on, else the exit status. */
+static int write_outputs(const render_args *ra, render_state *rs) {
+    const char *out = ra->out;
     /* A frame that is not numbers is a failed render, not an image (the scene's limits keep its
      * values floats, docs/scene-format.md "Numbers"; this catches what they let through). */
-    const size_t bad = non_finite_pixels(&img, exposure), npx = (size_t)img.width * (size_t)img.height;
+    const size_t bad = cli_non_finite_pixels(&rs->img, rs->exposure),
+                 npx = (size_t)rs->img.width * (size_t)rs->img.height;
     if (bad) {
-        pgi_image_free(&img);
-        pgi_scene_destroy(scene);
+        pgi_image_free(&rs->img);
+        pgi_scene_destroy(rs->scene);
         return cli_failure("render",
                            "%s: the render has %zu non-finite pixel%s (NaN or Inf) of %zu, with exposure %g: not "
                            "written (scene %s; see docs/scene-format.md, Numbers)",
-                           out, bad, bad == 1 ? "" : "s", npx, (double)exposure, scene_file);
+                           out, bad, bad == 1 ? "" : "s", npx, (double)rs->exposure, rs->scene_file);
     }
-    st = pgi_image_write(&img, out, exposure);
-    pgi_image_free(&img);
-    pgi_scene_destroy(scene);
+    pgi_status st = pgi_image_write(&rs->img, out, rs->exposure);
+    pgi_image_free(&rs->img);
+    pgi_scene_destroy(rs->scene);
     if (st) return cli_fail("render", "cannot write image", st);
+    pgi_frame_stats *fs = &rs->fs;
     if (g_signal) { /* the average so far is written; the stats are not */
         fprintf(stderr, "photongi render: interrupted (%s): %s written with the average of %d of %lld frames\n",
-                g_signal == SIGINT ? "SIGINT" : "SIGTERM", out, fs.frames, progressive);
+                cli_signal_name(g_signal), out, fs->frames, ra->x.progressive);
         return 128 + g_signal;
     }
-    fs.memory_peak_rss = pgi_memory_peak_rss(); /* writing the image included */
-    fs.run = (pgi_run_info){scene_spec, scene_file, scene_hash, exposure, scene_time, specular, d.view};
-    if (stats_path) {
-        st = be && be->write_stats ? be->write_stats(&fs, stats_path) : pgi_stats_write_json(&fs, stats_path);
+    fs->memory_peak_rss = pgi_memory_peak_rss(); /* writing the image included */
+    fs->run = (pgi_run_info){ra->scene_spec, rs->scene_file, rs->scene_hash, rs->exposure,
+                             ra->x.time,     ra->x.specular, ra->d.view};
+    if (ra->stats_path) {
+        const pgi_cli_backend *be = pgi_cli_backend_now;
+        st = be && be->write_stats ? be->write_stats(fs, ra->stats_path) : pgi_stats_write_json(fs, ra->stats_path);
         if (st) return cli_fail("render", "cannot write stats", st);
     }
-    if (fs.photons_stored < (uint64_t)fs.settings.photons * (uint64_t)fs.frames)
-        cli_warn(quiet, "render",
+    return 0;
+}
+
+/* The summary on stderr (-q: none): the frame, its passes' times, photon reads, memory; and the
+ * warning of photons that did not stay in the scene. */
+static void print_summary(const render_args *ra, const render_state *rs) {
+    const pgi_frame_stats *fs = &rs->fs;
+    if (fs->photons_stored < (uint64_t)fs->settings.photons * (uint64_t)fs->frames)
+        cli_warn(ra->quiet, "render",
                  "only %" PRIu64 " photons were stored from %" PRIu64
                  " paths: most light leaves the scene (the tracer stops after 64 paths per requested photon)",
-                 fs.photons_stored, fs.photons_emitted);
-    if (!quiet) {
-        fprintf(stderr,
-                "%s: %s %dx%d, %s, %" PRIu64 " photons stored from %" PRIu64 " paths, r=%g\n"
-                "  view %.1f ms | trace %.1f ms | build %.1f ms | estimate %.1f ms | direct %.1f ms | total %.1f ms\n"
-                "  photon reads %" PRIu64 ", contributing %" PRIu64 " (%.1f%%)\n",
-                out, scene_name, fs.width, fs.height, fs.estimator, fs.photons_stored, fs.photons_emitted,
-                (double)fs.radius, fs.view_ms, fs.trace_ms, fs.build_ms, fs.estimate_ms, fs.direct_ms, fs.total_ms,
-                fs.reads, fs.contributing, fs.reads ? 100.0 * (double)fs.contributing / (double)fs.reads : 0.0);
-        if (strcmp(fs.device, "cpu") != 0) {
-            fprintf(stderr, "  device %s:", fs.device);
-            for (int k = 0; k < fs.pass_count; k++)
-                fprintf(stderr, "%s %s %.2f ms", k ? " |" : "", fs.passes_ms[k].name, fs.passes_ms[k].value);
-            fprintf(stderr, "\n");
-        }
-        if (fs.frames > 1)
-            fprintf(stderr, "  progressive: %d frames averaged (times and counts summed), last radius %g\n", fs.frames,
-                    (double)fs.radius);
-        double counted = 0.0;
-        int big = 0;
-        for (int k = 0; k < fs.memory_count; k++) {
-            counted += fs.memory_bytes[k].value;
-            if (fs.memory_bytes[k].value > fs.memory_bytes[big].value) big = k;
-        }
-        if (fs.memory_count > 0)
-            fprintf(stderr, "  memory %.1f MiB counted (largest: %s %.1f MiB), peak resident set %.1f MiB\n",
-                    counted / 1048576.0, fs.memory_bytes[big].name, fs.memory_bytes[big].value / 1048576.0,
-                    (double)fs.memory_peak_rss / 1048576.0);
-        if (fs.leaf_size > 0) fprintf(stderr, "  bvh leaf-size threshold %d\n", fs.leaf_size);
-        if (fs.footprint_bin_width > 0.f) {
-            fprintf(stderr, "  footprint radii (before the r_max clamp):\n");
-            for (int k = 0; k < PGI_FOOTPRINT_BINS; k++) {
-                double lo = k * (double)fs.footprint_bin_width;
-                if (k < PGI_FOOTPRINT_BINS - 1)
-                    fprintf(stderr, "    %8.4g - %-8.4g %10" PRIu64 "\n", lo, lo + fs.footprint_bin_width,
-                            fs.footprint_hist[k]);
-                else fprintf(stderr, "    > %-17.4g %10" PRIu64 "\n", lo, fs.footprint_hist[k]);
-            }
+                 fs->photons_stored, fs->photons_emitted);
+    if (ra->quiet) return;
+    fprintf(stderr,
+            "%s: %s %dx%d, %s, %" PRIu64 " photons stored from %" PRIu64 " paths, r=%g\n"
+            "  view %.1f ms | trace %.1f ms | build %.1f ms | estimate %.1f ms | direct %.1f ms | total %.1f ms\n"
+            "  photon reads %" PRIu64 ", contributing %" PRIu64 " (%.1f%%)\n",
+            ra->out, rs->scene_name, fs->width, fs->height, fs->estimator, fs->photons_stored, fs->photons_emitted,
+            (double)fs->radius, fs->view_ms, fs->trace_ms, fs->build_ms, fs->estimate_ms, fs->direct_ms, fs->total_ms,
+            fs->reads, fs->contributing, fs->reads ? 100.0 * (double)fs->contributing / (double)fs->reads : 0.0);
+    if (strcmp(fs->device, "cpu") != 0) {
+        fprintf(stderr, "  device %s:", fs->device);
+        for (int k = 0; k < fs->pass_count; k++)
+            fprintf(stderr, "%s %s %.2f ms", k ? " |" : "", fs->passes_ms[k].name, fs->passes_ms[k].value);
+        fprintf(stderr, "\n");
+    }
+    if (fs->frames > 1)
+        fprintf(stderr, "  progressive: %d frames averaged (times and counts summed), last radius %g\n", fs->frames,
+                (double)fs->radius);
+    double counted = 0.0;
+    int big = 0;
+    for (int k = 0; k < fs->memory_count; k++) {
+        counted += fs->memory_bytes[k].value;
+        if (fs->memory_bytes[k].value > fs->memory_bytes[big].value) big = k;
+    }
+    if (fs->memory_count > 0)
+        fprintf(stderr, "  memory %.1f MiB counted (largest: %s %.1f MiB), peak resident set %.1f MiB\n",
+                counted / 1048576.0, fs->memory_bytes[big].name, fs->memory_bytes[big].value / 1048576.0,
+                (double)fs->memory_peak_rss / 1048576.0);
+    if (fs->leaf_size > 0) fprintf(stderr, "  bvh leaf-size threshold %d\n", fs->leaf_size);
+    if (fs->footprint_bin_width > 0.f) {
+        fprintf(stderr, "  footprint radii (before the r_max clamp):\n");
+        for (int k = 0; k < PGI_FOOTPRINT_BINS; k++) {
+            double lo = k * (double)fs->footprint_bin_width;
+            if (k < PGI_FOOTPRINT_BINS - 1)
+                fprintf(stderr, "    %8.4g - %-8.4g %10" PRIu64 "\n", lo, lo + fs->footprint_bin_width,
+                        fs->footprint_hist[k]);
+            else fprintf(stderr, "    > %-17.4g %10" PRIu64 "\n", lo, fs->footprint_hist[k]);
         }
     }
+}
+
+int pgi_cmd_render(int argc, char **argv) {
+    render_args ra = {.x = APP_RENDER_EXTRA_INIT, .scene_spec = "cornell", .checkpoint_s = 600.0};
+    int rc = parse_args(argc, argv, &ra);
+    if (rc >= 0) return rc;
+    if ((rc = check_args(&ra))) return rc;
+    render_state rs;
+    memset(&rs, 0, sizeof rs); /* fs: a launcher's rank that does not write leaves it untouched */
+    if ((rc = open_scene(&ra, &rs)) || (rc = render(&ra, &rs))) return rc;
+    if (pgi_cli_backend_now && !pgi_cli_backend_now->writer) { /* another process writes */
+        pgi_image_free(&rs.img);
+        pgi_scene_destroy(rs.scene);
+        return 0;
+    }
+    if ((rc = write_outputs(&ra, &rs))) return rc;
+    print_summary(&ra, &rs);
     return 0;
 }

@@ -337,54 +337,81 @@ static int make_reference(const char *path, const pgi_reference_meta *want, cons
     return 0;
 }
 
-int pgi_cmd_study(int argc, char **argv) {
-    const char *scene_spec = "cornell", *ests_arg = "exact", *out_dir = NULL, *ref_arg = NULL;
-    long long photons = 100000, frames = 8, spp = 256;
+/* What the command line of 'study' gives, and the methods and the folder it names. */
+typedef struct study_args {
+    const char *scene_spec, *ests_arg, *out_dir, *ref_arg;
+    long long photons, frames, spp;
     double budgets[MAX_BUDGETS];
-    int nb = 0; /* none given: one, the slowest method's frame times --frames */
-    int quiet = 0, equal_time = 1;
-    /* every method: the same seed, photons and pixel-area sampling; only the estimate differs */
-    pgi_render_desc d = {.photons = 100000, .width = 320, .height = 240, .seed = 1, .jitter = PGI_JITTER_ON};
-    app_render_extra xo = APP_RENDER_EXTRA_INIT;
+    int nb; /* none given: one, the slowest method's frame times --frames */
+    int quiet, equal_time;
+    pgi_render_desc d;
+    app_render_extra xo;
+    method meth[MAX_EST];
+    int ne;
+    char dir[4096];
+} study_args;
+
+/* The study under way: the scene, the reference and the rows. */
+typedef struct study_run {
+    pgi_scene *scene;
+    float exposure;
+    pgi_reference_meta want; /* the reference's: the frames' scene, size, bounces, camera and sampling */
+    char ref_path[4300];
+    pgi_image ref;
+    double ref_psnr;
+    row *rows;
+    int nr;
+} study_run;
+
+/* --time MS[,MS...] into sa->budgets: 0, else the exit status. */
+static int parse_budgets(const char *v, study_args *sa) {
+    char buf[512], *save = NULL;
+    snprintf(buf, sizeof buf, "%s", v);
+    double *budgets = sa->budgets;
+    int nb = 0;
+    sa->nb = 0;
+    for (char *t = strtok_r(buf, ",", &save); t; t = strtok_r(NULL, ",", &save)) {
+        if (nb == MAX_BUDGETS || !parse_pos_double(t, &budgets[nb]) || (nb && budgets[nb] <= budgets[nb - 1]))
+            return cli_usage("study", "--time needs up to %d increasing positive numbers of milliseconds, got '%s'",
+                             MAX_BUDGETS, v);
+        sa->nb = ++nb;
+    }
+    if (!nb) return cli_usage("study", "--time needs milliseconds, got '%s'", v);
+    return 0;
+}
+
+/* Parses argv into sa; -1 to go on, else the exit status (0 after --help). */
+static int parse_args(int argc, char **argv, study_args *sa) {
     for (int i = 0; i < argc; i++) {
         const char *a = argv[i];
-        if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0) {
+        if (cli_is_help(a)) {
             fputs(k_study_help, stdout);
             return 0;
         }
-        if (strcmp(a, "-q") == 0 || strcmp(a, "--quiet") == 0) {
-            quiet = 1;
+        if (cli_is_quiet(a)) {
+            sa->quiet = 1;
             continue;
         }
         if (a[0] != '-') return cli_usage("study", "unexpected argument '%s'", a);
         if (i + 1 >= argc) return cli_usage("study", "%s needs a value", a);
         const char *v = argv[++i];
-        if (strcmp(a, "--scene") == 0) scene_spec = v;
-        else if (strcmp(a, "--estimators") == 0) ests_arg = v;
-        else if (strcmp(a, "--out") == 0) out_dir = v;
-        else if (strcmp(a, "--reference") == 0) ref_arg = v;
+        int rc;
+        if (strcmp(a, "--scene") == 0) sa->scene_spec = v;
+        else if (strcmp(a, "--estimators") == 0) sa->ests_arg = v;
+        else if (strcmp(a, "--out") == 0) sa->out_dir = v;
+        else if (strcmp(a, "--reference") == 0) sa->ref_arg = v;
         else if (strcmp(a, "--equal-time") == 0) {
             if (strcmp(v, "on") != 0 && strcmp(v, "off") != 0)
                 return cli_usage("study", "--equal-time must be on or off, got '%s'", v);
-            equal_time = strcmp(v, "on") == 0;
+            sa->equal_time = strcmp(v, "on") == 0;
         } else if (strcmp(a, "--frames") == 0) {
-            if (!parse_whole(v, 1, 10000, &frames))
+            if (!parse_whole(v, 1, 10000, &sa->frames))
                 return cli_usage("study", "--frames needs a whole number in 1..10000, got '%s'", v);
         } else if (strcmp(a, "--spp") == 0) {
-            if (!parse_whole(v, 2, 1000000, &spp))
+            if (!parse_whole(v, 2, 1000000, &sa->spp))
                 return cli_usage("study", "--spp needs a whole number in 2..1000000, got '%s'", v);
         } else if (strcmp(a, "--time") == 0) {
-            char buf[512], *save = NULL;
-            snprintf(buf, sizeof buf, "%s", v);
-            nb = 0;
-            for (char *t = strtok_r(buf, ",", &save); t; t = strtok_r(NULL, ",", &save)) {
-                if (nb == MAX_BUDGETS || !parse_pos_double(t, &budgets[nb]) || (nb && budgets[nb] <= budgets[nb - 1]))
-                    return cli_usage("study",
-                                     "--time needs up to %d increasing positive numbers of milliseconds, got '%s'",
-                                     MAX_BUDGETS, v);
-                nb++;
-            }
-            if (!nb) return cli_usage("study", "--time needs milliseconds, got '%s'", v);
+            if ((rc = parse_budgets(v, sa))) return rc;
         } else if (strcmp(a, "--estimator") == 0 || strcmp(a, "--progressive") == 0 || strcmp(a, "--output") == 0 ||
                    strcmp(a, "--max-memory") == 0) {
             return cli_usage("study",
@@ -393,131 +420,241 @@ int pgi_cmd_study(int argc, char **argv) {
                              a);
         } else {
             char err[512];
-            const int ro = app_render_option(a, v, &d, &xo, NULL, err, sizeof err);
+            const int ro = app_render_option(a, v, &sa->d, &sa->xo, NULL, err, sizeof err);
             if (ro < 0) return cli_usage("study", "%s", err);
             if (ro == 0) return cli_usage("study", "unknown option '%s'", a);
-            if (strcmp(a, "--size") == 0 && (d.width < 11 || d.height < 11))
+            if (strcmp(a, "--size") == 0 && (sa->d.width < 11 || sa->d.height < 11))
                 return cli_usage("study", "--size needs each side 11 or more (the SSIM window), got '%s'", v);
         }
     }
-    photons = d.photons;
-    const int w = d.width, h = d.height;
-    if (d.jitter == PGI_JITTER_AUTO) d.jitter = PGI_JITTER_ON;
-    /* the methods: names, "exact", "all", "pathtracer"; a name may end in +guided and/or +view */
-    method meth[MAX_EST];
-    int ne = 0;
-    {
-        char buf[1024], *save = NULL;
-        snprintf(buf, sizeof buf, "%s", ests_arg);
-        for (char *t = strtok_r(buf, ",", &save); t; t = strtok_r(NULL, ",", &save)) {
-            const int all = strcmp(t, "all") == 0, exact = strcmp(t, "exact") == 0;
-            if (all || exact) {
-                for (size_t e = 0; e < pgi_estimator_count() && ne < MAX_EST; e++) {
-                    const pgi_estimator_vtbl *vt = pgi_estimator_at(e);
-                    if (!vt->oracle && (all || vt->exact)) {
-                        meth[ne] = (method){.vt = vt};
-                        snprintf(meth[ne++].name, sizeof meth[0].name, "%s", vt->name);
-                    }
-                }
-                continue;
-            }
-            if (ne == MAX_EST) return cli_usage("study", "--estimators names more than %d methods", MAX_EST);
-            method *m = &meth[ne];
-            *m = (method){0};
-            snprintf(m->name, sizeof m->name, "%s", t);
-            for (char *plus; (plus = strrchr(t, '+'));) {
-                if (strcmp(plus, "+guided") == 0) m->guided = 1;
-                else if (strcmp(plus, "+view") == 0) m->view = 1;
-                else return cli_usage("study", "'%s': a method's variant is +guided or +view, got '%s'", m->name, plus);
-                *plus = 0;
-            }
-            if (strcmp(t, PATHTRACER) == 0) {
-                if (m->guided || m->view) return cli_usage("study", "'%s': the path tracer has no variants", m->name);
-            } else if (!(m->vt = pgi_estimator_find(t)))
-                return cli_usage("study", "unknown estimator '%s' ('photongi estimators' lists them)", t);
-            ne++;
-        }
-    }
-    if (!ne) return cli_usage("study", "%s", "--estimators names none");
-    char dir[4096];
-    if (out_dir) snprintf(dir, sizeof dir, "%s", out_dir);
-    else {
-        const char *b = strrchr(scene_spec, '/');
-        snprintf(dir, sizeof dir, "study-%s", b ? b + 1 : scene_spec);
-    }
-    if (mkdir(dir, 0777) != 0 && errno != EEXIST)
-        return cli_failure("study", "cannot make the folder %s: %s", dir, strerror(errno));
+    return -1;
+}
 
-    pgi_scene *scene;
-    pgi_status st = pgi_scene_load(scene_spec, &scene);
-    if (st) return cli_input_fail("study", "cannot load scene", st);
-    if (xo.specular != PGI_SPECULAR_DEFAULT && (st = pgi_scene_set_specular(scene, xo.specular))) {
-        pgi_scene_destroy(scene);
-        return cli_fail("study", "cannot set the specular model", st);
+/* The methods of --estimators: names, "exact", "all", "pathtracer"; a name may end in +guided
+ * and/or +view. 0, else the exit status. */
+static int parse_methods(study_args *sa) {
+    method *meth = sa->meth;
+    int ne = 0;
+    char buf[1024], *save = NULL;
+    snprintf(buf, sizeof buf, "%s", sa->ests_arg);
+    for (char *t = strtok_r(buf, ",", &save); t; t = strtok_r(NULL, ",", &save)) {
+        const int all = strcmp(t, "all") == 0, exact = strcmp(t, "exact") == 0;
+        if (all || exact) {
+            for (size_t e = 0; e < pgi_estimator_count() && ne < MAX_EST; e++) {
+                const pgi_estimator_vtbl *vt = pgi_estimator_at(e);
+                if (!vt->oracle && (all || vt->exact)) {
+                    meth[ne] = (method){.vt = vt};
+                    snprintf(meth[ne++].name, sizeof meth[0].name, "%s", vt->name);
+                }
+            }
+            continue;
+        }
+        if (ne == MAX_EST) return cli_usage("study", "--estimators names more than %d methods", MAX_EST);
+        method *m = &meth[ne];
+        *m = (method){0};
+        snprintf(m->name, sizeof m->name, "%s", t);
+        for (char *plus; (plus = strrchr(t, '+'));) {
+            if (strcmp(plus, "+guided") == 0) m->guided = 1;
+            else if (strcmp(plus, "+view") == 0) m->view = 1;
+            else return cli_usage("study", "'%s': a method's variant is +guided or +view, got '%s'", m->name, plus);
+            *plus = 0;
+        }
+        if (strcmp(t, PATHTRACER) == 0) {
+            if (m->guided || m->view) return cli_usage("study", "'%s': the path tracer has no variants", m->name);
+        } else if (!(m->vt = pgi_estimator_find(t)))
+            return cli_usage("study", "unknown estimator '%s' ('photongi estimators' lists them)", t);
+        ne++;
     }
+    sa->ne = ne;
+    return 0;
+}
+
+/* What the command line decides before any file is read: the frames' sampling, the methods, the
+ * folder (made here). 0 to go on, else the exit status. */
+static int check_args(study_args *sa) {
+    sa->photons = sa->d.photons;
+    if (sa->d.jitter == PGI_JITTER_AUTO) sa->d.jitter = PGI_JITTER_ON;
+    int rc = parse_methods(sa);
+    if (rc) return rc;
+    if (!sa->ne) return cli_usage("study", "%s", "--estimators names none");
+    if (sa->out_dir) snprintf(sa->dir, sizeof sa->dir, "%s", sa->out_dir);
+    else {
+        const char *b = strrchr(sa->scene_spec, '/');
+        snprintf(sa->dir, sizeof sa->dir, "study-%s", b ? b + 1 : sa->scene_spec);
+    }
+    if (mkdir(sa->dir, 0777) != 0 && errno != EEXIST)
+        return cli_failure("study", "cannot make the folder %s: %s", sa->dir, strerror(errno));
+    return 0;
+}
+
+/* Loads the scene with its glossy model and camera, resolves the exposure and what the reference
+ * must be. 0 to go on, else the exit status (the scene freed). */
+static int open_scene(study_args *sa, study_run *sr) {
+    int rc = cli_load_scene("study", sa->scene_spec, 0, sa->xo.specular, &sr->scene);
+    if (rc) return rc;
     pgi_scene_info info;
-    pgi_scene_get_info(scene, &info);
-    if (*info.warnings) cli_warn(quiet, "study", "%s", info.warnings);
+    pgi_scene_get_info(sr->scene, &info);
+    if (*info.warnings) cli_warn(sa->quiet, "study", "%s", info.warnings);
     {
         char cerr[1400];
-        if (!app_render_camera(scene, &d, &xo, cerr, sizeof cerr)) {
-            pgi_scene_destroy(scene);
+        if (!app_render_camera(sr->scene, &sa->d, &sa->xo, cerr, sizeof cerr)) {
+            pgi_scene_destroy(sr->scene);
             return cli_failure("study", "%s", cerr);
         }
     }
-    const float exposure = xo.exposure > 0.f              ? xo.exposure
-                           : info.defaults.exposure > 0.f ? info.defaults.exposure
-                                                          : 1.f;
+    sr->exposure = cli_exposure(sa->xo.exposure, &info);
+    const pgi_render_desc *d = &sa->d;
     /* the reference: the frames' scene, size, bounces, camera and sampling */
-    pgi_reference_meta want = {.width = w,
-                               .height = h,
-                               .bounces = d.bounces                   ? d.bounces
-                                          : info.defaults.bounces > 0 ? info.defaults.bounces
-                                                                      : 4,
-                               .camera = d.camera,
-                               .seed = 1,
-                               .spp = (uint64_t)spp,
-                               .jitter = d.jitter,
-                               .specular = info.specular};
-    snprintf(want.scene, sizeof want.scene, "%s", scene_spec);
-    char ref_path[4300];
-    if (ref_arg) snprintf(ref_path, sizeof ref_path, "%s", ref_arg);
-    else snprintf(ref_path, sizeof ref_path, "%s/reference.exr", dir);
-    pgi_image ref = {0};
+    sr->want = (pgi_reference_meta){.width = d->width,
+                                    .height = d->height,
+                                    .bounces = d->bounces                  ? d->bounces
+                                               : info.defaults.bounces > 0 ? info.defaults.bounces
+                                                                           : 4,
+                                    .camera = d->camera,
+                                    .seed = 1,
+                                    .spp = (uint64_t)sa->spp,
+                                    .jitter = d->jitter,
+                                    .specular = info.specular};
+    snprintf(sr->want.scene, sizeof sr->want.scene, "%s", sa->scene_spec);
+    return 0;
+}
+
+/* The reference (made, or reused from --reference or DIR/reference.exr) and what its own noise
+ * scores. 0 to go on, else the exit status (the scene freed). */
+static int open_reference(const study_args *sa, study_run *sr) {
+    if (sa->ref_arg) snprintf(sr->ref_path, sizeof sr->ref_path, "%s", sa->ref_arg);
+    else snprintf(sr->ref_path, sizeof sr->ref_path, "%s/reference.exr", sa->dir);
     double noise_mse = 0.0;
-    int rc = make_reference(ref_path, &want, scene, d.threads, exposure, quiet, &ref, &noise_mse);
+    int rc = make_reference(sr->ref_path, &sr->want, sr->scene, sa->d.threads, sr->exposure, sa->quiet, &sr->ref,
+                            &noise_mse);
     if (rc) {
-        pgi_scene_destroy(scene);
+        pgi_scene_destroy(sr->scene);
         return rc;
     }
-    const double ref_psnr = noise_mse > 0 ? 10.0 * log10(1.0 / noise_mse) : INFINITY;
+    sr->ref_psnr = noise_mse > 0 ? 10.0 * log10(1.0 / noise_mse) : INFINITY;
+    return 0;
+}
+
+/* Every method at equal photons, then at equal time (the budgets given, else one from the slowest
+ * method's frame): the rows in sr. Frees the reference and the scene. 0, else the exit status. */
+static int run_methods(study_args *sa, study_run *sr) {
     pgi_renderer *r;
-    if ((st = pgi_renderer_create(scene, &r))) {
-        pgi_image_free(&ref);
-        pgi_scene_destroy(scene);
+    pgi_status st;
+    if ((st = pgi_renderer_create(sr->scene, &r))) {
+        pgi_image_free(&sr->ref);
+        pgi_scene_destroy(sr->scene);
         return cli_fail("study", "cannot create a renderer", st);
     }
-    row *rows = malloc((size_t)ne * (MAX_BUDGETS + 1) * sizeof *rows);
-    int nr = 0;
+    const int ne = sa->ne;
+    row *rows = sr->rows = malloc((size_t)ne * (MAX_BUDGETS + 1) * sizeof *rows);
+    int *nr = &sr->nr;
     if (!rows) st = PGI_ERR_OOM;
-    study_ctx c = {r, scene, &d, &want, &ref, exposure, dir, quiet, nb ? nb : 1};
+    study_ctx c = {r, sr->scene, &sa->d, &sr->want, &sr->ref, sr->exposure, sa->dir, sa->quiet, sa->nb ? sa->nb : 1};
     /* equal photons: one frame each (not the path tracer: it has no photons) */
     double slowest = 0.0;
     for (int e = 0; e < ne && !st; e++)
-        if (meth[e].vt && !(st = run_method(&c, &meth[e], NULL, 0, rows, &nr)))
-            slowest = fmax(slowest, rows[nr - 1].ms);
+        if (sa->meth[e].vt && !(st = run_method(&c, &sa->meth[e], NULL, 0, rows, nr)))
+            slowest = fmax(slowest, rows[*nr - 1].ms);
     /* equal time: the budgets given, else the slowest method's frame times --frames */
-    if (!nb) budgets[nb++] = slowest > 0.0 ? slowest * (double)frames : 1000.0;
-    for (int e = 0; e < ne && !st && equal_time; e++) st = run_method(&c, &meth[e], budgets, nb, rows, &nr);
+    if (!sa->nb) sa->budgets[sa->nb++] = slowest > 0.0 ? slowest * (double)sa->frames : 1000.0;
+    for (int e = 0; e < ne && !st && sa->equal_time; e++)
+        st = run_method(&c, &sa->meth[e], sa->budgets, sa->nb, rows, nr);
     pgi_renderer_destroy(r);
-    pgi_image_free(&ref);
-    pgi_scene_destroy(scene);
+    pgi_image_free(&sr->ref);
+    pgi_scene_destroy(sr->scene);
     if (st) {
         free(rows);
         return cli_fail("study", "a render failed", st);
     }
+    return 0;
+}
 
-    /* the table, the CSV, the plot: one row per method and mode (and budget), equal photons first */
+/* study.md: what was compared, then a table for equal photons and one for each time budget. */
+static void write_md(FILE *md, const study_args *sa, const study_run *sr) {
+    const pgi_render_desc *d = &sa->d;
+    const int nb = sa->nb;
+    const double *budgets = sa->budgets;
+    const char *refname = strrchr(sr->ref_path, '/') ? strrchr(sr->ref_path, '/') + 1 : sr->ref_path;
+    fprintf(md,
+            "# %s, %dx%d, %lld photons a frame\n\nAgainst a %lld-sample path-traced reference (%s); "
+            "its own noise, from its two halves, scores about **%.1f dB**: a method near that is judged by the "
+            "reference's noise. Every frame samples each pixel %s, with the same seed and photons",
+            sa->scene_spec, d->width, d->height, sa->photons, sa->spp, refname, sr->ref_psnr,
+            d->jitter == PGI_JITTER_OFF ? "at its centre (as the reference)" : "over its area");
+    if (sa->equal_time) {
+        fprintf(md, "; equal time is a progressive average of as many frames as fit in ");
+        for (int k = 0; k < nb; k++) fprintf(md, "%s%.0f", k ? (k + 1 == nb ? " and " : ", ") : "", budgets[k]);
+        fprintf(md, " ms of rendering");
+    }
+    fprintf(md, ". Radius: %s. photongi %s.\n",
+            d->radius == PGI_RADIUS_AUTO ? "automatic (each row's in study.csv)"
+            : d->radius > 0.f            ? "as given (study.csv)"
+                                         : "the scene's (study.csv)",
+            pgi_version());
+    for (int pass = 0; pass < 1 + sa->equal_time; pass++)
+        for (int k = 0; k < (pass ? nb : 1); k++) {
+            if (pass && nb > 1) fprintf(md, "\n## Equal time: %g ms\n", budgets[k]);
+            else fprintf(md, "\n## %s\n", pass ? "Equal time" : "Equal photons (one frame)");
+            fprintf(md, "\n| method | frames | ms | PSNR dB | SSIM | FLIP | relMSE | reads (M) | contributing "
+                        "| memory MiB |\n|---|---|---|---|---|---|---|---|---|---|\n");
+            for (int i = 0; i < sr->nr; i++) {
+                const row *x = &sr->rows[i];
+                if (strcmp(x->mode, pass ? "time" : "photons") != 0 || (pass && x->budget_ms != budgets[k])) continue;
+                fprintf(md, "| %s | %d | %.1f | %.2f | %.4f | %.4f | %.5f | %.2f | %.1f %% | %.1f |\n", x->estimator,
+                        x->frames, x->ms, x->psnr, x->ssim, x->flip, x->relmse, x->reads / 1e6,
+                        x->reads > 0 ? 100.0 * x->contributing / x->reads : 0.0, x->bytes / 1048576.0);
+            }
+        }
+}
+
+/* study.csv: a row per method and mode (and budget), with the run's settings. */
+static void write_csv(FILE *csv, const study_args *sa, const study_run *sr) {
+    const pgi_render_desc *d = &sa->d;
+    fprintf(csv, "scene,width,height,photons,estimator,mode,frames,ms,psnr,ssim,flip,relmse,reads,contributing,"
+                 "memory_bytes,reference_spp,reference_psnr,radius,build_ms,estimate_ms,jitter,budget_ms\n");
+    for (int i = 0; i < sr->nr; i++) {
+        const row *x = &sr->rows[i];
+        fprintf(csv,
+                "\"%s\",%d,%d,%lld,%s,%s,%d,%.3f,%.4f,%.6f,%.6f,%.6g,%.0f,%.0f,%.0f,%lld,%.4f,%.6g,%.3f,%.3f,%s,%g\n",
+                sa->scene_spec, d->width, d->height, sa->photons, x->estimator, x->mode, x->frames, x->ms, x->psnr,
+                x->ssim, x->flip, x->relmse, x->reads, x->contributing, x->bytes, sa->spp, sr->ref_psnr, x->radius,
+                x->build_ms, x->estimate_ms, d->jitter == PGI_JITTER_OFF ? "off" : "on", x->budget_ms);
+    }
+}
+
+/* study.svg. Frees the rows. 1 when it could not be written. */
+static int write_plot(const study_args *sa, study_run *sr) {
+    const row *rows = sr->rows;
+    const int nr = sr->nr;
+    /* the plot: each method's points in time order, methods in the order given */
+    row *sorted = malloc((size_t)(nr ? nr : 1) * sizeof *sorted);
+    int ns = 0;
+    for (int e = 0; e < sa->ne && sorted; e++) {
+        const int first = ns;
+        for (int i = 0; i < nr; i++)
+            if (rows[i].estimator == sa->meth[e].name) {
+                int j = ns++;
+                for (; j > first && sorted[j - 1].ms > rows[i].ms; j--) sorted[j] = sorted[j - 1];
+                sorted[j] = rows[i];
+            }
+    }
+    free(sr->rows);
+    sr->rows = NULL;
+    char title[512], path[4200];
+    snprintf(title, sizeof title, "%s %dx%d, %lld photons a frame: PSNR against time", sa->scene_spec, sa->d.width,
+             sa->d.height, sa->photons);
+    for (char *ch = title; *ch; ch++)
+        if (*ch == '<' || *ch == '>' || *ch == '&' || *ch == '"') *ch = '_'; /* plain text inside the SVG */
+    snprintf(path, sizeof path, "%s/study.svg", sa->dir);
+    const int bad = !sorted || !write_svg(path, sorted, ns, title);
+    free(sorted);
+    return bad;
+}
+
+/* The table, the CSV, the plot: one row per method and mode (and budget), equal photons first;
+ * then the line that names them. Frees the rows. Returns the exit status. */
+static int write_results(const study_args *sa, study_run *sr) {
+    const char *dir = sa->dir;
     char path[4200];
     snprintf(path, sizeof path, "%s/study.csv", dir);
     FILE *csv = fopen(path, "w");
@@ -526,73 +663,34 @@ int pgi_cmd_study(int argc, char **argv) {
     if (!csv || !md) {
         if (csv) fclose(csv);
         if (md) fclose(md);
-        free(rows);
+        free(sr->rows);
         return cli_failure("study", "cannot write into %s: %s", dir, strerror(errno));
     }
-    fprintf(csv, "scene,width,height,photons,estimator,mode,frames,ms,psnr,ssim,flip,relmse,reads,contributing,"
-                 "memory_bytes,reference_spp,reference_psnr,radius,build_ms,estimate_ms,jitter,budget_ms\n");
-    const char *refname = strrchr(ref_path, '/') ? strrchr(ref_path, '/') + 1 : ref_path;
-    fprintf(md,
-            "# %s, %dx%d, %lld photons a frame\n\nAgainst a %lld-sample path-traced reference (%s); "
-            "its own noise, from its two halves, scores about **%.1f dB**: a method near that is judged by the "
-            "reference's noise. Every frame samples each pixel %s, with the same seed and photons",
-            scene_spec, w, h, photons, spp, refname, ref_psnr,
-            d.jitter == PGI_JITTER_OFF ? "at its centre (as the reference)" : "over its area");
-    if (equal_time) {
-        fprintf(md, "; equal time is a progressive average of as many frames as fit in ");
-        for (int k = 0; k < nb; k++) fprintf(md, "%s%.0f", k ? (k + 1 == nb ? " and " : ", ") : "", budgets[k]);
-        fprintf(md, " ms of rendering");
-    }
-    fprintf(md, ". Radius: %s. photongi %s.\n",
-            d.radius == PGI_RADIUS_AUTO ? "automatic (each row's in study.csv)"
-            : d.radius > 0.f            ? "as given (study.csv)"
-                                        : "the scene's (study.csv)",
-            pgi_version());
-    for (int pass = 0; pass < 1 + equal_time; pass++)
-        for (int k = 0; k < (pass ? nb : 1); k++) {
-            if (pass && nb > 1) fprintf(md, "\n## Equal time: %g ms\n", budgets[k]);
-            else fprintf(md, "\n## %s\n", pass ? "Equal time" : "Equal photons (one frame)");
-            fprintf(md, "\n| method | frames | ms | PSNR dB | SSIM | FLIP | relMSE | reads (M) | contributing "
-                        "| memory MiB |\n|---|---|---|---|---|---|---|---|---|---|\n");
-            for (int i = 0; i < nr; i++) {
-                const row *x = &rows[i];
-                if (strcmp(x->mode, pass ? "time" : "photons") != 0 || (pass && x->budget_ms != budgets[k])) continue;
-                fprintf(md, "| %s | %d | %.1f | %.2f | %.4f | %.4f | %.5f | %.2f | %.1f %% | %.1f |\n", x->estimator,
-                        x->frames, x->ms, x->psnr, x->ssim, x->flip, x->relmse, x->reads / 1e6,
-                        x->reads > 0 ? 100.0 * x->contributing / x->reads : 0.0, x->bytes / 1048576.0);
-            }
-        }
-    for (int i = 0; i < nr; i++) {
-        const row *x = &rows[i];
-        fprintf(csv,
-                "\"%s\",%d,%d,%lld,%s,%s,%d,%.3f,%.4f,%.6f,%.6f,%.6g,%.0f,%.0f,%.0f,%lld,%.4f,%.6g,%.3f,%.3f,%s,%g\n",
-                scene_spec, w, h, photons, x->estimator, x->mode, x->frames, x->ms, x->psnr, x->ssim, x->flip,
-                x->relmse, x->reads, x->contributing, x->bytes, spp, ref_psnr, x->radius, x->build_ms, x->estimate_ms,
-                d.jitter == PGI_JITTER_OFF ? "off" : "on", x->budget_ms);
-    }
+    write_csv(csv, sa, sr);
+    write_md(md, sa, sr);
     int bad = fclose(csv) != 0;
     bad |= fclose(md) != 0;
-    /* the plot: each method's points in time order, methods in the order given */
-    row *sorted = malloc((size_t)(nr ? nr : 1) * sizeof *sorted);
-    int ns = 0;
-    for (int e = 0; e < ne && sorted; e++) {
-        const int first = ns;
-        for (int i = 0; i < nr; i++)
-            if (rows[i].estimator == meth[e].name) {
-                int j = ns++;
-                for (; j > first && sorted[j - 1].ms > rows[i].ms; j--) sorted[j] = sorted[j - 1];
-                sorted[j] = rows[i];
-            }
-    }
-    free(rows);
-    char title[512];
-    snprintf(title, sizeof title, "%s %dx%d, %lld photons a frame: PSNR against time", scene_spec, w, h, photons);
-    for (char *ch = title; *ch; ch++)
-        if (*ch == '<' || *ch == '>' || *ch == '&' || *ch == '"') *ch = '_'; /* plain text inside the SVG */
-    snprintf(path, sizeof path, "%s/study.svg", dir);
-    bad |= !sorted || !write_svg(path, sorted, ns, title);
-    free(sorted);
+    bad |= write_plot(sa, sr);
     if (bad) return cli_failure("study", "cannot write the results into %s", dir);
-    printf("study: %s/study.md, study.csv, study.svg (reference noise about %.1f dB)\n", dir, ref_psnr);
+    printf("study: %s/study.md, study.csv, study.svg (reference noise about %.1f dB)\n", dir, sr->ref_psnr);
     return 0;
+}
+
+int pgi_cmd_study(int argc, char **argv) {
+    study_args sa = {.scene_spec = "cornell",
+                     .ests_arg = "exact",
+                     .photons = 100000,
+                     .frames = 8,
+                     .spp = 256,
+                     .equal_time = 1,
+                     /* every method: the same seed, photons and pixel-area sampling; only the estimate differs */
+                     .d = {.photons = 100000, .width = 320, .height = 240, .seed = 1, .jitter = PGI_JITTER_ON},
+                     .xo = APP_RENDER_EXTRA_INIT};
+    int rc = parse_args(argc, argv, &sa);
+    if (rc >= 0) return rc;
+    if ((rc = check_args(&sa))) return rc;
+    study_run sr;
+    memset(&sr, 0, sizeof sr);
+    if ((rc = open_scene(&sa, &sr)) || (rc = open_reference(&sa, &sr)) || (rc = run_methods(&sa, &sr))) return rc;
+    return write_results(&sa, &sr);
 }

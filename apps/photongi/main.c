@@ -65,8 +65,6 @@ static const char *k_est_help =
     "it is approximate, and which of --kernel, --subsample, --radius-policy it supports).\n"
     "Exit status: 0 success, 2 usage error (see 'photongi --help').\n";
 
-static int is_help(const char *a) { return strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0; }
-
 /* Appends ", item" (or "item" to an empty list), truncating at cap. */
 static void list_append(char *list, size_t cap, const char *item) {
     size_t n = strlen(list);
@@ -76,7 +74,7 @@ static void list_append(char *list, size_t cap, const char *item) {
 static int cmd_estimators(int argc, char **argv) {
     int verbose = 0;
     for (int i = 0; i < argc; i++) {
-        if (is_help(argv[i])) {
+        if (cli_is_help(argv[i])) {
             fputs(k_est_help, stdout);
             return 0;
         }
@@ -112,7 +110,7 @@ static int cmd_estimators(int argc, char **argv) {
 static int cmd_info(int argc, char **argv) {
     const char *scene_spec = "cornell";
     for (int i = 0; i < argc; i++) {
-        if (is_help(argv[i])) {
+        if (cli_is_help(argv[i])) {
             fputs(k_info_help, stdout);
             return 0;
         } else if (strcmp(argv[i], "--scene") == 0) {
@@ -171,7 +169,7 @@ static const char *k_devices_help =
     "Exit status: 0 success, 2 usage error (see 'photongi --help').\n";
 
 static int cmd_devices(int argc, char **argv) {
-    if (argc == 1 && is_help(argv[0])) {
+    if (argc == 1 && cli_is_help(argv[0])) {
         fputs(k_devices_help, stdout);
         return 0;
     }
@@ -234,7 +232,7 @@ static int cmd_help(int argc, char **argv) {
 }
 
 static int run(int argc, char **argv) {
-    if (argc < 2 || is_help(argv[1])) {
+    if (argc < 2 || cli_is_help(argv[1])) {
         fputs(k_main_help, argc < 2 ? stderr : stdout);
         return argc < 2 ? CLI_EXIT_USAGE : 0;
     }

@@ -248,11 +248,25 @@ static int bits_for(uint32_t n) {
 /* the passes that are the gather (the rest is the build) */
 static const char *const gather_passes[] = {"gpu_radiance", "gpu_blur", NULL};
 
-static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_stats *es) {
-    ct_state *s = state;
-    pgi__gpu *g = s->g;
-    pgi_status st;
-    memset(es, 0, sizeof *es);
+/* A frame: its sizes (shaders/cluster.glsl: the node layout), the kernels' push constants, the
+ * splat's pairs, and the clocks (pgi__gpu_est_two_sequence_times). */
+typedef struct cl_frame {
+    size_t n, ns, ntiles, NS0, nss, nnodes, nent, nlobes;
+    uint32_t W, H;
+    cl_push p;
+    uint32_t npairs;
+    double t[8];                  /* host: upload t0..t1, sequence 1 t2..t3, sequence 2 t4..t6, read back t7 */
+    double gpu_build, gpu_gather; /* device timestamps */
+} cl_frame;
+
+/* A sequence that could not be recorded: closed, so that the next frame can begin one. */
+static pgi_status cl_abandon(pgi__gpu *g, pgi_status st) {
+    (void)pgi__gpu_submit_wait(g);
+    return st;
+}
+
+/* The frame's sizes and push constants, after the checks of what the GPU estimator supports. */
+static pgi_status cl_plan(const ct_state *s, const pgi_estimate_args *a, cl_frame *f) {
     const char *nm = s->dir ? "directional" : "cluster-trivial";
     if (a->photons->radius)
         return pgi__fail(PGI_ERR_UNSUPPORTED, "%s on the GPU: per-photon footprints are not supported", nm);
@@ -277,34 +291,50 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
                          "cluster-trivial on the GPU: at most 2^30 photons, view samples and nodes");
     int bits = (bits_for(ntx) + 2 * bits_for(nty)) / 3;
     bits = bits < 1 ? 1 : bits > 10 ? 10 : bits;
-    cl_push p = {.r = r,
-                 .r2 = r * r,
-                 .inv_step = (float)(1.0 / log2(1.0 + 2.0 * (double)cam->tan_half_fov_y / (double)nty)),
-                 .n = (uint32_t)n,
-                 .width = W,
-                 .height = H,
-                 .T = T,
-                 .G = SUPER,
-                 .ntx = ntx,
-                 .nty = nty,
-                 .nrx = nrx,
-                 .nry = nry,
-                 .bits = (uint32_t)bits,
-                 .NS0 = (uint32_t)NS0,
-                 .NT0 = (uint32_t)NT0,
-                 .NL0 = (uint32_t)NL0,
-                 .nnodes = (uint32_t)nnodes,
-                 .R = ROOT,
-                 .D = s->D,
-                 .blur = s->blur,
-                 .dir = (uint32_t)s->dir};
+    *f = (cl_frame){.n = n,
+                    .ns = ns,
+                    .ntiles = ntiles,
+                    .NS0 = NS0,
+                    .nss = nss,
+                    .nnodes = nnodes,
+                    .nent = nent,
+                    .W = W,
+                    .H = H};
+    f->p = (cl_push){.r = r,
+                     .r2 = r * r,
+                     .inv_step = (float)(1.0 / log2(1.0 + 2.0 * (double)cam->tan_half_fov_y / (double)nty)),
+                     .n = (uint32_t)n,
+                     .width = W,
+                     .height = H,
+                     .T = T,
+                     .G = SUPER,
+                     .ntx = ntx,
+                     .nty = nty,
+                     .nrx = nrx,
+                     .nry = nry,
+                     .bits = (uint32_t)bits,
+                     .NS0 = (uint32_t)NS0,
+                     .NT0 = (uint32_t)NT0,
+                     .NL0 = (uint32_t)NL0,
+                     .nnodes = (uint32_t)nnodes,
+                     .R = ROOT,
+                     .D = s->D,
+                     .blur = s->blur,
+                     .dir = (uint32_t)s->dir};
+    return PGI_OK;
+}
 
-    /* upload: photons packed in cell order, the view samples, lobes and depths */
-    double t0 = pgi__now_ms();
-    if ((st = pack_photons(s, ph, a->threads))) return st;
-    size_t nlobes = 0;
-    if ((st = pgi__gpu_pack_samples(&s->pk, vs, a->threads, &nlobes))) return st;
-    const size_t psz = sizeof(pgi__packed_photon);
+/* upload: photons packed in cell order, the view samples, lobes and depths (and directional's view
+ * axes); every buffer of the frame reserved but the splat's and the lists' (their sizes come later) */
+static pgi_status cl_upload(ct_state *s, const pgi_estimate_args *a, cl_frame *f) {
+    pgi__gpu *g = s->g;
+    const pgi_view_samples *vs = a->samples;
+    const size_t n = f->n, ns = f->ns, nnodes = f->nnodes, nent = f->nent;
+    pgi_status st;
+    f->t[0] = pgi__now_ms();
+    if ((st = pack_photons(s, a->photons, a->threads))) return st;
+    if ((st = pgi__gpu_pack_samples(&s->pk, vs, a->threads, &f->nlobes))) return st;
+    const size_t psz = sizeof(pgi__packed_photon), nlobes = f->nlobes;
     if ((st = pgi__gpu_buffer_reserve(g, &s->photons, (n + 1) * psz, "gpu_photons")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->vs, (ns + 1) * sizeof(gpu_vs), "gpu_view_samples")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->lobes, (nlobes + 1) * sizeof(gpu_lobe), "gpu_view_samples")) ||
@@ -313,7 +343,7 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
         (st = pgi__gpu_buffer_reserve(g, &s->frame, 8 * sizeof(uint32_t), "gpu_clusters")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->nodes, nnodes * NODE_BYTES, "gpu_cluster_nodes")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->pix_node, (ns + 1) * 4, "gpu_clusters")) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->tile_ncl, (2 * ntiles + 1) * 4, "gpu_clusters")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->tile_ncl, (2 * f->ntiles + 1) * 4, "gpu_clusters")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->estart, (nent + 1) * 4, "gpu_photon_lists")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->ecur, nent * 4, "gpu_photon_lists")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->flux, nnodes * 16, "gpu_node_flux")) ||
@@ -322,7 +352,7 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
         return st;
     if (s->dir) { /* view axes (shaders/cl_dir_flux.comp Tab), buckets, irradiance planes */
         float head[DIR_TAB_HEAD] = {0};
-        const pgi__view_xf x = pgi__view_xf_make(cam, vs->width, vs->height);
+        const pgi__view_xf x = pgi__view_xf_make(a->camera, vs->width, vs->height);
         const pgi__v3 ax[3] = {x.right, x.up, x.fwd};
         for (int k = 0; k < 3; k++) head[3 * k] = ax[k].x, head[3 * k + 1] = ax[k].y, head[3 * k + 2] = ax[k].z;
         if ((st = pgi__gpu_buffer_reserve(g, &s->dirtab, sizeof head, "gpu_directional")) ||
@@ -337,156 +367,206 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
         (st = pgi__gpu_upload(g, s->lobes, 0, s->pk.hlobes, nlobes * sizeof(gpu_lobe))) ||
         (st = pgi__gpu_upload(g, s->depth, 0, vs->depth, ns * sizeof(float))))
         return st;
-    double t1 = pgi__now_ms();
+    f->t[1] = pgi__now_ms();
+    return PGI_OK;
+}
 
-    /* sequence 1: clusters, bounds, the splat's pairs */
-    if (s->pair_cap < 4 * n + 1024) s->pair_cap = 4 * n + 1024;
-    if (s->pair_cap > UINT32_MAX / 4) s->pair_cap = UINT32_MAX / 4;
-    if ((st = pgi__gpu_buffer_reserve(g, &s->pairs, s->pair_cap * 8, "gpu_splat"))) return st;
-    p.npairs = (uint32_t)s->pair_cap;
-    double gpu_build = 0.0, gpu_gather = 0.0;
-    if ((st = pgi__gpu_begin(g))) return st;
-    pgi__gpu_timestamp(g, "start");
+/* Records sequence 1 (after its "start"): the frame's counters cleared, near depth, clusters,
+ * bounds, the splat's pairs. */
+static pgi_status record_build(ct_state *s, const cl_frame *f) {
+    pgi__gpu *g = s->g;
+    const cl_push *p = &f->p;
+    pgi_status st;
     if ((st = pgi__gpu_fill(g, s->frame, 0, 4, 0x7f800000u)) || (st = pgi__gpu_fill(g, s->frame, 4, 12, 0xffffffffu)) ||
         (st = pgi__gpu_fill(g, s->frame, 16, 16, 0)) || (st = pgi__gpu_fill(g, s->counters, 0, 8 * 4, 0)) ||
-        (st = pgi__gpu_dispatch_1d(g, s->k[K_REDUCE], (pgi__gpu_buffer *[]){s->vs, s->depth, s->frame}, &p, ns, 64)))
-        goto fail;
+        (st = pgi__gpu_dispatch_1d(g, s->k[K_REDUCE], (pgi__gpu_buffer *[]){s->vs, s->depth, s->frame}, p, f->ns, 64)))
+        return st;
     if ((st = pgi__gpu_dispatch_1d(g, s->k[K_TILES],
                                    (pgi__gpu_buffer *[]){s->vs, s->depth, s->frame, s->nodes, s->pix_node, s->tile_ncl},
-                                   &p, ntiles, 1)))
-        goto fail;
+                                   p, f->ntiles, 1)))
+        return st;
     pgi__gpu_timestamp(g, "gpu_clusters");
-    {
-        cl_push q = p;
-        const size_t groups[3] = {2 * nss, 2 * nss * SUPER * SUPER, NS0}; /* supertiles, tiles, roots */
-        for (uint32_t m = 0; m < 3; m++) {
-            q.mode = m;
-            if ((st = pgi__gpu_dispatch_1d(g, s->k[K_BOUNDS], (pgi__gpu_buffer *[]){s->vs, s->nodes, s->tile_ncl}, &q,
-                                           groups[m], 1)))
-                goto fail;
-        }
+    cl_push q = *p;
+    const size_t groups[3] = {2 * f->nss, 2 * f->nss * SUPER * SUPER, f->NS0}; /* supertiles, tiles, roots */
+    for (uint32_t m = 0; m < 3; m++) {
+        q.mode = m;
+        if ((st = pgi__gpu_dispatch_1d(g, s->k[K_BOUNDS], (pgi__gpu_buffer *[]){s->vs, s->nodes, s->tile_ncl}, &q,
+                                       groups[m], 1)))
+            return st;
     }
     pgi__gpu_timestamp(g, "gpu_bounds");
     if ((st = pgi__gpu_dispatch_1d(g, s->k[K_SPLAT], (pgi__gpu_buffer *[]){s->photons, s->nodes, s->pairs, s->counters},
-                                   &p, n, 64)))
-        goto fail;
-    pgi__gpu_timestamp(g, "gpu_splat");
-    double t2 = pgi__now_ms();
-    if ((st = pgi__gpu_submit_wait(g))) return st;
-    double t3 = pgi__now_ms();
-    pgi__gpu_est_add_timings(g, es, gather_passes, &gpu_build, &gpu_gather);
-    uint32_t npairs = 0;
-    if ((st = pgi__gpu_download(g, s->counters, 6 * 4, &npairs, 4))) return st;
-    if (npairs > s->pair_cap) { /* did not fit: a larger buffer (kept), the splat again */
-        if (npairs > UINT32_MAX / 4)
-            return pgi__fail(PGI_ERR_UNSUPPORTED, "cluster-trivial on the GPU: %u photon list entries (at most 2^30)",
-                             npairs);
-        s->pair_cap = (size_t)npairs + npairs / 4;
-        if (s->pair_cap > UINT32_MAX / 4) s->pair_cap = UINT32_MAX / 4;
-        if ((st = pgi__gpu_buffer_reserve(g, &s->pairs, s->pair_cap * 8, "gpu_splat"))) return st;
-        p.npairs = (uint32_t)s->pair_cap;
-        double t2b = pgi__now_ms();
-        if ((st = pgi__gpu_begin(g))) return st;
-        pgi__gpu_timestamp(g, "start");
-        if ((st = pgi__gpu_fill(g, s->counters, 0, 8 * 4, 0)) ||
-            (st = pgi__gpu_dispatch_1d(g, s->k[K_SPLAT],
-                                       (pgi__gpu_buffer *[]){s->photons, s->nodes, s->pairs, s->counters}, &p, n, 64)))
-            goto fail;
-        pgi__gpu_timestamp(g, "gpu_splat_again");
-        if ((st = pgi__gpu_submit_wait(g))) return st;
-        t3 += pgi__now_ms() - t2b;
-        pgi__gpu_est_add_timings(g, es, gather_passes, &gpu_build, &gpu_gather);
-        if ((st = pgi__gpu_download(g, s->counters, 6 * 4, &npairs, 4))) return st;
-        PGI_ASSERT(npairs <= s->pair_cap);
-    }
-    if ((st = pgi__gpu_buffer_reserve(g, &s->eidx, ((size_t)npairs + 1) * 4, "gpu_photon_lists")) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->ranked, ((size_t)npairs + 1) * 4, "gpu_photon_lists")))
+                                   p, f->n, 64)))
         return st;
-    p.npairs = npairs;
+    pgi__gpu_timestamp(g, "gpu_splat");
+    return PGI_OK;
+}
 
-    /* sequence 2: the pairs, the lists in photon order, the trivial flux, the radiance */
-    double t4 = pgi__now_ms();
+/* The splat's pairs did not fit: a larger buffer (kept for the next frame), the splat again. */
+static pgi_status splat_again(ct_state *s, cl_frame *f, pgi_estimator_stats *es) {
+    pgi__gpu *g = s->g;
+    pgi_status st;
+    const uint32_t npairs = f->npairs;
+    if (npairs > UINT32_MAX / 4)
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "cluster-trivial on the GPU: %u photon list entries (at most 2^30)",
+                         npairs);
+    s->pair_cap = (size_t)npairs + npairs / 4;
+    if (s->pair_cap > UINT32_MAX / 4) s->pair_cap = UINT32_MAX / 4;
+    if ((st = pgi__gpu_buffer_reserve(g, &s->pairs, s->pair_cap * 8, "gpu_splat"))) return st;
+    f->p.npairs = (uint32_t)s->pair_cap;
+    double t2b = pgi__now_ms();
     if ((st = pgi__gpu_begin(g))) return st;
     pgi__gpu_timestamp(g, "start");
-    {
-        cl_push q = p;
-        if ((st = pgi__gpu_fill(g, s->estart, 0, (nent + 1) * 4, 0)) ||
-            (st = pgi__gpu_fill(g, s->ecur, 0, nent * 4, 0)))
-            goto fail;
-        q.mode = 0;
-        if ((st = pgi__gpu_dispatch_1d(g, s->k[K_GROUP], (pgi__gpu_buffer *[]){s->pairs, s->estart, s->ecur, s->eidx},
-                                       &q, npairs, 64)) ||
-            (st = pgi__gpu_scan_record(&s->scan, s->estart)))
-            goto fail;
-        q.mode = 1;
-        if ((st = pgi__gpu_dispatch_1d(g, s->k[K_GROUP], (pgi__gpu_buffer *[]){s->pairs, s->estart, s->ecur, s->eidx},
-                                       &q, npairs, 64)))
-            goto fail;
-        pgi__gpu_timestamp(g, "gpu_lists");
-        if ((st = pgi__gpu_dispatch_1d(g, s->k[K_RANK], (pgi__gpu_buffer *[]){s->pairs, s->estart, s->eidx, s->ranked},
-                                       &p, npairs, 64)))
-            goto fail;
-        pgi__gpu_timestamp(g, "gpu_rank");
-        if (s->dir) { /* the buckets, the irradiance, the blur and shading */
-            if ((st = pgi__gpu_dispatch_1d(g, s->k[K_DIR_FLUX],
-                                           (pgi__gpu_buffer *[]){s->photons, s->estart, s->ranked, s->dirtab,
-                                                                 s->buckets},
-                                           &p, nnodes, 64)))
-                goto fail;
-            pgi__gpu_timestamp(g, "gpu_buckets");
-            if ((st = pgi__gpu_dispatch(g, s->k[K_DIR_RADIANCE],
-                                        (pgi__gpu_buffer *[]){s->vs, s->pix_node, s->buckets, s->planes}, &p,
-                                        (W + 7) / 8, (H + 7) / 8, 1)))
-                goto fail;
-            pgi__gpu_timestamp(g, "gpu_radiance");
-            for (uint32_t m = s->blur > 0 ? 0u : 1u; m < 2u; m++) {
-                q.mode = m;
-                if ((st = pgi__gpu_dispatch(g, s->k[K_DIR_BLUR],
-                                            (pgi__gpu_buffer *[]){s->vs, s->depth, s->planes, s->out}, &q, (W + 7) / 8,
-                                            (H + 7) / 8, 1)))
-                    goto fail;
-            }
-            pgi__gpu_timestamp(g, "gpu_blur");
-            goto submit;
-        }
-        if ((st = pgi__gpu_dispatch_1d(g, s->k[K_NODE_FLUX],
-                                       (pgi__gpu_buffer *[]){s->photons, s->estart, s->ranked, s->flux}, &p, nnodes,
-                                       64)))
-            goto fail;
-        pgi__gpu_timestamp(g, "gpu_node_flux");
-        if ((st = pgi__gpu_dispatch(g, s->k[K_RADIANCE],
-                                    (pgi__gpu_buffer *[]){s->vs, s->lobes, s->photons, s->pix_node, s->estart,
-                                                          s->ranked, s->flux, s->out, s->counters},
-                                    &p, (W + 7) / 8, (H + 7) / 8, 1)))
-            goto fail;
-        pgi__gpu_timestamp(g, "gpu_radiance");
-    }
-submit:;
-    double t5 = pgi__now_ms();
+    if ((st = pgi__gpu_fill(g, s->counters, 0, 8 * 4, 0)) ||
+        (st = pgi__gpu_dispatch_1d(g, s->k[K_SPLAT], (pgi__gpu_buffer *[]){s->photons, s->nodes, s->pairs, s->counters},
+                                   &f->p, f->n, 64)))
+        return cl_abandon(g, st);
+    pgi__gpu_timestamp(g, "gpu_splat_again");
     if ((st = pgi__gpu_submit_wait(g))) return st;
-    double t6 = pgi__now_ms();
-    pgi__gpu_est_add_timings(g, es, gather_passes, &gpu_build, &gpu_gather);
+    f->t[3] += pgi__now_ms() - t2b;
+    pgi__gpu_est_add_timings(g, es, gather_passes, &f->gpu_build, &f->gpu_gather);
+    if ((st = pgi__gpu_download(g, s->counters, 6 * 4, &f->npairs, 4))) return st;
+    PGI_ASSERT(f->npairs <= s->pair_cap);
+    return PGI_OK;
+}
+
+/* sequence 1: clusters, bounds, the splat's pairs; then their number read back (the splat again
+ * when they did not fit) and the lists' buffers reserved for them */
+static pgi_status cl_build(ct_state *s, cl_frame *f, pgi_estimator_stats *es) {
+    pgi__gpu *g = s->g;
+    pgi_status st;
+    if (s->pair_cap < 4 * f->n + 1024) s->pair_cap = 4 * f->n + 1024;
+    if (s->pair_cap > UINT32_MAX / 4) s->pair_cap = UINT32_MAX / 4;
+    if ((st = pgi__gpu_buffer_reserve(g, &s->pairs, s->pair_cap * 8, "gpu_splat"))) return st;
+    f->p.npairs = (uint32_t)s->pair_cap;
+    if ((st = pgi__gpu_begin(g))) return st;
+    pgi__gpu_timestamp(g, "start");
+    if ((st = record_build(s, f))) return cl_abandon(g, st);
+    f->t[2] = pgi__now_ms();
+    if ((st = pgi__gpu_submit_wait(g))) return st;
+    f->t[3] = pgi__now_ms();
+    pgi__gpu_est_add_timings(g, es, gather_passes, &f->gpu_build, &f->gpu_gather);
+    f->npairs = 0;
+    if ((st = pgi__gpu_download(g, s->counters, 6 * 4, &f->npairs, 4))) return st;
+    if (f->npairs > s->pair_cap && (st = splat_again(s, f, es))) return st;
+    if ((st = pgi__gpu_buffer_reserve(g, &s->eidx, ((size_t)f->npairs + 1) * 4, "gpu_photon_lists")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->ranked, ((size_t)f->npairs + 1) * 4, "gpu_photon_lists")))
+        return st;
+    f->p.npairs = f->npairs;
+    return PGI_OK;
+}
+
+/* Records the pairs grouped per node entry, and the lists in photon order. */
+static pgi_status record_lists(ct_state *s, const cl_frame *f) {
+    pgi__gpu *g = s->g;
+    pgi_status st;
+    cl_push q = f->p;
+    if ((st = pgi__gpu_fill(g, s->estart, 0, (f->nent + 1) * 4, 0)) ||
+        (st = pgi__gpu_fill(g, s->ecur, 0, f->nent * 4, 0)))
+        return st;
+    q.mode = 0;
+    if ((st = pgi__gpu_dispatch_1d(g, s->k[K_GROUP], (pgi__gpu_buffer *[]){s->pairs, s->estart, s->ecur, s->eidx}, &q,
+                                   f->npairs, 64)) ||
+        (st = pgi__gpu_scan_record(&s->scan, s->estart)))
+        return st;
+    q.mode = 1;
+    if ((st = pgi__gpu_dispatch_1d(g, s->k[K_GROUP], (pgi__gpu_buffer *[]){s->pairs, s->estart, s->ecur, s->eidx}, &q,
+                                   f->npairs, 64)))
+        return st;
+    pgi__gpu_timestamp(g, "gpu_lists");
+    if ((st = pgi__gpu_dispatch_1d(g, s->k[K_RANK], (pgi__gpu_buffer *[]){s->pairs, s->estart, s->eidx, s->ranked},
+                                   &f->p, f->npairs, 64)))
+        return st;
+    pgi__gpu_timestamp(g, "gpu_rank");
+    return PGI_OK;
+}
+
+/* Records directional's shading: the buckets, the irradiance, the blur and shading. */
+static pgi_status record_directional(ct_state *s, const cl_frame *f) {
+    pgi__gpu *g = s->g;
+    const cl_push *p = &f->p;
+    pgi_status st;
+    if ((st = pgi__gpu_dispatch_1d(g, s->k[K_DIR_FLUX],
+                                   (pgi__gpu_buffer *[]){s->photons, s->estart, s->ranked, s->dirtab, s->buckets}, p,
+                                   f->nnodes, 64)))
+        return st;
+    pgi__gpu_timestamp(g, "gpu_buckets");
+    if ((st = pgi__gpu_dispatch(g, s->k[K_DIR_RADIANCE],
+                                (pgi__gpu_buffer *[]){s->vs, s->pix_node, s->buckets, s->planes}, p, (f->W + 7) / 8,
+                                (f->H + 7) / 8, 1)))
+        return st;
+    pgi__gpu_timestamp(g, "gpu_radiance");
+    cl_push q = *p;
+    for (uint32_t m = s->blur > 0 ? 0u : 1u; m < 2u; m++) {
+        q.mode = m;
+        if ((st = pgi__gpu_dispatch(g, s->k[K_DIR_BLUR], (pgi__gpu_buffer *[]){s->vs, s->depth, s->planes, s->out}, &q,
+                                    (f->W + 7) / 8, (f->H + 7) / 8, 1)))
+            return st;
+    }
+    pgi__gpu_timestamp(g, "gpu_blur");
+    return PGI_OK;
+}
+
+/* Records cluster-trivial's shading: each node's trivially accepted flux, the radiance. */
+static pgi_status record_trivial(ct_state *s, const cl_frame *f) {
+    pgi__gpu *g = s->g;
+    pgi_status st;
+    if ((st = pgi__gpu_dispatch_1d(g, s->k[K_NODE_FLUX],
+                                   (pgi__gpu_buffer *[]){s->photons, s->estart, s->ranked, s->flux}, &f->p, f->nnodes,
+                                   64)))
+        return st;
+    pgi__gpu_timestamp(g, "gpu_node_flux");
+    if ((st = pgi__gpu_dispatch(g, s->k[K_RADIANCE],
+                                (pgi__gpu_buffer *[]){s->vs, s->lobes, s->photons, s->pix_node, s->estart, s->ranked,
+                                                      s->flux, s->out, s->counters},
+                                &f->p, (f->W + 7) / 8, (f->H + 7) / 8, 1)))
+        return st;
+    pgi__gpu_timestamp(g, "gpu_radiance");
+    return PGI_OK;
+}
+
+/* sequence 2: the pairs, the lists in photon order, the trivial flux, the radiance */
+static pgi_status cl_gather(ct_state *s, cl_frame *f, pgi_estimator_stats *es) {
+    pgi__gpu *g = s->g;
+    pgi_status st;
+    f->t[4] = pgi__now_ms();
+    if ((st = pgi__gpu_begin(g))) return st;
+    pgi__gpu_timestamp(g, "start");
+    if ((st = record_lists(s, f)) || (st = s->dir ? record_directional(s, f) : record_trivial(s, f)))
+        return cl_abandon(g, st);
+    f->t[5] = pgi__now_ms();
+    if ((st = pgi__gpu_submit_wait(g))) return st;
+    f->t[6] = pgi__now_ms();
+    pgi__gpu_est_add_timings(g, es, gather_passes, &f->gpu_build, &f->gpu_gather);
+    return PGI_OK;
+}
+
+static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_stats *es) {
+    ct_state *s = state;
+    pgi__gpu *g = s->g;
+    pgi_status st;
+    memset(es, 0, sizeof *es);
+    cl_frame f;
+    if ((st = cl_plan(s, a, &f)) || (st = cl_upload(s, a, &f)) || (st = cl_build(s, &f, es)) ||
+        (st = cl_gather(s, &f, es)))
+        return st;
     uint32_t c[6];
-    if ((st = pgi__gpu_download(g, s->out, 0, a->out_rgb, 3 * ns * sizeof(float))) ||
+    if ((st = pgi__gpu_download(g, s->out, 0, a->out_rgb, 3 * f.ns * sizeof(float))) ||
         (st = pgi__gpu_download(g, s->counters, 0, c, sizeof c)))
         return st;
-    double t7 = pgi__now_ms();
+    f.t[7] = pgi__now_ms();
 
     /* stats: host passes (wall clock) and the device's (timestamps) */
-    pgi__gpu_est_two_sequence_times(g, es, (double[8]){t0, t1, t2, t3, t4, t5, t6, t7}, gpu_build, gpu_gather);
+    pgi__gpu_est_two_sequence_times(g, es, f.t, f.gpu_build, f.gpu_gather);
     es->reads = pgi__gpu_u64(c);
     es->contributing = pgi__gpu_u64(c + 2);
     es->nodes_visited = pgi__gpu_u64(c + 4);
-    if (s->dir) es->reads = es->contributing = npairs; /* as the CPU directional: bucket deposits */
+    if (s->dir) es->reads = es->contributing = f.npairs; /* as the CPU directional: bucket deposits */
     pgi__stats_mem(es, "gpu_host_upload",
                    s->packed_cap * sizeof(pgi__packed_photon) + s->pk.hvs_cap * sizeof(gpu_vs) +
                        s->pk.hlobes_cap * sizeof(gpu_lobe) +
                        (s->pk.lobe_of_cap + s->porder_cap + s->pkey_cap + s->pcell_cap) * sizeof(uint32_t));
     return PGI_OK;
-fail:
-    /* close the sequence so that the next frame can begin one */
-    (void)pgi__gpu_submit_wait(g);
-    return st;
 }
 
 #endif /* PGI_HAVE_VULKAN */
