@@ -37,9 +37,11 @@ struct pgi_temporal {
     pgi_camera prev_cam;
     pgi_camera_def prev_cd;
     not_camera prev_key;
-    uint64_t pictures; /* pictures begun (a camera move or any other change begins one) */
-    uint64_t seed;     /* the progressive frames' seed for the picture in progress */
-    pgi_image avg;     /* the progressive average */
+    uint64_t pictures;        /* pictures begun (a camera move or any other change begins one) */
+    uint64_t seed;            /* the progressive frames' seed for the picture in progress */
+    float shift[2];           /* its sub-pixel offset (pgi_render_desc.shift) */
+    float prev_user_shift[2]; /* the caller's offset last step (an engine's jitter: a camera move) */
+    pgi_image avg;            /* the progressive average */
 };
 
 static void free_buffers(pgi_temporal *t) {
@@ -116,6 +118,16 @@ void pgi_temporal_destroy(pgi_temporal *t) {
     free(t);
 }
 
+/* Point i of the radical-inverse sequence in base b, in [0, 1). */
+static float halton(uint64_t i, unsigned b) {
+    float f = 1.f, r = 0.f;
+    for (; i; i /= b) {
+        f /= (float)b;
+        r += f * (float)(i % b);
+    }
+    return r;
+}
+
 static uint64_t lights_hash(const pgi_scene *s) {
     uint64_t h = 1469598103934665603ULL;
     const unsigned char *p = (const unsigned char *)s->lights;
@@ -132,6 +144,7 @@ static void not_camera_of(const pgi_render_desc *d, const pgi_scene *s, not_came
     k->key.progress = NULL;
     k->key.progress_user = NULL;
     k->key.cancel = NULL;
+    k->key.shift[0] = k->key.shift[1] = 0.f; /* a caller's jitter moves the camera, as a camera move */
     k->key.threads = 0;
     k->key.max_memory = 0;
     k->key.camera = 0; /* a camera by index is a camera too */
@@ -236,16 +249,18 @@ static size_t reproject(pgi_temporal *t, const pgi_camera *cam, const float *D, 
     return kept;
 }
 
-/* This frame's primary hit positions and the filter's mask from the AOVs. */
-static void positions(pgi_temporal *t, const pgi_camera *cam, int threads) {
+/* This frame's primary hit positions (through the pixel centres moved by `shift`) and the filter's
+ * mask from the AOVs. */
+static void positions(pgi_temporal *t, const pgi_camera *cam, const float shift[2], int threads) {
     const int W = t->width, H = t->height;
 #pragma omp parallel for schedule(static) num_threads(pgi__threads(threads))
     for (int y = 0; y < H; y++)
         for (int x = 0; x < W; x++) {
             const size_t p = (size_t)y * (size_t)W + (size_t)x;
-            float dir[3];
-            pgi__temporal_pixel_dir(cam, x, y, dir);
-            for (int k = 0; k < 3; k++) t->pos[3 * p + k] = cam->eye[k] + t->depth[p] * dir[k];
+            const float u = (2.f * ((float)x + 0.5f + shift[0]) / (float)W - 1.f) * cam->tan_half_fov_y * cam->aspect;
+            const float v = (1.f - 2.f * ((float)y + 0.5f + shift[1]) / (float)H) * cam->tan_half_fov_y;
+            for (int k = 0; k < 3; k++)
+                t->pos[3 * p + k] = cam->eye[k] + t->depth[p] * (cam->forward[k] + u * cam->right[k] + v * cam->up[k]);
             const float *a = t->alb + 3 * p;
             t->mask[p] = t->depth[p] > 0.f && (a[0] > 1e-4f || a[1] > 1e-4f || a[2] > 1e-4f);
         }
@@ -304,14 +319,27 @@ pgi_status pgi_temporal_step(pgi_temporal *t, const pgi_render_desc *in, pgi_ima
     not_camera_of(in, s, &key);
     const int size_same = t->have && t->width == w && t->height == h;
     const int same_key = size_same && memcmp(&key, &t->prev_key, sizeof key) == 0;
-    const int same_cam = t->have && memcmp(&cd, &t->prev_cd, sizeof cd) == 0;
-    const int only_camera = same_key && !same_cam;
-    const uint64_t base = in->seed ? in->seed : 1, pictures = t->pictures + !(same_key && same_cam);
-    uint64_t seed = same_key && same_cam ? t->seed
-                    : pictures <= 1      ? base
-                                         : pgi__mix64(base ^ (0xd1b54a32d192ed03ULL * pictures));
+    const int same_cam = t->have && memcmp(&cd, &t->prev_cd, sizeof cd) == 0 && in->shift[0] == t->prev_user_shift[0] &&
+                         in->shift[1] == t->prev_user_shift[1];
+    /* A moving camera's pictures also take a sub-pixel offset each (Halton 2, 3), so that their
+     * history averages the whole pixel as the progressive frames do (temporal anti-aliasing); when
+     * the camera stops, one more picture begins without it, whose progressive average is then the
+     * plain one. A caller's own offset (an engine's jitter) is left as it is. */
+    const int own_shift = in->shift[0] == 0.f && in->shift[1] == 0.f;
+    const int stopping = same_key && same_cam && own_shift && (t->shift[0] != 0.f || t->shift[1] != 0.f);
+    const int new_picture = !(same_key && same_cam) || stopping;
+    const int only_camera = same_key && (!same_cam || stopping);
+    const uint64_t base = in->seed ? in->seed : 1, pictures = t->pictures + (uint64_t)new_picture;
+    uint64_t seed = !new_picture    ? t->seed
+                    : pictures <= 1 ? base
+                                    : pgi__mix64(base ^ (0xd1b54a32d192ed03ULL * pictures));
     if (seed == 0) seed = 1;
     d.seed = seed;
+    float shift[2] = {0.f, 0.f};
+    if (!own_shift) shift[0] = in->shift[0], shift[1] = in->shift[1];
+    else if (!new_picture) shift[0] = t->shift[0], shift[1] = t->shift[1];
+    else if (only_camera && !same_cam) shift[0] = halton(pictures, 2) - 0.5f, shift[1] = halton(pictures, 3) - 0.5f;
+    d.shift[0] = shift[0], d.shift[1] = shift[1];
     pgi_aovs aovs = {.albedo = t->alb, .normal = t->nrm, .depth = t->depth, .indirect = t->ind};
     d.aovs = &aovs;
     pgi_frame_stats fs;
@@ -321,13 +349,15 @@ pgi_status pgi_temporal_step(pgi_temporal *t, const pgi_render_desc *in, pgi_ima
         return pgi__fail(PGI_ERR_INTERNAL, "temporal step: a %dx%d frame for %dx%d buffers", fs.width, fs.height, w, h);
     t->pictures = pictures;
     t->seed = seed;
+    t->shift[0] = shift[0], t->shift[1] = shift[1];
+    t->prev_user_shift[0] = in->shift[0], t->prev_user_shift[1] = in->shift[1];
 
     const double t0 = pgi__now_ms();
     pgi_camera cam;
     pgi_camera_look_at(&cam, cd.eye, cd.look_at, cd.up, cd.fov_y_deg, w, h);
     const int k = fs.frames; /* frames in the progressive average: 1 right after a change */
     t->width = w, t->height = h;
-    positions(t, &cam, d.threads);
+    positions(t, &cam, shift, d.threads);
     pgi_temporal_stats ts = {.on = 1};
     if (k == 1) {
         /* the picture restarted: the history carried over, if only the camera moved */
