@@ -20,17 +20,21 @@ static int grow(void *pp, size_t n, size_t size) {
     return 1;
 }
 
-pgi_status pgi__scene_grow_geometry(pgi_scene *s, size_t add_v, size_t add_t, int want_nrm, int want_uv,
+pgi_status pgi__scene_grow_geometry(pgi_scene *s, size_t add_v, size_t add_t, int want_nrm, int want_uv, int want_col,
                                     const char *what) {
     const size_t nv = s->nverts + add_v, nt = s->ntris + add_t;
     const int keep_nrm = want_nrm && (s->nverts == 0 || s->nrm != NULL);
     const int had_uv = s->uv != NULL, keep_uv = want_uv || had_uv;
+    const int had_col = s->col != NULL, keep_col = want_col || had_col;
     if (!grow(&s->pos, nv * 3, sizeof(float)) || !grow(&s->tri, nt * 3, sizeof(uint32_t)) ||
         !grow(&s->tri_mat, nt, sizeof(uint32_t)) || (keep_nrm && !grow(&s->nrm, nv * 3, sizeof(float))) ||
-        (keep_uv && !grow(&s->uv, nv * 2, sizeof(float))) || (s->tri_dynamic && !grow(&s->tri_dynamic, nt, 1)))
+        (keep_uv && !grow(&s->uv, nv * 2, sizeof(float))) || (keep_col && !grow(&s->col, nv * 3, sizeof(float))) ||
+        (s->tri_dynamic && !grow(&s->tri_dynamic, nt, 1)))
         return pgi__fail(PGI_ERR_OOM, "%s: out of memory for %zu vertices and %zu triangles", what, nv, nt);
     if (keep_uv) /* earlier geometry without UVs, and the new vertices until they are written: 0, 0 */
         memset(s->uv + 2 * (had_uv ? s->nverts : 0), 0, (had_uv ? add_v : nv) * 2 * sizeof(float));
+    if (keep_col) /* earlier geometry without colours, and the new vertices until they are written: white */
+        for (size_t i = 3 * (had_col ? s->nverts : 0); i < 3 * nv; i++) s->col[i] = 1.f;
     if (s->tri_dynamic) memset(s->tri_dynamic + s->ntris, 0, add_t);
     return PGI_OK;
 }
@@ -259,7 +263,7 @@ pgi_status pgi_scene_create(const pgi_scene_desc *d, pgi_scene **out) {
     }
     if (!st && any_dynamic && !(s->tri_dynamic = calloc(nt ? nt : 1, 1)))
         st = pgi__fail(PGI_ERR_OOM, "%s: out of memory", what);
-    if (!st) st = pgi__scene_grow_geometry(s, nv, nt, d->meshes[0].normals != NULL, any_uv, what);
+    if (!st) st = pgi__scene_grow_geometry(s, nv, nt, d->meshes[0].normals != NULL, any_uv, 0, what);
     for (size_t i = 0; i < d->mesh_count && !st; i++) {
         const pgi_mesh_desc *m = &d->meshes[i];
         pgi__mesh_range *r = &s->meshes[s->nmeshes++];
