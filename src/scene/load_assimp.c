@@ -832,16 +832,30 @@ pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path) {
     ctx.budget = budget;
     struct aiFileIO io = {.OpenProc = io_open, .CloseProc = io_close, .UserData = (aiUserData)&ctx};
     import_job job = {.path = path, .flags = flags, .io = &io};
-    run_import(&job);
-    const struct aiScene *sc = job.sc;
-    if (ctx.st) {
-        if (sc) release_import(sc);
-        pgi__mesh_hints_free(&hints);
-        return pgi__fail(ctx.st, "%s", ctx.err);
-    }
-    if (!sc) {
-        pgi__mesh_hints_free(&hints);
-        return pgi__fail(PGI_ERR_PARSE, "%s: %s", path, job.err);
+    const struct aiScene *sc = NULL;
+    for (int pass = 0; pass < 2; pass++) {
+        run_import(&job);
+        sc = job.sc;
+        if (ctx.st) {
+            if (sc) release_import(sc);
+            pgi__mesh_hints_free(&hints);
+            return pgi__fail(ctx.st, "%s", ctx.err);
+        }
+        if (!sc) {
+            pgi__mesh_hints_free(&hints);
+            return pgi__fail(PGI_ERR_PARSE, "%s: %s", path, job.err);
+        }
+        /* Assimp 5.2's JoinIdenticalVertices joins vertices that differ in their colour alone (a
+         * red floor's corner and a white wall's at one place, both without normals): a file with
+         * vertex colours is imported again without it, its vertices as the file indexes them (an
+         * OBJ's then come three a triangle). Its files are not counted again, nor their opens. */
+        int coloured = 0;
+        for (unsigned i = 0; i < sc->mNumMeshes; i++) coloured |= sc->mMeshes[i]->mColors[0] != NULL;
+        if (pass || !coloured) break;
+        release_import(sc);
+        sc = NULL;
+        job = (import_job){.path = path, .flags = flags & ~(unsigned)aiProcess_JoinIdenticalVertices, .io = &io};
+        for (int i = 0; i < ctx.nfiles; i++) ctx.files[i].opens = 0;
     }
 
     pgi_status st = PGI_OK;
