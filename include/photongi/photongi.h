@@ -537,8 +537,10 @@ typedef struct pgi_material_desc {
 
 /* One mesh: positions (3 floats a vertex), optional normals (3 floats; NULL: every mesh of the
  * scene must leave them out, and the scene is flat-shaded) and uvs (2 floats; NULL: 0, 0),
- * triangles as 3 vertex indices into this mesh, and a material per triangle (NULL: `material`
- * for all). The arrays are copied. */
+ * triangles as 3 vertex indices into this mesh, a material per triangle (NULL: `material` for
+ * all), and optional vertex colours (3 floats, linear RGB in [0, 1], interpolated across each
+ * triangle and multiplying its material's diffuse albedo before the texture, as a mesh file's
+ * vertex colours; NULL: white). The arrays are copied. */
 typedef struct pgi_mesh_desc {
     size_t vertex_count;
     const float *positions, *normals, *uvs;
@@ -546,9 +548,10 @@ typedef struct pgi_mesh_desc {
     const uint32_t *indices;
     const uint32_t *materials; /* per triangle, indices into the scene desc's materials; NULL: `material` */
     uint32_t material;
-    int dynamic; /* 1: pgi_scene_update_positions will move it every frame: its triangles get a ray-tracing
+    int dynamic;         /* 1: pgi_scene_update_positions will move it every frame: its triangles get a ray-tracing
                     structure of their own that is refitted (as a scene description's "motion"), instead
                     of the rebuild of the static one that moving other meshes costs */
+    const float *colors; /* 3 floats a vertex (linear RGB in [0, 1]) or NULL: see above */
 } pgi_mesh_desc;
 
 /* A light: point, spot or sun (PGI_LIGHT_KIND_AREA are the emissive materials' triangles; only
