@@ -84,8 +84,8 @@ typedef struct pgi_scene_info {
     pgi_specular specular;   /* model of the mesh's specular materials now (GGX or PHONG) */
     size_t glossy_materials; /* mesh materials that follow it (pgi_scene_set_specular) */
     /* What the scene's files hold that photongi does not use or could not find, in one line (a
-     * material library that is not there, animations, vertex colours, glTF extensions, ...; "" when
-     * nothing): for the caller to show as a warning. Valid while the scene lives. */
+     * material library that is not there, animations, a second vertex colour set, glTF extensions,
+     * ...; "" when nothing): for the caller to show as a warning. Valid while the scene lives. */
     const char *warnings;
 } pgi_scene_info;
 
