@@ -15,6 +15,7 @@
  *     have is refused by name (PGI_ERR_UNSUPPORTED). */
 #include "test_gpu_util.h"
 #include "test_util.h"
+#include "test_vertex_colours.h"
 
 
 #include "core/core.h"

@@ -9,6 +9,7 @@
  * GPU lacks refused with a message naming them. Built and run only with the Vulkan backend. */
 #include "test_gpu_util.h"
 #include "test_util.h"
+#include "test_vertex_colours.h"
 
 
 #include "gpu/gpu_trace.h"
