@@ -2,6 +2,7 @@
  * different seed gives a different image. */
 #include "core/core.h"
 #include "test_util.h"
+#include "test_vertex_colours.h"
 
 static pgi_scene *g_scene;
 static pgi_jitter g_jitter; /* sub-pixel positions of the frames rendered */
@@ -155,6 +156,11 @@ static void test_narrow_builds(void **state) {
     TU_CHECK_OK(pgi_scene_load("cornell-mirrors", &sc));
     narrow_vs_wide(sc, "cluster", 97, 66, 20000);
     pgi_scene_destroy(sc);
+    /* vertex colours (the uniform tiles' and the lane path's kd, the photon tracer's) */
+    TU_CHECK_OK(pgi_scene_load("cornell", &sc));
+    tu_add_vertex_colours(sc);
+    narrow_vs_wide(sc, "cluster-trivial", 203, 117, 20000);
+    pgi_scene_destroy(sc);
     /* Sibenik's textures (colour texels through the AVX2 footprints), where the scenes are */
     char mesh[1024];
     snprintf(mesh, sizeof mesh, "%s/sibenik/sibenik.obj", tu_scenes_dir());
@@ -163,6 +169,8 @@ static void test_narrow_builds(void **state) {
         return;
     }
     TU_CHECK_OK(pgi_scene_load("scenes/sibenik.json", &sc));
+    narrow_vs_wide(sc, "cluster-trivial", 322, 181, 50000);
+    tu_add_vertex_colours(sc); /* and vertex colours under the textures */
     narrow_vs_wide(sc, "cluster-trivial", 322, 181, 50000);
     pgi_scene_destroy(sc);
 }

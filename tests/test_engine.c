@@ -226,6 +226,91 @@ static void test_arrays_equal_obj(void **state) {
     pgi_scene_destroy(from_arrays);
 }
 
+/* Vertex colours (pgi_mesh_desc.colors) multiply the diffuse albedo: the room's white quads (mesh
+ * 0: quads 0-2, white 0.75) coloured (1, 0.5, 0.25) beside the rest without colours (mesh 1,
+ * white as far as colours go: the textured floor, the red wall, the glossy block keep their
+ * colours) render as the room in one mesh whose white is (0.75, 0.375, 0.1875); and the albedo
+ * AOV of a coloured quad is that product. */
+static void test_arrays_colours(void **state) {
+    (void)state;
+    make_texture();
+    room r;
+    build_room(&r, 1);
+    assert_int_equal(r.mat[5], M_WHITE);
+    assert_int_not_equal(r.mat[6], M_WHITE);
+    pgi_material_desc m[M_COUNT];
+    materials(m);
+    const pgi_texture_desc tex = {4, 4, 3, g_tex};
+    float col[3 * 12];
+    for (int v = 0; v < 12; v++) col[3 * v] = 1.f, col[3 * v + 1] = 0.5f, col[3 * v + 2] = 0.25f;
+    uint32_t idx1[3 * MAXT];
+    for (size_t k = 18; k < 3 * r.nt; k++) idx1[k - 18] = r.idx[k] - 12;
+    const pgi_mesh_desc two[2] = {{.vertex_count = 12,
+                                   .positions = r.pos,
+                                   .normals = r.nrm,
+                                   .uvs = r.uv,
+                                   .triangle_count = 6,
+                                   .indices = r.idx,
+                                   .materials = r.mat,
+                                   .colors = col},
+                                  {.vertex_count = r.nv - 12,
+                                   .positions = r.pos + 36,
+                                   .normals = r.nrm + 36,
+                                   .uvs = r.uv + 24,
+                                   .triangle_count = r.nt - 6,
+                                   .indices = idx1,
+                                   .materials = r.mat + 6}};
+    pgi_scene_desc d = {.meshes = two,
+                        .mesh_count = 2,
+                        .materials = m,
+                        .material_count = M_COUNT,
+                        .textures = &tex,
+                        .texture_count = 1,
+                        .cameras = &k_cam,
+                        .camera_count = 1};
+    pgi_scene *coloured = NULL, *plain = NULL;
+    TU_CHECK_OK(pgi_scene_create(&d, &coloured));
+    m[M_WHITE].diffuse[1] = 0.375f;
+    m[M_WHITE].diffuse[2] = 0.1875f;
+    const pgi_mesh_desc one = {.vertex_count = r.nv,
+                               .positions = r.pos,
+                               .normals = r.nrm,
+                               .uvs = r.uv,
+                               .triangle_count = r.nt,
+                               .indices = r.idx,
+                               .materials = r.mat};
+    d.meshes = &one;
+    d.mesh_count = 1;
+    TU_CHECK_OK(pgi_scene_create(&d, &plain));
+    pgi_render_desc rd = small_desc();
+    const size_t n = (size_t)rd.width * (size_t)rd.height;
+    float *aa = calloc(3 * n, sizeof(float)), *ab = calloc(3 * n, sizeof(float));
+    assert_non_null(aa);
+    assert_non_null(ab);
+    pgi_aovs a = {.albedo = aa}, b = {.albedo = ab};
+    pgi_image ia = {0}, ib = {0};
+    rd.aovs = &a;
+    render(coloured, &rd, &ia, NULL);
+    rd.aovs = &b;
+    render(plain, &rd, &ib, NULL);
+    const double sa = image_sum(&ia), sb = image_sum(&ib);
+    fprintf(stderr, "  coloured arrays %.6g, plain arrays %.6g\n", sa, sb);
+    assert_true(sb > 0.0);
+    assert_int_equal(tu_compare(ia.rgb, ib.rgb, 3 * n, 1e-4, "coloured vs plain"), 0);
+    assert_int_equal(tu_compare(aa, ab, 3 * n, 1e-6, "coloured vs plain albedo"), 0);
+    size_t seen = 0; /* pixels of the coloured quads */
+    for (size_t i = 0; i < n; i++)
+        seen += fabsf(aa[3 * i] - 0.75f) <= 1e-6f && fabsf(aa[3 * i + 1] - 0.375f) <= 1e-6f &&
+                fabsf(aa[3 * i + 2] - 0.1875f) <= 1e-6f;
+    assert_true(seen > n / 8);
+    pgi_image_free(&ia);
+    pgi_image_free(&ib);
+    free(aa);
+    free(ab);
+    pgi_scene_destroy(coloured);
+    pgi_scene_destroy(plain);
+}
+
 /* Bad arrays: refused with a message naming the mesh / material / texture / light. */
 static void expect_refused(const pgi_scene_desc *d, pgi_status want, const char *needle) {
     pgi_scene *s = NULL;
@@ -309,6 +394,15 @@ static void test_create_errors(void **state) {
     d.textures = &bad_tex;
     expect_refused(&d, PGI_ERR_INVALID_ARG, "texture 0");
     d.textures = &tex;
+
+    float col[3 * MAXV];
+    for (size_t k = 0; k < 3 * r.nv; k++) col[k] = 0.5f;
+    col[10] = 1.5f;
+    mesh.colors = col;
+    expect_refused(&d, PGI_ERR_INVALID_ARG, "mesh 0: the colour of vertex 3 is not in [0, 1]");
+    col[10] = NAN;
+    expect_refused(&d, PGI_ERR_INVALID_ARG, "mesh 0: the colour of vertex 3");
+    mesh.colors = NULL;
 
     pgi_mesh_desc two[2] = {mesh, mesh};
     two[1].normals = NULL;
@@ -816,13 +910,10 @@ static void test_indirect_no_shadow_rays(void **state) {
 
 int main(void) {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_arrays_equal_obj),
-        cmocka_unit_test(test_create_errors),
-        cmocka_unit_test(test_update_positions),
-        cmocka_unit_test(test_light_intensity_doubles),
-        cmocka_unit_test(test_light_add_remove),
-        cmocka_unit_test(test_camera_matrices),
-        cmocka_unit_test(test_aovs),
+        cmocka_unit_test(test_arrays_equal_obj),        cmocka_unit_test(test_arrays_colours),
+        cmocka_unit_test(test_create_errors),           cmocka_unit_test(test_update_positions),
+        cmocka_unit_test(test_light_intensity_doubles), cmocka_unit_test(test_light_add_remove),
+        cmocka_unit_test(test_camera_matrices),         cmocka_unit_test(test_aovs),
         cmocka_unit_test(test_indirect_no_shadow_rays),
     };
     return cmocka_run_group_tests(tests, tu_dir_setup, tu_dir_teardown);

@@ -15,6 +15,7 @@
  *     have is refused by name (PGI_ERR_UNSUPPORTED). */
 #include "test_gpu_util.h"
 #include "test_util.h"
+#include "test_vertex_colours.h"
 
 
 #include "core/core.h"
@@ -266,6 +267,23 @@ static void test_view_samples(void **state) {
     }
 }
 
+/* Vertex colours (Cornell, tu_add_vertex_colours): the upload's kd at random hits (the colours
+ * interpolated and multiplied in as pgi__scene_kd), the G-buffer, and the whole frame agree with
+ * the CPU's as the uncoloured scenes do. */
+static void test_vertex_colours(void **state) {
+    (void)state;
+    pgi_scene *s = NULL;
+    TU_CHECK_OK(pgi_scene_load("cornell", &s));
+    tu_add_vertex_colours(s);
+    check_surfaces(s, "coloured");
+    const pgi__subpixel sp = {.jitter = 0, .seed = 1, .index = 0};
+    size_t prim_bad, valid;
+    size_t bad = compare_view(s, 96, 72, &sp, "cornell coloured", &prim_bad, &valid);
+    assert_true(valid > 96 * 72 / 2);
+    assert_true(bad <= 96 * 72 / 200 + 2);
+    pgi_scene_destroy(s);
+}
+
 /* ------------------------------------------------------------ frames */
 
 static pgi_render_desc frame_desc(int w, int h, uint32_t photons, int direct, pgi_output out, int device) {
@@ -389,6 +407,7 @@ static void test_whole_frame(void **state) {
     (void)state;
     pgi_render_desc d = frame_desc(64, 48, 200000, 256, PGI_OUTPUT_ALL, 1);
     compare_frames("cornell", &d, "all", 40.0);
+    compare_frames_on("cornell", tu_add_vertex_colours, &d, "coloured", 40.0);
     d = frame_desc(64, 48, 200000, 16, PGI_OUTPUT_INDIRECT, 1);
     compare_frames("cornell", &d, "indirect", 40.0);
 }
@@ -506,11 +525,12 @@ static void test_refusals(void **state) {
 int main(void) {
     tu_keep_lavapipe_loaded();
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_scene_upload), cmocka_unit_test(test_scene_refuses_env_map),
-        cmocka_unit_test(test_view_samples), cmocka_unit_test(test_direct_light),
-        cmocka_unit_test(test_glossy),       cmocka_unit_test(test_whole_frame),
-        cmocka_unit_test(test_dynamic),      cmocka_unit_test(test_deterministic),
-        cmocka_unit_test(test_progressive),  cmocka_unit_test(test_refusals),
+        cmocka_unit_test(test_scene_upload),  cmocka_unit_test(test_scene_refuses_env_map),
+        cmocka_unit_test(test_view_samples),  cmocka_unit_test(test_vertex_colours),
+        cmocka_unit_test(test_direct_light),  cmocka_unit_test(test_glossy),
+        cmocka_unit_test(test_whole_frame),   cmocka_unit_test(test_dynamic),
+        cmocka_unit_test(test_deterministic), cmocka_unit_test(test_progressive),
+        cmocka_unit_test(test_refusals),
     };
     return cmocka_run_group_tests(tests, tu_gpu_setup, tu_gpu_teardown);
 }

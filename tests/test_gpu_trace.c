@@ -9,6 +9,7 @@
  * GPU lacks refused with a message naming them. Built and run only with the Vulkan backend. */
 #include "test_gpu_util.h"
 #include "test_util.h"
+#include "test_vertex_colours.h"
 
 
 #include "gpu/gpu_trace.h"
@@ -96,6 +97,17 @@ static void test_cornell(void **state) {
     pgi_scene *s = NULL;
     TU_CHECK_OK(pgi_scene_load("cornell", &s));
     compare(s, "cornell", 200000, 4);
+    pgi_scene_destroy(s);
+}
+
+/* Vertex colours (tu_add_vertex_colours) multiply kd on the GPU as on the CPU: the photons' flux
+ * after their first bounces (the colours take a good part of it) agrees. */
+static void test_cornell_coloured(void **state) {
+    (void)state;
+    pgi_scene *s = NULL;
+    TU_CHECK_OK(pgi_scene_load("cornell", &s));
+    tu_add_vertex_colours(s);
+    compare(s, "cornell coloured", 200000, 4);
     pgi_scene_destroy(s);
 }
 
@@ -296,9 +308,15 @@ static void test_unsupported(void **state) {
 int main(void) {
     tu_keep_lavapipe_loaded();
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_unsupported),     cmocka_unit_test(test_deterministic), cmocka_unit_test(test_cornell),
-        cmocka_unit_test(test_cornell_mirrors), cmocka_unit_test(test_lights_glossy), cmocka_unit_test(test_sky),
-        cmocka_unit_test(test_sibenik),         cmocka_unit_test(test_frame),
+        cmocka_unit_test(test_unsupported),
+        cmocka_unit_test(test_deterministic),
+        cmocka_unit_test(test_cornell),
+        cmocka_unit_test(test_cornell_coloured),
+        cmocka_unit_test(test_cornell_mirrors),
+        cmocka_unit_test(test_lights_glossy),
+        cmocka_unit_test(test_sky),
+        cmocka_unit_test(test_sibenik),
+        cmocka_unit_test(test_frame),
     };
     return cmocka_run_group_tests(tests, tu_gpu_setup, tu_gpu_teardown);
 }

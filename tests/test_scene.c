@@ -3,6 +3,7 @@
 #include "test_util.h"
 
 #include "photongi/metrics.h"
+#include "photongi/reference.h"
 #include "scene/scene_internal.h"
 
 static char g_dir[512];
@@ -857,7 +858,8 @@ static void test_camera_names(void **state) {
 }
 
 /* One warning line names what a file holds that is not used, or not found: a missing material
- * library, glTF animations, vertex colours, extensions; nothing for a file that uses it all. */
+ * library, glTF animations, extensions; nothing for a file that uses it all (a PLY's vertex
+ * colours are used: test_vertex_colours_*). */
 static void test_load_warnings(void **state) {
     (void)state;
     char p[700], m[700];
@@ -876,7 +878,7 @@ static void test_load_warnings(void **state) {
     pgi_scene_get_info(s, &in);
     assert_string_equal(in.warnings, "");
     pgi_scene_destroy(s);
-    /* a PLY's vertex colours */
+    /* a PLY's vertex colours are used: nothing to name */
     put("col.ply",
         "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
         "property uchar red\nproperty uchar green\nproperty uchar blue\nelement face 1\n"
@@ -890,7 +892,8 @@ static void test_load_warnings(void **state) {
     s = load_ok(j);
     pgi_scene_get_info(s, &in);
     fprintf(stderr, "  %s\n", in.warnings);
-    assert_non_null(strstr(in.warnings, "col.ply: not used: vertex colours"));
+    assert_string_equal(in.warnings, "");
+    assert_non_null(s->col);
     pgi_scene_destroy(s);
     /* glTF: an extension, a metallic material */
     put_room_gltf("ext.gltf",
@@ -1024,6 +1027,335 @@ static void test_gltf_structure(void **state) {
     }
 }
 
+/* ------------------------------------------------ vertex colours */
+
+/* The room of k_room_pos / k_room_idx (floor: vertices 0-3, back wall: 4-7) with vertex normals, as
+ * an ASCII PLY whose vertices carry 8-bit colours (the floor's `fl`, the wall's `wa`). */
+static const char *put_room_ply(const char *name, const int fl[3], const int wa[3], char *buf, size_t n) {
+    char text[2048];
+    size_t k = (size_t)snprintf(text, sizeof text,
+                                "ply\nformat ascii 1.0\nelement vertex 8\nproperty float x\nproperty float y\n"
+                                "property float z\nproperty float nx\nproperty float ny\nproperty float nz\n"
+                                "property uchar red\nproperty uchar green\nproperty uchar blue\nelement face 4\n"
+                                "property list uchar int vertex_indices\nend_header\n");
+    for (int v = 0; v < 8; v++) {
+        const int *c = v < 4 ? fl : wa;
+        k += (size_t)snprintf(text + k, sizeof text - k, "%g %g %g %d %d %d %d %d %d\n", (double)k_room_pos[3 * v],
+                              (double)k_room_pos[3 * v + 1], (double)k_room_pos[3 * v + 2], 0, v < 4, v >= 4, c[0],
+                              c[1], c[2]);
+    }
+    for (int t = 0; t < 4; t++)
+        k += (size_t)snprintf(text + k, sizeof text - k, "3 %d %d %d\n", k_room_idx[3 * t], k_room_idx[3 * t + 1],
+                              k_room_idx[3 * t + 2]);
+    return put(name, text, buf, n);
+}
+
+/* The same room as an OBJ with the same normals and materials of colour `fl` (floor) and `wa` (wall). */
+static const char *put_room_obj(const char *name, const char *fl, const char *wa, char *buf, size_t n) {
+    char mtl[700], text[2048];
+    snprintf(text, sizeof text, "newmtl floor\nKd %s\nnewmtl wall\nKd %s\n", fl, wa);
+    put("room_rw.mtl", text, mtl, sizeof mtl);
+    size_t k = (size_t)snprintf(text, sizeof text, "mtllib room_rw.mtl\n");
+    for (int v = 0; v < 8; v++)
+        k += (size_t)snprintf(text + k, sizeof text - k, "v %g %g %g\n", (double)k_room_pos[3 * v],
+                              (double)k_room_pos[3 * v + 1], (double)k_room_pos[3 * v + 2]);
+    k += (size_t)snprintf(text + k, sizeof text - k, "vn 0 1 0\nvn 0 0 1\n");
+    for (int t = 0; t < 4; t++) {
+        if (t == 0 || t == 2) k += (size_t)snprintf(text + k, sizeof text - k, "usemtl %s\n", t ? "wall" : "floor");
+        k += (size_t)snprintf(text + k, sizeof text - k, "f %d//%d %d//%d %d//%d\n", k_room_idx[3 * t] + 1, 1 + t / 2,
+                              k_room_idx[3 * t + 1] + 1, 1 + t / 2, k_room_idx[3 * t + 2] + 1, 1 + t / 2);
+    }
+    return put(name, text, buf, n);
+}
+
+/* A description around a room mesh: a camera seeing the floor and the wall, a point light. */
+static const char *room_desc(const char *name, const char *mesh, char *buf, size_t n) {
+    char text[1024];
+    snprintf(text, sizeof text,
+             "{\"mesh\": \"%s\", \"camera\": {\"eye\": [0, 1.5, 4], \"look_at\": [0, 0.6, -1], \"fov_y\": 55},\n"
+             " \"lights\": [{\"type\": \"point\", \"position\": [0.5, 2, 0.5], \"intensity\": [20, 20, 20]}]}\n",
+             mesh);
+    return put(name, text, buf, n);
+}
+
+#define VC_W 64
+#define VC_H 48
+
+/* A frame of s (VC_W x VC_H, 20000 photons) and its albedo AOV (3 floats a pixel, caller's). */
+static void render_vc(pgi_scene *s, pgi_image *img, float *albedo) {
+    pgi_renderer *r = NULL;
+    TU_CHECK_OK(pgi_renderer_create(s, &r));
+    pgi_aovs a = {.albedo = albedo};
+    pgi_frame_stats st;
+    TU_CHECK_OK(pgi_renderer_render(r,
+                                    &(pgi_render_desc){.width = VC_W,
+                                                       .height = VC_H,
+                                                       .photons = 20000,
+                                                       .seed = 3,
+                                                       .threads = 2,
+                                                       .aovs = &a},
+                                    img, &st));
+    pgi_renderer_destroy(r);
+}
+
+/* Pixels whose albedo is within 1e-6 of `want` (each channel); (0, 0, 0): those that see no surface. */
+static size_t albedo_pixels(const float *albedo, const float want[3]) {
+    size_t n = 0;
+    for (size_t i = 0; i < (size_t)VC_W * VC_H; i++)
+        n += fabsf(albedo[3 * i] - want[0]) <= 1e-6f && fabsf(albedo[3 * i + 1] - want[1]) <= 1e-6f &&
+             fabsf(albedo[3 * i + 2] - want[2]) <= 1e-6f;
+    return n;
+}
+
+/* Two renders of what should be one picture: the frames (every float within 1e-4 relative) and
+ * path-traced references (within 1e-4) agree, and the albedos do to 1e-6. */
+static void expect_same_room(pgi_scene *a, pgi_scene *b, const char *what) {
+    const size_t n = (size_t)VC_W * VC_H;
+    float *aa = calloc(3 * n, sizeof(float)), *ab = calloc(3 * n, sizeof(float));
+    assert_non_null(aa);
+    assert_non_null(ab);
+    pgi_image ia = {0}, ib = {0};
+    render_vc(a, &ia, aa);
+    render_vc(b, &ib, ab);
+    pgi_metrics mt;
+    TU_CHECK_OK(pgi_metrics_compute(&ia, &ib, 1.f, &mt));
+    const double mean = image_mean(&ib);
+    fprintf(stderr, "  %s: frame mean %.6g vs %.6g, PSNR %.2f dB\n", what, image_mean(&ia), mean, mt.psnr);
+    assert_true(mean > 0.01);
+    assert_int_equal(tu_compare(ia.rgb, ib.rgb, 3 * n, 1e-4, what), 0);
+    assert_int_equal(tu_compare(aa, ab, 3 * n, 1e-6, what), 0);
+    pgi_image_free(&ia);
+    pgi_image_free(&ib);
+    const pgi_reference_desc d = {.width = VC_W, .height = VC_H, .spp = 4, .seed = 3, .threads = 2};
+    uint64_t spp = 0;
+    TU_CHECK_OK(pgi_reference_render(a, &d, &ia, &spp));
+    spp = 0;
+    TU_CHECK_OK(pgi_reference_render(b, &d, &ib, &spp));
+    TU_CHECK_OK(pgi_metrics_compute(&ia, &ib, 1.f, &mt));
+    fprintf(stderr, "  %s: reference mean %.6g vs %.6g, PSNR %.2f dB\n", what, image_mean(&ia), image_mean(&ib),
+            mt.psnr);
+    assert_int_equal(tu_compare(ia.rgb, ib.rgb, 3 * n, 1e-4, what), 0);
+    pgi_image_free(&ia);
+    pgi_image_free(&ib);
+    free(aa);
+    free(ab);
+}
+
+/* A PLY's 8-bit vertex colours are its base colour: a room whose floor's vertices are all red
+ * (255, 0, 0) and wall's white renders as the same room with a red and a white material (an OBJ):
+ * the frame (the view samples, the photons' colour bleeding onto the wall) and the path-traced
+ * reference; nothing is named as unused. */
+static void test_vertex_colours_ply(void **state) {
+    (void)state;
+    char p[700], o[700], jp[700], jo[700];
+    const int red[3] = {255, 0, 0}, white[3] = {255, 255, 255};
+    pgi_scene *sp = load_ok(room_desc("vc_ply.json", put_room_ply("vc.ply", red, white, p, sizeof p), jp, sizeof jp));
+    pgi_scene *so =
+        load_ok(room_desc("vc_obj.json", put_room_obj("vc.obj", "1 0 0", "1 1 1", o, sizeof o), jo, sizeof jo));
+    pgi_scene_info in;
+    pgi_scene_get_info(sp, &in);
+    assert_string_equal(in.warnings, "");
+    assert_non_null(sp->col);
+    assert_null(so->col);
+    for (size_t v = 0; v < sp->nverts; v++) {
+        const float *c = sp->col + 3 * v;
+        assert_true((c[0] == 1.f && c[1] == 0.f && c[2] == 0.f) || (c[0] == 1.f && c[1] == 1.f && c[2] == 1.f));
+    }
+    /* PLY has no materials: the one Assimp makes up is white here (grey 0.6 without colours) */
+    assert_int_equal(sp->nmats, 1);
+    assert_true(sp->mats[0].kd[0] == 1.f && sp->mats[0].kd[1] == 1.f && sp->mats[0].kd[2] == 1.f);
+    expect_same_room(sp, so, "PLY red vertices vs OBJ red material");
+    /* and the albedo is the colour: red on the floor, white on the wall */
+    const size_t n = (size_t)VC_W * VC_H;
+    float *al = calloc(3 * n, sizeof(float));
+    assert_non_null(al);
+    pgi_image im = {0};
+    render_vc(sp, &im, al);
+    const float r1[3] = {1.f, 0.f, 0.f}, w1[3] = {1.f, 1.f, 1.f}, none[3] = {0.f, 0.f, 0.f};
+    const size_t nr = albedo_pixels(al, r1), nw = albedo_pixels(al, w1), n0 = albedo_pixels(al, none);
+    fprintf(stderr, "  PLY room: %zu red, %zu white and %zu empty pixels of %zu\n", nr, nw, n0, n);
+    assert_true(nr > n / 8 && nw > n / 8 && nr + nw + n0 == n);
+    pgi_image_free(&im);
+    free(al);
+    pgi_scene_destroy(sp);
+    pgi_scene_destroy(so);
+}
+
+/* The colours' space: a PLY's 8-bit colours and an OBJ's `v x y z r g b` are sRGB-encoded (decoded
+ * as an 8-bit texture's texels are), and the albedo of a vertex-coloured surface is that linear
+ * colour times its material's; without colours the made-up material stays grey 0.6. */
+static void test_vertex_colours_srgb(void **state) {
+    (void)state;
+    char p[700], j[700];
+    const int c8[3] = {200, 100, 50}, white[3] = {255, 255, 255};
+    pgi_scene *s = load_ok(room_desc("vcs.json", put_room_ply("vcs.ply", c8, white, p, sizeof p), j, sizeof j));
+    const size_t n = (size_t)VC_W * VC_H;
+    float *al = calloc(3 * n, sizeof(float));
+    assert_non_null(al);
+    pgi_image im = {0};
+    render_vc(s, &im, al);
+    const float lin[3] = {pgi__srgb8_texture_lut[200], pgi__srgb8_texture_lut[100], pgi__srgb8_texture_lut[50]};
+    size_t nf = albedo_pixels(al, lin);
+    fprintf(stderr, "  PLY (200, 100, 50): albedo %.6g %.6g %.6g at %zu pixels\n", (double)lin[0], (double)lin[1],
+            (double)lin[2], nf);
+    assert_true(nf > n / 8);
+    assert_true(fabsf(lin[0] - 0.5775804f) < 1e-6f); /* not 200 / 255 = 0.784 */
+    pgi_image_free(&im);
+    pgi_scene_destroy(s);
+
+    /* an OBJ's vertex colours (Assimp reads `v x y z r g b`), on faces without a material */
+    char text[1024];
+    size_t k = 0;
+    for (int v = 0; v < 8; v++)
+        k += (size_t)snprintf(text + k, sizeof text - k, "v %g %g %g %s\n", (double)k_room_pos[3 * v],
+                              (double)k_room_pos[3 * v + 1], (double)k_room_pos[3 * v + 2],
+                              v < 4 ? "0.5 0.25 1" : "1 1 1");
+    for (int t = 0; t < 4; t++)
+        k += (size_t)snprintf(text + k, sizeof text - k, "f %d %d %d\n", k_room_idx[3 * t] + 1,
+                              k_room_idx[3 * t + 1] + 1, k_room_idx[3 * t + 2] + 1);
+    put("vcs.obj", text, p, sizeof p);
+    s = load_ok(room_desc("vcs_obj.json", p, j, sizeof j));
+    pgi_scene_info in;
+    pgi_scene_get_info(s, &in);
+    assert_string_equal(in.warnings, "");
+    render_vc(s, &im, al);
+    const float want[3] = {(float)pgi__srgb_to_linear(0.5), (float)pgi__srgb_to_linear(0.25), 1.f};
+    nf = albedo_pixels(al, want);
+    fprintf(stderr, "  OBJ (0.5, 0.25, 1): albedo %.6g %.6g %.6g at %zu pixels\n", (double)want[0], (double)want[1],
+            (double)want[2], nf);
+    assert_true(nf > n / 8);
+    pgi_image_free(&im);
+    pgi_scene_destroy(s);
+
+    /* the same PLY without colours: grey 0.6 everywhere (as before) */
+    k = (size_t)snprintf(text, sizeof text,
+                         "ply\nformat ascii 1.0\nelement vertex 8\nproperty float x\nproperty float y\n"
+                         "property float z\nelement face 4\nproperty list uchar int vertex_indices\nend_header\n");
+    for (int v = 0; v < 8; v++)
+        k += (size_t)snprintf(text + k, sizeof text - k, "%g %g %g\n", (double)k_room_pos[3 * v],
+                              (double)k_room_pos[3 * v + 1], (double)k_room_pos[3 * v + 2]);
+    for (int t = 0; t < 4; t++)
+        k += (size_t)snprintf(text + k, sizeof text - k, "3 %d %d %d\n", k_room_idx[3 * t], k_room_idx[3 * t + 1],
+                              k_room_idx[3 * t + 2]);
+    put("vcn.ply", text, p, sizeof p);
+    s = load_ok(room_desc("vcn.json", p, j, sizeof j));
+    assert_null(s->col);
+    render_vc(s, &im, al);
+    const float grey[3] = {0.6f, 0.6f, 0.6f}, none[3] = {0.f, 0.f, 0.f};
+    const size_t ng = albedo_pixels(al, grey);
+    assert_true(ng > n / 4);
+    assert_int_equal(ng + albedo_pixels(al, none), n);
+    pgi_image_free(&im);
+    pgi_scene_destroy(s);
+    free(al);
+}
+
+/* The room as a glTF (no normals: flat) in `prims` primitives over one buffer: positions, COLOR_0
+ * as float RGB (floor red, wall white), COLOR_0 as normalised RGBA bytes (floor (128, 64, 255),
+ * wall white), the indices; accessors 0 positions, 1 float colours, 2 byte colours, 3 all
+ * indices, 4 the floor's, 5 the wall's. `prims` and `mats` are the JSON of the primitives and
+ * materials. */
+static const char *put_room_gltf_vc(const char *name, const char *prims, const char *mats, char *buf, size_t n) {
+    unsigned char bin[248];
+    memcpy(bin, k_room_pos, 96);
+    for (int v = 0; v < 8; v++) {
+        const float c[3] = {1.f, v < 4 ? 0.f : 1.f, v < 4 ? 0.f : 1.f};
+        memcpy(bin + 96 + 12 * v, c, 12);
+        const unsigned char b[4] = {v < 4 ? 128 : 255, v < 4 ? 64 : 255, 255, 255};
+        memcpy(bin + 192 + 4 * v, b, 4);
+    }
+    memcpy(bin + 224, k_room_idx, 24);
+    char path[700];
+    snprintf(path, sizeof path, "%s/vc_room.bin", g_dir);
+    write_bytes(path, bin, sizeof bin, NULL, 0);
+    char text[4096];
+    snprintf(text, sizeof text,
+             "{\"asset\": {\"version\": \"2.0\"}, \"scene\": 0, \"scenes\": [{\"nodes\": [0]}],\n"
+             " \"nodes\": [{\"mesh\": 0}], \"materials\": [%s],\n"
+             " \"meshes\": [{\"primitives\": [%s]}],\n"
+             " \"buffers\": [{\"uri\": \"vc_room.bin\", \"byteLength\": 248}],\n"
+             " \"bufferViews\": [{\"buffer\": 0, \"byteLength\": 96}, {\"buffer\": 0, \"byteOffset\": 96, "
+             "\"byteLength\": 96},\n"
+             "   {\"buffer\": 0, \"byteOffset\": 192, \"byteLength\": 32}, {\"buffer\": 0, \"byteOffset\": 224, "
+             "\"byteLength\": 24}],\n"
+             " \"accessors\": [{\"bufferView\": 0, \"componentType\": 5126, \"count\": 8, \"type\": \"VEC3\", "
+             "\"min\": [-2, 0, -2], \"max\": [2, 3, 2]},\n"
+             "   {\"bufferView\": 1, \"componentType\": 5126, \"count\": 8, \"type\": \"VEC3\"},\n"
+             "   {\"bufferView\": 2, \"componentType\": 5121, \"normalized\": true, \"count\": 8, \"type\": "
+             "\"VEC4\"},\n"
+             "   {\"bufferView\": 3, \"componentType\": 5123, \"count\": 12, \"type\": \"SCALAR\"},\n"
+             "   {\"bufferView\": 3, \"componentType\": 5123, \"count\": 6, \"type\": \"SCALAR\"},\n"
+             "   {\"bufferView\": 3, \"byteOffset\": 12, \"componentType\": 5123, \"count\": 6, \"type\": "
+             "\"SCALAR\"}]}\n",
+             mats, prims);
+    return put(name, text, buf, n);
+}
+
+/* A glTF's COLOR_0 multiplies the base colour and is linear (the glTF spec): float colours (floor
+ * red, wall white) on a white material render as red and white materials (the floor's back
+ * corners lie where the wall's bottom ones do, without normals: Assimp 5.2's JoinIdenticalVertices
+ * would join them and paint the wall's bottom red, load_assimp.c); normalised bytes are not
+ * decoded from sRGB (128 -> 128 / 255); a primitive without COLOR_0 beside one with it keeps its
+ * material's colour; COLOR_1 is named as unused. */
+static void test_vertex_colours_gltf(void **state) {
+    (void)state;
+    char g[700], j1[700], j2[700];
+    const char *mat = "{\"pbrMetallicRoughness\": {\"baseColorFactor\": [%s, 1], \"metallicFactor\": 0}}";
+    char white[160], red[160], grey[160], mats[400];
+    snprintf(white, sizeof white, mat, "1, 1, 1");
+    snprintf(red, sizeof red, mat, "1, 0, 0");
+    snprintf(grey, sizeof grey, mat, "0.8, 0.8, 0.8");
+    put_room_gltf_vc("vc_col.gltf",
+                     "{\"attributes\": {\"POSITION\": 0, \"COLOR_0\": 1}, \"indices\": 3, \"material\": 0}", white, g,
+                     sizeof g);
+    pgi_scene *sc = load_ok(room_desc("vc_gcol.json", g, j1, sizeof j1));
+    snprintf(mats, sizeof mats, "%s, %s", red, white);
+    put_room_gltf_vc("vc_mat.gltf",
+                     "{\"attributes\": {\"POSITION\": 0}, \"indices\": 4, \"material\": 0}, "
+                     "{\"attributes\": {\"POSITION\": 0}, \"indices\": 5, \"material\": 1}",
+                     mats, g, sizeof g);
+    pgi_scene *sm = load_ok(room_desc("vc_gmat.json", g, j2, sizeof j2));
+    pgi_scene_info in;
+    pgi_scene_get_info(sc, &in);
+    assert_string_equal(in.warnings, "");
+    assert_non_null(sc->col);
+    assert_null(sm->col);
+    expect_same_room(sc, sm, "glTF COLOR_0 vs glTF materials");
+    pgi_scene_destroy(sc);
+    pgi_scene_destroy(sm);
+
+    /* bytes, linear; the wall without colours keeps its grey */
+    snprintf(mats, sizeof mats, "%s, %s", white, grey);
+    put_room_gltf_vc("vc_mix.gltf",
+                     "{\"attributes\": {\"POSITION\": 0, \"COLOR_0\": 2}, \"indices\": 4, \"material\": 0}, "
+                     "{\"attributes\": {\"POSITION\": 0}, \"indices\": 5, \"material\": 1}",
+                     mats, g, sizeof g);
+    pgi_scene *s = load_ok(room_desc("vc_gmix.json", g, j1, sizeof j1));
+    const size_t n = (size_t)VC_W * VC_H;
+    float *al = calloc(3 * n, sizeof(float));
+    assert_non_null(al);
+    pgi_image im = {0};
+    render_vc(s, &im, al);
+    const float fl[3] = {128.f / 255.f, 64.f / 255.f, 1.f}, wa[3] = {0.8f, 0.8f, 0.8f}, none[3] = {0.f, 0.f, 0.f};
+    const size_t nf = albedo_pixels(al, fl), nw = albedo_pixels(al, wa), n0 = albedo_pixels(al, none);
+    fprintf(stderr, "  glTF bytes (128, 64, 255): %zu floor pixels, %zu grey wall pixels of %zu\n", nf, nw, n);
+    assert_true(nf > n / 8 && nw > n / 8 && nf + nw + n0 == n);
+    pgi_image_free(&im);
+    free(al);
+    pgi_scene_destroy(s);
+
+    /* a second colour set is named */
+    put_room_gltf_vc("vc_two.gltf",
+                     "{\"attributes\": {\"POSITION\": 0, \"COLOR_0\": 1, \"COLOR_1\": 2}, \"indices\": 3, "
+                     "\"material\": 0}",
+                     white, g, sizeof g);
+    s = load_ok(room_desc("vc_gtwo.json", g, j1, sizeof j1));
+    pgi_scene_get_info(s, &in);
+    fprintf(stderr, "  %s\n", in.warnings);
+    assert_non_null(strstr(in.warnings, "not used: 1 primitive with a second vertex colour set (COLOR_1"));
+    pgi_scene_destroy(s);
+}
+
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_missing_file),
@@ -1042,6 +1374,9 @@ int main(void) {
         cmocka_unit_test(test_collada_camera),
         cmocka_unit_test(test_camera_names),
         cmocka_unit_test(test_load_warnings),
+        cmocka_unit_test(test_vertex_colours_ply),
+        cmocka_unit_test(test_vertex_colours_srgb),
+        cmocka_unit_test(test_vertex_colours_gltf),
         cmocka_unit_test(test_builtins),
         cmocka_unit_test(test_generated_normals_obj_ply),
         cmocka_unit_test(test_generated_normals_flat),

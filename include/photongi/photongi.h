@@ -84,8 +84,8 @@ typedef struct pgi_scene_info {
     pgi_specular specular;   /* model of the mesh's specular materials now (GGX or PHONG) */
     size_t glossy_materials; /* mesh materials that follow it (pgi_scene_set_specular) */
     /* What the scene's files hold that photongi does not use or could not find, in one line (a
-     * material library that is not there, animations, vertex colours, glTF extensions, ...; "" when
-     * nothing): for the caller to show as a warning. Valid while the scene lives. */
+     * material library that is not there, animations, a second vertex colour set, glTF extensions,
+     * ...; "" when nothing): for the caller to show as a warning. Valid while the scene lives. */
     const char *warnings;
 } pgi_scene_info;
 
@@ -550,8 +550,10 @@ typedef struct pgi_material_desc {
 
 /* One mesh: positions (3 floats a vertex), optional normals (3 floats; NULL: every mesh of the
  * scene must leave them out, and the scene is flat-shaded) and uvs (2 floats; NULL: 0, 0),
- * triangles as 3 vertex indices into this mesh, and a material per triangle (NULL: `material`
- * for all). The arrays are copied. */
+ * triangles as 3 vertex indices into this mesh, a material per triangle (NULL: `material` for
+ * all), and optional vertex colours (3 floats, linear RGB in [0, 1], interpolated across each
+ * triangle and multiplying its material's diffuse albedo before the texture, as a mesh file's
+ * vertex colours; NULL: white). The arrays are copied. */
 typedef struct pgi_mesh_desc {
     size_t vertex_count;
     const float *positions, *normals, *uvs;
@@ -559,9 +561,10 @@ typedef struct pgi_mesh_desc {
     const uint32_t *indices;
     const uint32_t *materials; /* per triangle, indices into the scene desc's materials; NULL: `material` */
     uint32_t material;
-    int dynamic; /* 1: pgi_scene_update_positions will move it every frame: its triangles get a ray-tracing
+    int dynamic;         /* 1: pgi_scene_update_positions will move it every frame: its triangles get a ray-tracing
                     structure of their own that is refitted (as a scene description's "motion"), instead
                     of the rebuild of the static one that moving other meshes costs */
+    const float *colors; /* 3 floats a vertex (linear RGB in [0, 1]) or NULL: see above */
 } pgi_mesh_desc;
 
 /* A light: point, spot or sun (PGI_LIGHT_KIND_AREA are the emissive materials' triangles; only

@@ -103,6 +103,8 @@ static pgi_status upload_dynamic(pgi__gpu_scene *gs, const pgi_scene *s) {
             v[i].u = s->uv[2 * i];
             v[i].v = s->uv[2 * i + 1];
         }
+        if (s->col) memcpy(v[i].col, s->col + 3 * i, 3 * sizeof(float));
+        else v[i].col[0] = v[i].col[1] = v[i].col[2] = 1.f;
     }
     /* pgi__direct's table: cumulative luminance of the power in double, divided by the total */
     size_t narea = 0;
@@ -210,8 +212,8 @@ static pgi_status upload_static(pgi__gpu_scene *gs, const pgi_scene *s) {
         (st = upload(g, &gs->tex, tx, words * sizeof *tx, "gpu_textures")))
         goto done;
     gs->info.ntris = (uint32_t)s->ntris;
-    gs->info.flags =
-        (s->nrm ? PGI__GPU_SCENE_NORMALS : 0u) | (s->uv ? PGI__GPU_SCENE_UVS : 0u) | (s->env ? PGI__GPU_SCENE_SKY : 0u);
+    gs->info.flags = (s->nrm ? PGI__GPU_SCENE_NORMALS : 0u) | (s->uv ? PGI__GPU_SCENE_UVS : 0u) |
+                     (s->env ? PGI__GPU_SCENE_SKY : 0u) | (s->col ? PGI__GPU_SCENE_COLORS : 0u);
     if (s->env) {
         memcpy(gs->info.up, s->env->fy, sizeof gs->info.up);
         memcpy(gs->info.sky, s->env->sky, sizeof gs->info.sky);

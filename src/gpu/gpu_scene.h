@@ -15,8 +15,9 @@
  *
  * Layouts (std430, little-endian 32-bit words; scene.glsl declares the same structs):
  *   0..3  the BVH: nodes, triangles, cut-out masks, alpha words (rt/tri_bvh.h; "gpu_bvh_*")
- *   4  verts[nverts]   pgi__gpu_vert, 32 bytes: pos.xyz, u | nrm.xyz, v. nrm is 0 when the scene
- *                      has no vertex normals, u, v 0 without texture coordinates (SceneInfo.flags
+ *   4  verts[nverts]   pgi__gpu_vert, 48 bytes: pos.xyz, u | nrm.xyz, v | col.xyz, 0. nrm is 0
+ *                      when the scene has no vertex normals, u, v 0 without texture coordinates,
+ *                      col (the vertex colour, linear) 1 without vertex colours (SceneInfo.flags
  *                      says which).                                                 ("gpu_scene")
  *   5  tris[ntris]     uvec4: the three vertex indices, the material.               ("gpu_scene")
  *   6  mats[nmats]     pgi__gpu_mat, 48 bytes: kd.xyz, type | ks.xyz, ior | ke.xyz, tex_kd (-1 none)
@@ -50,12 +51,15 @@
 #define PGI__GPU_SCENE_NORMALS 1u /* vertex normals */
 #define PGI__GPU_SCENE_UVS 2u     /* texture coordinates */
 #define PGI__GPU_SCENE_SKY 4u     /* a constant sky (sky, ground, up) */
+#define PGI__GPU_SCENE_COLORS 8u  /* vertex colours (they multiply kd: pgi__scene_kd) */
 
 typedef struct pgi__gpu_vert {
     float pos[3], u;
     float nrm[3], v;
+    float col[3], pad;
 } pgi__gpu_vert;
-_Static_assert(sizeof(pgi__gpu_vert) == 32 && offsetof(pgi__gpu_vert, nrm) == 16, "scene.glsl Vert");
+_Static_assert(sizeof(pgi__gpu_vert) == 48 && offsetof(pgi__gpu_vert, nrm) == 16 && offsetof(pgi__gpu_vert, col) == 32,
+               "scene.glsl Vert");
 
 typedef struct pgi__gpu_mat {
     float kd[3];

@@ -42,17 +42,19 @@ static inline pgi__v3 pgi__trace_tri_ns(const pgi_scene *s, const pgi__trace_tri
     n = v3_scale(n, 1.f / l);
     return v3_dot(n, g) < 0.f ? v3_neg(n) : n;
 }
-static inline void pgi__trace_tri_shading(const pgi_scene *s, const pgi__trace_tri *r, float bu, float bv,
-                                          pgi__surface *o) {
+/* (r is triangle prim's record: the vertex colours, where the scene has them, are read from the
+ * scene's arrays.) */
+static inline void pgi__trace_tri_shading(const pgi_scene *s, const pgi__trace_tri *r, uint32_t prim, float bu,
+                                          float bv, pgi__surface *o) {
     o->ns = pgi__trace_tri_ns(s, r, bu, bv, o->ng);
     o->u = o->v = 0.f;
-    o->kd = v3_load(o->mat->kd);
+    o->kd = pgi__scene_kd(s, o->mat, prim, bu, bv);
 }
 
-static inline void pgi__trace_tri_surface(const pgi_scene *s, const pgi__trace_tri *r, float bu, float bv, pgi__v3 p,
-                                          pgi__surface *o) {
+static inline void pgi__trace_tri_surface(const pgi_scene *s, const pgi__trace_tri *r, uint32_t prim, float bu,
+                                          float bv, pgi__v3 p, pgi__surface *o) {
     pgi__trace_tri_geometry(s, r, p, o);
-    pgi__trace_tri_shading(s, r, bu, bv, o);
+    pgi__trace_tri_shading(s, r, prim, bu, bv, o);
 }
 
 /* pgi__scene_uv from a triangle's PGI__TRI_UV coordinates `q`: the same operations. */

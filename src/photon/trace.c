@@ -476,11 +476,12 @@ static inline void wave_texels(const tracer *T, lane *L, wave_go *W) {
         const int lam = lambert(m);
         int ends = 0;
         if (lam) {
-            /* The scattered flux is flux kd tex, with tex <= 1 (+ a rounding): the roulette's
-             * probability with tex = 1 bounds it from above. A path whose roulette number is
-             * past the bound (times 1.0001) ends whatever its texel and direction, so it
-             * needs neither (a quarter of Sibenik's stone hits). Where kd and the flux are
-             * not all >= 0 (the bound holds for those only), found but not taken. */
+            /* The scattered flux is flux kd col tex, with the vertex colour col <= 1 and tex <= 1
+             * (+ a rounding): the roulette's probability with col = tex = 1 bounds it from above.
+             * A path whose roulette number is past the bound (times 1.0001) ends whatever its
+             * colour, texel and direction, so it needs none of them (a quarter of Sibenik's stone
+             * hits). Where kd and the flux are not all >= 0 (the bound holds for those only),
+             * found but not taken. */
             const pgi__v3 kd = v3_load(m->kd), f = l->flux;
             const int signs =
                 (kd.x >= 0.f) & (kd.y >= 0.f) & (kd.z >= 0.f) & (f.x >= 0.f) & (f.y >= 0.f) & (f.z >= 0.f);
@@ -575,7 +576,7 @@ static inline int wave_shade(const tracer *T, lane *L, float (*sc)[WAVE], pgi__l
         /* the shading normal (the batch finds its own) */
         const int lam = W->lam[k], batched = lb && lam;
         const pgi__v3 ns = batched ? g : pgi__trace_tri_ns(s, r, l->h.u, l->h.v, g);
-        pgi__v3 kd = v3_load(mat->kd);
+        pgi__v3 kd = pgi__scene_kd(s, mat, l->h.prim, l->h.u, l->h.v);
         if (l->tex) kd = v3_mul(kd, pgi__texture_quad_lookup(&l->tq));
         pgi__v3 wo, w;
         int scatters;

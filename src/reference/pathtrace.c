@@ -244,7 +244,7 @@ static pgi__v3 trace_sample(const pt_ctx *C, int px, int py, float jx, float jy,
             if (!(pgi_rng_f(rng) < qrr)) break;
             T = v3_scale(T, 1.f / qrr);
         }
-        pgi__trace_tri_shading(s, tr, h.u, h.v, &sf);
+        pgi__trace_tri_shading(s, tr, h.prim, h.u, h.v, &sf);
         /* as pgi__surface_texture, its texels fetched now and applied by nee() or above */
         if (sf.mat->tex_kd >= 0) {
             if (tuv) pgi__trace_tri_uv(tuv, h.u, h.v, &sf.u, &sf.v);

@@ -28,7 +28,7 @@ void pgi__scene_free_anims(pgi_scene *s) {
 /* ------------------------------------------------------------ geometry */
 
 static pgi_status grow_arrays(pgi_scene *s, size_t nv, size_t nt) {
-    return pgi__scene_grow_geometry(s, nv, nt, s->nrm != NULL, 0, "adding an object");
+    return pgi__scene_grow_geometry(s, nv, nt, s->nrm != NULL, 0, 0, "adding an object");
 }
 
 static uint32_t put_vertex(pgi_scene *s, pgi__v3 p, pgi__v3 n) {

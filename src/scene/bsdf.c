@@ -21,7 +21,7 @@ void pgi__scene_surface_untextured(const pgi_scene *s, uint32_t prim, float bu, 
     o->u = o->v = 0.f;
     if (s->uv) pgi__scene_uv(s, prim, bu, bv, &o->u, &o->v);
     o->mat = &s->mats[s->tri_mat[prim]];
-    o->kd = v3_load(o->mat->kd);
+    o->kd = pgi__scene_kd(s, o->mat, prim, bu, bv);
 }
 
 void pgi__scene_surface(const pgi_scene *s, uint32_t prim, float bu, float bv, pgi__v3 p, pgi__surface *o) {

@@ -201,12 +201,12 @@ typedef struct pgi__surface {
     pgi__v3 ns; /* unit shading normal, same side as ng */
     float u, v; /* texture coordinates */
     const pgi__material *mat;
-    pgi__v3 kd; /* albedo with the texture applied */
+    pgi__v3 kd; /* albedo with the vertex colour and the texture applied (pgi__scene_kd, pgi__surface_texture) */
 } pgi__surface;
 
 void pgi__scene_surface(const pgi_scene *s, uint32_t prim, float bu, float bv, pgi__v3 p, pgi__surface *out);
-/* The same without the texture fetch (kd is the material's); pgi__surface_texture applies it
- * later, only where a path needs the albedo. */
+/* The same without the texture fetch (kd is pgi__scene_kd's: the material's times the vertex
+ * colour); pgi__surface_texture applies it later, only where a path needs the albedo. */
 void pgi__scene_surface_untextured(const pgi_scene *s, uint32_t prim, float bu, float bv, pgi__v3 p, pgi__surface *out);
 /* Texture coordinates at barycentrics (bu, bv) of triangle prim (the scene has uvs). */
 static inline void pgi__scene_uv(const pgi_scene *s, uint32_t prim, float bu, float bv, float *u, float *v) {
@@ -215,6 +215,24 @@ static inline void pgi__scene_uv(const pgi_scene *s, uint32_t prim, float bu, fl
     float bw = 1.f - bu - bv;
     *u = bw * ua[0] + bu * ub[0] + bv * uc[0];
     *v = bw * ua[1] + bu * ub[1] + bv * uc[1];
+}
+
+/* The vertex colour at barycentrics (bu, bv) of triangle prim (the scene has colours), interpolated
+ * as pgi__scene_uv interpolates texture coordinates. */
+static inline pgi__v3 pgi__scene_col(const pgi_scene *s, uint32_t prim, float bu, float bv) {
+    const uint32_t *t = s->tri + 3 * (size_t)prim;
+    const float *ca = s->col + 3 * (size_t)t[0], *cb = s->col + 3 * (size_t)t[1], *cc = s->col + 3 * (size_t)t[2];
+    float bw = 1.f - bu - bv;
+    return v3(bw * ca[0] + bu * cb[0] + bv * cc[0], bw * ca[1] + bu * cb[1] + bv * cc[1],
+              bw * ca[2] + bu * cb[2] + bv * cc[2]);
+}
+
+/* The diffuse albedo of material m at barycentrics (bu, bv) of triangle prim before its texture:
+ * m->kd, times the vertex colour where the scene has colours (scene_internal.h pgi_scene.col).
+ * Every shading path starts from this (the texture, pgi__surface_texture, multiplies it after). */
+static inline pgi__v3 pgi__scene_kd(const pgi_scene *s, const pgi__material *m, uint32_t prim, float bu, float bv) {
+    const pgi__v3 kd = v3_load(m->kd);
+    return s->col ? v3_mul(kd, pgi__scene_col(s, prim, bu, bv)) : kd;
 }
 
 static inline void pgi__surface_texture(const pgi_scene *s, pgi__surface *sf) {

@@ -19,7 +19,8 @@
  *
  * Everything else the file holds that photongi does not use is named in `unused` (animations,
  * skins, morph targets, orthographic cameras, light ranges, texture kinds other than base colour,
- * vertex colours, metallic or transmissive materials, extensions). */
+ * vertex colour sets past COLOR_0 (COLOR_0 is used: load_assimp.c), metallic or transmissive
+ * materials, extensions). */
 #include "scene_internal.h"
 
 #include <cJSON.h>
@@ -296,13 +297,14 @@ pgi_status pgi__gltf_read_extras(const char *path, const cJSON *root, pgi__gltf_
     for (const cJSON *me = array_size(meshes) ? meshes->child : NULL; me; me = me->next)
         for (const cJSON *p = array_size(item(me, "primitives")) ? item(me, "primitives")->child : NULL; p;
              p = p->next) {
-            colors += item(item(p, "attributes"), "COLOR_0") != NULL;
+            colors += item(item(p, "attributes"), "COLOR_1") != NULL;
             targets += array_size(item(p, "targets")) > 0;
         }
     note_count(un, ucap, (size_t)array_size(item(root, "animations")), "animation", "animations");
     note_count(un, ucap, (size_t)array_size(item(root, "skins")), "skin", "skins");
     note_count(un, ucap, targets, "primitive with morph targets", "primitives with morph targets");
-    note_count(un, ucap, colors, "primitive with vertex colours (COLOR_0)", "primitives with vertex colours (COLOR_0)");
+    note_count(un, ucap, colors, "primitive with a second vertex colour set (COLOR_1; COLOR_0 is used)",
+               "primitives with a second vertex colour set (COLOR_1; COLOR_0 is used)");
     note_count(un, ucap, ortho, "orthographic or degenerate camera", "orthographic or degenerate cameras");
     note_count(un, ucap, ranges, "light range (lights fall off as 1/d^2 without end)",
                "light ranges (lights fall off as 1/d^2 without end)");

@@ -39,7 +39,18 @@
  * Cut-outs (pgi__material.alpha_cutoff): a map_d texture (its alpha channel, or its grey value
  * when it has none) times d, or for glTF alphaMode MASK the base colour texture's alpha times
  * the base colour factor's alpha; the surface is cut out where that is below 0.5 (MTL) or
- * alphaCutoff (glTF). glTF BLEND is not a cut-out (opacity < 1 is glass, as for MTL d). */
+ * alphaCutoff (glTF). glTF BLEND is not a cut-out (opacity < 1 is glass, as for MTL d).
+ *
+ * Vertex colours (Assimp's first colour set, mColors[0]: a glTF's COLOR_0, a PLY's red green
+ * blue, an OBJ's `v x y z r g b`, ...) multiply the diffuse albedo kd at each hit (before its
+ * texture), interpolated across the triangle (pgi__scene_kd). A glTF's are linear (the glTF
+ * spec); every other format's are taken as sRGB-encoded, as the 8-bit colours of PLY files and
+ * the tools that write OBJ colours are, and decoded to linear (vertex_colour). RGB only, clamped
+ * to [0, 1]; alpha is not used. A material the file does not define (PLY has none; Assimp's
+ * DefaultMaterial for OBJ faces without one) whose meshes all have colours is white rather than
+ * its grey 0.6, so that the colours are the base colour; a defined one's colour multiplies them
+ * (glTF's baseColorFactor x COLOR_0). Meshes without colours in a file or scene where others
+ * have them are white (1, 1, 1): they render as before. */
 #define _DEFAULT_SOURCE /* realpath */
 #include "scene_internal.h"
 
@@ -71,6 +82,16 @@ static void copy_str(char *dst, size_t n, const char *src) {
 
 static float clamp01(float x) { return x > 0.f ? (x < 1.f ? x : 1.f) : 0.f; } /* NaN -> 0 */
 static float max3(const float *c) { return fmaxf(c[0], fmaxf(c[1], c[2])); }
+
+/* A vertex colour channel as the scene stores it: clamped to [0, 1], and decoded from sRGB unless
+ * `linear` (glTF). An 8-bit value c / 255 (what Assimp makes of a PLY's uchar colours) decodes to
+ * exactly what an 8-bit texel of that value does (pgi__srgb8_texture_lut). */
+static float vertex_colour(float c, int linear) {
+    c = clamp01(c);
+    if (linear) return c;
+    const long i = lroundf(c * 255.f);
+    return (float)i / 255.f == c ? pgi__srgb8_texture_lut[i] : (float)pgi__srgb_to_linear((double)c);
+}
 
 static int get_color(const struct aiMaterial *m, const char *key, unsigned type, unsigned idx, float out[3]) {
     struct aiColor4D c;
@@ -765,11 +786,11 @@ static pgi_status import_extras(pgi_scene *s, const char *path, const struct aiS
             snprintf(item, sizeof item, "%u animation%s", sc->mNumAnimations, sc->mNumAnimations == 1 ? "" : "s");
             pgi__list_append(unused, sizeof unused, item);
         }
-        unsigned colored = 0;
-        for (unsigned i = 0; i < sc->mNumMeshes; i++) colored += sc->mMeshes[i]->mColors[0] != NULL;
-        if (colored) {
-            snprintf(item, sizeof item, "vertex colours (%u mesh%s; a material has one colour)", colored,
-                     colored == 1 ? "" : "es");
+        unsigned more = 0; /* colour sets past the first */
+        for (unsigned i = 0; i < sc->mNumMeshes; i++) more += sc->mMeshes[i]->mColors[1] != NULL;
+        if (more) {
+            snprintf(item, sizeof item, "second vertex colour sets (%u mesh%s; the first set is used)", more,
+                     more == 1 ? "" : "es");
             pgi__list_append(unused, sizeof unused, item);
         }
     }
@@ -811,16 +832,30 @@ pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path) {
     ctx.budget = budget;
     struct aiFileIO io = {.OpenProc = io_open, .CloseProc = io_close, .UserData = (aiUserData)&ctx};
     import_job job = {.path = path, .flags = flags, .io = &io};
-    run_import(&job);
-    const struct aiScene *sc = job.sc;
-    if (ctx.st) {
-        if (sc) release_import(sc);
-        pgi__mesh_hints_free(&hints);
-        return pgi__fail(ctx.st, "%s", ctx.err);
-    }
-    if (!sc) {
-        pgi__mesh_hints_free(&hints);
-        return pgi__fail(PGI_ERR_PARSE, "%s: %s", path, job.err);
+    const struct aiScene *sc = NULL;
+    for (int pass = 0; pass < 2; pass++) {
+        run_import(&job);
+        sc = job.sc;
+        if (ctx.st) {
+            if (sc) release_import(sc);
+            pgi__mesh_hints_free(&hints);
+            return pgi__fail(ctx.st, "%s", ctx.err);
+        }
+        if (!sc) {
+            pgi__mesh_hints_free(&hints);
+            return pgi__fail(PGI_ERR_PARSE, "%s: %s", path, job.err);
+        }
+        /* Assimp 5.2's JoinIdenticalVertices joins vertices that differ in their colour alone (a
+         * red floor's corner and a white wall's at one place, both without normals): a file with
+         * vertex colours is imported again without it, its vertices as the file indexes them (an
+         * OBJ's then come three a triangle). Its files are not counted again, nor their opens. */
+        int coloured = 0;
+        for (unsigned i = 0; i < sc->mNumMeshes; i++) coloured |= sc->mMeshes[i]->mColors[0] != NULL;
+        if (pass || !coloured) break;
+        release_import(sc);
+        sc = NULL;
+        job = (import_job){.path = path, .flags = flags & ~(unsigned)aiProcess_JoinIdenticalVertices, .io = &io};
+        for (int i = 0; i < ctx.nfiles; i++) ctx.files[i].opens = 0;
     }
 
     pgi_status st = PGI_OK;
@@ -832,7 +867,7 @@ pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path) {
         return pgi__fail(PGI_ERR_OOM, "%s: out of memory", path);
     }
     size_t add_v = 0, add_t = 0;
-    int any_uv = 0;
+    int any_uv = 0, any_col = 0;
     for (unsigned i = 0; i < sc->mNumMeshes && !st; i++) {
         const struct aiMesh *me = sc->mMeshes[i];
         if (!(me->mPrimitiveTypes & aiPrimitiveType_TRIANGLE) || me->mNumVertices == 0) continue;
@@ -841,6 +876,7 @@ pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path) {
         add_v += outs[i].nv;
         add_t += outs[i].nt;
         if (me->mTextureCoords[0]) any_uv = 1;
+        if (me->mColors[0]) any_col = 1;
     }
     if (!st && (add_t == 0 || sc->mNumMaterials == 0))
         st = pgi__fail(PGI_ERR_PARSE, "%s: no triangles found (not a mesh file, or a malformed one)", path);
@@ -850,10 +886,11 @@ pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path) {
                        t0 + add_t);
     const size_t nm = m0 + sc->mNumMaterials;
     /* Every mesh now has normals; they are dropped only when earlier geometry is flat-shaded (no nrm). */
-    if (!st) st = pgi__scene_grow_geometry(s, add_v, add_t, 1, any_uv, path);
+    if (!st) st = pgi__scene_grow_geometry(s, add_v, add_t, 1, any_uv, any_col, path);
     if (!st && !grow(&s->mats, nm, sizeof(pgi__material))) st = pgi__fail(PGI_ERR_OOM, "%s: out of memory", path);
     if (st) goto done;
     const int keep_nrm = s->nrm != NULL, want_uv = s->uv != NULL;
+    const int linear_col = has_ext(path, ".gltf") || has_ext(path, ".glb");
 
     /* Materials (appended first so that textures and indices are known). */
     tex_cache tc;
@@ -869,6 +906,20 @@ pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path) {
         if (!st) s->nmats = m0 + i + 1;
     }
     if (st) goto done;
+    /* A material the file does not define, used only by meshes with vertex colours: white (the
+     * colours are the base colour), not the made-up grey. */
+    for (unsigned i = 0; any_col && i < sc->mNumMaterials; i++) {
+        pgi__material *m = &s->mats[m0 + i];
+        if (strcmp(m->name, AI_DEFAULT_MATERIAL_NAME) != 0 || m->type != PGI_MAT_LAMBERT || m->tex_kd >= 0) continue;
+        int used = 0, all = 1;
+        for (unsigned k = 0; k < sc->mNumMeshes; k++)
+            if (outs[k].nt && sc->mMeshes[k]->mMaterialIndex == i) {
+                used = 1;
+                all &= sc->mMeshes[k]->mColors[0] != NULL;
+            }
+        if (used && all)
+            for (int c = 0; c < 3; c++) m->kd[c] = m->kd_mesh[c] = 1.f;
+    }
 
     /* Geometry. */
     size_t vb = v0, tb = t0;
@@ -898,6 +949,12 @@ pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path) {
                 } else {
                     t[0] = t[1] = 0.f;
                 }
+            }
+            if (me->mColors[0]) { /* else white, as pgi__scene_grow_geometry left it */
+                float *c = s->col + 3 * (vb + k);
+                c[0] = vertex_colour((float)me->mColors[0][from].r, linear_col);
+                c[1] = vertex_colour((float)me->mColors[0][from].g, linear_col);
+                c[2] = vertex_colour((float)me->mColors[0][from].b, linear_col);
             }
         }
         uint32_t mat = (uint32_t)(m0 + (me->mMaterialIndex < sc->mNumMaterials ? me->mMaterialIndex : 0));

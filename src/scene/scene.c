@@ -25,6 +25,7 @@ void pgi_scene_destroy(pgi_scene *s) {
     free(s->pos);
     free(s->nrm);
     free(s->uv);
+    free(s->col);
     free(s->tri);
     free(s->tri_mat);
     free(s->mats);
@@ -491,10 +492,10 @@ double pgi__scene_area(const pgi_scene *s) {
 
 void pgi__scene_memory(const pgi_scene *s, size_t *scene_bytes, size_t *texture_bytes) {
     size_t b = sizeof *s + s->nverts * 3 * sizeof(float) * (1 + (s->nrm != NULL)) +
-               (s->uv ? s->nverts * 2 * sizeof(float) : 0) + s->ntris * 4 * sizeof(uint32_t) +
-               (s->tri_dynamic ? s->ntris : 0) + s->nmats * sizeof *s->mats + s->ntexs * sizeof *s->texs +
-               s->nlights * sizeof *s->lights + s->ncams * sizeof *s->cams + s->nmeshes * sizeof *s->meshes +
-               s->update_backup_cap * sizeof(float);
+               (s->uv ? s->nverts * 2 * sizeof(float) : 0) + (s->col ? s->nverts * 3 * sizeof(float) : 0) +
+               s->ntris * 4 * sizeof(uint32_t) + (s->tri_dynamic ? s->ntris : 0) + s->nmats * sizeof *s->mats +
+               s->ntexs * sizeof *s->texs + s->nlights * sizeof *s->lights + s->ncams * sizeof *s->cams +
+               s->nmeshes * sizeof *s->meshes + s->update_backup_cap * sizeof(float);
     if (s->env) {
         const pgi__env *e = s->env;
         b += sizeof *e + (e->rgb ? (size_t)e->w * (size_t)e->h * 4 * sizeof(float) + (size_t)e->h * sizeof(float) : 0);

@@ -20,17 +20,21 @@ static int grow(void *pp, size_t n, size_t size) {
     return 1;
 }
 
-pgi_status pgi__scene_grow_geometry(pgi_scene *s, size_t add_v, size_t add_t, int want_nrm, int want_uv,
+pgi_status pgi__scene_grow_geometry(pgi_scene *s, size_t add_v, size_t add_t, int want_nrm, int want_uv, int want_col,
                                     const char *what) {
     const size_t nv = s->nverts + add_v, nt = s->ntris + add_t;
     const int keep_nrm = want_nrm && (s->nverts == 0 || s->nrm != NULL);
     const int had_uv = s->uv != NULL, keep_uv = want_uv || had_uv;
+    const int had_col = s->col != NULL, keep_col = want_col || had_col;
     if (!grow(&s->pos, nv * 3, sizeof(float)) || !grow(&s->tri, nt * 3, sizeof(uint32_t)) ||
         !grow(&s->tri_mat, nt, sizeof(uint32_t)) || (keep_nrm && !grow(&s->nrm, nv * 3, sizeof(float))) ||
-        (keep_uv && !grow(&s->uv, nv * 2, sizeof(float))) || (s->tri_dynamic && !grow(&s->tri_dynamic, nt, 1)))
+        (keep_uv && !grow(&s->uv, nv * 2, sizeof(float))) || (keep_col && !grow(&s->col, nv * 3, sizeof(float))) ||
+        (s->tri_dynamic && !grow(&s->tri_dynamic, nt, 1)))
         return pgi__fail(PGI_ERR_OOM, "%s: out of memory for %zu vertices and %zu triangles", what, nv, nt);
     if (keep_uv) /* earlier geometry without UVs, and the new vertices until they are written: 0, 0 */
         memset(s->uv + 2 * (had_uv ? s->nverts : 0), 0, (had_uv ? add_v : nv) * 2 * sizeof(float));
+    if (keep_col) /* earlier geometry without colours, and the new vertices until they are written: white */
+        for (size_t i = 3 * (had_col ? s->nverts : 0); i < 3 * nv; i++) s->col[i] = 1.f;
     if (s->tri_dynamic) memset(s->tri_dynamic + s->ntris, 0, add_t);
     return PGI_OK;
 }
@@ -90,6 +94,11 @@ static pgi_status check_mesh(const pgi_scene_desc *d, size_t i) {
             if (!isfinite(m->uvs[v]))
                 return pgi__fail(PGI_ERR_INVALID_ARG, "%s: mesh %zu: the uv of vertex %zu is not finite", what, i,
                                  v / 2);
+    if (m->colors)
+        for (size_t v = 0; v < 3 * m->vertex_count; v++)
+            if (!(m->colors[v] >= 0.f && m->colors[v] <= 1.f)) /* false for NaN */
+                return pgi__fail(PGI_ERR_INVALID_ARG, "%s: mesh %zu: the colour of vertex %zu is not in [0, 1] (%g)",
+                                 what, i, v / 3, (double)m->colors[v]);
     for (size_t t = 0; t < m->triangle_count; t++) {
         for (int c = 0; c < 3; c++)
             if (m->indices[3 * t + c] >= m->vertex_count)
@@ -108,7 +117,9 @@ static pgi_status check_budget(const pgi_scene_desc *d, size_t nv, size_t nt) {
     const uint64_t budget = d->max_memory == PGI_MEMORY_UNLIMITED ? 0
                             : d->max_memory                       ? d->max_memory
                                                                   : pgi__mem_default_budget();
-    uint64_t need = (uint64_t)nv * 8u * sizeof(float) + (uint64_t)nt * 5u * sizeof(uint32_t);
+    int any_col = 0;
+    for (size_t i = 0; i < d->mesh_count; i++) any_col |= d->meshes[i].colors != NULL;
+    uint64_t need = (uint64_t)nv * (any_col ? 11u : 8u) * sizeof(float) + (uint64_t)nt * 5u * sizeof(uint32_t);
     for (size_t i = 0; i < d->texture_count; i++) {
         const uint64_t w = (uint64_t)d->textures[i].width, h = (uint64_t)d->textures[i].height;
         need += w * h * 4u + ((w + 3) / 4) * ((h + 3) / 4) * 64u;
@@ -252,14 +263,15 @@ pgi_status pgi_scene_create(const pgi_scene_desc *d, pgi_scene **out) {
         if (s->mats[i].tex_alpha >= 0) pgi__texture_grey_alpha(&s->texs[s->mats[i].tex_alpha]);
     if (!st && !(s->meshes = calloc(d->mesh_count, sizeof *s->meshes)))
         st = pgi__fail(PGI_ERR_OOM, "%s: out of memory", what);
-    int any_uv = 0, any_dynamic = 0;
+    int any_uv = 0, any_col = 0, any_dynamic = 0;
     for (size_t i = 0; i < d->mesh_count; i++) {
         any_uv |= d->meshes[i].uvs != NULL;
+        any_col |= d->meshes[i].colors != NULL;
         any_dynamic |= d->meshes[i].dynamic != 0;
     }
     if (!st && any_dynamic && !(s->tri_dynamic = calloc(nt ? nt : 1, 1)))
         st = pgi__fail(PGI_ERR_OOM, "%s: out of memory", what);
-    if (!st) st = pgi__scene_grow_geometry(s, nv, nt, d->meshes[0].normals != NULL, any_uv, what);
+    if (!st) st = pgi__scene_grow_geometry(s, nv, nt, d->meshes[0].normals != NULL, any_uv, any_col, what);
     for (size_t i = 0; i < d->mesh_count && !st; i++) {
         const pgi_mesh_desc *m = &d->meshes[i];
         pgi__mesh_range *r = &s->meshes[s->nmeshes++];
@@ -269,6 +281,7 @@ pgi_status pgi_scene_create(const pgi_scene_desc *d, pgi_scene **out) {
             for (size_t v = 0; v < r->nv; v++)
                 v3_store(s->nrm + 3 * (r->v0 + v), pgi__normal_clean(v3_load(m->normals + 3 * v)));
         if (m->uvs) memcpy(s->uv + 2 * r->v0, m->uvs, 2 * r->nv * sizeof(float));
+        if (m->colors) memcpy(s->col + 3 * r->v0, m->colors, 3 * r->nv * sizeof(float)); /* else white */
         for (size_t t = 0; t < r->nt; t++) {
             for (int c = 0; c < 3; c++) s->tri[3 * (r->t0 + t) + c] = (uint32_t)(r->v0 + m->indices[3 * t + c]);
             s->tri_mat[r->t0 + t] = m->materials ? m->materials[t] : m->material;

@@ -150,6 +150,9 @@ struct pgi_scene {
     float *pos;        /* 3 per vertex */
     float *nrm;        /* 3 per vertex, or NULL (flat shading) */
     float *uv;         /* 2 per vertex, or NULL */
+    float *col;        /* 3 per vertex, or NULL: the vertex colour, linear RGB in [0, 1], which
+                          multiplies kd before its texture (pgi__scene_kd, bsdf.h); white (1, 1, 1)
+                          for the vertices of meshes without colours */
     uint32_t *tri;     /* 3 vertex indices per triangle */
     uint32_t *tri_mat; /* material per triangle */
     pgi__material *mats;
@@ -194,8 +197,10 @@ typedef struct pgi__mesh_range {
  * their normals through pgi__normal_clean and pgi__scene_fix_normals. */
 /* Grows the arrays for add_v more vertices and add_t more triangles (the counts are not
  * changed). Normals are kept when want_nrm and the scene has them or no vertices yet; UVs when
- * want_uv or the scene has them (new and, when they are new, earlier ones set to 0, 0). */
-pgi_status pgi__scene_grow_geometry(pgi_scene *s, size_t add_v, size_t add_t, int want_nrm, int want_uv,
+ * want_uv or the scene has them (new and, when they are new, earlier ones set to 0, 0); vertex
+ * colours when want_col or the scene has them (new and, when they are new, earlier ones set to
+ * white, 1, 1, 1). */
+pgi_status pgi__scene_grow_geometry(pgi_scene *s, size_t add_v, size_t add_t, int want_nrm, int want_uv, int want_col,
                                     const char *what);
 /* A normal as the scene stores it: unit, or 0 for a zero or non-finite one (which
  * pgi__scene_fix_normals replaces). */

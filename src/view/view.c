@@ -419,7 +419,7 @@ static void tile_surfaces(const pgi_scene *s, const pgi__trace_scratch *tr, cons
         if (hits->prim[k] == UINT32_MAX) continue;
         pgi__surface sf;
         const pgi__v3 p = v3_madd(eye, v3(dsoa[0][k], dsoa[1][k], dsoa[2][k]), hits->t[k]);
-        pgi__trace_tri_surface(s, &tr->tris[hits->prim[k]], hits->u[k], hits->v[k], p, &sf);
+        pgi__trace_tri_surface(s, &tr->tris[hits->prim[k]], hits->prim[k], hits->u[k], hits->v[k], p, &sf);
         if (tr->tri_uv)
             pgi__trace_tri_uv(tr->tri_uv + PGI__TRI_UV * (size_t)hits->prim[k], hits->u[k], hits->v[k], &sf.u, &sf.v);
         o->p[0][k] = p.x;
@@ -545,10 +545,12 @@ __attribute__((target("avx2"))) static inline void aos_rows(float *pa, float *pb
 /* The samples of a tile whose 16 lanes are in the image and hit one non-specular material m
  * (lobe l), written into columns 4 tb.. of blk: what the lane-by-lane path (the lit lanes of
  * pgi__view_build, put_sample) writes, the same operations eight lanes an instruction, so the
- * same bits. tk: the texture's colour at each lane, component by component (NULL: untextured). */
+ * same bits. vc: the vertex colour at each lane, component by component (NULL: the scene has
+ * none); tk: the texture's colour (NULL: untextured). */
 __attribute__((target("avx2"))) static void tile_put_uniform_avx2(view_block *blk, int tb, const tile_surf *ts,
-                                                                  const float (*dsoa)[16], const float tk[3][16],
-                                                                  const pgi__material *m, const lobe_cache *l) {
+                                                                  const float (*dsoa)[16], const float vc[3][16],
+                                                                  const float tk[3][16], const pgi__material *m,
+                                                                  const lobe_cache *l) {
     const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.f), sign = _mm256_set1_ps(-0.f);
     /* e = (0, 0, 0) + (1, 1, 1) * ke where the lane sees the emitting side */
     const float ek[3] = {0.f + 1.f * m->ke[0], 0.f + 1.f * m->ke[1], 0.f + 1.f * m->ke[2]};
@@ -561,6 +563,7 @@ __attribute__((target("avx2"))) static void tile_put_uniform_avx2(view_block *bl
             ng[c] = _mm256_loadu_ps(ts->ng[c] + h);
             ns[c] = _mm256_loadu_ps(ts->ns[c] + h);
             kd[c] = _mm256_set1_ps(m->kd[c]);
+            if (vc) kd[c] = _mm256_mul_ps(kd[c], _mm256_loadu_ps(vc[c] + h)); /* pgi__scene_kd */
             if (tk) kd[c] = _mm256_mul_ps(kd[c], _mm256_loadu_ps(tk[c] + h));
         }
         const __m256 dot = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(wo[0], ng[0]), _mm256_mul_ps(wo[1], ng[1])),
@@ -702,12 +705,20 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
 #if VIEW_AVX2
                     if (T->uni) {
                         const pgi__material *m = T->uni;
-                        float tk[3][16];
+                        float tk[3][16], vc[3][16];
                         if (m->tex_kd >= 0) { /* as pgi__surface_texture */
                             if (T->quads) pgi__texture_quads16_lookup(&s->texs[m->tex_kd], &T->q, tk);
                             else pgi__texture_lookup16_soa(&s->texs[m->tex_kd], ts->u, ts->v, tk);
                         }
+                        if (s->col) /* as pgi__scene_kd */
+                            for (int k = 0; k < 16; k++) {
+                                const pgi__v3 c = pgi__scene_col(s, hits->prim[k], hits->u[k], hits->v[k]);
+                                vc[0][k] = c.x;
+                                vc[1][k] = c.y;
+                                vc[2][k] = c.z;
+                            }
                         tile_put_uniform_avx2(&blk, tb, ts, (const float(*)[16])T->dsoa,
+                                              s->col ? (const float(*)[16])vc : NULL,
                                               m->tex_kd >= 0 ? (const float(*)[16])tk : NULL, m, lobe_of(&lc, m));
                         rays += 16;
                         continue;
@@ -732,7 +743,7 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
                                 sf[k].ns = v3(ts->ns[0][k], ts->ns[1][k], ts->ns[2][k]);
                                 sf[k].u = ts->u[k];
                                 sf[k].v = ts->v[k];
-                                sf[k].kd = v3_load(sf[k].mat->kd);
+                                sf[k].kd = pgi__scene_kd(s, sf[k].mat, hits->prim[k], hits->u[k], hits->v[k]);
                                 lit[k] = 1;
                                 continue;
                             }

@@ -4,7 +4,7 @@
 // operation (`precise` where the C does not contract: the build uses -ffp-contract=off):
 //   scene_surface      bsdf.c   pgi__scene_surface_untextured
 //   tex_lookup         texture.c pgi__texture_lookup (bilinear, wrapping, sRGB table)
-//   surface_kd         bsdf.h   pgi__surface_texture
+//   surface_kd         bsdf.h   pgi__scene_kd (the vertex colour) and pgi__surface_texture
 //   sky_eval           env.c    pgi__env_eval (constant sky only)
 //   reflect_v, to_world, sample_cosine, basis: bsdf.h pgi__reflect, core.h pgi_to_world,
 //                      pgi_sample_cosine, v3_basis
@@ -39,6 +39,7 @@ struct Photon { // hashgrid.glsl's (gather.glsl's gather() takes one); hashgrid.
 #define SCENE_NORMALS 1u
 #define SCENE_UVS 2u
 #define SCENE_SKY 4u
+#define SCENE_COLORS 8u
 
 #define PGI_INF uintBitsToFloat(0x7F800000u) // +infinity (GLSL leaves 1.0 / 0.0 undefined)
 
@@ -52,6 +53,7 @@ struct SceneInfo { // pgi__gpu_scene_push, 64 bytes
 struct Vert {
     vec4 pos_u;
     vec4 nrm_v;
+    vec4 col; // xyz: the vertex colour (linear; 1 without colours)
 };
 struct Mat {
     vec3 kd;
@@ -162,6 +164,8 @@ struct Surf {
     vec3 ns; // unit shading normal, same side as ng
     float u, v;
     uint mat;
+    bool colored; // the scene has vertex colours: col multiplies kd
+    vec3 col;     // the vertex colour at the hit (bsdf.h pgi__scene_col)
 };
 
 // bsdf.c pgi__scene_surface_untextured
@@ -191,14 +195,23 @@ Surf scene_surface(SceneInfo si, uint prim, float bu, float bv) {
         s.v = vv;
     }
     s.mat = t.w;
+    s.colored = (si.flags & SCENE_COLORS) != 0u;
+    s.col = vec3(1.0);
+    if (s.colored) {
+        precise vec3 c = verts[t.x].col.xyz * bw + verts[t.y].col.xyz * bu + verts[t.z].col.xyz * bv;
+        s.col = c;
+    }
     return s;
 }
 
-// bsdf.h pgi__surface_texture: the material's kd times its texture
+// bsdf.h pgi__scene_kd and pgi__surface_texture: the material's kd times the vertex colour (where
+// the scene has colours), times its texture
 vec3 surface_kd(Surf s) {
     const Mat m = mats[s.mat];
-    if (m.tex_kd < 0) return m.kd;
-    precise vec3 r = m.kd * tex_lookup(m.tex_kd, s.u, s.v);
+    precise vec3 kd = m.kd;
+    if (s.colored) kd = m.kd * s.col;
+    if (m.tex_kd < 0) return kd;
+    precise vec3 r = kd * tex_lookup(m.tex_kd, s.u, s.v);
     return r;
 }
 
