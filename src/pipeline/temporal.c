@@ -29,7 +29,7 @@ struct pgi_temporal {
     float *hist_n;                      /* its history weight in frames */
     float *carried, *carried_n;         /* the history reprojected at the last camera move (and its weight) */
     float *ind_avg;                     /* 3: the running mean of the frames' indirect light since that move */
-    float *prev_depth, *prev_nrm, *prev_alb;
+    float *prev_depth, *prev_nrm;
     float *depth, *nrm, *alb, *ind, *pos; /* this frame's AOVs and primary hit positions */
     uint8_t *mask;
     float *work; /* 3 a pixel: the filtered indirect light; then 6 a pixel of filter scratch */
@@ -45,9 +45,8 @@ struct pgi_temporal {
 };
 
 static void free_buffers(pgi_temporal *t) {
-    float **b[] = {&t->hist,       &t->hist_n,   &t->carried,  &t->carried_n, &t->ind_avg,
-                   &t->prev_depth, &t->prev_nrm, &t->prev_alb, &t->depth,     &t->nrm,
-                   &t->alb,        &t->ind,      &t->pos,      &t->work,      &t->scratch};
+    float **b[] = {&t->hist,  &t->hist_n, &t->carried, &t->carried_n, &t->ind_avg, &t->prev_depth, &t->prev_nrm,
+                   &t->depth, &t->nrm,    &t->alb,     &t->ind,       &t->pos,     &t->work,       &t->scratch};
     for (size_t i = 0; i < sizeof b / sizeof b[0]; i++) {
         free(*b[i]);
         *b[i] = NULL;
@@ -64,9 +63,9 @@ static pgi_status ensure_buffers(pgi_temporal *t, size_t n) {
     struct {
         float **p;
         size_t per;
-    } b[] = {{&t->hist, 3},       {&t->hist_n, 1},   {&t->carried, 3},  {&t->carried_n, 1}, {&t->ind_avg, 3},
-             {&t->prev_depth, 1}, {&t->prev_nrm, 3}, {&t->prev_alb, 3}, {&t->depth, 1},     {&t->nrm, 3},
-             {&t->alb, 3},        {&t->ind, 3},      {&t->pos, 3},      {&t->work, 3},      {&t->scratch, 6}};
+    } b[] = {{&t->hist, 3},       {&t->hist_n, 1},   {&t->carried, 3}, {&t->carried_n, 1}, {&t->ind_avg, 3},
+             {&t->prev_depth, 1}, {&t->prev_nrm, 3}, {&t->depth, 1},   {&t->nrm, 3},       {&t->alb, 3},
+             {&t->ind, 3},        {&t->pos, 3},      {&t->work, 3},    {&t->scratch, 6}};
     int ok = 1;
     for (size_t i = 0; i < sizeof b / sizeof b[0]; i++) ok &= (*b[i].p = malloc(n * b[i].per * sizeof(float))) != NULL;
     ok &= (t->mask = malloc(n)) != NULL;
@@ -116,6 +115,14 @@ void pgi_temporal_destroy(pgi_temporal *t) {
     pgi_image_free(&t->avg);
     pgi_progressive_destroy(t->prog);
     free(t);
+}
+
+/* Catmull-Rom weights of the 4 samples at -1, 0, 1, 2 for a point at a in [0, 1) (they sum to 1). */
+static void catmull_rom(float a, float w[4]) {
+    w[0] = a * (-0.5f + a * (1.f - 0.5f * a));
+    w[1] = 1.f + a * a * (-2.5f + 1.5f * a);
+    w[2] = a * (0.5f + a * (2.f - 1.5f * a));
+    w[3] = a * a * (-0.5f + 0.5f * a);
 }
 
 /* Point i of the radical-inverse sequence in base b, in [0, 1). */
@@ -180,18 +187,18 @@ int pgi__temporal_project(const pgi_camera *c, const float q[3], int dir, float 
 /* Whether the previous frame's pixel q = (qx, qy) shows the surface that this frame's pixel p shows
  * (0 depth for both: the sky): q's hit, on the ray through its centre at its depth, lies on p's
  * tangent plane (within 2 % of the depth: a jittered sample sits up to half a pixel off the centre),
- * with a normal and an albedo like p's. */
+ * with a normal like p's. The albedo is not compared: a textured surface's neighbouring samples
+ * differ in it, and under sub-pixel offsets that rejected a third of the history of a still wall. */
 static int same_surface(const pgi_temporal *t, size_t p, int qx, int qy, int sky) {
     const size_t q = (size_t)qy * (size_t)t->width + (size_t)qx;
     const float dq = t->prev_depth[q];
     if (sky || dq == 0.f) return sky && dq == 0.f;
-    const float *n0 = t->nrm + 3 * p, *n1 = t->prev_nrm + 3 * q, *a0 = t->alb + 3 * p, *a1 = t->prev_alb + 3 * q;
+    const float *n0 = t->nrm + 3 * p, *n1 = t->prev_nrm + 3 * q;
     float dir[3], off = 0.f;
     pgi__temporal_pixel_dir(&t->prev_cam, qx, qy, dir);
     for (int k = 0; k < 3; k++) off += n0[k] * (t->prev_cam.eye[k] + dq * dir[k] - t->pos[3 * p + k]);
     if (fabsf(off) > 0.02f * dq + 1e-6f) return 0; /* another surface: occluded or disoccluded */
-    if (n0[0] * n1[0] + n0[1] * n1[1] + n0[2] * n1[2] < 0.9f) return 0;
-    return fabsf(a0[0] - a1[0]) + fabsf(a0[1] - a1[1]) + fabsf(a0[2] - a1[2]) < 0.1f;
+    return n0[0] * n1[0] + n0[1] * n1[1] + n0[2] * n1[2] >= 0.9f;
 }
 
 /* The last picture reprojected into camera `cam` (pixel p's primary hit found in the previous
@@ -212,10 +219,28 @@ static size_t reproject(pgi_temporal *t, const pgi_camera *cam, const float *D, 
             float dir[3], fx, fy, zq;
             pgi__temporal_pixel_dir(cam, x, y, dir);
             if (!pgi__temporal_project(&t->prev_cam, sky ? dir : t->pos + 3 * p, sky, &fx, &fy, &zq)) continue;
+            if (!sky) fx -= t->shift[0], fy -= t->shift[1]; /* the hit is the shifted sample's: back to p's centre */
             const int x0 = (int)floorf(fx), y0 = (int)floorf(fy);
             const float ax = fx - (float)x0, ay = fy - (float)y0;
             double w = 0.0, n = 0.0, acc[3] = {0.0, 0.0, 0.0};
-            for (int j = 0; j < 2; j++)
+            /* Catmull-Rom over the 4x4 previous pixels around it when all show this surface (bilinear
+               weights would blur the history a little more at every move), else bilinear over those
+               of the 2x2 that do */
+            float cx[4], cy[4];
+            catmull_rom(ax, cx);
+            catmull_rom(ay, cy);
+            int all = x0 >= 1 && y0 >= 1 && x0 + 2 < W && y0 + 2 < H;
+            for (int j = -1; all && j <= 2; j++)
+                for (int i = -1; all && i <= 2; i++) all = same_surface(t, p, x0 + i, y0 + j, sky);
+            for (int j = -1; all && j <= 2; j++)
+                for (int i = -1; i <= 2; i++) {
+                    const size_t q = (size_t)(y0 + j) * (size_t)W + (size_t)(x0 + i);
+                    const double b = (double)cx[i + 1] * cy[j + 1];
+                    w += b;
+                    n += b * t->hist_n[q];
+                    for (int k = 0; k < 3; k++) acc[k] += b * t->hist[3 * q + k];
+                }
+            for (int j = 0; !all && j < 2; j++)
                 for (int i = 0; i < 2; i++) {
                     const int qx = x0 + i, qy = y0 + j;
                     if (qx < 0 || qy < 0 || qx >= W || qy >= H) continue;
@@ -241,7 +266,7 @@ static size_t reproject(pgi_temporal *t, const pgi_camera *cam, const float *D, 
                 }
             for (int k = 0; k < 3; k++) {
                 const double mean = m[k] / cnt, sd = sqrt(fmax(0.0, m2[k] / cnt - mean * mean));
-                c[k] = (float)fmin(fmax(acc[k] / w, mean - 1.25 * sd), mean + 1.25 * sd);
+                c[k] = (float)fmax(0.0, fmin(fmax(acc[k] / w, mean - 1.25 * sd), mean + 1.25 * sd));
             }
             t->carried_n[p] = (float)(n / w);
             kept++;
@@ -405,7 +430,6 @@ pgi_status pgi_temporal_step(pgi_temporal *t, const pgi_render_desc *in, pgi_ima
     }
     memcpy(t->prev_depth, t->depth, n * sizeof(float));
     memcpy(t->prev_nrm, t->nrm, 3 * n * sizeof(float));
-    memcpy(t->prev_alb, t->alb, 3 * n * sizeof(float));
     t->prev_cam = cam;
     t->prev_cd = cd;
     t->prev_key = key;
@@ -416,7 +440,7 @@ pgi_status pgi_temporal_step(pgi_temporal *t, const pgi_render_desc *in, pgi_ima
     fs.temporal = ts;
     fs.settings.seed = base; /* the caller's: the frame's own is derived from it */
     fs.settings.aovs = NULL;
-    pgi__stats_mem_put(&fs, "temporal", t->cap * (40 * sizeof(float) + 1)); /* the buffers above */
+    pgi__stats_mem_put(&fs, "temporal", t->cap * (37 * sizeof(float) + 1)); /* the buffers above */
     add_pass(&fs, "temporal", ts.reproject_ms);
     if (ts.filter_passes) add_pass(&fs, "denoise", ts.filter_ms);
     if (stats) *stats = fs;
