@@ -20,7 +20,7 @@ OUT=${2:?usage: test_gpu_suite.sh ARCHIVE OUT_DIR}
 rm -rf "$OUT"
 mkdir -p "$OUT"
 cd "$SRC" || exit 1
-bench/gpu_suite.sh --local --quick --bundle "$ARCHIVE" --out "$OUT" >"$OUT.log" 2>&1
+bench/gpu_suite.sh --local --quick --budget 840 --bundle "$ARCHIVE" --out "$OUT" >"$OUT.log" 2>&1
 rc=$?
 tail -15 "$OUT.log"
 [ "$rc" -eq 0 ] && ok "gpu_suite.sh --local --quick: every step passed" || bad "gpu_suite.sh exited $rc: $(grep -E 'failed|timeout|skipped' "$OUT.log" | head -5)"
