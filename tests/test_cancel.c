@@ -8,19 +8,39 @@
 
 #include "test_util.h"
 
+/* Each test's Cornell box, its renderer and a cancel token. */
+typedef struct fixture {
+    pgi_scene *s;
+    pgi_renderer *r;
+    pgi_cancel *c;
+} fixture;
+
+static int fixture_setup(void **state) {
+    fixture *f = calloc(1, sizeof *f);
+    if (!f || pgi_scene_load("cornell", &f->s) || pgi_renderer_create(f->s, &f->r) || pgi_cancel_create(&f->c))
+        return -1;
+    *state = f;
+    return 0;
+}
+
+static int fixture_teardown(void **state) {
+    fixture *f = *state;
+    pgi_cancel_destroy(f->c);
+    pgi_renderer_destroy(f->r);
+    pgi_scene_destroy(f->s);
+    free(f);
+    return 0;
+}
+
 /* Every registered estimator, given a token already requested, returns PGI_ERR_CANCELLED from
  * build or estimate, and a reset token lets the same estimator finish. */
 static void test_every_estimator(void **state) {
-    (void)state;
-    pgi_scene *s;
-    assert_int_equal(pgi_scene_load("cornell", &s), PGI_OK);
-    pgi_renderer *r;
-    assert_int_equal(pgi_renderer_create(s, &r), PGI_OK);
+    fixture *f = *state;
+    pgi_renderer *r = f->r;
+    pgi_cancel *c = f->c;
     pgi_frame_inputs in;
     pgi_render_desc d = {.photons = 4000, .radius = 0.1f, .width = 24, .height = 18};
     assert_int_equal(pgi_renderer_prepare(r, &d, &in, NULL), PGI_OK);
-    pgi_cancel *c;
-    assert_int_equal(pgi_cancel_create(&c), PGI_OK);
     assert_int_equal(pgi_cancel_requested(NULL), 0);
     float *out = malloc(3 * in.samples->count * sizeof(float));
     assert_non_null(out);
@@ -46,9 +66,6 @@ static void test_every_estimator(void **state) {
         pgi_estimator_destroy(e);
     }
     free(out);
-    pgi_cancel_destroy(c);
-    pgi_renderer_destroy(r);
-    pgi_scene_destroy(s);
 }
 
 static double now_s(void) {
@@ -94,13 +111,10 @@ static void on_progress(void *user, const pgi_progress *p) {
  * and loaded machines), and the renderer then renders a small frame bit for bit as a fresh
  * renderer does. */
 static void test_brute_stops(void **state) {
-    (void)state;
-    pgi_scene *s;
-    assert_int_equal(pgi_scene_load("cornell", &s), PGI_OK);
-    pgi_renderer *r;
-    assert_int_equal(pgi_renderer_create(s, &r), PGI_OK);
-    pgi_cancel *c;
-    assert_int_equal(pgi_cancel_create(&c), PGI_OK);
+    fixture *f = *state;
+    pgi_scene *s = f->s;
+    pgi_renderer *r = f->r;
+    pgi_cancel *c = f->c;
     watch w = {.c = c, .at = "estimate", .delay_s = 0.3};
     pgi_render_desc d = {.estimator = "brute",
                          .photons = 300000,
@@ -132,21 +146,14 @@ static void test_brute_stops(void **state) {
     pgi_image_free(&a);
     pgi_image_free(&b);
     pgi_image_free(&img);
-    pgi_cancel_destroy(c);
-    pgi_renderer_destroy(r);
-    pgi_scene_destroy(s);
 }
 
 /* A cancel asked from the progress callback stops the frame at the pass it was asked in: while
  * tracing (between batches), or as the estimate or the direct pass starts. */
 static void test_from_progress(void **state) {
-    (void)state;
-    pgi_scene *s;
-    assert_int_equal(pgi_scene_load("cornell", &s), PGI_OK);
-    pgi_renderer *r;
-    assert_int_equal(pgi_renderer_create(s, &r), PGI_OK);
-    pgi_cancel *c;
-    assert_int_equal(pgi_cancel_create(&c), PGI_OK);
+    fixture *f = *state;
+    pgi_renderer *r = f->r;
+    pgi_cancel *c = f->c;
     const char *passes[] = {"view", "trace", "build", "estimate", "direct"};
     for (size_t k = 0; k < sizeof passes / sizeof *passes; k++) {
         pgi_cancel_reset(c);
@@ -165,21 +172,14 @@ static void test_from_progress(void **state) {
         if (!strstr(pgi_last_error(), passes[k])) fail_msg("cancel at '%s': message '%s'", passes[k], pgi_last_error());
         pgi_image_free(&img);
     }
-    pgi_cancel_destroy(c);
-    pgi_renderer_destroy(r);
-    pgi_scene_destroy(s);
 }
 
 /* Progressive: two steps, a cancelled third, then the third again: the image of three
  * uninterrupted steps, bit for bit, and the frame count says 3. */
 static void test_progressive_kept(void **state) {
-    (void)state;
-    pgi_scene *s;
-    assert_int_equal(pgi_scene_load("cornell", &s), PGI_OK);
-    pgi_renderer *r;
-    assert_int_equal(pgi_renderer_create(s, &r), PGI_OK);
-    pgi_cancel *c;
-    assert_int_equal(pgi_cancel_create(&c), PGI_OK);
+    fixture *f = *state;
+    pgi_renderer *r = f->r;
+    pgi_cancel *c = f->c;
     pgi_render_desc d = {.photons = 5000, .radius = 0.05f, .width = 40, .height = 30, .cancel = c};
     pgi_progressive *p;
     assert_int_equal(pgi_progressive_create(r, &p), PGI_OK);
@@ -197,17 +197,14 @@ static void test_progressive_kept(void **state) {
     pgi_image_free(&avg);
     pgi_image_free(&want);
     pgi_progressive_destroy(p);
-    pgi_cancel_destroy(c);
-    pgi_renderer_destroy(r);
-    pgi_scene_destroy(s);
 }
 
 int main(void) {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_every_estimator),
-        cmocka_unit_test(test_brute_stops),
-        cmocka_unit_test(test_from_progress),
-        cmocka_unit_test(test_progressive_kept),
+        cmocka_unit_test_setup_teardown(test_every_estimator, fixture_setup, fixture_teardown),
+        cmocka_unit_test_setup_teardown(test_brute_stops, fixture_setup, fixture_teardown),
+        cmocka_unit_test_setup_teardown(test_from_progress, fixture_setup, fixture_teardown),
+        cmocka_unit_test_setup_teardown(test_progressive_kept, fixture_setup, fixture_teardown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

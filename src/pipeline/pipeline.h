@@ -47,4 +47,8 @@ pgi__rt *pgi__renderer_rt(pgi_renderer *r);
 void pgi__temporal_pixel_dir(const pgi_camera *c, int x, int y, float d[3]);
 int pgi__temporal_project(const pgi_camera *c, const float q[3], int dir, float *px, float *py, float *z);
 
+/* FNV-1a over the scene's light records: a light moved or changed (point and spot lights move
+ * without touching geometry) changes it. */
+uint64_t pgi__lights_hash(const pgi_scene *s);
+
 #endif

@@ -66,8 +66,7 @@ float pgi_progressive_radius(float r0, int k) {
     return (float)sqrt(r2);
 }
 
-/* FNV-1a over the lights (point/spot positions move without touching geometry). */
-static uint64_t lights_hash(const pgi_scene *s) {
+uint64_t pgi__lights_hash(const pgi_scene *s) {
     uint64_t h = 1469598103934665603ULL;
     const unsigned char *p = (const unsigned char *)s->lights;
     for (size_t i = 0; i < s->nlights * sizeof *s->lights; i++) h = (h ^ p[i]) * 1099511628211ULL;
@@ -95,7 +94,7 @@ static void picture_of(const pgi_render_desc *d, const pgi_scene *s, picture *p)
     p->static_version = s->static_version;
     p->dynamic_version = s->dynamic_version;
     p->time = s->time;
-    p->lights_hash = lights_hash(s);
+    p->lights_hash = pgi__lights_hash(s);
 }
 
 void pgi_block_sum_add(double *block, const float *frame, size_t values, int first) {

@@ -135,13 +135,6 @@ static float halton(uint64_t i, unsigned b) {
     return r;
 }
 
-static uint64_t lights_hash(const pgi_scene *s) {
-    uint64_t h = 1469598103934665603ULL;
-    const unsigned char *p = (const unsigned char *)s->lights;
-    for (size_t i = 0; i < s->nlights * sizeof *s->lights; i++) h = (h ^ p[i]) * 1099511628211ULL;
-    return h;
-}
-
 static void not_camera_of(const pgi_render_desc *d, const pgi_scene *s, not_camera *k) {
     memset(k, 0, sizeof *k);
     k->key = *d;
@@ -158,7 +151,7 @@ static void not_camera_of(const pgi_render_desc *d, const pgi_scene *s, not_came
     snprintf(k->est, sizeof k->est, "%s", d->estimator ? d->estimator : "");
     k->static_version = s->static_version;
     k->dynamic_version = s->dynamic_version;
-    k->lights = lights_hash(s);
+    k->lights = pgi__lights_hash(s);
     k->time = s->time;
 }
 
