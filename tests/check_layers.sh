@@ -4,7 +4,8 @@
 #  - the programs (apps/) include only the public headers and headers of apps/ (photongi-mpi
 #    shares apps/photongi's), never the library's internal ones (src/...);
 #  - the public headers include only each other and the C library;
-#  - a folder of src/ includes only folders below it (the ranks below).
+#  - a folder of src/ includes only folders below it (the ranks below);
+#  - internal macros and enum constants are PGI__ (the public prefix PGI_ is include/'s alone).
 # Prints each breach as FILE:LINE: what, and exits 1; 0 when every rule holds.
 #   tests/check_layers.sh      (run from anywhere)
 set -uo pipefail
@@ -33,6 +34,14 @@ while IFS= read -r hit; do
     inc=$(sed -n 's/.*#include *"\([^"]*\)".*/\1/p' <<<"${hit#*:*:}")
     case $inc in photongi/*) ;; *) breach "${hit%%:#*}" "a public header includes \"$inc\"" ;; esac
 done < <(grep -rn '#include *"' include)
+
+# Internal names: a macro or enum constant defined outside include/ takes PGI__ (two underscores),
+# so that PGI_ (one) is the public API's alone (shaders use PGIS_: GLSL reserves double underscores).
+while IFS= read -r hit; do
+    breach "${hit%%:*}:$(cut -d: -f2 <<<"$hit")" "an internal name with the public prefix: $(grep -oE 'PGI_[A-Z0-9][A-Z0-9_]*' <<<"${hit#*:*:}" | head -1) (internal names are PGI__...)"
+done < <(grep -rnE --include='*.c' --include='*.h' --include='*.glsl' --include='*.comp' \
+    '^\s*#\s*(define|ifndef)\s+PGI_[A-Z0-9]|^\s+PGI_[A-Z0-9][A-Z0-9_]*\s*=[^=]|enum[^;]*\{[^}]*\bPGI_[A-Z0-9]' \
+    src apps tests bench examples python 2>/dev/null | grep -v 'PGI_VERSION_STRING')
 
 # The library's folders, lowest first: a folder includes only folders of a lower rank (docs/architecture.md).
 declare -A rank=([core]=0 [io]=1 [metrics]=2 [filter]=2 [scene]=2 [rt]=3 [estimators]=3 [photon]=4 [view]=5
