@@ -87,6 +87,7 @@ typedef struct pgi_scene_info {
      * material library that is not there, animations, vertex colours, glTF extensions, ...; "" when
      * nothing): for the caller to show as a warning. Valid while the scene lives. */
     const char *warnings;
+    size_t portals; /* openings marked for the sun and the sky ("portals", docs/scene-format.md) */
 } pgi_scene_info;
 
 /* Loads a scene. `spec` is a built-in name ("cornell", "giref",
@@ -144,9 +145,14 @@ typedef enum pgi_emission {
     PGI_EMISSION_GUIDED,      /* view importance: a uniform pilot of about an eighth of the photons, then
                                  photons steered towards the light paths whose photons landed where the
                                  camera looks, weighted so that the estimate stays unbiased */
-    PGI_EMISSION_AUTO         /* guided where the pilot predicts at least 1.25x the photons in view per unit
+    PGI_EMISSION_AUTO,        /* portal where the scene has portals that carry under half of the sun's and
+                                 the sky's uniform paths (pgi_emission_stats.portal_share), else guided where
+                                 the pilot predicts at least 1.25x the photons in view per unit
                                  of frame cost (pgi_emission_stats.value: fewer paths per stored photon
                                  count too), uniform elsewhere (byte-identical to PGI_EMISSION_UNIFORM then) */
+    PGI_EMISSION_PORTAL       /* the sun's and the sky's photons start on the scene's portals (windows,
+                                 docs/emission.md), weighted so that the flux through them is unbiased;
+                                 other lights as uniform. Needs --radius-policy fixed; CPU only */
 } pgi_emission;
 
 /* Which photons are stored (docs/emission.md). */
@@ -329,6 +335,11 @@ typedef struct pgi_emission_stats {
     float cell;                      /* their size, scene units */
     double grid_ms;                  /* building the view grid(s) */
     uint64_t culled;                 /* PGI_STORE_VIEW: photons not stored (no view sample within the radius) */
+    int portal;                      /* 1: the sun's and the sky's photons left through the portals */
+    size_t portals;                  /* the scene's portals */
+    double portal_share;             /* lines through the portals per line of the sun's and the sky's uniform
+                                        emission (power-weighted): the fraction of their uniform paths
+                                        that can enter (0: no portals, or no sun or sky) */
 } pgi_emission_stats;
 
 /* What the caller did around the frame (pgi_frame_stats.run), for statistics that reproduce a run:
