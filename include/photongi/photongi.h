@@ -312,7 +312,8 @@ typedef struct pgi_auto_radius_stats {
     const char *why; /* one line: the quantile, a clamp, the cost cap, or the fallback (static string) */
 } pgi_auto_radius_stats;
 
-/* How photons left the lights (pgi_frame_stats.emission); all zero with uniform emission. A photon
+/* How photons left the lights (pgi_frame_stats.emission); all zero with uniform emission but `portals`
+ * (the scene's portals, on the CPU device). A photon
  * is "in view" when it lands in a cell of the view grid: cells of size `cell` holding a view sample
  * whose surface faces the same way. */
 typedef struct pgi_emission_stats {
@@ -397,7 +398,7 @@ typedef struct pgi_frame_stats {
     uint64_t footprint_hist[PGI_FOOTPRINT_BINS]; /* see PGI_FOOTPRINT_BINS */
     pgi_auto_radius_stats auto_radius;           /* how `radius` was chosen, when it was */
     double radius_ms;                            /* choosing it (0 when given) */
-    pgi_emission_stats emission;                 /* guided photon emission, when asked for */
+    pgi_emission_stats emission;                 /* guided or portal photon emission, when asked for */
     const char *device; /* "cpu", or the Vulkan device's name ("llvmpipe (LLVM 15.0.6, 256 bits)"); valid while
                            the renderer lives. With a GPU: passes_ms has the device's passes ("gpu_count", ...,
                            "gpu_gather": GPU timestamps; "gpu_upload", "gpu_submit", "gpu_download": host wall
