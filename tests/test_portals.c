@@ -365,8 +365,9 @@ static void portal_direct_pdf_is_normalised(void **state) {
     const pgi__v3 ns[3] = {v3(0, 1, 0), v3(-1, 0, 0), v3(0, -1, 0)};
     uint64_t q = 7;
     for (int i = 0; i < 3; i++) {
-        float w[PGI__MAX_PORTALS];
-        assert_true(pgi__portal_direct_weights(s->portals, s->nportals, xs[i], ns[i], w) > 0.f);
+        float w[2 * PGI__MAX_PORTALS];
+        pgi__portal_sph cache[PGI__PORTAL_CACHE];
+        assert_true(pgi__portal_direct_weights(s->portals, s->nportals, xs[i], ns[i], w, cache) > 0.f);
         const int R = 1000; /* R x R strata of the sphere, a jittered direction each */
         double acc = 0.0;
         for (int a = 0; a < R; a++)
@@ -383,7 +384,7 @@ static void portal_direct_pdf_is_normalised(void **state) {
         for (int k = 0; k < 1000; k++) {
             pgi__v3 d;
             const float u = (float)k / 1000.f;
-            if (pgi__portal_direct_sample(s->portals, s->nportals, w, xs[i], u, fmodf(u * 7.3f, 1.f),
+            if (pgi__portal_direct_sample(s->portals, s->nportals, w, cache, xs[i], u, fmodf(u * 7.3f, 1.f),
                                           fmodf(u * 13.7f, 1.f), &d))
                 bad += !(pgi__portal_direct_pdf(s->portals, s->nportals, w, xs[i], d) > 0.f);
         }
@@ -392,6 +393,71 @@ static void portal_direct_pdf_is_normalised(void **state) {
         assert_int_equal(bad, 0);
     }
     pgi_scene_destroy(s);
+}
+
+/* The directions sampled have the density the pdf says: for f = (1.5 + d.x)^2 (d.z + 2) on the
+ * directions through the portals, the mean of f / pdf over 200k samples equals the integral of f
+ * by 2000 x 2000 stratified directions (within 1 %, and within 4 standard errors). Portals of
+ * each kind: a rectangle sampled by solid angle, a skewed parallelogram and a tiny far rectangle
+ * (both by area); points near and far, one 1 cm inside the window's plane beside it (the portal
+ * seen edge-on). */
+static float urand(uint64_t *st) {
+    *st = *st * 6364136223846793005ull + 1442695040888963407ull;
+    return (float)(*st >> 40) / 16777216.f;
+}
+
+static void portal_direct_sampling_matches_pdf(void **state) {
+    (void)state;
+    const float q[5][4][3] = {{{-1, 0.7f, -0.7f}, {-1, 1.5f, -0.7f}, {-1, 1.5f, 0.1f}, {-1, 0.7f, 0.1f}},
+                              {{-0.1f, 2, -0.5f}, {0.5f, 2, -0.5f}, {0.8f, 2, 0.1f}, {0.2f, 2, 0.1f}},
+                              {{3, 1, 0}, {3, 1.05f, 0}, {3, 1.05f, -0.05f}, {3, 1, -0.05f}},
+                              {{-0.5f, 2.2f, -0.6f}, {-0.2f, 2.2f, -0.6f}, {-0.2f, 2.2f, 0.2f}, {-0.5f, 2.2f, 0.2f}},
+                              {{1, 0.5f, -0.5f}, {1, 0.5f, 0.4f}, {1, 1.6f, 0.4f}, {1, 0.5f + 1.1f, -0.5f}}};
+    /* the fifth lies past the set-ups kept (PGI__PORTAL_CACHE): set up again at each sample */
+    _Static_assert(PGI__PORTAL_CACHE <= 4, "a portal past the cache");
+    pgi__portal P[5];
+    for (int i = 0; i < 5; i++) assert_null(pgi__portal_from_quad(&P[i], q[i]));
+    assert_true(P[0].rect && !P[1].rect && P[2].rect && P[3].rect && P[4].rect);
+    const pgi__v3 xs[3] = {v3(0.2f, 0.3f, 0.3f), v3(-0.99f, 1.1f, 0.3f), v3(0.9f, 1.9f, -0.9f)};
+    const pgi__v3 ns[3] = {v3(0, 1, 0), v3(0, 0, -1), v3(-1, 0, 0)};
+    uint64_t st = 11;
+    for (int i = 0; i < 3; i++) {
+        float w[10];
+        pgi__portal_sph cache[PGI__PORTAL_CACHE];
+        assert_true(pgi__portal_direct_weights(P, 5, xs[i], ns[i], w, cache) > 0.f);
+        /* f on the directions some portal with weight lets in */
+        const int R = 2000;
+        double quad = 0.0;
+        for (int a = 0; a < R; a++)
+            for (int c = 0; c < R; c++) {
+                const float z = 1.f - 2.f * (((float)a + urand(&st)) / (float)R), r = sqrtf(fmaxf(0.f, 1.f - z * z));
+                const float phi = 2.f * PGI_PI * (((float)c + urand(&st)) / (float)R);
+                const pgi__v3 d = v3(r * cosf(phi), r * sinf(phi), z);
+                if (pgi__portal_direct_pdf(P, 5, w, xs[i], d) > 0.f) quad += (1.5 + d.x) * (1.5 + d.x) * (d.z + 2.0);
+            }
+        quad *= 4.0 * PGI_PI / ((double)R * R);
+        const int N = 200000;
+        double m = 0.0, m2 = 0.0;
+        for (int k = 0; k < N; k++) {
+            pgi__v3 d;
+            double v = 0.0;
+            const float u0 = urand(&st), u1 = urand(&st), u2 = urand(&st);
+            if (pgi__portal_direct_sample(P, 5, w, cache, xs[i], u0, u1, u2, &d)) {
+                const float pdf = pgi__portal_direct_pdf(P, 5, w, xs[i], d);
+                if (pdf > 0.f) v = (1.5 + d.x) * (1.5 + d.x) * (d.z + 2.0) / pdf;
+            }
+            m += v;
+            m2 += v * v;
+        }
+        m /= N;
+        const double se = sqrt((m2 / N - m * m) / N);
+        printf("point %d: solid angles %.4f %.4f %.4f %.4f %.4f (0: by area); sampled %.5f +- %.5f, integral %.5f "
+               "(%+.2f %%)\n",
+               i, (double)w[5], (double)w[6], (double)w[7], (double)w[8], (double)w[9], m, se, quad,
+               100.0 * (m / quad - 1.0));
+        assert_true(fabs(m - quad) < 4.0 * se + 1e-3 * quad);
+        assert_true(fabs(m / quad - 1.0) < 0.01);
+    }
 }
 
 /* --emission portal needs portals and the fixed radius policy; on the GPU it is refused by name
@@ -419,6 +485,7 @@ static void portal_mode_is_checked(void **state) {
 int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(portal_direct_pdf_is_normalised),
+        cmocka_unit_test(portal_direct_sampling_matches_pdf),
         cmocka_unit_test(portals_change_nothing_else),
         cmocka_unit_test(portal_mode_is_checked),
         cmocka_unit_test(portal_emission_sky_is_unbiased),

@@ -29,6 +29,7 @@ const char *pgi__portal_from_quad(pgi__portal *p, const float v[4][3]) {
     const pgi__v3 a = v3_cross(e2, n), b = v3_cross(n, e1);
     v3_store(p->d1, v3_scale(a, 1.f / v3_dot(e1, a)));
     v3_store(p->d2, v3_scale(b, 1.f / v3_dot(e2, b)));
+    p->rect = fabsf(v3_dot(e1, e2)) <= 1e-4f * l1 * l2;
     return NULL;
 }
 
@@ -196,16 +197,78 @@ int pgi__portal_sky_emit(const pgi__portal_emit *e, const pgi__env *env, const f
 
 /* ------------------------------------------------------------ direct light */
 
-float pgi__portal_direct_weights(const pgi__portal *p, size_t n, pgi__v3 x, pgi__v3 ns, float *w) {
+/* A rectangular portal seen from x, for sampling its solid angle uniformly (Ureña, Fajardo and
+ * King 2013, "An Area-Preserving Parametrization for Spherical Rectangles"): the rectangle in a
+ * frame at x (axes along its edges, z0 < 0 its distance), the spherical rectangle's angles, and
+ * its solid angle S. */
+typedef pgi__portal_sph sph_rect;
+
+static int sph_rect_init(const pgi__portal *p, pgi__v3 o, sph_rect *r) {
+    const pgi__v3 e1 = v3_load(p->e1), e2 = v3_load(p->e2);
+    const float l1 = v3_len(e1), l2 = v3_len(e2);
+    r->x = v3_scale(e1, 1.f / l1);
+    r->y = v3_scale(e2, 1.f / l2);
+    r->z = v3_cross(r->x, r->y);
+    const pgi__v3 d = v3_sub(v3_load(p->o), o);
+    r->x0 = v3_dot(d, r->x);
+    r->y0 = v3_dot(d, r->y);
+    r->z0 = v3_dot(d, r->z);
+    if (r->z0 > 0.f) {
+        r->z0 = -r->z0;
+        r->z = v3_neg(r->z);
+    }
+    if (!(-r->z0 > 1e-5f * fmaxf(l1, l2))) return 0; /* x in the portal's plane */
+    r->x1 = r->x0 + l1;
+    r->y1 = r->y0 + l2;
+    const pgi__v3 v00 = v3(r->x0, r->y0, r->z0), v01 = v3(r->x0, r->y1, r->z0), v10 = v3(r->x1, r->y0, r->z0),
+                  v11 = v3(r->x1, r->y1, r->z0);
+    const pgi__v3 n0 = v3_norm(v3_cross(v00, v10)), n1 = v3_norm(v3_cross(v10, v11)), n2 = v3_norm(v3_cross(v11, v01)),
+                  n3 = v3_norm(v3_cross(v01, v00));
+    const float g0 = acosf(fminf(fmaxf(-v3_dot(n0, n1), -1.f), 1.f)),
+                g1 = acosf(fminf(fmaxf(-v3_dot(n1, n2), -1.f), 1.f)),
+                g2 = acosf(fminf(fmaxf(-v3_dot(n2, n3), -1.f), 1.f)),
+                g3 = acosf(fminf(fmaxf(-v3_dot(n3, n0), -1.f), 1.f));
+    r->b0 = n0.z;
+    r->b1 = n2.z;
+    r->k = 2.f * PGI_PI - g2 - g3;
+    r->S = g0 + g1 - r->k;
+    /* a tiny solid angle is lost to rounding (the angles' sum cancels): area sampling then */
+    return isfinite(r->S) && r->S > 1e-3f;
+}
+
+static pgi__v3 sph_rect_sample(const sph_rect *r, pgi__v3 o, float u, float v) {
+    const float au = u * r->S + r->k;
+    const float fu = (cosf(au) * r->b0 - r->b1) / sinf(au);
+    float cu = (fu > 0.f ? 1.f : -1.f) / sqrtf(fu * fu + r->b0 * r->b0);
+    cu = fminf(fmaxf(cu, -1.f), 1.f);
+    float xu = -(cu * r->z0) / sqrtf(fmaxf(1.f - cu * cu, 1e-12f));
+    xu = fminf(fmaxf(xu, r->x0), r->x1);
+    const float d = sqrtf(xu * xu + r->z0 * r->z0);
+    const float h0 = r->y0 / sqrtf(d * d + r->y0 * r->y0), h1 = r->y1 / sqrtf(d * d + r->y1 * r->y1);
+    const float hv = h0 + v * (h1 - h0), hv2 = hv * hv;
+    const float yv = hv2 < 1.f - 1e-6f ? hv * d / sqrtf(1.f - hv2) : r->y1;
+    return v3_add(o, v3_add(v3_add(v3_scale(r->x, xu), v3_scale(r->y, yv)), v3_scale(r->z, r->z0)));
+}
+
+float pgi__portal_direct_weights(const pgi__portal *p, size_t n, pgi__v3 x, pgi__v3 ns, float *w,
+                                 pgi__portal_sph cache[PGI__PORTAL_CACHE]) {
     float sum = 0.f;
+    float *sa = w + n;
     for (size_t i = 0; i < n; i++) {
         const pgi__v3 v = v3_sub(x, v3_load(p[i].centre)); /* from the portal to x */
         const float r2 = v3_dot(v, v), cp = v3_dot(v3_load(p[i].n), v);
         float wi = 0.f;
+        sa[i] = 0.f;
         if (cp > 0.f && r2 > 0.f) {
             const float r = sqrtf(r2), cr = -v3_dot(ns, v) / r;
-            wi = p[i].area * (cp / r) / r2 * (0.1f + fmaxf(cr, 0.f));
-            if (!isfinite(wi)) wi = 0.f;
+            sph_rect sr;
+            if (p[i].rect && sph_rect_init(&p[i], x, &sr)) { /* its solid angle, sampled exactly */
+                sa[i] = sr.S;
+                if (i < PGI__PORTAL_CACHE) cache[i] = sr;
+            }
+            const float omega = sa[i] > 0.f ? sa[i] : p[i].area * (cp / r) / r2;
+            wi = omega * (0.1f + fmaxf(cr, 0.f));
+            if (!isfinite(wi)) wi = sa[i] = 0.f;
         }
         w[i] = wi;
         sum += wi;
@@ -215,7 +278,8 @@ float pgi__portal_direct_weights(const pgi__portal *p, size_t n, pgi__v3 x, pgi_
     return sum;
 }
 
-int pgi__portal_direct_sample(const pgi__portal *p, size_t n, const float *w, pgi__v3 x, float u0, float u1, float u2,
+int pgi__portal_direct_sample(const pgi__portal *p, size_t n, const float *w,
+                              const pgi__portal_sph cache[PGI__PORTAL_CACHE], pgi__v3 x, float u0, float u1, float u2,
                               pgi__v3 *dir) {
     size_t k = 0;
     float acc = 0.f;
@@ -228,7 +292,12 @@ int pgi__portal_direct_sample(const pgi__portal *p, size_t n, const float *w, pg
         if (k == 0) return 0;
         k--;
     }
-    const pgi__v3 v = v3_sub(pgi__portal_point(&p[k], u1, u2), x);
+    pgi__v3 y;
+    sph_rect sr;
+    if (w[n + k] > 0.f && k < PGI__PORTAL_CACHE) y = sph_rect_sample(&cache[k], x, u1, u2);
+    else if (w[n + k] > 0.f && sph_rect_init(&p[k], x, &sr)) y = sph_rect_sample(&sr, x, u1, u2);
+    else y = pgi__portal_point(&p[k], u1, u2);
+    const pgi__v3 v = v3_sub(y, x);
     const float l = v3_len(v);
     if (!(l > 0.f)) return 0;
     *dir = v3_scale(v, 1.f / l);
@@ -242,7 +311,7 @@ float pgi__portal_direct_pdf(const pgi__portal *p, size_t n, const float *w, pgi
         const float cn = -v3_dot(v3_load(p[i].n), dir); /* light travels -dir */
         float t;
         if (!(cn > 0.f) || !pgi__portal_hit(&p[i], x, dir, &t) || !(t > 0.f)) continue;
-        pdf += w[i] * t * t / (p[i].area * cn);
+        pdf += w[i] * (w[n + i] > 0.f ? 1.f / w[n + i] : t * t / (p[i].area * cn));
     }
     return pdf;
 }

@@ -75,14 +75,29 @@ double pgi__portal_share(const pgi_scene *s);
  * trace more than twice the sun's and the sky's paths for the same light inside. */
 #define PGI__PORTAL_AUTO_SHARE 0.5
 
-/* Direct light from the sky at x of shading normal ns (view.c): the portals' pick weights seen
- * from x (solid angle estimated from their centres, times 0.1 + the cosine at x; 0 for a portal x
- * is not on the inside of), normalised into w[] (n entries); returns their sum before
- * normalisation (0: no portal lights x). */
-float pgi__portal_direct_weights(const pgi__portal *p, size_t n, pgi__v3 x, pgi__v3 ns, float *w);
-/* A direction from x towards a uniform point of a portal picked by w with u0 (then u1, u2);
- * 0 when it is degenerate. */
-int pgi__portal_direct_sample(const pgi__portal *p, size_t n, const float *w, pgi__v3 x, float u0, float u1, float u2,
+/* A rectangular portal seen from a point, set up for sampling its solid angle (portal.c): the
+ * rectangle in a frame at the point, its spherical rectangle's angles and its solid angle S. */
+typedef struct pgi__portal_sph {
+    pgi__v3 x, y, z;
+    float x0, y0, z0, x1, y1, b0, b1, k, S;
+} pgi__portal_sph;
+/* The first PGI__PORTAL_CACHE portals' set-ups are kept by pgi__portal_direct_weights for the
+ * samples at the same point (the others are set up again at each sample). */
+#define PGI__PORTAL_CACHE 4
+
+/* Direct light from the sky at x of shading normal ns (view.c). w holds 2n floats: w[i] the
+ * portals' pick probabilities seen from x (their solid angle, times 0.1 + the cosine at x
+ * towards their centre; 0 for a portal x is not on the inside of), w[n + i] portal i's solid angle
+ * where it is sampled by solid angle (a rectangle seen under more than 1e-3 sr: Ureña et al.
+ * 2013's spherical rectangles, uniform in the solid angle), else 0 (a uniform point of its area,
+ * converted: distance^2 / (area cos)). Returns the weights' sum before normalisation (0: no
+ * portal lights x). */
+float pgi__portal_direct_weights(const pgi__portal *p, size_t n, pgi__v3 x, pgi__v3 ns, float *w,
+                                 pgi__portal_sph cache[PGI__PORTAL_CACHE]);
+/* A direction from x towards a portal picked by w with u0 (then u1, u2 for the point: uniform in
+ * its solid angle or its area, as w says); 0 when it is degenerate. */
+int pgi__portal_direct_sample(const pgi__portal *p, size_t n, const float *w,
+                              const pgi__portal_sph cache[PGI__PORTAL_CACHE], pgi__v3 x, float u0, float u1, float u2,
                               pgi__v3 *dir);
 /* Solid-angle density of pgi__portal_direct_sample for direction dir from x (every portal the ray
  * x + t dir, t > 0, crosses inwards). */

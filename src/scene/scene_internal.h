@@ -154,6 +154,7 @@ typedef struct pgi__portal {
     float area; /* |e1 x e2| */
     float centre[3];
     float d1[3], d2[3]; /* dual vectors: a = (x - o) . d1, b = (x - o) . d2 for x in its plane */
+    int rect;           /* e1 and e2 at right angles: direct light samples its solid angle (portal.c) */
 } pgi__portal;
 
 struct pgi_scene {

@@ -929,7 +929,8 @@ static void env_direct_portals(const pgi__env *env, const pgi__portal *P, size_t
                                const pgi_view_samples *vs, int n, uint64_t seed, pgi__v3 L[16], uint64_t *rays) {
     pgi__rng rng[16];
     pgi__env_frame fr[16];
-    float pw[16][PGI__MAX_PORTALS];
+    float pw[16][2 * PGI__MAX_PORTALS]; /* pick probabilities and solid angles (pgi__portal_direct_weights) */
+    pgi__portal_sph cache[16][PGI__PORTAL_CACHE];
     int na[16], nb[16];
     pgi__v3 Le[16], org[PGI__RT_STREAM_MAX], wi[PGI__RT_STREAM_MAX], w[PGI__RT_STREAM_MAX];
     float tmax[PGI__RT_STREAM_MAX];
@@ -940,7 +941,7 @@ static void env_direct_portals(const pgi__env *env, const pgi__portal *P, size_t
         if (!t->on[k]) continue;
         pgi_rng_seed(&rng[k], seed ^ 0x736b79ULL, (uint64_t)t->pix[k]);
         pgi__env_frame_init(&fr[k], tile_ns(t, k));
-        const float sum = pgi__portal_direct_weights(P, np, tile_x(t, k), tile_ns(t, k), pw[k]);
+        const float sum = pgi__portal_direct_weights(P, np, tile_x(t, k), tile_ns(t, k), pw[k], cache[k]);
         nb[k] = sum > 0.f ? n / 2 : 0;
         na[k] = n - nb[k];
     }
@@ -961,7 +962,7 @@ static void env_direct_portals(const pgi__env *env, const pgi__portal *P, size_t
                 } else { /* a portal */
                     float u0 = ((float)(j - na[k]) + pgi_rng_f(&rng[k])) / (float)nb[k];
                     float u1 = pgi_rng_f(&rng[k]), u2 = pgi_rng_f(&rng[k]);
-                    if (!pgi__portal_direct_sample(P, np, pw[k], x, u0, u1, u2, &d)) continue;
+                    if (!pgi__portal_direct_sample(P, np, pw[k], cache[k], x, u0, u1, u2, &d)) continue;
                     pb = pgi__portal_direct_pdf(P, np, pw[k], x, d);
                     if (!(pb > 0.f)) continue;
                     pa = pgi__env_pdf_direct(env, ns, d);
