@@ -239,10 +239,12 @@ static int sph_rect_init(const pgi__portal *p, pgi__v3 o, sph_rect *r) {
 static pgi__v3 sph_rect_sample(const sph_rect *r, pgi__v3 o, float u, float v) {
     const float au = u * r->S + r->k;
     const float fu = (cosf(au) * r->b0 - r->b1) / sinf(au);
+    /* (clamps as conditionals: fminf and fmaxf are calls without -ffinite-math-only) */
     float cu = (fu > 0.f ? 1.f : -1.f) / sqrtf(fu * fu + r->b0 * r->b0);
-    cu = fminf(fmaxf(cu, -1.f), 1.f);
-    float xu = -(cu * r->z0) / sqrtf(fmaxf(1.f - cu * cu, 1e-12f));
-    xu = fminf(fmaxf(xu, r->x0), r->x1);
+    cu = cu < -1.f ? -1.f : cu > 1.f ? 1.f : cu;
+    const float s2 = 1.f - cu * cu;
+    float xu = -(cu * r->z0) / sqrtf(s2 > 1e-12f ? s2 : 1e-12f);
+    xu = xu < r->x0 ? r->x0 : xu > r->x1 ? r->x1 : xu;
     const float d = sqrtf(xu * xu + r->z0 * r->z0);
     const float h0 = r->y0 / sqrtf(d * d + r->y0 * r->y0), h1 = r->y1 / sqrtf(d * d + r->y1 * r->y1);
     const float hv = h0 + v * (h1 - h0), hv2 = hv * hv;

@@ -945,6 +945,11 @@ static void env_direct_portals(const pgi__env *env, const pgi__portal *P, size_t
         nb[k] = sum > 0.f ? n / 2 : 0;
         na[k] = n - nb[k];
     }
+    /* The MIS weights are needed only where the shadow ray escapes (most of the cosine samples
+     * hit the walls): a ray's strategy, and for the sky's sampler its pdf and radiance, wait for
+     * the occlusion test. */
+    float pa_ray[PGI__RT_STREAM_MAX];
+    unsigned char portal_ray[PGI__RT_STREAM_MAX];
     for (int j0 = 0; j0 < n; j0 += ENV_RUN) {
         const int j1 = n - j0 < ENV_RUN ? n : j0 + ENV_RUN;
         size_t m = 0;
@@ -952,27 +957,22 @@ static void env_direct_portals(const pgi__env *env, const pgi__portal *P, size_t
             for (int k = 0; k < 16; k++) {
                 if (!t->on[k]) continue;
                 const pgi__v3 x = tile_x(t, k), ns = tile_ns(t, k);
-                pgi__v3 le, d;
-                float pa, pb;
-                if (j < na[k]) { /* the sky's sampler */
+                pgi__v3 le = v3(0.f, 0.f, 0.f), d;
+                float pa = 0.f;
+                const int portal = j >= na[k];
+                if (!portal) { /* the sky's sampler */
                     float u1 = ((float)j + pgi_rng_f(&rng[k])) / (float)na[k], u2 = pgi_rng_f(&rng[k]);
                     d = pgi__env_sample_direct_in(env, &fr[k], u1, u2, &pa, &le);
                     if (!(pa > 0.f)) continue;
-                    pb = nb[k] ? pgi__portal_direct_pdf(P, np, pw[k], x, d) : 0.f;
                 } else { /* a portal */
                     float u0 = ((float)(j - na[k]) + pgi_rng_f(&rng[k])) / (float)nb[k];
                     float u1 = pgi_rng_f(&rng[k]), u2 = pgi_rng_f(&rng[k]);
                     if (!pgi__portal_direct_sample(P, np, pw[k], cache[k], x, u0, u1, u2, &d)) continue;
-                    pb = pgi__portal_direct_pdf(P, np, pw[k], x, d);
-                    if (!(pb > 0.f)) continue;
-                    pa = pgi__env_pdf_direct(env, ns, d);
-                    le = pgi__env_eval(env, d);
                 }
-                float c = v3_dot(ns, d);
-                if (!(c > 0.f) || !(v3_dot(tile_ng(t, k), d) > 0.f)) continue;
-                const float den = (float)na[k] * pa + (float)nb[k] * pb;
-                if (!(den > 0.f) || !isfinite(den)) continue;
-                w[m] = v3_scale(le, c / den);
+                if (!(v3_dot(ns, d) > 0.f) || !(v3_dot(tile_ng(t, k), d) > 0.f)) continue;
+                w[m] = le;
+                pa_ray[m] = pa;
+                portal_ray[m] = (unsigned char)portal;
                 wi[m] = d;
                 org[m] = x;
                 tmax[m] = INFINITY;
@@ -984,7 +984,18 @@ static void env_direct_portals(const pgi__env *env, const pgi__portal *P, size_t
         for (size_t i = 0; i < m; i++) {
             if (occ[i]) continue;
             const int k = lane[i];
-            Le[k] = v3_add(Le[k], v3_mul(tile_brdf(t, vs, k, wi[i]), w[i]));
+            const pgi__v3 d = wi[i], ns = tile_ns(t, k);
+            const float pb = nb[k] ? pgi__portal_direct_pdf(P, np, pw[k], org[i], d) : 0.f;
+            float pa = pa_ray[i];
+            pgi__v3 le = w[i];
+            if (portal_ray[i]) {
+                if (!(pb > 0.f)) continue; /* lost to rounding at a portal's edge */
+                pa = pgi__env_pdf_direct(env, ns, d);
+                le = pgi__env_eval(env, d);
+            }
+            const float den = (float)na[k] * pa + (float)nb[k] * pb;
+            if (!(den > 0.f) || !isfinite(den)) continue;
+            Le[k] = v3_add(Le[k], v3_mul(tile_brdf(t, vs, k, d), v3_scale(le, v3_dot(ns, d) / den)));
         }
     }
     for (int k = 0; k < 16; k++)
