@@ -340,7 +340,8 @@ typedef struct pgi_emission_stats {
     size_t portals;                  /* the scene's portals */
     double portal_share;             /* lines through the portals per line of the sun's and the sky's uniform
                                         emission (power-weighted): the fraction of their uniform paths
-                                        that can enter (0: no portals, or no sun or sky) */
+                                        that can enter (0: no portals, no sun or sky, or emission
+                                        uniform or guided, which do not compute it) */
 } pgi_emission_stats;
 
 /* What the caller did around the frame (pgi_frame_stats.run), for statistics that reproduce a run:

@@ -143,7 +143,9 @@ static pgi_status mem_plan(pgi_renderer *r, const pgi_render_desc *d, const pgi_
         {"trace_scratch", trace_triangle_bytes(r->scene->ntris), 0},
         {"trace_scratch",
          trace_prepass_bytes(r->scene, np, d->radius_policy != PGI_RADIUS_FIXED, pgi__threads(d->threads)), 1},
-        {"emission_guide", d->emission != PGI_EMISSION_UNIFORM ? np * sizeof(uint16_t) : 0, 1}, /* a bin a photon */
+        {"emission_guide",
+         d->emission == PGI_EMISSION_GUIDED || d->emission == PGI_EMISSION_AUTO ? np * sizeof(uint16_t) : 0,
+         1}, /* a bin a photon (portal emission has no guide) */
         {est, np * per_photon, 1},
     };
     return pgi__mem_plan_check(it, (int)(sizeof it / sizeof it[0]), d->max_memory, np);
