@@ -264,7 +264,7 @@ static void portal_image_mean_and_auto(void **state) {
 
 /* --output direct at 16 samples: window-box (cosine only) and window-box-portals (MIS) against a
  * 2048-sample cosine reference: the same mean (1 %; seeds 1-4 averaged) and a much better PSNR
- * (measured +12 to +16 dB at 160 x 120: asserted 8 dB). */
+ * (measured +16.2 dB at 160 x 120, by area sampling +12.7: asserted 12 dB). */
 static void portal_direct_same_mean_less_noise(void **state) {
     (void)state;
     pgi_scene *sc = NULL, *sp = NULL;
@@ -301,7 +301,7 @@ static void portal_direct_same_mean_less_noise(void **state) {
            (unsigned long long)rays[0], (unsigned long long)rays[1]);
     assert_true(fabs(m[1] / mref - 1.0) < 0.01);
     assert_true(fabs(m[0] / mref - 1.0) < 0.01);
-    assert_true(p[1] > p[0] + 8.0);
+    assert_true(p[1] > p[0] + 12.0);
     pgi_image_free(&ref);
     pgi_scene_destroy(sc);
     pgi_scene_destroy(sp);
