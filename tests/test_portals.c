@@ -376,10 +376,10 @@ static void portal_direct_pdf_is_normalised(void **state) {
                 const float u1 = ((float)a + (float)(q >> 40) / 16777216.f) / (float)R;
                 q = q * 6364136223846793005ull + 1442695040888963407ull;
                 const float u2 = ((float)c + (float)(q >> 40) / 16777216.f) / (float)R;
-                const float z = 1.f - 2.f * u1, r = sqrtf(fmaxf(0.f, 1.f - z * z)), phi = 2.f * PGI_PI * u2;
+                const float z = 1.f - 2.f * u1, r = sqrtf(fmaxf(0.f, 1.f - z * z)), phi = 2.f * PGI__PI * u2;
                 acc += pgi__portal_direct_pdf(s->portals, s->nportals, w, xs[i], v3(r * cosf(phi), r * sinf(phi), z));
             }
-        const double integral = acc / ((double)R * R) * 4.0 * PGI_PI;
+        const double integral = acc / ((double)R * R) * 4.0 * PGI__PI;
         int bad = 0;
         for (int k = 0; k < 1000; k++) {
             pgi__v3 d;
@@ -431,11 +431,11 @@ static void portal_direct_sampling_matches_pdf(void **state) {
         for (int a = 0; a < R; a++)
             for (int c = 0; c < R; c++) {
                 const float z = 1.f - 2.f * (((float)a + urand(&st)) / (float)R), r = sqrtf(fmaxf(0.f, 1.f - z * z));
-                const float phi = 2.f * PGI_PI * (((float)c + urand(&st)) / (float)R);
+                const float phi = 2.f * PGI__PI * (((float)c + urand(&st)) / (float)R);
                 const pgi__v3 d = v3(r * cosf(phi), r * sinf(phi), z);
                 if (pgi__portal_direct_pdf(P, 5, w, xs[i], d) > 0.f) quad += (1.5 + d.x) * (1.5 + d.x) * (d.z + 2.0);
             }
-        quad *= 4.0 * PGI_PI / ((double)R * R);
+        quad *= 4.0 * PGI__PI / ((double)R * R);
         const int N = 200000;
         double m = 0.0, m2 = 0.0;
         for (int k = 0; k < N; k++) {

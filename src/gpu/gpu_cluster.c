@@ -39,7 +39,7 @@
 #include "core/core.h"
 #include "estimators/estimator_internal.h"
 
-#ifndef PGI_HAVE_VULKAN
+#ifndef PGI__HAVE_VULKAN
 
 static pgi_status ct_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) {
     (void)g, (void)d;
@@ -57,7 +57,7 @@ static pgi_status dir_create(pgi__gpu *g, const pgi_estimator_desc *d, void **st
 
 #include "gpu/spirv.h"
 
-#define GGX_NMU PGI_GGX_NMU
+#define GGX_NMU PGI__GGX_NMU
 #define SUPER 8     /* supertile edge in tiles */
 #define ROOT 4      /* root edge in supertiles */
 #define MAX_TILE 16 /* cl_tiles sorts a tile in shared memory (256 samples) */
@@ -395,7 +395,7 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
         t3 += pgi__now_ms() - t2b;
         pgi__gpu_est_add_timings(g, es, gather_passes, &gpu_build, &gpu_gather);
         if ((st = pgi__gpu_download(g, s->counters, 6 * 4, &npairs, 4))) return st;
-        PGI_ASSERT(npairs <= s->pair_cap);
+        PGI__ASSERT(npairs <= s->pair_cap);
     }
     if ((st = pgi__gpu_buffer_reserve(g, &s->eidx, ((size_t)npairs + 1) * 4, "gpu_photon_lists")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->ranked, ((size_t)npairs + 1) * 4, "gpu_photon_lists")))
@@ -487,7 +487,7 @@ fail:
     return st;
 }
 
-#endif /* PGI_HAVE_VULKAN */
+#endif /* PGI__HAVE_VULKAN */
 
 const pgi__gpu_est_vtbl pgi__gpu_est_cluster_trivial = {
     .name = "cluster-trivial",

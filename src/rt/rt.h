@@ -1,8 +1,8 @@
 /* Ray casting. The only module that includes Embree (besides the GPU backend's BVH builder,
  * src/gpu/gpu_bvh.c, which uses Embree's rtcBuildBVH only); everything else sees
  * these few calls. */
-#ifndef PGI_RT_H
-#define PGI_RT_H
+#ifndef PGI__RT_H
+#define PGI__RT_H
 
 #include "scene/scene_internal.h"
 

@@ -46,7 +46,7 @@ static pgi__v3 sky_through(const pgi__env *env, pgi__v3 n) {
                 pgi_to_world(pgi_sample_cosine(((float)i + 0.5f) / (float)R, ((float)j + 0.5f) / (float)R), v3_neg(n));
             acc = v3_add(acc, pgi__env_eval(env, w));
         }
-    return v3_scale(acc, PGI_PI / (float)(R * R));
+    return v3_scale(acc, PGI__PI / (float)(R * R));
 }
 
 pgi_status pgi__portal_emit_init(pgi__portal_emit *e, const pgi_scene *s) {
@@ -103,7 +103,7 @@ double pgi__portal_share(const pgi_scene *s) {
     double in = 0.0, all = 0.0;
     for (size_t i = 0; i < s->nlights; i++) {
         const pgi__light *L = &s->lights[i];
-        if (L->type != PGI_LIGHT_SUN) continue;
+        if (L->type != PGI__LIGHT_SUN) continue;
         all += fmax(0.0, (double)v3_lum(v3_load(L->power)));
         in += fmax(0.0, (double)v3_lum(v3_load(L->color))) * pgi__portal_sun_area(s, v3_load(L->dir));
     }
@@ -184,7 +184,7 @@ int pgi__portal_sky_emit(const pgi__portal_emit *e, const pgi__env *env, const f
         float t;
         if (!(cn > 0.f) || !(e->w[i] > 0.0)) continue;
         if (i != k && !pgi__portal_hit(Q, x, dir, &t)) continue;
-        const double cosd = (double)cn / PGI_PI; /* the cosine's solid-angle density */
+        const double cosd = (double)cn / PGI__PI; /* the cosine's solid-angle density */
         const double pd = e->map_mix ? 0.5 * cosd + 0.5 * (double)pm : cosd;
         dens += e->w[i] * pd / ((double)Q->area * (double)cn);
     }
@@ -230,7 +230,7 @@ static int sph_rect_init(const pgi__portal *p, pgi__v3 o, sph_rect *r) {
                 g3 = acosf(fminf(fmaxf(-v3_dot(n3, n0), -1.f), 1.f));
     r->b0 = n0.z;
     r->b1 = n2.z;
-    r->k = 2.f * PGI_PI - g2 - g3;
+    r->k = 2.f * PGI__PI - g2 - g3;
     r->S = g0 + g1 - r->k;
     /* a tiny solid angle is lost to rounding (the angles' sum cancels): area sampling then */
     return isfinite(r->S) && r->S > 1e-3f;

@@ -69,7 +69,7 @@ void main() {
         const vec3 eye = fp.eye_tan.xyz;
         vec3 o = eye, d = camera_dir_at(x, y, jx, jy);
         BvhHit h;
-        bvh_trace(o, d, 0.0, PGI_INF, false, h);
+        bvh_trace(o, d, 0.0, PGIS_INF, false, h);
         rays++;
         vec3 weight = vec3(1.0), e = vec3(0.0);
         float depth_v = 0.0;
@@ -109,7 +109,7 @@ void main() {
             o = on;
             d = nd;
             rays++;
-            if (!bvh_trace(o, d, 0.0, PGI_INF, false, h)) break;
+            if (!bvh_trace(o, d, 0.0, PGIS_INF, false, h)) break;
         }
         // an eye path that leaves the scene sees the sky
         if (!found && h.prim == 0xFFFFFFFFu) e = e + weight * sky_eval(pc.scene, d);
