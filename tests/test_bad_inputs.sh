@@ -166,6 +166,34 @@ num_case emission_3e38 "objects[0].material.emission[0] = 3e+38 is out of range"
 printf '#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 2\n\200\200\200\201\200\200\200\201' >"$TMP/one.hdr"
 num_case env_scale "environment map $TMP/one.hdr: pixel (0, 0) = 1 times scale 3e+12 is out of range" \
     "{\"builtin\": \"cornell\", \"environment\": {\"map\": \"$TMP/one.hdr\", \"scale\": 3e12}}"
+# Portals (docs/scene-format.md): a bad one names the file and the portal.
+num_case portal_type "portals must be an array" '{"builtin": "window-box", "portals": {"quad": []}}'
+num_case portal_entry "portals[0] must be an object" '{"builtin": "window-box", "portals": [[0, 0, 0]]}'
+num_case portal_corners "portals[0].quad is malformed (an array of 4 corners" \
+    '{"builtin": "window-box", "portals": [{"quad": [[0, 0, 0], [1, 0, 0], [1, 1, 0]]}]}'
+num_case portal_missing "portals[1].quad is missing" \
+    '{"builtin": "window-box", "portals": [{"quad": [[-1,0.7,-0.7],[-1,1.5,-0.7],[-1,1.5,0.1],[-1,0.7,0.1]]}, {}]}'
+num_case portal_string "portals[0].quad is malformed" \
+    '{"builtin": "window-box", "portals": [{"quad": [[0, 0, 0], [1, 0, 0], [1, "1", 0], [0, 1, 0]]}]}'
+num_case portal_inf "portals[0].quad is malformed" \
+    '{"builtin": "window-box", "portals": [{"quad": [[0, 0, 1e999], [1, 0, 0], [1, 1, 0], [0, 1, 0]]}]}'
+num_case portal_far "portals[0].quad is malformed" \
+    '{"builtin": "window-box", "portals": [{"quad": [[0, 0, 1e30], [1, 0, 0], [1, 1, 0], [0, 1, 0]]}]}'
+num_case portal_line "portals[0].quad is degenerate" \
+    '{"builtin": "window-box", "portals": [{"quad": [[0, 0, 0], [1, 0, 0], [2, 0, 0], [1, 0, 0]]}]}'
+num_case portal_point "portals[0].quad is degenerate" \
+    '{"builtin": "window-box", "portals": [{"quad": [[1, 1, 1], [1, 1, 1], [1, 1, 1], [1, 1, 1]]}]}'
+num_case portal_skew "portals[0].quad is not a parallelogram" \
+    '{"builtin": "window-box", "portals": [{"quad": [[0, 0, 0], [1, 0, 0], [1.5, 1, 0], [0, 1, 0]]}]}'
+num_case portal_key "unknown key 'portals[0].corners'" \
+    '{"builtin": "window-box", "portals": [{"corners": [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]}]}'
+# --emission portal in a scene without portals: the settings are at fault (exit 2), the scene named.
+err=$(timeout 20 "$BIN" render --scene window-box --emission portal -o "$TMP/np.png" --size 16x16 -q 2>&1 >/dev/null)
+rc=$?
+if [ "$rc" -eq 2 ] && printf '%s' "$err" | grep -qF "scene 'window-box' has no portals"; then pass=$((pass + 1)); else
+    echo "FAIL photongi render --emission portal without portals: exit $rc (expected 2 and the scene): $err"
+    fail=$((fail + 1))
+fi
 # Description values the renderer refuses: exit 1 (the file), not 2 (the command line).
 num_case bounces_1000 "render.bounces must be a non-negative whole number (at most 64)" \
     '{"builtin": "cornell", "render": {"bounces": 1000}}'

@@ -520,6 +520,15 @@ static void test_refusals(void **state) {
     expect_refused(r, &e, "--output counts");
     pgi_renderer_destroy(r);
     pgi_scene_destroy(s);
+    /* portal emission: refused by name on the device (the scene has portals, so the CPU's own
+       check passes it) */
+    TU_CHECK_OK(pgi_scene_load("window-box-portals", &s));
+    TU_CHECK_OK(pgi_renderer_create(s, &r));
+    e = d;
+    e.emission = PGI_EMISSION_PORTAL;
+    expect_refused(r, &e, "--emission portal");
+    pgi_renderer_destroy(r);
+    pgi_scene_destroy(s);
 }
 
 int main(void) {

@@ -300,6 +300,8 @@ static void test_unsupported(void **state) {
     expect_refused(&d, "emission guided");
     d.emission = PGI_EMISSION_AUTO;
     expect_refused(&d, "emission auto");
+    d.emission = PGI_EMISSION_PORTAL;
+    expect_refused(&d, "emission portal");
     d.emission = PGI_EMISSION_UNIFORM;
     d.store = PGI_STORE_VIEW;
     expect_refused(&d, "store view");

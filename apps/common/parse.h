@@ -21,9 +21,9 @@ static inline int parse_choice(const char *s, const char *const *names) {
     return -1;
 }
 
-/* "uniform", "guided" or "auto" (--emission). */
+/* "uniform", "guided", "auto" or "portal" (--emission). */
 static inline int app_parse_emission(const char *s, pgi_emission *out) {
-    static const char *const names[] = {"uniform", "guided", "auto", NULL};
+    static const char *const names[] = {"uniform", "guided", "auto", "portal", NULL};
     int i = parse_choice(s, names);
     if (i >= 0) *out = (pgi_emission)i;
     return i >= 0;

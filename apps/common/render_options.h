@@ -116,7 +116,8 @@ static inline int app_render_option(const char *a, const char *v, pgi_render_des
     } else if (strcmp(a, "--store") == 0) {
         if (!app_parse_store(v, &d->store)) APP_FAIL_("--store must be all or view, got '%s'", v);
     } else if (strcmp(a, "--emission") == 0) {
-        if (!app_parse_emission(v, &d->emission)) APP_FAIL_("--emission must be uniform, guided or auto, got '%s'", v);
+        if (!app_parse_emission(v, &d->emission))
+            APP_FAIL_("--emission must be uniform, guided, auto or portal, got '%s'", v);
     } else if (strcmp(a, "--filter") == 0) {
         if (!parse_whole(v, 0, 16, &n))
             APP_FAIL_("--filter needs a radius in pixels, a whole number in 0..16, got '%s'", v);

@@ -135,6 +135,7 @@ static int cmd_info(int argc, char **argv) {
     printf("textures:   %zu\n", in.textures);
     printf("lights:     %zu (point %zu, spot %zu, sun %zu, emissive triangles %zu, sky %zu)\n", in.lights,
            in.point_lights, in.spot_lights, in.sun_lights, in.area_triangles, in.sky_lights);
+    if (in.portals) printf("portals:    %zu (openings for the sun and the sky, docs/scene-format.md)\n", in.portals);
     printf("bounds:     (%g, %g, %g) - (%g, %g, %g)\n", in.bounds_min[0], in.bounds_min[1], in.bounds_min[2],
            in.bounds_max[0], in.bounds_max[1], in.bounds_max[2]);
     printf("cameras:    %zu\n", in.cameras);

@@ -53,7 +53,7 @@ static const char *k_help =
     "                     averaged) and waits for input; 0: never (default 256)\n"
     "  --exposure X       exposure before the sRGB tone map (default: the scene's, else 1)\n"
     "  --output all|direct|indirect|counts   what to show (counts: false-colour photons per pixel)\n"
-    "  --emission uniform|guided|auto   photon emission, as 'photongi render --emission'\n"
+    "  --emission uniform|guided|auto|portal   photon emission, as 'photongi render --emission'\n"
     "                     (default uniform; docs/emission.md)\n"
     "  --store all|view   photons stored, as 'photongi render --store' (view needs --radius)\n"
     "  --time T           scene time in seconds to start at (default 0)\n"
@@ -531,7 +531,9 @@ static void command_line(const viewer *v, char *buf, size_t size) {
     if (d.bounces) ADD_(" --bounces %d", d.bounces);
     if (d.direct_samples) ADD_(" --direct-samples %d", d.direct_samples);
     if (d.emission != PGI_EMISSION_UNIFORM)
-        ADD_(" --emission %s", d.emission == PGI_EMISSION_GUIDED ? "guided" : "auto");
+        ADD_(" --emission %s", d.emission == PGI_EMISSION_GUIDED ? "guided"
+                               : d.emission == PGI_EMISSION_AUTO ? "auto"
+                                                                 : "portal");
     if (d.store == PGI_STORE_VIEW) ADD_(" --store view");
     if (d.device == PGI_DEVICE_VULKAN) ADD_(" --device vulkan");
     if (d.output != PGI_OUTPUT_ALL)

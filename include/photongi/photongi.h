@@ -87,6 +87,7 @@ typedef struct pgi_scene_info {
      * material library that is not there, animations, a second vertex colour set, glTF extensions,
      * ...; "" when nothing): for the caller to show as a warning. Valid while the scene lives. */
     const char *warnings;
+    size_t portals; /* openings marked for the sun and the sky ("portals", docs/scene-format.md) */
 } pgi_scene_info;
 
 /* Loads a scene. `spec` is a built-in name ("cornell", "giref",
@@ -144,9 +145,14 @@ typedef enum pgi_emission {
     PGI_EMISSION_GUIDED,      /* view importance: a uniform pilot of about an eighth of the photons, then
                                  photons steered towards the light paths whose photons landed where the
                                  camera looks, weighted so that the estimate stays unbiased */
-    PGI_EMISSION_AUTO         /* guided where the pilot predicts at least 1.25x the photons in view per unit
+    PGI_EMISSION_AUTO,        /* portal where the scene has portals that carry under half of the sun's and
+                                 the sky's uniform paths (pgi_emission_stats.portal_share), else guided where
+                                 the pilot predicts at least 1.25x the photons in view per unit
                                  of frame cost (pgi_emission_stats.value: fewer paths per stored photon
                                  count too), uniform elsewhere (byte-identical to PGI_EMISSION_UNIFORM then) */
+    PGI_EMISSION_PORTAL       /* the sun's and the sky's photons start on the scene's portals (windows,
+                                 docs/emission.md), weighted so that the flux through them is unbiased;
+                                 other lights as uniform. Needs --radius-policy fixed; CPU only */
 } pgi_emission;
 
 /* Which photons are stored (docs/emission.md). */
@@ -306,7 +312,8 @@ typedef struct pgi_auto_radius_stats {
     const char *why; /* one line: the quantile, a clamp, the cost cap, or the fallback (static string) */
 } pgi_auto_radius_stats;
 
-/* How photons left the lights (pgi_frame_stats.emission); all zero with uniform emission. A photon
+/* How photons left the lights (pgi_frame_stats.emission); all zero with uniform emission but `portals`
+ * (the scene's portals, on the CPU device). A photon
  * is "in view" when it lands in a cell of the view grid: cells of size `cell` holding a view sample
  * whose surface faces the same way. */
 typedef struct pgi_emission_stats {
@@ -329,6 +336,12 @@ typedef struct pgi_emission_stats {
     float cell;                      /* their size, scene units */
     double grid_ms;                  /* building the view grid(s) */
     uint64_t culled;                 /* PGI_STORE_VIEW: photons not stored (no view sample within the radius) */
+    int portal;                      /* 1: the sun's and the sky's photons left through the portals */
+    size_t portals;                  /* the scene's portals */
+    double portal_share;             /* lines through the portals per line of the sun's and the sky's uniform
+                                        emission (power-weighted): the fraction of their uniform paths
+                                        that can enter (0: no portals, no sun or sky, or emission
+                                        uniform or guided, which do not compute it) */
 } pgi_emission_stats;
 
 /* What the caller did around the frame (pgi_frame_stats.run), for statistics that reproduce a run:
@@ -398,7 +411,7 @@ typedef struct pgi_frame_stats {
     uint64_t footprint_hist[PGI_FOOTPRINT_BINS]; /* see PGI_FOOTPRINT_BINS */
     pgi_auto_radius_stats auto_radius;           /* how `radius` was chosen, when it was */
     double radius_ms;                            /* choosing it (0 when given) */
-    pgi_emission_stats emission;                 /* guided photon emission, when asked for */
+    pgi_emission_stats emission;                 /* guided or portal photon emission, when asked for */
     const char *device;          /* "cpu", or the Vulkan device's name ("llvmpipe (LLVM 15.0.6, 256 bits)"); valid while
                            the renderer lives. With a GPU: passes_ms has the device's passes ("gpu_count", ...,
                            "gpu_gather": GPU timestamps; "gpu_upload", "gpu_submit", "gpu_download": host wall

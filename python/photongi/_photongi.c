@@ -113,7 +113,7 @@ static PyObject *py_scene_info(PyObject *self, PyObject *args) {
     const pgi_scene_defaults *d = &i.defaults;
     return Py_BuildValue(
         "{s:s,s:s,s:n,s:n,s:n,s:n,s:n,s:n,s:n,s:n,s:n,s:n,s:n,s:(NN),s:n,s:N,s:{s:I,s:d,s:i,s:i,s:i,s:d},"
-        "s:d,s:n,s:d,s:s,s:n}",
+        "s:d,s:n,s:d,s:s,s:n,s:n}",
         "name", i.name, "source", i.source, "triangles", (Py_ssize_t)i.triangles, "vertices", (Py_ssize_t)i.vertices,
         "materials", (Py_ssize_t)i.materials, "textures", (Py_ssize_t)i.textures, "cutout_materials",
         (Py_ssize_t)i.cutout_materials, "lights", (Py_ssize_t)i.lights, "point_lights", (Py_ssize_t)i.point_lights,
@@ -123,7 +123,8 @@ static PyObject *py_scene_info(PyObject *self, PyObject *args) {
         d->photons, "radius", (double)d->radius, "bounces", d->bounces, "width", d->width, "height", d->height,
         "exposure", (double)d->exposure, "surface_area", i.surface_area, "animated_objects",
         (Py_ssize_t)i.animated_objects, "anim_duration", i.anim_duration, "specular",
-        i.specular == PGI_SPECULAR_PHONG ? "phong" : "ggx", "glossy_materials", (Py_ssize_t)i.glossy_materials);
+        i.specular == PGI_SPECULAR_PHONG ? "phong" : "ggx", "glossy_materials", (Py_ssize_t)i.glossy_materials,
+        "portals", (Py_ssize_t)i.portals);
 }
 
 static PyObject *py_scene_camera(PyObject *self, PyObject *args) {

@@ -36,7 +36,9 @@ pgi_status pgi__gpu_trace_check(const pgi__gpu_trace_desc *d) {
     if (d->emission != PGI_EMISSION_UNIFORM)
         return pgi__fail(PGI_ERR_UNSUPPORTED,
                          "photon tracing on the GPU: --emission %s is not supported (only uniform; use --device cpu)",
-                         d->emission == PGI_EMISSION_GUIDED ? "guided" : "auto");
+                         d->emission == PGI_EMISSION_GUIDED ? "guided"
+                         : d->emission == PGI_EMISSION_AUTO ? "auto"
+                                                            : "portal");
     if (d->store != PGI_STORE_ALL)
         return pgi__fail(PGI_ERR_UNSUPPORTED,
                          "photon tracing on the GPU: --store view is not supported (only all; use --device cpu)");

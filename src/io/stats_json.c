@@ -38,7 +38,7 @@ static double float_as_double(float f) {
 /* The names of the settings' enums, as the command line spells them. */
 static const char *const k_outputs[] = {"all", "indirect", "direct", "counts"};
 static const char *const k_jitters[] = {"auto", "off", "on"};
-static const char *const k_emissions[] = {"uniform", "guided", "auto"};
+static const char *const k_emissions[] = {"uniform", "guided", "auto", "portal"};
 static const char *const k_policies[] = {"fixed", "path", "differentials"};
 
 /* names[i] of the n names, else `otherwise`. */
@@ -70,7 +70,7 @@ static int add_settings(cJSON *root, const pgi_frame_stats *st) {
     PGI__SET("direct-samples", "%d", d->direct_samples);
     PGI__SET("output", "%s", name_of(k_outputs, 4, (int)d->output, "all"));
     PGI__SET("jitter", "%s", name_of(k_jitters, 3, (int)d->jitter, "auto"));
-    PGI__SET("emission", "%s", name_of(k_emissions, 3, (int)d->emission, "uniform"));
+    PGI__SET("emission", "%s", name_of(k_emissions, 4, (int)d->emission, "uniform"));
     PGI__SET("store", "%s", d->store == PGI_STORE_VIEW ? "view" : "all");
     PGI__SET("radius-policy", "%s", name_of(k_policies, 3, d->radius_policy, "fixed"));
     if (d->radius_policy != PGI_RADIUS_FIXED) {
@@ -216,7 +216,7 @@ static cJSON *build(const pgi_frame_stats *st) {
     ok &= add_num(root, "rt_update_ms", st->rt_update_ms);
     ok &= cJSON_AddStringToObject(root, "radius_policy", name_of(k_policies, 3, st->radius_policy, "?")) != NULL;
     ok &= cJSON_AddStringToObject(root, "jitter", name_of(k_jitters, 3, (int)st->settings.jitter, "?")) != NULL;
-    ok &= cJSON_AddStringToObject(root, "emission", name_of(k_emissions, 3, (int)st->settings.emission, "?")) != NULL;
+    ok &= cJSON_AddStringToObject(root, "emission", name_of(k_emissions, 4, (int)st->settings.emission, "?")) != NULL;
     ok &= cJSON_AddStringToObject(root, "store", st->settings.store == PGI_STORE_VIEW ? "view" : "all") != NULL;
     if (st->emission.bins > 0 || st->settings.store == PGI_STORE_VIEW) {
         const pgi_emission_stats *es = &st->emission;
@@ -248,6 +248,15 @@ static cJSON *build(const pgi_frame_stats *st) {
             ok &= add_num(o, "filter_passes", ts->filter_passes);
             ok &= add_num(o, "reproject_ms", ts->reproject_ms);
             ok &= add_num(o, "filter_ms", ts->filter_ms);
+        }
+    }
+    if (st->emission.portals > 0) {
+        const pgi_emission_stats *es = &st->emission;
+        ok &= (o = cJSON_AddObjectToObject(root, "emission_portals")) != NULL;
+        if (o) {
+            ok &= cJSON_AddBoolToObject(o, "portal", es->portal) != NULL;
+            ok &= add_num(o, "portals", (double)es->portals);
+            ok &= add_num(o, "share", es->portal_share);
         }
     }
     if (st->leaf_size > 0) ok &= add_num(root, "bvh_leaf_size", (double)st->leaf_size);

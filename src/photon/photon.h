@@ -86,6 +86,9 @@ typedef struct pgi__trace_desc {
     const struct pgi__view_grid *vgrid;
     const struct pgi__view_grid *near; /* non-NULL: store only photons in its cells (PGI_STORE_VIEW) */
     double min_gain;
+    /* portal emission (scene/portal.h): the sun's and the sky's photons start on the scene's
+       portals (needs portals; no guide, a fixed radius) */
+    int portals;
 } pgi__trace_desc;
 
 /* Fills `ph` (capacity >= photons) with exactly `photons` photons, unless the

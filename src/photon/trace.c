@@ -22,6 +22,7 @@
 #include "radius.h"
 #include "trace_simd.h"
 #include "scene/bsdf.h"
+#include "scene/portal.h"
 
 #include <stdint.h>
 #include <sys/mman.h>
@@ -96,6 +97,9 @@ typedef struct tracer {
     const pgi__view_grid *near; /* store only photons in its cells (NULL: all) */
     int fast_sincos;            /* pgi__trace_sincos_fast: a wave's azimuths together */
     int lambert_simd;           /* pgi__trace_lambert_avx2 is there (pgi__cpu_avx2) */
+    /* portal emission (scene/portal.h): NULL, or the sky's table; the sun and the sky start on
+       the portals */
+    const pgi__portal_emit *PE;
 } tracer;
 
 typedef struct lane {
@@ -204,12 +208,29 @@ static int emit_place(const tracer *T, const pgi__light *L, float pl, const floa
     case PGI__LIGHT_SPOT: emit_place_point(T, L, pl, u, cs, l); return 1;
     case PGI__LIGHT_SUN: {
         l->d = v3_load(L->dir);
+        if (T->PE) {
+            /* a point of a portal picked by its area across the beam: flux E A_perp / (portals
+               the line crosses) / the pick probability (portal.h) */
+            float wgt;
+            if (!pgi__portal_sun_emit(T->s, l->d, pgi_rng_f(&l->rng), u1, u2, T->centre, T->radius, &l->o, &wgt))
+                return 0;
+            l->flux = v3_scale(v3_load(L->color), wgt / pl);
+            break;
+        }
         float r = T->radius * sqrtf(u1), phi = 2.f * PGI__PI * u2;
         pgi__v3 disk = pgi_to_world(v3(r * cosf(phi), r * sinf(phi), 0.f), l->d);
         l->o = v3_add(v3_sub(T->centre, v3_scale(l->d, 1.01f * T->radius)), disk);
         break;
     }
     case PGI__LIGHT_ENV: {
+        if (T->PE) {
+            /* a line through a portal (portal.h): its radiance over the line's density */
+            const float up[5] = {pgi_rng_f(&l->rng), u1, u2, u3, u4};
+            pgi__v3 f;
+            if (!pgi__portal_sky_emit(T->PE, T->s->env, up, T->centre, T->radius, &l->o, &l->d, &f)) return 0;
+            l->flux = v3_scale(f, 1.f / pl);
+            break;
+        }
         /* A direction w by the sky's density, then a uniform point of the disk of radius R
          * perpendicular to w outside the bounding sphere, travelling along -w: flux
          * L(w) pi R^2 / pdf(w) (the light's power pi R^2 int L dw when pdf is proportional to L). */
@@ -1148,13 +1169,31 @@ static pgi_status trace_photons(const pgi_scene *s, const pgi__rt *rt, const pgi
     float *cdf = malloc((nl ? nl : 1) * sizeof *cdf);
     if (!cdf) return pgi__fail(PGI_ERR_OOM, "out of memory for the light table");
     double total = 0.0;
+    pgi__portal_emit pe = {0};
+    if (d->portals) {
+        if (d->guide) {
+            free(cdf);
+            return pgi__fail(PGI_ERR_INVALID_ARG, "%s", "portal emission is not combined with guided emission");
+        }
+        pgi_status ps = pgi__portal_emit_init(&pe, s);
+        if (ps) {
+            free(cdf);
+            return ps;
+        }
+    }
     for (size_t i = 0; i < nl; i++) {
         const pgi__light *L = i < s->nlights ? &s->lights[i] : &s->env->light;
-        total += fmax(0.0, (double)v3_lum(v3_load(L->power)));
+        double p = fmax(0.0, (double)v3_lum(v3_load(L->power)));
+        /* portal emission: the sun's and the sky's power through the portals */
+        if (d->portals && L->type == PGI__LIGHT_SUN)
+            p = fmax(0.0, (double)v3_lum(v3_load(L->color))) * pgi__portal_sun_area(s, v3_load(L->dir));
+        else if (d->portals && L->type == PGI__LIGHT_ENV) p = pe.sky_lum;
+        total += p;
         cdf[i] = (float)total;
     }
     if (!(total > 0.0)) {
         free(cdf);
+        pgi__portal_emit_free(&pe);
         return PGI_OK; /* no light: no photons; the image is black but valid */
     }
     /* The share of the power that leaves point and spot lights sizes the room for their paths'
@@ -1188,11 +1227,13 @@ static pgi_status trace_photons(const pgi_scene *s, const pgi__rt *rt, const pgi
                 NULL,
                 d->near,
                 0,
-                0};
+                0,
+                d->portals ? &pe : NULL};
     const int nt = pgi__threads(d->threads);
     pgi_status ts = pgi__trace_tris_update(sc, s, nt);
     if (ts) {
         free(cdf);
+        pgi__portal_emit_free(&pe);
         return ts;
     }
     T.tris = sc->tris;
@@ -1486,6 +1527,7 @@ static pgi_status trace_photons(const pgi_scene *s, const pgi__rt *rt, const pgi
         }
     }
     free(cdf);
+    pgi__portal_emit_free(&pe);
     *rays_out = rays;
     sc->paths_traced = traced;
     if (st) return st;

@@ -12,6 +12,7 @@
 #include "photon/auto_radius.h"
 #include "photon/guide.h"
 #include "photon/photon.h"
+#include "scene/portal.h"
 #include "pipeline/pipeline.h"
 #include "view/view.h"
 #include "filter/bilateral.h"
@@ -142,7 +143,9 @@ static pgi_status mem_plan(pgi_renderer *r, const pgi_render_desc *d, const pgi_
         {"trace_scratch", trace_triangle_bytes(r->scene->ntris), 0},
         {"trace_scratch",
          trace_prepass_bytes(r->scene, np, d->radius_policy != PGI_RADIUS_FIXED, pgi__threads(d->threads)), 1},
-        {"emission_guide", d->emission != PGI_EMISSION_UNIFORM ? np * sizeof(uint16_t) : 0, 1}, /* a bin a photon */
+        {"emission_guide",
+         d->emission == PGI_EMISSION_GUIDED || d->emission == PGI_EMISSION_AUTO ? np * sizeof(uint16_t) : 0,
+         1}, /* a bin a photon (portal emission has no guide) */
         {est, np * per_photon, 1},
     };
     return pgi__mem_plan_check(it, (int)(sizeof it / sizeof it[0]), d->max_memory, np);
@@ -342,8 +345,17 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
     if (d->jitter < PGI_JITTER_AUTO || d->jitter > PGI_JITTER_ON)
         return pgi__fail(PGI_ERR_INVALID_ARG, "unknown jitter mode %d", (int)d->jitter);
     if (d->jitter == PGI_JITTER_AUTO) d->jitter = PGI_JITTER_OFF; /* one frame: pixel centres */
-    if (d->emission < PGI_EMISSION_UNIFORM || d->emission > PGI_EMISSION_AUTO)
+    if (d->emission < PGI_EMISSION_UNIFORM || d->emission > PGI_EMISSION_PORTAL)
         return pgi__fail(PGI_ERR_INVALID_ARG, "unknown emission mode %d", (int)d->emission);
+    if (d->emission == PGI_EMISSION_PORTAL && !s->nportals)
+        return pgi__fail(PGI_ERR_INVALID_ARG,
+                         "--emission portal: scene '%s' has no portals (mark its windows with \"portals\" in its "
+                         "description, docs/scene-format.md)",
+                         s->name);
+    if (d->emission == PGI_EMISSION_PORTAL && d->radius_policy != PGI_RADIUS_FIXED)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "%s",
+                         "--emission portal needs --radius-policy fixed (the footprint policies size a photon from "
+                         "the sun's and the sky's disk)");
     if (d->store < PGI_STORE_ALL || d->store > PGI_STORE_VIEW)
         return pgi__fail(PGI_ERR_INVALID_ARG, "unknown store mode %d", (int)d->store);
     if (d->store == PGI_STORE_VIEW && d->radius == PGI_RADIUS_AUTO)
@@ -491,8 +503,10 @@ static pgi_status ensure_gpu(pgi_renderer *r, const pgi_render_desc *d, int *cre
                          "--radius-policy %s is not supported on the GPU device (use --device cpu)",
                          d->radius_policy == PGI_RADIUS_PATH ? "path" : "differentials");
     if (d->emission != PGI_EMISSION_UNIFORM)
-        return pgi__fail(PGI_ERR_UNSUPPORTED, "%s",
-                         "--emission guided/auto is not supported on the GPU device (use --device cpu)");
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "--emission %s is not supported on the GPU device (use --device cpu)",
+                         d->emission == PGI_EMISSION_GUIDED ? "guided"
+                         : d->emission == PGI_EMISSION_AUTO ? "auto"
+                                                            : "portal");
     if (d->store == PGI_STORE_VIEW)
         return pgi__fail(PGI_ERR_UNSUPPORTED, "%s",
                          "--store view is not supported on the GPU device (use --device cpu)");
@@ -576,7 +590,17 @@ static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, uint64_t se
         td.progress = report_trace;
         td.progress_ctx = (void *)pc;
     }
-    if (d->emission != PGI_EMISSION_UNIFORM) {
+    /* Portal emission: asked for, or `auto` in a scene whose portals carry under half of the sun's
+       and the sky's uniform paths (the others store nothing inside) */
+    fs->emission.portals = s->nportals;
+    if (s->nportals && d->emission != PGI_EMISSION_UNIFORM && d->emission != PGI_EMISSION_GUIDED)
+        fs->emission.portal_share = pgi__portal_share(s);
+    const int portals = d->emission == PGI_EMISSION_PORTAL ||
+                        (d->emission == PGI_EMISSION_AUTO && s->nportals && d->radius_policy == PGI_RADIUS_FIXED &&
+                         fs->emission.portal_share > 0.0 && fs->emission.portal_share < PGI__PORTAL_AUTO_SHARE);
+    td.portals = portals;
+    fs->emission.portal = portals;
+    if (d->emission != PGI_EMISSION_UNIFORM && !portals) {
         /* the cells the camera sees: the radius when it is known now, else 1/256 of the diagonal */
         const float diag = pgi__scene_diagonal(s);
         float h = d->radius > 0.f ? d->radius : diag / 256.f;

@@ -36,6 +36,7 @@ void pgi_scene_destroy(pgi_scene *s) {
     free(s->texs);
     free(s->lights);
     pgi__env_destroy(s->env);
+    free(s->portals);
     free(s->cams);
     free(s->cam_names);
     free(s->meshes);
@@ -392,6 +393,7 @@ void pgi_scene_get_info(const pgi_scene *s, pgi_scene_info *o) {
         }
     }
     o->sky_lights = s->env ? 1 : 0;
+    o->portals = s->nportals;
     o->lights += o->sky_lights;
     memcpy(o->bounds_min, s->bmin, sizeof o->bounds_min);
     memcpy(o->bounds_max, s->bmax, sizeof o->bounds_max);

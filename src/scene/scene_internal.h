@@ -143,6 +143,20 @@ static inline pgi__v3 pgi__env_sample_direct_in(const pgi__env *e, const pgi__en
     return w;
 }
 
+/* A portal (docs/scene-format.md, "portals"): a parallelogram o + a e1 + b e2 (a, b in [0, 1])
+ * through which the sun and the sky reach the inside of the scene (a window, a skylight). Light
+ * crosses it along n = unit(e1 x e2), which points into the interior. Photon emission through
+ * portals (--emission portal) and the sky's direct light (portal samples, MIS with the cosine
+ * ones) use them; without portals neither changes. */
+typedef struct pgi__portal {
+    float o[3], e1[3], e2[3];
+    float n[3]; /* unit, into the interior */
+    float area; /* |e1 x e2| */
+    float centre[3];
+    float d1[3], d2[3]; /* dual vectors: a = (x - o) . d1, b = (x - o) . d2 for x in its plane */
+    int rect;           /* e1 and e2 at right angles: direct light samples its solid angle (portal.c) */
+} pgi__portal;
+
 struct pgi_scene {
     char name[128];
     char source[1024];
@@ -161,7 +175,9 @@ struct pgi_scene {
     size_t ntexs;
     pgi__light *lights;
     size_t nlights;
-    pgi__env *env; /* the sky / environment map, or NULL */
+    pgi__env *env;        /* the sky / environment map, or NULL */
+    pgi__portal *portals; /* openings the sun and the sky come in through (NULL: none) */
+    size_t nportals;
     pgi_camera_def *cams;
     size_t ncams;
     int cams_auto;         /* 1: cams[0] was placed by pgi__scene_finalize (the scene gave none) */

@@ -36,6 +36,7 @@
  * with '_' and "comment", "description", "credit", "license", "source",
  * which are ignored. Every error message names the JSON file and the key. */
 #include "scene_internal.h"
+#include "portal.h"
 
 #include <cJSON.h>
 #include <errno.h>
@@ -629,11 +630,65 @@ static pgi_status parse_sky(const char *path, const cJSON *jsky, const cJSON *je
     return PGI_OK;
 }
 
+/* "portals": [{"quad": [[x, y, z] x 4]}, ...]: parallelograms through which the sun and the sky
+ * come in (portal.h). */
+static pgi_status parse_portals(const char *path, const cJSON *j, pgi_scene *s) {
+    if (!cJSON_IsArray(j))
+        return pgi__fail(PGI_ERR_PARSE, "%s: portals must be an array of {\"quad\": [4 corners]}", path);
+    const int n = cJSON_GetArraySize(j);
+    if (n > PGI__MAX_PORTALS)
+        return pgi__fail(PGI_ERR_PARSE, "%s: portals has %d entries, more than %d", path, n, PGI__MAX_PORTALS);
+    if (!n) return PGI_OK;
+    pgi__portal *P = calloc((size_t)n, sizeof *P);
+    if (!P) return pgi__fail(PGI_ERR_OOM, "%s: out of memory", path);
+    static const char *const keys[] = {"quad", NULL};
+    pgi_status st = PGI_OK;
+    char where[64];
+    int i = 0;
+    for (const cJSON *it = j->child; !st && it; it = it->next, i++) {
+        snprintf(where, sizeof where, "portals[%d]", i);
+        if (!cJSON_IsObject(it)) {
+            st = pgi__fail(PGI_ERR_PARSE, "%s: %s must be an object {\"quad\": [4 corners]}", path, where);
+            break;
+        }
+        if ((st = check_keys(path, it, where, keys))) break;
+        const cJSON *q = cJSON_GetObjectItemCaseSensitive(it, "quad");
+        float v[4][3];
+        int ok = cJSON_IsArray(q) && cJSON_GetArraySize(q) == 4;
+        const cJSON *c = ok ? q->child : NULL;
+        for (int k = 0; ok && k < 4; k++, c = c->next) {
+            ok = cJSON_IsArray(c) && cJSON_GetArraySize(c) == 3;
+            const cJSON *e = ok ? c->child : NULL;
+            for (int a = 0; ok && a < 3; a++, e = e->next) {
+                ok = cJSON_IsNumber(e) && isfinite(e->valuedouble) && fabs(e->valuedouble) <= (double)PGI_MAX_COORD;
+                if (ok) v[k][a] = (float)e->valuedouble;
+            }
+        }
+        if (!ok) {
+            st = pgi__fail(PGI_ERR_PARSE,
+                           "%s: %s.quad %s (an array of 4 corners [x, y, z] of finite numbers of magnitude at most "
+                           "%g)",
+                           path, where, q ? "is malformed" : "is missing", (double)PGI_MAX_COORD);
+            break;
+        }
+        const char *why = pgi__portal_from_quad(&P[i], (const float(*)[3])v);
+        if (why) st = pgi__fail(PGI_ERR_PARSE, "%s: %s.quad %s", path, where, why);
+    }
+    if (st) {
+        free(P);
+        return st;
+    }
+    free(s->portals);
+    s->portals = P;
+    s->nportals = (size_t)n;
+    return PGI_OK;
+}
+
 /* ------------------------------------------------------------ loading */
 
 static pgi_status load(const char *path, const cJSON *root, pgi_scene **out) {
-    static const char *const keys[] = {"name",    "mesh",    "camera",   "cameras", "lights",      "render", "builtin",
-                                       "objects", "animate", "specular", "sky",     "environment", NULL};
+    static const char *const keys[] = {"name",    "mesh",    "camera",   "cameras", "lights",      "render",  "builtin",
+                                       "objects", "animate", "specular", "sky",     "environment", "portals", NULL};
     if (!cJSON_IsObject(root)) return pgi__fail(PGI_ERR_PARSE, "%s: the top level must be a JSON object", path);
     pgi_status st = check_keys(path, root, "", keys);
     if (st) return st;
@@ -758,6 +813,8 @@ static pgi_status load(const char *path, const cJSON *root, pgi_scene **out) {
     const cJSON *jsky = cJSON_GetObjectItemCaseSensitive(root, "sky");
     const cJSON *jenv = cJSON_GetObjectItemCaseSensitive(root, "environment");
     if (!st && (jsky || jenv)) st = parse_sky(path, jsky, jenv, s);
+    const cJSON *jportals = cJSON_GetObjectItemCaseSensitive(root, "portals");
+    if (!st && jportals) st = parse_portals(path, jportals, s);
     if (!st && jbuiltin) {
         /* Settings the description leaves out come from the built-in scene. */
         pgi_scene_defaults *d = &s->defaults;

@@ -17,6 +17,7 @@
 
 #include "photon/photon.h"
 #include "scene/bsdf.h"
+#include "scene/portal.h"
 
 #define PGI__MAX_SPECULAR_DEPTH 8
 
@@ -930,6 +931,89 @@ static void env_direct(const pgi__env *env, const pgi__rt *rt, dtile *t, const p
         if (t->on[k]) L[k] = v3_add(L[k], v3_scale(Le[k], 1.f / (float)n));
 }
 
+/* env_direct in a scene with portals (scene/portal.h): of the n directions a lane, n - n/2 come
+ * from the sky's own sampler (the cosine; for a map its mixture) and n/2 from the portals (a
+ * uniform point of a portal picked by its solid angle seen from the lane), combined by the
+ * balance heuristic over both (each sample weighted by 1 / (n_a p_a + n_b p_b)): the same
+ * expected value, with far fewer shadow rays into the walls around a window. A lane that sees
+ * no portal's inside takes all n from the sky's sampler, as env_direct. */
+static void env_direct_portals(const pgi__env *env, const pgi__portal *P, size_t np, const pgi__rt *rt, dtile *t,
+                               const pgi_view_samples *vs, int n, uint64_t seed, pgi__v3 L[16], uint64_t *rays) {
+    pgi__rng rng[16];
+    pgi__env_frame fr[16];
+    float pw[16][2 * PGI__MAX_PORTALS]; /* pick probabilities and solid angles (pgi__portal_direct_weights) */
+    pgi__portal_sph cache[16][PGI__PORTAL_CACHE];
+    int na[16], nb[16];
+    pgi__v3 Le[16], org[PGI__RT_STREAM_MAX], wi[PGI__RT_STREAM_MAX], w[PGI__RT_STREAM_MAX];
+    float tmax[PGI__RT_STREAM_MAX];
+    int occ[PGI__RT_STREAM_MAX];
+    unsigned char lane[PGI__RT_STREAM_MAX];
+    for (int k = 0; k < 16; k++) {
+        Le[k] = v3(0.f, 0.f, 0.f);
+        if (!t->on[k]) continue;
+        pgi_rng_seed(&rng[k], seed ^ 0x736b79ULL, (uint64_t)t->pix[k]);
+        pgi__env_frame_init(&fr[k], tile_ns(t, k));
+        const float sum = pgi__portal_direct_weights(P, np, tile_x(t, k), tile_ns(t, k), pw[k], cache[k]);
+        nb[k] = sum > 0.f ? n / 2 : 0;
+        na[k] = n - nb[k];
+    }
+    /* The MIS weights are needed only where the shadow ray escapes (most of the cosine samples
+     * hit the walls): a ray's strategy, and for the sky's sampler its pdf and radiance, wait for
+     * the occlusion test. */
+    float pa_ray[PGI__RT_STREAM_MAX];
+    unsigned char portal_ray[PGI__RT_STREAM_MAX];
+    for (int j0 = 0; j0 < n; j0 += ENV_RUN) {
+        const int j1 = n - j0 < ENV_RUN ? n : j0 + ENV_RUN;
+        size_t m = 0;
+        for (int j = j0; j < j1; j++)
+            for (int k = 0; k < 16; k++) {
+                if (!t->on[k]) continue;
+                const pgi__v3 x = tile_x(t, k), ns = tile_ns(t, k);
+                pgi__v3 le = v3(0.f, 0.f, 0.f), d;
+                float pa = 0.f;
+                const int portal = j >= na[k];
+                if (!portal) { /* the sky's sampler */
+                    float u1 = ((float)j + pgi_rng_f(&rng[k])) / (float)na[k], u2 = pgi_rng_f(&rng[k]);
+                    d = pgi__env_sample_direct_in(env, &fr[k], u1, u2, &pa, &le);
+                    if (!(pa > 0.f)) continue;
+                } else { /* a portal */
+                    float u0 = ((float)(j - na[k]) + pgi_rng_f(&rng[k])) / (float)nb[k];
+                    float u1 = pgi_rng_f(&rng[k]), u2 = pgi_rng_f(&rng[k]);
+                    if (!pgi__portal_direct_sample(P, np, pw[k], cache[k], x, u0, u1, u2, &d)) continue;
+                }
+                if (!(v3_dot(ns, d) > 0.f) || !(v3_dot(tile_ng(t, k), d) > 0.f)) continue;
+                w[m] = le;
+                pa_ray[m] = pa;
+                portal_ray[m] = (unsigned char)portal;
+                wi[m] = d;
+                org[m] = x;
+                tmax[m] = INFINITY;
+                lane[m++] = (unsigned char)k;
+            }
+        if (!m) continue;
+        *rays += (uint64_t)m;
+        pgi__rt_occluded1M(rt, m, org, wi, tmax, occ);
+        for (size_t i = 0; i < m; i++) {
+            if (occ[i]) continue;
+            const int k = lane[i];
+            const pgi__v3 d = wi[i], ns = tile_ns(t, k);
+            const float pb = nb[k] ? pgi__portal_direct_pdf(P, np, pw[k], org[i], d) : 0.f;
+            float pa = pa_ray[i];
+            pgi__v3 le = w[i];
+            if (portal_ray[i]) {
+                if (!(pb > 0.f)) continue; /* lost to rounding at a portal's edge */
+                pa = pgi__env_pdf_direct(env, ns, d);
+                le = pgi__env_eval(env, d);
+            }
+            const float den = (float)na[k] * pa + (float)nb[k] * pb;
+            if (!(den > 0.f) || !isfinite(den)) continue;
+            Le[k] = v3_add(Le[k], v3_mul(tile_brdf(t, vs, k, d), v3_scale(le, v3_dot(ns, d) / den)));
+        }
+    }
+    for (int k = 0; k < 16; k++)
+        if (t->on[k]) L[k] = v3_add(L[k], Le[k]);
+}
+
 void pgi__area_table_free(pgi__area_table *t) {
     free(t->cdf);
     free(t->start);
@@ -1298,7 +1382,9 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
             if (s->env && area_samples > 0) {
                 for (int k = 0; k < 16; k++)
                     if (t.on[k]) PREFETCH_SHADING(vs, &t, k);
-                env_direct(s->env, rt, &t, vs, area_samples, seed, L, &rays);
+                if (s->nportals)
+                    env_direct_portals(s->env, s->portals, s->nportals, rt, &t, vs, area_samples, seed, L, &rays);
+                else env_direct(s->env, rt, &t, vs, area_samples, seed, L, &rays);
             }
             for (int k = 0; k < 16; k++)
                 if (t.on[k])
