@@ -11,7 +11,7 @@ FUZZ_SECONDS ?= 60
 TSAN_TESTS ?= test_trace test_determinism test_progressive test_estimators test_dynamic test_cluster \
 	test_reference test_kdtree_bounds_kernels test_auto_radius test_sky test_cutout test_pixel_sampling \
 	test_analytic test_plastic test_bvh test_differentials test_scene test_ray_log test_emission test_memory \
-	test_cancel
+	test_cancel test_temporal
 empty :=
 space := $(empty) $(empty)
 
