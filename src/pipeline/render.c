@@ -342,6 +342,14 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
     if (d->jitter < PGI_JITTER_AUTO || d->jitter > PGI_JITTER_ON)
         return pgi__fail(PGI_ERR_INVALID_ARG, "unknown jitter mode %d", (int)d->jitter);
     if (d->jitter == PGI_JITTER_AUTO) d->jitter = PGI_JITTER_OFF; /* one frame: pixel centres */
+    if (d->texture_filter < PGI_TEXTURE_FILTER_AUTO || d->texture_filter > PGI_TEXTURE_FILTER_ON)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "unknown texture filter %d", (int)d->texture_filter);
+    if (d->texture_filter == PGI_TEXTURE_FILTER_ON && d->device == PGI_DEVICE_VULKAN)
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "--texture-filter on is CPU only (the Vulkan view kernel reads "
+                                              "mip level 0; docs/design.md \"Textures\")");
+    if (d->texture_filter == PGI_TEXTURE_FILTER_AUTO)
+        d->texture_filter = d->jitter == PGI_JITTER_OFF && d->device != PGI_DEVICE_VULKAN ? PGI_TEXTURE_FILTER_ON
+                                                                                          : PGI_TEXTURE_FILTER_OFF;
     if (d->emission < PGI_EMISSION_UNIFORM || d->emission > PGI_EMISSION_AUTO)
         return pgi__fail(PGI_ERR_INVALID_ARG, "unknown emission mode %d", (int)d->emission);
     if (d->store < PGI_STORE_ALL || d->store > PGI_STORE_VIEW)
@@ -556,7 +564,8 @@ static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, uint64_t se
     const pgi__subpixel sp = {.jitter = d->jitter == PGI_JITTER_ON,
                               .seed = seq_seed,
                               .index = index,
-                              .shift = {d->shift[0], d->shift[1]}};
+                              .shift = {d->shift[0], d->shift[1]},
+                              .tex_filter = d->texture_filter == PGI_TEXTURE_FILTER_ON};
     if ((st = pgi__view_build(s, r->rt, &r->trace_scratch, &r->cam, d->seed, &sp, d->threads, &r->vs, r->emit, &r->fill,
                               &fs->primary_rays)))
         return st;
