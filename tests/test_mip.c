@@ -164,7 +164,8 @@ static void view(const pgi_scene *s, int W, int H, int filter, pgi_view_samples 
 
 /* A noise texture of N x N on a plane of side L seen from distance D at angle theta to its normal
  * (fov 60 degrees, H x H pixels, H odd: the centre pixel's ray hits the plane's centre): lambda =
- * log2(N / L) + log2(spread D / cos theta), spread = 2 tan(30 deg) / H (a pixel's angle). The
+ * log2(N / L) + log2(spread D / cos theta) - log2(sqrt(3)) (PGI__TEXTURE_LOD_BIAS), spread =
+ * 2 tan(30 deg) / H (a pixel's angle). The
  * triangle's record holds log2(1 / L); the centre sample's albedo is the trilinear lookup at the
  * analytic lambda (the noise's levels all differ, so a quarter of a level off shows); with the
  * filter off it is level 0's. Through a flat mirror the distance is the path's length. */
@@ -196,7 +197,7 @@ static void check_lod(float theta_deg, int mirror) {
 
     const double spread = 2.0 * tan(30.0 * PI_D / 180.0) / H;
     const double cosine = mirror ? 1.0 : cos(theta_deg * PI_D / 180.0);
-    const double lambda = log2((double)N / L) + log2(spread * path / cosine);
+    const double lambda = log2((double)N / L) + log2(spread * path / cosine) - 0.5 * log2(3.0);
     const float got = pgi__texture_cone_lod(t, tri_lod, (float)(spread * path), (float)cosine);
     assert_true(fabs(got - lambda) < 1e-4);
 
@@ -237,22 +238,22 @@ static void check_lod(float theta_deg, int mirror) {
 
 static void test_lod_head_on(void **state) {
     (void)state;
-    check_lod(0.f, 0); /* lambda = 7 + log2(0.0178 * 4) = 3.19 */
+    check_lod(0.f, 0); /* lambda = 7 + log2(0.0178 * 4) - 0.79 = 2.39 */
 }
 
 static void test_lod_oblique(void **state) {
     (void)state;
-    check_lod(60.f, 0); /* lambda = 7 + log2(0.0178 * 8) = 4.19 */
+    check_lod(60.f, 0); /* lambda = 7 + log2(0.0178 * 8) - 0.79 = 3.39 */
 }
 
 static void test_lod_grazing(void **state) {
     (void)state;
-    check_lod(80.f, 0); /* lambda = 7 + log2(0.0178 * 23.0) = 5.71 */
+    check_lod(80.f, 0); /* lambda = 7 + log2(0.0178 * 23.0) - 0.79 = 4.92 */
 }
 
 static void test_lod_mirror(void **state) {
     (void)state;
-    check_lod(0.f, 1); /* lambda = 7 + log2(0.0178 * 5) = 3.51 */
+    check_lod(0.f, 1); /* lambda = 7 + log2(0.0178 * 5) - 0.79 = 2.71 */
 }
 
 int main(void) {
