@@ -220,12 +220,59 @@ typedef struct tex_cone {
 static inline float cone_width(const tex_cone *tc, float width, float t) { return width + tc->spread * t; }
 
 /* Texture colour of sf (its material textured, tc->on) at triangle prim's (u, v) for a cone of
- * `width` along unit direction d. */
+ * `width` along unit direction d. The cone meets the surface in an ellipse, `width` across and
+ * width / |cos| along the direction's projection (anisotropic ray cones: Akenine-Moller et al.
+ * 2021, "Improved Shader and Texture Level of Detail Using Ray Cones", JCGT 10(1)); both axes
+ * are mapped into texels through the triangle's uv Jacobian. N = ceil(major / minor) probes
+ * (at most PGI__TEXTURE_ANISO_MAX) spaced evenly along the major axis, each trilinear at the level
+ * of major / N (about the minor axis; with PGI__TEXTURE_LOD_BIAS), are averaged, as a GPU's
+ * anisotropic filter does. A degenerate mapping, or a cone along the normal within 1e-4, takes
+ * the isotropic level of pgi__texture_cone_lod. */
+#define PGI__TEXTURE_ANISO_MAX 16
 static pgi__v3 cone_lookup(const pgi_scene *s, const tex_cone *tc, const pgi__surface *sf, uint32_t prim, float width,
                            pgi__v3 d) {
     const pgi__texture *t = &s->texs[sf->mat->tex_kd];
-    const float lod = pgi__texture_cone_lod(t, tc->tri_uv[PGI__TRI_UV * (size_t)prim + 6], width, v3_dot(d, sf->ng));
-    return pgi__texture_lookup_lod(t, sf->u, sf->v, lod);
+    const float *q = tc->tri_uv + PGI__TRI_UV * (size_t)prim;
+    const float cosine = v3_dot(d, sf->ng);
+    const uint32_t *tri = s->tri + 3 * (size_t)prim;
+    const pgi__v3 p0 = pgi__scene_vertex(s, tri[0]);
+    const pgi__v3 e1 = v3_sub(pgi__scene_vertex(s, tri[1]), p0), e2 = v3_sub(pgi__scene_vertex(s, tri[2]), p0);
+    const float g11 = v3_dot(e1, e1), g12 = v3_dot(e1, e2), g22 = v3_dot(e2, e2);
+    const float det = g11 * g22 - g12 * g12;
+    pgi__v3 t1 = v3_sub(d, v3_scale(sf->ng, cosine));
+    const float s1 = v3_len(t1);
+    if (!(det > 0.f) || !(s1 > 1e-4f) || !(fabsf(cosine) > 0.f) || !(width > 0.f))
+        return pgi__texture_lookup_lod(t, sf->u, sf->v, pgi__texture_cone_lod(t, q[6], width, cosine));
+    t1 = v3_scale(t1, 1.f / s1);
+    const pgi__v3 t2 = v3_cross(sf->ng, t1);
+    const float du1 = q[2] - q[0], dv1 = q[3] - q[1], du2 = q[4] - q[0], dv2 = q[5] - q[1];
+    const float W = (float)t->width, H = (float)t->height;
+    float uv[2][2]; /* the axes in uv: [0] major (along t1), [1] minor */
+    float len[2];   /* ... in texels */
+    const pgi__v3 ax[2] = {v3_scale(t1, width / fabsf(cosine)), v3_scale(t2, width)};
+    for (int k = 0; k < 2; k++) {
+        const float r1 = v3_dot(ax[k], e1), r2 = v3_dot(ax[k], e2);
+        const float a = (g22 * r1 - g12 * r2) / det, b = (g11 * r2 - g12 * r1) / det;
+        uv[k][0] = a * du1 + b * du2;
+        uv[k][1] = a * dv1 + b * dv2;
+        len[k] = sqrtf((uv[k][0] * W) * (uv[k][0] * W) + (uv[k][1] * H) * (uv[k][1] * H));
+    }
+    const int M = len[0] >= len[1] ? 0 : 1; /* a skewed mapping may stretch the minor axis more */
+    const float major = len[M], minor = len[1 - M];
+    if (!(minor > 0.f) || !(major < INFINITY))
+        return pgi__texture_lookup_lod(t, sf->u, sf->v, pgi__texture_cone_lod(t, q[6], width, cosine));
+    const float ratio = major / minor;
+    const int n = ratio >= (float)PGI__TEXTURE_ANISO_MAX ? PGI__TEXTURE_ANISO_MAX
+                  : ratio > 1.001f                       ? (int)ceilf(ratio - 0.001f)
+                                                         : 1;
+    const float lod = log2f(major / (float)n) + PGI__TEXTURE_LOD_BIAS;
+    if (n == 1) return pgi__texture_lookup_lod(t, sf->u, sf->v, lod);
+    pgi__v3 sum = v3(0.f, 0.f, 0.f);
+    for (int i = 0; i < n; i++) {
+        const float o = ((float)i + 0.5f) / (float)n - 0.5f;
+        sum = v3_add(sum, pgi__texture_lookup_lod(t, sf->u + o * uv[M][0], sf->v + o * uv[M][1], lod));
+    }
+    return v3_scale(sum, 1.f / (float)n);
 }
 
 /* Continues the eye path of pixel i from its primary hit to its first non-specular hit and
