@@ -344,12 +344,8 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
     if (d->jitter == PGI_JITTER_AUTO) d->jitter = PGI_JITTER_OFF; /* one frame: pixel centres */
     if (d->texture_filter < PGI_TEXTURE_FILTER_AUTO || d->texture_filter > PGI_TEXTURE_FILTER_ON)
         return pgi__fail(PGI_ERR_INVALID_ARG, "unknown texture filter %d", (int)d->texture_filter);
-    if (d->texture_filter == PGI_TEXTURE_FILTER_ON && d->device == PGI_DEVICE_VULKAN)
-        return pgi__fail(PGI_ERR_UNSUPPORTED, "--texture-filter on is CPU only (the Vulkan view kernel reads "
-                                              "mip level 0; docs/design.md \"Textures\")");
     if (d->texture_filter == PGI_TEXTURE_FILTER_AUTO)
-        d->texture_filter = d->jitter == PGI_JITTER_OFF && d->device != PGI_DEVICE_VULKAN ? PGI_TEXTURE_FILTER_ON
-                                                                                          : PGI_TEXTURE_FILTER_OFF;
+        d->texture_filter = d->jitter == PGI_JITTER_OFF ? PGI_TEXTURE_FILTER_ON : PGI_TEXTURE_FILTER_OFF;
     if (d->emission < PGI_EMISSION_UNIFORM || d->emission > PGI_EMISSION_AUTO)
         return pgi__fail(PGI_ERR_INVALID_ARG, "unknown emission mode %d", (int)d->emission);
     if (d->store < PGI_STORE_ALL || d->store > PGI_STORE_VIEW)
@@ -815,7 +811,10 @@ static pgi_status gpu_frame(pgi_renderer *r, pgi_render_desc *d, uint64_t seq_se
 
     /* sequence 1: the view pass */
     if ((st = report(pc, "view", 0, 0))) return st;
-    const pgi__subpixel sp = {.jitter = d->jitter == PGI_JITTER_ON, .seed = seq_seed, .index = index};
+    const pgi__subpixel sp = {.jitter = d->jitter == PGI_JITTER_ON,
+                              .seed = seq_seed,
+                              .index = index,
+                              .tex_filter = d->texture_filter == PGI_TEXTURE_FILTER_ON};
     if ((st = pgi__gpu_view_prepare(r->gpu_view, &r->cam, d->seed, &sp))) return st;
     pgi_named_value t[64];
     int nt = 0;
