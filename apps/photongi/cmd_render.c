@@ -227,7 +227,7 @@ static const char *k_render_help =
     "                     of a ray cone a pixel wide (through mirrors and glass), trilinear, as\n"
     "                     the pixel integral would show them; off = the texel at the hit (level\n"
     "                     0; aliases); auto (default) = on where the view samples sit at pixel\n"
-    "                     centres (--jitter off or auto, one frame) on the CPU, else off.\n"
+    "                     centres (--jitter off or auto, one frame), else off.\n"
     "                     Photons read level 0 either way (docs/design.md \"Textures\")\n"
     "  --emission uniform|guided|auto   how photons leave the lights: uniform (default; the\n"
     "                     papers'), guided = towards the light paths whose photons land where\n"

@@ -143,12 +143,11 @@ typedef enum pgi_jitter {
  * read level 0, so every estimator sees the same view samples either way. */
 typedef enum pgi_texture_filter {
     PGI_TEXTURE_FILTER_AUTO = 0, /* default: ON where the frame's view samples sit at pixel centres (jitter
-                                    resolved OFF) on the CPU device, else OFF (a jittered average integrates
-                                    the pixel itself; the Vulkan view kernel reads level 0) */
+                                    resolved OFF), else OFF (a jittered average integrates the pixel itself) */
     PGI_TEXTURE_FILTER_OFF,      /* the texel at the hit (bilinear, level 0) */
     PGI_TEXTURE_FILTER_ON        /* a ray cone of a pixel's width (Ray Tracing Gems ch. 20) through the
-                                    eye path's mirrors and glass picks the mip level; trilinear. CPU device
-                                    only (refused on Vulkan) */
+                                    eye path's mirrors and glass: its footprint's mip level, trilinear
+                                    probes along its long axis (CPU and Vulkan alike) */
 } pgi_texture_filter;
 
 /* How photons leave the lights (docs/emission.md). */
