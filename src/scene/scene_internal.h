@@ -347,7 +347,7 @@ void pgi__texture_free(pgi__texture *t);
  * w^2 / 12 along an axis; a level whose texels are s wide, read bilinearly, averages a box of s
  * (s^2 / 12) under a tent of half-width s (s^2 / 6): s^2 / 4 in all, equal to w^2 / 12 at
  * s = w / sqrt(3), a level log2(sqrt(3)) below log2(w). (Sibenik 320x180 against the pixel
- * integral: 26.3 dB without the bias, 27.2 dB with it; docs/design.md "Textures".) */
+ * integral, isotropic: 26.3 dB without the bias, 27.2 dB with it; docs/design.md "Textures".) */
 #define PGI__TEXTURE_LOD_BIAS (-0.79248125f) /* -0.5 log2(3) */
 static inline float pgi__texture_cone_lod(const pgi__texture *t, float tri_lod, float width, float cosine) {
     return tri_lod + t->lod_bias + log2f(width / fabsf(cosine)) + PGI__TEXTURE_LOD_BIAS;
