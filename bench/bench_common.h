@@ -1,6 +1,6 @@
 /* Small helpers shared by the benchmarks in bench/ (static inline, header only). */
-#ifndef PGI_BENCH_COMMON_H
-#define PGI_BENCH_COMMON_H
+#ifndef PGI__BENCH_COMMON_H
+#define PGI__BENCH_COMMON_H
 
 #include <stdio.h>
 #include <stdlib.h>

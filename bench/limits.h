@@ -1,6 +1,6 @@
 /* photongi-bench --limits (bench/limits.c): each ray pass next to raw Embree on the same rays. */
-#ifndef PGI_BENCH_LIMITS_H
-#define PGI_BENCH_LIMITS_H
+#ifndef PGI__BENCH_LIMITS_H
+#define PGI__BENCH_LIMITS_H
 
 /* Runs the limits benchmark on each scene of the comma-separated list; writes csv_path.
  * Returns 0 when every scene ran. */

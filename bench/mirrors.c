@@ -23,7 +23,7 @@ typedef struct {
 static void make_matte(pgi_scene *s) {
     for (size_t m = 0; m < s->nmats; m++)
         if (pgi__mat_specular(&s->mats[m])) {
-            s->mats[m].type = PGI_MAT_LAMBERT;
+            s->mats[m].type = PGI__MAT_LAMBERT;
             for (int k = 0; k < 3; k++) s->mats[m].kd[k] = 0.7f;
         }
 }

@@ -1,6 +1,6 @@
 /* photongi-bench --mirrors (bench/mirrors.c): the cost of mirrors and glass in view. */
-#ifndef PGI_BENCH_MIRRORS_H
-#define PGI_BENCH_MIRRORS_H
+#ifndef PGI__BENCH_MIRRORS_H
+#define PGI__BENCH_MIRRORS_H
 
 /* Renders the built-in cornell-mirrors scene as it is and with its mirrors and
  * glass turned Lambertian, at each photon count of the comma-separated list,

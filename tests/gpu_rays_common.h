@@ -1,8 +1,8 @@
 /* Ray sets and hit comparisons shared by tests/test_gpu_bvh.c (the GPU BVH's CPU traversal against
  * Embree) and tests/test_gpu_rays.c (the compute shader against both). Header only; include after
  * test_util.h. */
-#ifndef PGI_GPU_RAYS_COMMON_H
-#define PGI_GPU_RAYS_COMMON_H
+#ifndef PGI__GPU_RAYS_COMMON_H
+#define PGI__GPU_RAYS_COMMON_H
 
 #include "test_util.h"
 

@@ -81,14 +81,14 @@ static void test_scene_table(void **state) {
     pgi__area_table t;
     TU_CHECK_OK(pgi__area_table_build(s, &t));
     size_t narea = 0;
-    for (size_t l = 0; l < s->nlights; l++) narea += s->lights[l].type == PGI_LIGHT_AREA;
+    for (size_t l = 0; l < s->nlights; l++) narea += s->lights[l].type == PGI__LIGHT_AREA;
     assert_true(narea >= 2);
     assert_int_equal(t.n, narea);
     double psum = 0.0;
     size_t k = 0;
     for (size_t l = 0; l < s->nlights; l++) {
         const pgi__light *lt = &s->lights[l];
-        if (lt->type != PGI_LIGHT_AREA) continue;
+        if (lt->type != PGI__LIGHT_AREA) continue;
         const pgi__area_rec *rec = &t.rec[k];
         pgi__v3 y = pgi__triangle_sample(s, lt->tri, 0.3f, 0.6f);
         float su = sqrtf(0.3f), b1 = 1.f - su, b2 = 0.6f * su;

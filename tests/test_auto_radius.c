@@ -66,11 +66,11 @@ static void uniform_plane(size_t n, int k_want) {
     /* the k-th neighbour distance's quantile q: pi rho d^2 = the q-quantile of Gamma(k, 1), about
      * k + z_q sqrt(k) (Wilson-Hilferty would be closer; 2 % is far below the test's tolerance) */
     const double z75 = 0.6745, k = a1.k;
-    double g = k + z75 * sqrt(k), want = sqrt(g / (PGI_PI * (double)n));
+    double g = k + z75 * sqrt(k), want = sqrt(g / (PGI__PI * (double)n));
     assert_true(fabs(a1.quantile - 0.75f) < 1e-6f);
     if (!(fabs(r1 - want) < 0.04 * want)) fail_msg("n %zu: radius %g, expected %g for k %d", n, (double)r1, want, a1.k);
     /* mean photons gathered at that radius: pi rho r^2 */
-    double mean = PGI_PI * (double)n * r1 * r1;
+    double mean = PGI__PI * (double)n * r1 * r1;
     if (!(fabs(a1.mean_reads - mean) < 0.06 * mean)) fail_msg("mean reads %g, expected %g", a1.mean_reads, mean);
     pgi_photons_free(&ph);
     pgi_view_samples_free(&vs);

@@ -10,7 +10,7 @@
 #include "view/view.h"
 
 #define PI_D 3.14159265358979323846
-#define F_OPEN PGI_CUTOUT_OPEN_FRACTION
+#define F_OPEN PGI__CUTOUT_OPEN_FRACTION
 
 /* The cutout scene, its lattice made fully open (alpha 0 everywhere: the unoccluded
  * configuration) when `open`. */
@@ -72,8 +72,8 @@ static void test_primary_rays(void **state) {
             tu_pixel_dir(&cam, x, y, d);
             float t1 = (1.f - cd->eye[1]) / d[1];
             float mx = cd->eye[0] + t1 * d[0], mz = cd->eye[2] + t1 * d[2];
-            int tx = (int)floorf((mx + 1.f) * 0.5f * PGI_CUTOUT_TEXELS);
-            int tz = (int)floorf((1.f - (mz + 1.f) * 0.5f) * PGI_CUTOUT_TEXELS); /* row 0 at v = 1 */
+            int tx = (int)floorf((mx + 1.f) * 0.5f * PGI__CUTOUT_TEXELS);
+            int tz = (int)floorf((1.f - (mz + 1.f) * 0.5f) * PGI__CUTOUT_TEXELS); /* row 0 at v = 1 */
             int is_open = pgi__cutout_open(tx, tz);
             open += is_open;
             closed += !is_open;
@@ -156,8 +156,8 @@ static void test_direct_light(void **state) {
             double d2 = px * px + 1.5 * 1.5 + pz * pz, cosv = 1.5 / sqrt(d2);
             double L = 0.8 / PI_D * 4.5 * cosv / d2;
             /* The segment to the light at (0, 1.5, 0) crosses the mask (y = 1) at p / 3. */
-            int tx = (int)floor((px / 3.0 + 1.0) * 0.5 * PGI_CUTOUT_TEXELS);
-            int tz = (int)floor((1.0 - (pz / 3.0 + 1.0) * 0.5) * PGI_CUTOUT_TEXELS);
+            int tx = (int)floor((px / 3.0 + 1.0) * 0.5 * PGI__CUTOUT_TEXELS);
+            int tz = (int)floor((1.0 - (pz / 3.0 + 1.0) * 0.5) * PGI__CUTOUT_TEXELS);
             an_open += L;
             an_masked += pgi__cutout_open(tx, tz) ? L : 0.0;
         }
@@ -315,14 +315,14 @@ static void test_mtl_map_d(void **state) {
     } cases[] = {
         {"rgba",
          "newmtl m\nKd 0.5 0.5 0.5\nd 1\nillum 2\nmap_Kd rgba.tga\nmap_d rgba.tga\n",
-         PGI_MAT_LAMBERT,
+         PGI__MAT_LAMBERT,
          1,
          {1, 1, 1, 1, 1, 0, 0, 0, 0}},
-        {"grey", "newmtl m\nKd 0.5 0.5 0.5\nd 1\nmap_d grey.tga\n", PGI_MAT_LAMBERT, 1, {1, 1, 1, 1, 1, 0, 0, 0, 0}},
-        {"d06", "newmtl m\nKd 0.5 0.5 0.5\nd 0.6\nmap_d grey.tga\n", PGI_MAT_LAMBERT, 1, {1, 1, 1, 1, 1, 0, 0, 0, 0}},
-        {"d04", "newmtl m\nKd 0.5 0.5 0.5\nd 0.4\nmap_d grey.tga\n", PGI_MAT_LAMBERT, 1, {0, 0, 0, 0, 0, 0, 0, 0, 0}},
-        {"glass", "newmtl m\nKd 0.5 0.5 0.5\nd 0.5\nNi 1.5\n", PGI_MAT_GLASS, 0, {1, 1, 1, 1, 1, 1, 1, 1, 1}},
-        {"plain", "newmtl m\nKd 0.5 0.5 0.5\nmap_Kd rgba.tga\n", PGI_MAT_LAMBERT, 0, {1, 1, 1, 1, 1, 1, 1, 1, 1}},
+        {"grey", "newmtl m\nKd 0.5 0.5 0.5\nd 1\nmap_d grey.tga\n", PGI__MAT_LAMBERT, 1, {1, 1, 1, 1, 1, 0, 0, 0, 0}},
+        {"d06", "newmtl m\nKd 0.5 0.5 0.5\nd 0.6\nmap_d grey.tga\n", PGI__MAT_LAMBERT, 1, {1, 1, 1, 1, 1, 0, 0, 0, 0}},
+        {"d04", "newmtl m\nKd 0.5 0.5 0.5\nd 0.4\nmap_d grey.tga\n", PGI__MAT_LAMBERT, 1, {0, 0, 0, 0, 0, 0, 0, 0, 0}},
+        {"glass", "newmtl m\nKd 0.5 0.5 0.5\nd 0.5\nNi 1.5\n", PGI__MAT_GLASS, 0, {1, 1, 1, 1, 1, 1, 1, 1, 1}},
+        {"plain", "newmtl m\nKd 0.5 0.5 0.5\nmap_Kd rgba.tga\n", PGI__MAT_LAMBERT, 0, {1, 1, 1, 1, 1, 1, 1, 1, 1}},
     };
     for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
         write_obj(cases[c].name, cases[c].mtl);
@@ -378,7 +378,7 @@ static void test_gltf_mask(void **state) {
                  cases[c].mode, sizeof buf);
         snprintf(path, sizeof path, "%s/%s.gltf", tu_dir, cases[c].name);
         assert_int_equal(tu_write_file(path, json), 0);
-        check_file(cases[c].name, "gltf", PGI_MAT_LAMBERT, cases[c].masked, cases[c].expect);
+        check_file(cases[c].name, "gltf", PGI__MAT_LAMBERT, cases[c].masked, cases[c].expect);
     }
 }
 

@@ -5,7 +5,7 @@
  * within 1e-4; the tool's grayscale maps within one 8-bit step everywhere. Plus properties the
  * paper states: identical images give 0, more noise more error, and a farther viewer (more
  * pixels per degree) sees fine noise blurred away. The folder: $PHOTONGI_FLIP_DATA, else the configured
- * PGI_FLIP_DATA (the source tree's ../shared/flip). */
+ * PGI__FLIP_DATA (the source tree's ../shared/flip). */
 #include <stdarg.h>
 #include <stddef.h>
 #include <setjmp.h>
@@ -21,7 +21,7 @@
 
 static const char *data_dir(void) {
     const char *d = getenv("PHOTONGI_FLIP_DATA");
-    return d && *d ? d : PGI_FLIP_DATA;
+    return d && *d ? d : PGI__FLIP_DATA;
 }
 
 static char *slurp(const char *path) {

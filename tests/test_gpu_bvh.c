@@ -139,7 +139,7 @@ static void test_cutout(void **state) {
         }
     fprintf(stderr, "  cutout without the filter: %zu of %d pixels differ from Embree's\n", differ, 96 * 96);
     assert_true(masked > 0);
-    assert_true(fabs((double)differ / (96.0 * 96.0) - PGI_CUTOUT_OPEN_FRACTION) < 0.1);
+    assert_true(fabs((double)differ / (96.0 * 96.0) - PGI__CUTOUT_OPEN_FRACTION) < 0.1);
     /* The layout's test is the renderer's: the same answer at random points of every masked
      * triangle, tiled texture coordinates included. */
     assert_true(b->nmasks > 0 && b->nalpha > 0);

@@ -319,12 +319,12 @@ static void make_glossy(pgi_scene *s) {
     for (size_t i = 0; i < s->nmats; i++) {
         pgi__material *m = &s->mats[i];
         if (strcmp(m->name, "white") == 0) {
-            m->type = PGI_MAT_PLASTIC;
+            m->type = PGI__MAT_PLASTIC;
             m->ks[0] = m->ks[1] = m->ks[2] = 0.04f;
             m->shininess = 60.f;
             m->ior = 1.5f;
         } else if (strcmp(m->name, "red") == 0) {
-            m->type = PGI_MAT_PHONG;
+            m->type = PGI__MAT_PHONG;
             m->ks[0] = m->ks[1] = m->ks[2] = 0.2f;
             m->shininess = 30.f;
         }

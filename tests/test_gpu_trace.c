@@ -167,8 +167,8 @@ static void test_lights_glossy(void **state) {
     for (size_t i = 0; i < s->nlights; i++) types |= 1 << s->lights[i].type;
     for (size_t i = 0; i < s->nmats; i++) types |= 1 << (8 + s->mats[i].type);
     assert_int_equal(types & 0xE, 0xE);                                               /* spot, sun, area */
-    assert_int_equal(types & (1 << (8 + PGI_MAT_PLASTIC) | 1 << (8 + PGI_MAT_PHONG)), /* both lobes */
-                     1 << (8 + PGI_MAT_PLASTIC) | 1 << (8 + PGI_MAT_PHONG));
+    assert_int_equal(types & (1 << (8 + PGI__MAT_PLASTIC) | 1 << (8 + PGI__MAT_PHONG)), /* both lobes */
+                     1 << (8 + PGI__MAT_PLASTIC) | 1 << (8 + PGI__MAT_PHONG));
     compare(s, "lights-glossy", 200000, 5);
     pgi_scene_destroy(s);
     tu_rm_tmpdir(dir);

@@ -1,6 +1,6 @@
 /* Shared by the tests of the Vulkan backend (test_gpu, test_gpu_rays, test_gpu_frame, test_gpu_trace). */
-#ifndef PGI_TEST_GPU_UTIL_H
-#define PGI_TEST_GPU_UTIL_H
+#ifndef PGI__TEST_GPU_UTIL_H
+#define PGI__TEST_GPU_UTIL_H
 
 #include <dlfcn.h>
 #include <stdio.h>

@@ -275,9 +275,9 @@ static void test_kernel_normalisation(void **state) {
             for (int s = 0; s < n; s++) {
                 double d = (s + 0.5) / n * r;
                 double w = pgi__kernel_weight((pgi_kernel)k, (float)(d * d), (float)r2);
-                sum += w * 2.0 * PGI_PI * d * (r / n);
+                sum += w * 2.0 * PGI__PI * d * (r / n);
             }
-            double integral = sum * pgi__kernel_norm((pgi_kernel)k) / (PGI_PI * r2);
+            double integral = sum * pgi__kernel_norm((pgi_kernel)k) / (PGI__PI * r2);
             if (fabs(integral - 1.0) > 1e-4) fail_msg("kernel %d, r %g: integral %.6f", k, r, integral);
         }
     /* and the weights have the documented shapes */
@@ -329,7 +329,7 @@ static void test_kernels_uniform_plane(void **state) {
     pgi_camera cam;
     make_plane_samples(&vs, &cam, 24, 24);
     float *out = fbuf(3 * vs.count);
-    const double expect = 0.5 / PGI_PI * 1.0; /* kd/pi * E */
+    const double expect = 0.5 / PGI__PI * 1.0; /* kd/pi * E */
     for (int k = 0; k < PGI_KERNEL_COUNT_; k++) {
         TU_CHECK_OK(tu_run_estimator("kdtree", &(tu_est){.radius = 0.1f, .d.kernel = (pgi_kernel)k}, &ph, &vs, &cam,
                                      out, NULL));

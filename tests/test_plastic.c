@@ -11,7 +11,7 @@
 static pgi__material plastic(float ns, float ior, float ks) {
     pgi__material m;
     memset(&m, 0, sizeof m);
-    m.type = PGI_MAT_PLASTIC;
+    m.type = PGI__MAT_PLASTIC;
     m.kd[0] = m.kd[1] = m.kd[2] = 1.f;
     m.ks[0] = m.ks[1] = m.ks[2] = ks;
     m.shininess = ns;
@@ -82,7 +82,7 @@ static void test_white_furnace(void **state) {
             pgi__material m = plastic(ns_of_alpha(alphas[a]), etas[e], pgi__fresnel_f0(etas[e]));
             pgi__lobe l;
             pgi__lobe_of_material(&m, &l);
-            assert_int_equal(l.model, PGI_LOBE_GGX);
+            assert_int_equal(l.model, PGI__LOBE_GGX);
             assert_true(fabsf(l.ks.y - 1.f) < 1e-5f); /* Ks = F0(eta): the untinted lobe */
             for (size_t k = 0; k < sizeof mus / sizeof mus[0]; k++) {
                 double alb = albedo_quad(&l, v3(1.f, 1.f, 1.f), mus[k]);
@@ -224,17 +224,17 @@ static void test_mtl_mapping(void **state) {
         pgi_scene_get_info(s, &info);
         assert_int_equal(info.glossy_materials, 1);
         if (variant == 1) {
-            assert_int_equal(fl->type, PGI_MAT_PHONG);
+            assert_int_equal(fl->type, PGI__MAT_PHONG);
             assert_int_equal(info.specular, PGI_SPECULAR_PHONG);
             assert_true(fabsf(fl->kd[0] - 0.96f) < 1e-6f);
             /* the switch both ways */
             TU_CHECK_OK(pgi_scene_set_specular(s, PGI_SPECULAR_GGX));
-            assert_int_equal(fl->type, PGI_MAT_PLASTIC);
+            assert_int_equal(fl->type, PGI__MAT_PLASTIC);
             assert_true(fabsf(fl->kd[0] - 0.98f) < 1e-6f);
             TU_CHECK_OK(pgi_scene_set_specular(s, PGI_SPECULAR_DEFAULT)); /* the description's */
-            assert_int_equal(fl->type, PGI_MAT_PHONG);
+            assert_int_equal(fl->type, PGI__MAT_PHONG);
         } else {
-            assert_int_equal(fl->type, PGI_MAT_PLASTIC);
+            assert_int_equal(fl->type, PGI__MAT_PLASTIC);
             assert_int_equal(info.specular, PGI_SPECULAR_GGX);
             assert_true(fabsf(fl->kd[0] - 0.98f) < 1e-6f);
             assert_true(fabsf(fl->ior - 1.5f) < 1e-6f);
@@ -242,11 +242,11 @@ static void test_mtl_mapping(void **state) {
             pgi__lobe_of_material(fl, &l);
             assert_true(fabsf(l.s - sqrtf(2.f / 200.f)) < 1e-6f); /* alpha = sqrt(2 / (Ns + 2)) = 0.1 */
             TU_CHECK_OK(pgi_scene_set_specular(s, PGI_SPECULAR_PHONG));
-            assert_int_equal(fl->type, PGI_MAT_PHONG);
+            assert_int_equal(fl->type, PGI__MAT_PHONG);
             assert_true(fabsf(fl->kd[0] - 0.96f) < 1e-6f);
         }
         for (size_t i = 0; i < s->nmats; i++)
-            if (strcmp(s->mats[i].name, "wall") == 0) assert_int_equal(s->mats[i].type, PGI_MAT_LAMBERT);
+            if (strcmp(s->mats[i].name, "wall") == 0) assert_int_equal(s->mats[i].type, PGI__MAT_LAMBERT);
         assert_int_equal(pgi_scene_set_specular(s, (pgi_specular)7), PGI_ERR_INVALID_ARG);
         pgi_scene_destroy(s);
     }

@@ -1,7 +1,7 @@
 /* Random photons and view samples shared by the estimator-equality tests
  * (test_estimators.c, test_kdtree_bounds_kernels.c). */
-#ifndef PGI_TEST_RANDOM_H
-#define PGI_TEST_RANDOM_H
+#ifndef PGI__TEST_RANDOM_H
+#define PGI__TEST_RANDOM_H
 
 #include "test_util.h"
 

@@ -634,7 +634,7 @@ static void test_gltf_camera_and_light(void **state) {
     }
     assert_true(fabsf(c.fov_y_deg - 0.8f * 180.f / 3.14159265f) < 1e-3f); /* 45.84, not 1.2 rad */
     const pgi__light *L = &g->lights[0];
-    assert_int_equal(L->type, PGI_LIGHT_POINT);
+    assert_int_equal(L->type, PGI__LIGHT_POINT);
     assert_true(fabsf(L->pos[0]) < 1e-6f && fabsf(L->pos[1] - 2.f) < 1e-6f && fabsf(L->pos[2]) < 1e-6f);
     assert_true(L->color[0] == 20.f && L->color[1] == 10.f && L->color[2] == 5.f); /* cd -> W/sr, 1:1 */
 
@@ -751,8 +751,8 @@ static void test_gltf_spot_and_sun(void **state) {
     assert_int_equal(in.point_lights, 0);
     const pgi__light *spot = NULL, *sun = NULL;
     for (size_t i = 0; i < s->nlights; i++) {
-        if (s->lights[i].type == PGI_LIGHT_SPOT) spot = &s->lights[i];
-        if (s->lights[i].type == PGI_LIGHT_SUN) sun = &s->lights[i];
+        if (s->lights[i].type == PGI__LIGHT_SPOT) spot = &s->lights[i];
+        if (s->lights[i].type == PGI__LIGHT_SUN) sun = &s->lights[i];
     }
     assert_non_null(spot);
     assert_non_null(sun);

@@ -6,8 +6,8 @@
  * intensity FURNACE_I at the centre, the camera at the centre looking along
  * +x. Use tu_furnace_setup / tu_furnace_teardown as a cmocka group's
  * setup/teardown; the scene description is then tu_furnace_json. */
-#ifndef PGI_TEST_SCENES_H
-#define PGI_TEST_SCENES_H
+#ifndef PGI__TEST_SCENES_H
+#define PGI__TEST_SCENES_H
 
 #include "test_util.h"
 

@@ -203,7 +203,7 @@ static void simd_builds_give_the_same_bits(void **state) {
         for (int i = 0; i < N; i++) u[i] = (float)(k0 + (uint32_t)i) * (1.f / 16777216.f);
         wide = pgi__trace_sincos_2pi_avx2(u, s, c, N);
         for (int i = 0; wide && i < N; i++) {
-            const float phi = 2.f * PGI_PI * u[i], cs = cosf(phi), sn = sinf(phi);
+            const float phi = 2.f * PGI__PI * u[i], cs = cosf(phi), sn = sinf(phi);
             bad += memcmp(&cs, &c[i], sizeof cs) != 0 || memcmp(&sn, &s[i], sizeof sn) != 0;
         }
     }

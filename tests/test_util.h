@@ -1,8 +1,8 @@
 /* Small helpers shared by the photongi tests (static inline, header only):
  * a deterministic RNG, image comparison, temporary files, scene paths and a
  * one-call estimator run. Include after <cmocka.h>'s prerequisites. */
-#ifndef PGI_TEST_UTIL_H
-#define PGI_TEST_UTIL_H
+#ifndef PGI__TEST_UTIL_H
+#define PGI__TEST_UTIL_H
 
 #include <setjmp.h>
 #include <stdarg.h>

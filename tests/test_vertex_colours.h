@@ -1,7 +1,7 @@
 /* Vertex colours for a loaded scene, shared by the tests that check every path multiplies them
  * into the albedo alike (test_determinism, test_gpu_frame, test_gpu_trace). Header only. */
-#ifndef PGI_TEST_VERTEX_COLOURS_H
-#define PGI_TEST_VERTEX_COLOURS_H
+#ifndef PGI__TEST_VERTEX_COLOURS_H
+#define PGI__TEST_VERTEX_COLOURS_H
 
 #include <math.h>
 #include <stdlib.h>

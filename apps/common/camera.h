@@ -4,8 +4,8 @@
  * (strtof, or the JSON loader's double rounded to a float) as the same float, so a camera
  * printed and pasted back is the same camera bit for bit. Header only (static inline), shared by
  * photongi and photongi-view; the callers report the errors themselves. */
-#ifndef PGI_APPS_CAMERA_H
-#define PGI_APPS_CAMERA_H
+#ifndef PGI__APPS_CAMERA_H
+#define PGI__APPS_CAMERA_H
 
 #include <math.h>
 #include <stdio.h>

@@ -1,7 +1,7 @@
 /* `--device cpu|gpu|vulkan[:N]` for the apps (docs/gpu.md). Header only (static inline), shared
  * by photongi and the viewer. */
-#ifndef PGI_APPS_DEVICE_H
-#define PGI_APPS_DEVICE_H
+#ifndef PGI__APPS_DEVICE_H
+#define PGI__APPS_DEVICE_H
 
 #include <stdio.h>
 #include <stdlib.h>

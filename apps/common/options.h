@@ -1,8 +1,8 @@
 /* Estimator options on the command line, from the library's option tables
  * (pgi_option): the apps parse, document and check them without knowing any
  * estimator. Header only (static inline), shared by photongi and the viewer. */
-#ifndef PGI_APPS_OPTIONS_H
-#define PGI_APPS_OPTIONS_H
+#ifndef PGI__APPS_OPTIONS_H
+#define PGI__APPS_OPTIONS_H
 
 #include <stdio.h>
 #include <string.h>

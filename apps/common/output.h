@@ -1,8 +1,8 @@
 /* Output files checked before any work: a command that would render for
  * minutes and then fail to write its result says so at once. Header only
  * (static inline). */
-#ifndef PGI_APPS_OUTPUT_H
-#define PGI_APPS_OUTPUT_H
+#ifndef PGI__APPS_OUTPUT_H
+#define PGI__APPS_OUTPUT_H
 
 #include <errno.h>
 #include <limits.h>

@@ -1,8 +1,8 @@
 /* Strict number parsing shared by the apps (photongi, photongi-view): the
  * whole string must be a number, else 0 is returned and *out is left alone.
  * Header only (static inline); the apps report the error themselves. */
-#ifndef PGI_APPS_PARSE_H
-#define PGI_APPS_PARSE_H
+#ifndef PGI__APPS_PARSE_H
+#define PGI__APPS_PARSE_H
 
 #include <ctype.h>
 #include <errno.h>

@@ -2,8 +2,8 @@
  * render and reference): drawn only when standard error is a terminal and the
  * command is not quiet, redrawn at most 10 times a second, erased or ended
  * with a newline when the work is done. Header only (static inline). */
-#ifndef PGI_APPS_PROGRESS_H
-#define PGI_APPS_PROGRESS_H
+#ifndef PGI__APPS_PROGRESS_H
+#define PGI__APPS_PROGRESS_H
 
 #include <stdarg.h>
 #include <stdio.h>

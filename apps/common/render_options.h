@@ -1,8 +1,8 @@
 /* The render settings of `photongi render` (and of the Python binding, python/photongi), parsed
  * from "--name value" into a pgi_render_desc, and the checks a frame's settings get before any
  * file is read. Header only (static inline); the callers report the errors themselves. */
-#ifndef PGI_APPS_RENDER_OPTIONS_H
-#define PGI_APPS_RENDER_OPTIONS_H
+#ifndef PGI__APPS_RENDER_OPTIONS_H
+#define PGI__APPS_RENDER_OPTIONS_H
 
 #include <inttypes.h>
 #include <stdio.h>

@@ -12,8 +12,8 @@
  *      with no built-in scene and no NAME.json; a camera the scene does not have; an output
  *      folder that does not exist or cannot be written; out of memory; a failed render)
  * Messages start with "photongi COMMAND: "; usage errors end with a pointer to --help. */
-#ifndef PGI_CLI_H
-#define PGI_CLI_H
+#ifndef PGI__CLI_H
+#define PGI__CLI_H
 
 #include <math.h>
 #include <signal.h>

@@ -1,7 +1,7 @@
 /* Commands implemented outside main.c (one file each). Each returns the
  * process exit status (cli.h): 0 success, 2 usage error, 1 failure. */
-#ifndef PGI_CLI_CMD_H
-#define PGI_CLI_CMD_H
+#ifndef PGI__CLI_CMD_H
+#define PGI__CLI_CMD_H
 
 #include <stdint.h>
 #include <string.h>

@@ -1,8 +1,8 @@
 /* A 5x7 bitmap font for ASCII 32..126 (the classic public-domain
  * "glcdfont" layout): 5 column bytes a glyph, bit 0 = top row.
  * SDL2 has no text rendering; the overlay draws these glyphs itself. */
-#ifndef PGI_VIEW_FONT5X7_H
-#define PGI_VIEW_FONT5X7_H
+#ifndef PGI__VIEW_FONT5X7_H
+#define PGI__VIEW_FONT5X7_H
 
 static const unsigned char k_font5x7[95][5] = {
     {0x00, 0x00, 0x00, 0x00, 0x00}, {0x00, 0x00, 0x5F, 0x00, 0x00}, {0x00, 0x07, 0x00, 0x07, 0x00},

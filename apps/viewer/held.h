@@ -2,8 +2,8 @@
  * release, or to now while it is down, whatever the frame rate. A tap during a slow frame counts
  * its own duration (not the frame's), and every press of a frame counts. Header only, no SDL, so
  * that tests/test_viewer_held.c checks it with made-up times. */
-#ifndef PGI_VIEWER_HELD_H
-#define PGI_VIEWER_HELD_H
+#ifndef PGI__VIEWER_HELD_H
+#define PGI__VIEWER_HELD_H
 
 #define HELD_KEYS 12
 

@@ -2,8 +2,8 @@
  * with it): lines in the built-in 5x7 font on a packed RGB8 image, each
  * glyph with a 1-pixel black shadow, all of them over a translucent black
  * box, so that white text stays readable over a white scene. */
-#ifndef PGI_VIEW_OVERLAY_H
-#define PGI_VIEW_OVERLAY_H
+#ifndef PGI__VIEW_OVERLAY_H
+#define PGI__VIEW_OVERLAY_H
 
 #include <string.h>
 

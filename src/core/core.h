@@ -1,7 +1,7 @@
 /* Internal core: status + last error, small vector math, RNG, timers.
  * Every module includes this; nothing here is public API. */
-#ifndef PGI_CORE_H
-#define PGI_CORE_H
+#ifndef PGI__CORE_H
+#define PGI__CORE_H
 
 #include <math.h>
 #include <stdatomic.h>
@@ -12,8 +12,8 @@
 
 #include "photongi/photongi.h"
 
-#define PGI_PI 3.14159265358979323846f
-#define PGI_INV_PI 0.31830988618379067154f
+#define PGI__PI 3.14159265358979323846f
+#define PGI__INV_PI 0.31830988618379067154f
 
 /* Records a formatted message as this thread's last error and returns `s`,
  * so that `return pgi__fail(PGI_ERR_IO, "%s: cannot open", path);` reads well. */
@@ -25,7 +25,7 @@ pgi_status pgi__fail(pgi_status s, const char *fmt, ...)
 void pgi__clear_error(void);
 
 /* Always-on invariant check (never for user input). */
-#define PGI_ASSERT(c)                                                                                                  \
+#define PGI__ASSERT(c)                                                                                                  \
     do {                                                                                                               \
         if (!(c)) pgi__assert_fail(#c, __FILE__, __LINE__);                                                            \
     } while (0)
@@ -237,7 +237,7 @@ static inline pgi__v3 pgi_sample_cosine_cs(float u1, float c, float s) {
     return v3(r * c, r * s, sqrtf(pgi_maxf(1.f - u1, 0.f)));
 }
 static inline pgi__v3 pgi_sample_cosine(float u1, float u2) {
-    const float phi = 2.f * PGI_PI * u2;
+    const float phi = 2.f * PGI__PI * u2;
     return pgi_sample_cosine_cs(u1, cosf(phi), sinf(phi));
 }
 static inline pgi__v3 pgi_sample_sphere_cs(float u1, float c, float s) {
@@ -245,7 +245,7 @@ static inline pgi__v3 pgi_sample_sphere_cs(float u1, float c, float s) {
     return v3(r * c, r * s, z);
 }
 static inline pgi__v3 pgi_sample_sphere(float u1, float u2) {
-    const float phi = 2.f * PGI_PI * u2;
+    const float phi = 2.f * PGI__PI * u2;
     return pgi_sample_sphere_cs(u1, cosf(phi), sinf(phi));
 }
 /* Uniform direction in the cone around +z with cos(theta) >= cos_max. */
@@ -254,7 +254,7 @@ static inline pgi__v3 pgi_sample_cone_cs(float u1, float c, float s, float cos_m
     return v3(r * c, r * s, z);
 }
 static inline pgi__v3 pgi_sample_cone(float u1, float u2, float cos_max) {
-    const float phi = 2.f * PGI_PI * u2;
+    const float phi = 2.f * PGI__PI * u2;
     return pgi_sample_cone_cs(u1, cosf(phi), sinf(phi), cos_max);
 }
 static inline pgi__v3 pgi_to_world(pgi__v3 l, pgi__v3 n) {

@@ -20,7 +20,7 @@ static pgi__mem_entry *find(pgi__mem_ledger *l, const char *name, int add) {
 
 void pgi__mem_set(pgi__mem_ledger *l, const char *name, size_t bytes) {
     pgi__mem_entry *e = find(l, name, 1);
-    PGI_ASSERT(e != NULL); /* PGI__MEM_MAX covers every name the library uses */
+    PGI__ASSERT(e != NULL); /* PGI__MEM_MAX covers every name the library uses */
     l->cur = l->cur - e->cur + bytes;
     e->cur = bytes;
     if (bytes > e->peak) e->peak = bytes;
@@ -48,7 +48,7 @@ const char *pgi__mem_format(uint64_t bytes, char *buf, size_t size) {
 
 pgi_status pgi__mem_reserve(pgi__mem_ledger *l, const char *name, size_t bytes, const char *what) {
     pgi__mem_entry *e = find(l, name, 1);
-    PGI_ASSERT(e != NULL);
+    PGI__ASSERT(e != NULL);
     const size_t others = l->cur - e->cur;
     if (l->budget != PGI_MEMORY_UNLIMITED && (bytes > l->budget || others > l->budget - bytes)) {
         char b[32], o[32], g[32];

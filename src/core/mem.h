@@ -3,8 +3,8 @@
  * process's peak resident set. Only large buffers report here (photons, view samples, frame
  * buffers, scratch, estimator structures, the scene and Embree's BVH); nothing tracks small
  * allocations. */
-#ifndef PGI_MEM_H
-#define PGI_MEM_H
+#ifndef PGI__MEM_H
+#define PGI__MEM_H
 
 #include "core/core.h"
 

@@ -1,6 +1,6 @@
 /* Growable 64-byte-aligned arrays kept by an estimator between frames. */
-#ifndef PGI_EST_BUF_H
-#define PGI_EST_BUF_H
+#ifndef PGI__EST_BUF_H
+#define PGI__EST_BUF_H
 
 #include "core/core.h"
 

@@ -412,7 +412,7 @@ static pgi_status sort_secondary(cl_state *s, const pgi_view_samples *vs, build_
         return st;
     float lo[3], hi[3];
     const size_t m = pgi__spec_samples(vs, &s->x, s->sec_pix, s->sec_pos, lo, hi, s->c.threads);
-    PGI_ASSERT(m == nsec);
+    PGI__ASSERT(m == nsec);
     (void)m;
     /* as many bits a side as the primary key has per dimension on average (at most 21) */
     int b = (bc->bits - 1) / 3;
@@ -485,7 +485,7 @@ static pgi_status sort_clusters(cl_state *s, const pgi_view_samples *vs, const b
             s->cn[c] = (uint32_t)(k - k0);
             c++;
         }
-        PGI_ASSERT(c == nclus);
+        PGI__ASSERT(c == nclus);
     }
     if (radix_sort(s->keys, s->ci, s->ck2, s->ci2, nclus, bits, s->hist, s->c.threads)) {
         pgi__buf tk = s->keys_buf;
@@ -502,7 +502,7 @@ static pgi_status sort_clusters(cl_state *s, const pgi_view_samples *vs, const b
             acc += s->cn[s->ci[i]];
         }
         s->cs[nclus] = (uint32_t)acc;
-        PGI_ASSERT(acc == nvalid);
+        PGI__ASSERT(acc == nvalid);
     }
 #pragma omp parallel for schedule(dynamic, 256) num_threads(s->c.threads)
     for (long long i = 0; i < (long long)nclus; i++) {

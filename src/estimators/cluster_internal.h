@@ -1,8 +1,8 @@
 /* State and helpers shared by the cluster-hierarchy estimators (cluster,
  * cluster-cone, cluster-trivial in est_cluster.c, directional in
  * est_directional.c) and the hierarchy build (cluster_build.c). */
-#ifndef PGI_EST_CLUSTER_INTERNAL_H
-#define PGI_EST_CLUSTER_INTERNAL_H
+#ifndef PGI__EST_CLUSTER_INTERNAL_H
+#define PGI__EST_CLUSTER_INTERNAL_H
 
 #include "buf.h"
 #include "est_common.h"

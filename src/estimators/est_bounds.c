@@ -246,7 +246,7 @@ static int make_shape(const bounds_state *s, const pgi__view_xf *x, pgi__v3 c, f
         for (int k = 0; k < m; k++) {
             /* axis directions (k = 0 and, for even m, k = m/2) are the rectangle */
             if (k == 0 || 2 * k == m) continue;
-            float th = PGI_PI * (float)k / (float)m, cs = cosf(th), sn = sinf(th);
+            float th = PGI__PI * (float)k / (float)m, cs = cosf(th), sn = sinf(th);
             float t0, t1;
             silhouette(c.x * cs + c.y * sn, c.z, ri, &t0, &t1);
             float A = cs * ax, B = sn * ay, C0 = cs * bx + sn * by;

@@ -288,7 +288,7 @@ static pgi_status bvh_build(void *state, const pgi_estimate_args *a) {
             b[k] = p[k] - h[k] - pad;
             b[3 + k] = p[k] + h[k] + pad;
         }
-        area += (double)PGI_PI * (double)r * (double)r;
+        area += (double)PGI__PI * (double)r * (double)r;
     }
     for (size_t j = 0; j < n; j++) {
         float p[3] = {ph->px[j], ph->py[j], ph->pz[j]};

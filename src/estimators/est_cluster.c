@@ -973,16 +973,16 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
                 const int nbv = (nb + 7) & ~7;
                 rad_block(s->pk, s->lists, s->node_start, path, np, np > 0 && path[0] == (uint32_t)li, nbv, bx + k0,
                           by + k0, bz + k0, bnx + k0, bny + k0, bnz + k0, ar, ag, ab, an, r2);
-                const float w = 1.f / (PGI_PI * r2);
+                const float w = 1.f / (PGI__PI * r2);
                 for (int t = 0; t < nb; t++) {
                     size_t i = s->order[k0 + t];
                     if (bx[k0 + t] == bx[k0 + t]) {
                         /* Lambertian: pgi__acc_finish with no specular sum, reading only kd */
                         const float *kd = vs->kd + 3 * i;
                         float *o = a->out_rgb + 3 * i;
-                        o[0] = (kd[0] * PGI_INV_PI * (ar[t] + cf[0])) * w;
-                        o[1] = (kd[1] * PGI_INV_PI * (ag[t] + cf[1])) * w;
-                        o[2] = (kd[2] * PGI_INV_PI * (ab[t] + cf[2])) * w;
+                        o[0] = (kd[0] * PGI__INV_PI * (ar[t] + cf[0])) * w;
+                        o[1] = (kd[1] * PGI__INV_PI * (ag[t] + cf[1])) * w;
+                        o[2] = (kd[2] * PGI__INV_PI * (ab[t] + cf[2])) * w;
                         reads += total + cc;
                         bulk += cc;
                         contrib += an[t] + cc;

@@ -1,7 +1,7 @@
 /* What every estimator's state and vtbl share: the desc and stats block,
  * the stats helpers, the registry's vtbl declarations. */
-#ifndef PGI_EST_COMMON_H
-#define PGI_EST_COMMON_H
+#ifndef PGI__EST_COMMON_H
+#define PGI__EST_COMMON_H
 
 #include "core/core.h"
 

@@ -183,7 +183,7 @@ static pgi_status dir_radiance(cl_state *s, const pgi_estimate_args *a, double *
         pnz[i] = ok ? vs->nrm[3 * i + 2] : 0.f;
         if (!ok || !s->splatted) ep[0][i] = ep[1][i] = ep[2][i] = 0.f; /* valid samples are shaded below */
     }
-    const float inv_area = 1.f / (PGI_PI * s->r * s->r);
+    const float inv_area = 1.f / (PGI__PI * s->r * s->r);
     if (s->splatted) {
         const uint32_t leaf0 = s->lvl_off[s->L], leaf1 = s->lvl_off[s->L + 1];
 #pragma omp parallel for schedule(dynamic, 16) num_threads(s->c.threads)
@@ -233,7 +233,7 @@ static pgi_status dir_radiance(cl_state *s, const pgi_estimate_args *a, double *
             continue;
         }
         const float *kd = vs->kd + 3 * ii;
-        for (int d = 0; d < 3; d++) out[d] = kd[d] * PGI_INV_PI * E[d][ii];
+        for (int d = 0; d < 3; d++) out[d] = kd[d] * PGI__INV_PI * E[d][ii];
     }
     return PGI_OK;
 }

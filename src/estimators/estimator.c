@@ -406,7 +406,7 @@ void pgi_camera_look_at(pgi_camera *c, const float eye[3], const float look_at[3
     v3_store(c->forward, f);
     v3_store(c->right, r);
     v3_store(c->up, u);
-    c->tan_half_fov_y = tanf(0.5f * fov_y_deg * PGI_PI / 180.f);
+    c->tan_half_fov_y = tanf(0.5f * fov_y_deg * PGI__PI / 180.f);
     c->width = width;
     c->height = height;
     c->aspect = height > 0 ? (float)width / (float)height : 1.f;

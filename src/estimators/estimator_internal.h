@@ -7,8 +7,8 @@
  *   est_common.h stats block and helpers, the registry's vtbls
  *   buf.h        growable buffers
  * New code includes the ones it needs. */
-#ifndef PGI_ESTIMATOR_INTERNAL_H
-#define PGI_ESTIMATOR_INTERNAL_H
+#ifndef PGI__ESTIMATOR_INTERNAL_H
+#define PGI__ESTIMATOR_INTERNAL_H
 
 #include "buf.h"
 #include "est_common.h"

@@ -1,5 +1,5 @@
-#ifndef PGI_EST_FOOTPRINT_H
-#define PGI_EST_FOOTPRINT_H
+#ifndef PGI__EST_FOOTPRINT_H
+#define PGI__EST_FOOTPRINT_H
 
 #include "gather.h"
 
@@ -10,12 +10,12 @@
  * pgi__acc_finish_w(.., 1). Spheres use pgi__gather with r_p^2 (same strict test as the fixed
  * radius); ellipsoids test containment in their skewed frame, then call pgi__gather with an
  * infinite radius so that the hemisphere test and the sum are the shared ones. */
-static inline float pgi__footprint_weight(float r) { return 1.f / (PGI_PI * r * r); }
+static inline float pgi__footprint_weight(float r) { return 1.f / (PGI__PI * r * r); }
 
 static inline void pgi__acc_finish_w(const pgi__vs *v, const pgi__acc *a, float w, float *out) {
-    out[0] = (v->kd.x * PGI_INV_PI * a->fr + a->sr) * w;
-    out[1] = (v->kd.y * PGI_INV_PI * a->fg + a->sg) * w;
-    out[2] = (v->kd.z * PGI_INV_PI * a->fb + a->sb) * w;
+    out[0] = (v->kd.x * PGI__INV_PI * a->fr + a->sr) * w;
+    out[1] = (v->kd.y * PGI__INV_PI * a->fg + a->sg) * w;
+    out[2] = (v->kd.z * PGI__INV_PI * a->fb + a->sb) * w;
 }
 
 /* Inverse (row-major, 9 floats) of the ellipsoid frame M = [a | b | c*n]: u = inv * (x - p) are the

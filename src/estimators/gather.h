@@ -1,8 +1,8 @@
 /* The per-photon contribution test and sum shared by every estimator
  * (docs/design.md, "Estimators"), so that all exact methods make identical decisions and
  * differ only in summation order; the kernel-weighted variants. */
-#ifndef PGI_EST_GATHER_H
-#define PGI_EST_GATHER_H
+#ifndef PGI__EST_GATHER_H
+#define PGI__EST_GATHER_H
 
 #include "core/core.h"
 #include "scene/bsdf.h"
@@ -77,10 +77,10 @@ static inline void pgi__gather(const pgi__vs *v, float r2, float px, float py, f
 
 /* Radiance from the sums: (kd/pi * flux + spec) / (pi r^2). */
 static inline void pgi__acc_finish(const pgi__vs *v, const pgi__acc *a, float r2, float *out) {
-    float w = 1.f / (PGI_PI * r2);
-    out[0] = (v->kd.x * PGI_INV_PI * a->fr + a->sr) * w;
-    out[1] = (v->kd.y * PGI_INV_PI * a->fg + a->sg) * w;
-    out[2] = (v->kd.z * PGI_INV_PI * a->fb + a->sb) * w;
+    float w = 1.f / (PGI__PI * r2);
+    out[0] = (v->kd.x * PGI__INV_PI * a->fr + a->sr) * w;
+    out[1] = (v->kd.y * PGI__INV_PI * a->fg + a->sg) * w;
+    out[2] = (v->kd.z * PGI__INV_PI * a->fb + a->sb) * w;
 }
 
 /* ---------------------------------------------------------------- kernels

@@ -1,5 +1,5 @@
-#ifndef PGI_EST_PACKED_H
-#define PGI_EST_PACKED_H
+#ifndef PGI__EST_PACKED_H
+#define PGI__EST_PACKED_H
 
 #include "gather.h"
 

@@ -1,5 +1,5 @@
-#ifndef PGI_EST_SCREEN_H
-#define PGI_EST_SCREEN_H
+#ifndef PGI__EST_SCREEN_H
+#define PGI__EST_SCREEN_H
 
 #include "core/core.h"
 

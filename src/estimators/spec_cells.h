@@ -13,8 +13,8 @@
  * The cells are found in pixel order, so the layout does not depend on the
  * thread count. When the samples would occupy more than `max_cells` cells,
  * the edge doubles until they fit. */
-#ifndef PGI_EST_SPEC_CELLS_H
-#define PGI_EST_SPEC_CELLS_H
+#ifndef PGI__EST_SPEC_CELLS_H
+#define PGI__EST_SPEC_CELLS_H
 
 #include "buf.h"
 #include "screen.h"

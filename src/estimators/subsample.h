@@ -1,5 +1,5 @@
-#ifndef PGI_EST_SUBSAMPLE_H
-#define PGI_EST_SUBSAMPLE_H
+#ifndef PGI__EST_SUBSAMPLE_H
+#define PGI__EST_SUBSAMPLE_H
 
 #include <string.h>
 

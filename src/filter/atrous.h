@@ -1,8 +1,8 @@
 /* Edge-aware a-trous filter of the indirect light (Dammertz et al. 2010, "Edge-avoiding a-trous
  * wavelet transform for fast global illumination filtering", in the variance-guided form of Schied
  * et al. 2017, SVGF): the picture stays clean while the camera moves (pgi_temporal). */
-#ifndef PGI_FILTER_ATROUS_H
-#define PGI_FILTER_ATROUS_H
+#ifndef PGI__FILTER_ATROUS_H
+#define PGI__FILTER_ATROUS_H
 
 #include "core/core.h"
 

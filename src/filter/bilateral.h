@@ -2,8 +2,8 @@
  * (tiled paper §2.3.2: subsampled estimates are noisy; a cross-bilateral
  * filter guided by the G-buffer removes the noise without blurring across
  * edges). */
-#ifndef PGI_FILTER_BILATERAL_H
-#define PGI_FILTER_BILATERAL_H
+#ifndef PGI__FILTER_BILATERAL_H
+#define PGI__FILTER_BILATERAL_H
 
 #include "core/core.h"
 

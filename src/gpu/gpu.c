@@ -1,6 +1,6 @@
 /* The Vulkan compute backend's device layer (gpu.h): instance, device, one compute queue, storage
  * buffers (device-local with staging, or host-visible and mapped), compute kernels from embedded
- * SPIR-V, one command sequence at a time with timestamps. Without PGI_HAVE_VULKAN (CMake found no
+ * SPIR-V, one command sequence at a time with timestamps. Without PGI__HAVE_VULKAN (CMake found no
  * Vulkan or no glslc, or PGI_VULKAN=OFF) every call that can fail returns PGI_ERR_UNSUPPORTED. */
 #include "gpu/gpu.h"
 
@@ -11,7 +11,7 @@
 
 #define NO_BACKEND "this build of photongi has no Vulkan backend (built without Vulkan/glslc)"
 
-#ifndef PGI_HAVE_VULKAN
+#ifndef PGI__HAVE_VULKAN
 
 int pgi__gpu_available(void) { return 0; }
 
@@ -61,7 +61,7 @@ pgi_status pgi__gpu_submit_wait(pgi__gpu *g) { return pgi__fail(PGI_ERR_UNSUPPOR
 int pgi__gpu_timings(const pgi__gpu *g, pgi_named_value *out, int max) { return 0; }
 int pgi__gpu_has_timestamps(const pgi__gpu *g) { return 0; }
 
-#else /* PGI_HAVE_VULKAN */
+#else /* PGI__HAVE_VULKAN */
 
 #include <vulkan/vulkan.h>
 
@@ -886,7 +886,7 @@ int pgi__gpu_timings(const pgi__gpu *g, pgi_named_value *out, int max) {
     return n;
 }
 
-#endif /* PGI_HAVE_VULKAN */
+#endif /* PGI__HAVE_VULKAN */
 
 /* Both builds: only pgi__gpu_dispatch differs. */
 pgi_status pgi__gpu_dispatch_1d(pgi__gpu *g, pgi__gpu_kernel *k, pgi__gpu_buffer *const *buffers, const void *push,

@@ -1,7 +1,7 @@
 /* The Vulkan compute backend's device layer (issue "The GPU backend"): one device, its queue,
  * storage buffers, compute kernels from SPIR-V embedded at build time, and one command sequence
  * at a time with timestamps. Everything the GPU passes (rays, photons, estimators) need, nothing
- * more. Built when CMake finds Vulkan and glslc (PGI_HAVE_VULKAN); without them every call that
+ * more. Built when CMake finds Vulkan and glslc (PGI__HAVE_VULKAN); without them every call that
  * could fail returns PGI_ERR_UNSUPPORTED with a message saying the build has no Vulkan backend.
  *
  *   pgi__gpu *g;  pgi__gpu_create(-1, &g);
@@ -19,8 +19,8 @@
  * Shaders: src/gpu/shaders/<name>.comp (GLSL 4.50, Vulkan 1.3 compute), compiled by glslc at
  * build time into the generated header "gpu/spirv.h" as `static const uint32_t pgi__spv_<name>[]`.
  * Not thread-safe: one thread records and submits (the renderer's). */
-#ifndef PGI_GPU_H
-#define PGI_GPU_H
+#ifndef PGI__GPU_H
+#define PGI__GPU_H
 
 #include <stddef.h>
 #include <stdint.h>

@@ -39,7 +39,7 @@
 #include "core/core.h"
 #include "estimators/estimator_internal.h"
 
-#ifndef PGI_HAVE_VULKAN
+#ifndef PGI__HAVE_VULKAN
 
 static pgi_status ct_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) {
     (void)g, (void)d;
@@ -57,7 +57,7 @@ static pgi_status dir_create(pgi__gpu *g, const pgi_estimator_desc *d, void **st
 
 #include "gpu/spirv.h"
 
-#define GGX_NMU PGI_GGX_NMU
+#define GGX_NMU PGI__GGX_NMU
 #define SUPER 8     /* supertile edge in tiles */
 #define ROOT 4      /* root edge in supertiles */
 #define MAX_TILE 16 /* cl_tiles sorts a tile in shared memory (256 samples) */
@@ -426,7 +426,7 @@ static pgi_status splat_again(ct_state *s, cl_frame *f, pgi_estimator_stats *es)
     f->t[3] += pgi__now_ms() - t2b;
     pgi__gpu_est_add_timings(g, es, gather_passes, &f->gpu_build, &f->gpu_gather);
     if ((st = pgi__gpu_download(g, s->counters, 6 * 4, &f->npairs, 4))) return st;
-    PGI_ASSERT(f->npairs <= s->pair_cap);
+    PGI__ASSERT(f->npairs <= s->pair_cap);
     return PGI_OK;
 }
 
@@ -569,7 +569,7 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     return PGI_OK;
 }
 
-#endif /* PGI_HAVE_VULKAN */
+#endif /* PGI__HAVE_VULKAN */
 
 const pgi__gpu_est_vtbl pgi__gpu_est_cluster_trivial = {
     .name = "cluster-trivial",

@@ -56,7 +56,7 @@ pgi_status pgi__gpu_pack_samples(pgi__gpu_vs_pack *s, const pgi_view_samples *vs
         l->eta = v.lobe.eta;
         l->a2 = v.lobe.a2;
         l->inv_1mEavg = v.lobe.inv_1mEavg;
-        if (v.lobe.model == PGI_LOBE_GGX) memcpy(l->E, v.lobe.E, sizeof l->E);
+        if (v.lobe.model == PGI__LOBE_GGX) memcpy(l->E, v.lobe.E, sizeof l->E);
     }
     *nlobes = nl;
     return PGI_OK;

@@ -2,11 +2,11 @@
  * estimators (photons and view samples from the CPU, uploaded each frame), one call that builds
  * and gathers on the device and writes args->out_rgb, and stats in the CPU estimators' form (GPU
  * passes named "gpu_*" with timestamps, the device's buffers as "gpu_*" memory entries). */
-#ifndef PGI_GPU_ESTIMATOR_H
-#define PGI_GPU_ESTIMATOR_H
+#ifndef PGI__GPU_ESTIMATOR_H
+#define PGI__GPU_ESTIMATOR_H
 
 #include "gpu/gpu.h"
-#include "scene/bsdf.h" /* PGI_GGX_NMU */
+#include "scene/bsdf.h" /* PGI__GGX_NMU */
 
 /* The GPU frame's inputs (device buffers, no host round trip): photons already on the device as
  * pgi__packed_photon (the CPU's photons uploaded until the GPU tracer provides them), the view
@@ -52,7 +52,7 @@ _Static_assert(sizeof(pgi__gpu_vs) == 64 && offsetof(pgi__gpu_vs, flags) == 52, 
 typedef struct pgi__gpu_lobe {
     uint32_t model;
     float ksx, ksy, ksz, s, eta, a2, inv_1mEavg;
-    float E[PGI_GGX_NMU];
+    float E[PGI__GGX_NMU];
 } pgi__gpu_lobe;
 
 typedef struct pgi__gpu_vs_pack {

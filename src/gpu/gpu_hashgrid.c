@@ -25,7 +25,7 @@
 #include "core/core.h"
 #include "estimators/estimator_internal.h"
 
-#ifndef PGI_HAVE_VULKAN
+#ifndef PGI__HAVE_VULKAN
 
 static pgi_status hg_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) {
     *state = NULL;
@@ -49,7 +49,7 @@ static pgi_status hg_device_finish(void *state, const pgi_named_value *t, int nt
 
 #include "gpu/spirv.h"
 
-#define GGX_NMU PGI_GGX_NMU
+#define GGX_NMU PGI__GGX_NMU
 
 typedef pgi__gpu_vs gpu_vs;
 typedef pgi__gpu_lobe gpu_lobe;
@@ -312,7 +312,7 @@ static pgi_status hg_device_finish(void *state, const pgi_named_value *t, int nt
     return st;
 }
 
-#endif /* PGI_HAVE_VULKAN */
+#endif /* PGI__HAVE_VULKAN */
 
 const pgi__gpu_est_vtbl pgi__gpu_est_hashgrid = {
     .name = "hashgrid",

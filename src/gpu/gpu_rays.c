@@ -4,7 +4,7 @@
 
 #include <string.h>
 
-#ifdef PGI_HAVE_VULKAN
+#ifdef PGI__HAVE_VULKAN
 #include "gpu/spirv.h"
 #endif
 
@@ -53,7 +53,7 @@ static pgi_status build_upload(pgi__gpu_rays *r, const pgi_scene *s) {
 
 pgi_status pgi__gpu_rays_create(pgi__gpu *g, const pgi_scene *s, pgi__gpu_rays **out) {
     *out = NULL;
-#ifndef PGI_HAVE_VULKAN
+#ifndef PGI__HAVE_VULKAN
     (void)g;
     (void)s;
     return pgi__fail(PGI_ERR_UNSUPPORTED, "GPU rays: this build has no Vulkan backend (configure with PGI_VULKAN=ON)");

@@ -13,8 +13,8 @@
  * CPU's pgi__rt_intersect returns them (Embree's conventions: t in (tnear, tfar], both faces, u, v
  * the barycentrics of vertices 1 and 2; cut-out materials refuse hits where their mask is open, as
  * the renderer's Embree filter). */
-#ifndef PGI_GPU_RAYS_H
-#define PGI_GPU_RAYS_H
+#ifndef PGI__GPU_RAYS_H
+#define PGI__GPU_RAYS_H
 
 #include "gpu/gpu.h"
 #include "rt/tri_bvh.h"

@@ -5,7 +5,7 @@
 
 #include "core/core.h"
 
-#ifdef PGI_HAVE_VULKAN
+#ifdef PGI__HAVE_VULKAN
 #include "gpu/spirv.h"
 
 /* shaders/hashgrid.glsl Push, which the scan kernels share: they read n (byte 12) */
@@ -72,4 +72,4 @@ pgi_status pgi__gpu_scan_record(pgi__gpu_scan *s, pgi__gpu_buffer *data) {
     return PGI_OK;
 }
 
-#endif /* PGI_HAVE_VULKAN: the callers are Vulkan-only too */
+#endif /* PGI__HAVE_VULKAN: the callers are Vulkan-only too */

@@ -11,8 +11,8 @@
  *   pgi__gpu_scan_destroy(&sc);
  *
  * Integer sums: the result does not depend on the order the device runs the workgroups in. */
-#ifndef PGI_GPU_SCAN_H
-#define PGI_GPU_SCAN_H
+#ifndef PGI__GPU_SCAN_H
+#define PGI__GPU_SCAN_H
 
 #include "gpu/gpu.h"
 

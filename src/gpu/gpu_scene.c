@@ -11,7 +11,7 @@
 typedef struct {
     uint32_t model;
     float ks[3], s, eta, a2, inv_1mEavg;
-    float E[PGI_GGX_NMU];
+    float E[PGI__GGX_NMU];
 } gpu_lobe;
 
 struct pgi__gpu_scene {
@@ -125,7 +125,7 @@ static pgi_status upload_dynamic(pgi__gpu_scene *gs, const pgi_scene *s) {
         o->cos_cutoff = L->cos_cutoff;
         o->area = L->area;
         o->tri = L->tri;
-        if (L->type != PGI_LIGHT_AREA) continue;
+        if (L->type != PGI__LIGHT_AREA) continue;
         tot += v3_lum(v3_load(L->power));
         cum[narea] = (double)(float)tot; /* pgi__direct stores the running sum as a float first */
         a[narea++].light = (uint32_t)i;
@@ -190,7 +190,7 @@ static pgi_status upload_static(pgi__gpu_scene *gs, const pgi_scene *s) {
         lb[i].eta = lo.eta;
         lb[i].a2 = lo.a2;
         lb[i].inv_1mEavg = lo.inv_1mEavg;
-        if (lo.model == PGI_LOBE_GGX) memcpy(lb[i].E, lo.E, sizeof lb[i].E);
+        if (lo.model == PGI__LOBE_GGX) memcpy(lb[i].E, lo.E, sizeof lb[i].E);
     }
     memcpy(tx, pgi__srgb8_texture_lut, LUT_WORDS * sizeof(float));
     size_t at = LUT_WORDS + 4 * s->ntexs;

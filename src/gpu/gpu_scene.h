@@ -39,8 +39,8 @@
  *
  * Not supported (PGI_ERR_UNSUPPORTED naming it): an environment map (a constant sky is uploaded:
  * SceneInfo sky / ground / up; the sky's radiance and its cosine sampling are in scene.glsl). */
-#ifndef PGI_GPU_SCENE_H
-#define PGI_GPU_SCENE_H
+#ifndef PGI__GPU_SCENE_H
+#define PGI__GPU_SCENE_H
 
 #include "gpu/gpu.h"
 #include "gpu/gpu_rays.h"

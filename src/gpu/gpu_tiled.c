@@ -34,7 +34,7 @@
 #include "estimators/estimator_internal.h"
 #include "estimators/spec_cells.h"
 
-#ifndef PGI_HAVE_VULKAN
+#ifndef PGI__HAVE_VULKAN
 
 static pgi_status tl_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) {
     (void)g, (void)d;
@@ -51,7 +51,7 @@ static void tl_destroy(void *state) { (void)state; }
 
 #include "gpu/spirv.h"
 
-#define GGX_NMU PGI_GGX_NMU
+#define GGX_NMU PGI__GGX_NMU
 #define MAX_CHUNKS 4096u /* count/copy invocations */
 
 typedef pgi__gpu_vs gpu_vs;
@@ -309,7 +309,7 @@ static pgi_status tl_run(void *state, const pgi_estimate_args *a, pgi_estimator_
         return pgi__fail(PGI_ERR_UNSUPPORTED,
                          "tiled on the GPU: %llu photon copies (at most 2^30); use a smaller radius or larger tiles",
                          (unsigned long long)ncopies);
-    PGI_ASSERT(ncopies == copies);
+    PGI__ASSERT(ncopies == copies);
     if ((st = pgi__gpu_buffer_reserve(g, &s->ids, ((size_t)copies + 1) * 4, "gpu_tile_photons"))) return st;
 
     /* sequence 2: the lists (photon order), the gather */
@@ -351,7 +351,7 @@ fail:
     return st;
 }
 
-#endif /* PGI_HAVE_VULKAN */
+#endif /* PGI__HAVE_VULKAN */
 
 const pgi__gpu_est_vtbl pgi__gpu_est_tiled = {
     .name = "tiled",

@@ -19,7 +19,7 @@
 #include "estimators/packed.h"
 #include "scene/scene_internal.h"
 
-#ifdef PGI_HAVE_VULKAN
+#ifdef PGI__HAVE_VULKAN
 #include "gpu/gpu_scan.h"
 #include "gpu/spirv.h"
 #endif
@@ -45,7 +45,7 @@ pgi_status pgi__gpu_trace_check(const pgi__gpu_trace_desc *d) {
     return PGI_OK;
 }
 
-#ifndef PGI_HAVE_VULKAN
+#ifndef PGI__HAVE_VULKAN
 
 pgi_status pgi__gpu_trace_create(pgi__gpu *g, pgi__gpu_scene *gs, pgi__gpu_trace **out) {
     (void)g, (void)gs;
@@ -319,4 +319,4 @@ pgi_status pgi__gpu_trace_download(pgi__gpu_trace *t, pgi_photons *ph) {
     return st;
 }
 
-#endif /* PGI_HAVE_VULKAN */
+#endif /* PGI__HAVE_VULKAN */

@@ -18,8 +18,8 @@
  * size changes nothing but the paths traced for nothing). Random numbers: a counter-based hash
  * per path (trace.glsl), not the CPU's PCG streams: statistically, not numerically, equal to the
  * CPU tracer. */
-#ifndef PGI_GPU_TRACE_H
-#define PGI_GPU_TRACE_H
+#ifndef PGI__GPU_TRACE_H
+#define PGI__GPU_TRACE_H
 
 #include "gpu/gpu.h"
 #include "gpu/gpu_scene.h"

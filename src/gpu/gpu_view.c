@@ -5,7 +5,7 @@
 
 #include "scene/bsdf.h"
 
-#ifdef PGI_HAVE_VULKAN
+#ifdef PGI__HAVE_VULKAN
 #include "gpu/spirv.h"
 #endif
 
@@ -26,7 +26,7 @@ _Static_assert(sizeof(direct_push) == 96 && offsetof(direct_push, direct_samples
 
 pgi_status pgi__gpu_view_create(pgi__gpu *g, pgi__gpu_view **out) {
     *out = NULL;
-#ifndef PGI_HAVE_VULKAN
+#ifndef PGI__HAVE_VULKAN
     (void)g;
     return pgi__fail(PGI_ERR_UNSUPPORTED, "%s", "GPU view samples: this build has no Vulkan backend");
 #else

@@ -24,8 +24,8 @@
  * stream a pixel and purpose: deterministic, not the CPU's numbers (the glass choice of an eye path
  * and the direct-light samples differ from the CPU's, their expectations do not). The sub-pixel
  * point is the CPU's bit for bit (view.h pgi__pixel_jitter, 64-bit arithmetic in 32-bit words). */
-#ifndef PGI_GPU_VIEW_H
-#define PGI_GPU_VIEW_H
+#ifndef PGI__GPU_VIEW_H
+#define PGI__GPU_VIEW_H
 
 #include "gpu/gpu.h"
 #include "gpu/gpu_scene.h"

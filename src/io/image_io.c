@@ -280,7 +280,7 @@ static pgi_status write_exr(const pgi_image *img, const char *path, const char *
         for (int c = 0; c < enc.channel_count; ++c) {
             exr_coding_channel_info_t *ch = &enc.channels[c];
             int off = rgb_offset(ch->channel_name);
-            PGI_ASSERT(off >= 0);
+            PGI__ASSERT(off >= 0);
             ch->user_pixel_stride = 3 * (int32_t)sizeof(float);
             ch->user_line_stride = w * 3 * (int32_t)sizeof(float);
             ch->user_data_type = EXR_PIXEL_FLOAT;

@@ -1,6 +1,6 @@
 /* Internal I/O helpers shared by the compare tool, the CLI, the benchmark and tests. */
-#ifndef PGI_IO_INTERNAL_H
-#define PGI_IO_INTERNAL_H
+#ifndef PGI__IO_INTERNAL_H
+#define PGI__IO_INTERNAL_H
 
 #include "photongi/photongi.h"
 

@@ -1,7 +1,7 @@
 /* matplotlib's 'magma' colour map (Smith & van der Walt, CC0), 256 entries as 8-bit sRGB,
  * generated with matplotlib 3.6: round(255 * magma(i / 255)). FLIP's error maps use it. */
-#ifndef PGI_MAGMA_H
-#define PGI_MAGMA_H
+#ifndef PGI__MAGMA_H
+#define PGI__MAGMA_H
 
 static const unsigned char pgi__magma[256][3] = {
     {0, 0, 4},       {1, 0, 5},       {1, 1, 6},       {1, 1, 8},       {2, 1, 9},       {2, 2, 11},

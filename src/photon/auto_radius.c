@@ -251,7 +251,7 @@ static pgi_status choose(const pgi_photons *ph, int K, int Kfull, const pgi_view
     }
     float ex = bmax[0] - bmin[0], ey = bmax[1] - bmin[1], ez = bmax[2] - bmin[2];
     float face = fmaxf(ex * ey, fmaxf(ey * ez, ex * ez));
-    float cell = sqrtf(face * (float)K / (PGI_PI * (float)ph->count));
+    float cell = sqrtf(face * (float)K / (PGI__PI * (float)ph->count));
     cell = fminf(fmaxf(cell, out->lo), out->hi);
     float d[PGI__AUTO_QUERIES];
     const int qi = (int)(AUTO_QUANTILE * (float)(m - 1));

@@ -8,8 +8,8 @@
  * It is clamped to [lo, hi] (a fraction of the scene's diagonal), which keeps the gather cost
  * predictable when the view sees almost no photons. Deterministic: the queries and the grid do
  * not depend on the thread count. */
-#ifndef PGI_AUTO_RADIUS_H
-#define PGI_AUTO_RADIUS_H
+#ifndef PGI__AUTO_RADIUS_H
+#define PGI__AUTO_RADIUS_H
 
 #include "core/core.h"
 #include "photongi/estimator.h"

@@ -135,25 +135,25 @@ void pgi__pd_emit(pgi__pdiff *pd, const pgi__light *L, float pl, pgi__v3 d, floa
     /* Photons of this light: n * pl. Scale the unit differentials so that the global Delta gives
      * each photon its share of the light's solid angle (or area): |Delta dd|^2 = Omega / (n pl). */
     switch (L->type) {
-    case PGI_LIGHT_POINT: pgi__pd_emit_dir(pd, d, v3(0.f, 0.f, 1.f), sqrtf(1.f / pl)); break;
-    case PGI_LIGHT_SPOT: {
-        float omega = 2.f * PGI_PI * (1.f - L->cos_cutoff);
-        pgi__pd_emit_dir(pd, d, v3_load(L->dir), sqrtf(omega / (4.f * PGI_PI * pl)));
+    case PGI__LIGHT_POINT: pgi__pd_emit_dir(pd, d, v3(0.f, 0.f, 1.f), sqrtf(1.f / pl)); break;
+    case PGI__LIGHT_SPOT: {
+        float omega = 2.f * PGI__PI * (1.f - L->cos_cutoff);
+        pgi__pd_emit_dir(pd, d, v3_load(L->dir), sqrtf(omega / (4.f * PGI__PI * pl)));
         break;
     }
-    case PGI_LIGHT_SUN:
-    case PGI_LIGHT_ENV: {
+    case PGI__LIGHT_SUN:
+    case PGI__LIGHT_ENV: {
         /* parallel light over a disk of radius R: positional differentials only (the sky: its
          * photons' directions spread, but each enters as a sun's would) */
         pgi__v3 t, b;
         v3_basis(d, &t, &b);
-        float f = sqrtf(PGI_PI * sun_radius * sun_radius / (4.f * PGI_PI * pl));
+        float f = sqrtf(PGI__PI * sun_radius * sun_radius / (4.f * PGI__PI * pl));
         pd->dp[0] = v3_scale(t, f);
         pd->dp[1] = v3_scale(b, f);
         pd->dd[0] = pd->dd[1] = v3(0.f, 0.f, 0.f);
         break;
     }
-    case PGI_LIGHT_AREA:
+    case PGI__LIGHT_AREA:
     default: {
         /* cosine-weighted directions: solid angle per photon pi / (n pl cos theta); then the
          * origin is offset back (eq. 13) so that the footprint at the light is its area share */
@@ -161,7 +161,7 @@ void pgi__pd_emit(pgi__pdiff *pd, const pgi__light *L, float pl, pgi__v3 d, floa
         float ct = fmaxf(v3_dot(d, n), 0.05f);
         pgi__pd_emit_dir(pd, d, n, sqrtf(1.f / (4.f * pl * ct)));
         float B = v3_len(v3_cross(pd->dd[0], pd->dd[1]));
-        float A = L->area / (4.f * PGI_PI * pl); /* |dp1 x dp2| with Delta^2 |dp1 x dp2| = area / (n pl) */
+        float A = L->area / (4.f * PGI__PI * pl); /* |dp1 x dp2| with Delta^2 |dp1 x dp2| = area / (n pl) */
         float v = B > 0.f ? sqrtf(A / B) : 0.f;
         pd->dp[0] = v3_scale(pd->dd[0], v);
         pd->dp[1] = v3_scale(pd->dd[1], v);

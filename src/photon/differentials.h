@@ -4,8 +4,8 @@
  * Delta = sqrt(4 pi / n) serves every photon; Igehy's transfer and specular updates; 1/sqrt(p)
  * for Russian roulette; diffuse re-emission with the backward origin offset of eq. 13; the
  * ||dp||^(-3/4) compression and smoothing factor s; clamp to r_max; giving skewed ellipsoids. */
-#ifndef PGI_DIFFERENTIALS_H
-#define PGI_DIFFERENTIALS_H
+#ifndef PGI__DIFFERENTIALS_H
+#define PGI__DIFFERENTIALS_H
 
 #include "radius.h"
 

@@ -12,8 +12,8 @@
  * (at most 1 / MIX), and the pilot's photons are dropped: weighted by a q built from themselves
  * they would bias the estimate. Counts are integers, so the photons are the same for any thread
  * count. */
-#ifndef PGI_GUIDE_H
-#define PGI_GUIDE_H
+#ifndef PGI__GUIDE_H
+#define PGI__GUIDE_H
 
 #include "photongi/photongi.h"
 #include "scene/scene_internal.h"

@@ -1,6 +1,6 @@
 /* Photon tracing (docs/design.md, "One frame"). */
-#ifndef PGI_PHOTON_H
-#define PGI_PHOTON_H
+#ifndef PGI__PHOTON_H
+#define PGI__PHOTON_H
 
 #include "rt/rt.h"
 #include "scene/bsdf.h"
@@ -161,7 +161,7 @@ size_t pgi__trace_scratch_bytes(const pgi__trace_scratch *sc);
 /* Whether every path of light L starts at one point (point and spot lights): the tracer sorts
  * those paths by direction and casts their first rays as coherent packets (trace.c first_hits). */
 static inline int pgi__light_from_point(const pgi__light *L) {
-    return L->type == PGI_LIGHT_POINT || L->type == PGI_LIGHT_SPOT;
+    return L->type == PGI__LIGHT_POINT || L->type == PGI__LIGHT_SPOT;
 }
 
 /* Tests: at most this many paths of a chunk from point and spot lights start in the emission

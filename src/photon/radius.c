@@ -12,7 +12,7 @@ void pgi__fp_params_init(pgi__fp_params *p, int policy, float r_min, float r_max
     p->r_min = r_min;
     p->r_max = r_max;
     p->photons = (float)(n ? n : 1);
-    p->delta = sqrtf(4.f * PGI_PI / p->photons);
+    p->delta = sqrtf(4.f * PGI__PI / p->photons);
     /* Automatic s: a photon re-emitted a quarter of the scene diagonal away gets r_max / 2
      * (semi-axis Delta * s * ||dp||^(1/4) with ||dp|| = that distance). */
     if (!(smoothing > 0.f)) smoothing = 0.5f * r_max / (p->delta * powf(fmaxf(0.25f * diag, 1e-6f), 0.25f));

@@ -6,8 +6,8 @@
  *  - differentials: photon differentials of the BVH paper §4, giving skewed ellipsoids
  *    (differentials.h / differentials.c).
  * The tracer calls the hooks below; each is a no-op for the fixed policy. */
-#ifndef PGI_RADIUS_H
-#define PGI_RADIUS_H
+#ifndef PGI__RADIUS_H
+#define PGI__RADIUS_H
 
 #include "scene/bsdf.h"
 

@@ -152,7 +152,7 @@ static inline int emit_draw(const tracer *T, const pgi__light *L, const emission
      * numbers), the first two of the others. Uniform emission draws in the historical order:
      * an area light's azimuth first (the order gcc gave the two draws when they were arguments
      * of one call; explicit now, so that every compiler draws the same). */
-    const int late = L->type == PGI_LIGHT_AREA || L->type == PGI_LIGHT_ENV;
+    const int late = L->type == PGI__LIGHT_AREA || L->type == PGI__LIGHT_ENV;
     if (steer) {
         if (late) {
             u3 = e->a;
@@ -166,10 +166,10 @@ static inline int emit_draw(const tracer *T, const pgi__light *L, const emission
     } else {
         u1 = pgi_rng_f(&l->rng);
         u2 = pgi_rng_f(&l->rng);
-        if (L->type == PGI_LIGHT_AREA) {
+        if (L->type == PGI__LIGHT_AREA) {
             u4 = pgi_rng_f(&l->rng);
             u3 = pgi_rng_f(&l->rng);
-        } else if (L->type == PGI_LIGHT_ENV) {
+        } else if (L->type == PGI__LIGHT_ENV) {
             u3 = pgi_rng_f(&l->rng);
             u4 = pgi_rng_f(&l->rng);
         }
@@ -188,7 +188,7 @@ static inline void emit_place_point(const tracer *T, const pgi__light *L, float 
                                     lane *l) {
     const float u1 = u[0], u2 = u[1];
     l->o = v3_load(L->pos);
-    if (L->type == PGI_LIGHT_POINT) l->d = cs ? pgi_sample_sphere_cs(u1, cs[0], cs[1]) : pgi_sample_sphere(u1, u2);
+    if (L->type == PGI__LIGHT_POINT) l->d = cs ? pgi_sample_sphere_cs(u1, cs[0], cs[1]) : pgi_sample_sphere(u1, u2);
     else
         l->d = pgi_to_world(cs ? pgi_sample_cone_cs(u1, cs[0], cs[1], L->cos_cutoff)
                                : pgi_sample_cone(u1, u2, L->cos_cutoff),
@@ -200,30 +200,30 @@ static inline void emit_place_point(const tracer *T, const pgi__light *L, float 
 static int emit_place(const tracer *T, const pgi__light *L, float pl, const float u[4], const float *cs, lane *l) {
     const float u1 = u[0], u2 = u[1], u3 = u[2], u4 = u[3];
     switch (L->type) {
-    case PGI_LIGHT_POINT:
-    case PGI_LIGHT_SPOT: emit_place_point(T, L, pl, u, cs, l); return 1;
-    case PGI_LIGHT_SUN: {
+    case PGI__LIGHT_POINT:
+    case PGI__LIGHT_SPOT: emit_place_point(T, L, pl, u, cs, l); return 1;
+    case PGI__LIGHT_SUN: {
         l->d = v3_load(L->dir);
-        float r = T->radius * sqrtf(u1), phi = 2.f * PGI_PI * u2;
+        float r = T->radius * sqrtf(u1), phi = 2.f * PGI__PI * u2;
         pgi__v3 disk = pgi_to_world(v3(r * cosf(phi), r * sinf(phi), 0.f), l->d);
         l->o = v3_add(v3_sub(T->centre, v3_scale(l->d, 1.01f * T->radius)), disk);
         break;
     }
-    case PGI_LIGHT_ENV: {
+    case PGI__LIGHT_ENV: {
         /* A direction w by the sky's density, then a uniform point of the disk of radius R
          * perpendicular to w outside the bounding sphere, travelling along -w: flux
          * L(w) pi R^2 / pdf(w) (the light's power pi R^2 int L dw when pdf is proportional to L). */
         float pdf;
         pgi__v3 w = pgi__env_sample(T->s->env, u1, u2, &pdf);
         if (!(pdf > 0.f)) return 0;
-        l->flux = v3_scale(pgi__env_eval(T->s->env, w), PGI_PI * T->radius * T->radius / (pdf * pl));
+        l->flux = v3_scale(pgi__env_eval(T->s->env, w), PGI__PI * T->radius * T->radius / (pdf * pl));
         l->d = v3_neg(w);
-        float r = T->radius * sqrtf(u3), phi = 2.f * PGI_PI * u4;
+        float r = T->radius * sqrtf(u3), phi = 2.f * PGI__PI * u4;
         pgi__v3 disk = pgi_to_world(v3(r * cosf(phi), r * sinf(phi), 0.f), l->d);
         l->o = v3_add(v3_madd(T->centre, w, 1.01f * T->radius), disk);
         break;
     }
-    case PGI_LIGHT_AREA:
+    case PGI__LIGHT_AREA:
     default: {
         pgi__v3 n = v3_load(L->normal);
         l->o = v3_madd(pgi__triangle_sample(T->s, L->tri, u1, u2), n, T->eps);
@@ -254,8 +254,8 @@ static int start_path(const tracer *T, uint64_t index, lane *l, uint32_t *cnt) {
 /* Whether pgi__bsdf_sample scatters like a Lambertian surface at m: weight kd, whatever the
  * direction. */
 static inline int lambert(const pgi__material *m) {
-    return m->type != PGI_MAT_MIRROR && m->type != PGI_MAT_GLASS && m->type != PGI_MAT_PHONG &&
-           m->type != PGI_MAT_PLASTIC;
+    return m->type != PGI__MAT_MIRROR && m->type != PGI__MAT_GLASS && m->type != PGI__MAT_PHONG &&
+           m->type != PGI__MAT_PLASTIC;
 }
 
 /* Appends one photon of chunk path `path` to the thread's record. */

@@ -13,7 +13,7 @@
 
 static void sincos_2pi_scalar(const float *u, float *s, float *c, int n) {
     for (int i = 0; i < n; i++) {
-        const float phi = 2.f * PGI_PI * u[i];
+        const float phi = 2.f * PGI__PI * u[i];
         c[i] = cosf(phi);
         s[i] = sinf(phi);
     }
@@ -72,7 +72,7 @@ __attribute__((target("avx2,fma"))) static inline void sincos4(__m128 y, __m128 
 }
 
 __attribute__((target("avx2,fma"))) static void sincos_2pi_avx2(const float *u, float *s, float *c, int n) {
-    const __m256 tp = _mm256_set1_ps(2.f * PGI_PI);
+    const __m256 tp = _mm256_set1_ps(2.f * PGI__PI);
     for (int i = 0; i < n; i += 8) {
         const __m256 phi = _mm256_mul_ps(tp, _mm256_loadu_ps(u + i));
         /* outside |phi| < 120 (u outside [0, 1), NaN): libm */
@@ -327,7 +327,7 @@ __attribute__((target("avx2,fma"))) static void lambert_avx2(pgi__lambert_batch 
         /* pgi_sample_cosine(u0, u1) with the azimuth's cosine and sine */
         const __m256 u0 = _mm256_loadu_ps(b->u0 + i), rr = _mm256_sqrt_ps(u0);
         __m128 s0, c0, s1, c1; /* the azimuth's sine and cosine (sincos_2pi_avx2) */
-        const __m256 phi = _mm256_mul_ps(_mm256_set1_ps(2.f * PGI_PI), _mm256_loadu_ps(b->u1 + i));
+        const __m256 phi = _mm256_mul_ps(_mm256_set1_ps(2.f * PGI__PI), _mm256_loadu_ps(b->u1 + i));
         sincos4(_mm256_castps256_ps128(phi), &s0, &c0);
         sincos4(_mm256_extractf128_ps(phi, 1), &s1, &c1);
         const __m256 cx = _mm256_mul_ps(rr, _mm256_set_m128(c1, c0)), cy = _mm256_mul_ps(rr, _mm256_set_m128(s1, s0)),

@@ -1,13 +1,13 @@
 /* The photon tracer's work for many lanes at once (trace_simd.c): the sines and cosines of its
  * sampled angles, and the emission pre-pass's sort keys. Each has an AVX2 build picked at run time
  * and a scalar one; both give the same bits. */
-#ifndef PGI_TRACE_SIMD_H
-#define PGI_TRACE_SIMD_H
+#ifndef PGI__TRACE_SIMD_H
+#define PGI__TRACE_SIMD_H
 
 #include "core/core.h"
 
 /* s[i] = sinf(phi), c[i] = cosf(phi) with phi = 2 pi u[i] (phi as pgi_sample_cosine and
- * pgi_sample_sphere compute it: 2.f * PGI_PI * u), for i < n (n a multiple of 8, at most 16).
+ * pgi_sample_sphere compute it: 2.f * PGI__PI * u), for i < n (n a multiple of 8, at most 16).
  * The AVX2 build evaluates glibc's sincosf (its algorithm and coefficients, as libm's FMA variant
  * computes them, 4 lanes a register); it is taken only where it gave libm's bits for a sample of
  * angles when first called (pgi__trace_sincos_fast), else libm's sinf and cosf. */

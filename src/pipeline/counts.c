@@ -24,7 +24,7 @@ pgi_status pgi__photon_counts(pgi_estimator *e, const pgi_estimate_args *a, floa
         goto done;
     }
     for (size_t i = 0; i < np; i++) ones[i] = 1.f;
-    for (size_t i = 0; i < 3 * n; i++) kd[i] = PGI_PI;
+    for (size_t i = 0; i < 3 * n; i++) kd[i] = PGI__PI;
     for (size_t i = 0; i < n; i++) flags[i] = vs->flags[i] | PGI_VS_LAMBERT;
     pgi_photons uph = *ph;
     uph.fr = uph.fg = uph.fb = ones;
@@ -38,7 +38,7 @@ pgi_status pgi__photon_counts(pgi_estimator *e, const pgi_estimate_args *a, floa
     ua.out_rgb = out_rgb;
     if ((st = pgi_estimator_build(e, &ua))) goto done;
     if ((st = pgi_estimator_estimate(e, &ua))) goto done;
-    const float area = PGI_PI * a->radius * a->radius;
+    const float area = PGI__PI * a->radius * a->radius;
     for (size_t i = 0; i < n; i++) {
         float c = rintf(out_rgb[3 * i] * area);
         out_rgb[3 * i] = out_rgb[3 * i + 1] = out_rgb[3 * i + 2] = c > 0.f ? c : 0.f;

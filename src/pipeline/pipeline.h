@@ -1,8 +1,8 @@
 /* Pipeline internals shared by render.c, counts.c and progressive.c.
  * progressive.c sits above the renderer: the public API, the scene's change
  * counters and pgi__renderer_render_frame. */
-#ifndef PGI_PIPELINE_H
-#define PGI_PIPELINE_H
+#ifndef PGI__PIPELINE_H
+#define PGI__PIPELINE_H
 
 #include "core/core.h"
 #include "core/mem.h"

@@ -14,7 +14,7 @@
 #include "pipeline/pipeline.h"
 #include "scene/scene_internal.h"
 
-#define PGI_ALPHA (2.0 / 3.0)
+#define PGI__ALPHA (2.0 / 3.0)
 
 /* Everything that changes the picture: the desc (less the estimator name,
  * view pointer and thread count), the estimator, the view camera and the
@@ -62,7 +62,7 @@ void pgi_progressive_destroy(pgi_progressive *a) {
 
 float pgi_progressive_radius(float r0, int k) {
     double r2 = (double)r0 * (double)r0;
-    for (int i = 0; i < k; i++) r2 *= ((double)i + 1.0 + PGI_ALPHA) / ((double)i + 2.0);
+    for (int i = 0; i < k; i++) r2 *= ((double)i + 1.0 + PGI__ALPHA) / ((double)i + 2.0);
     return (float)sqrt(r2);
 }
 

@@ -16,7 +16,7 @@
 #include "view/view.h"
 #include "filter/bilateral.h"
 
-#define PGI_MAX_BOUNCES 64
+#define PGI__MAX_BOUNCES 64
 
 struct pgi_renderer {
     const pgi_scene *scene;
@@ -290,8 +290,8 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
     if (d->radius == PGI_RADIUS_AUTO && d->radius_policy != PGI_RADIUS_FIXED)
         return pgi__fail(PGI_ERR_INVALID_ARG, "%s", "the automatic radius needs the fixed radius policy");
     if (d->bounces == 0) d->bounces = sd->bounces > 0 ? sd->bounces : 4;
-    if (d->bounces < 1 || d->bounces > PGI_MAX_BOUNCES)
-        return pgi__fail(PGI_ERR_INVALID_ARG, "bounces must be in 1..%d, got %d", PGI_MAX_BOUNCES, d->bounces);
+    if (d->bounces < 1 || d->bounces > PGI__MAX_BOUNCES)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "bounces must be in 1..%d, got %d", PGI__MAX_BOUNCES, d->bounces);
     if (d->seed == 0) d->seed = 1;
     if (d->threads < 0)
         return pgi__fail(PGI_ERR_INVALID_ARG, "threads must be 0 (all) or positive, got %d", d->threads);

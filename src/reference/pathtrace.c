@@ -27,9 +27,9 @@
 #include "scene/bsdf.h"
 #include "view/view.h"
 
-#define PGI_MAX_SPECULAR_DEPTH 8 /* as src/view/view.c */
-#define PGI_REF_MAX_SIDE 16384
-#define PGI_REF_MAX_BOUNCES 64
+#define PGI__MAX_SPECULAR_DEPTH 8 /* as src/view/view.c */
+#define PGI__REF_MAX_SIDE 16384
+#define PGI__REF_MAX_BOUNCES 64
 
 typedef struct {
     const pgi_scene *s;
@@ -184,7 +184,7 @@ static pgi__v3 trace_sample(const pt_ctx *C, int px, int py, float jx, float jy,
         pgi__v3 wo = v3_neg(d);
         if (v3_dot(wo, sf.ng) >= 0.f) L = v3_add(L, v3_mul(W, v3_load(sf.mat->ke)));
         if (!pgi__mat_specular(sf.mat)) break;
-        if (depth + 1 >= PGI_MAX_SPECULAR_DEPTH) return L;
+        if (depth + 1 >= PGI__MAX_SPECULAR_DEPTH) return L;
         pgi__v3 nd, w;
         float u1 = pgi_rng_f(rng), u2 = pgi_rng_f(rng), u3 = pgi_rng_f(rng);
         if (!pgi__bsdf_sample(&sf, wo, u1, u2, u3, &nd, &w)) return L;
@@ -263,7 +263,7 @@ static void ctx_free(pt_ctx *C) {
 
 static pgi_status ctx_lights(pt_ctx *C) {
     const pgi_scene *s = C->s;
-    for (size_t l = 0; l < s->nlights; l++) C->narea += s->lights[l].type == PGI_LIGHT_AREA;
+    for (size_t l = 0; l < s->nlights; l++) C->narea += s->lights[l].type == PGI__LIGHT_AREA;
     if (!C->narea) return PGI_OK;
     C->cdf = malloc(C->narea * sizeof *C->cdf);
     C->idx = malloc(C->narea * sizeof *C->idx);
@@ -272,7 +272,7 @@ static pgi_status ctx_lights(pt_ctx *C) {
     double tot = 0.0;
     size_t k = 0;
     for (size_t l = 0; l < s->nlights; l++) {
-        if (s->lights[l].type != PGI_LIGHT_AREA) continue;
+        if (s->lights[l].type != PGI__LIGHT_AREA) continue;
         tot += v3_lum(v3_load(s->lights[l].power));
         C->cdf[k] = (float)tot;
         C->idx[k++] = l;
@@ -303,12 +303,12 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_reference_desc *in,
         d.width = sd->width > 0 ? sd->width : 640;
         d.height = sd->height > 0 ? sd->height : 480;
     }
-    if (d.width <= 0 || d.height <= 0 || d.width > PGI_REF_MAX_SIDE || d.height > PGI_REF_MAX_SIDE)
+    if (d.width <= 0 || d.height <= 0 || d.width > PGI__REF_MAX_SIDE || d.height > PGI__REF_MAX_SIDE)
         return pgi__fail(PGI_ERR_INVALID_ARG, "image size %dx%d is out of range (1..%d a side)", d.width, d.height,
-                         PGI_REF_MAX_SIDE);
+                         PGI__REF_MAX_SIDE);
     if (d.bounces == 0) d.bounces = sd->bounces > 0 ? sd->bounces : 4;
-    if (d.bounces < 1 || d.bounces > PGI_REF_MAX_BOUNCES)
-        return pgi__fail(PGI_ERR_INVALID_ARG, "bounces must be in 1..%d, got %d", PGI_REF_MAX_BOUNCES, d.bounces);
+    if (d.bounces < 1 || d.bounces > PGI__REF_MAX_BOUNCES)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "bounces must be in 1..%d, got %d", PGI__REF_MAX_BOUNCES, d.bounces);
     if (d.seed == 0) d.seed = 1;
     if (d.threads < 0) return pgi__fail(PGI_ERR_INVALID_ARG, "threads must be 0 (all) or positive, got %d", d.threads);
     if (d.jitter < PGI_JITTER_AUTO || d.jitter > PGI_JITTER_ON)

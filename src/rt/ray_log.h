@@ -11,8 +11,8 @@
  * group again with raw Embree calls in the style asked for, timed, in
  * parallel over the given thread count, checking every answer against the
  * captured one. */
-#ifndef PGI_RAY_LOG_H
-#define PGI_RAY_LOG_H
+#ifndef PGI__RAY_LOG_H
+#define PGI__RAY_LOG_H
 
 #include "rt/rt.h"
 

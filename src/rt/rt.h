@@ -1,8 +1,8 @@
 /* Ray casting. src/rt is the only folder that includes Embree: rt.c (the CPU's scene and rays)
  * and tri_bvh.c (the GPU backend's triangle BVH, built with Embree's rtcBuildBVH); everything
  * else sees these few calls and tri_bvh.h. */
-#ifndef PGI_RT_H
-#define PGI_RT_H
+#ifndef PGI__RT_H
+#define PGI__RT_H
 
 #include "scene/scene_internal.h"
 

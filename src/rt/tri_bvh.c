@@ -461,7 +461,7 @@ pgi_status pgi__tri_bvh_build(const pgi_scene *s, const pgi__tri_bvh_config *cfg
             fc.sah += root_area; /* the root's own visit */
         }
         free(mask_of);
-        PGI_ASSERT(fc.nnodes == inner && fc.ntris == refs);
+        PGI__ASSERT(fc.nnodes == inner && fc.ntris == refs);
         b->nnodes = fc.nnodes;
         b->ntris = fc.ntris;
         pgi__tri_bvh_stats *S = &b->stats;

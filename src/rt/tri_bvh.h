@@ -45,8 +45,8 @@
  * callback, pgi__tri_bvh_mask_filter for the shader's, pgi__tri_bvh_scene_filter for the renderer's).
  * Closest hit shrinks tfar to each hit's t (a later hit at an equal t replaces an earlier one, as
  * Embree's `T <= tfar`); any hit stops at the first hit. Rays of ray.mask -1 only (no ray masks). */
-#ifndef PGI_RT_TRI_BVH_H
-#define PGI_RT_TRI_BVH_H
+#ifndef PGI__RT_TRI_BVH_H
+#define PGI__RT_TRI_BVH_H
 
 #include "rt/rt.h"
 

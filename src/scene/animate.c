@@ -55,9 +55,9 @@ pgi_status pgi__scene_add_sphere(pgi_scene *s, const float c[3], float r, uint32
     uint32_t base = (uint32_t)s->nverts;
     pgi__v3 cc = v3_load(c);
     for (int i = 0; i <= st; i++) {
-        float th = PGI_PI * (float)i / (float)st;
+        float th = PGI__PI * (float)i / (float)st;
         for (int j = 0; j <= sl; j++) {
-            float ph = 2.f * PGI_PI * (float)j / (float)sl;
+            float ph = 2.f * PGI__PI * (float)j / (float)sl;
             pgi__v3 n = v3(sinf(th) * cosf(ph), cosf(th), sinf(th) * sinf(ph));
             put_vertex(s, v3_madd(cc, n, r), n);
         }
@@ -193,10 +193,10 @@ static void anim_eval(const pgi__anim *a, double t, pgi__keyframe *out) {
         return;
     }
     double u = t - t0;
-    if (a->loop == PGI_LOOP_REPEAT) {
+    if (a->loop == PGI__LOOP_REPEAT) {
         u = fmod(u, D);
         if (u < 0.0) u += D;
-    } else if (a->loop == PGI_LOOP_PINGPONG) {
+    } else if (a->loop == PGI__LOOP_PINGPONG) {
         u = fmod(u, 2.0 * D);
         if (u < 0.0) u += 2.0 * D;
         if (u > D) u = 2.0 * D - u;
@@ -220,7 +220,7 @@ static void anim_eval(const pgi__anim *a, double t, pgi__keyframe *out) {
 
 /* Row-major R = Rz * Ry * Rx from degrees. */
 static void euler_matrix(const float deg[3], float m[9]) {
-    float ax = deg[0] * (PGI_PI / 180.f), ay = deg[1] * (PGI_PI / 180.f), az = deg[2] * (PGI_PI / 180.f);
+    float ax = deg[0] * (PGI__PI / 180.f), ay = deg[1] * (PGI__PI / 180.f), az = deg[2] * (PGI__PI / 180.f);
     float cx = cosf(ax), sx = sinf(ax), cy = cosf(ay), sy = sinf(ay), cz = cosf(az), sz = sinf(az);
     m[0] = cz * cy;
     m[1] = cz * sy * sx - sz * cx;
@@ -266,23 +266,23 @@ void pgi__scene_refresh(pgi_scene *s) {
         pgi__light *l = &s->lights[i];
         float k = 0.f;
         switch (l->type) {
-        case PGI_LIGHT_POINT: k = 4.f * PGI_PI; break;
-        case PGI_LIGHT_SPOT: k = 2.f * PGI_PI * (1.f - l->cos_cutoff); break;
-        case PGI_LIGHT_SUN: {
+        case PGI__LIGHT_POINT: k = 4.f * PGI__PI; break;
+        case PGI__LIGHT_SPOT: k = 2.f * PGI__PI * (1.f - l->cos_cutoff); break;
+        case PGI__LIGHT_SUN: {
             float R = 0.5f * diag;
-            k = PGI_PI * R * R;
+            k = PGI__PI * R * R;
             break;
         }
-        case PGI_LIGHT_AREA: {
+        case PGI__LIGHT_AREA: {
             const uint32_t *t = s->tri + 3 * (size_t)l->tri;
             pgi__v3 a = pgi__scene_vertex(s, t[0]), b = pgi__scene_vertex(s, t[1]), c = pgi__scene_vertex(s, t[2]);
             pgi__v3 n = v3_cross(v3_sub(b, a), v3_sub(c, a));
             l->area = 0.5f * v3_len(n);
             v3_store(l->normal, v3_norm(n));
-            k = PGI_PI * l->area;
+            k = PGI__PI * l->area;
             break;
         }
-        case PGI_LIGHT_ENV: break;
+        case PGI__LIGHT_ENV: break;
         }
         for (int c = 0; c < 3; c++) l->power[c] = l->color[c] * k;
     }
@@ -322,9 +322,9 @@ pgi_status pgi__scene_check_numbers(const pgi_scene *s, const char *what) {
                 return pgi__fail(PGI_ERR_PARSE,
                                  "%s: light %zu (%s) has a power of %g W, beyond %g (its intensity, irradiance or "
                                  "emission %g times %s)",
-                                 what, i, l->type <= PGI_LIGHT_ENV ? kinds[l->type] : "?", (double)l->power[c],
+                                 what, i, l->type <= PGI__LIGHT_ENV ? kinds[l->type] : "?", (double)l->power[c],
                                  (double)PGI_MAX_LIGHT_POWER, (double)l->color[c],
-                                 l->type == PGI_LIGHT_SUN ? "the scene's cross-section" : "its solid angle or area");
+                                 l->type == PGI__LIGHT_SUN ? "the scene's cross-section" : "its solid angle or area");
             }
     }
     if (s->env)
@@ -341,7 +341,7 @@ pgi_status pgi__scene_check_numbers(const pgi_scene *s, const char *what) {
 
 static size_t explicit_lights(const pgi_scene *s) {
     size_t n = 0;
-    for (size_t i = 0; i < s->nlights; i++) n += s->lights[i].type != PGI_LIGHT_AREA;
+    for (size_t i = 0; i < s->nlights; i++) n += s->lights[i].type != PGI__LIGHT_AREA;
     return n;
 }
 
@@ -350,7 +350,7 @@ static size_t area_group_material(const pgi_scene *s, size_t g) {
     for (size_t m = 0; m < s->nmats; m++) {
         int used = 0;
         for (size_t i = 0; i < s->nlights && !used; i++)
-            used = s->lights[i].type == PGI_LIGHT_AREA && s->tri_mat[s->lights[i].tri] == m;
+            used = s->lights[i].type == PGI__LIGHT_AREA && s->tri_mat[s->lights[i].tri] == m;
         if (used && g-- == 0) return m;
     }
     return SIZE_MAX;
@@ -371,11 +371,11 @@ pgi_status pgi_scene_get_light_group(const pgi_scene *s, size_t i, pgi_light_gro
         size_t k = 0;
         for (size_t j = 0; j < s->nlights; j++) {
             const pgi__light *l = &s->lights[j];
-            if (l->type == PGI_LIGHT_AREA || k++ != i) continue;
+            if (l->type == PGI__LIGHT_AREA || k++ != i) continue;
             static const char *const names[] = {"point", "spot", "sun"};
             out->kind = (pgi_light_kind)l->type;
             out->name = names[l->type];
-            if (l->type != PGI_LIGHT_SUN) memcpy(out->position, l->pos, sizeof out->position);
+            if (l->type != PGI__LIGHT_SUN) memcpy(out->position, l->pos, sizeof out->position);
             return PGI_OK;
         }
     }
@@ -389,7 +389,7 @@ pgi_status pgi_scene_get_light_group(const pgi_scene *s, size_t i, pgi_light_gro
     double area = 0.0;
     for (size_t j = 0; j < s->nlights; j++) {
         const pgi__light *l = &s->lights[j];
-        if (l->type != PGI_LIGHT_AREA || s->tri_mat[l->tri] != m) continue;
+        if (l->type != PGI__LIGHT_AREA || s->tri_mat[l->tri] != m) continue;
         const uint32_t *t = s->tri + 3 * (size_t)l->tri;
         pgi__v3 ctr =
             v3_scale(v3_add(v3_add(pgi__scene_vertex(s, t[0]), pgi__scene_vertex(s, t[1])), pgi__scene_vertex(s, t[2])),
@@ -418,7 +418,7 @@ pgi_status pgi_scene_set_light_position(pgi_scene *s, size_t i, const float pos[
     if (i < ne) {
         size_t k = 0;
         for (size_t j = 0; j < s->nlights; j++)
-            if (s->lights[j].type != PGI_LIGHT_AREA && k++ == i) memcpy(s->lights[j].pos, pos, 3 * sizeof(float));
+            if (s->lights[j].type != PGI__LIGHT_AREA && k++ == i) memcpy(s->lights[j].pos, pos, 3 * sizeof(float));
         return PGI_OK;
     }
     size_t m = area_group_material(s, i - ne);
@@ -456,7 +456,7 @@ pgi_status pgi_scene_set_light_position(pgi_scene *s, size_t i, const float pos[
 static size_t explicit_light_index(const pgi_scene *s, size_t i) {
     size_t k = 0;
     for (size_t j = 0; j < s->nlights; j++)
-        if (s->lights[j].type != PGI_LIGHT_AREA && k++ == i) return j;
+        if (s->lights[j].type != PGI__LIGHT_AREA && k++ == i) return j;
     return SIZE_MAX;
 }
 
@@ -506,7 +506,7 @@ pgi_status pgi__light_from_desc(const pgi_light_desc *ld, const char *what, pgi_
         if (!(ld->cone_deg > 0.f && ld->cone_deg < 180.f))
             return pgi__fail(PGI_ERR_INVALID_ARG, "%s: spot cone half-angle %g is outside (0, 180) degrees", what,
                              (double)ld->cone_deg);
-        l->cos_cutoff = cosf(ld->cone_deg * (PGI_PI / 180.f));
+        l->cos_cutoff = cosf(ld->cone_deg * (PGI__PI / 180.f));
     }
     return PGI_OK;
 }
@@ -515,7 +515,7 @@ pgi_status pgi__light_from_desc(const pgi_light_desc *ld, const char *what, pgi_
 static void set_area_emission(pgi_scene *s, size_t m, const float ke[3]) {
     memcpy(s->mats[m].ke, ke, 3 * sizeof(float));
     for (size_t j = 0; j < s->nlights; j++)
-        if (s->lights[j].type == PGI_LIGHT_AREA && s->tri_mat[s->lights[j].tri] == m)
+        if (s->lights[j].type == PGI__LIGHT_AREA && s->tri_mat[s->lights[j].tri] == m)
             memcpy(s->lights[j].color, ke, 3 * sizeof(float));
 }
 
@@ -569,7 +569,7 @@ pgi_status pgi_scene_get_light(const pgi_scene *s, size_t group, pgi_light_desc 
     memcpy(out->position, l->pos, sizeof out->position);
     memcpy(out->direction, l->dir, sizeof out->direction);
     split_radiance(l->color, out->color, &out->intensity);
-    if (l->type == PGI_LIGHT_SPOT) out->cone_deg = acosf(l->cos_cutoff) * (180.f / PGI_PI);
+    if (l->type == PGI__LIGHT_SPOT) out->cone_deg = acosf(l->cos_cutoff) * (180.f / PGI__PI);
     return PGI_OK;
 }
 

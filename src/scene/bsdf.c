@@ -34,7 +34,7 @@ void pgi__scene_surface(const pgi_scene *s, uint32_t prim, float bu, float bv, p
  * lum(tint) E(ci) against lum(kd) (1 - E(ci)). */
 static float glossy_pick(const pgi__lobe *l, pgi__v3 kd, pgi__v3 ns, pgi__v3 wi) {
     float wd = v3_lum(kd), wsp = v3_lum(l->ks);
-    if (l->model == PGI_LOBE_GGX) {
+    if (l->model == PGI__LOBE_GGX) {
         float ci = v3_dot(wi, ns);
         if (!(ci > 0.f)) return 0.f; /* wi under the shading normal: the lobe is zero there */
         float e = pgi__lobe_E(l, ci);
@@ -46,11 +46,11 @@ static float glossy_pick(const pgi__lobe *l, pgi__v3 kd, pgi__v3 ns, pgi__v3 wi)
 
 /* Solid-angle density of the glossy lobe's sampling. */
 static float glossy_pdf(const pgi__lobe *l, pgi__v3 ns, pgi__v3 wi, pgi__v3 wo) {
-    if (l->model == PGI_LOBE_GGX) return pgi__ggx_pdf(l, ns, wi, wo);
+    if (l->model == PGI__LOBE_GGX) return pgi__ggx_pdf(l, ns, wi, wo);
     float s = l->s;
     pgi__v3 h = v3_norm(v3_add(wi, wo));
     float hn = fmaxf(0.f, v3_dot(h, ns)), hw = fabsf(v3_dot(h, wo));
-    return hw > 0.f ? (s + 1.f) / (2.f * PGI_PI) * powf(hn, s) / (4.f * hw) : 0.f;
+    return hw > 0.f ? (s + 1.f) / (2.f * PGI__PI) * powf(hn, s) / (4.f * hw) : 0.f;
 }
 
 int pgi__bsdf_sample(const pgi__surface *sf, pgi__v3 wi, float u1, float u2, float u3, pgi__v3 *wo, pgi__v3 *weight) {
@@ -58,11 +58,11 @@ int pgi__bsdf_sample(const pgi__surface *sf, pgi__v3 wi, float u1, float u2, flo
     float side = v3_dot(wi, sf->ng) >= 0.f ? 1.f : -1.f;
     pgi__v3 ng = v3_scale(sf->ng, side), ns = v3_scale(sf->ns, side);
     switch (m->type) {
-    case PGI_MAT_MIRROR:
+    case PGI__MAT_MIRROR:
         *wo = pgi__reflect(wi, ns);
         *weight = v3_load(m->ks);
         return v3_dot(*wo, ng) > 0.f;
-    case PGI_MAT_GLASS: {
+    case PGI__MAT_GLASS: {
         /* side > 0: arriving from outside (the side the normal points to). */
         float eta_i = side > 0.f ? 1.f : m->ior, eta_t = side > 0.f ? m->ior : 1.f;
         float ci = fminf(1.f, fmaxf(0.f, v3_dot(wi, ns)));
@@ -79,13 +79,13 @@ int pgi__bsdf_sample(const pgi__surface *sf, pgi__v3 wi, float u1, float u2, flo
         *weight = v3_load(m->ks);
         return v3_dot(*wo, ng) < 0.f;
     }
-    case PGI_MAT_PHONG:
-    case PGI_MAT_PLASTIC: {
+    case PGI__MAT_PHONG:
+    case PGI__MAT_PLASTIC: {
         pgi__lobe l;
         pgi__lobe_of_material(m, &l);
         float ps = glossy_pick(&l, sf->kd, ns, wi);
         if (u3 < ps) {
-            if (l.model == PGI_LOBE_GGX) {
+            if (l.model == PGI__LOBE_GGX) {
                 /* Visible normals (Heitz 2018) in the frame pgi_to_world uses. */
                 pgi__v3 t, b;
                 v3_basis(ns, &t, &b);
@@ -94,7 +94,7 @@ int pgi__bsdf_sample(const pgi__surface *sf, pgi__v3 wi, float u1, float u2, flo
             } else {
                 /* Half vector from the normalised Blinn distribution (s+1)/(2pi) cos^s. */
                 float s = l.s;
-                float ct = powf(u1, 1.f / (s + 1.f)), st = sqrtf(fmaxf(0.f, 1.f - ct * ct)), phi = 2.f * PGI_PI * u2;
+                float ct = powf(u1, 1.f / (s + 1.f)), st = sqrtf(fmaxf(0.f, 1.f - ct * ct)), phi = 2.f * PGI__PI * u2;
                 pgi__v3 h = pgi_to_world(v3(st * cosf(phi), st * sinf(phi), ct), ns);
                 *wo = pgi__reflect(wi, h);
             }
@@ -103,13 +103,13 @@ int pgi__bsdf_sample(const pgi__surface *sf, pgi__v3 wi, float u1, float u2, flo
         }
         float cg = v3_dot(*wo, ng), cs = v3_dot(*wo, ns);
         if (!(cg > 0.f) || !(cs > 0.f)) return 0;
-        float pdf = ps * glossy_pdf(&l, ns, wi, *wo) + (1.f - ps) * cs * PGI_INV_PI;
+        float pdf = ps * glossy_pdf(&l, ns, wi, *wo) + (1.f - ps) * cs * PGI__INV_PI;
         if (!(pdf > 0.f)) return 0;
         pgi__v3 f = pgi__brdf_eval(sf->kd, &l, ns, wi, *wo);
         *weight = v3_scale(f, cs / pdf);
         return 1;
     }
-    case PGI_MAT_LAMBERT:
+    case PGI__MAT_LAMBERT:
     default:
         *wo = pgi_to_world(pgi_sample_cosine(u1, u2), ns);
         *weight = sf->kd;
@@ -124,10 +124,10 @@ float pgi__bsdf_pdf(const pgi__surface *sf, pgi__v3 wi, pgi__v3 wo) {
     pgi__v3 ng = v3_scale(sf->ng, side), ns = v3_scale(sf->ns, side);
     float cg = v3_dot(wo, ng), cs = v3_dot(wo, ns);
     if (!(cg > 0.f) || !(cs > 0.f)) return 0.f;
-    if (m->type != PGI_MAT_PHONG && m->type != PGI_MAT_PLASTIC) return cs * PGI_INV_PI;
+    if (m->type != PGI__MAT_PHONG && m->type != PGI__MAT_PLASTIC) return cs * PGI__INV_PI;
     /* Same lobe mixture as pgi__bsdf_sample. */
     pgi__lobe l;
     pgi__lobe_of_material(m, &l);
     float ps = glossy_pick(&l, sf->kd, ns, wi);
-    return ps * glossy_pdf(&l, ns, wi, wo) + (1.f - ps) * cs * PGI_INV_PI;
+    return ps * glossy_pdf(&l, ns, wi, wo) + (1.f - ps) * cs * PGI__INV_PI;
 }

@@ -1,8 +1,8 @@
 /* Materials as BSDFs: evaluation (shared by direct light and every
  * estimator, so that all of them compute the same numbers) and sampling
  * (photon tracing and eye paths). Directions point away from the surface. */
-#ifndef PGI_BSDF_H
-#define PGI_BSDF_H
+#ifndef PGI__BSDF_H
+#define PGI__BSDF_H
 
 #include "scene_internal.h"
 
@@ -23,7 +23,7 @@ static inline void pgi__phong_lobe(pgi__v3 n, pgi__v3 wi, pgi__v3 wo, float s, f
     float hi = fmaxf(0.f, v3_dot(h, wi));
     float m = 1.f - hi, m2 = m * m;
     *fr = m2 * m2 * m;
-    *k = (8.f + s) * (1.f / (8.f * PGI_PI)) * powf(hn, s);
+    *k = (8.f + s) * (1.f / (8.f * PGI__PI)) * powf(hn, s);
 }
 
 /* Unpolarised Fresnel reflectance of a dielectric; cos_i > 0 on the incident side. */
@@ -38,20 +38,20 @@ static inline float pgi__fresnel_dielectric(float cos_i, float eta_i, float eta_
 
 /* ------------------------------------------------ microfacet plastic (GGX)
  * A Lambertian base under a GGX (Trowbridge-Reitz) lobe with the Fresnel
- * reflectance of a dielectric of index eta (PGI_MAT_PLASTIC, docs/scene-format.md):
+ * reflectance of a dielectric of index eta (PGI__MAT_PLASTIC, docs/scene-format.md):
  *   f = tint F(h.wi) D(h) G2(wi, wo) / (4 |n.wi| |n.wo|)                   (Smith, height-correlated)
  *     + kd/pi (1 - E(n.wi)) (1 - E(n.wo)) / (1 - E_avg)                   (Kelemen & Szirmay-Kalos 2001)
  * E(mu) is the directional albedo of the untinted lobe (a table, microfacet.c) and
  * E_avg = 2 int_0^1 E(mu) mu dmu, so the base is reciprocal and a white base under
  * the lobe reflects exactly everything: albedo(wo) = E(wo) + kd (1 - E(wo)) (tint 1).
- * The table holds E at PGI_GGX_NMU values of mu = x^2, x uniform in [0, 1] (dense
+ * The table holds E at PGI__GGX_NMU values of mu = x^2, x uniform in [0, 1] (dense
  * at grazing angles, where E changes fastest), for alpha in
- * [PGI_GGX_ALPHA_MIN, 1] and a set of indices eta; pgi__lobe_init interpolates one
+ * [PGI__GGX_ALPHA_MIN, 1] and a set of indices eta; pgi__lobe_init interpolates one
  * row for a material's alpha and eta. */
-#define PGI_GGX_NMU 32
-#define PGI_GGX_ALPHA_MIN 0.01f
+#define PGI__GGX_NMU 32
+#define PGI__GGX_ALPHA_MIN 0.01f
 
-typedef enum pgi__lobe_model { PGI_LOBE_NONE = 0, PGI_LOBE_PHONG = 1, PGI_LOBE_GGX = 2 } pgi__lobe_model;
+typedef enum pgi__lobe_model { PGI__LOBE_NONE = 0, PGI__LOBE_PHONG = 1, PGI__LOBE_GGX = 2 } pgi__lobe_model;
 
 /* The non-Lambertian part of a non-specular BSDF, set up once per shading point. */
 typedef struct pgi__lobe {
@@ -61,14 +61,14 @@ typedef struct pgi__lobe {
     float eta;            /* GGX: index of refraction (> 1) */
     float a2;             /* GGX: alpha^2 */
     float inv_1mEavg;     /* GGX: 1 / (1 - E_avg) */
-    float E[PGI_GGX_NMU]; /* GGX: E at the table's mu nodes for this alpha and eta */
+    float E[PGI__GGX_NMU]; /* GGX: E at the table's mu nodes for this alpha and eta */
 } pgi__lobe;
 
 /* GGX roughness of a Phong exponent (MTL Ns): alpha = sqrt(2 / (Ns + 2)), clamped to
- * [PGI_GGX_ALPHA_MIN, 1]. */
+ * [PGI__GGX_ALPHA_MIN, 1]. */
 static inline float pgi__ggx_alpha_from_ns(float ns) {
     float a = sqrtf(2.f / (fmaxf(ns, 0.f) + 2.f));
-    return a < PGI_GGX_ALPHA_MIN ? PGI_GGX_ALPHA_MIN : a > 1.f ? 1.f : a;
+    return a < PGI__GGX_ALPHA_MIN ? PGI__GGX_ALPHA_MIN : a > 1.f ? 1.f : a;
 }
 /* Normal-incidence reflectance of a dielectric of index eta (from air). */
 static inline float pgi__fresnel_f0(float eta) {
@@ -76,10 +76,10 @@ static inline float pgi__fresnel_f0(float eta) {
     return r * r;
 }
 
-/* Sets up `l`: model PGI_LOBE_NONE (Lambertian), PHONG (ks = F0, s = exponent) or GGX
+/* Sets up `l`: model PGI__LOBE_NONE (Lambertian), PHONG (ks = F0, s = exponent) or GGX
  * (ks = tint, s = alpha, eta). microfacet.c. */
 void pgi__lobe_init(pgi__lobe *l, pgi__lobe_model model, pgi__v3 ks, float s, float eta);
-/* The lobe of a non-specular material (Lambert: PGI_LOBE_NONE). */
+/* The lobe of a non-specular material (Lambert: PGI__LOBE_NONE). */
 void pgi__lobe_of_material(const pgi__material *m, pgi__lobe *l);
 /* What pgi__lobe_of_material passes to pgi__lobe_init (the view samples store these). */
 pgi__lobe_model pgi__lobe_params(const pgi__material *m, pgi__v3 *ks, float *s, float *eta);
@@ -89,9 +89,9 @@ void pgi__ggx_prepare(float eta);
 
 /* E(mu) of a set-up GGX lobe: linear in x = sqrt(mu) between the nodes. */
 static inline float pgi__lobe_E(const pgi__lobe *l, float mu) {
-    float x = sqrtf(fminf(fmaxf(mu, 0.f), 1.f)) * (float)(PGI_GGX_NMU - 1);
+    float x = sqrtf(fminf(fmaxf(mu, 0.f), 1.f)) * (float)(PGI__GGX_NMU - 1);
     int i = (int)x;
-    if (i > PGI_GGX_NMU - 2) i = PGI_GGX_NMU - 2;
+    if (i > PGI__GGX_NMU - 2) i = PGI__GGX_NMU - 2;
     float t = x - (float)i;
     return l->E[i] + (l->E[i + 1] - l->E[i]) * t;
 }
@@ -99,7 +99,7 @@ static inline float pgi__lobe_E(const pgi__lobe *l, float mu) {
 /* Trowbridge-Reitz D(h) with cos(h, n) = c. */
 static inline float pgi__ggx_D(float a2, float c) {
     float d = c * c * (a2 - 1.f) + 1.f;
-    return a2 / (PGI_PI * d * d);
+    return a2 / (PGI__PI * d * d);
 }
 /* sqrt(c^2 + a2 (1 - c^2)) = c sqrt(1 + a2 tan^2): Smith's Lambda(w) = (this / c - 1) / 2. */
 static inline float pgi__ggx_root(float a2, float c) { return sqrtf(c * c * (1.f - a2) + a2); }
@@ -123,7 +123,7 @@ static inline pgi__v3 pgi__ggx_sample_vndf(pgi__v3 V, float alpha, float u1, flo
     float lensq = Vh.x * Vh.x + Vh.y * Vh.y;
     pgi__v3 T1 = lensq > 0.f ? v3_scale(v3(-Vh.y, Vh.x, 0.f), 1.f / sqrtf(lensq)) : v3(1.f, 0.f, 0.f);
     pgi__v3 T2 = v3_cross(Vh, T1);
-    float r = sqrtf(u1), phi = 2.f * PGI_PI * u2;
+    float r = sqrtf(u1), phi = 2.f * PGI__PI * u2;
     float t1 = r * cosf(phi), t2 = r * sinf(phi), sv = 0.5f * (1.f + Vh.z);
     t2 = (1.f - sv) * sqrtf(fmaxf(0.f, 1.f - t1 * t1)) + sv * t2;
     pgi__v3 Nh =
@@ -148,27 +148,27 @@ static inline float pgi__ggx_pdf(const pgi__lobe *l, pgi__v3 n, pgi__v3 wi, pgi_
  * sample's lobe for many wi and the same wo, so it looks E(n.wo) up once (pgi__lobe_one_m_eo). */
 static inline pgi__v3 pgi__lobe_eval_o(const pgi__lobe *l, pgi__v3 kd, pgi__v3 n, pgi__v3 wi, pgi__v3 wo,
                                        float one_m_eo) {
-    if (l->model == PGI_LOBE_PHONG) {
+    if (l->model == PGI__LOBE_PHONG) {
         float k, fr;
         pgi__phong_lobe(n, wi, wo, l->s, &k, &fr);
         return v3(k * (l->ks.x + (1.f - l->ks.x) * fr), k * (l->ks.y + (1.f - l->ks.y) * fr),
                   k * (l->ks.z + (1.f - l->ks.z) * fr));
     }
-    if (l->model != PGI_LOBE_GGX) return v3(0.f, 0.f, 0.f);
+    if (l->model != PGI__LOBE_GGX) return v3(0.f, 0.f, 0.f);
     float ci = v3_dot(n, wi), co = v3_dot(n, wo);
     float base = (1.f - pgi__lobe_E(l, ci)) * one_m_eo * l->inv_1mEavg - 1.f;
-    pgi__v3 r = v3_scale(kd, base * PGI_INV_PI);
+    pgi__v3 r = v3_scale(kd, base * PGI__INV_PI);
     if (ci > 0.f && co > 0.f) r = v3_add(r, v3_scale(l->ks, pgi__ggx_spec(l, n, wi, wo, ci, co)));
     return r;
 }
 
 /* 1 - E(n.wo) of a GGX lobe (0 for the other models, which do not use it). */
 static inline float pgi__lobe_one_m_eo(const pgi__lobe *l, pgi__v3 n, pgi__v3 wo) {
-    return l->model == PGI_LOBE_GGX ? 1.f - pgi__lobe_E(l, v3_dot(n, wo)) : 0.f;
+    return l->model == PGI__LOBE_GGX ? 1.f - pgi__lobe_E(l, v3_dot(n, wo)) : 0.f;
 }
 
 /* f(wi, wo) - kd/pi: what a non-specular BSDF adds to its Lambertian kd/pi (0 for
- * PGI_LOBE_NONE). Phong: the tiled paper's lobe; GGX: the lobe plus the base's change
+ * PGI__LOBE_NONE). Phong: the tiled paper's lobe; GGX: the lobe plus the base's change
  * from kd/pi. The estimators sum kd/pi over the flux once and this per photon. */
 static inline pgi__v3 pgi__lobe_eval(const pgi__lobe *l, pgi__v3 kd, pgi__v3 n, pgi__v3 wi, pgi__v3 wo) {
     return pgi__lobe_eval_o(l, kd, n, wi, wo, pgi__lobe_one_m_eo(l, n, wo));
@@ -176,20 +176,20 @@ static inline pgi__v3 pgi__lobe_eval(const pgi__lobe *l, pgi__v3 kd, pgi__v3 n, 
 
 /* f(wi, wo) for a non-specular surface: kd/pi plus the lobe. No cosine. */
 static inline pgi__v3 pgi__brdf_eval(pgi__v3 kd, const pgi__lobe *l, pgi__v3 n, pgi__v3 wi, pgi__v3 wo) {
-    pgi__v3 f = v3_scale(kd, PGI_INV_PI);
-    if (l->model != PGI_LOBE_NONE) f = v3_add(f, pgi__lobe_eval(l, kd, n, wi, wo));
+    pgi__v3 f = v3_scale(kd, PGI__INV_PI);
+    if (l->model != PGI__LOBE_NONE) f = v3_add(f, pgi__lobe_eval(l, kd, n, wi, wo));
     return f;
 }
 
 /* The lobe of valid view sample i (its PGI_VS_LAMBERT / PGI_VS_GGX flags, ks, shininess, ior). */
 static inline void pgi__vs_lobe(const pgi_view_samples *vs, size_t i, pgi__lobe *l) {
     uint8_t f = vs->flags[i];
-    pgi__lobe_model m = (f & PGI_VS_LAMBERT) ? PGI_LOBE_NONE : (f & PGI_VS_GGX) ? PGI_LOBE_GGX : PGI_LOBE_PHONG;
+    pgi__lobe_model m = (f & PGI_VS_LAMBERT) ? PGI__LOBE_NONE : (f & PGI_VS_GGX) ? PGI__LOBE_GGX : PGI__LOBE_PHONG;
     /* A Lambertian lobe is its model alone (nothing reads its ks, s or eta): no load of the ks and
      * shininess planes, which the view pass then need not touch either (pgi__view_fill). ior only
      * for GGX: samples filled by hand for Blinn-Phong or Lambert need no ior plane. */
-    if (m == PGI_LOBE_NONE) pgi__lobe_init(l, m, v3(0.f, 0.f, 0.f), 0.f, 1.5f);
-    else pgi__lobe_init(l, m, v3_load(vs->ks + 3 * i), vs->shininess[i], m == PGI_LOBE_GGX ? vs->ior[i] : 1.5f);
+    if (m == PGI__LOBE_NONE) pgi__lobe_init(l, m, v3(0.f, 0.f, 0.f), 0.f, 1.5f);
+    else pgi__lobe_init(l, m, v3_load(vs->ks + 3 * i), vs->shininess[i], m == PGI__LOBE_GGX ? vs->ior[i] : 1.5f);
 }
 
 static inline pgi__v3 pgi__reflect(pgi__v3 w, pgi__v3 n) { return v3_sub(v3_scale(n, 2.f * v3_dot(w, n)), w); }
@@ -240,7 +240,7 @@ static inline void pgi__surface_texture(const pgi_scene *s, pgi__surface *sf) {
 }
 
 static inline int pgi__mat_specular(const pgi__material *m) {
-    return m->type == PGI_MAT_MIRROR || m->type == PGI_MAT_GLASS;
+    return m->type == PGI__MAT_MIRROR || m->type == PGI__MAT_GLASS;
 }
 
 /* Samples the continuation of a path arriving from `wi` (pointing away from

@@ -70,7 +70,7 @@ static void add_quad(builder *b, pgi__v3 a, pgi__v3 c1, pgi__v3 c2, pgi__v3 d, u
 
 /* Axis-aligned box of half extents h, rotated by `deg` about y, resting on y = y0. */
 static void add_box(builder *b, float cx, float y0, float cz, pgi__v3 h, float deg, uint32_t mat) {
-    float a = deg * PGI_PI / 180.f, ca = cosf(a), sa = sinf(a);
+    float a = deg * PGI__PI / 180.f, ca = cosf(a), sa = sinf(a);
     pgi__v3 P[8];
     for (int i = 0; i < 8; i++) {
         float x = (i & 1) ? h.x : -h.x, y = (i & 2) ? 2.f * h.y : 0.f, z = (i & 4) ? h.z : -h.z;
@@ -88,9 +88,9 @@ static void add_sphere(builder *b, pgi__v3 c, float r, int slices, int stacks, u
     if (!grow(b, (size_t)(slices + 1) * (stacks + 1), (size_t)slices * stacks * 2)) return;
     uint32_t base = (uint32_t)b->s->nverts;
     for (int i = 0; i <= stacks; i++) {
-        float th = PGI_PI * (float)i / (float)stacks;
+        float th = PGI__PI * (float)i / (float)stacks;
         for (int j = 0; j <= slices; j++) {
-            float ph = 2.f * PGI_PI * (float)j / (float)slices;
+            float ph = 2.f * PGI__PI * (float)j / (float)slices;
             pgi__v3 n = v3(sinf(th) * cosf(ph), cosf(th), sinf(th) * sinf(ph));
             add_vertex(b, v3_madd(c, n, r), n);
         }
@@ -165,10 +165,10 @@ static void set_camera(builder *b, pgi__v3 eye, pgi__v3 at, float fov) {
  * (Ke 17 12 4) just under the ceiling. */
 static void build_cornell(builder *b) {
     pgi__v3 white = v3(0.725f, 0.71f, 0.68f);
-    uint32_t mw = add_mat(b, "white", PGI_MAT_LAMBERT, white);
-    uint32_t mr = add_mat(b, "red", PGI_MAT_LAMBERT, v3(0.63f, 0.065f, 0.05f));
-    uint32_t mg = add_mat(b, "green", PGI_MAT_LAMBERT, v3(0.14f, 0.45f, 0.091f));
-    uint32_t ml = add_mat(b, "light", PGI_MAT_LAMBERT, v3(0.78f, 0.78f, 0.78f));
+    uint32_t mw = add_mat(b, "white", PGI__MAT_LAMBERT, white);
+    uint32_t mr = add_mat(b, "red", PGI__MAT_LAMBERT, v3(0.63f, 0.065f, 0.05f));
+    uint32_t mg = add_mat(b, "green", PGI__MAT_LAMBERT, v3(0.14f, 0.45f, 0.091f));
+    uint32_t ml = add_mat(b, "light", PGI__MAT_LAMBERT, v3(0.78f, 0.78f, 0.78f));
     if (!b->st) v3_store(b->s->mats[ml].ke, v3(17.f, 12.f, 4.f));
     add_quad(b, v3(-1, 0, -1), v3(-1, 0, 1), v3(1, 0, 1), v3(1, 0, -1), mw);   /* floor */
     add_quad(b, v3(-1, 2, -1), v3(1, 2, -1), v3(1, 2, 1), v3(-1, 2, 1), mw);   /* ceiling */
@@ -194,8 +194,8 @@ static void build_cornell_mirrors(builder *b) {
     /* drop the tall block (the last box: 12 triangles) */
     b->s->ntris -= 12;
     b->s->nverts -= 24;
-    uint32_t mm = add_mat(b, "mirror", PGI_MAT_MIRROR, v3(0.f, 0.f, 0.f));
-    uint32_t mglass = add_mat(b, "glass", PGI_MAT_GLASS, v3(0.f, 0.f, 0.f));
+    uint32_t mm = add_mat(b, "mirror", PGI__MAT_MIRROR, v3(0.f, 0.f, 0.f));
+    uint32_t mglass = add_mat(b, "glass", PGI__MAT_GLASS, v3(0.f, 0.f, 0.f));
     if (b->st) return;
     v3_store(b->s->mats[mm].ks, v3(0.9f, 0.9f, 0.9f));
     v3_store(b->s->mats[mglass].ks, v3(1.f, 1.f, 1.f));
@@ -208,10 +208,10 @@ static void build_cornell_mirrors(builder *b) {
 /* GIRefScene: a closed box of six planes, grey except the coloured left and
  * right walls, two spheres, a point light under the ceiling. */
 static void build_giref(builder *b) {
-    uint32_t mg = add_mat(b, "grey", PGI_MAT_LAMBERT, v3(0.7f, 0.7f, 0.7f));
-    uint32_t mr = add_mat(b, "red", PGI_MAT_LAMBERT, v3(0.75f, 0.15f, 0.15f));
-    uint32_t mb = add_mat(b, "blue", PGI_MAT_LAMBERT, v3(0.15f, 0.2f, 0.75f));
-    uint32_t ms = add_mat(b, "sphere", PGI_MAT_LAMBERT, v3(0.8f, 0.8f, 0.8f));
+    uint32_t mg = add_mat(b, "grey", PGI__MAT_LAMBERT, v3(0.7f, 0.7f, 0.7f));
+    uint32_t mr = add_mat(b, "red", PGI__MAT_LAMBERT, v3(0.75f, 0.15f, 0.15f));
+    uint32_t mb = add_mat(b, "blue", PGI__MAT_LAMBERT, v3(0.15f, 0.2f, 0.75f));
+    uint32_t ms = add_mat(b, "sphere", PGI__MAT_LAMBERT, v3(0.8f, 0.8f, 0.8f));
     add_quad(b, v3(-5, 0, -5), v3(-5, 0, 5), v3(5, 0, 5), v3(5, 0, -5), mg);
     add_quad(b, v3(-5, 10, -5), v3(5, 10, -5), v3(5, 10, 5), v3(-5, 10, 5), mg);
     add_quad(b, v3(-5, 0, -5), v3(5, 0, -5), v3(5, 10, -5), v3(-5, 10, -5), mg);
@@ -220,7 +220,7 @@ static void build_giref(builder *b) {
     add_quad(b, v3(5, 0, -5), v3(5, 0, 5), v3(5, 10, 5), v3(5, 10, -5), mb);
     add_sphere(b, v3(-2.f, 2.f, -1.5f), 2.f, 64, 32, ms);
     add_sphere(b, v3(2.5f, 1.5f, 1.f), 1.5f, 64, 32, ms);
-    add_light(b, PGI_LIGHT_POINT, v3(0.f, 9.5f, 0.f), v3(60.f, 60.f, 60.f));
+    add_light(b, PGI__LIGHT_POINT, v3(0.f, 9.5f, 0.f), v3(60.f, 60.f, 60.f));
     set_camera(b, v3(0.f, 5.f, 4.9f), v3(0.f, 4.f, 0.f), 65.f);
     b->s->defaults = (pgi_scene_defaults){200000, 0.25f, 4, 640, 480, 1.f};
 }
@@ -232,16 +232,16 @@ static void build_giref(builder *b) {
  * 64 paths per requested photon (its defaults warned that photons were
  * missing); here about one per 28. */
 static void build_sphere_and_plane(builder *b) {
-    uint32_t mp = add_mat(b, "plane", PGI_MAT_LAMBERT, v3(0.7f, 0.7f, 0.7f));
-    uint32_t ms = add_mat(b, "sphere", PGI_MAT_LAMBERT, v3(0.8f, 0.3f, 0.2f));
+    uint32_t mp = add_mat(b, "plane", PGI__MAT_LAMBERT, v3(0.7f, 0.7f, 0.7f));
+    uint32_t ms = add_mat(b, "sphere", PGI__MAT_LAMBERT, v3(0.8f, 0.3f, 0.2f));
     add_quad(b, v3(-20, 0, -20), v3(-20, 0, 20), v3(20, 0, 20), v3(20, 0, -20), mp);
     add_sphere(b, v3(0.f, 1.f, 0.f), 1.f, 64, 32, ms);
-    add_light(b, PGI_LIGHT_POINT, v3(1.5f, 2.f, 1.5f), v3(12.f, 12.f, 12.f));
+    add_light(b, PGI__LIGHT_POINT, v3(1.5f, 2.f, 1.5f), v3(12.f, 12.f, 12.f));
     set_camera(b, v3(0.f, 2.5f, 7.f), v3(0.f, 0.8f, 0.f), 50.f);
     b->s->defaults = (pgi_scene_defaults){200000, 0.1f, 4, 640, 480, 1.f};
 }
 
-/* cutout: a lattice mask (PGI_CUTOUT_* in scene_internal.h) at y = 1 over a white floor at
+/* cutout: a lattice mask (PGI__CUTOUT_* in scene_internal.h) at y = 1 over a white floor at
  * y = 0, x, z in [-1, 1]; black walls close the space between them, so that light reaches
  * the floor only through the mask; a point light at y = 1.5 and a white ceiling at y = 2
  * above it (light reflected by the ceiling reaches the floor through the mask too: stored
@@ -252,10 +252,10 @@ static void build_sphere_and_plane(builder *b) {
  * 16 pixels each at 64 x 64); 2 above the mask at y = 1.9 straight down onto its
  * [-0.5, 0.5]^2 (12 x 12 periods: 96 x 96 pixels put one pixel centre on each texel centre). */
 static void build_cutout(builder *b) {
-    uint32_t mf = add_mat(b, "floor", PGI_MAT_LAMBERT, v3(0.8f, 0.8f, 0.8f));
-    uint32_t mc = add_mat(b, "ceiling", PGI_MAT_LAMBERT, v3(0.8f, 0.8f, 0.8f));
-    uint32_t mb = add_mat(b, "black", PGI_MAT_LAMBERT, v3(0.f, 0.f, 0.f));
-    uint32_t mm = add_mat(b, "lattice", PGI_MAT_LAMBERT, v3(0.f, 0.f, 0.f));
+    uint32_t mf = add_mat(b, "floor", PGI__MAT_LAMBERT, v3(0.8f, 0.8f, 0.8f));
+    uint32_t mc = add_mat(b, "ceiling", PGI__MAT_LAMBERT, v3(0.8f, 0.8f, 0.8f));
+    uint32_t mb = add_mat(b, "black", PGI__MAT_LAMBERT, v3(0.f, 0.f, 0.f));
+    uint32_t mm = add_mat(b, "lattice", PGI__MAT_LAMBERT, v3(0.f, 0.f, 0.f));
     add_quad(b, v3(-1, 0, -1), v3(-1, 0, 1), v3(1, 0, 1), v3(1, 0, -1), mf);   /* floor, facing up */
     add_quad(b, v3(-1, 2, -1), v3(1, 2, -1), v3(1, 2, 1), v3(-1, 2, 1), mc);   /* ceiling, facing down */
     add_quad(b, v3(-1, 0, -1), v3(1, 0, -1), v3(1, 1, -1), v3(-1, 1, -1), mb); /* walls under the mask */
@@ -268,7 +268,7 @@ static void build_cutout(builder *b) {
     pgi_scene *s = b->s;
     /* u = (x + 1) / 2, v = (z + 1) / 2 on the mask; 0 elsewhere. */
     s->uv = calloc(2 * s->nverts, sizeof *s->uv);
-    const int n = PGI_CUTOUT_TEXELS;
+    const int n = PGI__CUTOUT_TEXELS;
     unsigned char *rgba = malloc(4 * (size_t)n * n);
     if (!s->uv || !rgba) {
         free(rgba);
@@ -289,8 +289,8 @@ static void build_cutout(builder *b) {
     if ((b->st = pgi__scene_add_texture(s, n, n, 4, rgba, "cutout:lattice", &tex))) return;
     s->mats[mm].tex_alpha = tex;
     s->mats[mm].alpha_cutoff = 0.5f;
-    add_light(b, PGI_LIGHT_POINT, v3(0.f, 1.5f, 0.f), v3(4.5f, 4.5f, 4.5f));
-    const float fov = 2.f * atanf(0.5f / 0.9f) * 180.f / PGI_PI; /* [-0.5, 0.5]^2 at distance 0.9 */
+    add_light(b, PGI__LIGHT_POINT, v3(0.f, 1.5f, 0.f), v3(4.5f, 4.5f, 4.5f));
+    const float fov = 2.f * atanf(0.5f / 0.9f) * 180.f / PGI__PI; /* [-0.5, 0.5]^2 at distance 0.9 */
     add_camera(b, v3(0.f, 1.95f, 1.5f), v3(0.f, 0.f, -0.4f), v3(0.f, 1.f, 0.f), 60.f);
     add_camera(b, v3(0.f, 0.9f, 0.f), v3(0.f, 0.f, 0.f), v3(0.f, 0.f, -1.f), fov);
     add_camera(b, v3(0.f, 1.9f, 0.f), v3(0.f, 0.f, 0.f), v3(0.f, 0.f, -1.f), fov);
@@ -323,10 +323,10 @@ static void add_wall_with_hole(builder *b, pgi__v3 o, pgi__v3 ea, pgi__v3 eb, co
  * daylight through openings (direct light to infinity, photons from the sky) and the sky
  * seen through the window. Needs no files (tests of the sky light). */
 static void build_window_box(builder *b) {
-    uint32_t mw = add_mat(b, "white", PGI_MAT_LAMBERT, v3(0.7f, 0.7f, 0.7f));
-    uint32_t mf = add_mat(b, "floor", PGI_MAT_LAMBERT, v3(0.6f, 0.5f, 0.4f));
-    uint32_t mr = add_mat(b, "red", PGI_MAT_LAMBERT, v3(0.63f, 0.065f, 0.05f));
-    uint32_t mb = add_mat(b, "block", PGI_MAT_LAMBERT, v3(0.5f, 0.6f, 0.7f));
+    uint32_t mw = add_mat(b, "white", PGI__MAT_LAMBERT, v3(0.7f, 0.7f, 0.7f));
+    uint32_t mf = add_mat(b, "floor", PGI__MAT_LAMBERT, v3(0.6f, 0.5f, 0.4f));
+    uint32_t mr = add_mat(b, "red", PGI__MAT_LAMBERT, v3(0.63f, 0.065f, 0.05f));
+    uint32_t mb = add_mat(b, "block", PGI__MAT_LAMBERT, v3(0.5f, 0.6f, 0.7f));
     add_quad(b, v3(-1, 0, -1), v3(-1, 0, 1), v3(1, 0, 1), v3(1, 0, -1), mf);   /* floor */
     add_quad(b, v3(-1, 0, -1), v3(1, 0, -1), v3(1, 2, -1), v3(-1, 2, -1), mw); /* back */
     add_quad(b, v3(-1, 0, 1), v3(-1, 2, 1), v3(1, 2, 1), v3(1, 0, 1), mw);     /* front, behind the camera */
@@ -352,12 +352,12 @@ static void build_window_box(builder *b) {
  * from the light: what it sees is lit by the few photons that find the doorway (the test scene
  * of view-importance emission, docs/emission.md). Zero-thickness Lambertian walls. */
 static void build_two_rooms(builder *b) {
-    uint32_t mw = add_mat(b, "white", PGI_MAT_LAMBERT, v3(0.75f, 0.75f, 0.75f));
-    uint32_t mf = add_mat(b, "floor", PGI_MAT_LAMBERT, v3(0.6f, 0.5f, 0.4f));
-    uint32_t mr = add_mat(b, "red", PGI_MAT_LAMBERT, v3(0.63f, 0.065f, 0.05f));
-    uint32_t mg = add_mat(b, "green", PGI_MAT_LAMBERT, v3(0.14f, 0.45f, 0.091f));
-    uint32_t mb = add_mat(b, "block", PGI_MAT_LAMBERT, v3(0.5f, 0.6f, 0.7f));
-    uint32_t ml = add_mat(b, "light", PGI_MAT_LAMBERT, v3(0.78f, 0.78f, 0.78f));
+    uint32_t mw = add_mat(b, "white", PGI__MAT_LAMBERT, v3(0.75f, 0.75f, 0.75f));
+    uint32_t mf = add_mat(b, "floor", PGI__MAT_LAMBERT, v3(0.6f, 0.5f, 0.4f));
+    uint32_t mr = add_mat(b, "red", PGI__MAT_LAMBERT, v3(0.63f, 0.065f, 0.05f));
+    uint32_t mg = add_mat(b, "green", PGI__MAT_LAMBERT, v3(0.14f, 0.45f, 0.091f));
+    uint32_t mb = add_mat(b, "block", PGI__MAT_LAMBERT, v3(0.5f, 0.6f, 0.7f));
+    uint32_t ml = add_mat(b, "light", PGI__MAT_LAMBERT, v3(0.78f, 0.78f, 0.78f));
     if (!b->st) v3_store(b->s->mats[ml].ke, v3(40.f, 36.f, 30.f));
     add_quad(b, v3(-4, 0, -2), v3(-4, 0, 2), v3(4, 0, 2), v3(4, 0, -2), mf);             /* floor */
     add_quad(b, v3(-4, 2.5f, -2), v3(4, 2.5f, -2), v3(4, 2.5f, 2), v3(-4, 2.5f, 2), mw); /* ceiling */

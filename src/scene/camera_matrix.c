@@ -86,7 +86,7 @@ pgi_status pgi_camera_from_matrices(const float view[16], const float proj[16], 
     double err = INFINITY;
     float f = nextafterf((float)fov, 0.f);
     for (int k = 0; k < 3; k++, f = nextafterf(f, 180.f)) {
-        const double e = fabs((double)tanf(0.5f * f * PGI_PI / 180.f) - want);
+        const double e = fabs((double)tanf(0.5f * f * PGI__PI / 180.f) - want);
         if (e < err) err = e, best = f;
     }
     out->fov_y_deg = best;

@@ -61,16 +61,16 @@ pgi_status pgi__env_create_constant(const char *what, const float sky[3], const 
     env_frame(e, v3_load(up));
     float ls = v3_lum(v3_load(sky)), lg = v3_lum(v3_load(ground));
     e->p_sky = ls + lg > 0.f ? ls / (ls + lg) : 0.5f;
-    for (int c = 0; c < 3; c++) e->integral[c] = 2.0 * PGI_PI * ((double)sky[c] + (double)ground[c]);
-    e->light.type = PGI_LIGHT_ENV;
+    for (int c = 0; c < 3; c++) e->integral[c] = 2.0 * PGI__PI * ((double)sky[c] + (double)ground[c]);
+    e->light.type = PGI__LIGHT_ENV;
     *out = e;
     return PGI_OK;
 }
 
 /* Solid angle of a texel of row i of an h-row map w wide. */
 static double row_solid_angle(int i, int w, int h) {
-    double t0 = PGI_PI * (double)i / h, t1 = PGI_PI * (double)(i + 1) / h;
-    return 2.0 * PGI_PI / w * (cos(t0) - cos(t1));
+    double t0 = PGI__PI * (double)i / h, t1 = PGI__PI * (double)(i + 1) / h;
+    return 2.0 * PGI__PI / w * (cos(t0) - cos(t1));
 }
 
 pgi_status pgi__env_create_map(const char *what, const char *path, float scale, float rotation_deg, const float up[3],
@@ -120,7 +120,7 @@ pgi_status pgi__env_create_map(const char *what, const char *path, float scale, 
     e->h = h;
     e->cdf_row = cdf_row;
     e->cdf_col = cdf_col;
-    e->rot = rotation_deg * (PGI_PI / 180.f);
+    e->rot = rotation_deg * (PGI__PI / 180.f);
     snprintf(e->path, sizeof e->path, "%s", path);
     env_frame(e, v3_load(up));
     double total = 0.0, integral[3] = {0.0, 0.0, 0.0};
@@ -143,13 +143,13 @@ pgi_status pgi__env_create_map(const char *what, const char *path, float scale, 
     cdf_row[h - 1] = 1.f;
     e->lum_integral = total;
     memcpy(e->integral, integral, sizeof integral);
-    e->light.type = PGI_LIGHT_ENV;
+    e->light.type = PGI__LIGHT_ENV;
     *out = e;
     return PGI_OK;
 }
 
 void pgi__env_set_radius(pgi__env *e, float R) {
-    const double k = PGI_PI * (double)R * (double)R;
+    const double k = PGI__PI * (double)R * (double)R;
     for (int c = 0; c < 3; c++) e->light.power[c] = (float)(e->integral[c] * k);
 }
 
@@ -157,9 +157,9 @@ void pgi__env_set_radius(pgi__env *e, float R) {
 static inline size_t env_texel(const pgi__env *e, pgi__v3 w) {
     float x = v3_dot(w, v3_load(e->fx)), y = v3_dot(w, v3_load(e->fy)), z = v3_dot(w, v3_load(e->fz));
     float theta = acosf(fminf(1.f, fmaxf(-1.f, y)));
-    float u = (atan2f(x, -z) - e->rot) * (0.5f * PGI_INV_PI) + 0.5f;
+    float u = (atan2f(x, -z) - e->rot) * (0.5f * PGI__INV_PI) + 0.5f;
     u -= floorf(u);
-    int col = (int)(u * (float)e->w), row = (int)(theta * PGI_INV_PI * (float)e->h);
+    int col = (int)(u * (float)e->w), row = (int)(theta * PGI__INV_PI * (float)e->h);
     col = col < 0 ? 0 : col >= e->w ? e->w - 1 : col;
     row = row < 0 ? 0 : row >= e->h ? e->h - 1 : row;
     return (size_t)row * (size_t)e->w + (size_t)col;
@@ -171,7 +171,7 @@ pgi__v3 pgi__env_eval(const pgi__env *e, pgi__v3 w) {
 }
 
 float pgi__env_pdf(const pgi__env *e, pgi__v3 w) {
-    if (!e->rgb) return (v3_dot(w, v3_load(e->fy)) > 0.f ? e->p_sky : 1.f - e->p_sky) * (0.5f * PGI_INV_PI);
+    if (!e->rgb) return (v3_dot(w, v3_load(e->fy)) > 0.f ? e->p_sky : 1.f - e->p_sky) * (0.5f * PGI__INV_PI);
     if (!(e->lum_integral > 0.0)) return 0.f;
     return (float)((double)v3_lum(v3_load(e->rgb + 3 * env_texel(e, w))) / e->lum_integral);
 }
@@ -190,7 +190,7 @@ pgi__v3 pgi__env_sample(const pgi__env *e, float u1, float u2, float *pdf) {
             y = 1.f - fminf(t, 1.f);                     /* (0, 1] */
         } else y = -(u1 - ps) / fmaxf(1.f - ps, 1e-30f); /* (-1, 0] */
         y = fminf(1.f, fmaxf(-1.f, y));
-        float r = sqrtf(fmaxf(0.f, 1.f - y * y)), phi = 2.f * PGI_PI * u2;
+        float r = sqrtf(fmaxf(0.f, 1.f - y * y)), phi = 2.f * PGI__PI * u2;
         pgi__v3 w = env_to_world(e, r * cosf(phi), y, r * sinf(phi));
         *pdf = pgi__env_pdf(e, w);
         return w;
@@ -204,10 +204,10 @@ pgi__v3 pgi__env_sample(const pgi__env *e, float u1, float u2, float *pdf) {
     fr = fminf(fmaxf(fr, 0.f), 1.f);
     fc = fminf(fmaxf(fc, 0.f), 0.99999994f);
     /* uniform in the texel: cos(theta) between the row's edges, phi across the column */
-    float c0 = cosf(PGI_PI * (float)row / (float)e->h), c1 = cosf(PGI_PI * (float)(row + 1) / (float)e->h);
+    float c0 = cosf(PGI__PI * (float)row / (float)e->h), c1 = cosf(PGI__PI * (float)(row + 1) / (float)e->h);
     float y = c0 + (c1 - c0) * fr;
     float r = sqrtf(fmaxf(0.f, 1.f - y * y));
-    float phi = 2.f * PGI_PI * (((float)col + fc) / (float)e->w - 0.5f) + e->rot;
+    float phi = 2.f * PGI__PI * (((float)col + fc) / (float)e->w - 0.5f) + e->rot;
     pgi__v3 w = env_to_world(e, r * sinf(phi), y, -r * cosf(phi));
     *pdf = pgi__env_pdf(e, w); /* of the texel pgi__env_eval reads (the same but at a texel's edge) */
     return w;
@@ -242,7 +242,7 @@ pgi__v3 pgi__env_sample_direct_map(const pgi__env *e, const pgi__env_frame *f, f
 }
 
 float pgi__env_pdf_direct(const pgi__env *e, pgi__v3 ns, pgi__v3 w) {
-    float pc = fmaxf(0.f, v3_dot(ns, w)) * PGI_INV_PI;
+    float pc = fmaxf(0.f, v3_dot(ns, w)) * PGI__INV_PI;
     if (!e->rgb) return pc;
     return 0.5f * pc + 0.5f * pgi__env_pdf(e, w);
 }

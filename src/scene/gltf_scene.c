@@ -260,7 +260,7 @@ pgi_status pgi__gltf_read_extras(const char *path, const cJSON *root, pgi__gltf_
             xform_point(m, origin, L->pos);
             xform_dir(m, fwd, L->dir);
             if (strcmp(t, "point") == 0) {
-                L->type = PGI_LIGHT_POINT;
+                L->type = PGI__LIGHT_POINT;
                 memset(L->dir, 0, sizeof L->dir);
             } else if (strcmp(t, "spot") == 0) {
                 const cJSON *spot = item(jlight, "spot");
@@ -269,11 +269,11 @@ pgi_status pgi__gltf_read_extras(const char *path, const cJSON *root, pgi__gltf_
                 if (!(outer > 0.0)) outer = 1e-4;
                 if (outer > 3.14159265358979323846 / 2.0) outer = 3.14159265358979323846 / 2.0;
                 if (!(inner >= 0.0) || inner > outer) inner = outer;
-                L->type = PGI_LIGHT_SPOT;
+                L->type = PGI__LIGHT_SPOT;
                 L->cos_cutoff = (float)((2.0 * cos(inner) + cos(outer)) / 3.0);
                 if (!(L->cos_cutoff < 1.f)) L->cos_cutoff = nextafterf(1.f, 0.f);
             } else if (strcmp(t, "directional") == 0) {
-                L->type = PGI_LIGHT_SUN;
+                L->type = PGI__LIGHT_SUN;
                 memset(L->pos, 0, sizeof L->pos);
             } else {
                 note(un, ucap, "light %d of type '%s'", (int)jl->valuedouble, t);

@@ -277,7 +277,7 @@ static pgi_status convert_material(pgi_scene *s, tex_cache *tc, const struct aiS
          * without `usemtl` get (Assimp's DefaultMaterial, Lambert kd 0.6), so that one mesh
          * renders alike from both formats. */
         snprintf(m->name, sizeof m->name, "DefaultMaterial");
-        m->type = PGI_MAT_LAMBERT;
+        m->type = PGI__MAT_LAMBERT;
         m->kd[0] = m->kd[1] = m->kd[2] = 0.6f;
         m->ior = 1.f;
         return PGI_OK;
@@ -320,24 +320,24 @@ static pgi_status convert_material(pgi_scene *s, tex_cache *tc, const struct aiS
     const int cut_out = gltf_mask || map_d;
 
     if (illum == 4 || illum == 6 || illum == 7 || illum == 9 || (opacity < 1.f && !cut_out)) {
-        m->type = PGI_MAT_GLASS;
+        m->type = PGI__MAT_GLASS;
         m->ior = (isfinite(ni) && ni > 1.f) ? ni : 1.5f;
         m->ks[0] = m->ks[1] = m->ks[2] = 1.f;
     } else if ((illum == 3 || illum == 5) && max3(m->kd) < 0.01f && max3(ks) > 0.f) {
-        m->type = PGI_MAT_MIRROR;
+        m->type = PGI__MAT_MIRROR;
         for (int c = 0; c < 3; c++) m->ks[c] = clamp01(ks[c]);
     } else if (max3(ks) > 0.f && ns > 1.f) {
         /* A specular colour (illum 2): the model follows the scene's "specular" (plastic by
          * default, or Blinn-Phong, pgi_scene_set_specular sets it once the textures are in). */
-        m->type = PGI_MAT_PLASTIC;
+        m->type = PGI__MAT_PLASTIC;
         m->auto_glossy = 1;
         m->shininess = ns > 10000.f ? 10000.f : ns;
         for (int c = 0; c < 3; c++) m->ks[c] = clamp01(ks[c]);
     } else {
-        m->type = PGI_MAT_LAMBERT;
+        m->type = PGI__MAT_LAMBERT;
     }
-    if (m->type == PGI_MAT_PLASTIC) m->ior = (isfinite(ni) && ni > 1.f) ? ni : 1.5f;
-    else if (m->type != PGI_MAT_GLASS) m->ior = isfinite(ni) && ni > 0.f ? ni : 1.f;
+    if (m->type == PGI__MAT_PLASTIC) m->ior = (isfinite(ni) && ni > 1.f) ? ni : 1.5f;
+    else if (m->type != PGI__MAT_GLASS) m->ior = isfinite(ni) && ni > 0.f ? ni : 1.f;
 
     struct aiString tpath;
     if (aiGetMaterialTextureCount(am, aiTextureType_DIFFUSE) > 0 &&
@@ -910,7 +910,7 @@ pgi_status pgi__scene_import_mesh(pgi_scene *s, const char *path) {
      * colours are the base colour), not the made-up grey. */
     for (unsigned i = 0; any_col && i < sc->mNumMaterials; i++) {
         pgi__material *m = &s->mats[m0 + i];
-        if (strcmp(m->name, AI_DEFAULT_MATERIAL_NAME) != 0 || m->type != PGI_MAT_LAMBERT || m->tex_kd >= 0) continue;
+        if (strcmp(m->name, AI_DEFAULT_MATERIAL_NAME) != 0 || m->type != PGI__MAT_LAMBERT || m->tex_kd >= 0) continue;
         int used = 0, all = 1;
         for (unsigned k = 0; k < sc->mNumMeshes; k++)
             if (outs[k].nt && sc->mMeshes[k]->mMaterialIndex == i) {

@@ -126,7 +126,7 @@ pgi_status pgi__scene_finalize(pgi_scene *s, const char *what) {
             /* Area lights emit from their whole triangles: an emitter is never cut out. */
             if (mt->ke[0] > 0.f || mt->ke[1] > 0.f || mt->ke[2] > 0.f) mt->alpha_cutoff = 0.f;
         }
-        if (mt->type == PGI_MAT_PLASTIC) pgi__ggx_prepare(mt->ior); /* its albedo table, now rather than mid-render */
+        if (mt->type == PGI__MAT_PLASTIC) pgi__ggx_prepare(mt->ior); /* its albedo table, now rather than mid-render */
     }
 
     /* One area light per emissive triangle. */
@@ -137,7 +137,7 @@ pgi_status pgi__scene_finalize(pgi_scene *s, const char *what) {
     }
     size_t nexplicit = 0;
     for (size_t i = 0; i < s->nlights; i++)
-        if (s->lights[i].type != PGI_LIGHT_AREA) s->lights[nexplicit++] = s->lights[i];
+        if (s->lights[i].type != PGI__LIGHT_AREA) s->lights[nexplicit++] = s->lights[i];
     if (narea) {
         pgi__light *L = realloc(s->lights, (nexplicit + narea) * sizeof *L);
         if (!L) return pgi__fail(PGI_ERR_OOM, "%s: out of memory for %zu area lights", what, narea);
@@ -154,7 +154,7 @@ pgi_status pgi__scene_finalize(pgi_scene *s, const char *what) {
         if (!(area > 0.f)) continue; /* degenerate triangles emit nothing */
         pgi__light *l = &s->lights[s->nlights++];
         memset(l, 0, sizeof *l);
-        l->type = PGI_LIGHT_AREA;
+        l->type = PGI__LIGHT_AREA;
         l->tri = (uint32_t)t;
         l->area = area;
         v3_store(l->normal, v3_norm(n));
@@ -181,26 +181,26 @@ pgi_status pgi__scene_finalize(pgi_scene *s, const char *what) {
                                  (double)l->color[c], (double)PGI_MAX_RADIANCE);
         float k = 0.f;
         switch (l->type) {
-        case PGI_LIGHT_POINT: k = 4.f * PGI_PI; break;
-        case PGI_LIGHT_SPOT:
+        case PGI__LIGHT_POINT: k = 4.f * PGI__PI; break;
+        case PGI__LIGHT_SPOT:
             if (!(l->cos_cutoff > -1.f && l->cos_cutoff < 1.f))
                 return pgi__fail(PGI_ERR_PARSE, "%s: spot light %zu needs a cut-off angle in (0, 180) degrees", what,
                                  i);
             if (!(v3_len(v3_load(l->dir)) > 0.f))
                 return pgi__fail(PGI_ERR_PARSE, "%s: spot light %zu has a zero direction", what, i);
             v3_store(l->dir, v3_norm(v3_load(l->dir)));
-            k = 2.f * PGI_PI * (1.f - l->cos_cutoff);
+            k = 2.f * PGI__PI * (1.f - l->cos_cutoff);
             break;
-        case PGI_LIGHT_SUN: {
+        case PGI__LIGHT_SUN: {
             if (!(v3_len(v3_load(l->dir)) > 0.f))
                 return pgi__fail(PGI_ERR_PARSE, "%s: sun light %zu has a zero direction", what, i);
             v3_store(l->dir, v3_norm(v3_load(l->dir)));
             float R = 0.5f * diag; /* photons leave a disk covering the scene's bounding sphere */
-            k = PGI_PI * R * R;
+            k = PGI__PI * R * R;
             break;
         }
-        case PGI_LIGHT_AREA: k = PGI_PI * l->area; break;
-        case PGI_LIGHT_ENV: return pgi__fail(PGI_ERR_PARSE, "%s: light %zu: the environment is not a light", what, i);
+        case PGI__LIGHT_AREA: k = PGI__PI * l->area; break;
+        case PGI__LIGHT_ENV: return pgi__fail(PGI_ERR_PARSE, "%s: light %zu: the environment is not a light", what, i);
         }
         for (int c = 0; c < 3; c++) l->power[c] = l->color[c] * k;
     }
@@ -262,14 +262,14 @@ static int ends_with(const char *s, const char *suffix) {
 }
 
 /* Folders a bare scene name is looked up in, as <folder>/<name>.json: the working directory's
- * scenes/ (a local description wins), the source tree's (PGI_SOURCE_DIR: a build run from
- * anywhere), the installed one (PGI_DATADIR, e.g. /usr/local/share/photongi). */
+ * scenes/ (a local description wins), the source tree's (PGI__SOURCE_DIR: a build run from
+ * anywhere), the installed one (PGI__DATADIR, e.g. /usr/local/share/photongi). */
 static const char *const k_scene_dirs[] = {"scenes",
-#ifdef PGI_SOURCE_DIR
-                                           PGI_SOURCE_DIR "/scenes",
+#ifdef PGI__SOURCE_DIR
+                                           PGI__SOURCE_DIR "/scenes",
 #endif
-#ifdef PGI_DATADIR
-                                           PGI_DATADIR "/scenes",
+#ifdef PGI__DATADIR
+                                           PGI__DATADIR "/scenes",
 #endif
                                            NULL};
 
@@ -381,11 +381,11 @@ void pgi_scene_get_info(const pgi_scene *s, pgi_scene_info *o) {
     o->lights = s->nlights;
     for (size_t i = 0; i < s->nlights; i++) {
         switch (s->lights[i].type) {
-        case PGI_LIGHT_POINT: o->point_lights++; break;
-        case PGI_LIGHT_SPOT: o->spot_lights++; break;
-        case PGI_LIGHT_SUN: o->sun_lights++; break;
-        case PGI_LIGHT_AREA: o->area_triangles++; break;
-        case PGI_LIGHT_ENV: break;
+        case PGI__LIGHT_POINT: o->point_lights++; break;
+        case PGI__LIGHT_SPOT: o->spot_lights++; break;
+        case PGI__LIGHT_SUN: o->sun_lights++; break;
+        case PGI__LIGHT_AREA: o->area_triangles++; break;
+        case PGI__LIGHT_ENV: break;
         }
     }
     o->sky_lights = s->env ? 1 : 0;
@@ -402,7 +402,7 @@ void pgi_scene_get_info(const pgi_scene *s, pgi_scene_info *o) {
     for (size_t m = 0; m < s->nmats; m++) {
         if (!s->mats[m].auto_glossy) continue;
         o->glossy_materials++;
-        if (s->mats[m].type == PGI_MAT_PHONG) o->specular = PGI_SPECULAR_PHONG;
+        if (s->mats[m].type == PGI__MAT_PHONG) o->specular = PGI_SPECULAR_PHONG;
     }
     o->animated_objects = s->nanims;
     for (size_t i = 0; i < s->nanims; i++) {
@@ -421,11 +421,11 @@ pgi_status pgi_scene_set_specular(pgi_scene *s, pgi_specular model) {
         if (!mt->auto_glossy) continue;
         memcpy(mt->kd, mt->kd_mesh, sizeof mt->kd);
         if (model == PGI_SPECULAR_PHONG) {
-            mt->type = PGI_MAT_PHONG;
+            mt->type = PGI__MAT_PHONG;
             for (int c = 0; c < 3; c++)
                 if (mt->kd[c] + mt->ks[c] > 1.f) mt->kd[c] = 1.f - mt->ks[c]; /* energy conservation */
         } else {
-            mt->type = PGI_MAT_PLASTIC;
+            mt->type = PGI__MAT_PLASTIC;
             pgi__ggx_prepare(mt->ior);
         }
     }

@@ -200,26 +200,26 @@ static pgi_status convert_material(const pgi_scene_desc *d, size_t i, pgi__mater
     for (int c = 0; c < 3; c++) m->ks[c] = clamp01(md->specular[c]);
     m->shininess = md->shininess;
     switch (md->type) {
-    case PGI_MATERIAL_LAMBERT: m->type = PGI_MAT_LAMBERT; break;
+    case PGI_MATERIAL_LAMBERT: m->type = PGI__MAT_LAMBERT; break;
     case PGI_MATERIAL_GLOSSY:
-        m->type = PGI_MAT_PLASTIC;
+        m->type = PGI__MAT_PLASTIC;
         m->auto_glossy = 1;
         break;
-    case PGI_MATERIAL_PLASTIC: m->type = PGI_MAT_PLASTIC; break;
+    case PGI_MATERIAL_PLASTIC: m->type = PGI__MAT_PLASTIC; break;
     case PGI_MATERIAL_PHONG:
-        m->type = PGI_MAT_PHONG;
+        m->type = PGI__MAT_PHONG;
         for (int c = 0; c < 3; c++)
             if (m->kd[c] + m->ks[c] > 1.f) m->kd[c] = 1.f - m->ks[c]; /* energy conservation, as for MTL */
         break;
-    case PGI_MATERIAL_MIRROR: m->type = PGI_MAT_MIRROR; break;
-    case PGI_MATERIAL_GLASS: m->type = PGI_MAT_GLASS; break;
+    case PGI_MATERIAL_MIRROR: m->type = PGI__MAT_MIRROR; break;
+    case PGI_MATERIAL_GLASS: m->type = PGI__MAT_GLASS; break;
     default:
         return pgi__fail(PGI_ERR_INVALID_ARG, "%s: material %zu ('%s'): unknown type %d", what, i, m->name,
                          (int)md->type);
     }
-    if ((m->type == PGI_MAT_MIRROR || m->type == PGI_MAT_GLASS) && ks_zero) m->ks[0] = m->ks[1] = m->ks[2] = 1.f;
+    if ((m->type == PGI__MAT_MIRROR || m->type == PGI__MAT_GLASS) && ks_zero) m->ks[0] = m->ks[1] = m->ks[2] = 1.f;
     /* the mesh loader's: glass and plastic 1.5 by default, the others 1 */
-    m->ior = md->ior > 0.f ? md->ior : (m->type == PGI_MAT_GLASS || m->type == PGI_MAT_PLASTIC) ? 1.5f : 1.f;
+    m->ior = md->ior > 0.f ? md->ior : (m->type == PGI__MAT_GLASS || m->type == PGI__MAT_PLASTIC) ? 1.5f : 1.f;
     if (m->tex_alpha >= 0) m->alpha_cutoff = md->alpha_cutoff > 0.f ? md->alpha_cutoff : 0.5f;
     memcpy(m->kd_mesh, m->kd, sizeof m->kd_mesh);
     return PGI_OK;

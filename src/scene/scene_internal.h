@@ -1,19 +1,19 @@
 /* Internal scene model: one merged triangle mesh, materials, textures,
  * lights and cameras. Loaders (built-in, Assimp, JSON description) fill it;
  * rt/, photon/ and view/ read it. */
-#ifndef PGI_SCENE_INTERNAL_H
-#define PGI_SCENE_INTERNAL_H
+#ifndef PGI__SCENE_INTERNAL_H
+#define PGI__SCENE_INTERNAL_H
 
 #include <math.h>
 
 #include "core/core.h"
 
 typedef enum pgi__material_type {
-    PGI_MAT_LAMBERT = 0, /* kd / pi */
-    PGI_MAT_PHONG = 1,   /* energy-conserving Blinn-Phong, tiled paper eqs. 6-8 */
-    PGI_MAT_MIRROR = 2,  /* perfect mirror, reflectance ks */
-    PGI_MAT_GLASS = 3,   /* dielectric with Fresnel, index ior, tint ks */
-    PGI_MAT_PLASTIC = 4  /* Lambertian base under a GGX lobe with a dielectric's Fresnel (index ior,
+    PGI__MAT_LAMBERT = 0, /* kd / pi */
+    PGI__MAT_PHONG = 1,   /* energy-conserving Blinn-Phong, tiled paper eqs. 6-8 */
+    PGI__MAT_MIRROR = 2,  /* perfect mirror, reflectance ks */
+    PGI__MAT_GLASS = 3,   /* dielectric with Fresnel, index ior, tint ks */
+    PGI__MAT_PLASTIC = 4  /* Lambertian base under a GGX lobe with a dielectric's Fresnel (index ior,
                             alpha from shininess, lobe tint min(1, ks / F0(ior))): src/scene/bsdf.h */
 } pgi__material_type;
 
@@ -70,11 +70,11 @@ typedef struct pgi__texture {
 } pgi__texture;
 
 typedef enum pgi__light_type {
-    PGI_LIGHT_POINT = 0, /* intensity I (W/sr), power 4 pi I */
-    PGI_LIGHT_SPOT = 1,  /* intensity I inside the cone cos(theta) >= cos_cutoff */
-    PGI_LIGHT_SUN = 2,   /* irradiance E (W/m^2) on surfaces facing -dir */
-    PGI_LIGHT_AREA = 3,  /* one emissive triangle, one-sided Lambertian, radiance Le */
-    PGI_LIGHT_ENV = 4    /* the environment (pgi__env.light; never in pgi_scene.lights) */
+    PGI__LIGHT_POINT = 0, /* intensity I (W/sr), power 4 pi I */
+    PGI__LIGHT_SPOT = 1,  /* intensity I inside the cone cos(theta) >= cos_cutoff */
+    PGI__LIGHT_SUN = 2,   /* irradiance E (W/m^2) on surfaces facing -dir */
+    PGI__LIGHT_AREA = 3,  /* one emissive triangle, one-sided Lambertian, radiance Le */
+    PGI__LIGHT_ENV = 4    /* the environment (pgi__env.light; never in pgi_scene.lights) */
 } pgi__light_type;
 
 typedef struct pgi__light {
@@ -102,7 +102,7 @@ typedef struct pgi__env {
     float rot;                 /* map: rotation about up, radians */
     float fx[3], fy[3], fz[3]; /* frame: fy = up */
     double integral[3];        /* integral of the radiance over the sphere, per channel */
-    pgi__light light;          /* type PGI_LIGHT_ENV; power = pi R^2 integral (pgi__env_set_radius) */
+    pgi__light light;          /* type PGI__LIGHT_ENV; power = pi R^2 integral (pgi__env_set_radius) */
     char path[512];            /* map file */
 } pgi__env;
 
@@ -148,7 +148,7 @@ static inline pgi__v3 pgi__env_sample_direct_in(const pgi__env *e, const pgi__en
     pgi__v3 w = pgi__env_frame_dir(f, pgi_sample_cosine(u1, u2));
     float c = v3_dot(f->n, w);
     /* pgi__env_pdf_direct's fmaxf(0, c) / pi, but for the sign of a zero (a zero pdf is refused) */
-    *pdf = (c > 0.f ? c : 0.f) * PGI_INV_PI;
+    *pdf = (c > 0.f ? c : 0.f) * PGI__INV_PI;
     *le = v3_load(v3_dot(w, v3_load(e->fy)) > 0.f ? e->sky : e->ground);
     return w;
 }
@@ -237,7 +237,7 @@ typedef struct pgi__keyframe {
     float scale;
 } pgi__keyframe;
 
-typedef enum pgi__loop { PGI_LOOP_CLAMP = 0, PGI_LOOP_REPEAT = 1, PGI_LOOP_PINGPONG = 2 } pgi__loop;
+typedef enum pgi__loop { PGI__LOOP_CLAMP = 0, PGI__LOOP_REPEAT = 1, PGI__LOOP_PINGPONG = 2 } pgi__loop;
 
 typedef struct pgi__anim {
     char name[64];
@@ -288,13 +288,13 @@ float pgi__scene_epsilon(const pgi_scene *s);
 extern const char *const pgi__builtin_names[];
 pgi_status pgi__scene_builtin(const char *name, pgi_scene **out); /* PGI_ERR_INVALID_ARG if unknown */
 
-/* The lattice mask of the built-in scene `cutout`: PGI_CUTOUT_TEXELS^2 texels, periods of 8 x 8
+/* The lattice mask of the built-in scene `cutout`: PGI__CUTOUT_TEXELS^2 texels, periods of 8 x 8
  * texels; columns 3 and 4 and rows 3 and 4 of a period are its narrow bands, and a texel is open
  * (alpha 0) where exactly one of its column and its row is narrow: slots 2 x 6 texels, an open
  * fraction of 2 * 2 * 6 / 64 = 0.375. Every 2 x 2 block of texels is uniform, split in halves
  * or a checker, so bilinear alpha cut at 0.5 opens exactly the open texels' squares. */
-#define PGI_CUTOUT_TEXELS 192
-#define PGI_CUTOUT_OPEN_FRACTION 0.375
+#define PGI__CUTOUT_TEXELS 192
+#define PGI__CUTOUT_OPEN_FRACTION 0.375
 static inline int pgi__cutout_open(int x, int y) {
     int nx = (x & 7) == 3 || (x & 7) == 4, ny = (y & 7) == 3 || (y & 7) == 4;
     return nx != ny;

@@ -28,7 +28,7 @@
  *
  * Mesh paths: an absolute path is used as is; a relative one is looked up
  * first in the JSON file's folder, then in $PHOTONGI_SCENES, or when that is
- * not set in the source tree's ../shared/scenes (PGI_SOURCE_DIR/../shared/scenes,
+ * not set in the source tree's ../shared/scenes (PGI__SOURCE_DIR/../shared/scenes,
  * so a build finds them from any directory), then in ../shared/scenes
  * relative to the working directory.
  *
@@ -44,8 +44,8 @@
 #include <sys/stat.h>
 
 #define DEFAULT_SCENES_DIR "../shared/scenes"
-#ifdef PGI_SOURCE_DIR
-#define SOURCE_SCENES_DIR PGI_SOURCE_DIR "/../shared/scenes"
+#ifdef PGI__SOURCE_DIR
+#define SOURCE_SCENES_DIR PGI__SOURCE_DIR "/../shared/scenes"
 #endif
 
 /* A description is a few kilobytes; far beyond that it is not one (or a file that never ends). */
@@ -244,14 +244,14 @@ static pgi_status parse_light(const char *path, const cJSON *l, const char *wher
     pgi_status st;
     if (strcmp(t->valuestring, "point") == 0) {
         static const char *const keys[] = {"type", "position", "intensity", NULL};
-        L->type = PGI_LIGHT_POINT;
+        L->type = PGI__LIGHT_POINT;
         if ((st = check_keys(path, l, where, keys))) return st;
         if ((st = get_vec3(path, l, where, "position", ANY, (double)PGI_MAX_COORD, 1, L->pos, NULL))) return st;
         if ((st = get_vec3(path, l, where, "intensity", NONNEG, (double)PGI_MAX_RADIANCE, 1, L->color, NULL)))
             return st;
     } else if (strcmp(t->valuestring, "spot") == 0) {
         static const char *const keys[] = {"type", "position", "direction", "angle", "intensity", NULL};
-        L->type = PGI_LIGHT_SPOT;
+        L->type = PGI__LIGHT_SPOT;
         double angle = 0.0;
         if ((st = check_keys(path, l, where, keys))) return st;
         if ((st = get_vec3(path, l, where, "position", ANY, (double)PGI_MAX_COORD, 1, L->pos, NULL))) return st;
@@ -264,7 +264,7 @@ static pgi_status parse_light(const char *path, const cJSON *l, const char *wher
         L->cos_cutoff = (float)cos(angle * (3.14159265358979323846 / 180.0));
     } else if (strcmp(t->valuestring, "sun") == 0) {
         static const char *const keys[] = {"type", "direction", "irradiance", NULL};
-        L->type = PGI_LIGHT_SUN;
+        L->type = PGI__LIGHT_SUN;
         if ((st = check_keys(path, l, where, keys))) return st;
         if ((st = get_vec3(path, l, where, "direction", ANY, (double)PGI_MAX_COORD, 1, L->dir, NULL))) return st;
         if ((st = get_vec3(path, l, where, "irradiance", NONNEG, (double)PGI_MAX_RADIANCE, 1, L->color, NULL)))
@@ -367,12 +367,12 @@ static pgi_status parse_motion(const char *path, const cJSON *m, const char *whe
     if (!cJSON_IsObject(m)) return pgi__fail(PGI_ERR_PARSE, "%s: %s must be an object with keyframes", path, w);
     pgi_status st = check_keys(path, m, w, keys);
     if (st) return st;
-    *loop = PGI_LOOP_CLAMP;
+    *loop = PGI__LOOP_CLAMP;
     const cJSON *jl = cJSON_GetObjectItemCaseSensitive(m, "loop");
     if (jl) {
-        if (cJSON_IsString(jl) && strcmp(jl->valuestring, "clamp") == 0) *loop = PGI_LOOP_CLAMP;
-        else if (cJSON_IsString(jl) && strcmp(jl->valuestring, "repeat") == 0) *loop = PGI_LOOP_REPEAT;
-        else if (cJSON_IsString(jl) && strcmp(jl->valuestring, "pingpong") == 0) *loop = PGI_LOOP_PINGPONG;
+        if (cJSON_IsString(jl) && strcmp(jl->valuestring, "clamp") == 0) *loop = PGI__LOOP_CLAMP;
+        else if (cJSON_IsString(jl) && strcmp(jl->valuestring, "repeat") == 0) *loop = PGI__LOOP_REPEAT;
+        else if (cJSON_IsString(jl) && strcmp(jl->valuestring, "pingpong") == 0) *loop = PGI__LOOP_PINGPONG;
         else return pgi__fail(PGI_ERR_PARSE, "%s: %s.loop must be \"clamp\", \"repeat\" or \"pingpong\"", path, w);
     }
     const cJSON *jk = cJSON_GetObjectItemCaseSensitive(m, "keyframes");
@@ -420,7 +420,7 @@ static pgi_status parse_material(const char *path, pgi_scene *s, const cJSON *j,
     pgi__material m;
     memset(&m, 0, sizeof m);
     snprintf(m.name, sizeof m.name, "%s", defname);
-    m.type = PGI_MAT_LAMBERT;
+    m.type = PGI__MAT_LAMBERT;
     m.kd[0] = m.kd[1] = m.kd[2] = 0.8f;
     m.ior = 1.5f;
     m.tex_kd = -1;
@@ -438,20 +438,20 @@ static pgi_status parse_material(const char *path, pgi_scene *s, const cJSON *j,
         const cJSON *jt = cJSON_GetObjectItemCaseSensitive(j, "type");
         if (jt) {
             const char *t = cJSON_IsString(jt) ? jt->valuestring : "";
-            if (strcmp(t, "lambert") == 0) m.type = PGI_MAT_LAMBERT;
-            else if (strcmp(t, "phong") == 0) m.type = PGI_MAT_PHONG;
-            else if (strcmp(t, "plastic") == 0) m.type = PGI_MAT_PLASTIC;
-            else if (strcmp(t, "mirror") == 0) m.type = PGI_MAT_MIRROR;
-            else if (strcmp(t, "glass") == 0) m.type = PGI_MAT_GLASS;
+            if (strcmp(t, "lambert") == 0) m.type = PGI__MAT_LAMBERT;
+            else if (strcmp(t, "phong") == 0) m.type = PGI__MAT_PHONG;
+            else if (strcmp(t, "plastic") == 0) m.type = PGI__MAT_PLASTIC;
+            else if (strcmp(t, "mirror") == 0) m.type = PGI__MAT_MIRROR;
+            else if (strcmp(t, "glass") == 0) m.type = PGI__MAT_GLASS;
             else
                 return pgi__fail(PGI_ERR_PARSE,
                                  "%s: %s.type must be \"lambert\", \"plastic\", \"phong\", \"mirror\" or \"glass\"",
                                  path, w);
         }
-        if (m.type == PGI_MAT_MIRROR || m.type == PGI_MAT_GLASS) {
+        if (m.type == PGI__MAT_MIRROR || m.type == PGI__MAT_GLASS) {
             m.kd[0] = m.kd[1] = m.kd[2] = 0.f;
             m.ks[0] = m.ks[1] = m.ks[2] = 1.f;
-        } else if (m.type == PGI_MAT_PHONG || m.type == PGI_MAT_PLASTIC) {
+        } else if (m.type == PGI__MAT_PHONG || m.type == PGI__MAT_PLASTIC) {
             m.ks[0] = m.ks[1] = m.ks[2] = 0.04f;
             m.shininess = 64.f;
         }
@@ -467,7 +467,7 @@ static pgi_status parse_material(const char *path, pgi_scene *s, const cJSON *j,
             if (m.kd[c] > 1.f || m.ks[c] > 1.f)
                 return pgi__fail(PGI_ERR_PARSE, "%s: %s.kd and ks must be at most 1 (they are reflectances)", path, w);
         }
-        if (m.type == PGI_MAT_PHONG)
+        if (m.type == PGI__MAT_PHONG)
             for (int c = 0; c < 3; c++)
                 if (m.kd[c] + m.ks[c] > 1.f) m.kd[c] = 1.f - m.ks[c]; /* energy conservation, as for MTL */
     }
@@ -715,7 +715,7 @@ static pgi_status load(const char *path, const cJSON *root, pgi_scene **out) {
     if (jbuiltin) {
         /* Keep the base's explicit lights (area lights are re-derived by finalize). */
         for (size_t i = 0; i < s->nlights; i++)
-            if (s->lights[i].type != PGI_LIGHT_AREA) s->lights[nbase++] = s->lights[i];
+            if (s->lights[i].type != PGI__LIGHT_AREA) s->lights[nbase++] = s->lights[i];
         s->nlights = nbase;
         if (ncam) {
             free(s->cams);

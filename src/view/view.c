@@ -18,7 +18,7 @@
 #include "photon/photon.h"
 #include "scene/bsdf.h"
 
-#define PGI_MAX_SPECULAR_DEPTH 8
+#define PGI__MAX_SPECULAR_DEPTH 8
 
 /* The view pass shades blocks of BLOCK_TILES 4x4-pixel tiles side by side (32x4 pixels) into a
  * staging block on the stack (11 KB) and then writes each plane's rows out whole: 32 samples of
@@ -128,11 +128,11 @@ __attribute__((target("avx2"))) static inline int all_bits_avx2(const float *p, 
  * of the buffers that did not forget the record breaks this) */
 #define PUT_BLOCK_CHECK                                                                                                \
     if (skip & PGI__FILL_LOBE)                                                                                         \
-        PGI_ASSERT(!memcmp(vs->ks + 3 * i, b->ks + 3 * j, 3 * m * sizeof(float)) &&                                    \
+        PGI__ASSERT(!memcmp(vs->ks + 3 * i, b->ks + 3 * j, 3 * m * sizeof(float)) &&                                    \
                    !memcmp(vs->shininess + i, b->shininess + j, m * sizeof(float)) &&                                  \
                    !memcmp(vs->ior + i, b->ior + j, m * sizeof(float)));                                               \
-    if (skip & PGI__FILL_WEIGHT) PGI_ASSERT(!memcmp(vs->weight + 3 * i, b->weight + 3 * j, 3 * m * sizeof(float)));    \
-    if (skip & PGI__FILL_EMIT) PGI_ASSERT(!memcmp(emit + 3 * i, b->emit + 3 * j, 3 * m * sizeof(float)));
+    if (skip & PGI__FILL_WEIGHT) PGI__ASSERT(!memcmp(vs->weight + 3 * i, b->weight + 3 * j, 3 * m * sizeof(float)));    \
+    if (skip & PGI__FILL_EMIT) PGI__ASSERT(!memcmp(emit + 3 * i, b->emit + 3 * j, 3 * m * sizeof(float)));
 #else
 #define PUT_BLOCK_CHECK
 #endif
@@ -180,7 +180,7 @@ typedef struct lobe_cache {
 static inline const lobe_cache *lobe_of(lobe_cache *c, const pgi__material *m) {
     if (c->m != m) {
         pgi__lobe_model model = pgi__lobe_params(m, &c->ks, &c->sh, &c->eta);
-        c->flags = (uint8_t)((model == PGI_LOBE_NONE ? PGI_VS_LAMBERT : 0) | (model == PGI_LOBE_GGX ? PGI_VS_GGX : 0));
+        c->flags = (uint8_t)((model == PGI__LOBE_NONE ? PGI_VS_LAMBERT : 0) | (model == PGI__LOBE_GGX ? PGI_VS_GGX : 0));
         c->m = m;
     }
     return c;
@@ -303,7 +303,7 @@ static void shade_eye_path(const pgi_scene *s, const pgi__rt *rt, const pgi_came
             found = 1;
             break;
         }
-        if (depth + 1 >= PGI_MAX_SPECULAR_DEPTH) break;
+        if (depth + 1 >= PGI__MAX_SPECULAR_DEPTH) break;
         if (!rng_ready) {
             pgi_rng_seed(&rng, seed ^ 0x5eed0f1e11e5ULL, (uint64_t)i);
             rng_ready = 1;
@@ -923,7 +923,7 @@ static int delta16(const pgi__light *lt, const dtile *t, int valid[16], float wi
                    float tmax[16]) {
     int nv = 0;
     const float cr = lt->color[0], cg = lt->color[1], cb = lt->color[2];
-    if (lt->type == PGI_LIGHT_SUN) {
+    if (lt->type == PGI__LIGHT_SUN) {
         const float wx = -lt->dir[0], wy = -lt->dir[1], wz = -lt->dir[2];
         for (int k = 0; k < 16; k++) {
             wi[0][k] = wx;
@@ -1056,7 +1056,7 @@ pgi_status pgi__area_table_guide(pgi__area_table *t) {
 
 pgi_status pgi__area_table_build(const pgi_scene *s, pgi__area_table *t) {
     memset(t, 0, sizeof *t);
-    for (size_t l = 0; l < s->nlights; l++) t->n += s->lights[l].type == PGI_LIGHT_AREA;
+    for (size_t l = 0; l < s->nlights; l++) t->n += s->lights[l].type == PGI__LIGHT_AREA;
     if (!t->n) return PGI_OK;
     const size_t n = t->n;
     t->cdf = malloc(n * sizeof *t->cdf);
@@ -1069,7 +1069,7 @@ pgi_status pgi__area_table_build(const pgi_scene *s, pgi__area_table *t) {
     size_t k = 0;
     for (size_t l = 0; l < s->nlights; l++) {
         const pgi__light *lt = &s->lights[l];
-        if (lt->type != PGI_LIGHT_AREA) continue;
+        if (lt->type != PGI__LIGHT_AREA) continue;
         tot += v3_lum(v3_load(lt->power));
         t->cdf[k] = (float)tot;
         const uint32_t *v = s->tri + 3 * (size_t)lt->tri;
@@ -1313,9 +1313,9 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
             const float *const xo[3] = {t.xs[0], t.xs[1], t.xs[2]}, *const wd[3] = {wis[0], wis[1], wis[2]};
             for (size_t l = 0; l < s->nlights; l++) {
                 const pgi__light *lt = &s->lights[l];
-                if (lt->type == PGI_LIGHT_AREA) continue;
+                if (lt->type == PGI__LIGHT_AREA) continue;
                 int nv = 0;
-                if (lt->type == PGI_LIGHT_POINT || lt->type == PGI_LIGHT_SUN)
+                if (lt->type == PGI__LIGHT_POINT || lt->type == PGI__LIGHT_SUN)
                     nv = delta16(lt, &t, valid, wis, Lis, cs, tmax);
                 else
                     for (int k = 0; k < 16; k++) {

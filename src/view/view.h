@@ -1,6 +1,6 @@
 /* View samples (G-buffer) from primary rays, and direct light. */
-#ifndef PGI_VIEW_H
-#define PGI_VIEW_H
+#ifndef PGI__VIEW_H
+#define PGI__VIEW_H
 
 #include <string.h>
 
@@ -192,8 +192,8 @@ static inline pgi__v3 pgi__view_dir(const pgi_camera *c, const pgi__subpixel *sp
 static inline int pgi__delta_light(const pgi__light *lt, pgi__v3 x, pgi__v3 ns, pgi__v3 ng, pgi__v3 *wi, pgi__v3 *Li,
                                    float *cs, float *tmax) {
     float dist;
-    if (lt->type == PGI_LIGHT_AREA || lt->type == PGI_LIGHT_ENV) return 0;
-    if (lt->type == PGI_LIGHT_SUN) {
+    if (lt->type == PGI__LIGHT_AREA || lt->type == PGI__LIGHT_ENV) return 0;
+    if (lt->type == PGI__LIGHT_SUN) {
         *wi = v3_neg(v3_load(lt->dir));
         dist = INFINITY;
         *Li = v3_load(lt->color);
@@ -203,7 +203,7 @@ static inline int pgi__delta_light(const pgi__light *lt, pgi__v3 x, pgi__v3 ns, 
         if (!(d2 > 0.f)) return 0;
         dist = sqrtf(d2);
         *wi = v3_scale(dv, 1.f / dist);
-        if (lt->type == PGI_LIGHT_SPOT && -v3_dot(*wi, v3_load(lt->dir)) < lt->cos_cutoff) return 0;
+        if (lt->type == PGI__LIGHT_SPOT && -v3_dot(*wi, v3_load(lt->dir)) < lt->cos_cutoff) return 0;
         *Li = v3_scale(v3_load(lt->color), 1.f / d2);
     }
     *cs = v3_dot(ns, *wi);

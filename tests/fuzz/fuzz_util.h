@@ -1,8 +1,8 @@
 /* Shared by the libFuzzer targets (docs/testing.md, "Fuzzing"): a private temporary folder per
  * process, removed at exit, and whole-file writes into it. The loaders take paths, so each
  * input becomes a file there, named as the loader's own path would be. */
-#ifndef PGI_FUZZ_UTIL_H
-#define PGI_FUZZ_UTIL_H
+#ifndef PGI__FUZZ_UTIL_H
+#define PGI__FUZZ_UTIL_H
 
 #include <stdint.h>
 #include <stdio.h>

@@ -9,8 +9,8 @@
 //   #include "bvh.glsl"
 // then call bvh_trace(origin, direction, tnear, tfar, any_hit, hit). Hits on cut-out triangles
 // where their mask is open are refused, as the renderer's Embree filter does.
-#ifndef PGI_BVH_GLSL
-#define PGI_BVH_GLSL
+#ifndef PGIS_BVH_GLSL
+#define PGIS_BVH_GLSL
 
 #ifndef BVH_NODES_BINDING
 #define BVH_NODES_BINDING 0

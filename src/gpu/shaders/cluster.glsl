@@ -9,8 +9,8 @@
 //   [NT0, NL0)         tiles: 2 x G^2 per supertile slot s (as above), NT0 + 2 (s G^2 + ly G + lx) + kind
 //   [NL0, nnodes)      clusters (leaves): T^2 slots per tile (row-major tile t), NL0 + t T^2 + k
 // A tile's clusters are its primary clusters (by depth slice) then its mirror-seen ones (by cell).
-#ifndef PGI_CLUSTER_GLSL
-#define PGI_CLUSTER_GLSL
+#ifndef PGIS_CLUSTER_GLSL
+#define PGIS_CLUSTER_GLSL
 
 struct Photon { // pgi__packed_photon (src/estimators/packed.h): 36 bytes
     float px, py, pz, dx, dy, dz, fr, fg, fb;

@@ -27,7 +27,7 @@ layout(push_constant) uniform Push {
 
 // bsdf.h pgi__brdf_eval: kd / pi plus the lobe (one_m_eo: the sample's 1 - E(n.wo))
 vec3 brdf(ViewSample v, vec3 kd, vec3 ns, vec3 wi, vec3 wo) {
-    precise vec3 f = kd * float(PGI_INV_PI);
+    precise vec3 f = kd * float(PGIS_INV_PI);
     if ((v.flags & VS_LAMBERT) == 0u) f = f + lobe_eval(v.lobe, kd, ns, wi, wo, v.one_m_eo);
     return f;
 }
@@ -70,7 +70,7 @@ void main() {
                 float dist;
                 if (lt.type == LIGHT_SUN) {
                     wi = -lt.dir;
-                    dist = PGI_INF;
+                    dist = PGIS_INF;
                     Li = lt.color;
                 } else {
                     precise vec3 dv = lt.pos - x;
@@ -86,7 +86,7 @@ void main() {
                 const float cs = v3_dot(ns, wi);
                 if (!(cs > 0.0) || !(v3_dot(ng, wi) > 0.0)) continue;
                 precise float tmax = dist * (1.0 - 1e-4);
-                if (isinf(dist)) tmax = PGI_INF;
+                if (isinf(dist)) tmax = PGIS_INF;
                 rays++;
                 if (occluded(x, wi, tmax)) continue;
                 precise vec3 c = (brdf(v, kd, ns, wi, wo) * Li) * cs;
@@ -131,12 +131,12 @@ void main() {
                     precise float u1 = (float(j) + rng_f(rng)) / float(n);
                     const float u2 = rng_f(rng);
                     const vec3 wi = to_world(sample_cosine(u1, u2), ns);
-                    precise float pdf = max(0.0, v3_dot(ns, wi)) * float(PGI_INV_PI);
+                    precise float pdf = max(0.0, v3_dot(ns, wi)) * float(PGIS_INV_PI);
                     const float c = v3_dot(ns, wi);
                     if (!(pdf > 0.0) || !(c > 0.0) || !(v3_dot(ng, wi) > 0.0)) continue;
                     precise vec3 w = sky_eval(pc.scene, wi) * (c / pdf);
                     rays++;
-                    if (occluded(x, wi, PGI_INF)) continue;
+                    if (occluded(x, wi, PGIS_INF)) continue;
                     precise vec3 a = brdf(v, kd, ns, wi, wo) * w;
                     Le = Le + a;
                 }

@@ -2,8 +2,8 @@
 // view.comp and direct.comp; include after scene.glsl. Bindings: 11 the frame parameters,
 // 12 the view samples (gather.glsl ViewSample: what the GPU estimator reads), 13 the rest of the
 // G-buffer (PixelExtra), 14 counters (primary rays, shadow rays: 64-bit sums as two words).
-#ifndef PGI_FRAME_GLSL
-#define PGI_FRAME_GLSL
+#ifndef PGIS_FRAME_GLSL
+#define PGIS_FRAME_GLSL
 
 #define VS_PRIMARY 2u
 #define VS_GGX 8u

@@ -8,11 +8,11 @@
 // The including shader declares the lobe table `lobes[]` (struct Lobe, below) before including this
 // file with GATHER_LOBES defined: lobes are read from it by index (a Lobe passed by value, with its
 // 32-float table, was copied for every photon).
-#ifndef PGI_GATHER_GLSL
-#define PGI_GATHER_GLSL
+#ifndef PGIS_GATHER_GLSL
+#define PGIS_GATHER_GLSL
 
-#define PGI_PI 3.14159265358979323846
-#define PGI_INV_PI 0.31830988618379067154
+#define PGIS_PI 3.14159265358979323846
+#define PGIS_INV_PI 0.31830988618379067154
 #define GGX_NMU 32
 
 #define VS_VALID 1u
@@ -72,7 +72,7 @@ void phong_lobe(vec3 n, vec3 wi, vec3 wo, float s, out float k, out float fr) {
     float hi = max(0.0, v3_dot(h, wi));
     precise float m = 1.0 - hi, m2 = m * m;
     fr = m2 * m2 * m;
-    k = (8.0 + s) * float(1.0 / (8.0 * PGI_PI)) * pow(hn, s);
+    k = (8.0 + s) * float(1.0 / (8.0 * PGIS_PI)) * pow(hn, s);
 }
 
 // bsdf.h pgi__fresnel_dielectric
@@ -99,7 +99,7 @@ float lobe_E(uint li, float mu) {
 
 float ggx_D(float a2, float c) {
     precise float d = c * c * (a2 - 1.0) + 1.0;
-    precise float D = a2 / (float(PGI_PI) * d * d);
+    precise float D = a2 / (float(PGIS_PI) * d * d);
     return D;
 }
 float ggx_root(float a2, float c) {
@@ -134,7 +134,7 @@ vec3 lobe_eval(uint li, vec3 kd, vec3 n, vec3 wi, vec3 wo, float one_m_eo) {
     if (model != LOBE_GGX) return vec3(0.0);
     float ci = v3_dot(n, wi), co = v3_dot(n, wo);
     precise float base = (1.0 - lobe_E(li, ci)) * one_m_eo * lobes[li].inv_1mEavg - 1.0;
-    precise vec3 r = kd * (base * float(PGI_INV_PI));
+    precise vec3 r = kd * (base * float(PGIS_INV_PI));
     if (ci > 0.0 && co > 0.0) r = r + ks * ggx_spec(li, n, wi, wo, ci, co);
     return r;
 }
@@ -187,9 +187,9 @@ void gather(ViewSample v, bool lambert, float r2, uint kern, Photon q, inout Acc
 
 // gather.h pgi__acc_finish_k: (kd/pi * flux + spec) / (pi r^2), times the kernel's normalisation.
 vec3 acc_finish(ViewSample v, Acc a, float r2, float m) {
-    precise float w = 1.0 / (float(PGI_PI) * r2);
-    precise vec3 o = vec3((v.kdx * float(PGI_INV_PI) * a.fr + a.sr) * w, (v.kdy * float(PGI_INV_PI) * a.fg + a.sg) * w,
-                          (v.kdz * float(PGI_INV_PI) * a.fb + a.sb) * w);
+    precise float w = 1.0 / (float(PGIS_PI) * r2);
+    precise vec3 o = vec3((v.kdx * float(PGIS_INV_PI) * a.fr + a.sr) * w, (v.kdy * float(PGIS_INV_PI) * a.fg + a.sg) * w,
+                          (v.kdz * float(PGIS_INV_PI) * a.fb + a.sb) * w);
     if (m != 1.0) o = o * m;
     return o;
 }

@@ -1,8 +1,8 @@
 // The GPU hash grid's cells (gpu_hashgrid.c): the cell coordinate of est_hashgrid.c's cell_coord
 // (floor(x / cell), clamped to the 21-bit field the CPU keys use), and the bucket of a cell in the
 // bucket table (a 32-bit hash; the table layout is the GPU's own, only the cells mirror the CPU).
-#ifndef PGI_HASHGRID_GLSL
-#define PGI_HASHGRID_GLSL
+#ifndef PGIS_HASHGRID_GLSL
+#define PGIS_HASHGRID_GLSL
 
 #define FIELD_BIAS 1048576 // 1 << (21 - 1), as est_hashgrid.c
 

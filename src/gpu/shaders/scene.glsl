@@ -11,13 +11,13 @@
 //   and through gather.glsl: lobe_eval (pgi__lobe_eval_o), lobe_E, fresnel_dielectric.
 // The including kernel binds its own buffers from binding 11 and starts its push constants with
 // `SceneInfo scene;`.
-#ifndef PGI_SCENE_GLSL
-#define PGI_SCENE_GLSL
+#ifndef PGIS_SCENE_GLSL
+#define PGIS_SCENE_GLSL
 
 #extension GL_GOOGLE_include_directive : require
 
 #include "bvh.glsl"
-#ifndef PGI_HASHGRID_GLSL
+#ifndef PGIS_HASHGRID_GLSL
 struct Photon { // hashgrid.glsl's (gather.glsl's gather() takes one); hashgrid.glsl has a push block
     float px, py, pz, dx, dy, dz, fr, fg, fb;
 };
@@ -41,7 +41,7 @@ struct Photon { // hashgrid.glsl's (gather.glsl's gather() takes one); hashgrid.
 #define SCENE_SKY 4u
 #define SCENE_COLORS 8u
 
-#define PGI_INF uintBitsToFloat(0x7F800000u) // +infinity (GLSL leaves 1.0 / 0.0 undefined)
+#define PGIS_INF uintBitsToFloat(0x7F800000u) // +infinity (GLSL leaves 1.0 / 0.0 undefined)
 
 struct SceneInfo { // pgi__gpu_scene_push, 64 bytes
     uint nlights, narea, flags, ntris;
@@ -116,7 +116,7 @@ vec3 to_world(vec3 l, vec3 n) {
     return r;
 }
 vec3 sample_cosine(float u1, float u2) {
-    float r = sqrt(u1), phi = 2.0 * float(PGI_PI) * u2;
+    float r = sqrt(u1), phi = 2.0 * float(PGIS_PI) * u2;
     return vec3(r * cos(phi), r * sin(phi), sqrt(max(0.0, 1.0 - u1)));
 }
 vec3 reflect_v(vec3 w, vec3 n) {

@@ -2,8 +2,8 @@
 // photon-to-list test of src/estimators/est_tiled.c (FOR_EACH_TILE: the photon's screen rectangle,
 // each tile's view-space box and frustum planes, then the mirror-seen samples' cells), operation
 // for operation where the C does it (`precise`: the build uses -ffp-contract=off).
-#ifndef PGI_TILED_GLSL
-#define PGI_TILED_GLSL
+#ifndef PGIS_TILED_GLSL
+#define PGIS_TILED_GLSL
 
 struct Photon { // pgi__packed_photon (src/estimators/packed.h): 36 bytes
     float px, py, pz, dx, dy, dz, fr, fg, fb;

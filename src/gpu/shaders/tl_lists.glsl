@@ -1,8 +1,8 @@
 // GPU tiled: the lists a photon goes into (est_tiled.c FOR_EACH_TILE), for tl_count and tl_copy.
 // The including shader defines visit(t, j) (t: the list, tiles then cells; j: the photon) and the
 // buffers Bounds (binding 1), Frame (2), Grid (3), CellBox (4), CellTable (5).
-#ifndef PGI_TL_LISTS_GLSL
-#define PGI_TL_LISTS_GLSL
+#ifndef PGIS_TL_LISTS_GLSL
+#define PGIS_TL_LISTS_GLSL
 
 layout(std430, binding = 1) readonly buffer Bounds { vec4 bounds[]; };
 layout(std430, binding = 2) readonly buffer Frame { vec4 frame[2]; };

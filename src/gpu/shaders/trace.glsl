@@ -7,8 +7,8 @@
 // 0..10; gpu_scene.h) and its emission records (binding 11, pgi__gpu_scene_emit). The functions
 // mirror src/photon/trace.c start_path, src/scene/bsdf.c pgi__bsdf_sample, src/scene/env.c
 // pgi__env_sample (constant sky) and src/core/core.h's sampling. Include after scene.glsl.
-#ifndef PGI_TRACE_GLSL
-#define PGI_TRACE_GLSL
+#ifndef PGIS_TRACE_GLSL
+#define PGIS_TRACE_GLSL
 
 struct Emit { // pgi__gpu_emit
     vec3 power;
@@ -38,11 +38,11 @@ Rng path_rng(uint lo, uint hi) { return rng_seed(pc.seed_lo, pc.seed_hi, TRACE_P
 // ---------------------------------------------------------------- core.h
 float maxc(vec3 a) { return max(a.x, max(a.y, a.z)); }
 vec3 sample_sphere(float u1, float u2) {
-    float z = 1.0 - 2.0 * u1, r = sqrt(max(0.0, 1.0 - z * z)), phi = float(2.0 * PGI_PI) * u2;
+    float z = 1.0 - 2.0 * u1, r = sqrt(max(0.0, 1.0 - z * z)), phi = float(2.0 * PGIS_PI) * u2;
     return vec3(r * cos(phi), r * sin(phi), z);
 }
 vec3 sample_cone(float u1, float u2, float cos_max) {
-    float z = 1.0 - u1 * (1.0 - cos_max), r = sqrt(max(0.0, 1.0 - z * z)), phi = float(2.0 * PGI_PI) * u2;
+    float z = 1.0 - u1 * (1.0 - cos_max), r = sqrt(max(0.0, 1.0 - z * z)), phi = float(2.0 * PGIS_PI) * u2;
     return vec3(r * cos(phi), r * sin(phi), z);
 }
 vec3 vpos(uint i) { return verts[i].pos_u.xyz; }
@@ -86,15 +86,15 @@ bool start_path(inout Rng rng, out vec3 o, out vec3 d, out vec3 flux) {
         if (u1 < ps) y = 1.0 - min(u1 / ps, 1.0);
         else y = -(u1 - ps) / max(1.0 - ps, 1e-30);
         y = min(1.0, max(-1.0, y));
-        float r = sqrt(max(0.0, 1.0 - y * y)), phi = 2.0 * float(PGI_PI) * u2;
+        float r = sqrt(max(0.0, 1.0 - y * y)), phi = 2.0 * float(PGIS_PI) * u2;
         precise vec3 w = fx * (r * cos(phi)) + up * y + fz * (r * sin(phi));
         const bool upper = v3_dot(w, up) > 0.0;
-        const float pdf = (upper ? ps : 1.0 - ps) * float(0.5 * PGI_INV_PI);
+        const float pdf = (upper ? ps : 1.0 - ps) * float(0.5 * PGIS_INV_PI);
         if (!(pdf > 0.0)) return false;
         const vec3 L = upper ? pc.scene.sky.xyz : pc.scene.ground.xyz;
-        flux = L * (float(PGI_PI) * radius * radius / (pdf * pl));
+        flux = L * (float(PGIS_PI) * radius * radius / (pdf * pl));
         d = -w;
-        float rr = radius * sqrt(u3), ph = 2.0 * float(PGI_PI) * u4;
+        float rr = radius * sqrt(u3), ph = 2.0 * float(PGIS_PI) * u4;
         vec3 disk = to_world(vec3(rr * cos(ph), rr * sin(ph), 0.0), d);
         precise vec3 c = centre + w * (1.01 * radius) + disk;
         o = c;
@@ -109,7 +109,7 @@ bool start_path(inout Rng rng, out vec3 o, out vec3 d, out vec3 flux) {
         d = to_world(sample_cone(u1, u2, L.cos_cutoff), L.dir);
     } else if (type == LIGHT_SUN) {
         d = L.dir;
-        float r = radius * sqrt(u1), phi = 2.0 * float(PGI_PI) * u2;
+        float r = radius * sqrt(u1), phi = 2.0 * float(PGIS_PI) * u2;
         vec3 disk = to_world(vec3(r * cos(phi), r * sin(phi), 0.0), d);
         precise vec3 c = centre - d * (1.01 * radius) + disk;
         o = c;
@@ -159,7 +159,7 @@ float glossy_pdf(uint m, vec3 ns, vec3 wi, vec3 wo) {
     const float s = lobes[m].s;
     vec3 h = v3_norm(wi + wo);
     float hn = max(0.0, v3_dot(h, ns)), hw = abs(v3_dot(h, wo));
-    return hw > 0.0 ? (s + 1.0) / float(2.0 * PGI_PI) * pow(hn, s) / (4.0 * hw) : 0.0;
+    return hw > 0.0 ? (s + 1.0) / float(2.0 * PGIS_PI) * pow(hn, s) / (4.0 * hw) : 0.0;
 }
 
 // bsdf.h pgi__ggx_sample_vndf (Heitz 2018)
@@ -168,7 +168,7 @@ vec3 ggx_sample_vndf(vec3 V, float alpha, float u1, float u2) {
     float lensq = Vh.x * Vh.x + Vh.y * Vh.y;
     vec3 T1 = lensq > 0.0 ? vec3(-Vh.y, Vh.x, 0.0) * (1.0 / sqrt(lensq)) : vec3(1.0, 0.0, 0.0);
     vec3 T2 = cross(Vh, T1);
-    float r = sqrt(u1), phi = float(2.0 * PGI_PI) * u2;
+    float r = sqrt(u1), phi = float(2.0 * PGIS_PI) * u2;
     float t1 = r * cos(phi), t2 = r * sin(phi), sv = 0.5 * (1.0 + Vh.z);
     t2 = (1.0 - sv) * sqrt(max(0.0, 1.0 - t1 * t1)) + sv * t2;
     vec3 Nh = T1 * t1 + T2 * t2 + Vh * sqrt(max(0.0, 1.0 - t1 * t1 - t2 * t2));
@@ -216,7 +216,7 @@ bool bsdf_sample(Surf sf, vec3 kd, vec3 wi, float u1, float u2, float u3, out ve
             } else {
                 const float s = lobes[m].s;
                 float ct = pow(u1, 1.0 / (s + 1.0)), st = sqrt(max(0.0, 1.0 - ct * ct)),
-                      phi = float(2.0 * PGI_PI) * u2;
+                      phi = float(2.0 * PGIS_PI) * u2;
                 vec3 h = to_world(vec3(st * cos(phi), st * sin(phi), ct), ns);
                 wo = reflect_v(wi, h);
             }
@@ -225,10 +225,10 @@ bool bsdf_sample(Surf sf, vec3 kd, vec3 wi, float u1, float u2, float u3, out ve
         }
         float cg = v3_dot(wo, ng), cs = v3_dot(wo, ns);
         if (!(cg > 0.0) || !(cs > 0.0)) return false;
-        float pdf = ps * glossy_pdf(m, ns, wi, wo) + (1.0 - ps) * cs * float(PGI_INV_PI);
+        float pdf = ps * glossy_pdf(m, ns, wi, wo) + (1.0 - ps) * cs * float(PGIS_INV_PI);
         if (!(pdf > 0.0)) return false;
         const float one_m_eo = lobes[m].model == LOBE_GGX ? 1.0 - lobe_E(m, v3_dot(ns, wo)) : 0.0;
-        vec3 f = kd * float(PGI_INV_PI) + lobe_eval(m, kd, ns, wi, wo, one_m_eo);
+        vec3 f = kd * float(PGIS_INV_PI) + lobe_eval(m, kd, ns, wi, wo, one_m_eo);
         weight = f * (cs / pdf);
         return true;
     }

@@ -74,7 +74,7 @@ vec3 cone_tex(int tex, Surf sf, uint prim, float width, vec3 d) {
     if (!(det > 0.0) || !(s1 > 1e-4) || !(abs(cosine) > 0.0) || !(width > 0.0)) {
         // texture.c pgi__texture_cone_lod with trace.c's pgi__tri_uv_lod
         const float pa = v3_len(v3_cross(e1, e2)), ta = abs(du1 * dv2 - du2 * dv1);
-        const float tri_lod = !(ta > 0.0) ? -PGI_INF : !(pa > 0.0) ? PGI_INF : 0.5 * log2(ta / pa);
+        const float tri_lod = !(ta > 0.0) ? -PGIS_INF : !(pa > 0.0) ? PGIS_INF : 0.5 * log2(ta / pa);
         return tex_lookup_lod(tex, sf.u, sf.v,
                               tri_lod + 0.5 * log2(W * H) + log2(width / abs(cosine)) + TEX_LOD_BIAS);
     }
@@ -122,7 +122,7 @@ void main() {
         const vec3 eye = fp.eye_tan.xyz;
         vec3 o = eye, d = camera_dir_at(x, y, jx, jy);
         BvhHit h;
-        bvh_trace(o, d, 0.0, PGI_INF, false, h);
+        bvh_trace(o, d, 0.0, PGIS_INF, false, h);
         rays++;
         vec3 weight = vec3(1.0), e = vec3(0.0);
         float depth_v = 0.0, width = 0.0; // the ray cone's width (view.c tex_cone)
@@ -168,7 +168,7 @@ void main() {
             o = on;
             d = nd;
             rays++;
-            if (!bvh_trace(o, d, 0.0, PGI_INF, false, h)) break;
+            if (!bvh_trace(o, d, 0.0, PGIS_INF, false, h)) break;
         }
         // an eye path that leaves the scene sees the sky
         if (!found && h.prim == 0xFFFFFFFFu) e = e + weight * sky_eval(pc.scene, d);
