@@ -263,6 +263,11 @@ static void test_view_samples(void **state) {
         size_t prim_bad, valid;
         size_t bad = compare_view(s, 96, 72, &sp, "sibenik", &prim_bad, &valid);
         assert_true(bad <= 96 * 72 / 200 + 2);
+        /* the textures filtered (ray cones, mip levels, anisotropic probes: docs/design.md
+           "Textures"), within the same tolerance */
+        const pgi__subpixel spf = {.jitter = 0, .seed = 1, .index = 0, .tex_filter = 1};
+        bad = compare_view(s, 96, 72, &spf, "sibenik filtered", &prim_bad, &valid);
+        assert_true(bad <= 96 * 72 / 200 + 2);
         pgi_scene_destroy(s);
     }
 }

@@ -113,6 +113,11 @@ static inline int app_render_option(const char *a, const char *v, pgi_render_des
         else if (strcmp(v, "on") == 0) d->jitter = PGI_JITTER_ON;
         else if (strcmp(v, "off") == 0) d->jitter = PGI_JITTER_OFF;
         else APP_FAIL_("--jitter must be auto, on or off, got '%s'", v);
+    } else if (strcmp(a, "--texture-filter") == 0) {
+        if (strcmp(v, "auto") == 0) d->texture_filter = PGI_TEXTURE_FILTER_AUTO;
+        else if (strcmp(v, "on") == 0) d->texture_filter = PGI_TEXTURE_FILTER_ON;
+        else if (strcmp(v, "off") == 0) d->texture_filter = PGI_TEXTURE_FILTER_OFF;
+        else APP_FAIL_("--texture-filter must be auto, on or off, got '%s'", v);
     } else if (strcmp(a, "--store") == 0) {
         if (!app_parse_store(v, &d->store)) APP_FAIL_("--store must be all or view, got '%s'", v);
     } else if (strcmp(a, "--emission") == 0) {

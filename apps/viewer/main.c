@@ -740,12 +740,11 @@ typedef struct view_args {
 /* The render settings the viewer takes, parsed as 'photongi render' parses them (render_options.h):
  * all of them but --progressive (the viewer averages by itself while the view is still). */
 static int viewer_render_setting(const char *a) {
-    static const char *const k[] = {"--estimator", "--photons",       "--radius",         "--size",
-                                    "--seed",      "--threads",       "--camera",         "--exposure",
-                                    "--time",      "--output",        "--direct-samples", "--bounces",
-                                    "--emission",  "--max-memory",    "--store",          "--device",
-                                    "--filter",    "--radius-policy", "--r-min",          "--r-max",
-                                    "--smoothing", "--jitter",        "--specular",       NULL};
+    static const char *const k[] = {"--estimator",      "--photons", "--radius",         "--size",       "--seed",
+                                    "--threads",        "--camera",  "--exposure",       "--time",       "--output",
+                                    "--direct-samples", "--bounces", "--emission",       "--max-memory", "--store",
+                                    "--device",         "--filter",  "--radius-policy",  "--r-min",      "--r-max",
+                                    "--smoothing",      "--jitter",  "--texture-filter", "--specular",   NULL};
     for (int i = 0; k[i]; i++)
         if (strcmp(a, k[i]) == 0) return 1;
     return 0;

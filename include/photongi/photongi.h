@@ -139,6 +139,18 @@ typedef enum pgi_jitter {
                             progressive frame k takes point k of one stratified sequence per pixel */
 } pgi_jitter;
 
+/* How the view samples read their textures (pgi_render_desc.texture_filter; docs/design.md
+ * "Textures"). Only the albedo at the view samples changes: photons and the reference path tracer
+ * read level 0, so every estimator sees the same view samples either way. */
+typedef enum pgi_texture_filter {
+    PGI_TEXTURE_FILTER_AUTO = 0, /* default: ON where the frame's view samples sit at pixel centres (jitter
+                                    resolved OFF), else OFF (a jittered average integrates the pixel itself) */
+    PGI_TEXTURE_FILTER_OFF,      /* the texel at the hit (bilinear, level 0) */
+    PGI_TEXTURE_FILTER_ON        /* a ray cone of a pixel's width (Ray Tracing Gems ch. 20) through the
+                                    eye path's mirrors and glass: its footprint's mip level, trilinear
+                                    probes along its long axis (CPU and Vulkan alike) */
+} pgi_texture_filter;
+
 /* How photons leave the lights (docs/emission.md). */
 typedef enum pgi_emission {
     PGI_EMISSION_UNIFORM = 0, /* default: by the lights' power and emission profiles (the papers' choice) */
@@ -241,17 +253,19 @@ typedef struct pgi_render_desc {
     const pgi_camera_def *view; /* non-NULL: render from this camera instead of the scene's `camera`
                                    (borrowed for the call; the viewer's free camera) */
     /* Per-photon footprints (radius policies; need an estimator with PGI_EST_CAP_PHOTON_RADIUS). */
-    int radius_policy;        /* PGI_RADIUS_FIXED (default), PGI_RADIUS_PATH, PGI_RADIUS_DIFFERENTIALS */
-    float r_min, r_max;       /* path: radius range (default r_max = radius, r_min = r_max/8);
+    int radius_policy;  /* PGI_RADIUS_FIXED (default), PGI_RADIUS_PATH, PGI_RADIUS_DIFFERENTIALS */
+    float r_min, r_max; /* path: radius range (default r_max = radius, r_min = r_max/8);
                                 differentials: r_max clamps the footprint radius (default: radius) */
-    float smoothing;          /* differentials: smoothing factor s (> 0); 0 = automatic (docs/bvh.md) */
-    int filter;               /* bilateral reconstruction filter radius in pixels on the indirect light (0 off) */
-    pgi_jitter jitter;        /* sub-pixel position of the view samples; default PGI_JITTER_AUTO (resolved: a single
+    float smoothing;    /* differentials: smoothing factor s (> 0); 0 = automatic (docs/bvh.md) */
+    int filter;         /* bilateral reconstruction filter radius in pixels on the indirect light (0 off) */
+    pgi_jitter jitter;  /* sub-pixel position of the view samples; default PGI_JITTER_AUTO (resolved: a single
                            frame reports OFF, a progressive average the caller's value) */
-    pgi_emission emission;    /* photon emission; default PGI_EMISSION_UNIFORM */
-    pgi_store store;          /* which photons are stored; default PGI_STORE_ALL */
-    pgi_progress_fn progress; /* may be NULL; not part of the picture (progressive mode does not restart) */
-    void *progress_user;      /* passed to `progress` */
+    pgi_texture_filter texture_filter; /* the view samples' textures; default PGI_TEXTURE_FILTER_AUTO (resolved:
+                                          the statistics report ON or OFF) */
+    pgi_emission emission;             /* photon emission; default PGI_EMISSION_UNIFORM */
+    pgi_store store;                   /* which photons are stored; default PGI_STORE_ALL */
+    pgi_progress_fn progress;          /* may be NULL; not part of the picture (progressive mode does not restart) */
+    void *progress_user;               /* passed to `progress` */
     uint64_t max_memory;      /* memory budget in bytes (docs/memory.md): a frame whose scene, BVH, photons, view
                                  samples, buffers and estimator structures would need more is refused before it
                                  allocates them (PGI_ERR_OOM naming what does not fit; a photon count before any

@@ -159,7 +159,8 @@ static pgi_status upload_static(pgi__gpu_scene *gs, const pgi_scene *s) {
     pgi__gpu_mat *m = calloc(s->nmats + 1, sizeof *m);
     gpu_lobe *lb = calloc(s->nmats + 1, sizeof *lb);
     size_t words = LUT_WORDS + 4 * s->ntexs;
-    for (size_t i = 0; i < s->ntexs; i++) words += (size_t)s->texs[i].width * (size_t)s->texs[i].height;
+    for (size_t i = 0; i < s->ntexs; i++)
+        words += (size_t)s->texs[i].width * (size_t)s->texs[i].height + pgi__texture_mip_bytes(&s->texs[i]) / 4;
     uint32_t *tx = calloc(words + 1, sizeof *tx);
     if (!t || !m || !lb || !tx) {
         st = pgi__fail(PGI_ERR_OOM, "%s", "out of memory packing the scene for the GPU");
@@ -200,11 +201,24 @@ static pgi_status upload_static(pgi__gpu_scene *gs, const pgi_scene *s) {
         d[0] = (uint32_t)at;
         d[1] = n ? (uint32_t)T->width : 0u; /* width 0: no texels, the lookup gives 1 (pgi__texture_lookup) */
         d[2] = n ? (uint32_t)T->height : 0u;
+        /* the mip levels follow level 0, each max(1, w >> l) x max(1, h >> l) (scene.glsl tex_level) */
+        int levels = 1;
+        while (levels < T->levels && T->mip[levels]) levels++;
+        d[3] = n ? (uint32_t)levels : 1u;
         for (size_t k = 0; k < n; k++) {
             const unsigned char *p = T->rgba + 4 * k;
             tx[at + k] = (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
         }
         at += n;
+        for (int l = 1; n && l < levels; l++) {
+            const size_t ln =
+                (size_t)(T->width >> l > 0 ? T->width >> l : 1) * (size_t)(T->height >> l > 0 ? T->height >> l : 1);
+            for (size_t k = 0; k < ln; k++) {
+                const unsigned char *p = T->mip[l] + 4 * k;
+                tx[at + k] = (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+            }
+            at += ln;
+        }
     }
     if ((st = upload(g, &gs->tris, t, 4 * s->ntris * sizeof *t, "gpu_scene")) ||
         (st = upload(g, &gs->mats, m, s->nmats * sizeof *m, "gpu_scene")) ||

@@ -84,6 +84,8 @@ pgi_status pgi__gpu_view_prepare(pgi__gpu_view *v, const pgi_camera *cam, uint64
     const uint64_t key = pgi__mix64(sp->seed ^ 0x6a6974746572ULL); /* pgi__pixel_jitter's per-seed key */
     p->key_lo = (uint32_t)key;
     p->key_hi = (uint32_t)(key >> 32);
+    p->tex_filter = sp->tex_filter ? 1u : 0u;
+    p->spread = 2.f * cam->tan_half_fov_y / (float)cam->height; /* view.c tex_cone */
     return pgi__gpu_upload(v->g, v->params, 0, p, sizeof *p);
 }
 

@@ -38,7 +38,8 @@ typedef struct pgi__gpu_frame_params {
     float up[3], pad1;
     uint32_t width, height, jitter, index;
     uint32_t seed_lo, seed_hi, key_lo, key_hi;
-    uint32_t direct_samples, output, pad2, pad3;
+    uint32_t direct_samples, output, tex_filter; /* tex_filter: pgi__subpixel.tex_filter */
+    float spread;                                /* view.c tex_cone.spread */
 } pgi__gpu_frame_params;
 _Static_assert(sizeof(pgi__gpu_frame_params) == 112 && offsetof(pgi__gpu_frame_params, width) == 64 &&
                    offsetof(pgi__gpu_frame_params, direct_samples) == 96,

@@ -38,6 +38,7 @@ static double float_as_double(float f) {
 /* The names of the settings' enums, as the command line spells them. */
 static const char *const k_outputs[] = {"all", "indirect", "direct", "counts"};
 static const char *const k_jitters[] = {"auto", "off", "on"};
+static const char *const k_tex_filters[] = {"auto", "off", "on"};
 static const char *const k_emissions[] = {"uniform", "guided", "auto", "portal"};
 static const char *const k_policies[] = {"fixed", "path", "differentials"};
 
@@ -70,6 +71,7 @@ static int add_settings(cJSON *root, const pgi_frame_stats *st) {
     PGI__SET("direct-samples", "%d", d->direct_samples);
     PGI__SET("output", "%s", name_of(k_outputs, 4, (int)d->output, "all"));
     PGI__SET("jitter", "%s", name_of(k_jitters, 3, (int)d->jitter, "auto"));
+    PGI__SET("texture-filter", "%s", name_of(k_tex_filters, 3, (int)d->texture_filter, "auto"));
     PGI__SET("emission", "%s", name_of(k_emissions, 4, (int)d->emission, "uniform"));
     PGI__SET("store", "%s", d->store == PGI_STORE_VIEW ? "view" : "all");
     PGI__SET("radius-policy", "%s", name_of(k_policies, 3, d->radius_policy, "fixed"));
@@ -216,6 +218,8 @@ static cJSON *build(const pgi_frame_stats *st) {
     ok &= add_num(root, "rt_update_ms", st->rt_update_ms);
     ok &= cJSON_AddStringToObject(root, "radius_policy", name_of(k_policies, 3, st->radius_policy, "?")) != NULL;
     ok &= cJSON_AddStringToObject(root, "jitter", name_of(k_jitters, 3, (int)st->settings.jitter, "?")) != NULL;
+    ok &= cJSON_AddStringToObject(root, "texture_filter",
+                                  name_of(k_tex_filters, 3, (int)st->settings.texture_filter, "?")) != NULL;
     ok &= cJSON_AddStringToObject(root, "emission", name_of(k_emissions, 4, (int)st->settings.emission, "?")) != NULL;
     ok &= cJSON_AddStringToObject(root, "store", st->settings.store == PGI_STORE_VIEW ? "view" : "all") != NULL;
     if (st->emission.bins > 0 || st->settings.store == PGI_STORE_VIEW) {

@@ -57,6 +57,24 @@ static inline void pgi__trace_tri_surface(const pgi_scene *s, const pgi__trace_t
     pgi__trace_tri_shading(s, r, prim, bu, bv, o);
 }
 
+/* The texture level of detail of a triangle with corners a, b, c and texture coordinates
+ * q[0..5] (Ray Tracing Gems ch. 20, eq. 34's Delta): 0.5 log2(texture-space area / world-space
+ * area), in uv units (a texture's 0.5 log2(w h) is added at the lookup: pgi__texture_cone_lod).
+ * In double, once a triangle; -inf for a degenerate mapping (level 0), +inf for a degenerate
+ * triangle (the coarsest level). Kept in the triangle's PGI__TRI_UV record, q[6]. */
+static inline float pgi__tri_uv_lod(pgi__v3 a, pgi__v3 b, pgi__v3 c, const float *q) {
+    const double e1[3] = {(double)b.x - a.x, (double)b.y - a.y, (double)b.z - a.z};
+    const double e2[3] = {(double)c.x - a.x, (double)c.y - a.y, (double)c.z - a.z};
+    const double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2],
+                 cz = e1[0] * e2[1] - e1[1] * e2[0];
+    const double pa = sqrt(cx * cx + cy * cy + cz * cz);
+    const double ta =
+        fabs(((double)q[2] - q[0]) * ((double)q[5] - q[1]) - ((double)q[4] - q[0]) * ((double)q[3] - q[1]));
+    if (!(ta > 0.0)) return -INFINITY;
+    if (!(pa > 0.0)) return INFINITY;
+    return (float)(0.5 * log2(ta / pa));
+}
+
 /* pgi__scene_uv from a triangle's PGI__TRI_UV coordinates `q`: the same operations. */
 static inline void pgi__trace_tri_uv(const float *q, float bu, float bv, float *u, float *v) {
     float bw = 1.f - bu - bv;

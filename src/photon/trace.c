@@ -369,7 +369,8 @@ pgi_status pgi__trace_tris_update(pgi__trace_scratch *sc, const pgi_scene *s, in
         if (tuv) {
             float *q = tuv + PGI__TRI_UV * (size_t)i;
             for (int j = 0; j < 3; j++) memcpy(q + 2 * j, s->uv + 2 * (size_t)t[j], 2 * sizeof(float));
-            q[6] = q[7] = 0.f;
+            q[6] = pgi__tri_uv_lod(a, b, c, q);
+            q[7] = 0.f;
         }
     }
     sc->tris_n = s->ntris;

@@ -345,6 +345,10 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
     if (d->jitter < PGI_JITTER_AUTO || d->jitter > PGI_JITTER_ON)
         return pgi__fail(PGI_ERR_INVALID_ARG, "unknown jitter mode %d", (int)d->jitter);
     if (d->jitter == PGI_JITTER_AUTO) d->jitter = PGI_JITTER_OFF; /* one frame: pixel centres */
+    if (d->texture_filter < PGI_TEXTURE_FILTER_AUTO || d->texture_filter > PGI_TEXTURE_FILTER_ON)
+        return pgi__fail(PGI_ERR_INVALID_ARG, "unknown texture filter %d", (int)d->texture_filter);
+    if (d->texture_filter == PGI_TEXTURE_FILTER_AUTO)
+        d->texture_filter = d->jitter == PGI_JITTER_OFF ? PGI_TEXTURE_FILTER_ON : PGI_TEXTURE_FILTER_OFF;
     if (d->emission < PGI_EMISSION_UNIFORM || d->emission > PGI_EMISSION_PORTAL)
         return pgi__fail(PGI_ERR_INVALID_ARG, "unknown emission mode %d", (int)d->emission);
     if (d->emission == PGI_EMISSION_PORTAL && !s->nportals)
@@ -570,7 +574,8 @@ static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, uint64_t se
     const pgi__subpixel sp = {.jitter = d->jitter == PGI_JITTER_ON,
                               .seed = seq_seed,
                               .index = index,
-                              .shift = {d->shift[0], d->shift[1]}};
+                              .shift = {d->shift[0], d->shift[1]},
+                              .tex_filter = d->texture_filter == PGI_TEXTURE_FILTER_ON};
     if ((st = pgi__view_build(s, r->rt, &r->trace_scratch, &r->cam, d->seed, &sp, d->threads, &r->vs, r->emit, &r->fill,
                               &fs->primary_rays)))
         return st;
@@ -830,7 +835,10 @@ static pgi_status gpu_frame(pgi_renderer *r, pgi_render_desc *d, uint64_t seq_se
 
     /* sequence 1: the view pass */
     if ((st = report(pc, "view", 0, 0))) return st;
-    const pgi__subpixel sp = {.jitter = d->jitter == PGI_JITTER_ON, .seed = seq_seed, .index = index};
+    const pgi__subpixel sp = {.jitter = d->jitter == PGI_JITTER_ON,
+                              .seed = seq_seed,
+                              .index = index,
+                              .tex_filter = d->texture_filter == PGI_TEXTURE_FILTER_ON};
     if ((st = pgi__gpu_view_prepare(r->gpu_view, &r->cam, d->seed, &sp))) return st;
     pgi_named_value t[64];
     int nt = 0;

@@ -29,10 +29,7 @@ void pgi_scene_destroy(pgi_scene *s) {
     free(s->tri);
     free(s->tri_mat);
     free(s->mats);
-    for (size_t i = 0; i < s->ntexs; i++) {
-        free(s->texs[i].rgba);
-        pgi__afree(s->texs[i].tiled);
-    }
+    for (size_t i = 0; i < s->ntexs; i++) pgi__texture_free(&s->texs[i]);
     free(s->texs);
     free(s->lights);
     pgi__env_destroy(s->env);
@@ -512,6 +509,7 @@ void pgi__scene_memory(const pgi_scene *s, size_t *scene_bytes, size_t *texture_
         const pgi__texture *x = &s->texs[i];
         t += (size_t)x->width * (size_t)x->height * 4;
         if (x->tiled) t += (size_t)((x->width + 3) / 4) * (size_t)((x->height + 3) / 4) * 64;
+        t += pgi__texture_mip_bytes(x);
     }
     *scene_bytes = b;
     *texture_bytes = t;

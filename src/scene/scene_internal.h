@@ -45,6 +45,7 @@ typedef struct pgi__material {
 static inline int pgi__mat_masked(const pgi__material *m) { return m->alpha_cutoff > 0.f; }
 
 /* 8-bit sRGB texture; lookups return linear RGB. */
+#define PGI__MIP_LEVELS 32 /* levels of a texture at most: sides up to 2^31 */
 typedef struct pgi__texture {
     int width, height;
     unsigned char *rgba; /* 4 bytes a texel, row 0 is the top of the image */
@@ -55,6 +56,15 @@ typedef struct pgi__texture {
      * later (the cut-out code rewrites alpha, read from rgba); NULL without memory for it. */
     unsigned char *tiled;
     int channels; /* of the image file: 1-4; 2 and 4 carry alpha (else alpha is 255) */
+    /* Mip levels (docs/design.md "Textures"), built by pgi__scene_add_texture: level 0 is rgba,
+     * level l (1 .. levels - 1) is mip[l], max(1, w >> l) x max(1, h >> l) texels laid out as
+     * rgba, each the mean in linear light of the 2x2 texels of level l - 1 it covers (an odd
+     * side's last row or column is left out) stored as the 8-bit sRGB code whose decoding
+     * (pgi__srgb8_texture_lut) is nearest that mean; alpha is averaged as it is (linear). Only
+     * the view samples read them (pgi__texture_lookup_lod); levels is 1 without memory for them. */
+    int levels;
+    unsigned char *mip[PGI__MIP_LEVELS];
+    float lod_bias; /* 0.5 log2(width height): a triangle's texel-to-world ratio takes it */
     char path[512];
     char canon[512]; /* the file's canonical path (realpath), "" for embedded ones: one decode a file */
 } pgi__texture;
@@ -333,6 +343,31 @@ typedef struct pgi__texel_quads16 {
 } pgi__texel_quads16;
 int pgi__texture_quads16(const pgi__texture *t, const float *u, const float *v, pgi__texel_quads16 *q);
 void pgi__texture_quads16_lookup(const pgi__texture *t, const pgi__texel_quads16 *q, float out[3][16]);
+/* The view samples' filtered lookup (docs/design.md "Textures"): trilinear between mip levels
+ * floor(lod) and floor(lod) + 1 (bilinear in each, weights lod - floor(lod)); lod <= 0 or NaN
+ * is pgi__texture_lookup(t, u, v) bit for bit, lod >= levels - 1 the coarsest level alone. One
+ * scalar function for every path of the view pass, so that they give the same bits. */
+pgi__v3 pgi__texture_lookup_lod(const pgi__texture *t, float u, float v, float lod);
+/* Level l (0 .. levels - 1) alone, bilinear. */
+pgi__v3 pgi__texture_lookup_level(const pgi__texture *t, float u, float v, int l);
+/* Bytes of t's levels 1 and up (the memory ledger's `textures`). */
+size_t pgi__texture_mip_bytes(const pgi__texture *t);
+/* Frees t's texels and levels (pgi_scene_destroy). */
+void pgi__texture_free(pgi__texture *t);
+/* The mip level of a ray cone (Akenine-Moller et al. 2019, "Texture Level of Detail Strategies
+ * for Real-Time Ray Tracing", Ray Tracing Gems ch. 20, eq. 34): a cone of width `width` at the
+ * hit, its direction at cosine `cosine` to the surface's normal, on a triangle whose texture
+ * area over world area is 2^(2 tri_lod) (pgi__tri_uv_lod) in uv units:
+ * tri_lod + 0.5 log2(w h) + log2(width / |cosine|) + PGI__TEXTURE_LOD_BIAS.
+ * The bias matches the filter to the pixel's box: a box of the footprint's width w has variance
+ * w^2 / 12 along an axis; a level whose texels are s wide, read bilinearly, averages a box of s
+ * (s^2 / 12) under a tent of half-width s (s^2 / 6): s^2 / 4 in all, equal to w^2 / 12 at
+ * s = w / sqrt(3), a level log2(sqrt(3)) below log2(w). (Sibenik 320x180 against the pixel
+ * integral, isotropic: 26.3 dB without the bias, 27.2 dB with it; docs/design.md "Textures".) */
+#define PGI__TEXTURE_LOD_BIAS (-0.79248125f) /* -0.5 log2(3) */
+static inline float pgi__texture_cone_lod(const pgi__texture *t, float tri_lod, float width, float cosine) {
+    return tri_lod + t->lod_bias + log2f(width / fabsf(cosine)) + PGI__TEXTURE_LOD_BIAS;
+}
 /* Alpha channel (0..1, linear), bilinear and wrapping as pgi__texture_lookup; 1 without a texture. */
 float pgi__texture_alpha(const pgi__texture *t, float u, float v);
 /* 1 when the point at barycentrics (b1, b2) of triangle `tri` is cut out by its material's mask
@@ -368,23 +403,27 @@ typedef struct pgi__tex_footprint2x2 {
     float tx, ty;
 } pgi__tex_footprint2x2;
 
-static inline pgi__tex_footprint2x2 pgi__tex_bilinear_footprint(const pgi__texture *t, float u, float v) {
+static inline pgi__tex_footprint2x2 pgi__tex_bilinear_footprint_wh(int width, int height, float u, float v) {
     if (!isfinite(u)) u = 0.f;
     if (!isfinite(v)) v = 0.f;
     /* Reduce to [0, 1) first so that huge tiling factors keep their precision in the fraction. */
     float fu = u - floorf(u);
     float fv = v - floorf(v);
-    float x = fu * (float)t->width - 0.5f;
-    float y = (1.f - fv) * (float)t->height - 0.5f; /* v = 0 is the bottom row */
+    float x = fu * (float)width - 0.5f;
+    float y = (1.f - fv) * (float)height - 0.5f; /* v = 0 is the bottom row */
     float x0f = floorf(x), y0f = floorf(y);
     pgi__tex_footprint2x2 f;
     f.tx = x - x0f;
     f.ty = y - y0f;
-    f.x0 = pgi__tex_wrap_index((long)x0f, t->width);
-    f.x1 = pgi__tex_wrap_index((long)x0f + 1, t->width);
-    f.y0 = pgi__tex_wrap_index((long)y0f, t->height);
-    f.y1 = pgi__tex_wrap_index((long)y0f + 1, t->height);
+    f.x0 = pgi__tex_wrap_index((long)x0f, width);
+    f.x1 = pgi__tex_wrap_index((long)x0f + 1, width);
+    f.y0 = pgi__tex_wrap_index((long)y0f, height);
+    f.y1 = pgi__tex_wrap_index((long)y0f + 1, height);
     return f;
+}
+
+static inline pgi__tex_footprint2x2 pgi__tex_bilinear_footprint(const pgi__texture *t, float u, float v) {
+    return pgi__tex_bilinear_footprint_wh(t->width, t->height, u, v);
 }
 
 /* The colour bytes of footprint f's texels (x0, y0), (x1, y0), (x0, y1), (x1, y1), in the block

@@ -285,6 +285,96 @@ void pgi__texture_lookup_n(const pgi__texture *const *t, const float *u, const f
     lookup_n_base(t, u, v, n, out);
 }
 
+pgi__v3 pgi__texture_lookup_level(const pgi__texture *t, float u, float v, int l) {
+    if (!t || !t->rgba || t->width <= 0 || t->height <= 0) return v3(1.f, 1.f, 1.f);
+    if (l <= 0 || l >= t->levels || !t->mip[l]) return pgi__texture_lookup(t, u, v);
+    const int w = t->width >> l > 0 ? t->width >> l : 1, h = t->height >> l > 0 ? t->height >> l : 1;
+    const pgi__tex_footprint2x2 f = pgi__tex_bilinear_footprint_wh(w, h, u, v);
+    const unsigned char *px = t->mip[l];
+    const size_t r0 = 4 * (size_t)f.y0 * (size_t)w, r1 = 4 * (size_t)f.y1 * (size_t)w;
+    return pgi__tex_blend(pgi__tex_decode(px + r0 + 4 * (size_t)f.x0), pgi__tex_decode(px + r0 + 4 * (size_t)f.x1),
+                          pgi__tex_decode(px + r1 + 4 * (size_t)f.x0), pgi__tex_decode(px + r1 + 4 * (size_t)f.x1),
+                          f.tx, f.ty);
+}
+
+pgi__v3 pgi__texture_lookup_lod(const pgi__texture *t, float u, float v, float lod) {
+    if (!t || !t->rgba || t->width <= 0 || t->height <= 0) return v3(1.f, 1.f, 1.f);
+    if (!(lod > 0.f) || t->levels <= 1) return pgi__texture_lookup(t, u, v);
+    const float top = (float)(t->levels - 1);
+    if (lod >= top) return pgi__texture_lookup_level(t, u, v, t->levels - 1);
+    const int l = (int)lod;
+    const float f = lod - (float)l;
+    const pgi__v3 a = pgi__texture_lookup_level(t, u, v, l), b = pgi__texture_lookup_level(t, u, v, l + 1);
+    return v3_add(v3_scale(a, 1.f - f), v3_scale(b, f));
+}
+
+/* The 8-bit sRGB code whose decoding is nearest linear value x (the table is increasing). */
+static unsigned char srgb8_nearest(float x) {
+    int lo = 0, hi = 255;
+    while (lo < hi) { /* the first code decoding to x or more */
+        const int mid = (lo + hi) / 2;
+        if (pgi__srgb8_texture_lut[mid] < x) lo = mid + 1;
+        else hi = mid;
+    }
+    if (lo > 0 && x - pgi__srgb8_texture_lut[lo - 1] <= pgi__srgb8_texture_lut[lo] - x) lo--;
+    return (unsigned char)lo;
+}
+
+/* t's mip levels (pgi__texture.mip) from its level 0; levels stays 1 without memory for them. */
+static void build_mips(pgi__texture *t) {
+    t->levels = 1;
+    t->lod_bias = 0.5f * log2f((float)t->width * (float)t->height);
+    if (t->width <= 0 || t->height <= 0 || !t->rgba) return;
+    int n = 1;
+    while ((t->width >> n) > 0 || (t->height >> n) > 0) n++;
+    if (n > PGI__MIP_LEVELS) n = PGI__MIP_LEVELS;
+    int sw = t->width, sh = t->height;
+    const unsigned char *src = t->rgba;
+    for (int l = 1; l < n; l++) {
+        const int w = sw / 2 > 0 ? sw / 2 : 1, h = sh / 2 > 0 ? sh / 2 : 1;
+        unsigned char *dst = malloc((size_t)w * (size_t)h * 4);
+        if (!dst) { /* no levels at all: the lookups read level 0 */
+            for (int k = 1; k < l; k++) free(t->mip[k]), t->mip[k] = NULL;
+            return;
+        }
+        for (int y = 0; y < h; y++) {
+            const int ya = 2 * y < sh ? 2 * y : sh - 1, yb = 2 * y + 1 < sh ? 2 * y + 1 : sh - 1;
+            for (int x = 0; x < w; x++) {
+                const int xa = 2 * x < sw ? 2 * x : sw - 1, xb = 2 * x + 1 < sw ? 2 * x + 1 : sw - 1;
+                const unsigned char *p[4] = {src + 4 * ((size_t)ya * (size_t)sw + (size_t)xa),
+                                             src + 4 * ((size_t)ya * (size_t)sw + (size_t)xb),
+                                             src + 4 * ((size_t)yb * (size_t)sw + (size_t)xa),
+                                             src + 4 * ((size_t)yb * (size_t)sw + (size_t)xb)};
+                unsigned char *o = dst + 4 * ((size_t)y * (size_t)w + (size_t)x);
+                for (int c = 0; c < 3; c++)
+                    o[c] = srgb8_nearest(0.25f * (pgi__srgb8_texture_lut[p[0][c]] + pgi__srgb8_texture_lut[p[1][c]] +
+                                                  pgi__srgb8_texture_lut[p[2][c]] + pgi__srgb8_texture_lut[p[3][c]]));
+                o[3] = (unsigned char)(((unsigned)p[0][3] + p[1][3] + p[2][3] + p[3][3] + 2) / 4);
+            }
+        }
+        t->mip[l] = dst;
+        src = dst;
+        sw = w;
+        sh = h;
+    }
+    t->levels = n;
+}
+
+size_t pgi__texture_mip_bytes(const pgi__texture *t) {
+    size_t b = 0;
+    for (int l = 1; l < t->levels; l++) {
+        const int w = t->width >> l > 0 ? t->width >> l : 1, h = t->height >> l > 0 ? t->height >> l : 1;
+        if (t->mip[l]) b += (size_t)w * (size_t)h * 4;
+    }
+    return b;
+}
+
+void pgi__texture_free(pgi__texture *t) {
+    free(t->rgba);
+    pgi__afree(t->tiled);
+    for (int l = 1; l < PGI__MIP_LEVELS; l++) free(t->mip[l]);
+}
+
 float pgi__texture_alpha(const pgi__texture *t, float u, float v) {
     if (!t || !t->rgba || t->width <= 0 || t->height <= 0) return 1.f;
     pgi__tex_footprint2x2 f = pgi__tex_bilinear_footprint(t, u, v);
@@ -330,6 +420,7 @@ pgi_status pgi__scene_add_texture(pgi_scene *s, int w, int h, int channels, unsi
                            4 * (4 * (y & 3) + (x & 3)),
                        rgba + 4 * ((size_t)y * (size_t)w + (size_t)x), 4);
     }
+    build_mips(nt);
     snprintf(nt->path, sizeof nt->path, "%s", path);
     *index = (int)s->ntexs++;
     return PGI_OK;

@@ -206,12 +206,84 @@ static inline void put_sample(view_block *vs, int j, const pgi__surface *sf, pgi
     vs->flags[j] = (uint8_t)(PGI_VS_VALID | (primary ? PGI_VS_PRIMARY : 0) | l->flags);
 }
 
+/* The view samples' texture filter (docs/design.md "Textures"): a ray cone (Ray Tracing Gems
+ * ch. 20) from the eye, spread angle 2 tan(fov_y / 2) / height (a pixel's), width 0 at the eye
+ * and growing by spread x distance along each segment of an eye path; mirrors and glass keep the
+ * spread (treated as flat). At the first non-specular hit the width, the cosine to the geometric
+ * normal and the triangle's pgi__tri_uv_lod give the level (pgi__texture_cone_lod), looked up
+ * trilinearly (pgi__texture_lookup_lod). Every path of the view pass (lane by lane, uniform tiles,
+ * eye paths) computes them with these scalar functions from the same values: the same bits. */
+typedef struct tex_cone {
+    int on;              /* filter (pgi__subpixel.tex_filter, and the scene has texture coordinates) */
+    float spread;        /* radians a unit distance */
+    const float *tri_uv; /* the triangle records' PGI__TRI_UV floats (pgi__trace_scratch.tri_uv) */
+} tex_cone;
+
+static inline float cone_width(const tex_cone *tc, float width, float t) { return width + tc->spread * t; }
+
+/* Texture colour of sf (its material textured, tc->on) at triangle prim's (u, v) for a cone of
+ * `width` along unit direction d. The cone meets the surface in an ellipse, `width` across and
+ * width / |cos| along the direction's projection (anisotropic ray cones: Akenine-Moller et al.
+ * 2021, "Improved Shader and Texture Level of Detail Using Ray Cones", JCGT 10(1)); both axes
+ * are mapped into texels through the triangle's uv Jacobian. N = ceil(major / minor) probes
+ * (at most PGI__TEXTURE_ANISO_MAX) spaced evenly along the major axis, each trilinear at the level
+ * of major / N (about the minor axis; with PGI__TEXTURE_LOD_BIAS), are averaged, as a GPU's
+ * anisotropic filter does. A degenerate mapping, or a cone along the normal within 1e-4, takes
+ * the isotropic level of pgi__texture_cone_lod. */
+#define PGI__TEXTURE_ANISO_MAX 8 /* 16 gave the same Sibenik picture (27.74 dB) */
+static pgi__v3 cone_lookup(const pgi_scene *s, const tex_cone *tc, const pgi__surface *sf, uint32_t prim, float width,
+                           pgi__v3 d) {
+    const pgi__texture *t = &s->texs[sf->mat->tex_kd];
+    const float *q = tc->tri_uv + PGI__TRI_UV * (size_t)prim;
+    const float cosine = v3_dot(d, sf->ng);
+    const uint32_t *tri = s->tri + 3 * (size_t)prim;
+    const pgi__v3 p0 = pgi__scene_vertex(s, tri[0]);
+    const pgi__v3 e1 = v3_sub(pgi__scene_vertex(s, tri[1]), p0), e2 = v3_sub(pgi__scene_vertex(s, tri[2]), p0);
+    const float g11 = v3_dot(e1, e1), g12 = v3_dot(e1, e2), g22 = v3_dot(e2, e2);
+    const float det = g11 * g22 - g12 * g12;
+    pgi__v3 t1 = v3_sub(d, v3_scale(sf->ng, cosine));
+    const float s1 = v3_len(t1);
+    if (!(det > 0.f) || !(s1 > 1e-4f) || !(fabsf(cosine) > 0.f) || !(width > 0.f))
+        return pgi__texture_lookup_lod(t, sf->u, sf->v, pgi__texture_cone_lod(t, q[6], width, cosine));
+    t1 = v3_scale(t1, 1.f / s1);
+    const pgi__v3 t2 = v3_cross(sf->ng, t1);
+    const float du1 = q[2] - q[0], dv1 = q[3] - q[1], du2 = q[4] - q[0], dv2 = q[5] - q[1];
+    const float W = (float)t->width, H = (float)t->height;
+    float uv[2][2]; /* the axes in uv: [0] major (along t1), [1] minor */
+    float len[2];   /* ... in texels */
+    const pgi__v3 ax[2] = {v3_scale(t1, width / fabsf(cosine)), v3_scale(t2, width)};
+    for (int k = 0; k < 2; k++) {
+        const float r1 = v3_dot(ax[k], e1), r2 = v3_dot(ax[k], e2);
+        const float a = (g22 * r1 - g12 * r2) / det, b = (g11 * r2 - g12 * r1) / det;
+        uv[k][0] = a * du1 + b * du2;
+        uv[k][1] = a * dv1 + b * dv2;
+        len[k] = sqrtf((uv[k][0] * W) * (uv[k][0] * W) + (uv[k][1] * H) * (uv[k][1] * H));
+    }
+    const int M = len[0] >= len[1] ? 0 : 1; /* a skewed mapping may stretch the minor axis more */
+    const float major = len[M], minor = len[1 - M];
+    if (!(minor > 0.f) || !(major < INFINITY))
+        return pgi__texture_lookup_lod(t, sf->u, sf->v, pgi__texture_cone_lod(t, q[6], width, cosine));
+    const float ratio = major / minor;
+    const int n = ratio >= (float)PGI__TEXTURE_ANISO_MAX ? PGI__TEXTURE_ANISO_MAX
+                  : ratio > 1.001f                       ? (int)ceilf(ratio - 0.001f)
+                                                         : 1;
+    const float lod = log2f(major / (float)n) + PGI__TEXTURE_LOD_BIAS;
+    if (n == 1) return pgi__texture_lookup_lod(t, sf->u, sf->v, lod);
+    pgi__v3 sum = v3(0.f, 0.f, 0.f);
+    for (int i = 0; i < n; i++) {
+        const float o = ((float)i + 0.5f) / (float)n - 0.5f;
+        sum = v3_add(sum, pgi__texture_lookup_lod(t, sf->u + o * uv[M][0], sf->v + o * uv[M][1], lod));
+    }
+    return v3_scale(sum, 1.f / (float)n);
+}
+
 /* Continues the eye path of pixel i from its primary hit to its first non-specular hit and
  * writes every field of view sample i (each once) and its emitted radiance. */
 static void shade_eye_path(const pgi_scene *s, const pgi__rt *rt, const pgi_camera *cam, uint64_t seed, float eps,
-                           size_t i, pgi__v3 o, pgi__v3 d, pgi__hit h, view_block *vs, int j, lobe_cache *lc,
-                           uint64_t *rays) {
+                           const tex_cone *tc, size_t i, pgi__v3 o, pgi__v3 d, pgi__hit h, view_block *vs, int j,
+                           lobe_cache *lc, uint64_t *rays) {
     pgi__v3 weight = v3(1.f, 1.f, 1.f), e = v3(0.f, 0.f, 0.f);
+    float width = 0.f; /* the ray cone's (tex_cone): its spread kept through mirrors and glass */
     float depth_v = 0.f;
     int found = 0;
     pgi__rng rng;
@@ -225,8 +297,10 @@ static void shade_eye_path(const pgi_scene *s, const pgi__rt *rt, const pgi_came
         float side = v3_dot(wo, sf.ng) >= 0.f ? 1.f : -1.f;
         pgi__v3 ke = v3_load(sf.mat->ke);
         if (side > 0.f) e = v3_add(e, v3_mul(weight, ke)); /* one-sided emitters */
+        width = cone_width(tc, width, h.t);
         if (!pgi__mat_specular(sf.mat)) {
-            pgi__surface_texture(s, &sf);
+            if (tc->on && sf.mat->tex_kd >= 0) sf.kd = v3_mul(sf.kd, cone_lookup(s, tc, &sf, h.prim, width, d));
+            else pgi__surface_texture(s, &sf);
             put_sample(vs, j, &sf, wo, side, weight, depth == 0, lc);
             found = 1;
             break;
@@ -633,6 +707,9 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
     uint64_t rays = 0;
     const pgi__v3 eye = v3_load(cam->eye), fwd = v3_load(cam->forward);
     const float eps = pgi__scene_epsilon(s);
+    const tex_cone tc = {.on = sp->tex_filter && tr->tri_uv,
+                         .spread = 2.f * cam->tan_half_fov_y / (float)H,
+                         .tri_uv = tr->tri_uv};
 #if VIEW_AVX2
     const int avx2 = pgi__cpu_avx2();
     /* Through the pixel centres, a direction's u (tile_dirs_avx2) depends on its column alone and
@@ -691,7 +768,7 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
                             const pgi__material *m = &s->mats[T->ts.mat[0]];
                             if (!pgi__mat_specular(m)) {
                                 T->uni = m;
-                                T->quads = m->tex_kd >= 0 &&
+                                T->quads = m->tex_kd >= 0 && !tc.on &&
                                            pgi__texture_quads16(&s->texs[m->tex_kd], T->ts.u, T->ts.v, &T->q);
                             }
                         }
@@ -708,7 +785,20 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
                     if (T->uni) {
                         const pgi__material *m = T->uni;
                         float tk[3][16], vc[3][16];
-                        if (m->tex_kd >= 0) { /* as pgi__surface_texture */
+                        if (m->tex_kd >= 0 && tc.on) /* as the lanes' cone_lookup */
+                            for (int k = 0; k < 16; k++) {
+                                pgi__surface sk = {.ng = v3(ts->ng[0][k], ts->ng[1][k], ts->ng[2][k]),
+                                                   .u = ts->u[k],
+                                                   .v = ts->v[k],
+                                                   .mat = m};
+                                const pgi__v3 c =
+                                    cone_lookup(s, &tc, &sk, hits->prim[k], cone_width(&tc, 0.f, hits->t[k]),
+                                                v3(T->dsoa[0][k], T->dsoa[1][k], T->dsoa[2][k]));
+                                tk[0][k] = c.x;
+                                tk[1][k] = c.y;
+                                tk[2][k] = c.z;
+                            }
+                        else if (m->tex_kd >= 0) { /* as pgi__surface_texture */
                             if (T->quads) pgi__texture_quads16_lookup(&s->texs[m->tex_kd], &T->q, tk);
                             else pgi__texture_lookup16_soa(&s->texs[m->tex_kd], ts->u, ts->v, tk);
                         }
@@ -751,14 +841,21 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
                             }
                         }
                         const pgi__hit h = {hits->t[k], hits->u[k], hits->v[k], hits->prim[k]};
-                        shade_eye_path(s, rt, cam, seed, eps, T->pix[k], eye,
+                        shade_eye_path(s, rt, cam, seed, eps, &tc, T->pix[k], eye,
                                        v3(T->dsoa[0][k], T->dsoa[1][k], T->dsoa[2][k]), h, &blk, j, &lc, &rays);
                     }
                     const pgi__texture *tex[16];
                     float tu[16], tv[16];
                     pgi__v3 texc[16];
                     int lane[16], nt = 0;
-                    for (int k = 0; k < 16; k++)
+                    if (tc.on)
+                        for (int k = 0; k < 16; k++)
+                            if (lit[k] && sf[k].mat->tex_kd >= 0)
+                                sf[k].kd =
+                                    v3_mul(sf[k].kd,
+                                           cone_lookup(s, &tc, &sf[k], hits->prim[k], cone_width(&tc, 0.f, hits->t[k]),
+                                                       v3(T->dsoa[0][k], T->dsoa[1][k], T->dsoa[2][k])));
+                    for (int k = 0; k < 16 && !tc.on; k++)
                         if (lit[k] && sf[k].mat->tex_kd >= 0) { /* as pgi__surface_texture */
                             tex[nt] = &s->texs[sf[k].mat->tex_kd];
                             tu[nt] = ts->u[k];

@@ -12,6 +12,9 @@ typedef struct pgi__subpixel {
     uint64_t seed;  /* the sequence's seed: the frame's own, or frame 0's in a progressive run */
     uint32_t index; /* the frame's place in the sequence: 0 for a lone frame, k for progressive frame k */
     float shift[2]; /* added to every point (pgi_render_desc.shift), pixels */
+    /* 1: the view samples' textures are filtered (pgi_render_desc.texture_filter resolved: ray cones
+       of a pixel's width, trilinear between mip levels; docs/design.md "Textures"); 0: level 0 */
+    int tex_filter;
 } pgi__subpixel;
 /* Do the view samples pass through the pixel centres (no jitter, no shift)? */
 static inline int pgi__subpixel_centres(const pgi__subpixel *sp) {

@@ -1,7 +1,7 @@
 // GPU directional (gpu_cluster.c, docs/gpu.md): each node's 8 view-space octant buckets (Moreau et
 // al. 2016 §4.7), the flux of the photons deposited in it and their directions weighted by flux
 // (r + g + b), summed over its sorted list (photon order: the same sums every run); 6 floats a
-// bucket (PGIS_DIR_BUCKET in C), as est_cluster.c's decide. The octant of a photon: the signs of its
+// bucket (PGI__DIR_BUCKET in C), as est_cluster.c's decide. The octant of a photon: the signs of its
 // direction in view space (est_cluster.c load_photon).
 #version 450
 #extension GL_GOOGLE_include_directive : require

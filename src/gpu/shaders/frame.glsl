@@ -15,7 +15,8 @@ struct FrameParams { // pgi__gpu_frame_params
     vec4 up;
     uint width, height, jitter, index;    // jitter: 1 for the sub-pixel sequence; index: its point
     uint seed_lo, seed_hi, key_lo, key_hi; // the frame's seed; the jitter key (view.h pgi__pixel_jitter)
-    uint direct_samples, output_mode, pad0, pad1;
+    uint direct_samples, output_mode, tex_filter; // tex_filter: view.c's ray cones (docs/design.md "Textures")
+    float spread;                                 // the cone's spread, radians a unit distance
 };
 
 struct PixelExtra {

@@ -135,10 +135,8 @@ int tex_wrap(int i, int n) { return i < 0 ? i + n : i >= n ? i - n : i; }
 
 // texture.c pgi__texture_lookup: bilinear, wrapping, v = 0 the bottom row, texel centres at
 // half-integers; a texture without texels gives 1.
-vec3 tex_lookup(int tex, float u, float v) {
-    const uvec4 d = uvec4(texw[256u + 4u * uint(tex)], texw[257u + 4u * uint(tex)], texw[258u + 4u * uint(tex)], 0u);
-    if (d.y == 0u || d.z == 0u) return vec3(1.0);
-    const int w = int(d.y), h = int(d.z);
+// bilinear on w x h texels from word `first`
+vec3 tex_bilinear(uint first, int w, int h, float u, float v) {
     if (isnan(u) || isinf(u)) u = 0.0;
     if (isnan(v) || isinf(v)) v = 0.0;
     precise float fu = u - floor(u);
@@ -150,15 +148,43 @@ vec3 tex_lookup(int tex, float u, float v) {
     precise float ty = y - y0f;
     const int x0 = tex_wrap(int(x0f), w), x1 = tex_wrap(int(x0f) + 1, w);
     const int y0 = tex_wrap(int(y0f), h), y1 = tex_wrap(int(y0f) + 1, h);
-    const vec3 a = tex_texel(d.x, w, x0, y0), b = tex_texel(d.x, w, x1, y0);
-    const vec3 c = tex_texel(d.x, w, x0, y1), e = tex_texel(d.x, w, x1, y1);
+    const vec3 a = tex_texel(first, w, x0, y0), b = tex_texel(first, w, x1, y0);
+    const vec3 c = tex_texel(first, w, x0, y1), e = tex_texel(first, w, x1, y1);
     precise vec3 top = a * (1.0 - tx) + b * tx;
     precise vec3 bot = c * (1.0 - tx) + e * tx;
     precise vec3 r = top * (1.0 - ty) + bot * ty;
     return r;
 }
 
-// ---- surfaces (bsdf.c)
+vec3 tex_lookup(int tex, float u, float v) {
+    const uvec4 d = uvec4(texw[256u + 4u * uint(tex)], texw[257u + 4u * uint(tex)], texw[258u + 4u * uint(tex)], 0u);
+    if (d.y == 0u || d.z == 0u) return vec3(1.0);
+    return tex_bilinear(d.x, int(d.y), int(d.z), u, v);
+}
+
+// texture.c pgi__texture_lookup_level: level l (its texels follow the levels before it, gpu_scene.c)
+vec3 tex_level(int tex, float u, float v, int l) {
+    const uint first = texw[256u + 4u * uint(tex)];
+    const int w = int(texw[257u + 4u * uint(tex)]), h = int(texw[258u + 4u * uint(tex)]);
+    uint at = first;
+    for (int k = 0; k < l; k++) at += uint(max(1, w >> k)) * uint(max(1, h >> k));
+    return tex_bilinear(at, max(1, w >> l), max(1, h >> l), u, v);
+}
+
+// texture.c pgi__texture_lookup_lod: trilinear between levels floor(lod) and floor(lod) + 1
+vec3 tex_lookup_lod(int tex, float u, float v, float lod) {
+    const uint w = texw[257u + 4u * uint(tex)], h = texw[258u + 4u * uint(tex)];
+    const int levels = int(texw[259u + 4u * uint(tex)]);
+    if (w == 0u || h == 0u) return vec3(1.0);
+    if (!(lod > 0.0) || levels <= 1) return tex_lookup(tex, u, v);
+    if (lod >= float(levels - 1)) return tex_level(tex, u, v, levels - 1);
+    const int l = int(lod);
+    precise float f = lod - float(l);
+    const vec3 a = tex_level(tex, u, v, l), b = tex_level(tex, u, v, l + 1);
+    precise vec3 r = a * (1.0 - f) + b * f;
+    return r;
+}
+
 struct Surf {
     vec3 ng; // unit geometric normal (winding order)
     vec3 ns; // unit shading normal, same side as ng
