@@ -103,13 +103,19 @@ rc=$?
     cmp -s "$TMP/g-ref.exr.json" "$TMP/g-2.exr.json" && ok ||
     bad "reference --checkpoint -np 2: exit $rc, or no checkpoint, or not the bytes of one run: $(grep -v ranks "$TMP/err" | head -3)"
 # SIGINT to mpirun (it passes SIGTERM to the ranks): the samples so far are saved, a whole number of
-# blocks; continued by 4, the bytes of one run of as many. The signal is sent once the first checkpoint
-# says the ranks are rendering (a fixed sleep raced the start-up under the sanitizers).
+# blocks; continued by 4, the bytes of one run of as many. The signal is sent once two checkpoints say
+# the ranks are rendering and at least 2 s have passed (a fixed sleep raced the ranks' start-up under
+# the sanitizers; right after the first checkpoint, under load, mpirun itself had not yet set up its
+# signal forwarding, and SIGINT ended the job unsaved).
 I=(reference --scene cornell --size 64x48 --threads 1)
 timeout 120 "$MPIRUN" "${MPIOPTS[@]}" -np 2 "$MPI" "${I[@]}" --spp 1000000 --checkpoint 0.2 \
     -o "$TMP/i-2.exr" 2>"$TMP/err" &
 pid=$!
-for _ in $(seq 600); do grep -q "checkpoint: " "$TMP/err" 2>/dev/null && break; sleep 0.1; done
+t0=$(date +%s)
+for _ in $(seq 600); do
+    [ "$(grep -c "checkpoint: " "$TMP/err" 2>/dev/null)" -ge 2 ] && [ $(($(date +%s) - t0)) -ge 2 ] && break
+    sleep 0.1
+done
 kill -INT $pid
 wait $pid
 n=$(sed -n 's/.*"spp":[[:space:]]*"\([0-9]*\)".*/\1/p' "$TMP/i-2.exr.json" 2>/dev/null)
