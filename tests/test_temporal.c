@@ -7,6 +7,27 @@
 #include "pipeline/pipeline.h"
 #include "test_util.h"
 
+/* Each test's Cornell box and its renderer. */
+typedef struct fixture {
+    pgi_scene *s;
+    pgi_renderer *r;
+} fixture;
+
+static int fixture_setup(void **state) {
+    fixture *f = calloc(1, sizeof *f);
+    if (!f || pgi_scene_load("cornell", &f->s) || pgi_renderer_create(f->s, &f->r)) return -1;
+    *state = f;
+    return 0;
+}
+
+static int fixture_teardown(void **state) {
+    fixture *f = *state;
+    pgi_renderer_destroy(f->r);
+    pgi_scene_destroy(f->s);
+    free(f);
+    return 0;
+}
+
 static pgi_render_desc small_desc(void) {
     return (pgi_render_desc){.photons = 20000, .radius = 0.05f, .width = 48, .height = 36, .threads = 2};
 }
@@ -14,11 +35,8 @@ static pgi_render_desc small_desc(void) {
 /* A still camera: after max(history, filter_frames) steps the picture is the progressive average of
  * as many frames, bit for bit, and the stats say what faded. */
 static void test_still_converges_to_progressive(void **state) {
-    (void)state;
-    pgi_scene *s;
-    assert_int_equal(pgi_scene_load("cornell", &s), PGI_OK);
-    pgi_renderer *r;
-    assert_int_equal(pgi_renderer_create(s, &r), PGI_OK);
+    fixture *f = *state;
+    pgi_renderer *r = f->r;
     pgi_temporal *t;
     assert_int_equal(pgi_temporal_create(r, &(pgi_temporal_desc){.history = 6, .filter = 3, .filter_frames = 4}, &t),
                      PGI_OK);
@@ -38,8 +56,6 @@ static void test_still_converges_to_progressive(void **state) {
     pgi_image_free(&img);
     pgi_image_free(&want);
     pgi_temporal_destroy(t);
-    pgi_renderer_destroy(r);
-    pgi_scene_destroy(s);
 }
 
 /* The camera geometry: a pixel centre's ray projects back onto that pixel; a point one pixel to the
@@ -79,11 +95,9 @@ static void test_projection_is_analytic(void **state) {
  * the tall box reveals the wall behind it (fewer kept); turned away (looking out of the box's open
  * side at nothing of the previous view) keeps none; a moved light starts the history afresh. */
 static void test_moves_and_disocclusion(void **state) {
-    (void)state;
-    pgi_scene *s;
-    assert_int_equal(pgi_scene_load("cornell", &s), PGI_OK);
-    pgi_renderer *r;
-    assert_int_equal(pgi_renderer_create(s, &r), PGI_OK);
+    fixture *f = *state;
+    pgi_scene *s = f->s;
+    pgi_renderer *r = f->r;
     pgi_temporal *t;
     assert_int_equal(pgi_temporal_create(r, NULL, &t), PGI_OK);
     pgi_camera_def cam;
@@ -126,8 +140,6 @@ static void test_moves_and_disocclusion(void **state) {
     assert_true(fs.temporal.reused == 0.0);
     pgi_image_free(&img);
     pgi_temporal_destroy(t);
-    pgi_renderer_destroy(r);
-    pgi_scene_destroy(s);
 }
 
 /* The a-trous filter: a constant irradiance stays constant (to float rounding) whatever the guides;
@@ -187,11 +199,8 @@ static void test_atrous(void **state) {
 
 /* Settings out of range, AOVs given, the GPU: refused with a message. */
 static void test_refusals(void **state) {
-    (void)state;
-    pgi_scene *s;
-    assert_int_equal(pgi_scene_load("cornell", &s), PGI_OK);
-    pgi_renderer *r;
-    assert_int_equal(pgi_renderer_create(s, &r), PGI_OK);
+    fixture *f = *state;
+    pgi_renderer *r = f->r;
     pgi_temporal *t = NULL;
     assert_int_equal(pgi_temporal_create(r, &(pgi_temporal_desc){.history = 300}, &t), PGI_ERR_INVALID_ARG);
     assert_int_equal(pgi_temporal_create(r, &(pgi_temporal_desc){.filter = 6}, &t), PGI_ERR_INVALID_ARG);
@@ -207,17 +216,15 @@ static void test_refusals(void **state) {
     assert_int_equal(pgi_temporal_step(t, &d, &img, NULL), PGI_ERR_UNSUPPORTED);
     assert_non_null(strstr(pgi_last_error(), "CPU"));
     pgi_temporal_destroy(t);
-    pgi_renderer_destroy(r);
-    pgi_scene_destroy(s);
 }
 
 int main(void) {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_still_converges_to_progressive),
+        cmocka_unit_test_setup_teardown(test_still_converges_to_progressive, fixture_setup, fixture_teardown),
         cmocka_unit_test(test_projection_is_analytic),
-        cmocka_unit_test(test_moves_and_disocclusion),
+        cmocka_unit_test_setup_teardown(test_moves_and_disocclusion, fixture_setup, fixture_teardown),
         cmocka_unit_test(test_atrous),
-        cmocka_unit_test(test_refusals),
+        cmocka_unit_test_setup_teardown(test_refusals, fixture_setup, fixture_teardown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

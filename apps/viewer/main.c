@@ -346,8 +346,7 @@ static pgi_status render_frame(viewer *v) {
     d.cancel = v->cancel;
     pgi_status st = pgi_scene_set_time(v->scene, v->time);
     if (st) return st;
-    if (v->accumulate && v->out_mode != PGI_OUTPUT_PHOTON_COUNT && v->temporal && temporal_applies(v))
-        st = pgi_temporal_step(v->temporal, &d, &v->img, &v->fs);
+    if (v->temporal && temporal_applies(v)) st = pgi_temporal_step(v->temporal, &d, &v->img, &v->fs);
     else if (v->accumulate && v->out_mode != PGI_OUTPUT_PHOTON_COUNT)
         st = pgi_progressive_step(v->prog, &d, &v->img, &v->fs);
     else st = pgi_renderer_render(v->r, &d, &v->img, &v->fs);

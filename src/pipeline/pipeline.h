@@ -47,8 +47,19 @@ pgi__rt *pgi__renderer_rt(pgi_renderer *r);
 void pgi__temporal_pixel_dir(const pgi_camera *c, int x, int y, float d[3]);
 int pgi__temporal_project(const pgi_camera *c, const float q[3], int dir, float *px, float *py, float *z);
 
-/* FNV-1a over the scene's light records: a light moved or changed (point and spot lights move
- * without touching geometry) changes it. */
-uint64_t pgi__lights_hash(const pgi_scene *s);
+/* Everything that changes the picture: the desc (less the estimator name,
+ * view pointer and thread count), the estimator, the view camera and the
+ * scene's state. Built zeroed, so that two of them compare with memcmp. */
+typedef struct pgi__picture {
+    pgi_render_desc key;
+    char est[64];
+    pgi_camera_def view;
+    int has_view;
+    uint64_t static_version, dynamic_version, lights_hash;
+    double time;
+} pgi__picture;
+/* The picture of desc d on scene s (pgi_progressive_step restarts when it changes; pgi_temporal
+ * compares it without the camera). */
+void pgi__picture_of(const pgi_render_desc *d, const pgi_scene *s, pgi__picture *p);
 
 #endif

@@ -16,17 +16,6 @@
 
 #define PGI__ALPHA (2.0 / 3.0)
 
-/* Everything that changes the picture: the desc (less the estimator name,
- * view pointer and thread count), the estimator, the view camera and the
- * scene's state. Built zeroed, so that two of them compare with memcmp. */
-typedef struct picture {
-    pgi_render_desc key;
-    char est[64];
-    pgi_camera_def view;
-    int has_view;
-    uint64_t static_version, dynamic_version, lights_hash;
-    double time;
-} picture;
 
 struct pgi_progressive {
     pgi_renderer *r;
@@ -37,8 +26,8 @@ struct pgi_progressive {
     float r0;                     /* resolved radius of frame 0 */
     pgi_auto_radius_stats r0_how; /* how it was chosen (automatic radius), for later frames' stats */
     uint64_t seed0;
-    pgi_image frame; /* scratch for one frame */
-    picture made_of; /* what the average was made of; any change restarts it */
+    pgi_image frame;      /* scratch for one frame */
+    pgi__picture made_of; /* what the average was made of; any change restarts it */
 };
 
 pgi_status pgi_progressive_create(pgi_renderer *r, pgi_progressive **out) {
@@ -66,7 +55,9 @@ float pgi_progressive_radius(float r0, int k) {
     return (float)sqrt(r2);
 }
 
-uint64_t pgi__lights_hash(const pgi_scene *s) {
+/* FNV-1a over the scene's light records: a light moved or changed (point and spot lights move
+ * without touching geometry) changes it. */
+static uint64_t lights_hash(const pgi_scene *s) {
     uint64_t h = 1469598103934665603ULL;
     const unsigned char *p = (const unsigned char *)s->lights;
     for (size_t i = 0; i < s->nlights * sizeof *s->lights; i++) h = (h ^ p[i]) * 1099511628211ULL;
@@ -77,7 +68,7 @@ void pgi_progressive_reset(pgi_progressive *p) {
     if (p) p->frames = 0;
 }
 
-static void picture_of(const pgi_render_desc *d, const pgi_scene *s, picture *p) {
+void pgi__picture_of(const pgi_render_desc *d, const pgi_scene *s, pgi__picture *p) {
     memset(p, 0, sizeof *p);
     p->key = *d;
     p->key.estimator = NULL;
@@ -94,7 +85,7 @@ static void picture_of(const pgi_render_desc *d, const pgi_scene *s, picture *p)
     p->static_version = s->static_version;
     p->dynamic_version = s->dynamic_version;
     p->time = s->time;
-    p->lights_hash = pgi__lights_hash(s);
+    p->lights_hash = lights_hash(s);
 }
 
 void pgi_block_sum_add(double *block, const float *frame, size_t values, int first) {
@@ -208,8 +199,8 @@ pgi_status pgi_progressive_step(pgi_progressive *a, const pgi_render_desc *in, p
     const pgi_estimator_vtbl *vt =
         pgi_estimator_find(in->estimator && *in->estimator ? in->estimator : PGI_DEFAULT_ESTIMATOR);
     if (!vt) return pgi__fail_unknown_estimator(in->estimator);
-    picture now;
-    picture_of(in, s, &now);
+    pgi__picture now;
+    pgi__picture_of(in, s, &now);
     if (a->frames > 0 && (!vt->exact || memcmp(&now, &a->made_of, sizeof now) != 0)) a->frames = 0;
 
     const int k = a->frames;

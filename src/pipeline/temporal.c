@@ -9,14 +9,7 @@
 #include "filter/atrous.h"
 #include "pipeline/pipeline.h"
 #include "scene/scene_internal.h"
-
-/* Everything but the camera that the picture depends on: a change restarts the history. */
-typedef struct not_camera {
-    pgi_render_desc key;
-    char est[64];
-    uint64_t static_version, dynamic_version, lights;
-    double time;
-} not_camera;
+#include "view/view.h"
 
 struct pgi_temporal {
     pgi_renderer *r;
@@ -36,7 +29,7 @@ struct pgi_temporal {
     float *scratch;
     pgi_camera prev_cam;
     pgi_camera_def prev_cd;
-    not_camera prev_key;
+    pgi__picture prev_key;    /* the last step's picture, less the camera (not_camera_of) */
     uint64_t pictures;        /* pictures begun (a camera move or any other change begins one) */
     uint64_t seed;            /* the progressive frames' seed for the picture in progress */
     float shift[2];           /* its sub-pixel offset (pgi_render_desc.shift) */
@@ -135,31 +128,20 @@ static float halton(uint64_t i, unsigned b) {
     return r;
 }
 
-static void not_camera_of(const pgi_render_desc *d, const pgi_scene *s, not_camera *k) {
-    memset(k, 0, sizeof *k);
-    k->key = *d;
-    k->key.estimator = NULL;
-    k->key.view = NULL;
-    k->key.aovs = NULL;
-    k->key.progress = NULL;
-    k->key.progress_user = NULL;
-    k->key.cancel = NULL;
-    k->key.shift[0] = k->key.shift[1] = 0.f; /* a caller's jitter moves the camera, as a camera move */
-    k->key.threads = 0;
-    k->key.max_memory = 0;
-    k->key.camera = 0; /* a camera by index is a camera too */
-    snprintf(k->est, sizeof k->est, "%s", d->estimator ? d->estimator : "");
-    k->static_version = s->static_version;
-    k->dynamic_version = s->dynamic_version;
-    k->lights = pgi__lights_hash(s);
-    k->time = s->time;
+/* Everything but the camera that the picture depends on (a change restarts the history): the
+ * progressive picture without its camera, by view or by index, and the caller's sub-pixel offset
+ * (an engine's jitter moves the camera, as a camera move). */
+static void not_camera_of(const pgi_render_desc *d, const pgi_scene *s, pgi__picture *k) {
+    pgi__picture_of(d, s, k);
+    memset(&k->view, 0, sizeof k->view);
+    k->has_view = 0;
+    k->key.camera = 0;
+    k->key.shift[0] = k->key.shift[1] = 0.f;
 }
 
 /* Direction through the centre of pixel (x, y) (its component along forward is 1). */
 void pgi__temporal_pixel_dir(const pgi_camera *c, int x, int y, float d[3]) {
-    const float u = (2.f * ((float)x + 0.5f) / (float)c->width - 1.f) * c->tan_half_fov_y * c->aspect;
-    const float v = (1.f - 2.f * ((float)y + 0.5f) / (float)c->height) * c->tan_half_fov_y;
-    for (int k = 0; k < 3; k++) d[k] = c->forward[k] + u * c->right[k] + v * c->up[k];
+    v3_store(d, pgi__camera_ray_at(c, x, y, 0.5f, 0.5f));
 }
 
 /* Where world point (or, `dir`, direction) q lands in camera c: continuous pixel coordinates (the
@@ -275,10 +257,9 @@ static void positions(pgi_temporal *t, const pgi_camera *cam, const float shift[
     for (int y = 0; y < H; y++)
         for (int x = 0; x < W; x++) {
             const size_t p = (size_t)y * (size_t)W + (size_t)x;
-            const float u = (2.f * ((float)x + 0.5f + shift[0]) / (float)W - 1.f) * cam->tan_half_fov_y * cam->aspect;
-            const float v = (1.f - 2.f * ((float)y + 0.5f + shift[1]) / (float)H) * cam->tan_half_fov_y;
-            for (int k = 0; k < 3; k++)
-                t->pos[3 * p + k] = cam->eye[k] + t->depth[p] * (cam->forward[k] + u * cam->right[k] + v * cam->up[k]);
+            v3_store(t->pos + 3 * p,
+                     v3_madd(v3_load(cam->eye), pgi__camera_ray_at(cam, x, y, 0.5f + shift[0], 0.5f + shift[1]),
+                             t->depth[p]));
             const float *a = t->alb + 3 * p;
             t->mask[p] = t->depth[p] > 0.f && (a[0] > 1e-4f || a[1] > 1e-4f || a[2] > 1e-4f);
         }
@@ -333,7 +314,7 @@ pgi_status pgi_temporal_step(pgi_temporal *t, const pgi_render_desc *in, pgi_ima
     pgi_camera_def cd;
     if (in->view) cd = *in->view;
     else if ((st = pgi_scene_get_camera(s, (size_t)(in->camera > 0 ? in->camera : 0), &cd))) return st;
-    not_camera key;
+    pgi__picture key;
     not_camera_of(in, s, &key);
     const int size_same = t->have && t->width == w && t->height == h;
     const int same_key = size_same && memcmp(&key, &t->prev_key, sizeof key) == 0;
@@ -375,24 +356,27 @@ pgi_status pgi_temporal_step(pgi_temporal *t, const pgi_render_desc *in, pgi_ima
     pgi_camera_look_at(&cam, cd.eye, cd.look_at, cd.up, cd.fov_y_deg, w, h);
     const int k = fs.frames; /* frames in the progressive average: 1 right after a change */
     t->width = w, t->height = h;
-    positions(t, &cam, shift, d.threads);
+    /* the filter's weight fades over filter_frames still frames, and once it is 0 it stays 0 until
+       the next picture: the indirect light's running mean is kept only while it is needed */
+    const float fw = t->passes > 0 ? fmaxf(0.f, 1.f - (float)(k - 1) / (float)t->filter_frames) : 0.f;
+    const int reproject_now = k == 1 && t->history > 0 && only_camera;
+    if (reproject_now || fw > 0.f) positions(t, &cam, shift, d.threads); /* the hits both read */
     pgi_temporal_stats ts = {.on = 1};
     if (k == 1) {
         /* the picture restarted: the history carried over, if only the camera moved */
-        if (t->history > 0 && only_camera) {
+        if (reproject_now) {
             const size_t kept = reproject(t, &cam, t->avg.rgb, d.threads);
             ts.reused = (double)kept / (double)n;
         } else {
             memset(t->carried_n, 0, n * sizeof *t->carried_n);
             ts.restarted = 1;
         }
-        memcpy(t->ind_avg, t->ind, 3 * n * sizeof(float));
-    } else
+        if (fw > 0.f) memcpy(t->ind_avg, t->ind, 3 * n * sizeof(float));
+    } else if (fw > 0.f)
         for (size_t i = 0; i < 3 * n; i++) t->ind_avg[i] += (t->ind[i] - t->ind_avg[i]) / (float)k;
     const double t1 = pgi__now_ms();
 
     /* D: the progressive average with (part of) its indirect light filtered */
-    const float fw = t->passes > 0 ? fmaxf(0.f, 1.f - (float)(k - 1) / (float)t->filter_frames) : 0.f;
     if (fw > 0.f) {
         if ((st = filter_indirect(t, d.threads))) return st;
         ts.filter_passes = t->passes;

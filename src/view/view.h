@@ -136,14 +136,20 @@ static inline size_t pgi__area_pick(const pgi__area_table *t, float u) {
  * (pgi__camera_dir_at with its own random numbers) call these, nothing else
  * computes a primary direction. */
 
-/* Unit direction through the image point (x + jx, y + jy), in pixels from the
- * top-left corner of the image: (jx, jy) in [0, 1)^2 is the position inside
- * pixel (x, y), (0.5, 0.5) its centre. */
-static inline pgi__v3 pgi__camera_dir_at(const pgi_camera *c, int x, int y, float jx, float jy) {
+/* The direction through the image point (x + jx, y + jy), in pixels from the
+ * top-left corner of the image ((jx, jy) in [0, 1)^2 is the position inside
+ * pixel (x, y), (0.5, 0.5) its centre), not normalised: its component along
+ * the camera's forward axis is 1, so eye + t * it lies at view depth t (the
+ * temporal step reprojects view samples with it). */
+static inline pgi__v3 pgi__camera_ray_at(const pgi_camera *c, int x, int y, float jx, float jy) {
     float u = (2.f * ((float)x + jx) / (float)c->width - 1.f) * c->tan_half_fov_y * c->aspect;
     float v = (1.f - 2.f * ((float)y + jy) / (float)c->height) * c->tan_half_fov_y;
-    pgi__v3 d = v3_add(v3_load(c->forward), v3_add(v3_scale(v3_load(c->right), u), v3_scale(v3_load(c->up), v)));
-    return v3_norm(d);
+    return v3_add(v3_load(c->forward), v3_add(v3_scale(v3_load(c->right), u), v3_scale(v3_load(c->up), v)));
+}
+
+/* Unit direction through the image point (x + jx, y + jy) (pgi__camera_ray_at). */
+static inline pgi__v3 pgi__camera_dir_at(const pgi_camera *c, int x, int y, float jx, float jy) {
+    return v3_norm(pgi__camera_ray_at(c, x, y, jx, jy));
 }
 
 /* Unit direction through the centre of pixel (x, y). */
