@@ -6,19 +6,39 @@
 #include "core/core.h"
 #include "estimators/estimator_internal.h"
 
-static const pgi__gpu_est_vtbl *const k_gpu_estimators[] = {&pgi__gpu_est_hashgrid, &pgi__gpu_est_cluster_trivial,
-                                                            &pgi__gpu_est_directional, &pgi__gpu_est_tiled};
+/* The GPU half of each CPU estimator that has one (the same name), with the options it takes on the
+ * device: the PGI_EST_CAP_* it honours there (the CPU version's others are refused by name before it
+ * is created, src/pipeline/render.c device_check). */
+static const struct {
+    const pgi__gpu_est_vtbl *vt;
+    unsigned caps;
+} k_gpu_estimators[] = {
+    {&pgi__gpu_est_hashgrid, PGI_EST_CAP_KERNELS},
+    {&pgi__gpu_est_cluster_trivial, 0},
+    {&pgi__gpu_est_directional, 0},
+    {&pgi__gpu_est_tiled, PGI_EST_CAP_KERNELS},
+};
 #define NGPU (sizeof k_gpu_estimators / sizeof k_gpu_estimators[0])
 
+static size_t find(const char *name) {
+    size_t i = 0;
+    while (name && i < NGPU && strcmp(k_gpu_estimators[i].vt->name, name) != 0) i++;
+    return name ? i : NGPU;
+}
+
 const pgi__gpu_est_vtbl *pgi__gpu_est_find(const char *name) {
-    for (size_t i = 0; name && i < NGPU; i++)
-        if (strcmp(k_gpu_estimators[i]->name, name) == 0) return k_gpu_estimators[i];
-    return NULL;
+    const size_t i = find(name);
+    return i < NGPU ? k_gpu_estimators[i].vt : NULL;
+}
+
+unsigned pgi__gpu_est_caps(const char *name) {
+    const size_t i = find(name);
+    return i < NGPU ? k_gpu_estimators[i].caps : 0;
 }
 
 void pgi__gpu_est_names(char *buf, size_t size) {
     if (size) buf[0] = 0;
-    for (size_t i = 0; i < NGPU; i++) pgi__list_append(buf, size, k_gpu_estimators[i]->name);
+    for (size_t i = 0; i < NGPU; i++) pgi__list_append(buf, size, k_gpu_estimators[i].vt->name);
 }
 
 pgi_status pgi__gpu_pack_samples(pgi__gpu_vs_pack *s, const pgi_view_samples *vs, int threads, size_t *nlobes) {

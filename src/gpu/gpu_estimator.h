@@ -35,8 +35,10 @@ typedef struct pgi__gpu_est_vtbl {
     pgi_status (*device_finish)(void *state, const pgi_named_value *t, int nt, pgi_estimator_stats *st);
 } pgi__gpu_est_vtbl;
 
-/* NULL when `name` has no GPU version. */
+/* The GPU half of CPU estimator `name`: NULL when it has none. */
 const pgi__gpu_est_vtbl *pgi__gpu_est_find(const char *name);
+/* The PGI_EST_CAP_* options estimator `name` takes on the device (0 when it has no GPU half). */
+unsigned pgi__gpu_est_caps(const char *name);
 /* "hashgrid, ...": the estimators with a GPU version. */
 void pgi__gpu_est_names(char *buf, size_t size);
 
