@@ -227,7 +227,8 @@ typedef void (*pgi_progress_fn)(void *user, const pgi_progress *progress);
 typedef enum pgi_device {
     PGI_DEVICE_CPU = 0,   /* default */
     PGI_DEVICE_VULKAN = 1 /* the Vulkan compute backend (a build with PGI_VULKAN): estimators with a GPU
-                             version only (pgi_device_estimators); PGI_ERR_UNSUPPORTED otherwise */
+                             version only (pgi_device_estimators), and of their options and the frame's
+                             settings those the device has; PGI_ERR_UNSUPPORTED naming any other */
 } pgi_device;
 /* pgi_render_desc.device_index for the loader's Vulkan device i (0-based, as `--device vulkan:i`);
  * 0 = automatic: the first discrete GPU, else integrated, else a CPU device (lavapipe). */
@@ -453,8 +454,10 @@ void pgi_renderer_destroy(pgi_renderer *r);
 const pgi_scene *pgi_renderer_scene(const pgi_renderer *r);
 
 /* What density estimation reads in one frame: the view samples and photons
- * of `desc` (traced as pgi_renderer_render traces them), so that a tool can
- * run estimators (its own included) on the renderer's inputs. */
+ * of `desc` (traced as pgi_renderer_render traces them, on desc's device), so
+ * that a tool can run estimators (its own included) on the renderer's inputs.
+ * On PGI_DEVICE_VULKAN they are the device's own, read back into host arrays
+ * (the photons' normals, which the device does not keep, are 0). */
 typedef struct pgi_frame_inputs {
     const pgi_photons *photons;      /* borrowed: valid until the renderer's next call */
     const pgi_view_samples *samples; /* borrowed: likewise */
@@ -463,8 +466,11 @@ typedef struct pgi_frame_inputs {
     float scene_area; /* total triangle area of the scene */
     uint64_t seed;
 } pgi_frame_inputs;
-/* Casts the view samples and traces the photons of one frame; stats (may be
- * NULL) gets the view and trace passes. */
+/* Casts the view samples and traces the photons of one frame on desc's device
+ * (the automatic radius chosen from them); stats (may be NULL) gets the view
+ * and trace passes (on the device, "gpu_readback" too). A setting the device
+ * does not have for these passes (--emission guided on the GPU) is refused by
+ * name: PGI_ERR_UNSUPPORTED. */
 pgi_status pgi_renderer_prepare(pgi_renderer *r, const pgi_render_desc *desc, pgi_frame_inputs *out,
                                 pgi_frame_stats *stats);
 
@@ -793,7 +799,8 @@ pgi_status pgi_device_name(int i, char *buf, size_t size);
 /* Device i's type, driver and the Vulkan version it supports into buf, e.g. "CPU; driver llvmpipe Mesa
  * 22.3.6 (LLVM 15.0.6); Vulkan 1.3.230"; errors as pgi_device_name. */
 pgi_status pgi_device_driver(int i, char *buf, size_t size);
-/* "hashgrid, cluster-trivial": the estimators that run on PGI_DEVICE_VULKAN, comma-separated, into buf. */
+/* "hashgrid, tiled, cluster-trivial, directional": the estimators that run on PGI_DEVICE_VULKAN, in
+ * the registry's order (pgi_estimator_at), comma-separated, into buf. */
 void pgi_device_estimators(char *buf, size_t size);
 
 #ifdef __cplusplus

@@ -25,9 +25,9 @@ typedef struct gpu_state {
     pgi__gpu_scene *scene;
     pgi__gpu_view *view;
     pgi__gpu_trace *trace;
-    /* test hook PGI_GPU_CPU_PHOTONS=1: the CPU tracer's photons, uploaded (photons_cpu) */
+    /* test hook PGI_GPU_CPU_PHOTONS=1: the CPU tracer's photons, uploaded (gpu_photons_cpu) */
     pgi__gpu_buffer *cpu_photons;
-    pgi__gpu_buffer *indirect; /* host_estimate: the radiance of an estimator without device inputs */
+    pgi__gpu_buffer *indirect; /* gpu_host_estimate: the radiance of an estimator without device inputs */
     pgi__packed_photon *packed;
     size_t packed_cap;
     /* this frame's: its photons on the device, whether r->vs holds its view samples, the device's
@@ -118,7 +118,8 @@ static const char *gpu_device_name(pgi_renderer *r) { return pgi__gpu_device_nam
 /* Test hook PGI_GPU_CPU_PHOTONS=1: the CPU tracer's photons (pgi__photons_trace into r->ph), packed
  * and uploaded (a buffer also named "gpu_photons"; pass "gpu_upload"), so that tests can compare the
  * device's other passes with the CPU's frame on the same photons (test_gpu, test_gpu_cli). */
-static pgi_status photons_cpu(pgi_renderer *r, const pgi_render_desc *d, const pgi__progress *pc, pgi_frame_stats *fs) {
+static pgi_status gpu_photons_cpu(pgi_renderer *r, const pgi_render_desc *d, const pgi__progress *pc,
+                                  pgi_frame_stats *fs) {
     gpu_state *s = state_of(r);
     pgi_status st;
     if (pgi__rt_needs_update(r->rt, r->scene)) { /* the CPU tracer's Embree scene (only this hook uses it) */
@@ -161,9 +162,9 @@ static pgi_status photons_cpu(pgi_renderer *r, const pgi_render_desc *d, const p
  * the photon counts and the pass "gpu_trace". The CPU tracer does not run. The photons are read
  * back into r->ph only when the automatic radius needs them (pass "gpu_trace_download"); otherwise
  * r->ph holds none after the pass. */
-static pgi_status photons(pgi_renderer *r, const pgi_render_desc *d, const pgi__progress *pc, pgi_frame_stats *fs) {
+static pgi_status gpu_photons(pgi_renderer *r, const pgi_render_desc *d, const pgi__progress *pc, pgi_frame_stats *fs) {
     const char *hook = getenv("PGI_GPU_CPU_PHOTONS");
-    if (hook && strcmp(hook, "1") == 0) return photons_cpu(r, d, pc, fs);
+    if (hook && strcmp(hook, "1") == 0) return gpu_photons_cpu(r, d, pc, fs);
     gpu_state *s = state_of(r);
     pgi_status st;
     const pgi__gpu_trace_desc td = {.photons = d->photons,
@@ -217,7 +218,7 @@ static pgi_status gpu_inputs(pgi_renderer *r, const pgi_render_desc *d, uint64_t
         fs->rt_update_ms += pgi__now_ms() - tu;
     }
     if ((st = pgi__frame_report(pc, "trace", 0, 0))) return st;
-    if ((st = photons(r, d, pc, fs))) return st;
+    if ((st = gpu_photons(r, d, pc, fs))) return st;
 
     if ((st = pgi__frame_report(pc, "view", 0, 0))) return st;
     const pgi__subpixel sp = {.jitter = d->jitter == PGI_JITTER_ON,
@@ -269,8 +270,8 @@ static pgi_status gpu_to_host(pgi_renderer *r, const pgi_render_desc *d, pgi_fra
  * frame's photons and view samples are read back (unless the automatic radius did already), the
  * estimator runs as on host inputs (uploading them again) and its radiance goes back up into
  * "gpu_indirect" for the sum. Three more copies than the device path; the image is the same. */
-static pgi_status host_estimate(pgi_renderer *r, const pgi_render_desc *d, pgi_frame_stats *fs, pgi_estimator_stats *es,
-                                pgi__gpu_buffer **indirect) {
+static pgi_status gpu_host_estimate(pgi_renderer *r, const pgi_render_desc *d, pgi_frame_stats *fs,
+                                    pgi_estimator_stats *es, pgi__gpu_buffer **indirect) {
     gpu_state *s = state_of(r);
     pgi_status st;
     if ((st = read_back(r, fs, "gpu_readback"))) return st;
@@ -305,7 +306,7 @@ static pgi_status gpu_indirect(pgi_renderer *r, const pgi_render_desc *d, const 
     const int need_indirect = d->output != PGI_OUTPUT_DIRECT;
     const int host_inputs = need_indirect && !s->est_vt->device_reserve;
     if (host_inputs) {
-        if ((st = host_estimate(r, d, fs, es, &indirect))) return st;
+        if ((st = gpu_host_estimate(r, d, fs, es, &indirect))) return st;
     } else if (need_indirect && (st = s->est_vt->device_reserve(s->est, s->np, d->width, d->height, &indirect)))
         return st;
     const pgi__gpu_est_inputs in = {.photons = s->photons,
