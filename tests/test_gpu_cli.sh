@@ -67,6 +67,11 @@ run devices
 grep -A1 '^vulkan:0: ' "$TMP/out" | grep -q '; driver .*; Vulkan [0-9]' && ok || bad "devices (driver line): $out"
 run render --help
 grep -qF -- '--device cpu|gpu|vulkan[:N]' "$TMP/out" && ok || bad "render --help has no --device"
+# estimators -v: each estimator's devices, from the library's device table
+run estimators -v
+grep -A3 '^hashgrid ' "$TMP/out" | grep -qF 'devices: cpu, vulkan (without --subsample)' && ok ||
+    bad "estimators -v (hashgrid's devices): $out"
+grep -A3 '^kdtree ' "$TMP/out" | grep -qE 'devices: cpu$' && ok || bad "estimators -v (kdtree's devices): $out"
 expect_fail "does not exist" render "${common[@]}" --device vulkan:99 -o "$TMP/x.png"
 expect_fail "0: " render "${common[@]}" --device vulkan:99 -o "$TMP/x.png"
 expect_fail "no GPU version" render "${common[@]}" --device vulkan --estimator bounds3d -o "$TMP/x.png"

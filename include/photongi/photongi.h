@@ -802,6 +802,12 @@ pgi_status pgi_device_driver(int i, char *buf, size_t size);
 /* "hashgrid, tiled, cluster-trivial, directional": the estimators that run on PGI_DEVICE_VULKAN, in
  * the registry's order (pgi_estimator_at), comma-separated, into buf. */
 void pgi_device_estimators(char *buf, size_t size);
+/* 1 when estimator vt runs on `device` (the device table pgi_device_estimators lists from), else 0. */
+int pgi_estimator_runs_on(const pgi_estimator_vtbl *vt, pgi_device device);
+/* 1 when estimator vt takes option o on `device` (pgi_estimator_takes, less what the device's
+ * version of the estimator lacks: --subsample on the GPU), else 0. A frame that sets an option its
+ * device does not take is refused by name (PGI_ERR_UNSUPPORTED). */
+int pgi_estimator_takes_on(const pgi_estimator_vtbl *vt, const pgi_option *o, pgi_device device);
 
 #ifdef __cplusplus
 }

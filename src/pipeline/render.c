@@ -950,3 +950,12 @@ pgi_status pgi_device_name(int i, char *buf, size_t size) { return pgi__gpu_devi
 pgi_status pgi_device_driver(int i, char *buf, size_t size) { return pgi__gpu_device_driver_at(i, buf, size); }
 
 void pgi_device_estimators(char *buf, size_t size) { device_estimators(&k_devices[PGI_DEVICE_VULKAN], buf, size); }
+
+int pgi_estimator_runs_on(const pgi_estimator_vtbl *vt, pgi_device device) {
+    return vt && device_backend(device) && k_devices[device].est_caps(vt) >= 0;
+}
+
+int pgi_estimator_takes_on(const pgi_estimator_vtbl *vt, const pgi_option *o, pgi_device device) {
+    if (!o || !pgi_estimator_runs_on(vt, device) || !pgi_estimator_takes(vt, o)) return 0;
+    return !o->caps || (k_devices[device].est_caps(vt) & (long)o->caps) != 0;
+}
