@@ -476,7 +476,7 @@ static void test_cluster_trivial_errors(void **state) {
  * without a GPU version is refused with the list of those that have one. */
 static void test_renderer_device(void **state) {
     (void)state;
-    setenv("PGI_GPU_CPU_PHOTONS", "1", 1); /* the CPU tracer's photons (render.c's test hook) */
+    setenv("PGI_GPU_CPU_PHOTONS", "1", 1); /* the CPU tracer's photons (frame_gpu.c's test hook) */
     pgi_scene *scene = NULL;
     TU_CHECK_OK(pgi_scene_load("cornell", &scene));
     pgi_renderer *r = NULL;

@@ -29,7 +29,7 @@ expect_fail() { # NEEDLE ARGS...: exit 1, stderr contains NEEDLE
 common=(--scene cornell --size 64x48 --photons 20000 --seed 3 -q)
 run render "${common[@]}" -o "$TMP/cpu.exr"
 [ "$rc" -eq 0 ] && ok || bad "cpu render: $err"
-# the device's passes on the CPU tracer's photons (render.c's test hook PGI_GPU_CPU_PHOTONS=1): the
+# the device's passes on the CPU tracer's photons (frame_gpu.c's test hook PGI_GPU_CPU_PHOTONS=1): the
 # CPU's image
 PGI_GPU_CPU_PHOTONS=1 run render "${common[@]}" --device vulkan -o "$TMP/gpu.exr"
 [ "$rc" -eq 0 ] && ok || bad "vulkan render (CPU photons): $err"

@@ -342,7 +342,7 @@ static void compare_frames(const char *scene, const pgi_render_desc *d, const ch
 
 static void compare_frames_on(const char *scene, void (*modify)(pgi_scene *), const pgi_render_desc *d,
                               const char *what, double min_psnr) {
-    /* the device's passes on the CPU tracer's photons (render.c's test hook): the photons traced on
+    /* the device's passes on the CPU tracer's photons (frame_gpu.c's test hook): the photons traced on
        the device are an independent photon map, compared in tests/test_gpu_trace.c */
     setenv("PGI_GPU_CPU_PHOTONS", "1", 1);
     pgi_scene *s = NULL;
