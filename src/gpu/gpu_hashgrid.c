@@ -35,7 +35,8 @@ static pgi_status hg_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
 }
 static void hg_destroy(void *state) {}
-static pgi_status hg_device_reserve(void *state, size_t nphotons, int width, int height, pgi__gpu_buffer **out) {
+static pgi_status hg_device_reserve(void *state, const pgi__gpu_est_inputs *in, pgi__gpu_buffer **out) {
+    (void)state, (void)in, (void)out;
     return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
 }
 static pgi_status hg_device_record(void *state, const pgi__gpu_est_inputs *in) {
@@ -285,11 +286,11 @@ static pgi_status hg_run(void *state, const pgi_estimate_args *a, pgi_estimator_
 
 /* ---- device inputs (the GPU frame) */
 
-static pgi_status hg_device_reserve(void *state, size_t nphotons, int width, int height, pgi__gpu_buffer **out) {
+static pgi_status hg_device_reserve(void *state, const pgi__gpu_est_inputs *in, pgi__gpu_buffer **out) {
     hg_state *s = state;
-    pgi_status st = hg_reserve(s, nphotons, (size_t)width * (size_t)height, 0, 0);
+    pgi_status st = hg_reserve(s, in->nphotons, (size_t)in->width * (size_t)in->height, 0, 0);
     if (st) return st;
-    s->dev_n = nphotons;
+    s->dev_n = in->nphotons;
     *out = s->out;
     return PGI_OK;
 }

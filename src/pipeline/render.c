@@ -867,17 +867,18 @@ static pgi_status gpu_frame(pgi_renderer *r, pgi_render_desc *d, uint64_t seq_se
     const int host_inputs = need_indirect && !r->gpu_est_vt->device_reserve;
     pgi_estimator_stats es;
     memset(&es, 0, sizeof es);
-    if (host_inputs) {
-        if ((st = gpu_host_estimate(r, d, np, vs_on_host, fs, &es, &indirect))) return st;
-    } else if (need_indirect && (st = r->gpu_est_vt->device_reserve(r->gpu_est, np, d->width, d->height, &indirect)))
-        return st;
     const pgi__gpu_est_inputs in = {.photons = photons,
                                     .nphotons = np,
                                     .samples = pgi__gpu_view_samples(r->gpu_view),
                                     .lobes = pgi__gpu_scene_lobes(r->gpu_scene),
+                                    .extra = pgi__gpu_view_extra(r->gpu_view),
+                                    .camera = &r->cam,
                                     .width = d->width,
                                     .height = d->height,
                                     .radius = d->radius};
+    if (host_inputs) {
+        if ((st = gpu_host_estimate(r, d, np, vs_on_host, fs, &es, &indirect))) return st;
+    } else if (need_indirect && (st = r->gpu_est_vt->device_reserve(r->gpu_est, &in, &indirect))) return st;
     if ((st = pgi__gpu_begin(g))) return st;
     pgi__gpu_timestamp(g, "start");
     if ((need_indirect && !host_inputs && (st = r->gpu_est_vt->device_record(r->gpu_est, &in))) ||
