@@ -637,15 +637,7 @@ static pgi_status ct_device_finish(void *state, const pgi_named_value *t, int nt
     ct_state *s = state;
     cl_frame *f = &s->dev;
     *es = s->dev_es; /* sequence 1's passes */
-    for (int i = 0; i < nt; i++)
-        for (const char *const *n = own_passes; *n; n++)
-            if (strcmp(t[i].name, *n) == 0) {
-                pgi__stats_pass(es, t[i].name, t[i].value);
-                int in_gather = 0;
-                for (const char *const *gn = gather_passes; *gn; gn++) in_gather |= strcmp(t[i].name, *gn) == 0;
-                *(in_gather ? &f->gpu_gather : &f->gpu_build) += t[i].value;
-                break;
-            }
+    pgi__gpu_est_keep_timings(es, t, nt, own_passes, gather_passes, &f->gpu_build, &f->gpu_gather);
     pgi__stats_pass(es, "gpu_submit", f->t[3] - f->t[2]);
     es->build_ms = pgi__gpu_has_timestamps(s->g) ? f->gpu_build : f->t[3] - f->t[2];
     es->estimate_ms = f->gpu_gather;

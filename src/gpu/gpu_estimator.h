@@ -71,6 +71,10 @@ typedef struct pgi__gpu_vs_pack {
  * added to *gather_ms when its name is in `gather` (NULL-terminated), else to *build_ms. */
 void pgi__gpu_est_add_timings(const pgi__gpu *g, pgi_estimator_stats *es, const char *const *gather, double *build_ms,
                               double *gather_ms);
+/* The passes of the caller's sequence (t: its pgi__gpu_timings) named in `own` (NULL-terminated) into
+ * the stats, each added to *gather_ms when its name is in `gather`, else to *build_ms (device_finish). */
+void pgi__gpu_est_keep_timings(pgi_estimator_stats *es, const pgi_named_value *t, int nt, const char *const *own,
+                               const char *const *gather, double *build_ms, double *gather_ms);
 /* The host part of an estimator's stats when it ran on uploaded inputs in two command sequences,
  * build then gather: t[0..7] the wall clock at upload start/end, build submit/end, build read-back end,
  * gather submit/end, download end; build and gather the device time of each (timestamps; on a device
