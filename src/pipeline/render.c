@@ -818,6 +818,7 @@ static pgi_status gpu_frame(pgi_renderer *r, pgi_render_desc *d, uint64_t seq_se
     pgi_status st;
     pgi__gpu *g = r->gpu;
     const pgi_scene *s = r->scene;
+    const pgi__gpu_traffic traffic0 = pgi__gpu_traffic_get(g);
     if ((st = ensure_buffers(r, d))) return st;
     pgi__view_fill_forget(&r->fill); /* the view samples may come from the device (pgi__gpu_view_download) */
     const pgi_camera_def *cd = d->view ? d->view : &s->cams[d->camera];
@@ -935,6 +936,13 @@ static pgi_status gpu_frame(pgi_renderer *r, pgi_render_desc *d, uint64_t seq_se
     fs->reads = es.reads;
     fs->contributing = es.contributing;
     fs->nodes_visited = es.nodes_visited;
+    const pgi__gpu_traffic t1 = pgi__gpu_traffic_get(g);
+    fs->traffic = (pgi_device_traffic){.submits = t1.submits - traffic0.submits,
+                                       .dispatches = t1.dispatches - traffic0.dispatches,
+                                       .uploads = t1.uploads - traffic0.uploads,
+                                       .upload_bytes = t1.upload_bytes - traffic0.upload_bytes,
+                                       .downloads = t1.downloads - traffic0.downloads,
+                                       .download_bytes = t1.download_bytes - traffic0.download_bytes};
     *out = img;
     return PGI_OK;
 }
