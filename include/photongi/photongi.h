@@ -386,6 +386,17 @@ typedef struct pgi_temporal_stats {
     double filter_ms;    /* the filter */
 } pgi_temporal_stats;
 
+/* What a frame on a Vulkan device exchanged with the host (pgi_frame_stats.traffic): each submit
+ * is a host-device sync, each download a read-back. The default GPU frame downloads the image and
+ * a few counters (list sizes, the statistics' counts); the automatic radius adds the view samples
+ * and photons. */
+typedef struct pgi_device_traffic {
+    uint64_t submits;                   /* command sequences submitted and waited for */
+    uint64_t dispatches;                /* compute dispatches */
+    uint64_t uploads, upload_bytes;     /* host-to-device copies */
+    uint64_t downloads, download_bytes; /* device-to-host copies */
+} pgi_device_traffic;
+
 typedef struct pgi_frame_stats {
     const char *estimator;
     int width, height, threads;
@@ -433,6 +444,7 @@ typedef struct pgi_frame_stats {
                            clock) and memory_bytes the device's buffers ("gpu_photons", "gpu_hash", ...) */
     pgi_run_info run;            /* zeroed by the renderer; see pgi_run_info */
     pgi_temporal_stats temporal; /* pgi_temporal_step's part; zeroed by the renderer */
+    pgi_device_traffic traffic;  /* with a GPU: what crossed between host and device; zero on the CPU */
 } pgi_frame_stats;
 
 /* Renders one frame into `out` (free with pgi_image_free). Pass a zeroed

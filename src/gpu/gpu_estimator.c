@@ -93,16 +93,26 @@ size_t pgi__gpu_vs_pack_bytes(const pgi__gpu_vs_pack *p) {
     return p->hvs_cap * sizeof(pgi__gpu_vs) + p->hlobes_cap * sizeof(pgi__gpu_lobe) + p->lobe_of_cap * sizeof(uint32_t);
 }
 
+static int pgi__gpu_name_in(const char *name, const char *const *list) {
+    for (const char *const *n = list; *n; n++)
+        if (strcmp(name, *n) == 0) return 1;
+    return 0;
+}
+
+void pgi__gpu_est_keep_timings(pgi_estimator_stats *es, const pgi_named_value *t, int nt, const char *const *own,
+                               const char *const *gather, double *build_ms, double *gather_ms) {
+    for (int i = 0; i < nt; i++) {
+        if (own && !pgi__gpu_name_in(t[i].name, own)) continue;
+        pgi__stats_pass(es, t[i].name, t[i].value);
+        *(pgi__gpu_name_in(t[i].name, gather) ? gather_ms : build_ms) += t[i].value;
+    }
+}
+
 void pgi__gpu_est_add_timings(const pgi__gpu *g, pgi_estimator_stats *es, const char *const *gather, double *build_ms,
                               double *gather_ms) {
     pgi_named_value t[16];
     int nt = pgi__gpu_timings(g, t, 16);
-    for (int i = 0; i < nt; i++) {
-        pgi__stats_pass(es, t[i].name, t[i].value);
-        int in_gather = 0;
-        for (const char *const *n = gather; *n && !in_gather; n++) in_gather = strcmp(t[i].name, *n) == 0;
-        *(in_gather ? gather_ms : build_ms) += t[i].value;
-    }
+    pgi__gpu_est_keep_timings(es, t, nt, NULL, gather, build_ms, gather_ms);
 }
 
 void pgi__gpu_est_two_sequence_times(const pgi__gpu *g, pgi_estimator_stats *es, const double t[8], double build,

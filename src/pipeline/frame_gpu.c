@@ -27,7 +27,6 @@ typedef struct gpu_state {
     pgi__gpu_trace *trace;
     /* test hook PGI_GPU_CPU_PHOTONS=1: the CPU tracer's photons, uploaded (gpu_photons_cpu) */
     pgi__gpu_buffer *cpu_photons;
-    pgi__gpu_buffer *indirect; /* gpu_host_estimate: the radiance of an estimator without device inputs */
     pgi__packed_photon *packed;
     size_t packed_cap;
     /* this frame's: its photons on the device, whether r->vs holds its view samples, the device's
@@ -38,6 +37,7 @@ typedef struct gpu_state {
     pgi_named_value t[64];
     int nt;
     double ts, te, td0, td1;
+    pgi__gpu_traffic traffic0; /* the device's exchanges with the host before this frame */
 } gpu_state;
 
 static gpu_state *state_of(pgi_renderer *r) { return r->dev[PGI_DEVICE_VULKAN]; }
@@ -55,10 +55,8 @@ static void release_device(gpu_state *s) {
     s->scene = NULL;
     if (s->gpu) {
         pgi__gpu_buffer_destroy(s->gpu, s->cpu_photons);
-        pgi__gpu_buffer_destroy(s->gpu, s->indirect);
     }
     s->cpu_photons = NULL;
-    s->indirect = NULL;
     pgi__gpu_destroy(s->gpu);
     s->gpu = NULL;
 }
@@ -210,6 +208,7 @@ static pgi_status gpu_inputs(pgi_renderer *r, const pgi_render_desc *d, uint64_t
     pgi__gpu *g = s->gpu;
     pgi_status st;
     pgi__view_fill_forget(&r->fill); /* the view samples may come from the device (pgi__gpu_view_download) */
+    s->traffic0 = pgi__gpu_traffic_get(g);
     s->vs_on_host = 0;
     s->nt = 0;
     if (pgi__gpu_scene_needs_update(s->scene, r->scene)) {
@@ -266,34 +265,6 @@ static pgi_status gpu_to_host(pgi_renderer *r, const pgi_render_desc *d, pgi_fra
     return read_back(r, fs, "gpu_readback");
 }
 
-/* An estimator that runs on uploaded inputs only (no device_* entry points: cluster-trivial): the
- * frame's photons and view samples are read back (unless the automatic radius did already), the
- * estimator runs as on host inputs (uploading them again) and its radiance goes back up into
- * "gpu_indirect" for the sum. Three more copies than the device path; the image is the same. */
-static pgi_status gpu_host_estimate(pgi_renderer *r, const pgi_render_desc *d, pgi_frame_stats *fs,
-                                    pgi_estimator_stats *es, pgi__gpu_buffer **indirect) {
-    gpu_state *s = state_of(r);
-    pgi_status st;
-    if ((st = read_back(r, fs, "gpu_readback"))) return st;
-    const size_t n = (size_t)d->width * (size_t)d->height;
-    pgi_estimate_args a = {.photons = &r->ph,
-                           .samples = &r->vs,
-                           .camera = &r->cam,
-                           .out_rgb = r->indirect,
-                           .radius = d->radius,
-                           .seed = d->seed,
-                           .threads = d->threads,
-                           .scene_area = (float)r->scene_area};
-    if ((st = s->est_vt->run(s->est, &a, es))) return st;
-    double t1 = pgi__now_ms();
-    if ((st = pgi__gpu_buffer_reserve(s->gpu, &s->indirect, 3 * n * sizeof(float), "gpu_indirect")) ||
-        (st = pgi__gpu_upload(s->gpu, s->indirect, 0, r->indirect, 3 * n * sizeof(float))))
-        return st;
-    pgi__frame_pass(fs, "gpu_indirect_upload", pgi__now_ms() - t1);
-    *indirect = s->indirect;
-    return PGI_OK;
-}
-
 /* Sequence 2: the estimator on the device's photons and view samples, direct light and the sum
  * (direct.comp writes the image on the device: compose reads it back). */
 static pgi_status gpu_indirect(pgi_renderer *r, const pgi_render_desc *d, const pgi__progress *pc, pgi_frame_stats *fs,
@@ -304,21 +275,19 @@ static pgi_status gpu_indirect(pgi_renderer *r, const pgi_render_desc *d, const 
     pgi_status st;
     pgi__gpu_buffer *indirect = NULL;
     const int need_indirect = d->output != PGI_OUTPUT_DIRECT;
-    const int host_inputs = need_indirect && !s->est_vt->device_reserve;
-    if (host_inputs) {
-        if ((st = gpu_host_estimate(r, d, fs, es, &indirect))) return st;
-    } else if (need_indirect && (st = s->est_vt->device_reserve(s->est, s->np, d->width, d->height, &indirect)))
-        return st;
     const pgi__gpu_est_inputs in = {.photons = s->photons,
                                     .nphotons = s->np,
                                     .samples = pgi__gpu_view_samples(s->view),
                                     .lobes = pgi__gpu_scene_lobes(s->scene),
+                                    .extra = pgi__gpu_view_extra(s->view),
+                                    .camera = &r->cam,
                                     .width = d->width,
                                     .height = d->height,
                                     .radius = d->radius};
+    if (need_indirect && (st = s->est_vt->device_reserve(s->est, &in, &indirect))) return st;
     if ((st = pgi__gpu_begin(g))) return st;
     pgi__gpu_timestamp(g, "start");
-    if ((need_indirect && !host_inputs && (st = s->est_vt->device_record(s->est, &in))) ||
+    if ((need_indirect && (st = s->est_vt->device_record(s->est, &in))) ||
         (st = pgi__gpu_direct_record(s->view, s->scene, indirect, d->direct_samples, d->seed, d->output))) {
         (void)pgi__gpu_submit_wait(g);
         return st;
@@ -327,7 +296,7 @@ static pgi_status gpu_indirect(pgi_renderer *r, const pgi_render_desc *d, const 
     if ((st = pgi__gpu_submit_wait(g))) return st;
     s->te = pgi__now_ms();
     s->nt += pgi__gpu_timings(g, s->t + s->nt, 64 - s->nt);
-    if (need_indirect && !host_inputs && (st = s->est_vt->device_finish(s->est, s->t, s->nt, es))) return st;
+    if (need_indirect && (st = s->est_vt->device_finish(s->est, s->t, s->nt, es))) return st;
     return pgi__gpu_view_counters(s->view, &fs->primary_rays, &fs->shadow_rays);
 }
 
@@ -360,6 +329,13 @@ static void gpu_finish(pgi_renderer *r, const pgi_render_desc *d, const pgi_esti
     int ng = pgi__gpu_memory(s->gpu, gm, PGI_MAX_STAT_ENTRIES);
     for (int k = 0; k < ng && fs->memory_count < PGI_MAX_STAT_ENTRIES; k++)
         fs->memory_bytes[fs->memory_count++] = gm[k];
+    const pgi__gpu_traffic t0 = s->traffic0, t1 = pgi__gpu_traffic_get(s->gpu);
+    fs->traffic = (pgi_device_traffic){.submits = t1.submits - t0.submits,
+                                       .dispatches = t1.dispatches - t0.dispatches,
+                                       .uploads = t1.uploads - t0.uploads,
+                                       .upload_bytes = t1.upload_bytes - t0.upload_bytes,
+                                       .downloads = t1.downloads - t0.downloads,
+                                       .download_bytes = t1.download_bytes - t0.download_bytes};
 }
 
 const pgi__frame_backend pgi__frame_vulkan = {
