@@ -281,6 +281,21 @@ static void test_cluster_trivial_vs_brute(void **state) {
     gpu_est_vs_brute(vt, "cornell", 7, 5, 3000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.6f, 0);
 }
 
+/* cluster and cluster-cone on the GPU (cluster-trivial's code without trivial accept, and without
+ * the cone test) against the CPU's brute force: exact like it, on the same cases' extremes (a radius
+ * enclosing tiles, mirrors, glossy samples). */
+static void test_cluster_variants_vs_brute(void **state) {
+    (void)state;
+    const pgi__gpu_est_vtbl *vts[] = {&pgi__gpu_est_cluster, &pgi__gpu_est_cluster_cone};
+    for (int v = 0; v < 2; v++) {
+        const pgi__gpu_est_vtbl *vt = vts[v];
+        gpu_est_vs_brute(vt, "cornell", 64, 48, 20000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.f, 0);
+        gpu_est_vs_brute(vt, "cornell", 64, 48, 3000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.6f, 0);
+        gpu_est_vs_brute(vt, "cornell-mirrors", 64, 48, 3000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.6f, 0);
+        gpu_est_vs_brute(vt, "fireplace-room", 48, 36, 10000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_GGX, 0.f, 0);
+    }
+}
+
 /* tiled on the GPU (gpu_tiled.c) against the CPU's brute force: the Cornell box at the scene's
  * radius and at a radius larger than a tile (photons in many lists), odd and large tile sizes, the
  * mirror box (samples seen through mirrors and glass: the mirror cells' lists), the fireplace
@@ -653,6 +668,7 @@ int main(void) {
         cmocka_unit_test(test_hashgrid_vs_brute_glossy),
         cmocka_unit_test(test_cluster_trivial_vs_brute),
         cmocka_unit_test(test_cluster_trivial_errors),
+        cmocka_unit_test(test_cluster_variants_vs_brute),
         cmocka_unit_test(test_directional_vs_cpu),
         cmocka_unit_test(test_tiled_vs_brute),
         cmocka_unit_test(test_tiled_errors),

@@ -53,6 +53,8 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
 }
 static void ct_destroy(void *state) { (void)state; }
 static pgi_status dir_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) { return ct_create(g, d, state); }
+static pgi_status cl0_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) { return ct_create(g, d, state); }
+static pgi_status cone_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) { return ct_create(g, d, state); }
 static pgi_status ct_device_reserve(void *state, const pgi__gpu_est_inputs *in, pgi__gpu_buffer **out) {
     (void)state, (void)in, (void)out;
     return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
@@ -74,6 +76,7 @@ static pgi_status ct_device_finish(void *state, const pgi_named_value *t, int nt
 #define SUPER 8       /* supertile edge in tiles */
 #define ROOT 4        /* root edge in supertiles */
 #define MAX_TILE 16   /* cl_tiles sorts a tile in shared memory (256 samples) */
+enum { V_CONE = 1, V_TRIVIAL = 2, V_DIR = 4 }; /* shaders/cluster.glsl Push.variant, as est_cluster.c's */
 #define PCELL_BITS 15 /* photon order: Morton code of a 32^3 grid over the photons' box (cl_prep) */
 
 typedef pgi__gpu_vs gpu_vs;
@@ -82,9 +85,9 @@ typedef pgi__gpu_lobe gpu_lobe;
 /* shaders/cluster.glsl Push */
 typedef struct {
     float r, r2, inv_step, slack;
-    uint32_t n, width, height, T, G, ntx, nty, nrx, nry, mode, bits, NS0, NT0, NL0, nnodes, npairs, R, D, blur, dir;
+    uint32_t n, width, height, T, G, ntx, nty, nrx, nry, mode, bits, NS0, NT0, NL0, nnodes, npairs, R, D, blur, variant;
 } cl_push;
-_Static_assert(sizeof(cl_push) == 96 && offsetof(cl_push, n) == 16 && offsetof(cl_push, dir) == 92,
+_Static_assert(sizeof(cl_push) == 96 && offsetof(cl_push, n) == 16 && offsetof(cl_push, variant) == 92,
                "cluster.glsl Push");
 
 #define NODE_BYTES 64 /* shaders/cluster.glsl Node */
@@ -123,7 +126,9 @@ typedef struct {
     pgi__gpu *g;
     pgi_estimator_desc desc;
     pgi__gpu_kernel *k[K_N];
-    int dir;          /* directional (pgi__gpu_est_directional) */
+    const char *name; /* the estimator's */
+    uint32_t variant; /* est_cluster.c's V_* (shaders/cluster.glsl Push.variant) */
+    int dir;          /* variant & V_DIR: directional (pgi__gpu_est_directional) */
     uint32_t D, blur; /* directional: bucket level (0 roots .. 3 clusters), blur radius */
     pgi__gpu_buffer *buckets, *planes, *dirtab;
     pgi__gpu_buffer *raw, *pbox, *pkeys; /* the photons as given, their box, their (cell, index) pairs */
@@ -158,9 +163,9 @@ static void ct_destroy(void *state) {
     free(s);
 }
 
-static pgi_status cl_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state, int dir) {
+static pgi_status cl_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state, const char *nm, uint32_t variant) {
     *state = NULL;
-    const char *nm = dir ? "directional" : "cluster-trivial";
+    const int dir = (variant & V_DIR) != 0;
     if (d->subsample > 1)
         return pgi__fail(PGI_ERR_UNSUPPORTED, "%s on the GPU: --subsample is not supported (CPU only)", nm);
     if (d->kernel != PGI_KERNEL_CONSTANT)
@@ -174,6 +179,8 @@ static pgi_status cl_create(pgi__gpu *g, const pgi_estimator_desc *d, void **sta
     if (!s) return pgi__fail(PGI_ERR_OOM, "out of memory");
     s->g = g;
     s->desc = *d;
+    s->name = nm;
+    s->variant = variant;
     s->dir = dir;
     if (dir) {
         /* est_cluster.c: D = L - level (levels above the leaves), here of the four levels */
@@ -209,12 +216,20 @@ static pgi_status cl_create(pgi__gpu *g, const pgi_estimator_desc *d, void **sta
     return PGI_OK;
 }
 
+static pgi_status cl0_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) {
+    return cl_create(g, d, state, "cluster", 0);
+}
+
+static pgi_status cone_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) {
+    return cl_create(g, d, state, "cluster-cone", V_CONE);
+}
+
 static pgi_status ct_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) {
-    return cl_create(g, d, state, 0);
+    return cl_create(g, d, state, "cluster-trivial", V_CONE | V_TRIVIAL);
 }
 
 static pgi_status dir_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) {
-    return cl_create(g, d, state, 1);
+    return cl_create(g, d, state, "directional", V_DIR);
 }
 
 static int bits_for(size_t n) {
@@ -246,7 +261,7 @@ typedef struct cl_in {
 
 /* The frame's sizes and push constants, after the checks of what the GPU estimator supports. */
 static pgi_status cl_plan(const ct_state *s, const cl_in *in, cl_frame *f) {
-    const char *nm = s->dir ? "directional" : "cluster-trivial";
+    const char *nm = s->name;
     const pgi_camera *cam = in->cam;
     if (!cam || in->width != cam->width || in->height != cam->height)
         return pgi__fail(PGI_ERR_INVALID_ARG, "%s on the GPU: view samples are %dx%d but the camera is %dx%d", nm,
@@ -296,7 +311,7 @@ static pgi_status cl_plan(const ct_state *s, const cl_in *in, cl_frame *f) {
                      .R = ROOT,
                      .D = s->D,
                      .blur = s->blur,
-                     .dir = (uint32_t)s->dir};
+                     .variant = s->variant};
     return PGI_OK;
 }
 
@@ -434,8 +449,7 @@ static pgi_status splat_again(ct_state *s, cl_frame *f, pgi_estimator_stats *es)
     pgi_status st;
     const uint32_t npairs = f->npairs;
     if (npairs > UINT32_MAX / 4)
-        return pgi__fail(PGI_ERR_UNSUPPORTED, "cluster-trivial on the GPU: %u photon list entries (at most 2^30)",
-                         npairs);
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "%s on the GPU: %u photon list entries (at most 2^30)", s->name, npairs);
     s->pair_cap = (size_t)npairs + npairs / 4;
     if (s->pair_cap > UINT32_MAX / 4) s->pair_cap = UINT32_MAX / 4;
     if ((st = pgi__gpu_buffer_reserve(g, &s->pairs, s->pair_cap * 8, "gpu_splat"))) return st;
@@ -582,8 +596,7 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     pgi_status st;
     memset(es, 0, sizeof *es);
     if (a->photons->radius)
-        return pgi__fail(PGI_ERR_UNSUPPORTED, "%s on the GPU: per-photon footprints are not supported",
-                         s->dir ? "directional" : "cluster-trivial");
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "%s on the GPU: per-photon footprints are not supported", s->name);
     const cl_in in = {.n = a->photons->count,
                       .ns = a->samples->count,
                       .width = a->samples->width,
@@ -646,6 +659,28 @@ static pgi_status ct_device_finish(void *state, const pgi_named_value *t, int nt
 
 #endif /* PGI__HAVE_VULKAN */
 
+/* cluster (Moreau et al. 2016 §4.1-4.4) and cluster-cone (+ §4.5's cones): cluster-trivial's code
+ * with the cone test and trivial accept off (shaders/cl_splat.comp, Push.variant), as on the CPU. */
+const pgi__gpu_est_vtbl pgi__gpu_est_cluster = {
+    .name = "cluster",
+    .create = cl0_create,
+    .run = ct_run,
+    .destroy = ct_destroy,
+    .device_reserve = ct_device_reserve,
+    .device_record = ct_device_record,
+    .device_finish = ct_device_finish,
+};
+
+const pgi__gpu_est_vtbl pgi__gpu_est_cluster_cone = {
+    .name = "cluster-cone",
+    .create = cone_create,
+    .run = ct_run,
+    .destroy = ct_destroy,
+    .device_reserve = ct_device_reserve,
+    .device_record = ct_device_record,
+    .device_finish = ct_device_finish,
+};
+
 const pgi__gpu_est_vtbl pgi__gpu_est_cluster_trivial = {
     .name = "cluster-trivial",
     .create = ct_create,
@@ -657,7 +692,7 @@ const pgi__gpu_est_vtbl pgi__gpu_est_cluster_trivial = {
 };
 
 /* directional (est_directional.c, Moreau et al. 2016 §4.7) on the same clusters, hierarchy and
- * lists: cl_splat deposits (pc.dir), cl_dir_flux sums each node's octant buckets in photon order,
+ * lists: cl_splat deposits (V_DIR), cl_dir_flux sums each node's octant buckets in photon order,
  * cl_dir_radiance and cl_dir_blur shade. Approximate, like the CPU's; its levels are the four here. */
 const pgi__gpu_est_vtbl pgi__gpu_est_directional = {
     .name = "directional",

@@ -94,6 +94,8 @@ void pgi__gpu_vs_pack_free(pgi__gpu_vs_pack *p);
 size_t pgi__gpu_vs_pack_bytes(const pgi__gpu_vs_pack *p);
 
 extern const pgi__gpu_est_vtbl pgi__gpu_est_hashgrid;
+extern const pgi__gpu_est_vtbl pgi__gpu_est_cluster;
+extern const pgi__gpu_est_vtbl pgi__gpu_est_cluster_cone;
 extern const pgi__gpu_est_vtbl pgi__gpu_est_cluster_trivial;
 extern const pgi__gpu_est_vtbl pgi__gpu_est_directional;
 extern const pgi__gpu_est_vtbl pgi__gpu_est_tiled;

@@ -53,9 +53,7 @@ static void release_device(gpu_state *s) {
     s->view = NULL;
     pgi__gpu_scene_destroy(s->scene);
     s->scene = NULL;
-    if (s->gpu) {
-        pgi__gpu_buffer_destroy(s->gpu, s->cpu_photons);
-    }
+    if (s->gpu) { pgi__gpu_buffer_destroy(s->gpu, s->cpu_photons); }
     s->cpu_photons = NULL;
     pgi__gpu_destroy(s->gpu);
     s->gpu = NULL;
