@@ -172,6 +172,7 @@ static void gpu_est_vs_brute(const pgi__gpu_est_vtbl *vt, const char *scene_name
     assert_non_null(got);
     assert_non_null(again);
     pgi_estimator_desc ed = {.kernel = kern, .hashgrid.cell_size = cell, .cluster.tile = tile, .tiled.tile_size = tile};
+    if (vt == &pgi__gpu_est_bvh) ed = (pgi_estimator_desc){.kernel = kern, .bvh.leaf_size = tile}; /* tile: T */
     size_t mirror_seen = 0;
     for (size_t i = 0; i < in.samples->count; i++)
         mirror_seen += (in.samples->flags[i] & (PGI_VS_VALID | PGI_VS_PRIMARY)) == PGI_VS_VALID;
@@ -278,6 +279,22 @@ static void test_cluster_trivial_vs_brute(void **state) {
     gpu_est_vs_brute(vt, "cornell-mirrors", 64, 48, 3000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.6f, 0);
     gpu_est_vs_brute(vt, "fireplace-room", 48, 36, 10000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_GGX, 0.f, 0);
     /* an image smaller than one tile */
+    gpu_est_vs_brute(vt, "cornell", 7, 5, 3000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.6f, 0);
+}
+
+/* bvh on the GPU (gpu_pbvh.c: Morton codes, radix sort, the radix tree and its boxes built on the
+ * device) against the CPU's brute force: the Cornell box at the scene's radius and at r = 0.6 (large
+ * boxes), given leaf sizes 1 (every node walked) and 4096 (the root a leaf), the
+ * mirror box (samples anywhere in the scene), glossy samples, a 7x5 image. */
+static void test_bvh_vs_brute(void **state) {
+    (void)state;
+    const pgi__gpu_est_vtbl *vt = &pgi__gpu_est_bvh;
+    gpu_est_vs_brute(vt, "cornell", 64, 48, 20000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.f, 0);
+    gpu_est_vs_brute(vt, "cornell", 64, 48, 3000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.6f, 0);
+    gpu_est_vs_brute(vt, "cornell", 50, 37, 5000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.f, 1);
+    gpu_est_vs_brute(vt, "cornell", 40, 30, 5000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.2f, 4096);
+    gpu_est_vs_brute(vt, "cornell-mirrors", 64, 48, 20000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.06f, 0);
+    gpu_est_vs_brute(vt, "fireplace-room", 48, 36, 10000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_GGX, 0.f, 0);
     gpu_est_vs_brute(vt, "cornell", 7, 5, 3000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.6f, 0);
 }
 
@@ -609,6 +626,14 @@ static void test_renderer_device(void **state) {
     d.estimator = "tiled";
     TU_CHECK_OK(pgi_renderer_render(r, &d, &gpu2, &gs));
     assert_int_equal(tu_compare(gpu2.rgb, gpu.rgb, 3 * 64 * 48, 1e-4, "renderer: vulkan tiled vs hashgrid"), 0);
+    /* bvh: built on the device from the device's photons (no read-back), exact */
+    d.estimator = "bvh";
+    TU_CHECK_OK(pgi_renderer_render(r, &d, &gpu2, &gs));
+    assert_int_equal(tu_compare(gpu2.rgb, gpu.rgb, 3 * 64 * 48, 1e-4, "renderer: vulkan bvh vs hashgrid"), 0);
+    for (int k = 0; k < gs.pass_count; k++) assert_string_not_equal(gs.passes_ms[k].name, "gpu_readback");
+    /* what came back: the image and a few counters */
+    assert_true(gs.traffic.download_bytes >= 3 * 64 * 48 * sizeof(float) &&
+                gs.traffic.download_bytes < 3 * 64 * 48 * sizeof(float) + 4096);
     d.estimator = "hashgrid";
     /* explicit device 0 */
     d.device_index = PGI_DEVICE_INDEX(0);
@@ -669,6 +694,7 @@ int main(void) {
         cmocka_unit_test(test_cluster_trivial_vs_brute),
         cmocka_unit_test(test_cluster_trivial_errors),
         cmocka_unit_test(test_cluster_variants_vs_brute),
+        cmocka_unit_test(test_bvh_vs_brute),
         cmocka_unit_test(test_directional_vs_cpu),
         cmocka_unit_test(test_tiled_vs_brute),
         cmocka_unit_test(test_tiled_errors),

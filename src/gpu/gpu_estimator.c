@@ -14,6 +14,7 @@ static const struct {
     unsigned caps;
 } k_gpu_estimators[] = {
     {&pgi__gpu_est_hashgrid, PGI_EST_CAP_KERNELS},
+    {&pgi__gpu_est_bvh, 0},
     {&pgi__gpu_est_cluster, 0},
     {&pgi__gpu_est_cluster_cone, 0},
     {&pgi__gpu_est_cluster_trivial, 0},

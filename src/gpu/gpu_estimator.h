@@ -19,6 +19,7 @@ typedef struct pgi__gpu_est_inputs {
     const pgi_camera *camera;
     int width, height;
     float radius;
+    double scene_area; /* the scene's surface area (bvh's T_auto) */
 } pgi__gpu_est_inputs;
 
 typedef struct pgi__gpu_est_vtbl {
@@ -94,6 +95,7 @@ void pgi__gpu_vs_pack_free(pgi__gpu_vs_pack *p);
 size_t pgi__gpu_vs_pack_bytes(const pgi__gpu_vs_pack *p);
 
 extern const pgi__gpu_est_vtbl pgi__gpu_est_hashgrid;
+extern const pgi__gpu_est_vtbl pgi__gpu_est_bvh;
 extern const pgi__gpu_est_vtbl pgi__gpu_est_cluster;
 extern const pgi__gpu_est_vtbl pgi__gpu_est_cluster_cone;
 extern const pgi__gpu_est_vtbl pgi__gpu_est_cluster_trivial;

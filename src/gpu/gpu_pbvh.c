@@ -1,0 +1,306 @@
+/* bvh on the GPU (docs/gpu.md): the CPU estimator's photon BVH (src/estimators/est_bvh.c, linear
+ * builder; Fabianowski & Dingliana, EG 2009, §5.2, §6.2) built and queried on the device, exact
+ * like it. One command sequence, recorded into the frame's own (no read-back: every size is the
+ * photon count's):
+ *   pb_prep     the photons' box, their 30-bit Morton codes over it (est_bvh.c's quantisation),
+ *   sort        the (code, photon) pairs by code (gpu_sort.h; stable: photon order among equal
+ *               codes), then the photons copied in that order
+ *   pb_nodes    the binary radix tree of the sorted codes (Karras 2012), each internal node a
+ *               function of the codes: split at the range's highest differing bit, as the CPU's
+ *   pb_bounds   each node's box, the union of its range's spheres (fixed radius) from the unions of
+ *               aligned blocks of 64 and 4096 photons (min/max only, no atomics)
+ *   pb_gather   per view sample: every node whose box contains the point, depth first, left first
+ *               (the photons in sorted order); a node of at most T photons is walked whole
+ * T: --leaf-size, or T_auto = round(16 + 6 n pi r^2 / scene area) as the CPU's. Only the fixed
+ * radius (no per-photon footprints) and the linear builder. */
+#include "gpu/gpu_estimator.h"
+#include "gpu/gpu_sort.h"
+
+#include <stdio.h>
+#include <string.h>
+
+#include "core/core.h"
+#include "estimators/estimator_internal.h"
+
+#define NO_BACKEND "this build of photongi has no Vulkan backend (built without Vulkan/glslc)"
+
+#ifndef PGI__HAVE_VULKAN
+
+static pgi_status pb_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) {
+    (void)g, (void)d;
+    *state = NULL;
+    return pgi__fail(PGI_ERR_UNSUPPORTED, NO_BACKEND);
+}
+static pgi_status pb_run(void *state, const pgi_estimate_args *a, pgi_estimator_stats *st) {
+    (void)state, (void)a, (void)st;
+    return pgi__fail(PGI_ERR_UNSUPPORTED, NO_BACKEND);
+}
+static void pb_destroy(void *state) { (void)state; }
+static pgi_status pb_device_reserve(void *state, const pgi__gpu_est_inputs *in, pgi__gpu_buffer **out) {
+    (void)state, (void)in, (void)out;
+    return pgi__fail(PGI_ERR_UNSUPPORTED, NO_BACKEND);
+}
+static pgi_status pb_device_record(void *state, const pgi__gpu_est_inputs *in) {
+    (void)state, (void)in;
+    return pgi__fail(PGI_ERR_UNSUPPORTED, NO_BACKEND);
+}
+static pgi_status pb_device_finish(void *state, const pgi_named_value *t, int nt, pgi_estimator_stats *es) {
+    (void)state, (void)t, (void)nt, (void)es;
+    return pgi__fail(PGI_ERR_UNSUPPORTED, NO_BACKEND);
+}
+
+#else
+
+#include "gpu/spirv.h"
+
+#define NODE_BYTES 48 /* shaders/pbvh.glsl Node */
+
+/* shaders/pbvh.glsl Push */
+typedef struct {
+    float r, r2, scale, pad0;
+    uint32_t n, leaf, width, height, kernel, mode, pad1, pad2;
+} pb_push;
+_Static_assert(sizeof(pb_push) == 48 && offsetof(pb_push, n) == 16 && offsetof(pb_push, mode) == 36, "pbvh.glsl Push");
+
+enum { K_PREP, K_NODES, K_BOUNDS, K_GATHER, K_N };
+
+typedef struct {
+    pgi__gpu *g;
+    pgi_estimator_desc desc;
+    pgi__gpu_kernel *k[K_N];
+    pgi__gpu_buffer *raw, *vs, *lobes, *box, *pairs, *sorted, *nodes, *blocks, *out, *counters;
+    pgi__gpu_sort sort;
+    pb_push p;
+    size_t n, ns;
+    /* host-side upload arrays (pgi_estimate_args inputs) */
+    pgi__packed_photon *packed;
+    size_t packed_cap;
+    pgi__gpu_vs_pack pk;
+} pb_state;
+
+static void pb_destroy(void *state) {
+    pb_state *s = state;
+    if (!s) return;
+    for (int i = 0; i < K_N; i++) pgi__gpu_kernel_destroy(s->g, s->k[i]);
+    pgi__gpu_buffer *b[] = {s->raw,    s->vs,    s->lobes,  s->box, s->pairs,
+                            s->sorted, s->nodes, s->blocks, s->out, s->counters};
+    for (size_t i = 0; i < sizeof b / sizeof b[0]; i++) pgi__gpu_buffer_destroy(s->g, b[i]);
+    pgi__gpu_sort_destroy(&s->sort);
+    pgi__afree(s->packed);
+    pgi__gpu_vs_pack_free(&s->pk);
+    free(s);
+}
+
+static pgi_status pb_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) {
+    *state = NULL;
+    if (d->bvh.build != PGI_BVH_LINEAR)
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "bvh on the GPU: --bvh-build vvh is not supported (linear only)");
+    pb_state *s = calloc(1, sizeof *s);
+    if (!s) return pgi__fail(PGI_ERR_OOM, "out of memory");
+    s->g = g;
+    s->desc = *d;
+    static const pgi__gpu_kernel_spec k[K_N] = {
+        [K_PREP] = PGI__GPU_KERNEL(pb_prep, 4, sizeof(pb_push)),
+        [K_NODES] = PGI__GPU_KERNEL(pb_nodes, 2, sizeof(pb_push)),
+        [K_BOUNDS] = PGI__GPU_KERNEL(pb_bounds, 3, sizeof(pb_push)),
+        [K_GATHER] = PGI__GPU_KERNEL(pb_gather, 6, sizeof(pb_push)),
+    };
+    pgi_status st = pgi__gpu_kernels_create(g, k, K_N, 0, s->k);
+    if (!st) st = pgi__gpu_sort_create(g, "gpu_photon_order", &s->sort);
+    if (st) {
+        pb_destroy(s);
+        return st;
+    }
+    *state = s;
+    return PGI_OK;
+}
+
+static const char *const gather_passes[] = {"gpu_gather", NULL};
+static const char *const own_passes[] = {"gpu_photon_order", "gpu_nodes", "gpu_bounds", "gpu_gather", NULL};
+
+/* The frame's push constants (T from --leaf-size or T_auto) and buffers. scene_area: the scene's
+ * surface area, or 0 (then the photons' box's, as the CPU's: box_area). */
+static pgi_status pb_plan(pb_state *s, size_t n, int width, int height, float r, double scene_area, double box_area) {
+    pgi__gpu *g = s->g;
+    const size_t ns = (size_t)width * (size_t)height;
+    if (n > UINT32_MAX / 4 || ns > UINT32_MAX / 4)
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "bvh on the GPU: at most 2^30 photons and view samples");
+    int leaf = s->desc.bvh.leaf_size;
+    if (leaf <= 0) { /* est_bvh.c T_auto */
+        const double sa = scene_area > 0.0 ? scene_area : box_area;
+        const double area = (double)n * PGI__PI * (double)r * (double)r;
+        const double t = 16.0 + (sa > 0.0 ? 6.0 * area / sa : 0.0);
+        leaf = !(t < 65536.0) ? 65536 : t < 1.0 ? 1 : (int)(t + 0.5);
+    }
+    s->n = n;
+    s->ns = ns;
+    s->p = (pb_push){.r = r,
+                     .r2 = r * r,
+                     .scale = pgi__kernel_norm(s->desc.kernel),
+                     .n = (uint32_t)n,
+                     .leaf = (uint32_t)leaf,
+                     .width = (uint32_t)width,
+                     .height = (uint32_t)height,
+                     .kernel = (uint32_t)s->desc.kernel};
+    const size_t psz = sizeof(pgi__packed_photon);
+    pgi_status st;
+    if ((st = pgi__gpu_buffer_reserve(g, &s->box, 8 * 4, "gpu_photon_order")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->pairs, (n + 1) * 8, "gpu_photon_order")) ||
+        (st = pgi__gpu_sort_reserve(&s->sort, n)) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->sorted, (n + 1) * psz, "gpu_photons")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->nodes, (n + 1) * NODE_BYTES, "gpu_photon_bvh")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->blocks, ((n + 63) / 64 + (n + 4095) / 4096 + 1) * 24, "gpu_photon_bvh")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->out, (3 * ns + 1) * sizeof(float), "gpu_radiance")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->counters, 8 * 4, "gpu_photon_bvh")))
+        return st;
+    return PGI_OK;
+}
+
+/* Records the build and the gather into the open sequence. */
+static pgi_status pb_record(pb_state *s, pgi__gpu_buffer *photons, pgi__gpu_buffer *vsb, pgi__gpu_buffer *lobes) {
+    pgi__gpu *g = s->g;
+    const size_t n = s->n;
+    pb_push q = s->p;
+    pgi_status st;
+    if ((st = pgi__gpu_fill(g, s->counters, 0, 8 * 4, 0))) return st;
+    if (n) {
+        pgi__gpu_buffer *keys, *order;
+        pgi__gpu_buffer *b[] = {photons, s->box, s->pairs, s->sorted};
+        if ((st = pgi__gpu_fill(g, s->box, 0, 12, 0xffffffffu)) || (st = pgi__gpu_fill(g, s->box, 12, 20, 0)))
+            return st;
+        for (uint32_t m = 0; m < 2; m++) {
+            q.mode = m;
+            if ((st = pgi__gpu_dispatch_1d(g, s->k[K_PREP], b, &q, n, 256))) return st;
+        }
+        if ((st = pgi__gpu_sort_record(&s->sort, s->pairs, n, 0, 30, &keys, &order))) return st;
+        q.mode = 2;
+        if ((st = pgi__gpu_dispatch_1d(g, s->k[K_PREP], (pgi__gpu_buffer *[]){photons, s->box, order, s->sorted}, &q, n,
+                                       256)))
+            return st;
+        pgi__gpu_timestamp(g, "gpu_photon_order");
+        if ((st = pgi__gpu_dispatch_1d(g, s->k[K_NODES], (pgi__gpu_buffer *[]){keys, s->nodes}, &s->p, n, 64)))
+            return st;
+        pgi__gpu_timestamp(g, "gpu_nodes");
+        const size_t items[3] = {(n + 63) / 64, (n + 4095) / 4096, n};
+        for (uint32_t m = 0; m < 3; m++) {
+            q.mode = m;
+            if ((st = pgi__gpu_dispatch_1d(g, s->k[K_BOUNDS], (pgi__gpu_buffer *[]){s->sorted, s->nodes, s->blocks}, &q,
+                                           items[m], 64)))
+                return st;
+        }
+        pgi__gpu_timestamp(g, "gpu_bounds");
+    }
+    if ((st = pgi__gpu_dispatch(g, s->k[K_GATHER],
+                                (pgi__gpu_buffer *[]){vsb, lobes, s->sorted, s->nodes, s->out, s->counters}, &s->p,
+                                (s->p.width + 7) / 8, (s->p.height + 7) / 8, 1)))
+        return st;
+    pgi__gpu_timestamp(g, "gpu_gather");
+    return PGI_OK;
+}
+
+/* The counters into the stats; a query stack that overflowed is an error, not a wrong image. */
+static pgi_status pb_counters(pb_state *s, pgi_estimator_stats *es) {
+    uint32_t c[8];
+    pgi_status st = pgi__gpu_download(s->g, s->counters, 0, c, sizeof c);
+    if (st) return st;
+    if (c[6])
+        return pgi__fail(PGI_ERR_INTERNAL, "bvh on the GPU: %u queries overflowed their stack (tree deeper than 64)",
+                         c[6]);
+    es->reads = pgi__gpu_u64(c);
+    es->contributing = pgi__gpu_u64(c + 2);
+    es->nodes_visited = pgi__gpu_u64(c + 4);
+    es->leaf_size = (int)s->p.leaf;
+    return PGI_OK;
+}
+
+static pgi_status pb_run(void *state, const pgi_estimate_args *a, pgi_estimator_stats *es) {
+    pb_state *s = state;
+    pgi__gpu *g = s->g;
+    pgi_status st;
+    memset(es, 0, sizeof *es);
+    if (a->photons->radius)
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "bvh on the GPU: per-photon footprints are not supported");
+    const pgi_photons *ph = a->photons;
+    const pgi_view_samples *vs = a->samples;
+    const size_t n = ph->count, ns = vs->count;
+    double t0 = pgi__now_ms();
+    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    const float *P[3] = {ph->px, ph->py, ph->pz};
+    for (int d = 0; d < 3; d++)
+        for (size_t j = 0; j < n; j++) lo[d] = pgi_minf(lo[d], P[d][j]), hi[d] = pgi_maxf(hi[d], P[d][j]);
+    const double ex = hi[0] - lo[0], ey = hi[1] - lo[1], ez = hi[2] - lo[2];
+    const double box_area = n ? 2.0 * (ex * ey + ey * ez + ez * ex) : 0.0;
+    if ((st = pb_plan(s, n, vs->width, vs->height, a->radius, a->scene_area, box_area))) return st;
+    const size_t psz = sizeof(pgi__packed_photon);
+    size_t nlobes = 0;
+    if ((st = pgi__ensure((void **)&s->packed, &s->packed_cap, n + 1, psz))) return st;
+    for (size_t j = 0; j < n; j++) pgi__pack_photon(ph, j, &s->packed[j]);
+    if ((st = pgi__gpu_pack_samples(&s->pk, vs, a->threads, &nlobes)) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->raw, (n + 1) * psz, "gpu_photons")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->vs, (ns + 1) * sizeof(pgi__gpu_vs), "gpu_view_samples")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->lobes, (nlobes + 1) * sizeof(pgi__gpu_lobe), "gpu_view_samples")) ||
+        (st = pgi__gpu_upload(g, s->raw, 0, s->packed, n * psz)) ||
+        (st = pgi__gpu_upload(g, s->vs, 0, s->pk.hvs, ns * sizeof(pgi__gpu_vs))) ||
+        (st = pgi__gpu_upload(g, s->lobes, 0, s->pk.hlobes, nlobes * sizeof(pgi__gpu_lobe))))
+        return st;
+    double t1 = pgi__now_ms();
+    if ((st = pgi__gpu_begin(g))) return st;
+    pgi__gpu_timestamp(g, "start");
+    if ((st = pb_record(s, s->raw, s->vs, s->lobes))) {
+        (void)pgi__gpu_submit_wait(g);
+        return st;
+    }
+    double t2 = pgi__now_ms();
+    if ((st = pgi__gpu_submit_wait(g))) return st;
+    double t3 = pgi__now_ms();
+    double build = 0.0, gather = 0.0;
+    pgi__gpu_est_add_timings(g, es, gather_passes, &build, &gather);
+    if ((st = pgi__gpu_download(g, s->out, 0, a->out_rgb, 3 * ns * sizeof(float))) || (st = pb_counters(s, es)))
+        return st;
+    double t4 = pgi__now_ms();
+    pgi__stats_pass(es, "gpu_upload", t1 - t0);
+    pgi__stats_pass(es, "gpu_submit", t3 - t2);
+    pgi__stats_pass(es, "gpu_download", t4 - t3);
+    if (!pgi__gpu_has_timestamps(g)) build = 0.0, gather = t3 - t2;
+    es->build_ms = (t1 - t0) + build;
+    es->estimate_ms = gather + (t4 - t3);
+    pgi__stats_mem(es, "gpu_host_upload", s->packed_cap * psz + pgi__gpu_vs_pack_bytes(&s->pk));
+    return PGI_OK;
+}
+
+static pgi_status pb_device_reserve(void *state, const pgi__gpu_est_inputs *in, pgi__gpu_buffer **out) {
+    pb_state *s = state;
+    pgi_status st = pb_plan(s, in->nphotons, in->width, in->height, in->radius, in->scene_area, 0.0);
+    if (st) return st;
+    *out = s->out;
+    return PGI_OK;
+}
+
+static pgi_status pb_device_record(void *state, const pgi__gpu_est_inputs *in) {
+    pb_state *s = state;
+    if (in->nphotons != s->n)
+        return pgi__fail(PGI_ERR_INTERNAL, "bvh on the GPU: recorded on inputs it was not reserved for");
+    return pb_record(s, in->photons, in->samples, in->lobes);
+}
+
+static pgi_status pb_device_finish(void *state, const pgi_named_value *t, int nt, pgi_estimator_stats *es) {
+    pb_state *s = state;
+    memset(es, 0, sizeof *es);
+    double build = 0.0, gather = 0.0;
+    pgi__gpu_est_keep_timings(es, t, nt, own_passes, gather_passes, &build, &gather);
+    es->build_ms = build;
+    es->estimate_ms = gather;
+    return pb_counters(s, es);
+}
+
+#endif /* PGI__HAVE_VULKAN */
+
+const pgi__gpu_est_vtbl pgi__gpu_est_bvh = {
+    .name = "bvh",
+    .create = pb_create,
+    .run = pb_run,
+    .destroy = pb_destroy,
+    .device_reserve = pb_device_reserve,
+    .device_record = pb_device_record,
+    .device_finish = pb_device_finish,
+};
