@@ -12,7 +12,6 @@
  * operations each way (no contraction: -ffp-contract=off), so the same bits (test_trace); the
  * wider instruction sets take time off the tracer's own code (docs/performance.md; the history in
  * docs/history/performance.md). */
-#define _DEFAULT_SOURCE /* madvise's MADV_HUGEPAGE */
 #include "photon.h"
 
 #include <omp.h>
@@ -25,7 +24,6 @@
 #include "scene/portal.h"
 
 #include <stdint.h>
-#include <sys/mman.h>
 #if defined(__SSE2__)
 #include <emmintrin.h> /* record: streaming stores */
 #endif
@@ -78,9 +76,9 @@ typedef struct chunk_info {
 typedef struct tracer {
     const pgi_scene *s;
     const pgi__rt *rt;
-    const pgi__trace_tri *tris; /* the scene's triangles as shaded (pgi__trace_tris_update) */
-    const float *tri_uv;        /* and their texture coordinates, PGI__TRI_UV floats each (NULL: none) */
-    const float *cdf;           /* light CDF by luminance of power */
+    const pgi__tri_rec *tris; /* the scene's triangles as shaded (pgi__tri_cache_update) */
+    const float *tri_uv;      /* and their texture coordinates, PGI__TRI_UV floats each (NULL: none) */
+    const float *cdf;         /* light CDF by luminance of power */
     size_t nl;
     int bounces;
     uint64_t seed_mix; /* pgi__rng_seed_mix(seed): each path's stream from it (pick_light) */
@@ -313,76 +311,6 @@ static int record(pgi__trace_tbuf *tb, int fp_on, int path, pgi__v3 p, pgi__v3 w
     return 1;
 }
 
-#ifndef PGI__TRACE_V3 /* defined once (the baseline's) */
-/* Memory for the triangle records. Each hit reads one of them at random: from 1 MiB on they go to
- * 2 MiB-aligned memory the kernel may back with huge pages, so that a hit costs a cache miss but
- * no TLB miss (a scene's records span thousands of 4 KiB pages). */
-static void *tris_alloc(size_t bytes, size_t *total) {
-    const size_t huge = (size_t)2 << 20;
-    if (bytes < huge / 2) {
-        *total += bytes;
-        return aligned_alloc(64, bytes);
-    }
-    bytes = (bytes + huge - 1) / huge * huge;
-    *total += bytes;
-    void *p = aligned_alloc(huge, bytes);
-#ifdef MADV_HUGEPAGE
-    if (p) madvise(p, bytes, MADV_HUGEPAGE); /* a hint: without huge pages all still works */
-#endif
-    return p;
-}
-
-pgi_status pgi__trace_tris_update(pgi__trace_scratch *sc, const pgi_scene *s, int threads) {
-    const int nt = pgi__threads(threads);
-    const void *key[6] = {s, s->tri, s->pos, s->nrm, s->uv, s->tri_mat};
-    if (sc->tris && sc->tris_n == s->ntris && !memcmp(key, sc->tris_key, sizeof key) &&
-        sc->tris_version[0] == s->static_version && sc->tris_version[1] == s->dynamic_version)
-        return PGI_OK;
-    free(sc->tris);
-    free(sc->tri_uv);
-    sc->tri_uv = NULL;
-    sc->tris_n = sc->tris_bytes = 0;
-    const size_t n = s->ntris ? s->ntris : 1;
-    size_t bytes = 0;
-    sc->tris = tris_alloc(n * sizeof *sc->tris, &bytes);
-    if (s->uv) sc->tri_uv = tris_alloc(n * PGI__TRI_UV * sizeof(float), &bytes);
-    if (!sc->tris || (s->uv && !sc->tri_uv)) {
-        free(sc->tris);
-        free(sc->tri_uv);
-        sc->tris = NULL;
-        sc->tri_uv = NULL;
-        return pgi__fail(PGI_ERR_OOM, "out of memory for the tracer's %zu triangle records", s->ntris);
-    }
-    pgi__trace_tri *tr = sc->tris;
-    float *tuv = sc->tri_uv;
-#pragma omp parallel for schedule(static) num_threads(nt)
-    for (long long i = 0; i < (long long)s->ntris; i++) {
-        const uint32_t *t = s->tri + 3 * (size_t)i;
-        pgi__trace_tri *r = &tr[i];
-        memset(r, 0, sizeof *r);
-        /* as pgi__scene_surface_untextured computes it */
-        pgi__v3 a = pgi__scene_vertex(s, t[0]), b = pgi__scene_vertex(s, t[1]), c = pgi__scene_vertex(s, t[2]);
-        v3_store(r->ng, v3_norm(v3_cross(v3_sub(b, a), v3_sub(c, a))));
-        r->mat = s->tri_mat[i];
-        if (s->nrm)
-            for (int j = 0; j < 3; j++) memcpy(r->n + 3 * j, s->nrm + 3 * (size_t)t[j], 3 * sizeof(float));
-        if (tuv) {
-            float *q = tuv + PGI__TRI_UV * (size_t)i;
-            for (int j = 0; j < 3; j++) memcpy(q + 2 * j, s->uv + 2 * (size_t)t[j], 2 * sizeof(float));
-            q[6] = pgi__tri_uv_lod(a, b, c, q);
-            q[7] = 0.f;
-        }
-    }
-    sc->tris_n = s->ntris;
-    sc->tris_bytes = bytes;
-    memcpy(sc->tris_key, key, sizeof key);
-    sc->tris_version[0] = s->static_version;
-    sc->tris_version[1] = s->dynamic_version;
-    return PGI_OK;
-}
-
-#endif
-
 /* A path between two hits, as the emission pre-pass (first_hits) leaves it for trace_chunk:
  * the lane's state that lasts from one bounce to the next (its differentials in a second
  * array, when a radius policy follows them; whether it goes on: trace_scratch.live). */
@@ -523,7 +451,7 @@ static inline void wave_texels(const tracer *T, lane *L, wave_go *W) {
         if (m->tex_kd < 0) continue;
         l->tex = &s->texs[m->tex_kd];
         float u = 0.f, v = 0.f; /* without texture coordinates the lookup reads (0, 0) */
-        if (T->tri_uv) pgi__trace_tri_uv(T->tri_uv + PGI__TRI_UV * (size_t)l->h.prim, l->h.u, l->h.v, &u, &v);
+        if (T->tri_uv) pgi__tri_rec_uv(T->tri_uv + PGI__TRI_UV * (size_t)l->h.prim, l->h.u, l->h.v, &u, &v);
         if (!pgi__texture_quad(l->tex, u, v, &l->tq)) l->tex = NULL; /* no texels: white */
     }
 }
@@ -543,10 +471,10 @@ static inline int wave_shade(const tracer *T, lane *L, float (*sc)[WAVE], pgi__l
         lane *l = &L[k];
         if (l->path < 0) continue;
         if (l->h.prim != UINT32_MAX) {
-            /* pgi__trace_tri_surface's values (the shading normal and albedo only where the path
+            /* pgi__tri_rec_surface's values (the shading normal and albedo only where the path
              * scatters) in registers rather than a pgi__surface (whose copies through memory
              * stalled the loads after them), the same operations */
-            const pgi__trace_tri *r = &T->tris[l->h.prim];
+            const pgi__tri_rec *r = &T->tris[l->h.prim];
             const pgi__material *mat = &s->mats[r->mat];
             const pgi__v3 p = v3_madd(l->o, l->d, l->h.t);
             const pgi__v3 g = v3_load(r->ng);
@@ -590,14 +518,14 @@ static inline int wave_shade(const tracer *T, lane *L, float (*sc)[WAVE], pgi__l
     for (int i = 0; i < W->n; i++) {
         const int k = W->k[i];
         lane *l = &L[k];
-        const pgi__trace_tri *r = &T->tris[l->h.prim];
+        const pgi__tri_rec *r = &T->tris[l->h.prim];
         const pgi__material *mat = W->mat[k];
         const pgi__v3 p = W->p[k], g = v3_load(r->ng), wi = v3_neg(l->d), ng = W->ng[k];
         const int front = W->front[k];
         int alive = 0;
         /* the shading normal (the batch finds its own) */
         const int lam = W->lam[k], batched = lb && lam;
-        const pgi__v3 ns = batched ? g : pgi__trace_tri_ns(s, r, l->h.u, l->h.v, g);
+        const pgi__v3 ns = batched ? g : pgi__tri_rec_ns(s, r, l->h.u, l->h.v, g);
         pgi__v3 kd = pgi__scene_kd(s, mat, l->h.prim, l->h.u, l->h.v);
         if (l->tex) kd = v3_mul(kd, pgi__texture_quad_lookup(&l->tq));
         pgi__v3 wo, w;
@@ -1043,8 +971,7 @@ void pgi__trace_scratch_free(pgi__trace_scratch *sc) {
     free(sc->chunks);
     free(sc->path_bin);
     free(sc->ph_bin);
-    free(sc->tris);
-    free(sc->tri_uv);
+    pgi__tri_cache_free(&sc->tc);
     free(sc->ps);
     free(sc->live);
     free(sc->ps_pd);
@@ -1060,7 +987,7 @@ void pgi__trace_scratch_free(pgi__trace_scratch *sc) {
 size_t pgi__trace_scratch_bytes(const pgi__trace_scratch *sc) {
     size_t b = sc->cap * sizeof(uint8_t) + sc->cap / CHUNK * sizeof(chunk_info) +
                (size_t)sc->nthreads * sizeof *sc->tbuf + (sc->path_bin_cap + sc->ph_bin_cap) * sizeof(uint16_t) +
-               sc->tris_bytes + sc->mode_cap + sc->ps_cap * (sizeof(path_state) + 4 * sizeof(uint32_t)) + sc->live_n +
+               sc->tc.bytes + sc->mode_cap + sc->ps_cap * (sizeof(path_state) + 4 * sizeof(uint32_t)) + sc->live_n +
                sc->pd_cap * sizeof(pgi__pdiff) + sc->hist_n * sizeof(uint32_t);
     for (int t = 0; t < sc->nthreads; t++) {
         const pgi__trace_tbuf *tb = &sc->tbuf[t];
@@ -1231,14 +1158,14 @@ static pgi_status trace_photons(const pgi_scene *s, const pgi__rt *rt, const pgi
                 0,
                 d->portals ? &pe : NULL};
     const int nt = pgi__threads(d->threads);
-    pgi_status ts = pgi__trace_tris_update(sc, s, nt);
+    pgi_status ts = pgi__tri_cache_update(&sc->tc, s, nt);
     if (ts) {
         free(cdf);
         pgi__portal_emit_free(&pe);
         return ts;
     }
-    T.tris = sc->tris;
-    T.tri_uv = sc->tri_uv;
+    T.tris = sc->tc.tris;
+    T.tri_uv = sc->tc.tri_uv;
     T.fast_sincos = pgi__trace_sincos_fast();
     if (d->guide) {
         if (!d->vgrid) {

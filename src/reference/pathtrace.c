@@ -21,7 +21,7 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "photon/photon.h"
+#include "scene/tri_cache.h"
 #include "pipeline/pipeline.h"
 #include "rt/rt.h"
 #include "scene/bsdf.h"
@@ -43,9 +43,9 @@ typedef struct {
     float *cdf;      /* area lights by luminance of power (as pgi__direct) */
     size_t *idx;     /* cdf entry -> light index */
     float *tri_pick; /* triangle -> pick probability of its area light (0: none) */
-    /* the triangles as the path's vertices after x0 read them (pgi__trace_tris_update): one
+    /* the triangles as the path's vertices after x0 read them (pgi__tri_cache_update): one
        cache line a hit instead of a dozen scattered ones */
-    const pgi__trace_tri *tris;
+    const pgi__tri_rec *tris;
     const float *tri_uv; /* PGI__TRI_UV floats a triangle (NULL: no texture coordinates) */
 } pt_ctx;
 
@@ -217,11 +217,11 @@ static pgi__v3 trace_sample(const pt_ctx *C, int px, int py, float jx, float jy,
             if (s->env) L = v3_add(L, v3_mul(T, escaped(s, &sf, wo, d, pdf_b)));
             break;
         }
-        const pgi__trace_tri *tr = &C->tris[h.prim];
+        const pgi__tri_rec *tr = &C->tris[h.prim];
         const float *tuv = C->tri_uv ? C->tri_uv + PGI__TRI_UV * (size_t)h.prim : NULL;
         if (tuv) __builtin_prefetch(tuv); /* its miss overlapping tr's */
         /* The geometry first: a vertex the path ends at needs no shading normal or texel. */
-        pgi__trace_tri_geometry(s, tr, v3_madd(o, d, h.t), &sf);
+        pgi__tri_rec_geometry(s, tr, v3_madd(o, d, h.t), &sf);
         /* Emitter hit at x_{k+1}: a light path with k scattering events. */
         pgi__v3 ke = v3_load(sf.mat->ke);
         float cl = -v3_dot(d, sf.ng);
@@ -244,10 +244,10 @@ static pgi__v3 trace_sample(const pt_ctx *C, int px, int py, float jx, float jy,
             if (!(pgi_rng_f(rng) < qrr)) break;
             T = v3_scale(T, 1.f / qrr);
         }
-        pgi__trace_tri_shading(s, tr, h.prim, h.u, h.v, &sf);
+        pgi__tri_rec_shading(s, tr, h.prim, h.u, h.v, &sf);
         /* as pgi__surface_texture, its texels fetched now and applied by nee() or above */
         if (sf.mat->tex_kd >= 0) {
-            if (tuv) pgi__trace_tri_uv(tuv, h.u, h.v, &sf.u, &sf.v);
+            if (tuv) pgi__tri_rec_uv(tuv, h.u, h.v, &sf.u, &sf.v);
             /* no texels: pgi__texture_lookup's white, kd as it is */
             if (pgi__texture_quad(&s->texs[sf.mat->tex_kd], sf.u, sf.v, &quad)) tq = &quad;
         }
@@ -289,9 +289,9 @@ static pgi_status ctx_lights(pt_ctx *C) {
 struct pgi_reference_sampler {
     pt_ctx C;
     pgi__rt *rt;
-    pgi__trace_scratch tris; /* only its triangle records */
-    pt_eye *eye;             /* a pixel's, without jitter (NULL: none, or no memory for them) */
-    pgi_reference_desc d;    /* resolved */
+    pgi__tri_cache tris;
+    pt_eye *eye;          /* a pixel's, without jitter (NULL: none, or no memory for them) */
+    pgi_reference_desc d; /* resolved */
     uint64_t rng_seed;
 };
 
@@ -342,7 +342,7 @@ pgi_status pgi_reference_sampler_create(const pgi_scene *s, const pgi_reference_
     S->d.view = NULL; /* borrowed for the call only */
     pgi_camera_look_at(&C->cam, cd->eye, cd->look_at, cd->up, cd->fov_y_deg, d.width, d.height);
     if ((st = ctx_lights(C)) || (st = pgi__rt_create(s, &S->rt)) ||
-        (st = pgi__trace_tris_update(&S->tris, s, d.threads))) {
+        (st = pgi__tri_cache_update(&S->tris, s, d.threads))) {
         pgi_reference_sampler_destroy(S);
         return st;
     }
@@ -361,7 +361,7 @@ void pgi_reference_sampler_destroy(pgi_reference_sampler *S) {
     if (!S) return;
     if (S->rt) pgi__rt_destroy(S->rt);
     ctx_free(&S->C);
-    pgi__trace_scratch_free(&S->tris);
+    pgi__tri_cache_free(&S->tris);
     free(S->eye);
     free(S);
 }

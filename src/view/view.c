@@ -15,7 +15,6 @@
 #include <immintrin.h>
 #endif
 
-#include "photon/photon.h"
 #include "scene/bsdf.h"
 #include "scene/portal.h"
 
@@ -216,7 +215,7 @@ static inline void put_sample(view_block *vs, int j, const pgi__surface *sf, pgi
 typedef struct tex_cone {
     int on;              /* filter (pgi__subpixel.tex_filter, and the scene has texture coordinates) */
     float spread;        /* radians a unit distance */
-    const float *tri_uv; /* the triangle records' PGI__TRI_UV floats (pgi__trace_scratch.tri_uv) */
+    const float *tri_uv; /* the triangle records' PGI__TRI_UV floats (pgi__tri_cache.tri_uv) */
 } tex_cone;
 
 static inline float cone_width(const tex_cone *tc, float width, float t) { return width + tc->spread * t; }
@@ -465,7 +464,7 @@ typedef struct tile_hits {
 } tile_hits;
 
 /* The surfaces of a tile's primary hits component by component, lane k at [k] (lanes without a
- * hit hold anything): pgi__trace_tri_surface's position and shading normal, pgi__trace_tri_uv's
+ * hit hold anything): pgi__tri_rec_surface's position and shading normal, pgi__tri_rec_uv's
  * texture coordinates (0 without them) and the depth along the camera's forward axis. */
 typedef struct tile_surf {
     float p[3][16], ns[3][16], u[16], v[16], depth[16];
@@ -489,15 +488,15 @@ typedef struct view_tile {
 
 /* tile_surf lane by lane with the inline functions: what tile_surfaces_avx2 must equal, and the
  * build for processors without AVX2. */
-static void tile_surfaces(const pgi_scene *s, const pgi__trace_scratch *tr, const tile_hits *hits,
-                          const float (*dsoa)[16], pgi__v3 eye, pgi__v3 fwd, tile_surf *o) {
+static void tile_surfaces(const pgi_scene *s, const pgi__tri_cache *tr, const tile_hits *hits, const float (*dsoa)[16],
+                          pgi__v3 eye, pgi__v3 fwd, tile_surf *o) {
     for (int k = 0; k < 16; k++) {
         if (hits->prim[k] == UINT32_MAX) continue;
         pgi__surface sf;
         const pgi__v3 p = v3_madd(eye, v3(dsoa[0][k], dsoa[1][k], dsoa[2][k]), hits->t[k]);
-        pgi__trace_tri_surface(s, &tr->tris[hits->prim[k]], hits->prim[k], hits->u[k], hits->v[k], p, &sf);
+        pgi__tri_rec_surface(s, &tr->tris[hits->prim[k]], hits->prim[k], hits->u[k], hits->v[k], p, &sf);
         if (tr->tri_uv)
-            pgi__trace_tri_uv(tr->tri_uv + PGI__TRI_UV * (size_t)hits->prim[k], hits->u[k], hits->v[k], &sf.u, &sf.v);
+            pgi__tri_rec_uv(tr->tri_uv + PGI__TRI_UV * (size_t)hits->prim[k], hits->u[k], hits->v[k], &sf.u, &sf.v);
         o->p[0][k] = p.x;
         o->p[1][k] = p.y;
         o->p[2][k] = p.z;
@@ -532,10 +531,10 @@ __attribute__((target("avx2"))) static inline void transpose8(__m256 r[8]) {
 }
 
 /* tile_surfaces eight lanes an instruction: the records (two rows of 8 floats each, coordinates
- * one row) transposed into components, then pgi__trace_tri_surface's and
- * pgi__trace_tri_uv's operations in their order, without FMA (-ffp-contract=off; packed IEEE
+ * one row) transposed into components, then pgi__tri_rec_surface's and
+ * pgi__tri_rec_uv's operations in their order, without FMA (-ffp-contract=off; packed IEEE
  * results equal the scalar ones), so the same bits. Lanes without a hit read record 0. */
-__attribute__((target("avx2"))) static void tile_surfaces_avx2(const pgi_scene *s, const pgi__trace_scratch *tr,
+__attribute__((target("avx2"))) static void tile_surfaces_avx2(const pgi_scene *s, const pgi__tri_cache *tr,
                                                                const tile_hits *hits, const float (*dsoa)[16],
                                                                pgi__v3 eye, pgi__v3 fwd, tile_surf *o) {
     const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.f), inf = _mm256_set1_ps(INFINITY);
@@ -690,15 +689,15 @@ __attribute__((target("avx2"))) static int tile_uniform_avx2(const int valid[16]
 }
 #endif
 
-pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scratch *tris, const pgi_camera *cam,
+pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__tri_cache *tris, const pgi_camera *cam,
                            uint64_t seed, const pgi__subpixel *sp, int threads, pgi_view_samples *vs, float *emit,
                            pgi__view_fill *fill, uint64_t *rays_out) {
     const int W = cam->width, H = cam->height;
     if (vs->width != W || vs->height != H)
         return pgi__fail(PGI_ERR_INVALID_ARG, "view-sample buffer is %dx%d, camera %dx%d", vs->width, vs->height, W, H);
-    pgi__trace_scratch own = {0};
-    pgi__trace_scratch *const tr = tris ? tris : &own;
-    pgi_status st = pgi__trace_tris_update(tr, s, threads);
+    pgi__tri_cache own = {0};
+    pgi__tri_cache *const tr = tris ? tris : &own;
+    pgi_status st = pgi__tri_cache_update(tr, s, threads);
     if (st) return st;
     vs->jitter = (sp->jitter ? 0.5f : 0.f) + fmaxf(fabsf(sp->shift[0]), fabsf(sp->shift[1]));
     /* without the memory for the record, every row is written (as with none) */
@@ -829,8 +828,8 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
                         const int j = (k >> 2) * BLOCK_W + 4 * tb + (k & 3);
                         if (hits->prim[k] != UINT32_MAX) {
                             /* pgi__scene_surface_untextured from the triangle's record: the same bits */
-                            pgi__trace_tri_geometry(s, &tr->tris[hits->prim[k]],
-                                                    v3(ts->p[0][k], ts->p[1][k], ts->p[2][k]), &sf[k]);
+                            pgi__tri_rec_geometry(s, &tr->tris[hits->prim[k]],
+                                                  v3(ts->p[0][k], ts->p[1][k], ts->p[2][k]), &sf[k]);
                             if (!pgi__mat_specular(sf[k].mat)) {
                                 sf[k].ns = v3(ts->ns[0][k], ts->ns[1][k], ts->ns[2][k]);
                                 sf[k].u = ts->u[k];
@@ -895,7 +894,7 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
 #if VIEW_AVX2
     free(cu);
 #endif
-    pgi__trace_scratch_free(&own);
+    pgi__tri_cache_free(&own);
     *rays_out = rays;
     return PGI_OK;
 }

@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "rt/rt.h"
+#include "scene/tri_cache.h"
 
 /* Where the view samples of a frame look in their pixels (pgi__pixel_jitter). */
 typedef struct pgi__subpixel {
@@ -54,13 +55,12 @@ void pgi__view_fill_free(pgi__view_fill *f);
  * hit, and fills `vs`. `emit` (3 floats a pixel) receives emitted radiance
  * seen along the eye path. `fill` (NULL: every row is written) is the record of what vs and
  * emit hold (pgi__view_fill): rows that hold what they would receive are left alone, and it
- * is brought up to date (made anew for another size). Primary hits are shaded from the triangle records of `tris`
- * (pgi__trace_tris_update, brought up to date here: the renderer passes its tracer's scratch, so
- * that both passes share one copy); NULL: records of its own for the call. */
-struct pgi__trace_scratch;
-pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, struct pgi__trace_scratch *tris,
-                           const pgi_camera *cam, uint64_t seed, const pgi__subpixel *sp, int threads,
-                           pgi_view_samples *vs, float *emit, pgi__view_fill *fill, uint64_t *rays);
+ * is brought up to date (made anew for another size). Primary hits are shaded from the triangle
+ * cache `tris` (pgi__tri_cache_update, brought up to date here: the renderer passes its tracer's,
+ * so that both passes share one copy); NULL: records of its own for the call. */
+pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__tri_cache *tris, const pgi_camera *cam,
+                           uint64_t seed, const pgi__subpixel *sp, int threads, pgi_view_samples *vs, float *emit,
+                           pgi__view_fill *fill, uint64_t *rays);
 
 /* The frame's image as pgi__direct writes it in place of its direct light (the composite): a
  * pixel's floats are emitted + direct light, plus its weight times the indirect light, `output`
