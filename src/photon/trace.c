@@ -1081,6 +1081,324 @@ static pgi_status scratch_reserve(pgi__trace_scratch *sc, size_t paths, int nt, 
     return PGI_OK;
 }
 
+/* The lights, then the sky (if any) as entry nl - 1: `cdf` (nl floats) by luminance of power
+ * (through the portals for the sun and the sky with portal emission), and the room a chunk for
+ * the states of paths from point and spot lights (start_paths). 0 in *total: no light. */
+static void light_table(const pgi_scene *s, const pgi__trace_desc *d, const pgi__portal_emit *pe, float *cdf, size_t nl,
+                        double *total_out, size_t *room_out) {
+    double total = 0.0;
+    for (size_t i = 0; i < nl; i++) {
+        const pgi__light *L = i < s->nlights ? &s->lights[i] : &s->env->light;
+        double p = fmax(0.0, (double)v3_lum(v3_load(L->power)));
+        /* portal emission: the sun's and the sky's power through the portals */
+        if (d->portals && L->type == PGI__LIGHT_SUN)
+            p = fmax(0.0, (double)v3_lum(v3_load(L->color))) * pgi__portal_sun_area(s, v3_load(L->dir));
+        else if (d->portals && L->type == PGI__LIGHT_ENV) p = pe->sky_lum;
+        total += p;
+        cdf[i] = (float)total;
+    }
+    *total_out = total;
+    *room_out = 0;
+    if (!(total > 0.0)) return;
+    /* The share of the power that leaves point and spot lights sizes the room for their paths'
+     * states a chunk (start_paths): the expected count and 4 sigma; the chunk's paths past it
+     * start in the chunk. */
+    double point_power = 0.0;
+    for (size_t i = 0; i < s->nlights; i++)
+        if (pgi__light_from_point(&s->lights[i])) point_power += fmax(0.0, (double)v3_lum(v3_load(s->lights[i].power)));
+    const double share = point_power / total;
+    size_t room = share <= 0.0 ? 0 : (size_t)ceil(share * CHUNK + 4.0 * sqrt(share * (1.0 - share) * CHUNK) + 16.0);
+    if (room > CHUNK) room = CHUNK;
+    if (pgi__trace_room_cap > 0 && room > (size_t)pgi__trace_room_cap) room = (size_t)pgi__trace_room_cap;
+    for (size_t i = 0; i < nl; i++) cdf[i] = (float)(cdf[i] / total);
+    cdf[nl - 1] = 1.f;
+    *room_out = room;
+}
+
+/* The paths of the next batch, from the yield seen so far (seen_paths, seen_photons) and the
+ * photons still missing in this phase (`remaining`); at most `left` paths. */
+static size_t batch_paths(double seen_paths, double seen_photons, size_t remaining, size_t room, uint64_t left) {
+    size_t batch;
+    if (seen_photons < 64.0) {
+        batch = remaining / 4 + 64; /* no estimate yet: a pilot batch */
+        if (batch > 4 * CHUNK) batch = 4 * CHUNK;
+        /* ... as many paths as all the pilots before it: a scene that stores (almost) nothing
+         * reaches max_paths in a few dozen batches, not in a million-path crawl of 64 at a time */
+        if ((double)batch < seen_paths) batch = (size_t)seen_paths;
+    } else {
+        /* The bulk of a phase: an upper bound of the yield (1 sigma of the photon count seen)
+         * sizes the batch from below, as a rule (paths traced for nothing cost more than
+         * the smaller batch that then ends the phase). A batch that ends the phase after
+         * its bulk (fewer photons missing than seen so far) takes a lower bound, 3 sigma of
+         * the count seen and 4 of the batch's own (a path stores 0 to `bounces` photons:
+         * a Poisson count's, with room), and so ends it, where its paths too many would be
+         * at most 1 % of those seen: they cost less than a further batch (Sibenik's frames
+         * took five batches, with 3 sigma from above throughout: the last two of 131 and 64
+         * paths). */
+        const double y = seen_photons / seen_paths, rem = (double)remaining;
+        batch = (size_t)(rem / (y * (1.0 + 1.0 / sqrt(seen_photons)))) + 1;
+        if (rem < seen_photons) {
+            const double lo = fmax(1.0 - 3.0 / sqrt(seen_photons) - 4.0 / sqrt(rem), 0.5);
+            if (rem / (y * lo) - rem / y <= 0.01 * seen_paths) batch = (size_t)(rem / (y * lo)) + 1;
+        }
+    }
+    if (batch < 64) batch = 64;
+    if (batch > (1u << 20)) batch = 1u << 20;
+    if (room && batch > PREPASS_BATCH) batch = PREPASS_BATCH;
+    if (batch > left) batch = (size_t)left;
+    return batch;
+}
+
+/* Traces a batch of `batch` paths from path index `path` into the threads' buffers (sc->tbuf,
+ * sc->chunks, sc->counts): the paths from point and spot lights start first (up to `room` a
+ * chunk), sorted by where they go, and meet their first hits in that order (first_hits); then
+ * each chunk traces its paths on from there, and starts the others. 0 when a thread ran out of
+ * memory for its photons. */
+static int trace_batch(const tracer *T, pgi__trace_scratch *sc, uint64_t path, size_t batch, int nt, size_t room,
+                       uint64_t *rays_out) {
+    const long long nch = (long long)((batch + CHUNK - 1) / CHUNK);
+    for (int t = 0; t < nt; t++) sc->tbuf[t].nrec = 0;
+    uint64_t batch_rays = 0;
+    int failed = 0;
+    path_state *ps = sc->ps;
+    pgi__pdiff *pd = T->fp_track ? sc->ps_pd : NULL;
+    if (room) {
+        /* nt parts of consecutive chunks, each with its own counts of the keys' bytes: the
+           sort's first pass places each part's keys in parallel (sort_paths) */
+        memset(sc->hist, 0, (size_t)(nt + 1) * 1024 * sizeof *sc->hist);
+#pragma omp parallel for schedule(static, 1) num_threads(nt)
+        for (int q = 0; q < nt; q++) {
+            uint32_t *gc = T->G ? T->G->tcount + (size_t)omp_get_thread_num() * 3 * (size_t)T->G->nbins : NULL;
+            for (long long c = part_first(nch, nt, q); c < part_first(nch, nt, q + 1); c++) {
+                const size_t p0 = (size_t)c * CHUNK, p1 = p0 + CHUNK < batch ? p0 + CHUNK : batch;
+                sc->chunks[c].keyed =
+                    start_paths(T, path, p0, p1, (size_t)c * room, room, ps, pd, sc->mode, sc->key, sc->idx, gc,
+                                T->G ? sc->path_bin : NULL, sc->hist + (size_t)(q + 1) * 1024);
+            }
+        }
+    }
+    size_t keyed = 0; /* each chunk's keyed paths, together */
+    for (long long c = 0; room && c < nch; c++) {
+        sc->chunks[c].kofs = keyed;
+        keyed += sc->chunks[c].keyed;
+    }
+    if (keyed) sort_paths(sc, nch, room, keyed, nt);
+    const long long ngroups = (long long)((keyed + WAVE - 1) / WAVE), nblocks = (ngroups + 15) / 16;
+    /* each thread's byte a state slot (first_hits: whether the path goes on), zero where
+       another thread shades the path: one array written by all, at random places, had the
+       threads take its lines from each other's caches (first_hits took 13 % longer a thread
+       at two threads than at one) */
+    const size_t slots = (size_t)nch * room;
+    if (keyed) memset(sc->live, 0, slots * (size_t)nt);
+#pragma omp parallel for schedule(dynamic, 1) reduction(+ : batch_rays) num_threads(nt)
+    for (long long bk = 0; bk < nblocks; bk++) {
+        uint64_t r = 0;
+        const size_t g0 = (size_t)bk * 16, g1 = g0 + 16 < (size_t)ngroups ? g0 + 16 : (size_t)ngroups;
+        first_hits(T, ps, pd, sc->live + (size_t)omp_get_thread_num() * slots, sc->idx, keyed, g0, g1,
+                   keyed >= COHERENT_MIN, &r);
+        batch_rays += r;
+    }
+#pragma omp parallel for schedule(dynamic, 1) reduction(+ : batch_rays) num_threads(nt)
+    for (long long c = 0; c < nch; c++) {
+        int tid = omp_get_thread_num();
+        pgi__trace_tbuf *tb = &sc->tbuf[tid];
+        const size_t p0 = (size_t)c * CHUNK, p1 = p0 + CHUNK < batch ? p0 + CHUNK : batch;
+        chunk_info *ci = &sc->chunks[c];
+        ci->tid = tid;
+        ci->off = tb->nrec;
+        uint64_t r = 0;
+        int ok = 0;
+        int f;
+#pragma omp atomic read
+        f = failed;
+        uint32_t *gc = T->G ? T->G->tcount + (size_t)tid * 3 * (size_t)T->G->nbins : NULL;
+        if (!f)
+            ok = trace_chunk(T, path, room ? sc->mode : NULL, room ? ps + (size_t)c * room : NULL,
+                             pd && room ? pd + (size_t)c * room : NULL, room ? sc->live + (size_t)c * room : NULL,
+                             slots, nt, p0, p1, tb, sc->counts + (size_t)c * CHUNK, &r, gc, T->G ? sc->path_bin : NULL);
+        if (!ok) {
+#pragma omp atomic write
+            failed = 1;
+        }
+        ci->total = ci->count = ok ? tb->nrec - ci->off : 0;
+        batch_rays += r;
+    }
+    *rays_out = batch_rays;
+    return !failed;
+}
+
+/* The chunks whose photons the buffer takes: whole chunks while they fit, the last one cut after
+ * the path that fills it (its count lowered). Adds their photons to *produced and their paths to
+ * *used_paths; returns how many chunks. */
+static long long take_chunks(pgi__trace_scratch *sc, long long nch, size_t batch, size_t count, size_t goal,
+                             size_t *produced_out, size_t *used_out) {
+    size_t produced = 0, used_paths = 0;
+    long long c = 0;
+    for (; c < nch && count + produced < goal; c++) {
+        chunk_info *ci = &sc->chunks[c];
+        size_t np = (size_t)((c + 1) * CHUNK <= (long long)batch ? CHUNK : batch - (size_t)c * CHUNK);
+        if (count + produced + ci->count < goal) { /* an exact fill is cut after its filling path */
+            produced += ci->count;
+            used_paths += np;
+            continue;
+        }
+        size_t take = 0, i = 0;
+        const uint8_t *cn = sc->counts + (size_t)c * CHUNK;
+        while (count + produced + take < goal) take += cn[i++];
+        ci->count = goal - count - produced;
+        produced += ci->count;
+        used_paths += i;
+        c++;
+        break;
+    }
+    *produced_out = produced;
+    *used_out = used_paths;
+    return c;
+}
+
+/* Copies the photons of the first `used_chunks` chunks into ph after its `ph->count`, in path
+ * order, with their guide bins and footprints (and the footprint histogram). */
+static pgi_status gather_photons(const tracer *T, pgi__trace_scratch *sc, const pgi__trace_desc *d, pgi_photons *ph,
+                                 long long used_chunks, size_t batch, int nt) {
+    const float bin_w = d->r_max / 14.f;
+    size_t *dst = malloc((size_t)(used_chunks ? used_chunks : 1) * sizeof *dst);
+    if (!dst) { return pgi__fail(PGI_ERR_OOM, "out of memory gathering photons"); }
+    size_t acc = ph->count;
+    for (long long k = 0; k < used_chunks; k++) {
+        dst[k] = acc;
+        acc += sc->chunks[k].count;
+    }
+#pragma omp parallel for schedule(dynamic, 4) num_threads(nt)
+    for (long long k = 0; k < used_chunks; k++) {
+        const chunk_info *ci = &sc->chunks[k];
+        const pgi__trace_tbuf *tb = &sc->tbuf[ci->tid];
+        const uint8_t *cn = sc->counts + (size_t)k * CHUNK;
+        if (T->G) { /* each photon's bin, from its path's */
+            size_t q = 0;
+            for (int i = 0; q < ci->count; i++)
+                for (int m = 0; m < cn[i] && q < ci->count; m++) sc->ph_bin[dst[k] + q++] = sc->path_bin[k * CHUNK + i];
+        }
+        /* The chunk's photons into path order as they are copied: a path's photons were
+         * recorded in its bounce order, so each goes to its path's start plus the ones
+         * before it; those past the count taken (the cut chunk) stay out. */
+        const size_t np = (size_t)((k + 1) * CHUNK <= (long long)batch ? CHUNK : batch - (size_t)k * CHUNK);
+        uint32_t start[CHUNK];
+        uint32_t first = 0;
+        for (size_t i = 0; i < np; i++) {
+            start[i] = first;
+            first += cn[i];
+        }
+        uint64_t hist[PGI_FOOTPRINT_BINS] = {0};
+        for (size_t q = 0; q < ci->total; q++) {
+            const size_t r = ci->off + q;
+            const uint32_t pos = start[tb->rec_path[r]]++;
+            if (pos >= ci->count) continue;
+            const stored_photon *sp = &tb->rec[r];
+            const size_t j = dst[k] + pos;
+            ph->px[j] = sp->p[0];
+            ph->py[j] = sp->p[1];
+            ph->pz[j] = sp->p[2];
+            ph->dx[j] = sp->d[0];
+            ph->dy[j] = sp->d[1];
+            ph->dz[j] = sp->d[2];
+            ph->fr[j] = sp->f[0];
+            ph->fg[j] = sp->f[1];
+            ph->fb[j] = sp->f[2];
+            ph->nx[j] = sp->n[0];
+            ph->ny[j] = sp->n[1];
+            ph->nz[j] = sp->n[2];
+            if (T->fp_on) {
+                const pgi__footprint *fp = &tb->rec_fp[r];
+                ph->radius[j] = fp->r;
+                if (ph->sax) {
+                    ph->sax[j] = fp->a[0];
+                    ph->say[j] = fp->a[1];
+                    ph->saz[j] = fp->a[2];
+                    ph->sbx[j] = fp->b[0];
+                    ph->sby[j] = fp->b[1];
+                    ph->sbz[j] = fp->b[2];
+                }
+                if (d->footprint_hist) {
+                    float qb = fp->r_raw / bin_w;
+                    int bin = qb < (float)(PGI_FOOTPRINT_BINS - 1) ? (int)qb : PGI_FOOTPRINT_BINS - 1;
+                    hist[bin < 0 ? 0 : bin]++;
+                }
+            }
+        }
+        if (T->fp_on && d->footprint_hist)
+            for (int i = 0; i < PGI_FOOTPRINT_BINS; i++)
+                if (hist[i]) {
+#pragma omp atomic
+                    d->footprint_hist[i] += hist[i];
+                }
+    }
+    free(dst);
+    return PGI_OK;
+}
+
+/* The photons' flux over the paths traced (ph->emitted): with steered paths (after a guide's
+ * pilot), weighted by V_b / q_b of their bins (guide.h). */
+static void scale_flux(pgi_photons *ph, const pgi__trace_scratch *sc, const pgi__guide *g, uint64_t path,
+                       uint64_t pilot_paths, int nt) {
+    if (pilot_paths > 0 && path > 0) {
+        /* steered paths: weight V_b / q_b (guide.h), over the paths */
+        float w[PGI__GUIDE_GROUPS * PGI__GUIDE_RES * PGI__GUIDE_RES];
+        for (int b = 0; b < g->nbins; b++)
+            w[b] = g->q[b] > 0 ? (float)(pgi__guide_volume(g, b) / g->q[b] / (double)path) : 0.f;
+#pragma omp parallel for schedule(static) num_threads(nt) if (ph->count >= 65536)
+        for (size_t j = 0; j < ph->count; j++) {
+            const float f = w[sc->ph_bin[j]];
+            ph->fr[j] *= f;
+            ph->fg[j] *= f;
+            ph->fb[j] *= f;
+        }
+        return;
+    }
+    if (path > 0) {
+        const float inv = (float)(1.0 / (double)path);
+#pragma omp parallel for schedule(static) num_threads(nt) if (ph->count >= 65536)
+        for (size_t j = 0; j < ph->count; j++) {
+            ph->fr[j] *= inv;
+            ph->fg[j] *= inv;
+            ph->fb[j] *= inv;
+        }
+    }
+}
+
+/* The tracer of a frame: its scene, rays, light table (cdf, nl entries), triangle records, guide,
+ * radius policy and portal emission (pe: NULL, or the sky's table). */
+static pgi_status tracer_init(tracer *T, const pgi_scene *s, const pgi__rt *rt, const pgi__trace_desc *d,
+                              const pgi_photons *ph, pgi__trace_scratch *sc, const float *cdf, size_t nl,
+                              const pgi__portal_emit *pe, int nt) {
+    *T = (tracer){.s = s,
+                  .rt = rt,
+                  .cdf = cdf,
+                  .nl = nl,
+                  .bounces = d->bounces,
+                  .seed_mix = pgi__rng_seed_mix(d->seed),
+                  .eps = pgi__scene_epsilon(s),
+                  .centre = v3_scale(v3_add(v3_load(s->bmin), v3_load(s->bmax)), 0.5f),
+                  .radius = 0.5f * pgi__scene_diagonal(s),
+                  .near = d->near,
+                  .PE = pe};
+    pgi_status ts = pgi__tri_cache_update(&sc->tc, s, nt);
+    if (ts) return ts;
+    T->tris = sc->tc.tris;
+    T->tri_uv = sc->tc.tri_uv;
+    T->fast_sincos = pgi__trace_sincos_fast();
+    if (d->guide) {
+        if (!d->vgrid) return pgi__fail(PGI_ERR_INVALID_ARG, "%s", "guided emission needs the view grid");
+        if ((ts = pgi__guide_init(d->guide, cdf, nl, nt))) return ts;
+        T->G = d->guide;
+        T->vg = d->vgrid;
+    }
+    pgi__fp_params_init(&T->fp, d->radius_policy, d->r_min, d->r_max, d->smoothing, d->photons, 2.f * T->radius);
+    T->fp_track = d->radius_policy != PGI_RADIUS_FIXED;
+    T->lambert_simd = T->fast_sincos && !T->fp_track; /* AVX2 (and FMA), not narrow; no radius policy */
+    T->fp_on = T->fp_track && ph->radius;
+    return PGI_OK;
+}
+
 static pgi_status trace_photons(const pgi_scene *s, const pgi__rt *rt, const pgi__trace_desc *d, pgi_photons *ph,
                                 pgi__trace_scratch *sc, uint64_t *rays_out) {
     ph->count = 0;
@@ -1096,7 +1414,6 @@ static pgi_status trace_photons(const pgi_scene *s, const pgi__rt *rt, const pgi
     const size_t nl = s->nlights + (s->env ? 1 : 0);
     float *cdf = malloc((nl ? nl : 1) * sizeof *cdf);
     if (!cdf) return pgi__fail(PGI_ERR_OOM, "out of memory for the light table");
-    double total = 0.0;
     pgi__portal_emit pe = {0};
     if (d->portals) {
         if (d->guide) {
@@ -1109,82 +1426,23 @@ static pgi_status trace_photons(const pgi_scene *s, const pgi__rt *rt, const pgi
             return ps;
         }
     }
-    for (size_t i = 0; i < nl; i++) {
-        const pgi__light *L = i < s->nlights ? &s->lights[i] : &s->env->light;
-        double p = fmax(0.0, (double)v3_lum(v3_load(L->power)));
-        /* portal emission: the sun's and the sky's power through the portals */
-        if (d->portals && L->type == PGI__LIGHT_SUN)
-            p = fmax(0.0, (double)v3_lum(v3_load(L->color))) * pgi__portal_sun_area(s, v3_load(L->dir));
-        else if (d->portals && L->type == PGI__LIGHT_ENV) p = pe.sky_lum;
-        total += p;
-        cdf[i] = (float)total;
-    }
+    double total;
+    size_t room;
+    light_table(s, d, &pe, cdf, nl, &total, &room);
     if (!(total > 0.0)) {
         free(cdf);
         pgi__portal_emit_free(&pe);
         return PGI_OK; /* no light: no photons; the image is black but valid */
     }
-    /* The share of the power that leaves point and spot lights sizes the room for their paths'
-     * states a chunk (start_paths): the expected count and 4 sigma; the chunk's paths past it
-     * start in the chunk. */
-    double point_power = 0.0;
-    for (size_t i = 0; i < s->nlights; i++)
-        if (pgi__light_from_point(&s->lights[i])) point_power += fmax(0.0, (double)v3_lum(v3_load(s->lights[i].power)));
-    const double share = point_power / total;
-    size_t room = share <= 0.0 ? 0 : (size_t)ceil(share * CHUNK + 4.0 * sqrt(share * (1.0 - share) * CHUNK) + 16.0);
-    if (room > CHUNK) room = CHUNK;
-    if (pgi__trace_room_cap > 0 && room > (size_t)pgi__trace_room_cap) room = (size_t)pgi__trace_room_cap;
-    for (size_t i = 0; i < nl; i++) cdf[i] = (float)(cdf[i] / total);
-    cdf[nl - 1] = 1.f;
 
-    tracer T = {s,
-                rt,
-                NULL,
-                NULL,
-                cdf,
-                nl,
-                d->bounces,
-                pgi__rng_seed_mix(d->seed),
-                pgi__scene_epsilon(s),
-                v3_scale(v3_add(v3_load(s->bmin), v3_load(s->bmax)), 0.5f),
-                0.5f * pgi__scene_diagonal(s),
-                {0},
-                0,
-                0,
-                NULL,
-                NULL,
-                d->near,
-                0,
-                0,
-                d->portals ? &pe : NULL};
+    tracer T;
     const int nt = pgi__threads(d->threads);
-    pgi_status ts = pgi__tri_cache_update(&sc->tc, s, nt);
+    pgi_status ts = tracer_init(&T, s, rt, d, ph, sc, cdf, nl, d->portals ? &pe : NULL, nt);
     if (ts) {
         free(cdf);
         pgi__portal_emit_free(&pe);
         return ts;
     }
-    T.tris = sc->tc.tris;
-    T.tri_uv = sc->tc.tri_uv;
-    T.fast_sincos = pgi__trace_sincos_fast();
-    if (d->guide) {
-        if (!d->vgrid) {
-            free(cdf);
-            return pgi__fail(PGI_ERR_INVALID_ARG, "%s", "guided emission needs the view grid");
-        }
-        pgi_status gs = pgi__guide_init(d->guide, cdf, nl, nt);
-        if (gs) {
-            free(cdf);
-            return gs;
-        }
-        T.G = d->guide;
-        T.vg = d->vgrid;
-    }
-    pgi__fp_params_init(&T.fp, d->radius_policy, d->r_min, d->r_max, d->smoothing, d->photons, 2.f * T.radius);
-    T.fp_track = d->radius_policy != PGI_RADIUS_FIXED;
-    T.lambert_simd = T.fast_sincos && !T.fp_track; /* AVX2 (and FMA), not narrow; no radius policy */
-    T.fp_on = T.fp_track && ph->radius;
-    const float bin_w = d->r_max / 14.f;
     uint64_t path = 0, traced = 0, rays = 0;
     const uint64_t max_paths = 64ull * d->photons + (1u << 20);
     const size_t want = d->photons;
@@ -1215,210 +1473,22 @@ static pgi_status trace_photons(const pgi_scene *s, const pgi__rt *rt, const pgi
             break;
         }
         const size_t goal = d->guide && !guide_done ? pilot_want : want; /* this phase's photons */
-        size_t remaining = goal - ph->count;
-        size_t batch;
-        if (seen_photons < 64.0) {
-            batch = remaining / 4 + 64; /* no estimate yet: a pilot batch */
-            if (batch > 4 * CHUNK) batch = 4 * CHUNK;
-            /* ... as many paths as all the pilots before it: a scene that stores (almost) nothing
-             * reaches max_paths in a few dozen batches, not in a million-path crawl of 64 at a time */
-            if ((double)batch < seen_paths) batch = (size_t)seen_paths;
-        } else {
-            /* The bulk of a phase: an upper bound of the yield (1 sigma of the photon count seen)
-             * sizes the batch from below, as a rule (paths traced for nothing cost more than
-             * the smaller batch that then ends the phase). A batch that ends the phase after
-             * its bulk (fewer photons missing than seen so far) takes a lower bound, 3 sigma of
-             * the count seen and 4 of the batch's own (a path stores 0 to `bounces` photons:
-             * a Poisson count's, with room), and so ends it, where its paths too many would be
-             * at most 1 % of those seen: they cost less than a further batch (Sibenik's frames
-             * took five batches, with 3 sigma from above throughout: the last two of 131 and 64
-             * paths). */
-            const double y = seen_photons / seen_paths, rem = (double)remaining;
-            batch = (size_t)(rem / (y * (1.0 + 1.0 / sqrt(seen_photons)))) + 1;
-            if (rem < seen_photons) {
-                const double lo = fmax(1.0 - 3.0 / sqrt(seen_photons) - 4.0 / sqrt(rem), 0.5);
-                if (rem / (y * lo) - rem / y <= 0.01 * seen_paths) batch = (size_t)(rem / (y * lo)) + 1;
-            }
-        }
-        if (batch < 64) batch = 64;
-        if (batch > (1u << 20)) batch = 1u << 20;
-        if (room && batch > PREPASS_BATCH) batch = PREPASS_BATCH;
-        if (batch > max_paths - path) batch = (size_t)(max_paths - path);
+        const size_t remaining = goal - ph->count;
+        const size_t batch = batch_paths(seen_paths, seen_photons, remaining, room, max_paths - path);
         if ((st = scratch_reserve(sc, batch, nt, T.G != NULL, T.fp_track, room))) break;
         const long long nch = (long long)((batch + CHUNK - 1) / CHUNK);
-        for (int t = 0; t < nt; t++) sc->tbuf[t].nrec = 0;
         uint64_t batch_rays = 0;
-        int failed = 0;
-        path_state *ps = sc->ps;
-        pgi__pdiff *pd = T.fp_track ? sc->ps_pd : NULL;
-        /* The paths from point and spot lights start first (up to `room` a chunk), sorted by
-         * where they go, and meet their first hits in that order (first_hits); then each chunk
-         * traces its paths on from there, and starts the others. */
-        if (room) {
-            /* nt parts of consecutive chunks, each with its own counts of the keys' bytes: the
-               sort's first pass places each part's keys in parallel (sort_paths) */
-            memset(sc->hist, 0, (size_t)(nt + 1) * 1024 * sizeof *sc->hist);
-#pragma omp parallel for schedule(static, 1) num_threads(nt)
-            for (int q = 0; q < nt; q++) {
-                uint32_t *gc = T.G ? T.G->tcount + (size_t)omp_get_thread_num() * 3 * (size_t)T.G->nbins : NULL;
-                for (long long c = part_first(nch, nt, q); c < part_first(nch, nt, q + 1); c++) {
-                    const size_t p0 = (size_t)c * CHUNK, p1 = p0 + CHUNK < batch ? p0 + CHUNK : batch;
-                    sc->chunks[c].keyed =
-                        start_paths(&T, path, p0, p1, (size_t)c * room, room, ps, pd, sc->mode, sc->key, sc->idx, gc,
-                                    T.G ? sc->path_bin : NULL, sc->hist + (size_t)(q + 1) * 1024);
-                }
-            }
-        }
-        size_t keyed = 0; /* each chunk's keyed paths, together */
-        for (long long c = 0; room && c < nch; c++) {
-            sc->chunks[c].kofs = keyed;
-            keyed += sc->chunks[c].keyed;
-        }
-        if (keyed) sort_paths(sc, nch, room, keyed, nt);
-        const long long ngroups = (long long)((keyed + WAVE - 1) / WAVE), nblocks = (ngroups + 15) / 16;
-        /* each thread's byte a state slot (first_hits: whether the path goes on), zero where
-           another thread shades the path: one array written by all, at random places, had the
-           threads take its lines from each other's caches (first_hits took 13 % longer a thread
-           at two threads than at one) */
-        const size_t slots = (size_t)nch * room;
-        if (keyed) memset(sc->live, 0, slots * (size_t)nt);
-#pragma omp parallel for schedule(dynamic, 1) reduction(+ : batch_rays) num_threads(nt)
-        for (long long bk = 0; bk < nblocks; bk++) {
-            uint64_t r = 0;
-            const size_t g0 = (size_t)bk * 16, g1 = g0 + 16 < (size_t)ngroups ? g0 + 16 : (size_t)ngroups;
-            first_hits(&T, ps, pd, sc->live + (size_t)omp_get_thread_num() * slots, sc->idx, keyed, g0, g1,
-                       keyed >= COHERENT_MIN, &r);
-            batch_rays += r;
-        }
-#pragma omp parallel for schedule(dynamic, 1) reduction(+ : batch_rays) num_threads(nt)
-        for (long long c = 0; c < nch; c++) {
-            int tid = omp_get_thread_num();
-            pgi__trace_tbuf *tb = &sc->tbuf[tid];
-            const size_t p0 = (size_t)c * CHUNK, p1 = p0 + CHUNK < batch ? p0 + CHUNK : batch;
-            chunk_info *ci = &sc->chunks[c];
-            ci->tid = tid;
-            ci->off = tb->nrec;
-            uint64_t r = 0;
-            int ok = 0;
-            int f;
-#pragma omp atomic read
-            f = failed;
-            uint32_t *gc = T.G ? T.G->tcount + (size_t)tid * 3 * (size_t)T.G->nbins : NULL;
-            if (!f)
-                ok = trace_chunk(&T, path, room ? sc->mode : NULL, room ? ps + (size_t)c * room : NULL,
-                                 pd && room ? pd + (size_t)c * room : NULL, room ? sc->live + (size_t)c * room : NULL,
-                                 slots, nt, p0, p1, tb, sc->counts + (size_t)c * CHUNK, &r, gc,
-                                 T.G ? sc->path_bin : NULL);
-            if (!ok) {
-#pragma omp atomic write
-                failed = 1;
-            }
-            ci->total = ci->count = ok ? tb->nrec - ci->off : 0;
-            batch_rays += r;
-        }
+        const int ok = trace_batch(&T, sc, path, batch, nt, room, &batch_rays);
         rays += batch_rays;
         traced += batch;
-        if (failed) {
+        if (!ok) {
             st = pgi__fail(PGI_ERR_OOM, "out of memory storing traced photons");
             break;
         }
         /* Take whole chunks while they fit; cut the last one after the path that fills the buffer. */
         size_t produced = 0, used_paths = 0;
-        long long c = 0;
-        for (; c < nch && ph->count + produced < goal; c++) {
-            chunk_info *ci = &sc->chunks[c];
-            size_t np = (size_t)((c + 1) * CHUNK <= (long long)batch ? CHUNK : batch - (size_t)c * CHUNK);
-            if (ph->count + produced + ci->count < goal) { /* an exact fill is cut after its filling path */
-                produced += ci->count;
-                used_paths += np;
-                continue;
-            }
-            size_t take = 0, i = 0;
-            const uint8_t *cn = sc->counts + (size_t)c * CHUNK;
-            while (ph->count + produced + take < goal) take += cn[i++];
-            ci->count = goal - ph->count - produced;
-            produced += ci->count;
-            used_paths += i;
-            c++;
-            break;
-        }
-        const long long used_chunks = c;
-        size_t *dst = malloc((size_t)(used_chunks ? used_chunks : 1) * sizeof *dst);
-        if (!dst) {
-            st = pgi__fail(PGI_ERR_OOM, "out of memory gathering photons");
-            break;
-        }
-        size_t acc = ph->count;
-        for (long long k = 0; k < used_chunks; k++) {
-            dst[k] = acc;
-            acc += sc->chunks[k].count;
-        }
-#pragma omp parallel for schedule(dynamic, 4) num_threads(nt)
-        for (long long k = 0; k < used_chunks; k++) {
-            const chunk_info *ci = &sc->chunks[k];
-            const pgi__trace_tbuf *tb = &sc->tbuf[ci->tid];
-            const uint8_t *cn = sc->counts + (size_t)k * CHUNK;
-            if (T.G) { /* each photon's bin, from its path's */
-                size_t q = 0;
-                for (int i = 0; q < ci->count; i++)
-                    for (int m = 0; m < cn[i] && q < ci->count; m++)
-                        sc->ph_bin[dst[k] + q++] = sc->path_bin[k * CHUNK + i];
-            }
-            /* The chunk's photons into path order as they are copied: a path's photons were
-             * recorded in its bounce order, so each goes to its path's start plus the ones
-             * before it; those past the count taken (the cut chunk) stay out. */
-            const size_t np = (size_t)((k + 1) * CHUNK <= (long long)batch ? CHUNK : batch - (size_t)k * CHUNK);
-            uint32_t start[CHUNK];
-            uint32_t first = 0;
-            for (size_t i = 0; i < np; i++) {
-                start[i] = first;
-                first += cn[i];
-            }
-            uint64_t hist[PGI_FOOTPRINT_BINS] = {0};
-            for (size_t q = 0; q < ci->total; q++) {
-                const size_t r = ci->off + q;
-                const uint32_t pos = start[tb->rec_path[r]]++;
-                if (pos >= ci->count) continue;
-                const stored_photon *sp = &tb->rec[r];
-                const size_t j = dst[k] + pos;
-                ph->px[j] = sp->p[0];
-                ph->py[j] = sp->p[1];
-                ph->pz[j] = sp->p[2];
-                ph->dx[j] = sp->d[0];
-                ph->dy[j] = sp->d[1];
-                ph->dz[j] = sp->d[2];
-                ph->fr[j] = sp->f[0];
-                ph->fg[j] = sp->f[1];
-                ph->fb[j] = sp->f[2];
-                ph->nx[j] = sp->n[0];
-                ph->ny[j] = sp->n[1];
-                ph->nz[j] = sp->n[2];
-                if (T.fp_on) {
-                    const pgi__footprint *fp = &tb->rec_fp[r];
-                    ph->radius[j] = fp->r;
-                    if (ph->sax) {
-                        ph->sax[j] = fp->a[0];
-                        ph->say[j] = fp->a[1];
-                        ph->saz[j] = fp->a[2];
-                        ph->sbx[j] = fp->b[0];
-                        ph->sby[j] = fp->b[1];
-                        ph->sbz[j] = fp->b[2];
-                    }
-                    if (d->footprint_hist) {
-                        float qb = fp->r_raw / bin_w;
-                        int bin = qb < (float)(PGI_FOOTPRINT_BINS - 1) ? (int)qb : PGI_FOOTPRINT_BINS - 1;
-                        hist[bin < 0 ? 0 : bin]++;
-                    }
-                }
-            }
-            if (T.fp_on && d->footprint_hist)
-                for (int i = 0; i < PGI_FOOTPRINT_BINS; i++)
-                    if (hist[i]) {
-#pragma omp atomic
-                        d->footprint_hist[i] += hist[i];
-                    }
-        }
-        free(dst);
+        const long long used_chunks = take_chunks(sc, nch, batch, ph->count, goal, &produced, &used_paths);
+        if ((st = gather_photons(&T, sc, d, ph, used_chunks, batch, nt))) break;
         /* The batch's full yield (all its paths and photons) informs the next batch. */
         size_t batch_photons = 0;
         for (size_t i = 0; i < batch; i++) batch_photons += sc->counts[i];
@@ -1477,30 +1547,7 @@ static pgi_status trace_photons(const pgi_scene *s, const pgi__rt *rt, const pgi
     }
     path -= pilot_paths;
     ph->emitted = path;
-    if (pilot_paths > 0 && path > 0) {
-        /* steered paths: weight V_b / q_b (guide.h), over the paths */
-        const pgi__guide *g = d->guide;
-        float w[PGI__GUIDE_GROUPS * PGI__GUIDE_RES * PGI__GUIDE_RES];
-        for (int b = 0; b < g->nbins; b++)
-            w[b] = g->q[b] > 0 ? (float)(pgi__guide_volume(g, b) / g->q[b] / (double)path) : 0.f;
-#pragma omp parallel for schedule(static) num_threads(nt) if (ph->count >= 65536)
-        for (size_t j = 0; j < ph->count; j++) {
-            const float f = w[sc->ph_bin[j]];
-            ph->fr[j] *= f;
-            ph->fg[j] *= f;
-            ph->fb[j] *= f;
-        }
-        return PGI_OK;
-    }
-    if (path > 0) {
-        const float inv = (float)(1.0 / (double)path);
-#pragma omp parallel for schedule(static) num_threads(nt) if (ph->count >= 65536)
-        for (size_t j = 0; j < ph->count; j++) {
-            ph->fr[j] *= inv;
-            ph->fg[j] *= inv;
-            ph->fb[j] *= inv;
-        }
-    }
+    scale_flux(ph, sc, d->guide, path, pilot_paths, nt);
     return PGI_OK;
 }
 
