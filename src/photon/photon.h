@@ -4,6 +4,7 @@
 
 #include "rt/rt.h"
 #include "scene/bsdf.h"
+#include "scene/light.h"
 #include "scene/tri_cache.h"
 
 typedef struct pgi__trace_desc {
@@ -74,12 +75,6 @@ typedef struct pgi__trace_scratch {
 void pgi__trace_scratch_free(pgi__trace_scratch *sc);
 /* Bytes the scratch holds. */
 size_t pgi__trace_scratch_bytes(const pgi__trace_scratch *sc);
-
-/* Whether every path of light L starts at one point (point and spot lights): the tracer sorts
- * those paths by direction and casts their first rays as coherent packets (trace.c first_hits). */
-static inline int pgi__light_from_point(const pgi__light *L) {
-    return L->type == PGI__LIGHT_POINT || L->type == PGI__LIGHT_SPOT;
-}
 
 /* Tests: at most this many paths of a chunk from point and spot lights start in the emission
  * pre-pass (0: no cap); the others start in their chunk (trace.c start_paths). */

@@ -98,6 +98,7 @@ typedef struct tracer {
     /* portal emission (scene/portal.h): NULL, or the sky's table; the sun and the sky start on
        the portals */
     const pgi__portal_emit *PE;
+    pgi__emit_frame E; /* what pgi__light_emit reads: the scene, centre, radius, eps and PE */
 } tracer;
 
 typedef struct lane {
@@ -138,118 +139,48 @@ static inline const pgi__light *pick_light(const tracer *T, uint64_t index, lane
     return li < T->s->nlights ? &T->s->lights[li] : &T->s->env->light; /* the last: the sky */
 }
 
-/* start_path after pick_light (below), in two steps: emit_draw, the numbers (the flux, the four
- * numbers u[0..3] of the emission, the guide's bin and count; 0: the light carries nothing), then
- * emit_place, the ray. `cs`: cos and sin of 2 pi u[1] where known (pgi__trace_sincos_2pi: the
- * same bits as cosf and sinf), used by point and spot lights; NULL: computed here. */
+/* start_path after pick_light (below), in two steps: emit_draw, the numbers (the four numbers
+ * u[0..3] of the emission, the guide's bin and count; 0: the light carries nothing), then
+ * emit_place, the ray and its flux (pgi__light_emit; emit_place_point takes `cs`, cos and sin of
+ * 2 pi u[1] where known: pgi__trace_sincos_2pi, the same bits as cosf and sinf). */
 static inline int emit_draw(const tracer *T, const pgi__light *L, const emission_pick *e, lane *l, uint32_t *cnt,
                             float u[4]) {
     const pgi__guide *G = T->G;
     const int steer = G && G->on;
     const float pl = e->pl;
-    float u1, u2, u3 = 0.f, u4 = 0.f;
     if (!(pl > 0.f)) return 0;
-    l->flux = v3_scale(v3_load(L->power), 1.f / pl);
-    /* The steered pair: an area light's direction and the sky's disk point (its 3rd and 4th
-     * numbers), the first two of the others. Uniform emission draws in the historical order:
-     * an area light's azimuth first (the order gcc gave the two draws when they were arguments
-     * of one call; explicit now, so that every compiler draws the same). */
-    const int late = L->type == PGI__LIGHT_AREA || L->type == PGI__LIGHT_ENV;
+    /* The steered pair: the light's own (pgi__light_pair_late), the guide's a and b; its other
+     * two numbers drawn. */
+    const int late = pgi__light_pair_late(L);
     if (steer) {
         if (late) {
-            u3 = e->a;
-            u4 = e->b;
-            u1 = pgi_rng_f(&l->rng);
-            u2 = pgi_rng_f(&l->rng);
+            u[2] = e->a;
+            u[3] = e->b;
+            u[0] = pgi_rng_f(&l->rng);
+            u[1] = pgi_rng_f(&l->rng);
         } else {
-            u1 = e->a;
-            u2 = e->b;
+            u[0] = e->a;
+            u[1] = e->b;
+            u[2] = u[3] = 0.f;
         }
     } else {
-        u1 = pgi_rng_f(&l->rng);
-        u2 = pgi_rng_f(&l->rng);
-        if (L->type == PGI__LIGHT_AREA) {
-            u4 = pgi_rng_f(&l->rng);
-            u3 = pgi_rng_f(&l->rng);
-        } else if (L->type == PGI__LIGHT_ENV) {
-            u3 = pgi_rng_f(&l->rng);
-            u4 = pgi_rng_f(&l->rng);
-        }
-        if (G) l->bin = late ? pgi__guide_bin(G, e->ul, u3, u4) : pgi__guide_bin(G, e->ul, u1, u2);
+        pgi__light_draw(L, &l->rng, u);
+        if (G) l->bin = late ? pgi__guide_bin(G, e->ul, u[2], u[3]) : pgi__guide_bin(G, e->ul, u[0], u[1]);
     }
     if (G) cnt[l->bin]++;
-    u[0] = u1;
-    u[1] = u2;
-    u[2] = u3;
-    u[3] = u4;
     return 1;
 }
 
 /* emit_place for a point or spot light (pgi__light_from_point). */
 static inline void emit_place_point(const tracer *T, const pgi__light *L, float pl, const float u[4], const float *cs,
                                     lane *l) {
-    const float u1 = u[0], u2 = u[1];
-    l->o = v3_load(L->pos);
-    if (L->type == PGI__LIGHT_POINT) l->d = cs ? pgi_sample_sphere_cs(u1, cs[0], cs[1]) : pgi_sample_sphere(u1, u2);
-    else
-        l->d = pgi_to_world(cs ? pgi_sample_cone_cs(u1, cs[0], cs[1], L->cos_cutoff)
-                               : pgi_sample_cone(u1, u2, L->cos_cutoff),
-                            v3_load(L->dir));
+    pgi__light_emit_point(L, pl, u, cs, &l->o, &l->d, &l->flux);
     if (T->fp_track) pgi__fp_emit(&l->pd, &T->fp, T->s, L, pl, l->d, T->radius);
     l->b = 0;
 }
 
-static int emit_place(const tracer *T, const pgi__light *L, float pl, const float u[4], const float *cs, lane *l) {
-    const float u1 = u[0], u2 = u[1], u3 = u[2], u4 = u[3];
-    switch (L->type) {
-    case PGI__LIGHT_POINT:
-    case PGI__LIGHT_SPOT: emit_place_point(T, L, pl, u, cs, l); return 1;
-    case PGI__LIGHT_SUN: {
-        l->d = v3_load(L->dir);
-        if (T->PE) {
-            /* a point of a portal picked by its area across the beam: flux E A_perp / (portals
-               the line crosses) / the pick probability (portal.h) */
-            float wgt;
-            if (!pgi__portal_sun_emit(T->s, l->d, pgi_rng_f(&l->rng), u1, u2, T->centre, T->radius, &l->o, &wgt))
-                return 0;
-            l->flux = v3_scale(v3_load(L->color), wgt / pl);
-            break;
-        }
-        float r = T->radius * sqrtf(u1), phi = 2.f * PGI__PI * u2;
-        pgi__v3 disk = pgi_to_world(v3(r * cosf(phi), r * sinf(phi), 0.f), l->d);
-        l->o = v3_add(v3_sub(T->centre, v3_scale(l->d, 1.01f * T->radius)), disk);
-        break;
-    }
-    case PGI__LIGHT_ENV: {
-        if (T->PE) {
-            /* a line through a portal (portal.h): its radiance over the line's density */
-            const float up[5] = {pgi_rng_f(&l->rng), u1, u2, u3, u4};
-            pgi__v3 f;
-            if (!pgi__portal_sky_emit(T->PE, T->s->env, up, T->centre, T->radius, &l->o, &l->d, &f)) return 0;
-            l->flux = v3_scale(f, 1.f / pl);
-            break;
-        }
-        /* A direction w by the sky's density, then a uniform point of the disk of radius R
-         * perpendicular to w outside the bounding sphere, travelling along -w: flux
-         * L(w) pi R^2 / pdf(w) (the light's power pi R^2 int L dw when pdf is proportional to L). */
-        float pdf;
-        pgi__v3 w = pgi__env_sample(T->s->env, u1, u2, &pdf);
-        if (!(pdf > 0.f)) return 0;
-        l->flux = v3_scale(pgi__env_eval(T->s->env, w), PGI__PI * T->radius * T->radius / (pdf * pl));
-        l->d = v3_neg(w);
-        float r = T->radius * sqrtf(u3), phi = 2.f * PGI__PI * u4;
-        pgi__v3 disk = pgi_to_world(v3(r * cosf(phi), r * sinf(phi), 0.f), l->d);
-        l->o = v3_add(v3_madd(T->centre, w, 1.01f * T->radius), disk);
-        break;
-    }
-    case PGI__LIGHT_AREA:
-    default: {
-        pgi__v3 n = v3_load(L->normal);
-        l->o = v3_madd(pgi__triangle_sample(T->s, L->tri, u1, u2), n, T->eps);
-        l->d = pgi_to_world(pgi_sample_cosine(u3, u4), n);
-        break;
-    }
-    }
+static int emit_place(const tracer *T, const pgi__light *L, float pl, const float u[4], lane *l) {
+    if (!pgi__light_emit(L, &T->E, pl, u, &l->rng, &l->o, &l->d, &l->flux)) return 0;
     if (T->fp_track) pgi__fp_emit(&l->pd, &T->fp, T->s, L, pl, l->d, T->radius);
     l->b = 0;
     return 1;
@@ -257,7 +188,7 @@ static int emit_place(const tracer *T, const pgi__light *L, float pl, const floa
 
 static int emit_from(const tracer *T, const pgi__light *L, const emission_pick *e, lane *l, uint32_t *cnt) {
     float u[4];
-    return emit_draw(T, L, e, l, cnt, u) && emit_place(T, L, e->pl, u, NULL, l);
+    return emit_draw(T, L, e, l, cnt, u) && emit_place(T, L, e->pl, u, l);
 }
 
 /* Starts path `index` in `l` (emission from a light picked by power). Flux is power / pick
@@ -1089,12 +1020,7 @@ static void light_table(const pgi_scene *s, const pgi__trace_desc *d, const pgi_
     double total = 0.0;
     for (size_t i = 0; i < nl; i++) {
         const pgi__light *L = i < s->nlights ? &s->lights[i] : &s->env->light;
-        double p = fmax(0.0, (double)v3_lum(v3_load(L->power)));
-        /* portal emission: the sun's and the sky's power through the portals */
-        if (d->portals && L->type == PGI__LIGHT_SUN)
-            p = fmax(0.0, (double)v3_lum(v3_load(L->color))) * pgi__portal_sun_area(s, v3_load(L->dir));
-        else if (d->portals && L->type == PGI__LIGHT_ENV) p = pe->sky_lum;
-        total += p;
+        total += pgi__light_pick_power(s, L, d->portals ? pe : NULL);
         cdf[i] = (float)total;
     }
     *total_out = total;
@@ -1381,6 +1307,7 @@ static pgi_status tracer_init(tracer *T, const pgi_scene *s, const pgi__rt *rt, 
                   .radius = 0.5f * pgi__scene_diagonal(s),
                   .near = d->near,
                   .PE = pe};
+    T->E = (pgi__emit_frame){s, T->centre, T->radius, T->eps, pe};
     pgi_status ts = pgi__tri_cache_update(&sc->tc, s, nt);
     if (ts) return ts;
     T->tris = sc->tc.tris;

@@ -21,6 +21,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "scene/light.h"
 #include "scene/tri_cache.h"
 #include "pipeline/pipeline.h"
 #include "rt/rt.h"
@@ -87,7 +88,7 @@ static pgi__v3 nee(const pt_ctx *C, pgi__surface *sf, const pgi__texel_quad **tq
         for (size_t l = 0; l < s->nlights; l++) {
             pgi__v3 wi, Li;
             float cs, tmax;
-            if (!pgi__delta_light(&s->lights[l], x, ns, ng, &wi, &Li, &cs, &tmax)) continue;
+            if (!pgi__light_delta(&s->lights[l], x, ns, ng, &wi, &Li, &cs, &tmax)) continue;
             if (pgi__rt_occluded(C->rt, x, wi, 0.f, tmax)) continue;
             texture_resolve(sf, tq);
             L = v3_add(L, v3_scale(v3_mul(pgi__brdf_eval(sf->kd, &lobe, ns, wi, wo), Li), cs));
@@ -111,7 +112,7 @@ static pgi__v3 nee(const pt_ctx *C, pgi__surface *sf, const pgi__texel_quad **tq
             if (cl > 0.f && cs > 0.f && v3_dot(ng, wi) > 0.f &&
                 !pgi__rt_occluded(C->rt, x, wi, 0.f, dist * (1.f - 1e-3f))) {
                 texture_resolve(sf, tq);
-                float pdf_l = pl * d2 / (cl * lt->area);
+                float pdf_l = pgi__light_area_pdf(lt, pl, d2, cl);
                 float pdf_b = pgi__bsdf_pdf(sf, wo, wi);
                 float mis = pdf_l * pdf_l / (pdf_l * pdf_l + pdf_b * pdf_b);
                 pgi__v3 f = pgi__brdf_eval(sf->kd, &lobe, ns, wi, wo);
@@ -263,23 +264,14 @@ static void ctx_free(pt_ctx *C) {
 
 static pgi_status ctx_lights(pt_ctx *C) {
     const pgi_scene *s = C->s;
-    for (size_t l = 0; l < s->nlights; l++) C->narea += s->lights[l].type == PGI__LIGHT_AREA;
+    C->narea = pgi__light_area_count(s);
     if (!C->narea) return PGI_OK;
     C->cdf = malloc(C->narea * sizeof *C->cdf);
     C->idx = malloc(C->narea * sizeof *C->idx);
     C->tri_pick = calloc(s->ntris ? s->ntris : 1, sizeof *C->tri_pick);
     if (!C->cdf || !C->idx || !C->tri_pick) return pgi__fail(PGI_ERR_OOM, "out of memory for the area-light table");
-    double tot = 0.0;
-    size_t k = 0;
-    for (size_t l = 0; l < s->nlights; l++) {
-        if (s->lights[l].type != PGI__LIGHT_AREA) continue;
-        tot += v3_lum(v3_load(s->lights[l].power));
-        C->cdf[k] = (float)tot;
-        C->idx[k++] = l;
-    }
-    for (k = 0; k < C->narea; k++) C->cdf[k] = tot > 0.0 ? (float)(C->cdf[k] / tot) : (float)(k + 1) / (float)C->narea;
-    C->cdf[C->narea - 1] = 1.f;
-    for (k = 0; k < C->narea; k++) {
+    pgi__light_area_cdf(s, C->cdf, C->idx);
+    for (size_t k = 0; k < C->narea; k++) {
         uint32_t t = s->lights[C->idx[k]].tri;
         if (t < s->ntris) C->tri_pick[t] = C->cdf[k] - (k ? C->cdf[k - 1] : 0.f);
     }

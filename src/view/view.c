@@ -916,53 +916,6 @@ static inline pgi__v3 tile_x(const dtile *t, int k) { return v3(t->xs[0][k], t->
 static inline pgi__v3 tile_ns(const dtile *t, int k) { return v3(t->nss[0][k], t->nss[1][k], t->nss[2][k]); }
 static inline pgi__v3 tile_ng(const dtile *t, int k) { return v3(t->ngs[0][k], t->ngs[1][k], t->ngs[2][k]); }
 
-/* pgi__delta_light at the 16 lanes of a tile for a point light or the sun: the same operations
- * lane by lane (so the same numbers, bit for bit), branch-free over arrays so that the compiler
- * runs four or more lanes in one instruction. Fills valid (0 where off or unreachable), wi,
- * Li, cs and tmax as pgi__delta_light would; returns the number of valid lanes. */
-static int delta16(const pgi__light *lt, const dtile *t, int valid[16], float wi[3][16], float Li[3][16], float cs[16],
-                   float tmax[16]) {
-    int nv = 0;
-    const float cr = lt->color[0], cg = lt->color[1], cb = lt->color[2];
-    if (lt->type == PGI__LIGHT_SUN) {
-        const float wx = -lt->dir[0], wy = -lt->dir[1], wz = -lt->dir[2];
-        for (int k = 0; k < 16; k++) {
-            wi[0][k] = wx;
-            wi[1][k] = wy;
-            wi[2][k] = wz;
-            Li[0][k] = cr;
-            Li[1][k] = cg;
-            Li[2][k] = cb;
-            const float c = t->nss[0][k] * wx + t->nss[1][k] * wy + t->nss[2][k] * wz;
-            const float g = t->ngs[0][k] * wx + t->ngs[1][k] * wy + t->ngs[2][k] * wz;
-            cs[k] = c;
-            tmax[k] = INFINITY;
-            valid[k] = t->on[k] & (c > 0.f) & (g > 0.f);
-            nv += valid[k];
-        }
-        return nv;
-    }
-    const float px = lt->pos[0], py = lt->pos[1], pz = lt->pos[2];
-    for (int k = 0; k < 16; k++) {
-        const float dx = px - t->xs[0][k], dy = py - t->xs[1][k], dz = pz - t->xs[2][k];
-        const float d2 = dx * dx + dy * dy + dz * dz, dist = sqrtf(d2), inv = 1.f / dist, il = 1.f / d2;
-        const float wx = dx * inv, wy = dy * inv, wz = dz * inv;
-        wi[0][k] = wx;
-        wi[1][k] = wy;
-        wi[2][k] = wz;
-        Li[0][k] = cr * il;
-        Li[1][k] = cg * il;
-        Li[2][k] = cb * il;
-        const float c = t->nss[0][k] * wx + t->nss[1][k] * wy + t->nss[2][k] * wz;
-        const float g = t->ngs[0][k] * wx + t->ngs[1][k] * wy + t->ngs[2][k] * wz;
-        cs[k] = c;
-        tmax[k] = dist * (1.f - 1e-4f); /* infinity stays infinity, as in pgi__delta_light */
-        valid[k] = t->on[k] & (d2 > 0.f) & (c > 0.f) & (g > 0.f);
-        nv += valid[k];
-    }
-    return nv;
-}
-
 /* f(wi, wo) of lane k (kd/pi plus its lobe), its shading loaded on first use. */
 static inline pgi__v3 tile_brdf(dtile *t, const pgi_view_samples *vs, int k, pgi__v3 wi) {
     if (!t->ready[k]) {
@@ -1140,24 +1093,22 @@ pgi_status pgi__area_table_guide(pgi__area_table *t) {
 
 pgi_status pgi__area_table_build(const pgi_scene *s, pgi__area_table *t) {
     memset(t, 0, sizeof *t);
-    for (size_t l = 0; l < s->nlights; l++) t->n += s->lights[l].type == PGI__LIGHT_AREA;
+    t->n = pgi__light_area_count(s);
     if (!t->n) return PGI_OK;
     const size_t n = t->n;
     t->cdf = malloc(n * sizeof *t->cdf);
     t->rec = malloc(n * sizeof *t->rec);
-    if (!t->cdf || !t->rec) {
+    size_t *idx = malloc(n * sizeof *idx); /* each area light's in s->lights */
+    if (!t->cdf || !t->rec || !idx) {
+        free(idx);
         pgi__area_table_free(t);
         return pgi__fail(PGI_ERR_OOM, "out of memory for the area-light table");
     }
-    double tot = 0.0;
-    size_t k = 0;
-    for (size_t l = 0; l < s->nlights; l++) {
-        const pgi__light *lt = &s->lights[l];
-        if (lt->type != PGI__LIGHT_AREA) continue;
-        tot += v3_lum(v3_load(lt->power));
-        t->cdf[k] = (float)tot;
+    pgi__light_area_cdf(s, t->cdf, idx);
+    for (size_t k = 0; k < n; k++) {
+        const pgi__light *lt = &s->lights[idx[k]];
         const uint32_t *v = s->tri + 3 * (size_t)lt->tri;
-        pgi__area_rec *r = &t->rec[k++];
+        pgi__area_rec *r = &t->rec[k];
         r->a = pgi__scene_vertex(s, v[0]);
         r->b = pgi__scene_vertex(s, v[1]);
         r->c = pgi__scene_vertex(s, v[2]);
@@ -1165,9 +1116,8 @@ pgi_status pgi__area_table_build(const pgi_scene *s, pgi__area_table *t) {
         r->color = v3_load(lt->color);
         r->area = lt->area;
     }
-    for (k = 0; k < n; k++) t->cdf[k] = tot > 0.0 ? (float)(t->cdf[k] / tot) : (float)(k + 1) / (float)n;
-    t->cdf[n - 1] = 1.f;
-    for (k = 0; k < n; k++) t->rec[k].p = t->cdf[k] - (k ? t->cdf[k - 1] : 0.f); /* what pgi__cdf_pick returns */
+    free(idx);
+    for (size_t k = 0; k < n; k++) t->rec[k].p = t->cdf[k] - (k ? t->cdf[k - 1] : 0.f); /* what pgi__cdf_pick returns */
     pgi_status st = pgi__area_table_guide(t);
     if (st) pgi__area_table_free(t);
     return st;
@@ -1397,14 +1347,15 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
             const float *const xo[3] = {t.xs[0], t.xs[1], t.xs[2]}, *const wd[3] = {wis[0], wis[1], wis[2]};
             for (size_t l = 0; l < s->nlights; l++) {
                 const pgi__light *lt = &s->lights[l];
-                if (lt->type == PGI__LIGHT_AREA) continue;
+                if (!pgi__light_is_delta(lt)) continue;
                 int nv = 0;
-                if (lt->type == PGI__LIGHT_POINT || lt->type == PGI__LIGHT_SUN)
-                    nv = delta16(lt, &t, valid, wis, Lis, cs, tmax);
+                if (pgi__light_delta16_ok(lt))
+                    nv = pgi__light_delta16(lt, t.on, (const float(*)[16])t.xs, (const float(*)[16])t.nss,
+                                            (const float(*)[16])t.ngs, valid, wis, Lis, cs, tmax);
                 else
                     for (int k = 0; k < 16; k++) {
                         pgi__v3 w, li;
-                        valid[k] = t.on[k] && pgi__delta_light(lt, tile_x(&t, k), tile_ns(&t, k), tile_ng(&t, k), &w,
+                        valid[k] = t.on[k] && pgi__light_delta(lt, tile_x(&t, k), tile_ns(&t, k), tile_ng(&t, k), &w,
                                                                &li, &cs[k], &tmax[k]);
                         if (!valid[k]) continue;
                         nv++;
