@@ -897,21 +897,10 @@ void pgi__trace_scratch_free(pgi__trace_scratch *sc) {
         free(tb[t].rec_fp);
         free(tb[t].rec_path);
     }
-    free(sc->tbuf);
-    free(sc->counts);
-    free(sc->chunks);
-    free(sc->path_bin);
-    free(sc->ph_bin);
+    void *const bufs[] = {sc->tbuf,  sc->counts, sc->chunks, sc->path_bin, sc->ph_bin, sc->ps,   sc->live,
+                          sc->ps_pd, sc->mode,   sc->key,    sc->idx,      sc->tkey,   sc->tidx, sc->hist};
+    for (size_t i = 0; i < sizeof bufs / sizeof *bufs; i++) free(bufs[i]);
     pgi__tri_cache_free(&sc->tc);
-    free(sc->ps);
-    free(sc->live);
-    free(sc->ps_pd);
-    free(sc->mode);
-    free(sc->key);
-    free(sc->idx);
-    free(sc->tkey);
-    free(sc->tidx);
-    free(sc->hist);
     memset(sc, 0, sizeof *sc);
 }
 

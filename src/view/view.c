@@ -928,6 +928,44 @@ static inline pgi__v3 tile_brdf(dtile *t, const pgi_view_samples *vs, int k, pgi
     return pgi__brdf_eval(t->kd[k], &t->lobe[k], tile_ns(t, k), wi, t->wo[k]);
 }
 
+/* The shadow rays of a run of the sky's samples (env_direct, env_direct_portals), cast as one
+ * stream: ray i from org[i] along wi[i] to infinity for lane lane[i], its weight w[i]. */
+typedef struct env_rays {
+    pgi__v3 org[PGI__RT_STREAM_MAX], wi[PGI__RT_STREAM_MAX], w[PGI__RT_STREAM_MAX];
+    float tmax[PGI__RT_STREAM_MAX];
+    int occ[PGI__RT_STREAM_MAX];
+    unsigned char lane[PGI__RT_STREAM_MAX];
+    size_t m;
+} env_rays;
+
+static inline void env_ray_add(env_rays *R, int k, pgi__v3 x, pgi__v3 d, pgi__v3 w) {
+    R->w[R->m] = w;
+    R->wi[R->m] = d;
+    R->org[R->m] = x;
+    R->tmax[R->m] = INFINITY;
+    R->lane[R->m++] = (unsigned char)k;
+}
+
+/* Casts the run's rays (occ[i]: ray i blocked) and returns how many there are; the next run's
+ * start at 0 (the arrays hold this run's until then). */
+static inline size_t env_rays_cast(const pgi__rt *rt, env_rays *R, uint64_t *rays) {
+    const size_t m = R->m;
+    R->m = 0;
+    if (!m) return 0;
+    *rays += (uint64_t)m;
+    pgi__rt_occluded1M(rt, m, R->org, R->wi, R->tmax, R->occ);
+    return m;
+}
+
+/* Lane k's sum zeroed, and where it is on (returns 1) its RNG stream and tangent frame. */
+static inline int env_lane_init(const dtile *t, int k, uint64_t seed, pgi__rng *rng, pgi__env_frame *fr, pgi__v3 *Le) {
+    *Le = v3(0.f, 0.f, 0.f);
+    if (!t->on[k]) return 0;
+    pgi_rng_seed(rng, seed ^ 0x736b79ULL, (uint64_t)t->pix[k]);
+    pgi__env_frame_init(fr, tile_ns(t, k));
+    return 1;
+}
+
 /* Direct light from the sky at the valid lanes of a tile: `n` directions a lane
  * (pgi__env_sample_direct: cosine-weighted about ns, and for a map half of them by the map),
  * the first number stratified over the n, shadow rays to infinity; adds the mean to L. Each
@@ -941,19 +979,12 @@ static void env_direct(const pgi__env *env, const pgi__rt *rt, dtile *t, const p
                        uint64_t seed, pgi__v3 L[16], uint64_t *rays) {
     pgi__rng rng[16];
     pgi__env_frame fr[16];
-    pgi__v3 Le[16], org[PGI__RT_STREAM_MAX], wi[PGI__RT_STREAM_MAX], w[PGI__RT_STREAM_MAX];
-    float tmax[PGI__RT_STREAM_MAX];
-    int occ[PGI__RT_STREAM_MAX];
-    unsigned char lane[PGI__RT_STREAM_MAX];
-    for (int k = 0; k < 16; k++) {
-        Le[k] = v3(0.f, 0.f, 0.f);
-        if (!t->on[k]) continue;
-        pgi_rng_seed(&rng[k], seed ^ 0x736b79ULL, (uint64_t)t->pix[k]);
-        pgi__env_frame_init(&fr[k], tile_ns(t, k));
-    }
+    pgi__v3 Le[16];
+    env_rays R;
+    R.m = 0;
+    for (int k = 0; k < 16; k++) env_lane_init(t, k, seed, &rng[k], &fr[k], &Le[k]);
     for (int j0 = 0; j0 < n; j0 += ENV_RUN) {
         const int j1 = n - j0 < ENV_RUN ? n : j0 + ENV_RUN;
-        size_t m = 0;
         for (int j = j0; j < j1; j++)
             for (int k = 0; k < 16; k++) {
                 if (!t->on[k]) continue;
@@ -961,19 +992,13 @@ static void env_direct(const pgi__env *env, const pgi__rt *rt, dtile *t, const p
                 pgi__v3 le, d = pgi__env_sample_direct_in(env, &fr[k], u1, u2, &pdf, &le);
                 float c = v3_dot(tile_ns(t, k), d);
                 if (!(pdf > 0.f) || !(c > 0.f) || !(v3_dot(tile_ng(t, k), d) > 0.f)) continue;
-                w[m] = v3_scale(le, c / pdf);
-                wi[m] = d;
-                org[m] = tile_x(t, k);
-                tmax[m] = INFINITY;
-                lane[m++] = (unsigned char)k;
+                env_ray_add(&R, k, tile_x(t, k), d, v3_scale(le, c / pdf));
             }
-        if (!m) continue;
-        *rays += (uint64_t)m;
-        pgi__rt_occluded1M(rt, m, org, wi, tmax, occ);
+        const size_t m = env_rays_cast(rt, &R, rays);
         for (size_t i = 0; i < m; i++) {
-            if (occ[i]) continue;
-            const int k = lane[i];
-            Le[k] = v3_add(Le[k], v3_mul(tile_brdf(t, vs, k, wi[i]), w[i]));
+            if (R.occ[i]) continue;
+            const int k = R.lane[i];
+            Le[k] = v3_add(Le[k], v3_mul(tile_brdf(t, vs, k, R.wi[i]), R.w[i]));
         }
     }
     for (int k = 0; k < 16; k++)
@@ -993,15 +1018,11 @@ static void env_direct_portals(const pgi__env *env, const pgi__portal *P, size_t
     float pw[16][2 * PGI__MAX_PORTALS]; /* pick probabilities and solid angles (pgi__portal_direct_weights) */
     pgi__portal_sph cache[16][PGI__PORTAL_CACHE];
     int na[16], nb[16];
-    pgi__v3 Le[16], org[PGI__RT_STREAM_MAX], wi[PGI__RT_STREAM_MAX], w[PGI__RT_STREAM_MAX];
-    float tmax[PGI__RT_STREAM_MAX];
-    int occ[PGI__RT_STREAM_MAX];
-    unsigned char lane[PGI__RT_STREAM_MAX];
+    pgi__v3 Le[16];
+    env_rays R;
+    R.m = 0;
     for (int k = 0; k < 16; k++) {
-        Le[k] = v3(0.f, 0.f, 0.f);
-        if (!t->on[k]) continue;
-        pgi_rng_seed(&rng[k], seed ^ 0x736b79ULL, (uint64_t)t->pix[k]);
-        pgi__env_frame_init(&fr[k], tile_ns(t, k));
+        if (!env_lane_init(t, k, seed, &rng[k], &fr[k], &Le[k])) continue;
         const float sum = pgi__portal_direct_weights(P, np, tile_x(t, k), tile_ns(t, k), pw[k], cache[k]);
         nb[k] = sum > 0.f ? n / 2 : 0;
         na[k] = n - nb[k];
@@ -1013,7 +1034,6 @@ static void env_direct_portals(const pgi__env *env, const pgi__portal *P, size_t
     unsigned char portal_ray[PGI__RT_STREAM_MAX];
     for (int j0 = 0; j0 < n; j0 += ENV_RUN) {
         const int j1 = n - j0 < ENV_RUN ? n : j0 + ENV_RUN;
-        size_t m = 0;
         for (int j = j0; j < j1; j++)
             for (int k = 0; k < 16; k++) {
                 if (!t->on[k]) continue;
@@ -1031,24 +1051,18 @@ static void env_direct_portals(const pgi__env *env, const pgi__portal *P, size_t
                     if (!pgi__portal_direct_sample(P, np, pw[k], cache[k], x, u0, u1, u2, &d)) continue;
                 }
                 if (!(v3_dot(ns, d) > 0.f) || !(v3_dot(tile_ng(t, k), d) > 0.f)) continue;
-                w[m] = le;
-                pa_ray[m] = pa;
-                portal_ray[m] = (unsigned char)portal;
-                wi[m] = d;
-                org[m] = x;
-                tmax[m] = INFINITY;
-                lane[m++] = (unsigned char)k;
+                pa_ray[R.m] = pa;
+                portal_ray[R.m] = (unsigned char)portal;
+                env_ray_add(&R, k, x, d, le);
             }
-        if (!m) continue;
-        *rays += (uint64_t)m;
-        pgi__rt_occluded1M(rt, m, org, wi, tmax, occ);
+        const size_t m = env_rays_cast(rt, &R, rays);
         for (size_t i = 0; i < m; i++) {
-            if (occ[i]) continue;
-            const int k = lane[i];
-            const pgi__v3 d = wi[i], ns = tile_ns(t, k);
-            const float pb = nb[k] ? pgi__portal_direct_pdf(P, np, pw[k], org[i], d) : 0.f;
+            if (R.occ[i]) continue;
+            const int k = R.lane[i];
+            const pgi__v3 d = R.wi[i], ns = tile_ns(t, k);
+            const float pb = nb[k] ? pgi__portal_direct_pdf(P, np, pw[k], R.org[i], d) : 0.f;
             float pa = pa_ray[i];
-            pgi__v3 le = w[i];
+            pgi__v3 le = R.w[i];
             if (portal_ray[i]) {
                 if (!(pb > 0.f)) continue; /* lost to rounding at a portal's edge */
                 pa = pgi__env_pdf_direct(env, ns, d);
