@@ -1,9 +1,10 @@
 // Lights on the GPU: src/scene/light.h's per-type functions for the shaders. The four numbers of
 // an emission (light_draw), the start of a photon path from a point, spot, sun or area light
-// (light_emit; the sky's, from its emission records, is trace.glsl's), a point of an area light
-// (light_area_point) and the light a delta light sends towards a point (light_delta). The same
-// operations as light.h in the same order (precise: no contraction), so a light type changes in
-// these two files together. Include after scene.glsl (verts, tris).
+// (light_emit) or from the sky (light_emit_sky, from the values trace.glsl keeps in its emission
+// records), a point of an area light (light_area_point) and the light a delta light sends towards
+// a point (light_delta). The same operations as light.h in the same order (precise: no
+// contraction), so a light type changes in these two files together. Include after scene.glsl
+// (verts, tris).
 #ifndef PGIS_LIGHT_GLSL
 #define PGIS_LIGHT_GLSL
 
@@ -64,6 +65,32 @@ void light_emit(Light L, vec4 u, vec3 centre, float radius, float eps, out vec3 
         o = q2;
         d = to_world(sample_cosine(u3, u4), L.normal);
     }
+}
+
+// light.h pgi__light_emit for the sky (env.c pgi__env_sample, constant sky: radiance `sky` above
+// the horizon, `ground` below): a hemisphere by luminance (ps: the upper one's probability, fx, up,
+// fz the sky's frame), uniform in it; then a uniform point of the disk of radius R across w
+// outside the bounding sphere, the flux L(w) pi R^2 / (pdf(w) pl). false where the density is 0.
+bool light_emit_sky(vec4 u, vec3 fx, vec3 up, vec3 fz, float ps, vec3 sky, vec3 ground, vec3 centre, float radius,
+                    float pl, inout vec3 o, inout vec3 d, inout vec3 flux) {
+    const float u1 = u.x, u2 = u.y, u3 = u.z, u4 = u.w;
+    float y;
+    if (u1 < ps) y = 1.0 - min(u1 / ps, 1.0);
+    else y = -(u1 - ps) / max(1.0 - ps, 1e-30);
+    y = min(1.0, max(-1.0, y));
+    float r = sqrt(max(0.0, 1.0 - y * y)), phi = 2.0 * float(PGIS_PI) * u2;
+    precise vec3 w = fx * (r * cos(phi)) + up * y + fz * (r * sin(phi));
+    const bool upper = v3_dot(w, up) > 0.0;
+    const float pdf = (upper ? ps : 1.0 - ps) * float(0.5 * PGIS_INV_PI);
+    if (!(pdf > 0.0)) return false;
+    const vec3 L = upper ? sky : ground;
+    flux = L * (float(PGIS_PI) * radius * radius / (pdf * pl));
+    d = -w;
+    float rr = radius * sqrt(u3), ph = 2.0 * float(PGIS_PI) * u4;
+    vec3 disk = to_world(vec3(rr * cos(ph), rr * sin(ph), 0.0), d);
+    precise vec3 c = centre + w * (1.01 * radius) + disk;
+    o = c;
+    return true;
 }
 
 // light.h pgi__light_delta: a delta light's unit direction wi from x, its unshadowed radiance Li,

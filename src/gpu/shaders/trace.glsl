@@ -60,31 +60,10 @@ bool start_path(inout Rng rng, out vec3 o, out vec3 d, out vec3 flux) {
     const bool sky = lo >= pc.scene.nlights; // the last entry: the sky
     const uint type = sky ? LIGHT_ENV : lights[lo].type;
     const vec4 u = light_draw(rng, type);
-    const float u1 = u.x, u2 = u.y, u3 = u.z, u4 = u.w;
-    if (sky) {
-        // env.c pgi__env_sample (constant sky): a hemisphere by luminance, uniform in it; then a
-        // uniform point of the disk of radius R across w outside the bounding sphere
-        const vec3 fx = emits[pc.nemit + 1u].power, fz = emits[pc.nemit + 2u].power;
-        const vec3 up = vec3(pc.scene.upx, pc.scene.upy, pc.scene.upz);
-        const float ps = emits[pc.nemit + 1u].cdf;
-        float y;
-        if (u1 < ps) y = 1.0 - min(u1 / ps, 1.0);
-        else y = -(u1 - ps) / max(1.0 - ps, 1e-30);
-        y = min(1.0, max(-1.0, y));
-        float r = sqrt(max(0.0, 1.0 - y * y)), phi = 2.0 * float(PGIS_PI) * u2;
-        precise vec3 w = fx * (r * cos(phi)) + up * y + fz * (r * sin(phi));
-        const bool upper = v3_dot(w, up) > 0.0;
-        const float pdf = (upper ? ps : 1.0 - ps) * float(0.5 * PGIS_INV_PI);
-        if (!(pdf > 0.0)) return false;
-        const vec3 L = upper ? pc.scene.sky.xyz : pc.scene.ground.xyz;
-        flux = L * (float(PGIS_PI) * radius * radius / (pdf * pl));
-        d = -w;
-        float rr = radius * sqrt(u3), ph = 2.0 * float(PGIS_PI) * u4;
-        vec3 disk = to_world(vec3(rr * cos(ph), rr * sin(ph), 0.0), d);
-        precise vec3 c = centre + w * (1.01 * radius) + disk;
-        o = c;
-        return true;
-    }
+    if (sky) // the sky's frame and its upper hemisphere's probability are the records after the table
+        return light_emit_sky(u, emits[pc.nemit + 1u].power, vec3(pc.scene.upx, pc.scene.upy, pc.scene.upz),
+                              emits[pc.nemit + 2u].power, emits[pc.nemit + 1u].cdf, pc.scene.sky.xyz,
+                              pc.scene.ground.xyz, centre, radius, pl, o, d, flux);
     light_emit(lights[lo], u, centre, radius, pc.scene.eps, o, d);
     return true;
 }
