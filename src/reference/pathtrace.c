@@ -102,13 +102,11 @@ static pgi__v3 nee(const pt_ctx *C, pgi__surface *sf, const pgi__texel_quad **tq
         float ul = pgi_rng_f(rng), u1 = pgi_rng_f(rng), u2 = pgi_rng_f(rng);
         float pl;
         const pgi__light *lt = &s->lights[C->idx[pgi__cdf_pick(C->cdf, C->narea, ul, &pl)]];
-        pgi__v3 y = pgi__triangle_sample(s, lt->tri, u1, u2);
-        pgi__v3 dv = v3_sub(y, x);
-        float d2 = v3_dot(dv, dv);
-        if (d2 > 0.f && pl > 0.f) {
-            float dist = sqrtf(d2);
-            pgi__v3 wi = v3_scale(dv, 1.f / dist);
-            float cl = -v3_dot(wi, v3_load(lt->normal)), cs = v3_dot(ns, wi);
+        pgi__v3 wi;
+        float d2, dist, cl;
+        if (pl > 0.f && pgi__light_area_toward(pgi__triangle_sample(s, lt->tri, u1, u2), v3_load(lt->normal), x, &wi,
+                                               &d2, &dist, &cl)) {
+            const float cs = v3_dot(ns, wi);
             if (cl > 0.f && cs > 0.f && v3_dot(ng, wi) > 0.f &&
                 !pgi__rt_occluded(C->rt, x, wi, 0.f, dist * (1.f - 1e-3f))) {
                 texture_resolve(sf, tq);

@@ -2,10 +2,11 @@
  * type"). A light is a pgi__light record (scene_internal.h, its type a pgi__light_type); here,
  * per type, its power (pgi__light_set_power), the start of a photon path from it (emission:
  * pgi__light_draw, then pgi__light_emit) and the light it sends towards a point (direct light:
- * pgi__light_delta, 16 points at once pgi__light_delta16; area lights: pgi__light_area_cdf and
- * pgi__light_area_pdf). The photon tracer (src/photon/trace.c), the direct-light pass
- * (src/view/view.c) and the reference path tracer (src/reference/pathtrace.c) call these and
- * switch on no light type themselves; the GPU's copy is src/gpu/shaders/light.glsl.
+ * pgi__light_delta, 16 points at once pgi__light_delta16; area lights: pgi__light_area_cdf,
+ * pgi__light_area_toward, pgi__light_area_pdf). The photon tracer (src/photon/trace.c), the
+ * direct-light pass (src/view/view.c), the reference path tracer (src/reference/pathtrace.c) and
+ * the GPU scene (src/gpu/gpu_scene.c) call these and test no light type themselves; the shaders'
+ * copy is src/gpu/shaders/light.glsl.
  *
  * Everything here is the same operations as the code it came from, in the same order, so that
  * images stay the same bit for bit; the per-path functions are inline (the tracer is built for
@@ -245,6 +246,22 @@ size_t pgi__light_area_cdf(const pgi_scene *s, float *cdf, size_t *idx);
 
 /* How many area lights the scene has. */
 size_t pgi__light_area_count(const pgi_scene *s);
+
+/* From x towards y, a point of an area light with unit normal n (pgi__triangle_sample): the unit
+ * direction *wi, the squared distance *d2, the distance *dist and the cosine at the light *cl
+ * (the light reaches x where cl > 0). 0, with nothing written, where y is x. */
+static inline int pgi__light_area_toward(pgi__v3 y, pgi__v3 n, pgi__v3 x, pgi__v3 *wi, float *d2, float *dist,
+                                         float *cl) {
+    const pgi__v3 dv = v3_sub(y, x);
+    const float q = v3_dot(dv, dv);
+    if (!(q > 0.f)) return 0;
+    const float l = sqrtf(q);
+    *d2 = q;
+    *dist = l;
+    *wi = v3_scale(dv, 1.f / l);
+    *cl = -v3_dot(*wi, n);
+    return 1;
+}
 
 /* The density, in solid angle at the shaded point, of a point on area light lt picked with
  * probability pl, at squared distance d2 and cosine cl at the light. */

@@ -1412,15 +1412,11 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
                         const float pl = lt->p;
                         float u1 = pgi_rng_f(&rng[k]), u2 = pgi_rng_f(&rng[k]);
                         /* pgi__triangle_sample on the record's vertices */
-                        float su = sqrtf(u1), b1 = 1.f - su, b2 = u2 * su;
-                        pgi__v3 y =
-                            v3_add(v3_add(v3_scale(lt->a, 1.f - b1 - b2), v3_scale(lt->b, b1)), v3_scale(lt->c, b2));
-                        pgi__v3 dv = v3_sub(y, xa[k]);
-                        float d2 = v3_dot(dv, dv);
-                        if (!(d2 > 0.f) || !(pl > 0.f)) continue;
-                        float dist = sqrtf(d2);
-                        wi[k] = v3_scale(dv, 1.f / dist);
-                        float cl = -v3_dot(wi[k], lt->normal), c = v3_dot(tile_ns(&t, k), wi[k]);
+                        const pgi__v3 y = pgi__tri_point(lt->a, lt->b, lt->c, u1, u2);
+                        float d2, dist, cl;
+                        if (!(pl > 0.f) || !pgi__light_area_toward(y, lt->normal, xa[k], &wi[k], &d2, &dist, &cl))
+                            continue;
+                        const float c = v3_dot(tile_ns(&t, k), wi[k]);
                         if (!(cl > 0.f) || !(c > 0.f) || !(v3_dot(tile_ng(&t, k), wi[k]) > 0.f)) continue;
                         tmax[k] = dist * (1.f - 1e-3f);
                         g[k] = c * cl / d2 * lt->area / pl;
