@@ -5,7 +5,10 @@
 #    shares apps/photongi's), never the library's internal ones (src/...);
 #  - the public headers include only each other and the C library;
 #  - a folder of src/ includes only folders below it (the ranks below);
-#  - internal macros and enum constants are PGI__ (the public prefix PGI_ is include/'s alone).
+#  - internal macros and enum constants are PGI__ (the public prefix PGI_ is include/'s alone);
+#  - the ray tracer (rt.c) does not include the ray capture (ray_log.h sets rt.c's capture hook);
+#  - the view pass (src/view) and the path tracer (src/reference) do not use the photon tracer
+#    (src/photon): what they share with it (the triangle cache, the lights) is in src/scene.
 # Prints each breach as FILE:LINE: what, and exits 1; 0 when every rule holds.
 #   tests/check_layers.sh      (run from anywhere)
 set -uo pipefail
@@ -56,6 +59,14 @@ for dir in src/*/; do
             breach "${hit%%:#*}" "src/$d includes src/$to, which is not below it"
     done < <(grep -rn --include='*.c' --include='*.h' --include='*.glsl' '#include *"[a-z]*/' "$dir")
 done
+
+while IFS= read -r hit; do
+    breach "${hit%%:#*}" "the ray tracer includes the ray capture (rt.h's pgi__rt_capture hook is the way in)"
+done < <(grep -Hn '#include *"\(rt/\)\?ray_log.h"' src/rt/rt.c src/rt/rt.h)
+
+while IFS= read -r hit; do
+    breach "${hit%%:#*}" "the view pass or the path tracer includes the photon tracer (shared code belongs in src/scene)"
+done < <(grep -rn --include='*.c' --include='*.h' '#include *"photon/' src/view src/reference)
 
 [ $bad -eq 0 ] && echo "check_layers: every rule holds"
 exit $bad

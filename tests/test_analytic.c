@@ -195,8 +195,7 @@ static void image_vs(const pgi_image *img, double expect, double *mean_rel, doub
 }
 
 static void furnace_render(int bounces, pgi_output output, pgi_image *img) {
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load(tu_furnace_json, &s));
+    pgi_scene *s = tu_scene(tu_furnace_json);
     pgi_scene_info info;
     pgi_scene_get_info(s, &info);
     assert_int_equal(info.point_lights, 1);

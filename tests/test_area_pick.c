@@ -76,8 +76,7 @@ static void test_same_pick(void **state) {
  * the probabilities summing to 1. */
 static void test_scene_table(void **state) {
     (void)state;
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load("cornell-box", &s));
+    pgi_scene *s = tu_scene("cornell-box");
     pgi__area_table t;
     TU_CHECK_OK(pgi__area_table_build(s, &t));
     size_t narea = 0;

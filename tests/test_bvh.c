@@ -292,10 +292,8 @@ static void test_errors(void **state) {
 /* The whole pipeline on a real scene: bvh (both builders, leaf 1, 16, 512, T_auto) vs brute, with
  * the fixed radius and with the per-photon radius policies. */
 static void pipeline(const char *scene_name, int w, int h, uint32_t photons, int policy) {
-    pgi_scene *scene = NULL;
-    TU_CHECK_OK(pgi_scene_load(scene_name, &scene));
-    pgi_renderer *r = NULL;
-    TU_CHECK_OK(pgi_renderer_create(scene, &r));
+    pgi_scene *scene = tu_scene(scene_name);
+    pgi_renderer *r = tu_renderer(scene);
     pgi_render_desc d = {.estimator = "brute",
                          .photons = photons,
                          .width = w,
@@ -353,8 +351,7 @@ static void test_sibenik(void **state) {
 /* Same seed, same bytes for 1, 2 and 8 threads (both builders, differentials footprints). */
 static void test_determinism(void **state) {
     (void)state;
-    pgi_scene *scene = NULL;
-    TU_CHECK_OK(pgi_scene_load("cornell", &scene));
+    pgi_scene *scene = tu_scene("cornell");
     for (int b = 0; b < 2; b++) {
         pgi_image ref = {0};
         const int threads[] = {1, 2, 8};

@@ -320,8 +320,7 @@ static void test_sibenik_pipeline(void **state) {
 /* ------------------------------------------------------- determinism */
 
 static void test_thread_counts(void **state) {
-    pgi_scene *scene = NULL;
-    TU_CHECK_OK(pgi_scene_load("cornell", &scene));
+    pgi_scene *scene = tu_scene("cornell");
     const char *names[] = {"cluster", "cluster-cone", "cluster-trivial", "directional"};
     const int threads[] = {1, 2, 5};
     const int S = 64;
@@ -373,10 +372,8 @@ static double rel_l1(const float *a, const float *b, size_t n) {
  * with the paper's unnormalised 2 max(0, n.d_o) weight, +16 % too bright), and
  * under 6 % without the blur (0.030); the mean within 3 %; not a copy. */
 static void test_directional_close_to_cluster(void **state) {
-    pgi_scene *scene = NULL;
-    TU_CHECK_OK(pgi_scene_load("cornell", &scene));
-    pgi_renderer *r = NULL;
-    TU_CHECK_OK(pgi_renderer_create(scene, &r));
+    pgi_scene *scene = tu_scene("cornell");
+    pgi_renderer *r = tu_renderer(scene);
     const int S = 128;
     pgi_image ref = {0}, dir = {0};
     pgi_render_desc d = {.estimator = "cluster",
@@ -418,10 +415,8 @@ static void test_directional_close_to_cluster(void **state) {
  * files are found (with octant weights normalised for uniform light Sibenik was 4.0 % dark; measured
  * now +1.9 % and -1.9 %). */
 static void directional_mean(const char *scene_name, int S, unsigned photons) {
-    pgi_scene *scene = NULL;
-    TU_CHECK_OK(pgi_scene_load(scene_name, &scene));
-    pgi_renderer *r = NULL;
-    TU_CHECK_OK(pgi_renderer_create(scene, &r));
+    pgi_scene *scene = tu_scene(scene_name);
+    pgi_renderer *r = tu_renderer(scene);
     pgi_image ref = {0}, dir = {0};
     pgi_render_desc d = {.estimator = "cluster",
                          .width = S,

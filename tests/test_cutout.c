@@ -15,8 +15,7 @@
 /* The cutout scene, its lattice made fully open (alpha 0 everywhere: the unoccluded
  * configuration) when `open`. */
 static pgi_scene *cutout(int open) {
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load("cutout", &s));
+    pgi_scene *s = tu_scene("cutout");
     assert_int_equal(s->ncams, 3);
     const pgi__material *m = NULL;
     for (size_t i = 0; i < s->nmats; i++)
@@ -395,10 +394,8 @@ static void test_animated_mask(void **state) {
                                          "\"motion\": {\"keyframes\": [{\"t\": 0}, {\"t\": 1, \"translate\": "
                                          "[0.5, 0, 0]}]}}]}"),
                      0);
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load(path, &s));
-    pgi_renderer *r = NULL;
-    TU_CHECK_OK(pgi_renderer_create(s, &r));
+    pgi_scene *s = tu_scene(path);
+    pgi_renderer *r = tu_renderer(s);
     const pgi_render_desc d = floor_desc(PGI_OUTPUT_DIRECT, 1000);
     pgi_image a = {0}, b = {0}, c = {0};
     TU_CHECK_OK(pgi_renderer_render(r, &d, &a, NULL));

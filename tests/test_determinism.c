@@ -152,8 +152,7 @@ static void narrow_vs_wide(pgi_scene *sc, const char *est, int w, int h, uint32_
 static void test_narrow_builds(void **state) {
     narrow_vs_wide(g_scene, "cluster-trivial", 203, 117, 20000);
     narrow_vs_wide(g_scene, "directional", 75, 61, 10000);
-    pgi_scene *sc = NULL;
-    TU_CHECK_OK(pgi_scene_load("cornell-mirrors", &sc));
+    pgi_scene *sc = tu_scene("cornell-mirrors");
     narrow_vs_wide(sc, "cluster", 97, 66, 20000);
     pgi_scene_destroy(sc);
     /* vertex colours (the uniform tiles' and the lane path's kd, the photon tracer's) */

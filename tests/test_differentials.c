@@ -173,8 +173,7 @@ static void test_roulette(void **state) {
 /* The interpolated normals of the built-in tessellated unit sphere: dn = dp / R (outward). */
 static void test_sphere_normal_derivative(void **state) {
     (void)state;
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load("sphere-and-plane", &s));
+    pgi_scene *s = tu_scene("sphere-and-plane");
     const pgi__v3 c = v3(0.f, 1.f, 0.f);
     int checked = 0;
     for (size_t t = 0; t < s->ntris && checked < 50; t += 97) {
@@ -250,8 +249,7 @@ static double caustic_median_radius(const char *dir, int curvature) {
              path);
     snprintf(jpath, sizeof jpath, "%s/mirror%d.json", dir, curvature + 1);
     assert_int_equal(tu_write_file(jpath, json), 0);
-    pgi_scene *sc = NULL;
-    TU_CHECK_OK(pgi_scene_load(jpath, &sc));
+    pgi_scene *sc = tu_scene(jpath);
     pgi__rt *rt = NULL;
     TU_CHECK_OK(pgi__rt_create(sc, &rt));
     const uint32_t n = 3000;
@@ -316,10 +314,8 @@ static void test_mirror_scenes(void **state) {
  * photon; path radii within [r_min, r_max]. */
 static void test_frame_footprints(void **state) {
     (void)state;
-    pgi_scene *scene = NULL;
-    TU_CHECK_OK(pgi_scene_load("cornell", &scene));
-    pgi_renderer *r = NULL;
-    TU_CHECK_OK(pgi_renderer_create(scene, &r));
+    pgi_scene *scene = tu_scene("cornell");
+    pgi_renderer *r = tu_renderer(scene);
     pgi_image img = {0};
     pgi_frame_stats fs;
     for (int policy = PGI_RADIUS_PATH; policy <= PGI_RADIUS_DIFFERENTIALS; policy++) {
@@ -359,10 +355,8 @@ static void test_frame_footprints(void **state) {
 /* More photons (fixed radius) -> larger T_auto leaves (BVH paper §5.3). */
 static void test_t_auto_grows(void **state) {
     (void)state;
-    pgi_scene *scene = NULL;
-    TU_CHECK_OK(pgi_scene_load("cornell", &scene));
-    pgi_renderer *r = NULL;
-    TU_CHECK_OK(pgi_renderer_create(scene, &r));
+    pgi_scene *scene = tu_scene("cornell");
+    pgi_renderer *r = tu_renderer(scene);
     pgi_image img = {0};
     pgi_frame_stats fs;
     int prev = 0;
@@ -380,8 +374,7 @@ static void test_t_auto_grows(void **state) {
 
 static void test_bad_settings(void **state) {
     (void)state;
-    pgi_scene *scene = NULL;
-    TU_CHECK_OK(pgi_scene_load("cornell", &scene));
+    pgi_scene *scene = tu_scene("cornell");
     pgi_image img = {0};
     pgi_render_desc d = {.estimator = "bvh", .photons = 100, .width = 8, .height = 8, .radius_policy = PGI_RADIUS_PATH};
     d.r_min = 0.2f, d.r_max = 0.1f;

@@ -42,8 +42,7 @@ static pgi_render_desc two_rooms_desc(pgi_emission e, uint64_t seed) {
  * as often. */
 static void guided_is_unbiased_and_steers(void **state) {
     (void)state;
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load("two-rooms", &s));
+    pgi_scene *s = tu_scene("two-rooms");
     double mean[2] = {0, 0}, in_view[2] = {0, 0}, in_view_uniform = 0;
     const pgi_emission modes[2] = {PGI_EMISSION_UNIFORM, PGI_EMISSION_GUIDED};
     const int seeds = 12;
@@ -77,10 +76,8 @@ static void guided_is_unbiased_and_steers(void **state) {
  * within 1.5 % (the standard error of the dark room's difference is about 0.5 %). */
 static void guided_flux_is_unbiased(void **state) {
     (void)state;
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load("two-rooms", &s));
-    pgi_renderer *r = NULL;
-    TU_CHECK_OK(pgi_renderer_create(s, &r));
+    pgi_scene *s = tu_scene("two-rooms");
+    pgi_renderer *r = tu_renderer(s);
     double dark[2] = {0, 0}, all[2] = {0, 0};
     size_t n_dark[2] = {0, 0};
     for (int m = 0; m < 2; m++)
@@ -166,8 +163,7 @@ static void near_grid_is_conservative(void **state) {
  * error about 1 %), the photons asked for all stored, more paths, the photons culled counted. */
 static void store_view_is_unbiased(void **state) {
     (void)state;
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load("two-rooms", &s));
+    pgi_scene *s = tu_scene("two-rooms");
     double mean[2] = {0, 0};
     uint64_t paths[2] = {0, 0}, culled = 0;
     for (int m = 0; m < 2; m++)
@@ -203,8 +199,7 @@ static void store_view_is_unbiased(void **state) {
 /* Same seed, same photons and image with 1 and 2 threads. */
 static void guided_is_deterministic(void **state) {
     (void)state;
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load("two-rooms", &s));
+    pgi_scene *s = tu_scene("two-rooms");
     pgi_image a = {0}, b = {0};
     pgi_render_desc d = two_rooms_desc(PGI_EMISSION_GUIDED, 7);
     d.photons = 30000;
@@ -232,8 +227,7 @@ static pgi_render_desc small_desc(pgi_emission e) {
  * image, byte for byte. */
 static void auto_keeps_uniform_where_all_is_in_view(void **state) {
     (void)state;
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load("cornell", &s));
+    pgi_scene *s = tu_scene("cornell");
     pgi_render_desc d = small_desc(PGI_EMISSION_UNIFORM);
     pgi_image a = {0}, b = {0};
     pgi_frame_stats fs;
@@ -255,8 +249,7 @@ static void auto_keeps_uniform_where_all_is_in_view(void **state) {
  * kept uniform), but steering saves most of the paths: auto steers by the cost. */
 static void auto_steers_where_paths_store_nothing(void **state) {
     (void)state;
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load("sphere-and-plane", &s));
+    pgi_scene *s = tu_scene("sphere-and-plane");
     pgi_render_desc d = small_desc(PGI_EMISSION_AUTO);
     pgi_image a = {0};
     pgi_frame_stats fs;
@@ -277,8 +270,7 @@ static void auto_steers_where_paths_store_nothing(void **state) {
 
 static void bad_mode_is_refused(void **state) {
     (void)state;
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load("cornell", &s));
+    pgi_scene *s = tu_scene("cornell");
     pgi_render_desc d = {0};
     d.width = d.height = 16;
     d.emission = (pgi_emission)7;

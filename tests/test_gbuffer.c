@@ -54,8 +54,7 @@ static void same_samples(const pgi_view_samples *a, const pgi_view_samples *b, c
  * rows and not skip others for the test to mean much. */
 static void test_view_build_reuse(void **state) {
     (void)state;
-    pgi_scene *sc = NULL;
-    TU_CHECK_OK(pgi_scene_load(g_json, &sc));
+    pgi_scene *sc = tu_scene(g_json);
     pgi__rt *rt = NULL;
     TU_CHECK_OK(pgi__rt_create(sc, &rt));
     static const int sizes[][2] = {{72, 56}, {72, 56}, {40, 30}, {72, 56}, {64, 48}, {64, 48}};
@@ -142,10 +141,8 @@ static void test_view_build_reuse(void **state) {
  * view samples (pgi_renderer_prepare) and the same image (the composite reads the record). */
 static void test_renderer_reuse(void **state) {
     (void)state;
-    pgi_scene *sc = NULL;
-    TU_CHECK_OK(pgi_scene_load(g_json, &sc));
-    pgi_renderer *kept = NULL;
-    TU_CHECK_OK(pgi_renderer_create(sc, &kept));
+    pgi_scene *sc = tu_scene(g_json);
+    pgi_renderer *kept = tu_renderer(sc);
     static const int sizes[][2] = {{80, 48}, {80, 48}, {33, 21}, {80, 48}};
     static const pgi_output outputs[] = {PGI_OUTPUT_ALL, PGI_OUTPUT_DIRECT, PGI_OUTPUT_INDIRECT};
     pgi_estimator *est = NULL;
@@ -166,8 +163,7 @@ static void test_renderer_reuse(void **state) {
             char what[64];
             snprintf(what, sizeof what, "frame %d (view %zu)", frame, v);
             pgi_frame_inputs in_kept, in_fresh;
-            pgi_renderer *fresh = NULL;
-            TU_CHECK_OK(pgi_renderer_create(sc, &fresh));
+            pgi_renderer *fresh = tu_renderer(sc);
             TU_CHECK_OK(pgi_renderer_prepare(kept, &d, &in_kept, NULL));
             TU_CHECK_OK(pgi_renderer_prepare(fresh, &d, &in_fresh, NULL));
             same_samples(in_kept.samples, in_fresh.samples, what);

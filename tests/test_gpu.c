@@ -149,8 +149,7 @@ static void test_device_errors(void **state) {
  * zero (tu_compare), and the same number of contributing photons. */
 static void gpu_est_vs_brute(const pgi__gpu_est_vtbl *vt, const char *scene_name, int w, int h, uint32_t photons,
                              pgi_kernel kern, float cell, pgi_specular spec, float radius, int tile) {
-    pgi_scene *scene = NULL;
-    TU_CHECK_OK(pgi_scene_load(scene_name, &scene));
+    pgi_scene *scene = tu_scene(scene_name);
     size_t glossy_samples = 0;
     if (spec != PGI_SPECULAR_DEFAULT) {
         pgi_scene_info info;
@@ -158,8 +157,7 @@ static void gpu_est_vs_brute(const pgi__gpu_est_vtbl *vt, const char *scene_name
         assert_true(info.glossy_materials > 0);
         TU_CHECK_OK(pgi_scene_set_specular(scene, spec));
     }
-    pgi_renderer *r = NULL;
-    TU_CHECK_OK(pgi_renderer_create(scene, &r));
+    pgi_renderer *r = tu_renderer(scene);
     pgi_render_desc d = {.photons = photons, .width = w, .height = h, .seed = 3, .radius = radius};
     pgi_frame_inputs in;
     TU_CHECK_OK(pgi_renderer_prepare(r, &d, &in, NULL));
@@ -349,10 +347,8 @@ static void test_tiled_errors(void **state) {
 
 /* No photons: every sample gets zero (the splat, lists and radiance run on empty inputs). */
 static void no_photons(const char *name) {
-    pgi_scene *scene = NULL;
-    TU_CHECK_OK(pgi_scene_load("cornell", &scene));
-    pgi_renderer *r = NULL;
-    TU_CHECK_OK(pgi_renderer_create(scene, &r));
+    pgi_scene *scene = tu_scene("cornell");
+    pgi_renderer *r = tu_renderer(scene);
     pgi_render_desc d = {.photons = 1000, .width = 20, .height = 15, .seed = 3};
     pgi_frame_inputs in;
     TU_CHECK_OK(pgi_renderer_prepare(r, &d, &in, NULL));
@@ -391,10 +387,8 @@ static void no_photons(const char *name) {
  * (the deposits are atomics: cl_rank puts every node's list in photon order before its sums). */
 static void dir_vs_cpu(const char *scene_name, int w, int h, uint32_t photons, float radius, int level, int blur,
                        double rel, double psnr_min, double mean_cpu_tol, double mean_brute_tol) {
-    pgi_scene *scene = NULL;
-    TU_CHECK_OK(pgi_scene_load(scene_name, &scene));
-    pgi_renderer *r = NULL;
-    TU_CHECK_OK(pgi_renderer_create(scene, &r));
+    pgi_scene *scene = tu_scene(scene_name);
+    pgi_renderer *r = tu_renderer(scene);
     pgi_render_desc d = {.photons = photons, .width = w, .height = h, .seed = 3, .radius = radius};
     pgi_frame_inputs in;
     TU_CHECK_OK(pgi_renderer_prepare(r, &d, &in, NULL));
@@ -569,10 +563,8 @@ static void test_radix_sort(void **state) {
 static void test_renderer_device(void **state) {
     (void)state;
     setenv("PGI_GPU_CPU_PHOTONS", "1", 1); /* the CPU tracer's photons (frame_gpu.c's test hook) */
-    pgi_scene *scene = NULL;
-    TU_CHECK_OK(pgi_scene_load("cornell", &scene));
-    pgi_renderer *r = NULL;
-    TU_CHECK_OK(pgi_renderer_create(scene, &r));
+    pgi_scene *scene = tu_scene("cornell");
+    pgi_renderer *r = tu_renderer(scene);
     pgi_render_desc d =
         {.estimator = "brute", .photons = 20000, .width = 64, .height = 48, .output = PGI_OUTPUT_INDIRECT, .seed = 7};
     pgi_image cpu = {0}, gpu = {0}, gpu2 = {0};

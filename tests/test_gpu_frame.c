@@ -40,8 +40,7 @@ static pgi_scene *load_sibenik(void) {
         fprintf(stderr, "  (no Sibenik: scenes/sibenik.json or %s not found)\n", mesh);
         return NULL;
     }
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load("scenes/sibenik.json", &s));
+    pgi_scene *s = tu_scene("scenes/sibenik.json");
     return s;
 }
 
@@ -135,8 +134,7 @@ static void test_scene_upload(void **state) {
     (void)state;
     const char *names[] = {"cornell", "cutout", "window-box"};
     for (int i = 0; i < 3; i++) {
-        pgi_scene *s = NULL;
-        TU_CHECK_OK(pgi_scene_load(names[i], &s));
+        pgi_scene *s = tu_scene(names[i]);
         check_surfaces(s, names[i]);
         pgi_scene_destroy(s);
     }
@@ -151,8 +149,7 @@ static void test_scene_upload(void **state) {
 /* An environment map is refused by name. */
 static void test_scene_refuses_env_map(void **state) {
     (void)state;
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load("cornell", &s));
+    pgi_scene *s = tu_scene("cornell");
     pgi__env fake = {0};
     float px[3] = {1.f, 1.f, 1.f};
     fake.rgb = px;
@@ -246,8 +243,7 @@ static void test_view_samples(void **state) {
         int w, h;
     } sc[] = {{"cornell", 96, 72}, {"cornell-mirrors", 96, 72}, {"cutout", 96, 72}, {"window-box", 64, 48}};
     for (size_t k = 0; k < sizeof sc / sizeof sc[0]; k++) {
-        pgi_scene *s = NULL;
-        TU_CHECK_OK(pgi_scene_load(sc[k].name, &s));
+        pgi_scene *s = tu_scene(sc[k].name);
         for (int j = 0; j < 2; j++) {
             const pgi__subpixel sp = {.jitter = j, .seed = 99, .index = 3};
             size_t prim_bad, valid;
@@ -279,8 +275,7 @@ static void test_view_samples(void **state) {
  * the CPU's as the uncoloured scenes do. */
 static void test_vertex_colours(void **state) {
     (void)state;
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load("cornell", &s));
+    pgi_scene *s = tu_scene("cornell");
     tu_add_vertex_colours(s);
     check_surfaces(s, "coloured");
     const pgi__subpixel sp = {.jitter = 0, .seed = 1, .index = 0};
@@ -345,11 +340,9 @@ static void compare_frames_on(const char *scene, void (*modify)(pgi_scene *), co
     /* the device's passes on the CPU tracer's photons (frame_gpu.c's test hook): the photons traced on
        the device are an independent photon map, compared in tests/test_gpu_trace.c */
     setenv("PGI_GPU_CPU_PHOTONS", "1", 1);
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load(scene, &s));
+    pgi_scene *s = tu_scene(scene);
     if (modify) modify(s);
-    pgi_renderer *r = NULL;
-    TU_CHECK_OK(pgi_renderer_create(s, &r));
+    pgi_renderer *r = tu_renderer(s);
     pgi_image ci = {0}, gi = {0};
     pgi_frame_stats cs, gs;
     pgi_render_desc c = *d, g = *d;
@@ -396,8 +389,7 @@ static void test_direct_light(void **state) {
 
 static void test_glossy(void **state) {
     (void)state;
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load("cornell", &s));
+    pgi_scene *s = tu_scene("cornell");
     make_glossy(s);
     const pgi__subpixel sp = {.jitter = 0, .seed = 1, .index = 0};
     size_t prim_bad, valid;
@@ -423,10 +415,8 @@ static void test_whole_frame(void **state) {
  * agrees with the CPU's at the new time, and a moved light is seen too. */
 static void test_dynamic(void **state) {
     (void)state;
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load("scenes/cornell-moving.json", &s));
-    pgi_renderer *r = NULL;
-    TU_CHECK_OK(pgi_renderer_create(s, &r));
+    pgi_scene *s = tu_scene("scenes/cornell-moving.json");
+    pgi_renderer *r = tu_renderer(s);
     pgi_render_desc d = frame_desc(48, 36, 20000, 64, PGI_OUTPUT_ALL, 1);
     d.radius = 0.05f;
     pgi_image a = {0}, b = {0}, c = {0};
@@ -453,14 +443,12 @@ static void test_dynamic(void **state) {
 
 static void test_deterministic(void **state) {
     (void)state;
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load("cornell-mirrors", &s));
+    pgi_scene *s = tu_scene("cornell-mirrors");
     pgi_render_desc d = frame_desc(40, 30, 20000, 8, PGI_OUTPUT_ALL, 1);
     d.jitter = PGI_JITTER_ON;
     pgi_image a = {0}, b = {0};
     for (int k = 0; k < 2; k++) {
-        pgi_renderer *r = NULL;
-        TU_CHECK_OK(pgi_renderer_create(s, &r));
+        pgi_renderer *r = tu_renderer(s);
         TU_CHECK_OK(pgi_renderer_render(r, &d, k ? &b : &a, NULL));
         pgi_renderer_destroy(r);
     }
@@ -472,10 +460,8 @@ static void test_deterministic(void **state) {
 
 static void test_progressive(void **state) {
     (void)state;
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load("cornell", &s));
-    pgi_renderer *r = NULL;
-    TU_CHECK_OK(pgi_renderer_create(s, &r));
+    pgi_scene *s = tu_scene("cornell");
+    pgi_renderer *r = tu_renderer(s);
     pgi_render_desc d = frame_desc(40, 30, 20000, 4, PGI_OUTPUT_ALL, 1);
     d.radius = 0.05f;
     pgi_image im = {0};
@@ -498,10 +484,8 @@ static void expect_refused(pgi_renderer *r, const pgi_render_desc *d, const char
 
 static void test_refusals(void **state) {
     (void)state;
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load("cornell", &s));
-    pgi_renderer *r = NULL;
-    TU_CHECK_OK(pgi_renderer_create(s, &r));
+    pgi_scene *s = tu_scene("cornell");
+    pgi_renderer *r = tu_renderer(s);
     pgi_render_desc d = frame_desc(16, 12, 1000, 1, PGI_OUTPUT_ALL, 1);
     /* --radius-policy path/differentials: refused before the device by the CPU's own check (hashgrid
      * has no per-photon footprints); the GPU frame refuses it by name too (ensure_gpu) */

@@ -94,8 +94,7 @@ static void compare(pgi_scene *s, const char *what, uint32_t photons, int bounce
 
 static void test_cornell(void **state) {
     (void)state;
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load("cornell", &s));
+    pgi_scene *s = tu_scene("cornell");
     compare(s, "cornell", 200000, 4);
     pgi_scene_destroy(s);
 }
@@ -104,8 +103,7 @@ static void test_cornell(void **state) {
  * after their first bounces (the colours take a good part of it) agrees. */
 static void test_cornell_coloured(void **state) {
     (void)state;
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load("cornell", &s));
+    pgi_scene *s = tu_scene("cornell");
     tu_add_vertex_colours(s);
     compare(s, "cornell coloured", 200000, 4);
     pgi_scene_destroy(s);
@@ -113,8 +111,7 @@ static void test_cornell_coloured(void **state) {
 
 static void test_cornell_mirrors(void **state) {
     (void)state;
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load("cornell-mirrors", &s));
+    pgi_scene *s = tu_scene("cornell-mirrors");
     compare(s, "cornell-mirrors", 200000, 6);
     pgi_scene_destroy(s);
 }
@@ -122,8 +119,7 @@ static void test_cornell_mirrors(void **state) {
 /* A constant sky (window-box: light through a window; the sky is the only light). */
 static void test_sky(void **state) {
     (void)state;
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load("window-box", &s));
+    pgi_scene *s = tu_scene("window-box");
     assert_non_null(s->env);
     compare(s, "window-box", 80000, 4);
     pgi_scene_destroy(s);
@@ -161,8 +157,7 @@ static void test_lights_glossy(void **state) {
                       "{\"shape\": \"box\", \"center\": [0.4, 0.2, 0.4], \"size\": [0.3, 0.4, 0.3], \"material\": "
                       "{\"type\": \"phong\", \"kd\": [0.5, 0.6, 0.5], \"ks\": [0.3, 0.3, 0.3], \"shininess\": 40}}]}"),
         0);
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load(path, &s));
+    pgi_scene *s = tu_scene(path);
     int types = 0;
     for (size_t i = 0; i < s->nlights; i++) types |= 1 << s->lights[i].type;
     for (size_t i = 0; i < s->nmats; i++) types |= 1 << (8 + s->mats[i].type);
@@ -178,8 +173,7 @@ static void test_lights_glossy(void **state) {
  * not depend on how the paths are split. */
 static void test_deterministic(void **state) {
     (void)state;
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load("cornell-mirrors", &s));
+    pgi_scene *s = tu_scene("cornell-mirrors");
     pgi__gpu_scene *gs = NULL;
     pgi__gpu_trace *gt = NULL;
     TU_CHECK_OK(pgi__gpu_scene_create(g_gpu, s, &gs));
@@ -226,10 +220,8 @@ static double image_mean(const pgi_image *im) {
  * CPU's frame: image mean within 1 %, PSNR >= 40 dB at a high photon count (the two photon maps
  * are independent: their noise is what the PSNR sees); the frame's photon stats. */
 static void frame_vs_cpu(const char *scene, uint32_t photons, pgi_output out, int w, int h) {
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load(scene, &s));
-    pgi_renderer *r = NULL;
-    TU_CHECK_OK(pgi_renderer_create(s, &r));
+    pgi_scene *s = tu_scene(scene);
+    pgi_renderer *r = tu_renderer(s);
     pgi_render_desc d = {0};
     d.width = w;
     d.height = h;

@@ -6,8 +6,7 @@
 #include "test_util.h"
 
 static pgi_scene *load(const char *spec) {
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load(spec, &s));
+    pgi_scene *s = tu_scene(spec);
     return s;
 }
 

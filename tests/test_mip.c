@@ -192,12 +192,12 @@ static void check_lod(float theta_deg, int mirror) {
     const pgi__texture *t = &s->texs[0];
     assert_int_equal(t->levels, 9);
 
-    pgi__trace_scratch sc = {0};
-    TU_CHECK_OK(pgi__trace_tris_update(&sc, s, 1));
+    pgi__tri_cache sc = {0};
+    TU_CHECK_OK(pgi__tri_cache_update(&sc, s, 1));
     const float tri_lod = sc.tri_uv[6];
     assert_true(fabsf(tri_lod - -log2f(L)) < 1e-6f);
     assert_true(fabsf(sc.tri_uv[PGI__TRI_UV + 6] - -log2f(L)) < 1e-6f);
-    pgi__trace_scratch_free(&sc);
+    pgi__tri_cache_free(&sc);
 
     const double spread = 2.0 * tan(30.0 * PI_D / 180.0) / H;
     const double cosine = mirror ? 1.0 : cos(theta_deg * PI_D / 180.0);

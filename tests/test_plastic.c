@@ -214,8 +214,7 @@ static void test_mtl_mapping(void **state) {
                  obj, spec);
         snprintf(path, sizeof path, "%s/q%d.json", dir, variant);
         assert_int_equal(tu_write_file(path, json), 0);
-        pgi_scene *s = NULL;
-        TU_CHECK_OK(pgi_scene_load(path, &s));
+        pgi_scene *s = tu_scene(path);
         const pgi__material *fl = NULL;
         for (size_t i = 0; i < s->nmats; i++)
             if (strcmp(s->mats[i].name, "floor") == 0) fl = &s->mats[i];

@@ -75,10 +75,8 @@ static double inside_flux(const pgi_photons *ph, size_t *count) {
  * of 100k photons each, agrees within 4 standard errors of the difference (from the frames'
  * spread) and within 1.5 %; portal emission traces at least `fewer` times fewer paths. */
 static void compare_emission(const char *spec, int seeds, double fewer) {
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load(spec, &s));
-    pgi_renderer *r = NULL;
-    TU_CHECK_OK(pgi_renderer_create(s, &r));
+    pgi_scene *s = tu_scene(spec);
+    pgi_renderer *r = tu_renderer(s);
     double sum[2] = {0, 0}, sq[2] = {0, 0}, paths[2] = {0, 0};
     size_t inside[2] = {0, 0}, stored[2] = {0, 0};
     for (int m = 0; m < 2; m++)
@@ -231,8 +229,7 @@ static void portal_with_environment_map(void **state) {
  * happened: `auto` takes the portals in window-box-portals (their share is under a half). */
 static void portal_image_mean_and_auto(void **state) {
     (void)state;
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load("window-box-portals", &s));
+    pgi_scene *s = tu_scene("window-box-portals");
     double mean[3] = {0, 0, 0};
     const pgi_emission modes[3] = {PGI_EMISSION_UNIFORM, PGI_EMISSION_PORTAL, PGI_EMISSION_AUTO};
     for (int m = 0; m < 3; m++)
@@ -359,8 +356,7 @@ static void portals_change_nothing_else(void **state) {
  * uniform directions, at points in the room), and every sampled direction has a positive density. */
 static void portal_direct_pdf_is_normalised(void **state) {
     (void)state;
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load("window-box-portals", &s));
+    pgi_scene *s = tu_scene("window-box-portals");
     const pgi__v3 xs[3] = {v3(0.2f, 0.01f, 0.3f), v3(0.9f, 1.0f, -0.5f), v3(-0.5f, 1.9f, 0.8f)};
     const pgi__v3 ns[3] = {v3(0, 1, 0), v3(-1, 0, 0), v3(0, -1, 0)};
     uint64_t q = 7;
@@ -464,8 +460,7 @@ static void portal_direct_sampling_matches_pdf(void **state) {
  * (test_gpu_trace checks the device's message where there is a device). */
 static void portal_mode_is_checked(void **state) {
     (void)state;
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load("window-box", &s));
+    pgi_scene *s = tu_scene("window-box");
     pgi_render_desc d = {0};
     d.width = d.height = 16;
     d.emission = PGI_EMISSION_PORTAL;

@@ -28,8 +28,7 @@ static double image_mean(const pgi_image *img) {
  * limit changes the answer by rho^B / sum >= 1.6% (B = 4) and 33% (B = 1); a
  * missing or extra 1/pi by a factor pi. */
 static void furnace_pt(int bounces) {
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load(tu_furnace_json, &s));
+    pgi_scene *s = tu_scene(tu_furnace_json);
     pgi_reference_desc d = {.width = 64, .height = 48, .bounces = bounces, .spp = 32, .seed = 5};
     pgi_image img = {0};
     uint64_t spp = 0;
@@ -122,8 +121,7 @@ static void agreement(const pgi_scene *s, const char *what) {
 }
 
 static void test_cornell_agreement(void **state) {
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load("cornell", &s));
+    pgi_scene *s = tu_scene("cornell");
     agreement(s, "Cornell box");
     pgi_scene_destroy(s);
 }
@@ -189,10 +187,7 @@ static void test_materials_agreement(void **state) {
              "{\"name\": \"materials-box\", \"mesh\": \"%s\",\n"
              " \"camera\": {\"eye\": [0, 1, 3.9], \"look_at\": [0, 1, 0], \"up\": [0, 1, 0], \"fov_y\": 39}}\n",
              path);
-    snprintf(path, sizeof path, "%s/box.json", dir);
-    assert_int_equal(tu_write_file(path, json), 0);
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load(path, &s));
+    pgi_scene *s = tu_scene_text(dir, "box.json", json, path, sizeof path);
     pgi_scene_info info;
     pgi_scene_get_info(s, &info);
     assert_int_equal(info.area_triangles, 2);
@@ -235,10 +230,7 @@ static void test_plastic_floor_agreement(void **state) {
              " \"lights\": [{\"type\": \"spot\", \"position\": [0, 1.6, 0.9], \"direction\": [0, -0.6, -1.9],"
              " \"angle\": 20, \"intensity\": [20, 20, 20]}]}\n",
              path);
-    snprintf(path, sizeof path, "%s/f.json", dir);
-    assert_int_equal(tu_write_file(path, json), 0);
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load(path, &s));
+    pgi_scene *s = tu_scene_text(dir, "f.json", json, path, sizeof path);
     pgi_image ref = {0}, pm = {0};
     reference_and_photons(s, 0, &ref, &pm);
     double ra = 0.0, pa = 0.0, rf = 0.0, pf = 0.0;
@@ -265,8 +257,7 @@ static void test_plastic_floor_agreement(void **state) {
 /* ------------------------------------------------ determinism, continuation */
 
 static void test_threads_and_continue(void **state) {
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load("cornell", &s));
+    pgi_scene *s = tu_scene("cornell");
     pgi_reference_desc d = {.width = 40, .height = 30, .spp = 8, .seed = 3, .threads = 1};
     pgi_image a = {0}, b = {0}, c = {0};
     uint64_t na = 0, nb = 0, nc = 0;
@@ -316,8 +307,7 @@ static void test_threads_and_continue(void **state) {
  * delta lights) from the first sample it adds: a later sample must come out as a fresh sampler
  * computes it, bit for bit (area lights, mirrors and glass: cornell-mirrors; a point light: giref). */
 static void eye_records(const char *scene) {
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load(scene, &s));
+    pgi_scene *s = tu_scene(scene);
     pgi_reference_desc d = {.width = 40, .height = 30, .seed = 3, .threads = 2, .jitter = PGI_JITTER_OFF};
     pgi_reference_sampler *warm = NULL, *fresh = NULL;
     TU_CHECK_OK(pgi_reference_sampler_create(s, &d, &warm));
@@ -344,8 +334,7 @@ static void test_eye_records(void **state) {
 }
 
 static void test_bad_input(void **state) {
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load("cornell", &s));
+    pgi_scene *s = tu_scene("cornell");
     pgi_image img = {0};
     uint64_t spp = 0;
     pgi_reference_desc d = {.width = 16, .height = 16, .spp = 0};

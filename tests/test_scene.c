@@ -82,8 +82,7 @@ static void test_emissive_obj_loads(void **state) {
     char p[700], m[700];
     put("lamp.mtl", k_mtl_light, m, sizeof m);
     put("lamp.obj", "mtllib lamp.mtl\nusemtl lamp\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n", p, sizeof p);
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load(p, &s));
+    pgi_scene *s = tu_scene(p);
     pgi_scene_info in;
     pgi_scene_get_info(s, &in);
     assert_int_equal(in.triangles, 2);
@@ -129,8 +128,7 @@ static void test_missing_texture(void **state) {
         "mtllib tex.mtl\nusemtl lamp\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n"
         "usemtl lamp2\nf 1/1 3/3 2/2\n",
         p, sizeof p);
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load(p, &s));
+    pgi_scene *s = tu_scene(p);
     pgi_scene_info in;
     pgi_scene_get_info(s, &in);
     assert_non_null(strstr(in.warnings, "not found: texture "));
@@ -162,8 +160,7 @@ static void test_json_errors(void **state) {
 
     /* The valid description loads: the test below changes one thing at a time. */
     json_scene("good.json", mesh_line, ok_light, p, sizeof p);
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load(p, &s));
+    pgi_scene *s = tu_scene(p);
     pgi_scene_info in;
     pgi_scene_get_info(s, &in);
     assert_int_equal(in.point_lights, 1);
@@ -204,8 +201,7 @@ static void test_builtins(void **state) {
     assert_null(pgi_builtin_scene_name(pgi_builtin_scene_count()));
     for (size_t i = 0; i < pgi_builtin_scene_count(); i++) {
         const char *name = pgi_builtin_scene_name(i);
-        pgi_scene *s = NULL;
-        TU_CHECK_OK(pgi_scene_load(name, &s));
+        pgi_scene *s = tu_scene(name);
         pgi_scene_info in;
         pgi_scene_get_info(s, &in);
         assert_string_equal(in.name, name);
@@ -226,8 +222,7 @@ static void test_builtins(void **state) {
         }
         pgi_scene_destroy(s);
     }
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load("giref", &s));
+    pgi_scene *s = tu_scene("giref");
     pgi_scene_destroy(s);
 }
 
@@ -355,14 +350,12 @@ static double worst_flat_deg(const pgi_scene *s) {
 }
 
 static pgi_scene *load_ok(const char *path) {
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load(path, &s));
+    pgi_scene *s = tu_scene(path);
     return s;
 }
 
 static void render_scene(pgi_scene *s, pgi_image *img) {
-    pgi_renderer *r = NULL;
-    TU_CHECK_OK(pgi_renderer_create(s, &r));
+    pgi_renderer *r = tu_renderer(s);
     pgi_frame_stats st;
     TU_CHECK_OK(
         pgi_renderer_render(r, &(pgi_render_desc){.width = 96, .height = 96, .photons = 20000, .seed = 3, .threads = 2},
@@ -503,8 +496,7 @@ static void test_scene_numbers(void **state) {
     expect_error(p, PGI_ERR_PARSE, PGI_ERR_PARSE, "camera.up[1] = 1e+16 is out of range");
     /* A name's control bytes (an escape sequence) become '?'. */
     put("esc.json", "{\"builtin\": \"cornell\", \"name\": \"a\\u001b[2Jb\"}", p, sizeof p);
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load(p, &s));
+    pgi_scene *s = tu_scene(p);
     pgi_scene_info in;
     pgi_scene_get_info(s, &in);
     assert_string_equal(in.name, "a?[2Jb");
@@ -518,8 +510,7 @@ static void test_scene_numbers(void **state) {
     assert_memory_equal(g0.position, g1.position, sizeof g0.position);
 
     /* A view camera beyond the range, a radius whose pi r^2 underflows: refused by the settings. */
-    pgi_renderer *r = NULL;
-    TU_CHECK_OK(pgi_renderer_create(s, &r));
+    pgi_renderer *r = tu_renderer(s);
     pgi_image img = {0};
     pgi_camera_def far = {{0.f, 1.f, 2e18f}, {0.f, 1.f, 0.f}, {0.f, 1.f, 0.f}, 40.f};
     pgi_render_desc d = {.width = 16, .height = 16, .photons = 1000, .threads = 1, .view = &far};
@@ -685,8 +676,7 @@ static void test_gltf_emissive_strength(void **state) {
         assert_true(s->mats[0].ke[0] == (i ? 20.f : 1.f) && s->mats[0].ke[2] == (i ? 5.f : 0.25f));
         s->lights[0].color[0] = s->lights[0].color[1] = s->lights[0].color[2] = 0.f; /* the emitter alone */
         pgi__scene_refresh(s);
-        pgi_renderer *r = NULL;
-        TU_CHECK_OK(pgi_renderer_create(s, &r));
+        pgi_renderer *r = tu_renderer(s);
         pgi_image img = {0};
         TU_CHECK_OK(pgi_renderer_render(r,
                                         &(pgi_render_desc){.width = 48,
@@ -1083,8 +1073,7 @@ static const char *room_desc(const char *name, const char *mesh, char *buf, size
 
 /* A frame of s (VC_W x VC_H, 20000 photons) and its albedo AOV (3 floats a pixel, caller's). */
 static void render_vc(pgi_scene *s, pgi_image *img, float *albedo) {
-    pgi_renderer *r = NULL;
-    TU_CHECK_OK(pgi_renderer_create(s, &r));
+    pgi_renderer *r = tu_renderer(s);
     pgi_aovs a = {.albedo = albedo};
     pgi_frame_stats st;
     TU_CHECK_OK(pgi_renderer_render(r,

@@ -173,10 +173,7 @@ static void photon_power(const char *sky, double L, const char *what) {
              "{\"mesh\": \"cube.obj\", %s,"
              " \"lights\": [{\"type\": \"sun\", \"direction\": [0.36, -0.8, 0.48], \"irradiance\": [%g, %g, %g]}]}",
              sky, E, E, E);
-    snprintf(path, sizeof path, "%s/power.json", dir);
-    assert_int_equal(tu_write_file(path, json), 0);
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load(path, &s));
+    pgi_scene *s = tu_scene_text(dir, "power.json", json, path, sizeof path);
     const double R = 0.5 * sqrt(3.0);
     const double sky_power = PI_D * R * R * s->env->integral[1];
     fprintf(stderr, "  %s: sky power %.5f, pi R^2 int L = %.5f\n", what, s->env->light.power[1], sky_power);
@@ -312,8 +309,7 @@ static void test_constant_map_is_uniform_sky(void **state) {
 /* The same bytes with 1 and 3 threads: the photon pipeline (sky photons, sky direct light,
  * the sky through the window) and the path tracer, on window-box. */
 static void test_threads(void **state) {
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load("window-box", &s));
+    pgi_scene *s = tu_scene("window-box");
     pgi_image a[2] = {{0}}, r[2] = {{0}};
     for (int k = 0; k < 2; k++) {
         pgi_render_desc d = {.width = 40, .height = 30, .photons = 20000, .seed = 5, .threads = k ? 3 : 1};
@@ -434,8 +430,7 @@ static void test_direct_sampling_same(void **state) {
  * Measured: -0.1 % and -0.2 %; the photons are 15 % of the mean, so photons of the wrong
  * power, or the sky counted twice or not at all in the path tracer, miss by far more. */
 static void test_window_box_agreement(void **state) {
-    pgi_scene *s = NULL;
-    TU_CHECK_OK(pgi_scene_load("window-box", &s));
+    pgi_scene *s = tu_scene("window-box");
     pgi_scene_info in;
     pgi_scene_get_info(s, &in);
     assert_int_equal(in.sky_lights, 1);

@@ -15,8 +15,7 @@ typedef struct traced {
 /* Traces `n` photons of built-in scene `name` with `threads` threads, `frames` times with the
  * same scratch (the last frame's result is kept). */
 static void trace_scene(const char *name, uint32_t n, int bounces, int threads, int frames, traced *out) {
-    pgi_scene *sc = NULL;
-    TU_CHECK_OK(pgi_scene_load(name, &sc));
+    pgi_scene *sc = tu_scene(name);
     pgi__rt *rt = NULL;
     TU_CHECK_OK(pgi__rt_create(sc, &rt));
     memset(out, 0, sizeof *out);
@@ -83,8 +82,7 @@ static void same_photons_any_thread_count(void **state) {
 static void point_light_once(const char *name) {
     traced fresh, warm;
     trace_scene(name, 60000, 4, 2, 1, &fresh);
-    pgi_scene *sc = NULL;
-    TU_CHECK_OK(pgi_scene_load(name, &sc));
+    pgi_scene *sc = tu_scene(name);
     pgi__rt *rt = NULL;
     TU_CHECK_OK(pgi__rt_create(sc, &rt));
     TU_CHECK_OK(pgi_photons_alloc(&warm.ph, 90000));
@@ -132,8 +130,7 @@ static void few_paths_discarded(void **state) {
  * the buffer exactly (emitted stops at the path that filled it). Smaller requests are prefixes. */
 static void same_photons_whatever_the_history(void **state) {
     (void)state;
-    pgi_scene *sc = NULL;
-    TU_CHECK_OK(pgi_scene_load("cornell", &sc));
+    pgi_scene *sc = tu_scene("cornell");
     pgi__rt *rt = NULL;
     TU_CHECK_OK(pgi__rt_create(sc, &rt));
     const uint32_t max = 1500;

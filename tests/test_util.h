@@ -270,6 +270,28 @@ static inline pgi_status tu_run_estimator(const char *name, const tu_est *t, con
         if (tu_st_ != PGI_OK) fail_msg("%s failed: %s (%s)", #expr, pgi_status_string(tu_st_), pgi_last_error());      \
     } while (0)
 
+/* The scene `name` (pgi_scene_load), or the test fails with the library's message. */
+static inline pgi_scene *tu_scene(const char *name) {
+    pgi_scene *s = NULL;
+    const pgi_status st = pgi_scene_load(name, &s);
+    if (st != PGI_OK) fail_msg("pgi_scene_load(\"%s\") failed: %s (%s)", name, pgi_status_string(st), pgi_last_error());
+    return s;
+}
+
+/* Writes `text` to DIR/NAME (the path into `path`, `cap` bytes) and loads it (tu_scene). */
+static inline pgi_scene *tu_scene_text(const char *dir, const char *name, const char *text, char *path, size_t cap) {
+    snprintf(path, cap, "%s/%s", dir, name);
+    if (tu_write_file(path, text)) fail_msg("cannot write %s", path);
+    return tu_scene(path);
+}
+
+/* A renderer of scene `s` (pgi_renderer_create), or the test fails with the library's message. */
+static inline pgi_renderer *tu_renderer(const pgi_scene *s) {
+    pgi_renderer *r = NULL;
+    TU_CHECK_OK(pgi_renderer_create(s, &r));
+    return r;
+}
+
 /* Requires `got` to equal the oracle's `ref` (nf floats, relative 1e-4, see
  * tu_compare) with the same number of contributing photon reads; prints both
  * counts when they differ. `what` names the comparison in messages. */

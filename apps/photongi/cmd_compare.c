@@ -134,48 +134,51 @@ static double reference_noise(const char *b, const pgi_image *img, float exposur
     return mse;
 }
 
-int pgi_cmd_compare(int argc, char **argv) {
-    const char *files[2] = {NULL, NULL}, *diff = NULL, *flip_map = NULL;
-    int nfiles = 0, json = 0;
-    float exposure = 1.f, diff_max = 0.1f, ppd = PGI_FLIP_DEFAULT_PPD;
+/* The command line of photongi compare. */
+typedef struct compare_args {
+    const char *files[2], *diff, *flip_map;
+    int json;
+    float exposure, diff_max, ppd;
+} compare_args;
+
+/* Parses argv into `c`: -1 when it is complete, else the exit code (0 after --help). */
+static int compare_parse(int argc, char **argv, compare_args *c) {
+    int nfiles = 0;
     for (int i = 0; i < argc; i++) {
         const char *a = argv[i];
         if (cli_is_help(a)) {
             fputs(k_compare_help, stdout);
             return 0;
         } else if (strcmp(a, "--json") == 0) {
-            json = 1;
+            c->json = 1;
         } else if (strcmp(a, "--diff") == 0 || strcmp(a, "--diff-max") == 0 || strcmp(a, "--exposure") == 0 ||
                    strcmp(a, "--flip-map") == 0 || strcmp(a, "--ppd") == 0) {
             if (i + 1 >= argc) return cli_usage("compare", "%s needs a value", a);
             const char *v = argv[++i];
-            if (strcmp(a, "--diff") == 0) diff = v;
-            else if (strcmp(a, "--flip-map") == 0) flip_map = v;
+            if (strcmp(a, "--diff") == 0) c->diff = v;
+            else if (strcmp(a, "--flip-map") == 0) c->flip_map = v;
             else if (strcmp(a, "--ppd") == 0) {
-                if (!parse_pos_float(v, &ppd) || ppd < 1.f || ppd > 1000.f)
+                if (!parse_pos_float(v, &c->ppd) || c->ppd < 1.f || c->ppd > 1000.f)
                     return cli_usage("compare", "--ppd needs a number in [1, 1000], got '%s'", v);
-            } else if (!parse_pos_float(v, strcmp(a, "--exposure") == 0 ? &exposure : &diff_max))
+            } else if (!parse_pos_float(v, strcmp(a, "--exposure") == 0 ? &c->exposure : &c->diff_max))
                 return cli_usage("compare", "%s needs a positive number, got '%s'", a, v);
         } else if (a[0] == '-' && a[1]) {
             return cli_usage("compare", "unknown option '%s'", a);
         } else {
             if (nfiles == 2) return cli_usage("compare", "unexpected argument '%s' (give two images)", a);
-            files[nfiles++] = a;
+            c->files[nfiles++] = a;
         }
     }
     if (nfiles != 2) return cli_usage("compare", "%s", "give two images: photongi compare TEST REFERENCE");
-    static const char *const k_png[] = {".png", NULL};
-    int rc = diff ? app_check_output("photongi compare", "--diff", diff, k_png) : 0;
-    if (!rc && flip_map) rc = app_check_output("photongi compare", "--flip-map", flip_map, k_png);
-    if (rc) return rc;
-    /* the maps must not overwrite each other or an image compared (A and B may be one file) */
-    for (int k = 0; k < 2 && (diff || flip_map); k++) {
-        const char *names[] = {"--diff", "--flip-map", k ? "the reference" : "the image"},
-                   *paths[] = {diff, flip_map, files[k]};
-        if ((rc = app_check_distinct("photongi compare", 3, names, paths))) return rc;
-    }
-    pgi_image img[2] = {{0}, {0}};
-    int hdr[2] = {0, 0};
+    if (nfiles != 2) return cli_usage("compare", "%s", "give two images: photongi compare TEST REFERENCE");
+    return -1;
+}
+
+/* Reads the two images, refuses non-finite pixels, applies the exposure to linear inputs and
+ * notes what the comparison mixes (8-bit and EXR inputs). 0, or the exit code (nothing held). */
+static int compare_read(const compare_args *c, pgi_image img[2], int hdr[2]) {
+    const char *const *files = c->files;
+    const float exposure = c->exposure;
     for (int k = 0; k < 2; k++) {
         pgi_status st = pgi_image_read(files[k], &img[k], &hdr[k]);
         if (st) {
@@ -204,48 +207,37 @@ int pgi_cmd_compare(int argc, char **argv) {
                 "photongi compare: note: %s is an 8-bit image, written at an exposure of its own: the EXR is "
                 "tone-mapped at --exposure %g to match it; relMSE comes from its clamped, quantised values\n",
                 files[hdr[0] ? 1 : 0], (double)exposure);
-    note_sidecars(files[0], files[1]);
-    char half[4200];
-    const double noise = hdr[1] ? reference_noise(files[1], &img[1], exposure, half, sizeof half) : 0.0;
+    return 0;
+}
+
+/* Writes the --diff heat map and the --flip-map (from fmap) where asked for. */
+static pgi_status compare_maps(const compare_args *c, const pgi_image img[2], const float *fmap, const char **what) {
     const int w = img[0].width, h = img[0].height;
     const size_t n = (size_t)w * h;
-    float *fmap = flip_map ? malloc(n * sizeof *fmap) : NULL;
-    pgi_metrics m;
-    pgi_status st = flip_map && !fmap ? PGI_ERR_OOM : pgi_metrics_compute_flip(&img[0], &img[1], 1.f, ppd, fmap, &m);
-    if (st) {
-        free(fmap);
-        pgi_image_free(&img[0]);
-        pgi_image_free(&img[1]);
-        /* sizes differ, smaller than the SSIM window: the images are at fault, not the command line */
-        const char *msg = pgi_last_error();
-        if (strncmp(msg, "compare: ", 9) == 0) msg += 9;
-        return cli_failure("compare", "%s vs %s: %s", files[0], files[1], *msg ? msg : pgi_status_string(st));
-    }
+    const char *diff = c->diff, *flip_map = c->flip_map;
+    pgi_status st = PGI_OK;
     unsigned char *rgb8 = (diff || flip_map) ? malloc(3 * n) : NULL;
-    const char *what = NULL;
     if ((diff || flip_map) && !rgb8) {
-        what = "out of memory for the maps";
+        *what = "out of memory for the maps";
         st = PGI_ERR_OOM;
     }
     if (!st && diff) {
-        what = "cannot write the heat map";
-        st = pgi_metrics_heatmap(&img[0], &img[1], 1.f, diff_max, rgb8);
+        *what = "cannot write the heat map";
+        st = pgi_metrics_heatmap(&img[0], &img[1], 1.f, c->diff_max, rgb8);
         if (!st) st = write_rgb8(rgb8, w, h, diff);
     }
     if (!st && flip_map) {
-        what = "cannot write the FLIP map";
+        *what = "cannot write the FLIP map";
         pgi_flip_colorize(fmap, n, rgb8);
         st = write_rgb8(rgb8, w, h, flip_map);
     }
     free(rgb8);
-    free(fmap);
-    if (st) {
-        pgi_image_free(&img[0]);
-        pgi_image_free(&img[1]);
-        return cli_fail("compare", what, st);
-    }
-    pgi_image_free(&img[0]);
-    pgi_image_free(&img[1]);
+    return st;
+}
+
+/* Prints the metrics (and the reference's own noise, 0: unknown), as text or JSON. */
+static void compare_print(const pgi_metrics *mp, int json, double noise, const char *half) {
+    const pgi_metrics m = *mp;
     char psnr[32], noise_psnr[32];
     if (isinf(m.psnr)) snprintf(psnr, sizeof psnr, json ? "null" : "inf");
     else snprintf(psnr, sizeof psnr, "%.8f", m.psnr);
@@ -295,5 +287,48 @@ int pgi_cmd_compare(int argc, char **argv) {
                    "it says more about the reference than about A)\n",
                    10.0 * log10(1.0 / noise), half);
     }
+}
+
+int pgi_cmd_compare(int argc, char **argv) {
+    compare_args c = {.exposure = 1.f, .diff_max = 0.1f, .ppd = PGI_FLIP_DEFAULT_PPD};
+    int rc = compare_parse(argc, argv, &c);
+    if (rc >= 0) return rc;
+    const char *const *files = c.files, *diff = c.diff, *flip_map = c.flip_map;
+    static const char *const k_png[] = {".png", NULL};
+    rc = diff ? app_check_output("photongi compare", "--diff", diff, k_png) : 0;
+    if (!rc && flip_map) rc = app_check_output("photongi compare", "--flip-map", flip_map, k_png);
+    if (rc) return rc;
+    /* the maps must not overwrite each other or an image compared (A and B may be one file) */
+    for (int k = 0; k < 2 && (diff || flip_map); k++) {
+        const char *names[] = {"--diff", "--flip-map", k ? "the reference" : "the image"},
+                   *paths[] = {diff, flip_map, files[k]};
+        if ((rc = app_check_distinct("photongi compare", 3, names, paths))) return rc;
+    }
+    pgi_image img[2] = {{0}, {0}};
+    int hdr[2] = {0, 0};
+    if ((rc = compare_read(&c, img, hdr))) return rc;
+    note_sidecars(files[0], files[1]);
+    char half[4200];
+    const double noise = hdr[1] ? reference_noise(files[1], &img[1], c.exposure, half, sizeof half) : 0.0;
+    const size_t n = (size_t)img[0].width * img[0].height;
+    float *fmap = flip_map ? malloc(n * sizeof *fmap) : NULL;
+    pgi_metrics m;
+    pgi_status st = flip_map && !fmap ? PGI_ERR_OOM : pgi_metrics_compute_flip(&img[0], &img[1], 1.f, c.ppd, fmap, &m);
+    if (st) {
+        free(fmap);
+        pgi_image_free(&img[0]);
+        pgi_image_free(&img[1]);
+        /* sizes differ, smaller than the SSIM window: the images are at fault, not the command line */
+        const char *msg = pgi_last_error();
+        if (strncmp(msg, "compare: ", 9) == 0) msg += 9;
+        return cli_failure("compare", "%s vs %s: %s", files[0], files[1], *msg ? msg : pgi_status_string(st));
+    }
+    const char *what = NULL;
+    st = compare_maps(&c, img, fmap, &what);
+    free(fmap);
+    pgi_image_free(&img[0]);
+    pgi_image_free(&img[1]);
+    if (st) return cli_fail("compare", what, st);
+    compare_print(&m, c.json, noise, half);
     return 0;
 }

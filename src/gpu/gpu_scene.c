@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "scene/bsdf.h"
+#include "scene/light.h"
 
 /* gather.glsl Lobe (gpu_hashgrid.c's gpu_lobe) */
 typedef struct {
@@ -106,11 +107,12 @@ static pgi_status upload_dynamic(pgi__gpu_scene *gs, const pgi_scene *s) {
         if (s->col) memcpy(v[i].col, s->col + 3 * i, 3 * sizeof(float));
         else v[i].col[0] = v[i].col[1] = v[i].col[2] = 1.f;
     }
-    /* pgi__direct's table: cumulative luminance of the power in double, divided by the total */
-    size_t narea = 0;
-    double tot = 0.0;
-    double *cum = calloc(s->nlights + 1, sizeof *cum);
-    if (!cum) {
+    /* the area lights' pick table, pgi__direct's (pgi__light_area_cdf) */
+    float *cdf = malloc((s->nlights + 1) * sizeof *cdf);
+    size_t *idx = malloc((s->nlights + 1) * sizeof *idx);
+    if (!cdf || !idx) {
+        free(cdf);
+        free(idx);
         st = pgi__fail(PGI_ERR_OOM, "%s", "out of memory packing the scene for the GPU");
         goto done;
     }
@@ -125,14 +127,14 @@ static pgi_status upload_dynamic(pgi__gpu_scene *gs, const pgi_scene *s) {
         o->cos_cutoff = L->cos_cutoff;
         o->area = L->area;
         o->tri = L->tri;
-        if (L->type != PGI__LIGHT_AREA) continue;
-        tot += v3_lum(v3_load(L->power));
-        cum[narea] = (double)(float)tot; /* pgi__direct stores the running sum as a float first */
-        a[narea++].light = (uint32_t)i;
     }
-    for (size_t k = 0; k < narea; k++) a[k].cdf = tot > 0.0 ? (float)(cum[k] / tot) : (float)(k + 1) / (float)narea;
-    if (narea) a[narea - 1].cdf = 1.f;
-    free(cum);
+    const size_t narea = pgi__light_area_cdf(s, cdf, idx);
+    for (size_t k = 0; k < narea; k++) {
+        a[k].cdf = cdf[k];
+        a[k].light = (uint32_t)idx[k];
+    }
+    free(cdf);
+    free(idx);
     if ((st = upload(g, &gs->verts, v, s->nverts * sizeof *v, "gpu_scene")) ||
         (st = upload(g, &gs->lights, l, s->nlights * sizeof *l, "gpu_scene")) ||
         (st = upload(g, &gs->area, a, narea * sizeof *a, "gpu_scene")))

@@ -12,7 +12,6 @@
  * operations each way (no contraction: -ffp-contract=off), so the same bits (test_trace); the
  * wider instruction sets take time off the tracer's own code (docs/performance.md; the history in
  * docs/history/performance.md). */
-#define _DEFAULT_SOURCE /* madvise's MADV_HUGEPAGE */
 #include "photon.h"
 
 #include <omp.h>
@@ -25,7 +24,6 @@
 #include "scene/portal.h"
 
 #include <stdint.h>
-#include <sys/mman.h>
 #if defined(__SSE2__)
 #include <emmintrin.h> /* record: streaming stores */
 #endif
@@ -78,9 +76,9 @@ typedef struct chunk_info {
 typedef struct tracer {
     const pgi_scene *s;
     const pgi__rt *rt;
-    const pgi__trace_tri *tris; /* the scene's triangles as shaded (pgi__trace_tris_update) */
-    const float *tri_uv;        /* and their texture coordinates, PGI__TRI_UV floats each (NULL: none) */
-    const float *cdf;           /* light CDF by luminance of power */
+    const pgi__tri_rec *tris; /* the scene's triangles as shaded (pgi__tri_cache_update) */
+    const float *tri_uv;      /* and their texture coordinates, PGI__TRI_UV floats each (NULL: none) */
+    const float *cdf;         /* light CDF by luminance of power */
     size_t nl;
     int bounces;
     uint64_t seed_mix; /* pgi__rng_seed_mix(seed): each path's stream from it (pick_light) */
@@ -100,6 +98,7 @@ typedef struct tracer {
     /* portal emission (scene/portal.h): NULL, or the sky's table; the sun and the sky start on
        the portals */
     const pgi__portal_emit *PE;
+    pgi__emit_frame E; /* what pgi__light_emit reads: the scene, centre, radius, eps and PE */
 } tracer;
 
 typedef struct lane {
@@ -140,118 +139,48 @@ static inline const pgi__light *pick_light(const tracer *T, uint64_t index, lane
     return li < T->s->nlights ? &T->s->lights[li] : &T->s->env->light; /* the last: the sky */
 }
 
-/* start_path after pick_light (below), in two steps: emit_draw, the numbers (the flux, the four
- * numbers u[0..3] of the emission, the guide's bin and count; 0: the light carries nothing), then
- * emit_place, the ray. `cs`: cos and sin of 2 pi u[1] where known (pgi__trace_sincos_2pi: the
- * same bits as cosf and sinf), used by point and spot lights; NULL: computed here. */
+/* start_path after pick_light (below), in two steps: emit_draw, the numbers (the four numbers
+ * u[0..3] of the emission, the guide's bin and count; 0: the light carries nothing), then
+ * emit_place, the ray and its flux (pgi__light_emit; emit_place_point takes `cs`, cos and sin of
+ * 2 pi u[1] where known: pgi__trace_sincos_2pi, the same bits as cosf and sinf). */
 static inline int emit_draw(const tracer *T, const pgi__light *L, const emission_pick *e, lane *l, uint32_t *cnt,
                             float u[4]) {
     const pgi__guide *G = T->G;
     const int steer = G && G->on;
     const float pl = e->pl;
-    float u1, u2, u3 = 0.f, u4 = 0.f;
     if (!(pl > 0.f)) return 0;
-    l->flux = v3_scale(v3_load(L->power), 1.f / pl);
-    /* The steered pair: an area light's direction and the sky's disk point (its 3rd and 4th
-     * numbers), the first two of the others. Uniform emission draws in the historical order:
-     * an area light's azimuth first (the order gcc gave the two draws when they were arguments
-     * of one call; explicit now, so that every compiler draws the same). */
-    const int late = L->type == PGI__LIGHT_AREA || L->type == PGI__LIGHT_ENV;
+    /* The steered pair: the light's own (pgi__light_pair_late), the guide's a and b; its other
+     * two numbers drawn. */
+    const int late = pgi__light_pair_late(L);
     if (steer) {
         if (late) {
-            u3 = e->a;
-            u4 = e->b;
-            u1 = pgi_rng_f(&l->rng);
-            u2 = pgi_rng_f(&l->rng);
+            u[2] = e->a;
+            u[3] = e->b;
+            u[0] = pgi_rng_f(&l->rng);
+            u[1] = pgi_rng_f(&l->rng);
         } else {
-            u1 = e->a;
-            u2 = e->b;
+            u[0] = e->a;
+            u[1] = e->b;
+            u[2] = u[3] = 0.f;
         }
     } else {
-        u1 = pgi_rng_f(&l->rng);
-        u2 = pgi_rng_f(&l->rng);
-        if (L->type == PGI__LIGHT_AREA) {
-            u4 = pgi_rng_f(&l->rng);
-            u3 = pgi_rng_f(&l->rng);
-        } else if (L->type == PGI__LIGHT_ENV) {
-            u3 = pgi_rng_f(&l->rng);
-            u4 = pgi_rng_f(&l->rng);
-        }
-        if (G) l->bin = late ? pgi__guide_bin(G, e->ul, u3, u4) : pgi__guide_bin(G, e->ul, u1, u2);
+        pgi__light_draw(L, &l->rng, u);
+        if (G) l->bin = late ? pgi__guide_bin(G, e->ul, u[2], u[3]) : pgi__guide_bin(G, e->ul, u[0], u[1]);
     }
     if (G) cnt[l->bin]++;
-    u[0] = u1;
-    u[1] = u2;
-    u[2] = u3;
-    u[3] = u4;
     return 1;
 }
 
 /* emit_place for a point or spot light (pgi__light_from_point). */
 static inline void emit_place_point(const tracer *T, const pgi__light *L, float pl, const float u[4], const float *cs,
                                     lane *l) {
-    const float u1 = u[0], u2 = u[1];
-    l->o = v3_load(L->pos);
-    if (L->type == PGI__LIGHT_POINT) l->d = cs ? pgi_sample_sphere_cs(u1, cs[0], cs[1]) : pgi_sample_sphere(u1, u2);
-    else
-        l->d = pgi_to_world(cs ? pgi_sample_cone_cs(u1, cs[0], cs[1], L->cos_cutoff)
-                               : pgi_sample_cone(u1, u2, L->cos_cutoff),
-                            v3_load(L->dir));
+    pgi__light_emit_point(L, pl, u, cs, &l->o, &l->d, &l->flux);
     if (T->fp_track) pgi__fp_emit(&l->pd, &T->fp, T->s, L, pl, l->d, T->radius);
     l->b = 0;
 }
 
-static int emit_place(const tracer *T, const pgi__light *L, float pl, const float u[4], const float *cs, lane *l) {
-    const float u1 = u[0], u2 = u[1], u3 = u[2], u4 = u[3];
-    switch (L->type) {
-    case PGI__LIGHT_POINT:
-    case PGI__LIGHT_SPOT: emit_place_point(T, L, pl, u, cs, l); return 1;
-    case PGI__LIGHT_SUN: {
-        l->d = v3_load(L->dir);
-        if (T->PE) {
-            /* a point of a portal picked by its area across the beam: flux E A_perp / (portals
-               the line crosses) / the pick probability (portal.h) */
-            float wgt;
-            if (!pgi__portal_sun_emit(T->s, l->d, pgi_rng_f(&l->rng), u1, u2, T->centre, T->radius, &l->o, &wgt))
-                return 0;
-            l->flux = v3_scale(v3_load(L->color), wgt / pl);
-            break;
-        }
-        float r = T->radius * sqrtf(u1), phi = 2.f * PGI__PI * u2;
-        pgi__v3 disk = pgi_to_world(v3(r * cosf(phi), r * sinf(phi), 0.f), l->d);
-        l->o = v3_add(v3_sub(T->centre, v3_scale(l->d, 1.01f * T->radius)), disk);
-        break;
-    }
-    case PGI__LIGHT_ENV: {
-        if (T->PE) {
-            /* a line through a portal (portal.h): its radiance over the line's density */
-            const float up[5] = {pgi_rng_f(&l->rng), u1, u2, u3, u4};
-            pgi__v3 f;
-            if (!pgi__portal_sky_emit(T->PE, T->s->env, up, T->centre, T->radius, &l->o, &l->d, &f)) return 0;
-            l->flux = v3_scale(f, 1.f / pl);
-            break;
-        }
-        /* A direction w by the sky's density, then a uniform point of the disk of radius R
-         * perpendicular to w outside the bounding sphere, travelling along -w: flux
-         * L(w) pi R^2 / pdf(w) (the light's power pi R^2 int L dw when pdf is proportional to L). */
-        float pdf;
-        pgi__v3 w = pgi__env_sample(T->s->env, u1, u2, &pdf);
-        if (!(pdf > 0.f)) return 0;
-        l->flux = v3_scale(pgi__env_eval(T->s->env, w), PGI__PI * T->radius * T->radius / (pdf * pl));
-        l->d = v3_neg(w);
-        float r = T->radius * sqrtf(u3), phi = 2.f * PGI__PI * u4;
-        pgi__v3 disk = pgi_to_world(v3(r * cosf(phi), r * sinf(phi), 0.f), l->d);
-        l->o = v3_add(v3_madd(T->centre, w, 1.01f * T->radius), disk);
-        break;
-    }
-    case PGI__LIGHT_AREA:
-    default: {
-        pgi__v3 n = v3_load(L->normal);
-        l->o = v3_madd(pgi__triangle_sample(T->s, L->tri, u1, u2), n, T->eps);
-        l->d = pgi_to_world(pgi_sample_cosine(u3, u4), n);
-        break;
-    }
-    }
+static int emit_place(const tracer *T, const pgi__light *L, float pl, const float u[4], lane *l) {
+    if (!pgi__light_emit(L, &T->E, pl, u, &l->rng, &l->o, &l->d, &l->flux)) return 0;
     if (T->fp_track) pgi__fp_emit(&l->pd, &T->fp, T->s, L, pl, l->d, T->radius);
     l->b = 0;
     return 1;
@@ -259,7 +188,7 @@ static int emit_place(const tracer *T, const pgi__light *L, float pl, const floa
 
 static int emit_from(const tracer *T, const pgi__light *L, const emission_pick *e, lane *l, uint32_t *cnt) {
     float u[4];
-    return emit_draw(T, L, e, l, cnt, u) && emit_place(T, L, e->pl, u, NULL, l);
+    return emit_draw(T, L, e, l, cnt, u) && emit_place(T, L, e->pl, u, l);
 }
 
 /* Starts path `index` in `l` (emission from a light picked by power). Flux is power / pick
@@ -312,76 +241,6 @@ static int record(pgi__trace_tbuf *tb, int fp_on, int path, pgi__v3 p, pgi__v3 w
     tb->rec_path[j] = (uint16_t)path;
     return 1;
 }
-
-#ifndef PGI__TRACE_V3 /* defined once (the baseline's) */
-/* Memory for the triangle records. Each hit reads one of them at random: from 1 MiB on they go to
- * 2 MiB-aligned memory the kernel may back with huge pages, so that a hit costs a cache miss but
- * no TLB miss (a scene's records span thousands of 4 KiB pages). */
-static void *tris_alloc(size_t bytes, size_t *total) {
-    const size_t huge = (size_t)2 << 20;
-    if (bytes < huge / 2) {
-        *total += bytes;
-        return aligned_alloc(64, bytes);
-    }
-    bytes = (bytes + huge - 1) / huge * huge;
-    *total += bytes;
-    void *p = aligned_alloc(huge, bytes);
-#ifdef MADV_HUGEPAGE
-    if (p) madvise(p, bytes, MADV_HUGEPAGE); /* a hint: without huge pages all still works */
-#endif
-    return p;
-}
-
-pgi_status pgi__trace_tris_update(pgi__trace_scratch *sc, const pgi_scene *s, int threads) {
-    const int nt = pgi__threads(threads);
-    const void *key[6] = {s, s->tri, s->pos, s->nrm, s->uv, s->tri_mat};
-    if (sc->tris && sc->tris_n == s->ntris && !memcmp(key, sc->tris_key, sizeof key) &&
-        sc->tris_version[0] == s->static_version && sc->tris_version[1] == s->dynamic_version)
-        return PGI_OK;
-    free(sc->tris);
-    free(sc->tri_uv);
-    sc->tri_uv = NULL;
-    sc->tris_n = sc->tris_bytes = 0;
-    const size_t n = s->ntris ? s->ntris : 1;
-    size_t bytes = 0;
-    sc->tris = tris_alloc(n * sizeof *sc->tris, &bytes);
-    if (s->uv) sc->tri_uv = tris_alloc(n * PGI__TRI_UV * sizeof(float), &bytes);
-    if (!sc->tris || (s->uv && !sc->tri_uv)) {
-        free(sc->tris);
-        free(sc->tri_uv);
-        sc->tris = NULL;
-        sc->tri_uv = NULL;
-        return pgi__fail(PGI_ERR_OOM, "out of memory for the tracer's %zu triangle records", s->ntris);
-    }
-    pgi__trace_tri *tr = sc->tris;
-    float *tuv = sc->tri_uv;
-#pragma omp parallel for schedule(static) num_threads(nt)
-    for (long long i = 0; i < (long long)s->ntris; i++) {
-        const uint32_t *t = s->tri + 3 * (size_t)i;
-        pgi__trace_tri *r = &tr[i];
-        memset(r, 0, sizeof *r);
-        /* as pgi__scene_surface_untextured computes it */
-        pgi__v3 a = pgi__scene_vertex(s, t[0]), b = pgi__scene_vertex(s, t[1]), c = pgi__scene_vertex(s, t[2]);
-        v3_store(r->ng, v3_norm(v3_cross(v3_sub(b, a), v3_sub(c, a))));
-        r->mat = s->tri_mat[i];
-        if (s->nrm)
-            for (int j = 0; j < 3; j++) memcpy(r->n + 3 * j, s->nrm + 3 * (size_t)t[j], 3 * sizeof(float));
-        if (tuv) {
-            float *q = tuv + PGI__TRI_UV * (size_t)i;
-            for (int j = 0; j < 3; j++) memcpy(q + 2 * j, s->uv + 2 * (size_t)t[j], 2 * sizeof(float));
-            q[6] = pgi__tri_uv_lod(a, b, c, q);
-            q[7] = 0.f;
-        }
-    }
-    sc->tris_n = s->ntris;
-    sc->tris_bytes = bytes;
-    memcpy(sc->tris_key, key, sizeof key);
-    sc->tris_version[0] = s->static_version;
-    sc->tris_version[1] = s->dynamic_version;
-    return PGI_OK;
-}
-
-#endif
 
 /* A path between two hits, as the emission pre-pass (first_hits) leaves it for trace_chunk:
  * the lane's state that lasts from one bounce to the next (its differentials in a second
@@ -523,7 +382,7 @@ static inline void wave_texels(const tracer *T, lane *L, wave_go *W) {
         if (m->tex_kd < 0) continue;
         l->tex = &s->texs[m->tex_kd];
         float u = 0.f, v = 0.f; /* without texture coordinates the lookup reads (0, 0) */
-        if (T->tri_uv) pgi__trace_tri_uv(T->tri_uv + PGI__TRI_UV * (size_t)l->h.prim, l->h.u, l->h.v, &u, &v);
+        if (T->tri_uv) pgi__tri_rec_uv(T->tri_uv + PGI__TRI_UV * (size_t)l->h.prim, l->h.u, l->h.v, &u, &v);
         if (!pgi__texture_quad(l->tex, u, v, &l->tq)) l->tex = NULL; /* no texels: white */
     }
 }
@@ -543,10 +402,10 @@ static inline int wave_shade(const tracer *T, lane *L, float (*sc)[WAVE], pgi__l
         lane *l = &L[k];
         if (l->path < 0) continue;
         if (l->h.prim != UINT32_MAX) {
-            /* pgi__trace_tri_surface's values (the shading normal and albedo only where the path
+            /* pgi__tri_rec_surface's values (the shading normal and albedo only where the path
              * scatters) in registers rather than a pgi__surface (whose copies through memory
              * stalled the loads after them), the same operations */
-            const pgi__trace_tri *r = &T->tris[l->h.prim];
+            const pgi__tri_rec *r = &T->tris[l->h.prim];
             const pgi__material *mat = &s->mats[r->mat];
             const pgi__v3 p = v3_madd(l->o, l->d, l->h.t);
             const pgi__v3 g = v3_load(r->ng);
@@ -590,14 +449,14 @@ static inline int wave_shade(const tracer *T, lane *L, float (*sc)[WAVE], pgi__l
     for (int i = 0; i < W->n; i++) {
         const int k = W->k[i];
         lane *l = &L[k];
-        const pgi__trace_tri *r = &T->tris[l->h.prim];
+        const pgi__tri_rec *r = &T->tris[l->h.prim];
         const pgi__material *mat = W->mat[k];
         const pgi__v3 p = W->p[k], g = v3_load(r->ng), wi = v3_neg(l->d), ng = W->ng[k];
         const int front = W->front[k];
         int alive = 0;
         /* the shading normal (the batch finds its own) */
         const int lam = W->lam[k], batched = lb && lam;
-        const pgi__v3 ns = batched ? g : pgi__trace_tri_ns(s, r, l->h.u, l->h.v, g);
+        const pgi__v3 ns = batched ? g : pgi__tri_rec_ns(s, r, l->h.u, l->h.v, g);
         pgi__v3 kd = pgi__scene_kd(s, mat, l->h.prim, l->h.u, l->h.v);
         if (l->tex) kd = v3_mul(kd, pgi__texture_quad_lookup(&l->tq));
         pgi__v3 wo, w;
@@ -1038,29 +897,17 @@ void pgi__trace_scratch_free(pgi__trace_scratch *sc) {
         free(tb[t].rec_fp);
         free(tb[t].rec_path);
     }
-    free(sc->tbuf);
-    free(sc->counts);
-    free(sc->chunks);
-    free(sc->path_bin);
-    free(sc->ph_bin);
-    free(sc->tris);
-    free(sc->tri_uv);
-    free(sc->ps);
-    free(sc->live);
-    free(sc->ps_pd);
-    free(sc->mode);
-    free(sc->key);
-    free(sc->idx);
-    free(sc->tkey);
-    free(sc->tidx);
-    free(sc->hist);
+    void *const bufs[] = {sc->tbuf,  sc->counts, sc->chunks, sc->path_bin, sc->ph_bin, sc->ps,   sc->live,
+                          sc->ps_pd, sc->mode,   sc->key,    sc->idx,      sc->tkey,   sc->tidx, sc->hist};
+    for (size_t i = 0; i < sizeof bufs / sizeof *bufs; i++) free(bufs[i]);
+    pgi__tri_cache_free(&sc->tc);
     memset(sc, 0, sizeof *sc);
 }
 
 size_t pgi__trace_scratch_bytes(const pgi__trace_scratch *sc) {
     size_t b = sc->cap * sizeof(uint8_t) + sc->cap / CHUNK * sizeof(chunk_info) +
                (size_t)sc->nthreads * sizeof *sc->tbuf + (sc->path_bin_cap + sc->ph_bin_cap) * sizeof(uint16_t) +
-               sc->tris_bytes + sc->mode_cap + sc->ps_cap * (sizeof(path_state) + 4 * sizeof(uint32_t)) + sc->live_n +
+               sc->tc.bytes + sc->mode_cap + sc->ps_cap * (sizeof(path_state) + 4 * sizeof(uint32_t)) + sc->live_n +
                sc->pd_cap * sizeof(pgi__pdiff) + sc->hist_n * sizeof(uint32_t);
     for (int t = 0; t < sc->nthreads; t++) {
         const pgi__trace_tbuf *tb = &sc->tbuf[t];
@@ -1154,6 +1001,320 @@ static pgi_status scratch_reserve(pgi__trace_scratch *sc, size_t paths, int nt, 
     return PGI_OK;
 }
 
+/* The lights, then the sky (if any) as entry nl - 1: `cdf` (nl floats) by luminance of power
+ * (through the portals for the sun and the sky with portal emission), and the room a chunk for
+ * the states of paths from point and spot lights (start_paths). 0 in *total: no light. */
+static void light_table(const pgi_scene *s, const pgi__trace_desc *d, const pgi__portal_emit *pe, float *cdf, size_t nl,
+                        double *total_out, size_t *room_out) {
+    double total = 0.0;
+    for (size_t i = 0; i < nl; i++) {
+        const pgi__light *L = i < s->nlights ? &s->lights[i] : &s->env->light;
+        total += pgi__light_pick_power(s, L, d->portals ? pe : NULL);
+        cdf[i] = (float)total;
+    }
+    *total_out = total;
+    *room_out = 0;
+    if (!(total > 0.0)) return;
+    /* The share of the power that leaves point and spot lights sizes the room for their paths'
+     * states a chunk (start_paths): the expected count and 4 sigma; the chunk's paths past it
+     * start in the chunk. */
+    double point_power = 0.0;
+    for (size_t i = 0; i < s->nlights; i++)
+        if (pgi__light_from_point(&s->lights[i])) point_power += fmax(0.0, (double)v3_lum(v3_load(s->lights[i].power)));
+    const double share = point_power / total;
+    size_t room = share <= 0.0 ? 0 : (size_t)ceil(share * CHUNK + 4.0 * sqrt(share * (1.0 - share) * CHUNK) + 16.0);
+    if (room > CHUNK) room = CHUNK;
+    if (pgi__trace_room_cap > 0 && room > (size_t)pgi__trace_room_cap) room = (size_t)pgi__trace_room_cap;
+    for (size_t i = 0; i < nl; i++) cdf[i] = (float)(cdf[i] / total);
+    cdf[nl - 1] = 1.f;
+    *room_out = room;
+}
+
+/* The paths of the next batch, from the yield seen so far (seen_paths, seen_photons) and the
+ * photons still missing in this phase (`remaining`); at most `left` paths. */
+static size_t batch_paths(double seen_paths, double seen_photons, size_t remaining, size_t room, uint64_t left) {
+    size_t batch;
+    if (seen_photons < 64.0) {
+        batch = remaining / 4 + 64; /* no estimate yet: a pilot batch */
+        if (batch > 4 * CHUNK) batch = 4 * CHUNK;
+        /* ... as many paths as all the pilots before it: a scene that stores (almost) nothing
+         * reaches max_paths in a few dozen batches, not in a million-path crawl of 64 at a time */
+        if ((double)batch < seen_paths) batch = (size_t)seen_paths;
+    } else {
+        /* The bulk of a phase: an upper bound of the yield (1 sigma of the photon count seen)
+         * sizes the batch from below, as a rule (paths traced for nothing cost more than
+         * the smaller batch that then ends the phase). A batch that ends the phase after
+         * its bulk (fewer photons missing than seen so far) takes a lower bound, 3 sigma of
+         * the count seen and 4 of the batch's own (a path stores 0 to `bounces` photons:
+         * a Poisson count's, with room), and so ends it, where its paths too many would be
+         * at most 1 % of those seen: they cost less than a further batch (Sibenik's frames
+         * took five batches, with 3 sigma from above throughout: the last two of 131 and 64
+         * paths). */
+        const double y = seen_photons / seen_paths, rem = (double)remaining;
+        batch = (size_t)(rem / (y * (1.0 + 1.0 / sqrt(seen_photons)))) + 1;
+        if (rem < seen_photons) {
+            const double lo = fmax(1.0 - 3.0 / sqrt(seen_photons) - 4.0 / sqrt(rem), 0.5);
+            if (rem / (y * lo) - rem / y <= 0.01 * seen_paths) batch = (size_t)(rem / (y * lo)) + 1;
+        }
+    }
+    if (batch < 64) batch = 64;
+    if (batch > (1u << 20)) batch = 1u << 20;
+    if (room && batch > PREPASS_BATCH) batch = PREPASS_BATCH;
+    if (batch > left) batch = (size_t)left;
+    return batch;
+}
+
+/* Traces a batch of `batch` paths from path index `path` into the threads' buffers (sc->tbuf,
+ * sc->chunks, sc->counts): the paths from point and spot lights start first (up to `room` a
+ * chunk), sorted by where they go, and meet their first hits in that order (first_hits); then
+ * each chunk traces its paths on from there, and starts the others. 0 when a thread ran out of
+ * memory for its photons. */
+static int trace_batch(const tracer *T, pgi__trace_scratch *sc, uint64_t path, size_t batch, int nt, size_t room,
+                       uint64_t *rays_out) {
+    const long long nch = (long long)((batch + CHUNK - 1) / CHUNK);
+    for (int t = 0; t < nt; t++) sc->tbuf[t].nrec = 0;
+    uint64_t batch_rays = 0;
+    int failed = 0;
+    path_state *ps = sc->ps;
+    pgi__pdiff *pd = T->fp_track ? sc->ps_pd : NULL;
+    if (room) {
+        /* nt parts of consecutive chunks, each with its own counts of the keys' bytes: the
+           sort's first pass places each part's keys in parallel (sort_paths) */
+        memset(sc->hist, 0, (size_t)(nt + 1) * 1024 * sizeof *sc->hist);
+#pragma omp parallel for schedule(static, 1) num_threads(nt)
+        for (int q = 0; q < nt; q++) {
+            uint32_t *gc = T->G ? T->G->tcount + (size_t)omp_get_thread_num() * 3 * (size_t)T->G->nbins : NULL;
+            for (long long c = part_first(nch, nt, q); c < part_first(nch, nt, q + 1); c++) {
+                const size_t p0 = (size_t)c * CHUNK, p1 = p0 + CHUNK < batch ? p0 + CHUNK : batch;
+                sc->chunks[c].keyed =
+                    start_paths(T, path, p0, p1, (size_t)c * room, room, ps, pd, sc->mode, sc->key, sc->idx, gc,
+                                T->G ? sc->path_bin : NULL, sc->hist + (size_t)(q + 1) * 1024);
+            }
+        }
+    }
+    size_t keyed = 0; /* each chunk's keyed paths, together */
+    for (long long c = 0; room && c < nch; c++) {
+        sc->chunks[c].kofs = keyed;
+        keyed += sc->chunks[c].keyed;
+    }
+    if (keyed) sort_paths(sc, nch, room, keyed, nt);
+    const long long ngroups = (long long)((keyed + WAVE - 1) / WAVE), nblocks = (ngroups + 15) / 16;
+    /* each thread's byte a state slot (first_hits: whether the path goes on), zero where
+       another thread shades the path: one array written by all, at random places, had the
+       threads take its lines from each other's caches (first_hits took 13 % longer a thread
+       at two threads than at one) */
+    const size_t slots = (size_t)nch * room;
+    if (keyed) memset(sc->live, 0, slots * (size_t)nt);
+#pragma omp parallel for schedule(dynamic, 1) reduction(+ : batch_rays) num_threads(nt)
+    for (long long bk = 0; bk < nblocks; bk++) {
+        uint64_t r = 0;
+        const size_t g0 = (size_t)bk * 16, g1 = g0 + 16 < (size_t)ngroups ? g0 + 16 : (size_t)ngroups;
+        first_hits(T, ps, pd, sc->live + (size_t)omp_get_thread_num() * slots, sc->idx, keyed, g0, g1,
+                   keyed >= COHERENT_MIN, &r);
+        batch_rays += r;
+    }
+#pragma omp parallel for schedule(dynamic, 1) reduction(+ : batch_rays) num_threads(nt)
+    for (long long c = 0; c < nch; c++) {
+        int tid = omp_get_thread_num();
+        pgi__trace_tbuf *tb = &sc->tbuf[tid];
+        const size_t p0 = (size_t)c * CHUNK, p1 = p0 + CHUNK < batch ? p0 + CHUNK : batch;
+        chunk_info *ci = &sc->chunks[c];
+        ci->tid = tid;
+        ci->off = tb->nrec;
+        uint64_t r = 0;
+        int ok = 0;
+        int f;
+#pragma omp atomic read
+        f = failed;
+        uint32_t *gc = T->G ? T->G->tcount + (size_t)tid * 3 * (size_t)T->G->nbins : NULL;
+        if (!f)
+            ok = trace_chunk(T, path, room ? sc->mode : NULL, room ? ps + (size_t)c * room : NULL,
+                             pd && room ? pd + (size_t)c * room : NULL, room ? sc->live + (size_t)c * room : NULL,
+                             slots, nt, p0, p1, tb, sc->counts + (size_t)c * CHUNK, &r, gc, T->G ? sc->path_bin : NULL);
+        if (!ok) {
+#pragma omp atomic write
+            failed = 1;
+        }
+        ci->total = ci->count = ok ? tb->nrec - ci->off : 0;
+        batch_rays += r;
+    }
+    *rays_out = batch_rays;
+    return !failed;
+}
+
+/* The chunks whose photons the buffer takes: whole chunks while they fit, the last one cut after
+ * the path that fills it (its count lowered). Adds their photons to *produced and their paths to
+ * *used_paths; returns how many chunks. */
+static long long take_chunks(pgi__trace_scratch *sc, long long nch, size_t batch, size_t count, size_t goal,
+                             size_t *produced_out, size_t *used_out) {
+    size_t produced = 0, used_paths = 0;
+    long long c = 0;
+    for (; c < nch && count + produced < goal; c++) {
+        chunk_info *ci = &sc->chunks[c];
+        size_t np = (size_t)((c + 1) * CHUNK <= (long long)batch ? CHUNK : batch - (size_t)c * CHUNK);
+        if (count + produced + ci->count < goal) { /* an exact fill is cut after its filling path */
+            produced += ci->count;
+            used_paths += np;
+            continue;
+        }
+        size_t take = 0, i = 0;
+        const uint8_t *cn = sc->counts + (size_t)c * CHUNK;
+        while (count + produced + take < goal) take += cn[i++];
+        ci->count = goal - count - produced;
+        produced += ci->count;
+        used_paths += i;
+        c++;
+        break;
+    }
+    *produced_out = produced;
+    *used_out = used_paths;
+    return c;
+}
+
+/* Copies the photons of the first `used_chunks` chunks into ph after its `ph->count`, in path
+ * order, with their guide bins and footprints (and the footprint histogram). */
+static pgi_status gather_photons(const tracer *T, pgi__trace_scratch *sc, const pgi__trace_desc *d, pgi_photons *ph,
+                                 long long used_chunks, size_t batch, int nt) {
+    const float bin_w = d->r_max / 14.f;
+    size_t *dst = malloc((size_t)(used_chunks ? used_chunks : 1) * sizeof *dst);
+    if (!dst) { return pgi__fail(PGI_ERR_OOM, "out of memory gathering photons"); }
+    size_t acc = ph->count;
+    for (long long k = 0; k < used_chunks; k++) {
+        dst[k] = acc;
+        acc += sc->chunks[k].count;
+    }
+#pragma omp parallel for schedule(dynamic, 4) num_threads(nt)
+    for (long long k = 0; k < used_chunks; k++) {
+        const chunk_info *ci = &sc->chunks[k];
+        const pgi__trace_tbuf *tb = &sc->tbuf[ci->tid];
+        const uint8_t *cn = sc->counts + (size_t)k * CHUNK;
+        if (T->G) { /* each photon's bin, from its path's */
+            size_t q = 0;
+            for (int i = 0; q < ci->count; i++)
+                for (int m = 0; m < cn[i] && q < ci->count; m++) sc->ph_bin[dst[k] + q++] = sc->path_bin[k * CHUNK + i];
+        }
+        /* The chunk's photons into path order as they are copied: a path's photons were
+         * recorded in its bounce order, so each goes to its path's start plus the ones
+         * before it; those past the count taken (the cut chunk) stay out. */
+        const size_t np = (size_t)((k + 1) * CHUNK <= (long long)batch ? CHUNK : batch - (size_t)k * CHUNK);
+        uint32_t start[CHUNK];
+        uint32_t first = 0;
+        for (size_t i = 0; i < np; i++) {
+            start[i] = first;
+            first += cn[i];
+        }
+        uint64_t hist[PGI_FOOTPRINT_BINS] = {0};
+        for (size_t q = 0; q < ci->total; q++) {
+            const size_t r = ci->off + q;
+            const uint32_t pos = start[tb->rec_path[r]]++;
+            if (pos >= ci->count) continue;
+            const stored_photon *sp = &tb->rec[r];
+            const size_t j = dst[k] + pos;
+            ph->px[j] = sp->p[0];
+            ph->py[j] = sp->p[1];
+            ph->pz[j] = sp->p[2];
+            ph->dx[j] = sp->d[0];
+            ph->dy[j] = sp->d[1];
+            ph->dz[j] = sp->d[2];
+            ph->fr[j] = sp->f[0];
+            ph->fg[j] = sp->f[1];
+            ph->fb[j] = sp->f[2];
+            ph->nx[j] = sp->n[0];
+            ph->ny[j] = sp->n[1];
+            ph->nz[j] = sp->n[2];
+            if (T->fp_on) {
+                const pgi__footprint *fp = &tb->rec_fp[r];
+                ph->radius[j] = fp->r;
+                if (ph->sax) {
+                    ph->sax[j] = fp->a[0];
+                    ph->say[j] = fp->a[1];
+                    ph->saz[j] = fp->a[2];
+                    ph->sbx[j] = fp->b[0];
+                    ph->sby[j] = fp->b[1];
+                    ph->sbz[j] = fp->b[2];
+                }
+                if (d->footprint_hist) {
+                    float qb = fp->r_raw / bin_w;
+                    int bin = qb < (float)(PGI_FOOTPRINT_BINS - 1) ? (int)qb : PGI_FOOTPRINT_BINS - 1;
+                    hist[bin < 0 ? 0 : bin]++;
+                }
+            }
+        }
+        if (T->fp_on && d->footprint_hist)
+            for (int i = 0; i < PGI_FOOTPRINT_BINS; i++)
+                if (hist[i]) {
+#pragma omp atomic
+                    d->footprint_hist[i] += hist[i];
+                }
+    }
+    free(dst);
+    return PGI_OK;
+}
+
+/* The photons' flux over the paths traced (ph->emitted): with steered paths (after a guide's
+ * pilot), weighted by V_b / q_b of their bins (guide.h). */
+static void scale_flux(pgi_photons *ph, const pgi__trace_scratch *sc, const pgi__guide *g, uint64_t path,
+                       uint64_t pilot_paths, int nt) {
+    if (pilot_paths > 0 && path > 0) {
+        /* steered paths: weight V_b / q_b (guide.h), over the paths */
+        float w[PGI__GUIDE_GROUPS * PGI__GUIDE_RES * PGI__GUIDE_RES];
+        for (int b = 0; b < g->nbins; b++)
+            w[b] = g->q[b] > 0 ? (float)(pgi__guide_volume(g, b) / g->q[b] / (double)path) : 0.f;
+#pragma omp parallel for schedule(static) num_threads(nt) if (ph->count >= 65536)
+        for (size_t j = 0; j < ph->count; j++) {
+            const float f = w[sc->ph_bin[j]];
+            ph->fr[j] *= f;
+            ph->fg[j] *= f;
+            ph->fb[j] *= f;
+        }
+        return;
+    }
+    if (path > 0) {
+        const float inv = (float)(1.0 / (double)path);
+#pragma omp parallel for schedule(static) num_threads(nt) if (ph->count >= 65536)
+        for (size_t j = 0; j < ph->count; j++) {
+            ph->fr[j] *= inv;
+            ph->fg[j] *= inv;
+            ph->fb[j] *= inv;
+        }
+    }
+}
+
+/* The tracer of a frame: its scene, rays, light table (cdf, nl entries), triangle records, guide,
+ * radius policy and portal emission (pe: NULL, or the sky's table). */
+static pgi_status tracer_init(tracer *T, const pgi_scene *s, const pgi__rt *rt, const pgi__trace_desc *d,
+                              const pgi_photons *ph, pgi__trace_scratch *sc, const float *cdf, size_t nl,
+                              const pgi__portal_emit *pe, int nt) {
+    *T = (tracer){.s = s,
+                  .rt = rt,
+                  .cdf = cdf,
+                  .nl = nl,
+                  .bounces = d->bounces,
+                  .seed_mix = pgi__rng_seed_mix(d->seed),
+                  .eps = pgi__scene_epsilon(s),
+                  .centre = v3_scale(v3_add(v3_load(s->bmin), v3_load(s->bmax)), 0.5f),
+                  .radius = 0.5f * pgi__scene_diagonal(s),
+                  .near = d->near,
+                  .PE = pe};
+    T->E = (pgi__emit_frame){s, T->centre, T->radius, T->eps, pe};
+    pgi_status ts = pgi__tri_cache_update(&sc->tc, s, nt);
+    if (ts) return ts;
+    T->tris = sc->tc.tris;
+    T->tri_uv = sc->tc.tri_uv;
+    T->fast_sincos = pgi__trace_sincos_fast();
+    if (d->guide) {
+        if (!d->vgrid) return pgi__fail(PGI_ERR_INVALID_ARG, "%s", "guided emission needs the view grid");
+        if ((ts = pgi__guide_init(d->guide, cdf, nl, nt))) return ts;
+        T->G = d->guide;
+        T->vg = d->vgrid;
+    }
+    pgi__fp_params_init(&T->fp, d->radius_policy, d->r_min, d->r_max, d->smoothing, d->photons, 2.f * T->radius);
+    T->fp_track = d->radius_policy != PGI_RADIUS_FIXED;
+    T->lambert_simd = T->fast_sincos && !T->fp_track; /* AVX2 (and FMA), not narrow; no radius policy */
+    T->fp_on = T->fp_track && ph->radius;
+    return PGI_OK;
+}
+
 static pgi_status trace_photons(const pgi_scene *s, const pgi__rt *rt, const pgi__trace_desc *d, pgi_photons *ph,
                                 pgi__trace_scratch *sc, uint64_t *rays_out) {
     ph->count = 0;
@@ -1169,7 +1330,6 @@ static pgi_status trace_photons(const pgi_scene *s, const pgi__rt *rt, const pgi
     const size_t nl = s->nlights + (s->env ? 1 : 0);
     float *cdf = malloc((nl ? nl : 1) * sizeof *cdf);
     if (!cdf) return pgi__fail(PGI_ERR_OOM, "out of memory for the light table");
-    double total = 0.0;
     pgi__portal_emit pe = {0};
     if (d->portals) {
         if (d->guide) {
@@ -1182,82 +1342,23 @@ static pgi_status trace_photons(const pgi_scene *s, const pgi__rt *rt, const pgi
             return ps;
         }
     }
-    for (size_t i = 0; i < nl; i++) {
-        const pgi__light *L = i < s->nlights ? &s->lights[i] : &s->env->light;
-        double p = fmax(0.0, (double)v3_lum(v3_load(L->power)));
-        /* portal emission: the sun's and the sky's power through the portals */
-        if (d->portals && L->type == PGI__LIGHT_SUN)
-            p = fmax(0.0, (double)v3_lum(v3_load(L->color))) * pgi__portal_sun_area(s, v3_load(L->dir));
-        else if (d->portals && L->type == PGI__LIGHT_ENV) p = pe.sky_lum;
-        total += p;
-        cdf[i] = (float)total;
-    }
+    double total;
+    size_t room;
+    light_table(s, d, &pe, cdf, nl, &total, &room);
     if (!(total > 0.0)) {
         free(cdf);
         pgi__portal_emit_free(&pe);
         return PGI_OK; /* no light: no photons; the image is black but valid */
     }
-    /* The share of the power that leaves point and spot lights sizes the room for their paths'
-     * states a chunk (start_paths): the expected count and 4 sigma; the chunk's paths past it
-     * start in the chunk. */
-    double point_power = 0.0;
-    for (size_t i = 0; i < s->nlights; i++)
-        if (pgi__light_from_point(&s->lights[i])) point_power += fmax(0.0, (double)v3_lum(v3_load(s->lights[i].power)));
-    const double share = point_power / total;
-    size_t room = share <= 0.0 ? 0 : (size_t)ceil(share * CHUNK + 4.0 * sqrt(share * (1.0 - share) * CHUNK) + 16.0);
-    if (room > CHUNK) room = CHUNK;
-    if (pgi__trace_room_cap > 0 && room > (size_t)pgi__trace_room_cap) room = (size_t)pgi__trace_room_cap;
-    for (size_t i = 0; i < nl; i++) cdf[i] = (float)(cdf[i] / total);
-    cdf[nl - 1] = 1.f;
 
-    tracer T = {s,
-                rt,
-                NULL,
-                NULL,
-                cdf,
-                nl,
-                d->bounces,
-                pgi__rng_seed_mix(d->seed),
-                pgi__scene_epsilon(s),
-                v3_scale(v3_add(v3_load(s->bmin), v3_load(s->bmax)), 0.5f),
-                0.5f * pgi__scene_diagonal(s),
-                {0},
-                0,
-                0,
-                NULL,
-                NULL,
-                d->near,
-                0,
-                0,
-                d->portals ? &pe : NULL};
+    tracer T;
     const int nt = pgi__threads(d->threads);
-    pgi_status ts = pgi__trace_tris_update(sc, s, nt);
+    pgi_status ts = tracer_init(&T, s, rt, d, ph, sc, cdf, nl, d->portals ? &pe : NULL, nt);
     if (ts) {
         free(cdf);
         pgi__portal_emit_free(&pe);
         return ts;
     }
-    T.tris = sc->tris;
-    T.tri_uv = sc->tri_uv;
-    T.fast_sincos = pgi__trace_sincos_fast();
-    if (d->guide) {
-        if (!d->vgrid) {
-            free(cdf);
-            return pgi__fail(PGI_ERR_INVALID_ARG, "%s", "guided emission needs the view grid");
-        }
-        pgi_status gs = pgi__guide_init(d->guide, cdf, nl, nt);
-        if (gs) {
-            free(cdf);
-            return gs;
-        }
-        T.G = d->guide;
-        T.vg = d->vgrid;
-    }
-    pgi__fp_params_init(&T.fp, d->radius_policy, d->r_min, d->r_max, d->smoothing, d->photons, 2.f * T.radius);
-    T.fp_track = d->radius_policy != PGI_RADIUS_FIXED;
-    T.lambert_simd = T.fast_sincos && !T.fp_track; /* AVX2 (and FMA), not narrow; no radius policy */
-    T.fp_on = T.fp_track && ph->radius;
-    const float bin_w = d->r_max / 14.f;
     uint64_t path = 0, traced = 0, rays = 0;
     const uint64_t max_paths = 64ull * d->photons + (1u << 20);
     const size_t want = d->photons;
@@ -1288,210 +1389,22 @@ static pgi_status trace_photons(const pgi_scene *s, const pgi__rt *rt, const pgi
             break;
         }
         const size_t goal = d->guide && !guide_done ? pilot_want : want; /* this phase's photons */
-        size_t remaining = goal - ph->count;
-        size_t batch;
-        if (seen_photons < 64.0) {
-            batch = remaining / 4 + 64; /* no estimate yet: a pilot batch */
-            if (batch > 4 * CHUNK) batch = 4 * CHUNK;
-            /* ... as many paths as all the pilots before it: a scene that stores (almost) nothing
-             * reaches max_paths in a few dozen batches, not in a million-path crawl of 64 at a time */
-            if ((double)batch < seen_paths) batch = (size_t)seen_paths;
-        } else {
-            /* The bulk of a phase: an upper bound of the yield (1 sigma of the photon count seen)
-             * sizes the batch from below, as a rule (paths traced for nothing cost more than
-             * the smaller batch that then ends the phase). A batch that ends the phase after
-             * its bulk (fewer photons missing than seen so far) takes a lower bound, 3 sigma of
-             * the count seen and 4 of the batch's own (a path stores 0 to `bounces` photons:
-             * a Poisson count's, with room), and so ends it, where its paths too many would be
-             * at most 1 % of those seen: they cost less than a further batch (Sibenik's frames
-             * took five batches, with 3 sigma from above throughout: the last two of 131 and 64
-             * paths). */
-            const double y = seen_photons / seen_paths, rem = (double)remaining;
-            batch = (size_t)(rem / (y * (1.0 + 1.0 / sqrt(seen_photons)))) + 1;
-            if (rem < seen_photons) {
-                const double lo = fmax(1.0 - 3.0 / sqrt(seen_photons) - 4.0 / sqrt(rem), 0.5);
-                if (rem / (y * lo) - rem / y <= 0.01 * seen_paths) batch = (size_t)(rem / (y * lo)) + 1;
-            }
-        }
-        if (batch < 64) batch = 64;
-        if (batch > (1u << 20)) batch = 1u << 20;
-        if (room && batch > PREPASS_BATCH) batch = PREPASS_BATCH;
-        if (batch > max_paths - path) batch = (size_t)(max_paths - path);
+        const size_t remaining = goal - ph->count;
+        const size_t batch = batch_paths(seen_paths, seen_photons, remaining, room, max_paths - path);
         if ((st = scratch_reserve(sc, batch, nt, T.G != NULL, T.fp_track, room))) break;
         const long long nch = (long long)((batch + CHUNK - 1) / CHUNK);
-        for (int t = 0; t < nt; t++) sc->tbuf[t].nrec = 0;
         uint64_t batch_rays = 0;
-        int failed = 0;
-        path_state *ps = sc->ps;
-        pgi__pdiff *pd = T.fp_track ? sc->ps_pd : NULL;
-        /* The paths from point and spot lights start first (up to `room` a chunk), sorted by
-         * where they go, and meet their first hits in that order (first_hits); then each chunk
-         * traces its paths on from there, and starts the others. */
-        if (room) {
-            /* nt parts of consecutive chunks, each with its own counts of the keys' bytes: the
-               sort's first pass places each part's keys in parallel (sort_paths) */
-            memset(sc->hist, 0, (size_t)(nt + 1) * 1024 * sizeof *sc->hist);
-#pragma omp parallel for schedule(static, 1) num_threads(nt)
-            for (int q = 0; q < nt; q++) {
-                uint32_t *gc = T.G ? T.G->tcount + (size_t)omp_get_thread_num() * 3 * (size_t)T.G->nbins : NULL;
-                for (long long c = part_first(nch, nt, q); c < part_first(nch, nt, q + 1); c++) {
-                    const size_t p0 = (size_t)c * CHUNK, p1 = p0 + CHUNK < batch ? p0 + CHUNK : batch;
-                    sc->chunks[c].keyed =
-                        start_paths(&T, path, p0, p1, (size_t)c * room, room, ps, pd, sc->mode, sc->key, sc->idx, gc,
-                                    T.G ? sc->path_bin : NULL, sc->hist + (size_t)(q + 1) * 1024);
-                }
-            }
-        }
-        size_t keyed = 0; /* each chunk's keyed paths, together */
-        for (long long c = 0; room && c < nch; c++) {
-            sc->chunks[c].kofs = keyed;
-            keyed += sc->chunks[c].keyed;
-        }
-        if (keyed) sort_paths(sc, nch, room, keyed, nt);
-        const long long ngroups = (long long)((keyed + WAVE - 1) / WAVE), nblocks = (ngroups + 15) / 16;
-        /* each thread's byte a state slot (first_hits: whether the path goes on), zero where
-           another thread shades the path: one array written by all, at random places, had the
-           threads take its lines from each other's caches (first_hits took 13 % longer a thread
-           at two threads than at one) */
-        const size_t slots = (size_t)nch * room;
-        if (keyed) memset(sc->live, 0, slots * (size_t)nt);
-#pragma omp parallel for schedule(dynamic, 1) reduction(+ : batch_rays) num_threads(nt)
-        for (long long bk = 0; bk < nblocks; bk++) {
-            uint64_t r = 0;
-            const size_t g0 = (size_t)bk * 16, g1 = g0 + 16 < (size_t)ngroups ? g0 + 16 : (size_t)ngroups;
-            first_hits(&T, ps, pd, sc->live + (size_t)omp_get_thread_num() * slots, sc->idx, keyed, g0, g1,
-                       keyed >= COHERENT_MIN, &r);
-            batch_rays += r;
-        }
-#pragma omp parallel for schedule(dynamic, 1) reduction(+ : batch_rays) num_threads(nt)
-        for (long long c = 0; c < nch; c++) {
-            int tid = omp_get_thread_num();
-            pgi__trace_tbuf *tb = &sc->tbuf[tid];
-            const size_t p0 = (size_t)c * CHUNK, p1 = p0 + CHUNK < batch ? p0 + CHUNK : batch;
-            chunk_info *ci = &sc->chunks[c];
-            ci->tid = tid;
-            ci->off = tb->nrec;
-            uint64_t r = 0;
-            int ok = 0;
-            int f;
-#pragma omp atomic read
-            f = failed;
-            uint32_t *gc = T.G ? T.G->tcount + (size_t)tid * 3 * (size_t)T.G->nbins : NULL;
-            if (!f)
-                ok = trace_chunk(&T, path, room ? sc->mode : NULL, room ? ps + (size_t)c * room : NULL,
-                                 pd && room ? pd + (size_t)c * room : NULL, room ? sc->live + (size_t)c * room : NULL,
-                                 slots, nt, p0, p1, tb, sc->counts + (size_t)c * CHUNK, &r, gc,
-                                 T.G ? sc->path_bin : NULL);
-            if (!ok) {
-#pragma omp atomic write
-                failed = 1;
-            }
-            ci->total = ci->count = ok ? tb->nrec - ci->off : 0;
-            batch_rays += r;
-        }
+        const int ok = trace_batch(&T, sc, path, batch, nt, room, &batch_rays);
         rays += batch_rays;
         traced += batch;
-        if (failed) {
+        if (!ok) {
             st = pgi__fail(PGI_ERR_OOM, "out of memory storing traced photons");
             break;
         }
         /* Take whole chunks while they fit; cut the last one after the path that fills the buffer. */
         size_t produced = 0, used_paths = 0;
-        long long c = 0;
-        for (; c < nch && ph->count + produced < goal; c++) {
-            chunk_info *ci = &sc->chunks[c];
-            size_t np = (size_t)((c + 1) * CHUNK <= (long long)batch ? CHUNK : batch - (size_t)c * CHUNK);
-            if (ph->count + produced + ci->count < goal) { /* an exact fill is cut after its filling path */
-                produced += ci->count;
-                used_paths += np;
-                continue;
-            }
-            size_t take = 0, i = 0;
-            const uint8_t *cn = sc->counts + (size_t)c * CHUNK;
-            while (ph->count + produced + take < goal) take += cn[i++];
-            ci->count = goal - ph->count - produced;
-            produced += ci->count;
-            used_paths += i;
-            c++;
-            break;
-        }
-        const long long used_chunks = c;
-        size_t *dst = malloc((size_t)(used_chunks ? used_chunks : 1) * sizeof *dst);
-        if (!dst) {
-            st = pgi__fail(PGI_ERR_OOM, "out of memory gathering photons");
-            break;
-        }
-        size_t acc = ph->count;
-        for (long long k = 0; k < used_chunks; k++) {
-            dst[k] = acc;
-            acc += sc->chunks[k].count;
-        }
-#pragma omp parallel for schedule(dynamic, 4) num_threads(nt)
-        for (long long k = 0; k < used_chunks; k++) {
-            const chunk_info *ci = &sc->chunks[k];
-            const pgi__trace_tbuf *tb = &sc->tbuf[ci->tid];
-            const uint8_t *cn = sc->counts + (size_t)k * CHUNK;
-            if (T.G) { /* each photon's bin, from its path's */
-                size_t q = 0;
-                for (int i = 0; q < ci->count; i++)
-                    for (int m = 0; m < cn[i] && q < ci->count; m++)
-                        sc->ph_bin[dst[k] + q++] = sc->path_bin[k * CHUNK + i];
-            }
-            /* The chunk's photons into path order as they are copied: a path's photons were
-             * recorded in its bounce order, so each goes to its path's start plus the ones
-             * before it; those past the count taken (the cut chunk) stay out. */
-            const size_t np = (size_t)((k + 1) * CHUNK <= (long long)batch ? CHUNK : batch - (size_t)k * CHUNK);
-            uint32_t start[CHUNK];
-            uint32_t first = 0;
-            for (size_t i = 0; i < np; i++) {
-                start[i] = first;
-                first += cn[i];
-            }
-            uint64_t hist[PGI_FOOTPRINT_BINS] = {0};
-            for (size_t q = 0; q < ci->total; q++) {
-                const size_t r = ci->off + q;
-                const uint32_t pos = start[tb->rec_path[r]]++;
-                if (pos >= ci->count) continue;
-                const stored_photon *sp = &tb->rec[r];
-                const size_t j = dst[k] + pos;
-                ph->px[j] = sp->p[0];
-                ph->py[j] = sp->p[1];
-                ph->pz[j] = sp->p[2];
-                ph->dx[j] = sp->d[0];
-                ph->dy[j] = sp->d[1];
-                ph->dz[j] = sp->d[2];
-                ph->fr[j] = sp->f[0];
-                ph->fg[j] = sp->f[1];
-                ph->fb[j] = sp->f[2];
-                ph->nx[j] = sp->n[0];
-                ph->ny[j] = sp->n[1];
-                ph->nz[j] = sp->n[2];
-                if (T.fp_on) {
-                    const pgi__footprint *fp = &tb->rec_fp[r];
-                    ph->radius[j] = fp->r;
-                    if (ph->sax) {
-                        ph->sax[j] = fp->a[0];
-                        ph->say[j] = fp->a[1];
-                        ph->saz[j] = fp->a[2];
-                        ph->sbx[j] = fp->b[0];
-                        ph->sby[j] = fp->b[1];
-                        ph->sbz[j] = fp->b[2];
-                    }
-                    if (d->footprint_hist) {
-                        float qb = fp->r_raw / bin_w;
-                        int bin = qb < (float)(PGI_FOOTPRINT_BINS - 1) ? (int)qb : PGI_FOOTPRINT_BINS - 1;
-                        hist[bin < 0 ? 0 : bin]++;
-                    }
-                }
-            }
-            if (T.fp_on && d->footprint_hist)
-                for (int i = 0; i < PGI_FOOTPRINT_BINS; i++)
-                    if (hist[i]) {
-#pragma omp atomic
-                        d->footprint_hist[i] += hist[i];
-                    }
-        }
-        free(dst);
+        const long long used_chunks = take_chunks(sc, nch, batch, ph->count, goal, &produced, &used_paths);
+        if ((st = gather_photons(&T, sc, d, ph, used_chunks, batch, nt))) break;
         /* The batch's full yield (all its paths and photons) informs the next batch. */
         size_t batch_photons = 0;
         for (size_t i = 0; i < batch; i++) batch_photons += sc->counts[i];
@@ -1550,30 +1463,7 @@ static pgi_status trace_photons(const pgi_scene *s, const pgi__rt *rt, const pgi
     }
     path -= pilot_paths;
     ph->emitted = path;
-    if (pilot_paths > 0 && path > 0) {
-        /* steered paths: weight V_b / q_b (guide.h), over the paths */
-        const pgi__guide *g = d->guide;
-        float w[PGI__GUIDE_GROUPS * PGI__GUIDE_RES * PGI__GUIDE_RES];
-        for (int b = 0; b < g->nbins; b++)
-            w[b] = g->q[b] > 0 ? (float)(pgi__guide_volume(g, b) / g->q[b] / (double)path) : 0.f;
-#pragma omp parallel for schedule(static) num_threads(nt) if (ph->count >= 65536)
-        for (size_t j = 0; j < ph->count; j++) {
-            const float f = w[sc->ph_bin[j]];
-            ph->fr[j] *= f;
-            ph->fg[j] *= f;
-            ph->fb[j] *= f;
-        }
-        return PGI_OK;
-    }
-    if (path > 0) {
-        const float inv = (float)(1.0 / (double)path);
-#pragma omp parallel for schedule(static) num_threads(nt) if (ph->count >= 65536)
-        for (size_t j = 0; j < ph->count; j++) {
-            ph->fr[j] *= inv;
-            ph->fg[j] *= inv;
-            ph->fb[j] *= inv;
-        }
-    }
+    scale_flux(ph, sc, d->guide, path, pilot_paths, nt);
     return PGI_OK;
 }
 

@@ -301,7 +301,7 @@ __attribute__((target("avx2"))) static inline __m256 finite8(__m256 x) {
                          _CMP_LT_OQ);
 }
 
-/* The operations of trace.c's lane-by-lane code (pgi__trace_tri_ns, pgi__bsdf_sample's
+/* The operations of trace.c's lane-by-lane code (pgi__tri_rec_ns, pgi__bsdf_sample's
  * Lambertian case, pgi_to_world, the roulette), 8 lanes an instruction: +-*, / and sqrt are
  * IEEE operations either way; pgi_maxf and pgi_minf are maxps and minps with the operands in
  * their order; a ? b : c a blend. */

@@ -27,7 +27,7 @@ void pgi__trace_emit_keys(pgi__v3 centre, float radius, const float *ox, const f
 uint32_t pgi__trace_emit_key(pgi__v3 centre, float radius, pgi__v3 o, pgi__v3 d);
 
 /* Lambertian scattering of up to 16 hits (trace.c wave_shade), in and out as arrays of lanes:
- * the shading normal (pgi__trace_tri_ns: the vertex normals n at barycentrics bu, bv where
+ * the shading normal (pgi__tri_rec_ns: the vertex normals n at barycentrics bu, bv where
  * the scene has them, else g), pgi__bsdf_sample's Lambertian case (a cosine-weighted direction
  * about the shading normal turned to the side `side` = +-1 of the hit, from u0 and the
  * azimuth's cosine and sine; weight kd), then the roulette with number u3 and the next ray

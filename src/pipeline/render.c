@@ -484,8 +484,8 @@ static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, uint64_t se
                               .index = index,
                               .shift = {d->shift[0], d->shift[1]},
                               .tex_filter = d->texture_filter == PGI_TEXTURE_FILTER_ON};
-    if ((st = pgi__view_build(s, r->rt, &r->trace_scratch, &r->cam, d->seed, &sp, d->threads, &r->vs, r->emit, &r->fill,
-                              &fs->primary_rays)))
+    if ((st = pgi__view_build(s, r->rt, &r->trace_scratch.tc, &r->cam, d->seed, &sp, d->threads, &r->vs, r->emit,
+                              &r->fill, &fs->primary_rays)))
         return st;
     double t1 = pgi__now_ms();
     pgi__trace_desc td = {.photons = d->photons,

@@ -21,7 +21,8 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "photon/photon.h"
+#include "scene/light.h"
+#include "scene/tri_cache.h"
 #include "pipeline/pipeline.h"
 #include "rt/rt.h"
 #include "scene/bsdf.h"
@@ -43,9 +44,9 @@ typedef struct {
     float *cdf;      /* area lights by luminance of power (as pgi__direct) */
     size_t *idx;     /* cdf entry -> light index */
     float *tri_pick; /* triangle -> pick probability of its area light (0: none) */
-    /* the triangles as the path's vertices after x0 read them (pgi__trace_tris_update): one
+    /* the triangles as the path's vertices after x0 read them (pgi__tri_cache_update): one
        cache line a hit instead of a dozen scattered ones */
-    const pgi__trace_tri *tris;
+    const pgi__tri_rec *tris;
     const float *tri_uv; /* PGI__TRI_UV floats a triangle (NULL: no texture coordinates) */
 } pt_ctx;
 
@@ -87,7 +88,7 @@ static pgi__v3 nee(const pt_ctx *C, pgi__surface *sf, const pgi__texel_quad **tq
         for (size_t l = 0; l < s->nlights; l++) {
             pgi__v3 wi, Li;
             float cs, tmax;
-            if (!pgi__delta_light(&s->lights[l], x, ns, ng, &wi, &Li, &cs, &tmax)) continue;
+            if (!pgi__light_delta(&s->lights[l], x, ns, ng, &wi, &Li, &cs, &tmax)) continue;
             if (pgi__rt_occluded(C->rt, x, wi, 0.f, tmax)) continue;
             texture_resolve(sf, tq);
             L = v3_add(L, v3_scale(v3_mul(pgi__brdf_eval(sf->kd, &lobe, ns, wi, wo), Li), cs));
@@ -101,17 +102,15 @@ static pgi__v3 nee(const pt_ctx *C, pgi__surface *sf, const pgi__texel_quad **tq
         float ul = pgi_rng_f(rng), u1 = pgi_rng_f(rng), u2 = pgi_rng_f(rng);
         float pl;
         const pgi__light *lt = &s->lights[C->idx[pgi__cdf_pick(C->cdf, C->narea, ul, &pl)]];
-        pgi__v3 y = pgi__triangle_sample(s, lt->tri, u1, u2);
-        pgi__v3 dv = v3_sub(y, x);
-        float d2 = v3_dot(dv, dv);
-        if (d2 > 0.f && pl > 0.f) {
-            float dist = sqrtf(d2);
-            pgi__v3 wi = v3_scale(dv, 1.f / dist);
-            float cl = -v3_dot(wi, v3_load(lt->normal)), cs = v3_dot(ns, wi);
+        pgi__v3 wi;
+        float d2, dist, cl;
+        if (pl > 0.f && pgi__light_area_toward(pgi__triangle_sample(s, lt->tri, u1, u2), v3_load(lt->normal), x, &wi,
+                                               &d2, &dist, &cl)) {
+            const float cs = v3_dot(ns, wi);
             if (cl > 0.f && cs > 0.f && v3_dot(ng, wi) > 0.f &&
                 !pgi__rt_occluded(C->rt, x, wi, 0.f, dist * (1.f - 1e-3f))) {
                 texture_resolve(sf, tq);
-                float pdf_l = pl * d2 / (cl * lt->area);
+                float pdf_l = pgi__light_area_pdf(lt, pl, d2, cl);
                 float pdf_b = pgi__bsdf_pdf(sf, wo, wi);
                 float mis = pdf_l * pdf_l / (pdf_l * pdf_l + pdf_b * pdf_b);
                 pgi__v3 f = pgi__brdf_eval(sf->kd, &lobe, ns, wi, wo);
@@ -217,11 +216,11 @@ static pgi__v3 trace_sample(const pt_ctx *C, int px, int py, float jx, float jy,
             if (s->env) L = v3_add(L, v3_mul(T, escaped(s, &sf, wo, d, pdf_b)));
             break;
         }
-        const pgi__trace_tri *tr = &C->tris[h.prim];
+        const pgi__tri_rec *tr = &C->tris[h.prim];
         const float *tuv = C->tri_uv ? C->tri_uv + PGI__TRI_UV * (size_t)h.prim : NULL;
         if (tuv) __builtin_prefetch(tuv); /* its miss overlapping tr's */
         /* The geometry first: a vertex the path ends at needs no shading normal or texel. */
-        pgi__trace_tri_geometry(s, tr, v3_madd(o, d, h.t), &sf);
+        pgi__tri_rec_geometry(s, tr, v3_madd(o, d, h.t), &sf);
         /* Emitter hit at x_{k+1}: a light path with k scattering events. */
         pgi__v3 ke = v3_load(sf.mat->ke);
         float cl = -v3_dot(d, sf.ng);
@@ -244,10 +243,10 @@ static pgi__v3 trace_sample(const pt_ctx *C, int px, int py, float jx, float jy,
             if (!(pgi_rng_f(rng) < qrr)) break;
             T = v3_scale(T, 1.f / qrr);
         }
-        pgi__trace_tri_shading(s, tr, h.prim, h.u, h.v, &sf);
+        pgi__tri_rec_shading(s, tr, h.prim, h.u, h.v, &sf);
         /* as pgi__surface_texture, its texels fetched now and applied by nee() or above */
         if (sf.mat->tex_kd >= 0) {
-            if (tuv) pgi__trace_tri_uv(tuv, h.u, h.v, &sf.u, &sf.v);
+            if (tuv) pgi__tri_rec_uv(tuv, h.u, h.v, &sf.u, &sf.v);
             /* no texels: pgi__texture_lookup's white, kd as it is */
             if (pgi__texture_quad(&s->texs[sf.mat->tex_kd], sf.u, sf.v, &quad)) tq = &quad;
         }
@@ -263,23 +262,14 @@ static void ctx_free(pt_ctx *C) {
 
 static pgi_status ctx_lights(pt_ctx *C) {
     const pgi_scene *s = C->s;
-    for (size_t l = 0; l < s->nlights; l++) C->narea += s->lights[l].type == PGI__LIGHT_AREA;
+    C->narea = pgi__light_area_count(s);
     if (!C->narea) return PGI_OK;
     C->cdf = malloc(C->narea * sizeof *C->cdf);
     C->idx = malloc(C->narea * sizeof *C->idx);
     C->tri_pick = calloc(s->ntris ? s->ntris : 1, sizeof *C->tri_pick);
     if (!C->cdf || !C->idx || !C->tri_pick) return pgi__fail(PGI_ERR_OOM, "out of memory for the area-light table");
-    double tot = 0.0;
-    size_t k = 0;
-    for (size_t l = 0; l < s->nlights; l++) {
-        if (s->lights[l].type != PGI__LIGHT_AREA) continue;
-        tot += v3_lum(v3_load(s->lights[l].power));
-        C->cdf[k] = (float)tot;
-        C->idx[k++] = l;
-    }
-    for (k = 0; k < C->narea; k++) C->cdf[k] = tot > 0.0 ? (float)(C->cdf[k] / tot) : (float)(k + 1) / (float)C->narea;
-    C->cdf[C->narea - 1] = 1.f;
-    for (k = 0; k < C->narea; k++) {
+    pgi__light_area_cdf(s, C->cdf, C->idx);
+    for (size_t k = 0; k < C->narea; k++) {
         uint32_t t = s->lights[C->idx[k]].tri;
         if (t < s->ntris) C->tri_pick[t] = C->cdf[k] - (k ? C->cdf[k - 1] : 0.f);
     }
@@ -289,9 +279,9 @@ static pgi_status ctx_lights(pt_ctx *C) {
 struct pgi_reference_sampler {
     pt_ctx C;
     pgi__rt *rt;
-    pgi__trace_scratch tris; /* only its triangle records */
-    pt_eye *eye;             /* a pixel's, without jitter (NULL: none, or no memory for them) */
-    pgi_reference_desc d;    /* resolved */
+    pgi__tri_cache tris;
+    pt_eye *eye;          /* a pixel's, without jitter (NULL: none, or no memory for them) */
+    pgi_reference_desc d; /* resolved */
     uint64_t rng_seed;
 };
 
@@ -342,7 +332,7 @@ pgi_status pgi_reference_sampler_create(const pgi_scene *s, const pgi_reference_
     S->d.view = NULL; /* borrowed for the call only */
     pgi_camera_look_at(&C->cam, cd->eye, cd->look_at, cd->up, cd->fov_y_deg, d.width, d.height);
     if ((st = ctx_lights(C)) || (st = pgi__rt_create(s, &S->rt)) ||
-        (st = pgi__trace_tris_update(&S->tris, s, d.threads))) {
+        (st = pgi__tri_cache_update(&S->tris, s, d.threads))) {
         pgi_reference_sampler_destroy(S);
         return st;
     }
@@ -361,7 +351,7 @@ void pgi_reference_sampler_destroy(pgi_reference_sampler *S) {
     if (!S) return;
     if (S->rt) pgi__rt_destroy(S->rt);
     ctx_free(&S->C);
-    pgi__trace_scratch_free(&S->tris);
+    pgi__tri_cache_free(&S->tris);
     free(S->eye);
     free(S);
 }

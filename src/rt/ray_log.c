@@ -93,6 +93,15 @@ void pgi__ray_log_destroy(pgi__ray_log *log) {
 
 void pgi__ray_log_set_pass(pgi__ray_log *log, pgi__pass pass) { log->pass = (int)pass; }
 
+static pgi__ray_rec *hook_reserve(void *log, pgi__ray_kind kind, unsigned n, unsigned flags) {
+    return pgi__ray_log_reserve(log, kind, n, flags);
+}
+static void hook_set_pass(void *log, pgi__pass pass) { pgi__ray_log_set_pass(log, pass); }
+
+void pgi__rt_capture_set(pgi__rt *rt, pgi__ray_log *log) {
+    pgi__rt_capture_hook(rt, log ? &(pgi__rt_capture){hook_reserve, hook_set_pass, log} : NULL);
+}
+
 static slot *claim_slot(pgi__ray_log *log) {
     int i = atomic_fetch_add(&log->nslots, 1);
     t_slot.log_id = log->id;

@@ -1,7 +1,7 @@
 /* Ray capture and replay: what the renderer's ray passes ask of Embree, and
  * how long Embree alone takes for the same rays (photongi-bench --limits).
  *
- * While a log is set on a pgi__rt (pgi__rt_capture_set), every query entry
+ * While a log is set on a pgi__rt (pgi__rt_capture_set: rt.c's capture hook), every query entry
  * point of rt.c appends its rays (origin, direction, tnear, tfar), the call
  * style (single ray, lane of an 8-wide packet, ...), the packet it belonged
  * to, the pass the pipeline tagged (pgi__rt_capture_pass) and Embree's answer
@@ -16,42 +16,8 @@
 
 #include "rt/rt.h"
 
-/* How a ray was cast: the rt.c entry point's Embree call. Packet and stream
- * kinds record every lane of the call (invalid lanes too, flagged), so that
- * a replay can rebuild the call exactly. */
-typedef enum pgi__ray_kind {
-    PGI__RAY_INTERSECT1,  /* rtcIntersect1 */
-    PGI__RAY_OCCLUDED1,   /* rtcOccluded1 */
-    PGI__RAY_INTERSECT8,  /* one lane of rtcIntersect8 */
-    PGI__RAY_OCCLUDED8,   /* one lane of rtcOccluded8 */
-    PGI__RAY_INTERSECT16, /* one lane of rtcIntersect16 */
-    PGI__RAY_OCCLUDED16,  /* one lane of rtcOccluded16 */
-    PGI__RAY_INTERSECT1M, /* one ray of an rtcIntersect1M stream */
-    PGI__RAY_OCCLUDED1M,  /* one ray of an rtcOccluded1M stream */
-    PGI__RAY_KIND_COUNT
-} pgi__ray_kind;
-
-/* Record flags. */
-enum {
-    PGI__RAY_VALID = 1,   /* the lane was enabled */
-    PGI__RAY_COHERENT = 2 /* cast with RTC_INTERSECT_CONTEXT_FLAG_COHERENT */
-};
-
-#define PGI__RAY_NO_GEOM 0xFFu /* rec.geom: missed / not occluded */
-
-typedef struct pgi__ray_rec {
-    float org[3], tnear;
-    float dir[3], tfar;
-    uint32_t packet; /* the call this ray was cast in (lanes of one packet or stream share it);
-                        after merging, numbered 0, 1, ... within its (pass, kind) group */
-    uint32_t prim;   /* Embree's answer: primID of the closest hit (intersect), else UINT32_MAX */
-    uint16_t lane;   /* lane in its packet or stream */
-    uint8_t kind;    /* pgi__ray_kind */
-    uint8_t pass;    /* pgi__pass */
-    uint8_t flags;   /* PGI__RAY_VALID | PGI__RAY_COHERENT */
-    uint8_t geom;    /* geomID of the hit (intersect), 0 when occluded (occluded), PGI__RAY_NO_GEOM otherwise */
-    uint8_t pad[2];
-} pgi__ray_rec;
+/* The log's records are pgi__ray_rec (rt.h), of kinds pgi__ray_kind. */
+typedef struct pgi__ray_log pgi__ray_log;
 
 pgi_status pgi__ray_log_create(pgi__ray_log **out);
 void pgi__ray_log_destroy(pgi__ray_log *log);
@@ -60,27 +26,15 @@ void pgi__ray_log_clear(pgi__ray_log *log);
 /* The pass tag of the rays captured from now on (pgi__rt_capture_pass sets it on the rt's log). */
 void pgi__ray_log_set_pass(pgi__ray_log *log, pgi__pass pass);
 
-/* Hook for rt.c's entry points: reserves `n` records (one call: 1, the packet
- * width or the stream length) in the calling thread's buffer, with kind,
- * pass, packet and lane filled in; the caller sets each with pgi__ray_rec_set.
- * NULL when memory runs out or more than 256 threads capture (the rays are
- * then counted in pgi__ray_log_dropped). Thread-safe, lock-free. */
-pgi__ray_rec *pgi__ray_log_reserve(pgi__ray_log *log, pgi__ray_kind kind, unsigned n, unsigned flags);
+/* Captures every query of `rt` into `log` from now on (NULL: stops). Sets the rt's capture
+ * hook (pgi__rt_capture_hook); between frames, never with queries in flight. */
+void pgi__rt_capture_set(pgi__rt *rt, pgi__ray_log *log);
 
-static inline void pgi__ray_rec_set(pgi__ray_rec *r, pgi__v3 o, pgi__v3 d, float tnear, float tfar, int valid,
-                                    unsigned geom, unsigned prim) {
-    r->org[0] = o.x;
-    r->org[1] = o.y;
-    r->org[2] = o.z;
-    r->tnear = tnear;
-    r->dir[0] = d.x;
-    r->dir[1] = d.y;
-    r->dir[2] = d.z;
-    r->tfar = tfar;
-    if (!valid) r->flags = (uint8_t)(r->flags & ~PGI__RAY_VALID);
-    r->geom = geom > 0xFEu ? PGI__RAY_NO_GEOM : (uint8_t)geom;
-    r->prim = geom > 0xFEu ? UINT32_MAX : prim;
-}
+/* The hook's reserve: `n` records (one call: 1, the packet width or the stream length) in the
+ * calling thread's buffer, with kind, pass, packet and lane filled in. NULL when memory runs
+ * out or more than 256 threads capture (the rays are then counted in pgi__ray_log_dropped).
+ * Thread-safe, lock-free. */
+pgi__ray_rec *pgi__ray_log_reserve(pgi__ray_log *log, pgi__ray_kind kind, unsigned n, unsigned flags);
 
 /* Moves the per-thread buffers into one array grouped by (pass, kind), in
  * capture order within a thread and threads in the order they first

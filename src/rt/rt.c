@@ -1,7 +1,6 @@
 /* Embree 3 back end. Pitfalls: ray.mask must be -1 (all bits) or every
  * geometry is skipped; 8-wide packets are native on AVX2 CPUs. */
 #include "rt.h"
-#include "ray_log.h"
 
 #include <embree3/rtcore.h>
 #include <stdatomic.h>
@@ -42,27 +41,27 @@ struct pgi__rt {
     int ngeom;
     int any_dynamic;
     uint64_t static_version, dynamic_version;
-    pgi__ray_log *capture; /* NULL: off (pgi__rt_capture_set) */
+    pgi__rt_capture capture; /* reserve NULL: off (pgi__rt_capture_hook) */
     /* Embree's bytes as its memory monitor reports them (BVH, geometry buffers, build scratch);
      * the monitor runs on Embree's build threads, hence atomics. */
     _Atomic long long embree_bytes, embree_peak;
 };
 
-/* Ray capture (ray_log.h): each query ends with `if (CAPTURING(rt)) capture...(...)`. The
+/* Ray capture (the hook of rt.h): each query ends with `if (CAPTURING(rt)) capture...(...)`. The
  * capture functions are out of line and read the ray back from Embree's structure (Embree
  * leaves origin, direction and tnear as they were; tfar is passed, Embree overwrites it), so
  * that while capture is off a query pays one load and a not-taken branch, and keeps nothing
  * else alive across the Embree call. */
-#define CAPTURING(rt) __builtin_expect((rt)->capture != NULL, 0)
+#define CAPTURING(rt) __builtin_expect((rt)->capture.reserve != NULL, 0)
 #if defined(__GNUC__)
 #define PGI__COLD __attribute__((noinline, cold))
 #else
 #define PGI__COLD
 #endif
 
-static PGI__COLD void capture1(pgi__ray_log *log, pgi__ray_kind kind, const struct RTCRay *r, float tfar, unsigned geom,
-                               unsigned prim) {
-    pgi__ray_rec *c = pgi__ray_log_reserve(log, kind, 1, 0);
+static PGI__COLD void capture1(const pgi__rt_capture *log, pgi__ray_kind kind, const struct RTCRay *r, float tfar,
+                               unsigned geom, unsigned prim) {
+    pgi__ray_rec *c = log->reserve(log->user, kind, 1, 0);
     if (c)
         pgi__ray_rec_set(c, v3(r->org_x, r->org_y, r->org_z), v3(r->dir_x, r->dir_y, r->dir_z), r->tnear, tfar, 1, geom,
                          prim);
@@ -103,9 +102,10 @@ static inline void packet_set(const packet_view *p, int *vmask, int i, int valid
 
 /* A packet's lanes as cast: `tfars` the lanes' tfar before the query (NULL: `tfar` for all);
  * `occluded` the answers of an occlusion query (NULL: the packet's hits). */
-static PGI__COLD void capture_packet(pgi__ray_log *log, pgi__ray_kind kind, unsigned flags, const packet_view *p,
-                                     const int *vmask, float tfar, const float *tfars, const int *occluded) {
-    pgi__ray_rec *c = pgi__ray_log_reserve(log, kind, (size_t)p->n, flags);
+static PGI__COLD void capture_packet(const pgi__rt_capture *log, pgi__ray_kind kind, unsigned flags,
+                                     const packet_view *p, const int *vmask, float tfar, const float *tfars,
+                                     const int *occluded) {
+    pgi__ray_rec *c = log->reserve(log->user, kind, (unsigned)p->n, flags);
     for (int i = 0; c && i < p->n; i++)
         pgi__ray_rec_set(c + i, v3(p->ox[i], p->oy[i], p->oz[i]), v3(p->dx[i], p->dy[i], p->dz[i]), p->tnear[i],
                          tfars ? tfars[i] : tfar, vmask[i] != 0,
@@ -360,7 +360,7 @@ int pgi__rt_intersect(const pgi__rt *rt, pgi__v3 o, pgi__v3 d, float tnear, floa
     rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
     rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
     rtcIntersect1(rt->scene, &ctx, &rh);
-    if (CAPTURING(rt)) capture1(rt->capture, PGI__RAY_INTERSECT1, &rh.ray, tfar, rh.hit.geomID, rh.hit.primID);
+    if (CAPTURING(rt)) capture1(&rt->capture, PGI__RAY_INTERSECT1, &rh.ray, tfar, rh.hit.geomID, rh.hit.primID);
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) {
         h->prim = UINT32_MAX;
         return 0;
@@ -390,7 +390,7 @@ int pgi__rt_occluded(const pgi__rt *rt, pgi__v3 o, pgi__v3 d, float tnear, float
     r.flags = 0;
     rtcOccluded1(rt->scene, &ctx, &r);
     if (CAPTURING(rt))
-        capture1(rt->capture, PGI__RAY_OCCLUDED1, &r, tfar, r.tfar < 0.f ? 0u : RTC_INVALID_GEOMETRY_ID, 0u);
+        capture1(&rt->capture, PGI__RAY_OCCLUDED1, &r, tfar, r.tfar < 0.f ? 0u : RTC_INVALID_GEOMETRY_ID, 0u);
     return r.tfar < 0.f; /* Embree sets tfar to -inf when occluded */
 }
 
@@ -418,7 +418,8 @@ void pgi__rt_intersect8(const pgi__rt *rt, const int valid[8], pgi__v3 o, const 
     const packet_view p = {PACKET_RAYS(8, rh.ray), PACKET_HITS(rh.hit)};
     for (int i = 0; i < 8; i++) packet_set(&p, vmask, i, valid[i], o, dirs[i], tfar);
     rtcIntersect8(vmask, rt->scene, &ctx, &rh);
-    if (CAPTURING(rt)) capture_packet(rt->capture, PGI__RAY_INTERSECT8, PGI__RAY_COHERENT, &p, vmask, tfar, NULL, NULL);
+    if (CAPTURING(rt))
+        capture_packet(&rt->capture, PGI__RAY_INTERSECT8, PGI__RAY_COHERENT, &p, vmask, tfar, NULL, NULL);
     packet_hits(rt, &p, valid, hits);
 }
 
@@ -478,7 +479,7 @@ void pgi__rt_intersect16(const pgi__rt *rt, const int valid[16], const float o[3
     rtcIntersect16(vmask, rt->scene, &ctx, &rh);
     if (CAPTURING(rt)) {
         const packet_view p = {PACKET_RAYS(16, rh.ray), PACKET_HITS(rh.hit)};
-        capture_packet(rt->capture, PGI__RAY_INTERSECT16, coherent ? PGI__RAY_COHERENT : 0, &p, vmask, INFINITY, NULL,
+        capture_packet(&rt->capture, PGI__RAY_INTERSECT16, coherent ? PGI__RAY_COHERENT : 0, &p, vmask, INFINITY, NULL,
                        NULL);
     }
     /* packet_hits' answers (t, u, v also where there is no hit) */
@@ -501,7 +502,7 @@ void pgi__rt_intersect16_soa(const pgi__rt *rt, const int valid[16], pgi__v3 o, 
     rtcIntersect16(vmask, rt->scene, &ctx, &rh);
     if (CAPTURING(rt)) {
         const packet_view p = {PACKET_RAYS(16, rh.ray), PACKET_HITS(rh.hit)};
-        capture_packet(rt->capture, PGI__RAY_INTERSECT16, PGI__RAY_COHERENT, &p, vmask, INFINITY, NULL, NULL);
+        capture_packet(&rt->capture, PGI__RAY_INTERSECT16, PGI__RAY_COHERENT, &p, vmask, INFINITY, NULL, NULL);
     }
     packet16_prims(rt, valid, &rh, prim);
     for (int i = 0; i < 16; i++) {
@@ -527,7 +528,7 @@ void pgi__rt_occluded16(const pgi__rt *rt, const int valid[16], const pgi__v3 or
         /* As cast: the query overwrote tfar, and capture_packet reads the lanes' own. */
         float tf[16];
         for (int i = 0; i < 16; i++) tf[i] = valid[i] ? tfar[i] : 0.f;
-        capture_packet(rt->capture, PGI__RAY_OCCLUDED16, coherent ? PGI__RAY_COHERENT : 0, &p, vmask, 0.f, tf,
+        capture_packet(&rt->capture, PGI__RAY_OCCLUDED16, coherent ? PGI__RAY_COHERENT : 0, &p, vmask, 0.f, tf,
                        occluded);
     }
 }
@@ -586,14 +587,14 @@ void pgi__rt_occluded16_soa(const pgi__rt *rt, const int valid[16], const float 
     for (int i = 0; i < 16; i++) occluded[i] = valid[i] && r.tfar[i] < 0.f;
     if (CAPTURING(rt)) {
         const packet_view p = {PACKET_RAYS(16, r)};
-        capture_packet(rt->capture, PGI__RAY_OCCLUDED16, PGI__RAY_COHERENT, &p, vmask, 0.f, tf, occluded);
+        capture_packet(&rt->capture, PGI__RAY_OCCLUDED16, PGI__RAY_COHERENT, &p, vmask, 0.f, tf, occluded);
     }
 }
 
 /* The rays of an occlusion stream as cast (Embree overwrote tfar). */
-static PGI__COLD void capture_stream(pgi__ray_log *log, const struct RTCRay *r, size_t n, const float *tfar,
+static PGI__COLD void capture_stream(const pgi__rt_capture *log, const struct RTCRay *r, size_t n, const float *tfar,
                                      const int *occluded) {
-    pgi__ray_rec *c = pgi__ray_log_reserve(log, PGI__RAY_OCCLUDED1M, (unsigned)n, 0);
+    pgi__ray_rec *c = log->reserve(log->user, PGI__RAY_OCCLUDED1M, (unsigned)n, 0);
     for (size_t i = 0; c && i < n; i++)
         pgi__ray_rec_set(c + i, v3(r[i].org_x, r[i].org_y, r[i].org_z), v3(r[i].dir_x, r[i].dir_y, r[i].dir_z),
                          r[i].tnear, tfar[i], 1, occluded[i] ? 0u : RTC_INVALID_GEOMETRY_ID, 0u);
@@ -623,13 +624,15 @@ void pgi__rt_occluded1M(const pgi__rt *rt, size_t n, const pgi__v3 *org, const p
     }
     rtcOccluded1M(rt->scene, &ctx, r, (unsigned)n, sizeof r[0]);
     for (size_t i = 0; i < n; i++) occluded[i] = r[i].tfar < 0.f;
-    if (CAPTURING(rt)) capture_stream(rt->capture, r, n, tfar, occluded);
+    if (CAPTURING(rt)) capture_stream(&rt->capture, r, n, tfar, occluded);
 }
 
-void pgi__rt_capture_set(pgi__rt *rt, pgi__ray_log *log) { rt->capture = log; }
+void pgi__rt_capture_hook(pgi__rt *rt, const pgi__rt_capture *hook) {
+    rt->capture = hook ? *hook : (pgi__rt_capture){0};
+}
 
 void pgi__rt_capture_pass(const pgi__rt *rt, pgi__pass pass) {
-    if (rt->capture) pgi__ray_log_set_pass(rt->capture, pass);
+    if (rt->capture.reserve && rt->capture.set_pass) rt->capture.set_pass(rt->capture.user, pass);
 }
 
 struct RTCSceneTy *pgi__rt_embree_scene(const pgi__rt *rt) {

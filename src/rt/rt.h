@@ -66,14 +66,75 @@ void pgi__rt_occluded16_soa(const pgi__rt *rt, const int valid[16], const float 
 void pgi__rt_occluded1M(const pgi__rt *rt, size_t n, const pgi__v3 *org, const pgi__v3 *dirs, const float *tfar,
                         int *occluded);
 
-/* Ray capture (src/rt/ray_log.h, photongi-bench --limits). While a log is
- * set, every query above appends its rays and answers to it, tagged with the
- * pass last given to pgi__rt_capture_pass; NULL turns capture off (the
- * default: the queries then pay one load and a not-taken branch). Set and
- * unset it between frames, never with queries in flight. */
-typedef struct pgi__ray_log pgi__ray_log;
+/* Ray capture (photongi-bench --limits; the log behind it is src/rt/ray_log.h). While a hook is
+ * set, every query above hands its rays and answers to it: the query reserves one record a ray
+ * of the call (1, the packet width or the stream length) with hook.reserve and fills each with
+ * pgi__ray_rec_set. No hook (the default): the queries pay one load and a not-taken branch. Set
+ * and unset it between frames, never with queries in flight. */
 typedef enum pgi__pass { PGI__PASS_NONE, PGI__PASS_VIEW, PGI__PASS_TRACE, PGI__PASS_DIRECT, PGI__PASS_COUNT } pgi__pass;
-void pgi__rt_capture_set(pgi__rt *rt, pgi__ray_log *log);
+
+/* How a ray was cast: the entry point's Embree call. Packet and stream kinds record every lane
+ * of the call (invalid lanes too, flagged), so that a replay can rebuild the call exactly. */
+typedef enum pgi__ray_kind {
+    PGI__RAY_INTERSECT1,  /* rtcIntersect1 */
+    PGI__RAY_OCCLUDED1,   /* rtcOccluded1 */
+    PGI__RAY_INTERSECT8,  /* one lane of rtcIntersect8 */
+    PGI__RAY_OCCLUDED8,   /* one lane of rtcOccluded8 */
+    PGI__RAY_INTERSECT16, /* one lane of rtcIntersect16 */
+    PGI__RAY_OCCLUDED16,  /* one lane of rtcOccluded16 */
+    PGI__RAY_INTERSECT1M, /* one ray of an rtcIntersect1M stream */
+    PGI__RAY_OCCLUDED1M,  /* one ray of an rtcOccluded1M stream */
+    PGI__RAY_KIND_COUNT
+} pgi__ray_kind;
+
+/* Record flags. */
+enum {
+    PGI__RAY_VALID = 1,   /* the lane was enabled */
+    PGI__RAY_COHERENT = 2 /* cast with RTC_INTERSECT_CONTEXT_FLAG_COHERENT */
+};
+
+#define PGI__RAY_NO_GEOM 0xFFu /* rec.geom: missed / not occluded */
+
+typedef struct pgi__ray_rec {
+    float org[3], tnear;
+    float dir[3], tfar;
+    uint32_t packet; /* the call this ray was cast in (lanes of one packet or stream share it);
+                        after merging, numbered 0, 1, ... within its (pass, kind) group */
+    uint32_t prim;   /* Embree's answer: primID of the closest hit (intersect), else UINT32_MAX */
+    uint16_t lane;   /* lane in its packet or stream */
+    uint8_t kind;    /* pgi__ray_kind */
+    uint8_t pass;    /* pgi__pass */
+    uint8_t flags;   /* PGI__RAY_VALID | PGI__RAY_COHERENT */
+    uint8_t geom;    /* geomID of the hit (intersect), 0 when occluded (occluded), PGI__RAY_NO_GEOM otherwise */
+    uint8_t pad[2];
+} pgi__ray_rec;
+
+static inline void pgi__ray_rec_set(pgi__ray_rec *r, pgi__v3 o, pgi__v3 d, float tnear, float tfar, int valid,
+                                    unsigned geom, unsigned prim) {
+    r->org[0] = o.x;
+    r->org[1] = o.y;
+    r->org[2] = o.z;
+    r->tnear = tnear;
+    r->dir[0] = d.x;
+    r->dir[1] = d.y;
+    r->dir[2] = d.z;
+    r->tfar = tfar;
+    if (!valid) r->flags = (uint8_t)(r->flags & ~PGI__RAY_VALID);
+    r->geom = geom > 0xFEu ? PGI__RAY_NO_GEOM : (uint8_t)geom;
+    r->prim = geom > 0xFEu ? UINT32_MAX : prim;
+}
+
+typedef struct pgi__rt_capture {
+    /* `n` records of one call with kind, pass, packet and lane filled in; NULL drops the call's
+     * rays. Called from many threads at once. */
+    pgi__ray_rec *(*reserve)(void *user, pgi__ray_kind kind, unsigned n, unsigned flags);
+    /* The pass tag of the rays captured from now on (pgi__rt_capture_pass). */
+    void (*set_pass)(void *user, pgi__pass pass);
+    void *user;
+} pgi__rt_capture;
+
+/* Sets the hook (copied; NULL: capture off). */
+void pgi__rt_capture_hook(pgi__rt *rt, const pgi__rt_capture *hook);
 /* Tags the rays captured from now on (a no-op while capture is off). */
 void pgi__rt_capture_pass(const pgi__rt *rt, pgi__pass pass);
 /* The Embree scene, for the replay in ray_log.c (an RTCScene). */

@@ -9,6 +9,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "light.h"
 #include "scene_internal.h"
 
 void pgi__scene_free_anims(pgi_scene *s) {
@@ -261,30 +262,18 @@ void pgi__scene_refresh(pgi_scene *s) {
     v3_store(s->bmin, lo);
     v3_store(s->bmax, hi);
     float diag = v3_len(v3_sub(hi, lo));
-    /* Same formulas as pgi__scene_finalize. */
+    /* Area lights' area and normal from their moved triangles, then every light's power as
+     * pgi__scene_finalize sets it. */
     for (size_t i = 0; i < s->nlights; i++) {
         pgi__light *l = &s->lights[i];
-        float k = 0.f;
-        switch (l->type) {
-        case PGI__LIGHT_POINT: k = 4.f * PGI__PI; break;
-        case PGI__LIGHT_SPOT: k = 2.f * PGI__PI * (1.f - l->cos_cutoff); break;
-        case PGI__LIGHT_SUN: {
-            float R = 0.5f * diag;
-            k = PGI__PI * R * R;
-            break;
-        }
-        case PGI__LIGHT_AREA: {
+        if (l->type == PGI__LIGHT_AREA) {
             const uint32_t *t = s->tri + 3 * (size_t)l->tri;
             pgi__v3 a = pgi__scene_vertex(s, t[0]), b = pgi__scene_vertex(s, t[1]), c = pgi__scene_vertex(s, t[2]);
             pgi__v3 n = v3_cross(v3_sub(b, a), v3_sub(c, a));
             l->area = 0.5f * v3_len(n);
             v3_store(l->normal, v3_norm(n));
-            k = PGI__PI * l->area;
-            break;
         }
-        case PGI__LIGHT_ENV: break;
-        }
-        for (int c = 0; c < 3; c++) l->power[c] = l->color[c] * k;
+        pgi__light_set_power(l, diag);
     }
     if (s->env) pgi__env_set_radius(s->env, 0.5f * diag);
 }

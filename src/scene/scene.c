@@ -3,6 +3,7 @@
 #include "core/mem.h"
 
 #include "bsdf.h"
+#include "light.h"
 
 #include <dirent.h>
 #include <errno.h>
@@ -180,9 +181,7 @@ pgi_status pgi__scene_finalize(pgi_scene *s, const char *what) {
                 return pgi__fail(PGI_ERR_PARSE,
                                  "%s: light %zu has an intensity or irradiance of %g, out of range (0..%g)", what, i,
                                  (double)l->color[c], (double)PGI_MAX_RADIANCE);
-        float k = 0.f;
         switch (l->type) {
-        case PGI__LIGHT_POINT: k = 4.f * PGI__PI; break;
         case PGI__LIGHT_SPOT:
             if (!(l->cos_cutoff > -1.f && l->cos_cutoff < 1.f))
                 return pgi__fail(PGI_ERR_PARSE, "%s: spot light %zu needs a cut-off angle in (0, 180) degrees", what,
@@ -190,20 +189,16 @@ pgi_status pgi__scene_finalize(pgi_scene *s, const char *what) {
             if (!(v3_len(v3_load(l->dir)) > 0.f))
                 return pgi__fail(PGI_ERR_PARSE, "%s: spot light %zu has a zero direction", what, i);
             v3_store(l->dir, v3_norm(v3_load(l->dir)));
-            k = 2.f * PGI__PI * (1.f - l->cos_cutoff);
             break;
-        case PGI__LIGHT_SUN: {
+        case PGI__LIGHT_SUN:
             if (!(v3_len(v3_load(l->dir)) > 0.f))
                 return pgi__fail(PGI_ERR_PARSE, "%s: sun light %zu has a zero direction", what, i);
             v3_store(l->dir, v3_norm(v3_load(l->dir)));
-            float R = 0.5f * diag; /* photons leave a disk covering the scene's bounding sphere */
-            k = PGI__PI * R * R;
             break;
-        }
-        case PGI__LIGHT_AREA: k = PGI__PI * l->area; break;
         case PGI__LIGHT_ENV: return pgi__fail(PGI_ERR_PARSE, "%s: light %zu: the environment is not a light", what, i);
+        default: break;
         }
-        for (int c = 0; c < 3; c++) l->power[c] = l->color[c] * k;
+        pgi__light_set_power(l, diag);
     }
     if (s->env) pgi__env_set_radius(s->env, 0.5f * diag); /* photons leave a disk covering the bounding sphere */
 

@@ -550,12 +550,17 @@ void pgi__scene_memory(const pgi_scene *s, size_t *scene_bytes, size_t *texture_
 /* Total triangle area (scene.c). */
 double pgi__scene_area(const pgi_scene *s);
 
+/* Uniform point on the triangle a, b, c from two uniform numbers. */
+static inline pgi__v3 pgi__tri_point(pgi__v3 a, pgi__v3 b, pgi__v3 c, float u1, float u2) {
+    float su = sqrtf(u1), b1 = 1.f - su, b2 = u2 * su;
+    return v3_add(v3_add(v3_scale(a, 1.f - b1 - b2), v3_scale(b, b1)), v3_scale(c, b2));
+}
+
 /* Uniform point on triangle `tri` from two uniform numbers. */
 static inline pgi__v3 pgi__triangle_sample(const pgi_scene *s, uint32_t tri, float u1, float u2) {
     const uint32_t *t = s->tri + 3 * (size_t)tri;
-    float su = sqrtf(u1), b1 = 1.f - su, b2 = u2 * su;
     pgi__v3 a = pgi__scene_vertex(s, t[0]), b = pgi__scene_vertex(s, t[1]), c = pgi__scene_vertex(s, t[2]);
-    return v3_add(v3_add(v3_scale(a, 1.f - b1 - b2), v3_scale(b, b1)), v3_scale(c, b2));
+    return pgi__tri_point(a, b, c, u1, u2);
 }
 
 /* Index i of a normalised CDF (cdf[n-1] = 1) with cdf[i-1] <= u < cdf[i];

@@ -15,7 +15,6 @@
 #include <immintrin.h>
 #endif
 
-#include "photon/photon.h"
 #include "scene/bsdf.h"
 #include "scene/portal.h"
 
@@ -216,7 +215,7 @@ static inline void put_sample(view_block *vs, int j, const pgi__surface *sf, pgi
 typedef struct tex_cone {
     int on;              /* filter (pgi__subpixel.tex_filter, and the scene has texture coordinates) */
     float spread;        /* radians a unit distance */
-    const float *tri_uv; /* the triangle records' PGI__TRI_UV floats (pgi__trace_scratch.tri_uv) */
+    const float *tri_uv; /* the triangle records' PGI__TRI_UV floats (pgi__tri_cache.tri_uv) */
 } tex_cone;
 
 static inline float cone_width(const tex_cone *tc, float width, float t) { return width + tc->spread * t; }
@@ -465,7 +464,7 @@ typedef struct tile_hits {
 } tile_hits;
 
 /* The surfaces of a tile's primary hits component by component, lane k at [k] (lanes without a
- * hit hold anything): pgi__trace_tri_surface's position and shading normal, pgi__trace_tri_uv's
+ * hit hold anything): pgi__tri_rec_surface's position and shading normal, pgi__tri_rec_uv's
  * texture coordinates (0 without them) and the depth along the camera's forward axis. */
 typedef struct tile_surf {
     float p[3][16], ns[3][16], u[16], v[16], depth[16];
@@ -489,15 +488,15 @@ typedef struct view_tile {
 
 /* tile_surf lane by lane with the inline functions: what tile_surfaces_avx2 must equal, and the
  * build for processors without AVX2. */
-static void tile_surfaces(const pgi_scene *s, const pgi__trace_scratch *tr, const tile_hits *hits,
-                          const float (*dsoa)[16], pgi__v3 eye, pgi__v3 fwd, tile_surf *o) {
+static void tile_surfaces(const pgi_scene *s, const pgi__tri_cache *tr, const tile_hits *hits, const float (*dsoa)[16],
+                          pgi__v3 eye, pgi__v3 fwd, tile_surf *o) {
     for (int k = 0; k < 16; k++) {
         if (hits->prim[k] == UINT32_MAX) continue;
         pgi__surface sf;
         const pgi__v3 p = v3_madd(eye, v3(dsoa[0][k], dsoa[1][k], dsoa[2][k]), hits->t[k]);
-        pgi__trace_tri_surface(s, &tr->tris[hits->prim[k]], hits->prim[k], hits->u[k], hits->v[k], p, &sf);
+        pgi__tri_rec_surface(s, &tr->tris[hits->prim[k]], hits->prim[k], hits->u[k], hits->v[k], p, &sf);
         if (tr->tri_uv)
-            pgi__trace_tri_uv(tr->tri_uv + PGI__TRI_UV * (size_t)hits->prim[k], hits->u[k], hits->v[k], &sf.u, &sf.v);
+            pgi__tri_rec_uv(tr->tri_uv + PGI__TRI_UV * (size_t)hits->prim[k], hits->u[k], hits->v[k], &sf.u, &sf.v);
         o->p[0][k] = p.x;
         o->p[1][k] = p.y;
         o->p[2][k] = p.z;
@@ -532,10 +531,10 @@ __attribute__((target("avx2"))) static inline void transpose8(__m256 r[8]) {
 }
 
 /* tile_surfaces eight lanes an instruction: the records (two rows of 8 floats each, coordinates
- * one row) transposed into components, then pgi__trace_tri_surface's and
- * pgi__trace_tri_uv's operations in their order, without FMA (-ffp-contract=off; packed IEEE
+ * one row) transposed into components, then pgi__tri_rec_surface's and
+ * pgi__tri_rec_uv's operations in their order, without FMA (-ffp-contract=off; packed IEEE
  * results equal the scalar ones), so the same bits. Lanes without a hit read record 0. */
-__attribute__((target("avx2"))) static void tile_surfaces_avx2(const pgi_scene *s, const pgi__trace_scratch *tr,
+__attribute__((target("avx2"))) static void tile_surfaces_avx2(const pgi_scene *s, const pgi__tri_cache *tr,
                                                                const tile_hits *hits, const float (*dsoa)[16],
                                                                pgi__v3 eye, pgi__v3 fwd, tile_surf *o) {
     const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.f), inf = _mm256_set1_ps(INFINITY);
@@ -690,15 +689,15 @@ __attribute__((target("avx2"))) static int tile_uniform_avx2(const int valid[16]
 }
 #endif
 
-pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scratch *tris, const pgi_camera *cam,
+pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__tri_cache *tris, const pgi_camera *cam,
                            uint64_t seed, const pgi__subpixel *sp, int threads, pgi_view_samples *vs, float *emit,
                            pgi__view_fill *fill, uint64_t *rays_out) {
     const int W = cam->width, H = cam->height;
     if (vs->width != W || vs->height != H)
         return pgi__fail(PGI_ERR_INVALID_ARG, "view-sample buffer is %dx%d, camera %dx%d", vs->width, vs->height, W, H);
-    pgi__trace_scratch own = {0};
-    pgi__trace_scratch *const tr = tris ? tris : &own;
-    pgi_status st = pgi__trace_tris_update(tr, s, threads);
+    pgi__tri_cache own = {0};
+    pgi__tri_cache *const tr = tris ? tris : &own;
+    pgi_status st = pgi__tri_cache_update(tr, s, threads);
     if (st) return st;
     vs->jitter = (sp->jitter ? 0.5f : 0.f) + fmaxf(fabsf(sp->shift[0]), fabsf(sp->shift[1]));
     /* without the memory for the record, every row is written (as with none) */
@@ -829,8 +828,8 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
                         const int j = (k >> 2) * BLOCK_W + 4 * tb + (k & 3);
                         if (hits->prim[k] != UINT32_MAX) {
                             /* pgi__scene_surface_untextured from the triangle's record: the same bits */
-                            pgi__trace_tri_geometry(s, &tr->tris[hits->prim[k]],
-                                                    v3(ts->p[0][k], ts->p[1][k], ts->p[2][k]), &sf[k]);
+                            pgi__tri_rec_geometry(s, &tr->tris[hits->prim[k]],
+                                                  v3(ts->p[0][k], ts->p[1][k], ts->p[2][k]), &sf[k]);
                             if (!pgi__mat_specular(sf[k].mat)) {
                                 sf[k].ns = v3(ts->ns[0][k], ts->ns[1][k], ts->ns[2][k]);
                                 sf[k].u = ts->u[k];
@@ -895,7 +894,7 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__trace_scr
 #if VIEW_AVX2
     free(cu);
 #endif
-    pgi__trace_scratch_free(&own);
+    pgi__tri_cache_free(&own);
     *rays_out = rays;
     return PGI_OK;
 }
@@ -917,53 +916,6 @@ static inline pgi__v3 tile_x(const dtile *t, int k) { return v3(t->xs[0][k], t->
 static inline pgi__v3 tile_ns(const dtile *t, int k) { return v3(t->nss[0][k], t->nss[1][k], t->nss[2][k]); }
 static inline pgi__v3 tile_ng(const dtile *t, int k) { return v3(t->ngs[0][k], t->ngs[1][k], t->ngs[2][k]); }
 
-/* pgi__delta_light at the 16 lanes of a tile for a point light or the sun: the same operations
- * lane by lane (so the same numbers, bit for bit), branch-free over arrays so that the compiler
- * runs four or more lanes in one instruction. Fills valid (0 where off or unreachable), wi,
- * Li, cs and tmax as pgi__delta_light would; returns the number of valid lanes. */
-static int delta16(const pgi__light *lt, const dtile *t, int valid[16], float wi[3][16], float Li[3][16], float cs[16],
-                   float tmax[16]) {
-    int nv = 0;
-    const float cr = lt->color[0], cg = lt->color[1], cb = lt->color[2];
-    if (lt->type == PGI__LIGHT_SUN) {
-        const float wx = -lt->dir[0], wy = -lt->dir[1], wz = -lt->dir[2];
-        for (int k = 0; k < 16; k++) {
-            wi[0][k] = wx;
-            wi[1][k] = wy;
-            wi[2][k] = wz;
-            Li[0][k] = cr;
-            Li[1][k] = cg;
-            Li[2][k] = cb;
-            const float c = t->nss[0][k] * wx + t->nss[1][k] * wy + t->nss[2][k] * wz;
-            const float g = t->ngs[0][k] * wx + t->ngs[1][k] * wy + t->ngs[2][k] * wz;
-            cs[k] = c;
-            tmax[k] = INFINITY;
-            valid[k] = t->on[k] & (c > 0.f) & (g > 0.f);
-            nv += valid[k];
-        }
-        return nv;
-    }
-    const float px = lt->pos[0], py = lt->pos[1], pz = lt->pos[2];
-    for (int k = 0; k < 16; k++) {
-        const float dx = px - t->xs[0][k], dy = py - t->xs[1][k], dz = pz - t->xs[2][k];
-        const float d2 = dx * dx + dy * dy + dz * dz, dist = sqrtf(d2), inv = 1.f / dist, il = 1.f / d2;
-        const float wx = dx * inv, wy = dy * inv, wz = dz * inv;
-        wi[0][k] = wx;
-        wi[1][k] = wy;
-        wi[2][k] = wz;
-        Li[0][k] = cr * il;
-        Li[1][k] = cg * il;
-        Li[2][k] = cb * il;
-        const float c = t->nss[0][k] * wx + t->nss[1][k] * wy + t->nss[2][k] * wz;
-        const float g = t->ngs[0][k] * wx + t->ngs[1][k] * wy + t->ngs[2][k] * wz;
-        cs[k] = c;
-        tmax[k] = dist * (1.f - 1e-4f); /* infinity stays infinity, as in pgi__delta_light */
-        valid[k] = t->on[k] & (d2 > 0.f) & (c > 0.f) & (g > 0.f);
-        nv += valid[k];
-    }
-    return nv;
-}
-
 /* f(wi, wo) of lane k (kd/pi plus its lobe), its shading loaded on first use. */
 static inline pgi__v3 tile_brdf(dtile *t, const pgi_view_samples *vs, int k, pgi__v3 wi) {
     if (!t->ready[k]) {
@@ -974,6 +926,44 @@ static inline pgi__v3 tile_brdf(dtile *t, const pgi_view_samples *vs, int k, pgi
         t->ready[k] = 1;
     }
     return pgi__brdf_eval(t->kd[k], &t->lobe[k], tile_ns(t, k), wi, t->wo[k]);
+}
+
+/* The shadow rays of a run of the sky's samples (env_direct, env_direct_portals), cast as one
+ * stream: ray i from org[i] along wi[i] to infinity for lane lane[i], its weight w[i]. */
+typedef struct env_rays {
+    pgi__v3 org[PGI__RT_STREAM_MAX], wi[PGI__RT_STREAM_MAX], w[PGI__RT_STREAM_MAX];
+    float tmax[PGI__RT_STREAM_MAX];
+    int occ[PGI__RT_STREAM_MAX];
+    unsigned char lane[PGI__RT_STREAM_MAX];
+    size_t m;
+} env_rays;
+
+static inline void env_ray_add(env_rays *R, int k, pgi__v3 x, pgi__v3 d, pgi__v3 w) {
+    R->w[R->m] = w;
+    R->wi[R->m] = d;
+    R->org[R->m] = x;
+    R->tmax[R->m] = INFINITY;
+    R->lane[R->m++] = (unsigned char)k;
+}
+
+/* Casts the run's rays (occ[i]: ray i blocked) and returns how many there are; the next run's
+ * start at 0 (the arrays hold this run's until then). */
+static inline size_t env_rays_cast(const pgi__rt *rt, env_rays *R, uint64_t *rays) {
+    const size_t m = R->m;
+    R->m = 0;
+    if (!m) return 0;
+    *rays += (uint64_t)m;
+    pgi__rt_occluded1M(rt, m, R->org, R->wi, R->tmax, R->occ);
+    return m;
+}
+
+/* Lane k's sum zeroed, and where it is on (returns 1) its RNG stream and tangent frame. */
+static inline int env_lane_init(const dtile *t, int k, uint64_t seed, pgi__rng *rng, pgi__env_frame *fr, pgi__v3 *Le) {
+    *Le = v3(0.f, 0.f, 0.f);
+    if (!t->on[k]) return 0;
+    pgi_rng_seed(rng, seed ^ 0x736b79ULL, (uint64_t)t->pix[k]);
+    pgi__env_frame_init(fr, tile_ns(t, k));
+    return 1;
 }
 
 /* Direct light from the sky at the valid lanes of a tile: `n` directions a lane
@@ -989,19 +979,12 @@ static void env_direct(const pgi__env *env, const pgi__rt *rt, dtile *t, const p
                        uint64_t seed, pgi__v3 L[16], uint64_t *rays) {
     pgi__rng rng[16];
     pgi__env_frame fr[16];
-    pgi__v3 Le[16], org[PGI__RT_STREAM_MAX], wi[PGI__RT_STREAM_MAX], w[PGI__RT_STREAM_MAX];
-    float tmax[PGI__RT_STREAM_MAX];
-    int occ[PGI__RT_STREAM_MAX];
-    unsigned char lane[PGI__RT_STREAM_MAX];
-    for (int k = 0; k < 16; k++) {
-        Le[k] = v3(0.f, 0.f, 0.f);
-        if (!t->on[k]) continue;
-        pgi_rng_seed(&rng[k], seed ^ 0x736b79ULL, (uint64_t)t->pix[k]);
-        pgi__env_frame_init(&fr[k], tile_ns(t, k));
-    }
+    pgi__v3 Le[16];
+    env_rays R;
+    R.m = 0;
+    for (int k = 0; k < 16; k++) env_lane_init(t, k, seed, &rng[k], &fr[k], &Le[k]);
     for (int j0 = 0; j0 < n; j0 += ENV_RUN) {
         const int j1 = n - j0 < ENV_RUN ? n : j0 + ENV_RUN;
-        size_t m = 0;
         for (int j = j0; j < j1; j++)
             for (int k = 0; k < 16; k++) {
                 if (!t->on[k]) continue;
@@ -1009,19 +992,13 @@ static void env_direct(const pgi__env *env, const pgi__rt *rt, dtile *t, const p
                 pgi__v3 le, d = pgi__env_sample_direct_in(env, &fr[k], u1, u2, &pdf, &le);
                 float c = v3_dot(tile_ns(t, k), d);
                 if (!(pdf > 0.f) || !(c > 0.f) || !(v3_dot(tile_ng(t, k), d) > 0.f)) continue;
-                w[m] = v3_scale(le, c / pdf);
-                wi[m] = d;
-                org[m] = tile_x(t, k);
-                tmax[m] = INFINITY;
-                lane[m++] = (unsigned char)k;
+                env_ray_add(&R, k, tile_x(t, k), d, v3_scale(le, c / pdf));
             }
-        if (!m) continue;
-        *rays += (uint64_t)m;
-        pgi__rt_occluded1M(rt, m, org, wi, tmax, occ);
+        const size_t m = env_rays_cast(rt, &R, rays);
         for (size_t i = 0; i < m; i++) {
-            if (occ[i]) continue;
-            const int k = lane[i];
-            Le[k] = v3_add(Le[k], v3_mul(tile_brdf(t, vs, k, wi[i]), w[i]));
+            if (R.occ[i]) continue;
+            const int k = R.lane[i];
+            Le[k] = v3_add(Le[k], v3_mul(tile_brdf(t, vs, k, R.wi[i]), R.w[i]));
         }
     }
     for (int k = 0; k < 16; k++)
@@ -1041,15 +1018,11 @@ static void env_direct_portals(const pgi__env *env, const pgi__portal *P, size_t
     float pw[16][2 * PGI__MAX_PORTALS]; /* pick probabilities and solid angles (pgi__portal_direct_weights) */
     pgi__portal_sph cache[16][PGI__PORTAL_CACHE];
     int na[16], nb[16];
-    pgi__v3 Le[16], org[PGI__RT_STREAM_MAX], wi[PGI__RT_STREAM_MAX], w[PGI__RT_STREAM_MAX];
-    float tmax[PGI__RT_STREAM_MAX];
-    int occ[PGI__RT_STREAM_MAX];
-    unsigned char lane[PGI__RT_STREAM_MAX];
+    pgi__v3 Le[16];
+    env_rays R;
+    R.m = 0;
     for (int k = 0; k < 16; k++) {
-        Le[k] = v3(0.f, 0.f, 0.f);
-        if (!t->on[k]) continue;
-        pgi_rng_seed(&rng[k], seed ^ 0x736b79ULL, (uint64_t)t->pix[k]);
-        pgi__env_frame_init(&fr[k], tile_ns(t, k));
+        if (!env_lane_init(t, k, seed, &rng[k], &fr[k], &Le[k])) continue;
         const float sum = pgi__portal_direct_weights(P, np, tile_x(t, k), tile_ns(t, k), pw[k], cache[k]);
         nb[k] = sum > 0.f ? n / 2 : 0;
         na[k] = n - nb[k];
@@ -1061,7 +1034,6 @@ static void env_direct_portals(const pgi__env *env, const pgi__portal *P, size_t
     unsigned char portal_ray[PGI__RT_STREAM_MAX];
     for (int j0 = 0; j0 < n; j0 += ENV_RUN) {
         const int j1 = n - j0 < ENV_RUN ? n : j0 + ENV_RUN;
-        size_t m = 0;
         for (int j = j0; j < j1; j++)
             for (int k = 0; k < 16; k++) {
                 if (!t->on[k]) continue;
@@ -1079,24 +1051,18 @@ static void env_direct_portals(const pgi__env *env, const pgi__portal *P, size_t
                     if (!pgi__portal_direct_sample(P, np, pw[k], cache[k], x, u0, u1, u2, &d)) continue;
                 }
                 if (!(v3_dot(ns, d) > 0.f) || !(v3_dot(tile_ng(t, k), d) > 0.f)) continue;
-                w[m] = le;
-                pa_ray[m] = pa;
-                portal_ray[m] = (unsigned char)portal;
-                wi[m] = d;
-                org[m] = x;
-                tmax[m] = INFINITY;
-                lane[m++] = (unsigned char)k;
+                pa_ray[R.m] = pa;
+                portal_ray[R.m] = (unsigned char)portal;
+                env_ray_add(&R, k, x, d, le);
             }
-        if (!m) continue;
-        *rays += (uint64_t)m;
-        pgi__rt_occluded1M(rt, m, org, wi, tmax, occ);
+        const size_t m = env_rays_cast(rt, &R, rays);
         for (size_t i = 0; i < m; i++) {
-            if (occ[i]) continue;
-            const int k = lane[i];
-            const pgi__v3 d = wi[i], ns = tile_ns(t, k);
-            const float pb = nb[k] ? pgi__portal_direct_pdf(P, np, pw[k], org[i], d) : 0.f;
+            if (R.occ[i]) continue;
+            const int k = R.lane[i];
+            const pgi__v3 d = R.wi[i], ns = tile_ns(t, k);
+            const float pb = nb[k] ? pgi__portal_direct_pdf(P, np, pw[k], R.org[i], d) : 0.f;
             float pa = pa_ray[i];
-            pgi__v3 le = w[i];
+            pgi__v3 le = R.w[i];
             if (portal_ray[i]) {
                 if (!(pb > 0.f)) continue; /* lost to rounding at a portal's edge */
                 pa = pgi__env_pdf_direct(env, ns, d);
@@ -1141,24 +1107,22 @@ pgi_status pgi__area_table_guide(pgi__area_table *t) {
 
 pgi_status pgi__area_table_build(const pgi_scene *s, pgi__area_table *t) {
     memset(t, 0, sizeof *t);
-    for (size_t l = 0; l < s->nlights; l++) t->n += s->lights[l].type == PGI__LIGHT_AREA;
+    t->n = pgi__light_area_count(s);
     if (!t->n) return PGI_OK;
     const size_t n = t->n;
     t->cdf = malloc(n * sizeof *t->cdf);
     t->rec = malloc(n * sizeof *t->rec);
-    if (!t->cdf || !t->rec) {
+    size_t *idx = malloc(n * sizeof *idx); /* each area light's in s->lights */
+    if (!t->cdf || !t->rec || !idx) {
+        free(idx);
         pgi__area_table_free(t);
         return pgi__fail(PGI_ERR_OOM, "out of memory for the area-light table");
     }
-    double tot = 0.0;
-    size_t k = 0;
-    for (size_t l = 0; l < s->nlights; l++) {
-        const pgi__light *lt = &s->lights[l];
-        if (lt->type != PGI__LIGHT_AREA) continue;
-        tot += v3_lum(v3_load(lt->power));
-        t->cdf[k] = (float)tot;
+    pgi__light_area_cdf(s, t->cdf, idx);
+    for (size_t k = 0; k < n; k++) {
+        const pgi__light *lt = &s->lights[idx[k]];
         const uint32_t *v = s->tri + 3 * (size_t)lt->tri;
-        pgi__area_rec *r = &t->rec[k++];
+        pgi__area_rec *r = &t->rec[k];
         r->a = pgi__scene_vertex(s, v[0]);
         r->b = pgi__scene_vertex(s, v[1]);
         r->c = pgi__scene_vertex(s, v[2]);
@@ -1166,9 +1130,8 @@ pgi_status pgi__area_table_build(const pgi_scene *s, pgi__area_table *t) {
         r->color = v3_load(lt->color);
         r->area = lt->area;
     }
-    for (k = 0; k < n; k++) t->cdf[k] = tot > 0.0 ? (float)(t->cdf[k] / tot) : (float)(k + 1) / (float)n;
-    t->cdf[n - 1] = 1.f;
-    for (k = 0; k < n; k++) t->rec[k].p = t->cdf[k] - (k ? t->cdf[k - 1] : 0.f); /* what pgi__cdf_pick returns */
+    free(idx);
+    for (size_t k = 0; k < n; k++) t->rec[k].p = t->cdf[k] - (k ? t->cdf[k - 1] : 0.f); /* what pgi__cdf_pick returns */
     pgi_status st = pgi__area_table_guide(t);
     if (st) pgi__area_table_free(t);
     return st;
@@ -1398,14 +1361,15 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
             const float *const xo[3] = {t.xs[0], t.xs[1], t.xs[2]}, *const wd[3] = {wis[0], wis[1], wis[2]};
             for (size_t l = 0; l < s->nlights; l++) {
                 const pgi__light *lt = &s->lights[l];
-                if (lt->type == PGI__LIGHT_AREA) continue;
+                if (!pgi__light_is_delta(lt)) continue;
                 int nv = 0;
-                if (lt->type == PGI__LIGHT_POINT || lt->type == PGI__LIGHT_SUN)
-                    nv = delta16(lt, &t, valid, wis, Lis, cs, tmax);
+                if (pgi__light_delta16_ok(lt))
+                    nv = pgi__light_delta16(lt, t.on, (const float(*)[16])t.xs, (const float(*)[16])t.nss,
+                                            (const float(*)[16])t.ngs, valid, wis, Lis, cs, tmax);
                 else
                     for (int k = 0; k < 16; k++) {
                         pgi__v3 w, li;
-                        valid[k] = t.on[k] && pgi__delta_light(lt, tile_x(&t, k), tile_ns(&t, k), tile_ng(&t, k), &w,
+                        valid[k] = t.on[k] && pgi__light_delta(lt, tile_x(&t, k), tile_ns(&t, k), tile_ng(&t, k), &w,
                                                                &li, &cs[k], &tmax[k]);
                         if (!valid[k]) continue;
                         nv++;
@@ -1448,15 +1412,11 @@ pgi_status pgi__direct(const pgi_scene *s, const pgi__rt *rt, const pgi_view_sam
                         const float pl = lt->p;
                         float u1 = pgi_rng_f(&rng[k]), u2 = pgi_rng_f(&rng[k]);
                         /* pgi__triangle_sample on the record's vertices */
-                        float su = sqrtf(u1), b1 = 1.f - su, b2 = u2 * su;
-                        pgi__v3 y =
-                            v3_add(v3_add(v3_scale(lt->a, 1.f - b1 - b2), v3_scale(lt->b, b1)), v3_scale(lt->c, b2));
-                        pgi__v3 dv = v3_sub(y, xa[k]);
-                        float d2 = v3_dot(dv, dv);
-                        if (!(d2 > 0.f) || !(pl > 0.f)) continue;
-                        float dist = sqrtf(d2);
-                        wi[k] = v3_scale(dv, 1.f / dist);
-                        float cl = -v3_dot(wi[k], lt->normal), c = v3_dot(tile_ns(&t, k), wi[k]);
+                        const pgi__v3 y = pgi__tri_point(lt->a, lt->b, lt->c, u1, u2);
+                        float d2, dist, cl;
+                        if (!(pl > 0.f) || !pgi__light_area_toward(y, lt->normal, xa[k], &wi[k], &d2, &dist, &cl))
+                            continue;
+                        const float c = v3_dot(tile_ns(&t, k), wi[k]);
                         if (!(cl > 0.f) || !(c > 0.f) || !(v3_dot(tile_ng(&t, k), wi[k]) > 0.f)) continue;
                         tmax[k] = dist * (1.f - 1e-3f);
                         g[k] = c * cl / d2 * lt->area / pl;

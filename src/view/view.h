@@ -5,6 +5,8 @@
 #include <string.h>
 
 #include "rt/rt.h"
+#include "scene/light.h"
+#include "scene/tri_cache.h"
 
 /* Where the view samples of a frame look in their pixels (pgi__pixel_jitter). */
 typedef struct pgi__subpixel {
@@ -54,13 +56,12 @@ void pgi__view_fill_free(pgi__view_fill *f);
  * hit, and fills `vs`. `emit` (3 floats a pixel) receives emitted radiance
  * seen along the eye path. `fill` (NULL: every row is written) is the record of what vs and
  * emit hold (pgi__view_fill): rows that hold what they would receive are left alone, and it
- * is brought up to date (made anew for another size). Primary hits are shaded from the triangle records of `tris`
- * (pgi__trace_tris_update, brought up to date here: the renderer passes its tracer's scratch, so
- * that both passes share one copy); NULL: records of its own for the call. */
-struct pgi__trace_scratch;
-pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, struct pgi__trace_scratch *tris,
-                           const pgi_camera *cam, uint64_t seed, const pgi__subpixel *sp, int threads,
-                           pgi_view_samples *vs, float *emit, pgi__view_fill *fill, uint64_t *rays);
+ * is brought up to date (made anew for another size). Primary hits are shaded from the triangle
+ * cache `tris` (pgi__tri_cache_update, brought up to date here: the renderer passes its tracer's,
+ * so that both passes share one copy); NULL: records of its own for the call. */
+pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__tri_cache *tris, const pgi_camera *cam,
+                           uint64_t seed, const pgi__subpixel *sp, int threads, pgi_view_samples *vs, float *emit,
+                           pgi__view_fill *fill, uint64_t *rays);
 
 /* The frame's image as pgi__direct writes it in place of its direct light (the composite): a
  * pixel's floats are emitted + direct light, plus its weight times the indirect light, `output`
@@ -186,36 +187,6 @@ static inline pgi__v3 pgi__view_dir(const pgi_camera *c, const pgi__subpixel *sp
     float jx, jy;
     pgi__pixel_jitter(sp, (size_t)y * (size_t)c->width + (size_t)x, &jx, &jy);
     return pgi__camera_dir_at(c, x, y, jx, jy);
-}
-
-/* Light from a delta light (point, spot, sun) at x with shading normal ns and
- * geometric normal ng: the unit direction `wi` towards the light, the
- * unshadowed radiance `Li`, the cosine `cs` = ns.wi and the far end `tmax` of
- * the shadow ray from x. Returns 0 when the light cannot reach x (an area
- * light or the sky, x at the light's position, outside a spot's cone, behind ns or ng).
- * Shared by pgi__direct and the reference path tracer's next-event
- * estimation, so that both compute the same numbers. */
-static inline int pgi__delta_light(const pgi__light *lt, pgi__v3 x, pgi__v3 ns, pgi__v3 ng, pgi__v3 *wi, pgi__v3 *Li,
-                                   float *cs, float *tmax) {
-    float dist;
-    if (lt->type == PGI__LIGHT_AREA || lt->type == PGI__LIGHT_ENV) return 0;
-    if (lt->type == PGI__LIGHT_SUN) {
-        *wi = v3_neg(v3_load(lt->dir));
-        dist = INFINITY;
-        *Li = v3_load(lt->color);
-    } else {
-        pgi__v3 dv = v3_sub(v3_load(lt->pos), x);
-        float d2 = v3_dot(dv, dv);
-        if (!(d2 > 0.f)) return 0;
-        dist = sqrtf(d2);
-        *wi = v3_scale(dv, 1.f / dist);
-        if (lt->type == PGI__LIGHT_SPOT && -v3_dot(*wi, v3_load(lt->dir)) < lt->cos_cutoff) return 0;
-        *Li = v3_scale(v3_load(lt->color), 1.f / d2);
-    }
-    *cs = v3_dot(ns, *wi);
-    if (!(*cs > 0.f) || !(v3_dot(ng, *wi) > 0.f)) return 0;
-    *tmax = dist == INFINITY ? INFINITY : dist * (1.f - 1e-4f);
-    return 1;
 }
 
 #endif

@@ -1,6 +1,6 @@
 // Direct light on the GPU and the frame's sum (src/gpu/gpu_view.c): one invocation a pixel, 8x8
 // pixels a group. Mirrors src/view/view.c pgi__direct: from x = p + eps ng, one shadow ray a delta
-// light (view.h pgi__delta_light), `direct_samples` area-light samples (the light stratified and
+// light (light.glsl light_delta), `direct_samples` area-light samples (the light stratified and
 // picked by power with the CDF pgi__direct builds, a uniform point on its triangle, weight
 // c cl / d^2 area / p_light, shadow ray to 0.999 of the distance), and for a constant sky
 // `direct_samples` cosine-weighted directions (env.c pgi__env_sample_direct, first number
@@ -14,6 +14,7 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "scene.glsl"
+#include "light.glsl"
 #define FRAME_NO_PARAMS
 #include "frame.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -63,30 +64,10 @@ void main() {
             const vec3 p = vec3(v.px, v.py, v.pz), ns = vec3(v.nx, v.ny, v.nz), ng = ex.ngeo_depth.xyz;
             const vec3 wo = vec3(v.wox, v.woy, v.woz), kd = vec3(v.kdx, v.kdy, v.kdz);
             precise vec3 x = p + ng * pc.scene.eps;
-            for (uint l = 0u; l < pc.scene.nlights; l++) { // view.h pgi__delta_light
-                const Light lt = lights[l];
-                if (lt.type == LIGHT_AREA) continue;
+            for (uint l = 0u; l < pc.scene.nlights; l++) { // light.h pgi__light_delta
                 vec3 wi, Li;
-                float dist;
-                if (lt.type == LIGHT_SUN) {
-                    wi = -lt.dir;
-                    dist = PGIS_INF;
-                    Li = lt.color;
-                } else {
-                    precise vec3 dv = lt.pos - x;
-                    const float d2 = v3_dot(dv, dv);
-                    if (!(d2 > 0.0)) continue;
-                    dist = sqrt(d2);
-                    precise vec3 w = dv * (1.0 / dist);
-                    wi = w;
-                    if (lt.type == LIGHT_SPOT && -v3_dot(wi, lt.dir) < lt.cos_cutoff) continue;
-                    precise vec3 li = lt.color * (1.0 / d2);
-                    Li = li;
-                }
-                const float cs = v3_dot(ns, wi);
-                if (!(cs > 0.0) || !(v3_dot(ng, wi) > 0.0)) continue;
-                precise float tmax = dist * (1.0 - 1e-4);
-                if (isinf(dist)) tmax = PGIS_INF;
+                float cs, tmax;
+                if (!light_delta(lights[l], x, ns, ng, wi, Li, cs, tmax)) continue;
                 rays++;
                 if (occluded(x, wi, tmax)) continue;
                 precise vec3 c = (brdf(v, kd, ns, wi, wo) * Li) * cs;
@@ -101,13 +82,7 @@ void main() {
                     float pl;
                     const Light lt = lights[cdf_pick(u, pl)];
                     const float u1 = rng_f(rng), u2 = rng_f(rng);
-                    // scene_internal.h pgi__triangle_sample
-                    const uvec4 t = tris[lt.tri];
-                    const float su = sqrt(u1);
-                    precise float b1 = 1.0 - su, b2 = u2 * su;
-                    precise vec3 yv = verts[t.x].pos_u.xyz * (1.0 - b1 - b2) + verts[t.y].pos_u.xyz * b1 +
-                                      verts[t.z].pos_u.xyz * b2;
-                    precise vec3 dv = yv - x;
+                    precise vec3 dv = light_area_point(lt, u1, u2) - x;
                     const float d2 = v3_dot(dv, dv);
                     if (!(d2 > 0.0) || !(pl > 0.0)) continue;
                     const float dist = sqrt(d2);

@@ -18,6 +18,7 @@ layout(local_size_x = 64) in;
 
 #include "common.glsl"
 #include "scene.glsl"
+#include "light.glsl"
 #include "trace.glsl"
 
 void main() {

@@ -6,7 +6,8 @@
 // Photon tracing's emission and BSDF sampling (trace.comp), on the GPU scene (scene.glsl, bindings
 // 0..10; gpu_scene.h) and its emission records (binding 11, pgi__gpu_scene_emit). The functions
 // mirror src/photon/trace.c start_path, src/scene/bsdf.c pgi__bsdf_sample, src/scene/env.c
-// pgi__env_sample (constant sky) and src/core/core.h's sampling. Include after scene.glsl.
+// pgi__env_sample (constant sky) and src/core/core.h's sampling; the lights' own parts are
+// light.glsl's. Include after scene.glsl and light.glsl.
 #ifndef PGIS_TRACE_GLSL
 #define PGIS_TRACE_GLSL
 
@@ -37,15 +38,6 @@ Rng path_rng(uint lo, uint hi) { return rng_seed(pc.seed_lo, pc.seed_hi, TRACE_P
 
 // ---------------------------------------------------------------- core.h
 float maxc(vec3 a) { return max(a.x, max(a.y, a.z)); }
-vec3 sample_sphere(float u1, float u2) {
-    float z = 1.0 - 2.0 * u1, r = sqrt(max(0.0, 1.0 - z * z)), phi = float(2.0 * PGIS_PI) * u2;
-    return vec3(r * cos(phi), r * sin(phi), z);
-}
-vec3 sample_cone(float u1, float u2, float cos_max) {
-    float z = 1.0 - u1 * (1.0 - cos_max), r = sqrt(max(0.0, 1.0 - z * z)), phi = float(2.0 * PGIS_PI) * u2;
-    return vec3(r * cos(phi), r * sin(phi), z);
-}
-vec3 vpos(uint i) { return verts[i].pos_u.xyz; }
 
 // ---------------------------------------------------------------- emission (trace.c start_path)
 // Path flux: the light's power over its pick probability (divided by the paths emitted later).
@@ -66,61 +58,13 @@ bool start_path(inout Rng rng, out vec3 o, out vec3 d, out vec3 flux) {
     const vec3 centre = emits[pc.nemit].power;
     const float radius = emits[pc.nemit].cdf;
     const bool sky = lo >= pc.scene.nlights; // the last entry: the sky
-    const uint type = sky ? 4u : lights[lo].type;
-    const float u1 = rng_f(rng), u2 = rng_f(rng);
-    float u3 = 0.0, u4 = 0.0;
-    if (type == LIGHT_AREA) { // the CPU's historical order: the azimuth's number first
-        u4 = rng_f(rng);
-        u3 = rng_f(rng);
-    } else if (sky) {
-        u3 = rng_f(rng);
-        u4 = rng_f(rng);
-    }
-    if (sky) {
-        // env.c pgi__env_sample (constant sky): a hemisphere by luminance, uniform in it; then a
-        // uniform point of the disk of radius R across w outside the bounding sphere
-        const vec3 fx = emits[pc.nemit + 1u].power, fz = emits[pc.nemit + 2u].power;
-        const vec3 up = vec3(pc.scene.upx, pc.scene.upy, pc.scene.upz);
-        const float ps = emits[pc.nemit + 1u].cdf;
-        float y;
-        if (u1 < ps) y = 1.0 - min(u1 / ps, 1.0);
-        else y = -(u1 - ps) / max(1.0 - ps, 1e-30);
-        y = min(1.0, max(-1.0, y));
-        float r = sqrt(max(0.0, 1.0 - y * y)), phi = 2.0 * float(PGIS_PI) * u2;
-        precise vec3 w = fx * (r * cos(phi)) + up * y + fz * (r * sin(phi));
-        const bool upper = v3_dot(w, up) > 0.0;
-        const float pdf = (upper ? ps : 1.0 - ps) * float(0.5 * PGIS_INV_PI);
-        if (!(pdf > 0.0)) return false;
-        const vec3 L = upper ? pc.scene.sky.xyz : pc.scene.ground.xyz;
-        flux = L * (float(PGIS_PI) * radius * radius / (pdf * pl));
-        d = -w;
-        float rr = radius * sqrt(u3), ph = 2.0 * float(PGIS_PI) * u4;
-        vec3 disk = to_world(vec3(rr * cos(ph), rr * sin(ph), 0.0), d);
-        precise vec3 c = centre + w * (1.01 * radius) + disk;
-        o = c;
-        return true;
-    }
-    const Light L = lights[lo];
-    if (type == LIGHT_POINT) {
-        o = L.pos;
-        d = sample_sphere(u1, u2);
-    } else if (type == LIGHT_SPOT) {
-        o = L.pos;
-        d = to_world(sample_cone(u1, u2, L.cos_cutoff), L.dir);
-    } else if (type == LIGHT_SUN) {
-        d = L.dir;
-        float r = radius * sqrt(u1), phi = 2.0 * float(PGIS_PI) * u2;
-        vec3 disk = to_world(vec3(r * cos(phi), r * sin(phi), 0.0), d);
-        precise vec3 c = centre - d * (1.01 * radius) + disk;
-        o = c;
-    } else { // area: a uniform point of the triangle, the cosine lobe about its normal
-        const uvec4 t = tris[L.tri];
-        float su = sqrt(u1), b1 = 1.0 - su, b2 = u2 * su;
-        precise vec3 q = vpos(t.x) * (1.0 - b1 - b2) + vpos(t.y) * b1 + vpos(t.z) * b2;
-        precise vec3 q2 = q + L.normal * pc.scene.eps;
-        o = q2;
-        d = to_world(sample_cosine(u3, u4), L.normal);
-    }
+    const uint type = sky ? LIGHT_ENV : lights[lo].type;
+    const vec4 u = light_draw(rng, type);
+    if (sky) // the sky's frame and its upper hemisphere's probability are the records after the table
+        return light_emit_sky(u, emits[pc.nemit + 1u].power, vec3(pc.scene.upx, pc.scene.upy, pc.scene.upz),
+                              emits[pc.nemit + 2u].power, emits[pc.nemit + 1u].cdf, pc.scene.sky.xyz,
+                              pc.scene.ground.xyz, centre, radius, pl, o, d, flux);
+    light_emit(lights[lo], u, centre, radius, pc.scene.eps, o, d);
     return true;
 }
 
