@@ -54,7 +54,7 @@ static const char *k_help =
     "  --exposure X       exposure before the sRGB tone map (default: the scene's, else 1)\n"
     "  --output all|direct|indirect|counts   what to show (counts: false-colour photons per pixel)\n"
     "  --emission uniform|guided|auto|portal   photon emission, as 'photongi render --emission'\n"
-    "                     (default uniform; docs/emission.md)\n"
+    "                     (default auto; docs/emission.md)\n"
     "  --store all|view   photons stored, as 'photongi render --store' (view needs --radius)\n"
     "  --time T           scene time in seconds to start at (default 0)\n"
     "  --animate          advance the scene time (real time in a window, 1/30 s a frame headless;\n"
@@ -529,10 +529,10 @@ static void command_line(const viewer *v, char *buf, size_t size) {
     if (d.seed) ADD_(" --seed %llu", (unsigned long long)d.seed);
     if (d.bounces) ADD_(" --bounces %d", d.bounces);
     if (d.direct_samples) ADD_(" --direct-samples %d", d.direct_samples);
-    if (d.emission != PGI_EMISSION_UNIFORM)
-        ADD_(" --emission %s", d.emission == PGI_EMISSION_GUIDED ? "guided"
-                               : d.emission == PGI_EMISSION_AUTO ? "auto"
-                                                                 : "portal");
+    if (d.emission != PGI_EMISSION_AUTO)
+        ADD_(" --emission %s", d.emission == PGI_EMISSION_GUIDED    ? "guided"
+                               : d.emission == PGI_EMISSION_UNIFORM ? "uniform"
+                                                                    : "portal");
     if (d.store == PGI_STORE_VIEW) ADD_(" --store view");
     if (d.device == PGI_DEVICE_VULKAN) ADD_(" --device vulkan");
     if (d.output != PGI_OUTPUT_ALL)
@@ -1215,6 +1215,7 @@ static int finish(viewer *v, const window *w, loop_state *ls, const view_args *g
 int main(int argc, char **argv) {
     viewer v;
     memset(&v, 0, sizeof v);
+    v.desc.emission = PGI_EMISSION_AUTO; /* as photongi render */
     v.camera_out = "photongi-camera.json";
     v.speed_mul = 1.f;
     v.accumulate = 1;

@@ -262,7 +262,8 @@ typedef struct pgi_render_desc {
                            frame reports OFF, a progressive average the caller's value) */
     pgi_texture_filter texture_filter; /* the view samples' textures; default PGI_TEXTURE_FILTER_AUTO (resolved:
                                           the statistics report ON or OFF) */
-    pgi_emission emission;             /* photon emission; default PGI_EMISSION_UNIFORM */
+    pgi_emission emission;             /* photon emission; default PGI_EMISSION_UNIFORM (photongi render, the viewer
+                                          and the Python module default to PGI_EMISSION_AUTO) */
     pgi_store store;                   /* which photons are stored; default PGI_STORE_ALL */
     pgi_progress_fn progress;          /* may be NULL; not part of the picture (progressive mode does not restart) */
     void *progress_user;               /* passed to `progress` */
@@ -356,6 +357,9 @@ typedef struct pgi_emission_stats {
                                         emission (power-weighted): the fraction of their uniform paths
                                         that can enter (0: no portals, no sun or sky, or emission
                                         uniform or guided, which do not compute it) */
+    pgi_emission used;               /* the emission the photons had: PGI_EMISSION_UNIFORM, _GUIDED or _PORTAL (`auto`'s
+                           choice; on the GPU always uniform) */
+    const char *reason;              /* why, in words (a static string; NULL when no photons were traced) */
 } pgi_emission_stats;
 
 /* What the caller did around the frame (pgi_frame_stats.run), for statistics that reproduce a run:
