@@ -922,6 +922,9 @@ static int open_scene(viewer *v, const view_args *g) {
     if ((st = pgi_renderer_create(v->scene, &v->r)) || (st = pgi_progressive_create(v->r, &v->prog)) ||
         (st = pgi_cancel_create(&v->cancel)) || (st = temporal_renew(v)))
         return fail("cannot create the renderer", st);
+    /* interactive: guided emission learns over the frames of a still view (scripted --frames N
+       runs average as 'photongi render --progressive N', frame by frame) */
+    if (!g->frames) pgi_progressive_keep_guide(v->prog, 1);
     if (!g->frames && v->info.animated_objects > 0) v->animate = 1; /* interactive: play animations */
     if (pgi_estimator_at(v->est_index)->oracle && !v->quiet)
         fprintf(stderr,

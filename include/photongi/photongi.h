@@ -695,6 +695,15 @@ pgi_status pgi_progressive_step(pgi_progressive *p, const pgi_render_desc *desc,
                                 pgi_frame_stats *stats);
 /* Forgets the running average. */
 void pgi_progressive_reset(pgi_progressive *p);
+/* With on != 0, guided emission (PGI_EMISSION_GUIDED, or AUTO where it steers) keeps its guide from
+ * frame to frame of one average: frame k > 0 runs no pilot and steers by the evidence of frames
+ * 0..k-1 (each frame adds its paths' counts), so that later frames trace fewer paths and the guide
+ * sharpens (docs/emission.md, "Across frames"). Unbiased, and the same seed gives the same image for
+ * any thread count, but frame k then depends on the frames before it in this accumulator: its
+ * images are not pgi_progressive_frame's (which photongi-mpi deals to its ranks), and a cancelled
+ * step's batches stay in the evidence. Off by default (pgi_render_progressive leaves it off);
+ * photongi-view turns it on. Takes effect from the next frame 1. */
+void pgi_progressive_keep_guide(pgi_progressive *p, int on);
 void pgi_progressive_destroy(pgi_progressive *p);
 /* Averages `frames` (1..PGI_MAX_PROGRESSIVE_FRAMES) progressive frames from a fresh start; stats
  * gets the times and counters summed over the frames, the rest from the last. */

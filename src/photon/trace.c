@@ -1245,7 +1245,7 @@ static pgi_status trace_photons(const pgi_scene *s, const pgi__rt *rt, const pgi
             free(cdf);
             return pgi__fail(PGI_ERR_INVALID_ARG, "%s", "guided emission needs the view grid");
         }
-        pgi_status gs = pgi__guide_init(d->guide, cdf, nl, nt);
+        pgi_status gs = pgi__guide_init(d->guide, cdf, nl, nt, d->guide_keep);
         if (gs) {
             free(cdf);
             return gs;
@@ -1273,7 +1273,19 @@ static pgi_status trace_photons(const pgi_scene *s, const pgi__rt *rt, const pgi
     double frame_paths = 0, frame_photons = 0;
     uint64_t pilot_paths = 0; /* guided emission: paths of the uniform pilot, dropped */
     int guide_done = 0;       /* the pilot has decided */
-    double pilot_stored = 0, pilot_useful = 0;
+    int steered = 0;          /* the photons kept come from paths steered by the guide */
+    /* the evidence's photons (stored, in view) that are not this frame's kept ones */
+    double pilot_stored = 0, pilot_useful = 0, carried_stored = 0, carried_useful = 0;
+    if (d->guide && d->guide->carried) {
+        /* earlier frames' evidence (guide_keep): no pilot; q from that evidence alone, which this
+           frame's random numbers did not build, so its weights V/q keep the estimate unbiased */
+        pgi__guide_totals(d->guide, &carried_stored, &carried_useful);
+        pilot_stored = carried_stored;
+        pilot_useful = carried_useful;
+        pgi__guide_update(d->guide, d->min_gain);
+        guide_done = 1;
+        steered = d->guide->on; /* else uniform, the paths still counted as evidence */
+    }
     pgi_status st = PGI_OK;
     if (d->guide && (st = guide_reserve(sc, want))) {
         free(cdf);
@@ -1509,6 +1521,7 @@ static pgi_status trace_photons(const pgi_scene *s, const pgi__rt *rt, const pgi
                 pgi__guide_totals(d->guide, &pilot_stored, &pilot_useful);
                 pgi__guide_update(d->guide, d->min_gain);
                 if (d->guide->on) {
+                    steered = 1;
                     /* The pilot's photons go: weighted by a q built from themselves they would
                        be biased (a lucky bin lowers its own weight), and with their uniform
                        weight they would stand out as bright disks among the steered ones. The
@@ -1521,8 +1534,10 @@ static pgi_status trace_photons(const pgi_scene *s, const pgi__rt *rt, const pgi
                     seen_paths = 1024.0;
                     seen_photons = 1024.0 * d->guide->yield;
                 } else {
-                    pilot_stored = pilot_useful = 0; /* uniform after all: the pilot's photons stay */
-                    T.G = NULL;                      /* and the paths after it count nothing (in_view: the pilot's) */
+                    /* uniform after all: the pilot's photons stay */
+                    pilot_stored = carried_stored;
+                    pilot_useful = carried_useful;
+                    if (!d->guide_keep) T.G = NULL; /* and the paths after it count nothing (in_view: the pilot's) */
                 }
             }
         }
@@ -1550,7 +1565,7 @@ static pgi_status trace_photons(const pgi_scene *s, const pgi__rt *rt, const pgi
     }
     path -= pilot_paths;
     ph->emitted = path;
-    if (pilot_paths > 0 && path > 0) {
+    if (steered && path > 0) {
         /* steered paths: weight V_b / q_b (guide.h), over the paths */
         const pgi__guide *g = d->guide;
         float w[PGI__GUIDE_GROUPS * PGI__GUIDE_RES * PGI__GUIDE_RES];

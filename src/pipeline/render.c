@@ -39,6 +39,7 @@ struct pgi_renderer {
     pgi__mem_ledger mem; /* what the large allocations of the renderer (and its scene) hold */
     /* guided emission: the guide's tables and the cells the camera sees (kept between frames) */
     pgi__guide guide;
+    int guide_keep; /* pgi__renderer_keep_guide */
     pgi__view_grid vgrid;
     pgi__view_grid near; /* PGI_STORE_VIEW: the cells within the radius of a view sample */
     /* PGI_DEVICE_VULKAN: the device (created on the first GPU frame, kept; again when the index changes)
@@ -99,6 +100,8 @@ static uint64_t trace_triangle_bytes(uint64_t ntris) {
     const uint64_t huge = (uint64_t)2 << 20, a = ntris * 64, b = ntris * 32;
     return (a < huge / 2 ? a : (a + huge - 1) / huge * huge) + (b < huge / 2 ? b : (b + huge - 1) / huge * huge);
 }
+
+void pgi__renderer_keep_guide(pgi_renderer *r, int keep) { r->guide_keep = keep; }
 
 pgi__mem_ledger *pgi__renderer_mem(pgi_renderer *r) { return &r->mem; }
 
@@ -622,6 +625,7 @@ static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, uint64_t se
         r->guide.yield = r->guide.yield_uniform = 0.0;
         r->guide.in_view = r->guide.useful_uniform = 0.0;
         td.min_gain = ep.min_value;
+        td.guide_keep = r->guide_keep;
     }
     if (d->store == PGI_STORE_VIEW) {
         /* every cell a photon closer than the radius to a view sample can be in */
