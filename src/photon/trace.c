@@ -1421,7 +1421,10 @@ static pgi_status trace_photons(const pgi_scene *s, const pgi__rt *rt, const pgi
             size_t take = 0, i = 0;
             const uint8_t *cn = sc->counts + (size_t)c * CHUNK;
             while (ph->count + produced + take < goal) take += cn[i++];
-            ci->count = goal - ph->count - produced;
+            /* The pilot keeps its filling path whole (room allowing): where it then keeps uniform
+               emission, its photons are the first paths' all, as uniform emission's frame has them */
+            const int whole = d->guide && !guide_done && ph->count + produced + take <= want;
+            ci->count = whole ? take : goal - ph->count - produced;
             produced += ci->count;
             used_paths += i;
             c++;
