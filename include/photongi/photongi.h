@@ -161,7 +161,8 @@ typedef enum pgi_emission {
                                  the sky's uniform paths (pgi_emission_stats.portal_share), else guided where
                                  the pilot predicts at least 1.25x the photons in view per unit
                                  of frame cost (pgi_emission_stats.value: fewer paths per stored photon
-                                 count too), uniform elsewhere (byte-identical to PGI_EMISSION_UNIFORM then) */
+                                 count too), uniform elsewhere (PGI_EMISSION_UNIFORM's photons then); on the
+                                 GPU uniform. The choice and why: pgi_emission_stats.used, .reason */
     PGI_EMISSION_PORTAL       /* the sun's and the sky's photons start on the scene's portals (windows,
                                  docs/emission.md), weighted so that the flux through them is unbiased;
                                  other lights as uniform. Needs --radius-policy fixed; CPU only */
