@@ -297,6 +297,24 @@ static void kept_guide_is_deterministic(void **state) {
     assert_memory_equal(img[0].rgb, img[1].rgb, n * sizeof(float));
     assert_memory_not_equal(img[0].rgb, img[2].rgb, n * sizeof(float));
     for (int i = 0; i < 3; i++) pgi_image_free(&img[i]);
+    /* pgi_temporal_desc.keep_guide (the interactive viewer's): the still picture's frames after the
+       first run no pilot either */
+    pgi_renderer *r = NULL;
+    pgi_temporal *t = NULL;
+    TU_CHECK_OK(pgi_renderer_create(s, &r));
+    const pgi_temporal_desc td = {.keep_guide = 1};
+    TU_CHECK_OK(pgi_temporal_create(r, &td, &t));
+    pgi_render_desc d = two_rooms_desc(PGI_EMISSION_GUIDED, 7);
+    d.photons = 30000;
+    pgi_image im = {0};
+    pgi_frame_stats fs;
+    for (int k = 0; k < 3; k++) {
+        TU_CHECK_OK(pgi_temporal_step(t, &d, &im, &fs));
+        assert_true(k == 0 ? fs.emission.pilot_paths > 0 : fs.emission.pilot_paths == 0);
+    }
+    pgi_image_free(&im);
+    pgi_temporal_destroy(t);
+    pgi_renderer_destroy(r);
     pgi_scene_destroy(s);
 }
 

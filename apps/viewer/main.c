@@ -1232,6 +1232,7 @@ int main(int argc, char **argv) {
     /* Temporal reuse and the filter: on in an interactive session, off with --frames (scripted runs and
      * benches stay raw, and --frames N averages as 'photongi render --progressive N'), unless
      * --temporal says. */
+    v.tdesc.keep_guide = g.frames == 0; /* interactive: as the progressive accumulator's (open_scene) */
     if (g.temporal < 0 ? g.frames > 0 : g.temporal == 0) v.tdesc.history = v.tdesc.filter = PGI_TEMPORAL_OFF;
     else if (g.temporal == 1 && v.desc.device != PGI_DEVICE_CPU)
         return usage("%s", "--temporal on: temporal reuse and the filter run on the CPU device only");

@@ -760,6 +760,8 @@ typedef struct pgi_temporal_desc {
     int history;       /* 1..256 frames the reprojected picture weighs at most; 0 = 16; PGI_TEMPORAL_OFF: no reuse */
     int filter;        /* a-trous passes 1..5; 0 = 4; PGI_TEMPORAL_OFF: no filter */
     int filter_frames; /* 1..256 frames after which a still view is unfiltered; 0 = 8 */
+    int keep_guide;    /* 1: guided emission keeps its guide over the frames of a still picture
+                          (pgi_progressive_keep_guide on the accumulator inside); 0 = off */
 } pgi_temporal_desc;
 #define PGI_TEMPORAL_OFF (-1)
 
