@@ -85,8 +85,9 @@ def code(text, limit=6000):
 
 
 # Sub-passes shown for each GPU estimator in the frame tables (the rest are in the CSV).
-KEY_PASSES = ["gpu_view", "gpu_trace", "gpu_readback", "gpu_view_download", "gpu_trace_download", "gpu_splat",
-              "gpu_gather", "gpu_radiance", "gpu_direct", "gpu_download"]
+KEY_PASSES = ["gpu_view", "gpu_trace", "gpu_readback", "gpu_view_download", "gpu_trace_download",
+              "gpu_photon_order", "gpu_splat", "gpu_lists", "gpu_sort", "gpu_gather", "gpu_radiance", "gpu_direct",
+              "gpu_download"]
 
 
 def main():

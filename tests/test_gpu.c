@@ -8,6 +8,7 @@
 #include "core/core.h"
 #include "gpu/gpu.h"
 #include "gpu/gpu_estimator.h"
+#include "gpu/gpu_sort.h"
 #include "gpu/spirv.h"
 
 
@@ -280,6 +281,21 @@ static void test_cluster_trivial_vs_brute(void **state) {
     gpu_est_vs_brute(vt, "cornell", 7, 5, 3000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.6f, 0);
 }
 
+/* cluster and cluster-cone on the GPU (cluster-trivial's code without trivial accept, and without
+ * the cone test) against the CPU's brute force: exact like it, on the same cases' extremes (a radius
+ * enclosing tiles, mirrors, glossy samples). */
+static void test_cluster_variants_vs_brute(void **state) {
+    (void)state;
+    const pgi__gpu_est_vtbl *vts[] = {&pgi__gpu_est_cluster, &pgi__gpu_est_cluster_cone};
+    for (int v = 0; v < 2; v++) {
+        const pgi__gpu_est_vtbl *vt = vts[v];
+        gpu_est_vs_brute(vt, "cornell", 64, 48, 20000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.f, 0);
+        gpu_est_vs_brute(vt, "cornell", 64, 48, 3000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.6f, 0);
+        gpu_est_vs_brute(vt, "cornell-mirrors", 64, 48, 3000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.6f, 0);
+        gpu_est_vs_brute(vt, "fireplace-room", 48, 36, 10000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_GGX, 0.f, 0);
+    }
+}
+
 /* tiled on the GPU (gpu_tiled.c) against the CPU's brute force: the Cornell box at the scene's
  * radius and at a radius larger than a tile (photons in many lists), odd and large tile sizes, the
  * mirror box (samples seen through mirrors and glass: the mirror cells' lists), the fireplace
@@ -471,12 +487,71 @@ static void test_cluster_trivial_errors(void **state) {
     assert_non_null(strstr(names, "cluster-trivial"));
 }
 
+/* The radix sort (gpu_sort.h) against a stable sort on the host: pairs ordered by (key, value) when
+ * sorted by both, by key alone (equal keys keeping their input order) when sorted by the key only;
+ * sizes around the 256-pair block, a key past the sorted bits ignored. */
+static int by_key_value(const void *a, const void *b) {
+    const uint32_t *x = a, *y = b;
+    if (x[0] != y[0]) return x[0] < y[0] ? -1 : 1;
+    return x[1] < y[1] ? -1 : x[1] > y[1];
+}
+static int by_key_pos(const void *a, const void *b) { /* (key, value, input position) */
+    const uint32_t *x = a, *y = b;
+    if (x[0] != y[0]) return x[0] < y[0] ? -1 : 1;
+    return x[2] < y[2] ? -1 : x[2] > y[2];
+}
+static void test_radix_sort(void **state) {
+    (void)state;
+    pgi__gpu *g = g_gpu;
+    pgi__gpu_sort so;
+    TU_CHECK_OK(pgi__gpu_sort_create(g, "gpu_test", &so));
+    const size_t sizes[] = {1, 255, 256, 257, 5000, 300007};
+    uint64_t rng = 12345;
+    for (size_t si = 0; si < sizeof sizes / sizeof sizes[0]; si++) {
+        const size_t n = sizes[si];
+        for (int both = 0; both < 2; both++) {
+            const int kbits = both ? 19 : 15, vbits = both ? 20 : 0;
+            uint32_t *pairs = malloc(n * 8), *ref = malloc(n * 12), *k = malloc(n * 4), *v = malloc(n * 4);
+            assert_true(pairs && ref && k && v);
+            for (size_t i = 0; i < n; i++) {
+                rng = rng * 6364136223846793005ull + 1442695040888963407ull;
+                uint32_t r = (uint32_t)(rng >> 32);
+                /* few distinct keys for many equal ones; values repeat too */
+                pairs[2 * i] = (r % (si < 3 ? 7u : 3001u)) << (both ? 0 : 2);
+                pairs[2 * i + 1] = both ? (uint32_t)(rng >> 8) & 0xfffffu : (uint32_t)i;
+                ref[3 * i] = pairs[2 * i], ref[3 * i + 1] = pairs[2 * i + 1], ref[3 * i + 2] = (uint32_t)i;
+            }
+            qsort(ref, n, 12, both ? by_key_value : by_key_pos);
+            pgi__gpu_buffer *in = NULL, *ko = NULL, *vo = NULL;
+            TU_CHECK_OK(pgi__gpu_buffer_reserve(g, &in, n * 8, "gpu_test"));
+            TU_CHECK_OK(pgi__gpu_upload(g, in, 0, pairs, n * 8));
+            TU_CHECK_OK(pgi__gpu_sort_reserve(&so, n));
+            TU_CHECK_OK(pgi__gpu_begin(g));
+            TU_CHECK_OK(pgi__gpu_sort_record(&so, in, n, vbits, kbits, &ko, &vo));
+            double t0 = pgi__now_ms();
+            TU_CHECK_OK(pgi__gpu_submit_wait(g));
+            if (n > 100000)
+                print_message("gpu sort of %zu pairs, %d passes: %.1f ms\n", n, (kbits + 7) / 8 + (vbits + 7) / 8,
+                              pgi__now_ms() - t0);
+            TU_CHECK_OK(pgi__gpu_download(g, ko, 0, k, n * 4));
+            TU_CHECK_OK(pgi__gpu_download(g, vo, 0, v, n * 4));
+            for (size_t i = 0; i < n; i++)
+                if (k[i] != ref[3 * i] || v[i] != ref[3 * i + 1])
+                    fail_msg("sort of %zu pairs (%s): [%zu] = (%u, %u), expected (%u, %u)", n,
+                             both ? "key, value" : "key", i, k[i], v[i], ref[3 * i], ref[3 * i + 1]);
+            pgi__gpu_buffer_destroy(g, in);
+            free(pairs), free(ref), free(k), free(v);
+        }
+    }
+    pgi__gpu_sort_destroy(&so);
+}
+
 /* The renderer on the GPU device: the same image as the CPU's brute force (same seed: the same
  * photons, traced on the CPU: the test hook PGI_GPU_CPU_PHOTONS=1), device name and GPU passes and buffers in the stats; an estimator
  * without a GPU version is refused with the list of those that have one. */
 static void test_renderer_device(void **state) {
     (void)state;
-    setenv("PGI_GPU_CPU_PHOTONS", "1", 1); /* the CPU tracer's photons (render.c's test hook) */
+    setenv("PGI_GPU_CPU_PHOTONS", "1", 1); /* the CPU tracer's photons (frame_gpu.c's test hook) */
     pgi_scene *scene = NULL;
     TU_CHECK_OK(pgi_scene_load("cornell", &scene));
     pgi_renderer *r = NULL;
@@ -506,8 +581,21 @@ static void test_renderer_device(void **state) {
     TU_CHECK_OK(pgi_renderer_render(r, &d, &gpu2, &gs));
     assert_int_equal(gs.estimators_created, 0);
     assert_memory_equal(gpu.rgb, gpu2.rgb, 3 * 64 * 48 * sizeof(float));
-    /* cluster-trivial through the renderer (the registry; the GPU frame reads its inputs back for it,
-     * gpu_host_estimate): on the same device view samples and photons, the GPU hashgrid's image */
+    /* cluster-trivial and directional through the renderer, on the device's own view samples and
+     * photons (no read-back but the image's): cluster-trivial is exact, the GPU hashgrid's image */
+    for (int e = 0; e < 2; e++) {
+        d.estimator = e ? "directional" : "cluster-trivial";
+        TU_CHECK_OK(pgi_renderer_render(r, &d, &gpu2, &gs));
+        for (int k = 0; k < gs.pass_count; k++)
+            if (strcmp(gs.passes_ms[k].name, "gpu_readback") == 0 ||
+                strcmp(gs.passes_ms[k].name, "gpu_indirect_upload") == 0 ||
+                strcmp(gs.passes_ms[k].name, "gpu_view_download") == 0 ||
+                strcmp(gs.passes_ms[k].name, "gpu_trace_download") == 0)
+                fail_msg("%s on the device: pass %s copies through the host", d.estimator, gs.passes_ms[k].name);
+        int order = 0;
+        for (int k = 0; k < gs.pass_count; k++) order += strcmp(gs.passes_ms[k].name, "gpu_photon_order") == 0;
+        assert_int_equal(order, pgi__gpu_has_timestamps(g_gpu));
+    }
     d.estimator = "cluster-trivial";
     TU_CHECK_OK(pgi_renderer_render(r, &d, &gpu2, &gs));
     assert_int_equal(tu_compare(gpu2.rgb, gpu.rgb, 3 * 64 * 48, 1e-4, "renderer: vulkan cluster-trivial vs hashgrid"),
@@ -580,10 +668,12 @@ int main(void) {
         cmocka_unit_test(test_hashgrid_vs_brute_glossy),
         cmocka_unit_test(test_cluster_trivial_vs_brute),
         cmocka_unit_test(test_cluster_trivial_errors),
+        cmocka_unit_test(test_cluster_variants_vs_brute),
         cmocka_unit_test(test_directional_vs_cpu),
         cmocka_unit_test(test_tiled_vs_brute),
         cmocka_unit_test(test_tiled_errors),
         cmocka_unit_test(test_cluster_trivial_no_photons),
+        cmocka_unit_test(test_radix_sort),
         cmocka_unit_test(test_renderer_device),
         cmocka_unit_test(test_fallback_paths),
     };

@@ -29,7 +29,7 @@ expect_fail() { # NEEDLE ARGS...: exit 1, stderr contains NEEDLE
 common=(--scene cornell --size 64x48 --photons 20000 --seed 3 -q)
 run render "${common[@]}" -o "$TMP/cpu.exr"
 [ "$rc" -eq 0 ] && ok || bad "cpu render: $err"
-# the device's passes on the CPU tracer's photons (render.c's test hook PGI_GPU_CPU_PHOTONS=1): the
+# the device's passes on the CPU tracer's photons (frame_gpu.c's test hook PGI_GPU_CPU_PHOTONS=1): the
 # CPU's image
 PGI_GPU_CPU_PHOTONS=1 run render "${common[@]}" --device vulkan -o "$TMP/gpu.exr"
 [ "$rc" -eq 0 ] && ok || bad "vulkan render (CPU photons): $err"
@@ -67,6 +67,11 @@ run devices
 grep -A1 '^vulkan:0: ' "$TMP/out" | grep -q '; driver .*; Vulkan [0-9]' && ok || bad "devices (driver line): $out"
 run render --help
 grep -qF -- '--device cpu|gpu|vulkan[:N]' "$TMP/out" && ok || bad "render --help has no --device"
+# estimators -v: each estimator's devices, from the library's device table
+run estimators -v
+grep -A3 '^hashgrid ' "$TMP/out" | grep -qF 'devices: cpu, vulkan (without --subsample)' && ok ||
+    bad "estimators -v (hashgrid's devices): $out"
+grep -A3 '^kdtree ' "$TMP/out" | grep -qE 'devices: cpu$' && ok || bad "estimators -v (kdtree's devices): $out"
 expect_fail "does not exist" render "${common[@]}" --device vulkan:99 -o "$TMP/x.png"
 expect_fail "0: " render "${common[@]}" --device vulkan:99 -o "$TMP/x.png"
 expect_fail "no GPU version" render "${common[@]}" --device vulkan --estimator bounds3d -o "$TMP/x.png"

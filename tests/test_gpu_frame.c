@@ -12,7 +12,9 @@
  *   - direct light (direct.comp, output direct) at 256 samples: mean within 1 % of the CPU's,
  *     PSNR >= 40 dB; the whole frame (Cornell, 200k photons): mean within 1 %, PSNR >= 40 dB;
  *   - the same seed gives the same bytes twice; progressive frames run; what the GPU frame does not
- *     have is refused by name (PGI_ERR_UNSUPPORTED). */
+ *     have is refused by name (PGI_ERR_UNSUPPORTED);
+ *   - pgi_renderer_prepare on the device returns the device's view samples and photons: the CPU's
+ *     brute force on them equals the device frame's indirect light. */
 #include "test_gpu_util.h"
 #include "test_util.h"
 #include "test_vertex_colours.h"
@@ -340,7 +342,7 @@ static void compare_frames(const char *scene, const pgi_render_desc *d, const ch
 
 static void compare_frames_on(const char *scene, void (*modify)(pgi_scene *), const pgi_render_desc *d,
                               const char *what, double min_psnr) {
-    /* the device's passes on the CPU tracer's photons (render.c's test hook): the photons traced on
+    /* the device's passes on the CPU tracer's photons (frame_gpu.c's test hook): the photons traced on
        the device are an independent photon map, compared in tests/test_gpu_trace.c */
     setenv("PGI_GPU_CPU_PHOTONS", "1", 1);
     pgi_scene *s = NULL;
@@ -523,6 +525,16 @@ static void test_refusals(void **state) {
     e = d;
     e.output = PGI_OUTPUT_PHOTON_COUNT;
     expect_refused(r, &e, "--output counts");
+    e = d;
+    e.shift[0] = 0.25f;
+    expect_refused(r, &e, "sub-pixel shift");
+    /* an option the estimator takes on the CPU and not on the device */
+    e = d;
+    e.est.subsample = 4;
+    expect_refused(r, &e, "--subsample 4 with estimator 'hashgrid'");
+    e = d;
+    e.estimator = "kdtree";
+    expect_refused(r, &e, "no GPU version");
     pgi_renderer_destroy(r);
     pgi_scene_destroy(s);
     /* portal emission: refused by name on the device (the scene has portals, so the CPU's own
@@ -548,6 +560,77 @@ static void test_refusals(void **state) {
     pgi_scene_destroy(s);
 }
 
+static int has_pass(const pgi_frame_stats *st, const char *name) {
+    for (int k = 0; k < st->pass_count; k++)
+        if (strcmp(st->passes_ms[k].name, name) == 0) return 1;
+    return 0;
+}
+
+/* pgi_renderer_prepare on the device: its view samples and photons (the device's own: traced there),
+ * read back into the frame inputs. A CPU estimator on them gives the indirect light the device's
+ * frame renders from the same inputs (--output indirect, the GPU hashgrid); the automatic radius
+ * reads the same inputs; a refused setting is named. */
+static void test_prepare(void **state) {
+    (void)state;
+    pgi_scene *s = NULL;
+    TU_CHECK_OK(pgi_scene_load("cornell", &s));
+    pgi_renderer *r = NULL;
+    TU_CHECK_OK(pgi_renderer_create(s, &r));
+    for (int automatic = 0; automatic < 2; automatic++) {
+        pgi_render_desc d = frame_desc(48, 36, 5000, 1, PGI_OUTPUT_INDIRECT, 1);
+        d.radius = automatic ? PGI_RADIUS_AUTO : 0.05f;
+        pgi_frame_inputs in;
+        pgi_frame_stats ps;
+        TU_CHECK_OK(pgi_renderer_prepare(r, &d, &in, &ps));
+        assert_string_not_equal(ps.device, "cpu");
+        assert_true(has_pass(&ps, "gpu_trace") && has_pass(&ps, "gpu_view") && has_pass(&ps, "gpu_readback"));
+        assert_int_equal(in.samples->width, 48);
+        assert_int_equal(in.samples->height, 36);
+        assert_true(in.photons->count > 0);
+        assert_int_equal(in.photons->count, ps.photons_stored);
+        assert_true(in.radius > 0.f);
+        if (!automatic) assert_true(in.radius == 0.05f);
+        const size_t n = 48 * 36;
+        float *rad = calloc(3 * n, sizeof(float)), *want = calloc(3 * n, sizeof(float));
+        assert_non_null(rad);
+        assert_non_null(want);
+        pgi_estimator *e = NULL;
+        TU_CHECK_OK(pgi_estimator_create("brute", &(pgi_estimator_desc){0}, &e));
+        const pgi_estimate_args a = {.photons = in.photons,
+                                     .samples = in.samples,
+                                     .camera = &in.camera,
+                                     .out_rgb = rad,
+                                     .radius = in.radius,
+                                     .seed = in.seed,
+                                     .scene_area = in.scene_area};
+        TU_CHECK_OK(pgi_estimator_build(e, &a));
+        TU_CHECK_OK(pgi_estimator_estimate(e, &a));
+        pgi_estimator_destroy(e);
+        pgi__indirect_image(in.samples, rad, 0, want);
+        pgi_image im = {0};
+        pgi_frame_stats fs;
+        TU_CHECK_OK(pgi_renderer_render(r, &d, &im, &fs));
+        assert_true(fs.radius == in.radius);
+        assert_int_equal(fs.photons_stored, ps.photons_stored);
+        assert_int_equal(tu_compare(im.rgb, want, 3 * n, 1e-4, "prepare on the device: cpu brute vs the frame"), 0);
+        pgi_image_free(&im);
+        free(rad);
+        free(want);
+    }
+    /* what the device lacks for the view samples or photons is refused by name */
+    pgi_render_desc d = frame_desc(16, 12, 1000, 1, PGI_OUTPUT_ALL, 1);
+    d.emission = PGI_EMISSION_GUIDED;
+    pgi_frame_inputs in;
+    assert_int_equal(pgi_renderer_prepare(r, &d, &in, NULL), PGI_ERR_UNSUPPORTED);
+    assert_non_null(strstr(pgi_last_error(), "--emission guided"));
+    /* ... and what only the frame after them reads is not */
+    d = frame_desc(16, 12, 1000, 1, PGI_OUTPUT_ALL, 1);
+    d.filter = 2;
+    TU_CHECK_OK(pgi_renderer_prepare(r, &d, &in, NULL));
+    pgi_renderer_destroy(r);
+    pgi_scene_destroy(s);
+}
+
 int main(void) {
     tu_keep_lavapipe_loaded();
     const struct CMUnitTest tests[] = {
@@ -556,7 +639,7 @@ int main(void) {
         cmocka_unit_test(test_direct_light),  cmocka_unit_test(test_glossy),
         cmocka_unit_test(test_whole_frame),   cmocka_unit_test(test_dynamic),
         cmocka_unit_test(test_deterministic), cmocka_unit_test(test_progressive),
-        cmocka_unit_test(test_refusals),
+        cmocka_unit_test(test_refusals),      cmocka_unit_test(test_prepare),
     };
     return cmocka_run_group_tests(tests, tu_gpu_setup, tu_gpu_teardown);
 }

@@ -61,12 +61,11 @@ static inline int app_check_device(const pgi_render_desc *d, const char *estimat
                  "--device cpu");
         return 0;
     }
+    const char *e = estimator && *estimator ? estimator : PGI_DEFAULT_ESTIMATOR;
+    const pgi_estimator_vtbl *vt = pgi_estimator_find(e);
+    if (!vt || pgi_estimator_runs_on(vt, PGI_DEVICE_VULKAN)) return 1; /* an unknown name: the render's message */
     char names[256];
     pgi_device_estimators(names, sizeof names);
-    const char *e = estimator && *estimator ? estimator : PGI_DEFAULT_ESTIMATOR;
-    size_t n = strlen(e);
-    for (const char *p = names; (p = strstr(p, e)) != NULL; p += n)
-        if ((p == names || p[-1] == ' ') && (p[n] == 0 || p[n] == ',')) return 1;
     snprintf(err, size, "estimator '%s' has no GPU version; on --device vulkan: %s", e, names);
     return 0;
 }

@@ -62,7 +62,8 @@ static const char *k_est_help =
     "usage: photongi estimators [-v]\n"
     "\n"
     "Lists the registered density estimators, one name a line (-v: with a summary, whether\n"
-    "it is approximate, and which of --kernel, --subsample, --radius-policy it supports).\n"
+    "it is approximate, which of --kernel, --subsample, --radius-policy it supports, and the\n"
+    "devices it runs on (--device), with the options it lacks on each).\n"
     "Exit status: 0 success, 2 usage error (see 'photongi --help').\n";
 
 /* Appends ", item" (or "item" to an empty list), truncating at cap. */
@@ -103,6 +104,29 @@ static int cmd_estimators(int argc, char **argv) {
         }
         if (vt->caps & PGI_EST_CAP_PHOTON_RADIUS) list_append(also, sizeof also, "--radius-policy path|differentials");
         if (also[0]) printf("%-*s  also: %s\n", width, "", also);
+        /* the devices it runs on, and the options it lacks on each (the library's device table) */
+        static const struct {
+            pgi_device id;
+            const char *name;
+        } devices[] = {{PGI_DEVICE_CPU, "cpu"}, {PGI_DEVICE_VULKAN, "vulkan"}};
+        char on[256] = "";
+        for (size_t d = 0; d < sizeof devices / sizeof devices[0]; d++) {
+            if (!pgi_estimator_runs_on(vt, devices[d].id) ||
+                (devices[d].id == PGI_DEVICE_VULKAN && !pgi_vulkan_available()))
+                continue;
+            char without[128] = "";
+            for (size_t k = 0; k < pgi_option_count(); k++) {
+                const pgi_option *o = pgi_option_at(k);
+                if (!pgi_estimator_takes(vt, o) || pgi_estimator_takes_on(vt, o, devices[d].id)) continue;
+                char flag[64];
+                snprintf(flag, sizeof flag, "--%s", o->name);
+                list_append(without, sizeof without, flag);
+            }
+            char item[192];
+            snprintf(item, sizeof item, without[0] ? "%s (without %s)" : "%s", devices[d].name, without);
+            list_append(on, sizeof on, item);
+        }
+        printf("%-*s  devices: %s\n", width, "", on);
     }
     return 0;
 }

@@ -228,7 +228,8 @@ typedef void (*pgi_progress_fn)(void *user, const pgi_progress *progress);
 typedef enum pgi_device {
     PGI_DEVICE_CPU = 0,   /* default */
     PGI_DEVICE_VULKAN = 1 /* the Vulkan compute backend (a build with PGI_VULKAN): estimators with a GPU
-                             version only (pgi_device_estimators); PGI_ERR_UNSUPPORTED otherwise */
+                             version only (pgi_device_estimators), and of their options and the frame's
+                             settings those the device has; PGI_ERR_UNSUPPORTED naming any other */
 } pgi_device;
 /* pgi_render_desc.device_index for the loader's Vulkan device i (0-based, as `--device vulkan:i`);
  * 0 = automatic: the first discrete GPU, else integrated, else a CPU device (lavapipe). */
@@ -390,6 +391,17 @@ typedef struct pgi_temporal_stats {
     double filter_ms;    /* the filter */
 } pgi_temporal_stats;
 
+/* What a frame on a Vulkan device exchanged with the host (pgi_frame_stats.traffic): each submit
+ * is a host-device sync, each download a read-back. The default GPU frame downloads the image and
+ * a few counters (list sizes, the statistics' counts); the automatic radius adds the view samples
+ * and photons. */
+typedef struct pgi_device_traffic {
+    uint64_t submits;                   /* command sequences submitted and waited for */
+    uint64_t dispatches;                /* compute dispatches */
+    uint64_t uploads, upload_bytes;     /* host-to-device copies */
+    uint64_t downloads, download_bytes; /* device-to-host copies */
+} pgi_device_traffic;
+
 typedef struct pgi_frame_stats {
     const char *estimator;
     int width, height, threads;
@@ -437,6 +449,7 @@ typedef struct pgi_frame_stats {
                            clock) and memory_bytes the device's buffers ("gpu_photons", "gpu_hash", ...) */
     pgi_run_info run;            /* zeroed by the renderer; see pgi_run_info */
     pgi_temporal_stats temporal; /* pgi_temporal_step's part; zeroed by the renderer */
+    pgi_device_traffic traffic;  /* with a GPU: what crossed between host and device; zero on the CPU */
 } pgi_frame_stats;
 
 /* Renders one frame into `out` (free with pgi_image_free). Pass a zeroed
@@ -458,8 +471,10 @@ void pgi_renderer_destroy(pgi_renderer *r);
 const pgi_scene *pgi_renderer_scene(const pgi_renderer *r);
 
 /* What density estimation reads in one frame: the view samples and photons
- * of `desc` (traced as pgi_renderer_render traces them), so that a tool can
- * run estimators (its own included) on the renderer's inputs. */
+ * of `desc` (traced as pgi_renderer_render traces them, on desc's device), so
+ * that a tool can run estimators (its own included) on the renderer's inputs.
+ * On PGI_DEVICE_VULKAN they are the device's own, read back into host arrays
+ * (the photons' normals, which the device does not keep, are 0). */
 typedef struct pgi_frame_inputs {
     const pgi_photons *photons;      /* borrowed: valid until the renderer's next call */
     const pgi_view_samples *samples; /* borrowed: likewise */
@@ -468,8 +483,11 @@ typedef struct pgi_frame_inputs {
     float scene_area; /* total triangle area of the scene */
     uint64_t seed;
 } pgi_frame_inputs;
-/* Casts the view samples and traces the photons of one frame; stats (may be
- * NULL) gets the view and trace passes. */
+/* Casts the view samples and traces the photons of one frame on desc's device
+ * (the automatic radius chosen from them); stats (may be NULL) gets the view
+ * and trace passes (on the device, "gpu_readback" too). A setting the device
+ * does not have for these passes (--emission guided on the GPU) is refused by
+ * name: PGI_ERR_UNSUPPORTED. */
 pgi_status pgi_renderer_prepare(pgi_renderer *r, const pgi_render_desc *desc, pgi_frame_inputs *out,
                                 pgi_frame_stats *stats);
 
@@ -809,8 +827,15 @@ pgi_status pgi_device_name(int i, char *buf, size_t size);
 /* Device i's type, driver and the Vulkan version it supports into buf, e.g. "CPU; driver llvmpipe Mesa
  * 22.3.6 (LLVM 15.0.6); Vulkan 1.3.230"; errors as pgi_device_name. */
 pgi_status pgi_device_driver(int i, char *buf, size_t size);
-/* "hashgrid, cluster-trivial": the estimators that run on PGI_DEVICE_VULKAN, comma-separated, into buf. */
+/* "hashgrid, tiled, cluster, ...": the estimators that run on PGI_DEVICE_VULKAN, in
+ * the registry's order (pgi_estimator_at), comma-separated, into buf. */
 void pgi_device_estimators(char *buf, size_t size);
+/* 1 when estimator vt runs on `device` (the device table pgi_device_estimators lists from), else 0. */
+int pgi_estimator_runs_on(const pgi_estimator_vtbl *vt, pgi_device device);
+/* 1 when estimator vt takes option o on `device` (pgi_estimator_takes, less what the device's
+ * version of the estimator lacks: --subsample on the GPU), else 0. A frame that sets an option its
+ * device does not take is refused by name (PGI_ERR_UNSUPPORTED). */
+int pgi_estimator_takes_on(const pgi_estimator_vtbl *vt, const pgi_option *o, pgi_device device);
 
 #ifdef __cplusplus
 }

@@ -59,6 +59,7 @@ pgi_status pgi__gpu_fill(pgi__gpu *g, pgi__gpu_buffer *b, size_t offset, size_t 
 void pgi__gpu_timestamp(pgi__gpu *g, const char *label) {}
 pgi_status pgi__gpu_submit_wait(pgi__gpu *g) { return pgi__fail(PGI_ERR_UNSUPPORTED, "%s", NO_BACKEND); }
 int pgi__gpu_timings(const pgi__gpu *g, pgi_named_value *out, int max) { return 0; }
+pgi__gpu_traffic pgi__gpu_traffic_get(const pgi__gpu *g) { return (pgi__gpu_traffic){0}; }
 int pgi__gpu_has_timestamps(const pgi__gpu *g) { return 0; }
 
 #else /* PGI__HAVE_VULKAN */
@@ -128,6 +129,7 @@ struct pgi__gpu {
     double cpu_begin_ms;
     pgi_named_value timings[MAX_LABELS];
     int ntimings;
+    pgi__gpu_traffic traffic; /* since creation */
 };
 
 static const char *vk_name(VkResult r) {
@@ -666,6 +668,8 @@ pgi_status pgi__gpu_upload(pgi__gpu *g, pgi__gpu_buffer *dst, size_t offset, con
     if ((st = check_range(dst, offset, bytes, "upload"))) return st;
     if (g->recording) return pgi__fail(PGI_ERR_INTERNAL, "pgi__gpu_upload inside a command sequence");
     if (bytes == 0) return PGI_OK;
+    g->traffic.uploads++;
+    g->traffic.upload_bytes += bytes;
     if (dst->mapped) {
         memcpy((char *)dst->mapped + offset, src, bytes);
         return PGI_OK;
@@ -678,6 +682,8 @@ pgi_status pgi__gpu_download(pgi__gpu *g, const pgi__gpu_buffer *src, size_t off
     if ((st = check_range(src, offset, bytes, "download"))) return st;
     if (g->recording) return pgi__fail(PGI_ERR_INTERNAL, "pgi__gpu_download inside a command sequence");
     if (bytes == 0) return PGI_OK;
+    g->traffic.downloads++;
+    g->traffic.download_bytes += bytes;
     if (src->mapped) {
         memcpy(dst, (const char *)src->mapped + offset, bytes);
         return PGI_OK;
@@ -790,6 +796,7 @@ pgi_status pgi__gpu_dispatch(pgi__gpu *g, pgi__gpu_kernel *k, pgi__gpu_buffer *c
                              uint32_t groups_x, uint32_t groups_y, uint32_t groups_z) {
     if (!g->recording) return pgi__fail(PGI_ERR_INTERNAL, "pgi__gpu_dispatch outside begin/submit_wait");
     if (groups_x == 0 || groups_y == 0 || groups_z == 0) return PGI_OK;
+    g->traffic.dispatches++;
     VkDescriptorBufferInfo info[MAX_BINDINGS];
     VkWriteDescriptorSet w[MAX_BINDINGS];
     for (int i = 0; i < k->nbuffers; i++) {
@@ -852,6 +859,7 @@ void pgi__gpu_timestamp(pgi__gpu *g, const char *label) {
 pgi_status pgi__gpu_submit_wait(pgi__gpu *g) {
     if (!g->recording) return pgi__fail(PGI_ERR_INTERNAL, "pgi__gpu_submit_wait without pgi__gpu_begin");
     g->recording = 0;
+    g->traffic.submits++;
     /* the results become visible to the host (mapped buffers) */
     VkMemoryBarrier mb = {.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER,
                           .srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,
@@ -885,6 +893,8 @@ int pgi__gpu_timings(const pgi__gpu *g, pgi_named_value *out, int max) {
     for (int i = 0; g && i < g->ntimings && n < max; i++) out[n++] = g->timings[i];
     return n;
 }
+
+pgi__gpu_traffic pgi__gpu_traffic_get(const pgi__gpu *g) { return g->traffic; }
 
 #endif /* PGI__HAVE_VULKAN */
 

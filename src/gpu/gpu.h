@@ -110,5 +110,9 @@ pgi_status pgi__gpu_fill(pgi__gpu *g, pgi__gpu_buffer *b, size_t offset, size_t 
 void pgi__gpu_timestamp(pgi__gpu *g, const char *label);
 pgi_status pgi__gpu_submit_wait(pgi__gpu *g);
 int pgi__gpu_timings(const pgi__gpu *g, pgi_named_value *out, int max);
+/* What the device has exchanged with the host since it was created (submits, dispatches, uploads,
+ * downloads): a frame's is the difference of two readings. */
+typedef pgi_device_traffic pgi__gpu_traffic;
+pgi__gpu_traffic pgi__gpu_traffic_get(const pgi__gpu *g);
 
 #endif

@@ -32,6 +32,7 @@
  * cone thresholds from the smallest cosine, with margins: shaders/cluster.glsl cone_thresholds). */
 #include "gpu/gpu_estimator.h"
 #include "gpu/gpu_scan.h"
+#include "gpu/gpu_sort.h"
 
 #include <stdio.h>
 #include <string.h>
@@ -52,15 +53,31 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
 }
 static void ct_destroy(void *state) { (void)state; }
 static pgi_status dir_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) { return ct_create(g, d, state); }
+static pgi_status cl0_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) { return ct_create(g, d, state); }
+static pgi_status cone_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) { return ct_create(g, d, state); }
+static pgi_status ct_device_reserve(void *state, const pgi__gpu_est_inputs *in, pgi__gpu_buffer **out) {
+    (void)state, (void)in, (void)out;
+    return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
+}
+static pgi_status ct_device_record(void *state, const pgi__gpu_est_inputs *in) {
+    (void)state, (void)in;
+    return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
+}
+static pgi_status ct_device_finish(void *state, const pgi_named_value *t, int nt, pgi_estimator_stats *es) {
+    (void)state, (void)t, (void)nt, (void)es;
+    return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
+}
 
 #else
 
 #include "gpu/spirv.h"
 
 #define GGX_NMU PGI__GGX_NMU
-#define SUPER 8     /* supertile edge in tiles */
-#define ROOT 4      /* root edge in supertiles */
-#define MAX_TILE 16 /* cl_tiles sorts a tile in shared memory (256 samples) */
+#define SUPER 8       /* supertile edge in tiles */
+#define ROOT 4        /* root edge in supertiles */
+#define MAX_TILE 16   /* cl_tiles sorts a tile in shared memory (256 samples) */
+enum { V_CONE = 1, V_TRIVIAL = 2, V_DIR = 4 }; /* shaders/cluster.glsl Push.variant, as est_cluster.c's */
+#define PCELL_BITS 15 /* photon order: Morton code of a 32^3 grid over the photons' box (cl_prep) */
 
 typedef pgi__gpu_vs gpu_vs;
 typedef pgi__gpu_lobe gpu_lobe;
@@ -68,14 +85,15 @@ typedef pgi__gpu_lobe gpu_lobe;
 /* shaders/cluster.glsl Push */
 typedef struct {
     float r, r2, inv_step, slack;
-    uint32_t n, width, height, T, G, ntx, nty, nrx, nry, mode, bits, NS0, NT0, NL0, nnodes, npairs, R, D, blur, dir;
+    uint32_t n, width, height, T, G, ntx, nty, nrx, nry, mode, bits, NS0, NT0, NL0, nnodes, npairs, R, D, blur, variant;
 } cl_push;
-_Static_assert(sizeof(cl_push) == 96 && offsetof(cl_push, n) == 16 && offsetof(cl_push, dir) == 92,
+_Static_assert(sizeof(cl_push) == 96 && offsetof(cl_push, n) == 16 && offsetof(cl_push, variant) == 92,
                "cluster.glsl Push");
 
 #define NODE_BYTES 64 /* shaders/cluster.glsl Node */
 
 enum {
+    K_PREP,
     K_REDUCE,
     K_TILES,
     K_BOUNDS,
@@ -83,7 +101,6 @@ enum {
     K_GROUP,
     K_NODE_FLUX,
     K_RADIANCE,
-    K_RANK,
     K_DIR_FLUX,
     K_DIR_RADIANCE,
     K_DIR_BLUR,
@@ -92,47 +109,63 @@ enum {
 
 #define DIR_TAB_HEAD 12 /* shaders/cl_dir_flux.comp Tab: the view axes (right, up, fwd) */
 
+/* A frame: its sizes (shaders/cluster.glsl: the node layout), the kernels' push constants, the
+ * splat's pairs, the input buffers it reads, and the clocks (pgi__gpu_est_two_sequence_times). */
+typedef struct cl_frame {
+    size_t n, ns, ntiles, NS0, nss, nnodes, nent, nlobes;
+    uint32_t W, H;
+    cl_push p;
+    uint32_t npairs;
+    pgi__gpu_buffer *vs, *lobes;  /* the view samples and lobes the frame reads */
+    pgi__gpu_buffer *ranked;      /* the lists' photons (the sort's output) */
+    double t[8];                  /* host: upload t0..t1, sequence 1 t2..t3, sequence 2 t4..t6, read back t7 */
+    double gpu_build, gpu_gather; /* device timestamps */
+} cl_frame;
+
 typedef struct {
     pgi__gpu *g;
     pgi_estimator_desc desc;
     pgi__gpu_kernel *k[K_N];
-    int dir;          /* directional (pgi__gpu_est_directional) */
+    const char *name; /* the estimator's */
+    uint32_t variant; /* est_cluster.c's V_* (shaders/cluster.glsl Push.variant) */
+    int dir;          /* variant & V_DIR: directional (pgi__gpu_est_directional) */
     uint32_t D, blur; /* directional: bucket level (0 roots .. 3 clusters), blur radius */
     pgi__gpu_buffer *buckets, *planes, *dirtab;
-    pgi__gpu_buffer *photons, *vs, *lobes, *depth, *out, *frame, *nodes, *pix_node, *tile_ncl, *pairs, *estart, *ecur,
-        *eidx, *ranked, *flux, *counters;
-    pgi__gpu_scan scan; /* the photon lists' starts */
-    size_t pair_cap;    /* pairs the buffer holds */
-    /* host-side upload arrays */
+    pgi__gpu_buffer *raw, *pbox, *pkeys; /* the photons as given, their box, their (cell, index) pairs */
+    pgi__gpu_buffer *photons, *vs, *lobes, *depth, *out, *frame, *nodes, *pix_node, *tile_ncl, *pairs, *estart, *flux,
+        *counters;
+    pgi__gpu_scan scan;  /* the photon lists' starts */
+    pgi__gpu_sort psort; /* the photons in cell order */
+    pgi__gpu_sort lsort; /* the lists: pairs by (entry, photon) */
+    size_t pair_cap;     /* pairs the buffer holds */
+    /* host-side upload arrays (pgi_estimate_args inputs) */
     pgi__packed_photon *packed;
     size_t packed_cap;
-    pgi__gpu_vs_pack pk;             /* the view samples in the shaders' form */
-    uint32_t *porder, *pkey, *pcell; /* photons in Morton cell order (pack_photons) */
-    size_t porder_cap, pkey_cap, pcell_cap;
+    pgi__gpu_vs_pack pk; /* the view samples in the shaders' form */
+    /* device inputs: the frame device_reserve built, its sequence's passes (for device_finish) */
+    cl_frame dev;
+    pgi_estimator_stats dev_es;
 } ct_state;
 
 static void ct_destroy(void *state) {
     ct_state *s = state;
     if (!s) return;
     for (int i = 0; i < K_N; i++) pgi__gpu_kernel_destroy(s->g, s->k[i]);
-    pgi__gpu_buffer *b[] = {s->photons,  s->vs,    s->lobes,  s->depth, s->out,  s->frame,  s->nodes, s->pix_node,
-                            s->tile_ncl, s->pairs, s->estart, s->ecur,  s->eidx, s->ranked, s->flux,  s->counters};
+    pgi__gpu_buffer *b[] = {s->raw,  s->pbox,     s->pkeys,   s->photons,  s->vs,       s->lobes, s->depth,
+                            s->out,  s->frame,    s->nodes,   s->pix_node, s->tile_ncl, s->pairs, s->estart,
+                            s->flux, s->counters, s->buckets, s->planes,   s->dirtab};
     for (size_t i = 0; i < sizeof b / sizeof b[0]; i++) pgi__gpu_buffer_destroy(s->g, b[i]);
     pgi__gpu_scan_destroy(&s->scan);
-    pgi__gpu_buffer_destroy(s->g, s->buckets);
-    pgi__gpu_buffer_destroy(s->g, s->planes);
-    pgi__gpu_buffer_destroy(s->g, s->dirtab);
+    pgi__gpu_sort_destroy(&s->psort);
+    pgi__gpu_sort_destroy(&s->lsort);
     pgi__afree(s->packed);
     pgi__gpu_vs_pack_free(&s->pk);
-    pgi__afree(s->porder);
-    pgi__afree(s->pkey);
-    pgi__afree(s->pcell);
     free(s);
 }
 
-static pgi_status cl_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state, int dir) {
+static pgi_status cl_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state, const char *nm, uint32_t variant) {
     *state = NULL;
-    const char *nm = dir ? "directional" : "cluster-trivial";
+    const int dir = (variant & V_DIR) != 0;
     if (d->subsample > 1)
         return pgi__fail(PGI_ERR_UNSUPPORTED, "%s on the GPU: --subsample is not supported (CPU only)", nm);
     if (d->kernel != PGI_KERNEL_CONSTANT)
@@ -146,6 +179,8 @@ static pgi_status cl_create(pgi__gpu *g, const pgi_estimator_desc *d, void **sta
     if (!s) return pgi__fail(PGI_ERR_OOM, "out of memory");
     s->g = g;
     s->desc = *d;
+    s->name = nm;
+    s->variant = variant;
     s->dir = dir;
     if (dir) {
         /* est_cluster.c: D = L - level (levels above the leaves), here of the four levels */
@@ -154,14 +189,14 @@ static pgi_status cl_create(pgi__gpu *g, const pgi_estimator_desc *d, void **sta
         s->blur = d->directional.blur == PGI_DIRECTIONAL_NO_BLUR ? 0u : (uint32_t)d->directional.blur;
     }
     static const pgi__gpu_kernel_spec k[K_N] = {
+        [K_PREP] = PGI__GPU_KERNEL(cl_prep, 4, sizeof(cl_push)),
         [K_REDUCE] = PGI__GPU_KERNEL(cl_reduce, 3, sizeof(cl_push)),
         [K_TILES] = PGI__GPU_KERNEL(cl_tiles, 6, sizeof(cl_push)),
         [K_BOUNDS] = PGI__GPU_KERNEL(cl_bounds, 3, sizeof(cl_push)),
         [K_SPLAT] = PGI__GPU_KERNEL(cl_splat, 4, sizeof(cl_push)),
-        [K_GROUP] = PGI__GPU_KERNEL(cl_group, 4, sizeof(cl_push)),
+        [K_GROUP] = PGI__GPU_KERNEL(cl_group, 2, sizeof(cl_push)),
         [K_NODE_FLUX] = PGI__GPU_KERNEL(cl_node_flux, 4, sizeof(cl_push)),
         [K_RADIANCE] = PGI__GPU_KERNEL(cl_radiance, 9, sizeof(cl_push)),
-        [K_RANK] = PGI__GPU_KERNEL(cl_rank, 4, sizeof(cl_push)),
         [K_DIR_FLUX] = PGI__GPU_KERNEL(cl_dir_flux, 5, sizeof(cl_push)),
         [K_DIR_RADIANCE] = PGI__GPU_KERNEL(cl_dir_radiance, 4, sizeof(cl_push)),
         [K_DIR_BLUR] = PGI__GPU_KERNEL(cl_dir_blur, 4, sizeof(cl_push)),
@@ -171,6 +206,8 @@ static pgi_status cl_create(pgi__gpu *g, const pgi_estimator_desc *d, void **sta
         dir ? (1u << K_NODE_FLUX | 1u << K_RADIANCE) : (1u << K_DIR_FLUX | 1u << K_DIR_RADIANCE | 1u << K_DIR_BLUR);
     pgi_status st = pgi__gpu_kernels_create(g, k, K_N, skip, s->k);
     if (!st) st = pgi__gpu_scan_create(g, "gpu_photon_lists", &s->scan);
+    if (!st) st = pgi__gpu_sort_create(g, "gpu_photon_order", &s->psort);
+    if (!st) st = pgi__gpu_sort_create(g, "gpu_photon_lists", &s->lsort);
     if (st) {
         ct_destroy(s);
         return st;
@@ -179,85 +216,34 @@ static pgi_status cl_create(pgi__gpu *g, const pgi_estimator_desc *d, void **sta
     return PGI_OK;
 }
 
+static pgi_status cl0_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) {
+    return cl_create(g, d, state, "cluster", 0);
+}
+
+static pgi_status cone_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) {
+    return cl_create(g, d, state, "cluster-cone", V_CONE);
+}
+
 static pgi_status ct_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) {
-    return cl_create(g, d, state, 0);
+    return cl_create(g, d, state, "cluster-trivial", V_CONE | V_TRIVIAL);
 }
 
 static pgi_status dir_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) {
-    return cl_create(g, d, state, 1);
+    return cl_create(g, d, state, "directional", V_DIR);
 }
 
-#define PCELL_BITS 5 /* photon order: Morton code of a 32^3 grid over the photons' box */
-
-/* Spreads the low 5 bits of v to every third bit. */
-static uint32_t spread3_5(uint32_t v) {
-    uint32_t o = 0;
-    for (int b = 0; b < PCELL_BITS; b++) o |= (v >> b & 1u) << (3 * b);
-    return o;
-}
-
-/* The photons packed in the order of their cell in a 32^3 grid over their box (Morton order;
- * photon order inside a cell: a stable counting sort), a deterministic function of the photons.
- * Neighbouring splat invocations then walk the same nodes (coherent SIMD lanes and warps), and a
- * node's list, sorted by packed index, reads nearby records. The packed index is the "photon
- * order" of the lists and sums. */
-static pgi_status pack_photons(ct_state *s, const pgi_photons *ph, int threads) {
-    const size_t n = ph->count, ncell = (size_t)1 << (3 * PCELL_BITS);
-    pgi_status st;
-    if ((st = pgi__ensure((void **)&s->packed, &s->packed_cap, n + 1, sizeof(pgi__packed_photon))) ||
-        (st = pgi__ensure((void **)&s->porder, &s->porder_cap, n + 1, sizeof(uint32_t))) ||
-        (st = pgi__ensure((void **)&s->pkey, &s->pkey_cap, n + 1, sizeof(uint32_t))) ||
-        (st = pgi__ensure((void **)&s->pcell, &s->pcell_cap, ncell + 1, sizeof(uint32_t))))
-        return st;
-    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    const float *P[3] = {ph->px, ph->py, ph->pz};
-    for (int d = 0; d < 3; d++)
-        for (size_t j = 0; j < n; j++) {
-            lo[d] = P[d][j] < lo[d] ? P[d][j] : lo[d]; /* NaN: skipped */
-            hi[d] = P[d][j] > hi[d] ? P[d][j] : hi[d];
-        }
-    float inv[3];
-    const float cells = (float)(1u << PCELL_BITS);
-    for (int d = 0; d < 3; d++) inv[d] = hi[d] > lo[d] && isfinite(hi[d] - lo[d]) ? cells / (hi[d] - lo[d]) : 0.f;
-#pragma omp parallel for schedule(static) num_threads(pgi__threads(threads))
-    for (long long jj = 0; jj < (long long)n; jj++) {
-        uint32_t key = 0;
-        for (int d = 0; d < 3; d++) {
-            float f = (P[d][jj] - lo[d]) * inv[d];
-            uint32_t c = f >= 1.f ? (f < cells ? (uint32_t)f : (uint32_t)cells - 1u) : 0u; /* NaN: 0 */
-            key |= spread3_5(c) << (2 - d);
-        }
-        s->pkey[jj] = key;
-    }
-    memset(s->pcell, 0, (ncell + 1) * sizeof(uint32_t));
-    for (size_t j = 0; j < n; j++) s->pcell[s->pkey[j] + 1]++;
-    for (size_t c = 0; c < ncell; c++) s->pcell[c + 1] += s->pcell[c];
-    for (size_t j = 0; j < n; j++) s->porder[s->pcell[s->pkey[j]]++] = (uint32_t)j;
-#pragma omp parallel for schedule(static) num_threads(pgi__threads(threads))
-    for (long long k = 0; k < (long long)n; k++) pgi__pack_photon(ph, s->porder[k], &s->packed[k]);
-    return PGI_OK;
-}
-
-static int bits_for(uint32_t n) {
+static int bits_for(size_t n) {
     int b = 0;
-    while (b < 31 && (1u << b) < n) b++;
+    while (b < 32 && ((size_t)1 << b) < n) b++;
     return b;
 }
 
-/* Appends the last sequence's timings to the stats; returns the gather's share in *gather. */
 /* the passes that are the gather (the rest is the build) */
 static const char *const gather_passes[] = {"gpu_radiance", "gpu_blur", NULL};
-
-/* A frame: its sizes (shaders/cluster.glsl: the node layout), the kernels' push constants, the
- * splat's pairs, and the clocks (pgi__gpu_est_two_sequence_times). */
-typedef struct cl_frame {
-    size_t n, ns, ntiles, NS0, nss, nnodes, nent, nlobes;
-    uint32_t W, H;
-    cl_push p;
-    uint32_t npairs;
-    double t[8];                  /* host: upload t0..t1, sequence 1 t2..t3, sequence 2 t4..t6, read back t7 */
-    double gpu_build, gpu_gather; /* device timestamps */
-} cl_frame;
+/* every pass this estimator times (device_finish keeps these from the caller's sequence) */
+static const char *const own_passes[] =
+    {"gpu_photon_order", "gpu_clusters", "gpu_bounds", "gpu_splat", "gpu_splat_again", "gpu_lists", "gpu_node_flux",
+     "gpu_buckets",      "gpu_radiance", "gpu_blur",   NULL};
 
 /* A sequence that could not be recorded: closed, so that the next frame can begin one. */
 static pgi_status cl_abandon(pgi__gpu *g, pgi_status st) {
@@ -265,21 +251,25 @@ static pgi_status cl_abandon(pgi__gpu *g, pgi_status st) {
     return st;
 }
 
+/* What a frame is made from, on either path. */
+typedef struct cl_in {
+    size_t n, ns;
+    int width, height;
+    const pgi_camera *cam;
+    float radius;
+} cl_in;
+
 /* The frame's sizes and push constants, after the checks of what the GPU estimator supports. */
-static pgi_status cl_plan(const ct_state *s, const pgi_estimate_args *a, cl_frame *f) {
-    const char *nm = s->dir ? "directional" : "cluster-trivial";
-    if (a->photons->radius)
-        return pgi__fail(PGI_ERR_UNSUPPORTED, "%s on the GPU: per-photon footprints are not supported", nm);
-    const pgi_photons *ph = a->photons;
-    const pgi_view_samples *vs = a->samples;
-    const pgi_camera *cam = a->camera;
-    if (!cam || vs->width != cam->width || vs->height != cam->height)
+static pgi_status cl_plan(const ct_state *s, const cl_in *in, cl_frame *f) {
+    const char *nm = s->name;
+    const pgi_camera *cam = in->cam;
+    if (!cam || in->width != cam->width || in->height != cam->height)
         return pgi__fail(PGI_ERR_INVALID_ARG, "%s on the GPU: view samples are %dx%d but the camera is %dx%d", nm,
-                         vs->width, vs->height, cam ? cam->width : 0, cam ? cam->height : 0);
-    const float r = a->radius;
-    const size_t n = ph->count, ns = vs->count;
-    const uint32_t W = (uint32_t)vs->width, H = (uint32_t)vs->height,
-                   T = (uint32_t)pgi__cluster_tile(s->desc.cluster.tile, vs->width, vs->height);
+                         in->width, in->height, cam ? cam->width : 0, cam ? cam->height : 0);
+    const float r = in->radius;
+    const size_t n = in->n, ns = in->ns;
+    const uint32_t W = (uint32_t)in->width, H = (uint32_t)in->height,
+                   T = (uint32_t)pgi__cluster_tile(s->desc.cluster.tile, in->width, in->height);
     const uint32_t ntx = (W + T - 1) / T, nty = (H + T - 1) / T, nsx = (ntx + SUPER - 1) / SUPER,
                    nsy = (nty + SUPER - 1) / SUPER, nrx = (nsx + ROOT - 1) / ROOT, nry = (nsy + ROOT - 1) / ROOT;
     /* shaders/cluster.glsl: the node layout (supertile slots root-major, tile slots supertile-major) */
@@ -287,8 +277,7 @@ static pgi_status cl_plan(const ct_state *s, const pgi_estimate_args *a, cl_fram
                  NT0 = NS0 + 2 * nss, NL0 = NT0 + 2 * nss * SUPER * SUPER, nnodes = NL0 + ntiles * T * T,
                  nent = 2 * nnodes;
     if (n > UINT32_MAX / 4 || ns > UINT32_MAX / 4 || nent > UINT32_MAX / 4)
-        return pgi__fail(PGI_ERR_UNSUPPORTED,
-                         "cluster-trivial on the GPU: at most 2^30 photons, view samples and nodes");
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "%s on the GPU: at most 2^30 photons, view samples and nodes", nm);
     int bits = (bits_for(ntx) + 2 * bits_for(nty)) / 3;
     bits = bits < 1 ? 1 : bits > 10 ? 10 : bits;
     *f = (cl_frame){.n = n,
@@ -299,7 +288,9 @@ static pgi_status cl_plan(const ct_state *s, const pgi_estimate_args *a, cl_fram
                     .nnodes = nnodes,
                     .nent = nent,
                     .W = W,
-                    .H = H};
+                    .H = H,
+                    .vs = s->vs,
+                    .lobes = s->lobes};
     f->p = (cl_push){.r = r,
                      .r2 = r * r,
                      .inv_step = (float)(1.0 / log2(1.0 + 2.0 * (double)cam->tan_half_fov_y / (double)nty)),
@@ -320,24 +311,20 @@ static pgi_status cl_plan(const ct_state *s, const pgi_estimate_args *a, cl_fram
                      .R = ROOT,
                      .D = s->D,
                      .blur = s->blur,
-                     .dir = (uint32_t)s->dir};
+                     .variant = s->variant};
     return PGI_OK;
 }
 
-/* upload: photons packed in cell order, the view samples, lobes and depths (and directional's view
- * axes); every buffer of the frame reserved but the splat's and the lists' (their sizes come later) */
-static pgi_status cl_upload(ct_state *s, const pgi_estimate_args *a, cl_frame *f) {
+/* Every buffer of the frame but the inputs' and the lists' (their sizes come with the splat); the
+ * directional view axes uploaded (48 bytes). */
+static pgi_status cl_reserve(ct_state *s, const cl_in *in, cl_frame *f) {
     pgi__gpu *g = s->g;
-    const pgi_view_samples *vs = a->samples;
-    const size_t n = f->n, ns = f->ns, nnodes = f->nnodes, nent = f->nent;
+    const size_t n = f->n, ns = f->ns, nnodes = f->nnodes, nent = f->nent, psz = sizeof(pgi__packed_photon);
     pgi_status st;
-    f->t[0] = pgi__now_ms();
-    if ((st = pack_photons(s, a->photons, a->threads))) return st;
-    if ((st = pgi__gpu_pack_samples(&s->pk, vs, a->threads, &f->nlobes))) return st;
-    const size_t psz = sizeof(pgi__packed_photon), nlobes = f->nlobes;
     if ((st = pgi__gpu_buffer_reserve(g, &s->photons, (n + 1) * psz, "gpu_photons")) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->vs, (ns + 1) * sizeof(gpu_vs), "gpu_view_samples")) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->lobes, (nlobes + 1) * sizeof(gpu_lobe), "gpu_view_samples")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->pbox, 8 * sizeof(uint32_t), "gpu_photon_order")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->pkeys, (n + 1) * 8, "gpu_photon_order")) || /* (cell, index) */
+        (st = pgi__gpu_sort_reserve(&s->psort, n)) ||
         (st = pgi__gpu_buffer_reserve(g, &s->depth, (ns + 1) * sizeof(float), "gpu_view_samples")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->out, (3 * ns + 1) * sizeof(float), "gpu_radiance")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->frame, 8 * sizeof(uint32_t), "gpu_clusters")) ||
@@ -345,14 +332,13 @@ static pgi_status cl_upload(ct_state *s, const pgi_estimate_args *a, cl_frame *f
         (st = pgi__gpu_buffer_reserve(g, &s->pix_node, (ns + 1) * 4, "gpu_clusters")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->tile_ncl, (2 * f->ntiles + 1) * 4, "gpu_clusters")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->estart, (nent + 1) * 4, "gpu_photon_lists")) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->ecur, nent * 4, "gpu_photon_lists")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->flux, nnodes * 16, "gpu_node_flux")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->counters, 8 * sizeof(uint32_t), "gpu_photon_lists")) ||
         (st = pgi__gpu_scan_reserve(&s->scan, nent + 1)))
         return st;
     if (s->dir) { /* view axes (shaders/cl_dir_flux.comp Tab), buckets, irradiance planes */
         float head[DIR_TAB_HEAD] = {0};
-        const pgi__view_xf x = pgi__view_xf_make(a->camera, vs->width, vs->height);
+        const pgi__view_xf x = pgi__view_xf_make(in->cam, in->width, in->height);
         const pgi__v3 ax[3] = {x.right, x.up, x.fwd};
         for (int k = 0; k < 3; k++) head[3 * k] = ax[k].x, head[3 * k + 1] = ax[k].y, head[3 * k + 2] = ax[k].z;
         if ((st = pgi__gpu_buffer_reserve(g, &s->dirtab, sizeof head, "gpu_directional")) ||
@@ -362,27 +348,82 @@ static pgi_status cl_upload(ct_state *s, const pgi_estimate_args *a, cl_frame *f
             (st = pgi__gpu_upload(g, s->dirtab, 0, head, sizeof head)))
             return st;
     }
-    if ((st = pgi__gpu_upload(g, s->photons, 0, s->packed, n * psz)) ||
+    return PGI_OK;
+}
+
+/* pgi_estimate_args inputs: the photons packed in photon order and the view samples, lobes and
+ * depths uploaded (the device inputs are these, made on the device) */
+static pgi_status cl_upload(ct_state *s, const pgi_estimate_args *a, cl_frame *f) {
+    pgi__gpu *g = s->g;
+    const pgi_photons *ph = a->photons;
+    const pgi_view_samples *vs = a->samples;
+    const size_t n = f->n, ns = f->ns, psz = sizeof(pgi__packed_photon);
+    pgi_status st;
+    f->t[0] = pgi__now_ms();
+    if ((st = pgi__ensure((void **)&s->packed, &s->packed_cap, n + 1, psz))) return st;
+#pragma omp parallel for schedule(static) num_threads(pgi__threads(a->threads))
+    for (long long j = 0; j < (long long)n; j++) pgi__pack_photon(ph, (size_t)j, &s->packed[j]);
+    if ((st = pgi__gpu_pack_samples(&s->pk, vs, a->threads, &f->nlobes))) return st;
+    const size_t nlobes = f->nlobes;
+    if ((st = pgi__gpu_buffer_reserve(g, &s->raw, (n + 1) * psz, "gpu_photons")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->vs, (ns + 1) * sizeof(gpu_vs), "gpu_view_samples")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->lobes, (nlobes + 1) * sizeof(gpu_lobe), "gpu_view_samples")) ||
+        (st = pgi__gpu_upload(g, s->raw, 0, s->packed, n * psz)) ||
         (st = pgi__gpu_upload(g, s->vs, 0, s->pk.hvs, ns * sizeof(gpu_vs))) ||
         (st = pgi__gpu_upload(g, s->lobes, 0, s->pk.hlobes, nlobes * sizeof(gpu_lobe))) ||
         (st = pgi__gpu_upload(g, s->depth, 0, vs->depth, ns * sizeof(float))))
         return st;
+    f->vs = s->vs;
+    f->lobes = s->lobes;
     f->t[1] = pgi__now_ms();
     return PGI_OK;
 }
 
-/* Records sequence 1 (after its "start"): the frame's counters cleared, near depth, clusters,
- * bounds, the splat's pairs. */
+/* Records the photons in cell order (cl_prep: box, keys; gpu_sort; the copy) into s->photons, and
+ * the view samples' depths from PixelExtra when `extra` is given (device inputs). */
+static pgi_status record_prep(ct_state *s, const cl_frame *f, pgi__gpu_buffer *photons, pgi__gpu_buffer *extra) {
+    pgi__gpu *g = s->g;
+    pgi_status st;
+    cl_push q = f->p;
+    if (extra) {
+        q.mode = 3;
+        q.n = (uint32_t)f->ns;
+        if ((st = pgi__gpu_dispatch_1d(g, s->k[K_PREP], (pgi__gpu_buffer *[]){extra, s->pbox, s->pkeys, s->depth}, &q,
+                                       f->ns, 256)))
+            return st;
+        q.n = f->p.n;
+    }
+    if (f->n) {
+        pgi__gpu_buffer *keys, *order;
+        pgi__gpu_buffer *b[] = {photons, s->pbox, s->pkeys, s->photons};
+        if ((st = pgi__gpu_fill(g, s->pbox, 0, 12, 0xffffffffu)) || (st = pgi__gpu_fill(g, s->pbox, 12, 20, 0)))
+            return st;
+        for (uint32_t m = 0; m < 2; m++) {
+            q.mode = m;
+            if ((st = pgi__gpu_dispatch_1d(g, s->k[K_PREP], b, &q, f->n, 256))) return st;
+        }
+        if ((st = pgi__gpu_sort_record(&s->psort, s->pkeys, f->n, 0, PCELL_BITS, &keys, &order))) return st;
+        q.mode = 2;
+        if ((st = pgi__gpu_dispatch_1d(g, s->k[K_PREP], (pgi__gpu_buffer *[]){photons, s->pbox, order, s->photons}, &q,
+                                       f->n, 256)))
+            return st;
+    }
+    pgi__gpu_timestamp(g, "gpu_photon_order");
+    return PGI_OK;
+}
+
+/* Records sequence 1 (after its "start" and record_prep): the frame's counters cleared, near
+ * depth, clusters, bounds, the splat's pairs. */
 static pgi_status record_build(ct_state *s, const cl_frame *f) {
     pgi__gpu *g = s->g;
     const cl_push *p = &f->p;
     pgi_status st;
     if ((st = pgi__gpu_fill(g, s->frame, 0, 4, 0x7f800000u)) || (st = pgi__gpu_fill(g, s->frame, 4, 12, 0xffffffffu)) ||
         (st = pgi__gpu_fill(g, s->frame, 16, 16, 0)) || (st = pgi__gpu_fill(g, s->counters, 0, 8 * 4, 0)) ||
-        (st = pgi__gpu_dispatch_1d(g, s->k[K_REDUCE], (pgi__gpu_buffer *[]){s->vs, s->depth, s->frame}, p, f->ns, 64)))
+        (st = pgi__gpu_dispatch_1d(g, s->k[K_REDUCE], (pgi__gpu_buffer *[]){f->vs, s->depth, s->frame}, p, f->ns, 64)))
         return st;
     if ((st = pgi__gpu_dispatch_1d(g, s->k[K_TILES],
-                                   (pgi__gpu_buffer *[]){s->vs, s->depth, s->frame, s->nodes, s->pix_node, s->tile_ncl},
+                                   (pgi__gpu_buffer *[]){f->vs, s->depth, s->frame, s->nodes, s->pix_node, s->tile_ncl},
                                    p, f->ntiles, 1)))
         return st;
     pgi__gpu_timestamp(g, "gpu_clusters");
@@ -390,7 +431,7 @@ static pgi_status record_build(ct_state *s, const cl_frame *f) {
     const size_t groups[3] = {2 * f->nss, 2 * f->nss * SUPER * SUPER, f->NS0}; /* supertiles, tiles, roots */
     for (uint32_t m = 0; m < 3; m++) {
         q.mode = m;
-        if ((st = pgi__gpu_dispatch_1d(g, s->k[K_BOUNDS], (pgi__gpu_buffer *[]){s->vs, s->nodes, s->tile_ncl}, &q,
+        if ((st = pgi__gpu_dispatch_1d(g, s->k[K_BOUNDS], (pgi__gpu_buffer *[]){f->vs, s->nodes, s->tile_ncl}, &q,
                                        groups[m], 1)))
             return st;
     }
@@ -408,8 +449,7 @@ static pgi_status splat_again(ct_state *s, cl_frame *f, pgi_estimator_stats *es)
     pgi_status st;
     const uint32_t npairs = f->npairs;
     if (npairs > UINT32_MAX / 4)
-        return pgi__fail(PGI_ERR_UNSUPPORTED, "cluster-trivial on the GPU: %u photon list entries (at most 2^30)",
-                         npairs);
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "%s on the GPU: %u photon list entries (at most 2^30)", s->name, npairs);
     s->pair_cap = (size_t)npairs + npairs / 4;
     if (s->pair_cap > UINT32_MAX / 4) s->pair_cap = UINT32_MAX / 4;
     if ((st = pgi__gpu_buffer_reserve(g, &s->pairs, s->pair_cap * 8, "gpu_splat"))) return st;
@@ -430,9 +470,10 @@ static pgi_status splat_again(ct_state *s, cl_frame *f, pgi_estimator_stats *es)
     return PGI_OK;
 }
 
-/* sequence 1: clusters, bounds, the splat's pairs; then their number read back (the splat again
- * when they did not fit) and the lists' buffers reserved for them */
-static pgi_status cl_build(ct_state *s, cl_frame *f, pgi_estimator_stats *es) {
+/* sequence 1: the photon order (and depths), clusters, bounds, the splat's pairs; then their number
+ * read back (4 bytes; the splat again when they did not fit) and the lists' buffers reserved */
+static pgi_status cl_build(ct_state *s, cl_frame *f, pgi__gpu_buffer *photons, pgi__gpu_buffer *extra,
+                           pgi_estimator_stats *es) {
     pgi__gpu *g = s->g;
     pgi_status st;
     if (s->pair_cap < 4 * f->n + 1024) s->pair_cap = 4 * f->n + 1024;
@@ -441,7 +482,7 @@ static pgi_status cl_build(ct_state *s, cl_frame *f, pgi_estimator_stats *es) {
     f->p.npairs = (uint32_t)s->pair_cap;
     if ((st = pgi__gpu_begin(g))) return st;
     pgi__gpu_timestamp(g, "start");
-    if ((st = record_build(s, f))) return cl_abandon(g, st);
+    if ((st = record_prep(s, f, photons, extra)) || (st = record_build(s, f))) return cl_abandon(g, st);
     f->t[2] = pgi__now_ms();
     if ((st = pgi__gpu_submit_wait(g))) return st;
     f->t[3] = pgi__now_ms();
@@ -449,35 +490,25 @@ static pgi_status cl_build(ct_state *s, cl_frame *f, pgi_estimator_stats *es) {
     f->npairs = 0;
     if ((st = pgi__gpu_download(g, s->counters, 6 * 4, &f->npairs, 4))) return st;
     if (f->npairs > s->pair_cap && (st = splat_again(s, f, es))) return st;
-    if ((st = pgi__gpu_buffer_reserve(g, &s->eidx, ((size_t)f->npairs + 1) * 4, "gpu_photon_lists")) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->ranked, ((size_t)f->npairs + 1) * 4, "gpu_photon_lists")))
-        return st;
+    if ((st = pgi__gpu_sort_reserve(&s->lsort, f->npairs))) return st;
     f->p.npairs = f->npairs;
     return PGI_OK;
 }
 
-/* Records the pairs grouped per node entry, and the lists in photon order. */
-static pgi_status record_lists(ct_state *s, const cl_frame *f) {
+/* Records the lists: photons per entry (counts, then their exclusive sum: each entry's start) and
+ * the pairs sorted by (entry, photon), whose photons are then every list in photon order. */
+static pgi_status record_lists(ct_state *s, cl_frame *f) {
     pgi__gpu *g = s->g;
     pgi_status st;
-    cl_push q = f->p;
+    pgi__gpu_buffer *keys;
     if ((st = pgi__gpu_fill(g, s->estart, 0, (f->nent + 1) * 4, 0)) ||
-        (st = pgi__gpu_fill(g, s->ecur, 0, f->nent * 4, 0)))
-        return st;
-    q.mode = 0;
-    if ((st = pgi__gpu_dispatch_1d(g, s->k[K_GROUP], (pgi__gpu_buffer *[]){s->pairs, s->estart, s->ecur, s->eidx}, &q,
-                                   f->npairs, 64)) ||
-        (st = pgi__gpu_scan_record(&s->scan, s->estart)))
-        return st;
-    q.mode = 1;
-    if ((st = pgi__gpu_dispatch_1d(g, s->k[K_GROUP], (pgi__gpu_buffer *[]){s->pairs, s->estart, s->ecur, s->eidx}, &q,
-                                   f->npairs, 64)))
+        (st = pgi__gpu_dispatch_1d(g, s->k[K_GROUP], (pgi__gpu_buffer *[]){s->pairs, s->estart}, &f->p, f->npairs,
+                                   64)) ||
+        (st = pgi__gpu_scan_record(&s->scan, s->estart)) ||
+        (st = pgi__gpu_sort_record(&s->lsort, s->pairs, f->npairs, bits_for(f->n), bits_for(f->nent), &keys,
+                                   &f->ranked)))
         return st;
     pgi__gpu_timestamp(g, "gpu_lists");
-    if ((st = pgi__gpu_dispatch_1d(g, s->k[K_RANK], (pgi__gpu_buffer *[]){s->pairs, s->estart, s->eidx, s->ranked},
-                                   &f->p, f->npairs, 64)))
-        return st;
-    pgi__gpu_timestamp(g, "gpu_rank");
     return PGI_OK;
 }
 
@@ -487,19 +518,19 @@ static pgi_status record_directional(ct_state *s, const cl_frame *f) {
     const cl_push *p = &f->p;
     pgi_status st;
     if ((st = pgi__gpu_dispatch_1d(g, s->k[K_DIR_FLUX],
-                                   (pgi__gpu_buffer *[]){s->photons, s->estart, s->ranked, s->dirtab, s->buckets}, p,
+                                   (pgi__gpu_buffer *[]){s->photons, s->estart, f->ranked, s->dirtab, s->buckets}, p,
                                    f->nnodes, 64)))
         return st;
     pgi__gpu_timestamp(g, "gpu_buckets");
     if ((st = pgi__gpu_dispatch(g, s->k[K_DIR_RADIANCE],
-                                (pgi__gpu_buffer *[]){s->vs, s->pix_node, s->buckets, s->planes}, p, (f->W + 7) / 8,
+                                (pgi__gpu_buffer *[]){f->vs, s->pix_node, s->buckets, s->planes}, p, (f->W + 7) / 8,
                                 (f->H + 7) / 8, 1)))
         return st;
     pgi__gpu_timestamp(g, "gpu_radiance");
     cl_push q = *p;
     for (uint32_t m = s->blur > 0 ? 0u : 1u; m < 2u; m++) {
         q.mode = m;
-        if ((st = pgi__gpu_dispatch(g, s->k[K_DIR_BLUR], (pgi__gpu_buffer *[]){s->vs, s->depth, s->planes, s->out}, &q,
+        if ((st = pgi__gpu_dispatch(g, s->k[K_DIR_BLUR], (pgi__gpu_buffer *[]){f->vs, s->depth, s->planes, s->out}, &q,
                                     (f->W + 7) / 8, (f->H + 7) / 8, 1)))
             return st;
     }
@@ -512,12 +543,12 @@ static pgi_status record_trivial(ct_state *s, const cl_frame *f) {
     pgi__gpu *g = s->g;
     pgi_status st;
     if ((st = pgi__gpu_dispatch_1d(g, s->k[K_NODE_FLUX],
-                                   (pgi__gpu_buffer *[]){s->photons, s->estart, s->ranked, s->flux}, &f->p, f->nnodes,
+                                   (pgi__gpu_buffer *[]){s->photons, s->estart, f->ranked, s->flux}, &f->p, f->nnodes,
                                    64)))
         return st;
     pgi__gpu_timestamp(g, "gpu_node_flux");
     if ((st = pgi__gpu_dispatch(g, s->k[K_RADIANCE],
-                                (pgi__gpu_buffer *[]){s->vs, s->lobes, s->photons, s->pix_node, s->estart, s->ranked,
+                                (pgi__gpu_buffer *[]){f->vs, f->lobes, s->photons, s->pix_node, s->estart, f->ranked,
                                                       s->flux, s->out, s->counters},
                                 &f->p, (f->W + 7) / 8, (f->H + 7) / 8, 1)))
         return st;
@@ -525,19 +556,37 @@ static pgi_status record_trivial(ct_state *s, const cl_frame *f) {
     return PGI_OK;
 }
 
-/* sequence 2: the pairs, the lists in photon order, the trivial flux, the radiance */
+/* Records sequence 2's work: the lists, then the shading. */
+static pgi_status record_gather(ct_state *s, cl_frame *f) {
+    pgi_status st = record_lists(s, f);
+    if (!st) st = s->dir ? record_directional(s, f) : record_trivial(s, f);
+    return st;
+}
+
+/* sequence 2 of the host inputs' path */
 static pgi_status cl_gather(ct_state *s, cl_frame *f, pgi_estimator_stats *es) {
     pgi__gpu *g = s->g;
     pgi_status st;
     f->t[4] = pgi__now_ms();
     if ((st = pgi__gpu_begin(g))) return st;
     pgi__gpu_timestamp(g, "start");
-    if ((st = record_lists(s, f)) || (st = s->dir ? record_directional(s, f) : record_trivial(s, f)))
-        return cl_abandon(g, st);
+    if ((st = record_gather(s, f))) return cl_abandon(g, st);
     f->t[5] = pgi__now_ms();
     if ((st = pgi__gpu_submit_wait(g))) return st;
     f->t[6] = pgi__now_ms();
     pgi__gpu_est_add_timings(g, es, gather_passes, &f->gpu_build, &f->gpu_gather);
+    return PGI_OK;
+}
+
+/* The counters (photons read, contributing, nodes visited) into the stats. */
+static pgi_status cl_counters(ct_state *s, const cl_frame *f, pgi_estimator_stats *es) {
+    uint32_t c[6];
+    pgi_status st = pgi__gpu_download(s->g, s->counters, 0, c, sizeof c);
+    if (st) return st;
+    es->reads = pgi__gpu_u64(c);
+    es->contributing = pgi__gpu_u64(c + 2);
+    es->nodes_visited = pgi__gpu_u64(c + 4);
+    if (s->dir) es->reads = es->contributing = f->npairs; /* as the CPU directional: bucket deposits */
     return PGI_OK;
 }
 
@@ -546,44 +595,111 @@ static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     pgi__gpu *g = s->g;
     pgi_status st;
     memset(es, 0, sizeof *es);
+    if (a->photons->radius)
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "%s on the GPU: per-photon footprints are not supported", s->name);
+    const cl_in in = {.n = a->photons->count,
+                      .ns = a->samples->count,
+                      .width = a->samples->width,
+                      .height = a->samples->height,
+                      .cam = a->camera,
+                      .radius = a->radius};
     cl_frame f;
-    if ((st = cl_plan(s, a, &f)) || (st = cl_upload(s, a, &f)) || (st = cl_build(s, &f, es)) ||
-        (st = cl_gather(s, &f, es)))
+    if ((st = cl_plan(s, &in, &f)) || (st = cl_reserve(s, &in, &f)) || (st = cl_upload(s, a, &f)) ||
+        (st = cl_build(s, &f, s->raw, NULL, es)) || (st = cl_gather(s, &f, es)))
         return st;
-    uint32_t c[6];
-    if ((st = pgi__gpu_download(g, s->out, 0, a->out_rgb, 3 * f.ns * sizeof(float))) ||
-        (st = pgi__gpu_download(g, s->counters, 0, c, sizeof c)))
+    if ((st = pgi__gpu_download(g, s->out, 0, a->out_rgb, 3 * f.ns * sizeof(float))) || (st = cl_counters(s, &f, es)))
         return st;
     f.t[7] = pgi__now_ms();
 
     /* stats: host passes (wall clock) and the device's (timestamps) */
     pgi__gpu_est_two_sequence_times(g, es, f.t, f.gpu_build, f.gpu_gather);
-    es->reads = pgi__gpu_u64(c);
-    es->contributing = pgi__gpu_u64(c + 2);
-    es->nodes_visited = pgi__gpu_u64(c + 4);
-    if (s->dir) es->reads = es->contributing = f.npairs; /* as the CPU directional: bucket deposits */
-    pgi__stats_mem(es, "gpu_host_upload",
-                   s->packed_cap * sizeof(pgi__packed_photon) + s->pk.hvs_cap * sizeof(gpu_vs) +
-                       s->pk.hlobes_cap * sizeof(gpu_lobe) +
-                       (s->pk.lobe_of_cap + s->porder_cap + s->pkey_cap + s->pcell_cap) * sizeof(uint32_t));
+    pgi__stats_mem(es, "gpu_host_upload", s->packed_cap * sizeof(pgi__packed_photon) + pgi__gpu_vs_pack_bytes(&s->pk));
     return PGI_OK;
 }
 
+/* Device inputs: sequence 1 (photon order, clusters, bounds, splat) runs here on the frame's
+ * photons and view samples, and the number of list entries comes back (4 bytes) to size the lists. */
+static pgi_status ct_device_reserve(void *state, const pgi__gpu_est_inputs *in, pgi__gpu_buffer **out) {
+    ct_state *s = state;
+    pgi_status st;
+    memset(&s->dev_es, 0, sizeof s->dev_es);
+    const cl_in ci = {.n = in->nphotons,
+                      .ns = (size_t)in->width * (size_t)in->height,
+                      .width = in->width,
+                      .height = in->height,
+                      .cam = in->camera,
+                      .radius = in->radius};
+    cl_frame *f = &s->dev;
+    if ((st = cl_plan(s, &ci, f)) || (st = cl_reserve(s, &ci, f))) return st;
+    f->vs = in->samples;
+    f->lobes = in->lobes;
+    f->t[0] = f->t[1] = pgi__now_ms();
+    if ((st = cl_build(s, f, in->photons, in->extra, &s->dev_es))) return st;
+    *out = s->out;
+    return PGI_OK;
+}
+
+static pgi_status ct_device_record(void *state, const pgi__gpu_est_inputs *in) {
+    ct_state *s = state;
+    if (in->nphotons != s->dev.n || in->samples != s->dev.vs)
+        return pgi__fail(PGI_ERR_INTERNAL, "cluster on the GPU: recorded on inputs it was not reserved for");
+    return record_gather(s, &s->dev);
+}
+
+static pgi_status ct_device_finish(void *state, const pgi_named_value *t, int nt, pgi_estimator_stats *es) {
+    ct_state *s = state;
+    cl_frame *f = &s->dev;
+    *es = s->dev_es; /* sequence 1's passes */
+    pgi__gpu_est_keep_timings(es, t, nt, own_passes, gather_passes, &f->gpu_build, &f->gpu_gather);
+    pgi__stats_pass(es, "gpu_submit", f->t[3] - f->t[2]);
+    es->build_ms = pgi__gpu_has_timestamps(s->g) ? f->gpu_build : f->t[3] - f->t[2];
+    es->estimate_ms = f->gpu_gather;
+    return cl_counters(s, f, es);
+}
+
 #endif /* PGI__HAVE_VULKAN */
+
+/* cluster (Moreau et al. 2016 §4.1-4.4) and cluster-cone (+ §4.5's cones): cluster-trivial's code
+ * with the cone test and trivial accept off (shaders/cl_splat.comp, Push.variant), as on the CPU. */
+const pgi__gpu_est_vtbl pgi__gpu_est_cluster = {
+    .name = "cluster",
+    .create = cl0_create,
+    .run = ct_run,
+    .destroy = ct_destroy,
+    .device_reserve = ct_device_reserve,
+    .device_record = ct_device_record,
+    .device_finish = ct_device_finish,
+};
+
+const pgi__gpu_est_vtbl pgi__gpu_est_cluster_cone = {
+    .name = "cluster-cone",
+    .create = cone_create,
+    .run = ct_run,
+    .destroy = ct_destroy,
+    .device_reserve = ct_device_reserve,
+    .device_record = ct_device_record,
+    .device_finish = ct_device_finish,
+};
 
 const pgi__gpu_est_vtbl pgi__gpu_est_cluster_trivial = {
     .name = "cluster-trivial",
     .create = ct_create,
     .run = ct_run,
     .destroy = ct_destroy,
+    .device_reserve = ct_device_reserve,
+    .device_record = ct_device_record,
+    .device_finish = ct_device_finish,
 };
 
 /* directional (est_directional.c, Moreau et al. 2016 §4.7) on the same clusters, hierarchy and
- * lists: cl_splat deposits (pc.dir), cl_dir_flux sums each node's octant buckets in photon order,
+ * lists: cl_splat deposits (V_DIR), cl_dir_flux sums each node's octant buckets in photon order,
  * cl_dir_radiance and cl_dir_blur shade. Approximate, like the CPU's; its levels are the four here. */
 const pgi__gpu_est_vtbl pgi__gpu_est_directional = {
     .name = "directional",
     .create = dir_create,
     .run = ct_run,
     .destroy = ct_destroy,
+    .device_reserve = ct_device_reserve,
+    .device_record = ct_device_record,
+    .device_finish = ct_device_finish,
 };

@@ -6,19 +6,41 @@
 #include "core/core.h"
 #include "estimators/estimator_internal.h"
 
-static const pgi__gpu_est_vtbl *const k_gpu_estimators[] = {&pgi__gpu_est_hashgrid, &pgi__gpu_est_cluster_trivial,
-                                                            &pgi__gpu_est_directional, &pgi__gpu_est_tiled};
+/* The GPU half of each CPU estimator that has one (the same name), with the options it takes on the
+ * device: the PGI_EST_CAP_* it honours there (the CPU version's others are refused by name before it
+ * is created, src/pipeline/render.c device_check). */
+static const struct {
+    const pgi__gpu_est_vtbl *vt;
+    unsigned caps;
+} k_gpu_estimators[] = {
+    {&pgi__gpu_est_hashgrid, PGI_EST_CAP_KERNELS},
+    {&pgi__gpu_est_cluster, 0},
+    {&pgi__gpu_est_cluster_cone, 0},
+    {&pgi__gpu_est_cluster_trivial, 0},
+    {&pgi__gpu_est_directional, 0},
+    {&pgi__gpu_est_tiled, PGI_EST_CAP_KERNELS},
+};
 #define NGPU (sizeof k_gpu_estimators / sizeof k_gpu_estimators[0])
 
+static size_t find(const char *name) {
+    size_t i = 0;
+    while (name && i < NGPU && strcmp(k_gpu_estimators[i].vt->name, name) != 0) i++;
+    return name ? i : NGPU;
+}
+
 const pgi__gpu_est_vtbl *pgi__gpu_est_find(const char *name) {
-    for (size_t i = 0; name && i < NGPU; i++)
-        if (strcmp(k_gpu_estimators[i]->name, name) == 0) return k_gpu_estimators[i];
-    return NULL;
+    const size_t i = find(name);
+    return i < NGPU ? k_gpu_estimators[i].vt : NULL;
+}
+
+unsigned pgi__gpu_est_caps(const char *name) {
+    const size_t i = find(name);
+    return i < NGPU ? k_gpu_estimators[i].caps : 0;
 }
 
 void pgi__gpu_est_names(char *buf, size_t size) {
     if (size) buf[0] = 0;
-    for (size_t i = 0; i < NGPU; i++) pgi__list_append(buf, size, k_gpu_estimators[i]->name);
+    for (size_t i = 0; i < NGPU; i++) pgi__list_append(buf, size, k_gpu_estimators[i].vt->name);
 }
 
 pgi_status pgi__gpu_pack_samples(pgi__gpu_vs_pack *s, const pgi_view_samples *vs, int threads, size_t *nlobes) {
@@ -73,16 +95,26 @@ size_t pgi__gpu_vs_pack_bytes(const pgi__gpu_vs_pack *p) {
     return p->hvs_cap * sizeof(pgi__gpu_vs) + p->hlobes_cap * sizeof(pgi__gpu_lobe) + p->lobe_of_cap * sizeof(uint32_t);
 }
 
+static int pgi__gpu_name_in(const char *name, const char *const *list) {
+    for (const char *const *n = list; *n; n++)
+        if (strcmp(name, *n) == 0) return 1;
+    return 0;
+}
+
+void pgi__gpu_est_keep_timings(pgi_estimator_stats *es, const pgi_named_value *t, int nt, const char *const *own,
+                               const char *const *gather, double *build_ms, double *gather_ms) {
+    for (int i = 0; i < nt; i++) {
+        if (own && !pgi__gpu_name_in(t[i].name, own)) continue;
+        pgi__stats_pass(es, t[i].name, t[i].value);
+        *(pgi__gpu_name_in(t[i].name, gather) ? gather_ms : build_ms) += t[i].value;
+    }
+}
+
 void pgi__gpu_est_add_timings(const pgi__gpu *g, pgi_estimator_stats *es, const char *const *gather, double *build_ms,
                               double *gather_ms) {
     pgi_named_value t[16];
     int nt = pgi__gpu_timings(g, t, 16);
-    for (int i = 0; i < nt; i++) {
-        pgi__stats_pass(es, t[i].name, t[i].value);
-        int in_gather = 0;
-        for (const char *const *n = gather; *n && !in_gather; n++) in_gather = strcmp(t[i].name, *n) == 0;
-        *(in_gather ? gather_ms : build_ms) += t[i].value;
-    }
+    pgi__gpu_est_keep_timings(es, t, nt, NULL, gather, build_ms, gather_ms);
 }
 
 void pgi__gpu_est_two_sequence_times(const pgi__gpu *g, pgi_estimator_stats *es, const double t[8], double build,

@@ -8,13 +8,15 @@
 #include "gpu/gpu.h"
 #include "scene/bsdf.h" /* PGI__GGX_NMU */
 
-/* The GPU frame's inputs (device buffers, no host round trip): photons already on the device as
- * pgi__packed_photon (the CPU's photons uploaded until the GPU tracer provides them), the view
- * samples as gpu_view.h's ViewSample array with the scene's material lobe table (gpu_scene.h). */
+/* The GPU frame's inputs (device buffers, no host round trip): photons on the device as
+ * pgi__packed_photon (the GPU tracer's, or the CPU's uploaded), the view samples as gpu_view.h's
+ * ViewSample array with the scene's material lobe table (gpu_scene.h) and the PixelExtra array
+ * (geometric normal and view depth), and the camera they were made with. */
 typedef struct pgi__gpu_est_inputs {
     pgi__gpu_buffer *photons;
     size_t nphotons;
-    pgi__gpu_buffer *samples, *lobes;
+    pgi__gpu_buffer *samples, *lobes, *extra;
+    const pgi_camera *camera;
     int width, height;
     float radius;
 } pgi__gpu_est_inputs;
@@ -25,18 +27,21 @@ typedef struct pgi__gpu_est_vtbl {
     pgi_status (*create)(pgi__gpu *g, const pgi_estimator_desc *desc, void **state);
     pgi_status (*run)(void *state, const pgi_estimate_args *args, pgi_estimator_stats *st);
     void (*destroy)(void *state);
-    /* Device inputs (the GPU frame). reserve: outside a command sequence, the buffers for n photons
-     * and a width x height frame; *out the radiance buffer (3 floats a sample) record will write.
-     * record: inside the caller's sequence (timestamps "gpu_*" after each pass). finish: after
-     * it, the counters and the passes' times (t: the sequence's pgi__gpu_timings; labels not the
-     * estimator's own are left out) into st. */
-    pgi_status (*device_reserve)(void *state, size_t nphotons, int width, int height, pgi__gpu_buffer **out);
+    /* Device inputs (the GPU frame). reserve: outside a command sequence, the buffers for the
+     * inputs' photons and frame (an estimator whose buffers' sizes depend on the inputs may run a
+     * sequence of its own here and read its sizes back); *out the radiance buffer (3 floats a
+     * sample) record will write. record: inside the caller's sequence, on the same inputs
+     * (timestamps "gpu_*" after each pass). finish: after it, the counters and the passes' times
+     * (t: the sequence's pgi__gpu_timings; labels not the estimator's own are left out) into st. */
+    pgi_status (*device_reserve)(void *state, const pgi__gpu_est_inputs *in, pgi__gpu_buffer **out);
     pgi_status (*device_record)(void *state, const pgi__gpu_est_inputs *in);
     pgi_status (*device_finish)(void *state, const pgi_named_value *t, int nt, pgi_estimator_stats *st);
 } pgi__gpu_est_vtbl;
 
-/* NULL when `name` has no GPU version. */
+/* The GPU half of CPU estimator `name`: NULL when it has none. */
 const pgi__gpu_est_vtbl *pgi__gpu_est_find(const char *name);
+/* The PGI_EST_CAP_* options estimator `name` takes on the device (0 when it has no GPU half). */
+unsigned pgi__gpu_est_caps(const char *name);
 /* "hashgrid, ...": the estimators with a GPU version. */
 void pgi__gpu_est_names(char *buf, size_t size);
 
@@ -68,6 +73,10 @@ typedef struct pgi__gpu_vs_pack {
  * added to *gather_ms when its name is in `gather` (NULL-terminated), else to *build_ms. */
 void pgi__gpu_est_add_timings(const pgi__gpu *g, pgi_estimator_stats *es, const char *const *gather, double *build_ms,
                               double *gather_ms);
+/* The passes of the caller's sequence (t: its pgi__gpu_timings) named in `own` (NULL-terminated) into
+ * the stats, each added to *gather_ms when its name is in `gather`, else to *build_ms (device_finish). */
+void pgi__gpu_est_keep_timings(pgi_estimator_stats *es, const pgi_named_value *t, int nt, const char *const *own,
+                               const char *const *gather, double *build_ms, double *gather_ms);
 /* The host part of an estimator's stats when it ran on uploaded inputs in two command sequences,
  * build then gather: t[0..7] the wall clock at upload start/end, build submit/end, build read-back end,
  * gather submit/end, download end; build and gather the device time of each (timestamps; on a device
@@ -85,6 +94,8 @@ void pgi__gpu_vs_pack_free(pgi__gpu_vs_pack *p);
 size_t pgi__gpu_vs_pack_bytes(const pgi__gpu_vs_pack *p);
 
 extern const pgi__gpu_est_vtbl pgi__gpu_est_hashgrid;
+extern const pgi__gpu_est_vtbl pgi__gpu_est_cluster;
+extern const pgi__gpu_est_vtbl pgi__gpu_est_cluster_cone;
 extern const pgi__gpu_est_vtbl pgi__gpu_est_cluster_trivial;
 extern const pgi__gpu_est_vtbl pgi__gpu_est_directional;
 extern const pgi__gpu_est_vtbl pgi__gpu_est_tiled;

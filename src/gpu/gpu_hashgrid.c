@@ -5,12 +5,12 @@
  * Each frame: the photons (packed as pgi__packed_photon, in photon order) and the view samples
  * (64 bytes each, plus a lobe record per glossy sample) are uploaded; then one command sequence:
  *   hg_count    bucket of each photon's cell (a 32-bit hash of the cell, power-of-two table of at
- *               least as many buckets as photons), photons per bucket (atomics)
+ *               least as many buckets as photons) as a (bucket, photon) pair, photons per bucket
+ *               (atomics)
  *   scan        exclusive prefix sum of the counts: each bucket's start (gpu_scan.h)
- *   hg_scatter  each photon's index into its bucket's range (atomic cursors)
- *   hg_rank     each photon's rank among its bucket's indices: the bucket in photon order, so the
- *               sums do not depend on the order in which the atomics ran (the same image bit for
- *               bit every run)
+ *   sort        the pairs by bucket, stably (gpu_sort.h): every bucket in photon order, so the sums
+ *               do not depend on the order the device ran anything in (the same image bit for bit
+ *               every run)
  *   hg_reorder  the photons copied in bucket order
  *   hg_gather   per view sample: the cells its sphere overlaps, each cell's bucket, the bucket's
  *               photons of that cell, contribution test and sum; reads/contributing/cells counted
@@ -18,6 +18,7 @@
  * brute's only by their order (and the device's division, sqrt and pow, within 1e-4). */
 #include "gpu/gpu_estimator.h"
 #include "gpu/gpu_scan.h"
+#include "gpu/gpu_sort.h"
 
 #include <stdio.h>
 #include <string.h>
@@ -35,7 +36,8 @@ static pgi_status hg_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
 }
 static void hg_destroy(void *state) {}
-static pgi_status hg_device_reserve(void *state, size_t nphotons, int width, int height, pgi__gpu_buffer **out) {
+static pgi_status hg_device_reserve(void *state, const pgi__gpu_est_inputs *in, pgi__gpu_buffer **out) {
+    (void)state, (void)in, (void)out;
     return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
 }
 static pgi_status hg_device_record(void *state, const pgi__gpu_est_inputs *in) {
@@ -64,13 +66,14 @@ typedef struct {
 _Static_assert(sizeof(hg_push) == 48 && offsetof(hg_push, n) == 12 && offsetof(hg_push, scale) == 32,
                "hashgrid.glsl Push");
 
-enum { K_COUNT, K_SCATTER, K_RANK, K_REORDER, K_GATHER, K_N };
+enum { K_COUNT, K_REORDER, K_GATHER, K_N };
 
 typedef struct {
     pgi__gpu *g;
     pgi_estimator_desc desc;
     pgi__gpu_kernel *k[K_N];
-    pgi__gpu_buffer *photons, *sorted, *start, *cursor, *bucket_of, *idx, *ranked, *vs, *lobes, *out, *counters;
+    pgi__gpu_buffer *photons, *sorted, *start, *bucket_of, *vs, *lobes, *out, *counters;
+    pgi__gpu_sort sort; /* (bucket, photon) pairs by bucket */
     /* host-side upload arrays */
     pgi__packed_photon *packed;
     size_t packed_cap;
@@ -84,10 +87,10 @@ static void hg_destroy(void *state) {
     hg_state *s = state;
     if (!s) return;
     for (int i = 0; i < K_N; i++) pgi__gpu_kernel_destroy(s->g, s->k[i]);
-    pgi__gpu_buffer *b[] = {s->photons, s->sorted, s->start, s->cursor, s->bucket_of, s->idx,
-                            s->ranked,  s->vs,     s->lobes, s->out,    s->counters};
+    pgi__gpu_buffer *b[] = {s->photons, s->sorted, s->start, s->bucket_of, s->vs, s->lobes, s->out, s->counters};
     for (size_t i = 0; i < sizeof b / sizeof b[0]; i++) pgi__gpu_buffer_destroy(s->g, b[i]);
     pgi__gpu_scan_destroy(&s->scan);
+    pgi__gpu_sort_destroy(&s->sort);
     pgi__afree(s->packed);
     pgi__gpu_vs_pack_free(&s->pk);
     free(s);
@@ -103,19 +106,24 @@ static pgi_status hg_create(pgi__gpu *g, const pgi_estimator_desc *d, void **sta
     s->desc = *d;
     static const pgi__gpu_kernel_spec k[K_N] = {
         [K_COUNT] = PGI__GPU_KERNEL(hg_count, 3, sizeof(hg_push)),
-        [K_SCATTER] = PGI__GPU_KERNEL(hg_scatter, 4, sizeof(hg_push)),
-        [K_RANK] = PGI__GPU_KERNEL(hg_rank, 4, sizeof(hg_push)),
         [K_REORDER] = PGI__GPU_KERNEL(hg_reorder, 3, sizeof(hg_push)),
         [K_GATHER] = PGI__GPU_KERNEL(hg_gather, 6, sizeof(hg_push)),
     };
     pgi_status st = pgi__gpu_kernels_create(g, k, K_N, 0, s->k);
     if (!st) st = pgi__gpu_scan_create(g, "gpu_hash", &s->scan);
+    if (!st) st = pgi__gpu_sort_create(g, "gpu_photon_index", &s->sort);
     if (st) {
         hg_destroy(s);
         return st;
     }
     *state = s;
     return PGI_OK;
+}
+
+static int bits_for(size_t n) {
+    int b = 0;
+    while (b < 32 && ((size_t)1 << b) < n) b++;
+    return b;
 }
 
 /* The buckets' table and its scan (of `start`, buckets + 1 words) for n photons, then every
@@ -132,10 +140,8 @@ static pgi_status hg_reserve(hg_state *s, size_t n, size_t ns, size_t nlobes, in
     const size_t psz = sizeof(pgi__packed_photon);
     if ((st = pgi__gpu_buffer_reserve(g, &s->sorted, (n + 1) * psz, "gpu_sorted_photons")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->start, (nb + 1) * 4, "gpu_hash")) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->cursor, nb * 4, "gpu_hash")) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->bucket_of, (n + 1) * 4, "gpu_photon_index")) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->idx, (n + 1) * 4, "gpu_photon_index")) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->ranked, (n + 1) * 4, "gpu_photon_index")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->bucket_of, (n + 1) * 8, "gpu_photon_index")) ||
+        (st = pgi__gpu_sort_reserve(&s->sort, n)) ||
         (st = pgi__gpu_buffer_reserve(g, &s->out, (3 * ns + 1) * sizeof(float), "gpu_radiance")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->counters, 6 * sizeof(uint32_t), "gpu_hash")))
         return st;
@@ -168,24 +174,17 @@ static pgi_status hg_record(hg_state *s, pgi__gpu_buffer *photons, size_t n, pgi
                  .height = (uint32_t)height,
                  .kernel = (uint32_t)s->desc.kernel,
                  .scale = pgi__kernel_norm(s->desc.kernel)};
-    if ((st = pgi__gpu_fill(g, s->start, 0, (nb + 1) * 4, 0)) || (st = pgi__gpu_fill(g, s->cursor, 0, nb * 4, 0)) ||
-        (st = pgi__gpu_fill(g, s->counters, 0, 6 * 4, 0)) ||
+    pgi__gpu_buffer *keys, *order;
+    if ((st = pgi__gpu_fill(g, s->start, 0, (nb + 1) * 4, 0)) || (st = pgi__gpu_fill(g, s->counters, 0, 6 * 4, 0)) ||
         (st =
              pgi__gpu_dispatch_1d(g, s->k[K_COUNT], (pgi__gpu_buffer *[]){photons, s->start, s->bucket_of}, &p, n, 64)))
         return st;
     pgi__gpu_timestamp(g, "gpu_count");
     if ((st = pgi__gpu_scan_record(&s->scan, s->start))) return st;
     pgi__gpu_timestamp(g, "gpu_scan");
-    if ((st = pgi__gpu_dispatch_1d(g, s->k[K_SCATTER], (pgi__gpu_buffer *[]){s->bucket_of, s->start, s->cursor, s->idx},
-                                   &p, n, 64)))
-        return st;
-    pgi__gpu_timestamp(g, "gpu_scatter");
-    if ((st = pgi__gpu_dispatch_1d(g, s->k[K_RANK], (pgi__gpu_buffer *[]){s->start, s->bucket_of, s->idx, s->ranked},
-                                   &p, n, 64)))
-        return st;
-    pgi__gpu_timestamp(g, "gpu_rank");
-    if ((st =
-             pgi__gpu_dispatch_1d(g, s->k[K_REORDER], (pgi__gpu_buffer *[]){photons, s->ranked, s->sorted}, &p, n, 64)))
+    if ((st = pgi__gpu_sort_record(&s->sort, s->bucket_of, n, 0, bits_for(nb), &keys, &order))) return st;
+    pgi__gpu_timestamp(g, "gpu_sort");
+    if ((st = pgi__gpu_dispatch_1d(g, s->k[K_REORDER], (pgi__gpu_buffer *[]){photons, order, s->sorted}, &p, n, 64)))
         return st;
     pgi__gpu_timestamp(g, "gpu_reorder");
     if ((st = pgi__gpu_dispatch(g, s->k[K_GATHER],
@@ -197,7 +196,7 @@ static pgi_status hg_record(hg_state *s, pgi__gpu_buffer *photons, size_t n, pgi
 }
 
 static int hg_label(const char *name) {
-    static const char *const own[] = {"gpu_count", "gpu_scan", "gpu_scatter", "gpu_rank", "gpu_reorder", "gpu_gather"};
+    static const char *const own[] = {"gpu_count", "gpu_scan", "gpu_sort", "gpu_reorder", "gpu_gather"};
     for (size_t i = 0; i < sizeof own / sizeof own[0]; i++)
         if (strcmp(name, own[i]) == 0) return 1;
     return 0;
@@ -285,11 +284,11 @@ static pgi_status hg_run(void *state, const pgi_estimate_args *a, pgi_estimator_
 
 /* ---- device inputs (the GPU frame) */
 
-static pgi_status hg_device_reserve(void *state, size_t nphotons, int width, int height, pgi__gpu_buffer **out) {
+static pgi_status hg_device_reserve(void *state, const pgi__gpu_est_inputs *in, pgi__gpu_buffer **out) {
     hg_state *s = state;
-    pgi_status st = hg_reserve(s, nphotons, (size_t)width * (size_t)height, 0, 0);
+    pgi_status st = hg_reserve(s, in->nphotons, (size_t)in->width * (size_t)in->height, 0, 0);
     if (st) return st;
-    s->dev_n = nphotons;
+    s->dev_n = in->nphotons;
     *out = s->out;
     return PGI_OK;
 }

@@ -32,7 +32,6 @@
 
 #include "core/core.h"
 #include "estimators/estimator_internal.h"
-#include "estimators/spec_cells.h"
 
 #ifndef PGI__HAVE_VULKAN
 
@@ -46,6 +45,18 @@ static pgi_status tl_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
 }
 static void tl_destroy(void *state) { (void)state; }
+static pgi_status tl_device_reserve(void *state, const pgi__gpu_est_inputs *in, pgi__gpu_buffer **out) {
+    (void)state, (void)in, (void)out;
+    return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
+}
+static pgi_status tl_device_record(void *state, const pgi__gpu_est_inputs *in) {
+    (void)state, (void)in;
+    return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
+}
+static pgi_status tl_device_finish(void *state, const pgi_named_value *t, int nt, pgi_estimator_stats *es) {
+    (void)state, (void)t, (void)nt, (void)es;
+    return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
+}
 
 #else
 
@@ -63,52 +74,52 @@ typedef struct {
     float sx, sy, r, r2;
     uint32_t width, height, T, ntx, nty, ntiles, nlists, n, chunk, nchunks, kernel;
     float scale;
-    uint32_t hmask;
+    uint32_t G, mode;
 } tl_push;
-_Static_assert(offsetof(tl_push, sx) == 48 && offsetof(tl_push, width) == 64 && offsetof(tl_push, kernel) == 104 &&
-                   offsetof(tl_push, hmask) == 112,
+_Static_assert(sizeof(tl_push) == 120 && offsetof(tl_push, sx) == 48 && offsetof(tl_push, width) == 64 &&
+                   offsetof(tl_push, kernel) == 104 && offsetof(tl_push, G) == 112,
                "tiled.glsl Push");
 
-/* shaders/tiled.glsl CellGrid */
-typedef struct {
-    float lo[3], hi[3], o[3], inv_h;
-    int32_t dim[3];
-    uint32_t n;
-} tl_grid;
+#define GRID_BYTES 56 /* shaders/tiled.glsl CellGrid: lo, hi, o, inv_h, dim, n */
 
-enum { K_BOUNDS, K_FRAME, K_COUNT, K_COPY, K_GATHER, K_N };
+enum { K_CELLS, K_BOUNDS, K_FRAME, K_COUNT, K_COPY, K_GATHER, K_N };
+
+/* A frame: the push constants, its sizes, the inputs it reads, the clocks. */
+typedef struct tl_frame {
+    tl_push p;
+    size_t n, ns, ncells, ncounts;
+    uint32_t copies;
+    pgi__gpu_buffer *vs, *lobes;
+    double t[8]; /* host: upload t0..t1, sequence 1 t2..t3, sequence 2 t4..t6, read back t7 */
+    double gpu_build, gpu_gather;
+} tl_frame;
 
 typedef struct {
     pgi__gpu *g;
     pgi_estimator_desc desc;
     pgi__gpu_kernel *k[K_N];
-    pgi__gpu_buffer *photons, *vs, *lobes, *out, *bounds, *frame, *grid, *cbox, *ctable, *cell_of, *counts, *ids,
+    pgi__gpu_buffer *photons, *vs, *lobes, *out, *bounds, *frame, *grid, *cord, *cbox, *cell_of, *counts, *ids,
         *counters;
     pgi__gpu_scan scan; /* each chunk's offset in each list */
-    pgi__spec_cells cells;
-    /* host-side upload arrays */
+    /* host-side upload arrays (pgi_estimate_args inputs) */
     pgi__packed_photon *packed;
     size_t packed_cap;
     pgi__gpu_vs_pack pk; /* the view samples in the shaders' form */
-    uint32_t *hcell_of;
-    size_t hcell_of_cap;
-    uint32_t *htable;
-    size_t htable_cap;
+    /* device inputs: the frame device_reserve built, its sequence's passes (for device_finish) */
+    tl_frame dev;
+    pgi_estimator_stats dev_es;
 } tl_state;
 
 static void tl_destroy(void *state) {
     tl_state *s = state;
     if (!s) return;
     for (int i = 0; i < K_N; i++) pgi__gpu_kernel_destroy(s->g, s->k[i]);
-    pgi__gpu_buffer *b[] = {s->photons, s->vs,     s->lobes,   s->out,    s->bounds, s->frame,   s->grid,
-                            s->cbox,    s->ctable, s->cell_of, s->counts, s->ids,    s->counters};
+    pgi__gpu_buffer *b[] = {s->photons, s->vs,   s->lobes,   s->out,    s->bounds, s->frame,   s->grid,
+                            s->cord,    s->cbox, s->cell_of, s->counts, s->ids,    s->counters};
     for (size_t i = 0; i < sizeof b / sizeof b[0]; i++) pgi__gpu_buffer_destroy(s->g, b[i]);
     pgi__gpu_scan_destroy(&s->scan);
-    pgi__spec_cells_free(&s->cells);
     pgi__afree(s->packed);
     pgi__gpu_vs_pack_free(&s->pk);
-    pgi__afree(s->hcell_of);
-    pgi__afree(s->htable);
     free(s);
 }
 
@@ -124,10 +135,11 @@ static pgi_status tl_create(pgi__gpu *g, const pgi_estimator_desc *d, void **sta
     s->g = g;
     s->desc = *d;
     static const pgi__gpu_kernel_spec k[K_N] = {
+        [K_CELLS] = PGI__GPU_KERNEL(tl_cells, 5, sizeof(tl_push)),
         [K_BOUNDS] = PGI__GPU_KERNEL(tl_bounds, 2, sizeof(tl_push)),
         [K_FRAME] = PGI__GPU_KERNEL(tl_frame, 2, sizeof(tl_push)),
-        [K_COUNT] = PGI__GPU_KERNEL(tl_count, 8, sizeof(tl_push)),
-        [K_COPY] = PGI__GPU_KERNEL(tl_copy, 8, sizeof(tl_push)),
+        [K_COUNT] = PGI__GPU_KERNEL(tl_count, 7, sizeof(tl_push)),
+        [K_COPY] = PGI__GPU_KERNEL(tl_copy, 7, sizeof(tl_push)),
         [K_GATHER] = PGI__GPU_KERNEL(tl_gather, 8, sizeof(tl_push)),
     };
     pgi_status st = pgi__gpu_kernels_create(g, k, K_N, 0, s->k);
@@ -140,167 +152,160 @@ static pgi_status tl_create(pgi__gpu *g, const pgi_estimator_desc *d, void **sta
     return PGI_OK;
 }
 
-/* shaders/tiled.glsl cell_hash */
-static uint32_t cell_hash(uint32_t ix, uint32_t iy, uint32_t iz) {
-    uint32_t h = ix * 73856093u ^ iy * 19349663u ^ iz * 83492791u;
-    h ^= h >> 16;
-    h *= 0x7feb352du;
-    h ^= h >> 15;
-    return h;
-}
-
-/* The mirror-seen samples' cells for the device: each sample's cell (cell_of) and a table from
- * cell coordinates to cell (the coordinates decoded from the CPU table's keys). */
-static pgi_status pack_cells(tl_state *s, size_t ns, uint32_t *hmask) {
-    const pgi__spec_cells *c = &s->cells;
-    pgi_status st;
-    if ((st = pgi__ensure((void **)&s->hcell_of, &s->hcell_of_cap, ns + 1, sizeof(uint32_t)))) return st;
-    memset(s->hcell_of, 0, (ns + 1) * sizeof(uint32_t));
-    for (uint32_t k = 0; k < c->n; k++)
-        for (uint32_t m = c->start[k]; m < c->start[k + 1]; m++) s->hcell_of[c->sample[m]] = k;
-    size_t tn = 16;
-    while (tn < 2 * (size_t)c->n) tn <<= 1;
-    if ((st = pgi__ensure((void **)&s->htable, &s->htable_cap, 4 * tn, sizeof(uint32_t)))) return st;
-    memset(s->htable, 0xff, 4 * tn * sizeof(uint32_t));
-    size_t found = 0;
-    for (uint32_t e = 0; c->n && e <= c->hmask; e++) {
-        uint64_t key = c->hkey[e];
-        if (!key) continue;
-        key -= 1;
-        uint32_t ix = (uint32_t)(key >> 42), iy = (uint32_t)(key >> 21) & 0x1fffffu, iz = (uint32_t)key & 0x1fffffu;
-        uint32_t h = cell_hash(ix, iy, iz) & (uint32_t)(tn - 1);
-        while (s->htable[4 * h + 3] != UINT32_MAX) h = (h + 1) & (uint32_t)(tn - 1);
-        s->htable[4 * h] = ix;
-        s->htable[4 * h + 1] = iy;
-        s->htable[4 * h + 2] = iz;
-        s->htable[4 * h + 3] = c->hval[e];
-        found++;
-    }
-    if (found != c->n)
-        return pgi__fail(PGI_ERR_INTERNAL, "tiled on the GPU: %zu mirror cells in the table, not %u", found, c->n);
-    *hmask = (uint32_t)(tn - 1);
-    return PGI_OK;
-}
-
 /* the passes that are the gather (the rest is the build) */
 static const char *const gather_passes[] = {"gpu_gather", NULL};
+/* every pass this estimator times (device_finish keeps these from the caller's sequence) */
+static const char *const own_passes[] = {"gpu_cells", "gpu_bounds", "gpu_count", "gpu_scan",
+                                         "gpu_copy",  "gpu_gather", NULL};
 
-static pgi_status tl_run(void *state, const pgi_estimate_args *a, pgi_estimator_stats *es) {
-    tl_state *s = state;
+/* What a frame is made from, on either path. */
+typedef struct tl_in {
+    size_t n;
+    int width, height;
+    const pgi_camera *cam;
+    float radius;
+} tl_in;
+
+/* The frame's sizes and push constants; every buffer but the inputs' and the lists' reserved. */
+static pgi_status tl_plan(tl_state *s, const tl_in *in, tl_frame *f) {
     pgi__gpu *g = s->g;
-    pgi_status st;
-    memset(es, 0, sizeof *es);
-    if (a->photons->radius)
-        return pgi__fail(PGI_ERR_UNSUPPORTED, "tiled on the GPU: per-photon footprints are not supported");
-    const pgi_photons *ph = a->photons;
-    const pgi_view_samples *vs = a->samples;
-    const pgi_camera *cam = a->camera;
-    if (!cam || vs->width != cam->width || vs->height != cam->height)
+    const pgi_camera *cam = in->cam;
+    if (!cam || in->width != cam->width || in->height != cam->height)
         return pgi__fail(PGI_ERR_INVALID_ARG, "tiled on the GPU: view samples are %dx%d but the camera is %dx%d",
-                         vs->width, vs->height, cam ? cam->width : 0, cam ? cam->height : 0);
-    const float r = a->radius;
-    const size_t n = ph->count, ns = vs->count;
-    const uint32_t W = (uint32_t)vs->width, H = (uint32_t)vs->height, T = (uint32_t)s->desc.tiled.tile_size;
+                         in->width, in->height, cam ? cam->width : 0, cam ? cam->height : 0);
+    const float r = in->radius;
+    const size_t n = in->n, ns = (size_t)in->width * (size_t)in->height;
+    const uint32_t W = (uint32_t)in->width, H = (uint32_t)in->height, T = (uint32_t)s->desc.tiled.tile_size;
     const uint32_t ntx = (W + T - 1) / T, nty = (H + T - 1) / T, ntiles = ntx * nty;
     if (n > UINT32_MAX / 4 || ns > UINT32_MAX / 4)
         return pgi__fail(PGI_ERR_UNSUPPORTED, "tiled on the GPU: at most 2^30 photons and view samples");
     const pgi__view_xf x = pgi__view_xf_make(cam, (int)W, (int)H);
-
-    /* upload: photons in photon order, the view samples and lobes, the mirror cells (host) */
-    double t0 = pgi__now_ms();
-    if ((st = pgi__spec_cells_build(&s->cells, vs, &x, r, pgi__spec_cells_cap((int)ntiles), pgi__threads(a->threads))))
-        return st;
-    const uint32_t nlists = ntiles + s->cells.n;
+    /* mirror cells: a dense grid of G^3 cells, G^3 <= max(tiles, 512), 8..20 a side (every cell is a
+     * list, scanned with the tiles': cells finer than the grid's would cost the scan more than they
+     * save the gather) */
+    uint32_t G = 8;
+    while (G < 20 && (size_t)(G + 1) * (G + 1) * (G + 1) <= ntiles) G++;
+    const size_t ncells = (size_t)G * G * G;
+    const size_t nlists = ntiles + ncells;
     size_t chunk = (n + MAX_CHUNKS - 1) / MAX_CHUNKS;
     if (chunk < 64) chunk = 64;
     size_t nchunks = (n + chunk - 1) / chunk;
     if (nchunks == 0) nchunks = 1;
-    const size_t ncounts = (size_t)nlists * nchunks;
+    const size_t ncounts = nlists * nchunks;
     if (ncounts > UINT32_MAX / 4)
         return pgi__fail(PGI_ERR_UNSUPPORTED,
-                         "tiled on the GPU: %u lists x %zu photon chunks is too many; use larger tiles", nlists,
+                         "tiled on the GPU: %zu lists x %zu photon chunks is too many; use larger tiles", nlists,
                          nchunks);
-    if ((st = pgi__ensure((void **)&s->packed, &s->packed_cap, n + 1, sizeof(pgi__packed_photon)))) return st;
-#pragma omp parallel for schedule(static) num_threads(pgi__threads(a->threads))
-    for (long long j = 0; j < (long long)n; j++) pgi__pack_photon(ph, (size_t)j, &s->packed[j]);
-    size_t nlobes = 0;
-    uint32_t hmask = 0;
-    if ((st = pgi__gpu_pack_samples(&s->pk, vs, a->threads, &nlobes)) || (st = pack_cells(s, ns, &hmask))) return st;
-    const pgi__spec_cells *c = &s->cells;
-    tl_grid grid = {.o = {c->o[0], c->o[1], c->o[2]},
-                    .inv_h = c->inv_h,
-                    .dim = {c->dim[0], c->dim[1], c->dim[2]},
-                    .n = c->n};
-    memcpy(grid.lo, c->lo, sizeof grid.lo);
-    memcpy(grid.hi, c->hi, sizeof grid.hi);
-    const size_t psz = sizeof(pgi__packed_photon);
-    if ((st = pgi__gpu_buffer_reserve(g, &s->photons, (n + 1) * psz, "gpu_photons")) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->vs, (ns + 1) * sizeof(gpu_vs), "gpu_view_samples")) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->lobes, (nlobes + 1) * sizeof(gpu_lobe), "gpu_view_samples")) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->out, (3 * ns + 1) * sizeof(float), "gpu_radiance")) ||
+    *f = (tl_frame){.n = n, .ns = ns, .ncells = ncells, .ncounts = ncounts, .vs = s->vs, .lobes = s->lobes};
+    f->p = (tl_push){.e = {x.eye.x, x.eye.y, x.eye.z},
+                     .rt = {x.right.x, x.right.y, x.right.z},
+                     .up = {x.up.x, x.up.y, x.up.z},
+                     .fw = {x.fwd.x, x.fwd.y, x.fwd.z},
+                     .sx = x.sx,
+                     .sy = x.sy,
+                     .r = r,
+                     .r2 = r * r,
+                     .width = W,
+                     .height = H,
+                     .T = T,
+                     .ntx = ntx,
+                     .nty = nty,
+                     .ntiles = ntiles,
+                     .nlists = (uint32_t)nlists,
+                     .n = (uint32_t)n,
+                     .chunk = (uint32_t)chunk,
+                     .nchunks = (uint32_t)nchunks,
+                     .kernel = (uint32_t)s->desc.kernel,
+                     .scale = pgi__kernel_norm(s->desc.kernel),
+                     .G = G};
+    pgi_status st;
+    if ((st = pgi__gpu_buffer_reserve(g, &s->out, (3 * ns + 1) * sizeof(float), "gpu_radiance")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->bounds, ((size_t)ntiles + 1) * 32, "gpu_tile_bounds")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->frame, 32, "gpu_tile_bounds")) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->grid, sizeof grid, "gpu_mirror_cells")) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->cbox, ((size_t)c->n + 1) * 24, "gpu_mirror_cells")) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->ctable, (size_t)(hmask + 1) * 16, "gpu_mirror_cells")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->grid, GRID_BYTES, "gpu_mirror_cells")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->cord, (6 + 6 * ncells) * 4, "gpu_mirror_cells")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->cbox, 6 * ncells * 4, "gpu_mirror_cells")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->cell_of, (ns + 1) * 4, "gpu_mirror_cells")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->counts, (ncounts + 1) * 4, "gpu_tile_offsets")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->counters, 8 * 4, "gpu_tile_offsets")) ||
         (st = pgi__gpu_scan_reserve(&s->scan, ncounts + 1)))
         return st;
-    if ((st = pgi__gpu_upload(g, s->photons, 0, s->packed, n * psz)) ||
-        (st = pgi__gpu_upload(g, s->vs, 0, s->pk.hvs, ns * sizeof(gpu_vs))) ||
-        (st = pgi__gpu_upload(g, s->lobes, 0, s->pk.hlobes, nlobes * sizeof(gpu_lobe))) ||
-        (st = pgi__gpu_upload(g, s->grid, 0, &grid, sizeof grid)) ||
-        (c->n && (st = pgi__gpu_upload(g, s->cbox, 0, c->box, (size_t)c->n * 24))) ||
-        (st = pgi__gpu_upload(g, s->ctable, 0, s->htable, (size_t)(hmask + 1) * 16)) ||
-        (st = pgi__gpu_upload(g, s->cell_of, 0, s->hcell_of, ns * 4)))
-        return st;
-    tl_push p = {.e = {x.eye.x, x.eye.y, x.eye.z},
-                 .rt = {x.right.x, x.right.y, x.right.z},
-                 .up = {x.up.x, x.up.y, x.up.z},
-                 .fw = {x.fwd.x, x.fwd.y, x.fwd.z},
-                 .sx = x.sx,
-                 .sy = x.sy,
-                 .r = r,
-                 .r2 = r * r,
-                 .width = W,
-                 .height = H,
-                 .T = T,
-                 .ntx = ntx,
-                 .nty = nty,
-                 .ntiles = ntiles,
-                 .nlists = nlists,
-                 .n = (uint32_t)n,
-                 .chunk = (uint32_t)chunk,
-                 .nchunks = (uint32_t)nchunks,
-                 .kernel = (uint32_t)s->desc.kernel,
-                 .scale = pgi__kernel_norm(s->desc.kernel),
-                 .hmask = hmask};
-    double t1 = pgi__now_ms();
+    return PGI_OK;
+}
 
-    /* sequence 1: tile bounds, counts, offsets */
-    double gpu_build = 0.0, gpu_gather = 0.0;
-    pgi__gpu_buffer *lists_in[8] = {s->photons, s->bounds, s->frame,  s->grid,
-                                    s->cbox,    s->ctable, s->counts, s->counters};
+/* pgi_estimate_args inputs: photons in photon order, the view samples and lobes uploaded */
+static pgi_status tl_upload(tl_state *s, const pgi_estimate_args *a, tl_frame *f) {
+    pgi__gpu *g = s->g;
+    const pgi_photons *ph = a->photons;
+    const size_t n = f->n, ns = f->ns, psz = sizeof(pgi__packed_photon);
+    pgi_status st;
+    f->t[0] = pgi__now_ms();
+    if ((st = pgi__ensure((void **)&s->packed, &s->packed_cap, n + 1, psz))) return st;
+#pragma omp parallel for schedule(static) num_threads(pgi__threads(a->threads))
+    for (long long j = 0; j < (long long)n; j++) pgi__pack_photon(ph, (size_t)j, &s->packed[j]);
+    size_t nlobes = 0;
+    if ((st = pgi__gpu_pack_samples(&s->pk, a->samples, a->threads, &nlobes)) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->photons, (n + 1) * psz, "gpu_photons")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->vs, (ns + 1) * sizeof(gpu_vs), "gpu_view_samples")) ||
+        (st = pgi__gpu_buffer_reserve(g, &s->lobes, (nlobes + 1) * sizeof(gpu_lobe), "gpu_view_samples")) ||
+        (st = pgi__gpu_upload(g, s->photons, 0, s->packed, n * psz)) ||
+        (st = pgi__gpu_upload(g, s->vs, 0, s->pk.hvs, ns * sizeof(gpu_vs))) ||
+        (st = pgi__gpu_upload(g, s->lobes, 0, s->pk.hlobes, nlobes * sizeof(gpu_lobe))))
+        return st;
+    f->vs = s->vs;
+    f->lobes = s->lobes;
+    f->t[1] = pgi__now_ms();
+    return PGI_OK;
+}
+
+/* A sequence that could not be recorded: closed, so that the next frame can begin one. */
+static pgi_status tl_abandon(pgi__gpu *g, pgi_status st) {
+    (void)pgi__gpu_submit_wait(g);
+    return st;
+}
+
+/* Records sequence 1: the mirror cells, tile bounds, counts, offsets. */
+static pgi_status record_counts(tl_state *s, const tl_frame *f, pgi__gpu_buffer *photons) {
+    pgi__gpu *g = s->g;
+    pgi_status st;
+    tl_push q = f->p;
+    pgi__gpu_buffer *cells[5] = {f->vs, s->cord, s->grid, s->cbox, s->cell_of};
+    if ((st = pgi__gpu_fill(g, s->counts, 0, (f->ncounts + 1) * 4, 0)) ||
+        (st = pgi__gpu_fill(g, s->counters, 0, 8 * 4, 0)) ||
+        (st = pgi__gpu_fill(g, s->cord, 0, (6 + 6 * f->ncells) * 4, 0xffffffffu))) /* empty boxes */
+        return st;
+    const size_t items[4] = {f->ns, 1, f->ns, f->ncells};
+    for (uint32_t m = 0; m < 4; m++) {
+        q.mode = m;
+        if ((st = pgi__gpu_dispatch_1d(g, s->k[K_CELLS], cells, &q, items[m], 64))) return st;
+    }
+    pgi__gpu_timestamp(g, "gpu_cells");
+    if ((st = pgi__gpu_dispatch_1d(g, s->k[K_BOUNDS], (pgi__gpu_buffer *[]){f->vs, s->bounds}, &f->p, f->p.ntiles,
+                                   64)) ||
+        (st = pgi__gpu_dispatch(g, s->k[K_FRAME], (pgi__gpu_buffer *[]){s->bounds, s->frame}, &f->p, 1, 1, 1)))
+        return st;
+    pgi__gpu_timestamp(g, "gpu_bounds");
+    pgi__gpu_buffer *lists[7] = {photons, s->bounds, s->frame, s->grid, s->cbox, s->counts, s->counters};
+    if ((st = pgi__gpu_dispatch_1d(g, s->k[K_COUNT], lists, &f->p, f->p.nchunks, 64))) return st;
+    pgi__gpu_timestamp(g, "gpu_count");
+    if ((st = pgi__gpu_scan_record(&s->scan, s->counts))) return st;
+    pgi__gpu_timestamp(g, "gpu_scan");
+    return PGI_OK;
+}
+
+/* sequence 1, then the number of copies read back (8 + 4 bytes) and the lists' buffer sized to it */
+static pgi_status tl_build(tl_state *s, tl_frame *f, pgi__gpu_buffer *photons, pgi_estimator_stats *es) {
+    pgi__gpu *g = s->g;
+    pgi_status st;
     if ((st = pgi__gpu_begin(g))) return st;
     pgi__gpu_timestamp(g, "start");
-    if ((st = pgi__gpu_fill(g, s->counts, 0, (ncounts + 1) * 4, 0)) ||
-        (st = pgi__gpu_fill(g, s->counters, 0, 8 * 4, 0)) ||
-        (st = pgi__gpu_dispatch_1d(g, s->k[K_BOUNDS], (pgi__gpu_buffer *[]){s->vs, s->bounds}, &p, ntiles, 64)) ||
-        (st = pgi__gpu_dispatch(g, s->k[K_FRAME], (pgi__gpu_buffer *[]){s->bounds, s->frame}, &p, 1, 1, 1)))
-        goto fail;
-    pgi__gpu_timestamp(g, "gpu_bounds");
-    if ((st = pgi__gpu_dispatch_1d(g, s->k[K_COUNT], lists_in, &p, nchunks, 64))) goto fail;
-    pgi__gpu_timestamp(g, "gpu_count");
-    if ((st = pgi__gpu_scan_record(&s->scan, s->counts))) goto fail;
-    pgi__gpu_timestamp(g, "gpu_scan");
-    double t2 = pgi__now_ms();
+    if ((st = record_counts(s, f, photons))) return tl_abandon(g, st);
+    f->t[2] = pgi__now_ms();
     if ((st = pgi__gpu_submit_wait(g))) return st;
-    double t3 = pgi__now_ms();
-    pgi__gpu_est_add_timings(g, es, gather_passes, &gpu_build, &gpu_gather);
+    f->t[3] = pgi__now_ms();
+    pgi__gpu_est_add_timings(g, es, gather_passes, &f->gpu_build, &f->gpu_gather);
     uint32_t copies = 0, tested[2];
-    if ((st = pgi__gpu_download(g, s->counts, ncounts * 4, &copies, 4)) ||
+    if ((st = pgi__gpu_download(g, s->counts, f->ncounts * 4, &copies, 4)) ||
         (st = pgi__gpu_download(g, s->counters, 6 * 4, tested, sizeof tested)))
         return st;
     /* every list test is a copy: the 64-bit count catches a scan that wrapped */
@@ -310,45 +315,106 @@ static pgi_status tl_run(void *state, const pgi_estimate_args *a, pgi_estimator_
                          "tiled on the GPU: %llu photon copies (at most 2^30); use a smaller radius or larger tiles",
                          (unsigned long long)ncopies);
     PGI__ASSERT(ncopies == copies);
-    if ((st = pgi__gpu_buffer_reserve(g, &s->ids, ((size_t)copies + 1) * 4, "gpu_tile_photons"))) return st;
+    f->copies = copies;
+    return pgi__gpu_buffer_reserve(g, &s->ids, ((size_t)copies + 1) * 4, "gpu_tile_photons");
+}
 
-    /* sequence 2: the lists (photon order), the gather */
-    double t4 = pgi__now_ms();
-    if ((st = pgi__gpu_begin(g))) return st;
-    pgi__gpu_timestamp(g, "start");
-    lists_in[7] = s->ids;
-    if ((st = pgi__gpu_dispatch_1d(g, s->k[K_COPY], lists_in, &p, nchunks, 64))) goto fail;
+/* Records sequence 2's work: the lists (photon order), the gather. */
+static pgi_status record_gather(tl_state *s, const tl_frame *f, pgi__gpu_buffer *photons) {
+    pgi__gpu *g = s->g;
+    pgi_status st;
+    pgi__gpu_buffer *lists[7] = {photons, s->bounds, s->frame, s->grid, s->cbox, s->counts, s->ids};
+    if ((st = pgi__gpu_dispatch_1d(g, s->k[K_COPY], lists, &f->p, f->p.nchunks, 64))) return st;
     pgi__gpu_timestamp(g, "gpu_copy");
     if ((st = pgi__gpu_dispatch(g, s->k[K_GATHER],
-                                (pgi__gpu_buffer *[]){s->vs, s->lobes, s->photons, s->counts, s->ids, s->cell_of,
-                                                      s->out, s->counters},
-                                &p, (W + 7) / 8, (H + 7) / 8, 1)))
-        goto fail;
-    pgi__gpu_timestamp(g, "gpu_gather");
-    double t5 = pgi__now_ms();
-    if ((st = pgi__gpu_submit_wait(g))) return st;
-    double t6 = pgi__now_ms();
-    pgi__gpu_est_add_timings(g, es, gather_passes, &gpu_build, &gpu_gather);
-    uint32_t cnt[8];
-    if ((st = pgi__gpu_download(g, s->out, 0, a->out_rgb, 3 * ns * sizeof(float))) ||
-        (st = pgi__gpu_download(g, s->counters, 0, cnt, sizeof cnt)))
+                                (pgi__gpu_buffer *[]){f->vs, f->lobes, photons, s->counts, s->ids, s->cell_of, s->out,
+                                                      s->counters},
+                                &f->p, (f->p.width + 7) / 8, (f->p.height + 7) / 8, 1)))
         return st;
-    double t7 = pgi__now_ms();
+    pgi__gpu_timestamp(g, "gpu_gather");
+    return PGI_OK;
+}
 
-    /* stats: host passes (wall clock) and the device's (timestamps) */
-    pgi__gpu_est_two_sequence_times(g, es, (double[8]){t0, t1, t2, t3, t4, t5, t6, t7}, gpu_build, gpu_gather);
+/* The counters (photons read, contributing, lists tested) into the stats. */
+static pgi_status tl_counters(tl_state *s, pgi_estimator_stats *es) {
+    uint32_t cnt[8];
+    pgi_status st = pgi__gpu_download(s->g, s->counters, 0, cnt, sizeof cnt);
+    if (st) return st;
     es->reads = pgi__gpu_u64(cnt);
     es->contributing = pgi__gpu_u64(cnt + 2);
     es->nodes_visited = pgi__gpu_u64(cnt + 6);
-    pgi__stats_mem(es, "gpu_host_upload",
-                   s->packed_cap * sizeof(pgi__packed_photon) + s->pk.hvs_cap * sizeof(gpu_vs) +
-                       s->pk.hlobes_cap * sizeof(gpu_lobe) + (s->pk.lobe_of_cap + s->hcell_of_cap + s->htable_cap) * 4);
-    pgi__stats_mem(es, "specular_cells", pgi__spec_cells_bytes(&s->cells));
     return PGI_OK;
-fail:
-    /* close the sequence so that the next frame can begin one */
-    (void)pgi__gpu_submit_wait(g);
-    return st;
+}
+
+static pgi_status tl_run(void *state, const pgi_estimate_args *a, pgi_estimator_stats *es) {
+    tl_state *s = state;
+    pgi__gpu *g = s->g;
+    pgi_status st;
+    memset(es, 0, sizeof *es);
+    if (a->photons->radius)
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "tiled on the GPU: per-photon footprints are not supported");
+    const tl_in in = {.n = a->photons->count,
+                      .width = a->samples->width,
+                      .height = a->samples->height,
+                      .cam = a->camera,
+                      .radius = a->radius};
+    tl_frame f;
+    if ((st = tl_plan(s, &in, &f)) || (st = tl_upload(s, a, &f)) || (st = tl_build(s, &f, s->photons, es))) return st;
+    f.t[4] = pgi__now_ms();
+    if ((st = pgi__gpu_begin(g))) return st;
+    pgi__gpu_timestamp(g, "start");
+    if ((st = record_gather(s, &f, s->photons))) return tl_abandon(g, st);
+    f.t[5] = pgi__now_ms();
+    if ((st = pgi__gpu_submit_wait(g))) return st;
+    f.t[6] = pgi__now_ms();
+    pgi__gpu_est_add_timings(g, es, gather_passes, &f.gpu_build, &f.gpu_gather);
+    if ((st = pgi__gpu_download(g, s->out, 0, a->out_rgb, 3 * f.ns * sizeof(float))) || (st = tl_counters(s, es)))
+        return st;
+    f.t[7] = pgi__now_ms();
+
+    /* stats: host passes (wall clock) and the device's (timestamps) */
+    pgi__gpu_est_two_sequence_times(g, es, f.t, f.gpu_build, f.gpu_gather);
+    pgi__stats_mem(es, "gpu_host_upload", s->packed_cap * sizeof(pgi__packed_photon) + pgi__gpu_vs_pack_bytes(&s->pk));
+    return PGI_OK;
+}
+
+/* Device inputs: sequence 1 (cells, bounds, counts, offsets) runs here on the frame's photons and
+ * view samples, and the number of copies comes back to size the lists. */
+static pgi_status tl_device_reserve(void *state, const pgi__gpu_est_inputs *in, pgi__gpu_buffer **out) {
+    tl_state *s = state;
+    pgi_status st;
+    memset(&s->dev_es, 0, sizeof s->dev_es);
+    const tl_in ti = {.n = in->nphotons,
+                      .width = in->width,
+                      .height = in->height,
+                      .cam = in->camera,
+                      .radius = in->radius};
+    tl_frame *f = &s->dev;
+    if ((st = tl_plan(s, &ti, f))) return st;
+    f->vs = in->samples;
+    f->lobes = in->lobes;
+    f->t[0] = f->t[1] = pgi__now_ms();
+    if ((st = tl_build(s, f, in->photons, &s->dev_es))) return st;
+    *out = s->out;
+    return PGI_OK;
+}
+
+static pgi_status tl_device_record(void *state, const pgi__gpu_est_inputs *in) {
+    tl_state *s = state;
+    if (in->nphotons != s->dev.n || in->samples != s->dev.vs)
+        return pgi__fail(PGI_ERR_INTERNAL, "tiled on the GPU: recorded on inputs it was not reserved for");
+    return record_gather(s, &s->dev, in->photons);
+}
+
+static pgi_status tl_device_finish(void *state, const pgi_named_value *t, int nt, pgi_estimator_stats *es) {
+    tl_state *s = state;
+    tl_frame *f = &s->dev;
+    *es = s->dev_es; /* sequence 1's passes */
+    pgi__gpu_est_keep_timings(es, t, nt, own_passes, gather_passes, &f->gpu_build, &f->gpu_gather);
+    pgi__stats_pass(es, "gpu_submit", f->t[3] - f->t[2]);
+    es->build_ms = pgi__gpu_has_timestamps(s->g) ? f->gpu_build : f->t[3] - f->t[2];
+    es->estimate_ms = f->gpu_gather;
+    return tl_counters(s, es);
 }
 
 #endif /* PGI__HAVE_VULKAN */
@@ -358,4 +424,7 @@ const pgi__gpu_est_vtbl pgi__gpu_est_tiled = {
     .create = tl_create,
     .run = tl_run,
     .destroy = tl_destroy,
+    .device_reserve = tl_device_reserve,
+    .device_record = tl_device_record,
+    .device_finish = tl_device_finish,
 };

@@ -136,6 +136,7 @@ pgi_status pgi__gpu_direct_record(pgi__gpu_view *v, const pgi__gpu_scene *gs, pg
 
 pgi__gpu_buffer *pgi__gpu_view_samples(const pgi__gpu_view *v) { return v->samples; }
 pgi__gpu_buffer *pgi__gpu_view_image(const pgi__gpu_view *v) { return v->image; }
+pgi__gpu_buffer *pgi__gpu_view_extra(const pgi__gpu_view *v) { return v->extra; }
 
 pgi_status pgi__gpu_view_counters(pgi__gpu_view *v, uint64_t *primary, uint64_t *shadow) {
     uint32_t c[4];

@@ -77,6 +77,7 @@ pgi_status pgi__gpu_direct_record(pgi__gpu_view *v, const pgi__gpu_scene *gs, pg
                                   int direct_samples, uint64_t seed, pgi_output output);
 pgi__gpu_buffer *pgi__gpu_view_samples(const pgi__gpu_view *v); /* the ViewSample array (offset 0) */
 pgi__gpu_buffer *pgi__gpu_view_image(const pgi__gpu_view *v);
+pgi__gpu_buffer *pgi__gpu_view_extra(const pgi__gpu_view *v); /* the PixelExtra array */
 /* After the sequence: primary rays (eye rays, the specular bounces included) and shadow rays. */
 pgi_status pgi__gpu_view_counters(pgi__gpu_view *v, uint64_t *primary, uint64_t *shadow);
 /* Downloads the G-buffer into host view samples (tests; the automatic radius): every field the

@@ -175,6 +175,17 @@ static cJSON *build(const pgi_frame_stats *st) {
         ok &= add_num(o, "primary", (double)st->primary_rays);
         ok &= add_num(o, "shadow", (double)st->shadow_rays);
     }
+    if (st->traffic.submits || st->traffic.downloads) {
+        ok &= (o = cJSON_AddObjectToObject(root, "device_traffic")) != NULL;
+        if (o) {
+            ok &= add_num(o, "submits", (double)st->traffic.submits);
+            ok &= add_num(o, "dispatches", (double)st->traffic.dispatches);
+            ok &= add_num(o, "uploads", (double)st->traffic.uploads);
+            ok &= add_num(o, "upload_bytes", (double)st->traffic.upload_bytes);
+            ok &= add_num(o, "downloads", (double)st->traffic.downloads);
+            ok &= add_num(o, "download_bytes", (double)st->traffic.download_bytes);
+        }
+    }
     ok &= (o = cJSON_AddObjectToObject(root, "times_ms")) != NULL;
     if (o) {
         ok &= add_num(o, "view", st->view_ms);

@@ -1,4 +1,4 @@
-/* Pipeline internals shared by render.c, counts.c and progressive.c.
+/* Pipeline internals shared by render.c (and frame_gpu.c), counts.c and progressive.c.
  * progressive.c sits above the renderer: the public API, the scene's change
  * counters and pgi__renderer_render_frame. */
 #ifndef PGI__PIPELINE_H

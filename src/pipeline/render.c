@@ -1,65 +1,29 @@
-/* One frame, end to end (docs/design.md, "One frame"): view samples, photons, estimator
- * build + estimate, direct light (which writes the composite: pgi__direct_sum). */
+/* One frame, end to end, on either device (frame.h; docs/design.md, "One frame"): the desc
+ * resolved against the device table, the memory plan, the camera, the host buffers, the image and
+ * the stats, written once; the passes from the device's backend. The CPU's backend is here (view
+ * samples, photons, estimator build + estimate, direct light, which writes the composite:
+ * pgi__direct_sum); the Vulkan device's is frame_gpu.c. */
 #include <stdio.h>
 #include <string.h>
 
-#include "core/mem.h"
-#include "estimators/estimator_internal.h"
 #include "gpu/gpu_estimator.h"
-#include "gpu/gpu_scene.h"
-#include "gpu/gpu_trace.h"
-#include "gpu/gpu_view.h"
 #include "photon/auto_radius.h"
 #include "photon/emission.h"
-#include "photon/guide.h"
-#include "photon/photon.h"
-#include "pipeline/pipeline.h"
-#include "view/view.h"
+#include "scene/portal.h"
+#include "pipeline/frame.h"
 #include "filter/bilateral.h"
 
 #define PGI__MAX_BOUNCES 64
 
-struct pgi_renderer {
-    const pgi_scene *scene;
-    pgi__rt *rt;
-    pgi_photons ph;
-    pgi__trace_scratch trace_scratch;
-    pgi_view_samples vs;
-    float *emit, *indirect;
-    size_t pix_cap;
-    pgi__view_fill fill; /* what vs and emit hold already (pgi__view_build skips those stores) */
-    pgi_estimator *est;  /* created once per estimator name + resolved options */
+/* The CPU backend's state (pgi_renderer.dev[PGI_DEVICE_CPU]): the estimator, created once per
+ * estimator name + resolved options. */
+typedef struct cpu_state {
+    pgi_estimator *est;
     const pgi_estimator_vtbl *est_vt;
     pgi_estimator_desc est_desc;
-    pgi_camera cam; /* this frame's */
-    /* radius policies: per-photon footprint arrays (radius, then 6 ellipsoid axis planes) */
-    float *fp_buf;
-    size_t fp_cap;
-    double scene_area;   /* total triangle area, for the bvh's T_auto */
-    pgi__mem_ledger mem; /* what the large allocations of the renderer (and its scene) hold */
-    /* guided emission: the guide's tables and the cells the camera sees (kept between frames) */
-    pgi__guide guide;
-    int guide_keep; /* pgi__renderer_keep_guide */
-    pgi__view_grid vgrid;
-    pgi__view_grid near; /* PGI_STORE_VIEW: the cells within the radius of a view sample */
-    /* PGI_DEVICE_VULKAN: the device (created on the first GPU frame, kept; again when the index changes)
-     * and the GPU estimator (once per name + options, as the CPU one) */
-    pgi__gpu *gpu;
-    int gpu_index; /* device_index it was created for */
-    void *gpu_est;
-    const pgi__gpu_est_vtbl *gpu_est_vt;
-    pgi_estimator_desc gpu_est_desc;
-    /* the GPU frame (gpu_frame): the scene on the device, the view/direct passes, the photon
-     * tracer (gpu_trace.h: the photons stay on the device) */
-    pgi__gpu_scene *gpu_scene;
-    pgi__gpu_view *gpu_view;
-    pgi__gpu_trace *gpu_trace;
-    /* test hook PGI_GPU_CPU_PHOTONS=1: the CPU tracer's photons, uploaded (gpu_photons_cpu) */
-    pgi__gpu_buffer *gpu_cpu_photons;
-    pgi__gpu_buffer *gpu_indirect; /* gpu_host_estimate: the radiance of an estimator without device inputs */
-    pgi__packed_photon *gpu_packed;
-    size_t gpu_packed_cap;
-};
+} cpu_state;
+
+static const pgi__frame_backend *device_backend(pgi_device dev);
 
 /* The ledger's entries in the order the stats list them. "estimator" is the estimator's total (its
  * own entries are listed instead); entries of features not in use (0 bytes) are left out. */
@@ -197,6 +161,8 @@ pgi_status pgi_renderer_create(const pgi_scene *scene, pgi_renderer **out) {
 
 void pgi_renderer_destroy(pgi_renderer *r) {
     if (!r) return;
+    for (int i = 0; i < PGI__DEVICE_COUNT; i++)
+        if (r->dev[i]) device_backend((pgi_device)i)->release(r);
     pgi__rt_destroy(r->rt);
     pgi_photons_free(&r->ph);
     pgi__trace_scratch_free(&r->trace_scratch);
@@ -204,21 +170,10 @@ void pgi_renderer_destroy(pgi_renderer *r) {
     pgi__afree(r->emit);
     pgi__afree(r->indirect);
     pgi__view_fill_free(&r->fill);
-    pgi_estimator_destroy(r->est);
     pgi__afree(r->fp_buf);
     pgi__guide_free(&r->guide);
     pgi__view_grid_free(&r->vgrid);
     pgi__view_grid_free(&r->near);
-    if (r->gpu_est_vt) r->gpu_est_vt->destroy(r->gpu_est);
-    pgi__gpu_trace_destroy(r->gpu_trace);
-    pgi__gpu_view_destroy(r->gpu_view);
-    pgi__gpu_scene_destroy(r->gpu_scene);
-    if (r->gpu) {
-        pgi__gpu_buffer_destroy(r->gpu, r->gpu_cpu_photons);
-        pgi__gpu_buffer_destroy(r->gpu, r->gpu_indirect);
-    }
-    pgi__afree(r->gpu_packed);
-    pgi__gpu_destroy(r->gpu);
     free(r);
 }
 
@@ -312,11 +267,6 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
     if (!(fabsf(d->shift[0]) <= 0.5f) || !(fabsf(d->shift[1]) <= 0.5f))
         return pgi__fail(PGI_ERR_INVALID_ARG, "sub-pixel shift (%g, %g) is outside [-0.5, 0.5]", (double)d->shift[0],
                          (double)d->shift[1]);
-    if (d->device == PGI_DEVICE_VULKAN) {
-        if (d->shift[0] != 0.f || d->shift[1] != 0.f)
-            return pgi__fail(PGI_ERR_UNSUPPORTED, "a sub-pixel shift (pgi_render_desc.shift) needs the CPU device");
-        if (d->aovs) return pgi__fail(PGI_ERR_UNSUPPORTED, "AOVs (pgi_render_desc.aovs) need the CPU device");
-    }
     /* radius policies */
     if (d->radius_policy < PGI_RADIUS_FIXED || d->radius_policy >= PGI_RADIUS_POLICY_COUNT_)
         return pgi__fail(PGI_ERR_INVALID_ARG, "unknown radius policy %d", d->radius_policy);
@@ -385,11 +335,7 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
 /* Progress reports (pgi_render_desc.progress): on the calling thread, between passes and
  * between the tracer's batches, never inside a parallel region. A pass starts with report(),
  * which is also where a cancel request (pgi_render_desc.cancel) ends the frame. */
-typedef struct progress_ctx {
-    const pgi_render_desc *d;
-    double t_start;
-    int radius_unknown; /* d->radius is a stand-in (pgi__renderer_render_frame_late, until it is asked for) */
-} progress_ctx;
+typedef pgi__progress progress_ctx;
 
 static pgi_status report(const progress_ctx *pc, const char *pass, uint64_t done, uint64_t total) {
     if (pgi__cancelled(pc->d->cancel)) return pgi__fail_cancelled(pass);
@@ -408,6 +354,12 @@ static pgi_status report(const progress_ctx *pc, const char *pass, uint64_t done
 static void report_trace(void *ctx, uint64_t stored, uint64_t total) {
     (void)report(ctx, "trace", stored, total); /* the tracer checks the cancel token itself */
 }
+
+pgi_status pgi__frame_report(const pgi__progress *pc, const char *pass, uint64_t done, uint64_t total) {
+    return report(pc, pass, done, total);
+}
+
+void pgi__frame_report_trace(void *ctx, uint64_t stored, uint64_t total) { report_trace(ctx, stored, total); }
 
 /* Points the photon buffer at the footprint arrays the policy needs (NULL for fixed). */
 static pgi_status ensure_footprints(pgi_renderer *r, const pgi_render_desc *d) {
@@ -434,6 +386,9 @@ static pgi_status ensure_footprints(pgi_renderer *r, const pgi_render_desc *d) {
     return PGI_OK;
 }
 
+pgi_status pgi__frame_footprints(pgi_renderer *r, const pgi_render_desc *d) { return ensure_footprints(r, d); }
+
+/* The host buffers of a frame of d (photons, view samples, emitted and indirect light). */
 static pgi_status ensure_buffers(pgi_renderer *r, const pgi_render_desc *d) {
     char what[96];
     pgi_status st;
@@ -474,86 +429,42 @@ static pgi_status ensure_buffers(pgi_renderer *r, const pgi_render_desc *d) {
     return PGI_OK;
 }
 
-/* The estimator for `d`: the one of the last frame while its name and options stay the same. */
-static pgi_status ensure_estimator(pgi_renderer *r, const pgi_render_desc *d, int *created) {
-    const pgi_estimator_vtbl *vt = pgi_estimator_find(d->estimator);
-    if (r->est && r->est_vt == vt && memcmp(&d->est, &r->est_desc, sizeof d->est) == 0) return PGI_OK;
-    pgi_estimator_destroy(r->est);
-    r->est = NULL;
-    pgi_status st = pgi_estimator_create(d->estimator, &d->est, &r->est);
-    if (st) return st;
-    r->est_vt = vt;
-    r->est_desc = d->est;
-    (*created)++;
+/* ------------------------------------------------------------------ the CPU backend */
+
+static cpu_state *cpu_of(pgi_renderer *r) { return r->dev[PGI_DEVICE_CPU]; }
+
+/* The CPU is always there: its state, made once. */
+static pgi_status cpu_ensure_device(pgi_renderer *r, const pgi_render_desc *d) {
+    (void)d;
+    if (!r->dev[PGI_DEVICE_CPU] && !(r->dev[PGI_DEVICE_CPU] = calloc(1, sizeof(cpu_state))))
+        return pgi__fail(PGI_ERR_OOM, "out of memory creating a renderer");
     return PGI_OK;
 }
 
-/* The device and the GPU estimator for `d` (PGI_DEVICE_VULKAN): the renderer's while the device index,
- * the estimator's name and its options stay the same. */
-static pgi_status ensure_gpu(pgi_renderer *r, const pgi_render_desc *d, int *created) {
-    pgi_status st;
-    if (!pgi__gpu_available())
-        return pgi__fail(PGI_ERR_UNSUPPORTED, "%s",
-                         "--device vulkan: this build of photongi has no Vulkan backend (built without "
-                         "Vulkan/glslc); use --device cpu");
-    const pgi__gpu_est_vtbl *vt = pgi__gpu_est_find(d->estimator);
-    if (!vt) {
-        char names[128];
-        pgi__gpu_est_names(names, sizeof names);
-        return pgi__fail(PGI_ERR_UNSUPPORTED, "estimator '%s' has no GPU version; on --device vulkan: %s", d->estimator,
-                         names);
-    }
-    if (d->output == PGI_OUTPUT_PHOTON_COUNT)
-        return pgi__fail(PGI_ERR_UNSUPPORTED, "%s",
-                         "--output counts is not supported on the GPU device (use --device cpu)");
-    /* what the GPU frame does not have: refused by name, never a silent CPU fallback */
-    if (d->radius_policy != PGI_RADIUS_FIXED)
-        return pgi__fail(PGI_ERR_UNSUPPORTED,
-                         "--radius-policy %s is not supported on the GPU device (use --device cpu)",
-                         d->radius_policy == PGI_RADIUS_PATH ? "path" : "differentials");
-    if (d->emission != PGI_EMISSION_UNIFORM)
-        return pgi__fail(PGI_ERR_UNSUPPORTED, "--emission %s is not supported on the GPU device (use --device cpu)",
-                         d->emission == PGI_EMISSION_GUIDED ? "guided"
-                         : d->emission == PGI_EMISSION_AUTO ? "auto"
-                                                            : "portal");
-    if (d->store == PGI_STORE_VIEW)
-        return pgi__fail(PGI_ERR_UNSUPPORTED, "%s",
-                         "--store view is not supported on the GPU device (use --device cpu)");
-    if (d->filter > 0)
-        return pgi__fail(PGI_ERR_UNSUPPORTED, "%s",
-                         "--filter (the bilateral filter) is not supported on the GPU device (use --device cpu)");
-    if (r->gpu && r->gpu_index != d->device_index) {
-        if (r->gpu_est_vt) r->gpu_est_vt->destroy(r->gpu_est);
-        r->gpu_est = NULL;
-        r->gpu_est_vt = NULL;
-        pgi__gpu_trace_destroy(r->gpu_trace);
-        r->gpu_trace = NULL;
-        pgi__gpu_view_destroy(r->gpu_view);
-        r->gpu_view = NULL;
-        pgi__gpu_scene_destroy(r->gpu_scene);
-        r->gpu_scene = NULL;
-        pgi__gpu_buffer_destroy(r->gpu, r->gpu_cpu_photons);
-        pgi__gpu_buffer_destroy(r->gpu, r->gpu_indirect);
-        r->gpu_cpu_photons = NULL;
-        r->gpu_indirect = NULL;
-        pgi__gpu_destroy(r->gpu);
-        r->gpu = NULL;
-    }
-    if (!r->gpu) {
-        if ((st = pgi__gpu_create(d->device_index - 1, &r->gpu))) return st;
-        r->gpu_index = d->device_index;
-    }
-    pgi__gpu_set_budget(r->gpu, d->max_memory);
-    if (!r->gpu_scene && (st = pgi__gpu_scene_create(r->gpu, r->scene, &r->gpu_scene))) return st;
-    if (!r->gpu_view && (st = pgi__gpu_view_create(r->gpu, &r->gpu_view))) return st;
-    if (!r->gpu_trace && (st = pgi__gpu_trace_create(r->gpu, r->gpu_scene, &r->gpu_trace))) return st;
-    if (r->gpu_est_vt == vt && memcmp(&d->est, &r->gpu_est_desc, sizeof d->est) == 0) return PGI_OK;
-    if (r->gpu_est_vt) r->gpu_est_vt->destroy(r->gpu_est);
-    r->gpu_est = NULL;
-    r->gpu_est_vt = NULL;
-    if ((st = vt->create(r->gpu, &d->est, &r->gpu_est))) return st;
-    r->gpu_est_vt = vt;
-    r->gpu_est_desc = d->est;
+static void cpu_release(pgi_renderer *r) {
+    cpu_state *c = cpu_of(r);
+    if (!c) return;
+    pgi_estimator_destroy(c->est);
+    free(c);
+    r->dev[PGI_DEVICE_CPU] = NULL;
+}
+
+static const char *cpu_device_name(pgi_renderer *r) {
+    (void)r;
+    return "cpu";
+}
+
+/* The estimator for `d`: the one of the last frame while its name and options stay the same. */
+static pgi_status ensure_estimator(pgi_renderer *r, const pgi_render_desc *d, int *created) {
+    cpu_state *c = cpu_of(r);
+    const pgi_estimator_vtbl *vt = pgi_estimator_find(d->estimator);
+    if (c->est && c->est_vt == vt && memcmp(&d->est, &c->est_desc, sizeof d->est) == 0) return PGI_OK;
+    pgi_estimator_destroy(c->est);
+    c->est = NULL;
+    pgi_status st = pgi_estimator_create(d->estimator, &d->est, &c->est);
+    if (st) return st;
+    c->est_vt = vt;
+    c->est_desc = d->est;
     (*created)++;
     return PGI_OK;
 }
@@ -563,10 +474,7 @@ static pgi_status ensure_gpu(pgi_renderer *r, const pgi_render_desc *d, int *cre
 static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, uint64_t seq_seed, uint32_t index,
                           const progress_ctx *pc, pgi_frame_stats *fs) {
     pgi_status st;
-    if ((st = ensure_buffers(r, d))) return st;
     const pgi_scene *s = r->scene;
-    const pgi_camera_def *cd = d->view ? d->view : &s->cams[d->camera];
-    pgi_camera_look_at(&r->cam, cd->eye, cd->look_at, cd->up, cd->fov_y_deg, d->width, d->height);
     if (pgi__rt_needs_update(r->rt, s)) {
         /* Animated objects or a moved area light: update the BVH before any ray. */
         double tu = pgi__now_ms();
@@ -687,258 +595,237 @@ static void stats_begin(pgi_frame_stats *fs, const pgi_render_desc *d) {
     fs->device = "cpu";
 }
 
-/* ------------------------------------------------------------------ the GPU frame
- * --device vulkan (docs/gpu.md): the view samples (gpu_view.h view.comp), the estimator
- * (reading the device's view samples and photons) and direct light with the sum (direct.comp) run
- * on the device; the image is read back. Photons are traced on the device too (gpu_photons,
- * gpu_trace.h). Two command sequences: the view pass, then
- * (after the automatic radius, which reads the view samples back, only when it is asked for) the
- * estimator and direct light. */
-
 /* Appends a pass to the frame's stats (the list is bounded). */
-static void stats_pass(pgi_frame_stats *fs, const char *name, double ms) {
+void pgi__frame_pass(pgi_frame_stats *fs, const char *name, double ms) {
     if (fs->pass_count < PGI_MAX_STAT_ENTRIES) fs->passes_ms[fs->pass_count++] = (pgi_named_value){name, ms};
 }
 
-/* Test hook PGI_GPU_CPU_PHOTONS=1: the CPU tracer's photons (pgi__photons_trace into r->ph), packed
- * and uploaded (a buffer also named "gpu_photons"; pass "gpu_upload"), so that tests can compare the device's other
- * passes with the CPU's frame on the same photons (test_gpu, test_gpu_cli). */
-static pgi_status gpu_photons_cpu(pgi_renderer *r, const pgi_render_desc *d, const progress_ctx *pc,
-                                  pgi_frame_stats *fs, pgi__gpu_buffer **buf, size_t *n) {
-    pgi_status st;
-    if (pgi__rt_needs_update(r->rt, r->scene)) { /* the CPU tracer's Embree scene (only this hook uses it) */
-        double tu = pgi__now_ms();
-        if ((st = pgi__rt_update(r->rt, r->scene))) return st;
-        fs->rt_update_ms += pgi__now_ms() - tu;
-    }
-    double t0 = pgi__now_ms();
-    pgi__trace_desc td = {.photons = d->photons, .bounces = d->bounces, .seed = d->seed, .threads = d->threads};
-    if ((st = ensure_footprints(r, d))) return st;
-    if (d->progress) {
-        td.progress = report_trace;
-        td.progress_ctx = (void *)pc;
-    }
-    pgi__rt_capture_pass(r->rt, PGI__PASS_TRACE);
-    st = pgi__photons_trace(r->scene, r->rt, &td, &r->ph, &r->trace_scratch, &fs->photon_rays);
-    pgi__rt_capture_pass(r->rt, PGI__PASS_NONE);
-    pgi__mem_set(&r->mem, "trace_scratch", pgi__trace_scratch_bytes(&r->trace_scratch));
-    if (st) return st;
-    double t1 = pgi__now_ms();
-    fs->trace_ms = t1 - t0;
-    fs->photons_emitted = r->ph.emitted;
-    fs->photons_stored = r->ph.count;
-    fs->photon_paths_discarded = r->trace_scratch.paths_traced - r->ph.emitted - r->trace_scratch.paths_pilot;
-    const size_t np = r->ph.count;
-    if ((st = pgi__ensure((void **)&r->gpu_packed, &r->gpu_packed_cap, np + 1, sizeof(pgi__packed_photon)))) return st;
-#pragma omp parallel for schedule(static) num_threads(pgi__threads(d->threads))
-    for (long long j = 0; j < (long long)np; j++) pgi__pack_photon(&r->ph, (size_t)j, &r->gpu_packed[j]);
-    if ((st = pgi__gpu_buffer_reserve(r->gpu, &r->gpu_cpu_photons, (np + 1) * sizeof(pgi__packed_photon),
-                                      "gpu_photons")) ||
-        (st = pgi__gpu_upload(r->gpu, r->gpu_cpu_photons, 0, r->gpu_packed, np * sizeof(pgi__packed_photon))))
-        return st;
-    stats_pass(fs, "gpu_upload", pgi__now_ms() - t1);
-    *buf = r->gpu_cpu_photons;
-    *n = np;
+/* The arguments of the CPU estimator's calls. */
+static pgi_estimate_args cpu_args(pgi_renderer *r, const pgi_render_desc *d) {
+    return (pgi_estimate_args){.photons = &r->ph,
+                               .samples = &r->vs,
+                               .camera = &r->cam,
+                               .out_rgb = r->indirect,
+                               .radius = d->radius,
+                               .seed = d->seed,
+                               .threads = d->threads,
+                               .scene_area = (float)r->scene_area,
+                               .cancel = d->cancel};
+}
+
+/* The part of a frame before the radius (view samples, photons) does not read it. */
+static int cpu_late_radius(const pgi_render_desc *in) {
+    return in->radius_policy == PGI_RADIUS_FIXED && in->emission == PGI_EMISSION_UNIFORM && in->store == PGI_STORE_ALL;
+}
+
+/* The inputs are on the host already. */
+static pgi_status cpu_to_host(pgi_renderer *r, const pgi_render_desc *d, pgi_frame_stats *fs) {
+    (void)r, (void)d, (void)fs;
     return PGI_OK;
 }
 
-/* The frame's photons on the device (gpu_trace.h: traced there, pgi__packed_photon, *n of them,
- * in the tracer's buffer "gpu_photons"); fs gets trace_ms (the device's "gpu_trace" timestamps),
- * the photon counts and the pass "gpu_trace". The CPU tracer does not run. The photons are read
- * back into r->ph only when the automatic radius needs them (pass "gpu_trace_download"); otherwise
- * r->ph holds none after a GPU frame. */
-static pgi_status gpu_photons(pgi_renderer *r, const pgi_render_desc *d, const progress_ctx *pc, pgi_frame_stats *fs,
-                              pgi__gpu_buffer **buf, size_t *n) {
-    const char *hook = getenv("PGI_GPU_CPU_PHOTONS");
-    if (hook && strcmp(hook, "1") == 0) return gpu_photons_cpu(r, d, pc, fs, buf, n);
+/* The estimator's build and gather into r->indirect, then the reconstruction filter (a pass of
+ * its own, "filter", not the estimator's time). */
+static pgi_status cpu_indirect(pgi_renderer *r, const pgi_render_desc *d, const progress_ctx *pc, pgi_frame_stats *fs,
+                               pgi_estimator_stats *es) {
+    cpu_state *c = cpu_of(r);
+    const pgi_estimate_args ea = cpu_args(r, d);
     pgi_status st;
-    const pgi__gpu_trace_desc td = {.photons = d->photons,
-                                    .bounces = d->bounces,
-                                    .seed = d->seed,
-                                    .radius_policy = d->radius_policy,
-                                    .emission = (int)d->emission,
-                                    .store = (int)d->store};
-    if (d->progress) report_trace((void *)pc, 0, d->photons);
-    pgi__gpu_trace_result tr;
-    if ((st = pgi__gpu_trace_run(r->gpu_trace, r->scene, &td, &tr))) return st;
-    if (d->progress) report_trace((void *)pc, tr.count, d->photons);
-    fs->trace_ms = tr.trace_ms;
-    fs->photons_emitted = tr.emitted;
-    fs->photons_stored = tr.count;
-    fs->photon_rays = tr.rays;
-    fs->photon_paths_discarded = tr.paths_discarded;
-    stats_pass(fs, "gpu_trace", tr.trace_ms);
-    r->ph.count = 0;
-    r->ph.emitted = tr.emitted;
-    if (d->radius == PGI_RADIUS_AUTO) { /* the automatic radius reads the photons on the host */
-        double t0 = pgi__now_ms();
-        if ((st = pgi__gpu_trace_download(r->gpu_trace, &r->ph))) return st;
-        stats_pass(fs, "gpu_trace_download", pgi__now_ms() - t0);
-    }
-    *buf = pgi__gpu_trace_photons(r->gpu_trace);
-    *n = tr.count;
+    double t2 = pgi__now_ms();
+    if ((st = pgi_estimator_build(c->est, &ea))) return st;
+    double t3 = pgi__now_ms();
+    if ((st = report(pc, "estimate", 0, 0))) return st;
+    if ((st = pgi_estimator_estimate(c->est, &ea))) return st;
+    const double t_est = pgi__now_ms();
+    if (d->filter > 0 && (st = pgi__bilateral_filter(&r->vs, d->filter, d->threads, r->indirect))) return st;
+    const double filter_ms = d->filter > 0 ? pgi__now_ms() - t_est : 0.0;
+    pgi_estimator_get_stats(c->est, es);
+    fs->build_ms = t3 - t2;
+    fs->estimate_ms = t_est - t3;
+    for (int k = 0; k < es->pass_count; k++) pgi__frame_pass(fs, es->pass_names[k], es->pass_ms[k]);
+    if (d->filter > 0) pgi__frame_pass(fs, "filter", filter_ms);
     return PGI_OK;
 }
 
-static double timing_of(const pgi_named_value *t, int nt, const char *name) {
-    double ms = 0.0;
-    for (int i = 0; i < nt; i++)
-        if (strcmp(t[i].name, name) == 0) ms += t[i].value;
-    return ms;
-}
-
-/* An estimator that runs on uploaded inputs only (no device_* entry points: cluster-trivial): the
- * frame's photons and view samples are read back (unless the automatic radius did already), the
- * estimator runs as on host inputs (uploading them again) and its radiance goes back up into
- * "gpu_indirect" for the sum. Three more copies than the device path; the image is the same. */
-static pgi_status gpu_host_estimate(pgi_renderer *r, const pgi_render_desc *d, size_t np, int vs_on_host,
-                                    pgi_frame_stats *fs, pgi_estimator_stats *es, pgi__gpu_buffer **indirect) {
-    pgi_status st;
-    double t0 = pgi__now_ms();
-    if (!vs_on_host && (st = pgi__gpu_view_download(r->gpu_view, r->scene, &r->vs, NULL))) return st;
-    if (r->ph.count != np && (st = pgi__gpu_trace_download(r->gpu_trace, &r->ph))) return st;
-    stats_pass(fs, "gpu_readback", pgi__now_ms() - t0);
-    const size_t n = (size_t)d->width * (size_t)d->height;
-    pgi_estimate_args a = {.photons = &r->ph,
-                           .samples = &r->vs,
-                           .camera = &r->cam,
-                           .out_rgb = r->indirect,
-                           .radius = d->radius,
-                           .seed = d->seed,
-                           .threads = d->threads,
-                           .scene_area = (float)r->scene_area};
-    if ((st = r->gpu_est_vt->run(r->gpu_est, &a, es))) return st;
-    double t1 = pgi__now_ms();
-    if ((st = pgi__gpu_buffer_reserve(r->gpu, &r->gpu_indirect, 3 * n * sizeof(float), "gpu_indirect")) ||
-        (st = pgi__gpu_upload(r->gpu, r->gpu_indirect, 0, r->indirect, 3 * n * sizeof(float))))
-        return st;
-    stats_pass(fs, "gpu_indirect_upload", pgi__now_ms() - t1);
-    *indirect = r->gpu_indirect;
-    return PGI_OK;
-}
-
-static pgi_status gpu_frame(pgi_renderer *r, pgi_render_desc *d, uint64_t seq_seed, uint32_t index,
-                            const progress_ctx *pc, pgi_frame_stats *fs, double t_start, pgi_image *out) {
-    pgi_status st;
-    pgi__gpu *g = r->gpu;
-    const pgi_scene *s = r->scene;
-    if ((st = ensure_buffers(r, d))) return st;
-    pgi__view_fill_forget(&r->fill); /* the view samples may come from the device (pgi__gpu_view_download) */
-    const pgi_camera_def *cd = d->view ? d->view : &s->cams[d->camera];
-    pgi_camera_look_at(&r->cam, cd->eye, cd->look_at, cd->up, cd->fov_y_deg, d->width, d->height);
-    if (pgi__gpu_scene_needs_update(r->gpu_scene, s)) {
-        double tu = pgi__now_ms();
-        if ((st = pgi__gpu_scene_update(r->gpu_scene, s))) return st;
-        fs->rt_update_ms += pgi__now_ms() - tu;
-    }
-    /* photons first (their own sequences: batches sized by the yield), then the other passes */
-    if ((st = report(pc, "trace", 0, 0))) return st;
-    pgi__gpu_buffer *photons = NULL;
-    size_t np = 0;
-    if ((st = gpu_photons(r, d, pc, fs, &photons, &np))) return st;
-
-    /* sequence 1: the view pass */
-    if ((st = report(pc, "view", 0, 0))) return st;
-    const pgi__subpixel sp = {.jitter = d->jitter == PGI_JITTER_ON,
-                              .seed = seq_seed,
-                              .index = index,
-                              .tex_filter = d->texture_filter == PGI_TEXTURE_FILTER_ON};
-    if ((st = pgi__gpu_view_prepare(r->gpu_view, &r->cam, d->seed, &sp))) return st;
-    pgi_named_value t[64];
-    int nt = 0;
-    if ((st = pgi__gpu_begin(g))) return st;
-    pgi__gpu_timestamp(g, "start");
-    if ((st = pgi__gpu_view_record(r->gpu_view, r->gpu_scene))) {
-        (void)pgi__gpu_submit_wait(g);
-        return st;
-    }
-    if ((st = pgi__gpu_submit_wait(g))) return st;
-    nt = pgi__gpu_timings(g, t, 64);
-    int vs_on_host = 0;
-    if (d->radius == PGI_RADIUS_AUTO) {
-        /* the automatic radius reads the view samples on the host: the one read-back of the G-buffer */
-        vs_on_host = 1;
-        double tr = pgi__now_ms();
-        if ((st = pgi__gpu_view_download(r->gpu_view, s, &r->vs, NULL))) return st;
-        stats_pass(fs, "gpu_view_download", pgi__now_ms() - tr);
-        if ((st = choose_radius(r, d, fs))) return st;
-    }
-
-    /* sequence 2: the estimator on the device's photons and view samples, direct light, the sum */
-    if ((st = report(pc, "build", 0, 0))) return st;
-    pgi__gpu_buffer *indirect = NULL;
-    const int need_indirect = d->output != PGI_OUTPUT_DIRECT;
-    const int host_inputs = need_indirect && !r->gpu_est_vt->device_reserve;
-    pgi_estimator_stats es;
-    memset(&es, 0, sizeof es);
-    if (host_inputs) {
-        if ((st = gpu_host_estimate(r, d, np, vs_on_host, fs, &es, &indirect))) return st;
-    } else if (need_indirect && (st = r->gpu_est_vt->device_reserve(r->gpu_est, np, d->width, d->height, &indirect)))
-        return st;
-    const pgi__gpu_est_inputs in = {.photons = photons,
-                                    .nphotons = np,
-                                    .samples = pgi__gpu_view_samples(r->gpu_view),
-                                    .lobes = pgi__gpu_scene_lobes(r->gpu_scene),
-                                    .width = d->width,
-                                    .height = d->height,
-                                    .radius = d->radius};
-    if ((st = pgi__gpu_begin(g))) return st;
-    pgi__gpu_timestamp(g, "start");
-    if ((need_indirect && !host_inputs && (st = r->gpu_est_vt->device_record(r->gpu_est, &in))) ||
-        (st = pgi__gpu_direct_record(r->gpu_view, r->gpu_scene, indirect, d->direct_samples, d->seed, d->output))) {
-        (void)pgi__gpu_submit_wait(g);
-        return st;
-    }
-    double ts = pgi__now_ms();
-    if ((st = pgi__gpu_submit_wait(g))) return st;
-    double te = pgi__now_ms();
-    nt += pgi__gpu_timings(g, t + nt, 64 - nt);
-    if (need_indirect && !host_inputs && (st = r->gpu_est_vt->device_finish(r->gpu_est, t, nt, &es))) return st;
-    if ((st = pgi__gpu_view_counters(r->gpu_view, &fs->primary_rays, &fs->shadow_rays))) return st;
-
-    /* the image */
+/* The direct pass writes the image itself (emitted + direct + weight x indirect: the composite), so
+ * that the direct light never makes a trip through memory. The indirect light alone needs no direct
+ * light: no shadow ray. The photon counts (PGI_OUTPUT_PHOTON_COUNT) overwrite the image last. */
+static pgi_status cpu_compose(pgi_renderer *r, const pgi_render_desc *d, const progress_ctx *pc, pgi_frame_stats *fs,
+                              pgi_image *img) {
     const size_t n = (size_t)d->width * d->height;
-    pgi_image img = *out;
-    if (!img.rgb || img.width != d->width || img.height != d->height) {
-        char what[64];
-        snprintf(what, sizeof what, "the %dx%d output image", d->width, d->height);
-        if ((st = pgi__mem_reserve(&r->mem, "image", 3 * n * sizeof(float), what))) return st;
-        img = (pgi_image){d->width, d->height, malloc(3 * n * sizeof(float))};
-        if (!img.rgb) return pgi__fail(PGI_ERR_OOM, "out of memory for the output image");
-    }
-    double td0 = pgi__now_ms();
-    if ((st = pgi__gpu_download(g, pgi__gpu_view_image(r->gpu_view), 0, img.rgb, 3 * n * sizeof(float)))) {
-        if (img.rgb != out->rgb) free(img.rgb);
-        return st;
-    }
-    double td1 = pgi__now_ms();
-    if (img.rgb != out->rgb) pgi_image_free(out);
-
-    /* stats: the device's passes from its timestamps (the CPU-timed sequence when it has none) */
-    if (pgi__gpu_has_timestamps(g)) {
-        fs->view_ms = timing_of(t, nt, "gpu_view");
-        fs->direct_ms = timing_of(t, nt, "gpu_direct");
-        fs->build_ms = es.build_ms;
-        fs->estimate_ms = es.estimate_ms;
+    pgi_status st;
+    double t4 = pgi__now_ms();
+    const pgi__direct_sum sum = {.emit = r->emit,
+                                 .indirect = r->indirect,
+                                 .output = d->output,
+                                 .direct = d->aovs ? d->aovs->direct : NULL,
+                                 .cancel = d->cancel};
+    if (d->output == PGI_OUTPUT_INDIRECT) {
+        pgi__indirect_image(&r->vs, r->indirect, d->threads, img->rgb);
+        if (sum.direct) memset(sum.direct, 0, 3 * n * sizeof(float));
+        st = PGI_OK;
     } else {
-        fs->view_ms = timing_of(t, nt, "gpu_view");
-        fs->direct_ms = te - ts; /* estimator and direct light in one CPU-timed entry */
+        if ((st = report(pc, "direct", 0, 0))) return st;
+        pgi__rt_capture_pass(r->rt, PGI__PASS_DIRECT);
+        st = pgi__direct(r->scene, r->rt, &r->vs, &r->fill, &sum, d->direct_samples, d->seed, d->threads, img->rgb,
+                         &fs->shadow_rays);
+        pgi__rt_capture_pass(r->rt, PGI__PASS_NONE);
     }
-    stats_pass(fs, "gpu_view", timing_of(t, nt, "gpu_view"));
-    for (int k = 0; k < es.pass_count; k++) stats_pass(fs, es.pass_names[k], es.pass_ms[k]);
-    stats_pass(fs, "gpu_direct", timing_of(t, nt, "gpu_direct"));
-    stats_pass(fs, "gpu_download", td1 - td0);
-    fs->total_ms = pgi__now_ms() - t_start;
-    pgi__mem_set(&r->mem, "image", 3 * n * sizeof(float));
-    mem_stats(r, &es, fs);
-    pgi_named_value gm[PGI_MAX_STAT_ENTRIES];
-    int ng = pgi__gpu_memory(g, gm, PGI_MAX_STAT_ENTRIES);
-    for (int k = 0; k < ng && fs->memory_count < PGI_MAX_STAT_ENTRIES; k++)
-        fs->memory_bytes[fs->memory_count++] = gm[k];
-    fs->reads = es.reads;
-    fs->contributing = es.contributing;
-    fs->nodes_visited = es.nodes_visited;
-    *out = img;
+    if (!st && d->aovs) pgi__view_aovs(&r->vs, r->indirect, d->threads, d->aovs);
+    if (st) return st;
+    fs->direct_ms = pgi__now_ms() - t4;
+    if (d->output == PGI_OUTPUT_PHOTON_COUNT) {
+        const pgi_estimate_args ea = cpu_args(r, d);
+        return pgi__photon_counts(cpu_of(r)->est, &ea, img->rgb);
+    }
+    return PGI_OK;
+}
+
+static void cpu_finish(pgi_renderer *r, const pgi_render_desc *d, const pgi_estimator_stats *es, pgi_frame_stats *fs) {
+    (void)r, (void)d;
+    fs->reads_bulk = es->reads_bulk;
+    fs->leaf_size = es->leaf_size;
+}
+
+const pgi__frame_backend pgi__frame_cpu = {
+    .ensure_device = cpu_ensure_device,
+    .ensure_estimator = ensure_estimator,
+    .device_name = cpu_device_name,
+    .late_radius = cpu_late_radius,
+    .inputs = prepare,
+    .to_host = cpu_to_host,
+    .indirect = cpu_indirect,
+    .compose = cpu_compose,
+    .finish = cpu_finish,
+    .release = cpu_release,
+};
+
+/* ------------------------------------------------------------------ the devices
+ * One row a device: the backend that runs its passes, the settings it has, the estimators it runs
+ * and the options they take there. The one table behind every "not supported on this device"
+ * refusal (device_check) and the lists of what each device runs (pgi_device_estimators). */
+
+/* The settings not every device has: whether d uses one, and its name as the command line spells it. */
+enum { F_SHIFT, F_AOVS, F_COUNTS, F_RADIUS_POLICY, F_EMISSION, F_STORE_VIEW, F_FILTER, F_COUNT };
+
+static int uses_feature(const pgi_render_desc *d, int f, char *name, size_t size) {
+    static const char *const emission[] = {"uniform", "guided", "auto", "portal"};
+    switch (f) {
+    case F_SHIFT:
+        snprintf(name, size, "a sub-pixel shift (pgi_render_desc.shift)");
+        return d->shift[0] != 0.f || d->shift[1] != 0.f;
+    case F_AOVS: snprintf(name, size, "AOVs (pgi_render_desc.aovs)"); return d->aovs != NULL;
+    case F_COUNTS: snprintf(name, size, "--output counts"); return d->output == PGI_OUTPUT_PHOTON_COUNT;
+    case F_RADIUS_POLICY:
+        snprintf(name, size, "--radius-policy %s", d->radius_policy == PGI_RADIUS_PATH ? "path" : "differentials");
+        return d->radius_policy != PGI_RADIUS_FIXED;
+    case F_EMISSION:
+        snprintf(name, size, "--emission %s",
+                 d->emission >= PGI_EMISSION_UNIFORM && d->emission <= PGI_EMISSION_PORTAL ? emission[d->emission]
+                                                                                           : "?");
+        return d->emission != PGI_EMISSION_UNIFORM;
+    case F_STORE_VIEW: snprintf(name, size, "--store view"); return d->store == PGI_STORE_VIEW;
+    case F_FILTER: snprintf(name, size, "--filter (the bilateral filter)"); return d->filter > 0;
+    default: return 0;
+    }
+}
+/* The settings the view samples or photons depend on (pgi_renderer_prepare checks only these). */
+#define INPUT_FEATURES (1u << F_SHIFT | 1u << F_RADIUS_POLICY | 1u << F_EMISSION | 1u << F_STORE_VIEW)
+
+/* The PGI_EST_CAP_* options estimator vt takes on a device; -1: it does not run there. */
+static long cpu_est_caps(const pgi_estimator_vtbl *vt) { return (long)vt->caps; }
+static long vulkan_est_caps(const pgi_estimator_vtbl *vt) {
+    return pgi__gpu_est_find(vt->name) ? (long)(vt->caps & pgi__gpu_est_caps(vt->name)) : -1;
+}
+
+typedef struct device_row {
+    const char *name;      /* as --device spells it */
+    const char *label;     /* in a refusal: "... is not supported on the GPU device" */
+    const char *est_label; /* "estimator 'kdtree' has no GPU version" */
+    const pgi__frame_backend *backend;
+    unsigned has; /* the settings (1 << F_*) it runs */
+    long (*est_caps)(const pgi_estimator_vtbl *vt);
+} device_row;
+
+static const device_row k_devices[PGI__DEVICE_COUNT] = {
+    [PGI_DEVICE_CPU] = {"cpu", "the CPU", "CPU", &pgi__frame_cpu, (1u << F_COUNT) - 1, cpu_est_caps},
+    [PGI_DEVICE_VULKAN] = {"vulkan", "the GPU device", "GPU", &pgi__frame_vulkan, 0, vulkan_est_caps},
+};
+
+static const pgi__frame_backend *device_backend(pgi_device dev) {
+    return (int)dev >= 0 && (int)dev < PGI__DEVICE_COUNT ? k_devices[dev].backend : NULL;
+}
+
+/* "hashgrid, tiled, ...": the registered estimators that run on dev, in the registry's order. */
+static void device_estimators(const device_row *dev, char *buf, size_t size) {
+    if (size) buf[0] = 0;
+    for (size_t i = 0; i < pgi_estimator_count(); i++)
+        if (dev->est_caps(pgi_estimator_at(i)) >= 0) pgi__list_append(buf, size, pgi_estimator_at(i)->name);
+}
+
+/* The first device that has setting f (every setting is on the CPU). */
+static const char *device_with(unsigned f) {
+    for (int i = 0; i < PGI__DEVICE_COUNT; i++)
+        if (k_devices[i].has & 1u << f) return k_devices[i].name;
+    return k_devices[PGI_DEVICE_CPU].name;
+}
+
+/* Refuses by name (PGI_ERR_UNSUPPORTED) what d's device does not run: its estimator, the
+ * estimator's options there, the frame's settings. frame 0 (pgi_renderer_prepare): only the
+ * settings of the view samples and photons. d resolved (its device valid). */
+static pgi_status device_check(const pgi_render_desc *d, int frame) {
+    const device_row *dev = &k_devices[d->device];
+    char what[96];
+    if (frame) {
+        const pgi_estimator_vtbl *vt = pgi_estimator_find(d->estimator);
+        const long caps = dev->est_caps(vt);
+        if (caps < 0) {
+            char names[256];
+            device_estimators(dev, names, sizeof names);
+            return pgi__fail(PGI_ERR_UNSUPPORTED, "estimator '%s' has no %s version; on --device %s: %s", d->estimator,
+                             dev->est_label, dev->name, names);
+        }
+        const char *opt = NULL;
+        if (d->est.kernel != PGI_KERNEL_CONSTANT && !(caps & PGI_EST_CAP_KERNELS)) opt = "kernel";
+        else if (d->est.subsample > 1 && !(caps & PGI_EST_CAP_SUBSAMPLE)) opt = "subsample";
+        if (opt) {
+            char value[32];
+            pgi_option_format(pgi_option_find(opt), &d->est, value, sizeof value);
+            return pgi__fail(PGI_ERR_UNSUPPORTED,
+                             "--%s %s with estimator '%s' is not supported on %s (use --device %s)", opt, value,
+                             d->estimator, dev->label, k_devices[PGI_DEVICE_CPU].name);
+        }
+    }
+    for (int f = 0; f < F_COUNT; f++)
+        if ((frame || (INPUT_FEATURES & 1u << f)) && !(dev->has & 1u << f) && uses_feature(d, f, what, sizeof what))
+            return pgi__fail(PGI_ERR_UNSUPPORTED, "%s is not supported on %s (use --device %s)", what, dev->label,
+                             device_with((unsigned)f));
+    return PGI_OK;
+}
+
+/* ------------------------------------------------------------------ the frame */
+
+/* The camera of d and the host buffers of its size: what the inputs of every device start from. */
+static pgi_status frame_begin(pgi_renderer *r, const pgi_render_desc *d) {
+    pgi_status st = ensure_buffers(r, d);
+    if (st) return st;
+    const pgi_camera_def *cd = d->view ? d->view : &r->scene->cams[d->camera];
+    pgi_camera_look_at(&r->cam, cd->eye, cd->look_at, cd->up, cd->fov_y_deg, d->width, d->height);
+    return PGI_OK;
+}
+
+/* The output image: the caller's when it already has this size (steady-state frames then allocate
+ * nothing). */
+static pgi_status frame_image(pgi_renderer *r, const pgi_render_desc *d, const pgi_image *out, pgi_image *img) {
+    const size_t n = (size_t)d->width * d->height;
+    *img = *out;
+    if (img->rgb && img->width == d->width && img->height == d->height) return PGI_OK;
+    char what[64];
+    snprintf(what, sizeof what, "the %dx%d output image", d->width, d->height);
+    pgi_status st = pgi__mem_reserve(&r->mem, "image", 3 * n * sizeof(float), what);
+    if (st) return st;
+    *img = (pgi_image){d->width, d->height, malloc(3 * n * sizeof(float))};
+    if (!img->rgb) return pgi__fail(PGI_ERR_OOM, "out of memory for the output image");
     return PGI_OK;
 }
 
@@ -948,14 +835,17 @@ pgi_status pgi_renderer_prepare(pgi_renderer *r, const pgi_render_desc *in, pgi_
     pgi__clear_error();
     pgi_render_desc d;
     pgi_status st = resolve_desc(r->scene, in, &d);
-    if (st) return st;
+    if (st || (st = device_check(&d, 0))) return st;
     pgi_frame_stats fs;
     stats_begin(&fs, &d);
     if ((st = mem_plan(r, &d, NULL))) return st;
+    const pgi__frame_backend *be = device_backend(d.device);
+    if ((st = be->ensure_device(r, &d))) return st;
+    fs.device = be->device_name(r);
     double t0 = pgi__now_ms();
     const progress_ctx pc = {&d, t0, 0};
-    if ((st = prepare(r, &d, d.seed, 0, &pc, &fs))) return st;
-    if ((st = choose_radius(r, &d, &fs))) return st;
+    if ((st = frame_begin(r, &d)) || (st = be->inputs(r, &d, d.seed, 0, &pc, &fs))) return st;
+    if ((st = choose_radius(r, &d, &fs)) || (st = be->to_host(r, &d, &fs))) return st;
     fs.total_ms = pgi__now_ms() - t0;
     mem_stats(r, NULL, &fs);
     *out = (pgi_frame_inputs){.photons = &r->ph,
@@ -977,12 +867,7 @@ pgi_status pgi__renderer_render_frame(pgi_renderer *r, const pgi_render_desc *in
     return pgi__renderer_render_frame_late(r, in, seq_seed, index, NULL, NULL, out, stats);
 }
 
-/* Does the part of a frame before the radius (view samples, photons) not read the radius? */
-static int prepare_without_radius(const pgi_render_desc *in) {
-    return in->device == PGI_DEVICE_CPU && in->radius_policy == PGI_RADIUS_FIXED &&
-           in->emission == PGI_EMISSION_UNIFORM && in->store == PGI_STORE_ALL;
-}
-
+/* The one frame function: every pgi_renderer_render, progressive and temporal step, on either device. */
 pgi_status pgi__renderer_render_frame_late(pgi_renderer *r, const pgi_render_desc *in, uint64_t seq_seed,
                                            uint32_t index, pgi__late_radius_fn radius_fn, void *user, pgi_image *out,
                                            pgi_frame_stats *stats) {
@@ -991,31 +876,26 @@ pgi_status pgi__renderer_render_frame_late(pgi_renderer *r, const pgi_render_des
     pgi_render_desc given = *in, d;
     int late = 0;
     if (radius_fn) {
-        if (prepare_without_radius(in)) {
+        const pgi__frame_backend *be = device_backend(in->device);
+        if (be && be->late_radius && be->late_radius(in)) {
             late = 1;
             given.radius = 1.f; /* a stand-in: nothing before the radius reads it */
         } else given.radius = radius_fn(user, (int)index);
     }
     pgi_status st = resolve_desc(r->scene, &given, &d);
-    if (st) return st;
+    if (st || (st = device_check(&d, 1))) return st;
     if (seq_seed == 0) seq_seed = d.seed; /* a lone frame: the sequence of its own seed */
     double t_start = pgi__now_ms();
     pgi_frame_stats fs;
     stats_begin(&fs, &d);
     if ((st = mem_plan(r, &d, pgi_estimator_find(d.estimator)))) return st;
-    const int on_gpu = d.device == PGI_DEVICE_VULKAN;
-    if ((st = on_gpu ? ensure_gpu(r, &d, &fs.estimators_created) : ensure_estimator(r, &d, &fs.estimators_created)))
-        return st;
-    fs.device = on_gpu ? pgi__gpu_device_name(r->gpu) : "cpu";
-    if (on_gpu)
+    const pgi__frame_backend *be = device_backend(d.device);
+    if ((st = be->ensure_device(r, &d)) || (st = be->ensure_estimator(r, &d, &fs.estimators_created))) return st;
+    fs.device = be->device_name(r);
+    if (d.device == PGI_DEVICE_VULKAN)
         fs.emission.reason = in->emission == PGI_EMISSION_AUTO ? "the GPU traces uniform emission only" : "asked for";
     progress_ctx pc = {&d, t_start, late};
-    if (on_gpu) {
-        st = gpu_frame(r, &d, seq_seed, index, &pc, &fs, t_start, out);
-        if (!st && stats) *stats = fs;
-        return st;
-    }
-    if ((st = prepare(r, &d, seq_seed, index, &pc, &fs))) return st;
+    if ((st = frame_begin(r, &d)) || (st = be->inputs(r, &d, seq_seed, index, &pc, &fs))) return st;
     if (late) {
         /* the radius now: the desc resolved with it, as pgi__renderer_render_frame would have
            (only the radius and what derives from it differ from the stand-in's) */
@@ -1036,89 +916,23 @@ pgi_status pgi__renderer_render_frame_late(pgi_renderer *r, const pgi_render_des
         pc.radius_unknown = 0;
     }
     if ((st = choose_radius(r, &d, &fs))) return st;
-    const pgi_scene *s = r->scene;
-    double t2 = pgi__now_ms();
-    pgi_estimate_args ea = {.photons = &r->ph,
-                            .samples = &r->vs,
-                            .camera = &r->cam,
-                            .out_rgb = r->indirect,
-                            .radius = d.radius,
-                            .seed = d.seed,
-                            .threads = d.threads,
-                            .scene_area = (float)r->scene_area,
-                            .cancel = d.cancel};
     pgi_estimator_stats es;
-    double t3;
-    if ((st = report(&pc, "build", 0, 0)) || (st = pgi_estimator_build(r->est, &ea))) return st;
-    t3 = pgi__now_ms();
-    if ((st = report(&pc, "estimate", 0, 0))) return st;
-    if ((st = pgi_estimator_estimate(r->est, &ea))) return st;
-    const double t_est = pgi__now_ms();
-    /* the reconstruction filter is a pass of its own ("filter"), not the estimator's time */
-    if (d.filter > 0 && (st = pgi__bilateral_filter(&r->vs, d.filter, d.threads, r->indirect))) return st;
-    const double filter_ms = d.filter > 0 ? pgi__now_ms() - t_est : 0.0;
-    size_t n = (size_t)d.width * d.height;
-    /* Reuse the caller's image when it already has this size (steady-state
-     * frames then allocate nothing). */
-    pgi_image img = *out;
-    if (!img.rgb || img.width != d.width || img.height != d.height) {
-        char what[64];
-        snprintf(what, sizeof what, "the %dx%d output image", d.width, d.height);
-        if ((st = pgi__mem_reserve(&r->mem, "image", 3 * n * sizeof(float), what))) return st;
-        img = (pgi_image){d.width, d.height, malloc(3 * n * sizeof(float))};
-        if (!img.rgb) return pgi__fail(PGI_ERR_OOM, "out of memory for the output image");
-    }
-    double t4 = pgi__now_ms();
-    /* The direct pass writes the image itself (emitted + direct + weight x indirect: the
-     * composite), so that the direct light never makes a trip through memory. The indirect
-     * light alone needs no direct light: no shadow ray. */
-    const pgi__direct_sum sum = {.emit = r->emit,
-                                 .indirect = r->indirect,
-                                 .output = d.output,
-                                 .direct = d.aovs ? d.aovs->direct : NULL,
-                                 .cancel = d.cancel};
-    if (d.output == PGI_OUTPUT_INDIRECT) {
-        pgi__indirect_image(&r->vs, r->indirect, d.threads, img.rgb);
-        if (sum.direct) memset(sum.direct, 0, 3 * n * sizeof(float));
-        st = PGI_OK;
-    } else {
-        st = report(&pc, "direct", 0, 0);
-        if (st) {
-            if (img.rgb != out->rgb) free(img.rgb);
-            return st;
-        }
-        pgi__rt_capture_pass(r->rt, PGI__PASS_DIRECT);
-        st = pgi__direct(s, r->rt, &r->vs, &r->fill, &sum, d.direct_samples, d.seed, d.threads, img.rgb,
-                         &fs.shadow_rays);
-        pgi__rt_capture_pass(r->rt, PGI__PASS_NONE);
-    }
-    if (!st && d.aovs) pgi__view_aovs(&r->vs, r->indirect, d.threads, d.aovs);
-    if (st) {
+    memset(&es, 0, sizeof es);
+    if ((st = report(&pc, "build", 0, 0)) || (st = be->indirect(r, &d, &pc, &fs, &es))) return st;
+    pgi_image img;
+    if ((st = frame_image(r, &d, out, &img))) return st;
+    if ((st = be->compose(r, &d, &pc, &fs, &img))) {
         if (img.rgb != out->rgb) free(img.rgb);
         return st;
     }
-    double t5 = pgi__now_ms();
     if (img.rgb != out->rgb) pgi_image_free(out);
-
-    pgi_estimator_get_stats(r->est, &es);
-    if (d.output == PGI_OUTPUT_PHOTON_COUNT && (st = pgi__photon_counts(r->est, &ea, img.rgb))) {
-        if (img.rgb != out->rgb) free(img.rgb);
-        return st;
-    }
-    fs.build_ms = t3 - t2;
-    fs.estimate_ms = t_est - t3;
-    fs.direct_ms = t5 - t4;
-    fs.total_ms = t5 - t_start;
-    for (int k = 0; k < es.pass_count && k < PGI_MAX_STAT_ENTRIES; k++)
-        fs.passes_ms[fs.pass_count++] = (pgi_named_value){es.pass_names[k], es.pass_ms[k]};
-    if (d.filter > 0) stats_pass(&fs, "filter", filter_ms);
-    pgi__mem_set(&r->mem, "image", 3 * n * sizeof(float));
+    fs.total_ms = pgi__now_ms() - t_start;
+    pgi__mem_set(&r->mem, "image", 3 * (size_t)d.width * d.height * sizeof(float));
     mem_stats(r, &es, &fs);
     fs.reads = es.reads;
-    fs.reads_bulk = es.reads_bulk;
     fs.contributing = es.contributing;
     fs.nodes_visited = es.nodes_visited;
-    fs.leaf_size = es.leaf_size;
+    be->finish(r, &d, &es, &fs);
     if (stats) *stats = fs;
     *out = img;
     return PGI_OK;
@@ -1141,4 +955,13 @@ pgi_status pgi_device_name(int i, char *buf, size_t size) { return pgi__gpu_devi
 
 pgi_status pgi_device_driver(int i, char *buf, size_t size) { return pgi__gpu_device_driver_at(i, buf, size); }
 
-void pgi_device_estimators(char *buf, size_t size) { pgi__gpu_est_names(buf, size); }
+void pgi_device_estimators(char *buf, size_t size) { device_estimators(&k_devices[PGI_DEVICE_VULKAN], buf, size); }
+
+int pgi_estimator_runs_on(const pgi_estimator_vtbl *vt, pgi_device device) {
+    return vt && device_backend(device) && k_devices[device].est_caps(vt) >= 0;
+}
+
+int pgi_estimator_takes_on(const pgi_estimator_vtbl *vt, const pgi_option *o, pgi_device device) {
+    if (!o || !pgi_estimator_runs_on(vt, device) || !pgi_estimator_takes(vt, o)) return 0;
+    return !o->caps || (k_devices[device].est_caps(vt) & (long)o->caps) != 0;
+}

@@ -4,7 +4,8 @@
 // is skipped; an enclosed node takes the photon, as trivially accepted flux (all samples
 // Lambertian and the photon above every normal: each sample would accept it) or else into its
 // list; an intersected leaf takes it into its list; other nodes are descended. Directional
-// (pc.dir): the deposit rule of est_cluster.c's V_DIR instead (entry 2 node: the node's buckets).
+// (V_DIR): the deposit rule of est_cluster.c's V_DIR instead (entry 2 node: the node's buckets).
+// cluster (no V_CONE, no V_TRIVIAL) and cluster-cone (V_CONE) skip the cone test or trivial accept.
 // Each output, a (node entry, photon) pair (entry 2 node: the node's list, 2 node + 1: its trivially
 // accepted photons), is appended at an atomic counter, in whatever order the invocations run:
 // cl_group and cl_rank then put every list in photon order, so the order here does not matter.
@@ -48,7 +49,7 @@ uint decide(uint id, uint lvl, bool leaf, out uint first, out uint count) {
     precise float ez = max(max(nd.loz - c.z, c.z - nd.hiz), 0.0);
     precise float d2 = ex * ex + ey * ey + ez * ez;
     if (!(d2 <= rr2)) return 0u;
-    if (pc.dir != 0u) {
+    if ((pc.variant & V_DIR) != 0u) {
         // directional (est_cluster.c decide, V_DIR: no cone test): from level D down, an enclosed
         // node or a leaf whose box centre lies in the sphere takes the photon (its buckets)
         if (lvl >= pc.D) {
@@ -71,13 +72,13 @@ uint decide(uint id, uint lvl, bool leaf, out uint first, out uint count) {
         return leaf ? 0u : 1u;
     }
     precise float dw = nd.ax * w.x + nd.ay * w.y + nd.az * w.z;
-    if (!(dw >= nd.rej)) return 0u; // below every surface in the node (§4.5)
+    if ((pc.variant & V_CONE) != 0u && !(dw >= nd.rej)) return 0u; // below every surface in the node (§4.5)
     precise float fx = max(c.x - nd.lox, nd.hix - c.x);
     precise float fy = max(c.y - nd.loy, nd.hiy - c.y);
     precise float fz = max(c.z - nd.loz, nd.hiz - c.z);
     precise float f2 = fx * fx + fy * fy + fz * fz;
     if (f2 < re2) {
-        emit(nd.lambert != 0u && dw > nd.acc ? 2u * id + 1u : 2u * id); // §4.6
+        emit((pc.variant & V_TRIVIAL) != 0u && nd.lambert != 0u && dw > nd.acc ? 2u * id + 1u : 2u * id); // §4.6
         return 0u;
     }
     if (leaf) {

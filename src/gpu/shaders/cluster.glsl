@@ -45,10 +45,13 @@ layout(push_constant) uniform Push {
     uint R;          // root edge (supertiles)
     uint D;          // directional: the level (0 roots .. 3 clusters) from which photons deposit
     uint blur;       // directional: blur radius (pixels; 0: off)
-    uint dir;        // 1: directional (cl_splat deposits instead of listing)
+    uint variant;    // est_cluster.c's V_*: 1 normal cones (§4.5), 2 trivial accept (§4.6), 4 directional
 } pc;
 
 #define VS_PRIMARY 2u // PGI_VS_PRIMARY
+#define V_CONE 1u     // Push variant (est_cluster.c V_*)
+#define V_TRIVIAL 2u
+#define V_DIR 4u
 
 // Kernels without the gather (CL_WITH_GATHER undefined) declare the view sample here; those with it
 // include gather.glsl after this file, which declares it (the same 64 bytes) and the VS_* flags.

@@ -1,4 +1,4 @@
-// GPU hashgrid build 5/5: the photons copied in bucket order (a cell's photons are contiguous).
+// GPU hashgrid build 3/3 (after the scan and the sort): the photons copied in bucket order (a cell's photons are contiguous).
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"

@@ -19,16 +19,18 @@ layout(push_constant) uniform Push {
     uint nchunks; // count/copy invocations
     uint kernel;  // pgi_kernel
     float scale;  // kernel normalisation (pgi__kernel_norm)
-    uint hmask;   // cell table size - 1
+    uint G;       // mirror cells: at most G a side (G^3 lists after the tiles')
+    uint mode;    // kernel-specific
 } pc;
 
-// The mirror-seen samples' cells (src/estimators/spec_cells.h), from the host's pgi__spec_cells.
+// The mirror-seen samples' cells (tl_cells.comp): a dense grid of at most G x G x G cells of edge
+// at least 2r over the samples' view-space box, each with the box of its samples.
 struct CellGrid {
     float lo[3], hi[3]; // box of every mirror-seen sample
     float o[3];         // grid origin
     float inv_h;        // 1 / cell edge
     int dim[3];         // cells a side
-    uint n;             // occupied cells
+    uint n;             // cells (dim[0] dim[1] dim[2]); 0: no mirror-seen sample
 };
 
 vec3 to_view(vec3 p) {
@@ -39,9 +41,8 @@ vec3 to_view(vec3 p) {
     return vec3(x, y, z);
 }
 
-// screen.h pgi__pad_radius, with a larger relative term: the device's view transform may round
-// differently from the host's (the mirror cells' boxes are the host's); a looser bound only adds
-// photons to a list, never drops one the gather accepts.
+// screen.h pgi__pad_radius, with a larger relative term (the margin the host's lists use); a looser
+// bound only adds photons to a list, never drops one the gather accepts.
 float pad_radius(vec3 c, float r) {
     precise float p = r + 1e-4 * r + 4e-6 * (abs(c.x) + abs(c.y) + abs(c.z));
     return p;
@@ -63,14 +64,6 @@ void silhouette(float a, float z, float r, out float u0, out float u1) {
     precise float disc = sqrt(max(0.0, a * a + den));
     u0 = (a * z - r * disc) / den;
     u1 = (a * z + r * disc) / den;
-}
-
-uint cell_hash(uint ix, uint iy, uint iz) {
-    uint h = ix * 73856093u ^ iy * 19349663u ^ iz * 83492791u;
-    h ^= h >> 16;
-    h *= 0x7feb352du;
-    h ^= h >> 15;
-    return h;
 }
 
 #endif

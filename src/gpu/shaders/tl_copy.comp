@@ -7,8 +7,8 @@
 #include "tiled.glsl"
 layout(local_size_x = 64) in;
 layout(std430, binding = 0) readonly buffer Photons { Photon ph[]; };
-layout(std430, binding = 6) buffer Offsets { uint offs[]; };
-layout(std430, binding = 7) writeonly buffer Ids { uint ids[]; };
+layout(std430, binding = 5) buffer Offsets { uint offs[]; };
+layout(std430, binding = 6) writeonly buffer Ids { uint ids[]; };
 uint g_chunk;
 void visit(uint t, uint j) {
     uint e = t * pc.nchunks + g_chunk;

@@ -8,8 +8,8 @@
 #include "tiled.glsl"
 layout(local_size_x = 64) in;
 layout(std430, binding = 0) readonly buffer Photons { Photon ph[]; };
-layout(std430, binding = 6) buffer Counts { uint counts[]; };
-layout(std430, binding = 7) buffer Counters { uint counters[8]; }; // [6, 7]: lists tested (64-bit)
+layout(std430, binding = 5) buffer Counts { uint counts[]; };
+layout(std430, binding = 6) buffer Counters { uint counters[8]; }; // [6, 7]: lists tested (64-bit)
 uint g_chunk, g_tested;
 void visit(uint t, uint j) {
     counts[t * pc.nchunks + g_chunk]++;

@@ -1,6 +1,6 @@
 // GPU tiled: the lists a photon goes into (est_tiled.c FOR_EACH_TILE), for tl_count and tl_copy.
 // The including shader defines visit(t, j) (t: the list, tiles then cells; j: the photon) and the
-// buffers Bounds (binding 1), Frame (2), Grid (3), CellBox (4), CellTable (5).
+// buffers Bounds (binding 1), Frame (2), Grid (3), CellBox (4).
 #ifndef PGIS_TL_LISTS_GLSL
 #define PGIS_TL_LISTS_GLSL
 
@@ -8,7 +8,6 @@ layout(std430, binding = 1) readonly buffer Bounds { vec4 bounds[]; };
 layout(std430, binding = 2) readonly buffer Frame { vec4 frame[2]; };
 layout(std430, binding = 3) readonly buffer Grid { CellGrid grid; };
 layout(std430, binding = 4) readonly buffer CellBox { float cell_box[]; }; // 6 a cell: lo, hi
-layout(std430, binding = 5) readonly buffer CellTable { uvec4 cell_table[]; }; // ix, iy, iz, cell (~0u: empty)
 
 void visit(uint t, uint j);
 
@@ -33,16 +32,6 @@ bool tile_overlaps(uint t, vec3 c, float rr) {
 int spec_coord(float v, int a) {
     precise float f = floor((v - grid.o[a]) * grid.inv_h);
     return f < 0.0 ? 0 : (f > float(grid.dim[a] - 1) ? grid.dim[a] - 1 : int(f));
-}
-
-uint cell_find(int ix, int iy, int iz) {
-    uint h = cell_hash(uint(ix), uint(iy), uint(iz)) & pc.hmask;
-    for (;;) {
-        uvec4 e = cell_table[h];
-        if (e.w == 0xffffffffu) return 0xffffffffu;
-        if (e.x == uint(ix) && e.y == uint(iy) && e.z == uint(iz)) return e.w;
-        h = (h + 1u) & pc.hmask;
-    }
 }
 
 void for_each_list(uint j, vec3 c) {
@@ -81,8 +70,7 @@ void for_each_list(uint j, vec3 c) {
     for (int ix = i0[0]; ix <= i1[0]; ix++)
         for (int iy = i0[1]; iy <= i1[1]; iy++)
             for (int iz = i0[2]; iz <= i1[2]; iz++) {
-                uint k = cell_find(ix, iy, iz);
-                if (k == 0xffffffffu) continue;
+                uint k = uint(ix + grid.dim[0] * (iy + grid.dim[1] * iz)); // an empty cell's box is empty
                 vec3 lo = vec3(cell_box[6u * k], cell_box[6u * k + 1u], cell_box[6u * k + 2u]);
                 vec3 hi = vec3(cell_box[6u * k + 3u], cell_box[6u * k + 4u], cell_box[6u * k + 5u]);
                 if (box_d2(lo, hi, c) <= rr * rr) visit(pc.ntiles + k, j);
