@@ -420,6 +420,21 @@ if expect_ok render --scene cornell --estimator bvh --bvh-build vvh --leaf-size 
     done
 fi
 
+# ---- the default emission is auto: where it keeps uniform emission (the Cornell box) the image is
+# uniform's, byte for byte, and --stats says what was used and why
+if expect_ok render --scene cornell --size 32x24 --photons 3000 -q -o "$TMP/em-def.exr" --stats "$TMP/em-def.json" &&
+    expect_ok render --scene cornell --size 32x24 --photons 3000 -q --emission uniform -o "$TMP/em-uni.exr"; then
+    cmp -s "$TMP/em-def.exr" "$TMP/em-uni.exr" && ok || bad "render at the default emission: not uniform's bytes (cornell)"
+    grep -qE '"emission":[[:space:]]*"auto"' "$TMP/em-def.json" && grep -qE '"emission_used":[[:space:]]*"uniform"' \
+        "$TMP/em-def.json" && grep -qF '"emission_reason"' "$TMP/em-def.json" && ok ||
+        bad "render: stats lack emission auto, emission_used uniform or emission_reason"
+fi
+if expect_ok render --scene window-box-portals --size 32x24 --photons 3000 -q -o "$TMP/em-p.exr" \
+    --stats "$TMP/em-p.json"; then
+    grep -qE '"emission_used":[[:space:]]*"portal"' "$TMP/em-p.json" && ok ||
+        bad "render window-box-portals at the default emission: not portal emission"
+fi
+
 # ---- render --from-stats: a frame's statistics render it again, to the byte
 for cfg in "exr --scene cornell-box --estimator tiled --tile 8 --radius auto --progressive 3 --seed 7" \
     "png --scene window-box --estimator kdtree --knn 12 --bounces 3 --direct-samples 4" \

@@ -528,6 +528,18 @@ static void test_refusals(void **state) {
     e = d;
     e.emission = PGI_EMISSION_PORTAL;
     expect_refused(r, &e, "--emission portal");
+    /* auto (photongi render's default) is the uniform emission the device traces, and says so */
+    e = d;
+    e.emission = PGI_EMISSION_AUTO;
+    {
+        pgi_image im = {0};
+        pgi_frame_stats fs;
+        TU_CHECK_OK(pgi_renderer_render(r, &e, &im, &fs));
+        assert_int_equal(fs.settings.emission, PGI_EMISSION_UNIFORM);
+        assert_int_equal(fs.emission.used, PGI_EMISSION_UNIFORM);
+        assert_non_null(strstr(fs.emission.reason, "GPU"));
+        pgi_image_free(&im);
+    }
     pgi_renderer_destroy(r);
     pgi_scene_destroy(s);
 }

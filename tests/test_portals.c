@@ -250,6 +250,8 @@ static void portal_image_mean_and_auto(void **state) {
             assert_int_equal(fs.emission.portal, m > 0);
             if (m) assert_true(fs.emission.portal_share > 0.0 && fs.emission.portal_share < 0.1);
             if (m == 2) assert_int_equal(fs.emission.bins, 0); /* no guide */
+            assert_int_equal(fs.emission.used, m ? PGI_EMISSION_PORTAL : PGI_EMISSION_UNIFORM);
+            assert_non_null(fs.emission.reason);
             pgi_image_free(&im);
         }
     printf("indirect mean: uniform %.6f portal %.6f (%+.2f %%) auto %.6f\n", mean[0], mean[1],

@@ -230,7 +230,7 @@ static const char *k_render_help =
     "                     centres (--jitter off or auto, one frame), else off.\n"
     "                     Photons read level 0 either way (docs/design.md \"Textures\")\n"
     "  --emission uniform|guided|auto|portal   how photons leave the lights: uniform\n"
-    "                     (default; the papers'), guided = towards the light paths whose photons\n"
+    "                     (the papers'), guided = towards the light paths whose photons\n"
     "                     land where the camera looks (a uniform pilot of 1/8 of the photons,\n"
     "                     then steered and reweighted: unbiased), portal = the sun's and the\n"
     "                     sky's photons start on the scene's portals (its windows, \"portals\" in\n"
@@ -238,7 +238,9 @@ static const char *k_render_help =
     "                     radius policy), auto = portal where the portals take under half of\n"
     "                     the sun's and sky's uniform paths, else guided where the pilot\n"
     "                     predicts 1.25x the photons in view per unit of frame cost (paths\n"
-    "                     traced per photon stored count), else uniform (docs/emission.md)\n"
+    "                     traced per photon stored count), else uniform (byte for byte); the\n"
+    "                     default (on the GPU: uniform; --stats says which and why: emission_used,\n"
+    "                     emission_reason; docs/emission.md)\n"
     "  --store all|view   which photons to store: all (default), or view = only those that\n"
     "                     may lie within the radius of a view sample (the others add nothing;\n"
     "                     --photons then counts photons where the camera looks, and more paths\n"
@@ -605,7 +607,10 @@ static void print_summary(const render_args *ra, const render_state *rs) {
 }
 
 int pgi_cmd_render(int argc, char **argv) {
-    render_args ra = {.x = APP_RENDER_EXTRA_INIT, .scene_spec = "cornell", .checkpoint_s = 600.0};
+    render_args ra = {.d = {.emission = PGI_EMISSION_AUTO},
+                      .x = APP_RENDER_EXTRA_INIT,
+                      .scene_spec = "cornell",
+                      .checkpoint_s = 600.0};
     int rc = parse_args(argc, argv, &ra);
     if (rc >= 0) return rc;
     if ((rc = check_args(&ra))) return rc;

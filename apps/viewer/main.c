@@ -54,7 +54,7 @@ static const char *k_help =
     "  --exposure X       exposure before the sRGB tone map (default: the scene's, else 1)\n"
     "  --output all|direct|indirect|counts   what to show (counts: false-colour photons per pixel)\n"
     "  --emission uniform|guided|auto|portal   photon emission, as 'photongi render --emission'\n"
-    "                     (default uniform; docs/emission.md)\n"
+    "                     (default auto; docs/emission.md)\n"
     "  --store all|view   photons stored, as 'photongi render --store' (view needs --radius)\n"
     "  --time T           scene time in seconds to start at (default 0)\n"
     "  --animate          advance the scene time (real time in a window, 1/30 s a frame headless;\n"
@@ -529,10 +529,10 @@ static void command_line(const viewer *v, char *buf, size_t size) {
     if (d.seed) ADD_(" --seed %llu", (unsigned long long)d.seed);
     if (d.bounces) ADD_(" --bounces %d", d.bounces);
     if (d.direct_samples) ADD_(" --direct-samples %d", d.direct_samples);
-    if (d.emission != PGI_EMISSION_UNIFORM)
-        ADD_(" --emission %s", d.emission == PGI_EMISSION_GUIDED ? "guided"
-                               : d.emission == PGI_EMISSION_AUTO ? "auto"
-                                                                 : "portal");
+    if (d.emission != PGI_EMISSION_AUTO)
+        ADD_(" --emission %s", d.emission == PGI_EMISSION_GUIDED    ? "guided"
+                               : d.emission == PGI_EMISSION_UNIFORM ? "uniform"
+                                                                    : "portal");
     if (d.store == PGI_STORE_VIEW) ADD_(" --store view");
     if (d.device == PGI_DEVICE_VULKAN) ADD_(" --device vulkan");
     if (d.output != PGI_OUTPUT_ALL)
@@ -922,6 +922,9 @@ static int open_scene(viewer *v, const view_args *g) {
     if ((st = pgi_renderer_create(v->scene, &v->r)) || (st = pgi_progressive_create(v->r, &v->prog)) ||
         (st = pgi_cancel_create(&v->cancel)) || (st = temporal_renew(v)))
         return fail("cannot create the renderer", st);
+    /* interactive: guided emission learns over the frames of a still view (scripted --frames N
+       runs average as 'photongi render --progressive N', frame by frame) */
+    if (!g->frames) pgi_progressive_keep_guide(v->prog, 1);
     if (!g->frames && v->info.animated_objects > 0) v->animate = 1; /* interactive: play animations */
     if (pgi_estimator_at(v->est_index)->oracle && !v->quiet)
         fprintf(stderr,
@@ -1215,6 +1218,7 @@ static int finish(viewer *v, const window *w, loop_state *ls, const view_args *g
 int main(int argc, char **argv) {
     viewer v;
     memset(&v, 0, sizeof v);
+    v.desc.emission = PGI_EMISSION_AUTO; /* as photongi render */
     v.camera_out = "photongi-camera.json";
     v.speed_mul = 1.f;
     v.accumulate = 1;
@@ -1228,6 +1232,7 @@ int main(int argc, char **argv) {
     /* Temporal reuse and the filter: on in an interactive session, off with --frames (scripted runs and
      * benches stay raw, and --frames N averages as 'photongi render --progressive N'), unless
      * --temporal says. */
+    v.tdesc.keep_guide = g.frames == 0; /* interactive: as the progressive accumulator's (open_scene) */
     if (g.temporal < 0 ? g.frames > 0 : g.temporal == 0) v.tdesc.history = v.tdesc.filter = PGI_TEMPORAL_OFF;
     else if (g.temporal == 1 && v.desc.device != PGI_DEVICE_CPU)
         return usage("%s", "--temporal on: temporal reuse and the filter run on the CPU device only");

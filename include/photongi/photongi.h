@@ -161,7 +161,8 @@ typedef enum pgi_emission {
                                  the sky's uniform paths (pgi_emission_stats.portal_share), else guided where
                                  the pilot predicts at least 1.25x the photons in view per unit
                                  of frame cost (pgi_emission_stats.value: fewer paths per stored photon
-                                 count too), uniform elsewhere (byte-identical to PGI_EMISSION_UNIFORM then) */
+                                 count too), uniform elsewhere (PGI_EMISSION_UNIFORM's photons then); on the
+                                 GPU uniform. The choice and why: pgi_emission_stats.used, .reason */
     PGI_EMISSION_PORTAL       /* the sun's and the sky's photons start on the scene's portals (windows,
                                  docs/emission.md), weighted so that the flux through them is unbiased;
                                  other lights as uniform. Needs --radius-policy fixed; CPU only */
@@ -263,7 +264,8 @@ typedef struct pgi_render_desc {
                            frame reports OFF, a progressive average the caller's value) */
     pgi_texture_filter texture_filter; /* the view samples' textures; default PGI_TEXTURE_FILTER_AUTO (resolved:
                                           the statistics report ON or OFF) */
-    pgi_emission emission;             /* photon emission; default PGI_EMISSION_UNIFORM */
+    pgi_emission emission;             /* photon emission; default PGI_EMISSION_UNIFORM (photongi render, the viewer
+                                          and the Python module default to PGI_EMISSION_AUTO) */
     pgi_store store;                   /* which photons are stored; default PGI_STORE_ALL */
     pgi_progress_fn progress;          /* may be NULL; not part of the picture (progressive mode does not restart) */
     void *progress_user;               /* passed to `progress` */
@@ -357,6 +359,9 @@ typedef struct pgi_emission_stats {
                                         emission (power-weighted): the fraction of their uniform paths
                                         that can enter (0: no portals, no sun or sky, or emission
                                         uniform or guided, which do not compute it) */
+    pgi_emission used;               /* the emission the photons had: PGI_EMISSION_UNIFORM, _GUIDED or _PORTAL (`auto`'s
+                           choice; on the GPU always uniform) */
+    const char *reason;              /* why, in words (a static string; NULL when no photons were traced) */
 } pgi_emission_stats;
 
 /* What the caller did around the frame (pgi_frame_stats.run), for statistics that reproduce a run:
@@ -709,6 +714,15 @@ pgi_status pgi_progressive_step(pgi_progressive *p, const pgi_render_desc *desc,
                                 pgi_frame_stats *stats);
 /* Forgets the running average. */
 void pgi_progressive_reset(pgi_progressive *p);
+/* With on != 0, guided emission (PGI_EMISSION_GUIDED, or AUTO where it steers) keeps its guide from
+ * frame to frame of one average: frame k > 0 runs no pilot and steers by the evidence of frames
+ * 0..k-1 (each frame adds its paths' counts), so that later frames trace fewer paths and the guide
+ * sharpens (docs/emission.md, "Across frames"). Unbiased, and the same seed gives the same image for
+ * any thread count, but frame k then depends on the frames before it in this accumulator: its
+ * images are not pgi_progressive_frame's (which photongi-mpi deals to its ranks), and a cancelled
+ * step's batches stay in the evidence. Off by default (pgi_render_progressive leaves it off);
+ * photongi-view turns it on. Takes effect from the next frame 1. */
+void pgi_progressive_keep_guide(pgi_progressive *p, int on);
 void pgi_progressive_destroy(pgi_progressive *p);
 /* Averages `frames` (1..PGI_MAX_PROGRESSIVE_FRAMES) progressive frames from a fresh start; stats
  * gets the times and counters summed over the frames, the rest from the last. */
@@ -764,6 +778,8 @@ typedef struct pgi_temporal_desc {
     int history;       /* 1..256 frames the reprojected picture weighs at most; 0 = 16; PGI_TEMPORAL_OFF: no reuse */
     int filter;        /* a-trous passes 1..5; 0 = 4; PGI_TEMPORAL_OFF: no filter */
     int filter_frames; /* 1..256 frames after which a still view is unfiltered; 0 = 8 */
+    int keep_guide;    /* 1: guided emission keeps its guide over the frames of a still picture
+                          (pgi_progressive_keep_guide on the accumulator inside); 0 = off */
 } pgi_temporal_desc;
 #define PGI_TEMPORAL_OFF (-1)
 

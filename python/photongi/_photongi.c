@@ -258,7 +258,7 @@ static PyObject *py_render(PyObject *self, PyObject *args) {
     if (!PyArg_ParseTuple(args, "OO!O", &cap, &PyList_Type, &pairs, &view)) return NULL;
     pgi_renderer *r = PyCapsule_GetPointer(cap, RENDERER_CAP);
     if (!r) return NULL;
-    pgi_render_desc d = {0};
+    pgi_render_desc d = {.emission = PGI_EMISSION_AUTO}; /* as photongi render */
     app_render_extra x = APP_RENDER_EXTRA_INIT;
     if (!parse_settings(pairs, &d, &x)) return NULL;
     char cerr[1400];

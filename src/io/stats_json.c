@@ -232,6 +232,8 @@ static cJSON *build(const pgi_frame_stats *st) {
     ok &= cJSON_AddStringToObject(root, "texture_filter",
                                   name_of(k_tex_filters, 3, (int)st->settings.texture_filter, "?")) != NULL;
     ok &= cJSON_AddStringToObject(root, "emission", name_of(k_emissions, 4, (int)st->settings.emission, "?")) != NULL;
+    ok &= cJSON_AddStringToObject(root, "emission_used", name_of(k_emissions, 4, (int)st->emission.used, "?")) != NULL;
+    if (st->emission.reason) ok &= cJSON_AddStringToObject(root, "emission_reason", st->emission.reason) != NULL;
     ok &= cJSON_AddStringToObject(root, "store", st->settings.store == PGI_STORE_VIEW ? "view" : "all") != NULL;
     if (st->emission.bins > 0 || st->settings.store == PGI_STORE_VIEW) {
         const pgi_emission_stats *es = &st->emission;

@@ -102,9 +102,24 @@ void pgi__view_grid_free(pgi__view_grid *g) {
 
 /* ----------------------------------------------------------------- guide */
 
-pgi_status pgi__guide_init(pgi__guide *g, const float *light_cdf, size_t nl, int nthreads) {
+pgi_status pgi__guide_init(pgi__guide *g, const float *light_cdf, size_t nl, int nthreads, int keep) {
     const int groups = nl <= PGI__GUIDE_GROUPS ? (int)nl : PGI__GUIDE_GROUPS;
     const int nbins = groups * PGI__GUIDE_RES * PGI__GUIDE_RES;
+    float gb[PGI__GUIDE_GROUPS + 1];
+    gb[0] = 0.f;
+    for (int i = 1; i <= groups; i++) gb[i] = nl <= PGI__GUIDE_GROUPS ? light_cdf[i - 1] : (float)i / (float)groups;
+    gb[groups] = 1.f;
+    g->carried = 0;
+    if (keep && g->paths && g->nbins == nbins && g->groups == groups && g->nthreads >= nthreads &&
+        memcmp(g->gb, gb, (size_t)(groups + 1) * sizeof *gb) == 0) {
+        double n = 0;
+        for (int b = 0; b < nbins; b++) n += g->paths[b];
+        g->carried = n > 0;
+        if (g->carried) { /* the evidence and q stay; the batch counters start at zero */
+            memset(g->tcount, 0, (size_t)g->nthreads * 3 * (size_t)nbins * sizeof *g->tcount);
+            return PGI_OK;
+        }
+    }
     if (g->nbins != nbins || g->nthreads < nthreads) {
         pgi__guide_free(g);
         g->cdf = malloc((size_t)nbins * sizeof *g->cdf);
@@ -121,9 +136,7 @@ pgi_status pgi__guide_init(pgi__guide *g, const float *light_cdf, size_t nl, int
     g->stored = g->paths + nbins;
     g->useful = g->paths + 2 * nbins;
     g->groups = groups;
-    g->gb[0] = 0.f;
-    for (int i = 1; i <= groups; i++) g->gb[i] = nl <= PGI__GUIDE_GROUPS ? light_cdf[i - 1] : (float)i / (float)groups;
-    g->gb[groups] = 1.f;
+    memcpy(g->gb, gb, (size_t)(groups + 1) * sizeof *gb);
     memset(g->paths, 0, (size_t)nbins * 3 * sizeof *g->paths);
     memset(g->tcount, 0, (size_t)g->nthreads * 3 * (size_t)nbins * sizeof *g->tcount);
     g->on = 0;

@@ -105,10 +105,12 @@ typedef struct pgi__guide {
     double yield_uniform;  /* ... and under uniform emission */
     double value;          /* predicted photons in view per unit of frame cost, q over uniform (PGI__GUIDE_BETA) */
     double in_view;        /* measured: fraction of the photons kept (steered, or all) that are in view */
+    int carried;           /* pgi__guide_init kept the evidence of earlier frames (and it holds paths) */
 } pgi__guide;
 
-/* Lays out the bins for a light CDF (nl entries) and clears the evidence. */
-pgi_status pgi__guide_init(pgi__guide *g, const float *light_cdf, size_t nl, int nthreads);
+/* Lays out the bins for a light CDF (nl entries) and clears the evidence; with `keep`, the evidence
+ * stays where the layout is the same as before (g->carried says it did and holds paths). */
+pgi_status pgi__guide_init(pgi__guide *g, const float *light_cdf, size_t nl, int nthreads, int keep);
 void pgi__guide_free(pgi__guide *g);
 /* Bytes the guide holds. */
 size_t pgi__guide_bytes(const pgi__guide *g);

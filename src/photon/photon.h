@@ -29,6 +29,11 @@ typedef struct pgi__trace_desc {
     const struct pgi__view_grid *vgrid;
     const struct pgi__view_grid *near; /* non-NULL: store only photons in its cells (PGI_STORE_VIEW) */
     double min_gain;
+    /* 1: the guide's evidence of the frames before this one is kept (the same light layout), and
+       when it holds any the frame runs no pilot: it steers from its first path where that
+       evidence predicts min_gain, else traces uniformly, and adds its paths' counts to the
+       evidence (progressive frames of one picture, pgi_progressive_keep_guide). 0: a fresh guide */
+    int guide_keep;
     /* portal emission (scene/portal.h): the sun's and the sky's photons start on the scene's
        portals (needs portals; no guide, a fixed radius) */
     int portals;

@@ -1143,10 +1143,11 @@ static int trace_batch(const tracer *T, pgi__trace_scratch *sc, uint64_t path, s
 }
 
 /* The chunks whose photons the buffer takes: whole chunks while they fit, the last one cut after
- * the path that fills it (its count lowered). Adds their photons to *produced and their paths to
- * *used_paths; returns how many chunks. */
+ * the path that fills it (its count lowered; with `whole`, the filling path kept whole when the
+ * buffer's `cap` photons allow). Adds their photons to *produced and their paths to *used_paths; returns
+ * how many chunks. */
 static long long take_chunks(pgi__trace_scratch *sc, long long nch, size_t batch, size_t count, size_t goal,
-                             size_t *produced_out, size_t *used_out) {
+                             int whole, size_t cap, size_t *produced_out, size_t *used_out) {
     size_t produced = 0, used_paths = 0;
     long long c = 0;
     for (; c < nch && count + produced < goal; c++) {
@@ -1160,7 +1161,9 @@ static long long take_chunks(pgi__trace_scratch *sc, long long nch, size_t batch
         size_t take = 0, i = 0;
         const uint8_t *cn = sc->counts + (size_t)c * CHUNK;
         while (count + produced + take < goal) take += cn[i++];
-        ci->count = goal - count - produced;
+        /* The pilot keeps its filling path whole (room allowing): where it then keeps uniform
+           emission, its photons are the first paths' all, as uniform emission's frame has them */
+        ci->count = whole && count + produced + take <= cap ? take : goal - count - produced;
         produced += ci->count;
         used_paths += i;
         c++;
@@ -1254,8 +1257,8 @@ static pgi_status gather_photons(const tracer *T, pgi__trace_scratch *sc, const 
 /* The photons' flux over the paths traced (ph->emitted): with steered paths (after a guide's
  * pilot), weighted by V_b / q_b of their bins (guide.h). */
 static void scale_flux(pgi_photons *ph, const pgi__trace_scratch *sc, const pgi__guide *g, uint64_t path,
-                       uint64_t pilot_paths, int nt) {
-    if (pilot_paths > 0 && path > 0) {
+                       int steered, int nt) {
+    if (steered && path > 0) {
         /* steered paths: weight V_b / q_b (guide.h), over the paths */
         float w[PGI__GUIDE_GROUPS * PGI__GUIDE_RES * PGI__GUIDE_RES];
         for (int b = 0; b < g->nbins; b++)
@@ -1304,7 +1307,7 @@ static pgi_status tracer_init(tracer *T, const pgi_scene *s, const pgi__rt *rt, 
     T->fast_sincos = pgi__trace_sincos_fast();
     if (d->guide) {
         if (!d->vgrid) return pgi__fail(PGI_ERR_INVALID_ARG, "%s", "guided emission needs the view grid");
-        if ((ts = pgi__guide_init(d->guide, cdf, nl, nt))) return ts;
+        if ((ts = pgi__guide_init(d->guide, cdf, nl, nt, d->guide_keep))) return ts;
         T->G = d->guide;
         T->vg = d->vgrid;
     }
@@ -1374,7 +1377,19 @@ static pgi_status trace_photons(const pgi_scene *s, const pgi__rt *rt, const pgi
     double frame_paths = 0, frame_photons = 0;
     uint64_t pilot_paths = 0; /* guided emission: paths of the uniform pilot, dropped */
     int guide_done = 0;       /* the pilot has decided */
-    double pilot_stored = 0, pilot_useful = 0;
+    int steered = 0;          /* the photons kept come from paths steered by the guide */
+    /* the evidence's photons (stored, in view) that are not this frame's kept ones */
+    double pilot_stored = 0, pilot_useful = 0, carried_stored = 0, carried_useful = 0;
+    if (d->guide && d->guide->carried) {
+        /* earlier frames' evidence (guide_keep): no pilot; q from that evidence alone, which this
+           frame's random numbers did not build, so its weights V/q keep the estimate unbiased */
+        pgi__guide_totals(d->guide, &carried_stored, &carried_useful);
+        pilot_stored = carried_stored;
+        pilot_useful = carried_useful;
+        pgi__guide_update(d->guide, d->min_gain);
+        guide_done = 1;
+        steered = d->guide->on; /* else uniform, the paths still counted as evidence */
+    }
     pgi_status st = PGI_OK;
     if (d->guide && (st = guide_reserve(sc, want))) {
         free(cdf);
@@ -1403,7 +1418,8 @@ static pgi_status trace_photons(const pgi_scene *s, const pgi__rt *rt, const pgi
         }
         /* Take whole chunks while they fit; cut the last one after the path that fills the buffer. */
         size_t produced = 0, used_paths = 0;
-        const long long used_chunks = take_chunks(sc, nch, batch, ph->count, goal, &produced, &used_paths);
+        const long long used_chunks =
+            take_chunks(sc, nch, batch, ph->count, goal, d->guide && !guide_done, want, &produced, &used_paths);
         if ((st = gather_photons(&T, sc, d, ph, used_chunks, batch, nt))) break;
         /* The batch's full yield (all its paths and photons) informs the next batch. */
         size_t batch_photons = 0;
@@ -1422,6 +1438,7 @@ static pgi_status trace_photons(const pgi_scene *s, const pgi__rt *rt, const pgi
                 pgi__guide_totals(d->guide, &pilot_stored, &pilot_useful);
                 pgi__guide_update(d->guide, d->min_gain);
                 if (d->guide->on) {
+                    steered = 1;
                     /* The pilot's photons go: weighted by a q built from themselves they would
                        be biased (a lucky bin lowers its own weight), and with their uniform
                        weight they would stand out as bright disks among the steered ones. The
@@ -1434,8 +1451,10 @@ static pgi_status trace_photons(const pgi_scene *s, const pgi__rt *rt, const pgi
                     seen_paths = 1024.0;
                     seen_photons = 1024.0 * d->guide->yield;
                 } else {
-                    pilot_stored = pilot_useful = 0; /* uniform after all: the pilot's photons stay */
-                    T.G = NULL;                      /* and the paths after it count nothing (in_view: the pilot's) */
+                    /* uniform after all: the pilot's photons stay */
+                    pilot_stored = carried_stored;
+                    pilot_useful = carried_useful;
+                    if (!d->guide_keep) T.G = NULL; /* and the paths after it count nothing (in_view: the pilot's) */
                 }
             }
         }
@@ -1463,7 +1482,7 @@ static pgi_status trace_photons(const pgi_scene *s, const pgi__rt *rt, const pgi
     }
     path -= pilot_paths;
     ph->emitted = path;
-    scale_flux(ph, sc, d->guide, path, pilot_paths, nt);
+    scale_flux(ph, sc, d->guide, path, steered, nt);
     return PGI_OK;
 }
 

@@ -49,6 +49,7 @@ struct pgi_renderer {
     /* the CPU tracer's guided emission: the guide's tables and the cells the camera sees (kept
      * between frames); PGI_STORE_VIEW: the cells within the radius of a view sample */
     pgi__guide guide;
+    int guide_keep; /* pgi__renderer_keep_guide: the next frames keep the guide's evidence */
     pgi__view_grid vgrid;
     pgi__view_grid near;
     /* each backend's own state (its device, its estimator), made by its first frame and kept until

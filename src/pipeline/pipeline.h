@@ -24,6 +24,11 @@ pgi_status pgi__renderer_render_frame_late(pgi_renderer *r, const pgi_render_des
                                            uint32_t index, pgi__late_radius_fn radius_fn, void *user, pgi_image *out,
                                            pgi_frame_stats *stats);
 
+/* With keep != 0 the renderer's next frames keep their guided emission's guide from the frame
+ * before (pgi__trace_desc.guide_keep; pgi_progressive_keep_guide): progressive.c sets it around a
+ * frame k > 0 of one picture. */
+void pgi__renderer_keep_guide(pgi_renderer *r, int keep);
+
 /* The renderer's memory ledger (render.c): progressive.c reports its accumulator there. */
 pgi__mem_ledger *pgi__renderer_mem(pgi_renderer *r);
 

@@ -28,6 +28,7 @@ struct pgi_progressive {
     uint64_t seed0;
     pgi_image frame;      /* scratch for one frame */
     pgi__picture made_of; /* what the average was made of; any change restarts it */
+    int keep_guide;       /* pgi_progressive_keep_guide */
 };
 
 pgi_status pgi_progressive_create(pgi_renderer *r, pgi_progressive **out) {
@@ -66,6 +67,10 @@ static uint64_t lights_hash(const pgi_scene *s) {
 
 void pgi_progressive_reset(pgi_progressive *p) {
     if (p) p->frames = 0;
+}
+
+void pgi_progressive_keep_guide(pgi_progressive *p, int on) {
+    if (p) p->keep_guide = on != 0;
 }
 
 void pgi__picture_of(const pgi_render_desc *d, const pgi_scene *s, pgi__picture *p) {
@@ -205,7 +210,10 @@ pgi_status pgi_progressive_step(pgi_progressive *a, const pgi_render_desc *in, p
 
     const int k = a->frames;
     pgi_frame_stats fs;
+    /* frames after the first of one picture steer by the guide of the frames before (asked for) */
+    pgi__renderer_keep_guide(a->r, a->keep_guide && k > 0);
     pgi_status st = pgi_progressive_frame(a->r, in, a->r0, k, &a->frame, &fs);
+    pgi__renderer_keep_guide(a->r, 0);
     if (st) {
         if (st != PGI_ERR_CANCELLED) a->frames = 0; /* a cancelled frame adds nothing and breaks nothing */
         return st;

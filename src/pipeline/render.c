@@ -8,6 +8,7 @@
 
 #include "gpu/gpu_estimator.h"
 #include "photon/auto_radius.h"
+#include "photon/emission.h"
 #include "scene/portal.h"
 #include "pipeline/frame.h"
 #include "filter/bilateral.h"
@@ -63,6 +64,8 @@ static uint64_t trace_triangle_bytes(uint64_t ntris) {
     const uint64_t huge = (uint64_t)2 << 20, a = ntris * 64, b = ntris * 32;
     return (a < huge / 2 ? a : (a + huge - 1) / huge * huge) + (b < huge / 2 ? b : (b + huge - 1) / huge * huge);
 }
+
+void pgi__renderer_keep_guide(pgi_renderer *r, int keep) { r->guide_keep = keep; }
 
 pgi__mem_ledger *pgi__renderer_mem(pgi_renderer *r) { return &r->mem; }
 
@@ -324,6 +327,8 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
     if (d->device_index < 0)
         return pgi__fail(PGI_ERR_INVALID_ARG, "device index %d: 0 (automatic) or PGI_DEVICE_INDEX(i)", d->device_index);
     if (d->device == PGI_DEVICE_CPU) d->device_index = 0;
+    /* `auto` on the GPU: the uniform emission the device traces (pgi__emission_plan_of) */
+    if (d->device == PGI_DEVICE_VULKAN && d->emission == PGI_EMISSION_AUTO) d->emission = PGI_EMISSION_UNIFORM;
     return PGI_OK;
 }
 
@@ -503,17 +508,14 @@ static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, uint64_t se
         td.progress = report_trace;
         td.progress_ctx = (void *)pc;
     }
-    /* Portal emission: asked for, or `auto` in a scene whose portals carry under half of the sun's
-       and the sky's uniform paths (the others store nothing inside) */
+    /* how the photons leave the lights (`auto`'s choice: src/photon/emission.c) */
+    pgi__emission_plan ep;
+    pgi__emission_plan_of(s, d, &ep);
     fs->emission.portals = s->nportals;
-    if (s->nportals && d->emission != PGI_EMISSION_UNIFORM && d->emission != PGI_EMISSION_GUIDED)
-        fs->emission.portal_share = pgi__portal_share(s);
-    const int portals = d->emission == PGI_EMISSION_PORTAL ||
-                        (d->emission == PGI_EMISSION_AUTO && s->nportals && d->radius_policy == PGI_RADIUS_FIXED &&
-                         fs->emission.portal_share > 0.0 && fs->emission.portal_share < PGI__PORTAL_AUTO_SHARE);
-    td.portals = portals;
-    fs->emission.portal = portals;
-    if (d->emission != PGI_EMISSION_UNIFORM && !portals) {
+    fs->emission.portal_share = ep.portal_share;
+    td.portals = ep.portal;
+    fs->emission.portal = ep.portal;
+    if (ep.guide) {
         /* the cells the camera sees: the radius when it is known now, else 1/256 of the diagonal */
         const float diag = pgi__scene_diagonal(s);
         float h = d->radius > 0.f ? d->radius : diag / 256.f;
@@ -530,7 +532,8 @@ static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, uint64_t se
         r->guide.gain = r->guide.value = 1.0;
         r->guide.yield = r->guide.yield_uniform = 0.0;
         r->guide.in_view = r->guide.useful_uniform = 0.0;
-        td.min_gain = d->emission == PGI_EMISSION_AUTO ? 1.25 : 0.0;
+        td.min_gain = ep.min_value;
+        td.guide_keep = r->guide_keep;
     }
     if (d->store == PGI_STORE_VIEW) {
         /* every cell a photon closer than the radius to a view sample can be in */
@@ -568,6 +571,7 @@ static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, uint64_t se
         fs->emission.in_view = g->in_view;
         fs->emission.in_view_uniform = g->useful_uniform;
     }
+    fs->emission.used = pgi__emission_used(d, &ep, td.guide, &fs->emission.reason);
     return PGI_OK;
 }
 
@@ -888,6 +892,8 @@ pgi_status pgi__renderer_render_frame_late(pgi_renderer *r, const pgi_render_des
     const pgi__frame_backend *be = device_backend(d.device);
     if ((st = be->ensure_device(r, &d)) || (st = be->ensure_estimator(r, &d, &fs.estimators_created))) return st;
     fs.device = be->device_name(r);
+    if (d.device == PGI_DEVICE_VULKAN)
+        fs.emission.reason = in->emission == PGI_EMISSION_AUTO ? "the GPU traces uniform emission only" : "asked for";
     progress_ctx pc = {&d, t_start, late};
     if ((st = frame_begin(r, &d)) || (st = be->inputs(r, &d, seq_seed, index, &pc, &fs))) return st;
     if (late) {

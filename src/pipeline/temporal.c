@@ -92,6 +92,7 @@ pgi_status pgi_temporal_create(pgi_renderer *r, const pgi_temporal_desc *desc, p
         free(t);
         return st;
     }
+    pgi_progressive_keep_guide(t->prog, d.keep_guide);
     *out = t;
     return PGI_OK;
 }
