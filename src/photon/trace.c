@@ -1146,8 +1146,8 @@ static int trace_batch(const tracer *T, pgi__trace_scratch *sc, uint64_t path, s
  * the path that fills it (its count lowered; with `whole`, the filling path kept whole when the
  * buffer's `cap` photons allow). Adds their photons to *produced and their paths to *used_paths; returns
  * how many chunks. */
-static long long take_chunks(pgi__trace_scratch *sc, long long nch, size_t batch, size_t count, size_t goal,
-                             int whole, size_t cap, size_t *produced_out, size_t *used_out) {
+static long long take_chunks(pgi__trace_scratch *sc, long long nch, size_t batch, size_t count, size_t goal, int whole,
+                             size_t cap, size_t *produced_out, size_t *used_out) {
     size_t produced = 0, used_paths = 0;
     long long c = 0;
     for (; c < nch && count + produced < goal; c++) {
@@ -1256,8 +1256,8 @@ static pgi_status gather_photons(const tracer *T, pgi__trace_scratch *sc, const 
 
 /* The photons' flux over the paths traced (ph->emitted): with steered paths (after a guide's
  * pilot), weighted by V_b / q_b of their bins (guide.h). */
-static void scale_flux(pgi_photons *ph, const pgi__trace_scratch *sc, const pgi__guide *g, uint64_t path,
-                       int steered, int nt) {
+static void scale_flux(pgi_photons *ph, const pgi__trace_scratch *sc, const pgi__guide *g, uint64_t path, int steered,
+                       int nt) {
     if (steered && path > 0) {
         /* steered paths: weight V_b / q_b (guide.h), over the paths */
         float w[PGI__GUIDE_GROUPS * PGI__GUIDE_RES * PGI__GUIDE_RES];
