@@ -42,31 +42,10 @@
 
 #ifndef PGI__HAVE_VULKAN
 
-static pgi_status ct_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) {
-    (void)g, (void)d;
-    *state = NULL;
-    return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
-}
-static pgi_status ct_run(void *state, const pgi_estimate_args *a, pgi_estimator_stats *st) {
-    (void)state, (void)a, (void)st;
-    return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
-}
-static void ct_destroy(void *state) { (void)state; }
-static pgi_status dir_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) { return ct_create(g, d, state); }
-static pgi_status cl0_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) { return ct_create(g, d, state); }
-static pgi_status cone_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) { return ct_create(g, d, state); }
-static pgi_status ct_device_reserve(void *state, const pgi__gpu_est_inputs *in, pgi__gpu_buffer **out) {
-    (void)state, (void)in, (void)out;
-    return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
-}
-static pgi_status ct_device_record(void *state, const pgi__gpu_est_inputs *in) {
-    (void)state, (void)in;
-    return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
-}
-static pgi_status ct_device_finish(void *state, const pgi_named_value *t, int nt, pgi_estimator_stats *es) {
-    (void)state, (void)t, (void)nt, (void)es;
-    return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
-}
+const pgi__gpu_est_vtbl pgi__gpu_est_cluster = PGI__GPU_EST_NONE("cluster");
+const pgi__gpu_est_vtbl pgi__gpu_est_cluster_cone = PGI__GPU_EST_NONE("cluster-cone");
+const pgi__gpu_est_vtbl pgi__gpu_est_cluster_trivial = PGI__GPU_EST_NONE("cluster-trivial");
+const pgi__gpu_est_vtbl pgi__gpu_est_directional = PGI__GPU_EST_NONE("directional");
 
 #else
 
@@ -657,7 +636,6 @@ static pgi_status ct_device_finish(void *state, const pgi_named_value *t, int nt
     return cl_counters(s, f, es);
 }
 
-#endif /* PGI__HAVE_VULKAN */
 
 /* cluster (Moreau et al. 2016 §4.1-4.4) and cluster-cone (+ §4.5's cones): cluster-trivial's code
  * with the cone test and trivial accept off (shaders/cl_splat.comp, Push.variant), as on the CPU. */
@@ -703,3 +681,5 @@ const pgi__gpu_est_vtbl pgi__gpu_est_directional = {
     .device_record = ct_device_record,
     .device_finish = ct_device_finish,
 };
+
+#endif /* PGI__HAVE_VULKAN */

@@ -130,3 +130,28 @@ void pgi__gpu_est_two_sequence_times(const pgi__gpu *g, pgi_estimator_stats *es,
     es->build_ms = (t[1] - t[0]) + build + (t[4] - t[3]);
     es->estimate_ms = gather + (t[7] - t[6]);
 }
+
+#define NO_BACKEND "this build of photongi has no Vulkan backend (built without Vulkan/glslc)"
+
+pgi_status pgi__gpu_est_none_create(pgi__gpu *g, const pgi_estimator_desc *desc, void **state) {
+    (void)g, (void)desc;
+    *state = NULL;
+    return pgi__fail(PGI_ERR_UNSUPPORTED, NO_BACKEND);
+}
+pgi_status pgi__gpu_est_none_run(void *state, const pgi_estimate_args *args, pgi_estimator_stats *st) {
+    (void)state, (void)args, (void)st;
+    return pgi__fail(PGI_ERR_UNSUPPORTED, NO_BACKEND);
+}
+void pgi__gpu_est_none_destroy(void *state) { (void)state; }
+pgi_status pgi__gpu_est_none_reserve(void *state, const pgi__gpu_est_inputs *in, pgi__gpu_buffer **out) {
+    (void)state, (void)in, (void)out;
+    return pgi__fail(PGI_ERR_UNSUPPORTED, NO_BACKEND);
+}
+pgi_status pgi__gpu_est_none_record(void *state, const pgi__gpu_est_inputs *in) {
+    (void)state, (void)in;
+    return pgi__fail(PGI_ERR_UNSUPPORTED, NO_BACKEND);
+}
+pgi_status pgi__gpu_est_none_finish(void *state, const pgi_named_value *t, int nt, pgi_estimator_stats *st) {
+    (void)state, (void)t, (void)nt, (void)st;
+    return pgi__fail(PGI_ERR_UNSUPPORTED, NO_BACKEND);
+}

@@ -39,6 +39,21 @@ typedef struct pgi__gpu_est_vtbl {
     pgi_status (*device_finish)(void *state, const pgi_named_value *t, int nt, pgi_estimator_stats *st);
 } pgi__gpu_est_vtbl;
 
+/* A build without the Vulkan backend: a GPU estimator's table whose every entry refuses with "no
+ * Vulkan backend" (PGI_ERR_UNSUPPORTED); `const pgi__gpu_est_vtbl x = PGI__GPU_EST_NONE("x")`. */
+pgi_status pgi__gpu_est_none_create(pgi__gpu *g, const pgi_estimator_desc *desc, void **state);
+pgi_status pgi__gpu_est_none_run(void *state, const pgi_estimate_args *args, pgi_estimator_stats *st);
+void pgi__gpu_est_none_destroy(void *state);
+pgi_status pgi__gpu_est_none_reserve(void *state, const pgi__gpu_est_inputs *in, pgi__gpu_buffer **out);
+pgi_status pgi__gpu_est_none_record(void *state, const pgi__gpu_est_inputs *in);
+pgi_status pgi__gpu_est_none_finish(void *state, const pgi_named_value *t, int nt, pgi_estimator_stats *st);
+#define PGI__GPU_EST_NONE(NAME)                                                                                        \
+    {                                                                                                                  \
+        .name = NAME, .create = pgi__gpu_est_none_create, .run = pgi__gpu_est_none_run,                                \
+        .destroy = pgi__gpu_est_none_destroy, .device_reserve = pgi__gpu_est_none_reserve,                             \
+        .device_record = pgi__gpu_est_none_record, .device_finish = pgi__gpu_est_none_finish                           \
+    }
+
 /* The GPU half of CPU estimator `name`: NULL when it has none. */
 const pgi__gpu_est_vtbl *pgi__gpu_est_find(const char *name);
 /* The PGI_EST_CAP_* options estimator `name` takes on the device (0 when it has no GPU half). */

@@ -28,24 +28,7 @@
 
 #ifndef PGI__HAVE_VULKAN
 
-static pgi_status hg_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) {
-    *state = NULL;
-    return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
-}
-static pgi_status hg_run(void *state, const pgi_estimate_args *a, pgi_estimator_stats *st) {
-    return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
-}
-static void hg_destroy(void *state) {}
-static pgi_status hg_device_reserve(void *state, const pgi__gpu_est_inputs *in, pgi__gpu_buffer **out) {
-    (void)state, (void)in, (void)out;
-    return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
-}
-static pgi_status hg_device_record(void *state, const pgi__gpu_est_inputs *in) {
-    return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
-}
-static pgi_status hg_device_finish(void *state, const pgi_named_value *t, int nt, pgi_estimator_stats *es) {
-    return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
-}
+const pgi__gpu_est_vtbl pgi__gpu_est_hashgrid = PGI__GPU_EST_NONE("hashgrid");
 
 #else
 
@@ -311,7 +294,6 @@ static pgi_status hg_device_finish(void *state, const pgi_named_value *t, int nt
     return st;
 }
 
-#endif /* PGI__HAVE_VULKAN */
 
 const pgi__gpu_est_vtbl pgi__gpu_est_hashgrid = {
     .name = "hashgrid",
@@ -322,3 +304,5 @@ const pgi__gpu_est_vtbl pgi__gpu_est_hashgrid = {
     .device_record = hg_device_record,
     .device_finish = hg_device_finish,
 };
+
+#endif /* PGI__HAVE_VULKAN */

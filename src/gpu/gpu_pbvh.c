@@ -22,32 +22,9 @@
 #include "core/core.h"
 #include "estimators/estimator_internal.h"
 
-#define NO_BACKEND "this build of photongi has no Vulkan backend (built without Vulkan/glslc)"
-
 #ifndef PGI__HAVE_VULKAN
 
-static pgi_status pb_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) {
-    (void)g, (void)d;
-    *state = NULL;
-    return pgi__fail(PGI_ERR_UNSUPPORTED, NO_BACKEND);
-}
-static pgi_status pb_run(void *state, const pgi_estimate_args *a, pgi_estimator_stats *st) {
-    (void)state, (void)a, (void)st;
-    return pgi__fail(PGI_ERR_UNSUPPORTED, NO_BACKEND);
-}
-static void pb_destroy(void *state) { (void)state; }
-static pgi_status pb_device_reserve(void *state, const pgi__gpu_est_inputs *in, pgi__gpu_buffer **out) {
-    (void)state, (void)in, (void)out;
-    return pgi__fail(PGI_ERR_UNSUPPORTED, NO_BACKEND);
-}
-static pgi_status pb_device_record(void *state, const pgi__gpu_est_inputs *in) {
-    (void)state, (void)in;
-    return pgi__fail(PGI_ERR_UNSUPPORTED, NO_BACKEND);
-}
-static pgi_status pb_device_finish(void *state, const pgi_named_value *t, int nt, pgi_estimator_stats *es) {
-    (void)state, (void)t, (void)nt, (void)es;
-    return pgi__fail(PGI_ERR_UNSUPPORTED, NO_BACKEND);
-}
+const pgi__gpu_est_vtbl pgi__gpu_est_bvh = PGI__GPU_EST_NONE("bvh");
 
 #else
 
@@ -293,7 +270,6 @@ static pgi_status pb_device_finish(void *state, const pgi_named_value *t, int nt
     return pb_counters(s, es);
 }
 
-#endif /* PGI__HAVE_VULKAN */
 
 const pgi__gpu_est_vtbl pgi__gpu_est_bvh = {
     .name = "bvh",
@@ -304,3 +280,5 @@ const pgi__gpu_est_vtbl pgi__gpu_est_bvh = {
     .device_record = pb_device_record,
     .device_finish = pb_device_finish,
 };
+
+#endif /* PGI__HAVE_VULKAN */

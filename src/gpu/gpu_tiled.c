@@ -35,28 +35,7 @@
 
 #ifndef PGI__HAVE_VULKAN
 
-static pgi_status tl_create(pgi__gpu *g, const pgi_estimator_desc *d, void **state) {
-    (void)g, (void)d;
-    *state = NULL;
-    return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
-}
-static pgi_status tl_run(void *state, const pgi_estimate_args *a, pgi_estimator_stats *st) {
-    (void)state, (void)a, (void)st;
-    return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
-}
-static void tl_destroy(void *state) { (void)state; }
-static pgi_status tl_device_reserve(void *state, const pgi__gpu_est_inputs *in, pgi__gpu_buffer **out) {
-    (void)state, (void)in, (void)out;
-    return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
-}
-static pgi_status tl_device_record(void *state, const pgi__gpu_est_inputs *in) {
-    (void)state, (void)in;
-    return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
-}
-static pgi_status tl_device_finish(void *state, const pgi_named_value *t, int nt, pgi_estimator_stats *es) {
-    (void)state, (void)t, (void)nt, (void)es;
-    return pgi__fail(PGI_ERR_UNSUPPORTED, "this build of photongi has no Vulkan backend (built without Vulkan/glslc)");
-}
+const pgi__gpu_est_vtbl pgi__gpu_est_tiled = PGI__GPU_EST_NONE("tiled");
 
 #else
 
@@ -417,7 +396,6 @@ static pgi_status tl_device_finish(void *state, const pgi_named_value *t, int nt
     return tl_counters(s, es);
 }
 
-#endif /* PGI__HAVE_VULKAN */
 
 const pgi__gpu_est_vtbl pgi__gpu_est_tiled = {
     .name = "tiled",
@@ -428,3 +406,5 @@ const pgi__gpu_est_vtbl pgi__gpu_est_tiled = {
     .device_record = tl_device_record,
     .device_finish = tl_device_finish,
 };
+
+#endif /* PGI__HAVE_VULKAN */
