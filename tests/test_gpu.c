@@ -144,8 +144,9 @@ static void test_device_errors(void **state) {
     assert_true(pgi__gpu_available());
 }
 
-/* bounds25d's --polygon in gpu_est_vs_brute (0: its default) */
+/* bounds25d's --polygon in gpu_est_vs_brute (0: its default), and the frame's jitter */
 static int g_polygon;
+static pgi_jitter g_jitter;
 
 /* CPU brute force and the GPU hashgrid on the same photons and view samples (pgi_renderer_prepare):
  * within 1e-4 relative per value, with a floor of 1e-6 x the image's largest value for values near
@@ -163,7 +164,7 @@ static void gpu_est_vs_brute(const pgi__gpu_est_vtbl *vt, const char *scene_name
     }
     pgi_renderer *r = NULL;
     TU_CHECK_OK(pgi_renderer_create(scene, &r));
-    pgi_render_desc d = {.photons = photons, .width = w, .height = h, .seed = 3, .radius = radius};
+    pgi_render_desc d = {.photons = photons, .width = w, .height = h, .seed = 3, .radius = radius, .jitter = g_jitter};
     pgi_frame_inputs in;
     TU_CHECK_OK(pgi_renderer_prepare(r, &d, &in, NULL));
     const size_t nf = 3 * in.samples->count;
@@ -353,6 +354,10 @@ static void test_bounds_vs_brute(void **state) {
         gpu_est_vs_brute(vt, "cornell-mirrors", 64, 48, 3000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.6f, 0);
         gpu_est_vs_brute(vt, "fireplace-room", 48, 36, 10000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_GGX, 0.f, 0);
         gpu_est_vs_brute(vt, "cornell", 7, 5, 3000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.6f, 0);
+        /* jittered view samples: the bounds widened by half a pixel */
+        g_jitter = PGI_JITTER_ON;
+        gpu_est_vs_brute(vt, "cornell", 64, 48, 20000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.f, 0);
+        g_jitter = PGI_JITTER_AUTO;
         /* spheres reaching the eye plane: the box's front photons (depth 2.9 and more) at r 3.2, and the
          * fireplace room's photons near the camera (in the room) at r 0.5 */
         gpu_est_vs_brute(vt, "cornell", 32, 24, 2000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 3.2f, 8);
@@ -682,6 +687,16 @@ static void test_renderer_device(void **state) {
     d.estimator = "bounds25d";
     TU_CHECK_OK(pgi_renderer_render(r, &d, &gpu2, &gs));
     assert_int_equal(tu_compare(gpu2.rgb, gpu.rgb, 3 * 64 * 48, 1e-4, "renderer: vulkan bounds25d vs hashgrid"), 0);
+    /* and on jittered view samples (the frame's jitter in the device inputs) */
+    d.jitter = PGI_JITTER_ON;
+    d.estimator = "hashgrid";
+    TU_CHECK_OK(pgi_renderer_render(r, &d, &gpu, &gs));
+    d.estimator = "bounds3d";
+    TU_CHECK_OK(pgi_renderer_render(r, &d, &gpu2, &gs));
+    assert_int_equal(tu_compare(gpu2.rgb, gpu.rgb, 3 * 64 * 48, 1e-4,
+                                "renderer: vulkan bounds3d vs hashgrid, jittered"),
+                     0);
+    d.jitter = PGI_JITTER_AUTO;
     d.estimator = "hashgrid";
     /* explicit device 0 */
     d.device_index = PGI_DEVICE_INDEX(0);
