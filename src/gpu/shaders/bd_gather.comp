@@ -22,6 +22,10 @@ layout(std430, binding = 6) writeonly buffer Out { float out_rgb[]; };
 // reads, contributing, covered pixels: (low, high) words of 64-bit sums
 layout(std430, binding = 7) buffer Counters { uint counters[8]; };
 shared uint wg_count[3];
+shared uint batch_j[64]; // a tile's bin, 64 photons at a time: index, rectangle, depth range
+shared vec4 batch_r[64];
+shared vec2 batch_z[64];
+shared uint batch_keep[64], batch_order[64], batch_n;
 
 void add64(uint k, uint v) {
     uint old = atomicAdd(counters[2u * k], v);
@@ -46,20 +50,65 @@ void main() {
     bool lambert = (v.flags & VS_LAMBERT) != 0u;
     Acc a = Acc(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0u);
     uint reads = 0u, covered = 0u;
-    if (valid && primary) {
+    const float z = valid ? to_view(vec3(v.px, v.py, v.pz)).z : 0.0, X = float(x), Y = float(y);
+    const bool depth = prm.mode3d == 0u, mine = valid && primary;
+    // Tiles a multiple of 8 pixels: the workgroup's 8 x 8 block lies in one tile. Its bin goes through
+    // shared memory 64 photons at a time; those whose rectangle reaches the block are kept, in bin
+    // order (photon order), and each pixel tests only those: a photon costs the blocks its bound
+    // touches rather than its tile's every pixel.
+    const bool shared_path = pc.T % 8u == 0u;
+    if (shared_path) {
+        uint k0, k1;
+        bin_range((gl_WorkGroupID.y * 8u / pc.T) * pc.ntx + gl_WorkGroupID.x * 8u / pc.T, k0, k1);
+        const float bx0 = float(gl_WorkGroupID.x * 8u), by0 = float(gl_WorkGroupID.y * 8u);
+        const float bx1 = bx0 + 7.0, by1 = by0 + 7.0;
+        for (uint b = k0; b < k1; b += 64u) {
+            bool keep = false;
+            if (b + lid < k1) {
+                uint j = ids[b + lid], base = j * prm.stride;
+                vec4 rc = vec4(shp[base], shp[base + 1u], shp[base + 2u], shp[base + 3u]);
+                keep = rc.x <= bx1 && rc.y >= bx0 && rc.z <= by1 && rc.w >= by0;
+                batch_j[lid] = j;
+                batch_r[lid] = rc;
+                batch_z[lid] = vec2(shp[base + 4u], shp[base + 5u]);
+            }
+            batch_keep[lid] = keep ? 1u : 0u;
+            barrier();
+            if (lid == 0u) { // the kept entries, in order
+                uint m = 0u;
+                for (uint e = 0u; e < 64u; e++)
+                    if (batch_keep[e] != 0u) batch_order[m++] = e;
+                batch_n = m;
+            }
+            barrier();
+            const uint m = batch_n;
+            if (mine)
+                for (uint q = 0u; q < m; q++) {
+                    uint e = batch_order[q];
+                    vec4 rc = batch_r[e];
+                    if (!(rc.x <= X && X <= rc.y && rc.z <= Y && Y <= rc.w)) continue;
+                    uint j = batch_j[e];
+                    if (!shape_covers(j * prm.stride, X, Y)) continue;
+                    covered++;
+                    if (depth && !(z >= batch_z[e].x && z <= batch_z[e].y)) continue;
+                    reads++;
+                    gather(v, lambert, pc.r2, pc.kernel, ph[j], a);
+                }
+            barrier();
+        }
+    } else if (mine) {
         uint k0, k1;
         bin_range((y / pc.T) * pc.ntx + x / pc.T, k0, k1);
-        const float z = to_view(vec3(v.px, v.py, v.pz)).z, X = float(x), Y = float(y);
-        const bool depth = prm.mode3d == 0u;
         for (uint k = k0; k < k1; k++) {
             uint j = ids[k], base = j * prm.stride;
-            if (!shape_covers(base, X, Y)) continue;
+            if (!(shp[base] <= X && X <= shp[base + 1u]) || !shape_covers(base, X, Y)) continue;
             covered++;
             if (depth && !(z >= shp[base + 4u] && z <= shp[base + 5u])) continue;
             reads++;
             gather(v, lambert, pc.r2, pc.kernel, ph[j], a);
         }
-    } else if (valid) {
+    }
+    if (valid && !primary) {
         uint k0, k1;
         bin_range(pc.ntiles + cell_of[i], k0, k1);
         for (uint k = k0; k < k1; k++) gather(v, lambert, pc.r2, pc.kernel, ph[ids[k]], a);
