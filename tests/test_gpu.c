@@ -539,6 +539,8 @@ static void test_cluster_trivial_no_photons(void **state) {
     (void)state;
     no_photons("cluster-trivial");
     no_photons("directional"); /* and the blur of zeros */
+    no_photons("bounds3d");    /* no shapes, empty bins */
+    no_photons("bounds25d");
 }
 
 /* What the GPU cluster-trivial refuses: other kernels (as the CPU), tiles over 16 pixels. */

@@ -257,6 +257,9 @@ static pgi_status bd_plan(bd_state *s, const bd_in *in, bd_frame *f) {
         q->ccs[k] = (float)cos(th);
         q->csn[k] = (float)sin(th);
     }
+    if ((n + 1) * q->stride > UINT32_MAX) /* the shaders index the shapes with 32 bits */
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "%s on the GPU: at most %zu photons with %zu-float bounds", s->name,
+                         (size_t)(UINT32_MAX / q->stride) - 1, (size_t)q->stride);
     pgi_status st;
     if ((st = pgi__gpu_buffer_reserve(g, &s->out, (3 * ns + 1) * sizeof(float), "gpu_radiance")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->bounds, ((size_t)ntiles + 1) * 32, "gpu_tile_bounds")) ||
