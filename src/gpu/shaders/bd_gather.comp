@@ -25,7 +25,7 @@ shared uint wg_count[3];
 shared uint batch_j[64]; // a tile's bin, 64 photons at a time: index, rectangle, depth range
 shared vec4 batch_r[64];
 shared vec2 batch_z[64];
-shared uint batch_keep[64], batch_order[64], batch_n;
+shared uint keep_bits[2][2]; // kept entries of a batch: bit e of word e / 32, two pairs in turn
 
 void add64(uint k, uint v) {
     uint old = atomicAdd(counters[2u * k], v);
@@ -41,6 +41,7 @@ void bin_range(uint t, out uint k0, out uint k1) {
 void main() {
     uint lid = gl_LocalInvocationIndex;
     if (lid < 3u) wg_count[lid] = 0u;
+    if (lid < 4u) keep_bits[lid >> 1u][lid & 1u] = 0u;
     barrier();
     uint x = gl_GlobalInvocationID.x, y = gl_GlobalInvocationID.y;
     bool inside = x < pc.width && y < pc.height;
@@ -62,38 +63,34 @@ void main() {
         bin_range((gl_WorkGroupID.y * 8u / pc.T) * pc.ntx + gl_WorkGroupID.x * 8u / pc.T, k0, k1);
         const float bx0 = float(gl_WorkGroupID.x * 8u), by0 = float(gl_WorkGroupID.y * 8u);
         const float bx1 = bx0 + 7.0, by1 = by0 + 7.0;
-        for (uint b = k0; b < k1; b += 64u) {
-            bool keep = false;
+        for (uint b = k0, par = 0u; b < k1; b += 64u, par ^= 1u) {
+            // this batch's kept set: bits of keep_bits[par] (the other pair, read by the last
+            // batch before its closing barrier, is cleared for the next)
+            if (lid < 2u) keep_bits[par ^ 1u][lid] = 0u;
             if (b + lid < k1) {
                 uint j = ids[b + lid], base = j * prm.stride;
                 vec4 rc = vec4(shp[base], shp[base + 1u], shp[base + 2u], shp[base + 3u]);
-                keep = rc.x <= bx1 && rc.y >= bx0 && rc.z <= by1 && rc.w >= by0;
                 batch_j[lid] = j;
                 batch_r[lid] = rc;
                 batch_z[lid] = vec2(shp[base + 4u], shp[base + 5u]);
-            }
-            batch_keep[lid] = keep ? 1u : 0u;
-            barrier();
-            if (lid == 0u) { // the kept entries, in order
-                uint m = 0u;
-                for (uint e = 0u; e < 64u; e++)
-                    if (batch_keep[e] != 0u) batch_order[m++] = e;
-                batch_n = m;
+                if (rc.x <= bx1 && rc.y >= bx0 && rc.z <= by1 && rc.w >= by0)
+                    atomicOr(keep_bits[par][lid >> 5u], 1u << (lid & 31u));
             }
             barrier();
-            const uint m = batch_n;
+            uvec2 bits = uvec2(keep_bits[par][0], keep_bits[par][1]);
             if (mine)
-                for (uint q = 0u; q < m; q++) {
-                    uint e = batch_order[q];
-                    vec4 rc = batch_r[e];
-                    if (!(rc.x <= X && X <= rc.y && rc.z <= Y && Y <= rc.w)) continue;
-                    uint j = batch_j[e];
-                    if (!shape_covers(j * prm.stride, X, Y)) continue;
-                    covered++;
-                    if (depth && !(z >= batch_z[e].x && z <= batch_z[e].y)) continue;
-                    reads++;
-                    gather(v, lambert, pc.r2, pc.kernel, ph[j], a);
-                }
+                for (uint h = 0u; h < 2u; h++)
+                    for (uint w = bits[h]; w != 0u; w &= w - 1u) { // the kept entries, in bin order
+                        uint e = 32u * h + uint(findLSB(w));
+                        vec4 rc = batch_r[e];
+                        if (!(rc.x <= X && X <= rc.y && rc.z <= Y && Y <= rc.w)) continue;
+                        uint j = batch_j[e];
+                        if (!shape_covers(j * prm.stride, X, Y)) continue;
+                        covered++;
+                        if (depth && !(z >= batch_z[e].x && z <= batch_z[e].y)) continue;
+                        reads++;
+                        gather(v, lambert, pc.r2, pc.kernel, ph[j], a);
+                    }
             barrier();
         }
     } else if (mine) {
