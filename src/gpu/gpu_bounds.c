@@ -18,8 +18,10 @@
  * then, after reading back the number of copies (the bins' buffer sized to it), a second one:
  *   bd_copy     the same walk, each photon's index at its chunk's next offset: bins in photon order
  *   bd_gather   per view sample: its tile's bin, each photon whose bound covers the pixel (2.5D:
- *               and whose depth range holds the sample) through gather.glsl's test and sums; a
- *               mirror-seen sample: its cell's bin, every photon
+ *               and whose depth range holds the sample) through gather.glsl's test and sums (tiles
+ *               a multiple of 8 pixels: the bin through shared memory, 64 photons at a time, those
+ *               whose rectangle reaches the workgroup's 8 x 8 block kept in a mask walked in order);
+ *               a mirror-seen sample: its cell's bin, every photon
  * Every float sum is in photon order: the same image bit for bit every run. Exactness: the bounds
  * are conservative (padded sphere, 0.05 pixel and the jitter, as the CPU's; the clipped case with
  * a larger radius and no bound from a wedge end near the eye plane), so no photon the gather accepts
