@@ -144,6 +144,10 @@ static void test_device_errors(void **state) {
     assert_true(pgi__gpu_available());
 }
 
+/* bounds25d's --polygon in gpu_est_vs_brute (0: its default), and the frame's jitter */
+static int g_polygon;
+static pgi_jitter g_jitter;
+
 /* CPU brute force and the GPU hashgrid on the same photons and view samples (pgi_renderer_prepare):
  * within 1e-4 relative per value, with a floor of 1e-6 x the image's largest value for values near
  * zero (tu_compare), and the same number of contributing photons. */
@@ -158,7 +162,7 @@ static void gpu_est_vs_brute(const pgi__gpu_est_vtbl *vt, const char *scene_name
         TU_CHECK_OK(pgi_scene_set_specular(scene, spec));
     }
     pgi_renderer *r = tu_renderer(scene);
-    pgi_render_desc d = {.photons = photons, .width = w, .height = h, .seed = 3, .radius = radius};
+    pgi_render_desc d = {.photons = photons, .width = w, .height = h, .seed = 3, .radius = radius, .jitter = g_jitter};
     pgi_frame_inputs in;
     TU_CHECK_OK(pgi_renderer_prepare(r, &d, &in, NULL));
     const size_t nf = 3 * in.samples->count;
@@ -169,7 +173,11 @@ static void gpu_est_vs_brute(const pgi__gpu_est_vtbl *vt, const char *scene_name
     assert_non_null(ref);
     assert_non_null(got);
     assert_non_null(again);
-    pgi_estimator_desc ed = {.kernel = kern, .hashgrid.cell_size = cell, .cluster.tile = tile, .tiled.tile_size = tile};
+    pgi_estimator_desc ed = {.kernel = kern,
+                             .hashgrid.cell_size = cell,
+                             .cluster.tile = tile,
+                             .tiled.tile_size = tile,
+                             .bounds.polygon = g_polygon};
     if (vt == &pgi__gpu_est_bvh) ed = (pgi_estimator_desc){.kernel = kern, .bvh.leaf_size = tile}; /* tile: T */
     size_t mirror_seen = 0;
     for (size_t i = 0; i < in.samples->count; i++)
@@ -215,6 +223,20 @@ static void gpu_est_vs_brute(const pgi__gpu_est_vtbl *vt, const char *scene_name
                 (unsigned long long)cs.nodes_visited);
         assert_int_equal(cs.contributing, gs.contributing);
         pgi_estimator_destroy(ct);
+    }
+    if (vt == &pgi__gpu_est_bounds3d || vt == &pgi__gpu_est_bounds25d) { /* the CPU version's counts */
+        pgi_estimator *cb = NULL;
+        TU_CHECK_OK(pgi_estimator_create(vt->name, &ed, &cb));
+        a.out_rgb = again;
+        TU_CHECK_OK(pgi_estimator_build(cb, &a));
+        TU_CHECK_OK(pgi_estimator_estimate(cb, &a));
+        pgi_estimator_stats cs;
+        pgi_estimator_get_stats(cb, &cs);
+        fprintf(stderr, "    CPU %s: sphere tests %llu, contributing %llu, covered pixels %llu\n", vt->name,
+                (unsigned long long)cs.reads, (unsigned long long)cs.contributing,
+                (unsigned long long)cs.nodes_visited);
+        assert_int_equal(cs.contributing, gs.contributing);
+        pgi_estimator_destroy(cb);
     }
     assert_true(bs.contributing > 0);
     tu_expect_same(what, got, ref, nf, gs.contributing, bs.contributing);
@@ -326,6 +348,58 @@ static void test_tiled_vs_brute(void **state) {
     gpu_est_vs_brute(vt, "cornell-mirrors", 64, 48, 3000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.6f, 0);
     gpu_est_vs_brute(vt, "fireplace-room", 48, 36, 10000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_GGX, 0.f, 0);
     gpu_est_vs_brute(vt, "cornell", 7, 5, 3000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.6f, 0);
+}
+
+/* bounds3d and bounds25d on the GPU (gpu_bounds.c) against the CPU's brute force: the Cornell box at
+ * the scene's radius and at a radius larger than a tile, other kernels, odd and large tile sizes,
+ * other polygons, the mirror box (the mirror cells' bins), the fireplace room's GGX samples, an image
+ * smaller than a tile, and spheres reaching the eye plane (a radius of the box's size: the clipped
+ * bounds); bit-identical on a second run. */
+static void test_bounds_vs_brute(void **state) {
+    (void)state;
+    for (int v = 0; v < 2; v++) {
+        const pgi__gpu_est_vtbl *vt = v ? &pgi__gpu_est_bounds25d : &pgi__gpu_est_bounds3d;
+        gpu_est_vs_brute(vt, "cornell", 64, 48, 20000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.f, 0);
+        gpu_est_vs_brute(vt, "cornell", 64, 48, 3000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.6f, 0);
+        g_polygon = v ? 4 : 0;
+        gpu_est_vs_brute(vt, "cornell", 50, 37, 5000, PGI_KERNEL_CONE, 0.f, PGI_SPECULAR_DEFAULT, 0.f, 5);
+        g_polygon = v ? 16 : 0;
+        gpu_est_vs_brute(vt, "cornell", 40, 30, 5000, PGI_KERNEL_EPANECHNIKOV, 0.f, PGI_SPECULAR_DEFAULT, 0.2f, 64);
+        g_polygon = 0;
+        gpu_est_vs_brute(vt, "cornell-mirrors", 64, 48, 3000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.6f, 0);
+        gpu_est_vs_brute(vt, "fireplace-room", 48, 36, 10000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_GGX, 0.f, 0);
+        gpu_est_vs_brute(vt, "cornell", 7, 5, 3000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.6f, 0);
+        /* jittered view samples: the bounds widened by half a pixel */
+        g_jitter = PGI_JITTER_ON;
+        gpu_est_vs_brute(vt, "cornell", 64, 48, 20000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.f, 0);
+        g_jitter = PGI_JITTER_AUTO;
+        /* spheres reaching the eye plane: the box's front photons (depth 2.9 and more) at r 3.2, and the
+         * fireplace room's photons near the camera (in the room) at r 0.5 */
+        gpu_est_vs_brute(vt, "cornell", 32, 24, 2000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 3.2f, 8);
+        gpu_est_vs_brute(vt, "fireplace-room", 32, 24, 3000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.5f, 0);
+    }
+}
+
+/* What the GPU bounds estimators refuse: --subsample (CPU only); the registry lists them. */
+static void test_bounds_errors(void **state) {
+    (void)state;
+    const char *names[2] = {"bounds3d", "bounds25d"};
+    for (int v = 0; v < 2; v++) {
+        const pgi__gpu_est_vtbl *vt = pgi__gpu_est_find(names[v]);
+        assert_non_null(vt);
+        pgi_estimator_desc ed = {0}, rd;
+        TU_CHECK_OK(pgi_estimator_desc_resolve(pgi_estimator_find(names[v]), &ed, &rd));
+        assert_int_equal(rd.tiled.tile_size, 32);
+        rd.subsample = 4; /* the CPU estimators refuse it too (pgi_estimator_desc_resolve) */
+        void *ge = NULL;
+        assert_int_equal(vt->create(g_gpu, &rd, &ge), PGI_ERR_UNSUPPORTED);
+        assert_null(ge);
+        assert_non_null(strstr(pgi_last_error(), "subsample"));
+        assert_true(pgi__gpu_est_caps(names[v]) & PGI_EST_CAP_KERNELS);
+        char all[160];
+        pgi__gpu_est_names(all, sizeof all);
+        assert_non_null(strstr(all, names[v]));
+    }
 }
 
 /* What the GPU tiled refuses: --subsample (CPU only); the registry lists it. */
@@ -476,6 +550,8 @@ static void test_cluster_trivial_no_photons(void **state) {
     (void)state;
     no_photons("cluster-trivial");
     no_photons("directional"); /* and the blur of zeros */
+    no_photons("bounds3d");    /* no shapes, empty bins */
+    no_photons("bounds25d");
 }
 
 /* What the GPU cluster-trivial refuses: other kernels (as the CPU), tiles over 16 pixels. */
@@ -626,14 +702,28 @@ static void test_renderer_device(void **state) {
     /* what came back: the image and a few counters */
     assert_true(gs.traffic.download_bytes >= 3 * 64 * 48 * sizeof(float) &&
                 gs.traffic.download_bytes < 3 * 64 * 48 * sizeof(float) + 4096);
+    /* bounds25d the same way (gpu_bounds.c) */
+    d.estimator = "bounds25d";
+    TU_CHECK_OK(pgi_renderer_render(r, &d, &gpu2, &gs));
+    assert_int_equal(tu_compare(gpu2.rgb, gpu.rgb, 3 * 64 * 48, 1e-4, "renderer: vulkan bounds25d vs hashgrid"), 0);
+    /* and on jittered view samples (the frame's jitter in the device inputs) */
+    d.jitter = PGI_JITTER_ON;
+    d.estimator = "hashgrid";
+    TU_CHECK_OK(pgi_renderer_render(r, &d, &gpu, &gs));
+    d.estimator = "bounds3d";
+    TU_CHECK_OK(pgi_renderer_render(r, &d, &gpu2, &gs));
+    assert_int_equal(tu_compare(gpu2.rgb, gpu.rgb, 3 * 64 * 48, 1e-4,
+                                "renderer: vulkan bounds3d vs hashgrid, jittered"),
+                     0);
+    d.jitter = PGI_JITTER_AUTO;
     d.estimator = "hashgrid";
     /* explicit device 0 */
     d.device_index = PGI_DEVICE_INDEX(0);
     TU_CHECK_OK(pgi_renderer_render(r, &d, &gpu2, &gs));
     /* no GPU version */
-    d.estimator = "bounds3d";
+    d.estimator = "kdtree";
     assert_int_equal(pgi_renderer_render(r, &d, &gpu2, &gs), PGI_ERR_UNSUPPORTED);
-    assert_non_null(strstr(pgi_last_error(), "bounds3d"));
+    assert_non_null(strstr(pgi_last_error(), "kdtree"));
     assert_non_null(strstr(pgi_last_error(), "hashgrid"));
     /* a device that does not exist */
     d.estimator = "hashgrid";
@@ -690,6 +780,8 @@ int main(void) {
         cmocka_unit_test(test_directional_vs_cpu),
         cmocka_unit_test(test_tiled_vs_brute),
         cmocka_unit_test(test_tiled_errors),
+        cmocka_unit_test(test_bounds_vs_brute),
+        cmocka_unit_test(test_bounds_errors),
         cmocka_unit_test(test_cluster_trivial_no_photons),
         cmocka_unit_test(test_radix_sort),
         cmocka_unit_test(test_renderer_device),

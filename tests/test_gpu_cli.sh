@@ -74,7 +74,7 @@ grep -A3 '^hashgrid ' "$TMP/out" | grep -qF 'devices: cpu, vulkan (without --sub
 grep -A3 '^kdtree ' "$TMP/out" | grep -qE 'devices: cpu$' && ok || bad "estimators -v (kdtree's devices): $out"
 expect_fail "does not exist" render "${common[@]}" --device vulkan:99 -o "$TMP/x.png"
 expect_fail "0: " render "${common[@]}" --device vulkan:99 -o "$TMP/x.png"
-expect_fail "no GPU version" render "${common[@]}" --device vulkan --estimator bounds3d -o "$TMP/x.png"
+expect_fail "no GPU version" render "${common[@]}" --device vulkan --estimator kdtree -o "$TMP/x.png"
 # a device whose memory cannot hold the frame (PGI_GPU_HEAP_LIMIT, gpu.c's test hook: a 2 MB heap):
 # refused by name and size before the driver is asked, nothing written
 PGI_GPU_HEAP_LIMIT=2000000 expect_fail "gpu_trace_scratch needs 2.6 MiB of device memory" render "${common[@]}" \
@@ -94,9 +94,9 @@ if [ -n "$VIEW" ]; then
     rc=$?
     [ "$rc" -eq 0 ] && grep -q '"device":[[:space:]]*"[^"c]' "$TMP/view.json" && ok ||
         bad "photongi-view --device vulkan: exit $rc $(cat "$TMP/err")"
-    "$VIEW" --scene cornell --device vulkan --estimator bounds3d --frames 1 >"$TMP/out" 2>"$TMP/err"
+    "$VIEW" --scene cornell --device vulkan --estimator kdtree --frames 1 >"$TMP/out" 2>"$TMP/err"
     rc=$?
-    [ "$rc" -eq 1 ] && grep -q "no GPU version" "$TMP/err" && ok || bad "photongi-view bounds3d on vulkan: exit $rc"
+    [ "$rc" -eq 1 ] && grep -q "no GPU version" "$TMP/err" && ok || bad "photongi-view kdtree on vulkan: exit $rc"
 fi
 
 summary test_gpu_cli

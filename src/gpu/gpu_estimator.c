@@ -20,6 +20,8 @@ static const struct {
     {&pgi__gpu_est_cluster_trivial, 0},
     {&pgi__gpu_est_directional, 0},
     {&pgi__gpu_est_tiled, PGI_EST_CAP_KERNELS},
+    {&pgi__gpu_est_bounds3d, PGI_EST_CAP_KERNELS},
+    {&pgi__gpu_est_bounds25d, PGI_EST_CAP_KERNELS},
 };
 #define NGPU (sizeof k_gpu_estimators / sizeof k_gpu_estimators[0])
 

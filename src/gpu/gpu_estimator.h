@@ -20,6 +20,7 @@ typedef struct pgi__gpu_est_inputs {
     int width, height;
     float radius;
     double scene_area; /* the scene's surface area (bvh's T_auto) */
+    float jitter;      /* pgi_view_samples.jitter: 0.5 when the view samples are jittered in their pixels */
 } pgi__gpu_est_inputs;
 
 typedef struct pgi__gpu_est_vtbl {
@@ -116,5 +117,7 @@ extern const pgi__gpu_est_vtbl pgi__gpu_est_cluster_cone;
 extern const pgi__gpu_est_vtbl pgi__gpu_est_cluster_trivial;
 extern const pgi__gpu_est_vtbl pgi__gpu_est_directional;
 extern const pgi__gpu_est_vtbl pgi__gpu_est_tiled;
+extern const pgi__gpu_est_vtbl pgi__gpu_est_bounds3d;
+extern const pgi__gpu_est_vtbl pgi__gpu_est_bounds25d;
 
 #endif

@@ -282,7 +282,8 @@ static pgi_status gpu_indirect(pgi_renderer *r, const pgi_render_desc *d, const 
                                     .width = d->width,
                                     .height = d->height,
                                     .radius = d->radius,
-                                    .scene_area = r->scene_area};
+                                    .scene_area = r->scene_area,
+                                    .jitter = d->jitter == PGI_JITTER_ON ? 0.5f : 0.f};
     if (need_indirect && (st = s->est_vt->device_reserve(s->est, &in, &indirect))) return st;
     if ((st = pgi__gpu_begin(g))) return st;
     pgi__gpu_timestamp(g, "start");

@@ -6,10 +6,8 @@
 
 layout(std430, binding = 1) readonly buffer Bounds { vec4 bounds[]; };
 layout(std430, binding = 2) readonly buffer Frame { vec4 frame[2]; };
-layout(std430, binding = 3) readonly buffer Grid { CellGrid grid; };
-layout(std430, binding = 4) readonly buffer CellBox { float cell_box[]; }; // 6 a cell: lo, hi
-
 void visit(uint t, uint j);
+#include "cells.glsl"
 
 // est_tiled.c overlaps: sphere (c, padded rr) vs tile t
 bool tile_overlaps(uint t, vec3 c, float rr) {
@@ -26,12 +24,6 @@ bool tile_overlaps(uint t, vec3 c, float rr) {
     precise float d2 = (c.y - v1 * c.z) / sqrt(1.0 + v1 * v1);
     precise float d3 = (v0 * c.z - c.y) / sqrt(1.0 + v0 * v0);
     return !(d0 < -rr || d1 < -rr || d2 < -rr || d3 < -rr);
-}
-
-// spec_cells.h pgi__spec_cell_coord
-int spec_coord(float v, int a) {
-    precise float f = floor((v - grid.o[a]) * grid.inv_h);
-    return f < 0.0 ? 0 : (f > float(grid.dim[a] - 1) ? grid.dim[a] - 1 : int(f));
 }
 
 void for_each_list(uint j, vec3 c) {
@@ -60,21 +52,7 @@ void for_each_list(uint j, vec3 c) {
                 if (tile_overlaps(t, c, rr)) visit(t, j);
             }
     }
-    if (grid.n == 0u) return;
-    int i0[3], i1[3];
-    for (int a = 0; a < 3; a++) {
-        if (c[a] + rr < grid.lo[a] || c[a] - rr > grid.hi[a]) return;
-        i0[a] = spec_coord(c[a] - rr, a);
-        i1[a] = spec_coord(c[a] + rr, a);
-    }
-    for (int ix = i0[0]; ix <= i1[0]; ix++)
-        for (int iy = i0[1]; iy <= i1[1]; iy++)
-            for (int iz = i0[2]; iz <= i1[2]; iz++) {
-                uint k = uint(ix + grid.dim[0] * (iy + grid.dim[1] * iz)); // an empty cell's box is empty
-                vec3 lo = vec3(cell_box[6u * k], cell_box[6u * k + 1u], cell_box[6u * k + 2u]);
-                vec3 hi = vec3(cell_box[6u * k + 3u], cell_box[6u * k + 4u], cell_box[6u * k + 5u]);
-                if (box_d2(lo, hi, c) <= rr * rr) visit(pc.ntiles + k, j);
-            }
+    visit_cells(j, c, rr);
 }
 
 #endif
