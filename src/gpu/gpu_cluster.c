@@ -333,24 +333,10 @@ static pgi_status cl_reserve(ct_state *s, const cl_in *in, cl_frame *f) {
 /* pgi_estimate_args inputs: the photons packed in photon order and the view samples, lobes and
  * depths uploaded (the device inputs are these, made on the device) */
 static pgi_status cl_upload(ct_state *s, const pgi_estimate_args *a, cl_frame *f) {
-    pgi__gpu *g = s->g;
-    const pgi_photons *ph = a->photons;
-    const pgi_view_samples *vs = a->samples;
-    const size_t n = f->n, ns = f->ns, psz = sizeof(pgi__packed_photon);
-    pgi_status st;
     f->t[0] = pgi__now_ms();
-    if ((st = pgi__ensure((void **)&s->packed, &s->packed_cap, n + 1, psz))) return st;
-#pragma omp parallel for schedule(static) num_threads(pgi__threads(a->threads))
-    for (long long j = 0; j < (long long)n; j++) pgi__pack_photon(ph, (size_t)j, &s->packed[j]);
-    if ((st = pgi__gpu_pack_samples(&s->pk, vs, a->threads, &f->nlobes))) return st;
-    const size_t nlobes = f->nlobes;
-    if ((st = pgi__gpu_buffer_reserve(g, &s->raw, (n + 1) * psz, "gpu_photons")) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->vs, (ns + 1) * sizeof(gpu_vs), "gpu_view_samples")) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->lobes, (nlobes + 1) * sizeof(gpu_lobe), "gpu_view_samples")) ||
-        (st = pgi__gpu_upload(g, s->raw, 0, s->packed, n * psz)) ||
-        (st = pgi__gpu_upload(g, s->vs, 0, s->pk.hvs, ns * sizeof(gpu_vs))) ||
-        (st = pgi__gpu_upload(g, s->lobes, 0, s->pk.hlobes, nlobes * sizeof(gpu_lobe))) ||
-        (st = pgi__gpu_upload(g, s->depth, 0, vs->depth, ns * sizeof(float))))
+    pgi_status st;
+    if ((st = pgi__gpu_est_upload(s->g, a, &s->packed, &s->packed_cap, &s->pk, &s->raw, &s->vs, &s->lobes)) ||
+        (st = pgi__gpu_upload(s->g, s->depth, 0, a->samples->depth, f->ns * sizeof(float))))
         return st;
     f->vs = s->vs;
     f->lobes = s->lobes;

@@ -157,3 +157,25 @@ pgi_status pgi__gpu_est_none_finish(void *state, const pgi_named_value *t, int n
     (void)state, (void)t, (void)nt, (void)st;
     return pgi__fail(PGI_ERR_UNSUPPORTED, NO_BACKEND);
 }
+
+pgi_status pgi__gpu_est_upload(pgi__gpu *g, const pgi_estimate_args *a, pgi__packed_photon **packed, size_t *packed_cap,
+                               pgi__gpu_vs_pack *pk, pgi__gpu_buffer **photons, pgi__gpu_buffer **vs,
+                               pgi__gpu_buffer **lobes) {
+    const pgi_photons *ph = a->photons;
+    const size_t n = ph->count, ns = a->samples->count, psz = sizeof(pgi__packed_photon);
+    size_t nlobes = 0;
+    pgi_status st;
+    if ((st = pgi__ensure((void **)packed, packed_cap, n + 1, psz))) return st;
+    pgi__packed_photon *pp = *packed;
+#pragma omp parallel for schedule(static) num_threads(pgi__threads(a->threads))
+    for (long long j = 0; j < (long long)n; j++) pgi__pack_photon(ph, (size_t)j, &pp[j]);
+    if ((st = pgi__gpu_pack_samples(pk, a->samples, a->threads, &nlobes)) ||
+        (st = pgi__gpu_buffer_reserve(g, photons, (n + 1) * psz, "gpu_photons")) ||
+        (st = pgi__gpu_buffer_reserve(g, vs, (ns + 1) * sizeof(pgi__gpu_vs), "gpu_view_samples")) ||
+        (st = pgi__gpu_buffer_reserve(g, lobes, (nlobes + 1) * sizeof(pgi__gpu_lobe), "gpu_view_samples")) ||
+        (st = pgi__gpu_upload(g, *photons, 0, pp, n * psz)) ||
+        (st = pgi__gpu_upload(g, *vs, 0, pk->hvs, ns * sizeof(pgi__gpu_vs))) ||
+        (st = pgi__gpu_upload(g, *lobes, 0, pk->hlobes, nlobes * sizeof(pgi__gpu_lobe))))
+        return st;
+    return PGI_OK;
+}

@@ -6,7 +6,8 @@
 #define PGI__GPU_ESTIMATOR_H
 
 #include "gpu/gpu.h"
-#include "scene/bsdf.h" /* PGI__GGX_NMU */
+#include "estimators/packed.h" /* pgi__packed_photon */
+#include "scene/bsdf.h"        /* PGI__GGX_NMU */
 
 /* The GPU frame's inputs (device buffers, no host round trip): photons on the device as
  * pgi__packed_photon (the GPU tracer's, or the CPU's uploaded), the view samples as gpu_view.h's
@@ -104,6 +105,12 @@ void pgi__gpu_est_two_sequence_times(const pgi__gpu *g, pgi_estimator_stats *es,
 /* A 64-bit counter kept by the shaders as two 32-bit words, low first. */
 static inline uint64_t pgi__gpu_u64(const uint32_t *w) { return (uint64_t)w[0] | (uint64_t)w[1] << 32; }
 
+/* `run`'s inputs uploaded: a's photons packed in photon order into *photons ("gpu_photons"), its
+ * view samples and their lobes (pgi__gpu_pack_samples) into *vs and *lobes ("gpu_view_samples");
+ * the host arrays (kept, growing) in *packed and *pk. */
+pgi_status pgi__gpu_est_upload(pgi__gpu *g, const pgi_estimate_args *a, pgi__packed_photon **packed, size_t *packed_cap,
+                               pgi__gpu_vs_pack *pk, pgi__gpu_buffer **photons, pgi__gpu_buffer **vs,
+                               pgi__gpu_buffer **lobes);
 /* Packs vs (pgi__vs_load: the CPU estimators' set-up, GGX's E row included); *nlobes: glossy samples. */
 pgi_status pgi__gpu_pack_samples(pgi__gpu_vs_pack *p, const pgi_view_samples *vs, int threads, size_t *nlobes);
 void pgi__gpu_vs_pack_free(pgi__gpu_vs_pack *p);

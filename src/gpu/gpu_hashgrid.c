@@ -110,8 +110,8 @@ static int bits_for(size_t n) {
 }
 
 /* The buckets' table and its scan (of `start`, buckets + 1 words) for n photons, then every
- * buffer of a frame of ns samples and nlobes lobes. */
-static pgi_status hg_reserve(hg_state *s, size_t n, size_t ns, size_t nlobes, int lobes_here) {
+ * buffer of a frame of ns samples but the inputs'. */
+static pgi_status hg_reserve(hg_state *s, size_t n, size_t ns) {
     pgi__gpu *g = s->g;
     pgi_status st;
     if (n > UINT32_MAX / 2 || ns > UINT32_MAX / 4)
@@ -127,11 +127,6 @@ static pgi_status hg_reserve(hg_state *s, size_t n, size_t ns, size_t nlobes, in
         (st = pgi__gpu_sort_reserve(&s->sort, n)) ||
         (st = pgi__gpu_buffer_reserve(g, &s->out, (3 * ns + 1) * sizeof(float), "gpu_radiance")) ||
         (st = pgi__gpu_buffer_reserve(g, &s->counters, 6 * sizeof(uint32_t), "gpu_hash")))
-        return st;
-    if (lobes_here &&
-        ((st = pgi__gpu_buffer_reserve(g, &s->photons, (n + 1) * psz, "gpu_photons")) ||
-         (st = pgi__gpu_buffer_reserve(g, &s->vs, (ns + 1) * sizeof(gpu_vs), "gpu_view_samples")) ||
-         (st = pgi__gpu_buffer_reserve(g, &s->lobes, (nlobes + 1) * sizeof(gpu_lobe), "gpu_view_samples"))))
         return st;
     return PGI_OK;
 }
@@ -218,15 +213,8 @@ static pgi_status hg_run(void *state, const pgi_estimate_args *a, pgi_estimator_
 
     /* upload: photons packed in photon order, the view samples and lobes */
     double t0 = pgi__now_ms();
-    if ((st = pgi__ensure((void **)&s->packed, &s->packed_cap, n + 1, sizeof(pgi__packed_photon)))) return st;
-#pragma omp parallel for schedule(static) num_threads(pgi__threads(a->threads))
-    for (long long j = 0; j < (long long)n; j++) pgi__pack_photon(ph, (size_t)j, &s->packed[j]);
-    size_t nlobes = 0;
-    if ((st = pgi__gpu_pack_samples(&s->pk, vs, a->threads, &nlobes))) return st;
-    if ((st = hg_reserve(s, n, ns, nlobes, 1))) return st;
-    if ((st = pgi__gpu_upload(g, s->photons, 0, s->packed, n * sizeof(pgi__packed_photon))) ||
-        (st = pgi__gpu_upload(g, s->vs, 0, s->pk.hvs, ns * sizeof(gpu_vs))) ||
-        (st = pgi__gpu_upload(g, s->lobes, 0, s->pk.hlobes, nlobes * sizeof(gpu_lobe))))
+    if ((st = pgi__gpu_est_upload(g, a, &s->packed, &s->packed_cap, &s->pk, &s->photons, &s->vs, &s->lobes)) ||
+        (st = hg_reserve(s, n, ns)))
         return st;
     double t1 = pgi__now_ms();
 
@@ -269,7 +257,7 @@ static pgi_status hg_run(void *state, const pgi_estimate_args *a, pgi_estimator_
 
 static pgi_status hg_device_reserve(void *state, const pgi__gpu_est_inputs *in, pgi__gpu_buffer **out) {
     hg_state *s = state;
-    pgi_status st = hg_reserve(s, in->nphotons, (size_t)in->width * (size_t)in->height, 0, 0);
+    pgi_status st = hg_reserve(s, in->nphotons, (size_t)in->width * (size_t)in->height);
     if (st) return st;
     s->dev_n = in->nphotons;
     *out = s->out;

@@ -208,18 +208,7 @@ static pgi_status pb_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     const double ex = hi[0] - lo[0], ey = hi[1] - lo[1], ez = hi[2] - lo[2];
     const double box_area = n ? 2.0 * (ex * ey + ey * ez + ez * ex) : 0.0;
     if ((st = pb_plan(s, n, vs->width, vs->height, a->radius, a->scene_area, box_area))) return st;
-    const size_t psz = sizeof(pgi__packed_photon);
-    size_t nlobes = 0;
-    if ((st = pgi__ensure((void **)&s->packed, &s->packed_cap, n + 1, psz))) return st;
-    for (size_t j = 0; j < n; j++) pgi__pack_photon(ph, j, &s->packed[j]);
-    if ((st = pgi__gpu_pack_samples(&s->pk, vs, a->threads, &nlobes)) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->raw, (n + 1) * psz, "gpu_photons")) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->vs, (ns + 1) * sizeof(pgi__gpu_vs), "gpu_view_samples")) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->lobes, (nlobes + 1) * sizeof(pgi__gpu_lobe), "gpu_view_samples")) ||
-        (st = pgi__gpu_upload(g, s->raw, 0, s->packed, n * psz)) ||
-        (st = pgi__gpu_upload(g, s->vs, 0, s->pk.hvs, ns * sizeof(pgi__gpu_vs))) ||
-        (st = pgi__gpu_upload(g, s->lobes, 0, s->pk.hlobes, nlobes * sizeof(pgi__gpu_lobe))))
-        return st;
+    if ((st = pgi__gpu_est_upload(g, a, &s->packed, &s->packed_cap, &s->pk, &s->raw, &s->vs, &s->lobes))) return st;
     double t1 = pgi__now_ms();
     if ((st = pgi__gpu_begin(g))) return st;
     pgi__gpu_timestamp(g, "start");
@@ -241,7 +230,7 @@ static pgi_status pb_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     if (!pgi__gpu_has_timestamps(g)) build = 0.0, gather = t3 - t2;
     es->build_ms = (t1 - t0) + build;
     es->estimate_ms = gather + (t4 - t3);
-    pgi__stats_mem(es, "gpu_host_upload", s->packed_cap * psz + pgi__gpu_vs_pack_bytes(&s->pk));
+    pgi__stats_mem(es, "gpu_host_upload", s->packed_cap * sizeof(pgi__packed_photon) + pgi__gpu_vs_pack_bytes(&s->pk));
     return PGI_OK;
 }
 

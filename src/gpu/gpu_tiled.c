@@ -214,23 +214,9 @@ static pgi_status tl_plan(tl_state *s, const tl_in *in, tl_frame *f) {
 
 /* pgi_estimate_args inputs: photons in photon order, the view samples and lobes uploaded */
 static pgi_status tl_upload(tl_state *s, const pgi_estimate_args *a, tl_frame *f) {
-    pgi__gpu *g = s->g;
-    const pgi_photons *ph = a->photons;
-    const size_t n = f->n, ns = f->ns, psz = sizeof(pgi__packed_photon);
-    pgi_status st;
     f->t[0] = pgi__now_ms();
-    if ((st = pgi__ensure((void **)&s->packed, &s->packed_cap, n + 1, psz))) return st;
-#pragma omp parallel for schedule(static) num_threads(pgi__threads(a->threads))
-    for (long long j = 0; j < (long long)n; j++) pgi__pack_photon(ph, (size_t)j, &s->packed[j]);
-    size_t nlobes = 0;
-    if ((st = pgi__gpu_pack_samples(&s->pk, a->samples, a->threads, &nlobes)) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->photons, (n + 1) * psz, "gpu_photons")) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->vs, (ns + 1) * sizeof(gpu_vs), "gpu_view_samples")) ||
-        (st = pgi__gpu_buffer_reserve(g, &s->lobes, (nlobes + 1) * sizeof(gpu_lobe), "gpu_view_samples")) ||
-        (st = pgi__gpu_upload(g, s->photons, 0, s->packed, n * psz)) ||
-        (st = pgi__gpu_upload(g, s->vs, 0, s->pk.hvs, ns * sizeof(gpu_vs))) ||
-        (st = pgi__gpu_upload(g, s->lobes, 0, s->pk.hlobes, nlobes * sizeof(gpu_lobe))))
-        return st;
+    pgi_status st = pgi__gpu_est_upload(s->g, a, &s->packed, &s->packed_cap, &s->pk, &s->photons, &s->vs, &s->lobes);
+    if (st) return st;
     f->vs = s->vs;
     f->lobes = s->lobes;
     f->t[1] = pgi__now_ms();
