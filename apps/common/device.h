@@ -13,9 +13,9 @@
     "  --device cpu|gpu|vulkan[:N]   where the frame runs: cpu (default); gpu or vulkan = the\n"                       \
     "                     Vulkan backend on the first discrete GPU, else integrated, else a CPU\n"                     \
     "                     device (lavapipe); vulkan:N = Vulkan device N ('photongi devices').\n"                       \
-    "                     On the GPU the view samples, photons, estimator (hashgrid, tiled,\n"                         \
-    "                     cluster, cluster-cone, cluster-trivial, directional, bounds3d,\n"                            \
-    "                     bounds25d) and direct light run there (docs/gpu.md)\n"
+    "                     On the GPU the view samples, photons, estimator (all but brute and\n"                        \
+    "                     kdtree: 'photongi devices' lists them) and direct light run there\n"                         \
+    "                     (docs/gpu.md)\n"
 
 /* Parses v into d->device and d->device_index: 1 when valid, else 0 with a message in err. */
 static inline int app_parse_device(const char *v, pgi_render_desc *d, char *err, size_t size) {
