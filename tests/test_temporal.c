@@ -2,7 +2,8 @@
  * progressive average; the reprojection's camera geometry lands on the analytic pixel; a camera
  * move keeps the history of what stays in view and not of what it reveals or of what turns away;
  * a moved light restarts it; the a-trous filter leaves a constant image unchanged and lowers noise
- * without crossing edges; bad settings are refused. */
+ * without crossing edges; a moving camera's pictures and the filter are the same bytes on 1 and 3
+ * threads; bad settings are refused. */
 #include "filter/atrous.h"
 #include "pipeline/pipeline.h"
 #include "test_util.h"
@@ -211,6 +212,30 @@ static void test_atrous(void **state) {
     free(want), free(noisy), free(once), free(pl);
 }
 
+/* A moving camera's pictures (reprojection, blend, filter) are the same bytes on 1 and 3 threads. */
+static void test_threads_same_bytes(void **state) {
+    fixture *f = *state;
+    pgi_camera_def cam;
+    assert_int_equal(pgi_scene_get_camera(f->s, 0, &cam), PGI_OK);
+    pgi_image img[2] = {{0}, {0}};
+    for (int m = 0; m < 2; m++) {
+        pgi_temporal *t;
+        assert_int_equal(pgi_temporal_create(f->r, NULL, &t), PGI_OK);
+        pgi_render_desc d = small_desc();
+        d.threads = m ? 3 : 1;
+        pgi_camera_def c = cam;
+        d.view = &c;
+        for (int k = 0; k < 4; k++) {
+            c.eye[0] += 0.01f, c.look_at[0] += 0.01f;
+            assert_int_equal(pgi_temporal_step(t, &d, &img[m], NULL), PGI_OK);
+        }
+        pgi_temporal_destroy(t);
+    }
+    assert_memory_equal(img[0].rgb, img[1].rgb, 3 * 48 * 36 * sizeof(float));
+    pgi_image_free(&img[0]);
+    pgi_image_free(&img[1]);
+}
+
 /* Settings out of range, AOVs given, the GPU: refused with a message. */
 static void test_refusals(void **state) {
     fixture *f = *state;
@@ -238,6 +263,7 @@ int main(void) {
         cmocka_unit_test(test_projection_is_analytic),
         cmocka_unit_test_setup_teardown(test_moves_and_disocclusion, fixture_setup, fixture_teardown),
         cmocka_unit_test(test_atrous),
+        cmocka_unit_test_setup_teardown(test_threads_same_bytes, fixture_setup, fixture_teardown),
         cmocka_unit_test_setup_teardown(test_refusals, fixture_setup, fixture_teardown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
