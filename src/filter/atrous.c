@@ -1,16 +1,17 @@
 /* Edge-aware a-trous filter (atrous.h). Planes of floats, a row at a time: the interior of a row
- * (every neighbour in the image) runs without bounds checks and vectorizes; the border columns and
- * rows reuse the same code with clamped indices and zero weights. */
+ * (every neighbour in the image) runs a neighbour at a time over CHUNK pixels, without bounds
+ * checks or branches, and vectorizes; the border columns take pixel() with clamped indices and zero
+ * weights, the border rows zero weights for the rows outside. */
 #include "filter/atrous.h"
 
 #include <string.h>
 
 static inline float lum(float r, float g, float b) { return 0.2126f * r + 0.7152f * g + 0.0722f * b; }
 
-/* exp(-e) for e >= 0, closely enough for edge stopping and far cheaper: 1 / (1 + e + e^2/2 + e^3/6). */
 /* max(x, 0) for a finite x, without a branch or fmaxf's NaN rules: it vectorizes */
 static inline float pos0(float x) { return 0.5f * (x + fabsf(x)); }
 
+/* exp(-e) for e >= 0, closely enough for edge stopping and far cheaper: 1 / (1 + e + e^2/2 + e^3/6). */
 static inline float soft_exp(float e) { return 1.f / (1.f + e * (1.f + e * (0.5f + e * (1.f / 6.f)))); }
 
 /* Negative entries of v: the luminance variance of the pixel's 3x3 neighbourhood (masked pixels). */
