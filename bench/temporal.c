@@ -33,6 +33,11 @@ static double change(const unsigned char *a, const unsigned char *b, size_t n) {
     return s / (255.0 * (double)n);
 }
 
+static int cmp_double(const void *a, const void *b) {
+    const double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
 enum { RAW, REUSE, FILTERED, MODES };
 static const char *const k_mode[MODES] = {"raw", "reuse", "reuse+filter"};
 
@@ -115,6 +120,10 @@ int main(int argc, char **argv) {
     unsigned char *prev8[MODES + 1], *cur8 = malloc(n8);
     for (int m = 0; m <= MODES; m++) prev8[m] = malloc(n8);
     double sum_psnr[MODES] = {0}, sum_flip[MODES] = {0}, sum_flicker[MODES] = {0}, sum_ms[MODES] = {0};
+    double sum_tms[MODES] = {0}, sum_fms[MODES] = {0}; /* the temporal step's own reprojection and filter */
+    double *ms_of[MODES];
+    for (int m = 0; m < MODES; m++)
+        if (!(ms_of[m] = calloc((size_t)frames, sizeof(double)))) return 1;
     const float exposure = info.defaults.exposure > 0.f ? info.defaults.exposure : 1.f;
     printf("%s %dx%d, path %s, %d frames, references %lu spp\n", info.name, w, h, path, frames, ref_spp);
     printf("frame  ref_change | raw: dB FLIP | reuse: dB FLIP | reuse+filter: dB FLIP\n");
@@ -169,6 +178,8 @@ int main(int argc, char **argv) {
                 fprintf(out, "%d,%s,%.4f,%.5f,%.6f,%.6f,%.2f\n", f, k_mode[m], mt.psnr, mt.flip.mean, ch, ref_change,
                         ms);
             sum_psnr[m] += mt.psnr, sum_flip[m] += mt.flip.mean, sum_ms[m] += ms;
+            ms_of[m][f] = ms;
+            if (m != RAW) sum_tms[m] += fs.temporal.reproject_ms, sum_fms[m] += fs.temporal.filter_ms;
             if (f) sum_flicker[m] += fmax(0.0, ch - ref_change);
             pgi_image_free(&img);
         }
@@ -176,10 +187,16 @@ int main(int argc, char **argv) {
         fflush(stdout);
         pgi_image_free(&ref);
     }
-    printf("\nmean over %d frames:\n| mode | PSNR dB | FLIP | flicker | ms a frame |\n|---|---|---|---|---|\n", frames);
-    for (int m = 0; m < MODES; m++)
-        printf("| %s | %.2f | %.4f | %.5f | %.1f |\n", k_mode[m], sum_psnr[m] / frames, sum_flip[m] / frames,
-               sum_flicker[m] / (frames - 1), sum_ms[m] / frames);
+    printf("\nmean over %d frames (ms: median, and the temporal step's reprojection and filter means):\n"
+           "| mode | PSNR dB | FLIP | flicker | ms a frame | reuse ms | filter ms |\n|---|---|---|---|---|---|---|\n",
+           frames);
+    for (int m = 0; m < MODES; m++) {
+        qsort(ms_of[m], (size_t)frames, sizeof(double), cmp_double);
+        const double med = frames % 2 ? ms_of[m][frames / 2] : 0.5 * (ms_of[m][frames / 2 - 1] + ms_of[m][frames / 2]);
+        printf("| %s | %.2f | %.4f | %.5f | %.1f | %.1f | %.1f |\n", k_mode[m], sum_psnr[m] / frames,
+               sum_flip[m] / frames, sum_flicker[m] / (frames - 1), med, sum_tms[m] / frames, sum_fms[m] / frames);
+        free(ms_of[m]);
+    }
     if (out) fclose(out);
     for (int m = 0; m < MODES; m++) {
         pgi_temporal_destroy(t[m]);

@@ -2,7 +2,8 @@
  * progressive average; the reprojection's camera geometry lands on the analytic pixel; a camera
  * move keeps the history of what stays in view and not of what it reveals or of what turns away;
  * a moved light restarts it; the a-trous filter leaves a constant image unchanged and lowers noise
- * without crossing edges; bad settings are refused. */
+ * without crossing edges; a moving camera's pictures and the filter are the same bytes on 1 and 3
+ * threads; bad settings are refused. */
 #include "filter/atrous.h"
 #include "pipeline/pipeline.h"
 #include "test_util.h"
@@ -143,58 +144,96 @@ static void test_moves_and_disocclusion(void **state) {
 }
 
 /* The a-trous filter: a constant irradiance stays constant (to float rounding) whatever the guides;
- * noise on a plane is lowered; two planes at an edge keep their different values. */
+ * noise on a plane is lowered; two planes at an edge keep their different values; the same bytes
+ * on 1 and 3 threads. */
 static void test_atrous(void **state) {
     (void)state;
     enum { W = 40, H = 30, N = W * H };
-    float *pos = malloc(3 * N * sizeof(float)), *nrm = malloc(3 * N * sizeof(float)),
-          *alb = malloc(3 * N * sizeof(float)), *depth = malloc(N * sizeof(float)),
-          *rgb = malloc(3 * N * sizeof(float)), *scratch = malloc(6 * N * sizeof(float));
-    uint8_t *mask = malloc(N);
-    assert_non_null(pos && nrm && alb && depth && rgb && scratch && mask);
+    float *pl = malloc(19 * N * sizeof(float)); /* pos, nrm, alb (3 planes each), depth, mask, rgb+v, scratch */
+    assert_non_null(pl);
+    float *pos[3] = {pl, pl + N, pl + 2 * N}, *nrm[3] = {pl + 3 * N, pl + 4 * N, pl + 5 * N},
+          *alb[3] = {pl + 6 * N, pl + 7 * N, pl + 8 * N}, *depth = pl + 9 * N, *mask = pl + 10 * N,
+          *rgb[4] = {pl + 11 * N, pl + 12 * N, pl + 13 * N, pl + 14 * N}, *scratch = pl + 15 * N, *res[3];
     tu_rng rng = tu_rng_make(9);
     for (int y = 0; y < H; y++)
         for (int x = 0; x < W; x++) {
             const size_t p = (size_t)y * W + (size_t)x;
             const int right = x >= W / 2; /* two planes: z = 5 facing +z, and x = 1 facing -x */
-            pos[3 * p] = right ? 1.f : 0.05f * (float)x;
-            pos[3 * p + 1] = 0.05f * (float)y;
-            pos[3 * p + 2] = right ? 5.f - 0.05f * (float)(x - W / 2) : 5.f;
-            nrm[3 * p] = right ? -1.f : 0.f, nrm[3 * p + 1] = 0.f, nrm[3 * p + 2] = right ? 0.f : 1.f;
-            for (int c = 0; c < 3; c++) alb[3 * p + c] = 0.5f + 0.3f * tu_unif(&rng) * (float)(y % 2);
-            depth[p] = pos[3 * p + 2];
-            mask[p] = (x + 3 * y) % 17 != 0; /* a few holes keep their value */
-            for (int c = 0; c < 3; c++) rgb[3 * p + c] = 0.75f;
+            pos[0][p] = right ? 1.f : 0.05f * (float)x;
+            pos[1][p] = 0.05f * (float)y;
+            pos[2][p] = right ? 5.f - 0.05f * (float)(x - W / 2) : 5.f;
+            nrm[0][p] = right ? -1.f : 0.f, nrm[1][p] = 0.f, nrm[2][p] = right ? 0.f : 1.f;
+            for (int c = 0; c < 3; c++) alb[c][p] = 0.5f + 0.3f * tu_unif(&rng) * (float)(y % 2);
+            depth[p] = pos[2][p];
+            mask[p] = (x + 3 * y) % 17 != 0 ? 1.f : 0.f; /* a few holes keep their value */
+            for (int c = 0; c < 3; c++) rgb[c][p] = 0.75f;
+            rgb[3][p] = -1.f; /* the spatial variance */
         }
-    const pgi__atrous_guide g = {W, H, pos, nrm, alb, depth, mask};
-    assert_int_equal(pgi__atrous_filter(&g, 5, 2, rgb, scratch), PGI_OK);
-    for (size_t i = 0; i < 3 * N; i++) assert_true(fabsf(rgb[i] - 0.75f) < 1e-5f);
+    const pgi__atrous_guide g =
+        {W, H, {pos[0], pos[1], pos[2]}, {nrm[0], nrm[1], nrm[2]}, {alb[0], alb[1], alb[2]}, depth, mask};
+    assert_int_equal(pgi__atrous_filter(&g, 5, 2, rgb, scratch, res), PGI_OK);
+    for (int c = 0; c < 3; c++)
+        for (size_t i = 0; i < N; i++) assert_true(fabsf(res[c][i] - 0.75f) < 1e-5f);
     /* noise: left plane 1 +- 0.5, right plane 3 +- 0.5; the same albedo everywhere */
     double err_before = 0.0, err_after = 0.0;
-    float *want = malloc(3 * N * sizeof(float));
-    assert_non_null(want);
+    float *want = malloc(N * sizeof(float)), *noisy = malloc(3 * N * sizeof(float)),
+          *once = malloc(3 * N * sizeof(float));
+    assert_non_null(want && noisy && once);
     for (size_t p = 0; p < N; p++) {
         const int right = (int)(p % W) >= W / 2;
+        want[p] = right ? 3.f : 1.f;
         for (int c = 0; c < 3; c++) {
-            alb[3 * p + c] = 0.5f;
-            want[3 * p + c] = right ? 3.f : 1.f;
-            rgb[3 * p + c] = want[3 * p + c] + tu_range(&rng, -0.5f, 0.5f);
-            err_before += fabs(rgb[3 * p + c] - want[3 * p + c]);
+            alb[c][p] = 0.5f;
+            noisy[c * N + p] = want[p] + tu_range(&rng, -0.5f, 0.5f);
+            err_before += fabs(noisy[c * N + p] - want[p]);
         }
     }
-    assert_int_equal(pgi__atrous_filter(&g, 4, 2, rgb, scratch), PGI_OK);
-    for (size_t i = 0; i < 3 * N; i++) err_after += fabs(rgb[i] - want[i]);
+    for (int threads = 1; threads <= 3; threads += 2) {
+        for (int c = 0; c < 3; c++) memcpy(rgb[c], noisy + c * N, N * sizeof(float));
+        for (size_t p = 0; p < N; p++) rgb[3][p] = -1.f;
+        assert_int_equal(pgi__atrous_filter(&g, 4, threads, rgb, scratch, res), PGI_OK);
+        if (threads == 1) {
+            for (int c = 0; c < 3; c++) memcpy(once + c * N, res[c], N * sizeof(float));
+            continue;
+        }
+        for (int c = 0; c < 3; c++) assert_memory_equal(once + c * N, res[c], N * sizeof(float));
+    }
+    for (int c = 0; c < 3; c++)
+        for (size_t i = 0; i < N; i++) err_after += fabs(res[c][i] - want[i]);
     print_message("a-trous on two noisy planes: mean error %.4f -> %.4f\n", err_before / (3 * N), err_after / (3 * N));
     assert_true(err_after < 0.5 * err_before);
     /* the edge holds: the columns next to it stay on their own side */
     for (int y = 2; y < H - 2; y++) {
         const size_t l = (size_t)y * W + W / 2 - 1, rr = l + 1;
-        if (mask[l]) assert_true(rgb[3 * l] < 1.6f);
-        if (mask[rr]) assert_true(rgb[3 * rr] > 2.4f);
+        if (mask[l] > 0.f) assert_true(res[0][l] < 1.6f);
+        if (mask[rr] > 0.f) assert_true(res[0][rr] > 2.4f);
     }
-    assert_int_equal(pgi__atrous_filter(&g, 6, 2, rgb, scratch), PGI_ERR_INVALID_ARG);
-    free(want);
-    free(pos), free(nrm), free(alb), free(depth), free(rgb), free(scratch), free(mask);
+    assert_int_equal(pgi__atrous_filter(&g, 6, 2, rgb, scratch, res), PGI_ERR_INVALID_ARG);
+    free(want), free(noisy), free(once), free(pl);
+}
+
+/* A moving camera's pictures (reprojection, blend, filter) are the same bytes on 1 and 3 threads. */
+static void test_threads_same_bytes(void **state) {
+    fixture *f = *state;
+    pgi_camera_def cam;
+    assert_int_equal(pgi_scene_get_camera(f->s, 0, &cam), PGI_OK);
+    pgi_image img[2] = {{0}, {0}};
+    for (int m = 0; m < 2; m++) {
+        pgi_temporal *t;
+        assert_int_equal(pgi_temporal_create(f->r, NULL, &t), PGI_OK);
+        pgi_render_desc d = small_desc();
+        d.threads = m ? 3 : 1;
+        pgi_camera_def c = cam;
+        d.view = &c;
+        for (int k = 0; k < 4; k++) {
+            c.eye[0] += 0.01f, c.look_at[0] += 0.01f;
+            assert_int_equal(pgi_temporal_step(t, &d, &img[m], NULL), PGI_OK);
+        }
+        pgi_temporal_destroy(t);
+    }
+    assert_memory_equal(img[0].rgb, img[1].rgb, 3 * 48 * 36 * sizeof(float));
+    pgi_image_free(&img[0]);
+    pgi_image_free(&img[1]);
 }
 
 /* Settings out of range, AOVs given, the GPU: refused with a message. */
@@ -224,6 +263,7 @@ int main(void) {
         cmocka_unit_test(test_projection_is_analytic),
         cmocka_unit_test_setup_teardown(test_moves_and_disocclusion, fixture_setup, fixture_teardown),
         cmocka_unit_test(test_atrous),
+        cmocka_unit_test_setup_teardown(test_threads_same_bytes, fixture_setup, fixture_teardown),
         cmocka_unit_test_setup_teardown(test_refusals, fixture_setup, fixture_teardown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

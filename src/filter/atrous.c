@@ -1,98 +1,192 @@
-/* Edge-aware a-trous filter (atrous.h). */
+/* Edge-aware a-trous filter (atrous.h). Planes of floats, a row at a time: the interior of a row
+ * (every neighbour in the image) runs a neighbour at a time over CHUNK pixels, without bounds
+ * checks or branches, and vectorizes; the border columns take pixel() with clamped indices and zero
+ * weights, the border rows zero weights for the rows outside. */
 #include "filter/atrous.h"
 
 #include <string.h>
 
-static inline float lum(const float *c) { return 0.2126f * c[0] + 0.7152f * c[1] + 0.0722f * c[2]; }
+static inline float lum(float r, float g, float b) { return 0.2126f * r + 0.7152f * g + 0.0722f * b; }
 
-/* The luminance variance of each masked pixel's 3x3 neighbourhood (masked pixels only). */
-static void local_variance(const pgi__atrous_guide *g, const float *rgb, int threads, float *var) {
-    const int W = g->width, H = g->height;
-#pragma omp parallel for schedule(static) num_threads(pgi__threads(threads))
-    for (int y = 0; y < H; y++)
-        for (int x = 0; x < W; x++) {
-            const size_t p = (size_t)y * (size_t)W + (size_t)x;
-            double s = 0.0, s2 = 0.0;
-            int n = 0;
-            if (g->mask[p])
-                for (int dy = -1; dy <= 1; dy++)
-                    for (int dx = -1; dx <= 1; dx++) {
-                        const int qx = x + dx, qy = y + dy;
-                        if (qx < 0 || qy < 0 || qx >= W || qy >= H) continue;
-                        const size_t q = (size_t)qy * (size_t)W + (size_t)qx;
-                        if (!g->mask[q]) continue;
-                        const double l = lum(rgb + 3 * q);
-                        s += l, s2 += l * l, n++;
-                    }
-            var[p] = n > 1 ? (float)fmax(0.0, s2 / n - (s / n) * (s / n)) : 0.f;
-        }
-}
+/* max(x, 0) for a finite x, without a branch or fmaxf's NaN rules: it vectorizes */
+static inline float pos0(float x) { return 0.5f * (x + fabsf(x)); }
 
 /* exp(-e) for e >= 0, closely enough for edge stopping and far cheaper: 1 / (1 + e + e^2/2 + e^3/6). */
 static inline float soft_exp(float e) { return 1.f / (1.f + e * (1.f + e * (0.5f + e * (1.f / 6.f)))); }
 
-/* One pass at `step` pixels from in/vin to out/vout; lin: the luminance of in. */
-static void atrous_pass(const pgi__atrous_guide *g, int step, int threads, const float *in, const float *lin,
-                        const float *vin, float *out, float *vout) {
-    static const float k[3] = {0.25f, 0.5f, 0.25f};
+/* Negative entries of v: the luminance variance of the pixel's 3x3 neighbourhood (masked pixels). */
+static void spatial_variance(const pgi__atrous_guide *g, const float *const rgb[3], float *restrict v, int y) {
     const int W = g->width, H = g->height;
-#pragma omp parallel for schedule(static) num_threads(pgi__threads(threads))
-    for (int y = 0; y < H; y++)
-        for (int x = 0; x < W; x++) {
-            const size_t p = (size_t)y * (size_t)W + (size_t)x;
-            if (!g->mask[p]) {
-                memcpy(out + 3 * p, in + 3 * p, 3 * sizeof(float));
-                vout[p] = vin[p];
-                continue;
-            }
-            const float *np = g->nrm + 3 * p, *xp = g->pos + 3 * p, *ap = g->albedo + 3 * p;
-            const float lp = lin[p], il = 1.f / (4.f * sqrtf(vin[p]) + 1e-6f);
-            const float iz = 1.f / (0.01f * g->depth[p] * (float)step + 1e-6f);
-            const float pd = np[0] * xp[0] + np[1] * xp[1] + np[2] * xp[2]; /* p's tangent plane: n.x = pd */
-            float sw = 0.f, sw2v = 0.f, a0 = 0.f, a1 = 0.f, a2 = 0.f;
-            for (int j = 0; j < 3; j++) {
-                const int qy = y + (j - 1) * step;
-                if (qy < 0 || qy >= H) continue;
-                for (int i = 0; i < 3; i++) {
-                    const int qx = x + (i - 1) * step;
-                    if (qx < 0 || qx >= W) continue;
+    for (int x = 0; x < W; x++) {
+        const size_t p = (size_t)y * (size_t)W + (size_t)x;
+        if (v[p] >= 0.f) continue;
+        float s = 0.f, s2 = 0.f, n = 0.f;
+        if (g->mask[p] > 0.f)
+            for (int qy = y > 0 ? y - 1 : 0; qy <= y + 1 && qy < H; qy++)
+                for (int qx = x > 0 ? x - 1 : 0; qx <= x + 1 && qx < W; qx++) {
                     const size_t q = (size_t)qy * (size_t)W + (size_t)qx;
-                    if (!g->mask[q]) continue;
-                    const float *nq = g->nrm + 3 * q, *xq = g->pos + 3 * q, *aq = g->albedo + 3 * q;
-                    const float nd = fmaxf(0.f, np[0] * nq[0] + np[1] * nq[1] + np[2] * nq[2]);
-                    float wn = nd * nd; /* nd^64 by squaring */
-                    wn *= wn, wn *= wn, wn *= wn, wn *= wn, wn *= wn;
-                    const float plane = fabsf(np[0] * xq[0] + np[1] * xq[1] + np[2] * xq[2] - pd);
-                    const float da = fabsf(aq[0] - ap[0]) + fabsf(aq[1] - ap[1]) + fabsf(aq[2] - ap[2]);
-                    const float e = plane * iz + fabsf(lin[q] - lp) * il + da * 4.f;
-                    const float w = k[i] * k[j] * wn * soft_exp(e);
-                    sw += w;
-                    sw2v += w * w * vin[q];
-                    a0 += w * in[3 * q], a1 += w * in[3 * q + 1], a2 += w * in[3 * q + 2];
+                    if (!(g->mask[q] > 0.f)) continue;
+                    const float l = lum(rgb[0][q], rgb[1][q], rgb[2][q]);
+                    s += l, s2 += l * l, n += 1.f;
                 }
-            }
-            /* p itself always weighs k[1]^2 > 0 */
-            const float inv = 1.f / sw;
-            out[3 * p] = a0 * inv, out[3 * p + 1] = a1 * inv, out[3 * p + 2] = a2 * inv;
-            vout[p] = sw2v * inv * inv;
-        }
+        v[p] = n > 1.f ? fmaxf(0.f, s2 / n - (s / n) * (s / n)) : 0.f;
+    }
 }
 
-pgi_status pgi__atrous_filter(const pgi__atrous_guide *g, int passes, int threads, float *rgb, float *scratch) {
+/* One pixel p of a pass: its neighbours in rows row[0..2] (start indices; weight kr) and columns
+ * col[0..2] (weight kc); a neighbour outside the image has weight 0 and a valid index. */
+static inline void pixel(const pgi__atrous_guide *restrict g, const float *restrict ir, const float *restrict ig,
+                         const float *restrict ib, const float *restrict iv, float *restrict or_, float *restrict og,
+                         float *restrict ob, float *restrict ov, size_t p, const size_t row[3], const float kr[3],
+                         const long col[3], const float kc[3], float step) {
+    const float *restrict nx = g->nrm[0], *restrict ny = g->nrm[1], *restrict nz = g->nrm[2];
+    const float *restrict px = g->pos[0], *restrict py = g->pos[1], *restrict pz = g->pos[2];
+    const float *restrict ar = g->albedo[0], *restrict ag = g->albedo[1], *restrict ab = g->albedo[2];
+    const float *restrict mk = g->mask;
+    const float n0 = nx[p], n1 = ny[p], n2 = nz[p];
+    const float lp = lum(ir[p], ig[p], ib[p]), il = 1.f / (4.f * sqrtf(iv[p]) + 1e-6f);
+    const float iz = 1.f / (0.01f * g->depth[p] * step + 1e-6f);
+    const float pd = n0 * px[p] + n1 * py[p] + n2 * pz[p]; /* p's tangent plane: n.x = pd */
+    const float a0 = ar[p], a1 = ag[p], a2 = ab[p];
+    float sw = 0.f, sw2v = 0.f, sr = 0.f, sg = 0.f, sb = 0.f;
+    for (int j = 0; j < 3; j++)
+        for (int i = 0; i < 3; i++) {
+            const size_t q = row[j] + (size_t)col[i];
+            const float nd = fmaxf(0.f, n0 * nx[q] + n1 * ny[q] + n2 * nz[q]);
+            float wn = nd * nd; /* nd^64 by squaring */
+            wn *= wn, wn *= wn, wn *= wn, wn *= wn, wn *= wn;
+            const float plane = fabsf(n0 * px[q] + n1 * py[q] + n2 * pz[q] - pd);
+            const float da = fabsf(ar[q] - a0) + fabsf(ag[q] - a1) + fabsf(ab[q] - a2);
+            const float r = ir[q], gg = ig[q], b = ib[q];
+            const float e = plane * iz + fabsf(lum(r, gg, b) - lp) * il + da * 4.f;
+            const float w = kr[j] * kc[i] * mk[q] * wn * soft_exp(e);
+            sw += w;
+            sw2v += w * w * iv[q];
+            sr += w * r, sg += w * gg, sb += w * b;
+        }
+    /* a masked p weighs itself 1/4 > 0; an unmasked one keeps its value */
+    const float m = mk[p], inv = 1.f / (sw + (1.f - m));
+    or_[p] = m > 0.f ? sr * inv : ir[p];
+    og[p] = m > 0.f ? sg * inv : ig[p];
+    ob[p] = m > 0.f ? sb * inv : ib[p];
+    ov[p] = m > 0.f ? sw2v * inv * inv : iv[p];
+}
+
+enum { CHUNK = 64 }; /* pixels of a row done together: a tap at a time over them, in vectors */
+
+/* Pixels [x0, x0 + m) (m <= CHUNK) of row y in the interior (every neighbour in the image): the
+ * same sums as pixel(), a neighbour at a time over all of them, on contiguous loads. */
+static void interior(const pgi__atrous_guide *restrict g, const float *const in[4], float *const out[4], size_t base,
+                     int m, const size_t row[3], const float kr[3], int step) {
+    static const float k[3] = {0.25f, 0.5f, 0.25f};
+    const float *restrict nx = g->nrm[0] + base, *restrict ny = g->nrm[1] + base, *restrict nz = g->nrm[2] + base;
+    const float *restrict px = g->pos[0] + base, *restrict py = g->pos[1] + base, *restrict pz = g->pos[2] + base;
+    const float *restrict ar = g->albedo[0] + base, *restrict ag = g->albedo[1] + base,
+                          *restrict ab = g->albedo[2] + base;
+    const float *restrict ir = in[0] + base, *restrict ig = in[1] + base, *restrict ib = in[2] + base,
+                          *restrict iv = in[3] + base, *restrict mk = g->mask + base, *restrict dz = g->depth + base;
+    float lp[CHUNK], il[CHUNK], iz[CHUNK], pd[CHUNK];
+    float sw[CHUNK], sw2v[CHUNK], sr[CHUNK], sg[CHUNK], sb[CHUNK];
+    const float c0 = kr[1] * k[1], fs = 0.01f * (float)step;
+    for (int x = 0; x < m; x++) {
+        lp[x] = lum(ir[x], ig[x], ib[x]);
+        il[x] = 1.f / (4.f * sqrtf(iv[x]) + 1e-6f);
+        iz[x] = 1.f / (fs * dz[x] + 1e-6f);
+        pd[x] = nx[x] * px[x] + ny[x] * py[x] + nz[x] * pz[x];
+        const float w = c0 * mk[x]; /* p itself: every edge term 1 */
+        sw[x] = w, sw2v[x] = w * w * iv[x];
+        sr[x] = w * ir[x], sg[x] = w * ig[x], sb[x] = w * ib[x];
+    }
+    for (int j = 0; j < 3; j++)
+        for (int i = 0; i < 3; i++) {
+            if (i == 1 && j == 1) continue;
+            const float kw = kr[j] * k[i];
+            if (kw == 0.f) continue;
+            const long off = (long)row[j] - (long)row[1] + (long)(i - 1) * step; /* q - p */
+            const float *restrict qnx = nx + off, *restrict qny = ny + off, *restrict qnz = nz + off;
+            const float *restrict qpx = px + off, *restrict qpy = py + off, *restrict qpz = pz + off;
+            const float *restrict qar = ar + off, *restrict qag = ag + off, *restrict qab = ab + off;
+            const float *restrict qr = ir + off, *restrict qg = ig + off, *restrict qb = ib + off;
+            const float *restrict qv = iv + off, *restrict qm = mk + off;
+#pragma omp simd
+            for (int x = 0; x < m; x++) {
+                const float nd = pos0(nx[x] * qnx[x] + ny[x] * qny[x] + nz[x] * qnz[x]);
+                float wn = nd * nd; /* nd^64 by squaring */
+                wn *= wn, wn *= wn, wn *= wn, wn *= wn, wn *= wn;
+                const float plane = fabsf(nx[x] * qpx[x] + ny[x] * qpy[x] + nz[x] * qpz[x] - pd[x]);
+                const float da = fabsf(qar[x] - ar[x]) + fabsf(qag[x] - ag[x]) + fabsf(qab[x] - ab[x]);
+                const float r = qr[x], gg = qg[x], b = qb[x];
+                const float e = plane * iz[x] + fabsf(lum(r, gg, b) - lp[x]) * il[x] + da * 4.f;
+                const float w = kw * qm[x] * wn * soft_exp(e);
+                sw[x] += w;
+                sw2v[x] += w * w * qv[x];
+                sr[x] += w * r, sg[x] += w * gg, sb[x] += w * b;
+            }
+        }
+    float *restrict or_ = out[0] + base, *restrict og = out[1] + base, *restrict ob = out[2] + base,
+                    *restrict ov = out[3] + base;
+    for (int x = 0; x < m; x++) {
+        /* mask 1: the weighted mean exactly; 0: the value kept exactly */
+        const float mm = mk[x], km = 1.f - mm, inv = mm / (sw[x] + km);
+        or_[x] = sr[x] * inv + km * ir[x];
+        og[x] = sg[x] * inv + km * ig[x];
+        ob[x] = sb[x] * inv + km * ib[x];
+        ov[x] = sw2v[x] * inv * inv + km * iv[x];
+    }
+}
+
+/* Row y of a pass at `step` from planes in[0..3] (r, g, b, variance) to out[0..3]. */
+static void pass_row(const pgi__atrous_guide *restrict g, int step, int y, const float *const in[4],
+                     float *const out[4]) {
+    static const float k[3] = {0.25f, 0.5f, 0.25f};
+    const int W = g->width, H = g->height;
+    size_t row[3];
+    float kr[3];
+    for (int j = 0; j < 3; j++) {
+        const int qy = y + (j - 1) * step;
+        const int ok = qy >= 0 && qy < H;
+        row[j] = (size_t)(ok ? qy : y) * (size_t)W;
+        kr[j] = ok ? k[j] : 0.f;
+    }
+    const float *restrict ir = in[0], *restrict ig = in[1], *restrict ib = in[2], *restrict iv = in[3];
+    float *restrict or_ = out[0], *restrict og = out[1], *restrict ob = out[2], *restrict ov = out[3];
+    const size_t base = (size_t)y * (size_t)W;
+    const int lo = step < W ? step : W, hi = W - step > lo ? W - step : lo;
+    const float fs = (float)step;
+    for (int x = 0; x < W; x++) {
+        if (x == lo) x = hi; /* the interior below */
+        if (x >= W) break;
+        long col[3];
+        float kc[3];
+        for (int i = 0; i < 3; i++) {
+            const int qx = x + (i - 1) * step;
+            const int ok = qx >= 0 && qx < W;
+            col[i] = ok ? qx : x;
+            kc[i] = ok ? k[i] : 0.f;
+        }
+        pixel(g, ir, ig, ib, iv, or_, og, ob, ov, base + (size_t)x, row, kr, col, kc, fs);
+    }
+    for (int x = lo; x < hi; x += CHUNK)
+        interior(g, in, out, base + (size_t)x, hi - x < CHUNK ? hi - x : CHUNK, row, kr, step);
+}
+
+pgi_status pgi__atrous_filter(const pgi__atrous_guide *g, int passes, int threads, float *const rgb[4], float *scratch,
+                              float *res[3]) {
     if (passes < 1 || passes > 5) return pgi__fail(PGI_ERR_INVALID_ARG, "a-trous filter: %d passes (1..5)", passes);
     const size_t n = (size_t)g->width * (size_t)g->height;
-    /* 3 floats a pixel, two variances, the luminance */
-    float *tmp = scratch, *va = scratch + 3 * n, *vb = scratch + 4 * n, *lin = scratch + 5 * n;
-    local_variance(g, rgb, threads, va);
-    float *in = rgb, *out = tmp, *vin = va, *vout = vb;
-    for (int k = 0; k < passes; k++) {
-#pragma omp parallel for schedule(static) num_threads(pgi__threads(threads))
-        for (long i = 0; i < (long)n; i++) lin[i] = lum(in + 3 * i);
-        atrous_pass(g, 1 << k, threads, in, lin, vin, out, vout);
-        float *t = in;
-        in = out, out = t;
-        t = vin, vin = vout, vout = t;
+    const int H = g->height;
+    float *const tmp[4] = {scratch, scratch + n, scratch + 2 * n, scratch + 3 * n};
+#pragma omp parallel num_threads(pgi__threads(threads))
+    {
+#pragma omp for schedule(static)
+        for (int y = 0; y < H; y++) spatial_variance(g, (const float *const *)rgb, rgb[3], y);
+        for (int k = 0; k < passes; k++) {
+            const float *const *in = (const float *const *)(k % 2 ? tmp : rgb);
+            float *const *out = k % 2 ? rgb : tmp;
+#pragma omp for schedule(static)
+            for (int y = 0; y < H; y++) pass_row(g, 1 << k, y, in, out);
+        }
     }
-    if (in != rgb) memcpy(rgb, in, 3 * n * sizeof(float));
+    for (int c = 0; c < 3; c++) res[c] = passes % 2 ? tmp[c] : rgb[c];
     return PGI_OK;
 }

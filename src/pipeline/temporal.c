@@ -11,22 +11,32 @@
 #include "scene/scene_internal.h"
 #include "view/view.h"
 
+/* A pixel's history record (HS floats): the picture (rgb), its indirect light (rgb), the first two
+ * moments of the indirect irradiance's luminance (the filter's temporal variance), the weight in
+ * frames. */
+enum { H_RGB = 0, H_IND = 3, H_M1 = 6, H_M2 = 7, H_N = 8, HS = 9 };
+/* The guide planes of a frame: primary hit position, normal, albedo, depth, filter mask (1.f/0.f). */
+enum { G_PX = 0, G_NX = 3, G_AR = 6, G_DEPTH = 9, G_MASK = 10, GN = 11 };
+
 struct pgi_temporal {
     pgi_renderer *r;
     pgi_progressive *prog;
     int history, passes, filter_frames; /* resolved desc */
     int width, height;                  /* of the buffers below (0: none yet) */
     size_t cap;                         /* pixels allocated */
-    int have;                           /* hist and prev_* hold a picture */
-    float *hist;                        /* 3 a pixel: the last picture */
-    float *hist_n;                      /* its history weight in frames */
-    float *carried, *carried_n;         /* the history reprojected at the last camera move (and its weight) */
-    float *ind_avg;                     /* 3: the running mean of the frames' indirect light since that move */
-    float *prev_depth, *prev_nrm;
-    float *depth, *nrm, *alb, *ind, *pos; /* this frame's AOVs and primary hit positions */
-    uint8_t *mask;
-    float *work; /* 3 a pixel: the filtered indirect light; then 6 a pixel of filter scratch */
-    float *scratch;
+    int cap_rows;                       /* rows allocated (row_sum, row_kept) */
+    int have;                           /* hist and prev hold a picture */
+    int carried_on;                     /* carried holds the history reprojected at this picture's start */
+    float *hist, *hist_next;            /* HS a pixel: the last picture's history; the one being written */
+    float *carried;                     /* HS: the history reprojected at the last camera move */
+    float *ind_avg;                     /* 3: the running mean of this picture's frames' indirect light */
+    float *m2_avg;                      /* 1: ... and of the square of its irradiance's luminance */
+    float *cur;                         /* GN planes: this frame's guides (the filter's) */
+    float *geo, *prev_geo;              /* 8 a pixel: this and the last frame's hit, depth, normal */
+    float *nrm, *alb, *ind;             /* 3 a pixel: this frame's AOVs (depth goes to cur's plane) */
+    float *planes;                      /* 8 planes: the filter's r, g, b, variance and its scratch */
+    double *row_sum;                    /* a row's history weight (a deterministic sum) */
+    int *row_kept;                      /* a row's pixels that kept a history */
     pgi_camera prev_cam;
     pgi_camera_def prev_cd;
     pgi__picture prev_key;    /* the last step's picture, less the camera (not_camera_of) */
@@ -37,36 +47,41 @@ struct pgi_temporal {
     pgi_image avg;            /* the progressive average */
 };
 
+/* Floats a pixel of the buffers above. */
+#define PER_PIXEL (3 * HS + 3 + 1 + GN + 2 * 8 + 9 + 8)
+
 static void free_buffers(pgi_temporal *t) {
-    float **b[] = {&t->hist,  &t->hist_n, &t->carried, &t->carried_n, &t->ind_avg, &t->prev_depth, &t->prev_nrm,
-                   &t->depth, &t->nrm,    &t->alb,     &t->ind,       &t->pos,     &t->work,       &t->scratch};
+    float **b[] = {&t->hist, &t->hist_next, &t->carried, &t->ind_avg, &t->m2_avg, &t->cur,
+                   &t->geo,  &t->prev_geo,  &t->nrm,     &t->alb,     &t->ind,    &t->planes};
     for (size_t i = 0; i < sizeof b / sizeof b[0]; i++) {
         free(*b[i]);
         *b[i] = NULL;
     }
-    free(t->mask);
-    t->mask = NULL;
-    t->cap = 0;
+    free(t->row_sum), free(t->row_kept);
+    t->row_sum = NULL, t->row_kept = NULL;
+    t->cap = 0, t->cap_rows = 0;
 }
 
-/* Buffers for n pixels (kept while they fit). */
-static pgi_status ensure_buffers(pgi_temporal *t, size_t n) {
-    if (t->cap >= n) return PGI_OK;
+/* Buffers for n pixels in h rows (kept while they fit). */
+static pgi_status ensure_buffers(pgi_temporal *t, size_t n, int h) {
+    if (t->cap >= n && t->cap_rows >= h) return PGI_OK;
     free_buffers(t);
     struct {
         float **p;
         size_t per;
-    } b[] = {{&t->hist, 3},       {&t->hist_n, 1},   {&t->carried, 3}, {&t->carried_n, 1}, {&t->ind_avg, 3},
-             {&t->prev_depth, 1}, {&t->prev_nrm, 3}, {&t->depth, 1},   {&t->nrm, 3},       {&t->alb, 3},
-             {&t->ind, 3},        {&t->pos, 3},      {&t->work, 3},    {&t->scratch, 6}};
+    } b[] = {{&t->hist, HS},  {&t->hist_next, HS}, {&t->carried, HS}, {&t->ind_avg, 3},
+             {&t->m2_avg, 1}, {&t->cur, GN},       {&t->geo, 8},      {&t->prev_geo, 8},
+             {&t->nrm, 3},    {&t->alb, 3},        {&t->ind, 3},      {&t->planes, 8}};
     int ok = 1;
     for (size_t i = 0; i < sizeof b / sizeof b[0]; i++) ok &= (*b[i].p = malloc(n * b[i].per * sizeof(float))) != NULL;
-    ok &= (t->mask = malloc(n)) != NULL;
+    ok &= (t->row_sum = malloc((size_t)h * sizeof(double))) != NULL;
+    ok &= (t->row_kept = malloc((size_t)h * sizeof(int))) != NULL;
     if (!ok) {
         free_buffers(t);
         return pgi__fail(PGI_ERR_OOM, "out of memory for the temporal buffers of %zu pixels", n);
     }
-    t->cap = n;
+    t->cap = n, t->cap_rows = h;
+    t->have = 0; /* a new size: nothing to carry */
     return PGI_OK;
 }
 
@@ -160,129 +175,195 @@ int pgi__temporal_project(const pgi_camera *c, const float q[3], int dir, float 
     return 1;
 }
 
-/* Whether the previous frame's pixel q = (qx, qy) shows the surface that this frame's pixel p shows
- * (0 depth for both: the sky): q's hit, on the ray through its centre at its depth, lies on p's
- * tangent plane (within 2 % of the depth: a jittered sample sits up to half a pixel off the centre),
- * with a normal like p's. The albedo is not compared: a textured surface's neighbouring samples
- * differ in it, and under sub-pixel offsets that rejected a third of the history of a still wall. */
-static int same_surface(const pgi_temporal *t, size_t p, int qx, int qy, int sky) {
-    const size_t q = (size_t)qy * (size_t)t->width + (size_t)qx;
-    const float dq = t->prev_depth[q];
-    if (sky || dq == 0.f) return sky && dq == 0.f;
-    const float *n0 = t->nrm + 3 * p, *n1 = t->prev_nrm + 3 * q;
-    float dir[3], off = 0.f;
-    pgi__temporal_pixel_dir(&t->prev_cam, qx, qy, dir);
-    for (int k = 0; k < 3; k++) off += n0[k] * (t->prev_cam.eye[k] + dq * dir[k] - t->pos[3 * p + k]);
-    if (fabsf(off) > 0.02f * dq + 1e-6f) return 0; /* another surface: occluded or disoccluded */
-    return n0[0] * n1[0] + n0[1] * n1[1] + n0[2] * n1[2] >= 0.9f;
+static inline float lum(float r, float g, float b) { return 0.2126f * r + 0.7152f * g + 0.0722f * b; }
+
+/* Irradiance: radiance over the albedo where there is one to divide by. */
+static inline float irradiance(float v, float a) { return a > 1e-4f ? v / a : v; }
+
+/* Row y of this frame's guide planes (primary hit positions through the pixel centres moved by
+ * `shift`, normals, albedo, filter mask) from the AOVs, and (filter != 0) the running means of the
+ * picture's k frames' indirect light and its irradiance's squared luminance. */
+static void prepare_row(pgi_temporal *t, const pgi_camera *cam, const float shift[2], int k, int filter, int y) {
+    const int W = t->width;
+    const size_t n = (size_t)W * (size_t)t->height;
+    float *restrict g = t->cur;
+    const float *restrict nrm = t->nrm, *restrict alb = t->alb, *restrict ind = t->ind;
+    const float ik = 1.f / (float)k;
+    for (int x = 0; x < W; x++) {
+        const size_t p = (size_t)y * (size_t)W + (size_t)x;
+        const float z = g[G_DEPTH * n + p];
+        const pgi__v3 d = pgi__camera_ray_at(cam, x, y, 0.5f + shift[0], 0.5f + shift[1]);
+        float pos[3];
+        v3_store(pos, v3_madd(v3_load(cam->eye), d, z));
+        float *restrict geo = t->geo + 8 * p;
+        for (int c = 0; c < 3; c++) {
+            g[(G_PX + c) * n + p] = geo[c] = pos[c];
+            g[(G_NX + c) * n + p] = geo[4 + c] = nrm[3 * p + c];
+            g[(G_AR + c) * n + p] = alb[3 * p + c];
+        }
+        geo[3] = z, geo[7] = 0.f;
+        const float *a = alb + 3 * p;
+        const int m = z > 0.f && (a[0] > 1e-4f || a[1] > 1e-4f || a[2] > 1e-4f);
+        g[G_MASK * n + p] = m ? 1.f : 0.f;
+        if (!filter) continue;
+        const float *i = ind + 3 * p;
+        const float l = m ? lum(irradiance(i[0], a[0]), irradiance(i[1], a[1]), irradiance(i[2], a[2])) : 0.f;
+        if (k == 1) {
+            for (int c = 0; c < 3; c++) t->ind_avg[3 * p + c] = i[c];
+            t->m2_avg[p] = l * l;
+        } else {
+            for (int c = 0; c < 3; c++) t->ind_avg[3 * p + c] += (i[c] - t->ind_avg[3 * p + c]) * ik;
+            t->m2_avg[p] += (l * l - t->m2_avg[p]) * ik;
+        }
+    }
 }
 
-/* The last picture reprojected into camera `cam` (pixel p's primary hit found in the previous
- * camera; bilinear over the previous pixels that show the same surface) into carried and carried_n,
- * clamped to the mean +- 1.25 sigma of the new picture D's 3x3 neighbourhood. Returns the pixels
- * that kept a history. */
-static size_t reproject(pgi_temporal *t, const pgi_camera *cam, const float *D, int threads) {
+/* Whether the previous frame's pixel q shows the surface that this frame's pixel p shows (0 depth
+ * for both: the sky): q's hit lies on p's tangent plane (within 2 % of the depth), with a normal
+ * like p's. The albedo is not compared: a textured surface's neighbouring samples differ in it, and
+ * under sub-pixel offsets that rejected a third of the history of a still wall. */
+static inline int same_surface(const float *restrict prev_geo, size_t q, const float n0[3], const float x0[3],
+                               int sky) {
+    const float *g = prev_geo + 8 * q, dq = g[3];
+    if (sky || dq == 0.f) return sky && dq == 0.f;
+    float off = 0.f, nd = 0.f;
+    for (int k = 0; k < 3; k++) {
+        off += n0[k] * (g[k] - x0[k]);
+        nd += n0[k] * g[4 + k];
+    }
+    return fabsf(off) <= 0.02f * dq + 1e-6f && nd >= 0.9f;
+}
+
+/* The last picture's history reprojected to pixel (x, y) of camera `cam` into c (HS floats; pixel
+ * p's primary hit found in the previous camera: Catmull-Rom over the 4x4 previous pixels around it
+ * when all show the same surface, else bilinear over those of the nearest 2x2 that do), the picture
+ * clamped to the mean +- 1.25 sigma of the new picture D's 3x3 neighbourhood. Returns whether
+ * anything was kept (else c's weight is 0). */
+static int reproject_pixel(const pgi_temporal *t, const pgi_camera *cam, const float *restrict D, int x, int y,
+                           float *restrict c) {
     const int W = t->width, H = t->height;
-    size_t kept = 0;
-#pragma omp parallel for schedule(static) reduction(+ : kept) num_threads(pgi__threads(threads))
-    for (int y = 0; y < H; y++)
-        for (int x = 0; x < W; x++) {
-            const size_t p = (size_t)y * (size_t)W + (size_t)x;
-            float *c = t->carried + 3 * p;
-            t->carried_n[p] = 0.f;
-            c[0] = c[1] = c[2] = 0.f;
-            const int sky = t->depth[p] == 0.f;
-            float dir[3], fx, fy, zq;
-            pgi__temporal_pixel_dir(cam, x, y, dir);
-            if (!pgi__temporal_project(&t->prev_cam, sky ? dir : t->pos + 3 * p, sky, &fx, &fy, &zq)) continue;
-            if (!sky) fx -= t->shift[0], fy -= t->shift[1]; /* the hit is the shifted sample's: back to p's centre */
-            const int x0 = (int)floorf(fx), y0 = (int)floorf(fy);
-            const float ax = fx - (float)x0, ay = fy - (float)y0;
-            double w = 0.0, n = 0.0, acc[3] = {0.0, 0.0, 0.0};
-            /* Catmull-Rom over the 4x4 previous pixels around it when all show this surface (bilinear
-               weights would blur the history a little more at every move), else bilinear over those
-               of the 2x2 that do */
-            float cx[4], cy[4];
-            catmull_rom(ax, cx);
-            catmull_rom(ay, cy);
-            int all = x0 >= 1 && y0 >= 1 && x0 + 2 < W && y0 + 2 < H;
-            for (int j = -1; all && j <= 2; j++)
-                for (int i = -1; all && i <= 2; i++) all = same_surface(t, p, x0 + i, y0 + j, sky);
-            for (int j = -1; all && j <= 2; j++)
-                for (int i = -1; i <= 2; i++) {
-                    const size_t q = (size_t)(y0 + j) * (size_t)W + (size_t)(x0 + i);
-                    const double b = (double)cx[i + 1] * cy[j + 1];
-                    w += b;
-                    n += b * t->hist_n[q];
-                    for (int k = 0; k < 3; k++) acc[k] += b * t->hist[3 * q + k];
-                }
-            for (int j = 0; !all && j < 2; j++)
-                for (int i = 0; i < 2; i++) {
-                    const int qx = x0 + i, qy = y0 + j;
-                    if (qx < 0 || qy < 0 || qx >= W || qy >= H) continue;
-                    const size_t q = (size_t)qy * (size_t)W + (size_t)qx;
-                    if (!same_surface(t, p, qx, qy, sky)) continue;
-                    const double b = (i ? ax : 1.f - ax) * (j ? ay : 1.f - ay);
-                    w += b;
-                    n += b * t->hist_n[q];
-                    for (int k = 0; k < 3; k++) acc[k] += b * t->hist[3 * q + k];
-                }
-            if (w < 0.05) continue; /* nothing of it was seen: disoccluded */
-            /* the neighbourhood clamp: a history that the new frame's neighbours do not support
-               (a moved object, a light) is pulled to their range instead of leaving a ghost */
-            double m[3] = {0.0, 0.0, 0.0}, m2[3] = {0.0, 0.0, 0.0};
-            int cnt = 0;
-            for (int dy = -1; dy <= 1; dy++)
-                for (int dx = -1; dx <= 1; dx++) {
-                    const int qx = x + dx, qy = y + dy;
-                    if (qx < 0 || qy < 0 || qx >= W || qy >= H) continue;
-                    const float *dq = D + 3 * ((size_t)qy * (size_t)W + (size_t)qx);
-                    for (int k = 0; k < 3; k++) m[k] += dq[k], m2[k] += (double)dq[k] * dq[k];
-                    cnt++;
-                }
-            for (int k = 0; k < 3; k++) {
-                const double mean = m[k] / cnt, sd = sqrt(fmax(0.0, m2[k] / cnt - mean * mean));
-                c[k] = (float)fmax(0.0, fmin(fmax(acc[k] / w, mean - 1.25 * sd), mean + 1.25 * sd));
+    const size_t n = (size_t)W * (size_t)H, p = (size_t)y * (size_t)W + (size_t)x;
+    const float *restrict cur = t->cur, *restrict hist = t->hist;
+    c[H_N] = 0.f;
+    const int sky = cur[G_DEPTH * n + p] == 0.f;
+    const float x0[3] = {cur[G_PX * n + p], cur[(G_PX + 1) * n + p], cur[(G_PX + 2) * n + p]};
+    const float n0[3] = {cur[G_NX * n + p], cur[(G_NX + 1) * n + p], cur[(G_NX + 2) * n + p]};
+    float dir[3], fx, fy, zq;
+    if (sky) pgi__temporal_pixel_dir(cam, x, y, dir);
+    if (!pgi__temporal_project(&t->prev_cam, sky ? dir : x0, sky, &fx, &fy, &zq)) return 0;
+    if (!sky) fx -= t->shift[0], fy -= t->shift[1]; /* the hit is the shifted sample's: back to p's centre */
+    if (!(fx > -2.f && fy > -2.f && fx < (float)W + 1.f && fy < (float)H + 1.f)) return 0;
+    const int xi = (int)floorf(fx), yi = (int)floorf(fy);
+    const float ax = fx - (float)xi, ay = fy - (float)yi;
+    float w = 0.f, acc[HS] = {0.f};
+    /* Catmull-Rom over the 4x4 previous pixels around it when all show this surface (bilinear
+       weights would blur the history a little more at every move), else bilinear over those of the
+       2x2 that do */
+    int all = xi >= 1 && yi >= 1 && xi + 2 < W && yi + 2 < H;
+    for (int j = -1; all && j <= 2; j++)
+        for (int i = -1; all && i <= 2; i++)
+            all = same_surface(t->prev_geo, (size_t)(yi + j) * (size_t)W + (size_t)(xi + i), n0, x0, sky);
+    if (all) {
+        float cx[4], cy[4];
+        catmull_rom(ax, cx);
+        catmull_rom(ay, cy);
+        for (int j = 0; j < 4; j++)
+            for (int i = 0; i < 4; i++) {
+                const float b = cx[i] * cy[j];
+                const float *h = hist + HS * ((size_t)(yi + j - 1) * (size_t)W + (size_t)(xi + i - 1));
+                w += b;
+                for (int k = 0; k < HS; k++) acc[k] += b * h[k];
             }
-            t->carried_n[p] = (float)(n / w);
-            kept++;
+    } else
+        for (int j = 0; j < 2; j++)
+            for (int i = 0; i < 2; i++) {
+                const int qx = xi + i, qy = yi + j;
+                if (qx < 0 || qy < 0 || qx >= W || qy >= H) continue;
+                const size_t q = (size_t)qy * (size_t)W + (size_t)qx;
+                if (!same_surface(t->prev_geo, q, n0, x0, sky)) continue;
+                const float b = (i ? ax : 1.f - ax) * (j ? ay : 1.f - ay);
+                const float *h = hist + HS * q;
+                w += b;
+                for (int k = 0; k < HS; k++) acc[k] += b * h[k];
+            }
+    if (w < 0.05f) return 0; /* nothing of it was seen: disoccluded */
+    /* the neighbourhood clamp: a history that the new frame's neighbours do not support (a moved
+       object, a light) is pulled to their range instead of leaving a ghost */
+    float m[3] = {0.f, 0.f, 0.f}, m2[3] = {0.f, 0.f, 0.f};
+    const int ya = y > 0 ? y - 1 : 0, yb = y + 1 < H ? y + 1 : y, xa = x > 0 ? x - 1 : 0, xb = x + 1 < W ? x + 1 : x;
+    for (int qy = ya; qy <= yb; qy++)
+        for (int qx = xa; qx <= xb; qx++) {
+            const float *dq = D + 3 * ((size_t)qy * (size_t)W + (size_t)qx);
+            for (int k = 0; k < 3; k++) m[k] += dq[k], m2[k] += dq[k] * dq[k];
         }
+    const float ic = 1.f / (float)((yb - ya + 1) * (xb - xa + 1)), iw = 1.f / w;
+    for (int k = 0; k < 3; k++) {
+        const float mean = m[k] * ic, sd = sqrtf(fmaxf(0.f, m2[k] * ic - mean * mean));
+        c[H_RGB + k] = fmaxf(0.f, fminf(fmaxf(acc[H_RGB + k] * iw, mean - 1.25f * sd), mean + 1.25f * sd));
+        c[H_IND + k] = fmaxf(0.f, acc[H_IND + k] * iw);
+    }
+    c[H_M1] = fmaxf(0.f, acc[H_M1] * iw);
+    c[H_M2] = fmaxf(0.f, acc[H_M2] * iw);
+    c[H_N] = fmaxf(0.f, acc[H_N] * iw);
+    return 1;
+}
+
+/* Row y of the picture: (reproject) the history carried to this view, the progressive average and
+ * the carried history (weighing wh = min(n, cap) * fade frames against the average's k) blended
+ * into hist_next, and out; with the filter on, its input planes (the blended indirect light's
+ * irradiance and its variance: the temporal moments' once 4 frames are held, else unknown, -1: the
+ * filter's spatial estimate). Returns the pixels that kept a history. */
+static int blend_row(pgi_temporal *t, const pgi_camera *cam, int reproject, int k, float fade, int filter, float *out,
+                     int y) {
+    const int W = t->width;
+    const size_t n = (size_t)W * (size_t)t->height;
+    const float cap = (float)(t->history > 0 ? t->history : 1), wk = (float)k;
+    const float *restrict avg = t->avg.rgb, *restrict alb = t->alb, *restrict ind_avg = t->ind_avg;
+    float *restrict fr = t->planes, *restrict fg = fr + n, *restrict fb = fg + n, *restrict fv = fb + n;
+    int kept = 0;
+    double sum = 0.0;
+    for (int x = 0; x < W; x++) {
+        const size_t p = (size_t)y * (size_t)W + (size_t)x;
+        float *restrict c = t->carried + HS * p, *restrict h = t->hist_next + HS * p;
+        if (reproject) kept += reproject_pixel(t, cam, avg, x, y, c);
+        const float wh = t->carried_on ? fminf(c[H_N], cap) * fade : 0.f, iw = 1.f / (wh + wk);
+        for (int i = 0; i < 3; i++) {
+            const float D = avg[3 * p + i];
+            out[3 * p + i] = h[H_RGB + i] = wh > 0.f ? (c[H_RGB + i] * wh + D * wk) * iw : D;
+        }
+        h[H_N] = fminf(wh + wk, cap);
+        sum += h[H_N];
+        if (!filter) continue;
+        const float *a = alb + 3 * p;
+        const float ia[3] = {irradiance(ind_avg[3 * p], a[0]), irradiance(ind_avg[3 * p + 1], a[1]),
+                             irradiance(ind_avg[3 * p + 2], a[2])};
+        const float m1 = lum(ia[0], ia[1], ia[2]), m2 = t->m2_avg[p];
+        for (int i = 0; i < 3; i++)
+            h[H_IND + i] = wh > 0.f ? (c[H_IND + i] * wh + ind_avg[3 * p + i] * wk) * iw : ind_avg[3 * p + i];
+        h[H_M1] = wh > 0.f ? (c[H_M1] * wh + m1 * wk) * iw : m1;
+        h[H_M2] = wh > 0.f ? (c[H_M2] * wh + m2 * wk) * iw : m2;
+        fr[p] = irradiance(h[H_IND], a[0]), fg[p] = irradiance(h[H_IND + 1], a[1]);
+        fb[p] = irradiance(h[H_IND + 2], a[2]);
+        const float nf = wh + wk;
+        fv[p] = nf >= 4.f ? fmaxf(0.f, h[H_M2] - h[H_M1] * h[H_M1]) / nf : -1.f;
+    }
+    t->row_sum[y] = sum;
     return kept;
 }
 
-/* This frame's primary hit positions (through the pixel centres moved by `shift`) and the filter's
- * mask from the AOVs. */
-static void positions(pgi_temporal *t, const pgi_camera *cam, const float shift[2], int threads) {
-    const int W = t->width, H = t->height;
-#pragma omp parallel for schedule(static) num_threads(pgi__threads(threads))
-    for (int y = 0; y < H; y++)
-        for (int x = 0; x < W; x++) {
-            const size_t p = (size_t)y * (size_t)W + (size_t)x;
-            v3_store(t->pos + 3 * p,
-                     v3_madd(v3_load(cam->eye), pgi__camera_ray_at(cam, x, y, 0.5f + shift[0], 0.5f + shift[1]),
-                             t->depth[p]));
-            const float *a = t->alb + 3 * p;
-            t->mask[p] = t->depth[p] > 0.f && (a[0] > 1e-4f || a[1] > 1e-4f || a[2] > 1e-4f);
+/* Row y of the filtered picture: out + fw (the filtered indirect light - the unfiltered). */
+static void compose_row(const pgi_temporal *t, float *const res[3], float fw, float *out, int y) {
+    const int W = t->width;
+    const size_t n = (size_t)W * (size_t)t->height;
+    const float *restrict alb = t->alb, *restrict h = t->hist_next, *restrict mk = t->cur + G_MASK * n;
+    for (int x = 0; x < W; x++) {
+        const size_t p = (size_t)y * (size_t)W + (size_t)x;
+        if (!(mk[p] > 0.f)) continue;
+        for (int i = 0; i < 3; i++) {
+            const float a = alb[3 * p + i], f = a > 1e-4f ? res[i][p] * a : res[i][p];
+            out[3 * p + i] += fw * (f - h[HS * p + H_IND + i]);
         }
-}
-
-/* The filtered indirect light of ind_avg into work (irradiance: the albedo divided out and back). */
-static pgi_status filter_indirect(pgi_temporal *t, int threads) {
-    const size_t n = (size_t)t->width * (size_t)t->height;
-    for (size_t p = 0; p < n; p++)
-        for (int k = 0; k < 3; k++) {
-            const float a = t->alb[3 * p + k];
-            t->work[3 * p + k] = t->mask[p] && a > 1e-4f ? t->ind_avg[3 * p + k] / a : t->ind_avg[3 * p + k];
-        }
-    const pgi__atrous_guide g = {t->width, t->height, t->pos, t->nrm, t->alb, t->depth, t->mask};
-    pgi_status st = pgi__atrous_filter(&g, t->passes, threads, t->work, t->scratch);
-    if (st) return st;
-    for (size_t p = 0; p < n; p++)
-        for (int k = 0; k < 3; k++) {
-            const float a = t->alb[3 * p + k];
-            if (t->mask[p] && a > 1e-4f) t->work[3 * p + k] *= a;
-        }
-    return PGI_OK;
+    }
 }
 
 static void add_pass(pgi_frame_stats *fs, const char *name, double ms) {
@@ -306,7 +387,7 @@ pgi_status pgi_temporal_step(pgi_temporal *t, const pgi_render_desc *in, pgi_ima
         (uint64_t)w * (uint64_t)h > PGI_MAX_IMAGE_PIXELS)
         return pgi__fail(PGI_ERR_INVALID_ARG, "temporal step: image size %dx%d is out of range", w, h);
     const size_t n = (size_t)w * (size_t)h;
-    pgi_status st = ensure_buffers(t, n);
+    pgi_status st = ensure_buffers(t, n, h);
     if (st) return st;
     /* What changed since the last step: the camera only (the history is reprojected), anything else
      * (it starts afresh), or nothing (the progressive average goes on). Each new picture takes
@@ -321,10 +402,13 @@ pgi_status pgi_temporal_step(pgi_temporal *t, const pgi_render_desc *in, pgi_ima
     const int same_key = size_same && memcmp(&key, &t->prev_key, sizeof key) == 0;
     const int same_cam = t->have && memcmp(&cd, &t->prev_cd, sizeof cd) == 0 && in->shift[0] == t->prev_user_shift[0] &&
                          in->shift[1] == t->prev_user_shift[1];
-    /* A moving camera's pictures also take a sub-pixel offset each (Halton 2, 3), so that their
-     * history averages the whole pixel as the progressive frames do (temporal anti-aliasing); when
-     * the camera stops, one more picture begins without it, whose progressive average is then the
-     * plain one. A caller's own offset (an engine's jitter) is left as it is. */
+    /* A moving camera's pictures with unfiltered textures (texture_filter off) also take a
+     * sub-pixel offset each (Halton 2, 3), so that their history averages the whole pixel as the
+     * progressive frames do (temporal anti-aliasing); when the camera stops, one more picture
+     * begins without it, whose progressive average is then the plain one. Filtered textures
+     * (the default) already show a pixel's footprint: an offset would blur them twice (Sibenik
+     * 320x180: 0.5 dB below the raw frames). A caller's own offset (an engine's jitter) is left as
+     * it is. */
     const int own_shift = in->shift[0] == 0.f && in->shift[1] == 0.f;
     const int stopping = same_key && same_cam && own_shift && (t->shift[0] != 0.f || t->shift[1] != 0.f);
     const int new_picture = !(same_key && same_cam) || stopping;
@@ -338,9 +422,10 @@ pgi_status pgi_temporal_step(pgi_temporal *t, const pgi_render_desc *in, pgi_ima
     float shift[2] = {0.f, 0.f};
     if (!own_shift) shift[0] = in->shift[0], shift[1] = in->shift[1];
     else if (!new_picture) shift[0] = t->shift[0], shift[1] = t->shift[1];
-    else if (only_camera && !same_cam) shift[0] = halton(pictures, 2) - 0.5f, shift[1] = halton(pictures, 3) - 0.5f;
+    else if (only_camera && !same_cam && in->texture_filter == PGI_TEXTURE_FILTER_OFF)
+        shift[0] = halton(pictures, 2) - 0.5f, shift[1] = halton(pictures, 3) - 0.5f;
     d.shift[0] = shift[0], d.shift[1] = shift[1];
-    pgi_aovs aovs = {.albedo = t->alb, .normal = t->nrm, .depth = t->depth, .indirect = t->ind};
+    pgi_aovs aovs = {.albedo = t->alb, .normal = t->nrm, .depth = t->cur + G_DEPTH * n, .indirect = t->ind};
     d.aovs = &aovs;
     pgi_frame_stats fs;
     st = pgi_progressive_step(t->prog, &d, &t->avg, &fs);
@@ -356,69 +441,70 @@ pgi_status pgi_temporal_step(pgi_temporal *t, const pgi_render_desc *in, pgi_ima
     pgi_camera cam;
     pgi_camera_look_at(&cam, cd.eye, cd.look_at, cd.up, cd.fov_y_deg, w, h);
     const int k = fs.frames; /* frames in the progressive average: 1 right after a change */
+    const int reproject_now = k == 1 && t->history > 0 && only_camera && t->have;
+    if (k == 1) t->carried_on = reproject_now;
     t->width = w, t->height = h;
-    /* the filter's weight fades over filter_frames still frames, and once it is 0 it stays 0 until
-       the next picture: the indirect light's running mean is kept only while it is needed */
+    /* the filter's weight fades over filter_frames still frames; while the filter is on at all,
+       the indirect light's history is kept (a camera move may bring it back) */
     const float fw = t->passes > 0 ? fmaxf(0.f, 1.f - (float)(k - 1) / (float)t->filter_frames) : 0.f;
-    const int reproject_now = k == 1 && t->history > 0 && only_camera;
-    if (reproject_now || fw > 0.f) positions(t, &cam, shift, d.threads); /* the hits both read */
-    pgi_temporal_stats ts = {.on = 1};
-    if (k == 1) {
-        /* the picture restarted: the history carried over, if only the camera moved */
-        if (reproject_now) {
-            const size_t kept = reproject(t, &cam, t->avg.rgb, d.threads);
-            ts.reused = (double)kept / (double)n;
-        } else {
-            memset(t->carried_n, 0, n * sizeof *t->carried_n);
-            ts.restarted = 1;
-        }
-        if (fw > 0.f) memcpy(t->ind_avg, t->ind, 3 * n * sizeof(float));
-    } else if (fw > 0.f)
-        for (size_t i = 0; i < 3 * n; i++) t->ind_avg[i] += (t->ind[i] - t->ind_avg[i]) / (float)k;
-    const double t1 = pgi__now_ms();
-
-    /* D: the progressive average with (part of) its indirect light filtered */
-    if (fw > 0.f) {
-        if ((st = filter_indirect(t, d.threads))) return st;
-        ts.filter_passes = t->passes;
-    }
-    ts.filter_weight = fw;
-    const double t2 = pgi__now_ms();
-
-    /* the picture: D and the carried history, whose weight fades over `history` still frames */
+    const int filter = t->passes > 0 && t->history > 0 ? 1 : fw > 0.f;
+    const float fade = t->history > 0 ? fmaxf(0.f, 1.f - (float)(k - 1) / (float)t->history) : 0.f;
     if (!out->rgb || out->width != w || out->height != h) {
         pgi_image_free(out);
         out->rgb = malloc(3 * n * sizeof(float));
         if (!out->rgb) return pgi__fail(PGI_ERR_OOM, "out of memory for the output image");
         out->width = w, out->height = h;
     }
-    const float fade = t->history > 0 ? fmaxf(0.f, 1.f - (float)(k - 1) / (float)t->history) : 0.f;
-    const float cap = (float)(t->history > 0 ? t->history : 1);
-    double hsum = 0.0;
-    for (size_t p = 0; p < n; p++) {
-        const float wh = fminf(t->carried_n[p], cap) * fade, wk = (float)k;
-        for (int c = 0; c < 3; c++) {
-            const size_t i = 3 * p + (size_t)c;
-            const float D = fw > 0.f ? t->avg.rgb[i] + fw * (t->work[i] - t->ind_avg[i]) : t->avg.rgb[i];
-            out->rgb[i] = wh > 0.f ? (t->carried[i] * wh + D * wk) / (wh + wk) : D;
-            t->hist[i] = out->rgb[i];
-        }
-        t->hist_n[p] = fminf(wh + wk, cap);
-        hsum += t->hist_n[p];
+    pgi_temporal_stats ts = {.on = 1, .restarted = k == 1 && !reproject_now};
+    int kept = 0;
+    /* the guides, then the history carried (at a camera move) and blended with the new average:
+       one pass over the rows each; every pixel on its own, the same bytes for any thread count */
+#pragma omp parallel num_threads(pgi__threads(d.threads))
+    {
+#pragma omp for schedule(static)
+        for (int y = 0; y < h; y++) prepare_row(t, &cam, shift, k, filter, y);
+#pragma omp for schedule(static) reduction(+ : kept)
+        for (int y = 0; y < h; y++) kept += blend_row(t, &cam, reproject_now, k, fade, filter, out->rgb, y);
     }
-    memcpy(t->prev_depth, t->depth, n * sizeof(float));
-    memcpy(t->prev_nrm, t->nrm, 3 * n * sizeof(float));
+    if (reproject_now) ts.reused = (double)kept / (double)n;
+    const double t1 = pgi__now_ms();
+
+    /* the blended indirect light filtered (as irradiance), fw of it in the picture */
+    if (fw > 0.f) {
+        float *planes[4] = {t->planes, t->planes + n, t->planes + 2 * n, t->planes + 3 * n}, *res[3];
+        const float *g = t->cur;
+        const pgi__atrous_guide guide = {w,
+                                         h,
+                                         {g + G_PX * n, g + (G_PX + 1) * n, g + (G_PX + 2) * n},
+                                         {g + G_NX * n, g + (G_NX + 1) * n, g + (G_NX + 2) * n},
+                                         {g + G_AR * n, g + (G_AR + 1) * n, g + (G_AR + 2) * n},
+                                         g + G_DEPTH * n,
+                                         g + G_MASK * n};
+        if ((st = pgi__atrous_filter(&guide, t->passes, d.threads, planes, t->planes + 4 * n, res))) return st;
+#pragma omp parallel for schedule(static) num_threads(pgi__threads(d.threads))
+        for (int y = 0; y < h; y++) compose_row(t, res, fw, out->rgb, y);
+        ts.filter_passes = t->passes;
+    }
+    ts.filter_weight = fw;
+    const double t2 = pgi__now_ms();
+
+    double hsum = 0.0;
+    for (int y = 0; y < h; y++) hsum += t->row_sum[y];
+    float *sw = t->hist;
+    t->hist = t->hist_next, t->hist_next = sw;
+    sw = t->prev_geo;
+    t->prev_geo = t->geo, t->geo = sw;
     t->prev_cam = cam;
     t->prev_cd = cd;
     t->prev_key = key;
     t->have = 1;
     ts.history = hsum / (double)n;
-    ts.reproject_ms = t1 - t0 + (pgi__now_ms() - t2);
+    ts.reproject_ms = t1 - t0;
     ts.filter_ms = t2 - t1;
     fs.temporal = ts;
     fs.settings.seed = base; /* the caller's: the frame's own is derived from it */
     fs.settings.aovs = NULL;
-    pgi__stats_mem_put(&fs, "temporal", t->cap * (37 * sizeof(float) + 1)); /* the buffers above */
+    pgi__stats_mem_put(&fs, "temporal", t->cap * PER_PIXEL * sizeof(float)); /* the buffers above */
     add_pass(&fs, "temporal", ts.reproject_ms);
     if (ts.filter_passes) add_pass(&fs, "denoise", ts.filter_ms);
     if (stats) *stats = fs;
