@@ -103,17 +103,17 @@ rc=$?
     cmp -s "$TMP/g-ref.exr.json" "$TMP/g-2.exr.json" && ok ||
     bad "reference --checkpoint -np 2: exit $rc, or no checkpoint, or not the bytes of one run: $(grep -v ranks "$TMP/err" | head -3)"
 # SIGINT to mpirun (it passes SIGTERM to the ranks): the samples so far are saved, a whole number of
-# blocks; continued by 4, the bytes of one run of as many. The signal is sent once two checkpoints say
-# the ranks are rendering and at least 2 s have passed (a fixed sleep raced the ranks' start-up under
-# the sanitizers; right after the first checkpoint, under load, mpirun itself had not yet set up its
-# signal forwarding, and SIGINT ended the job unsaved).
+# blocks; continued by 4, the bytes of one run of as many. The signal is sent once three checkpoints
+# say the ranks are rendering and at least 5 s have passed (a fixed sleep raced the ranks' start-up
+# under the sanitizers; right after the first checkpoints, at a load of 7-10, mpirun itself had not
+# always set up its signal forwarding, and SIGINT ended the job unsaved).
 I=(reference --scene cornell --size 64x48 --threads 1)
 timeout 120 "$MPIRUN" "${MPIOPTS[@]}" -np 2 "$MPI" "${I[@]}" --spp 1000000 --checkpoint 0.2 \
     -o "$TMP/i-2.exr" 2>"$TMP/err" &
 pid=$!
 t0=$(date +%s)
-for _ in $(seq 600); do
-    [ "$(grep -c "checkpoint: " "$TMP/err" 2>/dev/null)" -ge 2 ] && [ $(($(date +%s) - t0)) -ge 2 ] && break
+for _ in $(seq 900); do
+    [ "$(grep -c "checkpoint: " "$TMP/err" 2>/dev/null)" -ge 3 ] && [ $(($(date +%s) - t0)) -ge 5 ] && break
     sleep 0.1
 done
 kill -INT $pid
