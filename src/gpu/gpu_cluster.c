@@ -623,49 +623,20 @@ static pgi_status ct_device_finish(void *state, const pgi_named_value *t, int nt
 }
 
 
-/* cluster (Moreau et al. 2016 §4.1-4.4) and cluster-cone (+ §4.5's cones): cluster-trivial's code
- * with the cone test and trivial accept off (shaders/cl_splat.comp, Push.variant), as on the CPU. */
-const pgi__gpu_est_vtbl pgi__gpu_est_cluster = {
-    .name = "cluster",
-    .create = cl0_create,
-    .run = ct_run,
-    .destroy = ct_destroy,
-    .device_reserve = ct_device_reserve,
-    .device_record = ct_device_record,
-    .device_finish = ct_device_finish,
-};
-
-const pgi__gpu_est_vtbl pgi__gpu_est_cluster_cone = {
-    .name = "cluster-cone",
-    .create = cone_create,
-    .run = ct_run,
-    .destroy = ct_destroy,
-    .device_reserve = ct_device_reserve,
-    .device_record = ct_device_record,
-    .device_finish = ct_device_finish,
-};
-
-const pgi__gpu_est_vtbl pgi__gpu_est_cluster_trivial = {
-    .name = "cluster-trivial",
-    .create = ct_create,
-    .run = ct_run,
-    .destroy = ct_destroy,
-    .device_reserve = ct_device_reserve,
-    .device_record = ct_device_record,
-    .device_finish = ct_device_finish,
-};
-
-/* directional (est_directional.c, Moreau et al. 2016 §4.7) on the same clusters, hierarchy and
- * lists: cl_splat deposits (V_DIR), cl_dir_flux sums each node's octant buckets in photon order,
- * cl_dir_radiance and cl_dir_blur shade. Approximate, like the CPU's; its levels are the four here. */
-const pgi__gpu_est_vtbl pgi__gpu_est_directional = {
-    .name = "directional",
-    .create = dir_create,
-    .run = ct_run,
-    .destroy = ct_destroy,
-    .device_reserve = ct_device_reserve,
-    .device_record = ct_device_record,
-    .device_finish = ct_device_finish,
-};
+/* The four share every entry but create (the variant). cluster (Moreau et al. 2016 §4.1-4.4) and
+ * cluster-cone (+ §4.5's cones): cluster-trivial's code with the cone test and trivial accept off
+ * (shaders/cl_splat.comp, Push.variant), as on the CPU. directional (est_directional.c, §4.7) on the
+ * same clusters, hierarchy and lists: cl_splat deposits (V_DIR), cl_dir_flux sums each node's octant
+ * buckets in photon order, cl_dir_radiance and cl_dir_blur shade; approximate, like the CPU's, its
+ * levels the four here. */
+#define CL_VTBL(NAME, CREATE)                                                                                          \
+    {                                                                                                                  \
+        .name = NAME, .create = CREATE, .run = ct_run, .destroy = ct_destroy, .device_reserve = ct_device_reserve,     \
+        .device_record = ct_device_record, .device_finish = ct_device_finish                                           \
+    }
+const pgi__gpu_est_vtbl pgi__gpu_est_cluster = CL_VTBL("cluster", cl0_create);
+const pgi__gpu_est_vtbl pgi__gpu_est_cluster_cone = CL_VTBL("cluster-cone", cone_create);
+const pgi__gpu_est_vtbl pgi__gpu_est_cluster_trivial = CL_VTBL("cluster-trivial", ct_create);
+const pgi__gpu_est_vtbl pgi__gpu_est_directional = CL_VTBL("directional", dir_create);
 
 #endif /* PGI__HAVE_VULKAN */
