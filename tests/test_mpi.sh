@@ -22,7 +22,10 @@ export OMPI_MCA_mca_base_component_disable_dlclose=1
 # Open MPI needs --allow-run-as-root.
 MPIOPTS=(--oversubscribe)
 [ "$(id -u)" -eq 0 ] && MPIOPTS+=(--allow-run-as-root)
-if "$MPIRUN" --version 2>&1 | grep -qiE "open mpi|openrte"; then :; else MPIOPTS=(); fi
+# KILLOPTS: after forwarding SIGTERM, Open MPI kills the ranks 1 s later (odls_base_sigkill_timeout);
+# under the sanitizers and load, finishing a block and saving can take longer.
+KILLOPTS=(--mca odls_base_sigkill_timeout 30)
+if "$MPIRUN" --version 2>&1 | grep -qiE "open mpi|openrte"; then :; else MPIOPTS=() KILLOPTS=(); fi
 # np N ARGS...: photongi-mpi under mpirun -np N (a minute at most: never a hang)
 np() {
     local n=$1
@@ -106,9 +109,10 @@ rc=$?
 # blocks; continued by 4, the bytes of one run of as many. The signal is sent once three checkpoints
 # say the ranks are rendering and at least 5 s have passed (a fixed sleep raced the ranks' start-up
 # under the sanitizers; right after the first checkpoints, at a load of 7-10, mpirun itself had not
-# always set up its signal forwarding, and SIGINT ended the job unsaved).
+# always set up its signal forwarding, and SIGINT ended the job unsaved; and Open MPI's 1 s between its
+# SIGTERM and SIGKILL could end a rank before it had saved: KILLOPTS).
 I=(reference --scene cornell --size 64x48 --threads 1)
-timeout 120 "$MPIRUN" "${MPIOPTS[@]}" -np 2 "$MPI" "${I[@]}" --spp 1000000 --checkpoint 0.2 \
+timeout 120 "$MPIRUN" "${MPIOPTS[@]}" "${KILLOPTS[@]}" -np 2 "$MPI" "${I[@]}" --spp 1000000 --checkpoint 0.2 \
     -o "$TMP/i-2.exr" 2>"$TMP/err" &
 pid=$!
 t0=$(date +%s)
