@@ -201,12 +201,15 @@ static pgi_status pb_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     const pgi_view_samples *vs = a->samples;
     const size_t n = ph->count, ns = vs->count;
     double t0 = pgi__now_ms();
-    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    const float *P[3] = {ph->px, ph->py, ph->pz};
-    for (int d = 0; d < 3; d++)
-        for (size_t j = 0; j < n; j++) lo[d] = pgi_minf(lo[d], P[d][j]), hi[d] = pgi_maxf(hi[d], P[d][j]);
-    const double ex = hi[0] - lo[0], ey = hi[1] - lo[1], ez = hi[2] - lo[2];
-    const double box_area = n ? 2.0 * (ex * ey + ey * ez + ez * ex) : 0.0;
+    double box_area = 0.0; /* T_auto's stand-in for the scene's area, only when both are missing */
+    if (n && !(a->scene_area > 0.0) && s->desc.bvh.leaf_size <= 0) {
+        float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+        const float *P[3] = {ph->px, ph->py, ph->pz};
+        for (int d = 0; d < 3; d++)
+            for (size_t j = 0; j < n; j++) lo[d] = pgi_minf(lo[d], P[d][j]), hi[d] = pgi_maxf(hi[d], P[d][j]);
+        const double ex = hi[0] - lo[0], ey = hi[1] - lo[1], ez = hi[2] - lo[2];
+        box_area = 2.0 * (ex * ey + ey * ez + ez * ex);
+    }
     if ((st = pb_plan(s, n, vs->width, vs->height, a->radius, a->scene_area, box_area))) return st;
     if ((st = pgi__gpu_est_upload(g, a, &s->packed, &s->packed_cap, &s->pk, &s->raw, &s->vs, &s->lobes))) return st;
     double t1 = pgi__now_ms();
