@@ -13,6 +13,16 @@
  * pgi__packed_photon (the GPU tracer's, or the CPU's uploaded), the view samples as gpu_view.h's
  * ViewSample array with the scene's material lobe table (gpu_scene.h) and the PixelExtra array
  * (geometric normal and view depth), and the camera they were made with. */
+/* A photon's footprint on the device (radius policies `path` and `differentials`, BVH paper
+ * §3.2/§4), one record a photon in the photons' order; mirrored by shaders/footprint.glsl. A sphere
+ * has r only (a and b zero); an ellipsoid {p + u a + v b + w r n : u^2 + v^2 + w^2 < 1} has its
+ * tangent semi-axes a, b, r = sqrt(|a x b|) and n the geometric normal where it was stored, as
+ * pgi_photons' radius, sax..sbz and nx..nz. */
+typedef struct pgi__gpu_footprint {
+    float r, ax, ay, az, bx, by, bz, nx, ny, nz, pad0, pad1;
+} pgi__gpu_footprint;
+_Static_assert(sizeof(pgi__gpu_footprint) == 48, "footprint.glsl Footprint");
+
 typedef struct pgi__gpu_est_inputs {
     pgi__gpu_buffer *photons;
     size_t nphotons;
@@ -22,6 +32,10 @@ typedef struct pgi__gpu_est_inputs {
     float radius;
     double scene_area; /* the scene's surface area (bvh's T_auto) */
     float jitter;      /* pgi_view_samples.jitter: 0.5 when the view samples are jittered in their pixels */
+    /* Per-photon footprints (pgi__gpu_footprint a photon); NULL: every photon has the fixed radius.
+     * footprint_ellipsoids: the records hold ellipsoids (else spheres of radius r). */
+    pgi__gpu_buffer *footprints;
+    int footprint_ellipsoids;
 } pgi__gpu_est_inputs;
 
 typedef struct pgi__gpu_est_vtbl {
