@@ -138,11 +138,9 @@ static void test_sibenik(void **state) {
 }
 
 /* Spot and sun lights beside Cornell's area light; glossy objects: microfacet plastic and
- * Blinn-Phong. */
-static void test_lights_glossy(void **state) {
-    (void)state;
-    char dir[512], path[700];
-    tu_make_tmpdir(dir, sizeof dir);
+ * Blinn-Phong (its description written into dir). */
+static pgi_scene *lights_glossy_scene(const char *dir) {
+    char path[700];
     snprintf(path, sizeof path, "%s/lights.json", dir);
     assert_int_equal(
         tu_write_file(path,
@@ -164,6 +162,14 @@ static void test_lights_glossy(void **state) {
     assert_int_equal(types & 0xE, 0xE);                                                 /* spot, sun, area */
     assert_int_equal(types & (1 << (8 + PGI__MAT_PLASTIC) | 1 << (8 + PGI__MAT_PHONG)), /* both lobes */
                      1 << (8 + PGI__MAT_PLASTIC) | 1 << (8 + PGI__MAT_PHONG));
+    return s;
+}
+
+static void test_lights_glossy(void **state) {
+    (void)state;
+    char dir[512];
+    tu_make_tmpdir(dir, sizeof dir);
+    pgi_scene *s = lights_glossy_scene(dir);
     compare(s, "lights-glossy", 200000, 5);
     pgi_scene_destroy(s);
     tu_rm_tmpdir(dir);
@@ -273,6 +279,293 @@ static void test_frame(void **state) {
     frame_vs_cpu("cornell", 1000000, PGI_OUTPUT_ALL, 64, 48);
 }
 
+/* ------------------------------------------------------------ footprints (radius policies) */
+
+/* Host footprint arrays for ph (radius, and the semi-axes for ellipsoids); free with fp_free. */
+static void fp_alloc(pgi_photons *ph, uint32_t n, int ellipsoids) {
+    TU_CHECK_OK(pgi_photons_alloc(ph, n));
+    float *b = calloc((size_t)n * (ellipsoids ? 7 : 1), sizeof *b);
+    assert_non_null(b);
+    ph->radius = b;
+    if (ellipsoids) {
+        float **ax[] = {&ph->sax, &ph->say, &ph->saz, &ph->sbx, &ph->sby, &ph->sbz};
+        for (int k = 0; k < 6; k++) *ax[k] = b + (size_t)(k + 1) * n;
+    }
+}
+static void fp_free(pgi_photons *ph) {
+    free(ph->radius);
+    ph->radius = ph->sax = ph->say = ph->saz = ph->sbx = ph->sby = ph->sbz = NULL;
+    pgi_photons_free(ph);
+}
+
+static int cmp_float(const void *a, const void *b) {
+    const float x = *(const float *)a, y = *(const float *)b;
+    return (x > y) - (x < y);
+}
+
+typedef struct fp_stats {
+    double mean_r, mean_area, q[3]; /* mean r, mean r^2 (= |a x b| for ellipsoids), r's 10/50/90 % quantiles */
+    double small;                   /* fraction of photons with r < 0.9 r_max */
+} fp_stats;
+
+static fp_stats footprint_stats(const pgi_photons *ph, float r_max) {
+    fp_stats f = {0};
+    const size_t n = ph->count;
+    float *r = malloc(n * sizeof *r);
+    assert_non_null(r);
+    for (size_t j = 0; j < n; j++) {
+        r[j] = ph->radius[j];
+        f.mean_r += r[j];
+        f.mean_area += (double)r[j] * r[j];
+        f.small += r[j] < 0.9f * r_max;
+    }
+    qsort(r, n, sizeof *r, cmp_float);
+    const double qs[3] = {0.1, 0.5, 0.9};
+    for (int k = 0; k < 3; k++) f.q[k] = r[(size_t)(qs[k] * (double)(n - 1))];
+    f.mean_r /= (double)n, f.mean_area /= (double)n, f.small /= (double)n;
+    free(r);
+    return f;
+}
+
+/* Each GPU record: the normal a unit vector facing the photon's incoming direction; spheres with
+ * zero axes, ellipsoids with tangent axes and r = sqrt(|a x b|); r within r_max. */
+static void check_records(const pgi_photons *ph, int ellipsoids, float r_max) {
+    for (size_t j = 0; j < ph->count; j++) {
+        const float n[3] = {ph->nx[j], ph->ny[j], ph->nz[j]}, d[3] = {ph->dx[j], ph->dy[j], ph->dz[j]};
+        assert_true(fabs(tu_dot(n, n) - 1.0) < 1e-4 && tu_dot(n, d) >= -1e-6f);
+        assert_true(ph->radius[j] > 0.f && ph->radius[j] <= r_max * 1.0001f);
+        if (!ellipsoids) continue;
+        const float a[3] = {ph->sax[j], ph->say[j], ph->saz[j]}, b[3] = {ph->sbx[j], ph->sby[j], ph->sbz[j]};
+        const double la = sqrt(tu_dot(a, a)), lb = sqrt(tu_dot(b, b));
+        assert_true(fabs(tu_dot(a, n)) <= 1e-3 * la + 1e-9 && fabs(tu_dot(b, n)) <= 1e-3 * lb + 1e-9);
+        const double c[3] = {(double)a[1] * b[2] - (double)a[2] * b[1], (double)a[2] * b[0] - (double)a[0] * b[2],
+                             (double)a[0] * b[1] - (double)a[1] * b[0]};
+        const double area = sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+        assert_true(fabs(sqrt(area) - ph->radius[j]) <= 1e-3 * ph->radius[j]);
+    }
+}
+
+/* GPU and CPU footprints of scene s under `policy`: the same distribution (mean r, mean area, the
+ * 10/50/90 % quantiles of r within 3 %; the fraction of photons below 0.9 r_max within 3 % of the
+ * photons); each GPU record well formed; the same bytes with 777-path batches. */
+static void compare_footprints(pgi_scene *s, const char *what, int policy, uint32_t photons, int bounces) {
+    const int ell = policy == PGI_RADIUS_DIFFERENTIALS;
+    const float r_max = 0.02f * pgi__scene_diagonal(s), r_min = r_max / 8.f; /* the renderer's defaults */
+    pgi__rt *rt = NULL;
+    TU_CHECK_OK(pgi__rt_create(s, &rt));
+    pgi_photons cpu = {0}, gpu = {0}, again = {0};
+    fp_alloc(&cpu, photons, ell);
+    fp_alloc(&gpu, photons, ell);
+    fp_alloc(&again, photons, ell);
+    pgi__trace_desc td = {.photons = photons,
+                          .bounces = bounces,
+                          .seed = 7,
+                          .threads = 2,
+                          .radius_policy = policy,
+                          .r_min = r_min,
+                          .r_max = r_max};
+    pgi__trace_scratch sc = {0};
+    uint64_t crays = 0;
+    TU_CHECK_OK(pgi__photons_trace(s, rt, &td, &cpu, &sc, &crays));
+    pgi__trace_scratch_free(&sc);
+    pgi__gpu_scene *gs = NULL;
+    pgi__gpu_trace *gt = NULL;
+    TU_CHECK_OK(pgi__gpu_scene_create(g_gpu, s, &gs));
+    TU_CHECK_OK(pgi__gpu_trace_create(g_gpu, gs, &gt));
+    pgi__gpu_trace_desc gd =
+        {.photons = photons, .bounces = bounces, .seed = 7, .radius_policy = policy, .r_min = r_min, .r_max = r_max};
+    pgi__gpu_trace_result r, r2;
+    TU_CHECK_OK(pgi__gpu_trace_run(gt, s, &gd, &r));
+    int e = -1;
+    assert_non_null(pgi__gpu_trace_footprints(gt, &e));
+    assert_int_equal(e, ell);
+    TU_CHECK_OK(pgi__gpu_trace_download(gt, &gpu));
+    assert_int_equal(gpu.count, photons);
+    check_records(&gpu, ell, r_max);
+    const fp_stats a = footprint_stats(&gpu, r_max), b = footprint_stats(&cpu, r_max);
+    fprintf(stderr,
+            "  %-16s %-13s %u photons, trace %.1f ms (device): mean r GPU %.5g CPU %.5g (%+.2f %%), mean area GPU "
+            "%.5g CPU %.5g (%+.2f %%)\n"
+            "  %-16s %-13s r quantiles 10/50/90 %% GPU %.5g %.5g %.5g CPU %.5g %.5g %.5g; below 0.9 r_max GPU "
+            "%.4f CPU %.4f\n",
+            what, ell ? "differentials" : "path", photons, r.trace_ms, a.mean_r, b.mean_r,
+            100.0 * (a.mean_r - b.mean_r) / b.mean_r, a.mean_area, b.mean_area,
+            100.0 * (a.mean_area - b.mean_area) / b.mean_area, what, ell ? "differentials" : "path", a.q[0], a.q[1],
+            a.q[2], b.q[0], b.q[1], b.q[2], a.small, b.small);
+    assert_true(rel(a.mean_r, b.mean_r) <= 0.03);
+    assert_true(rel(a.mean_area, b.mean_area) <= 0.03);
+    for (int k = 0; k < 3; k++) assert_true(rel(a.q[k], b.q[k]) <= 0.03);
+    assert_true(fabs(a.small - b.small) <= 0.03);
+    /* the records follow the photons' compaction: the same bytes with other batches */
+    pgi__gpu_trace_set_max_batch(gt, 777);
+    TU_CHECK_OK(pgi__gpu_trace_run(gt, s, &gd, &r2));
+    TU_CHECK_OK(pgi__gpu_trace_download(gt, &again));
+    assert_true(r2.batches > r.batches);
+    assert_memory_equal(gpu.px, again.px, photons * sizeof(float));
+    assert_memory_equal(gpu.radius, again.radius, photons * sizeof(float));
+    if (ell) assert_memory_equal(gpu.sax, again.sax, 6 * (size_t)photons * sizeof(float));
+    /* a fixed-radius run after it: no footprints */
+    gd.radius_policy = PGI_RADIUS_FIXED;
+    TU_CHECK_OK(pgi__gpu_trace_run(gt, s, &gd, &r2));
+    assert_null(pgi__gpu_trace_footprints(gt, NULL));
+    pgi__gpu_trace_destroy(gt);
+    pgi__gpu_scene_destroy(gs);
+    fp_free(&cpu);
+    fp_free(&gpu);
+    fp_free(&again);
+    pgi__rt_destroy(rt);
+}
+
+static void test_footprints_cornell(void **state) {
+    (void)state;
+    pgi_scene *s = tu_scene("cornell");
+    compare_footprints(s, "cornell", PGI_RADIUS_DIFFERENTIALS, 200000, 4);
+    compare_footprints(s, "cornell", PGI_RADIUS_PATH, 200000, 4);
+    pgi_scene_destroy(s);
+}
+
+/* Mirror and glass: the path policy's caustic photons (r well below r_max), the differentials'
+ * reflection and refraction with the sphere's interpolated normals. */
+static void test_footprints_mirrors(void **state) {
+    (void)state;
+    pgi_scene *s = tu_scene("cornell-mirrors");
+    compare_footprints(s, "cornell-mirrors", PGI_RADIUS_PATH, 200000, 6);
+    compare_footprints(s, "cornell-mirrors", PGI_RADIUS_DIFFERENTIALS, 200000, 6);
+    pgi_scene_destroy(s);
+}
+
+/* Every light type's emission differentials: spot, sun and area (lights-glossy), the sky
+ * (window-box); glossy scattering for the path policy. */
+static void test_footprints_lights(void **state) {
+    (void)state;
+    char dir[512];
+    tu_make_tmpdir(dir, sizeof dir);
+    pgi_scene *s = lights_glossy_scene(dir);
+    compare_footprints(s, "lights-glossy", PGI_RADIUS_DIFFERENTIALS, 200000, 5);
+    compare_footprints(s, "lights-glossy", PGI_RADIUS_PATH, 200000, 5);
+    pgi_scene_destroy(s);
+    tu_rm_tmpdir(dir);
+    s = tu_scene("window-box");
+    compare_footprints(s, "window-box", PGI_RADIUS_DIFFERENTIALS, 80000, 4);
+    pgi_scene_destroy(s);
+}
+
+/* A point light between two parallel Lambertian planes (kd 0.5) a distance H apart, one bounce:
+ * every photon is stored on one plane after a diffuse bounce on the other, and its footprint is
+ * known from the photon alone (tests/test_differentials.c's cases, chained). The bounce point is
+ * x1 = p + wi L with cos2 = |wi.n|, L = H / cos2; the light is t1 = |x1 - light| away from it at
+ * cos1. Differentials: the re-emitted origin offset v = t1 / sqrt(cos1) (eq. 13, pl = 1), roulette
+ * R = 0.5 (1/sqrt(R)), transfer over L: semi-axes s Delta ((v + L) / sqrt(R))^(1/4) times
+ * cos2^(-1/4) along the plane of incidence, so r = s Delta ((v + L)^2 / (R cos2))^(1/8) and the axis
+ * ratio cos2^(-1/4). Path: rho = (0.5 / pi) cos2 1e-3, r = r_min + (r_max - r_min) sqrt(1 - rho). */
+/* The worst error of ph's footprints against the planes' analytic ones (below), in units of the
+ * tolerance (pass: <= 1): differentials r to 1e-4; path rho = 1 - r^2 (r_min 0, r_max 1) to 1 % plus
+ * 4e-7 (a float r near 1); the worst relative error of the ellipses' axis ratio into *ratio_err. */
+static double analytic_error(const pgi_photons *ph, int ell, double eps, double *ratio_err) {
+    const double H = 2.0, light[3] = {0.0, 0.5, 0.0}, R = 0.5, sm = 1.0,
+                 delta = sqrt(4.0 * 3.14159265358979 / ph->count);
+    double worst = 0.0;
+    *ratio_err = 0.0;
+    for (size_t j = 0; j < ph->count; j++) {
+        const double p[3] = {ph->px[j], ph->py[j], ph->pz[j]}, wi[3] = {ph->dx[j], ph->dy[j], ph->dz[j]};
+        const double cos2 = fabs(wi[1]), L = H / cos2;
+        double got, want;
+        if (ell) {
+            /* the bounce's ray left eps off the plane: Lt to p, its origin above x1 */
+            const double Lt = L - eps / cos2, ys = p[1] > 1.0 ? 0.0 : H;
+            assert_true(fabs(p[1] - (H - ys)) < 1e-4);
+            const double x1[3] = {p[0] + wi[0] * Lt, ys, p[2] + wi[2] * Lt};
+            const double e[3] = {x1[0] - light[0], x1[1] - light[1], x1[2] - light[2]};
+            const double t1 = sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]), cos1 = fabs(e[1]) / t1;
+            const double v = t1 / sqrt(cos1);
+            want = sm * delta * pow((v + Lt) * (v + Lt) / (R * cos2), 0.125);
+            got = ph->radius[j];
+            const float a[3] = {ph->sax[j], ph->say[j], ph->saz[j]}, b[3] = {ph->sbx[j], ph->sby[j], ph->sbz[j]};
+            *ratio_err = fmax(*ratio_err, fabs(sqrt(tu_dot(a, a) / tu_dot(b, b)) * pow(cos2, 0.25) - 1.0));
+        } else {
+            want = (0.5 / 3.14159265358979) * cos2 * 1e-3; /* rho, from r = sqrt(1 - rho) */
+            got = 1.0 - (double)ph->radius[j] * ph->radius[j];
+        }
+        worst = fmax(worst, fabs(got - want) / (ell ? 1e-4 * want : 4e-7 + 1e-2 * want));
+    }
+    return worst;
+}
+
+/* A point light between two parallel Lambertian planes (kd 0.5) a distance H apart, one bounce:
+ * every photon is stored on one plane after a diffuse bounce on the other, and its footprint is
+ * known from the photon alone (tests/test_differentials.c's cases, chained). The bounce point is
+ * x1 = p + wi L with cos2 = |wi.n|, L = H / cos2; the light is t1 = |x1 - light| away from it at
+ * cos1. Differentials: the re-emitted origin offset v = t1 / sqrt(cos1) (eq. 13, pl = 1), roulette
+ * R = 0.5 (1/sqrt(R)), transfer over L: semi-axes s Delta ((v + L) / sqrt(R))^(1/4) times
+ * cos2^(-1/4) along the plane of incidence, so r = s Delta ((v + L)^2 / (R cos2))^(1/8) and the axis
+ * ratio cos2^(-1/4). Path: rho = (0.5 / pi) cos2 1e-3, r = r_min + (r_max - r_min) sqrt(1 - rho).
+ * The GPU's and the CPU's photons both. */
+static void test_footprints_analytic(void **state) {
+    (void)state;
+    char dir[512], path[700], text[1024];
+    tu_make_tmpdir(dir, sizeof dir);
+    snprintf(path, sizeof path, "%s/planes.mtl", dir);
+    assert_int_equal(tu_write_file(path, "newmtl grey\nKd 0.5 0.5 0.5\nKs 0 0 0\n"), 0);
+    snprintf(path, sizeof path, "%s/planes.obj", dir);
+    assert_int_equal(tu_write_file(path, "mtllib planes.mtl\nusemtl grey\n"
+                                         "v -400 0 -400\nv 400 0 -400\nv 400 0 400\nv -400 0 400\n"
+                                         "v -400 2 -400\nv 400 2 -400\nv 400 2 400\nv -400 2 400\n"
+                                         "f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\n"),
+                     0);
+    snprintf(text, sizeof text,
+             "{\"name\": \"planes\", \"mesh\": \"%s\", \"lights\": [{\"type\": \"point\", \"position\": [0, 0.5, 0], "
+             "\"intensity\": [1, 1, 1]}]}",
+             path);
+    pgi_scene *s = tu_scene_text(dir, "planes.json", text, path, sizeof path);
+    const uint32_t n = 20000;
+    pgi__rt *rt = NULL;
+    TU_CHECK_OK(pgi__rt_create(s, &rt));
+    pgi__gpu_scene *gs = NULL;
+    pgi__gpu_trace *gt = NULL;
+    TU_CHECK_OK(pgi__gpu_scene_create(g_gpu, s, &gs));
+    TU_CHECK_OK(pgi__gpu_trace_create(g_gpu, gs, &gt));
+    for (int policy = PGI_RADIUS_PATH; policy <= PGI_RADIUS_DIFFERENTIALS; policy++) {
+        const int ell = policy == PGI_RADIUS_DIFFERENTIALS;
+        pgi_photons ph = {0}, cpu = {0};
+        fp_alloc(&ph, n, ell);
+        fp_alloc(&cpu, n, ell);
+        /* r_max large: no clamp for the differentials; [0, 1] for the path policy */
+        const float r_max = ell ? 100.f : 1.f;
+        const pgi__gpu_trace_desc gd =
+            {.photons = n, .bounces = 1, .seed = 3, .radius_policy = policy, .r_max = r_max, .smoothing = 1.f};
+        pgi__gpu_trace_result r;
+        TU_CHECK_OK(pgi__gpu_trace_run(gt, s, &gd, &r));
+        TU_CHECK_OK(pgi__gpu_trace_download(gt, &ph));
+        assert_int_equal(ph.count, n);
+        pgi__trace_desc td = {.photons = n,
+                              .bounces = 1,
+                              .seed = 3,
+                              .threads = 2,
+                              .radius_policy = policy,
+                              .r_max = r_max,
+                              .smoothing = 1.f};
+        pgi__trace_scratch sc = {0};
+        uint64_t crays = 0;
+        TU_CHECK_OK(pgi__photons_trace(s, rt, &td, &cpu, &sc, &crays));
+        pgi__trace_scratch_free(&sc);
+        double gr, cr;
+        const double ge = analytic_error(&ph, ell, pgi__scene_epsilon(s), &gr),
+                     ce = analytic_error(&cpu, ell, pgi__scene_epsilon(s), &cr);
+        fprintf(stderr,
+                "  analytic %-13s %u photons: worst error / tolerance GPU %.3f CPU %.3f (axis ratio %.2e, %.2e)\n",
+                ell ? "differentials" : "path", n, ge, ce, gr, cr);
+        assert_true(ge <= 1.0 && ce <= 1.0);
+        assert_true(gr <= 1e-4 && cr <= 1e-4);
+        fp_free(&ph);
+        fp_free(&cpu);
+    }
+    pgi__gpu_trace_destroy(gt);
+    pgi__gpu_scene_destroy(gs);
+    pgi__rt_destroy(rt);
+    pgi_scene_destroy(s);
+    tu_rm_tmpdir(dir);
+}
+
 static void expect_refused(const pgi__gpu_trace_desc *d, const char *word) {
     assert_int_equal(pgi__gpu_trace_check(d), PGI_ERR_UNSUPPORTED);
     fprintf(stderr, "  refused: %s\n", pgi_last_error());
@@ -283,10 +576,15 @@ static void test_unsupported(void **state) {
     (void)state;
     pgi__gpu_trace_desc d = {.photons = 1000, .bounces = 4, .seed = 1};
     TU_CHECK_OK(pgi__gpu_trace_check(&d));
+    /* the radius policies are traced, with valid bounds */
     d.radius_policy = PGI_RADIUS_PATH;
-    expect_refused(&d, "radius-policy path");
+    d.r_max = 0.1f;
+    TU_CHECK_OK(pgi__gpu_trace_check(&d));
     d.radius_policy = PGI_RADIUS_DIFFERENTIALS;
-    expect_refused(&d, "radius-policy differentials");
+    TU_CHECK_OK(pgi__gpu_trace_check(&d));
+    d.r_max = 0.f;
+    assert_int_equal(pgi__gpu_trace_check(&d), PGI_ERR_INVALID_ARG);
+    assert_non_null(strstr(pgi_last_error(), "radius-policy differentials"));
     d.radius_policy = PGI_RADIUS_FIXED;
     d.emission = PGI_EMISSION_GUIDED;
     expect_refused(&d, "emission guided");
@@ -310,6 +608,10 @@ int main(void) {
         cmocka_unit_test(test_lights_glossy),
         cmocka_unit_test(test_sky),
         cmocka_unit_test(test_sibenik),
+        cmocka_unit_test(test_footprints_analytic),
+        cmocka_unit_test(test_footprints_cornell),
+        cmocka_unit_test(test_footprints_mirrors),
+        cmocka_unit_test(test_footprints_lights),
         cmocka_unit_test(test_frame),
     };
     return cmocka_run_group_tests(tests, tu_gpu_setup, tu_gpu_teardown);

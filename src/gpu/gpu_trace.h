@@ -10,6 +10,9 @@
  *   pgi__gpu_trace_result r;  pgi__gpu_trace_run(t, scene, &d, &r);
  *   pgi__gpu_trace_photons(t)      // device buffer: r.count pgi__packed_photon (36 bytes each)
  *   pgi__gpu_trace_download(t, ph) // or into host arrays (normals not traced: set to 0)
+ * With a radius policy (desc.radius_policy path or differentials) the paths carry the CPU tracer's
+ * footprint state (shaders/trace_fp.comp, differentials.glsl) and each photon gets its footprint
+ * record (pgi__gpu_trace_footprints, in the photons' order; downloaded with the photons).
  *
  * Deterministic: batches of paths of consecutive indices; each path writes its photons to its
  * own slots (at most `bounces`), the counts are scanned and the slots compacted in path order, and
@@ -30,11 +33,15 @@ typedef struct pgi__gpu_trace_desc {
     uint32_t photons; /* photons to store */
     int bounces;      /* 1..64 scattering events (0: no photons) */
     uint64_t seed;
+    /* pgi_radius_policy: PGI_RADIUS_PATH and PGI_RADIUS_DIFFERENTIALS give every photon a
+       footprint (pgi__gpu_trace_footprints) as the CPU tracer does (src/photon/radius.h, with
+       r_min, r_max and smoothing as pgi__fp_params_init takes them; r_max > 0) */
+    int radius_policy;
+    float r_min, r_max, smoothing;
     /* options of the CPU tracer that the GPU lacks: anything but the defaults is refused
        (PGI_ERR_UNSUPPORTED naming the option) */
-    int radius_policy; /* pgi_radius_policy: PGI_RADIUS_FIXED only */
-    int emission;      /* pgi_emission: PGI_EMISSION_UNIFORM only */
-    int store;         /* pgi_store: PGI_STORE_ALL only */
+    int emission; /* pgi_emission: PGI_EMISSION_UNIFORM only */
+    int store;    /* pgi_store: PGI_STORE_ALL only */
 } pgi__gpu_trace_desc;
 
 typedef struct pgi__gpu_trace_result {
@@ -63,8 +70,13 @@ pgi_status pgi__gpu_trace_run(pgi__gpu_trace *t, const pgi_scene *s, const pgi__
 /* The photons of the last run (r.count of them, the buffer holds at least one entry),
  * pgi__packed_photon; NULL before a run. */
 pgi__gpu_buffer *pgi__gpu_trace_photons(const pgi__gpu_trace *t);
-/* Copies the last run's photons into ph (capacity >= count): positions, directions, flux; normals
- * 0; ph->emitted set. */
+/* The footprints of the last run's photons (pgi__gpu_footprint, record i photon i's; the buffer
+ * holds at least one entry) when it had a radius policy, else NULL; *ellipsoids (may be NULL): 1
+ * for differentials' ellipsoids, 0 for spheres. */
+pgi__gpu_buffer *pgi__gpu_trace_footprints(const pgi__gpu_trace *t, int *ellipsoids);
+/* Copies the last run's photons into ph (capacity >= count): positions, directions, flux; with a
+ * radius policy, the footprints into ph->radius (and sax..sbz when ph has them) and the stored
+ * geometric normals into nx..nz, where ph has radius arrays; normals 0 otherwise; ph->emitted set. */
 pgi_status pgi__gpu_trace_download(pgi__gpu_trace *t, pgi_photons *ph);
 /* Tests: at most `paths` paths a launch (>= 1; 0: the default limit). */
 void pgi__gpu_trace_set_max_batch(pgi__gpu_trace *t, uint32_t paths);

@@ -2,9 +2,10 @@
 // an emission (light_draw), the start of a photon path from a point, spot, sun or area light
 // (light_emit) or from the sky (light_emit_sky, from the values trace.glsl keeps in its emission
 // records), a point of an area light (light_area_point) and the light a delta light sends towards
-// a point (light_delta). The same operations as light.h in the same order (precise: no
-// contraction), so a light type changes in these two files together. Include after scene.glsl
-// (verts, tris).
+// a point (light_delta), and with differentials.glsl included first, a photon's emission
+// differentials (light_emit_pd, differentials.c pgi__pd_emit). The same operations as light.h in
+// the same order (precise: no contraction), so a light type changes in these two files together.
+// Include after scene.glsl (verts, tris).
 #ifndef PGIS_LIGHT_GLSL
 #define PGIS_LIGHT_GLSL
 
@@ -66,6 +67,38 @@ void light_emit(Light L, vec4 u, vec3 centre, float radius, float eps, out vec3 
         d = to_world(sample_cosine(u3, u4), L.normal);
     }
 }
+
+#ifdef PGIS_DIFFERENTIALS_GLSL
+// differentials.c pgi__pd_emit (differentials.glsl, included before this file): the emission
+// differentials of a photon leaving L (type LIGHT_ENV: the sky) in direction d, picked with
+// probability pl, scaled so that the global Delta gives it its share of the light's solid angle
+// (or area): |Delta dd|^2 = Omega / (n pl); radius: the sun's and the sky's disk.
+void light_emit_pd(Light L, float pl, vec3 d, float radius, inout PDiff pd) {
+    pl = max(pl, 1e-12);
+    if (L.type == LIGHT_POINT) {
+        pd_emit_dir(pd, d, vec3(0.0, 0.0, 1.0), sqrt(1.0 / pl));
+    } else if (L.type == LIGHT_SPOT) {
+        const float omega = 2.0 * float(PGIS_PI) * (1.0 - L.cos_cutoff);
+        pd_emit_dir(pd, d, L.dir, sqrt(omega / (4.0 * float(PGIS_PI) * pl)));
+    } else if (L.type == LIGHT_SUN || L.type == LIGHT_ENV) {
+        // parallel light over a disk of radius R: positional differentials only
+        vec3 t, b;
+        basis(d, t, b);
+        const float f = sqrt(float(PGIS_PI) * radius * radius / (4.0 * float(PGIS_PI) * pl));
+        pd.dp[0] = t * f;
+        pd.dp[1] = b * f;
+        pd.dd[0] = pd.dd[1] = vec3(0.0);
+    } else { // area: the cosine lobe's solid angle per photon, the origin offset back (eq. 13)
+        const float ct = max(v3_dot(d, L.normal), 0.05);
+        pd_emit_dir(pd, d, L.normal, sqrt(1.0 / (4.0 * pl * ct)));
+        const float B = v3_len(v3_cross(pd.dd[0], pd.dd[1]));
+        const float A = L.area / (4.0 * float(PGIS_PI) * pl);
+        const float v = B > 0.0 ? sqrt(A / B) : 0.0;
+        pd.dp[0] = pd.dd[0] * v;
+        pd.dp[1] = pd.dd[1] * v;
+    }
+}
+#endif
 
 // light.h pgi__light_emit for the sky (env.c pgi__env_sample, constant sky: radiance `sky` above
 // the horizon, `ground` below): a hemisphere by luminance (ps: the upper one's probability, fx, up,

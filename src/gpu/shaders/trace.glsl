@@ -29,7 +29,16 @@ layout(push_constant) uniform Push {
     uint seed_lo, seed_hi;
     uint nemit; // emission records (lights, the sky last)
     uint pad;
+#ifdef TRACE_FOOTPRINTS
+    uint policy; // pgi__fp_params (FpParams)
+    float r_min, r_max, smoothing, smoothing_caustic, delta;
+    uint pad1, pad2;
+#endif
 } pc;
+
+#ifdef TRACE_FOOTPRINTS
+layout(std430, set = 0, binding = 15) writeonly restrict buffer FpSlots { Footprint fslots[]; };
+#endif
 
 // A path's random numbers: scene.glsl's counter-based hash, stream (path index, seed, PURPOSE):
 // path i's numbers depend on (seed, i) alone, whatever the launch and invocation order.
@@ -40,8 +49,11 @@ Rng path_rng(uint lo, uint hi) { return rng_seed(pc.seed_lo, pc.seed_hi, TRACE_P
 float maxc(vec3 a) { return max(a.x, max(a.y, a.z)); }
 
 // ---------------------------------------------------------------- emission (trace.c start_path)
-// Path flux: the light's power over its pick probability (divided by the paths emitted later).
-bool start_path(inout Rng rng, out vec3 o, out vec3 d, out vec3 flux) {
+// Path flux: the light's power over its pick probability (divided by the paths emitted later);
+// L the light (type LIGHT_ENV for the sky), pl its pick probability.
+bool start_path(inout Rng rng, out vec3 o, out vec3 d, out vec3 flux, out Light L, out float pl) {
+    L = Light(vec3(0.0), LIGHT_ENV, vec3(0.0), 0.0, vec3(0.0), 0.0, vec3(0.0), 0u);
+    pl = 0.0;
     o = vec3(0.0);
     d = vec3(0.0, 0.0, 1.0);
     flux = vec3(0.0);
@@ -52,7 +64,8 @@ bool start_path(inout Rng rng, out vec3 o, out vec3 d, out vec3 flux) {
         if (ul < emits[mid].cdf) hi = mid;
         else lo = mid + 1u;
     }
-    precise float pl = emits[lo].cdf - (lo > 0u ? emits[lo - 1u].cdf : 0.0);
+    precise float p = emits[lo].cdf - (lo > 0u ? emits[lo - 1u].cdf : 0.0);
+    pl = p;
     if (!(pl > 0.0)) return false;
     flux = emits[lo].power * (1.0 / pl);
     const vec3 centre = emits[pc.nemit].power;
@@ -64,7 +77,8 @@ bool start_path(inout Rng rng, out vec3 o, out vec3 d, out vec3 flux) {
         return light_emit_sky(u, emits[pc.nemit + 1u].power, vec3(pc.scene.upx, pc.scene.upy, pc.scene.upz),
                               emits[pc.nemit + 2u].power, emits[pc.nemit + 1u].cdf, pc.scene.sky.xyz,
                               pc.scene.ground.xyz, centre, radius, pl, o, d, flux);
-    light_emit(lights[lo], u, centre, radius, pc.scene.eps, o, d);
+    L = lights[lo];
+    light_emit(L, u, centre, radius, pc.scene.eps, o, d);
     return true;
 }
 
@@ -179,6 +193,74 @@ bool bsdf_sample(Surf sf, vec3 kd, vec3 wi, float u1, float u2, float u3, out ve
     wo = to_world(sample_cosine(u1, u2), ns);
     weight = kd;
     return v3_dot(wo, ng) > 0.0;
+}
+
+// ---------------------------------------------------------------- a path (trace.comp, trace_fp.comp)
+// Path k of the launch; with TRACE_FOOTPRINTS (trace_fp.comp) it carries the radius policy's
+// state (differentials.glsl: rho, or the photon differentials) through the CPU tracer's hooks and
+// writes each stored photon's footprint to fslots[], slot for slot with slots[].
+void trace_path(const uint k) {
+    const uint slot0 = k * pc.bounces;
+    uint stored = 0u, rays = 0u;
+    Rng rng = path_rng(pc.path0_lo + k, pc.path0_hi + (pc.path0_lo + k < pc.path0_lo ? 1u : 0u));
+    vec3 o, d, flux;
+    Light L;
+    float pl;
+#ifdef TRACE_FOOTPRINTS
+    const FpParams fp = FpParams(pc.policy, pc.r_min, pc.r_max, pc.smoothing, pc.smoothing_caustic, pc.delta);
+    const bool normals = (pc.scene.flags & SCENE_NORMALS) != 0u;
+    PDiff pd;
+    fp_start(pd);
+#endif
+    if (start_path(rng, o, d, flux, L, pl)) {
+#ifdef TRACE_FOOTPRINTS
+        if (fp.policy == FP_DIFFERENTIALS) light_emit_pd(L, pl, d, emits[pc.nemit].cdf, pd);
+#endif
+        const float inf = uintBitsToFloat(0x7F800000u);
+        for (uint b = 0u;; b++) {
+            BvhHit h;
+            bvh_trace(o, d, 0.0, inf, false, h);
+            rays++;
+            if (h.prim == BVH_EMPTY) break;
+            precise vec3 p = o + d * h.t;
+            const Surf sf = scene_surface(pc.scene, h.prim, h.u, h.v);
+            const vec3 wi = -d;
+            const vec3 ng = v3_dot(wi, sf.ng) >= 0.0 ? sf.ng : -sf.ng;
+            const uint type = mats[sf.mat].type;
+#ifdef TRACE_FOOTPRINTS
+            fp_hit(pd, fp, d, h.t, ng);
+#endif
+            if (b >= 1u && !mat_specular(type)) {
+#ifdef TRACE_FOOTPRINTS
+                fslots[slot0 + stored] = fp_store(pd, fp, ng);
+#endif
+                slots[slot0 + stored] = Photon(p.x, p.y, p.z, wi.x, wi.y, wi.z, flux.x, flux.y, flux.z);
+                stored++;
+            }
+            if (b >= pc.bounces) break;
+            const vec3 kd = surface_kd(sf);
+            const float r1 = rng_f(rng), r2 = rng_f(rng), r3 = rng_f(rng);
+            vec3 wo, w;
+            if (!bsdf_sample(sf, kd, wi, r1, r2, r3, wo, w)) break;
+#ifdef TRACE_FOOTPRINTS
+            fp_scatter(pd, fp, normals, h.prim, h.u, h.v, sf, kd, mat_specular(type), wi, wo, w);
+#endif
+            precise vec3 nf = flux * w;
+            const float mf = maxc(flux);
+            const float R = mf > 0.0 ? min(1.0, maxc(nf) / mf) : 0.0;
+            if (!(rng_f(rng) < R)) break;
+            flux = nf * (1.0 / R);
+            if (any(isnan(flux)) || any(isinf(flux))) break;
+#ifdef TRACE_FOOTPRINTS
+            fp_roulette(pd, fp, R);
+#endif
+            precise vec3 off = (v3_dot(wo, ng) >= 0.0 ? ng : -ng) * pc.scene.eps;
+            o = p + off;
+            d = wo;
+        }
+    }
+    counts[k] = stored;
+    if (rays > 0u) atomicAdd(counters[0], rays);
 }
 
 #endif
