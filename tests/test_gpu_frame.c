@@ -22,6 +22,7 @@
 
 #include "core/core.h"
 #include "gpu/gpu.h"
+#include "gpu/gpu_estimator.h"
 #include "gpu/gpu_scene.h"
 #include "gpu/spirv.h"
 #include "gpu/gpu_view.h"
@@ -488,7 +489,8 @@ static void test_refusals(void **state) {
     pgi_renderer *r = tu_renderer(s);
     pgi_render_desc d = frame_desc(16, 12, 1000, 1, PGI_OUTPUT_ALL, 1);
     /* --radius-policy path/differentials: refused before the device by the CPU's own check (hashgrid
-     * has no per-photon footprints); the GPU frame refuses it by name too (ensure_gpu) */
+     * has no per-photon footprints); an estimator with them on the CPU and not on the device is
+     * refused by name (test_radius_policies) */
     pgi_render_desc e = d;
     e.radius_policy = PGI_RADIUS_PATH;
     e.radius = 0.05f;
@@ -615,15 +617,125 @@ static void test_prepare(void **state) {
     pgi_scene_destroy(s);
 }
 
+/* The mean indirect light of the frame inputs through CPU estimator `name` (with their footprints). */
+static double indirect_mean(const pgi_frame_inputs *in, const char *name, int w, int h) {
+    const size_t n = (size_t)w * h;
+    float *rad = calloc(3 * n, sizeof(float)), *img = calloc(3 * n, sizeof(float));
+    assert_non_null(rad);
+    assert_non_null(img);
+    pgi_estimator *e = NULL;
+    TU_CHECK_OK(pgi_estimator_create(name, &(pgi_estimator_desc){0}, &e));
+    const pgi_estimate_args a = {.photons = in->photons,
+                                 .samples = in->samples,
+                                 .camera = &in->camera,
+                                 .out_rgb = rad,
+                                 .radius = in->radius,
+                                 .seed = in->seed,
+                                 .scene_area = in->scene_area};
+    TU_CHECK_OK(pgi_estimator_build(e, &a));
+    TU_CHECK_OK(pgi_estimator_estimate(e, &a));
+    pgi_estimator_destroy(e);
+    pgi__indirect_image(in->samples, rad, 0, img);
+    double m = 0.0;
+    for (size_t i = 0; i < 3 * n; i++) m += img[i];
+    free(rad);
+    free(img);
+    return m / (double)(3 * n);
+}
+
+/* Radius policies on the device: the GPU tracer's footprints (tests/test_gpu_trace.c compares them
+ * with the CPU's). A frame whose GPU estimator reads no footprints is refused by name (each
+ * estimator that takes them on the CPU, runs on the device and lacks them there); with the fixed
+ * radius nothing changes. pgi_renderer_prepare reads the footprints back with the photons: radius,
+ * the ellipsoids' semi-axes and the normals, and the CPU bvh estimator on those inputs gives the
+ * indirect light of the CPU's own inputs (mean within 2 %, Cornell 200k photons). */
+static void test_radius_policies(void **state) {
+    (void)state;
+    pgi_scene *s = tu_scene("cornell");
+    pgi_renderer *r = tu_renderer(s);
+    int refused = 0;
+    for (size_t i = 0; i < pgi_estimator_count(); i++) {
+        const pgi_estimator_vtbl *vt = pgi_estimator_at(i);
+        if (!(vt->caps & PGI_EST_CAP_PHOTON_RADIUS) || !pgi_estimator_runs_on(vt, PGI_DEVICE_VULKAN)) continue;
+        for (int policy = PGI_RADIUS_PATH; policy <= PGI_RADIUS_DIFFERENTIALS; policy++) {
+            pgi_render_desc d = frame_desc(16, 12, 2000, 1, PGI_OUTPUT_ALL, 1);
+            d.estimator = vt->name;
+            d.radius_policy = policy;
+            pgi_image im = {0};
+            const pgi_status st = pgi_renderer_render(r, &d, &im, NULL);
+            if (pgi__gpu_est_caps(vt->name) & PGI_EST_CAP_PHOTON_RADIUS) {
+                TU_CHECK_OK(st);
+            } else {
+                char word[96];
+                snprintf(word, sizeof word, "--radius-policy %s with estimator '%s'",
+                         policy == PGI_RADIUS_PATH ? "path" : "differentials", vt->name);
+                assert_int_equal(st, PGI_ERR_UNSUPPORTED);
+                fprintf(stderr, "  refused: %s\n", pgi_last_error());
+                assert_non_null(strstr(pgi_last_error(), word));
+                assert_null(im.rgb);
+                refused++;
+            }
+            pgi_image_free(&im);
+        }
+    }
+    fprintf(stderr, "  %d frames refused by name\n", refused);
+    /* prepare: the footprints read back */
+    const int w = 48, h = 36;
+    for (int policy = PGI_RADIUS_PATH; policy <= PGI_RADIUS_DIFFERENTIALS; policy++) {
+        const int ell = policy == PGI_RADIUS_DIFFERENTIALS;
+        pgi_render_desc d = frame_desc(w, h, 200000, 1, PGI_OUTPUT_INDIRECT, 1);
+        d.estimator = "bvh";
+        d.radius_policy = policy;
+        pgi_frame_inputs in;
+        TU_CHECK_OK(pgi_renderer_prepare(r, &d, &in, NULL));
+        const pgi_photons *ph = in.photons;
+        assert_int_equal(ph->count, 200000);
+        assert_non_null(ph->radius);
+        assert_true(ell ? ph->sax != NULL : ph->sax == NULL);
+        double mean_r = 0.0;
+        size_t spheres = 0;
+        for (size_t j = 0; j < ph->count; j++) {
+            assert_true(ph->radius[j] > 0.f && ph->radius[j] <= in.radius * 1.0001f);
+            const float nrm[3] = {ph->nx[j], ph->ny[j], ph->nz[j]}, dir[3] = {ph->dx[j], ph->dy[j], ph->dz[j]};
+            assert_true(fabs(tu_dot(nrm, nrm) - 1.0) < 1e-4 && tu_dot(nrm, dir) >= -1e-6f);
+            if (ell) spheres += ph->sax[j] == 0.f && ph->say[j] == 0.f && ph->saz[j] == 0.f;
+            mean_r += ph->radius[j];
+        }
+        assert_int_equal(spheres, 0);
+        mean_r /= (double)ph->count;
+        const double gpu = indirect_mean(&in, "bvh", w, h);
+        d.device = PGI_DEVICE_CPU;
+        TU_CHECK_OK(pgi_renderer_prepare(r, &d, &in, NULL));
+        double cpu_r = 0.0;
+        for (size_t j = 0; j < in.photons->count; j++) cpu_r += in.photons->radius[j];
+        cpu_r /= (double)in.photons->count;
+        const double cpu = indirect_mean(&in, "bvh", w, h);
+        fprintf(stderr,
+                "  prepare %-13s mean r GPU %.5g CPU %.5g; CPU bvh indirect mean GPU inputs %.5g CPU %.5g (%+.2f %%)\n",
+                ell ? "differentials" : "path", mean_r, cpu_r, gpu, cpu, 100.0 * (gpu - cpu) / cpu);
+        assert_true(fabs(mean_r - cpu_r) <= 0.03 * cpu_r);
+        assert_true(fabs(gpu - cpu) <= 0.02 * cpu);
+    }
+    /* back to the fixed radius: no footprints */
+    pgi_render_desc d = frame_desc(16, 12, 2000, 1, PGI_OUTPUT_INDIRECT, 1);
+    d.radius = 0.05f;
+    pgi_frame_inputs in;
+    TU_CHECK_OK(pgi_renderer_prepare(r, &d, &in, NULL));
+    assert_null(in.photons->radius);
+    pgi_renderer_destroy(r);
+    pgi_scene_destroy(s);
+}
+
 int main(void) {
     tu_keep_lavapipe_loaded();
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_scene_upload),  cmocka_unit_test(test_scene_refuses_env_map),
-        cmocka_unit_test(test_view_samples),  cmocka_unit_test(test_vertex_colours),
-        cmocka_unit_test(test_direct_light),  cmocka_unit_test(test_glossy),
-        cmocka_unit_test(test_whole_frame),   cmocka_unit_test(test_dynamic),
-        cmocka_unit_test(test_deterministic), cmocka_unit_test(test_progressive),
-        cmocka_unit_test(test_refusals),      cmocka_unit_test(test_prepare),
+        cmocka_unit_test(test_scene_upload),    cmocka_unit_test(test_scene_refuses_env_map),
+        cmocka_unit_test(test_view_samples),    cmocka_unit_test(test_vertex_colours),
+        cmocka_unit_test(test_direct_light),    cmocka_unit_test(test_glossy),
+        cmocka_unit_test(test_whole_frame),     cmocka_unit_test(test_dynamic),
+        cmocka_unit_test(test_deterministic),   cmocka_unit_test(test_progressive),
+        cmocka_unit_test(test_refusals),        cmocka_unit_test(test_prepare),
+        cmocka_unit_test(test_radius_policies),
     };
     return cmocka_run_group_tests(tests, tu_gpu_setup, tu_gpu_teardown);
 }

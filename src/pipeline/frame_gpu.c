@@ -25,13 +25,18 @@ typedef struct gpu_state {
     pgi__gpu_scene *scene;
     pgi__gpu_view *view;
     pgi__gpu_trace *trace;
-    /* test hook PGI_GPU_CPU_PHOTONS=1: the CPU tracer's photons, uploaded (gpu_photons_cpu) */
-    pgi__gpu_buffer *cpu_photons;
+    /* test hook PGI_GPU_CPU_PHOTONS=1: the CPU tracer's photons and footprints, uploaded
+     * (gpu_photons_cpu) */
+    pgi__gpu_buffer *cpu_photons, *cpu_footprints;
     pgi__packed_photon *packed;
     size_t packed_cap;
-    /* this frame's: its photons on the device, whether r->vs holds its view samples, the device's
+    pgi__gpu_footprint *packed_fp;
+    size_t packed_fp_cap;
+    /* this frame's: its photons on the device and their footprints (NULL: the fixed radius;
+     * fp_ellipsoids: differentials' ellipsoids), whether r->vs holds its view samples, the device's
      * timings of its sequences and the wall clock of the second one and of the read-back */
-    pgi__gpu_buffer *photons;
+    pgi__gpu_buffer *photons, *footprints;
+    int fp_ellipsoids;
     size_t np;
     int vs_on_host;
     pgi_named_value t[64];
@@ -53,8 +58,11 @@ static void release_device(gpu_state *s) {
     s->view = NULL;
     pgi__gpu_scene_destroy(s->scene);
     s->scene = NULL;
-    if (s->gpu) { pgi__gpu_buffer_destroy(s->gpu, s->cpu_photons); }
-    s->cpu_photons = NULL;
+    if (s->gpu) {
+        pgi__gpu_buffer_destroy(s->gpu, s->cpu_photons);
+        pgi__gpu_buffer_destroy(s->gpu, s->cpu_footprints);
+    }
+    s->cpu_photons = s->cpu_footprints = NULL;
     pgi__gpu_destroy(s->gpu);
     s->gpu = NULL;
 }
@@ -64,6 +72,7 @@ static void gpu_release(pgi_renderer *r) {
     if (!s) return;
     release_device(s);
     pgi__afree(s->packed);
+    free(s->packed_fp);
     free(s);
     r->dev[PGI_DEVICE_VULKAN] = NULL;
 }
@@ -111,9 +120,30 @@ static pgi_status gpu_ensure_estimator(pgi_renderer *r, const pgi_render_desc *d
 
 static const char *gpu_device_name(pgi_renderer *r) { return pgi__gpu_device_name(state_of(r)->gpu); }
 
+/* The CPU tracer's footprints of r->ph (radius policy d's) as device records, uploaded into
+ * s->cpu_footprints ("gpu_footprints"). */
+static pgi_status upload_cpu_footprints(gpu_state *s, const pgi_photons *ph, int ellipsoids) {
+    const size_t np = ph->count;
+    pgi_status st = pgi__ensure((void **)&s->packed_fp, &s->packed_fp_cap, np + 1, sizeof(pgi__gpu_footprint));
+    if (st) return st;
+    for (size_t j = 0; j < np; j++) {
+        pgi__gpu_footprint *f = &s->packed_fp[j];
+        *f = (pgi__gpu_footprint){.r = ph->radius[j], .nx = ph->nx[j], .ny = ph->ny[j], .nz = ph->nz[j]};
+        if (ellipsoids) {
+            f->ax = ph->sax[j], f->ay = ph->say[j], f->az = ph->saz[j];
+            f->bx = ph->sbx[j], f->by = ph->sby[j], f->bz = ph->sbz[j];
+        }
+    }
+    if ((st = pgi__gpu_buffer_reserve(s->gpu, &s->cpu_footprints, (np + 1) * sizeof(pgi__gpu_footprint),
+                                      "gpu_footprints")))
+        return st;
+    return pgi__gpu_upload(s->gpu, s->cpu_footprints, 0, s->packed_fp, np * sizeof(pgi__gpu_footprint));
+}
+
 /* Test hook PGI_GPU_CPU_PHOTONS=1: the CPU tracer's photons (pgi__photons_trace into r->ph), packed
- * and uploaded (a buffer also named "gpu_photons"; pass "gpu_upload"), so that tests can compare the
- * device's other passes with the CPU's frame on the same photons (test_gpu, test_gpu_cli). */
+ * and uploaded (a buffer also named "gpu_photons"; pass "gpu_upload"), with their footprints under
+ * a radius policy ("gpu_footprints"), so that tests can compare the device's other passes with the
+ * CPU's frame on the same photons (test_gpu, test_gpu_cli). */
 static pgi_status gpu_photons_cpu(pgi_renderer *r, const pgi_render_desc *d, const pgi__progress *pc,
                                   pgi_frame_stats *fs) {
     gpu_state *s = state_of(r);
@@ -124,7 +154,14 @@ static pgi_status gpu_photons_cpu(pgi_renderer *r, const pgi_render_desc *d, con
         fs->rt_update_ms += pgi__now_ms() - tu;
     }
     double t0 = pgi__now_ms();
-    pgi__trace_desc td = {.photons = d->photons, .bounces = d->bounces, .seed = d->seed, .threads = d->threads};
+    pgi__trace_desc td = {.photons = d->photons,
+                          .bounces = d->bounces,
+                          .seed = d->seed,
+                          .threads = d->threads,
+                          .radius_policy = d->radius_policy,
+                          .r_min = d->r_min,
+                          .r_max = d->r_max,
+                          .smoothing = d->smoothing};
     if ((st = pgi__frame_footprints(r, d))) return st;
     if (d->progress) {
         td.progress = pgi__frame_report_trace;
@@ -147,17 +184,22 @@ static pgi_status gpu_photons_cpu(pgi_renderer *r, const pgi_render_desc *d, con
     if ((st = pgi__gpu_buffer_reserve(s->gpu, &s->cpu_photons, (np + 1) * sizeof(pgi__packed_photon), "gpu_photons")) ||
         (st = pgi__gpu_upload(s->gpu, s->cpu_photons, 0, s->packed, np * sizeof(pgi__packed_photon))))
         return st;
+    s->fp_ellipsoids = d->radius_policy == PGI_RADIUS_DIFFERENTIALS;
+    if (d->radius_policy != PGI_RADIUS_FIXED && (st = upload_cpu_footprints(s, &r->ph, s->fp_ellipsoids))) return st;
     pgi__frame_pass(fs, "gpu_upload", pgi__now_ms() - t1);
     s->photons = s->cpu_photons;
+    s->footprints = d->radius_policy != PGI_RADIUS_FIXED ? s->cpu_footprints : NULL;
     s->np = np;
     return PGI_OK;
 }
 
 /* The frame's photons on the device (gpu_trace.h: traced there, pgi__packed_photon, s->np of them,
- * in the tracer's buffer "gpu_photons"); fs gets trace_ms (the device's "gpu_trace" timestamps),
- * the photon counts and the pass "gpu_trace". The CPU tracer does not run. The photons are read
- * back into r->ph only when the automatic radius needs them (pass "gpu_trace_download"); otherwise
- * r->ph holds none after the pass. */
+ * in the tracer's buffer "gpu_photons"; under a radius policy their footprints, "gpu_footprints");
+ * fs gets trace_ms (the device's "gpu_trace" timestamps), the photon counts and the pass
+ * "gpu_trace". The CPU tracer does not run. The photons are read back into r->ph (with their
+ * footprints: the host's footprint arrays are made ready here) only when the automatic radius or
+ * pgi_renderer_prepare needs them (pass "gpu_trace_download"); otherwise r->ph holds none after
+ * the pass. */
 static pgi_status gpu_photons(pgi_renderer *r, const pgi_render_desc *d, const pgi__progress *pc, pgi_frame_stats *fs) {
     const char *hook = getenv("PGI_GPU_CPU_PHOTONS");
     if (hook && strcmp(hook, "1") == 0) return gpu_photons_cpu(r, d, pc, fs);
@@ -167,9 +209,13 @@ static pgi_status gpu_photons(pgi_renderer *r, const pgi_render_desc *d, const p
                                     .bounces = d->bounces,
                                     .seed = d->seed,
                                     .radius_policy = d->radius_policy,
+                                    .r_min = d->r_min,
+                                    .r_max = d->r_max,
+                                    .smoothing = d->smoothing,
                                     .emission = (int)d->emission,
                                     .store = (int)d->store};
     if (d->progress) pgi__frame_report_trace((void *)pc, 0, d->photons);
+    if ((st = pgi__frame_footprints(r, d))) return st;
     pgi__gpu_trace_result tr;
     if ((st = pgi__gpu_trace_run(s->trace, r->scene, &td, &tr))) return st;
     if (d->progress) pgi__frame_report_trace((void *)pc, tr.count, d->photons);
@@ -187,6 +233,7 @@ static pgi_status gpu_photons(pgi_renderer *r, const pgi_render_desc *d, const p
         pgi__frame_pass(fs, "gpu_trace_download", pgi__now_ms() - t0);
     }
     s->photons = pgi__gpu_trace_photons(s->trace);
+    s->footprints = pgi__gpu_trace_footprints(s->trace, &s->fp_ellipsoids);
     s->np = tr.count;
     return PGI_OK;
 }
@@ -283,7 +330,9 @@ static pgi_status gpu_indirect(pgi_renderer *r, const pgi_render_desc *d, const 
                                     .height = d->height,
                                     .radius = d->radius,
                                     .scene_area = r->scene_area,
-                                    .jitter = d->jitter == PGI_JITTER_ON ? 0.5f : 0.f};
+                                    .jitter = d->jitter == PGI_JITTER_ON ? 0.5f : 0.f,
+                                    .footprints = s->footprints,
+                                    .footprint_ellipsoids = s->footprints ? s->fp_ellipsoids : 0};
     if (need_indirect && (st = s->est_vt->device_reserve(s->est, &in, &indirect))) return st;
     if ((st = pgi__gpu_begin(g))) return st;
     pgi__gpu_timestamp(g, "start");

@@ -749,7 +749,8 @@ typedef struct device_row {
 
 static const device_row k_devices[PGI__DEVICE_COUNT] = {
     [PGI_DEVICE_CPU] = {"cpu", "the CPU", "CPU", &pgi__frame_cpu, (1u << F_COUNT) - 1, cpu_est_caps},
-    [PGI_DEVICE_VULKAN] = {"vulkan", "the GPU device", "GPU", &pgi__frame_vulkan, 0, vulkan_est_caps},
+    [PGI_DEVICE_VULKAN] = {"vulkan", "the GPU device", "GPU", &pgi__frame_vulkan, 1u << F_RADIUS_POLICY,
+                           vulkan_est_caps},
 };
 
 static const pgi__frame_backend *device_backend(pgi_device dev) {
@@ -788,6 +789,21 @@ static pgi_status device_check(const pgi_render_desc *d, int frame) {
         const char *opt = NULL;
         if (d->est.kernel != PGI_KERNEL_CONSTANT && !(caps & PGI_EST_CAP_KERNELS)) opt = "kernel";
         else if (d->est.subsample > 1 && !(caps & PGI_EST_CAP_SUBSAMPLE)) opt = "subsample";
+        if (d->radius_policy != PGI_RADIUS_FIXED && !(caps & PGI_EST_CAP_PHOTON_RADIUS)) {
+            /* the device traces the footprints; the estimator must read them there */
+            char names[256] = "";
+            for (size_t i = 0; i < pgi_estimator_count(); i++) {
+                const long c = dev->est_caps(pgi_estimator_at(i));
+                if (c >= 0 && (c & PGI_EST_CAP_PHOTON_RADIUS))
+                    pgi__list_append(names, sizeof names, pgi_estimator_at(i)->name);
+            }
+            uses_feature(d, F_RADIUS_POLICY, what, sizeof what);
+            return pgi__fail(PGI_ERR_UNSUPPORTED,
+                             "%s with estimator '%s' is not supported on %s: its %s version has one fixed radius "
+                             "(per-photon footprints there: %s; use --device %s)",
+                             what, d->estimator, dev->label, dev->est_label, names[0] ? names : "none",
+                             k_devices[PGI_DEVICE_CPU].name);
+        }
         if (opt) {
             char value[32];
             pgi_option_format(pgi_option_find(opt), &d->est, value, sizeof value);
