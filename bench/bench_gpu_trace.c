@@ -1,5 +1,7 @@
 /* Photon tracing on the GPU device against the CPU tracer (docs/gpu.md "Photon tracing"):
  *   photongi-bench-gpu-trace [--scene NAME] [--photons N] [--bounces N] [--threads N] [--runs N]
+ *                            [--radius-policy fixed|path|differentials]
+ * (a radius policy: both tracers compute the footprints, r_max 2 % of the diagonal, r_min r_max / 8)
  * traces once per device as a warm-up (lavapipe compiles its kernels on first use), then `runs`
  * times each, and prints the best times: the CPU tracer's wall clock on `threads` threads (default
  * 2), the GPU's device time (timestamps "gpu_trace") and its wall clock (submits and read-backs of
@@ -23,7 +25,7 @@ static int fail(const char *what) {
 int main(int argc, char **argv) {
     const char *scene = "cornell";
     uint32_t photons = 200000;
-    int bounces = 4, threads = 2, runs = 3;
+    int bounces = 4, threads = 2, runs = 3, policy = PGI_RADIUS_FIXED;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         if (!strcmp(a, "--scene") && v) scene = argv[++i];
@@ -31,9 +33,15 @@ int main(int argc, char **argv) {
         else if (!strcmp(a, "--bounces") && v) bounces = atoi(argv[++i]);
         else if (!strcmp(a, "--threads") && v) threads = atoi(argv[++i]);
         else if (!strcmp(a, "--runs") && v) runs = atoi(argv[++i]);
-        else {
+        else if (!strcmp(a, "--radius-policy") && v &&
+                 (!strcmp(v, "fixed") || !strcmp(v, "path") || !strcmp(v, "differentials"))) {
+            policy = !strcmp(v, "fixed")  ? PGI_RADIUS_FIXED
+                     : !strcmp(v, "path") ? PGI_RADIUS_PATH
+                                          : PGI_RADIUS_DIFFERENTIALS;
+            i++;
+        } else {
             fprintf(stderr, "usage: photongi-bench-gpu-trace [--scene NAME] [--photons N] [--bounces N] [--threads N] "
-                            "[--runs N]\n");
+                            "[--runs N] [--radius-policy fixed|path|differentials]\n");
             return 2;
         }
     }
@@ -44,7 +52,20 @@ int main(int argc, char **argv) {
     if (pgi__rt_create(s, &rt) != PGI_OK) return fail("Embree");
     pgi_photons ph = {0};
     if (pgi_photons_alloc(&ph, photons) != PGI_OK) return fail("photons");
-    pgi__trace_desc td = {.photons = photons, .bounces = bounces, .seed = 1, .threads = threads};
+    const float r_max = 0.02f * pgi__scene_diagonal(s), r_min = r_max / 8.f;
+    float *fp = NULL;
+    if (policy != PGI_RADIUS_FIXED) { /* the footprint arrays: radius and the six semi-axis planes */
+        if (!(fp = calloc(7 * (size_t)photons, sizeof *fp))) return fail("footprints");
+        float **pl[] = {&ph.radius, &ph.sax, &ph.say, &ph.saz, &ph.sbx, &ph.sby, &ph.sbz};
+        for (int k = 0; k < (policy == PGI_RADIUS_DIFFERENTIALS ? 7 : 1); k++) *pl[k] = fp + (size_t)k * photons;
+    }
+    pgi__trace_desc td = {.photons = photons,
+                          .bounces = bounces,
+                          .seed = 1,
+                          .threads = threads,
+                          .radius_policy = policy,
+                          .r_min = r_min,
+                          .r_max = r_max};
     pgi__trace_scratch sc = {0};
     double cpu_ms = -1.0;
     uint64_t crays = 0;
@@ -55,11 +76,16 @@ int main(int argc, char **argv) {
         if (k > 0 && (cpu_ms < 0.0 || ms < cpu_ms)) cpu_ms = ms;
     }
     const uint64_t cemitted = ph.emitted, cdiscarded = sc.paths_traced - ph.emitted;
-    printf("scene %s, %u photons, %d bounces (%zu triangles)\n", scene, photons, bounces, s->ntris);
+    printf("scene %s, %u photons, %d bounces (%zu triangles), radius policy %s\n", scene, photons, bounces, s->ntris,
+           policy == PGI_RADIUS_FIXED  ? "fixed"
+           : policy == PGI_RADIUS_PATH ? "path"
+                                       : "differentials");
     printf("  CPU (%d threads): %8.1f ms  %6.2f Mphotons/s  emitted %llu  discarded %llu  rays %llu  yield %.4f\n",
            threads, cpu_ms, photons / cpu_ms / 1e3, (unsigned long long)cemitted, (unsigned long long)cdiscarded,
            (unsigned long long)crays, (double)photons / (double)cemitted);
     pgi__trace_scratch_free(&sc);
+    ph.radius = ph.sax = ph.say = ph.saz = ph.sbx = ph.sby = ph.sbz = NULL;
+    free(fp);
     pgi_photons_free(&ph);
     pgi__rt_destroy(rt);
 
@@ -69,7 +95,8 @@ int main(int argc, char **argv) {
     pgi__gpu_trace *gt = NULL;
     if (pgi__gpu_scene_create(g, s, &gs) != PGI_OK) return fail("the GPU scene");
     if (pgi__gpu_trace_create(g, gs, &gt) != PGI_OK) return fail("the GPU tracer");
-    pgi__gpu_trace_desc gd = {.photons = photons, .bounces = bounces, .seed = 1};
+    pgi__gpu_trace_desc gd =
+        {.photons = photons, .bounces = bounces, .seed = 1, .radius_policy = policy, .r_min = r_min, .r_max = r_max};
     pgi__gpu_trace_result r, best = {0};
     best.trace_ms = best.wall_ms = -1.0;
     for (int k = 0; k <= runs; k++) {
