@@ -42,6 +42,14 @@ static stats photon_stats(const pgi_photons *ph) {
 
 static double rel(double a, double b) { return fabs(a - b) / fmax(fabs(b), 1e-30); }
 
+/* A GPU tracer of scene s (its GPU scene into *gs). */
+static pgi__gpu_trace *tracer_of(pgi_scene *s, pgi__gpu_scene **gs) {
+    pgi__gpu_trace *gt = NULL;
+    TU_CHECK_OK(pgi__gpu_scene_create(g_gpu, s, gs));
+    TU_CHECK_OK(pgi__gpu_trace_create(g_gpu, *gs, &gt));
+    return gt;
+}
+
 /* GPU and CPU photons of scene s: statistically the same. */
 static void compare(pgi_scene *s, const char *what, uint32_t photons, int bounces) {
     pgi__rt *rt = NULL;
@@ -58,9 +66,7 @@ static void compare(pgi_scene *s, const char *what, uint32_t photons, int bounce
     pgi__trace_scratch_free(&sc);
 
     pgi__gpu_scene *gs = NULL;
-    pgi__gpu_trace *gt = NULL;
-    TU_CHECK_OK(pgi__gpu_scene_create(g_gpu, s, &gs));
-    TU_CHECK_OK(pgi__gpu_trace_create(g_gpu, gs, &gt));
+    pgi__gpu_trace *gt = tracer_of(s, &gs);
     pgi__gpu_trace_desc gd = {.photons = photons, .bounces = bounces, .seed = 7};
     pgi__gpu_trace_result r;
     TU_CHECK_OK(pgi__gpu_trace_run(gt, s, &gd, &r));
@@ -183,9 +189,7 @@ static void test_deterministic(void **state) {
     (void)state;
     pgi_scene *s = tu_scene("cornell-mirrors");
     pgi__gpu_scene *gs = NULL;
-    pgi__gpu_trace *gt = NULL;
-    TU_CHECK_OK(pgi__gpu_scene_create(g_gpu, s, &gs));
-    TU_CHECK_OK(pgi__gpu_trace_create(g_gpu, gs, &gt));
+    pgi__gpu_trace *gt = tracer_of(s, &gs);
     const uint32_t n = 20000;
     pgi_photons ph[3] = {{0}};
     pgi__gpu_trace_desc d = {.photons = n, .bounces = 5, .seed = 11};
@@ -370,9 +374,7 @@ static void compare_footprints(pgi_scene *s, const char *what, int policy, uint3
     TU_CHECK_OK(pgi__photons_trace(s, rt, &td, &cpu, &sc, &crays));
     pgi__trace_scratch_free(&sc);
     pgi__gpu_scene *gs = NULL;
-    pgi__gpu_trace *gt = NULL;
-    TU_CHECK_OK(pgi__gpu_scene_create(g_gpu, s, &gs));
-    TU_CHECK_OK(pgi__gpu_trace_create(g_gpu, gs, &gt));
+    pgi__gpu_trace *gt = tracer_of(s, &gs);
     pgi__gpu_trace_desc gd =
         {.photons = photons, .bounces = bounces, .seed = 7, .radius_policy = policy, .r_min = r_min, .r_max = r_max};
     pgi__gpu_trace_result r;
@@ -410,9 +412,7 @@ static void test_footprints_deterministic(void **state) {
     (void)state;
     pgi_scene *s = tu_scene("cornell-mirrors");
     pgi__gpu_scene *gs = NULL;
-    pgi__gpu_trace *gt = NULL;
-    TU_CHECK_OK(pgi__gpu_scene_create(g_gpu, s, &gs));
-    TU_CHECK_OK(pgi__gpu_trace_create(g_gpu, gs, &gt));
+    pgi__gpu_trace *gt = tracer_of(s, &gs);
     const uint32_t n = 20000;
     for (int policy = PGI_RADIUS_PATH; policy <= PGI_RADIUS_DIFFERENTIALS; policy++) {
         const int ell = policy == PGI_RADIUS_DIFFERENTIALS;
@@ -442,22 +442,24 @@ static void test_footprints_deterministic(void **state) {
     pgi_scene_destroy(s);
 }
 
+/* compare_footprints for both policies on scene `name`. */
+static void compare_policies(const char *name, uint32_t photons, int bounces) {
+    pgi_scene *s = tu_scene(name);
+    for (int policy = PGI_RADIUS_PATH; policy <= PGI_RADIUS_DIFFERENTIALS; policy++)
+        compare_footprints(s, name, policy, photons, bounces);
+    pgi_scene_destroy(s);
+}
+
 static void test_footprints_cornell(void **state) {
     (void)state;
-    pgi_scene *s = tu_scene("cornell");
-    compare_footprints(s, "cornell", PGI_RADIUS_DIFFERENTIALS, 200000, 4);
-    compare_footprints(s, "cornell", PGI_RADIUS_PATH, 200000, 4);
-    pgi_scene_destroy(s);
+    compare_policies("cornell", 200000, 4);
 }
 
 /* Mirror and glass: the path policy's caustic photons (r well below r_max), the differentials'
  * reflection and refraction with the sphere's interpolated normals. */
 static void test_footprints_mirrors(void **state) {
     (void)state;
-    pgi_scene *s = tu_scene("cornell-mirrors");
-    compare_footprints(s, "cornell-mirrors", PGI_RADIUS_PATH, 200000, 6);
-    compare_footprints(s, "cornell-mirrors", PGI_RADIUS_DIFFERENTIALS, 200000, 6);
-    pgi_scene_destroy(s);
+    compare_policies("cornell-mirrors", 200000, 6);
 }
 
 /* Every light type's emission differentials: spot, sun and area (lights-glossy), the sky
@@ -546,9 +548,7 @@ static void test_footprints_analytic(void **state) {
     pgi__rt *rt = NULL;
     TU_CHECK_OK(pgi__rt_create(s, &rt));
     pgi__gpu_scene *gs = NULL;
-    pgi__gpu_trace *gt = NULL;
-    TU_CHECK_OK(pgi__gpu_scene_create(g_gpu, s, &gs));
-    TU_CHECK_OK(pgi__gpu_trace_create(g_gpu, gs, &gt));
+    pgi__gpu_trace *gt = tracer_of(s, &gs);
     for (int policy = PGI_RADIUS_PATH; policy <= PGI_RADIUS_DIFFERENTIALS; policy++) {
         const int ell = policy == PGI_RADIUS_DIFFERENTIALS;
         pgi_photons ph = {0}, cpu = {0};
