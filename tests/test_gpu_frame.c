@@ -647,7 +647,7 @@ static double indirect_mean(const pgi_frame_inputs *in, const char *name, int w,
  * with the CPU's). A frame whose GPU estimator reads no footprints is refused by name (each
  * estimator that takes them on the CPU, runs on the device and lacks them there); with the fixed
  * radius nothing changes. pgi_renderer_prepare reads the footprints back with the photons: radius,
- * the ellipsoids' semi-axes and the normals, and the CPU bvh estimator on those inputs gives the
+ * the ellipsoids' semi-axes and the normals (and its stats hold their histogram), and the CPU bvh estimator on those inputs gives the
  * indirect light of the CPU's own inputs (mean within 2 %, Cornell 200k photons). */
 static void test_radius_policies(void **state) {
     (void)state;
@@ -687,9 +687,13 @@ static void test_radius_policies(void **state) {
         d.estimator = "bvh";
         d.radius_policy = policy;
         pgi_frame_inputs in;
-        TU_CHECK_OK(pgi_renderer_prepare(r, &d, &in, NULL));
+        pgi_frame_stats ps;
+        TU_CHECK_OK(pgi_renderer_prepare(r, &d, &in, &ps));
         const pgi_photons *ph = in.photons;
         assert_int_equal(ph->count, 200000);
+        uint64_t hist_sum = 0; /* the stats' histogram of the radius before the clamp */
+        for (int k = 0; k < PGI_FOOTPRINT_BINS; k++) hist_sum += ps.footprint_hist[k];
+        assert_int_equal(hist_sum, 200000);
         assert_non_null(ph->radius);
         assert_true(ell ? ph->sax != NULL : ph->sax == NULL);
         double mean_r = 0.0;

@@ -352,8 +352,8 @@ static void check_records(const pgi_photons *ph, int ellipsoids, float r_max) {
 }
 
 /* GPU and CPU footprints of scene s under `policy`: the same distribution (mean r, mean area, the
- * 10/50/90 % quantiles of r within 3 %; the fraction of photons below 0.9 r_max within 3 % of the
- * photons); each GPU record well formed. */
+ * 10/50/90 % quantiles of r within 3 %; the fraction of photons below 0.9 r_max and each bin's share
+ * of the histogram of the radius before the clamp within 0.03); each GPU record well formed. */
 static void compare_footprints(pgi_scene *s, const char *what, int policy, uint32_t photons, int bounces) {
     const int ell = policy == PGI_RADIUS_DIFFERENTIALS;
     const float r_max = 0.02f * pgi__scene_diagonal(s), r_min = r_max / 8.f; /* the renderer's defaults */
@@ -369,6 +369,8 @@ static void compare_footprints(pgi_scene *s, const char *what, int policy, uint3
                           .radius_policy = policy,
                           .r_min = r_min,
                           .r_max = r_max};
+    uint64_t hist[PGI_FOOTPRINT_BINS] = {0};
+    td.footprint_hist = hist;
     pgi__trace_scratch sc = {0};
     uint64_t crays = 0;
     TU_CHECK_OK(pgi__photons_trace(s, rt, &td, &cpu, &sc, &crays));
@@ -399,6 +401,16 @@ static void compare_footprints(pgi_scene *s, const char *what, int policy, uint3
     assert_true(rel(a.mean_area, b.mean_area) <= 0.03);
     for (int k = 0; k < 3; k++) assert_true(rel(a.q[k], b.q[k]) <= 0.03);
     assert_true(fabs(a.small - b.small) <= 0.03);
+    uint64_t sum = 0;
+    double worst = 0.0;
+    for (int k = 0; k < PGI_FOOTPRINT_BINS; k++) {
+        sum += r.footprint_hist[k];
+        worst = fmax(worst, fabs((double)r.footprint_hist[k] - (double)hist[k]) / photons);
+    }
+    fprintf(stderr, "  %-16s %-13s histogram of r before the clamp: bin shares within %.4f\n", what,
+            ell ? "differentials" : "path", worst);
+    assert_int_equal(sum, photons);
+    assert_true(worst <= 0.03);
     pgi__gpu_trace_destroy(gt);
     pgi__gpu_scene_destroy(gs);
     fp_free(&cpu);

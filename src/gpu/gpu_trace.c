@@ -99,6 +99,11 @@ typedef struct {
     uint32_t npaths, bounces, base, remaining;
 } compact_push;
 typedef struct {
+    compact_push c;
+    float bin_w; /* r_max / 14: the footprint histogram's bins (trace.c's float) */
+    uint32_t pad[3];
+} compact_fp_push;
+typedef struct {
     uint32_t n;
     float inv;
     uint32_t pad[2];
@@ -114,9 +119,9 @@ struct pgi__gpu_trace {
     pgi__gpu_scene *scene; /* borrowed */
     pgi__gpu_kernel *k[K_N];
     pgi__gpu_buffer *slots, *counts, *counters, *result, *photons;
-    pgi__gpu_buffer *fslots, *footprints; /* radius policies: the footprints' slots and records */
-    pgi__gpu_scan scan;                   /* each path's first slot in the compacted photons */
-    pgi__fp_params fp;                    /* the last run's policy (PGI_RADIUS_FIXED: no footprints) */
+    pgi__gpu_buffer *fslots, *footprints, *hist; /* radius policies: the footprints' slots, records, histogram */
+    pgi__gpu_scan scan;                          /* each path's first slot in the compacted photons */
+    pgi__fp_params fp;                           /* the last run's policy (PGI_RADIUS_FIXED: no footprints) */
     uint32_t count;
     uint64_t emitted;
     uint32_t max_batch;
@@ -126,7 +131,7 @@ struct pgi__gpu_trace {
 void pgi__gpu_trace_destroy(pgi__gpu_trace *t) {
     if (!t) return;
     for (int i = 0; i < K_N; i++) pgi__gpu_kernel_destroy(t->g, t->k[i]);
-    pgi__gpu_buffer *b[] = {t->slots, t->counts, t->counters, t->result, t->photons, t->fslots, t->footprints};
+    pgi__gpu_buffer *b[] = {t->slots, t->counts, t->counters, t->result, t->photons, t->fslots, t->footprints, t->hist};
     for (size_t i = 0; i < sizeof b / sizeof b[0]; i++) pgi__gpu_buffer_destroy(t->g, b[i]);
     pgi__gpu_scan_destroy(&t->scan);
     free(t);
@@ -144,7 +149,7 @@ pgi_status pgi__gpu_trace_create(pgi__gpu *g, pgi__gpu_scene *gs, pgi__gpu_trace
         [K_COMPACT] = PGI__GPU_KERNEL(trace_compact, 4, sizeof(compact_push)),
         [K_SCALE] = PGI__GPU_KERNEL(trace_scale, 1, sizeof(scale_push)),
         [K_TRACE_FP] = PGI__GPU_KERNEL(trace_fp, 16, sizeof(trace_fp_push)),
-        [K_COMPACT_FP] = PGI__GPU_KERNEL(trace_compact_fp, 3, sizeof(compact_push)),
+        [K_COMPACT_FP] = PGI__GPU_KERNEL(trace_compact_fp, 4, sizeof(compact_fp_push)),
     };
     pgi_status st = pgi__gpu_kernels_create(g, k, K_N, 0, t->k);
     if (!st) st = pgi__gpu_scan_create(g, "gpu_trace_scratch", &t->scan);
@@ -208,10 +213,12 @@ static pgi_status run_batch(pgi__gpu_trace *t, const pgi__gpu_trace_desc *d, uin
                                .smoothing_caustic = t->fp.smoothing_caustic,
                                .delta = t->fp.delta};
     compact_push cp = {n, (uint32_t)d->bounces, base, remaining};
+    const compact_fp_push cfp = {.c = cp, .bin_w = t->fp.r_max / 14.f};
     if ((st = pgi__gpu_begin(g))) return st;
     pgi__gpu_timestamp(g, "start");
     if ((st = pgi__gpu_fill(g, t->counts, 0, ncounts * 4, 0)) || (st = pgi__gpu_fill(g, t->counters, 0, 16, 0)) ||
         (st = pgi__gpu_fill(g, t->result, 0, 16, 0xFFFFFFFFu)) ||
+        (fp && base == 0 && (st = pgi__gpu_fill(g, t->hist, 0, PGI_FOOTPRINT_BINS * 4, 0))) || /* none kept yet */
         (st = fp ? pgi__gpu_dispatch_1d(g, t->k[K_TRACE_FP], b, &fpp, n, 64)
                  : pgi__gpu_dispatch_1d(g, t->k[K_TRACE], b, &tp, n, 64)))
         goto fail;
@@ -219,8 +226,9 @@ static pgi_status run_batch(pgi__gpu_trace *t, const pgi__gpu_trace_desc *d, uin
     if ((st = pgi__gpu_scan_record(&t->scan, t->counts))) goto fail;
     if ((st = pgi__gpu_dispatch_1d(g, t->k[K_COMPACT],
                                    (pgi__gpu_buffer *[]){t->slots, t->counts, t->photons, t->result}, &cp, n, 64)) ||
-        (fp && (st = pgi__gpu_dispatch_1d(g, t->k[K_COMPACT_FP],
-                                          (pgi__gpu_buffer *[]){t->fslots, t->counts, t->footprints}, &cp, n, 64))))
+        (fp &&
+         (st = pgi__gpu_dispatch_1d(g, t->k[K_COMPACT_FP],
+                                    (pgi__gpu_buffer *[]){t->fslots, t->counts, t->footprints, t->hist}, &cfp, n, 64))))
         goto fail;
     pgi__gpu_timestamp(g, "gpu_trace_compact");
     double t0 = pgi__now_ms();
@@ -262,12 +270,14 @@ pgi_status pgi__gpu_trace_run(pgi__gpu_trace *t, const pgi_scene *s, const pgi__
     if ((st = pgi__gpu_buffer_reserve(t->g, &t->photons, ((size_t)want + 1) * sizeof(pgi__packed_photon),
                                       "gpu_photons")))
         return st;
-    if (fp && (st = pgi__gpu_buffer_reserve(t->g, &t->footprints, ((size_t)want + 1) * sizeof(pgi__gpu_footprint),
-                                            "gpu_footprints")))
+    if (fp && ((st = pgi__gpu_buffer_reserve(t->g, &t->footprints, ((size_t)want + 1) * sizeof(pgi__gpu_footprint),
+                                             "gpu_footprints")) ||
+               (st = pgi__gpu_buffer_reserve(t->g, &t->hist, PGI_FOOTPRINT_BINS * 4, "gpu_trace_scratch"))))
         return st;
     if (!fp) {
-        pgi__gpu_buffer_destroy(t->g, t->footprints), t->footprints = NULL;
-        pgi__gpu_buffer_destroy(t->g, t->fslots), t->fslots = NULL;
+        pgi__gpu_buffer *b[] = {t->footprints, t->fslots, t->hist};
+        for (int i = 0; i < 3; i++) pgi__gpu_buffer_destroy(t->g, b[i]);
+        t->footprints = t->fslots = t->hist = NULL;
     }
     uint32_t nemit = 0;
     (void)pgi__gpu_scene_emit(t->scene, &nemit);
@@ -338,6 +348,11 @@ pgi_status pgi__gpu_trace_run(pgi__gpu_trace *t, const pgi_scene *s, const pgi__
         if (!pgi__gpu_has_timestamps(t->g)) ms += t1 - t0;
         else
             for (int i = 0; i < nt; i++) ms += tv[i].value;
+    }
+    if (fp && count > 0) {
+        uint32_t h[PGI_FOOTPRINT_BINS];
+        if ((st = pgi__gpu_download(t->g, t->hist, 0, h, sizeof h))) return st;
+        for (int i = 0; i < PGI_FOOTPRINT_BINS; i++) r->footprint_hist[i] = h[i];
     }
     t->count = count;
     t->emitted = path;

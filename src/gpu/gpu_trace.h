@@ -52,7 +52,10 @@ typedef struct pgi__gpu_trace_result {
     uint64_t rays;            /* photon rays cast */
     int batches;              /* launches (one submit each) */
     double trace_ms;          /* device time (timestamps "gpu_trace", or the CPU-timed sequences) */
-    double wall_ms;           /* host wall clock of the whole call */
+    /* radius policies: the stored photons' footprint radius before the clamp, PGI_FOOTPRINT_BINS
+       bins of r_max / 14 (the last one open), as the CPU tracer's footprint_hist; zeros otherwise */
+    uint64_t footprint_hist[PGI_FOOTPRINT_BINS];
+    double wall_ms; /* host wall clock of the whole call */
 } pgi__gpu_trace_result;
 
 /* 1 when the options are supported; else PGI_ERR_UNSUPPORTED with a message naming the option.

@@ -161,7 +161,8 @@ static pgi_status gpu_photons_cpu(pgi_renderer *r, const pgi_render_desc *d, con
                           .radius_policy = d->radius_policy,
                           .r_min = d->r_min,
                           .r_max = d->r_max,
-                          .smoothing = d->smoothing};
+                          .smoothing = d->smoothing,
+                          .footprint_hist = fs->footprint_hist};
     if ((st = pgi__frame_footprints(r, d))) return st;
     if (d->progress) {
         td.progress = pgi__frame_report_trace;
@@ -224,6 +225,7 @@ static pgi_status gpu_photons(pgi_renderer *r, const pgi_render_desc *d, const p
     fs->photons_stored = tr.count;
     fs->photon_rays = tr.rays;
     fs->photon_paths_discarded = tr.paths_discarded;
+    memcpy(fs->footprint_hist, tr.footprint_hist, sizeof fs->footprint_hist);
     pgi__frame_pass(fs, "gpu_trace", tr.trace_ms);
     r->ph.count = 0;
     r->ph.emitted = tr.emitted;

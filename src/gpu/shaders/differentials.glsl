@@ -85,7 +85,8 @@ void pd_reemit(inout PDiff pd, vec3 d_out, vec3 n) {
     pd.diffuse = true;
 }
 
-// pgi__pd_footprint: the clamped ellipse at the hit (normal n)
+// pgi__pd_footprint: the clamped ellipse at the hit (normal n); pad0 the radius before the clamp
+// (r_raw, for the histogram: trace_compact_fp.comp)
 Footprint pd_footprint(PDiff pd, FpParams p, vec3 n) {
     vec3 ax[2];
     for (int k = 0; k < 2; k++) {
@@ -95,6 +96,7 @@ Footprint pd_footprint(PDiff pd, FpParams p, vec3 n) {
         ax[k] = q * (p.delta * f);
     }
     float r = sqrt(v3_len(v3_cross(ax[0], ax[1])));
+    float r_raw = r;
     const float rmax = p.r_max;
     if (!(r >= 1e-4 * rmax) || isinf(r) || !fp_finite(ax[0]) || !fp_finite(ax[1])) {
         // degenerate (collinear or vanishing axes): a circle of the longer axis' length
@@ -104,6 +106,7 @@ Footprint pd_footprint(PDiff pd, FpParams p, vec3 n) {
         basis(n, t, b);
         ax[0] = t * l;
         ax[1] = b * l;
+        if (isnan(r_raw) || isinf(r_raw)) r_raw = rmax;
     } else if (r > rmax) {
         ax[0] *= rmax / r;
         ax[1] *= rmax / r;
@@ -115,7 +118,7 @@ Footprint pd_footprint(PDiff pd, FpParams p, vec3 n) {
     }
     r = sqrt(v3_len(v3_cross(ax[0], ax[1])));
     if (!(r > 0.0)) r = 1e-2 * rmax;
-    return Footprint(r, ax[0].x, ax[0].y, ax[0].z, ax[1].x, ax[1].y, ax[1].z, n.x, n.y, n.z, 0.0, 0.0);
+    return Footprint(r, ax[0].x, ax[0].y, ax[0].z, ax[1].x, ax[1].y, ax[1].z, n.x, n.y, n.z, r_raw, 0.0);
 }
 
 // pgi__pd_normal_derivative: the interpolated shading normal's derivatives along dp (zero without
@@ -174,11 +177,12 @@ void fp_hit(inout PDiff pd, FpParams p, vec3 d, float t, vec3 ng) {
     if (p.policy == FP_DIFFERENTIALS) pd_transfer(pd, d, t, ng);
 }
 
+// pgi__fp_store (pad0: the radius before the clamp, as pgi__footprint.r_raw)
 Footprint fp_store(PDiff pd, FpParams p, vec3 ng) {
     if (p.policy == FP_DIFFERENTIALS) return pd_footprint(pd, p, ng);
     const float rho = pd.rho > 0.0 ? min(pd.rho, 1.0) : 0.0;
     const float r = p.r_min + (p.r_max - p.r_min) * sqrt(1.0 - rho);
-    return Footprint(r, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, ng.x, ng.y, ng.z, 0.0, 0.0);
+    return Footprint(r, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, ng.x, ng.y, ng.z, r, 0.0);
 }
 
 // pgi__fp_scatter: after the BSDF sampled wo from wi (both away from the surface) with weight w
