@@ -7,7 +7,9 @@
 // 0..10; gpu_scene.h) and its emission records (binding 11, pgi__gpu_scene_emit). The functions
 // mirror src/photon/trace.c start_path, src/scene/bsdf.c pgi__bsdf_sample, src/scene/env.c
 // pgi__env_sample (constant sky) and src/core/core.h's sampling; the lights' own parts are
-// light.glsl's. Include after scene.glsl and light.glsl.
+// light.glsl's. The path itself is trace_path (trace.comp; with TRACE_FOOTPRINTS defined,
+// trace_fp.comp: the radius policies' hooks of differentials.glsl and binding 15, the footprints).
+// Include after scene.glsl and light.glsl (and differentials.glsl with TRACE_FOOTPRINTS).
 #ifndef PGIS_TRACE_GLSL
 #define PGIS_TRACE_GLSL
 
