@@ -147,6 +147,77 @@ static void test_device_errors(void **state) {
 /* bounds25d's --polygon in gpu_est_vs_brute (0: its default), and the frame's jitter */
 static int g_polygon;
 static pgi_jitter g_jitter;
+/* the photons' footprints in gpu_est_vs_brute (pgi_renderer_prepare's radius policy; 0: the fixed
+ * radius); with a policy the estimators also get the scene's area (bvh's T_auto) */
+static pgi_radius_policy g_radius_policy;
+
+/* bvh's frame path (device_reserve / record / finish) on a's inputs uploaded as the GPU frame would
+ * hold them, footprints included: its image into out, its stats into es. */
+static void bvh_device_path(void *ge, const pgi_estimate_args *a, float *out, pgi_estimator_stats *es) {
+    const pgi__gpu_est_vtbl *vt = &pgi__gpu_est_bvh;
+    pgi__gpu *g = g_gpu;
+    pgi__packed_photon *packed = NULL;
+    pgi__gpu_footprint *hfp = NULL;
+    size_t packed_cap = 0, hfp_cap = 0;
+    pgi__gpu_vs_pack pk = {0};
+    pgi__gpu_buffer *ph = NULL, *vs = NULL, *lobes = NULL, *fp = NULL, *outb = NULL;
+    double area = 0.0;
+    TU_CHECK_OK(pgi__gpu_est_upload(g, a, &packed, &packed_cap, &pk, &ph, &vs, &lobes));
+    TU_CHECK_OK(pgi__gpu_est_upload_footprints(g, a->photons, a->threads, &hfp, &hfp_cap, &fp, &area));
+    const pgi__gpu_est_inputs in = {.photons = ph,
+                                    .nphotons = a->photons->count,
+                                    .samples = vs,
+                                    .lobes = lobes,
+                                    .camera = a->camera,
+                                    .width = a->samples->width,
+                                    .height = a->samples->height,
+                                    .radius = a->radius,
+                                    .scene_area = a->scene_area,
+                                    .footprints = fp,
+                                    .footprint_ellipsoids = a->photons->sax != NULL};
+    TU_CHECK_OK(vt->device_reserve(ge, &in, &outb));
+    TU_CHECK_OK(pgi__gpu_begin(g));
+    pgi__gpu_timestamp(g, "start");
+    TU_CHECK_OK(vt->device_record(ge, &in));
+    TU_CHECK_OK(pgi__gpu_submit_wait(g));
+    pgi_named_value t[16];
+    const int nt = pgi__gpu_timings(g, t, 16);
+    TU_CHECK_OK(vt->device_finish(ge, t, nt, es));
+    TU_CHECK_OK(pgi__gpu_download(g, outb, 0, out, 3 * a->samples->count * sizeof(float)));
+    pgi__gpu_buffer *b[] = {ph, vs, lobes, fp};
+    for (int k = 0; k < 4; k++) pgi__gpu_buffer_destroy(g, b[k]);
+    pgi__afree(packed);
+    pgi__afree(hfp);
+    pgi__gpu_vs_pack_free(&pk);
+}
+
+/* bvh on the GPU against the CPU's bvh on the same inputs (the leaf threshold T, T_auto from the
+ * footprints' area included, and the counts), and its frame path against its run: the same image
+ * bit for bit (the photons are summed in the sorted order whatever T is), the same T when the scene's
+ * area is given (the frame's T_auto without it takes 16, not the photons' box). */
+static void bvh_vs_cpu_bvh(void *ge, const pgi_estimator_desc *ed, pgi_estimate_args *a, const pgi_estimator_stats *gs,
+                           const float *got, float *scratch) {
+    pgi_estimator *cb = NULL;
+    pgi_estimator_stats cs, ds;
+    TU_CHECK_OK(pgi_estimator_create("bvh", ed, &cb));
+    float *keep = a->out_rgb;
+    a->out_rgb = scratch;
+    TU_CHECK_OK(pgi_estimator_build(cb, a));
+    TU_CHECK_OK(pgi_estimator_estimate(cb, a));
+    pgi_estimator_get_stats(cb, &cs);
+    a->out_rgb = keep;
+    pgi_estimator_destroy(cb);
+    fprintf(stderr, "    CPU bvh: leaf size %d (GPU %d), contributing %llu\n", cs.leaf_size, gs->leaf_size,
+            (unsigned long long)cs.contributing);
+    assert_int_equal(cs.leaf_size, gs->leaf_size);
+    assert_int_equal(cs.contributing, gs->contributing);
+    const size_t nf = 3 * a->samples->count;
+    for (size_t i = 0; i < nf; i++) scratch[i] = NAN;
+    bvh_device_path(ge, a, scratch, &ds);
+    assert_memory_equal(scratch, got, nf * sizeof *got);
+    assert_int_equal(ds.contributing, gs->contributing);
+    if (a->scene_area > 0.0) assert_int_equal(ds.leaf_size, gs->leaf_size);
+}
 
 /* CPU brute force and the GPU hashgrid on the same photons and view samples (pgi_renderer_prepare):
  * within 1e-4 relative per value, with a floor of 1e-6 x the image's largest value for values near
@@ -162,7 +233,14 @@ static void gpu_est_vs_brute(const pgi__gpu_est_vtbl *vt, const char *scene_name
         TU_CHECK_OK(pgi_scene_set_specular(scene, spec));
     }
     pgi_renderer *r = tu_renderer(scene);
-    pgi_render_desc d = {.photons = photons, .width = w, .height = h, .seed = 3, .radius = radius, .jitter = g_jitter};
+    pgi_render_desc d = {.photons = photons,
+                         .width = w,
+                         .height = h,
+                         .seed = 3,
+                         .radius = radius,
+                         .jitter = g_jitter,
+                         .radius_policy = (int)g_radius_policy,
+                         .estimator = g_radius_policy != PGI_RADIUS_FIXED ? "brute" : NULL};
     pgi_frame_inputs in;
     TU_CHECK_OK(pgi_renderer_prepare(r, &d, &in, NULL));
     const size_t nf = 3 * in.samples->count;
@@ -189,7 +267,10 @@ static void gpu_est_vs_brute(const pgi__gpu_est_vtbl *vt, const char *scene_name
                            .camera = &in.camera,
                            .out_rgb = ref,
                            .radius = in.radius,
+                           .scene_area = g_radius_policy != PGI_RADIUS_FIXED ? in.scene_area : 0.0,
                            .seed = in.seed};
+    assert_true(g_radius_policy == PGI_RADIUS_FIXED || in.photons->radius);
+    assert_true((g_radius_policy == PGI_RADIUS_DIFFERENTIALS) == (in.photons->sax != NULL));
     TU_CHECK_OK(pgi_estimator_build(brute, &a));
     TU_CHECK_OK(pgi_estimator_estimate(brute, &a));
     pgi_estimator_stats bs, gs, gs2;
@@ -203,8 +284,10 @@ static void gpu_est_vs_brute(const pgi__gpu_est_vtbl *vt, const char *scene_name
     TU_CHECK_OK(vt->run(ge, &a, &gs));
     char what[200];
     snprintf(what, sizeof what,
-             "%s %dx%d, %u photons, kernel %d, specular %d, r %g, %zu mirror-seen samples: GPU %s vs CPU brute",
-             scene_name, w, h, photons, (int)kern, (int)spec, (double)in.radius, mirror_seen, vt->name);
+             "%s %dx%d, %u photons, kernel %d, specular %d, r %g, radius policy %d, %zu mirror-seen samples: GPU %s vs "
+             "CPU brute",
+             scene_name, w, h, photons, (int)kern, (int)spec, (double)in.radius, (int)g_radius_policy, mirror_seen,
+             vt->name);
     int again_pass = 0; /* cluster-trivial: its pair buffer grew and the splat ran again */
     for (int k = 0; k < gs.pass_count; k++) again_pass |= strcmp(gs.pass_names[k], "gpu_splat_again") == 0;
     fprintf(stderr, "  %s: reads %llu (brute %llu), contributing %llu, nodes visited %llu%s\n", what,
@@ -238,6 +321,7 @@ static void gpu_est_vs_brute(const pgi__gpu_est_vtbl *vt, const char *scene_name
         assert_int_equal(cs.contributing, gs.contributing);
         pgi_estimator_destroy(cb);
     }
+    if (vt == &pgi__gpu_est_bvh) bvh_vs_cpu_bvh(ge, &ed, &a, &gs, got, again);
     assert_true(bs.contributing > 0);
     tu_expect_same(what, got, ref, nf, gs.contributing, bs.contributing);
     /* every GPU estimator examines no more pairs than brute force and counts each contributing one among them
@@ -316,6 +400,54 @@ static void test_bvh_vs_brute(void **state) {
     gpu_est_vs_brute(vt, "cornell-mirrors", 64, 48, 20000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.06f, 0);
     gpu_est_vs_brute(vt, "fireplace-room", 48, 36, 10000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_GGX, 0.f, 0);
     gpu_est_vs_brute(vt, "cornell", 7, 5, 3000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.6f, 0);
+}
+
+/* bvh on the GPU with per-photon footprints against the CPU's brute force (and the CPU's bvh: the
+ * same T_auto from the footprints' area): spheres of the path policy's radii and the photon
+ * differentials' ellipsoids, on the Cornell box and the fireplace room (GGX samples), at T_auto,
+ * leaf sizes 1 and 4096, and a radius whose footprints span the box. Other kernels are refused by
+ * name, as is the VVH builder. */
+static void test_bvh_footprints_vs_brute(void **state) {
+    (void)state;
+    const pgi__gpu_est_vtbl *vt = &pgi__gpu_est_bvh;
+    const pgi_radius_policy pol[] = {PGI_RADIUS_PATH, PGI_RADIUS_DIFFERENTIALS};
+    for (int k = 0; k < 2; k++) {
+        g_radius_policy = pol[k];
+        gpu_est_vs_brute(vt, "cornell", 64, 48, 20000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.f, 0);
+        gpu_est_vs_brute(vt, "cornell", 50, 37, 5000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.f, 1);
+        gpu_est_vs_brute(vt, "cornell", 40, 30, 5000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 0.6f, 4096);
+        gpu_est_vs_brute(vt, "cornell", 40, 30, 3000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_DEFAULT, 1.5f, 0);
+        gpu_est_vs_brute(vt, "fireplace-room", 48, 36, 10000, PGI_KERNEL_CONSTANT, 0.f, PGI_SPECULAR_GGX, 0.f, 0);
+    }
+    g_radius_policy = PGI_RADIUS_FIXED;
+    /* refused: footprints with another kernel (at run), the VVH builder (at create) */
+    pgi_scene *scene = tu_scene("cornell");
+    pgi_renderer *r = tu_renderer(scene);
+    pgi_render_desc d =
+        {.photons = 500, .width = 8, .height = 6, .seed = 3, .radius_policy = PGI_RADIUS_PATH, .estimator = "bvh"};
+    pgi_frame_inputs in;
+    TU_CHECK_OK(pgi_renderer_prepare(r, &d, &in, NULL));
+    float out[3 * 8 * 6];
+    pgi_estimate_args a = {.photons = in.photons,
+                           .samples = in.samples,
+                           .camera = &in.camera,
+                           .out_rgb = out,
+                           .radius = in.radius};
+    pgi_estimator_desc ed = {0}, rd;
+    TU_CHECK_OK(pgi_estimator_desc_resolve(pgi_estimator_find("bvh"), &ed, &rd));
+    rd.kernel = PGI_KERNEL_CONE;
+    void *ge = NULL;
+    pgi_estimator_stats es;
+    TU_CHECK_OK(vt->create(g_gpu, &rd, &ge));
+    assert_int_equal(vt->run(ge, &a, &es), PGI_ERR_UNSUPPORTED);
+    assert_non_null(strstr(pgi_last_error(), "constant kernel"));
+    vt->destroy(ge);
+    rd.kernel = PGI_KERNEL_CONSTANT;
+    rd.bvh.build = PGI_BVH_VVH;
+    assert_int_equal(vt->create(g_gpu, &rd, &ge), PGI_ERR_UNSUPPORTED);
+    assert_non_null(strstr(pgi_last_error(), "vvh"));
+    pgi_renderer_destroy(r);
+    pgi_scene_destroy(scene);
 }
 
 /* cluster and cluster-cone on the GPU (cluster-trivial's code without trivial accept, and without
@@ -777,6 +909,7 @@ int main(void) {
         cmocka_unit_test(test_cluster_trivial_errors),
         cmocka_unit_test(test_cluster_variants_vs_brute),
         cmocka_unit_test(test_bvh_vs_brute),
+        cmocka_unit_test(test_bvh_footprints_vs_brute),
         cmocka_unit_test(test_directional_vs_cpu),
         cmocka_unit_test(test_tiled_vs_brute),
         cmocka_unit_test(test_tiled_errors),

@@ -14,7 +14,7 @@ static const struct {
     unsigned caps;
 } k_gpu_estimators[] = {
     {&pgi__gpu_est_hashgrid, PGI_EST_CAP_KERNELS},
-    {&pgi__gpu_est_bvh, 0},
+    {&pgi__gpu_est_bvh, PGI_EST_CAP_PHOTON_RADIUS},
     {&pgi__gpu_est_cluster, 0},
     {&pgi__gpu_est_cluster_cone, 0},
     {&pgi__gpu_est_cluster_trivial, 0},
@@ -176,6 +176,32 @@ pgi_status pgi__gpu_est_upload(pgi__gpu *g, const pgi_estimate_args *a, pgi__pac
         (st = pgi__gpu_upload(g, *photons, 0, pp, n * psz)) ||
         (st = pgi__gpu_upload(g, *vs, 0, pk->hvs, ns * sizeof(pgi__gpu_vs))) ||
         (st = pgi__gpu_upload(g, *lobes, 0, pk->hlobes, nlobes * sizeof(pgi__gpu_lobe))))
+        return st;
+    return PGI_OK;
+}
+
+pgi_status pgi__gpu_est_upload_footprints(pgi__gpu *g, const pgi_photons *ph, int threads, pgi__gpu_footprint **host,
+                                          size_t *host_cap, pgi__gpu_buffer **buf, double *area) {
+    const size_t n = ph->count;
+    double sum = 0.0;
+    *area = 0.0;
+    if (!ph->radius) return PGI_OK;
+    pgi_status st = pgi__ensure((void **)host, host_cap, n + 1, sizeof(pgi__gpu_footprint));
+    if (st) return st;
+    pgi__gpu_footprint *f = *host;
+    const int ell = ph->sax != NULL;
+#pragma omp parallel for schedule(static) reduction(+ : sum) num_threads(pgi__threads(threads))
+    for (long long jj = 0; jj < (long long)n; jj++) {
+        const size_t j = (size_t)jj;
+        const float r = ph->radius[j];
+        f[j] = ell ? (pgi__gpu_footprint){r,          ph->sax[j], ph->say[j], ph->saz[j], ph->sbx[j], ph->sby[j],
+                                          ph->sbz[j], ph->nx[j],  ph->ny[j],  ph->nz[j],  0.f,        0.f}
+                   : (pgi__gpu_footprint){.r = r};
+        sum += (double)PGI__PI * (double)r * (double)r;
+    }
+    *area = sum;
+    if ((st = pgi__gpu_buffer_reserve(g, buf, (n + 1) * sizeof(pgi__gpu_footprint), "gpu_photons")) ||
+        (st = pgi__gpu_upload(g, *buf, 0, f, n * sizeof(pgi__gpu_footprint))))
         return st;
     return PGI_OK;
 }

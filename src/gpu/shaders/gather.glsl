@@ -185,11 +185,17 @@ void gather(ViewSample v, bool lambert, float r2, uint kern, Photon q, inout Acc
     }
 }
 
+// footprint.h pgi__acc_finish_w: (kd/pi * flux + spec) * w.
+vec3 acc_finish_w(ViewSample v, Acc a, float w) {
+    precise vec3 o = vec3((v.kdx * float(PGIS_INV_PI) * a.fr + a.sr) * w, (v.kdy * float(PGIS_INV_PI) * a.fg + a.sg) * w,
+                          (v.kdz * float(PGIS_INV_PI) * a.fb + a.sb) * w);
+    return o;
+}
+
 // gather.h pgi__acc_finish_k: (kd/pi * flux + spec) / (pi r^2), times the kernel's normalisation.
 vec3 acc_finish(ViewSample v, Acc a, float r2, float m) {
     precise float w = 1.0 / (float(PGIS_PI) * r2);
-    precise vec3 o = vec3((v.kdx * float(PGIS_INV_PI) * a.fr + a.sr) * w, (v.kdy * float(PGIS_INV_PI) * a.fg + a.sg) * w,
-                          (v.kdz * float(PGIS_INV_PI) * a.fb + a.sb) * w);
+    precise vec3 o = acc_finish_w(v, a, w);
     if (m != 1.0) o = o * m;
     return o;
 }

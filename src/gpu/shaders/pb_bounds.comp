@@ -1,5 +1,7 @@
-// GPU bvh (gpu_pbvh.c): the nodes' boxes. A photon's box is its sphere's, p -+ r (rounding is
-// monotone: a photon that passes d^2 < r^2 lies in it as computed, est_bvh.c). A node's box is the
+// GPU bvh (gpu_pbvh.c): the nodes' boxes. A photon's box is its footprint's, as est_bvh.c's: a
+// sphere's p -+ r (the fixed radius or its own; rounding is monotone: a photon that passes d^2 < r^2
+// lies in it as computed), an ellipsoid's p -+ (h + pad), h its half extents, the pad covering the
+// containment test's rounding. A node's box is the
 // union over its range of sorted photons, taken from precomputed unions of aligned blocks:
 //   mode 0  each block of 64 photons' box
 //   mode 1  each block of 4096 photons' box (from its 64-blocks)
@@ -16,12 +18,24 @@ layout(std430, binding = 0) readonly buffer Photons { Photon ph[]; }; // sorted
 layout(std430, binding = 1) buffer Nodes { Node nodes[]; };
 // 6 floats a block (lo, hi): the 64-blocks, then (from pc.mode's block count) the 4096-blocks
 layout(std430, binding = 2) buffer Blocks { float blk[]; };
+layout(std430, binding = 3) readonly buffer Shapes { float shp[]; }; // sorted (pbvh.glsl FP_*)
 
 vec3 lo, hi;
 
 void add_photon(uint k) {
     vec3 p = vec3(ph[k].px, ph[k].py, ph[k].pz);
-    precise vec3 a = p - vec3(pc.r), b = p + vec3(pc.r);
+    precise vec3 a, b;
+    if (pc.fp == FP_ELLIPSOID) {
+        uint o = ELL_FLOATS * k + 9u;
+        vec3 h = vec3(shp[o], shp[o + 1u], shp[o + 2u]);
+        precise vec3 pad = 1e-3 * h + 1e-6 * abs(p);
+        a = p - h - pad;
+        b = p + h + pad;
+    } else {
+        float r = pc.fp == FP_SPHERE ? shp[k] : pc.r;
+        a = p - vec3(r);
+        b = p + vec3(r);
+    }
     lo = min(lo, a);
     hi = max(hi, b);
 }

@@ -1,7 +1,9 @@
 // GPU bvh (gpu_pbvh.c): per view sample, est_bvh.c's query: from the root, every child whose box
 // contains the sample's point, depth first, left before right, so the photons are gathered in
 // their sorted order; a node of at most `leaf` photons is walked whole (the CPU's leaves), each
-// photon through gather.glsl's contribution test and sums. Reads, contributing and nodes visited
+// photon through gather.glsl's contribution test and sums: within the fixed radius, or its own
+// footprint (pbvh.glsl FP_*: d^2 < r_p^2, or inside its ellipsoid, then the same hemisphere test
+// and sums with the flux already weighted by 1 / (pi r_p^2), finished with weight 1). Reads, contributing and nodes visited
 // are counted per workgroup, then into 64-bit counters.
 #version 450
 #extension GL_GOOGLE_include_directive : require
@@ -16,6 +18,7 @@ layout(std430, binding = 3) readonly buffer Nodes { Node nodes[]; };
 layout(std430, binding = 4) writeonly buffer Out { float out_rgb[]; };
 // [0, 1] reads, [2, 3] contributing, [4, 5] nodes visited (64-bit: low, high), [6] stack overflows
 layout(std430, binding = 5) buffer Counters { uint counters[8]; };
+layout(std430, binding = 6) readonly buffer Shapes { float shp[]; }; // sorted (pbvh.glsl FP_*)
 shared uint wg_count[3];
 
 #define STACK 64
@@ -23,6 +26,22 @@ shared uint wg_count[3];
 void add64(uint k, uint v) {
     uint old = atomicAdd(counters[2u * k], v);
     if (old + v < old) atomicAdd(counters[2u * k + 1u], 1u);
+}
+
+// sorted photon k's contribution (est_bvh.c's three modes)
+void gather_photon(ViewSample v, bool lambert, uint k, inout Acc a) {
+    if (pc.fp == FP_FIXED) {
+        gather(v, lambert, pc.r2, pc.kernel, ph[k], a);
+    } else if (pc.fp == FP_SPHERE) {
+        precise float r2 = shp[k] * shp[k];
+        gather(v, lambert, r2, 0u, ph[k], a);
+    } else {
+        float inv[9];
+        for (uint t = 0u; t < 9u; t++) inv[t] = shp[ELL_FLOATS * k + t];
+        Photon q = ph[k];
+        precise vec3 e = vec3(v.px - q.px, v.py - q.py, v.pz - q.pz);
+        if (ellipsoid_contains(inv, e)) gather(v, lambert, uintBitsToFloat(0x7f800000u), 0u, q, a);
+    }
 }
 
 bool contains(uint c, vec3 x) {
@@ -50,14 +69,14 @@ void main() {
         while (sp > 0) {
             uint c = stack[--sp];
             if ((c & LEAF) != 0u) {
-                gather(v, lambert, pc.r2, pc.kernel, ph[c & ~LEAF], a);
+                gather_photon(v, lambert, c & ~LEAF, a);
                 reads++;
                 continue;
             }
             visited++;
             Node nd = nodes[c];
             if (nd.last - nd.first < pc.leaf) { // at most `leaf` photons: a leaf
-                for (uint k = nd.first; k <= nd.last; k++) gather(v, lambert, pc.r2, pc.kernel, ph[k], a);
+                for (uint k = nd.first; k <= nd.last; k++) gather_photon(v, lambert, k, a);
                 reads += nd.last - nd.first + 1u;
                 continue;
             }
@@ -74,7 +93,7 @@ void main() {
     if (inside) {
         vec3 o = vec3(0.0);
         if (valid) {
-            o = acc_finish(v, a, pc.r2, pc.scale);
+            o = pc.fp == FP_FIXED ? acc_finish(v, a, pc.r2, pc.scale) : acc_finish_w(v, a, 1.0);
             contributing = a.contributing;
         }
         out_rgb[3u * i] = o.x;

@@ -3,7 +3,11 @@
 //           skipped: the result does not depend on the order)
 //   mode 1  each photon's (30-bit Morton code of its cell in 1024^3 over the box, index) pair,
 //           est_bvh.c quant10 / expand_bits operation for operation
-//   mode 2  the photons copied in the sorted order (binding 2: the sorted indices)
+//   mode 2  the photons copied in the sorted order (binding 2: the sorted indices); with per-photon
+//           footprints (pc.fp) each flux times footprint_weight (est_bvh.c's packing) and its shape
+//           (pbvh.glsl FP_*) into shp[] in the same order
+//   mode 3  T_auto's footprint area: each workgroup's sum of pi r^2 as two floats (hi, lo: a
+//           compensated sum in the photons' order) into pairs[2 * workgroup] (gpu_pbvh.c sums them)
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
@@ -13,7 +17,10 @@ layout(std430, binding = 0) readonly buffer Photons { Photon ph[]; };
 layout(std430, binding = 1) buffer Box { uint box[8]; }; // [0..2] low (min), [3..5] high (max), ordered bits
 layout(std430, binding = 2) buffer Pairs { uint pairs[]; };
 layout(std430, binding = 3) writeonly buffer Sorted { Photon outp[]; };
+layout(std430, binding = 4) readonly buffer Footprints { Footprint fps[]; }; // photon order
+layout(std430, binding = 5) writeonly buffer Shapes { float shp[]; };       // sorted order
 shared uint wbox[6];
+shared float warea[256];
 
 uint expand_bits(uint x) {
     x = (x * 0x00010001u) & 0xFF0000FFu;
@@ -49,6 +56,22 @@ void main() {
         else if (t < 6u) atomicMax(box[t], wbox[t]);
         return;
     }
+    if (pc.mode == 3u) {
+        uint t = gl_LocalInvocationID.x;
+        precise float a = i < pc.n ? 3.14159265358979323846 * fps[i].r * fps[i].r : 0.0;
+        warea[t] = a;
+        barrier();
+        if (t != 0u) return;
+        precise float hi = 0.0, lo = 0.0;
+        for (uint k = 0u; k < 256u; k++) { // TwoSum (Knuth)
+            precise float x = warea[k], s = hi + x, bb = s - hi, err = (hi - (s - bb)) + (x - bb);
+            hi = s;
+            lo += err;
+        }
+        pairs[2u * linear_group()] = floatBitsToUint(hi);
+        pairs[2u * linear_group() + 1u] = floatBitsToUint(lo);
+        return;
+    }
     if (i >= pc.n) return;
     if (pc.mode == 1u) {
         float lo[3], sc[3];
@@ -62,6 +85,25 @@ void main() {
         pairs[2u * i] = key;
         pairs[2u * i + 1u] = i;
     } else {
-        outp[i] = ph[pairs[i]];
+        uint j = pairs[i];
+        Photon q = ph[j];
+        if (pc.fp != FP_FIXED) {
+            Footprint f = fps[j];
+            float w = footprint_weight(f.r);
+            precise float fr = q.fr * w, fg = q.fg * w, fb = q.fb * w;
+            q.fr = fr;
+            q.fg = fg;
+            q.fb = fb;
+            if (pc.fp == FP_SPHERE) {
+                shp[i] = f.r;
+            } else {
+                float inv[9];
+                ellipsoid_inverse(f, inv);
+                vec3 h = ellipsoid_extent(f);
+                for (uint k = 0u; k < 9u; k++) shp[ELL_FLOATS * i + k] = inv[k];
+                for (uint k = 0u; k < 3u; k++) shp[ELL_FLOATS * i + 9u + k] = h[k];
+            }
+        }
+        outp[i] = q;
     }
 }

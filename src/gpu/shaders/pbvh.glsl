@@ -6,17 +6,25 @@
 #ifndef PGIS_PBVH_GLSL
 #define PGIS_PBVH_GLSL
 
+#include "footprint.glsl"
+
 struct Photon { // pgi__packed_photon (src/estimators/packed.h): 36 bytes
     float px, py, pz, dx, dy, dz, fr, fg, fb;
 };
 
-// 48 bytes. Box of the photons' spheres, the range of sorted photons [first, last], children
+// 48 bytes. Box of the photons' footprints, the range of sorted photons [first, last], children
 // (LEAF | photon, or an internal node).
 struct Node {
     float lox, loy, loz, hix, hiy, hiz;
     uint first, last, left, right, pad0, pad1;
 };
 #define LEAF 0x80000000u
+
+// pc.fp: the photons' footprints, and their shapes in the sorted order (shp[], written by pb_prep):
+#define FP_FIXED 0u     // spheres of radius pc.r (no shapes)
+#define FP_SPHERE 1u    // spheres of their own radius: 1 float a photon, r
+#define FP_ELLIPSOID 2u // 12 floats a photon: the inverse of its frame (9, row-major), its box's half extents
+#define ELL_FLOATS 12u
 
 layout(push_constant) uniform Push {
     float r, r2;  // radius
@@ -27,7 +35,8 @@ layout(push_constant) uniform Push {
     uint width, height;
     uint kernel;  // pgi_kernel
     uint mode;    // kernel-specific
-    uint pad1, pad2;
+    uint fp;      // FP_*
+    uint pad2;
 } pc;
 
 uint f2ord(float f) {
