@@ -645,15 +645,16 @@ static double indirect_mean(const pgi_frame_inputs *in, const char *name, int w,
 
 /* Radius policies on the device: the GPU tracer's footprints (tests/test_gpu_trace.c compares them
  * with the CPU's). A frame whose GPU estimator reads no footprints is refused by name (each
- * estimator that takes them on the CPU, runs on the device and lacks them there); with the fixed
- * radius nothing changes. pgi_renderer_prepare reads the footprints back with the photons: radius,
+ * estimator that takes them on the CPU, runs on the device and lacks them there); one that reads
+ * them gives the CPU frame's indirect light (mean within 3 %, Cornell 64x48, 200k photons, both
+ * policies). pgi_renderer_prepare reads the footprints back with the photons: radius,
  * the ellipsoids' semi-axes and the normals (and its stats hold their histogram), and the CPU bvh estimator on those inputs gives the
  * indirect light of the CPU's own inputs (mean within 2 %, Cornell 200k photons). */
 static void test_radius_policies(void **state) {
     (void)state;
     pgi_scene *s = tu_scene("cornell");
     pgi_renderer *r = tu_renderer(s);
-    int refused = 0;
+    int refused = 0, rendered = 0;
     for (size_t i = 0; i < pgi_estimator_count(); i++) {
         const pgi_estimator_vtbl *vt = pgi_estimator_at(i);
         if (!(vt->caps & PGI_EST_CAP_PHOTON_RADIUS) || !pgi_estimator_runs_on(vt, PGI_DEVICE_VULKAN)) continue;
@@ -665,6 +666,21 @@ static void test_radius_policies(void **state) {
             const pgi_status st = pgi_renderer_render(r, &d, &im, NULL);
             if (pgi__gpu_est_caps(vt->name) & PGI_EST_CAP_PHOTON_RADIUS) {
                 TU_CHECK_OK(st);
+                pgi_image_free(&im);
+                /* the device's footprints through its estimator: the CPU frame's indirect light */
+                pgi_image ci = {0};
+                d = frame_desc(64, 48, 200000, 1, PGI_OUTPUT_INDIRECT, 1);
+                d.estimator = vt->name;
+                d.radius_policy = policy;
+                TU_CHECK_OK(pgi_renderer_render(r, &d, &im, NULL));
+                d.device = PGI_DEVICE_CPU;
+                TU_CHECK_OK(pgi_renderer_render(r, &d, &ci, NULL));
+                const double mg = image_mean(&im), mc = image_mean(&ci);
+                fprintf(stderr, "  %s %-13s 64x48 200k photons, indirect: mean GPU %.6g CPU %.6g (%+.2f %%)\n",
+                        vt->name, policy == PGI_RADIUS_PATH ? "path" : "differentials", mg, mc, 100.0 * (mg - mc) / mc);
+                assert_true(fabs(mg - mc) <= 0.03 * mc);
+                pgi_image_free(&ci);
+                rendered++;
             } else {
                 char word[96];
                 snprintf(word, sizeof word, "--radius-policy %s with estimator '%s'",
@@ -678,7 +694,7 @@ static void test_radius_policies(void **state) {
             pgi_image_free(&im);
         }
     }
-    fprintf(stderr, "  %d frames refused by name\n", refused);
+    fprintf(stderr, "  %d frames refused by name, %d rendered\n", refused, rendered);
     /* prepare: the footprints read back */
     const int w = 48, h = 36;
     for (int policy = PGI_RADIUS_PATH; policy <= PGI_RADIUS_DIFFERENTIALS; policy++) {
