@@ -29,6 +29,11 @@ pgi_status pgi__renderer_render_frame_late(pgi_renderer *r, const pgi_render_des
  * frame k > 0 of one picture. */
 void pgi__renderer_keep_guide(pgi_renderer *r, int keep);
 
+/* The width of the view samples' texture cones in pixels (pgi__subpixel.tex_scale; 0 or 1: a
+ * pixel's) for the renderer's next frames: temporal.c sets it around a picture whose sub-pixel
+ * offset is its own (its history integrates the pixel: the texture's filter need not). */
+void pgi__renderer_texture_cone(pgi_renderer *r, float pixels);
+
 /* The renderer's memory ledger (render.c): progressive.c reports its accumulator there. */
 pgi__mem_ledger *pgi__renderer_mem(pgi_renderer *r);
 

@@ -134,6 +134,11 @@ static void catmull_rom(float a, float w[4]) {
     w[3] = a * a * (-0.5f + 0.5f * a);
 }
 
+/* The width in pixels of the texture cones of a picture under the step's own sub-pixel offset
+ * (pgi__renderer_texture_cone). Sibenik 320x180, 12 frames (docs/temporal.md): 1 (a pixel's)
+ * 0.3 dB below 0.5, 0.25 0.1 dB below it. */
+#define TAA_TEXTURE_CONE 0.5f
+
 /* Point i of the radical-inverse sequence in base b, in [0, 1). */
 static float halton(uint64_t i, unsigned b) {
     float f = 1.f, r = 0.f;
@@ -220,8 +225,7 @@ static void prepare_row(pgi_temporal *t, const pgi_camera *cam, const float shif
 
 /* Whether the previous frame's pixel q shows the surface that this frame's pixel p shows (0 depth
  * for both: the sky): q's hit lies on p's tangent plane (within 2 % of the depth), with a normal
- * like p's. The albedo is not compared: a textured surface's neighbouring samples differ in it, and
- * under sub-pixel offsets that rejected a third of the history of a still wall. */
+ * like p's. The albedo is not compared: a textured surface's neighbouring samples differ in it. */
 static inline int same_surface(const float *restrict prev_geo, size_t q, const float n0[3], const float x0[3],
                                int sky) {
     const float *g = prev_geo + 8 * q, dq = g[3];
@@ -234,9 +238,18 @@ static inline int same_surface(const float *restrict prev_geo, size_t q, const f
     return fabsf(off) <= 0.02f * dq + 1e-6f && nd >= 0.9f;
 }
 
+/* How far (in previous pixels) from where a pixel lands its surface must show in the previous
+ * frame for its history to be kept. A pixel's samples land anywhere in it (the pictures' sub-pixel
+ * offsets): at an edge its last sample and its neighbours' hit either side, and its history is
+ * the mix of both that the pixel integral is, so the test asks whether the surface was seen near
+ * there at all (a disocclusion: it was not). Measured on Sibenik (docs/temporal.md): 0 (the
+ * nearest pixel alone) kept too little at the edges, 2 was 0.5 dB better than 1. */
+#define SEEN_RADIUS 2
+
 /* The last picture's history reprojected to pixel (x, y) of camera `cam` into c (HS floats; pixel
- * p's primary hit found in the previous camera: Catmull-Rom over the 4x4 previous pixels around it
- * when all show the same surface, else bilinear over those of the nearest 2x2 that do), the picture
+ * p's primary hit found in the previous camera, moved back by this picture's sub-pixel offset to
+ * p's centre: Catmull-Rom over the 4x4 previous pixels around it, bilinear over the 2x2 at the
+ * image's border) when p's surface shows within SEEN_RADIUS previous pixels of there, the picture
  * clamped to the mean +- 1.25 sigma of the new picture D's 3x3 neighbourhood. Returns whether
  * anything was kept (else c's weight is 0). */
 static int reproject_pixel(const pgi_temporal *t, const pgi_camera *cam, const float *restrict D, int x, int y,
@@ -253,23 +266,29 @@ static int reproject_pixel(const pgi_temporal *t, const pgi_camera *cam, const f
     if (!pgi__temporal_project(&t->prev_cam, sky ? dir : x0, sky, &fx, &fy, &zq)) return 0;
     if (!sky) fx -= t->shift[0], fy -= t->shift[1]; /* the hit is the shifted sample's: back to p's centre */
     if (!(fx > -2.f && fy > -2.f && fx < (float)W + 1.f && fy < (float)H + 1.f)) return 0;
+    /* seen: the nearest previous pixel first, then the others within SEEN_RADIUS */
+    const int cx = (int)floorf(fx + 0.5f), cy = (int)floorf(fy + 0.5f);
+    int seen = cx >= 0 && cy >= 0 && cx < W && cy < H &&
+               same_surface(t->prev_geo, (size_t)cy * (size_t)W + (size_t)cx, n0, x0, sky);
+    for (int j = -SEEN_RADIUS; !seen && j <= SEEN_RADIUS; j++)
+        for (int i = -SEEN_RADIUS; !seen && i <= SEEN_RADIUS; i++) {
+            const int qx = cx + i, qy = cy + j;
+            if (qx < 0 || qy < 0 || qx >= W || qy >= H) continue;
+            seen = same_surface(t->prev_geo, (size_t)qy * (size_t)W + (size_t)qx, n0, x0, sky);
+        }
+    if (!seen) return 0; /* disoccluded (or turned away) */
     const int xi = (int)floorf(fx), yi = (int)floorf(fy);
     const float ax = fx - (float)xi, ay = fy - (float)yi;
     float w = 0.f, acc[HS] = {0.f};
-    /* Catmull-Rom over the 4x4 previous pixels around it when all show this surface (bilinear
-       weights would blur the history a little more at every move), else bilinear over those of the
-       2x2 that do */
-    int all = xi >= 1 && yi >= 1 && xi + 2 < W && yi + 2 < H;
-    for (int j = -1; all && j <= 2; j++)
-        for (int i = -1; all && i <= 2; i++)
-            all = same_surface(t->prev_geo, (size_t)(yi + j) * (size_t)W + (size_t)(xi + i), n0, x0, sky);
-    if (all) {
-        float cx[4], cy[4];
-        catmull_rom(ax, cx);
-        catmull_rom(ay, cy);
+    /* Catmull-Rom over the 4x4 previous pixels around it (bilinear weights would blur the history
+       a little more at every move), bilinear at the border */
+    if (xi >= 1 && yi >= 1 && xi + 2 < W && yi + 2 < H) {
+        float wx[4], wy[4];
+        catmull_rom(ax, wx);
+        catmull_rom(ay, wy);
         for (int j = 0; j < 4; j++)
             for (int i = 0; i < 4; i++) {
-                const float b = cx[i] * cy[j];
+                const float b = wx[i] * wy[j];
                 const float *h = hist + HS * ((size_t)(yi + j - 1) * (size_t)W + (size_t)(xi + i - 1));
                 w += b;
                 for (int k = 0; k < HS; k++) acc[k] += b * h[k];
@@ -279,10 +298,8 @@ static int reproject_pixel(const pgi_temporal *t, const pgi_camera *cam, const f
             for (int i = 0; i < 2; i++) {
                 const int qx = xi + i, qy = yi + j;
                 if (qx < 0 || qy < 0 || qx >= W || qy >= H) continue;
-                const size_t q = (size_t)qy * (size_t)W + (size_t)qx;
-                if (!same_surface(t->prev_geo, q, n0, x0, sky)) continue;
                 const float b = (i ? ax : 1.f - ax) * (j ? ay : 1.f - ay);
-                const float *h = hist + HS * q;
+                const float *h = hist + HS * ((size_t)qy * (size_t)W + (size_t)qx);
                 w += b;
                 for (int k = 0; k < HS; k++) acc[k] += b * h[k];
             }
@@ -402,13 +419,12 @@ pgi_status pgi_temporal_step(pgi_temporal *t, const pgi_render_desc *in, pgi_ima
     const int same_key = size_same && memcmp(&key, &t->prev_key, sizeof key) == 0;
     const int same_cam = t->have && memcmp(&cd, &t->prev_cd, sizeof cd) == 0 && in->shift[0] == t->prev_user_shift[0] &&
                          in->shift[1] == t->prev_user_shift[1];
-    /* A moving camera's pictures with unfiltered textures (texture_filter off) also take a
-     * sub-pixel offset each (Halton 2, 3), so that their history averages the whole pixel as the
-     * progressive frames do (temporal anti-aliasing); when the camera stops, one more picture
-     * begins without it, whose progressive average is then the plain one. Filtered textures
-     * (the default) already show a pixel's footprint: an offset would blur them twice (Sibenik
-     * 320x180: 0.5 dB below the raw frames). A caller's own offset (an engine's jitter) is left as
-     * it is. */
+    /* A moving camera's pictures also take a sub-pixel offset each (Halton 2, 3), so that their
+     * history averages the whole pixel as the progressive frames do (temporal anti-aliasing); when
+     * the camera stops, one more picture begins without it, whose progressive average is then the
+     * plain one. Filtered textures (the default) take cones of half a pixel's width under the
+     * offset (TAA_TEXTURE_CONE): the history integrates the pixel, and a whole pixel's cone would
+     * blur the texture twice. A caller's own offset (an engine's jitter) is left as it is. */
     const int own_shift = in->shift[0] == 0.f && in->shift[1] == 0.f;
     const int stopping = same_key && same_cam && own_shift && (t->shift[0] != 0.f || t->shift[1] != 0.f);
     const int new_picture = !(same_key && same_cam) || stopping;
@@ -422,13 +438,15 @@ pgi_status pgi_temporal_step(pgi_temporal *t, const pgi_render_desc *in, pgi_ima
     float shift[2] = {0.f, 0.f};
     if (!own_shift) shift[0] = in->shift[0], shift[1] = in->shift[1];
     else if (!new_picture) shift[0] = t->shift[0], shift[1] = t->shift[1];
-    else if (only_camera && !same_cam && in->texture_filter == PGI_TEXTURE_FILTER_OFF)
-        shift[0] = halton(pictures, 2) - 0.5f, shift[1] = halton(pictures, 3) - 0.5f;
+    else if (only_camera && !same_cam) shift[0] = halton(pictures, 2) - 0.5f, shift[1] = halton(pictures, 3) - 0.5f;
     d.shift[0] = shift[0], d.shift[1] = shift[1];
+    const int own = own_shift && (shift[0] != 0.f || shift[1] != 0.f);
     pgi_aovs aovs = {.albedo = t->alb, .normal = t->nrm, .depth = t->cur + G_DEPTH * n, .indirect = t->ind};
     d.aovs = &aovs;
     pgi_frame_stats fs;
+    pgi__renderer_texture_cone(t->r, own ? TAA_TEXTURE_CONE : 0.f);
     st = pgi_progressive_step(t->prog, &d, &t->avg, &fs);
+    pgi__renderer_texture_cone(t->r, 0.f);
     if (st) return st; /* cancelled: the average, the history and the previous frame are as they were */
     if (fs.width != w || fs.height != h)
         return pgi__fail(PGI_ERR_INTERNAL, "temporal step: a %dx%d frame for %dx%d buffers", fs.width, fs.height, w, h);
