@@ -180,6 +180,17 @@ int pgi__temporal_project(const pgi_camera *c, const float q[3], int dir, float 
     return 1;
 }
 
+void pgi__temporal_hit(const pgi_camera *c, int x, int y, const float shift[2], float z, float pos[3]) {
+    v3_store(pos, v3_madd(v3_load(c->eye), pgi__camera_ray_at(c, x, y, 0.5f + shift[0], 0.5f + shift[1]), z));
+}
+
+int pgi__temporal_land(const pgi_camera *prev, const float q[3], const float shift[2], float *px, float *py) {
+    float z;
+    if (!pgi__temporal_project(prev, q, 0, px, py, &z)) return 0;
+    *px -= shift[0], *py -= shift[1];
+    return 1;
+}
+
 static inline float lum(float r, float g, float b) { return 0.2126f * r + 0.7152f * g + 0.0722f * b; }
 
 /* Irradiance: radiance over the albedo where there is one to divide by. */
@@ -197,9 +208,8 @@ static void prepare_row(pgi_temporal *t, const pgi_camera *cam, const float shif
     for (int x = 0; x < W; x++) {
         const size_t p = (size_t)y * (size_t)W + (size_t)x;
         const float z = g[G_DEPTH * n + p];
-        const pgi__v3 d = pgi__camera_ray_at(cam, x, y, 0.5f + shift[0], 0.5f + shift[1]);
         float pos[3];
-        v3_store(pos, v3_madd(v3_load(cam->eye), d, z));
+        pgi__temporal_hit(cam, x, y, shift, z, pos);
         float *restrict geo = t->geo + 8 * p;
         for (int c = 0; c < 3; c++) {
             g[(G_PX + c) * n + p] = geo[c] = pos[c];
@@ -263,8 +273,9 @@ static int reproject_pixel(const pgi_temporal *t, const pgi_camera *cam, const f
     const float n0[3] = {cur[G_NX * n + p], cur[(G_NX + 1) * n + p], cur[(G_NX + 2) * n + p]};
     float dir[3], fx, fy, zq;
     if (sky) pgi__temporal_pixel_dir(cam, x, y, dir);
-    if (!pgi__temporal_project(&t->prev_cam, sky ? dir : x0, sky, &fx, &fy, &zq)) return 0;
-    if (!sky) fx -= t->shift[0], fy -= t->shift[1]; /* the hit is the shifted sample's: back to p's centre */
+    if (sky ? !pgi__temporal_project(&t->prev_cam, dir, 1, &fx, &fy, &zq)
+            : !pgi__temporal_land(&t->prev_cam, x0, t->shift, &fx, &fy)) /* the shifted sample's hit: p's centre */
+        return 0;
     if (!(fx > -2.f && fy > -2.f && fx < (float)W + 1.f && fy < (float)H + 1.f)) return 0;
     /* seen: the nearest previous pixel first, then the others within SEEN_RADIUS */
     const int cx = (int)floorf(fx + 0.5f), cy = (int)floorf(fy + 0.5f);
