@@ -68,7 +68,7 @@ int main(int argc, char **argv) {
         else if (strcmp(a, "--size") == 0 && sscanf(v, "%dx%d", &w, &h) == 2 && w >= 11 && h >= 11) {
         } else if (strcmp(a, "--frames") == 0 && (frames = atoi(v)) >= 2) {
         } else if (strcmp(a, "--photons") == 0 && (photons = (unsigned)strtoul(v, NULL, 10)) > 0) {
-        } else if (strcmp(a, "--ref-spp") == 0 && (ref_spp = strtoul(v, NULL, 10)) > 0) {
+        } else if (strcmp(a, "--ref-spp") == 0 && (ref_spp = strtoul(v, NULL, 10)) >= 2) {
         } else if (strcmp(a, "--step") == 0 && (step = strtof(v, NULL)) > 0.f) {
         } else if (strcmp(a, "--threads") == 0 && (threads = atoi(v)) > 0) {
         } else if (strcmp(a, "--csv") == 0) csv = v;
@@ -222,7 +222,6 @@ int main(int argc, char **argv) {
             const double ch = f ? change(cur8, prev8[m], n8) : 0.0;
             memcpy(prev8[m], cur8, n8);
             printf(" | %6.2f %.4f", mt.psnr, mt.flip.mean);
-            if (getenv("PGI_DBG") && m != RAW) printf(" [%.2f %.1f]", fs.temporal.reused, fs.temporal.history);
             if (out)
                 fprintf(out, "%d,%s,%.4f,%.5f,%.6f,%.6f,%.2f\n", f, k_mode[m], mt.psnr, mt.flip.mean, ch, ref_change,
                         ms);

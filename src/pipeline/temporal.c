@@ -11,10 +11,10 @@
 #include "scene/scene_internal.h"
 #include "view/view.h"
 
-/* A pixel's history record (HS floats): the picture (rgb), its indirect light (rgb), the first two
- * moments of the indirect irradiance's luminance (the filter's temporal variance), the weight in
- * frames. */
-enum { H_RGB = 0, H_IND = 3, H_M1 = 6, H_M2 = 7, H_N = 8, HS = 9 };
+/* A pixel's history record (HS floats): the picture (rgb), the weight in frames, and (H_PLAIN on,
+ * kept while the filter is on) its indirect light (rgb), the first two moments of the indirect
+ * irradiance's luminance (the filter's temporal variance). */
+enum { H_RGB = 0, H_N = 3, H_PLAIN = 4, H_IND = 4, H_M1 = 7, H_M2 = 8, HS = 9 };
 /* The guide planes of a frame: primary hit position, normal, albedo, depth, filter mask (1.f/0.f). */
 enum { G_PX = 0, G_NX = 3, G_AR = 6, G_DEPTH = 9, G_MASK = 10, GN = 11 };
 
@@ -138,6 +138,11 @@ static void catmull_rom(float a, float w[4]) {
  * (pgi__renderer_texture_cone). Sibenik 320x180, 12 frames (docs/temporal.md): 1 (a pixel's)
  * 0.3 dB below 0.5, 0.25 0.1 dB below it. */
 #define TAA_TEXTURE_CONE 0.5f
+
+/* The mean history (frames) from which the filter runs half its passes: its luminance tolerance
+ * follows the history's own variance, which a long history has made small, and the wide passes
+ * found little left to take (Sibenik, docs/temporal.md). */
+#define LONG_HISTORY 6.0
 
 /* Point i of the radical-inverse sequence in base b, in [0, 1). */
 static float halton(uint64_t i, unsigned b) {
@@ -287,7 +292,8 @@ static int reproject_pixel(const pgi_temporal *t, const pgi_camera *cam, const f
             if (qx < 0 || qy < 0 || qx >= W || qy >= H) continue;
             seen = same_surface(t->prev_geo, (size_t)qy * (size_t)W + (size_t)qx, n0, x0, sky);
         }
-    if (!seen) return 0; /* disoccluded (or turned away) */
+    if (!seen) return 0;                         /* disoccluded (or turned away) */
+    const int nk = t->passes > 0 ? HS : H_PLAIN; /* without the filter, the picture and its weight */
     const int xi = (int)floorf(fx), yi = (int)floorf(fy);
     const float ax = fx - (float)xi, ay = fy - (float)yi;
     float w = 0.f, acc[HS] = {0.f};
@@ -302,7 +308,7 @@ static int reproject_pixel(const pgi_temporal *t, const pgi_camera *cam, const f
                 const float b = wx[i] * wy[j];
                 const float *h = hist + HS * ((size_t)(yi + j - 1) * (size_t)W + (size_t)(xi + i - 1));
                 w += b;
-                for (int k = 0; k < HS; k++) acc[k] += b * h[k];
+                for (int k = 0; k < nk; k++) acc[k] += b * h[k];
             }
     } else
         for (int j = 0; j < 2; j++)
@@ -312,7 +318,7 @@ static int reproject_pixel(const pgi_temporal *t, const pgi_camera *cam, const f
                 const float b = (i ? ax : 1.f - ax) * (j ? ay : 1.f - ay);
                 const float *h = hist + HS * ((size_t)qy * (size_t)W + (size_t)qx);
                 w += b;
-                for (int k = 0; k < HS; k++) acc[k] += b * h[k];
+                for (int k = 0; k < nk; k++) acc[k] += b * h[k];
             }
     if (w < 0.05f) return 0; /* nothing of it was seen: disoccluded */
     /* the neighbourhood clamp: a history that the new frame's neighbours do not support (a moved
@@ -498,7 +504,11 @@ pgi_status pgi_temporal_step(pgi_temporal *t, const pgi_render_desc *in, pgi_ima
     if (reproject_now) ts.reused = (double)kept / (double)n;
     const double t1 = pgi__now_ms();
 
-    /* the blended indirect light filtered (as irradiance), fw of it in the picture */
+    double hsum = 0.0;
+    for (int y = 0; y < h; y++) hsum += t->row_sum[y];
+    /* the blended indirect light filtered (as irradiance), fw of it in the picture; half the passes
+       (rounded up) once the picture's history holds LONG_HISTORY frames on the mean */
+    const int passes = hsum >= LONG_HISTORY * (double)n ? (t->passes + 1) / 2 : t->passes;
     if (fw > 0.f) {
         float *planes[4] = {t->planes, t->planes + n, t->planes + 2 * n, t->planes + 3 * n}, *res[3];
         const float *g = t->cur;
@@ -509,16 +519,14 @@ pgi_status pgi_temporal_step(pgi_temporal *t, const pgi_render_desc *in, pgi_ima
                                          {g + G_AR * n, g + (G_AR + 1) * n, g + (G_AR + 2) * n},
                                          g + G_DEPTH * n,
                                          g + G_MASK * n};
-        if ((st = pgi__atrous_filter(&guide, t->passes, d.threads, planes, t->planes + 4 * n, res))) return st;
+        if ((st = pgi__atrous_filter(&guide, passes, d.threads, planes, t->planes + 4 * n, res))) return st;
 #pragma omp parallel for schedule(static) num_threads(pgi__threads(d.threads))
         for (int y = 0; y < h; y++) compose_row(t, res, fw, out->rgb, y);
-        ts.filter_passes = t->passes;
+        ts.filter_passes = passes;
     }
     ts.filter_weight = fw;
     const double t2 = pgi__now_ms();
 
-    double hsum = 0.0;
-    for (int y = 0; y < h; y++) hsum += t->row_sum[y];
     float *sw = t->hist;
     t->hist = t->hist_next, t->hist_next = sw;
     sw = t->prev_geo;
