@@ -119,7 +119,7 @@ int main(int argc, char **argv) {
         fprintf(stderr, "photongi-bench-temporal: cannot write %s\n", csv);
         return 1;
     }
-    if (out) fprintf(out, "frame,mode,psnr,flip,change,ref_change,ms\n");
+    if (out) fprintf(out, "frame,mode,psnr,flip,change,ref_change,ms,ref_psnr\n");
     const size_t n8 = 3 * (size_t)w * (size_t)h;
     unsigned char *prev8[MODES + 1], *cur8 = malloc(n8);
     for (int m = 0; m <= MODES; m++) prev8[m] = malloc(n8);
@@ -178,7 +178,10 @@ int main(int argc, char **argv) {
                     fprintf(stderr, "photongi-bench-temporal: cannot keep the reference: %s\n", pgi_last_error());
         }
         /* the mean of the halves' squared difference over 4: the full reference's noise variance
-           (tone-mapped, as the PSNR) */
+           (tone-mapped, as the PSNR), over the values finite in both (a half can hold a few
+           non-finite pixels that the whole does not: Sibenik's strafe, frame 20) */
+        size_t finite = 0;
+        for (size_t i = 0; i < n8; i++) finite += isfinite(half.rgb[i]) && isfinite(ref.rgb[i]);
         for (size_t i = 0; i < n8; i++) half.rgb[i] = 2.f * ref.rgb[i] - half.rgb[i]; /* the second half */
         unsigned char *h8 = malloc(n8);
         if (!h8) return 1;
@@ -188,9 +191,9 @@ int main(int argc, char **argv) {
         double ref_var = 0.0;
         for (size_t i = 0; i < n8; i++) {
             const double dd = ((double)cur8[i] - (double)h8[i]) / 255.0;
-            ref_var += dd * dd;
+            if (isfinite(half.rgb[i]) && isfinite(ref.rgb[i])) ref_var += dd * dd;
         }
-        ref_var /= 4.0 * (double)n8;
+        ref_var /= 4.0 * (double)(finite ? finite : 1);
         free(h8);
         pgi_image_free(&half);
         sum_ref_var += ref_var;
@@ -223,8 +226,8 @@ int main(int argc, char **argv) {
             memcpy(prev8[m], cur8, n8);
             printf(" | %6.2f %.4f", mt.psnr, mt.flip.mean);
             if (out)
-                fprintf(out, "%d,%s,%.4f,%.5f,%.6f,%.6f,%.2f\n", f, k_mode[m], mt.psnr, mt.flip.mean, ch, ref_change,
-                        ms);
+                fprintf(out, "%d,%s,%.4f,%.5f,%.6f,%.6f,%.2f,%.4f\n", f, k_mode[m], mt.psnr, mt.flip.mean, ch,
+                        ref_change, ms, 10.0 * log10(1.0 / ref_var));
             sum_psnr[m] += mt.psnr, sum_flip[m] += mt.flip.mean, sum_ms[m] += ms;
             sum_mse[m] += mt.mse;
             ms_of[m][f] = ms;
