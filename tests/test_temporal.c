@@ -1,5 +1,6 @@
 /* The temporal picture (pgi_temporal, docs/temporal.md): a still camera converges to exactly the
- * progressive average; the reprojection's camera geometry lands on the analytic pixel; a camera
+ * progressive average; the reprojection's camera geometry lands on the analytic pixel, with the
+ * pictures' sub-pixel offsets (temporal anti-aliasing) as without; a camera
  * move keeps the history of what stays in view and not of what it reveals or of what turns away;
  * a moved light restarts it; the a-trous filter leaves a constant image unchanged and lowers noise
  * without crossing edges; a moving camera's pictures and the filter are the same bytes on 1 and 3
@@ -90,6 +91,34 @@ static void test_projection_is_analytic(void **state) {
     assert_true(fabsf(px - 34.5f) < 0.01f && fabsf(py - 23.5f) < 1e-3f);
     const float behind[3] = {eye[0], eye[1], eye[2] + 5.f};
     assert_int_equal(pgi__temporal_project(&c, behind, 0, &px, &py, &z), 0);
+}
+
+/* Temporal anti-aliasing's geometry: the camera slid 2.5 pixels (at the wall's depth) to the left
+ * since the last picture, a wall facing it, and this picture's samples offset within their pixels
+ * (the Halton points the step takes): a sample's hit, read back in the previous camera less its
+ * offset, lands on the analytic place of its pixel's centre there, 2.5 pixels to the right. */
+static void test_jitter_lands_on_pixel(void **state) {
+    (void)state;
+    const float eye[3] = {1.f, 2.f, 3.f}, at[3] = {1.f, 2.f, -7.f}, up[3] = {0.f, 1.f, 0.f}, depth = 10.f;
+    pgi_camera c, prev;
+    pgi_camera_look_at(&c, eye, at, up, 60.f, 64, 48);
+    const float pitch = 2.f * depth * tanf(30.f * 3.14159265f / 180.f) / 48.f; /* a pixel at the wall */
+    const float eye0[3] = {eye[0] - 2.5f * pitch, eye[1], eye[2]}, at0[3] = {at[0] - 2.5f * pitch, at[1], at[2]};
+    pgi_camera_look_at(&prev, eye0, at0, up, 60.f, 64, 48);
+    const float shifts[][2] = {{0.f, 0.f},           {0.25f, -1.f / 6.f}, {-0.25f, 1.f / 6.f},
+                               {-0.375f, -0.38888f}, {0.5f, 0.5f},        {-0.5f, -0.5f}};
+    for (size_t s = 0; s < sizeof shifts / sizeof shifts[0]; s++)
+        for (int y = 0; y < 48; y += 5)
+            for (int x = 0; x < 64; x += 7) {
+                float q[3], px, py, cx, cy, z;
+                pgi__temporal_hit(&c, x, y, shifts[s], depth, q);
+                assert_true(fabsf(q[2] - (eye[2] - depth)) < 1e-4f); /* on the wall */
+                assert_int_equal(pgi__temporal_land(&prev, q, shifts[s], &px, &py), 1);
+                assert_true(fabsf(px - ((float)x + 2.5f)) < 2e-3f && fabsf(py - (float)y) < 2e-3f);
+                /* the sample itself lands its offset away from there */
+                assert_int_equal(pgi__temporal_project(&prev, q, 0, &cx, &cy, &z), 1);
+                assert_true(fabsf(cx - px - shifts[s][0]) < 1e-4f && fabsf(cy - py - shifts[s][1]) < 1e-4f);
+            }
 }
 
 /* Camera moves on the Cornell box: a small step keeps nearly every pixel's history; a step past
@@ -261,6 +290,7 @@ int main(void) {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup_teardown(test_still_converges_to_progressive, fixture_setup, fixture_teardown),
         cmocka_unit_test(test_projection_is_analytic),
+        cmocka_unit_test(test_jitter_lands_on_pixel),
         cmocka_unit_test_setup_teardown(test_moves_and_disocclusion, fixture_setup, fixture_teardown),
         cmocka_unit_test(test_atrous),
         cmocka_unit_test_setup_teardown(test_threads_same_bytes, fixture_setup, fixture_teardown),

@@ -50,6 +50,7 @@ struct pgi_renderer {
      * between frames); PGI_STORE_VIEW: the cells within the radius of a view sample */
     pgi__guide guide;
     int guide_keep; /* pgi__renderer_keep_guide: the next frames keep the guide's evidence */
+    float tex_cone; /* pgi__renderer_texture_cone: the texture cones' width in pixels (0: 1) */
     pgi__view_grid vgrid;
     pgi__view_grid near;
     /* each backend's own state (its device, its estimator), made by its first frame and kept until

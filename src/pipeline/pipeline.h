@@ -29,6 +29,11 @@ pgi_status pgi__renderer_render_frame_late(pgi_renderer *r, const pgi_render_des
  * frame k > 0 of one picture. */
 void pgi__renderer_keep_guide(pgi_renderer *r, int keep);
 
+/* The width of the view samples' texture cones in pixels (pgi__subpixel.tex_scale; 0 or 1: a
+ * pixel's) for the renderer's next frames: temporal.c sets it around a picture whose sub-pixel
+ * offset is its own (its history integrates the pixel: the texture's filter need not). */
+void pgi__renderer_texture_cone(pgi_renderer *r, float pixels);
+
 /* The renderer's memory ledger (render.c): progressive.c reports its accumulator there. */
 pgi__mem_ledger *pgi__renderer_mem(pgi_renderer *r);
 
@@ -51,6 +56,12 @@ pgi__rt *pgi__renderer_rt(pgi_renderer *r);
  * along forward (0 returned when behind the camera). */
 void pgi__temporal_pixel_dir(const pgi_camera *c, int x, int y, float d[3]);
 int pgi__temporal_project(const pgi_camera *c, const float q[3], int dir, float *px, float *py, float *z);
+/* The primary hit of pixel (x, y) of camera c whose sample passed `shift` pixels from the centre
+ * (pgi_render_desc.shift) at depth z along c's forward (the depth AOV). */
+void pgi__temporal_hit(const pgi_camera *c, int x, int y, const float shift[2], float z, float pos[3]);
+/* Where in camera `prev` the history of the pixel whose sample at `shift` hit q is read: q
+ * projected (pgi__temporal_project), less the shift (back to the pixel's centre); 0 when behind. */
+int pgi__temporal_land(const pgi_camera *prev, const float q[3], const float shift[2], float *px, float *py);
 
 /* Everything that changes the picture: the desc (less the estimator name,
  * view pointer and thread count), the estimator, the view camera and the

@@ -67,6 +67,8 @@ static uint64_t trace_triangle_bytes(uint64_t ntris) {
 
 void pgi__renderer_keep_guide(pgi_renderer *r, int keep) { r->guide_keep = keep; }
 
+void pgi__renderer_texture_cone(pgi_renderer *r, float pixels) { r->tex_cone = pixels; }
+
 pgi__mem_ledger *pgi__renderer_mem(pgi_renderer *r) { return &r->mem; }
 
 /* Entries the renderer does not allocate itself: the scene's and Embree's bytes, read now. */
@@ -488,7 +490,8 @@ static pgi_status prepare(pgi_renderer *r, const pgi_render_desc *d, uint64_t se
                               .seed = seq_seed,
                               .index = index,
                               .shift = {d->shift[0], d->shift[1]},
-                              .tex_filter = d->texture_filter == PGI_TEXTURE_FILTER_ON};
+                              .tex_filter = d->texture_filter == PGI_TEXTURE_FILTER_ON,
+                              .tex_scale = r->tex_cone};
     if ((st = pgi__view_build(s, r->rt, &r->trace_scratch.tc, &r->cam, d->seed, &sp, d->threads, &r->vs, r->emit,
                               &r->fill, &fs->primary_rays)))
         return st;

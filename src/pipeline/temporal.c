@@ -11,10 +11,10 @@
 #include "scene/scene_internal.h"
 #include "view/view.h"
 
-/* A pixel's history record (HS floats): the picture (rgb), its indirect light (rgb), the first two
- * moments of the indirect irradiance's luminance (the filter's temporal variance), the weight in
- * frames. */
-enum { H_RGB = 0, H_IND = 3, H_M1 = 6, H_M2 = 7, H_N = 8, HS = 9 };
+/* A pixel's history record (HS floats): the picture (rgb), the weight in frames, and (H_PLAIN on,
+ * kept while the filter is on) its indirect light (rgb), the first two moments of the indirect
+ * irradiance's luminance (the filter's temporal variance). */
+enum { H_RGB = 0, H_N = 3, H_PLAIN = 4, H_IND = 4, H_M1 = 7, H_M2 = 8, HS = 9 };
 /* The guide planes of a frame: primary hit position, normal, albedo, depth, filter mask (1.f/0.f). */
 enum { G_PX = 0, G_NX = 3, G_AR = 6, G_DEPTH = 9, G_MASK = 10, GN = 11 };
 
@@ -134,6 +134,16 @@ static void catmull_rom(float a, float w[4]) {
     w[3] = a * a * (-0.5f + 0.5f * a);
 }
 
+/* The width in pixels of the texture cones of a picture under the step's own sub-pixel offset
+ * (pgi__renderer_texture_cone). Sibenik 320x180, 12 frames (docs/temporal.md): 1 (a pixel's)
+ * 0.3 dB below 0.5, 0.25 0.1 dB below it. */
+#define TAA_TEXTURE_CONE 0.5f
+
+/* The mean history (frames) from which the filter runs half its passes: its luminance tolerance
+ * follows the history's own variance, which a long history has made small, and the wide passes
+ * found little left to take (Sibenik, docs/temporal.md). */
+#define LONG_HISTORY 6.0
+
 /* Point i of the radical-inverse sequence in base b, in [0, 1). */
 static float halton(uint64_t i, unsigned b) {
     float f = 1.f, r = 0.f;
@@ -175,6 +185,17 @@ int pgi__temporal_project(const pgi_camera *c, const float q[3], int dir, float 
     return 1;
 }
 
+void pgi__temporal_hit(const pgi_camera *c, int x, int y, const float shift[2], float z, float pos[3]) {
+    v3_store(pos, v3_madd(v3_load(c->eye), pgi__camera_ray_at(c, x, y, 0.5f + shift[0], 0.5f + shift[1]), z));
+}
+
+int pgi__temporal_land(const pgi_camera *prev, const float q[3], const float shift[2], float *px, float *py) {
+    float z;
+    if (!pgi__temporal_project(prev, q, 0, px, py, &z)) return 0;
+    *px -= shift[0], *py -= shift[1];
+    return 1;
+}
+
 static inline float lum(float r, float g, float b) { return 0.2126f * r + 0.7152f * g + 0.0722f * b; }
 
 /* Irradiance: radiance over the albedo where there is one to divide by. */
@@ -192,9 +213,8 @@ static void prepare_row(pgi_temporal *t, const pgi_camera *cam, const float shif
     for (int x = 0; x < W; x++) {
         const size_t p = (size_t)y * (size_t)W + (size_t)x;
         const float z = g[G_DEPTH * n + p];
-        const pgi__v3 d = pgi__camera_ray_at(cam, x, y, 0.5f + shift[0], 0.5f + shift[1]);
         float pos[3];
-        v3_store(pos, v3_madd(v3_load(cam->eye), d, z));
+        pgi__temporal_hit(cam, x, y, shift, z, pos);
         float *restrict geo = t->geo + 8 * p;
         for (int c = 0; c < 3; c++) {
             g[(G_PX + c) * n + p] = geo[c] = pos[c];
@@ -220,8 +240,7 @@ static void prepare_row(pgi_temporal *t, const pgi_camera *cam, const float shif
 
 /* Whether the previous frame's pixel q shows the surface that this frame's pixel p shows (0 depth
  * for both: the sky): q's hit lies on p's tangent plane (within 2 % of the depth), with a normal
- * like p's. The albedo is not compared: a textured surface's neighbouring samples differ in it, and
- * under sub-pixel offsets that rejected a third of the history of a still wall. */
+ * like p's. The albedo is not compared: a textured surface's neighbouring samples differ in it. */
 static inline int same_surface(const float *restrict prev_geo, size_t q, const float n0[3], const float x0[3],
                                int sky) {
     const float *g = prev_geo + 8 * q, dq = g[3];
@@ -234,9 +253,18 @@ static inline int same_surface(const float *restrict prev_geo, size_t q, const f
     return fabsf(off) <= 0.02f * dq + 1e-6f && nd >= 0.9f;
 }
 
+/* How far (in previous pixels) from where a pixel lands its surface must show in the previous
+ * frame for its history to be kept. A pixel's samples land anywhere in it (the pictures' sub-pixel
+ * offsets): at an edge its last sample and its neighbours' hit either side, and its history is
+ * the mix of both that the pixel integral is, so the test asks whether the surface was seen near
+ * there at all (a disocclusion: it was not). Measured on Sibenik (docs/temporal.md): 0 (the
+ * nearest pixel alone) kept too little at the edges, 2 was 0.5 dB better than 1. */
+#define SEEN_RADIUS 2
+
 /* The last picture's history reprojected to pixel (x, y) of camera `cam` into c (HS floats; pixel
- * p's primary hit found in the previous camera: Catmull-Rom over the 4x4 previous pixels around it
- * when all show the same surface, else bilinear over those of the nearest 2x2 that do), the picture
+ * p's primary hit found in the previous camera, moved back by this picture's sub-pixel offset to
+ * p's centre: Catmull-Rom over the 4x4 previous pixels around it, bilinear over the 2x2 at the
+ * image's border) when p's surface shows within SEEN_RADIUS previous pixels of there, the picture
  * clamped to the mean +- 1.25 sigma of the new picture D's 3x3 neighbourhood. Returns whether
  * anything was kept (else c's weight is 0). */
 static int reproject_pixel(const pgi_temporal *t, const pgi_camera *cam, const float *restrict D, int x, int y,
@@ -250,41 +278,47 @@ static int reproject_pixel(const pgi_temporal *t, const pgi_camera *cam, const f
     const float n0[3] = {cur[G_NX * n + p], cur[(G_NX + 1) * n + p], cur[(G_NX + 2) * n + p]};
     float dir[3], fx, fy, zq;
     if (sky) pgi__temporal_pixel_dir(cam, x, y, dir);
-    if (!pgi__temporal_project(&t->prev_cam, sky ? dir : x0, sky, &fx, &fy, &zq)) return 0;
-    if (!sky) fx -= t->shift[0], fy -= t->shift[1]; /* the hit is the shifted sample's: back to p's centre */
+    if (sky ? !pgi__temporal_project(&t->prev_cam, dir, 1, &fx, &fy, &zq)
+            : !pgi__temporal_land(&t->prev_cam, x0, t->shift, &fx, &fy)) /* the shifted sample's hit: p's centre */
+        return 0;
     if (!(fx > -2.f && fy > -2.f && fx < (float)W + 1.f && fy < (float)H + 1.f)) return 0;
+    /* seen: the nearest previous pixel first, then the others within SEEN_RADIUS */
+    const int cx = (int)floorf(fx + 0.5f), cy = (int)floorf(fy + 0.5f);
+    int seen = cx >= 0 && cy >= 0 && cx < W && cy < H &&
+               same_surface(t->prev_geo, (size_t)cy * (size_t)W + (size_t)cx, n0, x0, sky);
+    for (int j = -SEEN_RADIUS; !seen && j <= SEEN_RADIUS; j++)
+        for (int i = -SEEN_RADIUS; !seen && i <= SEEN_RADIUS; i++) {
+            const int qx = cx + i, qy = cy + j;
+            if (qx < 0 || qy < 0 || qx >= W || qy >= H) continue;
+            seen = same_surface(t->prev_geo, (size_t)qy * (size_t)W + (size_t)qx, n0, x0, sky);
+        }
+    if (!seen) return 0;                         /* disoccluded (or turned away) */
+    const int nk = t->passes > 0 ? HS : H_PLAIN; /* without the filter, the picture and its weight */
     const int xi = (int)floorf(fx), yi = (int)floorf(fy);
     const float ax = fx - (float)xi, ay = fy - (float)yi;
     float w = 0.f, acc[HS] = {0.f};
-    /* Catmull-Rom over the 4x4 previous pixels around it when all show this surface (bilinear
-       weights would blur the history a little more at every move), else bilinear over those of the
-       2x2 that do */
-    int all = xi >= 1 && yi >= 1 && xi + 2 < W && yi + 2 < H;
-    for (int j = -1; all && j <= 2; j++)
-        for (int i = -1; all && i <= 2; i++)
-            all = same_surface(t->prev_geo, (size_t)(yi + j) * (size_t)W + (size_t)(xi + i), n0, x0, sky);
-    if (all) {
-        float cx[4], cy[4];
-        catmull_rom(ax, cx);
-        catmull_rom(ay, cy);
+    /* Catmull-Rom over the 4x4 previous pixels around it (bilinear weights would blur the history
+       a little more at every move), bilinear at the border */
+    if (xi >= 1 && yi >= 1 && xi + 2 < W && yi + 2 < H) {
+        float wx[4], wy[4];
+        catmull_rom(ax, wx);
+        catmull_rom(ay, wy);
         for (int j = 0; j < 4; j++)
             for (int i = 0; i < 4; i++) {
-                const float b = cx[i] * cy[j];
+                const float b = wx[i] * wy[j];
                 const float *h = hist + HS * ((size_t)(yi + j - 1) * (size_t)W + (size_t)(xi + i - 1));
                 w += b;
-                for (int k = 0; k < HS; k++) acc[k] += b * h[k];
+                for (int k = 0; k < nk; k++) acc[k] += b * h[k];
             }
     } else
         for (int j = 0; j < 2; j++)
             for (int i = 0; i < 2; i++) {
                 const int qx = xi + i, qy = yi + j;
                 if (qx < 0 || qy < 0 || qx >= W || qy >= H) continue;
-                const size_t q = (size_t)qy * (size_t)W + (size_t)qx;
-                if (!same_surface(t->prev_geo, q, n0, x0, sky)) continue;
                 const float b = (i ? ax : 1.f - ax) * (j ? ay : 1.f - ay);
-                const float *h = hist + HS * q;
+                const float *h = hist + HS * ((size_t)qy * (size_t)W + (size_t)qx);
                 w += b;
-                for (int k = 0; k < HS; k++) acc[k] += b * h[k];
+                for (int k = 0; k < nk; k++) acc[k] += b * h[k];
             }
     if (w < 0.05f) return 0; /* nothing of it was seen: disoccluded */
     /* the neighbourhood clamp: a history that the new frame's neighbours do not support (a moved
@@ -402,13 +436,12 @@ pgi_status pgi_temporal_step(pgi_temporal *t, const pgi_render_desc *in, pgi_ima
     const int same_key = size_same && memcmp(&key, &t->prev_key, sizeof key) == 0;
     const int same_cam = t->have && memcmp(&cd, &t->prev_cd, sizeof cd) == 0 && in->shift[0] == t->prev_user_shift[0] &&
                          in->shift[1] == t->prev_user_shift[1];
-    /* A moving camera's pictures with unfiltered textures (texture_filter off) also take a
-     * sub-pixel offset each (Halton 2, 3), so that their history averages the whole pixel as the
-     * progressive frames do (temporal anti-aliasing); when the camera stops, one more picture
-     * begins without it, whose progressive average is then the plain one. Filtered textures
-     * (the default) already show a pixel's footprint: an offset would blur them twice (Sibenik
-     * 320x180: 0.5 dB below the raw frames). A caller's own offset (an engine's jitter) is left as
-     * it is. */
+    /* A moving camera's pictures also take a sub-pixel offset each (Halton 2, 3), so that their
+     * history averages the whole pixel as the progressive frames do (temporal anti-aliasing); when
+     * the camera stops, one more picture begins without it, whose progressive average is then the
+     * plain one. Filtered textures (the default) take cones of half a pixel's width under the
+     * offset (TAA_TEXTURE_CONE): the history integrates the pixel, and a whole pixel's cone would
+     * blur the texture twice. A caller's own offset (an engine's jitter) is left as it is. */
     const int own_shift = in->shift[0] == 0.f && in->shift[1] == 0.f;
     const int stopping = same_key && same_cam && own_shift && (t->shift[0] != 0.f || t->shift[1] != 0.f);
     const int new_picture = !(same_key && same_cam) || stopping;
@@ -422,13 +455,15 @@ pgi_status pgi_temporal_step(pgi_temporal *t, const pgi_render_desc *in, pgi_ima
     float shift[2] = {0.f, 0.f};
     if (!own_shift) shift[0] = in->shift[0], shift[1] = in->shift[1];
     else if (!new_picture) shift[0] = t->shift[0], shift[1] = t->shift[1];
-    else if (only_camera && !same_cam && in->texture_filter == PGI_TEXTURE_FILTER_OFF)
-        shift[0] = halton(pictures, 2) - 0.5f, shift[1] = halton(pictures, 3) - 0.5f;
+    else if (only_camera && !same_cam) shift[0] = halton(pictures, 2) - 0.5f, shift[1] = halton(pictures, 3) - 0.5f;
     d.shift[0] = shift[0], d.shift[1] = shift[1];
+    const int own = own_shift && (shift[0] != 0.f || shift[1] != 0.f);
     pgi_aovs aovs = {.albedo = t->alb, .normal = t->nrm, .depth = t->cur + G_DEPTH * n, .indirect = t->ind};
     d.aovs = &aovs;
     pgi_frame_stats fs;
+    pgi__renderer_texture_cone(t->r, own ? TAA_TEXTURE_CONE : 0.f);
     st = pgi_progressive_step(t->prog, &d, &t->avg, &fs);
+    pgi__renderer_texture_cone(t->r, 0.f);
     if (st) return st; /* cancelled: the average, the history and the previous frame are as they were */
     if (fs.width != w || fs.height != h)
         return pgi__fail(PGI_ERR_INTERNAL, "temporal step: a %dx%d frame for %dx%d buffers", fs.width, fs.height, w, h);
@@ -469,7 +504,11 @@ pgi_status pgi_temporal_step(pgi_temporal *t, const pgi_render_desc *in, pgi_ima
     if (reproject_now) ts.reused = (double)kept / (double)n;
     const double t1 = pgi__now_ms();
 
-    /* the blended indirect light filtered (as irradiance), fw of it in the picture */
+    double hsum = 0.0;
+    for (int y = 0; y < h; y++) hsum += t->row_sum[y];
+    /* the blended indirect light filtered (as irradiance), fw of it in the picture; half the passes
+       (rounded up) once the picture's history holds LONG_HISTORY frames on the mean */
+    const int passes = hsum >= LONG_HISTORY * (double)n ? (t->passes + 1) / 2 : t->passes;
     if (fw > 0.f) {
         float *planes[4] = {t->planes, t->planes + n, t->planes + 2 * n, t->planes + 3 * n}, *res[3];
         const float *g = t->cur;
@@ -480,16 +519,14 @@ pgi_status pgi_temporal_step(pgi_temporal *t, const pgi_render_desc *in, pgi_ima
                                          {g + G_AR * n, g + (G_AR + 1) * n, g + (G_AR + 2) * n},
                                          g + G_DEPTH * n,
                                          g + G_MASK * n};
-        if ((st = pgi__atrous_filter(&guide, t->passes, d.threads, planes, t->planes + 4 * n, res))) return st;
+        if ((st = pgi__atrous_filter(&guide, passes, d.threads, planes, t->planes + 4 * n, res))) return st;
 #pragma omp parallel for schedule(static) num_threads(pgi__threads(d.threads))
         for (int y = 0; y < h; y++) compose_row(t, res, fw, out->rgb, y);
-        ts.filter_passes = t->passes;
+        ts.filter_passes = passes;
     }
     ts.filter_weight = fw;
     const double t2 = pgi__now_ms();
 
-    double hsum = 0.0;
-    for (int y = 0; y < h; y++) hsum += t->row_sum[y];
     float *sw = t->hist;
     t->hist = t->hist_next, t->hist_next = sw;
     sw = t->prev_geo;

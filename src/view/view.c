@@ -707,7 +707,7 @@ pgi_status pgi__view_build(const pgi_scene *s, const pgi__rt *rt, pgi__tri_cache
     const pgi__v3 eye = v3_load(cam->eye), fwd = v3_load(cam->forward);
     const float eps = pgi__scene_epsilon(s);
     const tex_cone tc = {.on = sp->tex_filter && tr->tri_uv,
-                         .spread = 2.f * cam->tan_half_fov_y / (float)H,
+                         .spread = 2.f * cam->tan_half_fov_y / (float)H * (sp->tex_scale > 0.f ? sp->tex_scale : 1.f),
                          .tri_uv = tr->tri_uv};
 #if VIEW_AVX2
     const int avx2 = pgi__cpu_avx2();

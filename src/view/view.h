@@ -17,6 +17,7 @@ typedef struct pgi__subpixel {
     /* 1: the view samples' textures are filtered (pgi_render_desc.texture_filter resolved: ray cones
        of a pixel's width, trilinear between mip levels; docs/design.md "Textures"); 0: level 0 */
     int tex_filter;
+    float tex_scale; /* the cones' width in pixels (0: 1, a pixel's) */
 } pgi__subpixel;
 /* Do the view samples pass through the pixel centres (no jitter, no shift)? */
 static inline int pgi__subpixel_centres(const pgi__subpixel *sp) {
