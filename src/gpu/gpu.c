@@ -61,6 +61,7 @@ pgi_status pgi__gpu_submit_wait(pgi__gpu *g) { return pgi__fail(PGI_ERR_UNSUPPOR
 int pgi__gpu_timings(const pgi__gpu *g, pgi_named_value *out, int max) { return 0; }
 pgi__gpu_traffic pgi__gpu_traffic_get(const pgi__gpu *g) { return (pgi__gpu_traffic){0}; }
 int pgi__gpu_has_timestamps(const pgi__gpu *g) { return 0; }
+void pgi__gpu_set_budget(pgi__gpu *g, uint64_t bytes) {}
 
 #else /* PGI__HAVE_VULKAN */
 
