@@ -6,9 +6,7 @@
 #ifndef PGIS_PBVH_GLSL
 #define PGIS_PBVH_GLSL
 
-struct Photon { // pgi__packed_photon (src/estimators/packed.h): 36 bytes
-    float px, py, pz, dx, dy, dz, fr, fg, fb;
-};
+#include "photon.glsl"
 
 // 48 bytes. Box of the photons' spheres, the range of sorted photons [first, last], children
 // (LEAF | photon, or an internal node).

@@ -17,11 +17,7 @@
 #extension GL_GOOGLE_include_directive : require
 
 #include "bvh.glsl"
-#ifndef PGIS_HASHGRID_GLSL
-struct Photon { // hashgrid.glsl's (gather.glsl's gather() takes one); hashgrid.glsl has a push block
-    float px, py, pz, dx, dy, dz, fr, fg, fb;
-};
-#endif
+#include "photon.glsl" // gather.glsl's gather() takes one
 #define GATHER_LOBES_DECLARE layout(std430, set = 0, binding = 7) readonly restrict buffer Lobes { Lobe lobes[]; };
 #include "gather.glsl"
 
@@ -30,11 +26,6 @@ struct Photon { // hashgrid.glsl's (gather.glsl's gather() takes one); hashgrid.
 #define MAT_MIRROR 2u
 #define MAT_GLASS 3u
 #define MAT_PLASTIC 4u
-
-#define LIGHT_POINT 0u
-#define LIGHT_SPOT 1u
-#define LIGHT_SUN 2u
-#define LIGHT_AREA 3u
 
 #define SCENE_NORMALS 1u
 #define SCENE_UVS 2u
