@@ -378,13 +378,7 @@ static void test_determinism(void **state) {
     pgi_scene_destroy(scene);
 }
 
-int main(void) {
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_errors),     cmocka_unit_test(test_fixed_radius_random),
-        cmocka_unit_test(test_duplicates), cmocka_unit_test(test_per_photon_spheres),
-        cmocka_unit_test(test_ellipsoids), cmocka_unit_test(test_t_auto),
-        cmocka_unit_test(test_cornell),    cmocka_unit_test(test_cornell_policies),
-        cmocka_unit_test(test_sibenik),    cmocka_unit_test(test_determinism),
-    };
-    return cmocka_run_group_tests(tests, NULL, NULL);
-}
+TU_MAIN("bvh", NULL, NULL, cmocka_unit_test(test_errors), cmocka_unit_test(test_fixed_radius_random),
+        cmocka_unit_test(test_duplicates), cmocka_unit_test(test_per_photon_spheres), cmocka_unit_test(test_ellipsoids),
+        cmocka_unit_test(test_t_auto), cmocka_unit_test(test_cornell), cmocka_unit_test(test_cornell_policies),
+        cmocka_unit_test(test_sibenik), cmocka_unit_test(test_determinism))

@@ -479,18 +479,9 @@ static void portal_mode_is_checked(void **state) {
     pgi_scene_destroy(s);
 }
 
-int main(void) {
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(portal_direct_pdf_is_normalised),
-        cmocka_unit_test(portal_direct_sampling_matches_pdf),
-        cmocka_unit_test(portals_change_nothing_else),
-        cmocka_unit_test(portal_mode_is_checked),
-        cmocka_unit_test(portal_emission_sky_is_unbiased),
-        cmocka_unit_test(portal_emission_sun_is_unbiased),
-        cmocka_unit_test(portal_emission_in_series_is_unbiased),
-        cmocka_unit_test(portal_with_environment_map),
-        cmocka_unit_test(portal_image_mean_and_auto),
-        cmocka_unit_test(portal_direct_same_mean_less_noise),
-    };
-    return cmocka_run_group_tests(tests, NULL, NULL);
-}
+TU_MAIN("portals", NULL, NULL, cmocka_unit_test(portal_direct_pdf_is_normalised),
+        cmocka_unit_test(portal_direct_sampling_matches_pdf), cmocka_unit_test(portals_change_nothing_else),
+        cmocka_unit_test(portal_mode_is_checked), cmocka_unit_test(portal_emission_sky_is_unbiased),
+        cmocka_unit_test(portal_emission_sun_is_unbiased), cmocka_unit_test(portal_emission_in_series_is_unbiased),
+        cmocka_unit_test(portal_with_environment_map), cmocka_unit_test(portal_image_mean_and_auto),
+        cmocka_unit_test(portal_direct_same_mean_less_noise))

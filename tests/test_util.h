@@ -20,6 +20,14 @@
 
 #include "photongi/photongi.h"
 
+/* A test program's main: runs the tests given (cmocka_unit_test(fn), ...) as the group `name`,
+ * with the group's setup and teardown (NULL: none). */
+#define TU_MAIN(name, setup, teardown, ...)                                                                            \
+    int main(void) {                                                                                                   \
+        const struct CMUnitTest tests[] = {__VA_ARGS__};                                                               \
+        return cmocka_run_group_tests_name(name, tests, setup, teardown);                                              \
+    }
+
 /* ------------------------------------------------------------------ RNG */
 
 typedef struct tu_rng {

@@ -82,18 +82,8 @@ static pgi_status brute_estimate(void *state, const pgi_estimate_args *a) {
 
 static void brute_destroy(void *state) { free(state); }
 
-const pgi_estimator_vtbl pgi__est_brute = {
-    .name = "brute",
-    .summary = "every photon for every view sample (the test oracle)",
-    .exact = 1,
-    .oracle = 1,
-    .create = brute_create,
-    .build = brute_build,
-    .estimate = brute_estimate,
-    .stats = pgi__est_default_stats,
-    .destroy = brute_destroy,
-    .caps = PGI_EST_CAP_PHOTON_RADIUS | PGI_EST_CAP_KERNELS,
-    /* memory budget: it holds nothing of its own (1: not the default of an estimator that gives none) */
-    .bytes_per_photon = 1,
-    .bytes_per_sample = 0,
-};
+/* memory budget: it holds nothing of its own (1: not the default of an estimator that gives none) */
+const pgi_estimator_vtbl pgi__est_brute =
+    PGI__EST_TABLE("brute", "every photon for every view sample (the test oracle)", brute_create, brute_build,
+                   brute_estimate, brute_destroy, .exact = 1, .oracle = 1,
+                   .caps = PGI_EST_CAP_PHOTON_RADIUS | PGI_EST_CAP_KERNELS, .bytes_per_photon = 1);

@@ -455,18 +455,8 @@ static void bvh_destroy(void *state) {
     free(s);
 }
 
-const pgi_estimator_vtbl pgi__est_bvh = {
-    .name = "bvh",
-    .summary = "BVH over photon footprints, linear or VVH build, T_auto leaves (Fabianowski & Dingliana 2009)",
-    .exact = 1,
-    .create = bvh_create,
-    .build = bvh_build,
-    .estimate = bvh_estimate,
-    .stats = pgi__est_default_stats,
-    .destroy = bvh_destroy,
-    .caps = PGI_EST_CAP_PHOTON_RADIUS,
-    .options = k_options,
-    /* memory budget: measured bytes of its stats per photon and per view sample, rounded up */
-    .bytes_per_photon = 112,
-    .bytes_per_sample = 0,
-};
+const pgi_estimator_vtbl pgi__est_bvh =
+    PGI__EST_TABLE("bvh",
+                   "BVH over photon footprints, linear or VVH build, T_auto leaves (Fabianowski & Dingliana 2009)",
+                   bvh_create, bvh_build, bvh_estimate, bvh_destroy, .exact = 1, .caps = PGI_EST_CAP_PHOTON_RADIUS,
+                   .options = k_options, .bytes_per_photon = 112);

@@ -214,18 +214,7 @@ static void hg_destroy(void *state) {
     free(s);
 }
 
-const pgi_estimator_vtbl pgi__est_hashgrid = {
-    .name = "hashgrid",
-    .summary = "3D hash grid of photon cells, pixel-major gather (Mara et al. 2013 §2.3.1)",
-    .exact = 1,
-    .create = hg_create,
-    .build = hg_build,
-    .estimate = hg_estimate,
-    .stats = pgi__est_default_stats,
-    .destroy = hg_destroy,
-    .caps = PGI_EST_CAP_KERNELS | PGI_EST_CAP_SUBSAMPLE,
-    .options = k_options,
-    /* memory budget: measured bytes of its stats per photon and per view sample, rounded up */
-    .bytes_per_photon = 112,
-    .bytes_per_sample = 0,
-};
+const pgi_estimator_vtbl pgi__est_hashgrid =
+    PGI__EST_TABLE("hashgrid", "3D hash grid of photon cells, pixel-major gather (Mara et al. 2013 §2.3.1)", hg_create,
+                   hg_build, hg_estimate, hg_destroy, .exact = 1, .caps = PGI_EST_CAP_KERNELS | PGI_EST_CAP_SUBSAMPLE,
+                   .options = k_options, .bytes_per_photon = 112);

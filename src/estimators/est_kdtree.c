@@ -353,18 +353,7 @@ static void kd_destroy(void *state) {
     free(s);
 }
 
-const pgi_estimator_vtbl pgi__est_kdtree = {
-    .name = "kdtree",
-    .summary = "balanced kd-tree photon map; fixed-radius range gather or k nearest (Jensen)",
-    .exact = 1,
-    .create = kd_create,
-    .build = kd_build,
-    .estimate = kd_estimate,
-    .stats = pgi__est_default_stats,
-    .destroy = kd_destroy,
-    .caps = PGI_EST_CAP_KERNELS | PGI_EST_CAP_SUBSAMPLE,
-    .options = k_options,
-    /* memory budget: measured bytes of its stats per photon and per view sample, rounded up */
-    .bytes_per_photon = 48,
-    .bytes_per_sample = 0,
-};
+const pgi_estimator_vtbl pgi__est_kdtree =
+    PGI__EST_TABLE("kdtree", "balanced kd-tree photon map; fixed-radius range gather or k nearest (Jensen)", kd_create,
+                   kd_build, kd_estimate, kd_destroy, .exact = 1, .caps = PGI_EST_CAP_KERNELS | PGI_EST_CAP_SUBSAMPLE,
+                   .options = k_options, .bytes_per_photon = 48);
