@@ -531,10 +531,22 @@ static void test_directional_uniform_hemisphere(void **state) {
     pgi_photons_free(&ph);
 }
 
-TU_MAIN("cluster", NULL, NULL, cmocka_unit_test(test_create_errors), cmocka_unit_test(test_planes_lambert),
-        cmocka_unit_test(test_planes_mixed), cmocka_unit_test(test_depth_discontinuities),
-        cmocka_unit_test(test_sky_only), cmocka_unit_test(test_one_sample),
-        cmocka_unit_test(test_photons_outside_frustum), cmocka_unit_test(test_radius_larger_than_scene),
-        cmocka_unit_test(test_cornell_pipeline), cmocka_unit_test(test_sibenik_pipeline),
-        cmocka_unit_test(test_thread_counts), cmocka_unit_test(test_directional_close_to_cluster),
-        cmocka_unit_test(test_directional_small_images), cmocka_unit_test(test_directional_uniform_hemisphere))
+int main(void) {
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_create_errors),
+        cmocka_unit_test(test_planes_lambert),
+        cmocka_unit_test(test_planes_mixed),
+        cmocka_unit_test(test_depth_discontinuities),
+        cmocka_unit_test(test_sky_only),
+        cmocka_unit_test(test_one_sample),
+        cmocka_unit_test(test_photons_outside_frustum),
+        cmocka_unit_test(test_radius_larger_than_scene),
+        cmocka_unit_test(test_cornell_pipeline),
+        cmocka_unit_test(test_sibenik_pipeline),
+        cmocka_unit_test(test_thread_counts),
+        cmocka_unit_test(test_directional_close_to_cluster),
+        cmocka_unit_test(test_directional_small_images),
+        cmocka_unit_test(test_directional_uniform_hemisphere),
+    };
+    return cmocka_run_group_tests_name("cluster", tests, NULL, NULL);
+}

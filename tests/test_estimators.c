@@ -259,9 +259,14 @@ static void test_mirror_glass_pipeline(void **state) {
     tu_rm_tmpdir(dir);
 }
 
-TU_MAIN("estimators", NULL, NULL, cmocka_unit_test(test_create_errors), cmocka_unit_test(test_zero_photons),
-        cmocka_unit_test(test_random_primary), cmocka_unit_test(test_random_with_mirror_samples),
-        cmocka_unit_test(test_random_jittered), cmocka_unit_test(test_eye_inside_photons),
-        cmocka_unit_test(test_hashgrid_cell_sizes), cmocka_unit_test(test_cornell_pipeline),
+int main(void) {
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_create_errors),         cmocka_unit_test(test_zero_photons),
+        cmocka_unit_test(test_random_primary),        cmocka_unit_test(test_random_with_mirror_samples),
+        cmocka_unit_test(test_random_jittered),       cmocka_unit_test(test_eye_inside_photons),
+        cmocka_unit_test(test_hashgrid_cell_sizes),   cmocka_unit_test(test_cornell_pipeline),
         cmocka_unit_test(test_mirror_glass_pipeline), cmocka_unit_test(test_cornell_mirrors_pipeline),
-        cmocka_unit_test(test_sibenik_pipeline))
+        cmocka_unit_test(test_sibenik_pipeline),
+    };
+    return cmocka_run_group_tests_name("estimators", tests, NULL, NULL);
+}

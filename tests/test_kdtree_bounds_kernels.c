@@ -595,11 +595,23 @@ static void test_mirror_pipeline(void **state) {
     tu_rm_tmpdir(dir);
 }
 
-TU_MAIN("kdtree_bounds_kernels", NULL, NULL, cmocka_unit_test(test_errors), cmocka_unit_test(test_kernel_normalisation),
-        cmocka_unit_test(test_kernels_uniform_plane), cmocka_unit_test(test_exact_random),
-        cmocka_unit_test(test_exact_eye_inside), cmocka_unit_test(test_exact_near_plane),
-        cmocka_unit_test(test_thread_independent), cmocka_unit_test(test_knn_equals_brute_selection),
-        cmocka_unit_test(test_subsample_k1_is_off), cmocka_unit_test(test_subsample_unbiased),
-        cmocka_unit_test(test_filter), cmocka_unit_test(test_bounds_wasted_tests),
-        cmocka_unit_test(test_cornell_pipeline), cmocka_unit_test(test_mirror_pipeline),
-        cmocka_unit_test(test_sibenik_pipeline))
+int main(void) {
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_errors),
+        cmocka_unit_test(test_kernel_normalisation),
+        cmocka_unit_test(test_kernels_uniform_plane),
+        cmocka_unit_test(test_exact_random),
+        cmocka_unit_test(test_exact_eye_inside),
+        cmocka_unit_test(test_exact_near_plane),
+        cmocka_unit_test(test_thread_independent),
+        cmocka_unit_test(test_knn_equals_brute_selection),
+        cmocka_unit_test(test_subsample_k1_is_off),
+        cmocka_unit_test(test_subsample_unbiased),
+        cmocka_unit_test(test_filter),
+        cmocka_unit_test(test_bounds_wasted_tests),
+        cmocka_unit_test(test_cornell_pipeline),
+        cmocka_unit_test(test_mirror_pipeline),
+        cmocka_unit_test(test_sibenik_pipeline),
+    };
+    return cmocka_run_group_tests_name("kdtree_bounds_kernels", tests, NULL, NULL);
+}

@@ -1345,14 +1345,30 @@ static void test_vertex_colours_gltf(void **state) {
     pgi_scene_destroy(s);
 }
 
-TU_MAIN("scene", setup, teardown, cmocka_unit_test(test_missing_file), cmocka_unit_test(test_unknown_name),
-        cmocka_unit_test(test_malformed_obj), cmocka_unit_test(test_obj_without_lights),
-        cmocka_unit_test(test_emissive_obj_loads), cmocka_unit_test(test_nonfinite_vertex),
-        cmocka_unit_test(test_missing_texture), cmocka_unit_test(test_json_errors),
-        cmocka_unit_test(test_scene_numbers), cmocka_unit_test(test_gltf_structure),
-        cmocka_unit_test(test_gltf_camera_and_light), cmocka_unit_test(test_gltf_emissive_strength),
-        cmocka_unit_test(test_gltf_spot_and_sun), cmocka_unit_test(test_collada_camera),
-        cmocka_unit_test(test_camera_names), cmocka_unit_test(test_load_warnings),
-        cmocka_unit_test(test_vertex_colours_ply), cmocka_unit_test(test_vertex_colours_srgb),
-        cmocka_unit_test(test_vertex_colours_gltf), cmocka_unit_test(test_builtins),
-        cmocka_unit_test(test_generated_normals_obj_ply), cmocka_unit_test(test_generated_normals_flat))
+int main(void) {
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_missing_file),
+        cmocka_unit_test(test_unknown_name),
+        cmocka_unit_test(test_malformed_obj),
+        cmocka_unit_test(test_obj_without_lights),
+        cmocka_unit_test(test_emissive_obj_loads),
+        cmocka_unit_test(test_nonfinite_vertex),
+        cmocka_unit_test(test_missing_texture),
+        cmocka_unit_test(test_json_errors),
+        cmocka_unit_test(test_scene_numbers),
+        cmocka_unit_test(test_gltf_structure),
+        cmocka_unit_test(test_gltf_camera_and_light),
+        cmocka_unit_test(test_gltf_emissive_strength),
+        cmocka_unit_test(test_gltf_spot_and_sun),
+        cmocka_unit_test(test_collada_camera),
+        cmocka_unit_test(test_camera_names),
+        cmocka_unit_test(test_load_warnings),
+        cmocka_unit_test(test_vertex_colours_ply),
+        cmocka_unit_test(test_vertex_colours_srgb),
+        cmocka_unit_test(test_vertex_colours_gltf),
+        cmocka_unit_test(test_builtins),
+        cmocka_unit_test(test_generated_normals_obj_ply),
+        cmocka_unit_test(test_generated_normals_flat),
+    };
+    return cmocka_run_group_tests_name("scene", tests, setup, teardown);
+}

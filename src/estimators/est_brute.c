@@ -43,10 +43,9 @@ static pgi_status brute_estimate(void *state, const pgi_estimate_args *a) {
     uint64_t reads = 0, contrib = 0;
 #pragma omp parallel for schedule(dynamic, 64) reduction(+ : reads, contrib) num_threads(s->c.threads)
     for (long long ii = 0; ii < (long long)vs->count; ii++) {
-        size_t i = (size_t)ii;
-        float *out = a->out_rgb + 3 * i;
         pgi__vs v;
-        if (pgi__est_stop(&s->c) || !pgi__vs_begin(vs, i, out, &v)) continue;
+        float *out = pgi__est_sample(&s->c, a, ii, &v);
+        if (!out) continue;
         pgi__acc acc = {0};
         if (plain) {
             for (size_t j = 0; j < n; j++)

@@ -316,18 +316,16 @@ static pgi_status kd_estimate(void *state, const pgi_estimate_args *a) {
         cand *h = heaps ? heaps + (size_t)tid * (size_t)k : NULL;
 #pragma omp for schedule(dynamic, 64)
         for (long long ii = 0; ii < (long long)vs->count; ii++) {
-            if (pgi__est_stop(&s->c)) continue;
-            size_t i = (size_t)ii;
-            float *out = a->out_rgb + 3 * i;
             pgi__vs v;
-            if (!pgi__vs_begin(vs, i, out, &v)) continue;
+            float *out = pgi__est_sample(&s->c, a, ii, &v);
+            if (!out) continue;
             pgi__acc acc = {0};
             if (k > 0) {
                 float rk2 = knn_query(s, &v, r, k, kern, h, &acc, &nodes, &reads);
                 pgi__acc_finish_k(&v, &acc, rk2, kern, 1.f, out);
             } else {
                 pgi__sub ss;
-                pgi__sub_init(&ss, sub, seed, i);
+                pgi__sub_init(&ss, sub, seed, (size_t)ii);
                 range_query(s, &v, r, r2, kern, &ss, &acc, &nodes);
                 pgi__acc_finish_k(&v, &acc, r2, kern, pgi__sub_scale(&ss), out);
                 reads += ss.visited;
