@@ -307,13 +307,12 @@ pgi_status pgi__scene_check_numbers(const pgi_scene *s, const char *what) {
         const pgi__light *l = &s->lights[i];
         for (int c = 0; c < 3; c++)
             if (!(l->power[c] <= PGI_MAX_LIGHT_POWER)) {
-                static const char *const kinds[] = {"point", "spot", "sun", "area", "environment"};
+                const pgi__light_kind *k = pgi__light_kind_of(l->type);
                 return pgi__fail(PGI_ERR_PARSE,
                                  "%s: light %zu (%s) has a power of %g W, beyond %g (its intensity, irradiance or "
                                  "emission %g times %s)",
-                                 what, i, l->type <= PGI__LIGHT_ENV ? kinds[l->type] : "?", (double)l->power[c],
-                                 (double)PGI_MAX_LIGHT_POWER, (double)l->color[c],
-                                 l->type == PGI__LIGHT_SUN ? "the scene's cross-section" : "its solid angle or area");
+                                 what, i, k->name, (double)l->power[c], (double)PGI_MAX_LIGHT_POWER,
+                                 (double)l->color[c], k->power_of);
             }
     }
     if (s->env)

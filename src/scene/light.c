@@ -9,17 +9,19 @@
 /* Every type, in pgi__light_type order. The scene formats read a light's fields from this table
  * (light.h PGI__LIGHT_HAS_*), so that a new type with the fields of these is an entry here. */
 static const pgi__light_kind k_kinds[] = {
-    {PGI__LIGHT_POINT, "point", "point", "intensity", PGI_LIGHT_KIND_POINT, PGI__LIGHT_HAS_POS,
+    {PGI__LIGHT_POINT, "point", "point", "intensity", "its solid angle", PGI_LIGHT_KIND_POINT, PGI__LIGHT_HAS_POS,
      offsetof(pgi_scene_info, point_lights)},
-    {PGI__LIGHT_SPOT, "spot", "spot", "intensity", PGI_LIGHT_KIND_SPOT,
+    {PGI__LIGHT_SPOT, "spot", "spot", "intensity", "its solid angle", PGI_LIGHT_KIND_SPOT,
      PGI__LIGHT_HAS_POS | PGI__LIGHT_HAS_DIR | PGI__LIGHT_HAS_CONE, offsetof(pgi_scene_info, spot_lights)},
-    {PGI__LIGHT_SUN, "sun", "directional", "irradiance", PGI_LIGHT_KIND_SUN, PGI__LIGHT_HAS_DIR,
-     offsetof(pgi_scene_info, sun_lights)},
-    /* emissive triangles (the materials' emission), and the sky (the scene's environment) */
-    {PGI__LIGHT_AREA, NULL, NULL, NULL, PGI_LIGHT_KIND_AREA, 0, offsetof(pgi_scene_info, area_triangles)},
-    {PGI__LIGHT_ENV, NULL, NULL, NULL, -1, 0, 0},
+    {PGI__LIGHT_SUN, "sun", "directional", "irradiance", "the scene's cross-section", PGI_LIGHT_KIND_SUN,
+     PGI__LIGHT_HAS_DIR, offsetof(pgi_scene_info, sun_lights)},
+    /* emissive triangles (the materials' emission), and the sky (the scene's environment): no
+     * description gives these (no colour key) */
+    {PGI__LIGHT_AREA, "area", NULL, NULL, "its area", PGI_LIGHT_KIND_AREA, 0, offsetof(pgi_scene_info, area_triangles)},
+    {PGI__LIGHT_ENV, "environment", NULL, NULL, "its area", -1, 0, 0},
 };
 #define N_KINDS (sizeof k_kinds / sizeof k_kinds[0])
+_Static_assert(N_KINDS == PGI__LIGHT_ENV + 1, "k_kinds: one entry a pgi__light_type, in its order");
 
 const pgi__light_kind *pgi__light_kind_of(pgi__light_type t) {
     return (size_t)t < N_KINDS ? &k_kinds[t] : &k_kinds[PGI__LIGHT_AREA];
@@ -28,23 +30,23 @@ const pgi__light_kind *pgi__light_kind_of(pgi__light_type t) {
 const pgi__light_kind *pgi__light_kind_named(const char *name, int gltf) {
     for (size_t i = 0; i < N_KINDS; i++) {
         const char *n = gltf ? k_kinds[i].gltf : k_kinds[i].name;
-        if (n && strcmp(n, name) == 0) return &k_kinds[i];
+        if (k_kinds[i].colour && n && strcmp(n, name) == 0) return &k_kinds[i];
     }
     return NULL;
 }
 
 const pgi__light_kind *pgi__light_kind_public(int pub) {
     for (size_t i = 0; i < N_KINDS; i++)
-        if (k_kinds[i].name && k_kinds[i].pub == pub) return &k_kinds[i];
+        if (k_kinds[i].colour && k_kinds[i].pub == pub) return &k_kinds[i];
     return NULL;
 }
 
 const char *pgi__light_kind_list(char *buf, size_t n, int quoted, int public_only) {
     size_t m = 0, k = 0;
-    for (size_t i = 0; i < N_KINDS; i++) m += k_kinds[i].name && (!public_only || k_kinds[i].pub >= 0);
+    for (size_t i = 0; i < N_KINDS; i++) m += k_kinds[i].colour && (!public_only || k_kinds[i].pub >= 0);
     buf[0] = '\0';
     for (size_t i = 0; i < N_KINDS; i++) {
-        if (!k_kinds[i].name || (public_only && k_kinds[i].pub < 0)) continue;
+        if (!k_kinds[i].colour || (public_only && k_kinds[i].pub < 0)) continue;
         const char *sep = k == 0 ? "" : k + 1 == m ? " or " : ", ";
         const size_t used = strlen(buf);
         snprintf(buf + used, n - used, quoted ? "%s\"%s\"" : "%s%s", sep, k_kinds[i].name);

@@ -57,12 +57,14 @@ enum {
 /* A light type's entry in the table (light.c). */
 typedef struct pgi__light_kind {
     pgi__light_type type;
-    const char *name;   /* as a scene description spells it ("point"); NULL: not one it gives */
-    const char *gltf;   /* its KHR_lights_punctual type; NULL: none */
-    const char *colour; /* the key of its colour in a description ("intensity", "irradiance") */
-    int pub;            /* its pgi_light_kind (photongi.h); -1: none */
-    int fields;         /* PGI__LIGHT_HAS_*: what its description holds besides the colour */
-    size_t count_at;    /* offsetof its count in pgi_scene_info; 0: not counted there */
+    const char *name;     /* as a scene description spells it ("point"), and in messages */
+    const char *gltf;     /* its KHR_lights_punctual type; NULL: none */
+    const char *colour;   /* the key of its colour in a description ("intensity"); NULL: no
+                             description gives this type (area lights, the sky) */
+    const char *power_of; /* what its power is its colour times, for messages ("its solid angle") */
+    int pub;              /* its pgi_light_kind (photongi.h); -1: none */
+    int fields;           /* PGI__LIGHT_HAS_*: what its description holds besides the colour */
+    size_t count_at;      /* offsetof its count in pgi_scene_info; 0: not counted there */
 } pgi__light_kind;
 
 #endif /* PGI__LIGHT_TYPES_H */
@@ -78,13 +80,13 @@ typedef struct pgi__light_kind {
 /* Type t's entry (every pgi__light_type has one). */
 const pgi__light_kind *pgi__light_kind_of(pgi__light_type t);
 
-/* The type a scene description names `name` (pgi__light_kind.name), the one glTF's
- * KHR_lights_punctual names so (gltf = 1: .gltf), or the one of public kind `pub` (name NULL);
- * NULL when none. */
+/* The type named `name` by a scene description (gltf = 0: pgi__light_kind.name) or by glTF's
+ * KHR_lights_punctual (gltf = 1: .gltf); NULL when none. */
 const pgi__light_kind *pgi__light_kind_named(const char *name, int gltf);
+/* The type a description may give whose public kind (pgi_light_kind) is `pub`; NULL when none. */
 const pgi__light_kind *pgi__light_kind_public(int pub);
 
-/* The names of the types a description may give (or, public = 1, of the public kinds), for
+/* The names of the types a description may give (public_only = 1: those with a public kind), for
  * messages: `"point", "spot" or "sun"` (quoted = 1) or `point, spot or sun`. */
 const char *pgi__light_kind_list(char *buf, size_t n, int quoted, int public_only);
 
