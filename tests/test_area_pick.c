@@ -105,10 +105,4 @@ static void test_scene_table(void **state) {
     pgi_scene_destroy(s);
 }
 
-int main(void) {
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_same_pick),
-        cmocka_unit_test(test_scene_table),
-    };
-    return cmocka_run_group_tests_name("area_pick", tests, NULL, NULL);
-}
+TU_MAIN("area_pick", NULL, NULL, cmocka_unit_test(test_same_pick), cmocka_unit_test(test_scene_table))

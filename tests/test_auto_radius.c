@@ -8,6 +8,8 @@
 #include <setjmp.h>
 #include <cmocka.h>
 
+#include "test_util.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -201,13 +203,6 @@ static void test_description_without_radius(void **state) {
     rmdir(dir);
 }
 
-int main(void) {
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_uniform_plane),
-        cmocka_unit_test(test_wrong_side_starves),
-        cmocka_unit_test(test_no_samples),
-        cmocka_unit_test(test_renderer),
-        cmocka_unit_test(test_description_without_radius),
-    };
-    return cmocka_run_group_tests(tests, NULL, NULL);
-}
+TU_MAIN("auto radius", NULL, NULL, cmocka_unit_test(test_uniform_plane), cmocka_unit_test(test_wrong_side_starves),
+        cmocka_unit_test(test_no_samples), cmocka_unit_test(test_renderer),
+        cmocka_unit_test(test_description_without_radius))

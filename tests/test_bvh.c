@@ -61,7 +61,7 @@ static void make_samples(pgi_view_samples *vs, pgi_camera *cam, uint64_t seed, i
     for (int y = 0; y < H; y++)
         for (int x = 0; x < W; x++) {
             size_t i = (size_t)y * W + (size_t)x;
-            float dir[3], pos[3], n[3], wo[3], kd[3];
+            float dir[3], pos[3], wo[3];
             tu_pixel_dir(cam, x, y, dir);
             float t = tu_range(&r, 2.0f, 3.1f);
             for (int k = 0; k < 3; k++) pos[k] = cam->eye[k] + t * dir[k];
@@ -76,10 +76,7 @@ static void make_samples(pgi_view_samples *vs, pgi_camera *cam, uint64_t seed, i
             }
             for (int k = 0; k < 3; k++) wo[k] = cam->eye[k] - pos[k];
             tu_normalize(wo);
-            tu_unit_vec(&r, n);
-            if (tu_dot(n, wo) < 0.f) n[0] = -n[0], n[1] = -n[1], n[2] = -n[2];
-            for (int k = 0; k < 3; k++) kd[k] = tu_range(&r, 0.1f, 0.9f);
-            tu_set_sample(vs, i, pos, n, wo, kd, ks, shin, t, flags);
+            tu_set_random_sample(vs, i, &r, pos, wo, ks, shin, t, flags);
         }
 }
 
@@ -378,13 +375,7 @@ static void test_determinism(void **state) {
     pgi_scene_destroy(scene);
 }
 
-int main(void) {
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_errors),     cmocka_unit_test(test_fixed_radius_random),
-        cmocka_unit_test(test_duplicates), cmocka_unit_test(test_per_photon_spheres),
-        cmocka_unit_test(test_ellipsoids), cmocka_unit_test(test_t_auto),
-        cmocka_unit_test(test_cornell),    cmocka_unit_test(test_cornell_policies),
-        cmocka_unit_test(test_sibenik),    cmocka_unit_test(test_determinism),
-    };
-    return cmocka_run_group_tests(tests, NULL, NULL);
-}
+TU_MAIN("bvh", NULL, NULL, cmocka_unit_test(test_errors), cmocka_unit_test(test_fixed_radius_random),
+        cmocka_unit_test(test_duplicates), cmocka_unit_test(test_per_photon_spheres), cmocka_unit_test(test_ellipsoids),
+        cmocka_unit_test(test_t_auto), cmocka_unit_test(test_cornell), cmocka_unit_test(test_cornell_policies),
+        cmocka_unit_test(test_sibenik), cmocka_unit_test(test_determinism))

@@ -181,12 +181,5 @@ static void test_automatic_camera_flag(void **state) {
     pgi_scene_destroy(s);
 }
 
-int main(void) {
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_json_and_flags_round_trip),
-        cmocka_unit_test(test_same_image),
-        cmocka_unit_test(test_partial_and_refused),
-        cmocka_unit_test(test_automatic_camera_flag),
-    };
-    return cmocka_run_group_tests(tests, NULL, NULL);
-}
+TU_MAIN("camera carry", NULL, NULL, cmocka_unit_test(test_json_and_flags_round_trip), cmocka_unit_test(test_same_image),
+        cmocka_unit_test(test_partial_and_refused), cmocka_unit_test(test_automatic_camera_flag))

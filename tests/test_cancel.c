@@ -199,12 +199,7 @@ static void test_progressive_kept(void **state) {
     pgi_progressive_destroy(p);
 }
 
-int main(void) {
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test_setup_teardown(test_every_estimator, fixture_setup, fixture_teardown),
+TU_MAIN("cancel", NULL, NULL, cmocka_unit_test_setup_teardown(test_every_estimator, fixture_setup, fixture_teardown),
         cmocka_unit_test_setup_teardown(test_brute_stops, fixture_setup, fixture_teardown),
         cmocka_unit_test_setup_teardown(test_from_progress, fixture_setup, fixture_teardown),
-        cmocka_unit_test_setup_teardown(test_progressive_kept, fixture_setup, fixture_teardown),
-    };
-    return cmocka_run_group_tests(tests, NULL, NULL);
-}
+        cmocka_unit_test_setup_teardown(test_progressive_kept, fixture_setup, fixture_teardown))

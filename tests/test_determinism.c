@@ -174,10 +174,6 @@ static void test_narrow_builds(void **state) {
     pgi_scene_destroy(sc);
 }
 
-int main(void) {
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_tiled),    cmocka_unit_test(test_hashgrid),       cmocka_unit_test(test_brute),
-        cmocka_unit_test(test_jittered), cmocka_unit_test(test_renderer_reuse), cmocka_unit_test(test_narrow_builds),
-    };
-    return cmocka_run_group_tests_name("determinism", tests, setup, teardown);
-}
+TU_MAIN("determinism", setup, teardown, cmocka_unit_test(test_tiled), cmocka_unit_test(test_hashgrid),
+        cmocka_unit_test(test_brute), cmocka_unit_test(test_jittered), cmocka_unit_test(test_renderer_reuse),
+        cmocka_unit_test(test_narrow_builds))

@@ -403,19 +403,9 @@ static void test_bad_settings(void **state) {
     pgi_scene_destroy(scene);
 }
 
-int main(void) {
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_point_light_spreads),
-        cmocka_unit_test(test_diffuse_bounce_expands),
-        cmocka_unit_test(test_curved_mirrors),
-        cmocka_unit_test(test_refraction),
-        cmocka_unit_test(test_refraction_oblique),
-        cmocka_unit_test(test_roulette),
-        cmocka_unit_test(test_sphere_normal_derivative),
-        cmocka_unit_test(test_mirror_scenes),
-        cmocka_unit_test(test_frame_footprints),
-        cmocka_unit_test(test_t_auto_grows),
-        cmocka_unit_test(test_bad_settings),
-    };
-    return cmocka_run_group_tests(tests, NULL, NULL);
-}
+TU_MAIN("differentials", NULL, NULL, cmocka_unit_test(test_point_light_spreads),
+        cmocka_unit_test(test_diffuse_bounce_expands), cmocka_unit_test(test_curved_mirrors),
+        cmocka_unit_test(test_refraction), cmocka_unit_test(test_refraction_oblique), cmocka_unit_test(test_roulette),
+        cmocka_unit_test(test_sphere_normal_derivative), cmocka_unit_test(test_mirror_scenes),
+        cmocka_unit_test(test_frame_footprints), cmocka_unit_test(test_t_auto_grows),
+        cmocka_unit_test(test_bad_settings))

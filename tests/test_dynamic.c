@@ -285,14 +285,6 @@ static void test_example_scene(void **state) {
     pgi_scene_destroy(s);
 }
 
-int main(void) {
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_frame_at_t_equals_static),
-        cmocka_unit_test(test_motion_modes),
-        cmocka_unit_test(test_light_groups),
-        cmocka_unit_test(test_photon_counts),
-        cmocka_unit_test(test_format_errors),
-        cmocka_unit_test(test_example_scene),
-    };
-    return cmocka_run_group_tests(tests, tu_dir_setup, tu_dir_teardown);
-}
+TU_MAIN("dynamic", tu_dir_setup, tu_dir_teardown, cmocka_unit_test(test_frame_at_t_equals_static),
+        cmocka_unit_test(test_motion_modes), cmocka_unit_test(test_light_groups), cmocka_unit_test(test_photon_counts),
+        cmocka_unit_test(test_format_errors), cmocka_unit_test(test_example_scene))

@@ -384,18 +384,9 @@ static void bad_mode_is_refused(void **state) {
     pgi_scene_destroy(s);
 }
 
-int main(void) {
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(guided_is_unbiased_and_steers),
-        cmocka_unit_test(guided_flux_is_unbiased),
-        cmocka_unit_test(guided_is_deterministic),
-        cmocka_unit_test(kept_guide_is_unbiased_and_saves_the_pilot),
-        cmocka_unit_test(kept_guide_is_deterministic),
-        cmocka_unit_test(near_grid_is_conservative),
-        cmocka_unit_test(store_view_is_unbiased),
+TU_MAIN("emission", NULL, NULL, cmocka_unit_test(guided_is_unbiased_and_steers),
+        cmocka_unit_test(guided_flux_is_unbiased), cmocka_unit_test(guided_is_deterministic),
+        cmocka_unit_test(kept_guide_is_unbiased_and_saves_the_pilot), cmocka_unit_test(kept_guide_is_deterministic),
+        cmocka_unit_test(near_grid_is_conservative), cmocka_unit_test(store_view_is_unbiased),
         cmocka_unit_test(auto_keeps_uniform_where_all_is_in_view),
-        cmocka_unit_test(auto_steers_where_paths_store_nothing),
-        cmocka_unit_test(bad_mode_is_refused),
-    };
-    return cmocka_run_group_tests(tests, NULL, NULL);
-}
+        cmocka_unit_test(auto_steers_where_paths_store_nothing), cmocka_unit_test(bad_mode_is_refused))

@@ -908,13 +908,8 @@ static void test_indirect_no_shadow_rays(void **state) {
     pgi_scene_destroy(s);
 }
 
-int main(void) {
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_arrays_equal_obj),        cmocka_unit_test(test_arrays_colours),
-        cmocka_unit_test(test_create_errors),           cmocka_unit_test(test_update_positions),
-        cmocka_unit_test(test_light_intensity_doubles), cmocka_unit_test(test_light_add_remove),
-        cmocka_unit_test(test_camera_matrices),         cmocka_unit_test(test_aovs),
-        cmocka_unit_test(test_indirect_no_shadow_rays),
-    };
-    return cmocka_run_group_tests(tests, tu_dir_setup, tu_dir_teardown);
-}
+TU_MAIN("engine", tu_dir_setup, tu_dir_teardown, cmocka_unit_test(test_arrays_equal_obj),
+        cmocka_unit_test(test_arrays_colours), cmocka_unit_test(test_create_errors),
+        cmocka_unit_test(test_update_positions), cmocka_unit_test(test_light_intensity_doubles),
+        cmocka_unit_test(test_light_add_remove), cmocka_unit_test(test_camera_matrices), cmocka_unit_test(test_aovs),
+        cmocka_unit_test(test_indirect_no_shadow_rays))

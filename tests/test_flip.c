@@ -11,6 +11,8 @@
 #include <setjmp.h>
 #include <cmocka.h>
 
+#include "test_util.h"
+
 #include <cJSON.h>
 #include <math.h>
 #include <stdio.h>
@@ -197,11 +199,5 @@ static void test_metrics_carry_flip(void **state) {
     free(map);
 }
 
-int main(void) {
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_reference_pairs),
-        cmocka_unit_test(test_properties),
-        cmocka_unit_test(test_metrics_carry_flip),
-    };
-    return cmocka_run_group_tests(tests, NULL, NULL);
-}
+TU_MAIN("flip", NULL, NULL, cmocka_unit_test(test_reference_pairs), cmocka_unit_test(test_properties),
+        cmocka_unit_test(test_metrics_carry_flip))

@@ -206,10 +206,4 @@ static void test_renderer_reuse(void **state) {
     pgi_scene_destroy(sc);
 }
 
-int main(void) {
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_view_build_reuse),
-        cmocka_unit_test(test_renderer_reuse),
-    };
-    return cmocka_run_group_tests_name("gbuffer", tests, setup, teardown);
-}
+TU_MAIN("gbuffer", setup, teardown, cmocka_unit_test(test_view_build_reuse), cmocka_unit_test(test_renderer_reuse))

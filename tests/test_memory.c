@@ -156,11 +156,6 @@ static void test_budget_keeps_the_image(void **state) {
     pgi_scene_destroy(s);
 }
 
-int main(void) {
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_stats_list_every_allocation), cmocka_unit_test(test_stats_optional_entries),
-        cmocka_unit_test(test_budget_refuses_photons),      cmocka_unit_test(test_budget_refuses_frame),
-        cmocka_unit_test(test_budget_keeps_the_image),
-    };
-    return cmocka_run_group_tests(tests, NULL, NULL);
-}
+TU_MAIN("memory", NULL, NULL, cmocka_unit_test(test_stats_list_every_allocation),
+        cmocka_unit_test(test_stats_optional_entries), cmocka_unit_test(test_budget_refuses_photons),
+        cmocka_unit_test(test_budget_refuses_frame), cmocka_unit_test(test_budget_keeps_the_image))

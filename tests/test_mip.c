@@ -273,10 +273,6 @@ static void test_lod_mirror(void **state) {
     check_lod(0.f, 1); /* lambda = 7 + log2(0.0178 * 5) - 0.79 = 2.71 */
 }
 
-int main(void) {
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_constant_levels), cmocka_unit_test(test_checker_grey), cmocka_unit_test(test_lod_head_on),
-        cmocka_unit_test(test_lod_oblique),     cmocka_unit_test(test_lod_grazing),  cmocka_unit_test(test_lod_mirror),
-    };
-    return cmocka_run_group_tests(tests, NULL, NULL);
-}
+TU_MAIN("mip", NULL, NULL, cmocka_unit_test(test_constant_levels), cmocka_unit_test(test_checker_grey),
+        cmocka_unit_test(test_lod_head_on), cmocka_unit_test(test_lod_oblique), cmocka_unit_test(test_lod_grazing),
+        cmocka_unit_test(test_lod_mirror))

@@ -281,12 +281,5 @@ static void test_jitter_helper(void **state) {
     assert_true(a.x == b.x && a.y == b.y && a.z == b.z);
 }
 
-int main(void) {
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_jitter_helper),
-        cmocka_unit_test(test_single_frame),
-        cmocka_unit_test(test_edge_progressive),
-        cmocka_unit_test(test_edge_reference),
-    };
-    return cmocka_run_group_tests_name("pixel sampling", tests, setup, teardown);
-}
+TU_MAIN("pixel sampling", setup, teardown, cmocka_unit_test(test_jitter_helper), cmocka_unit_test(test_single_frame),
+        cmocka_unit_test(test_edge_progressive), cmocka_unit_test(test_edge_reference))

@@ -258,12 +258,5 @@ static void test_mtl_mapping(void **state) {
     tu_rm_tmpdir(dir);
 }
 
-int main(void) {
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_white_furnace),
-        cmocka_unit_test(test_tinted_below_one),
-        cmocka_unit_test(test_sample_matches_eval),
-        cmocka_unit_test(test_mtl_mapping),
-    };
-    return cmocka_run_group_tests_name("plastic", tests, NULL, NULL);
-}
+TU_MAIN("plastic", NULL, NULL, cmocka_unit_test(test_white_furnace), cmocka_unit_test(test_tinted_below_one),
+        cmocka_unit_test(test_sample_matches_eval), cmocka_unit_test(test_mtl_mapping))

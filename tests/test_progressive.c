@@ -538,19 +538,9 @@ static void test_progress_callback(void **state) {
     pgi_scene_destroy(s);
 }
 
-int main(void) {
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_first_frame_is_plain_render),
-        cmocka_unit_test(test_radius_sequence),
-        cmocka_unit_test(test_progressive_equals_accumulate),
-        cmocka_unit_test(test_block_order),
-        cmocka_unit_test(test_await_r0),
-        cmocka_unit_test(test_accumulation_restarts),
-        cmocka_unit_test(test_estimator_created_once),
-        cmocka_unit_test(test_every_exact_estimator),
-        cmocka_unit_test(test_bad_progressive_requests),
-        cmocka_unit_test(test_error_falls),
-        cmocka_unit_test(test_progress_callback),
-    };
-    return cmocka_run_group_tests(tests, NULL, NULL);
-}
+TU_MAIN("progressive", NULL, NULL, cmocka_unit_test(test_first_frame_is_plain_render),
+        cmocka_unit_test(test_radius_sequence), cmocka_unit_test(test_progressive_equals_accumulate),
+        cmocka_unit_test(test_block_order), cmocka_unit_test(test_await_r0),
+        cmocka_unit_test(test_accumulation_restarts), cmocka_unit_test(test_estimator_created_once),
+        cmocka_unit_test(test_every_exact_estimator), cmocka_unit_test(test_bad_progressive_requests),
+        cmocka_unit_test(test_error_falls), cmocka_unit_test(test_progress_callback))

@@ -39,7 +39,7 @@ static inline void tu_make_samples_j(pgi_view_samples *vs, pgi_camera *cam, cons
     for (int y = 0; y < H; y++)
         for (int x = 0; x < W; x++) {
             size_t i = (size_t)y * W + (size_t)x;
-            float dir[3], pos[3], n[3], wo[3], kd[3];
+            float dir[3], pos[3], wo[3];
             float jx = 0.5f, jy = 0.5f;
             if (jitter) {
                 jx = tu_unif(&r), jy = tu_unif(&r);
@@ -69,10 +69,7 @@ static inline void tu_make_samples_j(pgi_view_samples *vs, pgi_camera *cam, cons
                 for (int k = 0; k < 3; k++) wo[k] = cam->eye[k] - pos[k];
                 tu_normalize(wo);
             }
-            tu_unit_vec(&r, n);
-            if (tu_dot(n, wo) < 0.f) n[0] = -n[0], n[1] = -n[1], n[2] = -n[2];
-            for (int k = 0; k < 3; k++) kd[k] = tu_range(&r, 0.1f, 0.9f);
-            tu_set_sample(vs, i, pos, n, wo, kd, ks, shin, t, flags);
+            tu_set_random_sample(vs, i, &r, pos, wo, ks, shin, t, flags);
         }
 }
 

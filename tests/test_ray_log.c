@@ -161,10 +161,5 @@ static void test_capture_threads(void **state) {
     }
 }
 
-int main(void) {
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_capture_matches_passes),
-        cmocka_unit_test(test_capture_threads),
-    };
-    return cmocka_run_group_tests_name("ray_log", tests, setup, teardown);
-}
+TU_MAIN("ray_log", setup, teardown, cmocka_unit_test(test_capture_matches_passes),
+        cmocka_unit_test(test_capture_threads))

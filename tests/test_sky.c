@@ -487,16 +487,7 @@ static void test_window_box_agreement(void **state) {
     pgi_scene_destroy(s);
 }
 
-int main(void) {
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_open_quad_uniform_sky),
-        cmocka_unit_test(test_photon_power),
-        cmocka_unit_test(test_window_box_agreement),
-        cmocka_unit_test(test_map_importance),
-        cmocka_unit_test(test_direct_sampling_same),
-        cmocka_unit_test(test_constant_map_is_uniform_sky),
-        cmocka_unit_test(test_threads),
-        cmocka_unit_test(test_bad_sky),
-    };
-    return cmocka_run_group_tests(tests, NULL, NULL);
-}
+TU_MAIN("sky", NULL, NULL, cmocka_unit_test(test_open_quad_uniform_sky), cmocka_unit_test(test_photon_power),
+        cmocka_unit_test(test_window_box_agreement), cmocka_unit_test(test_map_importance),
+        cmocka_unit_test(test_direct_sampling_same), cmocka_unit_test(test_constant_map_is_uniform_sky),
+        cmocka_unit_test(test_threads), cmocka_unit_test(test_bad_sky))

@@ -158,12 +158,6 @@ static void test_texture_lookup16_builds(void **state) {
     pgi_scene_destroy(s);
 }
 
-int main(void) {
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_texture_lut_matches_formula),
-        cmocka_unit_test(test_texture_lookup16_builds),
-        cmocka_unit_test(test_decode_then_tonemap_round_trips),
-        cmocka_unit_test(test_tonemap_matches_formula),
-    };
-    return cmocka_run_group_tests_name("srgb", tests, NULL, NULL);
-}
+TU_MAIN("srgb", NULL, NULL, cmocka_unit_test(test_texture_lut_matches_formula),
+        cmocka_unit_test(test_texture_lookup16_builds), cmocka_unit_test(test_decode_then_tonemap_round_trips),
+        cmocka_unit_test(test_tonemap_matches_formula))

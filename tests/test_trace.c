@@ -253,14 +253,7 @@ static void simd_builds_give_the_same_bits(void **state) {
     }
 }
 
-int main(void) {
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(same_photons_any_thread_count),
-        cmocka_unit_test(simd_builds_give_the_same_bits),
-        cmocka_unit_test(same_photons_whatever_the_history),
-        cmocka_unit_test(point_light_photons_whatever_the_history),
-        cmocka_unit_test(few_paths_discarded),
-        cmocka_unit_test(scratch_does_not_grow_with_bounces),
-    };
-    return cmocka_run_group_tests(tests, NULL, NULL);
-}
+TU_MAIN("trace", NULL, NULL, cmocka_unit_test(same_photons_any_thread_count),
+        cmocka_unit_test(simd_builds_give_the_same_bits), cmocka_unit_test(same_photons_whatever_the_history),
+        cmocka_unit_test(point_light_photons_whatever_the_history), cmocka_unit_test(few_paths_discarded),
+        cmocka_unit_test(scratch_does_not_grow_with_bounces))

@@ -20,6 +20,14 @@
 
 #include "photongi/photongi.h"
 
+/* A test program's main: runs the tests given (cmocka_unit_test(fn), ...) as the group `name`,
+ * with the group's setup and teardown (NULL: none). */
+#define TU_MAIN(name, setup, teardown, ...)                                                                            \
+    int main(void) {                                                                                                   \
+        const struct CMUnitTest tests[] = {__VA_ARGS__};                                                               \
+        return cmocka_run_group_tests_name(name, tests, setup, teardown);                                              \
+    }
+
 /* ------------------------------------------------------------------ RNG */
 
 typedef struct tu_rng {
@@ -376,6 +384,17 @@ static inline void tu_set_sample(pgi_view_samples *vs, size_t i, const float pos
     if (vs->ior) vs->ior[i] = 1.5f;
     vs->depth[i] = depth;
     vs->flags[i] = flags;
+}
+
+/* tu_set_sample with what the random view samples draw last from r: a unit normal turned to face
+ * wo and a diffuse albedo in [0.1, 0.9] a channel. */
+static inline void tu_set_random_sample(pgi_view_samples *vs, size_t i, tu_rng *r, const float pos[3],
+                                        const float wo[3], float ks, float shininess, float depth, uint8_t flags) {
+    float n[3], kd[3];
+    tu_unit_vec(r, n);
+    if (tu_dot(n, wo) < 0.f) n[0] = -n[0], n[1] = -n[1], n[2] = -n[2];
+    for (int k = 0; k < 3; k++) kd[k] = tu_range(r, 0.1f, 0.9f);
+    tu_set_sample(vs, i, pos, n, wo, kd, ks, shininess, depth, flags);
 }
 
 #endif

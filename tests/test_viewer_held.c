@@ -66,12 +66,6 @@ static void test_stray_and_out_of_range(void **state) {
     assert_false(held_take(&h, 6.0, out));
 }
 
-int main(void) {
-    const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_tap_in_a_slow_frame),
-        cmocka_unit_test(test_every_press_counts),
-        cmocka_unit_test(test_held_across_frames),
-        cmocka_unit_test(test_stray_and_out_of_range),
-    };
-    return cmocka_run_group_tests(tests, NULL, NULL);
-}
+TU_MAIN("viewer held", NULL, NULL, cmocka_unit_test(test_tap_in_a_slow_frame),
+        cmocka_unit_test(test_every_press_counts), cmocka_unit_test(test_held_across_frames),
+        cmocka_unit_test(test_stray_and_out_of_range))

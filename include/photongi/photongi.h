@@ -828,8 +828,8 @@ pgi_status pgi_device_name(int i, char *buf, size_t size);
  * 22.3.6 (LLVM 15.0.6); Vulkan 1.3.230"; errors as pgi_device_name. */
 pgi_status pgi_device_driver(int i, char *buf, size_t size);
 /* "hashgrid, tiled, cluster, ...": the estimators that run on PGI_DEVICE_VULKAN (hashgrid, tiled,
- * cluster, cluster-cone, cluster-trivial, directional, bounds3d, bounds25d), in the registry's order
- * (pgi_estimator_at), comma-separated, into buf. */
+ * cluster, cluster-cone, cluster-trivial, directional, bvh, bounds3d, bounds25d), in the registry's
+ * order (pgi_estimator_at), comma-separated, into buf. */
 void pgi_device_estimators(char *buf, size_t size);
 /* 1 when estimator vt runs on `device` (the device table pgi_device_estimators lists from), else 0. */
 int pgi_estimator_runs_on(const pgi_estimator_vtbl *vt, pgi_device device);

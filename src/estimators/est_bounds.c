@@ -569,34 +569,14 @@ static void b_destroy(void *state) {
     free(s);
 }
 
-const pgi_estimator_vtbl pgi__est_bounds3d = {
-    .name = "bounds3d",
-    .summary = "photon-major scatter, icosahedron bounds projected to the screen (Mara et al. 2013 §2.2)",
-    .exact = 1,
-    .create = b3_create,
-    .build = b_build,
-    .estimate = b_estimate,
-    .stats = pgi__est_default_stats,
-    .destroy = b_destroy,
-    .caps = PGI_EST_CAP_KERNELS,
-    .options = k_options3d,
-    /* memory budget: measured bytes of its stats per photon and per view sample, rounded up */
-    .bytes_per_photon = 24,
-    .bytes_per_sample = 8,
-};
+const pgi_estimator_vtbl pgi__est_bounds3d =
+    PGI__EST_TABLE("bounds3d",
+                   "photon-major scatter, icosahedron bounds projected to the screen (Mara et al. 2013 §2.2)",
+                   b3_create, b_build, b_estimate, b_destroy, .exact = 1, .caps = PGI_EST_CAP_KERNELS,
+                   .options = k_options3d, .bytes_per_photon = 24, .bytes_per_sample = 8);
 
-const pgi_estimator_vtbl pgi__est_bounds25d = {
-    .name = "bounds25d",
-    .summary = "photon-major scatter, tight screen polygon + depth range per sphere (Mara & McGuire 2013)",
-    .exact = 1,
-    .create = b25_create,
-    .build = b_build,
-    .estimate = b_estimate,
-    .stats = pgi__est_default_stats,
-    .destroy = b_destroy,
-    .caps = PGI_EST_CAP_KERNELS,
-    .options = k_options25d,
-    /* memory budget: measured bytes of its stats per photon and per view sample, rounded up */
-    .bytes_per_photon = 24,
-    .bytes_per_sample = 8,
-};
+const pgi_estimator_vtbl pgi__est_bounds25d =
+    PGI__EST_TABLE("bounds25d",
+                   "photon-major scatter, tight screen polygon + depth range per sphere (Mara & McGuire 2013)",
+                   b25_create, b_build, b_estimate, b_destroy, .exact = 1, .caps = PGI_EST_CAP_KERNELS,
+                   .options = k_options25d, .bytes_per_photon = 24, .bytes_per_sample = 8);

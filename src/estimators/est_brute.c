@@ -23,16 +23,19 @@ static pgi_status brute_build(void *state, const pgi_estimate_args *a) {
     return PGI_OK;
 }
 
-/* The oracle beyond the fixed-radius constant-kernel case: non-constant
- * kernels (pgi__gather_k, fixed radius), or per-photon footprints (spheres of
- * radius[j], or ellipsoids when sax is set; constant kernel, weight
- * 1/(pi r_j^2)) for every estimator with PGI_EST_CAP_PHOTON_RADIUS. */
-static pgi_status brute_estimate_general(brute_state *s, const pgi_estimate_args *a) {
+/* Every photon for every view sample: with the constant kernel at a fixed radius (pgi__gather);
+ * beyond that, non-constant kernels (pgi__gather_k, fixed radius), or per-photon footprints
+ * (spheres of radius[j], or ellipsoids when sax is set; constant kernel, weight 1/(pi r_j^2)) for
+ * every estimator with PGI_EST_CAP_PHOTON_RADIUS. */
+static pgi_status brute_estimate(void *state, const pgi_estimate_args *a) {
+    brute_state *s = state;
+    pgi__est_frame(&s->c, a);
     double t0 = pgi__now_ms();
     const pgi_photons *ph = a->photons;
     const pgi_view_samples *vs = a->samples;
     const pgi_kernel kern = s->c.desc.kernel;
     const int footprints = ph->radius != NULL, ell = ph->sax != NULL;
+    const int plain = !footprints && kern == PGI_KERNEL_CONSTANT;
     if (footprints && kern != PGI_KERNEL_CONSTANT)
         return pgi__fail(PGI_ERR_INVALID_ARG, "brute: per-photon footprints use the constant kernel only");
     const float r2 = s->c.radius * s->c.radius;
@@ -40,12 +43,16 @@ static pgi_status brute_estimate_general(brute_state *s, const pgi_estimate_args
     uint64_t reads = 0, contrib = 0;
 #pragma omp parallel for schedule(dynamic, 64) reduction(+ : reads, contrib) num_threads(s->c.threads)
     for (long long ii = 0; ii < (long long)vs->count; ii++) {
-        size_t i = (size_t)ii;
-        float *out = a->out_rgb + 3 * i;
         pgi__vs v;
-        if (pgi__est_stop(&s->c) || !pgi__vs_begin(vs, i, out, &v)) continue;
+        float *out = pgi__est_sample(&s->c, a, ii, &v);
+        if (!out) continue;
         pgi__acc acc = {0};
-        if (!footprints) {
+        if (plain) {
+            for (size_t j = 0; j < n; j++)
+                pgi__gather(&v, r2, ph->px[j], ph->py[j], ph->pz[j], ph->dx[j], ph->dy[j], ph->dz[j], ph->fr[j],
+                            ph->fg[j], ph->fb[j], &acc);
+            pgi__acc_finish(&v, &acc, r2, out);
+        } else if (!footprints) {
             for (size_t j = 0; j < n; j++)
                 pgi__gather_k(&v, r2, kern, ph->px[j], ph->py[j], ph->pz[j], ph->dx[j], ph->dy[j], ph->dz[j], ph->fr[j],
                               ph->fg[j], ph->fb[j], &acc);
@@ -72,48 +79,10 @@ static pgi_status brute_estimate_general(brute_state *s, const pgi_estimate_args
     return PGI_OK;
 }
 
-static pgi_status brute_estimate(void *state, const pgi_estimate_args *a) {
-    brute_state *s = state;
-    pgi__est_frame(&s->c, a);
-    if (a->photons->radius || s->c.desc.kernel != PGI_KERNEL_CONSTANT) return brute_estimate_general(s, a);
-    double t0 = pgi__now_ms();
-    const pgi_photons *ph = a->photons;
-    const pgi_view_samples *vs = a->samples;
-    const float r2 = s->c.radius * s->c.radius;
-    const size_t n = ph->count;
-    uint64_t reads = 0, contrib = 0;
-#pragma omp parallel for schedule(dynamic, 64) reduction(+ : reads, contrib) num_threads(s->c.threads)
-    for (long long ii = 0; ii < (long long)vs->count; ii++) {
-        size_t i = (size_t)ii;
-        float *out = a->out_rgb + 3 * i;
-        pgi__vs v;
-        if (pgi__est_stop(&s->c) || !pgi__vs_begin(vs, i, out, &v)) continue;
-        pgi__acc acc = {0};
-        for (size_t j = 0; j < n; j++)
-            pgi__gather(&v, r2, ph->px[j], ph->py[j], ph->pz[j], ph->dx[j], ph->dy[j], ph->dz[j], ph->fr[j], ph->fg[j],
-                        ph->fb[j], &acc);
-        pgi__acc_finish(&v, &acc, r2, out);
-        reads += n;
-        contrib += acc.contributing;
-    }
-    pgi__stats_estimated(&s->c.st, t0, reads, contrib);
-    return PGI_OK;
-}
-
 static void brute_destroy(void *state) { free(state); }
 
-const pgi_estimator_vtbl pgi__est_brute = {
-    .name = "brute",
-    .summary = "every photon for every view sample (the test oracle)",
-    .exact = 1,
-    .oracle = 1,
-    .create = brute_create,
-    .build = brute_build,
-    .estimate = brute_estimate,
-    .stats = pgi__est_default_stats,
-    .destroy = brute_destroy,
-    .caps = PGI_EST_CAP_PHOTON_RADIUS | PGI_EST_CAP_KERNELS,
-    /* memory budget: it holds nothing of its own (1: not the default of an estimator that gives none) */
-    .bytes_per_photon = 1,
-    .bytes_per_sample = 0,
-};
+/* memory budget: it holds nothing of its own (1: not the default of an estimator that gives none) */
+const pgi_estimator_vtbl pgi__est_brute =
+    PGI__EST_TABLE("brute", "every photon for every view sample (the test oracle)", brute_create, brute_build,
+                   brute_estimate, brute_destroy, .exact = 1, .oracle = 1,
+                   .caps = PGI_EST_CAP_PHOTON_RADIUS | PGI_EST_CAP_KERNELS, .bytes_per_photon = 1);

@@ -397,11 +397,9 @@ static pgi_status bvh_estimate(void *state, const pgi_estimate_args *a) {
     uint64_t reads = 0, contrib = 0, visited = 0;
 #pragma omp parallel for schedule(dynamic, 64) reduction(+ : reads, contrib, visited) num_threads(s->c.threads)
     for (long long ii = 0; ii < (long long)vs->count; ii++) {
-        if (pgi__est_stop(&s->c)) continue;
-        size_t i = (size_t)ii;
-        float *out = a->out_rgb + 3 * i;
         pgi__vs v;
-        if (!pgi__vs_begin(vs, i, out, &v)) continue;
+        float *out = pgi__est_sample(&s->c, a, ii, &v);
+        if (!out) continue;
         pgi__acc acc = {0};
         uint32_t stack[STACK_SIZE];
         int sp = 0;
@@ -455,18 +453,8 @@ static void bvh_destroy(void *state) {
     free(s);
 }
 
-const pgi_estimator_vtbl pgi__est_bvh = {
-    .name = "bvh",
-    .summary = "BVH over photon footprints, linear or VVH build, T_auto leaves (Fabianowski & Dingliana 2009)",
-    .exact = 1,
-    .create = bvh_create,
-    .build = bvh_build,
-    .estimate = bvh_estimate,
-    .stats = pgi__est_default_stats,
-    .destroy = bvh_destroy,
-    .caps = PGI_EST_CAP_PHOTON_RADIUS,
-    .options = k_options,
-    /* memory budget: measured bytes of its stats per photon and per view sample, rounded up */
-    .bytes_per_photon = 112,
-    .bytes_per_sample = 0,
-};
+const pgi_estimator_vtbl pgi__est_bvh =
+    PGI__EST_TABLE("bvh",
+                   "BVH over photon footprints, linear or VVH build, T_auto leaves (Fabianowski & Dingliana 2009)",
+                   bvh_create, bvh_build, bvh_estimate, bvh_destroy, .exact = 1, .caps = PGI_EST_CAP_PHOTON_RADIUS,
+                   .options = k_options, .bytes_per_photon = 112);

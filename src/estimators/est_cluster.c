@@ -1073,48 +1073,17 @@ void cl_destroy(void *state) {
     free(s);
 }
 
-const pgi_estimator_vtbl pgi__est_cluster = {
-    .name = "cluster",
-    .summary = "view-sample cluster hierarchy; photons splatted into node lists (Moreau et al. 2016 §4.1-4.4)",
-    .exact = 1,
-    .create = cluster_create,
-    .build = cl_build,
-    .estimate = cl_estimate,
-    .stats = pgi__est_default_stats,
-    .destroy = cl_destroy,
-    .options = k_options,
-    .caps = 0,
-    /* memory budget: measured bytes of its stats per photon and per view sample, rounded up */
-    .bytes_per_photon = 192,
-    .bytes_per_sample = 128,
-};
-const pgi_estimator_vtbl pgi__est_cluster_cone = {
-    .name = "cluster-cone",
-    .summary = "cluster + normal-cone rejection of photons from below a node's surfaces (§4.5)",
-    .exact = 1,
-    .create = cone_create,
-    .build = cl_build,
-    .estimate = cl_estimate,
-    .stats = pgi__est_default_stats,
-    .destroy = cl_destroy,
-    .options = k_options,
-    .caps = 0,
-    /* memory budget: measured bytes of its stats per photon and per view sample, rounded up */
-    .bytes_per_photon = 192,
-    .bytes_per_sample = 128,
-};
-const pgi_estimator_vtbl pgi__est_cluster_trivial = {
-    .name = "cluster-trivial",
-    .summary = "cluster-cone + trivial accept: enclosed all-Lambertian nodes accumulate flux, no list (§4.6)",
-    .exact = 1,
-    .create = trivial_create,
-    .build = cl_build,
-    .estimate = cl_estimate,
-    .stats = pgi__est_default_stats,
-    .destroy = cl_destroy,
-    .options = k_options,
-    .caps = 0,
-    /* memory budget: measured bytes of its stats per photon and per view sample, rounded up */
-    .bytes_per_photon = 144,
-    .bytes_per_sample = 96,
-};
+const pgi_estimator_vtbl pgi__est_cluster =
+    PGI__EST_TABLE("cluster",
+                   "view-sample cluster hierarchy; photons splatted into node lists (Moreau et al. 2016 §4.1-4.4)",
+                   cluster_create, cl_build, cl_estimate, cl_destroy, .exact = 1, .options = k_options,
+                   .bytes_per_photon = 192, .bytes_per_sample = 128);
+const pgi_estimator_vtbl pgi__est_cluster_cone =
+    PGI__EST_TABLE("cluster-cone", "cluster + normal-cone rejection of photons from below a node's surfaces (§4.5)",
+                   cone_create, cl_build, cl_estimate, cl_destroy, .exact = 1, .options = k_options,
+                   .bytes_per_photon = 192, .bytes_per_sample = 128);
+const pgi_estimator_vtbl pgi__est_cluster_trivial =
+    PGI__EST_TABLE("cluster-trivial",
+                   "cluster-cone + trivial accept: enclosed all-Lambertian nodes accumulate flux, no list (§4.6)",
+                   trivial_create, cl_build, cl_estimate, cl_destroy, .exact = 1, .options = k_options,
+                   .bytes_per_photon = 144, .bytes_per_sample = 96);

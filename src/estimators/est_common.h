@@ -54,6 +54,17 @@ static inline void pgi__stats_estimated(pgi_estimator_stats *st, double t0, uint
 /* The stats hook of a state that starts with its pgi__est_common. */
 void pgi__est_default_stats(const void *state, pgi_estimator_stats *out);
 
+/* The table of an estimator whose state starts with its pgi__est_common (its stats hook
+ * pgi__est_default_stats): its name, summary and four functions, then the rest as designated
+ * initializers (.exact, .caps, .options, .defaults, and the memory budget .bytes_per_photon and
+ * .bytes_per_sample: the bytes of its stats per photon and per view sample, measured and rounded
+ * up). */
+#define PGI__EST_TABLE(name_, summary_, create_, build_, estimate_, destroy_, ...)                                     \
+    {                                                                                                                  \
+        .name = name_, .summary = summary_, .create = create_, .build = build_, .estimate = estimate_,                 \
+        .stats = pgi__est_default_stats, .destroy = destroy_, __VA_ARGS__                                              \
+    }
+
 extern const pgi_estimator_vtbl pgi__est_brute, pgi__est_hashgrid, pgi__est_tiled;
 /* The tile-edge option of tiled, bounds3d and bounds25d (est_tiled.c). */
 extern const pgi_option pgi__opt_tile;

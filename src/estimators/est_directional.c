@@ -257,20 +257,9 @@ static pgi_status dir_estimate(void *state, const pgi_estimate_args *a) {
     return PGI_OK;
 }
 
-const pgi_estimator_vtbl pgi__est_directional = {
-    .name = "directional",
-    .summary = "cluster hierarchy, flux in 8 octant buckets per node from a fixed level down, "
-               "blurred irradiance (§4.7)",
-    .exact = 0,
-    .create = dir_create,
-    .build = cl_build,
-    .estimate = dir_estimate,
-    .stats = pgi__est_default_stats,
-    .destroy = cl_destroy,
-    .options = k_options,
-    .defaults = k_defaults,
-    .caps = 0,
-    /* memory budget: measured bytes of its stats per photon and per view sample, rounded up */
-    .bytes_per_photon = 80,
-    .bytes_per_sample = 120,
-};
+const pgi_estimator_vtbl pgi__est_directional =
+    PGI__EST_TABLE("directional",
+                   "cluster hierarchy, flux in 8 octant buckets per node from a fixed level down, "
+                   "blurred irradiance (§4.7)",
+                   dir_create, cl_build, dir_estimate, cl_destroy, .options = k_options, .defaults = k_defaults,
+                   .bytes_per_photon = 80, .bytes_per_sample = 120);

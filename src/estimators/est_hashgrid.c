@@ -169,14 +169,12 @@ static pgi_status hg_estimate(void *state, const pgi_estimate_args *a) {
     uint64_t reads = 0, contrib = 0, visited = 0;
 #pragma omp parallel for schedule(dynamic, 64) reduction(+ : reads, contrib, visited) num_threads(s->c.threads)
     for (long long ii = 0; ii < (long long)vs->count; ii++) {
-        if (pgi__est_stop(&s->c)) continue;
-        size_t i = (size_t)ii;
-        float *out = a->out_rgb + 3 * i;
         pgi__vs v;
-        if (!pgi__vs_begin(vs, i, out, &v)) continue;
+        float *out = pgi__est_sample(&s->c, a, ii, &v);
+        if (!out) continue;
         pgi__acc acc = {0};
         pgi__sub ss;
-        pgi__sub_init(&ss, sub, seed, i);
+        pgi__sub_init(&ss, sub, seed, (size_t)ii);
         int32_t x0 = cell_coord(v.px - r, inv), x1 = cell_coord(v.px + r, inv);
         int32_t y0 = cell_coord(v.py - r, inv), y1 = cell_coord(v.py + r, inv);
         int32_t z0 = cell_coord(v.pz - r, inv), z1 = cell_coord(v.pz + r, inv);
@@ -214,18 +212,7 @@ static void hg_destroy(void *state) {
     free(s);
 }
 
-const pgi_estimator_vtbl pgi__est_hashgrid = {
-    .name = "hashgrid",
-    .summary = "3D hash grid of photon cells, pixel-major gather (Mara et al. 2013 §2.3.1)",
-    .exact = 1,
-    .create = hg_create,
-    .build = hg_build,
-    .estimate = hg_estimate,
-    .stats = pgi__est_default_stats,
-    .destroy = hg_destroy,
-    .caps = PGI_EST_CAP_KERNELS | PGI_EST_CAP_SUBSAMPLE,
-    .options = k_options,
-    /* memory budget: measured bytes of its stats per photon and per view sample, rounded up */
-    .bytes_per_photon = 112,
-    .bytes_per_sample = 0,
-};
+const pgi_estimator_vtbl pgi__est_hashgrid =
+    PGI__EST_TABLE("hashgrid", "3D hash grid of photon cells, pixel-major gather (Mara et al. 2013 §2.3.1)", hg_create,
+                   hg_build, hg_estimate, hg_destroy, .exact = 1, .caps = PGI_EST_CAP_KERNELS | PGI_EST_CAP_SUBSAMPLE,
+                   .options = k_options, .bytes_per_photon = 112);

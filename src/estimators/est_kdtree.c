@@ -316,18 +316,16 @@ static pgi_status kd_estimate(void *state, const pgi_estimate_args *a) {
         cand *h = heaps ? heaps + (size_t)tid * (size_t)k : NULL;
 #pragma omp for schedule(dynamic, 64)
         for (long long ii = 0; ii < (long long)vs->count; ii++) {
-            if (pgi__est_stop(&s->c)) continue;
-            size_t i = (size_t)ii;
-            float *out = a->out_rgb + 3 * i;
             pgi__vs v;
-            if (!pgi__vs_begin(vs, i, out, &v)) continue;
+            float *out = pgi__est_sample(&s->c, a, ii, &v);
+            if (!out) continue;
             pgi__acc acc = {0};
             if (k > 0) {
                 float rk2 = knn_query(s, &v, r, k, kern, h, &acc, &nodes, &reads);
                 pgi__acc_finish_k(&v, &acc, rk2, kern, 1.f, out);
             } else {
                 pgi__sub ss;
-                pgi__sub_init(&ss, sub, seed, i);
+                pgi__sub_init(&ss, sub, seed, (size_t)ii);
                 range_query(s, &v, r, r2, kern, &ss, &acc, &nodes);
                 pgi__acc_finish_k(&v, &acc, r2, kern, pgi__sub_scale(&ss), out);
                 reads += ss.visited;
@@ -353,18 +351,7 @@ static void kd_destroy(void *state) {
     free(s);
 }
 
-const pgi_estimator_vtbl pgi__est_kdtree = {
-    .name = "kdtree",
-    .summary = "balanced kd-tree photon map; fixed-radius range gather or k nearest (Jensen)",
-    .exact = 1,
-    .create = kd_create,
-    .build = kd_build,
-    .estimate = kd_estimate,
-    .stats = pgi__est_default_stats,
-    .destroy = kd_destroy,
-    .caps = PGI_EST_CAP_KERNELS | PGI_EST_CAP_SUBSAMPLE,
-    .options = k_options,
-    /* memory budget: measured bytes of its stats per photon and per view sample, rounded up */
-    .bytes_per_photon = 48,
-    .bytes_per_sample = 0,
-};
+const pgi_estimator_vtbl pgi__est_kdtree =
+    PGI__EST_TABLE("kdtree", "balanced kd-tree photon map; fixed-radius range gather or k nearest (Jensen)", kd_create,
+                   kd_build, kd_estimate, kd_destroy, .exact = 1, .caps = PGI_EST_CAP_KERNELS | PGI_EST_CAP_SUBSAMPLE,
+                   .options = k_options, .bytes_per_photon = 48);

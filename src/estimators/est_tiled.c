@@ -346,19 +346,8 @@ static void tiled_destroy(void *state) {
     free(s);
 }
 
-const pgi_estimator_vtbl pgi__est_tiled = {
-    .name = "tiled",
-    .summary = "screen tiles with depth bounds; per-tile photon copies (Mara et al. 2013 §2.3.1)",
-    .exact = 1,
-    .create = tiled_create,
-    .build = tiled_build,
-    .estimate = tiled_estimate,
-    .stats = pgi__est_default_stats,
-    .destroy = tiled_destroy,
-    .caps = PGI_EST_CAP_KERNELS | PGI_EST_CAP_SUBSAMPLE,
-    .options = k_options,
-    .defaults = k_defaults,
-    /* memory budget: measured bytes of its stats per photon and per view sample, rounded up */
-    .bytes_per_photon = 80,
-    .bytes_per_sample = 48,
-};
+const pgi_estimator_vtbl pgi__est_tiled =
+    PGI__EST_TABLE("tiled", "screen tiles with depth bounds; per-tile photon copies (Mara et al. 2013 §2.3.1)",
+                   tiled_create, tiled_build, tiled_estimate, tiled_destroy, .exact = 1,
+                   .caps = PGI_EST_CAP_KERNELS | PGI_EST_CAP_SUBSAMPLE, .options = k_options, .defaults = k_defaults,
+                   .bytes_per_photon = 80, .bytes_per_sample = 48);

@@ -30,4 +30,13 @@ static inline int pgi__cluster_tile(int tile, int width, int height) {
     return t < 1 ? 1 : t > 8 ? 8 : t;
 }
 
+/* The start of view sample i in an estimator's loop over the samples: NULL once the caller asked
+ * to cancel (pgi__est_stop) or where the sample takes no indirect light (pgi__vs_begin has then
+ * written its output); else its output, with v set up for the gathers. */
+static inline float *pgi__est_sample(const pgi__est_common *c, const pgi_estimate_args *a, long long ii, pgi__vs *v) {
+    const size_t i = (size_t)ii;
+    float *out = a->out_rgb + 3 * i;
+    return !pgi__est_stop(c) && pgi__vs_begin(a->samples, i, out, v) ? out : NULL;
+}
+
 #endif

@@ -159,16 +159,10 @@ static const char *const gather_passes[] = {"gpu_gather", NULL};
 static const char *const own_passes[] = {"gpu_cells", "gpu_bounds", "gpu_shape",  "gpu_count",
                                          "gpu_scan",  "gpu_copy",   "gpu_gather", NULL};
 
-typedef struct bd_in {
-    size_t n;
-    int width, height;
-    const pgi_camera *cam;
-    float radius, jitter;
-} bd_in;
 
 /* The frame's sizes, push constants and parameters (uploaded); every buffer but the inputs' and
  * the bins' reserved. */
-static pgi_status bd_plan(bd_state *s, const bd_in *in, bd_frame *f) {
+static pgi_status bd_plan(bd_state *s, const pgi__gpu_est_in *in, bd_frame *f) {
     pgi__gpu *g = s->g;
     const pgi_camera *cam = in->cam;
     if (!cam || in->width != cam->width || in->height != cam->height)
@@ -265,13 +259,10 @@ static pgi_status bd_upload(bd_state *s, const pgi_estimate_args *a, bd_frame *f
     return PGI_OK;
 }
 
-static pgi_status bd_abandon(pgi__gpu *g, pgi_status st) {
-    (void)pgi__gpu_submit_wait(g);
-    return st;
-}
-
 /* Records sequence 1: the mirror cells, the tiles' flags, the shapes, counts, offsets. */
-static pgi_status record_counts(bd_state *s, const bd_frame *f, pgi__gpu_buffer *photons) {
+static pgi_status record_counts(void *state, const void *frame, pgi__gpu_buffer *photons) {
+    bd_state *s = state;
+    const bd_frame *f = frame;
     pgi__gpu *g = s->g;
     pgi_status st;
     bd_push q = f->p;
@@ -303,31 +294,15 @@ static pgi_status record_counts(bd_state *s, const bd_frame *f, pgi__gpu_buffer 
 
 /* sequence 1, then the number of copies read back and the bins' buffer sized to it */
 static pgi_status bd_build(bd_state *s, bd_frame *f, pgi__gpu_buffer *photons, pgi_estimator_stats *es) {
-    pgi__gpu *g = s->g;
-    pgi_status st;
-    if ((st = pgi__gpu_begin(g))) return st;
-    pgi__gpu_timestamp(g, "start");
-    if ((st = record_counts(s, f, photons))) return bd_abandon(g, st);
-    f->t[2] = pgi__now_ms();
-    if ((st = pgi__gpu_submit_wait(g))) return st;
-    f->t[3] = pgi__now_ms();
-    pgi__gpu_est_add_timings(g, es, gather_passes, &f->gpu_build, &f->gpu_gather);
-    uint32_t copies = 0, tested[2];
-    if ((st = pgi__gpu_download(g, s->counts, f->ncounts * 4, &copies, 4)) ||
-        (st = pgi__gpu_download(g, s->counters, 6 * 4, tested, sizeof tested)))
-        return st;
-    const uint64_t ncopies = pgi__gpu_u64(tested); /* catches a scan that wrapped */
-    if (ncopies > UINT32_MAX / 4)
-        return pgi__fail(PGI_ERR_UNSUPPORTED,
-                         "%s on the GPU: %llu photon copies (at most 2^30); use a smaller radius or larger tiles",
-                         s->name, (unsigned long long)ncopies);
-    PGI__ASSERT(ncopies == copies);
-    f->copies = copies;
-    return pgi__gpu_buffer_reserve(g, &s->ids, ((size_t)copies + 1) * 4, "gpu_tile_photons");
+    pgi_status st = pgi__gpu_est_sequence(s->g, record_counts, s, f, photons, f->t + 2, es, gather_passes,
+                                          &f->gpu_build, &f->gpu_gather);
+    return st ? st : pgi__gpu_est_copies(s->g, s->name, s->counts, f->ncounts, s->counters, &s->ids, &f->copies);
 }
 
 /* Records sequence 2's work: the bins (photon order), the gather. */
-static pgi_status record_gather(bd_state *s, const bd_frame *f, pgi__gpu_buffer *photons) {
+static pgi_status record_gather(void *state, const void *frame, pgi__gpu_buffer *photons) {
+    bd_state *s = state;
+    const bd_frame *f = frame;
     pgi__gpu *g = s->g;
     pgi_status st;
     pgi__gpu_buffer *lists[7] = {s->shapes, s->bounds, s->params, s->grid, s->cbox, s->counts, s->ids};
@@ -360,22 +335,13 @@ static pgi_status bd_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     memset(es, 0, sizeof *es);
     if (a->photons->radius)
         return pgi__fail(PGI_ERR_UNSUPPORTED, "%s on the GPU: per-photon footprints are not supported", s->name);
-    const bd_in in = {.n = a->photons->count,
-                      .width = a->samples->width,
-                      .height = a->samples->height,
-                      .cam = a->camera,
-                      .radius = a->radius,
-                      .jitter = a->samples->jitter};
+    const pgi__gpu_est_in in = pgi__gpu_est_in_args(a);
     bd_frame f;
     if ((st = bd_plan(s, &in, &f)) || (st = bd_upload(s, a, &f)) || (st = bd_build(s, &f, s->photons, es))) return st;
     f.t[4] = pgi__now_ms();
-    if ((st = pgi__gpu_begin(g))) return st;
-    pgi__gpu_timestamp(g, "start");
-    if ((st = record_gather(s, &f, s->photons))) return bd_abandon(g, st);
-    f.t[5] = pgi__now_ms();
-    if ((st = pgi__gpu_submit_wait(g))) return st;
-    f.t[6] = pgi__now_ms();
-    pgi__gpu_est_add_timings(g, es, gather_passes, &f.gpu_build, &f.gpu_gather);
+    if ((st = pgi__gpu_est_sequence(g, record_gather, s, &f, s->photons, f.t + 5, es, gather_passes, &f.gpu_build,
+                                    &f.gpu_gather)))
+        return st;
     if ((st = pgi__gpu_download(g, s->out, 0, a->out_rgb, 3 * f.ns * sizeof(float))) || (st = bd_counters(s, es)))
         return st;
     f.t[7] = pgi__now_ms();
@@ -390,12 +356,7 @@ static pgi_status bd_device_reserve(void *state, const pgi__gpu_est_inputs *in, 
     bd_state *s = state;
     pgi_status st;
     memset(&s->dev_es, 0, sizeof s->dev_es);
-    const bd_in bi = {.n = in->nphotons,
-                      .width = in->width,
-                      .height = in->height,
-                      .cam = in->camera,
-                      .radius = in->radius,
-                      .jitter = in->jitter};
+    const pgi__gpu_est_in bi = pgi__gpu_est_in_device(in);
     bd_frame *f = &s->dev;
     if ((st = bd_plan(s, &bi, f))) return st;
     f->vs = in->samples;
@@ -415,12 +376,8 @@ static pgi_status bd_device_record(void *state, const pgi__gpu_est_inputs *in) {
 
 static pgi_status bd_device_finish(void *state, const pgi_named_value *t, int nt, pgi_estimator_stats *es) {
     bd_state *s = state;
-    bd_frame *f = &s->dev;
-    *es = s->dev_es; /* sequence 1's passes */
-    pgi__gpu_est_keep_timings(es, t, nt, own_passes, gather_passes, &f->gpu_build, &f->gpu_gather);
-    pgi__stats_pass(es, "gpu_submit", f->t[3] - f->t[2]);
-    es->build_ms = pgi__gpu_has_timestamps(s->g) ? f->gpu_build : f->t[3] - f->t[2];
-    es->estimate_ms = f->gpu_gather;
+    bd_frame *f = &s->dev; /* its stats: sequence 1's passes, then its own of the caller's sequence */
+    pgi__gpu_est_finish(s->g, es, &s->dev_es, t, nt, own_passes, gather_passes, f->t, &f->gpu_build, &f->gpu_gather);
     return bd_counters(s, es);
 }
 

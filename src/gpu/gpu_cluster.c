@@ -224,12 +224,6 @@ static const char *const own_passes[] =
     {"gpu_photon_order", "gpu_clusters", "gpu_bounds", "gpu_splat", "gpu_splat_again", "gpu_lists", "gpu_node_flux",
      "gpu_buckets",      "gpu_radiance", "gpu_blur",   NULL};
 
-/* A sequence that could not be recorded: closed, so that the next frame can begin one. */
-static pgi_status cl_abandon(pgi__gpu *g, pgi_status st) {
-    (void)pgi__gpu_submit_wait(g);
-    return st;
-}
-
 /* What a frame is made from, on either path. */
 typedef struct cl_in {
     size_t n, ns;
@@ -425,7 +419,7 @@ static pgi_status splat_again(ct_state *s, cl_frame *f, pgi_estimator_stats *es)
     if ((st = pgi__gpu_fill(g, s->counters, 0, 8 * 4, 0)) ||
         (st = pgi__gpu_dispatch_1d(g, s->k[K_SPLAT], (pgi__gpu_buffer *[]){s->photons, s->nodes, s->pairs, s->counters},
                                    &f->p, f->n, 64)))
-        return cl_abandon(g, st);
+        return pgi__gpu_abandon(g, st);
     pgi__gpu_timestamp(g, "gpu_splat_again");
     if ((st = pgi__gpu_submit_wait(g))) return st;
     f->t[3] += pgi__now_ms() - t2b;
@@ -447,7 +441,7 @@ static pgi_status cl_build(ct_state *s, cl_frame *f, pgi__gpu_buffer *photons, p
     f->p.npairs = (uint32_t)s->pair_cap;
     if ((st = pgi__gpu_begin(g))) return st;
     pgi__gpu_timestamp(g, "start");
-    if ((st = record_prep(s, f, photons, extra)) || (st = record_build(s, f))) return cl_abandon(g, st);
+    if ((st = record_prep(s, f, photons, extra)) || (st = record_build(s, f))) return pgi__gpu_abandon(g, st);
     f->t[2] = pgi__now_ms();
     if ((st = pgi__gpu_submit_wait(g))) return st;
     f->t[3] = pgi__now_ms();
@@ -535,7 +529,7 @@ static pgi_status cl_gather(ct_state *s, cl_frame *f, pgi_estimator_stats *es) {
     f->t[4] = pgi__now_ms();
     if ((st = pgi__gpu_begin(g))) return st;
     pgi__gpu_timestamp(g, "start");
-    if ((st = record_gather(s, f))) return cl_abandon(g, st);
+    if ((st = record_gather(s, f))) return pgi__gpu_abandon(g, st);
     f->t[5] = pgi__now_ms();
     if ((st = pgi__gpu_submit_wait(g))) return st;
     f->t[6] = pgi__now_ms();
@@ -613,12 +607,8 @@ static pgi_status ct_device_record(void *state, const pgi__gpu_est_inputs *in) {
 
 static pgi_status ct_device_finish(void *state, const pgi_named_value *t, int nt, pgi_estimator_stats *es) {
     ct_state *s = state;
-    cl_frame *f = &s->dev;
-    *es = s->dev_es; /* sequence 1's passes */
-    pgi__gpu_est_keep_timings(es, t, nt, own_passes, gather_passes, &f->gpu_build, &f->gpu_gather);
-    pgi__stats_pass(es, "gpu_submit", f->t[3] - f->t[2]);
-    es->build_ms = pgi__gpu_has_timestamps(s->g) ? f->gpu_build : f->t[3] - f->t[2];
-    es->estimate_ms = f->gpu_gather;
+    cl_frame *f = &s->dev; /* its stats: sequence 1's passes, then its own of the caller's sequence */
+    pgi__gpu_est_finish(s->g, es, &s->dev_es, t, nt, own_passes, gather_passes, f->t, &f->gpu_build, &f->gpu_gather);
     return cl_counters(s, f, es);
 }
 

@@ -133,6 +133,48 @@ void pgi__gpu_est_two_sequence_times(const pgi__gpu *g, pgi_estimator_stats *es,
     es->estimate_ms = gather + (t[7] - t[6]);
 }
 
+pgi_status pgi__gpu_est_sequence(pgi__gpu *g, pgi__gpu_est_record rec, void *state, const void *frame,
+                                 pgi__gpu_buffer *photons, double t[2], pgi_estimator_stats *es,
+                                 const char *const *gather, double *build_ms, double *gather_ms) {
+    pgi_status st;
+    if ((st = pgi__gpu_begin(g))) return st;
+    pgi__gpu_timestamp(g, "start");
+    if ((st = rec(state, frame, photons))) return pgi__gpu_abandon(g, st);
+    t[0] = pgi__now_ms();
+    if ((st = pgi__gpu_submit_wait(g))) return st;
+    t[1] = pgi__now_ms();
+    pgi__gpu_est_add_timings(g, es, gather, build_ms, gather_ms);
+    return PGI_OK;
+}
+
+pgi_status pgi__gpu_est_copies(pgi__gpu *g, const char *name, pgi__gpu_buffer *counts, size_t ncounts,
+                               pgi__gpu_buffer *counters, pgi__gpu_buffer **ids, uint32_t *copies) {
+    uint32_t total = 0, tested[2];
+    pgi_status st;
+    if ((st = pgi__gpu_download(g, counts, ncounts * 4, &total, 4)) ||
+        (st = pgi__gpu_download(g, counters, 6 * 4, tested, sizeof tested)))
+        return st;
+    /* every list test is a copy: the 64-bit count catches a scan that wrapped */
+    const uint64_t ncopies = pgi__gpu_u64(tested);
+    if (ncopies > UINT32_MAX / 4)
+        return pgi__fail(PGI_ERR_UNSUPPORTED,
+                         "%s on the GPU: %llu photon copies (at most 2^30); use a smaller radius or larger tiles", name,
+                         (unsigned long long)ncopies);
+    PGI__ASSERT(ncopies == total);
+    *copies = total;
+    return pgi__gpu_buffer_reserve(g, ids, ((size_t)total + 1) * 4, "gpu_tile_photons");
+}
+
+void pgi__gpu_est_finish(const pgi__gpu *g, pgi_estimator_stats *es, const pgi_estimator_stats *seq1,
+                         const pgi_named_value *t, int nt, const char *const *own, const char *const *gather,
+                         const double ft[8], double *build_ms, double *gather_ms) {
+    *es = *seq1;
+    pgi__gpu_est_keep_timings(es, t, nt, own, gather, build_ms, gather_ms);
+    pgi__stats_pass(es, "gpu_submit", ft[3] - ft[2]);
+    es->build_ms = pgi__gpu_has_timestamps(g) ? *build_ms : ft[3] - ft[2];
+    es->estimate_ms = *gather_ms;
+}
+
 #define NO_BACKEND "this build of photongi has no Vulkan backend (built without Vulkan/glslc)"
 
 pgi_status pgi__gpu_est_none_create(pgi__gpu *g, const pgi_estimator_desc *desc, void **state) {

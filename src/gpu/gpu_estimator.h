@@ -116,6 +116,45 @@ void pgi__gpu_est_keep_timings(pgi_estimator_stats *es, const pgi_named_value *t
  * gpu_download and build_ms / estimate_ms. */
 void pgi__gpu_est_two_sequence_times(const pgi__gpu *g, pgi_estimator_stats *es, const double t[8], double build,
                                      double gather);
+/* What an estimator's frame is made from, on either path: run's arguments (pgi__gpu_est_in_args)
+ * or the device inputs (pgi__gpu_est_in_device). */
+typedef struct pgi__gpu_est_in {
+    size_t n; /* photons */
+    int width, height;
+    const pgi_camera *cam;
+    float radius, jitter;
+} pgi__gpu_est_in;
+static inline pgi__gpu_est_in pgi__gpu_est_in_args(const pgi_estimate_args *a) {
+    return (pgi__gpu_est_in){a->photons->count, a->samples->width, a->samples->height,
+                             a->camera,         a->radius,         a->samples->jitter};
+}
+static inline pgi__gpu_est_in pgi__gpu_est_in_device(const pgi__gpu_est_inputs *in) {
+    return (pgi__gpu_est_in){in->nphotons, in->width, in->height, in->camera, in->radius, in->jitter};
+}
+/* A sequence that could not be recorded: closed, so that the next frame can begin one; returns st. */
+static inline pgi_status pgi__gpu_abandon(pgi__gpu *g, pgi_status st) {
+    (void)pgi__gpu_submit_wait(g);
+    return st;
+}
+/* What records a command sequence's work: an estimator's state, its frame and the photons. */
+typedef pgi_status (*pgi__gpu_est_record)(void *state, const void *frame, pgi__gpu_buffer *photons);
+/* One command sequence of an estimator: begun, a "start" timestamp, recorded by rec (abandoned when
+ * that fails), submitted and waited for; t[0] and t[1] the host clock after recording and at the
+ * end; then the device's passes into the stats (pgi__gpu_est_add_timings). */
+pgi_status pgi__gpu_est_sequence(pgi__gpu *g, pgi__gpu_est_record rec, void *state, const void *frame,
+                                 pgi__gpu_buffer *photons, double t[2], pgi_estimator_stats *es,
+                                 const char *const *gather, double *build_ms, double *gather_ms);
+/* After a sequence that counted photon copies into lists (tiled, bounds3d/25d): the copies, the
+ * scan's total (counts' word ncounts), checked against the 64-bit count the counters hold at word 6
+ * (which catches a scan that wrapped; `name` in the message); *ids reserved for them. */
+pgi_status pgi__gpu_est_copies(pgi__gpu *g, const char *name, pgi__gpu_buffer *counts, size_t ncounts,
+                               pgi__gpu_buffer *counters, pgi__gpu_buffer **ids, uint32_t *copies);
+/* device_finish of an estimator that ran sequence 1 in device_reserve: its stats are that
+ * sequence's (seq1) with its own passes of the caller's sequence (t, nt; pgi__gpu_est_keep_timings),
+ * ft the frame's host clock (pgi__gpu_est_two_sequence_times' t). */
+void pgi__gpu_est_finish(const pgi__gpu *g, pgi_estimator_stats *es, const pgi_estimator_stats *seq1,
+                         const pgi_named_value *t, int nt, const char *const *own, const char *const *gather,
+                         const double ft[8], double *build_ms, double *gather_ms);
 /* A 64-bit counter kept by the shaders as two 32-bit words, low first. */
 static inline uint64_t pgi__gpu_u64(const uint32_t *w) { return (uint64_t)w[0] | (uint64_t)w[1] << 32; }
 

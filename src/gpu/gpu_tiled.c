@@ -137,16 +137,9 @@ static const char *const gather_passes[] = {"gpu_gather", NULL};
 static const char *const own_passes[] = {"gpu_cells", "gpu_bounds", "gpu_count", "gpu_scan",
                                          "gpu_copy",  "gpu_gather", NULL};
 
-/* What a frame is made from, on either path. */
-typedef struct tl_in {
-    size_t n;
-    int width, height;
-    const pgi_camera *cam;
-    float radius;
-} tl_in;
 
 /* The frame's sizes and push constants; every buffer but the inputs' and the lists' reserved. */
-static pgi_status tl_plan(tl_state *s, const tl_in *in, tl_frame *f) {
+static pgi_status tl_plan(tl_state *s, const pgi__gpu_est_in *in, tl_frame *f) {
     pgi__gpu *g = s->g;
     const pgi_camera *cam = in->cam;
     if (!cam || in->width != cam->width || in->height != cam->height)
@@ -223,14 +216,10 @@ static pgi_status tl_upload(tl_state *s, const pgi_estimate_args *a, tl_frame *f
     return PGI_OK;
 }
 
-/* A sequence that could not be recorded: closed, so that the next frame can begin one. */
-static pgi_status tl_abandon(pgi__gpu *g, pgi_status st) {
-    (void)pgi__gpu_submit_wait(g);
-    return st;
-}
-
 /* Records sequence 1: the mirror cells, tile bounds, counts, offsets. */
-static pgi_status record_counts(tl_state *s, const tl_frame *f, pgi__gpu_buffer *photons) {
+static pgi_status record_counts(void *state, const void *frame, pgi__gpu_buffer *photons) {
+    tl_state *s = state;
+    const tl_frame *f = frame;
     pgi__gpu *g = s->g;
     pgi_status st;
     tl_push q = f->p;
@@ -260,32 +249,15 @@ static pgi_status record_counts(tl_state *s, const tl_frame *f, pgi__gpu_buffer 
 
 /* sequence 1, then the number of copies read back (8 + 4 bytes) and the lists' buffer sized to it */
 static pgi_status tl_build(tl_state *s, tl_frame *f, pgi__gpu_buffer *photons, pgi_estimator_stats *es) {
-    pgi__gpu *g = s->g;
-    pgi_status st;
-    if ((st = pgi__gpu_begin(g))) return st;
-    pgi__gpu_timestamp(g, "start");
-    if ((st = record_counts(s, f, photons))) return tl_abandon(g, st);
-    f->t[2] = pgi__now_ms();
-    if ((st = pgi__gpu_submit_wait(g))) return st;
-    f->t[3] = pgi__now_ms();
-    pgi__gpu_est_add_timings(g, es, gather_passes, &f->gpu_build, &f->gpu_gather);
-    uint32_t copies = 0, tested[2];
-    if ((st = pgi__gpu_download(g, s->counts, f->ncounts * 4, &copies, 4)) ||
-        (st = pgi__gpu_download(g, s->counters, 6 * 4, tested, sizeof tested)))
-        return st;
-    /* every list test is a copy: the 64-bit count catches a scan that wrapped */
-    const uint64_t ncopies = pgi__gpu_u64(tested);
-    if (ncopies > UINT32_MAX / 4)
-        return pgi__fail(PGI_ERR_UNSUPPORTED,
-                         "tiled on the GPU: %llu photon copies (at most 2^30); use a smaller radius or larger tiles",
-                         (unsigned long long)ncopies);
-    PGI__ASSERT(ncopies == copies);
-    f->copies = copies;
-    return pgi__gpu_buffer_reserve(g, &s->ids, ((size_t)copies + 1) * 4, "gpu_tile_photons");
+    pgi_status st = pgi__gpu_est_sequence(s->g, record_counts, s, f, photons, f->t + 2, es, gather_passes,
+                                          &f->gpu_build, &f->gpu_gather);
+    return st ? st : pgi__gpu_est_copies(s->g, "tiled", s->counts, f->ncounts, s->counters, &s->ids, &f->copies);
 }
 
 /* Records sequence 2's work: the lists (photon order), the gather. */
-static pgi_status record_gather(tl_state *s, const tl_frame *f, pgi__gpu_buffer *photons) {
+static pgi_status record_gather(void *state, const void *frame, pgi__gpu_buffer *photons) {
+    tl_state *s = state;
+    const tl_frame *f = frame;
     pgi__gpu *g = s->g;
     pgi_status st;
     pgi__gpu_buffer *lists[7] = {photons, s->bounds, s->frame, s->grid, s->cbox, s->counts, s->ids};
@@ -318,21 +290,13 @@ static pgi_status tl_run(void *state, const pgi_estimate_args *a, pgi_estimator_
     memset(es, 0, sizeof *es);
     if (a->photons->radius)
         return pgi__fail(PGI_ERR_UNSUPPORTED, "tiled on the GPU: per-photon footprints are not supported");
-    const tl_in in = {.n = a->photons->count,
-                      .width = a->samples->width,
-                      .height = a->samples->height,
-                      .cam = a->camera,
-                      .radius = a->radius};
+    const pgi__gpu_est_in in = pgi__gpu_est_in_args(a);
     tl_frame f;
     if ((st = tl_plan(s, &in, &f)) || (st = tl_upload(s, a, &f)) || (st = tl_build(s, &f, s->photons, es))) return st;
     f.t[4] = pgi__now_ms();
-    if ((st = pgi__gpu_begin(g))) return st;
-    pgi__gpu_timestamp(g, "start");
-    if ((st = record_gather(s, &f, s->photons))) return tl_abandon(g, st);
-    f.t[5] = pgi__now_ms();
-    if ((st = pgi__gpu_submit_wait(g))) return st;
-    f.t[6] = pgi__now_ms();
-    pgi__gpu_est_add_timings(g, es, gather_passes, &f.gpu_build, &f.gpu_gather);
+    if ((st = pgi__gpu_est_sequence(g, record_gather, s, &f, s->photons, f.t + 5, es, gather_passes, &f.gpu_build,
+                                    &f.gpu_gather)))
+        return st;
     if ((st = pgi__gpu_download(g, s->out, 0, a->out_rgb, 3 * f.ns * sizeof(float))) || (st = tl_counters(s, es)))
         return st;
     f.t[7] = pgi__now_ms();
@@ -349,11 +313,7 @@ static pgi_status tl_device_reserve(void *state, const pgi__gpu_est_inputs *in, 
     tl_state *s = state;
     pgi_status st;
     memset(&s->dev_es, 0, sizeof s->dev_es);
-    const tl_in ti = {.n = in->nphotons,
-                      .width = in->width,
-                      .height = in->height,
-                      .cam = in->camera,
-                      .radius = in->radius};
+    const pgi__gpu_est_in ti = pgi__gpu_est_in_device(in);
     tl_frame *f = &s->dev;
     if ((st = tl_plan(s, &ti, f))) return st;
     f->vs = in->samples;
@@ -373,12 +333,8 @@ static pgi_status tl_device_record(void *state, const pgi__gpu_est_inputs *in) {
 
 static pgi_status tl_device_finish(void *state, const pgi_named_value *t, int nt, pgi_estimator_stats *es) {
     tl_state *s = state;
-    tl_frame *f = &s->dev;
-    *es = s->dev_es; /* sequence 1's passes */
-    pgi__gpu_est_keep_timings(es, t, nt, own_passes, gather_passes, &f->gpu_build, &f->gpu_gather);
-    pgi__stats_pass(es, "gpu_submit", f->t[3] - f->t[2]);
-    es->build_ms = pgi__gpu_has_timestamps(s->g) ? f->gpu_build : f->t[3] - f->t[2];
-    es->estimate_ms = f->gpu_gather;
+    tl_frame *f = &s->dev; /* its stats: sequence 1's passes, then its own of the caller's sequence */
+    pgi__gpu_est_finish(s->g, es, &s->dev_es, t, nt, own_passes, gather_passes, f->t, &f->gpu_build, &f->gpu_gather);
     return tl_counters(s, es);
 }
 

@@ -4,6 +4,7 @@
 #include "differentials.h"
 
 #include "photongi/photongi.h"
+#include "scene/light.h"
 
 void pgi__pd_emit_dir(pgi__pdiff *pd, pgi__v3 d, pgi__v3 axis, float scale) {
     pgi__v3 t, b;
@@ -132,42 +133,21 @@ void pgi__pd_normal_derivative(const pgi_scene *s, uint32_t prim, float bu, floa
 
 void pgi__pd_emit(pgi__pdiff *pd, const pgi__light *L, float pl, pgi__v3 d, float sun_radius) {
     pl = fmaxf(pl, 1e-12f);
-    /* Photons of this light: n * pl. Scale the unit differentials so that the global Delta gives
-     * each photon its share of the light's solid angle (or area): |Delta dd|^2 = Omega / (n pl). */
-    switch (L->type) {
-    case PGI__LIGHT_POINT: pgi__pd_emit_dir(pd, d, v3(0.f, 0.f, 1.f), sqrtf(1.f / pl)); break;
-    case PGI__LIGHT_SPOT: {
-        float omega = 2.f * PGI__PI * (1.f - L->cos_cutoff);
-        pgi__pd_emit_dir(pd, d, v3_load(L->dir), sqrtf(omega / (4.f * PGI__PI * pl)));
-        break;
-    }
-    case PGI__LIGHT_SUN:
-    case PGI__LIGHT_ENV: {
-        /* parallel light over a disk of radius R: positional differentials only (the sky: its
-         * photons' directions spread, but each enters as a sun's would) */
+    const pgi__light_diff ld = pgi__light_diff_start(L, pl, d, sun_radius); /* the light's part */
+    if (ld.parallel) {
         pgi__v3 t, b;
         v3_basis(d, &t, &b);
-        float f = sqrtf(PGI__PI * sun_radius * sun_radius / (4.f * PGI__PI * pl));
-        pd->dp[0] = v3_scale(t, f);
-        pd->dp[1] = v3_scale(b, f);
+        pd->dp[0] = v3_scale(t, ld.scale);
+        pd->dp[1] = v3_scale(b, ld.scale);
         pd->dd[0] = pd->dd[1] = v3(0.f, 0.f, 0.f);
-        break;
+        return;
     }
-    case PGI__LIGHT_AREA:
-    default: {
-        /* cosine-weighted directions: solid angle per photon pi / (n pl cos theta); then the
-         * origin is offset back (eq. 13) so that the footprint at the light is its area share */
-        pgi__v3 n = v3_load(L->normal);
-        float ct = fmaxf(v3_dot(d, n), 0.05f);
-        pgi__pd_emit_dir(pd, d, n, sqrtf(1.f / (4.f * pl * ct)));
-        float B = v3_len(v3_cross(pd->dd[0], pd->dd[1]));
-        float A = L->area / (4.f * PGI__PI * pl); /* |dp1 x dp2| with Delta^2 |dp1 x dp2| = area / (n pl) */
-        float v = B > 0.f ? sqrtf(A / B) : 0.f;
-        pd->dp[0] = v3_scale(pd->dd[0], v);
-        pd->dp[1] = v3_scale(pd->dd[1], v);
-        break;
-    }
-    }
+    pgi__pd_emit_dir(pd, d, ld.axis, ld.scale);
+    if (!ld.offset) return;
+    float B = v3_len(v3_cross(pd->dd[0], pd->dd[1]));
+    float v = B > 0.f ? sqrtf(ld.area / B) : 0.f;
+    pd->dp[0] = v3_scale(pd->dd[0], v);
+    pd->dp[1] = v3_scale(pd->dd[1], v);
 }
 
 void pgi__pd_scatter(pgi__pdiff *pd, const pgi_scene *s, uint32_t prim, float bu, float bv, const pgi__surface *sf,

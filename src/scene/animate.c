@@ -307,13 +307,12 @@ pgi_status pgi__scene_check_numbers(const pgi_scene *s, const char *what) {
         const pgi__light *l = &s->lights[i];
         for (int c = 0; c < 3; c++)
             if (!(l->power[c] <= PGI_MAX_LIGHT_POWER)) {
-                static const char *const kinds[] = {"point", "spot", "sun", "area", "environment"};
+                const pgi__light_kind *k = pgi__light_kind_of(l->type);
                 return pgi__fail(PGI_ERR_PARSE,
                                  "%s: light %zu (%s) has a power of %g W, beyond %g (its intensity, irradiance or "
                                  "emission %g times %s)",
-                                 what, i, l->type <= PGI__LIGHT_ENV ? kinds[l->type] : "?", (double)l->power[c],
-                                 (double)PGI_MAX_LIGHT_POWER, (double)l->color[c],
-                                 l->type == PGI__LIGHT_SUN ? "the scene's cross-section" : "its solid angle or area");
+                                 what, i, k->name, (double)l->power[c], (double)PGI_MAX_LIGHT_POWER,
+                                 (double)l->color[c], k->power_of);
             }
     }
     if (s->env)
@@ -361,10 +360,10 @@ pgi_status pgi_scene_get_light_group(const pgi_scene *s, size_t i, pgi_light_gro
         for (size_t j = 0; j < s->nlights; j++) {
             const pgi__light *l = &s->lights[j];
             if (l->type == PGI__LIGHT_AREA || k++ != i) continue;
-            static const char *const names[] = {"point", "spot", "sun"};
-            out->kind = (pgi_light_kind)l->type;
-            out->name = names[l->type];
-            if (l->type != PGI__LIGHT_SUN) memcpy(out->position, l->pos, sizeof out->position);
+            const pgi__light_kind *kind = pgi__light_kind_of(l->type);
+            out->kind = (pgi_light_kind)kind->pub;
+            out->name = kind->name;
+            if (kind->fields & PGI__LIGHT_HAS_POS) memcpy(out->position, l->pos, sizeof out->position);
             return PGI_OK;
         }
     }
@@ -471,11 +470,13 @@ static pgi_status light_radiance(const pgi_light_desc *ld, const char *what, flo
 
 pgi_status pgi__light_from_desc(const pgi_light_desc *ld, const char *what, pgi__light *l) {
     memset(l, 0, sizeof *l);
-    if (ld->kind != PGI_LIGHT_KIND_POINT && ld->kind != PGI_LIGHT_KIND_SPOT && ld->kind != PGI_LIGHT_KIND_SUN)
-        return pgi__fail(PGI_ERR_INVALID_ARG,
-                         "%s: kind %d is not a point, spot or sun light (area lights are emissive materials)", what,
-                         (int)ld->kind);
-    l->type = (pgi__light_type)ld->kind;
+    const pgi__light_kind *k = pgi__light_kind_public((int)ld->kind);
+    if (!k) {
+        char names[128];
+        return pgi__fail(PGI_ERR_INVALID_ARG, "%s: kind %d is not a %s light (area lights are emissive materials)",
+                         what, (int)ld->kind, pgi__light_kind_list(names, sizeof names, 0, 1));
+    }
+    l->type = k->type;
     pgi_status st = light_radiance(ld, what, l->color);
     if (st) return st;
     if (!finite_vec(ld->position, (float)PGI_MAX_COORD) || !finite_vec(ld->direction, (float)PGI_MAX_COORD))
@@ -484,17 +485,17 @@ pgi_status pgi__light_from_desc(const pgi_light_desc *ld, const char *what, pgi_
                          "(-%g..%g)",
                          what, (double)ld->position[0], (double)ld->position[1], (double)ld->position[2],
                          (double)PGI_MAX_COORD, (double)PGI_MAX_COORD);
-    if (ld->kind != PGI_LIGHT_KIND_SUN) memcpy(l->pos, ld->position, sizeof l->pos);
-    if (ld->kind != PGI_LIGHT_KIND_POINT) {
+    if (k->fields & PGI__LIGHT_HAS_POS) memcpy(l->pos, ld->position, sizeof l->pos);
+    if (k->fields & PGI__LIGHT_HAS_DIR) {
         pgi__v3 d = v3_load(ld->direction);
         if (!(v3_len(d) > 0.f))
-            return pgi__fail(PGI_ERR_INVALID_ARG, "%s: a spot or sun light needs a direction", what);
+            return pgi__fail(PGI_ERR_INVALID_ARG, "%s: a %s light needs a direction", what, k->name);
         v3_store(l->dir, v3_norm(d));
     }
-    if (ld->kind == PGI_LIGHT_KIND_SPOT) {
+    if (k->fields & PGI__LIGHT_HAS_CONE) {
         if (!(ld->cone_deg > 0.f && ld->cone_deg < 180.f))
-            return pgi__fail(PGI_ERR_INVALID_ARG, "%s: spot cone half-angle %g is outside (0, 180) degrees", what,
-                             (double)ld->cone_deg);
+            return pgi__fail(PGI_ERR_INVALID_ARG, "%s: %s cone half-angle %g is outside (0, 180) degrees", what,
+                             k->name, (double)ld->cone_deg);
         l->cos_cutoff = cosf(ld->cone_deg * (PGI__PI / 180.f));
     }
     return PGI_OK;
@@ -558,7 +559,8 @@ pgi_status pgi_scene_get_light(const pgi_scene *s, size_t group, pgi_light_desc 
     memcpy(out->position, l->pos, sizeof out->position);
     memcpy(out->direction, l->dir, sizeof out->direction);
     split_radiance(l->color, out->color, &out->intensity);
-    if (l->type == PGI__LIGHT_SPOT) out->cone_deg = acosf(l->cos_cutoff) * (180.f / PGI__PI);
+    if (pgi__light_kind_of(l->type)->fields & PGI__LIGHT_HAS_CONE)
+        out->cone_deg = acosf(l->cos_cutoff) * (180.f / PGI__PI);
     return PGI_OK;
 }
 

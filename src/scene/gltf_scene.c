@@ -22,6 +22,7 @@
  * vertex colour sets past COLOR_0 (COLOR_0 is used: load_assimp.c), metallic or transmissive
  * materials, extensions). */
 #include "scene_internal.h"
+#include "light.h"
 
 #include <cJSON.h>
 #include <stdarg.h>
@@ -259,25 +260,23 @@ pgi_status pgi__gltf_read_extras(const char *path, const cJSON *root, pgi__gltf_
             for (int k = 0; k < 3; k++) L->color[k] = (float)(col[k] * inten);
             xform_point(m, origin, L->pos);
             xform_dir(m, fwd, L->dir);
-            if (strcmp(t, "point") == 0) {
-                L->type = PGI__LIGHT_POINT;
-                memset(L->dir, 0, sizeof L->dir);
-            } else if (strcmp(t, "spot") == 0) {
+            const pgi__light_kind *kind = pgi__light_kind_named(t, 1);
+            if (!kind) {
+                note(un, ucap, "light %d of type '%s'", (int)jl->valuedouble, t);
+                continue;
+            }
+            L->type = kind->type;
+            if (!(kind->fields & PGI__LIGHT_HAS_POS)) memset(L->pos, 0, sizeof L->pos);
+            if (!(kind->fields & PGI__LIGHT_HAS_DIR)) memset(L->dir, 0, sizeof L->dir);
+            if (kind->fields & PGI__LIGHT_HAS_CONE) {
                 const cJSON *spot = item(jlight, "spot");
                 double outer = num(spot, "outerConeAngle", 3.14159265358979323846 / 4.0);
                 double inner = num(spot, "innerConeAngle", 0.0);
                 if (!(outer > 0.0)) outer = 1e-4;
                 if (outer > 3.14159265358979323846 / 2.0) outer = 3.14159265358979323846 / 2.0;
                 if (!(inner >= 0.0) || inner > outer) inner = outer;
-                L->type = PGI__LIGHT_SPOT;
                 L->cos_cutoff = (float)((2.0 * cos(inner) + cos(outer)) / 3.0);
                 if (!(L->cos_cutoff < 1.f)) L->cos_cutoff = nextafterf(1.f, 0.f);
-            } else if (strcmp(t, "directional") == 0) {
-                L->type = PGI__LIGHT_SUN;
-                memset(L->pos, 0, sizeof L->pos);
-            } else {
-                note(un, ucap, "light %d of type '%s'", (int)jl->valuedouble, t);
-                continue;
             }
             x->nlights++;
         }

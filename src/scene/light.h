@@ -1,21 +1,107 @@
 /* Lights: what each type of light does, in one place (docs/architecture.md, "How to add a light
- * type"). A light is a pgi__light record (scene_internal.h, its type a pgi__light_type); here,
- * per type, its power (pgi__light_set_power), the start of a photon path from it (emission:
- * pgi__light_draw, then pgi__light_emit) and the light it sends towards a point (direct light:
- * pgi__light_delta, 16 points at once pgi__light_delta16; area lights: pgi__light_area_cdf,
- * pgi__light_area_toward, pgi__light_area_pdf). The photon tracer (src/photon/trace.c), the
+ * type"). Here: the types (pgi__light_type) and the light record (pgi__light); each type's entry
+ * of the table in light.c (pgi__light_kind: the name a scene description gives it, the fields its
+ * description holds, which the scene formats read generically); and per type its power
+ * (pgi__light_set_power), the start of its photons' differentials (pgi__light_diff_start), the
+ * start of a photon path from it (emission: pgi__light_draw, then pgi__light_emit) and the light
+ * it sends towards a point (direct light: pgi__light_delta, 16 points at once
+ * pgi__light_delta16; area lights: pgi__light_area_cdf, pgi__light_area_toward,
+ * pgi__light_area_pdf). The scene formats, the photon tracer (src/photon/trace.c), the
  * direct-light pass (src/view/view.c), the reference path tracer (src/reference/pathtrace.c) and
  * the GPU scene (src/gpu/gpu_scene.c) call these and test no light type themselves; the shaders'
  * copy is src/gpu/shaders/light.glsl.
  *
  * Everything here is the same operations as the code it came from, in the same order, so that
  * images stay the same bit for bit; the per-path functions are inline (the tracer is built for
- * three instruction sets). */
-#ifndef PGI__LIGHT_H
+ * three instruction sets).
+ *
+ * scene_internal.h includes the first part (the types) with PGI__LIGHT_TYPES_ONLY defined; the
+ * rest needs the whole scene. */
+#ifndef PGI__LIGHT_TYPES_H
+#define PGI__LIGHT_TYPES_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+typedef enum pgi__light_type {
+    PGI__LIGHT_POINT = 0, /* intensity I (W/sr), power 4 pi I */
+    PGI__LIGHT_SPOT = 1,  /* intensity I inside the cone cos(theta) >= cos_cutoff */
+    PGI__LIGHT_SUN = 2,   /* irradiance E (W/m^2) on surfaces facing -dir */
+    PGI__LIGHT_AREA = 3,  /* one emissive triangle, one-sided Lambertian, radiance Le */
+    PGI__LIGHT_ENV = 4    /* the environment (pgi__env.light; never in pgi_scene.lights) */
+    /* a new type: its number here, its entry in light.c k_kinds, LIGHT_* in light.glsl */
+} pgi__light_type;
+
+typedef struct pgi__light {
+    pgi__light_type type;
+    float pos[3];     /* point/spot */
+    float dir[3];     /* spot: axis; sun: direction light travels (unit) */
+    float color[3];   /* I (point/spot), E (sun), Le (area) */
+    float cos_cutoff; /* spot */
+    uint32_t tri;     /* area: triangle index */
+    float area;       /* area: triangle area */
+    float normal[3];  /* area: unit emitting normal */
+    float power[3];   /* computed by pgi__scene_finalize */
+} pgi__light;
+
+/* What a light's description holds besides its colour, field by field (pgi__light_kind.fields):
+ * each scene format reads the fields a type lists, in this order, in its own way (scene_json.c
+ * parse_light, gltf_scene.c, animate.c pgi__light_from_desc), and pgi__scene_check_numbers
+ * checks them. */
+enum {
+    PGI__LIGHT_HAS_POS = 1,  /* pos: a position */
+    PGI__LIGHT_HAS_DIR = 2,  /* dir: a direction, not zero (stored unit length) */
+    PGI__LIGHT_HAS_CONE = 4, /* cos_cutoff: from a cone's half-angle in degrees, in (0, 180) */
+};
+
+/* A light type's entry in the table (light.c). */
+typedef struct pgi__light_kind {
+    pgi__light_type type;
+    const char *name;     /* as a scene description spells it ("point"), and in messages */
+    const char *gltf;     /* its KHR_lights_punctual type; NULL: none */
+    const char *colour;   /* the key of its colour in a description ("intensity"); NULL: no
+                             description gives this type (area lights, the sky) */
+    const char *power_of; /* what its power is its colour times, for messages ("its solid angle") */
+    int pub;              /* its pgi_light_kind (photongi.h); -1: none */
+    int fields;           /* PGI__LIGHT_HAS_*: what its description holds besides the colour */
+    size_t count_at;      /* offsetof its count in pgi_scene_info; 0: not counted there */
+} pgi__light_kind;
+
+#endif /* PGI__LIGHT_TYPES_H */
+
+#if !defined(PGI__LIGHT_TYPES_ONLY) && !defined(PGI__LIGHT_H)
 #define PGI__LIGHT_H
 
 #include "scene/portal.h"
 #include "scene/scene_internal.h"
+
+/* ---------------------------------------------------------------- table */
+
+/* Type t's entry (every pgi__light_type has one). */
+const pgi__light_kind *pgi__light_kind_of(pgi__light_type t);
+
+/* The type named `name` by a scene description (gltf = 0: pgi__light_kind.name) or by glTF's
+ * KHR_lights_punctual (gltf = 1: .gltf); NULL when none. */
+const pgi__light_kind *pgi__light_kind_named(const char *name, int gltf);
+/* The type a description may give whose public kind (pgi_light_kind) is `pub`; NULL when none. */
+const pgi__light_kind *pgi__light_kind_public(int pub);
+
+/* The names of the types a description may give (public_only = 1: those with a public kind), for
+ * messages: `"point", "spot" or "sun"` (quoted = 1) or `point, spot or sun`. */
+const char *pgi__light_kind_list(char *buf, size_t n, int quoted, int public_only);
+
+/* The start of a photon's differentials (src/photon/differentials.c pgi__pd_emit): a light whose
+ * photons leave over a disk in parallel (parallel: positional differentials of length `scale`
+ * across d), or from a point or a surface in directions spread about `axis` (directional ones
+ * scaled by `scale`, then, offset: the origin moved back so that the footprint at the light is
+ * `area`, its share of the light's area). pl: the light's pick probability (> 0); sun_radius: the
+ * disk's. */
+typedef struct pgi__light_diff {
+    int parallel, offset;
+    pgi__v3 axis;
+    float scale, area;
+} pgi__light_diff;
+pgi__light_diff pgi__light_diff_start(const pgi__light *L, float pl, pgi__v3 d, float sun_radius);
 
 /* ---------------------------------------------------------------- power */
 
@@ -269,4 +355,4 @@ static inline float pgi__light_area_pdf(const pgi__light *lt, float pl, float d2
     return pl * d2 / (cl * lt->area);
 }
 
-#endif
+#endif /* PGI__LIGHT_H */

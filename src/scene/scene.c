@@ -181,22 +181,16 @@ pgi_status pgi__scene_finalize(pgi_scene *s, const char *what) {
                 return pgi__fail(PGI_ERR_PARSE,
                                  "%s: light %zu has an intensity or irradiance of %g, out of range (0..%g)", what, i,
                                  (double)l->color[c], (double)PGI_MAX_RADIANCE);
-        switch (l->type) {
-        case PGI__LIGHT_SPOT:
-            if (!(l->cos_cutoff > -1.f && l->cos_cutoff < 1.f))
-                return pgi__fail(PGI_ERR_PARSE, "%s: spot light %zu needs a cut-off angle in (0, 180) degrees", what,
-                                 i);
+        if (l->type == PGI__LIGHT_ENV)
+            return pgi__fail(PGI_ERR_PARSE, "%s: light %zu: the environment is not a light", what, i);
+        const pgi__light_kind *k = pgi__light_kind_of(l->type);
+        if ((k->fields & PGI__LIGHT_HAS_CONE) && !(l->cos_cutoff > -1.f && l->cos_cutoff < 1.f))
+            return pgi__fail(PGI_ERR_PARSE, "%s: %s light %zu needs a cut-off angle in (0, 180) degrees", what, k->name,
+                             i);
+        if (k->fields & PGI__LIGHT_HAS_DIR) {
             if (!(v3_len(v3_load(l->dir)) > 0.f))
-                return pgi__fail(PGI_ERR_PARSE, "%s: spot light %zu has a zero direction", what, i);
+                return pgi__fail(PGI_ERR_PARSE, "%s: %s light %zu has a zero direction", what, k->name, i);
             v3_store(l->dir, v3_norm(v3_load(l->dir)));
-            break;
-        case PGI__LIGHT_SUN:
-            if (!(v3_len(v3_load(l->dir)) > 0.f))
-                return pgi__fail(PGI_ERR_PARSE, "%s: sun light %zu has a zero direction", what, i);
-            v3_store(l->dir, v3_norm(v3_load(l->dir)));
-            break;
-        case PGI__LIGHT_ENV: return pgi__fail(PGI_ERR_PARSE, "%s: light %zu: the environment is not a light", what, i);
-        default: break;
         }
         pgi__light_set_power(l, diag);
     }
@@ -375,14 +369,9 @@ void pgi_scene_get_info(const pgi_scene *s, pgi_scene_info *o) {
     o->textures = s->ntexs;
     for (size_t m = 0; m < s->nmats; m++) o->cutout_materials += pgi__mat_masked(&s->mats[m]);
     o->lights = s->nlights;
-    for (size_t i = 0; i < s->nlights; i++) {
-        switch (s->lights[i].type) {
-        case PGI__LIGHT_POINT: o->point_lights++; break;
-        case PGI__LIGHT_SPOT: o->spot_lights++; break;
-        case PGI__LIGHT_SUN: o->sun_lights++; break;
-        case PGI__LIGHT_AREA: o->area_triangles++; break;
-        case PGI__LIGHT_ENV: break;
-        }
+    for (size_t i = 0; i < s->nlights; i++) { /* each type's count (light.c's table) */
+        const size_t at = pgi__light_kind_of(s->lights[i].type)->count_at;
+        if (at) ++*(size_t *)((char *)o + at);
     }
     o->sky_lights = s->env ? 1 : 0;
     o->portals = s->nportals;

@@ -69,25 +69,11 @@ typedef struct pgi__texture {
     char canon[512]; /* the file's canonical path (realpath), "" for embedded ones: one decode a file */
 } pgi__texture;
 
-typedef enum pgi__light_type {
-    PGI__LIGHT_POINT = 0, /* intensity I (W/sr), power 4 pi I */
-    PGI__LIGHT_SPOT = 1,  /* intensity I inside the cone cos(theta) >= cos_cutoff */
-    PGI__LIGHT_SUN = 2,   /* irradiance E (W/m^2) on surfaces facing -dir */
-    PGI__LIGHT_AREA = 3,  /* one emissive triangle, one-sided Lambertian, radiance Le */
-    PGI__LIGHT_ENV = 4    /* the environment (pgi__env.light; never in pgi_scene.lights) */
-} pgi__light_type;
-
-typedef struct pgi__light {
-    pgi__light_type type;
-    float pos[3];     /* point/spot */
-    float dir[3];     /* spot: axis; sun: direction light travels (unit) */
-    float color[3];   /* I (point/spot), E (sun), Le (area) */
-    float cos_cutoff; /* spot */
-    uint32_t tri;     /* area: triangle index */
-    float area;       /* area: triangle area */
-    float normal[3];  /* area: unit emitting normal */
-    float power[3];   /* computed by pgi__scene_finalize */
-} pgi__light;
+/* The lights' types and their record, pgi__light: light.h (the types only, here; its functions
+ * need the scene). */
+#define PGI__LIGHT_TYPES_ONLY
+#include "scene/light.h"
+#undef PGI__LIGHT_TYPES_ONLY
 
 /* Environment light (env.c): radiance from infinitely far away. `w` is the direction the
  * light comes from (pointing away from the scene, the way a ray escapes). */

@@ -36,6 +36,7 @@
  * with '_' and "comment", "description", "credit", "license", "source",
  * which are ignored. Every error message names the JSON file and the key. */
 #include "scene_internal.h"
+#include "light.h"
 #include "portal.h"
 
 #include <cJSON.h>
@@ -235,47 +236,41 @@ static pgi_status parse_camera(const char *path, const cJSON *c, const char *whe
     return PGI_OK;
 }
 
+/* A light: its type's fields (light.h pgi__light_kind), in the table's order, then its colour. */
 static pgi_status parse_light(const char *path, const cJSON *l, const char *where, pgi__light *L) {
     memset(L, 0, sizeof *L);
+    char names[128];
+    pgi__light_kind_list(names, sizeof names, 1, 0);
     if (!cJSON_IsObject(l)) return pgi__fail(PGI_ERR_PARSE, "%s: %s must be an object", path, where);
     const cJSON *t = cJSON_GetObjectItemCaseSensitive(l, "type");
-    if (!t) return pgi__fail(PGI_ERR_PARSE, "%s: %s.type is missing (\"point\", \"spot\" or \"sun\")", path, where);
-    if (!cJSON_IsString(t))
-        return pgi__fail(PGI_ERR_PARSE, "%s: %s.type must be a string (\"point\", \"spot\" or \"sun\")", path, where);
-    pgi_status st;
-    if (strcmp(t->valuestring, "point") == 0) {
-        static const char *const keys[] = {"type", "position", "intensity", NULL};
-        L->type = PGI__LIGHT_POINT;
-        if ((st = check_keys(path, l, where, keys))) return st;
-        if ((st = get_vec3(path, l, where, "position", ANY, (double)PGI_MAX_COORD, 1, L->pos, NULL))) return st;
-        if ((st = get_vec3(path, l, where, "intensity", NONNEG, (double)PGI_MAX_RADIANCE, 1, L->color, NULL)))
-            return st;
-    } else if (strcmp(t->valuestring, "spot") == 0) {
-        static const char *const keys[] = {"type", "position", "direction", "angle", "intensity", NULL};
-        L->type = PGI__LIGHT_SPOT;
-        double angle = 0.0;
-        if ((st = check_keys(path, l, where, keys))) return st;
-        if ((st = get_vec3(path, l, where, "position", ANY, (double)PGI_MAX_COORD, 1, L->pos, NULL))) return st;
-        if ((st = get_vec3(path, l, where, "direction", ANY, (double)PGI_MAX_COORD, 1, L->dir, NULL))) return st;
-        if ((st = get_number(path, l, where, "angle", 1, 0.0, 1, 179.9, &angle, NULL))) return st;
-        if ((st = get_vec3(path, l, where, "intensity", NONNEG, (double)PGI_MAX_RADIANCE, 1, L->color, NULL)))
-            return st;
-        if (!(v3_len(v3_load(L->dir)) > 0.f))
-            return pgi__fail(PGI_ERR_PARSE, "%s: %s.direction must not be zero", path, where);
-        L->cos_cutoff = (float)cos(angle * (3.14159265358979323846 / 180.0));
-    } else if (strcmp(t->valuestring, "sun") == 0) {
-        static const char *const keys[] = {"type", "direction", "irradiance", NULL};
-        L->type = PGI__LIGHT_SUN;
-        if ((st = check_keys(path, l, where, keys))) return st;
-        if ((st = get_vec3(path, l, where, "direction", ANY, (double)PGI_MAX_COORD, 1, L->dir, NULL))) return st;
-        if ((st = get_vec3(path, l, where, "irradiance", NONNEG, (double)PGI_MAX_RADIANCE, 1, L->color, NULL)))
-            return st;
-        if (!(v3_len(v3_load(L->dir)) > 0.f))
-            return pgi__fail(PGI_ERR_PARSE, "%s: %s.direction must not be zero", path, where);
-    } else {
-        return pgi__fail(PGI_ERR_PARSE, "%s: %s.type '%s' is unknown (expected \"point\", \"spot\" or \"sun\")", path,
-                         where, t->valuestring);
-    }
+    if (!t) return pgi__fail(PGI_ERR_PARSE, "%s: %s.type is missing (%s)", path, where, names);
+    if (!cJSON_IsString(t)) return pgi__fail(PGI_ERR_PARSE, "%s: %s.type must be a string (%s)", path, where, names);
+    const pgi__light_kind *k = pgi__light_kind_named(t->valuestring, 0);
+    if (!k)
+        return pgi__fail(PGI_ERR_PARSE, "%s: %s.type '%s' is unknown (expected %s)", path, where, t->valuestring,
+                         names);
+    const char *keys[6] = {"type"};
+    int nk = 1;
+    if (k->fields & PGI__LIGHT_HAS_POS) keys[nk++] = "position";
+    if (k->fields & PGI__LIGHT_HAS_DIR) keys[nk++] = "direction";
+    if (k->fields & PGI__LIGHT_HAS_CONE) keys[nk++] = "angle";
+    keys[nk++] = k->colour;
+    L->type = k->type;
+    pgi_status st = check_keys(path, l, where, keys);
+    if (st) return st;
+    double angle = 0.0;
+    if ((k->fields & PGI__LIGHT_HAS_POS) &&
+        (st = get_vec3(path, l, where, "position", ANY, (double)PGI_MAX_COORD, 1, L->pos, NULL)))
+        return st;
+    if ((k->fields & PGI__LIGHT_HAS_DIR) &&
+        (st = get_vec3(path, l, where, "direction", ANY, (double)PGI_MAX_COORD, 1, L->dir, NULL)))
+        return st;
+    if ((k->fields & PGI__LIGHT_HAS_CONE) && (st = get_number(path, l, where, "angle", 1, 0.0, 1, 179.9, &angle, NULL)))
+        return st;
+    if ((st = get_vec3(path, l, where, k->colour, NONNEG, (double)PGI_MAX_RADIANCE, 1, L->color, NULL))) return st;
+    if ((k->fields & PGI__LIGHT_HAS_DIR) && !(v3_len(v3_load(L->dir)) > 0.f))
+        return pgi__fail(PGI_ERR_PARSE, "%s: %s.direction must not be zero", path, where);
+    if (k->fields & PGI__LIGHT_HAS_CONE) L->cos_cutoff = (float)cos(angle * (3.14159265358979323846 / 180.0));
     return PGI_OK;
 }
 

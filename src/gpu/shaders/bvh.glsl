@@ -98,6 +98,23 @@ bool bvh_tri_hit(BvhTri tr, vec3 o, vec3 d, float tnear, float tfar, out float t
 
 int bvh_wrap(int i, int n) { return i < 0 ? i + n : i >= n ? i - n : i; }
 
+// The taps of a bilinear, wrapping lookup at (u, v) on w x h texels (texture.c: v = 0 the bottom
+// row, texel centres at half-integers, a NaN or infinite coordinate read as 0): columns x0, x1 and
+// rows y0, y1 in xy, the weights of x1 and y1 in t. Shared by the cut-out test and tex_bilinear.
+void bilinear_taps(float u, float v, int w, int h, out ivec4 xy, out vec2 t) {
+    if (isnan(u) || isinf(u)) u = 0.0;
+    if (isnan(v) || isinf(v)) v = 0.0;
+    precise float fu = u - floor(u);
+    precise float fv = v - floor(v);
+    precise float x = fu * float(w) - 0.5;
+    precise float y = (1.0 - fv) * float(h) - 0.5;
+    const float x0f = floor(x), y0f = floor(y);
+    precise float tx = x - x0f;
+    precise float ty = y - y0f;
+    xy = ivec4(bvh_wrap(int(x0f), w), bvh_wrap(int(x0f) + 1, w), bvh_wrap(int(y0f), h), bvh_wrap(int(y0f) + 1, h));
+    t = vec2(tx, ty);
+}
+
 float bvh_texel(BvhMask m, int x, int y) {
     const uint k = m.texel0 + uint(y) * m.width + uint(x);
     return float((bvh_alpha[k >> 2] >> (8u * (k & 3u))) & 0xFFu);
@@ -113,20 +130,12 @@ bool bvh_cut_out(uint flags, float b1, float b2) {
     precise float v = bw * m.uv01.y + b1 * m.uv01.w + b2 * m.uv2.y;
     float alpha = 1.0;
     if (m.width > 0u) {
-        const int w = int(m.width), h = int(m.height);
-        if (isnan(u) || isinf(u)) u = 0.0;
-        if (isnan(v) || isinf(v)) v = 0.0;
-        precise float fu = u - floor(u);
-        precise float fv = v - floor(v);
-        precise float x = fu * float(w) - 0.5;
-        precise float y = (1.0 - fv) * float(h) - 0.5;
-        const float x0f = floor(x), y0f = floor(y);
-        precise float tx = x - x0f;
-        precise float ty = y - y0f;
-        const int x0 = bvh_wrap(int(x0f), w), x1 = bvh_wrap(int(x0f) + 1, w);
-        const int y0 = bvh_wrap(int(y0f), h), y1 = bvh_wrap(int(y0f) + 1, h);
-        const float a = bvh_texel(m, x0, y0), b = bvh_texel(m, x1, y0);
-        const float c = bvh_texel(m, x0, y1), d = bvh_texel(m, x1, y1);
+        ivec4 q;
+        vec2 wt;
+        bilinear_taps(u, v, int(m.width), int(m.height), q, wt);
+        const float tx = wt.x, ty = wt.y;
+        const float a = bvh_texel(m, q.x, q.z), b = bvh_texel(m, q.y, q.z);
+        const float c = bvh_texel(m, q.x, q.w), d = bvh_texel(m, q.y, q.w);
         precise float top = a + (b - a) * tx;
         precise float bot = c + (d - c) * tx;
         precise float al = (top + (bot - top) * ty) * (1.0 / 255.0);

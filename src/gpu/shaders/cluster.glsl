@@ -12,9 +12,7 @@
 #ifndef PGIS_CLUSTER_GLSL
 #define PGIS_CLUSTER_GLSL
 
-struct Photon { // pgi__packed_photon (src/estimators/packed.h): 36 bytes
-    float px, py, pz, dx, dy, dz, fr, fg, fb;
-};
+#include "photon.glsl"
 
 // 64 bytes. World-space box of the samples, normal cone (axis; dot(axis, w) > acc: the photon
 // direction is above every normal, < rej: below every one), all samples Lambertian, children.

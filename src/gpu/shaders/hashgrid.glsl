@@ -6,9 +6,7 @@
 
 #define FIELD_BIAS 1048576 // 1 << (21 - 1), as est_hashgrid.c
 
-struct Photon { // pgi__packed_photon (src/estimators/packed.h): 36 bytes
-    float px, py, pz, dx, dy, dz, fr, fg, fb;
-};
+#include "photon.glsl"
 
 // est_hashgrid.c cell_coord: floorf(x * inv), NaN and out of range clamped.
 int cell_coord(float x, float inv) {

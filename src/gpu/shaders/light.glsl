@@ -9,6 +9,11 @@
 #ifndef PGIS_LIGHT_GLSL
 #define PGIS_LIGHT_GLSL
 
+// pgi__light_type (light.h)
+#define LIGHT_POINT 0u
+#define LIGHT_SPOT 1u
+#define LIGHT_SUN 2u
+#define LIGHT_AREA 3u
 #define LIGHT_ENV 4u // the sky (its emission record only, never in lights[])
 
 vec3 sample_sphere(float u1, float u2) {

@@ -7,10 +7,7 @@
 #define PGIS_PBVH_GLSL
 
 #include "footprint.glsl"
-
-struct Photon { // pgi__packed_photon (src/estimators/packed.h): 36 bytes
-    float px, py, pz, dx, dy, dz, fr, fg, fb;
-};
+#include "photon.glsl"
 
 // 48 bytes. Box of the photons' footprints, the range of sorted photons [first, last], children
 // (LEAF | photon, or an internal node).

@@ -17,11 +17,7 @@
 #extension GL_GOOGLE_include_directive : require
 
 #include "bvh.glsl"
-#ifndef PGIS_HASHGRID_GLSL
-struct Photon { // hashgrid.glsl's (gather.glsl's gather() takes one); hashgrid.glsl has a push block
-    float px, py, pz, dx, dy, dz, fr, fg, fb;
-};
-#endif
+#include "photon.glsl" // gather.glsl's gather() takes one
 #define GATHER_LOBES_DECLARE layout(std430, set = 0, binding = 7) readonly restrict buffer Lobes { Lobe lobes[]; };
 #include "gather.glsl"
 
@@ -30,11 +26,6 @@ struct Photon { // hashgrid.glsl's (gather.glsl's gather() takes one); hashgrid.
 #define MAT_MIRROR 2u
 #define MAT_GLASS 3u
 #define MAT_PLASTIC 4u
-
-#define LIGHT_POINT 0u
-#define LIGHT_SPOT 1u
-#define LIGHT_SUN 2u
-#define LIGHT_AREA 3u
 
 #define SCENE_NORMALS 1u
 #define SCENE_UVS 2u
@@ -131,25 +122,17 @@ vec3 tex_texel(uint first, int w, int x, int y) {
     const uint p = texw[first + uint(y) * uint(w) + uint(x)];
     return vec3(tex_lut(p & 0xFFu), tex_lut((p >> 8) & 0xFFu), tex_lut((p >> 16) & 0xFFu));
 }
-int tex_wrap(int i, int n) { return i < 0 ? i + n : i >= n ? i - n : i; }
 
 // texture.c pgi__texture_lookup: bilinear, wrapping, v = 0 the bottom row, texel centres at
 // half-integers; a texture without texels gives 1.
 // bilinear on w x h texels from word `first`
 vec3 tex_bilinear(uint first, int w, int h, float u, float v) {
-    if (isnan(u) || isinf(u)) u = 0.0;
-    if (isnan(v) || isinf(v)) v = 0.0;
-    precise float fu = u - floor(u);
-    precise float fv = v - floor(v);
-    precise float x = fu * float(w) - 0.5;
-    precise float y = (1.0 - fv) * float(h) - 0.5;
-    const float x0f = floor(x), y0f = floor(y);
-    precise float tx = x - x0f;
-    precise float ty = y - y0f;
-    const int x0 = tex_wrap(int(x0f), w), x1 = tex_wrap(int(x0f) + 1, w);
-    const int y0 = tex_wrap(int(y0f), h), y1 = tex_wrap(int(y0f) + 1, h);
-    const vec3 a = tex_texel(first, w, x0, y0), b = tex_texel(first, w, x1, y0);
-    const vec3 c = tex_texel(first, w, x0, y1), e = tex_texel(first, w, x1, y1);
+    ivec4 q;
+    vec2 wt;
+    bilinear_taps(u, v, w, h, q, wt); // bvh.glsl
+    const float tx = wt.x, ty = wt.y;
+    const vec3 a = tex_texel(first, w, q.x, q.z), b = tex_texel(first, w, q.y, q.z);
+    const vec3 c = tex_texel(first, w, q.x, q.w), e = tex_texel(first, w, q.y, q.w);
     precise vec3 top = a * (1.0 - tx) + b * tx;
     precise vec3 bot = c * (1.0 - tx) + e * tx;
     precise vec3 r = top * (1.0 - ty) + bot * ty;

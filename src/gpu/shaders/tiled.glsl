@@ -5,9 +5,7 @@
 #ifndef PGIS_TILED_GLSL
 #define PGIS_TILED_GLSL
 
-struct Photon { // pgi__packed_photon (src/estimators/packed.h): 36 bytes
-    float px, py, pz, dx, dy, dz, fr, fg, fb;
-};
+#include "photon.glsl"
 
 layout(push_constant) uniform Push {
     float ex, ey, ez, rx, ry, rz, ux, uy, uz, fx, fy, fz; // eye, right, up, forward

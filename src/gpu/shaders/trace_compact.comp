@@ -9,9 +9,7 @@
 layout(local_size_x = 64) in;
 #include "common.glsl"
 
-struct Photon {
-    float px, py, pz, dx, dy, dz, fr, fg, fb;
-};
+#include "photon.glsl"
 layout(std430, set = 0, binding = 0) readonly restrict buffer Slots { Photon slots[]; };
 layout(std430, set = 0, binding = 1) readonly restrict buffer Scan { uint scan[]; };
 layout(std430, set = 0, binding = 2) writeonly restrict buffer Out { Photon outp[]; };
