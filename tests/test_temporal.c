@@ -288,8 +288,7 @@ static void test_refusals(void **state) {
 
 TU_MAIN("temporal", NULL, NULL,
         cmocka_unit_test_setup_teardown(test_still_converges_to_progressive, fixture_setup, fixture_teardown),
-        cmocka_unit_test(test_projection_is_analytic),
-        cmocka_unit_test(test_jitter_lands_on_pixel),
+        cmocka_unit_test(test_projection_is_analytic), cmocka_unit_test(test_jitter_lands_on_pixel),
         cmocka_unit_test_setup_teardown(test_moves_and_disocclusion, fixture_setup, fixture_teardown),
         cmocka_unit_test(test_atrous),
         cmocka_unit_test_setup_teardown(test_threads_same_bytes, fixture_setup, fixture_teardown),

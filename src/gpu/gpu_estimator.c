@@ -71,17 +71,7 @@ pgi_status pgi__gpu_pack_samples(pgi__gpu_vs_pack *s, const pgi_view_samples *vs
         *o = (pgi__gpu_vs){v.px,   v.py,   v.pz,   v.nx,   v.ny,       v.nz,         v.wo.x,        v.wo.y,
                            v.wo.z, v.kd.x, v.kd.y, v.kd.z, v.one_m_eo, vs->flags[i], s->lobe_of[i], 0};
         if (v.lambert) continue;
-        pgi__gpu_lobe *l = &s->hlobes[s->lobe_of[i]];
-        memset(l, 0, sizeof *l);
-        l->model = (uint32_t)v.lobe.model;
-        l->ksx = v.lobe.ks.x;
-        l->ksy = v.lobe.ks.y;
-        l->ksz = v.lobe.ks.z;
-        l->s = v.lobe.s;
-        l->eta = v.lobe.eta;
-        l->a2 = v.lobe.a2;
-        l->inv_1mEavg = v.lobe.inv_1mEavg;
-        if (v.lobe.model == PGI__LOBE_GGX) memcpy(l->E, v.lobe.E, sizeof l->E);
+        pgi__gpu_lobe_pack(&v.lobe, &s->hlobes[s->lobe_of[i]]);
     }
     *nlobes = nl;
     return PGI_OK;

@@ -5,6 +5,8 @@
 #ifndef PGI__GPU_ESTIMATOR_H
 #define PGI__GPU_ESTIMATOR_H
 
+#include <string.h>
+
 #include "gpu/gpu.h"
 #include "estimators/packed.h" /* pgi__packed_photon */
 #include "scene/bsdf.h"        /* PGI__GGX_NMU */
@@ -91,6 +93,21 @@ typedef struct pgi__gpu_lobe {
     float ksx, ksy, ksz, s, eta, a2, inv_1mEavg;
     float E[PGI__GGX_NMU];
 } pgi__gpu_lobe;
+_Static_assert(sizeof(pgi__gpu_lobe) == 4 * (8 + PGI__GGX_NMU) && offsetof(pgi__gpu_lobe, E) == 32, "gather.glsl Lobe");
+
+/* lo as gather.glsl's Lobe (the table's unused entries zero). */
+static inline void pgi__gpu_lobe_pack(const pgi__lobe *lo, pgi__gpu_lobe *l) {
+    memset(l, 0, sizeof *l);
+    l->model = (uint32_t)lo->model;
+    l->ksx = lo->ks.x;
+    l->ksy = lo->ks.y;
+    l->ksz = lo->ks.z;
+    l->s = lo->s;
+    l->eta = lo->eta;
+    l->a2 = lo->a2;
+    l->inv_1mEavg = lo->inv_1mEavg;
+    if (lo->model == PGI__LOBE_GGX) memcpy(l->E, lo->E, sizeof l->E);
+}
 
 typedef struct pgi__gpu_vs_pack {
     pgi__gpu_vs *hvs;

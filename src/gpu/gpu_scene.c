@@ -1,19 +1,13 @@
 /* The scene on the GPU (gpu_scene.h): packing the scene's internals into the std430 arrays
  * scene.glsl reads, and keeping them in step with the scene's versions. */
 #include "gpu/gpu_scene.h"
+#include "gpu/gpu_estimator.h" /* pgi__gpu_lobe */
 
 #include <math.h>
 #include <string.h>
 
 #include "scene/bsdf.h"
 #include "scene/light.h"
-
-/* gather.glsl Lobe (gpu_hashgrid.c's gpu_lobe) */
-typedef struct {
-    uint32_t model;
-    float ks[3], s, eta, a2, inv_1mEavg;
-    float E[PGI__GGX_NMU];
-} gpu_lobe;
 
 struct pgi__gpu_scene {
     pgi__gpu *g;
@@ -159,7 +153,7 @@ static pgi_status upload_static(pgi__gpu_scene *gs, const pgi_scene *s) {
     pgi_status st = PGI_OK;
     uint32_t *t = calloc(4 * (s->ntris + 1), sizeof *t);
     pgi__gpu_mat *m = calloc(s->nmats + 1, sizeof *m);
-    gpu_lobe *lb = calloc(s->nmats + 1, sizeof *lb);
+    pgi__gpu_lobe *lb = calloc(s->nmats + 1, sizeof *lb);
     size_t words = LUT_WORDS + 4 * s->ntexs;
     for (size_t i = 0; i < s->ntexs; i++)
         words += (size_t)s->texs[i].width * (size_t)s->texs[i].height + pgi__texture_mip_bytes(&s->texs[i]) / 4;
@@ -184,15 +178,7 @@ static pgi_status upload_static(pgi__gpu_scene *gs, const pgi_scene *s) {
         if (pgi__mat_specular(M)) continue;
         pgi__lobe lo;
         pgi__lobe_of_material(M, &lo);
-        lb[i].model = (uint32_t)lo.model;
-        lb[i].ks[0] = lo.ks.x;
-        lb[i].ks[1] = lo.ks.y;
-        lb[i].ks[2] = lo.ks.z;
-        lb[i].s = lo.s;
-        lb[i].eta = lo.eta;
-        lb[i].a2 = lo.a2;
-        lb[i].inv_1mEavg = lo.inv_1mEavg;
-        if (lo.model == PGI__LOBE_GGX) memcpy(lb[i].E, lo.E, sizeof lb[i].E);
+        pgi__gpu_lobe_pack(&lo, &lb[i]);
     }
     memcpy(tx, pgi__srgb8_texture_lut, LUT_WORDS * sizeof(float));
     size_t at = LUT_WORDS + 4 * s->ntexs;

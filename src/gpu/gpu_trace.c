@@ -95,6 +95,8 @@ typedef struct {
     float r_min, r_max, smoothing, smoothing_caustic, delta;
     uint32_t pad[2];
 } trace_fp_push;
+_Static_assert(offsetof(trace_fp_push, policy) == 96 && offsetof(trace_fp_push, delta) == 116,
+               "differentials.glsl FpParams after trace.glsl's push");
 typedef struct {
     uint32_t npaths, bounces, base, remaining;
 } compact_push;
