@@ -466,9 +466,34 @@ static void portal_mode_is_checked(void **state) {
     pgi_scene_destroy(s);
 }
 
+/* The default direct_samples: PGI_DIRECT_SAMPLES_PORTALS (8) on the CPU where the sky is sampled
+ * through portals (window-box-portals), PGI_DIRECT_SAMPLES_DEFAULT (16) without them (window-box,
+ * and the Cornell box: portals but no sky would not count either), a value given as given. */
+static void portal_default_direct_samples(void **state) {
+    (void)state;
+    const char *names[3] = {"window-box-portals", "window-box", "cornell"};
+    const int want[3] = {PGI_DIRECT_SAMPLES_PORTALS, PGI_DIRECT_SAMPLES_DEFAULT, PGI_DIRECT_SAMPLES_DEFAULT};
+    assert_true(PGI_DIRECT_SAMPLES_PORTALS < PGI_DIRECT_SAMPLES_DEFAULT);
+    for (int i = 0; i < 3; i++)
+        for (int given = 0; given <= 16; given += 16) {
+            pgi_scene *s = tu_scene(names[i]);
+            pgi_render_desc d = {0};
+            d.width = 16;
+            d.height = 12;
+            d.photons = 1000;
+            d.direct_samples = given;
+            pgi_image im = {0};
+            pgi_frame_stats fs;
+            TU_CHECK_OK(pgi_render(s, &d, &im, &fs));
+            assert_int_equal(fs.settings.direct_samples, given ? given : want[i]);
+            pgi_image_free(&im);
+            pgi_scene_destroy(s);
+        }
+}
+
 TU_MAIN("portals", NULL, NULL, cmocka_unit_test(portal_direct_pdf_is_normalised),
         cmocka_unit_test(portal_direct_sampling_matches_pdf), cmocka_unit_test(portals_change_nothing_else),
         cmocka_unit_test(portal_mode_is_checked), cmocka_unit_test(portal_emission_sky_is_unbiased),
         cmocka_unit_test(portal_emission_sun_is_unbiased), cmocka_unit_test(portal_emission_in_series_is_unbiased),
         cmocka_unit_test(portal_with_environment_map), cmocka_unit_test(portal_image_mean_and_auto),
-        cmocka_unit_test(portal_direct_same_mean_less_noise))
+        cmocka_unit_test(portal_direct_same_mean_less_noise), cmocka_unit_test(portal_default_direct_samples))

@@ -235,6 +235,12 @@ typedef enum pgi_device {
  * 0 = automatic: the first discrete GPU, else integrated, else a CPU device (lavapipe). */
 #define PGI_DEVICE_INDEX(i) ((i) + 1)
 
+/* pgi_render_desc.direct_samples when left 0: PGI_DIRECT_SAMPLES_PORTALS where the sky's direct light
+ * is sampled through portals (a CPU frame of a scene with a sky and "portals"), else
+ * PGI_DIRECT_SAMPLES_DEFAULT. The statistics' settings report the resolved count. */
+#define PGI_DIRECT_SAMPLES_DEFAULT 16
+#define PGI_DIRECT_SAMPLES_PORTALS 8
+
 /* Zero means "default" for every field, nested estimator options included. */
 typedef struct pgi_render_desc {
     const char *estimator;  /* registered name; default PGI_DEFAULT_ESTIMATOR */
@@ -250,7 +256,10 @@ typedef struct pgi_render_desc {
     uint64_t seed;          /* default 1 */
     int threads;            /* OpenMP threads of the library's parallel regions; 0 = OpenMP's default */
     int camera;             /* index into the scene's cameras (pgi_scene_find_camera finds one by name) */
-    int direct_samples;     /* shadow samples per pixel for area lights and for the sky (1..4096); default 16 */
+    int direct_samples;     /* shadow samples per pixel for area lights and for the sky (1..4096); default
+                               PGI_DIRECT_SAMPLES_DEFAULT (16), or PGI_DIRECT_SAMPLES_PORTALS (8) on the CPU in a
+                               scene with a sky and portals, whose sky samples are worth more (docs/emission.md,
+                               Portals); a value given is used as given */
     pgi_output output;
     const pgi_camera_def *view; /* non-NULL: render from this camera instead of the scene's `camera`
                                    (borrowed for the call; the viewer's free camera) */
