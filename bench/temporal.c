@@ -178,8 +178,9 @@ int main(int argc, char **argv) {
                     fprintf(stderr, "photongi-bench-temporal: cannot keep the reference: %s\n", pgi_last_error());
         }
         /* the mean of the halves' squared difference over 4: the full reference's noise variance
-           (tone-mapped, as the PSNR), over the values finite in both (a half can hold a few
-           non-finite pixels that the whole does not: Sibenik's strafe, frame 20) */
+           (tone-mapped, as the PSNR), over the values finite in both (a half cached by a build
+           before the EXR writer's fix can read back with a few non-finite pixels: Sibenik's
+           strafe, frame 20, src/io/image_io.c) */
         size_t finite = 0;
         for (size_t i = 0; i < n8; i++) finite += isfinite(half.rgb[i]) && isfinite(ref.rgb[i]);
         for (size_t i = 0; i < n8; i++) half.rgb[i] = 2.f * ref.rgb[i] - half.rgb[i]; /* the second half */

@@ -237,12 +237,36 @@ static int rgb_offset(const char *name) {
     return -1;
 }
 
+/* OpenEXRCore (3.1.5 here, Debian 12's, and later releases until the 2026 fix) stores a ZIP chunk's zlib stream when it is
+ * exactly as long as the packed pixels ("compbufsz > packed_bytes" where ">=" was meant,
+ * AcademySoftwareFoundation/openexr#2306, fixed by #2307), and every reader takes a chunk of the
+ * packed size for uncompressed pixels: the chunk reads back as garbage (NaN, 1e38), silently.
+ * Noisy float pixels (a path-traced reference) hit this about once in some hundreds of chunks. The
+ * library's compressor runs as it is and, where its output is not shorter than the packed pixels,
+ * the packed pixels are stored instead, as the file format says and the fixed library does: other
+ * chunks keep their bytes. `encoding_user_data` holds the library's compressor. */
+typedef struct exr_compress_hook {
+    exr_result_t (*compress)(exr_encode_pipeline_t *enc);
+} exr_compress_hook;
+
+static exr_result_t exr_compress_not_longer(exr_encode_pipeline_t *enc) {
+    const exr_compress_hook *hook = enc->encoding_user_data;
+    exr_result_t rv = hook->compress(enc);
+    if (rv == EXR_ERR_SUCCESS && enc->compressed_bytes >= enc->packed_bytes && enc->compressed_buffer &&
+        enc->compressed_buffer != enc->packed_buffer && enc->compressed_alloc_size >= enc->packed_bytes) {
+        memcpy(enc->compressed_buffer, enc->packed_buffer, (size_t)enc->packed_bytes);
+        enc->compressed_bytes = (size_t)enc->packed_bytes;
+    }
+    return rv;
+}
+
 static pgi_status write_exr(const pgi_image *img, const char *path, const char *wpath) {
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
     init.error_handler_fn = exr_error_cb;
     exr_context_t ctxt = NULL;
     exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
     int enc_init = 0, part = 0, spc = 1;
+    exr_compress_hook hook = {NULL};
     const int w = img->width, h = img->height;
     g_exr_msg[0] = 0;
 
@@ -288,6 +312,11 @@ static pgi_status write_exr(const pgi_image *img, const char *path, const char *
             ch->encode_from_ptr = (const uint8_t *)(img->rgb + ((size_t)cinfo.start_y * (size_t)w) * 3 + (size_t)off);
         }
         rv = exr_encoding_choose_default_routines(ctxt, part, &enc);
+        if (rv == EXR_ERR_SUCCESS && enc.compress_fn) {
+            hook.compress = enc.compress_fn;
+            enc.encoding_user_data = &hook;
+            enc.compress_fn = exr_compress_not_longer;
+        }
         if (rv == EXR_ERR_SUCCESS) rv = exr_encoding_run(ctxt, part, &enc);
     }
 
