@@ -63,6 +63,21 @@ typedef struct pt_eye {
 _Static_assert(sizeof(pt_eye) == 64, "a pixel's eye record is one cache line");
 
 /* Applies the texels of *tq (pgi__texture_quad, NULL: applied) to sf's albedo. */
+/* The power heuristic a^2 / (a^2 + b^2) of a strategy with pdf a against one with pdf b. The
+ * squares overflow for a pdf above ~1.8e19 (a light seen edge-on): then the same weight from the
+ * ratio of the two, so that an extreme pdf gives 1 or 0, never inf / inf. */
+static inline float power_heuristic(float a, float b) {
+    float w = a * a / (a * a + b * b);
+    if (isfinite(w)) return w;
+    if (!(a > 0.f)) return 0.f;
+    if (a >= b) {
+        float r = b / a;
+        return 1.f / (1.f + r * r);
+    }
+    float r = a / b;
+    return r * r / (1.f + r * r);
+}
+
 static inline void texture_resolve(pgi__surface *sf, const pgi__texel_quad **tq) {
     if (*tq) sf->kd = v3_mul(sf->kd, pgi__texture_quad_lookup(*tq));
     *tq = NULL;
@@ -112,7 +127,7 @@ static pgi__v3 nee(const pt_ctx *C, pgi__surface *sf, const pgi__texel_quad **tq
                 texture_resolve(sf, tq);
                 float pdf_l = pgi__light_area_pdf(lt, pl, d2, cl);
                 float pdf_b = pgi__bsdf_pdf(sf, wo, wi);
-                float mis = pdf_l * pdf_l / (pdf_l * pdf_l + pdf_b * pdf_b);
+                float mis = power_heuristic(pdf_l, pdf_b);
                 pgi__v3 f = pgi__brdf_eval(sf->kd, &lobe, ns, wi, wo);
                 L = v3_add(L, v3_scale(v3_mul(f, v3_load(lt->color)), cs / pdf_l * mis));
             }
@@ -126,7 +141,7 @@ static pgi__v3 nee(const pt_ctx *C, pgi__surface *sf, const pgi__texel_quad **tq
         if (pdf_l > 0.f && cs > 0.f && v3_dot(ng, wi) > 0.f && !pgi__rt_occluded(C->rt, x, wi, 0.f, INFINITY)) {
             texture_resolve(sf, tq);
             float pdf_b = pgi__bsdf_pdf(sf, wo, wi);
-            float mis = pdf_l * pdf_l / (pdf_l * pdf_l + pdf_b * pdf_b);
+            float mis = power_heuristic(pdf_l, pdf_b);
             pgi__v3 f = pgi__brdf_eval(sf->kd, &lobe, ns, wi, wo);
             L = v3_add(L, v3_scale(v3_mul(f, pgi__env_eval(s->env, wi)), cs / pdf_l * mis));
         }
@@ -145,7 +160,7 @@ static pgi__v3 escaped(const pgi_scene *s, const pgi__surface *sf, pgi__v3 wo, p
     pgi__v3 ng = v3_scale(sf->ng, side), ns = v3_scale(sf->ns, side);
     /* nee() samples d only where it would count it */
     float pdf_l = v3_dot(ns, d) > 0.f && v3_dot(ng, d) > 0.f ? pgi__env_pdf_direct(s->env, ns, d) : 0.f;
-    return v3_scale(Le, pdf_b * pdf_b / (pdf_b * pdf_b + pdf_l * pdf_l));
+    return v3_scale(Le, power_heuristic(pdf_b, pdf_l));
 }
 
 /* One sample of pixel (x, y), through the point (x + jx, y + jy) of the image. `eye` (NULL:
@@ -232,7 +247,7 @@ static pgi__v3 trace_sample(const pt_ctx *C, int px, int py, float jx, float jy,
                 pgi__v3 a = pgi__scene_vertex(s, t[0]), b = pgi__scene_vertex(s, t[1]), c = pgi__scene_vertex(s, t[2]);
                 float area = 0.5f * v3_len(v3_cross(v3_sub(b, a), v3_sub(c, a)));
                 float pdf_l = pl * h.t * h.t / (cl * area);
-                mis = pdf_b * pdf_b / (pdf_b * pdf_b + pdf_l * pdf_l);
+                mis = power_heuristic(pdf_b, pdf_l);
             }
             L = v3_add(L, v3_scale(v3_mul(T, ke), mis));
         }
