@@ -163,7 +163,7 @@ static void bvh_device_path(void *ge, const pgi_estimate_args *a, float *out, pg
     pgi__gpu_buffer *ph = NULL, *vs = NULL, *lobes = NULL, *fp = NULL, *outb = NULL;
     double area = 0.0;
     TU_CHECK_OK(pgi__gpu_est_upload(g, a, &packed, &packed_cap, &pk, &ph, &vs, &lobes));
-    TU_CHECK_OK(pgi__gpu_est_upload_footprints(g, a->photons, a->threads, &hfp, &hfp_cap, &fp, &area));
+    TU_CHECK_OK(pgi__gpu_est_upload_footprints(g, a->photons, a->threads, "gpu_photons", &hfp, &hfp_cap, &fp, &area));
     const pgi__gpu_est_inputs in = {.photons = ph,
                                     .nphotons = a->photons->count,
                                     .samples = vs,

@@ -212,8 +212,9 @@ pgi_status pgi__gpu_est_upload(pgi__gpu *g, const pgi_estimate_args *a, pgi__pac
     return PGI_OK;
 }
 
-pgi_status pgi__gpu_est_upload_footprints(pgi__gpu *g, const pgi_photons *ph, int threads, pgi__gpu_footprint **host,
-                                          size_t *host_cap, pgi__gpu_buffer **buf, double *area) {
+pgi_status pgi__gpu_est_upload_footprints(pgi__gpu *g, const pgi_photons *ph, int threads, const char *what,
+                                          pgi__gpu_footprint **host, size_t *host_cap, pgi__gpu_buffer **buf,
+                                          double *area) {
     const size_t n = ph->count;
     double sum = 0.0;
     *area = 0.0;
@@ -232,7 +233,7 @@ pgi_status pgi__gpu_est_upload_footprints(pgi__gpu *g, const pgi_photons *ph, in
         sum += (double)PGI__PI * (double)r * (double)r;
     }
     *area = sum;
-    if ((st = pgi__gpu_buffer_reserve(g, buf, (n + 1) * sizeof(pgi__gpu_footprint), "gpu_photons")) ||
+    if ((st = pgi__gpu_buffer_reserve(g, buf, (n + 1) * sizeof(pgi__gpu_footprint), what)) ||
         (st = pgi__gpu_upload(g, *buf, 0, f, n * sizeof(pgi__gpu_footprint))))
         return st;
     return PGI_OK;

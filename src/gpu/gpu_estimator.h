@@ -183,10 +183,11 @@ pgi_status pgi__gpu_est_upload(pgi__gpu *g, const pgi_estimate_args *a, pgi__pac
                                pgi__gpu_buffer **lobes);
 /* `run`'s per-photon footprints uploaded (pgi_photons radius, with sax..sbz and nx..nz for ellipsoids,
  * as the frame's pgi__gpu_est_inputs.footprints): one pgi__gpu_footprint a photon in photon order
- * into *buf ("gpu_photons"), the host array (kept, growing) in *host. *area: the footprints' total
+ * into *buf (memory entry `what`), the host array (kept, growing) in *host. *area: the footprints' total
  * area, the sum of pi r^2 in double (est_bvh.c's T_auto). Photons without radius: nothing, 0. */
-pgi_status pgi__gpu_est_upload_footprints(pgi__gpu *g, const pgi_photons *ph, int threads, pgi__gpu_footprint **host,
-                                          size_t *host_cap, pgi__gpu_buffer **buf, double *area);
+pgi_status pgi__gpu_est_upload_footprints(pgi__gpu *g, const pgi_photons *ph, int threads, const char *what,
+                                          pgi__gpu_footprint **host, size_t *host_cap, pgi__gpu_buffer **buf,
+                                          double *area);
 /* Packs vs (pgi__vs_load: the CPU estimators' set-up, GGX's E row included); *nlobes: glossy samples. */
 pgi_status pgi__gpu_pack_samples(pgi__gpu_vs_pack *p, const pgi_view_samples *vs, int threads, size_t *nlobes);
 void pgi__gpu_vs_pack_free(pgi__gpu_vs_pack *p);

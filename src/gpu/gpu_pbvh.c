@@ -272,7 +272,8 @@ static pgi_status pb_run(void *state, const pgi_estimate_args *a, pgi_estimator_
         box_area = 2.0 * (ex * ey + ey * ez + ez * ex);
     }
     double fp_area = 0.0;
-    if ((st = pgi__gpu_est_upload_footprints(g, ph, a->threads, &s->hfp, &s->hfp_cap, &s->fp, &fp_area)) ||
+    if ((st = pgi__gpu_est_upload_footprints(g, ph, a->threads, "gpu_photons", &s->hfp, &s->hfp_cap, &s->fp,
+                                             &fp_area)) ||
         (st = pb_plan(s, n, vs->width, vs->height, a->radius, fp, fp_area, a->scene_area, box_area)) ||
         (st = pgi__gpu_est_upload(g, a, &s->packed, &s->packed_cap, &s->pk, &s->raw, &s->vs, &s->lobes)))
         return st;

@@ -120,26 +120,6 @@ static pgi_status gpu_ensure_estimator(pgi_renderer *r, const pgi_render_desc *d
 
 static const char *gpu_device_name(pgi_renderer *r) { return pgi__gpu_device_name(state_of(r)->gpu); }
 
-/* The CPU tracer's footprints of r->ph (radius policy d's) as device records, uploaded into
- * s->cpu_footprints ("gpu_footprints"). */
-static pgi_status upload_cpu_footprints(gpu_state *s, const pgi_photons *ph, int ellipsoids) {
-    const size_t np = ph->count;
-    pgi_status st = pgi__ensure((void **)&s->packed_fp, &s->packed_fp_cap, np + 1, sizeof(pgi__gpu_footprint));
-    if (st) return st;
-    for (size_t j = 0; j < np; j++) {
-        pgi__gpu_footprint *f = &s->packed_fp[j];
-        *f = (pgi__gpu_footprint){.r = ph->radius[j], .nx = ph->nx[j], .ny = ph->ny[j], .nz = ph->nz[j]};
-        if (ellipsoids) {
-            f->ax = ph->sax[j], f->ay = ph->say[j], f->az = ph->saz[j];
-            f->bx = ph->sbx[j], f->by = ph->sby[j], f->bz = ph->sbz[j];
-        }
-    }
-    if ((st = pgi__gpu_buffer_reserve(s->gpu, &s->cpu_footprints, (np + 1) * sizeof(pgi__gpu_footprint),
-                                      "gpu_footprints")))
-        return st;
-    return pgi__gpu_upload(s->gpu, s->cpu_footprints, 0, s->packed_fp, np * sizeof(pgi__gpu_footprint));
-}
-
 /* Test hook PGI_GPU_CPU_PHOTONS=1: the CPU tracer's photons (pgi__photons_trace into r->ph), packed
  * and uploaded (a buffer also named "gpu_photons"; pass "gpu_upload"), with their footprints under
  * a radius policy ("gpu_footprints"), so that tests can compare the device's other passes with the
@@ -186,7 +166,11 @@ static pgi_status gpu_photons_cpu(pgi_renderer *r, const pgi_render_desc *d, con
         (st = pgi__gpu_upload(s->gpu, s->cpu_photons, 0, s->packed, np * sizeof(pgi__packed_photon))))
         return st;
     s->fp_ellipsoids = d->radius_policy == PGI_RADIUS_DIFFERENTIALS;
-    if (d->radius_policy != PGI_RADIUS_FIXED && (st = upload_cpu_footprints(s, &r->ph, s->fp_ellipsoids))) return st;
+    double fp_area;
+    if (d->radius_policy != PGI_RADIUS_FIXED &&
+        (st = pgi__gpu_est_upload_footprints(s->gpu, &r->ph, d->threads, "gpu_footprints", &s->packed_fp,
+                                             &s->packed_fp_cap, &s->cpu_footprints, &fp_area)))
+        return st;
     pgi__frame_pass(fs, "gpu_upload", pgi__now_ms() - t1);
     s->photons = s->cpu_photons;
     s->footprints = d->radius_policy != PGI_RADIUS_FIXED ? s->cpu_footprints : NULL;
