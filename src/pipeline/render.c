@@ -764,11 +764,14 @@ static const pgi__frame_backend *device_backend(pgi_device dev) {
     return (int)dev >= 0 && (int)dev < PGI__DEVICE_COUNT ? k_devices[dev].backend : NULL;
 }
 
-/* "hashgrid, tiled, ...": the registered estimators that run on dev, in the registry's order. */
-static void device_estimators(const device_row *dev, char *buf, size_t size) {
+/* "hashgrid, tiled, ...": the registered estimators that run on dev and there take every option
+ * of caps (PGI_EST_CAP_*; 0: any), in the registry's order. */
+static void device_estimators(const device_row *dev, long caps, char *buf, size_t size) {
     if (size) buf[0] = 0;
-    for (size_t i = 0; i < pgi_estimator_count(); i++)
-        if (dev->est_caps(pgi_estimator_at(i)) >= 0) pgi__list_append(buf, size, pgi_estimator_at(i)->name);
+    for (size_t i = 0; i < pgi_estimator_count(); i++) {
+        const long c = dev->est_caps(pgi_estimator_at(i));
+        if (c >= 0 && (c & caps) == caps) pgi__list_append(buf, size, pgi_estimator_at(i)->name);
+    }
 }
 
 /* The first device that has setting f (every setting is on the CPU). */
@@ -789,7 +792,7 @@ static pgi_status device_check(const pgi_render_desc *d, int frame) {
         const long caps = dev->est_caps(vt);
         if (caps < 0) {
             char names[256];
-            device_estimators(dev, names, sizeof names);
+            device_estimators(dev, 0, names, sizeof names);
             return pgi__fail(PGI_ERR_UNSUPPORTED, "estimator '%s' has no %s version; on --device %s: %s", d->estimator,
                              dev->est_label, dev->name, names);
         }
@@ -798,12 +801,8 @@ static pgi_status device_check(const pgi_render_desc *d, int frame) {
         else if (d->est.subsample > 1 && !(caps & PGI_EST_CAP_SUBSAMPLE)) opt = "subsample";
         if (d->radius_policy != PGI_RADIUS_FIXED && !(caps & PGI_EST_CAP_PHOTON_RADIUS)) {
             /* the device traces the footprints; the estimator must read them there */
-            char names[256] = "";
-            for (size_t i = 0; i < pgi_estimator_count(); i++) {
-                const long c = dev->est_caps(pgi_estimator_at(i));
-                if (c >= 0 && (c & PGI_EST_CAP_PHOTON_RADIUS))
-                    pgi__list_append(names, sizeof names, pgi_estimator_at(i)->name);
-            }
+            char names[256];
+            device_estimators(dev, PGI_EST_CAP_PHOTON_RADIUS, names, sizeof names);
             uses_feature(d, F_RADIUS_POLICY, what, sizeof what);
             return pgi__fail(PGI_ERR_UNSUPPORTED,
                              "%s with estimator '%s' is not supported on %s: its %s version has one fixed radius "
@@ -978,7 +977,7 @@ pgi_status pgi_device_name(int i, char *buf, size_t size) { return pgi__gpu_devi
 
 pgi_status pgi_device_driver(int i, char *buf, size_t size) { return pgi__gpu_device_driver_at(i, buf, size); }
 
-void pgi_device_estimators(char *buf, size_t size) { device_estimators(&k_devices[PGI_DEVICE_VULKAN], buf, size); }
+void pgi_device_estimators(char *buf, size_t size) { device_estimators(&k_devices[PGI_DEVICE_VULKAN], 0, buf, size); }
 
 int pgi_estimator_runs_on(const pgi_estimator_vtbl *vt, pgi_device device) {
     return vt && device_backend(device) && k_devices[device].est_caps(vt) >= 0;
