@@ -638,6 +638,8 @@ static pgi_status cpu_indirect(pgi_renderer *r, const pgi_render_desc *d, const 
     cpu_state *c = cpu_of(r);
     const pgi_estimate_args ea = cpu_args(r, d);
     pgi_status st;
+    /* the direct light alone reads no indirect light (as on the GPU): no gather */
+    if (d->output == PGI_OUTPUT_DIRECT && !d->aovs) return PGI_OK;
     double t2 = pgi__now_ms();
     if ((st = pgi_estimator_build(c->est, &ea))) return st;
     double t3 = pgi__now_ms();

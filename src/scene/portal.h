@@ -87,17 +87,19 @@ typedef struct pgi__portal_sph {
 
 /* Direct light from the sky at x of shading normal ns (view.c). w holds 2n floats: w[i] the
  * portals' pick probabilities seen from x (their solid angle, times 0.1 + the cosine at x
- * towards their centre; 0 for a portal x is not on the inside of), w[n + i] portal i's solid angle
+ * towards their centre; 0 for a portal x is not on the inside of, or whose four corners lie
+ * below x's horizon, the plane of ns), w[n + i] portal i's solid angle
  * where it is sampled by solid angle (a rectangle seen under more than 1e-3 sr: Ureña et al.
  * 2013's spherical rectangles, uniform in the solid angle), else 0 (a uniform point of its area,
  * converted: distance^2 / (area cos)). Returns the weights' sum before normalisation (0: no
  * portal lights x). */
 float pgi__portal_direct_weights(const pgi__portal *p, size_t n, pgi__v3 x, pgi__v3 ns, float *w,
                                  pgi__portal_sph cache[PGI__PORTAL_CACHE]);
-/* A direction from x towards a portal picked by w with u0 (then u1, u2 for the point: uniform in
- * its solid angle or its area, as w says); 0 when it is degenerate. */
+/* A direction from x towards a portal picked by w with u0; the point is uniform in the portal's
+ * solid angle or its area, as w says, its first number u0's place within the portal's share of
+ * [0, 1) (so that stratified u0 stratify the points too), its second u2. 0 when it is degenerate. */
 int pgi__portal_direct_sample(const pgi__portal *p, size_t n, const float *w,
-                              const pgi__portal_sph cache[PGI__PORTAL_CACHE], pgi__v3 x, float u0, float u1, float u2,
+                              const pgi__portal_sph cache[PGI__PORTAL_CACHE], pgi__v3 x, float u0, float u2,
                               pgi__v3 *dir);
 /* Solid-angle density of pgi__portal_direct_sample for direction dir from x (every portal the ray
  * x + t dir, t > 0, crosses inwards). */

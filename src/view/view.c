@@ -1005,12 +1005,29 @@ static void env_direct(const pgi__env *env, const pgi__rt *rt, dtile *t, const p
         if (t->on[k]) L[k] = v3_add(L[k], v3_scale(Le[k], 1.f / (float)n));
 }
 
-/* env_direct in a scene with portals (scene/portal.h): of the n directions a lane, n - n/2 come
- * from the sky's own sampler (the cosine; for a map its mixture) and n/2 from the portals (a
- * uniform point of a portal picked by its solid angle seen from the lane), combined by the
- * balance heuristic over both (each sample weighted by 1 / (n_a p_a + n_b p_b)): the same
- * expected value, with far fewer shadow rays into the walls around a window. A lane that sees
- * no portal's inside takes all n from the sky's sampler, as env_direct. */
+/* Element i of a pseudo-random permutation of 0..l-1 chosen by p (Kensler 2013, "Correlated
+ * Multi-Jittered Sampling": a hash that is a bijection on the next power of two, walked until it
+ * lands below l). With stratum j of a sample's first number, stratum permute(j) of its second
+ * makes a lane's samples a Latin hypercube. */
+static inline unsigned permute(unsigned i, unsigned l, unsigned p) {
+    unsigned w = l - 1;
+    w |= w >> 1, w |= w >> 2, w |= w >> 4, w |= w >> 8, w |= w >> 16;
+    do {
+        i ^= p, i *= 0xe170893du, i ^= p >> 16, i ^= (i & w) >> 4, i ^= p >> 8, i *= 0x0929eb3fu, i ^= p >> 23;
+        i ^= (i & w) >> 1, i *= 1u | p >> 27, i *= 0x6935fa69u, i ^= (i & w) >> 11, i *= 0x74dcb303u;
+        i ^= (i & w) >> 2, i *= 0x9e501cc3u, i ^= (i & w) >> 2, i *= 0xc860a3dfu, i &= w, i ^= i >> 5;
+    } while (i >= l);
+    return (i + p) % l;
+}
+
+/* env_direct in a scene with portals (scene/portal.h): of the n directions a lane, ceil(n/4)
+ * come from the sky's own sampler (the cosine; for a map its mixture) and the rest from the
+ * portals (a point of a portal picked by its solid angle seen from the lane, uniform in that
+ * solid angle), combined by the balance heuristic over both (each sample weighted by
+ * 1 / (n_a p_a + n_b p_b)): the same expected value, with far fewer shadow rays into the walls
+ * around a window. Each strategy's samples are stratified in both numbers (a Latin hypercube:
+ * permute). A lane that sees no portal's inside
+ * takes all n from the sky's sampler, as env_direct. */
 static void env_direct_portals(const pgi__env *env, const pgi__portal *P, size_t np, const pgi__rt *rt, dtile *t,
                                const pgi_view_samples *vs, int n, uint64_t seed, pgi__v3 L[16], uint64_t *rays) {
     pgi__rng rng[16];
@@ -1018,14 +1035,17 @@ static void env_direct_portals(const pgi__env *env, const pgi__portal *P, size_t
     float pw[16][2 * PGI__MAX_PORTALS]; /* pick probabilities and solid angles (pgi__portal_direct_weights) */
     pgi__portal_sph cache[16][PGI__PORTAL_CACHE];
     int na[16], nb[16];
+    unsigned perm[16][2]; /* the second numbers' permutations: the sky's sampler, the portals */
     pgi__v3 Le[16];
     env_rays R;
     R.m = 0;
     for (int k = 0; k < 16; k++) {
         if (!env_lane_init(t, k, seed, &rng[k], &fr[k], &Le[k])) continue;
         const float sum = pgi__portal_direct_weights(P, np, tile_x(t, k), tile_ns(t, k), pw[k], cache[k]);
-        nb[k] = sum > 0.f ? n / 2 : 0;
-        na[k] = n - nb[k];
+        na[k] = sum > 0.f ? (n + 3) / 4 : n;
+        nb[k] = n - na[k];
+        perm[k][0] = pgi_rng_u32(&rng[k]);
+        perm[k][1] = pgi_rng_u32(&rng[k]);
     }
     /* The MIS weights are needed only where the shadow ray escapes (most of the cosine samples
      * hit the walls): a ray's strategy, and for the sky's sampler its pdf and radiance, wait for
@@ -1042,13 +1062,17 @@ static void env_direct_portals(const pgi__env *env, const pgi__portal *P, size_t
                 float pa = 0.f;
                 const int portal = j >= na[k];
                 if (!portal) { /* the sky's sampler */
-                    float u1 = ((float)j + pgi_rng_f(&rng[k])) / (float)na[k], u2 = pgi_rng_f(&rng[k]);
+                    const float u1 = ((float)j + pgi_rng_f(&rng[k])) / (float)na[k];
+                    const float u2 =
+                        ((float)permute((unsigned)j, (unsigned)na[k], perm[k][0]) + pgi_rng_f(&rng[k])) / (float)na[k];
                     d = pgi__env_sample_direct_in(env, &fr[k], u1, u2, &pa, &le);
                     if (!(pa > 0.f)) continue;
                 } else { /* a portal */
-                    float u0 = ((float)(j - na[k]) + pgi_rng_f(&rng[k])) / (float)nb[k];
-                    float u1 = pgi_rng_f(&rng[k]), u2 = pgi_rng_f(&rng[k]);
-                    if (!pgi__portal_direct_sample(P, np, pw[k], cache[k], x, u0, u1, u2, &d)) continue;
+                    const unsigned jb = (unsigned)(j - na[k]);
+                    const float u0 = ((float)jb + pgi_rng_f(&rng[k])) / (float)nb[k];
+                    const float u2 =
+                        ((float)permute(jb, (unsigned)nb[k], perm[k][1]) + pgi_rng_f(&rng[k])) / (float)nb[k];
+                    if (!pgi__portal_direct_sample(P, np, pw[k], cache[k], x, u0, u2, &d)) continue;
                 }
                 if (!(v3_dot(ns, d) > 0.f) || !(v3_dot(tile_ng(t, k), d) > 0.f)) continue;
                 pa_ray[R.m] = pa;
