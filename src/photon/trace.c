@@ -1,5 +1,6 @@
 /* Photon tracing: emission from lights picked by power, BSDF sampling,
- * flux-preserving Russian roulette (cluster paper eq. 1), storage from the
+ * flux-preserving Russian roulette (cluster paper eq. 1; none at the first hit of a path
+ * through a portal, which stores nothing), storage from the
  * second hit on (the first hit is direct light, done with shadow rays; a path
  * whose first hits are all specular stores at its first non-specular hit:
  * a caustic). Optionally steered towards where the camera looks (guide.h) and
@@ -95,6 +96,7 @@ typedef struct tracer {
     const pgi__view_grid *near; /* store only photons in its cells (NULL: all) */
     int fast_sincos;            /* pgi__trace_sincos_fast: a wave's azimuths together */
     int lambert_simd;           /* pgi__trace_lambert_avx2 is there (pgi__cpu_avx2) */
+    int keep_first;             /* portal emission: no roulette at a path's first hit (wave_hits) */
     /* portal emission (scene/portal.h): NULL, or the sky's table; the sun and the sky start on
        the portals */
     const pgi__portal_emit *PE;
@@ -287,8 +289,12 @@ static inline void wave_hits(const tracer *T, lane *L, const int *valid, const f
         if (prim[k] != UINT32_MAX) {
             __builtin_prefetch(T->tris + prim[k]);
             if (T->tri_uv) __builtin_prefetch(T->tri_uv + PGI__TRI_UV * (size_t)prim[k]);
-            if (L[k].b < T->bounces)
+            if (L[k].b < T->bounces) {
                 for (int j = 0; j < 4; j++) L[k].u[j] = pgi_rng_f(&L[k].rng);
+                /* no roulette at the first hit (keep_first): its number -1, which the scattering
+                 * reads as a probability of 1 (the flux times the albedo, not divided by it) */
+                if (T->keep_first && L[k].b == 0) L[k].u[3] = -1.f;
+            }
         }
     }
 }
@@ -512,6 +518,7 @@ static inline int wave_shade(const tracer *T, lane *L, float (*sc)[WAVE], pgi__l
             pgi__v3 nf = v3_mul(l->flux, w);
             float mf = v3_maxc(l->flux);
             float R = mf > 0.f ? pgi_minf(v3_maxc(nf) / mf, 1.f) : 0.f;
+            if (l->u[3] < 0.f && mf > 0.f) R = 1.f; /* keep_first */
             if (l->u[3] < R) {
                 l->flux = v3_scale(nf, 1.f / R);
                 if (v3_finite(l->flux)) {
@@ -1314,6 +1321,9 @@ static pgi_status tracer_init(tracer *T, const pgi_scene *s, const pgi__rt *rt, 
     pgi__fp_params_init(&T->fp, d->radius_policy, d->r_min, d->r_max, d->smoothing, d->photons, 2.f * T->radius);
     T->fp_track = d->radius_policy != PGI_RADIUS_FIXED;
     T->lambert_simd = T->fast_sincos && !T->fp_track; /* AVX2 (and FMA), not narrow; no radius policy */
+    /* A path through a portal nearly always hits the inside, and its first hit stores nothing (the
+     * direct pass lights it): a roulette there ended four in five of Sponza's paths for nothing. */
+    T->keep_first = pe != NULL && !T->fp_track;
     T->fp_on = T->fp_track && ph->radius;
     return PGI_OK;
 }

@@ -348,8 +348,12 @@ __attribute__((target("avx2,fma"))) static void lambert_avx2(pgi__lambert_batch 
         const v8x3 nf = {_mm256_mul_ps(f.x, kd.x), _mm256_mul_ps(f.y, kd.y), _mm256_mul_ps(f.z, kd.z)};
         const __m256 mf = _mm256_max_ps(f.x, _mm256_max_ps(f.y, f.z));
         const __m256 q = _mm256_div_ps(_mm256_max_ps(nf.x, _mm256_max_ps(nf.y, nf.z)), mf);
-        const __m256 R = _mm256_and_ps(_mm256_cmp_ps(mf, zero, _CMP_GT_OQ), _mm256_min_ps(q, one));
-        const __m256 go = _mm256_and_ps(scat, _mm256_cmp_ps(_mm256_loadu_ps(b->u3 + i), R, _CMP_LT_OQ));
+        /* a roulette number below 0: no roulette (trace.c keep_first), probability 1 */
+        const __m256 u3 = _mm256_loadu_ps(b->u3 + i);
+        const __m256 R =
+            _mm256_and_ps(_mm256_cmp_ps(mf, zero, _CMP_GT_OQ),
+                          _mm256_blendv_ps(_mm256_min_ps(q, one), one, _mm256_cmp_ps(u3, zero, _CMP_LT_OQ)));
+        const __m256 go = _mm256_and_ps(scat, _mm256_cmp_ps(u3, R, _CMP_LT_OQ));
         const v8x3 f2 = scale3(nf, _mm256_div_ps(one, R));
         const __m256 alive =
             _mm256_and_ps(go, _mm256_and_ps(finite8(f2.x), _mm256_and_ps(finite8(f2.y), finite8(f2.z))));
