@@ -465,7 +465,7 @@ static void portal_mode_is_checked(void **state) {
     pgi_scene_destroy(s);
 }
 
-/* The default direct_samples: PGI_DIRECT_SAMPLES_PORTALS (4) on the CPU where the sky is sampled
+/* The default direct_samples: PGI_DIRECT_SAMPLES_PORTALS (4) where the sky is sampled
  * through portals (window-box-portals), PGI_DIRECT_SAMPLES_DEFAULT (16) without them (window-box,
  * and the Cornell box: portals but no sky would not count either), a value given as given. */
 static void portal_default_direct_samples(void **state) {

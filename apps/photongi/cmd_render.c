@@ -204,7 +204,7 @@ static const char *k_render_help =
     "                     block with these values gives, to the bit (photongi-view's V key\n"
     "                     prints both forms)\n"
     "  --direct-samples K shadow samples per pixel for area lights and for the sky, 1..4096\n"
-    "                     (default 16; on the CPU 4 in a scene with a sky and portals, where\n"
+    "                     (default 16; 4 in a scene with a sky and portals, where\n"
     "                     3 of every 4 of the sky's go through a portal; --stats settings say\n"
     "                     which)\n"
     "  --exposure X       multiply radiance by X before tone mapping (default: the scene's, else 1)\n"

@@ -44,7 +44,7 @@ static const char *k_help =
     "  --seed K           random seed (default 1)\n"
     "  --bounces B        maximum photon bounces (default 4)\n"
     "  --direct-samples K shadow samples per pixel for area lights and the sky (default 16;\n"
-    "                     4 on the CPU in a scene with a sky and portals)\n"
+    "                     4 in a scene with a sky and portals)\n"
     "  --threads T        worker threads (default: all cores)\n" APP_DEVICE_HELP
     "  --camera NAME|I    scene camera to start from, by name or index (default 0)\n"
     "  --eye X,Y,Z, --look-at X,Y,Z, --up X,Y,Z, --fov DEG   start from this camera instead,\n"

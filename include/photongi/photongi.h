@@ -236,7 +236,7 @@ typedef enum pgi_device {
 #define PGI_DEVICE_INDEX(i) ((i) + 1)
 
 /* pgi_render_desc.direct_samples when left 0: PGI_DIRECT_SAMPLES_PORTALS where the sky's direct light
- * is sampled through portals (a CPU frame of a scene with a sky and "portals"), else
+ * is sampled through portals (a scene with a sky and "portals", on either device), else
  * PGI_DIRECT_SAMPLES_DEFAULT. The statistics' settings report the resolved count. */
 #define PGI_DIRECT_SAMPLES_DEFAULT 16
 #define PGI_DIRECT_SAMPLES_PORTALS 4
@@ -257,7 +257,7 @@ typedef struct pgi_render_desc {
     int threads;            /* OpenMP threads of the library's parallel regions; 0 = OpenMP's default */
     int camera;             /* index into the scene's cameras (pgi_scene_find_camera finds one by name) */
     int direct_samples;     /* shadow samples per pixel for area lights and for the sky (1..4096); default
-                               PGI_DIRECT_SAMPLES_DEFAULT (16), or PGI_DIRECT_SAMPLES_PORTALS (4) on the CPU in a
+                               PGI_DIRECT_SAMPLES_DEFAULT (16), or PGI_DIRECT_SAMPLES_PORTALS (4) in a
                                scene with a sky and portals, whose sky samples are worth more (docs/emission.md,
                                Portals); a value given is used as given */
     pgi_output output;

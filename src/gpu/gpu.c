@@ -68,7 +68,9 @@ void pgi__gpu_set_budget(pgi__gpu *g, uint64_t bytes) {}
 #include <vulkan/vulkan.h>
 
 #define MAX_LABELS 64
-#define MAX_BINDINGS 16
+/* storage buffers a kernel binds at most: push descriptors' guaranteed minimum (maxPushDescriptors);
+ * a device whose stage takes fewer (maxPerStageDescriptorStorageBuffers) lowers it (max_bindings) */
+#define MAX_BINDINGS 32
 /* descriptor sets of one sequence without push descriptors */
 #define MAX_SETS 256
 #define STAGING_MAX ((size_t)64 << 20)
@@ -111,6 +113,7 @@ struct pgi__gpu {
     double ts_period_ns;
     uint64_t ts_mask;
     int has_ts;
+    int max_bindings; /* MAX_BINDINGS, or the device's storage buffers a stage when fewer */
     /* test hooks, from the environment (tests/test_gpu.c): PGI_GPU_STAGING=1: no mapped device buffers
      * (the staging path of a discrete GPU); PGI_GPU_NO_PUSH_DESCRIPTORS=1: descriptor sets from the
      * pool; PGI_GPU_NO_TIMESTAMPS=1: the CPU-timed sequence of a queue without timestamps */
@@ -327,6 +330,9 @@ pgi_status pgi__gpu_create(int index, pgi__gpu **out) {
     VkPhysicalDeviceProperties props;
     vkGetPhysicalDeviceProperties(g->pd, &props);
     snprintf(g->name, sizeof g->name, "%s", props.deviceName);
+    g->max_bindings = props.limits.maxPerStageDescriptorStorageBuffers < MAX_BINDINGS
+                          ? (int)props.limits.maxPerStageDescriptorStorageBuffers
+                          : MAX_BINDINGS;
     vkGetPhysicalDeviceMemoryProperties(g->pd, &g->memp);
     const char *hl = getenv("PGI_GPU_HEAP_LIMIT");
     const unsigned long long hook = hl ? strtoull(hl, NULL, 10) : 0;
@@ -700,6 +706,9 @@ pgi_status pgi__gpu_kernel_create(pgi__gpu *g, const uint32_t *spirv, size_t spi
     if (nbuffers < 1 || nbuffers > MAX_BINDINGS || push_bytes > 128 || push_bytes % 4)
         return pgi__fail(PGI_ERR_INVALID_ARG, "kernel %s: %d buffers (1..%d), %u push bytes (0..128, 4k)", name,
                          nbuffers, MAX_BINDINGS, push_bytes);
+    if (nbuffers > g->max_bindings)
+        return pgi__fail(PGI_ERR_UNSUPPORTED, "kernel %s: %d storage buffers, the device takes %d a shader stage", name,
+                         nbuffers, g->max_bindings);
     pgi__gpu_kernel *k = calloc(1, sizeof *k);
     if (!k) return pgi__fail(PGI_ERR_OOM, "out of memory");
     k->nbuffers = nbuffers;

@@ -70,7 +70,8 @@ int pgi__gpu_memory(const pgi__gpu *g, pgi_named_value *out, int max);
  * is the host's (a CPU device) keeps its buffers within; every device keeps them within its heaps. */
 void pgi__gpu_set_budget(pgi__gpu *g, uint64_t bytes);
 
-/* A compute pipeline from SPIR-V: `nbuffers` (1..16) storage buffers at set 0, bindings
+/* A compute pipeline from SPIR-V: `nbuffers` (1..32, and within the device's storage buffers a
+ * shader stage: PGI_ERR_UNSUPPORTED beyond them) storage buffers at set 0, bindings
  * 0..nbuffers-1, and push constants of `push_bytes` (0..128, a multiple of 4). `name` names it in
  * error messages. */
 pgi_status pgi__gpu_kernel_create(pgi__gpu *g, const uint32_t *spirv, size_t spirv_bytes, const char *name,

@@ -15,6 +15,8 @@ struct pgi__gpu_scene {
     pgi__gpu_buffer *verts, *tris, *mats, *lobes, *lights, *area, *tex;
     pgi__gpu_buffer *emit; /* (gpu-trace) photon emission */
     uint32_t nemit;
+    pgi__gpu_buffer *portals; /* (issue 37) the sky's direct light through the portals */
+    uint32_t nportals;
     pgi__gpu_scene_push info;
     uint64_t static_version, dynamic_version, lights_hash;
 };
@@ -80,6 +82,28 @@ static pgi_status upload_emit(pgi__gpu_scene *gs, const pgi_scene *s) {
     return st;
 }
 
+/* (issue 37) The portals, as scene_internal.h keeps them (the direct pass, portal.glsl). */
+static pgi_status upload_portals(pgi__gpu_scene *gs, const pgi_scene *s) {
+    pgi__gpu_portal *q = calloc(s->nportals + 1, sizeof *q);
+    if (!q) return pgi__fail(PGI_ERR_OOM, "%s", "out of memory packing the scene for the GPU");
+    for (size_t i = 0; i < s->nportals; i++) {
+        const pgi__portal *P = &s->portals[i];
+        memcpy(q[i].o, P->o, sizeof q[i].o);
+        memcpy(q[i].e1, P->e1, sizeof q[i].e1);
+        memcpy(q[i].e2, P->e2, sizeof q[i].e2);
+        memcpy(q[i].n, P->n, sizeof q[i].n);
+        memcpy(q[i].centre, P->centre, sizeof q[i].centre);
+        memcpy(q[i].d1, P->d1, sizeof q[i].d1);
+        memcpy(q[i].d2, P->d2, sizeof q[i].d2);
+        q[i].area = P->area;
+        q[i].rect = P->rect ? 1u : 0u;
+    }
+    gs->nportals = (uint32_t)s->nportals;
+    pgi_status st = upload(gs->g, &gs->portals, q, s->nportals * sizeof *q, "gpu_scene");
+    free(q);
+    return st;
+}
+
 /* Vertices, lights and the area CDF: what moves with the scene's geometry. */
 static pgi_status upload_dynamic(pgi__gpu_scene *gs, const pgi_scene *s) {
     pgi__gpu *g = gs->g;
@@ -139,7 +163,8 @@ static pgi_status upload_dynamic(pgi__gpu_scene *gs, const pgi_scene *s) {
     gs->static_version = s->static_version;
     gs->dynamic_version = s->dynamic_version;
     gs->lights_hash = lights_hash(s);
-    st = upload_emit(gs, s);
+    if ((st = upload_emit(gs, s))) goto done;
+    st = upload_portals(gs, s);
 done:
     free(v);
     free(l);
@@ -247,7 +272,8 @@ pgi_status pgi__gpu_scene_create(pgi__gpu *g, const pgi_scene *s, pgi__gpu_scene
 void pgi__gpu_scene_destroy(pgi__gpu_scene *gs) {
     if (!gs) return;
     pgi__gpu_rays_destroy(gs->rays);
-    pgi__gpu_buffer *b[] = {gs->verts, gs->tris, gs->mats, gs->lobes, gs->lights, gs->area, gs->tex, gs->emit};
+    pgi__gpu_buffer *b[] = {gs->verts, gs->tris, gs->mats, gs->lobes,  gs->lights,
+                            gs->area,  gs->tex,  gs->emit, gs->portals};
     for (size_t i = 0; i < sizeof b / sizeof b[0]; i++) pgi__gpu_buffer_destroy(gs->g, b[i]);
     free(gs);
 }
@@ -280,4 +306,9 @@ pgi__gpu_rays *pgi__gpu_scene_rays(const pgi__gpu_scene *gs) { return gs->rays; 
 pgi__gpu_buffer *pgi__gpu_scene_emit(const pgi__gpu_scene *gs, uint32_t *nemit) {
     *nemit = gs->nemit;
     return gs->emit;
+}
+
+pgi__gpu_buffer *pgi__gpu_scene_portals(const pgi__gpu_scene *gs, uint32_t *nportals) {
+    *nportals = gs->nportals;
+    return gs->portals;
 }

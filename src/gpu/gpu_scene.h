@@ -137,4 +137,23 @@ typedef struct pgi__gpu_emit {
 _Static_assert(sizeof(pgi__gpu_emit) == 16, "trace.glsl Emit");
 pgi__gpu_buffer *pgi__gpu_scene_emit(const pgi__gpu_scene *gs, uint32_t *nemit);
 
+/* (addition, issue 37) The scene's portals (scene_internal.h pgi__portal; docs/scene-format.md),
+ * a buffer outside the bindings above ("gpu_scene"): nportals records pgi__gpu_portal (up to
+ * PGI__MAX_PORTALS), for the sky's direct light through them (shaders/portal.glsl, direct.comp);
+ * one zero record and nportals 0 without portals. */
+typedef struct pgi__gpu_portal {
+    float o[3], area;
+    float e1[3];
+    uint32_t rect; /* e1 and e2 at right angles: sampled by solid angle */
+    float e2[3], pad0;
+    float n[3], pad1;
+    float centre[3], pad2;
+    float d1[3], pad3;
+    float d2[3], pad4;
+} pgi__gpu_portal;
+_Static_assert(sizeof(pgi__gpu_portal) == 112 && offsetof(pgi__gpu_portal, n) == 48 &&
+                   offsetof(pgi__gpu_portal, d2) == 96,
+               "portal.glsl Portal");
+pgi__gpu_buffer *pgi__gpu_scene_portals(const pgi__gpu_scene *gs, uint32_t *nportals);
+
 #endif

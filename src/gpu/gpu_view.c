@@ -20,7 +20,7 @@ struct pgi__gpu_view {
 typedef struct {
     pgi__gpu_scene_push scene;
     uint32_t width, height, seed_lo, seed_hi;
-    uint32_t direct_samples, output_mode, has_indirect, pad;
+    uint32_t direct_samples, output_mode, has_indirect, nportals;
 } direct_push;
 _Static_assert(sizeof(direct_push) == 96 && offsetof(direct_push, direct_samples) == 80, "direct.comp Push");
 
@@ -36,7 +36,7 @@ pgi_status pgi__gpu_view_create(pgi__gpu *g, pgi__gpu_view **out) {
     pgi_status st;
     if ((st = pgi__gpu_kernel_create(g, pgi__spv_view, sizeof pgi__spv_view, "view", PGI__GPU_SCENE_NBUF + 4,
                                      sizeof(pgi__gpu_scene_push), &v->view)) ||
-        (st = pgi__gpu_kernel_create(g, pgi__spv_direct, sizeof pgi__spv_direct, "direct", PGI__GPU_SCENE_NBUF + 5,
+        (st = pgi__gpu_kernel_create(g, pgi__spv_direct, sizeof pgi__spv_direct, "direct", PGI__GPU_SCENE_NBUF + 6,
                                      sizeof(direct_push), &v->direct)) ||
         (st = pgi__gpu_buffer_reserve(g, &v->counters, 4 * sizeof(uint32_t), "gpu_view_samples")) ||
         (st = pgi__gpu_buffer_reserve(g, &v->params, sizeof(pgi__gpu_frame_params), "gpu_view_samples")) ||
@@ -113,20 +113,23 @@ pgi_status pgi__gpu_direct_record(pgi__gpu_view *v, const pgi__gpu_scene *gs, pg
     if (output != PGI_OUTPUT_ALL && output != PGI_OUTPUT_INDIRECT && output != PGI_OUTPUT_DIRECT)
         return pgi__fail(PGI_ERR_UNSUPPORTED, "%s",
                          "the GPU frame has the outputs all, indirect and direct (not the photon counts)");
-    pgi__gpu_buffer *b[PGI__GPU_SCENE_NBUF + 5];
+    pgi__gpu_buffer *b[PGI__GPU_SCENE_NBUF + 6];
     scene_bufs(gs, b);
+    uint32_t nportals;
     b[11] = indirect ? indirect : v->dummy;
     b[12] = v->samples;
     b[13] = v->extra;
     b[14] = v->counters;
     b[15] = v->image;
+    b[16] = pgi__gpu_scene_portals(gs, &nportals);
     direct_push p = {.width = v->fp.width,
                      .height = v->fp.height,
                      .seed_lo = (uint32_t)seed,
                      .seed_hi = (uint32_t)(seed >> 32),
                      .direct_samples = (uint32_t)(direct_samples > 0 ? direct_samples : 0),
                      .output_mode = (uint32_t)output,
-                     .has_indirect = indirect != NULL};
+                     .has_indirect = indirect != NULL,
+                     .nportals = nportals};
     pgi__gpu_scene_info(gs, &p.scene);
     pgi_status st = pgi__gpu_dispatch(v->g, v->direct, b, &p, (v->fp.width + 7) / 8, (v->fp.height + 7) / 8, 1);
     if (st) return st;

@@ -260,11 +260,11 @@ static pgi_status resolve_desc(const pgi_scene *s, const pgi_render_desc *in, pg
         return pgi__fail(PGI_ERR_INVALID_ARG, "threads must be 0 (all) or positive, got %d", d->threads);
     if (d->camera < 0 || (size_t)d->camera >= s->ncams)
         return pgi__fail(PGI_ERR_INVALID_ARG, "camera %d does not exist (the scene has %zu)", d->camera, s->ncams);
-    /* Through portals half the sky's samples go towards an opening: 8 give no more noise than the
-       cosine's 16 (docs/emission.md, Portals). The GPU's direct light has no portal samples. */
+    /* Through portals 3 of 4 of the sky's samples go towards an opening: 4 give no more noise than
+       the cosine's 16 (docs/emission.md, Portals), on either device (direct.comp samples the
+       portals as view.c). */
     if (d->direct_samples == 0)
-        d->direct_samples = s->nportals && s->env && d->device == PGI_DEVICE_CPU ? PGI_DIRECT_SAMPLES_PORTALS
-                                                                                 : PGI_DIRECT_SAMPLES_DEFAULT;
+        d->direct_samples = s->nportals && s->env ? PGI_DIRECT_SAMPLES_PORTALS : PGI_DIRECT_SAMPLES_DEFAULT;
     if (d->direct_samples < 0 || d->direct_samples > 4096)
         return pgi__fail(PGI_ERR_INVALID_ARG, "direct samples %d out of range (1..4096)", d->direct_samples);
     if (d->output < PGI_OUTPUT_ALL || d->output > PGI_OUTPUT_PHOTON_COUNT)

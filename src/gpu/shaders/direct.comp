@@ -5,16 +5,22 @@
 // c cl / d^2 area / p_light, shadow ray to 0.999 of the distance), and for a constant sky
 // `direct_samples` cosine-weighted directions (env.c pgi__env_sample_direct, first number
 // stratified), each by the BRDF (bsdf.h pgi__brdf_eval: kd / pi + the lobe); the sum times the
-// view sample's weight. No MIS (the CPU has none). Random numbers: scene.glsl's counter-based hash,
-// one stream a pixel and purpose (area lights, sky), not the CPU's PCG32.
+// view sample's weight. In a scene with portals (nportals > 0) the sky's directions are view.c
+// env_direct_portals': ceil(n/4) cosine-weighted and the rest towards the portals (portal.glsl),
+// each strategy a Latin hypercube (permute), combined by the balance heuristic; a pixel that sees
+// no portal takes all n from the cosine. No MIS for the area lights (the CPU has none). Random
+// numbers: scene.glsl's counter-based hash, one stream a pixel and purpose (area lights, sky), not
+// the CPU's PCG32.
 // Then the sum, as the renderer's composite: emit + direct + weight * indirect (output 0), the
 // indirect term alone (1) or emit + direct (2).
 // Buffers: 0..10 the scene, 11 the estimator's radiance (3 floats a pixel), 12..14 frame.glsl,
-// 15 the image (3 floats a pixel).
+// 15 the image (3 floats a pixel), 16 the portals (gpu_scene.h pgi__gpu_portal; nportals of them).
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "scene.glsl"
 #include "light.glsl"
+#define PGIS_PORTAL_BINDING 16
+#include "portal.glsl"
 #define FRAME_NO_PARAMS
 #include "frame.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -23,7 +29,7 @@ layout(std430, set = 0, binding = 15) writeonly restrict buffer Image { float im
 layout(push_constant) uniform Push {
     SceneInfo scene;
     uint width, height, seed_lo, seed_hi;
-    uint direct_samples, output_mode, has_indirect, pad;
+    uint direct_samples, output_mode, has_indirect, nportals;
 } pc;
 
 // bsdf.h pgi__brdf_eval: kd / pi plus the lobe (one_m_eo: the sample's 1 - E(n.wo))
@@ -99,7 +105,49 @@ void main() {
                 precise vec3 s = La * (1.0 / float(n));
                 L = L + s;
             }
-            if ((pc.scene.flags & SCENE_SKY) != 0u && n > 0u) { // view.c env_direct, constant sky
+            if ((pc.scene.flags & SCENE_SKY) != 0u && n > 0u && pc.nportals > 0u) {
+                // view.c env_direct_portals, constant sky: the cosine's pdf and radiance of a
+                // portal's direction, and the portals' pdf of both, only where the ray escapes
+                Rng rng = rng_seed(pc.seed_lo, pc.seed_hi, 0x736b79u, i);
+                vec3 Le = vec3(0.0);
+                const float sum = portal_direct_weights(pc.nportals, x, ns);
+                const uint na = sum > 0.0 ? (n + 3u) / 4u : n, nb = n - na;
+                const uint perm0 = rng_u32(rng), perm1 = rng_u32(rng); // the second numbers' permutations
+                for (uint j = 0u; j < n; j++) {
+                    const bool portal = j >= na;
+                    vec3 d;
+                    float pa = 0.0;
+                    vec3 le = vec3(0.0);
+                    if (!portal) { // the sky's sampler
+                        precise float u1 = (float(j) + rng_f(rng)) / float(na);
+                        precise float u2 = (float(permute(j, na, perm0)) + rng_f(rng)) / float(na);
+                        d = to_world(sample_cosine(u1, u2), ns);
+                        pa = max(0.0, v3_dot(ns, d)) * float(PGIS_INV_PI);
+                        if (!(pa > 0.0)) continue;
+                        le = sky_eval(pc.scene, d);
+                    } else { // a portal
+                        const uint jb = j - na;
+                        precise float u0 = (float(jb) + rng_f(rng)) / float(nb);
+                        precise float u2 = (float(permute(jb, nb, perm1)) + rng_f(rng)) / float(nb);
+                        if (!portal_direct_sample(pc.nportals, x, ns, u0, u2, d)) continue;
+                    }
+                    const float c = v3_dot(ns, d);
+                    if (!(c > 0.0) || !(v3_dot(ng, d) > 0.0)) continue;
+                    rays++;
+                    if (occluded(x, d, PGIS_INF)) continue;
+                    const float pb = nb > 0u ? portal_direct_pdf(pc.nportals, x, ns, d) : 0.0;
+                    if (portal) {
+                        if (!(pb > 0.0)) continue; // lost to rounding at a portal's edge
+                        pa = max(0.0, c) * float(PGIS_INV_PI);
+                        le = sky_eval(pc.scene, d);
+                    }
+                    precise float den = float(na) * pa + float(nb) * pb;
+                    if (!(den > 0.0) || isinf(den)) continue;
+                    precise vec3 a = brdf(v, kd, ns, d, wo) * (le * (c / den));
+                    Le = Le + a;
+                }
+                L = L + Le;
+            } else if ((pc.scene.flags & SCENE_SKY) != 0u && n > 0u) { // view.c env_direct, constant sky
                 Rng rng = rng_seed(pc.seed_lo, pc.seed_hi, 0x736b79u, i);
                 vec3 Le = vec3(0.0);
                 for (uint j = 0u; j < n; j++) {

@@ -259,5 +259,7 @@ float rng_f(inout Rng r) {
     const uvec4 h = pcg4d(uvec4(r.key, r.k++));
     return float(h.x >> 8) * (1.0 / 16777216.0);
 }
+// 32 uniform bits (pgi_rng_u32's role: view.c's permutation keys), one draw.
+uint rng_u32(inout Rng r) { return pcg4d(uvec4(r.key, r.k++)).x; }
 
 #endif
