@@ -75,9 +75,11 @@ static inline void pixel(const pgi__atrous_guide *restrict g, const float *restr
 enum { CHUNK = 64 }; /* pixels of a row done together: a tap at a time over them, in vectors */
 
 /* Pixels [x0, x0 + m) (m <= CHUNK) of row y in the interior (every neighbour in the image): the
- * same sums as pixel(), a neighbour at a time over all of them, on contiguous loads. */
-static void interior(const pgi__atrous_guide *restrict g, const float *const in[4], float *const out[4], size_t base,
-                     int m, const size_t row[3], const float kr[3], int step) {
+ * same sums as pixel(), a neighbour at a time over all of them, on contiguous loads (an AVX2 clone
+ * where the CPU has it: the same bits). */
+PGI__AVX2_CLONES static void interior(const pgi__atrous_guide *restrict g, const float *const in[4],
+                                      float *const out[4], size_t base, int m, const size_t row[3], const float kr[3],
+                                      int step) {
     static const float k[3] = {0.25f, 0.5f, 0.25f};
     const float *restrict nx = g->nrm[0] + base, *restrict ny = g->nrm[1] + base, *restrict nz = g->nrm[2] + base;
     const float *restrict px = g->pos[0] + base, *restrict py = g->pos[1] + base, *restrict pz = g->pos[2] + base;
@@ -170,23 +172,36 @@ static void pass_row(const pgi__atrous_guide *restrict g, int step, int y, const
         interior(g, in, out, base + (size_t)x, hi - x < CHUNK ? hi - x : CHUNK, row, kr, step);
 }
 
+/* Rows of the passes at a time a thread takes (rows cost alike, but a thread of a machine shared
+ * with other work may lose its core for a while: the others take its rows meanwhile). */
+enum { ROWS = 4 };
+
+void pgi__atrous_filter_team(const pgi__atrous_guide *g, int passes, float *const rgb[4], float *scratch,
+                             void (*row_done)(void *ctx, int y, float *const res[3]), void *ctx) {
+    const size_t n = (size_t)g->width * (size_t)g->height;
+    const int H = g->height;
+    float *const tmp[4] = {scratch, scratch + n, scratch + 2 * n, scratch + 3 * n};
+    float *const res[3] = {passes % 2 ? tmp[0] : rgb[0], passes % 2 ? tmp[1] : rgb[1], passes % 2 ? tmp[2] : rgb[2]};
+#pragma omp for schedule(dynamic, ROWS)
+    for (int y = 0; y < H; y++) spatial_variance(g, (const float *const *)rgb, rgb[3], y);
+    for (int k = 0; k < passes; k++) {
+        const float *const *in = (const float *const *)(k % 2 ? tmp : rgb);
+        float *const *out = k % 2 ? rgb : tmp;
+        const int last = k + 1 == passes && row_done;
+#pragma omp for schedule(dynamic, ROWS)
+        for (int y = 0; y < H; y++) {
+            pass_row(g, 1 << k, y, in, out);
+            if (last) row_done(ctx, y, res);
+        }
+    }
+}
+
 pgi_status pgi__atrous_filter(const pgi__atrous_guide *g, int passes, int threads, float *const rgb[4], float *scratch,
                               float *res[3]) {
     if (passes < 1 || passes > 5) return pgi__fail(PGI_ERR_INVALID_ARG, "a-trous filter: %d passes (1..5)", passes);
     const size_t n = (size_t)g->width * (size_t)g->height;
-    const int H = g->height;
-    float *const tmp[4] = {scratch, scratch + n, scratch + 2 * n, scratch + 3 * n};
 #pragma omp parallel num_threads(pgi__threads(threads))
-    {
-#pragma omp for schedule(static)
-        for (int y = 0; y < H; y++) spatial_variance(g, (const float *const *)rgb, rgb[3], y);
-        for (int k = 0; k < passes; k++) {
-            const float *const *in = (const float *const *)(k % 2 ? tmp : rgb);
-            float *const *out = k % 2 ? rgb : tmp;
-#pragma omp for schedule(static)
-            for (int y = 0; y < H; y++) pass_row(g, 1 << k, y, in, out);
-        }
-    }
-    for (int c = 0; c < 3; c++) res[c] = passes % 2 ? tmp[c] : rgb[c];
+    pgi__atrous_filter_team(g, passes, rgb, scratch, NULL, NULL);
+    for (int c = 0; c < 3; c++) res[c] = passes % 2 ? scratch + (size_t)c * n : rgb[c];
     return PGI_OK;
 }
