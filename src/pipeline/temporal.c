@@ -2,6 +2,7 @@
  * progressive frames, the last picture reprojected into the new view when only the camera moved,
  * and an edge-aware filter of the indirect light, both fading out as a still view's frames
  * accumulate, so that it converges to the progressive average itself. */
+#include <omp.h>
 #include <string.h>
 
 #include "core/core.h"
@@ -35,6 +36,8 @@ struct pgi_temporal {
     float *geo, *prev_geo;              /* 8 a pixel: this and the last frame's hit, depth, normal */
     float *nrm, *alb, *ind;             /* 3 a pixel: this frame's AOVs (depth goes to cur's plane) */
     float *planes;                      /* 8 planes: the filter's r, g, b, variance and its scratch */
+    float *rowbuf;                      /* ROWBUF floats a column for each thread (clamp_bounds) */
+    size_t rowbuf_cap;                  /* floats allocated there */
     double *row_sum;                    /* a row's history weight (a deterministic sum) */
     int *row_kept;                      /* a row's pixels that kept a history */
     pgi_camera prev_cam;
@@ -57,7 +60,8 @@ static void free_buffers(pgi_temporal *t) {
         free(*b[i]);
         *b[i] = NULL;
     }
-    free(t->row_sum), free(t->row_kept);
+    free(t->row_sum), free(t->row_kept), free(t->rowbuf);
+    t->rowbuf = NULL, t->rowbuf_cap = 0;
     t->row_sum = NULL, t->row_kept = NULL;
     t->cap = 0, t->cap_rows = 0;
 }
@@ -306,6 +310,51 @@ static inline __attribute__((always_inline)) void catmull_rom_taps(const float *
         }
 }
 
+/* Floats a column of a thread's row scratch: the new picture's sums over 3 rows (3 channels and
+ * their squares), and the clamp's bounds (3 low, 3 high). */
+enum { ROWBUF = 12 };
+
+/* The neighbourhood clamp's bounds of row y's pixels (lo[k][x], hi[k][x] = lo + 3W...: mean -+ 1.25
+ * sigma of each channel of the new picture D over the pixel's 3x3 neighbourhood in the image),
+ * for the whole row at once in planes (column sums, then sums of three columns: it vectorizes).
+ * buf holds ROWBUF floats a column. */
+static inline __attribute__((always_inline)) void clamp_bounds(const float *restrict D, int W, int H, int y,
+                                                               float *restrict buf) {
+    const int ya = y > 0 ? y - 1 : 0, yb = y + 1 < H ? y + 1 : y;
+    const size_t w = (size_t)W;
+    float *restrict cs = buf;         /* 6 planes: sums of channel k, then of its square */
+    float *restrict lo = buf + 6 * w; /* 3 planes, then hi's 3 */
+    for (int k = 0; k < 6; k++)
+        for (int x = 0; x < W; x++) cs[k * w + (size_t)x] = 0.f;
+    for (int qy = ya; qy <= yb; qy++) {
+        const float *restrict d = D + 3 * (size_t)qy * w;
+        for (int k = 0; k < 3; k++)
+            for (int x = 0; x < W; x++) {
+                const float v = d[3 * (size_t)x + (size_t)k];
+                cs[k * w + (size_t)x] += v, cs[(3 + k) * w + (size_t)x] += v * v;
+            }
+    }
+    const float rows = (float)(yb - ya + 1);
+    for (int k = 0; k < 3; k++) {
+        const float *restrict s1 = cs + k * w, *restrict s2 = cs + (3 + k) * w;
+        float *restrict l = lo + k * w, *restrict h = lo + (3 + k) * w;
+        const float ic = 1.f / (rows * 3.f);
+        for (int x = 1; x < W - 1; x++) {
+            const float mean = (s1[x - 1] + s1[x] + s1[x + 1]) * ic;
+            const float sd = sqrtf(pos0((s2[x - 1] + s2[x] + s2[x + 1]) * ic - mean * mean));
+            l[x] = mean - 1.25f * sd, h[x] = mean + 1.25f * sd;
+        }
+        for (int e = 0; e < 2; e++) { /* the first and the last column: their neighbours in the image */
+            const int x = e ? W - 1 : 0, xa = x > 0 ? x - 1 : 0, xb = x + 1 < W ? x + 1 : x;
+            float m1 = 0.f, m2 = 0.f;
+            for (int q = xa; q <= xb; q++) m1 += s1[q], m2 += s2[q];
+            const float ie = 1.f / (rows * (float)(xb - xa + 1));
+            const float mean = m1 * ie, sd = sqrtf(pos0(m2 * ie - mean * mean));
+            l[x] = mean - 1.25f * sd, h[x] = mean + 1.25f * sd;
+        }
+    }
+}
+
 /* The last picture's history reprojected to pixel (x, y) of camera `cam` into c (HS floats; pixel
  * p's primary hit found in the previous camera, moved back by this picture's sub-pixel offset to
  * p's centre: Catmull-Rom over the 4x4 previous pixels around it, bilinear over the 2x2 at the
@@ -313,7 +362,7 @@ static inline __attribute__((always_inline)) void catmull_rom_taps(const float *
  * clamped to the mean +- 1.25 sigma of the new picture D's 3x3 neighbourhood. Returns whether
  * anything was kept (else c's weight is 0). */
 static inline __attribute__((always_inline)) int reproject_pixel(const pgi_temporal *t, const pgi_camera *cam,
-                                                                 const float *restrict D, int x, int y,
+                                                                 const float *restrict bounds, int x, int y,
                                                                  float *restrict c) {
     const int W = t->width, H = t->height;
     const size_t n = (size_t)W * (size_t)H, p = (size_t)y * (size_t)W + (size_t)x;
@@ -365,19 +414,13 @@ static inline __attribute__((always_inline)) int reproject_pixel(const pgi_tempo
             }
     }
     if (w < 0.05f) return 0; /* nothing of it was seen: disoccluded */
-    /* the neighbourhood clamp: a history that the new frame's neighbours do not support (a moved
-       object, a light) is pulled to their range instead of leaving a ghost */
-    float m[3] = {0.f, 0.f, 0.f}, m2[3] = {0.f, 0.f, 0.f};
-    const int ya = y > 0 ? y - 1 : 0, yb = y + 1 < H ? y + 1 : y, xa = x > 0 ? x - 1 : 0, xb = x + 1 < W ? x + 1 : x;
-    for (int qy = ya; qy <= yb; qy++)
-        for (int qx = xa; qx <= xb; qx++) {
-            const float *dq = D + 3 * ((size_t)qy * (size_t)W + (size_t)qx);
-            for (int k = 0; k < 3; k++) m[k] += dq[k], m2[k] += dq[k] * dq[k];
-        }
-    const float ic = 1.f / (float)((yb - ya + 1) * (xb - xa + 1)), iw = 1.f / w;
+    /* the neighbourhood clamp (bounds: clamp_bounds'): a history that the new frame's neighbours
+       do not support (a moved object, a light) is pulled to their range instead of leaving a ghost */
+    const float iw = 1.f / w;
     for (int k = 0; k < 3; k++) {
-        const float mean = m[k] * ic, sd = sqrtf(pos0(m2[k] * ic - mean * mean));
-        c[H_RGB + k] = pos0(minf(maxf(acc[H_RGB + k] * iw, mean - 1.25f * sd), mean + 1.25f * sd));
+        const float lo = bounds[(size_t)k * (size_t)W + (size_t)x],
+                    hi = bounds[(size_t)(3 + k) * (size_t)W + (size_t)x];
+        c[H_RGB + k] = pos0(minf(maxf(acc[H_RGB + k] * iw, lo), hi));
         c[H_IND + k] = pos0(acc[H_IND + k] * iw);
     }
     c[H_M1] = pos0(acc[H_M1] * iw);
@@ -400,10 +443,12 @@ static inline __attribute__((always_inline)) int blend_row(pgi_temporal *t, cons
     float *restrict fr = t->planes, *restrict fg = fr + n, *restrict fb = fg + n, *restrict fv = fb + n;
     int kept = 0;
     double sum = 0.0;
+    float *const buf = t->rowbuf + (size_t)omp_get_thread_num() * ROWBUF * (size_t)W;
+    if (reproject) clamp_bounds(avg, W, t->height, y, buf);
     for (int x = 0; x < W; x++) {
         const size_t p = (size_t)y * (size_t)W + (size_t)x;
         float *restrict c = t->carried + HS * p, *restrict h = t->hist_next + HS * p;
-        if (reproject) kept += reproject_pixel(t, cam, avg, x, y, c);
+        if (reproject) kept += reproject_pixel(t, cam, buf + 6 * (size_t)W, x, y, c);
         const float wh = t->carried_on ? minf(c[H_N], cap) * fade : 0.f, iw = 1.f / (wh + wk);
         for (int i = 0; i < 3; i++) {
             const float D = avg[3 * p + i];
@@ -567,6 +612,14 @@ pgi_status pgi_temporal_step(pgi_temporal *t, const pgi_render_desc *in, pgi_ima
         if (!out->rgb) return pgi__fail(PGI_ERR_OOM, "out of memory for the output image");
         out->width = w, out->height = h;
     }
+    const int nthreads = pgi__threads(d.threads);
+    if (t->rowbuf_cap < (size_t)nthreads * ROWBUF * (size_t)w) {
+        free(t->rowbuf);
+        t->rowbuf_cap = 0;
+        if (!(t->rowbuf = malloc((size_t)nthreads * ROWBUF * (size_t)w * sizeof(float))))
+            return pgi__fail(PGI_ERR_OOM, "out of memory for the temporal step's rows");
+        t->rowbuf_cap = (size_t)nthreads * ROWBUF * (size_t)w;
+    }
     pgi_temporal_stats ts = {.on = 1, .restarted = k == 1 && !reproject_now};
     int kept = 0;
     double t1 = t0;
@@ -585,7 +638,7 @@ pgi_status pgi_temporal_step(pgi_temporal *t, const pgi_render_desc *in, pgi_ima
        irradiance), the last pass putting fw of each filtered row into the picture. Rows are taken
        a few at a time as threads come free (a thread of a shared machine may lose its core a
        while); every pixel is computed on its own, the same bytes for any thread count. */
-#pragma omp parallel num_threads(pgi__threads(d.threads))
+#pragma omp parallel num_threads(nthreads)
     {
 #pragma omp for schedule(dynamic, ROWS) reduction(+ : kept)
         for (int y = 0; y < h; y++) kept += step_row(t, &cam, shift, reproject_now, k, fade, filter, out->rgb, y);
