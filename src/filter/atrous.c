@@ -1,7 +1,7 @@
 /* Edge-aware a-trous filter (atrous.h). Planes of floats, a row at a time: the interior of a row
- * (every neighbour in the image) runs a neighbour at a time over CHUNK pixels, without bounds
- * checks or branches, and vectorizes; the border columns take pixel() with clamped indices and zero
- * weights, the border rows zero weights for the rows outside. */
+ * (every neighbour in the image) runs a vector of pixels at a time, each with its 8 neighbours in
+ * turn, without bounds checks or branches; the border columns take pixel() with clamped indices
+ * and zero weights, the border rows zero weights for the rows outside. */
 #include "filter/atrous.h"
 
 #include <string.h>
@@ -72,8 +72,6 @@ static inline void pixel(const pgi__atrous_guide *restrict g, const float *restr
     ov[p] = m > 0.f ? sw2v * inv * inv : iv[p];
 }
 
-enum { CHUNK = 64 }; /* pixels of a row done together: a tap at a time over them, in vectors */
-
 /* Neighbour t of pixel x (interior()'s): its weight (the kernel's kw[t] times the edge terms against
  * x's normal, plane, luminance and albedo) and its values added to x's sums. Written out for each
  * neighbour, so that the loop over the row's pixels vectorizes with the sums in registers. */
@@ -93,7 +91,7 @@ enum { CHUNK = 64 }; /* pixels of a row done together: a tap at a time over them
         sr += w * r, sg += w * gg, sb += w * b;                                                                        \
     } while (0)
 
-/* Pixels [x0, x0 + m) (m <= CHUNK) of row y in the interior (every neighbour in the image): the
+/* Pixels [x0, x0 + m) of row y in the interior (every neighbour in the image): the
  * same sums as pixel(), in vectors of pixels, each with its 8 neighbours in turn (a row outside
  * the image weighs 0 and reads row y: the same sums as without it) and its sums in registers,
  * on contiguous loads (an AVX2 clone where the CPU has it: the same bits). */
@@ -173,8 +171,7 @@ static void pass_row(const pgi__atrous_guide *restrict g, int step, int y, const
         }
         pixel(g, ir, ig, ib, iv, or_, og, ob, ov, base + (size_t)x, row, kr, col, kc, fs);
     }
-    for (int x = lo; x < hi; x += CHUNK)
-        interior(g, in, out, base + (size_t)x, hi - x < CHUNK ? hi - x : CHUNK, row, kr, step);
+    if (hi > lo) interior(g, in, out, base + (size_t)lo, hi - lo, row, kr, step);
 }
 
 /* Rows of the passes at a time a thread takes (rows cost alike, but a thread of a machine shared

@@ -359,8 +359,8 @@ static inline __attribute__((always_inline)) void clamp_bounds(const float *rest
  * p's primary hit found in the previous camera, moved back by this picture's sub-pixel offset to
  * p's centre: Catmull-Rom over the 4x4 previous pixels around it, bilinear over the 2x2 at the
  * image's border) when p's surface shows within SEEN_RADIUS previous pixels of there, the picture
- * clamped to the mean +- 1.25 sigma of the new picture D's 3x3 neighbourhood. Returns whether
- * anything was kept (else c's weight is 0). */
+ * clamped to the mean +- 1.25 sigma of the new picture's 3x3 neighbourhood (the row's `bounds`,
+ * clamp_bounds'). Returns whether anything was kept (else c's weight is 0). */
 static inline __attribute__((always_inline)) int reproject_pixel(const pgi_temporal *t, const pgi_camera *cam,
                                                                  const float *restrict bounds, int x, int y,
                                                                  float *restrict c) {
