@@ -1,7 +1,7 @@
 /* Edge-aware a-trous filter (atrous.h). Planes of floats, a row at a time: the interior of a row
- * (every neighbour in the image) runs a neighbour at a time over CHUNK pixels, without bounds
- * checks or branches, and vectorizes; the border columns take pixel() with clamped indices and zero
- * weights, the border rows zero weights for the rows outside. */
+ * (every neighbour in the image) runs a vector of pixels at a time, each with its 8 neighbours in
+ * turn, without bounds checks or branches; the border columns take pixel() with clamped indices
+ * and zero weights, the border rows zero weights for the rows outside. */
 #include "filter/atrous.h"
 
 #include <string.h>
@@ -72,12 +72,32 @@ static inline void pixel(const pgi__atrous_guide *restrict g, const float *restr
     ov[p] = m > 0.f ? sw2v * inv * inv : iv[p];
 }
 
-enum { CHUNK = 64 }; /* pixels of a row done together: a tap at a time over them, in vectors */
+/* Neighbour t of pixel x (interior()'s): its weight (the kernel's kw[t] times the edge terms against
+ * x's normal, plane, luminance and albedo) and its values added to x's sums. Written out for each
+ * neighbour, so that the loop over the row's pixels vectorizes with the sums in registers. */
+#define PGI__ATROUS_TAP(t)                                                                                             \
+    do {                                                                                                               \
+        const long q = (long)x + off[t];                                                                               \
+        const float nd = pos0(n0 * nx[q] + n1 * ny[q] + n2 * nz[q]);                                                   \
+        float wn = nd * nd; /* nd^64 by squaring */                                                                    \
+        wn *= wn, wn *= wn, wn *= wn, wn *= wn, wn *= wn;                                                              \
+        const float plane = fabsf(n0 * px[q] + n1 * py[q] + n2 * pz[q] - pd);                                          \
+        const float da = fabsf(ar[q] - a0) + fabsf(ag[q] - a1) + fabsf(ab[q] - a2);                                    \
+        const float r = ir[q], gg = ig[q], b = ib[q];                                                                  \
+        const float e = plane * iz + fabsf(lum(r, gg, b) - lp) * il + da * 4.f;                                        \
+        const float w = kw[t] * mk[q] * wn * soft_exp(e);                                                              \
+        sw += w;                                                                                                       \
+        sw2v += w * w * iv[q];                                                                                         \
+        sr += w * r, sg += w * gg, sb += w * b;                                                                        \
+    } while (0)
 
-/* Pixels [x0, x0 + m) (m <= CHUNK) of row y in the interior (every neighbour in the image): the
- * same sums as pixel(), a neighbour at a time over all of them, on contiguous loads. */
-static void interior(const pgi__atrous_guide *restrict g, const float *const in[4], float *const out[4], size_t base,
-                     int m, const size_t row[3], const float kr[3], int step) {
+/* Pixels [x0, x0 + m) of row y in the interior (every neighbour in the image): the
+ * same sums as pixel(), in vectors of pixels, each with its 8 neighbours in turn (a row outside
+ * the image weighs 0 and reads row y: the same sums as without it) and its sums in registers,
+ * on contiguous loads (an AVX2 clone where the CPU has it: the same bits). */
+PGI__AVX2_CLONES static void interior(const pgi__atrous_guide *restrict g, const float *const in[4],
+                                      float *const out[4], size_t base, int m, const size_t row[3], const float kr[3],
+                                      int step) {
     static const float k[3] = {0.25f, 0.5f, 0.25f};
     const float *restrict nx = g->nrm[0] + base, *restrict ny = g->nrm[1] + base, *restrict nz = g->nrm[2] + base;
     const float *restrict px = g->pos[0] + base, *restrict py = g->pos[1] + base, *restrict pz = g->pos[2] + base;
@@ -85,53 +105,38 @@ static void interior(const pgi__atrous_guide *restrict g, const float *const in[
                           *restrict ab = g->albedo[2] + base;
     const float *restrict ir = in[0] + base, *restrict ig = in[1] + base, *restrict ib = in[2] + base,
                           *restrict iv = in[3] + base, *restrict mk = g->mask + base, *restrict dz = g->depth + base;
-    float lp[CHUNK], il[CHUNK], iz[CHUNK], pd[CHUNK];
-    float sw[CHUNK], sw2v[CHUNK], sr[CHUNK], sg[CHUNK], sb[CHUNK];
-    const float c0 = kr[1] * k[1], fs = 0.01f * (float)step;
-    for (int x = 0; x < m; x++) {
-        lp[x] = lum(ir[x], ig[x], ib[x]);
-        il[x] = 1.f / (4.f * sqrtf(iv[x]) + 1e-6f);
-        iz[x] = 1.f / (fs * dz[x] + 1e-6f);
-        pd[x] = nx[x] * px[x] + ny[x] * py[x] + nz[x] * pz[x];
-        const float w = c0 * mk[x]; /* p itself: every edge term 1 */
-        sw[x] = w, sw2v[x] = w * w * iv[x];
-        sr[x] = w * ir[x], sg[x] = w * ig[x], sb[x] = w * ib[x];
-    }
-    for (int j = 0; j < 3; j++)
-        for (int i = 0; i < 3; i++) {
-            if (i == 1 && j == 1) continue;
-            const float kw = kr[j] * k[i];
-            if (kw == 0.f) continue;
-            const long off = (long)row[j] - (long)row[1] + (long)(i - 1) * step; /* q - p */
-            const float *restrict qnx = nx + off, *restrict qny = ny + off, *restrict qnz = nz + off;
-            const float *restrict qpx = px + off, *restrict qpy = py + off, *restrict qpz = pz + off;
-            const float *restrict qar = ar + off, *restrict qag = ag + off, *restrict qab = ab + off;
-            const float *restrict qr = ir + off, *restrict qg = ig + off, *restrict qb = ib + off;
-            const float *restrict qv = iv + off, *restrict qm = mk + off;
-#pragma omp simd
-            for (int x = 0; x < m; x++) {
-                const float nd = pos0(nx[x] * qnx[x] + ny[x] * qny[x] + nz[x] * qnz[x]);
-                float wn = nd * nd; /* nd^64 by squaring */
-                wn *= wn, wn *= wn, wn *= wn, wn *= wn, wn *= wn;
-                const float plane = fabsf(nx[x] * qpx[x] + ny[x] * qpy[x] + nz[x] * qpz[x] - pd[x]);
-                const float da = fabsf(qar[x] - ar[x]) + fabsf(qag[x] - ag[x]) + fabsf(qab[x] - ab[x]);
-                const float r = qr[x], gg = qg[x], b = qb[x];
-                const float e = plane * iz[x] + fabsf(lum(r, gg, b) - lp[x]) * il[x] + da * 4.f;
-                const float w = kw * qm[x] * wn * soft_exp(e);
-                sw[x] += w;
-                sw2v[x] += w * w * qv[x];
-                sr[x] += w * r, sg[x] += w * gg, sb[x] += w * b;
-            }
-        }
     float *restrict or_ = out[0] + base, *restrict og = out[1] + base, *restrict ob = out[2] + base,
                     *restrict ov = out[3] + base;
+    long off[8]; /* q - p of the neighbours */
+    float kw[8];
+    for (int j = 0, t = 0; j < 3; j++)
+        for (int i = 0; i < 3; i++) {
+            if (i == 1 && j == 1) continue;
+            off[t] = (long)row[j] - (long)row[1] + (long)(i - 1) * step;
+            kw[t++] = kr[j] * k[i];
+        }
+    const float c0 = kr[1] * k[1], fs = 0.01f * (float)step;
+#pragma omp simd
     for (int x = 0; x < m; x++) {
+        const float n0 = nx[x], n1 = ny[x], n2 = nz[x], a0 = ar[x], a1 = ag[x], a2 = ab[x];
+        const float lp = lum(ir[x], ig[x], ib[x]), il = 1.f / (4.f * sqrtf(iv[x]) + 1e-6f);
+        const float iz = 1.f / (fs * dz[x] + 1e-6f), pd = n0 * px[x] + n1 * py[x] + n2 * pz[x];
+        const float w0 = c0 * mk[x]; /* p itself: every edge term 1 */
+        float sw = w0, sw2v = w0 * w0 * iv[x], sr = w0 * ir[x], sg = w0 * ig[x], sb = w0 * ib[x];
+        PGI__ATROUS_TAP(0);
+        PGI__ATROUS_TAP(1);
+        PGI__ATROUS_TAP(2);
+        PGI__ATROUS_TAP(3);
+        PGI__ATROUS_TAP(4);
+        PGI__ATROUS_TAP(5);
+        PGI__ATROUS_TAP(6);
+        PGI__ATROUS_TAP(7);
         /* mask 1: the weighted mean exactly; 0: the value kept exactly */
-        const float mm = mk[x], km = 1.f - mm, inv = mm / (sw[x] + km);
-        or_[x] = sr[x] * inv + km * ir[x];
-        og[x] = sg[x] * inv + km * ig[x];
-        ob[x] = sb[x] * inv + km * ib[x];
-        ov[x] = sw2v[x] * inv * inv + km * iv[x];
+        const float mm = mk[x], km = 1.f - mm, inv = mm / (sw + km);
+        or_[x] = sr * inv + km * ir[x];
+        og[x] = sg * inv + km * ig[x];
+        ob[x] = sb * inv + km * ib[x];
+        ov[x] = sw2v * inv * inv + km * iv[x];
     }
 }
 
@@ -166,27 +171,39 @@ static void pass_row(const pgi__atrous_guide *restrict g, int step, int y, const
         }
         pixel(g, ir, ig, ib, iv, or_, og, ob, ov, base + (size_t)x, row, kr, col, kc, fs);
     }
-    for (int x = lo; x < hi; x += CHUNK)
-        interior(g, in, out, base + (size_t)x, hi - x < CHUNK ? hi - x : CHUNK, row, kr, step);
+    if (hi > lo) interior(g, in, out, base + (size_t)lo, hi - lo, row, kr, step);
+}
+
+/* Rows of the passes at a time a thread takes (rows cost alike, but a thread of a machine shared
+ * with other work may lose its core for a while: the others take its rows meanwhile). */
+enum { ROWS = 4 };
+
+void pgi__atrous_filter_team(const pgi__atrous_guide *g, int passes, float *const rgb[4], float *scratch,
+                             void (*row_done)(void *ctx, int y, float *const res[3]), void *ctx) {
+    const size_t n = (size_t)g->width * (size_t)g->height;
+    const int H = g->height;
+    float *const tmp[4] = {scratch, scratch + n, scratch + 2 * n, scratch + 3 * n};
+    float *const res[3] = {passes % 2 ? tmp[0] : rgb[0], passes % 2 ? tmp[1] : rgb[1], passes % 2 ? tmp[2] : rgb[2]};
+#pragma omp for schedule(dynamic, ROWS)
+    for (int y = 0; y < H; y++) spatial_variance(g, (const float *const *)rgb, rgb[3], y);
+    for (int k = 0; k < passes; k++) {
+        const float *const *in = (const float *const *)(k % 2 ? tmp : rgb);
+        float *const *out = k % 2 ? rgb : tmp;
+        const int last = k + 1 == passes && row_done;
+#pragma omp for schedule(dynamic, ROWS)
+        for (int y = 0; y < H; y++) {
+            pass_row(g, 1 << k, y, in, out);
+            if (last) row_done(ctx, y, res);
+        }
+    }
 }
 
 pgi_status pgi__atrous_filter(const pgi__atrous_guide *g, int passes, int threads, float *const rgb[4], float *scratch,
                               float *res[3]) {
     if (passes < 1 || passes > 5) return pgi__fail(PGI_ERR_INVALID_ARG, "a-trous filter: %d passes (1..5)", passes);
     const size_t n = (size_t)g->width * (size_t)g->height;
-    const int H = g->height;
-    float *const tmp[4] = {scratch, scratch + n, scratch + 2 * n, scratch + 3 * n};
 #pragma omp parallel num_threads(pgi__threads(threads))
-    {
-#pragma omp for schedule(static)
-        for (int y = 0; y < H; y++) spatial_variance(g, (const float *const *)rgb, rgb[3], y);
-        for (int k = 0; k < passes; k++) {
-            const float *const *in = (const float *const *)(k % 2 ? tmp : rgb);
-            float *const *out = k % 2 ? rgb : tmp;
-#pragma omp for schedule(static)
-            for (int y = 0; y < H; y++) pass_row(g, 1 << k, y, in, out);
-        }
-    }
-    for (int c = 0; c < 3; c++) res[c] = passes % 2 ? tmp[c] : rgb[c];
+    pgi__atrous_filter_team(g, passes, rgb, scratch, NULL, NULL);
+    for (int c = 0; c < 3; c++) res[c] = passes % 2 ? scratch + (size_t)c * n : rgb[c];
     return PGI_OK;
 }

@@ -35,4 +35,11 @@ typedef struct pgi__atrous_guide {
 pgi_status pgi__atrous_filter(const pgi__atrous_guide *g, int passes, int threads, float *const rgb[4], float *scratch,
                               float *res[3]);
 
+/* The same passes from inside a parallel region, which every thread of it calls (its loops are
+ * shared among them; passes 1..5, not checked); after the last pass's row y, row_done (when not
+ * NULL) is called by the thread that made it with the result's planes (rgb's or scratch's), so
+ * that a caller may finish the row without a pass of its own. */
+void pgi__atrous_filter_team(const pgi__atrous_guide *g, int passes, float *const rgb[4], float *scratch,
+                             void (*row_done)(void *ctx, int y, float *const res[3]), void *ctx);
+
 #endif

@@ -241,7 +241,6 @@ pgi_status pgi_progressive_step(pgi_progressive *a, const pgi_render_desc *in, p
                 return pgi__fail(PGI_ERR_OOM, "out of memory for a %dx%d accumulation buffer", fs.width, fs.height);
             }
         }
-        memset(a->sum, 0, 3 * n * sizeof *a->sum);
         a->r0 = fs.radius;
         a->r0_how = fs.auto_radius;
         a->seed0 = in->seed ? in->seed : 1;
@@ -252,17 +251,37 @@ pgi_status pgi_progressive_step(pgi_progressive *a, const pgi_render_desc *in, p
     /* The fixed summation order (photongi.h, PGI_PROGRESSIVE_BLOCK): frames into their block's sum,
        finished blocks into the total. */
     const int first = k % PGI_PROGRESSIVE_BLOCK == 0, last = (k + 1) % PGI_PROGRESSIVE_BLOCK == 0;
-    pgi_block_sum_add(a->block, a->frame.rgb, 3 * n, first);
-    if (last) pgi_block_sum_merge(a->sum, a->block, 3 * n);
-    a->frames = k + 1;
     if (!out->rgb || out->width != fs.width || out->height != fs.height) {
         pgi_image_free(out);
         out->rgb = malloc(3 * n * sizeof(float));
-        if (!out->rgb) return pgi__fail(PGI_ERR_OOM, "out of memory for the output image");
+        if (!out->rgb) {
+            a->frames = 0;
+            return pgi__fail(PGI_ERR_OOM, "out of memory for the output image");
+        }
         out->width = fs.width;
         out->height = fs.height;
     }
-    pgi_block_sum_mean(a->sum, last ? NULL : a->block, 3 * n, (uint64_t)a->frames, out->rgb);
+    a->frames = k + 1;
+    if (k == 0 && !last) {
+        /* a picture's first frame (every frame of a moving temporal picture): the sum cleared, the
+           block and the average the frame itself (the mean of one: the same bits), in one pass
+           over the values shared by the frame's threads */
+        const long nv = (long)(3 * n);
+        double *restrict sum = a->sum, *restrict block = a->block;
+        const float *restrict f = a->frame.rgb;
+        float *restrict o = out->rgb;
+#pragma omp parallel for schedule(static) num_threads(pgi__threads(in->threads))
+        for (long i = 0; i < nv; i++) {
+            sum[i] = 0.0;
+            block[i] = (double)f[i];
+            o[i] = f[i];
+        }
+    } else {
+        if (k == 0) memset(a->sum, 0, 3 * n * sizeof *a->sum);
+        pgi_block_sum_add(a->block, a->frame.rgb, 3 * n, first);
+        if (last) pgi_block_sum_merge(a->sum, a->block, 3 * n);
+        pgi_block_sum_mean(a->sum, last ? NULL : a->block, 3 * n, (uint64_t)a->frames, out->rgb);
+    }
     fs.frames = a->frames;
     /* the accumulator's buffers in the frame's memory (the frame's stats were taken before them) */
     const size_t acc = a->cap * 3 * (2 * sizeof(double) + sizeof(float));

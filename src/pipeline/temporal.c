@@ -2,6 +2,7 @@
  * progressive frames, the last picture reprojected into the new view when only the camera moved,
  * and an edge-aware filter of the indirect light, both fading out as a still view's frames
  * accumulate, so that it converges to the progressive average itself. */
+#include <omp.h>
 #include <string.h>
 
 #include "core/core.h"
@@ -35,6 +36,8 @@ struct pgi_temporal {
     float *geo, *prev_geo;              /* 8 a pixel: this and the last frame's hit, depth, normal */
     float *nrm, *alb, *ind;             /* 3 a pixel: this frame's AOVs (depth goes to cur's plane) */
     float *planes;                      /* 8 planes: the filter's r, g, b, variance and its scratch */
+    float *rowbuf;                      /* ROWBUF floats a column for each thread (clamp_bounds) */
+    size_t rowbuf_cap;                  /* floats allocated there */
     double *row_sum;                    /* a row's history weight (a deterministic sum) */
     int *row_kept;                      /* a row's pixels that kept a history */
     pgi_camera prev_cam;
@@ -57,7 +60,8 @@ static void free_buffers(pgi_temporal *t) {
         free(*b[i]);
         *b[i] = NULL;
     }
-    free(t->row_sum), free(t->row_kept);
+    free(t->row_sum), free(t->row_kept), free(t->rowbuf);
+    t->rowbuf = NULL, t->rowbuf_cap = 0;
     t->row_sum = NULL, t->row_kept = NULL;
     t->cap = 0, t->cap_rows = 0;
 }
@@ -144,6 +148,10 @@ static void catmull_rom(float a, float w[4]) {
  * found little left to take (Sibenik, docs/temporal.md). */
 #define LONG_HISTORY 6.0
 
+/* Rows a thread takes at a time (rows cost alike, but a thread of a machine shared with other
+ * work may lose its core for a while: the others take its rows meanwhile). */
+enum { ROWS = 4 };
+
 /* Point i of the radical-inverse sequence in base b, in [0, 1). */
 static float halton(uint64_t i, unsigned b) {
     float f = 1.f, r = 0.f;
@@ -166,13 +174,16 @@ static void not_camera_of(const pgi_render_desc *d, const pgi_scene *s, pgi__pic
 }
 
 /* Direction through the centre of pixel (x, y) (its component along forward is 1). */
-void pgi__temporal_pixel_dir(const pgi_camera *c, int x, int y, float d[3]) {
+static inline __attribute__((always_inline)) void pixel_dir(const pgi_camera *c, int x, int y, float d[3]) {
     v3_store(d, pgi__camera_ray_at(c, x, y, 0.5f, 0.5f));
 }
 
+void pgi__temporal_pixel_dir(const pgi_camera *c, int x, int y, float d[3]) { pixel_dir(c, x, y, d); }
+
 /* Where world point (or, `dir`, direction) q lands in camera c: continuous pixel coordinates (the
  * centre of pixel (x, y) is (x, y)) and its depth along c's forward; 0 when behind the camera. */
-int pgi__temporal_project(const pgi_camera *c, const float q[3], int dir, float *px, float *py, float *z) {
+static inline __attribute__((always_inline)) int project(const pgi_camera *c, const float q[3], int dir, float *px,
+                                                         float *py, float *z) {
     float v[3];
     for (int k = 0; k < 3; k++) v[k] = dir ? q[k] : q[k] - c->eye[k];
     const float f = v[0] * c->forward[0] + v[1] * c->forward[1] + v[2] * c->forward[2];
@@ -185,18 +196,40 @@ int pgi__temporal_project(const pgi_camera *c, const float q[3], int dir, float 
     return 1;
 }
 
-void pgi__temporal_hit(const pgi_camera *c, int x, int y, const float shift[2], float z, float pos[3]) {
+int pgi__temporal_project(const pgi_camera *c, const float q[3], int dir, float *px, float *py, float *z) {
+    return project(c, q, dir, px, py, z);
+}
+
+static inline __attribute__((always_inline)) void hit_at(const pgi_camera *c, int x, int y, const float shift[2],
+                                                         float z, float pos[3]) {
     v3_store(pos, v3_madd(v3_load(c->eye), pgi__camera_ray_at(c, x, y, 0.5f + shift[0], 0.5f + shift[1]), z));
 }
 
-int pgi__temporal_land(const pgi_camera *prev, const float q[3], const float shift[2], float *px, float *py) {
+void pgi__temporal_hit(const pgi_camera *c, int x, int y, const float shift[2], float z, float pos[3]) {
+    hit_at(c, x, y, shift, z, pos);
+}
+
+/* pgi__temporal_land, inlined where it is called (the AVX2 clone of the blend: no call between
+ * builds of different vector widths) */
+static inline __attribute__((always_inline)) int land(const pgi_camera *prev, const float q[3], const float shift[2],
+                                                      float *px, float *py) {
     float z;
-    if (!pgi__temporal_project(prev, q, 0, px, py, &z)) return 0;
+    if (!project(prev, q, 0, px, py, &z)) return 0;
     *px -= shift[0], *py -= shift[1];
     return 1;
 }
 
+int pgi__temporal_land(const pgi_camera *prev, const float q[3], const float shift[2], float *px, float *py) {
+    return land(prev, q, shift, px, py);
+}
+
 static inline float lum(float r, float g, float b) { return 0.2126f * r + 0.7152f * g + 0.0722f * b; }
+
+/* fmaxf and fminf for values that are not NaN (0 for a NaN x in pos0, as fmaxf(0, x)), without
+ * fmaxf's call: one instruction */
+static inline float maxf(float a, float b) { return a > b ? a : b; }
+static inline float minf(float a, float b) { return a < b ? a : b; }
+static inline float pos0(float x) { return x > 0.f ? x : 0.f; }
 
 /* Irradiance: radiance over the albedo where there is one to divide by. */
 static inline float irradiance(float v, float a) { return a > 1e-4f ? v / a : v; }
@@ -204,7 +237,8 @@ static inline float irradiance(float v, float a) { return a > 1e-4f ? v / a : v;
 /* Row y of this frame's guide planes (primary hit positions through the pixel centres moved by
  * `shift`, normals, albedo, filter mask) from the AOVs, and (filter != 0) the running means of the
  * picture's k frames' indirect light and its irradiance's squared luminance. */
-static void prepare_row(pgi_temporal *t, const pgi_camera *cam, const float shift[2], int k, int filter, int y) {
+static inline __attribute__((always_inline)) void prepare_row(pgi_temporal *t, const pgi_camera *cam,
+                                                              const float shift[2], int k, int filter, int y) {
     const int W = t->width;
     const size_t n = (size_t)W * (size_t)t->height;
     float *restrict g = t->cur;
@@ -214,7 +248,7 @@ static void prepare_row(pgi_temporal *t, const pgi_camera *cam, const float shif
         const size_t p = (size_t)y * (size_t)W + (size_t)x;
         const float z = g[G_DEPTH * n + p];
         float pos[3];
-        pgi__temporal_hit(cam, x, y, shift, z, pos);
+        hit_at(cam, x, y, shift, z, pos);
         float *restrict geo = t->geo + 8 * p;
         for (int c = 0; c < 3; c++) {
             g[(G_PX + c) * n + p] = geo[c] = pos[c];
@@ -261,14 +295,75 @@ static inline int same_surface(const float *restrict prev_geo, size_t q, const f
  * nearest pixel alone) kept too little at the edges, 2 was 0.5 dB better than 1. */
 #define SEEN_RADIUS 2
 
+/* The 4x4 taps of Catmull-Rom weights wx (along the row) and wy at h0 (the top-left tap's record,
+ * rows W records apart): the first nk floats of the records summed into acc, the weights into *w
+ * (nk a constant where it is inlined: the loops unroll). */
+static inline __attribute__((always_inline)) void catmull_rom_taps(const float *restrict h0, int W, const float wx[4],
+                                                                   const float wy[4], int nk, float *restrict acc,
+                                                                   float *restrict w) {
+    for (int j = 0; j < 4; j++)
+        for (int i = 0; i < 4; i++) {
+            const float b = wx[i] * wy[j];
+            const float *h = h0 + HS * ((size_t)j * (size_t)W + (size_t)i);
+            *w += b;
+            for (int k = 0; k < nk; k++) acc[k] += b * h[k];
+        }
+}
+
+/* Floats a column of a thread's row scratch: the new picture's sums over 3 rows (3 channels and
+ * their squares), and the clamp's bounds (3 low, 3 high). */
+enum { ROWBUF = 12 };
+
+/* The neighbourhood clamp's bounds of row y's pixels (lo[k][x], hi[k][x] = lo + 3W...: mean -+ 1.25
+ * sigma of each channel of the new picture D over the pixel's 3x3 neighbourhood in the image),
+ * for the whole row at once in planes (column sums, then sums of three columns: it vectorizes).
+ * buf holds ROWBUF floats a column. */
+static inline __attribute__((always_inline)) void clamp_bounds(const float *restrict D, int W, int H, int y,
+                                                               float *restrict buf) {
+    const int ya = y > 0 ? y - 1 : 0, yb = y + 1 < H ? y + 1 : y;
+    const size_t w = (size_t)W;
+    float *restrict cs = buf;         /* 6 planes: sums of channel k, then of its square */
+    float *restrict lo = buf + 6 * w; /* 3 planes, then hi's 3 */
+    for (int k = 0; k < 6; k++)
+        for (int x = 0; x < W; x++) cs[k * w + (size_t)x] = 0.f;
+    for (int qy = ya; qy <= yb; qy++) {
+        const float *restrict d = D + 3 * (size_t)qy * w;
+        for (int k = 0; k < 3; k++)
+            for (int x = 0; x < W; x++) {
+                const float v = d[3 * (size_t)x + (size_t)k];
+                cs[k * w + (size_t)x] += v, cs[(3 + k) * w + (size_t)x] += v * v;
+            }
+    }
+    const float rows = (float)(yb - ya + 1);
+    for (int k = 0; k < 3; k++) {
+        const float *restrict s1 = cs + k * w, *restrict s2 = cs + (3 + k) * w;
+        float *restrict l = lo + k * w, *restrict h = lo + (3 + k) * w;
+        const float ic = 1.f / (rows * 3.f);
+        for (int x = 1; x < W - 1; x++) {
+            const float mean = (s1[x - 1] + s1[x] + s1[x + 1]) * ic;
+            const float sd = sqrtf(pos0((s2[x - 1] + s2[x] + s2[x + 1]) * ic - mean * mean));
+            l[x] = mean - 1.25f * sd, h[x] = mean + 1.25f * sd;
+        }
+        for (int e = 0; e < 2; e++) { /* the first and the last column: their neighbours in the image */
+            const int x = e ? W - 1 : 0, xa = x > 0 ? x - 1 : 0, xb = x + 1 < W ? x + 1 : x;
+            float m1 = 0.f, m2 = 0.f;
+            for (int q = xa; q <= xb; q++) m1 += s1[q], m2 += s2[q];
+            const float ie = 1.f / (rows * (float)(xb - xa + 1));
+            const float mean = m1 * ie, sd = sqrtf(pos0(m2 * ie - mean * mean));
+            l[x] = mean - 1.25f * sd, h[x] = mean + 1.25f * sd;
+        }
+    }
+}
+
 /* The last picture's history reprojected to pixel (x, y) of camera `cam` into c (HS floats; pixel
  * p's primary hit found in the previous camera, moved back by this picture's sub-pixel offset to
  * p's centre: Catmull-Rom over the 4x4 previous pixels around it, bilinear over the 2x2 at the
  * image's border) when p's surface shows within SEEN_RADIUS previous pixels of there, the picture
- * clamped to the mean +- 1.25 sigma of the new picture D's 3x3 neighbourhood. Returns whether
- * anything was kept (else c's weight is 0). */
-static int reproject_pixel(const pgi_temporal *t, const pgi_camera *cam, const float *restrict D, int x, int y,
-                           float *restrict c) {
+ * clamped to the mean +- 1.25 sigma of the new picture's 3x3 neighbourhood (the row's `bounds`,
+ * clamp_bounds'). Returns whether anything was kept (else c's weight is 0). */
+static inline __attribute__((always_inline)) int reproject_pixel(const pgi_temporal *t, const pgi_camera *cam,
+                                                                 const float *restrict bounds, int x, int y,
+                                                                 float *restrict c) {
     const int W = t->width, H = t->height;
     const size_t n = (size_t)W * (size_t)H, p = (size_t)y * (size_t)W + (size_t)x;
     const float *restrict cur = t->cur, *restrict hist = t->hist;
@@ -277,9 +372,9 @@ static int reproject_pixel(const pgi_temporal *t, const pgi_camera *cam, const f
     const float x0[3] = {cur[G_PX * n + p], cur[(G_PX + 1) * n + p], cur[(G_PX + 2) * n + p]};
     const float n0[3] = {cur[G_NX * n + p], cur[(G_NX + 1) * n + p], cur[(G_NX + 2) * n + p]};
     float dir[3], fx, fy, zq;
-    if (sky) pgi__temporal_pixel_dir(cam, x, y, dir);
-    if (sky ? !pgi__temporal_project(&t->prev_cam, dir, 1, &fx, &fy, &zq)
-            : !pgi__temporal_land(&t->prev_cam, x0, t->shift, &fx, &fy)) /* the shifted sample's hit: p's centre */
+    if (sky) pixel_dir(cam, x, y, dir);
+    if (sky ? !project(&t->prev_cam, dir, 1, &fx, &fy, &zq)
+            : !land(&t->prev_cam, x0, t->shift, &fx, &fy)) /* the shifted sample's hit: p's centre */
         return 0;
     if (!(fx > -2.f && fy > -2.f && fx < (float)W + 1.f && fy < (float)H + 1.f)) return 0;
     /* seen: the nearest previous pixel first, then the others within SEEN_RADIUS */
@@ -292,25 +387,22 @@ static int reproject_pixel(const pgi_temporal *t, const pgi_camera *cam, const f
             if (qx < 0 || qy < 0 || qx >= W || qy >= H) continue;
             seen = same_surface(t->prev_geo, (size_t)qy * (size_t)W + (size_t)qx, n0, x0, sky);
         }
-    if (!seen) return 0;                         /* disoccluded (or turned away) */
-    const int nk = t->passes > 0 ? HS : H_PLAIN; /* without the filter, the picture and its weight */
+    if (!seen) return 0; /* disoccluded (or turned away) */
     const int xi = (int)floorf(fx), yi = (int)floorf(fy);
     const float ax = fx - (float)xi, ay = fy - (float)yi;
     float w = 0.f, acc[HS] = {0.f};
     /* Catmull-Rom over the 4x4 previous pixels around it (bilinear weights would blur the history
-       a little more at every move), bilinear at the border */
+       a little more at every move), bilinear at the border; without the filter, the picture and
+       its weight alone */
     if (xi >= 1 && yi >= 1 && xi + 2 < W && yi + 2 < H) {
         float wx[4], wy[4];
         catmull_rom(ax, wx);
         catmull_rom(ay, wy);
-        for (int j = 0; j < 4; j++)
-            for (int i = 0; i < 4; i++) {
-                const float b = wx[i] * wy[j];
-                const float *h = hist + HS * ((size_t)(yi + j - 1) * (size_t)W + (size_t)(xi + i - 1));
-                w += b;
-                for (int k = 0; k < nk; k++) acc[k] += b * h[k];
-            }
-    } else
+        const float *h0 = hist + HS * ((size_t)(yi - 1) * (size_t)W + (size_t)(xi - 1));
+        if (t->passes > 0) catmull_rom_taps(h0, W, wx, wy, HS, acc, &w);
+        else catmull_rom_taps(h0, W, wx, wy, H_PLAIN, acc, &w);
+    } else {
+        const int nk = t->passes > 0 ? HS : H_PLAIN;
         for (int j = 0; j < 2; j++)
             for (int i = 0; i < 2; i++) {
                 const int qx = xi + i, qy = yi + j;
@@ -320,25 +412,20 @@ static int reproject_pixel(const pgi_temporal *t, const pgi_camera *cam, const f
                 w += b;
                 for (int k = 0; k < nk; k++) acc[k] += b * h[k];
             }
-    if (w < 0.05f) return 0; /* nothing of it was seen: disoccluded */
-    /* the neighbourhood clamp: a history that the new frame's neighbours do not support (a moved
-       object, a light) is pulled to their range instead of leaving a ghost */
-    float m[3] = {0.f, 0.f, 0.f}, m2[3] = {0.f, 0.f, 0.f};
-    const int ya = y > 0 ? y - 1 : 0, yb = y + 1 < H ? y + 1 : y, xa = x > 0 ? x - 1 : 0, xb = x + 1 < W ? x + 1 : x;
-    for (int qy = ya; qy <= yb; qy++)
-        for (int qx = xa; qx <= xb; qx++) {
-            const float *dq = D + 3 * ((size_t)qy * (size_t)W + (size_t)qx);
-            for (int k = 0; k < 3; k++) m[k] += dq[k], m2[k] += dq[k] * dq[k];
-        }
-    const float ic = 1.f / (float)((yb - ya + 1) * (xb - xa + 1)), iw = 1.f / w;
-    for (int k = 0; k < 3; k++) {
-        const float mean = m[k] * ic, sd = sqrtf(fmaxf(0.f, m2[k] * ic - mean * mean));
-        c[H_RGB + k] = fmaxf(0.f, fminf(fmaxf(acc[H_RGB + k] * iw, mean - 1.25f * sd), mean + 1.25f * sd));
-        c[H_IND + k] = fmaxf(0.f, acc[H_IND + k] * iw);
     }
-    c[H_M1] = fmaxf(0.f, acc[H_M1] * iw);
-    c[H_M2] = fmaxf(0.f, acc[H_M2] * iw);
-    c[H_N] = fmaxf(0.f, acc[H_N] * iw);
+    if (w < 0.05f) return 0; /* nothing of it was seen: disoccluded */
+    /* the neighbourhood clamp (bounds: clamp_bounds'): a history that the new frame's neighbours
+       do not support (a moved object, a light) is pulled to their range instead of leaving a ghost */
+    const float iw = 1.f / w;
+    for (int k = 0; k < 3; k++) {
+        const float lo = bounds[(size_t)k * (size_t)W + (size_t)x],
+                    hi = bounds[(size_t)(3 + k) * (size_t)W + (size_t)x];
+        c[H_RGB + k] = pos0(minf(maxf(acc[H_RGB + k] * iw, lo), hi));
+        c[H_IND + k] = pos0(acc[H_IND + k] * iw);
+    }
+    c[H_M1] = pos0(acc[H_M1] * iw);
+    c[H_M2] = pos0(acc[H_M2] * iw);
+    c[H_N] = pos0(acc[H_N] * iw);
     return 1;
 }
 
@@ -347,8 +434,8 @@ static int reproject_pixel(const pgi_temporal *t, const pgi_camera *cam, const f
  * into hist_next, and out; with the filter on, its input planes (the blended indirect light's
  * irradiance and its variance: the temporal moments' once 4 frames are held, else unknown, -1: the
  * filter's spatial estimate). Returns the pixels that kept a history. */
-static int blend_row(pgi_temporal *t, const pgi_camera *cam, int reproject, int k, float fade, int filter, float *out,
-                     int y) {
+static inline __attribute__((always_inline)) int blend_row(pgi_temporal *t, const pgi_camera *cam, int reproject, int k,
+                                                           float fade, int filter, float *out, int y) {
     const int W = t->width;
     const size_t n = (size_t)W * (size_t)t->height;
     const float cap = (float)(t->history > 0 ? t->history : 1), wk = (float)k;
@@ -356,16 +443,18 @@ static int blend_row(pgi_temporal *t, const pgi_camera *cam, int reproject, int 
     float *restrict fr = t->planes, *restrict fg = fr + n, *restrict fb = fg + n, *restrict fv = fb + n;
     int kept = 0;
     double sum = 0.0;
+    float *const buf = t->rowbuf + (size_t)omp_get_thread_num() * ROWBUF * (size_t)W;
+    if (reproject) clamp_bounds(avg, W, t->height, y, buf);
     for (int x = 0; x < W; x++) {
         const size_t p = (size_t)y * (size_t)W + (size_t)x;
         float *restrict c = t->carried + HS * p, *restrict h = t->hist_next + HS * p;
-        if (reproject) kept += reproject_pixel(t, cam, avg, x, y, c);
-        const float wh = t->carried_on ? fminf(c[H_N], cap) * fade : 0.f, iw = 1.f / (wh + wk);
+        if (reproject) kept += reproject_pixel(t, cam, buf + 6 * (size_t)W, x, y, c);
+        const float wh = t->carried_on ? minf(c[H_N], cap) * fade : 0.f, iw = 1.f / (wh + wk);
         for (int i = 0; i < 3; i++) {
             const float D = avg[3 * p + i];
             out[3 * p + i] = h[H_RGB + i] = wh > 0.f ? (c[H_RGB + i] * wh + D * wk) * iw : D;
         }
-        h[H_N] = fminf(wh + wk, cap);
+        h[H_N] = minf(wh + wk, cap);
         sum += h[H_N];
         if (!filter) continue;
         const float *a = alb + 3 * p;
@@ -379,10 +468,19 @@ static int blend_row(pgi_temporal *t, const pgi_camera *cam, int reproject, int 
         fr[p] = irradiance(h[H_IND], a[0]), fg[p] = irradiance(h[H_IND + 1], a[1]);
         fb[p] = irradiance(h[H_IND + 2], a[2]);
         const float nf = wh + wk;
-        fv[p] = nf >= 4.f ? fmaxf(0.f, h[H_M2] - h[H_M1] * h[H_M1]) / nf : -1.f;
+        fv[p] = nf >= 4.f ? pos0(h[H_M2] - h[H_M1] * h[H_M1]) / nf : -1.f;
     }
     t->row_sum[y] = sum;
     return kept;
+}
+
+/* Row y of this frame's guides and of the picture, blended with the history (prepare_row, then
+ * blend_row; an AVX2 clone where the CPU has it: the same bits). Returns the pixels that kept a
+ * history. */
+PGI__AVX2_CLONES static int step_row(pgi_temporal *t, const pgi_camera *cam, const float shift[2], int reproject, int k,
+                                     float fade, int filter, float *out, int y) {
+    prepare_row(t, cam, shift, k, filter, y);
+    return blend_row(t, cam, reproject, k, fade, filter, out, y);
 }
 
 /* Row y of the filtered picture: out + fw (the filtered indirect light - the unfiltered). */
@@ -398,6 +496,30 @@ static void compose_row(const pgi_temporal *t, float *const res[3], float fw, fl
             out[3 * p + i] += fw * (f - h[HS * p + H_IND + i]);
         }
     }
+}
+
+/* A frame's finishing of a filtered row (pgi__atrous_filter_team's row_done). */
+typedef struct compose_ctx {
+    const pgi_temporal *t;
+    float fw, *out;
+} compose_ctx;
+
+static void compose(void *ctx, int y, float *const res[3]) {
+    const compose_ctx *c = ctx;
+    compose_row(c->t, res, c->fw, c->out, y);
+}
+
+/* The picture's history weight summed over its h rows (in order: the same sum on every thread). */
+static double history_sum(const pgi_temporal *t, int h) {
+    double hsum = 0.0;
+    for (int y = 0; y < h; y++) hsum += t->row_sum[y];
+    return hsum;
+}
+
+/* The filter's passes: half of them (rounded up) once the picture's history holds LONG_HISTORY
+ * frames on the mean. */
+static int filter_passes(const pgi_temporal *t, int h, size_t n) {
+    return history_sum(t, h) >= LONG_HISTORY * (double)n ? (t->passes + 1) / 2 : t->passes;
 }
 
 static void add_pass(pgi_frame_stats *fs, const char *name, double ms) {
@@ -490,42 +612,45 @@ pgi_status pgi_temporal_step(pgi_temporal *t, const pgi_render_desc *in, pgi_ima
         if (!out->rgb) return pgi__fail(PGI_ERR_OOM, "out of memory for the output image");
         out->width = w, out->height = h;
     }
+    const int nthreads = pgi__threads(d.threads);
+    if (t->rowbuf_cap < (size_t)nthreads * ROWBUF * (size_t)w) {
+        free(t->rowbuf);
+        t->rowbuf_cap = 0;
+        if (!(t->rowbuf = malloc((size_t)nthreads * ROWBUF * (size_t)w * sizeof(float))))
+            return pgi__fail(PGI_ERR_OOM, "out of memory for the temporal step's rows");
+        t->rowbuf_cap = (size_t)nthreads * ROWBUF * (size_t)w;
+    }
     pgi_temporal_stats ts = {.on = 1, .restarted = k == 1 && !reproject_now};
     int kept = 0;
-    /* the guides, then the history carried (at a camera move) and blended with the new average:
-       one pass over the rows each; every pixel on its own, the same bytes for any thread count */
-#pragma omp parallel num_threads(pgi__threads(d.threads))
+    double t1 = t0;
+    float *const planes[4] = {t->planes, t->planes + n, t->planes + 2 * n, t->planes + 3 * n};
+    const float *g = t->cur;
+    const pgi__atrous_guide guide = {w,
+                                     h,
+                                     {g + G_PX * n, g + (G_PX + 1) * n, g + (G_PX + 2) * n},
+                                     {g + G_NX * n, g + (G_NX + 1) * n, g + (G_NX + 2) * n},
+                                     {g + G_AR * n, g + (G_AR + 1) * n, g + (G_AR + 2) * n},
+                                     g + G_DEPTH * n,
+                                     g + G_MASK * n};
+    compose_ctx cc = {t, fw, out->rgb};
+    /* One parallel region: the guides and the history carried (at a camera move) and blended with
+       the new average, one pass over the rows; then the blended indirect light filtered (as
+       irradiance), the last pass putting fw of each filtered row into the picture. Rows are taken
+       a few at a time as threads come free (a thread of a shared machine may lose its core a
+       while); every pixel is computed on its own, the same bytes for any thread count. */
+#pragma omp parallel num_threads(nthreads)
     {
-#pragma omp for schedule(static)
-        for (int y = 0; y < h; y++) prepare_row(t, &cam, shift, k, filter, y);
-#pragma omp for schedule(static) reduction(+ : kept)
-        for (int y = 0; y < h; y++) kept += blend_row(t, &cam, reproject_now, k, fade, filter, out->rgb, y);
+#pragma omp for schedule(dynamic, ROWS) reduction(+ : kept)
+        for (int y = 0; y < h; y++) kept += step_row(t, &cam, shift, reproject_now, k, fade, filter, out->rgb, y);
+#pragma omp master
+        t1 = pgi__now_ms();
+        if (fw > 0.f) pgi__atrous_filter_team(&guide, filter_passes(t, h, n), planes, t->planes + 4 * n, compose, &cc);
     }
     if (reproject_now) ts.reused = (double)kept / (double)n;
-    const double t1 = pgi__now_ms();
-
-    double hsum = 0.0;
-    for (int y = 0; y < h; y++) hsum += t->row_sum[y];
-    /* the blended indirect light filtered (as irradiance), fw of it in the picture; half the passes
-       (rounded up) once the picture's history holds LONG_HISTORY frames on the mean */
-    const int passes = hsum >= LONG_HISTORY * (double)n ? (t->passes + 1) / 2 : t->passes;
-    if (fw > 0.f) {
-        float *planes[4] = {t->planes, t->planes + n, t->planes + 2 * n, t->planes + 3 * n}, *res[3];
-        const float *g = t->cur;
-        const pgi__atrous_guide guide = {w,
-                                         h,
-                                         {g + G_PX * n, g + (G_PX + 1) * n, g + (G_PX + 2) * n},
-                                         {g + G_NX * n, g + (G_NX + 1) * n, g + (G_NX + 2) * n},
-                                         {g + G_AR * n, g + (G_AR + 1) * n, g + (G_AR + 2) * n},
-                                         g + G_DEPTH * n,
-                                         g + G_MASK * n};
-        if ((st = pgi__atrous_filter(&guide, passes, d.threads, planes, t->planes + 4 * n, res))) return st;
-#pragma omp parallel for schedule(static) num_threads(pgi__threads(d.threads))
-        for (int y = 0; y < h; y++) compose_row(t, res, fw, out->rgb, y);
-        ts.filter_passes = passes;
-    }
+    if (fw > 0.f) ts.filter_passes = filter_passes(t, h, n);
     ts.filter_weight = fw;
     const double t2 = pgi__now_ms();
+    if (!(fw > 0.f)) t1 = t2; /* no filter: the region's end is the blend's */
 
     float *sw = t->hist;
     t->hist = t->hist_next, t->hist_next = sw;
@@ -535,7 +660,7 @@ pgi_status pgi_temporal_step(pgi_temporal *t, const pgi_render_desc *in, pgi_ima
     t->prev_cd = cd;
     t->prev_key = key;
     t->have = 1;
-    ts.history = hsum / (double)n;
+    ts.history = history_sum(t, h) / (double)n;
     ts.reproject_ms = t1 - t0;
     ts.filter_ms = t2 - t1;
     fs.temporal = ts;
