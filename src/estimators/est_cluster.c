@@ -992,11 +992,15 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
                     pgi__vs_load(vs, i, &v);
                     pgi__acc acc = {ar[t], ag[t], ab[t], 0.f, 0.f, 0.f, an[t]};
                     if (!v.lambert) {
+                        /* pgi__gather's sums, the lobe a batch of contributing photons at a time */
+                        pgi__gather_batch gb;
+                        gb.n = 0;
                         for (int p = np - 1; p >= 0; p--) {
                             const uint32_t *q = s->lists + s->node_start[path[p]];
                             const uint32_t m = s->node_start[path[p] + 1] - s->node_start[path[p]];
-                            for (uint32_t e = 0; e < m; e++) pgi__gather_packed(&v, r2, s->pk + q[e], &acc);
+                            for (uint32_t e = 0; e < m; e++) pgi__gather_push_packed(&v, r2, s->pk + q[e], &acc, &gb);
                         }
+                        pgi__gather_flush(&v, &gb, &acc);
                     }
                     acc.fr += cf[0], acc.fg += cf[1], acc.fb += cf[2];
                     acc.contributing += cc;

@@ -75,6 +75,45 @@ static inline void pgi__gather(const pgi__vs *v, float r2, float px, float py, f
     }
 }
 
+/* ------------------------------------------------- batched glossy gather
+ * pgi__gather for a non-Lambertian sample over many photons, with the lobe taken a batch at a
+ * time: pgi__gather_push makes gather's two tests (the same expressions), counts and sums the
+ * flux of a contributing photon as gather does, and keeps its direction and flux; the batch,
+ * when full and at the end (pgi__gather_flush), evaluates the lobe for its photons (8 at a time
+ * in an AVX2 build, gather.c) and adds f * flux to the specular sums in push order. Each sum
+ * takes the same terms in the same order as with pgi__gather, and the lobe's lanes compute
+ * pgi__lobe_eval_o's expressions (no FMA), so the sums are the same bits. The tests and the
+ * flux sums need nothing of the lobe: the costly part runs only for photons that contribute,
+ * branch-free. */
+#define PGI__GATHER_BATCH 64
+typedef struct pgi__gather_batch {
+    uint32_t n;
+    float dx[PGI__GATHER_BATCH], dy[PGI__GATHER_BATCH], dz[PGI__GATHER_BATCH];
+    float fr[PGI__GATHER_BATCH], fg[PGI__GATHER_BATCH], fb[PGI__GATHER_BATCH];
+} pgi__gather_batch;
+
+/* Evaluates the lobe of v (not Lambertian) for the batch's photons, adds f * flux to a's
+ * specular sums in batch order and empties the batch. gather.c. */
+void pgi__gather_flush(const pgi__vs *v, pgi__gather_batch *b, pgi__acc *a);
+
+/* pgi__gather for a non-Lambertian sample, its lobe deferred to the batch. */
+static inline void pgi__gather_push(const pgi__vs *v, float r2, float px, float py, float pz, float dx, float dy,
+                                    float dz, float fr, float fg, float fb, pgi__acc *a, pgi__gather_batch *b) {
+    float ex = px - v->px, ey = py - v->py, ez = pz - v->pz;
+    float d2 = ex * ex + ey * ey + ez * ez;
+    if (!(d2 < r2)) return;
+    float c = v->nx * dx + v->ny * dy + v->nz * dz;
+    if (!(c > 0.f)) return;
+    a->contributing++;
+    a->fr += fr;
+    a->fg += fg;
+    a->fb += fb;
+    const uint32_t k = b->n;
+    b->dx[k] = dx, b->dy[k] = dy, b->dz[k] = dz;
+    b->fr[k] = fr, b->fg[k] = fg, b->fb[k] = fb;
+    if ((b->n = k + 1) == PGI__GATHER_BATCH) pgi__gather_flush(v, b, a);
+}
+
 /* Radiance from the sums: (kd/pi * flux + spec) / (pi r^2). */
 static inline void pgi__acc_finish(const pgi__vs *v, const pgi__acc *a, float r2, float *out) {
     float w = 1.f / (PGI__PI * r2);

@@ -25,6 +25,11 @@ static inline void pgi__gather_packed(const pgi__vs *v, float r2, const pgi__pac
     pgi__gather(v, r2, q->px, q->py, q->pz, q->dx, q->dy, q->dz, q->fr, q->fg, q->fb, a);
 }
 
+static inline void pgi__gather_push_packed(const pgi__vs *v, float r2, const pgi__packed_photon *q, pgi__acc *a,
+                                           pgi__gather_batch *b) {
+    pgi__gather_push(v, r2, q->px, q->py, q->pz, q->dx, q->dy, q->dz, q->fr, q->fg, q->fb, a, b);
+}
+
 static inline void pgi__gather_packed_k(const pgi__vs *v, float r2, pgi_kernel kern, const pgi__packed_photon *q,
                                         pgi__acc *a) {
     pgi__gather_k(v, r2, kern, q->px, q->py, q->pz, q->dx, q->dy, q->dz, q->fr, q->fg, q->fb, a);
