@@ -108,15 +108,21 @@ void pgi__gather_flush(const pgi__vs *v, pgi__gather_batch *b, pgi__acc *a) {
         float pr[PGI__GATHER_BATCH], pg[PGI__GATHER_BATCH], pb[PGI__GATHER_BATCH];
         ggx8(v, b, n8, pr, pg, pb);
         /* in push order: the order of pgi__gather's sums */
-        float sr = a->sr, sg = a->sg, sb = a->sb;
-        for (uint32_t k = 0; k < n; k++) sr += pr[k], sg += pg[k], sb += pb[k];
-        a->sr = sr, a->sg = sg, a->sb = sb;
+        float fr = a->fr, fg = a->fg, fb = a->fb, sr = a->sr, sg = a->sg, sb = a->sb;
+        for (uint32_t k = 0; k < n; k++) {
+            fr += b->fr[k], fg += b->fg[k], fb += b->fb[k];
+            sr += pr[k], sg += pg[k], sb += pb[k];
+        }
+        a->fr = fr, a->fg = fg, a->fb = fb, a->sr = sr, a->sg = sg, a->sb = sb;
         return;
     }
 #endif
     const pgi__v3 nrm = v3(v->nx, v->ny, v->nz);
     for (uint32_t k = 0; k < n; k++) {
         pgi__v3 f = pgi__lobe_eval_o(&v->lobe, v->kd, nrm, v3(b->dx[k], b->dy[k], b->dz[k]), v->wo, v->one_m_eo);
+        a->fr += b->fr[k];
+        a->fg += b->fg[k];
+        a->fb += b->fb[k];
         a->sr += f.x * b->fr[k];
         a->sg += f.y * b->fg[k];
         a->sb += f.z * b->fb[k];
