@@ -1,6 +1,6 @@
 /* The batched glossy gather's lobe (gather.h, pgi__gather_flush): pgi__lobe_eval_o for a batch of
- * photons of one view sample. The GGX lobe runs 8 photons a step in an AVX2 build, picked at run
- * time (pgi__cpu_avx2); every other case, and CPUs without AVX2, call pgi__lobe_eval_o photon by
+ * photons of one view sample. The GGX and Blinn-Phong lobes run 8 photons a step in an AVX2
+ * build, picked at run time (pgi__cpu_avx2); CPUs without AVX2 call pgi__lobe_eval_o photon by
  * photon. The AVX2 lanes compute pgi__lobe_eval_o's expressions in its order with correctly
  * rounded operations only (add, sub, mul, div, sqrt, min/max, truncation; no FMA, the build has
  * -ffp-contract=off), so both builds give the same bits (tests/test_estimators.c checks it). */
@@ -95,6 +95,53 @@ __attribute__((target("avx2"))) static void ggx8(const pgi__vs *v, const pgi__ga
         _mm256_storeu_ps(pb + k, _mm256_mul_ps(rz, _mm256_loadu_ps(b->fb + k)));
     }
 }
+
+/* f * flux of the Blinn-Phong lobe of v (pgi__phong_lobe and pgi__lobe_eval_o's PHONG case) for
+ * the photons [0, n8) of b, into pr, pg, pb; powf is glibc's, lane by lane (a vector pow would
+ * round differently), the rest 8 lanes a step:
+ *   h = (wi + wo) / |wi + wo|,  k = (8 + s) / (8 pi) max(0, h.n)^s,  fr = (1 - max(0, h.wi))^5
+ *   f = k (ks + (1 - ks) fr), 0 where |wi + wo| = 0 */
+__attribute__((target("avx2"))) static void phong8(const pgi__vs *v, const pgi__gather_batch *b, uint32_t n8,
+                                                   float *pr, float *pg, float *pb) {
+    const pgi__lobe *l = &v->lobe;
+    const float s = l->s;
+    float hn_[PGI__GATHER_BATCH], fr_[PGI__GATHER_BATCH], on_[PGI__GATHER_BATCH];
+    const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.f);
+    const __m256 nx = _mm256_set1_ps(v->nx), ny = _mm256_set1_ps(v->ny), nz = _mm256_set1_ps(v->nz);
+    const __m256 wox = _mm256_set1_ps(v->wo.x), woy = _mm256_set1_ps(v->wo.y), woz = _mm256_set1_ps(v->wo.z);
+    for (uint32_t k = 0; k < n8; k += 8) {
+        const __m256 wx = _mm256_loadu_ps(b->dx + k), wy = _mm256_loadu_ps(b->dy + k), wz = _mm256_loadu_ps(b->dz + k);
+        __m256 hx = _mm256_add_ps(wx, wox), hy = _mm256_add_ps(wy, woy), hz = _mm256_add_ps(wz, woz);
+        const __m256 hl = _mm256_sqrt_ps(
+            _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(hx, hx), _mm256_mul_ps(hy, hy)), _mm256_mul_ps(hz, hz)));
+        const __m256 ih = _mm256_div_ps(one, hl);
+        hx = _mm256_mul_ps(hx, ih), hy = _mm256_mul_ps(hy, ih), hz = _mm256_mul_ps(hz, ih);
+        const __m256 hn = _mm256_max_ps(
+            _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(hx, nx), _mm256_mul_ps(hy, ny)), _mm256_mul_ps(hz, nz)), zero);
+        const __m256 hi = _mm256_max_ps(
+            _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(hx, wx), _mm256_mul_ps(hy, wy)), _mm256_mul_ps(hz, wz)), zero);
+        const __m256 m = _mm256_sub_ps(one, hi), m2 = _mm256_mul_ps(m, m);
+        _mm256_storeu_ps(hn_ + k, hn);
+        _mm256_storeu_ps(fr_ + k, _mm256_mul_ps(_mm256_mul_ps(m2, m2), m));
+        _mm256_storeu_ps(on_ + k, _mm256_cmp_ps(hl, zero, _CMP_GT_OQ));
+    }
+    for (uint32_t k = 0; k < n8; k++) hn_[k] = powf(hn_[k], s);
+    const __m256 kc = _mm256_set1_ps((8.f + s) * (1.f / (8.f * PGI__PI)));
+    const __m256 ksx = _mm256_set1_ps(l->ks.x), ksy = _mm256_set1_ps(l->ks.y), ksz = _mm256_set1_ps(l->ks.z);
+    const __m256 ksx1 = _mm256_set1_ps(1.f - l->ks.x), ksy1 = _mm256_set1_ps(1.f - l->ks.y),
+                 ksz1 = _mm256_set1_ps(1.f - l->ks.z);
+    for (uint32_t k = 0; k < n8; k += 8) {
+        const __m256 on = _mm256_loadu_ps(on_ + k);
+        const __m256 kk = _mm256_and_ps(_mm256_mul_ps(kc, _mm256_loadu_ps(hn_ + k)), on);
+        const __m256 fr = _mm256_and_ps(_mm256_loadu_ps(fr_ + k), on);
+        const __m256 fx = _mm256_mul_ps(kk, _mm256_add_ps(ksx, _mm256_mul_ps(ksx1, fr)));
+        const __m256 fy = _mm256_mul_ps(kk, _mm256_add_ps(ksy, _mm256_mul_ps(ksy1, fr)));
+        const __m256 fz = _mm256_mul_ps(kk, _mm256_add_ps(ksz, _mm256_mul_ps(ksz1, fr)));
+        _mm256_storeu_ps(pr + k, _mm256_mul_ps(fx, _mm256_loadu_ps(b->fr + k)));
+        _mm256_storeu_ps(pg + k, _mm256_mul_ps(fy, _mm256_loadu_ps(b->fg + k)));
+        _mm256_storeu_ps(pb + k, _mm256_mul_ps(fz, _mm256_loadu_ps(b->fb + k)));
+    }
+}
 #endif
 
 void pgi__gather_flush(const pgi__vs *v, pgi__gather_batch *b, pgi__acc *a) {
@@ -102,11 +149,12 @@ void pgi__gather_flush(const pgi__vs *v, pgi__gather_batch *b, pgi__acc *a) {
     b->n = 0;
     if (!n) return;
 #ifdef GATHER_AVX2
-    if (v->lobe.model == PGI__LOBE_GGX && pgi__cpu_avx2()) {
+    if ((v->lobe.model == PGI__LOBE_GGX || v->lobe.model == PGI__LOBE_PHONG) && pgi__cpu_avx2()) {
         const uint32_t n8 = (n + 7) & ~7u;
         for (uint32_t k = n; k < n8; k++) b->dx[k] = b->dy[k] = b->dz[k] = b->fr[k] = b->fg[k] = b->fb[k] = 0.f;
         float pr[PGI__GATHER_BATCH], pg[PGI__GATHER_BATCH], pb[PGI__GATHER_BATCH];
-        ggx8(v, b, n8, pr, pg, pb);
+        if (v->lobe.model == PGI__LOBE_GGX) ggx8(v, b, n8, pr, pg, pb);
+        else phong8(v, b, n8, pr, pg, pb);
         /* in push order: the order of pgi__gather's sums */
         float fr = a->fr, fg = a->fg, fb = a->fb, sr = a->sr, sg = a->sg, sb = a->sb;
         for (uint32_t k = 0; k < n; k++) {
