@@ -410,8 +410,7 @@ static pgi_status bvh_estimate(void *state, const pgi_estimate_args *a) {
             if (nd->n) {
                 const uint32_t b = nd->a, e = nd->a + nd->n;
                 reads += nd->n;
-                if (mode == MODE_FIXED)
-                    pgi__gather_packed_n(&v, r2f, &s->pk[b], nd->n, &acc);
+                if (mode == MODE_FIXED) pgi__gather_packed_n(&v, r2f, &s->pk[b], nd->n, &acc);
                 else if (mode == MODE_SPHERE && v.lambert)
                     for (uint32_t k = b; k < e; k++) pgi__gather_packed(&v, s->r2[k], &s->pk[k], &acc);
                 else if (mode == MODE_SPHERE) { /* the lobe a batch at a time, as pgi__gather_packed_n */
@@ -419,8 +418,7 @@ static pgi_status bvh_estimate(void *state, const pgi_estimate_args *a) {
                     gb.n = 0;
                     for (uint32_t k = b; k < e; k++) pgi__gather_push_packed(&v, s->r2[k], &s->pk[k], &acc, &gb);
                     pgi__gather_flush(&v, &gb, &acc);
-                }
-                else
+                } else
                     for (uint32_t k = b; k < e; k++) {
                         const pgi__packed_photon *q = &s->pk[k];
                         pgi__gather_ellipsoid(&v, s->inv + 9 * (size_t)k, q->px, q->py, q->pz, q->dx, q->dy, q->dz,

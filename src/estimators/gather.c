@@ -57,29 +57,28 @@ __attribute__((target("avx2"))) static void ggx8(const pgi__vs *v, const pgi__ga
             const __m256 hx = _mm256_add_ps(wx, wox), hy = _mm256_add_ps(wy, woy), hz = _mm256_add_ps(wz, woz);
             const __m256 hl = _mm256_sqrt_ps(
                 _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(hx, hx), _mm256_mul_ps(hy, hy)), _mm256_mul_ps(hz, hz)));
-            const __m256 hn = _mm256_div_ps(
-                _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(hx, nx), _mm256_mul_ps(hy, ny)), _mm256_mul_ps(hz, nz)), hl);
-            const __m256 hi = _mm256_min_ps(
-                _mm256_max_ps(_mm256_div_ps(_mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(hx, wx), _mm256_mul_ps(hy, wy)),
-                                                          _mm256_mul_ps(hz, wz)),
-                                            hl),
-                              zero),
-                one);
+            const __m256 hn = _mm256_div_ps(_mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(hx, nx), _mm256_mul_ps(hy, ny)),
+                                                          _mm256_mul_ps(hz, nz)),
+                                            hl);
+            const __m256 hi =
+                _mm256_min_ps(_mm256_max_ps(_mm256_div_ps(_mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(hx, wx),
+                                                                                      _mm256_mul_ps(hy, wy)),
+                                                                        _mm256_mul_ps(hz, wz)),
+                                                          hl),
+                                            zero),
+                              one);
             /* pgi__fresnel_dielectric(hi, 1, eta) (1 * x is x) */
             const __m256 sin_t =
                 _mm256_mul_ps(inv_eta, _mm256_sqrt_ps(_mm256_max_ps(_mm256_sub_ps(one, _mm256_mul_ps(hi, hi)), zero)));
-            const __m256 cos_t =
-                _mm256_sqrt_ps(_mm256_max_ps(_mm256_sub_ps(one, _mm256_mul_ps(sin_t, sin_t)), zero));
+            const __m256 cos_t = _mm256_sqrt_ps(_mm256_max_ps(_mm256_sub_ps(one, _mm256_mul_ps(sin_t, sin_t)), zero));
             const __m256 ec = _mm256_mul_ps(eta, cos_t), eh = _mm256_mul_ps(eta, hi);
             const __m256 rs = _mm256_div_ps(_mm256_sub_ps(hi, ec), _mm256_add_ps(hi, ec));
             const __m256 rp = _mm256_div_ps(_mm256_sub_ps(eh, cos_t), _mm256_add_ps(eh, cos_t));
             __m256 F = _mm256_mul_ps(half, _mm256_add_ps(_mm256_mul_ps(rs, rs), _mm256_mul_ps(rp, rp)));
             F = _mm256_blendv_ps(F, one, _mm256_cmp_ps(sin_t, one, _CMP_GE_OQ)); /* total internal reflection */
             /* G2 / (4 ci co) = 1 / (2 (co root(ci) + ci root(co))) */
-            const __m256 root_i =
-                _mm256_sqrt_ps(_mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(ci, ci), one_m_a2), a2));
-            const __m256 vis = _mm256_div_ps(
-                half, _mm256_add_ps(_mm256_mul_ps(co, root_i), _mm256_mul_ps(ci, root_o)));
+            const __m256 root_i = _mm256_sqrt_ps(_mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(ci, ci), one_m_a2), a2));
+            const __m256 vis = _mm256_div_ps(half, _mm256_add_ps(_mm256_mul_ps(co, root_i), _mm256_mul_ps(ci, root_o)));
             /* pgi__ggx_D(a2, hn) = a2 / (pi d d), d = hn^2 (a2 - 1) + 1 */
             const __m256 d = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(hn, hn), a2_m_1), one);
             const __m256 D = _mm256_div_ps(a2, _mm256_mul_ps(_mm256_mul_ps(pi, d), d));
@@ -101,8 +100,8 @@ __attribute__((target("avx2"))) static void ggx8(const pgi__vs *v, const pgi__ga
  * round differently), the rest 8 lanes a step:
  *   h = (wi + wo) / |wi + wo|,  k = (8 + s) / (8 pi) max(0, h.n)^s,  fr = (1 - max(0, h.wi))^5
  *   f = k (ks + (1 - ks) fr), 0 where |wi + wo| = 0 */
-__attribute__((target("avx2"))) static void phong8(const pgi__vs *v, const pgi__gather_batch *b, uint32_t n8,
-                                                   float *pr, float *pg, float *pb) {
+__attribute__((target("avx2"))) static void phong8(const pgi__vs *v, const pgi__gather_batch *b, uint32_t n8, float *pr,
+                                                   float *pg, float *pb) {
     const pgi__lobe *l = &v->lobe;
     const float s = l->s;
     float hn_[PGI__GATHER_BATCH], fr_[PGI__GATHER_BATCH], on_[PGI__GATHER_BATCH];
@@ -116,10 +115,12 @@ __attribute__((target("avx2"))) static void phong8(const pgi__vs *v, const pgi__
             _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(hx, hx), _mm256_mul_ps(hy, hy)), _mm256_mul_ps(hz, hz)));
         const __m256 ih = _mm256_div_ps(one, hl);
         hx = _mm256_mul_ps(hx, ih), hy = _mm256_mul_ps(hy, ih), hz = _mm256_mul_ps(hz, ih);
-        const __m256 hn = _mm256_max_ps(
-            _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(hx, nx), _mm256_mul_ps(hy, ny)), _mm256_mul_ps(hz, nz)), zero);
-        const __m256 hi = _mm256_max_ps(
-            _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(hx, wx), _mm256_mul_ps(hy, wy)), _mm256_mul_ps(hz, wz)), zero);
+        const __m256 hn = _mm256_max_ps(_mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(hx, nx), _mm256_mul_ps(hy, ny)),
+                                                      _mm256_mul_ps(hz, nz)),
+                                        zero);
+        const __m256 hi = _mm256_max_ps(_mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(hx, wx), _mm256_mul_ps(hy, wy)),
+                                                      _mm256_mul_ps(hz, wz)),
+                                        zero);
         const __m256 m = _mm256_sub_ps(one, hi), m2 = _mm256_mul_ps(m, m);
         _mm256_storeu_ps(hn_ + k, hn);
         _mm256_storeu_ps(fr_ + k, _mm256_mul_ps(_mm256_mul_ps(m2, m2), m));
