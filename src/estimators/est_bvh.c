@@ -410,11 +410,15 @@ static pgi_status bvh_estimate(void *state, const pgi_estimate_args *a) {
             if (nd->n) {
                 const uint32_t b = nd->a, e = nd->a + nd->n;
                 reads += nd->n;
-                if (mode == MODE_FIXED)
-                    for (uint32_t k = b; k < e; k++) pgi__gather_packed(&v, r2f, &s->pk[k], &acc);
-                else if (mode == MODE_SPHERE)
+                if (mode == MODE_FIXED) pgi__gather_packed_n(&v, r2f, &s->pk[b], nd->n, &acc);
+                else if (mode == MODE_SPHERE && v.lambert)
                     for (uint32_t k = b; k < e; k++) pgi__gather_packed(&v, s->r2[k], &s->pk[k], &acc);
-                else
+                else if (mode == MODE_SPHERE) { /* the lobe a batch at a time, as pgi__gather_packed_n */
+                    pgi__gather_batch gb;
+                    gb.n = 0;
+                    for (uint32_t k = b; k < e; k++) pgi__gather_push_packed(&v, s->r2[k], &s->pk[k], &acc, &gb);
+                    pgi__gather_flush(&v, &gb, &acc);
+                } else
                     for (uint32_t k = b; k < e; k++) {
                         const pgi__packed_photon *q = &s->pk[k];
                         pgi__gather_ellipsoid(&v, s->inv + 9 * (size_t)k, q->px, q->py, q->pz, q->dx, q->dy, q->dz,

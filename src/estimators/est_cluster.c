@@ -959,10 +959,13 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
              * photon of the path (rad_block): the same decisions and the same
              * summation order as pgi__gather (root to leaf, photon order).
              * Non-Lambertian samples are masked out (NaN position) and
-             * gathered with pgi__gather. */
+             * gathered with pgi__gather_push (gather.h: pgi__gather's sums, the
+             * lobe evaluated a batch of contributing photons at a time). */
             enum { B = 64 };
             float ar[B], ag[B], ab[B];
             uint32_t an[B];
+            pgi__vs v; /* the last non-Lambertian sample: its lobe serves the next one of the same material */
+            int have_lobe = 0;
             const size_t nv = s->nvalid;
             const float *const bx = s->sam, *const by = bx + nv, *const bz = by + nv, *const bnx = bz + nv,
                                *const bny = bnx + nv, *const bnz = bny + nv;
@@ -988,15 +991,18 @@ static pgi_status cl_estimate(void *state, const pgi_estimate_args *a) {
                         contrib += an[t] + cc;
                         continue;
                     }
-                    pgi__vs v;
-                    pgi__vs_load(vs, i, &v);
+                    pgi__vs_load_reuse(vs, i, &v, &have_lobe);
                     pgi__acc acc = {ar[t], ag[t], ab[t], 0.f, 0.f, 0.f, an[t]};
                     if (!v.lambert) {
+                        /* pgi__gather's sums, the lobe a batch of contributing photons at a time */
+                        pgi__gather_batch gb;
+                        gb.n = 0;
                         for (int p = np - 1; p >= 0; p--) {
                             const uint32_t *q = s->lists + s->node_start[path[p]];
                             const uint32_t m = s->node_start[path[p] + 1] - s->node_start[path[p]];
-                            for (uint32_t e = 0; e < m; e++) pgi__gather_packed(&v, r2, s->pk + q[e], &acc);
+                            for (uint32_t e = 0; e < m; e++) pgi__gather_push_packed(&v, r2, s->pk + q[e], &acc, &gb);
                         }
+                        pgi__gather_flush(&v, &gb, &acc);
                     }
                     acc.fr += cf[0], acc.fg += cf[1], acc.fb += cf[2];
                     acc.contributing += cc;

@@ -5,6 +5,8 @@
 #define PGI__EST_GATHER_H
 
 #include "core/core.h"
+
+#include <string.h>
 #include "scene/bsdf.h"
 
 /* A view sample loaded once per gather. */
@@ -14,6 +16,8 @@ typedef struct pgi__vs {
     int lambert;
     pgi__lobe lobe; /* set up only when !lambert */
     float one_m_eo; /* GGX: 1 - E(n.wo), the same for every photon of the gather */
+    float lkey[5];  /* pgi__vs_load_reuse: the ks, shininess, ior the lobe was set up from */
+    uint8_t lflags; /* pgi__vs_load_reuse: and the sample's flags */
 } pgi__vs;
 
 /* Running sums of one gather: Lambertian part as a flux sum (kd/pi applied
@@ -73,6 +77,71 @@ static inline void pgi__gather(const pgi__vs *v, float r2, float px, float py, f
         a->sg += f.y * fg;
         a->sb += f.z * fb;
     }
+}
+
+/* ------------------------------------------------- batched glossy gather
+ * pgi__gather for a non-Lambertian sample over many photons, with the lobe taken a batch at a
+ * time: pgi__gather_push makes gather's two tests (the same expressions) and keeps a
+ * contributing photon's direction and flux, branch-free (every photon is written to the next
+ * slot, which only a contributing one takes); the batch, when full and at the end
+ * (pgi__gather_flush), evaluates the lobe for its photons (8 at a time in an AVX2 build,
+ * gather.c) and adds their flux and f * flux to the sums in push order. Each sum takes the same
+ * terms in the same order as with pgi__gather, and the lobe's lanes compute pgi__lobe_eval_o's
+ * expressions (no FMA), so the sums are the same bits. The lobe, the costly part, runs only for
+ * the photons that contribute. */
+#define PGI__GATHER_BATCH 64
+typedef struct pgi__gather_batch {
+    uint32_t n;
+    float dx[PGI__GATHER_BATCH], dy[PGI__GATHER_BATCH], dz[PGI__GATHER_BATCH];
+    float fr[PGI__GATHER_BATCH], fg[PGI__GATHER_BATCH], fb[PGI__GATHER_BATCH];
+} pgi__gather_batch;
+
+/* Evaluates the lobe of v (not Lambertian) for the batch's photons, adds their flux and f * flux
+ * to a's sums in batch order and empties the batch. gather.c. */
+void pgi__gather_flush(const pgi__vs *v, pgi__gather_batch *b, pgi__acc *a);
+
+/* pgi__gather for a non-Lambertian sample, its sums deferred to the batch. */
+static inline void pgi__gather_push(const pgi__vs *v, float r2, float px, float py, float pz, float dx, float dy,
+                                    float dz, float fr, float fg, float fb, pgi__acc *a, pgi__gather_batch *b) {
+    float ex = px - v->px, ey = py - v->py, ez = pz - v->pz;
+    float d2 = ex * ex + ey * ey + ez * ez;
+    float c = v->nx * dx + v->ny * dy + v->nz * dz;
+    const uint32_t ok = (d2 < r2) & (c > 0.f), k = b->n;
+    b->dx[k] = dx, b->dy[k] = dy, b->dz[k] = dz;
+    b->fr[k] = fr, b->fg[k] = fg, b->fb[k] = fb;
+    a->contributing += ok;
+    if ((b->n = k + ok) == PGI__GATHER_BATCH) pgi__gather_flush(v, b, a);
+}
+
+/* pgi__vs_load into a v that may hold the lobe of an earlier sample: the lobe is set up again
+ * (pgi__lobe_init interpolates a table row) only when sample i's lobe parameters differ from the
+ * ones it was set up from (*have: v holds a lobe; neighbouring samples mostly share a
+ * material). The same v as pgi__vs_load. */
+static inline void pgi__vs_load_reuse(const pgi_view_samples *vs, size_t i, pgi__vs *v, int *have) {
+    const uint8_t f = vs->flags[i];
+    if (!*have || (f & PGI_VS_LAMBERT) || v->lambert || ((f ^ v->lflags) & PGI_VS_GGX) ||
+        memcmp(v->lkey, vs->ks + 3 * i, 3 * sizeof(float)) || v->lkey[3] != vs->shininess[i] ||
+        ((f & PGI_VS_GGX) && v->lkey[4] != vs->ior[i])) {
+        pgi__vs_load(vs, i, v);
+        if (!v->lambert) {
+            memcpy(v->lkey, vs->ks + 3 * i, 3 * sizeof(float));
+            v->lkey[3] = vs->shininess[i];
+            v->lkey[4] = (f & PGI_VS_GGX) ? vs->ior[i] : 0.f;
+            v->lflags = f;
+            *have = 1;
+        }
+        return;
+    }
+    const float *p = vs->pos + 3 * i, *n = vs->nrm + 3 * i;
+    v->px = p[0];
+    v->py = p[1];
+    v->pz = p[2];
+    v->nx = n[0];
+    v->ny = n[1];
+    v->nz = n[2];
+    v->wo = v3_load(vs->wo + 3 * i);
+    v->kd = v3_load(vs->kd + 3 * i);
+    v->one_m_eo = pgi__lobe_one_m_eo(&v->lobe, v3(v->nx, v->ny, v->nz), v->wo);
 }
 
 /* Radiance from the sums: (kd/pi * flux + spec) / (pi r^2). */

@@ -93,14 +93,13 @@ static inline float pgi__sub_scale(const pgi__sub *s) {
 }
 
 /* A list of packed photons with a kernel and subsampling; without either it
- * is the plain pgi__gather_packed loop. */
+ * is the plain pgi__gather_packed loop (pgi__gather_packed_n). */
 static inline void pgi__gather_list(const pgi__vs *v, float r2, pgi_kernel kern, pgi__sub *ss,
                                     const pgi__packed_photon *q, uint32_t n, pgi__acc *a) {
     if (!ss->on) {
         ss->eligible += n;
         ss->visited += n;
-        if (kern == PGI_KERNEL_CONSTANT)
-            for (uint32_t k = 0; k < n; k++) pgi__gather_packed(v, r2, q + k, a);
+        if (kern == PGI_KERNEL_CONSTANT) pgi__gather_packed_n(v, r2, q, n, a);
         else
             for (uint32_t k = 0; k < n; k++) pgi__gather_packed_k(v, r2, kern, q + k, a);
         return;
