@@ -29,7 +29,8 @@ typedef struct pgi__acc {
     uint32_t contributing;
 } pgi__acc;
 
-static inline void pgi__vs_load(const pgi_view_samples *vs, size_t i, pgi__vs *v) {
+/* Sample i's position, normal, wo and kd (pgi__vs_load, pgi__vs_load_reuse). */
+static inline void pgi__vs_load_geom(const pgi_view_samples *vs, size_t i, pgi__vs *v) {
     const float *p = vs->pos + 3 * i, *n = vs->nrm + 3 * i;
     v->px = p[0];
     v->py = p[1];
@@ -39,6 +40,10 @@ static inline void pgi__vs_load(const pgi_view_samples *vs, size_t i, pgi__vs *v
     v->nz = n[2];
     v->wo = v3_load(vs->wo + 3 * i);
     v->kd = v3_load(vs->kd + 3 * i);
+}
+
+static inline void pgi__vs_load(const pgi_view_samples *vs, size_t i, pgi__vs *v) {
+    pgi__vs_load_geom(vs, i, v);
     v->lambert = (vs->flags[i] & PGI_VS_LAMBERT) != 0;
     if (!v->lambert) {
         pgi__vs_lobe(vs, i, &v->lobe);
@@ -132,15 +137,7 @@ static inline void pgi__vs_load_reuse(const pgi_view_samples *vs, size_t i, pgi_
         }
         return;
     }
-    const float *p = vs->pos + 3 * i, *n = vs->nrm + 3 * i;
-    v->px = p[0];
-    v->py = p[1];
-    v->pz = p[2];
-    v->nx = n[0];
-    v->ny = n[1];
-    v->nz = n[2];
-    v->wo = v3_load(vs->wo + 3 * i);
-    v->kd = v3_load(vs->kd + 3 * i);
+    pgi__vs_load_geom(vs, i, v);
     v->one_m_eo = pgi__lobe_one_m_eo(&v->lobe, v3(v->nx, v->ny, v->nz), v->wo);
 }
 
