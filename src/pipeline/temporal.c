@@ -666,7 +666,8 @@ pgi_status pgi_temporal_step(pgi_temporal *t, const pgi_render_desc *in, pgi_ima
     fs.temporal = ts;
     fs.settings.seed = base; /* the caller's: the frame's own is derived from it */
     fs.settings.aovs = NULL;
-    pgi__stats_mem_put(&fs, "temporal", t->cap * PER_PIXEL * sizeof(float)); /* the buffers above */
+    /* the buffers above, and the step's per-thread rows */
+    pgi__stats_mem_put(&fs, "temporal", t->cap * PER_PIXEL * sizeof(float) + t->rowbuf_cap * sizeof(float));
     add_pass(&fs, "temporal", ts.reproject_ms);
     if (ts.filter_passes) add_pass(&fs, "denoise", ts.filter_ms);
     if (stats) *stats = fs;
