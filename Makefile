@@ -15,7 +15,7 @@ TSAN_TESTS ?= test_trace test_determinism test_progressive test_estimators test_
 empty :=
 space := $(empty) $(empty)
 
-.PHONY: all deps build demo test test-sanitize fuzz test-tsan bench clean
+.PHONY: all deps build demo test test-sanitize fuzz test-tsan test-novulkan bench clean
 
 all: build
 
@@ -46,8 +46,15 @@ test-tsan: deps
 	cmake --build build-tsan -j $(JOBS) --target $(TSAN_TESTS)
 	cd build-tsan && ctest --output-on-failure -R '^($(subst $(space),|,$(strip $(TSAN_TESTS))))$$'
 
+# the library and the CLI built without the Vulkan backend (-DPGI_VULKAN=OFF: its stubs link), and
+# one frame rendered with them
+test-novulkan: deps
+	cmake -S . -B build-novulkan -DCMAKE_BUILD_TYPE=Release -DPGI_VULKAN=OFF $(CMAKE_FLAGS)
+	cmake --build build-novulkan -j $(JOBS) --target photongi-cli
+	./build-novulkan/bin/photongi render --scene cornell --size 64x48 --photons 20000 -q -o build-novulkan/cornell.png
+
 bench: deps build
 	./$(BUILD)/bin/photongi-bench
 
 clean:
-	rm -rf $(BUILD) build-asan build-fuzz build-tsan
+	rm -rf $(BUILD) build-asan build-fuzz build-tsan build-novulkan
