@@ -847,9 +847,6 @@ int main(void) {
         cmocka_unit_test(test_refusals),        cmocka_unit_test(test_prepare),
         cmocka_unit_test(test_radius_policies), cmocka_unit_test(test_portal_direct),
     };
-    /* PGI_TEST_FILTER=test_portal_direct (a cmocka pattern, * a wildcard): those tests alone (lavapipe
-       runs the whole file for minutes) */
-    const char *filter = getenv("PGI_TEST_FILTER");
-    if (filter && *filter) cmocka_set_test_filter(filter);
+    tu_filter_from_env(); /* e.g. PGI_TEST_FILTER=test_portal_direct */
     return cmocka_run_group_tests(tests, tu_gpu_setup, tu_gpu_teardown);
 }

@@ -20,11 +20,19 @@
 
 #include "photongi/photongi.h"
 
+/* PGI_TEST_FILTER=PATTERN (a cmocka pattern, * a wildcard) runs only the tests it names: one test of
+ * a long file (test_gpu_frame on lavapipe takes minutes). Every test main calls it. */
+static inline void tu_filter_from_env(void) {
+    const char *filter = getenv("PGI_TEST_FILTER");
+    if (filter && *filter) cmocka_set_test_filter(filter);
+}
+
 /* A test program's main: runs the tests given (cmocka_unit_test(fn), ...) as the group `name`,
  * with the group's setup and teardown (NULL: none). */
 #define TU_MAIN(name, setup, teardown, ...)                                                                            \
     int main(void) {                                                                                                   \
         const struct CMUnitTest tests[] = {__VA_ARGS__};                                                               \
+        tu_filter_from_env();                                                                                          \
         return cmocka_run_group_tests_name(name, tests, setup, teardown);                                              \
     }
 
