@@ -15,7 +15,7 @@ struct pgi__gpu_scene {
     pgi__gpu_buffer *verts, *tris, *mats, *lobes, *lights, *area, *tex;
     pgi__gpu_buffer *emit; /* (gpu-trace) photon emission */
     uint32_t nemit;
-    pgi__gpu_buffer *portals; /* (issue 37) the sky's direct light through the portals */
+    pgi__gpu_buffer *portals; /* the sky's direct light through the portals */
     uint32_t nportals;
     pgi__gpu_scene_push info;
     uint64_t static_version, dynamic_version, lights_hash;
@@ -82,7 +82,7 @@ static pgi_status upload_emit(pgi__gpu_scene *gs, const pgi_scene *s) {
     return st;
 }
 
-/* (issue 37) The portals, as scene_internal.h keeps them (the direct pass, portal.glsl). */
+/* The portals, as scene_internal.h keeps them (the direct pass, portal.glsl). */
 static pgi_status upload_portals(pgi__gpu_scene *gs, const pgi_scene *s) {
     pgi__gpu_portal *q = calloc(s->nportals + 1, sizeof *q);
     if (!q) return pgi__fail(PGI_ERR_OOM, "%s", "out of memory packing the scene for the GPU");

@@ -137,7 +137,7 @@ typedef struct pgi__gpu_emit {
 _Static_assert(sizeof(pgi__gpu_emit) == 16, "trace.glsl Emit");
 pgi__gpu_buffer *pgi__gpu_scene_emit(const pgi__gpu_scene *gs, uint32_t *nemit);
 
-/* (addition, issue 37) The scene's portals (scene_internal.h pgi__portal; docs/scene-format.md),
+/* The scene's portals (scene_internal.h pgi__portal; docs/scene-format.md),
  * a buffer outside the bindings above ("gpu_scene"): nportals records pgi__gpu_portal (up to
  * PGI__MAX_PORTALS), for the sky's direct light through them (shaders/portal.glsl, direct.comp);
  * one zero record and nportals 0 without portals. */
